@@ -1,0 +1,132 @@
+"""Module types: the rotor data of one docking module (paper Def. 1 and Def. 5).
+
+A module type is plain data: where its four rotors sit in the module frame {M}, which way each
+pushes, and which way each spins. `ModuleType.from_tilts` builds any type whose rotors are tilted
+about their own arms (heterogeneous H-ModQuad types are just other tilt vectors); `TModule` is the
+paper's T-module, eta_1 = eta_3 = -eta_2 = -eta_4 = eta.
+
+Rotor layout (our choice; the paper's figure is not in the source text): rotors sit at the centres
+of the four quadrants of the square module of side ``side``, counter-clockwise from the front-left,
+    p_1 = (+a, +a, 0), p_2 = (-a, +a, 0), p_3 = (-a, -a, 0), p_4 = (+a, -a, 0),  a = side / 4,
+and spin sign (-1)^(1+k): rotors 1 and 3 turn one way, 2 and 4 the other (a standard X quadrotor).
+
+Drag torque: a rotor pushing with thrust f along d also exerts a reaction torque
+``spin * c_tau * f * d`` about its axis. ``c_tau`` is the drag-to-thrust ratio in metres; the
+default 0.01 m is a typical value for the small propellers of ModQuad-size modules (reported
+values lie between 0.006 m and 0.02 m). The paper leaves it unspecified.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+DEFAULT_SIDE = 0.4
+"""Module side length l in metres (paper Sec. VI)."""
+
+DEFAULT_C_TAU = 0.01
+"""Drag-to-thrust ratio c_tau in metres (see the module docstring)."""
+
+_QUADRANTS = np.array([[1.0, 1.0, 0.0], [-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0]])
+_SPINS = np.array([1.0, -1.0, 1.0, -1.0])
+
+
+def _rotate_about(axis: np.ndarray, angle: float, v: np.ndarray) -> np.ndarray:
+    """Rodrigues' rotation of vector ``v`` by ``angle`` about the unit ``axis``."""
+    return (
+        v * math.cos(angle)
+        + np.cross(axis, v) * math.sin(angle)
+        + axis * float(axis @ v) * (1.0 - math.cos(angle))
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class ModuleType:
+    """Rotor data of one module type, in the module frame {M} (origin at the module centre).
+
+    Attributes:
+        positions: (4, 3) rotor positions p_j in metres.
+        directions: (4, 3) unit thrust directions R_j e3.
+        spins: (4,) spin signs (+1 or -1) multiplying the drag torque c_tau * f * d.
+        side: module side length l in metres (modules dock on a grid of pitch ``side``).
+        c_tau: drag-to-thrust ratio in metres.
+        name: a label for reports.
+    """
+
+    positions: np.ndarray
+    directions: np.ndarray
+    spins: np.ndarray
+    side: float = DEFAULT_SIDE
+    c_tau: float = DEFAULT_C_TAU
+    name: str = "module"
+    columns: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        pos = np.array(self.positions, dtype=float)
+        dirs = np.array(self.directions, dtype=float)
+        spins = np.array(self.spins, dtype=float)
+        if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] == 0:
+            raise ValueError(f"positions must have shape (r, 3), got {pos.shape}")
+        if dirs.shape != pos.shape:
+            raise ValueError(f"directions must have shape {pos.shape}, got {dirs.shape}")
+        if spins.shape != (pos.shape[0],):
+            raise ValueError(f"spins must have shape ({pos.shape[0]},), got {spins.shape}")
+        norms = np.linalg.norm(dirs, axis=1)
+        if not np.all(np.isfinite(pos)) or not np.all(np.isfinite(dirs)) or np.any(norms < 1e-12):
+            raise ValueError("positions and directions must be finite, directions non-zero")
+        if not (self.side > 0 and math.isfinite(self.side)):
+            raise ValueError(f"side must be a positive length in metres, got {self.side}")
+        dirs = dirs / norms[:, None]
+        for name, value in (("positions", pos), ("directions", dirs), ("spins", spins)):
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
+        # Wrench columns of this module about its own centre (eq. 1 with p_k in {M}).
+        cols = np.vstack([dirs.T, (np.cross(pos, dirs) + self.c_tau * spins[:, None] * dirs).T])
+        cols.setflags(write=False)
+        object.__setattr__(self, "columns", cols)
+
+    @property
+    def n_rotors(self) -> int:
+        return self.positions.shape[0]
+
+    @classmethod
+    def from_tilts(
+        cls,
+        tilts: tuple[float, float, float, float] | np.ndarray,
+        side: float = DEFAULT_SIDE,
+        c_tau: float = DEFAULT_C_TAU,
+        name: str = "tilted",
+    ) -> ModuleType:
+        """A quadrotor module whose rotor j is tilted by ``tilts[j]`` (radians) about its arm p_j.
+
+        Positive tilt turns the thrust vector by the right-hand rule about the arm direction.
+        """
+        tilts = np.asarray(tilts, dtype=float)
+        if tilts.shape != (4,) or not np.all(np.isfinite(tilts)):
+            raise ValueError(f"tilts must be 4 finite angles in radians, got {tilts!r}")
+        positions = _QUADRANTS * (side / 4.0)
+        arms = _QUADRANTS / np.linalg.norm(_QUADRANTS, axis=1, keepdims=True)
+        e3 = np.array([0.0, 0.0, 1.0])
+        directions = np.array([_rotate_about(arm, t, e3) for arm, t in zip(arms, tilts)])
+        return cls(positions, directions, _SPINS.copy(), side=side, c_tau=c_tau, name=name)
+
+    def __repr__(self) -> str:
+        return (
+            f"ModuleType(name={self.name!r}, rotors={self.n_rotors}, side={self.side:g} m, "
+            f"c_tau={self.c_tau:g} m)"
+        )
+
+
+def TModule(
+    eta: float = math.pi / 4, side: float = DEFAULT_SIDE, c_tau: float = DEFAULT_C_TAU
+) -> ModuleType:
+    """The paper's T-module (Def. 5): rotor j tilted by eta_j about its arm, with
+    eta_1 = eta_3 = -eta_2 = -eta_4 = ``eta`` (default pi/4). Every structure of T-modules is
+    torque-balanced: equal thrust on all rotors produces a pure vertical force."""
+    if not math.isfinite(eta):
+        raise ValueError(f"eta must be a finite angle in radians, got {eta}")
+    return ModuleType.from_tilts(
+        (eta, -eta, eta, -eta), side=side, c_tau=c_tau, name=f"T(eta={eta:.4g})"
+    )
