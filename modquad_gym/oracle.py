@@ -279,6 +279,26 @@ class Zonotope:
                 out[i] = self.gamma_scipy(r[None])[0]
         return out
 
+    def separating_direction(self, r: np.ndarray) -> tuple[float, np.ndarray]:
+        """(gamma, d) for one centred reduced wrench r: its exact gamma and a unit direction d
+        (reduced coordinates) attaining it, d . r = gamma * sum_j |d . g_j| (a facet normal of
+        the zonotope when gamma > 1: a certificate that separates r). From the DAQP LP duals."""
+        import daqp
+
+        a = self._daqp_arrays()
+        nr = float(np.linalg.norm(r))
+        if nr <= 1e-12 * np.linalg.norm(self.G):
+            return 0.0, np.zeros(self.rank)
+        a["lam_A"][:, -1] = -r / nr
+        x, _, flag, info = daqp.solve(
+            a["lam_H"], a["lam_f"], a["lam_A"], a["lam_bu"], a["lam_bl"], a["lam_sense"]
+        )
+        d = -np.asarray(info["lam"][self.m + 1 :], dtype=float)
+        nd = np.linalg.norm(d)
+        if flag != 1 or x[-1] <= 0 or nd == 0:
+            return float(self.gamma_scipy(r[None])[0]), np.zeros(self.rank)
+        return nr / float(x[-1]), d / nd
+
     # --- HiGHS (scipy) reference ----------------------------------------------------------
     def gamma_scipy(self, R: np.ndarray) -> np.ndarray:
         """Exact gamma for each row of R: min s s.t. G x = r, -s <= x_i <= s (HiGHS LP)."""

@@ -104,6 +104,15 @@ class Structure:
         self.cells: tuple[Cell, ...] = parsed
         self.module: ModuleType = module if module is not None else _DEFAULT_MODULE
 
+    @classmethod
+    def from_trusted(cls, cells: tuple[Cell, ...], module: ModuleType | None = None) -> Structure:
+        """Build from cells already known to be valid (e.g. enumerated keys): no checks.
+        For hot loops only; everything else should call ``Structure(cells)``."""
+        self = cls.__new__(cls)
+        self.cells = cells
+        self.module = module if module is not None else _DEFAULT_MODULE
+        return self
+
     # --- identity -------------------------------------------------------------------------
     @property
     def n_modules(self) -> int:
@@ -229,6 +238,27 @@ class Structure:
 
     def __str__(self) -> str:
         return f"{self!r}\n{self.to_text()}"
+
+
+def configuration_matrices(keys: list[Key], module: ModuleType | None = None) -> np.ndarray:
+    """Configuration matrices of many structures of equal size at once: (L, 6, 4n).
+
+    Same result as ``Structure(key, module).configuration_matrix()`` for each key, vectorised
+    over the batch (the exhaustive search's hot loop)."""
+    module = module if module is not None else _DEFAULT_MODULE
+    cells = np.asarray(keys, dtype=float)  # (L, n, 2)
+    L, n, _ = cells.shape
+    centres = (cells - cells.mean(axis=1, keepdims=True)) * module.side  # (L, n, 2)
+    d = module.directions  # (r, 3)
+    r = d.shape[0]
+    cx = centres[:, :, None, 0]
+    cy = centres[:, :, None, 1]
+    # c x d with c_z = 0: (c_y d_z, -c_x d_z, c_x d_y - c_y d_x)
+    shift = np.stack([cy * d[:, 2], -cx * d[:, 2], cx * d[:, 1] - cy * d[:, 0]], axis=-1)
+    A = np.empty((L, 6, n * r))
+    A[:, :3, :] = np.tile(module.columns[:3], n)
+    A[:, 3:, :] = np.tile(module.columns[3:], n) + shift.reshape(L, n * r, 3).transpose(0, 2, 1)
+    return A
 
 
 def grow(keys: Iterable[Key]) -> list[Key]:
