@@ -385,32 +385,49 @@ class Zonotope:
 
 
 def _hyperplane_shifting(G: np.ndarray, chunk: int) -> tuple[np.ndarray, np.ndarray]:
+    """Facet normals of the zonotope with generators G (r, m), and their supports.
+
+    Every facet is spanned by r - 1 independent generators. We enumerate (r-2)-subsets S,
+    take an orthonormal basis B_S (r, 2) of their orthogonal complement (batched QR), and for
+    each later generator g_j the normal of span(S + {g_j}) is B_S rotated: B_S (-p_1, p_0) with
+    p = B_S^T g_j. This costs one small QR per (r-2)-subset instead of r determinants per
+    (r-1)-subset. Subsets are processed ``chunk`` at a time, so memory stays bounded.
+    """
     r, m = G.shape
     if r == 1:
         return np.zeros((0, 1)), np.zeros(0)
-    normals = []
-    combos = itertools.combinations(range(m), r - 1)
-    # the cofactor signs for the generalised cross product of r-1 vectors in R^r
-    signs = np.array([(-1.0) ** i for i in range(r)])
-    keep_rows = [np.array([j for j in range(r) if j != i]) for i in range(r)]
-    while True:
-        block = np.array(list(itertools.islice(combos, chunk)), dtype=np.intp)
-        if not len(block):
-            break
-        M = G[:, block].transpose(1, 0, 2)  # (k, r, r-1)
-        if r == 2:
-            n = np.stack([M[:, 1, 0], -M[:, 0, 0]], axis=1)
-        else:
-            n = np.stack([np.linalg.det(M[:, rows, :]) for rows in keep_rows], axis=1) * signs
-        norm = np.linalg.norm(n, axis=1)
-        good = norm > 1e-9 * np.linalg.norm(M, axis=(1, 2)) ** (r - 1)
-        n = n[good] / norm[good, None]
-        # a canonical sign (first clearly non-zero entry positive), then deduplicate
-        first = np.argmax(np.abs(n) > 1e-9, axis=1)
-        n *= np.sign(n[np.arange(len(n)), first])[:, None]
-        normals.append(np.unique(np.round(n, 10), axis=0))
-    N = np.unique(np.vstack(normals), axis=0)
+    scale = float(np.abs(G).max())
+    tol = 1e-9 * scale
+    parts = []
+    if r == 2:
+        parts.append(np.stack([-G[1], G[0]], axis=1))
+    else:
+        combos = itertools.combinations(range(m), r - 2)
+        cols = np.arange(m)
+        while True:
+            block = np.array(list(itertools.islice(combos, chunk)), dtype=np.intp)
+            if not len(block):
+                break
+            M = G[:, block].transpose(1, 0, 2)  # (k, r, r-2)
+            Qc, Rc = np.linalg.qr(M, mode="complete")
+            independent = np.abs(np.diagonal(Rc, axis1=1, axis2=2)).min(axis=1) > tol
+            B = Qc[independent][:, :, r - 2 :]  # (k, r, 2)
+            last = block[independent, -1]
+            P = np.einsum("kra,rm->kam", B, G)  # (k, 2, m)
+            later = cols[None, :] > last[:, None]  # each (r-1)-subset once
+            spans = np.hypot(P[:, 0], P[:, 1]) > tol
+            k_idx, j_idx = np.nonzero(later & spans)
+            p = P[k_idx, :, j_idx]  # (q, 2)
+            n = np.einsum("qra,qa->qr", B[k_idx], np.stack([-p[:, 1], p[:, 0]], axis=1))
+            parts.append(n)
+    N = np.vstack(parts)
     N /= np.linalg.norm(N, axis=1, keepdims=True)
+    # a canonical sign (first clearly non-zero entry positive), then deduplicate
+    first = np.argmax(np.abs(N) > 1e-9, axis=1)
+    N *= np.sign(N[np.arange(len(N)), first])[:, None]
+    rounded = np.ascontiguousarray(np.round(N, 9) + 0.0)
+    _, keep = np.unique(rounded.view(np.dtype((np.void, 8 * r))).ravel(), return_index=True)
+    N = N[np.sort(keep)]
     h = np.abs(N @ G).sum(axis=1)
     return N, h
 

@@ -1,0 +1,218 @@
+"""The ``modquad`` command line: solve tasks, generate task files, draw structures, validate in
+MuJoCo, and run the benchmarks. ``modquad COMMAND --help`` explains each command.
+
+Exit codes: 0 on success (an infeasible task is a result, not an error), 2 for bad input (a
+task file that cannot be read, an unknown option).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo")
+
+
+def _load_task(path: str):
+    from .tasks import TaskRequirement
+
+    return TaskRequirement.load(path)
+
+
+def _solver(args):
+    """The solver for ``--method`` (PPO lives in the agents package, searches here)."""
+    if args.method == "ppo":
+        from agents.solvers import make_solver
+
+        return make_solver("ppo", n_max=args.n_max, model=args.model, seed=args.seed).solve
+    from .search import SEARCHES
+
+    fn = SEARCHES[args.method]
+    if args.method == "random":
+        return lambda task: fn(task, n_max=args.n_max, seed=args.seed)
+    return lambda task: fn(task, n_max=args.n_max)
+
+
+def cmd_solve(args) -> int:
+    tasks = [(path, _load_task(path)) for path in args.task]
+    solve = _solver(args)
+    for path, task in tasks:
+        result = solve(task)
+        if args.json:
+            record = {"task": str(path), "name": task.name, **result.to_dict()}
+            print(json.dumps(record), flush=True)
+            continue
+        print(f"task {task.name!r} ({path}): {task.n_wrenches} wrenches, method {args.method}")
+        if result.structure is None:
+            print(f"  no structure of up to {args.n_max} modules satisfies the task")
+        else:
+            cert = " (certified minimum)" if result.certified else ""
+            print(f"  {result.n_modules} modules{cert}: cells {list(result.structure.cells)}")
+            print("  " + result.structure.to_text().replace("\n", "\n  "))
+        print(
+            f"  configurations evaluated: {result.evaluated}, oracle calls: "
+            f"{result.oracle_calls}, seconds: {result.seconds:.3f}"
+        )
+    return 0
+
+
+def cmd_task_generate(args) -> int:
+    import numpy as np
+
+    from .tasks import make_generator
+
+    generator = make_generator(args.kind)
+    task = generator(np.random.default_rng(args.seed))
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    task.save(out)
+    print(f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, seed {args.seed})")
+    return 0
+
+
+def cmd_show(args) -> int:
+    from .structure import Structure
+    from .viz import save_structure_figure
+
+    if args.task:
+        task = _load_task(args.task)
+        if args.cells:
+            structure = Structure(json.loads(args.cells))
+        else:
+            from .search import exhaustive_search
+
+            result = exhaustive_search(task, n_max=args.n_max)
+            if result.structure is None:
+                print(f"no structure of up to {args.n_max} modules satisfies {args.task}")
+                return 0
+            structure = result.structure
+    else:
+        if not args.cells:
+            raise ValueError("give --cells (e.g. '[[0,0],[1,0]]') or --task")
+        task = None
+        structure = Structure(json.loads(args.cells))
+    out = Path(args.out)
+    save_structure_figure(structure, out, task=task)
+    print(structure)
+    print(f"wrote {out}")
+    return 0
+
+
+def cmd_validate(args) -> int:
+    from .sim.validate import validate
+
+    task = _load_task(args.task)
+    result = _solver(args)(task)
+    if result.structure is None:
+        record = {"task": args.task, "feasible": False, "cells": None,
+                  "bench_max_error": None, "hover_max_position_error_m": None}
+        print(json.dumps(record) if args.json else f"no structure found for {args.task}")
+        return 0
+    report = validate(result.structure, task.wrenches, f_max=task.f_max, out_dir=args.out)
+    if args.json:
+        print(json.dumps({"task": args.task, "method": args.method, **report}))
+    else:
+        for key, value in report.items():
+            print(f"{key}: {value}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    import importlib
+
+    module = {
+        "oracle": "modquad_gym.bench.oracle",
+        "search": "modquad_gym.bench.search",
+        "env": "modquad_gym.bench.env",
+        "agents": "agents.benchmark",
+    }[args.what]
+    importlib.import_module(module).main(args.rest)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="modquad",
+        description="Find the smallest modular multirotor (H-ModQuad) whose feasible wrenches "
+        "contain a task's wrenches. Task files: JSON {\"wrenches\": [[fx,fy,fz,tx,ty,tz], ...], "
+        "\"f_max\": 1.0, \"name\": \"...\"}, CSV with 6 columns, or .npy of shape (t, 6).",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    def add_method(p, default="exhaustive"):
+        p.add_argument("--method", choices=METHODS, default=default,
+                       help="exhaustive: certified minimum; centrosymmetric: paper Algorithm 2; "
+                       "greedy/random: baselines; ppo: the learned agent (default %(default)s)")
+        p.add_argument("--n-max", type=int, default=7, help="largest module count (default 7)")
+        p.add_argument("--model", default=None,
+                       help="PPO model .zip (default: the model shipped in results/ppo_default)")
+        p.add_argument("--seed", type=int, default=0, help="seed for random/ppo sampling")
+
+    p = sub.add_parser("solve", help="find a structure for each task file",
+                       description="Find a structure for each task and print it as a grid "
+                       "(@ marks the first module), with the module count, configurations "
+                       "evaluated and seconds. An infeasible task is reported with exit code 0.")
+    p.add_argument("--task", action="append", required=True, metavar="FILE",
+                   help="task file (.json, .csv, .npy); repeat for several tasks")
+    add_method(p)
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object per task per line: cells, n_modules, evaluated, "
+                   "oracle_calls, feasible, certified, seconds")
+    p.set_defaults(func=cmd_solve)
+
+    p = sub.add_parser("task", help="task files")
+    tsub = p.add_subparsers(dest="task_command", metavar="ACTION")
+    g = tsub.add_parser("generate", help="write a generated task file",
+                        description="Write a seeded task: paper-like random wrenches (Sec. VI, "
+                        "f_z reading documented in modquad_gym.tasks), a planted task (wrenches "
+                        "inside a hidden random structure), or the screwdriver of Fig. 1.")
+    g.add_argument("--kind", choices=("paper", "planted", "screwdriver"), required=True)
+    g.add_argument("--seed", type=int, default=0)
+    g.add_argument("--out", required=True, help="output file; format from suffix .json/.csv/.npy")
+    g.set_defaults(func=cmd_task_generate)
+
+    p = sub.add_parser("show", help="draw a structure (top view + torque-space projection)",
+                       description="Draw a structure given by --cells, or the exhaustive "
+                       "search's answer for --task, as a PNG.")
+    p.add_argument("--cells", help="JSON list of [x, y] cells, e.g. '[[0,0],[1,0],[0,1]]'")
+    p.add_argument("--task", help="task file: solve it (exhaustive) unless --cells is given")
+    p.add_argument("--n-max", type=int, default=7)
+    p.add_argument("--out", default="structure.png", help="PNG path (default %(default)s)")
+    p.set_defaults(func=cmd_show)
+
+    p = sub.add_parser("validate", help="search, then MuJoCo wrench bench and hover",
+                       description="Solve the task, then validate the structure in MuJoCo: a "
+                       "wrench bench (measured vs commanded wrench) and a hover under each task "
+                       "wrench. Pictures and report.md go to --out.")
+    p.add_argument("--task", required=True, metavar="FILE")
+    add_method(p)
+    p.add_argument("--out", default="validation", help="output folder (default %(default)s)")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.set_defaults(func=cmd_validate)
+
+    p = sub.add_parser("bench", help="run a benchmark (writes results/)",
+                       description="Run a benchmark; options after the name go to it "
+                       "(e.g. `modquad bench oracle --help`).")
+    p.add_argument("what", choices=("oracle", "search", "env", "agents"))
+    p.add_argument("rest", nargs=argparse.REMAINDER)
+    p.set_defaults(func=cmd_bench)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 0
+    try:
+        return args.func(args)
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"modquad: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
