@@ -110,7 +110,14 @@ def cmd_validate(args) -> int:
                   "bench_max_error": None, "hover_max_position_error_m": None}
         print(json.dumps(record) if args.json else f"no structure found for {args.task}")
         return 0
-    report = validate(result.structure, task.wrenches, f_max=task.f_max, out_dir=args.out)
+    report = validate(
+        result.structure,
+        task.wrenches,
+        f_max=task.f_max,
+        out_dir=args.out,
+        include_infeasible_demo=args.infeasible_demo,
+        max_hover_wrenches=args.max_hover_wrenches,
+    )
     if args.json:
         print(json.dumps({"task": args.task, "method": args.method, **report}))
     else:
@@ -190,6 +197,10 @@ def build_parser() -> argparse.ArgumentParser:
     add_method(p)
     p.add_argument("--out", default="validation", help="output folder (default %(default)s)")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.add_argument("--infeasible-demo", action="store_true",
+                   help="also hover under a wrench scaled past the boundary: it saturates and drifts")
+    p.add_argument("--max-hover-wrenches", type=int, default=None,
+                   help="hover under at most this many task wrenches (about 0.25 s each)")
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("bench", help="run a benchmark (writes results/)",

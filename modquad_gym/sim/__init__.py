@@ -1,0 +1,33 @@
+"""MuJoCo validation of structures: model builder, wrench bench, hover, pictures (paper Sec. VI).
+
+MuJoCo is imported only inside this subpackage (``import modquad_gym`` never loads it).
+``MUJOCO_GL`` defaults to ``egl`` here, before mujoco is first imported, so offscreen rendering
+works headless; pictures fall back to matplotlib where no GL context can be made.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from .bench import ALLOCATIONS, BenchResult, allocate_inputs, run_bench  # noqa: E402
+from .hover import HoverGains, HoverResult, run_hover  # noqa: E402
+from .model import SimModel, actuator_wrench, build_model, model_xml  # noqa: E402
+from .validate import render_structure, validate  # noqa: E402
+
+__all__ = [
+    "ALLOCATIONS",
+    "BenchResult",
+    "HoverGains",
+    "HoverResult",
+    "SimModel",
+    "actuator_wrench",
+    "allocate_inputs",
+    "build_model",
+    "model_xml",
+    "render_structure",
+    "run_bench",
+    "run_hover",
+    "validate",
+]

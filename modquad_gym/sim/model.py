@@ -1,0 +1,225 @@
+"""MuJoCo model of a :class:`~modquad_gym.Structure`: one free rigid body driven by 4n rotors.
+
+The model (MJCF, compiled by :func:`build_model`):
+
+* Body ``structure`` with a free joint. Its frame is the structure frame {S}: origin at the COM of
+  the module centres, axes parallel to the modules', z up. It starts at ``(0, 0, HOME_HEIGHT)``.
+* One box geom per module (side x side x ``MODULE_THICKNESS``, ``module_mass`` kg each, default
+  0.3 kg, a ModQuad-size module); MuJoCo computes the inertia from the boxes. All modules weigh the
+  same, so the body's COM is the origin of {S}. Rotor discs are massless visual geoms.
+* One site ``rotor{k}`` per rotor at p_k, oriented so that its z-axis is the thrust direction d_k.
+* One ``general`` actuator per rotor on its site: ``gear = (0, 0, 1, 0, 0, s_k c_tau)`` (thrust
+  along the site z-axis plus the spin-signed drag torque about it), ``gainprm = 1``, no bias, no
+  activation dynamics, ``ctrlrange = [0, f_max]`` with ``ctrllimited``. So ``ctrl = u`` produces
+  exactly the wrench ``A u`` about the COM (checked by :func:`actuator_wrench`).
+* Contacts are disabled: the structure flies, or hangs on the bench, and never touches anything.
+
+With ``bench=True`` the model also holds the load cell of :mod:`modquad_gym.sim.bench`: a child
+body ``load_cell`` rigidly attached to ``structure`` at the COM (no joint), with force and torque
+sensors on its site ``load_cell``, and a weld equality that bolts ``load_cell`` to the world (the
+wall). The structure therefore keeps its six DOF (nv = 6, actuators act) and every wrench it
+makes flows through the load cell into the wall.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..oracle import check_f_max
+from ..structure import Structure
+
+MODULE_MASS = 0.3
+"""Mass of one module in kg (frame, battery, four motors of a ModQuad-size module)."""
+
+MODULE_THICKNESS = 0.05
+"""Height of a module's box in metres."""
+
+HOME_HEIGHT = 1.0
+"""Height of the COM above the floor at qpos0, in metres."""
+
+TIMESTEP = 0.001
+"""Simulation time step in seconds."""
+
+LOAD_CELL_MASS = 0.01
+"""Mass of the load cell's plate (bench only), kg."""
+
+_ROTOR_RADIUS_FRACTION = 0.14  # rotor disc radius as a fraction of the module side
+_ROTOR_COLOURS = {1.0: "0.85 0.2 0.2 0.9", -1.0: "0.2 0.35 0.85 0.9"}
+_MODULE_COLOURS = ("0.3 0.7 0.35 1", "0.55 0.55 0.6 1")  # first (initial) module green
+
+
+@dataclass(frozen=True)
+class SimModel:
+    """A compiled MuJoCo model of a structure and what is needed to read it back.
+
+    Attributes:
+        model: the ``mujoco.MjModel``.
+        structure: the structure it was built from.
+        A: the structure's configuration matrix (6, 4n); actuator k is column k.
+        f_max: the rotors' thrust limit (the actuators' ctrlrange is [0, f_max]).
+        mass: mass of body ``structure`` (the modules) in kg, the load cell excluded.
+        body_id: id of body ``structure``.
+        bench: True when the model holds the load cell and the wall weld.
+        xml: the MJCF text it was compiled from.
+    """
+
+    model: object
+    structure: Structure
+    A: np.ndarray
+    f_max: float
+    mass: float
+    body_id: int
+    bench: bool
+    xml: str
+
+    @property
+    def n_rotors(self) -> int:
+        return self.A.shape[1]
+
+    def new_data(self):
+        """A fresh ``mujoco.MjData`` at qpos0 (COM at (0, 0, HOME_HEIGHT), level), forwarded."""
+        import mujoco
+
+        data = mujoco.MjData(self.model)
+        mujoco.mj_forward(self.model, data)
+        return data
+
+
+def _fmt(v: np.ndarray | list[float]) -> str:
+    return " ".join(f"{float(x):.17g}" for x in v)
+
+
+def model_xml(
+    structure: Structure,
+    f_max: float = 1.0,
+    module_mass: float = MODULE_MASS,
+    bench: bool = False,
+) -> str:
+    """The MJCF text of a structure's model (see the module docstring)."""
+    if not isinstance(structure, Structure):
+        raise ValueError(
+            f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
+        )
+    f_max = check_f_max(f_max)
+    if not (module_mass > 0 and np.isfinite(module_mass)):
+        raise ValueError(f"module_mass must be a positive mass in kg, got {module_mass!r}")
+    mod = structure.module
+    side = mod.side
+    half = side / 2.0
+    geoms = []
+    for i, c in enumerate(structure.module_centres):
+        rgba = _MODULE_COLOURS[0] if i == 0 else _MODULE_COLOURS[1]
+        geoms.append(
+            f'<geom name="module{i}" type="box" pos="{_fmt(c)}" '
+            f'size="{half * 0.97:.17g} {half * 0.97:.17g} {MODULE_THICKNESS / 2:.17g}" '
+            f'mass="{module_mass:.17g}" rgba="{rgba}"/>'
+        )
+    sites, actuators = [], []
+    radius = _ROTOR_RADIUS_FRACTION * side
+    lift = MODULE_THICKNESS / 2 + 0.8 * radius  # discs clear the box at 45 degree tilt
+    spins = np.tile(mod.spins, structure.n_modules)
+    for k, (p, d, s) in enumerate(
+        zip(structure.rotor_positions, structure.rotor_directions, spins, strict=True)
+    ):
+        rgba = _ROTOR_COLOURS[1.0 if s > 0 else -1.0]
+        sites.append(f'<site name="rotor{k}" pos="{_fmt(p)}" zaxis="{_fmt(d)}" size="0.005"/>')
+        disc_pos = p + np.array([0.0, 0.0, lift])
+        geoms.append(
+            f'<geom name="disc{k}" type="cylinder" pos="{_fmt(disc_pos)}" zaxis="{_fmt(d)}" '
+            f'size="{radius:.17g} 0.004" mass="0" rgba="{rgba}" group="1"/>'
+        )
+        actuators.append(
+            f'<general name="thrust{k}" site="rotor{k}" gear="0 0 1 0 0 {s * mod.c_tau:.17g}" '
+            f'ctrllimited="true" ctrlrange="0 {f_max:.17g}" dyntype="none" gaintype="fixed" '
+            f'gainprm="1" biastype="none"/>'
+        )
+    load_cell = equality = sensors = ""
+    if bench:
+        load_cell = (
+            f'<body name="load_cell" pos="0 0 0">'
+            f'<geom name="load_cell" type="cylinder" size="0.03 0.03" mass="{LOAD_CELL_MASS}" '
+            f'rgba="0.9 0.8 0.1 1"/>'
+            f'<site name="load_cell" pos="0 0 0" size="0.01"/></body>'
+        )
+        equality = '<equality><weld name="wall" body1="load_cell" solref="0.005 1"/></equality>'
+        sensors = (
+            '<sensor><force name="force" site="load_cell"/>'
+            '<torque name="torque" site="load_cell"/></sensor>'
+        )
+    extent = side * (1 + max(np.ptp(np.asarray(structure.cells), axis=0)))
+    nl = "\n    "
+    return f"""<mujoco model="modquad_{structure.n_modules}">
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="{TIMESTEP}" integrator="implicitfast" gravity="0 0 -9.81"
+    tolerance="1e-15" iterations="200" ls_tolerance="1e-12">
+    <flag contact="disable"/>
+  </option>
+  <statistic center="0 0 {HOME_HEIGHT}" extent="{extent:.6g}"/>
+  <visual><headlight ambient="0.4 0.4 0.4" diffuse="0.6 0.6 0.6"/>
+    <global offwidth="1280" offheight="960"/></visual>
+  <asset>
+    <texture name="grid" type="2d" builtin="checker" rgb1="0.92 0.92 0.92" rgb2="0.8 0.8 0.8"
+      width="256" height="256"/>
+    <material name="grid" texture="grid" texrepeat="8 8"/>
+  </asset>
+  <worldbody>
+    <light pos="0 0 4" dir="0 0 -1" directional="true"/>
+    <geom name="floor" type="plane" size="5 5 0.05" material="grid" contype="0" conaffinity="0"/>
+    <body name="structure" pos="0 0 {HOME_HEIGHT}">
+    <freejoint name="root"/>
+    {nl.join(geoms)}
+    {nl.join(sites)}
+    {load_cell}
+    </body>
+  </worldbody>
+  {equality}
+  <actuator>
+    {nl.join(actuators)}
+  </actuator>
+  {sensors}
+</mujoco>
+"""
+
+
+def build_model(
+    structure: Structure,
+    f_max: float = 1.0,
+    module_mass: float = MODULE_MASS,
+    bench: bool = False,
+) -> SimModel:
+    """Compile the MuJoCo model of ``structure`` (see the module docstring).
+
+    Args:
+        structure: the structure; its frame {S} becomes the free body's frame.
+        f_max: rotor thrust limit in N (actuator ctrlrange [0, f_max]).
+        module_mass: mass of each module in kg.
+        bench: add the load cell and the wall weld of the wrench bench.
+    """
+    import mujoco
+
+    xml = model_xml(structure, f_max, module_mass, bench)
+    model = mujoco.MjModel.from_xml_string(xml)
+    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "structure")
+    mass = float(model.body_mass[body])
+    A = np.array(structure.configuration_matrix())
+    return SimModel(model, structure, A, check_f_max(f_max), mass, body, bench, xml)
+
+
+def body_rotation(sim: SimModel, data) -> np.ndarray:
+    """R (3, 3): the orientation of {S} in the world frame (columns are {S}'s axes)."""
+    return np.array(data.xmat[sim.body_id]).reshape(3, 3)
+
+
+def actuator_wrench(sim: SimModel, data) -> np.ndarray:
+    """The rotors' wrench [f; tau] in {S}, torque about the COM, from MuJoCo's ``qfrc_actuator``.
+
+    MuJoCo's free-joint generalised forces are the force in the *world* frame (dofs 0-2) and the
+    torque about the joint anchor (the body origin, here the COM) in the *body* frame (dofs 3-5),
+    so the force is rotated back into {S} and the torque is taken as is. ``mj_forward`` (or a
+    step) must have run after setting ``data.ctrl``.
+    """
+    q = np.array(data.qfrc_actuator[:6])
+    R = body_rotation(sim, data)
+    return np.concatenate([R.T @ q[:3], q[3:]])

@@ -1,0 +1,402 @@
+"""Validate a structure on a task in MuJoCo: wrench bench, hover, pictures and a short report.
+
+:func:`validate` runs the wrench bench (:mod:`.bench`) with the exact allocation and with the
+paper's ``clip(A^+ w, 0, f_max)``, then the hover (:mod:`.hover`), and, when given ``out_dir``,
+writes there:
+
+* ``rotor_inputs.png``: the bench's rotor inputs over time, each wrench held 500 ms as in the
+  paper, f_max dotted (paper Fig. 7), one panel per allocation;
+* ``bench_wrench.png``: measured against commanded wrench, per component;
+* ``hover.png``: position and attitude error and rotor inputs over the hover, f_max dotted;
+* ``hover_infeasible.png`` (``include_infeasible_demo=True``): the same for a task wrench scaled
+  out of the feasible set, which saturates the rotors and drifts;
+* ``structure.png``: an offscreen MuJoCo render (EGL), or a matplotlib drawing where no GL context
+  can be made;
+* ``report.md``: the numbers.
+
+It returns a JSON-serialisable dict (non-finite numbers become None).
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is first imported: headless rendering
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..oracle import check_f_max, check_wrenches, feasible, lambda_ratio, margin
+from ..structure import Structure
+from .bench import BenchResult, run_bench
+from .hover import HoverResult, run_hover
+from .model import HOME_HEIGHT, SimModel, build_model
+
+BENCH_HOLD_S = 0.5
+"""Seconds each wrench is held in the rotor-input plot (the paper commands one every 500 ms)."""
+
+INFEASIBLE_SCALE = 1.3
+"""The infeasible demo scales a task wrench to this multiple of its feasibility boundary."""
+
+
+def _num(x: float) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+# --------------------------------------------------------------------------------------------
+# pictures
+# --------------------------------------------------------------------------------------------
+def render_structure(
+    structure: Structure | SimModel,
+    path: str | Path,
+    width: int = 800,
+    height: int = 600,
+    backend: str = "auto",
+) -> str:
+    """Write a picture of the structure to ``path``; return the backend used.
+
+    ``backend="auto"`` tries MuJoCo's offscreen renderer (``MUJOCO_GL``, EGL by default) and falls
+    back to a matplotlib drawing when no GL context can be made; ``"mujoco"`` or ``"matplotlib"``
+    force one.
+    """
+    if backend not in ("auto", "mujoco", "matplotlib"):
+        raise ValueError(f"unknown backend {backend!r}; choose auto, mujoco or matplotlib")
+    sim = structure if isinstance(structure, SimModel) else build_model(structure)
+    if backend in ("auto", "mujoco"):
+        try:
+            _render_mujoco(sim, Path(path), width, height)
+            return "mujoco"
+        except Exception:
+            if backend == "mujoco":
+                raise
+    _render_matplotlib(sim.structure, Path(path))
+    return "matplotlib"
+
+
+def _render_mujoco(sim: SimModel, path: Path, width: int, height: int) -> None:
+    import mujoco
+
+    data = sim.new_data()
+    renderer = mujoco.Renderer(sim.model, height, width)
+    try:
+        cam = mujoco.MjvCamera()
+        cam.lookat[:] = [0.0, 0.0, HOME_HEIGHT]
+        cam.distance = 2.0 * float(sim.model.stat.extent) + 0.6
+        cam.azimuth = 135.0
+        cam.elevation = -35.0
+        renderer.update_scene(data, camera=cam)
+        img = renderer.render()
+    finally:
+        renderer.close()
+    _plt().imsave(path, img)
+
+
+def _render_matplotlib(structure: Structure, path: Path) -> None:
+    plt = _plt()
+    fig = plt.figure(figsize=(6, 5))
+    ax = fig.add_subplot(projection="3d")
+    half = structure.module.side / 2
+    for i, c in enumerate(structure.module_centres):
+        xs = c[0] + np.array([-half, half, half, -half, -half])
+        ys = c[1] + np.array([-half, -half, half, half, -half])
+        ax.plot(xs, ys, np.zeros(5), color="tab:green" if i == 0 else "0.4")
+    spins = np.tile(structure.module.spins, structure.n_modules)
+    p, d = structure.rotor_positions, structure.rotor_directions
+    for pk, dk, sk in zip(p, d, spins, strict=True):
+        colour = "tab:red" if sk > 0 else "tab:blue"
+        ax.quiver(*pk, *dk, length=0.12, color=colour, arrow_length_ratio=0.3)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.set_title(f"{structure.n_modules} modules (thrust axes; red/blue = spin)")
+    lim = np.abs(p).max() + half
+    ax.set_xlim(-lim, lim)
+    ax.set_ylim(-lim, lim)
+    ax.set_zlim(-lim / 2, lim / 2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_rotor_inputs(results: list[BenchResult], path: str | Path) -> None:
+    """Paper Fig. 7: rotor inputs per commanded wrench (held 500 ms each), f_max dotted."""
+    plt = _plt()
+    fig, axes = plt.subplots(len(results), 1, figsize=(9, 3.2 * len(results)), squeeze=False)
+    for ax, res in zip(axes[:, 0], results, strict=True):
+        t = np.arange(len(res.u) + 1) * BENCH_HOLD_S
+        u = np.vstack([res.u, res.u[-1:]])
+        ax.step(t, u, where="post", lw=1.0)
+        ax.axhline(res.f_max, ls=":", color="k", lw=1.5, label="f_max")
+        ax.axhline(0.0, ls=":", color="0.5", lw=1.0)
+        ax.set_ylim(-0.05 * res.f_max, 1.1 * res.f_max)
+        ax.set_ylabel("rotor input [N]")
+        n_lim = int(res.at_limit.sum())
+        ax.set_title(f"{res.allocation}: {n_lim}/{len(res.u)} wrenches with a rotor at a limit")
+        ax.legend(loc="upper right")
+    axes[-1, 0].set_xlabel("time [s] (one task wrench every 500 ms)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_bench_wrench(results: list[BenchResult], path: str | Path) -> None:
+    """Measured (load cell) against commanded wrench, one panel per component."""
+    plt = _plt()
+    names = ["f_x [N]", "f_y [N]", "f_z [N]", "tau_x [Nm]", "tau_y [Nm]", "tau_z [Nm]"]
+    fig, axes = plt.subplots(2, 3, figsize=(11, 6.5))
+    markers = {"exact": "o", "pinv_clip": "x"}
+    for j, ax in enumerate(axes.flat):
+        lo = min(float(r.commanded[:, j].min()) for r in results)
+        hi = max(float(r.commanded[:, j].max()) for r in results)
+        ax.plot([lo, hi], [lo, hi], color="0.6", lw=1, label="measured = commanded")
+        for res in results:
+            ax.plot(
+                res.commanded[:, j],
+                res.measured[:, j],
+                markers.get(res.allocation, "."),
+                ms=4,
+                fillstyle="none",
+                label=f"{res.allocation} (max rel. err {res.max_error:.1e})",
+            )
+        ax.set_title(names[j])
+        ax.set_xlabel("commanded")
+        ax.set_ylabel("measured")
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_hover(res: HoverResult, path: str | Path, title: str = "hover") -> None:
+    """Position and attitude error (log scale) and rotor inputs over time, f_max dotted."""
+    plt = _plt()
+    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    floor = 1e-9
+    axes[0].semilogy(res.time, np.maximum(res.position_error, floor), lw=1)
+    axes[0].axhline(0.01, ls="--", color="tab:red", lw=1, label="1 cm")
+    axes[0].set_ylabel("position error [m]")
+    axes[0].legend(loc="upper right")
+    axes[1].semilogy(res.time, np.maximum(res.attitude_error, floor), lw=1, color="tab:purple")
+    axes[1].set_ylabel("attitude error [rad]")
+    axes[2].plot(res.time, res.u, lw=0.8)
+    axes[2].axhline(res.f_max, ls=":", color="k", lw=1.5, label="f_max")
+    axes[2].axhline(0.0, ls=":", color="0.5", lw=1.0)
+    axes[2].set_ylim(-0.05 * res.f_max, 1.1 * res.f_max)
+    axes[2].set_ylabel("rotor input [N]")
+    axes[2].set_xlabel("time [s]")
+    axes[2].legend(loc="upper right")
+    starts = res.time[np.flatnonzero(np.diff(res.segment)) + 1] if len(res.time) else []
+    for ax in axes:
+        for t in starts:
+            ax.axvline(t, color="0.85", lw=0.8, zorder=0)
+    axes[0].set_title(
+        f"{title}: saturated {100 * res.saturated_fraction:.1f}% of control steps, "
+        f"{int(res.diverged.sum())} segment(s) diverged"
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+# --------------------------------------------------------------------------------------------
+# the run
+# --------------------------------------------------------------------------------------------
+def infeasible_wrench(A: np.ndarray, w: np.ndarray, f_max: float, scale: float) -> np.ndarray:
+    """``w`` rescaled to ``scale`` times the largest feasible multiple of its direction."""
+    ratio = float(lambda_ratio(A, w[None], f_max)[0])  # lambda* / |w|: boundary at w * ratio
+    if not math.isfinite(ratio) or ratio <= 0:
+        return w * scale  # w = 0 or no positive multiple feasible: any scaling stays infeasible
+    return w * ratio * scale
+
+
+def validate(
+    structure: Structure,
+    task_wrenches: np.ndarray,
+    f_max: float = 1.0,
+    out_dir: str | Path | None = None,
+    hover_seconds: float = 2.0,
+    render: bool = True,
+    include_infeasible_demo: bool = False,
+    max_hover_wrenches: int | None = None,
+) -> dict:
+    """Bench and hover ``structure`` on ``task_wrenches``; write pictures and a report.
+
+    Args:
+        structure: the structure to validate (e.g. a search result's ``structure``).
+        task_wrenches: (t, 6) task wrenches in {S}, the total the rotors must produce.
+        f_max: rotor thrust limit in N.
+        out_dir: where to write the pictures and ``report.md`` (created); None writes nothing.
+        hover_seconds: simulated seconds per task wrench in the hover.
+        render: write ``structure.png`` (MuJoCo render, matplotlib fallback).
+        include_infeasible_demo: also hover on the task wrench with the least margin, scaled to
+            ``INFEASIBLE_SCALE`` times its feasibility boundary, to show saturation and drift.
+        max_hover_wrenches: hover on at most this many task wrenches (the first ones); None: all.
+
+    Returns:
+        A JSON-serialisable dict with at least ``bench_max_error`` (relative, exact allocation),
+        ``bench_max_error_pinv_clip``, ``bench_max_sensor_error``, ``hover_max_position_error_m``,
+        ``hover_max_attitude_error_rad``, ``saturated_fraction``, ``n_modules``, ``cells``,
+        ``feasible`` (every wrench feasible per the oracle) and ``files``.
+    """
+    if not isinstance(structure, Structure):
+        raise ValueError(
+            f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
+        )
+    W = check_wrenches(task_wrenches)
+    f_max = check_f_max(f_max)
+    A = np.array(structure.configuration_matrix())
+    feas = np.asarray(feasible(A, W, f_max), dtype=bool)
+    marg = margin(A, W, f_max)
+
+    bench_sim = build_model(structure, f_max, bench=True)
+    exact = run_bench(bench_sim, W, allocation="exact")
+    pinv = run_bench(bench_sim, W, allocation="pinv_clip")
+    fly_sim = build_model(structure, f_max, bench=False)
+    W_hover = W if max_hover_wrenches is None else W[: max(1, int(max_hover_wrenches))]
+    hover = run_hover(fly_sim, W_hover, seconds_per_wrench=hover_seconds)
+
+    out: dict = {
+        "n_modules": structure.n_modules,
+        "cells": [list(c) for c in structure.cells],
+        "rank": int(np.linalg.matrix_rank(A)),
+        "f_max": f_max,
+        "n_wrenches": len(W),
+        "feasible": bool(feas.all()),
+        "n_feasible": int(feas.sum()),
+        "min_margin": _num(marg.min()),
+        "module_mass_kg": fly_sim.mass / structure.n_modules,
+        "bench_max_error": exact.max_error,
+        "bench_max_error_pinv_clip": pinv.max_error,
+        "bench_max_sensor_error": max(exact.max_sensor_error, pinv.max_sensor_error),
+        "bench_pinv_clip_wrenches_missed": int(np.sum(pinv.relative_error > 1e-6)),
+        "bench_exact_at_limit": int(exact.at_limit.sum()),
+        "hover_seconds_per_wrench": hover_seconds,
+        "hover_wrenches": len(W_hover),
+        "hover_max_position_error_m": hover.max_position_error,
+        "hover_max_attitude_error_rad": hover.max_attitude_error,
+        "saturated_fraction": hover.saturated_fraction,
+        "hover_diverged_segments": int(hover.diverged.sum()),
+        "hover_takeoff": next((s for s in hover.segment_metrics if s["segment"] == -1), None),
+        "files": {},
+    }
+    demo = None
+    if include_infeasible_demo:
+        worst = int(np.argmin(marg))
+        w_bad = infeasible_wrench(A, W[worst], f_max, INFEASIBLE_SCALE)
+        demo = run_hover(fly_sim, w_bad[None], seconds_per_wrench=hover_seconds)
+        out["infeasible_demo"] = {
+            "wrench": w_bad.tolist(),
+            "from_task_row": worst,
+            "feasible": bool(demo.feasible[0]),
+            "gamma": _num(demo.gamma[0]),
+            "saturated_fraction": demo.saturated_fraction,
+            "max_position_error_m": demo.max_position_error,
+            "max_attitude_error_rad": demo.max_attitude_error,
+            "diverged": bool(demo.diverged[0]),
+        }
+
+    if out_dir is not None:
+        d = Path(out_dir)
+        d.mkdir(parents=True, exist_ok=True)
+        files = out["files"]
+        plot_rotor_inputs([exact, pinv], d / "rotor_inputs.png")
+        files["rotor_inputs"] = str(d / "rotor_inputs.png")
+        plot_bench_wrench([exact, pinv], d / "bench_wrench.png")
+        files["bench_wrench"] = str(d / "bench_wrench.png")
+        plot_hover(hover, d / "hover.png", title="hover on the task")
+        files["hover"] = str(d / "hover.png")
+        if demo is not None:
+            plot_hover(demo, d / "hover_infeasible.png", title="infeasible wrench")
+            files["hover_infeasible"] = str(d / "hover_infeasible.png")
+        if render:
+            out["render_backend"] = render_structure(fly_sim, d / "structure.png")
+            files["structure"] = str(d / "structure.png")
+        (d / "report.md").write_text(_report(structure, out, hover))
+        files["report"] = str(d / "report.md")
+        (d / "validation.json").write_text(json.dumps(out, indent=2) + "\n")
+        files["json"] = str(d / "validation.json")
+    return out
+
+
+def _report(structure: Structure, out: dict, hover: HoverResult) -> str:
+    def f(x: float | None, fmt: str = ".3g") -> str:
+        return "n/a" if x is None else format(x, fmt)
+
+    lines = [
+        f"# MuJoCo validation: {out['n_modules']} modules",
+        "",
+        "```",
+        structure.to_text(),
+        "```",
+        "",
+        f"cells {out['cells']}, rank(A) = {out['rank']}, f_max = {out['f_max']:g} N, "
+        f"module mass {out['module_mass_kg']:g} kg.",
+        f"Task: {out['n_wrenches']} wrenches, {out['n_feasible']} feasible per the oracle "
+        f"(smallest margin {f(out['min_margin'])}).",
+        "",
+        "## Wrench bench (free body, load cell at the COM welded to the wall; weight subtracted)",
+        "",
+        "| allocation | max relative error vs commanded |",
+        "|---|---|",
+        f"| exact (oracle) | {out['bench_max_error']:.2e} |",
+        f"| pinv + clip (paper) | {out['bench_max_error_pinv_clip']:.2e} |",
+        "",
+        f"Load cell vs A u (sensor fidelity): {out['bench_max_sensor_error']:.2e}. "
+        f"pinv + clip misses {out['bench_pinv_clip_wrenches_missed']} wrench(es) by more than "
+        f"1e-6; the exact allocation has a rotor at a limit on {out['bench_exact_at_limit']}.",
+        "",
+        "## Hover (gravity on, load d = -(w + gravity wrench), PD + bounded allocation)",
+        "",
+        f"{out['hover_wrenches']} wrenches x {out['hover_seconds_per_wrench']:g} s. Settled "
+        f"(last 30 % of each segment): max position error "
+        f"{out['hover_max_position_error_m'] * 100:.3g} cm, max attitude error "
+        f"{out['hover_max_attitude_error_rad']:.3g} rad; saturated control steps "
+        f"{100 * out['saturated_fraction']:.2f} %; diverged segments "
+        f"{out['hover_diverged_segments']}.",
+        "Take-off (from a few cm off and tilted, at half thrust; not in the task numbers): "
+        + (
+            f"settled position error {out['hover_takeoff']['max_position_error_m']:.2e} m."
+            if out["hover_takeoff"]
+            else "skipped."
+        ),
+        "",
+        "| segment | gamma | max pos. err [m] | max att. err [rad] | saturated | diverged |",
+        "|---|---|---|---|---|---|",
+    ]
+    for s in hover.segment_metrics[:40]:
+        lines.append(
+            f"| {'take-off' if s['segment'] < 0 else s['segment']} | {f(s['gamma'])} | "
+            f"{s['max_position_error_m']:.2e} | "
+            f"{s['max_attitude_error_rad']:.2e} | {100 * s['saturated_fraction']:.1f} % | "
+            f"{'yes' if s['diverged'] else 'no'} |"
+        )
+    if len(hover.segment_metrics) > 40:
+        lines.append(f"| ... | {len(hover.segment_metrics) - 40} more | | | | |")
+    demo = out.get("infeasible_demo")
+    if demo:
+        lines += [
+            "",
+            "## Infeasible demo",
+            "",
+            f"Task row {demo['from_task_row']} scaled to {INFEASIBLE_SCALE:g} x its feasibility "
+            f"boundary (gamma {f(demo['gamma'])}): saturated "
+            f"{100 * demo['saturated_fraction']:.1f} % of control steps, position error up to "
+            f"{demo['max_position_error_m']:.3g} m, diverged: {demo['diverged']}.",
+        ]
+    pics = [k for k in ("structure", "rotor_inputs", "bench_wrench", "hover", "hover_infeasible")]
+    lines += ["", "## Pictures", ""]
+    lines += [f"![{k}]({k}.png)" for k in pics if k in out["files"]]
+    return "\n".join(lines) + "\n"
