@@ -106,8 +106,13 @@ def cmd_validate(args) -> int:
     task = _load_task(args.task)
     result = _solver(args)(task)
     if result.structure is None:
-        record = {"task": args.task, "feasible": False, "cells": None,
-                  "bench_max_error": None, "hover_max_position_error_m": None}
+        record = {
+            "task": args.task,
+            "feasible": False,
+            "cells": None,
+            "bench_max_error": None,
+            "hover_max_position_error_m": None,
+        }
         print(json.dumps(record) if args.json else f"no structure found for {args.task}")
         return 0
     report = validate(
@@ -143,69 +148,106 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="modquad",
         description="Find the smallest modular multirotor (H-ModQuad) whose feasible wrenches "
-        "contain a task's wrenches. Task files: JSON {\"wrenches\": [[fx,fy,fz,tx,ty,tz], ...], "
-        "\"f_max\": 1.0, \"name\": \"...\"}, CSV with 6 columns, or .npy of shape (t, 6).",
+        'contain a task\'s wrenches. Task files: JSON {"wrenches": [[fx,fy,fz,tx,ty,tz], ...], '
+        '"f_max": 1.0, "name": "..."}, CSV with 6 columns, or .npy of shape (t, 6).',
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     def add_method(p, default="exhaustive"):
-        p.add_argument("--method", choices=METHODS, default=default,
-                       help="exhaustive: certified minimum; centrosymmetric: paper Algorithm 2; "
-                       "greedy/random: baselines; ppo: the learned agent (default %(default)s)")
+        p.add_argument(
+            "--method",
+            choices=METHODS,
+            default=default,
+            help="exhaustive: certified minimum; centrosymmetric: paper Algorithm 2; "
+            "greedy/random: baselines; ppo: the learned agent (default %(default)s)",
+        )
         p.add_argument("--n-max", type=int, default=7, help="largest module count (default 7)")
-        p.add_argument("--model", default=None,
-                       help="PPO model .zip (default: the model shipped in results/ppo_default)")
+        p.add_argument(
+            "--model",
+            default=None,
+            help="PPO model .zip (default: the model shipped in results/ppo_default)",
+        )
         p.add_argument("--seed", type=int, default=0, help="seed for random/ppo sampling")
 
-    p = sub.add_parser("solve", help="find a structure for each task file",
-                       description="Find a structure for each task and print it as a grid "
-                       "(@ marks the first module), with the module count, configurations "
-                       "evaluated and seconds. An infeasible task is reported with exit code 0.")
-    p.add_argument("--task", action="append", required=True, metavar="FILE",
-                   help="task file (.json, .csv, .npy); repeat for several tasks")
+    p = sub.add_parser(
+        "solve",
+        help="find a structure for each task file",
+        description="Find a structure for each task and print it as a grid "
+        "(@ marks the first module), with the module count, configurations "
+        "evaluated and seconds. An infeasible task is reported with exit code 0.",
+    )
+    p.add_argument(
+        "--task",
+        action="append",
+        required=True,
+        metavar="FILE",
+        help="task file (.json, .csv, .npy); repeat for several tasks",
+    )
     add_method(p)
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON object per task per line: cells, n_modules, evaluated, "
-                   "oracle_calls, feasible, certified, seconds")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print one JSON object per task per line: cells, n_modules, evaluated, "
+        "oracle_calls, feasible, certified, seconds",
+    )
     p.set_defaults(func=cmd_solve)
 
     p = sub.add_parser("task", help="task files")
     tsub = p.add_subparsers(dest="task_command", metavar="ACTION")
-    g = tsub.add_parser("generate", help="write a generated task file",
-                        description="Write a seeded task: paper-like random wrenches (Sec. VI, "
-                        "f_z reading documented in modquad_gym.tasks), a planted task (wrenches "
-                        "inside a hidden random structure), or the screwdriver of Fig. 1.")
+    g = tsub.add_parser(
+        "generate",
+        help="write a generated task file",
+        description="Write a seeded task: paper-like random wrenches (Sec. VI, "
+        "f_z reading documented in modquad_gym.tasks), a planted task (wrenches "
+        "inside a hidden random structure), or the screwdriver of Fig. 1.",
+    )
     g.add_argument("--kind", choices=("paper", "planted", "screwdriver"), required=True)
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--out", required=True, help="output file; format from suffix .json/.csv/.npy")
     g.set_defaults(func=cmd_task_generate)
 
-    p = sub.add_parser("show", help="draw a structure (top view + torque-space projection)",
-                       description="Draw a structure given by --cells, or the exhaustive "
-                       "search's answer for --task, as a PNG.")
+    p = sub.add_parser(
+        "show",
+        help="draw a structure (top view + torque-space projection)",
+        description="Draw a structure given by --cells, or the exhaustive "
+        "search's answer for --task, as a PNG.",
+    )
     p.add_argument("--cells", help="JSON list of [x, y] cells, e.g. '[[0,0],[1,0],[0,1]]'")
     p.add_argument("--task", help="task file: solve it (exhaustive) unless --cells is given")
     p.add_argument("--n-max", type=int, default=7)
     p.add_argument("--out", default="structure.png", help="PNG path (default %(default)s)")
     p.set_defaults(func=cmd_show)
 
-    p = sub.add_parser("validate", help="search, then MuJoCo wrench bench and hover",
-                       description="Solve the task, then validate the structure in MuJoCo: a "
-                       "wrench bench (measured vs commanded wrench) and a hover under each task "
-                       "wrench. Pictures and report.md go to --out.")
+    p = sub.add_parser(
+        "validate",
+        help="search, then MuJoCo wrench bench and hover",
+        description="Solve the task, then validate the structure in MuJoCo: a "
+        "wrench bench (measured vs commanded wrench) and a hover under each task "
+        "wrench. Pictures and report.md go to --out.",
+    )
     p.add_argument("--task", required=True, metavar="FILE")
     add_method(p)
     p.add_argument("--out", default="validation", help="output folder (default %(default)s)")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
-    p.add_argument("--infeasible-demo", action="store_true",
-                   help="also hover under a wrench scaled past the boundary: it saturates and drifts")
-    p.add_argument("--max-hover-wrenches", type=int, default=None,
-                   help="hover under at most this many task wrenches (about 0.25 s each)")
+    p.add_argument(
+        "--infeasible-demo",
+        action="store_true",
+        help="also hover under a wrench scaled past the boundary: it saturates and drifts",
+    )
+    p.add_argument(
+        "--max-hover-wrenches",
+        type=int,
+        default=None,
+        help="hover under at most this many task wrenches (about 0.25 s each)",
+    )
     p.set_defaults(func=cmd_validate)
 
-    p = sub.add_parser("bench", help="run a benchmark (writes results/)",
-                       description="Run a benchmark; options after the name go to it "
-                       "(e.g. `modquad bench oracle --help`).")
+    p = sub.add_parser(
+        "bench",
+        help="run a benchmark (writes results/)",
+        description="Run a benchmark; options after the name go to it "
+        "(e.g. `modquad bench oracle --help`).",
+    )
     p.add_argument("what", choices=("oracle", "search", "env", "agents"))
     p.add_argument("rest", nargs=argparse.REMAINDER)
     p.set_defaults(func=cmd_bench)

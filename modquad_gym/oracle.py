@@ -74,7 +74,9 @@ def check_matrix(A: np.ndarray) -> np.ndarray:
     """A as a float (6, m) array, or a ValueError naming what is wrong."""
     arr = np.asarray(A, dtype=float)
     if arr.ndim != 2 or arr.shape[0] != 6 or arr.shape[1] < 1:
-        raise ValueError(f"A must be a 6 x m configuration matrix with m >= 1, got shape {arr.shape}")
+        raise ValueError(
+            f"A must be a 6 x m configuration matrix with m >= 1, got shape {arr.shape}"
+        )
     if not np.all(np.isfinite(arr)):
         bad = np.argwhere(~np.isfinite(arr))[0]
         raise ValueError(f"A has a non-finite entry at row {bad[0]}, column {bad[1]}")

@@ -115,13 +115,17 @@ def force_lower_bound(W: np.ndarray, module: ModuleType, f_max: float = 1.0) -> 
     one module {sum_j u_j d_j : 0 <= u_j <= f_max}. Exact: no structure of fewer modules can
     exert the task's forces, whatever its shape. Returns a huge number if no n works."""
     dirs = module.directions
-    normals = [np.cross(dirs[i], dirs[j]) for i in range(len(dirs)) for j in range(i + 1, len(dirs))]
+    normals = [
+        np.cross(dirs[i], dirs[j]) for i in range(len(dirs)) for j in range(i + 1, len(dirs))
+    ]
     normals = [n / np.linalg.norm(n) for n in normals if np.linalg.norm(n) > 1e-12]
     normals += [np.eye(3)[k] for k in range(3)]  # harmless extra directions for degenerate types
     N = np.array(normals + [-n for n in normals])
     h1 = np.maximum(N @ dirs.T, 0.0).sum(axis=1) * f_max  # support of one module's force set
     proj = W[:, :3] @ N.T  # (t, k)
-    need = np.where(h1 > 1e-12, proj / np.where(h1 > 1e-12, h1, 1.0), np.where(proj > 1e-12, np.inf, 0))
+    need = np.where(
+        h1 > 1e-12, proj / np.where(h1 > 1e-12, h1, 1.0), np.where(proj > 1e-12, np.inf, 0)
+    )
     worst = float(need.max())
     if not math.isfinite(worst):
         return 10**9
@@ -300,8 +304,14 @@ def centrosymmetric_search(
         for key in level:
             if checker.check(Structure.from_trusted(key, module)):
                 return _result(
-                    Structure.from_trusted(key, module), checker, t0, False,
-                    "centrosymmetric", n_max, W, f,
+                    Structure.from_trusted(key, module),
+                    checker,
+                    t0,
+                    False,
+                    "centrosymmetric",
+                    n_max,
+                    W,
+                    f,
                 )
         if level and n + 2 <= n_max:
             fronts.setdefault(n + 2, []).extend(_grow_symmetric(level))

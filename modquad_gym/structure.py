@@ -33,7 +33,9 @@ def _as_cell(raw: object, index: int) -> Cell:
         raise ValueError(f"cell #{index} {raw!r} is not a pair (x, y)") from None
     out = []
     for v in (x, y):
-        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer, float, np.floating)):
+        if isinstance(v, (bool, np.bool_)) or not isinstance(
+            v, (int, np.integer, float, np.floating)
+        ):
             raise ValueError(f"cell #{index} {raw!r} must hold integers, got {type(v).__name__}")
         if float(v) != int(v):
             raise ValueError(f"cell #{index} {raw!r} must hold integers, got {v!r}")

@@ -56,8 +56,10 @@ def test_every_structure_up_to_5_is_torque_balanced_with_rank_classes():
 
 
 def test_rank_class_counts():
-    counts = {n: Counter(mq.Structure(k).rank for k in level)
-              for n, level in enumerate(structure_levels(4), start=1)}
+    counts = {
+        n: Counter(mq.Structure(k).rank for k in level)
+        for n, level in enumerate(structure_levels(4), start=1)
+    }
     assert counts[3] == Counter({6: 4, 5: 2})
     assert counts[4] == Counter({6: 17, 5: 2})
 

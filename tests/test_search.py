@@ -68,7 +68,7 @@ def test_force_lower_bound_is_exact():
     for seed in range(6):
         W = planted(4, 10, 100 + seed) * 1.3
         n_lb = force_lower_bound(W, module)
-        for n, level in enumerate(structure_levels(min(n_lb - 1, 4)), start=1):
+        for level in structure_levels(min(n_lb - 1, 4)):
             for key in level:  # nothing below the bound can exert the forces
                 A = mq.Structure(key).configuration_matrix()
                 assert not mq.feasible(A, W).all()

@@ -50,8 +50,10 @@ def run(n_structures: int, n_wrenches: int, seed: int, out: Path) -> list[dict]:
     rows = []
     for n in (7, 10):
         cases = [random_structure(n, rng) for _ in range(n_structures)]
-        cases = [(s.configuration_matrix(), boundary_mix(s.configuration_matrix(), n_wrenches, rng))
-                 for s in cases]
+        cases = [
+            (s.configuration_matrix(), boundary_mix(s.configuration_matrix(), n_wrenches, rng))
+            for s in cases
+        ]
         feasible_share = float(np.mean([_decide(Zonotope(A), W, "daqp").mean() for A, W in cases]))
         build = []
         for A, _ in cases[: max(1, int(len(cases) * _SHARE["hrep"]))]:

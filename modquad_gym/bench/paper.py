@@ -99,10 +99,16 @@ def _figures(seed, task, ex, cs, out: Path) -> list[str]:
 
     fig = Figure(figsize=(10, 5), layout="constrained")
     FigureCanvasAgg(fig)
-    draw_structure(ex.structure, ax=fig.add_subplot(1, 2, 1),
-                   title=f"exhaustive: {ex.n_modules} modules, {ex.evaluated} evaluated")
-    draw_structure(cs.structure, ax=fig.add_subplot(1, 2, 2),
-                   title=f"centrosymmetric: {cs.n_modules} modules, {cs.evaluated} evaluated")
+    draw_structure(
+        ex.structure,
+        ax=fig.add_subplot(1, 2, 1),
+        title=f"exhaustive: {ex.n_modules} modules, {ex.evaluated} evaluated",
+    )
+    draw_structure(
+        cs.structure,
+        ax=fig.add_subplot(1, 2, 2),
+        title=f"centrosymmetric: {cs.n_modules} modules, {cs.evaluated} evaluated",
+    )
     fig.savefig(out / "paper_structures.png", dpi=110)
 
     fig = Figure(figsize=(12, 7), layout="constrained")

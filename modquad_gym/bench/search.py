@@ -128,8 +128,12 @@ def main(argv: list[str] | None = None) -> None:
     )
     parser.add_argument("--tasks", type=int, default=4, help="tasks per workload")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--reference-structures", type=int, default=300,
-                        help="structures the slow reference checks per task")
+    parser.add_argument(
+        "--reference-structures",
+        type=int,
+        default=300,
+        help="structures the slow reference checks per task",
+    )
     parser.add_argument("--out", type=Path, default=Path("results"))
     args = parser.parse_args(argv)
     rows = run(args.tasks, args.seed, args.reference_structures, args.out)
