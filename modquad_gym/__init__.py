@@ -6,9 +6,18 @@ Layers, bottom to top (a lower layer never imports a higher one):
 Importing this package stays light: torch, SB3 and MuJoCo load only where they are used.
 """
 
+from . import envs  # noqa: F401 - registers ModQuadAssembly-v0 with Gymnasium
 from .module import DEFAULT_C_TAU, DEFAULT_SIDE, ModuleType, TModule
 from .oracle import METHODS, TOL, WrenchOracle, Zonotope, allocate, feasible, lambda_ratio, margin
+from .search import (
+    SearchResult,
+    centrosymmetric_search,
+    exhaustive_search,
+    greedy_search,
+    random_search,
+)
 from .structure import Structure, structure_levels
+from .tasks import TaskRequirement
 
 __version__ = "0.1.0"
 
@@ -18,11 +27,17 @@ __all__ = [
     "METHODS",
     "TOL",
     "ModuleType",
+    "SearchResult",
     "Structure",
+    "TaskRequirement",
     "TModule",
     "WrenchOracle",
     "Zonotope",
     "allocate",
+    "centrosymmetric_search",
+    "exhaustive_search",
+    "greedy_search",
+    "random_search",
     "feasible",
     "lambda_ratio",
     "margin",

@@ -1,0 +1,85 @@
+"""The `modquad` command line: JSON round trip, infeasible tasks, bad files, generate, show."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import modquad_gym as mq
+from modquad_gym.cli import main
+from modquad_gym.tasks import TaskRequirement
+
+
+def run_cli(*args):
+    return subprocess.run(
+        [sys.executable, "-m", "modquad_gym.cli", *args], capture_output=True, text=True
+    )
+
+
+def test_solve_json_round_trip(tmp_path):
+    a, b = tmp_path / "a.json", tmp_path / "b.csv"
+    task_a = TaskRequirement(np.array([[0, 0, 5.0, 0, 0, 0], [0.5, 0, 4.0, 0, 0, 0.1]]), "a")
+    task_a.save(a)
+    TaskRequirement(np.array([[0, 0, 100.0, 0, 0, 0]]), "b").save(b)  # infeasible up to 4
+    proc = run_cli("solve", "--task", str(a), "--task", str(b), "--n-max", "4", "--json")
+    assert proc.returncode == 0, proc.stderr
+    lines = [json.loads(line) for line in proc.stdout.splitlines()]
+    assert len(lines) == 2
+    first, second = lines
+    for key in ("cells", "n_modules", "evaluated", "feasible", "seconds"):
+        assert key in first and key in second
+    assert first["feasible"] and first["n_modules"] == len(first["cells"])
+    structure = mq.Structure([tuple(c) for c in first["cells"]])
+    assert mq.feasible(structure.configuration_matrix(), task_a.wrenches).all()
+    assert first["n_modules"] == mq.exhaustive_search(task_a, n_max=4).n_modules
+    assert second == {**second, "cells": None, "n_modules": None, "feasible": False}
+
+
+@pytest.mark.parametrize("method", ["centrosymmetric", "greedy", "random"])
+def test_solve_text_output(method, capsys):
+    assert main(["solve", "--task", "examples/screwdriver.json", "--method", method]) == 0
+    out = capsys.readouterr().out
+    assert "configurations evaluated" in out and "[" in out
+
+
+@pytest.mark.parametrize(
+    "content, suffix, message",
+    [
+        ("{not json", ".json", "a.json"),
+        ('{"wrenches": [[1, 2, 3]]}', ".json", "row 1"),
+        ("1,2,3,4,5,6\n1,2,x,4,5,6\n", ".csv", "row 2"),
+        ("", ".csv", "a.csv"),
+    ],
+)
+def test_bad_task_file_exits_2(tmp_path, content, suffix, message):
+    path = tmp_path / f"a{suffix}"
+    path.write_text(content)
+    proc = run_cli("solve", "--task", str(path))
+    assert proc.returncode == 2
+    assert message in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_missing_file_exits_2(tmp_path):
+    proc = run_cli("solve", "--task", str(tmp_path / "nope.json"))
+    assert proc.returncode == 2 and "nope.json" in proc.stderr
+
+
+def test_generate_and_show(tmp_path):
+    out = tmp_path / "t.json"
+    assert main(["task", "generate", "--kind", "planted", "--seed", "3", "--out", str(out)]) == 0
+    task = TaskRequirement.load(out)
+    assert task.n_wrenches >= 1
+    png = tmp_path / "s.png"
+    assert main(["show", "--cells", "[[0,0],[1,0],[0,1]]", "--out", str(png)]) == 0
+    assert png.stat().st_size > 1000
+
+
+def test_help_explains_every_command():
+    proc = run_cli("--help")
+    assert proc.returncode == 0
+    for command in ("solve", "task", "show", "validate", "bench"):
+        assert command in proc.stdout
+    proc = run_cli("solve", "--help")
+    assert "--method" in proc.stdout and "--json" in proc.stdout
