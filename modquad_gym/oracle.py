@@ -63,6 +63,7 @@ METHODS = ("auto", "daqp", "scipy", "cvxpy", "hrep", "quickhull")
 
 _RANK_TOL = 1e-9
 _AP_ITERATIONS = 8
+_AP_ROUNDS = 2
 _CACHE_DIRECTIONS = 64
 _QUICKHULL_MAX_COLUMNS = 12
 
@@ -133,6 +134,8 @@ class Zonotope:
         self.c = B.sum(axis=1) * (self.f_max / 2.0)  # centre, reduced coordinates
         self.P = np.linalg.pinv(self.G)  # (m, r)
         self.GGinv = np.linalg.inv(self.G @ self.G.T)  # dual metric for separating directions
+        # one alternating-projection step x <- P r + (I - P G) clip(x), as a right factor
+        self._ap_step = (np.eye(self.m) - self.P @ self.G).T
         # cache of separating directions (rows, unit length) and their supports sum_j |d . g_j|
         eye = np.eye(self.rank)
         self._dirs = np.vstack([eye, -eye])
@@ -190,19 +193,28 @@ class Zonotope:
             rej = self._separated(Ru, Ru) | self._separated(Ru, Ru @ self.GGinv)
             reject[np.flatnonzero(und)[rej]] = True
             und = ~(accept | reject)
-        if und.any():
-            idx = np.flatnonzero(und)
-            Ru, Xu = R[idx], X[idx]
+        # alternating projections between {x : G x = r} and the cube, in rounds; after each
+        # round, accept rows whose affine point lies in the cube and reject rows that the
+        # residual direction separates; only the rest go on
+        idx = np.flatnonzero(~(accept | reject))
+        Xu, X0, Ru = X[idx].copy(), X[idx], R[idx]
+        for _ in range(_AP_ROUNDS):
+            if not len(idx):
+                break
             for _ in range(_AP_ITERATIONS):
-                Xb = np.clip(Xu, -1.0, 1.0)
-                E = Ru - Xb @ self.G.T
-                Xu = Xb + E @ self.P.T
+                np.minimum(Xu, 1.0, out=Xu)
+                np.maximum(Xu, -1.0, out=Xu)
+                Xu = Xu @ self._ap_step
+                Xu += X0
             ok = np.abs(Xu).max(axis=1) <= lim
             accept[idx[ok]] = True
+            E = Ru - np.clip(Xu, -1.0, 1.0) @ self.G.T
             D = E @ self.GGinv
             rej = ~ok & self._separated(Ru, D)
             reject[idx[rej]] = True
             self._remember(D[rej][:4])
+            keep = ~(ok | rej)
+            idx, Xu, X0, Ru = idx[keep], Xu[keep], X0[keep], Ru[keep]
         und = ~(accept | reject)
         for i in np.flatnonzero(und):
             accept[i] = self.decide_lp_one(R[i])
