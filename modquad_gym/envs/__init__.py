@@ -1,0 +1,47 @@
+"""Gymnasium environments of modquad_gym, registered on import.
+
+``import modquad_gym`` (or ``gym.make("modquad_gym:ModQuadAssembly-v0")``, which imports the
+package first) registers:
+
+* ``ModQuadAssembly-v0``: :class:`~modquad_gym.envs.assembly.ModQuadAssemblyEnv`, every keyword
+  of its constructor accepted by ``gym.make``.
+* ``ModQuadAssemblyPaper-v0``: the same with ``tasks="paper"`` (the paper's random tasks).
+* ``ModQuadAssemblyPlanted-v0``: the same with ``tasks="planted"`` (tasks planted from a
+  random structure, so a solution within n_max is known to exist).
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+from .assembly import ModQuadAssemblyEnv
+from .features import AssemblyFeatures, unit_directions
+from .reward import RewardWeights, episode_return
+
+ENTRY_POINT = "modquad_gym.envs.assembly:ModQuadAssemblyEnv"
+
+ENV_IDS: dict[str, dict] = {
+    "ModQuadAssembly-v0": {},
+    "ModQuadAssemblyPaper-v0": {"tasks": "paper"},
+    "ModQuadAssemblyPlanted-v0": {"tasks": "planted"},
+}
+
+
+def register_envs() -> None:
+    """Register every id of :data:`ENV_IDS` with Gymnasium; a second call does nothing."""
+    for env_id, kwargs in ENV_IDS.items():
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point=ENTRY_POINT, kwargs=dict(kwargs))
+
+
+register_envs()
+
+__all__ = [
+    "ENV_IDS",
+    "AssemblyFeatures",
+    "ModQuadAssemblyEnv",
+    "RewardWeights",
+    "episode_return",
+    "register_envs",
+    "unit_directions",
+]

@@ -1,0 +1,456 @@
+"""The Gymnasium environment ``ModQuadAssembly-v0``: build a structure module by module.
+
+Split as in Jumanji: this module is the environment (state, spaces, transitions); tasks come from
+a generator (:mod:`modquad_gym.tasks`), the reward from :mod:`.reward`, observation features from
+:mod:`.features`, pictures from :mod:`modquad_gym.viz`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.error import ResetNeeded
+
+from ..module import ModuleType
+from ..oracle import WrenchOracle, check_f_max
+from ..structure import Cell, Key, Structure, normalise
+from .features import DEFAULT_N_DIRECTIONS, AssemblyFeatures
+from .reward import RewardWeights
+
+INVALID_ACTION_MODES = ("penalise", "terminate")
+
+_CACHE_SIZE = 16384
+_MEMO_TASKS = 16
+_STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
+
+
+class _Backend:
+    """Everything that depends on (module, n_max, f_max, K) and survives across episodes: the
+    oracle with its per-structure zonotope cache, the feature maker, and per-structure support
+    values. Reusing it across episodes is what makes steps fast with a fresh task each episode."""
+
+    def __init__(
+        self, module: ModuleType, n_max: int, f_max: float, n_directions: int, method: str
+    ) -> None:
+        self.module = module
+        self.oracle = WrenchOracle(f_max, method=method)
+        self.features = AssemblyFeatures(module, n_max, f_max, n_directions)
+        self.capability: dict[Key, tuple] = {}
+
+    def capability_of(self, key: Key) -> tuple[np.ndarray, np.ndarray, float, int]:
+        """(A, h_W / denom, rejection slack, rank) of the structure with translation ``key``
+        (see :meth:`AssemblyFeatures.support`), cached."""
+        hit = self.capability.get(key)
+        if hit is None:
+            if len(self.capability) >= _CACHE_SIZE:
+                self.capability.clear()
+            A = Structure(key, module=self.module).configuration_matrix()
+            rank = self.oracle.zonotope(A, key=key).rank
+            hit = (A, *self.features.support(A), rank)
+            self.capability[key] = hit
+        return hit
+
+
+class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
+    """Assemble the smallest modular multirotor (H-ModQuad) that can exert a task's wrenches.
+
+    ## Description
+    A task is a set of t wrenches w = [f; tau] (body frame, SI units; f_max per rotor) that the
+    robot must be able to produce. The agent starts from one module and docks one more per step
+    on a square grid. A structure satisfies a wrench when it lies in its feasible-wrench zonotope
+    W = {A u : 0 <= u <= f_max}, decided exactly by :class:`~modquad_gym.oracle.WrenchOracle`.
+    The goal is to satisfy every wrench with as few modules as possible (paper Problem 1).
+
+    ## Action Space
+    ``Discrete(G * G)`` with G = 2 * n_max - 1: one action per grid cell (x, y), with x and y in
+    [-(n_max - 1), n_max - 1] around the initial module at (0, 0):
+    ``a = (y + n_max - 1) * G + (x + n_max - 1)``. Action a is *valid* when its cell is empty,
+    4-adjacent to the structure and the episode is not over; a valid action docks a module there.
+    An invalid action never raises: it leaves the structure unchanged and costs ``w_invalid``
+    (``invalid_action="penalise"``) or also ends the episode (``"terminate"``). The mask of valid
+    actions is exposed three ways: ``action_masks()`` (bool, also before ``reset``, for
+    sb3-contrib's MaskablePPO), ``obs["action_mask"]`` and ``info["action_mask"]``. In a terminal
+    state (and in the rare task that one module already satisfies) no action is valid.
+
+    ## Observation Space
+    A ``Dict`` of Boxes (float32 unless noted), fixed-size for any number t of task wrenches:
+
+    * ``"occupancy"`` (G * G,) in {0, 1}: 1 where a module sits, indexed like the actions:
+      ``occupancy[a]`` is the cell of action a, and ``occupancy.reshape(G, G)`` has row
+      y + n_max - 1 and column x + n_max - 1 (flat, as SB3's MultiInputPolicy expects; reshape
+      for a CNN). The initial module is always at the centre.
+    * ``"action_mask"`` (G * G,) int8 in {0, 1}: 1 for valid actions.
+    * ``"task"`` (K + 7,) in [-1, 1]: permutation-invariant task features (support function on
+      K fixed directions, force/torque statistics, log t).
+    * ``"structure"`` (2K + 7,) in [-1, 1]: the structure's support function, its deficit against
+      the task per direction, the fraction of satisfied wrenches, n_modules / n_max, rank / 6 and
+      per-wrench directional deficits.
+
+    K = ``n_directions`` (default 48); :mod:`modquad_gym.envs.features` documents every entry
+    and its normalisation.
+
+    ## Rewards
+    ``r_t = w_sat * (frac_t - frac_{t-1}) - w_module * added_t + w_success * success_t
+    - w_invalid * invalid_t``, with frac the fraction of satisfied wrenches. An episode's return
+    is therefore ``w_sat * (frac_T - frac_0) - w_module * (n_T - 1) + w_success * success
+    - w_invalid * n_invalid``: for a successful episode, fewer modules always earn more
+    (w_module > 0), and success beats failure when w_success > w_module * (n_max - 1). Defaults:
+    w_sat = 1, w_module = 0.1, w_success = 1, w_invalid = 0.1. ``info["reward_terms"]`` holds the
+    four terms of each step.
+
+    ## Starting State
+    One module at cell (0, 0) and a task drawn from the task source with ``self.np_random``
+    (seeded by ``reset(seed=...)``), or the task given as ``reset(options={"task": task})``
+    (a :class:`~modquad_gym.tasks.TaskRequirement` or a (t, 6) wrench array).
+
+    ## Episode End
+    * Termination (success): every task wrench is satisfied. If one module already satisfies the
+      task at reset, ``info["success"]`` is True there, the mask is all zero, and the next step
+      (any action) ends the episode with the success bonus and no module added.
+    * Termination (failure): n_max modules without success, no valid action left, or an invalid
+      action with ``invalid_action="terminate"``.
+    * Truncation: ``max_steps`` steps (default 4 * n_max) without termination; only reachable
+      through invalid actions.
+
+    ## Arguments
+    * ``tasks``: task source: ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"``
+      (default), a task file path, a TaskRequirement, a list of them, or a generator
+      ``gen(rng) -> TaskRequirement``; see :func:`modquad_gym.tasks.make_generator`.
+    * ``n_max``: the largest number of modules (default 7, as in the paper), >= 2.
+    * ``module``: the :class:`~modquad_gym.module.ModuleType` of every module (default the
+      T-module, eta = pi/4).
+    * ``f_max``: maximum thrust per rotor; None (default) uses each task's own f_max.
+    * ``reward_weights``: a :class:`~modquad_gym.envs.reward.RewardWeights` or a dict of some
+      of ``w_sat``, ``w_module``, ``w_success``, ``w_invalid``.
+    * ``invalid_action``: ``"penalise"`` (default) or ``"terminate"``.
+    * ``max_steps``: the step limit for truncation (default 4 * n_max).
+    * ``render_mode``: None, ``"rgb_array"`` (the structure picture, (H, W, 3) uint8) or
+      ``"ansi"`` (a text grid).
+    * ``n_directions``: K, the support directions of the features (default 48, >= 12).
+    * ``oracle_method``: the oracle's method (default ``"auto"``, exact and certified).
+    * ``render_size``: (height, width) of ``rgb_array`` frames (default (256, 256)).
+
+    ``info`` carries ``n_modules``, ``satisfied_fraction``, ``success``, ``cells`` (list of
+    [x, y], initial module first), ``evaluated`` (structures the oracle evaluated this episode:
+    the initial one plus one per docking), ``oracle_calls`` (wrench tests this episode),
+    ``action_mask``, ``task_name``, ``n_wrenches``, ``invalid_action`` and ``reward_terms``.
+
+    ## Version History
+    * v0: initial version.
+    """
+
+    metadata = {"render_modes": ["rgb_array", "ansi"], "render_fps": 4}
+
+    def __init__(
+        self,
+        tasks: Any = "mixed",
+        n_max: int = 7,
+        module: ModuleType | None = None,
+        f_max: float | None = None,
+        reward_weights: RewardWeights | dict | None = None,
+        invalid_action: str = "penalise",
+        max_steps: int | None = None,
+        render_mode: str | None = None,
+        n_directions: int = DEFAULT_N_DIRECTIONS,
+        oracle_method: str = "auto",
+        render_size: tuple[int, int] = (256, 256),
+    ) -> None:
+        from ..tasks import make_generator
+
+        if isinstance(n_max, bool) or not isinstance(n_max, (int, np.integer)) or n_max < 2:
+            raise ValueError(f"n_max must be an integer >= 2, got {n_max!r}")
+        if module is not None and not isinstance(module, ModuleType):
+            raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
+        if invalid_action not in INVALID_ACTION_MODES:
+            raise ValueError(
+                f"invalid_action must be one of {INVALID_ACTION_MODES}, got {invalid_action!r}"
+            )
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, "
+                f"got {render_mode!r}"
+            )
+        self.n_max = int(n_max)
+        if max_steps is None:
+            max_steps = 4 * self.n_max
+        if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)):
+            raise ValueError(f"max_steps must be a positive integer, got {max_steps!r}")
+        if max_steps < self.n_max - 1:
+            raise ValueError(f"max_steps must be >= n_max - 1 = {self.n_max - 1}, got {max_steps}")
+        self.max_steps = int(max_steps)
+        self.module = module if module is not None else Structure([(0, 0)]).module
+        self.f_max = None if f_max is None else check_f_max(f_max)
+        self.weights = RewardWeights.coerce(reward_weights)
+        self.invalid_action = invalid_action
+        self.render_mode = render_mode
+        self.render_size = tuple(render_size)
+        self.n_directions = int(n_directions)
+        self.oracle_method = oracle_method
+        self.task_source = tasks
+        self.generator: Callable[[np.random.Generator], Any] = make_generator(tasks)
+
+        self.radius = self.n_max - 1
+        self.side = 2 * self.n_max - 1
+        G = self.side
+        self._backends: dict[float, _Backend] = {}
+        self._memos: dict[tuple[int, float], tuple[Any, dict]] = {}
+        probe = self._backend(1.0 if self.f_max is None else self.f_max).features
+        self.action_space = spaces.Discrete(G * G)
+        self.observation_space = spaces.Dict(
+            {
+                "occupancy": spaces.Box(0.0, 1.0, (G * G,), np.float32),
+                "action_mask": spaces.Box(0, 1, (G * G,), np.int8),
+                "task": spaces.Box(-1.0, 1.0, (probe.task_size,), np.float32),
+                "structure": spaces.Box(-1.0, 1.0, (probe.structure_size,), np.float32),
+            }
+        )
+        self._initial_mask = np.zeros(G * G, dtype=np.int8)
+        for dx, dy in _STEPS:
+            self._initial_mask[self.action_of((dx, dy))] = 1
+        self._cells: list[Cell] | None = None
+
+    # --- grid <-> actions -----------------------------------------------------------------
+    def action_of(self, cell: Cell) -> int:
+        """The action that docks a module at grid ``cell`` (x, y); ValueError off the grid."""
+        x, y = int(cell[0]), int(cell[1])
+        if max(abs(x), abs(y)) > self.radius:
+            raise ValueError(f"cell {cell} lies outside the grid [-{self.radius}, {self.radius}]^2")
+        return (y + self.radius) * self.side + (x + self.radius)
+
+    def cell_of(self, action: int) -> Cell:
+        """The grid cell (x, y) of ``action``."""
+        y, x = divmod(int(action), self.side)
+        return (x - self.radius, y - self.radius)
+
+    def _parse_action(self, action: Any) -> int:
+        if type(action) is int or isinstance(action, np.integer):  # the fast, common case
+            a = int(action)
+            if 0 <= a < self.side * self.side:
+                return a
+        arr = np.asarray(action)
+        if arr.size != 1 or not (np.issubdtype(arr.dtype, np.integer)):
+            raise ValueError(
+                f"action must be one integer in [0, {self.action_space.n}), got {action!r}"
+            )
+        a = int(arr.reshape(-1)[0])
+        if not 0 <= a < self.action_space.n:
+            raise ValueError(f"action {a} is outside Discrete({self.action_space.n})")
+        return a
+
+    # --- state ----------------------------------------------------------------------------
+    def _backend(self, f_max: float) -> _Backend:
+        b = self._backends.get(f_max)
+        if b is None:
+            b = _Backend(self.module, self.n_max, f_max, self.n_directions, self.oracle_method)
+            self._backends[f_max] = b
+        return b
+
+    def _memo_for(self, task: Any, f_max: float) -> dict:
+        """Per-task memo of evaluations (key -> (n_satisfied, structure vector)): a task that
+        comes back (fixed task lists, files) costs no oracle call for structures seen before."""
+        ident = (id(task), f_max)
+        entry = self._memos.get(ident)
+        if entry is None or entry[0] is not task:
+            if len(self._memos) >= _MEMO_TASKS:
+                self._memos.clear()
+            entry = self._memos[ident] = (task, {})
+        if len(entry[1]) >= _CACHE_SIZE:
+            entry[1].clear()
+        return entry[1]
+
+    @property
+    def structure(self) -> Structure:
+        """The current structure (cells in docking order, initial module first)."""
+        if self._cells is None:
+            raise ResetNeeded("call reset() before asking for the structure")
+        return Structure(self._cells, module=self.module)
+
+    @property
+    def task(self) -> Any:
+        """The current task (a TaskRequirement)."""
+        if self._cells is None:
+            raise ResetNeeded("call reset() before asking for the task")
+        return self._task
+
+    def action_masks(self) -> np.ndarray:
+        """bool (G * G,): the valid actions now; before ``reset``, those of the initial state."""
+        if self._cells is None:
+            return self._initial_mask.astype(bool)
+        return self._mask.astype(bool)
+
+    def _evaluate(self) -> None:
+        """Decide every task wrench for the current structure; update fraction and features."""
+        b = self._be
+        self._evaluated += 1
+        key = normalise(self._cells)
+        hit = self._memo.get(key)
+        if hit is None:
+            A, h_Wn, slack, rank = b.capability_of(key)
+            per_wrench = b.features.per_wrench(self._WD, h_Wn)
+            # a wrench beyond the exact support of W in a feature direction (by more than the
+            # oracle's tolerance) is certainly infeasible; only the others go to the oracle
+            open_ = per_wrench <= slack
+            n_sat = 0
+            if open_.any():
+                n_sat = int(np.count_nonzero(b.oracle.feasible(A, self._W[open_], key=key)))
+            vec = b.features.structure(
+                h_Wn, self._h_Tn, per_wrench, rank, len(key), n_sat / len(self._W)
+            )
+            hit = self._memo[key] = (n_sat, vec)
+        n_sat, self._structure_vec = hit
+        self._frac = n_sat / len(self._W)
+        self._success = n_sat == len(self._W)
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        return {
+            "occupancy": self._occ.copy(),
+            "action_mask": self._mask.copy(),
+            "task": self._task_vec.copy(),
+            "structure": self._structure_vec.copy(),
+        }
+
+    def _info(self, invalid: bool = False, terms: dict[str, float] | None = None) -> dict:
+        return {
+            "n_modules": len(self._cells),
+            "satisfied_fraction": self._frac,
+            "success": self._success,
+            "cells": [[x, y] for x, y in self._cells],
+            "evaluated": self._evaluated,
+            "oracle_calls": self._be.oracle.calls - self._calls0,
+            "action_mask": self._mask.astype(bool),
+            "task_name": self._task_name,
+            "n_wrenches": len(self._W),
+            "invalid_action": invalid,
+            "reward_terms": terms if terms is not None else self.weights.terms(0, 0, 0, 0),
+        }
+
+    # --- Gymnasium API --------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict]:
+        super().reset(seed=seed)
+        options = options or {}
+        unknown = sorted(set(options) - {"task"})
+        if unknown:
+            raise ValueError(f"unknown reset options {unknown}; known: ['task']")
+        if options.get("task") is not None:
+            task = _as_task(options["task"])
+        else:
+            task = self.generator(self.np_random)
+        W = np.asarray(task.wrenches, dtype=float)
+        if W.ndim != 2 or W.shape[1] != 6 or len(W) == 0:
+            raise ValueError(
+                f"task {task.name!r} wrenches must have shape (t >= 1, 6), got {W.shape}"
+            )
+        f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
+        self._be = self._backend(f_max)
+        self._memo = self._memo_for(task, f_max)
+        self._task, self._task_name, self._W = task, str(task.name), W
+        self._task_vec, self._h_Tn, self._WD = self._be.features.task(W)
+
+        G = self.side
+        self._cells = [(0, 0)]
+        self._occ = np.zeros(G * G, dtype=np.float32)
+        self._occ[self.action_of((0, 0))] = 1.0
+        self._mask = self._initial_mask.copy()
+        self._steps = 0
+        self._evaluated = 0
+        self._calls0 = self._be.oracle.calls
+        self._evaluate()
+        self._frac0 = self._frac
+        self._done = False
+        if self._success:  # one module suffices: nothing may be added (see Episode End)
+            self._mask[:] = 0
+        return self._observation(), self._info()
+
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict]:
+        if self._cells is None:
+            raise ResetNeeded("call reset() before step()")
+        if self._done:
+            raise ResetNeeded("the episode is over; call reset() before step()")
+        a = self._parse_action(action)
+        self._steps += 1
+        added = invalid = False
+        frac_before = self._frac
+        if self._success:  # solved at reset: this step only ends the episode
+            terminated = True
+        elif self._mask[a]:
+            added = True
+            x, y = self.cell_of(a)
+            self._cells.append((x, y))
+            self._occ[a] = 1.0
+            self._mask[a] = 0
+            for dx, dy in _STEPS:
+                nx, ny = x + dx, y + dy
+                if max(abs(nx), abs(ny)) <= self.radius:
+                    b = (ny + self.radius) * self.side + nx + self.radius
+                    if not self._occ[b]:
+                        self._mask[b] = 1
+            self._evaluate()
+            terminated = self._success or len(self._cells) >= self.n_max or not self._mask.any()
+        else:
+            invalid = True
+            terminated = self.invalid_action == "terminate"
+        truncated = not terminated and self._steps >= self.max_steps
+        self._done = terminated or truncated
+        if terminated:
+            self._mask[:] = 0
+        terms = self.weights.terms(
+            self._frac - frac_before, added, self._success and terminated, invalid
+        )
+        reward = float(sum(terms.values()))
+        return self._observation(), reward, terminated, truncated, self._info(invalid, terms)
+
+    def render(self) -> np.ndarray | str | None:
+        if self.render_mode is None:
+            gym.logger.warn("render() called with render_mode=None; pass render_mode to the env")
+            return None
+        if self._cells is None:
+            raise ResetNeeded("call reset() before render()")
+        if self.render_mode == "rgb_array":
+            from ..oracle import feasible
+            from ..viz import structure_image
+
+            s = self.structure
+            status = feasible(
+                s.configuration_matrix(), self._W, self._be.oracle.f_max, self.oracle_method
+            )
+            return structure_image(s, size=self.render_size, wrench_status=status)
+        return self._ansi()
+
+    def _ansi(self) -> str:
+        rows = [
+            f"task {self._task_name!r} (t={len(self._W)}): {len(self._cells)}/{self.n_max} modules,"
+            f" satisfied {self._frac:.3f}{' SUCCESS' if self._success else ''}"
+        ]
+        for y in range(self.radius, -self.radius - 1, -1):
+            row = []
+            for x in range(-self.radius, self.radius + 1):
+                if (x, y) == (0, 0):
+                    row.append("@")
+                elif self._occ[self.action_of((x, y))]:
+                    row.append("#")
+                elif self._mask[self.action_of((x, y))]:
+                    row.append("+")
+                else:
+                    row.append(".")
+            rows.append(" ".join(row))
+        return "\n".join(rows) + "\n"
+
+
+def _as_task(task: Any) -> Any:
+    """A TaskRequirement from a TaskRequirement or a (t, 6) wrench array."""
+    from ..tasks import TaskRequirement
+
+    if isinstance(task, TaskRequirement):
+        return task
+    arr = np.asarray(task, dtype=float)
+    if arr.ndim != 2 or arr.shape[1] != 6:
+        raise ValueError(
+            f"options['task'] must be a TaskRequirement or a (t, 6) wrench array, got {arr.shape}"
+        )
+    return TaskRequirement(arr, name="options-task")

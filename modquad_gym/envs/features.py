@@ -1,0 +1,173 @@
+"""Fixed-size, permutation-invariant features of a task and of a structure's capability against it.
+
+Why support functions: a task is a *set* of t wrenches (t from 1 to hundreds) and the structure's
+capability is a convex set W. Both are summarised, for any t, by their support functions
+h(d) = max_{w} d . w on one fixed set of K directions d. The task's support is a max over its
+wrenches (invariant to their order); the structure's is exact and cheap for a zonotope,
+h_W(d) = f_max * sum_k max(d . a_k, 0). Where h_T(d) > h_W(d), direction d certifiably holds a
+task wrench the structure cannot produce. Exact per-wrench margins are LPs (too slow for every
+step); the env's hot path uses the oracle's exact decisions plus these support gaps.
+
+Directions live in a *scaled* wrench space w~ = [f ; tau / l] (l: the module side), so that
+forces (N) and torques (N m) weigh alike: the 12 signed axes plus ``K - 12`` well-spread unit
+vectors (farthest-point sampling from a generator seeded at import, so they never change).
+A direction u of the scaled space is d = [u_f ; u_tau / l] in wrench space.
+
+Normalisation (all features are float32 in [-1, 1]):
+
+* ``scale = 4 * n_max * f_max`` (the largest total thrust of n_max modules).
+* ``denom(d) = n_max * max(h_1(d), f_max / 4)``, with h_1 the support of one module about its
+  centre: a deficit h_T - h_W divided by denom is roughly "modules still missing in direction d,
+  as a fraction of n_max" (forces add exactly per module; torques roughly).
+
+Task vector (``K + 7``): h_T(d) / scale (K); mean and max |f| / scale; mean and max |tau| / (l *
+scale); mean and standard deviation of f_z / scale; log(1 + t) / log(1 + 1000).
+
+Structure vector (``2K + 7``): h_W(d) / scale (K); deficit (h_T(d) - h_W(d)) / denom(d) (K);
+fraction of wrenches satisfied (exact oracle); n_modules / n_max; rank(A) / 6; fraction of
+directions with h_W >= h_T; mean, max and min over wrenches of the per-wrench directional
+deficit max_d (d . w_i - h_W(d)) / denom(d) (> 0 certifies that wrench infeasible).
+Every entry is clipped to [-1, 1].
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..module import ModuleType
+from ..oracle import TOL
+from ..structure import Structure
+
+DEFAULT_N_DIRECTIONS = 48
+"""Default K: the 12 signed axes plus 36 spread directions."""
+
+TASK_SCALARS = 7
+STRUCTURE_SCALARS = 7
+
+_DIRECTION_SEED = 20240611
+_CANDIDATES = 4096
+_T_REF = 1000
+
+
+def unit_directions(k: int = DEFAULT_N_DIRECTIONS) -> np.ndarray:
+    """(k, 6) unit vectors: the 12 signed axes, then ``k - 12`` by farthest-point sampling from
+    a fixed seeded cloud. Deterministic: the same k always gives the same directions."""
+    if not isinstance(k, (int, np.integer)) or isinstance(k, bool) or k < 12:
+        raise ValueError(f"n_directions must be an integer >= 12 (the signed axes), got {k!r}")
+    eye = np.eye(6)
+    chosen = [*eye, *(-eye)]
+    rng = np.random.default_rng(_DIRECTION_SEED)
+    cloud = rng.standard_normal((_CANDIDATES, 6))
+    cloud /= np.linalg.norm(cloud, axis=1, keepdims=True)
+    # cosine similarity of each candidate to its nearest chosen direction (larger = closer)
+    closest = (cloud @ np.array(chosen).T).max(axis=1)
+    for _ in range(int(k) - 12):
+        i = int(np.argmin(closest))
+        chosen.append(cloud[i])
+        closest = np.maximum(closest, cloud @ cloud[i])
+    return np.array(chosen)
+
+
+class AssemblyFeatures:
+    """Computes the task and structure feature vectors for one module type, n_max and f_max.
+
+    Args:
+        module: the module type (its side l scales torques; its rotors give h_1).
+        n_max: the largest module count (sets the normalisation).
+        f_max: maximum thrust per rotor.
+        n_directions: K, the number of support directions (>= 12).
+    """
+
+    def __init__(
+        self,
+        module: ModuleType,
+        n_max: int,
+        f_max: float,
+        n_directions: int = DEFAULT_N_DIRECTIONS,
+    ) -> None:
+        self.n_max = int(n_max)
+        self.f_max = float(f_max)
+        self.side = float(module.side)
+        self.units = unit_directions(n_directions)
+        self.k = len(self.units)
+        metric = np.array([1.0, 1.0, 1.0, 1.0 / self.side, 1.0 / self.side, 1.0 / self.side])
+        self.D = self.units * metric  # wrench-space directions
+        self.scale = 4.0 * self.n_max * self.f_max
+        single = Structure([(0, 0)], module=module).configuration_matrix()
+        self.h1 = np.maximum(self.D @ single, 0.0).sum(axis=1) * self.f_max
+        self.denom = self.n_max * np.maximum(self.h1, self.f_max / 4.0)
+        self._denom_over_scale = self.denom / self.scale
+        self.task_size = self.k + TASK_SCALARS
+        self.structure_size = 2 * self.k + STRUCTURE_SCALARS
+
+    # --- task (once per episode) ----------------------------------------------------------
+    def task(self, W: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(task vector float32, h_T / denom (K,), WD (t, K) = (d . w_i) / denom) for W (t, 6)."""
+        proj = W @ self.D.T  # (t, K)
+        h_T = proj.max(axis=0)
+        f = np.linalg.norm(W[:, :3], axis=1)
+        tau = np.linalg.norm(W[:, 3:], axis=1)
+        s = self.scale
+        scalars = [
+            f.mean() / s,
+            f.max() / s,
+            tau.mean() / (self.side * s),
+            tau.max() / (self.side * s),
+            W[:, 2].mean() / s,
+            W[:, 2].std() / s,
+            math.log1p(len(W)) / math.log1p(_T_REF),
+        ]
+        vec = np.concatenate([h_T / s, scalars])
+        WD = proj / self.denom
+        return np.clip(vec, -1.0, 1.0).astype(np.float32), h_T / self.denom, WD
+
+    # --- structure (every step) -----------------------------------------------------------
+    def support(self, A: np.ndarray) -> tuple[np.ndarray, float]:
+        """(h_W / denom, slack) on the K directions for configuration matrix A (6, m).
+
+        h_W(d) = f_max * sum_k max(d . a_k, 0) is the exact support of W. A wrench whose
+        :meth:`per_wrench` deficit exceeds ``slack`` is certainly infeasible: slack bounds the
+        oracle's tolerance, 2 * TOL * f_max * sum_k |d . a_k| / denom(d) (thrusts within
+        TOL * f_max of their bounds count as feasible), so the test never rejects a wrench that
+        the oracle accepts.
+        """
+        P = self.D @ A
+        h_W = np.maximum(P, 0.0).sum(axis=1) * self.f_max
+        slack = (2.0 * TOL * self.f_max * np.abs(P).sum(axis=1) + 1e-12) / self.denom
+        return h_W / self.denom, float(slack.max())
+
+    def structure(
+        self,
+        h_Wn: np.ndarray,
+        h_Tn: np.ndarray,
+        per_wrench: np.ndarray,
+        rank: int,
+        n_modules: int,
+        satisfied_fraction: float,
+    ) -> np.ndarray:
+        """The structure vector (float32, 2K + 7) of a structure against the current task.
+
+        ``h_Wn`` and ``h_Tn`` are the supports divided by denom; ``per_wrench`` (t,) is
+        max_d (d . w_i - h_W(d)) / denom(d), from :meth:`per_wrench`.
+        """
+        out = np.empty(self.structure_size, dtype=np.float32)
+        k = self.k
+        out[:k] = h_Wn * self._denom_over_scale
+        out[k : 2 * k] = h_Tn - h_Wn
+        out[2 * k :] = (
+            satisfied_fraction,
+            n_modules / self.n_max,
+            rank / 6.0,
+            np.count_nonzero(h_Wn >= h_Tn) / k,
+            per_wrench.sum() / len(per_wrench),
+            per_wrench.max(),
+            per_wrench.min(),
+        )
+        return np.clip(out, -1.0, 1.0, out=out)
+
+    @staticmethod
+    def per_wrench(WD: np.ndarray, h_Wn: np.ndarray) -> np.ndarray:
+        """(t,) max over directions of the normalised deficit (d . w_i - h_W(d)) / denom(d)."""
+        return (WD - h_Wn).max(axis=1)
