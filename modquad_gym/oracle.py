@@ -149,6 +149,8 @@ class Zonotope:
         """(r, off_range): centred reduced coordinates r = Q^T w - c (t, rank) and a bool (t,)
         that is True where w has a component outside range(A)."""
         b = W @ self.Q
+        if self.rank == 6:  # range(A) is all of R^6: nothing is off range
+            return b - self.c, np.zeros(len(W), dtype=bool)
         resid = np.linalg.norm(W - b @ self.Q.T, axis=1)
         off = resid > RESIDUAL_TOL * (1.0 + np.linalg.norm(W, axis=1))
         return b - self.c, off
