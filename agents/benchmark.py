@@ -1,0 +1,465 @@
+"""The agent benchmark: every solver on the held-out suites, against the certified optimum.
+
+``python -m agents.benchmark`` (or ``modquad bench agents``) runs each method on every task of
+the held-out suites (``modquad_gym/data/suites/heldout_*.json``, never seen in training; each task
+carries its optimum from the exhaustive search) and writes to ``--out`` (default ``results``):
+
+* ``benchmark.md``: the machine, the summary per method (success rate, mean modules, share
+  solved with the optimal module count, mean gap to the optimum, configurations evaluated and
+  oracle calls per task, wall time), the goals beside what was reached, the figures;
+* ``benchmark.csv``: one row per (method, task);
+* ``benchmark_bars.png``, ``learning_curve.png`` (from the training run's ``evaluations.npz``),
+  ``structures.png`` (PPO vs exhaustive vs centrosymmetric on the same tasks).
+
+Every reported success is re-verified here by the exact DAQP LP oracle.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import platform
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from modquad_gym.oracle import feasible
+from modquad_gym.tasks import TaskRequirement, load_suite
+
+from .solvers import DEFAULT_MODEL, Solver, make_solver
+from .suites import SUITES_DIR
+
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo", "ppo-k8")
+GOALS = {"success": 0.98, "optimal": 0.90}
+CSV_FIELDS = (
+    "suite", "task", "optimum", "method", "success", "n_modules", "gap", "optimal",
+    "evaluated", "oracle_calls", "seconds", "cells",
+)  # fmt: skip
+
+
+@dataclass
+class Row:
+    """One method on one task."""
+
+    suite: str
+    task: str
+    optimum: int | None
+    method: str
+    success: bool
+    n_modules: int | None
+    evaluated: int
+    oracle_calls: int
+    seconds: float
+    cells: list | None
+
+    @property
+    def gap(self) -> int | None:
+        if self.n_modules is None or self.optimum is None:
+            return None
+        return self.n_modules - self.optimum
+
+    @property
+    def optimal(self) -> bool:
+        return self.success and self.gap == 0
+
+    def as_csv(self) -> dict:
+        return {
+            "suite": self.suite, "task": self.task, "optimum": self.optimum,
+            "method": self.method, "success": int(self.success), "n_modules": self.n_modules,
+            "gap": self.gap, "optimal": int(self.optimal), "evaluated": self.evaluated,
+            "oracle_calls": self.oracle_calls, "seconds": f"{self.seconds:.5f}",
+            "cells": ";".join(f"{x},{y}" for x, y in self.cells) if self.cells else "",
+        }  # fmt: skip
+
+
+def parse_method(method: str, n_max: int, model: Path | None, seed: int) -> Solver:
+    """A solver from a benchmark method name: a search name, ``ppo`` or ``ppo-kN`` (PPO with N
+    sampled rollouts besides the deterministic one)."""
+    if method.startswith("ppo-k"):
+        try:
+            k = int(method[len("ppo-k") :])
+        except ValueError:
+            raise ValueError(f"bad method {method!r}; write ppo-kN with N an integer") from None
+        return make_solver("ppo", n_max=n_max, model=model, seed=seed, samples=k)
+    if method == "ppo":
+        return make_solver("ppo", n_max=n_max, model=model, seed=seed)
+    return make_solver(method, n_max=n_max, seed=seed)
+
+
+def run_benchmark(
+    suites: dict[str, list[TaskRequirement]],
+    methods: list[str],
+    n_max: int = 7,
+    model: Path | None = None,
+    seed: int = 0,
+    progress: bool = True,
+) -> list[Row]:
+    """Every method on every task; successes re-verified by the exact oracle."""
+    from tqdm import tqdm
+
+    solvers = {m: parse_method(m, n_max, model, seed) for m in methods}
+    jobs = [(name, task) for name, tasks in suites.items() for task in tasks]
+    rows: list[Row] = []
+    for suite, task in tqdm(jobs, desc="benchmark", unit="task", disable=not progress):
+        optimum = task.meta.get("optimum")
+        for method, solver in solvers.items():
+            r = solver.solve(task)
+            ok = r.structure is not None and bool(
+                feasible(r.structure.configuration_matrix(), task.wrenches, task.f_max,
+                         method="daqp").all()
+            )  # fmt: skip
+            rows.append(
+                Row(suite, task.name, optimum, method, ok, r.n_modules if ok else None,
+                    int(r.evaluated), int(r.oracle_calls), float(r.seconds),
+                    [list(c) for c in r.structure.cells] if ok else None)
+            )  # fmt: skip
+    return rows
+
+
+def summarise(rows: list[Row], methods: list[str], n_max: int) -> list[dict]:
+    """Per method, over the tasks whose optimum is <= n_max (the goals' scope)."""
+    out = []
+    for m in methods:
+        rs = [r for r in rows if r.method == m and r.optimum is not None and r.optimum <= n_max]
+        if not rs:
+            continue
+        solved = [r for r in rs if r.success]
+        out.append({
+            "method": m,
+            "tasks": len(rs),
+            "success_rate": len(solved) / len(rs),
+            "mean_modules": float(np.mean([r.n_modules for r in solved])) if solved else None,
+            "optimal_share": sum(r.optimal for r in rs) / len(rs),
+            "mean_gap": float(np.mean([r.gap for r in solved])) if solved else None,
+            "mean_evaluated": float(np.mean([r.evaluated for r in rs])),
+            "mean_oracle_calls": float(np.mean([r.oracle_calls for r in rs])),
+            "mean_seconds": float(np.mean([r.seconds for r in rs])),
+        })  # fmt: skip
+    return out
+
+
+def machine() -> str:
+    cpu = platform.processor() or "unknown CPU"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{platform.system()} {platform.machine()}, {os.cpu_count()} CPU cores ({cpu}), no GPU"
+
+
+def _fmt(v, pct: bool = False) -> str:
+    if v is None:
+        return "-"
+    if pct:
+        return f"{100 * v:.1f} %"
+    return f"{v:.3g}" if isinstance(v, float) else str(v)
+
+
+def _new_figure(w: float, h: float):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(w, h), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def plot_bars(summary: list[dict], path: Path) -> Path:
+    fig = _new_figure(13, 3.6)
+    names = [s["method"] for s in summary]
+    panels = [
+        ("success_rate", "success rate", False), ("optimal_share", "optimal module count", False),
+        ("mean_evaluated", "configurations evaluated / task", True),
+        ("mean_seconds", "seconds / task", True),
+    ]  # fmt: skip
+    for i, (key, label, log) in enumerate(panels):
+        ax = fig.add_subplot(1, 4, i + 1)
+        vals = [s[key] for s in summary]
+        ax.bar(names, vals, color=["#4c72b0" if "ppo" in n else "#999999" for n in names])
+        ax.set_title(label)
+        if log:
+            ax.set_yscale("log")
+        else:
+            ax.set_ylim(0, 1.05)
+        ax.tick_params(axis="x", rotation=45)
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def plot_learning_curve(evals: Path, path: Path) -> Path | None:
+    if not evals.is_file():
+        return None
+    data = np.load(evals)
+    steps = data["timesteps"]
+    fig = _new_figure(9, 3.4)
+    ax = fig.add_subplot(1, 2, 1)
+    mean, std = data["results"].mean(axis=1), data["results"].std(axis=1)
+    ax.plot(steps, mean, marker="o")
+    ax.fill_between(steps, mean - std, mean + std, alpha=0.2)
+    ax.set_xlabel("training steps")
+    ax.set_title("validation return (mean ± std)")
+    ax = fig.add_subplot(1, 2, 2)
+    if "successes" in data and data["successes"].size:
+        ax.plot(steps, data["successes"].mean(axis=1), marker="o", color="#2a9d8f")
+    ax.set_ylim(0, 1.05)
+    ax.set_xlabel("training steps")
+    ax.set_title("validation success rate")
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def plot_structures(rows: list[Row], path: Path, n_tasks: int = 4) -> Path | None:
+    """A few tasks, one row each: PPO vs exhaustive vs centrosymmetric."""
+    from modquad_gym.structure import Structure
+    from modquad_gym.viz import draw_structure
+
+    methods = [
+        m for m in ("ppo", "exhaustive", "centrosymmetric") if any(r.method == m for r in rows)
+    ]
+    by = {(r.suite, r.task, r.method): r for r in rows}
+    tasks = list(dict.fromkeys((r.suite, r.task) for r in rows))
+    # prefer tasks where all methods succeeded, spread over the suites
+    good = [t for t in tasks if all(by[(*t, m)].success for m in methods if (*t, m) in by)]
+    picked = []
+    for suite in dict.fromkeys(s for s, _ in good):
+        picked += [t for t in good if t[0] == suite][: max(1, n_tasks // 2)]
+    picked = picked[:n_tasks]
+    if not picked or not methods:
+        return None
+    fig = _new_figure(3.2 * len(methods), 3.2 * len(picked))
+    for i, key in enumerate(picked):
+        for j, m in enumerate(methods):
+            ax = fig.add_subplot(len(picked), len(methods), i * len(methods) + j + 1)
+            r = by[(*key, m)]
+            s = Structure([tuple(c) for c in r.cells])
+            draw_structure(s, ax=ax, title=f"{m}: {r.n_modules} (opt {r.optimum})\n{key[1]}")
+            if ax.get_legend() is not None:
+                ax.get_legend().remove()
+    fig.savefig(path, dpi=90)
+    return path
+
+
+def write_report(
+    rows: list[Row],
+    summary: list[dict],
+    out: Path,
+    suites: dict[str, list[TaskRequirement]],
+    model: Path,
+    train_dir: Path,
+    n_max: int,
+    figures: dict[str, Path | None],
+    wall: float,
+) -> Path:
+    import json
+
+    lines = ["# Agent benchmark", ""]
+    lines.append(f"Machine: {machine()}. Benchmark wall time {wall:.0f} s.")
+    lines.append("")
+    n_tasks = sum(len(t) for t in suites.values())
+    lines.append(
+        "Held-out suites (never seen in training; seeds in `agents/suites.py`): "
+        + ", ".join(f"`{name}` ({len(t)} tasks)" for name, t in suites.items())
+        + f", {n_tasks} tasks in all. The optimum is the certified minimum from the exhaustive "
+        f"search with n_max = {n_max}; the table covers the tasks whose optimum is <= n_max."
+    )
+    lines.append("")
+    config_path = train_dir / "config.json"
+    if config_path.is_file():
+        cfg = json.loads(config_path.read_text())
+        lines.append(
+            f"PPO model: `{_rel(model)}`: MaskablePPO, {cfg.get('timesteps')} training steps "
+            f"in {cfg.get('wall_seconds')} s ({cfg.get('steps_per_second')} steps/s, "
+            f"{cfg.get('n_envs')} envs, torch threads {cfg.get('torch_threads')}), task source "
+            f"`{cfg['env_kwargs'].get('tasks')}`, kept: {cfg.get('kept_model')} "
+            f"(step {cfg.get('kept_model_timesteps')}). `ppo` decodes deterministically; "
+            "`ppo-kN` adds N seeded sampled rollouts and keeps the smallest verified structure "
+            "(configurations evaluated count the distinct structures over all rollouts)."
+        )
+        lines.append("")
+    lines += [
+        "| method | tasks | success | mean modules | optimal count | mean gap | "
+        "configs evaluated / task | oracle calls / task | seconds / task |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for s in summary:
+        lines.append(
+            f"| {s['method']} | {s['tasks']} | {_fmt(s['success_rate'], True)} | "
+            f"{_fmt(s['mean_modules'])} | {_fmt(s['optimal_share'], True)} | "
+            f"{_fmt(s['mean_gap'])} | {s['mean_evaluated']:.1f} | {s['mean_oracle_calls']:.0f} | "
+            f"{s['mean_seconds']:.4f} |"
+        )
+    lines.append("")
+    per_suite = []
+    for name in suites:
+        sub = summarise([r for r in rows if r.suite == name], [s["method"] for s in summary], n_max)
+        for s in sub:
+            per_suite.append(
+                f"| {name} | {s['method']} | {_fmt(s['success_rate'], True)} | "
+                f"{_fmt(s['optimal_share'], True)} | {s['mean_evaluated']:.1f} |"
+            )
+    if per_suite:
+        lines += [
+            "Per suite:",
+            "",
+            "| suite | method | success | optimal count | configs evaluated / task |",
+            "|---|---|---|---|---|",
+            *per_suite,
+            "",
+        ]
+    lines += _by_optimum(rows, [s["method"] for s in summary], n_max)
+    lines += ["## Goals", ""]
+    lines += _goals(summary)
+    lines += ["", "## Figures", ""]
+    for title, fig in figures.items():
+        if fig is not None:
+            lines.append(f"![{title}]({fig.name})")
+            lines.append("")
+    lines.append("Per-task rows: `benchmark.csv`. Regenerate: `python -m agents.benchmark`.")
+    path = out / "benchmark.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _by_optimum(rows: list[Row], methods: list[str], n_max: int) -> list[str]:
+    """Share solved with the optimal module count, by optimum size (where methods differ)."""
+    sizes = sorted({r.optimum for r in rows if r.optimum is not None and r.optimum <= n_max})
+    if not sizes:
+        return []
+    lines = [
+        "Share solved with the optimal module count, by optimum (tasks per optimum in brackets):",
+        "",
+        "| method | "
+        + " | ".join(
+            f"opt {k} ({sum(1 for r in rows if r.method == methods[0] and r.optimum == k)})"
+            for k in sizes
+        )
+        + " |",
+        "|---|" + "---|" * len(sizes),
+    ]
+    for m in methods:
+        cells = []
+        for k in sizes:
+            rs = [r for r in rows if r.method == m and r.optimum == k]
+            cells.append(_fmt(sum(r.optimal for r in rs) / len(rs), True) if rs else "-")
+        lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    return [*lines, ""]
+
+
+def _rel(path: Path) -> str:
+    try:
+        return str(Path(path).resolve().relative_to(ROOT))
+    except ValueError:
+        return str(path)
+
+
+def _goals(summary: list[dict]) -> list[str]:
+    by = {s["method"]: s for s in summary}
+    centro = by.get("centrosymmetric")
+    lines = [
+        "Goals on held-out tasks whose optimum is <= n_max: PPO succeeds on >= 98 %, uses the "
+        "optimal module count on >= 90 %, and evaluates fewer configurations per task than the "
+        "centrosymmetric heuristic.",
+        "",
+        "| method | success (goal >= 98 %) | optimal count (goal >= 90 %) | "
+        "configs evaluated vs centrosymmetric |",
+        "|---|---|---|---|",
+    ]
+    for name, s in by.items():
+        if not name.startswith("ppo"):
+            continue
+        ok_s = "met" if s["success_rate"] >= GOALS["success"] else "NOT met"
+        ok_o = "met" if s["optimal_share"] >= GOALS["optimal"] else "NOT met"
+        if centro is not None:
+            less = s["mean_evaluated"] < centro["mean_evaluated"]
+            ev = (f"{s['mean_evaluated']:.1f} vs {centro['mean_evaluated']:.1f}: "
+                  f"{'met' if less else 'NOT met'}")  # fmt: skip
+        else:
+            ev = f"{s['mean_evaluated']:.1f} (centrosymmetric not run)"
+        lines.append(
+            f"| {name} | {_fmt(s['success_rate'], True)}: {ok_s} | "
+            f"{_fmt(s['optimal_share'], True)}: {ok_o} | {ev} |"
+        )
+    return lines
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(
+        prog="python -m agents.benchmark",
+        description="Run every solver on the held-out suites and write benchmark.md, "
+        "benchmark.csv and plots.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    p.add_argument(
+        "--suite",
+        type=Path,
+        action="append",
+        default=None,
+        help="suite JSON (repeatable; default the held-out suites in modquad_gym/data/suites)",
+    )
+    p.add_argument("--model", type=Path, default=DEFAULT_MODEL, help="PPO model .zip")
+    p.add_argument(
+        "--train-dir",
+        type=Path,
+        default=None,
+        help="training output with config.json and evaluations.npz (default: the model's folder)",
+    )
+    p.add_argument(
+        "--methods", nargs="+", default=list(DEFAULT_METHODS), help="search names, ppo, ppo-kN"
+    )
+    p.add_argument(
+        "--samples",
+        type=int,
+        default=None,
+        help="replace ppo-kN in --methods by ppo-k<samples> (0 drops it)",
+    )
+    p.add_argument("--out", type=Path, default=ROOT / "results", help="report folder")
+    p.add_argument("--n-max", type=int, default=7)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--limit", type=int, default=None, help="first N tasks of each suite only")
+    p.add_argument("--no-progress", action="store_true")
+    args = p.parse_args(argv)
+
+    paths = args.suite or sorted(SUITES_DIR.glob("heldout_*.json"))
+    if not paths:
+        raise ValueError(f"no suites given and none in {SUITES_DIR} (run python -m agents.suites)")
+    suites = {Path(path).stem: load_suite(path)[: args.limit] for path in paths}
+    methods = list(dict.fromkeys(args.methods))
+    if args.samples is not None:
+        methods = [m for m in methods if not m.startswith("ppo-k")]
+        if args.samples > 0:
+            methods.append(f"ppo-k{args.samples}")
+    if any(m.startswith("ppo") for m in methods) and not args.model.is_file():
+        raise ValueError(f"PPO model file {args.model} does not exist (train: python train.py)")
+    train_dir = args.train_dir or args.model.parent
+    args.out.mkdir(parents=True, exist_ok=True)
+
+    t0 = time.perf_counter()
+    rows = run_benchmark(suites, methods, args.n_max, args.model, args.seed, not args.no_progress)
+    wall = time.perf_counter() - t0
+    with open(args.out / "benchmark.csv", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=CSV_FIELDS)
+        writer.writeheader()
+        writer.writerows(r.as_csv() for r in rows)
+    summary = summarise(rows, methods, args.n_max)
+    figures = {
+        "summary bars": plot_bars(summary, args.out / "benchmark_bars.png") if summary else None,
+        "learning curve": plot_learning_curve(
+            train_dir / "evaluations.npz", args.out / "learning_curve.png"
+        ),
+        "structures": plot_structures(rows, args.out / "structures.png"),
+    }
+    path = write_report(rows, summary, args.out, suites, args.model, train_dir, args.n_max,
+                        figures, wall)  # fmt: skip
+    print(path.read_text())
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,200 @@
+"""The learned agent: a MaskablePPO policy that docks modules in ``ModQuadAssembly-v0``.
+
+Decoding (:class:`PPOSolver`): the policy acts deterministically (the most likely valid action)
+until the episode ends; with ``samples=k`` it also runs k stochastic rollouts (seeded) and keeps
+the smallest verified structure. ``evaluated`` counts the distinct structures (up to
+translation) the rollouts evaluated, as the searches count configurations; a sampled rollout
+stops as soon as it can no longer beat the best verified structure. The
+final structure is always re-checked by the exact DAQP LP oracle; one that fails is reported as
+no structure, never as a success.
+
+Torch and SB3 are imported here only, so ``import agents`` stays light.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+from modquad_gym.oracle import feasible
+from modquad_gym.search import SearchResult
+from modquad_gym.structure import Structure, normalise
+
+from .solvers import DEFAULT_MODEL
+
+ENV_KWARG_KEYS = ("n_max", "n_directions", "reward_weights", "invalid_action", "oracle_method")
+"""Environment keywords a model's config.json may fix (the task source is given per task)."""
+
+
+class SuccessInfo(gym.Wrapper):
+    """Copies ``info["success"]`` to ``info["is_success"]`` (what SB3's Monitor-based callbacks
+    read) and forwards ``action_masks()`` to the environment (what MaskablePPO asks)."""
+
+    def step(self, action):
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        info["is_success"] = bool(info.get("success", False))
+        return obs, reward, terminated, truncated, info
+
+    def action_masks(self) -> np.ndarray:
+        return self.env.unwrapped.action_masks()
+
+
+def make_env(tasks: Any = "mixed", n_max: int = 7, **env_kwargs: Any) -> gym.Env:
+    """One training/evaluation environment: the assembly env, success info, a Monitor."""
+    from stable_baselines3.common.monitor import Monitor
+
+    env = ModQuadAssemblyEnv(tasks=tasks, n_max=n_max, **env_kwargs)
+    return Monitor(SuccessInfo(env), info_keywords=("is_success",))
+
+
+def load_model(path: str | Path | None = None):
+    """(MaskablePPO model, its config dict or {}) from ``path`` (default :data:`DEFAULT_MODEL`).
+
+    Raises ValueError when the file does not exist. Sets torch to one thread."""
+    import torch
+    from sb3_contrib import MaskablePPO
+
+    torch.set_num_threads(1)
+    path = Path(path) if path is not None else DEFAULT_MODEL
+    if not path.is_file():
+        hint = " (train it with `python train.py`)" if path == DEFAULT_MODEL else ""
+        raise ValueError(f"PPO model file {path} does not exist{hint}")
+    model = MaskablePPO.load(path, device="cpu")
+    config_path = path.with_name("config.json")
+    config = json.loads(config_path.read_text()) if config_path.is_file() else {}
+    return model, config
+
+
+def env_kwargs_of(model, config: dict) -> dict:
+    """The environment keywords the model was trained with (from its config, else inferred
+    from its observation space)."""
+    kwargs = {k: v for k, v in config.get("env_kwargs", {}).items() if k in ENV_KWARG_KEYS}
+    if "n_max" not in kwargs:
+        side = model.observation_space["occupancy"].shape[0]
+        kwargs["n_max"] = (side + 1) // 2
+    if "n_directions" not in kwargs:
+        kwargs["n_directions"] = int(model.observation_space["task"].shape[0]) - 7
+    return kwargs
+
+
+class PPOSolver:
+    """A trained MaskablePPO policy behind the :class:`~agents.solvers.Solver` interface.
+
+    Args:
+        model: a model .zip path (default :data:`DEFAULT_MODEL`) or a loaded MaskablePPO.
+        n_max: the module budget; at most the n_max the model was trained with (its grid size).
+        seed: seeds the sampled rollouts.
+        samples: extra stochastic rollouts per task (0: deterministic decoding only).
+        config: the model's config when ``model`` is a loaded model.
+    """
+
+    name = "ppo"
+
+    def __init__(
+        self,
+        model: Any = None,
+        n_max: int | None = 7,
+        seed: int = 0,
+        samples: int = 0,
+        config: dict | None = None,
+    ) -> None:
+        if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
+            raise ValueError(f"samples must be an integer >= 0, got {samples!r}")
+        if model is None or isinstance(model, (str, Path)):
+            self.model, config = load_model(model)
+            self.model_path = str(model if model is not None else DEFAULT_MODEL)
+        else:
+            self.model, self.model_path = model, None
+        kwargs = env_kwargs_of(self.model, config or {})
+        trained = int(kwargs["n_max"])
+        n_max = trained if n_max is None else n_max
+        if isinstance(n_max, bool) or not isinstance(n_max, (int, np.integer)) or n_max < 1:
+            raise ValueError(f"n_max must be a positive integer, got {n_max!r}")
+        if n_max > trained:
+            raise ValueError(
+                f"n_max={n_max} exceeds the n_max={trained} the PPO model was trained with "
+                "(its action grid cannot hold larger structures)"
+            )
+        self.n_max = int(n_max)
+        self.seed = int(seed)
+        self.samples = int(samples)
+        self.name = "ppo" if self.samples == 0 else f"ppo-k{self.samples}"
+        self.env = ModQuadAssemblyEnv(**kwargs)
+
+    def _rollout(
+        self, task: Any, rng: np.random.Generator | None, seen: set, stop_at: int
+    ) -> tuple[dict, int]:
+        """One episode on ``task``; deterministic when ``rng`` is None. Stops early once the
+        structure has ``stop_at - 1`` modules without success (it could no longer beat a
+        verified structure of ``stop_at`` modules). Adds every structure it evaluates to
+        ``seen`` (translation-normalised). Returns the final info and the oracle calls."""
+        import torch
+
+        env = self.env
+        obs, info = env.reset(options={"task": task})
+        seen.add(normalise(map(tuple, info["cells"])))
+        done = info["success"]  # one module suffices: nothing to decide
+        while not done and len(info["cells"]) < stop_at - 1:
+            mask = env.action_masks()
+            if rng is None:
+                action, _ = self.model.predict(obs, action_masks=mask, deterministic=True)
+            else:
+                policy = self.model.policy
+                obs_t, _ = policy.obs_to_tensor(obs)
+                with torch.no_grad():
+                    dist = policy.get_distribution(obs_t, action_masks=mask[None])
+                    probs = dist.distribution.probs[0].double().numpy()
+                probs = np.where(mask, probs, 0.0)
+                action = rng.choice(len(probs), p=probs / probs.sum())
+            obs, _, terminated, truncated, info = env.step(int(action))
+            seen.add(normalise(map(tuple, info["cells"])))
+            done = terminated or truncated
+        return info, int(info["oracle_calls"])
+
+    def solve(self, task: Any) -> SearchResult:
+        """The smallest verified structure over the deterministic rollout and ``samples``
+        sampled ones (None when none verifies within ``n_max`` modules). ``evaluated`` counts
+        the distinct structures (up to translation) the rollouts evaluated; a structure met
+        again costs no oracle call (the environment memoises per task)."""
+        from modquad_gym.envs.assembly import _as_task
+
+        t0 = time.perf_counter()
+        task = _as_task(task)
+        W = np.asarray(task.wrenches, dtype=float)
+        f_max = float(task.f_max)
+        best: Structure | None = None
+        seen: set = set()
+        oracle_calls = 0
+        rngs: list[np.random.Generator | None] = [None]
+        rngs += [np.random.default_rng([self.seed, i]) for i in range(self.samples)]
+        for rng in rngs:
+            stop_at = best.n_modules if best is not None else self.env.n_max + 2
+            if stop_at <= 1:
+                break
+            info, calls = self._rollout(task, rng, seen, stop_at)
+            oracle_calls += calls
+            n = len(info["cells"])
+            if not info["success"] or n > self.n_max or (best is not None and n >= best.n_modules):
+                continue
+            s = Structure([tuple(c) for c in info["cells"]], module=self.env.module)
+            if feasible(s.configuration_matrix(), W, f_max, method="daqp").all():
+                best = s
+        return SearchResult(
+            structure=best,
+            n_modules=best.n_modules if best is not None else None,
+            evaluated=len(seen),
+            oracle_calls=oracle_calls,
+            seconds=time.perf_counter() - t0,
+            certified=False,
+            method=self.name,
+            n_max=self.n_max,
+        )
+
+    def __repr__(self) -> str:
+        return f"PPOSolver(model={self.model_path!r}, n_max={self.n_max}, samples={self.samples})"

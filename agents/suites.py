@@ -1,0 +1,153 @@
+"""Held-out task suites for the agent benchmark and the validation tasks used while training.
+
+Every task is drawn from a fresh ``numpy.random.default_rng(seed)`` with a seed from a range that
+training never uses, so suites are reproducible and disjoint from training:
+
+* training: each environment's generator stream is seeded by ``reset(seed=train_seed + i)``
+  (train.py, default train_seed 0, i the env index) and then continues that one stream;
+* validation (MaskableEvalCallback while training): seeds ``VALIDATION_SEED0 + i``;
+* held-out planted suite: seeds ``PLANTED_SEED0 + i``; held-out paper suite: ``PAPER_SEED0 + i``.
+
+The tasks are continuous random draws, so a collision with a training task has probability
+zero; :func:`check_disjoint` also checks every suite task against the task files shipped in
+``examples/`` and ``modquad_gym/data`` and against the first tasks drawn by the training
+streams. Each held-out task stores ``meta["seed"]`` and ``meta["optimum"]``: the certified
+minimum module count from :func:`~modquad_gym.search.exhaustive_search` (None when no structure
+of up to ``n_max`` modules works).
+
+``python -m agents.suites`` rewrites ``modquad_gym/data/suites/heldout_*.json`` (deterministic).
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from modquad_gym.search import exhaustive_search
+from modquad_gym.tasks import (
+    PaperTasks,
+    PlantedTasks,
+    TaskGenerator,
+    TaskRequirement,
+    load_suite,
+    make_generator,
+    save_suite,
+)
+
+VALIDATION_SEED0 = 500_000
+PLANTED_SEED0 = 1_000_000
+PAPER_SEED0 = 2_000_000
+SUITES_DIR = Path(__file__).resolve().parents[1] / "modquad_gym" / "data" / "suites"
+HELDOUT = {"heldout_planted": 60, "heldout_paper": 40}
+"""Default held-out suites and their sizes."""
+
+
+def draw_task(generator: TaskGenerator, seed: int, name: str | None = None) -> TaskRequirement:
+    """The task ``generator`` draws from ``default_rng(seed)``, with ``meta["seed"]`` set."""
+    task = generator(np.random.default_rng(seed))
+    meta = {**task.meta, "seed": int(seed)}
+    return TaskRequirement(task.wrenches, name=name or task.name, f_max=task.f_max, meta=meta)
+
+
+def with_optimum(task: TaskRequirement, n_max: int = 7) -> TaskRequirement:
+    """``task`` with ``meta["optimum"]`` (certified, exhaustive search up to ``n_max``)."""
+    result = exhaustive_search(task, n_max=n_max)
+    meta = {**task.meta, "optimum": result.n_modules, "optimum_n_max": n_max}
+    return TaskRequirement(task.wrenches, name=task.name, f_max=task.f_max, meta=meta)
+
+
+def build_suite(kind: str, n: int, n_max: int = 7) -> list[TaskRequirement]:
+    """``n`` held-out tasks of ``kind`` ("planted" or "paper") with their optimum."""
+    if kind == "planted":
+        gen, seed0 = PlantedTasks(), PLANTED_SEED0
+    elif kind == "paper":
+        gen, seed0 = PaperTasks(), PAPER_SEED0
+    else:
+        raise ValueError(f"unknown suite kind {kind!r}; choose 'planted' or 'paper'")
+    return [
+        with_optimum(draw_task(gen, seed0 + i, name=f"{kind}-{seed0 + i}"), n_max) for i in range(n)
+    ]
+
+
+class CyclingTasks:
+    """A task generator that returns the given tasks in order, round and round (ignores the
+    rng): an evaluation over ``len(tasks)`` episodes sees every task exactly once."""
+
+    def __init__(self, tasks: Sequence[TaskRequirement], name: str = "cycle") -> None:
+        if not tasks:
+            raise ValueError("CyclingTasks needs at least one task")
+        self.tasks = list(tasks)
+        self.name = name
+        self._i = 0
+
+    def __call__(self, rng: np.random.Generator) -> TaskRequirement:
+        task = self.tasks[self._i % len(self.tasks)]
+        self._i += 1
+        return task
+
+
+def validation_tasks(n: int = 40, source: str = "mixed") -> list[TaskRequirement]:
+    """Validation tasks for training (seeds ``VALIDATION_SEED0 + i``), never in a held-out
+    suite; ``source`` as in :func:`modquad_gym.tasks.make_generator` (a generator name)."""
+    gen = make_generator(source)
+    return [draw_task(gen, VALIDATION_SEED0 + i, name=f"val-{i}") for i in range(n)]
+
+
+def _shipped_tasks(root: Path) -> list[TaskRequirement]:
+    out: list[TaskRequirement] = []
+    for folder in (root / "examples", root / "modquad_gym" / "data"):
+        for path in sorted(folder.glob("*.json")) if folder.is_dir() else []:
+            try:
+                out.extend(load_suite(path))
+            except ValueError:
+                out.append(TaskRequirement.load(path))
+    return out
+
+
+def training_sample(source: str = "mixed", seeds: Iterable[int] = (0, 1), n: int = 2000):
+    """The first ``n`` tasks each training stream draws (env seeds ``seeds``)."""
+    gen = make_generator(source)
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        for _ in range(n):
+            yield gen(rng)
+
+
+def check_disjoint(suite: Sequence[TaskRequirement], root: Path | None = None) -> None:
+    """ValueError if a suite task has the wrenches of a shipped task file or of a task the
+    training streams draw first (see the module docstring)."""
+    root = root or Path(__file__).resolve().parents[1]
+    seen = {t.wrenches.tobytes() for t in _shipped_tasks(root)}
+    seen |= {t.wrenches.tobytes() for t in training_sample()}
+    for task in suite:
+        if task.wrenches.tobytes() in seen:
+            raise ValueError(f"suite task {task.name!r} also appears in training or example data")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.suites",
+        description="Write the held-out benchmark suites (deterministic seeds, optimum by the "
+        "exhaustive search).",
+    )
+    parser.add_argument("--out", type=Path, default=SUITES_DIR, help="folder (default %(default)s)")
+    parser.add_argument("--n-planted", type=int, default=HELDOUT["heldout_planted"])
+    parser.add_argument("--n-paper", type=int, default=HELDOUT["heldout_paper"])
+    parser.add_argument("--n-max", type=int, default=7)
+    args = parser.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    for kind, n in (("planted", args.n_planted), ("paper", args.n_paper)):
+        suite = build_suite(kind, n, n_max=args.n_max)
+        check_disjoint(suite)
+        path = save_suite(suite, args.out / f"heldout_{kind}.json")
+        optima = [t.meta["optimum"] for t in suite]
+        counts = {k: optima.count(k) for k in sorted(set(optima), key=lambda v: (v is None, v))}
+        print(f"{path}: {n} tasks, optimum counts {counts}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,308 @@
+"""Train the PPO agent of modquad_gym (MaskablePPO on ``ModQuadAssembly-v0``) and write the
+benchmark report.
+
+``python train.py`` runs the default recipe (below) into ``results/ppo_default`` and then
+``python -m agents.benchmark`` on the held-out suites, writing ``results/benchmark.md``.
+``python train.py --quick`` is a short smoke run (a few thousand steps) into ``runs/quick``.
+``python train.py --help`` lists every option.
+
+Default recipe (one policy for the whole task distribution): task source ``mixed`` (planted
+tasks of 2-6 modules and paper-like tasks, equal odds), n_max 7, MaskablePPO with the
+``MultiInputPolicy`` (occupancy grid, action mask, task and structure features, flattened and
+concatenated) and a [128, 128] MLP for policy and value, gamma 1 (episodes are at most n_max - 1
+steps, so the module cost is counted exactly), 2 environments, one torch thread. Evaluation on
+40 validation tasks (seeds disjoint from the held-out suites, see :mod:`agents.suites`); the
+model with the best validation return is kept as ``model.zip``; its ``config.json`` holds the
+exact environment keywords, hyperparameters, seed, timesteps, wall time and versions.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import shutil
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent
+
+HYPERPARAMETERS = {
+    "learning_rate": 3e-4,
+    "n_steps": 256,
+    "batch_size": 128,
+    "n_epochs": 8,
+    "gamma": 1.0,
+    "gae_lambda": 0.95,
+    "clip_range": 0.2,
+    "ent_coef": 0.01,
+    "vf_coef": 0.5,
+    "max_grad_norm": 0.5,
+    "net_arch": [128, 128],
+}
+DEFAULT_TIMESTEPS = 300_000
+QUICK_TIMESTEPS = 4_096
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(
+        prog="python train.py",
+        description="Train MaskablePPO on ModQuadAssembly-v0 (one policy for planted and "
+        "paper-like tasks of mixed sizes), save the model with its config, then write the "
+        "benchmark report (results/benchmark.md).",
+    )
+    p.add_argument(
+        "--timesteps",
+        type=int,
+        default=None,
+        help=f"total environment steps (default {DEFAULT_TIMESTEPS}, "
+        f"{QUICK_TIMESTEPS} with --quick)",
+    )
+    p.add_argument(
+        "--n-envs", type=int, default=2, help="parallel environments (default %(default)s)"
+    )
+    p.add_argument(
+        "--vec-env",
+        choices=("dummy", "subproc"),
+        default="dummy",
+        help="vectorised env class (default %(default)s: faster on 2 cores)",
+    )
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="training seed; env i uses seed + i (default %(default)s)",
+    )
+    p.add_argument(
+        "--task-source",
+        default="mixed",
+        help="planted, paper, mixed, or a task/suite file (default %(default)s)",
+    )
+    p.add_argument(
+        "--n-max", type=int, default=7, help="largest structure in modules (default %(default)s)"
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="output folder for model.zip, config.json, evaluations.npz "
+        "(default results/ppo_default, runs/quick with --quick)",
+    )
+    p.add_argument("--resume", type=Path, default=None, help="continue from this model .zip")
+    p.add_argument("--quick", action="store_true", help="a short smoke run (a few thousand steps)")
+    p.add_argument("--no-report", action="store_true", help="skip the benchmark report")
+    p.add_argument(
+        "--report-dir",
+        type=Path,
+        default=None,
+        help="where the report goes (default results, <out>/report with --quick)",
+    )
+    p.add_argument(
+        "--eval-freq",
+        type=int,
+        default=None,
+        help="evaluate every this many total steps (default timesteps / 20)",
+    )
+    p.add_argument("--n-eval", type=int, default=40, help="validation tasks (default %(default)s)")
+    p.add_argument(
+        "--checkpoint-freq",
+        type=int,
+        default=50_000,
+        help="checkpoint every this many total steps, under --tensorboard (default %(default)s)",
+    )
+    p.add_argument(
+        "--tensorboard",
+        type=Path,
+        default=ROOT / "runs",
+        help="TensorBoard logs and checkpoints (default runs/, gitignored)",
+    )
+    p.add_argument("--threads", type=int, default=1, help="torch threads (default %(default)s)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--env-kwargs",
+        type=json.loads,
+        default={},
+        help='extra env keywords as JSON, e.g. \'{"reward_weights": {"w_module": 0.2}}\'',
+    )
+    p.add_argument(
+        "--hyperparameters",
+        type=json.loads,
+        default={},
+        help="MaskablePPO hyperparameters overriding the recipe, as JSON, e.g. "
+        '\'{"ent_coef": 0.02, "net_arch": [256, 256]}\'',
+    )
+    args = p.parse_args(argv)
+    if args.timesteps is None:
+        args.timesteps = QUICK_TIMESTEPS if args.quick else DEFAULT_TIMESTEPS
+    if args.out is None:
+        args.out = ROOT / ("runs/quick" if args.quick else "results/ppo_default")
+    if args.report_dir is None:
+        args.report_dir = args.out / "report" if args.quick else ROOT / "results"
+    if args.eval_freq is None:
+        args.eval_freq = max(args.timesteps // 20, 512)
+    for name in ("timesteps", "n_envs", "n_max", "eval_freq", "checkpoint_freq", "threads"):
+        if getattr(args, name) < 1:
+            p.error(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
+    for name in ("env_kwargs", "hyperparameters"):
+        if not isinstance(getattr(args, name), dict):
+            p.error(f"--{name.replace('_', '-')} must be a JSON object")
+    unknown = sorted(set(args.hyperparameters) - set(HYPERPARAMETERS))
+    if unknown:
+        p.error(f"--hyperparameters: unknown keys {unknown}; known: {sorted(HYPERPARAMETERS)}")
+    if {"tasks", "n_max"} & set(args.env_kwargs):
+        p.error("--env-kwargs: give tasks and n_max with --task-source and --n-max")
+    if args.resume is not None and not args.resume.is_file():
+        p.error(f"--resume: no model file {args.resume}")
+    return args
+
+
+def versions() -> dict:
+    import gymnasium
+    import numpy
+    import sb3_contrib
+    import stable_baselines3
+    import torch
+
+    import modquad_gym
+
+    return {
+        "python": platform.python_version(),
+        "modquad_gym": modquad_gym.__version__,
+        "numpy": numpy.__version__,
+        "torch": torch.__version__,
+        "gymnasium": gymnasium.__version__,
+        "stable_baselines3": stable_baselines3.__version__,
+        "sb3_contrib": sb3_contrib.__version__,
+        "platform": platform.platform(),
+    }
+
+
+def train(args: argparse.Namespace) -> Path:
+    """Train, save ``model.zip`` + ``config.json`` + ``evaluations.npz`` in ``args.out``."""
+    import numpy as np
+    import torch
+    from sb3_contrib import MaskablePPO
+    from sb3_contrib.common.maskable.callbacks import MaskableEvalCallback
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    from agents.ppo import make_env
+    from agents.suites import CyclingTasks, validation_tasks
+
+    torch.set_num_threads(args.threads)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    run_name = out.name
+    log_dir = Path(args.tensorboard) / run_name
+    log_dir.mkdir(parents=True, exist_ok=True)
+
+    source = args.task_source
+    env_kwargs = {"tasks": source, "n_max": args.n_max, **args.env_kwargs}
+    vec_cls = SubprocVecEnv if args.vec_env == "subproc" else DummyVecEnv
+    venv = vec_cls([lambda: make_env(**env_kwargs) for _ in range(args.n_envs)])
+    venv.seed(args.seed)
+    val_source = source if source in ("planted", "paper", "mixed") else "mixed"
+    val = validation_tasks(args.n_eval, val_source)
+    eval_env = DummyVecEnv(
+        [
+            lambda: make_env(
+                tasks=CyclingTasks(val, name="validation"), n_max=args.n_max, **args.env_kwargs
+            )
+        ]
+    )
+
+    hyperparameters = {**HYPERPARAMETERS, **args.hyperparameters}
+    hp = dict(hyperparameters)
+    policy_kwargs = {"net_arch": hp.pop("net_arch")}
+    if args.resume is not None:
+        model = MaskablePPO.load(
+            args.resume, env=venv, device="cpu", tensorboard_log=str(args.tensorboard)
+        )
+    else:
+        model = MaskablePPO(
+            "MultiInputPolicy",
+            venv,
+            policy_kwargs=policy_kwargs,
+            seed=args.seed,
+            device="cpu",
+            verbose=0,
+            tensorboard_log=str(args.tensorboard),
+            **hp,
+        )
+    per_env = lambda steps: max(steps // args.n_envs, 1)  # noqa: E731
+    callbacks = CallbackList([
+        MaskableEvalCallback(eval_env, n_eval_episodes=len(val), eval_freq=per_env(args.eval_freq),
+                             log_path=str(log_dir), best_model_save_path=str(log_dir),
+                             deterministic=True, verbose=0),
+        CheckpointCallback(per_env(args.checkpoint_freq), str(log_dir / "checkpoints"),
+                           name_prefix="ppo"),
+    ])  # fmt: skip
+    t0 = time.perf_counter()
+    model.learn(
+        total_timesteps=args.timesteps,
+        callback=callbacks,
+        tb_log_name=run_name,
+        progress_bar=not args.no_progress,
+        reset_num_timesteps=args.resume is None,
+    )
+    wall = time.perf_counter() - t0
+    model.save(log_dir / "final_model.zip")
+
+    # keep the model with the best validation return (the last one if no evaluation ran)
+    best = log_dir / "best_model.zip"
+    chosen = best if best.is_file() else log_dir / "final_model.zip"
+    shutil.copyfile(chosen, out / "model.zip")
+    evals = log_dir / "evaluations.npz"
+    best_step = None
+    if evals.is_file():
+        shutil.copyfile(evals, out / "evaluations.npz")
+        data = np.load(evals)
+        best_step = int(data["timesteps"][int(np.argmax(data["results"].mean(axis=1)))])
+    config = {
+        "env_id": "ModQuadAssembly-v0",
+        "env_kwargs": env_kwargs,
+        "algorithm": "MaskablePPO",
+        "policy": "MultiInputPolicy",
+        "hyperparameters": hyperparameters,
+        "seed": args.seed,
+        "n_envs": args.n_envs,
+        "vec_env": args.vec_env,
+        "timesteps": int(model.num_timesteps),
+        "timesteps_requested": args.timesteps,
+        "resumed_from": str(args.resume) if args.resume else None,
+        "kept_model": "best validation return" if chosen == best else "final",
+        "kept_model_timesteps": best_step if chosen == best else int(model.num_timesteps),
+        "validation": {"n_tasks": len(val), "source": val_source,
+                       "seeds": "agents.suites.VALIDATION_SEED0 + i"},
+        "wall_seconds": round(wall, 1),
+        "steps_per_second": round(args.timesteps / wall, 1),
+        "torch_threads": args.threads,
+        "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
+        "versions": versions(),
+    }  # fmt: skip
+    (out / "config.json").write_text(json.dumps(config, indent=2) + "\n")
+    venv.close()
+    eval_env.close()
+    print(f"trained {model.num_timesteps} steps in {wall:.0f} s; model: {out / 'model.zip'}")
+    return out / "model.zip"
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    t0 = time.perf_counter()
+    model_path = train(args)
+    if not args.no_report:
+        from agents import benchmark
+
+        bench_args = ["--model", str(model_path), "--out", str(args.report_dir),
+                      "--train-dir", str(args.out)]  # fmt: skip
+        if args.quick:
+            bench_args += ["--limit", "3", "--samples", "2"]
+        benchmark.main(bench_args)
+    print(f"total {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
