@@ -138,6 +138,7 @@ def cmd_bench(args) -> int:
         "oracle": "modquad_gym.bench.oracle",
         "search": "modquad_gym.bench.search",
         "env": "modquad_gym.bench.env",
+        "paper": "modquad_gym.bench.paper",
         "agents": "agents.benchmark",
     }[args.what]
     importlib.import_module(module).main(args.rest)
@@ -248,7 +249,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Run a benchmark; options after the name go to it "
         "(e.g. `modquad bench oracle --help`).",
     )
-    p.add_argument("what", choices=("oracle", "search", "env", "agents"))
+    p.add_argument("what", choices=("oracle", "search", "env", "paper", "agents"))
     p.add_argument("rest", nargs=argparse.REMAINDER)
     p.set_defaults(func=cmd_bench)
     return parser
