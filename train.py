@@ -194,7 +194,7 @@ def train(args: argparse.Namespace) -> Path:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     run_name = out.name
-    log_dir = Path(args.tensorboard) / run_name
+    log_dir = Path(args.tensorboard) / run_name / "train"  # checkpoints, evaluations
     log_dir.mkdir(parents=True, exist_ok=True)
 
     source = args.task_source
