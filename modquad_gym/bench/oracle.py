@@ -4,8 +4,10 @@
 
 Writes ``results/oracle_benchmark.md`` and ``results/oracle_benchmark.csv``. Structures are
 random connected 7-module (m = 28 rotors) and 10-module (m = 40) ones, each seen for the first
-time (no cache carried between them). Wrenches mix feasible and infeasible ones around the
-boundary: w = c + (s / gamma) (A u - c) with u ~ U(0, 1)^m, s ~ U(0.5, 1.5), c the zonotope
+time (no cache carried between them). Two workloads: "paper tasks" (80 wrenches of
+``PaperTasks()``, what the searches and the environment see), and "boundary", which mixes
+feasible and infeasible wrenches around the boundary, the hard case for certificates:
+w = c + (s / gamma) (A u - c) with u ~ U(0, 1)^m, s ~ U(0.5, 1.5), c the zonotope
 centre and gamma the exact boundary scale of A u - c.
 Timings include every per-structure preparation (range basis, pseudo-inverse; the H-rep build
 for "hrep"). Runs on one core (set OMP_NUM_THREADS=1 for stable numbers).
@@ -48,12 +50,16 @@ def boundary_mix(A: np.ndarray, t: int, rng: np.random.Generator) -> np.ndarray:
 def run(n_structures: int, n_wrenches: int, seed: int, out: Path) -> list[dict]:
     rng = np.random.default_rng(seed)
     rows = []
-    for n in (7, 10):
-        cases = [random_structure(n, rng) for _ in range(n_structures)]
-        cases = [
-            (s.configuration_matrix(), boundary_mix(s.configuration_matrix(), n_wrenches, rng))
-            for s in cases
-        ]
+    from ..tasks import PaperTasks
+
+    paper = PaperTasks(n_wrenches=n_wrenches)
+    workloads = {
+        "boundary": lambda A: boundary_mix(A, n_wrenches, rng),
+        "paper tasks": lambda A: paper(rng).wrenches,
+    }
+    for (workload, make), n in ((w, n) for w in workloads.items() for n in (7, 10)):
+        cases = [random_structure(n, rng).configuration_matrix() for _ in range(n_structures)]
+        cases = [(A, make(A)) for A in cases]
         feasible_share = float(np.mean([_decide(Zonotope(A), W, "daqp").mean() for A, W in cases]))
         build = []
         for A, _ in cases[: max(1, int(len(cases) * _SHARE["hrep"]))]:
@@ -73,6 +79,7 @@ def run(n_structures: int, n_wrenches: int, seed: int, out: Path) -> list[dict]:
                 timings[kind] = len(subset) * n_wrenches / (time.perf_counter() - t0)
             rows.append(
                 {
+                    "workload": workload,
                     "modules": n,
                     "rotors_m": 4 * n,
                     "method": method,
@@ -81,15 +88,15 @@ def run(n_structures: int, n_wrenches: int, seed: int, out: Path) -> list[dict]:
                     "margins_per_s": timings["margins"],
                 }
             )
-        base = {r["method"]: r for r in rows if r["modules"] == n}
-        for r in rows:
-            if r["modules"] == n:
-                r["decisions_vs_scipy"] = r["decisions_per_s"] / base["scipy"]["decisions_per_s"]
-                r["decisions_vs_cvxpy"] = r["decisions_per_s"] / base["cvxpy"]["decisions_per_s"]
-                r["margins_vs_scipy"] = r["margins_per_s"] / base["scipy"]["margins_per_s"]
-                r["feasible_share"] = feasible_share
-                r["hrep_build_ms"] = 1e3 * float(np.median(build))
-                r["hrep_facets"] = facets
+        here = [r for r in rows if r["modules"] == n and r["workload"] == workload]
+        base = {r["method"]: r for r in here}
+        for r in here:
+            r["decisions_vs_scipy"] = r["decisions_per_s"] / base["scipy"]["decisions_per_s"]
+            r["decisions_vs_cvxpy"] = r["decisions_per_s"] / base["cvxpy"]["decisions_per_s"]
+            r["margins_vs_scipy"] = r["margins_per_s"] / base["scipy"]["margins_per_s"]
+            r["feasible_share"] = feasible_share
+            r["hrep_build_ms"] = 1e3 * float(np.median(build))
+            r["hrep_facets"] = facets
     write_report(rows, n_structures, n_wrenches, seed, out)
     return rows
 
@@ -104,11 +111,12 @@ def write_report(rows: list[dict], n_structures: int, n_wrenches: int, seed: int
         f"Command: `python -m modquad_gym.bench.oracle --structures {n_structures} "
         f"--wrenches {n_wrenches} --seed {seed}`",
         "",
-        f"{n_wrenches} wrenches per fresh random structure, mixed around the boundary "
-        "(see the module docstring); every method decides the same wrenches and their decisions "
-        "agree (tests/test_oracle.py checks agreement against HiGHS). Ratios are against scipy "
-        "`linprog` (HiGHS) and cvxpy measured in this same run. `hrep` includes building the "
-        "H-representation for each structure, so it only pays off for large batches.",
+        f"{n_wrenches} wrenches per fresh random structure, paper-like tasks or mixed around "
+        "the boundary (see the module docstring); every method decides the same wrenches and "
+        "their decisions agree (tests/test_oracle.py checks agreement against HiGHS). Ratios "
+        "are against scipy `linprog` (HiGHS) and cvxpy measured in this same run. `hrep` "
+        "includes building the H-representation for each structure, so it only pays off for "
+        "large batches.",
         "",
         markdown_table(rows),
         "",
