@@ -64,6 +64,7 @@ METHODS = ("auto", "daqp", "scipy", "cvxpy", "hrep", "quickhull")
 _RANK_TOL = 1e-9
 _AP_ITERATIONS = 8
 _AP_ROUNDS = 2
+_AP_MIN_ROWS = 6
 _CACHE_DIRECTIONS = 64
 _QUICKHULL_MAX_COLUMNS = 12
 
@@ -201,7 +202,7 @@ class Zonotope:
         idx = np.flatnonzero(~(accept | reject))
         Xu, X0, Ru = X[idx].copy(), X[idx], R[idx]
         for _ in range(_AP_ROUNDS):
-            if not len(idx):
+            if len(idx) < _AP_MIN_ROWS:  # a few LPs cost less than the projection rounds
                 break
             for _ in range(_AP_ITERATIONS):
                 np.minimum(Xu, 1.0, out=Xu)
