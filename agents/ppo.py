@@ -14,6 +14,7 @@ Torch and SB3 are imported here only, so ``import agents`` stays light.
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 from typing import Any
@@ -28,7 +29,9 @@ from modquad_gym.structure import Structure, normalise
 
 from .solvers import DEFAULT_MODEL
 
-ENV_KWARG_KEYS = ("n_max", "n_directions", "reward_weights", "invalid_action", "oracle_method")
+ENV_KWARG_KEYS = (
+    "n_max", "n_directions", "reward_weights", "invalid_action", "oracle_method", "lookahead",
+)  # fmt: skip
 """Environment keywords a model's config.json may fix (the task source is given per task)."""
 
 
@@ -76,10 +79,12 @@ def env_kwargs_of(model, config: dict) -> dict:
     from its observation space)."""
     kwargs = {k: v for k, v in config.get("env_kwargs", {}).items() if k in ENV_KWARG_KEYS}
     if "n_max" not in kwargs:
-        side = model.observation_space["occupancy"].shape[0]
+        side = math.isqrt(model.observation_space["occupancy"].shape[0])  # G * G cells
         kwargs["n_max"] = (side + 1) // 2
     if "n_directions" not in kwargs:
         kwargs["n_directions"] = int(model.observation_space["task"].shape[0]) - 7
+    if "lookahead" not in kwargs:
+        kwargs["lookahead"] = "candidates" in model.observation_space.spaces
     return kwargs
 
 

@@ -172,3 +172,25 @@ def test_default_model_solves_example_task():
     r = solver.solve(task)
     assert r.structure is not None and _ok(r.structure.cells, task)
     assert r.evaluated == r.n_modules  # one rollout: the initial module plus one per docking
+
+
+def test_ppo_solver_rebuilds_a_lookahead_env_from_the_model(tmp_path):
+    import torch
+    from sb3_contrib import MaskablePPO
+
+    from agents.ppo import PPOSolver, env_kwargs_of, make_env
+
+    torch.set_num_threads(1)
+    model = MaskablePPO("MultiInputPolicy", make_env("planted", n_max=3, lookahead=True),
+                        n_steps=32, batch_size=32, seed=0)  # fmt: skip
+    inferred = env_kwargs_of(model, {})  # no config: read from the observation spaces
+    assert inferred["lookahead"] is True and inferred["n_max"] == 3
+    model.save(tmp_path / "model.zip")
+    config = {"env_kwargs": {"tasks": "planted", "n_max": 3, "lookahead": True}}
+    (tmp_path / "config.json").write_text(json.dumps(config))
+    solver = PPOSolver(tmp_path / "model.zip", n_max=3)
+    assert solver.env.lookahead
+    task = _tiny_tasks()[0]
+    r = solver.solve(task)
+    assert r.structure is None or _ok(r.structure.cells, task)
+    assert r.evaluated >= 1

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 import modquad_gym.envs  # noqa: F401  (registers the environments)
 from modquad_gym.envs import ENV_IDS, ModQuadAssemblyEnv, RewardWeights, register_envs
-from modquad_gym.envs.features import unit_directions
+from modquad_gym.envs.features import CANDIDATE_FEATURES, AssemblyFeatures, unit_directions
 from modquad_gym.envs.reward import episode_return
 from modquad_gym.oracle import feasible
 from modquad_gym.structure import Structure, is_connected
@@ -193,6 +193,7 @@ def test_reset_option_task_and_info_keys():
         ({"reward_weights": {"w_module": -1.0}}, "w_module"),
         ({"tasks": "no-such-source"}, "no-such-source"),
         ({"n_directions": 5}, "n_directions"),
+        ({"lookahead": "yes"}, "lookahead"),
     ],
 )
 def test_bad_arguments_raise_value_errors(kwargs, match):
@@ -356,3 +357,58 @@ def test_maskable_ppo_learns_a_few_steps():
     obs, _ = env.reset(seed=0)
     action, _ = model.predict(obs, action_masks=env.action_masks(), deterministic=True)
     assert env.action_masks()[int(action)]
+
+
+# --- lookahead (candidate) features -------------------------------------------------------------
+def test_check_envs_pass_with_lookahead():
+    from gymnasium.utils.env_checker import check_env as gym_check
+    from stable_baselines3.common.env_checker import check_env as sb3_check
+
+    env = gym.make("ModQuadAssembly-v0", tasks=SMALL, n_max=4, lookahead=True)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        gym_check(env.unwrapped)
+        sb3_check(small_env(lookahead=True), warn=True)
+    assert [str(w.message) for w in caught] == []
+    assert env.observation_space["candidates"].shape == (49 * CANDIDATE_FEATURES,)
+    assert "candidates" not in small_env().observation_space.spaces
+
+
+def test_candidate_rows_are_zero_exactly_on_invalid_actions():
+    env = ModQuadAssemblyEnv(tasks="mixed", n_max=6, lookahead=True)
+    for seed in range(6):
+        for item in random_masked_episode(env, seed):
+            obs = item[0]
+            rows = obs["candidates"].reshape(-1, CANDIDATE_FEATURES)
+            valid = obs["action_mask"].astype(bool)
+            assert np.all(rows[~valid] == 0.0)
+            assert np.all(np.abs(rows[valid]).sum(axis=1) > 0)
+            assert env.observation_space["candidates"].contains(obs["candidates"])
+
+
+def test_candidate_rows_match_each_child_and_never_reject_a_feasible_wrench():
+    env = ModQuadAssemblyEnv(tasks=PlantedTasks(n_wrenches=(10, 30)), n_max=6, lookahead=True)
+    obs, _ = env.reset(seed=5)
+    obs, *_ = env.step(env.action_of((1, 0)))
+    W = env.task.wrenches
+    feats = AssemblyFeatures(env.module, env.n_max, env.task.f_max, env.n_directions)
+    h_Tn, WD = feats.task(W)[1:]
+    rows = obs["candidates"].reshape(-1, CANDIDATE_FEATURES)
+    for a in np.flatnonzero(obs["action_mask"]):
+        child = Structure([(0, 0), (1, 0), env.cell_of(a)])  # its own COM and torques
+        A = child.configuration_matrix()
+        h, slack = feats.support(A)
+        expected = feats.candidates(h[None], np.array([slack]), h_Tn, WD)[0]
+        np.testing.assert_allclose(rows[a], expected, rtol=0, atol=1e-6)
+        assert rows[a][4] <= 1.0 - feasible(A, W).mean() + 1e-9  # a necessary test only
+
+
+def test_lookahead_is_deterministic_and_costs_no_oracle_call():
+    a = random_masked_episode(small_env(lookahead=True), seed=7)
+    assert_same(a, random_masked_episode(small_env(lookahead=True), seed=7))
+    plain = random_masked_episode(small_env(), seed=7)
+    for with_la, without in zip(a, plain):
+        assert with_la[-1]["evaluated"] == without[-1]["evaluated"]
+        assert with_la[-1]["oracle_calls"] == without[-1]["oracle_calls"]
+        for key in without[0]:
+            np.testing.assert_array_equal(with_la[0][key], without[0][key])

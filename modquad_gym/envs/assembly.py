@@ -17,8 +17,8 @@ from gymnasium.error import ResetNeeded
 
 from ..module import ModuleType
 from ..oracle import WrenchOracle, check_f_max
-from ..structure import Cell, Key, Structure, normalise
-from .features import DEFAULT_N_DIRECTIONS, AssemblyFeatures
+from ..structure import Cell, Key, Structure, configuration_matrices, normalise
+from .features import CANDIDATE_FEATURES, DEFAULT_N_DIRECTIONS, AssemblyFeatures
 from .reward import RewardWeights
 
 INVALID_ACTION_MODES = ("penalise", "terminate")
@@ -40,6 +40,7 @@ class _Backend:
         self.oracle = WrenchOracle(f_max, method=method)
         self.features = AssemblyFeatures(module, n_max, f_max, n_directions)
         self.capability: dict[Key, tuple] = {}
+        self.supports: dict[Key, tuple[np.ndarray, float]] = {}
 
     def capability_of(self, key: Key) -> tuple[np.ndarray, np.ndarray, float, int]:
         """(A, h_W / denom, rejection slack, rank) of the structure with translation ``key``
@@ -53,6 +54,20 @@ class _Backend:
             hit = (A, *self.features.support(A), rank)
             self.capability[key] = hit
         return hit
+
+    def supports_of(self, keys: list[Key]) -> tuple[np.ndarray, np.ndarray]:
+        """(h_W / denom (L, K), slack (L,)) of the structures ``keys`` (all of one size), cached
+        per key; misses are computed in one batch from their configuration matrices (no oracle
+        call, no zonotope)."""
+        missing = [k for k in dict.fromkeys(keys) if k not in self.supports]
+        if missing:
+            if len(self.supports) + len(missing) > _CACHE_SIZE:
+                self.supports.clear()
+            h, slack = self.features.supports(configuration_matrices(missing, self.module))
+            for k, hk, sk in zip(missing, h, slack):
+                self.supports[k] = (hk, float(sk))
+        rows = [self.supports[k] for k in keys]
+        return np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
 
 
 class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
@@ -89,6 +104,14 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     * ``"structure"`` (2K + 7,) in [-1, 1]: the structure's support function, its deficit against
       the task per direction, the fraction of satisfied wrenches, n_modules / n_max, rank / 6 and
       per-wrench directional deficits.
+    * ``"candidates"`` (G * G * k,) in [-1, 1], only with ``lookahead=True`` (k = 5,
+      :data:`~modquad_gym.envs.features.CANDIDATE_FEATURES`): per-action lookahead, row a
+      (``candidates.reshape(G * G, k)[a]``) describes the child structure that action a would
+      build, from its support function alone (its capability, the fraction of directions and
+      the largest and mean normalised support deficit against the task, the fraction of task
+      wrenches its support certainly rejects). Rows of invalid actions are zero, rows of valid
+      ones never all zero. These are cheap necessary tests, not oracle calls: they do not count
+      in ``info["evaluated"]`` or ``info["oracle_calls"]``.
 
     K = ``n_directions`` (default 48); :mod:`modquad_gym.envs.features` documents every entry
     and its normalisation.
@@ -133,6 +156,8 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     * ``n_directions``: K, the support directions of the features (default 48, >= 12).
     * ``oracle_method``: the oracle's method (default ``"auto"``, exact and certified).
     * ``render_size``: (height, width) of ``rgb_array`` frames (default (256, 256)).
+    * ``lookahead``: add the ``"candidates"`` observation (default False: the observation is
+      exactly the four entries above).
 
     ``info`` carries ``n_modules``, ``satisfied_fraction``, ``success``, ``cells`` (list of
     [x, y], initial module first), ``evaluated`` (structures the oracle evaluated this episode:
@@ -140,7 +165,8 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     ``action_mask``, ``task_name``, ``n_wrenches``, ``invalid_action`` and ``reward_terms``.
 
     ## Version History
-    * v0: initial version.
+    * v0: initial version; the opt-in ``lookahead`` keyword (``"candidates"`` observation)
+      was added later and leaves the default observation unchanged.
     """
 
     metadata = {"render_modes": ["rgb_array", "ansi"], "render_fps": 4}
@@ -158,6 +184,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         n_directions: int = DEFAULT_N_DIRECTIONS,
         oracle_method: str = "auto",
         render_size: tuple[int, int] = (256, 256),
+        lookahead: bool = False,
     ) -> None:
         from ..tasks import make_generator
 
@@ -174,6 +201,9 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
                 f"render_mode must be None or one of {self.metadata['render_modes']}, "
                 f"got {render_mode!r}"
             )
+        if not isinstance(lookahead, (bool, np.bool_)):
+            raise ValueError(f"lookahead must be a bool, got {lookahead!r}")
+        self.lookahead = bool(lookahead)
         self.n_max = int(n_max)
         if max_steps is None:
             max_steps = 4 * self.n_max
@@ -200,14 +230,17 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self._memos: dict[tuple[int, float], tuple[Any, dict]] = {}
         probe = self._backend(1.0 if self.f_max is None else self.f_max).features
         self.action_space = spaces.Discrete(G * G)
-        self.observation_space = spaces.Dict(
-            {
-                "occupancy": spaces.Box(0.0, 1.0, (G * G,), np.float32),
-                "action_mask": spaces.Box(0, 1, (G * G,), np.int8),
-                "task": spaces.Box(-1.0, 1.0, (probe.task_size,), np.float32),
-                "structure": spaces.Box(-1.0, 1.0, (probe.structure_size,), np.float32),
-            }
-        )
+        obs_spaces = {
+            "occupancy": spaces.Box(0.0, 1.0, (G * G,), np.float32),
+            "action_mask": spaces.Box(0, 1, (G * G,), np.int8),
+            "task": spaces.Box(-1.0, 1.0, (probe.task_size,), np.float32),
+            "structure": spaces.Box(-1.0, 1.0, (probe.structure_size,), np.float32),
+        }
+        if self.lookahead:
+            obs_spaces["candidates"] = spaces.Box(
+                -1.0, 1.0, (G * G * CANDIDATE_FEATURES,), np.float32
+            )
+        self.observation_space = spaces.Dict(obs_spaces)
         self._initial_mask = np.zeros(G * G, dtype=np.int8)
         for dx, dy in _STEPS:
             self._initial_mask[self.action_of((dx, dy))] = 1
@@ -249,18 +282,20 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
             self._backends[f_max] = b
         return b
 
-    def _memo_for(self, task: Any, f_max: float) -> dict:
-        """Per-task memo of evaluations (key -> (n_satisfied, structure vector)): a task that
-        comes back (fixed task lists, files) costs no oracle call for structures seen before."""
+    def _memo_for(self, task: Any, f_max: float) -> tuple[dict, dict]:
+        """Per-task memos: evaluations (key -> (n_satisfied, structure vector)) and candidate
+        rows (child key -> row): a task that comes back (fixed task lists, files) costs no
+        oracle call for structures seen before."""
         ident = (id(task), f_max)
         entry = self._memos.get(ident)
         if entry is None or entry[0] is not task:
             if len(self._memos) >= _MEMO_TASKS:
                 self._memos.clear()
-            entry = self._memos[ident] = (task, {})
-        if len(entry[1]) >= _CACHE_SIZE:
-            entry[1].clear()
-        return entry[1]
+            entry = self._memos[ident] = (task, {}, {})
+        for memo in entry[1:]:
+            if len(memo) >= _CACHE_SIZE:
+                memo.clear()
+        return entry[1], entry[2]
 
     @property
     def structure(self) -> Structure:
@@ -305,13 +340,32 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self._frac = n_sat / len(self._W)
         self._success = n_sat == len(self._W)
 
+    def _update_candidates(self) -> None:
+        """Fill the candidate rows of the valid actions (the others stay zero); call after the
+        mask is final. Support functions only: no oracle call, nothing counted as evaluated."""
+        self._cand[:] = 0.0
+        valid = np.flatnonzero(self._mask)
+        if len(valid) == 0:
+            return
+        memo = self._cand_memo
+        keys = [normalise([*self._cells, self.cell_of(a)]) for a in valid]
+        missing = [k for k in dict.fromkeys(keys) if k not in memo]
+        if missing:
+            h, slack = self._be.supports_of(missing)
+            rows = self._be.features.candidates(h, slack, self._h_Tn, self._WD)
+            memo.update(zip(missing, rows))
+        self._cand[valid] = [memo[k] for k in keys]
+
     def _observation(self) -> dict[str, np.ndarray]:
-        return {
+        obs = {
             "occupancy": self._occ.copy(),
             "action_mask": self._mask.copy(),
             "task": self._task_vec.copy(),
             "structure": self._structure_vec.copy(),
         }
+        if self.lookahead:
+            obs["candidates"] = self._cand.reshape(-1).copy()
+        return obs
 
     def _info(self, invalid: bool = False, terms: dict[str, float] | None = None) -> dict:
         return {
@@ -348,7 +402,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
             )
         f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
         self._be = self._backend(f_max)
-        self._memo = self._memo_for(task, f_max)
+        self._memo, self._cand_memo = self._memo_for(task, f_max)
         self._task, self._task_name, self._W = task, str(task.name), W
         self._task_vec, self._h_Tn, self._WD = self._be.features.task(W)
 
@@ -365,6 +419,9 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self._done = False
         if self._success:  # one module suffices: nothing may be added (see Episode End)
             self._mask[:] = 0
+        if self.lookahead:
+            self._cand = np.zeros((G * G, CANDIDATE_FEATURES), dtype=np.float32)
+            self._update_candidates()
         return self._observation(), self._info()
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict]:
@@ -399,6 +456,8 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self._done = terminated or truncated
         if terminated:
             self._mask[:] = 0
+        if self.lookahead and (added or terminated):
+            self._update_candidates()
         terms = self.weights.terms(
             self._frac - frac_before, added, self._success and terminated, invalid
         )

@@ -28,6 +28,22 @@ fraction of wrenches satisfied (exact oracle); n_modules / n_max; rank(A) / 6; f
 directions with h_W >= h_T; mean, max and min over wrenches of the per-wrench directional
 deficit max_d (d . w_i - h_W(d)) / denom(d) (> 0 certifies that wrench infeasible).
 Every entry is clipped to [-1, 1].
+
+Candidate rows (``CANDIDATE_FEATURES`` = 5 per action, only with the env's ``lookahead=True``):
+for the child structure C made by docking one module at the action's cell, from C's support
+h_C on the same K directions (COM and torques recomputed for C; no oracle call):
+
+0. mean_d h_C(d) / scale: the child's overall capability (> 0 for every structure: the +f_z
+   axis always has positive support), so a valid action's row is never all zero;
+1. fraction of directions with h_T(d) > h_C(d): the necessary-condition deficit count
+   (0 when no direction certifies a missing wrench);
+2. max_d (h_T(d) - h_C(d)) / denom(d): the largest normalised deficit (< 0: margin everywhere);
+3. mean_d max(h_T(d) - h_C(d), 0) / denom(d): the mean positive normalised deficit;
+4. fraction of task wrenches w_i rejected by the support test, max_d (d . w_i - h_C(d)) /
+   denom(d) > slack_C (each such wrench is certainly infeasible for C; the others may or may
+   not be feasible: a necessary test only).
+
+Rows of invalid actions are all zero.
 """
 
 from __future__ import annotations
@@ -45,6 +61,8 @@ DEFAULT_N_DIRECTIONS = 48
 
 TASK_SCALARS = 7
 STRUCTURE_SCALARS = 7
+CANDIDATE_FEATURES = 5
+"""k: entries per action of the ``"candidates"`` observation (see the module docstring)."""
 
 _DIRECTION_SEED = 20240611
 _CANDIDATES = 4096
@@ -137,6 +155,29 @@ class AssemblyFeatures:
         h_W = np.maximum(P, 0.0).sum(axis=1) * self.f_max
         slack = (2.0 * TOL * self.f_max * np.abs(P).sum(axis=1) + 1e-12) / self.denom
         return h_W / self.denom, float(slack.max())
+
+    def supports(self, A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Batched :meth:`support`: (h_W / denom (L, K), slack (L,)) for A of shape (L, 6, m)."""
+        P = np.einsum("kj,ljm->lkm", self.D, A)
+        h_W = np.maximum(P, 0.0).sum(axis=2) * self.f_max
+        slack = (2.0 * TOL * self.f_max * np.abs(P).sum(axis=2) + 1e-12) / self.denom
+        return h_W / self.denom, slack.max(axis=1)
+
+    def candidates(
+        self, h_Cn: np.ndarray, slack: np.ndarray, h_Tn: np.ndarray, WD: np.ndarray
+    ) -> np.ndarray:
+        """Candidate rows (float32, (L, CANDIDATE_FEATURES)) of L child structures against the
+        task: ``h_Cn`` (L, K) and ``slack`` (L,) from :meth:`supports`, ``h_Tn`` (K,) and ``WD``
+        (t, K) from :meth:`task`. Entries as in the module docstring, clipped to [-1, 1]."""
+        gap = h_Tn[None, :] - h_Cn  # (L, K)
+        per_wrench = (WD[None, :, :] - h_Cn[:, None, :]).max(axis=2)  # (L, t)
+        out = np.empty((len(h_Cn), CANDIDATE_FEATURES), dtype=np.float32)
+        out[:, 0] = (h_Cn * self._denom_over_scale).mean(axis=1)
+        out[:, 1] = np.count_nonzero(gap > 0.0, axis=1) / self.k
+        out[:, 2] = gap.max(axis=1)
+        out[:, 3] = np.maximum(gap, 0.0).mean(axis=1)
+        out[:, 4] = np.count_nonzero(per_wrench > slack[:, None], axis=1) / WD.shape[0]
+        return np.clip(out, -1.0, 1.0, out=out)
 
     def structure(
         self,
