@@ -145,6 +145,16 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def _print_help(parser: argparse.ArgumentParser):
+    """A command function that prints ``parser``'s help (for a command given no action)."""
+
+    def show(args) -> int:
+        parser.print_help()
+        return 0
+
+    return show
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="modquad",
@@ -162,13 +172,21 @@ def build_parser() -> argparse.ArgumentParser:
             help="exhaustive: certified minimum; centrosymmetric: paper Algorithm 2; "
             "greedy/random: baselines; ppo: the learned agent (default %(default)s)",
         )
-        p.add_argument("--n-max", type=int, default=7, help="largest module count (default 7)")
+        p.add_argument(
+            "--n-max", type=int, default=7, help="largest module count (default %(default)s)"
+        )
         p.add_argument(
             "--model",
             default=None,
-            help="PPO model .zip (default: the model shipped in results/ppo_default)",
+            help="PPO model .zip for --method ppo (default: the model shipped in "
+            "results/ppo_default/model.zip)",
         )
-        p.add_argument("--seed", type=int, default=0, help="seed for random/ppo sampling")
+        p.add_argument(
+            "--seed",
+            type=int,
+            default=0,
+            help="seed for the random search and PPO sampling (default %(default)s)",
+        )
 
     p = sub.add_parser(
         "solve",
@@ -193,8 +211,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=cmd_solve)
 
-    p = sub.add_parser("task", help="task files")
+    p = sub.add_parser(
+        "task",
+        help="task files (generate)",
+        description="Work with task files. `modquad task generate --help` explains the "
+        "options of each action.",
+    )
     tsub = p.add_subparsers(dest="task_command", metavar="ACTION")
+    p.set_defaults(func=_print_help(p))  # `modquad task` alone: this command's help
     g = tsub.add_parser(
         "generate",
         help="write a generated task file",
@@ -202,8 +226,21 @@ def build_parser() -> argparse.ArgumentParser:
         "f_z reading documented in modquad_gym.tasks), a planted task (wrenches "
         "inside a hidden random structure), or the screwdriver of Fig. 1.",
     )
-    g.add_argument("--kind", choices=("paper", "planted", "screwdriver"), required=True)
-    g.add_argument("--seed", type=int, default=0)
+    g.add_argument(
+        "--kind",
+        choices=("paper", "planted", "screwdriver"),
+        required=True,
+        help="paper: 80 random wrenches as in Sec. VI; planted: wrenches inside a hidden "
+        "random structure (a .json file keeps its cells in meta.planted_cells); "
+        "screwdriver: the two wrenches of Fig. 1 (the seed is ignored)",
+    )
+    g.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="seed of the random generator: the same seed writes the same task "
+        "(default %(default)s)",
+    )
     g.add_argument("--out", required=True, help="output file; format from suffix .json/.csv/.npy")
     g.set_defaults(func=cmd_task_generate)
 
@@ -215,7 +252,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--cells", help="JSON list of [x, y] cells, e.g. '[[0,0],[1,0],[0,1]]'")
     p.add_argument("--task", help="task file: solve it (exhaustive) unless --cells is given")
-    p.add_argument("--n-max", type=int, default=7)
+    p.add_argument(
+        "--n-max",
+        type=int,
+        default=7,
+        help="largest module count the exhaustive search tries for --task (default %(default)s)",
+    )
     p.add_argument("--out", default="structure.png", help="PNG path (default %(default)s)")
     p.set_defaults(func=cmd_show)
 
@@ -226,7 +268,9 @@ def build_parser() -> argparse.ArgumentParser:
         "wrench bench (measured vs commanded wrench) and a hover under each task "
         "wrench. Pictures and report.md go to --out.",
     )
-    p.add_argument("--task", required=True, metavar="FILE")
+    p.add_argument(
+        "--task", required=True, metavar="FILE", help="task file (.json, .csv, .npy) to solve"
+    )
     add_method(p)
     p.add_argument("--out", default="validation", help="output folder (default %(default)s)")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
@@ -239,7 +283,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--max-hover-wrenches",
         type=int,
         default=None,
-        help="hover under at most this many task wrenches (about 0.25 s each)",
+        help="hover under at most this many task wrenches, the first ones in the file "
+        "(default: all); each is held for 2.0 simulated seconds, after a 2.0 s take-off",
     )
     p.set_defaults(func=cmd_validate)
 
@@ -249,8 +294,19 @@ def build_parser() -> argparse.ArgumentParser:
         description="Run a benchmark; options after the name go to it "
         "(e.g. `modquad bench oracle --help`).",
     )
-    p.add_argument("what", choices=("oracle", "search", "env", "paper", "agents"))
-    p.add_argument("rest", nargs=argparse.REMAINDER)
+    p.add_argument(
+        "what",
+        choices=("oracle", "search", "env", "paper", "agents"),
+        help="oracle: feasibility methods compared; search: exhaustive search vs an LP "
+        "reference; env: environment steps/s; paper: the paper's Sec. VI experiment; "
+        "agents: PPO vs the searches on held-out tasks",
+    )
+    p.add_argument(
+        "rest",
+        nargs=argparse.REMAINDER,
+        metavar="OPTIONS",
+        help="options passed on to the benchmark (see `modquad bench WHAT --help`)",
+    )
     p.set_defaults(func=cmd_bench)
     return parser
 

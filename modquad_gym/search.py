@@ -25,10 +25,10 @@ Exact pruning in the exhaustive search:
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from functools import lru_cache
 
 import numpy as np
 
@@ -40,8 +40,8 @@ from .structure import (
     Structure,
     configuration_matrices,
     free_neighbours,
+    grow,
     normalise,
-    structure_levels,
 )
 
 _DEFAULT_MODULE = Structure([(0, 0)]).module
@@ -132,9 +132,29 @@ def force_lower_bound(W: np.ndarray, module: ModuleType, f_max: float = 1.0) -> 
     return max(1, math.ceil(worst - TOL))
 
 
-@lru_cache(maxsize=4)
+_LEVELS: list[tuple[Key, ...]] = [(((0, 0),),)]
+"""Cache of the levels built so far: ``_LEVELS[n - 1]`` holds every structure of n modules."""
+_LEVELS_LOCK = threading.Lock()
+
+
+def _level(n: int) -> tuple[Key, ...]:
+    """Every connected structure of ``n`` modules (keys, up to translation), in the order of
+    :func:`~modquad_gym.structure.structure_levels`. Levels are built lazily, one at a time
+    from the previous one, and cached for the whole process: a search that stops at level n
+    never builds level n + 1 (level 11 alone holds 135,268 structures)."""
+    if n < 1:
+        raise ValueError(f"a level needs at least one module, got {n!r}")
+    if n > len(_LEVELS):
+        with _LEVELS_LOCK:
+            while len(_LEVELS) < n:
+                _LEVELS.append(tuple(grow(_LEVELS[-1])))
+    return _LEVELS[n - 1]
+
+
 def _levels(n_max: int) -> tuple[tuple[Key, ...], ...]:
-    return tuple(tuple(level) for level in structure_levels(n_max))
+    """Levels 1..n_max, all built now (from the cache of :func:`_level`). Searches that may
+    stop early should call :func:`_level` level by level instead."""
+    return tuple(_level(n) for n in range(1, n_max + 1))
 
 
 class _TaskChecker:
@@ -146,7 +166,8 @@ class _TaskChecker:
         self.module = module
         self.evaluated = 0
         self.oracle_calls = 0
-        # hardest wrenches first: largest force need, then magnitude
+        # hardest wrenches first: by decreasing Euclidean norm of the whole 6-vector (ties
+        # keep the task's order), so an infeasible structure usually fails on an early batch
         self.order = np.argsort(-np.linalg.norm(W, axis=1), kind="stable")
         self.pool_d = np.zeros((0, 6))  # separating directions in wrench space
         self.pool_v = np.zeros(0)  # max_i d . w_i over the task, per direction
@@ -265,15 +286,40 @@ def exhaustive_search(
     checker = _TaskChecker(W, f, module)
     n_lb = force_lower_bound(W, module, f)
     skipped = list(range(1, min(n_lb, n_max + 1)))
-    if n_lb <= n_max:
-        for n, level in enumerate(_levels(n_max), start=1):
-            if n < n_lb:
-                continue
-            key = checker.first_feasible(list(level))
-            if key is not None:
-                s = Structure.from_trusted(key, module)
-                return _result(s, checker, t0, True, "exhaustive", n_max, W, f, skipped)
+    for n in range(n_lb, n_max + 1):  # empty when the force bound exceeds n_max
+        key = checker.first_feasible(list(_level(n)))  # built only when reached
+        if key is not None:
+            s = Structure.from_trusted(key, module)
+            return _result(s, checker, t0, True, "exhaustive", n_max, W, f, skipped)
     return _result(None, checker, t0, True, "exhaustive", n_max, W, f, skipped)
+
+
+def optimal_structures(
+    task, n_max: int = 7, f_max: float | None = None, module: ModuleType | None = None
+) -> tuple[int | None, list[Key]]:
+    """Every minimum-module structure of ``task``: (n*, keys of all feasible structures of n*
+    modules, up to translation), or (None, []) when none of up to ``n_max`` modules works.
+
+    Certified like :func:`exhaustive_search`, which stops at the first feasible structure;
+    this one decides the whole minimal level (the expert targets of :mod:`agents.imitation`).
+    """
+    W, f = _task_arrays(task, f_max)
+    n_max = _check_n_max(n_max)
+    module = module or _DEFAULT_MODULE
+    checker = _TaskChecker(W, f, module)
+    n_lb = force_lower_bound(W, module, f)
+    for n in range(n_lb, n_max + 1):
+        found: list[Key] = []
+        rest = list(_level(n))
+        while rest:
+            key = checker.first_feasible(rest)
+            if key is None:
+                break
+            found.append(key)
+            rest = rest[rest.index(key) + 1 :]
+        if found:
+            return n, found
+    return None, []
 
 
 def centrosymmetric_search(
@@ -339,7 +385,11 @@ def greedy_search(
 ) -> SearchResult:
     """Baseline: from one module, repeatedly attach the module that most increases the fraction
     of satisfied wrenches, ties broken by the larger total margin (sum of exact margins clipped
-    at -1), then by cell order. Stops at the first feasible structure or at ``n_max``."""
+    to [-1, 1]), then by cell order. Stops at the first feasible structure or at ``n_max``.
+
+    Children that are the same structure up to translation (from one module, cells (1, 0) and
+    (-1, 0) both give the horizontal pair) are evaluated and counted once, at their first cell
+    in sorted order; since equal structures score equally, this changes counts, not results."""
     from .oracle import _margin
 
     t0 = time.perf_counter()
@@ -354,8 +404,12 @@ def greedy_search(
         return _result(current, checker, t0, False, "greedy", n_max, W, f)
     while current.n_modules < n_max:
         best, best_score = None, None
-        for cell in current.attachable_cells():
+        seen: set[Key] = set()
+        for cell in current.attachable_cells():  # sorted: ties go to the first cell
             child = current.with_cells(cell)
+            if child.key in seen:  # the same structure up to translation: already scored
+                continue
+            seen.add(child.key)
             z = Zonotope(child.configuration_matrix(), f)
             checker.evaluated += 1
             checker.oracle_calls += len(W)

@@ -1,5 +1,6 @@
 """The `modquad` command line: JSON round trip, infeasible tasks, bad files, generate, show."""
 
+import argparse
 import json
 import subprocess
 import sys
@@ -83,3 +84,45 @@ def test_help_explains_every_command():
         assert command in proc.stdout
     proc = run_cli("solve", "--help")
     assert "--method" in proc.stdout and "--json" in proc.stdout
+
+
+def _parsers(parser, name="modquad"):
+    """Every (sub)command parser, with its command line."""
+    yield name, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub_name, sub in action.choices.items():
+                yield from _parsers(sub, f"{name} {sub_name}")
+
+
+def test_help_explains_every_option():
+    from modquad_gym.cli import build_parser
+
+    seen = set()
+    for name, parser in _parsers(build_parser()):
+        seen.add(name)
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for choice in action._choices_actions:  # one line per sub-command
+                    assert choice.help, f"{name} {choice.dest}: no help"
+                continue
+            label = "/".join(action.option_strings) or action.dest
+            assert action.help and action.help.strip(), f"`{name}` {label} has no help text"
+    assert {"modquad task generate", "modquad validate", "modquad bench"} <= seen
+
+
+def test_command_without_action_prints_its_own_help(capsys):
+    assert main(["task"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: modquad task") and "generate" in out
+
+
+def test_validate_help_states_the_hover_time():
+    import inspect
+
+    from modquad_gym.sim.validate import validate
+
+    seconds = inspect.signature(validate).parameters["hover_seconds"].default
+    proc = run_cli("validate", "--help")
+    text = " ".join(proc.stdout.split())
+    assert f"{seconds} simulated seconds" in text and "0.25" not in text

@@ -1,19 +1,23 @@
 """Searches: the exhaustive search is the true minimum (brute force with an LP), the
 centrosymmetric search returns centrosymmetric feasible structures, baselines are seeded."""
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
 import modquad_gym as mq
 from modquad_gym.search import (
     SEARCHES,
+    _levels,
     centrosymmetric_search,
     exhaustive_search,
     force_lower_bound,
     greedy_search,
     random_search,
 )
-from modquad_gym.structure import free_neighbours, structure_levels
+from modquad_gym.structure import free_neighbours, normalise, structure_levels
 
 
 def planted(n, t, seed):
@@ -74,27 +78,80 @@ def test_force_lower_bound_is_exact():
                 assert not mq.feasible(A, W).all()
 
 
-@pytest.mark.parametrize("seed", range(5))
-def test_centrosymmetric_results(seed):
-    W = planted(3 + seed % 3, 10, 200 + seed)
-    result = centrosymmetric_search(W, n_max=7)
-    exact = exhaustive_search(W, n_max=7)
-    if result.structure is not None:
-        assert result.structure.is_centrosymmetric()
-        assert mq.feasible(result.structure.configuration_matrix(), W, method="scipy").all()
-        assert result.n_modules >= exact.n_modules
-    block = centrosymmetric_search(W, n_max=7, block_seed=True)
-    if block.structure is not None:
-        assert block.structure.is_centrosymmetric()
-        assert block.n_modules <= (result.n_modules or 99)
+def planted_on(cells, t, seed):
+    """Wrenches inside the zonotope of the structure ``cells``, most at 0/1 rotor vertices."""
+    rng = np.random.default_rng(seed)
+    A = mq.Structure(cells).configuration_matrix()
+    U = rng.uniform(0, 1, (t, A.shape[1]))
+    vertex = rng.uniform(size=U.shape) < 0.8
+    U[vertex] = rng.integers(0, 2, int(vertex.sum()))
+    return (A @ U.T).T
+
+
+# Centrosymmetric structures that Algorithm 2 reaches: from one module (odd counts) by adding
+# a module and its partner about the COM, or from the 2 x 2 block (block_seed=True).
+REACHABLE = [
+    ([(0, 0), (1, 0), (2, 0)], False),  # horizontal line: (0,0) + (-1,0), (1,0)
+    ([(0, 0), (0, 1), (0, 2)], False),  # vertical line
+    ([(1, 0), (0, 1), (1, 1), (2, 1), (1, 2)], False),  # plus: a line + the other pair
+    ([(0, 0), (1, 0), (1, 1), (1, 2), (2, 2)], False),  # S: a vertical line + a diagonal pair
+    ([(0, 0), (1, 0), (0, 1), (1, 1)], True),  # the block seed
+    ([(0, 0), (1, 0), (0, 1), (1, 1), (2, 0), (-1, 1)], True),  # block + a pair
+]
+
+
+@pytest.mark.parametrize("cells, block_seed", REACHABLE)
+def test_centrosymmetric_finds_a_planted_centrosymmetric_structure(cells, block_seed):
+    n = len(cells)
+    assert mq.Structure(cells).is_centrosymmetric()
+    W = planted_on(cells, 10, seed=n)
+    result = centrosymmetric_search(W, n_max=n, block_seed=block_seed)
+    assert result.structure is not None  # the planted structure is on the search's path
+    assert result.n_modules <= n and not result.certified
+    assert result.structure.is_centrosymmetric()
+    assert mq.feasible(result.structure.configuration_matrix(), W, method="scipy").all()
+    assert result.n_modules >= exhaustive_search(W, n_max=n).n_modules
+    assert result.evaluated >= 1
+
+
+def test_centrosymmetric_reports_none_when_no_centrosymmetric_structure_works():
+    # wrenches of the L tromino: the only centrosymmetric structures of up to 3 modules (one
+    # module, the two straight lines of 3) cannot produce them (checked here by brute force)
+    cells = [(0, 0), (1, 0), (0, 1)]
+    W = planted_on(cells, 10, seed=0)
+    symmetric = [
+        key
+        for level in structure_levels(3)
+        for key in level
+        if mq.Structure(key).is_centrosymmetric()
+    ]
+    assert sorted(map(len, symmetric)) == [1, 2, 2, 3, 3]  # pairs: unreachable from one module
+    for key in symmetric:
+        assert not mq.feasible(mq.Structure(key).configuration_matrix(), W, method="daqp").all()
+    for block_seed in (False, True):
+        result = centrosymmetric_search(W, n_max=3, block_seed=block_seed)
+        assert result.structure is None and result.n_modules is None
+        assert not result.certified and result.evaluated == 3  # 1 module, 2 lines
+    assert exhaustive_search(W, n_max=3).n_modules == 3  # the L itself is feasible
 
 
 def test_centrosymmetric_levels_follow_algorithm_2():
-    # an impossible task walks every level: 1, then the 2 lines of 3, then their children
+    # an impossible task walks every level: one module, the 2 lines of 3, then every 5-module
+    # structure made from a line by a pair of cells symmetric about its centre
     W = np.array([[0, 0, 1.0, 0, 0, 50.0]])
     result = centrosymmetric_search(W, n_max=5)
-    assert result.structure is None
-    assert result.evaluated > 3
+    assert result.structure is None and not result.certified
+    lines = {((0, 0), (1, 0), (2, 0)), ((0, 0), (0, 1), (0, 2))}
+    fives = 0
+    for key in list(structure_levels(5))[-1]:
+        s = mq.Structure(key)
+        if not s.is_centrosymmetric():
+            continue
+        pairs = {tuple(sorted((c, s.centrosymmetric_partner(c)))) for c in key}
+        if any(normalise(set(key) - set(pair)) in lines for pair in pairs if len(set(pair)) == 2):
+            fives += 1
+    assert fives > 0
+    assert result.evaluated == 1 + 2 + fives
 
 
 def test_greedy_and_random_are_feasible_and_seeded():
@@ -127,3 +184,30 @@ def test_searches_accept_task_objects_and_reject_bad_input():
 def test_larger_f_max_needs_no_more_modules():
     W = planted(5, 12, 11)
     assert exhaustive_search(W, n_max=6, f_max=2.0).n_modules <= exhaustive_search(W).n_modules
+
+
+def test_greedy_evaluates_each_child_structure_once():
+    # from one module the 4 free cells give 2 structures (the horizontal and vertical pair);
+    # from a pair the 6 free cells give 5 (the two ends of the line give the same line of 3)
+    W = np.array([[0, 0, 1.0, 0, 0, 50.0]])  # impossible: greedy walks to n_max
+    assert greedy_search(W, n_max=2).evaluated == 1 + 2
+    result = greedy_search(W, n_max=3)
+    assert result.structure is None and result.evaluated == 1 + 2 + 5
+    W = planted(4, 10, 7)
+    a, b = greedy_search(W, n_max=7), greedy_search(W, n_max=7)
+    assert a.to_dict()["cells"] == b.to_dict()["cells"] and a.evaluated == b.evaluated
+
+
+def test_exhaustive_builds_levels_lazily():
+    # a fresh process: a search that stops at level 3 must not build level 4 or beyond
+    code = (
+        "import numpy as np, modquad_gym.search as s\n"
+        "W = np.array([[0, 0, 3.0, 0, 0, 0.4]])\n"
+        "r = s.exhaustive_search(W, n_max=11)\n"
+        "print(r.n_modules, len(s._LEVELS))\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    n, built = map(int, proc.stdout.split())
+    assert built == n < 11
+    assert [len(level) for level in _levels(8)] == [1, 2, 6, 19, 63, 216, 760, 2725]
