@@ -22,17 +22,27 @@ from modquad_gym.sim import (  # noqa: E402
     run_hover,
     validate,
 )
+from modquad_gym.sim.hover import (  # noqa: E402
+    body_inertia,
+    hover_linearization,
+    step_headroom,
+    unreachable_wrench_directions,
+    wrench_axis,
+)
 from modquad_gym.sim.validate import infeasible_wrench  # noqa: E402
 
 L3 = [(0, 0), (1, 0), (0, 1)]
 SQUARE = [(0, 0), (1, 0), (0, 1), (1, 1)]
+LINE4 = [(0, 0), (1, 0), (2, 0), (-1, 0)]  # the hidden structure of examples/planted_seed1.json
 
 
-def _interior_wrenches(structure: mq.Structure, t: int, seed: int) -> np.ndarray:
+def _interior_wrenches(
+    structure: mq.Structure, t: int, seed: int, lo: float = 0.15, hi: float = 0.85
+) -> np.ndarray:
     """t wrenches A u with u drawn inside the box: feasible by construction."""
     rng = np.random.default_rng(seed)
     A = structure.configuration_matrix()
-    return rng.uniform(0.15, 0.85, (t, A.shape[1])) @ A.T
+    return rng.uniform(lo, hi, (t, A.shape[1])) @ A.T
 
 
 def _random_quaternion(rng: np.random.Generator) -> np.ndarray:
@@ -146,6 +156,108 @@ def test_hover_rank_deficient_structure_does_not_crash():
     assert np.all(np.isfinite(res.position_error))
 
 
+@pytest.mark.parametrize("cells", [[(0, 0), (1, 0)], [(0, 0), (1, 0), (2, 0)], LINE4])
+def test_unreachable_direction_of_a_line(cells):
+    """A line along x cannot make 0.1497 f_y + 0.9887 tau_x: no moment about the axis parallel
+    to the line 0.151 m above the COM; the same for every length. Along y: f_x and tau_y."""
+    A = mq.Structure(cells).configuration_matrix()
+    N = unreachable_wrench_directions(A)
+    assert N.shape == (6, 1)
+    n = N[:, 0]
+    np.testing.assert_allclose(A.T @ n, 0.0, atol=1e-12)
+    np.testing.assert_allclose(n, [0, 0.1497, 0, 0.9887, 0, 0], atol=1e-4)
+    axis = wrench_axis(n)
+    np.testing.assert_allclose(axis["axis"], [1, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(axis["point"], [0, 0, 0.1514], atol=1e-4)
+    assert axis["pitch"] == 0.0
+    ny = unreachable_wrench_directions(mq.Structure([(0, 0), (0, 1)]).configuration_matrix())
+    assert np.count_nonzero(np.abs(ny[:, 0]) > 1e-9) == 2
+    assert abs(ny[0, 0]) > 0.1 and abs(ny[4, 0]) > 0.9
+    assert unreachable_wrench_directions(mq.Structure(SQUARE).configuration_matrix()).shape == (
+        6,
+        0,
+    )
+    assert unreachable_wrench_directions(mq.Structure([(0, 0)]).configuration_matrix()).shape == (
+        6,
+        2,
+    )
+
+
+def test_hover_linearization_matches_mujoco():
+    """The controller's model (world-fixed load: tilting steers the rotor wrench) equals
+    MuJoCo's finite-difference linearisation of the flight model."""
+    s = mq.Structure(LINE4)
+    sim = build_model(s)
+    A, m, J = sim.A, sim.mass, body_inertia(sim)
+    w = _interior_wrenches(s, 1, seed=11)[0]
+    F, B = hover_linearization(A, w, m, J, "world")
+    data = sim.new_data()
+    data.ctrl[:] = mq.oracle.allocate(A, w)[0]
+    data.xfrc_applied[sim.body_id, :3] = -w[:3] - m * np.array(sim.model.opt.gravity)
+    data.xfrc_applied[sim.body_id, 3:] = -w[3:]
+    Ad = np.zeros((12, 12))
+    Bd = np.zeros((12, A.shape[1]))
+    mujoco.mjd_transitionFD(sim.model, data, 1e-6, True, Ad, Bd, None, None)
+    dt = sim.model.opt.timestep
+    np.testing.assert_allclose((Ad[6:] - np.eye(12)[6:]) / dt, F[6:], atol=1e-6)
+    np.testing.assert_allclose(Bd[6:] / dt, B[6:], atol=1e-6)
+    _, B_body = hover_linearization(A, w, m, J, "body")
+    assert np.array_equal(B_body, B)
+
+
+def test_hover_line_attitude_stays_bounded():
+    """The audited creep: a 4-module line (rank 5) held 0.07 -> 0.55 rad of roll over six
+    feasible wrenches. With the world-fixed load the LQR holds position and attitude."""
+    s = mq.Structure(LINE4)
+    W = _interior_wrenches(s, 4, seed=12, lo=0.3, hi=0.7)
+    assert mq.feasible(s.configuration_matrix(), W).all()
+    res = run_hover(s, W, seconds_per_wrench=1.5, takeoff_seconds=2.0)
+    task = [m for m in res.segment_metrics if m["segment"] >= 0]
+    assert all(m["controller"] == "lqr" for m in res.segment_metrics)
+    assert res.max_attitude_error <= 0.01
+    assert res.max_position_error <= 0.01
+    att = [m["max_attitude_error_rad"] for m in task]
+    assert att[-1] <= att[0] + 1e-6  # no creep from segment to segment
+    assert res.saturated_fraction == 0.0
+    assert not res.diverged.any()
+
+
+def test_hover_body_following_load_on_a_line_falls_back():
+    """With the load following the body, the line's unreachable direction is uncontrollable in
+    the linearisation: no stabilising LQR exists and the projected PD runs (documented)."""
+    s = mq.Structure(LINE4)
+    W = _interior_wrenches(s, 1, seed=13, lo=0.3, hi=0.7)
+    res = run_hover(s, W, seconds_per_wrench=0.2, takeoff_seconds=0.2, load_frame="body")
+    assert {m["controller"] for m in res.segment_metrics} == {"pd_fallback"}
+    with pytest.raises(ValueError, match="load_frame"):
+        run_hover(s, W, load_frame="tool")
+
+
+@pytest.mark.parametrize("cells", [SQUARE, [(0, 0), (1, 0), (2, 0)]])
+def test_hover_unknown_load_settles_within_1cm(cells):
+    """The controller is not told the load: integral action finds it (position <= 1 cm)."""
+    s = mq.Structure(cells)
+    W = _interior_wrenches(s, 2, seed=14, lo=0.3, hi=0.7)
+    res = run_hover(s, W, seconds_per_wrench=2.0, takeoff_seconds=1.5, known_load=False)
+    assert not res.known_load
+    assert res.max_position_error <= 0.01
+    assert res.max_attitude_error <= 0.05
+    assert res.settled_saturated_fraction == 0.0
+    assert res.max_load_estimate_error < 0.1
+    task = [m for m in res.segment_metrics if m["segment"] >= 0]
+    assert all(m["step_headroom"] is not None and m["step_headroom"] > 0 for m in task)
+
+
+def test_step_headroom():
+    A = mq.Structure(SQUARE).configuration_matrix()
+    centre = A @ np.full(16, 0.5)
+    top = A @ np.ones(16)  # all rotors at f_max: no room further along the step from the centre
+    assert step_headroom(A, top, centre) == pytest.approx(0.0, abs=1e-7)
+    assert step_headroom(A, centre, top) > 1.0
+    assert step_headroom(A, 2 * top, centre) is None  # infeasible
+    assert step_headroom(A, centre, centre) == math.inf
+
+
 def test_render_matplotlib_fallback(tmp_path):
     path = tmp_path / "s.png"
     assert render_structure(mq.Structure(L3), path, backend="matplotlib") == "matplotlib"
@@ -176,7 +288,46 @@ def test_validate_writes_files_and_keys(tmp_path):
     assert out["bench_max_error"] <= 1e-6
     assert out["infeasible_demo"]["feasible"] is False
     assert out["infeasible_demo"]["saturated_fraction"] > 0.5
-    for name in ("rotor_inputs", "bench_wrench", "hover", "structure", "report"):
-        assert (tmp_path / f"{name}{'.md' if name == 'report' else '.png'}").stat().st_size > 100
-    assert "bench" in (tmp_path / "report.md").read_text().lower()
+    for name in ("rotor_inputs", "bench_wrench", "hover", "hover_unknown_load", "structure"):
+        assert (tmp_path / f"{name}.png").stat().st_size > 100
+    report = (tmp_path / "report.md").read_text()
+    assert "bench" in report.lower()
     assert out["render_backend"] in ("mujoco", "matplotlib")  # matplotlib where no GL exists
+    # the JSON file holds what was returned, its own path included
+    assert out["files"]["json"] == str(tmp_path / "validation.json")
+    assert json.loads((tmp_path / "validation.json").read_text()) == json.loads(json.dumps(out))
+    for key in (
+        "hover_unknown_load_max_position_error_m",
+        "hover_unknown_load_max_attitude_error_rad",
+        "hover_unknown_load_saturated_fraction",
+        "hover_unknown_load_settled_saturated_fraction",
+    ):
+        assert isinstance(out[key], float)
+    assert out["rank"] == 6 and out["unreachable_wrench_directions"] == []
+    demo = out["infeasible_demo"]
+    assert "attitude error up to" in report
+    if demo["diverged"]:  # the report says why the run stopped
+        assert demo["stop_reason"] in report and "stopped after" in report
+    else:
+        assert demo["stop_reason"] is None and "did not reach a drift limit" in report
+    assert "all 2 wrenches" in report
+
+
+def test_validate_report_names_the_hovered_subset(tmp_path):
+    s = mq.Structure([(0, 0), (1, 0), (2, 0)])
+    W = _interior_wrenches(s, 3, seed=8, lo=0.3, hi=0.7)
+    out = validate(
+        s,
+        W,
+        out_dir=tmp_path,
+        hover_seconds=0.3,
+        render=False,
+        max_hover_wrenches=1,
+        unknown_load=False,
+    )
+    assert out["hover_wrenches"] == 1 and "hover_unknown_load_max_position_error_m" not in out
+    report = (tmp_path / "report.md").read_text()
+    assert "first 1 of 3 wrenches" in report
+    assert "0.151" in report  # the line's unreachable direction, explained
+    assert out["unreachable_wrench_directions"][0]["point"][2] == pytest.approx(0.1514, abs=1e-4)
+    assert set(out["files"]) == {"rotor_inputs", "bench_wrench", "hover", "report", "json"}

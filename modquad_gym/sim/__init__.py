@@ -12,7 +12,16 @@ import os
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from .bench import ALLOCATIONS, BenchResult, allocate_inputs, run_bench  # noqa: E402
-from .hover import HoverGains, HoverResult, run_hover  # noqa: E402
+from .hover import (  # noqa: E402
+    LOAD_FRAMES,
+    HoverGains,
+    HoverResult,
+    hover_linearization,
+    run_hover,
+    step_headroom,
+    unreachable_wrench_directions,
+    wrench_axis,
+)
 from .model import SimModel, actuator_wrench, build_model, model_xml  # noqa: E402
 from .validate import render_structure, validate  # noqa: E402
 
@@ -21,13 +30,18 @@ __all__ = [
     "BenchResult",
     "HoverGains",
     "HoverResult",
+    "LOAD_FRAMES",
     "SimModel",
     "actuator_wrench",
     "allocate_inputs",
     "build_model",
+    "hover_linearization",
     "model_xml",
     "render_structure",
     "run_bench",
     "run_hover",
+    "step_headroom",
+    "unreachable_wrench_directions",
     "validate",
+    "wrench_axis",
 ]

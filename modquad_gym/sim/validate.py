@@ -7,12 +7,19 @@ writes there:
 * ``rotor_inputs.png``: the bench's rotor inputs over time, each wrench held 500 ms as in the
   paper, f_max dotted (paper Fig. 7), one panel per allocation;
 * ``bench_wrench.png``: measured against commanded wrench, per component;
-* ``hover.png``: position and attitude error and rotor inputs over the hover, f_max dotted;
+* ``hover.png``: position and attitude error and rotor inputs over the hover (load known to the
+  controller), f_max dotted;
+* ``hover_unknown_load.png`` (``unknown_load=True``, the default): the same with the load unknown
+  to the controller (integral action);
 * ``hover_infeasible.png`` (``include_infeasible_demo=True``): the same for a task wrench scaled
   out of the feasible set, which saturates the rotors and drifts;
 * ``structure.png``: an offscreen MuJoCo render (EGL), or a matplotlib drawing where no GL context
   can be made;
-* ``report.md``: the numbers.
+* ``report.md``: the numbers; ``validation.json``: the returned dict.
+
+Hover load convention: while the structure holds task wrench w, the external wrench
+``d = -(w + gravity wrench)`` is applied at the COM, so that at equilibrium the rotors produce
+exactly w (see :func:`validate` and :mod:`modquad_gym.sim.hover`).
 
 It returns a JSON-serialisable dict (non-finite numbers become None).
 """
@@ -32,7 +39,7 @@ import numpy as np
 from ..oracle import check_f_max, check_wrenches, feasible, lambda_ratio, margin
 from ..structure import Structure
 from .bench import BenchResult, run_bench
-from .hover import HoverResult, run_hover
+from .hover import HoverResult, run_hover, unreachable_wrench_directions, wrench_axis
 from .model import HOME_HEIGHT, SimModel, build_model
 
 BENCH_HOLD_S = 0.5
@@ -222,6 +229,23 @@ def infeasible_wrench(A: np.ndarray, w: np.ndarray, f_max: float, scale: float) 
     return w * ratio * scale
 
 
+def _hover_summary(hover: HoverResult) -> dict:
+    """The task-level numbers of one hover run (JSON-ready)."""
+    task = [s for s in hover.segment_metrics if s["segment"] >= 0]
+    return {
+        "max_position_error_m": hover.max_position_error,
+        "max_attitude_error_rad": hover.max_attitude_error,
+        "saturated_fraction": hover.saturated_fraction,
+        "settled_saturated_fraction": hover.settled_saturated_fraction,
+        "diverged_segments": int(hover.diverged.sum()),
+        "segments_within_1cm": int(sum(s["max_position_error_m"] <= 0.01 for s in task)),
+        "controllers": sorted(
+            {c for s in hover.segment_metrics for c in s["controller"].split("+")}
+        ),
+        "max_load_estimate_error": hover.max_load_estimate_error,
+    }
+
+
 def validate(
     structure: Structure,
     task_wrenches: np.ndarray,
@@ -231,25 +255,44 @@ def validate(
     render: bool = True,
     include_infeasible_demo: bool = False,
     max_hover_wrenches: int | None = None,
+    unknown_load: bool = True,
+    load_frame: str = "world",
 ) -> dict:
     """Bench and hover ``structure`` on ``task_wrenches``; write pictures and a report.
+
+    Hover load convention: while the structure holds task wrench w, an external wrench
+    ``d = -(w + gravity wrench)`` (gravity wrench = [m g ; 0] at the COM) is applied, so that at
+    equilibrium (level, in place) the rotors produce exactly the task wrench w; ``load_frame``
+    ``"world"`` (default) keeps d fixed in the world, like gravity, ``"body"`` makes it follow the
+    body (see :mod:`modquad_gym.sim.hover` for why a straight line then drifts in roll).
+
+    Two hovers are flown on the same wrenches: with the load known to the controller
+    (feed-forward ``w``; ``hover_*`` keys) and, with ``unknown_load``, with the load unknown
+    (integral action estimates it; ``hover_unknown_load_*`` keys), the honest test of the
+    controller.
 
     Args:
         structure: the structure to validate (e.g. a search result's ``structure``).
         task_wrenches: (t, 6) task wrenches in {S}, the total the rotors must produce.
         f_max: rotor thrust limit in N.
-        out_dir: where to write the pictures and ``report.md`` (created); None writes nothing.
+        out_dir: where to write the pictures, ``report.md`` and ``validation.json`` (created);
+            None writes nothing.
         hover_seconds: simulated seconds per task wrench in the hover.
         render: write ``structure.png`` (MuJoCo render, matplotlib fallback).
         include_infeasible_demo: also hover on the task wrench with the least margin, scaled to
             ``INFEASIBLE_SCALE`` times its feasibility boundary, to show saturation and drift.
         max_hover_wrenches: hover on at most this many task wrenches (the first ones); None: all.
+        unknown_load: also fly the hover with the load unknown to the controller.
+        load_frame: ``"world"`` or ``"body"``: how the hover's load moves when the body tilts.
 
     Returns:
         A JSON-serialisable dict with at least ``bench_max_error`` (relative, exact allocation),
         ``bench_max_error_pinv_clip``, ``bench_max_sensor_error``, ``hover_max_position_error_m``,
-        ``hover_max_attitude_error_rad``, ``saturated_fraction``, ``n_modules``, ``cells``,
-        ``feasible`` (every wrench feasible per the oracle) and ``files``.
+        ``hover_max_attitude_error_rad``, ``saturated_fraction`` (known-load hover),
+        ``hover_unknown_load_max_position_error_m``, ``hover_unknown_load_max_attitude_error_rad``,
+        ``hover_unknown_load_saturated_fraction`` (with ``unknown_load``), ``n_modules``,
+        ``cells``, ``rank``, ``unreachable_wrench_directions``, ``feasible`` (every wrench
+        feasible per the oracle) and ``files``.
     """
     if not isinstance(structure, Structure):
         raise ValueError(
@@ -266,12 +309,18 @@ def validate(
     pinv = run_bench(bench_sim, W, allocation="pinv_clip")
     fly_sim = build_model(structure, f_max, bench=False)
     W_hover = W if max_hover_wrenches is None else W[: max(1, int(max_hover_wrenches))]
-    hover = run_hover(fly_sim, W_hover, seconds_per_wrench=hover_seconds)
+    hover_kw = {"seconds_per_wrench": hover_seconds, "load_frame": load_frame}
+    hover = run_hover(fly_sim, W_hover, **hover_kw)
+    N = unreachable_wrench_directions(A)
 
+    known = _hover_summary(hover)
     out: dict = {
         "n_modules": structure.n_modules,
         "cells": [list(c) for c in structure.cells],
         "rank": int(np.linalg.matrix_rank(A)),
+        "unreachable_wrench_directions": [
+            {"n": N[:, j].tolist(), **wrench_axis(N[:, j])} for j in range(N.shape[1])
+        ],
         "f_max": f_max,
         "n_wrenches": len(W),
         "feasible": bool(feas.all()),
@@ -283,20 +332,51 @@ def validate(
         "bench_max_sensor_error": max(exact.max_sensor_error, pinv.max_sensor_error),
         "bench_pinv_clip_wrenches_missed": int(np.sum(pinv.relative_error > 1e-6)),
         "bench_exact_at_limit": int(exact.at_limit.sum()),
+        "hover_load_frame": load_frame,
         "hover_seconds_per_wrench": hover_seconds,
         "hover_wrenches": len(W_hover),
-        "hover_max_position_error_m": hover.max_position_error,
-        "hover_max_attitude_error_rad": hover.max_attitude_error,
-        "saturated_fraction": hover.saturated_fraction,
-        "hover_diverged_segments": int(hover.diverged.sum()),
+        "hover_n_feasible": int(feas[: len(W_hover)].sum()),
+        "hover_max_position_error_m": known["max_position_error_m"],
+        "hover_max_attitude_error_rad": known["max_attitude_error_rad"],
+        "saturated_fraction": known["saturated_fraction"],
+        "hover_settled_saturated_fraction": known["settled_saturated_fraction"],
+        "hover_diverged_segments": known["diverged_segments"],
+        "hover_segments_within_1cm": known["segments_within_1cm"],
+        "hover_controllers": known["controllers"],
         "hover_takeoff": next((s for s in hover.segment_metrics if s["segment"] == -1), None),
         "files": {},
     }
+    blind = None
+    if unknown_load:
+        blind = run_hover(fly_sim, W_hover, known_load=False, **hover_kw)
+        summary = _hover_summary(blind)
+        for key, value in summary.items():
+            out[f"hover_unknown_load_{key}"] = value
+        out["hover_unknown_load_segments"] = [
+            {
+                k: s[k]
+                for k in (
+                    "segment",
+                    "gamma",
+                    "step_headroom",
+                    "max_position_error_m",
+                    "max_attitude_error_rad",
+                    "saturated_fraction",
+                    "settled_saturated_fraction",
+                    "load_estimate_error",
+                    "diverged",
+                    "stop_reason",
+                )
+            }
+            for s in blind.segment_metrics
+            if s["segment"] >= 0
+        ]
     demo = None
     if include_infeasible_demo:
         worst = int(np.argmin(marg))
         w_bad = infeasible_wrench(A, W[worst], f_max, INFEASIBLE_SCALE)
-        demo = run_hover(fly_sim, w_bad[None], seconds_per_wrench=hover_seconds)
+        demo = run_hover(fly_sim, w_bad[None], **hover_kw)
+        seg = demo.segment_metrics[-1]
         out["infeasible_demo"] = {
             "wrench": w_bad.tolist(),
             "from_task_row": worst,
@@ -306,6 +386,8 @@ def validate(
             "max_position_error_m": demo.max_position_error,
             "max_attitude_error_rad": demo.max_attitude_error,
             "diverged": bool(demo.diverged[0]),
+            "stop_reason": seg["stop_reason"],
+            "stop_time_s": seg["stop_time_s"],
         }
 
     if out_dir is not None:
@@ -316,25 +398,32 @@ def validate(
         files["rotor_inputs"] = str(d / "rotor_inputs.png")
         plot_bench_wrench([exact, pinv], d / "bench_wrench.png")
         files["bench_wrench"] = str(d / "bench_wrench.png")
-        plot_hover(hover, d / "hover.png", title="hover on the task")
+        plot_hover(hover, d / "hover.png", title="hover, load known")
         files["hover"] = str(d / "hover.png")
+        if blind is not None:
+            plot_hover(blind, d / "hover_unknown_load.png", title="hover, load unknown")
+            files["hover_unknown_load"] = str(d / "hover_unknown_load.png")
         if demo is not None:
             plot_hover(demo, d / "hover_infeasible.png", title="infeasible wrench")
             files["hover_infeasible"] = str(d / "hover_infeasible.png")
         if render:
             out["render_backend"] = render_structure(fly_sim, d / "structure.png")
             files["structure"] = str(d / "structure.png")
-        (d / "report.md").write_text(_report(structure, out, hover))
         files["report"] = str(d / "report.md")
-        (d / "validation.json").write_text(json.dumps(out, indent=2) + "\n")
         files["json"] = str(d / "validation.json")
+        (d / "report.md").write_text(_report(structure, out, hover, blind))
+        (d / "validation.json").write_text(json.dumps(out, indent=2) + "\n")
     return out
 
 
-def _report(structure: Structure, out: dict, hover: HoverResult) -> str:
+def _report(
+    structure: Structure, out: dict, hover: HoverResult, blind: HoverResult | None = None
+) -> str:
     def f(x: float | None, fmt: str = ".3g") -> str:
         return "n/a" if x is None else format(x, fmt)
 
+    t, n_hover = out["n_wrenches"], out["hover_wrenches"]
+    which = f"all {t} wrenches" if n_hover == t else f"first {n_hover} of {t} wrenches"
     lines = [
         f"# MuJoCo validation: {out['n_modules']} modules",
         "",
@@ -344,8 +433,22 @@ def _report(structure: Structure, out: dict, hover: HoverResult) -> str:
         "",
         f"cells {out['cells']}, rank(A) = {out['rank']}, f_max = {out['f_max']:g} N, "
         f"module mass {out['module_mass_kg']:g} kg.",
-        f"Task: {out['n_wrenches']} wrenches, {out['n_feasible']} feasible per the oracle "
+        f"Task: {t} wrenches, {out['n_feasible']} feasible per the oracle "
         f"(smallest margin {f(out['min_margin'])}).",
+    ]
+    for u in out["unreachable_wrench_directions"]:
+        n = ", ".join(f"{x:.4f}" for x in u["n"])
+        if u["axis"] is not None:
+            where = (
+                f"no rotor wrench has a moment about the axis along "
+                f"({', '.join(f'{x:.3g}' for x in u['axis'])}) through "
+                f"({', '.join(f'{x:.3g}' for x in u['point'])}) m"
+                + (f" (pitch {u['pitch']:.3g} m)" if abs(u["pitch"]) > 1e-9 else "")
+            )
+        else:
+            where = "no rotor force along " + ", ".join(f"{x:.3g}" for x in u["force_direction"])
+        lines.append(f"Unreachable wrench direction n = ({n}) (n . A u = 0 for all u): {where}.")
+    lines += [
         "",
         "## Wrench bench (free body, load cell at the COM welded to the wall; weight subtracted)",
         "",
@@ -358,14 +461,43 @@ def _report(structure: Structure, out: dict, hover: HoverResult) -> str:
         f"pinv + clip misses {out['bench_pinv_clip_wrenches_missed']} wrench(es) by more than "
         f"1e-6; the exact allocation has a rotor at a limit on {out['bench_exact_at_limit']}.",
         "",
-        "## Hover (gravity on, load d = -(w + gravity wrench), PD + bounded allocation)",
+        f"## Hover on the {which} (gravity on, load d = -(w + gravity wrench), "
+        f"fixed in the {out['hover_load_frame']} frame; LQR + bounded allocation)",
         "",
-        f"{out['hover_wrenches']} wrenches x {out['hover_seconds_per_wrench']:g} s. Settled "
-        f"(last 30 % of each segment): max position error "
-        f"{out['hover_max_position_error_m'] * 100:.3g} cm, max attitude error "
-        f"{out['hover_max_attitude_error_rad']:.3g} rad; saturated control steps "
-        f"{100 * out['saturated_fraction']:.2f} %; diverged segments "
-        f"{out['hover_diverged_segments']}.",
+        f"Each wrench is held {out['hover_seconds_per_wrench']:g} s; errors are measured over "
+        f"the last 30 % of each segment (settled). {out['hover_n_feasible']} of the {n_hover} "
+        f"wrenches are feasible. Controllers used: {', '.join(out['hover_controllers'])}.",
+        "",
+        "| load | max pos. err [cm] | max att. err [rad] | segments <= 1 cm | saturated steps "
+        "(all / settled) | diverged | max load-estimate error |",
+        "|---|---|---|---|---|---|---|",
+        f"| known (feed-forward w) | {out['hover_max_position_error_m'] * 100:.3g} | "
+        f"{out['hover_max_attitude_error_rad']:.3g} | {out['hover_segments_within_1cm']} / "
+        f"{n_hover} | {100 * out['saturated_fraction']:.2f} % / "
+        f"{100 * out['hover_settled_saturated_fraction']:.2f} % | "
+        f"{out['hover_diverged_segments']} | n/a |",
+    ]
+    if blind is not None:
+        lines.append(
+            f"| unknown (integral action) | "
+            f"{out['hover_unknown_load_max_position_error_m'] * 100:.3g} | "
+            f"{out['hover_unknown_load_max_attitude_error_rad']:.3g} | "
+            f"{out['hover_unknown_load_segments_within_1cm']} / {n_hover} | "
+            f"{100 * out['hover_unknown_load_saturated_fraction']:.2f} % / "
+            f"{100 * out['hover_unknown_load_settled_saturated_fraction']:.2f} % | "
+            f"{out['hover_unknown_load_diverged_segments']} | "
+            f"{f(out['hover_unknown_load_max_load_estimate_error'])} |"
+        )
+    lines += [
+        "",
+        "With the load known the feed-forward equals the load, so a feasible wrench is held "
+        "with no transient and the settled errors only show that the model is consistent. With "
+        "the load unknown the controller is told neither the wrenches nor when they change: "
+        "each switch is a step load that the integral action must find. Braking after such a "
+        "step needs a wrench beyond w along the step; where the feasible set has little room "
+        "there (small headroom below), the transient saturates and the structure can be pushed "
+        "far away, whatever the tuning.",
+        "",
         "Take-off (from a few cm off and tilted, at half thrust; not in the task numbers): "
         + (
             f"settled position error {out['hover_takeoff']['max_position_error_m']:.2e} m."
@@ -373,30 +505,52 @@ def _report(structure: Structure, out: dict, hover: HoverResult) -> str:
             else "skipped."
         ),
         "",
-        "| segment | gamma | max pos. err [m] | max att. err [rad] | saturated | diverged |",
-        "|---|---|---|---|---|---|",
     ]
-    for s in hover.segment_metrics[:40]:
-        lines.append(
+    blind_seg = {s["segment"]: s for s in (blind.segment_metrics if blind is not None else [])}
+    head = "| segment | gamma | known: pos. err [m] | att. err [rad] | saturated | diverged |"
+    rule = "|---|---|---|---|---|---|"
+    if blind is not None:
+        head += " unknown: pos. err [m] | att. err [rad] | saturated | headroom | stopped |"
+        rule += "---|---|---|---|---|"
+    lines += [head, rule]
+    for s in hover.segment_metrics[:41]:
+        row = (
             f"| {'take-off' if s['segment'] < 0 else s['segment']} | {f(s['gamma'])} | "
             f"{s['max_position_error_m']:.2e} | "
             f"{s['max_attitude_error_rad']:.2e} | {100 * s['saturated_fraction']:.1f} % | "
-            f"{'yes' if s['diverged'] else 'no'} |"
+            f"{s['stop_reason'] or 'no'} |"
         )
-    if len(hover.segment_metrics) > 40:
-        lines.append(f"| ... | {len(hover.segment_metrics) - 40} more | | | | |")
+        b = blind_seg.get(s["segment"])
+        if b is not None:
+            row += (
+                f" {b['max_position_error_m']:.2e} | {b['max_attitude_error_rad']:.2e} | "
+                f"{100 * b['saturated_fraction']:.1f} % | {f(b['step_headroom'])} | "
+                f"{b['stop_reason'] or 'no'} |"
+            )
+        lines.append(row)
+    if len(hover.segment_metrics) > 41:
+        lines.append(f"| ... | {len(hover.segment_metrics) - 41} more | | | | |")
     demo = out.get("infeasible_demo")
     if demo:
+        if demo["diverged"]:
+            ending = (
+                f"The run was stopped after {demo['stop_time_s']:.3g} s because the "
+                f"{demo['stop_reason']} (drift limit)."
+            )
+        else:
+            ending = "The run did not reach a drift limit."
         lines += [
             "",
             "## Infeasible demo",
             "",
             f"Task row {demo['from_task_row']} scaled to {INFEASIBLE_SCALE:g} x its feasibility "
-            f"boundary (gamma {f(demo['gamma'])}): saturated "
-            f"{100 * demo['saturated_fraction']:.1f} % of control steps, position error up to "
-            f"{demo['max_position_error_m']:.3g} m, diverged: {demo['diverged']}.",
+            f"boundary (gamma {f(demo['gamma'])}), load known: saturated "
+            f"{100 * demo['saturated_fraction']:.1f} % of control steps; position error up to "
+            f"{demo['max_position_error_m']:.3g} m and attitude error up to "
+            f"{demo['max_attitude_error_rad']:.3g} rad. {ending}",
         ]
-    pics = [k for k in ("structure", "rotor_inputs", "bench_wrench", "hover", "hover_infeasible")]
+    pics = ("structure", "rotor_inputs", "bench_wrench", "hover", "hover_unknown_load")
+    pics += ("hover_infeasible",)
     lines += ["", "## Pictures", ""]
     lines += [f"![{k}]({k}.png)" for k in pics if k in out["files"]]
     return "\n".join(lines) + "\n"

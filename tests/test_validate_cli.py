@@ -1,0 +1,38 @@
+"""`modquad validate` end to end on a one-wrench task (fast: one hover wrench)."""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: headless rendering
+
+import json  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from modquad_gym.cli import main  # noqa: E402
+
+
+def test_validate_cli_json(tmp_path, capsys):
+    task = tmp_path / "task.json"
+    task.write_text(
+        json.dumps({"name": "one", "f_max": 1.0, "wrenches": [[0.8, 0.0, 3.0, 0.0, 0.1, 0.0]]})
+    )
+    out_dir = tmp_path / "out"
+    argv = ["validate", "--task", str(task), "--method", "exhaustive"]
+    argv += ["--max-hover-wrenches", "1", "--out", str(out_dir), "--json"]
+    assert main(argv) == 0
+    lines = [line for line in capsys.readouterr().out.splitlines() if line.strip()]
+    record = json.loads(lines[-1])
+    assert record["method"] == "exhaustive" and record["feasible"] is True
+    assert record["bench_max_error"] <= 1e-6
+    assert 0.0 <= record["hover_max_position_error_m"] <= 0.01
+    assert record["hover_wrenches"] == 1 and record["saturated_fraction"] == 0.0
+    assert "hover_unknown_load_max_position_error_m" in record
+    files = record["files"]
+    for key in ("report", "json", "hover", "rotor_inputs", "bench_wrench"):
+        assert Path(files[key]).is_file(), key
+    assert Path(files["json"]) == out_dir / "validation.json"
+    saved = json.loads((out_dir / "validation.json").read_text())
+    assert saved["files"] == files
+    assert saved["bench_max_error"] == record["bench_max_error"]
+    assert "all 1 wrenches" in (out_dir / "report.md").read_text()
