@@ -179,11 +179,14 @@ class _TaskChecker:
 
     def _pool_rejects(self, As: np.ndarray) -> np.ndarray:
         """bool (L,): structures (configuration matrices (L, 6, m)) that a cached separating
-        direction rules out, d . w > h_S(d) = f_max * sum_j max(0, d . a_j)."""
+        direction rules out: d . w above the support of W widened by the oracle's tolerance
+        (thrusts within TOL * f_max / 2 outside [0, f_max], i.e. gamma <= 1 + TOL),
+        f_max * sum_j max(0, d . a_j) + TOL * f_max / 2 * sum_j |d . a_j|."""
         if not len(self.pool_d):
             return np.zeros(len(As), dtype=bool)
-        supp = np.maximum(np.einsum("pk,lkm->lpm", self.pool_d, As), 0.0).sum(axis=2)
-        return (self.pool_v > supp * self.f_max * (1.0 + TOL) + 1e-12).any(axis=1)
+        P = np.einsum("pk,lkm->lpm", self.pool_d, As)
+        supp = np.maximum(P, 0.0).sum(axis=2) + 0.5 * TOL * np.abs(P).sum(axis=2)
+        return (self.pool_v > supp * self.f_max + 1e-12).any(axis=1)
 
     def first_feasible(self, keys: list[Key], chunk: int = 512) -> Key | None:
         """The first key (in order) whose structure satisfies the task, or None. Every key up
