@@ -6,14 +6,25 @@ benchmark report.
 ``python train.py --quick`` is a short smoke run (a few thousand steps) into ``runs/quick``.
 ``python train.py --help`` lists every option.
 
-Default recipe (one policy for the whole task distribution): task source ``mixed`` (planted
-tasks of 2-6 modules and paper-like tasks, equal odds), n_max 7, MaskablePPO with the
-``MultiInputPolicy`` (occupancy grid, action mask, task and structure features, flattened and
-concatenated) and a [128, 128] MLP for policy and value, gamma 1 (episodes are at most n_max - 1
-steps, so the module cost is counted exactly), 2 environments, one torch thread. Evaluation on
-40 validation tasks (seeds disjoint from the held-out suites, see :mod:`agents.suites`); the
-model with the best validation return is kept as ``model.zip``; its ``config.json`` holds the
-exact environment keywords, hyperparameters, seed, timesteps, wall time and versions.
+Default recipe (one policy for the whole task distribution, <= 30 min on 2 CPU cores):
+
+1. Expert demonstrations: ``--demo-tasks`` training tasks from the task source (``mixed``:
+   planted tasks of 2-6 modules and paper-like tasks, equal odds), drawn from
+   ``default_rng([seed, 1])`` (disjoint from the validation and held-out seeds); for each, every
+   optimal structure from the certified search and one expert episode that docks towards them
+   (:mod:`agents.imitation`), on ``--workers`` processes.
+2. Behaviour cloning of the MaskablePPO actor-critic on them (``--bc-epochs``): the policy learns
+   which dockings keep an optimal structure reachable, the critic the expert's return-to-go.
+3. MaskablePPO fine-tuning on the environment's own reward (``--timesteps``), n_max 7, the
+   ``MultiInputPolicy`` (occupancy grid, action mask, task and structure features, flattened and
+   concatenated) with a [256, 256] MLP for policy and value, gamma 1 (episodes are at most
+   n_max - 1 steps, so the module cost is counted exactly), 2 environments, one torch thread.
+
+Evaluation on 40 validation tasks (seeds disjoint from the held-out suites, see
+:mod:`agents.suites`) after cloning (step 0) and periodically while fine-tuning; the model with
+the best validation return is kept as ``model.zip``; its ``config.json`` holds the exact
+environment keywords, hyperparameters, seed, timesteps, wall time and versions.
+``--bc-epochs 0`` trains with PPO alone (from scratch), as in the first version of the recipe.
 """
 
 from __future__ import annotations
@@ -29,20 +40,24 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent
 
 HYPERPARAMETERS = {
-    "learning_rate": 3e-4,
+    "learning_rate": 1e-4,
     "n_steps": 256,
     "batch_size": 128,
     "n_epochs": 8,
     "gamma": 1.0,
     "gae_lambda": 0.95,
     "clip_range": 0.2,
-    "ent_coef": 0.01,
+    "ent_coef": 0.005,
     "vf_coef": 0.5,
     "max_grad_norm": 0.5,
-    "net_arch": [128, 128],
+    "net_arch": [256, 256],
 }
-DEFAULT_TIMESTEPS = 300_000
+"""MaskablePPO hyperparameters of the default recipe (fine-tuning after behaviour cloning)."""
+IMITATION = {"demo_tasks": 12_000, "bc_epochs": 40, "bc_batch_size": 256, "bc_learning_rate": 1e-3}
+"""Behaviour-cloning settings of the default recipe (see :mod:`agents.imitation`)."""
+DEFAULT_TIMESTEPS = 200_000
 QUICK_TIMESTEPS = 4_096
+QUICK_DEMO_TASKS = 40
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -89,7 +104,31 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="output folder for model.zip, config.json, evaluations.npz "
         "(default results/ppo_default, runs/quick with --quick)",
     )
-    p.add_argument("--resume", type=Path, default=None, help="continue from this model .zip")
+    p.add_argument(
+        "--demo-tasks",
+        type=int,
+        default=None,
+        help=f"training tasks with an expert episode each for behaviour cloning (default "
+        f"{IMITATION['demo_tasks']}, {QUICK_DEMO_TASKS} with --quick)",
+    )
+    p.add_argument(
+        "--bc-epochs",
+        type=int,
+        default=IMITATION["bc_epochs"],
+        help="behaviour-cloning epochs before PPO; 0: PPO alone from scratch (default %(default)s)",
+    )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=2,
+        help="processes that collect the expert demonstrations (default %(default)s)",
+    )
+    p.add_argument(
+        "--resume",
+        type=Path,
+        default=None,
+        help="continue PPO from this model .zip (no behaviour cloning)",
+    )
     p.add_argument("--quick", action="store_true", help="a short smoke run (a few thousand steps)")
     p.add_argument("--no-report", action="store_true", help="skip the benchmark report")
     p.add_argument(
@@ -135,15 +174,20 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     args = p.parse_args(argv)
     if args.timesteps is None:
         args.timesteps = QUICK_TIMESTEPS if args.quick else DEFAULT_TIMESTEPS
+    if args.demo_tasks is None:
+        args.demo_tasks = QUICK_DEMO_TASKS if args.quick else IMITATION["demo_tasks"]
     if args.out is None:
         args.out = ROOT / ("runs/quick" if args.quick else "results/ppo_default")
     if args.report_dir is None:
         args.report_dir = args.out / "report" if args.quick else ROOT / "results"
     if args.eval_freq is None:
         args.eval_freq = max(args.timesteps // 20, 512)
-    for name in ("timesteps", "n_envs", "n_max", "eval_freq", "checkpoint_freq", "threads"):
+    for name in ("timesteps", "n_envs", "n_max", "eval_freq", "checkpoint_freq", "threads",
+                 "workers", "demo_tasks"):  # fmt: skip
         if getattr(args, name) < 1:
             p.error(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
+    if args.bc_epochs < 0:
+        p.error(f"--bc-epochs must be >= 0, got {args.bc_epochs}")
     for name in ("env_kwargs", "hyperparameters"):
         if not isinstance(getattr(args, name), dict):
             p.error(f"--{name.replace('_', '-')} must be a JSON object")
@@ -190,6 +234,7 @@ def train(args: argparse.Namespace) -> Path:
     from agents.ppo import make_env
     from agents.suites import CyclingTasks, validation_tasks
 
+    t_start = time.perf_counter()
     torch.set_num_threads(args.threads)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -231,13 +276,21 @@ def train(args: argparse.Namespace) -> Path:
             **hp,
         )
     per_env = lambda steps: max(steps // args.n_envs, 1)  # noqa: E731
+    for stale in ("best_model.zip", "evaluations.npz"):  # from an earlier run into this folder
+        (log_dir / stale).unlink(missing_ok=True)
+    eval_cb = MaskableEvalCallback(eval_env, n_eval_episodes=len(val),
+                                   eval_freq=per_env(args.eval_freq), log_path=str(log_dir),
+                                   best_model_save_path=str(log_dir), deterministic=True,
+                                   verbose=0)  # fmt: skip
     callbacks = CallbackList([
-        MaskableEvalCallback(eval_env, n_eval_episodes=len(val), eval_freq=per_env(args.eval_freq),
-                             log_path=str(log_dir), best_model_save_path=str(log_dir),
-                             deterministic=True, verbose=0),
+        eval_cb,
         CheckpointCallback(per_env(args.checkpoint_freq), str(log_dir / "checkpoints"),
                            name_prefix="ppo"),
     ])  # fmt: skip
+    imitation = None
+    if args.resume is None and args.bc_epochs > 0:
+        imitation = pretrain(model, args, env_kwargs, Path(args.tensorboard) / run_name / "bc")
+        evaluate_start(eval_cb, model, eval_env, len(val), log_dir)
     t0 = time.perf_counter()
     model.learn(
         total_timesteps=args.timesteps,
@@ -248,6 +301,10 @@ def train(args: argparse.Namespace) -> Path:
     )
     wall = time.perf_counter() - t0
     model.save(log_dir / "final_model.zip")
+    if eval_cb.evaluations_timesteps:  # also when only the step-0 evaluation ran
+        np.savez(log_dir / "evaluations.npz", timesteps=eval_cb.evaluations_timesteps,
+                 results=eval_cb.evaluations_results, ep_lengths=eval_cb.evaluations_length,
+                 successes=eval_cb.evaluations_successes)  # fmt: skip
 
     # keep the model with the best validation return (the last one if no evaluation ran)
     best = log_dir / "best_model.zip"
@@ -273,9 +330,11 @@ def train(args: argparse.Namespace) -> Path:
         "resumed_from": str(args.resume) if args.resume else None,
         "kept_model": "best validation return" if chosen == best else "final",
         "kept_model_timesteps": best_step if chosen == best else int(model.num_timesteps),
+        "imitation": imitation,
         "validation": {"n_tasks": len(val), "source": val_source,
                        "seeds": "agents.suites.VALIDATION_SEED0 + i"},
-        "wall_seconds": round(wall, 1),
+        "wall_seconds": round(time.perf_counter() - t_start, 1),
+        "ppo_seconds": round(wall, 1),
         "steps_per_second": round(args.timesteps / wall, 1),
         "torch_threads": args.threads,
         "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
@@ -286,6 +345,72 @@ def train(args: argparse.Namespace) -> Path:
     eval_env.close()
     print(f"trained {model.num_timesteps} steps in {wall:.0f} s; model: {out / 'model.zip'}")
     return out / "model.zip"
+
+
+def pretrain(model, args: argparse.Namespace, env_kwargs: dict, log_dir: Path) -> dict:
+    """Expert demonstrations, then behaviour cloning of ``model``'s policy (TensorBoard scalars
+    ``bc/loss`` and ``bc/greedy_good`` per epoch in ``log_dir``). Returns what the config
+    records about it."""
+    import numpy as np
+    from torch.utils.tensorboard import SummaryWriter
+
+    from agents.imitation import clone, collect_parallel
+    from modquad_gym.tasks import make_generator
+
+    t0 = time.perf_counter()
+    generator = make_generator(env_kwargs["tasks"])
+    rng = np.random.default_rng([args.seed, 1])  # never a validation or held-out seed
+    tasks = [generator(rng) for _ in range(args.demo_tasks)]
+    demos = collect_parallel(tasks, env_kwargs, args.n_max, seed=args.seed,
+                             workers=args.workers, progress=not args.no_progress)  # fmt: skip
+    collect_s = time.perf_counter() - t0
+    writer = SummaryWriter(str(log_dir))
+
+    def log(epoch: int, stats: dict) -> None:
+        for key, value in stats.items():
+            writer.add_scalar(f"bc/{key}", value, epoch)
+
+    t1 = time.perf_counter()
+    history = clone(model, demos, epochs=args.bc_epochs, batch_size=IMITATION["bc_batch_size"],
+                    learning_rate=IMITATION["bc_learning_rate"], seed=args.seed,
+                    progress=not args.no_progress, log=log)  # fmt: skip
+    writer.close()
+    return {
+        "demo_tasks": args.demo_tasks,
+        "expert_episodes": demos.n_tasks,
+        "states": len(demos),
+        "epochs": args.bc_epochs,
+        "batch_size": IMITATION["bc_batch_size"],
+        "learning_rate": IMITATION["bc_learning_rate"],
+        "task_seed": f"default_rng([{args.seed}, 1])",
+        "collect_seconds": round(collect_s, 1),
+        "clone_seconds": round(time.perf_counter() - t1, 1),
+        "final_loss": round(history[-1]["loss"], 4),
+        "final_greedy_good": round(history[-1]["greedy_good"], 4),
+    }
+
+
+def evaluate_start(eval_cb, model, eval_env, n_episodes: int, log_dir: Path) -> None:
+    """Evaluate the cloned policy before PPO (step 0 of the learning curve) and make it the
+    best model so far, so fine-tuning is kept only if it beats cloning on validation."""
+    import numpy as np
+    from sb3_contrib.common.maskable.evaluation import evaluate_policy
+
+    successes: list[bool] = []
+
+    def on_step(locals_: dict, _globals: dict) -> None:
+        if locals_["done"]:
+            successes.append(bool(locals_["info"].get("is_success", False)))
+
+    rewards, lengths = evaluate_policy(model, eval_env, n_eval_episodes=n_episodes,
+                                       deterministic=True, return_episode_rewards=True,
+                                       callback=on_step)  # fmt: skip
+    eval_cb.evaluations_timesteps.append(0)
+    eval_cb.evaluations_results.append(list(rewards))
+    eval_cb.evaluations_length.append(list(lengths))
+    eval_cb.evaluations_successes.append(successes)
+    eval_cb.best_mean_reward = float(np.mean(rewards))
+    model.save(log_dir / "best_model.zip")
 
 
 def main(argv: list[str] | None = None) -> int:

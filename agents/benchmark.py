@@ -33,7 +33,7 @@ from .solvers import DEFAULT_MODEL, Solver, make_solver
 from .suites import SUITES_DIR
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo", "ppo-k8")
+DEFAULT_METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo", "ppo-k2", "ppo-k8")
 GOALS = {"success": 0.98, "optimal": 0.90}
 CSV_FIELDS = (
     "suite", "task", "optimum", "method", "success", "n_modules", "gap", "optimal",

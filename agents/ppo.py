@@ -26,6 +26,7 @@ from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.oracle import feasible
 from modquad_gym.search import SearchResult
 from modquad_gym.structure import Structure, normalise
+from modquad_gym.tasks import TaskRequirement
 
 from .solvers import DEFAULT_MODEL
 
@@ -167,10 +168,9 @@ class PPOSolver:
         sampled ones (None when none verifies within ``n_max`` modules). ``evaluated`` counts
         the distinct structures (up to translation) the rollouts evaluated; a structure met
         again costs no oracle call (the environment memoises per task)."""
-        from modquad_gym.envs.assembly import _as_task
-
         t0 = time.perf_counter()
-        task = _as_task(task)
+        if not isinstance(task, TaskRequirement):
+            task = TaskRequirement(task, name="task")  # a (t, 6) wrench array
         W = np.asarray(task.wrenches, dtype=float)
         f_max = float(task.f_max)
         best: Structure | None = None

@@ -45,12 +45,40 @@ def tiny_model(tmp_path_factory) -> Path:
     out = tmp / "model"
     argv = ["--timesteps", "3072", "--task-source", str(suite), "--n-max", str(TINY_N_MAX),
             "--out", str(out), "--tensorboard", str(tmp / "tb"), "--no-report", "--no-progress",
-            "--n-eval", "4", "--eval-freq", "1024", "--seed", "3"]  # fmt: skip
+            "--n-eval", "4", "--eval-freq", "1024", "--seed", "3",
+            "--bc-epochs", "0", "--hyperparameters",
+            '{"learning_rate": 3e-4, "ent_coef": 0.01, "net_arch": [128, 128]}']  # PPO alone: this model shows that PPO itself learns  # fmt: skip
     assert train.main(argv) == 0
     config = json.loads((out / "config.json").read_text())
     assert config["env_kwargs"] == {"tasks": str(suite), "n_max": TINY_N_MAX}
     assert config["timesteps"] >= 3072 and (out / "evaluations.npz").is_file()
     return out / "model.zip"
+
+
+def test_train_clones_the_expert_before_ppo(tmp_path):
+    """The default recipe's path: demonstrations, cloning, a step-0 evaluation, fine-tuning."""
+    suite = save_suite(_tiny_tasks(), tmp_path / "tiny.json")
+    spec = importlib.util.spec_from_file_location("train_script", ROOT / "train.py")
+    train = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(train)
+    out = tmp_path / "model"
+    argv = ["--timesteps", "512", "--task-source", str(suite), "--n-max", str(TINY_N_MAX),
+            "--out", str(out), "--tensorboard", str(tmp_path / "tb"), "--no-report",
+            "--no-progress", "--n-eval", "4", "--eval-freq", "256", "--demo-tasks", "16",
+            "--bc-epochs", "30", "--workers", "1"]  # fmt: skip
+    assert train.main(argv) == 0
+    config = json.loads((out / "config.json").read_text())
+    assert config["imitation"]["expert_episodes"] == 16
+    assert config["imitation"]["final_greedy_good"] == 1.0
+    evals = np.load(out / "evaluations.npz")
+    assert evals["timesteps"][0] == 0 and evals["results"].shape[1] == 4  # cloned, before PPO
+    assert list((tmp_path / "tb" / "model" / "bc").glob("events.out.tfevents.*"))
+    from agents.ppo import PPOSolver
+
+    solver = PPOSolver(model=out / "model.zip", n_max=TINY_N_MAX)
+    for task in _tiny_tasks():
+        r = solver.solve(task)
+        assert r.n_modules == 2 and _ok(r.structure.cells, task)
 
 
 def test_search_solvers_share_the_interface():
