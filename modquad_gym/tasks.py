@@ -697,7 +697,12 @@ def make_generator(spec: Any) -> TaskGenerator:
 
     * ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"`` (planted and paper, equal odds);
     * a path to a task file (``.json``/``.csv``/``.npy``) or a suite JSON: those fixed tasks;
-    * a :class:`TaskRequirement`: always that task; a generator: itself;
+    * a :class:`TaskRequirement`: always that task; a :class:`TaskGenerator` (``name`` and
+      ``__call__(rng)``): itself;
+    * any other callable ``gen(rng)`` (a function, a lambda, a bound method): wrapped as a
+      generator named after it; each result must be a :class:`TaskRequirement` or a (t, 6)
+      wrench array (made a TaskRequirement), anything else raises ValueError when drawn. The
+      wrapper pickles when ``gen`` does;
     * a list or tuple of any of these: tasks are pooled into one :class:`FixedTasks` (uniform
       over tasks); if any element is a random generator, a :class:`MixedTasks` (uniform over
       elements).
@@ -733,11 +738,48 @@ def make_generator(spec: Any) -> TaskGenerator:
             f"unknown task spec {key!r}: not one of {', '.join(GENERATORS)} and not an existing "
             f"task file ({', '.join(SUFFIXES)})"
         )
+    if isinstance(spec, type):  # before the protocol check: a class has name and __call__
+        raise ValueError(
+            f"cannot make a task generator from the class {spec.__name__}; pass an instance "
+            f"(e.g. {spec.__name__}()) or a function gen(rng) -> TaskRequirement"
+        )
     if isinstance(spec, TaskGenerator):
         return spec
+    if callable(spec):
+
+        class CallableTasks:
+            """A callable ``gen(rng)`` as a TaskGenerator; its results are checked."""
+
+            def __init__(self, fn: Any) -> None:
+                self.fn = fn
+                self.name = str(getattr(fn, "__name__", None) or type(fn).__name__)
+
+            def __call__(self, rng: np.random.Generator) -> TaskRequirement:
+                task = self.fn(rng)
+                if isinstance(task, TaskRequirement):
+                    return task
+                what = f"task generator {self.name!r} returned"
+                if not isinstance(task, (np.ndarray, list, tuple)):
+                    raise ValueError(
+                        f"{what} {type(task).__name__}; it must return a TaskRequirement or a "
+                        f"(t, 6) wrench array"
+                    )
+                try:
+                    return TaskRequirement(task, name=self.name)
+                except ValueError as exc:
+                    raise ValueError(f"{what} a bad wrench array: {exc}") from None
+
+            def __reduce__(self) -> tuple:  # pickles as make_generator(fn)
+                return (make_generator, (self.fn,))
+
+            def __repr__(self) -> str:
+                return f"make_generator({self.fn!r})"
+
+        return CallableTasks(spec)
     raise ValueError(
         f"cannot make a task generator from {type(spec).__name__} {spec!r}; give a name "
-        f"({', '.join(GENERATORS)}), a task file, a TaskRequirement, a generator or a list"
+        f"({', '.join(GENERATORS)}), a task file, a TaskRequirement, a generator (any "
+        f"callable gen(rng) -> TaskRequirement) or a list"
     )
 
 

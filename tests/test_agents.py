@@ -43,11 +43,12 @@ def tiny_model(tmp_path_factory) -> Path:
     train = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(train)
     out = tmp / "model"
+    # PPO alone (no cloning), with from-scratch settings: this model shows that PPO learns
     argv = ["--timesteps", "3072", "--task-source", str(suite), "--n-max", str(TINY_N_MAX),
             "--out", str(out), "--tensorboard", str(tmp / "tb"), "--no-report", "--no-progress",
-            "--n-eval", "4", "--eval-freq", "1024", "--seed", "3",
-            "--bc-epochs", "0", "--hyperparameters",
-            '{"learning_rate": 3e-4, "ent_coef": 0.01, "net_arch": [128, 128]}']  # PPO alone: this model shows that PPO itself learns  # fmt: skip
+            "--n-eval", "4", "--eval-freq", "1024", "--seed", "3", "--bc-epochs", "0",
+            "--hyperparameters",
+            '{"learning_rate": 3e-4, "ent_coef": 0.01, "net_arch": [128, 128]}']  # fmt: skip
     assert train.main(argv) == 0
     config = json.loads((out / "config.json").read_text())
     assert config["env_kwargs"] == {"tasks": str(suite), "n_max": TINY_N_MAX}

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import math
 import pickle
+import subprocess
+import sys
 import warnings
 
 import gymnasium as gym
@@ -17,7 +20,7 @@ from modquad_gym.envs.features import CANDIDATE_FEATURES, AssemblyFeatures, unit
 from modquad_gym.envs.reward import episode_return
 from modquad_gym.oracle import feasible
 from modquad_gym.structure import Structure, is_connected
-from modquad_gym.tasks import PlantedTasks, TaskRequirement
+from modquad_gym.tasks import PlantedTasks, TaskGenerator, TaskRequirement, make_generator
 
 SMALL = PlantedTasks(n_modules=(2, 4), n_wrenches=(4, 16))
 
@@ -71,6 +74,23 @@ def test_registered_ids_make_and_double_registration_is_harmless():
     assert env.action_space.n == 9 * 9
 
 
+def test_module_prefixed_id_makes_the_env_in_a_fresh_process():
+    """gymnasium 1.x ignores the ``gymnasium.envs`` entry point; ``"modquad_gym:..."`` imports
+    the package (which registers the ids) before making the env."""
+    code = (
+        "import sys, gymnasium as gym\n"
+        "assert 'modquad_gym' not in sys.modules\n"
+        "env = gym.make('modquad_gym:ModQuadAssembly-v0', n_max=4)\n"
+        "obs, info = env.reset(seed=0)\n"
+        "print(type(env.unwrapped).__name__, env.action_space.n, info['n_modules'])\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=False
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["ModQuadAssemblyEnv", "49", "1"]
+
+
 @pytest.mark.parametrize("render_mode", [None, "rgb_array", "ansi"])
 def test_gymnasium_check_env_passes_without_warnings(render_mode):
     from gymnasium.utils.env_checker import check_env
@@ -114,19 +134,38 @@ def test_action_cell_mapping_is_the_documented_formula():
         env.action_of((5, 0))
 
 
-def test_out_of_space_actions_raise_but_in_space_invalid_actions_do_not():
-    env = small_env()
+def test_anything_but_a_valid_action_is_an_invalid_action_and_never_raises():
+    env = small_env(max_steps=100)
     env.reset(seed=0)
-    for bad in (-1, env.action_space.n, 2.5, "3", [1, 2]):
-        with pytest.raises(ValueError, match="action"):
-            env.step(bad)
+    n = int(env.action_space.n)
     occupied = env.action_of((0, 0))
     far = env.action_of((3, 3))
-    for a in (occupied, far, np.int64(far), np.array(far)):
+    not_actions = (-1, n, 2**70, 2.5, float("nan"), float("inf"), True, np.bool_(False), None)
+    not_actions += ("3", [1, 2], [], np.array([1, 2]), 1 + 0j, {}, object())
+    in_space = (occupied, far, np.int64(far), np.array(far), np.uint8(occupied))
+    for a in not_actions + in_space:
         obs, r, term, trunc, info = env.step(a)
         assert info["invalid_action"] and not term
         assert r == pytest.approx(-env.weights.w_invalid)
         assert info["cells"] == [[0, 0]]
+        assert obs["occupancy"].sum() == 1 and obs["action_mask"].sum() == 4
+
+
+def test_whole_number_floats_and_one_element_arrays_are_that_action():
+    right = small_env().action_of((1, 0))
+    for a in (
+        float(right),
+        np.float32(right),
+        np.array([float(right)]),
+        [right],
+        np.array([[right]]),
+    ):
+        env, ref = small_env(), small_env()
+        env.reset(seed=2)
+        ref.reset(seed=2)
+        got, expected = env.step(a), ref.step(right)
+        assert_same(got, expected)
+        assert got[-1]["cells"] == [[0, 0], [1, 0]] and not got[-1]["invalid_action"]
 
 
 def test_terminate_mode_ends_the_episode_on_an_invalid_action():
@@ -181,6 +220,66 @@ def test_reset_option_task_and_info_keys():
         env.reset(options={"tsk": task})
     with pytest.raises(ValueError, match=r"\(t, 6\)"):
         env.reset(options={"task": np.zeros((3, 5))})
+
+
+def lifting_tasks(rng: np.random.Generator) -> np.ndarray:
+    """A plain module-level task source gen(rng) that returns a wrench array."""
+    return rng.uniform(-0.2, 0.2, size=(3, 6)) + [0.0, 0.0, 2.0, 0.0, 0.0, 0.0]
+
+
+def test_any_callable_is_a_task_source():
+    task = TaskRequirement(np.array([[0.0, 0.0, 2.0, 0.0, 0.0, 0.0]]), name="lift")
+    env = gym.make("ModQuadAssembly-v0", tasks=lambda rng: task, n_max=4)
+    obs, info = env.reset(seed=0)
+    assert env.unwrapped.task is task and info["task_name"] == "lift"
+    env = small_env(tasks=lifting_tasks)
+    _, info = env.reset(seed=3)
+    first = env.task
+    assert isinstance(first, TaskRequirement) and first.name == "lifting_tasks"
+    assert info["n_wrenches"] == 3
+    env.reset(seed=3)
+    np.testing.assert_array_equal(env.task.wrenches, first.wrenches)  # seeded
+    env.step(env.action_of((1, 0)))
+    clone = pickle.loads(pickle.dumps(env))  # a module-level function pickles
+    assert_same(env.step(env.action_of((2, 0))), clone.step(clone.action_of((2, 0))))
+    gen = make_generator(lifting_tasks)
+    assert isinstance(gen, TaskGenerator) and gen.name == "lifting_tasks"
+    assert isinstance(pickle.loads(pickle.dumps(gen))(np.random.default_rng(0)), TaskRequirement)
+    mixed = make_generator([lifting_tasks, "paper"])
+    assert {mixed(np.random.default_rng(s)).name for s in range(20)} == {
+        "lifting_tasks",
+        "paper-abs",
+    }
+
+
+class _NamedBadSource:
+    name = "named-bad"
+
+    def __call__(self, rng):
+        return {"wrenches": []}
+
+
+@pytest.mark.parametrize(
+    "source, match",
+    [
+        (lambda rng: None, "NoneType"),
+        (lambda rng: "task", "str"),
+        (lambda rng: np.zeros((3, 5)), r"\(t, 6\)"),
+        (lambda rng: np.zeros((0, 6)), "at least one wrench"),
+        (lambda rng: np.full((2, 6), np.nan), "finite"),
+        (_NamedBadSource(), "named-bad"),
+    ],
+)
+def test_a_task_source_returning_no_task_raises_a_clear_error_at_reset(source, match):
+    env = small_env(tasks=source)  # the source is not called before reset
+    with pytest.raises(ValueError, match=match) as info:
+        env.reset(seed=0)
+    assert "task generator" in str(info.value)
+
+
+def test_task_source_classes_are_refused_with_a_hint():
+    with pytest.raises(ValueError, match=r"instance \(e.g. PlantedTasks\(\)\)"):
+        small_env(tasks=PlantedTasks)
 
 
 @pytest.mark.parametrize(
@@ -334,6 +433,56 @@ def test_mask_structure_and_return_properties(seed, actions, mode):
         n_invalid,
     )
     assert total == pytest.approx(expected, abs=1e-9)
+
+
+NOT_ACTIONS = st.one_of(
+    st.integers(max_value=-1),
+    st.integers(min_value=49),
+    st.floats().filter(lambda x: not (math.isfinite(x) and x.is_integer() and 0 <= x < 49)),
+    st.integers(0, 48).map(lambda a: a + 0.5),
+    st.integers(0, 48).map(lambda a: np.float32(a - 49)),
+    st.booleans(),
+    st.builds(np.bool_, st.booleans()),
+    st.none(),
+    st.text(max_size=3),
+    st.lists(st.integers(0, 48), min_size=2, max_size=3),
+    st.lists(st.integers(0, 48), max_size=0),
+    st.integers(0, 48).map(lambda a: np.array([a, a])),
+    st.complex_numbers(allow_nan=False),
+    st.dictionaries(st.text(max_size=1), st.integers(), max_size=1),
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 2**16),
+    n_docked=st.integers(0, 2),
+    action=NOT_ACTIONS,
+    mode=st.sampled_from(["penalise", "terminate"]),
+)
+def test_non_actions_change_nothing_and_never_raise(seed, n_docked, action, mode):
+    env = PROPERTY_ENV[mode]
+    obs, info = env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    for _ in range(n_docked):  # some valid steps first
+        valid = np.flatnonzero(env.action_masks())
+        if info["success"] or not len(valid):
+            break
+        obs, _, term, _, info = env.step(int(rng.choice(valid)))
+        if term:
+            return
+    if info["success"]:  # solved at reset: any action just ends the episode
+        return
+    before = (obs, info["cells"], info["satisfied_fraction"], env.action_masks().copy())
+    obs, r, term, trunc, info = env.step(action)
+    assert info["invalid_action"]
+    assert r == pytest.approx(-env.weights.w_invalid)
+    assert term == (mode == "terminate")
+    assert info["cells"] == before[1] and info["satisfied_fraction"] == before[2]
+    for key in ("occupancy", "task", "structure"):
+        np.testing.assert_array_equal(obs[key], before[0][key])
+    if not term:
+        np.testing.assert_array_equal(env.action_masks(), before[3])
 
 
 def test_fewer_modules_earn_more_for_successful_episodes():

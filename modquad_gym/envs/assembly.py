@@ -18,6 +18,7 @@ from gymnasium.error import ResetNeeded
 from ..module import ModuleType
 from ..oracle import WrenchOracle, check_f_max
 from ..structure import Cell, Key, Structure, configuration_matrices, normalise
+from ..tasks import TaskRequirement, make_generator
 from .features import CANDIDATE_FEATURES, DEFAULT_N_DIRECTIONS, AssemblyFeatures
 from .reward import RewardWeights
 
@@ -28,10 +29,27 @@ _MEMO_TASKS = 16
 _STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
 
 
+class _Capability:
+    """What the env keeps per structure (translation key), for any task: its configuration
+    matrix, support values (see :meth:`AssemblyFeatures.support`), rank and the
+    task-independent part of its structure vector (:meth:`AssemblyFeatures.structure_head`)."""
+
+    __slots__ = ("A", "h_Wn", "slack", "rank", "head")
+
+    def __init__(
+        self, A: np.ndarray, rank: int, n_modules: int, features: AssemblyFeatures
+    ) -> None:
+        self.A = A
+        self.rank = rank
+        self.h_Wn, self.slack = features.support(A)
+        self.head = features.structure_head(self.h_Wn, rank, n_modules)
+
+
 class _Backend:
     """Everything that depends on (module, n_max, f_max, K) and survives across episodes: the
-    oracle with its per-structure zonotope cache, the feature maker, and per-structure support
-    values. Reusing it across episodes is what makes steps fast with a fresh task each episode."""
+    oracle with its per-structure zonotope cache, the feature maker, and per-structure
+    capability and support values. Reusing it across episodes is what makes steps fast with a
+    fresh task each episode."""
 
     def __init__(
         self, module: ModuleType, n_max: int, f_max: float, n_directions: int, method: str
@@ -39,21 +57,25 @@ class _Backend:
         self.module = module
         self.oracle = WrenchOracle(f_max, method=method)
         self.features = AssemblyFeatures(module, n_max, f_max, n_directions)
-        self.capability: dict[Key, tuple] = {}
+        self.capability: dict[Key, _Capability] = {}
         self.supports: dict[Key, tuple[np.ndarray, float]] = {}
+        self.tests = 0  # wrench-structure tests made (info["oracle_calls"] counts these)
 
-    def capability_of(self, key: Key) -> tuple[np.ndarray, np.ndarray, float, int]:
-        """(A, h_W / denom, rejection slack, rank) of the structure with translation ``key``
-        (see :meth:`AssemblyFeatures.support`), cached."""
+    def capability_of(self, key: Key) -> _Capability:
+        """The :class:`_Capability` of the structure with translation ``key``, cached."""
         hit = self.capability.get(key)
         if hit is None:
             if len(self.capability) >= _CACHE_SIZE:
                 self.capability.clear()
-            A = Structure(key, module=self.module).configuration_matrix()
+            A = Structure.from_trusted(key, module=self.module).configuration_matrix()
             rank = self.oracle.zonotope(A, key=key).rank
-            hit = (A, *self.features.support(A), rank)
-            self.capability[key] = hit
+            hit = self.capability[key] = _Capability(A, rank, len(key), self.features)
         return hit
+
+    def count_feasible(self, cap: _Capability, key: Key, W: np.ndarray) -> int:
+        """How many rows of W (k, 6) the structure ``key`` can produce (exact oracle)."""
+        self.tests += len(W)
+        return int(np.count_nonzero(self.oracle.feasible(cap.A, W, key=key)))
 
     def supports_of(self, keys: list[Key]) -> tuple[np.ndarray, np.ndarray]:
         """(h_W / denom (L, K), slack (L,)) of the structures ``keys`` (all of one size), cached
@@ -80,16 +102,28 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     W = {A u : 0 <= u <= f_max}, decided exactly by :class:`~modquad_gym.oracle.WrenchOracle`.
     The goal is to satisfy every wrench with as few modules as possible (paper Problem 1).
 
+    Make it with ``gym.make("modquad_gym:ModQuadAssembly-v0", **kwargs)``, which imports
+    ``modquad_gym`` (and so registers the environment) first and works in a fresh process; after
+    ``import modquad_gym``, ``gym.make("ModQuadAssembly-v0", **kwargs)`` works too. (Gymnasium 1.x
+    does not load the ``gymnasium.envs`` entry point, so the bare id needs the import.)
+
     ## Action Space
     ``Discrete(G * G)`` with G = 2 * n_max - 1: one action per grid cell (x, y), with x and y in
     [-(n_max - 1), n_max - 1] around the initial module at (0, 0):
     ``a = (y + n_max - 1) * G + (x + n_max - 1)``. Action a is *valid* when its cell is empty,
     4-adjacent to the structure and the episode is not over; a valid action docks a module there.
-    An invalid action never raises: it leaves the structure unchanged and costs ``w_invalid``
-    (``invalid_action="penalise"``) or also ends the episode (``"terminate"``). The mask of valid
-    actions is exposed three ways: ``action_masks()`` (bool, also before ``reset``, for
-    sb3-contrib's MaskablePPO), ``obs["action_mask"]`` and ``info["action_mask"]``. In a terminal
-    state (and in the rare task that one module already satisfies) no action is valid.
+    The mask of valid actions is exposed three ways: ``action_masks()`` (bool, also before
+    ``reset``, for sb3-contrib's MaskablePPO), ``obs["action_mask"]`` and
+    ``info["action_mask"]``. In a terminal state (and in the rare task that one module already
+    satisfies) no action is valid.
+
+    Every other action is *invalid*, and an invalid action never raises: it leaves the
+    structure unchanged and costs ``w_invalid`` (``invalid_action="penalise"``) or also ends the
+    episode (``"terminate"``), with ``info["invalid_action"]`` True. Invalid are an empty cell
+    that is not adjacent, an occupied cell, and anything that is not an integer in
+    ``[0, G * G)``: -1, G * G, 2.5, nan, True, None, "3", [1, 2], ... An integer is a Python
+    or numpy integer or a one-element array of integer dtype; a whole-number float (3.0,
+    ``np.float32(3)``, ``np.array([3.0])``) counts as that integer; a boolean never does.
 
     ## Observation Space
     A ``Dict`` of Boxes (float32 unless noted), fixed-size for any number t of task wrenches:
@@ -141,8 +175,10 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
 
     ## Arguments
     * ``tasks``: task source: ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"``
-      (default), a task file path, a TaskRequirement, a list of them, or a generator
-      ``gen(rng) -> TaskRequirement``; see :func:`modquad_gym.tasks.make_generator`.
+      (default), a task file path, a TaskRequirement, a list of them, or a generator: any
+      callable ``gen(rng) -> TaskRequirement`` (or a (t, 6) wrench array), called with
+      ``self.np_random`` at each reset; a result of another kind raises a ValueError there.
+      See :func:`modquad_gym.tasks.make_generator`.
     * ``n_max``: the largest number of modules (default 7, as in the paper), >= 2.
     * ``module``: the :class:`~modquad_gym.module.ModuleType` of every module (default the
       T-module, eta = pi/4).
@@ -166,7 +202,10 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
 
     ## Version History
     * v0: initial version; the opt-in ``lookahead`` keyword (``"candidates"`` observation)
-      was added later and leaves the default observation unchanged.
+      was added later and leaves the default observation unchanged. Later still, actions that
+      are not integers of the action space became invalid actions (they used to raise a
+      ValueError), and any callable became a task source; observations, rewards and infos of
+      valid input are unchanged.
     """
 
     metadata = {"render_modes": ["rgb_array", "ansi"], "render_fps": 4}
@@ -186,8 +225,6 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         render_size: tuple[int, int] = (256, 256),
         lookahead: bool = False,
     ) -> None:
-        from ..tasks import make_generator
-
         if isinstance(n_max, bool) or not isinstance(n_max, (int, np.integer)) or n_max < 2:
             raise ValueError(f"n_max must be an integer >= 2, got {n_max!r}")
         if module is not None and not isinstance(module, ModuleType):
@@ -230,6 +267,8 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self._memos: dict[tuple[int, float], tuple[Any, dict]] = {}
         probe = self._backend(1.0 if self.f_max is None else self.f_max).features
         self.action_space = spaces.Discrete(G * G)
+        self._n_actions = G * G
+        self._centre = self.action_of((0, 0))
         obs_spaces = {
             "occupancy": spaces.Box(0.0, 1.0, (G * G,), np.float32),
             "action_mask": spaces.Box(0, 1, (G * G,), np.int8),
@@ -259,20 +298,25 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         y, x = divmod(int(action), self.side)
         return (x - self.radius, y - self.radius)
 
-    def _parse_action(self, action: Any) -> int:
+    def _parse_action(self, action: Any) -> int | None:
+        """The integer action in [0, G * G), or None for anything else (an invalid action; see
+        Action Space): never raises."""
+        n = self._n_actions
         if type(action) is int or isinstance(action, np.integer):  # the fast, common case
-            a = int(action)
-            if 0 <= a < self.side * self.side:
-                return a
-        arr = np.asarray(action)
-        if arr.size != 1 or not (np.issubdtype(arr.dtype, np.integer)):
-            raise ValueError(
-                f"action must be one integer in [0, {self.action_space.n}), got {action!r}"
-            )
-        a = int(arr.reshape(-1)[0])
-        if not 0 <= a < self.action_space.n:
-            raise ValueError(f"action {a} is outside Discrete({self.action_space.n})")
-        return a
+            return int(action) if 0 <= action < n else None
+        if isinstance(action, (bool, np.bool_)):
+            return None
+        try:
+            arr = np.asarray(action)
+            if arr.size != 1 or arr.dtype.kind not in "iuf":
+                return None
+            value = arr.reshape(-1)[0]
+            if arr.dtype.kind == "f" and not (np.isfinite(value) and value == np.floor(value)):
+                return None
+            a = int(value)
+        except Exception:  # whatever it is, it is not an action
+            return None
+        return a if 0 <= a < n else None
 
     # --- state ----------------------------------------------------------------------------
     def _backend(self, f_max: float) -> _Backend:
@@ -324,16 +368,18 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         key = normalise(self._cells)
         hit = self._memo.get(key)
         if hit is None:
-            A, h_Wn, slack, rank = b.capability_of(key)
-            per_wrench = b.features.per_wrench(self._WD, h_Wn)
+            cap = b.capability.get(key) or b.capability_of(key)
+            per_wrench = np.maximum.reduce(self._WD - cap.h_Wn, axis=1)
             # a wrench beyond the exact support of W in a feature direction (by more than the
-            # oracle's tolerance) is certainly infeasible; only the others go to the oracle
-            open_ = per_wrench <= slack
+            # oracle's tolerance) is certainly infeasible; only the others are tested
+            open_ = per_wrench <= cap.slack
+            n_open = np.count_nonzero(open_)
             n_sat = 0
-            if open_.any():
-                n_sat = int(np.count_nonzero(b.oracle.feasible(A, self._W[open_], key=key)))
-            vec = b.features.structure(
-                h_Wn, self._h_Tn, per_wrench, rank, len(key), n_sat / len(self._W)
+            if n_open:
+                W = self._W if n_open == len(open_) else self._W[open_]
+                n_sat = b.count_feasible(cap, key, W)
+            vec = b.features.structure_against(
+                cap.head, cap.h_Wn, self._h_Tn, per_wrench, n_sat / len(self._W)
             )
             hit = self._memo[key] = (n_sat, vec)
         n_sat, self._structure_vec = hit
@@ -374,7 +420,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
             "success": self._success,
             "cells": [[x, y] for x, y in self._cells],
             "evaluated": self._evaluated,
-            "oracle_calls": self._be.oracle.calls - self._calls0,
+            "oracle_calls": self._be.tests - self._calls0,
             "action_mask": self._mask.astype(bool),
             "task_name": self._task_name,
             "n_wrenches": len(self._W),
@@ -392,9 +438,12 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         if unknown:
             raise ValueError(f"unknown reset options {unknown}; known: ['task']")
         if options.get("task") is not None:
-            task = _as_task(options["task"])
+            task = _as_task(options["task"], "options['task']")
         else:
             task = self.generator(self.np_random)
+            if not isinstance(task, TaskRequirement):
+                name = str(getattr(self.generator, "name", type(self.generator).__name__))
+                task = _as_task(task, f"task generator {name!r} returned a bad task", name)
         W = np.asarray(task.wrenches, dtype=float)
         if W.ndim != 2 or W.shape[1] != 6 or len(W) == 0:
             raise ValueError(
@@ -409,11 +458,11 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         G = self.side
         self._cells = [(0, 0)]
         self._occ = np.zeros(G * G, dtype=np.float32)
-        self._occ[self.action_of((0, 0))] = 1.0
+        self._occ[self._centre] = 1.0
         self._mask = self._initial_mask.copy()
         self._steps = 0
         self._evaluated = 0
-        self._calls0 = self._be.oracle.calls
+        self._calls0 = self._be.tests
         self._evaluate()
         self._frac0 = self._frac
         self._done = False
@@ -433,9 +482,9 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self._steps += 1
         added = invalid = False
         frac_before = self._frac
-        if self._success:  # solved at reset: this step only ends the episode
+        if self._success:  # solved at reset: this step (any action) only ends the episode
             terminated = True
-        elif self._mask[a]:
+        elif a is not None and self._mask[a]:
             added = True
             x, y = self.cell_of(a)
             self._cells.append((x, y))
@@ -501,15 +550,21 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         return "\n".join(rows) + "\n"
 
 
-def _as_task(task: Any) -> Any:
-    """A TaskRequirement from a TaskRequirement or a (t, 6) wrench array."""
-    from ..tasks import TaskRequirement
-
+def _as_task(task: Any, what: str, name: str = "options-task") -> TaskRequirement:
+    """A TaskRequirement from a TaskRequirement or a (t, 6) wrench array (named ``name``); for
+    anything else a ValueError whose message starts with ``what``."""
     if isinstance(task, TaskRequirement):
         return task
-    arr = np.asarray(task, dtype=float)
-    if arr.ndim != 2 or arr.shape[1] != 6:
+    try:
+        arr = np.asarray(task, dtype=float)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or arr.ndim != 2 or arr.shape[1] != 6:
+        got = type(task).__name__ if arr is None or arr.ndim == 0 else f"shape {arr.shape}"
         raise ValueError(
-            f"options['task'] must be a TaskRequirement or a (t, 6) wrench array, got {arr.shape}"
-        )
-    return TaskRequirement(arr, name="options-task")
+            f"{what}: expected a TaskRequirement or a (t, 6) wrench array, got {got}"
+        ) from None
+    try:
+        return TaskRequirement(arr, name=name)
+    except ValueError as exc:
+        raise ValueError(f"{what}: not a valid task: {exc}") from None

@@ -125,21 +125,31 @@ class AssemblyFeatures:
         """(task vector float32, h_T / denom (K,), WD (t, K) = (d . w_i) / denom) for W (t, 6)."""
         proj = W @ self.D.T  # (t, K)
         h_T = proj.max(axis=0)
-        f = np.linalg.norm(W[:, :3], axis=1)
-        tau = np.linalg.norm(W[:, 3:], axis=1)
+        # the same operations as np.linalg.norm(., axis=1), .mean() and .std(), minus overhead
+        F, T, fz = W[:, :3], W[:, 3:], W[:, 2]
+        f = np.sqrt(np.add.reduce(F * F, axis=1))
+        tau = np.sqrt(np.add.reduce(T * T, axis=1))
+        t = len(W)
+        fz_mean = np.add.reduce(fz) / t
+        dev = fz - fz_mean
+        dev *= dev
+        fz_std = math.sqrt(np.add.reduce(dev) / t)
         s = self.scale
-        scalars = [
-            f.mean() / s,
+        ts = self.side * s
+        vec = np.empty(self.task_size)
+        vec[: self.k] = h_T
+        vec[: self.k] /= s
+        vec[self.k :] = (
+            np.add.reduce(f) / t / s,
             f.max() / s,
-            tau.mean() / (self.side * s),
-            tau.max() / (self.side * s),
-            W[:, 2].mean() / s,
-            W[:, 2].std() / s,
-            math.log1p(len(W)) / math.log1p(_T_REF),
-        ]
-        vec = np.concatenate([h_T / s, scalars])
-        WD = proj / self.denom
-        return np.clip(vec, -1.0, 1.0).astype(np.float32), h_T / self.denom, WD
+            np.add.reduce(tau) / t / ts,
+            tau.max() / ts,
+            fz_mean / s,
+            fz_std / s,
+            math.log1p(t) / math.log1p(_T_REF),
+        )
+        np.clip(vec, -1.0, 1.0, out=vec)
+        return vec.astype(np.float32), h_T / self.denom, proj / self.denom
 
     # --- structure (every step) -----------------------------------------------------------
     def support(self, A: np.ndarray) -> tuple[np.ndarray, float]:
@@ -191,22 +201,43 @@ class AssemblyFeatures:
         """The structure vector (float32, 2K + 7) of a structure against the current task.
 
         ``h_Wn`` and ``h_Tn`` are the supports divided by denom; ``per_wrench`` (t,) is
-        max_d (d . w_i - h_W(d)) / denom(d), from :meth:`per_wrench`.
+        max_d (d . w_i - h_W(d)) / denom(d), from :meth:`per_wrench`. Equals
+        ``structure_against(structure_head(h_Wn, rank, n_modules), ...)``.
         """
-        out = np.empty(self.structure_size, dtype=np.float32)
+        head = self.structure_head(h_Wn, rank, n_modules)
+        return self.structure_against(head, h_Wn, h_Tn, per_wrench, satisfied_fraction)
+
+    def structure_head(self, h_Wn: np.ndarray, rank: int, n_modules: int) -> np.ndarray:
+        """The task-independent entries of the structure vector (float32, 2K + 7; the others
+        zero): h_W / scale, n_modules / n_max and rank / 6, clipped. Cache it per structure."""
+        out = np.zeros(self.structure_size, dtype=np.float32)
         k = self.k
         out[:k] = h_Wn * self._denom_over_scale
-        out[k : 2 * k] = h_Tn - h_Wn
-        out[2 * k :] = (
-            satisfied_fraction,
-            n_modules / self.n_max,
-            rank / 6.0,
-            np.count_nonzero(h_Wn >= h_Tn) / k,
-            per_wrench.sum() / len(per_wrench),
-            per_wrench.max(),
-            per_wrench.min(),
-        )
+        out[2 * k + 1] = n_modules / self.n_max
+        out[2 * k + 2] = rank / 6.0
         return np.clip(out, -1.0, 1.0, out=out)
+
+    def structure_against(
+        self,
+        head: np.ndarray,
+        h_Wn: np.ndarray,
+        h_Tn: np.ndarray,
+        per_wrench: np.ndarray,
+        satisfied_fraction: float,
+    ) -> np.ndarray:
+        """The structure vector from its :meth:`structure_head` and the task-dependent parts
+        (arguments as in :meth:`structure`); a new array."""
+        out = head.copy()
+        k = self.k
+        np.subtract(h_Tn, h_Wn, out=out[k : 2 * k], casting="same_kind")
+        j = 2 * k
+        out[j] = satisfied_fraction
+        out[j + 3] = np.count_nonzero(h_Wn >= h_Tn) / k
+        out[j + 4] = np.add.reduce(per_wrench) / len(per_wrench)  # .sum(), .max(), .min()
+        out[j + 5] = np.maximum.reduce(per_wrench)
+        out[j + 6] = np.minimum.reduce(per_wrench)
+        np.maximum(out, -1.0, out=out)  # np.clip(out, -1, 1), minus its overhead
+        return np.minimum(out, 1.0, out=out)
 
     @staticmethod
     def per_wrench(WD: np.ndarray, h_Wn: np.ndarray) -> np.ndarray:
