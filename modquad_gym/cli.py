@@ -103,6 +103,8 @@ def cmd_show(args) -> int:
 def cmd_validate(args) -> int:
     from .sim.validate import validate
 
+    if not args.hover_seconds > 0:
+        raise ValueError(f"--hover-seconds must be > 0, got {args.hover_seconds}")
     task = _load_task(args.task)
     result = _solver(args)(task)
     if result.structure is None:
@@ -122,6 +124,8 @@ def cmd_validate(args) -> int:
         out_dir=args.out,
         include_infeasible_demo=args.infeasible_demo,
         max_hover_wrenches=args.max_hover_wrenches,
+        hover_seconds=args.hover_seconds,
+        unknown_load=not args.known_load_only,
     )
     if args.json:
         print(json.dumps({"task": args.task, "method": args.method, **report}))
@@ -284,7 +288,20 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=None,
         help="hover under at most this many task wrenches, the first ones in the file "
-        "(default: all); each is held for 2.0 simulated seconds, after a 2.0 s take-off",
+        "(default: all); each is held for --hover-seconds simulated seconds, after a take-off "
+        "of the same length",
+    )
+    p.add_argument(
+        "--hover-seconds",
+        type=float,
+        default=2.0,
+        help="simulated seconds per hover segment (default %(default)s)",
+    )
+    p.add_argument(
+        "--known-load-only",
+        action="store_true",
+        help="fly only the hover whose controller knows the applied load (feed-forward); by "
+        "default a second hover estimates the load by integral action",
     )
     p.set_defaults(func=cmd_validate)
 

@@ -36,3 +36,15 @@ def test_validate_cli_json(tmp_path, capsys):
     assert saved["files"] == files
     assert saved["bench_max_error"] == record["bench_max_error"]
     assert "all 1 wrenches" in (out_dir / "report.md").read_text()
+
+
+def test_validate_cli_known_load_only_and_bad_hover_time(tmp_path, capsys):
+    task = tmp_path / "task.json"
+    task.write_text(json.dumps({"wrenches": [[0.0, 0.0, 3.0, 0.0, 0.0, 0.0]]}))
+    argv = ["validate", "--task", str(task), "--out", str(tmp_path / "out"), "--json"]
+    assert main([*argv, "--known-load-only", "--hover-seconds", "1.0"]) == 0
+    record = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert record["hover_max_position_error_m"] <= 0.01
+    assert "hover_unknown_load_max_position_error_m" not in record
+    assert main([*argv, "--hover-seconds", "0"]) == 2
+    assert "--hover-seconds" in capsys.readouterr().err

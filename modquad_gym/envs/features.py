@@ -156,10 +156,10 @@ class AssemblyFeatures:
         """(h_W / denom, slack) on the K directions for configuration matrix A (6, m).
 
         h_W(d) = f_max * sum_k max(d . a_k, 0) is the exact support of W. A wrench whose
-        :meth:`per_wrench` deficit exceeds ``slack`` is certainly infeasible: slack bounds the
-        oracle's tolerance, 2 * TOL * f_max * sum_k |d . a_k| / denom(d) (thrusts within
-        TOL * f_max of their bounds count as feasible), so the test never rejects a wrench that
-        the oracle accepts.
+        :meth:`per_wrench` deficit exceeds ``slack`` is certainly infeasible: the oracle accepts
+        thrusts up to TOL * f_max / 2 outside [0, f_max] (gamma <= 1 + TOL), which widens the
+        support by TOL * f_max / 2 * sum_k |d . a_k|; slack, 2 * TOL * f_max * sum_k |d . a_k| /
+        denom(d), is four times that, so the test never rejects a wrench the oracle accepts.
         """
         P = self.D @ A
         h_W = np.maximum(P, 0.0).sum(axis=1) * self.f_max
