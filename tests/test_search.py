@@ -211,3 +211,17 @@ def test_exhaustive_builds_levels_lazily():
     n, built = map(int, proc.stdout.split())
     assert built == n < 11
     assert [len(level) for level in _levels(8)] == [1, 2, 6, 19, 63, 216, 760, 2725]
+
+
+def test_low_force_benchmark_tasks_skip_no_level():
+    """The benchmark's low-force tasks: the hidden structure satisfies them, their forces fit
+    one module (the force bound skips no level) and f_z stays small."""
+    from modquad_gym.bench.search import low_force_task, random_structure
+
+    rng = np.random.default_rng(3)
+    hidden = random_structure(8, rng)
+    W = low_force_task(hidden, 12, rng)
+    assert W.shape == (12, 6)
+    assert mq.feasible(hidden.configuration_matrix(), W).all()
+    assert force_lower_bound(W, hidden.module) == 1
+    assert (W[:, 2] > 0).all() and (W[:, 2] <= 2.5 + 1e-9).all()
