@@ -125,4 +125,5 @@ def test_validate_help_states_the_hover_time():
     seconds = inspect.signature(validate).parameters["hover_seconds"].default
     proc = run_cli("validate", "--help")
     text = " ".join(proc.stdout.split())
-    assert f"{seconds} simulated seconds" in text and "0.25" not in text
+    assert f"simulated seconds per hover segment (default {seconds})" in text
+    assert "0.25" not in text
