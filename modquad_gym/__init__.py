@@ -14,6 +14,7 @@ from .search import (
     centrosymmetric_search,
     exhaustive_search,
     greedy_search,
+    optimal_structures,
     random_search,
 )
 from .structure import Structure, structure_levels
@@ -41,5 +42,6 @@ __all__ = [
     "feasible",
     "lambda_ratio",
     "margin",
+    "optimal_structures",
     "structure_levels",
 ]
