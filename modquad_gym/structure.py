@@ -172,15 +172,7 @@ class Structure:
 
     @cached_property
     def _A(self) -> np.ndarray:
-        cols = self.module.columns  # (6, r) about each module's centre
-        c = self.module_centres  # (n, 3)
-        d = self.module.directions  # (r, 3)
-        # Moving a column from the module centre to {S} adds c x d to its torque.
-        shift = np.cross(c[:, None, :], d[None, :, :])  # (n, r, 3)
-        r = cols.shape[1]
-        A = np.empty((6, self.n_modules * r))
-        A[:3] = np.tile(cols[:3], self.n_modules)
-        A[3:] = (np.tile(cols[3:].T, (self.n_modules, 1)) + shift.reshape(-1, 3)).T
+        A = configuration_matrices([self.cells], self.module)[0]
         A.setflags(write=False)
         return A
 
@@ -243,10 +235,12 @@ class Structure:
 
 
 def configuration_matrices(keys: list[Key], module: ModuleType | None = None) -> np.ndarray:
-    """Configuration matrices of many structures of equal size at once: (L, 6, 4n).
+    """Configuration matrices of many structures of equal size at once: (L, 6, 4n), eq. (1).
 
-    Same result as ``Structure(key, module).configuration_matrix()`` for each key, vectorised
-    over the batch (the exhaustive search's hot loop)."""
+    Column k of structure l is [d_k ; p_k x d_k + s_k c_tau d_k] with p_k the rotor position
+    relative to the COM of the module centres: the module's own columns plus c x d for its
+    centre c (c_z = 0). ``Structure.configuration_matrix()`` is this function on one structure;
+    batches are the exhaustive search's hot loop."""
     module = module if module is not None else _DEFAULT_MODULE
     cells = np.asarray(keys, dtype=float)  # (L, n, 2)
     L, n, _ = cells.shape
