@@ -145,3 +145,19 @@ def test_bad_module_values_raise():
 def test_normalise_is_translation_only():
     assert normalise([(3, 4), (4, 4)]) == ((0, 0), (1, 0))
     assert normalise([(3, 4), (3, 5)]) == ((0, 0), (0, 1))
+
+
+def test_import_is_light():
+    """`import modquad_gym` loads no torch, SB3 or MuJoCo (they load where they are used)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, time; t = time.perf_counter(); import modquad_gym; "
+        "print(time.perf_counter() - t, *sorted(m for m in ('torch', 'stable_baselines3', "
+        "'sb3_contrib', 'mujoco') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    seconds, *heavy = out.stdout.split()
+    assert heavy == []
+    assert float(seconds) < 1.0  # measured about 0.2 s on the 2-core CI machine
