@@ -148,7 +148,8 @@ def test_normalise_is_translation_only():
 
 
 def test_import_is_light():
-    """`import modquad_gym` loads no torch, SB3 or MuJoCo (they load where they are used)."""
+    """`import modquad_gym` loads no torch, SB3 or MuJoCo (they load where they are used). Its
+    time (about 0.2 s here) is reported, not asserted: speed belongs to benchmarks."""
     import subprocess
     import sys
 
@@ -159,5 +160,4 @@ def test_import_is_light():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     seconds, *heavy = out.stdout.split()
-    assert heavy == []
-    assert float(seconds) < 1.0  # measured about 0.2 s on the 2-core CI machine
+    assert heavy == [], f"import modquad_gym ({float(seconds):.2f} s) loaded {heavy}"
