@@ -105,6 +105,8 @@ def cmd_validate(args) -> int:
 
     if not args.hover_seconds > 0:
         raise ValueError(f"--hover-seconds must be > 0, got {args.hover_seconds}")
+    if not args.load_ramp_seconds >= 0:
+        raise ValueError(f"--load-ramp-seconds must be >= 0, got {args.load_ramp_seconds}")
     task = _load_task(args.task)
     result = _solver(args)(task)
     if result.structure is None:
@@ -126,6 +128,7 @@ def cmd_validate(args) -> int:
         max_hover_wrenches=args.max_hover_wrenches,
         hover_seconds=args.hover_seconds,
         unknown_load=not args.known_load_only,
+        load_ramp_seconds=args.load_ramp_seconds,
     )
     if args.json:
         print(json.dumps({"task": args.task, "method": args.method, **report}))
@@ -296,6 +299,13 @@ def build_parser() -> argparse.ArgumentParser:
         type=float,
         default=2.0,
         help="simulated seconds per hover segment (default %(default)s)",
+    )
+    p.add_argument(
+        "--load-ramp-seconds",
+        type=float,
+        default=1.0,
+        help="unknown-load hover: seconds over which the load moves from one task wrench to the "
+        "next (0: a step; default %(default)s)",
     )
     p.add_argument(
         "--known-load-only",

@@ -45,6 +45,11 @@ def _interior_wrenches(
     return rng.uniform(lo, hi, (t, A.shape[1])) @ A.T
 
 
+def _trim(s: mq.Structure) -> np.ndarray:
+    """The take-off trim: every rotor at half thrust."""
+    return s.configuration_matrix().sum(axis=1) / 2.0
+
+
 def _random_quaternion(rng: np.random.Generator) -> np.ndarray:
     q = rng.normal(size=4)
     return q / np.linalg.norm(q)
@@ -235,17 +240,74 @@ def test_hover_body_following_load_on_a_line_falls_back():
 
 @pytest.mark.parametrize("cells", [SQUARE, [(0, 0), (1, 0), (2, 0)]])
 def test_hover_unknown_load_settles_within_1cm(cells):
-    """The controller is not told the load: integral action finds it (position <= 1 cm)."""
+    """The controller is not told the load, which ramps from one task wrench to the next over
+    1 s (cosine): the observer and integral action find it; position <= 1 cm once settled and
+    no rotor ever saturates."""
     s = mq.Structure(cells)
     W = _interior_wrenches(s, 2, seed=14, lo=0.3, hi=0.7)
-    res = run_hover(s, W, seconds_per_wrench=2.0, takeoff_seconds=1.5, known_load=False)
-    assert not res.known_load
+    res = run_hover(
+        s, W, seconds_per_wrench=2.0, takeoff_seconds=1.5, known_load=False, load_ramp_seconds=1.0
+    )
+    assert not res.known_load and res.load_ramp_seconds == 1.0
     assert res.max_position_error <= 0.01
     assert res.max_attitude_error <= 0.05
-    assert res.settled_saturated_fraction == 0.0
+    assert res.saturated_fraction == 0.0 and res.settled_saturated_fraction == 0.0
+    assert not res.diverged.any()
     assert res.max_load_estimate_error < 0.1
     task = [m for m in res.segment_metrics if m["segment"] >= 0]
     assert all(m["step_headroom"] is not None and m["step_headroom"] > 0 for m in task)
+    # the applied load: a cosine ramp from the previous wrench (the take-off trim first) to the
+    # next over the first 500 control steps of each segment, then held
+    trim = _trim(s)
+    for i, (w_from, w_to) in enumerate([(trim, W[0]), (W[0], W[1])]):
+        load = res.load[res.segment == i]
+        frac = (load - w_from) @ (w_to - w_from) / float((w_to - w_from) @ (w_to - w_from))
+        n = np.arange(1, 501) / 500
+        np.testing.assert_allclose(frac[:500], 0.5 * (1 - np.cos(np.pi * n)), atol=1e-9)
+        np.testing.assert_allclose(load[499:], np.broadcast_to(w_to, load[499:].shape), atol=1e-9)
+    # the estimate has followed the load when the settled window starts
+    for i in range(2):
+        est = res.load_estimate[res.segment == i][700]
+        assert np.linalg.norm(est - W[i]) < 0.05 * np.linalg.norm(W[i])
+
+
+def test_hover_load_ramp_options():
+    s = mq.Structure(L3)
+    W = _interior_wrenches(s, 1, seed=15, lo=0.3, hi=0.7)
+    # a step (0) applies the new load at once; a known load always steps
+    for kw in ({"known_load": False, "load_ramp_seconds": 0.0}, {"load_ramp_seconds": 1.0}):
+        res = run_hover(s, W, seconds_per_wrench=0.1, takeoff_seconds=0.1, **kw)
+        assert res.load_ramp_seconds == 0.0
+        np.testing.assert_array_equal(res.load[res.segment == 0][0], W[0])
+    kw = {"known_load": False, "load_ramp_seconds": 0.1, "load_ramp_profile": "linear"}
+    res = run_hover(s, W, seconds_per_wrench=0.2, takeoff_seconds=0.0, **kw)
+    trim = _trim(s)
+    frac = (res.load[:50] - trim) @ (W[0] - trim) / float((W[0] - trim) @ (W[0] - trim))
+    np.testing.assert_allclose(frac, np.arange(1, 51) / 50, atol=1e-9)
+    with pytest.raises(ValueError, match="settled part"):  # the ramp must end before settling
+        run_hover(s, W, seconds_per_wrench=1.0, known_load=False, load_ramp_seconds=0.8)
+    with pytest.raises(ValueError, match="load_ramp_profile"):
+        run_hover(s, W, known_load=False, load_ramp_profile="step")
+    with pytest.raises(ValueError, match="load_ramp_seconds"):
+        run_hover(s, W, known_load=False, load_ramp_seconds=-1.0)
+
+
+def test_hover_divergence_restarts_next_segment_from_equilibrium():
+    """An infeasible load diverges; the next segment restarts at rest from the trim (the
+    infeasible load has no equilibrium) and its numbers are not contaminated."""
+    s = mq.Structure(L3)
+    A = s.configuration_matrix()
+    W = _interior_wrenches(s, 2, seed=7)
+    bad = infeasible_wrench(A, W[0], 1.0, 1.3)
+    res = run_hover(
+        s, np.vstack([bad, W[1]]), seconds_per_wrench=2.0, takeoff_seconds=0.5, known_load=False
+    )
+    seg = {m["segment"]: m for m in res.segment_metrics}
+    assert res.diverged.tolist() == [True, False]
+    assert seg[0]["stop_reason"] and seg[0]["stop_time_s"] < 2.0
+    assert seg[1]["max_position_error_m"] <= 0.01
+    assert seg[1]["settled_saturated_fraction"] == 0.0
+    np.testing.assert_allclose(res.load[res.segment == 1][0], _trim(s), atol=1e-4)
 
 
 def test_step_headroom():
@@ -306,11 +368,15 @@ def test_validate_writes_files_and_keys(tmp_path):
     assert out["rank"] == 6 and out["unreachable_wrench_directions"] == []
     demo = out["infeasible_demo"]
     assert "attitude error up to" in report
-    if demo["diverged"]:  # the report says why the run stopped
-        assert demo["stop_reason"] in report and "stopped after" in report
+    if demo["diverged"]:  # the report says why the run stopped (or where it ended)
+        assert demo["stop_reason"] in report
+        assert ("stopped after" in report) == (demo["stop_time_s"] is not None)
     else:
         assert demo["stop_reason"] is None and "did not reach a drift limit" in report
     assert "all 2 wrenches" in report
+    # the unknown load ramps; with 0.5 s segments the 1 s default is cut to end before settling
+    assert out["hover_unknown_load_ramp_seconds"] == pytest.approx(0.35)
+    assert "0.35 s ramp" in report
 
 
 def test_validate_report_names_the_hovered_subset(tmp_path):

@@ -48,3 +48,5 @@ def test_validate_cli_known_load_only_and_bad_hover_time(tmp_path, capsys):
     assert "hover_unknown_load_max_position_error_m" not in record
     assert main([*argv, "--hover-seconds", "0"]) == 2
     assert "--hover-seconds" in capsys.readouterr().err
+    assert main([*argv, "--load-ramp-seconds", "-1"]) == 2
+    assert "--load-ramp-seconds" in capsys.readouterr().err

@@ -14,6 +14,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 from .bench import ALLOCATIONS, BenchResult, allocate_inputs, run_bench  # noqa: E402
 from .hover import (  # noqa: E402
     LOAD_FRAMES,
+    LOAD_RAMP_PROFILES,
     HoverGains,
     HoverResult,
     hover_linearization,
@@ -31,6 +32,7 @@ __all__ = [
     "HoverGains",
     "HoverResult",
     "LOAD_FRAMES",
+    "LOAD_RAMP_PROFILES",
     "SimModel",
     "actuator_wrench",
     "allocate_inputs",

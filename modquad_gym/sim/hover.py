@@ -3,7 +3,7 @@
 Setup (gravity on, no wall): a take-off segment first (not part of the task metrics): the structure
 starts a few centimetres off (0, 0, HOME_HEIGHT) and tilted, and converges while hovering at half
 thrust (the centre of its feasible set). Then the task wrenches are applied in turn,
-``seconds_per_wrench`` each, with no reset in between.
+``seconds_per_wrench`` each, with no reset in between (except after a diverged segment, below).
 
 External load
 -------------
@@ -14,8 +14,21 @@ f_z, normalised units). During segment i an external wrench ``d`` is applied at 
     d = -(w + gravity wrench),   gravity wrench = [m g ; 0]  (world frame, torque-free at the COM).
 
 So gravity plus load is ``-w``, and hovering in place needs A u = w. This keeps the physical weight
-of the modules (``module_mass``) and the normalised task units independent. ``load_frame`` says
-how the load moves when the structure tilts:
+of the modules (``module_mass``) and the normalised task units independent.
+
+With the load known to the controller, w switches at the start of each segment (a step; the
+feed-forward switches with it). With the load unknown, a step of a multi-newton wrench is not
+what a task looks like (a tool is pressed, a payload is taken up, over a moment), so the load
+*ramps* from the previous segment's wrench w_prev to w over the first ``load_ramp_seconds`` of
+the segment (default 1 s; 0 keeps the step): ``w(t) = w_prev + s(t / T) (w - w_prev)`` with
+``s(x) = (1 - cos(pi x)) / 2`` (``load_ramp_profile="cosine"``, no jump in the load's rate at
+either end) or ``s(x) = x`` (``"linear"``). The first task segment ramps from the take-off trim.
+The feasible set is convex, so a ramp between two feasible wrenches stays feasible. The
+controller is told neither the ramp nor its timing; the settled errors are measured over the
+last ``settle_fraction`` of the segment, which must begin after the ramp ends
+(``load_ramp_seconds <= (1 - settle_fraction) seconds_per_wrench``).
+
+``load_frame`` says how the load moves when the structure tilts:
 
 * ``"world"`` (default): ``-w`` is fixed in the world frame for the whole segment, like gravity,
   which the task's f_z stands for, or a tool pressed against a fixed surface. When the structure
@@ -95,24 +108,44 @@ MuJoCo's finite differences in the tests) is
   its switch-on, and the settled errors (what is left of the take-off transient, then ~1e-12 m)
   only show that the model is consistent; they are not a test of the controller.
 * Load unknown (``known_load=False``): the controller is not told the task wrenches nor when they
-  change. ``w_ff = w_hat``, an estimate of the load that integral action builds (an LQI: the
-  integrals of the position error and of the attitude error, in the directions where a level
-  equilibrium can be held, are extra LQR states with weights ``omega_int^2 omega^4``), written in
-  velocity form ``d/dt w_hat = -A K_i C (e_p, theta)`` so that rescheduling the gains is
-  bumpless. It starts at the take-off wrench (half thrust, the one thing the controller knows:
-  its own trim); the gains are rescheduled on the estimate (at most every 0.25 s, when it moved by
-  over 5 %). Anti-windup: the estimate is only updated to wrenches that the rotors can still
-  produce. For a rank-5 line the integrated attitude directions are the two orthogonal to
-  ``g = G^T n``: at rest ``g . theta = 0`` anyway, so these two pin theta = 0.
-  Each switch is then a step load that the controller must find. Braking after the push needs a
-  wrench beyond w along the step, and :func:`step_headroom` measures how much the feasible set
-  allows there. With headroom the load is found and held within 1 cm (planted_seed1's line, first
-  20 wrenches: 10 of the 11 with gamma < 0.7, settled errors 1-8 mm and 1-10 mrad, no
-  saturation once settled). Near the boundary (its 9 wrenches with gamma > 0.8, headroom
-  0.006-0.5 N for steps of 2-4 N) the transient saturates, the line loses its roll (see above)
-  and the segment diverges. That is mostly the physics of an unknown step load near the edge of
-  the actuator set (the gains and saturation strategies tried did not change it); the report
-  lists the headroom next to each segment.
+  change (nor the ramps). ``w_ff = w_obs + w_hat``, an estimate of the load in two parts:
+
+  - ``w_obs``, a load observer (a first-order disturbance observer of bandwidth ``omega_obs``,
+    default 40 rad/s): over each control step, the wrench the rotors would have needed for no
+    acceleration, ``A u - [m R^T dv/dt ; J d(omega)/dt + omega x J omega]`` (the rotor inputs
+    sent, the measured velocities; projected onto range(A)), low-pass filtered. At rest it is
+    A u, i.e. the load; it lags a changing load by about (rate of change) / ``omega_obs``. It
+    uses the same model (m, J, A) as the LQR; in this simulation that model is exact, so the
+    observer is exact up to its lag; on hardware, sensor noise would bound ``omega_obs``.
+  - ``w_hat``, integral action for what the observer misses (model error, here its lag): an LQI
+    whose states include the integrals of the position error and of the attitude error, in the
+    directions where a level equilibrium can be held, with weights ``omega_int^2 omega^4``,
+    written in velocity form ``d/dt w_hat = -A K_i C (e_p, theta)`` so that rescheduling the
+    gains is bumpless. For a rank-5 line the integrated attitude directions are the two
+    orthogonal to ``g = G^T n``: at rest ``g . theta = 0`` anyway, so these two pin theta = 0.
+    Anti-windup: it integrates only while the allocation is exact (rotors not saturated).
+
+  The estimate starts at the take-off trim (half thrust, the one thing the controller knows: its
+  own trim); the gains are rescheduled on it (at most every 0.25 s, when it moved by over 5 %).
+  ``omega_obs = 0`` removes the observer: integral action alone then finds the load (it
+  integrates while the estimate stays allocatable), as in the first version of this hover.
+  Why the observer: integral action can move the estimate only after a position error has built
+  up, so it lags a 1 s ramp by most of the ramp; the feedback then carries the load, and near the
+  boundary of the feasible set the allocation saturates, gives the (wrong) feed-forward priority
+  over the correction and the structure drifts away (the integral winds up while saturated).
+  Measured, ``examples/paper_seed0.json`` with its 5-module exhaustive structure, first 20
+  wrenches, 2 s segments, integral action alone: a step load leaves 17 of 20 segments within
+  1 cm (3 diverged, gamma 0.72-0.86); a 1 s ramp, 3 of 20 (the estimate has not caught up when
+  the settled window starts; 3 s segments give 18 of 20). With the observer: all 20 within
+  1 cm (0.2-2 mm with the ramp), none saturated once settled, none diverged, ramp or step.
+  Braking after a change of load needs a wrench beyond w along the change, and
+  :func:`step_headroom` measures how much the feasible set allows there. A step gives the
+  observer no time: near the boundary the transient still saturates; a straight line then
+  loses its roll (see above). On planted_seed1's 4-module line, first 20 wrenches: with the
+  1 s ramp all 20 settle within 1 cm (errors 0.5-3 mm) and none diverges; the two wrenches at
+  gamma 0.998 (headroom 0.013 and 0.007 N) stay saturated once settled, still within 2 mm,
+  because an estimate 2 % off is already outside the feasible set there. With a step, 13 of
+  20 settle within 1 cm and 4 diverge (gamma 0.68-0.998, headroom 0.007-1.5 N).
 * Bounded allocation, u in [0, f_max]: ``u = u_ref + A^+ (w_des - A u_ref)`` around a reference
   u_ref, the oracle's most centred exact allocation (:func:`modquad_gym.oracle.allocate`) of the
   task wrench (known load, once per segment) or of the estimate (unknown load, when the gains
@@ -129,12 +162,18 @@ MuJoCo's finite differences in the tests) is
 Metrics per segment, over its settled part (the last ``settle_fraction`` of it): maximum position
 error (m), maximum attitude error (rad, the rotation angle of R), the saturated fraction (whole
 segment and settled part) and, with an unknown load, the relative error of the load estimate at
-the segment's end and the step headroom. A segment whose position error exceeds
-``drift_limit_m``, whose attitude error exceeds ``drift_limit_rad`` or whose state becomes
-non-finite ends early, is marked ``diverged`` with the ``stop_reason`` and the time it stopped,
-and counts in full in the metrics; the next segment restarts from home, at rest (with an unknown
-load the estimate restarts at the take-off trim). An infeasible wrench fails this way: the rotors
-saturate, the net wrench cannot vanish, and the structure drifts.
+the segment's end and the step headroom (along the change of load from the previous segment).
+A segment whose position error exceeds ``drift_limit_m``, whose attitude error exceeds
+``drift_limit_rad`` or whose state becomes non-finite ends early, is marked ``diverged`` with
+the ``stop_reason`` and the time it stopped, and counts in full in the metrics. A segment that
+runs its course but ends more than ``recover_limit_m`` (default 0.1 m) from the reference is
+marked ``diverged`` too (``stop_reason`` "ended ... away"). After a diverged segment the state
+is re-initialised before the next one, so that one divergence does not contaminate the next
+segment's numbers: the structure restarts at home, level, at rest, at the hover equilibrium of
+the diverged segment's load (the state a settled segment would have left; the take-off trim if
+that load is infeasible). With an unknown load the estimate restarts at that load and the next
+segment's load ramps (or steps) from it, as after any other segment. An infeasible wrench fails
+this way: the rotors saturate, the net wrench cannot vanish, and the structure drifts.
 """
 
 from __future__ import annotations
@@ -150,6 +189,9 @@ from .model import HOME_HEIGHT, SimModel, body_rotation, build_model
 
 LOAD_FRAMES = ("world", "body")
 """How the external load moves when the structure tilts (module docstring)."""
+
+LOAD_RAMP_PROFILES = ("cosine", "linear")
+"""How an unknown load goes from one task wrench to the next (module docstring)."""
 
 _RESCHEDULE_S = 0.25  # unknown load: shortest time between two gain designs
 _RESCHEDULE_REL = 0.05  # unknown load: redesign when the estimate moved by this fraction
@@ -168,6 +210,8 @@ class HoverGains:
         omega_int: integral action with an unknown load (LQI weights ``omega_int^2 omega^4``).
         unreachable_weight: extra weight on the position along M n, n an unreachable wrench
             direction, so that a line's tilt-to-translate loop is not slow.
+        omega_obs: bandwidth of the load observer with an unknown load (module docstring),
+            rad/s; 0 turns it off (integral action alone finds the load).
     """
 
     omega_pos: float = 4.0
@@ -175,6 +219,7 @@ class HoverGains:
     damping: float = 1.0
     omega_int: float = 4.0
     unreachable_weight: float = 100.0
+    omega_obs: float = 40.0
 
 
 @dataclass
@@ -196,6 +241,10 @@ class HoverResult:
         gamma: (t,) the oracle's gamma of each task wrench (<= 1 feasible, inf off range(A)).
         feasible: (t,) the oracle's verdict.
         diverged: (t,) the segment was cut short by drift (see the module docstring).
+        load: (k, 6) the wrench the external load stood for at each control step (the task
+            wrench, or its ramp from the previous one): d = -(load + gravity wrench).
+        load_estimate: (k, 6) the controller's feed-forward: the load itself when known, the
+            estimate w_obs + w_hat (observer + integral action) when not.
     """
 
     wrenches: np.ndarray
@@ -212,9 +261,15 @@ class HoverResult:
     gamma: np.ndarray
     feasible: np.ndarray
     diverged: np.ndarray
+    load: np.ndarray
+    load_estimate: np.ndarray
     segment_metrics: list[dict] = field(default_factory=list)
     """Per segment (take-off first, index -1): gamma, controller, diverged (stop_reason,
     stop_time_s), settled errors, saturation, load estimate error (unknown load)."""
+    load_ramp_seconds: float = 0.0
+    """How long the load took to go from one task wrench to the next (0: a step)."""
+    load_ramp_profile: str = "cosine"
+    """``"cosine"`` or ``"linear"`` (meaningful when ``load_ramp_seconds > 0``)."""
 
     @property
     def max_position_error(self) -> float:
@@ -247,6 +302,12 @@ class HoverResult:
             if s["segment"] >= 0 and s.get("load_estimate_error") is not None
         ]
         return max(errs) if errs else None
+
+
+def _ramp_fraction(s: float, profile: str) -> float:
+    """How far (0 to 1) a load ramp has gone at s in [0, 1] of its duration."""
+    s = min(max(s, 0.0), 1.0)
+    return 0.5 * (1.0 - math.cos(math.pi * s)) if profile == "cosine" else s
 
 
 def _vee_skew(M: np.ndarray) -> np.ndarray:
@@ -571,8 +632,11 @@ def run_hover(
     settle_fraction: float = 0.3,
     drift_limit_m: float = 1.0,
     drift_limit_rad: float = 1.0,
+    recover_limit_m: float = 0.1,
     known_load: bool = True,
     load_frame: str = "world",
+    load_ramp_seconds: float = 1.0,
+    load_ramp_profile: str = "cosine",
 ) -> HoverResult:
     """Fly the structure and hold its pose against each task wrench's load (module docstring).
 
@@ -597,9 +661,19 @@ def run_hover(
         settle_fraction: the last fraction of each segment over which errors are measured.
         drift_limit_m: position error that ends a segment as diverged.
         drift_limit_rad: attitude error that ends a segment as diverged.
+        recover_limit_m: a segment that runs its course but ends with a position error above
+            this is marked diverged too (it did not recover); either way the next segment starts
+            from the hover equilibrium (module docstring).
         known_load: the controller is told each task wrench (feed-forward); False: it is not, and
-            integral action estimates the load (it knows only the take-off trim).
+            a load observer plus integral action estimate the load (it knows only the take-off
+            trim), see :class:`HoverGains` ``omega_obs``.
         load_frame: ``"world"`` (default) or ``"body"``, see :data:`LOAD_FRAMES`.
+        load_ramp_seconds: unknown load only: the load goes from the previous task wrench's load
+            to the next one's over this many seconds at the start of each segment (0: a step).
+            Must leave the settled part of the segment alone: at most
+            ``(1 - settle_fraction) * seconds_per_wrench``. Ignored with a known load (a step).
+        load_ramp_profile: ``"cosine"`` (default; ``(1 - cos(pi s)) / 2``, no jump in the load's
+            rate at either end) or ``"linear"``, see :data:`LOAD_RAMP_PROFILES`.
     """
     import mujoco
 
@@ -615,10 +689,25 @@ def run_hover(
             f"need seconds_per_wrench > 0, 0 < settle_fraction <= 1, control_hz > 0; got "
             f"{seconds_per_wrench}, {settle_fraction}, {control_hz}"
         )
+    if not recover_limit_m > 0:
+        raise ValueError(f"recover_limit_m must be > 0, got {recover_limit_m}")
     if not takeoff_seconds >= 0:
         raise ValueError(f"takeoff_seconds must be >= 0, got {takeoff_seconds}")
     if load_frame not in LOAD_FRAMES:
         raise ValueError(f"load_frame must be one of {LOAD_FRAMES}, got {load_frame!r}")
+    if load_ramp_profile not in LOAD_RAMP_PROFILES:
+        raise ValueError(
+            f"load_ramp_profile must be one of {LOAD_RAMP_PROFILES}, got {load_ramp_profile!r}"
+        )
+    ramp_s = 0.0 if known_load else float(load_ramp_seconds)
+    if not ramp_s >= 0:
+        raise ValueError(f"load_ramp_seconds must be >= 0, got {load_ramp_seconds}")
+    if ramp_s > (1.0 - settle_fraction) * seconds_per_wrench + 1e-9:
+        raise ValueError(
+            f"load_ramp_seconds {ramp_s:g} reaches into the settled part of the segment: need "
+            f"<= (1 - settle_fraction) * seconds_per_wrench = "
+            f"{(1.0 - settle_fraction) * seconds_per_wrench:g}"
+        )
     model = sim.model
     dt = model.opt.timestep
     substeps = round(1.0 / (control_hz * dt))
@@ -671,18 +760,25 @@ def run_hover(
     rec_pos = np.full(total, np.nan)
     rec_att = np.full(total, np.nan)
     rec_u = np.full((total, sim.n_rotors), np.nan)
+    rec_load = np.full((total, 6), np.nan)
+    rec_est = np.full((total, 6), np.nan)
     rec_sat = np.zeros(total, dtype=bool)
     settled = np.zeros(total, dtype=bool)
     gammas = np.empty(len(W))
     diverged = np.zeros(len(W), dtype=bool)
     metrics = []
 
-    # unknown load: the estimate and its gains persist across segments (no switch is announced)
-    w_hat = w_trim.copy()
-    alloc.recentre(w_hat)
-    des = design(w_hat)
+    # unknown load: the estimate w_obs + w_hat (observer + integral action) and its gains
+    # persist across segments (no switch is announced); it starts at the take-off trim
+    observer = gains.omega_obs > 0
+    obs_gain = 1.0 - math.exp(-gains.omega_obs * ctrl_dt)  # first-order low-pass per step
+    w_obs = w_trim.copy() if observer else np.zeros(6)
+    w_hat = w_trim - w_obs
+    alloc.recentre(w_trim)
+    des = design(w_trim)
     t_design = 0.0
     w_prev = w_trim
+    last = None  # (v, omega, u, R) of the previous control step, for the observer
     k = 0
     for i, w, n_steps in segments:
         if known_load:
@@ -690,18 +786,28 @@ def run_hover(
             des = design(w)
         else:
             gamma = allocate(A, w, sim.f_max)[1]  # for the report only, the controller is blind
-        if load_frame == "world":  # d = -(w + gravity wrench), fixed in the world
-            data.xfrc_applied[b, :3] = -w[:3] - m * g_world
-            data.xfrc_applied[b, 3:] = -w[3:]
+        # unknown load: ramp from the previous segment's load (none for the take-off)
+        n_ramp = min(round(ramp_s * control_hz), n_steps) if i >= 0 else 0
+        w_from = w_prev
+        w_load = w
         kinds = {des.kind}
         start = k
         cut = None
         for step in range(n_steps):
+            if step < n_ramp:
+                frac = _ramp_fraction((step + 1) / n_ramp, load_ramp_profile)
+                w_load = w_from + frac * (w - w_from)
+            else:
+                w_load = w
+            if load_frame == "world" and step <= n_ramp:  # d = -(w + gravity), world-fixed
+                data.xfrc_applied[b, :3] = -w_load[:3] - m * g_world
+                data.xfrc_applied[b, 3:] = -w_load[3:]
             t_now = (start + step) * ctrl_dt
             if not known_load and t_now - t_design >= _RESCHEDULE_S - 1e-12:
-                if np.linalg.norm(w_hat - des.w) > _RESCHEDULE_REL * np.linalg.norm(des.w):
-                    des = design(w_hat.copy())
-                    alloc.recentre(w_hat)
+                w_est = w_obs + w_hat
+                if np.linalg.norm(w_est - des.w) > _RESCHEDULE_REL * np.linalg.norm(des.w):
+                    des = design(w_est.copy())
+                    alloc.recentre(w_est)
                     kinds.add(des.kind)
                     t_design = t_now
             R = body_rotation(sim, data)
@@ -710,7 +816,15 @@ def run_hover(
             omega = np.array(data.qvel[3:6])
             e_p = p - p_ref
             theta = rotation_vector(R)
-            w_ff = w if known_load else w_hat
+            if not known_load and observer and last is not None:
+                # the wrench the rotors would have needed for no acceleration over the last step
+                v0, om0, u0, R0 = last
+                om = 0.5 * (omega + om0)
+                acc = np.concatenate(
+                    [m * (R0.T @ (v - v0)), J @ (omega - om0) + ctrl_dt * _cross(om, J @ om)]
+                )
+                w_obs = w_obs + obs_gain * (P @ (A @ u0 - acc / ctrl_dt) - w_obs)
+            w_ff = w if known_load else w_obs + w_hat
             gyro = P @ np.concatenate([np.zeros(3), _cross(omega, J @ omega)])
             if des.kind == "lqr":
                 w_att = A @ (-des.K[:, 3:6] @ theta - des.K[:, 9:] @ omega) + gyro
@@ -723,17 +837,18 @@ def run_hover(
             w_des = w_ff + w_att + w_pos
             u, exact = alloc(w_des, w_ff, w_att)
             data.ctrl[:] = u
+            last = (v, omega, u, R)
             if load_frame == "body":  # d = -(w + gravity wrench), w following the body
-                data.xfrc_applied[b, :3] = -(R @ w[:3]) - m * g_world
-                data.xfrc_applied[b, 3:] = -(R @ w[3:])
-            if not known_load:  # integral action, held where the estimate cannot be allocated
+                data.xfrc_applied[b, :3] = -(R @ w_load[:3]) - m * g_world
+                data.xfrc_applied[b, 3:] = -(R @ w_load[3:])
+            if not known_load:  # integral action with anti-windup (module docstring)
                 if des.kind == "lqr":
                     e = np.concatenate([e_p, theta])
                     w_next = w_hat - ctrl_dt * (A @ (des.Ki @ (des.C @ e)))
                 else:
                     c = np.concatenate([R.T @ (-m * ki_p * e_p), J @ (-ki_r * theta)])
                     w_next = w_hat + ctrl_dt * (P @ c)
-                if exact or alloc.exact(w_next) is not None:
+                if exact or (not observer and alloc.exact(w_next) is not None):
                     w_hat = w_next
             mujoco.mj_step(model, data, nstep=substeps)
             pos_err = float(np.linalg.norm(p_ref - data.xpos[b]))
@@ -742,6 +857,8 @@ def run_hover(
             rec_pos[k] = pos_err
             rec_att[k] = att_err
             rec_u[k] = u
+            rec_load[k] = w_load
+            rec_est[k] = w_ff
             rec_sat[k] = bool(np.any((u <= tol) | (u >= sim.f_max - tol)))
             settled[k] = step >= n_steps - n_settled
             k += 1
@@ -753,13 +870,16 @@ def run_hover(
                 cut = f"attitude error passed {drift_limit_rad:g} rad"
             if cut:
                 break
-        if cut:
+        cut_short = cut is not None
+        if cut_short:
             settled[start:k] = True  # a diverged segment counts in full
+        elif pos_err > recover_limit_m:  # ran its course but did not come back: diverged too
+            cut = f"ended {pos_err:.3g} m away (not back within {recover_limit_m:g} m)"
         seg = slice(start, k)
         window = settled[seg]
         est_err = headroom = None
         if not known_load:
-            est_err = float(np.linalg.norm(w_hat - w) / max(float(np.linalg.norm(w)), 1e-9))
+            est_err = float(np.linalg.norm(w_obs + w_hat - w) / max(float(np.linalg.norm(w)), 1e-9))
             if i >= 0:
                 headroom = step_headroom(A, w, w_prev, sim.f_max)
         metrics.append(
@@ -769,7 +889,7 @@ def run_hover(
                 "controller": "+".join(sorted(kinds)),
                 "diverged": bool(cut),
                 "stop_reason": cut,
-                "stop_time_s": float((k - start) * ctrl_dt) if cut else None,
+                "stop_time_s": float((k - start) * ctrl_dt) if cut_short else None,
                 "max_position_error_m": float(np.nanmax(rec_pos[seg][window])),
                 "max_attitude_error_rad": float(np.nanmax(rec_att[seg][window])),
                 "saturated_fraction": float(rec_sat[seg].mean()),
@@ -778,7 +898,11 @@ def run_hover(
                 "step_headroom": headroom,
             }
         )
-        w_prev = w_trim if cut else w
+        # after a divergence: restart at rest at home, at the hover equilibrium of this
+        # segment's load if it has one (the state a settled segment would have left), else at
+        # the take-off trim; the next segment's load then changes from that equilibrium's load
+        at_rest = math.isfinite(gamma) and gamma <= 1.0 + TOL
+        w_prev = w_trim if cut and not at_rest else w
         if i >= 0:
             gammas[i] = gamma
             diverged[i] = bool(cut)
@@ -786,8 +910,11 @@ def run_hover(
             k = start + n_steps
             reset(perturb=False)
             if not known_load:
-                w_hat = w_trim.copy()
-                des = design(w_hat)
+                w_obs = w_prev.copy() if observer else np.zeros(6)
+                w_hat = w_prev - w_obs
+                last = None
+                alloc.recentre(w_prev)
+                des = design(w_prev.copy())
                 t_design = k * ctrl_dt
     keep = ~np.isnan(rec_t)
     task = rec_seg >= 0
@@ -806,5 +933,9 @@ def run_hover(
         gamma=gammas,
         feasible=np.asarray(feasible(A, W, sim.f_max), dtype=bool),
         diverged=diverged,
+        load=rec_load[keep],
+        load_estimate=rec_est[keep],
         segment_metrics=metrics,
+        load_ramp_seconds=ramp_s,
+        load_ramp_profile=load_ramp_profile,
     )
