@@ -34,40 +34,41 @@ def _ok(cells, task: TaskRequirement) -> bool:
     return bool(feasible(A, task.wrenches, task.f_max, method="daqp").all())
 
 
-@pytest.fixture(scope="module")
-def tiny_model(tmp_path_factory) -> Path:
-    """A few thousand steps of train.py on the tiny task set."""
-    tmp = tmp_path_factory.mktemp("tiny")
+def _train_tiny(tmp: Path, *options: str) -> Path:
+    """Run train.py on the tiny task set into ``tmp / "model"`` (no report); returns that
+    folder. ``options`` are train.py options on top of the tiny set-up."""
     suite = save_suite(_tiny_tasks(), tmp / "tiny.json")
     spec = importlib.util.spec_from_file_location("train_script", ROOT / "train.py")
     train = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(train)
     out = tmp / "model"
-    # PPO alone (no cloning), with from-scratch settings: this model shows that PPO learns
-    argv = ["--timesteps", "3072", "--task-source", str(suite), "--n-max", str(TINY_N_MAX),
-            "--out", str(out), "--tensorboard", str(tmp / "tb"), "--no-report", "--no-progress",
-            "--n-eval", "4", "--eval-freq", "1024", "--seed", "3", "--bc-epochs", "0",
-            "--hyperparameters",
-            '{"learning_rate": 3e-4, "ent_coef": 0.01, "net_arch": [128, 128]}']  # fmt: skip
+    argv = ["--task-source", str(suite), "--n-max", str(TINY_N_MAX), "--out", str(out),
+            "--tensorboard", str(tmp / "tb"), "--no-report", "--no-progress", "--n-eval", "4",
+            *options]  # fmt: skip
     assert train.main(argv) == 0
     config = json.loads((out / "config.json").read_text())
     assert config["env_kwargs"] == {"tasks": str(suite), "n_max": TINY_N_MAX}
-    assert config["timesteps"] >= 3072 and (out / "evaluations.npz").is_file()
+    return out
+
+
+@pytest.fixture(scope="module")
+def tiny_model(tmp_path_factory) -> Path:
+    """A few thousand steps of PPO alone (no cloning) with from-scratch settings: this model
+    shows that PPO itself learns."""
+    hyperparameters = '{"learning_rate": 3e-4, "ent_coef": 0.01, "net_arch": [128, 128]}'
+    out = _train_tiny(tmp_path_factory.mktemp("tiny"), "--timesteps", "3072", "--eval-freq",
+                      "1024", "--seed", "3", "--bc-epochs", "0",
+                      "--hyperparameters", hyperparameters)  # fmt: skip
+    config = json.loads((out / "config.json").read_text())
+    assert config["timesteps"] >= 3072 and config["imitation"] is None
+    assert (out / "evaluations.npz").is_file()
     return out / "model.zip"
 
 
 def test_train_clones_the_expert_before_ppo(tmp_path):
     """The default recipe's path: demonstrations, cloning, a step-0 evaluation, fine-tuning."""
-    suite = save_suite(_tiny_tasks(), tmp_path / "tiny.json")
-    spec = importlib.util.spec_from_file_location("train_script", ROOT / "train.py")
-    train = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(train)
-    out = tmp_path / "model"
-    argv = ["--timesteps", "512", "--task-source", str(suite), "--n-max", str(TINY_N_MAX),
-            "--out", str(out), "--tensorboard", str(tmp_path / "tb"), "--no-report",
-            "--no-progress", "--n-eval", "4", "--eval-freq", "256", "--demo-tasks", "16",
-            "--bc-epochs", "30", "--workers", "1"]  # fmt: skip
-    assert train.main(argv) == 0
+    out = _train_tiny(tmp_path, "--timesteps", "512", "--eval-freq", "256", "--demo-tasks",
+                      "16", "--bc-epochs", "30", "--workers", "1")  # fmt: skip
     config = json.loads((out / "config.json").read_text())
     assert config["imitation"]["expert_episodes"] == 16
     assert config["imitation"]["final_greedy_good"] == 1.0
