@@ -88,6 +88,8 @@ from collections.abc import Hashable, Iterator
 
 import numpy as np
 
+from .validation import check_f_max, check_matrix, check_wrenches  # noqa: F401 - re-exported
+
 TOL = 1e-6
 """Decision tolerance: feasible when gamma <= 1 + TOL (module docstring, "The tolerance rule")."""
 
@@ -113,39 +115,6 @@ _HIGHS_OPTIONS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_toler
 # --------------------------------------------------------------------------------------------
 # input checking
 # --------------------------------------------------------------------------------------------
-def check_matrix(A: np.ndarray) -> np.ndarray:
-    """A as a float (6, m) array, or a ValueError naming what is wrong."""
-    arr = np.asarray(A, dtype=float)
-    if arr.ndim != 2 or arr.shape[0] != 6 or arr.shape[1] < 1:
-        raise ValueError(
-            f"A must be a 6 x m configuration matrix with m >= 1, got shape {arr.shape}"
-        )
-    if not np.isfinite(arr).all():
-        bad = np.argwhere(~np.isfinite(arr))[0]
-        raise ValueError(f"A has a non-finite entry at row {bad[0]}, column {bad[1]}")
-    return arr
-
-
-def check_wrenches(W: np.ndarray) -> np.ndarray:
-    """W as a float (t, 6) array (a single 6-vector is promoted), or a ValueError."""
-    arr = np.asarray(W, dtype=float)
-    if arr.ndim == 1:
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != 6:
-        raise ValueError(f"wrenches must have shape (t, 6) or (6,), got {np.shape(W)}")
-    if not np.isfinite(arr).all():
-        row = int(np.argwhere(~np.isfinite(arr))[0, 0])
-        raise ValueError(f"wrench row {row} is not finite: {arr[row].tolist()}")
-    return arr
-
-
-def check_f_max(f_max: float) -> float:
-    f = float(f_max)
-    if not (f > 0 and math.isfinite(f)):
-        raise ValueError(f"f_max must be a positive, finite thrust, got {f_max!r}")
-    return f
-
-
 def _check_method(method: str) -> str:
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")

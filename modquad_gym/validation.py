@@ -1,0 +1,100 @@
+"""Input checks shared by every layer: one place that decides what a valid integer, real number,
+thrust limit, wrench array or configuration matrix is, so the API, the environment and the CLI
+accept and reject the same values with the same one-line messages.
+
+Every check raises ``ValueError`` whose message names the argument and the offending value.
+Booleans and strings are never numbers here (``n_max=True`` and ``f_max='2'`` are errors).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+__all__ = ["check_f_max", "check_int", "check_matrix", "check_real", "check_wrenches"]
+
+
+def _is_bool(value: object) -> bool:
+    return isinstance(value, (bool, np.bool_))
+
+
+def check_int(value: object, name: str, low: int | None = None, high: int | None = None) -> int:
+    """``value`` as a Python int within [low, high], or a ValueError naming ``name``.
+
+    Accepts Python and NumPy integers only: ``2.0``, ``'2'`` and ``True`` are rejected.
+    """
+    if _is_bool(value) or not isinstance(value, numbers.Integral):
+        raise ValueError(f"{name} must be an integer, got {value!r}")
+    v = int(value)
+    if low is not None and v < low:
+        raise ValueError(f"{name} must be >= {low}, got {v}")
+    if high is not None and v > high:
+        raise ValueError(f"{name} must be <= {high}, got {v}")
+    return v
+
+
+def check_real(
+    value: object,
+    name: str,
+    low: float | None = None,
+    high: float | None = None,
+    *,
+    positive: bool = False,
+) -> float:
+    """``value`` as a finite float within [low, high] (and > 0 when ``positive``), or a
+    ValueError naming ``name``. Booleans and strings are rejected."""
+    if _is_bool(value) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name} must be a real number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    if positive and not v > 0:
+        raise ValueError(f"{name} must be positive, got {v:g}")
+    if low is not None and v < low:
+        raise ValueError(f"{name} must be >= {low:g}, got {v:g}")
+    if high is not None and v > high:
+        raise ValueError(f"{name} must be <= {high:g}, got {v:g}")
+    return v
+
+
+def check_f_max(f_max: object) -> float:
+    """The per-rotor thrust limit: a positive, finite real number."""
+    return check_real(f_max, "f_max", positive=True)
+
+
+def _float_array(value: object, name: str) -> np.ndarray:
+    arr = np.asarray(value)
+    if arr.dtype == object or arr.dtype.kind in "USVb":
+        raise ValueError(f"{name} must hold real numbers, got dtype {arr.dtype}")
+    return arr.astype(float, copy=False)
+
+
+def check_wrenches(W: object, *, allow_empty: bool = True) -> np.ndarray:
+    """W as a float (t, 6) array (a single 6-vector is promoted), or a ValueError naming the
+    shape or the first non-finite row."""
+    arr = _float_array(W, "wrenches")
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 6:
+        raise ValueError(f"wrenches must have shape (t, 6) or (6,), got {np.shape(W)}")
+    if not allow_empty and arr.shape[0] == 0:
+        raise ValueError("the task has no wrenches: expected at least one row of 6 numbers")
+    if not np.isfinite(arr).all():
+        row = int(np.argwhere(~np.isfinite(arr))[0, 0])
+        raise ValueError(f"wrench row {row} is not finite: {arr[row].tolist()}")
+    return arr
+
+
+def check_matrix(A: object) -> np.ndarray:
+    """A as a float (6, m) array with m >= 1, or a ValueError naming what is wrong."""
+    arr = _float_array(A, "A")
+    if arr.ndim != 2 or arr.shape[0] != 6 or arr.shape[1] < 1:
+        raise ValueError(
+            f"A must be a 6 x m configuration matrix with m >= 1, got shape {arr.shape}"
+        )
+    if not np.isfinite(arr).all():
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise ValueError(f"A has a non-finite entry at row {bad[0]}, column {bad[1]}")
+    return arr
