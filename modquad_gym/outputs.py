@@ -1,0 +1,83 @@
+"""Safe output files: check a destination before long work, write it atomically, never replace
+what the user saved unless asked.
+
+Every command that writes goes through here, so two runs into one place never leave a mixed or
+half-written file (each write goes to a temporary file in the same folder, then ``os.replace``),
+and an existing file is replaced only with ``force=True``.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+__all__ = ["OutputError", "atomic_write", "check_output_dir", "check_output_file", "write_text"]
+
+
+class OutputError(ValueError):
+    """An output path that cannot be written (exists, read-only, not a folder, ...)."""
+
+
+def _check_writable_dir(folder: Path, what: str) -> None:
+    if not folder.exists():
+        parent = next((p for p in folder.parents if p.exists()), None)
+        if parent is None or not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+            raise OutputError(f"{what}: cannot create folder {folder} (parent not writable)")
+        return
+    if not folder.is_dir():
+        raise OutputError(f"{what}: {folder} exists and is not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OutputError(f"{what}: folder {folder} is not writable")
+
+
+def check_output_file(path: str | os.PathLike, force: bool = False, what: str = "output") -> Path:
+    """The destination file as a Path, after checking it can be written: its folder exists or
+    can be created and is writable, and the file does not exist yet (unless ``force``).
+    Call it before long work starts."""
+    path = Path(path)
+    if path.is_dir():
+        raise OutputError(f"{what}: {path} is a folder, expected a file name")
+    if path.exists() and not force:
+        raise OutputError(f"{what}: {path} exists (use --force to replace it)")
+    _check_writable_dir(path.parent if str(path.parent) else Path("."), what)
+    return path
+
+
+def check_output_dir(
+    path: str | os.PathLike, names: tuple[str, ...] = (), force: bool = False, what: str = "--out"
+) -> Path:
+    """The destination folder as a Path, after checking it is (or can become) a writable folder
+    in which none of ``names`` exists yet (unless ``force``)."""
+    folder = Path(path)
+    _check_writable_dir(folder, what)
+    if not force:
+        taken = [n for n in names if (folder / n).exists()]
+        if taken:
+            raise OutputError(
+                f"{what}: {folder} already holds {', '.join(taken)} (use --force to replace)"
+            )
+    return folder
+
+
+def atomic_write(path: str | os.PathLike, write: Callable[[Path], None]) -> Path:
+    """Call ``write(tmp)`` to fill a temporary file beside ``path``, then move it into place
+    in one step. ``path``'s folder is created if needed; the temporary file never survives."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        write(tmp)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def write_text(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically."""
+    return atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
