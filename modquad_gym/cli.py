@@ -32,6 +32,10 @@ def _solver(args):
     fn = SEARCHES[args.method]
     if args.method == "random":
         return lambda task: fn(task, n_max=args.n_max, seed=args.seed)
+    if args.method == "exhaustive":
+        progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
+        workers = getattr(args, "workers", 1)
+        return lambda task: fn(task, n_max=args.n_max, workers=workers, progress=progress)
     return lambda task: fn(task, n_max=args.n_max)
 
 
@@ -146,6 +150,7 @@ def cmd_bench(args) -> int:
         "search": "modquad_gym.bench.search",
         "env": "modquad_gym.bench.env",
         "paper": "modquad_gym.bench.paper",
+        "scaling": "modquad_gym.bench.scaling",
         "agents": "agents.benchmark",
     }[args.what]
     importlib.import_module(module).main(args.rest)
@@ -180,7 +185,11 @@ def build_parser() -> argparse.ArgumentParser:
             "greedy/random: baselines; ppo: the learned agent (default %(default)s)",
         )
         p.add_argument(
-            "--n-max", type=int, default=7, help="largest module count (default %(default)s)"
+            "--n-max",
+            type=int,
+            default=7,
+            help="largest module count (default %(default)s; the exhaustive search goes up to "
+            "16, the constructive baselines to 64)",
         )
         p.add_argument(
             "--model",
@@ -215,6 +224,19 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="print one JSON object per task per line: cells, n_modules, evaluated, "
         "oracle_calls, feasible, certified, seconds",
+    )
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress bar (the exhaustive search shows one per level on stderr)",
+    )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="processes sharing each large level of the exhaustive search (levels of 100,000 "
+        "structures or more, i.e. 11 modules and up); the answer is the same for any number "
+        "(default %(default)s)",
     )
     p.set_defaults(func=cmd_solve)
 
@@ -323,9 +345,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "what",
-        choices=("oracle", "search", "env", "paper", "agents"),
+        choices=("oracle", "search", "scaling", "env", "paper", "agents"),
         help="oracle: feasibility methods compared; search: exhaustive search vs an LP "
-        "reference; env: environment steps/s; paper: the paper's Sec. VI experiment; "
+        "reference; scaling: the exhaustive search level by level up to 14 modules; "
+        "env: environment steps/s; paper: the paper's Sec. VI experiment; "
         "agents: PPO vs the searches on held-out tasks",
     )
     p.add_argument(

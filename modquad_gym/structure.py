@@ -257,25 +257,12 @@ def configuration_matrices(keys: list[Key], module: ModuleType | None = None) ->
     return A
 
 
-def grow(keys: Iterable[Key]) -> list[Key]:
-    """Every structure (as key) made by docking one module to one of ``keys``, deduplicated
-    up to translation, in a deterministic order."""
-    seen: set[Key] = set()
-    out: list[Key] = []
-    for key in keys:
-        for cell in free_neighbours(key):
-            child = normalise(key + (cell,))
-            if child not in seen:
-                seen.add(child)
-                out.append(child)
-    return out
-
-
 def structure_levels(n_max: int) -> Iterator[list[Key]]:
-    """Yield, for n = 1..n_max, every connected structure of n modules up to translation
-    (the fixed polyominoes: 1, 2, 6, 19, 63, 216, 760, 2725, 9910, 36446, ...)."""
-    level: list[Key] = [((0, 0),)]
+    """Yield, for n = 1..n_max, every connected structure of n modules up to translation (the
+    fixed polyominoes: 1, 2, 6, 19, 63, 216, 760, 2725, 9910, 36446, ...) as keys, in the
+    canonical order of :mod:`modquad_gym.polyominoes`. Each level is a list: for small n only;
+    the searches stream levels in chunks instead."""
+    from .polyominoes import PolyominoStream
+
     for n in range(1, n_max + 1):
-        if n > 1:
-            level = grow(level)
-        yield level
+        yield [normalise(map(tuple, c.tolist())) for b in PolyominoStream(n) for c in b]

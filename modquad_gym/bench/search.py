@@ -28,8 +28,9 @@ from pathlib import Path
 import numpy as np
 
 from ..oracle import Zonotope
-from ..search import _levels, exhaustive_search, force_lower_bound
-from ..structure import Structure, free_neighbours
+from ..polyominoes import PolyominoStream
+from ..search import exhaustive_search, force_lower_bound
+from ..structure import Structure, free_neighbours, normalise
 from . import machine_description, markdown_table, write_csv
 
 
@@ -90,7 +91,12 @@ def torque_task(t: int, rng: np.random.Generator) -> np.ndarray:
 def reference_rate(W: np.ndarray, n_max: int, limit: int) -> tuple[float, int]:
     """Structures/s of the plain reference on the first ``limit`` structures it must check."""
     n_lb = force_lower_bound(W, Structure([(0, 0)]).module)
-    keys = [k for n, lv in enumerate(_levels(n_max), 1) if n >= n_lb for k in lv][:limit]
+    keys = [
+        normalise(map(tuple, cells.tolist()))
+        for n in range(n_lb, n_max + 1)
+        for block in PolyominoStream(n)
+        for cells in block
+    ][:limit]
     t0 = time.perf_counter()
     for key in keys:
         z = Zonotope(Structure.from_trusted(key).configuration_matrix())
@@ -156,7 +162,7 @@ def _goal_lines(rows: list[dict], machine: str) -> list[str]:
 def run(n_tasks: int, seed: int, ref_limit: int, out: Path) -> list[dict]:
     rng = np.random.default_rng(seed)
     t0 = time.perf_counter()
-    _levels(10)
+    sum(len(block) for n in range(1, 11) for block in PolyominoStream(n))
     enum_seconds = time.perf_counter() - t0
     rows = []
     workloads: list[tuple[str, int, np.ndarray]] = []

@@ -1,4 +1,7 @@
-"""Searches for the smallest structure whose feasible wrenches contain a task (paper Sec. V).
+"""The exhaustive search as it was before the streaming engine (levels materialised from
+the previous one), kept as the reference the new searches are compared against.
+
+Searches for the smallest structure whose feasible wrenches contain a task (paper Sec. V).
 
 * :func:`exhaustive_search` (Sec. V-A): every connected structure up to translation, level by
   level; the first level holding a feasible structure is the certified minimum. Nothing is
@@ -32,15 +35,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .module import ModuleType
-from .oracle import TOL, Zonotope, check_f_max, check_wrenches
-from .structure import (
+from modquad_gym.module import ModuleType
+from modquad_gym.oracle import TOL, Zonotope, check_f_max, check_wrenches
+from modquad_gym.structure import (
     Cell,
     Key,
     Structure,
     configuration_matrices,
     free_neighbours,
-    grow,
     normalise,
 )
 
@@ -130,6 +132,20 @@ def force_lower_bound(W: np.ndarray, module: ModuleType, f_max: float = 1.0) -> 
     if not math.isfinite(worst):
         return 10**9
     return max(1, math.ceil(worst - TOL))
+
+
+def grow(keys: Iterable[Key]) -> list[Key]:
+    """Every structure made by docking one module to one of ``keys``, deduplicated up to
+    translation, in a deterministic order."""
+    seen: set[Key] = set()
+    out: list[Key] = []
+    for key in keys:
+        for cell in free_neighbours(key):
+            child = normalise(key + (cell,))
+            if child not in seen:
+                seen.add(child)
+                out.append(child)
+    return out
 
 
 _LEVELS: list[tuple[Key, ...]] = [(((0, 0),),)]
@@ -250,7 +266,7 @@ class _TaskChecker:
 
 def _verified(structure: Structure, W: np.ndarray, f_max: float) -> bool:
     """Independent re-check with the exact DAQP LP on every wrench."""
-    from .oracle import feasible
+    from modquad_gym.oracle import feasible
 
     return bool(feasible(structure.configuration_matrix(), W, f_max, method="daqp").all())
 
@@ -393,7 +409,7 @@ def greedy_search(
     Children that are the same structure up to translation (from one module, cells (1, 0) and
     (-1, 0) both give the horizontal pair) are evaluated and counted once, at their first cell
     in sorted order; since equal structures score equally, this changes counts, not results."""
-    from .oracle import _margin
+    from modquad_gym.oracle import _margin
 
     t0 = time.perf_counter()
     W, f = _task_arrays(task, f_max)

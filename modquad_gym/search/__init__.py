@@ -1,0 +1,40 @@
+"""Searches for the smallest structure whose feasible wrenches contain a task (paper Sec. V).
+
+* :mod:`.exhaustive`: the certified exhaustive search and the whole minimal level;
+* :mod:`.baselines`: the centrosymmetric heuristic (Algorithm 2), greedy and random;
+* :mod:`.bounds`: exact lower bounds (force, level) that rule out whole levels;
+* :mod:`.checker` and :mod:`.supports`: deciding a task against many structures.
+
+Every returned structure is re-verified by the exact DAQP LP oracle, independently of the path
+that found it. Counts follow the paper: ``evaluated`` is the number of configurations whose
+feasibility against the task was decided; ``oracle_calls`` the number of wrench-structure tests
+(a rejection by a cached separating direction counts as one).
+"""
+
+from .baselines import centrosymmetric_search, greedy_search, random_search
+from .bounds import force_lower_bound, level_bounds
+from .checker import TaskChecker
+from .exhaustive import exhaustive_search, optimal_structures, scan_chunks
+from .result import SearchResult
+
+SEARCHES = {
+    "exhaustive": exhaustive_search,
+    "centrosymmetric": centrosymmetric_search,
+    "greedy": greedy_search,
+    "random": random_search,
+}
+"""The searches by name (the CLI's ``--method``)."""
+
+__all__ = [
+    "SEARCHES",
+    "SearchResult",
+    "TaskChecker",
+    "centrosymmetric_search",
+    "exhaustive_search",
+    "force_lower_bound",
+    "greedy_search",
+    "level_bounds",
+    "optimal_structures",
+    "random_search",
+    "scan_chunks",
+]

@@ -1,0 +1,166 @@
+"""Exact lower bounds on the module count, computed before any structure is searched.
+
+* Force bound: the force part of W does not depend on where modules sit, so for n modules of
+  one type it is exactly n times the force zonotope Z_F of one module. A task force outside
+  n * Z_F rules out every structure of n modules.
+* Level bounds: for a fixed set of directions d in wrench space, h_n(d) = max over every
+  n-module structure S of its support h_S(d) is task-independent. A task wrench with
+  d . w > h_n(d) (widened by the oracle's tolerance) rules out the whole level n. h_n is
+  computed once per (module type, n) by one pass over the level and cached on disk
+  (``$MODQUAD_CACHE`` or ``~/.cache/modquad_gym``); the default T-module's bounds up to
+  14 modules ship with the package (regenerate: ``python -m modquad_gym.search.bounds``).
+  An upper bound of the widened support is used (max of each sum taken separately), so the
+  test stays exact.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import itertools
+import math
+import os
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from ..module import ModuleType
+from ..oracle import TOL
+from ..outputs import atomic_write
+from ..polyominoes import PolyominoStream
+from . import supports
+
+NO_SIZE = 10**9
+"""What :func:`force_lower_bound` returns when no number of modules can exert the forces."""
+
+COMPUTE_ON_DEMAND_UP_TO = 10
+"""Level bounds are computed on the fly up to this many modules (a pass over at most 36,446
+structures); larger levels use the shipped or cached bounds only."""
+
+
+def force_lower_bound(W: np.ndarray, module: ModuleType, f_max: float = 1.0) -> int:
+    """Smallest n such that every task force lies in n * Z_F, with Z_F the force zonotope of
+    one module {sum_j u_j d_j : 0 <= u_j <= f_max}. Exact: no structure of fewer modules can
+    exert the task's forces, whatever its shape. :data:`NO_SIZE` if no n works."""
+    dirs = module.directions
+    normals = [
+        np.cross(dirs[i], dirs[j]) for i in range(len(dirs)) for j in range(i + 1, len(dirs))
+    ]
+    normals = [n / np.linalg.norm(n) for n in normals if np.linalg.norm(n) > 1e-12]
+    normals += [np.eye(3)[k] for k in range(3)]  # harmless extra directions for degenerate types
+    N = np.array(normals + [-n for n in normals])
+    h1 = np.maximum(N @ dirs.T, 0.0).sum(axis=1) * f_max  # support of one module's force set
+    proj = W[:, :3] @ N.T  # (t, k)
+    need = np.where(
+        h1 > 1e-12, proj / np.where(h1 > 1e-12, h1, 1.0), np.where(proj > 1e-12, np.inf, 0)
+    )
+    worst = float(need.max())
+    if not math.isfinite(worst) or worst > NO_SIZE:
+        return NO_SIZE
+    return max(1, math.ceil(worst - TOL))
+
+
+def level_directions() -> np.ndarray:
+    """The fixed directions of the level bounds (unit rows, (104, 6)): every torque direction
+    in {-1, 0, 1}^3 combined with a downward force weight in {0, 1/4, 1/2, 1} (a torque costs
+    lift: the less lift a task has, the less torque any structure of n modules can add)."""
+    rows = []
+    for c in (0.0, 0.25, 0.5, 1.0):
+        for t in itertools.product((-1.0, 0.0, 1.0), repeat=3):
+            if any(t):
+                rows.append([0.0, 0.0, -c, *t])
+    D = np.array(rows)
+    return D / np.linalg.norm(D, axis=1, keepdims=True)
+
+
+def _module_digest(module: ModuleType) -> str:
+    h = hashlib.sha256()
+    for a in (module.columns, module.directions, np.array([module.side])):
+        h.update(np.ascontiguousarray(a, dtype=float).tobytes())
+    h.update(level_directions().tobytes())
+    return h.hexdigest()[:16]
+
+
+def compute_level_bounds(module: ModuleType, n: int) -> np.ndarray:
+    """(2, P): max over level n of (sum_k max(0, d . a_k), sum_k |d . a_k|) per direction,
+    per unit thrust, by one pass over the level."""
+    b, alpha, beta = supports.direction_terms([module], level_directions())
+    out = np.zeros((2, b.shape[0]))
+    masses = np.ones(1)
+    for cells in PolyominoStream(n, 1 << 16):
+        types = np.zeros(cells.shape[:2], dtype=np.int8)
+        supports.max_supports(cells, types, masses, float(module.side), b, alpha, beta, *out)
+    return out
+
+
+def _cache_dir() -> Path:
+    return Path(os.environ.get("MODQUAD_CACHE", Path.home() / ".cache" / "modquad_gym"))
+
+
+def _shipped(digest: str, n: int) -> np.ndarray | None:
+    try:
+        ref = resources.files("modquad_gym") / "data" / "level_bounds" / f"{digest}.npz"
+        if not ref.is_file():
+            return None
+        with ref.open("rb") as fh, np.load(fh) as data:
+            key = f"n{n}"
+            return data[key] if key in data.files else None
+    except (OSError, ValueError):
+        return None
+
+
+@lru_cache(maxsize=256)
+def _bounds(digest: str, module: ModuleType, n: int) -> np.ndarray | None:
+    shipped = _shipped(digest, n)
+    if shipped is not None:
+        return shipped
+    path = _cache_dir() / f"level_bounds_{digest}_n{n}.npy"
+    try:
+        return np.load(path)
+    except (OSError, ValueError):
+        pass
+    if n > COMPUTE_ON_DEMAND_UP_TO:
+        return None
+    out = compute_level_bounds(module, n)
+    try:
+        atomic_write(path, lambda tmp: np.save(tmp.open("wb"), out))
+    except OSError:
+        pass  # a read-only home: the bound still holds for this process
+    return out
+
+
+def level_bounds(module: ModuleType, n: int) -> np.ndarray | None:
+    """The cached (2, P) level bounds of ``n`` modules of ``module``, or None when they are
+    neither shipped, cached nor cheap enough to compute now."""
+    return _bounds(_module_digest(module), module, n)
+
+
+def level_excluded(W: np.ndarray, f_max: float, module: ModuleType, n: int) -> bool:
+    """True when some task wrench lies beyond every n-module structure in a level direction."""
+    bounds = level_bounds(module, n)
+    if bounds is None:
+        return False
+    values = (level_directions() @ W.T).max(axis=1)
+    widened = f_max * (bounds[0] + 0.5 * TOL * bounds[1]) + supports.SLACK
+    return bool((values > widened).any())
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Regenerate the shipped level bounds of the default T-module."""
+    from .result import DEFAULT_MODULE
+
+    parser = argparse.ArgumentParser(description=main.__doc__)
+    parser.add_argument("--n-max", type=int, default=14, help="largest level (default 14)")
+    parser.add_argument("--out", default="modquad_gym/data/level_bounds", help="folder")
+    args = parser.parse_args(argv)
+    digest = _module_digest(DEFAULT_MODULE)
+    arrays = {f"n{n}": compute_level_bounds(DEFAULT_MODULE, n) for n in range(1, args.n_max + 1)}
+    path = Path(args.out) / f"{digest}.npz"
+    atomic_write(path, lambda tmp: np.savez(tmp.open("wb"), **arrays))
+    print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()

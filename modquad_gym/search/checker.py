@@ -1,0 +1,137 @@
+"""Deciding whole tasks against many structures, sharing what each rejection teaches.
+
+A :class:`TaskChecker` holds one task. Structures come as cell arrays (L, n, 2) in a fixed
+order; :meth:`TaskChecker.first_feasible` returns the first that satisfies every wrench. Most
+are rejected by a *cached separating direction*: a direction d that separated a task wrench w
+from an earlier structure (d . w > h_S(d)) is tried on every later one, in compiled code straight
+from the cells (:mod:`.supports`). Exact, not a heuristic. The survivors go to the certified
+oracle, whose rejections teach the cache new directions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..module import ModuleType
+from ..oracle import TOL, Zonotope
+from ..structure import Structure, configuration_matrices
+from . import supports
+
+POOL_SIZE = 512
+"""How many separating directions are kept (most recent first)."""
+
+
+class TaskChecker:
+    """Decides a task (W, f_max) against structures of one module type, counting the work.
+
+    Attributes:
+        evaluated: structures whose feasibility against the whole task was decided.
+        oracle_calls: wrench-structure tests (a rejection by a cached direction counts one).
+    """
+
+    def __init__(self, W: np.ndarray, f_max: float, module: ModuleType) -> None:
+        self.W = W
+        self.f_max = f_max
+        self.module = module
+        self.evaluated = 0
+        self.oracle_calls = 0
+        # hardest wrenches first: by decreasing Euclidean norm (ties keep the task's order), so
+        # an infeasible structure usually fails on an early batch
+        self.order = np.argsort(-np.linalg.norm(W, axis=1), kind="stable")
+        self.pool = np.zeros((0, 6))  # separating directions in wrench space, newest first
+        self._terms = supports.direction_terms([module], self.pool)
+        self._values = np.zeros(0)  # max_i d . w_i over the task, per direction
+        self._masses = np.ones(1)
+
+    # --- the cache of separating directions ------------------------------------------------
+    def remember(self, d6: np.ndarray) -> None:
+        """Add a separating direction (normalised) at the front of the cache."""
+        d6 = np.asarray(d6, dtype=float) / np.linalg.norm(d6)
+        self.pool = np.vstack([d6[None], self.pool])[:POOL_SIZE]
+        self._terms = supports.direction_terms([self.module], self.pool)
+        self._values = (self.pool @ self.W.T).max(axis=1)
+
+    def alive(self, cells: np.ndarray, newest_only: bool = False) -> np.ndarray:
+        """bool (L,): structures (cells (L, n, 2)) that no cached direction rejects (only the
+        newest direction with ``newest_only``)."""
+        cells = np.ascontiguousarray(cells, dtype=np.int32)
+        alive = np.ones(len(cells), dtype=bool)
+        k = min(1, len(self.pool)) if newest_only else len(self.pool)
+        if k:
+            b, alpha, beta = (t[:k] for t in self._terms)
+            types = np.zeros(cells.shape[:2], dtype=np.int8)
+            supports.reject(
+                cells,
+                types,
+                self._masses,
+                float(self.module.side),
+                b,
+                alpha,
+                beta,
+                self._values[:k],
+                self.f_max,
+                0.5 * TOL,
+                alive,
+            )
+        return alive
+
+    # --- deciding ---------------------------------------------------------------------------
+    def first_feasible(self, cells: np.ndarray) -> int | None:
+        """Index of the first structure of ``cells`` (L, n, 2) that satisfies the task, or None.
+        Every structure up to it counts as evaluated."""
+        alive = self.alive(cells)
+        for i in range(len(cells)):
+            if not alive[i]:
+                continue
+            n_pool = len(self.pool)
+            A = configuration_matrices(cells[i : i + 1], self.module)[0]
+            if self.check_matrix(A):
+                self._count_rejected(i - int(alive[:i].sum()))
+                return i
+            if len(self.pool) != n_pool and i + 1 < len(cells):  # one new direction
+                alive[i + 1 :] &= self.alive(cells[i + 1 :], newest_only=True)
+        self._count_rejected(len(cells) - int(alive.sum()))
+        return None
+
+    def _count_rejected(self, k: int) -> None:
+        self.evaluated += k
+        self.oracle_calls += k
+
+    def check(self, structure: Structure) -> bool:
+        """True when the structure satisfies every task wrench (exact)."""
+        cells = np.asarray(structure.cells, dtype=np.int32)[None]
+        if not self.alive(cells)[0]:
+            self._count_rejected(1)
+            return False
+        return self.check_matrix(structure.configuration_matrix())
+
+    def check_matrix(self, A: np.ndarray) -> bool:
+        """Decide the task on one configuration matrix with the certified oracle, small
+        batches of the hardest wrenches first; a rejection teaches the cache a direction."""
+        self.evaluated += 1
+        z = Zonotope(A, self.f_max)
+        W = self.W[self.order]
+        start = 0
+        for size in (4, 16, len(W)):  # small batches first: most structures fail early
+            batch = W[start:size]
+            if not len(batch):
+                continue
+            self.oracle_calls += len(batch)
+            ok = z.decide_certified(batch)
+            if not ok.all():
+                self._learn(z, batch[int(np.argmin(ok))])
+                return False
+            start = size
+        return True
+
+    def _learn(self, z: Zonotope, w: np.ndarray) -> None:
+        R, off = z.reduce(w[None])
+        if off[0]:  # the wrench leaves range(A): the residual direction separates it
+            d6 = w - z.Q @ (z.Q.T @ w)
+        else:
+            gamma, d = z.separating_direction(R[0])
+            if gamma <= 1.0 + TOL or not np.any(d):
+                return
+            d6 = z.Q @ d
+        if np.linalg.norm(d6) > 0:
+            self.remember(d6)

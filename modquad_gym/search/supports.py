@@ -1,0 +1,116 @@
+"""Support functions of many structures at once, straight from their cells (numba).
+
+The support of a structure's feasible set W = {A u : 0 <= u <= f_max} in a direction d of
+wrench space is h(d) = f_max * sum_k max(0, d . a_k). For the rotor k of a module whose centre
+sits at c = (c_x, c_y, 0) from the centre of mass, d . a_k = b_k + c_x alpha_k + c_y beta_k,
+where b_k is d . (the module's own column) and alpha_k, beta_k come from the torque part
+d_tau . (c x r_k). Precomputing (b, alpha, beta) per direction makes a support O(4n) without
+building A: the exhaustive search rejects most structures this way (a separating direction
+learned earlier, or a level bound) before any LP.
+
+The oracle's tolerance is included as it is everywhere: thrusts may leave [0, f_max] by
+TOL * f_max / 2, which widens the support by TOL * f_max / 2 * sum_k |d . a_k|.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numba import njit
+
+from ..module import ModuleType
+
+SLACK = 1e-12
+"""Absolute slack (in units of f_max-normalised wrenches) before a support test rejects."""
+
+
+def direction_terms(
+    modules: Sequence[ModuleType], D: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(b, alpha, beta), each (P, K, r): for each direction (rows of D, (P, 6)) and module type,
+    the per-rotor terms of d . a_k = b + c_x alpha + c_y beta."""
+    D = np.asarray(D, dtype=float).reshape(-1, 6)
+    dt = D[:, 3:]
+    b, alpha, beta = [], [], []
+    for m in modules:
+        r = m.directions  # (r, 3)
+        b.append(D @ m.columns)
+        alpha.append(-dt[:, 1:2] * r[:, 2] + dt[:, 2:3] * r[:, 1])
+        beta.append(dt[:, 0:1] * r[:, 2] - dt[:, 2:3] * r[:, 0])
+    return tuple(np.ascontiguousarray(np.stack(x, axis=1)) for x in (b, alpha, beta))
+
+
+@njit(cache=True)
+def _centres(cells, types, l, masses, side, cx, cy):
+    """Module centres of structure l relative to its mass-weighted centre, in metres."""
+    n = cells.shape[1]
+    mx = 0.0
+    my = 0.0
+    mt = 0.0
+    for i in range(n):
+        m = masses[types[l, i]]
+        mx += m * cells[l, i, 0]
+        my += m * cells[l, i, 1]
+        mt += m
+    mx /= mt
+    my /= mt
+    for i in range(n):
+        cx[i] = (cells[l, i, 0] - mx) * side
+        cy[i] = (cells[l, i, 1] - my) * side
+
+
+@njit(cache=True)
+def _support(b, alpha, beta, p, types, l, cx, cy):
+    """(sum_k max(0, d . a_k), sum_k |d . a_k|) of structure l in direction p."""
+    n = cx.shape[0]
+    r = b.shape[2]
+    plus = 0.0
+    total = 0.0
+    for i in range(n):
+        t = types[l, i]
+        for j in range(r):
+            v = b[p, t, j] + cx[i] * alpha[p, t, j] + cy[i] * beta[p, t, j]
+            if v > 0.0:
+                plus += v
+                total += v
+            else:
+                total -= v
+    return plus, total
+
+
+@njit(cache=True)
+def reject(cells, types, masses, side, b, alpha, beta, values, f_max, half_tol, alive):
+    """Clear ``alive[l]`` for every structure l that some direction p separates from a task
+    wrench: values[p] (the task's max_i d_p . w_i) above its widened support. Directions are
+    tried in order, stopping at the first that rejects."""
+    L, n, _ = cells.shape
+    P = b.shape[0]
+    cx = np.empty(n)
+    cy = np.empty(n)
+    for l in range(L):
+        if not alive[l]:
+            continue
+        _centres(cells, types, l, masses, side, cx, cy)
+        for p in range(P):
+            plus, total = _support(b, alpha, beta, p, types, l, cx, cy)
+            if values[p] > f_max * (plus + half_tol * total) + SLACK:
+                alive[l] = False
+                break
+
+
+@njit(cache=True)
+def max_supports(cells, types, masses, side, b, alpha, beta, plus_out, total_out):
+    """Running maxima over the structures of ``cells`` of both support sums, per direction."""
+    L, n, _ = cells.shape
+    P = b.shape[0]
+    cx = np.empty(n)
+    cy = np.empty(n)
+    for l in range(L):
+        _centres(cells, types, l, masses, side, cx, cy)
+        for p in range(P):
+            plus, total = _support(b, alpha, beta, p, types, l, cx, cy)
+            if plus > plus_out[p]:
+                plus_out[p] = plus
+            if total > total_out[p]:
+                total_out[p] = total
