@@ -1,24 +1,45 @@
 """The ``modquad`` command line: solve tasks, generate task files, draw structures, validate in
 MuJoCo, and run the benchmarks. ``modquad COMMAND --help`` explains each command.
 
-Exit codes: 0 on success (an infeasible task is a result, not an error), 2 for bad input (a
-task file that cannot be read, an unknown option).
+Exit codes: 0 on success (an infeasible task is a result, not an error); 2 for every expected
+failure (a task file that cannot be read, a bad option value, an output path that exists or
+cannot be written, a missing optional dependency, a closed output pipe), reported as one line
+``modquad: error: ...`` naming the file or option; 130 when interrupted (Ctrl-C).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
 METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo")
 
 
-def _load_task(path: str):
+DEFAULT_HOVER_WRENCHES = 20
+MAX_HOVER_SECONDS = 60.0
+SECONDS_PER_SIMULATED_SECOND = 0.25
+"""Wall seconds per simulated hover second on the reference machine (2 cores), for the
+estimate ``validate`` prints before it starts."""
+
+
+def _load_task(path: str, csv_header: str = "auto"):
     from .tasks import TaskRequirement
 
-    return TaskRequirement.load(path)
+    return TaskRequirement.load(path, csv_header=csv_header)
+
+
+def _parse_cells(text: str) -> list:
+    """``--cells`` as a list of [x, y] pairs, or a ValueError naming the option."""
+    try:
+        cells = json.loads(text)
+    except (json.JSONDecodeError, RecursionError):
+        raise ValueError(f"--cells: not JSON: {text!r} (e.g. '[[0,0],[1,0]]')") from None
+    if not isinstance(cells, list):
+        raise ValueError(f"--cells: expected a JSON list of [x, y] pairs, got {text!r}")
+    return cells
 
 
 def _solver(args):
@@ -40,7 +61,7 @@ def _solver(args):
 
 
 def cmd_solve(args) -> int:
-    tasks = [(path, _load_task(path)) for path in args.task]
+    tasks = [(path, _load_task(path, args.csv_header)) for path in args.task]
     solve = _solver(args)
     for path, task in tasks:
         result = solve(task)
@@ -65,25 +86,30 @@ def cmd_solve(args) -> int:
 def cmd_task_generate(args) -> int:
     import numpy as np
 
+    from .outputs import check_output_file
     from .tasks import make_generator
 
+    out = check_output_file(args.out, force=args.force, what="--out")
     generator = make_generator(args.kind)
     task = generator(np.random.default_rng(args.seed))
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     task.save(out)
     print(f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, seed {args.seed})")
     return 0
 
 
 def cmd_show(args) -> int:
+    from .outputs import check_output_file
     from .structure import Structure
     from .viz import save_structure_figure
 
+    out = Path(args.out)
+    if out.suffix.lower() != ".png":
+        out = out.with_name(out.name + ".png")
+    out = check_output_file(out, force=args.force, what="--out")
     if args.task:
-        task = _load_task(args.task)
+        task = _load_task(args.task, args.csv_header)
         if args.cells:
-            structure = Structure(json.loads(args.cells))
+            structure = Structure(_parse_cells(args.cells))
         else:
             from .search import exhaustive_search
 
@@ -96,8 +122,7 @@ def cmd_show(args) -> int:
         if not args.cells:
             raise ValueError("give --cells (e.g. '[[0,0],[1,0]]') or --task")
         task = None
-        structure = Structure(json.loads(args.cells))
-    out = Path(args.out)
+        structure = Structure(_parse_cells(args.cells))
     save_structure_figure(structure, out, task=task)
     print(structure)
     print(f"wrote {out}")
@@ -105,13 +130,24 @@ def cmd_show(args) -> int:
 
 
 def cmd_validate(args) -> int:
+    from .outputs import check_output_dir
     from .sim.validate import validate
+    from .validation import check_int, check_real
 
-    if not args.hover_seconds > 0:
-        raise ValueError(f"--hover-seconds must be > 0, got {args.hover_seconds}")
-    if not args.load_ramp_seconds >= 0:
-        raise ValueError(f"--load-ramp-seconds must be >= 0, got {args.load_ramp_seconds}")
-    task = _load_task(args.task)
+    check_real(args.hover_seconds, "--hover-seconds", 0.05, MAX_HOVER_SECONDS)
+    check_real(args.load_ramp_seconds, "--load-ramp-seconds", 0.0, args.hover_seconds)
+    k = None if args.all_wrenches else check_int(args.max_hover_wrenches, "--max-hover-wrenches", 1)
+    names = ("report.md", "validation.json", "hover.png", "bench_wrench.png", "rotor_inputs.png")
+    check_output_dir(args.out, names, force=args.force)
+    task = _load_task(args.task, args.csv_header)
+    n_hover = task.n_wrenches if k is None else min(k, task.n_wrenches)
+    flights = 1 if args.known_load_only else 2
+    simulated = flights * (n_hover + 1) * args.hover_seconds
+    print(
+        f"validate: bench on {task.n_wrenches} wrenches, hover under {n_hover}: about "
+        f"{simulated:g} simulated s (~{simulated * SECONDS_PER_SIMULATED_SECOND:.0f} s here)",
+        file=sys.stderr,
+    )
     result = _solver(args)(task)
     if result.structure is None:
         record = {
@@ -129,7 +165,7 @@ def cmd_validate(args) -> int:
         f_max=task.f_max,
         out_dir=args.out,
         include_infeasible_demo=args.infeasible_demo,
-        max_hover_wrenches=args.max_hover_wrenches,
+        max_hover_wrenches=k,
         hover_seconds=args.hover_seconds,
         unknown_load=not args.known_load_only,
         load_ramp_seconds=args.load_ramp_seconds,
@@ -151,6 +187,7 @@ def cmd_bench(args) -> int:
         "env": "modquad_gym.bench.env",
         "paper": "modquad_gym.bench.paper",
         "scaling": "modquad_gym.bench.scaling",
+        "level-bounds": "modquad_gym.bench.level_bounds",
         "agents": "agents.benchmark",
     }[args.what]
     importlib.import_module(module).main(args.rest)
@@ -167,6 +204,34 @@ def _print_help(parser: argparse.ArgumentParser):
     return show
 
 
+def _version() -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version("modquad_gym")
+    except metadata.PackageNotFoundError:
+        from . import __version__
+
+        return __version__
+
+
+def _add_csv_header(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--csv-header",
+        choices=("auto", "yes", "no"),
+        default="auto",
+        help="how a CSV task file's first row is read: auto (a row of names is a header; a "
+        "row 0,1,2,3,4,5, as pandas writes column numbers, is refused as ambiguous), yes "
+        "(skip the first row), no (every row is a wrench) (default %(default)s)",
+    )
+
+
+def _add_force(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--force", action="store_true", help="replace existing output files (default: refuse)"
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="modquad",
@@ -174,6 +239,7 @@ def build_parser() -> argparse.ArgumentParser:
         'contain a task\'s wrenches. Task files: JSON {"wrenches": [[fx,fy,fz,tx,ty,tz], ...], '
         '"f_max": 1.0, "name": "..."}, CSV with 6 columns, or .npy of shape (t, 6).',
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     def add_method(p, default="exhaustive"):
@@ -238,6 +304,7 @@ def build_parser() -> argparse.ArgumentParser:
         "structures or more, i.e. 11 modules and up); the answer is the same for any number "
         "(default %(default)s)",
     )
+    _add_csv_header(p)
     p.set_defaults(func=cmd_solve)
 
     p = sub.add_parser(
@@ -271,6 +338,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(default %(default)s)",
     )
     g.add_argument("--out", required=True, help="output file; format from suffix .json/.csv/.npy")
+    _add_force(g)
     g.set_defaults(func=cmd_task_generate)
 
     p = sub.add_parser(
@@ -287,7 +355,13 @@ def build_parser() -> argparse.ArgumentParser:
         default=7,
         help="largest module count the exhaustive search tries for --task (default %(default)s)",
     )
-    p.add_argument("--out", default="structure.png", help="PNG path (default %(default)s)")
+    p.add_argument(
+        "--out",
+        default="structure.png",
+        help="PNG path; '.png' is added when missing (default %(default)s)",
+    )
+    _add_csv_header(p)
+    _add_force(p)
     p.set_defaults(func=cmd_show)
 
     p = sub.add_parser(
@@ -311,16 +385,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--max-hover-wrenches",
         type=int,
-        default=None,
-        help="hover under at most this many task wrenches, the first ones in the file "
-        "(default: all); each is held for --hover-seconds simulated seconds, after a take-off "
-        "of the same length",
+        default=DEFAULT_HOVER_WRENCHES,
+        help="hover under at most this many task wrenches: the half nearest the boundary "
+        "(smallest margin) and a seeded sample of the rest; each is held for --hover-seconds "
+        "simulated seconds after a take-off of the same length (default %(default)s)",
+    )
+    p.add_argument(
+        "--all-wrenches",
+        action="store_true",
+        help="hover under every task wrench (a time estimate is printed first)",
     )
     p.add_argument(
         "--hover-seconds",
         type=float,
         default=2.0,
-        help="simulated seconds per hover segment (default %(default)s)",
+        help="simulated seconds per hover segment (default %(default)s), at most "
+        f"{MAX_HOVER_SECONDS:g}",
     )
     p.add_argument(
         "--load-ramp-seconds",
@@ -335,6 +415,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="fly only the hover whose controller knows the applied load (feed-forward); by "
         "default a second hover estimates the load by integral action",
     )
+    _add_csv_header(p)
+    _add_force(p)
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser(
@@ -345,9 +427,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "what",
-        choices=("oracle", "search", "scaling", "env", "paper", "agents"),
+        choices=("oracle", "search", "scaling", "level-bounds", "env", "paper", "agents"),
         help="oracle: feasibility methods compared; search: exhaustive search vs an LP "
         "reference; scaling: the exhaustive search level by level up to 14 modules; "
+        "level-bounds: regenerate the shipped level bounds; "
         "env: environment steps/s; paper: the paper's Sec. VI experiment; "
         "agents: PPO vs the searches on held-out tasks",
     )
@@ -361,6 +444,13 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line(exc: BaseException) -> str:
+    """An expected failure as one line naming the file or option."""
+    if isinstance(exc, OSError) and exc.filename and exc.strerror:
+        return f"{exc.filename}: {exc.strerror}"
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -369,8 +459,16 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     try:
         return args.func(args)
-    except (ValueError, FileNotFoundError) as exc:
-        print(f"modquad: error: {exc}", file=sys.stderr)
+    except KeyboardInterrupt:
+        print("modquad: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        # the reader closed our output (e.g. `| head -1`): stop writing, say so once
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        print("modquad: error: output closed before the end (broken pipe)", file=sys.stderr)
+        return 2
+    except (ValueError, OSError, ImportError, MemoryError, OverflowError) as exc:
+        print(f"modquad: error: {_one_line(exc)}", file=sys.stderr)
         return 2
 
 

@@ -13,7 +13,14 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["OutputError", "atomic_write", "check_output_dir", "check_output_file", "write_text"]
+__all__ = [
+    "OutputError",
+    "atomic_write",
+    "check_output_dir",
+    "check_output_file",
+    "save_figure",
+    "write_text",
+]
 
 
 class OutputError(ValueError):
@@ -81,3 +88,10 @@ def atomic_write(path: str | os.PathLike, write: Callable[[Path], None]) -> Path
 def write_text(path: str | os.PathLike, text: str) -> Path:
     """Write ``text`` (UTF-8) to ``path`` atomically."""
     return atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+
+
+def save_figure(fig, path: str | os.PathLike, dpi: int = 120) -> Path:
+    """Save a matplotlib figure atomically, in the format of ``path``'s suffix (PNG if none)."""
+    path = Path(path)
+    fmt = path.suffix[1:].lower() or "png"
+    return atomic_write(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=dpi))

@@ -33,6 +33,7 @@ import csv
 import json
 import math
 import os
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,7 +42,9 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from .module import ModuleType
+from .outputs import atomic_write, write_text
 from .structure import Cell, Structure, free_neighbours
+from .validation import check_f_max
 
 SUFFIXES = (".json", ".csv", ".npy")
 """Task file formats understood by :meth:`TaskRequirement.load`."""
@@ -50,6 +53,19 @@ COLUMNS = ("fx", "fy", "fz", "tx", "ty", "tz")
 """Wrench components, in order (the CSV header written by :meth:`TaskRequirement.save`)."""
 
 PathLike = str | os.PathLike
+
+MAX_FILE_BYTES = 100 * 2**20
+"""Largest task or suite file read (100 MiB): a larger one is refused before reading."""
+
+MAX_WRENCHES = 1_000_000
+"""Most wrenches in one task."""
+
+CSV_HEADER_MODES = ("auto", "yes", "no")
+"""How a CSV's first row is read: ``auto`` (a row of non-numbers is a header; a row that reads
+as the column numbers 0..5 that pandas writes, is refused as ambiguous), ``yes`` (the
+first row is a header whatever it holds) or ``no`` (every row is a wrench)."""
+
+_DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.I)
 
 
 class TaskFileError(ValueError):
@@ -65,22 +81,18 @@ def _is_number(v: object) -> bool:
     )
 
 
-def _check_f_max(f_max: object) -> float:
-    if not _is_number(f_max) or not (float(f_max) > 0 and math.isfinite(float(f_max))):
-        raise ValueError(f"f_max must be a positive, finite thrust per rotor, got {f_max!r}")
-    return float(f_max)
-
-
 def _check_wrench_array(wrenches: object) -> np.ndarray:
     """A float (t, 6) copy of ``wrenches``; errors name the shape or the 1-based row."""
     try:
         arr = np.array(wrenches, dtype=float)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise ValueError(f"wrenches must be a (t, 6) array of numbers: {exc}") from None
     if arr.ndim != 2 or arr.shape[1] != 6:
         raise ValueError(f"wrenches must have shape (t, 6), got {arr.shape}")
     if arr.shape[0] == 0:
         raise ValueError("a task needs at least one wrench, got none")
+    if arr.shape[0] > MAX_WRENCHES:
+        raise ValueError(f"a task holds at most {MAX_WRENCHES:,} wrenches, got {arr.shape[0]:,}")
     bad = ~np.isfinite(arr)
     if bad.any():
         row, col = np.argwhere(bad)[0]
@@ -140,7 +152,7 @@ class TaskRequirement:
         arr = _check_wrench_array(self.wrenches)
         arr.setflags(write=False)
         object.__setattr__(self, "wrenches", arr)
-        object.__setattr__(self, "f_max", _check_f_max(self.f_max))
+        object.__setattr__(self, "f_max", check_f_max(self.f_max))
         if not isinstance(self.name, str):
             raise ValueError(f"name must be a string, got {self.name!r}")
         if not isinstance(self.meta, dict):
@@ -205,7 +217,7 @@ class TaskRequirement:
         name = data.get("name", default_name)
         if not isinstance(name, str):
             raise ValueError(f"'name' must be a string, got {name!r}")
-        f_max = _check_f_max(data.get("f_max", 1.0))
+        f_max = check_f_max(data.get("f_max", 1.0))
         meta = data.get("meta", {})
         if not isinstance(meta, dict):
             raise ValueError(f"'meta' must be an object, got {meta!r}")
@@ -214,8 +226,9 @@ class TaskRequirement:
 
     # --- files ----------------------------------------------------------------------------
     @classmethod
-    def load(cls, path: PathLike) -> TaskRequirement:
-        """Read a ``.json``, ``.csv`` or ``.npy`` task file (formats in the module docstring).
+    def load(cls, path: PathLike, csv_header: str = "auto") -> TaskRequirement:
+        """Read a ``.json``, ``.csv`` or ``.npy`` task file (formats in the module docstring;
+        ``csv_header`` as in :data:`CSV_HEADER_MODES`).
 
         Raises:
             FileNotFoundError: naming the path, when there is no such file.
@@ -235,7 +248,7 @@ class TaskRequirement:
             if suffix == ".json":
                 return cls.from_dict(_read_json(path), default_name=path.stem)
             if suffix == ".csv":
-                return _load_csv(path)
+                return _load_csv(path, csv_header)
             return _load_npy(path)
         except TaskFileError:
             raise
@@ -253,17 +266,18 @@ class TaskRequirement:
                 f"{path}: unknown task file type {path.suffix!r}; use one of {', '.join(SUFFIXES)}"
             )
         if suffix == ".json":
-            path.write_text(_task_json(self.to_dict()) + "\n")
+            write_text(path, _task_json(self.to_dict()) + "\n")
         elif suffix == ".csv":
             lines = [f"# name: {self.name}", f"# f_max: {self.f_max!r}", ",".join(COLUMNS)]
             lines += [",".join(repr(float(v)) for v in row) for row in self.wrenches]
-            path.write_text("\n".join(lines) + "\n")
+            write_text(path, "\n".join(lines) + "\n")
         else:
             if self.f_max != 1.0:
                 raise ValueError(
                     f"{path}: .npy holds only the wrenches, not f_max={self.f_max:g}; save as .json"
                 )
-            np.save(path, np.asarray(self.wrenches, dtype=float))
+            data = np.asarray(self.wrenches, dtype=float)
+            atomic_write(path, lambda tmp: np.save(tmp.open("wb"), data))
         return path
 
 
@@ -293,24 +307,49 @@ def _task_json(d: dict[str, Any], indent: str = "") -> str:
     return "{\n" + ",\n".join(parts) + f"\n{indent}}}"
 
 
+def _read_text(path: Path) -> str:
+    """The file's text (UTF-8, with or without a byte-order mark), refusing huge files."""
+    size = path.stat().st_size
+    if size > MAX_FILE_BYTES:
+        raise TaskFileError(f"{path}: {size:,} bytes, more than the {MAX_FILE_BYTES:,} read")
+    try:
+        return path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise TaskFileError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+
+
+def _json_int(text: str) -> int | float:
+    """JSON integers as ints, except absurdly long ones, which become (infinite) floats and
+    are then refused by the checks with the row they are in."""
+    return int(text) if len(text) <= 300 else float("inf")
+
+
 def _read_json(path: Path) -> Any:
-    text = path.read_text()
+    text = _read_text(path)
     if not text.strip():
         raise TaskFileError(f"{path}: the file is empty")
     try:
-        return json.loads(text)
+        return json.loads(text, parse_int=_json_int)
     except json.JSONDecodeError as exc:
         raise TaskFileError(
             f"{path}: not valid JSON: {exc.msg} at line {exc.lineno}, column {exc.colno} "
             f"(char {exc.pos})"
         ) from None
+    except RecursionError:
+        raise TaskFileError(f"{path}: JSON nested too deeply") from None
 
 
-def _load_csv(path: Path) -> TaskRequirement:
-    text = path.read_text()
+def _looks_like_column_numbers(values: list[float | None]) -> bool:
+    return values == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+
+
+def _load_csv(path: Path, header: str = "auto") -> TaskRequirement:
+    if header not in CSV_HEADER_MODES:
+        raise ValueError(f"csv_header must be one of {', '.join(CSV_HEADER_MODES)}, got {header!r}")
+    text = _read_text(path)
     name, f_max = path.stem, 1.0
     rows: list[list[float]] = []
-    header_allowed = True
+    header_allowed = header != "no"
     for lineno, cells in enumerate(csv.reader(text.splitlines()), 1):
         cells = [c.strip() for c in cells]
         if not any(cells):
@@ -329,9 +368,15 @@ def _load_csv(path: Path) -> TaskRequirement:
                     ) from None
             continue
         parsed = [_to_float(c) for c in cells]
-        if header_allowed and all(v is None for v in parsed):
-            header_allowed = False  # a header line of non-numbers
+        if header_allowed and (header == "yes" or all(v is None for v in parsed)):
+            header_allowed = False  # the header line
             continue
+        if header_allowed and header == "auto" and _looks_like_column_numbers(parsed):
+            raise TaskFileError(
+                f"{path}: line {lineno}: the first row {','.join(cells)} looks like column "
+                "numbers (pandas writes them as a header); say how to read it with "
+                "--csv-header yes (skip it) or --csv-header no (a wrench)"
+            )
         header_allowed = False
         row = len(rows) + 1
         where = f"{path}: row {row} (line {lineno})"
@@ -354,10 +399,8 @@ def _load_csv(path: Path) -> TaskRequirement:
 
 
 def _to_float(cell: str) -> float | None:
-    try:
-        return float(cell)
-    except ValueError:
-        return None
+    """The number a CSV cell holds (plain decimal notation only: ``1_0`` is not ten)."""
+    return float(cell) if _DECIMAL.fullmatch(cell) else None
 
 
 def _load_npy(path: Path) -> TaskRequirement:
@@ -365,7 +408,9 @@ def _load_npy(path: Path) -> TaskRequirement:
         arr = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
         raise TaskFileError(f"{path}: not a readable .npy array: {exc}") from None
-    if not isinstance(arr, np.ndarray) or arr.dtype.kind not in "iuf":
+    if not isinstance(arr, np.ndarray):
+        raise TaskFileError(f"{path}: an .npz archive, not an .npy array of shape (t, 6)")
+    if arr.dtype.kind not in "iuf":
         raise TaskFileError(f"{path}: expected a numeric array of shape (t, 6), got {arr.dtype}")
     if arr.ndim != 2 or arr.shape[1] != 6 or arr.shape[0] == 0:
         raise TaskFileError(
@@ -406,7 +451,7 @@ def save_suite(tasks: Sequence[TaskRequirement], path: PathLike, name: str | Non
         raise ValueError("save_suite needs a non-empty sequence of TaskRequirement")
     body = ",\n".join("    " + _task_json(t.to_dict(), indent="    ") for t in tasks)
     head = json.dumps(name if name is not None else path.stem)
-    path.write_text(f'{{\n  "name": {head},\n  "tasks": [\n{body}\n  ]\n}}\n')
+    write_text(path, f'{{\n  "name": {head},\n  "tasks": [\n{body}\n  ]\n}}\n')
     return path
 
 
@@ -491,7 +536,7 @@ class PaperTasks:
             raise ValueError(
                 f"fz_reading must be one of {', '.join(FZ_READINGS)}, got {self.fz_reading!r}"
             )
-        _check_f_max(self.f_max)
+        check_f_max(self.f_max)
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement:
         t = _draw_count(rng, self.n_wrenches)
@@ -558,7 +603,7 @@ class PlantedTasks:
                 raise ValueError(f"{what} must lie in [0, 1], got {v!r}")
         if not 0.0 <= self.slack < 0.5:
             raise ValueError(f"slack must lie in [0, 0.5), got {self.slack!r}")
-        _check_f_max(self.f_max)
+        check_f_max(self.f_max)
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement:
         n = _draw_count(rng, self.n_modules)
@@ -623,7 +668,7 @@ class ScrewdriverTask:
                 raise ValueError(f"{what} must be finite, got {v!r}")
         if self.lift <= 0 or self.lift + self.press <= 0:
             raise ValueError(f"lift must be positive (rotors push up), got {self.lift!r}")
-        _check_f_max(self.f_max)
+        check_f_max(self.f_max)
 
     def task(self) -> TaskRequirement:
         W = np.array(

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .oracle import check_f_max, feasible
+from .outputs import save_figure
 from .structure import Structure
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -269,7 +270,7 @@ def save_structure_figure(
         draw_torque_projection(s, f_max, ax=fig.add_subplot(1, 2, 2, projection="3d"), wrenches=W)
         if name:
             fig.suptitle(f"task: {name}")
-    fig.savefig(os.fspath(path), dpi=dpi)
+    save_figure(fig, os.fspath(path), dpi=dpi)
     return os.fspath(path)
 
 

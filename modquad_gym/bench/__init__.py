@@ -6,9 +6,12 @@ Every report states the machine it ran on and compares methods as ratios within 
 from __future__ import annotations
 
 import csv
+import io
 import os
 import platform
 from pathlib import Path
+
+from ..outputs import write_text
 
 
 def machine_description() -> str:
@@ -25,12 +28,12 @@ def machine_description() -> str:
 
 
 def write_csv(rows: list[dict], path: Path) -> None:
-    """Write dict rows (same keys) as CSV, creating the folder."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    """Write dict rows (same keys) as CSV atomically, creating the folder."""
+    buffer = io.StringIO(newline="")
+    writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
+    writer.writeheader()
+    writer.writerows(rows)
+    write_text(path, buffer.getvalue())
 
 
 def markdown_table(rows: list[dict], floatfmt: str = ".3g") -> str:

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..envs import ModQuadAssemblyEnv
+from ..outputs import write_text
 from ..tasks import PaperTasks, PlantedTasks
 from . import machine_description, markdown_table, write_csv
 
@@ -146,7 +147,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
             rows.append(row)
     print(verdict(rows, machine_description()))
     write_csv(rows, args.out / "env_benchmark.csv")
-    (args.out / "env_benchmark.md").write_text(report(rows, args, pinning))
+    write_text(args.out / "env_benchmark.md", report(rows, args, pinning))
     print(f"wrote {args.out / 'env_benchmark.md'} and {args.out / 'env_benchmark.csv'}")
     return rows
 

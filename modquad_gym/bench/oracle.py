@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from ..oracle import BAND, TOL, Zonotope, _decide, _margin
+from ..outputs import write_text
 from ..structure import Structure, free_neighbours
 from . import machine_description, markdown_table, write_csv
 
@@ -241,7 +242,7 @@ def write_report(
         "",
         markdown_table(rows),
     ]
-    (out / "oracle_benchmark.md").write_text("\n".join(text) + "\n")
+    write_text(out / "oracle_benchmark.md", "\n".join(text) + "\n")
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..oracle import allocate
+from ..outputs import save_figure, write_text
 from ..polyominoes import A001168
 from ..search import centrosymmetric_search, exhaustive_search
 from ..tasks import PaperTasks
@@ -100,7 +101,7 @@ def run(n_seeds: int, out: Path) -> list[dict]:
         "",
         *figure_text,
     ]
-    (out / "paper_reproduction.md").write_text("\n".join(text) + "\n")
+    write_text(out / "paper_reproduction.md", "\n".join(text) + "\n")
     return rows
 
 
@@ -123,7 +124,7 @@ def _figures(seed, task, ex, cs, out: Path) -> list[str]:
         ax=fig.add_subplot(1, 2, 2),
         title=f"centrosymmetric: {cs.n_modules} modules, {cs.evaluated} evaluated",
     )
-    fig.savefig(out / "paper_structures.png", dpi=110)
+    save_figure(fig, out / "paper_structures.png", dpi=110)
 
     fig = Figure(figsize=(12, 7), layout="constrained")
     FigureCanvasAgg(fig)
@@ -145,7 +146,7 @@ def _figures(seed, task, ex, cs, out: Path) -> list[str]:
             f"misses the commanded wrench by up to {err:.3g}; the exact allocation reproduces "
             f"every wrench with u in [{exact.min():.3f}, {exact.max():.3f}]."
         )
-    fig.savefig(out / "paper_rotor_inputs.png", dpi=110)
+    save_figure(fig, out / "paper_rotor_inputs.png", dpi=110)
     return [
         f"## Structures and rotor inputs (task seed {seed})",
         "",

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..oracle import Zonotope
+from ..outputs import write_text
 from ..polyominoes import PolyominoStream
 from ..search import exhaustive_search, force_lower_bound
 from ..structure import Structure, free_neighbours, normalise
@@ -243,7 +244,7 @@ def run(n_tasks: int, seed: int, ref_limit: int, out: Path) -> list[dict]:
         "For comparison the paper's reference script needs about 23 s to check a single "
         "4-module structure.",
     ]
-    (out / "search_benchmark.md").write_text("\n".join(text) + "\n")
+    write_text(out / "search_benchmark.md", "\n".join(text) + "\n")
     return rows
 
 

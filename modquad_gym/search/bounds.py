@@ -8,14 +8,13 @@
   d . w > h_n(d) (widened by the oracle's tolerance) rules out the whole level n. h_n is
   computed once per (module type, n) by one pass over the level and cached on disk
   (``$MODQUAD_CACHE`` or ``~/.cache/modquad_gym``); the default T-module's bounds up to
-  14 modules ship with the package (regenerate: ``python -m modquad_gym.search.bounds``).
+  14 modules ship with the package (regenerate: ``modquad bench level-bounds``).
   An upper bound of the widened support is used (max of each sum taken separately), so the
   test stays exact.
 """
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import itertools
 import math
@@ -75,11 +74,12 @@ def level_directions() -> np.ndarray:
     return D / np.linalg.norm(D, axis=1, keepdims=True)
 
 
-def _module_digest(module: ModuleType) -> str:
+def module_digest(module: ModuleType) -> str:
+    """Names a module type's level bounds: a hash of its rotor data and the directions,
+    rounded to 10 decimals so that machines differing in the last bits agree."""
     h = hashlib.sha256()
-    for a in (module.columns, module.directions, np.array([module.side])):
-        h.update(np.ascontiguousarray(a, dtype=float).tobytes())
-    h.update(level_directions().tobytes())
+    for a in (module.columns, module.directions, np.array([module.side]), level_directions()):
+        h.update(np.ascontiguousarray(np.round(a, 10) + 0.0, dtype=float).tobytes())
     return h.hexdigest()[:16]
 
 
@@ -134,7 +134,7 @@ def _bounds(digest: str, module: ModuleType, n: int) -> np.ndarray | None:
 def level_bounds(module: ModuleType, n: int) -> np.ndarray | None:
     """The cached (2, P) level bounds of ``n`` modules of ``module``, or None when they are
     neither shipped, cached nor cheap enough to compute now."""
-    return _bounds(_module_digest(module), module, n)
+    return _bounds(module_digest(module), module, n)
 
 
 def level_excluded(W: np.ndarray, f_max: float, module: ModuleType, n: int) -> bool:
@@ -145,22 +145,3 @@ def level_excluded(W: np.ndarray, f_max: float, module: ModuleType, n: int) -> b
     values = (level_directions() @ W.T).max(axis=1)
     widened = f_max * (bounds[0] + 0.5 * TOL * bounds[1]) + supports.SLACK
     return bool((values > widened).any())
-
-
-def main(argv: list[str] | None = None) -> None:
-    """Regenerate the shipped level bounds of the default T-module."""
-    from .result import DEFAULT_MODULE
-
-    parser = argparse.ArgumentParser(description=main.__doc__)
-    parser.add_argument("--n-max", type=int, default=14, help="largest level (default 14)")
-    parser.add_argument("--out", default="modquad_gym/data/level_bounds", help="folder")
-    args = parser.parse_args(argv)
-    digest = _module_digest(DEFAULT_MODULE)
-    arrays = {f"n{n}": compute_level_bounds(DEFAULT_MODULE, n) for n in range(1, args.n_max + 1)}
-    path = Path(args.out) / f"{digest}.npz"
-    atomic_write(path, lambda tmp: np.savez(tmp.open("wb"), **arrays))
-    print(f"wrote {path}")
-
-
-if __name__ == "__main__":
-    main()

@@ -29,6 +29,9 @@ from __future__ import annotations
 
 import os
 
+from ..outputs import save_figure, write_text
+from ..validation import check_int
+
 os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is first imported: headless rendering
 
 import json
@@ -138,7 +141,7 @@ def _render_matplotlib(structure: Structure, path: Path) -> None:
     ax.set_ylim(-lim, lim)
     ax.set_zlim(-lim / 2, lim / 2)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
 
 
@@ -159,7 +162,7 @@ def plot_rotor_inputs(results: list[BenchResult], path: str | Path) -> None:
         ax.legend(loc="upper right")
     axes[-1, 0].set_xlabel("time [s] (one task wrench every 500 ms)")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
 
 
@@ -187,7 +190,7 @@ def plot_bench_wrench(results: list[BenchResult], path: str | Path) -> None:
         ax.set_ylabel("measured")
     axes[0, 0].legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
 
 
@@ -218,7 +221,7 @@ def plot_hover(res: HoverResult, path: str | Path, title: str = "hover") -> None
         f"{int(res.diverged.sum())} segment(s) diverged"
     )
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
 
 
@@ -248,6 +251,20 @@ def _hover_summary(hover: HoverResult) -> dict:
         ),
         "max_load_estimate_error": hover.max_load_estimate_error,
     }
+
+
+def hover_wrench_sample(margins: np.ndarray, k: int | None, seed: int = 0) -> np.ndarray:
+    """Indices (in task order) of at most ``k`` wrenches to hover under: the half with the
+    smallest margins (nearest the boundary: the hardest to hold), the rest drawn uniformly
+    with ``seed`` from the others. All of them when ``k`` is None or not smaller."""
+    t = len(margins)
+    if k is None or k >= t:
+        return np.arange(t)
+    k = check_int(k, "max_hover_wrenches", low=1)
+    hardest = np.argsort(margins, kind="stable")[: (k + 1) // 2]
+    others = np.setdiff1d(np.arange(t), hardest)
+    drawn = np.random.default_rng(seed).choice(others, size=k - len(hardest), replace=False)
+    return np.sort(np.concatenate([hardest, drawn]))
 
 
 def validate(
@@ -289,7 +306,9 @@ def validate(
         render: write ``structure.png`` (MuJoCo render, matplotlib fallback).
         include_infeasible_demo: also hover on the task wrench with the least margin, scaled to
             ``INFEASIBLE_SCALE`` times its feasibility boundary, to show saturation and drift.
-        max_hover_wrenches: hover on at most this many task wrenches (the first ones); None: all.
+        max_hover_wrenches: hover on at most this many task wrenches, chosen by
+            :func:`hover_wrench_sample` (the hardest by margin, then a seeded sample, in task
+            order); None: all.
         unknown_load: also fly the hover with the load unknown to the controller.
         load_frame: ``"world"`` or ``"body"``: how the hover's load moves when the body tilts.
         load_ramp_seconds: unknown-load hover: seconds over which the load goes from one task
@@ -322,7 +341,7 @@ def validate(
     exact = run_bench(bench_sim, W, allocation="exact")
     pinv = run_bench(bench_sim, W, allocation="pinv_clip")
     fly_sim = build_model(structure, f_max, bench=False)
-    W_hover = W if max_hover_wrenches is None else W[: max(1, int(max_hover_wrenches))]
+    W_hover = W[hover_wrench_sample(marg, max_hover_wrenches)]
     hover_kw = {
         "seconds_per_wrench": hover_seconds,
         "load_frame": load_frame,
@@ -439,8 +458,8 @@ def validate(
             files["structure"] = str(d / "structure.png")
         files["report"] = str(d / "report.md")
         files["json"] = str(d / "validation.json")
-        (d / "report.md").write_text(_report(structure, out, hover, blind))
-        (d / "validation.json").write_text(json.dumps(out, indent=2) + "\n")
+        write_text(d / "report.md", _report(structure, out, hover, blind))
+        write_text(d / "validation.json", json.dumps(out, indent=2) + "\n")
     return out
 
 
