@@ -255,7 +255,7 @@ def build_parser() -> argparse.ArgumentParser:
             type=int,
             default=7,
             help="largest module count (default %(default)s; the exhaustive search goes up to "
-            "16, the constructive baselines to 64)",
+            "16, centrosymmetric to 21, greedy and random to 64)",
         )
         p.add_argument(
             "--model",

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..module import ModuleType
-from ..oracle import feasible
+from ..oracle import feasible, normalise_task
 from ..structure import Structure
 from ..validation import check_f_max, check_int, check_wrenches
 from .checker import TaskChecker
@@ -81,7 +81,8 @@ class SearchRun:
     ) -> None:
         self.t0 = time.perf_counter()
         self.method = method
-        self.W, self.f_max = task_arrays(task, f_max)
+        # in units of f_max (the oracle's entry normalisation): the same answers at any scale
+        self.W, self.f_max = normalise_task(*task_arrays(task, f_max))
         self.n_max = check_int(n_max, "n_max", low=1)
         self.module = module if module is not None else DEFAULT_MODULE
         self.n_max_limit = n_max_limit
