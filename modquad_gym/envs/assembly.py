@@ -22,6 +22,9 @@ from ..tasks import TaskRequirement, make_generator
 from .features import CANDIDATE_FEATURES, DEFAULT_N_DIRECTIONS, AssemblyFeatures
 from .reward import RewardWeights
 
+MAX_N_MAX = 64
+"""Largest module budget: a grid of 127 x 127 actions (the constructive searches' limit too)."""
+
 INVALID_ACTION_MODES = ("penalise", "terminate")
 
 _CACHE_SIZE = 16384
@@ -179,7 +182,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
       callable ``gen(rng) -> TaskRequirement`` (or a (t, 6) wrench array), called with
       ``self.np_random`` at each reset; a result of another kind raises a ValueError there.
       See :func:`modquad_gym.tasks.make_generator`.
-    * ``n_max``: the largest number of modules (default 7, as in the paper), >= 2.
+    * ``n_max``: the largest number of modules (default 7, as in the paper), 2..64.
     * ``module``: the :class:`~modquad_gym.module.ModuleType` of every module (default the
       T-module, eta = pi/4).
     * ``f_max``: maximum thrust per rotor; None (default) uses each task's own f_max.
@@ -189,7 +192,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     * ``max_steps``: the step limit for truncation (default 4 * n_max).
     * ``render_mode``: None, ``"rgb_array"`` (the structure picture, (H, W, 3) uint8) or
       ``"ansi"`` (a text grid).
-    * ``n_directions``: K, the support directions of the features (default 48, >= 12).
+    * ``n_directions``: K, the support directions of the features (default 48, 12..4096).
     * ``oracle_method``: the oracle's method (default ``"auto"``, exact and certified).
     * ``render_size``: (height, width) of ``rgb_array`` frames (default (256, 256)).
     * ``lookahead``: add the ``"candidates"`` observation (default False: the observation is
@@ -227,6 +230,8 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     ) -> None:
         if isinstance(n_max, bool) or not isinstance(n_max, (int, np.integer)) or n_max < 2:
             raise ValueError(f"n_max must be an integer >= 2, got {n_max!r}")
+        if n_max > MAX_N_MAX:  # the action grid has (2 n_max - 1)^2 cells
+            raise ValueError(f"n_max must be at most {MAX_N_MAX}, got {n_max!r}")
         if module is not None and not isinstance(module, ModuleType):
             raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
         if invalid_action not in INVALID_ACTION_MODES:
