@@ -4,6 +4,7 @@ core-only install, and the bring-your-own-agent example."""
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import sysconfig
@@ -160,3 +161,12 @@ def test_bring_your_own_agent_example_runs_and_is_scored(tmp_path):
     rows = (tmp_path / "rep" / "benchmark.csv").read_text().splitlines()
     agent_rows = [r for r in rows if "examples.byo_agent:LargestSupportAgent" in r]
     assert len(agent_rows) == 4  # 2 tasks x 2 suites
+
+
+def test_readme_python_examples_run(monkeypatch):
+    monkeypatch.chdir(ROOT)
+    text = (ROOT / "README.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    assert len(blocks) >= 2
+    for block in blocks:
+        exec(compile(block, "README.md", "exec"), {})
