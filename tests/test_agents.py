@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import modquad_gym as mq
 from modquad_gym.agents import DEFAULT_MODEL, Solver, make_solver
 from modquad_gym.oracle import feasible
 from modquad_gym.search import SearchResult
@@ -20,6 +21,7 @@ from modquad_gym.structure import Structure
 from modquad_gym.tasks import PlantedTasks, TaskRequirement, save_suite
 
 ROOT = Path(__file__).resolve().parents[1]
+SUITES = ROOT / "modquad_gym" / "data" / "suites"
 TINY_N_MAX = 3
 
 
@@ -227,3 +229,26 @@ def test_ppo_solver_rebuilds_a_lookahead_env_from_the_model(tmp_path):
     r = solver.solve(task)
     assert r.structure is None or _ok(r.structure.cells, task)
     assert r.evaluated >= 1
+
+
+@pytest.mark.skipif(not DEFAULT_MODEL.is_file(), reason="no default model")
+def test_policy_guided_search_is_verified_and_its_certificate_holds():
+    from modquad_gym.agents.guided import GuidedSolver, lower_bound
+    from modquad_gym.tasks import load_suite
+
+    solver = GuidedSolver(budget=40)
+    tasks = (
+        load_suite(SUITES / "heldout_planted.json")[:6]
+        + load_suite(SUITES / "heldout_paper.json")[:3]
+    )
+    for task in tasks:
+        r = solver.solve(task)
+        optimum = task.meta["optimum"]
+        assert r.evaluated <= 40
+        assert lower_bound(task.wrenches, task.f_max, solver.env.module, 7) <= optimum
+        if r.structure is not None:
+            assert r.n_modules >= optimum
+            A = r.structure.configuration_matrix()
+            assert mq.feasible(A, task.wrenches, task.f_max, method="scipy").all()
+        if r.certified:
+            assert r.n_modules == optimum

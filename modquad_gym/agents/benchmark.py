@@ -73,8 +73,9 @@ class Row:
 
 
 def parse_method(method: str, n_max: int, model: Path | None, seed: int) -> Solver:
-    """A solver from a benchmark method name: a search name, ``ppo`` or ``ppo-kN`` (PPO with N
-    sampled rollouts besides the deterministic one), or ``package.module:Name`` (an outside
+    """A solver from a benchmark method name: a search name, ``ppo``, ``ppo-kN`` (PPO with N
+    sampled rollouts besides the deterministic one), ``ppo-guided`` (the policy-guided search of
+    :mod:`.guided`), or ``package.module:Name`` (an outside
     agent, see :func:`~.solvers.load_solver`)."""
     if ":" in method:
         return load_solver(method, n_max=n_max)
@@ -86,6 +87,10 @@ def parse_method(method: str, n_max: int, model: Path | None, seed: int) -> Solv
         return make_solver("ppo", n_max=n_max, model=model, seed=seed, samples=k)
     if method == "ppo":
         return make_solver("ppo", n_max=n_max, model=model, seed=seed)
+    if method == "ppo-guided":
+        from .guided import GuidedSolver
+
+        return GuidedSolver(model=model, n_max=n_max)
     return make_solver(method, n_max=n_max, seed=seed)
 
 
