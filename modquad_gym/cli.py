@@ -18,6 +18,10 @@ from pathlib import Path
 METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo")
 
 
+EXTERNAL_F_MAX = 2.0
+"""Default rotor thrust limit (N) of generated ``external`` tasks: with 0.3 kg modules a flat
+module lifts 8 N against its 2.94 N weight, a T-module 5.66 N."""
+
 DEFAULT_HOVER_WRENCHES = 20
 MAX_HOVER_SECONDS = 60.0
 SECONDS_PER_SIMULATED_SECOND = 0.25
@@ -89,11 +93,23 @@ def cmd_task_generate(args) -> int:
     from .outputs import check_output_file
     from .tasks import make_generator
 
+    from .tasks import PaperTasks, PlantedTasks, ScrewdriverTask
+    from .validation import check_f_max
+
     out = check_output_file(args.out, force=args.force, what="--out")
-    generator = make_generator(args.kind)
+    f_max = 1.0 if args.f_max is None else check_f_max(args.f_max)
+    if args.task_kind == "external" and args.f_max is None:
+        f_max = EXTERNAL_F_MAX
+    options = {"f_max": f_max, "kind": args.task_kind}
+    generator = {"paper": PaperTasks, "planted": PlantedTasks, "screwdriver": ScrewdriverTask}[
+        args.kind
+    ](**options)
     task = generator(np.random.default_rng(args.seed))
     task.save(out)
-    print(f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, seed {args.seed})")
+    print(
+        f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, kind {task.kind}, "
+        f"f_max {task.f_max:g}, seed {args.seed})"
+    )
     return 0
 
 
@@ -336,6 +352,21 @@ def build_parser() -> argparse.ArgumentParser:
         default=0,
         help="seed of the random generator: the same seed writes the same task "
         "(default %(default)s)",
+    )
+    g.add_argument(
+        "--task-kind",
+        choices=("total", "external"),
+        default="total",
+        help="total: the wrench the rotors produce, gravity folded into f_z (the paper's); "
+        "external: the wrench applied to the environment, in SI units; the rotors add the "
+        "structure's weight (default %(default)s)",
+    )
+    g.add_argument(
+        "--f-max",
+        type=float,
+        default=None,
+        help=f"rotor thrust limit written to the task (default 1, or {EXTERNAL_F_MAX:g} N for "
+        "--task-kind external)",
     )
     g.add_argument("--out", required=True, help="output file; format from suffix .json/.csv/.npy")
     _add_force(g)
