@@ -34,11 +34,10 @@ import numpy as np
 from ..module import ModuleType
 from ..polyominoes import A001168, DEFAULT_CHUNK, PolyominoStream, level_chunks
 from ..structure import Key, Structure, normalise, normalise_typed
-from ..tasks import rotor_wrenches
 from ..validation import check_int
-from .bounds import NO_SIZE, count_vectors, counts_possible, force_lower_bound, level_excluded
+from .bounds import NO_SIZE, force_lower_bound, level_excluded
 from .checker import TaskChecker
-from .result import SearchResult, SearchRun
+from .result import SearchResult, SearchRun, allowed_counts, first_possible_level
 
 MAX_MODULES = 16
 """The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8."""
@@ -163,9 +162,11 @@ def _levels_to_search(run: SearchRun) -> tuple[int, list[int], str]:
 
 def _search_levels(run: SearchRun, chunk, workers, progress, first_only):
     n_lb, skipped, proof = _levels_to_search(run)
+    run.skipped += sum(level_size(n) or 0 for n in skipped)
     for n in range(n_lb, run.n_max + 1) if not proof else ():
         if level_excluded(run.W, run.f_max, run.module, n):
             skipped.append(n)
+            run.skipped += level_size(n) or 0
             continue
         bar = _progress(progress, n)
         try:
@@ -269,59 +270,17 @@ def check_pair_budget(run: SearchRun, first_level: int) -> None:
         )
 
 
-def _allowed_counts(run: SearchRun, n: int) -> tuple[np.ndarray, int]:
-    """(allowed, pairs skipped): a bool array indexed by count vectors (one axis of length
-    n + 1 per type) of the counts that the count and level bounds leave, and how many
-    (shape, assignment) pairs the others hold."""
-    K = len(run.palette)
-    counts = count_vectors(n, K)
-    ok = counts_possible(run.W, run.palette, counts, run.f_max, run.kind)
-    for i, c in enumerate(counts):
-        if ok[i] and int(c.max()) == n:  # one type alone: the level bounds apply
-            m = run.palette[int(np.argmax(c))]
-            Wn = rotor_wrenches(run.W, run.kind, n * m.mass)
-            if level_excluded(Wn, run.f_max, m, n):
-                ok[i] = False
-    allowed = np.zeros((n + 1,) * K, dtype=bool)
-    allowed[tuple(counts.T)] = ok
-    shapes = level_size(n) or 0
-    multinomial = [_multinomial(c) for c in counts]
-    skipped = shapes * sum(m for m, good in zip(multinomial, ok) if not good)
-    return allowed, skipped
-
-
-def _multinomial(c: np.ndarray) -> int:
-    out, total = 1, 0
-    for k in c:
-        total += int(k)
-        out *= _binomial(total, int(k))
-    return out
-
-
-def _binomial(n: int, k: int) -> int:
-    from math import comb
-
-    return comb(n, k)
-
-
 def _search_typed(run: SearchRun, progress: bool, first_only: bool):
     """(n*, found, skipped levels, proof), found a list of (cells tuple, types tuple) pairs of
     level n* in the typed search's order (module docstring)."""
-    first = next((n for n in range(1, run.n_max + 1) if _allowed_counts(run, n)[0].any()), NO_SIZE)
-    if first == NO_SIZE:
-        return (
-            None,
-            [],
-            list(range(1, run.n_max + 1)),
-            (
-                f"count bound: no mix of up to {run.n_max} modules can exert the task's forces"
-                + (" and lift its own weight" if run.kind == "external" else "")
-            ),
-        )
+    first, proof = first_possible_level(run)
+    if proof:
+        run.skipped += sum(allowed_counts(run, n)[1] for n in range(1, run.n_max + 1))
+        return None, [], list(range(1, run.n_max + 1)), proof
     check_pair_budget(run, first)
     skipped_levels = []
     for n in range(1, run.n_max + 1):
-        allowed, skipped = _allowed_counts(run, n)
+        allowed, skipped = allowed_counts(run, n)
         run.skipped += skipped
         if not allowed.any():
             skipped_levels.append(n)

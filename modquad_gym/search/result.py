@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -13,6 +14,7 @@ from ..oracle import feasible
 from ..structure import Structure
 from ..tasks import check_kind, rotor_wrenches
 from ..validation import check_f_max, check_int, check_wrenches
+from .bounds import NO_SIZE, count_vectors, counts_possible, level_excluded
 from .checker import TaskChecker
 
 DEFAULT_MODULE = Structure([(0, 0)]).module
@@ -207,3 +209,49 @@ def task_arrays(task, f_max: float | None) -> tuple[np.ndarray, float]:
         W = check_wrenches(task, allow_empty=False)
         f = 1.0 if f_max is None else f_max
     return W, check_f_max(f)
+
+
+def allowed_counts(run: SearchRun, n: int) -> tuple[np.ndarray, int]:
+    """(allowed, pairs skipped) for level n of a typed search: a bool array indexed by count
+    vectors (one axis of length n + 1 per palette type) of the counts that the count bound and,
+    for one type alone, the level bound leave; and how many (shape, assignment) pairs the
+    others hold (fixed polyominoes of n cells times the multinomial of each count vector)."""
+    from ..polyominoes import A001168
+
+    K = len(run.palette)
+    counts = count_vectors(n, K)
+    ok = counts_possible(run.W, run.palette, counts, run.f_max, run.kind)
+    for i, c in enumerate(counts):
+        if ok[i] and int(c.max()) == n:  # one type alone: the level bounds apply
+            m = run.palette[int(np.argmax(c))]
+            Wn = rotor_wrenches(run.W, run.kind, n * m.mass)
+            if level_excluded(Wn, run.f_max, m, n):
+                ok[i] = False
+    allowed = np.zeros((n + 1,) * K, dtype=bool)
+    allowed[tuple(counts.T)] = ok
+    shapes = A001168[n - 1] if n <= len(A001168) else 0
+    skipped = shapes * sum(_multinomial(c) for c, good in zip(counts, ok) if not good)
+    return allowed, skipped
+
+
+def first_possible_level(run: SearchRun) -> tuple[int, str]:
+    """(the smallest module count the count bound leaves, "") or (NO_SIZE, proof) when it
+    rules out every count up to n_max."""
+    for n in range(1, run.n_max + 1):
+        if counts_possible(
+            run.W, run.palette, count_vectors(n, len(run.palette)), run.f_max, run.kind
+        ).any():
+            return n, ""
+    lift = " and lift its own weight" if run.kind == "external" else ""
+    return (
+        NO_SIZE,
+        f"count bound: no mix of up to {run.n_max} modules can exert the task's forces{lift}",
+    )
+
+
+def _multinomial(c: np.ndarray) -> int:
+    out, total = 1, 0
+    for k in c:
+        total += int(k)
+        out *= math.comb(total, int(k))
+    return out
