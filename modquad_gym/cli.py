@@ -46,22 +46,39 @@ def _parse_cells(text: str) -> list:
     return cells
 
 
+def _palette(args):
+    """``--modules`` as a list of module types, or None when not given."""
+    text = getattr(args, "modules", None)
+    if text is None:
+        return None
+    from .module import palette
+
+    try:
+        return palette(text)
+    except ValueError as exc:  # "modules: ..." -> "--modules: ..."
+        raise ValueError(f"--{exc}") from None
+
+
 def _solver(args):
     """The solver for ``--method`` (PPO lives in the agents package, searches here)."""
+    modules = _palette(args)
     if args.method == "ppo":
+        if modules is not None:
+            raise ValueError("--modules: the PPO agent builds one-type structures only")
         from agents.solvers import make_solver
 
         return make_solver("ppo", n_max=args.n_max, model=args.model, seed=args.seed).solve
     from .search import SEARCHES
 
     fn = SEARCHES[args.method]
+    typed = {} if modules is None else {"modules": modules}
     if args.method == "random":
-        return lambda task: fn(task, n_max=args.n_max, seed=args.seed)
+        return lambda task: fn(task, n_max=args.n_max, seed=args.seed, **typed)
     if args.method == "exhaustive":
         progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
         workers = getattr(args, "workers", 1)
-        return lambda task: fn(task, n_max=args.n_max, workers=workers, progress=progress)
-    return lambda task: fn(task, n_max=args.n_max)
+        return lambda task: fn(task, n_max=args.n_max, workers=workers, progress=progress, **typed)
+    return lambda task: fn(task, n_max=args.n_max, **typed)
 
 
 def cmd_solve(args) -> int:
@@ -73,12 +90,17 @@ def cmd_solve(args) -> int:
             record = {"task": str(path), "name": task.name, **result.to_dict()}
             print(json.dumps(record), flush=True)
             continue
-        print(f"task {task.name!r} ({path}): {task.n_wrenches} wrenches, method {args.method}")
+        kind = "" if task.kind == "total" else f" ({task.kind})"
+        print(
+            f"task {task.name!r} ({path}): {task.n_wrenches} wrenches{kind}, method {args.method}"
+        )
         if result.structure is None:
             print(f"  no structure of up to {args.n_max} modules satisfies the task")
         else:
             cert = " (certified minimum)" if result.certified else ""
             print(f"  {result.n_modules} modules{cert}: cells {list(result.structure.cells)}")
+            if result.palette:
+                print(f"  module types: {[m.name for m in result.structure.modules]}")
             print("  " + result.structure.to_text().replace("\n", "\n  "))
         print(
             f"  configurations evaluated: {result.evaluated}, oracle calls: "
@@ -91,8 +113,6 @@ def cmd_task_generate(args) -> int:
     import numpy as np
 
     from .outputs import check_output_file
-    from .tasks import make_generator
-
     from .tasks import PaperTasks, PlantedTasks, ScrewdriverTask
     from .validation import check_f_max
 
@@ -122,14 +142,30 @@ def cmd_show(args) -> int:
     if out.suffix.lower() != ".png":
         out = out.with_name(out.name + ".png")
     out = check_output_file(out, force=args.force, what="--out")
+    modules = _palette(args)
+
+    def from_cells() -> Structure:
+        cells = _parse_cells(args.cells)
+        if modules is None:
+            return Structure(cells)
+        if len(modules) == 1:
+            return Structure(cells, module=modules[0])
+        if len(modules) != len(cells):
+            raise ValueError(
+                f"--modules: with --cells give one type (all cells) or one per cell; got "
+                f"{len(modules)} types for {len(cells)} cells"
+            )
+        return Structure(cells, modules=modules)
+
     if args.task:
         task = _load_task(args.task, args.csv_header)
         if args.cells:
-            structure = Structure(_parse_cells(args.cells))
+            structure = from_cells()
         else:
             from .search import exhaustive_search
 
-            result = exhaustive_search(task, n_max=args.n_max)
+            typed = {} if modules is None else {"modules": modules}
+            result = exhaustive_search(task, n_max=args.n_max, **typed)
             if result.structure is None:
                 print(f"no structure of up to {args.n_max} modules satisfies {args.task}")
                 return 0
@@ -138,7 +174,7 @@ def cmd_show(args) -> int:
         if not args.cells:
             raise ValueError("give --cells (e.g. '[[0,0],[1,0]]') or --task")
         task = None
-        structure = Structure(_parse_cells(args.cells))
+        structure = from_cells()
     save_structure_figure(structure, out, task=task)
     print(structure)
     print(f"wrote {out}")
@@ -185,6 +221,7 @@ def cmd_validate(args) -> int:
         hover_seconds=args.hover_seconds,
         unknown_load=not args.known_load_only,
         load_ramp_seconds=args.load_ramp_seconds,
+        kind=task.kind,
     )
     if args.json:
         print(json.dumps({"task": args.task, "method": args.method, **report}))
@@ -242,6 +279,18 @@ def _add_csv_header(p: argparse.ArgumentParser) -> None:
     )
 
 
+MODULES_HELP = (
+    "comma-separated module types to mix, one per cell, chosen by the search "
+    "(stock names: t45 = the paper's T-module, t45m = its mirrored tilts, t30, t30m = "
+    "30-degree tilts, flat = an untilted quadrotor); e.g. t45,t45m,flat. "
+    "Default: every module is the paper's T-module"
+)
+
+
+def _add_modules(p: argparse.ArgumentParser, help_text: str = MODULES_HELP) -> None:
+    p.add_argument("--modules", default=None, metavar="TYPES", help=help_text)
+
+
 def _add_force(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--force", action="store_true", help="replace existing output files (default: refuse)"
@@ -285,6 +334,7 @@ def build_parser() -> argparse.ArgumentParser:
             default=0,
             help="seed for the random search and PPO sampling (default %(default)s)",
         )
+        _add_modules(p)
 
     p = sub.add_parser(
         "solve",
@@ -305,7 +355,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--json",
         action="store_true",
         help="print one JSON object per task per line: cells, n_modules, evaluated, "
-        "oracle_calls, feasible, certified, seconds",
+        "oracle_calls, feasible, certified, seconds (and modules, the type of each cell, "
+        "with --modules)",
     )
     p.add_argument(
         "--quiet",
@@ -390,6 +441,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--out",
         default="structure.png",
         help="PNG path; '.png' is added when missing (default %(default)s)",
+    )
+    _add_modules(
+        p,
+        "comma-separated module types: with --task the palette the search mixes; with "
+        "--cells one type for every cell or one per cell, in order (e.g. t45,flat,t45m)",
     )
     _add_csv_header(p)
     _add_force(p)
