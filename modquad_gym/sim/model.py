@@ -52,7 +52,14 @@ LOAD_CELL_MASS = 0.01
 _ROTOR_RADIUS_FRACTION = 0.14  # rotor disc radius as a fraction of the module side
 _ROTOR_COLOURS = {1.0: "0.85 0.2 0.2 0.9", -1.0: "0.2 0.35 0.85 0.9"}
 _MODULE_COLOURS = ("0.3 0.7 0.35 1", "0.55 0.55 0.6 1")  # first (initial) module green
-_TYPE_COLOURS = (  # mixed structures: one colour per palette type (as in modquad_gym.viz)
+_TYPE_COLOURS = (  # mixed structures: one colour per palette type (modquad_gym.viz)
+    "0.863 0.863 0.863 1",
+    "0.953 0.902 0.635 1",
+    "0.725 0.89 0.69 1",
+    "0.831 0.761 0.918 1",
+    "0.949 0.769 0.808 1",
+    "0.663 0.863 0.839 1",
+)
     "0.55 0.55 0.6 1",
     "0.95 0.65 0.3 1",
     "0.45 0.7 0.9 1",
