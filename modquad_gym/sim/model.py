@@ -60,13 +60,6 @@ _TYPE_COLOURS = (  # mixed structures: one colour per palette type (modquad_gym.
     "0.949 0.769 0.808 1",
     "0.663 0.863 0.839 1",
 )
-    "0.55 0.55 0.6 1",
-    "0.95 0.65 0.3 1",
-    "0.45 0.7 0.9 1",
-    "0.75 0.55 0.85 1",
-    "0.6 0.8 0.45 1",
-    "0.9 0.5 0.55 1",
-)
 
 
 @dataclass(frozen=True)
