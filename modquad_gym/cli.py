@@ -15,6 +15,8 @@ import os
 import sys
 from pathlib import Path
 
+from .extras import EXTRA_OF, missing_extra_message
+
 METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo")
 
 
@@ -65,7 +67,7 @@ def _solver(args):
     if args.method == "ppo":
         if modules is not None:
             raise ValueError("--modules: the PPO agent builds one-type structures only")
-        from agents.solvers import make_solver
+        from modquad_gym.agents.solvers import make_solver
 
         return make_solver("ppo", n_max=args.n_max, model=args.model, seed=args.seed).solve
     from .search import SEARCHES
@@ -241,7 +243,7 @@ def cmd_bench(args) -> int:
         "paper": "modquad_gym.bench.paper",
         "scaling": "modquad_gym.bench.scaling",
         "level-bounds": "modquad_gym.bench.level_bounds",
-        "agents": "agents.benchmark",
+        "agents": "modquad_gym.agents.benchmark",
     }[args.what]
     importlib.import_module(module).main(args.rest)
     return 0
@@ -535,6 +537,8 @@ def _one_line(exc: BaseException) -> str:
     """An expected failure as one line naming the file or option."""
     if isinstance(exc, OSError) and exc.filename and exc.strerror:
         return f"{exc.filename}: {exc.strerror}"
+    if isinstance(exc, ModuleNotFoundError) and (exc.name or "").split(".")[0] in EXTRA_OF:
+        return missing_extra_message(exc.name)
     return " ".join(str(exc).split()) or type(exc).__name__
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import gymnasium as gym
 
-from .assembly import ModQuadAssemblyEnv
+from .assembly import MAX_STEPS_LIMIT, ModQuadAssemblyEnv
 from .features import AssemblyFeatures, unit_directions
 from .reward import RewardWeights, episode_return
 
@@ -31,7 +31,12 @@ def register_envs() -> None:
     """Register every id of :data:`ENV_IDS` with Gymnasium; a second call does nothing."""
     for env_id, kwargs in ENV_IDS.items():
         if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point=ENTRY_POINT, kwargs=dict(kwargs))
+            gym.register(
+                id=env_id,
+                entry_point=ENTRY_POINT,
+                kwargs=dict(kwargs),
+                max_episode_steps=MAX_STEPS_LIMIT,
+            )
 
 
 register_envs()

@@ -145,7 +145,8 @@ def _progress(enabled: bool, n: int):
         return None
     from tqdm.auto import tqdm
 
-    return tqdm(total=level_size(n), desc=f"level {n}", unit=" structures", leave=False)
+    # shown only when a level takes more than half a second
+    return tqdm(total=level_size(n), desc=f"level {n}", unit=" structures", leave=False, delay=0.5)
 
 
 def _levels_to_search(run: SearchRun) -> tuple[int, list[int], str]:
