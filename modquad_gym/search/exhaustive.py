@@ -241,7 +241,10 @@ def optimal_structures(
     run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES, modules, kind)
     if not run.homogeneous_total:
         n, found, _, _ = _search_typed(run, False, False)
-        return n, [_typed_structure(run, f).key if run.typed else normalise(f[0]) for f in found]
+        structures = (_typed_structure(run, f) for f in found)
+        if run.typed:
+            return n, [normalise_typed(s.cells, s.modules) for s in structures]
+        return n, [s.key for s in structures]
     n, keys, _, _ = _search_levels(run, check_int(chunk, "chunk", low=1), 1, False, False)
     return n, keys
 
