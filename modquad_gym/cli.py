@@ -243,6 +243,7 @@ def cmd_bench(args) -> int:
         "paper": "modquad_gym.bench.paper",
         "scaling": "modquad_gym.bench.scaling",
         "level-bounds": "modquad_gym.bench.level_bounds",
+        "heterogeneous": "modquad_gym.bench.heterogeneous",
         "agents": "modquad_gym.agents.benchmark",
     }[args.what]
     importlib.import_module(module).main(args.rest)
@@ -516,10 +517,20 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "what",
-        choices=("oracle", "search", "scaling", "level-bounds", "env", "paper", "agents"),
+        choices=(
+            "oracle",
+            "search",
+            "scaling",
+            "level-bounds",
+            "heterogeneous",
+            "env",
+            "paper",
+            "agents",
+        ),
         help="oracle: feasibility methods compared; search: exhaustive search vs an LP "
         "reference; scaling: the exhaustive search level by level up to 14 modules; "
-        "level-bounds: regenerate the shipped level bounds; "
+        "level-bounds: regenerate the shipped level bounds; heterogeneous: mixing module "
+        "types and self-weight against one type; "
         "env: environment steps/s; paper: the paper's Sec. VI experiment; "
         "agents: PPO vs the searches on held-out tasks",
     )
