@@ -300,9 +300,16 @@ class Structure:
     def _A(self) -> np.ndarray:
         if self._mixed is None:
             A = configuration_matrices([self.cells], self.module)[0]
-        else:
+        elif len({m.n_rotors for m in self.palette}) == 1:
             cells = np.asarray(self.cells, dtype=float)[None]
             A = mixed_configuration_matrices(cells, self.type_indices[None], self.palette)[0]
+        else:  # types with different rotor counts: module by module
+            blocks = []
+            for c, m in zip(self.module_centres, self._mixed):
+                d = m.directions.T
+                shift = np.stack([c[1] * d[2], -c[0] * d[2], c[0] * d[1] - c[1] * d[0]])
+                blocks.append(np.vstack([d, m.columns[3:] + shift]))
+            A = np.hstack(blocks)
         A.setflags(write=False)
         return A
 
@@ -420,9 +427,10 @@ def mixed_configuration_matrices(
     """Configuration matrices of many mixed structures of equal size: (L, 6, r n), eq. (1).
 
     ``cells`` (L, n, 2) grid cells, ``types`` (L, n) indices into ``palette`` (types of one
-    side, equal rotor counts). Module i of structure l contributes its type's own columns plus
-    c x d for its centre c, taken from the structure's centre of mass (each module's mass at its
-    centre): the same as :func:`configuration_matrices` with one type, up to round-off."""
+    side and one rotor count; :meth:`Structure.configuration_matrix` also mixes rotor counts).
+    Module i of structure l contributes its type's own columns plus c x d for its centre c,
+    taken from the structure's centre of mass (each module's mass at its centre): the same as
+    :func:`configuration_matrices` with one type, up to round-off."""
     cells = np.asarray(cells, dtype=float)
     types = np.asarray(types, dtype=np.intp)
     L, n, _ = cells.shape

@@ -9,8 +9,8 @@ all: it rasterises the top view with numpy (deterministic, about 10 ms), for Gym
 Colours: rotors with spin +1 blue, spin -1 orange; the first (initial) module is green, as in the
 paper's Fig. 5; thrust arrows (dark red) show the horizontal part of each rotor's thrust
 direction; the black cross is the COM, the origin of {S}. In a mixed structure modules are
-filled by type (:data:`TYPE_COLOURS`, in the order of ``structure.palette``) with a legend naming
-each type, and the first module keeps a thick outline instead of the green fill.
+filled by type (:func:`type_colour`: a fixed fill per stock type) with a legend naming each
+type, and the first module keeps a thick outline instead of the green fill.
 """
 
 from __future__ import annotations
@@ -35,13 +35,22 @@ SPIN_COLOURS = {1: "#1f77b4", -1: "#ff7f0e"}
 FIRST_COLOUR = "#b7e4b0"
 MODULE_COLOUR = "#dcdcdc"
 ARROW_COLOUR = "#a01010"
-TYPE_COLOURS = ("#dcdcdc", "#f3e6a2", "#b9e3b0", "#d4c2ea", "#f2c4ce", "#a9dcd6")
-"""Module fills of a mixed structure, by index in ``structure.palette`` (then repeating)."""
+TYPE_COLOURS = ("#dcdcdc", "#a9cce8", "#f3e6a2", "#d4c2ea", "#f2c4ce", "#a9dcd6", "#e8c9a9")
+"""Module fills of a mixed structure: the stock types keep one fill each (:data:`STOCK_FILLS`),
+so a type looks the same in every picture; other types take these by palette index."""
+
+STOCK_FILLS = {"t45": 0, "t45m": 1, "flat": 2, "t30": 3, "t30m": 4}
+"""Index into :data:`TYPE_COLOURS` of each stock type (by name, when its data is the stock's)."""
 
 
-def type_colour(index: int) -> str:
-    """The fill of palette type ``index`` (hex)."""
-    return TYPE_COLOURS[int(index) % len(TYPE_COLOURS)]
+def type_colour(module, index: int = 0) -> str:
+    """The fill (hex) of ``module``: its stock fill, else by its ``index`` in the palette."""
+    from .module import STOCK_TYPES
+
+    stock = STOCK_TYPES.get(getattr(module, "name", ""))
+    if stock is not None and stock.digest == module.digest:
+        return TYPE_COLOURS[STOCK_FILLS[module.name]]
+    return TYPE_COLOURS[(len(STOCK_FILLS) + int(index)) % len(TYPE_COLOURS)]
 
 
 def _new_axes(projection: str | None = None, figsize: tuple[float, float] = (5.0, 5.0)) -> Axes:
@@ -79,7 +88,7 @@ def draw_structure(
     mixed = s.is_mixed
     for i, ((cx, cy, _), t) in enumerate(zip(s.module_centres, s.type_indices)):
         first = highlight_first and i == 0
-        fill = type_colour(t) if mixed else FIRST_COLOUR if first else MODULE_COLOUR
+        fill = type_colour(s.modules[i], t) if mixed else FIRST_COLOUR if first else MODULE_COLOUR
         ax.add_patch(
             Rectangle(
                 (cx - side / 2, cy - side / 2),
@@ -121,7 +130,7 @@ def draw_structure(
         from matplotlib.patches import Patch
 
         handles += [
-            Patch(facecolor=type_colour(k), edgecolor="#3a3a3a", label=f"module {m.name}")
+            Patch(facecolor=type_colour(m, k), edgecolor="#3a3a3a", label=f"module {m.name}")
             for k, m in enumerate(s.palette)
         ]
     ax.legend(handles=handles, loc="best", fontsize="x-small", framealpha=0.8)
@@ -378,7 +387,7 @@ def structure_image(
         img[sl][d <= half_px] = _RGB["edge"]
         if s.is_mixed:  # fill by type; the first module keeps a thicker outline
             inner = half_px - (2.5 * edge if i == 0 else edge)
-            img[sl][d <= inner] = _hex_rgb(type_colour(t))
+            img[sl][d <= inner] = _hex_rgb(type_colour(s.modules[i], t))
         else:
             img[sl][d <= half_px - edge] = _RGB["first" if i == 0 else "module"]
     rad = side / 9 * scale

@@ -95,6 +95,20 @@ def test_mixed_matrix_column_by_column_against_a_plain_loop():
         assert math.isclose(s.mass, masses.sum())
 
 
+def test_types_with_different_rotor_counts_mix():
+    hexa = ModuleType(
+        positions=[[0.1 * np.cos(a), 0.1 * np.sin(a), 0] for a in np.arange(6) * np.pi / 3],
+        directions=[[0, 0, 1]] * 6,
+        spins=[1, -1, 1, -1, 1, -1],
+        name="hexa",
+        mass=0.45,
+    )
+    s = mq.Structure([(0, 0), (1, 0), (1, 1)], modules=[T45, hexa, FLAT])
+    A = s.configuration_matrix()
+    assert A.shape == (6, 14)
+    np.testing.assert_allclose(A, plain_matrix(s.cells, s.modules), atol=1e-14)
+
+
 def test_batched_mixed_matrices_equal_each_structure():
     rng = np.random.default_rng(1)
     cells = np.array([random_cells(rng, 5) for _ in range(12)], dtype=float)
@@ -408,12 +422,12 @@ def test_cli_solve_with_modules_and_external_generation(tmp_path, capsys):
 
 # --- pictures and MuJoCo --------------------------------------------------------------------
 def test_mixed_pictures(tmp_path):
-    from modquad_gym.viz import TYPE_COLOURS, save_structure_figure, structure_image
+    from modquad_gym.viz import save_structure_figure, structure_image, type_colour
 
     s = mq.Structure([(0, 0), (1, 0), (0, 1)], modules=[T45, FLAT, T45M])
     img = structure_image(s, size=(128, 128))
     assert img.shape == (128, 128, 3)
-    fill = tuple(int(TYPE_COLOURS[1][k : k + 2], 16) for k in (1, 3, 5))
+    fill = tuple(int(type_colour(FLAT)[k : k + 2], 16) for k in (1, 3, 5))
     assert (img.reshape(-1, 3) == fill).all(axis=1).any()  # the flat module's fill is drawn
     assert (tmp_path / "s.png").exists() is False
     save_structure_figure(
@@ -439,3 +453,19 @@ def test_mujoco_bench_and_hover_on_a_mixed_structure_with_self_weight():
     assert r.max_error <= 1e-6 and r.max_sensor_error <= 1e-6
     hover = run_hover(build_model(s, f_max=2.0), W[:2], seconds_per_wrench=1.0)
     assert hover.max_position_error <= 0.01
+
+
+def test_cli_validate_accepts_mixed_structures_of_external_tasks(tmp_path, capsys):
+    pytest.importorskip("mujoco")
+    task = PaperTasks(n_wrenches=4, kind="external", f_max=2.0, fz_offset=1.0, fz_gain=4.0)(
+        np.random.default_rng(0)
+    )
+    path = task.save(tmp_path / "ext.json")
+    args = ["validate", "--task", str(path), "--modules", "t45,t45m,flat", "--json"]
+    args += ["--out", str(tmp_path / "v"), "--max-hover-wrenches", "2", "--hover-seconds", "1"]
+    assert main([*args, "--known-load-only", "--load-ramp-seconds", "0"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["task_kind"] == "external" and report["feasible"]
+    assert len(report["modules"]) == report["n_modules"]
+    assert report["mass_kg"] == pytest.approx(0.3 * report["n_modules"])
+    assert report["bench_max_error"] <= 1e-6 and report["hover_max_position_error_m"] <= 0.01

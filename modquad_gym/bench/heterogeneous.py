@@ -190,16 +190,19 @@ def worst_case(seed: int, n_max: int) -> list[dict]:
 
 
 def mujoco_rows(rows: list[dict], sets: dict[str, list[TaskRequirement]], k: int) -> list[dict]:
-    """Validate up to ``k`` mixed optima of external tasks in MuJoCo (5 hover wrenches each)."""
+    """Validate up to ``k`` mixed optima of external tasks in MuJoCo (5 hover wrenches each),
+    each a different multiset of types."""
     from ..sim import validate
 
-    out = []
-    for row in rows:
-        if len(out) >= k or row["kind"] != "external" or not row["mixed_types"]:
-            continue
+    out, seen = [], set()
+    external = [r for r in rows if r["kind"] == "external" and r["mixed_types"]]
+    external.sort(key=lambda r: (r["task"], r["workload"]))  # alternate the two task sets
+    for row in external:
         types = row["mixed_types"].split()
-        if len(set(types)) < 2:
+        mix = tuple(sorted(types))
+        if len(out) >= k or len(set(types)) < 2 or mix in seen:  # distinct mixes only
             continue
+        seen.add(mix)
         task = sets[row["workload"]][row["task"]]
         cells = [tuple(map(int, c.split(","))) for c in row["mixed_cells"].split()]
         s = Structure(cells, modules=[STOCK_TYPES[t] for t in types])

@@ -33,6 +33,7 @@ import numpy as np
 from ..module import DEFAULT_MASS, GRAVITY
 from ..oracle import check_f_max
 from ..structure import Structure
+from ..viz import type_colour
 
 MODULE_MASS = DEFAULT_MASS
 """Default mass of one module in kg (:data:`modquad_gym.module.DEFAULT_MASS`)."""
@@ -52,14 +53,6 @@ LOAD_CELL_MASS = 0.01
 _ROTOR_RADIUS_FRACTION = 0.14  # rotor disc radius as a fraction of the module side
 _ROTOR_COLOURS = {1.0: "0.85 0.2 0.2 0.9", -1.0: "0.2 0.35 0.85 0.9"}
 _MODULE_COLOURS = ("0.3 0.7 0.35 1", "0.55 0.55 0.6 1")  # first (initial) module green
-_TYPE_COLOURS = (  # mixed structures: one colour per palette type (modquad_gym.viz)
-    "0.863 0.863 0.863 1",
-    "0.953 0.902 0.635 1",
-    "0.725 0.89 0.69 1",
-    "0.831 0.761 0.918 1",
-    "0.949 0.769 0.808 1",
-    "0.663 0.863 0.839 1",
-)
 
 
 @dataclass(frozen=True)
@@ -141,8 +134,9 @@ def model_xml(
     mixed = structure.is_mixed
     geoms = []
     for i, (c, t) in enumerate(zip(structure.module_centres, structure.type_indices)):
-        if mixed:
-            rgba = _TYPE_COLOURS[int(t) % len(_TYPE_COLOURS)]
+        if mixed:  # the fills of the pictures (modquad_gym.viz.type_colour)
+            fill = type_colour(structure.modules[i], t)
+            rgba = " ".join(f"{int(fill[k : k + 2], 16) / 255:.3g}" for k in (1, 3, 5)) + " 1"
         else:
             rgba = _MODULE_COLOURS[0] if i == 0 else _MODULE_COLOURS[1]
         geoms.append(
