@@ -384,6 +384,10 @@ def test_mixed_env_initial_type_action_layout_and_external_tasks():
     assert starts == {"t45", "flat"}
     with pytest.raises(ValueError, match="initial_type"):
         gym.make("ModQuadAssembly-v0", modules="t45,flat", initial_type=2)
+    with pytest.raises(ValueError, match="of kind 'external'"):  # the one-type env refuses
+        gym.make("ModQuadAssembly-v0", tasks=task).reset(seed=0)
+    one = gym.make("ModQuadAssembly-v0", modules=[FLAT], tasks=task, n_max=3)
+    assert one.action_space.n == 25 and not one.reset(seed=0)[1]["success"]
 
 
 def test_mixed_env_lookahead_rows_match_the_child_supports():

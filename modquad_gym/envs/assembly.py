@@ -472,6 +472,11 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
             raise ValueError(
                 f"task {task.name!r} wrenches must have shape (t >= 1, 6), got {W.shape}"
             )
+        if getattr(task, "kind", "total") != "total" and type(self) is ModQuadAssemblyEnv:
+            raise ValueError(
+                f"task {task.name!r} is of kind {task.kind!r}: make the env with modules=[...] "
+                "(e.g. modules=[module]), which decides self-weight"
+            )
         f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
         self._be = self._backend(f_max)
         self._memo, self._cand_memo = self._memo_for(task, f_max)
