@@ -8,6 +8,8 @@ package first) registers:
 * ``ModQuadAssemblyPaper-v0``: the same with ``tasks="paper"`` (the paper's random tasks).
 * ``ModQuadAssemblyPlanted-v0``: the same with ``tasks="planted"`` (tasks planted from a
   random structure, so a solution within n_max is known to exist).
+* ``ModQuadAssemblyMixed-v0``: the same with ``modules="t45,t45m,flat"``: three module types,
+  (cell, type) actions (:class:`~modquad_gym.envs.mixed.MixedAssemblyEnv`).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ ENV_IDS: dict[str, dict] = {
     "ModQuadAssembly-v0": {},
     "ModQuadAssemblyPaper-v0": {"tasks": "paper"},
     "ModQuadAssemblyPlanted-v0": {"tasks": "planted"},
+    "ModQuadAssemblyMixed-v0": {"modules": "t45,t45m,flat"},
 }
 
 

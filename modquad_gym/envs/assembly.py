@@ -188,6 +188,10 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     * ``n_max``: the largest number of modules (default 7, as in the paper), 2 to 16.
     * ``module``: the :class:`~modquad_gym.module.ModuleType` of every module (default the
       T-module, eta = pi/4).
+    * ``modules``: several module types (or stock names, ``"t45,t45m,flat"``): the env is then
+      :class:`~modquad_gym.envs.mixed.MixedAssemblyEnv`, whose action is (cell, type) as one
+      ``Discrete(G * G * K)`` and whose observation adds the types (see there); also for tasks
+      of kind ``external`` (self-weight). Default None: one type, this class.
     * ``f_max``: maximum thrust per rotor; None (default) uses each task's own f_max.
     * ``reward_weights``: a :class:`~modquad_gym.envs.reward.RewardWeights` or a dict of some
       of ``w_sat``, ``w_module``, ``w_success``, ``w_invalid``.
@@ -220,6 +224,13 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
 
     metadata = {"render_modes": ["human", "rgb_array", "ansi"], "render_fps": 4}
 
+    def __new__(cls, *args: Any, **kwargs: Any):
+        if cls is ModQuadAssemblyEnv and kwargs.get("modules") is not None:
+            from .mixed import MixedAssemblyEnv  # several module types: (cell, type) actions
+
+            cls = MixedAssemblyEnv
+        return super().__new__(cls)
+
     def __init__(
         self,
         tasks: Any = "mixed",
@@ -234,7 +245,10 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         oracle_method: str = "auto",
         render_size: tuple[int, int] = (256, 256),
         lookahead: bool = False,
+        modules: Any = None,
     ) -> None:
+        if modules is not None:  # only MixedAssemblyEnv takes a palette
+            raise ValueError("modules: a palette needs MixedAssemblyEnv (what gym.make builds)")
         n_max = check_int(n_max, "n_max", 2, N_MAX_LIMIT)
         if module is not None and not isinstance(module, ModuleType):
             raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
@@ -457,6 +471,11 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         if W.ndim != 2 or W.shape[1] != 6 or len(W) == 0:
             raise ValueError(
                 f"task {task.name!r} wrenches must have shape (t >= 1, 6), got {W.shape}"
+            )
+        if getattr(task, "kind", "total") != "total" and type(self) is ModQuadAssemblyEnv:
+            raise ValueError(
+                f"task {task.name!r} is of kind {task.kind!r}: make the env with modules=[...] "
+                "(e.g. modules=[module]), which decides self-weight"
             )
         f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
         self._be = self._backend(f_max)
