@@ -15,8 +15,14 @@ import os
 import sys
 from pathlib import Path
 
+from .extras import EXTRA_OF, missing_extra_message
+
 METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo")
 
+
+EXTERNAL_F_MAX = 2.0
+"""Default rotor thrust limit (N) of generated ``external`` tasks: with 0.3 kg modules a flat
+module lifts 8 N against its 2.94 N weight, a T-module 5.66 N."""
 
 DEFAULT_HOVER_WRENCHES = 20
 MAX_HOVER_SECONDS = 60.0
@@ -42,22 +48,39 @@ def _parse_cells(text: str) -> list:
     return cells
 
 
+def _palette(args):
+    """``--modules`` as a list of module types, or None when not given."""
+    text = getattr(args, "modules", None)
+    if text is None:
+        return None
+    from .module import palette
+
+    try:
+        return palette(text)
+    except ValueError as exc:  # "modules: ..." -> "--modules: ..."
+        raise ValueError(f"--{exc}") from None
+
+
 def _solver(args):
     """The solver for ``--method`` (PPO lives in the agents package, searches here)."""
+    modules = _palette(args)
     if args.method == "ppo":
-        from agents.solvers import make_solver
+        if modules is not None:
+            raise ValueError("--modules: the PPO agent builds one-type structures only")
+        from modquad_gym.agents.solvers import make_solver
 
         return make_solver("ppo", n_max=args.n_max, model=args.model, seed=args.seed).solve
     from .search import SEARCHES
 
     fn = SEARCHES[args.method]
+    typed = {} if modules is None else {"modules": modules}
     if args.method == "random":
-        return lambda task: fn(task, n_max=args.n_max, seed=args.seed)
+        return lambda task: fn(task, n_max=args.n_max, seed=args.seed, **typed)
     if args.method == "exhaustive":
         progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
         workers = getattr(args, "workers", 1)
-        return lambda task: fn(task, n_max=args.n_max, workers=workers, progress=progress)
-    return lambda task: fn(task, n_max=args.n_max)
+        return lambda task: fn(task, n_max=args.n_max, workers=workers, progress=progress, **typed)
+    return lambda task: fn(task, n_max=args.n_max, **typed)
 
 
 def cmd_solve(args) -> int:
@@ -69,12 +92,17 @@ def cmd_solve(args) -> int:
             record = {"task": str(path), "name": task.name, **result.to_dict()}
             print(json.dumps(record), flush=True)
             continue
-        print(f"task {task.name!r} ({path}): {task.n_wrenches} wrenches, method {args.method}")
+        kind = "" if task.kind == "total" else f" ({task.kind})"
+        print(
+            f"task {task.name!r} ({path}): {task.n_wrenches} wrenches{kind}, method {args.method}"
+        )
         if result.structure is None:
             print(f"  no structure of up to {args.n_max} modules satisfies the task")
         else:
             cert = " (certified minimum)" if result.certified else ""
             print(f"  {result.n_modules} modules{cert}: cells {list(result.structure.cells)}")
+            if result.palette:
+                print(f"  module types: {[m.name for m in result.structure.modules]}")
             print("  " + result.structure.to_text().replace("\n", "\n  "))
         print(
             f"  configurations evaluated: {result.evaluated}, oracle calls: "
@@ -87,13 +115,23 @@ def cmd_task_generate(args) -> int:
     import numpy as np
 
     from .outputs import check_output_file
-    from .tasks import make_generator
+    from .tasks import PaperTasks, PlantedTasks, ScrewdriverTask
+    from .validation import check_f_max
 
     out = check_output_file(args.out, force=args.force, what="--out")
-    generator = make_generator(args.kind)
+    f_max = 1.0 if args.f_max is None else check_f_max(args.f_max)
+    if args.task_kind == "external" and args.f_max is None:
+        f_max = EXTERNAL_F_MAX
+    options = {"f_max": f_max, "kind": args.task_kind}
+    generator = {"paper": PaperTasks, "planted": PlantedTasks, "screwdriver": ScrewdriverTask}[
+        args.kind
+    ](**options)
     task = generator(np.random.default_rng(args.seed))
     task.save(out)
-    print(f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, seed {args.seed})")
+    print(
+        f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, kind {task.kind}, "
+        f"f_max {task.f_max:g}, seed {args.seed})"
+    )
     return 0
 
 
@@ -106,14 +144,30 @@ def cmd_show(args) -> int:
     if out.suffix.lower() != ".png":
         out = out.with_name(out.name + ".png")
     out = check_output_file(out, force=args.force, what="--out")
+    modules = _palette(args)
+
+    def from_cells() -> Structure:
+        cells = _parse_cells(args.cells)
+        if modules is None:
+            return Structure(cells)
+        if len(modules) == 1:
+            return Structure(cells, module=modules[0])
+        if len(modules) != len(cells):
+            raise ValueError(
+                f"--modules: with --cells give one type (all cells) or one per cell; got "
+                f"{len(modules)} types for {len(cells)} cells"
+            )
+        return Structure(cells, modules=modules)
+
     if args.task:
         task = _load_task(args.task, args.csv_header)
         if args.cells:
-            structure = Structure(_parse_cells(args.cells))
+            structure = from_cells()
         else:
             from .search import exhaustive_search
 
-            result = exhaustive_search(task, n_max=args.n_max)
+            typed = {} if modules is None else {"modules": modules}
+            result = exhaustive_search(task, n_max=args.n_max, **typed)
             if result.structure is None:
                 print(f"no structure of up to {args.n_max} modules satisfies {args.task}")
                 return 0
@@ -122,7 +176,7 @@ def cmd_show(args) -> int:
         if not args.cells:
             raise ValueError("give --cells (e.g. '[[0,0],[1,0]]') or --task")
         task = None
-        structure = Structure(_parse_cells(args.cells))
+        structure = from_cells()
     save_structure_figure(structure, out, task=task)
     print(structure)
     print(f"wrote {out}")
@@ -169,6 +223,7 @@ def cmd_validate(args) -> int:
         hover_seconds=args.hover_seconds,
         unknown_load=not args.known_load_only,
         load_ramp_seconds=args.load_ramp_seconds,
+        kind=task.kind,
     )
     if args.json:
         print(json.dumps({"task": args.task, "method": args.method, **report}))
@@ -188,7 +243,8 @@ def cmd_bench(args) -> int:
         "paper": "modquad_gym.bench.paper",
         "scaling": "modquad_gym.bench.scaling",
         "level-bounds": "modquad_gym.bench.level_bounds",
-        "agents": "agents.benchmark",
+        "heterogeneous": "modquad_gym.bench.heterogeneous",
+        "agents": "modquad_gym.agents.benchmark",
     }[args.what]
     importlib.import_module(module).main(args.rest)
     return 0
@@ -224,6 +280,18 @@ def _add_csv_header(p: argparse.ArgumentParser) -> None:
         "row 0,1,2,3,4,5, as pandas writes column numbers, is refused as ambiguous), yes "
         "(skip the first row), no (every row is a wrench) (default %(default)s)",
     )
+
+
+MODULES_HELP = (
+    "comma-separated module types to mix, one per cell, chosen by the search "
+    "(stock names: t45 = the paper's T-module, t45m = its mirrored tilts, t30, t30m = "
+    "30-degree tilts, flat = an untilted quadrotor); e.g. t45,t45m,flat. "
+    "Default: every module is the paper's T-module"
+)
+
+
+def _add_modules(p: argparse.ArgumentParser, help_text: str = MODULES_HELP) -> None:
+    p.add_argument("--modules", default=None, metavar="TYPES", help=help_text)
 
 
 def _add_force(p: argparse.ArgumentParser) -> None:
@@ -269,6 +337,7 @@ def build_parser() -> argparse.ArgumentParser:
             default=0,
             help="seed for the random search and PPO sampling (default %(default)s)",
         )
+        _add_modules(p)
 
     p = sub.add_parser(
         "solve",
@@ -289,7 +358,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--json",
         action="store_true",
         help="print one JSON object per task per line: cells, n_modules, evaluated, "
-        "oracle_calls, feasible, certified, seconds",
+        "oracle_calls, feasible, certified, seconds (and modules, the type of each cell, "
+        "with --modules)",
     )
     p.add_argument(
         "--quiet",
@@ -337,6 +407,21 @@ def build_parser() -> argparse.ArgumentParser:
         help="seed of the random generator: the same seed writes the same task "
         "(default %(default)s)",
     )
+    g.add_argument(
+        "--task-kind",
+        choices=("total", "external"),
+        default="total",
+        help="total: the wrench the rotors produce, gravity folded into f_z (the paper's); "
+        "external: the wrench applied to the environment, in SI units; the rotors add the "
+        "structure's weight (default %(default)s)",
+    )
+    g.add_argument(
+        "--f-max",
+        type=float,
+        default=None,
+        help=f"rotor thrust limit written to the task (default 1, or {EXTERNAL_F_MAX:g} N for "
+        "--task-kind external)",
+    )
     g.add_argument("--out", required=True, help="output file; format from suffix .json/.csv/.npy")
     _add_force(g)
     g.set_defaults(func=cmd_task_generate)
@@ -359,6 +444,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--out",
         default="structure.png",
         help="PNG path; '.png' is added when missing (default %(default)s)",
+    )
+    _add_modules(
+        p,
+        "comma-separated module types: with --task the palette the search mixes; with "
+        "--cells one type for every cell or one per cell, in order (e.g. t45,flat,t45m)",
     )
     _add_csv_header(p)
     _add_force(p)
@@ -427,10 +517,20 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "what",
-        choices=("oracle", "search", "scaling", "level-bounds", "env", "paper", "agents"),
+        choices=(
+            "oracle",
+            "search",
+            "scaling",
+            "level-bounds",
+            "heterogeneous",
+            "env",
+            "paper",
+            "agents",
+        ),
         help="oracle: feasibility methods compared; search: exhaustive search vs an LP "
         "reference; scaling: the exhaustive search level by level up to 14 modules; "
-        "level-bounds: regenerate the shipped level bounds; "
+        "level-bounds: regenerate the shipped level bounds; heterogeneous: mixing module "
+        "types and self-weight against one type; "
         "env: environment steps/s; paper: the paper's Sec. VI experiment; "
         "agents: PPO vs the searches on held-out tasks",
     )
@@ -448,6 +548,8 @@ def _one_line(exc: BaseException) -> str:
     """An expected failure as one line naming the file or option."""
     if isinstance(exc, OSError) and exc.filename and exc.strerror:
         return f"{exc.filename}: {exc.strerror}"
+    if isinstance(exc, ModuleNotFoundError) and (exc.name or "").split(".")[0] in EXTRA_OF:
+        return missing_extra_message(exc.name)
     return " ".join(str(exc).split()) or type(exc).__name__
 
 

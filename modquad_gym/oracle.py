@@ -139,28 +139,29 @@ def _row_norms(X: np.ndarray) -> np.ndarray:
 
 
 MAX_TASK_VALUE = 1e100
-"""Largest wrench component, in units of f_max, that :func:`normalise_task` accepts: far beyond
-anything a structure can exert, and small enough that no later step overflows."""
+"""Largest wrench component (in newtons or newton-metres, and in units of f_max) that
+:func:`check_task_scale` accepts: far beyond anything a structure can exert, and small enough
+that no step of a search overflows."""
 
 
-def normalise_task(W: np.ndarray, f_max: float) -> tuple[np.ndarray, float]:
-    """(W / f_max, 1.0): a checked task in units of f_max, for callers (the searches) that test
-    one task against many structures. Feasibility is invariant to scaling W and f_max together,
-    so the answers do not change; the numbers the bounds and LPs see are of order one.
-
-    Raises ValueError naming the row when some |w_i| / f_max exceeds :data:`MAX_TASK_VALUE`."""
+def check_task_scale(W: np.ndarray, f_max: float) -> np.ndarray:
+    """W (checked, (t, 6)) when every |w_i| and every |w_i| / f_max is at most
+    :data:`MAX_TASK_VALUE`, else a ValueError naming the row. The searches call it: they test one
+    task against many structures and square wrenches on the way, where the oracle itself takes
+    any finite value (:meth:`Zonotope.reduce`)."""
     W, f_max = check_wrenches(W), check_f_max(f_max)
-    Wn = W
-    if f_max != 1.0:
-        with np.errstate(over="ignore", under="ignore"):
-            Wn = W / f_max
-    if len(Wn) and not np.abs(Wn).max() <= MAX_TASK_VALUE:
-        row = int(np.argwhere(~(np.abs(Wn) <= MAX_TASK_VALUE))[0, 0])
+    if not len(W):
+        return W
+    with np.errstate(over="ignore", under="ignore"):
+        size = np.maximum(np.abs(W), np.abs(W) / f_max).max(axis=1)
+    if not size.max() <= MAX_TASK_VALUE:
+        row = int(np.argmax(~(size <= MAX_TASK_VALUE)))
         raise ValueError(
-            f"wrench row {row} {W[row].tolist()} exceeds {MAX_TASK_VALUE:g} times f_max = "
-            f"{f_max:g}: far beyond what any structure can exert (check the units)"
+            f"wrench row {row} {W[row].tolist()} with f_max = {f_max:g} is beyond "
+            f"{MAX_TASK_VALUE:g} (newtons, and times f_max): far beyond what any structure can "
+            "exert (check the units)"
         )
-    return Wn, 1.0
+    return W
 
 
 def decide_from_gamma(gamma: np.ndarray) -> np.ndarray:

@@ -6,13 +6,21 @@ Every report states the machine it ran on and compares methods as ratios within 
 from __future__ import annotations
 
 import argparse
-import csv
-import io
 import os
 import platform
 from pathlib import Path
 
-from ..outputs import OutputError, check_output_dir, write_text
+from ..outputs import OutputError, check_output_dir, write_csv, write_text
+
+__all__ = [
+    "int_option",
+    "machine_description",
+    "markdown_table",
+    "parse_bench_args",
+    "seed_option",
+    "write_csv",
+    "write_text",
+]
 
 MAX_COUNT = 1_000_000
 """Largest count (tasks, seeds, structures, steps, ...) a benchmark option accepts."""
@@ -66,15 +74,6 @@ def machine_description() -> str:
     except OSError:
         pass
     return f"{model}, {os.cpu_count()} cores, no GPU, Python {platform.python_version()}"
-
-
-def write_csv(rows: list[dict], path: Path) -> None:
-    """Write dict rows (same keys) as CSV atomically, creating the folder."""
-    buffer = io.StringIO(newline="")
-    writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
-    writer.writeheader()
-    writer.writerows(rows)
-    write_text(path, buffer.getvalue())
 
 
 def markdown_table(rows: list[dict], floatfmt: str = ".3g") -> str:
