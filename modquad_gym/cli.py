@@ -15,7 +15,11 @@ import os
 import sys
 from pathlib import Path
 
+from .bench import int_option, seed_option
 from .extras import EXTRA_OF, missing_extra_message
+
+MAX_WORKERS = 256
+"""Most processes ``solve --workers`` accepts."""
 
 METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo")
 
@@ -333,9 +337,9 @@ def build_parser() -> argparse.ArgumentParser:
         )
         p.add_argument(
             "--seed",
-            type=int,
+            type=seed_option,
             default=0,
-            help="seed for the random search and PPO sampling (default %(default)s)",
+            help="seed for the random search and PPO sampling, 0 to 2**63-1 (default %(default)s)",
         )
         _add_modules(p)
 
@@ -368,10 +372,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--workers",
-        type=int,
+        type=int_option(1, MAX_WORKERS),
         default=1,
         help="processes sharing each large level of the exhaustive search (levels of 100,000 "
-        "structures or more, i.e. 11 modules and up); the answer is the same for any number "
+        "structures or more, i.e. 11 modules and up), 1 to 256; the answer is the same for any "
+        "number "
         "(default %(default)s)",
     )
     _add_csv_header(p)
@@ -402,9 +407,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     g.add_argument(
         "--seed",
-        type=int,
+        type=seed_option,
         default=0,
-        help="seed of the random generator: the same seed writes the same task "
+        help="seed of the random generator (0 to 2**63-1): the same seed writes the same task "
         "(default %(default)s)",
     )
     g.add_argument(
