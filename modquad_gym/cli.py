@@ -15,8 +15,8 @@ import os
 import sys
 from pathlib import Path
 
-from .bench import int_option, seed_option
 from .extras import EXTRA_OF, missing_extra_message
+from .options import int_option, real_option, seed_option
 
 MAX_WORKERS = 256
 """Most processes ``solve --workers`` accepts."""
@@ -422,7 +422,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     g.add_argument(
         "--f-max",
-        type=float,
+        type=real_option,
         default=None,
         help=f"rotor thrust limit written to the task (default 1, or {EXTERNAL_F_MAX:g} N for "
         "--task-kind external)",
@@ -492,14 +492,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--hover-seconds",
-        type=float,
+        type=real_option,
         default=2.0,
         help="simulated seconds per hover segment (default %(default)s), at most "
         f"{MAX_HOVER_SECONDS:g}",
     )
     p.add_argument(
         "--load-ramp-seconds",
-        type=float,
+        type=real_option,
         default=1.0,
         help="unknown-load hover: seconds over which the load moves from one task wrench to the "
         "next (0: a step; default %(default)s)",

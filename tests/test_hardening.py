@@ -44,6 +44,17 @@ def assert_one_line_error(code: int, err: str, *names: str) -> None:
         assert name in lines[0], (name, err)
 
 
+def assert_rejected(code: int, err: str, *names: str) -> None:
+    """Exit 2 without a traceback, the last line an error naming ``names`` (one line from the
+    command, or argparse's usage and error line for a malformed option)."""
+    assert code == 2, err
+    assert "Traceback" not in err
+    last = err.strip().splitlines()[-1]
+    assert "error: " in last, err
+    for name in names:
+        assert name in last, (name, err)
+
+
 def run_cli(*argv: str, **kw) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, "-m", "modquad_gym.cli", *argv],
@@ -308,7 +319,7 @@ def test_validate_bounds_are_checked_before_work(tmp_path, capsys, monkeypatch, 
     code, _, err = run_main(
         capsys, "validate", "--task", str(SCREWDRIVER), "--out", str(tmp_path / "o"), option, value
     )
-    assert_one_line_error(code, err, option)
+    assert_rejected(code, err, option)
 
 
 # ------------------------------------------------------------------ 6. numeric range
@@ -415,10 +426,7 @@ def test_bench_counts_are_rejected_before_work(capsys, tmp_path, monkeypatch, ar
     monkeypatch.chdir(tmp_path)
     t0 = time.perf_counter()
     code, out, err = run_main(capsys, "bench", *argv)
-    assert code == 2
-    assert "Traceback" not in err
-    assert err.strip().splitlines()[-1].endswith(f"got {argv[-1]}"), err
-    assert argv[1] in err
+    assert_rejected(code, err, argv[1], f"got {argv[-1]}")
     assert time.perf_counter() - t0 < 5
     assert not list(tmp_path.iterdir())  # nothing written
 

@@ -10,6 +10,7 @@ import os
 import platform
 from pathlib import Path
 
+from ..options import int_option, seed_option
 from ..outputs import OutputError, check_output_dir, write_csv, write_text
 
 __all__ = [
@@ -21,33 +22,6 @@ __all__ = [
     "write_csv",
     "write_text",
 ]
-
-MAX_COUNT = 1_000_000
-"""Largest count (tasks, seeds, structures, steps, ...) a benchmark option accepts."""
-
-MAX_SEED = 2**63 - 1
-
-
-def int_option(low: int, high: int = MAX_COUNT):
-    """An argparse ``type`` for an integer option within [low, high], so that a bad count (0, -1,
-    nan, 1e400, '') is an argparse error (exit 2) before any work starts."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text.strip())
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-        if not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"must be in {low}..{high}, got {value}")
-        return value
-
-    parse.__name__ = "integer"  # argparse names the type in its messages
-    return parse
-
-
-def seed_option(text: str) -> int:
-    """An argparse ``type`` for a random seed: an integer in 0..2**63-1 (what NumPy accepts)."""
-    return int_option(0, MAX_SEED)(text)
 
 
 def parse_bench_args(parser: argparse.ArgumentParser, argv: list[str] | None):
