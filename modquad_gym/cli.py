@@ -18,6 +18,9 @@ from pathlib import Path
 from .extras import EXTRA_OF, missing_extra_message
 from .options import int_option, real_option, seed_option
 
+N_MAX_OPTION = int_option(1, 2**63 - 1)
+"""``--n-max``: any positive integer parses; each search says how far it can go."""
+
 MAX_WORKERS = 256
 """Most processes ``solve --workers`` accepts."""
 
@@ -324,7 +327,7 @@ def build_parser() -> argparse.ArgumentParser:
         )
         p.add_argument(
             "--n-max",
-            type=int,
+            type=N_MAX_OPTION,
             default=7,
             help="largest module count (default %(default)s; the exhaustive search goes up to "
             "16, centrosymmetric to 21, greedy and random to 64)",
@@ -441,7 +444,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--task", help="task file: solve it (exhaustive) unless --cells is given")
     p.add_argument(
         "--n-max",
-        type=int,
+        type=N_MAX_OPTION,
         default=7,
         help="largest module count the exhaustive search tries for --task (default %(default)s)",
     )
@@ -479,7 +482,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--max-hover-wrenches",
-        type=int,
+        type=int_option(1, 2**63 - 1),
         default=DEFAULT_HOVER_WRENCHES,
         help="hover under at most this many task wrenches: the half nearest the boundary "
         "(smallest margin) and a seeded sample of the rest; each is held for --hover-seconds "

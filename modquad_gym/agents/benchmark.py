@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from modquad_gym.options import int_option, seed_option
 from modquad_gym.oracle import feasible
 from modquad_gym.outputs import check_output_dir, save_figure, write_csv, write_text
 from modquad_gym.tasks import TaskRequirement, load_suite
@@ -516,15 +517,17 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument(
         "--samples",
-        type=int,
+        type=int_option(0, 1000),
         default=None,
         help="replace ppo-kN in --methods by ppo-k<samples> (0 drops it)",
     )
     p.add_argument("--out", type=Path, default=Path("results"), help="report folder")
     p.add_argument("--force", action="store_true", help="replace an existing report in --out")
-    p.add_argument("--n-max", type=int, default=7)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--limit", type=int, default=None, help="first N tasks of each suite only")
+    p.add_argument("--n-max", type=int_option(1, 16), default=7)
+    p.add_argument("--seed", type=seed_option, default=0)
+    p.add_argument(
+        "--limit", type=int_option(1), default=None, help="first N tasks of each suite only"
+    )
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
 

@@ -33,7 +33,14 @@ from ..polyominoes import A001168
 from ..search import exhaustive_search
 from ..structure import Structure
 from ..tasks import PaperTasks, TaskRequirement, random_cells
-from . import machine_description, markdown_table, write_csv
+from . import (
+    int_option,
+    machine_description,
+    markdown_table,
+    parse_bench_args,
+    seed_option,
+    write_csv,
+)
 
 PALETTE = ("t45", "t45m", "flat")
 PAIR = ("t45", "t45m")
@@ -447,15 +454,19 @@ def main(argv: list[str] | None = None) -> None:
         "(total and external tasks), search cost, worst case, MuJoCo; writes "
         "results/heterogeneous.{md,csv,png}.",
     )
-    parser.add_argument("--tasks", type=int, default=12, help="tasks per set (default 12)")
-    parser.add_argument("--seed", type=int, default=0, help="task seed (default 0)")
-    parser.add_argument("--n-max", type=int, default=7, help="module budget (default 7)")
-    parser.add_argument("--mujoco", type=int, default=3, help="external optima validated (3)")
+    parser.add_argument(
+        "--tasks", type=int_option(1, 1000), default=12, help="tasks per set (default 12)"
+    )
+    parser.add_argument("--seed", type=seed_option, default=0, help="task seed (default 0)")
+    parser.add_argument(
+        "--n-max", type=int_option(2, 8), default=7, help="module budget (default 7)"
+    )
+    parser.add_argument(
+        "--mujoco", type=int_option(0, 1000), default=3, help="external optima validated (3)"
+    )
     parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
     parser.add_argument("--force", action="store_true", help="replace existing reports")
-    args = parser.parse_args(argv)
-    if not 1 <= args.tasks <= 1000 or not 2 <= args.n_max <= 8 or args.mujoco < 0:
-        parser.error("--tasks must be in 1..1000, --n-max in 2..8, --mujoco >= 0")
+    args = parse_bench_args(parser, argv)
     names = ("heterogeneous.md", "heterogeneous.csv", "heterogeneous.png")
     check_output_dir(args.out, names, force=args.force)
     exhaustive_search(np.array([[0, 0, 1.0, 0, 0, 0]]), n_max=2, modules=palette("t45,flat"))

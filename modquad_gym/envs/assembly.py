@@ -17,11 +17,17 @@ from gymnasium.error import ResetNeeded
 
 from ..extras import import_optional
 from ..module import ModuleType
-from ..oracle import WrenchOracle, check_f_max
+from ..oracle import METHODS as ORACLE_METHODS
+from ..oracle import WrenchOracle
 from ..structure import Cell, Key, Structure, configuration_matrices, normalise
 from ..tasks import TaskRequirement, make_generator
-from ..validation import check_int
-from .features import CANDIDATE_FEATURES, DEFAULT_N_DIRECTIONS, AssemblyFeatures
+from ..validation import check_int, check_real
+from .features import (
+    CANDIDATE_FEATURES,
+    DEFAULT_N_DIRECTIONS,
+    MAX_N_DIRECTIONS,
+    AssemblyFeatures,
+)
 from .reward import RewardWeights
 
 INVALID_ACTION_MODES = ("penalise", "terminate")
@@ -192,7 +198,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
       :class:`~modquad_gym.envs.mixed.MixedAssemblyEnv`, whose action is (cell, type) as one
       ``Discrete(G * G * K)`` and whose observation adds the types (see there); also for tasks
       of kind ``external`` (self-weight). Default None: one type, this class.
-    * ``f_max``: maximum thrust per rotor; None (default) uses each task's own f_max.
+    * ``f_max``: maximum thrust per rotor, 1e-100 to 1e100; None (default) uses each task's own.
     * ``reward_weights``: a :class:`~modquad_gym.envs.reward.RewardWeights` or a dict of some
       of ``w_sat``, ``w_module``, ``w_success``, ``w_invalid``.
     * ``invalid_action``: ``"penalise"`` (default) or ``"terminate"``.
@@ -203,7 +209,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
       grid). ``gymnasium.wrappers.RecordVideo`` works on ``"rgb_array"`` (needs moviepy).
     * ``n_directions``: K, the support directions of the features (default 48, 12..4096).
     * ``oracle_method``: the oracle's method (default ``"auto"``, exact and certified).
-    * ``render_size``: (height, width) of ``rgb_array`` frames (default (256, 256)).
+    * ``render_size``: (height, width) of ``rgb_array`` frames, each 16..4096 (default (256, 256)).
     * ``lookahead``: add the ``"candidates"`` observation (default False: the observation is
       exactly the four entries above).
 
@@ -270,12 +276,16 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         max_steps = check_int(max_steps, "max_steps", self.n_max - 1, MAX_STEPS_LIMIT)
         self.max_steps = int(max_steps)
         self.module = module if module is not None else Structure([(0, 0)]).module
-        self.f_max = None if f_max is None else check_f_max(f_max)
+        self.f_max = None if f_max is None else _env_f_max(f_max)
         self.weights = RewardWeights.coerce(reward_weights)
         self.invalid_action = invalid_action
         self.render_mode = render_mode
-        self.render_size = tuple(render_size)
-        self.n_directions = int(n_directions)
+        self.render_size = _render_size(render_size)
+        self.n_directions = check_int(n_directions, "n_directions", 12, MAX_N_DIRECTIONS)
+        if oracle_method not in ORACLE_METHODS:
+            raise ValueError(
+                f"oracle_method must be one of {', '.join(ORACLE_METHODS)}, got {oracle_method!r}"
+            )
         self.oracle_method = oracle_method
         self.task_source = tasks
         self.generator: Callable[[np.random.Generator], Any] = make_generator(tasks)
@@ -477,7 +487,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
                 f"task {task.name!r} is of kind {task.kind!r}: make the env with modules=[...] "
                 "(e.g. modules=[module]), which decides self-weight"
             )
-        f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
+        f_max = self.f_max if self.f_max is not None else _env_f_max(task.f_max)
         self._be = self._backend(f_max)
         self._memo, self._cand_memo = self._memo_for(task, f_max)
         self._task, self._task_name, self._W = task, str(task.name), W
@@ -626,3 +636,21 @@ def _as_task(task: Any, what: str, name: str = "options-task") -> TaskRequiremen
         return TaskRequirement(arr, name=name)
     except ValueError as exc:
         raise ValueError(f"{what}: not a valid task: {exc}") from None
+
+
+F_MAX_RANGE = (1e-100, 1e100)
+"""Thrust limits the environment takes: its features are scaled by f_max, and beyond this range
+they would underflow or overflow (the oracle itself takes any positive finite f_max)."""
+
+
+def _env_f_max(f_max: object) -> float:
+    return check_real(f_max, "f_max", *F_MAX_RANGE, positive=True)
+
+
+def _render_size(size: object) -> tuple[int, int]:
+    """(height, width) of rendered frames: two integers in 16..4096."""
+    try:
+        h, w = size  # type: ignore[misc]
+    except (TypeError, ValueError):
+        raise ValueError(f"render_size must be (height, width), got {size!r}") from None
+    return check_int(h, "render_size height", 16, 4096), check_int(w, "render_size width", 16, 4096)

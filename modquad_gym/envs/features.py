@@ -66,6 +66,8 @@ CANDIDATE_FEATURES = 5
 
 _DIRECTION_SEED = 20240611
 _CANDIDATES = 4096
+MAX_N_DIRECTIONS = _CANDIDATES
+"""Most support directions: the 12 axes and the rest sampled from a fixed cloud."""
 _T_REF = 1000
 
 
