@@ -224,7 +224,7 @@ def cmd_validate(args) -> int:
         unknown_load=not args.known_load_only,
         load_ramp_seconds=args.load_ramp_seconds,
         kind=task.kind,
-    )
+    ).to_dict()
     if args.json:
         print(json.dumps({"task": args.task, "method": args.method, **report}))
     else:

@@ -209,7 +209,7 @@ def mujoco_rows(rows: list[dict], sets: dict[str, list[TaskRequirement]], k: int
         rep = validate(
             s, task.wrenches, f_max=task.f_max, kind="external", max_hover_wrenches=5,
             hover_seconds=2.0, render=False,
-        )  # fmt: skip
+        ).to_dict()  # fmt: skip
         out.append(
             {
                 "workload": row["workload"],
