@@ -15,12 +15,12 @@ import pytest  # noqa: E402
 
 import modquad_gym as mq  # noqa: E402
 from modquad_gym.sim import (  # noqa: E402
+    ValidationReport,
     actuator_wrench,
     build_model,
     render_structure,
     run_bench,
     run_hover,
-    ValidationReport,
     validate,
 )
 from modquad_gym.sim.hover import (  # noqa: E402

@@ -71,10 +71,13 @@ class Plant:
     @classmethod
     def of(cls, sim: SimModel) -> Plant:
         """The plant of a flight model (the controller's model is exact in this simulation)."""
-        J = body_inertia(sim)
-        pinv = np.linalg.pinv(sim.A)
-        Minv = inverse_inertia(sim.mass, J)
-        return cls(sim.A, sim.f_max, sim.mass, J, Minv, pinv, sim.A @ pinv)
+        return cls.build(sim.A, sim.f_max, sim.mass, body_inertia(sim))
+
+    @classmethod
+    def build(cls, A: np.ndarray, f_max: float, mass: float, J: np.ndarray) -> Plant:
+        """The plant of configuration matrix A, thrust limit, mass and inertia J about the COM."""
+        pinv = np.linalg.pinv(A)
+        return cls(A, f_max, mass, J, inverse_inertia(mass, J), pinv, A @ pinv)
 
     @property
     def trim(self) -> np.ndarray:
