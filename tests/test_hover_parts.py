@@ -303,6 +303,16 @@ def test_recorder_cut_segment_counts_in_full():
     assert rec.diverged[0]
 
 
+def test_rotation_vector_and_angle_match_scipy():
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(10)
+    for rv in [np.zeros(3), 1e-14 * np.ones(3), *rng.normal(size=(5, 3))]:
+        R = Rotation.from_rotvec(rv).as_matrix()
+        np.testing.assert_allclose(rotation_vector(R), rv, atol=1e-9)
+        assert rotation_angle(R) == pytest.approx(np.linalg.norm(rv), abs=1e-9)
+
+
 # -- the run --------------------------------------------------------------------------------------
 def test_run_hover_config_and_keywords_agree():
     pytest.importorskip("mujoco")
