@@ -20,7 +20,7 @@ writes there:
 
 Hover load convention: while the structure holds task wrench w, the external wrench
 ``d = -(w + gravity wrench)`` is applied at the COM, so that at equilibrium the rotors produce
-exactly w (see :func:`validate` and :mod:`modquad_gym.sim.hover`).
+exactly w (see :func:`validate` and :mod:`modquad_gym.sim.hover.load`).
 
 It returns a :class:`~modquad_gym.sim.report.ValidationReport` (``to_dict()``: the JSON record,
 non-finite numbers as None).
@@ -111,7 +111,7 @@ def validate(
     ``d = -(w + gravity wrench)`` (gravity wrench = [m g ; 0] at the COM) is applied, so that at
     equilibrium (level, in place) the rotors produce exactly the task wrench w; ``load_frame``
     ``"world"`` (default) keeps d fixed in the world, like gravity, ``"body"`` makes it follow the
-    body (see :mod:`modquad_gym.sim.hover` for why a straight line then drifts in roll).
+    body (see :mod:`modquad_gym.sim.hover.linearization`: a straight line then drifts in roll).
 
     Two hovers are flown on the same wrenches: with the load known to the controller
     (feed-forward ``w``, which switches from one wrench to the next in a step; ``hover_*`` keys)
@@ -119,7 +119,7 @@ def validate(
     estimate it; ``hover_unknown_load_*`` keys), the honest test of the controller. In the
     unknown-load hover the load ramps from one task wrench to the next over
     ``load_ramp_seconds`` at the start of each segment (cosine profile), as a real task's load
-    would, rather than stepping by several newtons at once (see :mod:`modquad_gym.sim.hover`).
+    would, rather than stepping by several newtons at once (see :mod:`modquad_gym.sim.hover.load`).
 
     Args:
         structure: the structure to validate (e.g. a search result's ``structure``).
