@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import re
 import sys
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
@@ -62,7 +63,11 @@ def ray_installed() -> bool:
 
 
 def _one_line(exc: BaseException) -> str:
+    """The error as one line: the message of an expected failure (ValueError, OSError: they
+    name their file or option), the type and message of anything else."""
     text = " ".join(str(exc).split())
+    if text and isinstance(exc, (ValueError, OSError)):
+        return text
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
@@ -134,6 +139,11 @@ class Engine:
         if self._depth == 0 and self._started:
             import_optional("ray").shutdown()
             self._started = False
+
+    @property
+    def active(self) -> bool:
+        """True inside a ``with`` block (Ray kept up between batches)."""
+        return self._depth > 0
 
     def _start(self) -> None:
         ray = import_optional("ray")
@@ -264,8 +274,12 @@ class Engine:
 
 
 def _ray_error_line(exc: BaseException) -> str:
-    """A Ray failure (worker died past its retries, ...) as one line."""
-    first = str(exc).strip().splitlines()
+    """A Ray failure (worker died past its retries, a function Ray could not run, ...) as one
+    line: its cause when Ray knows it, else its first line without terminal colours."""
+    cause = getattr(exc, "cause", None)
+    if isinstance(cause, BaseException):
+        return _one_line(cause)
+    first = re.sub(r"\x1b\[[0-9;]*m", "", str(exc)).strip().splitlines()
     return f"{type(exc).__name__}: {first[0] if first else ''}".strip()
 
 

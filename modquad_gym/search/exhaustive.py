@@ -6,32 +6,36 @@ feasible structure is the certified minimum, and the structure returned is the f
 one in canonical order, whatever the chunk size or the number of workers. Nothing is pruned
 except by exact bounds (:mod:`.bounds`) and cached separating directions (:mod:`.checker`).
 
-Large levels are split into ranges of chunks decided by worker processes
-(:func:`scan_chunks` is the unit of work, runnable by any executor); the answer is the first
-feasible structure of the first range that has one.
+Large levels are split into ranges of chunks decided as Ray tasks
+(:mod:`modquad_gym.distributed`; :func:`scan_chunks` is the unit of work); the answer is the
+first feasible structure of the first range that has one, so it is the same for any number of
+workers, on one machine or a cluster.
 """
 
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Iterator
-from concurrent.futures import ProcessPoolExecutor
+from contextlib import ExitStack
+from functools import partial
 
 import numpy as np
 
+from ..distributed import Engine
 from ..module import ModuleType
 from ..polyominoes import A001168, DEFAULT_CHUNK, PolyominoStream, level_chunks
 from ..structure import Key, Structure, normalise
 from ..validation import check_int
 from .bounds import NO_SIZE, force_lower_bound, level_excluded
 from .checker import TaskChecker
-from .result import SearchResult, SearchRun
+from .result import Optima, SearchResult, SearchRun
 
 MAX_MODULES = 16
 """The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8."""
 
 PARALLEL_FROM = 100_000
-"""Levels with at least this many structures are split across worker processes."""
+"""Levels with at least this many structures are split into Ray tasks (with workers > 1)."""
 
 CHUNKS_PER_RANGE = 4
 
@@ -66,40 +70,46 @@ def scan_chunks(
     return None, checker.evaluated, checker.oracle_calls
 
 
-def _ranges(n: int, chunk: int) -> Iterator[tuple[int, int]]:
+def _ranges(n: int, chunk: int) -> list[tuple[int, int]]:
+    """Ranges [start, stop) of chunks of level n, CHUNKS_PER_RANGE chunks each, in order."""
     total = level_size(n) or sum(len(c) for c in PolyominoStream(n, chunk))
     n_chunks = -(-total // chunk)
-    for start in range(0, n_chunks, CHUNKS_PER_RANGE):
-        yield start, min(start + CHUNKS_PER_RANGE, n_chunks)
+    return [
+        (start, min(start + CHUNKS_PER_RANGE, n_chunks))
+        for start in range(0, n_chunks, CHUNKS_PER_RANGE)
+    ]
 
 
-def _scan_parallel(run: SearchRun, n: int, chunk: int, workers: int) -> Key | None:
-    checker = run.checker
-    with ProcessPoolExecutor(max_workers=workers) as ex:
-        futures = [
-            ex.submit(scan_chunks, run.W, run.f_max, run.module, n, chunk, a, b, checker.pool)
-            for a, b in _ranges(n, chunk)
-        ]
-        try:
-            for fut in futures:  # in canonical order: the first range with an answer wins
-                key, evaluated, calls = fut.result()
-                checker.evaluated += evaluated
-                checker.oracle_calls += calls
-                if key is not None:
-                    return key
-        finally:
-            for fut in futures:
-                fut.cancel()
-    return None
+def _scan_range(W, f_max, module, n, chunk, pool, bounds) -> tuple[Key | None, int, int]:
+    return scan_chunks(W, f_max, module, n, chunk, bounds[0], bounds[1], pool)
 
 
-def _scan(run: SearchRun, n: int, chunk: int, workers: int, progress) -> Iterator[Key]:
-    """Keys of the feasible structures of level n, in canonical order (lazily)."""
-    size = level_size(n)
-    if workers > 1 and size is not None and size >= PARALLEL_FROM:
-        key = _scan_parallel(run, n, chunk, workers)
+def _scan_parallel(run: SearchRun, n: int, chunk: int, engine: Engine, progress) -> Key | None:
+    """The first feasible structure of level n: ranges of chunks as tasks on ``engine``, each
+    seeded with the separating directions learnt so far; ranges after the first answer are
+    cancelled, the work of ranges up to it is counted."""
+    ranges = _ranges(n, chunk)
+    size = level_size(n) or ranges[-1][1] * chunk
+
+    def advance(i: int, result) -> None:
         if progress is not None:
-            progress.update(size)
+            a, b = ranges[i]
+            progress.update(min(b * chunk, size) - a * chunk)
+
+    scan = partial(_scan_range, run.W, run.f_max, run.module, n, chunk, run.checker.pool.copy())
+    results = engine.first(scan, ranges, lambda r: r[0] is not None, on_result=advance)
+    for _, evaluated, calls in results:
+        run.checker.evaluated += evaluated
+        run.checker.oracle_calls += calls
+    return results[-1][0]
+
+
+def _scan(run: SearchRun, n: int, chunk: int, engine, progress) -> Iterator[Key]:
+    """Keys of the feasible structures of level n, in canonical order (lazily); only the first
+    one when the level is split across workers (``engine()`` opens the Engine on first use)."""
+    size = level_size(n)
+    if engine is not None and size is not None and size >= PARALLEL_FROM:
+        key = _scan_parallel(run, n, chunk, engine(), progress)
         if key is not None:
             yield key
         return
@@ -141,7 +151,7 @@ def _levels_to_search(run: SearchRun) -> tuple[int, list[int], str]:
     return n_lb, skipped, ""
 
 
-def _search_levels(run: SearchRun, chunk, workers, progress, first_only):
+def _search_levels(run: SearchRun, chunk, engine, progress, first_only):
     n_lb, skipped, proof = _levels_to_search(run)
     for n in range(n_lb, run.n_max + 1) if not proof else ():
         if level_excluded(run.W, run.f_max, run.module, n):
@@ -150,7 +160,7 @@ def _search_levels(run: SearchRun, chunk, workers, progress, first_only):
         bar = _progress(progress, n)
         try:
             found = []
-            for key in _scan(run, n, chunk, workers if first_only else 1, bar):
+            for key in _scan(run, n, chunk, engine if first_only else None, bar):
                 found.append(key)
                 if first_only:
                     break
@@ -169,6 +179,7 @@ def exhaustive_search(
     module: ModuleType | None = None,
     *,
     workers: int | None = 1,
+    address: str | None = None,
     chunk: int = DEFAULT_CHUNK,
     progress: bool = False,
 ) -> SearchResult:
@@ -176,16 +187,54 @@ def exhaustive_search(
     TaskRequirement), searching every connected structure of up to ``n_max`` modules.
 
     ``certified`` is always True: either the structure is minimal, or no structure of up to
-    ``n_max`` modules can satisfy the task. ``workers`` processes share large levels (None:
-    every local core); the answer does not depend on ``workers`` or ``chunk`` (``evaluated``
-    does, since each worker learns its own separating directions). ``progress`` shows a bar
-    per level on stderr.
+    ``n_max`` modules can satisfy the task. With ``workers`` > 1 (None: every local core, at
+    most 8) levels of at least :data:`PARALLEL_FROM` structures are split into Ray tasks, on
+    an embedded Ray or the cluster at ``address`` / ``RAY_ADDRESS``
+    (:mod:`modquad_gym.distributed`; serial when Ray is not installed). The answer does not
+    depend on ``workers``, ``address`` or ``chunk``; ``evaluated`` depends on ``chunk`` and on
+    whether levels are split (each range learns its own separating directions), not on the
+    number of workers. ``progress`` shows a bar per level on stderr.
     """
     run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES)
     chunk = check_int(chunk, "chunk", low=1)
-    n, keys, skipped, proof = _search_levels(run, chunk, _workers(workers), progress, True)
+    workers = _workers(workers)
+    with ExitStack() as stack:
+        engine = None
+        if workers > 1:
+            split = Engine(workers, address)
+
+            def engine() -> Engine:  # Ray starts at the first split level, once per search
+                if not split.active:
+                    stack.enter_context(split)
+                return split
+
+        n, keys, skipped, proof = _search_levels(run, chunk, engine, progress, True)
     structure = Structure.from_trusted(keys[0], run.module) if keys else None
     return run.finish(structure, True, skipped, proof)
+
+
+def optimal_level(
+    task,
+    n_max: int = 7,
+    f_max: float | None = None,
+    module: ModuleType | None = None,
+    *,
+    chunk: int = DEFAULT_CHUNK,
+) -> Optima:
+    """Every minimum-module structure of ``task`` with the work it took (:class:`Optima`).
+    Certified like :func:`exhaustive_search`, which stops at the first feasible structure;
+    this one decides the whole minimal level (in this process: batches of tasks are what
+    :mod:`modquad_gym.distributed` spreads)."""
+    run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES)
+    n, keys, _, proof = _search_levels(run, check_int(chunk, "chunk", low=1), None, False, False)
+    return Optima(
+        n_modules=n,
+        keys=keys,
+        evaluated=run.checker.evaluated,
+        oracle_calls=run.checker.oracle_calls,
+        seconds=time.perf_counter() - run.t0,
+        proof=proof,
+    )
 
 
 def optimal_structures(
@@ -198,8 +247,6 @@ def optimal_structures(
 ) -> tuple[int | None, list[Key]]:
     """Every minimum-module structure of ``task``: (n*, keys of all feasible structures of n*
     modules, up to translation, in canonical order), or (None, []) when none of up to
-    ``n_max`` modules works. Certified like :func:`exhaustive_search`, which stops at the
-    first feasible structure; this one decides the whole minimal level."""
-    run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES)
-    n, keys, _, _ = _search_levels(run, check_int(chunk, "chunk", low=1), 1, False, False)
-    return n, keys
+    ``n_max`` modules works (:func:`optimal_level` without the counts)."""
+    optima = optimal_level(task, n_max, f_max, module, chunk=chunk)
+    return optima.n_modules, optima.keys
