@@ -91,8 +91,9 @@ class Engine:
             reads ``RAY_ADDRESS``.
         local_default: workers when none are given and no cluster is.
 
-    Use it as a context manager so an embedded Ray is started once for several batches and shut
-    down at the end; the methods also work outside one (starting and stopping Ray per call).
+    Use it as a context manager so Ray, started at the first batch that needs it, serves every
+    batch of the block and is shut down at its end; the methods also work outside one (Ray
+    started and stopped per call). A serial batch or one of a single item never starts Ray.
     """
 
     def __init__(
@@ -130,8 +131,6 @@ class Engine:
     # --- Ray's life cycle --------------------------------------------------------------------
     def __enter__(self) -> Engine:
         self._depth += 1
-        if self.use_ray and self._depth == 1:
-            self._start()
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -140,12 +139,9 @@ class Engine:
             import_optional("ray").shutdown()
             self._started = False
 
-    @property
-    def active(self) -> bool:
-        """True inside a ``with`` block (Ray kept up between batches)."""
-        return self._depth > 0
-
     def _start(self) -> None:
+        """Start (or join) Ray at the first batch that needs it; it stays up until the
+        outermost ``with`` block ends."""
         ray = import_optional("ray")
         if ray.is_initialized():
             return
@@ -162,6 +158,7 @@ class Engine:
         if not self.use_ray:
             return 1
         with self:
+            self._start()
             return int(import_optional("ray").cluster_resources().get("CPU", 1))
 
     # --- running -----------------------------------------------------------------------------
@@ -241,6 +238,7 @@ class Engine:
                 yield i, _call(fn, item, labels[i], catch)
             return
         with self:
+            self._start()
             yield from self._run_ray(fn, items, labels, catch, max_retries)
 
     def _run_ray(self, fn, items, labels, catch, max_retries):

@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Iterator
-from contextlib import ExitStack
+from contextlib import nullcontext
 from functools import partial
 
 import numpy as np
@@ -104,12 +104,12 @@ def _scan_parallel(run: SearchRun, n: int, chunk: int, engine: Engine, progress)
     return results[-1][0]
 
 
-def _scan(run: SearchRun, n: int, chunk: int, engine, progress) -> Iterator[Key]:
+def _scan(run: SearchRun, n: int, chunk: int, engine: Engine | None, progress) -> Iterator[Key]:
     """Keys of the feasible structures of level n, in canonical order (lazily); only the first
-    one when the level is split across workers (``engine()`` opens the Engine on first use)."""
+    one when the level is split across ``engine``'s workers."""
     size = level_size(n)
     if engine is not None and size is not None and size >= PARALLEL_FROM:
-        key = _scan_parallel(run, n, chunk, engine(), progress)
+        key = _scan_parallel(run, n, chunk, engine, progress)
         if key is not None:
             yield key
         return
@@ -198,16 +198,8 @@ def exhaustive_search(
     run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES)
     chunk = check_int(chunk, "chunk", low=1)
     workers = _workers(workers)
-    with ExitStack() as stack:
-        engine = None
-        if workers > 1:
-            split = Engine(workers, address)
-
-            def engine() -> Engine:  # Ray starts at the first split level, once per search
-                if not split.active:
-                    stack.enter_context(split)
-                return split
-
+    engine = Engine(workers, address) if workers > 1 else None
+    with engine or nullcontext():  # Ray starts at the first split level, once per search
         n, keys, skipped, proof = _search_levels(run, chunk, engine, progress, True)
     structure = Structure.from_trusted(keys[0], run.module) if keys else None
     return run.finish(structure, True, skipped, proof)
