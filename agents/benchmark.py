@@ -22,6 +22,7 @@ import os
 import platform
 import time
 from dataclasses import dataclass
+from functools import lru_cache, partial
 from pathlib import Path
 
 import numpy as np
@@ -97,14 +98,31 @@ def run_benchmark(
     model: Path | None = None,
     seed: int = 0,
     progress: bool = True,
+    workers: int = 1,
 ) -> list[Row]:
-    """Every method on every task; successes re-verified by the exact oracle."""
-    from tqdm import tqdm
+    """Every method on every task; successes re-verified by the exact oracle. ``workers`` > 1
+    spreads chunks of tasks over Ray tasks (:mod:`modquad_gym.distributed`; same rows, but
+    each solver's seconds are then measured beside the others)."""
+    from modquad_gym.distributed import map_tasks
 
-    solvers = {m: parse_method(m, n_max, model, seed) for m in methods}
     jobs = [(name, task) for name, tasks in suites.items() for task in tasks]
+    size = 1 if workers == 1 else 8
+    chunks = [jobs[i : i + size] for i in range(0, len(jobs), size)]
+    solve = partial(_solve_chunk, (tuple(methods), n_max, model, seed))
+    parts = map_tasks(solve, chunks, workers=workers, progress=progress, desc="benchmark")
+    return [row for part in parts for row in part]
+
+
+@lru_cache(maxsize=2)
+def _solvers(methods: tuple, n_max: int, model: Path | None, seed: int) -> dict[str, Solver]:
+    return {m: parse_method(m, n_max, model, seed) for m in methods}
+
+
+def _solve_chunk(config: tuple, jobs: list) -> list[Row]:
+    """Rows of every method on a chunk of (suite, task) (solvers made once per process)."""
+    solvers = _solvers(*config)
     rows: list[Row] = []
-    for suite, task in tqdm(jobs, desc="benchmark", unit="task", disable=not progress):
+    for suite, task in jobs:
         optimum = task.meta.get("optimum")
         for method, solver in solvers.items():
             r = solver.solve(task)
@@ -501,6 +519,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--limit", type=int, default=None, help="first N tasks of each suite only")
     p.add_argument("--no-progress", action="store_true")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="Ray tasks sharing the tasks (1: one process, so each solver's seconds are timed "
+        "alone; RAY_ADDRESS joins a cluster)",
+    )
     args = p.parse_args(argv)
 
     paths = args.suite or sorted(SUITES_DIR.glob("heldout_*.json"))
@@ -518,7 +543,8 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
 
     t0 = time.perf_counter()
-    rows = run_benchmark(suites, methods, args.n_max, args.model, args.seed, not args.no_progress)
+    rows = run_benchmark(suites, methods, args.n_max, args.model, args.seed,
+                         not args.no_progress, args.workers)  # fmt: skip
     wall = time.perf_counter() - t0
     with open(args.out / "benchmark.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=CSV_FIELDS)

@@ -2,6 +2,7 @@
 split search; faults (a task that raises, a worker killed mid-batch) leave the batch complete;
 the optima dataset resumes; a two-node cluster started with `ray start` on this host works."""
 
+import importlib.util
 import json
 import os
 import secrets
@@ -20,7 +21,7 @@ from modquad_gym.cli import main
 from modquad_gym.distributed import Engine, Failed, map_tasks
 from modquad_gym.optima import read_dataset
 from modquad_gym.search import exhaustive_search
-from modquad_gym.tasks import PlantedTasks
+from modquad_gym.tasks import PlantedTasks, save_suite
 
 ray = pytest.importorskip("ray")
 ROOT = Path(__file__).resolve().parents[1]
@@ -188,6 +189,27 @@ def test_optima_dataset_serial_equals_ray_and_resumes(local_ray, task_dir, tmp_p
     other = ["optima", "--tasks", str(task_dir), "--n-max", "6", "--quiet", "--workers", "1"]
     assert main([*other, "--out", str(resumed)]) == 2
     assert "another n_max" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_train_seeds_run_in_parallel_into_their_own_folders(local_ray, tmp_path):
+    pytest.importorskip("sb3_contrib")
+    spec = importlib.util.spec_from_file_location("train_script", ROOT / "train.py")
+    train = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(train)
+    gen = PlantedTasks(n_modules=2, n_wrenches=24)
+    suite = save_suite([gen(np.random.default_rng(s)) for s in (0, 1)], tmp_path / "tiny.json")
+    out = tmp_path / "runs"
+    argv = ["--task-source", str(suite), "--n-max", "3", "--out", str(out), "--tensorboard",
+            str(tmp_path / "tb"), "--no-report", "--no-progress", "--n-eval", "2", "--timesteps",
+            "256", "--eval-freq", "128", "--demo-tasks", "8", "--bc-epochs", "2",
+            "--seeds", "0", "1"]  # fmt: skip
+    assert train.main(argv) == 0
+    for seed in (0, 1):
+        config = json.loads((out / f"seed-{seed}" / "config.json").read_text())
+        assert config["seed"] == seed and (out / f"seed-{seed}" / "model.zip").is_file()
+        assert "--seeds" not in config["command"] and f"--seed {seed}" in config["command"]
+        assert config["imitation"]["expert_episodes"] == 8
 
 
 def _free_port() -> int:
