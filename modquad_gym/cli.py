@@ -307,6 +307,7 @@ def cmd_bench(args) -> int:
         "paper": "modquad_gym.bench.paper",
         "scaling": "modquad_gym.bench.scaling",
         "level-bounds": "modquad_gym.bench.level_bounds",
+        "distributed": "modquad_gym.bench.distributed",
         "agents": "agents.benchmark",
     }[args.what]
     importlib.import_module(module).main(args.rest)
@@ -598,10 +599,20 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "what",
-        choices=("oracle", "search", "scaling", "level-bounds", "env", "paper", "agents"),
+        choices=(
+            "oracle",
+            "search",
+            "scaling",
+            "level-bounds",
+            "distributed",
+            "env",
+            "paper",
+            "agents",
+        ),
         help="oracle: feasibility methods compared; search: exhaustive search vs an LP "
         "reference; scaling: the exhaustive search level by level up to 14 modules; "
-        "level-bounds: regenerate the shipped level bounds; "
+        "level-bounds: regenerate the shipped level bounds; distributed: a batch and a large "
+        "search serially and on Ray with 1 and 2 CPUs; "
         "env: environment steps/s; paper: the paper's Sec. VI experiment; "
         "agents: PPO vs the searches on held-out tasks",
     )
