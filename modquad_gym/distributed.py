@@ -6,7 +6,8 @@ This module alone imports Ray (lazily, so ``import modquad_gym`` stays light). A
 * serial: ``workers=1``, a batch of one item, or Ray not installed (a one-line note on stderr
   when more workers were asked for; an explicit cluster address without Ray is an error);
 * a cluster: ``address=`` (the CLI's ``--ray-address``) or the ``RAY_ADDRESS`` variable; every
-  node needs modquad_gym installed, and ``workers`` then caps the tasks in flight;
+  node needs modquad_gym installed, and ``workers`` then caps the tasks in flight (default:
+  every CPU of the cluster);
 * otherwise an embedded Ray on this machine, ``ray.init(num_cpus=workers)``, shut down when the
   engine closes (a Ray already running in this process, e.g. the user's own ``ray.init``, is
   used as it is and left running).
@@ -26,6 +27,7 @@ import re
 import sys
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from itertools import chain, islice
 from typing import Any
 
 from .extras import import_optional, missing_extra_message
@@ -183,7 +185,6 @@ class Engine:
         closure, which Ray ships by value).
         """
         items = list(items)
-        labels = [str(i) for i in range(len(items))] if labels is None else list(labels)
         results: list[Any] = [None] * len(items)
         bar = _bar(progress, len(items), desc)
         try:
@@ -207,55 +208,70 @@ class Engine:
         on_result: Callable[[int, Any], None] | None = None,
         max_retries: int = DEFAULT_RETRIES,
     ) -> list[Any]:
-        """Results of ``items[0..k]`` where k is the first item (in item order) whose result
-        is accepted, or of every item when none is. Items after k that are still running are
-        cancelled, so the answer is the same for any number of workers and any timing."""
-        items = list(items)
-        labels = [str(i) for i in range(len(items))]
+        """Results of items 0..k, where k is the first item (in item order) whose result is
+        accepted, or of every item when none is. Items after k still running are cancelled, so
+        the answer is the same for any number of workers and any timing. ``items`` may be a
+        lazy iterable: it is read only as far as the tasks in flight need."""
         done: dict[int, Any] = {}
-        best = len(items)
+        best = None
         prefix = 0  # items 0..prefix-1 are all done
-        runner = self._run(fn, items, labels, False, max_retries)
+        runner = self._run(fn, items, None, False, max_retries)
         try:
             for i, result in runner:
                 done[i] = result
                 if on_result is not None:
                     on_result(i, result)
-                if i < best and accept(result):
+                if (best is None or i < best) and accept(result):
                     best = i
                 while prefix in done:
                     prefix += 1
-                if prefix >= best:
+                if best is not None and prefix > best:
                     break
         finally:
             runner.close()  # cancels what is still in flight
-        return [done[i] for i in range(min(best + 1, len(items)))]
+        return [done[i] for i in range(prefix if best is None else best + 1)]
 
     def _run(self, fn, items, labels, catch, max_retries):
         """(index, result) pairs in completion order."""
-        if not self.use_ray or len(items) <= 1:
+        it = iter(items)
+        head = list(islice(it, 2))
+        items = chain(head, it)
+        if not self.use_ray or len(head) <= 1:
             for i, item in enumerate(items):
-                yield i, _call(fn, item, labels[i], catch)
+                yield i, _call(fn, item, _label(labels, i), catch)
             return
         with self:
             self._start()
             yield from self._run_ray(fn, items, labels, catch, max_retries)
 
     def _run_ray(self, fn, items, labels, catch, max_retries):
+        """Ray tasks over ``items``: at most ``workers`` in flight on a cluster given a number
+        of workers, else twice the CPUs Ray has (the queue stays full, and a lazy ``items`` is
+        read only that far ahead)."""
         ray = import_optional("ray")
         remote = ray.remote(num_cpus=1, max_retries=max_retries, retry_exceptions=False)(_call)
         fn_ref = ray.put(fn)
-        cap = self.workers if self.address and self.workers else len(items)
+        if self.address and self.workers:
+            cap = self.workers
+        else:
+            cap = 2 * max(1, int(ray.cluster_resources().get("CPU", 1)))
+        source = enumerate(items)
         index: dict[Any, int] = {}
         pending: list[Any] = []
-        following = 0
+        more = True
         try:
-            while following < len(items) or pending:
-                while following < len(items) and len(pending) < cap:
-                    ref = remote.remote(fn_ref, items[following], labels[following], catch)
-                    index[ref] = following
+            while more or pending:
+                while more and len(pending) < cap:
+                    following = next(source, None)
+                    if following is None:
+                        more = False
+                        break
+                    i, item = following
+                    ref = remote.remote(fn_ref, item, _label(labels, i), catch)
+                    index[ref] = i
                     pending.append(ref)
-                    following += 1
+                if not pending:
+                    break
                 ready, pending = ray.wait(pending, num_returns=1)
                 for ref in ready:
                     i = index.pop(ref)
@@ -264,11 +280,15 @@ class Engine:
                     except ray.exceptions.RayError as exc:
                         if not catch:
                             raise
-                        result = Failed(labels[i], _ray_error_line(exc))
+                        result = Failed(_label(labels, i), _ray_error_line(exc))
                     yield i, result
         finally:
             for ref in pending:
                 ray.cancel(ref)
+
+
+def _label(labels: Sequence[str] | None, i: int) -> str:
+    return str(i) if labels is None else labels[i]
 
 
 def _ray_error_line(exc: BaseException) -> str:

@@ -11,6 +11,7 @@ import socket
 import subprocess
 import sys
 import time
+from itertools import islice
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,7 @@ import modquad_gym.search.exhaustive as exhaustive
 from modquad_gym.cli import main
 from modquad_gym.distributed import Engine, Failed, map_tasks
 from modquad_gym.optima import read_dataset
+from modquad_gym.polyominoes import PolyominoStream
 from modquad_gym.search import exhaustive_search
 from modquad_gym.tasks import PlantedTasks, save_suite
 
@@ -129,10 +131,25 @@ def test_killed_worker_is_retried_with_identical_results(local_ray, tmp_path):
     assert [no_seconds(r) for i, r in enumerate(out) if i != 5] == serial[:5] + serial[6:]
 
 
+def test_ranges_resume_the_enumeration_where_they_start():
+    """A level cut into ranges (each a snapshot of the stream where it starts) holds the level's
+    structures in canonical order, like the stream read in one go."""
+    whole = np.concatenate(list(PolyominoStream(9, 97)))
+    parts = []
+    for count, state in exhaustive._ranges(9, 97):
+        stream = PolyominoStream(9, 97)
+        stream.restore(state)
+        parts.extend(islice(stream, count))
+    assert np.array_equal(np.concatenate(parts), whole)
+    with pytest.raises(ValueError, match="another stream"):
+        PolyominoStream(8, 97).restore(state)
+
+
 def test_split_search_equals_serial(local_ray, monkeypatch):
-    """Levels split into Ray tasks (threshold lowered so level 8 splits into ranges of 4
+    """Levels split into Ray tasks (threshold lowered so level 8 splits into 15 ranges of 2
     chunks of 97 structures) give the serial answer, for any number of workers."""
     monkeypatch.setattr(exhaustive, "PARALLEL_FROM", 1000)
+    monkeypatch.setattr(exhaustive, "CHUNKS_PER_RANGE", 2)
     for seed in (1, 2):
         W = planted_wrenches(8, 12, seed)
         serial = exhaustive_search(W, n_max=8, chunk=97)

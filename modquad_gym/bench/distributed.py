@@ -1,6 +1,6 @@
 """Batch work and a large search on Ray: wall time with 1 and 2 local workers, Ray's start-up.
 
-    modquad bench distributed [--tasks 1000] [--n-max 7] [--search-n-max 13] [--seed 0]
+    modquad bench distributed [--tasks 1000] [--n-max 7] [--search-n-max 13 [14 ...]] [--seed 0]
 
 Writes ``results/distributed.md`` and ``.csv``. Two workloads, each run serially (no Ray), on an
 embedded Ray with 1 CPU and with 2 CPUs, every answer compared with the serial one:
@@ -8,9 +8,9 @@ embedded Ray with 1 CPU and with 2 CPUs, every answer compared with the serial o
 * a batch: the certified optima (every optimal structure, :func:`modquad_gym.optima.optimum_record`,
   the unit of work of ``modquad optima``) of ``--tasks`` training-like tasks (the ``mixed`` task
   source of ``train.py``: planted tasks of 2-6 modules and paper-like tasks);
-* one certified exhaustive search with n_max = ``--search-n-max`` on a task that no structure of
+* for each ``--search-n-max``, one certified exhaustive search on a task that no structure of
   up to that many modules satisfies, so every level is decided to its end (levels of at least
-  100,000 structures are split into Ray tasks of 65,536 structures).
+  100,000 structures are split into Ray tasks of 262,144 structures).
 
 Wall times include everything a user waits for: starting Ray, its worker processes importing
 the package, the work and the shutdown; ``startup_s`` is the part until a no-op task has
@@ -163,7 +163,10 @@ ray stop
 def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
     load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
     batch = [r for r in rows if r["workload"].startswith("optima")]
-    search = [r for r in rows if r["workload"].startswith("exhaustive")]
+    searches: dict[str, list[dict]] = {}
+    for r in rows:
+        if r["workload"].startswith("exhaustive"):
+            searches.setdefault(r["workload"], []).append(r)
 
     def line(rs):
         two = rs[-1]
@@ -175,7 +178,8 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
         "# Batch work and a large search on Ray",
         "",
         f"Made by `modquad bench distributed --tasks {args.tasks} --n-max {args.n_max} "
-        f"--search-n-max {args.search_n_max} --seed {args.seed}` on {machine_description()}, "
+        f"--search-n-max {' '.join(map(str, args.search_n_max))} --seed {args.seed}` on "
+        f"{machine_description()}, "
         f"in {seconds:.0f} s; load average at the end {load} (above ~1 another job shared the "
         "CPUs, so the speed-ups are those of a shared machine).",
         "",
@@ -186,16 +190,17 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
         "start-up. `same_answers`: every record (optimum, all optimal structures, evaluated "
         "counts) or the search's answer equals the serial run's. The batch is the unit of work "
         "of `modquad optima` on training-like tasks (`mixed`: planted tasks of 2-6 modules and "
-        "paper-like tasks); the search is a task no structure of up to "
-        f"{args.search_n_max} modules satisfies, so every structure of every level not ruled "
-        "out by the exact bounds is decided (`evaluated`); on Ray, levels of 100,000 "
-        "structures or more are split into tasks of 65,536 structures, each starting from the "
-        "separating directions learnt before the level.",
+        "paper-like tasks); each search is a task no structure of up to n_max modules "
+        "satisfies, so every structure of every level not ruled out by the exact bounds is "
+        "decided (`evaluated`); on Ray, levels of 100,000 structures or more are split into "
+        "tasks of 262,144 structures, each starting from the separating directions known "
+        "before the level (the serial search carries them from one structure to the next, so "
+        "a split level costs more CPU time in all; less so the larger the level).",
         "",
         markdown_table(rows),
         "",
         f"- Batch of {args.tasks} tasks, 2 CPUs vs serial: {line(batch)}.",
-        f"- Search with n_max = {args.search_n_max}, 2 CPUs vs serial: {line(search)}.",
+        *[f"- {name}, 2 CPUs vs serial: {line(rs)}." for name, rs in searches.items()],
         f"- Ray's start-up on this machine: {min(startups):g}-{max(startups):g} s per start, "
         "paid once per command; batches shorter than a few times that are faster serially, "
         "which is why `--workers 1` (and a batch of one task) never starts Ray.",
@@ -221,19 +226,28 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--tasks", type=int, default=1000, help="batch size (default 1000)")
     parser.add_argument("--n-max", type=int, default=7, help="batch n_max (default 7)")
     parser.add_argument(
-        "--search-n-max", type=int, default=13, help="n_max of the search (default 13)"
+        "--search-n-max",
+        type=int,
+        nargs="+",
+        default=[13],
+        help="n_max of the searches, one search each (default 13)",
     )
     parser.add_argument("--seed", type=int, default=0, help="task seed (default 0)")
     parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
     args = parser.parse_args(argv)
-    if args.tasks < 2 or not 1 <= args.n_max <= 16 or not 11 <= args.search_n_max <= 16:
+    if (
+        args.tasks < 2
+        or not 1 <= args.n_max <= 16
+        or not all(11 <= n <= 16 for n in args.search_n_max)
+    ):
         parser.error("--tasks must be >= 2, --n-max in 1..16, --search-n-max in 11..16")
     from ..extras import import_optional
 
     import_optional("ray")
     t0 = time.perf_counter()
     rows = run_batch(batch_tasks(args.tasks, args.seed), args.n_max)
-    rows += run_search(args.search_n_max, args.seed)
+    for n in args.search_n_max:
+        rows += run_search(n, args.seed)
     rows = _with_speedups(rows)
     write_csv(rows, args.out / "distributed.csv")
     text = report(rows, args, time.perf_counter() - t0)

@@ -19,6 +19,7 @@ import time
 from collections.abc import Iterator
 from contextlib import nullcontext
 from functools import partial
+from itertools import islice
 
 import numpy as np
 
@@ -37,7 +38,9 @@ MAX_MODULES = 16
 PARALLEL_FROM = 100_000
 """Levels with at least this many structures are split into Ray tasks (with workers > 1)."""
 
-CHUNKS_PER_RANGE = 4
+CHUNKS_PER_RANGE = 16
+"""Chunks per Ray task of a split level (262,144 structures with the default chunk): each task
+starts a fresh cache of separating directions, so fewer, longer tasks waste less."""
 
 
 def level_size(n: int) -> int | None:
@@ -60,48 +63,72 @@ def scan_chunks(
 ) -> tuple[Key | None, int, int]:
     """Decide chunks [start, stop) of level n: (key of the first feasible structure or None,
     structures evaluated, oracle calls). ``pool`` seeds the separating directions."""
+    checker = _seeded_checker(W, f_max, module, pool)
+    key, _ = _first_key(checker, level_chunks(n, chunk, start, stop))
+    return key, checker.evaluated, checker.oracle_calls
+
+
+def _seeded_checker(W, f_max, module, pool) -> TaskChecker:
     checker = TaskChecker(W, f_max, module)
-    for d in (pool if pool is not None else [])[::-1]:
-        checker.remember(d)
-    for cells in level_chunks(n, chunk, start, stop):
+    if pool is not None and len(pool):
+        checker.adopt(pool)
+    return checker
+
+
+def _first_key(checker: TaskChecker, chunks) -> tuple[Key | None, int]:
+    """(key of the first feasible structure of ``chunks``, structures in the chunks read)."""
+    seen = 0
+    for cells in chunks:
+        seen += len(cells)
         i = checker.first_feasible(cells)
         if i is not None:
-            return _key(cells[i]), checker.evaluated, checker.oracle_calls
-    return None, checker.evaluated, checker.oracle_calls
+            return _key(cells[i]), seen
+    return None, seen
 
 
-def _ranges(n: int, chunk: int) -> list[tuple[int, int]]:
-    """Ranges [start, stop) of chunks of level n, CHUNKS_PER_RANGE chunks each, in order."""
+def _ranges(n: int, chunk: int) -> Iterator[tuple[int, tuple]]:
+    """Ranges of CHUNKS_PER_RANGE chunks of level n in canonical order, each as (chunks, the
+    enumeration's state at its start). Lazy: one pass over the level, read only as far ahead
+    as the tasks in flight need (enumerating is several times faster than deciding)."""
     total = level_size(n) or sum(len(c) for c in PolyominoStream(n, chunk))
     n_chunks = -(-total // chunk)
-    return [
-        (start, min(start + CHUNKS_PER_RANGE, n_chunks))
-        for start in range(0, n_chunks, CHUNKS_PER_RANGE)
-    ]
+    stream = PolyominoStream(n, chunk)
+    for start in range(0, n_chunks, CHUNKS_PER_RANGE):
+        count = min(CHUNKS_PER_RANGE, n_chunks - start)
+        yield count, stream.snapshot()
+        stream.skip(count)
 
 
-def _scan_range(W, f_max, module, n, chunk, pool, bounds) -> tuple[Key | None, int, int]:
-    return scan_chunks(W, f_max, module, n, chunk, bounds[0], bounds[1], pool)
+def _scan_range(W, f_max, module, n, chunk, pool, job) -> tuple:
+    """One range (a Ray task): (first feasible key or None, evaluated, oracle calls, the
+    separating directions known at the end, structures decided or passed)."""
+    count, state = job
+    stream = PolyominoStream(n, chunk)
+    stream.restore(state)
+    checker = _seeded_checker(W, f_max, module, pool)
+    key, seen = _first_key(checker, islice(stream, count))
+    return key, checker.evaluated, checker.oracle_calls, checker.pool, seen
 
 
 def _scan_parallel(run: SearchRun, n: int, chunk: int, engine: Engine, progress) -> Key | None:
     """The first feasible structure of level n: ranges of chunks as tasks on ``engine``, each
-    seeded with the separating directions learnt so far; ranges after the first answer are
-    cancelled, the work of ranges up to it is counted."""
-    ranges = _ranges(n, chunk)
-    size = level_size(n) or ranges[-1][1] * chunk
+    seeded with the separating directions known before the level; ranges after the first
+    answer are cancelled, the work of ranges up to it is counted. With no answer, the
+    directions the ranges learnt are kept for the next level."""
 
-    def advance(i: int, result) -> None:
+    def advance(_i: int, result) -> None:
         if progress is not None:
-            a, b = ranges[i]
-            progress.update(min(b * chunk, size) - a * chunk)
+            progress.update(result[4])
 
     scan = partial(_scan_range, run.W, run.f_max, run.module, n, chunk, run.checker.pool.copy())
-    results = engine.first(scan, ranges, lambda r: r[0] is not None, on_result=advance)
-    for _, evaluated, calls in results:
+    results = engine.first(scan, _ranges(n, chunk), lambda r: r[0] is not None, on_result=advance)
+    for _, evaluated, calls, _, _ in results:
         run.checker.evaluated += evaluated
         run.checker.oracle_calls += calls
-    return results[-1][0]
+    key = results[-1][0]
+    if key is None:  # newest first: the last ranges' directions, then the earlier ones
+        run.checker.adopt(np.vstack([r[3] for r in reversed(results)]))
+    return key
 
 
 def _scan(run: SearchRun, n: int, chunk: int, engine: Engine | None, progress) -> Iterator[Key]:
