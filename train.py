@@ -1,8 +1,11 @@
 """Train the PPO agent of modquad_gym (MaskablePPO on ``ModQuadAssembly-v0``) and write the
 benchmark report.
 
-``python train.py`` runs the default recipe (below) into ``results/ppo_default`` and then
-``python -m agents.benchmark`` on the held-out suites, writing ``results/benchmark.md``.
+``python train.py`` runs the default recipe (below) into a new run folder ``runs/<name>/``
+(default name ``ppo-seed<seed>``: ``model.zip``, ``config.json``, ``evaluations.npz`` and the
+benchmark report in ``report/``); it refuses a run folder that exists unless ``--force``.
+``--publish`` also installs the model as the package's default
+(``modquad_gym/data/models/ppo_default/``) and writes the report into ``results/``.
 ``python train.py --quick`` is a short smoke run (a few thousand steps) into ``runs/quick``.
 ``python train.py --help`` lists every option.
 
@@ -12,7 +15,7 @@ Default recipe (one policy for the whole task distribution, <= 30 min on 2 CPU c
    planted tasks of 2-6 modules and paper-like tasks, equal odds), drawn from
    ``default_rng([seed, 1])`` (disjoint from the validation and held-out seeds); for each, every
    optimal structure from the certified search and one expert episode that docks towards them
-   (:mod:`agents.imitation`), on ``--workers`` processes.
+   (:mod:`modquad_gym.agents.imitation`), on ``--workers`` processes.
 2. Behaviour cloning of the MaskablePPO actor-critic on them (``--bc-epochs``): the policy learns
    which dockings keep an optimal structure reachable, the critic the expert's return-to-go.
 3. MaskablePPO fine-tuning on the environment's own reward (``--timesteps``), n_max 7, the
@@ -21,9 +24,9 @@ Default recipe (one policy for the whole task distribution, <= 30 min on 2 CPU c
    n_max - 1 steps, so the module cost is counted exactly), 2 environments, one torch thread.
 
 Evaluation on 40 validation tasks (seeds disjoint from the held-out suites, see
-:mod:`agents.suites`) after cloning (step 0) and periodically while fine-tuning; the model with
-the best validation return is kept as ``model.zip``; its ``config.json`` holds the exact
-environment keywords, hyperparameters, seed, timesteps, wall time and versions.
+:mod:`modquad_gym.agents.suites`) after cloning (step 0) and periodically while fine-tuning;
+the model with the best validation return is kept as ``model.zip``; its ``config.json`` holds
+the exact environment keywords, hyperparameters, seed, timesteps, wall time and versions.
 ``--bc-epochs 0`` trains with PPO alone (from scratch), as in the first version of the recipe.
 
 ``python train.py --seeds 0 1 2`` trains one run per seed as parallel Ray tasks
@@ -43,7 +46,13 @@ import sys
 import time
 from pathlib import Path
 
+from modquad_gym.agents.benchmark import REPORT_FILES
+from modquad_gym.agents.solvers import DEFAULT_MODEL
+from modquad_gym.outputs import OutputError, check_output_dir
+
 ROOT = Path(__file__).resolve().parent
+RUN_FILES = ("model.zip", "config.json", "evaluations.npz")
+"""What a training run writes into its run folder."""
 
 HYPERPARAMETERS = {
     "learning_rate": 1e-4,
@@ -60,7 +69,7 @@ HYPERPARAMETERS = {
 }
 """MaskablePPO hyperparameters of the default recipe (fine-tuning after behaviour cloning)."""
 IMITATION = {"demo_tasks": 12_000, "bc_epochs": 40, "bc_batch_size": 256, "bc_learning_rate": 1e-3}
-"""Behaviour-cloning settings of the default recipe (see :mod:`agents.imitation`)."""
+"""Behaviour-cloning settings of the default recipe (see :mod:`modquad_gym.agents.imitation`)."""
 DEFAULT_TIMESTEPS = 200_000
 QUICK_TIMESTEPS = 4_096
 QUICK_DEMO_TASKS = 40
@@ -107,8 +116,17 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--out",
         type=Path,
         default=None,
-        help="output folder for model.zip, config.json, evaluations.npz "
-        "(default results/ppo_default, runs/quick with --quick)",
+        help="run folder for model.zip, config.json, evaluations.npz and report/ "
+        "(default runs/ppo-seed<seed>, runs/quick with --quick)",
+    )
+    p.add_argument(
+        "--force", action="store_true", help="replace the files of an existing run folder"
+    )
+    p.add_argument(
+        "--publish",
+        action="store_true",
+        help="also install the model as the package default (modquad_gym/data/models/"
+        "ppo_default) and write the report into results/",
     )
     p.add_argument(
         "--demo-tasks",
@@ -157,7 +175,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--report-dir",
         type=Path,
         default=None,
-        help="where the report goes (default results, <out>/report with --quick)",
+        help="where the report goes (default <out>/report, results with --publish)",
     )
     p.add_argument(
         "--eval-freq",
@@ -201,9 +219,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     if args.out is None and args.seeds:
         args.out = ROOT / "runs" / "seeds"
     if args.out is None:
-        args.out = ROOT / ("runs/quick" if args.quick else "results/ppo_default")
+        args.out = ROOT / "runs" / ("quick" if args.quick else f"ppo-seed{args.seed}")
     if args.report_dir is None:
-        args.report_dir = args.out / "report" if args.quick else ROOT / "results"
+        args.report_dir = ROOT / "results" if args.publish else args.out / "report"
     if args.eval_freq is None:
         args.eval_freq = max(args.timesteps // 20, 512)
     for name in ("timesteps", "n_envs", "n_max", "eval_freq", "checkpoint_freq", "threads",
@@ -222,6 +240,20 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         p.error("--env-kwargs: give tasks and n_max with --task-source and --n-max")
     if args.resume is not None and not args.resume.is_file():
         p.error(f"--resume: no model file {args.resume}")
+    if args.seeds and args.publish:
+        p.error("--publish installs one run: train the seeds, then publish the chosen one")
+    if args.seed_workers is not None and args.seed_workers < 1:
+        p.error(f"--seed-workers must be >= 1, got {args.seed_workers}")
+    runs = [Path(args.out) / f"seed-{s}" for s in args.seeds] if args.seeds else [args.out]
+    try:  # before any work: never replace a run, the shipped model or a report unasked
+        for out in runs:
+            check_output_dir(out, RUN_FILES, args.force, "--out")
+            if not args.no_report:
+                report = out / "report" if args.seeds else args.report_dir
+                check_output_dir(report, REPORT_FILES, args.force or args.publish,
+                                 "--report-dir")  # fmt: skip
+    except OutputError as exc:
+        p.error(str(exc))
     return args
 
 
@@ -255,8 +287,9 @@ def train(args: argparse.Namespace) -> Path:
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-    from agents.ppo import make_env
-    from agents.suites import CyclingTasks, validation_tasks
+    from modquad_gym.agents.ppo import make_env
+    from modquad_gym.agents.suites import CyclingTasks, validation_tasks
+    from modquad_gym.outputs import atomic_write, write_text
 
     t_start = time.perf_counter()
     torch.set_num_threads(args.threads)
@@ -333,11 +366,11 @@ def train(args: argparse.Namespace) -> Path:
     # keep the model with the best validation return (the last one if no evaluation ran)
     best = log_dir / "best_model.zip"
     chosen = best if best.is_file() else log_dir / "final_model.zip"
-    shutil.copyfile(chosen, out / "model.zip")
+    atomic_write(out / "model.zip", lambda tmp: shutil.copyfile(chosen, tmp))
     evals = log_dir / "evaluations.npz"
     best_step = None
     if evals.is_file():
-        shutil.copyfile(evals, out / "evaluations.npz")
+        atomic_write(out / "evaluations.npz", lambda tmp: shutil.copyfile(evals, tmp))
         data = np.load(evals)
         best_step = int(data["timesteps"][int(np.argmax(data["results"].mean(axis=1)))])
     config = {
@@ -356,7 +389,7 @@ def train(args: argparse.Namespace) -> Path:
         "kept_model_timesteps": best_step if chosen == best else int(model.num_timesteps),
         "imitation": imitation,
         "validation": {"n_tasks": len(val), "source": val_source,
-                       "seeds": "agents.suites.VALIDATION_SEED0 + i"},
+                       "seeds": "modquad_gym.agents.suites.VALIDATION_SEED0 + i"},
         "wall_seconds": round(time.perf_counter() - t_start, 1),
         "ppo_seconds": round(wall, 1),
         "steps_per_second": round(args.timesteps / wall, 1),
@@ -364,7 +397,7 @@ def train(args: argparse.Namespace) -> Path:
         "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
         "versions": versions(),
     }  # fmt: skip
-    (out / "config.json").write_text(json.dumps(config, indent=2) + "\n")
+    write_text(out / "config.json", json.dumps(config, indent=2) + "\n")
     venv.close()
     eval_env.close()
     print(f"trained {model.num_timesteps} steps in {wall:.0f} s; model: {out / 'model.zip'}")
@@ -378,7 +411,7 @@ def pretrain(model, args: argparse.Namespace, env_kwargs: dict, log_dir: Path) -
     import numpy as np
     from torch.utils.tensorboard import SummaryWriter
 
-    from agents.imitation import clone, collect_parallel
+    from modquad_gym.agents.imitation import clone, collect_parallel
     from modquad_gym.tasks import make_generator
 
     t0 = time.perf_counter()
@@ -437,6 +470,19 @@ def evaluate_start(eval_cb, model, eval_env, n_episodes: int, log_dir: Path) -> 
     model.save(log_dir / "best_model.zip")
 
 
+def publish(run: Path) -> Path:
+    """Install the run's model, config and learning curve as the package's default model."""
+    from modquad_gym.outputs import atomic_write
+
+    target = DEFAULT_MODEL.parent
+    target.mkdir(parents=True, exist_ok=True)
+    for name in RUN_FILES:
+        if (run / name).is_file():
+            atomic_write(target / name, lambda tmp, n=name: shutil.copyfile(run / n, tmp))
+    print(f"published {run} as the default model {DEFAULT_MODEL}")
+    return DEFAULT_MODEL
+
+
 def train_seeds(args: argparse.Namespace, argv: list[str]) -> int:
     """One run of this script per seed of ``--seeds``, as parallel Ray tasks, each into
     ``<out>/seed-S`` (the other options as given). Returns 0 when every run finished."""
@@ -488,11 +534,13 @@ def main(argv: list[str] | None = None) -> int:
         return train_seeds(args, list(sys.argv[1:] if argv is None else argv))
     t0 = time.perf_counter()
     model_path = train(args)
+    if args.publish:
+        model_path = publish(args.out)
     if not args.no_report:
-        from agents import benchmark
+        from modquad_gym.agents import benchmark
 
         bench_args = ["--model", str(model_path), "--out", str(args.report_dir),
-                      "--train-dir", str(args.out)]  # fmt: skip
+                      "--train-dir", str(model_path.parent), "--force"]  # fmt: skip
         if args.quick:
             bench_args += ["--limit", "3", "--samples", "2"]
         benchmark.main(bench_args)

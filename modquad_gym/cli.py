@@ -17,9 +17,15 @@ import os
 import sys
 from pathlib import Path
 
+from .extras import EXTRA_OF, missing_extra_message
+
 METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo")
 SUITES_DIR = Path(__file__).resolve().parent / "data" / "suites"
 
+
+EXTERNAL_F_MAX = 2.0
+"""Default rotor thrust limit (N) of generated ``external`` tasks: with 0.3 kg modules a flat
+module lifts 8 N against its 2.94 N weight, a T-module 5.66 N."""
 
 DEFAULT_HOVER_WRENCHES = 20
 MAX_HOVER_SECONDS = 60.0
@@ -45,51 +51,76 @@ def _parse_cells(text: str) -> list:
     return cells
 
 
+def _palette_of(text: str | None):
+    """``--modules`` text as a list of module types, or None when not given."""
+    if text is None:
+        return None
+    from .module import palette
+
+    try:
+        return palette(text)
+    except ValueError as exc:  # "modules: ..." -> "--modules: ..."
+        raise ValueError(f"--{exc}") from None
+
+
+def _palette(args):
+    """``--modules`` as a list of module types, or None when not given."""
+    return _palette_of(getattr(args, "modules", None))
+
+
 @functools.lru_cache(maxsize=4)
-def _make_solver(method: str, n_max: int, model, seed: int, workers, address, progress: bool):
+def _make_solver(method, n_max, model, seed, modules_text, workers, address, progress: bool):
     """The solver for ``--method`` (PPO lives in the agents package, searches here); cached, so
     a worker process that solves many tasks loads a PPO model once."""
+    modules = _palette_of(modules_text)
     if method == "ppo":
-        from agents.solvers import make_solver
+        if modules is not None:
+            raise ValueError("--modules: the PPO agent builds one-type structures only")
+        from modquad_gym.agents.solvers import make_solver
 
         return make_solver("ppo", n_max=n_max, model=model, seed=seed).solve
     from .search import SEARCHES
 
     fn = SEARCHES[method]
+    typed = {} if modules is None else {"modules": modules}
     if method == "random":
-        return lambda task: fn(task, n_max=n_max, seed=seed)
+        return lambda task: fn(task, n_max=n_max, seed=seed, **typed)
     if method == "exhaustive":
         return lambda task: fn(
-            task, n_max=n_max, workers=workers, address=address, progress=progress
+            task, n_max=n_max, workers=workers, address=address, progress=progress, **typed
         )
-    return lambda task: fn(task, n_max=n_max)
+    return lambda task: fn(task, n_max=n_max, **typed)
 
 
 def _solver(args, workers=1):
     """The solver of ``args`` (``workers`` share the levels of one exhaustive search)."""
     progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
+    modules = getattr(args, "modules", None)
     address = getattr(args, "ray_address", None)
-    return _make_solver(args.method, args.n_max, args.model, args.seed, workers, address, progress)
+    return _make_solver(
+        args.method, args.n_max, args.model, args.seed, modules, workers, address, progress
+    )
 
 
 def _solve_file(options: tuple, path: Path):
-    """Load and solve one task file (the unit of work of a batch): (name, wrenches, result)."""
-    method, n_max, model, seed, csv_header = options
+    """Load and solve one task file (the unit of work of a batch): (task, result)."""
+    method, n_max, model, seed, modules, csv_header = options
     task = _load_task(path, csv_header)
-    result = _make_solver(method, n_max, model, seed, 1, None, False)(task)
-    return task.name, task.n_wrenches, result
+    result = _make_solver(method, n_max, model, seed, modules, 1, None, False)(task)
+    return task, result
 
 
 def cmd_solve(args) -> int:
     from .distributed import Engine, Failed
     from .tasks import task_files
 
+    _palette(args)  # a bad --modules is refused before any work
     paths = task_files(args.task)
     engine = Engine(args.workers, args.ray_address, local_default=1)
     if len(paths) == 1 or not engine.use_ray:
         return _solve_here(args, paths, engine.workers or engine.cluster_cpus())
     # a batch: tasks spread over the workers, each search in one process
-    options = (args.method, args.n_max, args.model, args.seed, args.csv_header)
+    options = (args.method, args.n_max, args.model, args.seed, args.modules, args.csv_header)
     failed: list[Failed] = []
     printed = 0
     done: dict[int, object] = {}
@@ -135,7 +166,7 @@ def _solve_here(args, paths: list[Path], workers: int) -> int:
             failed.append(exc)
             print(f"modquad: error: {_one_line(exc)}", file=sys.stderr, flush=True)
             continue
-        _print_result(args, path, task.name, task.n_wrenches, solve(task))
+        _print_result(args, path, task, solve(task))
     return _batch_status(failed, len(paths))
 
 
@@ -146,17 +177,20 @@ def _batch_status(failed: list, total: int) -> int:
     return 2
 
 
-def _print_result(args, path, name: str, n_wrenches: int, result) -> None:
+def _print_result(args, path, task, result) -> None:
     if args.json:
-        record = {"task": str(path), "name": name, **result.to_dict()}
+        record = {"task": str(path), "name": task.name, **result.to_dict()}
         print(json.dumps(record), flush=True)
         return
-    print(f"task {name!r} ({path}): {n_wrenches} wrenches, method {args.method}")
+    kind = "" if task.kind == "total" else f" ({task.kind})"
+    print(f"task {task.name!r} ({path}): {task.n_wrenches} wrenches{kind}, method {args.method}")
     if result.structure is None:
         print(f"  no structure of up to {args.n_max} modules satisfies the task")
     else:
         cert = " (certified minimum)" if result.certified else ""
         print(f"  {result.n_modules} modules{cert}: cells {list(result.structure.cells)}")
+        if result.palette:
+            print(f"  module types: {[m.name for m in result.structure.modules]}")
         print("  " + result.structure.to_text().replace("\n", "\n  "))
     print(
         f"  configurations evaluated: {result.evaluated}, oracle calls: "
@@ -208,13 +242,23 @@ def cmd_task_generate(args) -> int:
     import numpy as np
 
     from .outputs import check_output_file
-    from .tasks import make_generator
+    from .tasks import PaperTasks, PlantedTasks, ScrewdriverTask
+    from .validation import check_f_max
 
     out = check_output_file(args.out, force=args.force, what="--out")
-    generator = make_generator(args.kind)
+    f_max = 1.0 if args.f_max is None else check_f_max(args.f_max)
+    if args.task_kind == "external" and args.f_max is None:
+        f_max = EXTERNAL_F_MAX
+    options = {"f_max": f_max, "kind": args.task_kind}
+    generator = {"paper": PaperTasks, "planted": PlantedTasks, "screwdriver": ScrewdriverTask}[
+        args.kind
+    ](**options)
     task = generator(np.random.default_rng(args.seed))
     task.save(out)
-    print(f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, seed {args.seed})")
+    print(
+        f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, kind {task.kind}, "
+        f"f_max {task.f_max:g}, seed {args.seed})"
+    )
     return 0
 
 
@@ -227,14 +271,30 @@ def cmd_show(args) -> int:
     if out.suffix.lower() != ".png":
         out = out.with_name(out.name + ".png")
     out = check_output_file(out, force=args.force, what="--out")
+    modules = _palette(args)
+
+    def from_cells() -> Structure:
+        cells = _parse_cells(args.cells)
+        if modules is None:
+            return Structure(cells)
+        if len(modules) == 1:
+            return Structure(cells, module=modules[0])
+        if len(modules) != len(cells):
+            raise ValueError(
+                f"--modules: with --cells give one type (all cells) or one per cell; got "
+                f"{len(modules)} types for {len(cells)} cells"
+            )
+        return Structure(cells, modules=modules)
+
     if args.task:
         task = _load_task(args.task, args.csv_header)
         if args.cells:
-            structure = Structure(_parse_cells(args.cells))
+            structure = from_cells()
         else:
             from .search import exhaustive_search
 
-            result = exhaustive_search(task, n_max=args.n_max)
+            typed = {} if modules is None else {"modules": modules}
+            result = exhaustive_search(task, n_max=args.n_max, **typed)
             if result.structure is None:
                 print(f"no structure of up to {args.n_max} modules satisfies {args.task}")
                 return 0
@@ -243,7 +303,7 @@ def cmd_show(args) -> int:
         if not args.cells:
             raise ValueError("give --cells (e.g. '[[0,0],[1,0]]') or --task")
         task = None
-        structure = Structure(_parse_cells(args.cells))
+        structure = from_cells()
     save_structure_figure(structure, out, task=task)
     print(structure)
     print(f"wrote {out}")
@@ -290,6 +350,7 @@ def cmd_validate(args) -> int:
         hover_seconds=args.hover_seconds,
         unknown_load=not args.known_load_only,
         load_ramp_seconds=args.load_ramp_seconds,
+        kind=task.kind,
     )
     if args.json:
         print(json.dumps({"task": args.task, "method": args.method, **report}))
@@ -308,7 +369,8 @@ def cmd_bench(args) -> int:
         "scaling": "modquad_gym.bench.scaling",
         "level-bounds": "modquad_gym.bench.level_bounds",
         "distributed": "modquad_gym.bench.distributed",
-        "agents": "agents.benchmark",
+        "heterogeneous": "modquad_gym.bench.heterogeneous",
+        "agents": "modquad_gym.agents.benchmark",
     }[args.what]
     importlib.import_module(module).main(args.rest)
     return 0
@@ -362,6 +424,18 @@ def _add_workers(p: argparse.ArgumentParser, default: str) -> None:
     )
 
 
+MODULES_HELP = (
+    "comma-separated module types to mix, one per cell, chosen by the search "
+    "(stock names: t45 = the paper's T-module, t45m = its mirrored tilts, t30, t30m = "
+    "30-degree tilts, flat = an untilted quadrotor); e.g. t45,t45m,flat. "
+    "Default: every module is the paper's T-module"
+)
+
+
+def _add_modules(p: argparse.ArgumentParser, help_text: str = MODULES_HELP) -> None:
+    p.add_argument("--modules", default=None, metavar="TYPES", help=help_text)
+
+
 def _add_force(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--force", action="store_true", help="replace existing output files (default: refuse)"
@@ -405,6 +479,7 @@ def build_parser() -> argparse.ArgumentParser:
             default=0,
             help="seed for the random search and PPO sampling (default %(default)s)",
         )
+        _add_modules(p)
 
     p = sub.add_parser(
         "solve",
@@ -426,7 +501,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--json",
         action="store_true",
         help="print one JSON object per task per line: cells, n_modules, evaluated, "
-        "oracle_calls, feasible, certified, seconds",
+        "oracle_calls, feasible, certified, seconds (and modules, the type of each cell, "
+        "with --modules)",
     )
     p.add_argument(
         "--quiet",
@@ -509,6 +585,21 @@ def build_parser() -> argparse.ArgumentParser:
         help="seed of the random generator: the same seed writes the same task "
         "(default %(default)s)",
     )
+    g.add_argument(
+        "--task-kind",
+        choices=("total", "external"),
+        default="total",
+        help="total: the wrench the rotors produce, gravity folded into f_z (the paper's); "
+        "external: the wrench applied to the environment, in SI units; the rotors add the "
+        "structure's weight (default %(default)s)",
+    )
+    g.add_argument(
+        "--f-max",
+        type=float,
+        default=None,
+        help=f"rotor thrust limit written to the task (default 1, or {EXTERNAL_F_MAX:g} N for "
+        "--task-kind external)",
+    )
     g.add_argument("--out", required=True, help="output file; format from suffix .json/.csv/.npy")
     _add_force(g)
     g.set_defaults(func=cmd_task_generate)
@@ -531,6 +622,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--out",
         default="structure.png",
         help="PNG path; '.png' is added when missing (default %(default)s)",
+    )
+    _add_modules(
+        p,
+        "comma-separated module types: with --task the palette the search mixes; with "
+        "--cells one type for every cell or one per cell, in order (e.g. t45,flat,t45m)",
     )
     _add_csv_header(p)
     _add_force(p)
@@ -605,14 +701,16 @@ def build_parser() -> argparse.ArgumentParser:
             "scaling",
             "level-bounds",
             "distributed",
+            "heterogeneous",
             "env",
             "paper",
             "agents",
         ),
         help="oracle: feasibility methods compared; search: exhaustive search vs an LP "
         "reference; scaling: the exhaustive search level by level up to 14 modules; "
-        "level-bounds: regenerate the shipped level bounds; distributed: a batch and a large "
-        "search serially and on Ray with 1 and 2 CPUs; "
+        "level-bounds: regenerate the shipped level bounds; heterogeneous: mixing module "
+        "types and self-weight against one type; distributed: a batch and a large search "
+        "serially and on Ray with 1 and 2 CPUs; "
         "env: environment steps/s; paper: the paper's Sec. VI experiment; "
         "agents: PPO vs the searches on held-out tasks",
     )
@@ -630,6 +728,8 @@ def _one_line(exc: BaseException) -> str:
     """An expected failure as one line naming the file or option."""
     if isinstance(exc, OSError) and exc.filename and exc.strerror:
         return f"{exc.filename}: {exc.strerror}"
+    if isinstance(exc, ModuleNotFoundError) and (exc.name or "").split(".")[0] in EXTRA_OF:
+        return missing_extra_message(exc.name)
     return " ".join(str(exc).split()) or type(exc).__name__
 
 

@@ -14,11 +14,32 @@ Drag torque: a rotor pushing with thrust f along d also exerts a reaction torque
 ``spin * c_tau * f * d`` about its axis. ``c_tau`` is the drag-to-thrust ratio in metres; the
 default 0.01 m is a typical value for the small propellers of ModQuad-size modules (reported
 values lie between 0.006 m and 0.02 m). The paper leaves it unspecified.
+
+Mass: every module type carries its mass in kg (default :data:`DEFAULT_MASS` = 0.3 kg, our
+modelling assumption for a 0.4 m module with frame, battery and four motors; the MuJoCo model
+uses it too). It places the centre of mass of a mixed structure (each module's mass at its
+centre) and, for tasks of kind ``external``, is weight the rotors must also carry.
+
+Stock types (:data:`STOCK_TYPES`, short names for the command line, :func:`palette`):
+
+* ``t45``: the paper's T-module (Def. 5), eta = pi/4;
+* ``t45m``: the mirrored tilt pattern, every tilt negated (eta_1 = eta_3 = -pi/4, spins
+  unchanged): each rotor's lateral force and tilt yaw torque reverse, so the rotor's drag
+  torque adds to its tilt yaw torque (in ``t45`` it subtracts);
+* ``t30`` / ``t30m``: the same pattern with a shallower tilt eta = pi/6 (more lift, less lateral
+  force and torque); the tilt angle is the design parameter of the tilted-rotor modules of
+  H-ModQuad (J. Xu, D. S. D'Antonio, D. Saldana, "H-ModQuad: Modular Multi-Rotors with 4, 5, and 6
+  Controllable DOF", ICRA 2021, arXiv:2106.04048), whose heterogeneous modules motivate mixing;
+* ``flat``: an untilted quadrotor module (eta = 0), the module of ModQuad (D. Saldana,
+  B. Gabrich, G. Li, M. Yim, V. Kumar, "ModQuad: The Flying Modular Structure that Self-Assembles
+  in Midair", ICRA 2018): the most lift per rotor, no lateral force.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -28,6 +49,12 @@ DEFAULT_SIDE = 0.4
 
 DEFAULT_C_TAU = 0.01
 """Drag-to-thrust ratio c_tau in metres (see the module docstring)."""
+
+DEFAULT_MASS = 0.3
+"""Mass of one module in kg (see the module docstring)."""
+
+GRAVITY = 9.81
+"""Gravitational acceleration in m/s^2 (the self-weight of ``external`` tasks, MuJoCo)."""
 
 _QUADRANTS = np.array([[1.0, 1.0, 0.0], [-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0]])
 _SPINS = np.array([1.0, -1.0, 1.0, -1.0])
@@ -52,7 +79,11 @@ class ModuleType:
         spins: (4,) spin signs (+1 or -1) multiplying the drag torque c_tau * f * d.
         side: module side length l in metres (modules dock on a grid of pitch ``side``).
         c_tau: drag-to-thrust ratio in metres.
-        name: a label for reports.
+        name: a label for reports (the stock types use their short command-line names).
+        mass: mass in kg, at the module centre (default :data:`DEFAULT_MASS`).
+
+    Types compare by identity (two equal-looking types are two types); :attr:`digest` names the
+    rotor data, side, drag ratio and mass, so that copies can be recognised.
     """
 
     positions: np.ndarray
@@ -61,6 +92,7 @@ class ModuleType:
     side: float = DEFAULT_SIDE
     c_tau: float = DEFAULT_C_TAU
     name: str = "module"
+    mass: float = DEFAULT_MASS
     columns: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -78,6 +110,13 @@ class ModuleType:
             raise ValueError("positions and directions must be finite, directions non-zero")
         if not (self.side > 0 and math.isfinite(self.side)):
             raise ValueError(f"side must be a positive length in metres, got {self.side}")
+        if (
+            isinstance(self.mass, bool)
+            or not isinstance(self.mass, (int, float, np.integer, np.floating))
+            or not (self.mass > 0 and math.isfinite(self.mass))
+        ):
+            raise ValueError(f"mass must be a positive mass in kg, got {self.mass!r}")
+        object.__setattr__(self, "mass", float(self.mass))
         dirs = dirs / norms[:, None]
         for name, value in (("positions", pos), ("directions", dirs), ("spins", spins)):
             value.setflags(write=False)
@@ -91,6 +130,21 @@ class ModuleType:
     def n_rotors(self) -> int:
         return self.positions.shape[0]
 
+    @property
+    def weight(self) -> float:
+        """The module's weight m g in newtons."""
+        return self.mass * GRAVITY
+
+    @property
+    def digest(self) -> str:
+        """A short hash of the rotor data, side, drag ratio and mass (rounded to 12 decimals):
+        equal for copies of one type, different for types that act or weigh differently."""
+        h = hashlib.sha256()
+        for a in (self.positions, self.directions, self.spins):
+            h.update(np.ascontiguousarray(np.round(a, 12) + 0.0, dtype=float).tobytes())
+        h.update(np.round([self.side, self.c_tau, self.mass], 12).tobytes())
+        return h.hexdigest()[:16]
+
     @classmethod
     def from_tilts(
         cls,
@@ -98,6 +152,7 @@ class ModuleType:
         side: float = DEFAULT_SIDE,
         c_tau: float = DEFAULT_C_TAU,
         name: str = "tilted",
+        mass: float = DEFAULT_MASS,
     ) -> ModuleType:
         """A quadrotor module whose rotor j is tilted by ``tilts[j]`` (radians) about its arm p_j.
 
@@ -110,17 +165,22 @@ class ModuleType:
         arms = _QUADRANTS / np.linalg.norm(_QUADRANTS, axis=1, keepdims=True)
         e3 = np.array([0.0, 0.0, 1.0])
         directions = np.array([_rotate_about(arm, t, e3) for arm, t in zip(arms, tilts)])
-        return cls(positions, directions, _SPINS.copy(), side=side, c_tau=c_tau, name=name)
+        return cls(
+            positions, directions, _SPINS.copy(), side=side, c_tau=c_tau, name=name, mass=mass
+        )
 
     def __repr__(self) -> str:
         return (
             f"ModuleType(name={self.name!r}, rotors={self.n_rotors}, side={self.side:g} m, "
-            f"c_tau={self.c_tau:g} m)"
+            f"c_tau={self.c_tau:g} m, mass={self.mass:g} kg)"
         )
 
 
 def TModule(
-    eta: float = math.pi / 4, side: float = DEFAULT_SIDE, c_tau: float = DEFAULT_C_TAU
+    eta: float = math.pi / 4,
+    side: float = DEFAULT_SIDE,
+    c_tau: float = DEFAULT_C_TAU,
+    mass: float = DEFAULT_MASS,
 ) -> ModuleType:
     """The paper's T-module (Def. 5): rotor j tilted by eta_j about its arm, with
     eta_1 = eta_3 = -eta_2 = -eta_4 = ``eta`` (default pi/4). Every structure of T-modules is
@@ -128,5 +188,45 @@ def TModule(
     if not math.isfinite(eta):
         raise ValueError(f"eta must be a finite angle in radians, got {eta}")
     return ModuleType.from_tilts(
-        (eta, -eta, eta, -eta), side=side, c_tau=c_tau, name=f"T(eta={eta:.4g})"
+        (eta, -eta, eta, -eta), side=side, c_tau=c_tau, name=f"T(eta={eta:.4g})", mass=mass
     )
+
+
+def _stock() -> dict[str, ModuleType]:
+    q, s = math.pi / 4, math.pi / 6
+    return {
+        "t45": ModuleType.from_tilts((q, -q, q, -q), name="t45"),
+        "t45m": ModuleType.from_tilts((-q, q, -q, q), name="t45m"),
+        "t30": ModuleType.from_tilts((s, -s, s, -s), name="t30"),
+        "t30m": ModuleType.from_tilts((-s, s, -s, s), name="t30m"),
+        "flat": ModuleType.from_tilts((0.0, 0.0, 0.0, 0.0), name="flat"),
+    }
+
+
+STOCK_TYPES: dict[str, ModuleType] = _stock()
+"""The stock module types by short name (module docstring). ``STOCK_TYPES["t45"]`` has the
+same rotor data as ``TModule()`` (a different object: types compare by identity)."""
+
+
+def palette(spec: str | Iterable[str | ModuleType]) -> list[ModuleType]:
+    """Module types from a comma-separated list of stock names (``"t45,t45m,flat"``) or a list
+    of names and :class:`ModuleType` objects. Raises ValueError naming an unknown name, an empty
+    or repeated entry."""
+    items = spec.split(",") if isinstance(spec, str) else list(spec)
+    if not items:
+        raise ValueError("modules: give at least one module type")
+    out: list[ModuleType] = []
+    for item in items:
+        if isinstance(item, ModuleType):
+            out.append(item)
+            continue
+        if not isinstance(item, str):
+            raise ValueError(f"modules: {item!r} is neither a type name nor a ModuleType")
+        name = item.strip()
+        if name not in STOCK_TYPES:
+            known = ", ".join(STOCK_TYPES)
+            raise ValueError(f"modules: unknown module type {name!r}; known: {known}")
+        out.append(STOCK_TYPES[name])
+    if len({id(m) for m in out}) != len(out):
+        raise ValueError(f"modules: a type is listed twice in {[m.name for m in out]}")
+    return out

@@ -8,6 +8,8 @@ and an existing file is replaced only with ``force=True``.
 
 from __future__ import annotations
 
+import csv
+import io
 import os
 import tempfile
 from collections.abc import Callable
@@ -95,3 +97,12 @@ def save_figure(fig, path: str | os.PathLike, dpi: int = 120) -> Path:
     path = Path(path)
     fmt = path.suffix[1:].lower() or "png"
     return atomic_write(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=dpi))
+
+
+def write_csv(rows: list[dict], path: str | os.PathLike) -> None:
+    """Write dict rows (same keys) as CSV atomically, creating the folder."""
+    buffer = io.StringIO(newline="")
+    writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
+    writer.writeheader()
+    writer.writerows(rows)
+    write_text(path, buffer.getvalue())

@@ -1,19 +1,34 @@
 """Task requirements (paper Def. 3): the wrenches a structure must be able to exert.
 
 A :class:`TaskRequirement` is a (t, 6) array of wrenches ``[fx, fy, fz, tx, ty, tz]`` in the
-structure frame {S} (torques about the COM), with the per-rotor thrust limit ``f_max``. Gravity
-compensation is folded into ``fz`` as in the paper. Task files:
+structure frame {S} (torques about the COM), with the per-rotor thrust limit ``f_max``, and a
+*kind* (:data:`TASK_KINDS`) that says what the wrenches are:
+
+``total`` (the default, the paper's)
+    the total wrench the rotors must produce; gravity compensation is folded into ``fz``, the
+    same for every structure. Units are those of ``f_max`` (normalised to 1 in the paper).
+``external``
+    the wrench the structure must apply to the environment or a payload, in {S} at hover
+    attitude (level). The rotors must produce it *plus* the structure's own weight:
+    ``w + m_total g e_z`` (:func:`rotor_wrenches`; weight acts at the COM, so it adds no
+    torque), so the answer depends on the structure's mass and bigger structures must lift
+    more. Units are SI: newtons, newton-metres, ``f_max`` in newtons, module masses in kg,
+    g = :data:`~modquad_gym.module.GRAVITY`.
+
+Task files:
 
 ``.json``
     ``{"wrenches": [[fx, fy, fz, tx, ty, tz], ...], "f_max": 1.0, "name": "..."}``; only
-    ``wrenches`` is required (``name`` defaults to the file stem, ``f_max`` to 1). An optional
+    ``wrenches`` is required (``name`` defaults to the file stem, ``f_max`` to 1, ``kind`` to
+    ``"total"``, so every file written before kinds existed means what it meant). An optional
     ``meta`` object carries extra information (e.g. a planted structure, a known optimum).
 ``.csv``
     Six comma-separated columns, one wrench per line. An optional first line of non-numbers is a
     header; blank lines are ignored; lines starting with ``#`` are comments, and the comments
-    ``# name: ...`` and ``# f_max: ...`` (written by :meth:`TaskRequirement.save`) set those fields.
+    ``# name: ...``, ``# f_max: ...`` and ``# kind: ...`` (written by :meth:`TaskRequirement.save`)
+    set those fields.
 ``.npy``
-    A float array of shape (t, 6) (``f_max`` = 1, name = file stem).
+    A float array of shape (t, 6) (``f_max`` = 1, kind ``total``, name = file stem).
 
 A bad file raises :class:`TaskFileError` (a ValueError) naming the file and, where it applies,
 the 1-based data row (header, blank and comment lines are not counted; the line number is given
@@ -41,7 +56,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from .module import ModuleType
+from .module import GRAVITY, ModuleType
 from .outputs import atomic_write, write_text
 from .structure import Cell, Structure, free_neighbours
 from .validation import check_f_max
@@ -59,6 +74,10 @@ MAX_FILE_BYTES = 100 * 2**20
 
 MAX_WRENCHES = 1_000_000
 """Most wrenches in one task."""
+
+TASK_KINDS = ("total", "external")
+"""What a task's wrenches are (module docstring): the rotors' total wrench, or the wrench applied
+to the environment, to which the rotors add the structure's weight."""
 
 CSV_HEADER_MODES = ("auto", "yes", "no")
 """How a CSV's first row is read: ``auto`` (a row of non-numbers is a header; a row that reads
@@ -123,6 +142,25 @@ def _rows_to_array(rows: object) -> np.ndarray:
     return _check_wrench_array(rows)
 
 
+def check_kind(kind: object, what: str = "kind") -> str:
+    """``kind`` if it is one of :data:`TASK_KINDS`, else a ValueError naming ``what``."""
+    if not isinstance(kind, str) or kind not in TASK_KINDS:
+        raise ValueError(f"{what} must be one of {', '.join(TASK_KINDS)}, got {kind!r}")
+    return kind
+
+
+def rotor_wrenches(W: np.ndarray, kind: str, mass: float) -> np.ndarray:
+    """What the rotors must produce for task wrenches W (t, 6) of ``kind`` on a structure of
+    ``mass`` kg: W for ``total``; W + [0, 0, mass g, 0, 0, 0] for ``external`` (the weight acts
+    at the COM, the origin of {S}, so it adds no torque)."""
+    W = np.asarray(W, dtype=float)
+    if check_kind(kind) == "total":
+        return W
+    out = W.copy()
+    out[:, 2] += mass * GRAVITY
+    return out
+
+
 # --------------------------------------------------------------------------------------------
 # the task requirement
 # --------------------------------------------------------------------------------------------
@@ -137,16 +175,18 @@ class TaskRequirement:
         f_max: maximum thrust per rotor (> 0; normalised to 1 in the paper).
         meta: free-form JSON-serialisable extras (generator, planted cells, known optimum...);
             not part of equality.
+        kind: ``"total"`` (default) or ``"external"`` (module docstring).
 
     Raises:
-        ValueError: for a wrong shape, no wrenches, a non-finite value (naming the 1-based row)
-            or f_max <= 0.
+        ValueError: for a wrong shape, no wrenches, a non-finite value (naming the 1-based row),
+            f_max <= 0 or an unknown kind.
     """
 
     wrenches: np.ndarray
     name: str = "task"
     f_max: float = 1.0
     meta: dict = field(default_factory=dict)
+    kind: str = "total"
 
     def __post_init__(self) -> None:
         arr = _check_wrench_array(self.wrenches)
@@ -158,9 +198,11 @@ class TaskRequirement:
         if not isinstance(self.meta, dict):
             raise ValueError(f"meta must be a dict, got {type(self.meta).__name__}")
         object.__setattr__(self, "meta", dict(self.meta))
+        object.__setattr__(self, "kind", check_kind(self.kind))
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         """Unpickling (e.g. into vectorised-env workers) keeps the wrenches read-only."""
+        object.__setattr__(self, "kind", "total")  # pickles from before kinds existed
         for key, value in state.items():
             object.__setattr__(self, key, value)
         self.wrenches.setflags(write=False)
@@ -179,26 +221,33 @@ class TaskRequirement:
         return (
             self.name == other.name
             and self.f_max == other.f_max
+            and self.kind == other.kind
             and np.array_equal(self.wrenches, other.wrenches)
         )
 
     def __hash__(self) -> int:
-        return hash((self.name, self.f_max, self.wrenches.tobytes()))
+        return hash((self.name, self.f_max, self.kind, self.wrenches.tobytes()))
 
     def __repr__(self) -> str:
+        kind = "" if self.kind == "total" else f", kind={self.kind!r}"
         return (
             f"TaskRequirement(name={self.name!r}, n_wrenches={self.n_wrenches}, "
-            f"f_max={self.f_max:g})"
+            f"f_max={self.f_max:g}{kind})"
         )
+
+    def rotor_wrenches(self, mass: float = 0.0) -> np.ndarray:
+        """(t, 6) what the rotors must produce for a structure of ``mass`` kg: the wrenches
+        themselves for a ``total`` task, plus the weight for an ``external`` one."""
+        return rotor_wrenches(self.wrenches, self.kind, mass)
 
     # --- dicts ----------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        """``{"name", "f_max", "wrenches"}`` (plus ``"meta"`` when not empty), JSON-ready."""
-        out: dict[str, Any] = {
-            "name": self.name,
-            "f_max": self.f_max,
-            "wrenches": self.wrenches.tolist(),
-        }
+        """``{"name", "f_max", "wrenches"}`` (plus ``"kind"`` when not ``total`` and ``"meta"``
+        when not empty), JSON-ready."""
+        out: dict[str, Any] = {"name": self.name, "f_max": self.f_max}
+        if self.kind != "total":
+            out["kind"] = self.kind
+        out["wrenches"] = self.wrenches.tolist()
         if self.meta:
             out["meta"] = _jsonable(self.meta)
         return out
@@ -218,11 +267,13 @@ class TaskRequirement:
         if not isinstance(name, str):
             raise ValueError(f"'name' must be a string, got {name!r}")
         f_max = check_f_max(data.get("f_max", 1.0))
+        kind = check_kind(data.get("kind", "total"), "'kind'")
         meta = data.get("meta", {})
         if not isinstance(meta, dict):
             raise ValueError(f"'meta' must be an object, got {meta!r}")
-        extra = {k: v for k, v in data.items() if k not in ("name", "f_max", "wrenches", "meta")}
-        return cls(wrenches, name=name, f_max=f_max, meta={**meta, **extra})
+        known = ("name", "f_max", "wrenches", "meta", "kind")
+        extra = {k: v for k, v in data.items() if k not in known}
+        return cls(wrenches, name=name, f_max=f_max, meta={**meta, **extra}, kind=kind)
 
     # --- files ----------------------------------------------------------------------------
     @classmethod
@@ -256,9 +307,10 @@ class TaskRequirement:
             raise TaskFileError(f"{path}: {exc}") from None
 
     def save(self, path: PathLike) -> Path:
-        """Write the task as ``.json`` (name, f_max, wrenches, meta), ``.csv`` (header and
-        ``# name`` / ``# f_max`` comments) or ``.npy`` (wrenches only; needs f_max == 1, since
-        the format cannot hold it). Floats are written exactly (shortest round-trip repr)."""
+        """Write the task as ``.json`` (name, f_max, kind, wrenches, meta), ``.csv`` (header and
+        ``# name`` / ``# f_max`` / ``# kind`` comments) or ``.npy`` (wrenches only; needs
+        f_max == 1 and kind ``total``, since the format cannot hold them). Floats are written
+        exactly (shortest round-trip repr)."""
         path = Path(path)
         suffix = path.suffix.lower()
         if suffix not in SUFFIXES:
@@ -268,14 +320,16 @@ class TaskRequirement:
         if suffix == ".json":
             write_text(path, _task_json(self.to_dict()) + "\n")
         elif suffix == ".csv":
-            lines = [f"# name: {self.name}", f"# f_max: {self.f_max!r}", ",".join(COLUMNS)]
+            lines = [f"# name: {self.name}", f"# f_max: {self.f_max!r}"]
+            if self.kind != "total":
+                lines.append(f"# kind: {self.kind}")
+            lines.append(",".join(COLUMNS))
             lines += [",".join(repr(float(v)) for v in row) for row in self.wrenches]
             write_text(path, "\n".join(lines) + "\n")
         else:
-            if self.f_max != 1.0:
-                raise ValueError(
-                    f"{path}: .npy holds only the wrenches, not f_max={self.f_max:g}; save as .json"
-                )
+            if self.f_max != 1.0 or self.kind != "total":
+                what = f"f_max={self.f_max:g}" if self.f_max != 1.0 else f"kind={self.kind}"
+                raise ValueError(f"{path}: .npy holds only the wrenches, not {what}; save as .json")
             data = np.asarray(self.wrenches, dtype=float)
             atomic_write(path, lambda tmp: np.save(tmp.open("wb"), data))
         return path
@@ -375,7 +429,7 @@ def _load_csv(path: Path, header: str = "auto") -> TaskRequirement:
     if header not in CSV_HEADER_MODES:
         raise ValueError(f"csv_header must be one of {', '.join(CSV_HEADER_MODES)}, got {header!r}")
     text = _read_text(path)
-    name, f_max = path.stem, 1.0
+    name, f_max, kind = path.stem, 1.0, "total"
     rows: list[list[float]] = []
     header_allowed = header != "no"
     for lineno, cells in enumerate(csv.reader(text.splitlines()), 1):
@@ -394,6 +448,11 @@ def _load_csv(path: Path, header: str = "auto") -> TaskRequirement:
                     raise TaskFileError(
                         f"{path}: line {lineno}: f_max comment {value.strip()!r} is not a number"
                     ) from None
+            elif key.strip() == "kind":
+                try:
+                    kind = check_kind(value.strip(), "kind comment")
+                except ValueError as exc:
+                    raise TaskFileError(f"{path}: line {lineno}: {exc}") from None
             continue
         parsed = [_to_float(c) for c in cells]
         if header_allowed and (header == "yes" or all(v is None for v in parsed)):
@@ -421,7 +480,7 @@ def _load_csv(path: Path, header: str = "auto") -> TaskRequirement:
     if not rows:
         raise TaskFileError(f"{path}: no wrenches (the file is empty or has only a header)")
     try:
-        return TaskRequirement(np.array(rows), name=name, f_max=f_max)
+        return TaskRequirement(np.array(rows), name=name, f_max=f_max, kind=kind)
     except ValueError as exc:
         raise TaskFileError(f"{path}: {exc}") from None
 
@@ -542,6 +601,9 @@ class PaperTasks:
     (4 n cos(pi/4) = 2.83 n). The defaults ``fz_offset=3, fz_gain=12`` keep the paper's spirit
     (a gravity offset plus uniform noise, f_z on [3, 9]) and give exhaustive optima of 4-5
     modules (the paper reports 4). ``PaperTasks(fz_offset=0, fz_gain=30)`` is the literal paper.
+
+    ``kind="external"`` labels the same wrenches as external (the rotors add the structure's
+    weight; SI units, so choose ``f_max`` in newtons, e.g. 2.0).
     """
 
     n_wrenches: Count = 80
@@ -551,6 +613,7 @@ class PaperTasks:
     fz_offset: float = 3.0
     f_max: float = 1.0
     name: str = "paper"
+    kind: str = "total"
 
     def __post_init__(self) -> None:
         _check_count(self.n_wrenches, "n_wrenches")
@@ -565,6 +628,7 @@ class PaperTasks:
                 f"fz_reading must be one of {', '.join(FZ_READINGS)}, got {self.fz_reading!r}"
             )
         check_f_max(self.f_max)
+        check_kind(self.kind)
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement:
         t = _draw_count(rng, self.n_wrenches)
@@ -578,7 +642,7 @@ class PaperTasks:
             W[:, 2] = self.fz_offset + self.fz_gain * u
         meta = {"generator": "paper", "fz_reading": self.fz_reading}
         return TaskRequirement(
-            W, name=f"{self.name}-{self.fz_reading}", f_max=self.f_max, meta=meta
+            W, name=f"{self.name}-{self.fz_reading}", f_max=self.f_max, meta=meta, kind=self.kind
         )
 
 
@@ -609,6 +673,9 @@ class PlantedTasks:
     (:func:`modquad_gym.oracle.margin`) is >= 2 * slack: feasible beyond any solver tolerance.
     Hence the optimum is <= n. ``meta`` holds ``planted_cells`` (growth order) and
     ``optimum_upper_bound``; see :func:`planted_structure`.
+
+    With ``kind="external"`` the hidden structure's weight is subtracted (w = A u - m g e_z), so
+    it still produces exactly the rotor wrenches A u and the optimum stays <= n.
     """
 
     n_modules: Count = (2, 6)
@@ -619,6 +686,7 @@ class PlantedTasks:
     p_extreme: float = 0.8
     slack: float = 1e-3
     name: str = "planted"
+    kind: str = "total"
 
     def __post_init__(self) -> None:
         _check_count(self.n_modules, "n_modules")
@@ -632,12 +700,14 @@ class PlantedTasks:
         if not 0.0 <= self.slack < 0.5:
             raise ValueError(f"slack must lie in [0, 0.5), got {self.slack!r}")
         check_f_max(self.f_max)
+        check_kind(self.kind)
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement:
         n = _draw_count(rng, self.n_modules)
         t = _draw_count(rng, self.n_wrenches)
         cells = random_cells(rng, n)
-        A = Structure(cells, module=self.module).configuration_matrix()
+        hidden = Structure(cells, module=self.module)
+        A = hidden.configuration_matrix()
         m = A.shape[1]
         U = rng.uniform(0.0, 1.0, size=(t, m))
         boundary = rng.random(t) < self.boundary_fraction
@@ -648,6 +718,8 @@ class PlantedTasks:
         U = np.where(extreme, vertex, U)
         U = np.clip(U, self.slack, 1.0 - self.slack) * self.f_max
         W = U @ A.T
+        if self.kind == "external":
+            W[:, 2] -= hidden.mass * GRAVITY
         text = ";".join(f"{x},{y}" for x, y in cells)
         meta = {
             "generator": "planted",
@@ -655,7 +727,9 @@ class PlantedTasks:
             "optimum_upper_bound": n,
             "n_boundary": int(boundary.sum()),
         }
-        return TaskRequirement(W, name=f"{self.name}[{text}]", f_max=self.f_max, meta=meta)
+        return TaskRequirement(
+            W, name=f"{self.name}[{text}]", f_max=self.f_max, meta=meta, kind=self.kind
+        )
 
 
 def planted_structure(task: TaskRequirement, module: ModuleType | None = None) -> Structure | None:
@@ -679,6 +753,8 @@ class ScrewdriverTask:
     Defaults (lift 3.0 = hover of a small structure and tool, push 0.8, align 0.1, torque 0.5,
     press 0.5) are feasible for a few modules and for no single module; the optimum, by
     exhaustive search, is small (see ``examples/README.md``). ``__call__`` ignores the rng.
+    ``kind="external"`` labels the wrenches as applied to the tool (SI units; the rotors add the
+    structure's weight), with ``lift`` then the tool's weight and the press.
     """
 
     push: float = 0.8
@@ -688,6 +764,7 @@ class ScrewdriverTask:
     press: float = 0.5
     f_max: float = 1.0
     name: str = "screwdriver"
+    kind: str = "total"
 
     def __post_init__(self) -> None:
         for what in ("push", "torque", "lift", "align", "press"):
@@ -697,6 +774,7 @@ class ScrewdriverTask:
         if self.lift <= 0 or self.lift + self.press <= 0:
             raise ValueError(f"lift must be positive (rotors push up), got {self.lift!r}")
         check_f_max(self.f_max)
+        check_kind(self.kind)
 
     def task(self) -> TaskRequirement:
         W = np.array(
@@ -706,7 +784,7 @@ class ScrewdriverTask:
             ]
         )
         return TaskRequirement(
-            W, name=self.name, f_max=self.f_max, meta={"generator": "screwdriver"}
+            W, name=self.name, f_max=self.f_max, meta={"generator": "screwdriver"}, kind=self.kind
         )
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement:

@@ -8,7 +8,9 @@ all: it rasterises the top view with numpy (deterministic, about 10 ms), for Gym
 
 Colours: rotors with spin +1 blue, spin -1 orange; the first (initial) module is green, as in the
 paper's Fig. 5; thrust arrows (dark red) show the horizontal part of each rotor's thrust
-direction; the black cross is the COM, the origin of {S}.
+direction; the black cross is the COM, the origin of {S}. In a mixed structure modules are
+filled by type (:func:`type_colour`: a fixed fill per stock type) with a legend naming each
+type, and the first module keeps a thick outline instead of the green fill.
 """
 
 from __future__ import annotations
@@ -33,6 +35,22 @@ SPIN_COLOURS = {1: "#1f77b4", -1: "#ff7f0e"}
 FIRST_COLOUR = "#b7e4b0"
 MODULE_COLOUR = "#dcdcdc"
 ARROW_COLOUR = "#a01010"
+TYPE_COLOURS = ("#dcdcdc", "#a9cce8", "#f3e6a2", "#d4c2ea", "#f2c4ce", "#a9dcd6", "#e8c9a9")
+"""Module fills of a mixed structure: the stock types keep one fill each (:data:`STOCK_FILLS`),
+so a type looks the same in every picture; other types take these by palette index."""
+
+STOCK_FILLS = {"t45": 0, "t45m": 1, "flat": 2, "t30": 3, "t30m": 4}
+"""Index into :data:`TYPE_COLOURS` of each stock type (by name, when its data is the stock's)."""
+
+
+def type_colour(module, index: int = 0) -> str:
+    """The fill (hex) of ``module``: its stock fill, else by its ``index`` in the palette."""
+    from .module import STOCK_TYPES
+
+    stock = STOCK_TYPES.get(getattr(module, "name", ""))
+    if stock is not None and stock.digest == module.digest:
+        return TYPE_COLOURS[STOCK_FILLS[module.name]]
+    return TYPE_COLOURS[(len(STOCK_FILLS) + int(index)) % len(TYPE_COLOURS)]
 
 
 def _new_axes(projection: str | None = None, figsize: tuple[float, float] = (5.0, 5.0)) -> Axes:
@@ -66,22 +84,24 @@ def draw_structure(
 
     s = _check_structure(structure)
     ax = ax if ax is not None else _new_axes()
-    side = s.module.side
-    for i, (cx, cy, _) in enumerate(s.module_centres):
+    side = s.side
+    mixed = s.is_mixed
+    for i, ((cx, cy, _), t) in enumerate(zip(s.module_centres, s.type_indices)):
         first = highlight_first and i == 0
+        fill = type_colour(s.modules[i], t) if mixed else FIRST_COLOUR if first else MODULE_COLOUR
         ax.add_patch(
             Rectangle(
                 (cx - side / 2, cy - side / 2),
                 side,
                 side,
-                facecolor=FIRST_COLOUR if first else MODULE_COLOUR,
+                facecolor=fill,
                 edgecolor="#3a3a3a",
-                linewidth=1.5 if first else 1.0,
+                linewidth=(2.5 if mixed else 1.5) if first else 1.0,
                 zorder=1,
             )
         )
     radius = side / 9
-    spins = np.tile(s.module.spins, s.n_modules)
+    spins = s.rotor_spins
     for p, d, spin in zip(s.rotor_positions, s.rotor_directions, spins, strict=True):
         colour = SPIN_COLOURS[1 if spin > 0 else -1]
         ax.add_patch(Circle(p[:2], radius, facecolor=colour, edgecolor="k", alpha=0.85, zorder=2))
@@ -106,6 +126,13 @@ def draw_structure(
         Line2D([], [], marker="o", ls="", color=SPIN_COLOURS[-1], label="rotor, spin -1"),
         Line2D([], [], marker="+", ls="", color="k", mew=2, label="COM"),
     ]
+    if mixed:
+        from matplotlib.patches import Patch
+
+        handles += [
+            Patch(facecolor=type_colour(m, k), edgecolor="#3a3a3a", label=f"module {m.name}")
+            for k, m in enumerate(s.palette)
+        ]
     ax.legend(handles=handles, loc="best", fontsize="x-small", framealpha=0.8)
     ax.set_title(title if title is not None else f"{s.n_modules} module(s)")
     return ax
@@ -251,7 +278,8 @@ def save_structure_figure(
     dpi: int = 120,
 ) -> str:
     """Save a PNG with the top view and, if ``task`` (a TaskRequirement or (t, 6) wrenches) is
-    given, the torque projection with the task's torques beside it. Returns the path."""
+    given, the torque projection with the task's torques beside it (feasibility of the rotor
+    wrenches: an ``external`` task's plus the structure's weight). Returns the path."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -261,7 +289,7 @@ def save_structure_figure(
         FigureCanvasAgg(fig)
         draw_structure(s, ax=fig.add_subplot(1, 1, 1))
     else:
-        W = getattr(task, "wrenches", task)
+        W = task.rotor_wrenches(s.mass) if hasattr(task, "rotor_wrenches") else task
         f_max = float(getattr(task, "f_max", 1.0))
         fig = Figure(figsize=(10.5, 5.0), layout="constrained")
         FigureCanvasAgg(fig)
@@ -291,6 +319,10 @@ _RGB = {
 }
 
 _MIN_HALF_EXTENT_MODULES = 2.5
+
+
+def _hex_rgb(colour: str) -> tuple[int, int, int]:
+    return tuple(int(colour[k : k + 2], 16) for k in (1, 3, 5))  # type: ignore[return-value]
 
 
 @lru_cache(maxsize=16)
@@ -331,7 +363,7 @@ def structure_image(
         strip = max(4, H // 12)
         _draw_status_strip(img, status, strip)
     h = H - strip - (2 if strip else 0)  # drawing area rows [0, h)
-    side = s.module.side
+    side = s.side
     centres = s.module_centres[:, :2]
     half = max(np.abs(centres).max() + 0.6 * side, _MIN_HALF_EXTENT_MODULES * side)
     scale = 0.5 * min(h, Wd) / half  # pixels per metre
@@ -348,14 +380,18 @@ def structure_image(
 
     half_px = 0.5 * side * scale
     edge = max(1.0, half_px / 14)
-    for i, c in enumerate(centres):
+    for i, (c, t) in enumerate(zip(centres, s.type_indices)):
         px, py = to_px(c)
         sl = box(px, py, half_px)
         d = np.maximum(np.abs(X[sl] - px), np.abs(Y[sl] - py))
         img[sl][d <= half_px] = _RGB["edge"]
-        img[sl][d <= half_px - edge] = _RGB["first" if i == 0 else "module"]
+        if s.is_mixed:  # fill by type; the first module keeps a thicker outline
+            inner = half_px - (2.5 * edge if i == 0 else edge)
+            img[sl][d <= inner] = _hex_rgb(type_colour(s.modules[i], t))
+        else:
+            img[sl][d <= half_px - edge] = _RGB["first" if i == 0 else "module"]
     rad = side / 9 * scale
-    spins = np.tile(s.module.spins, s.n_modules)
+    spins = s.rotor_spins
     for p, spin in zip(s.rotor_positions, spins, strict=True):
         px, py = to_px(p)
         sl = box(px, py, rad)

@@ -13,13 +13,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents import DEFAULT_MODEL, Solver, make_solver
+import modquad_gym as mq
+from modquad_gym.agents import DEFAULT_MODEL, Solver, make_solver
 from modquad_gym.oracle import feasible
 from modquad_gym.search import SearchResult
 from modquad_gym.structure import Structure
 from modquad_gym.tasks import PlantedTasks, TaskRequirement, save_suite
 
 ROOT = Path(__file__).resolve().parents[1]
+SUITES = ROOT / "modquad_gym" / "data" / "suites"
 TINY_N_MAX = 3
 
 
@@ -75,7 +77,7 @@ def test_train_clones_the_expert_before_ppo(tmp_path):
     evals = np.load(out / "evaluations.npz")
     assert evals["timesteps"][0] == 0 and evals["results"].shape[1] == 4  # cloned, before PPO
     assert list((tmp_path / "tb" / "model" / "bc").glob("events.out.tfevents.*"))
-    from agents.ppo import PPOSolver
+    from modquad_gym.agents.ppo import PPOSolver
 
     solver = PPOSolver(model=out / "model.zip", n_max=TINY_N_MAX)
     for task in _tiny_tasks():
@@ -105,7 +107,10 @@ def test_bad_method_and_options_raise():
 
 
 def test_import_agents_does_not_import_torch():
-    code = "import agents, sys; agents.make_solver('greedy'); print('torch' in sys.modules)"
+    code = (
+        "import sys, modquad_gym.agents as agents; agents.make_solver('greedy'); "
+        "print('torch' in sys.modules)"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 
@@ -120,7 +125,7 @@ def test_tiny_set_needs_the_right_orientation():
 
 
 def test_short_training_beats_random_policy(tiny_model):
-    from agents.ppo import PPOSolver
+    from modquad_gym.agents.ppo import PPOSolver
     from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 
     tasks = _tiny_tasks()
@@ -146,7 +151,7 @@ def test_short_training_beats_random_policy(tiny_model):
 
 
 def test_ppo_sampling_and_budget(tiny_model):
-    from agents.ppo import PPOSolver
+    from modquad_gym.agents.ppo import PPOSolver
 
     task = _tiny_tasks()[1]
     sampled = make_solver("ppo", n_max=TINY_N_MAX, model=tiny_model, seed=1, samples=3)
@@ -175,8 +180,8 @@ def test_cli_solve_ppo_json_round_trip(tiny_model, tmp_path):
 
 
 def test_benchmark_runs_on_three_tasks(tiny_model, tmp_path):
-    from agents import benchmark
-    from agents.suites import with_optimum
+    from modquad_gym.agents import benchmark
+    from modquad_gym.agents.suites import with_optimum
 
     tasks = [*_tiny_tasks(), PlantedTasks(n_modules=3, n_wrenches=10)(np.random.default_rng(7))]
     suite = save_suite([with_optimum(t, TINY_N_MAX) for t in tasks], tmp_path / "three.json")
@@ -208,7 +213,7 @@ def test_ppo_solver_rebuilds_a_lookahead_env_from_the_model(tmp_path):
     import torch
     from sb3_contrib import MaskablePPO
 
-    from agents.ppo import PPOSolver, env_kwargs_of, make_env
+    from modquad_gym.agents.ppo import PPOSolver, env_kwargs_of, make_env
 
     torch.set_num_threads(1)
     model = MaskablePPO("MultiInputPolicy", make_env("planted", n_max=3, lookahead=True),
@@ -224,3 +229,26 @@ def test_ppo_solver_rebuilds_a_lookahead_env_from_the_model(tmp_path):
     r = solver.solve(task)
     assert r.structure is None or _ok(r.structure.cells, task)
     assert r.evaluated >= 1
+
+
+@pytest.mark.skipif(not DEFAULT_MODEL.is_file(), reason="no default model")
+def test_policy_guided_search_is_verified_and_its_certificate_holds():
+    from modquad_gym.agents.guided import GuidedSolver, lower_bound
+    from modquad_gym.tasks import load_suite
+
+    solver = GuidedSolver(budget=40)
+    tasks = (
+        load_suite(SUITES / "heldout_planted.json")[:6]
+        + load_suite(SUITES / "heldout_paper.json")[:3]
+    )
+    for task in tasks:
+        r = solver.solve(task)
+        optimum = task.meta["optimum"]
+        assert r.evaluated <= 40
+        assert lower_bound(task.wrenches, task.f_max, solver.env.module, 7) <= optimum
+        if r.structure is not None:
+            assert r.n_modules >= optimum
+            A = r.structure.configuration_matrix()
+            assert mq.feasible(A, task.wrenches, task.f_max, method="scipy").all()
+        if r.certified:
+            assert r.n_modules == optimum

@@ -135,7 +135,7 @@ def test_action_cell_mapping_is_the_documented_formula():
 
 
 def test_anything_but_a_valid_action_is_an_invalid_action_and_never_raises():
-    env = small_env(max_steps=100)
+    env = small_env(max_steps=64)
     env.reset(seed=0)
     n = int(env.action_space.n)
     occupied = env.action_of((0, 0))
@@ -287,7 +287,9 @@ def test_task_source_classes_are_refused_with_a_hint():
     [
         ({"n_max": 1}, "n_max"),
         ({"invalid_action": "ignore"}, "invalid_action"),
-        ({"render_mode": "human"}, "render_mode"),
+        ({"render_mode": "window"}, "render_mode"),
+        ({"n_max": 17}, "n_max"),
+        ({"max_steps": 65}, "max_steps"),
         ({"reward_weights": {"w_modul": 1.0}}, "unknown reward weights"),
         ({"reward_weights": {"w_module": -1.0}}, "w_module"),
         ({"tasks": "no-such-source"}, "no-such-source"),

@@ -1,4 +1,4 @@
-"""Expert demonstrations and behaviour cloning (agents.imitation), and the certified
+"""Expert demonstrations and behaviour cloning (modquad_gym.agents.imitation), and the certified
 optimal_structures they rest on."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.imitation import collect, collect_parallel, good_actions, merge, placements
+from modquad_gym.agents.imitation import collect, collect_parallel, good_actions, merge, placements
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.reward import RewardWeights
 from modquad_gym.oracle import feasible
@@ -98,8 +98,8 @@ def test_cloning_learns_the_expert_choice():
     import torch
     from sb3_contrib import MaskablePPO
 
-    from agents.imitation import clone
-    from agents.ppo import make_env
+    from modquad_gym.agents.imitation import clone
+    from modquad_gym.agents.ppo import make_env
 
     torch.set_num_threads(1)
     tasks = [PlantedTasks(n_modules=2, n_wrenches=24)(np.random.default_rng(s)) for s in (0, 1)]

@@ -5,13 +5,13 @@ Every report states the machine it ran on and compares methods as ratios within 
 
 from __future__ import annotations
 
-import csv
-import io
 import os
 import platform
 from pathlib import Path
 
-from ..outputs import write_text
+from ..outputs import write_csv, write_text
+
+__all__ = ["machine_description", "markdown_table", "write_csv", "write_text"]
 
 
 def machine_description() -> str:
@@ -25,15 +25,6 @@ def machine_description() -> str:
     except OSError:
         pass
     return f"{model}, {os.cpu_count()} cores, no GPU, Python {platform.python_version()}"
-
-
-def write_csv(rows: list[dict], path: Path) -> None:
-    """Write dict rows (same keys) as CSV atomically, creating the folder."""
-    buffer = io.StringIO(newline="")
-    writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
-    writer.writeheader()
-    writer.writerows(rows)
-    write_text(path, buffer.getvalue())
 
 
 def markdown_table(rows: list[dict], floatfmt: str = ".3g") -> str:

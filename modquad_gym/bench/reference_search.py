@@ -320,7 +320,8 @@ def optimal_structures(
     modules, up to translation), or (None, []) when none of up to ``n_max`` modules works.
 
     Certified like :func:`exhaustive_search`, which stops at the first feasible structure;
-    this one decides the whole minimal level (the expert targets of :mod:`agents.imitation`).
+    this one decides the whole minimal level (the expert targets of
+    :mod:`modquad_gym.agents.imitation`).
     """
     W, f = _task_arrays(task, f_max)
     n_max = _check_n_max(n_max)

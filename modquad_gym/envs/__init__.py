@@ -8,13 +8,15 @@ package first) registers:
 * ``ModQuadAssemblyPaper-v0``: the same with ``tasks="paper"`` (the paper's random tasks).
 * ``ModQuadAssemblyPlanted-v0``: the same with ``tasks="planted"`` (tasks planted from a
   random structure, so a solution within n_max is known to exist).
+* ``ModQuadAssemblyMixed-v0``: the same with ``modules="t45,t45m,flat"``: three module types,
+  (cell, type) actions (:class:`~modquad_gym.envs.mixed.MixedAssemblyEnv`).
 """
 
 from __future__ import annotations
 
 import gymnasium as gym
 
-from .assembly import ModQuadAssemblyEnv
+from .assembly import MAX_STEPS_LIMIT, ModQuadAssemblyEnv
 from .features import AssemblyFeatures, unit_directions
 from .reward import RewardWeights, episode_return
 
@@ -24,6 +26,7 @@ ENV_IDS: dict[str, dict] = {
     "ModQuadAssembly-v0": {},
     "ModQuadAssemblyPaper-v0": {"tasks": "paper"},
     "ModQuadAssemblyPlanted-v0": {"tasks": "planted"},
+    "ModQuadAssemblyMixed-v0": {"modules": "t45,t45m,flat"},
 }
 
 
@@ -31,7 +34,12 @@ def register_envs() -> None:
     """Register every id of :data:`ENV_IDS` with Gymnasium; a second call does nothing."""
     for env_id, kwargs in ENV_IDS.items():
         if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point=ENTRY_POINT, kwargs=dict(kwargs))
+            gym.register(
+                id=env_id,
+                entry_point=ENTRY_POINT,
+                kwargs=dict(kwargs),
+                max_episode_steps=MAX_STEPS_LIMIT,
+            )
 
 
 register_envs()

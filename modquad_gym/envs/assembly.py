@@ -15,10 +15,12 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
+from ..extras import import_optional
 from ..module import ModuleType
 from ..oracle import WrenchOracle, check_f_max
 from ..structure import Cell, Key, Structure, configuration_matrices, normalise
 from ..tasks import TaskRequirement, make_generator
+from ..validation import check_int
 from .features import CANDIDATE_FEATURES, DEFAULT_N_DIRECTIONS, AssemblyFeatures
 from .reward import RewardWeights
 
@@ -27,6 +29,10 @@ INVALID_ACTION_MODES = ("penalise", "terminate")
 _CACHE_SIZE = 16384
 _MEMO_TASKS = 16
 _STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
+N_MAX_LIMIT = 16
+"""Largest ``n_max`` (the grid has (2 n_max - 1)^2 actions; the searches stop at 16 too)."""
+MAX_STEPS_LIMIT = 4 * N_MAX_LIMIT
+"""Largest ``max_steps``; also ``max_episode_steps`` at registration, so no episode is longer."""
 
 
 class _Capability:
@@ -179,23 +185,30 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
       callable ``gen(rng) -> TaskRequirement`` (or a (t, 6) wrench array), called with
       ``self.np_random`` at each reset; a result of another kind raises a ValueError there.
       See :func:`modquad_gym.tasks.make_generator`.
-    * ``n_max``: the largest number of modules (default 7, as in the paper), >= 2.
+    * ``n_max``: the largest number of modules (default 7, as in the paper), 2 to 16.
     * ``module``: the :class:`~modquad_gym.module.ModuleType` of every module (default the
       T-module, eta = pi/4).
+    * ``modules``: several module types (or stock names, ``"t45,t45m,flat"``): the env is then
+      :class:`~modquad_gym.envs.mixed.MixedAssemblyEnv`, whose action is (cell, type) as one
+      ``Discrete(G * G * K)`` and whose observation adds the types (see there); also for tasks
+      of kind ``external`` (self-weight). Default None: one type, this class.
     * ``f_max``: maximum thrust per rotor; None (default) uses each task's own f_max.
     * ``reward_weights``: a :class:`~modquad_gym.envs.reward.RewardWeights` or a dict of some
       of ``w_sat``, ``w_module``, ``w_success``, ``w_invalid``.
     * ``invalid_action``: ``"penalise"`` (default) or ``"terminate"``.
-    * ``max_steps``: the step limit for truncation (default 4 * n_max).
-    * ``render_mode``: None, ``"rgb_array"`` (the structure picture, (H, W, 3) uint8) or
-      ``"ansi"`` (a text grid).
+    * ``max_steps``: the step limit for truncation (default 4 * n_max, at most 64; the
+      registered ``max_episode_steps`` is 64, so ``env.spec`` bounds every episode).
+    * ``render_mode``: None, ``"rgb_array"`` (the structure picture, (H, W, 3) uint8),
+      ``"human"`` (that picture in a pygame window; the ``viz`` extra) or ``"ansi"`` (a text
+      grid). ``gymnasium.wrappers.RecordVideo`` works on ``"rgb_array"`` (needs moviepy).
     * ``n_directions``: K, the support directions of the features (default 48, >= 12).
     * ``oracle_method``: the oracle's method (default ``"auto"``, exact and certified).
     * ``render_size``: (height, width) of ``rgb_array`` frames (default (256, 256)).
     * ``lookahead``: add the ``"candidates"`` observation (default False: the observation is
       exactly the four entries above).
 
-    ``info`` carries ``n_modules``, ``satisfied_fraction``, ``success``, ``cells`` (list of
+    ``info`` carries ``n_modules``, ``satisfied_fraction``, ``success`` (and the same as
+    ``is_success``, which SB3's ``Monitor``/``EvalCallback`` and RL Zoo read), ``cells`` (list of
     [x, y], initial module first), ``evaluated`` (structures the oracle evaluated this episode:
     the initial one plus one per docking), ``oracle_calls`` (wrench tests this episode),
     ``action_mask``, ``task_name``, ``n_wrenches``, ``invalid_action`` and ``reward_terms``.
@@ -205,10 +218,18 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
       was added later and leaves the default observation unchanged. Later still, actions that
       are not integers of the action space became invalid actions (they used to raise a
       ValueError), and any callable became a task source; observations, rewards and infos of
-      valid input are unchanged.
+      valid input are unchanged. ``info["is_success"]``, ``render_mode="human"`` and
+      ``max_episode_steps`` at registration were added without changing any episode.
     """
 
-    metadata = {"render_modes": ["rgb_array", "ansi"], "render_fps": 4}
+    metadata = {"render_modes": ["human", "rgb_array", "ansi"], "render_fps": 4}
+
+    def __new__(cls, *args: Any, **kwargs: Any):
+        if cls is ModQuadAssemblyEnv and kwargs.get("modules") is not None:
+            from .mixed import MixedAssemblyEnv  # several module types: (cell, type) actions
+
+            cls = MixedAssemblyEnv
+        return super().__new__(cls)
 
     def __init__(
         self,
@@ -224,9 +245,11 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         oracle_method: str = "auto",
         render_size: tuple[int, int] = (256, 256),
         lookahead: bool = False,
+        modules: Any = None,
     ) -> None:
-        if isinstance(n_max, bool) or not isinstance(n_max, (int, np.integer)) or n_max < 2:
-            raise ValueError(f"n_max must be an integer >= 2, got {n_max!r}")
+        if modules is not None:  # only MixedAssemblyEnv takes a palette
+            raise ValueError("modules: a palette needs MixedAssemblyEnv (what gym.make builds)")
+        n_max = check_int(n_max, "n_max", 2, N_MAX_LIMIT)
         if module is not None and not isinstance(module, ModuleType):
             raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
         if invalid_action not in INVALID_ACTION_MODES:
@@ -244,10 +267,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self.n_max = int(n_max)
         if max_steps is None:
             max_steps = 4 * self.n_max
-        if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)):
-            raise ValueError(f"max_steps must be a positive integer, got {max_steps!r}")
-        if max_steps < self.n_max - 1:
-            raise ValueError(f"max_steps must be >= n_max - 1 = {self.n_max - 1}, got {max_steps}")
+        max_steps = check_int(max_steps, "max_steps", self.n_max - 1, MAX_STEPS_LIMIT)
         self.max_steps = int(max_steps)
         self.module = module if module is not None else Structure([(0, 0)]).module
         self.f_max = None if f_max is None else check_f_max(f_max)
@@ -284,6 +304,8 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         for dx, dy in _STEPS:
             self._initial_mask[self.action_of((dx, dy))] = 1
         self._cells: list[Cell] | None = None
+        self._window = None  # pygame display of render_mode="human"
+        self._clock = None
 
     # --- grid <-> actions -----------------------------------------------------------------
     def action_of(self, cell: Cell) -> int:
@@ -418,6 +440,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
             "n_modules": len(self._cells),
             "satisfied_fraction": self._frac,
             "success": self._success,
+            "is_success": self._success,
             "cells": [[x, y] for x, y in self._cells],
             "evaluated": self._evaluated,
             "oracle_calls": self._be.tests - self._calls0,
@@ -448,6 +471,11 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         if W.ndim != 2 or W.shape[1] != 6 or len(W) == 0:
             raise ValueError(
                 f"task {task.name!r} wrenches must have shape (t >= 1, 6), got {W.shape}"
+            )
+        if getattr(task, "kind", "total") != "total" and type(self) is ModQuadAssemblyEnv:
+            raise ValueError(
+                f"task {task.name!r} is of kind {task.kind!r}: make the env with modules=[...] "
+                "(e.g. modules=[module]), which decides self-weight"
             )
         f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
         self._be = self._backend(f_max)
@@ -519,16 +547,46 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
             return None
         if self._cells is None:
             raise ResetNeeded("call reset() before render()")
+        if self.render_mode == "ansi":
+            return self._ansi()
+        frame = self._frame()
         if self.render_mode == "rgb_array":
-            from ..oracle import feasible
-            from ..viz import structure_image
+            return frame
+        self._show(frame)
+        return None
 
-            s = self.structure
-            status = feasible(
-                s.configuration_matrix(), self._W, self._be.oracle.f_max, self.oracle_method
-            )
-            return structure_image(s, size=self.render_size, wrench_status=status)
-        return self._ansi()
+    def _frame(self) -> np.ndarray:
+        """The structure picture with each wrench's status, (H, W, 3) uint8."""
+        from ..oracle import feasible
+        from ..viz import structure_image
+
+        s = self.structure
+        status = feasible(
+            s.configuration_matrix(), self._W, self._be.oracle.f_max, self.oracle_method
+        )
+        return structure_image(s, size=self.render_size, wrench_status=status)
+
+    def _show(self, frame: np.ndarray) -> None:
+        """Draw ``frame`` in a pygame window (``render_mode="human"``, the viz extra)."""
+        pygame = import_optional("pygame")
+        if self._window is None:
+            pygame.init()
+            pygame.display.set_caption("ModQuadAssembly")
+            self._window = pygame.display.set_mode(frame.shape[1::-1])
+            self._clock = pygame.time.Clock()
+        pygame.event.pump()
+        self._window.blit(pygame.surfarray.make_surface(frame.swapaxes(0, 1)), (0, 0))
+        pygame.display.flip()
+        self._clock.tick(self.metadata["render_fps"])
+
+    def close(self) -> None:
+        if self._window is not None:
+            import pygame
+
+            pygame.display.quit()
+            pygame.quit()
+            self._window = None
+        super().close()
 
     def _ansi(self) -> str:
         rows = [

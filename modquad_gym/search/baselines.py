@@ -6,20 +6,23 @@
 * :func:`random_search`: attach modules at random free cells.
 
 None is certified minimal; each returns at once when the exact force bound proves the task
-impossible up to ``n_max``.
+impossible up to ``n_max``. With ``modules=[...]`` each also chooses module types: the
+centrosymmetric partner gets the same type (so the centre of mass stays put), greedy tries every
+(cell, type) child, random draws a type with each cell. With one type and a ``total`` task each
+runs exactly as before.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
 from ..module import ModuleType
 from ..oracle import Zonotope, margin
-from ..structure import Cell, Key, Structure, free_neighbours, normalise
+from ..structure import Cell, Key, Structure, free_neighbours, normalise, normalise_typed
 from .bounds import NO_SIZE, force_lower_bound
-from .result import SearchResult, SearchRun
+from .result import SearchResult, SearchRun, first_possible_level
 
 MAX_MODULES = 64
 """Module limit of the constructive baselines (each step decides O(n) children of 4n rotors)."""
@@ -27,14 +30,23 @@ MAX_MODULES = 64
 
 def _impossible(run: SearchRun) -> SearchResult | None:
     """The result at once when the force bound rules out every size up to n_max."""
-    n_lb = force_lower_bound(run.W, run.module, run.f_max)
-    if n_lb == NO_SIZE:
-        proof = "force bound: no number of modules can exert the task's forces"
-        return run.finish(None, False, proof=proof)
-    if n_lb > run.n_max:
-        return run.finish(None, False, proof=f"force bound: needs at least {n_lb} modules")
+    if run.homogeneous_total:
+        n_lb = force_lower_bound(run.W, run.module, run.f_max)
+        if n_lb == NO_SIZE:
+            proof = "force bound: no number of modules can exert the task's forces"
+            return run.finish(None, False, proof=proof)
+        if n_lb > run.n_max:
+            return run.finish(None, False, proof=f"force bound: needs at least {n_lb} modules")
+    else:
+        n_lb, proof = first_possible_level(run)
+        if proof:
+            return run.finish(None, False, proof=proof)
     run.check_budget(n_lb)
     return None
+
+
+def _typed(run: SearchRun, cells: Iterable[Cell], types: Iterable[int]) -> Structure:
+    return Structure.from_trusted(tuple(cells), modules=tuple(run.palette[t] for t in types))
 
 
 def centrosymmetric_search(
@@ -43,6 +55,9 @@ def centrosymmetric_search(
     f_max: float | None = None,
     module: ModuleType | None = None,
     block_seed: bool = False,
+    *,
+    modules: Sequence[ModuleType] | None = None,
+    kind: str | None = None,
 ) -> SearchResult:
     """Paper Algorithm 2: grow structures by a module *and* its centrosymmetric partner about
     the COM, so the COM never moves and every structure is torque-balanced by symmetry.
@@ -50,23 +65,37 @@ def centrosymmetric_search(
     Seeds: one module (odd counts 1, 3, 5, ...) and, with ``block_seed=True``, also a 2 x 2
     block (even counts 4, 6, ...). Levels are visited by increasing module count and the first
     feasible structure is returned; it is minimal among centrosymmetric structures reachable
-    this way, not certified minimal overall.
+    this way, not certified minimal overall. With ``modules`` every seed type and every type
+    of each added pair is tried (a pair shares one type, diagonal pairs of the block too).
     """
-    run = SearchRun("centrosymmetric", task, n_max, f_max, module, MAX_MODULES)
+    run = SearchRun("centrosymmetric", task, n_max, f_max, module, MAX_MODULES, modules, kind)
     if (done := _impossible(run)) is not None:
         return done
-    fronts: dict[int, list[Key]] = {1: [((0, 0),)]}
-    if block_seed and run.n_max >= 4:
-        fronts[4] = [((0, 0), (0, 1), (1, 0), (1, 1))]
+    K = len(run.palette)
+    if K == 1:
+        fronts: dict[int, list] = {1: [((0, 0),)]}
+        if block_seed and run.n_max >= 4:
+            fronts[4] = [((0, 0), (0, 1), (1, 0), (1, 1))]
+    else:
+        fronts = {1: [(((0, 0), t),) for t in range(K)]}
+        if block_seed and run.n_max >= 4:
+            fronts[4] = [
+                tuple(sorted((((0, 0), a), ((1, 1), a), ((0, 1), b), ((1, 0), b))))
+                for a in range(K)
+                for b in range(K)
+            ]
     for n in range(1, run.n_max + 1):
         level = fronts.get(n, [])
         for key in level:
-            s = Structure.from_trusted(key, run.module)
+            if K == 1:
+                s = Structure.from_trusted(key, run.module)
+            else:
+                s = _typed(run, (c for c, _ in key), (t for _, t in key))
             if run.checker.check(s):
                 return run.finish(s, False)
         if level and n + 2 <= run.n_max:
-            grown = fronts.setdefault(n + 2, []) + grow_symmetric(level)
-            fronts[n + 2] = list(dict.fromkeys(grown))
+            grow = grow_symmetric(level) if K == 1 else grow_symmetric_typed(level, K)
+            fronts[n + 2] = list(dict.fromkeys(fronts.setdefault(n + 2, []) + grow))
     return run.finish(None, False)
 
 
@@ -85,42 +114,93 @@ def grow_symmetric(level: Iterable[Key]) -> list[Key]:
     return list(out)
 
 
+def grow_symmetric_typed(level: Iterable[tuple], n_types: int) -> list[tuple]:
+    """:func:`grow_symmetric` for typed keys (``((x, y), type index)`` pairs, sorted): each
+    pair of added cells takes each type in turn. Partners of equal type weigh the same, so the
+    mass-weighted COM is the geometric centre the partners are taken about."""
+    out: dict[tuple, None] = {}
+    for key in level:
+        cells = tuple(c for c, _ in key)
+        s = Structure.from_trusted(cells)
+        taken = set(cells)
+        for cell in free_neighbours(cells):
+            sym = s.centrosymmetric_partner(cell)
+            if sym is None or sym == cell or sym in taken:
+                continue
+            for t in range(n_types):
+                grown = key + ((cell, t), (sym, t))
+                typed = normalise_typed((c for c, _ in grown), (u for _, u in grown))
+                out.setdefault(typed, None)
+    return list(out)
+
+
 def greedy_search(
-    task, n_max: int = 7, f_max: float | None = None, module: ModuleType | None = None
+    task,
+    n_max: int = 7,
+    f_max: float | None = None,
+    module: ModuleType | None = None,
+    *,
+    modules: Sequence[ModuleType] | None = None,
+    kind: str | None = None,
 ) -> SearchResult:
     """Baseline: from one module, repeatedly attach the module that most increases the fraction
     of satisfied wrenches, ties broken by the larger total margin (sum of exact margins clipped
     to [-1, 1]), then by cell order. Stops at the first feasible structure or at ``n_max``.
 
     Children that are the same structure up to translation are evaluated and counted once, at
-    their first cell in sorted order; equal structures score equally, so results are unchanged."""
-    run = SearchRun("greedy", task, n_max, f_max, module, MAX_MODULES)
+    their first cell in sorted order; equal structures score equally, so results are unchanged.
+    With ``modules`` the first module is the best-scoring type and every child is a (cell,
+    type) pair (ties by cell order, then palette order)."""
+    run = SearchRun("greedy", task, n_max, f_max, module, MAX_MODULES, modules, kind)
     if (done := _impossible(run)) is not None:
         return done
-    W, f, checker = run.W, run.f_max, run.checker
-    current = Structure([(0, 0)], run.module)
-    checker.evaluated += 1
-    checker.oracle_calls += len(W)
-    if Zonotope(current.configuration_matrix(), f).decide_certified(W).all():
-        return run.finish(current, False)
+    f, checker = run.f_max, run.checker
+
+    def score(s: Structure) -> tuple[bool, tuple[float, float]]:
+        W = run.rotor_wrenches(s)
+        z = Zonotope(s.configuration_matrix(), f)
+        checker.evaluated += 1
+        checker.oracle_calls += len(W)
+        ok = z.decide_certified(W)
+        if ok.all():
+            return True, (1.0, 0.0)
+        total = float(np.clip(margin(z.A, W, f, method="daqp"), -1.0, 1.0).sum())
+        return False, (float(ok.mean()), total)
+
+    if len(run.palette) == 1:
+        current = Structure([(0, 0)], run.module)
+        checker.evaluated += 1
+        W = run.rotor_wrenches(current)
+        checker.oracle_calls += len(W)
+        if Zonotope(current.configuration_matrix(), f).decide_certified(W).all():
+            return run.finish(current, False)
+    else:
+        current, best_score = None, None
+        for m in run.palette:
+            s = Structure([(0, 0)], module=m)
+            done, sc = score(s)
+            if done:
+                return run.finish(s, False)
+            if best_score is None or sc > best_score:
+                current, best_score = s, sc
     while current.n_modules < run.n_max:
         best, best_score = None, None
-        seen: set[Key] = set()
+        seen: set[Structure] = set()
         for cell in current.attachable_cells():  # sorted: ties go to the first cell
-            child = current.with_cells(cell)
-            if child.key in seen:  # the same structure up to translation: already scored
-                continue
-            seen.add(child.key)
-            z = Zonotope(child.configuration_matrix(), f)
-            checker.evaluated += 1
-            checker.oracle_calls += len(W)
-            ok = z.decide_certified(W)
-            if ok.all():
-                return run.finish(child, False)
-            total = float(np.clip(margin(z.A, W, f, method="daqp"), -1.0, 1.0).sum())
-            score = (float(ok.mean()), total)
-            if best_score is None or score > best_score:
-                best, best_score = child, score
+            for m in run.palette:
+                child = (
+                    current.with_cells(cell)
+                    if len(run.palette) == 1
+                    else Structure(current.cells + (cell,), modules=current.modules + (m,))
+                )
+                if child in seen:  # the same structure up to translation: already scored
+                    continue
+                seen.add(child)
+                done, sc = score(child)
+                if done:
+                    return run.finish(child, False)
+                if best_score is None or sc > best_score:
+                    best, best_score = child, sc
         current = best
     return run.finish(None, False)
 
@@ -132,18 +212,27 @@ def random_search(
     module: ModuleType | None = None,
     seed: int | None = 0,
     restarts: int = 1,
+    *,
+    modules: Sequence[ModuleType] | None = None,
+    kind: str | None = None,
 ) -> SearchResult:
     """Baseline: attach modules at uniformly random free cells until the task is satisfied or
-    ``n_max`` is reached, ``restarts`` times; returns the smallest feasible structure seen."""
-    run = SearchRun("random", task, n_max, f_max, module, MAX_MODULES)
+    ``n_max`` is reached, ``restarts`` times; returns the smallest feasible structure seen.
+    With several ``modules`` each module's type is drawn uniformly too."""
+    run = SearchRun("random", task, n_max, f_max, module, MAX_MODULES, modules, kind)
     if (done := _impossible(run)) is not None:
         return done
     rng = np.random.default_rng(seed)
+    K = len(run.palette)
     best: Structure | None = None
     for _ in range(max(1, int(restarts))):
         cells: list[Cell] = [(0, 0)]
+        types: list[int] = [int(rng.integers(K))] if K > 1 else [0]
         while True:
-            s = Structure.from_trusted(tuple(cells), run.module)
+            if K > 1:
+                s = _typed(run, cells, types)
+            else:
+                s = Structure.from_trusted(tuple(cells), run.module)
             if best is not None and s.n_modules >= best.n_modules:
                 break
             if run.checker.check(s):
@@ -153,6 +242,8 @@ def random_search(
                 break
             options = free_neighbours(cells)
             cells.append(options[int(rng.integers(len(options)))])
+            if K > 1:
+                types.append(int(rng.integers(K)))
     if best is not None:
-        best = Structure(best.cells, run.module)
+        best = Structure(best.cells, modules=best.modules)
     return run.finish(best, False)

@@ -11,6 +11,13 @@
   14 modules ship with the package (regenerate: ``modquad bench level-bounds``).
   An upper bound of the widened support is used (max of each sum taken separately), so the
   test stays exact.
+* Count bounds (mixed types, and tasks of kind ``external``): the force part of a structure with
+  c_t modules of type t is the Minkowski sum of c_t copies of each type's force zonotope,
+  whatever the shape, and its weight M g = sum_t c_t m_t g is fixed by the counts too. So a
+  count vector c is ruled out, with every shape and every assignment of those counts, when a
+  task force f (plus M g e_z for ``external`` tasks) has N . f above sum_t c_t h_t(N) (widened
+  by the oracle's tolerance) for a facet normal N of the sum (a cross product of two rotor
+  directions) or a coordinate axis. The level bounds apply to the counts of one type alone.
 """
 
 from __future__ import annotations
@@ -26,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from ..module import ModuleType
-from ..oracle import TOL
+from ..oracle import RESIDUAL_TOL, TOL
 from ..outputs import atomic_write
 from ..polyominoes import PolyominoStream
 from . import supports
@@ -59,6 +66,55 @@ def force_lower_bound(W: np.ndarray, module: ModuleType, f_max: float = 1.0) -> 
     if not math.isfinite(worst) or worst > NO_SIZE:
         return NO_SIZE
     return max(1, math.ceil(worst - TOL))
+
+
+def force_normals(palette: list[ModuleType]) -> np.ndarray:
+    """(k, 3) unit directions: +-(the cross products of every pair of rotor directions of the
+    palette) and the +-coordinate axes. They hold every facet normal of any sum of the
+    palette's force zonotopes (the extra axes keep the test valid for degenerate sums)."""
+    dirs = np.vstack([m.directions for m in palette])
+    dirs = np.unique(np.round(dirs, 12), axis=0)
+    normals = [
+        np.cross(dirs[i], dirs[j]) for i in range(len(dirs)) for j in range(i + 1, len(dirs))
+    ]
+    normals = [n / np.linalg.norm(n) for n in normals if np.linalg.norm(n) > 1e-12]
+    normals += list(np.eye(3))
+    N = np.array(normals + [-n for n in normals])
+    return np.unique(np.round(N, 14), axis=0)
+
+
+def count_vectors(n: int, k: int) -> np.ndarray:
+    """(C, k) every way of choosing n modules from k types (counts), lexicographic."""
+    if k == 1:
+        return np.array([[n]])
+    rows = [[c, *rest] for c in range(n, -1, -1) for rest in count_vectors(n - c, k - 1)]
+    return np.array(rows, dtype=int).reshape(-1, k)
+
+
+def counts_possible(
+    W: np.ndarray,
+    palette: list[ModuleType],
+    counts: np.ndarray,
+    f_max: float = 1.0,
+    kind: str = "total",
+) -> np.ndarray:
+    """bool (C,): False where the count vector (row of ``counts``, one count per palette type)
+    certainly cannot exert the task's forces, whatever the shape (module docstring). Exact:
+    a structure the oracle accepts always passes."""
+    counts = np.atleast_2d(np.asarray(counts, dtype=float))
+    N = force_normals(palette)  # (k, 3)
+    proj = [N @ m.directions.T for m in palette]  # each (k, r)
+    h = np.array([np.maximum(p, 0.0).sum(axis=1) for p in proj])  # (K, k)
+    a = np.array([np.abs(p).sum(axis=1) for p in proj])  # (K, k)
+    cap = counts @ (f_max * (h + 0.5 * TOL * a))  # (C, k) widened supports
+    values = (W[:, :3] @ N.T).max(axis=0)  # (k,)
+    need = np.broadcast_to(values, cap.shape).copy()
+    if kind == "external":
+        weight = counts @ np.array([m.weight for m in palette])  # (C,)
+        need = need + weight[:, None] * N[:, 2][None, :]
+    scale = 1.0 + float(np.abs(W).max()) + (float(np.max(need)) if need.size else 0.0)
+    slack = RESIDUAL_TOL * scale + supports.SLACK
+    return ~np.any(need > cap + slack, axis=1)
 
 
 def level_directions() -> np.ndarray:
@@ -138,7 +194,8 @@ def level_bounds(module: ModuleType, n: int) -> np.ndarray | None:
 
 
 def level_excluded(W: np.ndarray, f_max: float, module: ModuleType, n: int) -> bool:
-    """True when some task wrench lies beyond every n-module structure in a level direction."""
+    """True when some task wrench (rotor wrench: for ``external`` tasks pass W plus the
+    weight of n modules) lies beyond every n-module structure in a level direction."""
     bounds = level_bounds(module, n)
     if bounds is None:
         return False

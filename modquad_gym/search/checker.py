@@ -6,15 +6,22 @@ are rejected by a *cached separating direction*: a direction d that separated a 
 from an earlier structure (d . w > h_S(d)) is tried on every later one, in compiled code straight
 from the cells (:mod:`.supports`). Exact, not a heuristic. The survivors go to the certified
 oracle, whose rejections teach the cache new directions.
+
+Structures may mix module types: ``types`` (L, n) holds each module's index into the checker's
+palette. For a task of kind ``external`` each structure is decided against the rotor wrenches
+w + M g e_z of its own mass M (:func:`modquad_gym.tasks.rotor_wrenches`).
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 
 from ..module import ModuleType
 from ..oracle import TOL, Zonotope
-from ..structure import Structure, configuration_matrices
+from ..structure import Structure, configuration_matrices, mixed_configuration_matrices
+from ..tasks import check_kind, rotor_wrenches
 from . import supports
 
 POOL_SIZE = 512
@@ -22,26 +29,41 @@ POOL_SIZE = 512
 
 
 class TaskChecker:
-    """Decides a task (W, f_max) against structures of one module type, counting the work.
+    """Decides a task (W, f_max, kind) against structures of the module types ``palette`` (one
+    type, or a list of types of one side), counting the work.
 
     Attributes:
         evaluated: structures whose feasibility against the whole task was decided.
         oracle_calls: wrench-structure tests (a rejection by a cached direction counts one).
     """
 
-    def __init__(self, W: np.ndarray, f_max: float, module: ModuleType) -> None:
+    def __init__(
+        self,
+        W: np.ndarray,
+        f_max: float,
+        palette: ModuleType | Sequence[ModuleType],
+        kind: str = "total",
+    ) -> None:
         self.W = W
         self.f_max = f_max
-        self.module = module
+        self.palette = [palette] if isinstance(palette, ModuleType) else list(palette)
+        self.module = self.palette[0]
+        self.kind = check_kind(kind)
         self.evaluated = 0
         self.oracle_calls = 0
+        masses = np.array([m.mass for m in self.palette])
+        self.type_masses = masses
+        # equal masses weigh the cells equally: the COM is the plain mean of the cells
+        self._masses = np.ones(len(masses)) if np.all(masses == masses[0]) else masses
+        weights = [m.weight if self.kind == "external" else 0.0 for m in self.palette]
+        self._lift = np.array(weights)  # per type: m g for external tasks, else 0
         # hardest wrenches first: by decreasing Euclidean norm (ties keep the task's order), so
         # an infeasible structure usually fails on an early batch
         self.order = np.argsort(-np.linalg.norm(W, axis=1), kind="stable")
         self.pool = np.zeros((0, 6))  # separating directions in wrench space, newest first
-        self._terms = supports.direction_terms([module], self.pool)
+        self._terms = supports.direction_terms(self.palette, self.pool)
         self._values = np.zeros(0)  # max_i d . w_i over the task, per direction
-        self._masses = np.ones(1)
+        self._dz = np.zeros(0)  # the directions' f_z components (the weight term)
         self.learned = 0  # directions remembered so far (the pool's length stops at POOL_SIZE)
 
     # --- the cache of separating directions ------------------------------------------------
@@ -49,29 +71,38 @@ class TaskChecker:
         """Add a separating direction (normalised) at the front of the cache."""
         d6 = np.asarray(d6, dtype=float) / np.linalg.norm(d6)
         self.learned += 1
-        self.pool = np.vstack([d6[None], self.pool])[:POOL_SIZE]
-        self._terms = supports.direction_terms([self.module], self.pool)
-        self._values = (self.pool @ self.W.T).max(axis=1)
+        self._set_pool(np.vstack([d6[None], self.pool]))
 
     def adopt(self, directions: np.ndarray) -> None:
         """Put separating directions (rows, newest first; e.g. learnt by other checkers of the
         same task) at the front of the cache, in one update."""
         directions = np.asarray(directions, dtype=float).reshape(-1, 6)
         norms = np.linalg.norm(directions, axis=1)
-        directions = directions[norms > 0] / norms[norms > 0, None]
-        self.pool = np.vstack([directions, self.pool])[:POOL_SIZE]
-        self._terms = supports.direction_terms([self.module], self.pool)
-        self._values = (self.pool @ self.W.T).max(axis=1)
+        self._set_pool(np.vstack([directions[norms > 0] / norms[norms > 0, None], self.pool]))
 
-    def alive(self, cells: np.ndarray, newest_only: bool = False) -> np.ndarray:
-        """bool (L,): structures (cells (L, n, 2)) that no cached direction rejects (only the
-        newest direction with ``newest_only``)."""
+    def _set_pool(self, pool: np.ndarray) -> None:
+        self.pool = pool[:POOL_SIZE]
+        self._terms = supports.direction_terms(self.palette, self.pool)
+        self._values = (self.pool @ self.W.T).max(axis=1)
+        self._dz = np.ascontiguousarray(self.pool[:, 2])
+
+    def _types(self, cells: np.ndarray, types: np.ndarray | None) -> np.ndarray:
+        if types is None:
+            return np.zeros(cells.shape[:2], dtype=np.int8)
+        return np.ascontiguousarray(types, dtype=np.int8)
+
+    def alive(
+        self, cells: np.ndarray, types: np.ndarray | None = None, newest_only: bool = False
+    ) -> np.ndarray:
+        """bool (L,): structures (cells (L, n, 2), palette indices ``types`` (L, n), default
+        all the first type) that no cached direction rejects (only the newest direction with
+        ``newest_only``)."""
         cells = np.ascontiguousarray(cells, dtype=np.int32)
         alive = np.ones(len(cells), dtype=bool)
         k = min(1, len(self.pool)) if newest_only else len(self.pool)
         if k:
             b, alpha, beta = (t[:k] for t in self._terms)
-            types = np.zeros(cells.shape[:2], dtype=np.int8)
+            types = self._types(cells, types)
             supports.reject(
                 cells,
                 types,
@@ -84,45 +115,67 @@ class TaskChecker:
                 self.f_max,
                 0.5 * TOL,
                 alive,
+                self._lift,
+                self._dz[:k],
             )
         return alive
 
     # --- deciding ---------------------------------------------------------------------------
-    def first_feasible(self, cells: np.ndarray) -> int | None:
-        """Index of the first structure of ``cells`` (L, n, 2) that satisfies the task, or None.
-        Every structure up to it counts as evaluated."""
-        alive = self.alive(cells)
+    def first_feasible(self, cells: np.ndarray, types: np.ndarray | None = None) -> int | None:
+        """Index of the first structure of ``cells`` (L, n, 2) (with palette indices ``types``
+        (L, n), default all the first type) that satisfies the task, or None. Every structure
+        up to it counts as evaluated."""
+        types = self._types(cells, types)
+        alive = self.alive(cells, types)
         for i in range(len(cells)):
             if not alive[i]:
                 continue
             learned = self.learned
-            A = configuration_matrices(cells[i : i + 1], self.module)[0]
-            if self.check_matrix(A):
+            A, mass = self.matrix(cells[i], types[i])
+            if self.check_matrix(A, mass):
                 self._count_rejected(i - int(alive[:i].sum()))
                 return i
             if self.learned != learned and i + 1 < len(cells):  # one new direction
-                alive[i + 1 :] &= self.alive(cells[i + 1 :], newest_only=True)
+                alive[i + 1 :] &= self.alive(cells[i + 1 :], types[i + 1 :], newest_only=True)
         self._count_rejected(len(cells) - int(alive.sum()))
         return None
+
+    def matrix(self, cells: np.ndarray, types: np.ndarray) -> tuple[np.ndarray, float]:
+        """(A, total mass in kg) of one structure: cells (n, 2), palette indices (n,)."""
+        mass = float(self.type_masses[types].sum())
+        if len(self.palette) == 1 or np.all(types == types[0]):
+            return configuration_matrices(cells[None], self.palette[int(types[0])])[0], mass
+        A = mixed_configuration_matrices(cells[None], types[None], self.palette)[0]
+        return A, mass
 
     def _count_rejected(self, k: int) -> None:
         self.evaluated += k
         self.oracle_calls += k
 
+    def type_indices(self, structure: Structure) -> np.ndarray:
+        """(n,) palette indices of the structure's modules (ValueError for a foreign type)."""
+        index = {id(m): k for k, m in enumerate(self.palette)}
+        try:
+            return np.array([index[id(m)] for m in structure.modules], dtype=np.int8)
+        except KeyError:
+            raise ValueError("the structure has a module type outside the palette") from None
+
     def check(self, structure: Structure) -> bool:
         """True when the structure satisfies every task wrench (exact)."""
         cells = np.asarray(structure.cells, dtype=np.int32)[None]
-        if not self.alive(cells)[0]:
+        types = self.type_indices(structure)[None]
+        if not self.alive(cells, types)[0]:
             self._count_rejected(1)
             return False
-        return self.check_matrix(structure.configuration_matrix())
+        return self.check_matrix(structure.configuration_matrix(), structure.mass)
 
-    def check_matrix(self, A: np.ndarray) -> bool:
-        """Decide the task on one configuration matrix with the certified oracle, small
-        batches of the hardest wrenches first; a rejection teaches the cache a direction."""
+    def check_matrix(self, A: np.ndarray, mass: float = 0.0) -> bool:
+        """Decide the task on one configuration matrix (of a structure of ``mass`` kg, which
+        matters for ``external`` tasks) with the certified oracle, small batches of the
+        hardest wrenches first; a rejection teaches the cache a direction."""
         self.evaluated += 1
         z = Zonotope(A, self.f_max)
-        W = self.W[self.order]
+        W = rotor_wrenches(self.W, self.kind, mass)[self.order]
         start = 0
         for size in (4, 16, len(W)):  # small batches first: most structures fail early
             batch = W[start:size]

@@ -7,16 +7,28 @@ one in canonical order, whatever the chunk size or the number of workers. Nothin
 except by exact bounds (:mod:`.bounds`) and cached separating directions (:mod:`.checker`).
 
 Large levels are split into ranges of chunks decided as Ray tasks
-(:mod:`modquad_gym.distributed`; :func:`scan_chunks` is the unit of work); the answer is the
+(:mod:`modquad_gym.distributed`; :func:`scan_chunks` decides any range alone); the answer is the
 first feasible structure of the first range that has one, so it is the same for any number of
 workers, on one machine or a cluster.
+
+Several module types (``modules=[...]``) or a task of kind ``external``: every (shape, type
+assignment) pair is visited, level by level; within a level shapes come in canonical order
+and, for each shape, assignments in lexicographic order of the palette indices taken in the
+shape's cell order, so the answer is again the first feasible pair in a fixed order. Exact
+pruning before any pair is evaluated: the count bound rules out every count vector (how many
+modules of each type) whose forces, and weight for ``external`` tasks, no shape can exert
+(:func:`.bounds.counts_possible`), and the level bounds rule out the one-type counts they
+cover; the pairs they rule out are counted in ``SearchResult.skipped``. Pairs are
+distinct structures up to translation (fixed polyominoes times assignments); palette
+types that are copies of one another are merged first.
 """
 
 from __future__ import annotations
 
+import itertools
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import nullcontext
 from functools import partial
 from itertools import islice
@@ -26,14 +38,21 @@ import numpy as np
 from ..distributed import Engine
 from ..module import ModuleType
 from ..polyominoes import A001168, DEFAULT_CHUNK, PolyominoStream, level_chunks
-from ..structure import Key, Structure, normalise
+from ..structure import Key, Structure, normalise, normalise_typed
 from ..validation import check_int
 from .bounds import NO_SIZE, force_lower_bound, level_excluded
 from .checker import TaskChecker
-from .result import Optima, SearchResult, SearchRun
+from .result import Optima, SearchResult, SearchRun, allowed_counts, first_possible_level
 
 MAX_MODULES = 16
 """The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8."""
+
+MAX_PAIRS = 10**9
+"""Most (shape, type assignment) pairs a level of the typed search may hold (fixed
+polyominoes of n cells times K^n): 2 types reach it at 11 modules, 3 types at 10."""
+
+PAIRS_PER_BLOCK = 8192
+"""Pairs decided together by the typed search (whole shapes with all their assignments)."""
 
 PARALLEL_FROM = 100_000
 """Levels with at least this many structures are split into Ray tasks (with workers > 1)."""
@@ -163,7 +182,8 @@ def _progress(enabled: bool, n: int):
         return None
     from tqdm.auto import tqdm
 
-    return tqdm(total=level_size(n), desc=f"level {n}", unit=" structures", leave=False)
+    # shown only when a level takes more than half a second
+    return tqdm(total=level_size(n), desc=f"level {n}", unit=" structures", leave=False, delay=0.5)
 
 
 def _levels_to_search(run: SearchRun) -> tuple[int, list[int], str]:
@@ -180,9 +200,11 @@ def _levels_to_search(run: SearchRun) -> tuple[int, list[int], str]:
 
 def _search_levels(run: SearchRun, chunk, engine, progress, first_only):
     n_lb, skipped, proof = _levels_to_search(run)
+    run.skipped += sum(level_size(n) or 0 for n in skipped)
     for n in range(n_lb, run.n_max + 1) if not proof else ():
         if level_excluded(run.W, run.f_max, run.module, n):
             skipped.append(n)
+            run.skipped += level_size(n) or 0
             continue
         bar = _progress(progress, n)
         try:
@@ -205,6 +227,8 @@ def exhaustive_search(
     f_max: float | None = None,
     module: ModuleType | None = None,
     *,
+    modules: Sequence[ModuleType] | None = None,
+    kind: str | None = None,
     workers: int | None = 1,
     address: str | None = None,
     chunk: int = DEFAULT_CHUNK,
@@ -221,9 +245,19 @@ def exhaustive_search(
     depend on ``workers``, ``address`` or ``chunk``; ``evaluated`` depends on ``chunk`` and on
     whether levels are split (each range learns its own separating directions), not on the
     number of workers. ``progress`` shows a bar per level on stderr.
+
+    ``modules=[mA, mB, ...]`` searches every shape with every assignment of those types (one
+    per cell; the module docstring gives the order and the pruning); the result's
+    ``structure.modules`` lists each cell's type in ``structure.cells`` order. ``kind``
+    overrides the task's kind (``external``: the rotors also carry the structure's weight).
+    The typed search runs in this process (``workers`` applies to one-type ``total`` tasks).
     """
-    run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES)
+    run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES, modules, kind)
     chunk = check_int(chunk, "chunk", low=1)
+    if not run.homogeneous_total:
+        n, found, skipped, proof = _search_typed(run, progress, True)
+        structure = _typed_structure(run, found[0]) if found else None
+        return run.finish(structure, True, skipped, proof)
     workers = _workers(workers)
     engine = Engine(workers, address) if workers > 1 else None
     with engine or nullcontext():  # Ray starts at the first split level, once per search
@@ -240,12 +274,17 @@ def optimal_level(
     *,
     chunk: int = DEFAULT_CHUNK,
 ) -> Optima:
-    """Every minimum-module structure of ``task`` with the work it took (:class:`Optima`).
-    Certified like :func:`exhaustive_search`, which stops at the first feasible structure;
-    this one decides the whole minimal level (in this process: batches of tasks are what
-    :mod:`modquad_gym.distributed` spreads)."""
+    """Every minimum-module structure of ``task`` (one module type) with the work it took
+    (:class:`Optima`). Certified like :func:`exhaustive_search`, which stops at the first
+    feasible structure; this one decides the whole minimal level (in this process: batches of
+    tasks are what :mod:`modquad_gym.distributed` spreads)."""
     run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES)
-    n, keys, _, proof = _search_levels(run, check_int(chunk, "chunk", low=1), None, False, False)
+    chunk = check_int(chunk, "chunk", low=1)
+    if run.homogeneous_total:
+        n, keys, _, proof = _search_levels(run, chunk, None, False, False)
+    else:  # an external task: self-weight, one type
+        n, found, _, proof = _search_typed(run, False, False)
+        keys = [_typed_structure(run, f).key for f in found]
     return Optima(
         n_modules=n,
         keys=keys,
@@ -262,10 +301,111 @@ def optimal_structures(
     f_max: float | None = None,
     module: ModuleType | None = None,
     *,
+    modules: Sequence[ModuleType] | None = None,
+    kind: str | None = None,
     chunk: int = DEFAULT_CHUNK,
-) -> tuple[int | None, list[Key]]:
+) -> tuple[int | None, list]:
     """Every minimum-module structure of ``task``: (n*, keys of all feasible structures of n*
     modules, up to translation, in canonical order), or (None, []) when none of up to
-    ``n_max`` modules works (:func:`optimal_level` without the counts)."""
-    optima = optimal_level(task, n_max, f_max, module, chunk=chunk)
-    return optima.n_modules, optima.keys
+    ``n_max`` modules works. Certified like :func:`exhaustive_search`, which stops at the
+    first feasible structure; this one decides the whole minimal level. With ``modules`` or
+    an ``external`` task the keys are typed (:func:`~modquad_gym.structure.normalise_typed`;
+    one-type structures of such a search too)."""
+    run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES, modules, kind)
+    if not run.homogeneous_total:
+        n, found, _, _ = _search_typed(run, False, False)
+        structures = (_typed_structure(run, f) for f in found)
+        if run.typed:
+            return n, [normalise_typed(s.cells, s.modules) for s in structures]
+        return n, [s.key for s in structures]
+    n, keys, _, _ = _search_levels(run, check_int(chunk, "chunk", low=1), None, False, False)
+    return n, keys
+
+
+# --- several module types, or self-weight ---------------------------------------------------
+def assignments(n: int, allowed: np.ndarray) -> np.ndarray:
+    """(T, n) int8: every assignment of K types to n cells in lexicographic order, kept when
+    ``allowed[c_0, ..., c_{K-1}]`` is True for its counts c (``allowed``: K axes of length
+    n + 1)."""
+    K = allowed.ndim
+    rows = np.array(list(itertools.product(range(K), repeat=n)), dtype=np.int8).reshape(-1, n)
+    counts = np.stack([(rows == k).sum(axis=1) for k in range(K)], axis=1)
+    keep = allowed[tuple(counts.T)]
+    return np.ascontiguousarray(rows[keep])
+
+
+def check_pair_budget(run: SearchRun, first_level: int) -> None:
+    """Refuse before any work a typed search whose last level holds more than MAX_PAIRS."""
+    n, K = run.n_max, len(run.palette)
+    size = level_size(n)
+    if first_level > n:
+        return
+    if n > MAX_MODULES or size is None or size * K**n > MAX_PAIRS:
+        raise ValueError(
+            f"n_max={n} with {K} module type(s) is beyond what the exhaustive search can "
+            f"finish: at most {MAX_PAIRS:.0e} (shape, assignment) pairs per level"
+        )
+
+
+def _search_typed(run: SearchRun, progress: bool, first_only: bool):
+    """(n*, found, skipped levels, proof), found a list of (cells tuple, types tuple) pairs of
+    level n* in the typed search's order (module docstring)."""
+    first, proof = first_possible_level(run)
+    if proof:
+        run.skipped += sum(allowed_counts(run, n)[1] for n in range(1, run.n_max + 1))
+        return None, [], list(range(1, run.n_max + 1)), proof
+    check_pair_budget(run, first)
+    skipped_levels = []
+    for n in range(1, run.n_max + 1):
+        allowed, skipped = allowed_counts(run, n)
+        run.skipped += skipped
+        if not allowed.any():
+            skipped_levels.append(n)
+            continue
+        assign = assignments(n, allowed)
+        per_block = max(1, PAIRS_PER_BLOCK // len(assign))
+        bar = _progress(progress, n)
+        found = []
+        try:
+            for shapes in PolyominoStream(n, max(per_block, 1024)):
+                for start in range(0, len(shapes), per_block):
+                    block = shapes[start : start + per_block]
+                    cells = np.repeat(block, len(assign), axis=0)
+                    types = np.tile(assign, (len(block), 1))
+                    rest = 0
+                    while rest < len(cells):
+                        i = run.checker.first_feasible(cells[rest:], types[rest:])
+                        if i is None:
+                            break
+                        j = rest + i
+                        found.append((tuple(map(tuple, cells[j].tolist())), tuple(types[j])))
+                        if first_only:
+                            return n, found, skipped_levels, ""
+                        rest = j + 1
+                if bar is not None:
+                    bar.update(len(shapes))
+        finally:
+            if bar is not None:
+                bar.close()
+        if found:
+            return n, found, skipped_levels, ""
+    return None, [], skipped_levels, ""
+
+
+def _typed_structure(run: SearchRun, pair) -> Structure:
+    """The structure of a (cells, types) pair, translation-normalised (sorted cells)."""
+    cells, types = pair
+    key = normalise_typed(cells, (run.palette[int(t)] for t in types))
+    return Structure.from_trusted(tuple(c for c, _ in key), modules=tuple(m for _, m in key))
+
+
+__all__ = [
+    "MAX_MODULES",
+    "MAX_PAIRS",
+    "assignments",
+    "exhaustive_search",
+    "normalise_typed",
+    "optimal_level",
+    "optimal_structures",
+    "scan_chunks",
+]

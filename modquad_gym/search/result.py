@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -10,7 +12,9 @@ import numpy as np
 from ..module import ModuleType
 from ..oracle import feasible
 from ..structure import Key, Structure
+from ..tasks import check_kind, rotor_wrenches
 from ..validation import check_f_max, check_int, check_wrenches
+from .bounds import NO_SIZE, count_vectors, counts_possible, level_excluded
 from .checker import TaskChecker
 
 DEFAULT_MODULE = Structure([(0, 0)]).module
@@ -32,6 +36,11 @@ class SearchResult:
         n_max: the module budget searched.
         skipped_levels: module counts ruled out as a whole by exact bounds (force, level).
         proof: how infeasibility was proven without searching, when it was ("" otherwise).
+        palette: names of the module types searched when the search was given ``modules``
+            (then ``to_dict`` lists each module's type); empty for a one-type search.
+        kind: the task kind searched (``total`` or ``external``).
+        skipped: (shape, type assignment) pairs ruled out by exact bounds without being
+            evaluated (force and count bounds, level bounds), in the levels visited.
     """
 
     structure: Structure | None
@@ -44,6 +53,9 @@ class SearchResult:
     n_max: int
     skipped_levels: list[int] = field(default_factory=list)
     proof: str = ""
+    palette: tuple[str, ...] = ()
+    kind: str = "total"
+    skipped: int = 0
 
     @property
     def feasible(self) -> bool:
@@ -61,6 +73,12 @@ class SearchResult:
             "method": self.method,
             "n_max": self.n_max,
         }
+        if self.palette:
+            out["modules"] = (
+                [m.name for m in self.structure.modules] if self.structure is not None else None
+            )
+        if self.kind != "total":
+            out["kind"] = self.kind
         if self.proof:
             out["proof"] = self.proof
         return out
@@ -87,8 +105,13 @@ class Optima:
 
 
 class SearchRun:
-    """One search in progress: the validated task, the module type, the shared checker and
-    the clock. ``finish`` re-verifies the answer with the exact LP and builds the result."""
+    """One search in progress: the validated task and kind, the module types, the shared
+    checker and the clock. ``finish`` re-verifies the answer with the exact LP and builds the
+    result.
+
+    ``modules`` (a list of types, deduplicated by :attr:`ModuleType.digest`, first kept)
+    searches over type assignments; ``module`` is the one-type search. ``kind`` overrides the
+    task's own kind (a plain wrench array is ``total`` unless told)."""
 
     def __init__(
         self,
@@ -98,14 +121,29 @@ class SearchRun:
         f_max: float | None,
         module: ModuleType | None,
         n_max_limit: int,
+        modules: Sequence[ModuleType] | None = None,
+        kind: str | None = None,
     ) -> None:
         self.t0 = time.perf_counter()
         self.method = method
         self.W, self.f_max = task_arrays(task, f_max)
+        self.kind = check_kind(kind if kind is not None else getattr(task, "kind", "total"))
         self.n_max = check_int(n_max, "n_max", low=1)
-        self.module = module if module is not None else DEFAULT_MODULE
+        self.palette = check_palette(module, modules)
+        self.typed = modules is not None
+        self.module = self.palette[0]
         self.n_max_limit = n_max_limit
-        self.checker = TaskChecker(self.W, self.f_max, self.module)
+        self.skipped = 0
+        self.checker = TaskChecker(self.W, self.f_max, self.palette, self.kind)
+
+    @property
+    def homogeneous_total(self) -> bool:
+        """One module type and a ``total`` task: the paper's search, unchanged."""
+        return len(self.palette) == 1 and self.kind == "total"
+
+    def rotor_wrenches(self, structure: Structure) -> np.ndarray:
+        """What the rotors of ``structure`` must produce for the task."""
+        return rotor_wrenches(self.W, self.kind, structure.mass)
 
     def check_budget(self, first_level: int) -> None:
         """Refuse before any work an n_max this method cannot reach in bounded time."""
@@ -125,7 +163,10 @@ class SearchRun:
         if (
             structure is not None
             and not feasible(
-                structure.configuration_matrix(), self.W, self.f_max, method="daqp"
+                structure.configuration_matrix(),
+                self.rotor_wrenches(structure),
+                self.f_max,
+                method="daqp",
             ).all()
         ):
             raise RuntimeError(  # pragma: no cover - an oracle bug, never a silent success
@@ -142,7 +183,41 @@ class SearchRun:
             n_max=self.n_max,
             skipped_levels=list(skipped),
             proof=proof,
+            palette=tuple(m.name for m in self.palette) if self.typed else (),
+            kind=self.kind,
+            skipped=self.skipped,
         )
+
+
+def check_palette(
+    module: ModuleType | None, modules: Sequence[ModuleType] | None
+) -> list[ModuleType]:
+    """The module types of a search: ``[module]`` (default the T-module) or ``modules``
+    without repeats (types with one :attr:`~ModuleType.digest` are one type; the first is
+    kept). ValueError for both or neither being usable, or types of different sides."""
+    if modules is None:
+        if module is not None and not isinstance(module, ModuleType):
+            raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
+        return [module if module is not None else DEFAULT_MODULE]
+    if module is not None:
+        raise ValueError("give module= (one type) or modules= (a palette), not both")
+    if isinstance(modules, (str, ModuleType)):
+        raise ValueError("modules must be a list of ModuleType (see modquad_gym.module.palette)")
+    out: dict[str, ModuleType] = {}
+    for i, m in enumerate(modules):
+        if not isinstance(m, ModuleType):
+            raise ValueError(f"modules[{i}] must be a ModuleType, got {type(m).__name__}")
+        out.setdefault(m.digest, m)
+    if not out:
+        raise ValueError("modules: give at least one module type")
+    palette = list(out.values())
+    if len(palette) > 127:
+        raise ValueError(f"modules: at most 127 types, got {len(palette)}")
+    if len({m.side for m in palette}) > 1:
+        raise ValueError("modules: every type must have the same side (one docking grid)")
+    if len({m.n_rotors for m in palette}) > 1:
+        raise ValueError("modules: every type must have the same number of rotors")
+    return palette
 
 
 def task_arrays(task, f_max: float | None) -> tuple[np.ndarray, float]:
@@ -154,3 +229,49 @@ def task_arrays(task, f_max: float | None) -> tuple[np.ndarray, float]:
         W = check_wrenches(task, allow_empty=False)
         f = 1.0 if f_max is None else f_max
     return W, check_f_max(f)
+
+
+def allowed_counts(run: SearchRun, n: int) -> tuple[np.ndarray, int]:
+    """(allowed, pairs skipped) for level n of a typed search: a bool array indexed by count
+    vectors (one axis of length n + 1 per palette type) of the counts that the count bound and,
+    for one type alone, the level bound leave; and how many (shape, assignment) pairs the
+    others hold (fixed polyominoes of n cells times the multinomial of each count vector)."""
+    from ..polyominoes import A001168
+
+    K = len(run.palette)
+    counts = count_vectors(n, K)
+    ok = counts_possible(run.W, run.palette, counts, run.f_max, run.kind)
+    for i, c in enumerate(counts):
+        if ok[i] and int(c.max()) == n:  # one type alone: the level bounds apply
+            m = run.palette[int(np.argmax(c))]
+            Wn = rotor_wrenches(run.W, run.kind, n * m.mass)
+            if level_excluded(Wn, run.f_max, m, n):
+                ok[i] = False
+    allowed = np.zeros((n + 1,) * K, dtype=bool)
+    allowed[tuple(counts.T)] = ok
+    shapes = A001168[n - 1] if n <= len(A001168) else 0
+    skipped = shapes * sum(_multinomial(c) for c, good in zip(counts, ok) if not good)
+    return allowed, skipped
+
+
+def first_possible_level(run: SearchRun) -> tuple[int, str]:
+    """(the smallest module count the count bound leaves, "") or (NO_SIZE, proof) when it
+    rules out every count up to n_max."""
+    for n in range(1, run.n_max + 1):
+        if counts_possible(
+            run.W, run.palette, count_vectors(n, len(run.palette)), run.f_max, run.kind
+        ).any():
+            return n, ""
+    lift = " and lift its own weight" if run.kind == "external" else ""
+    return (
+        NO_SIZE,
+        f"count bound: no mix of up to {run.n_max} modules can exert the task's forces{lift}",
+    )
+
+
+def _multinomial(c: np.ndarray) -> int:
+    out, total = 1, 0
+    for k in c:
+        total += int(k)
+        out *= math.comb(total, int(k))
+    return out

@@ -10,6 +10,11 @@ learned earlier, or a level bound) before any LP.
 
 The oracle's tolerance is included as it is everywhere: thrusts may leave [0, f_max] by
 TOL * f_max / 2, which widens the support by TOL * f_max / 2 * sum_k |d . a_k|.
+
+Mixed structures: ``types[l, i]`` is the palette index of module i of structure l; ``masses``
+(per type) place its centre of mass. For tasks of kind ``external`` the rotors must produce
+w + M g e_z with M the structure's total mass, so a task value d . w gains ``M g d_z``: ``lift``
+holds each type's weight m g (zeros for ``total`` tasks, which leaves every test unchanged).
 """
 
 from __future__ import annotations
@@ -80,10 +85,11 @@ def _support(b, alpha, beta, p, types, l, cx, cy):
 
 
 @njit(cache=True)
-def reject(cells, types, masses, side, b, alpha, beta, values, f_max, half_tol, alive):
+def reject(cells, types, masses, side, b, alpha, beta, values, f_max, half_tol, alive, lift, dz):
     """Clear ``alive[l]`` for every structure l that some direction p separates from a task
-    wrench: values[p] (the task's max_i d_p . w_i) above its widened support. Directions are
-    tried in order, stopping at the first that rejects."""
+    wrench: values[p] (the task's max_i d_p . w_i) plus the weight term (sum of ``lift`` over
+    the structure's modules) * dz[p] above its widened support. Directions are tried in order,
+    stopping at the first that rejects."""
     L, n, _ = cells.shape
     P = b.shape[0]
     cx = np.empty(n)
@@ -92,9 +98,12 @@ def reject(cells, types, masses, side, b, alpha, beta, values, f_max, half_tol, 
         if not alive[l]:
             continue
         _centres(cells, types, l, masses, side, cx, cy)
+        weight = 0.0
+        for i in range(n):
+            weight += lift[types[l, i]]
         for p in range(P):
             plus, total = _support(b, alpha, beta, p, types, l, cx, cy)
-            if values[p] > f_max * (plus + half_tol * total) + SLACK:
+            if values[p] + weight * dz[p] > f_max * (plus + half_tol * total) + SLACK:
                 alive[l] = False
                 break
 

@@ -4,9 +4,12 @@ The model (MJCF, compiled by :func:`build_model`):
 
 * Body ``structure`` with a free joint. Its frame is the structure frame {S}: origin at the COM of
   the module centres, axes parallel to the modules', z up. It starts at ``(0, 0, HOME_HEIGHT)``.
-* One box geom per module (side x side x ``MODULE_THICKNESS``, ``module_mass`` kg each, default
-  0.3 kg, a ModQuad-size module); MuJoCo computes the inertia from the boxes. All modules weigh the
-  same, so the body's COM is the origin of {S}. Rotor discs are massless visual geoms.
+* One box geom per module (side x side x ``MODULE_THICKNESS``), weighing its module type's
+  ``mass`` (default 0.3 kg, a ModQuad-size module; ``module_mass`` overrides every module);
+  MuJoCo computes the inertia from the boxes. {S} sits at the mass-weighted centre of the module
+  centres, so the body's COM is the origin of {S} for mixed structures too. Rotor discs are
+  massless visual geoms; modules are coloured by type (the first module of a one-type structure
+  green).
 * One site ``rotor{k}`` per rotor at p_k, oriented so that its z-axis is the thrust direction d_k.
 * One ``general`` actuator per rotor on its site: ``gear = (0, 0, 1, 0, 0, s_k c_tau)`` (thrust
   along the site z-axis plus the spin-signed drag torque about it), ``gainprm = 1``, no bias, no
@@ -27,11 +30,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..module import DEFAULT_MASS, GRAVITY
 from ..oracle import check_f_max
 from ..structure import Structure
+from ..viz import type_colour
 
-MODULE_MASS = 0.3
-"""Mass of one module in kg (frame, battery, four motors of a ModQuad-size module)."""
+MODULE_MASS = DEFAULT_MASS
+"""Default mass of one module in kg (:data:`modquad_gym.module.DEFAULT_MASS`)."""
 
 MODULE_THICKNESS = 0.05
 """Height of a module's box in metres."""
@@ -91,37 +96,61 @@ def _fmt(v: np.ndarray | list[float]) -> str:
     return " ".join(f"{float(x):.17g}" for x in v)
 
 
+def _masses(structure: Structure, module_mass: float | None) -> np.ndarray:
+    """Each module's mass in kg: its type's, or ``module_mass`` for every module."""
+    if module_mass is None:
+        return structure.masses
+    if (
+        isinstance(module_mass, bool)
+        or not isinstance(module_mass, (int, float, np.integer, np.floating))
+        or not (module_mass > 0 and np.isfinite(module_mass))
+    ):
+        raise ValueError(f"module_mass must be a positive mass in kg, got {module_mass!r}")
+    return np.full(structure.n_modules, float(module_mass))
+
+
 def model_xml(
     structure: Structure,
     f_max: float = 1.0,
-    module_mass: float = MODULE_MASS,
+    module_mass: float | None = None,
     bench: bool = False,
 ) -> str:
-    """The MJCF text of a structure's model (see the module docstring)."""
+    """The MJCF text of a structure's model (see the module docstring). ``module_mass`` (kg)
+    overrides every module's own type mass; with differing type masses it would move the COM
+    away from {S}, so it is refused for such a mixed structure."""
     if not isinstance(structure, Structure):
         raise ValueError(
             f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
         )
     f_max = check_f_max(f_max)
-    if not (module_mass > 0 and np.isfinite(module_mass)):
-        raise ValueError(f"module_mass must be a positive mass in kg, got {module_mass!r}")
-    mod = structure.module
-    side = mod.side
+    masses = _masses(structure, module_mass)
+    if module_mass is not None and np.ptp(structure.masses) > 0:
+        raise ValueError(
+            "module_mass: the structure's module types weigh differently; their masses place "
+            "its COM, so leave module_mass=None"
+        )
+    side = structure.side
     half = side / 2.0
+    mixed = structure.is_mixed
     geoms = []
-    for i, c in enumerate(structure.module_centres):
-        rgba = _MODULE_COLOURS[0] if i == 0 else _MODULE_COLOURS[1]
+    for i, (c, t) in enumerate(zip(structure.module_centres, structure.type_indices)):
+        if mixed:  # the fills of the pictures (modquad_gym.viz.type_colour)
+            fill = type_colour(structure.modules[i], t)
+            rgba = " ".join(f"{int(fill[k : k + 2], 16) / 255:.3g}" for k in (1, 3, 5)) + " 1"
+        else:
+            rgba = _MODULE_COLOURS[0] if i == 0 else _MODULE_COLOURS[1]
         geoms.append(
             f'<geom name="module{i}" type="box" pos="{_fmt(c)}" '
             f'size="{half * 0.97:.17g} {half * 0.97:.17g} {MODULE_THICKNESS / 2:.17g}" '
-            f'mass="{module_mass:.17g}" rgba="{rgba}"/>'
+            f'mass="{masses[i]:.17g}" rgba="{rgba}"/>'
         )
     sites, actuators = [], []
     radius = _ROTOR_RADIUS_FRACTION * side
     lift = MODULE_THICKNESS / 2 + 0.8 * radius  # discs clear the box at 45 degree tilt
-    spins = np.tile(mod.spins, structure.n_modules)
-    for k, (p, d, s) in enumerate(
-        zip(structure.rotor_positions, structure.rotor_directions, spins, strict=True)
+    spins = structure.rotor_spins
+    c_taus = structure.rotor_c_tau
+    for k, (p, d, s, c_tau) in enumerate(
+        zip(structure.rotor_positions, structure.rotor_directions, spins, c_taus, strict=True)
     ):
         rgba = _ROTOR_COLOURS[1.0 if s > 0 else -1.0]
         sites.append(f'<site name="rotor{k}" pos="{_fmt(p)}" zaxis="{_fmt(d)}" size="0.005"/>')
@@ -131,7 +160,7 @@ def model_xml(
             f'size="{radius:.17g} 0.004" mass="0" rgba="{rgba}" group="1"/>'
         )
         actuators.append(
-            f'<general name="thrust{k}" site="rotor{k}" gear="0 0 1 0 0 {s * mod.c_tau:.17g}" '
+            f'<general name="thrust{k}" site="rotor{k}" gear="0 0 1 0 0 {s * c_tau:.17g}" '
             f'ctrllimited="true" ctrlrange="0 {f_max:.17g}" dyntype="none" gaintype="fixed" '
             f'gainprm="1" biastype="none"/>'
         )
@@ -152,7 +181,7 @@ def model_xml(
     nl = "\n    "
     return f"""<mujoco model="modquad_{structure.n_modules}">
   <compiler angle="radian" autolimits="true"/>
-  <option timestep="{TIMESTEP}" integrator="implicitfast" gravity="0 0 -9.81"
+  <option timestep="{TIMESTEP}" integrator="implicitfast" gravity="0 0 {-GRAVITY:.17g}"
     tolerance="1e-15" iterations="200" ls_tolerance="1e-12">
     <flag contact="disable"/>
   </option>
@@ -186,7 +215,7 @@ def model_xml(
 def build_model(
     structure: Structure,
     f_max: float = 1.0,
-    module_mass: float = MODULE_MASS,
+    module_mass: float | None = None,
     bench: bool = False,
 ) -> SimModel:
     """Compile the MuJoCo model of ``structure`` (see the module docstring).
@@ -194,7 +223,7 @@ def build_model(
     Args:
         structure: the structure; its frame {S} becomes the free body's frame.
         f_max: rotor thrust limit in N (actuator ctrlrange [0, f_max]).
-        module_mass: mass of each module in kg.
+        module_mass: mass of every module in kg (default: each module type's ``mass``).
         bench: add the load cell and the wall weld of the wrench bench.
     """
     import mujoco

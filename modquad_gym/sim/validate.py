@@ -42,6 +42,7 @@ import numpy as np
 
 from ..oracle import check_f_max, check_wrenches, feasible, lambda_ratio, margin
 from ..structure import Structure
+from ..tasks import rotor_wrenches
 from .bench import BenchResult, run_bench
 from .hover import HoverResult, run_hover, unreachable_wrench_directions, wrench_axis
 from .model import HOME_HEIGHT, SimModel, build_model
@@ -122,12 +123,14 @@ def _render_matplotlib(structure: Structure, path: Path) -> None:
     plt = _plt()
     fig = plt.figure(figsize=(6, 5))
     ax = fig.add_subplot(projection="3d")
-    half = structure.module.side / 2
-    for i, c in enumerate(structure.module_centres):
+    half = structure.side / 2
+    mixed = structure.is_mixed
+    for i, (c, t) in enumerate(zip(structure.module_centres, structure.type_indices)):
         xs = c[0] + np.array([-half, half, half, -half, -half])
         ys = c[1] + np.array([-half, -half, half, half, -half])
-        ax.plot(xs, ys, np.zeros(5), color="tab:green" if i == 0 else "0.4")
-    spins = np.tile(structure.module.spins, structure.n_modules)
+        colour = f"C{int(t)}" if mixed else "tab:green" if i == 0 else "0.4"
+        ax.plot(xs, ys, np.zeros(5), color=colour)
+    spins = structure.rotor_spins
     p, d = structure.rotor_positions, structure.rotor_directions
     for pk, dk, sk in zip(p, d, spins, strict=True):
         colour = "tab:red" if sk > 0 else "tab:blue"
@@ -279,8 +282,14 @@ def validate(
     unknown_load: bool = True,
     load_frame: str = "world",
     load_ramp_seconds: float = 1.0,
+    kind: str = "total",
 ) -> dict:
     """Bench and hover ``structure`` on ``task_wrenches``; write pictures and a report.
+
+    For a task of ``kind`` ``external`` the wrenches are those applied to the environment: the
+    bench and the hover use the rotor wrenches ``w + m g e_z`` of the structure's own mass
+    (:func:`modquad_gym.tasks.rotor_wrenches`; the model weighs each module by its type), so
+    the hover's external load is exactly ``-w`` (the structure lifts its real weight).
 
     Hover load convention: while the structure holds task wrench w, an external wrench
     ``d = -(w + gravity wrench)`` (gravity wrench = [m g ; 0] at the COM) is applied, so that at
@@ -298,7 +307,8 @@ def validate(
 
     Args:
         structure: the structure to validate (e.g. a search result's ``structure``).
-        task_wrenches: (t, 6) task wrenches in {S}, the total the rotors must produce.
+        task_wrenches: (t, 6) task wrenches in {S}: the total the rotors must produce
+            (``kind="total"``) or the wrench applied to the environment (``"external"``).
         f_max: rotor thrust limit in N.
         out_dir: where to write the pictures, ``report.md`` and ``validation.json`` (created);
             None writes nothing.
@@ -311,6 +321,7 @@ def validate(
             order); None: all.
         unknown_load: also fly the hover with the load unknown to the controller.
         load_frame: ``"world"`` or ``"body"``: how the hover's load moves when the body tilts.
+        kind: the task kind, ``"total"`` or ``"external"``.
         load_ramp_seconds: unknown-load hover: seconds over which the load goes from one task
             wrench to the next (default 1; 0: a step). The settled part of a segment (its last
             30 %) must come after the ramp, so the ramp is shortened to ``0.7 hover_seconds``
@@ -324,14 +335,15 @@ def validate(
         ``hover_unknown_load_max_position_error_m``, ``hover_unknown_load_max_attitude_error_rad``,
         ``hover_unknown_load_saturated_fraction``, ``hover_unknown_load_ramp_seconds`` (with
         ``unknown_load``), ``n_modules``,
-        ``cells``, ``rank``, ``unreachable_wrench_directions``, ``feasible`` (every wrench
-        feasible per the oracle) and ``files``.
+        ``cells``, ``modules`` (type names), ``mass_kg``, ``task_kind``, ``rank``,
+        ``unreachable_wrench_directions``, ``feasible`` (every wrench feasible per the oracle)
+        and ``files``.
     """
     if not isinstance(structure, Structure):
         raise ValueError(
             f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
         )
-    W = check_wrenches(task_wrenches)
+    W = rotor_wrenches(check_wrenches(task_wrenches), kind, structure.mass)
     f_max = check_f_max(f_max)
     A = np.array(structure.configuration_matrix())
     feas = np.asarray(feasible(A, W, f_max), dtype=bool)
@@ -354,6 +366,9 @@ def validate(
     out: dict = {
         "n_modules": structure.n_modules,
         "cells": [list(c) for c in structure.cells],
+        "modules": [m.name for m in structure.modules],
+        "mass_kg": fly_sim.mass,
+        "task_kind": kind,
         "rank": int(np.linalg.matrix_rank(A)),
         "unreachable_wrench_directions": [
             {"n": N[:, j].tolist(), **wrench_axis(N[:, j])} for j in range(N.shape[1])
@@ -479,9 +494,15 @@ def _report(
         "```",
         "",
         f"cells {out['cells']}, rank(A) = {out['rank']}, f_max = {out['f_max']:g} N, "
-        f"module mass {out['module_mass_kg']:g} kg.",
-        f"Task: {t} wrenches, {out['n_feasible']} feasible per the oracle "
-        f"(smallest margin {f(out['min_margin'])}).",
+        f"module mass {out['module_mass_kg']:g} kg (mean), total {out['mass_kg']:g} kg.",
+        f"Task: {t} wrenches of kind {out['task_kind']}, {out['n_feasible']} feasible per the "
+        f"oracle (smallest margin {f(out['min_margin'])})"
+        + (
+            "; the rotors produce each wrench plus the structure's weight, which is what the "
+            "bench commands and the hover's rotors hold (its external load is -w)."
+            if out["task_kind"] == "external"
+            else "."
+        ),
     ]
     for u in out["unreachable_wrench_directions"]:
         n = ", ".join(f"{x:.4f}" for x in u["n"])

@@ -15,7 +15,8 @@ streams. Each held-out task stores ``meta["seed"]`` and ``meta["optimum"]``: the
 minimum module count from :func:`~modquad_gym.search.exhaustive_search` (None when no structure
 of up to ``n_max`` modules works).
 
-``python -m agents.suites`` rewrites ``modquad_gym/data/suites/heldout_*.json`` (deterministic).
+``python -m modquad_gym.agents.suites`` rewrites ``modquad_gym/data/suites/heldout_*.json``
+(deterministic).
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ from modquad_gym.tasks import (
 VALIDATION_SEED0 = 500_000
 PLANTED_SEED0 = 1_000_000
 PAPER_SEED0 = 2_000_000
-SUITES_DIR = Path(__file__).resolve().parents[1] / "modquad_gym" / "data" / "suites"
+SUITES_DIR = Path(__file__).resolve().parents[1] / "data" / "suites"
 HELDOUT = {"heldout_planted": 60, "heldout_paper": 40}
 """Default held-out suites and their sizes."""
 
@@ -119,7 +120,7 @@ def training_sample(source: str = "mixed", seeds: Iterable[int] = (0, 1), n: int
 def check_disjoint(suite: Sequence[TaskRequirement], root: Path | None = None) -> None:
     """ValueError if a suite task has the wrenches of a shipped task file or of a task the
     training streams draw first (see the module docstring)."""
-    root = root or Path(__file__).resolve().parents[1]
+    root = root or Path(__file__).resolve().parents[2]
     seen = {t.wrenches.tobytes() for t in _shipped_tasks(root)}
     seen |= {t.wrenches.tobytes() for t in training_sample()}
     for task in suite:
@@ -129,7 +130,7 @@ def check_disjoint(suite: Sequence[TaskRequirement], root: Path | None = None) -
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m agents.suites",
+        prog="python -m modquad_gym.agents.suites",
         description="Write the held-out benchmark suites (deterministic seeds, optimum by the "
         "exhaustive search).",
     )

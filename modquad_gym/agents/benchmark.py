@@ -1,6 +1,7 @@
 """The agent benchmark: every solver on the held-out suites, against the certified optimum.
 
-``python -m agents.benchmark`` (or ``modquad bench agents``) runs each method on every task of
+``modquad bench agents`` (or ``python -m modquad_gym.agents.benchmark``) runs each method on every
+task of
 the held-out suites (``modquad_gym/data/suites/heldout_*.json``, never seen in training; each task
 carries its optimum from the exhaustive search) and writes to ``--out`` (default ``results``):
 
@@ -17,7 +18,6 @@ Every reported success is re-verified here by the exact DAQP LP oracle.
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import platform
 import time
@@ -28,18 +28,14 @@ from pathlib import Path
 import numpy as np
 
 from modquad_gym.oracle import feasible
+from modquad_gym.outputs import check_output_dir, save_figure, write_csv, write_text
 from modquad_gym.tasks import TaskRequirement, load_suite
 
-from .solvers import DEFAULT_MODEL, Solver, make_solver
+from .solvers import DEFAULT_MODEL, Solver, load_solver, make_solver
 from .suites import SUITES_DIR
 
-ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo", "ppo-k2", "ppo-k8")
 GOALS = {"success": 0.98, "optimal": 0.90}
-CSV_FIELDS = (
-    "suite", "task", "optimum", "method", "success", "n_modules", "gap", "optimal",
-    "evaluated", "oracle_calls", "seconds", "cells",
-)  # fmt: skip
 
 
 @dataclass
@@ -78,8 +74,12 @@ class Row:
 
 
 def parse_method(method: str, n_max: int, model: Path | None, seed: int) -> Solver:
-    """A solver from a benchmark method name: a search name, ``ppo`` or ``ppo-kN`` (PPO with N
-    sampled rollouts besides the deterministic one)."""
+    """A solver from a benchmark method name: a search name, ``ppo``, ``ppo-kN`` (PPO with N
+    sampled rollouts besides the deterministic one), ``ppo-guided`` (the policy-guided search of
+    :mod:`.guided`), or ``package.module:Name`` (an outside
+    agent, see :func:`~.solvers.load_solver`)."""
+    if ":" in method:
+        return load_solver(method, n_max=n_max)
     if method.startswith("ppo-k"):
         try:
             k = int(method[len("ppo-k") :])
@@ -88,6 +88,10 @@ def parse_method(method: str, n_max: int, model: Path | None, seed: int) -> Solv
         return make_solver("ppo", n_max=n_max, model=model, seed=seed, samples=k)
     if method == "ppo":
         return make_solver("ppo", n_max=n_max, model=model, seed=seed)
+    if method == "ppo-guided":
+        from .guided import GuidedSolver
+
+        return GuidedSolver(model=model, n_max=n_max)
     return make_solver(method, n_max=n_max, seed=seed)
 
 
@@ -207,7 +211,7 @@ def plot_bars(summary: list[dict], path: Path) -> Path:
         else:
             ax.set_ylim(0, 1.05)
         ax.tick_params(axis="x", rotation=45)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     return path
 
 
@@ -235,7 +239,7 @@ def plot_learning_curve(evals: Path, path: Path) -> Path | None:
     for ax in fig.axes:
         ax.xaxis.set_major_formatter(thousands)
         ax.set_xlabel("PPO steps (0: before PPO)")
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     return path
 
 
@@ -266,7 +270,7 @@ def plot_structures(rows: list[Row], path: Path, n_tasks: int = 4) -> Path | Non
             draw_structure(s, ax=ax, title=f"{m}: {r.n_modules} (opt {r.optimum})\n{key[1]}")
             if ax.get_legend() is not None:
                 ax.get_legend().remove()
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)
     return path
 
 
@@ -356,10 +360,8 @@ def write_report(
         if fig is not None:
             lines.append(f"![{title}]({fig.name})")
             lines.append("")
-    lines.append("Per-task rows: `benchmark.csv`. Regenerate: `python -m agents.benchmark`.")
-    path = out / "benchmark.md"
-    path.write_text("\n".join(lines) + "\n")
-    return path
+    lines.append("Per-task rows: `benchmark.csv`. Regenerate: `modquad bench agents`.")
+    return write_text(out / "benchmark.md", "\n".join(lines) + "\n")
 
 
 def _by_optimum(rows: list[Row], methods: list[str], n_max: int) -> list[str]:
@@ -448,8 +450,9 @@ def _shortfall(
 
 
 def _rel(path: Path) -> str:
+    """``path`` relative to the working folder where it lies below it (shorter in reports)."""
     try:
-        return str(Path(path).resolve().relative_to(ROOT))
+        return str(Path(path).resolve().relative_to(Path.cwd()))
     except ValueError:
         return str(path)
 
@@ -484,9 +487,19 @@ def _goals(summary: list[dict]) -> list[str]:
     return lines
 
 
+REPORT_FILES = (
+    "benchmark.md",
+    "benchmark.csv",
+    "benchmark_bars.png",
+    "learning_curve.png",
+    "structures.png",
+)
+"""What the benchmark writes into ``--out``."""
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
-        prog="python -m agents.benchmark",
+        prog="python -m modquad_gym.agents.benchmark",
         description="Run every solver on the held-out suites and write benchmark.md, "
         "benchmark.csv and plots.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
@@ -506,7 +519,18 @@ def main(argv: list[str] | None = None) -> int:
         help="training output with config.json and evaluations.npz (default: the model's folder)",
     )
     p.add_argument(
-        "--methods", nargs="+", default=list(DEFAULT_METHODS), help="search names, ppo, ppo-kN"
+        "--methods",
+        nargs="+",
+        default=list(DEFAULT_METHODS),
+        help="search names, ppo, ppo-kN, or package.module:Name of an outside agent",
+    )
+    p.add_argument(
+        "--solver",
+        action="append",
+        default=[],
+        metavar="PKG.MOD:NAME",
+        help="score an outside agent too (repeatable): a Solver instance or class, or a "
+        "function task -> structure, imported from PKG.MOD",
     )
     p.add_argument(
         "--samples",
@@ -514,7 +538,8 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="replace ppo-kN in --methods by ppo-k<samples> (0 drops it)",
     )
-    p.add_argument("--out", type=Path, default=ROOT / "results", help="report folder")
+    p.add_argument("--out", type=Path, default=Path("results"), help="report folder")
+    p.add_argument("--force", action="store_true", help="replace an existing report in --out")
     p.add_argument("--n-max", type=int, default=7)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--limit", type=int, default=None, help="first N tasks of each suite only")
@@ -530,9 +555,11 @@ def main(argv: list[str] | None = None) -> int:
 
     paths = args.suite or sorted(SUITES_DIR.glob("heldout_*.json"))
     if not paths:
-        raise ValueError(f"no suites given and none in {SUITES_DIR} (run python -m agents.suites)")
+        raise ValueError(
+            f"no suites given and none in {SUITES_DIR} (run python -m modquad_gym.agents.suites)"
+        )
     suites = {Path(path).stem: load_suite(path)[: args.limit] for path in paths}
-    methods = list(dict.fromkeys(args.methods))
+    methods = list(dict.fromkeys([*args.methods, *args.solver]))
     if args.samples is not None:
         methods = [m for m in methods if not m.startswith("ppo-k")]
         if args.samples > 0:
@@ -540,16 +567,13 @@ def main(argv: list[str] | None = None) -> int:
     if any(m.startswith("ppo") for m in methods) and not args.model.is_file():
         raise ValueError(f"PPO model file {args.model} does not exist (train: python train.py)")
     train_dir = args.train_dir or args.model.parent
-    args.out.mkdir(parents=True, exist_ok=True)
+    check_output_dir(args.out, REPORT_FILES, args.force)
 
     t0 = time.perf_counter()
     rows = run_benchmark(suites, methods, args.n_max, args.model, args.seed,
                          not args.no_progress, args.workers)  # fmt: skip
     wall = time.perf_counter() - t0
-    with open(args.out / "benchmark.csv", "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=CSV_FIELDS)
-        writer.writeheader()
-        writer.writerows(r.as_csv() for r in rows)
+    write_csv([r.as_csv() for r in rows], args.out / "benchmark.csv")
     summary = summarise(rows, methods, args.n_max)
     figures = {
         "summary bars": plot_bars(summary, args.out / "benchmark_bars.png") if summary else None,

@@ -23,6 +23,7 @@ import gymnasium as gym
 import numpy as np
 
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+from modquad_gym.extras import import_optional
 from modquad_gym.oracle import feasible
 from modquad_gym.search import SearchResult
 from modquad_gym.structure import Structure, normalise
@@ -36,33 +37,22 @@ ENV_KWARG_KEYS = (
 """Environment keywords a model's config.json may fix (the task source is given per task)."""
 
 
-class SuccessInfo(gym.Wrapper):
-    """Copies ``info["success"]`` to ``info["is_success"]`` (what SB3's Monitor-based callbacks
-    read) and forwards ``action_masks()`` to the environment (what MaskablePPO asks)."""
-
-    def step(self, action):
-        obs, reward, terminated, truncated, info = self.env.step(action)
-        info["is_success"] = bool(info.get("success", False))
-        return obs, reward, terminated, truncated, info
-
-    def action_masks(self) -> np.ndarray:
-        return self.env.unwrapped.action_masks()
-
-
 def make_env(tasks: Any = "mixed", n_max: int = 7, **env_kwargs: Any) -> gym.Env:
-    """One training/evaluation environment: the assembly env, success info, a Monitor."""
-    from stable_baselines3.common.monitor import Monitor
+    """One training/evaluation environment: the assembly env in a Monitor that records
+    ``is_success`` per episode (SB3's callbacks read it; MaskablePPO finds ``action_masks``
+    through the wrapper)."""
+    Monitor = import_optional("stable_baselines3.common.monitor").Monitor
 
     env = ModQuadAssemblyEnv(tasks=tasks, n_max=n_max, **env_kwargs)
-    return Monitor(SuccessInfo(env), info_keywords=("is_success",))
+    return Monitor(env, info_keywords=("is_success",))
 
 
 def load_model(path: str | Path | None = None):
     """(MaskablePPO model, its config dict or {}) from ``path`` (default :data:`DEFAULT_MODEL`).
 
     Raises ValueError when the file does not exist. Sets torch to one thread."""
-    import torch
-    from sb3_contrib import MaskablePPO
+    torch = import_optional("torch")
+    MaskablePPO = import_optional("sb3_contrib").MaskablePPO
 
     torch.set_num_threads(1)
     path = Path(path) if path is not None else DEFAULT_MODEL
@@ -90,7 +80,7 @@ def env_kwargs_of(model, config: dict) -> dict:
 
 
 class PPOSolver:
-    """A trained MaskablePPO policy behind the :class:`~agents.solvers.Solver` interface.
+    """A trained MaskablePPO policy behind the :class:`~.solvers.Solver` interface.
 
     Args:
         model: a model .zip path (default :data:`DEFAULT_MODEL`) or a loaded MaskablePPO.

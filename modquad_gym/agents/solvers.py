@@ -1,0 +1,146 @@
+"""One interface for every way of answering a task: the searches and the learned PPO agent.
+
+A :class:`Solver` maps a task (a TaskRequirement or a (t, 6) wrench array) to a
+:class:`~modquad_gym.search.SearchResult` (structure, module count, configurations evaluated,
+oracle calls, seconds, ...), so the command line, the benchmark and the tests treat all methods
+alike. Torch and SB3 load only when a PPO solver is made (:mod:`modquad_gym.agents.ppo`).
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+import time
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+from modquad_gym.search import SEARCHES, SearchResult
+from modquad_gym.structure import Structure
+
+METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo")
+"""Names understood by :func:`make_solver`."""
+
+DEFAULT_MODEL = (
+    Path(__file__).resolve().parents[1] / "data" / "models" / "ppo_default" / "model.zip"
+)
+"""The default PPO model shipped with the package (its config.json lies beside it)."""
+
+
+@runtime_checkable
+class Solver(Protocol):
+    """Anything with a ``name`` that turns a task into a verified :class:`SearchResult`."""
+
+    name: str
+
+    def solve(self, task: Any) -> SearchResult: ...
+
+
+class SearchSolver:
+    """A search of :mod:`modquad_gym.search` behind the :class:`Solver` interface."""
+
+    def __init__(self, method: str, n_max: int = 7, seed: int = 0) -> None:
+        if method not in SEARCHES:
+            raise ValueError(f"unknown search {method!r}; choose one of {', '.join(SEARCHES)}")
+        self.name = method
+        self.n_max = n_max
+        self.seed = seed
+        self._fn = SEARCHES[method]
+
+    def solve(self, task: Any) -> SearchResult:
+        if self.name == "random":
+            return self._fn(task, n_max=self.n_max, seed=self.seed)
+        return self._fn(task, n_max=self.n_max)
+
+    def __repr__(self) -> str:
+        return f"SearchSolver({self.name!r}, n_max={self.n_max}, seed={self.seed})"
+
+
+def make_solver(
+    method: str,
+    n_max: int = 7,
+    model: str | Path | None = None,
+    seed: int = 0,
+    samples: int = 0,
+) -> Solver:
+    """The solver for ``method`` (one of :data:`METHODS`).
+
+    ``model`` (a PPO .zip, default :data:`DEFAULT_MODEL`) and ``samples`` (extra stochastic
+    rollouts, best verified structure kept) apply to ``"ppo"`` only; ``seed`` seeds the random
+    search and PPO's sampled rollouts.
+    """
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    if method == "ppo":
+        from .ppo import PPOSolver
+
+        return PPOSolver(model=model, n_max=n_max, seed=seed, samples=samples)
+    if model is not None:
+        raise ValueError(f"--model applies to method 'ppo' only, not {method!r}")
+    return SearchSolver(method, n_max=n_max, seed=seed)
+
+
+class ExternalSolver:
+    """Someone else's agent behind the :class:`Solver` interface.
+
+    ``agent.solve(task)`` (or ``agent(task)`` for a plain function) may return a
+    :class:`SearchResult`, a :class:`~modquad_gym.structure.Structure`, a list of (x, y) cells,
+    or None (no answer). Anything but a SearchResult is timed here and counts 0 configurations
+    evaluated and 0 oracle calls unless the agent reports ``evaluated``/``oracle_calls``
+    attributes. The benchmark verifies every answer with the exact oracle.
+    """
+
+    def __init__(self, agent: Any, name: str, n_max: int = 7) -> None:
+        self.agent = agent
+        self.name = name
+        self.n_max = n_max
+
+    def solve(self, task: Any) -> SearchResult:
+        t0 = time.perf_counter()
+        fn = self.agent.solve if hasattr(self.agent, "solve") else self.agent
+        answer = fn(task)
+        seconds = time.perf_counter() - t0
+        if isinstance(answer, SearchResult):
+            return answer
+        structure = answer if isinstance(answer, Structure) or answer is None else None
+        if structure is None and answer is not None:
+            try:
+                structure = Structure([tuple(c) for c in answer])
+            except (TypeError, ValueError) as err:
+                raise ValueError(
+                    f"solver {self.name!r} returned {type(answer).__name__}, not a SearchResult, "
+                    f"Structure, list of (x, y) cells or None: {err}"
+                ) from None
+        return SearchResult(
+            structure=structure,
+            n_modules=structure.n_modules if structure is not None else None,
+            evaluated=int(getattr(self.agent, "evaluated", 0)),
+            oracle_calls=int(getattr(self.agent, "oracle_calls", 0)),
+            seconds=seconds,
+            certified=False,
+            method=self.name,
+            n_max=self.n_max,
+        )
+
+
+def load_solver(spec: str, n_max: int = 7) -> Solver:
+    """The agent named ``"package.module:Name"``: a Solver instance, a class made with no
+    arguments, or a function ``task -> answer`` (see :class:`ExternalSolver`). The module is
+    looked up in the working folder first, as ``python -m`` does."""
+    module_name, sep, attr = spec.partition(":")
+    if not sep or not module_name or not attr:
+        raise ValueError(f"--solver {spec!r}: write it as package.module:Name")
+    if "" not in sys.path and str(Path.cwd()) not in sys.path:
+        sys.path.insert(0, str(Path.cwd()))  # like python -m: modules of the working folder
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as err:
+        raise ValueError(f"--solver {spec!r}: cannot import {module_name!r}: {err}") from None
+    try:
+        obj = getattr(module, attr)
+    except AttributeError:
+        raise ValueError(f"--solver {spec!r}: {module_name} has no {attr!r}") from None
+    if isinstance(obj, type):
+        obj = obj()
+    if not (hasattr(obj, "solve") or callable(obj)):
+        raise ValueError(f"--solver {spec!r}: {attr} has no solve(task) and is not callable")
+    return ExternalSolver(obj, name=str(getattr(obj, "name", attr)), n_max=n_max)
