@@ -6,6 +6,7 @@ import importlib.util
 import json
 import os
 import secrets
+import shutil
 import signal
 import socket
 import subprocess
@@ -257,6 +258,10 @@ def test_two_node_cluster_on_this_host(task_dir, tmp_path):
     """`ray start --head` and `ray start --address` on this host make a two-node cluster
     (each node one CPU, token authentication with a fresh token); a driver given only
     RAY_ADDRESS uses both nodes, and `modquad optima` on it writes the serial dataset."""
+    ray_cli = Path(sys.executable).with_name("ray")
+    ray_cli = str(ray_cli) if ray_cli.is_file() else shutil.which("ray")
+    if ray_cli is None:
+        pytest.skip("no `ray` command beside this Python")
     port = _free_port()
     env = {**os.environ, "RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": secrets.token_hex(16),
            "PYTHONPATH": str(ROOT), "RAY_USAGE_STATS_ENABLED": "0"}  # fmt: skip
@@ -265,7 +270,7 @@ def test_two_node_cluster_on_this_host(task_dir, tmp_path):
     nodes = []
     try:
         nodes.append(subprocess.Popen(
-            ["ray", "start", "--head", f"--port={port}", "--include-dashboard=false", *common],
+            [ray_cli, "start", "--head", f"--port={port}", "--include-dashboard=false", *common],
             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))  # fmt: skip
         address = f"127.0.0.1:{port}"
         probe = [sys.executable, "-c", f"import ray; ray.init(address={address!r})"]
@@ -274,7 +279,7 @@ def test_two_node_cluster_on_this_host(task_dir, tmp_path):
             assert time.monotonic() < deadline, "the head node did not start"
             time.sleep(1)
         nodes.append(subprocess.Popen(
-            ["ray", "start", f"--address={address}", *common],
+            [ray_cli, "start", f"--address={address}", *common],
             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))  # fmt: skip
         driver_env = {**env, "RAY_ADDRESS": address}
         deadline = time.monotonic() + 90
