@@ -24,7 +24,7 @@ from modquad_gym.distributed import Engine, Failed, map_tasks
 from modquad_gym.optima import read_dataset
 from modquad_gym.polyominoes import PolyominoStream
 from modquad_gym.search import exhaustive_search
-from modquad_gym.tasks import PlantedTasks, save_suite
+from modquad_gym.tasks import PlantedTasks, save_suite, task_files
 
 ray = pytest.importorskip("ray")
 ROOT = Path(__file__).resolve().parents[1]
@@ -228,6 +228,25 @@ def test_train_seeds_run_in_parallel_into_their_own_folders(local_ray, tmp_path)
         assert config["seed"] == seed and (out / f"seed-{seed}" / "model.zip").is_file()
         assert "--seeds" not in config["command"] and f"--seed {seed}" in config["command"]
         assert config["imitation"]["expert_episodes"] == 8
+
+
+def test_task_files_and_suite_names_are_checked(tmp_path, task_dir, capsys):
+    assert [p.name for p in task_files([task_dir / "t1.json", str(task_dir / "t[12].json")])] == [
+        "t1.json", "t2.json"]  # fmt: skip
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ValueError, match="holds no task file"):
+        task_files([tmp_path / "empty"])
+    with pytest.raises(ValueError, match="no file matches"):
+        task_files([str(tmp_path / "*.csv")])
+    out = tmp_path / "o.jsonl"
+    assert main(["optima", "--suite", "nope", "--out", str(out), "--workers", "1"]) == 2
+    assert "heldout_planted" in capsys.readouterr().err
+    out.write_text("not a record\n")
+    args = ["optima", "--tasks", str(task_dir / "t0.json"), "--out", str(out), "--workers", "1"]
+    assert main([*args, "--quiet"]) == 2
+    assert "line 1 is not an optima record" in capsys.readouterr().err
+    assert main([*args, "--quiet", "--force"]) == 0
+    assert len(read_dataset(out)[0]) == 1
 
 
 def _free_port() -> int:
