@@ -335,6 +335,34 @@ class TaskRequirement:
         return path
 
 
+def task_files(specs: Sequence[PathLike], what: str = "--task") -> list[Path]:
+    """Task file paths from ``specs``: a file (kept as given, checked when loaded), a folder
+    (its task files, by name) or a glob pattern (its matches, by name); in order, each path once.
+    A folder without task files or a pattern that matches nothing is a ValueError."""
+    import glob
+
+    out: dict[Path, None] = {}
+    for spec in specs:
+        text = str(spec)
+        path = Path(text)
+        if path.is_dir():
+            found = sorted(
+                p for p in path.iterdir() if p.is_file() and p.suffix.lower() in SUFFIXES
+            )
+            if not found:
+                raise ValueError(
+                    f"{what}: folder {path} holds no task file ({', '.join(SUFFIXES)})"
+                )
+        elif glob.has_magic(text) and not path.exists():
+            found = sorted(Path(p) for p in glob.glob(text) if Path(p).is_file())
+            if not found:
+                raise ValueError(f"{what}: no file matches {text!r}")
+        else:
+            found = [path]
+        out.update(dict.fromkeys(found))
+    return list(out)
+
+
 def _jsonable(obj: Any) -> Any:
     """Numpy scalars/arrays and tuples turned into plain JSON types."""
     if isinstance(obj, dict):

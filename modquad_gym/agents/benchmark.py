@@ -23,10 +23,12 @@ import platform
 import sys
 import time
 from dataclasses import dataclass
+from functools import lru_cache, partial
 from pathlib import Path
 
 import numpy as np
 
+from modquad_gym.module import palette
 from modquad_gym.oracle import feasible
 from modquad_gym.outputs import check_output_dir, save_figure, write_csv, write_text
 from modquad_gym.tasks import TaskRequirement, load_suite, rotor_wrenches
@@ -113,15 +115,36 @@ def run_benchmark(
     model: Path | None = None,
     seed: int = 0,
     progress: bool = True,
-    modules=None,
+    workers: int = 1,
+    modules: str | None = None,
 ) -> list[Row]:
-    """Every method on every task; successes re-verified by the exact oracle."""
-    from tqdm import tqdm
+    """Every method on every task; successes re-verified by the exact oracle. ``workers`` > 1
+    spreads chunks of tasks over Ray tasks (:mod:`modquad_gym.distributed`; same rows, but
+    each solver's seconds are then measured beside the others). ``modules`` (stock type names,
+    comma-separated) makes the searches search over shapes x type assignments."""
+    from modquad_gym.distributed import map_tasks
 
-    solvers = {m: parse_method(m, n_max, model, seed, modules) for m in methods}
     jobs = [(name, task) for name, tasks in suites.items() for task in tasks]
+    size = 1 if workers == 1 else 8
+    chunks = [jobs[i : i + size] for i in range(0, len(jobs), size)]
+    solve = partial(_solve_chunk, (tuple(methods), n_max, model, seed, modules))
+    parts = map_tasks(solve, chunks, workers=workers, progress=progress, desc="benchmark")
+    return [row for part in parts for row in part]
+
+
+@lru_cache(maxsize=2)
+def _solvers(
+    methods: tuple, n_max: int, model: Path | None, seed: int, modules: str | None
+) -> dict[str, Solver]:
+    types = palette(modules) if modules else None
+    return {m: parse_method(m, n_max, model, seed, types) for m in methods}
+
+
+def _solve_chunk(config: tuple, jobs: list) -> list[Row]:
+    """Rows of every method on a chunk of (suite, task) (solvers made once per process)."""
+    solvers = _solvers(*config)
     rows: list[Row] = []
-    for suite, task in tqdm(jobs, desc="benchmark", unit="task", disable=not progress):
+    for suite, task in jobs:
         optimum = task.meta.get("optimum")
         for method, solver in solvers.items():
             r = solver.solve(task)
@@ -548,6 +571,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--limit", type=int, default=None, help="first N tasks of each suite only")
     p.add_argument("--no-progress", action="store_true")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="Ray tasks sharing the tasks (1: one process, so each solver's seconds are timed "
+        "alone; RAY_ADDRESS joins a cluster)",
+    )
     args = p.parse_args(argv)
 
     if args.tier is not None and args.suite:
@@ -558,7 +588,6 @@ def main(argv: list[str] | None = None) -> int:
     else:
         suites = tier.load_suites(args.limit)
     n_max = args.n_max if args.n_max is not None else tier.n_max
-    modules = tier.search_kwargs().get("modules")
     default = DEFAULT_METHODS if tier.name == "current" else SEARCH_METHODS
     methods = list(dict.fromkeys([*(args.methods or default), *args.solver]))
     if args.samples is not None:
@@ -572,7 +601,7 @@ def main(argv: list[str] | None = None) -> int:
 
     t0 = time.perf_counter()
     rows = run_benchmark(suites, methods, n_max, args.model, args.seed, not args.no_progress,
-                         modules)  # fmt: skip
+                         args.workers, tier.modules)  # fmt: skip
     wall = time.perf_counter() - t0
     write_csv([r.as_csv() for r in rows], args.out / "benchmark.csv")
     summary = summarise(rows, methods, n_max)
