@@ -19,6 +19,10 @@ from pathlib import Path
 
 from .agents.solvers import LEARNED, METHOD_HELP, METHODS
 from .extras import EXTRA_OF, missing_extra_message
+from .options import int_option, real_option, seed_option
+
+MAX_WORKERS = 256
+"""Most processes ``solve --workers`` accepts."""
 
 SUITES_DIR = Path(__file__).resolve().parent / "data" / "suites"
 
@@ -411,9 +415,10 @@ def _add_csv_header(p: argparse.ArgumentParser) -> None:
 def _add_workers(p: argparse.ArgumentParser, default: str) -> None:
     p.add_argument(
         "--workers",
-        type=int,
+        type=int_option(1, MAX_WORKERS),
         default=None,
-        help=f"parallel Ray tasks (1: everything in this process, no Ray); default {default}",
+        help=f"parallel Ray tasks, 1 to {MAX_WORKERS} (1: everything in this process, no Ray); "
+        f"default {default}",
     )
     p.add_argument(
         "--ray-address",
@@ -465,7 +470,7 @@ def build_parser() -> argparse.ArgumentParser:
             type=int,
             default=7,
             help="largest module count (default %(default)s; the exhaustive search goes up to "
-            "16, the constructive baselines to 64)",
+            "16, centrosymmetric to 21, greedy and random to 64)",
         )
         p.add_argument(
             "--model",
@@ -475,9 +480,9 @@ def build_parser() -> argparse.ArgumentParser:
         )
         p.add_argument(
             "--seed",
-            type=int,
+            type=seed_option,
             default=0,
-            help="seed for the random search and PPO sampling (default %(default)s)",
+            help="seed for the random search and PPO sampling, 0 to 2**63-1 (default %(default)s)",
         )
         _add_modules(p)
 
@@ -580,9 +585,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     g.add_argument(
         "--seed",
-        type=int,
+        type=seed_option,
         default=0,
-        help="seed of the random generator: the same seed writes the same task "
+        help="seed of the random generator (0 to 2**63-1): the same seed writes the same task "
         "(default %(default)s)",
     )
     g.add_argument(
@@ -595,7 +600,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     g.add_argument(
         "--f-max",
-        type=float,
+        type=real_option,
         default=None,
         help=f"rotor thrust limit written to the task (default 1, or {EXTERNAL_F_MAX:g} N for "
         "--task-kind external)",
@@ -665,14 +670,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--hover-seconds",
-        type=float,
+        type=real_option,
         default=2.0,
         help="simulated seconds per hover segment (default %(default)s), at most "
         f"{MAX_HOVER_SECONDS:g}",
     )
     p.add_argument(
         "--load-ramp-seconds",
-        type=float,
+        type=real_option,
         default=1.0,
         help="unknown-load hover: seconds over which the load moves from one task wrench to the "
         "next (0: a step; default %(default)s)",

@@ -184,9 +184,12 @@ def TModule(
 ) -> ModuleType:
     """The paper's T-module (Def. 5): rotor j tilted by eta_j about its arm, with
     eta_1 = eta_3 = -eta_2 = -eta_4 = ``eta`` (default pi/4). Every structure of T-modules is
-    torque-balanced: equal thrust on all rotors produces a pure vertical force."""
-    if not math.isfinite(eta):
-        raise ValueError(f"eta must be a finite angle in radians, got {eta}")
+    torque-balanced: equal thrust on all rotors produces a pure vertical force.
+
+    ``eta`` must lie in [-pi/2, pi/2]: a rotor tilted further points downwards."""
+    from .validation import check_real
+
+    eta = check_real(eta, "eta", -math.pi / 2, math.pi / 2)
     return ModuleType.from_tilts(
         (eta, -eta, eta, -eta), side=side, c_tau=c_tau, name=f"T(eta={eta:.4g})", mass=mass
     )

@@ -5,21 +5,22 @@ Everything here works on the *centred, reduced* zonotope. With Q an orthonormal 
 
 * its off-range residual ``w - Q Q^T w`` is zero (rank-deficient A: one module has r = 4, a
   straight line of modules r = 5), and
-* ``Q^T w = c + G x`` for some x in the cube [-1, 1]^m, where ``c = Q^T A 1 f_max / 2`` is the
-  hover-at-half-thrust centre and ``G = Q^T A f_max / 2``.
+* ``Q^T w / f_max = c + G x`` for some x in the cube [-1, 1]^m, where ``c = Q^T A 1 / 2`` is the
+  hover-at-half-thrust centre and ``G = Q^T A / 2`` (reduced coordinates are in units of f_max).
 
-The number ``gamma(w) = min { ||x||_inf : G x = Q^T w - c }`` says how far the worst rotor must
-deviate from half thrust, as a fraction of f_max / 2 (the gauge of the zonotope about its centre).
-``margin = 1 - gamma`` is therefore unit-free: 1 at the centre, 0 on the boundary of W, negative
-outside (-inf off range(A)). The paper's own measure, ``lambda / |w|`` with
-``max lambda s.t. A u = lambda w_hat, 0 <= u <= f_max`` (errata 1: an LP, not a QP), is offered as
+The number ``gamma(w) = min { ||x||_inf : G x = Q^T w / f_max - c }`` says how far the worst
+rotor must deviate from half thrust, as a fraction of f_max / 2 (the gauge of the zonotope about
+its centre). ``margin = 1 - gamma`` is therefore unit-free: 1 at the centre, 0 on the boundary of
+W, negative outside (-inf off range(A), or where gamma leaves the float range). The paper's own
+measure, ``lambda / |w|`` with ``max lambda s.t. A u = lambda w_hat, 0 <= u <= f_max`` (errata 1:
+an LP, not a QP), is offered as
 :func:`lambda_ratio` (>= 1 exactly when feasible).
 
 The tolerance rule (one rule, every method)
 -------------------------------------------
 A wrench w is **feasible** exactly when
 
-1. its off-range residual is at most ``RESIDUAL_TOL * (1 + |w|)`` (checked once, in
+1. its off-range residual is at most ``RESIDUAL_TOL * (f_max + |w|)`` (checked once, in
    :meth:`Zonotope.reduce`, for every method), and
 2. ``gamma(w) <= 1 + TOL``, with ``TOL = 1e-6``. Equivalently: some allocation ``A u = w`` has
    every rotor in ``[-TOL f_max / 2, (1 + TOL / 2) f_max]``; or: w lies in the zonotope scaled by
@@ -31,6 +32,12 @@ gamma on one side of ``1 + TOL``). The margin is ``1 - gamma`` with every value 
 ``feasible`` (:func:`decide_from_gamma`, :func:`margin_from_gamma`; the certified ``"auto"``
 decisions and the margin's LP gamma agree outside the band below, and inside it the margin takes
 its sign from the decision). :func:`lambda_ratio` applies the same rule.
+
+Scale: wrenches are divided by f_max on entry (:meth:`Zonotope.reduce`), so every answer is the
+same for (s W, s f_max) at any scale s whose values are representable (the tests run s from 1e-9
+to 1e12). Huge wrenches (torques of 1e200, say) are decided by the exact bounding-box certificate,
+and their gamma comes from homogeneity, ``gamma(r) = t gamma(r / t)``: the LPs only ever see
+numbers of order one, and no step squares a huge value.
 
 Agreement band: every method computes gamma to better than 1e-9 (LP gammas are re-evaluated from
 the returned allocation, so they never undercut the true gamma; HiGHS runs with tightened
@@ -94,7 +101,7 @@ TOL = 1e-6
 """Decision tolerance: feasible when gamma <= 1 + TOL (module docstring, "The tolerance rule")."""
 
 RESIDUAL_TOL = 1e-9
-"""Off-range residual tolerance, relative to 1 + |w|."""
+"""Off-range residual tolerance, relative to f_max + |w|."""
 
 BAND = 1e-7
 """Methods agree on every wrench with |gamma - (1 + TOL)| > BAND (floating-point accuracy)."""
@@ -110,6 +117,8 @@ _DR_MIN_ROWS = 4  # with fewer undecided wrenches, LPs cost less than the iterat
 _CACHE_DIRECTIONS = 64
 _QUICKHULL_MAX_COLUMNS = 12
 _HIGHS_OPTIONS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
+_BIG = 1e150  # rows of w / f_max beyond this are handled without squaring (no overflow)
+_FAR = 1e6  # rows beyond this many bounding boxes get their gamma by homogeneity (see _gamma)
 
 
 # --------------------------------------------------------------------------------------------
@@ -119,6 +128,40 @@ def _check_method(method: str) -> str:
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     return method
+
+
+def _row_norms(X: np.ndarray) -> np.ndarray:
+    """Euclidean norm of each row of X, without overflow for any finite entries."""
+    t = np.abs(X).max(axis=1, initial=0.0) if X.shape[1] else np.zeros(len(X))
+    safe = np.where(t > 0.0, t, 1.0)
+    Y = X / safe[:, None]
+    return t * np.sqrt(np.einsum("ij,ij->i", Y, Y))
+
+
+MAX_TASK_VALUE = 1e100
+"""Largest wrench component (in newtons or newton-metres, and in units of f_max) that
+:func:`check_task_scale` accepts: far beyond anything a structure can exert, and small enough
+that no step of a search overflows."""
+
+
+def check_task_scale(W: np.ndarray, f_max: float) -> np.ndarray:
+    """W (checked, (t, 6)) when every |w_i| and every |w_i| / f_max is at most
+    :data:`MAX_TASK_VALUE`, else a ValueError naming the row. The searches call it: they test one
+    task against many structures and square wrenches on the way, where the oracle itself takes
+    any finite value (:meth:`Zonotope.reduce`)."""
+    W, f_max = check_wrenches(W), check_f_max(f_max)
+    if not len(W):
+        return W
+    with np.errstate(over="ignore", under="ignore"):
+        size = np.maximum(np.abs(W), np.abs(W) / f_max).max(axis=1)
+    if not size.max() <= MAX_TASK_VALUE:
+        row = int(np.argmax(~(size <= MAX_TASK_VALUE)))
+        raise ValueError(
+            f"wrench row {row} {W[row].tolist()} with f_max = {f_max:g} is beyond "
+            f"{MAX_TASK_VALUE:g} (newtons, and times f_max): far beyond what any structure can "
+            "exert (check the units)"
+        )
+    return W
 
 
 def decide_from_gamma(gamma: np.ndarray) -> np.ndarray:
@@ -155,11 +198,14 @@ class Zonotope:
         self.rank = r = int(np.count_nonzero(S > _RANK_TOL * max(S[0], 1.0)))
         self.Q = U[:, :r]  # (6, r) orthonormal basis of range(A)
         self._V = V = Vt[:r]  # (r, m) orthonormal rows
-        self.sigma = S[:r] * (self.f_max / 2.0)  # singular values of G
+        # Reduced coordinates are in units of f_max (the task is normalised at the entry,
+        # ``reduce``), so every decision is invariant to scaling the wrenches and f_max together.
+        self.sigma = S[:r] / 2.0  # singular values of G
         self._scale = float(self.sigma[0]) if r else 0.0
         self._dual = 1.0 / self.sigma**2  # the dual metric: (G G^T)^-1 is diagonal here
-        self.G = self.sigma[:, None] * V  # generators of the centred zonotope, Q^T A f_max / 2
+        self.G = self.sigma[:, None] * V  # generators of the centred zonotope, Q^T A / 2
         self.c = self.G.sum(axis=1)  # centre (hover at half thrust), reduced coordinates
+        self._axes = np.abs(self.G).sum(axis=1)  # supports of +-e_i: the bounding box
         self.P = V.T / self.sigma  # (m, r) pseudo-inverse of G
         self._step: np.ndarray | None = None  # Douglas-Rachford step, built on first use
         # cache of directions that separated earlier wrenches, with supports sum_j |d . g_j|
@@ -176,14 +222,37 @@ class Zonotope:
 
     # --- coordinates ----------------------------------------------------------------------
     def reduce(self, W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(r, off_range): centred reduced coordinates r = Q^T w - c (t, rank) and a bool (t,)
-        that is True where w has a component outside range(A)."""
-        b = W @ self.Q
-        if self.rank == 6:  # range(A) is all of R^6: nothing is off range
-            return b - self.c, np.zeros(len(W), dtype=bool)
-        E = W - b @ self.Q.T
-        resid = np.sqrt(np.einsum("ij,ij->i", E, E))
-        off = resid > RESIDUAL_TOL * (1.0 + np.sqrt(np.einsum("ij,ij->i", W, W)))
+        """(r, off_range): centred reduced coordinates r = Q^T w / f_max - c (t, rank), in units
+        of f_max, and a bool (t,) that is True where w has a component outside range(A).
+
+        This is the oracle's entry: wrenches are divided by f_max here, so every decision and
+        margin is the same for (s W, s f_max) at any scale s. A row whose w / f_max leaves the
+        float range counts as off range (infeasible, gamma = inf)."""
+        if self.f_max != 1.0:
+            with np.errstate(over="ignore"):
+                W = W / self.f_max
+        if not len(W) or -_BIG <= W.min() and W.max() <= _BIG:  # common: nothing can overflow
+            b = W @ self.Q
+            if self.rank == 6:  # range(A) is all of R^6: nothing is off range
+                return b - self.c, np.zeros(len(W), dtype=bool)
+            E = W - b @ self.Q.T
+            resid = np.sqrt(np.einsum("ij,ij->i", E, E))
+            off = resid > RESIDUAL_TOL * (1.0 + np.sqrt(np.einsum("ij,ij->i", W, W)))
+            return b - self.c, off
+        # huge rows: work on w / t (t = max |w_i|, so entries of order one), then scale back
+        t = np.abs(W).max(axis=1)
+        lost = ~np.isfinite(t)
+        scale = np.where((t > 1.0) & ~lost, t, 1.0)
+        Wh = np.where(lost[:, None], 0.0, W) / scale[:, None]
+        bh = Wh @ self.Q
+        with np.errstate(over="ignore"):
+            b = bh * scale[:, None]
+        lost |= ~np.isfinite(b).all(axis=1)
+        b[lost] = 0.0
+        if self.rank == 6:
+            return b - self.c, lost
+        resid = _row_norms(Wh - bh @ self.Q.T)
+        off = lost | (resid > RESIDUAL_TOL * (1.0 / scale + _row_norms(Wh)))
         return b - self.c, off
 
     def support(self, D: np.ndarray) -> np.ndarray:
@@ -216,12 +285,17 @@ class Zonotope:
             return np.zeros(len(R), dtype=bool)
         return ((R @ self._dirs.T) > self._supp * _REJECT).any(axis=1)
 
+    def reject_by_box(self, R: np.ndarray) -> np.ndarray:
+        """bool (t,): rows of R outside the zonotope's bounding box (the supports of the
+        coordinate axes) scaled by 1 + TOL + _GUARD. Exact, and free of overflow for any
+        finite R: every row it keeps is bounded by the box."""
+        return (np.abs(R) > self._axes * _REJECT).any(axis=1)
+
     def reject_by_support(self, R: np.ndarray) -> np.ndarray:
         """bool (t,): rows of R (centred reduced wrenches) that a cheap direction separates: the
         cached directions, the coordinate axes (the left singular vectors of A) and the wrench's
         own direction in the plain and the dual metric. Exact: True means gamma > 1 + TOL."""
-        axes = np.abs(self.G).sum(axis=1)  # supports of +-e_i
-        reject = (np.abs(R) > axes * _REJECT).any(axis=1) | self.reject_by_cache(R)
+        reject = self.reject_by_box(R) | self.reject_by_cache(R)
         rest = np.flatnonzero(~reject)
         if len(rest):
             Ru = R[rest]
@@ -245,6 +319,13 @@ class Zonotope:
 
     def decide_reduced(self, R: np.ndarray) -> np.ndarray:
         """Exact decisions for centred reduced wrenches R (t, rank) that lie in range(A)."""
+        outside = self.reject_by_box(R)
+        if outside.any():  # the rest is bounded by the box: no overflow below
+            accept = np.zeros(len(R), dtype=bool)
+            inside = np.flatnonzero(~outside)
+            if len(inside):
+                accept[inside] = self.decide_reduced(R[inside])
+            return accept
         X0 = R @ self.P.T  # minimum-norm allocations
         accept = np.abs(X0).max(axis=1) <= _ACCEPT
         if accept.all():
@@ -407,12 +488,13 @@ class Zonotope:
     def lambda_cvxpy(
         self, origins: np.ndarray, directions: np.ndarray, lo: float = 0.0, hi: float | None = None
     ) -> tuple[np.ndarray, list]:
-        """The paper's LP per row, in range(A) coordinates: ``max lambda s.t. B u = o + lambda
-        d_hat, lo <= u <= hi`` with B = Q^T A (hi defaults to f_max). Returns (lambda*, u*)."""
+        """The paper's LP per row, in range(A) coordinates and units of f_max: ``max lambda
+        s.t. B u = o + lambda d_hat, lo <= u <= hi`` with B = Q^T A (hi defaults to 1, i.e.
+        f_max). Returns (lambda*, u*), u* in units of f_max."""
         prob, par, lam, u = _cvxpy_problem(self.G.shape)
-        par["B"].value = self.G * (2.0 / self.f_max)
+        par["B"].value = self.G * 2.0
         par["lo"].value = float(lo)
-        par["hi"].value = self.f_max if hi is None else float(hi)
+        par["hi"].value = 1.0 if hi is None else float(hi)
         lams, us = np.empty(len(origins)), []
         for i, (o, d) in enumerate(zip(origins, directions)):
             par["o"].value = o
@@ -428,13 +510,13 @@ class Zonotope:
         """Exact gamma for each row of R by the paper's LP along the ray from the hover wrench:
         gamma = |r| / lambda* (re-evaluated from the allocation u*)."""
         out = np.zeros(len(R))
-        norms = np.linalg.norm(R, axis=1)
+        norms = _row_norms(R)
         live = np.flatnonzero(norms > 1e-14 * self._scale)
         if len(live):
             origins = np.broadcast_to(self.c, (len(live), self.rank))
             lams, us = self.lambda_cvxpy(origins, R[live])
             for k, i in enumerate(live):
-                x = us[k] * (2.0 / self.f_max) - 1.0  # G x = lambda r_hat
+                x = us[k] * 2.0 - 1.0  # G x = lambda r_hat
                 out[i] = self._gamma_of(x * (norms[i] / lams[k]), R[i]) if lams[k] > 0 else np.inf
         return out
 
@@ -780,12 +862,25 @@ _GAMMA = {
 
 
 def _gamma(z: Zonotope, W: np.ndarray, method: str) -> np.ndarray:
-    """gamma per wrench by ``method`` (inf off range(A))."""
+    """gamma per wrench by ``method`` (inf off range(A)).
+
+    gamma is positively homogeneous in the centred reduced wrench r, so a row far outside the
+    zonotope (beyond ``_FAR`` times its bounding box: huge torques, say) is solved as
+    ``t * gamma(r / t)`` with t = max |r_i|, and the LPs only ever see numbers of order one."""
     R, off = z.reduce(W)
     out = np.full(len(W), np.inf)
-    on = ~off
-    if on.any():
-        out[on] = _GAMMA[method](z, R[on])
+    on = np.flatnonzero(~off)
+    if len(on):
+        R = R[on]
+        t = np.abs(R).max(axis=1)
+        far = t > _FAR * max(float(z._axes.max()), 1e-300)
+        if far.any():
+            R = R.copy()
+            R[far] /= t[far, None]
+        g = _GAMMA[method](z, R)
+        with np.errstate(over="ignore"):
+            g[far] *= t[far]
+        out[on] = g
     return out
 
 
@@ -831,7 +926,8 @@ def margin(A: np.ndarray, W: np.ndarray, f_max: float = 1.0, method: str = "auto
     gamma is the smallest s such that some allocation u with A u = w keeps every rotor within
     s * f_max / 2 of half thrust. So the margin is 1 at hover-at-half-thrust, 0 on the boundary
     (and for every gamma in [1 - TOL, 1 + TOL], the tolerance band), negative outside W, and -inf
-    for wrenches off range(A) (rank-deficient structures).
+    for wrenches off range(A) (rank-deficient structures) or so large that 1 - gamma leaves the
+    float range. The same for (s W, s f_max) at any scale s.
     """
     W = check_wrenches(W)
     return _margin(Zonotope(A, f_max), W, _check_method(method))
@@ -854,20 +950,24 @@ def lambda_ratio(
         raise ValueError(f"lambda_ratio supports method 'scipy' or 'cvxpy', got {method!r}")
     W = check_wrenches(W)
     z = Zonotope(A, f_max)
-    f = z.f_max
-    lo, hi = -TOL * f / 2.0, f * (1.0 + TOL / 2.0)
-    norms = np.linalg.norm(W, axis=1)
+    lo, hi = -TOL / 2.0, 1.0 + TOL / 2.0  # in units of f_max, as z's reduced coordinates
+    norms = _row_norms(W)
     out = np.full(len(W), np.inf)
     _, off = z.reduce(W)
     out[off] = 0.0
     live = np.flatnonzero(~off & (norms > 0))
     if len(live):
-        D = W[live] @ z.Q  # directions in range(A) coordinates
+        # directions in range(A) coordinates, each scaled to max |d_i| = 1 (the ratio
+        # lambda / |d| does not depend on the length of d, and the LP sees numbers of order one)
+        D = W[live] @ z.Q
+        D /= np.abs(D).max(axis=1, keepdims=True)
         if method == "cvxpy":
             lams = z.lambda_cvxpy(np.zeros_like(D), D, lo, hi)[0]
         else:
-            lams = _lambda_highs(z.G * (2.0 / f), D, lo, hi)
-        out[live] = lams / np.linalg.norm(D, axis=1)
+            lams = _lambda_highs(z.G * 2.0, D, lo, hi)
+        # lambda* is in units of f_max: the ratio is lambda* / (|w| / f_max)
+        with np.errstate(over="ignore", divide="ignore"):
+            out[live] = lams / (_row_norms(W[live] @ z.Q) / z.f_max)
     ok = _decide(z, W, "auto")
     out[ok & (out < 1.0)] = 1.0
     out[~ok & (out >= 1.0)] = np.nextafter(1.0, 0.0)

@@ -14,6 +14,7 @@ of a mixed structure pairs each cell with its type.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Iterator
 from functools import cached_property
 
@@ -29,6 +30,10 @@ NEIGHBOURS: tuple[Cell, ...] = ((1, 0), (-1, 0), (0, 1), (0, -1))
 _DEFAULT_MODULE = TModule()
 
 
+MAX_COORDINATE = 1_000_000
+"""Largest |x| or |y| of a grid cell (cells are stored as 32-bit integers in the hot loops)."""
+
+
 def _as_cell(raw: object, index: int) -> Cell:
     try:
         x, y = raw  # type: ignore[misc]
@@ -40,8 +45,12 @@ def _as_cell(raw: object, index: int) -> Cell:
             v, (int, np.integer, float, np.floating)
         ):
             raise ValueError(f"cell #{index} {raw!r} must hold integers, got {type(v).__name__}")
-        if float(v) != int(v):
+        if isinstance(v, (float, np.floating)) and not (math.isfinite(v) and float(v).is_integer()):
             raise ValueError(f"cell #{index} {raw!r} must hold integers, got {v!r}")
+        if abs(int(v)) > MAX_COORDINATE:
+            raise ValueError(
+                f"cell #{index} {raw!r}: coordinates must lie within +-{MAX_COORDINATE:,}"
+            )
         out.append(int(v))
     return (out[0], out[1])
 
@@ -138,6 +147,8 @@ class Structure:
     ) -> None:
         if isinstance(cells, np.ndarray):
             cells = cells.tolist()
+        if isinstance(cells, (str, bytes)) or not isinstance(cells, Iterable):
+            raise ValueError(f"cells must be a list of (x, y) pairs, got {cells!r}")
         raw = list(cells)
         if not raw:
             raise ValueError("a structure needs at least one cell, got none")

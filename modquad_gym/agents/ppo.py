@@ -50,7 +50,8 @@ def make_env(tasks: Any = "mixed", n_max: int = 7, **env_kwargs: Any) -> gym.Env
 def load_model(path: str | Path | None = None):
     """(MaskablePPO model, its config dict or {}) from ``path`` (default :data:`DEFAULT_MODEL`).
 
-    Raises ValueError when the file does not exist. Sets torch to one thread."""
+    Raises ValueError when the file does not exist or is not a saved MaskablePPO model. Sets torch
+    to one thread."""
     torch = import_optional("torch")
     MaskablePPO = import_optional("sb3_contrib").MaskablePPO
 
@@ -59,7 +60,12 @@ def load_model(path: str | Path | None = None):
     if not path.is_file():
         hint = " (train it with `python train.py`)" if path == DEFAULT_MODEL else ""
         raise ValueError(f"PPO model file {path} does not exist{hint}")
-    model = MaskablePPO.load(path, device="cpu")
+    try:
+        model = MaskablePPO.load(path, device="cpu")
+    except (AssertionError, EOFError, KeyError, OSError, RuntimeError, ValueError) as exc:
+        # SB3 asserts on a zip without model data, zipfile/pickle/torch raise their own errors
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        raise ValueError(f"--model {path}: not a MaskablePPO model .zip ({reason})") from None
     config_path = path.with_name("config.json")
     config = json.loads(config_path.read_text()) if config_path.is_file() else {}
     return model, config

@@ -5,13 +5,36 @@ Every report states the machine it ran on and compares methods as ratios within 
 
 from __future__ import annotations
 
+import argparse
 import os
 import platform
 from pathlib import Path
 
-from ..outputs import write_csv, write_text
+from ..options import int_option, seed_option
+from ..outputs import OutputError, check_output_dir, write_csv, write_text
 
-__all__ = ["machine_description", "markdown_table", "write_csv", "write_text"]
+__all__ = [
+    "int_option",
+    "machine_description",
+    "markdown_table",
+    "parse_bench_args",
+    "seed_option",
+    "write_csv",
+    "write_text",
+]
+
+
+def parse_bench_args(parser: argparse.ArgumentParser, argv: list[str] | None):
+    """Parse ``argv``; when the benchmark has ``--out``, check that it is (or can become) a
+    writable folder before any work starts (an argparse error otherwise)."""
+    args = parser.parse_args(argv)
+    out = getattr(args, "out", None)
+    if out is not None:
+        try:
+            check_output_dir(out, force=True)
+        except OutputError as exc:
+            parser.error(str(exc))
+    return args
 
 
 def machine_description() -> str:

@@ -23,7 +23,14 @@ import numpy as np
 from ..envs import ModQuadAssemblyEnv
 from ..outputs import write_text
 from ..tasks import PaperTasks, PlantedTasks
-from . import machine_description, markdown_table, write_csv
+from . import (
+    int_option,
+    machine_description,
+    markdown_table,
+    parse_bench_args,
+    seed_option,
+    write_csv,
+)
 
 SIZES = (1, 8, 32, 80, 200)
 FAMILIES = {"paper": PaperTasks, "planted": PlantedTasks}
@@ -122,17 +129,21 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(
         prog="python -m modquad_gym.bench.env", description=__doc__.split("\n\n")[0]
     )
-    parser.add_argument("--steps", type=int, default=5000, help="timed steps per row")
-    parser.add_argument("--warmup", type=int, default=5000, help="untimed warm-up steps per row")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--n-max", type=int, default=7)
+    parser.add_argument("--steps", type=int_option(1), default=5000, help="timed steps per row")
     parser.add_argument(
-        "--sizes", type=int, nargs="+", default=list(SIZES), help="task sizes t to measure"
+        "--warmup", type=int_option(0), default=5000, help="untimed warm-up steps per row"
+    )
+    parser.add_argument("--seed", type=seed_option, default=0)
+    parser.add_argument("--n-max", type=int_option(2, 16), default=7)
+    parser.add_argument(
+        "--sizes",
+        type=int_option(1, 100_000),
+        nargs="+",
+        default=list(SIZES),
+        help="task sizes t to measure",
     )
     parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
-    args = parser.parse_args(argv)
-    if args.steps < 1 or args.warmup < 0:
-        parser.error("--steps must be >= 1 and --warmup >= 0")
+    args = parse_bench_args(parser, argv)
     pinning = pin_to_one_core()
     rows = []
     for family in FAMILIES:

@@ -17,17 +17,18 @@ import numpy as np
 from ..outputs import atomic_write
 from ..search.bounds import compute_level_bounds, module_digest
 from ..search.result import DEFAULT_MODULE
+from . import int_option, parse_bench_args
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="modquad bench level-bounds", description=__doc__)
-    parser.add_argument("--n-max", type=int, default=14, help="largest level (default 14)")
+    parser.add_argument(
+        "--n-max", type=int_option(1, 16), default=14, help="largest level (default 14)"
+    )
     parser.add_argument(
         "--out", type=Path, default=Path("modquad_gym/data/level_bounds"), help="folder"
     )
-    args = parser.parse_args(argv)
-    if not 1 <= args.n_max <= 16:
-        parser.error(f"--n-max must be in 1..16, got {args.n_max}")
+    args = parse_bench_args(parser, argv)
     t0 = time.perf_counter()
     arrays = {f"n{n}": compute_level_bounds(DEFAULT_MODULE, n) for n in range(1, args.n_max + 1)}
     path = args.out / f"{module_digest(DEFAULT_MODULE)}.npz"

@@ -35,7 +35,14 @@ import numpy as np
 from ..oracle import BAND, TOL, Zonotope, _decide, _margin
 from ..outputs import write_text
 from ..structure import Structure, free_neighbours
-from . import machine_description, markdown_table, write_csv
+from . import (
+    int_option,
+    machine_description,
+    markdown_table,
+    parse_bench_args,
+    seed_option,
+    write_csv,
+)
 
 # per method: how many of the structures to time (the slow references get fewer)
 _SHARE = {"auto": 1.0, "daqp": 1.0, "hrep": 0.25, "scipy": 0.15, "cvxpy": 0.15}
@@ -252,12 +259,14 @@ def main(argv: list[str] | None = None) -> None:
         "7- and 10-module structures, check the goals of issue 3; write "
         "results/oracle_benchmark.{md,csv}.",
     )
-    parser.add_argument("--structures", type=int, default=20, help="structures per size")
-    parser.add_argument("--wrenches", type=int, default=80, help="wrenches per structure")
-    parser.add_argument("--seed", type=int, default=0, help="random seed")
-    parser.add_argument("--repeats", type=int, default=3, help="passes per timing (best kept)")
+    parser.add_argument("--structures", type=int_option(1), default=20, help="structures per size")
+    parser.add_argument("--wrenches", type=int_option(1), default=80, help="wrenches per structure")
+    parser.add_argument("--seed", type=seed_option, default=0, help="random seed")
+    parser.add_argument(
+        "--repeats", type=int_option(1, 100), default=3, help="passes per timing (best kept)"
+    )
     parser.add_argument("--out", type=Path, default=Path("results"), help="output folder")
-    args = parser.parse_args(argv)
+    args = parse_bench_args(parser, argv)
     rows, goals = run(args.structures, args.wrenches, args.seed, args.out, args.repeats)
     print(markdown_table(goals))
     print()

@@ -20,7 +20,7 @@ from ..outputs import save_figure, write_text
 from ..polyominoes import A001168
 from ..search import centrosymmetric_search, exhaustive_search
 from ..tasks import PaperTasks
-from . import machine_description, markdown_table, write_csv
+from . import int_option, machine_description, markdown_table, parse_bench_args, write_csv
 
 
 def paper_style_evaluated(result) -> int:
@@ -164,9 +164,11 @@ def main(argv: list[str] | None = None) -> None:
         description="Exhaustive vs centrosymmetric search on paper-like random tasks; writes "
         "results/paper_reproduction.md with the structures and rotor-input figures.",
     )
-    parser.add_argument("--seeds", type=int, default=10, help="number of random tasks")
+    parser.add_argument(
+        "--seeds", type=int_option(1, 10_000), default=10, help="number of random tasks"
+    )
     parser.add_argument("--out", type=Path, default=Path("results"))
-    args = parser.parse_args(argv)
+    args = parse_bench_args(parser, argv)
     print(markdown_table(run(args.seeds, args.out)))
 
 

@@ -32,7 +32,14 @@ from ..outputs import write_text
 from ..polyominoes import PolyominoStream
 from ..search import exhaustive_search, force_lower_bound
 from ..structure import Structure, free_neighbours, normalise
-from . import machine_description, markdown_table, write_csv
+from . import (
+    int_option,
+    machine_description,
+    markdown_table,
+    parse_bench_args,
+    seed_option,
+    write_csv,
+)
 
 
 def random_structure(n: int, rng: np.random.Generator) -> Structure:
@@ -254,16 +261,16 @@ def main(argv: list[str] | None = None) -> None:
         description="Time the certified exhaustive search against a plain LP reference; "
         "write results/search_benchmark.{md,csv}.",
     )
-    parser.add_argument("--tasks", type=int, default=4, help="tasks per workload")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--tasks", type=int_option(1, 1000), default=4, help="tasks per workload")
+    parser.add_argument("--seed", type=seed_option, default=0)
     parser.add_argument(
         "--reference-structures",
-        type=int,
+        type=int_option(1),
         default=300,
         help="structures the slow reference checks per task",
     )
     parser.add_argument("--out", type=Path, default=Path("results"))
-    args = parser.parse_args(argv)
+    args = parse_bench_args(parser, argv)
     rows = run(args.tasks, args.seed, args.reference_structures, args.out)
     print(markdown_table(rows))
 

@@ -201,7 +201,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     * ``render_mode``: None, ``"rgb_array"`` (the structure picture, (H, W, 3) uint8),
       ``"human"`` (that picture in a pygame window; the ``viz`` extra) or ``"ansi"`` (a text
       grid). ``gymnasium.wrappers.RecordVideo`` works on ``"rgb_array"`` (needs moviepy).
-    * ``n_directions``: K, the support directions of the features (default 48, >= 12).
+    * ``n_directions``: K, the support directions of the features (default 48, 12..4096).
     * ``oracle_method``: the oracle's method (default ``"auto"``, exact and certified).
     * ``render_size``: (height, width) of ``rgb_array`` frames (default (256, 256)).
     * ``lookahead``: add the ``"candidates"`` observation (default False: the observation is

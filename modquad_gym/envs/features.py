@@ -72,8 +72,11 @@ _T_REF = 1000
 def unit_directions(k: int = DEFAULT_N_DIRECTIONS) -> np.ndarray:
     """(k, 6) unit vectors: the 12 signed axes, then ``k - 12`` by farthest-point sampling from
     a fixed seeded cloud. Deterministic: the same k always gives the same directions."""
-    if not isinstance(k, (int, np.integer)) or isinstance(k, bool) or k < 12:
-        raise ValueError(f"n_directions must be an integer >= 12 (the signed axes), got {k!r}")
+    if not isinstance(k, (int, np.integer)) or isinstance(k, bool) or not 12 <= k <= _CANDIDATES:
+        raise ValueError(
+            f"n_directions must be an integer in 12..{_CANDIDATES} (the signed axes, then "
+            f"directions sampled from {_CANDIDATES} candidates), got {k!r}"
+        )
     eye = np.eye(6)
     chosen = [*eye, *(-eye)]
     rng = np.random.default_rng(_DIRECTION_SEED)

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..module import ModuleType
-from ..oracle import feasible
+from ..oracle import check_task_scale, feasible
 from ..structure import Key, Structure
 from ..tasks import check_kind, rotor_wrenches
 from ..validation import check_f_max, check_int, check_wrenches
@@ -127,6 +127,7 @@ class SearchRun:
         self.t0 = time.perf_counter()
         self.method = method
         self.W, self.f_max = task_arrays(task, f_max)
+        check_task_scale(self.W, self.f_max)  # absurd values: one clear error, no overflow later
         self.kind = check_kind(kind if kind is not None else getattr(task, "kind", "total"))
         self.n_max = check_int(n_max, "n_max", low=1)
         self.palette = check_palette(module, modules)

@@ -1,0 +1,57 @@
+"""Command-line option types shared by ``modquad`` and the benchmarks: a bad number is an
+argparse error (exit 2, naming the option) while the command line is parsed, before any work.
+
+Numbers are strict: Python's digit separators (``1_0``), hexadecimal and non-finite values are
+not numbers here, as in task files.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+
+__all__ = ["MAX_COUNT", "MAX_SEED", "int_option", "real_option", "seed_option"]
+
+MAX_COUNT = 1_000_000
+"""Largest count (tasks, seeds, structures, steps, ...) an option accepts by default."""
+
+MAX_SEED = 2**63 - 1
+"""Largest random seed (NumPy takes any non-negative integer; this keeps seeds printable)."""
+
+_INT = re.compile(r"[+-]?\d+")
+_REAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+
+
+def int_option(low: int, high: int = MAX_COUNT):
+    """An argparse ``type`` for an integer within [low, high]."""
+
+    def parse(text: str) -> int:
+        if not _INT.fullmatch(text.strip()):
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}")
+        value = int(text)
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be in {low}..{high}, got {value}")
+        return value
+
+    parse.__name__ = "integer"  # argparse names the type in its messages
+    return parse
+
+
+def seed_option(text: str) -> int:
+    """An argparse ``type`` for a random seed: an integer in 0..2**63-1."""
+    return int_option(0, MAX_SEED)(text)
+
+
+def real_option(text: str) -> float:
+    """An argparse ``type`` for a finite real number (range checks stay with the command, which
+    names the bounds)."""
+    if not _REAL.fullmatch(text.strip()):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    value = float(text)
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+real_option.__name__ = "number"
