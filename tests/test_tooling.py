@@ -60,9 +60,9 @@ def test_human_render_opens_a_window(monkeypatch):
     env = gym.make("ModQuadAssembly-v0", tasks="screwdriver", render_mode="human")
     env.reset(seed=0)
     assert env.render() is None
-    assert env.unwrapped._window is not None
+    assert env.unwrapped.viewer.window is not None
     env.close()
-    assert env.unwrapped._window is None
+    assert env.unwrapped.viewer.window is None
 
 
 def test_record_video_writes_a_file(tmp_path):

@@ -33,10 +33,10 @@ TARGET = 5000.0
 def run_steps(env: ModQuadAssemblyEnv, n: int, rng: np.random.Generator) -> tuple[float, dict]:
     """Play ``n`` steps with random valid actions (reset on episode end); (seconds, counters)."""
     episodes = invalid = 0
-    calls0 = sum(b.tests for b in env._backends.values())
+    calls0 = sum(ev.tests for ev in env.evaluators.values())
     start = time.perf_counter()
     for _ in range(n):
-        valid = np.flatnonzero(env._mask)
+        valid = np.flatnonzero(env.state.mask)
         a = int(valid[rng.integers(len(valid))]) if len(valid) else 0
         _, _, term, trunc, info = env.step(a)
         invalid += info["invalid_action"]
@@ -44,7 +44,7 @@ def run_steps(env: ModQuadAssemblyEnv, n: int, rng: np.random.Generator) -> tupl
             env.reset()
             episodes += 1
     seconds = time.perf_counter() - start
-    calls = sum(b.tests for b in env._backends.values()) - calls0
+    calls = sum(ev.tests for ev in env.evaluators.values()) - calls0
     return seconds, {"episodes": episodes, "oracle_calls": calls}
 
 
