@@ -19,15 +19,15 @@ from gymnasium.error import ResetNeeded
 from ...module import ModuleType
 from ...oracle import check_f_max
 from ...structure import Cell, Structure, normalise
-from ...tasks import TaskRequirement, make_generator
+from ...tasks import make_generator
 from ...validation import check_int
 from .evaluator import StructureEvaluator, TaskMemos
 from .features import CANDIDATE_FEATURES, DEFAULT_N_DIRECTIONS, observation_blocks
+from .inputs import check_arguments, draw_task, parse_action
 from .reward import RewardFn, WeightedReward
 from .types import AssemblyState
 from .viewer import RENDER_FPS, AssemblyViewer
 
-INVALID_ACTION_MODES = ("penalise", "terminate")
 N_MAX_LIMIT = 16
 """Largest ``n_max`` (the grid has (2 n_max - 1)^2 actions; the searches stop at 16 too)."""
 MAX_STEPS_LIMIT = 4 * N_MAX_LIMIT
@@ -197,7 +197,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     ) -> None:
         if modules is not None:  # only MixedAssemblyEnv takes a palette
             raise ValueError("modules: a palette needs MixedAssemblyEnv (what gym.make builds)")
-        self._check_arguments(module, invalid_action, render_mode, lookahead)
+        check_arguments(module, invalid_action, render_mode, lookahead, self.metadata)
         self.n_max = check_int(n_max, "n_max", 2, N_MAX_LIMIT)
         if max_steps is None:
             max_steps = 4 * self.n_max
@@ -240,23 +240,6 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self._state: AssemblyState | None = None
         self.evaluator: StructureEvaluator | None = None
 
-    def _check_arguments(
-        self, module: Any, invalid_action: str, render_mode: str | None, lookahead: Any
-    ) -> None:
-        if module is not None and not isinstance(module, ModuleType):
-            raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
-        if invalid_action not in INVALID_ACTION_MODES:
-            raise ValueError(
-                f"invalid_action must be one of {INVALID_ACTION_MODES}, got {invalid_action!r}"
-            )
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be None or one of {self.metadata['render_modes']}, "
-                f"got {render_mode!r}"
-            )
-        if not isinstance(lookahead, (bool, np.bool_)):
-            raise ValueError(f"lookahead must be a bool, got {lookahead!r}")
-
     # --- hooks of the mixed env -----------------------------------------------------------
     def _n_types(self) -> int:
         return 1
@@ -288,26 +271,6 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         """The grid cell (x, y) of ``action``."""
         y, x = divmod(int(action) % self._n_cells, self.side)
         return (x - self.radius, y - self.radius)
-
-    def _parse_action(self, action: Any) -> int | None:
-        """The integer action of the action space, or None for anything else (an invalid
-        action; see Action Space): never raises."""
-        n = self._n_actions
-        if type(action) is int or isinstance(action, np.integer):  # the fast, common case
-            return int(action) if 0 <= action < n else None
-        if isinstance(action, (bool, np.bool_)):
-            return None
-        try:
-            arr = np.asarray(action)
-            if arr.size != 1 or arr.dtype.kind not in "iuf":
-                return None
-            value = arr.reshape(-1)[0]
-            if arr.dtype.kind == "f" and not (np.isfinite(value) and value == np.floor(value)):
-                return None
-            a = int(value)
-        except Exception:  # whatever it is, it is not an action
-            return None
-        return a if 0 <= a < n else None
 
     # --- state ----------------------------------------------------------------------------
     def _evaluator(self, f_max: float) -> StructureEvaluator:
@@ -436,7 +399,9 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         unknown = sorted(set(options) - {"task"})
         if unknown:
             raise ValueError(f"unknown reset options {unknown}; known: ['task']")
-        task = self._draw_task(options.get("task"))
+        task = draw_task(
+            self.generator, self.np_random, options.get("task"), self.decides_self_weight
+        )
         f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
         self.evaluator = self._evaluator(f_max)
         self._memo, self._cand_memo = self._memos.of(task, f_max)
@@ -454,32 +419,11 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self._state = state
         return self._observation(), self._info()
 
-    def _draw_task(self, given: Any) -> TaskRequirement:
-        """The episode's task: ``given`` (reset option) or one drawn from the generator."""
-        if given is not None:
-            task = as_task(given, "options['task']")
-        else:
-            task = self.generator(self.np_random)
-            if not isinstance(task, TaskRequirement):
-                name = str(getattr(self.generator, "name", type(self.generator).__name__))
-                task = as_task(task, f"task generator {name!r} returned a bad task", name)
-        W = np.asarray(task.wrenches, dtype=float)
-        if W.ndim != 2 or W.shape[1] != 6 or len(W) == 0:
-            raise ValueError(
-                f"task {task.name!r} wrenches must have shape (t >= 1, 6), got {W.shape}"
-            )
-        if getattr(task, "kind", "total") != "total" and not self.decides_self_weight:
-            raise ValueError(
-                f"task {task.name!r} is of kind {task.kind!r}: make the env with modules=[...] "
-                "(e.g. modules=[module]), which decides self-weight"
-            )
-        return task
-
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict]:
         state = self._require("step()")
         if state.done:
             raise ResetNeeded("the episode is over; call reset() before step()")
-        a = self._parse_action(action)
+        a = parse_action(action, self._n_actions)
         valid = state.success or (a is not None and bool(state.mask[a]))
         if state.success:  # solved at reset: this step (any action) only ends the episode
             nxt = state.but(steps=state.steps + 1, terminated=True)
@@ -494,8 +438,13 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         if self.lookahead and (len(nxt.cells) > len(state.cells) or nxt.terminated):
             nxt.candidates = self._candidates(nxt)
         self._state = nxt
-        reward = self.reward(state, a, nxt, valid)
-        info = self._info(not valid, self._terms(state, a, nxt, valid, reward))
+        if type(self.reward) is WeightedReward:  # the default: its value is its terms' sum
+            terms = self.reward.terms(state, a, nxt, valid)
+            reward = float(sum(terms.values()))
+        else:
+            reward = self.reward(state, a, nxt, valid)
+            terms = self._terms(state, a, nxt, valid, reward)
+        info = self._info(not valid, terms)
         return self._observation(), reward, nxt.terminated, nxt.truncated, info
 
     def render(self) -> np.ndarray | str | None:
@@ -516,23 +465,3 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     def close(self) -> None:
         self.viewer.close()
         super().close()
-
-
-def as_task(task: Any, what: str, name: str = "options-task") -> TaskRequirement:
-    """A TaskRequirement from a TaskRequirement or a (t, 6) wrench array (named ``name``); for
-    anything else a ValueError whose message starts with ``what``."""
-    if isinstance(task, TaskRequirement):
-        return task
-    try:
-        arr = np.asarray(task, dtype=float)
-    except (TypeError, ValueError):
-        arr = None
-    if arr is None or arr.ndim != 2 or arr.shape[1] != 6:
-        got = type(task).__name__ if arr is None or arr.ndim == 0 else f"shape {arr.shape}"
-        raise ValueError(
-            f"{what}: expected a TaskRequirement or a (t, 6) wrench array, got {got}"
-        ) from None
-    try:
-        return TaskRequirement(arr, name=name)
-    except ValueError as exc:
-        raise ValueError(f"{what}: not a valid task: {exc}") from None

@@ -7,7 +7,6 @@ after a step side by side.
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -90,6 +89,6 @@ class AssemblyState:
     def but(self, **changes: Any) -> AssemblyState:
         """A copy with ``changes`` (arrays not named are shared: never edit them in place).
         Same as ``dataclasses.replace`` without re-running ``__init__`` (the hot path)."""
-        new = copy.copy(self)
-        new.__dict__.update(changes)
+        new = object.__new__(AssemblyState)
+        new.__dict__ = {**self.__dict__, **changes}
         return new
