@@ -50,14 +50,18 @@ def draw_task(generator: TaskGenerator, seed: int, name: str | None = None) -> T
     """The task ``generator`` draws from ``default_rng(seed)``, with ``meta["seed"]`` set."""
     task = generator(np.random.default_rng(seed))
     meta = {**task.meta, "seed": int(seed)}
-    return TaskRequirement(task.wrenches, name=name or task.name, f_max=task.f_max, meta=meta)
+    return TaskRequirement(
+        task.wrenches, name=name or task.name, f_max=task.f_max, kind=task.kind, meta=meta
+    )
 
 
 def with_optimum(task: TaskRequirement, n_max: int = 7) -> TaskRequirement:
     """``task`` with ``meta["optimum"]`` (certified, exhaustive search up to ``n_max``)."""
     result = exhaustive_search(task, n_max=n_max)
     meta = {**task.meta, "optimum": result.n_modules, "optimum_n_max": n_max}
-    return TaskRequirement(task.wrenches, name=task.name, f_max=task.f_max, meta=meta)
+    return TaskRequirement(
+        task.wrenches, name=task.name, f_max=task.f_max, kind=task.kind, meta=meta
+    )
 
 
 def build_suite(kind: str, n: int, n_max: int = 7) -> list[TaskRequirement]:

@@ -10,6 +10,8 @@ package first) registers:
   random structure, so a solution within n_max is known to exist).
 * ``ModQuadAssemblyMixed-v0``: the same with ``modules="t45,t45m,flat"``: three module types,
   (cell, type) actions (:class:`~modquad_gym.envs.assembly.mixed.MixedAssemblyEnv`).
+* ``ModQuadAssemblyLarge-v0``: the same with ``n_max=12`` and ``tasks="planted-large"`` (tasks
+  planted in 6-12 modules): the large benchmark tier (:mod:`modquad_gym.agents.tiers`).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ ENV_IDS: dict[str, dict] = {
     "ModQuadAssemblyPaper-v0": {"tasks": "paper"},
     "ModQuadAssemblyPlanted-v0": {"tasks": "planted"},
     "ModQuadAssemblyMixed-v0": {"modules": "t45,t45m,flat"},
+    "ModQuadAssemblyLarge-v0": {"tasks": "planted-large", "n_max": 12},
 }
 
 
