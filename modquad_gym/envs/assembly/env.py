@@ -235,8 +235,10 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         for dx, dy in STEPS:
             cell_mask[(dy + self.radius) * G + dx + self.radius] = 1
         self._initial_mask = np.tile(cell_mask, self.n_types)
-        palette = getattr(self, "palette", None)
-        self.viewer = viewer or AssemblyViewer(self.radius, self.n_max, self.render_size, palette)
+        if viewer is None:
+            palette = getattr(self, "palette", None)  # the mixed env letters its types
+            viewer = AssemblyViewer(self.radius, self.n_max, self.render_size, palette)
+        self.viewer = viewer
         self._state: AssemblyState | None = None
         self.evaluator: StructureEvaluator | None = None
 
