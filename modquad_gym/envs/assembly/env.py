@@ -230,11 +230,17 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self._blocks = observation_blocks(G * G, self.n_types, probe, self.lookahead)
         self.action_space = spaces.Discrete(self._n_actions)
         self.observation_space = spaces.Dict({b.name: b.space() for b in self._blocks})
+        self._readers = [(b.name, b.read) for b in self._blocks]
         self._centre = self._n_cells // 2
-        cell_mask = np.zeros(G * G, dtype=np.int8)
-        for dx, dy in STEPS:
-            cell_mask[(dy + self.radius) * G + dx + self.radius] = 1
-        self._initial_mask = np.tile(cell_mask, self.n_types)
+        self._cells_of = [self.cell_of(c) for c in range(G * G)]  # cell index -> (x, y)
+        self._neighbours = [  # cell index -> indices of its grid neighbours
+            [self.action_of((x + dx, y + dy)) for dx, dy in STEPS
+             if max(abs(x + dx), abs(y + dy)) <= self.radius]
+            for x, y in self._cells_of
+        ]  # fmt: skip
+        self._initial_mask = np.zeros(G * G * self.n_types, dtype=np.int8)
+        for b in self._neighbours[self._centre]:
+            self._initial_mask[b :: G * G] = 1
         if viewer is None:
             palette = getattr(self, "palette", None)  # the mixed env letters its types
             viewer = AssemblyViewer(self.radius, self.n_max, self.render_size, palette)
@@ -338,20 +344,16 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
 
     def _dock(self, state: AssemblyState, a: int) -> AssemblyState:
         """The state after docking action ``a`` (valid) to ``state``."""
-        G2, r, G = self._n_cells, self.radius, self.side
+        G2 = self._n_cells
         c, k = a % G2, a // G2
-        x, y = self.cell_of(c)
-        cells, types = (*state.cells, (x, y)), (*state.types, k) if state.types else ()
+        cells, types = (*state.cells, self._cells_of[c]), (*state.types, k) if state.types else ()
         occ = state.occupancy.copy()
         occ[c] = 1.0
         mask = state.mask.copy()
         mask[c::G2] = 0
-        for dx, dy in STEPS:
-            nx, ny = x + dx, y + dy
-            if max(abs(nx), abs(ny)) <= r:
-                b = (ny + r) * G + nx + r
-                if not occ[b]:
-                    mask[b::G2] = 1
+        for b in self._neighbours[c]:
+            if not occ[b]:
+                mask[b::G2] = 1
         onehot = state.types_onehot
         if onehot is not None:
             onehot = onehot.copy()
@@ -365,7 +367,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
 
     def _observation(self) -> dict[str, np.ndarray]:
         s = self._state
-        return {b.name: b.read(s).copy() for b in self._blocks}
+        return {name: read(s).copy() for name, read in self._readers}
 
     def _info(self, invalid: bool = False, terms: dict[str, float] | None = None) -> dict:
         s = self._state
