@@ -17,9 +17,9 @@ import os
 import sys
 from pathlib import Path
 
+from .agents.solvers import LEARNED, METHOD_HELP, METHODS
 from .extras import EXTRA_OF, missing_extra_message
 
-METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo")
 SUITES_DIR = Path(__file__).resolve().parent / "data" / "suites"
 
 
@@ -73,12 +73,12 @@ def _make_solver(method, n_max, model, seed, modules_text, workers, address, pro
     """The solver for ``--method`` (PPO lives in the agents package, searches here); cached, so
     a worker process that solves many tasks loads a PPO model once."""
     modules = _palette_of(modules_text)
-    if method == "ppo":
+    if method in LEARNED:
         if modules is not None:
             raise ValueError("--modules: the PPO agent builds one-type structures only")
         from modquad_gym.agents.solvers import make_solver
 
-        return make_solver("ppo", n_max=n_max, model=model, seed=seed).solve
+        return make_solver(method, n_max=n_max, model=model, seed=seed).solve
     from .search import SEARCHES
 
     fn = SEARCHES[method]
@@ -457,8 +457,8 @@ def build_parser() -> argparse.ArgumentParser:
             "--method",
             choices=METHODS,
             default=default,
-            help="exhaustive: certified minimum; centrosymmetric: paper Algorithm 2; "
-            "greedy/random: baselines; ppo: the learned agent (default %(default)s)",
+            help="; ".join(f"{name}: {text}" for name, text in METHOD_HELP.items())
+            + " (default %(default)s)",
         )
         p.add_argument(
             "--n-max",
@@ -470,8 +470,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument(
             "--model",
             default=None,
-            help="PPO model .zip for --method ppo (default: the model shipped in "
-            "results/ppo_default/model.zip)",
+            help="PPO model .zip for --method ppo/ppo-guided (default: the model shipped with "
+            "the package, modquad_gym/data/models/ppo_default/model.zip)",
         )
         p.add_argument(
             "--seed",

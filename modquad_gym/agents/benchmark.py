@@ -31,12 +31,13 @@ import numpy as np
 from modquad_gym.module import palette
 from modquad_gym.oracle import feasible
 from modquad_gym.outputs import check_output_dir, save_figure, write_csv, write_text
+from modquad_gym.search import SEARCHES
 from modquad_gym.tasks import TaskRequirement, load_suite, rotor_wrenches
 
 from .solvers import DEFAULT_MODEL, Solver, load_solver, make_solver
 from .tiers import TIERS, get_tier
 
-SEARCH_METHODS = ("exhaustive", "centrosymmetric", "greedy", "random")
+SEARCH_METHODS = tuple(SEARCHES)
 DEFAULT_METHODS = (*SEARCH_METHODS, "ppo", "ppo-k2", "ppo-k8")
 GOALS = {"success": 0.98, "optimal": 0.90}
 
@@ -94,9 +95,7 @@ def parse_method(method: str, n_max: int, model: Path | None, seed: int, modules
     if method == "ppo":
         return make_solver("ppo", n_max=n_max, model=model, seed=seed)
     if method == "ppo-guided":
-        from .guided import GuidedSolver
-
-        return GuidedSolver(model=model, n_max=n_max)
+        return make_solver(method, n_max=n_max, model=model)
     return make_solver(method, n_max=n_max, seed=seed, modules=modules)
 
 

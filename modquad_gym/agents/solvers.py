@@ -17,8 +17,20 @@ from typing import Any, Protocol, runtime_checkable
 from modquad_gym.search import SEARCHES, SearchResult
 from modquad_gym.structure import Structure
 
-METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo")
+METHOD_HELP = {
+    "exhaustive": "the certified minimum (exhaustive search)",
+    "centrosymmetric": "the paper's Algorithm 2",
+    "greedy": "baseline: the child satisfying most wrenches",
+    "random": "baseline: random dockings",
+    "ppo": "the learned agent (the shipped model unless --model)",
+    "ppo-guided": "best-first search ordered by the learned policy, certified at the lower bound",
+}
+"""The one table of solver names (the CLI's ``--method`` choices and help, the benchmark's
+default methods): every search of :data:`modquad_gym.search.SEARCHES`, then the learned ones."""
+assert list(METHOD_HELP)[: len(SEARCHES)] == list(SEARCHES)
+METHODS = tuple(METHOD_HELP)
 """Names understood by :func:`make_solver`."""
+LEARNED = tuple(m for m in METHODS if m not in SEARCHES)
 
 DEFAULT_MODEL = (
     Path(__file__).resolve().parents[1] / "data" / "models" / "ppo_default" / "model.zip"
@@ -73,14 +85,18 @@ def make_solver(
     """
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
-    if method == "ppo":
+    if method in LEARNED:
         if modules:
             raise ValueError("the PPO agent handles one module type; --modules needs a search")
+        if method == "ppo-guided":
+            from .guided import GuidedSolver
+
+            return GuidedSolver(model=model, n_max=n_max)
         from .ppo import PPOSolver
 
         return PPOSolver(model=model, n_max=n_max, seed=seed, samples=samples)
     if model is not None:
-        raise ValueError(f"--model applies to method 'ppo' only, not {method!r}")
+        raise ValueError(f"--model applies to {', '.join(LEARNED)} only, not {method!r}")
     return SearchSolver(method, n_max=n_max, seed=seed, modules=modules)
 
 
