@@ -22,7 +22,13 @@ from ...structure import Cell, Structure, normalise
 from ...tasks import make_generator
 from ...validation import check_int
 from .evaluator import StructureEvaluator, TaskMemos
-from .features import CANDIDATE_FEATURES, DEFAULT_N_DIRECTIONS, observation_blocks
+from .features import (
+    CANDIDATE_FEATURES,
+    DEFAULT_N_DIRECTIONS,
+    AssemblyFeatures,
+    ObservationBlock,
+    observation_blocks,
+)
 from .inputs import check_arguments, draw_task, parse_action
 from .reward import RewardFn, WeightedReward
 from .types import AssemblyState
@@ -227,7 +233,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self.evaluators: dict[float, StructureEvaluator] = {}  # per f_max, across episodes
         self._memos = TaskMemos()
         probe = self._evaluator(1.0 if self.f_max is None else self.f_max).features
-        self._blocks = observation_blocks(G * G, self.n_types, probe, self.lookahead)
+        self._blocks = self.make_blocks(probe)
         self.action_space = spaces.Discrete(self._n_actions)
         self.observation_space = spaces.Dict({b.name: b.space() for b in self._blocks})
         self._readers = [(b.name, b.read) for b in self._blocks]
@@ -249,6 +255,11 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self.evaluator: StructureEvaluator | None = None
 
     # --- hooks of the mixed env -----------------------------------------------------------
+    def make_blocks(self, features: AssemblyFeatures) -> list[ObservationBlock]:
+        """The observation's blocks, in order; override to add a feature (append an
+        :class:`~.features.ObservationBlock`): the spaces follow from the blocks."""
+        return observation_blocks(self._n_cells, self.n_types, features, self.lookahead)
+
     def _n_types(self) -> int:
         return 1
 
