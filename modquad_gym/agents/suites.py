@@ -77,6 +77,12 @@ def build_suite(kind: str, n: int, n_max: int = 7) -> list[TaskRequirement]:
     ]
 
 
+def optimum_counts(tasks: Sequence[TaskRequirement]) -> dict:
+    """How many tasks have each certified optimum (None: no structure up to n_max), sorted."""
+    optima = [t.meta.get("optimum") for t in tasks]
+    return {k: optima.count(k) for k in sorted(set(optima), key=lambda v: (v is None, v or 0))}
+
+
 class CyclingTasks:
     """A task generator that returns the given tasks in order, round and round (ignores the
     rng): an evaluation over ``len(tasks)`` episodes sees every task exactly once."""
@@ -148,9 +154,7 @@ def main(argv: list[str] | None = None) -> int:
         suite = build_suite(kind, n, n_max=args.n_max)
         check_disjoint(suite)
         path = save_suite(suite, args.out / f"heldout_{kind}.json")
-        optima = [t.meta["optimum"] for t in suite]
-        counts = {k: optima.count(k) for k in sorted(set(optima), key=lambda v: (v is None, v))}
-        print(f"{path}: {n} tasks, optimum counts {counts}")
+        print(f"{path}: {n} tasks, optimum counts {optimum_counts(suite)}")
     return 0
 
 

@@ -23,7 +23,7 @@ from modquad_gym.module import palette
 from modquad_gym.search import exhaustive_search
 from modquad_gym.tasks import TaskRequirement, load_suite, make_generator, save_suite
 
-from .suites import SUITES_DIR, draw_task
+from .suites import SUITES_DIR, draw_task, optimum_counts
 
 
 @dataclass(frozen=True)
@@ -98,9 +98,7 @@ def main(argv: list[str] | None = None) -> int:
     tier = TIERS[args.tier]
     tasks = build_tier_suite(tier, args.n)
     path = save_suite(tasks, SUITES_DIR / f"{tier.suites[0]}.json")
-    optima = [t.meta["optimum"] for t in tasks]
-    counts = {k: optima.count(k) for k in sorted(set(optima), key=lambda v: (v is None, v))}
-    print(f"{path}: {len(tasks)} tasks, optimum counts {counts}")
+    print(f"{path}: {len(tasks)} tasks, optimum counts {optimum_counts(tasks)}")
     return 0
 
 
