@@ -28,6 +28,12 @@ Evaluation on 40 validation tasks (seeds disjoint from the held-out suites, see
 the model with the best validation return is kept as ``model.zip``; its ``config.json`` holds
 the exact environment keywords, hyperparameters, seed, timesteps, wall time and versions.
 ``--bc-epochs 0`` trains with PPO alone (from scratch), as in the first version of the recipe.
+
+``python train.py --seeds 0 1 2`` trains one run per seed as parallel Ray tasks
+(:mod:`modquad_gym.distributed`: an embedded Ray on the local cores, or the cluster of
+``RAY_ADDRESS``), each exactly ``python train.py --seed S`` with the other options given, into
+its own folder ``<out>/seed-S`` (default ``<out>``: ``runs/seeds``) with its report in
+``<out>/seed-S/report``; each run collects its demonstrations in its own process.
 """
 
 from __future__ import annotations
@@ -147,6 +153,22 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         default=None,
         help="continue PPO from this model .zip (no behaviour cloning)",
     )
+    p.add_argument(
+        "--seeds",
+        type=int,
+        nargs="+",
+        default=None,
+        metavar="SEED",
+        help="train one run per seed, as parallel Ray tasks, each into <out>/seed-SEED "
+        "(default <out>: runs/seeds)",
+    )
+    p.add_argument(
+        "--seed-workers",
+        type=int,
+        default=None,
+        help="with --seeds: runs at a time (default: one per seed, at most the local cores; "
+        "every CPU of the cluster with RAY_ADDRESS)",
+    )
     p.add_argument("--quick", action="store_true", help="a short smoke run (a few thousand steps)")
     p.add_argument("--no-report", action="store_true", help="skip the benchmark report")
     p.add_argument(
@@ -194,6 +216,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         args.timesteps = QUICK_TIMESTEPS if args.quick else DEFAULT_TIMESTEPS
     if args.demo_tasks is None:
         args.demo_tasks = QUICK_DEMO_TASKS if args.quick else IMITATION["demo_tasks"]
+    if args.out is None and args.seeds:
+        args.out = ROOT / "runs" / "seeds"
     if args.out is None:
         args.out = ROOT / "runs" / ("quick" if args.quick else f"ppo-seed{args.seed}")
     if args.report_dir is None:
@@ -216,11 +240,18 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         p.error("--env-kwargs: give tasks and n_max with --task-source and --n-max")
     if args.resume is not None and not args.resume.is_file():
         p.error(f"--resume: no model file {args.resume}")
+    if args.seeds and args.publish:
+        p.error("--publish installs one run: train the seeds, then publish the chosen one")
+    if args.seed_workers is not None and args.seed_workers < 1:
+        p.error(f"--seed-workers must be >= 1, got {args.seed_workers}")
+    runs = [Path(args.out) / f"seed-{s}" for s in args.seeds] if args.seeds else [args.out]
     try:  # before any work: never replace a run, the shipped model or a report unasked
-        check_output_dir(args.out, RUN_FILES, args.force, "--out")
-        if not args.no_report:
-            check_output_dir(args.report_dir, REPORT_FILES, args.force or args.publish,
-                             "--report-dir")  # fmt: skip
+        for out in runs:
+            check_output_dir(out, RUN_FILES, args.force, "--out")
+            if not args.no_report:
+                report = out / "report" if args.seeds else args.report_dir
+                check_output_dir(report, REPORT_FILES, args.force or args.publish,
+                                 "--report-dir")  # fmt: skip
     except OutputError as exc:
         p.error(str(exc))
     return args
@@ -452,8 +483,55 @@ def publish(run: Path) -> Path:
     return DEFAULT_MODEL
 
 
+def train_seeds(args: argparse.Namespace, argv: list[str]) -> int:
+    """One run of this script per seed of ``--seeds``, as parallel Ray tasks, each into
+    ``<out>/seed-S`` (the other options as given). Returns 0 when every run finished."""
+    import os
+
+    from modquad_gym.distributed import Engine, Failed
+
+    seeds = list(dict.fromkeys(args.seeds))
+    runs = [_seed_argv(argv, seed, Path(args.out) / f"seed-{seed}") for seed in seeds]
+    local = min(len(runs), os.cpu_count() or 1)
+    with Engine(args.seed_workers, local_default=local) as engine:
+        results = engine.map(_train_run, runs, labels=[f"seed {s}" for s in seeds], catch=True,
+                             progress=not args.no_progress, desc="training seeds")  # fmt: skip
+    failed = [r for r in results if isinstance(r, Failed)]
+    for seed, result in zip(seeds, results):
+        print(f"seed {seed}: {result.error if isinstance(result, Failed) else result}")
+    return 1 if failed else 0
+
+
+def _seed_argv(argv: list[str], seed: int, out: Path) -> list[str]:
+    """``argv`` without --seeds/--seed-workers/--seed/--out, for one run of ``seed`` in ``out``."""
+    drop = {"--seeds": True, "--seed-workers": False, "--seed": False, "--out": False}
+    kept, skip, many = [], 0, False
+    for token in argv:
+        name = token.split("=", 1)[0]
+        if name in drop:
+            many, skip = drop[name], 0 if "=" in token else 1
+            continue
+        if skip or (many and token.lstrip("-").isdigit()):
+            skip = 0
+            continue
+        many = False
+        kept.append(token)
+    return [*kept, "--seed", str(seed), "--out", str(out), "--workers", "1",
+            "--report-dir", str(out / "report"), "--no-progress"]  # fmt: skip
+
+
+def _train_run(argv: list[str]) -> str:
+    """One training run (in a Ray worker): the folder it wrote."""
+    sys.argv = ["train.py", *argv]  # what its config.json records as the command
+    if main(argv) != 0:
+        raise RuntimeError(f"train.py {' '.join(argv)} failed")
+    return argv[argv.index("--out") + 1]
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
+    if args.seeds:
+        return train_seeds(args, list(sys.argv[1:] if argv is None else argv))
     t0 = time.perf_counter()
     model_path = train(args)
     if args.publish:

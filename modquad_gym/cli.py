@@ -10,11 +10,14 @@ cannot be written, a missing optional dependency, a closed output pipe), reporte
 from __future__ import annotations
 
 import argparse
+import functools
+import importlib
 import json
 import os
 import sys
 from pathlib import Path
 
+from .agents.solvers import LEARNED, METHOD_HELP, METHODS
 from .extras import EXTRA_OF, missing_extra_message
 from .options import int_option, real_option, seed_option
 
@@ -24,7 +27,7 @@ N_MAX_OPTION = int_option(1, 2**63 - 1)
 MAX_WORKERS = 256
 """Most processes ``solve --workers`` accepts."""
 
-METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo")
+SUITES_DIR = Path(__file__).resolve().parent / "data" / "suites"
 
 
 EXTERNAL_F_MAX = 2.0
@@ -55,9 +58,8 @@ def _parse_cells(text: str) -> list:
     return cells
 
 
-def _palette(args):
-    """``--modules`` as a list of module types, or None when not given."""
-    text = getattr(args, "modules", None)
+def _palette_of(text: str | None):
+    """``--modules`` text as a list of module types, or None when not given."""
     if text is None:
         return None
     from .module import palette
@@ -68,54 +70,179 @@ def _palette(args):
         raise ValueError(f"--{exc}") from None
 
 
-def _solver(args):
-    """The solver for ``--method`` (PPO lives in the agents package, searches here)."""
-    modules = _palette(args)
-    if args.method == "ppo":
+def _palette(args):
+    """``--modules`` as a list of module types, or None when not given."""
+    return _palette_of(getattr(args, "modules", None))
+
+
+@functools.lru_cache(maxsize=4)
+def _make_solver(method, n_max, model, seed, modules_text, workers, address, progress: bool):
+    """The solver for ``--method`` (PPO lives in the agents package, searches here); cached, so
+    a worker process that solves many tasks loads a PPO model once."""
+    modules = _palette_of(modules_text)
+    if method in LEARNED:
         if modules is not None:
             raise ValueError("--modules: the PPO agent builds one-type structures only")
         from modquad_gym.agents.solvers import make_solver
 
-        return make_solver("ppo", n_max=args.n_max, model=args.model, seed=args.seed).solve
+        return make_solver(method, n_max=n_max, model=model, seed=seed).solve
     from .search import SEARCHES
 
-    fn = SEARCHES[args.method]
+    fn = SEARCHES[method]
     typed = {} if modules is None else {"modules": modules}
-    if args.method == "random":
-        return lambda task: fn(task, n_max=args.n_max, seed=args.seed, **typed)
-    if args.method == "exhaustive":
-        progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
-        workers = getattr(args, "workers", 1)
-        return lambda task: fn(task, n_max=args.n_max, workers=workers, progress=progress, **typed)
-    return lambda task: fn(task, n_max=args.n_max, **typed)
+    if method == "random":
+        return lambda task: fn(task, n_max=n_max, seed=seed, **typed)
+    if method == "exhaustive":
+        return lambda task: fn(
+            task, n_max=n_max, workers=workers, address=address, progress=progress, **typed
+        )
+    return lambda task: fn(task, n_max=n_max, **typed)
+
+
+def _solver(args, workers=1):
+    """The solver of ``args`` (``workers`` share the levels of one exhaustive search)."""
+    progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
+    modules = getattr(args, "modules", None)
+    address = getattr(args, "ray_address", None)
+    return _make_solver(
+        args.method, args.n_max, args.model, args.seed, modules, workers, address, progress
+    )
+
+
+def _solve_file(options: tuple, path: Path):
+    """Load and solve one task file (the unit of work of a batch): (task, result)."""
+    method, n_max, model, seed, modules, csv_header = options
+    task = _load_task(path, csv_header)
+    result = _make_solver(method, n_max, model, seed, modules, 1, None, False)(task)
+    return task, result
 
 
 def cmd_solve(args) -> int:
-    tasks = [(path, _load_task(path, args.csv_header)) for path in args.task]
-    solve = _solver(args)
-    for path, task in tasks:
-        result = solve(task)
-        if args.json:
-            record = {"task": str(path), "name": task.name, **result.to_dict()}
-            print(json.dumps(record), flush=True)
+    from .distributed import Engine, Failed
+    from .tasks import task_files
+
+    _palette(args)  # a bad --modules is refused before any work
+    paths = task_files(args.task)
+    engine = Engine(args.workers, args.ray_address, local_default=1)
+    if len(paths) == 1 or not engine.use_ray:
+        return _solve_here(args, paths, engine.workers or engine.cluster_cpus())
+    # a batch: tasks spread over the workers, each search in one process
+    options = (args.method, args.n_max, args.model, args.seed, args.modules, args.csv_header)
+    failed: list[Failed] = []
+    printed = 0
+    done: dict[int, object] = {}
+
+    def show_in_order(i: int, outcome) -> None:
+        nonlocal printed
+        done[i] = outcome
+        while printed in done:
+            outcome = done.pop(printed)
+            if isinstance(outcome, Failed):
+                failed.append(outcome)
+                print(f"modquad: error: {outcome.error}", file=sys.stderr, flush=True)
+            else:
+                _print_result(args, paths[printed], *outcome)
+            printed += 1
+
+    # by its module's name (not __main__ under `python -m`), so Ray workers import it
+    solve_file = importlib.import_module("modquad_gym.cli")._solve_file
+    with engine:
+        engine.map(
+            functools.partial(solve_file, options),
+            paths,
+            labels=[str(p) for p in paths],
+            catch=True,
+            progress=not (args.json or args.quiet),
+            desc="tasks",
+            on_result=show_in_order,
+        )
+    return _batch_status(failed, len(paths))
+
+
+def _solve_here(args, paths: list[Path], workers: int) -> int:
+    """Solve in this process, one task after the other (a single task's exhaustive search may
+    still split its large levels over ``workers``)."""
+    solve = _solver(args, workers=workers if len(paths) == 1 else 1)
+    failed = []
+    for path in paths:
+        try:
+            task = _load_task(path, args.csv_header)
+        except (ValueError, OSError) as exc:
+            if len(paths) == 1:
+                raise
+            failed.append(exc)
+            print(f"modquad: error: {_one_line(exc)}", file=sys.stderr, flush=True)
             continue
-        kind = "" if task.kind == "total" else f" ({task.kind})"
-        print(
-            f"task {task.name!r} ({path}): {task.n_wrenches} wrenches{kind}, method {args.method}"
-        )
-        if result.structure is None:
-            print(f"  no structure of up to {args.n_max} modules satisfies the task")
-        else:
-            cert = " (certified minimum)" if result.certified else ""
-            print(f"  {result.n_modules} modules{cert}: cells {list(result.structure.cells)}")
-            if result.palette:
-                print(f"  module types: {[m.name for m in result.structure.modules]}")
-            print("  " + result.structure.to_text().replace("\n", "\n  "))
-        print(
-            f"  configurations evaluated: {result.evaluated}, oracle calls: "
-            f"{result.oracle_calls}, seconds: {result.seconds:.3f}"
-        )
-    return 0
+        _print_result(args, path, task, solve(task))
+    return _batch_status(failed, len(paths))
+
+
+def _batch_status(failed: list, total: int) -> int:
+    if not failed:
+        return 0
+    print(f"modquad: error: {len(failed)} of {total} tasks failed (above)", file=sys.stderr)
+    return 2
+
+
+def _print_result(args, path, task, result) -> None:
+    if args.json:
+        record = {"task": str(path), "name": task.name, **result.to_dict()}
+        print(json.dumps(record), flush=True)
+        return
+    kind = "" if task.kind == "total" else f" ({task.kind})"
+    print(f"task {task.name!r} ({path}): {task.n_wrenches} wrenches{kind}, method {args.method}")
+    if result.structure is None:
+        print(f"  no structure of up to {args.n_max} modules satisfies the task")
+    else:
+        cert = " (certified minimum)" if result.certified else ""
+        print(f"  {result.n_modules} modules{cert}: cells {list(result.structure.cells)}")
+        if result.palette:
+            print(f"  module types: {[m.name for m in result.structure.modules]}")
+        print("  " + result.structure.to_text().replace("\n", "\n  "))
+    print(
+        f"  configurations evaluated: {result.evaluated}, oracle calls: "
+        f"{result.oracle_calls}, seconds: {result.seconds:.3f}",
+        flush=True,
+    )
+
+
+def cmd_optima(args) -> int:
+    from .distributed import Engine, Failed
+    from .optima import build_dataset
+    from .outputs import check_output_file
+    from .search.exhaustive import MAX_MODULES
+    from .tasks import load_suite, task_files
+    from .validation import check_int
+
+    n_max = check_int(args.n_max, "--n-max", low=1, high=MAX_MODULES)
+    out = check_output_file(args.out, force=True, what="--out")
+    if args.suite:
+        path = Path(args.suite)
+        if not path.suffix and not path.exists():
+            path = SUITES_DIR / f"{args.suite}.json"
+            if not path.exists():
+                names = ", ".join(sorted(p.stem for p in SUITES_DIR.glob("*.json")))
+                raise ValueError(f"--suite: no suite {args.suite!r} (shipped: {names})")
+        sources = [(f"{path.name}#{i}", t) for i, t in enumerate(load_suite(path), 1)]
+    else:
+        sources = []
+        for p in task_files(args.tasks, what="--tasks"):
+            try:
+                sources.append((str(p), _load_task(p, args.csv_header)))
+            except (ValueError, OSError) as exc:
+                sources.append((str(p), Failed(str(p), _one_line(exc))))
+    if args.force:
+        out.unlink(missing_ok=True)
+    with Engine(args.workers, args.ray_address) as engine:
+        run = build_dataset(sources, out, n_max, engine, progress=not args.quiet)
+    for failure in run.failed:
+        print(f"modquad: error: {failure.error}", file=sys.stderr)
+    dropped = ", an unfinished last line dropped" if run.dropped_bytes else ""
+    print(
+        f"{out}: {run.written} records written, {run.skipped} already there{dropped}"
+        + (f", {len(run.failed)} tasks failed" if run.failed else "")
+    )
+    return _batch_status(run.failed, len(sources))
 
 
 def cmd_task_generate(args) -> int:
@@ -231,7 +358,7 @@ def cmd_validate(args) -> int:
         unknown_load=not args.known_load_only,
         load_ramp_seconds=args.load_ramp_seconds,
         kind=task.kind,
-    )
+    ).to_dict()
     if args.json:
         print(json.dumps({"task": args.task, "method": args.method, **report}))
     else:
@@ -241,8 +368,6 @@ def cmd_validate(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    import importlib
-
     module = {
         "oracle": "modquad_gym.bench.oracle",
         "search": "modquad_gym.bench.search",
@@ -250,6 +375,7 @@ def cmd_bench(args) -> int:
         "paper": "modquad_gym.bench.paper",
         "scaling": "modquad_gym.bench.scaling",
         "level-bounds": "modquad_gym.bench.level_bounds",
+        "distributed": "modquad_gym.bench.distributed",
         "heterogeneous": "modquad_gym.bench.heterogeneous",
         "agents": "modquad_gym.agents.benchmark",
     }[args.what]
@@ -289,6 +415,23 @@ def _add_csv_header(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_workers(p: argparse.ArgumentParser, default: str) -> None:
+    p.add_argument(
+        "--workers",
+        type=int_option(1, MAX_WORKERS),
+        default=None,
+        help=f"parallel Ray tasks, 1 to {MAX_WORKERS} (1: everything in this process, no Ray); "
+        f"default {default}",
+    )
+    p.add_argument(
+        "--ray-address",
+        default=None,
+        metavar="ADDRESS",
+        help="join this Ray cluster (HOST:PORT of `ray start --head`, or auto) instead of an "
+        "embedded Ray on this machine (default: $RAY_ADDRESS)",
+    )
+
+
 MODULES_HELP = (
     "comma-separated module types to mix, one per cell, chosen by the search "
     "(stock names: t45 = the paper's T-module, t45m = its mirrored tilts, t30, t30m = "
@@ -322,8 +465,8 @@ def build_parser() -> argparse.ArgumentParser:
             "--method",
             choices=METHODS,
             default=default,
-            help="exhaustive: certified minimum; centrosymmetric: paper Algorithm 2; "
-            "greedy/random: baselines; ppo: the learned agent (default %(default)s)",
+            help="; ".join(f"{name}: {text}" for name, text in METHOD_HELP.items())
+            + " (default %(default)s)",
         )
         p.add_argument(
             "--n-max",
@@ -335,8 +478,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument(
             "--model",
             default=None,
-            help="PPO model .zip for --method ppo (default: the model shipped in "
-            "results/ppo_default/model.zip)",
+            help="PPO model .zip for --method ppo/ppo-guided (default: the model shipped with "
+            "the package, modquad_gym/data/models/ppo_default/model.zip)",
         )
         p.add_argument(
             "--seed",
@@ -358,7 +501,8 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         required=True,
         metavar="FILE",
-        help="task file (.json, .csv, .npy); repeat for several tasks",
+        help="task file (.json, .csv, .npy), a folder of task files, or a quoted glob such as "
+        "'tasks/*.json'; repeat for several",
     )
     add_method(p)
     p.add_argument(
@@ -373,17 +517,51 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="no progress bar (the exhaustive search shows one per level on stderr)",
     )
-    p.add_argument(
-        "--workers",
-        type=int_option(1, MAX_WORKERS),
-        default=1,
-        help="processes sharing each large level of the exhaustive search (levels of 100,000 "
-        "structures or more, i.e. 11 modules and up), 1 to 256; the answer is the same for any "
-        "number "
-        "(default %(default)s)",
+    _add_workers(
+        p,
+        "1, or every CPU of the cluster given by --ray-address / RAY_ADDRESS. Several tasks are "
+        "spread over the workers (each search in one process; a task file that cannot be read "
+        "is reported and the others go on, exit code 2 at the end); a single task's exhaustive "
+        "search splits its levels of 100,000 structures or more (11 modules and up). The "
+        "answers do not depend on the number of workers",
     )
     _add_csv_header(p)
     p.set_defaults(func=cmd_solve)
+
+    p = sub.add_parser(
+        "optima",
+        help="certified optima of many tasks as a JSON-lines dataset (resumable)",
+        description="For each task, the certified minimum module count and every optimal "
+        "structure, one JSON object per line appended to --out as tasks finish: task, name, "
+        "digest, n_max, optimum, structures (lists of [x, y] cells), count, evaluated, "
+        "oracle_calls, seconds. Rerunning into the same file skips the tasks it holds and "
+        "recomputes an unfinished last line, so an interrupted run loses nothing it wrote. "
+        "Spread over Ray workers (RAY_ADDRESS=HOST:PORT modquad optima ... runs on a cluster).",
+    )
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument(
+        "--suite",
+        metavar="NAME|FILE",
+        help="a shipped suite (heldout_planted, heldout_paper) or a suite JSON file",
+    )
+    src.add_argument(
+        "--tasks",
+        action="append",
+        metavar="DIR|GLOB|FILE",
+        help="a folder of task files, a quoted glob or a file; repeat for several",
+    )
+    p.add_argument("--out", required=True, metavar="FILE.jsonl", help="the dataset file")
+    p.add_argument(
+        "--n-max",
+        type=int,
+        default=7,
+        help="largest module count searched (default %(default)s, at most 16)",
+    )
+    _add_workers(p, "every local core, or every CPU of the cluster")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_csv_header(p)
+    p.add_argument("--force", action="store_true", help="discard --out's records and start over")
+    p.set_defaults(func=cmd_optima)
 
     p = sub.add_parser(
         "task",
@@ -530,6 +708,7 @@ def build_parser() -> argparse.ArgumentParser:
             "search",
             "scaling",
             "level-bounds",
+            "distributed",
             "heterogeneous",
             "env",
             "paper",
@@ -538,7 +717,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="oracle: feasibility methods compared; search: exhaustive search vs an LP "
         "reference; scaling: the exhaustive search level by level up to 14 modules; "
         "level-bounds: regenerate the shipped level bounds; heterogeneous: mixing module "
-        "types and self-weight against one type; "
+        "types and self-weight against one type; distributed: a batch and a large search "
+        "serially and on Ray with 1 and 2 CPUs; "
         "env: environment steps/s; paper: the paper's Sec. VI experiment; "
         "agents: PPO vs the searches on held-out tasks",
     )

@@ -974,26 +974,43 @@ def lambda_ratio(
     return out
 
 
-def _lambda_highs(B: np.ndarray, D: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """max lambda s.t. B u = lambda d_hat, lo <= u <= hi per row d of D (HiGHS)."""
+def ray_lp(
+    B: np.ndarray,
+    origin: np.ndarray,
+    direction: np.ndarray,
+    lo: float,
+    hi: float,
+    options: dict | None = None,
+) -> float | None:
+    """The LP behind :func:`lambda_ratio` and the hover's step headroom: the largest
+    ``lambda >= 0`` with ``B u = origin + lambda direction / |direction|`` for some
+    ``lo <= u <= hi`` (HiGHS), or None when no such u exists even at lambda = 0."""
     from scipy.optimize import linprog
 
     r, m = B.shape
     cost = np.zeros(m + 1)
     cost[-1] = -1.0
-    A_eq = np.hstack([B, np.zeros((r, 1))])
+    d = np.asarray(direction, dtype=float)
+    res = linprog(
+        cost,
+        A_eq=np.hstack([B, -(d / np.linalg.norm(d))[:, None]]),
+        b_eq=np.asarray(origin, dtype=float),
+        bounds=[(lo, hi)] * m + [(0, None)],
+        method="highs",
+        options=options,
+    )
+    if res.status == 3:  # unbounded: impossible with a bounded u; guard anyway
+        return math.inf
+    return float(res.x[-1]) if res.status == 0 else None
+
+
+def _lambda_highs(B: np.ndarray, D: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """max lambda s.t. B u = lambda d_hat, lo <= u <= hi per row d of D (HiGHS)."""
+    zero = np.zeros(B.shape[0])
     out = np.empty(len(D))
     for i, d in enumerate(D):
-        A_eq[:, -1] = -d / np.linalg.norm(d)
-        res = linprog(
-            cost,
-            A_eq=A_eq,
-            b_eq=np.zeros(r),
-            bounds=[(lo, hi)] * m + [(0, None)],
-            method="highs",
-            options=_HIGHS_OPTIONS,
-        )
-        out[i] = res.x[-1] if res.status == 0 else 0.0
+        lam = ray_lp(B, zero, d, lo, hi, _HIGHS_OPTIONS)
+        out[i] = 0.0 if lam is None else lam
     return out
 
 

@@ -130,6 +130,23 @@ class PolyominoStream:
             )
         )
 
+    _STATE = ("_reached", "_untried", "_n_untried", "_pos", "_path", "_added", "_n_added",
+              "_state")  # fmt: skip
+
+    def snapshot(self) -> tuple[np.ndarray, ...]:
+        """The enumeration's whole state between two chunks (a few KB): a stream of the same n
+        and chunk size given it by :meth:`restore` goes on from here, so a level can be cut into
+        ranges enumerated in other processes without passing over the chunks before them."""
+        return tuple(getattr(self, name).copy() for name in self._STATE)
+
+    def restore(self, snapshot: tuple[np.ndarray, ...]) -> None:
+        """Continue from a :meth:`snapshot` of a stream of the same n and chunk size."""
+        for name, value in zip(self._STATE, snapshot, strict=True):
+            current = getattr(self, name)
+            if value.shape != current.shape or value.dtype != current.dtype:
+                raise ValueError(f"snapshot of another stream (n != {self.n})")
+            current[...] = value
+
     def skip(self, chunks: int) -> None:
         """Pass over the next ``chunks`` chunks (enumerated, not returned)."""
         for _ in range(chunks):

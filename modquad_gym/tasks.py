@@ -335,6 +335,34 @@ class TaskRequirement:
         return path
 
 
+def task_files(specs: Sequence[PathLike], what: str = "--task") -> list[Path]:
+    """Task file paths from ``specs``: a file (kept as given, checked when loaded), a folder
+    (its task files, by name) or a glob pattern (its matches, by name); in order, each path once.
+    A folder without task files or a pattern that matches nothing is a ValueError."""
+    import glob
+
+    out: dict[Path, None] = {}
+    for spec in specs:
+        text = str(spec)
+        path = Path(text)
+        if path.is_dir():
+            found = sorted(
+                p for p in path.iterdir() if p.is_file() and p.suffix.lower() in SUFFIXES
+            )
+            if not found:
+                raise ValueError(
+                    f"{what}: folder {path} holds no task file ({', '.join(SUFFIXES)})"
+                )
+        elif glob.has_magic(text) and not path.exists():
+            found = sorted(Path(p) for p in glob.glob(text) if Path(p).is_file())
+            if not found:
+                raise ValueError(f"{what}: no file matches {text!r}")
+        else:
+            found = [path]
+        out.update(dict.fromkeys(found))
+    return list(out)
+
+
 def _jsonable(obj: Any) -> Any:
     """Numpy scalars/arrays and tuples turned into plain JSON types."""
     if isinstance(obj, dict):
@@ -811,7 +839,61 @@ class MixedTasks:
         return self.generators[k](rng)
 
 
-GENERATORS = ("paper", "planted", "screwdriver", "mixed")
+@dataclass(frozen=True)
+class PlantedMixedTasks:
+    """Tasks planted in a random mixed structure: ``n_modules`` cells (uniform in the range),
+    each of a module type drawn uniformly from ``modules`` (stock names, comma-separated); 40
+    wrenches ``A u`` with half the entries of u near 0 or f_max (vertex-like) and the rest
+    uniform in [0.02, 0.98] f_max. An ``external`` task has the hidden structure's weight
+    subtracted from f_z, so that structure still satisfies it: the palette's optimum is at most
+    the hidden size."""
+
+    modules: str = "t45,t45m,flat"
+    n_modules: Count = (3, 6)
+    n_wrenches: int = 40
+    kind: str = "total"
+    f_max: float = 1.0
+    name: str = "planted-mixed"
+
+    def __post_init__(self) -> None:
+        _check_count(self.n_modules, "n_modules")
+        check_kind(self.kind)
+        check_f_max(self.f_max)
+
+    def __call__(self, rng: np.random.Generator) -> TaskRequirement:
+        from .module import palette
+
+        types = palette(self.modules)
+        lo, hi = (
+            (self.n_modules, self.n_modules) if isinstance(self.n_modules, int) else self.n_modules
+        )
+        n = int(rng.integers(lo, hi + 1))
+        cells = random_cells(rng, n)
+        hidden = Structure(cells, modules=[types[int(rng.integers(len(types)))] for _ in cells])
+        A = hidden.configuration_matrix()
+        U = rng.uniform(0.02, 0.98, size=(self.n_wrenches, A.shape[1]))
+        vertex = rng.random(U.shape) < 0.5
+        U[vertex] = np.where(rng.random(int(vertex.sum())) < 0.5, 0.02, 0.98)
+        W = (U * self.f_max) @ A.T
+        if self.kind == "external":
+            W[:, 2] -= hidden.mass * GRAVITY
+        meta = {
+            "hidden_cells": [list(c) for c in cells],
+            "hidden_modules": [m.name for m in hidden.modules],
+            "optimum_upper_bound": n,
+        }
+        return TaskRequirement(W, name=self.name, f_max=self.f_max, kind=self.kind, meta=meta)
+
+
+GENERATORS = (
+    "paper",
+    "planted",
+    "screwdriver",
+    "mixed",
+    "planted-large",
+    "paper-external",
+    "planted-mixed-external",
+)
 """Names understood by :func:`make_generator`."""
 
 
@@ -819,6 +901,10 @@ def make_generator(spec: Any) -> TaskGenerator:
     """A task generator from a spec:
 
     * ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"`` (planted and paper, equal odds);
+      ``"planted-large"`` (planted in 6-12 modules: the large tier), ``"paper-external"``
+      (paper-like wrenches on the environment, kind ``external``, f_max 2 N) and
+      ``"planted-mixed-external"`` (:class:`PlantedMixedTasks`, external, f_max 2 N: the mixed
+      tier);
     * a path to a task file (``.json``/``.csv``/``.npy``) or a suite JSON: those fixed tasks;
     * a :class:`TaskRequirement`: always that task; a :class:`TaskGenerator` (``name`` and
       ``__call__(rng)``): itself;
@@ -852,6 +938,13 @@ def make_generator(spec: Any) -> TaskGenerator:
             return ScrewdriverTask()
         if key == "mixed":
             return MixedTasks((PlantedTasks(), PaperTasks()))
+        if key == "planted-large":
+            return PlantedTasks(n_modules=(6, 12), name="planted-large")
+        if key == "planted-mixed-external":
+            return PlantedMixedTasks(kind="external", f_max=2.0, name="planted-mixed-external")
+        if key == "paper-external":
+            return PaperTasks(n_wrenches=40, kind="external", f_max=2.0, fz_offset=1.0,
+                              fz_gain=8.0, name="paper-external")  # fmt: skip
         path = Path(key)
         if path.is_file():
             if path.suffix.lower() == ".json" and "tasks" in _json_keys(path):

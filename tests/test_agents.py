@@ -252,3 +252,16 @@ def test_policy_guided_search_is_verified_and_its_certificate_holds():
             assert mq.feasible(A, task.wrenches, task.f_max, method="scipy").all()
         if r.certified:
             assert r.n_modules == optimum
+
+
+def test_one_solver_table_drives_cli_benchmark_and_solvers():
+    from modquad_gym.agents.benchmark import SEARCH_METHODS
+    from modquad_gym.agents.solvers import METHODS
+    from modquad_gym.cli import build_parser
+    from modquad_gym.search import SEARCHES
+
+    solve = build_parser()._subparsers._group_actions[0].choices["solve"]
+    (method,) = [a for a in solve._actions if a.dest == "method"]
+    assert tuple(method.choices) == METHODS
+    assert SEARCH_METHODS == tuple(SEARCHES) == METHODS[: len(SEARCHES)]
+    assert all(isinstance(make_solver(m), Solver) for m in SEARCHES)

@@ -397,13 +397,14 @@ def test_mixed_env_lookahead_rows_match_the_child_supports():
     rows = obs["candidates"].reshape(-1, 5)
     valid = np.flatnonzero(obs["action_mask"])
     assert np.all(rows[np.setdiff1d(np.arange(len(rows)), valid)] == 0)
-    feats = u._be.features
+    feats, task = u.evaluator.features, u.state.task
     for a in valid[:6]:
         child = mq.Structure(
-            [*u._cells, u.cell_of(a)], modules=[*u.structure.modules, u.palette[u.type_of(a)]]
+            [*u.state.cells, u.cell_of(a)],
+            modules=[*u.structure.modules, u.palette[u.type_of(a)]],
         )
         h, slack = feats.support(child.configuration_matrix())
-        ref = feats.candidates(h[None], np.array([slack]), u._h_Tn, u._WD)[0]
+        ref = feats.candidates(h[None], np.array([slack]), task.h_Tn, task.WD)[0]
         np.testing.assert_allclose(rows[a], ref, atol=1e-6)
 
 

@@ -8,7 +8,7 @@ import pytest
 
 from modquad_gym.agents.imitation import collect, collect_parallel, good_actions, merge, placements
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
-from modquad_gym.envs.reward import RewardWeights
+from modquad_gym.envs.assembly.reward import RewardWeights
 from modquad_gym.oracle import feasible
 from modquad_gym.search import exhaustive_search, optimal_structures
 from modquad_gym.structure import Structure, normalise, structure_levels

@@ -15,6 +15,7 @@ import pytest  # noqa: E402
 
 import modquad_gym as mq  # noqa: E402
 from modquad_gym.sim import (  # noqa: E402
+    ValidationReport,
     actuator_wrench,
     build_model,
     render_structure,
@@ -329,9 +330,13 @@ def test_render_matplotlib_fallback(tmp_path):
 def test_validate_writes_files_and_keys(tmp_path):
     s = mq.Structure(L3)
     W = _interior_wrenches(s, 2, seed=7)
-    out = validate(
+    report = validate(
         s, W, out_dir=tmp_path, hover_seconds=0.5, render=True, include_infeasible_demo=True
     )
+    assert isinstance(report, ValidationReport)
+    out = report.to_dict()
+    assert report.hover.max_position_error_m == out["hover_max_position_error_m"]
+    assert report.infeasible_demo.diverged == out["infeasible_demo"]["diverged"]
     json.dumps(out)  # JSON-serialisable
     for key in (
         "bench_max_error",
@@ -390,7 +395,7 @@ def test_validate_report_names_the_hovered_subset(tmp_path):
         render=False,
         max_hover_wrenches=1,
         unknown_load=False,
-    )
+    ).to_dict()
     assert out["hover_wrenches"] == 1 and "hover_unknown_load_max_position_error_m" not in out
     report = (tmp_path / "report.md").read_text()
     assert "first 1 of 3 wrenches" in report

@@ -60,9 +60,9 @@ def test_human_render_opens_a_window(monkeypatch):
     env = gym.make("ModQuadAssembly-v0", tasks="screwdriver", render_mode="human")
     env.reset(seed=0)
     assert env.render() is None
-    assert env.unwrapped._window is not None
+    assert env.unwrapped.viewer.window is not None
     env.close()
-    assert env.unwrapped._window is None
+    assert env.unwrapped.viewer.window is None
 
 
 def test_record_video_writes_a_file(tmp_path):
@@ -170,3 +170,27 @@ def test_readme_python_examples_run(monkeypatch):
     assert len(blocks) >= 2
     for block in blocks:
         exec(compile(block, "README.md", "exec"), {})
+
+
+def test_bench_env_reports_the_default_config_with_resets_and_the_ppo_update(tmp_path):
+    from modquad_gym.bench import env as bench_env
+
+    cores = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+    try:
+        rows = bench_env.main(
+            ["--steps", "20", "--warmup", "5", "--default-steps", "60", "--sizes", "1"]
+            + ["--out", str(tmp_path), "--machine-note", "shared"]
+        )
+    finally:  # the benchmark pins this process to one core
+        if cores is not None:
+            os.sched_setaffinity(0, cores)
+    default = rows[0]
+    assert default["config"].startswith("gym.make(") and default["steps_per_s"] > 0
+    assert default["us_per_reset"] > 0 and default["steps_per_episode"] >= 1
+    assert default["ppo_update_ms"] > 0
+    assert default["env_over_update"] == pytest.approx(
+        1e3 * 256 / default["steps_per_s"] / default["ppo_update_ms"]
+    )
+    text = (tmp_path / "env_benchmark.md").read_text()
+    assert "resets counted" in text and "(shared)" in text and "env / update" in text
+    assert len((tmp_path / "env_benchmark.csv").read_text().splitlines()) == 1 + 3

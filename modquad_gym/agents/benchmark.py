@@ -20,21 +20,26 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import sys
 import time
 from dataclasses import dataclass
+from functools import lru_cache, partial
 from pathlib import Path
 
 import numpy as np
 
+from modquad_gym.module import palette
 from modquad_gym.options import int_option, seed_option
 from modquad_gym.oracle import feasible
 from modquad_gym.outputs import check_output_dir, save_figure, write_csv, write_text
-from modquad_gym.tasks import TaskRequirement, load_suite
+from modquad_gym.search import SEARCHES
+from modquad_gym.tasks import TaskRequirement, load_suite, rotor_wrenches
 
 from .solvers import DEFAULT_MODEL, Solver, load_solver, make_solver
-from .suites import SUITES_DIR
+from .tiers import TIERS, get_tier
 
-DEFAULT_METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo", "ppo-k2", "ppo-k8")
+SEARCH_METHODS = tuple(SEARCHES)
+DEFAULT_METHODS = (*SEARCH_METHODS, "ppo", "ppo-k2", "ppo-k8")
 GOALS = {"success": 0.98, "optimal": 0.90}
 
 
@@ -73,13 +78,15 @@ class Row:
         }  # fmt: skip
 
 
-def parse_method(method: str, n_max: int, model: Path | None, seed: int) -> Solver:
+def parse_method(method: str, n_max: int, model: Path | None, seed: int, modules=None) -> Solver:
     """A solver from a benchmark method name: a search name, ``ppo``, ``ppo-kN`` (PPO with N
     sampled rollouts besides the deterministic one), ``ppo-guided`` (the policy-guided search of
     :mod:`.guided`), or ``package.module:Name`` (an outside
     agent, see :func:`~.solvers.load_solver`)."""
     if ":" in method:
         return load_solver(method, n_max=n_max)
+    if method.startswith("ppo") and modules:
+        raise ValueError(f"method {method!r}: the shipped PPO agent handles one module type")
     if method.startswith("ppo-k"):
         try:
             k = int(method[len("ppo-k") :])
@@ -89,10 +96,16 @@ def parse_method(method: str, n_max: int, model: Path | None, seed: int) -> Solv
     if method == "ppo":
         return make_solver("ppo", n_max=n_max, model=model, seed=seed)
     if method == "ppo-guided":
-        from .guided import GuidedSolver
+        return make_solver(method, n_max=n_max, model=model)
+    return make_solver(method, n_max=n_max, seed=seed, modules=modules)
 
-        return GuidedSolver(model=model, n_max=n_max)
-    return make_solver(method, n_max=n_max, seed=seed)
+
+def verified(structure, task: TaskRequirement) -> bool:
+    """Does ``structure`` exert every task wrench (its own weight added for external tasks)?"""
+    if structure is None:
+        return False
+    W = rotor_wrenches(task.wrenches, task.kind, structure.mass)
+    return bool(feasible(structure.configuration_matrix(), W, task.f_max, method="daqp").all())
 
 
 def run_benchmark(
@@ -102,21 +115,40 @@ def run_benchmark(
     model: Path | None = None,
     seed: int = 0,
     progress: bool = True,
+    workers: int = 1,
+    modules: str | None = None,
 ) -> list[Row]:
-    """Every method on every task; successes re-verified by the exact oracle."""
-    from tqdm import tqdm
+    """Every method on every task; successes re-verified by the exact oracle. ``workers`` > 1
+    spreads chunks of tasks over Ray tasks (:mod:`modquad_gym.distributed`; same rows, but
+    each solver's seconds are then measured beside the others). ``modules`` (stock type names,
+    comma-separated) makes the searches search over shapes x type assignments."""
+    from modquad_gym.distributed import map_tasks
 
-    solvers = {m: parse_method(m, n_max, model, seed) for m in methods}
     jobs = [(name, task) for name, tasks in suites.items() for task in tasks]
+    size = 1 if workers == 1 else 8
+    chunks = [jobs[i : i + size] for i in range(0, len(jobs), size)]
+    solve = partial(_solve_chunk, (tuple(methods), n_max, model, seed, modules))
+    parts = map_tasks(solve, chunks, workers=workers, progress=progress, desc="benchmark")
+    return [row for part in parts for row in part]
+
+
+@lru_cache(maxsize=2)
+def _solvers(
+    methods: tuple, n_max: int, model: Path | None, seed: int, modules: str | None
+) -> dict[str, Solver]:
+    types = palette(modules) if modules else None
+    return {m: parse_method(m, n_max, model, seed, types) for m in methods}
+
+
+def _solve_chunk(config: tuple, jobs: list) -> list[Row]:
+    """Rows of every method on a chunk of (suite, task) (solvers made once per process)."""
+    solvers = _solvers(*config)
     rows: list[Row] = []
-    for suite, task in tqdm(jobs, desc="benchmark", unit="task", disable=not progress):
+    for suite, task in jobs:
         optimum = task.meta.get("optimum")
         for method, solver in solvers.items():
             r = solver.solve(task)
-            ok = r.structure is not None and bool(
-                feasible(r.structure.configuration_matrix(), task.wrenches, task.f_max,
-                         method="daqp").all()
-            )  # fmt: skip
+            ok = verified(r.structure, task)
             rows.append(
                 Row(suite, task.name, optimum, method, ok, r.n_modules if ok else None,
                     int(r.evaluated), int(r.oracle_calls), float(r.seconds),
@@ -267,15 +299,19 @@ def write_report(
     n_max: int,
     figures: dict[str, Path | None],
     wall: float,
+    tier: str = "current",
+    command: str = "modquad bench agents",
 ) -> Path:
     import json
 
-    lines = ["# Agent benchmark", ""]
-    lines.append(f"Machine: {machine()}. Benchmark wall time {wall:.0f} s.")
+    has_ppo = any(s["method"].startswith("ppo") for s in summary)
+    lines = [f"# Agent benchmark: tier `{tier}`", ""]
+    lines.append(f"Made by `{command}`. Machine: {machine()}. Benchmark wall time {wall:.0f} s.")
     lines.append("")
     n_tasks = sum(len(t) for t in suites.values())
     lines.append(
-        "Held-out suites (never seen in training; seeds in `agents/suites.py`): "
+        "Held-out suites (never seen in training; seeds in `modquad_gym/agents/suites.py` and "
+        "`tiers.py`): "
         + ", ".join(f"`{name}` ({len(t)} tasks)" for name, t in suites.items())
         + f", {n_tasks} tasks in all. The optimum is the certified minimum from the exhaustive "
         f"search with n_max = {n_max}; the table covers the tasks whose optimum is <= n_max."
@@ -283,7 +319,7 @@ def write_report(
     lines.append("")
     config_path = train_dir / "config.json"
     cfg: dict = {}
-    if config_path.is_file():
+    if has_ppo and config_path.is_file():
         cfg = json.loads(config_path.read_text())
         imitation = cfg.get("imitation")
         cloned = (
@@ -335,8 +371,9 @@ def write_report(
             "",
         ]
     lines += _by_optimum(rows, [s["method"] for s in summary], n_max)
-    lines += ["## Goals", ""]
-    lines += _goals(summary)
+    if has_ppo:
+        lines += ["## Goals", ""]
+        lines += _goals(summary)
     lines += _shortfall(rows, summary, n_max, suites, cfg)
     lines += ["", "## Figures", ""]
     for title, fig in figures.items():
@@ -502,10 +539,17 @@ def main(argv: list[str] | None = None) -> int:
         help="training output with config.json and evaluations.npz (default: the model's folder)",
     )
     p.add_argument(
+        "--tier",
+        default=None,
+        help="score on a benchmark tier's held-out suites and budget: "
+        f"{', '.join(TIERS)} (default: current, or the --suite files)",
+    )
+    p.add_argument(
         "--methods",
         nargs="+",
-        default=list(DEFAULT_METHODS),
-        help="search names, ppo, ppo-kN, or package.module:Name of an outside agent",
+        default=None,
+        help="search names, ppo, ppo-kN, ppo-guided, or package.module:Name of an outside agent "
+        f"(default: {' '.join(DEFAULT_METHODS)}; the searches only on tiers without a model)",
     )
     p.add_argument(
         "--solver",
@@ -523,21 +567,33 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--out", type=Path, default=Path("results"), help="report folder")
     p.add_argument("--force", action="store_true", help="replace an existing report in --out")
-    p.add_argument("--n-max", type=int_option(1, 16), default=7)
+    p.add_argument(
+        "--n-max", type=int_option(1, 16), default=None, help="module budget (default: the tier's)"
+    )
     p.add_argument("--seed", type=seed_option, default=0)
     p.add_argument(
         "--limit", type=int_option(1), default=None, help="first N tasks of each suite only"
     )
     p.add_argument("--no-progress", action="store_true")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="Ray tasks sharing the tasks (1: one process, so each solver's seconds are timed "
+        "alone; RAY_ADDRESS joins a cluster)",
+    )
     args = p.parse_args(argv)
 
-    paths = args.suite or sorted(SUITES_DIR.glob("heldout_*.json"))
-    if not paths:
-        raise ValueError(
-            f"no suites given and none in {SUITES_DIR} (run python -m modquad_gym.agents.suites)"
-        )
-    suites = {Path(path).stem: load_suite(path)[: args.limit] for path in paths}
-    methods = list(dict.fromkeys([*args.methods, *args.solver]))
+    if args.tier is not None and args.suite:
+        raise ValueError("give --tier or --suite, not both")
+    tier = get_tier(args.tier or "current")
+    if args.suite:
+        suites = {Path(path).stem: load_suite(path)[: args.limit] for path in args.suite}
+    else:
+        suites = tier.load_suites(args.limit)
+    n_max = args.n_max if args.n_max is not None else tier.n_max
+    default = DEFAULT_METHODS if tier.name == "current" else SEARCH_METHODS
+    methods = list(dict.fromkeys([*(args.methods or default), *args.solver]))
     if args.samples is not None:
         methods = [m for m in methods if not m.startswith("ppo-k")]
         if args.samples > 0:
@@ -548,19 +604,23 @@ def main(argv: list[str] | None = None) -> int:
     check_output_dir(args.out, REPORT_FILES, args.force)
 
     t0 = time.perf_counter()
-    rows = run_benchmark(suites, methods, args.n_max, args.model, args.seed, not args.no_progress)
+    rows = run_benchmark(suites, methods, n_max, args.model, args.seed, not args.no_progress,
+                         args.workers, tier.modules)  # fmt: skip
     wall = time.perf_counter() - t0
     write_csv([r.as_csv() for r in rows], args.out / "benchmark.csv")
-    summary = summarise(rows, methods, args.n_max)
+    summary = summarise(rows, methods, n_max)
     figures = {
         "summary bars": plot_bars(summary, args.out / "benchmark_bars.png") if summary else None,
         "learning curve": plot_learning_curve(
             train_dir / "evaluations.npz", args.out / "learning_curve.png"
-        ),
+        )
+        if any(m.startswith("ppo") for m in methods)
+        else None,
         "structures": plot_structures(rows, args.out / "structures.png"),
     }
-    path = write_report(rows, summary, args.out, suites, args.model, train_dir, args.n_max,
-                        figures, wall)  # fmt: skip
+    command = " ".join(["modquad bench agents", *(argv if argv is not None else sys.argv[1:])])
+    path = write_report(rows, summary, args.out, suites, args.model, train_dir, n_max,
+                        figures, wall, tier.name, command)  # fmt: skip
     print(path.read_text())
     return 0
 

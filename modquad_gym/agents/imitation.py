@@ -126,35 +126,19 @@ def collect_parallel(
     workers: int = 1,
     progress: bool = False,
 ) -> Demonstrations:
-    """:func:`collect` over ``workers`` processes (chunks of tasks, each chunk seeded by
-    ``[seed, chunk index]``, so the result does not depend on ``workers``)."""
-    from concurrent.futures import ProcessPoolExecutor
-    from multiprocessing import get_context
+    """:func:`collect` over ``workers`` Ray tasks (:mod:`modquad_gym.distributed`: an embedded
+    Ray, or the cluster of ``RAY_ADDRESS``; 1: in this process). Chunks of 50 tasks, each seeded
+    by ``[seed, chunk index]``, so the result does not depend on ``workers``."""
+    from modquad_gym.distributed import map_tasks
 
     size = 50
     jobs = [
         (list(tasks[i : i + size]), env_kwargs, n_max, [seed, i // size])
         for i in range(0, len(tasks), size)
     ]
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=len(tasks), desc="expert demonstrations", unit="task")
-    parts = []
-    if workers <= 1:
-        for job in jobs:
-            parts.append(_collect_chunk(job))
-            if bar is not None:
-                bar.update(len(job[0]))
-    else:
-        with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
-            for job, part in zip(jobs, pool.map(_collect_chunk, jobs)):
-                parts.append(part)
-                if bar is not None:
-                    bar.update(len(job[0]))
-    if bar is not None:
-        bar.close()
+    parts = map_tasks(
+        _collect_chunk, jobs, workers=workers, progress=progress, desc="expert demonstrations"
+    )
     return merge(parts)
 
 

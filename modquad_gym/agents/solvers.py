@@ -17,8 +17,20 @@ from typing import Any, Protocol, runtime_checkable
 from modquad_gym.search import SEARCHES, SearchResult
 from modquad_gym.structure import Structure
 
-METHODS = ("exhaustive", "centrosymmetric", "greedy", "random", "ppo")
+METHOD_HELP = {
+    "exhaustive": "the certified minimum (exhaustive search)",
+    "centrosymmetric": "the paper's Algorithm 2",
+    "greedy": "baseline: the child satisfying most wrenches",
+    "random": "baseline: random dockings",
+    "ppo": "the learned agent (the shipped model unless --model)",
+    "ppo-guided": "best-first search ordered by the learned policy, certified at the lower bound",
+}
+"""The one table of solver names (the CLI's ``--method`` choices and help, the benchmark's
+default methods): every search of :data:`modquad_gym.search.SEARCHES`, then the learned ones."""
+assert list(METHOD_HELP)[: len(SEARCHES)] == list(SEARCHES)
+METHODS = tuple(METHOD_HELP)
 """Names understood by :func:`make_solver`."""
+LEARNED = tuple(m for m in METHODS if m not in SEARCHES)
 
 DEFAULT_MODEL = (
     Path(__file__).resolve().parents[1] / "data" / "models" / "ppo_default" / "model.zip"
@@ -38,18 +50,19 @@ class Solver(Protocol):
 class SearchSolver:
     """A search of :mod:`modquad_gym.search` behind the :class:`Solver` interface."""
 
-    def __init__(self, method: str, n_max: int = 7, seed: int = 0) -> None:
+    def __init__(self, method: str, n_max: int = 7, seed: int = 0, modules=None) -> None:
         if method not in SEARCHES:
             raise ValueError(f"unknown search {method!r}; choose one of {', '.join(SEARCHES)}")
         self.name = method
         self.n_max = n_max
         self.seed = seed
         self._fn = SEARCHES[method]
+        self._kwargs = {"modules": list(modules)} if modules else {}
+        if method == "random":
+            self._kwargs["seed"] = seed
 
     def solve(self, task: Any) -> SearchResult:
-        if self.name == "random":
-            return self._fn(task, n_max=self.n_max, seed=self.seed)
-        return self._fn(task, n_max=self.n_max)
+        return self._fn(task, n_max=self.n_max, **self._kwargs)
 
     def __repr__(self) -> str:
         return f"SearchSolver({self.name!r}, n_max={self.n_max}, seed={self.seed})"
@@ -61,22 +74,30 @@ def make_solver(
     model: str | Path | None = None,
     seed: int = 0,
     samples: int = 0,
+    modules=None,
 ) -> Solver:
     """The solver for ``method`` (one of :data:`METHODS`).
 
     ``model`` (a PPO .zip, default :data:`DEFAULT_MODEL`) and ``samples`` (extra stochastic
     rollouts, best verified structure kept) apply to ``"ppo"`` only; ``seed`` seeds the random
-    search and PPO's sampled rollouts.
+    search and PPO's sampled rollouts; ``modules`` (a list of module types) makes the searches
+    search over shapes x type assignments.
     """
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
-    if method == "ppo":
+    if method in LEARNED:
+        if modules:
+            raise ValueError("the PPO agent handles one module type; --modules needs a search")
+        if method == "ppo-guided":
+            from .guided import GuidedSolver
+
+            return GuidedSolver(model=model, n_max=n_max)
         from .ppo import PPOSolver
 
         return PPOSolver(model=model, n_max=n_max, seed=seed, samples=samples)
     if model is not None:
-        raise ValueError(f"--model applies to method 'ppo' only, not {method!r}")
-    return SearchSolver(method, n_max=n_max, seed=seed)
+        raise ValueError(f"--model applies to {', '.join(LEARNED)} only, not {method!r}")
+    return SearchSolver(method, n_max=n_max, seed=seed, modules=modules)
 
 
 class ExternalSolver:

@@ -50,14 +50,18 @@ def draw_task(generator: TaskGenerator, seed: int, name: str | None = None) -> T
     """The task ``generator`` draws from ``default_rng(seed)``, with ``meta["seed"]`` set."""
     task = generator(np.random.default_rng(seed))
     meta = {**task.meta, "seed": int(seed)}
-    return TaskRequirement(task.wrenches, name=name or task.name, f_max=task.f_max, meta=meta)
+    return TaskRequirement(
+        task.wrenches, name=name or task.name, f_max=task.f_max, kind=task.kind, meta=meta
+    )
 
 
 def with_optimum(task: TaskRequirement, n_max: int = 7) -> TaskRequirement:
     """``task`` with ``meta["optimum"]`` (certified, exhaustive search up to ``n_max``)."""
     result = exhaustive_search(task, n_max=n_max)
     meta = {**task.meta, "optimum": result.n_modules, "optimum_n_max": n_max}
-    return TaskRequirement(task.wrenches, name=task.name, f_max=task.f_max, meta=meta)
+    return TaskRequirement(
+        task.wrenches, name=task.name, f_max=task.f_max, kind=task.kind, meta=meta
+    )
 
 
 def build_suite(kind: str, n: int, n_max: int = 7) -> list[TaskRequirement]:
@@ -71,6 +75,12 @@ def build_suite(kind: str, n: int, n_max: int = 7) -> list[TaskRequirement]:
     return [
         with_optimum(draw_task(gen, seed0 + i, name=f"{kind}-{seed0 + i}"), n_max) for i in range(n)
     ]
+
+
+def optimum_counts(tasks: Sequence[TaskRequirement]) -> dict:
+    """How many tasks have each certified optimum (None: no structure up to n_max), sorted."""
+    optima = [t.meta.get("optimum") for t in tasks]
+    return {k: optima.count(k) for k in sorted(set(optima), key=lambda v: (v is None, v or 0))}
 
 
 class CyclingTasks:
@@ -144,9 +154,7 @@ def main(argv: list[str] | None = None) -> int:
         suite = build_suite(kind, n, n_max=args.n_max)
         check_disjoint(suite)
         path = save_suite(suite, args.out / f"heldout_{kind}.json")
-        optima = [t.meta["optimum"] for t in suite]
-        counts = {k: optima.count(k) for k in sorted(set(optima), key=lambda v: (v is None, v))}
-        print(f"{path}: {n} tasks, optimum counts {counts}")
+        print(f"{path}: {n} tasks, optimum counts {optimum_counts(suite)}")
     return 0
 
 

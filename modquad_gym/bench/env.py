@@ -9,6 +9,13 @@ unwrapped environment, with the random choice among valid actions included. Each
 ``--warmup`` steps (reported as the cold rate: zonotopes and supports of new structures are built
 then) and then times ``--steps`` steps with the per-structure caches warm, which is the regime of
 training (there are only 1,067 structures of at most 7 modules up to translation).
+
+The "resets counted" row times the default configuration as a user gets it,
+``gym.make("modquad_gym:ModQuadAssembly-v0")`` (default task source, wrappers included), with
+random masked actions read from the observation, every ``reset`` inside the timed loop and its
+cost reported apart. Next to it, one MaskablePPO update (``.train()`` on a 256-step rollout of the
+same env, the hyperparameters of ``train.py``) is timed in the same run, so the env's cost can be
+read against the learner's.
 """
 
 from __future__ import annotations
@@ -18,32 +25,31 @@ import os
 import time
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 
 from ..envs import ModQuadAssemblyEnv
-from ..outputs import write_text
+from ..extras import import_optional
+from ..options import int_option, seed_option
+from ..outputs import check_output_dir, write_text
 from ..tasks import PaperTasks, PlantedTasks
-from . import (
-    int_option,
-    machine_description,
-    markdown_table,
-    parse_bench_args,
-    seed_option,
-    write_csv,
-)
+from . import machine_description, markdown_table, parse_bench_args, write_csv
 
 SIZES = (1, 8, 32, 80, 200)
 FAMILIES = {"paper": PaperTasks, "planted": PlantedTasks}
 TARGET = 5000.0
+DEFAULT_ID = "modquad_gym:ModQuadAssembly-v0"
+PPO_RECIPE = {"n_steps": 256, "batch_size": 128, "n_epochs": 8, "net_arch": [256, 256]}
+"""The rollout and update sizes of ``train.py``'s HYPERPARAMETERS (what the update timing uses)."""
 
 
 def run_steps(env: ModQuadAssemblyEnv, n: int, rng: np.random.Generator) -> tuple[float, dict]:
     """Play ``n`` steps with random valid actions (reset on episode end); (seconds, counters)."""
     episodes = invalid = 0
-    calls0 = sum(b.tests for b in env._backends.values())
+    calls0 = sum(ev.tests for ev in env.evaluators.values())
     start = time.perf_counter()
     for _ in range(n):
-        valid = np.flatnonzero(env._mask)
+        valid = np.flatnonzero(env.state.mask)
         a = int(valid[rng.integers(len(valid))]) if len(valid) else 0
         _, _, term, trunc, info = env.step(a)
         invalid += info["invalid_action"]
@@ -51,7 +57,7 @@ def run_steps(env: ModQuadAssemblyEnv, n: int, rng: np.random.Generator) -> tupl
             env.reset()
             episodes += 1
     seconds = time.perf_counter() - start
-    calls = sum(b.tests for b in env._backends.values()) - calls0
+    calls = sum(ev.tests for ev in env.evaluators.values()) - calls0
     return seconds, {"episodes": episodes, "oracle_calls": calls}
 
 
@@ -72,6 +78,64 @@ def measure(family: str, t: int, steps: int, warmup: int, seed: int, n_max: int)
         "oracle_tests_per_step": counts["oracle_calls"] / steps,
         "goal": "met" if steps / warm_s >= TARGET else "NOT met",
     }
+
+
+def measure_default(steps: int, warmup: int, seed: int) -> dict:
+    """The "resets counted" row: the default env from ``gym.make``, random masked actions from
+    ``obs["action_mask"]``, resets timed inside the loop (and apart)."""
+    env = gym.make(DEFAULT_ID)
+    rng = np.random.default_rng(seed)
+    obs, _ = env.reset(seed=seed)
+    reset_s = 0.0
+    episodes = 0
+    start = time.perf_counter()
+    for i in range(warmup + steps):
+        if i == warmup:
+            start, reset_s, episodes = time.perf_counter(), 0.0, 0
+        valid = np.flatnonzero(obs["action_mask"])
+        a = int(valid[rng.integers(len(valid))]) if len(valid) else 0
+        obs, _, term, trunc, _ = env.step(a)
+        if term or trunc:
+            t0 = time.perf_counter()
+            obs, _ = env.reset()
+            reset_s += time.perf_counter() - t0
+            episodes += 1
+    seconds = time.perf_counter() - start
+    return {
+        "config": f"gym.make({DEFAULT_ID!r}), resets counted",
+        "steps_per_s": steps / seconds,
+        "us_per_step": 1e6 * (seconds - reset_s) / steps,
+        "us_per_reset": 1e6 * reset_s / max(episodes, 1),
+        "steps_per_episode": steps / max(episodes, 1),
+        "goal": "met" if steps / seconds >= TARGET else "NOT met",
+    }
+
+
+def ppo_update_seconds(seed: int) -> tuple[float, float]:
+    """(seconds of one MaskablePPO ``.train()``, seconds of the 256-step rollout before it) on
+    the default env, timed with a callback around SB3's own ``learn``."""
+    sb3 = import_optional("sb3_contrib")
+    callbacks = import_optional("stable_baselines3.common.callbacks")
+
+    class Clock(callbacks.BaseCallback):
+        def _on_rollout_start(self) -> None:
+            self.t0 = time.perf_counter()
+
+        def _on_rollout_end(self) -> None:
+            self.t1 = time.perf_counter()
+
+        def _on_step(self) -> bool:
+            return True
+
+    hp = dict(PPO_RECIPE)
+    policy_kwargs = {"net_arch": hp.pop("net_arch")}
+    model = sb3.MaskablePPO(
+        "MultiInputPolicy", gym.make(DEFAULT_ID), policy_kwargs=policy_kwargs, seed=seed,
+        device="cpu", verbose=0, **hp,
+    )  # fmt: skip
+    clock = Clock()
+    model.learn(total_timesteps=hp["n_steps"], callback=clock)
+    return time.perf_counter() - clock.t1, clock.t1 - clock.t0
 
 
 def pin_to_one_core() -> str:
@@ -99,33 +163,79 @@ def verdict(rows: list[dict], machine: str) -> str:
     return f"{head} (on {machine})."
 
 
-def report(rows: list[dict], args: argparse.Namespace, pinning: str) -> str:
+def default_section(row: dict) -> list[str]:
+    """The report's lines for the "resets counted" row and the PPO update beside it."""
+    lines = [
+        "## Default configuration, resets counted",
+        "",
+        f"`gym.make({DEFAULT_ID!r})` as a user gets it (default task source, Gymnasium's "
+        "wrappers), random masked actions from `obs['action_mask']`, every reset inside the "
+        "timed loop (`us_per_step` excludes resets, `us_per_reset` is their mean). "
+        f"**{row['steps_per_s']:,.0f} steps/s: goal ({TARGET:,.0f}) {row['goal']}.**",
+        "",
+    ]
+    if "ppo_update_ms" in row:
+        lines += [
+            f"One MaskablePPO update (`.train()`, {PPO_RECIPE['n_epochs']} epochs of batches "
+            f"of {PPO_RECIPE['batch_size']} on a {PPO_RECIPE['n_steps']}-step rollout, "
+            f"net {PPO_RECIPE['net_arch']}, CPU) took {row['ppo_update_ms']:.0f} ms in the same "
+            f"run; the {PPO_RECIPE['n_steps']} env steps of its rollout, at the rate above, "
+            f"cost {row['env_ms_per_rollout']:.0f} ms: env / update = "
+            f"{row['env_over_update']:.2f}.",
+            "",
+        ]
+    return lines + [markdown_table([row]), ""]
+
+
+def report(rows: list[dict], default: dict | None, args: argparse.Namespace, pinning: str) -> str:
     machine = machine_description()
+    note = f" ({args.machine_note})" if args.machine_note else ""
     lines = [
         "# ModQuadAssembly-v0 speed",
         "",
-        f"Machine: {machine}; one process, {pinning}.",
-        f"Command: `python -m modquad_gym.bench.env --steps {args.steps} --warmup {args.warmup} "
-        f"--seed {args.seed} --n-max {args.n_max}`",
-        "",
-        "Random valid (masked) actions, a fresh task drawn every episode from the family with "
-        "exactly t wrenches, unwrapped env (``gym.make`` adds Gymnasium's checker wrappers). "
-        "`steps_per_s` is measured after a warm-up of the per-structure caches; "
-        "`cold_steps_per_s` is the warm-up itself. `oracle_tests_per_step` counts wrenches sent "
-        "to the exact oracle (the others are rejected by the support-function features).",
-        "",
-        f"Goal of issue 5: at least {TARGET:,.0f} steps/s in one process on one core with random "
-        "masked actions and a fresh task every episode (column `goal`).",
-        "",
-        f"**{verdict(rows, machine)}**",
-        "",
-        markdown_table(rows),
+        f"Machine: {machine}{note}; one process, {pinning}.",
+        f"Command: `{command_line(args)}`",
         "",
     ]
+    if default is not None:
+        lines += default_section(default)
+    if rows:
+        lines += [
+            "## Per task family and size",
+            "",
+            "Random valid (masked) actions, a fresh task drawn every episode from the family "
+            "with exactly t wrenches, unwrapped env (``gym.make`` adds Gymnasium's checker "
+            "wrappers). `steps_per_s` is measured after a warm-up of the per-structure caches; "
+            "`cold_steps_per_s` is the warm-up itself. `oracle_tests_per_step` counts wrenches "
+            "sent to the exact oracle (the others are rejected by the support-function "
+            "features).",
+            "",
+            f"Goal of issue 5: at least {TARGET:,.0f} steps/s in one process on one core with "
+            "random masked actions and a fresh task every episode (column `goal`).",
+            "",
+            f"**{verdict(rows, machine)}**",
+            "",
+            markdown_table(rows),
+            "",
+        ]
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> list[dict]:
+def command_line(args: argparse.Namespace) -> str:
+    """The command that reproduces the report."""
+    parts = [
+        f"python -m modquad_gym.bench.env --steps {args.steps} --warmup {args.warmup}",
+        f"--seed {args.seed} --n-max {args.n_max} --default-steps {args.default_steps}",
+        "--sizes " + " ".join(str(t) for t in args.sizes),
+    ]
+    if args.no_ppo:
+        parts.append("--no-ppo")
+    if args.machine_note:
+        parts.append(f"--machine-note {args.machine_note!r}")
+    return " ".join(parts)
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         prog="python -m modquad_gym.bench.env", description=__doc__.split("\n\n")[0]
     )
@@ -136,15 +246,36 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--seed", type=seed_option, default=0)
     parser.add_argument("--n-max", type=int_option(2, 16), default=7)
     parser.add_argument(
-        "--sizes",
-        type=int_option(1, 100_000),
-        nargs="+",
-        default=list(SIZES),
+        "--sizes", type=int_option(1, 100_000), nargs="*", default=list(SIZES),
         help="task sizes t to measure",
-    )
+    )  # fmt: skip
+    parser.add_argument(
+        "--default-steps", type=int_option(0), default=20000,
+        help="timed steps of the default configuration, resets counted (0: skip that row)",
+    )  # fmt: skip
+    parser.add_argument("--no-ppo", action="store_true", help="skip the PPO update timing")
+    parser.add_argument("--machine-note", default="", help="said after the machine line")
     parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
     args = parse_bench_args(parser, argv)
+    if not args.default_steps and not args.sizes:
+        parser.error("nothing to measure: give --sizes or --default-steps > 0")
+    return args
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    args = parse_args(argv)
+    check_output_dir(args.out, what="--out")
     pinning = pin_to_one_core()
+    default = None
+    if args.default_steps:
+        default = measure_default(args.default_steps, args.warmup, args.seed)
+        if not args.no_ppo:
+            update_s, _ = ppo_update_seconds(args.seed)
+            n = PPO_RECIPE["n_steps"]
+            default["ppo_update_ms"] = 1e3 * update_s
+            default["env_ms_per_rollout"] = 1e3 * n / default["steps_per_s"]
+            default["env_over_update"] = default["env_ms_per_rollout"] / default["ppo_update_ms"]
+        print(f"default, resets counted: {default['steps_per_s']:.0f} steps/s", flush=True)
     rows = []
     for family in FAMILIES:
         for t in args.sizes:
@@ -156,11 +287,14 @@ def main(argv: list[str] | None = None) -> list[dict]:
                 flush=True,
             )
             rows.append(row)
-    print(verdict(rows, machine_description()))
-    write_csv(rows, args.out / "env_benchmark.csv")
-    write_text(args.out / "env_benchmark.md", report(rows, args, pinning))
+    if rows:
+        print(verdict(rows, machine_description()))
+    every = ([default] if default else []) + rows
+    keys = list(dict.fromkeys(k for r in every for k in r))  # the default row has its own
+    write_csv([{k: r.get(k, "") for k in keys} for r in every], args.out / "env_benchmark.csv")
+    write_text(args.out / "env_benchmark.md", report(rows, default, args, pinning))
     print(f"wrote {args.out / 'env_benchmark.md'} and {args.out / 'env_benchmark.csv'}")
-    return rows
+    return every
 
 
 if __name__ == "__main__":

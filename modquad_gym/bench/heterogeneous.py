@@ -27,12 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..module import GRAVITY, STOCK_TYPES, palette
+from ..module import STOCK_TYPES, palette
 from ..outputs import check_output_dir, write_text
 from ..polyominoes import A001168
 from ..search import exhaustive_search
 from ..structure import Structure
-from ..tasks import PaperTasks, TaskRequirement, random_cells
+from ..tasks import PaperTasks, PlantedMixedTasks, TaskRequirement
 from . import (
     int_option,
     machine_description,
@@ -50,25 +50,10 @@ GOALS = {2: 2.0, 3: 20.0}
 
 
 def planted_mixed(rng: np.random.Generator, kind: str, f_max: float) -> TaskRequirement:
-    """Wrenches inside a random mixed structure (3-6 modules of the palette): 40 wrenches,
-    half interior, half near vertices; an ``external`` task has the structure's weight
-    subtracted, so the hidden structure still satisfies it."""
-    types = palette(",".join(PALETTE))
-    n = int(rng.integers(3, 7))
-    cells = random_cells(rng, n)
-    hidden = Structure(cells, modules=[types[int(rng.integers(len(types)))] for _ in cells])
-    A = hidden.configuration_matrix()
-    U = rng.uniform(0.02, 0.98, size=(40, A.shape[1]))
-    vertex = rng.random(U.shape) < 0.5
-    U[vertex] = np.where(rng.random(int(vertex.sum())) < 0.5, 0.02, 0.98)
-    W = (U * f_max) @ A.T
-    if kind == "external":
-        W[:, 2] -= hidden.mass * GRAVITY
-    meta = {
-        "hidden_cells": [list(c) for c in cells],
-        "hidden_modules": [m.name for m in hidden.modules],
-    }
-    return TaskRequirement(W, name=f"planted-{kind}", f_max=f_max, kind=kind, meta=meta)
+    """A task planted in a random mixed structure of 3-6 palette modules (40 wrenches; an
+    ``external`` task has the structure's weight subtracted): :class:`PlantedMixedTasks`."""
+    gen = PlantedMixedTasks(",".join(PALETTE), kind=kind, f_max=f_max, name=f"planted-{kind}")
+    return gen(rng)
 
 
 def task_sets(n_tasks: int, seed: int) -> dict[str, list[TaskRequirement]]:
@@ -216,7 +201,7 @@ def mujoco_rows(rows: list[dict], sets: dict[str, list[TaskRequirement]], k: int
         rep = validate(
             s, task.wrenches, f_max=task.f_max, kind="external", max_hover_wrenches=5,
             hover_seconds=2.0, render=False,
-        )  # fmt: skip
+        ).to_dict()  # fmt: skip
         out.append(
             {
                 "workload": row["workload"],

@@ -3,22 +3,33 @@
 ``import modquad_gym`` (or ``gym.make("modquad_gym:ModQuadAssembly-v0")``, which imports the
 package first) registers:
 
-* ``ModQuadAssembly-v0``: :class:`~modquad_gym.envs.assembly.ModQuadAssemblyEnv`, every keyword
+* ``ModQuadAssembly-v0``: :class:`~modquad_gym.envs.assembly.env.ModQuadAssemblyEnv`, every keyword
   of its constructor accepted by ``gym.make``.
 * ``ModQuadAssemblyPaper-v0``: the same with ``tasks="paper"`` (the paper's random tasks).
 * ``ModQuadAssemblyPlanted-v0``: the same with ``tasks="planted"`` (tasks planted from a
   random structure, so a solution within n_max is known to exist).
 * ``ModQuadAssemblyMixed-v0``: the same with ``modules="t45,t45m,flat"``: three module types,
-  (cell, type) actions (:class:`~modquad_gym.envs.mixed.MixedAssemblyEnv`).
+  (cell, type) actions (:class:`~modquad_gym.envs.assembly.mixed.MixedAssemblyEnv`).
+* ``ModQuadAssemblyLarge-v0``: the same with ``n_max=12`` and ``tasks="planted-large"`` (tasks
+  planted in 6-12 modules): the large benchmark tier (:mod:`modquad_gym.agents.tiers`).
 """
 
 from __future__ import annotations
 
 import gymnasium as gym
 
-from .assembly import MAX_STEPS_LIMIT, ModQuadAssemblyEnv
-from .features import AssemblyFeatures, unit_directions
-from .reward import RewardWeights, episode_return
+from .assembly import (
+    MAX_STEPS_LIMIT,
+    AssemblyFeatures,
+    AssemblyState,
+    MixedAssemblyEnv,
+    ModQuadAssemblyEnv,
+    RewardFn,
+    RewardWeights,
+    WeightedReward,
+    episode_return,
+    unit_directions,
+)
 
 ENTRY_POINT = "modquad_gym.envs.assembly:ModQuadAssemblyEnv"
 
@@ -27,6 +38,7 @@ ENV_IDS: dict[str, dict] = {
     "ModQuadAssemblyPaper-v0": {"tasks": "paper"},
     "ModQuadAssemblyPlanted-v0": {"tasks": "planted"},
     "ModQuadAssemblyMixed-v0": {"modules": "t45,t45m,flat"},
+    "ModQuadAssemblyLarge-v0": {"tasks": "planted-large", "n_max": 12},
 }
 
 
@@ -47,8 +59,12 @@ register_envs()
 __all__ = [
     "ENV_IDS",
     "AssemblyFeatures",
+    "AssemblyState",
+    "MixedAssemblyEnv",
     "ModQuadAssemblyEnv",
+    "RewardFn",
     "RewardWeights",
+    "WeightedReward",
     "episode_return",
     "register_envs",
     "unit_directions",

@@ -14,8 +14,8 @@ feasibility against the task was decided; ``oracle_calls`` the number of wrench-
 from .baselines import centrosymmetric_search, greedy_search, random_search
 from .bounds import force_lower_bound, level_bounds
 from .checker import TaskChecker
-from .exhaustive import exhaustive_search, optimal_structures, scan_chunks
-from .result import SearchResult
+from .exhaustive import exhaustive_search, optimal_level, optimal_structures, scan_chunks
+from .result import Optima, SearchResult
 
 SEARCHES = {
     "exhaustive": exhaustive_search,
@@ -27,6 +27,7 @@ SEARCHES = {
 
 __all__ = [
     "SEARCHES",
+    "Optima",
     "SearchResult",
     "TaskChecker",
     "centrosymmetric_search",
@@ -34,6 +35,7 @@ __all__ = [
     "force_lower_bound",
     "greedy_search",
     "level_bounds",
+    "optimal_level",
     "optimal_structures",
     "random_search",
     "scan_chunks",

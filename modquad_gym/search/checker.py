@@ -64,12 +64,24 @@ class TaskChecker:
         self._terms = supports.direction_terms(self.palette, self.pool)
         self._values = np.zeros(0)  # max_i d . w_i over the task, per direction
         self._dz = np.zeros(0)  # the directions' f_z components (the weight term)
+        self.learned = 0  # directions remembered so far (the pool's length stops at POOL_SIZE)
 
     # --- the cache of separating directions ------------------------------------------------
     def remember(self, d6: np.ndarray) -> None:
         """Add a separating direction (normalised) at the front of the cache."""
         d6 = np.asarray(d6, dtype=float) / np.linalg.norm(d6)
-        self.pool = np.vstack([d6[None], self.pool])[:POOL_SIZE]
+        self.learned += 1
+        self._set_pool(np.vstack([d6[None], self.pool]))
+
+    def adopt(self, directions: np.ndarray) -> None:
+        """Put separating directions (rows, newest first; e.g. learnt by other checkers of the
+        same task) at the front of the cache, in one update."""
+        directions = np.asarray(directions, dtype=float).reshape(-1, 6)
+        norms = np.linalg.norm(directions, axis=1)
+        self._set_pool(np.vstack([directions[norms > 0] / norms[norms > 0, None], self.pool]))
+
+    def _set_pool(self, pool: np.ndarray) -> None:
+        self.pool = pool[:POOL_SIZE]
         self._terms = supports.direction_terms(self.palette, self.pool)
         self._values = (self.pool @ self.W.T).max(axis=1)
         self._dz = np.ascontiguousarray(self.pool[:, 2])
@@ -118,12 +130,12 @@ class TaskChecker:
         for i in range(len(cells)):
             if not alive[i]:
                 continue
-            n_pool = len(self.pool)
+            learned = self.learned
             A, mass = self.matrix(cells[i], types[i])
             if self.check_matrix(A, mass):
                 self._count_rejected(i - int(alive[:i].sum()))
                 return i
-            if len(self.pool) != n_pool and i + 1 < len(cells):  # one new direction
+            if self.learned != learned and i + 1 < len(cells):  # one new direction
                 alive[i + 1 :] &= self.alive(cells[i + 1 :], types[i + 1 :], newest_only=True)
         self._count_rejected(len(cells) - int(alive.sum()))
         return None

@@ -6,9 +6,10 @@ feasible structure is the certified minimum, and the structure returned is the f
 one in canonical order, whatever the chunk size or the number of workers. Nothing is pruned
 except by exact bounds (:mod:`.bounds`) and cached separating directions (:mod:`.checker`).
 
-Large levels are split into ranges of chunks decided by worker processes
-(:func:`scan_chunks` is the unit of work, runnable by any executor); the answer is the first
-feasible structure of the first range that has one.
+Large levels are split into ranges of chunks decided as Ray tasks
+(:mod:`modquad_gym.distributed`; :func:`scan_chunks` decides any range alone); the answer is the
+first feasible structure of the first range that has one, so it is the same for any number of
+workers, on one machine or a cluster.
 
 Several module types (``modules=[...]``) or a task of kind ``external``: every (shape, type
 assignment) pair is visited, level by level; within a level shapes come in canonical order
@@ -26,18 +27,22 @@ from __future__ import annotations
 
 import itertools
 import os
+import time
 from collections.abc import Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from contextlib import nullcontext
+from functools import partial
+from itertools import islice
 
 import numpy as np
 
+from ..distributed import Engine
 from ..module import ModuleType
 from ..polyominoes import A001168, DEFAULT_CHUNK, PolyominoStream, level_chunks
 from ..structure import Key, Structure, normalise, normalise_typed
 from ..validation import check_int
 from .bounds import NO_SIZE, force_lower_bound, level_excluded
 from .checker import TaskChecker
-from .result import SearchResult, SearchRun, allowed_counts, first_possible_level
+from .result import Optima, SearchResult, SearchRun, allowed_counts, first_possible_level
 
 MAX_MODULES = 16
 """The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8."""
@@ -50,9 +55,11 @@ PAIRS_PER_BLOCK = 8192
 """Pairs decided together by the typed search (whole shapes with all their assignments)."""
 
 PARALLEL_FROM = 100_000
-"""Levels with at least this many structures are split across worker processes."""
+"""Levels with at least this many structures are split into Ray tasks (with workers > 1)."""
 
-CHUNKS_PER_RANGE = 4
+CHUNKS_PER_RANGE = 16
+"""Chunks per Ray task of a split level (262,144 structures with the default chunk): each task
+starts a fresh cache of separating directions, so fewer, longer tasks waste less."""
 
 
 def level_size(n: int) -> int | None:
@@ -75,50 +82,80 @@ def scan_chunks(
 ) -> tuple[Key | None, int, int]:
     """Decide chunks [start, stop) of level n: (key of the first feasible structure or None,
     structures evaluated, oracle calls). ``pool`` seeds the separating directions."""
+    checker = _seeded_checker(W, f_max, module, pool)
+    key, _ = _first_key(checker, level_chunks(n, chunk, start, stop))
+    return key, checker.evaluated, checker.oracle_calls
+
+
+def _seeded_checker(W, f_max, module, pool) -> TaskChecker:
     checker = TaskChecker(W, f_max, module)
-    for d in (pool if pool is not None else [])[::-1]:
-        checker.remember(d)
-    for cells in level_chunks(n, chunk, start, stop):
+    if pool is not None and len(pool):
+        checker.adopt(pool)
+    return checker
+
+
+def _first_key(checker: TaskChecker, chunks) -> tuple[Key | None, int]:
+    """(key of the first feasible structure of ``chunks``, structures in the chunks read)."""
+    seen = 0
+    for cells in chunks:
+        seen += len(cells)
         i = checker.first_feasible(cells)
         if i is not None:
-            return _key(cells[i]), checker.evaluated, checker.oracle_calls
-    return None, checker.evaluated, checker.oracle_calls
+            return _key(cells[i]), seen
+    return None, seen
 
 
-def _ranges(n: int, chunk: int) -> Iterator[tuple[int, int]]:
+def _ranges(n: int, chunk: int) -> Iterator[tuple[int, tuple]]:
+    """Ranges of CHUNKS_PER_RANGE chunks of level n in canonical order, each as (chunks, the
+    enumeration's state at its start). Lazy: one pass over the level, read only as far ahead
+    as the tasks in flight need (enumerating is several times faster than deciding)."""
     total = level_size(n) or sum(len(c) for c in PolyominoStream(n, chunk))
     n_chunks = -(-total // chunk)
+    stream = PolyominoStream(n, chunk)
     for start in range(0, n_chunks, CHUNKS_PER_RANGE):
-        yield start, min(start + CHUNKS_PER_RANGE, n_chunks)
+        count = min(CHUNKS_PER_RANGE, n_chunks - start)
+        yield count, stream.snapshot()
+        stream.skip(count)
 
 
-def _scan_parallel(run: SearchRun, n: int, chunk: int, workers: int) -> Key | None:
-    checker = run.checker
-    with ProcessPoolExecutor(max_workers=workers) as ex:
-        futures = [
-            ex.submit(scan_chunks, run.W, run.f_max, run.module, n, chunk, a, b, checker.pool)
-            for a, b in _ranges(n, chunk)
-        ]
-        try:
-            for fut in futures:  # in canonical order: the first range with an answer wins
-                key, evaluated, calls = fut.result()
-                checker.evaluated += evaluated
-                checker.oracle_calls += calls
-                if key is not None:
-                    return key
-        finally:
-            for fut in futures:
-                fut.cancel()
-    return None
+def _scan_range(W, f_max, module, n, chunk, pool, job) -> tuple:
+    """One range (a Ray task): (first feasible key or None, evaluated, oracle calls, the
+    separating directions known at the end, structures decided or passed)."""
+    count, state = job
+    stream = PolyominoStream(n, chunk)
+    stream.restore(state)
+    checker = _seeded_checker(W, f_max, module, pool)
+    key, seen = _first_key(checker, islice(stream, count))
+    return key, checker.evaluated, checker.oracle_calls, checker.pool, seen
 
 
-def _scan(run: SearchRun, n: int, chunk: int, workers: int, progress) -> Iterator[Key]:
-    """Keys of the feasible structures of level n, in canonical order (lazily)."""
-    size = level_size(n)
-    if workers > 1 and size is not None and size >= PARALLEL_FROM:
-        key = _scan_parallel(run, n, chunk, workers)
+def _scan_parallel(run: SearchRun, n: int, chunk: int, engine: Engine, progress) -> Key | None:
+    """The first feasible structure of level n: ranges of chunks as tasks on ``engine``, each
+    seeded with the separating directions known before the level; ranges after the first
+    answer are cancelled, the work of ranges up to it is counted. With no answer, the
+    directions the ranges learnt are kept for the next level."""
+
+    def advance(_i: int, result) -> None:
         if progress is not None:
-            progress.update(size)
+            progress.update(result[4])
+
+    scan = partial(_scan_range, run.W, run.f_max, run.module, n, chunk, run.checker.pool.copy())
+    results = engine.first(scan, _ranges(n, chunk), lambda r: r[0] is not None, on_result=advance)
+    for _, evaluated, calls, _, _ in results:
+        run.checker.evaluated += evaluated
+        run.checker.oracle_calls += calls
+    key = results[-1][0]
+    if key is None:  # newest first: the last ranges' directions, then the earlier ones
+        run.checker.adopt(np.vstack([r[3] for r in reversed(results)]))
+    return key
+
+
+def _scan(run: SearchRun, n: int, chunk: int, engine: Engine | None, progress) -> Iterator[Key]:
+    """Keys of the feasible structures of level n, in canonical order (lazily); only the first
+    one when the level is split across ``engine``'s workers."""
+    size = level_size(n)
+    if engine is not None and size is not None and size >= PARALLEL_FROM:
+        key = _scan_parallel(run, n, chunk, engine, progress)
         if key is not None:
             yield key
         return
@@ -161,7 +198,7 @@ def _levels_to_search(run: SearchRun) -> tuple[int, list[int], str]:
     return n_lb, skipped, ""
 
 
-def _search_levels(run: SearchRun, chunk, workers, progress, first_only):
+def _search_levels(run: SearchRun, chunk, engine, progress, first_only):
     n_lb, skipped, proof = _levels_to_search(run)
     run.skipped += sum(level_size(n) or 0 for n in skipped)
     for n in range(n_lb, run.n_max + 1) if not proof else ():
@@ -172,7 +209,7 @@ def _search_levels(run: SearchRun, chunk, workers, progress, first_only):
         bar = _progress(progress, n)
         try:
             found = []
-            for key in _scan(run, n, chunk, workers if first_only else 1, bar):
+            for key in _scan(run, n, chunk, engine if first_only else None, bar):
                 found.append(key)
                 if first_only:
                     break
@@ -193,6 +230,7 @@ def exhaustive_search(
     modules: Sequence[ModuleType] | None = None,
     kind: str | None = None,
     workers: int | None = 1,
+    address: str | None = None,
     chunk: int = DEFAULT_CHUNK,
     progress: bool = False,
 ) -> SearchResult:
@@ -200,10 +238,13 @@ def exhaustive_search(
     TaskRequirement), searching every connected structure of up to ``n_max`` modules.
 
     ``certified`` is always True: either the structure is minimal, or no structure of up to
-    ``n_max`` modules can satisfy the task. ``workers`` processes share large levels (None:
-    every local core); the answer does not depend on ``workers`` or ``chunk`` (``evaluated``
-    does, since each worker learns its own separating directions). ``progress`` shows a bar
-    per level on stderr.
+    ``n_max`` modules can satisfy the task. With ``workers`` > 1 (None: every local core, at
+    most 8) levels of at least :data:`PARALLEL_FROM` structures are split into Ray tasks, on
+    an embedded Ray or the cluster at ``address`` / ``RAY_ADDRESS``
+    (:mod:`modquad_gym.distributed`; serial when Ray is not installed). The answer does not
+    depend on ``workers``, ``address`` or ``chunk``; ``evaluated`` depends on ``chunk`` and on
+    whether levels are split (each range learns its own separating directions), not on the
+    number of workers. ``progress`` shows a bar per level on stderr.
 
     ``modules=[mA, mB, ...]`` searches every shape with every assignment of those types (one
     per cell; the module docstring gives the order and the pruning); the result's
@@ -217,9 +258,41 @@ def exhaustive_search(
         n, found, skipped, proof = _search_typed(run, progress, True)
         structure = _typed_structure(run, found[0]) if found else None
         return run.finish(structure, True, skipped, proof)
-    n, keys, skipped, proof = _search_levels(run, chunk, _workers(workers), progress, True)
+    workers = _workers(workers)
+    engine = Engine(workers, address) if workers > 1 else None
+    with engine or nullcontext():  # Ray starts at the first split level, once per search
+        n, keys, skipped, proof = _search_levels(run, chunk, engine, progress, True)
     structure = Structure.from_trusted(keys[0], run.module) if keys else None
     return run.finish(structure, True, skipped, proof)
+
+
+def optimal_level(
+    task,
+    n_max: int = 7,
+    f_max: float | None = None,
+    module: ModuleType | None = None,
+    *,
+    chunk: int = DEFAULT_CHUNK,
+) -> Optima:
+    """Every minimum-module structure of ``task`` (one module type) with the work it took
+    (:class:`Optima`). Certified like :func:`exhaustive_search`, which stops at the first
+    feasible structure; this one decides the whole minimal level (in this process: batches of
+    tasks are what :mod:`modquad_gym.distributed` spreads)."""
+    run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES)
+    chunk = check_int(chunk, "chunk", low=1)
+    if run.homogeneous_total:
+        n, keys, _, proof = _search_levels(run, chunk, None, False, False)
+    else:  # an external task: self-weight, one type
+        n, found, _, proof = _search_typed(run, False, False)
+        keys = [_typed_structure(run, f).key for f in found]
+    return Optima(
+        n_modules=n,
+        keys=keys,
+        evaluated=run.checker.evaluated,
+        oracle_calls=run.checker.oracle_calls,
+        seconds=time.perf_counter() - run.t0,
+        proof=proof,
+    )
 
 
 def optimal_structures(
@@ -245,7 +318,7 @@ def optimal_structures(
         if run.typed:
             return n, [normalise_typed(s.cells, s.modules) for s in structures]
         return n, [s.key for s in structures]
-    n, keys, _, _ = _search_levels(run, check_int(chunk, "chunk", low=1), 1, False, False)
+    n, keys, _, _ = _search_levels(run, check_int(chunk, "chunk", low=1), None, False, False)
     return n, keys
 
 
@@ -332,6 +405,7 @@ __all__ = [
     "assignments",
     "exhaustive_search",
     "normalise_typed",
+    "optimal_level",
     "optimal_structures",
     "scan_chunks",
 ]

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..module import ModuleType
 from ..oracle import check_task_scale, feasible
-from ..structure import Structure
+from ..structure import Key, Structure
 from ..tasks import check_kind, rotor_wrenches
 from ..validation import check_f_max, check_int, check_wrenches
 from .bounds import NO_SIZE, count_vectors, counts_possible, level_excluded
@@ -82,6 +82,26 @@ class SearchResult:
         if self.proof:
             out["proof"] = self.proof
         return out
+
+
+@dataclass
+class Optima:
+    """Every minimum-module structure of a task (:func:`~.exhaustive.optimal_level`).
+
+    Attributes:
+        n_modules: the certified minimum, or None when no structure up to n_max works.
+        keys: every feasible structure of ``n_modules`` modules (cells up to translation), in
+            canonical order.
+        evaluated, oracle_calls, seconds: the work it took, as in :class:`SearchResult`.
+        proof: how infeasibility was proven without searching, when it was ("" otherwise).
+    """
+
+    n_modules: int | None
+    keys: list[Key]
+    evaluated: int
+    oracle_calls: int
+    seconds: float
+    proof: str = ""
 
 
 class SearchRun:

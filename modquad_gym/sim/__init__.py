@@ -15,6 +15,7 @@ from .bench import ALLOCATIONS, BenchResult, allocate_inputs, run_bench  # noqa:
 from .hover import (  # noqa: E402
     LOAD_FRAMES,
     LOAD_RAMP_PROFILES,
+    HoverConfig,
     HoverGains,
     HoverResult,
     hover_linearization,
@@ -24,11 +25,14 @@ from .hover import (  # noqa: E402
     wrench_axis,
 )
 from .model import SimModel, actuator_wrench, build_model, model_xml  # noqa: E402
-from .validate import render_structure, validate  # noqa: E402
+from .pictures import render_structure  # noqa: E402
+from .report import ValidationReport  # noqa: E402
+from .validate import validate  # noqa: E402
 
 __all__ = [
     "ALLOCATIONS",
     "BenchResult",
+    "HoverConfig",
     "HoverGains",
     "HoverResult",
     "LOAD_FRAMES",
@@ -44,6 +48,7 @@ __all__ = [
     "run_hover",
     "step_headroom",
     "unreachable_wrench_directions",
+    "ValidationReport",
     "validate",
     "wrench_axis",
 ]

@@ -1,0 +1,106 @@
+"""Benchmark tiers: an environment id, its held-out suites with certified optima, its budget.
+
+* ``current``: ``ModQuadAssembly-v0`` (one module type, n_max 7), the planted and paper-like
+  held-out suites (:mod:`.suites`);
+* ``large``: ``ModQuadAssemblyLarge-v0`` (one type, n_max 12), tasks planted in 6-12 modules,
+  where the certified search costs seconds per task;
+* ``mixed``: ``ModQuadAssemblyMixed-v0`` with the palette t45, t45m, flat (n_max 7) on
+  self-weight (``external``) tasks planted in mixed structures of 3-6 modules: the rotors also
+  lift the structure.
+
+Suites are package data (``modquad_gym/data/suites``); ``python -m modquad_gym.agents.tiers
+large`` (or ``mixed``) rewrites a tier's suite from its fixed seeds, each task with its
+certified optimum from :func:`~modquad_gym.search.exhaustive_search`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import dataclass, field
+
+from modquad_gym.module import palette
+from modquad_gym.search import exhaustive_search
+from modquad_gym.tasks import TaskRequirement, load_suite, make_generator, save_suite
+
+from .suites import SUITES_DIR, draw_task, optimum_counts
+
+
+@dataclass(frozen=True)
+class Tier:
+    """One benchmark tier (see the module docstring)."""
+
+    name: str
+    env_id: str
+    n_max: int
+    suites: tuple[str, ...]
+    env_kwargs: dict = field(default_factory=dict)
+    modules: str | None = None
+    source: str = ""
+    seed0: int = 0
+    n_tasks: int = 0
+
+    def load_suites(self, limit: int | None = None) -> dict[str, list[TaskRequirement]]:
+        """The tier's held-out suites by name (first ``limit`` tasks of each)."""
+        return {s: load_suite(SUITES_DIR / f"{s}.json")[:limit] for s in self.suites}
+
+    def search_kwargs(self) -> dict:
+        """Keywords that make a search of :mod:`modquad_gym.search` solve this tier."""
+        return {"modules": palette(self.modules)} if self.modules else {}
+
+
+TIERS = {
+    "current": Tier("current", "ModQuadAssembly-v0", 7, ("heldout_paper", "heldout_planted")),
+    "large": Tier("large", "ModQuadAssemblyLarge-v0", 12, ("large_planted",),
+                  source="planted-large", seed0=3_000_000, n_tasks=40),
+    "mixed": Tier("mixed", "ModQuadAssemblyMixed-v0", 7, ("mixed_external",),
+                  env_kwargs={"tasks": "planted-mixed-external"}, modules="t45,t45m,flat",
+                  source="planted-mixed-external", seed0=4_000_000, n_tasks=40),
+}  # fmt: skip
+"""The tiers by name."""
+
+
+def get_tier(name: str) -> Tier:
+    if name not in TIERS:
+        raise ValueError(f"--tier: unknown tier {name!r}; choose one of {', '.join(TIERS)}")
+    return TIERS[name]
+
+
+def build_tier_suite(tier: Tier, n: int | None = None, progress: bool = True) -> list:
+    """The tier's held-out tasks (seeds ``seed0 + i``) with their certified optimum."""
+    from tqdm import tqdm
+
+    gen = make_generator(tier.source)
+    tasks = []
+    for i in tqdm(range(n or tier.n_tasks), desc=tier.name, disable=not progress):
+        task = draw_task(gen, tier.seed0 + i, name=f"{tier.name}-{tier.seed0 + i}")
+        t0 = time.perf_counter()
+        r = exhaustive_search(task, n_max=tier.n_max, **tier.search_kwargs())
+        meta = {**task.meta, "optimum": r.n_modules, "optimum_n_max": tier.n_max,
+                "optimum_cells": [list(c) for c in r.structure.cells] if r.structure else None,
+                "optimum_modules": [m.name for m in r.structure.modules] if r.structure and
+                tier.modules else None,
+                "exhaustive_evaluated": r.evaluated,
+                "exhaustive_seconds": round(time.perf_counter() - t0, 3)}  # fmt: skip
+        tasks.append(TaskRequirement(task.wrenches, name=task.name, f_max=task.f_max,
+                                     kind=task.kind, meta=meta))  # fmt: skip
+    return tasks
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(
+        prog="python -m modquad_gym.agents.tiers",
+        description="Rewrite a tier's held-out suite (fixed seeds, certified optima).",
+    )
+    p.add_argument("tier", choices=[t for t in TIERS if TIERS[t].source])
+    p.add_argument("--n", type=int, default=None, help="tasks (default: the tier's size)")
+    args = p.parse_args(argv)
+    tier = TIERS[args.tier]
+    tasks = build_tier_suite(tier, args.n)
+    path = save_suite(tasks, SUITES_DIR / f"{tier.suites[0]}.json")
+    print(f"{path}: {len(tasks)} tasks, optimum counts {optimum_counts(tasks)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,259 @@
+"""Batch work and a large search on Ray: wall time with 1 and 2 local workers, Ray's start-up.
+
+    modquad bench distributed [--tasks 1000] [--n-max 7] [--search-n-max 13 [14 ...]] [--seed 0]
+
+Writes ``results/distributed.md`` and ``.csv``. Two workloads, each run serially (no Ray), on an
+embedded Ray with 1 CPU and with 2 CPUs, every answer compared with the serial one:
+
+* a batch: the certified optima (every optimal structure, :func:`modquad_gym.optima.optimum_record`,
+  the unit of work of ``modquad optima``) of ``--tasks`` training-like tasks (the ``mixed`` task
+  source of ``train.py``: planted tasks of 2-6 modules and paper-like tasks);
+* for each ``--search-n-max``, one certified exhaustive search on a task that no structure of
+  up to that many modules satisfies, so every level is decided to its end (levels of at least
+  100,000 structures are split into Ray tasks of 262,144 structures).
+
+Wall times include everything a user waits for: starting Ray, its worker processes importing
+the package, the work and the shutdown; ``startup_s`` is the part until a no-op task has
+returned on every CPU. The report ends with the commands that run the same on a cluster.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..outputs import write_text
+from . import machine_description, markdown_table, write_csv
+
+MODES = (("serial (no Ray)", 0), ("Ray, 1 CPU", 1), ("Ray, 2 CPUs", 2))
+"""(label, Ray CPUs; 0: the serial path of :mod:`modquad_gym.distributed`)."""
+
+
+def _noop(i: int) -> int:
+    time.sleep(0.2)  # long enough that each CPU gets one
+    return i
+
+
+def _start_ray(cpus: int) -> float:
+    """Start an embedded Ray with ``cpus`` CPUs and one worker process per CPU; seconds taken."""
+    import ray
+
+    t0 = time.perf_counter()
+    ray.init(address="local", num_cpus=cpus, include_dashboard=False, log_to_driver=False,
+             logging_level="ERROR")  # fmt: skip
+    from ..distributed import map_tasks
+
+    map_tasks(_noop, range(max(cpus, 2)), workers=max(cpus, 2))  # on the Ray just started
+    return time.perf_counter() - t0
+
+
+def _timed(cpus: int, work) -> tuple[float, float, object]:
+    """(wall seconds, start-up seconds, result) of ``work(workers)`` serially (cpus = 0) or on
+    an embedded Ray with ``cpus`` CPUs (started and shut down inside the timing)."""
+    t0 = time.perf_counter()
+    startup = 0.0
+    if cpus:
+        import ray
+
+        startup = _start_ray(cpus)
+        try:
+            result = work(max(cpus, 2))  # > 1 worker: the Ray path, on the Ray just started
+        finally:
+            ray.shutdown()
+    else:
+        result = work(1)
+    return time.perf_counter() - t0, startup, result
+
+
+def batch_tasks(n: int, seed: int) -> list:
+    from ..tasks import make_generator
+
+    generator = make_generator("mixed")
+    rng = np.random.default_rng([seed, 2])
+    return [(f"mixed-{seed}-{i}", generator(rng)) for i in range(n)]
+
+
+def run_batch(tasks: list, n_max: int) -> list[dict]:
+    from functools import partial
+
+    from ..distributed import map_tasks
+    from ..optima import optimum_record
+
+    def work(workers: int):
+        records = map_tasks(partial(optimum_record, n_max), tasks, workers=workers)
+        return [{k: v for k, v in r.items() if k != "seconds"} for r in records]
+
+    rows, reference = [], None
+    for label, cpus in MODES:
+        wall, startup, records = _timed(cpus, work)
+        reference = records if reference is None else reference
+        evaluated = sum(r["evaluated"] for r in records)
+        rows.append(_row(f"optima of {len(tasks)} tasks (n_max {n_max})", label, wall,
+                         startup, records == reference, evaluated))  # fmt: skip
+        print(rows[-1], flush=True)
+    return rows
+
+
+def run_search(n_max: int, seed: int) -> list[dict]:
+    from ..search import exhaustive_search
+    from .scaling import refuting_task
+
+    W = refuting_task(seed, n_max)
+
+    def work(workers: int):
+        r = exhaustive_search(W, n_max=n_max, workers=workers)
+        return r.structure, r.evaluated
+
+    rows, reference = [], None
+    for label, cpus in MODES:
+        wall, startup, (structure, evaluated) = _timed(cpus, work)
+        reference = structure if reference is None else reference
+        rows.append(_row(f"exhaustive search, n_max {n_max}, no structure", label, wall,
+                         startup, structure == reference, evaluated))  # fmt: skip
+        print(rows[-1], flush=True)
+    return rows
+
+
+def _row(workload, mode, wall, startup, same, evaluated) -> dict:
+    return {
+        "workload": workload,
+        "mode": mode,
+        "wall_s": round(wall, 2),
+        "startup_s": round(startup, 2),
+        "work_s": round(wall - startup, 2),
+        "evaluated": evaluated,
+        "same_answers": "yes" if same else "NO",
+    }
+
+
+def _with_speedups(rows: list[dict]) -> list[dict]:
+    out = []
+    for r in rows:
+        serial = next(s for s in rows if s["workload"] == r["workload"])
+        out.append({**r, "speedup_wall": round(serial["wall_s"] / r["wall_s"], 2),
+                    "speedup_work": round(serial["work_s"] / r["work_s"], 2)})  # fmt: skip
+    return out
+
+
+CLUSTER = """\
+```bash
+# every node: the same Python environment with the package and Ray
+pip install -r requirements.txt && pip install --no-deps -e .
+# Ray >= 2.59 uses token authentication: share one token with every node and driver
+export RAY_AUTH_MODE=token
+export RAY_AUTH_TOKEN=$(python -c 'import secrets; print(secrets.token_hex(16))')
+# head node
+ray start --head --port=6379
+# each other node (same RAY_AUTH_MODE and RAY_AUTH_TOKEN)
+ray start --address=HEAD_IP:6379
+# driver (any node): the same commands as on one machine, RAY_ADDRESS picks the cluster
+RAY_ADDRESS=HEAD_IP:6379 modquad optima --suite heldout_paper --n-max 7 --out optima.jsonl
+RAY_ADDRESS=HEAD_IP:6379 modquad solve --task tasks/ --json > answers.jsonl
+RAY_ADDRESS=HEAD_IP:6379 modquad solve --task big_task.json --n-max 15 --workers 64
+RAY_ADDRESS=HEAD_IP:6379 python train.py --seeds 0 1 2 3
+# when done, on each node
+ray stop
+```"""
+
+
+def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
+    load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
+    batch = [r for r in rows if r["workload"].startswith("optima")]
+    searches: dict[str, list[dict]] = {}
+    for r in rows:
+        if r["workload"].startswith("exhaustive"):
+            searches.setdefault(r["workload"], []).append(r)
+
+    def line(rs):
+        two = rs[-1]
+        return (f"{two['speedup_wall']:g}x wall ({rs[0]['wall_s']:g} s -> {two['wall_s']:g} s), "
+                f"{two['speedup_work']:g}x without Ray's start-up")  # fmt: skip
+
+    startups = [r["startup_s"] for r in rows if r["startup_s"] > 0]
+    return "\n".join([
+        "# Batch work and a large search on Ray",
+        "",
+        f"Made by `modquad bench distributed --tasks {args.tasks} --n-max {args.n_max} "
+        f"--search-n-max {' '.join(map(str, args.search_n_max))} --seed {args.seed}` on "
+        f"{machine_description()}, "
+        f"in {seconds:.0f} s; load average at the end {load} (above ~1 another job shared the "
+        "CPUs, so the speed-ups are those of a shared machine).",
+        "",
+        "Each workload runs three ways: the serial path of `modquad_gym.distributed` (no Ray), "
+        "an embedded Ray with 1 CPU, and one with 2 CPUs. `wall_s` is what a user waits for "
+        "(Ray's start, its workers importing the package, the work, the shutdown); `startup_s` "
+        "is `ray.init` until a no-op task has returned on every CPU; `work_s` = wall - "
+        "start-up. `same_answers`: every record (optimum, all optimal structures, evaluated "
+        "counts) or the search's answer equals the serial run's. The batch is the unit of work "
+        "of `modquad optima` on training-like tasks (`mixed`: planted tasks of 2-6 modules and "
+        "paper-like tasks); each search is a task no structure of up to n_max modules "
+        "satisfies, so every structure of every level not ruled out by the exact bounds is "
+        "decided (`evaluated`); on Ray, levels of 100,000 structures or more are split into "
+        "tasks of 262,144 structures, each starting from the separating directions known "
+        "before the level (the serial search carries them from one structure to the next, so "
+        "a split level costs more CPU time in all; less so the larger the level).",
+        "",
+        markdown_table(rows),
+        "",
+        f"- Batch of {args.tasks} tasks, 2 CPUs vs serial: {line(batch)}.",
+        *[f"- {name}, 2 CPUs vs serial: {line(rs)}." for name, rs in searches.items()],
+        f"- Ray's start-up on this machine: {min(startups):g}-{max(startups):g} s per start, "
+        "paid once per command; batches shorter than a few times that are faster serially, "
+        "which is why `--workers 1` (and a batch of one task) never starts Ray.",
+        "",
+        "## The same on a cluster",
+        "",
+        "Every command takes `--ray-address HOST:PORT` or reads `RAY_ADDRESS`; with a cluster "
+        "and no `--workers`, the tasks go to every CPU of the cluster. Tested here with a "
+        "two-node cluster on one host (`tests/test_distributed.py`, "
+        "`test_two_node_cluster_on_this_host`).",
+        "",
+        CLUSTER,
+        "",
+    ])  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(
+        prog="modquad bench distributed",
+        description="Time a batch of certified optima and one large exhaustive search "
+        "serially and on an embedded Ray with 1 and 2 CPUs; write results/distributed.{md,csv}.",
+    )
+    parser.add_argument("--tasks", type=int, default=1000, help="batch size (default 1000)")
+    parser.add_argument("--n-max", type=int, default=7, help="batch n_max (default 7)")
+    parser.add_argument(
+        "--search-n-max",
+        type=int,
+        nargs="+",
+        default=[13],
+        help="n_max of the searches, one search each (default 13)",
+    )
+    parser.add_argument("--seed", type=int, default=0, help="task seed (default 0)")
+    parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
+    args = parser.parse_args(argv)
+    if (
+        args.tasks < 2
+        or not 1 <= args.n_max <= 16
+        or not all(11 <= n <= 16 for n in args.search_n_max)
+    ):
+        parser.error("--tasks must be >= 2, --n-max in 1..16, --search-n-max in 11..16")
+    from ..extras import import_optional
+
+    import_optional("ray")
+    t0 = time.perf_counter()
+    rows = run_batch(batch_tasks(args.tasks, args.seed), args.n_max)
+    for n in args.search_n_max:
+        rows += run_search(n, args.seed)
+    rows = _with_speedups(rows)
+    write_csv(rows, args.out / "distributed.csv")
+    text = report(rows, args, time.perf_counter() - t0)
+    write_text(args.out / "distributed.md", text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()

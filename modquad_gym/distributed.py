@@ -1,0 +1,337 @@
+"""Work that outgrows one process, on Ray: batches of independent items and ordered scans.
+
+This module alone imports Ray (lazily, so ``import modquad_gym`` stays light). An
+:class:`Engine` runs a function over items either in this process or as Ray tasks:
+
+* serial: ``workers=1``, a batch of one item, or Ray not installed (a one-line note on stderr
+  when more workers were asked for; an explicit cluster address without Ray is an error);
+* a cluster: ``address=`` (the CLI's ``--ray-address``) or the ``RAY_ADDRESS`` variable; every
+  node needs modquad_gym installed, and ``workers`` then caps the tasks in flight (default:
+  every CPU of the cluster);
+* otherwise an embedded Ray on this machine, ``ray.init(num_cpus=workers)``, shut down when the
+  engine closes (a Ray already running in this process, e.g. the user's own ``ray.init``, is
+  used as it is and left running).
+
+Results come back in the order of the items whatever the order of completion, so a batch gives
+the same answers for any number of workers. Faults are Ray's business: a task whose worker dies
+is resubmitted by Ray (``max_retries``); an exception raised by the function itself is not
+retried, and with ``catch=True`` it comes back as a :class:`Failed` record naming the item, so
+one malformed task file does not sink a batch. Progress bars follow ``ray.wait``.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import re
+import sys
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from itertools import chain, islice
+from typing import Any
+
+from .extras import import_optional, missing_extra_message
+from .validation import check_int
+
+ADDRESS_VARIABLE = "RAY_ADDRESS"
+DEFAULT_RETRIES = 3
+"""Resubmissions of a task whose worker process died (Ray's ``max_retries``)."""
+
+__all__ = [
+    "ADDRESS_VARIABLE",
+    "DEFAULT_RETRIES",
+    "Engine",
+    "Failed",
+    "first_in_order",
+    "map_tasks",
+    "ray_installed",
+]
+
+
+@dataclass(frozen=True)
+class Failed:
+    """An item whose function raised (or whose worker kept dying): its label and the error as
+    one line."""
+
+    label: str
+    error: str
+
+    def __str__(self) -> str:
+        return f"{self.label}: {self.error}"
+
+
+def ray_installed() -> bool:
+    return importlib.util.find_spec("ray") is not None
+
+
+def _one_line(exc: BaseException) -> str:
+    """The error as one line: the message of an expected failure (ValueError, OSError: they
+    name their file or option), the type and message of anything else."""
+    text = " ".join(str(exc).split())
+    if text and isinstance(exc, (ValueError, OSError)):
+        return text
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _call(fn: Callable, item: Any, label: str, catch: bool) -> Any:
+    """Run one item (in this process or in a Ray worker): the same code on both paths."""
+    if not catch:
+        return fn(item)
+    try:
+        return fn(item)
+    except Exception as exc:  # reported per item, the batch goes on
+        return Failed(label, _one_line(exc))
+
+
+class Engine:
+    """Where a batch runs: serially here, an embedded Ray, or a Ray cluster (module docstring).
+
+    Args:
+        workers: parallel tasks (>= 1); None: ``local_default`` on this machine (every core
+            when that is None too), every CPU of the cluster when one is given.
+        address: a Ray cluster address (``auto``, ``HOST:PORT``, ``ray://HOST:10001``); None
+            reads ``RAY_ADDRESS``.
+        local_default: workers when none are given and no cluster is.
+
+    Use it as a context manager so Ray, started at the first batch that needs it, serves every
+    batch of the block and is shut down at its end; the methods also work outside one (Ray
+    started and stopped per call). A serial batch or one of a single item never starts Ray.
+    """
+
+    def __init__(
+        self,
+        workers: int | None = None,
+        address: str | None = None,
+        *,
+        local_default: int | None = None,
+    ) -> None:
+        self.address = address or os.environ.get(ADDRESS_VARIABLE) or None
+        if workers is not None:
+            workers = check_int(workers, "workers", low=1)
+        elif not self.address:
+            workers = local_default or os.cpu_count() or 1
+        self.workers = workers
+        self.use_ray = workers != 1 and ray_installed()
+        if workers != 1 and not self.use_ray:
+            if self.address:
+                raise ImportError(
+                    f"a Ray cluster was asked for ({self.address}) but "
+                    + missing_extra_message("ray")
+                )
+            print(
+                "modquad: note: Ray is not installed, running serially "
+                "(pip install 'modquad_gym[distributed]' to use several workers)",
+                file=sys.stderr,
+            )
+        self._started = False
+        self._depth = 0
+
+    def __repr__(self) -> str:
+        where = "serial" if not self.use_ray else (self.address or "embedded Ray")
+        return f"Engine(workers={self.workers}, {where})"
+
+    # --- Ray's life cycle --------------------------------------------------------------------
+    def __enter__(self) -> Engine:
+        self._depth += 1
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._depth -= 1
+        if self._depth == 0 and self._started:
+            import_optional("ray").shutdown()
+            self._started = False
+
+    def _start(self) -> None:
+        """Start (or join) Ray at the first batch that needs it; it stays up until the
+        outermost ``with`` block ends."""
+        ray = import_optional("ray")
+        if ray.is_initialized():
+            return
+        options = {"include_dashboard": False, "log_to_driver": False, "logging_level": "ERROR"}
+        if self.address:
+            ray.init(address=self.address, **options)
+        else:
+            # "local": a new embedded Ray even when RAY_ADDRESS names a cluster elsewhere
+            ray.init(address="local", num_cpus=self.workers, **options)
+        self._started = True
+
+    def cluster_cpus(self) -> int:
+        """CPUs Ray can use (1 on the serial path)."""
+        if not self.use_ray:
+            return 1
+        with self:
+            self._start()
+            return int(import_optional("ray").cluster_resources().get("CPU", 1))
+
+    # --- running -----------------------------------------------------------------------------
+    def map(
+        self,
+        fn: Callable[[Any], Any],
+        items: Iterable[Any],
+        *,
+        labels: Sequence[str] | None = None,
+        catch: bool = False,
+        progress: bool = False,
+        desc: str = "tasks",
+        on_result: Callable[[int, Any], None] | None = None,
+        max_retries: int = DEFAULT_RETRIES,
+    ) -> list[Any]:
+        """``[fn(item) for item in items]``, in item order, on this engine.
+
+        ``catch``: an exception raised by ``fn`` becomes a :class:`Failed` (labelled by
+        ``labels[i]``, default the item's index) instead of stopping the batch. ``on_result(i,
+        result)`` is called in this process as each item finishes (in completion order), e.g.
+        to append it to a file. ``fn`` must be picklable (a module-level function, or a
+        closure, which Ray ships by value).
+        """
+        items = list(items)
+        results: list[Any] = [None] * len(items)
+        bar = _bar(progress, len(items), desc)
+        try:
+            for i, result in self._run(fn, items, labels, catch, max_retries):
+                results[i] = result
+                if on_result is not None:
+                    on_result(i, result)
+                if bar is not None:
+                    bar.update(1)
+        finally:
+            if bar is not None:
+                bar.close()
+        return results
+
+    def first(
+        self,
+        fn: Callable[[Any], Any],
+        items: Iterable[Any],
+        accept: Callable[[Any], bool],
+        *,
+        on_result: Callable[[int, Any], None] | None = None,
+        max_retries: int = DEFAULT_RETRIES,
+    ) -> list[Any]:
+        """Results of items 0..k, where k is the first item (in item order) whose result is
+        accepted, or of every item when none is. Items after k still running are cancelled, so
+        the answer is the same for any number of workers and any timing. ``items`` may be a
+        lazy iterable: it is read only as far as the tasks in flight need."""
+        done: dict[int, Any] = {}
+        best = None
+        prefix = 0  # items 0..prefix-1 are all done
+        runner = self._run(fn, items, None, False, max_retries)
+        try:
+            for i, result in runner:
+                done[i] = result
+                if on_result is not None:
+                    on_result(i, result)
+                if (best is None or i < best) and accept(result):
+                    best = i
+                while prefix in done:
+                    prefix += 1
+                if best is not None and prefix > best:
+                    break
+        finally:
+            runner.close()  # cancels what is still in flight
+        return [done[i] for i in range(prefix if best is None else best + 1)]
+
+    def _run(self, fn, items, labels, catch, max_retries):
+        """(index, result) pairs in completion order."""
+        it = iter(items)
+        head = list(islice(it, 2))
+        items = chain(head, it)
+        if not self.use_ray or len(head) <= 1:
+            for i, item in enumerate(items):
+                yield i, _call(fn, item, _label(labels, i), catch)
+            return
+        with self:
+            self._start()
+            yield from self._run_ray(fn, items, labels, catch, max_retries)
+
+    def _run_ray(self, fn, items, labels, catch, max_retries):
+        """Ray tasks over ``items``: at most ``workers`` in flight on a cluster given a number
+        of workers, else twice the CPUs Ray has (the queue stays full, and a lazy ``items`` is
+        read only that far ahead)."""
+        ray = import_optional("ray")
+        remote = ray.remote(num_cpus=1, max_retries=max_retries, retry_exceptions=False)(_call)
+        fn_ref = ray.put(fn)
+        if self.address and self.workers:
+            cap = self.workers
+        else:
+            cap = 2 * max(1, int(ray.cluster_resources().get("CPU", 1)))
+        source = enumerate(items)
+        index: dict[Any, int] = {}
+        pending: list[Any] = []
+        more = True
+        try:
+            while more or pending:
+                while more and len(pending) < cap:
+                    following = next(source, None)
+                    if following is None:
+                        more = False
+                        break
+                    i, item = following
+                    ref = remote.remote(fn_ref, item, _label(labels, i), catch)
+                    index[ref] = i
+                    pending.append(ref)
+                if not pending:
+                    break
+                ready, pending = ray.wait(pending, num_returns=1)
+                for ref in ready:
+                    i = index.pop(ref)
+                    try:
+                        result = ray.get(ref)
+                    except ray.exceptions.RayError as exc:
+                        if not catch:
+                            raise
+                        result = Failed(_label(labels, i), _ray_error_line(exc))
+                    yield i, result
+        finally:
+            for ref in pending:
+                ray.cancel(ref)
+
+
+def _label(labels: Sequence[str] | None, i: int) -> str:
+    return str(i) if labels is None else labels[i]
+
+
+def _ray_error_line(exc: BaseException) -> str:
+    """A Ray failure (worker died past its retries, a function Ray could not run, ...) as one
+    line: its cause when Ray knows it, else its first line without terminal colours."""
+    cause = getattr(exc, "cause", None)
+    if isinstance(cause, BaseException):
+        return _one_line(cause)
+    first = re.sub(r"\x1b\[[0-9;]*m", "", str(exc)).strip().splitlines()
+    return f"{type(exc).__name__}: {first[0] if first else ''}".strip()
+
+
+def _bar(progress: bool, total: int, desc: str):
+    if not progress:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc=desc, unit="task", leave=False)
+
+
+def map_tasks(
+    fn: Callable[[Any], Any],
+    items: Iterable[Any],
+    *,
+    workers: int | None = 1,
+    address: str | None = None,
+    **options: Any,
+) -> list[Any]:
+    """``Engine(workers, address).map(fn, items, **options)``: one batch, Ray started and shut
+    down around it when needed (an already running Ray is reused)."""
+    with Engine(workers, address) as engine:
+        return engine.map(fn, items, **options)
+
+
+def first_in_order(
+    fn: Callable[[Any], Any],
+    items: Iterable[Any],
+    accept: Callable[[Any], bool],
+    *,
+    workers: int | None = 1,
+    address: str | None = None,
+    **options: Any,
+) -> list[Any]:
+    """``Engine(workers, address).first(fn, items, accept, **options)``."""
+    with Engine(workers, address) as engine:
+        return engine.first(fn, items, accept, **options)

@@ -1,0 +1,36 @@
+"""The assembly environment as a package (after Jumanji's layout): :mod:`.env` the transitions,
+:mod:`.types` the episode state, :mod:`.reward` the reward functions, :mod:`.features` the
+observation blocks, :mod:`.evaluator` the exact decisions and their caches, :mod:`.viewer` the
+pictures, :mod:`.inputs` the input cleaning, :mod:`.mixed` the env of several module types.
+
+Where to add: a reward term in :mod:`.reward` (:class:`WeightedReward.terms`), an observation
+feature in :mod:`.features` (:func:`observation_blocks`), a module type's env behaviour in
+:mod:`.mixed`."""
+
+from .env import MAX_STEPS_LIMIT, N_MAX_LIMIT, ModQuadAssemblyEnv
+from .features import CANDIDATE_FEATURES, AssemblyFeatures, ObservationBlock, unit_directions
+from .inputs import INVALID_ACTION_MODES, as_task
+from .mixed import MixedAssemblyEnv
+from .reward import RewardFn, RewardWeights, WeightedReward, episode_return
+from .types import AssemblyState, TaskArrays
+from .viewer import AssemblyViewer
+
+__all__ = [
+    "CANDIDATE_FEATURES",
+    "INVALID_ACTION_MODES",
+    "MAX_STEPS_LIMIT",
+    "N_MAX_LIMIT",
+    "AssemblyFeatures",
+    "AssemblyState",
+    "AssemblyViewer",
+    "MixedAssemblyEnv",
+    "ModQuadAssemblyEnv",
+    "ObservationBlock",
+    "RewardFn",
+    "RewardWeights",
+    "TaskArrays",
+    "WeightedReward",
+    "as_task",
+    "episode_return",
+    "unit_directions",
+]

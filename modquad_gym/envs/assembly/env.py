@@ -1,0 +1,490 @@
+"""The Gymnasium environment ``ModQuadAssembly-v0``: build a structure module by module.
+
+Split as in Jumanji: this module holds the transitions; the state is
+:class:`~.types.AssemblyState`, tasks come from a generator (:mod:`modquad_gym.tasks`), the
+reward is a :class:`~.reward.RewardFn`, the observation is made of the blocks of :mod:`.features`,
+structures are decided by :mod:`.evaluator` and drawn by :mod:`.viewer`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.error import ResetNeeded
+
+from ...module import ModuleType
+from ...structure import Cell, Structure, normalise
+from ...tasks import make_generator
+from ...validation import check_int
+from .evaluator import StructureEvaluator, TaskMemos
+from .features import (
+    CANDIDATE_FEATURES,
+    DEFAULT_N_DIRECTIONS,
+    MAX_N_DIRECTIONS,
+    AssemblyFeatures,
+    ObservationBlock,
+    observation_blocks,
+)
+from .inputs import (
+    check_arguments,
+    check_f_max,
+    check_oracle_method,
+    check_render_size,
+    draw_task,
+    parse_action,
+)
+from .reward import RewardFn, WeightedReward
+from .types import AssemblyState
+from .viewer import RENDER_FPS, AssemblyViewer
+
+N_MAX_LIMIT = 16
+"""Largest ``n_max`` (the grid has (2 n_max - 1)^2 actions; the searches stop at 16 too)."""
+MAX_STEPS_LIMIT = 4 * N_MAX_LIMIT
+"""Largest ``max_steps``; also ``max_episode_steps`` at registration, so no episode is longer."""
+STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
+"""The four grid neighbours."""
+
+
+class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
+    """Assemble the smallest modular multirotor (H-ModQuad) that can exert a task's wrenches.
+
+    ## Description
+    A task is a set of t wrenches w = [f; tau] (body frame, SI units; f_max per rotor) that the
+    robot must be able to produce. The agent starts from one module and docks one more per step
+    on a square grid. A structure satisfies a wrench when it lies in its feasible-wrench zonotope
+    W = {A u : 0 <= u <= f_max}, decided exactly by :class:`~modquad_gym.oracle.WrenchOracle`.
+    The goal is to satisfy every wrench with as few modules as possible (paper Problem 1).
+
+    Make it with ``gym.make("modquad_gym:ModQuadAssembly-v0", **kwargs)``, which imports
+    ``modquad_gym`` (and so registers the environment) first and works in a fresh process; after
+    ``import modquad_gym``, ``gym.make("ModQuadAssembly-v0", **kwargs)`` works too. (Gymnasium 1.x
+    does not load the ``gymnasium.envs`` entry point, so the bare id needs the import.)
+
+    ## Action Space
+    ``Discrete(G * G)`` with G = 2 * n_max - 1: one action per grid cell (x, y), with x and y in
+    [-(n_max - 1), n_max - 1] around the initial module at (0, 0):
+    ``a = (y + n_max - 1) * G + (x + n_max - 1)``. Action a is *valid* when its cell is empty,
+    4-adjacent to the structure and the episode is not over; a valid action docks a module there.
+    The mask of valid actions is exposed three ways: ``action_masks()`` (bool, also before
+    ``reset``, for sb3-contrib's MaskablePPO), ``obs["action_mask"]`` and
+    ``info["action_mask"]``. In a terminal state (and in the rare task that one module already
+    satisfies) no action is valid.
+
+    Every other action is *invalid*, and an invalid action never raises: it leaves the
+    structure unchanged and costs ``w_invalid`` (``invalid_action="penalise"``) or also ends the
+    episode (``"terminate"``), with ``info["invalid_action"]`` True. Invalid are an empty cell
+    that is not adjacent, an occupied cell, and anything that is not an integer in
+    ``[0, G * G)``: -1, G * G, 2.5, nan, True, None, "3", [1, 2], ... An integer is a Python
+    or numpy integer or a one-element array of integer dtype; a whole-number float (3.0,
+    ``np.float32(3)``, ``np.array([3.0])``) counts as that integer; a boolean never does.
+
+    ## Observation Space
+    A ``Dict`` of Boxes (float32 unless noted), fixed-size for any number t of task wrenches:
+
+    * ``"occupancy"`` (G * G,) in {0, 1}: 1 where a module sits, indexed like the actions:
+      ``occupancy[a]`` is the cell of action a, and ``occupancy.reshape(G, G)`` has row
+      y + n_max - 1 and column x + n_max - 1 (flat, as SB3's MultiInputPolicy expects; reshape
+      for a CNN). The initial module is always at the centre.
+    * ``"action_mask"`` (G * G,) int8 in {0, 1}: 1 for valid actions.
+    * ``"task"`` (K + 7,) in [-1, 1]: permutation-invariant task features (support function on
+      K fixed directions, force/torque statistics, log t).
+    * ``"structure"`` (2K + 7,) in [-1, 1]: the structure's support function, its deficit against
+      the task per direction, the fraction of satisfied wrenches, n_modules / n_max, rank / 6 and
+      per-wrench directional deficits.
+    * ``"candidates"`` (G * G * k,) in [-1, 1], only with ``lookahead=True`` (k = 5,
+      :data:`~.features.CANDIDATE_FEATURES`): per-action lookahead, row a
+      (``candidates.reshape(G * G, k)[a]``) describes the child structure that action a would
+      build, from its support function alone (its capability, the fraction of directions and
+      the largest and mean normalised support deficit against the task, the fraction of task
+      wrenches its support certainly rejects). Rows of invalid actions are zero, rows of valid
+      ones never all zero. These are cheap necessary tests, not oracle calls: they do not count
+      in ``info["evaluated"]`` or ``info["oracle_calls"]``.
+
+    K = ``n_directions`` (default 48); :mod:`modquad_gym.envs.assembly.features` documents
+    every entry and its normalisation.
+
+    ## Rewards
+    ``r_t = w_sat * (frac_t - frac_{t-1}) - w_module * added_t + w_success * success_t
+    - w_invalid * invalid_t``, with frac the fraction of satisfied wrenches. An episode's return
+    is therefore ``w_sat * (frac_T - frac_0) - w_module * (n_T - 1) + w_success * success
+    - w_invalid * n_invalid``: for a successful episode, fewer modules always earn more
+    (w_module > 0), and success beats failure when w_success > w_module * (n_max - 1). Defaults:
+    w_sat = 1, w_module = 0.1, w_success = 1, w_invalid = 0.1. ``info["reward_terms"]`` holds the
+    four terms of each step.
+
+    ## Starting State
+    One module at cell (0, 0) and a task drawn from the task source with ``self.np_random``
+    (seeded by ``reset(seed=...)``), or the task given as ``reset(options={"task": task})``
+    (a :class:`~modquad_gym.tasks.TaskRequirement` or a (t, 6) wrench array).
+
+    ## Episode End
+    * Termination (success): every task wrench is satisfied. If one module already satisfies the
+      task at reset, ``info["success"]`` is True there, the mask is all zero, and the next step
+      (any action) ends the episode with the success bonus and no module added.
+    * Termination (failure): n_max modules without success, no valid action left, or an invalid
+      action with ``invalid_action="terminate"``.
+    * Truncation: ``max_steps`` steps (default 4 * n_max) without termination; only reachable
+      through invalid actions.
+
+    ## Arguments
+    * ``tasks``: task source: ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"``
+      (default), a task file path, a TaskRequirement, a list of them, or a generator: any
+      callable ``gen(rng) -> TaskRequirement`` (or a (t, 6) wrench array), called with
+      ``self.np_random`` at each reset; a result of another kind raises a ValueError there.
+      See :func:`modquad_gym.tasks.make_generator`.
+    * ``n_max``: the largest number of modules (default 7, as in the paper), 2 to 16.
+    * ``module``: the :class:`~modquad_gym.module.ModuleType` of every module (default the
+      T-module, eta = pi/4).
+    * ``modules``: several module types (or stock names, ``"t45,t45m,flat"``): the env is then
+      :class:`~modquad_gym.envs.assembly.mixed.MixedAssemblyEnv`, whose action is (cell, type)
+      as one ``Discrete(G * G * K)`` and whose observation adds the types (see there); also for
+      tasks of kind ``external`` (self-weight). Default None: one type, this class.
+    * ``f_max``: maximum thrust per rotor, 1e-100 to 1e100; None (default) uses each task's own.
+    * ``reward_weights``: a :class:`~modquad_gym.envs.assembly.reward.RewardWeights` or a dict
+      of some of ``w_sat``, ``w_module``, ``w_success``, ``w_invalid`` (the default reward).
+    * ``reward``: any :class:`~modquad_gym.envs.assembly.reward.RewardFn` (default
+      :class:`~modquad_gym.envs.assembly.reward.WeightedReward` of ``reward_weights``).
+    * ``viewer``: an :class:`~modquad_gym.envs.assembly.viewer.AssemblyViewer` (default one of
+      ``render_size``).
+    * ``invalid_action``: ``"penalise"`` (default) or ``"terminate"``.
+    * ``max_steps``: the step limit for truncation (default 4 * n_max, at most 64; the
+      registered ``max_episode_steps`` is 64, so ``env.spec`` bounds every episode).
+    * ``render_mode``: None, ``"rgb_array"`` (the structure picture, (H, W, 3) uint8),
+      ``"human"`` (that picture in a pygame window; the ``viz`` extra) or ``"ansi"`` (a text
+      grid). ``gymnasium.wrappers.RecordVideo`` works on ``"rgb_array"`` (needs moviepy).
+    * ``n_directions``: K, the support directions of the features (default 48, 12..4096).
+    * ``oracle_method``: the oracle's method (default ``"auto"``, exact and certified).
+    * ``render_size``: (height, width) of ``rgb_array`` frames, each 16..4096 (default
+      (256, 256)).
+    * ``lookahead``: add the ``"candidates"`` observation (default False: the observation is
+      exactly the four entries above).
+
+    ``info`` carries ``n_modules``, ``satisfied_fraction``, ``success`` (and the same as
+    ``is_success``, which SB3's ``Monitor``/``EvalCallback`` and RL Zoo read), ``cells`` (list of
+    [x, y], initial module first), ``evaluated`` (structures the oracle evaluated this episode:
+    the initial one plus one per docking), ``oracle_calls`` (wrench tests this episode),
+    ``action_mask``, ``task_name``, ``n_wrenches``, ``invalid_action`` and ``reward_terms``.
+
+    ## Version History
+    * v0: initial version; the opt-in ``lookahead`` keyword (``"candidates"`` observation)
+      was added later and leaves the default observation unchanged. Later still, actions that
+      are not integers of the action space became invalid actions (they used to raise a
+      ValueError), and any callable became a task source; observations, rewards and infos of
+      valid input are unchanged. ``info["is_success"]``, ``render_mode="human"`` and
+      ``max_episode_steps`` at registration were added without changing any episode, and so
+      were the package layout and the ``reward``/``viewer`` keywords (a recorded replay test
+      checks that observations, rewards and infos are bit-identical).
+    """
+
+    decides_self_weight = False
+    """Whether tasks of kind ``external`` are accepted (the mixed env adds each weight)."""
+    metadata = {"render_modes": ["human", "rgb_array", "ansi"], "render_fps": RENDER_FPS}
+
+    def __new__(cls, *args: Any, **kwargs: Any):
+        if cls is ModQuadAssemblyEnv and kwargs.get("modules") is not None:
+            from .mixed import MixedAssemblyEnv  # several module types: (cell, type) actions
+
+            cls = MixedAssemblyEnv
+        return super().__new__(cls)
+
+    def __init__(
+        self,
+        tasks: Any = "mixed",
+        n_max: int = 7,
+        module: ModuleType | None = None,
+        f_max: float | None = None,
+        reward_weights: Any = None,
+        invalid_action: str = "penalise",
+        max_steps: int | None = None,
+        render_mode: str | None = None,
+        n_directions: int = DEFAULT_N_DIRECTIONS,
+        oracle_method: str = "auto",
+        render_size: tuple[int, int] = (256, 256),
+        lookahead: bool = False,
+        modules: Any = None,
+        reward: RewardFn | None = None,
+        viewer: AssemblyViewer | None = None,
+    ) -> None:
+        if modules is not None:  # only MixedAssemblyEnv takes a palette
+            raise ValueError("modules: a palette needs MixedAssemblyEnv (what gym.make builds)")
+        check_arguments(module, invalid_action, render_mode, lookahead, self.metadata)
+        self.n_max = check_int(n_max, "n_max", 2, N_MAX_LIMIT)
+        if max_steps is None:
+            max_steps = 4 * self.n_max
+        self.max_steps = check_int(max_steps, "max_steps", self.n_max - 1, MAX_STEPS_LIMIT)
+        self.lookahead = bool(lookahead)
+        self.module = module if module is not None else Structure([(0, 0)]).module
+        self.f_max = None if f_max is None else check_f_max(f_max)
+        if reward is not None and reward_weights is not None:
+            raise ValueError("give reward= or reward_weights=, not both")
+        if reward is not None and not callable(reward):
+            raise ValueError(f"reward must be a RewardFn (a callable), got {reward!r}")
+        self.reward: RewardFn = reward if reward is not None else WeightedReward(reward_weights)
+        self.weights = getattr(self.reward, "weights", None)
+        self.invalid_action = invalid_action
+        self.render_mode = render_mode
+        self.render_size = check_render_size(render_size)
+        self.n_directions = check_int(n_directions, "n_directions", 12, MAX_N_DIRECTIONS)
+        self.oracle_method = check_oracle_method(oracle_method)
+        self.task_source = tasks
+        self.generator: Callable[[np.random.Generator], Any] = make_generator(tasks)
+
+        self.radius = self.n_max - 1
+        self.side = G = 2 * self.n_max - 1
+        self.n_types = self._n_types()
+        self._n_cells = G * G
+        self._n_actions = G * G * self.n_types
+        self.evaluators: dict[float, StructureEvaluator] = {}  # per f_max, across episodes
+        self._memos = TaskMemos()
+        probe = self._evaluator(1.0 if self.f_max is None else self.f_max).features
+        self._blocks = self.make_blocks(probe)
+        self.action_space = spaces.Discrete(self._n_actions)
+        self.observation_space = spaces.Dict({b.name: b.space() for b in self._blocks})
+        self._readers = [(b.name, b.read) for b in self._blocks]
+        self._centre = self._n_cells // 2
+        self._cells_of = [self.cell_of(c) for c in range(G * G)]  # cell index -> (x, y)
+        self._neighbours = [  # cell index -> indices of its grid neighbours
+            [self.action_of((x + dx, y + dy)) for dx, dy in STEPS
+             if max(abs(x + dx), abs(y + dy)) <= self.radius]
+            for x, y in self._cells_of
+        ]  # fmt: skip
+        self._initial_mask = np.zeros(G * G * self.n_types, dtype=np.int8)
+        for b in self._neighbours[self._centre]:
+            self._initial_mask[b :: G * G] = 1
+        if viewer is None:
+            palette = getattr(self, "palette", None)  # the mixed env letters its types
+            viewer = AssemblyViewer(self.radius, self.n_max, self.render_size, palette)
+        self.viewer = viewer
+        self._state: AssemblyState | None = None
+        self.evaluator: StructureEvaluator | None = None
+
+    # --- hooks of the mixed env -----------------------------------------------------------
+    def make_blocks(self, features: AssemblyFeatures) -> list[ObservationBlock]:
+        """The observation's blocks, in order; override to add a feature (append an
+        :class:`~.features.ObservationBlock`): the spaces follow from the blocks."""
+        return observation_blocks(self._n_cells, self.n_types, features, self.lookahead)
+
+    def _n_types(self) -> int:
+        return 1
+
+    def _new_evaluator(self, f_max: float) -> StructureEvaluator:
+        return StructureEvaluator(
+            self.module, self.n_max, f_max, self.n_directions, self.oracle_method
+        )
+
+    def _key(self, cells: tuple[Cell, ...], types: tuple[int, ...]) -> Any:
+        return normalise(cells)
+
+    def _mass(self, types: tuple[int, ...]) -> float:
+        return 0.0  # one type decides total tasks only: the mass is not needed
+
+    def _start(self, options: dict) -> dict:
+        """State fields of the initial module's type (the mixed env); pops its options."""
+        return {}
+
+    # --- grid <-> actions -----------------------------------------------------------------
+    def action_of(self, cell: Cell) -> int:
+        """The action that docks a module at grid ``cell`` (x, y); ValueError off the grid."""
+        x, y = int(cell[0]), int(cell[1])
+        if max(abs(x), abs(y)) > self.radius:
+            raise ValueError(f"cell {cell} lies outside the grid [-{self.radius}, {self.radius}]^2")
+        return (y + self.radius) * self.side + (x + self.radius)
+
+    def cell_of(self, action: int) -> Cell:
+        """The grid cell (x, y) of ``action``."""
+        y, x = divmod(int(action) % self._n_cells, self.side)
+        return (x - self.radius, y - self.radius)
+
+    # --- state ----------------------------------------------------------------------------
+    def _evaluator(self, f_max: float) -> StructureEvaluator:
+        """The evaluator of ``f_max`` (kept across episodes: its caches make steps fast)."""
+        ev = self.evaluators.get(f_max)
+        if ev is None:
+            ev = self.evaluators[f_max] = self._new_evaluator(f_max)
+        return ev
+
+    def _require(self, what: str) -> AssemblyState:
+        if self._state is None:
+            raise ResetNeeded(f"call reset() before {what}")
+        return self._state
+
+    @property
+    def state(self) -> AssemblyState:
+        """The episode's current :class:`~.types.AssemblyState`."""
+        return self._require("asking for the state")
+
+    @property
+    def structure(self) -> Structure:
+        """The current structure (cells in docking order, initial module first)."""
+        return Structure(list(self._require("asking for the structure").cells), module=self.module)
+
+    @property
+    def task(self) -> Any:
+        """The current task (a TaskRequirement)."""
+        return self._require("asking for the task").task.requirement
+
+    def action_masks(self) -> np.ndarray:
+        """bool: the valid actions now; before ``reset``, those of the initial state."""
+        if self._state is None:
+            return self._initial_mask.astype(bool)
+        return self._state.mask.astype(bool)
+
+    def _decide(self, state: AssemblyState, cells: tuple, types: tuple) -> dict:
+        """The state fields of the structure (cells, types) against the episode's task."""
+        n_sat, vec, tests = self.evaluator.evaluate(
+            self._key(cells, types), state.task, self._mass(types), self._memo
+        )
+        t = len(state.task.W)
+        return {
+            "structure_vec": vec,
+            "frac": n_sat / t,
+            "success": n_sat == t,
+            "evaluated": state.evaluated + 1,
+            "oracle_calls": state.oracle_calls + tests,
+        }
+
+    def _candidates(self, state: AssemblyState) -> np.ndarray:
+        """Lookahead rows (actions, k): those of valid actions filled, the others zero."""
+        cand = np.zeros((self._n_actions, CANDIDATE_FEATURES), dtype=np.float32)
+        valid = np.flatnonzero(state.mask)
+        mass0 = self._mass(state.types)
+        G2 = self._n_cells
+        for k in range(self.n_types):  # one child mass per type: one batch each
+            acts = valid if self.n_types == 1 else valid[valid // G2 == k]
+            if len(acts):
+                keys = [self._key((*state.cells, self.cell_of(a)), (*state.types, k)) for a in acts]
+                mass = mass0 + self._masses[k] if self.n_types > 1 else mass0
+                cand[acts] = self.evaluator.candidate_rows(keys, state.task, mass, self._cand_memo)
+        return cand
+
+    def _dock(self, state: AssemblyState, a: int) -> AssemblyState:
+        """The state after docking action ``a`` (valid) to ``state``."""
+        G2 = self._n_cells
+        c, k = a % G2, a // G2
+        cells, types = (*state.cells, self._cells_of[c]), (*state.types, k) if state.types else ()
+        occ = state.occupancy.copy()
+        occ[c] = 1.0
+        mask = state.mask.copy()
+        mask[c::G2] = 0
+        for b in self._neighbours[c]:
+            if not occ[b]:
+                mask[b::G2] = 1
+        onehot = state.types_onehot
+        if onehot is not None:
+            onehot = onehot.copy()
+            onehot[a] = 1.0
+        fields = self._decide(state, cells, types)
+        terminated = fields["success"] or len(cells) >= self.n_max or not mask.any()
+        return state.but(
+            cells=cells, types=types, occupancy=occ, mask=mask, types_onehot=onehot,
+            steps=state.steps + 1, terminated=terminated, **fields,
+        )  # fmt: skip
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        s = self._state
+        return {name: read(s).copy() for name, read in self._readers}
+
+    def _info(self, invalid: bool = False, terms: dict[str, float] | None = None) -> dict:
+        s = self._state
+        return {
+            "n_modules": len(s.cells),
+            "satisfied_fraction": s.frac,
+            "success": s.success,
+            "is_success": s.success,
+            "cells": [[x, y] for x, y in s.cells],
+            "evaluated": s.evaluated,
+            "oracle_calls": s.oracle_calls,
+            "action_mask": s.mask.astype(bool),
+            "task_name": s.task.name,
+            "n_wrenches": len(s.task.W),
+            "invalid_action": invalid,
+            "reward_terms": terms if terms is not None else self._terms(s, None, s, True, 0.0),
+        }
+
+    def _terms(self, state, action, next_state, is_valid, reward: float) -> dict[str, float]:
+        """``info["reward_terms"]``: the reward's own terms, or its value alone."""
+        terms = getattr(self.reward, "terms", None)
+        if terms is None:
+            return {"reward": reward}
+        return terms(state, action, next_state, is_valid)
+
+    # --- Gymnasium API --------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict]:
+        super().reset(seed=seed)
+        options = dict(options or {})
+        start = self._start(options)  # before the task: a random initial type follows the seed
+        unknown = sorted(set(options) - {"task"})
+        if unknown:
+            raise ValueError(f"unknown reset options {unknown}; known: ['task']")
+        task = draw_task(
+            self.generator, self.np_random, options.get("task"), self.decides_self_weight
+        )
+        f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
+        self.evaluator = self._evaluator(f_max)
+        self._memo, self._cand_memo = self._memos.of(task, f_max)
+        kind = getattr(task, "kind", "total")
+        arrays = self.evaluator.task_arrays(task, np.asarray(task.wrenches, dtype=float), kind)
+        occ = np.zeros(self._n_cells, dtype=np.float32)
+        occ[self._centre] = 1.0
+        state = AssemblyState(arrays, ((0, 0),), occ, self._initial_mask.copy(), None, 0.0,
+                              False, evaluated=0, **start)  # fmt: skip
+        state = state.but(**self._decide(state, state.cells, state.types))
+        if state.success:  # one module suffices: nothing may be added (see Episode End)
+            state.mask = np.zeros_like(state.mask)
+        if self.lookahead:
+            state.candidates = self._candidates(state)
+        self._state = state
+        return self._observation(), self._info()
+
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict]:
+        state = self._require("step()")
+        if state.done:
+            raise ResetNeeded("the episode is over; call reset() before step()")
+        a = parse_action(action, self._n_actions)
+        valid = state.success or (a is not None and bool(state.mask[a]))
+        if state.success:  # solved at reset: this step (any action) only ends the episode
+            nxt = state.but(steps=state.steps + 1, terminated=True)
+        elif valid:
+            nxt = self._dock(state, a)
+        else:
+            terminated = self.invalid_action == "terminate"
+            nxt = state.but(steps=state.steps + 1, terminated=terminated)
+        nxt.truncated = not nxt.terminated and nxt.steps >= self.max_steps
+        if nxt.terminated:
+            nxt.mask = np.zeros_like(nxt.mask)
+        if self.lookahead and (len(nxt.cells) > len(state.cells) or nxt.terminated):
+            nxt.candidates = self._candidates(nxt)
+        self._state = nxt
+        if type(self.reward) is WeightedReward:  # the default: its value is its terms' sum
+            terms = self.reward.terms(state, a, nxt, valid)
+            reward = float(sum(terms.values()))
+        else:
+            reward = self.reward(state, a, nxt, valid)
+            terms = self._terms(state, a, nxt, valid, reward)
+        info = self._info(not valid, terms)
+        return self._observation(), reward, nxt.terminated, nxt.truncated, info
+
+    def render(self) -> np.ndarray | str | None:
+        if self.render_mode is None:
+            gym.logger.warn("render() called with render_mode=None; pass render_mode to the env")
+            return None
+        state = self._require("render()")
+        if self.render_mode == "ansi":
+            return self.viewer.ansi(state)
+        s = self.structure
+        W, _, _ = self.evaluator.at_mass(state.task, s.mass)
+        frame = self.viewer.frame(s, W, self.evaluator.oracle.f_max, self.oracle_method)
+        if self.render_mode == "rgb_array":
+            return frame
+        self.viewer.show(frame)
+        return None
+
+    def close(self) -> None:
+        self.viewer.close()
+        super().close()

@@ -1,0 +1,200 @@
+"""Deciding the current structure against the episode's task, with the caches that make it fast.
+
+A :class:`StructureEvaluator` depends on (module types, n_max, f_max, K) only and survives across
+episodes: the exact oracle with its per-structure zonotope cache, the feature maker, and per
+structure its configuration matrix, support values and task-independent features. Per task,
+:class:`TaskMemos` keeps what was decided (a task that comes back costs no oracle call for the
+structures seen before).
+
+Why not :class:`~modquad_gym.search.checker.TaskChecker`: the searches decide thousands of
+structures per task in compiled batches and need only a yes/no; the env decides one structure
+per step and needs the count of satisfied wrenches and the features, from the same exact oracle.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ...module import GRAVITY, ModuleType
+from ...oracle import WrenchOracle
+from ...structure import (
+    Key,
+    Structure,
+    configuration_matrices,
+    mixed_configuration_matrices,
+)
+from .features import AssemblyFeatures
+from .types import TaskArrays
+
+CACHE_SIZE = 16384
+"""Entries per cache before it is cleared (there are 1,067 structures of at most 7 modules)."""
+MEMO_TASKS = 16
+"""Tasks whose decisions are remembered."""
+
+
+class Capability:
+    """What is kept per structure (translation key), for any task: its configuration matrix,
+    support values (:meth:`AssemblyFeatures.support`), rank and the task-independent part of its
+    structure vector (:meth:`AssemblyFeatures.structure_head`)."""
+
+    __slots__ = ("A", "h_Wn", "slack", "rank", "head")
+
+    def __init__(
+        self, A: np.ndarray, rank: int, n_modules: int, features: AssemblyFeatures
+    ) -> None:
+        self.A = A
+        self.rank = rank
+        self.h_Wn, self.slack = features.support(A)
+        self.head = features.structure_head(self.h_Wn, rank, n_modules)
+
+
+class StructureEvaluator:
+    """Decides structures of one module type (keys from :func:`modquad_gym.structure.normalise`)
+    against tasks, for one (n_max, f_max, K, oracle method).
+
+    Attributes:
+        tests: wrench-structure tests sent to the oracle so far (all episodes).
+    """
+
+    def __init__(
+        self, module: ModuleType, n_max: int, f_max: float, n_directions: int, method: str
+    ) -> None:
+        self.module = module
+        self.oracle = WrenchOracle(f_max, method=method)
+        self.features = AssemblyFeatures(module, n_max, f_max, n_directions)
+        self.capability: dict[Key, Capability] = {}
+        self.supports: dict[Key, tuple[np.ndarray, float]] = {}
+        self.tests = 0
+
+    # --- per structure ----------------------------------------------------------------------
+    def structure_of(self, key: Any) -> Structure:
+        """The structure of ``key``."""
+        return Structure.from_trusted(key, module=self.module)
+
+    def capability_of(self, key: Any) -> Capability:
+        """The :class:`Capability` of the structure ``key``, cached."""
+        hit = self.capability.get(key)
+        if hit is None:
+            if len(self.capability) >= CACHE_SIZE:
+                self.capability.clear()
+            A = self.structure_of(key).configuration_matrix()
+            rank = self.oracle.zonotope(A, key=key).rank
+            hit = self.capability[key] = Capability(A, rank, len(key), self.features)
+        return hit
+
+    def _matrices(self, keys: list) -> np.ndarray:
+        """Configuration matrices (L, 6, m) of structures of one size."""
+        return configuration_matrices(keys, self.module)
+
+    def supports_of(self, keys: list) -> tuple[np.ndarray, np.ndarray]:
+        """(h_W / denom (L, K), slack (L,)) of the structures ``keys`` (all of one size), cached
+        per key; misses in one batch from their configuration matrices (no oracle call)."""
+        missing = [k for k in dict.fromkeys(keys) if k not in self.supports]
+        if missing:
+            if len(self.supports) + len(missing) > CACHE_SIZE:
+                self.supports.clear()
+            h, slack = self.features.supports(self._matrices(missing))
+            for k, hk, sk in zip(missing, h, slack):
+                self.supports[k] = (hk, float(sk))
+        rows = [self.supports[k] for k in keys]
+        return np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
+
+    # --- against a task ---------------------------------------------------------------------
+    def task_arrays(self, requirement: Any, W: np.ndarray, kind: str = "total") -> TaskArrays:
+        """The :class:`TaskArrays` of a task with wrenches W (t, 6)."""
+        vec, h_Tn, WD = self.features.task(W)
+        lift = None
+        if kind != "total":
+            lift = GRAVITY * self.features.D[:, 2] / self.features.denom
+        return TaskArrays(requirement, str(requirement.name), W, vec, h_Tn, WD, kind, lift)
+
+    @staticmethod
+    def at_mass(task: TaskArrays, mass: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rotor wrenches, h_T / denom, WD) of ``task`` for a structure of ``mass`` kg: the
+        task itself when it is ``total``, else shifted by the weight."""
+        if task.kind == "total":
+            return task.W, task.h_Tn, task.WD
+        W = task.W.copy()
+        W[:, 2] += mass * GRAVITY
+        WD = task.WD + mass * task.lift_n
+        return W, WD.max(axis=0), WD
+
+    def evaluate(
+        self, key: Any, task: TaskArrays, mass: float, memo: dict
+    ) -> tuple[int, np.ndarray, int]:
+        """(satisfied wrenches, structure vector, oracle tests made) of structure ``key`` against
+        ``task``; ``memo`` is the task's memo from :class:`TaskMemos`."""
+        hit = memo.get(key)
+        if hit is not None:
+            return hit[0], hit[1], 0
+        W, h_Tn, WD = self.at_mass(task, mass)
+        cap = self.capability.get(key) or self.capability_of(key)
+        per_wrench = np.maximum.reduce(WD - cap.h_Wn, axis=1)
+        # a wrench beyond the exact support of W in a feature direction (by more than the
+        # oracle's tolerance) is certainly infeasible; only the others are tested
+        open_ = per_wrench <= cap.slack
+        n_open = np.count_nonzero(open_)
+        n_sat = 0
+        if n_open:
+            W_open = W if n_open == len(open_) else W[open_]
+            n_sat = int(np.count_nonzero(self.oracle.feasible(cap.A, W_open, key=key)))
+            self.tests += len(W_open)
+        vec = self.features.structure_against(
+            cap.head, cap.h_Wn, h_Tn, per_wrench, n_sat / len(task.W)
+        )
+        memo[key] = (n_sat, vec)
+        return n_sat, vec, len(W_open) if n_open else 0
+
+    def candidate_rows(
+        self, keys: list, task: TaskArrays, mass: float, memo: dict
+    ) -> list[np.ndarray]:
+        """Lookahead rows of the child structures ``keys`` (one size, one mass) against
+        ``task``, memoised per task in ``memo`` (support functions only, no oracle call)."""
+        missing = [k for k in dict.fromkeys(keys) if k not in memo]
+        if missing:
+            _, h_Tn, WD = self.at_mass(task, mass)
+            h, slack = self.supports_of(missing)
+            memo.update(zip(missing, self.features.candidates(h, slack, h_Tn, WD)))
+        return [memo[k] for k in keys]
+
+
+class MixedStructureEvaluator(StructureEvaluator):
+    """The evaluator for typed keys ``(((x, y), module), ...)`` of a palette (one side)."""
+
+    def __init__(
+        self, palette: list[ModuleType], n_max: int, f_max: float, n_directions: int, method: str
+    ) -> None:
+        super().__init__(palette[0], n_max, f_max, n_directions, method)
+        self.palette = palette
+        self.index = {id(m): k for k, m in enumerate(palette)}
+
+    def structure_of(self, key: Any) -> Structure:
+        return Structure.from_trusted(tuple(c for c, _ in key), modules=tuple(m for _, m in key))
+
+    def _matrices(self, keys: list) -> np.ndarray:
+        cells = np.array([[c for c, _ in k] for k in keys], dtype=float)
+        types = np.array([[self.index[id(m)] for _, m in k] for k in keys])
+        return mixed_configuration_matrices(cells, types, self.palette)
+
+
+class TaskMemos:
+    """Per task (by identity) and f_max: decisions (key -> (n_satisfied, structure vector)) and
+    lookahead rows (child key -> row); the last :data:`MEMO_TASKS` tasks are kept."""
+
+    def __init__(self) -> None:
+        self._memos: dict[tuple[int, float], tuple[Any, dict, dict]] = {}
+
+    def of(self, task: Any, f_max: float) -> tuple[dict, dict]:
+        """(decision memo, candidate memo) of ``task`` at ``f_max``."""
+        ident = (id(task), f_max)
+        entry = self._memos.get(ident)
+        if entry is None or entry[0] is not task:
+            if len(self._memos) >= MEMO_TASKS:
+                self._memos.clear()
+            entry = self._memos[ident] = (task, {}, {})
+        for memo in entry[1:]:
+            if len(memo) >= CACHE_SIZE:
+                memo.clear()
+        return entry[1], entry[2]

@@ -1,0 +1,280 @@
+"""Fixed-size, permutation-invariant features of a task and of a structure's capability against it.
+
+Why support functions: a task is a *set* of t wrenches (t from 1 to hundreds) and the structure's
+capability is a convex set W. Both are summarised, for any t, by their support functions
+h(d) = max_{w} d . w on one fixed set of K directions d. The task's support is a max over its
+wrenches (invariant to their order); the structure's is exact and cheap for a zonotope,
+h_W(d) = f_max * sum_k max(d . a_k, 0). Where h_T(d) > h_W(d), direction d certifiably holds a
+task wrench the structure cannot produce. Exact per-wrench margins are LPs (too slow for every
+step); the env's hot path uses the oracle's exact decisions plus these support gaps.
+
+Directions live in a *scaled* wrench space w~ = [f ; tau / l] (l: the module side), so that
+forces (N) and torques (N m) weigh alike: the 12 signed axes plus ``K - 12`` well-spread unit
+vectors (farthest-point sampling from a generator seeded at import, so they never change).
+A direction u of the scaled space is d = [u_f ; u_tau / l] in wrench space.
+
+Normalisation (all features are float32 in [-1, 1]):
+
+* ``scale = 4 * n_max * f_max`` (the largest total thrust of n_max modules).
+* ``denom(d) = n_max * max(h_1(d), f_max / 4)``, with h_1 the support of one module about its
+  centre: a deficit h_T - h_W divided by denom is roughly "modules still missing in direction d,
+  as a fraction of n_max" (forces add exactly per module; torques roughly).
+
+Task vector (``K + 7``): h_T(d) / scale (K); mean and max |f| / scale; mean and max |tau| / (l *
+scale); mean and standard deviation of f_z / scale; log(1 + t) / log(1 + 1000).
+
+Structure vector (``2K + 7``): h_W(d) / scale (K); deficit (h_T(d) - h_W(d)) / denom(d) (K);
+fraction of wrenches satisfied (exact oracle); n_modules / n_max; rank(A) / 6; fraction of
+directions with h_W >= h_T; mean, max and min over wrenches of the per-wrench directional
+deficit max_d (d . w_i - h_W(d)) / denom(d) (> 0 certifies that wrench infeasible).
+Every entry is clipped to [-1, 1].
+
+Candidate rows (``CANDIDATE_FEATURES`` = 5 per action, only with the env's ``lookahead=True``):
+for the child structure C made by docking one module at the action's cell, from C's support
+h_C on the same K directions (COM and torques recomputed for C; no oracle call):
+
+0. mean_d h_C(d) / scale: the child's overall capability (> 0 for every structure: the +f_z
+   axis always has positive support), so a valid action's row is never all zero;
+1. fraction of directions with h_T(d) > h_C(d): the necessary-condition deficit count
+   (0 when no direction certifies a missing wrench);
+2. max_d (h_T(d) - h_C(d)) / denom(d): the largest normalised deficit (< 0: margin everywhere);
+3. mean_d max(h_T(d) - h_C(d), 0) / denom(d): the mean positive normalised deficit;
+4. fraction of task wrenches w_i rejected by the support test, max_d (d . w_i - h_C(d)) /
+   denom(d) > slack_C (each such wrench is certainly infeasible for C; the others may or may
+   not be feasible: a necessary test only).
+
+Rows of invalid actions are all zero.
+
+The observation itself is a list of named :class:`ObservationBlock` (see
+:func:`observation_blocks`), each deriving its own size and space.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from operator import attrgetter
+
+import numpy as np
+from gymnasium import spaces
+
+from ...module import ModuleType
+from ...oracle import TOL
+from ...structure import Structure
+from .types import AssemblyState
+
+DEFAULT_N_DIRECTIONS = 48
+"""Default K: the 12 signed axes plus 36 spread directions."""
+
+TASK_SCALARS = 7
+STRUCTURE_SCALARS = 7
+CANDIDATE_FEATURES = 5
+"""k: entries per action of the ``"candidates"`` observation (see the module docstring)."""
+
+_DIRECTION_SEED = 20240611
+_CANDIDATES = 4096
+MAX_N_DIRECTIONS = _CANDIDATES
+"""Most support directions: the 12 axes and the rest sampled from a fixed cloud."""
+_T_REF = 1000
+
+
+def unit_directions(k: int = DEFAULT_N_DIRECTIONS) -> np.ndarray:
+    """(k, 6) unit vectors: the 12 signed axes, then ``k - 12`` by farthest-point sampling from
+    a fixed seeded cloud. Deterministic: the same k always gives the same directions."""
+    if not isinstance(k, (int, np.integer)) or isinstance(k, bool) or not 12 <= k <= _CANDIDATES:
+        raise ValueError(
+            f"n_directions must be an integer in 12..{_CANDIDATES} (the signed axes, then "
+            f"directions sampled from {_CANDIDATES} candidates), got {k!r}"
+        )
+    eye = np.eye(6)
+    chosen = [*eye, *(-eye)]
+    rng = np.random.default_rng(_DIRECTION_SEED)
+    cloud = rng.standard_normal((_CANDIDATES, 6))
+    cloud /= np.linalg.norm(cloud, axis=1, keepdims=True)
+    # cosine similarity of each candidate to its nearest chosen direction (larger = closer)
+    closest = (cloud @ np.array(chosen).T).max(axis=1)
+    for _ in range(int(k) - 12):
+        i = int(np.argmin(closest))
+        chosen.append(cloud[i])
+        closest = np.maximum(closest, cloud @ cloud[i])
+    return np.array(chosen)
+
+
+class AssemblyFeatures:
+    """Computes the task and structure feature vectors for one module type, n_max and f_max.
+
+    Args:
+        module: the module type (its side l scales torques; its rotors give h_1).
+        n_max: the largest module count (sets the normalisation).
+        f_max: maximum thrust per rotor.
+        n_directions: K, the number of support directions (>= 12).
+    """
+
+    def __init__(
+        self,
+        module: ModuleType,
+        n_max: int,
+        f_max: float,
+        n_directions: int = DEFAULT_N_DIRECTIONS,
+    ) -> None:
+        self.n_max = int(n_max)
+        self.f_max = float(f_max)
+        self.side = float(module.side)
+        self.units = unit_directions(n_directions)
+        self.k = len(self.units)
+        metric = np.array([1.0, 1.0, 1.0, 1.0 / self.side, 1.0 / self.side, 1.0 / self.side])
+        self.D = self.units * metric  # wrench-space directions
+        self.scale = 4.0 * self.n_max * self.f_max
+        single = Structure([(0, 0)], module=module).configuration_matrix()
+        self.h1 = np.maximum(self.D @ single, 0.0).sum(axis=1) * self.f_max
+        self.denom = self.n_max * np.maximum(self.h1, self.f_max / 4.0)
+        self._denom_over_scale = self.denom / self.scale
+        self.task_size = self.k + TASK_SCALARS
+        self.structure_size = 2 * self.k + STRUCTURE_SCALARS
+
+    # --- task (once per episode) ----------------------------------------------------------
+    def task(self, W: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(task vector float32, h_T / denom (K,), WD (t, K) = (d . w_i) / denom) for W (t, 6)."""
+        proj = W @ self.D.T  # (t, K)
+        h_T = proj.max(axis=0)
+        # the same operations as np.linalg.norm(., axis=1), .mean() and .std(), minus overhead
+        F, T, fz = W[:, :3], W[:, 3:], W[:, 2]
+        f = np.sqrt(np.add.reduce(F * F, axis=1))
+        tau = np.sqrt(np.add.reduce(T * T, axis=1))
+        t = len(W)
+        fz_mean = np.add.reduce(fz) / t
+        dev = fz - fz_mean
+        dev *= dev
+        fz_std = math.sqrt(np.add.reduce(dev) / t)
+        s = self.scale
+        ts = self.side * s
+        vec = np.empty(self.task_size)
+        vec[: self.k] = h_T
+        vec[: self.k] /= s
+        vec[self.k :] = (
+            np.add.reduce(f) / t / s,
+            f.max() / s,
+            np.add.reduce(tau) / t / ts,
+            tau.max() / ts,
+            fz_mean / s,
+            fz_std / s,
+            math.log1p(t) / math.log1p(_T_REF),
+        )
+        np.clip(vec, -1.0, 1.0, out=vec)
+        return vec.astype(np.float32), h_T / self.denom, proj / self.denom
+
+    # --- structure (every step) -----------------------------------------------------------
+    def support(self, A: np.ndarray) -> tuple[np.ndarray, float]:
+        """(h_W / denom, slack) on the K directions for configuration matrix A (6, m).
+
+        h_W(d) = f_max * sum_k max(d . a_k, 0) is the exact support of W. A wrench whose
+        per-wrench deficit (see :meth:`structure_against`) exceeds ``slack`` is certainly
+        infeasible: the oracle accepts thrusts up to TOL * f_max / 2 outside [0, f_max]
+        (gamma <= 1 + TOL), which widens the support by TOL * f_max / 2 * sum_k |d . a_k|;
+        slack, 2 * TOL * f_max * sum_k |d . a_k| / denom(d), is four times that, so the test
+        never rejects a wrench the oracle accepts.
+        """
+        P = self.D @ A
+        h_W = np.maximum(P, 0.0).sum(axis=1) * self.f_max
+        slack = (2.0 * TOL * self.f_max * np.abs(P).sum(axis=1) + 1e-12) / self.denom
+        return h_W / self.denom, float(slack.max())
+
+    def supports(self, A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Batched :meth:`support`: (h_W / denom (L, K), slack (L,)) for A of shape (L, 6, m)."""
+        P = np.einsum("kj,ljm->lkm", self.D, A)
+        h_W = np.maximum(P, 0.0).sum(axis=2) * self.f_max
+        slack = (2.0 * TOL * self.f_max * np.abs(P).sum(axis=2) + 1e-12) / self.denom
+        return h_W / self.denom, slack.max(axis=1)
+
+    def candidates(
+        self, h_Cn: np.ndarray, slack: np.ndarray, h_Tn: np.ndarray, WD: np.ndarray
+    ) -> np.ndarray:
+        """Candidate rows (float32, (L, CANDIDATE_FEATURES)) of L child structures against the
+        task: ``h_Cn`` (L, K) and ``slack`` (L,) from :meth:`supports`, ``h_Tn`` (K,) and ``WD``
+        (t, K) from :meth:`task`. Entries as in the module docstring, clipped to [-1, 1]."""
+        gap = h_Tn[None, :] - h_Cn  # (L, K)
+        per_wrench = (WD[None, :, :] - h_Cn[:, None, :]).max(axis=2)  # (L, t)
+        out = np.empty((len(h_Cn), CANDIDATE_FEATURES), dtype=np.float32)
+        out[:, 0] = (h_Cn * self._denom_over_scale).mean(axis=1)
+        out[:, 1] = np.count_nonzero(gap > 0.0, axis=1) / self.k
+        out[:, 2] = gap.max(axis=1)
+        out[:, 3] = np.maximum(gap, 0.0).mean(axis=1)
+        out[:, 4] = np.count_nonzero(per_wrench > slack[:, None], axis=1) / WD.shape[0]
+        return np.clip(out, -1.0, 1.0, out=out)
+
+    def structure_head(self, h_Wn: np.ndarray, rank: int, n_modules: int) -> np.ndarray:
+        """The task-independent entries of the structure vector (float32, 2K + 7; the others
+        zero): h_W / scale, n_modules / n_max and rank / 6, clipped. Cache it per structure."""
+        out = np.zeros(self.structure_size, dtype=np.float32)
+        k = self.k
+        out[:k] = h_Wn * self._denom_over_scale
+        out[2 * k + 1] = n_modules / self.n_max
+        out[2 * k + 2] = rank / 6.0
+        return np.clip(out, -1.0, 1.0, out=out)
+
+    def structure_against(
+        self,
+        head: np.ndarray,
+        h_Wn: np.ndarray,
+        h_Tn: np.ndarray,
+        per_wrench: np.ndarray,
+        satisfied_fraction: float,
+    ) -> np.ndarray:
+        """The structure vector (float32, 2K + 7) against the task, from its
+        :meth:`structure_head` and the task-dependent parts: ``h_Wn`` and ``h_Tn`` the supports
+        divided by denom, ``per_wrench`` (t,) max_d (d . w_i - h_W(d)) / denom(d); a new
+        array."""
+        out = head.copy()
+        k = self.k
+        np.subtract(h_Tn, h_Wn, out=out[k : 2 * k], casting="same_kind")
+        j = 2 * k
+        out[j] = satisfied_fraction
+        out[j + 3] = np.count_nonzero(h_Wn >= h_Tn) / k
+        out[j + 4] = np.add.reduce(per_wrench) / len(per_wrench)  # .sum(), .max(), .min()
+        out[j + 5] = np.maximum.reduce(per_wrench)
+        out[j + 6] = np.minimum.reduce(per_wrench)
+        np.maximum(out, -1.0, out=out)  # np.clip(out, -1, 1), minus its overhead
+        return np.minimum(out, 1.0, out=out)
+
+
+# --- observation blocks ---------------------------------------------------------------------
+@dataclass(frozen=True)
+class ObservationBlock:
+    """One named entry of the observation: its size, bounds and dtype (hence its space) and how
+    it is read from an :class:`~modquad_gym.envs.assembly.types.AssemblyState`."""
+
+    name: str
+    size: int
+    read: Callable[[AssemblyState], np.ndarray]
+    low: float = -1.0
+    high: float = 1.0
+    dtype: type = np.float32
+
+    def space(self) -> spaces.Box:
+        return spaces.Box(self.low, self.high, (self.size,), self.dtype)
+
+
+def _candidate_rows(state: AssemblyState) -> np.ndarray:
+    return state.candidates.reshape(-1)
+
+
+def observation_blocks(
+    n_cells: int, n_types: int, features: AssemblyFeatures, lookahead: bool
+) -> list[ObservationBlock]:
+    """The observation's blocks, in order, for a grid of ``n_cells`` cells and ``n_types``
+    module types (the ``"types"`` block only when several); add a block here to add a
+    feature."""
+    n_actions = n_cells * n_types
+    blocks = [
+        ObservationBlock("occupancy", n_cells, attrgetter("occupancy"), 0.0, 1.0),
+        ObservationBlock("action_mask", n_actions, attrgetter("mask"), 0, 1, np.int8),
+        ObservationBlock("task", features.task_size, attrgetter("task.vec")),
+        ObservationBlock("structure", features.structure_size, attrgetter("structure_vec")),
+    ]
+    if lookahead:
+        size = n_actions * CANDIDATE_FEATURES
+        blocks.append(ObservationBlock("candidates", size, _candidate_rows))
+    if n_types > 1:
+        blocks.append(ObservationBlock("types", n_actions, attrgetter("types_onehot"), 0.0, 1.0))
+    return blocks

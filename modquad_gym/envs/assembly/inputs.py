@@ -1,0 +1,130 @@
+"""Input cleaning of the assembly environment: constructor arguments, actions and tasks.
+
+Bad input is a ValueError naming the argument; an action that is not an integer of the action
+space is not an error but an invalid action (:func:`parse_action` returns None).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ...module import ModuleType
+from ...oracle import METHODS as ORACLE_METHODS
+from ...tasks import TaskRequirement
+from ...validation import check_int, check_real
+
+INVALID_ACTION_MODES = ("penalise", "terminate")
+
+
+def check_arguments(
+    module: Any, invalid_action: str, render_mode: str | None, lookahead: Any, metadata: dict
+) -> None:
+    """ValueError for a bad ``module``, ``invalid_action``, ``render_mode`` or ``lookahead``."""
+    if module is not None and not isinstance(module, ModuleType):
+        raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
+    if invalid_action not in INVALID_ACTION_MODES:
+        raise ValueError(
+            f"invalid_action must be one of {INVALID_ACTION_MODES}, got {invalid_action!r}"
+        )
+    if render_mode is not None and render_mode not in metadata["render_modes"]:
+        raise ValueError(
+            f"render_mode must be None or one of {metadata['render_modes']}, got {render_mode!r}"
+        )
+    if not isinstance(lookahead, (bool, np.bool_)):
+        raise ValueError(f"lookahead must be a bool, got {lookahead!r}")
+
+
+F_MAX_RANGE = (1e-100, 1e100)
+"""Thrust limits the environment takes: its features are scaled by f_max, and beyond this range
+they would underflow or overflow (the oracle itself takes any positive finite f_max)."""
+
+
+def check_f_max(f_max: object) -> float:
+    """The env's f_max: a real number in :data:`F_MAX_RANGE`."""
+    return check_real(f_max, "f_max", *F_MAX_RANGE, positive=True)
+
+
+def check_render_size(size: object) -> tuple[int, int]:
+    """(height, width) of rendered frames: two integers in 16..4096."""
+    try:
+        h, w = size  # type: ignore[misc]
+    except (TypeError, ValueError):
+        raise ValueError(f"render_size must be (height, width), got {size!r}") from None
+    return check_int(h, "render_size height", 16, 4096), check_int(w, "render_size width", 16, 4096)
+
+
+def check_oracle_method(method: object) -> str:
+    if method not in ORACLE_METHODS:
+        raise ValueError(
+            f"oracle_method must be one of {', '.join(ORACLE_METHODS)}, got {method!r}"
+        )
+    return method  # type: ignore[return-value]
+
+
+def parse_action(action: Any, n: int) -> int | None:
+    """The integer action in [0, n), or None for anything else (an invalid action): never
+    raises. A whole-number float counts as that integer; a boolean never does."""
+    if type(action) is int or isinstance(action, np.integer):  # the fast, common case
+        return int(action) if 0 <= action < n else None
+    if isinstance(action, (bool, np.bool_)):
+        return None
+    try:
+        arr = np.asarray(action)
+        if arr.size != 1 or arr.dtype.kind not in "iuf":
+            return None
+        value = arr.reshape(-1)[0]
+        if arr.dtype.kind == "f" and not (np.isfinite(value) and value == np.floor(value)):
+            return None
+        a = int(value)
+    except Exception:  # whatever it is, it is not an action
+        return None
+    return a if 0 <= a < n else None
+
+
+def draw_task(
+    generator: Callable[[np.random.Generator], Any],
+    rng: np.random.Generator,
+    given: Any,
+    self_weight: bool,
+) -> TaskRequirement:
+    """The episode's task: ``given`` (the reset option) or one drawn from ``generator`` with
+    ``rng``; tasks of kind ``external`` only when the env decides ``self_weight``."""
+    if given is not None:
+        task = as_task(given, "options['task']")
+    else:
+        task = generator(rng)
+        if not isinstance(task, TaskRequirement):
+            name = str(getattr(generator, "name", type(generator).__name__))
+            task = as_task(task, f"task generator {name!r} returned a bad task", name)
+    W = np.asarray(task.wrenches, dtype=float)
+    if W.ndim != 2 or W.shape[1] != 6 or len(W) == 0:
+        raise ValueError(f"task {task.name!r} wrenches must have shape (t >= 1, 6), got {W.shape}")
+    if getattr(task, "kind", "total") != "total" and not self_weight:
+        raise ValueError(
+            f"task {task.name!r} is of kind {task.kind!r}: make the env with modules=[...] "
+            "(e.g. modules=[module]), which decides self-weight"
+        )
+    return task
+
+
+def as_task(task: Any, what: str, name: str = "options-task") -> TaskRequirement:
+    """A TaskRequirement from a TaskRequirement or a (t, 6) wrench array (named ``name``); for
+    anything else a ValueError whose message starts with ``what``."""
+    if isinstance(task, TaskRequirement):
+        return task
+    try:
+        arr = np.asarray(task, dtype=float)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or arr.ndim != 2 or arr.shape[1] != 6:
+        got = type(task).__name__ if arr is None or arr.ndim == 0 else f"shape {arr.shape}"
+        raise ValueError(
+            f"{what}: expected a TaskRequirement or a (t, 6) wrench array, got {got}"
+        ) from None
+    try:
+        return TaskRequirement(arr, name=name)
+    except ValueError as exc:
+        raise ValueError(f"{what}: not a valid task: {exc}") from None

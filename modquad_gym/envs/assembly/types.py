@@ -1,0 +1,94 @@
+"""The typed state of one assembly episode (what Jumanji keeps in ``types.py``).
+
+States are treated as immutable (not frozen, for speed): a transition never edits one in place,
+:meth:`AssemblyState.but` makes the next one, so a reward function sees the state before and
+after a step side by side.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ...structure import Cell
+
+
+@dataclass(frozen=True)
+class TaskArrays:
+    """One episode's task as the env uses it.
+
+    Attributes:
+        requirement: the task (a :class:`~modquad_gym.tasks.TaskRequirement`).
+        name: its name.
+        W: wrenches (t, 6).
+        vec: the task feature vector (float32).
+        h_Tn: the task's support on the feature directions, divided by denom (K,).
+        WD: each wrench's projections on the directions, divided by denom (t, K).
+        kind: ``"total"`` or ``"external"`` (self-weight added per structure).
+        lift_n: per direction, the normalised change of WD per kg of structure (external tasks).
+    """
+
+    requirement: Any
+    name: str
+    W: np.ndarray
+    vec: np.ndarray
+    h_Tn: np.ndarray  # noqa: N815 (the features' notation)
+    WD: np.ndarray
+    kind: str = "total"
+    lift_n: np.ndarray | None = None
+
+
+@dataclass
+class AssemblyState:
+    """Everything that changes during an episode.
+
+    Attributes:
+        task: the task arrays.
+        cells: module cells in docking order, the initial module first.
+        types: palette index of each module (the mixed env; empty for one type).
+        occupancy: float32 (G * G,), 1 where a module sits.
+        mask: int8, 1 for valid actions.
+        structure_vec: float32 structure features against the task.
+        frac: fraction of task wrenches the structure satisfies (exact oracle).
+        success: every wrench satisfied.
+        steps: steps taken this episode.
+        evaluated: structures evaluated this episode (memo hits included).
+        oracle_calls: wrench-structure tests made this episode.
+        terminated, truncated: how the episode ended (both False while it runs).
+        types_onehot: float32 (G * G * K,) type one-hot (the mixed env), else None.
+        candidates: float32 (actions, k) lookahead rows (``lookahead=True``), else None.
+    """
+
+    task: TaskArrays
+    cells: tuple[Cell, ...]
+    occupancy: np.ndarray
+    mask: np.ndarray
+    structure_vec: np.ndarray
+    frac: float
+    success: bool
+    steps: int = 0
+    evaluated: int = 1
+    oracle_calls: int = 0
+    terminated: bool = False
+    truncated: bool = False
+    types: tuple[int, ...] = ()
+    types_onehot: np.ndarray | None = None
+    candidates: np.ndarray | None = field(default=None)
+
+    @property
+    def done(self) -> bool:
+        """The episode is over (terminated or truncated)."""
+        return self.terminated or self.truncated
+
+    @property
+    def n_modules(self) -> int:
+        return len(self.cells)
+
+    def but(self, **changes: Any) -> AssemblyState:
+        """A copy with ``changes`` (arrays not named are shared: never edit them in place).
+        Same as ``dataclasses.replace`` without re-running ``__init__`` (the hot path)."""
+        new = object.__new__(AssemblyState)
+        new.__dict__ = {**self.__dict__, **changes}
+        return new

@@ -1,0 +1,100 @@
+"""Pictures of an assembly episode: ``rgb_array`` frames, ``ansi`` text grids and the ``human``
+pygame window (the ``viz`` extra)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...extras import import_optional
+from ...module import ModuleType
+from ...structure import Structure
+from .types import AssemblyState
+
+RENDER_FPS = 4
+
+
+class AssemblyViewer:
+    """Renders the states of one environment's grid.
+
+    Args:
+        radius: the grid's radius (n_max - 1); cells (x, y) with |x|, |y| <= radius.
+        n_max: the largest module count (shown in the text header).
+        size: (height, width) of ``rgb_array`` frames.
+        palette: the module types of a mixed env (modules are then lettered A, B, ...), or None.
+    """
+
+    def __init__(
+        self,
+        radius: int,
+        n_max: int,
+        size: tuple[int, int] = (256, 256),
+        palette: list[ModuleType] | None = None,
+    ) -> None:
+        self.radius = radius
+        self.side = 2 * radius + 1
+        self.n_max = n_max
+        self.size = tuple(size)
+        self.palette = palette
+        self.window = None  # the pygame display of render_mode="human"
+        self.clock = None
+
+    def frame(self, structure: Structure, W: np.ndarray, f_max: float, method: str) -> np.ndarray:
+        """The structure picture with each wrench's status (feasible or not), (H, W, 3) uint8."""
+        from ...oracle import feasible
+        from ...viz import structure_image
+
+        status = feasible(structure.configuration_matrix(), W, f_max, method)
+        return structure_image(structure, size=self.size, wrench_status=status)
+
+    def show(self, frame: np.ndarray) -> None:
+        """Draw ``frame`` in a pygame window."""
+        pygame = import_optional("pygame")
+        if self.window is None:
+            pygame.init()
+            pygame.display.set_caption("ModQuadAssembly")
+            self.window = pygame.display.set_mode(frame.shape[1::-1])
+            self.clock = pygame.time.Clock()
+        pygame.event.pump()
+        self.window.blit(pygame.surfarray.make_surface(frame.swapaxes(0, 1)), (0, 0))
+        pygame.display.flip()
+        self.clock.tick(RENDER_FPS)
+
+    def close(self) -> None:
+        """Close the pygame window, if open."""
+        if self.window is not None:
+            import pygame
+
+            pygame.display.quit()
+            pygame.quit()
+            self.window = None
+
+    def ansi(self, state: AssemblyState) -> str:
+        """A text grid: ``@`` the initial module, ``#`` a module, ``+`` a valid cell, ``.`` an
+        empty one (with a palette, modules are letters: lower case for the initial one)."""
+        r, G = self.radius, self.side
+        letters = {}
+        if self.palette is not None:
+            letters = {c: chr(65 + t) for c, t in zip(state.cells, state.types)}
+        cell_mask = state.mask.reshape(-1, G * G).any(axis=0)
+        rows = [
+            f"task {state.task.name!r} (t={len(state.task.W)}): {len(state.cells)}/{self.n_max}"
+            f" modules, satisfied {state.frac:.3f}{' SUCCESS' if state.success else ''}"
+        ]
+        for y in range(r, -r - 1, -1):
+            row = []
+            for x in range(-r, r + 1):
+                a = (y + r) * G + x + r
+                if (x, y) in letters:
+                    row.append(letters[(x, y)].lower() if (x, y) == (0, 0) else letters[(x, y)])
+                elif (x, y) == (0, 0):
+                    row.append("@")
+                elif state.occupancy[a]:
+                    row.append("#")
+                elif cell_mask[a]:
+                    row.append("+")
+                else:
+                    row.append(".")
+            rows.append(" ".join(row))
+        if self.palette is not None:
+            rows.append(", ".join(f"{chr(65 + k)} = {m.name}" for k, m in enumerate(self.palette)))
+        return "\n".join(rows) + "\n"

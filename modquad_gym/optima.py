@@ -1,0 +1,172 @@
+"""A dataset of certified optima: per task, the minimum module count and every optimal structure.
+
+One JSON object per line (``modquad optima``), appended as each task finishes (completion
+order), each line flushed and fsynced before the next, so an interrupted run loses nothing it
+had written. Keys of a record:
+
+``task``        where the task came from: its file, or ``SUITE#i`` for the i-th task of a suite
+``name``        the task's name
+``digest``      16 hex digits of SHA-256 over f_max and the wrenches (float64): the task's identity
+``n_max``       the module budget searched
+``optimum``     the certified minimum module count, or null when no structure of up to n_max works
+``structures``  every optimal structure as a list of [x, y] cells (up to translation), in
+                canonical order (:mod:`modquad_gym.polyominoes`)
+``count``       how many structures
+``evaluated``, ``oracle_calls``, ``seconds``   the work it took
+``proof``       how infeasibility was proven without a search, when it was
+
+Resuming: a rerun into the same file reads the records there and skips the tasks they hold (same
+``task``, ``digest`` and ``n_max``); a last line cut short by an interruption is dropped and
+recomputed. A record for the same task with other wrenches or another n_max is refused (the file
+would mix two datasets). The work is spread by :mod:`modquad_gym.distributed`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import json
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+
+from .distributed import Engine, Failed
+from .search import optimal_level
+from .tasks import TaskRequirement
+
+KEYS = ("task", "name", "digest", "n_max", "optimum", "structures", "count", "evaluated",
+        "oracle_calls", "seconds")  # fmt: skip
+"""Keys every record has (``proof`` too when it applies)."""
+
+
+def task_digest(task: TaskRequirement) -> str:
+    """The task's identity in a dataset: SHA-256 of f_max and the wrenches, 16 hex digits."""
+    h = hashlib.sha256(np.float64(task.f_max).tobytes())
+    h.update(np.ascontiguousarray(task.wrenches, dtype="<f8").tobytes())
+    return h.hexdigest()[:16]
+
+
+def optimum_record(n_max: int, source: tuple[str, TaskRequirement]) -> dict:
+    """The record of one task (the unit of work of a dataset)."""
+    task_id, task = source
+    optima = optimal_level(task, n_max=n_max)
+    record = {
+        "task": task_id,
+        "name": task.name,
+        "digest": task_digest(task),
+        "n_max": n_max,
+        "optimum": optima.n_modules,
+        "structures": [[list(cell) for cell in key] for key in optima.keys],
+        "count": len(optima.keys),
+        "evaluated": optima.evaluated,
+        "oracle_calls": optima.oracle_calls,
+        "seconds": round(optima.seconds, 6),
+    }
+    if optima.proof:
+        record["proof"] = optima.proof
+    return record
+
+
+def read_dataset(path: str | os.PathLike) -> tuple[list[dict], int]:
+    """(records, bytes of complete lines) of a dataset file; a last line with no newline (an
+    interrupted write) is not counted. A complete line that is not a record is a ValueError
+    naming the file and line."""
+    data = Path(path).read_bytes()
+    end = data.rfind(b"\n") + 1
+    records = []
+    for number, line in enumerate(data[:end].splitlines(), 1):
+        try:
+            record = json.loads(line)
+        except (json.JSONDecodeError, UnicodeDecodeError, RecursionError):
+            record = None
+        if not isinstance(record, dict) or not set(KEYS) <= set(record):
+            raise ValueError(f"{path}: line {number} is not an optima record")
+        records.append(record)
+    return records, end
+
+
+@dataclass
+class DatasetRun:
+    """What :func:`build_dataset` did: records written now, tasks found already done, tasks
+    that failed (not written, so a rerun tries them again)."""
+
+    written: int = 0
+    skipped: int = 0
+    failed: list[Failed] = field(default_factory=list)
+    dropped_bytes: int = 0
+
+
+def build_dataset(
+    sources: Sequence[tuple[str, TaskRequirement | Failed]],
+    out: str | os.PathLike,
+    n_max: int,
+    engine: Engine,
+    *,
+    progress: bool = False,
+) -> DatasetRun:
+    """Append the record of every task of ``sources`` ((task id, task or the Failed of its
+    loading)) that ``out`` does not hold yet, computing them on ``engine``."""
+    out = Path(out)
+    ids = [task_id for task_id, _ in sources]
+    if len(set(ids)) != len(ids):
+        twice = next(i for i in ids if ids.count(i) > 1)
+        raise ValueError(f"task {twice!r} is given twice")
+    run = DatasetRun(failed=[s for _, s in sources if isinstance(s, Failed)])
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with open(out, "a+b") as fh:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise ValueError(f"--out: {out} is being written by another run") from None
+        done, end = read_dataset(out)
+        run.dropped_bytes = fh.seek(0, os.SEEK_END) - end
+        fh.truncate(end)  # an interrupted last line is recomputed
+        todo = _pending(sources, {r["task"]: r for r in done}, n_max, out)
+        run.skipped = sum(isinstance(t, TaskRequirement) for _, t in sources) - len(todo)
+
+        def append(_i: int, record) -> None:
+            if isinstance(record, Failed):
+                run.failed.append(record)
+                return
+            fh.write(json.dumps(record).encode() + b"\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+            run.written += 1
+
+        engine.map(
+            partial(optimum_record, n_max),
+            todo,
+            labels=[task_id for task_id, _ in todo],
+            catch=True,
+            progress=progress,
+            desc="optima",
+            on_result=append,
+        )
+    with contextlib.suppress(OSError):  # make the file's entry durable too
+        fd = os.open(out.parent, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    return run
+
+
+def _pending(sources, done: dict[str, dict], n_max: int, out: Path) -> list:
+    todo = []
+    for task_id, task in sources:
+        if isinstance(task, Failed):
+            continue
+        record = done.get(task_id)
+        if record is None:
+            todo.append((task_id, task))
+        elif record["digest"] != task_digest(task) or record["n_max"] != n_max:
+            raise ValueError(
+                f"--out: {out} holds task {task_id!r} with other wrenches or another n_max "
+                f"({record['n_max']}); write to a new file or give --force to start over"
+            )
+    return todo

@@ -1,0 +1,184 @@
+"""Pictures of a MuJoCo validation: the structure (MuJoCo render or matplotlib), the bench's
+rotor inputs (paper Fig. 7), measured against commanded wrench, and a hover's errors and inputs."""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is first imported: headless rendering
+
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from ..outputs import save_figure  # noqa: E402
+from ..structure import Structure  # noqa: E402
+from .bench import BenchResult  # noqa: E402
+from .hover import HoverResult  # noqa: E402
+from .model import HOME_HEIGHT, SimModel, build_model  # noqa: E402
+
+BENCH_HOLD_S = 0.5
+"""Seconds each wrench is held in the rotor-input plot (the paper commands one every 500 ms)."""
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def render_structure(
+    structure: Structure | SimModel,
+    path: str | Path,
+    width: int = 800,
+    height: int = 600,
+    backend: str = "auto",
+) -> str:
+    """Write a picture of the structure to ``path``; return the backend used.
+
+    ``backend="auto"`` tries MuJoCo's offscreen renderer (``MUJOCO_GL``, EGL by default) and falls
+    back to a matplotlib drawing when no GL context can be made; ``"mujoco"`` or ``"matplotlib"``
+    force one.
+    """
+    if backend not in ("auto", "mujoco", "matplotlib"):
+        raise ValueError(f"unknown backend {backend!r}; choose auto, mujoco or matplotlib")
+    sim = structure if isinstance(structure, SimModel) else build_model(structure)
+    if backend in ("auto", "mujoco"):
+        try:
+            _render_mujoco(sim, Path(path), width, height)
+            return "mujoco"
+        except Exception:
+            if backend == "mujoco":
+                raise
+    _render_matplotlib(sim.structure, Path(path))
+    return "matplotlib"
+
+
+def _render_mujoco(sim: SimModel, path: Path, width: int, height: int) -> None:
+    import mujoco
+
+    data = sim.new_data()
+    renderer = mujoco.Renderer(sim.model, height, width)
+    try:
+        cam = mujoco.MjvCamera()
+        cam.lookat[:] = [0.0, 0.0, HOME_HEIGHT]
+        cam.distance = 2.0 * float(sim.model.stat.extent) + 0.6
+        cam.azimuth = 135.0
+        cam.elevation = -35.0
+        renderer.update_scene(data, camera=cam)
+        img = renderer.render()
+    finally:
+        renderer.close()
+    _plt().imsave(path, img)
+
+
+def _render_matplotlib(structure: Structure, path: Path) -> None:
+    plt = _plt()
+    fig = plt.figure(figsize=(6, 5))
+    ax = fig.add_subplot(projection="3d")
+    half = structure.side / 2
+    mixed = structure.is_mixed
+    for i, (c, t) in enumerate(zip(structure.module_centres, structure.type_indices)):
+        xs = c[0] + np.array([-half, half, half, -half, -half])
+        ys = c[1] + np.array([-half, -half, half, half, -half])
+        colour = f"C{int(t)}" if mixed else "tab:green" if i == 0 else "0.4"
+        ax.plot(xs, ys, np.zeros(5), color=colour)
+    spins = structure.rotor_spins
+    p, d = structure.rotor_positions, structure.rotor_directions
+    for pk, dk, sk in zip(p, d, spins, strict=True):
+        colour = "tab:red" if sk > 0 else "tab:blue"
+        ax.quiver(*pk, *dk, length=0.12, color=colour, arrow_length_ratio=0.3)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.set_title(f"{structure.n_modules} modules (thrust axes; red/blue = spin)")
+    lim = np.abs(p).max() + half
+    ax.set_xlim(-lim, lim)
+    ax.set_ylim(-lim, lim)
+    ax.set_zlim(-lim / 2, lim / 2)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=120)
+    plt.close(fig)
+
+
+def plot_rotor_inputs(results: list[BenchResult], path: str | Path) -> None:
+    """Paper Fig. 7: rotor inputs per commanded wrench (held 500 ms each), f_max dotted."""
+    plt = _plt()
+    fig, axes = plt.subplots(len(results), 1, figsize=(9, 3.2 * len(results)), squeeze=False)
+    for ax, res in zip(axes[:, 0], results, strict=True):
+        t = np.arange(len(res.u) + 1) * BENCH_HOLD_S
+        u = np.vstack([res.u, res.u[-1:]])
+        ax.step(t, u, where="post", lw=1.0)
+        ax.axhline(res.f_max, ls=":", color="k", lw=1.5, label="f_max")
+        ax.axhline(0.0, ls=":", color="0.5", lw=1.0)
+        ax.set_ylim(-0.05 * res.f_max, 1.1 * res.f_max)
+        ax.set_ylabel("rotor input [N]")
+        n_lim = int(res.at_limit.sum())
+        ax.set_title(f"{res.allocation}: {n_lim}/{len(res.u)} wrenches with a rotor at a limit")
+        ax.legend(loc="upper right")
+    axes[-1, 0].set_xlabel("time [s] (one task wrench every 500 ms)")
+    fig.tight_layout()
+    save_figure(fig, path, dpi=120)
+    plt.close(fig)
+
+
+def plot_bench_wrench(results: list[BenchResult], path: str | Path) -> None:
+    """Measured (load cell) against commanded wrench, one panel per component."""
+    plt = _plt()
+    names = ["f_x [N]", "f_y [N]", "f_z [N]", "tau_x [Nm]", "tau_y [Nm]", "tau_z [Nm]"]
+    fig, axes = plt.subplots(2, 3, figsize=(11, 6.5))
+    markers = {"exact": "o", "pinv_clip": "x"}
+    for j, ax in enumerate(axes.flat):
+        lo = min(float(r.commanded[:, j].min()) for r in results)
+        hi = max(float(r.commanded[:, j].max()) for r in results)
+        ax.plot([lo, hi], [lo, hi], color="0.6", lw=1, label="measured = commanded")
+        for res in results:
+            ax.plot(
+                res.commanded[:, j],
+                res.measured[:, j],
+                markers.get(res.allocation, "."),
+                ms=4,
+                fillstyle="none",
+                label=f"{res.allocation} (max rel. err {res.max_error:.1e})",
+            )
+        ax.set_title(names[j])
+        ax.set_xlabel("commanded")
+        ax.set_ylabel("measured")
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=120)
+    plt.close(fig)
+
+
+def plot_hover(res: HoverResult, path: str | Path, title: str = "hover") -> None:
+    """Position and attitude error (log scale) and rotor inputs over time, f_max dotted."""
+    plt = _plt()
+    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    floor = 1e-9
+    axes[0].semilogy(res.time, np.maximum(res.position_error, floor), lw=1)
+    axes[0].axhline(0.01, ls="--", color="tab:red", lw=1, label="1 cm")
+    axes[0].set_ylabel("position error [m]")
+    axes[0].legend(loc="upper right")
+    axes[1].semilogy(res.time, np.maximum(res.attitude_error, floor), lw=1, color="tab:purple")
+    axes[1].set_ylabel("attitude error [rad]")
+    axes[2].plot(res.time, res.u, lw=0.8)
+    axes[2].axhline(res.f_max, ls=":", color="k", lw=1.5, label="f_max")
+    axes[2].axhline(0.0, ls=":", color="0.5", lw=1.0)
+    axes[2].set_ylim(-0.05 * res.f_max, 1.1 * res.f_max)
+    axes[2].set_ylabel("rotor input [N]")
+    axes[2].set_xlabel("time [s]")
+    axes[2].legend(loc="upper right")
+    starts = res.time[np.flatnonzero(np.diff(res.segment)) + 1] if len(res.time) else []
+    for ax in axes:
+        for t in starts:
+            ax.axvline(t, color="0.85", lw=0.8, zorder=0)
+    axes[0].set_title(
+        f"{title}: saturated {100 * res.saturated_fraction:.1f}% of control steps, "
+        f"{int(res.diverged.sum())} segment(s) diverged"
+    )
+    fig.tight_layout()
+    save_figure(fig, path, dpi=120)
+    plt.close(fig)
