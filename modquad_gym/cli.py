@@ -553,7 +553,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, metavar="FILE.jsonl", help="the dataset file")
     p.add_argument(
         "--n-max",
-        type=int,
+        type=N_MAX_OPTION,
         default=7,
         help="largest module count searched (default %(default)s, at most 16)",
     )

@@ -324,7 +324,8 @@ BENCH_COUNTS = {
     "scaling": ["--n-max", "--seed"],
     "level-bounds": ["--n-max"],
     "heterogeneous": ["--tasks", "--seed", "--n-max"],
-    "agents": ["--n-max", "--seed", "--limit"],
+    "agents": ["--n-max", "--seed", "--limit", "--workers"],
+    "distributed": ["--tasks", "--n-max", "--search-n-max", "--seed"],
 }
 
 

@@ -577,7 +577,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-progress", action="store_true")
     p.add_argument(
         "--workers",
-        type=int,
+        type=int_option(1, 256),
         default=1,
         help="Ray tasks sharing the tasks (1: one process, so each solver's seconds are timed "
         "alone; RAY_ADDRESS joins a cluster)",

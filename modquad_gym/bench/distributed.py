@@ -27,7 +27,14 @@ from pathlib import Path
 import numpy as np
 
 from ..outputs import write_text
-from . import machine_description, markdown_table, write_csv
+from . import (
+    int_option,
+    machine_description,
+    markdown_table,
+    parse_bench_args,
+    seed_option,
+    write_csv,
+)
 
 MODES = (("serial (no Ray)", 0), ("Ray, 1 CPU", 1), ("Ray, 2 CPUs", 2))
 """(label, Ray CPUs; 0: the serial path of :mod:`modquad_gym.distributed`)."""
@@ -223,24 +230,22 @@ def main(argv: list[str] | None = None) -> None:
         description="Time a batch of certified optima and one large exhaustive search "
         "serially and on an embedded Ray with 1 and 2 CPUs; write results/distributed.{md,csv}.",
     )
-    parser.add_argument("--tasks", type=int, default=1000, help="batch size (default 1000)")
-    parser.add_argument("--n-max", type=int, default=7, help="batch n_max (default 7)")
+    parser.add_argument(
+        "--tasks", type=int_option(2), default=1000, help="batch size (default 1000)"
+    )
+    parser.add_argument(
+        "--n-max", type=int_option(1, 16), default=7, help="batch n_max (default 7)"
+    )
     parser.add_argument(
         "--search-n-max",
-        type=int,
+        type=int_option(11, 16),
         nargs="+",
         default=[13],
         help="n_max of the searches, one search each (default 13)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="task seed (default 0)")
+    parser.add_argument("--seed", type=seed_option, default=0, help="task seed (default 0)")
     parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
-    args = parser.parse_args(argv)
-    if (
-        args.tasks < 2
-        or not 1 <= args.n_max <= 16
-        or not all(11 <= n <= 16 for n in args.search_n_max)
-    ):
-        parser.error("--tasks must be >= 2, --n-max in 1..16, --search-n-max in 11..16")
+    args = parse_bench_args(parser, argv)
     from ..extras import import_optional
 
     import_optional("ray")
