@@ -188,6 +188,41 @@ def test_utf8_bom_is_accepted(tmp_path, capsys):
 
 
 # ------------------------------------------------------------------ 3. outputs
+def test_concurrent_saves_never_leave_a_mixed_file(tmp_path):
+    """Two `task generate` runs to one --out left corrupt JSON in 3 of 40 tries: writers racing
+    on one path now always leave one complete task, and a reader never sees half a file."""
+    import threading
+
+    path = tmp_path / "t.json"
+    tasks = [
+        TaskRequirement(np.full((200, 6), float(k)), f"writer{k}") for k in range(4)
+    ]  # large enough that a plain write would be seen half done
+    tasks[0].save(path)
+    seen, stop = [], threading.Event()
+
+    def write(task):
+        for _ in range(15):
+            task.save(path)
+
+    def read():
+        while not stop.is_set():
+            seen.append(TaskRequirement.load(path).name)
+
+    reader = threading.Thread(target=read)
+    reader.start()
+    writers = [threading.Thread(target=write, args=(t,)) for t in tasks]
+    for w in writers:
+        w.start()
+    for w in writers:
+        w.join()
+    stop.set()
+    reader.join()
+    assert seen and set(seen) <= {t.name for t in tasks}
+    final = TaskRequirement.load(path)
+    assert final.name in {t.name for t in tasks} and final.n_wrenches == 200
+    assert [p.name for p in tmp_path.iterdir()] == ["t.json"]  # no temporary files left
+
+
 def test_generate_refuses_an_existing_output_unless_forced(tmp_path, capsys):
     out = tmp_path / "t.json"
     argv = ("task", "generate", "--kind", "paper", "--seed", "1", "--out", str(out))
