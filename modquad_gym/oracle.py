@@ -145,11 +145,14 @@ that no step of a search overflows."""
 
 
 def check_task_scale(W: np.ndarray, f_max: float) -> np.ndarray:
-    """W (checked, (t, 6)) when every |w_i| and every |w_i| / f_max is at most
-    :data:`MAX_TASK_VALUE`, else a ValueError naming the row. The searches call it: they test one
-    task against many structures and square wrenches on the way, where the oracle itself takes
-    any finite value (:meth:`Zonotope.reduce`)."""
+    """W (checked, (t, 6)) when f_max lies in [1e-300, 1e300] and every |w_i| and every
+    |w_i| / f_max is at most :data:`MAX_TASK_VALUE`, else a ValueError naming the value. The
+    searches call it: they test one task against many structures and multiply and square its
+    numbers on the way, where the oracle itself takes any finite value
+    (:meth:`Zonotope.reduce`)."""
     W, f_max = check_wrenches(W), check_f_max(f_max)
+    if not 1e-300 <= f_max <= 1e300:
+        raise ValueError(f"f_max = {f_max:g} is outside 1e-300..1e300 (check the units)")
     if not len(W):
         return W
     with np.errstate(over="ignore", under="ignore"):

@@ -143,7 +143,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
       :class:`~modquad_gym.envs.assembly.mixed.MixedAssemblyEnv`, whose action is (cell, type)
       as one ``Discrete(G * G * K)`` and whose observation adds the types (see there); also for
       tasks of kind ``external`` (self-weight). Default None: one type, this class.
-    * ``f_max``: maximum thrust per rotor, 1e-100 to 1e100; None (default) uses each task's own.
+    * ``f_max``: maximum thrust per rotor, 1e-9 to 1e12; None (default) uses each task's own.
     * ``reward_weights``: a :class:`~modquad_gym.envs.assembly.reward.RewardWeights` or a dict
       of some of ``w_sat``, ``w_module``, ``w_success``, ``w_invalid`` (the default reward).
     * ``reward``: any :class:`~modquad_gym.envs.assembly.reward.RewardFn` (default

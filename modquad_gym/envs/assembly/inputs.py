@@ -37,9 +37,9 @@ def check_arguments(
         raise ValueError(f"lookahead must be a bool, got {lookahead!r}")
 
 
-F_MAX_RANGE = (1e-100, 1e100)
-"""Thrust limits the environment takes: its features are scaled by f_max, and beyond this range
-they would underflow or overflow (the oracle itself takes any positive finite f_max)."""
+F_MAX_RANGE = (1e-9, 1e12)
+"""Thrust limits the environment takes: its float32 features are ratios of wrenches to f_max,
+which far outside this range overflow (the oracle itself takes any positive finite f_max)."""
 
 
 def check_f_max(f_max: object) -> float:
