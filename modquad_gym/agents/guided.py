@@ -56,16 +56,6 @@ class GuidedSolver(PPOSolver):
         self.branching = check_int(branching, "branching", low=1)
         self.name = "ppo-guided"
 
-    def _probabilities(self, obs: dict, mask: np.ndarray) -> np.ndarray:
-        import torch
-
-        policy = self.model.policy
-        obs_t, _ = policy.obs_to_tensor(obs)
-        with torch.no_grad():
-            dist = policy.get_distribution(obs_t, action_masks=mask[None])
-            probs = dist.distribution.probs[0].double().numpy()
-        return np.where(mask, probs, 0.0)
-
     def _replay(self, task: TaskRequirement, actions: tuple[int, ...]) -> tuple[dict, dict]:
         """Observation and info after docking ``actions`` from the initial module."""
         obs, info = self.env.reset(options={"task": task})
@@ -103,7 +93,7 @@ class GuidedSolver(PPOSolver):
             if n >= self.n_max or (best is not None and n + 1 >= best.n_modules):
                 continue
             mask = self.env.action_masks()
-            probs = self._probabilities(obs, mask)
+            probs = self.probabilities(obs, mask)
             for a in np.argsort(-probs, kind="stable")[: self.branching]:
                 if probs[a] <= 0.0:
                     break

@@ -129,6 +129,17 @@ class PPOSolver:
         self.name = "ppo" if self.samples == 0 else f"ppo-k{self.samples}"
         self.env = ModQuadAssemblyEnv(**kwargs)
 
+    def probabilities(self, obs: dict, mask: np.ndarray) -> np.ndarray:
+        """The policy's action probabilities at ``obs``, zero outside ``mask``."""
+        import torch
+
+        policy = self.model.policy
+        obs_t, _ = policy.obs_to_tensor(obs)
+        with torch.no_grad():
+            dist = policy.get_distribution(obs_t, action_masks=mask[None])
+            probs = dist.distribution.probs[0].double().numpy()
+        return np.where(mask, probs, 0.0)
+
     def _rollout(
         self, task: Any, rng: np.random.Generator | None, seen: set, stop_at: int
     ) -> tuple[dict, int]:
@@ -136,7 +147,6 @@ class PPOSolver:
         structure has ``stop_at - 1`` modules without success (it could no longer beat a
         verified structure of ``stop_at`` modules). Adds every structure it evaluates to
         ``seen`` (translation-normalised). Returns the final info and the oracle calls."""
-        import torch
 
         env = self.env
         obs, info = env.reset(options={"task": task})
@@ -147,12 +157,7 @@ class PPOSolver:
             if rng is None:
                 action, _ = self.model.predict(obs, action_masks=mask, deterministic=True)
             else:
-                policy = self.model.policy
-                obs_t, _ = policy.obs_to_tensor(obs)
-                with torch.no_grad():
-                    dist = policy.get_distribution(obs_t, action_masks=mask[None])
-                    probs = dist.distribution.probs[0].double().numpy()
-                probs = np.where(mask, probs, 0.0)
+                probs = self.probabilities(obs, mask)
                 action = rng.choice(len(probs), p=probs / probs.sum())
             obs, _, terminated, truncated, info = env.step(int(action))
             seen.add(normalise(map(tuple, info["cells"])))
