@@ -49,7 +49,7 @@ import json
 import math
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
@@ -885,15 +885,19 @@ class PlantedMixedTasks:
         return TaskRequirement(W, name=self.name, f_max=self.f_max, kind=self.kind, meta=meta)
 
 
-GENERATORS = (
-    "paper",
-    "planted",
-    "screwdriver",
-    "mixed",
-    "planted-large",
-    "paper-external",
-    "planted-mixed-external",
-)
+NAMED_GENERATORS: dict[str, Callable[[], TaskGenerator]] = {
+    "paper": PaperTasks,
+    "planted": PlantedTasks,
+    "screwdriver": ScrewdriverTask,
+    "mixed": lambda: MixedTasks((PlantedTasks(), PaperTasks())),
+    "planted-large": lambda: PlantedTasks(n_modules=(6, 12), name="planted-large"),
+    "paper-external": lambda: PaperTasks(n_wrenches=40, kind="external", f_max=2.0,
+                                         fz_offset=1.0, fz_gain=8.0, name="paper-external"),
+    "planted-mixed-external": lambda: PlantedMixedTasks(kind="external", f_max=2.0,
+                                                        name="planted-mixed-external"),
+}  # fmt: skip
+"""The task sources by name (each call makes a fresh generator)."""
+GENERATORS = tuple(NAMED_GENERATORS)
 """Names understood by :func:`make_generator`."""
 
 
@@ -930,21 +934,8 @@ def make_generator(spec: Any) -> TaskGenerator:
         return MixedTasks(tuple(gens), name="+".join(g.name for g in gens))
     if isinstance(spec, (str, os.PathLike)):
         key = os.fspath(spec)
-        if key == "paper":
-            return PaperTasks()
-        if key == "planted":
-            return PlantedTasks()
-        if key == "screwdriver":
-            return ScrewdriverTask()
-        if key == "mixed":
-            return MixedTasks((PlantedTasks(), PaperTasks()))
-        if key == "planted-large":
-            return PlantedTasks(n_modules=(6, 12), name="planted-large")
-        if key == "planted-mixed-external":
-            return PlantedMixedTasks(kind="external", f_max=2.0, name="planted-mixed-external")
-        if key == "paper-external":
-            return PaperTasks(n_wrenches=40, kind="external", f_max=2.0, fz_offset=1.0,
-                              fz_gain=8.0, name="paper-external")  # fmt: skip
+        if key in NAMED_GENERATORS:
+            return NAMED_GENERATORS[key]()
         path = Path(key)
         if path.is_file():
             if path.suffix.lower() == ".json" and "tasks" in _json_keys(path):
