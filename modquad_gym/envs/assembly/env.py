@@ -29,6 +29,7 @@ from .features import (
     ObservationBlock,
     observation_blocks,
 )
+from .grid import Grid
 from .inputs import (
     check_arguments,
     check_f_max,
@@ -45,8 +46,6 @@ N_MAX_LIMIT = 16
 """Largest ``n_max`` (the grid has (2 n_max - 1)^2 actions; the searches stop at 16 too)."""
 MAX_STEPS_LIMIT = 4 * N_MAX_LIMIT
 """Largest ``max_steps``; also ``max_episode_steps`` at registration, so no episode is longer."""
-STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
-"""The four grid neighbours."""
 
 
 class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
@@ -233,11 +232,11 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self.task_source = tasks
         self.generator: Callable[[np.random.Generator], Any] = make_generator(tasks)
 
-        self.radius = self.n_max - 1
-        self.side = G = 2 * self.n_max - 1
         self.n_types = self._n_types()
-        self._n_cells = G * G
-        self._n_actions = G * G * self.n_types
+        self.grid = Grid(self.n_max, self.n_types)
+        self.radius, self.side = self.grid.radius, self.grid.side
+        self._n_cells, self._n_actions = self.grid.n_cells, self.grid.n_actions
+        self._centre = self.grid.centre
         self.evaluators: dict[float, StructureEvaluator] = {}  # per f_max, across episodes
         self._memos = TaskMemos()
         probe = self._evaluator(1.0 if self.f_max is None else self.f_max).features
@@ -245,16 +244,6 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self.action_space = spaces.Discrete(self._n_actions)
         self.observation_space = spaces.Dict({b.name: b.space() for b in self._blocks})
         self._readers = [(b.name, b.read) for b in self._blocks]
-        self._centre = self._n_cells // 2
-        self._cells_of = [self.cell_of(c) for c in range(G * G)]  # cell index -> (x, y)
-        self._neighbours = [  # cell index -> indices of its grid neighbours
-            [self.action_of((x + dx, y + dy)) for dx, dy in STEPS
-             if max(abs(x + dx), abs(y + dy)) <= self.radius]
-            for x, y in self._cells_of
-        ]  # fmt: skip
-        self._initial_mask = np.zeros(G * G * self.n_types, dtype=np.int8)
-        for b in self._neighbours[self._centre]:
-            self._initial_mask[b :: G * G] = 1
         if viewer is None:
             palette = getattr(self, "palette", None)  # the mixed env letters its types
             viewer = AssemblyViewer(self.radius, self.n_max, self.render_size, palette)
@@ -289,15 +278,11 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     # --- grid <-> actions -----------------------------------------------------------------
     def action_of(self, cell: Cell) -> int:
         """The action that docks a module at grid ``cell`` (x, y); ValueError off the grid."""
-        x, y = int(cell[0]), int(cell[1])
-        if max(abs(x), abs(y)) > self.radius:
-            raise ValueError(f"cell {cell} lies outside the grid [-{self.radius}, {self.radius}]^2")
-        return (y + self.radius) * self.side + (x + self.radius)
+        return self.grid.action_of(cell)
 
     def cell_of(self, action: int) -> Cell:
         """The grid cell (x, y) of ``action``."""
-        y, x = divmod(int(action) % self._n_cells, self.side)
-        return (x - self.radius, y - self.radius)
+        return self.grid.cell_of(action)
 
     # --- state ----------------------------------------------------------------------------
     def _evaluator(self, f_max: float) -> StructureEvaluator:
@@ -330,7 +315,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     def action_masks(self) -> np.ndarray:
         """bool: the valid actions now; before ``reset``, those of the initial state."""
         if self._state is None:
-            return self._initial_mask.astype(bool)
+            return self.grid.initial_mask.astype(bool)
         return self._state.mask.astype(bool)
 
     def _decide(self, state: AssemblyState, cells: tuple, types: tuple) -> dict:
@@ -365,14 +350,8 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         """The state after docking action ``a`` (valid) to ``state``."""
         G2 = self._n_cells
         c, k = a % G2, a // G2
-        cells, types = (*state.cells, self._cells_of[c]), (*state.types, k) if state.types else ()
-        occ = state.occupancy.copy()
-        occ[c] = 1.0
-        mask = state.mask.copy()
-        mask[c::G2] = 0
-        for b in self._neighbours[c]:
-            if not occ[b]:
-                mask[b::G2] = 1
+        cells, types = (*state.cells, self.grid.cell(c)), (*state.types, k) if state.types else ()
+        occ, mask = self.grid.dock(state.occupancy, state.mask, c)
         onehot = state.types_onehot
         if onehot is not None:
             onehot = onehot.copy()
@@ -430,9 +409,8 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self._memo, self._cand_memo = self._memos.of(task, f_max)
         kind = getattr(task, "kind", "total")
         arrays = self.evaluator.task_arrays(task, np.asarray(task.wrenches, dtype=float), kind)
-        occ = np.zeros(self._n_cells, dtype=np.float32)
-        occ[self._centre] = 1.0
-        state = AssemblyState(arrays, ((0, 0),), occ, self._initial_mask.copy(), None, 0.0,
+        occ = self.grid.initial_occupancy()
+        state = AssemblyState(arrays, ((0, 0),), occ, self.grid.initial_mask.copy(), None, 0.0,
                               False, evaluated=0, **start)  # fmt: skip
         state = state.but(**self._decide(state, state.cells, state.types))
         if state.success:  # one module suffices: nothing may be added (see Episode End)

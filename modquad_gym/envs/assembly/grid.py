@@ -1,0 +1,79 @@
+"""The square grid of the assembly environment: cells <-> actions and the valid-action mask.
+
+A grid of G x G cells (G = 2 n_max - 1) centred on the initial module at (0, 0); cell (x, y) has
+index ``(y + n_max - 1) * G + (x + n_max - 1)``, and with K module types the action of type k at
+cell c is ``k * G * G + c`` (type-major). A cell is a valid action when it is empty and
+4-adjacent to the structure.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...structure import Cell
+
+STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
+"""The four grid neighbours."""
+
+
+class Grid:
+    """Cell indices, neighbours and masks of a grid for ``n_max`` modules and ``n_types`` types.
+
+    Attributes:
+        radius: n_max - 1, the largest |x| or |y|.
+        side: G.
+        n_cells: G * G.
+        n_actions: G * G * n_types.
+        centre: the index of cell (0, 0).
+        initial_mask: int8 (n_actions,), the valid actions of the one-module start.
+    """
+
+    def __init__(self, n_max: int, n_types: int = 1) -> None:
+        self.radius = r = n_max - 1
+        self.side = G = 2 * n_max - 1
+        self.n_cells = G * G
+        self.n_actions = G * G * n_types
+        self.centre = self.n_cells // 2
+        self._cells = [self.cell_of(c) for c in range(G * G)]  # index -> (x, y)
+        self._neighbours = [  # index -> indices of its grid neighbours
+            [self.action_of((x + dx, y + dy)) for dx, dy in STEPS
+             if max(abs(x + dx), abs(y + dy)) <= r]
+            for x, y in self._cells
+        ]  # fmt: skip
+        self.initial_mask = np.zeros(self.n_actions, dtype=np.int8)
+        for b in self._neighbours[self.centre]:
+            self.initial_mask[b :: self.n_cells] = 1
+
+    def action_of(self, cell: Cell) -> int:
+        """The cell index (the type-0 action) of ``cell`` (x, y); ValueError off the grid."""
+        x, y = int(cell[0]), int(cell[1])
+        if max(abs(x), abs(y)) > self.radius:
+            raise ValueError(f"cell {cell} lies outside the grid [-{self.radius}, {self.radius}]^2")
+        return (y + self.radius) * self.side + (x + self.radius)
+
+    def cell_of(self, action: int) -> Cell:
+        """The grid cell (x, y) of ``action`` (of any type)."""
+        y, x = divmod(int(action) % self.n_cells, self.side)
+        return (x - self.radius, y - self.radius)
+
+    def cell(self, index: int) -> Cell:
+        """The cell (x, y) of a cell index (a table look-up: the hot path)."""
+        return self._cells[index]
+
+    def initial_occupancy(self) -> np.ndarray:
+        """float32 (n_cells,): the one-module start."""
+        occ = np.zeros(self.n_cells, dtype=np.float32)
+        occ[self.centre] = 1.0
+        return occ
+
+    def dock(self, occupancy: np.ndarray, mask: np.ndarray, c: int) -> tuple[np.ndarray, ...]:
+        """(occupancy, mask) after a module docks at cell index ``c``: new arrays."""
+        G2 = self.n_cells
+        occ = occupancy.copy()
+        occ[c] = 1.0
+        mask = mask.copy()
+        mask[c::G2] = 0
+        for b in self._neighbours[c]:
+            if not occ[b]:
+                mask[b::G2] = 1
+        return occ, mask
