@@ -25,6 +25,7 @@ from ...structure import (
     configuration_matrices,
     mixed_configuration_matrices,
 )
+from .certify import FastDecider
 from .features import AssemblyFeatures
 from .types import TaskArrays
 
@@ -63,10 +64,16 @@ class StructureEvaluator:
     ) -> None:
         self.module = module
         self.oracle = WrenchOracle(f_max, method=method)
+        # the default method's decisions, certified by compiled tests first (same answers)
+        self.decide = FastDecider(self.oracle).feasible if method == "auto" else self.decide_plain
         self.features = AssemblyFeatures(module, n_max, f_max, n_directions)
         self.capability: dict[Key, Capability] = {}
         self.supports: dict[Key, tuple[np.ndarray, float]] = {}
         self.tests = 0
+
+    def decide_plain(self, A: np.ndarray, W: np.ndarray, key: Any) -> np.ndarray:
+        """The oracle's own decisions (every method but ``"auto"``, and the tests' reference)."""
+        return self.oracle.feasible(A, W, key=key)
 
     # --- per structure ----------------------------------------------------------------------
     def structure_of(self, key: Any) -> Structure:
@@ -139,7 +146,7 @@ class StructureEvaluator:
         n_sat = 0
         if n_open:
             W_open = W if n_open == len(open_) else W[open_]
-            n_sat = int(np.count_nonzero(self.oracle.feasible(cap.A, W_open, key=key)))
+            n_sat = int(np.count_nonzero(self.decide(cap.A, W_open, key)))
             self.tests += len(W_open)
         vec = self.features.structure_against(
             cap.head, cap.h_Wn, h_Tn, per_wrench, n_sat / len(task.W)
