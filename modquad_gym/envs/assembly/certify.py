@@ -147,13 +147,49 @@ def _phase_one(G, r, x, y, M, Binv, value, basic, head, alpha):  # pragma: no co
 
 
 @njit(cache=True)
-def _phase_one_rows(G, P, R):  # pragma: no cover - compiled
-    """:func:`_phase_one` for every row of R; (status (t,), X (t, m), Y (t, n))."""
+def _verdict(G, P, r, x, y, status):  # pragma: no cover - compiled
+    """1 (feasible), 0 (infeasible) or -1 (undecided) for wrench r from the simplex's x or y,
+    by the certificates of the module docstring (computed here from x or y alone)."""
+    n, m = G.shape
+    if status == 1:
+        e = np.empty(n)  # the residual G x - r, then x - P e lies on G x = r
+        for i in range(n):
+            acc = -r[i]
+            for j in range(m):
+                acc += G[i, j] * x[j]
+            e[i] = acc
+        for j in range(m):
+            acc = x[j]
+            for i in range(n):
+                acc -= P[j, i] * e[i]
+            if abs(acc) > ACCEPT:
+                return -1
+        return 1
+    if status == 0:
+        proj = 0.0
+        for i in range(n):
+            proj += y[i] * r[i]
+        support = 0.0
+        for j in range(m):
+            acc = 0.0
+            for i in range(n):
+                acc += y[i] * G[i, j]
+            support += abs(acc)
+        if proj > REJECT * support:
+            return 0
+    return -1
+
+
+@njit(cache=True)
+def _decide_rows(G, P, R, out):  # pragma: no cover - compiled
+    """Verdicts (1, 0, -1) of the rows of R into out: the bounding box first (its supports
+    sum_j |G_ij|), then the minimum-norm allocation, then :func:`_phase_one`."""
     t, n = R.shape
     m = G.shape[1]
-    status = np.empty(t, dtype=np.int64)
-    X = np.empty((t, m))
-    Y = np.zeros((t, n))
+    axes = np.zeros(n)
+    for i in range(n):
+        for j in range(m):
+            axes[i] += abs(G[i, j])
     M = np.zeros((n, m + n))
     M[:, :m] = G
     Binv = np.empty((n, n))
@@ -161,26 +197,33 @@ def _phase_one_rows(G, P, R):  # pragma: no cover - compiled
     basic = np.empty(m + n, dtype=np.int64)
     head = np.empty(n, dtype=np.int64)
     alpha = np.empty(n)
+    x = np.empty(m)
+    y = np.zeros(n)
     for k in range(t):
+        r = R[k]
+        outside = False
+        for i in range(n):
+            if abs(r[i]) > REJECT * axes[i]:  # beyond the bounding box: y = +-e_i separates
+                outside = True
+        if outside:
+            out[k] = 0
+            continue
         for j in range(m):
             acc = 0.0
             for i in range(n):
-                acc += P[j, i] * R[k, i]
-            X[k, j] = acc
-        status[k] = _phase_one(G, R[k], X[k], Y[k], M, Binv, value, basic, head, alpha)
-    return status, X, Y
+                acc += P[j, i] * r[i]
+            x[j] = acc
+        status = _phase_one(G, r, x, y, M, Binv, value, basic, head, alpha)
+        out[k] = _verdict(G, P, r, x, y, status)
 
 
-def certify(G: np.ndarray, P: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(accepted, rejected) bool (t,) for centred reduced wrenches R (t, n) of the zonotope
-    with generators G (n, m) and pseudo-inverse P (m, n): certified gamma <= 1 + TOL and
-    certified gamma > 1 + TOL (module docstring); rows in neither are undecided."""
-    status, X, Y = _phase_one_rows(G, P, np.ascontiguousarray(R))
-    X -= (X @ G.T - R) @ P.T  # onto G x = r, so that |x|_inf bounds gamma
-    accepted = (status == 1) & (np.abs(X).max(axis=1, initial=0.0) <= ACCEPT)
-    support = np.abs(Y @ G).sum(axis=1)
-    rejected = (status == 0) & (np.einsum("ij,ij->i", Y, R) > REJECT * support)
-    return accepted, rejected & ~accepted
+def certify(G: np.ndarray, P: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """int8 verdicts (t,) for centred reduced wrenches R (t, n) of the zonotope with
+    generators G (n, m) and pseudo-inverse P (m, n): 1 where gamma <= 1 + TOL is certified,
+    0 where gamma > 1 + TOL is, -1 where neither is (module docstring)."""
+    out = np.empty(len(R), dtype=np.int8)
+    _decide_rows(G, P, np.ascontiguousarray(R, dtype=float), out)
+    return out
 
 
 class FastDecider:
@@ -198,19 +241,15 @@ class FastDecider:
         """bool (t,): which wrenches W (t, 6) the structure of matrix A (key ``key``) can exert;
         the same answers as ``oracle.feasible(A, W, key=key)``."""
         z = self.oracle.zonotope(A, key)
-        R, off = z.reduce(W)
-        out = np.zeros(len(W), dtype=bool)
-        todo = np.flatnonzero(~off)
-        if len(todo) and z.rank:
-            box = z.reject_by_box(R[todo])
-            todo = todo[~box]
-        if not len(todo):
-            return out
         if not z.rank:
             return self.oracle.feasible(A, W, key=key)
-        accepted, rejected = certify(z.G, z.P, R[todo])
-        out[todo[accepted]] = True
-        rest = todo[~(accepted | rejected)]
+        R, off = z.reduce(W)
+        verdict = certify(z.G, z.P, R)
+        out = verdict == 1
+        if off.any():  # off range(A): infeasible (the oracle's first rule)
+            out[off] = False
+            verdict[off] = 0
+        rest = np.flatnonzero(verdict < 0)
         if len(rest):
             self.fallback += len(rest)
             out[rest] = self.oracle.feasible(A, W[rest], key=key)
