@@ -23,6 +23,7 @@ zonotope's bounding box are rejected first, as the oracle does.
 from __future__ import annotations
 
 from collections.abc import Hashable
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -38,6 +39,9 @@ MAX_PIVOTS = 200
 
 _EPS = 1e-11  # reduced-cost and residual tolerance (a heuristic: the results are checked)
 _PIVOT = 1e-9  # smallest pivot element
+_HUGE = 1e100  # rows of w / f_max beyond this go to the oracle (its reduction avoids overflow)
+DIRECTIONS = 16
+"""Separating directions remembered per structure (tried before the simplex)."""
 
 
 @njit(cache=True)
@@ -181,53 +185,107 @@ def _verdict(G, P, r, x, y, status):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _decide_rows(G, P, R, out):  # pragma: no cover - compiled
-    """Verdicts (1, 0, -1) of the rows of R into out: the bounding box first (its supports
-    sum_j |G_ij|), then the minimum-norm allocation, then :func:`_phase_one`."""
-    t, n = R.shape
-    m = G.shape[1]
+def _decide_row(G, P, axes, r, memory, work):  # pragma: no cover - compiled
+    """The verdict (1, 0, -1) of one centred reduced wrench r: the bounding box (supports
+    ``axes``), the remembered separating directions, the minimum-norm allocation, then
+    :func:`_phase_one`; a new separating direction is remembered."""
+    dirs, supports, added = memory
+    M, Binv, value, basic, head, alpha, x, y = work
+    n, m = G.shape
+    for i in range(n):
+        if abs(r[i]) > REJECT * axes[i]:  # beyond the bounding box: y = +-e_i separates
+            return 0
+    for d in range(min(added[0], len(supports))):
+        proj = 0.0
+        for i in range(n):
+            proj += dirs[d, i] * r[i]
+        if proj > REJECT * supports[d]:
+            return 0
+    for j in range(m):
+        acc = 0.0
+        for i in range(n):
+            acc += P[j, i] * r[i]
+        x[j] = acc
+    status = _phase_one(G, r, x, y, M, Binv, value, basic, head, alpha)
+    verdict = _verdict(G, P, r, x, y, status)
+    if verdict == 0 and len(supports):  # remember its direction for later rows and calls
+        slot = added[0] % len(supports)
+        support = 0.0
+        for j in range(m):
+            acc = 0.0
+            for i in range(n):
+                acc += y[i] * G[i, j]
+            support += abs(acc)
+        dirs[slot] = y
+        supports[slot] = support
+        added[0] += 1
+    return verdict
+
+
+@njit(cache=True)
+def _workspace(G):  # pragma: no cover - compiled
+    """(box supports, work arrays of :func:`_decide_row`) for generators G."""
+    n, m = G.shape
     axes = np.zeros(n)
     for i in range(n):
         for j in range(m):
             axes[i] += abs(G[i, j])
     M = np.zeros((n, m + n))
     M[:, :m] = G
-    Binv = np.empty((n, n))
-    value = np.empty(m + n)
-    basic = np.empty(m + n, dtype=np.int64)
-    head = np.empty(n, dtype=np.int64)
-    alpha = np.empty(n)
-    x = np.empty(m)
-    y = np.zeros(n)
-    for k in range(t):
-        r = R[k]
-        outside = False
-        for i in range(n):
-            if abs(r[i]) > REJECT * axes[i]:  # beyond the bounding box: y = +-e_i separates
-                outside = True
-        if outside:
-            out[k] = 0
+    work = (
+        M,
+        np.empty((n, n)),
+        np.empty(m + n),
+        np.empty(m + n, dtype=np.int64),
+        np.empty(n, dtype=np.int64),
+        np.empty(n),
+        np.empty(m),
+        np.zeros(n),
+    )
+    return axes, work
+
+
+@njit(cache=True)
+def _decide_rows(G, P, R, memory, out):  # pragma: no cover - compiled
+    """Verdicts of the rows of R (centred reduced wrenches) into out."""
+    axes, work = _workspace(G)
+    for k in range(R.shape[0]):
+        out[k] = _decide_row(G, P, axes, R[k], memory, work)
+
+
+@njit(cache=True)
+def _decide_task(W, WD, h, slack, f_max, Q, c, G, P, memory, per_wrench, out):
+    """For a structure of full rank (range(A) is all of R^6) against task wrenches W (t, 6):
+    per_wrench (t,) = max_d (WD - h) (the support test of
+    :meth:`~.evaluator.StructureEvaluator.evaluate`), and the verdict of each row into out:
+    -2 where the support test rejects it (not tested), else that of :func:`_decide_row` on
+    its centred reduced coordinates ``W / f_max @ Q - c`` (-1 for a row too large for them)."""
+    axes, work = _workspace(G)
+    n = G.shape[0]
+    r = np.empty(n)
+    for k in range(W.shape[0]):
+        worst = -np.inf
+        for d in range(WD.shape[1]):
+            gap = WD[k, d] - h[d]
+            if gap > worst:
+                worst = gap
+        per_wrench[k] = worst
+        if not worst <= slack:
+            out[k] = -2
             continue
-        for j in range(m):
+        huge = False
+        for i in range(n):
             acc = 0.0
-            for i in range(n):
-                acc += P[j, i] * r[i]
-            x[j] = acc
-        status = _phase_one(G, r, x, y, M, Binv, value, basic, head, alpha)
-        out[k] = _verdict(G, P, r, x, y, status)
-
-
-def certify(G: np.ndarray, P: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """int8 verdicts (t,) for centred reduced wrenches R (t, n) of the zonotope with
-    generators G (n, m) and pseudo-inverse P (m, n): 1 where gamma <= 1 + TOL is certified,
-    0 where gamma > 1 + TOL is, -1 where neither is (module docstring)."""
-    out = np.empty(len(R), dtype=np.int8)
-    _decide_rows(G, P, np.ascontiguousarray(R, dtype=float), out)
-    return out
+            for j in range(6):
+                w = W[k, j] / f_max
+                huge |= abs(w) > _HUGE
+                acc += w * Q[j, i]
+            r[i] = acc - c[i]
+        out[k] = -1 if huge else _decide_row(G, P, axes, r, memory, work)
 
 
 class FastDecider:
-    """The decisions of ``oracle`` (method ``"auto"``), certified by :func:`certify` first.
+    """The decisions of ``oracle`` (method ``"auto"``), certified by the compiled tests first.
 
     Attributes:
         fallback: wrenches the oracle itself decided (neither certificate held).
@@ -236,21 +294,59 @@ class FastDecider:
     def __init__(self, oracle: WrenchOracle) -> None:
         self.oracle = oracle
         self.fallback = 0
+        self._memory: dict[Hashable, tuple] = {}
+
+    def _prepared(self, A: np.ndarray, key: Hashable) -> tuple[Any, tuple]:
+        """(the oracle's zonotope of A, the directions remembered for it)."""
+        z = self.oracle.zonotope(A, key)
+        memory = self._memory.get(key)
+        if memory is None:
+            if len(self._memory) >= self.oracle.cache_size:
+                self._memory.clear()
+            memory = self._memory[key] = (
+                np.empty((DIRECTIONS, z.rank)),
+                np.empty(DIRECTIONS),
+                np.zeros(1, dtype=np.int64),
+            )
+        return z, memory
+
+    def _settle(self, A: np.ndarray, W: np.ndarray, key: Hashable, verdict: np.ndarray) -> int:
+        """The oracle's answers for the undecided rows (verdict -1) written into verdict;
+        returns how many rows it decided."""
+        rest = np.flatnonzero(verdict == -1)
+        if len(rest):
+            self.fallback += len(rest)
+            verdict[rest] = self.oracle.feasible(A, W[rest], key=key)
+        return len(rest)
 
     def feasible(self, A: np.ndarray, W: np.ndarray, key: Hashable) -> np.ndarray:
-        """bool (t,): which wrenches W (t, 6) the structure of matrix A (key ``key``) can exert;
-        the same answers as ``oracle.feasible(A, W, key=key)``."""
-        z = self.oracle.zonotope(A, key)
+        """bool (t,): which finite wrenches W (t, 6) the structure of matrix A (key ``key``)
+        can exert; the same answers as ``oracle.feasible(A, W, key=key)``."""
+        z, memory = self._prepared(A, key)
         if not z.rank:
             return self.oracle.feasible(A, W, key=key)
         R, off = z.reduce(W)
-        verdict = certify(z.G, z.P, R)
-        out = verdict == 1
-        if off.any():  # off range(A): infeasible (the oracle's first rule)
-            out[off] = False
-            verdict[off] = 0
-        rest = np.flatnonzero(verdict < 0)
-        if len(rest):
-            self.fallback += len(rest)
-            out[rest] = self.oracle.feasible(A, W[rest], key=key)
-        return out
+        verdict = np.empty(len(W), dtype=np.int8)
+        _decide_rows(z.G, z.P, np.ascontiguousarray(R), memory, verdict)
+        verdict[off] = 0  # off range(A): infeasible (the oracle's first rule)
+        self._settle(A, W, key, verdict)
+        return verdict == 1
+
+    def against(
+        self, A: np.ndarray, key: Hashable, W: np.ndarray, WD: np.ndarray, h: np.ndarray,
+        slack: float,
+    ) -> tuple[np.ndarray, int, int]:  # fmt: skip
+        """(per_wrench, wrenches tested, wrenches satisfied) of a structure against a task, as
+        :meth:`~.evaluator.StructureEvaluator.against_plain` computes them."""
+        z, memory = self._prepared(A, key)
+        if z.rank < 6:  # off-range wrenches exist: the oracle's reduction decides them
+            per_wrench = np.maximum.reduce(WD - h, axis=1)
+            tested = np.flatnonzero(per_wrench <= slack)
+            n_sat = int(np.count_nonzero(self.feasible(A, W[tested], key))) if len(tested) else 0
+            return per_wrench, len(tested), n_sat
+        per_wrench = np.empty(len(W))
+        verdict = np.empty(len(W), dtype=np.int8)
+        _decide_task(W, WD, h, slack, self.oracle.f_max, z.Q, z.c, z.G, z.P, memory,
+                     per_wrench, verdict)  # fmt: skip
+        self._settle(A, W, key, verdict)
+        return per_wrench, int(np.count_nonzero(verdict >= 0)), int(np.count_nonzero(verdict == 1))
