@@ -22,7 +22,6 @@ from ...tasks import make_generator
 from ...validation import check_int
 from .evaluator import StructureEvaluator, TaskMemos
 from .features import (
-    CANDIDATE_FEATURES,
     DEFAULT_N_DIRECTIONS,
     MAX_N_DIRECTIONS,
     AssemblyFeatures,
@@ -38,7 +37,9 @@ from .inputs import (
     draw_task,
     parse_action,
 )
-from .reward import RewardFn, WeightedReward
+from .lookahead import candidate_rows
+from .reward import RewardFn, make_reward, reset_terms, step_reward
+from .transitions import decided_fields, transition
 from .types import AssemblyState
 from .viewer import RENDER_FPS, AssemblyViewer
 
@@ -218,11 +219,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self.lookahead = bool(lookahead)
         self.module = module if module is not None else Structure([(0, 0)]).module
         self.f_max = None if f_max is None else check_f_max(f_max)
-        if reward is not None and reward_weights is not None:
-            raise ValueError("give reward= or reward_weights=, not both")
-        if reward is not None and not callable(reward):
-            raise ValueError(f"reward must be a RewardFn (a callable), got {reward!r}")
-        self.reward: RewardFn = reward if reward is not None else WeightedReward(reward_weights)
+        self.reward: RewardFn = make_reward(reward, reward_weights)
         self.weights = getattr(self.reward, "weights", None)
         self.invalid_action = invalid_action
         self.render_mode = render_mode
@@ -320,48 +317,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
 
     def _decide(self, state: AssemblyState, cells: tuple, types: tuple) -> dict:
         """The state fields of the structure (cells, types) against the episode's task."""
-        n_sat, vec, tests = self.evaluator.evaluate(
-            self._key(cells, types), state.task, self._mass(types), self._memo
-        )
-        t = len(state.task.W)
-        return {
-            "structure_vec": vec,
-            "frac": n_sat / t,
-            "success": n_sat == t,
-            "evaluated": state.evaluated + 1,
-            "oracle_calls": state.oracle_calls + tests,
-        }
-
-    def _candidates(self, state: AssemblyState) -> np.ndarray:
-        """Lookahead rows (actions, k): those of valid actions filled, the others zero."""
-        cand = np.zeros((self._n_actions, CANDIDATE_FEATURES), dtype=np.float32)
-        valid = np.flatnonzero(state.mask)
-        mass0 = self._mass(state.types)
-        G2 = self._n_cells
-        for k in range(self.n_types):  # one child mass per type: one batch each
-            acts = valid if self.n_types == 1 else valid[valid // G2 == k]
-            if len(acts):
-                keys = [self._key((*state.cells, self.cell_of(a)), (*state.types, k)) for a in acts]
-                mass = mass0 + self._masses[k] if self.n_types > 1 else mass0
-                cand[acts] = self.evaluator.candidate_rows(keys, state.task, mass, self._cand_memo)
-        return cand
-
-    def _dock(self, state: AssemblyState, a: int) -> AssemblyState:
-        """The state after docking action ``a`` (valid) to ``state``."""
-        G2 = self._n_cells
-        c, k = a % G2, a // G2
-        cells, types = (*state.cells, self.grid.cell(c)), (*state.types, k) if state.types else ()
-        occ, mask = self.grid.dock(state.occupancy, state.mask, c)
-        onehot = state.types_onehot
-        if onehot is not None:
-            onehot = onehot.copy()
-            onehot[a] = 1.0
-        fields = self._decide(state, cells, types)
-        terminated = fields["success"] or len(cells) >= self.n_max or not mask.any()
-        return state.but(
-            cells=cells, types=types, occupancy=occ, mask=mask, types_onehot=onehot,
-            steps=state.steps + 1, terminated=terminated, **fields,
-        )  # fmt: skip
+        return decided_fields(self, state, cells, types)
 
     def _observation(self) -> dict[str, np.ndarray]:
         s = self._state
@@ -369,27 +325,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
 
     def _info(self, invalid: bool = False, terms: dict[str, float] | None = None) -> dict:
         s = self._state
-        return {
-            "n_modules": len(s.cells),
-            "satisfied_fraction": s.frac,
-            "success": s.success,
-            "is_success": s.success,
-            "cells": [[x, y] for x, y in s.cells],
-            "evaluated": s.evaluated,
-            "oracle_calls": s.oracle_calls,
-            "action_mask": s.mask.astype(bool),
-            "task_name": s.task.name,
-            "n_wrenches": len(s.task.W),
-            "invalid_action": invalid,
-            "reward_terms": terms if terms is not None else self._terms(s, None, s, True, 0.0),
-        }
-
-    def _terms(self, state, action, next_state, is_valid, reward: float) -> dict[str, float]:
-        """``info["reward_terms"]``: the reward's own terms, or its value alone."""
-        terms = getattr(self.reward, "terms", None)
-        if terms is None:
-            return {"reward": reward}
-        return terms(state, action, next_state, is_valid)
+        return s.info(invalid, terms if terms is not None else reset_terms(self.reward, s))
 
     # --- Gymnasium API --------------------------------------------------------------------
     def reset(
@@ -416,7 +352,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         if state.success:  # one module suffices: nothing may be added (see Episode End)
             state.mask = np.zeros_like(state.mask)
         if self.lookahead:
-            state.candidates = self._candidates(state)
+            state.candidates = candidate_rows(self, state)
         self._state = state
         return self._observation(), self._info()
 
@@ -426,25 +362,8 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
             raise ResetNeeded("the episode is over; call reset() before step()")
         a = parse_action(action, self._n_actions)
         valid = state.success or (a is not None and bool(state.mask[a]))
-        if state.success:  # solved at reset: this step (any action) only ends the episode
-            nxt = state.but(steps=state.steps + 1, terminated=True)
-        elif valid:
-            nxt = self._dock(state, a)
-        else:
-            terminated = self.invalid_action == "terminate"
-            nxt = state.but(steps=state.steps + 1, terminated=terminated)
-        nxt.truncated = not nxt.terminated and nxt.steps >= self.max_steps
-        if nxt.terminated:
-            nxt.mask = np.zeros_like(nxt.mask)
-        if self.lookahead and (len(nxt.cells) > len(state.cells) or nxt.terminated):
-            nxt.candidates = self._candidates(nxt)
-        self._state = nxt
-        if type(self.reward) is WeightedReward:  # the default: its value is its terms' sum
-            terms = self.reward.terms(state, a, nxt, valid)
-            reward = float(sum(terms.values()))
-        else:
-            reward = self.reward(state, a, nxt, valid)
-            terms = self._terms(state, a, nxt, valid, reward)
+        self._state = nxt = transition(self, state, a, valid)
+        reward, terms = step_reward(self.reward, state, a, nxt, valid)
         info = self._info(not valid, terms)
         return self._observation(), reward, nxt.terminated, nxt.truncated, info
 
@@ -453,15 +372,10 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
             gym.logger.warn("render() called with render_mode=None; pass render_mode to the env")
             return None
         state = self._require("render()")
-        if self.render_mode == "ansi":
-            return self.viewer.ansi(state)
         s = self.structure
         W, _, _ = self.evaluator.at_mass(state.task, s.mass)
-        frame = self.viewer.frame(s, W, self.evaluator.oracle.f_max, self.oracle_method)
-        if self.render_mode == "rgb_array":
-            return frame
-        self.viewer.show(frame)
-        return None
+        f_max = self.evaluator.oracle.f_max
+        return self.viewer.render(self.render_mode, state, s, W, f_max, self.oracle_method)
 
     def close(self) -> None:
         self.viewer.close()

@@ -139,3 +139,37 @@ class WeightedReward:
 
     def __repr__(self) -> str:
         return f"WeightedReward({self.weights!r})"
+
+
+def make_reward(reward: Any, weights: RewardWeights | dict | None) -> RewardFn:
+    """The env's reward from its ``reward`` and ``reward_weights`` arguments (at most one)."""
+    if reward is None:
+        return WeightedReward(weights)
+    if weights is not None:
+        raise ValueError("give reward= or reward_weights=, not both")
+    if not callable(reward):
+        raise ValueError(f"reward must be a RewardFn (a callable), got {reward!r}")
+    return reward
+
+
+def step_reward(
+    reward: RewardFn, state: AssemblyState, action: Any, next_state: AssemblyState, is_valid: bool
+) -> tuple[float, dict[str, float]]:
+    """(reward, ``info["reward_terms"]``) of one step: the reward's own terms, or its value
+    alone when it has none (the default reward's value is the sum of its terms)."""
+    if type(reward) is WeightedReward:  # the default: computed once
+        terms = reward.terms(state, action, next_state, is_valid)
+        return float(sum(terms.values())), terms
+    value = reward(state, action, next_state, is_valid)
+    terms = getattr(reward, "terms", None)
+    if terms is None:
+        return value, {"reward": value}
+    return value, terms(state, action, next_state, is_valid)
+
+
+def reset_terms(reward: RewardFn, state: AssemblyState) -> dict[str, float]:
+    """``info["reward_terms"]`` at reset: the terms of a step that changes nothing."""
+    terms = getattr(reward, "terms", None)
+    if terms is None:
+        return {"reward": 0.0}
+    return terms(state, None, state, True)

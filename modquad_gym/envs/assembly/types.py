@@ -92,3 +92,20 @@ class AssemblyState:
         new = object.__new__(AssemblyState)
         new.__dict__ = {**self.__dict__, **changes}
         return new
+
+    def info(self, invalid: bool, terms: dict[str, float]) -> dict:
+        """The env's ``info`` of this state (see the env's docstring for the keys)."""
+        return {
+            "n_modules": len(self.cells),
+            "satisfied_fraction": self.frac,
+            "success": self.success,
+            "is_success": self.success,
+            "cells": [[x, y] for x, y in self.cells],
+            "evaluated": self.evaluated,
+            "oracle_calls": self.oracle_calls,
+            "action_mask": self.mask.astype(bool),
+            "task_name": self.task.name,
+            "n_wrenches": len(self.task.W),
+            "invalid_action": invalid,
+            "reward_terms": terms,
+        }

@@ -38,6 +38,24 @@ class AssemblyViewer:
         self.window = None  # the pygame display of render_mode="human"
         self.clock = None
 
+    def render(
+        self,
+        mode: str,
+        state: AssemblyState,
+        structure: Structure,
+        W: np.ndarray,
+        f_max: float,
+        method: str,
+    ) -> np.ndarray | str | None:
+        """What ``env.render()`` returns in ``mode`` (``"human"`` shows the frame, None)."""
+        if mode == "ansi":
+            return self.ansi(state)
+        frame = self.frame(structure, W, f_max, method)
+        if mode == "rgb_array":
+            return frame
+        self.show(frame)
+        return None
+
     def frame(self, structure: Structure, W: np.ndarray, f_max: float, method: str) -> np.ndarray:
         """The structure picture with each wrench's status (feasible or not), (H, W, 3) uint8."""
         from ...oracle import feasible
