@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from modquad_gym.envs.assembly.certify import ACCEPT, REJECT, FastDecider
 from modquad_gym.envs.assembly.evaluator import StructureEvaluator
-from modquad_gym.oracle import BAND, TOL, WrenchOracle
+from modquad_gym.oracle import BAND, RESIDUAL_TOL, TOL, WrenchOracle
 from modquad_gym.structure import Structure, normalise
 from modquad_gym.tasks import PaperTasks, PlantedTasks, random_cells
 
@@ -124,3 +124,28 @@ def test_remembered_directions_keep_answers_across_calls():
     for seed in range(6):
         W = wrenches_at(oracle, A, key, seed, np.linspace(0.2, 3.0, 40))
         assert np.array_equal(fast.feasible(A, W, key), WrenchOracle(1.0).feasible(A, W, key=key))
+
+
+@pytest.mark.parametrize("cells", [[(0, 0)], [(0, 0), (1, 0)], [(0, 0), (0, 1), (0, 2)]])
+def test_off_range_residuals_near_the_rule_match_the_oracle(cells):
+    """Rank-deficient structures: residuals placed at factors of RESIDUAL_TOL (1 + |w|) around
+    the oracle's off-range rule give the oracle's answers and counts."""
+    module = Structure([(0, 0)]).module
+    fast = StructureEvaluator(module, 7, 1.0, 48, "auto")
+    plain = StructureEvaluator(module, 7, 1.0, 48, "auto")
+    plain.fast = None
+    key = normalise(cells)
+    cap = fast.capability_of(key)
+    z = fast.oracle.zonotope(cap.A, key)
+    normal = np.linalg.svd(z.Q, full_matrices=True)[0][:, -1]  # orthogonal to range(A)
+    inside = wrenches_at(fast.oracle, cap.A, key, 5, [0.2, 0.6, 0.95] * 3)
+    rows = []
+    for w in inside:
+        for factor in (0.0, 0.5, 0.98, 0.999, 1.0, 1.001, 1.02, 2.0):
+            bound = RESIDUAL_TOL * (1.0 + np.linalg.norm(w))
+            rows.append(w + factor * bound * normal)
+    W = np.array(rows)
+    WD = W @ fast.features.D.T / fast.features.denom
+    got = fast.fast.against(cap.A, key, W, WD, cap.h_Wn, cap.slack)
+    want = plain.against_plain(plain.capability_of(key), key, W, WD)
+    assert got[0].tobytes() == want[0].tobytes() and got[1:] == want[1:]

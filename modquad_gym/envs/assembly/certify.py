@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from ...oracle import BAND, TOL, WrenchOracle
+from ...oracle import BAND, RESIDUAL_TOL, TOL, WrenchOracle
 
 ACCEPT = 1.0 + TOL - BAND
 """An allocation with ``|x|_inf`` at most this certifies a feasible wrench."""
@@ -40,6 +40,7 @@ MAX_PIVOTS = 200
 _EPS = 1e-11  # reduced-cost and residual tolerance (a heuristic: the results are checked)
 _PIVOT = 1e-9  # smallest pivot element
 _HUGE = 1e100  # rows of w / f_max beyond this go to the oracle (its reduction avoids overflow)
+_OFF = 1.01  # off-range margin: residuals within this factor of the rule go to the oracle
 DIRECTIONS = 16
 """Separating directions remembered per structure (tried before the simplex)."""
 
@@ -254,15 +255,50 @@ def _decide_rows(G, P, R, memory, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _decide_task(W, WD, h, slack, f_max, Q, c, G, P, memory, per_wrench, out):
-    """For a structure of full rank (range(A) is all of R^6) against task wrenches W (t, 6):
-    per_wrench (t,) = max_d (WD - h) (the support test of
-    :meth:`~.evaluator.StructureEvaluator.evaluate`), and the verdict of each row into out:
-    -2 where the support test rejects it (not tested), else that of :func:`_decide_row` on
-    its centred reduced coordinates ``W / f_max @ Q - c`` (-1 for a row too large for them)."""
+def _reduce_row(w, f_max, Q, c, r):  # pragma: no cover - compiled
+    """Centred reduced coordinates r = (w / f_max) Q - c of one wrench (as
+    :meth:`~modquad_gym.oracle.Zonotope.reduce`); returns 1 (in range(A)), 0 (certainly off
+    range: residual beyond the oracle's RESIDUAL_TOL rule by a factor) or -1 (near that rule,
+    or too large for these coordinates: the oracle decides)."""
+    n = Q.shape[1]
+    norm2 = 0.0
+    for j in range(6):
+        v = w[j] / f_max
+        if abs(v) > _HUGE:
+            return -1
+        norm2 += v * v
+    for i in range(n):
+        acc = 0.0
+        for j in range(6):
+            acc += (w[j] / f_max) * Q[j, i]
+        r[i] = acc
+    if n < 6:  # range(A) is not all of R^6: the residual of the projection decides first
+        resid2 = 0.0
+        for j in range(6):
+            e = w[j] / f_max
+            for i in range(n):
+                e -= r[i] * Q[j, i]
+            resid2 += e * e
+        bound = RESIDUAL_TOL * (1.0 + np.sqrt(norm2))
+        if np.sqrt(resid2) > _OFF * bound:
+            return 0
+        if not np.sqrt(resid2) < bound / _OFF:
+            return -1
+    for i in range(n):
+        r[i] -= c[i]
+    return 1
+
+
+@njit(cache=True)
+def _decide_task(W, WD, h, slack, f_max, Q, c, G, P, memory, per_wrench, out, counts):
+    """A structure against task wrenches W (t, 6): per_wrench (t,) = max_d (WD - h) (the
+    support test of :meth:`~.evaluator.StructureEvaluator.against_plain`), and the verdict
+    of each row into out: -2 where the support test rejects it (not tested), else 0 off
+    range(A), else that of :func:`_decide_row` on its centred reduced coordinates (-1 where
+    the oracle must decide). counts: (tested, feasible, undecided)."""
     axes, work = _workspace(G)
-    n = G.shape[0]
-    r = np.empty(n)
+    r = np.empty(G.shape[0])
+    counts[:] = 0
     for k in range(W.shape[0]):
         worst = -np.inf
         for d in range(WD.shape[1]):
@@ -273,15 +309,15 @@ def _decide_task(W, WD, h, slack, f_max, Q, c, G, P, memory, per_wrench, out):
         if not worst <= slack:
             out[k] = -2
             continue
-        huge = False
-        for i in range(n):
-            acc = 0.0
-            for j in range(6):
-                w = W[k, j] / f_max
-                huge |= abs(w) > _HUGE
-                acc += w * Q[j, i]
-            r[i] = acc - c[i]
-        out[k] = -1 if huge else _decide_row(G, P, axes, r, memory, work)
+        verdict = _reduce_row(W[k], f_max, Q, c, r)
+        if verdict == 1:
+            verdict = _decide_row(G, P, axes, r, memory, work)
+        out[k] = verdict
+        counts[0] += 1
+        if verdict == 1:
+            counts[1] += 1
+        elif verdict == -1:
+            counts[2] += 1
 
 
 class FastDecider:
@@ -295,6 +331,7 @@ class FastDecider:
         self.oracle = oracle
         self.fallback = 0
         self._memory: dict[Hashable, tuple] = {}
+        self._counts = np.zeros(3, dtype=np.int64)
 
     def _prepared(self, A: np.ndarray, key: Hashable) -> tuple[Any, tuple]:
         """(the oracle's zonotope of A, the directions remembered for it)."""
@@ -310,14 +347,18 @@ class FastDecider:
             )
         return z, memory
 
-    def _settle(self, A: np.ndarray, W: np.ndarray, key: Hashable, verdict: np.ndarray) -> int:
-        """The oracle's answers for the undecided rows (verdict -1) written into verdict;
-        returns how many rows it decided."""
+    def _settle(
+        self, A: np.ndarray, W: np.ndarray, key: Hashable, verdict: np.ndarray
+    ) -> np.ndarray:
+        """The oracle's answers for the undecided rows (verdict -1), also written into
+        verdict."""
         rest = np.flatnonzero(verdict == -1)
-        if len(rest):
-            self.fallback += len(rest)
-            verdict[rest] = self.oracle.feasible(A, W[rest], key=key)
-        return len(rest)
+        if not len(rest):
+            return np.zeros(0, dtype=bool)
+        self.fallback += len(rest)
+        answers = self.oracle.feasible(A, W[rest], key=key)
+        verdict[rest] = answers
+        return answers
 
     def feasible(self, A: np.ndarray, W: np.ndarray, key: Hashable) -> np.ndarray:
         """bool (t,): which finite wrenches W (t, 6) the structure of matrix A (key ``key``)
@@ -339,14 +380,17 @@ class FastDecider:
         """(per_wrench, wrenches tested, wrenches satisfied) of a structure against a task, as
         :meth:`~.evaluator.StructureEvaluator.against_plain` computes them."""
         z, memory = self._prepared(A, key)
-        if z.rank < 6:  # off-range wrenches exist: the oracle's reduction decides them
+        if not z.rank:  # no structure has rank 0; any other matrix: the plain path
             per_wrench = np.maximum.reduce(WD - h, axis=1)
             tested = np.flatnonzero(per_wrench <= slack)
             n_sat = int(np.count_nonzero(self.feasible(A, W[tested], key))) if len(tested) else 0
             return per_wrench, len(tested), n_sat
         per_wrench = np.empty(len(W))
         verdict = np.empty(len(W), dtype=np.int8)
+        counts = self._counts
         _decide_task(W, WD, h, slack, self.oracle.f_max, z.Q, z.c, z.G, z.P, memory,
-                     per_wrench, verdict)  # fmt: skip
-        self._settle(A, W, key, verdict)
-        return per_wrench, int(np.count_nonzero(verdict >= 0)), int(np.count_nonzero(verdict == 1))
+                     per_wrench, verdict, counts)  # fmt: skip
+        n_sat = int(counts[1])
+        if counts[2]:
+            n_sat += int(np.count_nonzero(self._settle(A, W, key, verdict)))
+        return per_wrench, int(counts[0]), n_sat
