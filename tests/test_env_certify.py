@@ -149,3 +149,34 @@ def test_off_range_residuals_near_the_rule_match_the_oracle(cells):
     got = fast.fast.against(cap.A, key, W, WD, cap.h_Wn, cap.slack)
     want = plain.against_plain(plain.capability_of(key), key, W, WD)
     assert got[0].tobytes() == want[0].tobytes() and got[1:] == want[1:]
+
+
+def structure_against_numpy(features, head, h_Wn, h_Tn, per_wrench, satisfied_fraction):
+    """The element-wise numpy version that the compiled structure_against replaced."""
+    out = head.copy()
+    k = features.k
+    np.subtract(h_Tn, h_Wn, out=out[k : 2 * k], casting="same_kind")
+    j = 2 * k
+    out[j] = satisfied_fraction
+    out[j + 3] = np.count_nonzero(h_Wn >= h_Tn) / k
+    out[j + 4] = np.add.reduce(per_wrench) / len(per_wrench)
+    out[j + 5] = np.maximum.reduce(per_wrench)
+    out[j + 6] = np.minimum.reduce(per_wrench)
+    np.maximum(out, -1.0, out=out)
+    return np.minimum(out, 1.0, out=out)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**20), t=st.integers(1, 300), spread=st.sampled_from([0.1, 1.0, 5.0]))
+def test_compiled_structure_vector_is_bit_identical(seed, t, spread):
+    rng = np.random.default_rng(seed)
+    ev = StructureEvaluator(Structure([(0, 0)]).module, 7, 1.0, 48, "auto")
+    key = normalise(random_cells(rng, int(rng.integers(1, 8))))
+    cap = ev.capability_of(key)
+    h_Tn = cap.h_Wn + spread * rng.standard_normal(len(cap.h_Wn))
+    h_Tn[::7] = cap.h_Wn[::7]  # ties count as covered
+    per_wrench = spread * rng.standard_normal(t)
+    frac = float(rng.random())
+    got = ev.features.structure_against(cap.head, cap.h_Wn, h_Tn, per_wrench, frac)
+    want = structure_against_numpy(ev.features, cap.head, cap.h_Wn, h_Tn, per_wrench, frac)
+    assert got.dtype == want.dtype and got.tobytes() == want.tobytes()

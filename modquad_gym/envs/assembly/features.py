@@ -58,6 +58,7 @@ from operator import attrgetter
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from ...module import ModuleType
 from ...oracle import TOL
@@ -225,17 +226,30 @@ class AssemblyFeatures:
         :meth:`structure_head` and the task-dependent parts: ``h_Wn`` and ``h_Tn`` the supports
         divided by denom, ``per_wrench`` (t,) max_d (d . w_i - h_W(d)) / denom(d); a new
         array."""
-        out = head.copy()
-        k = self.k
-        np.subtract(h_Tn, h_Wn, out=out[k : 2 * k], casting="same_kind")
-        j = 2 * k
-        out[j] = satisfied_fraction
-        out[j + 3] = np.count_nonzero(h_Wn >= h_Tn) / k
-        out[j + 4] = np.add.reduce(per_wrench) / len(per_wrench)  # .sum(), .max(), .min()
-        out[j + 5] = np.maximum.reduce(per_wrench)
-        out[j + 6] = np.minimum.reduce(per_wrench)
-        np.maximum(out, -1.0, out=out)  # np.clip(out, -1, 1), minus its overhead
-        return np.minimum(out, 1.0, out=out)
+        mean = np.add.reduce(per_wrench) / len(per_wrench)  # numpy's (pairwise) sum
+        return _structure_against(head, h_Wn, h_Tn, per_wrench, satisfied_fraction, mean)
+
+
+@njit(cache=True)
+def _structure_against(head, h_Wn, h_Tn, per_wrench, satisfied_fraction, mean):
+    """:meth:`AssemblyFeatures.structure_against` compiled: every entry is rounded to float32
+    once from the same float64 value as numpy's element-wise version would (the mean of
+    per_wrench comes from numpy, whose pairwise sum a loop would not reproduce)."""
+    k = len(h_Wn)
+    out = head.copy()
+    covered = 0
+    for i in range(k):
+        out[k + i] = h_Tn[i] - h_Wn[i]
+        covered += h_Wn[i] >= h_Tn[i]
+    j = 2 * k
+    out[j] = satisfied_fraction
+    out[j + 3] = covered / k
+    out[j + 4] = mean
+    out[j + 5] = per_wrench.max()
+    out[j + 6] = per_wrench.min()
+    for i in range(len(out)):
+        out[i] = min(max(out[i], np.float32(-1.0)), np.float32(1.0))
+    return out
 
 
 # --- observation blocks ---------------------------------------------------------------------
