@@ -1,22 +1,10 @@
-"""Task files on disk: reading and writing ``.json``, ``.csv`` and ``.npy`` safely.
-
-``.json``
-    ``{"wrenches": [[fx, fy, fz, tx, ty, tz], ...], "f_max": 1.0, "name": "..."}``; only
-    ``wrenches`` is required (``name`` defaults to the file stem, ``f_max`` to 1, ``kind`` to
-    ``"total"``, so every file written before kinds existed means what it meant). An optional
-    ``meta`` object carries extra information (e.g. a planted structure, a known optimum).
-``.csv``
-    Six comma-separated columns, one wrench per line. An optional first line of non-numbers is a
-    header; blank lines are ignored; lines starting with ``#`` are comments, and the comments
-    ``# name: ...``, ``# f_max: ...`` and ``# kind: ...`` (written by ``TaskRequirement.save``)
-    set those fields.
-``.npy``
-    A float array of shape (t, 6) (``f_max`` = 1, kind ``total``, name = file stem).
+"""Task files on disk: reading and writing ``.json``, ``.csv`` and ``.npy`` (the formats are
+described in the package docstring, :mod:`modquad_gym.tasks`), folders and globs of them.
 
 A bad file raises :class:`TaskFileError` (a ValueError) naming the file and, where it applies,
-the 1-based data row (header, blank and comment lines are not counted; the line number is given
-too). Files are parsed completely before a task is built: nothing is ever half-loaded. The
-``TaskRequirement`` itself (:mod:`.requirement`) turns what these readers return into a task.
+the 1-based data row and the line. Files are parsed completely before a task is built: nothing is
+ever half-loaded. ``TaskRequirement.load`` (:mod:`.requirement`) turns what these readers return
+into a task.
 """
 
 from __future__ import annotations
