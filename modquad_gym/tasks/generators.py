@@ -12,7 +12,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from ..module import GRAVITY, ModuleType
+from ..module import GRAVITY, ModuleType, palette
 from ..structure import Cell, Structure, free_neighbours
 from ..validation import check_f_max
 from .requirement import TaskRequirement
@@ -335,8 +335,6 @@ class PlantedMixedTasks:
         check_f_max(self.f_max)
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement:
-        from .module import palette
-
         types = palette(self.modules)
         lo, hi = (
             (self.n_modules, self.n_modules) if isinstance(self.n_modules, int) else self.n_modules
