@@ -18,11 +18,13 @@ from __future__ import annotations
 import argparse
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from modquad_gym.module import palette
 from modquad_gym.search import exhaustive_search
 from modquad_gym.tasks import TaskRequirement, load_suite, make_generator, save_suite
 
+from .solvers import DEFAULT_MODEL
 from .suites import SUITES_DIR, draw_task, optimum_counts
 
 
@@ -39,10 +41,26 @@ class Tier:
     source: str = ""
     seed0: int = 0
     n_tasks: int = 0
+    recipe: dict = field(default_factory=dict)
+    """Training settings that differ from the recipe's defaults on this tier
+    (:class:`~.training.TrainConfig` fields)."""
 
     def load_suites(self, limit: int | None = None) -> dict[str, list[TaskRequirement]]:
         """The tier's held-out suites by name (first ``limit`` tasks of each)."""
         return {s: load_suite(SUITES_DIR / f"{s}.json")[:limit] for s in self.suites}
+
+    @property
+    def model(self) -> Path:
+        """The tier's shipped PPO model: ``data/models/ppo_default`` on the current tier,
+        ``data/models/ppo_<name>`` on the others."""
+        if self.name == "current":
+            return DEFAULT_MODEL
+        return DEFAULT_MODEL.parents[1] / f"ppo_{self.name}" / DEFAULT_MODEL.name
+
+    @property
+    def results(self) -> str:
+        """The folder of the tier's committed benchmark report."""
+        return "results" if self.name == "current" else f"results/tier_{self.name}"
 
     def search_kwargs(self) -> dict:
         """Keywords that make a search of :mod:`modquad_gym.search` solve this tier."""
@@ -52,7 +70,8 @@ class Tier:
 TIERS = {
     "current": Tier("current", "ModQuadAssembly-v0", 7, ("heldout_paper", "heldout_planted")),
     "large": Tier("large", "ModQuadAssemblyLarge-v0", 12, ("large_planted",),
-                  source="planted-large", seed0=3_000_000, n_tasks=40),
+                  source="planted-large", seed0=3_000_000, n_tasks=40,
+                  recipe={"expert": "one", "demo_tasks": 1_500, "timesteps": 60_000}),
     "mixed": Tier("mixed", "ModQuadAssemblyMixed-v0", 7, ("mixed_external",),
                   env_kwargs={"tasks": "planted-mixed-external"}, modules="t45,t45m,flat",
                   source="planted-mixed-external", seed0=4_000_000, n_tasks=40),
