@@ -46,13 +46,13 @@ DIRECTIONS = 16
 
 
 @njit(cache=True)
-def _phase_one(G, r, x, y, M, Binv, value, basic, head, alpha):  # pragma: no cover - compiled
+def _phase_one(G, r, x, y, Binv, value, basic, head, alpha):  # pragma: no cover - compiled
     """Bounded-variable phase-1 simplex for one wrench: min sum|G x - r| over x in [-1, 1]^m,
     started at the vertex nearest x (the minimum-norm allocation on entry).
 
     Writes the allocation into x and the final dual row into y; returns 1 (residual zero: x is
     a candidate allocation), 0 (positive residual: y is a candidate separating direction) or -1
-    (pivot limit). M, Binv, value, basic, head and alpha are work arrays."""
+    (pivot limit). Binv, value, basic, head and alpha are work arrays."""
     n, m = G.shape
     inside = True
     for j in range(m):
@@ -60,7 +60,6 @@ def _phase_one(G, r, x, y, M, Binv, value, basic, head, alpha):  # pragma: no co
             inside = False
     if inside:  # the minimum-norm allocation lies in the cube
         return 1
-    total = m + n
     for j in range(m):
         value[j] = 1.0 if x[j] > 0.0 else -1.0
         basic[j] = -1
@@ -70,9 +69,7 @@ def _phase_one(G, r, x, y, M, Binv, value, basic, head, alpha):  # pragma: no co
             res -= G[i, j] * value[j]
         s = 1.0 if res >= 0.0 else -1.0
         for k in range(n):
-            M[i, m + k] = 0.0
             Binv[i, k] = 0.0
-        M[i, m + i] = s
         Binv[i, i] = s
         head[i] = m + i
         basic[m + i] = i
@@ -92,19 +89,16 @@ def _phase_one(G, r, x, y, M, Binv, value, basic, head, alpha):  # pragma: no co
             return 1
         # entering variable: the most improving reduced cost (Dantzig)
         q, best, direction = -1, _EPS, 0.0
-        for j in range(total):
+        for j in range(m):  # artificials that left the basis never return (textbook phase 1)
             if basic[j] >= 0:
                 continue
-            d = 1.0 if j >= m else 0.0
+            d = 0.0
             for i in range(n):
-                d -= y[i] * M[i, j]
-            if j < m:
-                if value[j] < 0.0 and -d > best:  # at its lower bound: increase
-                    q, best, direction = j, -d, 1.0
-                elif value[j] > 0.0 and d > best:  # at its upper bound: decrease
-                    q, best, direction = j, d, -1.0
-            elif -d > best:  # an artificial that left the basis (at 0) may only increase
+                d -= y[i] * G[i, j]
+            if value[j] < 0.0 and -d > best:  # at its lower bound: increase
                 q, best, direction = j, -d, 1.0
+            elif value[j] > 0.0 and d > best:  # at its upper bound: decrease
+                q, best, direction = j, d, -1.0
         if q < 0:
             for j in range(m):
                 x[j] = value[j]
@@ -112,9 +106,9 @@ def _phase_one(G, r, x, y, M, Binv, value, basic, head, alpha):  # pragma: no co
         for i in range(n):
             acc = 0.0
             for k in range(n):
-                acc += Binv[i, k] * M[k, q]
+                acc += Binv[i, k] * G[k, q]
             alpha[i] = acc
-        theta = 2.0 if q < m else np.inf  # the entering variable's own range
+        theta = 2.0  # the entering variable's own range
         leave, at = -1, 0.0
         for i in range(n):
             rate = -direction * alpha[i]  # d(value of basic i) / d(theta)
@@ -128,8 +122,6 @@ def _phase_one(G, r, x, y, M, Binv, value, basic, head, alpha):  # pragma: no co
                 t = (1.0 - value[j]) / rate
                 if t < theta:
                     theta, leave, at = t, i, 1.0
-        if not np.isfinite(theta):
-            return -1
         for i in range(n):
             value[head[i]] -= direction * theta * alpha[i]
         value[q] += direction * theta
@@ -188,26 +180,31 @@ def _verdict(G, P, r, x, y, status):  # pragma: no cover - compiled
 @njit(cache=True)
 def _decide_row(G, P, axes, r, memory, work):  # pragma: no cover - compiled
     """The verdict (1, 0, -1) of one centred reduced wrench r: the bounding box (supports
-    ``axes``), the remembered separating directions, the minimum-norm allocation, then
+    ``axes``), the minimum-norm allocation (accepted as the oracle accepts it, G P = I up to
+    round-off far below BAND), the remembered separating directions, then
     :func:`_phase_one`; a new separating direction is remembered."""
     dirs, supports, added = memory
-    M, Binv, value, basic, head, alpha, x, y = work
+    Binv, value, basic, head, alpha, x, y = work
     n, m = G.shape
     for i in range(n):
         if abs(r[i]) > REJECT * axes[i]:  # beyond the bounding box: y = +-e_i separates
             return 0
+    inside = True
+    for j in range(m):
+        acc = 0.0
+        for i in range(n):
+            acc += P[j, i] * r[i]
+        x[j] = acc
+        inside &= abs(acc) <= ACCEPT
+    if inside:  # the minimum-norm allocation P r (G P = I) lies in the cube
+        return 1
     for d in range(min(added[0], len(supports))):
         proj = 0.0
         for i in range(n):
             proj += dirs[d, i] * r[i]
         if proj > REJECT * supports[d]:
             return 0
-    for j in range(m):
-        acc = 0.0
-        for i in range(n):
-            acc += P[j, i] * r[i]
-        x[j] = acc
-    status = _phase_one(G, r, x, y, M, Binv, value, basic, head, alpha)
+    status = _phase_one(G, r, x, y, Binv, value, basic, head, alpha)
     verdict = _verdict(G, P, r, x, y, status)
     if verdict == 0 and len(supports):  # remember its direction for later rows and calls
         slot = added[0] % len(supports)
@@ -231,10 +228,7 @@ def _workspace(G):  # pragma: no cover - compiled
     for i in range(n):
         for j in range(m):
             axes[i] += abs(G[i, j])
-    M = np.zeros((n, m + n))
-    M[:, :m] = G
     work = (
-        M,
         np.empty((n, n)),
         np.empty(m + n),
         np.empty(m + n, dtype=np.int64),
