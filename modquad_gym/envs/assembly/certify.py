@@ -87,18 +87,7 @@ def _phase_one(G, r, x, y, Binv, value, basic, head, alpha):  # pragma: no cover
             for j in range(m):
                 x[j] = value[j]
             return 1
-        # entering variable: the most improving reduced cost (Dantzig)
-        q, best, direction = -1, _EPS, 0.0
-        for j in range(m):  # artificials that left the basis never return (textbook phase 1)
-            if basic[j] >= 0:
-                continue
-            d = 0.0
-            for i in range(n):
-                d -= y[i] * G[i, j]
-            if value[j] < 0.0 and -d > best:  # at its lower bound: increase
-                q, best, direction = j, -d, 1.0
-            elif value[j] > 0.0 and d > best:  # at its upper bound: decrease
-                q, best, direction = j, d, -1.0
+        q, direction = _entering(G, y, value, basic)
         if q < 0:
             for j in range(m):
                 x[j] = value[j]
@@ -108,20 +97,7 @@ def _phase_one(G, r, x, y, Binv, value, basic, head, alpha):  # pragma: no cover
             for k in range(n):
                 acc += Binv[i, k] * G[k, q]
             alpha[i] = acc
-        theta = 2.0  # the entering variable's own range
-        leave, at = -1, 0.0
-        for i in range(n):
-            rate = -direction * alpha[i]  # d(value of basic i) / d(theta)
-            j = head[i]
-            if rate < -_PIVOT:
-                low = -1.0 if j < m else 0.0
-                t = (value[j] - low) / -rate
-                if t < theta:
-                    theta, leave, at = t, i, low
-            elif rate > _PIVOT and j < m:
-                t = (1.0 - value[j]) / rate
-                if t < theta:
-                    theta, leave, at = t, i, 1.0
+        theta, leave, at = _ratio_test(alpha, direction, head, value, m)
         for i in range(n):
             value[head[i]] -= direction * theta * alpha[i]
         value[q] += direction * theta
@@ -132,15 +108,64 @@ def _phase_one(G, r, x, y, Binv, value, basic, head, alpha):  # pragma: no cover
         basic[out] = -1
         head[leave] = q
         basic[q] = leave
-        pivot = alpha[leave]
-        for k in range(n):
-            Binv[leave, k] /= pivot
-        for i in range(n):
-            if i != leave and alpha[i] != 0.0:
-                f = alpha[i]
-                for k in range(n):
-                    Binv[i, k] -= f * Binv[leave, k]
+        _pivot(Binv, alpha, leave)
     return -1
+
+
+@njit(cache=True)
+def _entering(G, y, value, basic):  # pragma: no cover - compiled
+    """(q, direction): the nonbasic allocation with the most improving reduced cost -y . g_q
+    (Dantzig's rule), +1 to raise it from its lower bound, -1 to lower it from its upper one;
+    q = -1 when none improves (optimal). Artificials that left the basis never return."""
+    n, m = G.shape
+    q, best, direction = -1, _EPS, 0.0
+    for j in range(m):
+        if basic[j] >= 0:
+            continue
+        d = 0.0
+        for i in range(n):
+            d -= y[i] * G[i, j]
+        if value[j] < 0.0 and -d > best:
+            q, best, direction = j, -d, 1.0
+        elif value[j] > 0.0 and d > best:
+            q, best, direction = j, d, -1.0
+    return q, direction
+
+
+@njit(cache=True)
+def _ratio_test(alpha, direction, head, value, m):  # pragma: no cover - compiled
+    """(step, leaving row or -1 for a bound flip, the bound it leaves at): the longest step of
+    the entering variable that keeps every basic variable within its bounds."""
+    theta = 2.0  # the entering variable's own range [-1, 1]
+    leave, at = -1, 0.0
+    for i in range(len(alpha)):
+        rate = -direction * alpha[i]  # d(value of basic i) / d(theta)
+        j = head[i]
+        if rate < -_PIVOT:
+            low = -1.0 if j < m else 0.0
+            t = (value[j] - low) / -rate
+            if t < theta:
+                theta, leave, at = t, i, low
+        elif rate > _PIVOT and j < m:
+            t = (1.0 - value[j]) / rate
+            if t < theta:
+                theta, leave, at = t, i, 1.0
+    return theta, leave, at
+
+
+@njit(cache=True)
+def _pivot(Binv, alpha, leave):  # pragma: no cover - compiled
+    """Update the basis inverse in place when row ``leave`` takes the column with
+    B^-1-coordinates alpha."""
+    n = len(alpha)
+    pivot = alpha[leave]
+    for k in range(n):
+        Binv[leave, k] /= pivot
+    for i in range(n):
+        if i != leave and alpha[i] != 0.0:
+            f = alpha[i]
+            for k in range(n):
+                Binv[i, k] -= f * Binv[leave, k]
 
 
 @njit(cache=True)
