@@ -6,6 +6,10 @@ structure its configuration matrix, support values and task-independent features
 :class:`TaskMemos` keeps what was decided (a task that comes back costs no oracle call for the
 structures seen before).
 
+With the default oracle method (``"auto"``) the decisions go through
+:class:`~.certify.FastDecider` (compiled certificates, the oracle for the rest: the same
+answers); :meth:`StructureEvaluator.against_plain` is the plain path and its reference.
+
 Why not :class:`~modquad_gym.search.checker.TaskChecker`: the searches decide thousands of
 structures per task in compiled batches and need only a yes/no; the env decides one structure
 per step and needs the count of satisfied wrenches and the features, from the same exact oracle.
