@@ -96,15 +96,10 @@ def test_publish_run_installs_an_earlier_run_without_training(tmp_path, suite, m
     script = _script()
     _short_run(tmp_path, "run", suite)
     target = tmp_path / "shipped" / "model.zip"
-    monkeypatch.setattr(script, "TIERS", {"current": _Tier(target)})
+    monkeypatch.setattr("modquad_gym.agents.tiers.DEFAULT_MODEL", target)
     assert script.main(["--publish-run", str(tmp_path / "run"), "--no-report"]) == 0
     for name in ("model.zip", "config.json", "evaluations.npz"):
         assert (target.parent / name).read_bytes() == (tmp_path / "run" / name).read_bytes()
-
-
-class _Tier:
-    def __init__(self, model: Path) -> None:
-        self.model, self.results = model, str(model.parent / "report")
 
 
 def test_train_script_errors_are_one_line(capsys, tmp_path):
