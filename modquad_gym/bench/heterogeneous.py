@@ -21,7 +21,6 @@ Writes ``results/heterogeneous.md``, ``.csv`` (one row per task and palette) and
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
@@ -33,14 +32,7 @@ from ..polyominoes import A001168
 from ..search import exhaustive_search
 from ..structure import Structure
 from ..tasks import PaperTasks, PlantedMixedTasks, TaskRequirement
-from . import (
-    int_option,
-    machine_description,
-    markdown_table,
-    parse_bench_args,
-    seed_option,
-    write_csv,
-)
+from . import bench_args, int_option, machine_description, markdown_table, write_csv
 
 PALETTE = ("t45", "t45m", "flat")
 PAIR = ("t45", "t45m")
@@ -433,25 +425,20 @@ def report(args, rows, summ, worst, sim, captions) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(
-        prog="modquad bench heterogeneous",
-        description="Certified minima with a palette of module types against each type alone "
-        "(total and external tasks), search cost, worst case, MuJoCo; writes "
+    options = {
+        "--tasks": dict(type=int_option(1, 1000), default=12, help="tasks per set (default 12)"),
+        "--n-max": dict(type=int_option(2, 8), default=7, help="module budget (default 7)"),
+        "--mujoco": dict(type=int_option(0, 1000), default=3, help="external optima validated (3)"),
+    }  # fmt: skip
+    args = bench_args(
+        argv,
+        "modquad bench heterogeneous",
+        "Certified minima with a palette of module types against each type alone (total and "
+        "external tasks), search cost, worst case, MuJoCo; writes "
         "results/heterogeneous.{md,csv,png}.",
+        options,
+        force=True,
     )
-    parser.add_argument(
-        "--tasks", type=int_option(1, 1000), default=12, help="tasks per set (default 12)"
-    )
-    parser.add_argument("--seed", type=seed_option, default=0, help="task seed (default 0)")
-    parser.add_argument(
-        "--n-max", type=int_option(2, 8), default=7, help="module budget (default 7)"
-    )
-    parser.add_argument(
-        "--mujoco", type=int_option(0, 1000), default=3, help="external optima validated (3)"
-    )
-    parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
-    parser.add_argument("--force", action="store_true", help="replace existing reports")
-    args = parse_bench_args(parser, argv)
     names = ("heterogeneous.md", "heterogeneous.csv", "heterogeneous.png")
     check_output_dir(args.out, names, force=args.force)
     exhaustive_search(np.array([[0, 0, 1.0, 0, 0, 0]]), n_max=2, modules=palette("t45,flat"))

@@ -20,7 +20,6 @@ its full time is extrapolated and marked as such.
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 from pathlib import Path
@@ -32,14 +31,7 @@ from ..outputs import write_text
 from ..polyominoes import PolyominoStream
 from ..search import exhaustive_search, force_lower_bound
 from ..structure import Structure, free_neighbours, normalise
-from . import (
-    int_option,
-    machine_description,
-    markdown_table,
-    parse_bench_args,
-    seed_option,
-    write_csv,
-)
+from . import bench_args, int_option, machine_description, markdown_table, write_csv
 
 
 def random_structure(n: int, rng: np.random.Generator) -> Structure:
@@ -256,21 +248,18 @@ def run(n_tasks: int, seed: int, ref_limit: int, out: Path) -> list[dict]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(
-        prog="python -m modquad_gym.bench.search",
-        description="Time the certified exhaustive search against a plain LP reference; "
-        "write results/search_benchmark.{md,csv}.",
+    options = {
+        "--tasks": dict(type=int_option(1, 1000), default=4, help="tasks per workload"),
+        "--reference-structures": dict(type=int_option(1), default=300,
+                                       help="structures the slow reference checks per task"),
+    }  # fmt: skip
+    args = bench_args(
+        argv,
+        "python -m modquad_gym.bench.search",
+        "Time the certified exhaustive search against a plain LP reference; write "
+        "results/search_benchmark.{md,csv}.",
+        options,
     )
-    parser.add_argument("--tasks", type=int_option(1, 1000), default=4, help="tasks per workload")
-    parser.add_argument("--seed", type=seed_option, default=0)
-    parser.add_argument(
-        "--reference-structures",
-        type=int_option(1),
-        default=300,
-        help="structures the slow reference checks per task",
-    )
-    parser.add_argument("--out", type=Path, default=Path("results"))
-    args = parse_bench_args(parser, argv)
     rows = run(args.tasks, args.seed, args.reference_structures, args.out)
     print(markdown_table(rows))
 
