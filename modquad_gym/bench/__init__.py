@@ -10,8 +10,11 @@ import os
 import platform
 from pathlib import Path
 
+import numpy as np
+
 from ..options import int_option, seed_option
 from ..outputs import OutputError, check_output_dir, write_csv, write_text
+from ..structure import Structure
 
 __all__ = [
     "bench_args",
@@ -19,6 +22,7 @@ __all__ = [
     "machine_description",
     "markdown_table",
     "parse_bench_args",
+    "random_structure",
     "seed_option",
     "write_csv",
     "write_text",
@@ -76,6 +80,14 @@ def machine_description() -> str:
     except OSError:
         pass
     return f"{model}, {os.cpu_count()} cores, no GPU, Python {platform.python_version()}"
+
+
+def random_structure(n: int, rng: np.random.Generator) -> Structure:
+    """A random connected n-module structure (:func:`modquad_gym.tasks.random_cells`: grown one
+    module at a time at a uniformly chosen free cell)."""
+    from ..tasks import random_cells
+
+    return Structure(random_cells(rng, n))
 
 
 def markdown_table(rows: list[dict], floatfmt: str = ".3g") -> str:

@@ -33,8 +33,14 @@ import numpy as np
 
 from ..oracle import BAND, TOL, Zonotope, _decide, _margin
 from ..outputs import write_text
-from ..structure import Structure, free_neighbours
-from . import bench_args, int_option, machine_description, markdown_table, write_csv
+from . import (
+    bench_args,
+    int_option,
+    machine_description,
+    markdown_table,
+    random_structure,
+    write_csv,
+)
 
 # per method: how many of the structures to time (the slow references get fewer)
 _SHARE = {"auto": 1.0, "daqp": 1.0, "hrep": 0.25, "scipy": 0.15, "cvxpy": 0.15}
@@ -44,14 +50,6 @@ SCIPY_RATIO_GOAL = 50.0
 CVXPY_RATIO_GOAL = 100.0
 HREP_BUILD_GOAL_MS = 50.0
 HREP_MEMORY_LIMIT_MB = 256.0
-
-
-def random_structure(n: int, rng: np.random.Generator) -> Structure:
-    cells = [(0, 0)]
-    while len(cells) < n:
-        options = free_neighbours(cells)
-        cells.append(options[int(rng.integers(len(options)))])
-    return Structure(cells)
 
 
 def boundary_mix(A: np.ndarray, t: int, rng: np.random.Generator) -> np.ndarray:

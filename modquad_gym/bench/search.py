@@ -30,17 +30,15 @@ from ..oracle import Zonotope
 from ..outputs import write_text
 from ..polyominoes import PolyominoStream
 from ..search import exhaustive_search, force_lower_bound
-from ..structure import Structure, free_neighbours, normalise
-from . import bench_args, int_option, machine_description, markdown_table, write_csv
-
-
-def random_structure(n: int, rng: np.random.Generator) -> Structure:
-    """A random connected n-module structure, grown one module at a time at a free cell."""
-    cells = [(0, 0)]
-    while len(cells) < n:
-        options = free_neighbours(cells)
-        cells.append(options[int(rng.integers(len(options)))])
-    return Structure(cells)
+from ..structure import Structure, normalise
+from . import (
+    bench_args,
+    int_option,
+    machine_description,
+    markdown_table,
+    random_structure,
+    write_csv,
+)
 
 
 def planted_task(n: int, t: int, rng: np.random.Generator) -> np.ndarray:
