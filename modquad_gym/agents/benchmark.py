@@ -23,7 +23,7 @@ import time
 from functools import lru_cache, partial
 from pathlib import Path
 
-from modquad_gym.bench import bench_args
+from modquad_gym.bench import bench_args, machine_description
 from modquad_gym.module import palette
 from modquad_gym.options import int_option
 from modquad_gym.oracle import feasible
@@ -35,6 +35,10 @@ from .report import plot_bars, plot_learning_curve, plot_structures, write_repor
 from .scores import Row, summarise
 from .solvers import DEFAULT_MODEL, Solver, load_solver, make_solver
 from .tiers import TIERS, Tier, get_tier
+
+machine = machine_description
+"""The machine line of the reports (the name :mod:`.seeds` imports; one helper, in
+:mod:`modquad_gym.bench`)."""
 
 SEARCH_METHODS = tuple(SEARCHES)
 DEFAULT_METHODS = (*SEARCH_METHODS, "ppo", "ppo-k2", "ppo-k8")
