@@ -61,6 +61,8 @@ def test_config_takes_the_tier_defaults(tmp_path):
     assert large.max_modules == 12 and large.source == TIERS["large"].source
     assert large.env_kwargs_full == {"tasks": "planted-large", "n_max": 12}
     assert large.validation_source == "planted-large"
+    assert (large.expert, large.timesteps) == ("one", TIERS["large"].recipe["timesteps"])
+    assert TrainConfig(out=tmp_path, tier="large", timesteps=7).timesteps == 7  # given wins
     current = TrainConfig(out=tmp_path, task_source=str(tmp_path / "tasks.json"))
     assert current.max_modules == 7 and current.validation_source == "mixed"
     assert TIERS["large"].model.parent.name == "ppo_large"
@@ -74,6 +76,7 @@ def test_config_takes_the_tier_defaults(tmp_path):
         ({"tier": "huge"}, "unknown tier"),
         ({"hyperparameters": {"lr": 1}}, "unknown keys"),
         ({"env_kwargs": {"n_max": 3}}, "--n-max"),
+        ({"expert": "best"}, "expert must be"),
     ],
 )
 def test_config_rejects_what_it_cannot_train(tmp_path, kwargs, message):

@@ -30,6 +30,7 @@ from modquad_gym.extras import import_optional
 from modquad_gym.outputs import atomic_write, write_text
 from modquad_gym.tasks import GENERATORS
 
+from .imitation import EXPERTS
 from .solvers import DEFAULT_MODEL
 from .tiers import get_tier
 
@@ -57,19 +58,20 @@ DEFAULT_TIMESTEPS = 200_000
 
 @dataclass(frozen=True)
 class TrainConfig:
-    """One training run. ``task_source`` and ``n_max`` default to the tier's; ``eval_freq`` to
-    ``timesteps / 20``."""
+    """One training run. Fields left None take the tier's value (``task_source``, ``n_max`` and
+    the tier's ``recipe``), then the recipe's; ``eval_freq`` defaults to ``timesteps / 20``."""
 
     out: Path
     tier: str = "current"
     seed: int = 0
-    timesteps: int = DEFAULT_TIMESTEPS
+    timesteps: int | None = None
     n_envs: int = 2
     vec_env: str = "dummy"
     task_source: str | None = None
     n_max: int | None = None
-    demo_tasks: int = IMITATION["demo_tasks"]
+    demo_tasks: int | None = None
     bc_epochs: int = IMITATION["bc_epochs"]
+    expert: str | None = None
     workers: int = 2
     resume: Path | None = None
     eval_freq: int | None = None
@@ -83,6 +85,17 @@ class TrainConfig:
 
     def __post_init__(self) -> None:
         tier = get_tier(self.tier)
+        defaults = {
+            "timesteps": DEFAULT_TIMESTEPS,
+            "demo_tasks": IMITATION["demo_tasks"],
+            "expert": "all",
+            **tier.recipe,
+        }
+        for name, value in defaults.items():
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, value)
+        if self.expert not in EXPERTS:
+            raise ValueError(f"expert must be one of {EXPERTS}, got {self.expert!r}")
         if tier.modules:
             raise ValueError(
                 f"--tier {tier.name}: training on several module types is not supported yet "
@@ -299,6 +312,7 @@ def pretrain(model: Any, config: TrainConfig, log_dir: Path) -> dict:
         seed=config.seed,
         workers=config.workers,
         progress=config.progress,
+        expert=config.expert,
     )
     collect_s = time.perf_counter() - t0
     writer = SummaryWriter(str(log_dir))
@@ -321,6 +335,7 @@ def pretrain(model: Any, config: TrainConfig, log_dir: Path) -> dict:
     writer.close()
     return {
         "demo_tasks": config.demo_tasks,
+        "expert": config.expert,
         "expert_episodes": demos.n_tasks,
         "states": len(demos),
         "epochs": config.bc_epochs,
