@@ -96,15 +96,10 @@ def test_publish_run_installs_an_earlier_run_without_training(tmp_path, suite, m
     script = _script()
     _short_run(tmp_path, "run", suite)
     target = tmp_path / "shipped" / "model.zip"
-    monkeypatch.setattr(script, "TIERS", {"current": _Tier(target)})
+    monkeypatch.setattr("modquad_gym.agents.tiers.DEFAULT_MODEL", target)
     assert script.main(["--publish-run", str(tmp_path / "run"), "--no-report"]) == 0
     for name in ("model.zip", "config.json", "evaluations.npz"):
         assert (target.parent / name).read_bytes() == (tmp_path / "run" / name).read_bytes()
-
-
-class _Tier:
-    def __init__(self, model: Path) -> None:
-        self.model, self.results = model, str(model.parent / "report")
 
 
 def test_train_script_errors_are_one_line(capsys, tmp_path):
@@ -116,3 +111,13 @@ def test_train_script_errors_are_one_line(capsys, tmp_path):
     with pytest.raises(SystemExit):
         script.main(["--publish-run", str(tmp_path)])
     assert "no model.zip" in capsys.readouterr().err
+
+
+def test_log_names_keep_runs_of_different_folders_apart(tmp_path):
+    from modquad_gym.agents.training import log_name
+
+    runs = tmp_path / "runs"
+    assert log_name(runs / "ppo-seed0", runs) == "ppo-seed0"
+    a = log_name(runs / "seeds-large" / "seed-0", runs)
+    b = log_name(runs / "seeds-current" / "seed-0", runs)
+    assert a == "seeds-large-seed-0" and a != b
