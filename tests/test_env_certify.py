@@ -6,6 +6,8 @@ counts, with wrenches placed at chosen gauges gamma around the threshold 1 + TOL
 the band where the compiled tests must hand the wrench to the oracle).
 """
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -180,3 +182,51 @@ def test_compiled_structure_vector_is_bit_identical(seed, t, spread):
     got = ev.features.structure_against(cap.head, cap.h_Wn, h_Tn, per_wrench, frac)
     want = structure_against_numpy(ev.features, cap.head, cap.h_Wn, h_Tn, per_wrench, frac)
     assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+
+
+def task_numpy(features, W):
+    """The numpy version of AssemblyFeatures.task that the compiled one replaced."""
+    proj = W @ features.D.T
+    h_T = proj.max(axis=0)
+    F, T, fz = W[:, :3], W[:, 3:], W[:, 2]
+    f = np.sqrt(np.add.reduce(F * F, axis=1))
+    tau = np.sqrt(np.add.reduce(T * T, axis=1))
+    t = len(W)
+    fz_mean = np.add.reduce(fz) / t
+    dev = fz - fz_mean
+    dev *= dev
+    fz_std = math.sqrt(np.add.reduce(dev) / t)
+    s = features.scale
+    ts = features.side * s
+    vec = np.empty(features.task_size)
+    vec[: features.k] = h_T
+    vec[: features.k] /= s
+    vec[features.k :] = (
+        np.add.reduce(f) / t / s,
+        f.max() / s,
+        np.add.reduce(tau) / t / ts,
+        tau.max() / ts,
+        fz_mean / s,
+        fz_std / s,
+        math.log1p(t) / math.log1p(1000),
+    )
+    np.clip(vec, -1.0, 1.0, out=vec)
+    return vec.astype(np.float32), h_T / features.denom, proj / features.denom
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 2**20),
+    t=st.sampled_from([1, 2, 7, 8, 9, 16, 80, 300]),
+    scale=st.sampled_from([1e-6, 0.5, 3.0, 1e4]),
+    zeros=st.booleans(),
+)
+def test_compiled_task_features_are_bit_identical(seed, t, scale, zeros):
+    rng = np.random.default_rng(seed)
+    W = scale * rng.standard_normal((t, 6))
+    if zeros:
+        W[:, [1, 3, 5]] = 0.0  # exact zeros, as in the screwdriver task
+    features = StructureEvaluator(Structure([(0, 0)]).module, 7, 1.0, 48, "auto").features
+    for got, want in zip(features.task(W), task_numpy(features, W)):
+        assert got.dtype == want.dtype and got.shape == want.shape
+        assert got.tobytes() == want.tobytes()

@@ -138,22 +138,17 @@ class AssemblyFeatures:
     def task(self, W: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(task vector float32, h_T / denom (K,), WD (t, K) = (d . w_i) / denom) for W (t, 6)."""
         proj = W @ self.D.T  # (t, K)
-        h_T = proj.max(axis=0)
-        # the same operations as np.linalg.norm(., axis=1), .mean() and .std(), minus overhead
-        F, T, fz = W[:, :3], W[:, 3:], W[:, 2]
-        f = np.sqrt(np.add.reduce(F * F, axis=1))
-        tau = np.sqrt(np.add.reduce(T * T, axis=1))
+        h_T, f, tau, WD, h_Tn = _task_parts(proj, W, self.denom)
+        # numpy's pairwise sums (a compiled loop would round differently for t > 8)
         t = len(W)
+        fz = W[:, 2]
         fz_mean = np.add.reduce(fz) / t
         dev = fz - fz_mean
         dev *= dev
         fz_std = math.sqrt(np.add.reduce(dev) / t)
         s = self.scale
         ts = self.side * s
-        vec = np.empty(self.task_size)
-        vec[: self.k] = h_T
-        vec[: self.k] /= s
-        vec[self.k :] = (
+        tail = (
             np.add.reduce(f) / t / s,
             f.max() / s,
             np.add.reduce(tau) / t / ts,
@@ -162,8 +157,7 @@ class AssemblyFeatures:
             fz_std / s,
             math.log1p(t) / math.log1p(_T_REF),
         )
-        np.clip(vec, -1.0, 1.0, out=vec)
-        return vec.astype(np.float32), h_T / self.denom, proj / self.denom
+        return _task_vector(h_T, s, np.array(tail)), h_Tn, WD
 
     # --- structure (every step) -----------------------------------------------------------
     def support(self, A: np.ndarray) -> tuple[np.ndarray, float]:
@@ -228,6 +222,40 @@ class AssemblyFeatures:
         array."""
         mean = np.add.reduce(per_wrench) / len(per_wrench)  # numpy's (pairwise) sum
         return _structure_against(head, h_Wn, h_Tn, per_wrench, satisfied_fraction, mean)
+
+
+@njit(cache=True)
+def _task_parts(proj, W, denom):  # pragma: no cover - compiled
+    """(h_T (K,), |f_i| (t,), |tau_i| (t,), proj / denom (t, K), h_T / denom (K,)) from the
+    projections proj (t, K) of the wrenches W (t, 6); the same roundings as numpy's
+    ``proj.max(axis=0)``, ``sqrt(add.reduce(F * F, axis=1))`` (a sequential sum of three) and
+    element-wise division."""
+    t, k = proj.shape
+    h_T = proj[0].copy()
+    WD = np.empty((t, k))
+    f = np.empty(t)
+    tau = np.empty(t)
+    for i in range(t):
+        for d in range(k):
+            v = proj[i, d]
+            if v > h_T[d]:
+                h_T[d] = v
+            WD[i, d] = v / denom[d]
+        f[i] = np.sqrt(W[i, 0] * W[i, 0] + W[i, 1] * W[i, 1] + W[i, 2] * W[i, 2])
+        tau[i] = np.sqrt(W[i, 3] * W[i, 3] + W[i, 4] * W[i, 4] + W[i, 5] * W[i, 5])
+    return h_T, f, tau, WD, h_T / denom
+
+
+@njit(cache=True)
+def _task_vector(h_T, scale, tail):  # pragma: no cover - compiled
+    """The task vector: h_T / scale then the scalars ``tail``, clipped to [-1, 1], float32."""
+    k = len(h_T)
+    vec = np.empty(k + len(tail), dtype=np.float32)
+    for d in range(k):
+        vec[d] = min(max(h_T[d] / scale, -1.0), 1.0)
+    for i in range(len(tail)):
+        vec[k + i] = min(max(tail[i], -1.0), 1.0)
+    return vec
 
 
 @njit(cache=True)
