@@ -410,7 +410,7 @@ def greedy_search(
     Children that are the same structure up to translation (from one module, cells (1, 0) and
     (-1, 0) both give the horizontal pair) are evaluated and counted once, at their first cell
     in sorted order; since equal structures score equally, this changes counts, not results."""
-    from modquad_gym.oracle import _margin
+    from modquad_gym.oracle import margin_with
 
     t0 = time.perf_counter()
     W, f = _task_arrays(task, f_max)
@@ -436,7 +436,7 @@ def greedy_search(
             ok = z.decide_certified(W)
             if ok.all():
                 return _result(child, checker, t0, False, "greedy", n_max, W, f)
-            score = (float(ok.mean()), float(np.clip(_margin(z, W, "daqp"), -1.0, 1.0).sum()))
+            score = (float(ok.mean()), float(np.clip(margin_with(z, W, "daqp"), -1.0, 1.0).sum()))
             if best_score is None or score > best_score:
                 best, best_score = child, score
         current = best
