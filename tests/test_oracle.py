@@ -12,17 +12,22 @@ from hypothesis import strategies as st
 
 import modquad_gym as mq
 from modquad_gym.oracle import (
+    BACKENDS,
     BAND,
+    METHODS,
     TOL,
+    Backend,
     Zonotope,
     decide_from_gamma,
     gamma_with,
     margin_from_gamma,
+    ray_lp,
 )
 from modquad_gym.oracle.cvxpy_lp import cvxpy_problem, lambda_cvxpy
 from modquad_gym.oracle.daqp_lp import gamma_daqp
 from modquad_gym.oracle.highs_lp import gamma_highs
 from modquad_gym.oracle.hrep import decide_hrep, gamma_hrep, hyperplane_shifting
+from modquad_gym.oracle.lp import HIGHS_OPTIONS
 
 STRUCTURES = {
     "single (rank 4)": [(0, 0)],
@@ -285,6 +290,39 @@ def _facets_brute_force(G):
         if sv.min() > 1e-9 * np.abs(G).max():
             out.append(U[:, -1])
     return np.array(out)
+
+
+def test_one_lp_builder_for_allocate_daqp_and_the_ray():
+    """allocate solves the same gamma LP as the "scipy" method, and the DAQP method's LP is the
+    ray LP (B = G, the cube [-1, 1], from 0): lambda* = |r| / gamma."""
+    A = matrix("L (rank 6)")
+    z = Zonotope(A)
+    W = sample_wrenches(A, np.random.default_rng(seed("one builder")), t=6)
+    R = z.reduce(W)[0]
+    g_scipy = gamma_with(z, W, "scipy")
+    for w, r, g in zip(W, R, g_scipy):
+        assert mq.allocate(A, w)[1] == pytest.approx(g, abs=1e-9)
+        lam = ray_lp(z.G, np.zeros(z.rank), r, -1.0, 1.0, HIGHS_OPTIONS)
+        assert np.linalg.norm(r) / lam == pytest.approx(gamma_daqp(z, r[None])[0], abs=1e-8)
+
+
+def test_backend_table_is_the_only_dispatch(monkeypatch):
+    """METHODS are the table's names; a backend added as one row (here gamma from the
+    brute-force facets) serves feasible and margin and agrees with HiGHS."""
+    assert METHODS == tuple(BACKENDS) and METHODS[0] == "auto"
+
+    def gamma_brute(z, R):
+        N = _facets_brute_force(z.G)
+        return (np.abs(R @ N.T) / np.abs(N @ z.G).sum(axis=1)).max(axis=1)
+
+    monkeypatch.setitem(BACKENDS, "brute", Backend(gamma_brute))
+    A = matrix("L (rank 6)")
+    W = sample_wrenches(A, np.random.default_rng(seed("brute backend")), t=8)
+    g_ref = gamma_with(Zonotope(A), W, "scipy")
+    clear = clear_of_band(g_ref)
+    d = mq.feasible(A, W, method="brute")
+    np.testing.assert_array_equal(d[clear], decide_from_gamma(g_ref)[clear])
+    np.testing.assert_allclose(mq.margin(A, W, method="brute"), margin_from_gamma(g_ref), atol=1e-9)
 
 
 @pytest.mark.parametrize("name", ["single (rank 4)", "pair (rank 5)", "line of 3 (rank 5)", "2x2"])
