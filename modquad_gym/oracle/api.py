@@ -10,9 +10,7 @@ from collections.abc import Hashable
 import numpy as np
 
 from ..validation import check_f_max, check_wrenches
-from .backends import check_method, decide_with, margin_with
-from .cvxpy_lp import lambda_cvxpy
-from .highs_lp import lambda_highs
+from .backends import BACKENDS, check_method, decide_with, margin_with
 from .lp import GammaLP
 from .scale import row_norms
 from .tolerance import TOL
@@ -102,8 +100,10 @@ def lambda_ratio(
     wrenches where the two LPs' round-off disagree: within BAND of the threshold).
     inf for w = 0; 0 when no positive multiple of w is feasible (e.g. off range(A)).
     """
-    if method not in ("scipy", "cvxpy"):
-        raise ValueError(f"lambda_ratio supports method 'scipy' or 'cvxpy', got {method!r}")
+    ray = BACKENDS[method].ray if method in BACKENDS else None
+    if ray is None:
+        names = " or ".join(repr(name) for name, b in BACKENDS.items() if b.ray is not None)
+        raise ValueError(f"lambda_ratio supports method {names}, got {method!r}")
     W = check_wrenches(W)
     z = Zonotope(A, f_max)
     lo, hi = -TOL / 2.0, 1.0 + TOL / 2.0  # in units of f_max, as z's reduced coordinates
@@ -117,10 +117,7 @@ def lambda_ratio(
         # lambda / |d| does not depend on the length of d, and the LP sees numbers of order one)
         D = W[live] @ z.Q
         D /= np.abs(D).max(axis=1, keepdims=True)
-        if method == "cvxpy":
-            lams = lambda_cvxpy(z, np.zeros_like(D), D, lo, hi)[0]
-        else:
-            lams = lambda_highs(z.G * 2.0, D, lo, hi)
+        lams = ray(z, D, lo, hi)
         # lambda* is in units of f_max: the ratio is lambda* / (|w| / f_max)
         with np.errstate(over="ignore", divide="ignore"):
             out[live] = lams / (row_norms(W[live] @ z.Q) / z.f_max)

@@ -16,9 +16,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .certified import decide_reduced
-from .cvxpy_lp import gamma_cvxpy
+from .cvxpy_lp import gamma_cvxpy, ray_cvxpy
 from .daqp_lp import gamma_daqp
-from .highs_lp import gamma_highs
+from .highs_lp import gamma_highs, ray_highs
 from .hrep import decide_hrep, gamma_hrep
 from .quickhull import gamma_quickhull
 from .tolerance import TOL, decide_from_gamma, margin_from_gamma
@@ -28,6 +28,10 @@ if TYPE_CHECKING:
 
 Rows = Callable[["Zonotope", np.ndarray], np.ndarray]
 """A function of a zonotope and centred reduced wrenches R (t, rank) in range(A)."""
+
+Ray = Callable[["Zonotope", np.ndarray, float, float], np.ndarray]
+"""``(z, D, lo, hi) -> lambda*`` per row d of D: the paper's LP from the origin,
+``max lambda s.t. Q^T A u = lambda d_hat, lo <= u <= hi`` (units of f_max)."""
 
 _FAR = 1e6  # rows beyond this many bounding boxes get their gamma by homogeneity (gamma_with)
 
@@ -43,18 +47,21 @@ class Backend:
         margin_sign_from_decide: margins take their sign from ``decide`` where the two disagree
             (within the LP's accuracy of the threshold), so that margin >= 0 exactly when
             feasible even though decisions and margins come from different computations.
+        ray: the paper's LP from the origin, for :func:`~modquad_gym.oracle.lambda_ratio`
+            (None: the method does not offer it).
     """
 
     gamma: Rows
     decide: Rows | None = None
     margin_sign_from_decide: bool = False
+    ray: Ray | None = None
 
 
 BACKENDS: dict[str, Backend] = {
     "auto": Backend(gamma_daqp, decide_reduced, margin_sign_from_decide=True),
     "daqp": Backend(gamma_daqp),
-    "scipy": Backend(gamma_highs),
-    "cvxpy": Backend(gamma_cvxpy),
+    "scipy": Backend(gamma_highs, ray=ray_highs),
+    "cvxpy": Backend(gamma_cvxpy, ray=ray_cvxpy),
     "hrep": Backend(gamma_hrep, decide_hrep),
     "quickhull": Backend(gamma_quickhull),
 }

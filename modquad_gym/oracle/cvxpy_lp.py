@@ -90,6 +90,11 @@ def lambda_cvxpy(
     return lams, us
 
 
+def ray_cvxpy(z: Zonotope, D: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """The paper's LP from the origin per row d of D: lambda* of :func:`lambda_cvxpy` with o = 0."""
+    return lambda_cvxpy(z, np.zeros_like(D), D, lo, hi)[0]
+
+
 def gamma_cvxpy(z: Zonotope, R: np.ndarray) -> np.ndarray:
     """Exact gamma for each row of R by the paper's LP along the ray from the hover wrench:
     gamma = |r| / lambda* (re-evaluated from the allocation u*)."""

@@ -29,9 +29,11 @@ def gamma_highs(z: Zonotope, R: np.ndarray) -> np.ndarray:
     return out
 
 
-def lambda_highs(B: np.ndarray, D: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """max lambda s.t. B u = lambda d_hat, lo <= u <= hi per row d of D (HiGHS); 0 where even
+def ray_highs(z: Zonotope, D: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """The paper's LP from the origin per row d of D (range(A) coordinates, units of f_max):
+    max lambda s.t. B u = lambda d_hat, lo <= u <= hi with B = Q^T A (HiGHS); 0 where even
     lambda = 0 has no such u."""
+    B = z.G * 2.0
     zero = np.zeros(B.shape[0])
     out = np.empty(len(D))
     for i, d in enumerate(D):
