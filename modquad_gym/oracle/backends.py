@@ -108,16 +108,20 @@ def decide_with(z: Zonotope, W: np.ndarray, method: str) -> np.ndarray:
     """bool per wrench (row of W) by ``method`` and the tolerance rule: False off range(A)."""
     backend = BACKENDS[method]
     R, off = z.reduce(W)
-    if backend.decide is not None and not off.any():
-        return backend.decide(z, R)
+    if len(off) and not off.any():  # common: every wrench in range(A)
+        return _decide_rows(z, R, backend)
     out = np.zeros(len(W), dtype=bool)
     on = np.flatnonzero(~off)
     if len(on):
-        if backend.decide is None:
-            out[on] = decide_from_gamma(_gamma_rows(z, R[on], backend))
-        else:
-            out[on] = backend.decide(z, R[on])
+        out[on] = _decide_rows(z, R[on], backend)
     return out
+
+
+def _decide_rows(z: Zonotope, R: np.ndarray, backend: Backend) -> np.ndarray:
+    """Decisions per row of R (in range(A)): the backend's own, else the rule on its gamma."""
+    if backend.decide is not None:
+        return backend.decide(z, R)
+    return decide_from_gamma(_gamma_rows(z, R, backend))
 
 
 def margin_with(z: Zonotope, W: np.ndarray, method: str) -> np.ndarray:
