@@ -18,11 +18,13 @@ from __future__ import annotations
 import argparse
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from modquad_gym.module import palette
 from modquad_gym.search import exhaustive_search
 from modquad_gym.tasks import TaskRequirement, load_suite, make_generator, save_suite
 
+from .solvers import DEFAULT_MODEL
 from .suites import SUITES_DIR, draw_task, optimum_counts
 
 
@@ -43,6 +45,19 @@ class Tier:
     def load_suites(self, limit: int | None = None) -> dict[str, list[TaskRequirement]]:
         """The tier's held-out suites by name (first ``limit`` tasks of each)."""
         return {s: load_suite(SUITES_DIR / f"{s}.json")[:limit] for s in self.suites}
+
+    @property
+    def model(self) -> Path:
+        """The tier's shipped PPO model: ``data/models/ppo_default`` on the current tier,
+        ``data/models/ppo_<name>`` on the others."""
+        if self.name == "current":
+            return DEFAULT_MODEL
+        return DEFAULT_MODEL.parents[1] / f"ppo_{self.name}" / DEFAULT_MODEL.name
+
+    @property
+    def results(self) -> str:
+        """The folder of the tier's committed benchmark report."""
+        return "results" if self.name == "current" else f"results/tier_{self.name}"
 
     def search_kwargs(self) -> dict:
         """Keywords that make a search of :mod:`modquad_gym.search` solve this tier."""

@@ -1,0 +1,337 @@
+"""Learned agents over training seeds: interquartile mean with 95 % bootstrap intervals.
+
+A single training seed is not a result (Henderson et al. 2018; Agarwal et al. 2021). ``python -m
+modquad_gym.agents.seeds RUNS --tier T`` scores the model of every ``RUNS/seed-*`` folder (from
+``python train.py --seeds ...``) with each learned method on the tier's held-out suites, the
+searches once as the reference, and writes to ``--out``:
+
+* ``seeds.md``: per method and metric the IQM over seeds x suites and the mean, each with its
+  95 % stratified bootstrap interval (percentile method, runs resampled within each suite, as in
+  ``rliable``), per suite, the tier's goals judged on the interval's lower end;
+* ``seeds.csv``: one row per (seed, method, suite) with the suite-level figures;
+* ``seeds.png``: the intervals as bars.
+
+Scores per run are suite-level rates (success, optimal share) and means (configurations
+evaluated per task); the IQM is the 25 %-trimmed mean of the seeds x suites scores.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+from modquad_gym.options import int_option
+from modquad_gym.outputs import check_output_dir, save_figure, write_csv, write_text
+
+from .benchmark import SEARCH_METHODS, Row, machine, run_benchmark
+from .tiers import TIERS, get_tier
+
+LEARNED = ("ppo", "ppo-k8", "ppo-guided")
+"""Methods scored per seed."""
+METRICS = {"success": "success", "optimal": "optimal share", "evaluated": "configs / task"}
+GOALS = {
+    "current": {"ppo": {"success": 0.98, "optimal": 0.90}},
+    "large": {"ppo-guided": {"optimal": 0.95}},
+}
+"""Goals per tier and method, judged on the lower end of the 95 % interval."""
+SEED_FILES = ("seeds.md", "seeds.csv", "seeds.png")
+
+
+def iqm(scores: np.ndarray) -> float:
+    """Interquartile mean: the mean of the middle 50 % (25 % trimmed at each end)."""
+    return float(stats.trim_mean(np.ravel(scores), 0.25))
+
+
+def interval(
+    columns: Sequence[np.ndarray],
+    aggregate: Callable[[np.ndarray], float],
+    reps: int = 2000,
+    seed: int = 0,
+) -> tuple[float, float, float]:
+    """(point, low, high): ``aggregate`` of the pooled columns (one column of per-seed scores
+    per suite) with its 95 % percentile bootstrap interval, each column resampled on its own
+    (stratified by suite)."""
+    cols = [np.asarray(c, dtype=float) for c in columns]
+    point = aggregate(np.concatenate(cols))
+    if all(np.ptp(c) == 0 for c in cols):  # nothing varies: the interval is the point
+        return point, point, point
+    res = stats.bootstrap(
+        cols,
+        lambda *cs: aggregate(np.concatenate(cs)),
+        n_resamples=reps,
+        vectorized=False,
+        paired=False,
+        confidence_level=0.95,
+        method="percentile",
+        random_state=np.random.default_rng(seed),
+    )
+    return point, float(res.confidence_interval.low), float(res.confidence_interval.high)
+
+
+@dataclass
+class SeedScore:
+    """One seed's model with one method on one suite."""
+
+    seed: str
+    method: str
+    suite: str
+    tasks: int
+    success: float
+    optimal: float
+    evaluated: float
+    seconds: float
+
+    @classmethod
+    def of(cls, seed: str, method: str, suite: str, rows: list[Row]) -> SeedScore:
+        return cls(
+            seed,
+            method,
+            suite,
+            len(rows),
+            float(np.mean([r.success for r in rows])),
+            float(np.mean([r.optimal for r in rows])),
+            float(np.mean([r.evaluated for r in rows])),
+            float(np.mean([r.seconds for r in rows])),
+        )
+
+
+def score_runs(
+    runs: dict[str, Path],
+    tier_name: str,
+    methods: Sequence[str] = LEARNED,
+    limit: int | None = None,
+    progress: bool = True,
+) -> list[SeedScore]:
+    """Every run's model (``runs``: seed label -> model.zip) with every learned method, and
+    the searches once (seed label ``-``), on the tier's held-out suites, scored per suite on
+    the tasks whose certified optimum is within the tier's n_max."""
+    tier = get_tier(tier_name)
+    suites = tier.load_suites(limit)
+    scores: list[SeedScore] = []
+    plan = [("-", None, list(SEARCH_METHODS))]
+    plan += [(label, path, list(methods)) for label, path in runs.items()]
+    for label, model, ms in plan:
+        rows = run_benchmark(suites, ms, tier.n_max, model, 0, progress, 1, tier.modules)
+        for m in ms:
+            for suite in suites:
+                rs = [
+                    r
+                    for r in rows
+                    if r.method == m
+                    and r.suite == suite
+                    and r.optimum is not None
+                    and r.optimum <= tier.n_max
+                ]
+                if rs:
+                    scores.append(SeedScore.of(label, m, suite, rs))
+    return scores
+
+
+def summary(scores: list[SeedScore], metric: str, method: str, suite: str | None = None) -> dict:
+    """IQM and mean of ``metric`` over seeds (x suites), each with its 95 % interval."""
+    mine = [s for s in scores if s.method == method and suite in (None, s.suite)]
+    suites = sorted({s.suite for s in mine})
+    cols = [np.array([getattr(s, metric) for s in mine if s.suite == x]) for x in suites]
+    return {
+        "seeds": len({s.seed for s in mine}),
+        "iqm": interval(cols, iqm),
+        "mean": interval(cols, lambda x: float(np.mean(x))),
+    }
+
+
+def _ci(v: tuple[float, float, float], pct: bool) -> str:
+    f = (lambda x: f"{100 * x:.1f} %") if pct else (lambda x: f"{x:.1f}")
+    return f"{f(v[0])} [{f(v[1])}, {f(v[2])}]"
+
+
+def report_tables(scores: list[SeedScore], tier_name: str) -> list[str]:
+    """The Markdown tables: overall, per suite, goals, searches for reference."""
+    methods = [m for m in dict.fromkeys(s.method for s in scores) if m not in SEARCH_METHODS]
+    suites = sorted({s.suite for s in scores})
+    lines = [
+        "| method | seeds | "
+        + " | ".join(f"{t} IQM [95 % CI] | {t} mean [95 % CI]" for t in METRICS.values())
+        + " |",
+        "|---|---|" + "---|---|" * len(METRICS),
+    ]
+    per_suite = [
+        "| suite | method | " + " | ".join(f"{t} IQM [95 % CI]" for t in METRICS.values()) + " |",
+        "|---|---|" + "---|" * len(METRICS),
+    ]
+    for m in methods:
+        cells = []
+        for metric in METRICS:
+            s = summary(scores, metric, m)
+            pct = metric != "evaluated"
+            cells += [_ci(s["iqm"], pct), _ci(s["mean"], pct)]
+        n = summary(scores, "success", m)["seeds"]
+        lines.append(f"| {m} | {n} | " + " | ".join(cells) + " |")
+        for suite in suites:
+            cells = [_ci(summary(scores, k, m, suite)["iqm"], k != "evaluated") for k in METRICS]
+            per_suite.append(f"| {suite} | {m} | " + " | ".join(cells) + " |")
+    searches = ["| method | " + " | ".join(METRICS.values()) + " |", "|---|" + "---|" * 3]
+    for m in SEARCH_METHODS:
+        mine = [s for s in scores if s.method == m]
+        if mine:
+            w = np.array([s.tasks for s in mine], dtype=float)
+            vals = [np.average([getattr(s, k) for s in mine], weights=w) for k in METRICS]
+            searches.append(
+                f"| {m} | {100 * vals[0]:.1f} % | {100 * vals[1]:.1f} % | {vals[2]:.1f} |"
+            )
+    return [
+        *lines,
+        "",
+        "Per suite (IQM over seeds):",
+        "",
+        *per_suite,
+        "",
+        "The searches (deterministic; one run, all suites pooled):",
+        "",
+        *searches,
+        "",
+        *goal_lines(scores, tier_name),
+    ]
+
+
+def goal_lines(scores: list[SeedScore], tier_name: str) -> list[str]:
+    """The tier's goals against the lower end of each 95 % interval (IQM)."""
+    goals = GOALS.get(tier_name, {})
+    out = [
+        "Goals, judged on the lower end of the IQM's 95 % interval:",
+        "",
+        "| method | metric | goal | IQM [95 % CI] | verdict |",
+        "|---|---|---|---|---|",
+    ]
+    for method, wanted in goals.items():
+        if not any(s.method == method for s in scores):
+            continue
+        for metric, goal in wanted.items():
+            v = summary(scores, metric, method)["iqm"]
+            verdict = "met" if v[1] >= goal else f"NOT met (lower end {100 * (goal - v[1]):.1f} "
+            verdict += "" if v[1] >= goal else "points short)"
+            out.append(f"| {method} | {metric} | {100 * goal:.0f} % | {_ci(v, True)} | {verdict} |")
+    exhaustive = [s for s in scores if s.method == "exhaustive"]
+    guided = [s for s in scores if s.method == "ppo-guided"]
+    if exhaustive and guided:
+        ref = np.average([s.evaluated for s in exhaustive], weights=[s.tasks for s in exhaustive])
+        t_ref = np.average([s.seconds for s in exhaustive], weights=[s.tasks for s in exhaustive])
+        g = summary(scores, "evaluated", "ppo-guided")["iqm"]
+        secs = np.mean([s.seconds for s in guided])
+        out += [
+            "",
+            f"ppo-guided evaluates {g[0]:.1f} configurations per task (IQM; 95 % CI "
+            f"{g[1]:.1f}-{g[2]:.1f}), {100 * g[0] / ref:.1f} % of the exhaustive search's "
+            f"{ref:.1f}, in {100 * secs / t_ref:.0f} % of its time ({secs:.3f} s vs "
+            f"{t_ref:.3f} s per task, mean over seeds).",
+        ]
+    return out
+
+
+def plot(scores: list[SeedScore], path: Path) -> Path:
+    """Horizontal bars: each learned method's IQM with its 95 % interval, per metric."""
+    import matplotlib.pyplot as plt
+
+    methods = [m for m in dict.fromkeys(s.method for s in scores) if m not in SEARCH_METHODS]
+    fig, axes = plt.subplots(1, len(METRICS), figsize=(4 * len(METRICS), 0.6 * len(methods) + 1.4))
+    for ax, (metric, title) in zip(axes, METRICS.items()):
+        for i, m in enumerate(methods):
+            point, low, high = summary(scores, metric, m)["iqm"]
+            ax.barh(i, high - low, left=low, height=0.6, alpha=0.6, color=f"C{i}")
+            ax.plot([point, point], [i - 0.3, i + 0.3], color="k")
+        ax.set_yticks(range(len(methods)), methods if ax is axes[0] else [""] * len(methods))
+        ax.set_title(f"{title} (IQM, 95 % CI)")
+        ax.grid(axis="x", alpha=0.3)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def write_report(
+    scores: list[SeedScore], tier_name: str, out: Path, runs: dict, command: str, wall: float
+) -> Path:
+    """``seeds.md``, ``seeds.csv`` and ``seeds.png`` in ``out``."""
+    write_csv([vars(s) for s in scores], out / "seeds.csv")
+    plot(scores, out / "seeds.png")
+    tier = get_tier(tier_name)
+    text = [
+        f"# Learned agents over {len(runs)} training seeds: tier `{tier_name}`",
+        "",
+        f"Made by `{command}`. Machine: {machine()}. Wall time {wall:.0f} s.",
+        "",
+        f"Runs: {', '.join(f'`{p.parent}`' for p in runs.values())}. Held-out suites: "
+        f"{', '.join(f'`{s}`' for s in tier.suites)}; each task's certified optimum with "
+        f"n_max = {tier.n_max}. Per run and suite the scores are the success rate, the share "
+        "solved with the optimal module count and the mean configurations evaluated per task; "
+        "IQM = 25 %-trimmed mean over the seeds x suites scores; intervals are 95 % stratified "
+        "percentile bootstraps (2,000 resamples).",
+        "",
+        *report_tables(scores, tier_name),
+        "",
+        "![intervals](seeds.png)",
+        "",
+        "Per seed and suite: `seeds.csv`.",
+        "",
+    ]
+    return write_text(out / "seeds.md", "\n".join(text))
+
+
+def find_runs(folder: Path) -> dict[str, Path]:
+    """``seed-S/model.zip`` of ``folder`` by seed label, in seed order; ValueError if none."""
+    runs = {p.parent.name.removeprefix("seed-"): p for p in folder.glob("seed-*/model.zip")}
+    if not runs:
+        raise ValueError(f"RUNS: no seed-*/model.zip in {folder} (train: python train.py --seeds)")
+    return dict(sorted(runs.items(), key=lambda kv: (len(kv[0]), kv[0])))
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(
+        prog="python -m modquad_gym.agents.seeds",
+        description="Score every seed's model of a `train.py --seeds` folder on a tier's "
+        "held-out suites and report the IQM and mean with 95 % bootstrap intervals.",
+    )
+    p.add_argument("runs", type=Path, help="folder with seed-*/model.zip")
+    p.add_argument("--tier", choices=tuple(TIERS), default="current", help="(default current)")
+    p.add_argument(
+        "--methods",
+        nargs="+",
+        default=list(LEARNED),
+        help=f"learned methods (default {' '.join(LEARNED)})",
+    )
+    p.add_argument("--out", type=Path, default=None, help="report folder (default RUNS/report)")
+    p.add_argument("--limit", type=int_option(1), default=None, help="first N tasks per suite")
+    p.add_argument("--force", action="store_true", help="replace an existing report")
+    p.add_argument("--no-progress", action="store_true")
+    args = p.parse_args(argv)
+    try:
+        if any(not m.startswith("ppo") for m in args.methods):
+            raise ValueError(
+                f"--methods: learned methods only (ppo, ppo-kN, ppo-guided), got {args.methods}"
+            )
+        runs = find_runs(args.runs)
+        out = args.out or args.runs / "report"
+        check_output_dir(out, SEED_FILES, args.force, "--out")
+    except ValueError as exc:
+        p.error(str(exc))
+    t0 = time.perf_counter()
+    scores = score_runs(runs, args.tier, args.methods, args.limit, not args.no_progress)
+    argv_text = " ".join(argv if argv is not None else sys.argv[1:])
+    path = write_report(
+        scores,
+        args.tier,
+        out,
+        runs,
+        f"python -m modquad_gym.agents.seeds {argv_text}",
+        time.perf_counter() - t0,
+    )
+    print(path.read_text())
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,373 @@
+"""The training recipe: behaviour cloning on certified expert episodes, then MaskablePPO.
+
+:class:`TrainConfig` holds one run's settings (the defaults are the recipe); :func:`train` runs
+it into ``config.out`` (``model.zip``, ``config.json``, ``evaluations.npz``). ``train.py`` at the
+repository root is the command-line entry point; a tier (:mod:`.tiers`) fixes the environment,
+the task source and n_max.
+
+1. Expert demonstrations: ``demo_tasks`` training tasks from the tier's task source, drawn from
+   ``default_rng([seed, 1])`` (disjoint from the validation and held-out seeds); for each, every
+   optimal structure from the certified search and one expert episode that docks towards them
+   (:mod:`.imitation`), on ``workers`` processes.
+2. Behaviour cloning of the actor-critic on them (``bc_epochs``).
+3. MaskablePPO fine-tuning on the environment's reward (``timesteps``), evaluated on validation
+   tasks after cloning (step 0) and every ``eval_freq`` steps by :class:`EvalFromStart`; the
+   model with the best validation return is kept.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import shutil
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from modquad_gym.extras import import_optional
+from modquad_gym.outputs import atomic_write, write_text
+from modquad_gym.tasks import GENERATORS
+
+from .solvers import DEFAULT_MODEL
+from .tiers import get_tier
+
+RUN_FILES = ("model.zip", "config.json", "evaluations.npz")
+"""What a training run writes into its run folder."""
+
+HYPERPARAMETERS = {
+    "learning_rate": 1e-4,
+    "n_steps": 256,
+    "batch_size": 128,
+    "n_epochs": 8,
+    "gamma": 1.0,
+    "gae_lambda": 0.95,
+    "clip_range": 0.2,
+    "ent_coef": 0.005,
+    "vf_coef": 0.5,
+    "max_grad_norm": 0.5,
+    "net_arch": [256, 256],
+}
+"""MaskablePPO hyperparameters of the recipe (fine-tuning after behaviour cloning)."""
+IMITATION = {"demo_tasks": 12_000, "bc_epochs": 40, "bc_batch_size": 256, "bc_learning_rate": 1e-3}
+"""Behaviour-cloning settings of the recipe (see :mod:`.imitation`)."""
+DEFAULT_TIMESTEPS = 200_000
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """One training run. ``task_source`` and ``n_max`` default to the tier's; ``eval_freq`` to
+    ``timesteps / 20``."""
+
+    out: Path
+    tier: str = "current"
+    seed: int = 0
+    timesteps: int = DEFAULT_TIMESTEPS
+    n_envs: int = 2
+    vec_env: str = "dummy"
+    task_source: str | None = None
+    n_max: int | None = None
+    demo_tasks: int = IMITATION["demo_tasks"]
+    bc_epochs: int = IMITATION["bc_epochs"]
+    workers: int = 2
+    resume: Path | None = None
+    eval_freq: int | None = None
+    n_eval: int = 40
+    checkpoint_freq: int = 50_000
+    tensorboard: Path = Path("runs")
+    threads: int = 1
+    progress: bool = True
+    env_kwargs: dict = field(default_factory=dict)
+    hyperparameters: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        tier = get_tier(self.tier)
+        if tier.modules:
+            raise ValueError(
+                f"--tier {tier.name}: training on several module types is not supported yet "
+                "(the expert and the policy dock one type); score searches with "
+                f"`modquad bench agents --tier {tier.name}`"
+            )
+        unknown = sorted(set(self.hyperparameters) - set(HYPERPARAMETERS))
+        if unknown:
+            raise ValueError(
+                f"--hyperparameters: unknown keys {unknown}; known: {sorted(HYPERPARAMETERS)}"
+            )
+        if {"tasks", "n_max"} & set(self.env_kwargs):
+            raise ValueError("--env-kwargs: give tasks and n_max with --task-source and --n-max")
+
+    @property
+    def source(self) -> str:
+        """The training task source (the tier's unless given)."""
+        return self.task_source or get_tier(self.tier).source or "mixed"
+
+    @property
+    def max_modules(self) -> int:
+        return self.n_max if self.n_max is not None else get_tier(self.tier).n_max
+
+    @property
+    def env_kwargs_full(self) -> dict:
+        """The training environment's keywords (what the model's config.json records)."""
+        return {"tasks": self.source, "n_max": self.max_modules, **self.env_kwargs}
+
+    @property
+    def validation_source(self) -> str:
+        """The validation tasks' generator: the training source when it is a generator name,
+        else (a task file) the tier's."""
+        return self.source if self.source in GENERATORS else get_tier(self.tier).source or "mixed"
+
+    def ppo_hyperparameters(self) -> dict:
+        return {**HYPERPARAMETERS, **self.hyperparameters}
+
+
+def _eval_callback_class():
+    """:class:`EvalFromStart`, built on first use so importing this module needs no SB3."""
+    MaskableEvalCallback = import_optional(
+        "sb3_contrib.common.maskable.callbacks"
+    ).MaskableEvalCallback
+
+    class EvalFromStart(MaskableEvalCallback):
+        """MaskableEvalCallback that also evaluates when training starts (step 0 of the
+        learning curve), so the cloned policy is the best model to beat: fine-tuning is kept
+        only if it does better on validation."""
+
+        def __init__(self, *args: Any, at_start: bool = True, **kwargs: Any) -> None:
+            super().__init__(*args, **kwargs)
+            self.at_start = at_start
+
+        def _on_training_start(self) -> None:
+            super()._on_training_start()
+            if self.at_start:
+                self._on_step()  # n_calls == 0: the parent's evaluation runs
+
+    return EvalFromStart
+
+
+def train(config: TrainConfig) -> Path:
+    """Train; save ``model.zip``, ``config.json`` and ``evaluations.npz`` in ``config.out``."""
+    import numpy as np
+    import torch
+    from sb3_contrib import MaskablePPO
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    from .ppo import make_env
+    from .suites import CyclingTasks, validation_tasks
+
+    t_start = time.perf_counter()
+    torch.set_num_threads(config.threads)
+    out = Path(config.out)
+    out.mkdir(parents=True, exist_ok=True)
+    log_dir = Path(config.tensorboard) / out.name / "train"  # checkpoints, evaluations
+    log_dir.mkdir(parents=True, exist_ok=True)
+
+    env_kwargs = config.env_kwargs_full
+    vec_cls = SubprocVecEnv if config.vec_env == "subproc" else DummyVecEnv
+    venv = vec_cls([lambda: make_env(**env_kwargs) for _ in range(config.n_envs)])
+    venv.seed(config.seed)
+    val = validation_tasks(config.n_eval, config.validation_source)
+    val_tasks = CyclingTasks(val, name="validation")
+    eval_env = DummyVecEnv(
+        [lambda: make_env(tasks=val_tasks, n_max=config.max_modules, **config.env_kwargs)]
+    )
+    model = _new_model(config, venv, MaskablePPO)
+    per_env = lambda steps: max(steps // config.n_envs, 1)  # noqa: E731
+    for stale in ("best_model.zip", "evaluations.npz"):  # from an earlier run into this folder
+        (log_dir / stale).unlink(missing_ok=True)
+    imitation = None
+    if config.resume is None and config.bc_epochs > 0:
+        imitation = pretrain(model, config, Path(config.tensorboard) / out.name / "bc")
+    eval_freq = config.eval_freq or max(config.timesteps // 20, 512)
+    eval_cb = _eval_callback_class()(
+        eval_env,
+        n_eval_episodes=len(val),
+        eval_freq=per_env(eval_freq),
+        log_path=str(log_dir),
+        best_model_save_path=str(log_dir),
+        deterministic=True,
+        verbose=0,
+        at_start=imitation is not None,
+    )
+    checkpoints = CheckpointCallback(
+        per_env(config.checkpoint_freq), str(log_dir / "checkpoints"), name_prefix="ppo"
+    )
+    t0 = time.perf_counter()
+    model.learn(
+        total_timesteps=config.timesteps,
+        callback=CallbackList([eval_cb, checkpoints]),
+        tb_log_name=out.name,
+        progress_bar=config.progress,
+        reset_num_timesteps=config.resume is None,
+    )
+    wall = time.perf_counter() - t0
+    model.save(log_dir / "final_model.zip")
+
+    # keep the model with the best validation return (the last one if no evaluation ran)
+    best = log_dir / "best_model.zip"
+    chosen = best if best.is_file() else log_dir / "final_model.zip"
+    atomic_write(out / "model.zip", lambda tmp: shutil.copyfile(chosen, tmp))
+    evals = log_dir / "evaluations.npz"
+    best_step = int(model.num_timesteps)
+    if evals.is_file():
+        atomic_write(out / "evaluations.npz", lambda tmp: shutil.copyfile(evals, tmp))
+        data = np.load(evals)
+        if chosen == best:
+            best_step = int(data["timesteps"][int(np.argmax(data["results"].mean(axis=1)))])
+    record = {
+        **run_record(config, model, len(val)),
+        "kept_model": "best validation return" if chosen == best else "final",
+        "kept_model_timesteps": best_step,
+        "imitation": imitation,
+        "wall_seconds": round(time.perf_counter() - t_start, 1),
+        "ppo_seconds": round(wall, 1),
+        "steps_per_second": round(config.timesteps / wall, 1),
+    }
+    write_text(out / "config.json", json.dumps(record, indent=2) + "\n")
+    venv.close()
+    eval_env.close()
+    print(f"trained {model.num_timesteps} steps in {wall:.0f} s; model: {out / 'model.zip'}")
+    return out / "model.zip"
+
+
+def _new_model(config: TrainConfig, venv: Any, MaskablePPO: Any) -> Any:
+    """A fresh seeded MaskablePPO with the recipe's hyperparameters, or the ``resume`` model."""
+    if config.resume is not None:
+        return MaskablePPO.load(
+            config.resume, env=venv, device="cpu", tensorboard_log=str(config.tensorboard)
+        )
+    hp = config.ppo_hyperparameters()
+    policy_kwargs = {"net_arch": hp.pop("net_arch")}
+    return MaskablePPO(
+        "MultiInputPolicy",
+        venv,
+        policy_kwargs=policy_kwargs,
+        seed=config.seed,
+        device="cpu",
+        verbose=0,
+        tensorboard_log=str(config.tensorboard),
+        **hp,
+    )
+
+
+def run_record(config: TrainConfig, model: Any, n_validation: int) -> dict:
+    """What ``config.json`` records about a run besides its results: everything needed to
+    load the model and to repeat the run."""
+    return {
+        "env_id": get_tier(config.tier).env_id,
+        "tier": config.tier,
+        "env_kwargs": config.env_kwargs_full,
+        "algorithm": "MaskablePPO",
+        "policy": "MultiInputPolicy",
+        "hyperparameters": config.ppo_hyperparameters(),
+        "seed": config.seed,
+        "n_envs": config.n_envs,
+        "vec_env": config.vec_env,
+        "timesteps": int(model.num_timesteps),
+        "timesteps_requested": config.timesteps,
+        "resumed_from": str(config.resume) if config.resume else None,
+        "validation": {
+            "n_tasks": n_validation,
+            "source": config.validation_source,
+            "seeds": "modquad_gym.agents.suites.VALIDATION_SEED0 + i",
+        },
+        "torch_threads": config.threads,
+        "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
+        "versions": versions(),
+    }
+
+
+def pretrain(model: Any, config: TrainConfig, log_dir: Path) -> dict:
+    """Expert demonstrations, then behaviour cloning of ``model``'s policy (TensorBoard scalars
+    ``bc/loss`` and ``bc/greedy_good`` per epoch in ``log_dir``). Returns what the config
+    records about it."""
+    import numpy as np
+    from torch.utils.tensorboard import SummaryWriter
+
+    from modquad_gym.tasks import make_generator
+
+    from .imitation import clone, collect_parallel
+
+    t0 = time.perf_counter()
+    generator = make_generator(config.source)
+    rng = np.random.default_rng([config.seed, 1])  # never a validation or held-out seed
+    tasks = [generator(rng) for _ in range(config.demo_tasks)]
+    demos = collect_parallel(
+        tasks,
+        config.env_kwargs_full,
+        config.max_modules,
+        seed=config.seed,
+        workers=config.workers,
+        progress=config.progress,
+    )
+    collect_s = time.perf_counter() - t0
+    writer = SummaryWriter(str(log_dir))
+
+    def log(epoch: int, stats: dict) -> None:
+        for key, value in stats.items():
+            writer.add_scalar(f"bc/{key}", value, epoch)
+
+    t1 = time.perf_counter()
+    history = clone(
+        model,
+        demos,
+        epochs=config.bc_epochs,
+        batch_size=IMITATION["bc_batch_size"],
+        learning_rate=IMITATION["bc_learning_rate"],
+        seed=config.seed,
+        progress=config.progress,
+        log=log,
+    )
+    writer.close()
+    return {
+        "demo_tasks": config.demo_tasks,
+        "expert_episodes": demos.n_tasks,
+        "states": len(demos),
+        "epochs": config.bc_epochs,
+        "batch_size": IMITATION["bc_batch_size"],
+        "learning_rate": IMITATION["bc_learning_rate"],
+        "task_seed": f"default_rng([{config.seed}, 1])",
+        "collect_seconds": round(collect_s, 1),
+        "clone_seconds": round(time.perf_counter() - t1, 1),
+        "final_loss": round(history[-1]["loss"], 4),
+        "final_greedy_good": round(history[-1]["greedy_good"], 4),
+    }
+
+
+def versions() -> dict:
+    """Versions of the packages a trained model depends on, and the platform."""
+    import gymnasium
+    import numpy
+    import sb3_contrib
+    import stable_baselines3
+    import torch
+
+    import modquad_gym
+
+    return {
+        "python": platform.python_version(),
+        "modquad_gym": modquad_gym.__version__,
+        "numpy": numpy.__version__,
+        "torch": torch.__version__,
+        "gymnasium": gymnasium.__version__,
+        "stable_baselines3": stable_baselines3.__version__,
+        "sb3_contrib": sb3_contrib.__version__,
+        "platform": platform.platform(),
+    }
+
+
+def publish(run: Path, model: Path = DEFAULT_MODEL) -> Path:
+    """Install a run's model, config and learning curve as a shipped model (``model``: the
+    model.zip path to write; default the package's default model)."""
+    target = Path(model).parent
+    target.mkdir(parents=True, exist_ok=True)
+    for name in RUN_FILES:
+        if (run / name).is_file():
+            atomic_write(target / name, lambda tmp, n=name: shutil.copyfile(run / n, tmp))
+    print(f"published {run} as the shipped model {model}")
+    return Path(model)
+
+
+def as_dict(config: TrainConfig) -> dict:
+    """The config as plain JSON-able values (paths as strings)."""
+    return {k: str(v) if isinstance(v, Path) else v for k, v in asdict(config).items()}

@@ -1,0 +1,76 @@
+"""Results over training seeds: the IQM, the stratified bootstrap interval, the report."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from modquad_gym.agents import DEFAULT_MODEL
+from modquad_gym.agents.seeds import SeedScore, goal_lines, interval, iqm, main, summary
+
+
+def test_iqm_is_the_mean_of_the_middle_half():
+    assert iqm(np.arange(8.0)) == pytest.approx(np.mean([2, 3, 4, 5]))
+    assert iqm(np.array([0.0, 1, 1, 1, 100])) == pytest.approx(1.0)  # an outlier seed
+    assert iqm(np.array([[1.0, 2], [3, 4]])) == pytest.approx(2.5)  # pools seeds x suites
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.floats(0, 1), min_size=3, max_size=8), st.lists(st.floats(0, 1), min_size=3,
+       max_size=8))  # fmt: skip
+def test_interval_brackets_the_point_and_stays_in_the_data_range(a, b):
+    point, low, high = interval([np.array(a), np.array(b)], lambda x: float(np.mean(x)), reps=200)
+    assert point == pytest.approx(np.mean(a + b))
+    lo, hi = min(a + b), max(a + b)
+    assert lo - 1e-12 <= low <= high <= hi + 1e-12
+
+
+def test_interval_is_stratified_by_suite():
+    """Resampling within each suite keeps both suites in every resample: a suite always at 0
+    and one always at 1 give a pooled mean of exactly 0.5 (unstratified resampling would not)."""
+    cols = [np.zeros(5), np.ones(5)]
+    assert interval(cols, lambda x: float(np.mean(x)), reps=300) == (0.5, 0.5, 0.5)
+    noisy = [np.array([0.0, 0.1, 0.2, 0.1, 0.0]), np.array([0.9, 1.0, 0.8, 1.0, 0.9])]
+    point, low, high = interval(noisy, lambda x: float(np.mean(x)), reps=500)
+    assert 0.44 < low < point < high < 0.56
+
+
+def _score(seed, method, suite, success, optimal, evaluated=5.0, seconds=0.01):
+    return SeedScore(str(seed), method, suite, 10, success, optimal, evaluated, seconds)
+
+
+def test_goals_are_judged_on_the_lower_end():
+    scores = [_score(s, "ppo", "p", 0.99, 0.85 + 0.02 * s) for s in range(5)]
+    assert summary(scores, "optimal", "ppo")["seeds"] == 5
+    lines = "\n".join(goal_lines(scores, "current"))
+    assert "| ppo | success | 98 % |" in lines and "| met |" in lines
+    assert "| ppo | optimal | 90 % |" in lines and "NOT met (lower end" in lines
+
+
+def test_report_on_copies_of_the_shipped_model(tmp_path, capsys):
+    if not DEFAULT_MODEL.is_file():
+        pytest.skip("no default model")
+    for seed in (0, 1):
+        shutil.copytree(DEFAULT_MODEL.parent, tmp_path / "runs" / f"seed-{seed}")
+    out = tmp_path / "report"
+    argv = [str(tmp_path / "runs"), "--limit", "2", "--methods", "ppo", "--out", str(out),
+            "--no-progress"]  # fmt: skip
+    assert main(argv) == 0
+    text = (out / "seeds.md").read_text()
+    assert "over 2 training seeds" in text and "| ppo | 2 |" in text
+    rows = (out / "seeds.csv").read_text().splitlines()
+    assert len(rows) == 1 + 2 * 2 + 4 * 2  # header, ppo x 2 seeds x 2 suites, 4 searches x 2
+    assert (out / "seeds.png").stat().st_size > 1000
+    with pytest.raises(SystemExit) as exc:  # an existing report is never replaced unasked
+        main(argv)
+    assert exc.value.code == 2 and "--out" in capsys.readouterr().err
+
+
+def test_bad_runs_folder_is_one_line(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main([str(tmp_path)])
+    assert exc.value.code == 2 and "no seed-*/model.zip" in capsys.readouterr().err
