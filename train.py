@@ -25,7 +25,8 @@ import sys
 import time
 from pathlib import Path
 
-from modquad_gym.agents.benchmark import REPORT_FILES, SEARCH_METHODS
+from modquad_gym.agents.benchmark import REPORT_FILES
+from modquad_gym.agents.imitation import EXPERTS
 from modquad_gym.agents.tiers import TIERS
 from modquad_gym.agents.training import (
     DEFAULT_TIMESTEPS,
@@ -53,6 +54,12 @@ POSITIVE = (
     "seed_workers",
 )
 """Integer options that must be >= 1 when given."""
+
+
+def recipe(name: str) -> str:
+    """The tiers whose recipe sets ``name``, for the help text."""
+    tiers = [f"{t.recipe[name]} on {t.name}" for t in TIERS.values() if name in t.recipe]
+    return ", ".join(tiers) or "no tier changes it"
 
 
 def add_run_options(p: argparse.ArgumentParser) -> None:
@@ -143,8 +150,8 @@ def add_recipe_options(p: argparse.ArgumentParser) -> None:
         "--timesteps",
         type=int,
         default=None,
-        help=f"total PPO environment steps (default {DEFAULT_TIMESTEPS}, "
-        f"{QUICK_TIMESTEPS} with --quick)",
+        help=f"total PPO environment steps (default {DEFAULT_TIMESTEPS}, the tier's recipe may "
+        f"change it: {recipe('timesteps')}; {QUICK_TIMESTEPS} with --quick)",
     )
     g.add_argument(
         "--n-envs", type=int, default=2, help="parallel environments (default %(default)s)"
@@ -171,8 +178,15 @@ def add_recipe_options(p: argparse.ArgumentParser) -> None:
         "--demo-tasks",
         type=int,
         default=None,
-        help="training tasks with an expert episode each for behaviour cloning "
-        f"(default {IMITATION['demo_tasks']}, {QUICK_DEMO_TASKS} with --quick)",
+        help="training tasks with an expert episode each for behaviour cloning (default "
+        f"{IMITATION['demo_tasks']}; {recipe('demo_tasks')}; {QUICK_DEMO_TASKS} with --quick)",
+    )
+    g.add_argument(
+        "--expert",
+        choices=EXPERTS,
+        default=None,
+        help="what the expert docks towards: all optimal structures, or one, the first the "
+        f"certified search finds (default all; {recipe('expert')})",
     )
     g.add_argument(
         "--bc-epochs",
@@ -235,9 +249,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def complete(args: argparse.Namespace) -> None:
     """Fill the defaults that depend on other options; ValueError names a wrong one. Checks
     every output folder before any work: never replace a run, the model or a report unasked."""
-    args.timesteps = args.timesteps or (QUICK_TIMESTEPS if args.quick else DEFAULT_TIMESTEPS)
-    if args.demo_tasks is None:
-        args.demo_tasks = QUICK_DEMO_TASKS if args.quick else IMITATION["demo_tasks"]
+    if args.quick and args.timesteps is None:
+        args.timesteps = QUICK_TIMESTEPS
+    if args.quick and args.demo_tasks is None:
+        args.demo_tasks = QUICK_DEMO_TASKS
     for name in POSITIVE:
         if getattr(args, name) is not None and getattr(args, name) < 1:
             raise ValueError(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
@@ -286,6 +301,7 @@ def config_of(args: argparse.Namespace) -> TrainConfig:
         n_max=args.n_max,
         demo_tasks=args.demo_tasks,
         bc_epochs=args.bc_epochs,
+        expert=args.expert,
         workers=args.workers,
         resume=args.resume,
         eval_freq=args.eval_freq,
@@ -374,8 +390,6 @@ def report(args: argparse.Namespace, model_path: Path) -> None:
         str(model_path.parent),
         "--force",
     ]
-    if args.tier != "current":  # the searches, and what the model adds to them
-        bench_args += ["--methods", *SEARCH_METHODS, "ppo", "ppo-k8", "ppo-guided"]
     if args.quick:
         bench_args += ["--limit", "3", "--samples", "2"]
     benchmark.main(bench_args)

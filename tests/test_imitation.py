@@ -114,3 +114,24 @@ def test_cloning_learns_the_expert_choice():
         action, _ = model.predict(obs, action_masks=env.action_masks(), deterministic=True)
         _, _, terminated, _, info = env.step(int(action))
         assert terminated and info["success"] and info["n_modules"] == 2
+
+
+def test_expert_one_steers_to_the_certified_search_structure():
+    """``expert="one"`` targets the first optimum of the exhaustive search, one of the optima
+    ``"all"`` targets; its episodes end optimal too, with at most as many good actions."""
+    from modquad_gym.agents.imitation import expert_targets
+    from modquad_gym.search import exhaustive_search
+
+    tasks = _tasks()
+    for task in tasks:
+        n_one, one = expert_targets(task, 5, "one")
+        n_all, every = expert_targets(task, 5, "all")
+        assert n_one == n_all == exhaustive_search(task, n_max=5).n_modules
+        assert len(one) == 1 and one[0] in every
+    env = ModQuadAssemblyEnv(tasks="mixed", n_max=5)
+    a = collect(env, tasks, n_max=5, seed=0, expert="one")
+    b = collect(env, tasks, n_max=5, seed=0)
+    assert a.n_tasks == b.n_tasks == len(tasks)
+    assert a.good.sum(axis=1).mean() <= b.good.sum(axis=1).mean()
+    with pytest.raises(ValueError, match="expert"):
+        expert_targets(tasks[0], 5, "best")

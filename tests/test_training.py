@@ -61,6 +61,8 @@ def test_config_takes_the_tier_defaults(tmp_path):
     assert large.max_modules == 12 and large.source == TIERS["large"].source
     assert large.env_kwargs_full == {"tasks": "planted-large", "n_max": 12}
     assert large.validation_source == "planted-large"
+    assert (large.expert, large.timesteps) == ("one", TIERS["large"].recipe["timesteps"])
+    assert TrainConfig(out=tmp_path, tier="large", timesteps=7).timesteps == 7  # given wins
     current = TrainConfig(out=tmp_path, task_source=str(tmp_path / "tasks.json"))
     assert current.max_modules == 7 and current.validation_source == "mixed"
     assert TIERS["large"].model.parent.name == "ppo_large"
@@ -74,6 +76,7 @@ def test_config_takes_the_tier_defaults(tmp_path):
         ({"tier": "huge"}, "unknown tier"),
         ({"hyperparameters": {"lr": 1}}, "unknown keys"),
         ({"env_kwargs": {"n_max": 3}}, "--n-max"),
+        ({"expert": "best"}, "expert must be"),
     ],
 )
 def test_config_rejects_what_it_cannot_train(tmp_path, kwargs, message):
@@ -93,15 +96,10 @@ def test_publish_run_installs_an_earlier_run_without_training(tmp_path, suite, m
     script = _script()
     _short_run(tmp_path, "run", suite)
     target = tmp_path / "shipped" / "model.zip"
-    monkeypatch.setattr(script, "TIERS", {"current": _Tier(target)})
+    monkeypatch.setattr("modquad_gym.agents.tiers.DEFAULT_MODEL", target)
     assert script.main(["--publish-run", str(tmp_path / "run"), "--no-report"]) == 0
     for name in ("model.zip", "config.json", "evaluations.npz"):
         assert (target.parent / name).read_bytes() == (tmp_path / "run" / name).read_bytes()
-
-
-class _Tier:
-    def __init__(self, model: Path) -> None:
-        self.model, self.results = model, str(model.parent / "report")
 
 
 def test_train_script_errors_are_one_line(capsys, tmp_path):
@@ -113,3 +111,13 @@ def test_train_script_errors_are_one_line(capsys, tmp_path):
     with pytest.raises(SystemExit):
         script.main(["--publish-run", str(tmp_path)])
     assert "no model.zip" in capsys.readouterr().err
+
+
+def test_log_names_keep_runs_of_different_folders_apart(tmp_path):
+    from modquad_gym.agents.training import log_name
+
+    runs = tmp_path / "runs"
+    assert log_name(runs / "ppo-seed0", runs) == "ppo-seed0"
+    a = log_name(runs / "seeds-large" / "seed-0", runs)
+    b = log_name(runs / "seeds-current" / "seed-0", runs)
+    assert a == "seeds-large-seed-0" and a != b

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
-from modquad_gym.search import optimal_structures
+from modquad_gym.search import exhaustive_search, optimal_structures
 from modquad_gym.structure import Cell, Key
 
 
@@ -63,15 +63,33 @@ class Demonstrations:
         return len(self.valid)
 
 
+EXPERTS = ("all", "one")
+"""Expert targets: ``all`` optimal structures (:func:`optimal_structures`), or ``one``, the
+first the certified search finds (:func:`exhaustive_search`: much cheaper where a task has
+thousands of optima, as on the large tier)."""
+
+
+def expert_targets(task: Any, n_max: int, expert: str = "all") -> tuple[int | None, list[Key]]:
+    """(n*, optimal structure keys) that the ``expert`` steers towards (see :data:`EXPERTS`)."""
+    if expert == "all":
+        return optimal_structures(task, n_max=n_max)
+    if expert == "one":
+        r = exhaustive_search(task, n_max=n_max)
+        return r.n_modules, [r.structure.key] if r.structure is not None else []
+    raise ValueError(f"expert must be one of {EXPERTS}, got {expert!r}")
+
+
 def collect(
     env: ModQuadAssemblyEnv,
     tasks: Sequence[Any],
     n_max: int,
     seed: int = 0,
     progress: bool = False,
+    expert: str = "all",
 ) -> Demonstrations:
     """One expert episode per task (tasks with no structure of up to ``n_max`` modules, or that
-    one module already satisfies, are skipped: no decision to learn there)."""
+    one module already satisfies, are skipped: no decision to learn there); ``expert`` as in
+    :data:`EXPERTS`."""
     rng = np.random.default_rng(seed)
     obs_rows: dict[str, list[np.ndarray]] = {}
     valid, good, returns = [], [], []
@@ -82,10 +100,10 @@ def collect(
 
         iterator = tqdm(tasks, desc="expert episodes", unit="task")
     for task in iterator:
-        n_star, optima = optimal_structures(task, n_max=n_max)
+        n_star, keys = expert_targets(task, n_max, expert)
         if n_star is None or n_star == 1:
             continue
-        targets = placements(optima)
+        targets = placements(keys)
         obs, info = env.reset(options={"task": task})
         rewards: list[float] = []
         done = False
@@ -114,8 +132,8 @@ def collect(
 
 
 def _collect_chunk(args: tuple) -> Demonstrations:
-    tasks, env_kwargs, n_max, seed = args
-    return collect(ModQuadAssemblyEnv(**env_kwargs), tasks, n_max, seed=seed)
+    tasks, env_kwargs, n_max, seed, expert = args
+    return collect(ModQuadAssemblyEnv(**env_kwargs), tasks, n_max, seed=seed, expert=expert)
 
 
 def collect_parallel(
@@ -125,6 +143,7 @@ def collect_parallel(
     seed: int = 0,
     workers: int = 1,
     progress: bool = False,
+    expert: str = "all",
 ) -> Demonstrations:
     """:func:`collect` over ``workers`` Ray tasks (:mod:`modquad_gym.distributed`: an embedded
     Ray, or the cluster of ``RAY_ADDRESS``; 1: in this process). Chunks of 50 tasks, each seeded
@@ -133,7 +152,7 @@ def collect_parallel(
 
     size = 50
     jobs = [
-        (list(tasks[i : i + size]), env_kwargs, n_max, [seed, i // size])
+        (list(tasks[i : i + size]), env_kwargs, n_max, [seed, i // size], expert)
         for i in range(0, len(tasks), size)
     ]
     parts = map_tasks(

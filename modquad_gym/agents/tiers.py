@@ -41,6 +41,9 @@ class Tier:
     source: str = ""
     seed0: int = 0
     n_tasks: int = 0
+    recipe: dict = field(default_factory=dict)
+    """Training settings that differ from the recipe's defaults on this tier
+    (:class:`~.training.TrainConfig` fields)."""
 
     def load_suites(self, limit: int | None = None) -> dict[str, list[TaskRequirement]]:
         """The tier's held-out suites by name (first ``limit`` tasks of each)."""
@@ -67,7 +70,8 @@ class Tier:
 TIERS = {
     "current": Tier("current", "ModQuadAssembly-v0", 7, ("heldout_paper", "heldout_planted")),
     "large": Tier("large", "ModQuadAssemblyLarge-v0", 12, ("large_planted",),
-                  source="planted-large", seed0=3_000_000, n_tasks=40),
+                  source="planted-large", seed0=3_000_000, n_tasks=40,
+                  recipe={"expert": "one", "demo_tasks": 800, "timesteps": 30_000}),
     "mixed": Tier("mixed", "ModQuadAssemblyMixed-v0", 7, ("mixed_external",),
                   env_kwargs={"tasks": "planted-mixed-external"}, modules="t45,t45m,flat",
                   source="planted-mixed-external", seed0=4_000_000, n_tasks=40),

@@ -30,6 +30,7 @@ from modquad_gym.extras import import_optional
 from modquad_gym.outputs import atomic_write, write_text
 from modquad_gym.tasks import GENERATORS
 
+from .imitation import EXPERTS
 from .solvers import DEFAULT_MODEL
 from .tiers import get_tier
 
@@ -57,19 +58,20 @@ DEFAULT_TIMESTEPS = 200_000
 
 @dataclass(frozen=True)
 class TrainConfig:
-    """One training run. ``task_source`` and ``n_max`` default to the tier's; ``eval_freq`` to
-    ``timesteps / 20``."""
+    """One training run. Fields left None take the tier's value (``task_source``, ``n_max`` and
+    the tier's ``recipe``), then the recipe's; ``eval_freq`` defaults to ``timesteps / 20``."""
 
     out: Path
     tier: str = "current"
     seed: int = 0
-    timesteps: int = DEFAULT_TIMESTEPS
+    timesteps: int | None = None
     n_envs: int = 2
     vec_env: str = "dummy"
     task_source: str | None = None
     n_max: int | None = None
-    demo_tasks: int = IMITATION["demo_tasks"]
+    demo_tasks: int | None = None
     bc_epochs: int = IMITATION["bc_epochs"]
+    expert: str | None = None
     workers: int = 2
     resume: Path | None = None
     eval_freq: int | None = None
@@ -83,6 +85,17 @@ class TrainConfig:
 
     def __post_init__(self) -> None:
         tier = get_tier(self.tier)
+        defaults = {
+            "timesteps": DEFAULT_TIMESTEPS,
+            "demo_tasks": IMITATION["demo_tasks"],
+            "expert": "all",
+            **tier.recipe,
+        }
+        for name, value in defaults.items():
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, value)
+        if self.expert not in EXPERTS:
+            raise ValueError(f"expert must be one of {EXPERTS}, got {self.expert!r}")
         if tier.modules:
             raise ValueError(
                 f"--tier {tier.name}: training on several module types is not supported yet "
@@ -159,7 +172,8 @@ def train(config: TrainConfig) -> Path:
     torch.set_num_threads(config.threads)
     out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
-    log_dir = Path(config.tensorboard) / out.name / "train"  # checkpoints, evaluations
+    name = log_name(out, Path(config.tensorboard))
+    log_dir = Path(config.tensorboard) / name / "train"  # checkpoints, evaluations
     log_dir.mkdir(parents=True, exist_ok=True)
 
     env_kwargs = config.env_kwargs_full
@@ -177,7 +191,7 @@ def train(config: TrainConfig) -> Path:
         (log_dir / stale).unlink(missing_ok=True)
     imitation = None
     if config.resume is None and config.bc_epochs > 0:
-        imitation = pretrain(model, config, Path(config.tensorboard) / out.name / "bc")
+        imitation = pretrain(model, config, Path(config.tensorboard) / name / "bc")
     eval_freq = config.eval_freq or max(config.timesteps // 20, 512)
     eval_cb = _eval_callback_class()(
         eval_env,
@@ -196,7 +210,7 @@ def train(config: TrainConfig) -> Path:
     model.learn(
         total_timesteps=config.timesteps,
         callback=CallbackList([eval_cb, checkpoints]),
-        tb_log_name=out.name,
+        tb_log_name=name,
         progress_bar=config.progress,
         reset_num_timesteps=config.resume is None,
     )
@@ -228,6 +242,15 @@ def train(config: TrainConfig) -> Path:
     eval_env.close()
     print(f"trained {model.num_timesteps} steps in {wall:.0f} s; model: {out / 'model.zip'}")
     return out / "model.zip"
+
+
+def log_name(out: Path, tensorboard: Path) -> str:
+    """The run's folder name under ``tensorboard``: the run folder's name, prefixed by its
+    parent's unless the run lies in ``tensorboard`` itself (so ``runs/seeds-large/seed-0`` and
+    ``runs/seeds-current/seed-0`` never share checkpoints)."""
+    if out.resolve().parent == tensorboard.resolve():
+        return out.name
+    return f"{out.resolve().parent.name}-{out.name}"
 
 
 def _new_model(config: TrainConfig, venv: Any, MaskablePPO: Any) -> Any:
@@ -299,6 +322,7 @@ def pretrain(model: Any, config: TrainConfig, log_dir: Path) -> dict:
         seed=config.seed,
         workers=config.workers,
         progress=config.progress,
+        expert=config.expert,
     )
     collect_s = time.perf_counter() - t0
     writer = SummaryWriter(str(log_dir))
@@ -321,6 +345,7 @@ def pretrain(model: Any, config: TrainConfig, log_dir: Path) -> dict:
     writer.close()
     return {
         "demo_tasks": config.demo_tasks,
+        "expert": config.expert,
         "expert_episodes": demos.n_tasks,
         "states": len(demos),
         "epochs": config.bc_epochs,

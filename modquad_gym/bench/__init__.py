@@ -10,18 +10,49 @@ import os
 import platform
 from pathlib import Path
 
+import numpy as np
+
 from ..options import int_option, seed_option
 from ..outputs import OutputError, check_output_dir, write_csv, write_text
+from ..structure import Structure
 
 __all__ = [
+    "bench_args",
     "int_option",
     "machine_description",
     "markdown_table",
     "parse_bench_args",
+    "random_structure",
     "seed_option",
     "write_csv",
     "write_text",
 ]
+
+
+def bench_args(
+    argv: list[str] | None,
+    prog: str,
+    description: str,
+    options: dict[str, dict],
+    *,
+    seed_help: str | None = "task seed (default 0)",
+    out: str = "results",
+    out_help: str = "report folder",
+    force: bool = False,
+    **parser_kwargs,
+) -> argparse.Namespace:
+    """The parsed options of one benchmark: ``options`` maps each flag to its
+    ``add_argument`` keywords; every benchmark also takes ``--seed`` (unless ``seed_help`` is
+    None), ``--out`` (default ``out``) and, with ``force``, ``--force``."""
+    parser = argparse.ArgumentParser(prog=prog, description=description, **parser_kwargs)
+    for flag, kwargs in options.items():
+        parser.add_argument(flag, **kwargs)
+    if seed_help is not None:
+        parser.add_argument("--seed", type=seed_option, default=0, help=seed_help)
+    parser.add_argument("--out", type=Path, default=Path(out), help=out_help)
+    if force:
+        parser.add_argument("--force", action="store_true", help="replace existing reports")
+    return parse_bench_args(parser, argv)
 
 
 def parse_bench_args(parser: argparse.ArgumentParser, argv: list[str] | None):
@@ -38,7 +69,8 @@ def parse_bench_args(parser: argparse.ArgumentParser, argv: list[str] | None):
 
 
 def machine_description() -> str:
-    """One line naming the CPU, its core count and the absence of a GPU."""
+    """One line naming the CPU, its core count and the absence of a GPU: the machine line of
+    every benchmark report (the agent benchmark's too)."""
     model = platform.processor() or "unknown CPU"
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
@@ -48,6 +80,14 @@ def machine_description() -> str:
     except OSError:
         pass
     return f"{model}, {os.cpu_count()} cores, no GPU, Python {platform.python_version()}"
+
+
+def random_structure(n: int, rng: np.random.Generator) -> Structure:
+    """A random connected n-module structure (:func:`modquad_gym.tasks.random_cells`: grown one
+    module at a time at a uniformly chosen free cell)."""
+    from ..tasks import random_cells
+
+    return Structure(random_cells(rng, n))
 
 
 def markdown_table(rows: list[dict], floatfmt: str = ".3g") -> str:

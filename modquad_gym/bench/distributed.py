@@ -22,19 +22,11 @@ from __future__ import annotations
 import argparse
 import os
 import time
-from pathlib import Path
 
 import numpy as np
 
 from ..outputs import write_text
-from . import (
-    int_option,
-    machine_description,
-    markdown_table,
-    parse_bench_args,
-    seed_option,
-    write_csv,
-)
+from . import bench_args, int_option, machine_description, markdown_table, write_csv
 
 MODES = (("serial (no Ray)", 0), ("Ray, 1 CPU", 1), ("Ray, 2 CPUs", 2))
 """(label, Ray CPUs; 0: the serial path of :mod:`modquad_gym.distributed`)."""
@@ -225,27 +217,19 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(
-        prog="modquad bench distributed",
-        description="Time a batch of certified optima and one large exhaustive search "
-        "serially and on an embedded Ray with 1 and 2 CPUs; write results/distributed.{md,csv}.",
+    options = {
+        "--tasks": dict(type=int_option(2), default=1000, help="batch size (default 1000)"),
+        "--n-max": dict(type=int_option(1, 16), default=7, help="batch n_max (default 7)"),
+        "--search-n-max": dict(type=int_option(11, 16), nargs="+", default=[13],
+                               help="n_max of the searches, one search each (default 13)"),
+    }  # fmt: skip
+    args = bench_args(
+        argv,
+        "modquad bench distributed",
+        "Time a batch of certified optima and one large exhaustive search serially and on an "
+        "embedded Ray with 1 and 2 CPUs; write results/distributed.{md,csv}.",
+        options,
     )
-    parser.add_argument(
-        "--tasks", type=int_option(2), default=1000, help="batch size (default 1000)"
-    )
-    parser.add_argument(
-        "--n-max", type=int_option(1, 16), default=7, help="batch n_max (default 7)"
-    )
-    parser.add_argument(
-        "--search-n-max",
-        type=int_option(11, 16),
-        nargs="+",
-        default=[13],
-        help="n_max of the searches, one search each (default 13)",
-    )
-    parser.add_argument("--seed", type=seed_option, default=0, help="task seed (default 0)")
-    parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
-    args = parse_bench_args(parser, argv)
     from ..extras import import_optional
 
     import_optional("ray")

@@ -21,7 +21,6 @@ Writes ``results/heterogeneous.md``, ``.csv`` (one row per task and palette) and
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
@@ -33,14 +32,7 @@ from ..polyominoes import A001168
 from ..search import exhaustive_search
 from ..structure import Structure
 from ..tasks import PaperTasks, PlantedMixedTasks, TaskRequirement
-from . import (
-    int_option,
-    machine_description,
-    markdown_table,
-    parse_bench_args,
-    seed_option,
-    write_csv,
-)
+from . import bench_args, int_option, machine_description, markdown_table, write_csv
 
 PALETTE = ("t45", "t45m", "flat")
 PAIR = ("t45", "t45m")
@@ -313,7 +305,20 @@ def figure(rows: list[dict], sets: dict, n_max: int, path: Path, k: int = 4) -> 
     return captions
 
 
+SAVINGS_COLUMNS = ("workload", "kind", "tasks", "mix_feasible", "best_type_feasible",
+                   "mix_saves", "only_the_mix", "mean_saved", "max_saved", "pair_vs_t45_saves",
+                   "mean_n_t45", "mean_n_best_type", "mean_n_mix")  # fmt: skip
+COST_COLUMNS = ("workload", "median_s_t45", "median_s_pair", "median_s_mix", "max_s_mix",
+                "median_eval_t45", "median_eval_pair", "median_eval_mix")  # fmt: skip
+
+
+def _columns(rows: list[dict], keys: tuple[str, ...]) -> str:
+    """A markdown table of ``keys`` of each row."""
+    return markdown_table([{k: r[k] for k in keys} for r in rows])
+
+
 def report(args, rows, summ, worst, sim, captions) -> str:
+    """The text of ``heterogeneous.md``."""
     import os
 
     load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
@@ -337,6 +342,16 @@ def report(args, rows, summ, worst, sim, captions) -> str:
         "`planted external`: wrenches inside a random mixed structure of 3-6 palette modules "
         "(its weight subtracted for `external`), so a mix of at most 6 modules works.",
         "",
+        *_savings_section(summ, captions),
+        *_cost_section(summ),
+        *_worst_section(worst, args.n_max),
+        *_mujoco_section(sim),
+    ]
+    return "\n".join(lines)
+
+
+def _savings_section(summ: list[dict], captions: list[str]) -> list[str]:
+    return [
         "## How often and by how much mixing saves modules",
         "",
         "`mix_saves`: tasks where the palette needs fewer modules than the best single type "
@@ -345,61 +360,32 @@ def report(args, rows, summ, worst, sim, captions) -> str:
         "beats t45 alone. By construction (and by a property test) the palette never needs "
         "more modules than its best type.",
         "",
-        markdown_table(
-            [
-                {
-                    k: r[k]
-                    for k in (
-                        "workload",
-                        "kind",
-                        "tasks",
-                        "mix_feasible",
-                        "best_type_feasible",
-                        "mix_saves",
-                        "only_the_mix",
-                        "mean_saved",
-                        "max_saved",
-                        "pair_vs_t45_saves",
-                        "mean_n_t45",
-                        "mean_n_best_type",
-                        "mean_n_mix",
-                    )
-                }
-                for r in summ
-            ]
-        ),
+        _columns(summ, SAVINGS_COLUMNS),
         "",
         "![mixed optima against the best single type](heterogeneous.png)",
         "",
         "Examples (left: the mixed optimum, modules filled by type; right: the best one-type "
         "optimum): " + "; ".join(captions) + ".",
         "",
+    ]
+
+
+def _cost_section(summ: list[dict]) -> list[str]:
+    return [
         "## Search cost against the one-type search (same tasks)",
         "",
         "Median wall seconds and structures evaluated (LP-decided or rejected by a cached "
         "separating direction; pairs ruled out by the count and level bounds are not "
         "evaluated) per task, one-type (t45), 2-type and 3-type certified searches.",
         "",
-        markdown_table(
-            [
-                {
-                    k: r[k]
-                    for k in (
-                        "workload",
-                        "median_s_t45",
-                        "median_s_pair",
-                        "median_s_mix",
-                        "max_s_mix",
-                        "median_eval_t45",
-                        "median_eval_pair",
-                        "median_eval_mix",
-                    )
-                }
-                for r in summ
-            ]
-        ),
+        _columns(summ, COST_COLUMNS),
         "",
-        f"## Worst case: no structure of up to {args.n_max} modules (every level decided)",
+    ]
+
+
+def _worst_section(worst: list[dict], n_max: int) -> list[str]:
+    return [
+        f"## Worst case: no structure of up to {n_max} modules (every level decided)",
         "",
         "A low-force task with the torques of a large hidden T-module structure (the force "
         "bounds skip no level): `pairs` = sum over n of (fixed polyominoes of n cells) x K^n, "
@@ -417,41 +403,39 @@ def report(args, rows, summ, worst, sim, captions) -> str:
         ],
         "",
     ]
-    if sim:
-        lines += [
-            "## MuJoCo: mixed optima of external tasks with their real masses",
-            "",
-            "`modquad_gym.sim.validate(..., kind='external')`: bench on every task wrench "
-            "(rotor wrench = w + m g e_z, exact allocation), hover under 5 of them (2 s each; "
-            "load known, then unknown: observer + integral action, 1 s ramps). Goals: bench "
-            "<= 1e-6, hover <= 1 cm.",
-            "",
-            markdown_table(sim),
-            "",
-        ]
-    return "\n".join(lines)
+
+
+def _mujoco_section(sim: list[dict]) -> list[str]:
+    if not sim:
+        return []
+    return [
+        "## MuJoCo: mixed optima of external tasks with their real masses",
+        "",
+        "`modquad_gym.sim.validate(..., kind='external')`: bench on every task wrench "
+        "(rotor wrench = w + m g e_z, exact allocation), hover under 5 of them (2 s each; "
+        "load known, then unknown: observer + integral action, 1 s ramps). Goals: bench "
+        "<= 1e-6, hover <= 1 cm.",
+        "",
+        markdown_table(sim),
+        "",
+    ]
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(
-        prog="modquad bench heterogeneous",
-        description="Certified minima with a palette of module types against each type alone "
-        "(total and external tasks), search cost, worst case, MuJoCo; writes "
+    options = {
+        "--tasks": dict(type=int_option(1, 1000), default=12, help="tasks per set (default 12)"),
+        "--n-max": dict(type=int_option(2, 8), default=7, help="module budget (default 7)"),
+        "--mujoco": dict(type=int_option(0, 1000), default=3, help="external optima validated (3)"),
+    }  # fmt: skip
+    args = bench_args(
+        argv,
+        "modquad bench heterogeneous",
+        "Certified minima with a palette of module types against each type alone (total and "
+        "external tasks), search cost, worst case, MuJoCo; writes "
         "results/heterogeneous.{md,csv,png}.",
+        options,
+        force=True,
     )
-    parser.add_argument(
-        "--tasks", type=int_option(1, 1000), default=12, help="tasks per set (default 12)"
-    )
-    parser.add_argument("--seed", type=seed_option, default=0, help="task seed (default 0)")
-    parser.add_argument(
-        "--n-max", type=int_option(2, 8), default=7, help="module budget (default 7)"
-    )
-    parser.add_argument(
-        "--mujoco", type=int_option(0, 1000), default=3, help="external optima validated (3)"
-    )
-    parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
-    parser.add_argument("--force", action="store_true", help="replace existing reports")
-    args = parse_bench_args(parser, argv)
     names = ("heterogeneous.md", "heterogeneous.csv", "heterogeneous.png")
     check_output_dir(args.out, names, force=args.force)
     exhaustive_search(np.array([[0, 0, 1.0, 0, 0, 0]]), n_max=2, modules=palette("t45,flat"))

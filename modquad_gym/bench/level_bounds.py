@@ -8,27 +8,22 @@ One pass over every level (about three minutes for 1..14 on one core); see
 
 from __future__ import annotations
 
-import argparse
 import time
-from pathlib import Path
 
 import numpy as np
 
 from ..outputs import atomic_write
 from ..search.bounds import compute_level_bounds, module_digest
 from ..search.result import DEFAULT_MODULE
-from . import int_option, parse_bench_args
+from . import bench_args, int_option
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="modquad bench level-bounds", description=__doc__)
-    parser.add_argument(
-        "--n-max", type=int_option(1, 16), default=14, help="largest level (default 14)"
-    )
-    parser.add_argument(
-        "--out", type=Path, default=Path("modquad_gym/data/level_bounds"), help="folder"
-    )
-    args = parse_bench_args(parser, argv)
+    options = {
+        "--n-max": dict(type=int_option(1, 16), default=14, help="largest level (default 14)"),
+    }
+    args = bench_args(argv, "modquad bench level-bounds", __doc__, options, seed_help=None,
+                      out="modquad_gym/data/level_bounds", out_help="folder")  # fmt: skip
     t0 = time.perf_counter()
     arrays = {f"n{n}": compute_level_bounds(DEFAULT_MODULE, n) for n in range(1, args.n_max + 1)}
     path = args.out / f"{module_digest(DEFAULT_MODULE)}.npz"

@@ -24,7 +24,6 @@ at most ``HREP_MEMORY_LIMIT_MB``).
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 import tracemalloc
@@ -35,13 +34,12 @@ import numpy as np
 from ..oracle import BAND, TOL, Zonotope, decide_with, margin_with
 from ..oracle.daqp_lp import gamma_daqp
 from ..outputs import write_text
-from ..structure import Structure, free_neighbours
 from . import (
+    bench_args,
     int_option,
     machine_description,
     markdown_table,
-    parse_bench_args,
-    seed_option,
+    random_structure,
     write_csv,
 )
 
@@ -53,14 +51,6 @@ SCIPY_RATIO_GOAL = 50.0
 CVXPY_RATIO_GOAL = 100.0
 HREP_BUILD_GOAL_MS = 50.0
 HREP_MEMORY_LIMIT_MB = 256.0
-
-
-def random_structure(n: int, rng: np.random.Generator) -> Structure:
-    cells = [(0, 0)]
-    while len(cells) < n:
-        options = free_neighbours(cells)
-        cells.append(options[int(rng.integers(len(options)))])
-    return Structure(cells)
 
 
 def boundary_mix(A: np.ndarray, t: int, rng: np.random.Generator) -> np.ndarray:
@@ -255,20 +245,19 @@ def write_report(
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(
-        prog="python -m modquad_gym.bench.oracle",
-        description="Measure decisions/s and margins/s of every oracle method on fresh "
-        "7- and 10-module structures, check the goals of issue 3; write "
-        "results/oracle_benchmark.{md,csv}.",
+    options = {
+        "--structures": dict(type=int_option(1), default=20, help="structures per size"),
+        "--wrenches": dict(type=int_option(1), default=80, help="wrenches per structure"),
+        "--repeats": dict(type=int_option(1, 100), default=3, help="passes per timing (best kept)"),
+    }  # fmt: skip
+    args = bench_args(
+        argv,
+        "python -m modquad_gym.bench.oracle",
+        "Measure decisions/s and margins/s of every oracle method on fresh 7- and 10-module "
+        "structures, check the goals of issue 3; write results/oracle_benchmark.{md,csv}.",
+        options,
+        seed_help="random seed",
     )
-    parser.add_argument("--structures", type=int_option(1), default=20, help="structures per size")
-    parser.add_argument("--wrenches", type=int_option(1), default=80, help="wrenches per structure")
-    parser.add_argument("--seed", type=seed_option, default=0, help="random seed")
-    parser.add_argument(
-        "--repeats", type=int_option(1, 100), default=3, help="passes per timing (best kept)"
-    )
-    parser.add_argument("--out", type=Path, default=Path("results"), help="output folder")
-    args = parse_bench_args(parser, argv)
     rows, goals = run(args.structures, args.wrenches, args.seed, args.out, args.repeats)
     print(markdown_table(goals))
     print()

@@ -10,7 +10,6 @@ Writes ``results/paper_reproduction.md`` with ``paper_structures.png`` and
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +19,7 @@ from ..outputs import save_figure, write_text
 from ..polyominoes import A001168
 from ..search import centrosymmetric_search, exhaustive_search
 from ..tasks import PaperTasks
-from . import int_option, machine_description, markdown_table, parse_bench_args, write_csv
+from . import bench_args, int_option, machine_description, markdown_table, write_csv
 
 
 def paper_style_evaluated(result) -> int:
@@ -159,16 +158,17 @@ def _figures(seed, task, ex, cs, out: Path) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(
-        prog="python -m modquad_gym.bench.paper",
-        description="Exhaustive vs centrosymmetric search on paper-like random tasks; writes "
+    options = {
+        "--seeds": dict(type=int_option(1, 10_000), default=10, help="number of random tasks"),
+    }
+    args = bench_args(
+        argv,
+        "python -m modquad_gym.bench.paper",
+        "Exhaustive vs centrosymmetric search on paper-like random tasks; writes "
         "results/paper_reproduction.md with the structures and rotor-input figures.",
+        options,
+        seed_help=None,
     )
-    parser.add_argument(
-        "--seeds", type=int_option(1, 10_000), default=10, help="number of random tasks"
-    )
-    parser.add_argument("--out", type=Path, default=Path("results"))
-    args = parse_bench_args(parser, argv)
     print(markdown_table(run(args.seeds, args.out)))
 
 

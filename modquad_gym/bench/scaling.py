@@ -25,14 +25,7 @@ import numpy as np
 
 from ..outputs import write_text
 from ..polyominoes import A001168
-from . import (
-    int_option,
-    machine_description,
-    markdown_table,
-    parse_bench_args,
-    seed_option,
-    write_csv,
-)
+from . import bench_args, int_option, machine_description, markdown_table, write_csv
 
 GOALS = {"refute 12": 3.0, "refute 14": 60.0, "planted 12": 5.0, "memory_MB": 2048.0}
 
@@ -173,28 +166,19 @@ def report(rows: list[dict], args: argparse.Namespace) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(
-        prog="modquad bench scaling",
-        description="Time the certified exhaustive search level by level (n = 8..N) against "
-        "the previous implementation; write results/search_scaling.{md,csv}.",
+    options = {
+        "--n-max": dict(type=int_option(8, 16), default=14, help="largest level (default 14)"),
+        "--reference-n-max": dict(type=int_option(0, 16), default=12,
+                                  help="largest level for the reference"),
+        "--tasks": dict(type=int_option(0, 1000), default=3, help="planted optimum-12 tasks"),
+    }  # fmt: skip
+    args = bench_args(
+        argv,
+        "modquad bench scaling",
+        "Time the certified exhaustive search level by level (n = 8..N) against the previous "
+        "implementation; write results/search_scaling.{md,csv}.",
+        options,
     )
-    parser.add_argument(
-        "--seed", type=seed_option, default=0, help="task seed (default %(default)s)"
-    )
-    parser.add_argument(
-        "--n-max", type=int_option(8, 16), default=14, help="largest level (default 14)"
-    )
-    parser.add_argument(
-        "--reference-n-max",
-        type=int_option(0, 16),
-        default=12,
-        help="largest level for the reference",
-    )
-    parser.add_argument(
-        "--tasks", type=int_option(0, 1000), default=3, help="planted optimum-12 tasks"
-    )
-    parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
-    args = parse_bench_args(parser, argv)
     rows = run(args.seed, args.n_max, args.reference_n_max, args.tasks, args.out)
     write_csv(rows, args.out / "search_scaling.csv")
     write_text(args.out / "search_scaling.md", report(rows, args))

@@ -20,7 +20,6 @@ its full time is extrapolated and marked as such.
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 from pathlib import Path
@@ -32,24 +31,15 @@ from ..oracle.highs_lp import gamma_highs
 from ..outputs import write_text
 from ..polyominoes import PolyominoStream
 from ..search import exhaustive_search, force_lower_bound
-from ..structure import Structure, free_neighbours, normalise
+from ..structure import Structure, normalise
 from . import (
+    bench_args,
     int_option,
     machine_description,
     markdown_table,
-    parse_bench_args,
-    seed_option,
+    random_structure,
     write_csv,
 )
-
-
-def random_structure(n: int, rng: np.random.Generator) -> Structure:
-    """A random connected n-module structure, grown one module at a time at a free cell."""
-    cells = [(0, 0)]
-    while len(cells) < n:
-        options = free_neighbours(cells)
-        cells.append(options[int(rng.integers(len(options)))])
-    return Structure(cells)
 
 
 def planted_task(n: int, t: int, rng: np.random.Generator) -> np.ndarray:
@@ -169,11 +159,24 @@ def _goal_lines(rows: list[dict], machine: str) -> list[str]:
 
 
 def run(n_tasks: int, seed: int, ref_limit: int, out: Path) -> list[dict]:
+    """Time every workload, write ``search_benchmark.{md,csv}`` into ``out``; the rows."""
     rng = np.random.default_rng(seed)
     t0 = time.perf_counter()
     sum(len(block) for n in range(1, 11) for block in PolyominoStream(n))
     enum_seconds = time.perf_counter() - t0
-    rows = []
+    rows = [_measure(name, n_max, W, ref_limit) for name, n_max, W in _workloads(n_tasks, rng)]
+    machine = machine_description()
+    goals = _goal_lines(rows, machine)
+    for r in rows:
+        del r["skipped_levels_list"]
+    write_csv(rows, out / "search_benchmark.csv")
+    text = _report(rows, goals, machine, n_tasks, seed, ref_limit, enum_seconds)
+    write_text(out / "search_benchmark.md", text)
+    return rows
+
+
+def _workloads(n_tasks: int, rng: np.random.Generator) -> list[tuple[str, int, np.ndarray]]:
+    """(name, n_max, wrenches) of every task of the four workloads (module docstring)."""
     workloads: list[tuple[str, int, np.ndarray]] = []
     while _count(workloads, "optimum 8") < n_tasks:
         W = planted_task(8, 80, rng)
@@ -190,33 +193,34 @@ def run(n_tasks: int, seed: int, ref_limit: int, out: Path) -> list[dict]:
         W = low_force_task(random_structure(9, rng), 40, rng)  # the hidden 9 works
         if exhaustive_search(W, n_max=8).structure is None:  # so the optimum is 9
             workloads.append(("none up to 8, low force", 8, W))
-    for name, n_max, W in workloads:
-        res = exhaustive_search(W, n_max=n_max)
-        rate, checked = reference_rate(W, n_max, ref_limit)
-        ours = res.evaluated / res.seconds
-        rows.append(
-            {
-                "workload": name,
-                "n_max": n_max,
-                "found_modules": res.n_modules if res.n_modules else "none",
-                "force_bound": force_lower_bound(W, Structure([(0, 0)]).module),
-                "skipped_levels": _levels_text(res.skipped_levels),
-                "skipped_levels_list": res.skipped_levels,
-                "evaluated": res.evaluated,
-                "oracle_calls": res.oracle_calls,
-                "seconds": res.seconds,
-                "structures_per_s": ours,
-                "reference_structures_per_s": rate,
-                "reference_checked": checked,
-                "reference_seconds_extrapolated": res.evaluated / rate,
-                "speedup": ours / rate,
-            }
-        )
-    machine = machine_description()
-    goals = _goal_lines(rows, machine)
-    for r in rows:
-        del r["skipped_levels_list"]
-    write_csv(rows, out / "search_benchmark.csv")
+    return workloads
+
+
+def _measure(name: str, n_max: int, W: np.ndarray, ref_limit: int) -> dict:
+    """One workload task: the certified search against the reference's rate."""
+    res = exhaustive_search(W, n_max=n_max)
+    rate, checked = reference_rate(W, n_max, ref_limit)
+    ours = res.evaluated / res.seconds
+    return {
+        "workload": name,
+        "n_max": n_max,
+        "found_modules": res.n_modules if res.n_modules else "none",
+        "force_bound": force_lower_bound(W, Structure([(0, 0)]).module),
+        "skipped_levels": _levels_text(res.skipped_levels),
+        "skipped_levels_list": res.skipped_levels,
+        "evaluated": res.evaluated,
+        "oracle_calls": res.oracle_calls,
+        "seconds": res.seconds,
+        "structures_per_s": ours,
+        "reference_structures_per_s": rate,
+        "reference_checked": checked,
+        "reference_seconds_extrapolated": res.evaluated / rate,
+        "speedup": ours / rate,
+    }
+
+
+def _report(rows, goals, machine, n_tasks, seed, ref_limit, enum_seconds) -> str:
+    """The text of ``search_benchmark.md``."""
     text = [
         "# Search benchmark",
         "",
@@ -252,26 +256,22 @@ def run(n_tasks: int, seed: int, ref_limit: int, out: Path) -> list[dict]:
         "For comparison the paper's reference script needs about 23 s to check a single "
         "4-module structure.",
     ]
-    write_text(out / "search_benchmark.md", "\n".join(text) + "\n")
-    return rows
+    return "\n".join(text) + "\n"
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(
-        prog="python -m modquad_gym.bench.search",
-        description="Time the certified exhaustive search against a plain LP reference; "
-        "write results/search_benchmark.{md,csv}.",
+    options = {
+        "--tasks": dict(type=int_option(1, 1000), default=4, help="tasks per workload"),
+        "--reference-structures": dict(type=int_option(1), default=300,
+                                       help="structures the slow reference checks per task"),
+    }  # fmt: skip
+    args = bench_args(
+        argv,
+        "python -m modquad_gym.bench.search",
+        "Time the certified exhaustive search against a plain LP reference; write "
+        "results/search_benchmark.{md,csv}.",
+        options,
     )
-    parser.add_argument("--tasks", type=int_option(1, 1000), default=4, help="tasks per workload")
-    parser.add_argument("--seed", type=seed_option, default=0)
-    parser.add_argument(
-        "--reference-structures",
-        type=int_option(1),
-        default=300,
-        help="structures the slow reference checks per task",
-    )
-    parser.add_argument("--out", type=Path, default=Path("results"))
-    args = parse_bench_args(parser, argv)
     rows = run(args.tasks, args.seed, args.reference_structures, args.out)
     print(markdown_table(rows))
 

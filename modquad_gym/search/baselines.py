@@ -14,7 +14,7 @@ runs exactly as before.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 
 import numpy as np
 
@@ -105,17 +105,23 @@ def centrosymmetric_search(
     return run.finish(None, False)
 
 
+def _symmetric_pairs(cells: Key) -> Iterator[tuple[Cell, Cell]]:
+    """Each attachable cell s of ``cells`` with the cell s_sym centrosymmetric to s about their
+    centre, when s_sym is also attachable (and not s itself)."""
+    s = Structure.from_trusted(cells)
+    taken = set(cells)
+    for cell in free_neighbours(cells):
+        sym = s.centrosymmetric_partner(cell)
+        if sym is not None and sym != cell and sym not in taken:
+            yield cell, sym
+
+
 def grow_symmetric(level: Iterable[Key]) -> list[Key]:
     """Errata 3 fixed: every structure of the level, grown by each attachable cell s together
     with the cell s_sym centrosymmetric to s about the COM (when s_sym is also attachable)."""
     out: dict[Key, None] = {}
     for key in level:
-        s = Structure.from_trusted(key)
-        cells = set(key)
-        for cell in free_neighbours(key):
-            sym = s.centrosymmetric_partner(cell)
-            if sym is None or sym == cell or sym in cells:
-                continue
+        for cell, sym in _symmetric_pairs(key):
             out.setdefault(normalise(key + (cell, sym)), None)
     return list(out)
 
@@ -126,13 +132,7 @@ def grow_symmetric_typed(level: Iterable[tuple], n_types: int) -> list[tuple]:
     mass-weighted COM is the geometric centre the partners are taken about."""
     out: dict[tuple, None] = {}
     for key in level:
-        cells = tuple(c for c, _ in key)
-        s = Structure.from_trusted(cells)
-        taken = set(cells)
-        for cell in free_neighbours(cells):
-            sym = s.centrosymmetric_partner(cell)
-            if sym is None or sym == cell or sym in taken:
-                continue
+        for cell, sym in _symmetric_pairs(tuple(c for c, _ in key)):
             for t in range(n_types):
                 grown = key + ((cell, t), (sym, t))
                 typed = normalise_typed((c for c, _ in grown), (u for _, u in grown))

@@ -129,12 +129,30 @@ def model_xml(
             "module_mass: the structure's module types weigh differently; their masses place "
             "its COM, so leave module_mass=None"
         )
-    side = structure.side
-    half = side / 2.0
-    mixed = structure.is_mixed
+    discs, sites, actuators = _rotor_elements(structure, f_max)
+    load_cell, equality, sensors = _BENCH_ELEMENTS if bench else ("", "", "")
+    nl = "\n    "
+    return _MJCF.format(
+        n_modules=structure.n_modules,
+        timestep=TIMESTEP,
+        gravity=f"{-GRAVITY:.17g}",
+        home=HOME_HEIGHT,
+        extent=f"{structure.side * (1 + max(np.ptp(np.asarray(structure.cells), axis=0))):.6g}",
+        geoms=nl.join(_module_geoms(structure, masses) + discs),
+        sites=nl.join(sites),
+        load_cell=load_cell,
+        equality=equality,
+        actuators=nl.join(actuators),
+        sensors=sensors,
+    )
+
+
+def _module_geoms(structure: Structure, masses: np.ndarray) -> list[str]:
+    """One box geom per module, coloured by type (one type: the first module green)."""
+    half = structure.side / 2.0
     geoms = []
     for i, (c, t) in enumerate(zip(structure.module_centres, structure.type_indices)):
-        if mixed:  # the fills of the pictures (modquad_gym.viz.type_colour)
+        if structure.is_mixed:  # the fills of the pictures (modquad_gym.viz.type_colour)
             fill = type_colour(structure.modules[i], t)
             rgba = " ".join(f"{int(fill[k : k + 2], 16) / 255:.3g}" for k in (1, 3, 5)) + " 1"
         else:
@@ -144,18 +162,21 @@ def model_xml(
             f'size="{half * 0.97:.17g} {half * 0.97:.17g} {MODULE_THICKNESS / 2:.17g}" '
             f'mass="{masses[i]:.17g}" rgba="{rgba}"/>'
         )
-    sites, actuators = [], []
-    radius = _ROTOR_RADIUS_FRACTION * side
+    return geoms
+
+
+def _rotor_elements(structure: Structure, f_max: float) -> tuple[list, list, list]:
+    """Per rotor: its visual disc geom, its thrust site and its actuator."""
+    discs, sites, actuators = [], [], []
+    radius = _ROTOR_RADIUS_FRACTION * structure.side
     lift = MODULE_THICKNESS / 2 + 0.8 * radius  # discs clear the box at 45 degree tilt
-    spins = structure.rotor_spins
-    c_taus = structure.rotor_c_tau
-    for k, (p, d, s, c_tau) in enumerate(
-        zip(structure.rotor_positions, structure.rotor_directions, spins, c_taus, strict=True)
-    ):
+    rotors = zip(structure.rotor_positions, structure.rotor_directions, structure.rotor_spins,
+                 structure.rotor_c_tau, strict=True)  # fmt: skip
+    for k, (p, d, s, c_tau) in enumerate(rotors):
         rgba = _ROTOR_COLOURS[1.0 if s > 0 else -1.0]
         sites.append(f'<site name="rotor{k}" pos="{_fmt(p)}" zaxis="{_fmt(d)}" size="0.005"/>')
         disc_pos = p + np.array([0.0, 0.0, lift])
-        geoms.append(
+        discs.append(
             f'<geom name="disc{k}" type="cylinder" pos="{_fmt(disc_pos)}" zaxis="{_fmt(d)}" '
             f'size="{radius:.17g} 0.004" mass="0" rgba="{rgba}" group="1"/>'
         )
@@ -164,28 +185,27 @@ def model_xml(
             f'ctrllimited="true" ctrlrange="0 {f_max:.17g}" dyntype="none" gaintype="fixed" '
             f'gainprm="1" biastype="none"/>'
         )
-    load_cell = equality = sensors = ""
-    if bench:
-        load_cell = (
-            f'<body name="load_cell" pos="0 0 0">'
-            f'<geom name="load_cell" type="cylinder" size="0.03 0.03" mass="{LOAD_CELL_MASS}" '
-            f'rgba="0.9 0.8 0.1 1"/>'
-            f'<site name="load_cell" pos="0 0 0" size="0.01"/></body>'
-        )
-        equality = '<equality><weld name="wall" body1="load_cell" solref="0.005 1"/></equality>'
-        sensors = (
-            '<sensor><force name="force" site="load_cell"/>'
-            '<torque name="torque" site="load_cell"/></sensor>'
-        )
-    extent = side * (1 + max(np.ptp(np.asarray(structure.cells), axis=0)))
-    nl = "\n    "
-    return f"""<mujoco model="modquad_{structure.n_modules}">
+    return discs, sites, actuators
+
+
+_BENCH_ELEMENTS = (
+    f'<body name="load_cell" pos="0 0 0">'
+    f'<geom name="load_cell" type="cylinder" size="0.03 0.03" mass="{LOAD_CELL_MASS}" '
+    f'rgba="0.9 0.8 0.1 1"/>'
+    f'<site name="load_cell" pos="0 0 0" size="0.01"/></body>',
+    '<equality><weld name="wall" body1="load_cell" solref="0.005 1"/></equality>',
+    '<sensor><force name="force" site="load_cell"/>'
+    '<torque name="torque" site="load_cell"/></sensor>',
+)
+"""The bench's load cell body (inside ``structure``), its wall weld and its sensors."""
+
+_MJCF = """<mujoco model="modquad_{n_modules}">
   <compiler angle="radian" autolimits="true"/>
-  <option timestep="{TIMESTEP}" integrator="implicitfast" gravity="0 0 {-GRAVITY:.17g}"
+  <option timestep="{timestep}" integrator="implicitfast" gravity="0 0 {gravity}"
     tolerance="1e-15" iterations="200" ls_tolerance="1e-12">
     <flag contact="disable"/>
   </option>
-  <statistic center="0 0 {HOME_HEIGHT}" extent="{extent:.6g}"/>
+  <statistic center="0 0 {home}" extent="{extent}"/>
   <visual><headlight ambient="0.4 0.4 0.4" diffuse="0.6 0.6 0.6"/>
     <global offwidth="1280" offheight="960"/></visual>
   <asset>
@@ -196,20 +216,21 @@ def model_xml(
   <worldbody>
     <light pos="0 0 4" dir="0 0 -1" directional="true"/>
     <geom name="floor" type="plane" size="5 5 0.05" material="grid" contype="0" conaffinity="0"/>
-    <body name="structure" pos="0 0 {HOME_HEIGHT}">
+    <body name="structure" pos="0 0 {home}">
     <freejoint name="root"/>
-    {nl.join(geoms)}
-    {nl.join(sites)}
+    {geoms}
+    {sites}
     {load_cell}
     </body>
   </worldbody>
   {equality}
   <actuator>
-    {nl.join(actuators)}
+    {actuators}
   </actuator>
   {sensors}
 </mujoco>
 """
+"""The MJCF skeleton :func:`model_xml` fills in."""
 
 
 def build_model(

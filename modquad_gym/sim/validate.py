@@ -18,9 +18,19 @@ writes there:
   can be made;
 * ``report.md``: the numbers; ``validation.json``: the returned dict.
 
-Hover load convention: while the structure holds task wrench w, the external wrench
-``d = -(w + gravity wrench)`` is applied at the COM, so that at equilibrium the rotors produce
-exactly w (see :func:`validate` and :mod:`modquad_gym.sim.hover.load`).
+Hover load convention: while the structure holds task wrench w, an external wrench
+``d = -(w + gravity wrench)`` (gravity wrench = [m g ; 0] at the COM) is applied, so that at
+equilibrium (level, in place) the rotors produce exactly the task wrench w; ``load_frame``
+``"world"`` (default) keeps d fixed in the world, like gravity, ``"body"`` makes it follow the
+body (see :mod:`modquad_gym.sim.hover.linearization`: a straight line then drifts in roll).
+
+Two hovers are flown on the same wrenches: with the load known to the controller (feed-forward
+``w``, which switches from one wrench to the next in a step; ``hover_*`` keys) and, with
+``unknown_load``, with the load unknown (a load observer and integral action estimate it;
+``hover_unknown_load_*`` keys), the honest test of the controller. In the unknown-load hover the
+load ramps from one task wrench to the next over ``load_ramp_seconds`` at the start of each
+segment (cosine profile), as a real task's load would, rather than stepping by several newtons
+at once (see :mod:`modquad_gym.sim.hover.load`).
 
 It returns a :class:`~modquad_gym.sim.report.ValidationReport` (``to_dict()``: the JSON record,
 non-finite numbers as None).
@@ -105,21 +115,9 @@ def validate(
     For a task of ``kind`` ``external`` the wrenches are those applied to the environment: the
     bench and the hover use the rotor wrenches ``w + m g e_z`` of the structure's own mass
     (:func:`modquad_gym.tasks.rotor_wrenches`; the model weighs each module by its type), so
-    the hover's external load is exactly ``-w`` (the structure lifts its real weight).
-
-    Hover load convention: while the structure holds task wrench w, an external wrench
-    ``d = -(w + gravity wrench)`` (gravity wrench = [m g ; 0] at the COM) is applied, so that at
-    equilibrium (level, in place) the rotors produce exactly the task wrench w; ``load_frame``
-    ``"world"`` (default) keeps d fixed in the world, like gravity, ``"body"`` makes it follow the
-    body (see :mod:`modquad_gym.sim.hover.linearization`: a straight line then drifts in roll).
-
-    Two hovers are flown on the same wrenches: with the load known to the controller
-    (feed-forward ``w``, which switches from one wrench to the next in a step; ``hover_*`` keys)
-    and, with ``unknown_load``, with the load unknown (a load observer and integral action
-    estimate it; ``hover_unknown_load_*`` keys), the honest test of the controller. In the
-    unknown-load hover the load ramps from one task wrench to the next over
-    ``load_ramp_seconds`` at the start of each segment (cosine profile), as a real task's load
-    would, rather than stepping by several newtons at once (see :mod:`modquad_gym.sim.hover.load`).
+    the hover's external load is exactly ``-w`` (the structure lifts its real weight). The
+    hover's load convention and its two hovers (load known, load unknown) are described in the
+    module docstring.
 
     Args:
         structure: the structure to validate (e.g. a search result's ``structure``).
@@ -185,26 +183,36 @@ def validate(
         hover=HoverSummary.of(hover),
         hover_takeoff=next((s for s in hover.segment_metrics if s["segment"] == -1), None),
     )
-    blind = None
+    blind = demo = None
     if unknown_load:
         ramp = min(float(load_ramp_seconds), (1.0 - SETTLE_FRACTION) * hover_seconds)
-        blind_config = replace(config, known_load=False, load_ramp_seconds=ramp)
-        blind = run_hover(fly_sim, W_hover, blind_config)
-        report.unknown_load = HoverSummary.of(blind)
-        report.unknown_load_ramp_seconds = ramp
-        report.unknown_load_segments = [
-            {k: s[k] for k in SEGMENT_KEYS} for s in blind.segment_metrics if s["segment"] >= 0
-        ]
-    demo = None
+        blind = _unknown_load_hover(report, fly_sim, W_hover, config, ramp)
     if include_infeasible_demo:
-        worst = int(np.argmin(marg))
-        w_bad = infeasible_wrench(A, W[worst], f_max, INFEASIBLE_SCALE)
-        demo = run_hover(fly_sim, w_bad[None], config)
-        report.infeasible_demo = InfeasibleDemo.of(demo, w_bad, worst)
+        demo = _infeasible_demo(report, fly_sim, A, W, int(np.argmin(marg)), f_max, config)
     if out_dir is not None:
         runs = {"hover": hover, "hover_unknown_load": blind, "hover_infeasible": demo}
         _write(Path(out_dir), report, structure, fly_sim, exact, pinv, runs, render)
     return report
+
+
+def _unknown_load_hover(report: ValidationReport, fly_sim, W_hover, config, ramp: float):
+    """Fly the hover with the load unknown to the controller (the load ramping over ``ramp``
+    seconds); its summary goes into ``report``."""
+    blind = run_hover(fly_sim, W_hover, replace(config, known_load=False, load_ramp_seconds=ramp))
+    report.unknown_load = HoverSummary.of(blind)
+    report.unknown_load_ramp_seconds = ramp
+    report.unknown_load_segments = [
+        {k: s[k] for k in SEGMENT_KEYS} for s in blind.segment_metrics if s["segment"] >= 0
+    ]
+    return blind
+
+
+def _infeasible_demo(report: ValidationReport, fly_sim, A, W, index: int, f_max: float, config):
+    """Hover on task wrench ``index`` scaled out of the feasible set; into ``report``."""
+    w_bad = infeasible_wrench(A, W[index], f_max, INFEASIBLE_SCALE)
+    demo = run_hover(fly_sim, w_bad[None], config)
+    report.infeasible_demo = InfeasibleDemo.of(demo, w_bad, index)
+    return demo
 
 
 def _bench(structure: Structure, W: np.ndarray, f_max: float) -> tuple[BenchResult, BenchResult]:

@@ -1,0 +1,352 @@
+"""The agent benchmark's report: ``benchmark.md`` (machine, summary, goals, where PPO falls
+short) and its figures (summary bars, learning curve, example structures)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from modquad_gym.bench import machine_description
+from modquad_gym.outputs import save_figure, write_text
+from modquad_gym.tasks import TaskRequirement
+
+from .scores import GOALS, Row, summarise
+
+
+def _fmt(v, pct: bool = False) -> str:
+    if v is None:
+        return "-"
+    if pct:
+        return f"{100 * v:.1f} %"
+    return f"{v:.3g}" if isinstance(v, float) else str(v)
+
+
+def _new_figure(w: float, h: float):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(w, h), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def plot_bars(summary: list[dict], path: Path) -> Path:
+    fig = _new_figure(13, 3.6)
+    names = [s["method"] for s in summary]
+    panels = [
+        ("success_rate", "success rate", False), ("optimal_share", "optimal module count", False),
+        ("mean_evaluated", "configurations evaluated / task", True),
+        ("mean_seconds", "seconds / task", True),
+    ]  # fmt: skip
+    for i, (key, label, log) in enumerate(panels):
+        ax = fig.add_subplot(1, 4, i + 1)
+        vals = [s[key] for s in summary]
+        ax.bar(names, vals, color=["#4c72b0" if "ppo" in n else "#999999" for n in names])
+        ax.set_title(label)
+        if log:
+            ax.set_yscale("log")
+        else:
+            ax.set_ylim(0, 1.05)
+        ax.tick_params(axis="x", rotation=45)
+    save_figure(fig, path, dpi=110)
+    return path
+
+
+def plot_learning_curve(evals: Path, path: Path) -> Path | None:
+    """Validation return and success rate over PPO steps (step 0: the cloned policy, when the
+    run cloned an expert first)."""
+    if not evals.is_file():
+        return None
+    from matplotlib.ticker import FuncFormatter
+
+    data = np.load(evals)
+    steps = data["timesteps"]
+    thousands = FuncFormatter(lambda x, _: f"{x / 1000:g}k")
+    fig = _new_figure(9, 3.4)
+    ax = fig.add_subplot(1, 2, 1)
+    mean, std = data["results"].mean(axis=1), data["results"].std(axis=1)
+    ax.plot(steps, mean, marker="o")
+    ax.fill_between(steps, mean - std, mean + std, alpha=0.2)
+    ax.set_title("validation return (mean ± std over tasks)")
+    ax = fig.add_subplot(1, 2, 2)
+    if "successes" in data and data["successes"].size:
+        ax.plot(steps, data["successes"].mean(axis=1), marker="o", color="#2a9d8f")
+    ax.set_ylim(0, 1.05)
+    ax.set_title("validation success rate")
+    for ax in fig.axes:
+        ax.xaxis.set_major_formatter(thousands)
+        ax.set_xlabel("PPO steps (0: before PPO)")
+    save_figure(fig, path, dpi=110)
+    return path
+
+
+def plot_structures(rows: list[Row], path: Path, n_tasks: int = 4) -> Path | None:
+    """A few tasks, one row each: PPO vs exhaustive vs centrosymmetric."""
+    from modquad_gym.structure import Structure
+    from modquad_gym.viz import draw_structure
+
+    methods = [
+        m for m in ("ppo", "exhaustive", "centrosymmetric") if any(r.method == m for r in rows)
+    ]
+    by = {(r.suite, r.task, r.method): r for r in rows}
+    tasks = list(dict.fromkeys((r.suite, r.task) for r in rows))
+    # prefer tasks where all methods succeeded, spread over the suites
+    good = [t for t in tasks if all(by[(*t, m)].success for m in methods if (*t, m) in by)]
+    picked = []
+    for suite in dict.fromkeys(s for s, _ in good):
+        picked += [t for t in good if t[0] == suite][: max(1, n_tasks // 2)]
+    picked = picked[:n_tasks]
+    if not picked or not methods:
+        return None
+    fig = _new_figure(3.2 * len(methods), 3.2 * len(picked))
+    for i, key in enumerate(picked):
+        for j, m in enumerate(methods):
+            ax = fig.add_subplot(len(picked), len(methods), i * len(methods) + j + 1)
+            r = by[(*key, m)]
+            s = Structure([tuple(c) for c in r.cells])
+            draw_structure(s, ax=ax, title=f"{m}: {r.n_modules} (opt {r.optimum})\n{key[1]}")
+            if ax.get_legend() is not None:
+                ax.get_legend().remove()
+    save_figure(fig, path, dpi=90)
+    return path
+
+
+def write_report(
+    rows: list[Row],
+    summary: list[dict],
+    out: Path,
+    suites: dict[str, list[TaskRequirement]],
+    model: Path,
+    train_dir: Path,
+    n_max: int,
+    figures: dict[str, Path | None],
+    wall: float,
+    tier: str = "current",
+    command: str = "modquad bench agents",
+) -> Path:
+    """Write ``out/benchmark.md`` from the rows of one run and return its path."""
+    has_ppo = any(s["method"].startswith("ppo") for s in summary)
+    methods = [s["method"] for s in summary]
+    config_path = train_dir / "config.json"
+    cfg: dict = {}
+    lines = _header(suites, n_max, wall, tier, command)
+    if has_ppo and config_path.is_file():
+        cfg = json.loads(config_path.read_text())
+        lines += [_model_line(cfg, model), ""]
+    lines += _summary_table(summary)
+    lines += _per_suite(rows, suites, methods, n_max)
+    lines += _by_optimum(rows, methods, n_max)
+    if has_ppo:
+        lines += ["## Goals", ""]
+        lines += _goals(summary)
+    lines += _shortfall(rows, summary, n_max, suites, cfg)
+    lines += ["", "## Figures", ""]
+    for title, fig in figures.items():
+        if fig is not None:
+            lines += [f"![{title}]({fig.name})", ""]
+    lines.append("Per-task rows: `benchmark.csv`. Regenerate: `modquad bench agents`.")
+    return write_text(out / "benchmark.md", "\n".join(lines) + "\n")
+
+
+def _header(
+    suites: dict[str, list[TaskRequirement]], n_max: int, wall: float, tier: str, command: str
+) -> list[str]:
+    """Title, command, machine and the suites scored."""
+    n_tasks = sum(len(t) for t in suites.values())
+    return [
+        f"# Agent benchmark: tier `{tier}`",
+        "",
+        f"Made by `{command}`. Machine: {machine_description()}. Benchmark wall time {wall:.0f} s.",
+        "",
+        "Held-out suites (never seen in training; seeds in `modquad_gym/agents/suites.py` and "
+        "`tiers.py`): "
+        + ", ".join(f"`{name}` ({len(t)} tasks)" for name, t in suites.items())
+        + f", {n_tasks} tasks in all. The optimum is the certified minimum from the exhaustive "
+        f"search with n_max = {n_max}; the table covers the tasks whose optimum is <= n_max.",
+        "",
+    ]
+
+
+def _model_line(cfg: dict, model: Path) -> str:
+    """How the PPO model was trained, from its training run's ``config.json``."""
+    imitation = cfg.get("imitation")
+    cloned = (
+        f"behaviour cloning on {imitation['expert_episodes']} expert episodes "
+        f"({imitation['states']} states, {imitation['epochs']} epochs; demonstrations "
+        f"{imitation['collect_seconds']} s, cloning {imitation['clone_seconds']} s), then "
+        if imitation
+        else ""
+    )
+    return (
+        f"PPO model: `{_rel(model)}`: {cloned}MaskablePPO, {cfg.get('timesteps')} training "
+        f"steps in {cfg.get('ppo_seconds', cfg.get('wall_seconds'))} s "
+        f"({cfg.get('steps_per_second')} steps/s, {cfg.get('n_envs')} envs, torch threads "
+        f"{cfg.get('torch_threads')}); training wall time {cfg.get('wall_seconds')} s in all; "
+        f"task source `{cfg['env_kwargs'].get('tasks')}`, kept: {cfg.get('kept_model')} "
+        f"(step {cfg.get('kept_model_timesteps')}). `ppo` decodes deterministically; "
+        "`ppo-kN` adds N seeded sampled rollouts and keeps the smallest verified structure "
+        "(configurations evaluated count the distinct structures over all rollouts)."
+    )
+
+
+def _summary_table(summary: list[dict]) -> list[str]:
+    lines = [
+        "| method | tasks | success | mean modules | optimal count | mean gap | "
+        "configs evaluated / task | oracle calls / task | seconds / task |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for s in summary:
+        lines.append(
+            f"| {s['method']} | {s['tasks']} | {_fmt(s['success_rate'], True)} | "
+            f"{_fmt(s['mean_modules'])} | {_fmt(s['optimal_share'], True)} | "
+            f"{_fmt(s['mean_gap'])} | {s['mean_evaluated']:.1f} | {s['mean_oracle_calls']:.0f} | "
+            f"{s['mean_seconds']:.4f} |"
+        )
+    return [*lines, ""]
+
+
+def _per_suite(
+    rows: list[Row], suites: dict[str, list[TaskRequirement]], methods: list[str], n_max: int
+) -> list[str]:
+    per_suite = []
+    for name in suites:
+        for s in summarise([r for r in rows if r.suite == name], methods, n_max):
+            per_suite.append(
+                f"| {name} | {s['method']} | {_fmt(s['success_rate'], True)} | "
+                f"{_fmt(s['optimal_share'], True)} | {s['mean_evaluated']:.1f} |"
+            )
+    if not per_suite:
+        return []
+    return [
+        "Per suite:",
+        "",
+        "| suite | method | success | optimal count | configs evaluated / task |",
+        "|---|---|---|---|---|",
+        *per_suite,
+        "",
+    ]
+
+
+def _by_optimum(rows: list[Row], methods: list[str], n_max: int) -> list[str]:
+    """Share solved with the optimal module count, by optimum size (where methods differ)."""
+    sizes = sorted({r.optimum for r in rows if r.optimum is not None and r.optimum <= n_max})
+    if not sizes:
+        return []
+    lines = [
+        "Share solved with the optimal module count, by optimum (tasks per optimum in brackets):",
+        "",
+        "| method | "
+        + " | ".join(
+            f"opt {k} ({sum(1 for r in rows if r.method == methods[0] and r.optimum == k)})"
+            for k in sizes
+        )
+        + " |",
+        "|---|" + "---|" * len(sizes),
+    ]
+    for m in methods:
+        cells = []
+        for k in sizes:
+            rs = [r for r in rows if r.method == m and r.optimum == k]
+            cells.append(_fmt(sum(r.optimal for r in rs) / len(rs), True) if rs else "-")
+        lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    return [*lines, ""]
+
+
+def _shortfall(
+    rows: list[Row],
+    summary: list[dict],
+    n_max: int,
+    suites: dict[str, list[TaskRequirement]],
+    cfg: dict,
+) -> list[str]:
+    """Where the deterministic PPO agent falls short, in numbers measured here, and why."""
+    from modquad_gym.search import optimal_structures
+
+    by = {s["method"]: s for s in summary}
+    ppo = by.get("ppo")
+    if ppo is None or (
+        ppo["success_rate"] >= GOALS["success"] and ppo["optimal_share"] >= GOALS["optimal"]
+    ):
+        return []
+    rs = [r for r in rows if r.method == "ppo" and r.optimum is not None and r.optimum <= n_max]
+    failed = [r for r in rs if not r.success]
+    worse = [r for r in rs if r.success and not r.optimal]
+    parts = []
+    for name, tasks in suites.items():
+        sub = [r for r in rs if r.suite == name]
+        if not sub:
+            continue
+        n_optimal = [len(optimal_structures(t, n_max=n_max)[1]) for t in tasks]
+        n_optimal = [k for k in n_optimal if k]
+        parts.append(
+            f"{name}: optimal count {_fmt(np.mean([r.optimal for r in sub]), True)}, "
+            f"{sum(k == 1 for k in n_optimal)} of {len(n_optimal)} tasks have exactly one "
+            f"optimal structure (median {int(np.median(n_optimal))} optimal structures per task)"
+        )
+    text = [
+        "",
+        f"Where PPO falls short: it found no structure for {len(failed)} of {len(rs)} tasks and "
+        f"used more modules than the optimum on {len(worse)}. By suite ({'; '.join(parts)}): "
+        "a planted task's wrenches lie on the boundary of one hidden structure's feasible set, "
+        "so usually that shape alone is optimal, and the agent, which docks one module per step "
+        "and never backtracks, must infer the shape from the task's features before it has "
+        "evaluated it; a paper-like task has dozens of optimal structures and the agent rarely "
+        "misses one.",
+    ]
+    imitation = cfg.get("imitation")
+    planted = [r for r in rs if "planted" in r.suite]
+    if imitation and planted:
+        cloned = _fmt(imitation["final_greedy_good"], True)
+        text.append(
+            f"Behaviour cloning fits the expert: the cloned policy picks an expert docking on "
+            f"{cloned} of its {imitation['states']} training states, yet the agent builds the "
+            f"optimal structure on {_fmt(np.mean([r.optimal for r in planted]), True)} of the "
+            "held-out planted tasks. The gap is generalisation, not fitting: the task features "
+            "(support function on fixed directions, force/torque statistics) do not pin down the "
+            "hidden shape of an unseen task. PPO fine-tuning raises the validation return only a "
+            "little (learning curve; step 0 is the cloned policy). The greedy baseline, which "
+            "evaluates every child structure with the exact oracle at each step, does better on "
+            "planted tasks at about three times the configurations evaluated; sampled rollouts "
+            "(ppo-kN) trade configurations evaluated for quality."
+        )
+    return text
+
+
+def _rel(path: Path) -> str:
+    """``path`` relative to the working folder where it lies below it (shorter in reports)."""
+    try:
+        return str(Path(path).resolve().relative_to(Path.cwd()))
+    except ValueError:
+        return str(path)
+
+
+def _goals(summary: list[dict]) -> list[str]:
+    by = {s["method"]: s for s in summary}
+    centro = by.get("centrosymmetric")
+    lines = [
+        "Goals on held-out tasks whose optimum is <= n_max: PPO succeeds on >= 98 %, uses the "
+        "optimal module count on >= 90 %, and evaluates fewer configurations per task than the "
+        "centrosymmetric heuristic.",
+        "",
+        "| method | success (goal >= 98 %) | optimal count (goal >= 90 %) | "
+        "configs evaluated vs centrosymmetric |",
+        "|---|---|---|---|",
+    ]
+    for name, s in by.items():
+        if not name.startswith("ppo"):
+            continue
+        ok_s = "met" if s["success_rate"] >= GOALS["success"] else "NOT met"
+        ok_o = "met" if s["optimal_share"] >= GOALS["optimal"] else "NOT met"
+        if centro is not None:
+            less = s["mean_evaluated"] < centro["mean_evaluated"]
+            ev = (f"{s['mean_evaluated']:.1f} vs {centro['mean_evaluated']:.1f}: "
+                  f"{'met' if less else 'NOT met'}")  # fmt: skip
+        else:
+            ev = f"{s['mean_evaluated']:.1f} (centrosymmetric not run)"
+        lines.append(
+            f"| {name} | {_fmt(s['success_rate'], True)}: {ok_s} | "
+            f"{_fmt(s['optimal_share'], True)}: {ok_o} | {ev} |"
+        )
+    return lines

@@ -1,0 +1,68 @@
+"""What an agent benchmark run yields: one :class:`Row` per (method, task), the per-method
+summary over the goals' scope, and the goals themselves (:mod:`.benchmark` makes the rows,
+:mod:`.report` writes them)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+GOALS = {"success": 0.98, "optimal": 0.90}
+
+
+@dataclass
+class Row:
+    """One method on one task."""
+
+    suite: str
+    task: str
+    optimum: int | None
+    method: str
+    success: bool
+    n_modules: int | None
+    evaluated: int
+    oracle_calls: int
+    seconds: float
+    cells: list | None
+
+    @property
+    def gap(self) -> int | None:
+        if self.n_modules is None or self.optimum is None:
+            return None
+        return self.n_modules - self.optimum
+
+    @property
+    def optimal(self) -> bool:
+        return self.success and self.gap == 0
+
+    def as_csv(self) -> dict:
+        return {
+            "suite": self.suite, "task": self.task, "optimum": self.optimum,
+            "method": self.method, "success": int(self.success), "n_modules": self.n_modules,
+            "gap": self.gap, "optimal": int(self.optimal), "evaluated": self.evaluated,
+            "oracle_calls": self.oracle_calls, "seconds": f"{self.seconds:.5f}",
+            "cells": ";".join(f"{x},{y}" for x, y in self.cells) if self.cells else "",
+        }  # fmt: skip
+
+
+def summarise(rows: list[Row], methods: list[str], n_max: int) -> list[dict]:
+    """Per method, over the tasks whose optimum is <= n_max (the goals' scope)."""
+    out = []
+    for m in methods:
+        rs = [r for r in rows if r.method == m and r.optimum is not None and r.optimum <= n_max]
+        if not rs:
+            continue
+        solved = [r for r in rs if r.success]
+        out.append({
+            "method": m,
+            "tasks": len(rs),
+            "success_rate": len(solved) / len(rs),
+            "mean_modules": float(np.mean([r.n_modules for r in solved])) if solved else None,
+            "optimal_share": sum(r.optimal for r in rs) / len(rs),
+            "mean_gap": float(np.mean([r.gap for r in solved])) if solved else None,
+            "mean_evaluated": float(np.mean([r.evaluated for r in rs])),
+            "mean_oracle_calls": float(np.mean([r.oracle_calls for r in rs])),
+            "mean_seconds": float(np.mean([r.seconds for r in rs])),
+        })  # fmt: skip
+    return out

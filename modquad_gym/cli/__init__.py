@@ -1,0 +1,81 @@
+"""The ``modquad`` command line: solve tasks, generate task files, draw structures, validate in
+MuJoCo, and run the benchmarks. ``modquad COMMAND --help`` explains each command.
+
+Exit codes: 0 on success (an infeasible task is a result, not an error); 2 for every expected
+failure (a task file that cannot be read, a bad option value, an output path that exists or
+cannot be written, a missing optional dependency, a closed output pipe), reported as one line
+``modquad: error: ...`` naming the file or option; 130 when interrupted (Ctrl-C).
+
+One module per command, each with ``add_COMMAND(sub)`` (its parser) beside its handler
+``cmd_COMMAND(args)``: :mod:`.solve`, :mod:`.optima`, :mod:`.task`, :mod:`.show`,
+:mod:`.validate`, :mod:`.bench`; the options they share are in :mod:`.common`. A new command is
+a module with those two functions, added to :data:`COMMANDS`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from .bench import add_bench
+from .common import load_task, one_line
+from .optima import add_optima
+from .show import add_show
+from .solve import add_solve, solver
+from .task import add_task
+from .validate import add_validate
+
+COMMANDS = (add_solve, add_optima, add_task, add_show, add_validate, add_bench)
+"""The commands, in the order ``modquad --help`` lists them."""
+
+# The commands read task files and make solvers through these two names, looked up on this
+# package when called: one place to replace them (the tests do).
+_load_task = load_task
+_solver = solver
+
+
+def _version() -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version("modquad_gym")
+    except metadata.PackageNotFoundError:
+        from .. import __version__
+
+        return __version__
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="modquad",
+        description="Find the smallest modular multirotor (H-ModQuad) whose feasible wrenches "
+        'contain a task\'s wrenches. Task files: JSON {"wrenches": [[fx,fy,fz,tx,ty,tz], ...], '
+        '"f_max": 1.0, "name": "..."}, CSV with 6 columns, or .npy of shape (t, 6).',
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for add in COMMANDS:
+        add(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 0
+    try:
+        return args.func(args)
+    except KeyboardInterrupt:
+        print("modquad: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        # the reader closed our output (e.g. `| head -1`): stop writing, say so once
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        print("modquad: error: output closed before the end (broken pipe)", file=sys.stderr)
+        return 2
+    except (ValueError, OSError, ImportError, MemoryError, OverflowError) as exc:
+        print(f"modquad: error: {one_line(exc)}", file=sys.stderr)
+        return 2

@@ -1,0 +1,7 @@
+"""``python -m modquad_gym.cli``: the ``modquad`` command."""
+
+import sys
+
+from . import main
+
+sys.exit(main())

@@ -1,0 +1,164 @@
+"""What several ``modquad`` commands share: reading a task file, the module palette, the options
+that recur (``--method`` and its companions from the one solver table, ``--workers``,
+``--csv-header``, ``--modules``, ``--force``) and the one-line error text."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable
+
+from ..agents.solvers import METHOD_HELP, METHODS
+from ..extras import EXTRA_OF, missing_extra_message
+from ..options import int_option, seed_option
+from ..tasks import CSV_HEADER_MODES
+
+N_MAX_OPTION = int_option(1, 2**63 - 1)
+"""``--n-max``: any positive integer parses; each search says how far it can go."""
+
+MAX_WORKERS = 256
+"""Most processes ``solve --workers`` accepts."""
+
+MODULES_HELP = (
+    "comma-separated module types to mix, one per cell, chosen by the search "
+    "(stock names: t45 = the paper's T-module, t45m = its mirrored tilts, t30, t30m = "
+    "30-degree tilts, flat = an untilted quadrotor); e.g. t45,t45m,flat. "
+    "Default: every module is the paper's T-module"
+)
+
+Command = Callable[[argparse.Namespace], int]
+
+
+def load_task(path, csv_header: str = "auto"):
+    """The task in the file ``path`` (``--csv-header`` says how a CSV's first row reads)."""
+    from ..tasks import TaskRequirement
+
+    return TaskRequirement.load(path, csv_header=csv_header)
+
+
+def palette_of(text: str | None):
+    """``--modules`` text as a list of module types, or None when not given."""
+    if text is None:
+        return None
+    from ..module import palette
+
+    try:
+        return palette(text)
+    except ValueError as exc:  # "modules: ..." -> "--modules: ..."
+        raise ValueError(f"--{exc}") from None
+
+
+def palette(args: argparse.Namespace):
+    """``--modules`` as a list of module types, or None when not given."""
+    return palette_of(getattr(args, "modules", None))
+
+
+def add_command(sub, name: str, func: Command, help: str, description: str):
+    """A subcommand parser of ``sub`` that runs ``func(args)``."""
+    parser = sub.add_parser(name, help=help, description=description)
+    parser.set_defaults(func=func)
+    return parser
+
+
+def add_n_max(p: argparse.ArgumentParser, help: str) -> None:
+    p.add_argument("--n-max", type=N_MAX_OPTION, default=7, help=help)
+
+
+def add_method(p: argparse.ArgumentParser, default: str = "exhaustive") -> None:
+    """``--method`` (choices and help from the solver table), ``--n-max``, ``--model``,
+    ``--seed`` and ``--modules``."""
+    p.add_argument(
+        "--method",
+        choices=METHODS,
+        default=default,
+        help="; ".join(f"{name}: {text}" for name, text in METHOD_HELP.items())
+        + " (default %(default)s)",
+    )
+    add_n_max(
+        p,
+        "largest module count (default %(default)s; the exhaustive search goes up to "
+        "16, centrosymmetric to 21, greedy and random to 64)",
+    )
+    p.add_argument(
+        "--model",
+        default=None,
+        help="PPO model .zip for --method ppo/ppo-guided (default: the model shipped with "
+        "the package, modquad_gym/data/models/ppo_default/model.zip)",
+    )
+    p.add_argument(
+        "--seed",
+        type=seed_option,
+        default=0,
+        help="seed for the random search and PPO sampling, 0 to 2**63-1 (default %(default)s)",
+    )
+    add_modules(p)
+
+
+def add_csv_header(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--csv-header",
+        choices=CSV_HEADER_MODES,
+        default="auto",
+        help="how a CSV task file's first row is read: auto (a row of names is a header; a "
+        "row 0,1,2,3,4,5, as pandas writes column numbers, is refused as ambiguous), yes "
+        "(skip the first row), no (every row is a wrench) (default %(default)s)",
+    )
+
+
+def add_workers(p: argparse.ArgumentParser, default: str) -> None:
+    p.add_argument(
+        "--workers",
+        type=int_option(1, MAX_WORKERS),
+        default=None,
+        help=f"parallel Ray tasks, 1 to {MAX_WORKERS} (1: everything in this process, no Ray); "
+        f"default {default}",
+    )
+    p.add_argument(
+        "--ray-address",
+        default=None,
+        metavar="ADDRESS",
+        help="join this Ray cluster (HOST:PORT of `ray start --head`, or auto) instead of an "
+        "embedded Ray on this machine (default: $RAY_ADDRESS)",
+    )
+
+
+def add_modules(p: argparse.ArgumentParser, help_text: str = MODULES_HELP) -> None:
+    p.add_argument("--modules", default=None, metavar="TYPES", help=help_text)
+
+
+def add_force(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--force", action="store_true", help="replace existing output files (default: refuse)"
+    )
+
+
+def print_help(parser: argparse.ArgumentParser) -> Command:
+    """A command function that prints ``parser``'s help (for a command given no action)."""
+
+    def show(args) -> int:
+        parser.print_help()
+        return 0
+
+    return show
+
+
+def one_line(exc: BaseException) -> str:
+    """An expected failure as one line naming the file or option."""
+    if isinstance(exc, OSError) and exc.filename and exc.strerror:
+        return f"{exc.filename}: {exc.strerror}"
+    if isinstance(exc, ModuleNotFoundError) and (exc.name or "").split(".")[0] in EXTRA_OF:
+        return missing_extra_message(exc.name)
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def report_error(message: str) -> None:
+    """``modquad: error: MESSAGE`` on stderr, at once."""
+    print(f"modquad: error: {message}", file=sys.stderr, flush=True)
+
+
+def batch_status(failed: list, total: int) -> int:
+    """The exit code of a batch: 0, or 2 after a line counting the failed tasks."""
+    if not failed:
+        return 0
+    print(f"modquad: error: {len(failed)} of {total} tasks failed (above)", file=sys.stderr)
+    return 2

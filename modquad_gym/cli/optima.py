@@ -1,0 +1,106 @@
+"""``modquad optima``: certified optima of many tasks as a resumable JSON-lines dataset."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .. import cli  # the package: commands call cli._load_task (tests replace it)
+from .common import (
+    add_command,
+    add_csv_header,
+    add_n_max,
+    add_workers,
+    batch_status,
+    one_line,
+    report_error,
+)
+
+SUITES_DIR = Path(__file__).resolve().parents[1] / "data" / "suites"
+"""The suites shipped with the package (``--suite NAME``)."""
+
+
+def add_optima(sub) -> None:
+    p = add_command(
+        sub,
+        "optima",
+        cmd_optima,
+        help="certified optima of many tasks as a JSON-lines dataset (resumable)",
+        description="For each task, the certified minimum module count and every optimal "
+        "structure, one JSON object per line appended to --out as tasks finish: task, name, "
+        "digest, n_max, optimum, structures (lists of [x, y] cells), count, evaluated, "
+        "oracle_calls, seconds. Rerunning into the same file skips the tasks it holds and "
+        "recomputes an unfinished last line, so an interrupted run loses nothing it wrote. "
+        "Spread over Ray workers (RAY_ADDRESS=HOST:PORT modquad optima ... runs on a cluster).",
+    )
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument(
+        "--suite",
+        metavar="NAME|FILE",
+        help="a shipped suite (heldout_planted, heldout_paper) or a suite JSON file",
+    )
+    src.add_argument(
+        "--tasks",
+        action="append",
+        metavar="DIR|GLOB|FILE",
+        help="a folder of task files, a quoted glob or a file; repeat for several",
+    )
+    p.add_argument("--out", required=True, metavar="FILE.jsonl", help="the dataset file")
+    add_n_max(p, "largest module count searched (default %(default)s, at most 16)")
+    add_workers(p, "every local core, or every CPU of the cluster")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_csv_header(p)
+    p.add_argument("--force", action="store_true", help="discard --out's records and start over")
+
+
+def suite_path(name: str) -> Path:
+    """``--suite``: a suite file, or the name of a shipped suite."""
+    path = Path(name)
+    if not path.suffix and not path.exists():
+        path = SUITES_DIR / f"{name}.json"
+        if not path.exists():
+            names = ", ".join(sorted(p.stem for p in SUITES_DIR.glob("*.json")))
+            raise ValueError(f"--suite: no suite {name!r} (shipped: {names})")
+    return path
+
+
+def sources(args: argparse.Namespace) -> list:
+    """(label, task) for each task of ``--suite`` or ``--tasks``; a task file that cannot be
+    read is a (label, Failed) entry, reported with the others' results."""
+    from ..distributed import Failed
+    from ..tasks import load_suite, task_files
+
+    if args.suite:
+        path = suite_path(args.suite)
+        return [(f"{path.name}#{i}", t) for i, t in enumerate(load_suite(path), 1)]
+    out = []
+    for p in task_files(args.tasks, what="--tasks"):
+        try:
+            out.append((str(p), cli._load_task(p, args.csv_header)))
+        except (ValueError, OSError) as exc:
+            out.append((str(p), Failed(str(p), one_line(exc))))
+    return out
+
+
+def cmd_optima(args: argparse.Namespace) -> int:
+    from ..distributed import Engine
+    from ..optima import build_dataset
+    from ..outputs import check_output_file
+    from ..search.exhaustive import MAX_MODULES
+    from ..validation import check_int
+
+    n_max = check_int(args.n_max, "--n-max", low=1, high=MAX_MODULES)
+    out = check_output_file(args.out, force=True, what="--out")
+    tasks = sources(args)
+    if args.force:
+        out.unlink(missing_ok=True)
+    with Engine(args.workers, args.ray_address) as engine:
+        run = build_dataset(tasks, out, n_max, engine, progress=not args.quiet)
+    for failure in run.failed:
+        report_error(failure.error)
+    dropped = ", an unfinished last line dropped" if run.dropped_bytes else ""
+    print(
+        f"{out}: {run.written} records written, {run.skipped} already there{dropped}"
+        + (f", {len(run.failed)} tasks failed" if run.failed else "")
+    )
+    return batch_status(run.failed, len(tasks))

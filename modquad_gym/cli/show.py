@@ -1,0 +1,99 @@
+"""``modquad show``: draw a structure (given, or the exhaustive search's answer) as a PNG."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from .. import cli  # the package: commands call cli._load_task (tests replace it)
+from .common import add_command, add_csv_header, add_force, add_modules, add_n_max, palette
+
+
+def add_show(sub) -> None:
+    p = add_command(
+        sub,
+        "show",
+        cmd_show,
+        help="draw a structure (top view + torque-space projection)",
+        description="Draw a structure given by --cells, or the exhaustive "
+        "search's answer for --task, as a PNG.",
+    )
+    p.add_argument("--cells", help="JSON list of [x, y] cells, e.g. '[[0,0],[1,0],[0,1]]'")
+    p.add_argument("--task", help="task file: solve it (exhaustive) unless --cells is given")
+    add_n_max(
+        p, "largest module count the exhaustive search tries for --task (default %(default)s)"
+    )
+    p.add_argument(
+        "--out",
+        default="structure.png",
+        help="PNG path; '.png' is added when missing (default %(default)s)",
+    )
+    add_modules(
+        p,
+        "comma-separated module types: with --task the palette the search mixes; with "
+        "--cells one type for every cell or one per cell, in order (e.g. t45,flat,t45m)",
+    )
+    add_csv_header(p)
+    add_force(p)
+
+
+def parse_cells(text: str) -> list:
+    """``--cells`` as a list of [x, y] pairs, or a ValueError naming the option."""
+    try:
+        cells = json.loads(text)
+    except (json.JSONDecodeError, RecursionError):
+        raise ValueError(f"--cells: not JSON: {text!r} (e.g. '[[0,0],[1,0]]')") from None
+    if not isinstance(cells, list):
+        raise ValueError(f"--cells: expected a JSON list of [x, y] pairs, got {text!r}")
+    return cells
+
+
+def structure_from_cells(text: str, modules):
+    """The structure of ``--cells`` with ``--modules``: one type for all cells or one per cell."""
+    from ..structure import Structure
+
+    cells = parse_cells(text)
+    if modules is None:
+        return Structure(cells)
+    if len(modules) == 1:
+        return Structure(cells, module=modules[0])
+    if len(modules) != len(cells):
+        raise ValueError(
+            f"--modules: with --cells give one type (all cells) or one per cell; got "
+            f"{len(modules)} types for {len(cells)} cells"
+        )
+    return Structure(cells, modules=modules)
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    from ..outputs import check_output_file
+    from ..viz import save_structure_figure
+
+    out = Path(args.out)
+    if out.suffix.lower() != ".png":
+        out = out.with_name(out.name + ".png")
+    out = check_output_file(out, force=args.force, what="--out")
+    modules = palette(args)
+    if args.task:
+        task = cli._load_task(args.task, args.csv_header)
+        if args.cells:
+            structure = structure_from_cells(args.cells, modules)
+        else:
+            from ..search import exhaustive_search
+
+            typed = {} if modules is None else {"modules": modules}
+            result = exhaustive_search(task, n_max=args.n_max, **typed)
+            if result.structure is None:
+                print(f"no structure of up to {args.n_max} modules satisfies {args.task}")
+                return 0
+            structure = result.structure
+    else:
+        if not args.cells:
+            raise ValueError("give --cells (e.g. '[[0,0],[1,0]]') or --task")
+        task = None
+        structure = structure_from_cells(args.cells, modules)
+    save_structure_figure(structure, out, task=task)
+    print(structure)
+    print(f"wrote {out}")
+    return 0

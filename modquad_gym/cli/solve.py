@@ -1,0 +1,187 @@
+"""``modquad solve``: find a structure for each task file, here or spread over Ray workers."""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+from pathlib import Path
+
+from .. import cli  # the package: commands call cli._load_task / cli._solver (tests replace them)
+from ..agents.solvers import LEARNED
+from .common import (
+    add_command,
+    add_csv_header,
+    add_method,
+    add_workers,
+    batch_status,
+    one_line,
+    palette,
+    palette_of,
+    report_error,
+)
+
+
+def add_solve(sub) -> None:
+    p = add_command(
+        sub,
+        "solve",
+        cmd_solve,
+        help="find a structure for each task file",
+        description="Find a structure for each task and print it as a grid "
+        "(@ marks the first module), with the module count, configurations "
+        "evaluated and seconds. An infeasible task is reported with exit code 0.",
+    )
+    p.add_argument(
+        "--task",
+        action="append",
+        required=True,
+        metavar="FILE",
+        help="task file (.json, .csv, .npy), a folder of task files, or a quoted glob such as "
+        "'tasks/*.json'; repeat for several",
+    )
+    add_method(p)
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print one JSON object per task per line: cells, n_modules, evaluated, "
+        "oracle_calls, feasible, certified, seconds (and modules, the type of each cell, "
+        "with --modules)",
+    )
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress bar (the exhaustive search shows one per level on stderr)",
+    )
+    add_workers(
+        p,
+        "1, or every CPU of the cluster given by --ray-address / RAY_ADDRESS. Several tasks are "
+        "spread over the workers (each search in one process; a task file that cannot be read "
+        "is reported and the others go on, exit code 2 at the end); a single task's exhaustive "
+        "search splits its levels of 100,000 structures or more (11 modules and up). The "
+        "answers do not depend on the number of workers",
+    )
+    add_csv_header(p)
+
+
+@functools.lru_cache(maxsize=4)
+def make_solver(method, n_max, model, seed, modules_text, workers, address, progress: bool):
+    """The solver for ``--method`` (PPO lives in the agents package, searches here); cached, so
+    a worker process that solves many tasks loads a PPO model once."""
+    modules = palette_of(modules_text)
+    if method in LEARNED:
+        if modules is not None:
+            raise ValueError("--modules: the PPO agent builds one-type structures only")
+        from ..agents.solvers import make_solver as make_learned
+
+        return make_learned(method, n_max=n_max, model=model, seed=seed).solve
+    from ..search import SEARCHES
+
+    fn = SEARCHES[method]
+    typed = {} if modules is None else {"modules": modules}
+    if method == "random":
+        return lambda task: fn(task, n_max=n_max, seed=seed, **typed)
+    if method == "exhaustive":
+        return lambda task: fn(
+            task, n_max=n_max, workers=workers, address=address, progress=progress, **typed
+        )
+    return lambda task: fn(task, n_max=n_max, **typed)
+
+
+def solver(args: argparse.Namespace, workers: int = 1):
+    """The solver of ``args`` (``workers`` share the levels of one exhaustive search)."""
+    progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
+    modules = getattr(args, "modules", None)
+    address = getattr(args, "ray_address", None)
+    return make_solver(
+        args.method, args.n_max, args.model, args.seed, modules, workers, address, progress
+    )
+
+
+def solve_file(options: tuple, path: Path):
+    """Load and solve one task file (the unit of work of a batch): (task, result)."""
+    method, n_max, model, seed, modules, csv_header = options
+    task = cli._load_task(path, csv_header)
+    result = make_solver(method, n_max, model, seed, modules, 1, None, False)(task)
+    return task, result
+
+
+def cmd_solve(args: argparse.Namespace) -> int:
+    from ..distributed import Engine, Failed
+    from ..tasks import task_files
+
+    palette(args)  # a bad --modules is refused before any work
+    paths = task_files(args.task)
+    engine = Engine(args.workers, args.ray_address, local_default=1)
+    if len(paths) == 1 or not engine.use_ray:
+        return solve_here(args, paths, engine.workers or engine.cluster_cpus())
+    # a batch: tasks spread over the workers, each search in one process
+    options = (args.method, args.n_max, args.model, args.seed, args.modules, args.csv_header)
+    failed: list[Failed] = []
+    printed = 0
+    done: dict[int, object] = {}
+
+    def show_in_order(i: int, outcome) -> None:
+        nonlocal printed
+        done[i] = outcome
+        while printed in done:
+            outcome = done.pop(printed)
+            if isinstance(outcome, Failed):
+                failed.append(outcome)
+                report_error(outcome.error)
+            else:
+                print_result(args, paths[printed], *outcome)
+            printed += 1
+
+    with engine:
+        engine.map(
+            functools.partial(solve_file, options),  # by module name: Ray workers import it
+            paths,
+            labels=[str(p) for p in paths],
+            catch=True,
+            progress=not (args.json or args.quiet),
+            desc="tasks",
+            on_result=show_in_order,
+        )
+    return batch_status(failed, len(paths))
+
+
+def solve_here(args: argparse.Namespace, paths: list[Path], workers: int) -> int:
+    """Solve in this process, one task after the other (a single task's exhaustive search may
+    still split its large levels over ``workers``)."""
+    solve = cli._solver(args, workers=workers if len(paths) == 1 else 1)
+    failed = []
+    for path in paths:
+        try:
+            task = cli._load_task(path, args.csv_header)
+        except (ValueError, OSError) as exc:
+            if len(paths) == 1:
+                raise
+            failed.append(exc)
+            report_error(one_line(exc))
+            continue
+        print_result(args, path, task, solve(task))
+    return batch_status(failed, len(paths))
+
+
+def print_result(args: argparse.Namespace, path, task, result) -> None:
+    """One solved task: a JSON line with ``--json``, else the structure drawn as a grid."""
+    if args.json:
+        record = {"task": str(path), "name": task.name, **result.to_dict()}
+        print(json.dumps(record), flush=True)
+        return
+    kind = "" if task.kind == "total" else f" ({task.kind})"
+    print(f"task {task.name!r} ({path}): {task.n_wrenches} wrenches{kind}, method {args.method}")
+    if result.structure is None:
+        print(f"  no structure of up to {args.n_max} modules satisfies the task")
+    else:
+        cert = " (certified minimum)" if result.certified else ""
+        print(f"  {result.n_modules} modules{cert}: cells {list(result.structure.cells)}")
+        if result.palette:
+            print(f"  module types: {[m.name for m in result.structure.modules]}")
+        print("  " + result.structure.to_text().replace("\n", "\n  "))
+    print(
+        f"  configurations evaluated: {result.evaluated}, oracle calls: "
+        f"{result.oracle_calls}, seconds: {result.seconds:.3f}",
+        flush=True,
+    )

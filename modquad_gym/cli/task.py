@@ -1,0 +1,91 @@
+"""``modquad task generate``: write a seeded task file."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..options import real_option, seed_option
+from ..tasks import TASK_KINDS, PaperTasks, PlantedTasks, ScrewdriverTask
+from .common import add_force, print_help
+
+GENERATE = {"paper": PaperTasks, "planted": PlantedTasks, "screwdriver": ScrewdriverTask}
+"""The generators ``task generate --kind`` names (each takes ``f_max`` and ``kind``)."""
+
+EXTERNAL_F_MAX = 2.0
+"""Default rotor thrust limit (N) of generated ``external`` tasks: with 0.3 kg modules a flat
+module lifts 8 N against its 2.94 N weight, a T-module 5.66 N."""
+
+
+def add_task(sub) -> None:
+    """``task`` and its actions (``task`` alone prints its help)."""
+    p = sub.add_parser(
+        "task",
+        help="task files (generate)",
+        description="Work with task files. `modquad task generate --help` explains the "
+        "options of each action.",
+    )
+    p.set_defaults(func=print_help(p))
+    add_generate(p.add_subparsers(dest="task_command", metavar="ACTION"))
+
+
+def add_generate(tsub) -> None:
+    g = tsub.add_parser(
+        "generate",
+        help="write a generated task file",
+        description="Write a seeded task: paper-like random wrenches (Sec. VI, "
+        "f_z reading documented in modquad_gym.tasks), a planted task (wrenches "
+        "inside a hidden random structure), or the screwdriver of Fig. 1.",
+    )
+    g.set_defaults(func=cmd_task_generate)
+    g.add_argument(
+        "--kind",
+        choices=tuple(GENERATE),
+        required=True,
+        help="paper: 80 random wrenches as in Sec. VI; planted: wrenches inside a hidden "
+        "random structure (a .json file keeps its cells in meta.planted_cells); "
+        "screwdriver: the two wrenches of Fig. 1 (the seed is ignored)",
+    )
+    g.add_argument(
+        "--seed",
+        type=seed_option,
+        default=0,
+        help="seed of the random generator (0 to 2**63-1): the same seed writes the same task "
+        "(default %(default)s)",
+    )
+    g.add_argument(
+        "--task-kind",
+        choices=TASK_KINDS,
+        default="total",
+        help="total: the wrench the rotors produce, gravity folded into f_z (the paper's); "
+        "external: the wrench applied to the environment, in SI units; the rotors add the "
+        "structure's weight (default %(default)s)",
+    )
+    g.add_argument(
+        "--f-max",
+        type=real_option,
+        default=None,
+        help=f"rotor thrust limit written to the task (default 1, or {EXTERNAL_F_MAX:g} N for "
+        "--task-kind external)",
+    )
+    g.add_argument("--out", required=True, help="output file; format from suffix .json/.csv/.npy")
+    add_force(g)
+
+
+def cmd_task_generate(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ..outputs import check_output_file
+    from ..validation import check_f_max
+
+    out = check_output_file(args.out, force=args.force, what="--out")
+    f_max = 1.0 if args.f_max is None else check_f_max(args.f_max)
+    if args.task_kind == "external" and args.f_max is None:
+        f_max = EXTERNAL_F_MAX
+    generator = GENERATE[args.kind](f_max=f_max, kind=args.task_kind)
+    task = generator(np.random.default_rng(args.seed))
+    task.save(out)
+    print(
+        f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, kind {task.kind}, "
+        f"f_max {task.f_max:g}, seed {args.seed})"
+    )
+    return 0

@@ -1,0 +1,128 @@
+"""``modquad validate``: solve a task, then check the structure in MuJoCo (wrench bench and
+hover)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from .. import cli  # the package: commands call cli._load_task / cli._solver (tests replace them)
+from ..options import int_option, real_option
+from .common import add_command, add_csv_header, add_force, add_method
+
+DEFAULT_HOVER_WRENCHES = 20
+MAX_HOVER_SECONDS = 60.0
+SECONDS_PER_SIMULATED_SECOND = 0.25
+"""Wall seconds per simulated hover second on the reference machine (2 cores), for the
+estimate ``validate`` prints before it starts."""
+
+OUTPUT_NAMES = ("report.md", "validation.json", "hover.png", "bench_wrench.png", "rotor_inputs.png")
+"""The files ``validate`` writes into ``--out`` (refused up front when they exist)."""
+
+
+def add_validate(sub) -> None:
+    p = add_command(
+        sub,
+        "validate",
+        cmd_validate,
+        help="search, then MuJoCo wrench bench and hover",
+        description="Solve the task, then validate the structure in MuJoCo: a "
+        "wrench bench (measured vs commanded wrench) and a hover under each task "
+        "wrench. Pictures and report.md go to --out.",
+    )
+    p.add_argument(
+        "--task", required=True, metavar="FILE", help="task file (.json, .csv, .npy) to solve"
+    )
+    add_method(p)
+    p.add_argument("--out", default="validation", help="output folder (default %(default)s)")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.add_argument(
+        "--infeasible-demo",
+        action="store_true",
+        help="also hover under a wrench scaled past the boundary: it saturates and drifts",
+    )
+    p.add_argument(
+        "--max-hover-wrenches",
+        type=int_option(1, 2**63 - 1),
+        default=DEFAULT_HOVER_WRENCHES,
+        help="hover under at most this many task wrenches: the half nearest the boundary "
+        "(smallest margin) and a seeded sample of the rest; each is held for --hover-seconds "
+        "simulated seconds after a take-off of the same length (default %(default)s)",
+    )
+    p.add_argument(
+        "--all-wrenches",
+        action="store_true",
+        help="hover under every task wrench (a time estimate is printed first)",
+    )
+    p.add_argument(
+        "--hover-seconds",
+        type=real_option,
+        default=2.0,
+        help="simulated seconds per hover segment (default %(default)s), at most "
+        f"{MAX_HOVER_SECONDS:g}",
+    )
+    p.add_argument(
+        "--load-ramp-seconds",
+        type=real_option,
+        default=1.0,
+        help="unknown-load hover: seconds over which the load moves from one task wrench to the "
+        "next (0: a step; default %(default)s)",
+    )
+    p.add_argument(
+        "--known-load-only",
+        action="store_true",
+        help="fly only the hover whose controller knows the applied load (feed-forward); by "
+        "default a second hover estimates the load by integral action",
+    )
+    add_csv_header(p)
+    add_force(p)
+
+
+def cmd_validate(args: argparse.Namespace) -> int:
+    from ..outputs import check_output_dir
+    from ..sim.validate import validate
+    from ..validation import check_int, check_real
+
+    check_real(args.hover_seconds, "--hover-seconds", 0.05, MAX_HOVER_SECONDS)
+    check_real(args.load_ramp_seconds, "--load-ramp-seconds", 0.0, args.hover_seconds)
+    k = None if args.all_wrenches else check_int(args.max_hover_wrenches, "--max-hover-wrenches", 1)
+    check_output_dir(args.out, OUTPUT_NAMES, force=args.force)
+    task = cli._load_task(args.task, args.csv_header)
+    n_hover = task.n_wrenches if k is None else min(k, task.n_wrenches)
+    flights = 1 if args.known_load_only else 2
+    simulated = flights * (n_hover + 1) * args.hover_seconds
+    print(
+        f"validate: bench on {task.n_wrenches} wrenches, hover under {n_hover}: about "
+        f"{simulated:g} simulated s (~{simulated * SECONDS_PER_SIMULATED_SECOND:.0f} s here)",
+        file=sys.stderr,
+    )
+    result = cli._solver(args)(task)
+    if result.structure is None:
+        record = {
+            "task": args.task,
+            "feasible": False,
+            "cells": None,
+            "bench_max_error": None,
+            "hover_max_position_error_m": None,
+        }
+        print(json.dumps(record) if args.json else f"no structure found for {args.task}")
+        return 0
+    report = validate(
+        result.structure,
+        task.wrenches,
+        f_max=task.f_max,
+        out_dir=args.out,
+        include_infeasible_demo=args.infeasible_demo,
+        max_hover_wrenches=k,
+        hover_seconds=args.hover_seconds,
+        unknown_load=not args.known_load_only,
+        load_ramp_seconds=args.load_ramp_seconds,
+        kind=task.kind,
+    ).to_dict()
+    if args.json:
+        print(json.dumps({"task": args.task, "method": args.method, **report}))
+    else:
+        for key, value in report.items():
+            print(f"{key}: {value}")
+    return 0

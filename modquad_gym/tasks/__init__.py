@@ -1,0 +1,97 @@
+"""Task requirements (paper Def. 3): the wrenches a structure must be able to exert.
+
+A :class:`TaskRequirement` is a (t, 6) array of wrenches ``[fx, fy, fz, tx, ty, tz]`` in the
+structure frame {S} (torques about the COM), with the per-rotor thrust limit ``f_max``, and a
+*kind* (:data:`TASK_KINDS`) that says what the wrenches are:
+
+``total`` (the default, the paper's)
+    the total wrench the rotors must produce; gravity compensation is folded into ``fz``, the
+    same for every structure. Units are those of ``f_max`` (normalised to 1 in the paper).
+``external``
+    the wrench the structure must apply to the environment or a payload, in {S} at hover
+    attitude (level). The rotors must produce it *plus* the structure's own weight:
+    ``w + m_total g e_z`` (:func:`rotor_wrenches`; weight acts at the COM, so it adds no
+    torque), so the answer depends on the structure's mass and bigger structures must lift
+    more. Units are SI: newtons, newton-metres, ``f_max`` in newtons, module masses in kg,
+    g = :data:`~modquad_gym.module.GRAVITY`.
+
+Task files (:mod:`.files`):
+
+``.json``
+    ``{"wrenches": [[fx, fy, fz, tx, ty, tz], ...], "f_max": 1.0, "name": "..."}``; only
+    ``wrenches`` is required (``name`` defaults to the file stem, ``f_max`` to 1, ``kind`` to
+    ``"total"``, so every file written before kinds existed means what it meant). An optional
+    ``meta`` object carries extra information (e.g. a planted structure, a known optimum).
+``.csv``
+    Six comma-separated columns, one wrench per line. An optional first line of non-numbers is a
+    header; blank lines are ignored; lines starting with ``#`` are comments, and the comments
+    ``# name: ...``, ``# f_max: ...`` and ``# kind: ...`` (written by :meth:`TaskRequirement.save`)
+    set those fields.
+``.npy``
+    A float array of shape (t, 6) (``f_max`` = 1, kind ``total``, name = file stem).
+
+A bad file raises :class:`TaskFileError` (a ValueError) naming the file and, where it applies,
+the 1-based data row (header, blank and comment lines are not counted; the line number is given
+too). Files are parsed completely before a task is built: nothing is ever half-loaded.
+
+Seeded task generators share one interface, :class:`TaskGenerator` (``name`` and
+``__call__(rng) -> TaskRequirement``): :class:`PaperTasks` (paper Sec. VI, errata 2),
+:class:`PlantedTasks` (wrenches inside a hidden structure's zonotope, so the optimum is bounded),
+:class:`ScrewdriverTask` (paper Fig. 1), :class:`MixedTasks` and :class:`FixedTasks`.
+:func:`make_generator` turns a spec (a name, a file, tasks) into a generator; a *suite* is a JSON
+file of several tasks (:func:`load_suite`, :func:`save_suite`).
+
+Modules: :mod:`.wrenches` (wrench checks, kinds), :mod:`.files` (reading and writing task
+files), :mod:`.requirement` (:class:`TaskRequirement`), :mod:`.suites`, :mod:`.generators` (the
+seeded generators) and :mod:`.specs` (the generators by name, :func:`make_generator`).
+"""
+
+from .files import CSV_HEADER_MODES, MAX_FILE_BYTES, SUFFIXES, PathLike, TaskFileError, task_files
+from .generators import (
+    FZ_READINGS,
+    Count,
+    FixedTasks,
+    MixedTasks,
+    PaperTasks,
+    PlantedMixedTasks,
+    PlantedTasks,
+    ScrewdriverTask,
+    TaskGenerator,
+    planted_structure,
+    random_cells,
+)
+from .requirement import TaskRequirement
+from .specs import GENERATORS, NAMED_GENERATORS, make_generator
+from .suites import load_suite, save_suite
+from .wrenches import COLUMNS, MAX_WRENCHES, TASK_KINDS, check_kind, rotor_wrenches
+
+__all__ = [
+    "COLUMNS",
+    "CSV_HEADER_MODES",
+    "FZ_READINGS",
+    "GENERATORS",
+    "MAX_FILE_BYTES",
+    "MAX_WRENCHES",
+    "NAMED_GENERATORS",
+    "SUFFIXES",
+    "TASK_KINDS",
+    "Count",
+    "FixedTasks",
+    "MixedTasks",
+    "PaperTasks",
+    "PathLike",
+    "PlantedMixedTasks",
+    "PlantedTasks",
+    "ScrewdriverTask",
+    "TaskFileError",
+    "TaskGenerator",
+    "TaskRequirement",
+    "check_kind",
+    "load_suite",
+    "make_generator",
+    "planted_structure",
+    "random_cells",
+    "rotor_wrenches",
+    "save_suite",
+    "task_files",
+]

@@ -1,0 +1,196 @@
+"""The task requirement (paper Def. 3): a set of wrenches a structure must be able to exert,
+with the per-rotor thrust limit, a kind and a name; it loads and saves task files."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..outputs import atomic_write, write_text
+from ..validation import check_f_max
+from .files import (
+    SUFFIXES,
+    PathLike,
+    TaskFileError,
+    jsonable,
+    read_csv,
+    read_json,
+    read_npy,
+    task_json,
+)
+from .wrenches import COLUMNS, check_kind, check_wrench_array, rotor_wrenches, rows_to_array
+
+
+@dataclass(frozen=True, eq=False)
+class TaskRequirement:
+    """A set of wrenches a structure must be able to exert (paper Def. 3).
+
+    Args:
+        wrenches: (t, 6) rows ``[fx, fy, fz, tx, ty, tz]`` in {S}, t >= 1, finite. Stored as a
+            read-only float copy.
+        name: a label for reports and file names.
+        f_max: maximum thrust per rotor (> 0; normalised to 1 in the paper).
+        meta: free-form JSON-serialisable extras (generator, planted cells, known optimum...);
+            not part of equality.
+        kind: ``"total"`` (default) or ``"external"`` (module docstring).
+
+    Raises:
+        ValueError: for a wrong shape, no wrenches, a non-finite value (naming the 1-based row),
+            f_max <= 0 or an unknown kind.
+    """
+
+    wrenches: np.ndarray
+    name: str = "task"
+    f_max: float = 1.0
+    meta: dict = field(default_factory=dict)
+    kind: str = "total"
+
+    def __post_init__(self) -> None:
+        arr = check_wrench_array(self.wrenches)
+        arr.setflags(write=False)
+        object.__setattr__(self, "wrenches", arr)
+        object.__setattr__(self, "f_max", check_f_max(self.f_max))
+        if not isinstance(self.name, str):
+            raise ValueError(f"name must be a string, got {self.name!r}")
+        if not isinstance(self.meta, dict):
+            raise ValueError(f"meta must be a dict, got {type(self.meta).__name__}")
+        object.__setattr__(self, "meta", dict(self.meta))
+        object.__setattr__(self, "kind", check_kind(self.kind))
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickling (e.g. into vectorised-env workers) keeps the wrenches read-only."""
+        object.__setattr__(self, "kind", "total")  # pickles from before kinds existed
+        for key, value in state.items():
+            object.__setattr__(self, key, value)
+        self.wrenches.setflags(write=False)
+
+    # --- identity -------------------------------------------------------------------------
+    @property
+    def n_wrenches(self) -> int:
+        return self.wrenches.shape[0]
+
+    def __len__(self) -> int:
+        return self.n_wrenches
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, TaskRequirement):
+            return NotImplemented
+        return (
+            self.name == other.name
+            and self.f_max == other.f_max
+            and self.kind == other.kind
+            and np.array_equal(self.wrenches, other.wrenches)
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.name, self.f_max, self.kind, self.wrenches.tobytes()))
+
+    def __repr__(self) -> str:
+        kind = "" if self.kind == "total" else f", kind={self.kind!r}"
+        return (
+            f"TaskRequirement(name={self.name!r}, n_wrenches={self.n_wrenches}, "
+            f"f_max={self.f_max:g}{kind})"
+        )
+
+    def rotor_wrenches(self, mass: float = 0.0) -> np.ndarray:
+        """(t, 6) what the rotors must produce for a structure of ``mass`` kg: the wrenches
+        themselves for a ``total`` task, plus the weight for an ``external`` one."""
+        return rotor_wrenches(self.wrenches, self.kind, mass)
+
+    # --- dicts ----------------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """``{"name", "f_max", "wrenches"}`` (plus ``"kind"`` when not ``total`` and ``"meta"``
+        when not empty), JSON-ready."""
+        out: dict[str, Any] = {"name": self.name, "f_max": self.f_max}
+        if self.kind != "total":
+            out["kind"] = self.kind
+        out["wrenches"] = self.wrenches.tolist()
+        if self.meta:
+            out["meta"] = jsonable(self.meta)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], default_name: str = "task") -> TaskRequirement:
+        """Build from a dict as written by :meth:`to_dict`. Only ``"wrenches"`` is required;
+        keys other than name, f_max, wrenches and meta are kept in ``meta`` (e.g. ``"optimum"``).
+        Raises ValueError naming the missing key or bad row."""
+        if not isinstance(data, dict):
+            raise ValueError(f"a task must be a JSON object with a 'wrenches' list, got {data!r}")
+        if "wrenches" not in data:
+            hint = " (this looks like a suite: use load_suite)" if "tasks" in data else ""
+            raise ValueError(f"no 'wrenches' key{hint}; keys present: {sorted(data)}")
+        wrenches = rows_to_array(data["wrenches"])
+        name = data.get("name", default_name)
+        if not isinstance(name, str):
+            raise ValueError(f"'name' must be a string, got {name!r}")
+        f_max = check_f_max(data.get("f_max", 1.0))
+        kind = check_kind(data.get("kind", "total"), "'kind'")
+        meta = data.get("meta", {})
+        if not isinstance(meta, dict):
+            raise ValueError(f"'meta' must be an object, got {meta!r}")
+        known = ("name", "f_max", "wrenches", "meta", "kind")
+        extra = {k: v for k, v in data.items() if k not in known}
+        return cls(wrenches, name=name, f_max=f_max, meta={**meta, **extra}, kind=kind)
+
+    # --- files ----------------------------------------------------------------------------
+    @classmethod
+    def load(cls, path: PathLike, csv_header: str = "auto") -> TaskRequirement:
+        """Read a ``.json``, ``.csv`` or ``.npy`` task file (formats in the module docstring;
+        ``csv_header`` as in :data:`CSV_HEADER_MODES`).
+
+        Raises:
+            FileNotFoundError: naming the path, when there is no such file.
+            TaskFileError: naming the file (and 1-based row) for anything wrong in it.
+        """
+        path = Path(path)
+        suffix = path.suffix.lower()
+        if suffix not in SUFFIXES:
+            raise TaskFileError(
+                f"{path}: unknown task file type {path.suffix!r}; use one of {', '.join(SUFFIXES)}"
+            )
+        if not path.exists():
+            raise FileNotFoundError(f"task file not found: {path}")
+        if not path.is_file():
+            raise TaskFileError(f"{path}: not a regular file")
+        try:
+            if suffix == ".json":
+                return cls.from_dict(read_json(path), default_name=path.stem)
+            if suffix == ".csv":
+                wrenches, name, f_max, kind = read_csv(path, csv_header)
+                return cls(wrenches, name=name, f_max=f_max, kind=kind)
+            return cls(read_npy(path), name=path.stem)
+        except TaskFileError:
+            raise
+        except ValueError as exc:
+            raise TaskFileError(f"{path}: {exc}") from None
+
+    def save(self, path: PathLike) -> Path:
+        """Write the task as ``.json`` (name, f_max, kind, wrenches, meta), ``.csv`` (header and
+        ``# name`` / ``# f_max`` / ``# kind`` comments) or ``.npy`` (wrenches only; needs
+        f_max == 1 and kind ``total``, since the format cannot hold them). Floats are written
+        exactly (shortest round-trip repr)."""
+        path = Path(path)
+        suffix = path.suffix.lower()
+        if suffix not in SUFFIXES:
+            raise ValueError(
+                f"{path}: unknown task file type {path.suffix!r}; use one of {', '.join(SUFFIXES)}"
+            )
+        if suffix == ".json":
+            write_text(path, task_json(self.to_dict()) + "\n")
+        elif suffix == ".csv":
+            lines = [f"# name: {self.name}", f"# f_max: {self.f_max!r}"]
+            if self.kind != "total":
+                lines.append(f"# kind: {self.kind}")
+            lines.append(",".join(COLUMNS))
+            lines += [",".join(repr(float(v)) for v in row) for row in self.wrenches]
+            write_text(path, "\n".join(lines) + "\n")
+        else:
+            if self.f_max != 1.0 or self.kind != "total":
+                what = f"f_max={self.f_max:g}" if self.f_max != 1.0 else f"kind={self.kind}"
+                raise ValueError(f"{path}: .npy holds only the wrenches, not {what}; save as .json")
+            data = np.asarray(self.wrenches, dtype=float)
+            atomic_write(path, lambda tmp: np.save(tmp.open("wb"), data))
+        return path

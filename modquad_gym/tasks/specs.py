@@ -1,0 +1,129 @@
+"""Task sources by name (:data:`NAMED_GENERATORS`) and :func:`make_generator`, which turns any
+task spec (a name, a task or suite file, a task, a generator, a callable, a list) into a
+generator."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .files import SUFFIXES, json_keys
+from .generators import (
+    FixedTasks,
+    MixedTasks,
+    PaperTasks,
+    PlantedMixedTasks,
+    PlantedTasks,
+    ScrewdriverTask,
+    TaskGenerator,
+)
+from .requirement import TaskRequirement
+from .suites import load_suite
+
+NAMED_GENERATORS: dict[str, Callable[[], TaskGenerator]] = {
+    "paper": PaperTasks,
+    "planted": PlantedTasks,
+    "screwdriver": ScrewdriverTask,
+    "mixed": lambda: MixedTasks((PlantedTasks(), PaperTasks())),
+    "planted-large": lambda: PlantedTasks(n_modules=(6, 12), name="planted-large"),
+    "paper-external": lambda: PaperTasks(n_wrenches=40, kind="external", f_max=2.0,
+                                         fz_offset=1.0, fz_gain=8.0, name="paper-external"),
+    "planted-mixed-external": lambda: PlantedMixedTasks(kind="external", f_max=2.0,
+                                                        name="planted-mixed-external"),
+}  # fmt: skip
+"""The task sources by name (each call makes a fresh generator)."""
+GENERATORS = tuple(NAMED_GENERATORS)
+"""Names understood by :func:`make_generator`."""
+
+
+def make_generator(spec: Any) -> TaskGenerator:
+    """A task generator from a spec:
+
+    * ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"`` (planted and paper, equal odds);
+      ``"planted-large"`` (planted in 6-12 modules: the large tier), ``"paper-external"``
+      (paper-like wrenches on the environment, kind ``external``, f_max 2 N) and
+      ``"planted-mixed-external"`` (:class:`PlantedMixedTasks`, external, f_max 2 N: the mixed
+      tier);
+    * a path to a task file (``.json``/``.csv``/``.npy``) or a suite JSON: those fixed tasks;
+    * a :class:`TaskRequirement`: always that task; a :class:`TaskGenerator` (``name`` and
+      ``__call__(rng)``): itself;
+    * any other callable ``gen(rng)`` (a function, a lambda, a bound method): wrapped as a
+      generator named after it; each result must be a :class:`TaskRequirement` or a (t, 6)
+      wrench array (made a TaskRequirement), anything else raises ValueError when drawn. The
+      wrapper pickles when ``gen`` does;
+    * a list or tuple of any of these: tasks are pooled into one :class:`FixedTasks` (uniform
+      over tasks); if any element is a random generator, a :class:`MixedTasks` (uniform over
+      elements).
+
+    Raises ValueError naming the spec (TaskFileError for a bad file).
+    """
+    if isinstance(spec, TaskRequirement):
+        return FixedTasks((spec,), name=spec.name)
+    if isinstance(spec, (list, tuple)):
+        if not spec:
+            raise ValueError("an empty list is not a task spec")
+        gens = [make_generator(s) for s in spec]
+        if all(isinstance(g, FixedTasks) for g in gens):
+            pooled = tuple(t for g in gens for t in g.tasks)  # type: ignore[attr-defined]
+            return FixedTasks(pooled, name="+".join(g.name for g in gens))
+        return MixedTasks(tuple(gens), name="+".join(g.name for g in gens))
+    if isinstance(spec, (str, os.PathLike)):
+        key = os.fspath(spec)
+        if key in NAMED_GENERATORS:
+            return NAMED_GENERATORS[key]()
+        path = Path(key)
+        if path.is_file():
+            if path.suffix.lower() == ".json" and "tasks" in json_keys(path):
+                return FixedTasks(tuple(load_suite(path)), name=path.stem)
+            return FixedTasks((TaskRequirement.load(path),), name=path.stem)
+        raise ValueError(
+            f"unknown task spec {key!r}: not one of {', '.join(GENERATORS)} and not an existing "
+            f"task file ({', '.join(SUFFIXES)})"
+        )
+    if isinstance(spec, type):  # before the protocol check: a class has name and __call__
+        raise ValueError(
+            f"cannot make a task generator from the class {spec.__name__}; pass an instance "
+            f"(e.g. {spec.__name__}()) or a function gen(rng) -> TaskRequirement"
+        )
+    if isinstance(spec, TaskGenerator):
+        return spec
+    if callable(spec):
+        return CallableTasks(spec)
+    raise ValueError(
+        f"cannot make a task generator from {type(spec).__name__} {spec!r}; give a name "
+        f"({', '.join(GENERATORS)}), a task file, a TaskRequirement, a generator (any "
+        f"callable gen(rng) -> TaskRequirement) or a list"
+    )
+
+
+class CallableTasks:
+    """A callable ``gen(rng)`` as a TaskGenerator; its results are checked."""
+
+    def __init__(self, fn: Any) -> None:
+        self.fn = fn
+        self.name = str(getattr(fn, "__name__", None) or type(fn).__name__)
+
+    def __call__(self, rng: np.random.Generator) -> TaskRequirement:
+        task = self.fn(rng)
+        if isinstance(task, TaskRequirement):
+            return task
+        what = f"task generator {self.name!r} returned"
+        if not isinstance(task, (np.ndarray, list, tuple)):
+            raise ValueError(
+                f"{what} {type(task).__name__}; it must return a TaskRequirement or a "
+                f"(t, 6) wrench array"
+            )
+        try:
+            return TaskRequirement(task, name=self.name)
+        except ValueError as exc:
+            raise ValueError(f"{what} a bad wrench array: {exc}") from None
+
+    def __reduce__(self) -> tuple:  # pickles as make_generator(fn)
+        return (make_generator, (self.fn,))
+
+    def __repr__(self) -> str:
+        return f"make_generator({self.fn!r})"

@@ -1,0 +1,44 @@
+"""Suites: several tasks in one JSON file ``{"name": ..., "tasks": [task dicts...]}``."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+from ..outputs import write_text
+from .files import PathLike, TaskFileError, read_json, task_json
+from .requirement import TaskRequirement
+
+
+def load_suite(path: PathLike) -> list[TaskRequirement]:
+    """Read a suite: a JSON file ``{"name": ..., "tasks": [task dicts...]}`` (task dicts as in
+    :meth:`TaskRequirement.to_dict`, extra keys such as ``"optimum"`` kept in ``meta``).
+    Raises TaskFileError naming the file and the 1-based task (and row)."""
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"suite file not found: {path}")
+    data = read_json(path)
+    if not isinstance(data, dict) or not isinstance(data.get("tasks"), list):
+        raise TaskFileError(f'{path}: a suite is a JSON object with a "tasks" list')
+    if not data["tasks"]:
+        raise TaskFileError(f"{path}: the suite has no tasks")
+    tasks = []
+    for i, item in enumerate(data["tasks"], 1):
+        try:
+            tasks.append(TaskRequirement.from_dict(item, default_name=f"{path.stem}-{i}"))
+        except ValueError as exc:
+            raise TaskFileError(f"{path}: task {i}: {exc}") from None
+    return tasks
+
+
+def save_suite(tasks: Sequence[TaskRequirement], path: PathLike, name: str | None = None) -> Path:
+    """Write ``tasks`` as a suite JSON file (see :func:`load_suite`); name defaults to the stem."""
+    path = Path(path)
+    tasks = list(tasks)
+    if not tasks or not all(isinstance(t, TaskRequirement) for t in tasks):
+        raise ValueError("save_suite needs a non-empty sequence of TaskRequirement")
+    body = ",\n".join("    " + task_json(t.to_dict(), indent="    ") for t in tasks)
+    head = json.dumps(name if name is not None else path.stem)
+    write_text(path, f'{{\n  "name": {head},\n  "tasks": [\n{body}\n  ]\n}}\n')
+    return path
