@@ -12,15 +12,22 @@ from hypothesis import strategies as st
 
 import modquad_gym as mq
 from modquad_gym.oracle import (
+    BACKENDS,
     BAND,
+    METHODS,
     TOL,
+    Backend,
     Zonotope,
-    _cvxpy_problem,
-    _gamma,
-    _hyperplane_shifting,
     decide_from_gamma,
+    gamma_with,
     margin_from_gamma,
+    ray_lp,
 )
+from modquad_gym.oracle.cvxpy_lp import cvxpy_problem, lambda_cvxpy
+from modquad_gym.oracle.daqp_lp import gamma_daqp
+from modquad_gym.oracle.highs_lp import gamma_highs
+from modquad_gym.oracle.hrep import decide_hrep, gamma_hrep, hyperplane_shifting
+from modquad_gym.oracle.lp import HIGHS_OPTIONS
 
 STRUCTURES = {
     "single (rank 4)": [(0, 0)],
@@ -56,7 +63,7 @@ def sample_wrenches(A, rng, t=40, f_max=1.0):
     noise = inside[:k] + rng.normal(scale=0.05, size=(k, 6))  # mostly off range if rank < 6
     W = np.vstack([inside, scaled, noise, rng.normal(size=(k, 6))])
     z = Zonotope(A, f_max)
-    g = _gamma(z, W, "scipy")
+    g = gamma_with(z, W, "scipy")
     ok = np.isfinite(g) & (g > 1e-3)
     base = W[ok]
     gb = g[ok]
@@ -72,7 +79,7 @@ def scaled_to_boundary(A, rng, scales=SCALES, t=3, f_max=1.0):
     m = A.shape[1]
     c = A.sum(axis=1) * f_max / 2
     base = (A @ rng.uniform(0, f_max, (t, m)).T).T
-    g = _gamma(Zonotope(A, f_max), base, "scipy")
+    g = gamma_with(Zonotope(A, f_max), base, "scipy")
     W = np.vstack([c + (base - c) * (s / g)[:, None] for s in scales])
     return W, np.repeat(scales, t)
 
@@ -81,7 +88,7 @@ def boundary_mix(A, rng, t=80):
     """The benchmark's boundary-heavy workload: gamma ~ U(0.5, 1.5)."""
     c = A.sum(axis=1) / 2
     base = (A @ rng.uniform(0, 1, (t, A.shape[1])).T).T
-    g = _gamma(Zonotope(A), base, "scipy")
+    g = gamma_with(Zonotope(A), base, "scipy")
     return c + (base - c) * (rng.uniform(0.5, 1.5, t) / g)[:, None]
 
 
@@ -165,7 +172,7 @@ def test_methods_agree_with_highs(name):
     A = matrix(name)
     W = sample_wrenches(A, rng)
     z = Zonotope(A)
-    g_ref = _gamma(z, W, "scipy")
+    g_ref = gamma_with(z, W, "scipy")
     d_ref = mq.feasible(A, W, method="scipy")
     np.testing.assert_array_equal(d_ref, decide_from_gamma(g_ref))
     clear = clear_of_band(g_ref)
@@ -194,16 +201,16 @@ def test_auto_fast_path_agrees_with_highs_on_the_boundary_workload(n):
     for _ in range(2):
         A = random_structure(n, rng).configuration_matrix()
         W = boundary_mix(A, rng)
-        g_ref = _gamma(Zonotope(A), W, "scipy")
+        g_ref = gamma_with(Zonotope(A), W, "scipy")
         clear = clear_of_band(g_ref)
         z = Zonotope(A)
         first = z.decide_certified(W)
         np.testing.assert_array_equal(first[clear], decide_from_gamma(g_ref)[clear])
-        assert z._dirs is not None  # rejections were learned
+        assert "directions" in z.prepared  # rejections were learned
         again = z.decide_certified(W[::-1])[::-1]
         np.testing.assert_array_equal(again, first)
         # the LP gamma itself
-        np.testing.assert_allclose(z.gamma_daqp(z.reduce(W)[0]), g_ref, atol=1e-9)
+        np.testing.assert_allclose(gamma_daqp(z, z.reduce(W)[0]), g_ref, atol=1e-9)
 
 
 @pytest.mark.parametrize("name", ["single (rank 4)", "pair (rank 5)", "L (rank 6)"])
@@ -213,28 +220,28 @@ def test_slow_references_agree(name):
     A = matrix(name)
     W = sample_wrenches(A, rng, t=8)
     z = Zonotope(A)
-    g_ref = _gamma(z, W, "scipy")
+    g_ref = gamma_with(z, W, "scipy")
     clear = np.abs(g_ref - (1 + TOL)) > 1e-6  # quickhull's joggled hull: ~1e-7
     for method in ("cvxpy", "quickhull"):
         d = mq.feasible(A, W, method=method)
         np.testing.assert_array_equal(d[clear], decide_from_gamma(g_ref)[clear], err_msg=method)
     fin = np.isfinite(g_ref)
-    np.testing.assert_allclose(_gamma(z, W, "cvxpy")[fin], g_ref[fin], atol=1e-9)
+    np.testing.assert_allclose(gamma_with(z, W, "cvxpy")[fin], g_ref[fin], atol=1e-9)
 
 
 def test_cvxpy_problem_is_the_papers_lp_compiled_once():
     """max lambda s.t. B u = o + lambda d_hat, 0 <= u <= f_max: DPP, one problem per shape;
     with o = 0 the literal paper LP, lambda* >= |w| exactly when w is in W."""
-    prob, par, lam, u = _cvxpy_problem((6, 12))
+    prob, par, lam, u = cvxpy_problem((6, 12))
     assert prob.is_dpp()
-    assert _cvxpy_problem((6, 12))[0] is prob
+    assert cvxpy_problem((6, 12))[0] is prob
     A = matrix("L (rank 6)")
     z = Zonotope(A)
     rng = np.random.default_rng(seed("paper lp"))
     W, s = scaled_to_boundary(A, rng, scales=(0.7, 1.3), t=2)
     for w, expect in zip(W, s < 1):
         d = z.Q.T @ w
-        lams, us = z.lambda_cvxpy(np.zeros((1, 6)), d[None])
+        lams, us = lambda_cvxpy(z, np.zeros((1, 6)), d[None])
         assert (lams[0] >= np.linalg.norm(w)) == expect == bool(mq.feasible(A, w)[0])
         np.testing.assert_allclose(A @ us[0], lams[0] * w / np.linalg.norm(w), atol=1e-7)
 
@@ -285,6 +292,39 @@ def _facets_brute_force(G):
     return np.array(out)
 
 
+def test_one_lp_builder_for_allocate_daqp_and_the_ray():
+    """allocate solves the same gamma LP as the "scipy" method, and the DAQP method's LP is the
+    ray LP (B = G, the cube [-1, 1], from 0): lambda* = |r| / gamma."""
+    A = matrix("L (rank 6)")
+    z = Zonotope(A)
+    W = sample_wrenches(A, np.random.default_rng(seed("one builder")), t=6)
+    R = z.reduce(W)[0]
+    g_scipy = gamma_with(z, W, "scipy")
+    for w, r, g in zip(W, R, g_scipy):
+        assert mq.allocate(A, w)[1] == pytest.approx(g, abs=1e-9)
+        lam = ray_lp(z.G, np.zeros(z.rank), r, -1.0, 1.0, HIGHS_OPTIONS)
+        assert np.linalg.norm(r) / lam == pytest.approx(gamma_daqp(z, r[None])[0], abs=1e-8)
+
+
+def test_backend_table_is_the_only_dispatch(monkeypatch):
+    """METHODS are the table's names; a backend added as one row (here gamma from the
+    brute-force facets) serves feasible and margin and agrees with HiGHS."""
+    assert METHODS == tuple(BACKENDS) and METHODS[0] == "auto"
+
+    def gamma_brute(z, R):
+        N = _facets_brute_force(z.G)
+        return (np.abs(R @ N.T) / np.abs(N @ z.G).sum(axis=1)).max(axis=1)
+
+    monkeypatch.setitem(BACKENDS, "brute", Backend(gamma_brute))
+    A = matrix("L (rank 6)")
+    W = sample_wrenches(A, np.random.default_rng(seed("brute backend")), t=8)
+    g_ref = gamma_with(Zonotope(A), W, "scipy")
+    clear = clear_of_band(g_ref)
+    d = mq.feasible(A, W, method="brute")
+    np.testing.assert_array_equal(d[clear], decide_from_gamma(g_ref)[clear])
+    np.testing.assert_allclose(mq.margin(A, W, method="brute"), margin_from_gamma(g_ref), atol=1e-9)
+
+
 @pytest.mark.parametrize("name", ["single (rank 4)", "pair (rank 5)", "line of 3 (rank 5)", "2x2"])
 def test_hrep_matches_brute_force(name):
     z = Zonotope(matrix(name))
@@ -302,8 +342,8 @@ def test_hrep_matches_brute_force(name):
 
 def test_hrep_build_is_chunked_and_complete():
     z = Zonotope(matrix("7 modules"))
-    N1, h1 = _hyperplane_shifting(z.G, chunk=1000)
-    N2, h2 = _hyperplane_shifting(z.G, chunk=1 << 20)
+    N1, h1 = hyperplane_shifting(z.G, chunk=1000)
+    N2, h2 = hyperplane_shifting(z.G, chunk=1 << 20)
     assert N1.shape == N2.shape
 
     def canon(N):
@@ -320,7 +360,7 @@ def test_hrep_gamma_matches_highs_at_m28():
     W = sample_wrenches(A, np.random.default_rng(seed("hrep m28")), t=10)
     z = Zonotope(A)
     R, off = z.reduce(W)
-    np.testing.assert_allclose(z.gamma_hrep(R[~off]), z.gamma_scipy(R[~off]), atol=1e-9)
+    np.testing.assert_allclose(gamma_hrep(z, R[~off]), gamma_highs(z, R[~off]), atol=1e-9)
 
 
 def test_hrep_support_rejection_skips_the_build():
@@ -333,12 +373,12 @@ def test_hrep_support_rejection_skips_the_build():
     far[:, 2] = -1.0  # pulling down: no rotor can
     z = Zonotope(A)
     R, off = z.reduce(far)
-    assert not z.decide_hrep(R).any()
-    assert z._hrep is None
+    assert not decide_hrep(z, R).any()
+    assert "hrep" not in z.prepared
     W = sample_wrenches(A, rng, t=6)
     np.testing.assert_array_equal(
-        mq.feasible(A, W, method="hrep")[clear_of_band(_gamma(z, W, "scipy"))],
-        mq.feasible(A, W, method="scipy")[clear_of_band(_gamma(z, W, "scipy"))],
+        mq.feasible(A, W, method="hrep")[clear_of_band(gamma_with(z, W, "scipy"))],
+        mq.feasible(A, W, method="scipy")[clear_of_band(gamma_with(z, W, "scipy"))],
     )
 
 

@@ -31,7 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..oracle import BAND, TOL, Zonotope, _decide, _margin
+from ..oracle import BAND, TOL, Zonotope, decide_with, margin_with
+from ..oracle.daqp_lp import gamma_daqp
 from ..outputs import write_text
 from . import (
     bench_args,
@@ -58,7 +59,7 @@ def boundary_mix(A: np.ndarray, t: int, rng: np.random.Generator) -> np.ndarray:
     z = Zonotope(A)
     c = A.sum(axis=1) / 2
     base = (A @ rng.uniform(0, 1, (t, A.shape[1])).T).T
-    gamma = z.gamma_daqp(z.reduce(base)[0])
+    gamma = gamma_daqp(z, z.reduce(base)[0])
     return c + (base - c) * (rng.uniform(0.5, 1.5, t) / gamma)[:, None]
 
 
@@ -106,14 +107,15 @@ def run(
     for (workload, make), n in ((w, n) for w in workloads.items() for n in (7, 10)):
         cases = [random_structure(n, rng).configuration_matrix() for _ in range(n_structures)]
         cases = [(A, make(A)) for A in cases]
-        feasible_share = float(np.mean([_decide(Zonotope(A), W, "daqp").mean() for A, W in cases]))
+        shares = [decide_with(Zonotope(A), W, "daqp").mean() for A, W in cases]
+        feasible_share = float(np.mean(shares))
         build = []
         for A, _ in cases[: max(1, int(len(cases) * _SHARE["hrep"]))]:
             build.append(min(hrep_build(A)[0] for _ in range(max(1, repeats))))
         builds.setdefault(n, []).extend(build)
         facets = hrep_build(cases[0][0])[2]
         for method in ("scipy", "cvxpy"):  # imports and compilation happen outside the timing
-            _margin(Zonotope(cases[0][0]), cases[0][1][:1], method)
+            margin_with(Zonotope(cases[0][0]), cases[0][1][:1], method)
         for method, share in _SHARE.items():
             subset = cases[: max(1, int(len(cases) * share))]
             rows.append(
@@ -123,8 +125,8 @@ def run(
                     "rotors_m": 4 * n,
                     "method": method,
                     "structures": len(subset),
-                    "decisions_per_s": _best_rate(_decide, subset, method, repeats),
-                    "margins_per_s": _best_rate(_margin, subset, method, repeats),
+                    "decisions_per_s": _best_rate(decide_with, subset, method, repeats),
+                    "margins_per_s": _best_rate(margin_with, subset, method, repeats),
                 }
             )
         here = [r for r in rows if r["modules"] == n and r["workload"] == workload]
@@ -235,7 +237,7 @@ def write_report(
         "H-representation for each structure, so it only pays off for large batches.",
         "",
         f"Tolerance rule (every method): feasible exactly when gamma <= 1 + {TOL:g}; methods "
-        f"agree outside |gamma - (1 + TOL)| <= {BAND:g} (see `modquad_gym/oracle.py`).",
+        f"agree outside |gamma - (1 + TOL)| <= {BAND:g} (see `modquad_gym/oracle/tolerance.py`).",
         "",
         markdown_table(rows),
     ]

@@ -26,7 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..oracle import Zonotope
+from ..oracle import Zonotope, decide_from_gamma
+from ..oracle.highs_lp import gamma_highs
 from ..outputs import write_text
 from ..polyominoes import PolyominoStream
 from ..search import exhaustive_search, force_lower_bound
@@ -100,7 +101,7 @@ def reference_rate(W: np.ndarray, n_max: int, limit: int) -> tuple[float, int]:
         z = Zonotope(Structure.from_trusted(key).configuration_matrix())
         R, off = z.reduce(W)
         for i in range(len(W)):
-            if off[i] or not z.decide_scipy(R[i : i + 1])[0]:
+            if off[i] or not decide_from_gamma(gamma_highs(z, R[i : i + 1]))[0]:
                 break
     return len(keys) / (time.perf_counter() - t0), len(keys)
 

@@ -1,0 +1,68 @@
+"""Is a wrench in the feasible-wrench zonotope W = {A u : 0 <= u <= f_max}? (paper Sec. IV)
+
+The number ``gamma(w) = min { ||x||_inf : G x = Q^T w / f_max - c }`` says how far the worst
+rotor must deviate from half thrust, as a fraction of f_max / 2 (the gauge of the zonotope about
+its centre; coordinates in :mod:`~modquad_gym.oracle.zonotope`). ``margin = 1 - gamma`` is
+therefore unit-free: 1 at the centre, 0 on the boundary of W, negative outside (-inf off
+range(A), or where gamma leaves the float range). The paper's own measure, ``lambda / |w|`` with
+``max lambda s.t. A u = lambda w_hat, 0 <= u <= f_max`` (errata 1: an LP, not a QP), is offered
+as :func:`lambda_ratio` (>= 1 exactly when feasible). Every method decides by one tolerance rule
+(:mod:`~modquad_gym.oracle.tolerance`) and gives the same answer for (s W, s f_max) at any scale
+s (:mod:`~modquad_gym.oracle.scale`).
+
+Methods (``method=`` in :func:`feasible`, :func:`margin`, :class:`WrenchOracle`), one module
+each, behind the name -> backend table :data:`~modquad_gym.oracle.backends.BACKENDS`:
+
+``"auto"`` (default, :mod:`~modquad_gym.oracle.certified`)
+    Certificates first (an allocation in the cube, or a separating direction), the DAQP LP for
+    the undecided rest; margins from the exact LP gamma.
+``"daqp"`` (:mod:`~modquad_gym.oracle.daqp_lp`)
+    One dense active-set LP per wrench.
+``"scipy"`` (:mod:`~modquad_gym.oracle.highs_lp`)
+    HiGHS through ``scipy.optimize.linprog``: the plain reference.
+``"cvxpy"`` (:mod:`~modquad_gym.oracle.cvxpy_lp`)
+    The paper's LP in cvxpy: the readable reference.
+``"hrep"`` (:mod:`~modquad_gym.oracle.hrep`)
+    The exact H-representation by hyperplane shifting: for large batches against one structure.
+``"quickhull"`` (:mod:`~modquad_gym.oracle.quickhull`)
+    The paper's Algorithm 1; exponential, up to 3 modules, a cross-check only.
+
+The LPs themselves are built in one place, :mod:`~modquad_gym.oracle.lp` (used by
+:func:`allocate`, :func:`lambda_ratio`, the methods and the hover); the entry points live in
+:mod:`~modquad_gym.oracle.api`.
+"""
+
+from ..validation import check_f_max, check_matrix, check_wrenches
+from .api import WrenchOracle, allocate, feasible, lambda_ratio, margin
+from .backends import BACKENDS, METHODS, Backend, check_method, decide_with, gamma_with, margin_with
+from .lp import ray_lp
+from .scale import MAX_TASK_VALUE, check_task_scale
+from .tolerance import BAND, RESIDUAL_TOL, TOL, decide_from_gamma, margin_from_gamma
+from .zonotope import Zonotope
+
+__all__ = [
+    "BACKENDS",
+    "BAND",
+    "MAX_TASK_VALUE",
+    "METHODS",
+    "RESIDUAL_TOL",
+    "TOL",
+    "Backend",
+    "WrenchOracle",
+    "Zonotope",
+    "allocate",
+    "check_f_max",
+    "check_matrix",
+    "check_method",
+    "check_task_scale",
+    "check_wrenches",
+    "decide_from_gamma",
+    "decide_with",
+    "feasible",
+    "gamma_with",
+    "lambda_ratio",
+    "margin",
+    "margin_from_gamma",
+    "margin_with",
+    "ray_lp",
+]

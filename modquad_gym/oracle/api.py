@@ -1,0 +1,143 @@
+"""The oracle's entry points: :func:`feasible`, :func:`margin`, :func:`lambda_ratio`,
+:func:`allocate` and the caching :class:`WrenchOracle`."""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from collections.abc import Hashable
+
+import numpy as np
+
+from ..validation import check_f_max, check_wrenches
+from .backends import BACKENDS, check_method, decide_with, margin_with
+from .lp import GammaLP
+from .scale import row_norms
+from .tolerance import TOL
+from .zonotope import Zonotope
+
+
+class WrenchOracle:
+    """Feasibility and margins of task wrenches for many structures, with a per-structure cache.
+
+    Args:
+        f_max: maximum thrust per rotor (N, normalised to 1 in the paper).
+        method: one of :data:`~modquad_gym.oracle.METHODS` (see :mod:`modquad_gym.oracle`);
+            ``"auto"`` is the default.
+        cache_size: how many prepared zonotopes to keep (least recently used are dropped).
+
+    ``calls`` counts the wrench-structure tests made (one per wrench per structure).
+    """
+
+    def __init__(self, f_max: float = 1.0, method: str = "auto", cache_size: int = 4096) -> None:
+        self.f_max = check_f_max(f_max)
+        self.method = check_method(method)
+        self.cache_size = int(cache_size)
+        self._cache: OrderedDict[Hashable, Zonotope] = OrderedDict()
+        self.calls = 0
+
+    def zonotope(self, A: np.ndarray, key: Hashable | None = None) -> Zonotope:
+        """The prepared zonotope of A, cached under ``key`` (e.g. a structure's key)."""
+        if key is None:
+            return Zonotope(A, self.f_max)
+        z = self._cache.get(key)
+        if z is None:
+            z = Zonotope(A, self.f_max)
+            self._cache[key] = z
+            if len(self._cache) > self.cache_size:
+                self._cache.popitem(last=False)
+        else:
+            self._cache.move_to_end(key)
+        return z
+
+    def feasible(self, A: np.ndarray, W: np.ndarray, key: Hashable | None = None) -> np.ndarray:
+        W = check_wrenches(W)
+        z = self.zonotope(A, key)
+        self.calls += len(W)
+        return decide_with(z, W, self.method)
+
+    def margin(self, A: np.ndarray, W: np.ndarray, key: Hashable | None = None) -> np.ndarray:
+        W = check_wrenches(W)
+        z = self.zonotope(A, key)
+        self.calls += len(W)
+        return margin_with(z, W, self.method)
+
+
+def feasible(A: np.ndarray, W: np.ndarray, f_max: float = 1.0, method: str = "auto") -> np.ndarray:
+    """bool (t,): is each wrench (row of W, shape (t, 6)) in W = {A u : 0 <= u <= f_max}?
+
+    Exact up to the tolerance rule (:mod:`modquad_gym.oracle.tolerance`): on range(A) (residual
+    at most ``RESIDUAL_TOL * (1 + |w|)``) and gamma <= 1 + TOL. Raises ValueError for a
+    malformed A or W, non-finite values or f_max <= 0.
+    """
+    W = check_wrenches(W)
+    return decide_with(Zonotope(A, f_max), W, check_method(method))
+
+
+def margin(A: np.ndarray, W: np.ndarray, f_max: float = 1.0, method: str = "auto") -> np.ndarray:
+    """float (t,): ``1 - gamma`` per wrench, >= 0 exactly when feasible.
+
+    gamma is the smallest s such that some allocation u with A u = w keeps every rotor within
+    s * f_max / 2 of half thrust. So the margin is 1 at hover-at-half-thrust, 0 on the boundary
+    (and for every gamma in [1 - TOL, 1 + TOL], the tolerance band), negative outside W, and -inf
+    for wrenches off range(A) (rank-deficient structures) or so large that 1 - gamma leaves the
+    float range. The same for (s W, s f_max) at any scale s.
+    """
+    W = check_wrenches(W)
+    return margin_with(Zonotope(A, f_max), W, check_method(method))
+
+
+def lambda_ratio(
+    A: np.ndarray, W: np.ndarray, f_max: float = 1.0, method: str = "scipy"
+) -> np.ndarray:
+    """The paper's measure per wrench: lambda* / |w| with (errata 1, an LP)
+    ``max lambda s.t. A u = lambda w_hat, lo <= u <= hi``, solved by HiGHS (``method="scipy"``)
+    or the cvxpy problem (``method="cvxpy"``).
+
+    The same tolerance rule as :func:`feasible`: the thrust bounds are widened to
+    ``[-TOL f_max / 2, (1 + TOL / 2) f_max]`` (the zonotope scaled by 1 + TOL about its centre),
+    so lambda_ratio >= 1 exactly when ``feasible`` (its sign is taken from ``feasible`` for the
+    wrenches where the two LPs' round-off disagree: within BAND of the threshold).
+    inf for w = 0; 0 when no positive multiple of w is feasible (e.g. off range(A)).
+    """
+    ray = BACKENDS[method].ray if method in BACKENDS else None
+    if ray is None:
+        names = " or ".join(repr(name) for name, b in BACKENDS.items() if b.ray is not None)
+        raise ValueError(f"lambda_ratio supports method {names}, got {method!r}")
+    W = check_wrenches(W)
+    z = Zonotope(A, f_max)
+    lo, hi = -TOL / 2.0, 1.0 + TOL / 2.0  # in units of f_max, as z's reduced coordinates
+    norms = row_norms(W)
+    out = np.full(len(W), np.inf)
+    _, off = z.reduce(W)
+    out[off] = 0.0
+    live = np.flatnonzero(~off & (norms > 0))
+    if len(live):
+        # directions in range(A) coordinates, each scaled to max |d_i| = 1 (the ratio
+        # lambda / |d| does not depend on the length of d, and the LP sees numbers of order one)
+        D = W[live] @ z.Q
+        D /= np.abs(D).max(axis=1, keepdims=True)
+        lams = ray(z, D, lo, hi)
+        # lambda* is in units of f_max: the ratio is lambda* / (|w| / f_max)
+        with np.errstate(over="ignore", divide="ignore"):
+            out[live] = lams / (row_norms(W[live] @ z.Q) / z.f_max)
+    ok = decide_with(z, W, "auto")
+    out[ok & (out < 1.0)] = 1.0
+    out[~ok & (out >= 1.0)] = np.nextafter(1.0, 0.0)
+    return out
+
+
+def allocate(A: np.ndarray, w: np.ndarray, f_max: float = 1.0) -> tuple[np.ndarray, float]:
+    """The most centred exact allocation for one wrench: (u, gamma) with A u = w and every rotor
+    within gamma * f_max / 2 of half thrust. When gamma > 1 the wrench is infeasible and u is
+    the least-squares allocation clipped to [0, f_max] (what the rotors can do)."""
+    z = Zonotope(A, f_max)
+    w = check_wrenches(w)[0]
+    R, off = z.reduce(w[None])
+    if off[0]:
+        u = np.clip(np.linalg.lstsq(z.A, w, rcond=None)[0], 0.0, z.f_max)
+        return u, math.inf
+    res = GammaLP.build(z.G).solve(R[0])
+    x, gamma = res.x[: z.m], float(res.fun)
+    u = (1.0 + x) * (z.f_max / 2.0)
+    return np.clip(u, 0.0, z.f_max), gamma

@@ -1,0 +1,136 @@
+"""One table from method name to backend, and the three queries every caller goes through.
+
+``BACKENDS`` maps each name of :data:`METHODS` to a :class:`Backend`: its gamma (every method
+has one; margins are ``1 - gamma`` by the tolerance rule) and, where the method decides faster
+than by computing gamma, its own decisions. :func:`gamma_with`, :func:`decide_with` and
+:func:`margin_with` reduce the wrenches once (off range(A): infeasible, gamma = inf) and hand the
+rest to the backend. A new method is one module with a gamma function and one row here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .certified import decide_reduced
+from .cvxpy_lp import gamma_cvxpy, ray_cvxpy
+from .daqp_lp import gamma_daqp
+from .highs_lp import gamma_highs, ray_highs
+from .hrep import decide_hrep, gamma_hrep
+from .quickhull import gamma_quickhull
+from .tolerance import TOL, decide_from_gamma, margin_from_gamma
+
+if TYPE_CHECKING:
+    from .zonotope import Zonotope
+
+Rows = Callable[["Zonotope", np.ndarray], np.ndarray]
+"""A function of a zonotope and centred reduced wrenches R (t, rank) in range(A)."""
+
+Ray = Callable[["Zonotope", np.ndarray, float, float], np.ndarray]
+"""``(z, D, lo, hi) -> lambda*`` per row d of D: the paper's LP from the origin,
+``max lambda s.t. Q^T A u = lambda d_hat, lo <= u <= hi`` (units of f_max)."""
+
+_FAR = 1e6  # rows beyond this many bounding boxes get their gamma by homogeneity (gamma_with)
+
+
+@dataclass(frozen=True)
+class Backend:
+    """One feasibility method.
+
+    Args:
+        gamma: exact gamma per row of R (float (t,)).
+        decide: decisions per row of R (bool (t,)) when the method has a faster way than the
+            tolerance rule applied to ``gamma``; None: by the rule from ``gamma``.
+        margin_sign_from_decide: margins take their sign from ``decide`` where the two disagree
+            (within the LP's accuracy of the threshold), so that margin >= 0 exactly when
+            feasible even though decisions and margins come from different computations.
+        ray: the paper's LP from the origin, for :func:`~modquad_gym.oracle.lambda_ratio`
+            (None: the method does not offer it).
+    """
+
+    gamma: Rows
+    decide: Rows | None = None
+    margin_sign_from_decide: bool = False
+    ray: Ray | None = None
+
+
+BACKENDS: dict[str, Backend] = {
+    "auto": Backend(gamma_daqp, decide_reduced, margin_sign_from_decide=True),
+    "daqp": Backend(gamma_daqp),
+    "scipy": Backend(gamma_highs, ray=ray_highs),
+    "cvxpy": Backend(gamma_cvxpy, ray=ray_cvxpy),
+    "hrep": Backend(gamma_hrep, decide_hrep),
+    "quickhull": Backend(gamma_quickhull),
+}
+
+METHODS = tuple(BACKENDS)
+"""The names of the feasibility methods, ``"auto"`` (the default) first."""
+
+
+def check_method(method: str) -> str:
+    """``method`` when it names a backend, else a ValueError listing them."""
+    if method not in BACKENDS:
+        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    return method
+
+
+def _gamma_rows(z: Zonotope, R: np.ndarray, backend: Backend) -> np.ndarray:
+    """gamma per row of R (in range(A)) by ``backend``.
+
+    gamma is positively homogeneous in the centred reduced wrench r, so a row far outside the
+    zonotope (beyond ``_FAR`` times its bounding box: huge torques, say) is solved as
+    ``t * gamma(r / t)`` with t = max |r_i|, and the LPs only ever see numbers of order one."""
+    t = np.abs(R).max(axis=1)
+    far = t > _FAR * max(float(z.box.max()), 1e-300)
+    if far.any():
+        R = R.copy()
+        R[far] /= t[far, None]
+    g = backend.gamma(z, R)
+    with np.errstate(over="ignore"):
+        g[far] *= t[far]
+    return g
+
+
+def gamma_with(z: Zonotope, W: np.ndarray, method: str) -> np.ndarray:
+    """gamma per wrench (row of W) by ``method``: inf off range(A)."""
+    R, off = z.reduce(W)
+    out = np.full(len(W), np.inf)
+    on = np.flatnonzero(~off)
+    if len(on):
+        out[on] = _gamma_rows(z, R[on], BACKENDS[method])
+    return out
+
+
+def decide_with(z: Zonotope, W: np.ndarray, method: str) -> np.ndarray:
+    """bool per wrench (row of W) by ``method`` and the tolerance rule: False off range(A)."""
+    backend = BACKENDS[method]
+    R, off = z.reduce(W)
+    if len(off) and not off.any():  # common: every wrench in range(A)
+        return _decide_rows(z, R, backend)
+    out = np.zeros(len(W), dtype=bool)
+    on = np.flatnonzero(~off)
+    if len(on):
+        out[on] = _decide_rows(z, R[on], backend)
+    return out
+
+
+def _decide_rows(z: Zonotope, R: np.ndarray, backend: Backend) -> np.ndarray:
+    """Decisions per row of R (in range(A)): the backend's own, else the rule on its gamma."""
+    if backend.decide is not None:
+        return backend.decide(z, R)
+    return decide_from_gamma(_gamma_rows(z, R, backend))
+
+
+def margin_with(z: Zonotope, W: np.ndarray, method: str) -> np.ndarray:
+    """``1 - gamma`` per wrench (row of W) by ``method``, >= 0 exactly when feasible."""
+    out = margin_from_gamma(gamma_with(z, W, method))
+    if BACKENDS[method].margin_sign_from_decide:
+        # the certified decisions and the LP gamma agree unless gamma is within the LP's
+        # accuracy of 1 + TOL; there the certificate wins, so the sign always matches feasible()
+        ok = decide_with(z, W, method)
+        out[ok & (out < 0)] = 0.0
+        out[~ok & (out >= 0)] = np.nextafter(-TOL, -np.inf)
+    return out

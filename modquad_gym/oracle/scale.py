@@ -1,0 +1,50 @@
+"""Numbers of any size: overflow-free row norms and the searches' check of a task's scale.
+
+Wrenches are divided by f_max on entry (:meth:`~modquad_gym.oracle.Zonotope.reduce`), so every
+answer of the oracle is the same for (s W, s f_max) at any scale s whose values are representable.
+Huge wrenches (torques of 1e200, say) are decided by the exact bounding-box certificate, and their
+gamma comes from homogeneity, ``gamma(r) = t gamma(r / t)``: the LPs only ever see numbers of
+order one, and no step squares a huge value.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..validation import check_f_max, check_wrenches
+
+MAX_TASK_VALUE = 1e100
+"""Largest wrench component (in newtons or newton-metres, and in units of f_max) that
+:func:`check_task_scale` accepts: far beyond anything a structure can exert, and small enough
+that no step of a search overflows."""
+
+
+def row_norms(X: np.ndarray) -> np.ndarray:
+    """Euclidean norm of each row of X, without overflow for any finite entries."""
+    t = np.abs(X).max(axis=1, initial=0.0) if X.shape[1] else np.zeros(len(X))
+    safe = np.where(t > 0.0, t, 1.0)
+    Y = X / safe[:, None]
+    return t * np.sqrt(np.einsum("ij,ij->i", Y, Y))
+
+
+def check_task_scale(W: np.ndarray, f_max: float) -> np.ndarray:
+    """W (checked, (t, 6)) when f_max lies in [1e-300, 1e300] and every |w_i| and every
+    |w_i| / f_max is at most :data:`MAX_TASK_VALUE`, else a ValueError naming the value. The
+    searches call it: they test one task against many structures and multiply and square its
+    numbers on the way, where the oracle itself takes any finite value
+    (:meth:`~modquad_gym.oracle.Zonotope.reduce`)."""
+    W, f_max = check_wrenches(W), check_f_max(f_max)
+    if not 1e-300 <= f_max <= 1e300:
+        raise ValueError(f"f_max = {f_max:g} is outside 1e-300..1e300 (check the units)")
+    if not len(W):
+        return W
+    with np.errstate(over="ignore", under="ignore"):
+        size = np.maximum(np.abs(W), np.abs(W) / f_max).max(axis=1)
+    if not size.max() <= MAX_TASK_VALUE:
+        row = int(np.argmax(~(size <= MAX_TASK_VALUE)))
+        raise ValueError(
+            f"wrench row {row} {W[row].tolist()} with f_max = {f_max:g} is beyond "
+            f"{MAX_TASK_VALUE:g} (newtons, and times f_max): far beyond what any structure can "
+            "exert (check the units)"
+        )
+    return W
