@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from modquad_gym.envs.assembly.certify import ACCEPT, REJECT, FastDecider
 from modquad_gym.envs.assembly.evaluator import StructureEvaluator
 from modquad_gym.oracle import BAND, RESIDUAL_TOL, TOL, WrenchOracle
+from modquad_gym.oracle.highs_lp import gamma_highs
 from modquad_gym.structure import Structure, normalise
 from modquad_gym.tasks import PaperTasks, PlantedTasks, random_cells
 
@@ -36,7 +37,7 @@ def wrenches_at(oracle: WrenchOracle, A: np.ndarray, key, seed: int, gauges) -> 
     z = oracle.zonotope(A, key)
     rng = np.random.default_rng(seed)
     D = rng.standard_normal((len(gauges), z.rank))
-    gamma = z.gamma_scipy(D)
+    gamma = gamma_highs(z, D)
     R = D * (np.asarray(gauges) / gamma)[:, None]
     return oracle.f_max * (R + z.c) @ z.Q.T
 
