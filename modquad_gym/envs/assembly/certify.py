@@ -2,10 +2,11 @@
 
 The env decides every step's structure against up to hundreds of task wrenches, and the exact
 oracle (:class:`~modquad_gym.oracle.WrenchOracle`, method ``"auto"``) spends most of its time in
-vectorised iterations and DAQP calls whose Python overhead dwarfs the arithmetic. Here each
-centred reduced wrench r (the oracle's own :meth:`~modquad_gym.oracle.Zonotope.reduce`) goes
-through a small compiled phase-1 simplex: find x in the cube [-1, 1]^m with G x = r, minimising
-the L1 residual. It ends with either
+vectorised iterations and DAQP calls whose Python overhead dwarfs the arithmetic. Here one
+compiled call per structure and task does the env's support test and, for each wrench left, in
+the oracle's centred reduced coordinates r (those of :meth:`~modquad_gym.oracle.Zonotope.reduce`):
+the off-range rule, the bounding box, the minimum-norm allocation, the directions that separated
+earlier wrenches of the structure, then the phase-1 simplex of :mod:`.simplex`, which ends with
 
 * an allocation x: after the correction x - P (G x - r) onto G x = r (P the pseudo-inverse of
   G), ``|x|_inf <= 1 + TOL - BAND`` certifies gamma(r) <= 1 + TOL: feasible; or
@@ -14,10 +15,9 @@ the L1 residual. It ends with either
 
 Both tests are evaluated here in float64 from x or y alone, so they are exact whatever the
 simplex did, and each keeps a clearance of :data:`~modquad_gym.oracle.BAND` from the threshold,
-outside which every method of the oracle agrees. A wrench that neither certificate decides
-(within BAND of the boundary, or a simplex stopped by its pivot limit) goes to the oracle itself:
-the decisions are the oracle's, row for row. Off-range wrenches and wrenches outside the
-zonotope's bounding box are rejected first, as the oracle does.
+outside which every method of the oracle agrees. A wrench that no certificate decides (within
+BAND of the boundary, within 1 % of the off-range rule, too large, or a simplex stopped by its
+pivot limit) goes to the oracle itself: the decisions are the oracle's, row for row.
 """
 
 from __future__ import annotations
@@ -29,143 +29,16 @@ import numpy as np
 from numba import njit
 
 from ...oracle import BAND, RESIDUAL_TOL, TOL, WrenchOracle
+from .simplex import phase_one
 
 ACCEPT = 1.0 + TOL - BAND
 """An allocation with ``|x|_inf`` at most this certifies a feasible wrench."""
 REJECT = 1.0 + TOL + BAND
 """A direction with ``y . r`` above this times the support certifies an infeasible wrench."""
-MAX_PIVOTS = 200
-"""Simplex iterations per wrench before it is handed to the oracle."""
-
-_EPS = 1e-11  # reduced-cost and residual tolerance (a heuristic: the results are checked)
-_PIVOT = 1e-9  # smallest pivot element
 _HUGE = 1e100  # rows of w / f_max beyond this go to the oracle (its reduction avoids overflow)
 _OFF = 1.01  # off-range margin: residuals within this factor of the rule go to the oracle
 DIRECTIONS = 16
 """Separating directions remembered per structure (tried before the simplex)."""
-
-
-@njit(cache=True)
-def _phase_one(G, r, x, y, Binv, value, basic, head, alpha):  # pragma: no cover - compiled
-    """Bounded-variable phase-1 simplex for one wrench: min sum|G x - r| over x in [-1, 1]^m,
-    started at the vertex nearest x (the minimum-norm allocation on entry).
-
-    Writes the allocation into x and the final dual row into y; returns 1 (residual zero: x is
-    a candidate allocation), 0 (positive residual: y is a candidate separating direction) or -1
-    (pivot limit). Binv, value, basic, head and alpha are work arrays."""
-    n, m = G.shape
-    inside = True
-    for j in range(m):
-        if abs(x[j]) > 1.0:
-            inside = False
-    if inside:  # the minimum-norm allocation lies in the cube
-        return 1
-    for j in range(m):
-        value[j] = 1.0 if x[j] > 0.0 else -1.0
-        basic[j] = -1
-    for i in range(n):
-        res = r[i]
-        for j in range(m):
-            res -= G[i, j] * value[j]
-        s = 1.0 if res >= 0.0 else -1.0
-        for k in range(n):
-            Binv[i, k] = 0.0
-        Binv[i, i] = s
-        head[i] = m + i
-        basic[m + i] = i
-        value[m + i] = abs(res)
-    for _ in range(MAX_PIVOTS):
-        objective = 0.0
-        for k in range(n):
-            y[k] = 0.0
-        for i in range(n):
-            if head[i] >= m:  # artificials cost 1, allocations 0
-                objective += value[head[i]]
-                for k in range(n):
-                    y[k] += Binv[i, k]
-        if objective <= _EPS:
-            for j in range(m):
-                x[j] = value[j]
-            return 1
-        q, direction = _entering(G, y, value, basic)
-        if q < 0:
-            for j in range(m):
-                x[j] = value[j]
-            return 0
-        for i in range(n):
-            acc = 0.0
-            for k in range(n):
-                acc += Binv[i, k] * G[k, q]
-            alpha[i] = acc
-        theta, leave, at = _ratio_test(alpha, direction, head, value, m)
-        for i in range(n):
-            value[head[i]] -= direction * theta * alpha[i]
-        value[q] += direction * theta
-        if leave < 0:  # a bound flip of the entering variable
-            continue
-        out = head[leave]
-        value[out] = at
-        basic[out] = -1
-        head[leave] = q
-        basic[q] = leave
-        _pivot(Binv, alpha, leave)
-    return -1
-
-
-@njit(cache=True)
-def _entering(G, y, value, basic):  # pragma: no cover - compiled
-    """(q, direction): the nonbasic allocation with the most improving reduced cost -y . g_q
-    (Dantzig's rule), +1 to raise it from its lower bound, -1 to lower it from its upper one;
-    q = -1 when none improves (optimal). Artificials that left the basis never return."""
-    n, m = G.shape
-    q, best, direction = -1, _EPS, 0.0
-    for j in range(m):
-        if basic[j] >= 0:
-            continue
-        d = 0.0
-        for i in range(n):
-            d -= y[i] * G[i, j]
-        if value[j] < 0.0 and -d > best:
-            q, best, direction = j, -d, 1.0
-        elif value[j] > 0.0 and d > best:
-            q, best, direction = j, d, -1.0
-    return q, direction
-
-
-@njit(cache=True)
-def _ratio_test(alpha, direction, head, value, m):  # pragma: no cover - compiled
-    """(step, leaving row or -1 for a bound flip, the bound it leaves at): the longest step of
-    the entering variable that keeps every basic variable within its bounds."""
-    theta = 2.0  # the entering variable's own range [-1, 1]
-    leave, at = -1, 0.0
-    for i in range(len(alpha)):
-        rate = -direction * alpha[i]  # d(value of basic i) / d(theta)
-        j = head[i]
-        if rate < -_PIVOT:
-            low = -1.0 if j < m else 0.0
-            t = (value[j] - low) / -rate
-            if t < theta:
-                theta, leave, at = t, i, low
-        elif rate > _PIVOT and j < m:
-            t = (1.0 - value[j]) / rate
-            if t < theta:
-                theta, leave, at = t, i, 1.0
-    return theta, leave, at
-
-
-@njit(cache=True)
-def _pivot(Binv, alpha, leave):  # pragma: no cover - compiled
-    """Update the basis inverse in place when row ``leave`` takes the column with
-    B^-1-coordinates alpha."""
-    n = len(alpha)
-    pivot = alpha[leave]
-    for k in range(n):
-        Binv[leave, k] /= pivot
-    for i in range(n):
-        if i != leave and alpha[i] != 0.0:
-            f = alpha[i]
-            for k in range(n):
-                Binv[i, k] -= f * Binv[leave, k]
 
 
 @njit(cache=True)
@@ -207,7 +80,7 @@ def _decide_row(G, P, axes, r, memory, work):  # pragma: no cover - compiled
     """The verdict (1, 0, -1) of one centred reduced wrench r: the bounding box (supports
     ``axes``), the minimum-norm allocation (accepted as the oracle accepts it, G P = I up to
     round-off far below BAND), the remembered separating directions, then
-    :func:`_phase_one`; a new separating direction is remembered."""
+    :func:`~.simplex.phase_one`; a new separating direction is remembered."""
     dirs, supports, added = memory
     Binv, value, basic, head, alpha, x, y = work
     n, m = G.shape
@@ -229,7 +102,7 @@ def _decide_row(G, P, axes, r, memory, work):  # pragma: no cover - compiled
             proj += dirs[d, i] * r[i]
         if proj > REJECT * supports[d]:
             return 0
-    status = _phase_one(G, r, x, y, Binv, value, basic, head, alpha)
+    status = phase_one(G, r, x, y, Binv, value, basic, head, alpha)
     verdict = _verdict(G, P, r, x, y, status)
     if verdict == 0 and len(supports):  # remember its direction for later rows and calls
         slot = added[0] % len(supports)
