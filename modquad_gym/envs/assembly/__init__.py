@@ -3,8 +3,8 @@ API, :mod:`.transitions` the state transitions, :mod:`.grid` cells <-> actions a
 :mod:`.types` the episode state, :mod:`.reward` the reward functions, :mod:`.features` the
 observation blocks, :mod:`.lookahead` the per-action candidate rows, :mod:`.evaluator` the exact
 decisions and their caches, :mod:`.certify` their compiled fast path (:mod:`.simplex` its LP),
-:mod:`.viewer` the
-pictures, :mod:`.inputs` the input cleaning, :mod:`.mixed` the env of several module types.
+:mod:`.viewer` the pictures, :mod:`.inputs` the input cleaning, :mod:`.mixed` the env of several
+module types.
 
 Where to add: a reward term in :mod:`.reward` (:class:`WeightedReward.terms`), an observation
 feature in :mod:`.features` (:func:`observation_blocks`), a module type's env behaviour in
