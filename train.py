@@ -25,7 +25,7 @@ import sys
 import time
 from pathlib import Path
 
-from modquad_gym.agents.benchmark import REPORT_FILES, SEARCH_METHODS
+from modquad_gym.agents.benchmark import REPORT_FILES
 from modquad_gym.agents.imitation import EXPERTS
 from modquad_gym.agents.tiers import TIERS
 from modquad_gym.agents.training import (
@@ -390,8 +390,6 @@ def report(args: argparse.Namespace, model_path: Path) -> None:
         str(model_path.parent),
         "--force",
     ]
-    if args.tier != "current":  # the searches, and what the model adds to them
-        bench_args += ["--methods", *SEARCH_METHODS, "ppo", "ppo-k8", "ppo-guided"]
     if args.quick:
         bench_args += ["--limit", "3", "--samples", "2"]
     benchmark.main(bench_args)

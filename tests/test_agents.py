@@ -76,7 +76,7 @@ def test_train_clones_the_expert_before_ppo(tmp_path):
     assert config["imitation"]["final_greedy_good"] == 1.0
     evals = np.load(out / "evaluations.npz")
     assert evals["timesteps"][0] == 0 and evals["results"].shape[1] == 4  # cloned, before PPO
-    assert list((tmp_path / "tb" / "model" / "bc").glob("events.out.tfevents.*"))
+    assert list((tmp_path / "tb" / f"{tmp_path.name}-model" / "bc").glob("events.out.tfevents.*"))
     from modquad_gym.agents.ppo import PPOSolver
 
     solver = PPOSolver(model=out / "model.zip", n_max=TINY_N_MAX)

@@ -111,3 +111,13 @@ def test_train_script_errors_are_one_line(capsys, tmp_path):
     with pytest.raises(SystemExit):
         script.main(["--publish-run", str(tmp_path)])
     assert "no model.zip" in capsys.readouterr().err
+
+
+def test_log_names_keep_runs_of_different_folders_apart(tmp_path):
+    from modquad_gym.agents.training import log_name
+
+    runs = tmp_path / "runs"
+    assert log_name(runs / "ppo-seed0", runs) == "ppo-seed0"
+    a = log_name(runs / "seeds-large" / "seed-0", runs)
+    b = log_name(runs / "seeds-current" / "seed-0", runs)
+    assert a == "seeds-large-seed-0" and a != b

@@ -23,7 +23,7 @@ import time
 from functools import lru_cache, partial
 from pathlib import Path
 
-from modquad_gym.bench import bench_args, machine_description
+from modquad_gym.bench import bench_args
 from modquad_gym.module import palette
 from modquad_gym.options import int_option
 from modquad_gym.oracle import feasible
@@ -33,15 +33,13 @@ from modquad_gym.tasks import TaskRequirement, load_suite, rotor_wrenches
 
 from .report import plot_bars, plot_learning_curve, plot_structures, write_report
 from .scores import Row, summarise
-from .solvers import DEFAULT_MODEL, Solver, load_solver, make_solver
+from .solvers import Solver, load_solver, make_solver
 from .tiers import TIERS, Tier, get_tier
-
-machine = machine_description
-"""The machine line of the reports (the name :mod:`.seeds` imports; one helper, in
-:mod:`modquad_gym.bench`)."""
 
 SEARCH_METHODS = tuple(SEARCHES)
 DEFAULT_METHODS = (*SEARCH_METHODS, "ppo", "ppo-k2", "ppo-k8")
+TIER_LEARNED = ("ppo", "ppo-k8", "ppo-guided")
+"""Learned methods scored by default on the tiers other than current that ship a model."""
 
 
 def parse_method(method: str, n_max: int, model: Path | None, seed: int, modules=None) -> Solver:
@@ -137,15 +135,16 @@ OPTIONS = {
     "--suite": dict(type=Path, action="append", default=None,
                     help="suite JSON (repeatable; default the held-out suites in "
                     "modquad_gym/data/suites)"),
-    "--model": dict(type=Path, default=DEFAULT_MODEL, help="PPO model .zip"),
+    "--model": dict(type=Path, default=None, help="PPO model .zip (default: the tier's "
+                    "shipped model, modquad_gym/data/models/ppo_default or ppo_<tier>)"),
     "--train-dir": dict(type=Path, default=None, help="training output with config.json and "
                         "evaluations.npz (default: the model's folder)"),
     "--tier": dict(default=None, help="score on a benchmark tier's held-out suites and budget: "
                    f"{', '.join(TIERS)} (default: current, or the --suite files)"),
     "--methods": dict(nargs="+", default=None,
                       help="search names, ppo, ppo-kN, ppo-guided, or package.module:Name of an "
-                      f"outside agent (default: {' '.join(DEFAULT_METHODS)}; the searches only "
-                      "on tiers without a model)"),
+                      f"outside agent (default: {' '.join(DEFAULT_METHODS)}; on other tiers "
+                      f"the searches, and {' '.join(TIER_LEARNED)} when the tier has a model)"),
     "--solver": dict(action="append", default=[], metavar="PKG.MOD:NAME",
                      help="score an outside agent too (repeatable): a Solver instance or class, "
                      "or a function task -> structure, imported from PKG.MOD"),
@@ -177,7 +176,11 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
     """The methods to score: ``--methods`` (default: all on the current tier, the searches on
     the others), the ``--solver`` agents, and ``--samples`` in place of ``ppo-kN``."""
+    if args.model is None:
+        args.model = tier.model
     default = DEFAULT_METHODS if tier.name == "current" else SEARCH_METHODS
+    if tier.name != "current" and args.model.is_file():
+        default = (*SEARCH_METHODS, *TIER_LEARNED)
     methods = list(dict.fromkeys([*(args.methods or default), *args.solver]))
     if args.samples is not None:
         methods = [m for m in methods if not m.startswith("ppo-k")]

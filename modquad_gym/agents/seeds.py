@@ -27,10 +27,12 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from modquad_gym.bench import machine_description
 from modquad_gym.options import int_option
 from modquad_gym.outputs import check_output_dir, save_figure, write_csv, write_text
 
-from .benchmark import SEARCH_METHODS, Row, machine, run_benchmark
+from .benchmark import SEARCH_METHODS, run_benchmark
+from .scores import Row
 from .tiers import TIERS, get_tier
 
 LEARNED = ("ppo", "ppo-k8", "ppo-guided")
@@ -262,7 +264,7 @@ def write_report(
     text = [
         f"# Learned agents over {len(runs)} training seeds: tier `{tier_name}`",
         "",
-        f"Made by `{command}`. Machine: {machine()}. Wall time {wall:.0f} s.",
+        f"Made by `{command}`. Machine: {machine_description()}. Wall time {wall:.0f} s.",
         "",
         f"Runs: {', '.join(f'`{p.parent}`' for p in runs.values())}. Held-out suites: "
         f"{', '.join(f'`{s}`' for s in tier.suites)}; each task's certified optimum with "

@@ -71,7 +71,7 @@ TIERS = {
     "current": Tier("current", "ModQuadAssembly-v0", 7, ("heldout_paper", "heldout_planted")),
     "large": Tier("large", "ModQuadAssemblyLarge-v0", 12, ("large_planted",),
                   source="planted-large", seed0=3_000_000, n_tasks=40,
-                  recipe={"expert": "one", "demo_tasks": 1_500, "timesteps": 60_000}),
+                  recipe={"expert": "one", "demo_tasks": 800, "timesteps": 30_000}),
     "mixed": Tier("mixed", "ModQuadAssemblyMixed-v0", 7, ("mixed_external",),
                   env_kwargs={"tasks": "planted-mixed-external"}, modules="t45,t45m,flat",
                   source="planted-mixed-external", seed0=4_000_000, n_tasks=40),

@@ -172,7 +172,8 @@ def train(config: TrainConfig) -> Path:
     torch.set_num_threads(config.threads)
     out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
-    log_dir = Path(config.tensorboard) / out.name / "train"  # checkpoints, evaluations
+    name = log_name(out, Path(config.tensorboard))
+    log_dir = Path(config.tensorboard) / name / "train"  # checkpoints, evaluations
     log_dir.mkdir(parents=True, exist_ok=True)
 
     env_kwargs = config.env_kwargs_full
@@ -190,7 +191,7 @@ def train(config: TrainConfig) -> Path:
         (log_dir / stale).unlink(missing_ok=True)
     imitation = None
     if config.resume is None and config.bc_epochs > 0:
-        imitation = pretrain(model, config, Path(config.tensorboard) / out.name / "bc")
+        imitation = pretrain(model, config, Path(config.tensorboard) / name / "bc")
     eval_freq = config.eval_freq or max(config.timesteps // 20, 512)
     eval_cb = _eval_callback_class()(
         eval_env,
@@ -209,7 +210,7 @@ def train(config: TrainConfig) -> Path:
     model.learn(
         total_timesteps=config.timesteps,
         callback=CallbackList([eval_cb, checkpoints]),
-        tb_log_name=out.name,
+        tb_log_name=name,
         progress_bar=config.progress,
         reset_num_timesteps=config.resume is None,
     )
@@ -241,6 +242,15 @@ def train(config: TrainConfig) -> Path:
     eval_env.close()
     print(f"trained {model.num_timesteps} steps in {wall:.0f} s; model: {out / 'model.zip'}")
     return out / "model.zip"
+
+
+def log_name(out: Path, tensorboard: Path) -> str:
+    """The run's folder name under ``tensorboard``: the run folder's name, prefixed by its
+    parent's unless the run lies in ``tensorboard`` itself (so ``runs/seeds-large/seed-0`` and
+    ``runs/seeds-current/seed-0`` never share checkpoints)."""
+    if out.resolve().parent == tensorboard.resolve():
+        return out.name
+    return f"{out.resolve().parent.name}-{out.name}"
 
 
 def _new_model(config: TrainConfig, venv: Any, MaskablePPO: Any) -> Any:
