@@ -144,7 +144,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
 
 
 def add_recipe_options(p: argparse.ArgumentParser) -> None:
-    """The recipe: environment, demonstrations, cloning, PPO, evaluation."""
+    """The recipe: environment, PPO, evaluation."""
     g = p.add_argument_group("recipe")
     g.add_argument(
         "--timesteps",
@@ -175,32 +175,6 @@ def add_recipe_options(p: argparse.ArgumentParser) -> None:
         help="largest structure in modules (default: the tier's, 7 on current)",
     )
     g.add_argument(
-        "--demo-tasks",
-        type=int,
-        default=None,
-        help="training tasks with an expert episode each for behaviour cloning (default "
-        f"{IMITATION['demo_tasks']}; {recipe('demo_tasks')}; {QUICK_DEMO_TASKS} with --quick)",
-    )
-    g.add_argument(
-        "--expert",
-        choices=EXPERTS,
-        default=None,
-        help="what the expert docks towards: all optimal structures, or one, the first the "
-        f"certified search finds (default all; {recipe('expert')})",
-    )
-    g.add_argument(
-        "--bc-epochs",
-        type=int,
-        default=IMITATION["bc_epochs"],
-        help="behaviour-cloning epochs before PPO; 0: PPO alone from scratch (default %(default)s)",
-    )
-    g.add_argument(
-        "--workers",
-        type=int,
-        default=2,
-        help="processes that collect the expert demonstrations (default %(default)s)",
-    )
-    g.add_argument(
         "--eval-freq",
         type=int,
         default=None,
@@ -229,6 +203,37 @@ def add_recipe_options(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_imitation_options(p: argparse.ArgumentParser) -> None:
+    """The expert demonstrations and behaviour cloning before PPO."""
+    g = p.add_argument_group("imitation")
+    g.add_argument(
+        "--demo-tasks",
+        type=int,
+        default=None,
+        help="training tasks with an expert episode each for behaviour cloning (default "
+        f"{IMITATION['demo_tasks']}; {recipe('demo_tasks')}; {QUICK_DEMO_TASKS} with --quick)",
+    )
+    g.add_argument(
+        "--expert",
+        choices=EXPERTS,
+        default=None,
+        help="what the expert docks towards: all optimal structures, or one, the first the "
+        f"certified search finds (default all; {recipe('expert')})",
+    )
+    g.add_argument(
+        "--bc-epochs",
+        type=int,
+        default=IMITATION["bc_epochs"],
+        help="behaviour-cloning epochs before PPO; 0: PPO alone from scratch (default %(default)s)",
+    )
+    g.add_argument(
+        "--workers",
+        type=int,
+        default=2,
+        help="processes that collect the expert demonstrations (default %(default)s)",
+    )
+
+
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
         prog="python train.py",
@@ -238,6 +243,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     add_run_options(p)
     add_recipe_options(p)
+    add_imitation_options(p)
     args = p.parse_args(argv)
     try:
         complete(args)

@@ -2,8 +2,9 @@
 
 Matplotlib is imported inside the functions (``import modquad_gym`` stays light) and figures are
 made with ``matplotlib.figure.Figure`` on an Agg canvas, never through pyplot, so nothing here
-touches the global backend or opens windows. :func:`structure_image` does not use matplotlib at
-all: it rasterises the top view with numpy (deterministic, about 10 ms), for Gymnasium's
+touches the global backend or opens windows. :func:`structure_image` (from
+:mod:`modquad_gym.raster`, re-exported here with the colours) does not use matplotlib at all: it
+rasterises the top view with numpy (deterministic, about 10 ms), for Gymnasium's
 ``render_mode="rgb_array"``.
 
 Colours: rotors with spin +1 blue, spin -1 orange; the first (initial) module is green, as in the
@@ -18,12 +19,23 @@ from __future__ import annotations
 import math
 import os
 from functools import lru_cache
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .oracle import check_f_max, feasible
 from .outputs import save_figure
+from .raster import (
+    ARROW_COLOUR,
+    FIRST_COLOUR,
+    MODULE_COLOUR,
+    SPIN_COLOURS,
+    STOCK_FILLS,
+    TYPE_COLOURS,
+    check_structure,
+    structure_image,
+    type_colour,
+)
 from .structure import Structure
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -31,26 +43,21 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from .tasks import TaskRequirement
 
-SPIN_COLOURS = {1: "#1f77b4", -1: "#ff7f0e"}
-FIRST_COLOUR = "#b7e4b0"
-MODULE_COLOUR = "#dcdcdc"
-ARROW_COLOUR = "#a01010"
-TYPE_COLOURS = ("#dcdcdc", "#a9cce8", "#f3e6a2", "#d4c2ea", "#f2c4ce", "#a9dcd6", "#e8c9a9")
-"""Module fills of a mixed structure: the stock types keep one fill each (:data:`STOCK_FILLS`),
-so a type looks the same in every picture; other types take these by palette index."""
-
-STOCK_FILLS = {"t45": 0, "t45m": 1, "flat": 2, "t30": 3, "t30m": 4}
-"""Index into :data:`TYPE_COLOURS` of each stock type (by name, when its data is the stock's)."""
-
-
-def type_colour(module, index: int = 0) -> str:
-    """The fill (hex) of ``module``: its stock fill, else by its ``index`` in the palette."""
-    from .module import STOCK_TYPES
-
-    stock = STOCK_TYPES.get(getattr(module, "name", ""))
-    if stock is not None and stock.digest == module.digest:
-        return TYPE_COLOURS[STOCK_FILLS[module.name]]
-    return TYPE_COLOURS[(len(STOCK_FILLS) + int(index)) % len(TYPE_COLOURS)]
+__all__ = [
+    "ARROW_COLOUR",
+    "FIRST_COLOUR",
+    "MODULE_COLOUR",
+    "SPIN_COLOURS",
+    "STOCK_FILLS",
+    "TYPE_COLOURS",
+    "draw_rotor_inputs",
+    "draw_structure",
+    "draw_torque_projection",
+    "save_structure_figure",
+    "structure_image",
+    "torque_zonotope_vertices",
+    "type_colour",
+]
 
 
 def _new_axes(projection: str | None = None, figsize: tuple[float, float] = (5.0, 5.0)) -> Axes:
@@ -60,12 +67,6 @@ def _new_axes(projection: str | None = None, figsize: tuple[float, float] = (5.0
     fig = Figure(figsize=figsize, layout="constrained")
     FigureCanvasAgg(fig)
     return fig.add_subplot(1, 1, 1, projection=projection)
-
-
-def _check_structure(structure: Any) -> Structure:
-    if not isinstance(structure, Structure):
-        raise ValueError(f"expected a Structure, got {type(structure).__name__}")
-    return structure
 
 
 # --------------------------------------------------------------------------------------------
@@ -82,7 +83,7 @@ def draw_structure(
     from matplotlib.lines import Line2D
     from matplotlib.patches import Circle, FancyArrow, Rectangle
 
-    s = _check_structure(structure)
+    s = check_structure(structure)
     ax = ax if ax is not None else _new_axes()
     side = s.side
     mixed = s.is_mixed
@@ -199,7 +200,7 @@ def draw_torque_projection(
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
     from scipy.spatial import ConvexHull, QhullError
 
-    s = _check_structure(structure)
+    s = check_structure(structure)
     A = s.configuration_matrix()
     V = torque_zonotope_vertices(A, f_max)
     ax = ax if ax is not None else _new_axes(projection="3d")
@@ -283,7 +284,7 @@ def save_structure_figure(
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    s = _check_structure(structure)
+    s = check_structure(structure)
     if task is None:
         fig = Figure(figsize=(5.0, 5.0), layout="constrained")
         FigureCanvasAgg(fig)
@@ -300,158 +301,3 @@ def save_structure_figure(
             fig.suptitle(f"task: {name}")
     save_figure(fig, os.fspath(path), dpi=dpi)
     return os.fspath(path)
-
-
-# --------------------------------------------------------------------------------------------
-# fast RGB render (no matplotlib)
-# --------------------------------------------------------------------------------------------
-_RGB = {
-    "white": (255, 255, 255),
-    "module": (220, 220, 220),
-    "first": (183, 228, 176),
-    "edge": (58, 58, 58),
-    "spin+": (31, 119, 180),
-    "spin-": (255, 127, 14),
-    "arrow": (160, 16, 16),
-    "com": (0, 0, 0),
-    "ok": (44, 160, 44),
-    "bad": (214, 39, 40),
-}
-
-_MIN_HALF_EXTENT_MODULES = 2.5
-
-
-def _hex_rgb(colour: str) -> tuple[int, int, int]:
-    return tuple(int(colour[k : k + 2], 16) for k in (1, 3, 5))  # type: ignore[return-value]
-
-
-@lru_cache(maxsize=16)
-def _pixel_grid(h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
-    ys, xs = np.mgrid[0:h, 0:w].astype(float)
-    for a in (xs, ys):
-        a.setflags(write=False)
-    return xs + 0.5, ys + 0.5
-
-
-def structure_image(
-    structure: Structure,
-    size: tuple[int, int] = (256, 256),
-    wrench_status: np.ndarray | None = None,
-) -> np.ndarray:
-    """Top view as a uint8 (H, W, 3) image, ``size = (H, W)``: a numpy rasteriser, deterministic
-    and fast (about 10-15 ms for 5-7 modules at 256 x 256).
-
-    The view is centred at the COM, x to the right and y up, with a scale fitted to the
-    structure but never closer than 2.5 module sides from the centre (small structures are not
-    blown up). ``wrench_status`` (t,) - booleans (feasible?) or margins (>= 0 feasible) - adds a
-    strip of t green/red cells along the bottom.
-    """
-    s = _check_structure(structure)
-    try:
-        H, Wd = (int(v) for v in size)
-    except (TypeError, ValueError):
-        raise ValueError(f"size must be a pair (height, width), got {size!r}") from None
-    if H < 16 or Wd < 16:
-        raise ValueError(f"size must be at least 16 x 16 pixels, got {size!r}")
-    img = np.empty((H, Wd, 3), dtype=np.uint8)
-    img[:] = _RGB["white"]
-    strip = 0
-    if wrench_status is not None:
-        status = np.asarray(wrench_status).ravel()
-        if status.dtype != bool:
-            status = status.astype(float) >= 0
-        strip = max(4, H // 12)
-        _draw_status_strip(img, status, strip)
-    h = H - strip - (2 if strip else 0)  # drawing area rows [0, h)
-    side = s.side
-    centres = s.module_centres[:, :2]
-    half = max(np.abs(centres).max() + 0.6 * side, _MIN_HALF_EXTENT_MODULES * side)
-    scale = 0.5 * min(h, Wd) / half  # pixels per metre
-    X, Y = _pixel_grid(H, Wd)
-    ox, oy = Wd / 2.0, h / 2.0
-
-    def to_px(p: np.ndarray) -> tuple[float, float]:
-        return ox + p[0] * scale, oy - p[1] * scale
-
-    def box(px: float, py: float, r: float) -> tuple[slice, slice]:
-        r0, r1 = max(int(py - r) - 1, 0), min(int(py + r) + 2, h)
-        c0, c1 = max(int(px - r) - 1, 0), min(int(px + r) + 2, Wd)
-        return slice(r0, max(r0, r1)), slice(c0, max(c0, c1))
-
-    half_px = 0.5 * side * scale
-    edge = max(1.0, half_px / 14)
-    for i, (c, t) in enumerate(zip(centres, s.type_indices)):
-        px, py = to_px(c)
-        sl = box(px, py, half_px)
-        d = np.maximum(np.abs(X[sl] - px), np.abs(Y[sl] - py))
-        img[sl][d <= half_px] = _RGB["edge"]
-        if s.is_mixed:  # fill by type; the first module keeps a thicker outline
-            inner = half_px - (2.5 * edge if i == 0 else edge)
-            img[sl][d <= inner] = _hex_rgb(type_colour(s.modules[i], t))
-        else:
-            img[sl][d <= half_px - edge] = _RGB["first" if i == 0 else "module"]
-    rad = side / 9 * scale
-    spins = s.rotor_spins
-    for p, spin in zip(s.rotor_positions, spins, strict=True):
-        px, py = to_px(p)
-        sl = box(px, py, rad)
-        d2 = (X[sl] - px) ** 2 + (Y[sl] - py) ** 2
-        img[sl][d2 <= rad**2] = _RGB["edge"]
-        img[sl][d2 <= (rad - edge) ** 2] = _RGB["spin+" if spin > 0 else "spin-"]
-    width = max(1.0, side * scale / 40)
-    for p, d in zip(s.rotor_positions, s.rotor_directions, strict=True):
-        if np.linalg.norm(d[:2]) < 1e-9:
-            continue
-        a = np.array(to_px(p))
-        b = np.array(to_px(p[:2] + d[:2] * (side / 3)))
-        _draw_segment(img, X, Y, a, b, width, _RGB["arrow"], h)
-        _draw_segment(img, X, Y, b, b, 2.2 * width, _RGB["arrow"], h)  # the arrow head as a dot
-    cx, cy = ox, oy
-    arm = max(3.0, side * scale / 8)
-    _draw_segment(
-        img, X, Y, np.array([cx - arm, cy]), np.array([cx + arm, cy]), width, _RGB["com"], h
-    )
-    _draw_segment(
-        img, X, Y, np.array([cx, cy - arm]), np.array([cx, cy + arm]), width, _RGB["com"], h
-    )
-    return img
-
-
-def _draw_segment(
-    img: np.ndarray,
-    X: np.ndarray,
-    Y: np.ndarray,
-    a: np.ndarray,
-    b: np.ndarray,
-    width: float,
-    colour: tuple[int, int, int],
-    h: int,
-) -> None:
-    """Paint the pixels within ``width`` of the segment a-b (pixel coordinates), rows < h."""
-    r0 = max(int(min(a[1], b[1]) - width) - 1, 0)
-    r1 = min(int(max(a[1], b[1]) + width) + 2, h)
-    c0 = max(int(min(a[0], b[0]) - width) - 1, 0)
-    c1 = min(int(max(a[0], b[0]) + width) + 2, img.shape[1])
-    if r1 <= r0 or c1 <= c0:
-        return
-    sl = (slice(r0, r1), slice(c0, c1))
-    px, py = X[sl] - a[0], Y[sl] - a[1]
-    v = b - a
-    vv = float(v @ v)
-    t = np.clip((px * v[0] + py * v[1]) / vv, 0.0, 1.0) if vv > 0 else 0.0
-    d2 = (px - t * v[0]) ** 2 + (py - t * v[1]) ** 2
-    img[sl][d2 <= width**2] = colour
-
-
-def _draw_status_strip(img: np.ndarray, status: np.ndarray, strip: int) -> None:
-    H, Wd = img.shape[:2]
-    t = len(status)
-    if t == 0:
-        return
-    edges = np.linspace(0, Wd, t + 1).round().astype(int)
-    top = H - strip
-    for k in range(t):
-        c0, c1 = edges[k], edges[k + 1]
-        img[top:H, c0:c1] = _RGB["ok" if status[k] else "bad"]
-        if c1 - c0 > 3:  # a white gap between cells when there is room
-            img[top:H, c1 - 1 : c1] = _RGB["white"]

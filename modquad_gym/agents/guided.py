@@ -103,23 +103,13 @@ class GuidedSolver(PPOSolver):
                 queued.add(key)
                 heapq.heappush(heap, (cost - float(np.log(probs[a])), pushes, (*actions, int(a))))
                 pushes += 1
-        return SearchResult(
-            structure=best,
-            n_modules=best.n_modules if best is not None else None,
-            evaluated=len(evaluated),
-            oracle_calls=oracle_calls,
-            seconds=time.perf_counter() - t0,
-            certified=certified,
-            method=self.name,
-            n_max=self.n_max,
-            proof=(
-                ""
-                if not certified
-                else "lower bound reached"
-                if best is not None
-                else f"exact bounds rule out every level up to {self.n_max}"
-            ),
-        )
+        if not certified:
+            proof = ""
+        elif best is not None:
+            proof = "lower bound reached"
+        else:
+            proof = f"exact bounds rule out every level up to {self.n_max}"
+        return self._result(best, len(evaluated), oracle_calls, t0, certified, proof)
 
     def __repr__(self) -> str:
         return (

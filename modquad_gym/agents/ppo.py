@@ -191,15 +191,28 @@ class PPOSolver:
             s = Structure([tuple(c) for c in info["cells"]], module=self.env.module)
             if feasible(s.configuration_matrix(), W, f_max, method="daqp").all():
                 best = s
+        return self._result(best, len(seen), oracle_calls, t0)
+
+    def _result(
+        self,
+        best: Structure | None,
+        evaluated: int,
+        oracle_calls: int,
+        t0: float,
+        certified: bool = False,
+        proof: str = "",
+    ) -> SearchResult:
+        """The search record of a solve that started at ``t0`` and kept ``best``."""
         return SearchResult(
             structure=best,
             n_modules=best.n_modules if best is not None else None,
-            evaluated=len(seen),
+            evaluated=evaluated,
             oracle_calls=oracle_calls,
             seconds=time.perf_counter() - t0,
-            certified=False,
+            certified=certified,
             method=self.name,
             n_max=self.n_max,
+            proof=proof,
         )
 
     def __repr__(self) -> str:

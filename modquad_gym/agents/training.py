@@ -159,7 +159,6 @@ def _eval_callback_class():
 
 def train(config: TrainConfig) -> Path:
     """Train; save ``model.zip``, ``config.json`` and ``evaluations.npz`` in ``config.out``."""
-    import numpy as np
     import torch
     from sb3_contrib import MaskablePPO
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
@@ -217,21 +216,10 @@ def train(config: TrainConfig) -> Path:
     wall = time.perf_counter() - t0
     model.save(log_dir / "final_model.zip")
 
-    # keep the model with the best validation return (the last one if no evaluation ran)
-    best = log_dir / "best_model.zip"
-    chosen = best if best.is_file() else log_dir / "final_model.zip"
-    atomic_write(out / "model.zip", lambda tmp: shutil.copyfile(chosen, tmp))
-    evals = log_dir / "evaluations.npz"
-    best_step = int(model.num_timesteps)
-    if evals.is_file():
-        atomic_write(out / "evaluations.npz", lambda tmp: shutil.copyfile(evals, tmp))
-        data = np.load(evals)
-        if chosen == best:
-            best_step = int(data["timesteps"][int(np.argmax(data["results"].mean(axis=1)))])
+    kept = keep_best(log_dir, out, int(model.num_timesteps))
     record = {
         **run_record(config, model, len(val)),
-        "kept_model": "best validation return" if chosen == best else "final",
-        "kept_model_timesteps": best_step,
+        **kept,
         "imitation": imitation,
         "wall_seconds": round(time.perf_counter() - t_start, 1),
         "ppo_seconds": round(wall, 1),
@@ -242,6 +230,25 @@ def train(config: TrainConfig) -> Path:
     eval_env.close()
     print(f"trained {model.num_timesteps} steps in {wall:.0f} s; model: {out / 'model.zip'}")
     return out / "model.zip"
+
+
+def keep_best(log_dir: Path, out: Path, final_step: int) -> dict:
+    """Copy the model with the best validation return (the final one if no evaluation ran)
+    and the learning curve from ``log_dir`` into ``out``; what the config records of it."""
+    import numpy as np
+
+    best = log_dir / "best_model.zip"
+    chosen = best if best.is_file() else log_dir / "final_model.zip"
+    atomic_write(out / "model.zip", lambda tmp: shutil.copyfile(chosen, tmp))
+    evals = log_dir / "evaluations.npz"
+    step = final_step
+    if evals.is_file():
+        atomic_write(out / "evaluations.npz", lambda tmp: shutil.copyfile(evals, tmp))
+        data = np.load(evals)
+        if chosen == best:
+            step = int(data["timesteps"][int(np.argmax(data["results"].mean(axis=1)))])
+    kept = "best validation return" if chosen == best else "final"
+    return {"kept_model": kept, "kept_model_timesteps": step}
 
 
 def log_name(out: Path, tensorboard: Path) -> str:

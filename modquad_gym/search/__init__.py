@@ -1,6 +1,8 @@
 """Searches for the smallest structure whose feasible wrenches contain a task (paper Sec. V).
 
 * :mod:`.exhaustive`: the certified exhaustive search and the whole minimal level;
+* :mod:`.typed`: its pairs of shapes and type assignments (several types, or self-weight);
+* :mod:`.levels`: the size of each level and its progress bar;
 * :mod:`.baselines`: the centrosymmetric heuristic (Algorithm 2), greedy and random;
 * :mod:`.bounds`: exact lower bounds (force, level) that rule out whole levels;
 * :mod:`.checker` and :mod:`.supports`: deciding a task against many structures.

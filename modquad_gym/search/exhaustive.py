@@ -12,20 +12,11 @@ first feasible structure of the first range that has one, so it is the same for 
 workers, on one machine or a cluster.
 
 Several module types (``modules=[...]``) or a task of kind ``external``: every (shape, type
-assignment) pair is visited, level by level; within a level shapes come in canonical order
-and, for each shape, assignments in lexicographic order of the palette indices taken in the
-shape's cell order, so the answer is again the first feasible pair in a fixed order. Exact
-pruning before any pair is evaluated: the count bound rules out every count vector (how many
-modules of each type) whose forces, and weight for ``external`` tasks, no shape can exert
-(:func:`.bounds.counts_possible`), and the level bounds rule out the one-type counts they
-cover; the pairs they rule out are counted in ``SearchResult.skipped``. Pairs are
-distinct structures up to translation (fixed polyominoes times assignments); palette
-types that are copies of one another are merged first.
+assignment) pair is visited level by level, by :mod:`.typed` (re-exported here).
 """
 
 from __future__ import annotations
 
-import itertools
 import os
 import time
 from collections.abc import Iterator, Sequence
@@ -37,22 +28,24 @@ import numpy as np
 
 from ..distributed import Engine
 from ..module import ModuleType
-from ..polyominoes import A001168, DEFAULT_CHUNK, PolyominoStream, level_chunks
+from ..polyominoes import DEFAULT_CHUNK, PolyominoStream, level_chunks
 from ..structure import Key, Structure, normalise, normalise_typed
 from ..validation import check_int
 from .bounds import NO_SIZE, force_lower_bound, level_excluded
 from .checker import TaskChecker
-from .result import Optima, SearchResult, SearchRun, allowed_counts, first_possible_level
+from .levels import level_progress, level_size
+from .result import Optima, SearchResult, SearchRun
+from .typed import (
+    MAX_PAIRS,
+    PAIRS_PER_BLOCK,
+    assignments,
+    check_pair_budget,
+    search_typed,
+    typed_structure,
+)
 
 MAX_MODULES = 16
 """The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8."""
-
-MAX_PAIRS = 10**9
-"""Most (shape, type assignment) pairs a level of the typed search may hold (fixed
-polyominoes of n cells times K^n): 2 types reach it at 11 modules, 3 types at 10."""
-
-PAIRS_PER_BLOCK = 8192
-"""Pairs decided together by the typed search (whole shapes with all their assignments)."""
 
 PARALLEL_FROM = 100_000
 """Levels with at least this many structures are split into Ray tasks (with workers > 1)."""
@@ -60,10 +53,6 @@ PARALLEL_FROM = 100_000
 CHUNKS_PER_RANGE = 16
 """Chunks per Ray task of a split level (262,144 structures with the default chunk): each task
 starts a fresh cache of separating directions, so fewer, longer tasks waste less."""
-
-
-def level_size(n: int) -> int | None:
-    return A001168[n - 1] if n <= len(A001168) else None
 
 
 def _key(cells: np.ndarray) -> Key:
@@ -177,15 +166,6 @@ def _workers(workers: int | None) -> int:
     return check_int(workers, "workers", low=1)
 
 
-def _progress(enabled: bool, n: int):
-    if not enabled:
-        return None
-    from tqdm.auto import tqdm
-
-    # shown only when a level takes more than half a second
-    return tqdm(total=level_size(n), desc=f"level {n}", unit=" structures", leave=False, delay=0.5)
-
-
 def _levels_to_search(run: SearchRun) -> tuple[int, list[int], str]:
     """(first level to search, levels ruled out as a whole, proof when none is left)."""
     n_lb = force_lower_bound(run.W, run.module, run.f_max)
@@ -206,7 +186,7 @@ def _search_levels(run: SearchRun, chunk, engine, progress, first_only):
             skipped.append(n)
             run.skipped += level_size(n) or 0
             continue
-        bar = _progress(progress, n)
+        bar = level_progress(progress, n)
         try:
             found = []
             for key in _scan(run, n, chunk, engine if first_only else None, bar):
@@ -255,8 +235,8 @@ def exhaustive_search(
     run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES, modules, kind)
     chunk = check_int(chunk, "chunk", low=1)
     if not run.homogeneous_total:
-        n, found, skipped, proof = _search_typed(run, progress, True)
-        structure = _typed_structure(run, found[0]) if found else None
+        n, found, skipped, proof = search_typed(run, progress, True)
+        structure = typed_structure(run, found[0]) if found else None
         return run.finish(structure, True, skipped, proof)
     workers = _workers(workers)
     engine = Engine(workers, address) if workers > 1 else None
@@ -283,8 +263,8 @@ def optimal_level(
     if run.homogeneous_total:
         n, keys, _, proof = _search_levels(run, chunk, None, False, False)
     else:  # an external task: self-weight, one type
-        n, found, _, proof = _search_typed(run, False, False)
-        keys = [_typed_structure(run, f).key for f in found]
+        n, found, _, proof = search_typed(run, False, False)
+        keys = [typed_structure(run, f).key for f in found]
     return Optima(
         n_modules=n,
         keys=keys,
@@ -313,8 +293,8 @@ def optimal_structures(
     one-type structures of such a search too)."""
     run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES, modules, kind)
     if not run.homogeneous_total:
-        n, found, _, _ = _search_typed(run, False, False)
-        structures = (_typed_structure(run, f) for f in found)
+        n, found, _, _ = search_typed(run, False, False)
+        structures = (typed_structure(run, f) for f in found)
         if run.typed:
             return n, [normalise_typed(s.cells, s.modules) for s in structures]
         return n, [s.key for s in structures]
@@ -322,88 +302,14 @@ def optimal_structures(
     return n, keys
 
 
-# --- several module types, or self-weight ---------------------------------------------------
-def assignments(n: int, allowed: np.ndarray) -> np.ndarray:
-    """(T, n) int8: every assignment of K types to n cells in lexicographic order, kept when
-    ``allowed[c_0, ..., c_{K-1}]`` is True for its counts c (``allowed``: K axes of length
-    n + 1)."""
-    K = allowed.ndim
-    rows = np.array(list(itertools.product(range(K), repeat=n)), dtype=np.int8).reshape(-1, n)
-    counts = np.stack([(rows == k).sum(axis=1) for k in range(K)], axis=1)
-    keep = allowed[tuple(counts.T)]
-    return np.ascontiguousarray(rows[keep])
-
-
-def check_pair_budget(run: SearchRun, first_level: int) -> None:
-    """Refuse before any work a typed search whose last level holds more than MAX_PAIRS."""
-    n, K = run.n_max, len(run.palette)
-    size = level_size(n)
-    if first_level > n:
-        return
-    if n > MAX_MODULES or size is None or size * K**n > MAX_PAIRS:
-        raise ValueError(
-            f"n_max={n} with {K} module type(s) is beyond what the exhaustive search can "
-            f"finish: at most {MAX_PAIRS:.0e} (shape, assignment) pairs per level"
-        )
-
-
-def _search_typed(run: SearchRun, progress: bool, first_only: bool):
-    """(n*, found, skipped levels, proof), found a list of (cells tuple, types tuple) pairs of
-    level n* in the typed search's order (module docstring)."""
-    first, proof = first_possible_level(run)
-    if proof:
-        run.skipped += sum(allowed_counts(run, n)[1] for n in range(1, run.n_max + 1))
-        return None, [], list(range(1, run.n_max + 1)), proof
-    check_pair_budget(run, first)
-    skipped_levels = []
-    for n in range(1, run.n_max + 1):
-        allowed, skipped = allowed_counts(run, n)
-        run.skipped += skipped
-        if not allowed.any():
-            skipped_levels.append(n)
-            continue
-        assign = assignments(n, allowed)
-        per_block = max(1, PAIRS_PER_BLOCK // len(assign))
-        bar = _progress(progress, n)
-        found = []
-        try:
-            for shapes in PolyominoStream(n, max(per_block, 1024)):
-                for start in range(0, len(shapes), per_block):
-                    block = shapes[start : start + per_block]
-                    cells = np.repeat(block, len(assign), axis=0)
-                    types = np.tile(assign, (len(block), 1))
-                    rest = 0
-                    while rest < len(cells):
-                        i = run.checker.first_feasible(cells[rest:], types[rest:])
-                        if i is None:
-                            break
-                        j = rest + i
-                        found.append((tuple(map(tuple, cells[j].tolist())), tuple(types[j])))
-                        if first_only:
-                            return n, found, skipped_levels, ""
-                        rest = j + 1
-                if bar is not None:
-                    bar.update(len(shapes))
-        finally:
-            if bar is not None:
-                bar.close()
-        if found:
-            return n, found, skipped_levels, ""
-    return None, [], skipped_levels, ""
-
-
-def _typed_structure(run: SearchRun, pair) -> Structure:
-    """The structure of a (cells, types) pair, translation-normalised (sorted cells)."""
-    cells, types = pair
-    key = normalise_typed(cells, (run.palette[int(t)] for t in types))
-    return Structure.from_trusted(tuple(c for c, _ in key), modules=tuple(m for _, m in key))
-
-
 __all__ = [
     "MAX_MODULES",
     "MAX_PAIRS",
+    "PAIRS_PER_BLOCK",
     "assignments",
+    "check_pair_budget",
     "exhaustive_search",
+    "level_size",
     "normalise_typed",
     "optimal_level",
     "optimal_structures",

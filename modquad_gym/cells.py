@@ -1,0 +1,100 @@
+"""Grid cells: integer (x, y) pairs, one module each, and the functions on sets of them.
+
+The building blocks of :mod:`modquad_gym.structure` and of the searches: checking a cell,
+translation-normalised keys (structures are equal up to translation only), face-connectivity,
+the free cells a module can dock at, and the enumeration of every connected cell set of n cells.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Iterator
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .module import ModuleType
+
+Cell = tuple[int, int]
+Key = tuple[Cell, ...]
+
+NEIGHBOURS: tuple[Cell, ...] = ((1, 0), (-1, 0), (0, 1), (0, -1))
+
+MAX_COORDINATE = 1_000_000
+"""Largest |x| or |y| of a grid cell (cells are stored as 32-bit integers in the hot loops)."""
+
+
+def as_cell(raw: object, index: int) -> Cell:
+    """Cell #``index`` as an (x, y) pair of ints; ValueError naming it when it is not a pair
+    of integral numbers within +-MAX_COORDINATE."""
+    try:
+        x, y = raw  # type: ignore[misc]
+    except (TypeError, ValueError):
+        raise ValueError(f"cell #{index} {raw!r} is not a pair (x, y)") from None
+    out = []
+    for v in (x, y):
+        if isinstance(v, (bool, np.bool_)) or not isinstance(
+            v, (int, np.integer, float, np.floating)
+        ):
+            raise ValueError(f"cell #{index} {raw!r} must hold integers, got {type(v).__name__}")
+        if isinstance(v, (float, np.floating)) and not (math.isfinite(v) and float(v).is_integer()):
+            raise ValueError(f"cell #{index} {raw!r} must hold integers, got {v!r}")
+        if abs(int(v)) > MAX_COORDINATE:
+            raise ValueError(
+                f"cell #{index} {raw!r}: coordinates must lie within +-{MAX_COORDINATE:,}"
+            )
+        out.append(int(v))
+    return (out[0], out[1])
+
+
+def normalise(cells: Iterable[Cell]) -> Key:
+    """Translation-normalised key: cells shifted so min x = min y = 0, sorted."""
+    cells = list(cells)
+    x0 = min(c[0] for c in cells)
+    y0 = min(c[1] for c in cells)
+    return tuple(sorted((x - x0, y - y0) for x, y in cells))
+
+
+def normalise_typed(cells: Iterable[Cell], modules: Iterable[ModuleType]) -> tuple:
+    """Translation-normalised key of a mixed structure: ``((x, y), type)`` pairs, cells
+    shifted so min x = min y = 0, sorted by cell."""
+    cells = list(cells)
+    x0 = min(c[0] for c in cells)
+    y0 = min(c[1] for c in cells)
+    pairs = (((x - x0, y - y0), m) for (x, y), m in zip(cells, modules, strict=True))
+    return tuple(sorted(pairs, key=lambda p: p[0]))
+
+
+def is_connected(cells: Iterable[Cell]) -> bool:
+    """True when the cells form one face-connected group."""
+    cells = set(cells)
+    if not cells:
+        return False
+    start = next(iter(cells))
+    seen, stack = {start}, [start]
+    while stack:
+        x, y = stack.pop()
+        for dx, dy in NEIGHBOURS:
+            nb = (x + dx, y + dy)
+            if nb in cells and nb not in seen:
+                seen.add(nb)
+                stack.append(nb)
+    return len(seen) == len(cells)
+
+
+def free_neighbours(cells: Iterable[Cell]) -> list[Cell]:
+    """Empty cells 4-adjacent to ``cells`` (where a module can dock), sorted."""
+    cells = set(cells)
+    return sorted({(x + dx, y + dy) for x, y in cells for dx, dy in NEIGHBOURS} - cells)
+
+
+def structure_levels(n_max: int) -> Iterator[list[Key]]:
+    """Yield, for n = 1..n_max, every connected structure of n modules up to translation (the
+    fixed polyominoes: 1, 2, 6, 19, 63, 216, 760, 2725, 9910, 36446, ...) as keys, in the
+    canonical order of :mod:`modquad_gym.polyominoes`. Each level is a list: for small n only;
+    the searches stream levels in chunks instead."""
+    from .polyominoes import PolyominoStream  # numba: imported on first use
+
+    for n in range(1, n_max + 1):
+        yield [normalise(map(tuple, c.tolist())) for b in PolyominoStream(n) for c in b]
