@@ -381,21 +381,19 @@ def _train_run(argv: list[str]) -> str:
     return argv[argv.index("--out") + 1]
 
 
+def shown(path: Path) -> str:
+    """``path`` relative to the working folder when it lies inside it (as reports print it)."""
+    path, here = Path(path).resolve(), Path.cwd().resolve()
+    return str(path.relative_to(here)) if path.is_relative_to(here) else str(path)
+
+
 def report(args: argparse.Namespace, model_path: Path) -> None:
     """The benchmark report of ``model_path`` on its tier's held-out suites."""
     from modquad_gym.agents import benchmark
 
-    bench_args = [
-        "--model",
-        str(model_path),
-        "--out",
-        str(args.report_dir),
-        "--tier",
-        args.tier,
-        "--train-dir",
-        str(model_path.parent),
-        "--force",
-    ]
+    model, out = shown(model_path), shown(args.report_dir)
+    bench_args = ["--model", model, "--out", out, "--tier", args.tier, "--force"]
+    bench_args += ["--train-dir", shown(model_path.parent)]
     if args.quick:
         bench_args += ["--limit", "3", "--samples", "2"]
     benchmark.main(bench_args)
