@@ -74,3 +74,9 @@ def test_bad_runs_folder_is_one_line(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main([str(tmp_path)])
     assert exc.value.code == 2 and "no seed-*/model.zip" in capsys.readouterr().err
+    for seed in (0, 1):
+        (tmp_path / f"f{seed}" / "seed-3").mkdir(parents=True)
+        (tmp_path / f"f{seed}" / "seed-3" / "model.zip").write_bytes(b"")
+    with pytest.raises(SystemExit):
+        main([str(tmp_path / "f0"), str(tmp_path / "f1")])
+    assert "seed 3 in both" in capsys.readouterr().err

@@ -283,11 +283,20 @@ def write_report(
     return write_text(out / "seeds.md", "\n".join(text))
 
 
-def find_runs(folder: Path) -> dict[str, Path]:
-    """``seed-S/model.zip`` of ``folder`` by seed label, in seed order; ValueError if none."""
-    runs = {p.parent.name.removeprefix("seed-"): p for p in folder.glob("seed-*/model.zip")}
+def find_runs(folders: list[Path]) -> dict[str, Path]:
+    """``seed-S/model.zip`` of every folder by seed label, in seed order; ValueError if none
+    or if two folders hold the same seed."""
+    runs: dict[str, Path] = {}
+    for folder in folders:
+        for path in sorted(Path(folder).glob("seed-*/model.zip")):
+            label = path.parent.name.removeprefix("seed-")
+            if label in runs:
+                raise ValueError(f"RUNS: seed {label} in both {runs[label].parent} and "
+                                 f"{path.parent}")  # fmt: skip
+            runs[label] = path
     if not runs:
-        raise ValueError(f"RUNS: no seed-*/model.zip in {folder} (train: python train.py --seeds)")
+        names = ", ".join(str(f) for f in folders)
+        raise ValueError(f"RUNS: no seed-*/model.zip in {names} (train: python train.py --seeds)")
     return dict(sorted(runs.items(), key=lambda kv: (len(kv[0]), kv[0])))
 
 
@@ -297,7 +306,7 @@ def main(argv: list[str] | None = None) -> int:
         description="Score every seed's model of a `train.py --seeds` folder on a tier's "
         "held-out suites and report the IQM and mean with 95 % bootstrap intervals.",
     )
-    p.add_argument("runs", type=Path, help="folder with seed-*/model.zip")
+    p.add_argument("runs", type=Path, nargs="+", help="folders with seed-*/model.zip")
     p.add_argument("--tier", choices=tuple(TIERS), default="current", help="(default current)")
     p.add_argument(
         "--methods",
@@ -316,7 +325,7 @@ def main(argv: list[str] | None = None) -> int:
                 f"--methods: learned methods only (ppo, ppo-kN, ppo-guided), got {args.methods}"
             )
         runs = find_runs(args.runs)
-        out = args.out or args.runs / "report"
+        out = args.out or args.runs[0] / "report"
         check_output_dir(out, SEED_FILES, args.force, "--out")
     except ValueError as exc:
         p.error(str(exc))
