@@ -396,6 +396,8 @@ def report(args: argparse.Namespace, model_path: Path) -> None:
     bench_args += ["--train-dir", shown(model_path.parent)]
     if args.quick:
         bench_args += ["--limit", "3", "--samples", "2"]
+    if args.no_progress:
+        bench_args.append("--no-progress")
     benchmark.main(bench_args)
 
 
