@@ -42,6 +42,18 @@ DIRECTIONS = 16
 
 
 @njit(cache=True)
+def _l1_support(y, G):  # pragma: no cover - compiled
+    """sum_j |y . G[:, j]|: the box's support in direction y (a separation's right side)."""
+    support = 0.0
+    for j in range(G.shape[1]):
+        acc = 0.0
+        for i in range(G.shape[0]):
+            acc += y[i] * G[i, j]
+        support += abs(acc)
+    return support
+
+
+@njit(cache=True)
 def _verdict(G, P, r, x, y, status):  # pragma: no cover - compiled
     """1 (feasible), 0 (infeasible) or -1 (undecided) for wrench r from the simplex's x or y,
     by the certificates of the module docstring (computed here from x or y alone)."""
@@ -64,13 +76,7 @@ def _verdict(G, P, r, x, y, status):  # pragma: no cover - compiled
         proj = 0.0
         for i in range(n):
             proj += y[i] * r[i]
-        support = 0.0
-        for j in range(m):
-            acc = 0.0
-            for i in range(n):
-                acc += y[i] * G[i, j]
-            support += abs(acc)
-        if proj > REJECT * support:
+        if proj > REJECT * _l1_support(y, G):
             return 0
     return -1
 
@@ -106,14 +112,8 @@ def _decide_row(G, P, axes, r, memory, work):  # pragma: no cover - compiled
     verdict = _verdict(G, P, r, x, y, status)
     if verdict == 0 and len(supports):  # remember its direction for later rows and calls
         slot = added[0] % len(supports)
-        support = 0.0
-        for j in range(m):
-            acc = 0.0
-            for i in range(n):
-                acc += y[i] * G[i, j]
-            support += abs(acc)
         dirs[slot] = y
-        supports[slot] = support
+        supports[slot] = _l1_support(y, G)
         added[0] += 1
     return verdict
 
