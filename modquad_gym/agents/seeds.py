@@ -173,7 +173,7 @@ def report_tables(scores: list[SeedScore], tier_name: str) -> list[str]:
             s = summary(scores, metric, m)
             pct = metric != "evaluated"
             cells += [_ci(s["iqm"], pct), _ci(s["mean"], pct)]
-        n = summary(scores, "success", m)["seeds"]
+        n = len({s.seed for s in scores if s.method == m})
         lines.append(f"| {m} | {n} | " + " | ".join(cells) + " |")
         for suite in suites:
             cells = [_ci(summary(scores, k, m, suite)["iqm"], k != "evaluated") for k in METRICS]

@@ -22,7 +22,7 @@ import platform
 import shutil
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -398,8 +398,3 @@ def publish(run: Path, model: Path = DEFAULT_MODEL) -> Path:
             atomic_write(target / name, lambda tmp, n=name: shutil.copyfile(run / n, tmp))
     print(f"published {run} as the shipped model {model}")
     return Path(model)
-
-
-def as_dict(config: TrainConfig) -> dict:
-    """The config as plain JSON-able values (paths as strings)."""
-    return {k: str(v) if isinstance(v, Path) else v for k, v in asdict(config).items()}
