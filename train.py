@@ -70,7 +70,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         choices=tuple(TIERS),
         default="current",
         help="benchmark tier: its environment, task source, n_max and held-out "
-        "suites (default %(default)s; mixed is not trainable yet)",
+        "suites (default %(default)s)",
     )
     g.add_argument(
         "--seed",

@@ -46,8 +46,44 @@ def test_optimal_structures_reports_none_beyond_n_max():
 
 def test_placements_hold_the_origin_and_every_translate():
     targets = placements([((0, 0), (1, 0), (1, 1))])
-    assert len(targets) == 3 and all((0, 0) in t for t in targets)
-    assert {normalise(t) for t in targets} == {((0, 0), (1, 0), (1, 1))}
+    assert len(targets) == 3 and all(((0, 0), 0) in t for t in targets)
+    assert {normalise(c for c, _ in t) for t in targets} == {((0, 0), (1, 0), (1, 1))}
+
+
+def test_typed_placements_put_a_module_of_the_start_type_on_the_origin():
+    from modquad_gym.module import palette
+
+    a, b = palette("t45,flat")
+    key = (((0, 0), a), ((1, 0), b), ((1, 1), b))
+    assert placements([key], [a, b], start=0) == [
+        frozenset({((0, 0), 0), ((1, 0), 1), ((1, 1), 1)})
+    ]
+    from_b = placements([key], [a, b], start=1)
+    assert len(from_b) == 2 and all(((0, 0), 1) in t for t in from_b)
+
+
+def test_mixed_expert_episodes_dock_the_certified_typed_optimum():
+    """With several module types the expert docks (cell, type) pairs of the certified search's
+    typed optimum, from a start type that optimum holds, and ends with its module count."""
+    from modquad_gym.agents.imitation import expert_targets, typed_cells
+    from modquad_gym.tasks import make_generator
+
+    gen = make_generator("planted-mixed-external")
+    tasks = [gen(np.random.default_rng(s)) for s in range(3)]
+    env = ModQuadAssemblyEnv(tasks=tasks, n_max=6, modules="t45,t45m,flat", initial_type="random")
+    demos = collect(env, tasks, n_max=6, seed=0, expert="one")
+    assert demos.n_tasks == len(tasks) and demos.good.any(axis=1).all()
+    assert not (demos.good & ~demos.valid).any()
+    starts = np.flatnonzero(demos.obs["occupancy"].sum(axis=1) == 1)
+    for i, task in zip(starts, tasks):
+        n_star, keys = expert_targets(task, 6, "one", env.palette)
+        held = {k for _, k in typed_cells(keys[0], env.palette)}
+        first_type = int(np.flatnonzero(demos.obs["types"][i])[0]) // env.grid.n_cells
+        assert first_type in held
+        _, info = env.reset(options={"task": task, "initial_type": first_type})
+        w = RewardWeights()  # the return of a successful episode of n* modules
+        expected = w.w_sat * (1 - info["satisfied_fraction"]) - w.w_module * (n_star - 1)
+        assert demos.returns[i] == pytest.approx(expected + w.w_success, abs=1e-5)
 
 
 def test_good_actions_of_a_unique_horizontal_pair():

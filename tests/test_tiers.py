@@ -10,7 +10,7 @@ import pytest
 
 import modquad_gym as mq
 from modquad_gym.agents.benchmark import main as bench_main
-from modquad_gym.agents.benchmark import verified
+from modquad_gym.agents.solvers import verified
 from modquad_gym.agents.tiers import TIERS, build_tier_suite, get_tier
 
 

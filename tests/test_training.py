@@ -66,13 +66,20 @@ def test_config_takes_the_tier_defaults(tmp_path):
     current = TrainConfig(out=tmp_path, task_source=str(tmp_path / "tasks.json"))
     assert current.max_modules == 7 and current.validation_source == "mixed"
     assert TIERS["large"].model.parent.name == "ppo_large"
+    mixed = TrainConfig(out=tmp_path, tier="mixed")  # several types: each episode a random start
+    assert mixed.env_kwargs_full == {
+        "tasks": "planted-mixed-external",
+        "n_max": 7,
+        "modules": "t45,t45m,flat",
+        "initial_type": "random",
+    }
+    assert mixed.eval_env_kwargs == {"modules": "t45,t45m,flat"} and mixed.expert == "one"
     assert TIERS["current"].results == "results"
 
 
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"tier": "mixed"}, "several module types"),
         ({"tier": "huge"}, "unknown tier"),
         ({"hyperparameters": {"lr": 1}}, "unknown keys"),
         ({"env_kwargs": {"n_max": 3}}, "--n-max"),
@@ -105,9 +112,9 @@ def test_publish_run_installs_an_earlier_run_without_training(tmp_path, suite, m
 def test_train_script_errors_are_one_line(capsys, tmp_path):
     script = _script()
     with pytest.raises(SystemExit) as exc:
-        script.main(["--tier", "mixed", "--out", str(tmp_path / "x")])
+        script.main(["--hyperparameters", '{"lr": 1}', "--out", str(tmp_path / "x")])
     assert exc.value.code == 2
-    assert "several module types" in capsys.readouterr().err
+    assert "unknown keys" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         script.main(["--publish-run", str(tmp_path)])
     assert "no model.zip" in capsys.readouterr().err

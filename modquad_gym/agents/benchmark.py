@@ -26,14 +26,13 @@ from pathlib import Path
 from modquad_gym.bench import bench_args
 from modquad_gym.module import palette
 from modquad_gym.options import int_option
-from modquad_gym.oracle import feasible
 from modquad_gym.outputs import check_output_dir, write_csv
 from modquad_gym.search import SEARCHES
-from modquad_gym.tasks import TaskRequirement, load_suite, rotor_wrenches
+from modquad_gym.tasks import TaskRequirement, load_suite
 
 from .report import plot_bars, plot_learning_curve, plot_structures, write_report
 from .scores import Row, summarise
-from .solvers import Solver, load_solver, make_solver
+from .solvers import Solver, load_solver, make_solver, verified
 from .tiers import TIERS, Tier, get_tier
 
 SEARCH_METHODS = tuple(SEARCHES)
@@ -49,27 +48,15 @@ def parse_method(method: str, n_max: int, model: Path | None, seed: int, modules
     agent, see :func:`~.solvers.load_solver`)."""
     if ":" in method:
         return load_solver(method, n_max=n_max)
-    if method.startswith("ppo") and modules:
-        raise ValueError(f"method {method!r}: the shipped PPO agent handles one module type")
     if method.startswith("ppo-k"):
         try:
             k = int(method[len("ppo-k") :])
         except ValueError:
             raise ValueError(f"bad method {method!r}; write ppo-kN with N an integer") from None
-        return make_solver("ppo", n_max=n_max, model=model, seed=seed, samples=k)
-    if method == "ppo":
-        return make_solver("ppo", n_max=n_max, model=model, seed=seed)
-    if method == "ppo-guided":
-        return make_solver(method, n_max=n_max, model=model)
+        return make_solver("ppo", n_max=n_max, model=model, seed=seed, samples=k, modules=modules)
+    if method in ("ppo", "ppo-guided"):
+        return make_solver(method, n_max=n_max, model=model, seed=seed, modules=modules)
     return make_solver(method, n_max=n_max, seed=seed, modules=modules)
-
-
-def verified(structure, task: TaskRequirement) -> bool:
-    """Does ``structure`` exert every task wrench (its own weight added for external tasks)?"""
-    if structure is None:
-        return False
-    W = rotor_wrenches(task.wrenches, task.kind, structure.mass)
-    return bool(feasible(structure.configuration_matrix(), W, task.f_max, method="daqp").all())
 
 
 def run_benchmark(

@@ -1,10 +1,15 @@
 """Policy-guided search: best-first over dockings, ordered by a trained policy, decided exactly.
 
-A node is a docking sequence from the single module at (0, 0); its priority is the sum of
-``-log pi(a | s)`` along the sequence, so the policy's favourite structures come first. Each
-popped structure is decided by the environment's exact oracle. The search stops with a
+A node is a docking sequence from the single module at (0, 0) (one root per start type with
+several module types); its priority is the sum of ``-log pi(a | s)`` along the sequence, so the
+policy's favourite structures come first, after the policy's own greedy episode (a dive
+that docks the most likely module until the episode ends: an incumbent, so the search never
+does worse than the plain policy's first start). A node keeps its parent's environment state
+(:meth:`~modquad_gym.envs.assembly.env.ModQuadAssemblyEnv.restore`): popping it docks one
+module, whose structure the environment's exact oracle decides. The search stops with a
 certificate as soon as it finds a feasible structure whose module count equals an exact lower
-bound (the force bound and the level bounds of :mod:`modquad_gym.search.bounds`); otherwise it
+bound (the force bound and the level bounds of :mod:`modquad_gym.search.bounds`; the count
+bound of the typed search with several types); otherwise it
 returns the smallest feasible structure found within its budget of evaluated structures.
 """
 
@@ -16,14 +21,15 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.oracle import feasible
 from modquad_gym.search import SearchResult
 from modquad_gym.search.bounds import force_lower_bound, level_excluded
-from modquad_gym.structure import Structure, normalise
+from modquad_gym.search.result import SearchRun, first_possible_level
+from modquad_gym.structure import Structure, normalise, normalise_typed
 from modquad_gym.tasks import TaskRequirement
 from modquad_gym.validation import check_int
 
 from .ppo import PPOSolver
+from .solvers import verified
 
 
 def lower_bound(W: np.ndarray, f_max: float, module, n_max: int) -> int:
@@ -34,6 +40,14 @@ def lower_bound(W: np.ndarray, f_max: float, module, n_max: int) -> int:
     return min(n, n_max + 1)
 
 
+def typed_lower_bound(task: TaskRequirement, palette: list, n_max: int) -> int:
+    """The smallest module count the count bound of the typed search leaves for several
+    module types (self-weight included for external tasks; n_max + 1 when it leaves none)."""
+    run = SearchRun("bound", task, n_max, None, None, n_max, modules=palette)
+    n, _ = first_possible_level(run)
+    return min(n, n_max + 1)
+
+
 class GuidedSolver(PPOSolver):
     """Best-first search over dockings ordered by a MaskablePPO policy (see the module doc).
 
@@ -41,6 +55,7 @@ class GuidedSolver(PPOSolver):
         model, n_max, config: as for :class:`~.ppo.PPOSolver`.
         budget: most structures to evaluate per task.
         branching: children queued per expanded structure (the policy's most likely dockings).
+        dive: start with the policy's greedy episode (default True); False: best-first only.
     """
 
     def __init__(
@@ -50,59 +65,74 @@ class GuidedSolver(PPOSolver):
         budget: int = 64,
         branching: int = 4,
         config: dict | None = None,
+        dive: bool = True,
     ) -> None:
         super().__init__(model=model, n_max=n_max, config=config)
+        self.dive = bool(dive)
         self.budget = check_int(budget, "budget", low=1)
         self.branching = check_int(branching, "branching", low=1)
         self.name = "ppo-guided"
 
-    def _replay(self, task: TaskRequirement, actions: tuple[int, ...]) -> tuple[dict, dict]:
-        """Observation and info after docking ``actions`` from the initial module."""
-        obs, info = self.env.reset(options={"task": task})
-        for a in actions:
-            obs, _, _, _, info = self.env.step(a)
-        return obs, info
+    def lower_bound(self, task: TaskRequirement) -> int:
+        """The exact lower bound on the module count that certifies an answer."""
+        palette = getattr(self.env, "palette", None)
+        if palette is not None:
+            return typed_lower_bound(task, palette, self.n_max)
+        W = np.asarray(task.wrenches, dtype=float)
+        return lower_bound(W, task.f_max, self.env.module, self.n_max)
 
     def solve(self, task: Any) -> SearchResult:
         t0 = time.perf_counter()
         if not isinstance(task, TaskRequirement):
             task = TaskRequirement(task, name="task")
-        W, f_max = np.asarray(task.wrenches, dtype=float), float(task.f_max)
-        bound = lower_bound(W, f_max, self.env.module, self.n_max)
+        env = self.env
+        bound = self.lower_bound(task)
         best: Structure | None = None
         certified = bound > self.n_max  # every level ruled out: proven infeasible
         evaluated: set = set()
-        queued: set = {((0, 0),)}
-        heap: list[tuple[float, int, tuple[int, ...]]] = [(0.0, 0, ())]
-        pushes, oracle_calls = 1, 0
-        while heap and not certified and len(evaluated) < self.budget:
-            cost, _, actions = heapq.heappop(heap)
-            obs, info = self._replay(task, actions)
-            cells = [tuple(c) for c in info["cells"]]
-            n = len(cells)
-            evaluated.add(normalise(cells))
-            oracle_calls += int(info["oracle_calls"])
+        queued: set = set()
+        # a node: (priority, tie-break, parent state or None for a root, action or start type)
+        heap: list[tuple[float, int, Any, Any]] = [
+            (0.0, i, None, start) for i, start in enumerate(self.starts)
+        ]
+        pushes, oracle_calls = len(heap), 0
+        dive = heapq.heappop(heap) if self.dive else None  # the policy's episode: an incumbent
+        while (dive or heap) and not certified and len(evaluated) < self.budget:
+            cost, _, parent, move = dive if dive is not None else heapq.heappop(heap)
+            diving, dive = dive is not None, None
+            if parent is None:
+                obs, info = self.reset(task, move)
+                oracle_calls += int(info["oracle_calls"])
+            else:
+                env.restore(parent)
+                obs, _, _, _, info = env.step(move)
+                oracle_calls += int(info["oracle_calls"]) - parent.oracle_calls
+            s = env.structure
+            n = s.n_modules
+            evaluated.add(s.key)
             if info["success"]:
-                s = Structure(cells, module=self.env.module)
-                if (best is None or n < best.n_modules) and bool(
-                    feasible(s.configuration_matrix(), W, f_max, method="daqp").all()
-                ):
+                if (best is None or n < best.n_modules) and verified(s, task):
                     best = s
                     certified = n <= bound
                 continue  # a larger structure containing it cannot be smaller
             if n >= self.n_max or (best is not None and n + 1 >= best.n_modules):
                 continue
-            mask = self.env.action_masks()
+            state, mask = env.state, env.action_masks()
             probs = self.probabilities(obs, mask)
             for a in np.argsort(-probs, kind="stable")[: self.branching]:
                 if probs[a] <= 0.0:
                     break
-                key = normalise([*cells, self.env.cell_of(int(a))])
+                child = env.grid.cell(int(a) % env.grid.n_cells)
+                key = self._child_key(s, child, int(a) // env.grid.n_cells)
                 if key in queued:
                     continue
                 queued.add(key)
-                heapq.heappush(heap, (cost - float(np.log(probs[a])), pushes, (*actions, int(a))))
+                node = (cost - float(np.log(probs[a])), pushes, state, int(a))
                 pushes += 1
+                if diving and dive is None:  # the most likely child continues the dive
+                    dive = node
+                else:
+                    heapq.heappush(heap, node)
         if not certified:
             proof = ""
         elif best is not None:
@@ -111,8 +141,15 @@ class GuidedSolver(PPOSolver):
             proof = f"exact bounds rule out every level up to {self.n_max}"
         return self._result(best, len(evaluated), oracle_calls, t0, certified, proof)
 
+    def _child_key(self, s: Structure, cell: tuple, type_index: int) -> Any:
+        """The translation-normalised key of ``s`` with a module of ``type_index`` at ``cell``."""
+        palette = getattr(self.env, "palette", None)
+        if palette is None:
+            return normalise([*s.cells, cell])
+        return normalise_typed([*s.cells, cell], [*s.modules, palette[type_index]])
+
     def __repr__(self) -> str:
         return (
             f"GuidedSolver(model={self.model_path!r}, n_max={self.n_max}, budget={self.budget}, "
-            f"branching={self.branching})"
+            f"branching={self.branching}, dive={self.dive})"
         )

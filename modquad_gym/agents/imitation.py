@@ -9,7 +9,10 @@ on expert episodes, then MaskablePPO fine-tuning on the reward of the environmen
 The expert: for a training task, :func:`~modquad_gym.search.optimal_structures` gives every
 minimum-module structure O (certified). In a state with cells P (initial module at (0, 0)), an
 action is *good* when P plus its cell still fits inside some translate of some O; an expert
-episode follows good actions chosen at random, so it ends with an optimal structure. The
+episode follows good actions chosen at random, so it ends with an optimal structure. With
+several module types (:class:`~modquad_gym.envs.assembly.mixed.MixedAssemblyEnv`) a cell of O
+carries its type, an action docks (cell, type), and the episode starts with a module of a type
+drawn from O's (a structure is reachable only from a type it holds). The
 cloning loss is ``-log sum_{a good} pi(a | s)`` (any good action is right) plus a value loss
 towards the expert's return-to-go, so PPO starts with a critic that matches its actor.
 
@@ -27,24 +30,42 @@ import numpy as np
 
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.search import exhaustive_search, optimal_structures
-from modquad_gym.structure import Cell, Key
+from modquad_gym.structure import Cell, Key, normalise_typed
 
 
-def placements(optima: Sequence[Key]) -> list[frozenset[Cell]]:
-    """Every translate of every optimal structure that holds the initial cell (0, 0)."""
-    out = {frozenset((x - ox, y - oy) for x, y in key) for key in optima for ox, oy in key}
+def typed_cells(key: Key, palette: Sequence[Any] | None) -> list[tuple[Cell, int]]:
+    """(cell, palette index) pairs of a structure key: a one-type key's cells with type 0, or a
+    typed key's (:func:`~modquad_gym.structure.normalise_typed`) with their types' indices."""
+    if palette is None:
+        return [(cell, 0) for cell in key]
+    return [(cell, palette.index(module)) for cell, module in key]
+
+
+def placements(
+    optima: Sequence[Key], palette: Sequence[Any] | None = None, start: int = 0
+) -> list[frozenset[tuple[Cell, int]]]:
+    """Every translate of every optimal structure that puts a module of type ``start`` on the
+    initial cell (0, 0), as frozensets of (cell, type index)."""
+    out = set()
+    for key in optima:
+        pairs = typed_cells(key, palette)
+        for (ox, oy), k in pairs:
+            if k == start:
+                out.add(frozenset(((x - ox, y - oy), t) for (x, y), t in pairs))
     return sorted(out, key=sorted)
 
 
-def good_actions(env: ModQuadAssemblyEnv, targets: Sequence[frozenset[Cell]]) -> np.ndarray:
-    """bool (G * G,): valid actions whose cell keeps the structure inside some target."""
-    cells = set(env.structure.cells)
+def good_actions(
+    env: ModQuadAssemblyEnv, targets: Sequence[frozenset[tuple[Cell, int]]]
+) -> np.ndarray:
+    """bool: valid actions whose (cell, type) keeps the structure inside some target."""
+    types = env.state.types or (0,) * env.state.n_modules
+    built = set(zip(env.state.cells, types, strict=True))
     good = np.zeros(env.action_space.n, dtype=bool)
     for target in targets:
-        if cells <= target:
-            for cell in target - cells:
-                a = env.action_of(cell)
-                good[a] = True
+        if built <= target:
+            for cell, k in target - built:
+                good[env.grid.n_cells * k + env.grid.action_of(cell)] = True
     return good & env.action_masks()
 
 
@@ -69,13 +90,20 @@ first the certified search finds (:func:`exhaustive_search`: much cheaper where 
 thousands of optima, as on the large tier)."""
 
 
-def expert_targets(task: Any, n_max: int, expert: str = "all") -> tuple[int | None, list[Key]]:
-    """(n*, optimal structure keys) that the ``expert`` steers towards (see :data:`EXPERTS`)."""
+def expert_targets(
+    task: Any, n_max: int, expert: str = "all", palette: Sequence[Any] | None = None
+) -> tuple[int | None, list[Key]]:
+    """(n*, optimal structure keys) that the ``expert`` steers towards (see :data:`EXPERTS`);
+    typed keys with a ``palette`` (several module types)."""
+    kwargs = {"modules": list(palette)} if palette is not None else {}
     if expert == "all":
-        return optimal_structures(task, n_max=n_max)
+        return optimal_structures(task, n_max=n_max, **kwargs)
     if expert == "one":
-        r = exhaustive_search(task, n_max=n_max)
-        return r.n_modules, [r.structure.key] if r.structure is not None else []
+        r = exhaustive_search(task, n_max=n_max, **kwargs)
+        if r.structure is None:
+            return r.n_modules, []
+        s = r.structure
+        return r.n_modules, [normalise_typed(s.cells, s.modules) if palette else s.key]
     raise ValueError(f"expert must be one of {EXPERTS}, got {expert!r}")
 
 
@@ -99,12 +127,18 @@ def collect(
         from tqdm.auto import tqdm
 
         iterator = tqdm(tasks, desc="expert episodes", unit="task")
+    palette = getattr(env, "palette", None)
     for task in iterator:
-        n_star, keys = expert_targets(task, n_max, expert)
+        n_star, keys = expert_targets(task, n_max, expert, palette)
         if n_star is None or n_star == 1:
             continue
-        targets = placements(keys)
-        obs, info = env.reset(options={"task": task})
+        options: dict[str, Any] = {"task": task}
+        start = 0
+        if palette is not None:  # start with a type some optimum holds
+            held = sorted({k for key in keys for _, k in typed_cells(key, palette)})
+            start = options["initial_type"] = int(rng.choice(held))
+        targets = placements(keys, palette, start)
+        obs, info = env.reset(options=options)
         rewards: list[float] = []
         done = False
         while not done:

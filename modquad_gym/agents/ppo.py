@@ -2,7 +2,9 @@
 
 Decoding (:class:`PPOSolver`): the policy acts deterministically (the most likely valid action)
 until the episode ends; with ``samples=k`` it also runs k stochastic rollouts (seeded) and keeps
-the smallest verified structure. ``evaluated`` counts the distinct structures (up to
+the smallest verified structure. A model trained with several module types
+(``ModQuadAssemblyMixed-v0``) decodes once from each start type, since a structure is reachable
+only from a type it holds. ``evaluated`` counts the distinct structures (up to
 translation) the rollouts evaluated, as the searches count configurations; a sampled rollout
 stops as soon as it can no longer beat the best verified structure. The
 final structure is always re-checked by the exact DAQP LP oracle; one that fails is reported as
@@ -24,15 +26,15 @@ import numpy as np
 
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.extras import import_optional
-from modquad_gym.oracle import feasible
 from modquad_gym.search import SearchResult
-from modquad_gym.structure import Structure, normalise
+from modquad_gym.structure import Structure
 from modquad_gym.tasks import TaskRequirement
 
-from .solvers import DEFAULT_MODEL
+from .solvers import DEFAULT_MODEL, verified
 
 ENV_KWARG_KEYS = (
     "n_max", "n_directions", "reward_weights", "invalid_action", "oracle_method", "lookahead",
+    "modules",
 )  # fmt: skip
 """Environment keywords a model's config.json may fix (the task source is given per task)."""
 
@@ -128,29 +130,49 @@ class PPOSolver:
         self.samples = int(samples)
         self.name = "ppo" if self.samples == 0 else f"ppo-k{self.samples}"
         self.env = ModQuadAssemblyEnv(**kwargs)
+        several = "modules" in kwargs  # decode once from each start type
+        self.starts: list[int | None] = list(range(self.env.n_types)) if several else [None]
 
     def probabilities(self, obs: dict, mask: np.ndarray) -> np.ndarray:
-        """The policy's action probabilities at ``obs``, zero outside ``mask``."""
+        """The policy's action probabilities at ``obs``, zero outside ``mask`` (the masked
+        softmax of the actor's logits, as sb3-contrib's masked distribution computes it)."""
         import torch
 
         policy = self.model.policy
         obs_t, _ = policy.obs_to_tensor(obs)
         with torch.no_grad():
-            dist = policy.get_distribution(obs_t, action_masks=mask[None])
-            probs = dist.distribution.probs[0].double().numpy()
+            features = policy.extract_features(obs_t)
+            if not policy.share_features_extractor:
+                features = features[0]
+            logits = policy.action_net(policy.mlp_extractor.forward_actor(features))
+            logits = logits - logits.logsumexp(dim=-1, keepdim=True)  # torch's Categorical
+            masked = torch.where(torch.as_tensor(mask)[None], logits, torch.tensor(-1e8))
+            masked = masked - masked.logsumexp(dim=-1, keepdim=True)
+            probs = torch.softmax(masked, dim=-1)[0].double().numpy()
         return np.where(mask, probs, 0.0)
 
+    def reset(self, task: Any, start: int | None = None) -> tuple[dict, dict]:
+        """The environment reset on ``task`` (a first module of type ``start``, several types)."""
+        options = {"task": task} if start is None else {"task": task, "initial_type": start}
+        return self.env.reset(options=options)
+
     def _rollout(
-        self, task: Any, rng: np.random.Generator | None, seen: set, stop_at: int
+        self,
+        task: Any,
+        rng: np.random.Generator | None,
+        seen: set,
+        stop_at: int,
+        start: int | None = None,
     ) -> tuple[dict, int]:
-        """One episode on ``task``; deterministic when ``rng`` is None. Stops early once the
+        """One episode on ``task`` from a first module of type ``start``; deterministic when
+        ``rng`` is None. Stops early once the
         structure has ``stop_at - 1`` modules without success (it could no longer beat a
         verified structure of ``stop_at`` modules). Adds every structure it evaluates to
         ``seen`` (translation-normalised). Returns the final info and the oracle calls."""
 
         env = self.env
-        obs, info = env.reset(options={"task": task})
-        seen.add(normalise(map(tuple, info["cells"])))
+        obs, info = self.reset(task, start)
+        seen.add(env.structure.key)
         done = info["success"]  # one module suffices: nothing to decide
         while not done and len(info["cells"]) < stop_at - 1:
             mask = env.action_masks()
@@ -160,7 +182,7 @@ class PPOSolver:
                 probs = self.probabilities(obs, mask)
                 action = rng.choice(len(probs), p=probs / probs.sum())
             obs, _, terminated, truncated, info = env.step(int(action))
-            seen.add(normalise(map(tuple, info["cells"])))
+            seen.add(env.structure.key)
             done = terminated or truncated
         return info, int(info["oracle_calls"])
 
@@ -172,24 +194,25 @@ class PPOSolver:
         t0 = time.perf_counter()
         if not isinstance(task, TaskRequirement):
             task = TaskRequirement(task, name="task")  # a (t, 6) wrench array
-        W = np.asarray(task.wrenches, dtype=float)
-        f_max = float(task.f_max)
         best: Structure | None = None
         seen: set = set()
         oracle_calls = 0
-        rngs: list[np.random.Generator | None] = [None]
-        rngs += [np.random.default_rng([self.seed, i]) for i in range(self.samples)]
-        for rng in rngs:
+        runs: list[tuple[np.random.Generator | None, int | None]] = [(None, k) for k in self.starts]
+        runs += [
+            (np.random.default_rng([self.seed, i]), self.starts[i % len(self.starts)])
+            for i in range(self.samples)
+        ]
+        for rng, start in runs:
             stop_at = best.n_modules if best is not None else self.env.n_max + 2
             if stop_at <= 1:
                 break
-            info, calls = self._rollout(task, rng, seen, stop_at)
+            info, calls = self._rollout(task, rng, seen, stop_at, start)
             oracle_calls += calls
             n = len(info["cells"])
             if not info["success"] or n > self.n_max or (best is not None and n >= best.n_modules):
                 continue
-            s = Structure([tuple(c) for c in info["cells"]], module=self.env.module)
-            if feasible(s.configuration_matrix(), W, f_max, method="daqp").all():
+            s = self.env.structure
+            if verified(s, task):
                 best = s
         return self._result(best, len(seen), oracle_calls, t0)
 

@@ -1,14 +1,12 @@
-"""What an agent benchmark run yields: one :class:`Row` per (method, task), the per-method
-summary over the goals' scope, and the goals themselves (:mod:`.benchmark` makes the rows,
-:mod:`.report` writes them)."""
+"""What an agent benchmark run yields: one :class:`Row` per (method, task) and the per-method
+summary over the goals' scope (:mod:`.benchmark` makes the rows, :mod:`.report` writes them;
+the goals are the tier's, :attr:`.tiers.Tier.goals`)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
-
-GOALS = {"success": 0.98, "optimal": 0.90}
 
 
 @dataclass

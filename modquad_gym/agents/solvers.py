@@ -14,8 +14,10 @@ import time
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
+from modquad_gym.oracle import feasible
 from modquad_gym.search import SEARCHES, SearchResult
 from modquad_gym.structure import Structure
+from modquad_gym.tasks import rotor_wrenches
 
 METHOD_HELP = {
     "exhaustive": "the certified minimum (exhaustive search)",
@@ -45,6 +47,15 @@ class Solver(Protocol):
     name: str
 
     def solve(self, task: Any) -> SearchResult: ...
+
+
+def verified(structure: Structure | None, task: Any) -> bool:
+    """Does ``structure`` exert every wrench of ``task`` (a TaskRequirement; its own weight
+    added for external tasks)? Decided by the exact DAQP LP oracle."""
+    if structure is None:
+        return False
+    W = rotor_wrenches(task.wrenches, task.kind, structure.mass)
+    return bool(feasible(structure.configuration_matrix(), W, task.f_max, method="daqp").all())
 
 
 class SearchSolver:
@@ -81,20 +92,28 @@ def make_solver(
     ``model`` (a PPO .zip, default :data:`DEFAULT_MODEL`) and ``samples`` (extra stochastic
     rollouts, best verified structure kept) apply to ``"ppo"`` only; ``seed`` seeds the random
     search and PPO's sampled rollouts; ``modules`` (a list of module types) makes the searches
-    search over shapes x type assignments.
+    search over shapes x type assignments, and must be the palette a learned model was
+    trained with.
     """
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     if method in LEARNED:
-        if modules:
-            raise ValueError("the PPO agent handles one module type; --modules needs a search")
         if method == "ppo-guided":
             from .guided import GuidedSolver
 
-            return GuidedSolver(model=model, n_max=n_max)
-        from .ppo import PPOSolver
+            solver = GuidedSolver(model=model, n_max=n_max)
+        else:
+            from .ppo import PPOSolver
 
-        return PPOSolver(model=model, n_max=n_max, seed=seed, samples=samples)
+            solver = PPOSolver(model=model, n_max=n_max, seed=seed, samples=samples)
+        trained = [m.name for m in getattr(solver.env, "palette", [solver.env.module])]
+        if modules and [m.name for m in modules] != trained or not modules and len(trained) > 1:
+            given = ",".join(m.name for m in modules) if modules else "one type"
+            raise ValueError(
+                f"--model {solver.model_path or 'given'}: trained with the module types "
+                f"{','.join(trained)}, not {given} (a tier's --model must match its palette)"
+            )
+        return solver
     if model is not None:
         raise ValueError(f"--model applies to {', '.join(LEARNED)} only, not {method!r}")
     return SearchSolver(method, n_max=n_max, seed=seed, modules=modules)

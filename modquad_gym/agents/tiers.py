@@ -44,6 +44,11 @@ class Tier:
     recipe: dict = field(default_factory=dict)
     """Training settings that differ from the recipe's defaults on this tier
     (:class:`~.training.TrainConfig` fields)."""
+    goals: dict = field(default_factory=dict)
+    """The tier's goals on its held-out suites: {method: {metric: least share}} for the
+    metrics ``success`` and ``optimal``, and ``configs``: a share of the exhaustive search's
+    configurations per task, or the search to evaluate fewer than (without it: fewer than every
+    search but random)."""
 
     def load_suites(self, limit: int | None = None) -> dict[str, list[TaskRequirement]]:
         """The tier's held-out suites by name (first ``limit`` tasks of each)."""
@@ -68,13 +73,18 @@ class Tier:
 
 
 TIERS = {
-    "current": Tier("current", "ModQuadAssembly-v0", 7, ("heldout_paper", "heldout_planted")),
+    "current": Tier("current", "ModQuadAssembly-v0", 7, ("heldout_paper", "heldout_planted"),
+                    goals={"ppo": {"success": 0.98, "optimal": 0.90,
+                                   "configs": "centrosymmetric"}}),
     "large": Tier("large", "ModQuadAssemblyLarge-v0", 12, ("large_planted",),
                   source="planted-large", seed0=3_000_000, n_tasks=40,
-                  recipe={"expert": "one", "demo_tasks": 800, "timesteps": 30_000}),
+                  recipe={"expert": "one", "demo_tasks": 800, "timesteps": 30_000},
+                  goals={"ppo-guided": {"optimal": 0.95, "configs": 0.05}}),
     "mixed": Tier("mixed", "ModQuadAssemblyMixed-v0", 7, ("mixed_external",),
                   env_kwargs={"tasks": "planted-mixed-external"}, modules="t45,t45m,flat",
-                  source="planted-mixed-external", seed0=4_000_000, n_tasks=40),
+                  source="planted-mixed-external", seed0=4_000_000, n_tasks=40,
+                  recipe={"expert": "one", "demo_tasks": 3000, "timesteps": 100_000},
+                  goals={"ppo": {"success": 0.98, "optimal": 0.80}}),
 }  # fmt: skip
 """The tiers by name."""
 

@@ -96,12 +96,6 @@ class TrainConfig:
                 object.__setattr__(self, name, value)
         if self.expert not in EXPERTS:
             raise ValueError(f"expert must be one of {EXPERTS}, got {self.expert!r}")
-        if tier.modules:
-            raise ValueError(
-                f"--tier {tier.name}: training on several module types is not supported yet "
-                "(the expert and the policy dock one type); score searches with "
-                f"`modquad bench agents --tier {tier.name}`"
-            )
         unknown = sorted(set(self.hyperparameters) - set(HYPERPARAMETERS))
         if unknown:
             raise ValueError(
@@ -121,8 +115,17 @@ class TrainConfig:
 
     @property
     def env_kwargs_full(self) -> dict:
-        """The training environment's keywords (what the model's config.json records)."""
-        return {"tasks": self.source, "n_max": self.max_modules, **self.env_kwargs}
+        """The training environment's keywords (what the model's config.json records): on a
+        tier of several module types its palette, each episode starting with a random type."""
+        return {"tasks": self.source, "n_max": self.max_modules, **self.eval_env_kwargs,
+                **({"initial_type": "random"} if get_tier(self.tier).modules else {})}  # fmt: skip
+
+    @property
+    def eval_env_kwargs(self) -> dict:
+        """Keywords of the validation environment besides its tasks and n_max (episodes start
+        with the first type, as :class:`~.ppo.PPOSolver` does first)."""
+        modules = get_tier(self.tier).modules
+        return {**({"modules": modules} if modules else {}), **self.env_kwargs}
 
     @property
     def validation_source(self) -> str:
@@ -182,7 +185,7 @@ def train(config: TrainConfig) -> Path:
     val = validation_tasks(config.n_eval, config.validation_source)
     val_tasks = CyclingTasks(val, name="validation")
     eval_env = DummyVecEnv(
-        [lambda: make_env(tasks=val_tasks, n_max=config.max_modules, **config.env_kwargs)]
+        [lambda: make_env(tasks=val_tasks, n_max=config.max_modules, **config.eval_env_kwargs)]
     )
     model = _new_model(config, venv, MaskablePPO)
     per_env = lambda steps: max(steps // config.n_envs, 1)  # noqa: E731

@@ -299,6 +299,15 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         """The episode's current :class:`~.types.AssemblyState`."""
         return self._require("asking for the state")
 
+    def restore(self, state: AssemblyState) -> dict[str, np.ndarray]:
+        """Continue the episode from an earlier ``state`` of it (one ``env.state`` returned;
+        states are immutable): planners branch from stored states instead of replaying
+        actions from reset. Returns that state's observation."""
+        if state.task.requirement is not self._require("restore()").task.requirement:
+            raise ValueError("restore: the state belongs to an episode of another task")
+        self._state = state
+        return self._observation()
+
     @property
     def structure(self) -> Structure:
         """The current structure (cells in docking order, initial module first)."""

@@ -1,0 +1,110 @@
+"""The learned solvers beyond one episode: branching from stored environment states, the
+policy-guided search (its greedy dive, its certificate) and PPO on several module types."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from modquad_gym.agents import DEFAULT_MODEL, make_solver
+from modquad_gym.agents.solvers import verified
+from modquad_gym.agents.suites import SUITES_DIR as SUITES
+from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+from modquad_gym.module import palette
+from modquad_gym.tasks import PlantedTasks, load_suite, make_generator
+
+
+def test_restore_branches_exactly_like_a_replay():
+    """Docking from a restored state gives the observation, reward and info that replaying the
+    same actions from reset gives; a state of another task is refused."""
+    task = PlantedTasks(n_modules=4, n_wrenches=12)(np.random.default_rng(3))
+    env = ModQuadAssemblyEnv(tasks=[task], n_max=5)
+    env.reset(options={"task": task})
+    env.step(env.action_of((1, 0)))
+    branch = env.state
+    env.step(env.action_of((2, 0)))  # wander off, then come back
+    obs_b = env.restore(branch)
+    step_b = env.step(env.action_of((0, 1)))
+    replay = ModQuadAssemblyEnv(tasks=[task], n_max=5)
+    replay.reset(options={"task": task})
+    obs_r, *_ = replay.step(replay.action_of((1, 0)))
+    step_r = replay.step(replay.action_of((0, 1)))
+    for key in obs_r:
+        np.testing.assert_array_equal(obs_b[key], obs_r[key])
+        np.testing.assert_array_equal(step_b[0][key], step_r[0][key])
+    assert step_b[1:4] == step_r[1:4]
+    assert {
+        k: v for k, v in step_b[4].items() if k not in ("action_mask", "evaluated", "oracle_calls")
+    } == {
+        k: v
+        for k, v in step_r[4].items()  # fmt: skip
+        if k not in ("action_mask", "evaluated", "oracle_calls")
+    }
+    other = PlantedTasks(n_modules=2, n_wrenches=12)(np.random.default_rng(4))
+    env.reset(options={"task": other})
+    with pytest.raises(ValueError, match="another task"):
+        env.restore(branch)
+
+
+@pytest.mark.skipif(not DEFAULT_MODEL.is_file(), reason="no default model")
+def test_guided_search_never_does_worse_than_the_policy_it_dives_with():
+    """The dive is the deterministic PPO episode, so the guided search finds a structure
+    whenever PPO does, never with more modules."""
+    tasks = load_suite(SUITES / "heldout_planted.json")[:8]
+    ppo = make_solver("ppo")
+    guided = make_solver("ppo-guided")
+    assert guided.dive
+    for task in tasks:
+        p, g = ppo.solve(task), guided.solve(task)
+        if p.structure is not None:
+            assert g.structure is not None and g.n_modules <= p.n_modules
+        if g.structure is not None:
+            assert verified(g.structure, task) and g.n_modules >= task.meta["optimum"]
+
+
+@pytest.fixture(scope="module")
+def mixed_model(tmp_path_factory):
+    """An untrained MaskablePPO on the three-type environment, saved like a training run."""
+    import torch
+    from sb3_contrib import MaskablePPO
+
+    from modquad_gym.agents.ppo import make_env
+
+    torch.set_num_threads(1)
+    folder = tmp_path_factory.mktemp("mixed")
+    kwargs = {"n_max": 4, "modules": "t45,t45m,flat"}
+    model = MaskablePPO(
+        "MultiInputPolicy",
+        make_env(tasks="planted-mixed-external", initial_type="random", **kwargs),
+        seed=0,
+        device="cpu",
+        policy_kwargs={"net_arch": [32]},
+    )
+    model.save(folder / "model.zip")
+    (folder / "config.json").write_text(json.dumps({"env_kwargs": kwargs}))
+    return folder / "model.zip"
+
+
+def _mixed_tasks(n: int = 3):
+    gen = make_generator("planted-mixed-external")
+    return [gen(np.random.default_rng(s)) for s in range(n)]
+
+
+@pytest.mark.parametrize("method", ["ppo", "ppo-guided"])
+def test_learned_solvers_on_several_module_types(mixed_model, method):
+    """A model trained with a palette decodes from each start type; its answers are typed
+    structures verified with their weight; another palette is refused."""
+    types = palette("t45,t45m,flat")
+    solver = make_solver(method, n_max=4, model=mixed_model, modules=types)
+    assert solver.starts == [0, 1, 2]
+    for task in _mixed_tasks():
+        r = solver.solve(task)
+        assert r.evaluated >= 1
+        if r.structure is not None:
+            assert verified(r.structure, task) and set(r.structure.modules) <= set(types)
+    with pytest.raises(ValueError, match="trained with the module types"):
+        make_solver(method, n_max=4, model=mixed_model, modules=palette("t45,flat"))
+    with pytest.raises(ValueError, match="trained with the module types"):
+        make_solver(method, n_max=4, model=mixed_model)
