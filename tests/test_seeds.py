@@ -51,6 +51,23 @@ def test_goals_are_judged_on_the_lower_end():
     assert "| ppo | optimal | 90 % |" in lines and "NOT met (lower end" in lines
 
 
+def test_configuration_goals_take_the_pessimistic_end():
+    """A share of the exhaustive search's configurations, one named search, or (no goal given)
+    every search but random; met only when the interval's upper end is within it."""
+    from modquad_gym.agents.report import config_limit
+
+    searches = {"exhaustive": 200.0, "centrosymmetric": 60.0, "greedy": 50.0, "random": 5.0}
+    assert config_limit(0.05, searches)[0] == pytest.approx(10.0)
+    assert config_limit("centrosymmetric", searches)[0] == pytest.approx(60.0)
+    limit, words = config_limit(None, searches)
+    assert limit == pytest.approx(50.0) and limit < 50.0 and "greedy" in words
+    assert config_limit(0.05, {"greedy": 1.0})[0] is None
+    scores = [_score(s, "ppo", "p", 0.99, 0.9) for s in range(5)]
+    scores += [_score(0, m, "p", 1.0, 1.0, evaluated=e) for m, e in searches.items()]
+    lines = "\n".join(goal_lines(scores, "mixed"))  # configs: fewer than every search but random
+    assert "| ppo | configs / task | < greedy" in lines
+
+
 def test_report_on_copies_of_the_shipped_model(tmp_path, capsys):
     if not DEFAULT_MODEL.is_file():
         pytest.skip("no default model")

@@ -7,7 +7,8 @@ searches once as the reference, and writes to ``--out``:
 
 * ``seeds.md``: per method and metric the IQM over seeds x suites and the mean, each with its
   95 % stratified bootstrap interval (percentile method, runs resampled within each suite, as in
-  ``rliable``), per suite, the tier's goals judged on the interval's lower end;
+  ``rliable``), per suite, the tier's goals (:attr:`.tiers.Tier.goals`) judged on the
+  interval's pessimistic end (the lower end of a share, the upper end of configurations);
 * ``seeds.csv``: one row per (seed, method, suite) with the suite-level figures;
 * ``seeds.png``: the intervals as bars.
 
