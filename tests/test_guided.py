@@ -108,3 +108,31 @@ def test_learned_solvers_on_several_module_types(mixed_model, method):
         make_solver(method, n_max=4, model=mixed_model, modules=palette("t45,flat"))
     with pytest.raises(ValueError, match="trained with the module types"):
         make_solver(method, n_max=4, model=mixed_model)
+
+
+def test_guided_method_names_carry_its_settings():
+    from modquad_gym.agents.benchmark import guided_options
+
+    assert guided_options("ppo-guided") == {}
+    assert guided_options("ppo-guided-b128-w3-nodive") == {
+        "budget": 128,
+        "branching": 3,
+        "dive": False,
+    }
+    for bad in ("ppo-guided-b0", "ppo-guided-x1", "ppo-guided-bb"):
+        with pytest.raises(ValueError, match="bad method"):
+            guided_options(bad)
+
+
+def test_validation_suite_is_certified_and_disjoint_from_the_held_out_suite():
+    from modquad_gym.agents.tiers import TIERS, validation_suite
+    from modquad_gym.search import exhaustive_search
+
+    tier = TIERS["mixed"]
+    val = validation_suite(tier, 2, progress=False)
+    held = tier.load_suites()["mixed_external"]
+    held_wrenches = [t.wrenches.tobytes() for t in held]
+    for task in val:
+        assert task.wrenches.tobytes() not in held_wrenches
+        r = exhaustive_search(task, n_max=7, **tier.search_kwargs())
+        assert task.meta["optimum"] == r.n_modules and task.meta["optimum_modules"]

@@ -33,7 +33,7 @@ from modquad_gym.tasks import TaskRequirement, load_suite
 from .report import plot_bars, plot_learning_curve, plot_structures, write_report
 from .scores import Row, summarise
 from .solvers import Solver, load_solver, make_solver, verified
-from .tiers import TIERS, Tier, get_tier
+from .tiers import TIERS, Tier, get_tier, validation_suite
 
 SEARCH_METHODS = tuple(SEARCHES)
 DEFAULT_METHODS = (*SEARCH_METHODS, "ppo", "ppo-k2", "ppo-k8")
@@ -44,8 +44,9 @@ TIER_LEARNED = ("ppo", "ppo-k8", "ppo-guided")
 def parse_method(method: str, n_max: int, model: Path | None, seed: int, modules=None) -> Solver:
     """A solver from a benchmark method name: a search name, ``ppo``, ``ppo-kN`` (PPO with N
     sampled rollouts besides the deterministic one), ``ppo-guided`` (the policy-guided search of
-    :mod:`.guided`), or ``package.module:Name`` (an outside
-    agent, see :func:`~.solvers.load_solver`)."""
+    :mod:`.guided`; settings other than its defaults as suffixes: ``-bN`` budget, ``-wN``
+    branching, ``-nodive``, e.g. ``ppo-guided-b128-nodive``), or ``package.module:Name`` (an
+    outside agent, see :func:`~.solvers.load_solver`)."""
     if ":" in method:
         return load_solver(method, n_max=n_max)
     if method.startswith("ppo-k"):
@@ -54,9 +55,30 @@ def parse_method(method: str, n_max: int, model: Path | None, seed: int, modules
         except ValueError:
             raise ValueError(f"bad method {method!r}; write ppo-kN with N an integer") from None
         return make_solver("ppo", n_max=n_max, model=model, seed=seed, samples=k, modules=modules)
-    if method in ("ppo", "ppo-guided"):
+    if method == "ppo-guided" or method.startswith("ppo-guided-"):
+        guided = guided_options(method)
+        solver = make_solver("ppo-guided", n_max, model, seed, modules=modules, guided=guided)
+        solver.name = method
+        return solver
+    if method == "ppo":
         return make_solver(method, n_max=n_max, model=model, seed=seed, modules=modules)
     return make_solver(method, n_max=n_max, seed=seed, modules=modules)
+
+
+def guided_options(method: str) -> dict:
+    """GuidedSolver keywords from ``ppo-guided[-bN][-wN][-nodive]`` (see :func:`parse_method`)."""
+    options: dict = {}
+    for part in method[len("ppo-guided") :].split("-")[1:]:
+        if part == "nodive":
+            options["dive"] = False
+        elif part[:1] in ("b", "w") and part[1:].isdigit() and int(part[1:]) > 0:
+            options["budget" if part[0] == "b" else "branching"] = int(part[1:])
+        else:
+            raise ValueError(
+                f"bad method {method!r}: write ppo-guided with -bN (budget), -wN (branching) "
+                "or -nodive, N a positive integer"
+            )
+    return options
 
 
 def run_benchmark(
@@ -140,6 +162,10 @@ OPTIONS = {
     "--n-max": dict(type=int_option(1, 16), default=None,
                     help="module budget (default: the tier's)"),
     "--limit": dict(type=int_option(1), default=None, help="first N tasks of each suite only"),
+    "--validation": dict(type=int_option(1, 10_000), default=None, metavar="N",
+                         help="score on the tier's first N validation tasks (what training "
+                         "selects on; optima certified here) instead of its held-out suites: "
+                         "tune decoders and recipes here, never on the held-out suites"),
     "--no-progress": dict(action="store_true"),
     "--workers": dict(type=int_option(1, 256), default=1,
                       help="Ray tasks sharing the tasks (1: one process, so each solver's "
@@ -175,6 +201,9 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
             methods.append(f"ppo-k{args.samples}")
     if any(m.startswith("ppo") for m in methods) and not args.model.is_file():
         raise ValueError(f"PPO model file {args.model} does not exist (train: python train.py)")
+    for m in methods:  # a bad name fails now, not in a worker after the work has started
+        if m.startswith("ppo-guided-"):
+            guided_options(m)
     return methods
 
 
@@ -183,8 +212,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.tier is not None and args.suite:
         raise ValueError("give --tier or --suite, not both")
     tier = get_tier(args.tier or "current")
+    if args.suite and args.validation:
+        raise ValueError("give --validation or --suite, not both")
     if args.suite:
         suites = {Path(path).stem: load_suite(path)[: args.limit] for path in args.suite}
+    elif args.validation:
+        suites = {"validation": validation_suite(tier, args.validation, not args.no_progress)}
     else:
         suites = tier.load_suites(args.limit)
     n_max = args.n_max if args.n_max is not None else tier.n_max

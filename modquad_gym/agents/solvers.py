@@ -86,6 +86,7 @@ def make_solver(
     seed: int = 0,
     samples: int = 0,
     modules=None,
+    guided: dict | None = None,
 ) -> Solver:
     """The solver for ``method`` (one of :data:`METHODS`).
 
@@ -93,7 +94,8 @@ def make_solver(
     rollouts, best verified structure kept) apply to ``"ppo"`` only; ``seed`` seeds the random
     search and PPO's sampled rollouts; ``modules`` (a list of module types) makes the searches
     search over shapes x type assignments, and must be the palette a learned model was
-    trained with.
+    trained with; ``guided`` holds :class:`~.guided.GuidedSolver` keywords (budget, branching,
+    dive) for ``"ppo-guided"``.
     """
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
@@ -101,7 +103,7 @@ def make_solver(
         if method == "ppo-guided":
             from .guided import GuidedSolver
 
-            solver = GuidedSolver(model=model, n_max=n_max)
+            solver = GuidedSolver(model=model, n_max=n_max, **(guided or {}))
         else:
             from .ppo import PPOSolver
 

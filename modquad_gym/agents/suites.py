@@ -22,6 +22,7 @@ of up to ``n_max`` modules works).
 from __future__ import annotations
 
 import argparse
+import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
@@ -55,10 +56,19 @@ def draw_task(generator: TaskGenerator, seed: int, name: str | None = None) -> T
     )
 
 
-def with_optimum(task: TaskRequirement, n_max: int = 7) -> TaskRequirement:
-    """``task`` with ``meta["optimum"]`` (certified, exhaustive search up to ``n_max``)."""
-    result = exhaustive_search(task, n_max=n_max)
-    meta = {**task.meta, "optimum": result.n_modules, "optimum_n_max": n_max}
+def with_optimum(task: TaskRequirement, n_max: int = 7, modules=None) -> TaskRequirement:
+    """``task`` with its certified optimum in ``meta`` (exhaustive search up to ``n_max``, over
+    the ``modules`` palette if given): ``optimum`` (None beyond n_max), ``optimum_n_max``,
+    ``optimum_cells``, ``optimum_modules`` (with a palette), and the search's
+    ``exhaustive_evaluated`` and ``exhaustive_seconds``."""
+    t0 = time.perf_counter()
+    r = exhaustive_search(task, n_max=n_max, **({"modules": modules} if modules else {}))
+    s = r.structure
+    meta = {**task.meta, "optimum": r.n_modules, "optimum_n_max": n_max,
+            "optimum_cells": [list(c) for c in s.cells] if s is not None else None,
+            "optimum_modules": [m.name for m in s.modules] if s is not None and modules else None,
+            "exhaustive_evaluated": r.evaluated,
+            "exhaustive_seconds": round(time.perf_counter() - t0, 3)}  # fmt: skip
     return TaskRequirement(
         task.wrenches, name=task.name, f_max=task.f_max, kind=task.kind, meta=meta
     )

@@ -16,16 +16,14 @@ certified optimum from :func:`~modquad_gym.search.exhaustive_search`.
 from __future__ import annotations
 
 import argparse
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from modquad_gym.module import palette
-from modquad_gym.search import exhaustive_search
 from modquad_gym.tasks import TaskRequirement, load_suite, make_generator, save_suite
 
 from .solvers import DEFAULT_MODEL
-from .suites import SUITES_DIR, draw_task, optimum_counts
+from .suites import SUITES_DIR, draw_task, optimum_counts, validation_tasks, with_optimum
 
 
 @dataclass(frozen=True)
@@ -97,23 +95,25 @@ def get_tier(name: str) -> Tier:
 
 def build_tier_suite(tier: Tier, n: int | None = None, progress: bool = True) -> list:
     """The tier's held-out tasks (seeds ``seed0 + i``) with their certified optimum."""
+    gen = make_generator(tier.source)
+    seeds = range(tier.seed0, tier.seed0 + (n or tier.n_tasks))
+    return certify(tier, [draw_task(gen, s, name=f"{tier.name}-{s}") for s in seeds], progress)
+
+
+def validation_suite(tier: Tier, n: int = 40, progress: bool = True) -> list:
+    """``n`` validation tasks of the tier's training task source with their certified optimum:
+    the tasks training selects its model on (:func:`.suites.validation_tasks`, disjoint from
+    training and held-out seeds), where decoders and recipes are tuned."""
+    return certify(tier, validation_tasks(n, tier.source or "mixed"), progress)
+
+
+def certify(tier: Tier, tasks: list, progress: bool = True) -> list:
+    """The tasks with the tier's certified optimum in their meta (:func:`.suites.with_optimum`)."""
     from tqdm import tqdm
 
-    gen = make_generator(tier.source)
-    tasks = []
-    for i in tqdm(range(n or tier.n_tasks), desc=tier.name, disable=not progress):
-        task = draw_task(gen, tier.seed0 + i, name=f"{tier.name}-{tier.seed0 + i}")
-        t0 = time.perf_counter()
-        r = exhaustive_search(task, n_max=tier.n_max, **tier.search_kwargs())
-        meta = {**task.meta, "optimum": r.n_modules, "optimum_n_max": tier.n_max,
-                "optimum_cells": [list(c) for c in r.structure.cells] if r.structure else None,
-                "optimum_modules": [m.name for m in r.structure.modules] if r.structure and
-                tier.modules else None,
-                "exhaustive_evaluated": r.evaluated,
-                "exhaustive_seconds": round(time.perf_counter() - t0, 3)}  # fmt: skip
-        tasks.append(TaskRequirement(task.wrenches, name=task.name, f_max=task.f_max,
-                                     kind=task.kind, meta=meta))  # fmt: skip
-    return tasks
+    modules = tier.search_kwargs().get("modules")
+    desc = f"certified optima ({tier.name})"
+    return [with_optimum(t, tier.n_max, modules) for t in tqdm(tasks, desc, disable=not progress)]
 
 
 def main(argv: list[str] | None = None) -> int:
