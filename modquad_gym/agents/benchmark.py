@@ -37,8 +37,6 @@ from .tiers import TIERS, Tier, get_tier, validation_suite
 
 SEARCH_METHODS = tuple(SEARCHES)
 DEFAULT_METHODS = (*SEARCH_METHODS, "ppo", "ppo-k2", "ppo-k8")
-TIER_LEARNED = ("ppo", "ppo-k8", "ppo-guided")
-"""Learned methods scored by default on the tiers other than current that ship a model."""
 
 
 def parse_method(method: str, n_max: int, model: Path | None, seed: int, modules=None) -> Solver:
@@ -153,7 +151,7 @@ OPTIONS = {
     "--methods": dict(nargs="+", default=None,
                       help="search names, ppo, ppo-kN, ppo-guided, or package.module:Name of an "
                       f"outside agent (default: {' '.join(DEFAULT_METHODS)}; on other tiers "
-                      f"the searches, and {' '.join(TIER_LEARNED)} when the tier has a model)"),
+                      "the searches, and the tier's learned methods when it ships a model)"),
     "--solver": dict(action="append", default=[], metavar="PKG.MOD:NAME",
                      help="score an outside agent too (repeatable): a Solver instance or class, "
                      "or a function task -> structure, imported from PKG.MOD"),
@@ -193,7 +191,7 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
         args.model = tier.model
     default = DEFAULT_METHODS if tier.name == "current" else SEARCH_METHODS
     if tier.name != "current" and args.model.is_file():
-        default = (*SEARCH_METHODS, *TIER_LEARNED)
+        default = (*SEARCH_METHODS, *tier.learned)
     methods = list(dict.fromkeys([*(args.methods or default), *args.solver]))
     if args.samples is not None:
         methods = [m for m in methods if not m.startswith("ppo-k")]

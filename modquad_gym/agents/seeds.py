@@ -38,8 +38,6 @@ from .report import config_limit
 from .scores import Row
 from .tiers import TIERS, get_tier
 
-LEARNED = ("ppo", "ppo-k8", "ppo-guided")
-"""Methods scored per seed."""
 METRICS = {"success": "success", "optimal": "optimal share", "evaluated": "configs / task"}
 SEED_FILES = ("seeds.md", "seeds.csv", "seeds.png")
 
@@ -105,14 +103,15 @@ class SeedScore:
 def score_runs(
     runs: dict[str, Path],
     tier_name: str,
-    methods: Sequence[str] = LEARNED,
+    methods: Sequence[str] | None = None,
     limit: int | None = None,
     progress: bool = True,
 ) -> list[SeedScore]:
-    """Every run's model (``runs``: seed label -> model.zip) with every learned method, and
-    the searches once (seed label ``-``), on the tier's held-out suites, scored per suite on
-    the tasks whose certified optimum is within the tier's n_max."""
+    """Every run's model (``runs``: seed label -> model.zip) with every learned method (default
+    the tier's), and the searches once (seed label ``-``), on the tier's held-out suites, scored
+    per suite on the tasks whose certified optimum is within the tier's n_max."""
     tier = get_tier(tier_name)
+    methods = tier.learned if methods is None else methods
     suites = tier.load_suites(limit)
     scores: list[SeedScore] = []
     plan = [("-", None, list(SEARCH_METHODS))]
@@ -239,19 +238,20 @@ def goal_lines(scores: list[SeedScore], tier_name: str) -> list[str]:
             verdict += "" if v[1] >= goal else "points short)"
             out.append(f"| {method} | {metric} | {100 * goal:.0f} % | {_ci(v, True)} | {verdict} |")
     exhaustive = [s for s in scores if s.method == "exhaustive"]
-    guided = [s for s in scores if s.method == "ppo-guided"]
-    if exhaustive and guided:
+    guided_methods = dict.fromkeys(s.method for s in scores if s.method.startswith("ppo-guided"))
+    if exhaustive and guided_methods:
         ref = np.average([s.evaluated for s in exhaustive], weights=[s.tasks for s in exhaustive])
         t_ref = np.average([s.seconds for s in exhaustive], weights=[s.tasks for s in exhaustive])
-        g = summary(scores, "evaluated", "ppo-guided")["iqm"]
-        secs = np.mean([s.seconds for s in guided])
-        out += [
-            "",
-            f"ppo-guided evaluates {g[0]:.1f} configurations per task (IQM; 95 % CI "
-            f"{g[1]:.1f}-{g[2]:.1f}), {100 * g[0] / ref:.1f} % of the exhaustive search's "
-            f"{ref:.1f}, in {100 * secs / t_ref:.0f} % of its time ({secs:.3f} s vs "
-            f"{t_ref:.3f} s per task, mean over seeds).",
-        ]
+        out.append("")
+        for method in guided_methods:
+            g = summary(scores, "evaluated", method)["iqm"]
+            secs = np.mean([s.seconds for s in scores if s.method == method])
+            out.append(
+                f"{method} evaluates {g[0]:.1f} configurations per task (IQM; 95 % CI "
+                f"{g[1]:.1f}-{g[2]:.1f}), {100 * g[0] / ref:.1f} % of the exhaustive search's "
+                f"{ref:.1f}, in {100 * secs / t_ref:.0f} % of its time ({secs:.3f} s vs "
+                f"{t_ref:.3f} s per task, mean over seeds)."
+            )
     return out
 
 
@@ -330,8 +330,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--methods",
         nargs="+",
-        default=list(LEARNED),
-        help=f"learned methods (default {' '.join(LEARNED)})",
+        default=None,
+        help="learned methods (default the tier's: ppo ppo-k8 ppo-guided, and on the large "
+        "tier also ppo-guided-b256-w8)",
     )
     p.add_argument("--out", type=Path, default=None, help="report folder (default RUNS/report)")
     p.add_argument("--limit", type=int_option(1), default=None, help="first N tasks per suite")
@@ -339,7 +340,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
     try:
-        if any(not m.startswith("ppo") for m in args.methods):
+        if args.methods and any(not m.startswith("ppo") for m in args.methods):
             raise ValueError(
                 f"--methods: learned methods only (ppo, ppo-kN, ppo-guided), got {args.methods}"
             )

@@ -42,6 +42,9 @@ class Tier:
     recipe: dict = field(default_factory=dict)
     """Training settings that differ from the recipe's defaults on this tier
     (:class:`~.training.TrainConfig` fields)."""
+    learned: tuple[str, ...] = ("ppo", "ppo-k8", "ppo-guided")
+    """The learned methods its reports score (benchmark method names; settings of the guided
+    search chosen on validation tasks, ``modquad bench agents --validation``)."""
     goals: dict = field(default_factory=dict)
     """The tier's goals on its held-out suites: {method: {metric: least share}} for the
     metrics ``success`` and ``optimal``, and ``configs``: a share of the exhaustive search's
@@ -77,12 +80,14 @@ TIERS = {
     "large": Tier("large", "ModQuadAssemblyLarge-v0", 12, ("large_planted",),
                   source="planted-large", seed0=3_000_000, n_tasks=40,
                   recipe={"expert": "one", "demo_tasks": 800, "timesteps": 30_000},
-                  goals={"ppo-guided": {"optimal": 0.95, "configs": 0.05}}),
+                  learned=("ppo", "ppo-k8", "ppo-guided", "ppo-guided-b256-w8"),
+                  goals={m: {"optimal": 0.95, "configs": 0.05}
+                         for m in ("ppo-guided", "ppo-guided-b256-w8")}),
     "mixed": Tier("mixed", "ModQuadAssemblyMixed-v0", 7, ("mixed_external",),
                   env_kwargs={"tasks": "planted-mixed-external"}, modules="t45,t45m,flat",
                   source="planted-mixed-external", seed0=4_000_000, n_tasks=40,
                   recipe={"expert": "one", "demo_tasks": 3000, "timesteps": 100_000},
-                  goals={"ppo": {"success": 0.98, "optimal": 0.80}}),
+                  goals={m: {"success": 0.98, "optimal": 0.80} for m in ("ppo", "ppo-guided")}),
 }  # fmt: skip
 """The tiers by name."""
 
