@@ -164,8 +164,14 @@ def _header(
         "",
         f"Made by `{command}`. Machine: {machine_description()}. Benchmark wall time {wall:.0f} s.",
         "",
-        "Held-out suites (never seen in training; seeds in `modquad_gym/agents/suites.py` and "
-        "`tiers.py`): "
+        (
+            "Validation tasks (what training selects its model on, seeds "
+            "`VALIDATION_SEED0 + i` in `modquad_gym/agents/suites.py`; settings are tuned here, "
+            "never on the held-out suites): "
+            if set(suites) == {"validation"}
+            else "Held-out suites (never seen in training; seeds in "
+            "`modquad_gym/agents/suites.py` and `tiers.py`): "
+        )
         + ", ".join(f"`{name}` ({len(t)} tasks)" for name, t in suites.items())
         + f", {n_tasks} tasks in all. The optimum is the certified minimum from the exhaustive "
         f"search with n_max = {n_max}; the table covers the tasks whose optimum is <= n_max.",

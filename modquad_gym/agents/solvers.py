@@ -113,7 +113,8 @@ def make_solver(
             given = ",".join(m.name for m in modules) if modules else "one type"
             raise ValueError(
                 f"--model {solver.model_path or 'given'}: trained with the module types "
-                f"{','.join(trained)}, not {given} (a tier's --model must match its palette)"
+                f"{','.join(trained)}, not {given}: give --model of one trained with them "
+                "(the mixed tier's, t45,t45m,flat: modquad_gym/data/models/ppo_mixed/model.zip)"
             )
         return solver
     if model is not None:

@@ -69,12 +69,10 @@ def make_solver(method, n_max, model, seed, modules_text, workers, address, prog
     """The solver for ``--method`` (PPO lives in the agents package, searches here); cached, so
     a worker process that solves many tasks loads a PPO model once."""
     modules = palette_of(modules_text)
-    if method in LEARNED:
-        if modules is not None:
-            raise ValueError("--modules: the PPO agent builds one-type structures only")
+    if method in LEARNED:  # with --modules, a model trained with that palette
         from ..agents.solvers import make_solver as make_learned
 
-        return make_learned(method, n_max=n_max, model=model, seed=seed).solve
+        return make_learned(method, n_max=n_max, model=model, seed=seed, modules=modules).solve
     from ..search import SEARCHES
 
     fn = SEARCHES[method]
