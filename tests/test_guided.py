@@ -136,3 +136,15 @@ def test_validation_suite_is_certified_and_disjoint_from_the_held_out_suite():
         assert task.wrenches.tobytes() not in held_wrenches
         r = exhaustive_search(task, n_max=7, **tier.search_kwargs())
         assert task.meta["optimum"] == r.n_modules and task.meta["optimum_modules"]
+
+
+def test_bench_agents_scores_validation_tasks(tmp_path, capsys):
+    from modquad_gym.agents.benchmark import main
+
+    out = tmp_path / "val"
+    argv = ["--tier", "mixed", "--validation", "2", "--methods", "exhaustive", "random"]
+    assert main([*argv, "--out", str(out), "--no-progress"]) == 0
+    report = (out / "benchmark.md").read_text()
+    assert "Validation tasks" in report and "`validation` (2 tasks)" in report
+    with pytest.raises(ValueError, match="not both"):
+        main([*argv, "--suite", str(tmp_path / "x.json"), "--out", str(tmp_path / "v2")])
