@@ -6,7 +6,8 @@ certified expert episodes, then MaskablePPO; <= 30 min on 2 CPU cores) on the ``
 ``ppo-seed<seed>``: ``model.zip``, ``config.json``, ``evaluations.npz`` and the benchmark report
 in ``report/``); it refuses a run folder that exists unless ``--force``.
 
-* ``--tier large`` trains on the large tier (n_max 12, its own task source and held-out suite).
+* ``--tier large`` trains on the large tier (n_max 12, its own task source and held-out suite),
+  ``--tier mixed`` on the mixed one (three module types: each action docks a (cell, type)).
 * ``--seeds 0 1 2 3 4`` trains one run per seed as parallel Ray tasks (an embedded Ray on the
   local cores, or the cluster of ``RAY_ADDRESS``), each into ``<out>/seed-S``; ``python -m
   modquad_gym.agents.seeds`` then reports them over seeds (IQM with 95 % bootstrap intervals).
