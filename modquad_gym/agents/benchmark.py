@@ -149,7 +149,9 @@ OPTIONS = {
     "--tier": dict(default=None, help="score on a benchmark tier's held-out suites and budget: "
                    f"{', '.join(TIERS)} (default: current, or the --suite files)"),
     "--methods": dict(nargs="+", default=None,
-                      help="search names, ppo, ppo-kN, ppo-guided, or package.module:Name of an "
+                      help="search names, ppo, ppo-kN, ppo-guided (settings as suffixes: "
+                      "-bN budget, -wN branching, -nodive, e.g. ppo-guided-b256-w8), or "
+                      "package.module:Name of an "
                       f"outside agent (default: {' '.join(DEFAULT_METHODS)}; on other tiers "
                       "the searches, and the tier's learned methods when it ships a model)"),
     "--solver": dict(action="append", default=[], metavar="PKG.MOD:NAME",
