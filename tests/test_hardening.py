@@ -338,6 +338,9 @@ def test_ctrl_c_exits_130(tmp_path):
         stderr=subprocess.PIPE,
         text=True,
         env=ENV,
+        # a job started in the background by a shell without job control inherits SIGINT
+        # ignored, and Python keeps it ignored: give the child the default disposition
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     time.sleep(6)
     if proc.poll() is not None:  # pragma: no cover - finished before the signal
