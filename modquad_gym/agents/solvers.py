@@ -108,12 +108,14 @@ def make_solver(
             from .ppo import PPOSolver
 
             solver = PPOSolver(model=model, n_max=n_max, seed=seed, samples=samples)
-        trained = [m.name for m in getattr(solver.env, "palette", [solver.env.module])]
-        if modules and [m.name for m in modules] != trained or not modules and len(trained) > 1:
+        trained = getattr(solver.env, "palette", [solver.env.module])
+        same = [m.digest for m in modules or []] == [m.digest for m in trained]
+        if modules and not same or not modules and len(trained) > 1:
             given = ",".join(m.name for m in modules) if modules else "one type"
             raise ValueError(
                 f"--model {solver.model_path or 'given'}: trained with the module types "
-                f"{','.join(trained)}, not {given}: give --model of one trained with them "
+                f"{','.join(m.name for m in trained)}, not {given}: give --model of one trained "
+                "with them "
                 "(the mixed tier's, t45,t45m,flat: modquad_gym/data/models/ppo_mixed/model.zip)"
             )
         return solver
