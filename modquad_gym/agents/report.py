@@ -367,15 +367,15 @@ def config_limit(goal: float | str | None, searches: dict[str, float]) -> tuple[
 
 def _goals(summary: list[dict], goals: dict) -> list[str]:
     """The goal table: each learned method's success and optimal share against the tier's
-    goals, its configurations per task against the exhaustive search's share (``configs``) or
-    else against every search but random."""
+    goals, its configurations per task against the tier's ``configs`` goal
+    (:func:`config_limit`)."""
     by = {s["method"]: s for s in summary}
     rivals = {m: s["mean_evaluated"] for m, s in by.items() if m in SEARCHES}
     limit, versus = config_limit(goals.get("configs"), rivals)
     want = lambda key: f"goal >= {100 * goals[key]:.0f} %" if key in goals else "no goal"  # noqa: E731
     lines = [
-        "Goals of this tier on held-out tasks whose optimum is <= n_max (one run; the results "
-        "over seeds judge them on confidence intervals).",
+        "Goals of this tier on the tasks above whose optimum is <= n_max (one run; the "
+        "results over seeds judge them on confidence intervals).",
         "",
         f"| method | success ({want('success')}) | optimal count ({want('optimal')}) | "
         f"configs evaluated / task ({versus}) |",
