@@ -122,8 +122,7 @@ class GuidedSolver(PPOSolver):
             for a in np.argsort(-probs, kind="stable")[: self.branching]:
                 if probs[a] <= 0.0:
                     break
-                child = env.grid.cell(int(a) % env.grid.n_cells)
-                key = self._child_key(s, child, int(a) // env.grid.n_cells)
+                key = self._child_key(s, env.grid.cell_of(a), env.grid.type_of(a))
                 if key in queued:
                     continue
                 queued.add(key)

@@ -65,7 +65,7 @@ def good_actions(
     for target in targets:
         if built <= target:
             for cell, k in target - built:
-                good[env.grid.n_cells * k + env.grid.action_of(cell)] = True
+                good[env.grid.action_of(cell, k)] = True
     return good & env.action_masks()
 
 

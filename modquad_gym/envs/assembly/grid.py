@@ -44,12 +44,17 @@ class Grid:
         for b in self._neighbours[self.centre]:
             self.initial_mask[b :: self.n_cells] = 1
 
-    def action_of(self, cell: Cell) -> int:
-        """The cell index (the type-0 action) of ``cell`` (x, y); ValueError off the grid."""
+    def action_of(self, cell: Cell, type_index: int = 0) -> int:
+        """The action that docks a module of type ``type_index`` at ``cell`` (x, y): type-major,
+        ``type_index * n_cells`` plus the cell index; ValueError off the grid."""
         x, y = int(cell[0]), int(cell[1])
         if max(abs(x), abs(y)) > self.radius:
             raise ValueError(f"cell {cell} lies outside the grid [-{self.radius}, {self.radius}]^2")
-        return (y + self.radius) * self.side + (x + self.radius)
+        return int(type_index) * self.n_cells + (y + self.radius) * self.side + (x + self.radius)
+
+    def type_of(self, action: int) -> int:
+        """The type index of ``action``."""
+        return int(action) // self.n_cells
 
     def cell_of(self, action: int) -> Cell:
         """The grid cell (x, y) of ``action`` (of any type)."""

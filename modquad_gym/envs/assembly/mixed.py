@@ -106,11 +106,11 @@ class MixedAssemblyEnv(ModQuadAssemblyEnv):
     # --- grid <-> actions -----------------------------------------------------------------
     def action_of(self, cell: Cell, type_index: int = 0) -> int:
         """The action that docks a module of palette type ``type_index`` at ``cell``."""
-        return int(type_index) * self._n_cells + super().action_of(cell)
+        return self.grid.action_of(cell, type_index)
 
     def type_of(self, action: int) -> int:
         """The palette index of the type that ``action`` docks."""
-        return int(action) // self._n_cells
+        return self.grid.type_of(action)
 
     # --- state ----------------------------------------------------------------------------
     @property
