@@ -148,3 +148,6 @@ def test_bench_agents_scores_validation_tasks(tmp_path, capsys):
     assert "Validation tasks" in report and "`validation` (2 tasks)" in report
     with pytest.raises(ValueError, match="not both"):
         main([*argv, "--suite", str(tmp_path / "x.json"), "--out", str(tmp_path / "v2")])
+    with pytest.raises(SystemExit) as exc:  # no task to score: a one-line usage error
+        main(["--tier", "mixed", "--validation", "0", "--out", str(tmp_path / "v3")])
+    assert exc.value.code == 2 and "--validation" in capsys.readouterr().err
