@@ -39,7 +39,7 @@ def shipped_model_episode(seed: int = 0) -> dict | None:
         from sb3_contrib import MaskablePPO
     except ImportError:
         return None  # pip install 'modquad_gym[train]'
-    from modquad_gym.agents import DEFAULT_MODEL
+    from modquad_gym.policy import DEFAULT_MODEL
 
     model = MaskablePPO.load(DEFAULT_MODEL, device="cpu")
     env = gym.make("ModQuadAssembly-v0", tasks="planted", n_max=7)

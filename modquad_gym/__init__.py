@@ -6,10 +6,20 @@ Layers, bottom to top (a lower layer never imports a higher one):
 Importing this package stays light: torch, SB3 and MuJoCo load only where they are used.
 """
 
-from . import envs  # noqa: F401 - registers ModQuadAssembly-v0 with Gymnasium
-from .module import DEFAULT_C_TAU, DEFAULT_SIDE, ModuleType, TModule
-from .oracle import METHODS, TOL, WrenchOracle, Zonotope, allocate, feasible, lambda_ratio, margin
-from .search import (
+from modquad_gym import envs  # noqa: F401 - registers ModQuadAssembly-v0 with Gymnasium
+from modquad_gym.geometry.module import DEFAULT_C_TAU, DEFAULT_SIDE, ModuleType, TModule
+from modquad_gym.geometry.structure import Structure, structure_levels
+from modquad_gym.oracle import (
+    METHODS,
+    TOL,
+    WrenchOracle,
+    Zonotope,
+    allocate,
+    feasible,
+    lambda_ratio,
+    margin,
+)
+from modquad_gym.search import (
     SearchResult,
     centrosymmetric_search,
     exhaustive_search,
@@ -17,8 +27,7 @@ from .search import (
     optimal_structures,
     random_search,
 )
-from .structure import Structure, structure_levels
-from .tasks import TaskRequirement
+from modquad_gym.tasks import TaskRequirement
 
 __version__ = "0.1.0"
 

@@ -14,10 +14,11 @@ import numpy as np
 import pytest
 
 import modquad_gym as mq
-from modquad_gym.agents import DEFAULT_MODEL, Solver, make_solver
+from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import feasible
+from modquad_gym.policy import DEFAULT_MODEL
 from modquad_gym.search import SearchResult
-from modquad_gym.structure import Structure
+from modquad_gym.solvers import Solver, make_solver
 from modquad_gym.tasks import PlantedTasks, TaskRequirement, save_suite
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -77,7 +78,7 @@ def test_train_clones_the_expert_before_ppo(tmp_path):
     evals = np.load(out / "evaluations.npz")
     assert evals["timesteps"][0] == 0 and evals["results"].shape[1] == 4  # cloned, before PPO
     assert list((tmp_path / "tb" / f"{tmp_path.name}-model" / "bc").glob("events.out.tfevents.*"))
-    from modquad_gym.agents.ppo import PPOSolver
+    from modquad_gym.policy.ppo import PPOSolver
 
     solver = PPOSolver(model=out / "model.zip", n_max=TINY_N_MAX)
     for task in _tiny_tasks():
@@ -108,7 +109,7 @@ def test_bad_method_and_options_raise():
 
 def test_import_agents_does_not_import_torch():
     code = (
-        "import sys, modquad_gym.agents as agents; agents.make_solver('greedy'); "
+        "import sys, modquad_gym.solvers as agents; agents.make_solver('greedy'); "
         "print('torch' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -125,8 +126,8 @@ def test_tiny_set_needs_the_right_orientation():
 
 
 def test_short_training_beats_random_policy(tiny_model):
-    from modquad_gym.agents.ppo import PPOSolver
     from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+    from modquad_gym.policy.ppo import PPOSolver
 
     tasks = _tiny_tasks()
     env = ModQuadAssemblyEnv(tasks=tasks, n_max=TINY_N_MAX)
@@ -151,7 +152,7 @@ def test_short_training_beats_random_policy(tiny_model):
 
 
 def test_ppo_sampling_and_budget(tiny_model):
-    from modquad_gym.agents.ppo import PPOSolver
+    from modquad_gym.policy.ppo import PPOSolver
 
     task = _tiny_tasks()[1]
     sampled = make_solver("ppo", n_max=TINY_N_MAX, model=tiny_model, seed=1, samples=3)
@@ -180,8 +181,8 @@ def test_cli_solve_ppo_json_round_trip(tiny_model, tmp_path):
 
 
 def test_benchmark_runs_on_three_tasks(tiny_model, tmp_path):
-    from modquad_gym.agents import benchmark
-    from modquad_gym.agents.suites import with_optimum
+    from modquad_gym.bench import agents as benchmark
+    from modquad_gym.bench.suites import with_optimum
 
     tasks = [*_tiny_tasks(), PlantedTasks(n_modules=3, n_wrenches=10)(np.random.default_rng(7))]
     suite = save_suite([with_optimum(t, TINY_N_MAX) for t in tasks], tmp_path / "three.json")
@@ -213,7 +214,7 @@ def test_ppo_solver_rebuilds_a_lookahead_env_from_the_model(tmp_path):
     import torch
     from sb3_contrib import MaskablePPO
 
-    from modquad_gym.agents.ppo import PPOSolver, env_kwargs_of, make_env
+    from modquad_gym.policy.ppo import PPOSolver, env_kwargs_of, make_env
 
     torch.set_num_threads(1)
     model = MaskablePPO("MultiInputPolicy", make_env("planted", n_max=3, lookahead=True),
@@ -233,7 +234,7 @@ def test_ppo_solver_rebuilds_a_lookahead_env_from_the_model(tmp_path):
 
 @pytest.mark.skipif(not DEFAULT_MODEL.is_file(), reason="no default model")
 def test_policy_guided_search_is_verified_and_its_certificate_holds():
-    from modquad_gym.agents.guided import GuidedSolver, lower_bound
+    from modquad_gym.policy.guided import GuidedSolver, lower_bound
     from modquad_gym.tasks import load_suite
 
     solver = GuidedSolver(budget=40)
@@ -255,10 +256,10 @@ def test_policy_guided_search_is_verified_and_its_certificate_holds():
 
 
 def test_one_solver_table_drives_cli_benchmark_and_solvers():
-    from modquad_gym.agents.benchmark import SEARCH_METHODS
-    from modquad_gym.agents.solvers import METHODS
+    from modquad_gym.bench.agents import SEARCH_METHODS
     from modquad_gym.cli import build_parser
     from modquad_gym.search import SEARCHES
+    from modquad_gym.solvers import METHODS
 
     solve = build_parser()._subparsers._group_actions[0].choices["solve"]
     (method,) = [a for a in solve._actions if a.dest == "method"]

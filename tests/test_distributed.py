@@ -1,4 +1,5 @@
-"""The Ray engine (modquad_gym.distributed): Ray gives the serial answers, in batches and in the
+"""The Ray engine (modquad_gym.core.distributed):
+Ray gives the serial answers, in batches and in the
 split search; faults (a task that raises, a worker killed mid-batch) leave the batch complete;
 the optima dataset resumes; a two-node cluster started with `ray start` on this host works."""
 
@@ -19,10 +20,10 @@ import numpy as np
 import pytest
 
 import modquad_gym.search.exhaustive as exhaustive
+from modquad_gym.bench.optima import read_dataset
 from modquad_gym.cli import main
-from modquad_gym.distributed import Engine, Failed, map_tasks
-from modquad_gym.optima import read_dataset
-from modquad_gym.polyominoes import PolyominoStream
+from modquad_gym.core.distributed import Engine, Failed, map_tasks
+from modquad_gym.geometry.polyominoes import PolyominoStream
 from modquad_gym.search import exhaustive_search
 from modquad_gym.tasks import PlantedTasks, save_suite, task_files
 
@@ -258,7 +259,7 @@ def _free_port() -> int:
 DRIVER = """
 import json, sys
 import ray
-from modquad_gym.distributed import Engine
+from modquad_gym.core.distributed import Engine
 
 def node(_):
     import time

@@ -18,8 +18,8 @@ import modquad_gym.envs  # noqa: F401  (registers the environments)
 from modquad_gym.envs import ENV_IDS, ModQuadAssemblyEnv, RewardWeights, register_envs
 from modquad_gym.envs.assembly.features import CANDIDATE_FEATURES, AssemblyFeatures, unit_directions
 from modquad_gym.envs.assembly.reward import episode_return
+from modquad_gym.geometry.structure import Structure, is_connected
 from modquad_gym.oracle import feasible
-from modquad_gym.structure import Structure, is_connected
 from modquad_gym.tasks import PlantedTasks, TaskGenerator, TaskRequirement, make_generator
 
 SMALL = PlantedTasks(n_modules=(2, 4), n_wrenches=(4, 16))

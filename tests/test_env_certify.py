@@ -15,9 +15,9 @@ from hypothesis import strategies as st
 
 from modquad_gym.envs.assembly.certify import ACCEPT, REJECT, FastDecider
 from modquad_gym.envs.assembly.evaluator import StructureEvaluator
+from modquad_gym.geometry.structure import Structure, normalise
 from modquad_gym.oracle import BAND, RESIDUAL_TOL, TOL, WrenchOracle
 from modquad_gym.oracle.highs_lp import gamma_highs
-from modquad_gym.structure import Structure, normalise
 from modquad_gym.tasks import PaperTasks, PlantedTasks, random_cells
 
 GAUGES = (0.0, 0.3, 0.9, 0.999, 1.0, 1.0 + TOL - 1e-6, 1.0 + TOL - 2 * BAND, 1.0 + TOL,

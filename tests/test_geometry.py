@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import modquad_gym as mq
-from modquad_gym.structure import configuration_matrices, normalise, structure_levels
+from modquad_gym.geometry.structure import configuration_matrices, normalise, structure_levels
 
 
 def all_structures(n_max):

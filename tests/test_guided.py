@@ -8,11 +8,12 @@ import json
 import numpy as np
 import pytest
 
-from modquad_gym.agents import DEFAULT_MODEL, make_solver
-from modquad_gym.agents.solvers import verified
-from modquad_gym.agents.suites import SUITES_DIR as SUITES
+from modquad_gym.bench.suites import SUITES_DIR as SUITES
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
-from modquad_gym.module import palette
+from modquad_gym.geometry.module import palette
+from modquad_gym.policy import DEFAULT_MODEL
+from modquad_gym.search import verified
+from modquad_gym.solvers import make_solver
 from modquad_gym.tasks import PlantedTasks, load_suite, make_generator
 
 
@@ -70,7 +71,7 @@ def mixed_model(tmp_path_factory):
     import torch
     from sb3_contrib import MaskablePPO
 
-    from modquad_gym.agents.ppo import make_env
+    from modquad_gym.policy.ppo import make_env
 
     torch.set_num_threads(1)
     folder = tmp_path_factory.mktemp("mixed")
@@ -111,7 +112,7 @@ def test_learned_solvers_on_several_module_types(mixed_model, method):
 
 
 def test_guided_method_names_carry_its_settings():
-    from modquad_gym.agents.benchmark import guided_options
+    from modquad_gym.bench.agents import guided_options
 
     assert guided_options("ppo-guided") == {}
     assert guided_options("ppo-guided-b128-w3-nodive") == {
@@ -125,7 +126,7 @@ def test_guided_method_names_carry_its_settings():
 
 
 def test_validation_suite_is_certified_and_disjoint_from_the_held_out_suite():
-    from modquad_gym.agents.tiers import TIERS, validation_suite
+    from modquad_gym.bench.tiers import TIERS, validation_suite
     from modquad_gym.search import exhaustive_search
 
     tier = TIERS["mixed"]
@@ -139,7 +140,7 @@ def test_validation_suite_is_certified_and_disjoint_from_the_held_out_suite():
 
 
 def test_bench_agents_scores_validation_tasks(tmp_path, capsys):
-    from modquad_gym.agents.benchmark import main
+    from modquad_gym.bench.agents import main
 
     out = tmp_path / "val"
     argv = ["--tier", "mixed", "--validation", "2", "--methods", "exhaustive", "random"]

@@ -255,7 +255,7 @@ def _no_simulation(monkeypatch):
         raise AssertionError("work started before the output was checked")
 
     monkeypatch.setattr(sim_validate, "validate", boom)
-    monkeypatch.setattr(cli, "_solver", boom)
+    monkeypatch.setattr("modquad_gym.cli.solve.solver", boom)
 
 
 def test_validate_existing_out_is_refused_before_simulating(tmp_path, capsys, monkeypatch):
@@ -321,7 +321,7 @@ def test_interrupt_exits_130_in_process(capsys, monkeypatch):
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "_load_task", interrupted)
+    monkeypatch.setattr("modquad_gym.cli.common.load_task", interrupted)
     code, _, err = run_main(capsys, "solve", "--task", str(SCREWDRIVER))
     assert code == 130
     assert err.strip() == "modquad: interrupted"

@@ -15,10 +15,10 @@ from hypothesis import strategies as st
 
 import modquad_gym as mq
 from modquad_gym.cli import main
-from modquad_gym.module import DEFAULT_MASS, GRAVITY, STOCK_TYPES, ModuleType, palette
+from modquad_gym.geometry.module import DEFAULT_MASS, GRAVITY, STOCK_TYPES, ModuleType, palette
+from modquad_gym.geometry.structure import mixed_configuration_matrices, normalise_typed
 from modquad_gym.oracle import feasible
 from modquad_gym.search.bounds import count_vectors, counts_possible
-from modquad_gym.structure import mixed_configuration_matrices, normalise_typed
 from modquad_gym.tasks import (
     PaperTasks,
     PlantedTasks,
@@ -230,8 +230,8 @@ def brute_force(task, pal, n_max):
         if n > 1:
             grown = set()
             for key in shapes:
-                for cell in mq.structure.free_neighbours(key):
-                    grown.add(mq.structure.normalise(key + (cell,)))
+                for cell in mq.geometry.structure.free_neighbours(key):
+                    grown.add(mq.geometry.structure.normalise(key + (cell,)))
             shapes = grown
         found = set()
         for key in shapes:
@@ -427,7 +427,7 @@ def test_cli_solve_with_modules_and_external_generation(tmp_path, capsys):
 
 # --- pictures and MuJoCo --------------------------------------------------------------------
 def test_mixed_pictures(tmp_path):
-    from modquad_gym.viz import save_structure_figure, structure_image, type_colour
+    from modquad_gym.viz.drawing import save_structure_figure, structure_image, type_colour
 
     s = mq.Structure([(0, 0), (1, 0), (0, 1)], modules=[T45, FLAT, T45M])
     img = structure_image(s, size=(128, 128))

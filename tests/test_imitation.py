@@ -1,4 +1,4 @@
-"""Expert demonstrations and behaviour cloning (modquad_gym.agents.imitation), and the certified
+"""Expert demonstrations and behaviour cloning (agents.imitation), and the certified
 optimal_structures they rest on."""
 
 from __future__ import annotations
@@ -6,12 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modquad_gym.agents.imitation import collect, collect_parallel, good_actions, merge, placements
+from agents.imitation import collect, collect_parallel, good_actions, merge, placements
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.reward import RewardWeights
+from modquad_gym.geometry.structure import Structure, normalise, structure_levels
 from modquad_gym.oracle import feasible
 from modquad_gym.search import exhaustive_search, optimal_structures
-from modquad_gym.structure import Structure, normalise, structure_levels
 from modquad_gym.tasks import PaperTasks, PlantedTasks, ScrewdriverTask, TaskRequirement
 
 
@@ -51,7 +51,7 @@ def test_placements_hold_the_origin_and_every_translate():
 
 
 def test_typed_placements_put_a_module_of_the_start_type_on_the_origin():
-    from modquad_gym.module import palette
+    from modquad_gym.geometry.module import palette
 
     a, b = palette("t45,flat")
     key = (((0, 0), a), ((1, 0), b), ((1, 1), b))
@@ -65,7 +65,7 @@ def test_typed_placements_put_a_module_of_the_start_type_on_the_origin():
 def test_mixed_expert_episodes_dock_the_certified_typed_optimum():
     """With several module types the expert docks (cell, type) pairs of the certified search's
     typed optimum, from a start type that optimum holds, and ends with its module count."""
-    from modquad_gym.agents.imitation import expert_targets, typed_cells
+    from agents.imitation import expert_targets, typed_cells
     from modquad_gym.tasks import make_generator
 
     gen = make_generator("planted-mixed-external")
@@ -134,8 +134,8 @@ def test_cloning_learns_the_expert_choice():
     import torch
     from sb3_contrib import MaskablePPO
 
-    from modquad_gym.agents.imitation import clone
-    from modquad_gym.agents.ppo import make_env
+    from agents.imitation import clone
+    from modquad_gym.policy.ppo import make_env
 
     torch.set_num_threads(1)
     tasks = [PlantedTasks(n_modules=2, n_wrenches=24)(np.random.default_rng(s)) for s in (0, 1)]
@@ -155,7 +155,7 @@ def test_cloning_learns_the_expert_choice():
 def test_expert_one_steers_to_the_certified_search_structure():
     """``expert="one"`` targets the first optimum of the exhaustive search, one of the optima
     ``"all"`` targets; its episodes end optimal too, with at most as many good actions."""
-    from modquad_gym.agents.imitation import expert_targets
+    from agents.imitation import expert_targets
     from modquad_gym.search import exhaustive_search
 
     tasks = _tasks()

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import modquad_gym as mq
+from modquad_gym.geometry.structure import free_neighbours, normalise, structure_levels
 from modquad_gym.search import (
     SEARCHES,
     centrosymmetric_search,
@@ -13,7 +14,6 @@ from modquad_gym.search import (
     greedy_search,
     random_search,
 )
-from modquad_gym.structure import free_neighbours, normalise, structure_levels
 
 
 def planted(n, t, seed):

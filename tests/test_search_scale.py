@@ -8,7 +8,8 @@ from hypothesis import strategies as st
 
 import modquad_gym as mq
 import modquad_gym.bench.reference_search as reference
-from modquad_gym import polyominoes
+from modquad_gym.geometry import polyominoes
+from modquad_gym.geometry.structure import free_neighbours, normalise, structure_levels
 from modquad_gym.search import exhaustive_search, optimal_structures, scan_chunks
 from modquad_gym.search.bounds import (
     compute_level_bounds,
@@ -17,7 +18,6 @@ from modquad_gym.search.bounds import (
     level_excluded,
 )
 from modquad_gym.search.exhaustive import MAX_MODULES
-from modquad_gym.structure import free_neighbours, normalise, structure_levels
 
 
 def random_structure(n, rng):

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import modquad_gym as mq
-from modquad_gym.agents.benchmark import main as bench_main
-from modquad_gym.agents.solvers import verified
-from modquad_gym.agents.tiers import TIERS, build_tier_suite, get_tier
+from modquad_gym.bench.agents import main as bench_main
+from modquad_gym.bench.tiers import TIERS, build_tier_suite, get_tier
+from modquad_gym.search import verified
 
 
 @pytest.mark.parametrize("name", list(TIERS))
@@ -36,7 +36,10 @@ def test_shipped_tier_suites_are_reproduced_from_their_seeds(name):
     shipped = tier.load_suites(limit=2)[tier.suites[0]]
     rebuilt = build_tier_suite(tier, 2, progress=False)
     for a, b in zip(shipped, rebuilt, strict=True):
-        assert np.array_equal(a.wrenches, b.wrenches)
+        # the same seeded draw; floating point differs in the last bits between CPUs (an Intel
+        # and an AMD machine disagree by ~1e-14 here), so within a tolerance, not bit for bit;
+        # the certified optimum is recomputed from the rebuilt wrenches and must match exactly
+        np.testing.assert_allclose(b.wrenches, a.wrenches, rtol=1e-12, atol=1e-12)
         assert a.kind == b.kind and a.meta["optimum"] == b.meta["optimum"]
 
 

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from modquad_gym.agents.tiers import TIERS
-from modquad_gym.agents.training import TrainConfig, train
+from agents.training import TrainConfig, train
+from modquad_gym.bench.tiers import TIERS
 from modquad_gym.tasks import PlantedTasks, save_suite
 
 torch = pytest.importorskip("torch")
@@ -103,7 +103,7 @@ def test_publish_run_installs_an_earlier_run_without_training(tmp_path, suite, m
     script = _script()
     _short_run(tmp_path, "run", suite)
     target = tmp_path / "shipped" / "model.zip"
-    monkeypatch.setattr("modquad_gym.agents.tiers.DEFAULT_MODEL", target)
+    monkeypatch.setattr("modquad_gym.policy.models.DEFAULT_MODEL", target)
     assert script.main(["--publish-run", str(tmp_path / "run"), "--no-report"]) == 0
     for name in ("model.zip", "config.json", "evaluations.npz"):
         assert (target.parent / name).read_bytes() == (tmp_path / "run" / name).read_bytes()
@@ -121,7 +121,7 @@ def test_train_script_errors_are_one_line(capsys, tmp_path):
 
 
 def test_log_names_keep_runs_of_different_folders_apart(tmp_path):
-    from modquad_gym.agents.training import log_name
+    from agents.training import log_name
 
     runs = tmp_path / "runs"
     assert log_name(runs / "ppo-seed0", runs) == "ppo-seed0"

@@ -9,7 +9,7 @@ import pytest
 
 from modquad_gym import Structure, allocate
 from modquad_gym.tasks import PaperTasks, ScrewdriverTask
-from modquad_gym.viz import (
+from modquad_gym.viz.drawing import (
     draw_rotor_inputs,
     draw_structure,
     draw_torque_projection,

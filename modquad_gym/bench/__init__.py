@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..options import int_option, seed_option
-from ..outputs import OutputError, check_output_dir, write_csv, write_text
-from ..structure import Structure
+from modquad_gym.core.options import int_option, seed_option
+from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv, write_text
+from modquad_gym.geometry.structure import Structure
 
 __all__ = [
     "bench_args",
@@ -85,7 +85,7 @@ def machine_description() -> str:
 def random_structure(n: int, rng: np.random.Generator) -> Structure:
     """A random connected n-module structure (:func:`modquad_gym.tasks.random_cells`: grown one
     module at a time at a uniformly chosen free cell)."""
-    from ..tasks import random_cells
+    from modquad_gym.tasks import random_cells
 
     return Structure(random_cells(rng, n))
 

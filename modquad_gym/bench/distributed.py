@@ -5,7 +5,8 @@
 Writes ``results/distributed.md`` and ``.csv``. Two workloads, each run serially (no Ray), on an
 embedded Ray with 1 CPU and with 2 CPUs, every answer compared with the serial one:
 
-* a batch: the certified optima (every optimal structure, :func:`modquad_gym.optima.optimum_record`,
+* a batch: the certified optima (every optimal structure,
+  :func:`modquad_gym.bench.optima.optimum_record`,
   the unit of work of ``modquad optima``) of ``--tasks`` training-like tasks (the ``mixed`` task
   source of ``train.py``: planted tasks of 2-6 modules and paper-like tasks);
 * for each ``--search-n-max``, one certified exhaustive search on a task that no structure of
@@ -25,11 +26,11 @@ import time
 
 import numpy as np
 
-from ..outputs import write_text
-from . import bench_args, int_option, machine_description, markdown_table, write_csv
+from modquad_gym.bench import bench_args, int_option, machine_description, markdown_table, write_csv
+from modquad_gym.core.outputs import write_text
 
 MODES = (("serial (no Ray)", 0), ("Ray, 1 CPU", 1), ("Ray, 2 CPUs", 2))
-"""(label, Ray CPUs; 0: the serial path of :mod:`modquad_gym.distributed`)."""
+"""(label, Ray CPUs; 0: the serial path of :mod:`modquad_gym.core.distributed`)."""
 
 
 def _noop(i: int) -> int:
@@ -44,7 +45,7 @@ def _start_ray(cpus: int) -> float:
     t0 = time.perf_counter()
     ray.init(address="local", num_cpus=cpus, include_dashboard=False, log_to_driver=False,
              logging_level="ERROR")  # fmt: skip
-    from ..distributed import map_tasks
+    from modquad_gym.core.distributed import map_tasks
 
     map_tasks(_noop, range(max(cpus, 2)), workers=max(cpus, 2))  # on the Ray just started
     return time.perf_counter() - t0
@@ -69,7 +70,7 @@ def _timed(cpus: int, work) -> tuple[float, float, object]:
 
 
 def batch_tasks(n: int, seed: int) -> list:
-    from ..tasks import make_generator
+    from modquad_gym.tasks import make_generator
 
     generator = make_generator("mixed")
     rng = np.random.default_rng([seed, 2])
@@ -79,8 +80,8 @@ def batch_tasks(n: int, seed: int) -> list:
 def run_batch(tasks: list, n_max: int) -> list[dict]:
     from functools import partial
 
-    from ..distributed import map_tasks
-    from ..optima import optimum_record
+    from modquad_gym.bench.optima import optimum_record
+    from modquad_gym.core.distributed import map_tasks
 
     def work(workers: int):
         records = map_tasks(partial(optimum_record, n_max), tasks, workers=workers)
@@ -98,8 +99,8 @@ def run_batch(tasks: list, n_max: int) -> list[dict]:
 
 
 def run_search(n_max: int, seed: int) -> list[dict]:
-    from ..search import exhaustive_search
-    from .scaling import refuting_task
+    from modquad_gym.bench.scaling import refuting_task
+    from modquad_gym.search import exhaustive_search
 
     W = refuting_task(seed, n_max)
 
@@ -182,7 +183,8 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
         f"in {seconds:.0f} s; load average at the end {load} (above ~1 another job shared the "
         "CPUs, so the speed-ups are those of a shared machine).",
         "",
-        "Each workload runs three ways: the serial path of `modquad_gym.distributed` (no Ray), "
+        "Each workload runs three ways: the serial path of "
+        "`modquad_gym.core.distributed` (no Ray), "
         "an embedded Ray with 1 CPU, and one with 2 CPUs. `wall_s` is what a user waits for "
         "(Ray's start, its workers importing the package, the work, the shutdown); `startup_s` "
         "is `ray.init` until a no-op task has returned on every CPU; `work_s` = wall - "
@@ -230,7 +232,7 @@ def main(argv: list[str] | None = None) -> None:
         "embedded Ray with 1 and 2 CPUs; write results/distributed.{md,csv}.",
         options,
     )
-    from ..extras import import_optional
+    from modquad_gym.core.extras import import_optional
 
     import_optional("ray")
     t0 = time.perf_counter()

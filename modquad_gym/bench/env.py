@@ -28,12 +28,12 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
-from ..envs import ModQuadAssemblyEnv
-from ..extras import import_optional
-from ..options import int_option, seed_option
-from ..outputs import check_output_dir, write_text
-from ..tasks import PaperTasks, PlantedTasks
-from . import machine_description, markdown_table, parse_bench_args, write_csv
+from modquad_gym.bench import machine_description, markdown_table, parse_bench_args, write_csv
+from modquad_gym.core.extras import import_optional
+from modquad_gym.core.options import int_option, seed_option
+from modquad_gym.core.outputs import check_output_dir, write_text
+from modquad_gym.envs import ModQuadAssemblyEnv
+from modquad_gym.tasks import PaperTasks, PlantedTasks
 
 SIZES = (1, 8, 32, 80, 200)
 FAMILIES = {"paper": PaperTasks, "planted": PlantedTasks}

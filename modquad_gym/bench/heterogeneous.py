@@ -26,11 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..module import palette
-from ..outputs import check_output_dir, write_text
-from ..search import exhaustive_search
-from . import bench_args, int_option, markdown_table, write_csv
-from .heterogeneous_measure import (
+from modquad_gym.bench import bench_args, int_option, markdown_table, write_csv
+from modquad_gym.bench.heterogeneous_measure import (
     EXTERNAL_F_MAX,
     GOALS,
     PAIR,
@@ -43,7 +40,10 @@ from .heterogeneous_measure import (
     task_sets,
     worst_case,
 )
-from .heterogeneous_report import COST_COLUMNS, SAVINGS_COLUMNS, figure, report
+from modquad_gym.bench.heterogeneous_report import COST_COLUMNS, SAVINGS_COLUMNS, figure, report
+from modquad_gym.core.outputs import check_output_dir, write_text
+from modquad_gym.geometry.module import palette
+from modquad_gym.search import exhaustive_search
 
 __all__ = [
     "COST_COLUMNS",

@@ -11,11 +11,11 @@ import time
 
 import numpy as np
 
-from ..module import STOCK_TYPES, palette
-from ..polyominoes import A001168
-from ..search import exhaustive_search
-from ..structure import Structure
-from ..tasks import PaperTasks, PlantedMixedTasks, TaskRequirement
+from modquad_gym.geometry.module import STOCK_TYPES, palette
+from modquad_gym.geometry.polyominoes import A001168
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.search import exhaustive_search
+from modquad_gym.tasks import PaperTasks, PlantedMixedTasks, TaskRequirement
 
 PALETTE = ("t45", "t45m", "flat")
 PAIR = ("t45", "t45m")
@@ -117,7 +117,7 @@ def _saved(best_alone: int | None, mixed: int | None, n_max: int) -> int | str:
 def refuting_task(seed: int, n_max: int) -> np.ndarray:
     """Low forces, torques of a large hidden T-module structure: no structure of up to
     ``n_max`` modules of the palette satisfies it, and the force bounds skip no level."""
-    from .search import low_force_task, random_structure
+    from modquad_gym.bench.search import low_force_task, random_structure
 
     rng = np.random.default_rng(seed)
     while True:
@@ -159,7 +159,7 @@ def worst_case(seed: int, n_max: int) -> list[dict]:
 def mujoco_rows(rows: list[dict], sets: dict[str, list[TaskRequirement]], k: int) -> list[dict]:
     """Validate up to ``k`` mixed optima of external tasks in MuJoCo (5 hover wrenches each),
     each a different multiset of types."""
-    from ..sim import validate
+    from modquad_gym.sim import validate
 
     out, seen = [], set()
     external = [r for r in rows if r["kind"] == "external" and r["mixed_types"]]

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..module import STOCK_TYPES, palette
-from ..search import exhaustive_search
-from . import machine_description, markdown_table
-from .heterogeneous_measure import EXTERNAL_F_MAX, PALETTE
+from modquad_gym.bench import machine_description, markdown_table
+from modquad_gym.bench.heterogeneous_measure import EXTERNAL_F_MAX, PALETTE
+from modquad_gym.geometry.module import STOCK_TYPES, palette
+from modquad_gym.search import exhaustive_search
 
 
 def figure(rows: list[dict], sets: dict, n_max: int, path: Path, k: int = 4) -> list[str]:
@@ -18,8 +18,8 @@ def figure(rows: list[dict], sets: dict, n_max: int, path: Path, k: int = 4) -> 
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from ..outputs import save_figure
-    from ..viz import draw_structure
+    from modquad_gym.core.outputs import save_figure
+    from modquad_gym.viz.drawing import draw_structure
 
     def gain(r):
         return r["saved"] if isinstance(r["saved"], int) else n_max + 1 - int(r["n_mixed"])
@@ -81,7 +81,7 @@ def report(args, rows, summ, worst, sim, captions) -> str:
         f"--n-max {args.n_max}` on {machine_description()}; one process; load average at the "
         f"end {load}. Per-task rows: `heterogeneous.csv`.",
         "",
-        "Module types (`modquad_gym.module.STOCK_TYPES`, 0.3 kg each): `t45` the paper's "
+        "Module types (`modquad_gym.geometry.module.STOCK_TYPES`, 0.3 kg each): `t45` the paper's "
         "T-module (eta = pi/4), `t45m` its mirrored tilts, `flat` an untilted quadrotor. "
         "The palette is {t45, t45m, flat}; the pair is {t45, t45m}. Every number is a "
         f"certified minimum of the exhaustive search with n_max = {args.n_max} "

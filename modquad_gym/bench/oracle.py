@@ -31,10 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..oracle import BAND, TOL, Zonotope, decide_with, margin_with
-from ..oracle.daqp_lp import gamma_daqp
-from ..outputs import write_text
-from . import (
+from modquad_gym.bench import (
     bench_args,
     int_option,
     machine_description,
@@ -42,6 +39,9 @@ from . import (
     random_structure,
     write_csv,
 )
+from modquad_gym.core.outputs import write_text
+from modquad_gym.oracle import BAND, TOL, Zonotope, decide_with, margin_with
+from modquad_gym.oracle.daqp_lp import gamma_daqp
 
 # per method: how many of the structures to time (the slow references get fewer)
 _SHARE = {"auto": 1.0, "daqp": 1.0, "hrep": 0.25, "scipy": 0.15, "cvxpy": 0.15}
@@ -97,7 +97,7 @@ def run(
     load = _load_average()
     rows = []
     builds: dict[int, list[float]] = {}
-    from ..tasks import PaperTasks
+    from modquad_gym.tasks import PaperTasks
 
     paper = PaperTasks(n_wrenches=n_wrenches)
     workloads = {

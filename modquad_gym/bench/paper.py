@@ -14,12 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..oracle import allocate
-from ..outputs import save_figure, write_text
-from ..polyominoes import A001168
-from ..search import centrosymmetric_search, exhaustive_search
-from ..tasks import PaperTasks
-from . import bench_args, int_option, machine_description, markdown_table, write_csv
+from modquad_gym.bench import bench_args, int_option, machine_description, markdown_table, write_csv
+from modquad_gym.core.outputs import save_figure, write_text
+from modquad_gym.geometry.polyominoes import A001168
+from modquad_gym.oracle import allocate
+from modquad_gym.search import centrosymmetric_search, exhaustive_search
+from modquad_gym.tasks import PaperTasks
 
 
 def paper_style_evaluated(result) -> int:
@@ -108,7 +108,7 @@ def _figures(seed, task, ex, cs, out: Path) -> list[str]:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from ..viz import draw_rotor_inputs, draw_structure
+    from modquad_gym.viz.drawing import draw_rotor_inputs, draw_structure
 
     fig = Figure(figsize=(10, 5), layout="constrained")
     FigureCanvasAgg(fig)

@@ -32,12 +32,18 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from modquad_gym.module import ModuleType
+from modquad_gym.core.validation import check_int
+from modquad_gym.geometry.module import ModuleType
+from modquad_gym.geometry.structure import (
+    Key,
+    Structure,
+    configuration_matrices,
+    free_neighbours,
+    normalise,
+)
 from modquad_gym.oracle import TOL, Zonotope, feasible
 from modquad_gym.search.bounds import force_lower_bound
 from modquad_gym.search.result import DEFAULT_MODULE, SearchResult, task_arrays
-from modquad_gym.structure import Key, Structure, configuration_matrices, free_neighbours, normalise
-from modquad_gym.validation import check_int
 
 _POOL_SIZE = 48
 
@@ -63,7 +69,7 @@ _LEVELS_LOCK = threading.Lock()
 
 def _level(n: int) -> tuple[Key, ...]:
     """Every connected structure of ``n`` modules (keys, up to translation), in the order of
-    :func:`~modquad_gym.structure.structure_levels`. Levels are built lazily, one at a time
+    :func:`~modquad_gym.geometry.structure.structure_levels`. Levels are built lazily, one at a time
     from the previous one, and cached for the whole process: a search that stops at level n
     never builds level n + 1 (level 11 alone holds 135,268 structures)."""
     if n < 1:
@@ -219,7 +225,7 @@ def optimal_structures(
 
     Certified like :func:`exhaustive_search`, which stops at the first feasible structure;
     this one decides the whole minimal level (the expert targets of
-    :mod:`modquad_gym.agents.imitation`).
+    :mod:`agents.imitation`).
     """
     W, f = task_arrays(task, f_max)
     n_max = check_int(n_max, "n_max", low=1)

@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..outputs import write_text
-from ..polyominoes import A001168
-from . import bench_args, int_option, machine_description, markdown_table, write_csv
+from modquad_gym.bench import bench_args, int_option, machine_description, markdown_table, write_csv
+from modquad_gym.core.outputs import write_text
+from modquad_gym.geometry.polyominoes import A001168
 
 GOALS = {"refute 12": 3.0, "refute 14": 60.0, "planted 12": 5.0, "memory_MB": 2048.0}
 
@@ -33,9 +33,9 @@ GOALS = {"refute 12": 3.0, "refute 14": 60.0, "planted 12": 5.0, "memory_MB": 20
 def _timed(impl: str, W: np.ndarray, n_max: int) -> tuple[float, int | None, int, float]:
     """Run one search in this (fresh) process: (seconds, n_modules, evaluated, peak MB)."""
     if impl == "reference":
-        from .reference_search import exhaustive_search
+        from modquad_gym.bench.reference_search import exhaustive_search
     else:
-        from ..search import exhaustive_search
+        from modquad_gym.search import exhaustive_search
     exhaustive_search(np.array([[0, 0, 1.0, 0, 0, 0]]), n_max=1)  # imports and JIT warm-up
     t0 = time.perf_counter()
     r = exhaustive_search(W, n_max=n_max)
@@ -53,8 +53,8 @@ def measure(impl: str, W: np.ndarray, n_max: int) -> tuple[float, int | None, in
 def refuting_task(seed: int, n_max: int) -> np.ndarray:
     """A low-force task (see :func:`.search.low_force_task`) whose certified optimum exceeds
     ``n_max``: hidden structures of 3 n_max modules, redrawn until none of up to n_max works."""
-    from ..search import exhaustive_search
-    from .search import low_force_task, random_structure
+    from modquad_gym.bench.search import low_force_task, random_structure
+    from modquad_gym.search import exhaustive_search
 
     rng = np.random.default_rng(seed)
     while True:
@@ -65,8 +65,8 @@ def refuting_task(seed: int, n_max: int) -> np.ndarray:
 
 def planted_12(seed: int, count: int) -> list[np.ndarray]:
     """``count`` planted tasks (80 wrenches of a hidden 12-module structure) with optimum 12."""
-    from ..search import exhaustive_search
-    from .search import planted_task
+    from modquad_gym.bench.search import planted_task
+    from modquad_gym.search import exhaustive_search
 
     rng = np.random.default_rng(seed)
     tasks = []

@@ -26,13 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..oracle import Zonotope, decide_from_gamma
-from ..oracle.highs_lp import gamma_highs
-from ..outputs import write_text
-from ..polyominoes import PolyominoStream
-from ..search import exhaustive_search, force_lower_bound
-from ..structure import Structure, normalise
-from . import (
+from modquad_gym.bench import (
     bench_args,
     int_option,
     machine_description,
@@ -40,6 +34,12 @@ from . import (
     random_structure,
     write_csv,
 )
+from modquad_gym.core.outputs import write_text
+from modquad_gym.geometry.polyominoes import PolyominoStream
+from modquad_gym.geometry.structure import Structure, normalise
+from modquad_gym.oracle import Zonotope, decide_from_gamma
+from modquad_gym.oracle.highs_lp import gamma_highs
+from modquad_gym.search import exhaustive_search, force_lower_bound
 
 
 def planted_task(n: int, t: int, rng: np.random.Generator) -> np.ndarray:

@@ -18,21 +18,16 @@ import argparse
 import os
 import sys
 
-from .bench import add_bench
-from .common import load_task, one_line
-from .optima import add_optima
-from .show import add_show
-from .solve import add_solve, solver
-from .task import add_task
-from .validate import add_validate
+from modquad_gym.cli.bench import add_bench
+from modquad_gym.cli.common import one_line
+from modquad_gym.cli.optima import add_optima
+from modquad_gym.cli.show import add_show
+from modquad_gym.cli.solve import add_solve
+from modquad_gym.cli.task import add_task
+from modquad_gym.cli.validate import add_validate
 
 COMMANDS = (add_solve, add_optima, add_task, add_show, add_validate, add_bench)
 """The commands, in the order ``modquad --help`` lists them."""
-
-# The commands read task files and make solvers through these two names, looked up on this
-# package when called: one place to replace them (the tests do).
-_load_task = load_task
-_solver = solver
 
 
 def _version() -> str:
@@ -41,7 +36,7 @@ def _version() -> str:
     try:
         return metadata.version("modquad_gym")
     except metadata.PackageNotFoundError:
-        from .. import __version__
+        from modquad_gym import __version__
 
         return __version__
 

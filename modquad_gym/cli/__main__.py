@@ -2,6 +2,6 @@
 
 import sys
 
-from . import main
+from modquad_gym.cli import main
 
 sys.exit(main())

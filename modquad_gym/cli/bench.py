@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import importlib
 
-from .common import add_command
+from modquad_gym.cli.common import add_command
 
 BENCHMARKS = {
     "oracle": ("modquad_gym.bench.oracle", "feasibility methods compared"),
@@ -25,7 +25,7 @@ BENCHMARKS = {
     ),
     "env": ("modquad_gym.bench.env", "environment steps/s"),
     "paper": ("modquad_gym.bench.paper", "the paper's Sec. VI experiment"),
-    "agents": ("modquad_gym.agents.benchmark", "PPO vs the searches on held-out tasks"),
+    "agents": ("modquad_gym.bench.agents", "PPO vs the searches on held-out tasks"),
 }
 """Benchmark name -> (module with ``main(argv)``, what it measures): the choices and help of
 ``bench``."""

@@ -8,10 +8,10 @@ import argparse
 import sys
 from collections.abc import Callable
 
-from ..agents.solvers import METHOD_HELP, METHODS
-from ..extras import EXTRA_OF, missing_extra_message
-from ..options import int_option, seed_option
-from ..tasks import CSV_HEADER_MODES
+from modquad_gym.core.extras import EXTRA_OF, missing_extra_message
+from modquad_gym.core.options import int_option, seed_option
+from modquad_gym.solvers import METHOD_HELP, METHODS
+from modquad_gym.tasks import CSV_HEADER_MODES
 
 N_MAX_OPTION = int_option(1, 2**63 - 1)
 """``--n-max``: any positive integer parses; each search says how far it can go."""
@@ -31,7 +31,7 @@ Command = Callable[[argparse.Namespace], int]
 
 def load_task(path, csv_header: str = "auto"):
     """The task in the file ``path`` (``--csv-header`` says how a CSV's first row reads)."""
-    from ..tasks import TaskRequirement
+    from modquad_gym.tasks import TaskRequirement
 
     return TaskRequirement.load(path, csv_header=csv_header)
 
@@ -40,7 +40,7 @@ def palette_of(text: str | None):
     """``--modules`` text as a list of module types, or None when not given."""
     if text is None:
         return None
-    from ..module import palette
+    from modquad_gym.geometry.module import palette
 
     try:
         return palette(text)

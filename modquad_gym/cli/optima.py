@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .. import cli  # the package: commands call cli._load_task (tests replace it)
-from .common import (
+from modquad_gym.cli import common  # commands call common.load_task (tests replace it)
+from modquad_gym.cli.common import (
     add_command,
     add_csv_header,
     add_n_max,
@@ -67,8 +67,8 @@ def suite_path(name: str) -> Path:
 def sources(args: argparse.Namespace) -> list:
     """(label, task) for each task of ``--suite`` or ``--tasks``; a task file that cannot be
     read is a (label, Failed) entry, reported with the others' results."""
-    from ..distributed import Failed
-    from ..tasks import load_suite, task_files
+    from modquad_gym.core.distributed import Failed
+    from modquad_gym.tasks import load_suite, task_files
 
     if args.suite:
         path = suite_path(args.suite)
@@ -76,18 +76,18 @@ def sources(args: argparse.Namespace) -> list:
     out = []
     for p in task_files(args.tasks, what="--tasks"):
         try:
-            out.append((str(p), cli._load_task(p, args.csv_header)))
+            out.append((str(p), common.load_task(p, args.csv_header)))
         except (ValueError, OSError) as exc:
             out.append((str(p), Failed(str(p), one_line(exc))))
     return out
 
 
 def cmd_optima(args: argparse.Namespace) -> int:
-    from ..distributed import Engine
-    from ..optima import build_dataset
-    from ..outputs import check_output_file
-    from ..search.exhaustive import MAX_MODULES
-    from ..validation import check_int
+    from modquad_gym.bench.optima import build_dataset
+    from modquad_gym.core.distributed import Engine
+    from modquad_gym.core.outputs import check_output_file
+    from modquad_gym.core.validation import check_int
+    from modquad_gym.search.exhaustive import MAX_MODULES
 
     n_max = check_int(args.n_max, "--n-max", low=1, high=MAX_MODULES)
     out = check_output_file(args.out, force=True, what="--out")

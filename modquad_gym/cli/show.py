@@ -6,8 +6,15 @@ import argparse
 import json
 from pathlib import Path
 
-from .. import cli  # the package: commands call cli._load_task (tests replace it)
-from .common import add_command, add_csv_header, add_force, add_modules, add_n_max, palette
+from modquad_gym.cli import common  # commands call common.load_task (tests replace it)
+from modquad_gym.cli.common import (
+    add_command,
+    add_csv_header,
+    add_force,
+    add_modules,
+    add_n_max,
+    palette,
+)
 
 
 def add_show(sub) -> None:
@@ -51,7 +58,7 @@ def parse_cells(text: str) -> list:
 
 def structure_from_cells(text: str, modules):
     """The structure of ``--cells`` with ``--modules``: one type for all cells or one per cell."""
-    from ..structure import Structure
+    from modquad_gym.geometry.structure import Structure
 
     cells = parse_cells(text)
     if modules is None:
@@ -67,8 +74,8 @@ def structure_from_cells(text: str, modules):
 
 
 def cmd_show(args: argparse.Namespace) -> int:
-    from ..outputs import check_output_file
-    from ..viz import save_structure_figure
+    from modquad_gym.core.outputs import check_output_file
+    from modquad_gym.viz.drawing import save_structure_figure
 
     out = Path(args.out)
     if out.suffix.lower() != ".png":
@@ -76,11 +83,11 @@ def cmd_show(args: argparse.Namespace) -> int:
     out = check_output_file(out, force=args.force, what="--out")
     modules = palette(args)
     if args.task:
-        task = cli._load_task(args.task, args.csv_header)
+        task = common.load_task(args.task, args.csv_header)
         if args.cells:
             structure = structure_from_cells(args.cells, modules)
         else:
-            from ..search import exhaustive_search
+            from modquad_gym.search import exhaustive_search
 
             typed = {} if modules is None else {"modules": modules}
             result = exhaustive_search(task, n_max=args.n_max, **typed)

@@ -7,9 +7,8 @@ import functools
 import json
 from pathlib import Path
 
-from .. import cli  # the package: commands call cli._load_task / cli._solver (tests replace them)
-from ..agents.solvers import LEARNED
-from .common import (
+from modquad_gym.cli import common  # commands call common.load_task (tests replace it)
+from modquad_gym.cli.common import (
     add_command,
     add_csv_header,
     add_method,
@@ -20,6 +19,7 @@ from .common import (
     palette_of,
     report_error,
 )
+from modquad_gym.solvers import LEARNED
 
 
 def add_solve(sub) -> None:
@@ -70,10 +70,10 @@ def make_solver(method, n_max, model, seed, modules_text, workers, address, prog
     a worker process that solves many tasks loads a PPO model once."""
     modules = palette_of(modules_text)
     if method in LEARNED:  # with --modules, a model trained with that palette
-        from ..agents.solvers import make_solver as make_learned
+        from modquad_gym.solvers import make_solver as make_learned
 
         return make_learned(method, n_max=n_max, model=model, seed=seed, modules=modules).solve
-    from ..search import SEARCHES
+    from modquad_gym.search import SEARCHES
 
     fn = SEARCHES[method]
     typed = {} if modules is None else {"modules": modules}
@@ -99,14 +99,14 @@ def solver(args: argparse.Namespace, workers: int = 1):
 def solve_file(options: tuple, path: Path):
     """Load and solve one task file (the unit of work of a batch): (task, result)."""
     method, n_max, model, seed, modules, csv_header = options
-    task = cli._load_task(path, csv_header)
+    task = common.load_task(path, csv_header)
     result = make_solver(method, n_max, model, seed, modules, 1, None, False)(task)
     return task, result
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
-    from ..distributed import Engine, Failed
-    from ..tasks import task_files
+    from modquad_gym.core.distributed import Engine, Failed
+    from modquad_gym.tasks import task_files
 
     palette(args)  # a bad --modules is refused before any work
     paths = task_files(args.task)
@@ -147,11 +147,11 @@ def cmd_solve(args: argparse.Namespace) -> int:
 def solve_here(args: argparse.Namespace, paths: list[Path], workers: int) -> int:
     """Solve in this process, one task after the other (a single task's exhaustive search may
     still split its large levels over ``workers``)."""
-    solve = cli._solver(args, workers=workers if len(paths) == 1 else 1)
+    solve = solver(args, workers=workers if len(paths) == 1 else 1)
     failed = []
     for path in paths:
         try:
-            task = cli._load_task(path, args.csv_header)
+            task = common.load_task(path, args.csv_header)
         except (ValueError, OSError) as exc:
             if len(paths) == 1:
                 raise

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from ..options import real_option, seed_option
-from ..tasks import TASK_KINDS, PaperTasks, PlantedTasks, ScrewdriverTask
-from .common import add_force, print_help
+from modquad_gym.cli.common import add_force, print_help
+from modquad_gym.core.options import real_option, seed_option
+from modquad_gym.tasks import TASK_KINDS, PaperTasks, PlantedTasks, ScrewdriverTask
 
 GENERATE = {"paper": PaperTasks, "planted": PlantedTasks, "screwdriver": ScrewdriverTask}
 """The generators ``task generate --kind`` names (each takes ``f_max`` and ``kind``)."""
@@ -74,8 +74,8 @@ def add_generate(tsub) -> None:
 def cmd_task_generate(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ..outputs import check_output_file
-    from ..validation import check_f_max
+    from modquad_gym.core.outputs import check_output_file
+    from modquad_gym.core.validation import check_f_max
 
     out = check_output_file(args.out, force=args.force, what="--out")
     f_max = 1.0 if args.f_max is None else check_f_max(args.f_max)

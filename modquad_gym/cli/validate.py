@@ -7,9 +7,9 @@ import argparse
 import json
 import sys
 
-from .. import cli  # the package: commands call cli._load_task / cli._solver (tests replace them)
-from ..options import int_option, real_option
-from .common import add_command, add_csv_header, add_force, add_method
+from modquad_gym.cli import common, solve  # common.load_task, solve.solver (tests replace them)
+from modquad_gym.cli.common import add_command, add_csv_header, add_force, add_method
+from modquad_gym.core.options import int_option, real_option
 
 DEFAULT_HOVER_WRENCHES = 20
 MAX_HOVER_SECONDS = 60.0
@@ -80,15 +80,15 @@ def add_validate(sub) -> None:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    from ..outputs import check_output_dir
-    from ..sim.validate import validate
-    from ..validation import check_int, check_real
+    from modquad_gym.core.outputs import check_output_dir
+    from modquad_gym.core.validation import check_int, check_real
+    from modquad_gym.sim.validate import validate
 
     check_real(args.hover_seconds, "--hover-seconds", 0.05, MAX_HOVER_SECONDS)
     check_real(args.load_ramp_seconds, "--load-ramp-seconds", 0.0, args.hover_seconds)
     k = None if args.all_wrenches else check_int(args.max_hover_wrenches, "--max-hover-wrenches", 1)
     check_output_dir(args.out, OUTPUT_NAMES, force=args.force)
-    task = cli._load_task(args.task, args.csv_header)
+    task = common.load_task(args.task, args.csv_header)
     n_hover = task.n_wrenches if k is None else min(k, task.n_wrenches)
     flights = 1 if args.known_load_only else 2
     simulated = flights * (n_hover + 1) * args.hover_seconds
@@ -97,7 +97,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         f"{simulated:g} simulated s (~{simulated * SECONDS_PER_SIMULATED_SECOND:.0f} s here)",
         file=sys.stderr,
     )
-    result = cli._solver(args)(task)
+    result = solve.solver(args)(task)
     if result.structure is None:
         record = {
             "task": args.task,

@@ -11,14 +11,14 @@ package first) registers:
 * ``ModQuadAssemblyMixed-v0``: the same with ``modules="t45,t45m,flat"``: three module types,
   (cell, type) actions (:class:`~modquad_gym.envs.assembly.mixed.MixedAssemblyEnv`).
 * ``ModQuadAssemblyLarge-v0``: the same with ``n_max=12`` and ``tasks="planted-large"`` (tasks
-  planted in 6-12 modules): the large benchmark tier (:mod:`modquad_gym.agents.tiers`).
+  planted in 6-12 modules): the large benchmark tier (:mod:`modquad_gym.bench.tiers`).
 """
 
 from __future__ import annotations
 
 import gymnasium as gym
 
-from .assembly import (
+from modquad_gym.envs.assembly import (
     MAX_STEPS_LIMIT,
     AssemblyFeatures,
     AssemblyState,

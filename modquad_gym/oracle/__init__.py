@@ -32,13 +32,27 @@ The LPs themselves are built in one place, :mod:`~modquad_gym.oracle.lp` (used b
 :mod:`~modquad_gym.oracle.api`.
 """
 
-from ..validation import check_f_max, check_matrix, check_wrenches
-from .api import WrenchOracle, allocate, feasible, lambda_ratio, margin
-from .backends import BACKENDS, METHODS, Backend, check_method, decide_with, gamma_with, margin_with
-from .lp import ray_lp
-from .scale import MAX_TASK_VALUE, check_task_scale
-from .tolerance import BAND, RESIDUAL_TOL, TOL, decide_from_gamma, margin_from_gamma
-from .zonotope import Zonotope
+from modquad_gym.core.validation import check_f_max, check_matrix, check_wrenches
+from modquad_gym.oracle.api import WrenchOracle, allocate, feasible, lambda_ratio, margin
+from modquad_gym.oracle.backends import (
+    BACKENDS,
+    METHODS,
+    Backend,
+    check_method,
+    decide_with,
+    gamma_with,
+    margin_with,
+)
+from modquad_gym.oracle.lp import ray_lp
+from modquad_gym.oracle.scale import MAX_TASK_VALUE, check_task_scale
+from modquad_gym.oracle.tolerance import (
+    BAND,
+    RESIDUAL_TOL,
+    TOL,
+    decide_from_gamma,
+    margin_from_gamma,
+)
+from modquad_gym.oracle.zonotope import Zonotope
 
 __all__ = [
     "BACKENDS",

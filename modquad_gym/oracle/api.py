@@ -9,12 +9,12 @@ from collections.abc import Hashable
 
 import numpy as np
 
-from ..validation import check_f_max, check_wrenches
-from .backends import BACKENDS, check_method, decide_with, margin_with
-from .lp import GammaLP
-from .scale import row_norms
-from .tolerance import TOL
-from .zonotope import Zonotope
+from modquad_gym.core.validation import check_f_max, check_wrenches
+from modquad_gym.oracle.backends import BACKENDS, check_method, decide_with, margin_with
+from modquad_gym.oracle.lp import GammaLP
+from modquad_gym.oracle.scale import row_norms
+from modquad_gym.oracle.tolerance import TOL
+from modquad_gym.oracle.zonotope import Zonotope
 
 
 class WrenchOracle:

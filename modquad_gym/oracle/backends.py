@@ -15,16 +15,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .certified import decide_reduced
-from .cvxpy_lp import gamma_cvxpy, ray_cvxpy
-from .daqp_lp import gamma_daqp
-from .highs_lp import gamma_highs, ray_highs
-from .hrep import decide_hrep, gamma_hrep
-from .quickhull import gamma_quickhull
-from .tolerance import TOL, decide_from_gamma, margin_from_gamma
+from modquad_gym.oracle.certified import decide_reduced
+from modquad_gym.oracle.cvxpy_lp import gamma_cvxpy, ray_cvxpy
+from modquad_gym.oracle.daqp_lp import gamma_daqp
+from modquad_gym.oracle.highs_lp import gamma_highs, ray_highs
+from modquad_gym.oracle.hrep import decide_hrep, gamma_hrep
+from modquad_gym.oracle.quickhull import gamma_quickhull
+from modquad_gym.oracle.tolerance import TOL, decide_from_gamma, margin_from_gamma
 
 if TYPE_CHECKING:
-    from .zonotope import Zonotope
+    from modquad_gym.oracle.zonotope import Zonotope
 
 Rows = Callable[["Zonotope", np.ndarray], np.ndarray]
 """A function of a zonotope and centred reduced wrenches R (t, rank) in range(A)."""

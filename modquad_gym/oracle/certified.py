@@ -16,11 +16,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .daqp_lp import gamma_and_direction
-from .tolerance import ACCEPT, REJECT, decide_from_gamma
+from modquad_gym.oracle.daqp_lp import gamma_and_direction
+from modquad_gym.oracle.tolerance import ACCEPT, REJECT, decide_from_gamma
 
 if TYPE_CHECKING:
-    from .zonotope import Zonotope
+    from modquad_gym.oracle.zonotope import Zonotope
 
 _DR_ROUNDS = (10, 20)  # Douglas-Rachford iterations per round, certificates after each
 _DR_MIN_ROWS = 4  # with fewer undecided wrenches, LPs cost less than the iterations

@@ -16,11 +16,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .lp import HIGHS_OPTIONS
-from .scale import row_norms
+from modquad_gym.oracle.lp import HIGHS_OPTIONS
+from modquad_gym.oracle.scale import row_norms
 
 if TYPE_CHECKING:
-    from .zonotope import Zonotope
+    from modquad_gym.oracle.zonotope import Zonotope
 
 _CVXPY_CACHE: dict[tuple[int, int], tuple] = {}
 

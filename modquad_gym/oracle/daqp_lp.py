@@ -14,11 +14,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .highs_lp import gamma_highs
-from .lp import ray_cost, ray_matrix
+from modquad_gym.oracle.highs_lp import gamma_highs
+from modquad_gym.oracle.lp import ray_cost, ray_matrix
 
 if TYPE_CHECKING:
-    from .zonotope import Zonotope
+    from modquad_gym.oracle.zonotope import Zonotope
 
 
 @functools.cache

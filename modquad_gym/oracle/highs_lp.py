@@ -11,10 +11,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .lp import HIGHS_OPTIONS, GammaLP, ray_lp
+from modquad_gym.oracle.lp import HIGHS_OPTIONS, GammaLP, ray_lp
 
 if TYPE_CHECKING:
-    from .zonotope import Zonotope
+    from modquad_gym.oracle.zonotope import Zonotope
 
 
 def gamma_highs(z: Zonotope, R: np.ndarray) -> np.ndarray:

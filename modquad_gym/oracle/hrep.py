@@ -16,11 +16,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .certified import reject_by_support
-from .tolerance import decide_from_gamma
+from modquad_gym.oracle.certified import reject_by_support
+from modquad_gym.oracle.tolerance import decide_from_gamma
 
 if TYPE_CHECKING:
-    from .zonotope import Zonotope
+    from modquad_gym.oracle.zonotope import Zonotope
 
 
 def zonotope_hrep(z: Zonotope, chunk: int = 1 << 16) -> tuple[np.ndarray, np.ndarray]:

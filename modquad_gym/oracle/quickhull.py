@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from .zonotope import Zonotope
+    from modquad_gym.oracle.zonotope import Zonotope
 
 QUICKHULL_MAX_COLUMNS = 12
 """Most generators (rotors) the exponential Quickhull is allowed for: 3 modules."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..validation import check_f_max, check_wrenches
+from modquad_gym.core.validation import check_f_max, check_wrenches
 
 MAX_TASK_VALUE = 1e100
 """Largest wrench component (in newtons or newton-metres, and in units of f_max) that

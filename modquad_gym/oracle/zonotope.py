@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..validation import check_f_max, check_matrix
-from .backends import decide_with
-from .daqp_lp import gamma_and_direction
-from .hrep import zonotope_hrep
-from .scale import row_norms
-from .tolerance import RESIDUAL_TOL
+from modquad_gym.core.validation import check_f_max, check_matrix
+from modquad_gym.oracle.backends import decide_with
+from modquad_gym.oracle.daqp_lp import gamma_and_direction
+from modquad_gym.oracle.hrep import zonotope_hrep
+from modquad_gym.oracle.scale import row_norms
+from modquad_gym.oracle.tolerance import RESIDUAL_TOL
 
 _RANK_TOL = 1e-9
 _BIG = 1e150  # rows of w / f_max beyond this are handled without squaring (no overflow)

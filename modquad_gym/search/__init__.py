@@ -13,11 +13,16 @@ feasibility against the task was decided; ``oracle_calls`` the number of wrench-
 (a rejection by a cached separating direction counts as one).
 """
 
-from .baselines import centrosymmetric_search, greedy_search, random_search
-from .bounds import force_lower_bound, level_bounds
-from .checker import TaskChecker
-from .exhaustive import exhaustive_search, optimal_level, optimal_structures, scan_chunks
-from .result import Optima, SearchResult
+from modquad_gym.search.baselines import centrosymmetric_search, greedy_search, random_search
+from modquad_gym.search.bounds import force_lower_bound, level_bounds
+from modquad_gym.search.checker import TaskChecker
+from modquad_gym.search.exhaustive import (
+    exhaustive_search,
+    optimal_level,
+    optimal_structures,
+    scan_chunks,
+)
+from modquad_gym.search.result import Optima, SearchResult, verified
 
 SEARCHES = {
     "exhaustive": exhaustive_search,
@@ -41,4 +46,5 @@ __all__ = [
     "optimal_structures",
     "random_search",
     "scan_chunks",
+    "verified",
 ]

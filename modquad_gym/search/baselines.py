@@ -18,11 +18,18 @@ from collections.abc import Iterable, Iterator, Sequence
 
 import numpy as np
 
-from ..module import ModuleType
-from ..oracle import Zonotope, margin
-from ..structure import Cell, Key, Structure, free_neighbours, normalise, normalise_typed
-from .bounds import NO_SIZE, force_lower_bound
-from .result import SearchResult, SearchRun, first_possible_level
+from modquad_gym.geometry.module import ModuleType
+from modquad_gym.geometry.structure import (
+    Cell,
+    Key,
+    Structure,
+    free_neighbours,
+    normalise,
+    normalise_typed,
+)
+from modquad_gym.oracle import Zonotope, margin
+from modquad_gym.search.bounds import NO_SIZE, force_lower_bound
+from modquad_gym.search.result import SearchResult, SearchRun, first_possible_level
 
 MAX_MODULES = 64
 """Module limit of the constructive baselines (each step decides O(n) children of 4n rotors)."""

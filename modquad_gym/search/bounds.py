@@ -32,11 +32,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..module import ModuleType
-from ..oracle import RESIDUAL_TOL, TOL
-from ..outputs import atomic_write
-from ..polyominoes import PolyominoStream
-from . import supports
+from modquad_gym.core.outputs import atomic_write
+from modquad_gym.geometry.module import ModuleType
+from modquad_gym.geometry.polyominoes import PolyominoStream
+from modquad_gym.oracle import RESIDUAL_TOL, TOL
+from modquad_gym.search import supports
 
 NO_SIZE = 10**9
 """What :func:`force_lower_bound` returns when no number of modules can exert the forces."""

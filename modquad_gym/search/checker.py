@@ -18,11 +18,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..module import ModuleType
-from ..oracle import TOL, Zonotope
-from ..structure import Structure, configuration_matrices, mixed_configuration_matrices
-from ..tasks import check_kind, rotor_wrenches
-from . import supports
+from modquad_gym.geometry.module import ModuleType
+from modquad_gym.geometry.structure import (
+    Structure,
+    configuration_matrices,
+    mixed_configuration_matrices,
+)
+from modquad_gym.oracle import TOL, Zonotope
+from modquad_gym.search import supports
+from modquad_gym.tasks import check_kind, rotor_wrenches
 
 POOL_SIZE = 512
 """How many separating directions are kept (most recent first)."""

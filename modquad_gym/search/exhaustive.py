@@ -1,14 +1,14 @@
 """The certified exhaustive search (paper Sec. V-A) and the whole minimal level.
 
 Every connected structure up to translation is visited level by level, each level streamed in
-chunks of the canonical order (:mod:`modquad_gym.polyominoes`); the first level holding a
+chunks of the canonical order (:mod:`modquad_gym.geometry.polyominoes`); the first level holding a
 feasible structure is the certified minimum, and the structure returned is the first feasible
 one in canonical order, whatever the chunk size or the number of workers. Nothing is pruned
 except by exact bounds (:mod:`.bounds`) and cached separating directions (:mod:`.checker`).
 
 Large levels are split into ranges of chunks decided as Ray tasks
-(:mod:`modquad_gym.distributed`; :func:`scan_chunks` decides any range alone); the answer is the
-first feasible structure of the first range that has one, so it is the same for any number of
+(:mod:`modquad_gym.core.distributed`; :func:`scan_chunks` decides any range alone); the answer
+is the first feasible structure of the first range that has one, so it is the same for any number of
 workers, on one machine or a cluster.
 
 Several module types (``modules=[...]``) or a task of kind ``external``: every (shape, type
@@ -26,16 +26,16 @@ from itertools import islice
 
 import numpy as np
 
-from ..distributed import Engine
-from ..module import ModuleType
-from ..polyominoes import DEFAULT_CHUNK, PolyominoStream, level_chunks
-from ..structure import Key, Structure, normalise, normalise_typed
-from ..validation import check_int
-from .bounds import NO_SIZE, force_lower_bound, level_excluded
-from .checker import TaskChecker
-from .levels import level_progress, level_size
-from .result import Optima, SearchResult, SearchRun
-from .typed import (
+from modquad_gym.core.distributed import Engine
+from modquad_gym.core.validation import check_int
+from modquad_gym.geometry.module import ModuleType
+from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream, level_chunks
+from modquad_gym.geometry.structure import Key, Structure, normalise, normalise_typed
+from modquad_gym.search.bounds import NO_SIZE, force_lower_bound, level_excluded
+from modquad_gym.search.checker import TaskChecker
+from modquad_gym.search.levels import level_progress, level_size
+from modquad_gym.search.result import Optima, SearchResult, SearchRun
+from modquad_gym.search.typed import (
     MAX_PAIRS,
     PAIRS_PER_BLOCK,
     assignments,
@@ -221,7 +221,7 @@ def exhaustive_search(
     ``n_max`` modules can satisfy the task. With ``workers`` > 1 (None: every local core, at
     most 8) levels of at least :data:`PARALLEL_FROM` structures are split into Ray tasks, on
     an embedded Ray or the cluster at ``address`` / ``RAY_ADDRESS``
-    (:mod:`modquad_gym.distributed`; serial when Ray is not installed). The answer does not
+    (:mod:`modquad_gym.core.distributed`; serial when Ray is not installed). The answer does not
     depend on ``workers``, ``address`` or ``chunk``; ``evaluated`` depends on ``chunk`` and on
     whether levels are split (each range learns its own separating directions), not on the
     number of workers. ``progress`` shows a bar per level on stderr.
@@ -257,7 +257,7 @@ def optimal_level(
     """Every minimum-module structure of ``task`` (one module type) with the work it took
     (:class:`Optima`). Certified like :func:`exhaustive_search`, which stops at the first
     feasible structure; this one decides the whole minimal level (in this process: batches of
-    tasks are what :mod:`modquad_gym.distributed` spreads)."""
+    tasks are what :mod:`modquad_gym.core.distributed` spreads)."""
     run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES)
     chunk = check_int(chunk, "chunk", low=1)
     if run.homogeneous_total:
@@ -289,8 +289,9 @@ def optimal_structures(
     modules, up to translation, in canonical order), or (None, []) when none of up to
     ``n_max`` modules works. Certified like :func:`exhaustive_search`, which stops at the
     first feasible structure; this one decides the whole minimal level. With ``modules`` or
-    an ``external`` task the keys are typed (:func:`~modquad_gym.structure.normalise_typed`;
-    one-type structures of such a search too)."""
+    an ``external`` task the keys are typed
+    (:func:`~modquad_gym.geometry.structure.normalise_typed`; one-type structures of such a
+    search too)."""
     run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES, modules, kind)
     if not run.homogeneous_total:
         n, found, _, _ = search_typed(run, False, False)

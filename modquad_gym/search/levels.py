@@ -5,12 +5,12 @@ Shared by the one-type search (:mod:`.exhaustive`) and the typed one (:mod:`.typ
 
 from __future__ import annotations
 
-from ..polyominoes import A001168
+from modquad_gym.geometry.polyominoes import A001168
 
 
 def level_size(n: int) -> int | None:
     """Connected structures of n modules up to translation (fixed polyominoes), or None past
-    the counts :data:`~modquad_gym.polyominoes.A001168` holds."""
+    the counts :data:`~modquad_gym.geometry.polyominoes.A001168` holds."""
     return A001168[n - 1] if n <= len(A001168) else None
 
 

@@ -6,16 +6,17 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from ..module import ModuleType
-from ..oracle import check_task_scale, feasible
-from ..structure import Key, Structure
-from ..tasks import check_kind, rotor_wrenches
-from ..validation import check_f_max, check_int, check_wrenches
-from .bounds import NO_SIZE, count_vectors, counts_possible, level_excluded
-from .checker import TaskChecker
+from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
+from modquad_gym.geometry.module import ModuleType
+from modquad_gym.geometry.structure import Key, Structure
+from modquad_gym.oracle import check_task_scale, feasible
+from modquad_gym.search.bounds import NO_SIZE, count_vectors, counts_possible, level_excluded
+from modquad_gym.search.checker import TaskChecker
+from modquad_gym.tasks import check_kind, rotor_wrenches
 
 DEFAULT_MODULE = Structure([(0, 0)]).module
 
@@ -203,7 +204,9 @@ def check_palette(
     if module is not None:
         raise ValueError("give module= (one type) or modules= (a palette), not both")
     if isinstance(modules, (str, ModuleType)):
-        raise ValueError("modules must be a list of ModuleType (see modquad_gym.module.palette)")
+        raise ValueError(
+            "modules must be a list of ModuleType (see modquad_gym.geometry.module.palette)"
+        )
     out: dict[str, ModuleType] = {}
     for i, m in enumerate(modules):
         if not isinstance(m, ModuleType):
@@ -237,7 +240,7 @@ def allowed_counts(run: SearchRun, n: int) -> tuple[np.ndarray, int]:
     vectors (one axis of length n + 1 per palette type) of the counts that the count bound and,
     for one type alone, the level bound leave; and how many (shape, assignment) pairs the
     others hold (fixed polyominoes of n cells times the multinomial of each count vector)."""
-    from ..polyominoes import A001168
+    from modquad_gym.geometry.polyominoes import A001168
 
     K = len(run.palette)
     counts = count_vectors(n, K)
@@ -276,3 +279,12 @@ def _multinomial(c: np.ndarray) -> int:
         total += int(k)
         out *= math.comb(total, int(k))
     return out
+
+
+def verified(structure: Structure | None, task: Any) -> bool:
+    """Does ``structure`` exert every wrench of ``task`` (a TaskRequirement; its own weight
+    added for external tasks)? Decided by the exact DAQP LP oracle."""
+    if structure is None:
+        return False
+    W = rotor_wrenches(task.wrenches, task.kind, structure.mass)
+    return bool(feasible(structure.configuration_matrix(), W, task.f_max, method="daqp").all())

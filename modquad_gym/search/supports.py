@@ -24,7 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 from numba import njit
 
-from ..module import ModuleType
+from modquad_gym.geometry.module import ModuleType
 
 SLACK = 1e-12
 """Absolute slack (in units of f_max-normalised wrenches) before a support test rejects."""

@@ -21,10 +21,10 @@ import itertools
 
 import numpy as np
 
-from ..polyominoes import PolyominoStream
-from ..structure import Structure, normalise_typed
-from .levels import level_progress, level_size
-from .result import SearchRun, allowed_counts, first_possible_level
+from modquad_gym.geometry.polyominoes import PolyominoStream
+from modquad_gym.geometry.structure import Structure, normalise_typed
+from modquad_gym.search.levels import level_progress, level_size
+from modquad_gym.search.result import SearchRun, allowed_counts, first_possible_level
 
 MAX_PAIRS = 10**9
 """Most (shape, type assignment) pairs a level of the typed search may hold (fixed

@@ -11,8 +11,8 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from .bench import ALLOCATIONS, BenchResult, allocate_inputs, run_bench  # noqa: E402
-from .hover import (  # noqa: E402
+from modquad_gym.sim.bench import ALLOCATIONS, BenchResult, allocate_inputs, run_bench  # noqa: E402
+from modquad_gym.sim.hover import (  # noqa: E402
     LOAD_FRAMES,
     LOAD_RAMP_PROFILES,
     HoverConfig,
@@ -24,10 +24,10 @@ from .hover import (  # noqa: E402
     unreachable_wrench_directions,
     wrench_axis,
 )
-from .model import SimModel, actuator_wrench, build_model, model_xml  # noqa: E402
-from .pictures import render_structure  # noqa: E402
-from .report import ValidationReport  # noqa: E402
-from .validate import validate  # noqa: E402
+from modquad_gym.sim.model import SimModel, actuator_wrench, build_model, model_xml  # noqa: E402
+from modquad_gym.sim.pictures import render_structure  # noqa: E402
+from modquad_gym.sim.report import ValidationReport  # noqa: E402
+from modquad_gym.sim.validate import validate  # noqa: E402
 
 __all__ = [
     "ALLOCATIONS",

@@ -29,9 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..oracle import TOL, allocate, check_f_max, check_wrenches, feasible
-from ..structure import Structure
-from .model import SimModel, build_model
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.oracle import TOL, allocate, check_f_max, check_wrenches, feasible
+from modquad_gym.sim.model import SimModel, build_model
 
 ALLOCATIONS = ("exact", "pinv_clip")
 

@@ -30,13 +30,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..module import DEFAULT_MASS, GRAVITY
-from ..oracle import check_f_max
-from ..structure import Structure
-from ..viz import type_colour
+from modquad_gym.geometry.module import DEFAULT_MASS, GRAVITY
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.oracle import check_f_max
+from modquad_gym.viz.raster import type_colour
 
 MODULE_MASS = DEFAULT_MASS
-"""Default mass of one module in kg (:data:`modquad_gym.module.DEFAULT_MASS`)."""
+"""Default mass of one module in kg (:data:`modquad_gym.geometry.module.DEFAULT_MASS`)."""
 
 MODULE_THICKNESS = 0.05
 """Height of a module's box in metres."""
@@ -152,7 +152,7 @@ def _module_geoms(structure: Structure, masses: np.ndarray) -> list[str]:
     half = structure.side / 2.0
     geoms = []
     for i, (c, t) in enumerate(zip(structure.module_centres, structure.type_indices)):
-        if structure.is_mixed:  # the fills of the pictures (modquad_gym.viz.type_colour)
+        if structure.is_mixed:  # the fills of the pictures (modquad_gym.viz.raster.type_colour)
             fill = type_colour(structure.modules[i], t)
             rgba = " ".join(f"{int(fill[k : k + 2], 16) / 255:.3g}" for k in (1, 3, 5)) + " 1"
         else:

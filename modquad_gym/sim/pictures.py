@@ -11,11 +11,11 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from ..outputs import save_figure  # noqa: E402
-from ..structure import Structure  # noqa: E402
-from .bench import BenchResult  # noqa: E402
-from .hover import HoverResult  # noqa: E402
-from .model import HOME_HEIGHT, SimModel, build_model  # noqa: E402
+from modquad_gym.core.outputs import save_figure  # noqa: E402
+from modquad_gym.geometry.structure import Structure  # noqa: E402
+from modquad_gym.sim.bench import BenchResult  # noqa: E402
+from modquad_gym.sim.hover import HoverResult  # noqa: E402
+from modquad_gym.sim.model import HOME_HEIGHT, SimModel, build_model  # noqa: E402
 
 BENCH_HOLD_S = 0.5
 """Seconds each wrench is held in the rotor-input plot (the paper commands one every 500 ms)."""

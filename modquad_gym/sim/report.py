@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .hover import HoverResult
+from modquad_gym.sim.hover import HoverResult
 
 SEGMENT_KEYS = (
     "segment",

@@ -3,8 +3,8 @@ numbers, the infeasible demo and the pictures, written from a :class:`.report.Va
 
 from __future__ import annotations
 
-from .hover import HoverResult
-from .report import ValidationReport
+from modquad_gym.sim.hover import HoverResult
+from modquad_gym.sim.report import ValidationReport
 
 
 def _f(x: float | None, fmt: str = ".3g") -> str:

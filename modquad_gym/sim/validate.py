@@ -49,23 +49,28 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from ..oracle import feasible, lambda_ratio, margin  # noqa: E402
-from ..outputs import write_text  # noqa: E402
-from ..structure import Structure  # noqa: E402
-from ..tasks import rotor_wrenches  # noqa: E402
-from ..validation import check_f_max, check_int, check_wrenches  # noqa: E402
-from .bench import BenchResult, run_bench  # noqa: E402
-from .hover import HoverConfig, run_hover, unreachable_wrench_directions, wrench_axis  # noqa: E402
-from .model import build_model  # noqa: E402
-from .pictures import plot_bench_wrench, plot_hover, plot_rotor_inputs, render_structure  # noqa: E402
-from .report import (  # noqa: E402
+from modquad_gym.core.outputs import write_text  # noqa: E402
+from modquad_gym.core.validation import check_f_max, check_int, check_wrenches  # noqa: E402
+from modquad_gym.geometry.structure import Structure  # noqa: E402
+from modquad_gym.oracle import feasible, lambda_ratio, margin  # noqa: E402
+from modquad_gym.sim.bench import BenchResult, run_bench  # noqa: E402
+from modquad_gym.sim.hover import HoverConfig, run_hover, unreachable_wrench_directions, wrench_axis  # noqa: E402
+from modquad_gym.sim.model import build_model  # noqa: E402
+from modquad_gym.sim.pictures import (  # noqa: E402
+    plot_bench_wrench,
+    plot_hover,
+    plot_rotor_inputs,
+    render_structure,
+)
+from modquad_gym.sim.report import (  # noqa: E402
     SEGMENT_KEYS,
     HoverSummary,
     InfeasibleDemo,
     ValidationReport,
     finite_or_none,
 )
-from .report_markdown import markdown  # noqa: E402
+from modquad_gym.sim.report_markdown import markdown  # noqa: E402
+from modquad_gym.tasks import rotor_wrenches  # noqa: E402
 
 INFEASIBLE_SCALE = 1.3
 """The infeasible demo scales a task wrench to this multiple of its feasibility boundary."""

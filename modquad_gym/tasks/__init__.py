@@ -13,7 +13,7 @@ structure frame {S} (torques about the COM), with the per-rotor thrust limit ``f
     ``w + m_total g e_z`` (:func:`rotor_wrenches`; weight acts at the COM, so it adds no
     torque), so the answer depends on the structure's mass and bigger structures must lift
     more. Units are SI: newtons, newton-metres, ``f_max`` in newtons, module masses in kg,
-    g = :data:`~modquad_gym.module.GRAVITY`.
+    g = :data:`~modquad_gym.geometry.module.GRAVITY`.
 
 Task files (:mod:`.files`):
 
@@ -46,8 +46,15 @@ files), :mod:`.requirement` (:class:`TaskRequirement`), :mod:`.suites`, :mod:`.g
 seeded generators) and :mod:`.specs` (the generators by name, :func:`make_generator`).
 """
 
-from .files import CSV_HEADER_MODES, MAX_FILE_BYTES, SUFFIXES, PathLike, TaskFileError, task_files
-from .generators import (
+from modquad_gym.tasks.files import (
+    CSV_HEADER_MODES,
+    MAX_FILE_BYTES,
+    SUFFIXES,
+    PathLike,
+    TaskFileError,
+    task_files,
+)
+from modquad_gym.tasks.generators import (
     FZ_READINGS,
     Count,
     FixedTasks,
@@ -60,10 +67,10 @@ from .generators import (
     planted_structure,
     random_cells,
 )
-from .requirement import TaskRequirement
-from .specs import GENERATORS, NAMED_GENERATORS, make_generator
-from .suites import load_suite, save_suite
-from .wrenches import COLUMNS, MAX_WRENCHES, TASK_KINDS, check_kind, rotor_wrenches
+from modquad_gym.tasks.requirement import TaskRequirement
+from modquad_gym.tasks.specs import GENERATORS, NAMED_GENERATORS, make_generator
+from modquad_gym.tasks.suites import load_suite, save_suite
+from modquad_gym.tasks.wrenches import COLUMNS, MAX_WRENCHES, TASK_KINDS, check_kind, rotor_wrenches
 
 __all__ = [
     "COLUMNS",

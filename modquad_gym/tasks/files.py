@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from .wrenches import COLUMNS, check_kind
+from modquad_gym.tasks.wrenches import COLUMNS, check_kind
 
 SUFFIXES = (".json", ".csv", ".npy")
 """Task file formats understood by :meth:`TaskRequirement.load`."""

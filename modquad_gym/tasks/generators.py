@@ -12,11 +12,11 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from ..module import GRAVITY, ModuleType, palette
-from ..structure import Cell, Structure, free_neighbours
-from ..validation import check_f_max
-from .requirement import TaskRequirement
-from .wrenches import check_kind
+from modquad_gym.core.validation import check_f_max
+from modquad_gym.geometry.module import GRAVITY, ModuleType, palette
+from modquad_gym.geometry.structure import Cell, Structure, free_neighbours
+from modquad_gym.tasks.requirement import TaskRequirement
+from modquad_gym.tasks.wrenches import check_kind
 
 
 @runtime_checkable

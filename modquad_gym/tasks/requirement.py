@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from ..outputs import atomic_write, write_text
-from ..validation import check_f_max
-from .files import (
+from modquad_gym.core.outputs import atomic_write, write_text
+from modquad_gym.core.validation import check_f_max
+from modquad_gym.tasks.files import (
     SUFFIXES,
     PathLike,
     TaskFileError,
@@ -21,7 +21,13 @@ from .files import (
     read_npy,
     task_json,
 )
-from .wrenches import COLUMNS, check_kind, check_wrench_array, rotor_wrenches, rows_to_array
+from modquad_gym.tasks.wrenches import (
+    COLUMNS,
+    check_kind,
+    check_wrench_array,
+    rotor_wrenches,
+    rows_to_array,
+)
 
 
 @dataclass(frozen=True, eq=False)

@@ -11,8 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from .files import SUFFIXES, json_keys
-from .generators import (
+from modquad_gym.tasks.files import SUFFIXES, json_keys
+from modquad_gym.tasks.generators import (
     FixedTasks,
     MixedTasks,
     PaperTasks,
@@ -21,8 +21,8 @@ from .generators import (
     ScrewdriverTask,
     TaskGenerator,
 )
-from .requirement import TaskRequirement
-from .suites import load_suite
+from modquad_gym.tasks.requirement import TaskRequirement
+from modquad_gym.tasks.suites import load_suite
 
 NAMED_GENERATORS: dict[str, Callable[[], TaskGenerator]] = {
     "paper": PaperTasks,

@@ -6,9 +6,9 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..outputs import write_text
-from .files import PathLike, TaskFileError, read_json, task_json
-from .requirement import TaskRequirement
+from modquad_gym.core.outputs import write_text
+from modquad_gym.tasks.files import PathLike, TaskFileError, read_json, task_json
+from modquad_gym.tasks.requirement import TaskRequirement
 
 
 def load_suite(path: PathLike) -> list[TaskRequirement]:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..module import GRAVITY
+from modquad_gym.geometry.module import GRAVITY
 
 COLUMNS = ("fx", "fy", "fz", "tx", "ty", "tz")
 """Wrench components, in order (the CSV header written by :meth:`TaskRequirement.save`)."""

@@ -10,13 +10,18 @@ Where to add: a reward term in :mod:`.reward` (:class:`WeightedReward.terms`), a
 feature in :mod:`.features` (:func:`observation_blocks`), a module type's env behaviour in
 :mod:`.mixed`."""
 
-from .env import MAX_STEPS_LIMIT, N_MAX_LIMIT, ModQuadAssemblyEnv
-from .features import CANDIDATE_FEATURES, AssemblyFeatures, ObservationBlock, unit_directions
-from .inputs import INVALID_ACTION_MODES, as_task
-from .mixed import MixedAssemblyEnv
-from .reward import RewardFn, RewardWeights, WeightedReward, episode_return
-from .types import AssemblyState, TaskArrays
-from .viewer import AssemblyViewer
+from modquad_gym.envs.assembly.env import MAX_STEPS_LIMIT, N_MAX_LIMIT, ModQuadAssemblyEnv
+from modquad_gym.envs.assembly.features import (
+    CANDIDATE_FEATURES,
+    AssemblyFeatures,
+    ObservationBlock,
+    unit_directions,
+)
+from modquad_gym.envs.assembly.inputs import INVALID_ACTION_MODES, as_task
+from modquad_gym.envs.assembly.mixed import MixedAssemblyEnv
+from modquad_gym.envs.assembly.reward import RewardFn, RewardWeights, WeightedReward, episode_return
+from modquad_gym.envs.assembly.types import AssemblyState, TaskArrays
+from modquad_gym.envs.assembly.viewer import AssemblyViewer
 
 __all__ = [
     "CANDIDATE_FEATURES",

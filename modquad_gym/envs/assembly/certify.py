@@ -28,8 +28,8 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from ...oracle import BAND, RESIDUAL_TOL, TOL, WrenchOracle
-from .simplex import phase_one
+from modquad_gym.envs.assembly.simplex import phase_one
+from modquad_gym.oracle import BAND, RESIDUAL_TOL, TOL, WrenchOracle
 
 ACCEPT = 1.0 + TOL - BAND
 """An allocation with ``|x|_inf`` at most this certifies a feasible wrench."""

@@ -16,20 +16,17 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from ...module import ModuleType
-from ...structure import Cell, Structure, normalise
-from ...tasks import make_generator
-from ...validation import check_int
-from .evaluator import StructureEvaluator, TaskMemos
-from .features import (
+from modquad_gym.core.validation import check_int
+from modquad_gym.envs.assembly.evaluator import StructureEvaluator, TaskMemos
+from modquad_gym.envs.assembly.features import (
     DEFAULT_N_DIRECTIONS,
     MAX_N_DIRECTIONS,
     AssemblyFeatures,
     ObservationBlock,
     observation_blocks,
 )
-from .grid import Grid
-from .inputs import (
+from modquad_gym.envs.assembly.grid import Grid
+from modquad_gym.envs.assembly.inputs import (
     check_arguments,
     check_f_max,
     check_oracle_method,
@@ -37,11 +34,14 @@ from .inputs import (
     draw_task,
     parse_action,
 )
-from .lookahead import candidate_rows
-from .reward import RewardFn, make_reward, reset_terms, step_reward
-from .transitions import decided_fields, transition
-from .types import AssemblyState
-from .viewer import RENDER_FPS, AssemblyViewer
+from modquad_gym.envs.assembly.lookahead import candidate_rows
+from modquad_gym.envs.assembly.reward import RewardFn, make_reward, reset_terms, step_reward
+from modquad_gym.envs.assembly.transitions import decided_fields, transition
+from modquad_gym.envs.assembly.types import AssemblyState
+from modquad_gym.envs.assembly.viewer import RENDER_FPS, AssemblyViewer
+from modquad_gym.geometry.module import ModuleType
+from modquad_gym.geometry.structure import Cell, Structure, normalise
+from modquad_gym.tasks import make_generator
 
 N_MAX_LIMIT = 16
 """Largest ``n_max`` (the grid has (2 n_max - 1)^2 actions; the searches stop at 16 too)."""
@@ -137,7 +137,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
       ``self.np_random`` at each reset; a result of another kind raises a ValueError there.
       See :func:`modquad_gym.tasks.make_generator`.
     * ``n_max``: the largest number of modules (default 7, as in the paper), 2 to 16.
-    * ``module``: the :class:`~modquad_gym.module.ModuleType` of every module (default the
+    * ``module``: the :class:`~modquad_gym.geometry.module.ModuleType` of every module (default the
       T-module, eta = pi/4).
     * ``modules``: several module types (or stock names, ``"t45,t45m,flat"``): the env is then
       :class:`~modquad_gym.envs.assembly.mixed.MixedAssemblyEnv`, whose action is (cell, type)
@@ -186,7 +186,9 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
 
     def __new__(cls, *args: Any, **kwargs: Any):
         if cls is ModQuadAssemblyEnv and kwargs.get("modules") is not None:
-            from .mixed import MixedAssemblyEnv  # several module types: (cell, type) actions
+            from modquad_gym.envs.assembly.mixed import (
+                MixedAssemblyEnv,  # several module types: (cell, type) actions
+            )
 
             cls = MixedAssemblyEnv
         return super().__new__(cls)

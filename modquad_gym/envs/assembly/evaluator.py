@@ -21,17 +21,17 @@ from typing import Any
 
 import numpy as np
 
-from ...module import GRAVITY, ModuleType
-from ...oracle import WrenchOracle
-from ...structure import (
+from modquad_gym.envs.assembly.certify import FastDecider
+from modquad_gym.envs.assembly.features import AssemblyFeatures
+from modquad_gym.envs.assembly.types import TaskArrays
+from modquad_gym.geometry.module import GRAVITY, ModuleType
+from modquad_gym.geometry.structure import (
     Key,
     Structure,
     configuration_matrices,
     mixed_configuration_matrices,
 )
-from .certify import FastDecider
-from .features import AssemblyFeatures
-from .types import TaskArrays
+from modquad_gym.oracle import WrenchOracle
 
 CACHE_SIZE = 16384
 """Entries per cache before it is cleared (there are 1,067 structures of at most 7 modules)."""
@@ -56,7 +56,8 @@ class Capability:
 
 
 class StructureEvaluator:
-    """Decides structures of one module type (keys from :func:`modquad_gym.structure.normalise`)
+    """Decides structures of one module type (keys from
+    :func:`modquad_gym.geometry.structure.normalise`)
     against tasks, for one (n_max, f_max, K, oracle method).
 
     Attributes:

@@ -60,10 +60,10 @@ import numpy as np
 from gymnasium import spaces
 from numba import njit
 
-from ...module import ModuleType
-from ...oracle import TOL
-from ...structure import Structure
-from .types import AssemblyState
+from modquad_gym.envs.assembly.types import AssemblyState
+from modquad_gym.geometry.module import ModuleType
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.oracle import TOL
 
 DEFAULT_N_DIRECTIONS = 48
 """Default K: the 12 signed axes plus 36 spread directions."""

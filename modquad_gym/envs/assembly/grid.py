@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...structure import Cell
+from modquad_gym.geometry.structure import Cell
 
 STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
 """The four grid neighbours."""

@@ -11,10 +11,10 @@ from typing import Any
 
 import numpy as np
 
-from ...module import ModuleType
-from ...oracle import METHODS as ORACLE_METHODS
-from ...tasks import TaskRequirement
-from ...validation import check_int, check_real
+from modquad_gym.core.validation import check_int, check_real
+from modquad_gym.geometry.module import ModuleType
+from modquad_gym.oracle import METHODS as ORACLE_METHODS
+from modquad_gym.tasks import TaskRequirement
 
 INVALID_ACTION_MODES = ("penalise", "terminate")
 

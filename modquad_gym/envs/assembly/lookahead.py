@@ -7,8 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from .features import CANDIDATE_FEATURES
-from .types import AssemblyState
+from modquad_gym.envs.assembly.features import CANDIDATE_FEATURES
+from modquad_gym.envs.assembly.types import AssemblyState
 
 
 def candidate_rows(env: Any, state: AssemblyState) -> np.ndarray:

@@ -1,7 +1,7 @@
 """``ModQuadAssembly-v0`` with several module types: each action docks a module *of a type*.
 
 ``gym.make("ModQuadAssembly-v0", modules=[mA, mB, ...])`` (types, or stock names such as
-``"t45,t45m,flat"``, :func:`modquad_gym.module.palette`) builds this environment; without
+``"t45,t45m,flat"``, :func:`modquad_gym.geometry.module.palette`) builds this environment; without
 ``modules`` the one-type environment, its spaces and its episodes are unchanged.
 
 Spaces (G = 2 n_max - 1 grid cells a side, K types, the palette order fixed at construction):
@@ -35,10 +35,10 @@ from typing import Any
 
 import numpy as np
 
-from ...module import ModuleType, palette
-from ...structure import Cell, Structure, normalise_typed
-from .env import ModQuadAssemblyEnv
-from .evaluator import MixedStructureEvaluator, StructureEvaluator
+from modquad_gym.envs.assembly.env import ModQuadAssemblyEnv
+from modquad_gym.envs.assembly.evaluator import MixedStructureEvaluator, StructureEvaluator
+from modquad_gym.geometry.module import ModuleType, palette
+from modquad_gym.geometry.structure import Cell, Structure, normalise_typed
 
 __all__ = ["MixedAssemblyEnv"]
 
@@ -48,7 +48,7 @@ class MixedAssemblyEnv(ModQuadAssemblyEnv):
     is that of :class:`~modquad_gym.envs.assembly.env.ModQuadAssemblyEnv`.
 
     Args:
-        modules: the palette: a list of :class:`~modquad_gym.module.ModuleType` (one side), or
+        modules: the palette: a list of :class:`~modquad_gym.geometry.ModuleType` (one side), or
             stock names (``"t45,t45m,flat"`` or ``["t45", "flat"]``).
         initial_type: the first module's type index, or ``"random"``.
     """

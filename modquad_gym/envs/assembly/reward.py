@@ -28,7 +28,7 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any, Protocol, runtime_checkable
 
-from .types import AssemblyState
+from modquad_gym.envs.assembly.types import AssemblyState
 
 
 @dataclass(frozen=True)

@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from .lookahead import candidate_rows
-from .types import AssemblyState
+from modquad_gym.envs.assembly.lookahead import candidate_rows
+from modquad_gym.envs.assembly.types import AssemblyState
 
 
 def decided_fields(env: Any, state: AssemblyState, cells: tuple, types: tuple) -> dict:

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ...structure import Cell
+from modquad_gym.geometry.structure import Cell
 
 
 @dataclass(frozen=True)

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...extras import import_optional
-from ...module import ModuleType
-from ...structure import Structure
-from .types import AssemblyState
+from modquad_gym.core.extras import import_optional
+from modquad_gym.envs.assembly.types import AssemblyState
+from modquad_gym.geometry.module import ModuleType
+from modquad_gym.geometry.structure import Structure
 
 RENDER_FPS = 4
 
@@ -58,8 +58,8 @@ class AssemblyViewer:
 
     def frame(self, structure: Structure, W: np.ndarray, f_max: float, method: str) -> np.ndarray:
         """The structure picture with each wrench's status (feasible or not), (H, W, 3) uint8."""
-        from ...oracle import feasible
-        from ...viz import structure_image
+        from modquad_gym.oracle import feasible
+        from modquad_gym.viz.raster import structure_image
 
         status = feasible(structure.configuration_matrix(), W, f_max, method)
         return structure_image(structure, size=self.size, wrench_status=status)

@@ -8,23 +8,23 @@ Measurements and the design history of this hover are in ``results/hover_notes.m
 
 from __future__ import annotations
 
-from .allocator import Allocator
-from .config import LOAD_FRAMES, LOAD_RAMP_PROFILES, HoverConfig, HoverGains
-from .controller import HoverController
-from .estimator import LoadEstimator
-from .gains import Design, design_gains
-from .linearization import (
+from modquad_gym.sim.hover.allocator import Allocator
+from modquad_gym.sim.hover.config import LOAD_FRAMES, LOAD_RAMP_PROFILES, HoverConfig, HoverGains
+from modquad_gym.sim.hover.controller import HoverController
+from modquad_gym.sim.hover.estimator import LoadEstimator
+from modquad_gym.sim.hover.gains import Design, design_gains
+from modquad_gym.sim.hover.linearization import (
     Plant,
     body_inertia,
     hover_linearization,
     unreachable_wrench_directions,
     wrench_axis,
 )
-from .load import LoadRamp, external_wrench, ramp_fraction, step_headroom
-from .recorder import Recorder
-from .result import HoverResult
-from .rotations import rotation_angle, rotation_vector
-from .run import run_hover
+from modquad_gym.sim.hover.load import LoadRamp, external_wrench, ramp_fraction, step_headroom
+from modquad_gym.sim.hover.recorder import Recorder
+from modquad_gym.sim.hover.result import HoverResult
+from modquad_gym.sim.hover.rotations import rotation_angle, rotation_vector
+from modquad_gym.sim.hover.run import run_hover
 
 __all__ = [
     "LOAD_FRAMES",

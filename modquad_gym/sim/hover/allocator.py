@@ -16,8 +16,8 @@ import math
 
 import numpy as np
 
-from ...oracle import TOL, allocate
-from .linearization import Plant
+from modquad_gym.oracle import TOL, allocate
+from modquad_gym.sim.hover.linearization import Plant
 
 AP_ITERATIONS = 60  # alternating projections tried before giving up on an exact allocation
 AP_MARGIN = 1e-4  # ... into the box shrunk by this fraction of f_max (strictly inside)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
-from ...validation import check_f_max, check_real
+from modquad_gym.core.validation import check_f_max, check_real
 
 LOAD_FRAMES = ("world", "body")
 """How the external load moves when the structure tilts (:mod:`.load`)."""

@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...oracle import allocate
-from .allocator import Allocator
-from .config import HoverConfig
-from .estimator import LoadEstimator
-from .gains import Design, corrections, design_gains, integral_rate
-from .linearization import Plant
+from modquad_gym.oracle import allocate
+from modquad_gym.sim.hover.allocator import Allocator
+from modquad_gym.sim.hover.config import HoverConfig
+from modquad_gym.sim.hover.estimator import LoadEstimator
+from modquad_gym.sim.hover.gains import Design, corrections, design_gains, integral_rate
+from modquad_gym.sim.hover.linearization import Plant
 
 RESCHEDULE_S = 0.25  # unknown load: shortest time between two gain designs
 RESCHEDULE_REL = 0.05  # unknown load: redesign when the estimate moved by this fraction

@@ -21,9 +21,9 @@ import math
 
 import numpy as np
 
-from .allocator import Allocator
-from .linearization import Plant
-from .rotations import cross
+from modquad_gym.sim.hover.allocator import Allocator
+from modquad_gym.sim.hover.linearization import Plant
+from modquad_gym.sim.hover.rotations import cross
 
 
 class LoadEstimator:

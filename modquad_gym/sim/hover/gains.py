@@ -22,9 +22,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import HoverGains
-from .linearization import Plant, hover_linearization, unreachable_wrench_directions
-from .rotations import cross
+from modquad_gym.sim.hover.config import HoverGains
+from modquad_gym.sim.hover.linearization import (
+    Plant,
+    hover_linearization,
+    unreachable_wrench_directions,
+)
+from modquad_gym.sim.hover.rotations import cross
 
 LQR, PD_FALLBACK = "lqr", "pd_fallback"
 

@@ -28,9 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import SimModel
-from .config import LOAD_FRAMES
-from .rotations import skew
+from modquad_gym.sim.hover.config import LOAD_FRAMES
+from modquad_gym.sim.hover.rotations import skew
+from modquad_gym.sim.model import SimModel
 
 
 def body_inertia(sim: SimModel) -> np.ndarray:

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...oracle import ray_lp
+from modquad_gym.oracle import ray_lp
 
 
 def ramp_fraction(s: float, profile: str) -> float:

@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 
-from .config import HoverConfig
-from .result import HoverResult
+from modquad_gym.sim.hover.config import HoverConfig
+from modquad_gym.sim.hover.result import HoverResult
 
 
 def drift_reason(pos_err: float, att_err: float, cfg: HoverConfig) -> str | None:

@@ -16,17 +16,17 @@ import math
 
 import numpy as np
 
-from ...oracle import TOL, feasible
-from ...structure import Structure
-from ...validation import check_wrenches
-from ..model import HOME_HEIGHT, SimModel, body_rotation, build_model
-from .config import HoverConfig
-from .controller import HoverController
-from .linearization import Plant
-from .load import LoadRamp, external_wrench, step_headroom
-from .recorder import Recorder, drift_reason, estimate_error, settles_at_rest
-from .result import HoverResult
-from .rotations import rotation_angle, rotation_vector
+from modquad_gym.core.validation import check_wrenches
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.oracle import TOL, feasible
+from modquad_gym.sim.hover.config import HoverConfig
+from modquad_gym.sim.hover.controller import HoverController
+from modquad_gym.sim.hover.linearization import Plant
+from modquad_gym.sim.hover.load import LoadRamp, external_wrench, step_headroom
+from modquad_gym.sim.hover.recorder import Recorder, drift_reason, estimate_error, settles_at_rest
+from modquad_gym.sim.hover.result import HoverResult
+from modquad_gym.sim.hover.rotations import rotation_angle, rotation_vector
+from modquad_gym.sim.model import HOME_HEIGHT, SimModel, body_rotation, build_model
 
 
 class Flight:

@@ -187,7 +187,7 @@ def TModule(
     torque-balanced: equal thrust on all rotors produces a pure vertical force.
 
     ``eta`` must lie in [-pi/2, pi/2]: a rotor tilted further points downwards."""
-    from .validation import check_real
+    from modquad_gym.core.validation import check_real
 
     eta = check_real(eta, "eta", -math.pi / 2, math.pi / 2)
     return ModuleType.from_tilts(

@@ -3,7 +3,7 @@
 A :class:`Solver` maps a task (a TaskRequirement or a (t, 6) wrench array) to a
 :class:`~modquad_gym.search.SearchResult` (structure, module count, configurations evaluated,
 oracle calls, seconds, ...), so the command line, the benchmark and the tests treat all methods
-alike. Torch and SB3 load only when a PPO solver is made (:mod:`modquad_gym.agents.ppo`).
+alike. Torch and SB3 load only when a PPO solver is made (:mod:`modquad_gym.policy.ppo`).
 """
 
 from __future__ import annotations
@@ -14,10 +14,8 @@ import time
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
-from modquad_gym.oracle import feasible
+from modquad_gym.geometry.structure import Structure
 from modquad_gym.search import SEARCHES, SearchResult
-from modquad_gym.structure import Structure
-from modquad_gym.tasks import rotor_wrenches
 
 METHOD_HELP = {
     "exhaustive": "the certified minimum (exhaustive search)",
@@ -34,11 +32,6 @@ METHODS = tuple(METHOD_HELP)
 """Names understood by :func:`make_solver`."""
 LEARNED = tuple(m for m in METHODS if m not in SEARCHES)
 
-DEFAULT_MODEL = (
-    Path(__file__).resolve().parents[1] / "data" / "models" / "ppo_default" / "model.zip"
-)
-"""The default PPO model shipped with the package (its config.json lies beside it)."""
-
 
 @runtime_checkable
 class Solver(Protocol):
@@ -47,15 +40,6 @@ class Solver(Protocol):
     name: str
 
     def solve(self, task: Any) -> SearchResult: ...
-
-
-def verified(structure: Structure | None, task: Any) -> bool:
-    """Does ``structure`` exert every wrench of ``task`` (a TaskRequirement; its own weight
-    added for external tasks)? Decided by the exact DAQP LP oracle."""
-    if structure is None:
-        return False
-    W = rotor_wrenches(task.wrenches, task.kind, structure.mass)
-    return bool(feasible(structure.configuration_matrix(), W, task.f_max, method="daqp").all())
 
 
 class SearchSolver:
@@ -101,11 +85,11 @@ def make_solver(
         raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     if method in LEARNED:
         if method == "ppo-guided":
-            from .guided import GuidedSolver
+            from modquad_gym.policy.guided import GuidedSolver
 
             solver = GuidedSolver(model=model, n_max=n_max, **(guided or {}))
         else:
-            from .ppo import PPOSolver
+            from modquad_gym.policy.ppo import PPOSolver
 
             solver = PPOSolver(model=model, n_max=n_max, seed=seed, samples=samples)
         trained = getattr(solver.env, "palette", [solver.env.module])
@@ -128,7 +112,7 @@ class ExternalSolver:
     """Someone else's agent behind the :class:`Solver` interface.
 
     ``agent.solve(task)`` (or ``agent(task)`` for a plain function) may return a
-    :class:`SearchResult`, a :class:`~modquad_gym.structure.Structure`, a list of (x, y) cells,
+    :class:`SearchResult`, a :class:`~modquad_gym.geometry.Structure`, a list of (x, y) cells,
     or None (no answer). Anything but a SearchResult is timed here and counts 0 configurations
     evaluated and 0 oracle calls unless the agent reports ``evaluated``/``oracle_calls``
     attributes. The benchmark verifies every answer with the exact oracle.

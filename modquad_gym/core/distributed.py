@@ -30,8 +30,8 @@ from dataclasses import dataclass
 from itertools import chain, islice
 from typing import Any
 
-from .extras import import_optional, missing_extra_message
-from .validation import check_int
+from modquad_gym.core.extras import import_optional, missing_extra_message
+from modquad_gym.core.validation import check_int
 
 ADDRESS_VARIABLE = "RAY_ADDRESS"
 DEFAULT_RETRIES = 3

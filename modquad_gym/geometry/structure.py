@@ -19,7 +19,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .cells import (
+from modquad_gym.geometry.cells import (
     MAX_COORDINATE,
     NEIGHBOURS,
     Cell,
@@ -31,7 +31,7 @@ from .cells import (
     normalise_typed,
     structure_levels,
 )
-from .module import ModuleType, TModule
+from modquad_gym.geometry.module import ModuleType, TModule
 
 __all__ = [
     "MAX_COORDINATE",

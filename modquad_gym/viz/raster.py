@@ -2,7 +2,8 @@
 
 Deterministic and fast (about 10-15 ms for 5-7 modules at 256 x 256): Gymnasium's
 ``render_mode="rgb_array"`` uses it. The colours are the pictures' palette, shared with the
-matplotlib drawings of :mod:`modquad_gym.viz` (which re-exports everything public here): rotors
+matplotlib drawings of :mod:`modquad_gym.viz.drawing` (which re-exports everything public
+here): rotors
 with spin +1 blue, spin -1 orange; the first (initial) module green, as in the paper's Fig. 5;
 thrust arrows dark red; the COM a black cross. In a mixed structure modules are filled by type
 (:func:`type_colour`: a fixed fill per stock type).
@@ -16,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .structure import Structure
+from modquad_gym.geometry.structure import Structure
 
 SPIN_COLOURS = {1: "#1f77b4", -1: "#ff7f0e"}
 FIRST_COLOUR = "#b7e4b0"
@@ -32,7 +33,7 @@ STOCK_FILLS = {"t45": 0, "t45m": 1, "flat": 2, "t30": 3, "t30m": 4}
 
 def type_colour(module, index: int = 0) -> str:
     """The fill (hex) of ``module``: its stock fill, else by its ``index`` in the palette."""
-    from .module import STOCK_TYPES
+    from modquad_gym.geometry.module import STOCK_TYPES
 
     stock = STOCK_TYPES.get(getattr(module, "name", ""))
     if stock is not None and stock.digest == module.digest:

@@ -29,13 +29,14 @@ from typing import Any
 import numpy as np
 
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+from modquad_gym.geometry.structure import Cell, Key, normalise_typed
 from modquad_gym.search import exhaustive_search, optimal_structures
-from modquad_gym.structure import Cell, Key, normalise_typed
 
 
 def typed_cells(key: Key, palette: Sequence[Any] | None) -> list[tuple[Cell, int]]:
     """(cell, palette index) pairs of a structure key: a one-type key's cells with type 0, or a
-    typed key's (:func:`~modquad_gym.structure.normalise_typed`) with their types' indices."""
+    typed key's (:func:`~modquad_gym.geometry.structure.normalise_typed`) with their types'
+    indices."""
     if palette is None:
         return [(cell, 0) for cell in key]
     return [(cell, palette.index(module)) for cell, module in key]
@@ -179,10 +180,10 @@ def collect_parallel(
     progress: bool = False,
     expert: str = "all",
 ) -> Demonstrations:
-    """:func:`collect` over ``workers`` Ray tasks (:mod:`modquad_gym.distributed`: an embedded
+    """:func:`collect` over ``workers`` Ray tasks (:mod:`modquad_gym.core.distributed`: an embedded
     Ray, or the cluster of ``RAY_ADDRESS``; 1: in this process). Chunks of 50 tasks, each seeded
     by ``[seed, chunk index]``, so the result does not depend on ``workers``."""
-    from modquad_gym.distributed import map_tasks
+    from modquad_gym.core.distributed import map_tasks
 
     size = 50
     jobs = [

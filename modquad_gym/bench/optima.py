@@ -10,7 +10,7 @@ had written. Keys of a record:
 ``n_max``       the module budget searched
 ``optimum``     the certified minimum module count, or null when no structure of up to n_max works
 ``structures``  every optimal structure as a list of [x, y] cells (up to translation), in
-                canonical order (:mod:`modquad_gym.polyominoes`)
+                canonical order (:mod:`modquad_gym.geometry.polyominoes`)
 ``count``       how many structures
 ``evaluated``, ``oracle_calls``, ``seconds``   the work it took
 ``proof``       how infeasibility was proven without a search, when it was
@@ -18,7 +18,7 @@ had written. Keys of a record:
 Resuming: a rerun into the same file reads the records there and skips the tasks they hold (same
 ``task``, ``digest`` and ``n_max``); a last line cut short by an interruption is dropped and
 recomputed. A record for the same task with other wrenches or another n_max is refused (the file
-would mix two datasets). The work is spread by :mod:`modquad_gym.distributed`.
+would mix two datasets). The work is spread by :mod:`modquad_gym.core.distributed`.
 """
 
 from __future__ import annotations
@@ -35,9 +35,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .distributed import Engine, Failed
-from .search import optimal_level
-from .tasks import TaskRequirement
+from modquad_gym.core.distributed import Engine, Failed
+from modquad_gym.search import optimal_level
+from modquad_gym.tasks import TaskRequirement
 
 KEYS = ("task", "name", "digest", "n_max", "optimum", "structures", "count", "evaluated",
         "oracle_calls", "seconds")  # fmt: skip

@@ -1,6 +1,6 @@
 """The agent benchmark: every solver on the held-out suites, against the certified optimum.
 
-``modquad bench agents`` (or ``python -m modquad_gym.agents.benchmark``) runs each method on every
+``modquad bench agents`` (or ``python -m modquad_gym.bench.agents``) runs each method on every
 task of
 the held-out suites (``modquad_gym/data/suites/heldout_*.json``, never seen in training; each task
 carries its optimum from the exhaustive search) and writes to ``--out`` (default ``results``):
@@ -24,16 +24,20 @@ from functools import lru_cache, partial
 from pathlib import Path
 
 from modquad_gym.bench import bench_args
-from modquad_gym.module import palette
-from modquad_gym.options import int_option
-from modquad_gym.outputs import check_output_dir, write_csv
-from modquad_gym.search import SEARCHES
+from modquad_gym.bench.agents_report import (
+    plot_bars,
+    plot_learning_curve,
+    plot_structures,
+    write_report,
+)
+from modquad_gym.bench.scores import Row, summarise
+from modquad_gym.bench.tiers import TIERS, Tier, get_tier, validation_suite
+from modquad_gym.core.options import int_option
+from modquad_gym.core.outputs import check_output_dir, write_csv
+from modquad_gym.geometry.module import palette
+from modquad_gym.search import SEARCHES, verified
+from modquad_gym.solvers import Solver, load_solver, make_solver
 from modquad_gym.tasks import TaskRequirement, load_suite
-
-from .report import plot_bars, plot_learning_curve, plot_structures, write_report
-from .scores import Row, summarise
-from .solvers import Solver, load_solver, make_solver, verified
-from .tiers import TIERS, Tier, get_tier, validation_suite
 
 SEARCH_METHODS = tuple(SEARCHES)
 DEFAULT_METHODS = (*SEARCH_METHODS, "ppo", "ppo-k2", "ppo-k8")
@@ -90,10 +94,10 @@ def run_benchmark(
     modules: str | None = None,
 ) -> list[Row]:
     """Every method on every task; successes re-verified by the exact oracle. ``workers`` > 1
-    spreads chunks of tasks over Ray tasks (:mod:`modquad_gym.distributed`; same rows, but
+    spreads chunks of tasks over Ray tasks (:mod:`modquad_gym.core.distributed`; same rows, but
     each solver's seconds are then measured beside the others). ``modules`` (stock type names,
     comma-separated) makes the searches search over shapes x type assignments."""
-    from modquad_gym.distributed import map_tasks
+    from modquad_gym.core.distributed import map_tasks
 
     jobs = [(name, task) for name, tasks in suites.items() for task in tasks]
     size = 1 if workers == 1 else 8
@@ -177,7 +181,7 @@ OPTIONS = {
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     return bench_args(
         argv,
-        "python -m modquad_gym.agents.benchmark",
+        "python -m modquad_gym.bench.agents",
         "Run every solver on the held-out suites and write benchmark.md, benchmark.csv and plots.",
         OPTIONS,
         seed_help="solver seed (sampled PPO rollouts, random search)",

@@ -9,12 +9,11 @@ from pathlib import Path
 import numpy as np
 
 from modquad_gym.bench import machine_description
-from modquad_gym.outputs import save_figure, write_text
+from modquad_gym.bench.scores import Row, summarise
+from modquad_gym.bench.tiers import TIERS, get_tier
+from modquad_gym.core.outputs import save_figure, write_text
 from modquad_gym.search import SEARCHES
 from modquad_gym.tasks import TaskRequirement
-
-from .scores import Row, summarise
-from .tiers import TIERS, get_tier
 
 
 def _fmt(v, pct: bool = False) -> str:
@@ -86,8 +85,8 @@ def plot_learning_curve(evals: Path, path: Path) -> Path | None:
 
 def plot_structures(rows: list[Row], path: Path, n_tasks: int = 4) -> Path | None:
     """A few tasks, one row each: PPO vs exhaustive vs centrosymmetric."""
-    from modquad_gym.structure import Structure
-    from modquad_gym.viz import draw_structure
+    from modquad_gym.geometry.structure import Structure
+    from modquad_gym.viz.drawing import draw_structure
 
     methods = [
         m for m in ("ppo", "exhaustive", "centrosymmetric") if any(r.method == m for r in rows)
@@ -166,11 +165,11 @@ def _header(
         "",
         (
             "Validation tasks (what training selects its model on, seeds "
-            "`VALIDATION_SEED0 + i` in `modquad_gym/agents/suites.py`; settings are tuned here, "
+            "`VALIDATION_SEED0 + i` in `modquad_gym/bench/suites.py`; settings are tuned here, "
             "never on the held-out suites): "
             if set(suites) == {"validation"}
             else "Held-out suites (never seen in training; seeds in "
-            "`modquad_gym/agents/suites.py` and `tiers.py`): "
+            "`modquad_gym/bench/suites.py` and `tiers.py`): "
         )
         + ", ".join(f"`{name}` ({len(t)} tasks)" for name, t in suites.items())
         + f", {n_tasks} tasks in all. The optimum is the certified minimum from the exhaustive "

@@ -8,7 +8,7 @@
   self-weight (``external``) tasks planted in mixed structures of 3-6 modules: the rotors also
   lift the structure.
 
-Suites are package data (``modquad_gym/data/suites``); ``python -m modquad_gym.agents.tiers
+Suites are package data (``modquad_gym/data/suites``); ``python -m modquad_gym.bench.tiers
 large`` (or ``mixed``) rewrites a tier's suite from its fixed seeds, each task with its
 certified optimum from :func:`~modquad_gym.search.exhaustive_search`.
 """
@@ -19,11 +19,16 @@ import argparse
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from modquad_gym.module import palette
+from modquad_gym.bench.suites import (
+    SUITES_DIR,
+    draw_task,
+    optimum_counts,
+    validation_tasks,
+    with_optimum,
+)
+from modquad_gym.geometry.module import palette
+from modquad_gym.policy.models import shipped_model
 from modquad_gym.tasks import TaskRequirement, load_suite, make_generator, save_suite
-
-from .solvers import DEFAULT_MODEL
-from .suites import SUITES_DIR, draw_task, optimum_counts, validation_tasks, with_optimum
 
 
 @dataclass(frozen=True)
@@ -59,9 +64,7 @@ class Tier:
     def model(self) -> Path:
         """The tier's shipped PPO model: ``data/models/ppo_default`` on the current tier,
         ``data/models/ppo_<name>`` on the others."""
-        if self.name == "current":
-            return DEFAULT_MODEL
-        return DEFAULT_MODEL.parents[1] / f"ppo_{self.name}" / DEFAULT_MODEL.name
+        return shipped_model(self.name)
 
     @property
     def results(self) -> str:
@@ -123,7 +126,7 @@ def certify(tier: Tier, tasks: list, progress: bool = True) -> list:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
-        prog="python -m modquad_gym.agents.tiers",
+        prog="python -m modquad_gym.bench.tiers",
         description="Rewrite a tier's held-out suite (fixed seeds, certified optima).",
     )
     p.add_argument("tier", choices=[t for t in TIERS if TIERS[t].source])

@@ -26,13 +26,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from modquad_gym.extras import import_optional
-from modquad_gym.outputs import atomic_write, write_text
+from agents.imitation import EXPERTS
+from modquad_gym.bench.tiers import get_tier
+from modquad_gym.core.extras import import_optional
+from modquad_gym.core.outputs import atomic_write, write_text
+from modquad_gym.policy.models import DEFAULT_MODEL
 from modquad_gym.tasks import GENERATORS
-
-from .imitation import EXPERTS
-from .solvers import DEFAULT_MODEL
-from .tiers import get_tier
 
 RUN_FILES = ("model.zip", "config.json", "evaluations.npz")
 """What a training run writes into its run folder."""
@@ -167,8 +166,8 @@ def train(config: TrainConfig) -> Path:
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-    from .ppo import make_env
-    from .suites import CyclingTasks, validation_tasks
+    from modquad_gym.bench.suites import CyclingTasks, validation_tasks
+    from modquad_gym.policy.ppo import make_env
 
     t_start = time.perf_counter()
     torch.set_num_threads(config.threads)
@@ -302,7 +301,7 @@ def run_record(config: TrainConfig, model: Any, n_validation: int) -> dict:
         "validation": {
             "n_tasks": n_validation,
             "source": config.validation_source,
-            "seeds": "modquad_gym.agents.suites.VALIDATION_SEED0 + i",
+            "seeds": "modquad_gym.bench.suites.VALIDATION_SEED0 + i",
         },
         "torch_threads": config.threads,
         "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
@@ -317,9 +316,8 @@ def pretrain(model: Any, config: TrainConfig, log_dir: Path) -> dict:
     import numpy as np
     from torch.utils.tensorboard import SummaryWriter
 
+    from agents.imitation import clone, collect_parallel
     from modquad_gym.tasks import make_generator
-
-    from .imitation import clone, collect_parallel
 
     t0 = time.perf_counter()
     generator = make_generator(config.source)

@@ -15,7 +15,6 @@ Torch and SB3 are imported here only, so ``import agents`` stays light.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from pathlib import Path
@@ -24,13 +23,12 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from modquad_gym.core.extras import import_optional
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
-from modquad_gym.extras import import_optional
-from modquad_gym.search import SearchResult
-from modquad_gym.structure import Structure
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.policy.models import DEFAULT_MODEL, load_model
+from modquad_gym.search import SearchResult, verified
 from modquad_gym.tasks import TaskRequirement
-
-from .solvers import DEFAULT_MODEL, verified
 
 ENV_KWARG_KEYS = (
     "n_max", "n_directions", "reward_weights", "invalid_action", "oracle_method", "lookahead",
@@ -47,30 +45,6 @@ def make_env(tasks: Any = "mixed", n_max: int = 7, **env_kwargs: Any) -> gym.Env
 
     env = ModQuadAssemblyEnv(tasks=tasks, n_max=n_max, **env_kwargs)
     return Monitor(env, info_keywords=("is_success",))
-
-
-def load_model(path: str | Path | None = None):
-    """(MaskablePPO model, its config dict or {}) from ``path`` (default :data:`DEFAULT_MODEL`).
-
-    Raises ValueError when the file does not exist or is not a saved MaskablePPO model. Sets torch
-    to one thread."""
-    torch = import_optional("torch")
-    MaskablePPO = import_optional("sb3_contrib").MaskablePPO
-
-    torch.set_num_threads(1)
-    path = Path(path) if path is not None else DEFAULT_MODEL
-    if not path.is_file():
-        hint = " (train it with `python train.py`)" if path == DEFAULT_MODEL else ""
-        raise ValueError(f"PPO model file {path} does not exist{hint}")
-    try:
-        model = MaskablePPO.load(path, device="cpu")
-    except (AssertionError, EOFError, KeyError, OSError, RuntimeError, ValueError) as exc:
-        # SB3 asserts on a zip without model data, zipfile/pickle/torch raise their own errors
-        reason = " ".join(str(exc).split()) or type(exc).__name__
-        raise ValueError(f"--model {path}: not a MaskablePPO model .zip ({reason})") from None
-    config_path = path.with_name("config.json")
-    config = json.loads(config_path.read_text()) if config_path.is_file() else {}
-    return model, config
 
 
 def env_kwargs_of(model, config: dict) -> dict:

@@ -3,7 +3,7 @@
 Matplotlib is imported inside the functions (``import modquad_gym`` stays light) and figures are
 made with ``matplotlib.figure.Figure`` on an Agg canvas, never through pyplot, so nothing here
 touches the global backend or opens windows. :func:`structure_image` (from
-:mod:`modquad_gym.raster`, re-exported here with the colours) does not use matplotlib at all: it
+:mod:`modquad_gym.viz.raster`, re-exported here with the colours) does not use matplotlib at all: it
 rasterises the top view with numpy (deterministic, about 10 ms), for Gymnasium's
 ``render_mode="rgb_array"``.
 
@@ -23,9 +23,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .oracle import check_f_max, feasible
-from .outputs import save_figure
-from .raster import (
+from modquad_gym.core.outputs import save_figure
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.oracle import check_f_max, feasible
+from modquad_gym.viz.raster import (
     ARROW_COLOUR,
     FIRST_COLOUR,
     MODULE_COLOUR,
@@ -36,12 +37,11 @@ from .raster import (
     structure_image,
     type_colour,
 )
-from .structure import Structure
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
 
-    from .tasks import TaskRequirement
+    from modquad_gym.tasks import TaskRequirement
 
 __all__ = [
     "ARROW_COLOUR",

@@ -1,6 +1,6 @@
 """Grid cells: integer (x, y) pairs, one module each, and the functions on sets of them.
 
-The building blocks of :mod:`modquad_gym.structure` and of the searches: checking a cell,
+The building blocks of :mod:`modquad_gym.geometry.structure` and of the searches: checking a cell,
 translation-normalised keys (structures are equal up to translation only), face-connectivity,
 the free cells a module can dock at, and the enumeration of every connected cell set of n cells.
 """
@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from .module import ModuleType
+    from modquad_gym.geometry.module import ModuleType
 
 Cell = tuple[int, int]
 Key = tuple[Cell, ...]
@@ -92,9 +92,9 @@ def free_neighbours(cells: Iterable[Cell]) -> list[Cell]:
 def structure_levels(n_max: int) -> Iterator[list[Key]]:
     """Yield, for n = 1..n_max, every connected structure of n modules up to translation (the
     fixed polyominoes: 1, 2, 6, 19, 63, 216, 760, 2725, 9910, 36446, ...) as keys, in the
-    canonical order of :mod:`modquad_gym.polyominoes`. Each level is a list: for small n only;
+    canonical order of :mod:`.polyominoes`. Each level is a list: for small n only;
     the searches stream levels in chunks instead."""
-    from .polyominoes import PolyominoStream  # numba: imported on first use
+    from modquad_gym.geometry.polyominoes import PolyominoStream  # numba: imported on first use
 
     for n in range(1, n_max + 1):
         yield [normalise(map(tuple, c.tolist())) for b in PolyominoStream(n) for c in b]

@@ -21,7 +21,7 @@ from collections.abc import Iterator
 import numpy as np
 from numba import njit
 
-from .validation import check_int
+from modquad_gym.core.validation import check_int
 
 A001168 = (1, 2, 6, 19, 63, 216, 760, 2725, 9910, 36446, 135268, 505861, 1903890, 7204874)
 """Numbers of fixed polyominoes of 1..14 cells (OEIS A001168): the size of each search level."""

@@ -21,15 +21,13 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.search import SearchResult
+from modquad_gym.core.validation import check_int
+from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
+from modquad_gym.policy.ppo import PPOSolver
+from modquad_gym.search import SearchResult, verified
 from modquad_gym.search.bounds import force_lower_bound, level_excluded
 from modquad_gym.search.result import SearchRun, first_possible_level
-from modquad_gym.structure import Structure, normalise, normalise_typed
 from modquad_gym.tasks import TaskRequirement
-from modquad_gym.validation import check_int
-
-from .ppo import PPOSolver
-from .solvers import verified
 
 
 def lower_bound(W: np.ndarray, f_max: float, module, n_max: int) -> int:

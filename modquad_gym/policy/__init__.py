@@ -1,0 +1,11 @@
+"""Policy inference: the shipped models (:mod:`.models`), decoding a trained policy into a
+structure (:mod:`.ppo`) and the policy-guided best-first search (:mod:`.guided`).
+
+Training lives outside the package, in the repository's top-level ``agents/``; what is here is
+what an installed wheel needs to answer ``modquad solve --method ppo``. Torch and SB3 load only
+when a model is loaded.
+"""
+
+from modquad_gym.policy.models import DEFAULT_MODEL, MODELS_DIR, shipped_model
+
+__all__ = ["DEFAULT_MODEL", "MODELS_DIR", "shipped_model"]
