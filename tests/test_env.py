@@ -192,7 +192,11 @@ def test_episodes_end_at_n_max_or_on_success():
         _, _, term, trunc, info = last
         assert term and not trunc
         assert info["success"] or info["n_modules"] == env.n_max
-        assert not info["action_mask"].any()  # no action is valid in a terminal state
+        # the terminal mask is never empty: the cells where a module could still dock
+        cells = {tuple(c) for c in info["cells"]}
+        free = {(x + dx, y + dy) for x, y in cells for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1))}
+        marked = {env.cell_of(a) for a in np.flatnonzero(info["action_mask"])}
+        assert marked and marked == {c for c in free - cells if max(map(abs, c)) <= env.radius}
 
 
 def test_task_solved_by_one_module_ends_on_the_next_step_without_adding():
@@ -201,8 +205,10 @@ def test_task_solved_by_one_module_ends_on_the_next_step_without_adding():
     env = small_env(tasks=hover)
     obs, info = env.reset(seed=0)
     assert info["success"] and info["satisfied_fraction"] == 1.0
-    assert not obs["action_mask"].any() and not env.action_masks().any()
-    _, r, term, trunc, info = env.step(env.action_of((1, 0)))
+    # the mask is that of the start (never empty); any action, even an occupied cell, ends it
+    np.testing.assert_array_equal(obs["action_mask"], env.grid.initial_mask)
+    _, r, term, trunc, info = env.step(env.action_of((0, 0)))
+    assert not info["invalid_action"]
     assert term and info["success"] and info["n_modules"] == 1
     assert r == pytest.approx(env.weights.w_success)
 
@@ -288,8 +294,9 @@ def test_task_source_classes_are_refused_with_a_hint():
         ({"n_max": 1}, "n_max"),
         ({"invalid_action": "ignore"}, "invalid_action"),
         ({"render_mode": "window"}, "render_mode"),
-        ({"n_max": 17}, "n_max"),
-        ({"max_steps": 65}, "max_steps"),
+        ({"n_max": 65}, "n_max"),
+        ({"max_steps": 257}, "max_steps"),
+        ({"actions": "cells"}, "actions"),
         ({"reward_weights": {"w_modul": 1.0}}, "unknown reward weights"),
         ({"reward_weights": {"w_module": -1.0}}, "w_module"),
         ({"tasks": "no-such-source"}, "no-such-source"),

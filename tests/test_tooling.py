@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 import modquad_gym  # noqa: F401 - registers the environments
-from modquad_gym.envs.assembly import MAX_STEPS_LIMIT
 
 ROOT = Path(__file__).resolve().parents[1]
 OPTIONAL = ("torch", "stable_baselines3", "sb3_contrib", "mujoco", "matplotlib", "ray", "cvxpy",
@@ -24,7 +23,7 @@ OPTIONAL = ("torch", "stable_baselines3", "sb3_contrib", "mujoco", "matplotlib",
 
 def test_info_has_is_success_and_spec_bounds_episodes():
     env = gym.make("ModQuadAssembly-v0", tasks="screwdriver")
-    assert env.spec.max_episode_steps == MAX_STEPS_LIMIT
+    assert env.spec.max_episode_steps == env.unwrapped.max_steps == 4 * 7
     _, info = env.reset(seed=0)
     assert info["is_success"] == info["success"]
     done = False
@@ -179,6 +178,7 @@ def test_bench_env_reports_the_default_config_with_resets_and_the_ppo_update(tmp
     try:
         rows = bench_env.main(
             ["--steps", "20", "--warmup", "5", "--default-steps", "60", "--sizes", "1"]
+            + ["--scale", "5", "--scale-steps", "20", "--scale-warmup", "2"]
             + ["--out", str(tmp_path), "--machine-note", "shared"]
         )
     finally:  # the benchmark pins this process to one core
@@ -193,4 +193,8 @@ def test_bench_env_reports_the_default_config_with_resets_and_the_ppo_update(tmp
     )
     text = (tmp_path / "env_benchmark.md").read_text()
     assert "resets counted" in text and "(shared)" in text and "env / update" in text
-    assert len((tmp_path / "env_benchmark.csv").read_text().splitlines()) == 1 + 3
+    assert len((tmp_path / "env_benchmark.csv").read_text().splitlines()) == 1 + 3 + 2
+    grid, faces = rows[-2:]
+    assert (grid["encoding"], faces["encoding"]) == ("grid", "faces")
+    assert (grid["actions"], faces["actions"]) == (9**2, 2 * 5 + 2) and faces["steps_per_s"] > 0
+    assert "The encodings at the field's sizes" in text

@@ -16,6 +16,10 @@ random masked actions read from the observation, every ``reset`` inside the time
 cost reported apart. Next to it, one MaskablePPO update (``.train()`` on a 256-step rollout of the
 same env, the hyperparameters of ``train.py``) is timed in the same run, so the env's cost can be
 read against the learner's.
+
+The encodings table (``--scale``, :mod:`modquad_gym.bench.env_scale`) compares the grid and the
+free-faces action encodings at n_max 16, 32 and 64, resets counted (issue 26's goal: 2,000
+steps/s at n_max 64 on one core).
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ import gymnasium as gym
 import numpy as np
 
 from modquad_gym.bench import machine_description, markdown_table, parse_bench_args, write_csv
+from modquad_gym.bench.env_scale import ENCODINGS, measure_encoding, scale_section
 from modquad_gym.core.extras import import_optional
 from modquad_gym.core.options import int_option, seed_option
 from modquad_gym.core.outputs import check_output_dir, write_text
@@ -80,10 +85,9 @@ def measure(family: str, t: int, steps: int, warmup: int, seed: int, n_max: int)
     }
 
 
-def measure_default(steps: int, warmup: int, seed: int) -> dict:
-    """The "resets counted" row: the default env from ``gym.make``, random masked actions from
-    ``obs["action_mask"]``, resets timed inside the loop (and apart)."""
-    env = gym.make(DEFAULT_ID)
+def play_timed(env: gym.Env, steps: int, warmup: int, seed: int) -> dict:
+    """Random masked actions from ``obs["action_mask"]`` on ``env`` (a ``gym.make`` env), every
+    reset inside the timed loop (and timed apart): wall and CPU rates after ``warmup`` steps."""
     rng = np.random.default_rng(seed)
     obs, _ = env.reset(seed=seed)
     reset_s = 0.0
@@ -102,17 +106,25 @@ def measure_default(steps: int, warmup: int, seed: int) -> dict:
             episodes += 1
     seconds = time.perf_counter() - start
     cpu_s = time.process_time() - cpu
-    oracles = [ev.oracle for ev in env.unwrapped.evaluators.values()]
     return {
-        "config": f"gym.make({DEFAULT_ID!r}), resets counted",
         "steps_per_s": steps / seconds,
         "cpu_steps_per_s": steps / cpu_s,
         "us_per_step": 1e6 * (seconds - reset_s) / steps,
         "us_per_reset": 1e6 * reset_s / max(episodes, 1),
         "steps_per_episode": steps / max(episodes, 1),
-        "oracle_fallback_wrenches": sum(o.fallback for o in oracles),
-        "goal": "met" if steps / seconds >= TARGET else "NOT met",
     }
+
+
+def measure_default(steps: int, warmup: int, seed: int) -> dict:
+    """The "resets counted" row: the default env from ``gym.make``, random masked actions from
+    ``obs["action_mask"]``, resets timed inside the loop (and apart)."""
+    env = gym.make(DEFAULT_ID)
+    row = {"config": f"gym.make({DEFAULT_ID!r}), resets counted"}
+    row.update(play_timed(env, steps, warmup, seed))
+    oracles = [ev.oracle for ev in env.unwrapped.evaluators.values()]
+    row["oracle_fallback_wrenches"] = sum(o.fallback for o in oracles)
+    row["goal"] = "met" if row["steps_per_s"] >= TARGET else "NOT met"
+    return row
 
 
 def ppo_update_seconds(seed: int) -> tuple[float, float]:
@@ -196,7 +208,13 @@ def default_section(row: dict) -> list[str]:
     return lines + [markdown_table([row]), ""]
 
 
-def report(rows: list[dict], default: dict | None, args: argparse.Namespace, pinning: str) -> str:
+def report(
+    rows: list[dict],
+    default: dict | None,
+    scale: list[dict],
+    args: argparse.Namespace,
+    pinning: str,
+) -> str:
     machine = machine_description()
     note = f" ({args.machine_note})" if args.machine_note else ""
     lines = [
@@ -227,6 +245,8 @@ def report(rows: list[dict], default: dict | None, args: argparse.Namespace, pin
             markdown_table(rows),
             "",
         ]
+    if scale:
+        lines += scale_section(scale)
     return "\n".join(lines)
 
 
@@ -252,6 +272,8 @@ def command_line(args: argparse.Namespace) -> str:
         f"python -m modquad_gym.bench.env --steps {args.steps} --warmup {args.warmup}",
         f"--seed {args.seed} --n-max {args.n_max} --default-steps {args.default_steps}",
         "--sizes " + " ".join(str(t) for t in args.sizes),
+        "--scale " + " ".join(str(n) for n in args.scale),
+        f"--scale-steps {args.scale_steps} --scale-warmup {args.scale_warmup}",
     ]
     if args.no_ppo:
         parts.append("--no-ppo")
@@ -278,12 +300,22 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "--default-steps", type=int_option(0), default=20000,
         help="timed steps of the default configuration, resets counted (0: skip that row)",
     )  # fmt: skip
+    parser.add_argument(
+        "--scale", type=int_option(2, 64), nargs="*", default=[16, 32, 64],
+        help="n_max values of the encodings table (grid vs faces; none: skip it)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--scale-steps", type=int_option(1), default=3000, help="timed steps per encodings row"
+    )
+    parser.add_argument(
+        "--scale-warmup", type=int_option(0), default=300, help="untimed steps per encodings row"
+    )
     parser.add_argument("--no-ppo", action="store_true", help="skip the PPO update timing")
     parser.add_argument("--machine-note", default="", help="said after the machine line")
     parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
     args = parse_bench_args(parser, argv)
-    if not args.default_steps and not args.sizes:
-        parser.error("nothing to measure: give --sizes or --default-steps > 0")
+    if not args.default_steps and not args.sizes and not args.scale:
+        parser.error("nothing to measure: give --sizes, --scale or --default-steps > 0")
     return args
 
 
@@ -315,10 +347,20 @@ def main(argv: list[str] | None = None) -> list[dict]:
             rows.append(row)
     if rows:
         print(verdict(rows, machine_description()))
-    every = ([default] if default else []) + rows
+    scale = []
+    for n_max in args.scale:
+        for actions in ENCODINGS:
+            row = measure_encoding(actions, n_max, args.scale_steps, args.scale_warmup, args.seed)
+            print(
+                f"{actions:5s} n_max={n_max:2d}: {row['steps_per_s']:7.0f} steps/s "
+                f"({row['cpu_steps_per_s']:.0f} per CPU s, {row['actions']} actions)",
+                flush=True,
+            )
+            scale.append(row)
+    every = ([default] if default else []) + rows + scale
     keys = list(dict.fromkeys(k for r in every for k in r))  # the default row has its own
     write_csv([{k: r.get(k, "") for k in keys} for r in every], args.out / "env_benchmark.csv")
-    write_text(args.out / "env_benchmark.md", report(rows, default, args, pinning))
+    write_text(args.out / "env_benchmark.md", report(rows, default, scale, args, pinning))
     print(f"wrote {args.out / 'env_benchmark.md'} and {args.out / 'env_benchmark.csv'}")
     return every
 

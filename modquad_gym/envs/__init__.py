@@ -12,6 +12,13 @@ package first) registers:
   (cell, type) actions (:class:`~modquad_gym.envs.assembly.modules.Palette`).
 * ``ModQuadAssemblyLarge-v0``: the same with ``n_max=12`` and ``tasks="planted-large"`` (tasks
   planted in 6-12 modules): the large benchmark tier (:mod:`modquad_gym.bench.tiers`).
+* ``ModQuadAssemblyScale-v0``: designs at the field's sizes: ``n_max=64``, tasks planted in
+  16-64 modules, and the free-faces action encoding (``actions="faces"``,
+  :mod:`~modquad_gym.envs.assembly.faces`): one action per free face of the structure (at most
+  130), each with a row of ``"candidates"`` features, for policies that score candidates at any
+  size.
+
+Each id's ``max_episode_steps`` is the env's own step limit for the id's arguments (4 * n_max).
 """
 
 from __future__ import annotations
@@ -19,7 +26,7 @@ from __future__ import annotations
 import gymnasium as gym
 
 from modquad_gym.envs.assembly import (
-    MAX_STEPS_LIMIT,
+    DEFAULT_N_MAX,
     AssemblyFeatures,
     AssemblyState,
     ModQuadAssemblyEnv,
@@ -29,6 +36,7 @@ from modquad_gym.envs.assembly import (
     episode_return,
     unit_directions,
 )
+from modquad_gym.tasks import PlantedTasks
 
 ENTRY_POINT = "modquad_gym.envs.assembly:ModQuadAssemblyEnv"
 
@@ -38,6 +46,11 @@ ENV_IDS: dict[str, dict] = {
     "ModQuadAssemblyPlanted-v0": {"tasks": "planted"},
     "ModQuadAssemblyMixed-v0": {"modules": "t45,t45m,flat"},
     "ModQuadAssemblyLarge-v0": {"tasks": "planted-large", "n_max": 12},
+    "ModQuadAssemblyScale-v0": {
+        "tasks": PlantedTasks(n_modules=(16, 64), name="planted-16-64"),
+        "n_max": 64,
+        "actions": "faces",
+    },
 }
 
 
@@ -49,8 +62,13 @@ def register_envs() -> None:
                 id=env_id,
                 entry_point=ENTRY_POINT,
                 kwargs=dict(kwargs),
-                max_episode_steps=MAX_STEPS_LIMIT,
+                max_episode_steps=episode_limit(kwargs),
             )
+
+
+def episode_limit(kwargs: dict) -> int:
+    """The env's own step limit for these arguments (its default ``max_steps``, 4 * n_max)."""
+    return kwargs.get("max_steps") or 4 * kwargs.get("n_max", DEFAULT_N_MAX)
 
 
 register_envs()

@@ -1,5 +1,6 @@
 """The assembly environment as a package (after Jumanji's layout): :mod:`.env` the Gymnasium
-API, :mod:`.transitions` the state transitions, :mod:`.grid` cells <-> actions and the mask,
+API, :mod:`.transitions` the state transitions, :mod:`.grid` and :mod:`.faces` the two action
+encodings (grid cells, or the structure's free faces) and their masks,
 :mod:`.types` the episode state, :mod:`.reward` the reward functions, :mod:`.features` the
 observation blocks, :mod:`.lookahead` the per-action candidate rows, :mod:`.evaluator` the exact
 decisions (by :meth:`modquad_gym.oracle.WrenchOracle.screened`) and their caches,
@@ -10,7 +11,14 @@ Where to add: a reward term in :mod:`.reward` (:class:`WeightedReward.terms`), a
 feature in :mod:`.features` (:func:`observation_blocks`), a module set's env behaviour in
 :mod:`.modules`."""
 
-from modquad_gym.envs.assembly.env import MAX_STEPS_LIMIT, N_MAX_LIMIT, ModQuadAssemblyEnv
+from modquad_gym.envs.assembly.env import (
+    DEFAULT_N_MAX,
+    ENCODINGS,
+    MAX_STEPS_LIMIT,
+    N_MAX_LIMIT,
+    ModQuadAssemblyEnv,
+)
+from modquad_gym.envs.assembly.faces import FACE_FEATURES, Faces
 from modquad_gym.envs.assembly.features import (
     CANDIDATE_FEATURES,
     AssemblyFeatures,
@@ -25,6 +33,9 @@ from modquad_gym.envs.assembly.viewer import AssemblyViewer
 
 __all__ = [
     "CANDIDATE_FEATURES",
+    "DEFAULT_N_MAX",
+    "ENCODINGS",
+    "FACE_FEATURES",
     "INVALID_ACTION_MODES",
     "MAX_STEPS_LIMIT",
     "N_MAX_LIMIT",
@@ -32,6 +43,7 @@ __all__ = [
     "AssemblyState",
     "AssemblyViewer",
     "Episode",
+    "Faces",
     "ModQuadAssemblyEnv",
     "ObservationBlock",
     "OneType",

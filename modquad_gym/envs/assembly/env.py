@@ -20,12 +20,12 @@ from gymnasium.error import ResetNeeded
 
 from modquad_gym.core.validation import check_int
 from modquad_gym.envs.assembly.evaluator import StructureEvaluator, TaskMemos
+from modquad_gym.envs.assembly.faces import Faces
 from modquad_gym.envs.assembly.features import (
     DEFAULT_N_DIRECTIONS,
     MAX_N_DIRECTIONS,
     AssemblyFeatures,
     ObservationBlock,
-    observation_blocks,
 )
 from modquad_gym.envs.assembly.grid import Grid
 from modquad_gym.envs.assembly.inputs import (
@@ -34,6 +34,7 @@ from modquad_gym.envs.assembly.inputs import (
     check_render_mode,
     check_render_size,
     draw_task,
+    make_encoding,
     make_rules,
     parse_action,
 )
@@ -46,10 +47,15 @@ from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Cell, Structure
 from modquad_gym.tasks import make_generator
 
-N_MAX_LIMIT = 16
-"""Largest ``n_max`` (the grid has (2 n_max - 1)^2 actions; the searches stop at 16 too)."""
+N_MAX_LIMIT = 64
+"""Largest ``n_max`` (the field's largest designs; the grid encoding then has 127^2 actions, the
+faces encoding 130)."""
 MAX_STEPS_LIMIT = 4 * N_MAX_LIMIT
-"""Largest ``max_steps``; also ``max_episode_steps`` at registration, so no episode is longer."""
+"""Largest ``max_steps``."""
+DEFAULT_N_MAX = 7
+"""The default ``n_max`` (the paper's)."""
+ENCODINGS = {"grid": Grid, "faces": Faces}
+"""The action encodings by name (:mod:`.grid`, :mod:`.faces`)."""
 
 
 class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
@@ -70,12 +76,21 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     ## Action Space
     ``Discrete(G * G)`` with G = 2 * n_max - 1: one action per grid cell (x, y), with x and y in
     [-(n_max - 1), n_max - 1] around the initial module at (0, 0):
-    ``a = (y + n_max - 1) * G + (x + n_max - 1)``. Action a is *valid* when its cell is empty,
-    4-adjacent to the structure and the episode is not over; a valid action docks a module there.
-    The mask of valid actions is exposed three ways: ``action_masks()`` (bool, also before
-    ``reset``, for sb3-contrib's MaskablePPO), ``obs["action_mask"]`` and
-    ``info["action_mask"]``. In a terminal state (and in the rare task that one module already
-    satisfies) no action is valid.
+    ``a = (y + n_max - 1) * G + (x + n_max - 1)``. Action a is *valid* when its cell is empty and
+    4-adjacent to the structure; a valid action docks a module there. The mask of valid actions
+    is exposed three ways: ``action_masks()`` (bool, also before ``reset``, for sb3-contrib's
+    MaskablePPO), ``obs["action_mask"]`` and ``info["action_mask"]``. The mask is never all
+    zero, so masked sampling always has a choice: in a terminal state it still marks the cells
+    where a module could dock (no step follows a terminal state; a vector env's autoreset step
+    ignores the action it is given), and in the rare task that one module already satisfies it
+    marks the four neighbours of the start (any action then ends the episode, see below).
+
+    With ``actions="faces"`` (``ModQuadAssemblyScale-v0``) the actions are the structure's free
+    faces instead, in the grid's row-major order: ``Discrete(2 n_max + 2)`` (times K types),
+    valid exactly for the current faces, and the observation is ``"action_mask"``,
+    ``"candidates"`` (one row of features per action), ``"task"`` and ``"structure"``; see
+    :mod:`~modquad_gym.envs.assembly.faces`. Both encodings make the same episodes (the same
+    structures, rewards and infos) for the same dockings.
 
     Every other action is *invalid*, and an invalid action never raises: it leaves the
     structure unchanged and costs ``w_invalid`` (``invalid_action="penalise"``) or also ends the
@@ -126,12 +141,15 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
 
     ## Episode End
     * Termination (success): every task wrench is satisfied. If one module already satisfies the
-      task at reset, ``info["success"]`` is True there, the mask is all zero, and the next step
-      (any action) ends the episode with the success bonus and no module added.
+      task at reset, ``info["success"]`` is True there and the next step (any action, none
+      counted invalid) ends the episode with the success bonus and no module added.
     * Termination (failure): n_max modules without success, no valid action left, or an invalid
       action with ``invalid_action="terminate"``.
     * Truncation: ``max_steps`` steps (default 4 * n_max) without termination; only reachable
-      through invalid actions.
+      through invalid actions. Each registered id's ``max_episode_steps`` (``env.spec``) is the
+      env's own limit for the id's arguments (4 * n_max: 28 for n_max 7); ``gym.make(id,
+      n_max=N)`` keeps the id's limit (as Gymnasium's ids do): pass ``max_episode_steps=4 * N``
+      too, or use the id registered for that size.
 
     ## Arguments
     * ``tasks``: task source: ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"``
@@ -139,7 +157,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
       callable ``gen(rng) -> TaskRequirement`` (or a (t, 6) wrench array), called with
       ``self.np_random`` at each reset; a result of another kind raises a ValueError there.
       See :func:`modquad_gym.tasks.make_generator`.
-    * ``n_max``: the largest number of modules (default 7, as in the paper), 2 to 16.
+    * ``n_max``: the largest number of modules (default 7, as in the paper), 2 to 64.
     * ``module``: the :class:`~modquad_gym.geometry.module.ModuleType` of every module (default the
       T-module, eta = pi/4).
     * ``modules``: several module types (or stock names, ``"t45,t45m,flat"``), or a module set
@@ -163,11 +181,11 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     * ``viewer``: an :class:`~modquad_gym.envs.assembly.viewer.AssemblyViewer` (default one of
       ``render_size``).
     * ``invalid_action``: ``"penalise"`` (default) or ``"terminate"``.
-    * ``max_steps``: the step limit for truncation (default 4 * n_max, at most 64; the
-      registered ``max_episode_steps`` is 64, so ``env.spec`` bounds every episode).
+    * ``max_steps``: the step limit for truncation (default 4 * n_max, at most 4 * 64).
     * ``render_mode``: None, ``"rgb_array"`` (the structure picture, (H, W, 3) uint8),
       ``"human"`` (that picture in a pygame window; the ``viz`` extra) or ``"ansi"`` (a text
       grid). ``gymnasium.wrappers.RecordVideo`` works on ``"rgb_array"`` (needs moviepy).
+    * ``actions``: the action encoding, ``"grid"`` (default) or ``"faces"`` (above).
     * ``n_directions``: K, the support directions of the features (default 48, 12..4096).
     * ``oracle_method``: the oracle's method (default ``"auto"``, exact and certified).
     * ``render_size``: (height, width) of ``rgb_array`` frames, each 16..4096 (default
@@ -196,10 +214,11 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         modules: Any = None,
         initial_type: Any = None,
         # the episode rules
-        n_max: int = 7,
+        n_max: int = DEFAULT_N_MAX,
         max_steps: int | None = None,
         invalid_action: str = "penalise",
-        # the observation and the decisions
+        # the actions, the observation and the decisions
+        actions: str = "grid",
         n_directions: int = DEFAULT_N_DIRECTIONS,
         lookahead: bool = False,
         oracle_method: str = "auto",
@@ -213,6 +232,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     ) -> None:
         self.module_set = make_module_set(module, modules, initial_type)
         self.rules = make_rules(n_max, max_steps, invalid_action, lookahead, N_MAX_LIMIT)
+        self.encoding: Grid | Faces = make_encoding(actions, ENCODINGS)(self.n_max, self.n_types)
         check_render_mode(render_mode, self.metadata)
         self.f_max = None if f_max is None else check_f_max(f_max)
         self.task_source = tasks
@@ -223,15 +243,15 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self.render_mode = render_mode
         size = check_render_size(render_size)
         if viewer is None:
-            viewer = AssemblyViewer(self.n_max - 1, self.n_max, size, self.palette)
+            radius = self.n_max if self.actions == "faces" else self.n_max - 1  # faces reach n_max
+            viewer = AssemblyViewer(radius, self.n_max, size, self.palette)
         self.viewer = viewer
 
-        self.grid = Grid(self.n_max, self.n_types)
         self.evaluators: dict[float, StructureEvaluator] = {}  # per f_max, across episodes
         self._memos = TaskMemos()
         probe = self._evaluator(1.0 if self.f_max is None else self.f_max).features
         self._blocks = self.make_blocks(probe)
-        self.action_space = spaces.Discrete(self.grid.n_actions)
+        self.action_space = spaces.Discrete(self.encoding.n_actions)
         self.observation_space = spaces.Dict({b.name: b.space() for b in self._blocks})
         self._readers = [(b.name, b.read) for b in self._blocks]
         self._state: AssemblyState | None = None
@@ -240,7 +260,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     def make_blocks(self, features: AssemblyFeatures) -> list[ObservationBlock]:
         """The observation's blocks, in order; override to add a feature (append an
         :class:`~.features.ObservationBlock`): the spaces follow from the blocks."""
-        return observation_blocks(self.grid.n_cells, self.n_types, features, self.lookahead)
+        return self.encoding.blocks(features, self.n_types, self.lookahead)
 
     # --- the parts' settings, by name -----------------------------------------------------
     n_max = property(lambda self: self.rules.n_max, doc="The largest number of modules.")
@@ -250,8 +270,9 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     module = property(lambda self: self.module_set.module, doc="The (first) module type.")
     palette = property(lambda self: self.module_set.palette, doc="The types, or None (one).")
     n_types = property(lambda self: self.module_set.n_types, doc="The number of types.")
-    radius = property(lambda self: self.grid.radius, doc="n_max - 1, the largest |x|, |y|.")
-    side = property(lambda self: self.grid.side, doc="G = 2 n_max - 1, cells a side.")
+    radius = property(lambda self: self.n_max - 1, doc="n_max - 1, the largest |x|, |y|.")
+    side = property(lambda self: 2 * self.n_max - 1, doc="G = 2 n_max - 1, cells a side.")
+    actions = property(lambda self: self.encoding.name, doc="The action encoding's name.")
     render_size = property(lambda self: self.viewer.size, doc="(height, width) of frames.")
 
     @property
@@ -264,19 +285,29 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         """The palette's first-module type (None for one type)."""
         return getattr(self.module_set, "initial_type", None)
 
-    # --- grid <-> actions -----------------------------------------------------------------
+    # --- cells <-> actions --------------------------------------------------------------
+    @property
+    def grid(self) -> Grid:
+        """The grid encoding (``actions="grid"``): cells <-> actions in every state."""
+        if not isinstance(self.encoding, Grid):
+            raise AttributeError(
+                "the faces encoding has no fixed grid of actions: use env.action_of, "
+                "env.cell_of, env.type_of (they read the state)"
+            )
+        return self.encoding
+
     def action_of(self, cell: Cell, type_index: int = 0) -> int:
-        """The action that docks a module (of palette type ``type_index``) at grid ``cell``
-        (x, y); ValueError off the grid."""
-        return self.grid.action_of(cell, type_index)
+        """The action that docks a module (of palette type ``type_index``) at ``cell`` (x, y);
+        ValueError off the grid (faces: where ``cell`` is not a free face now)."""
+        return self.encoding.state_action_of(self._state, cell, type_index)
 
     def cell_of(self, action: int) -> Cell:
-        """The grid cell (x, y) of ``action``."""
-        return self.grid.cell_of(action)
+        """The cell (x, y) where ``action`` docks (faces: in the current state)."""
+        return self.encoding.state_cell_of(self._state, action)
 
     def type_of(self, action: int) -> int:
         """The palette index of the type that ``action`` docks (0 for one type)."""
-        return self.grid.type_of(action)
+        return self.encoding.type_of(action)
 
     # --- state ----------------------------------------------------------------------------
     def _evaluator(self, f_max: float) -> StructureEvaluator:
@@ -326,7 +357,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     def action_masks(self) -> np.ndarray:
         """bool: the valid actions now; before ``reset``, those of the initial state."""
         if self._state is None:
-            return self.grid.initial_mask.astype(bool)
+            return self.encoding.initial_mask.astype(bool)
         return self._state.mask.astype(bool)
 
     def _observation(self) -> dict[str, np.ndarray]:
@@ -354,7 +385,9 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
         evaluator = self._evaluator(f_max)
         memo, cand_memo = self._memos.of(task, f_max)
-        self._episode = Episode(self.rules, self.grid, self.module_set, evaluator, memo, cand_memo)
+        self._episode = Episode(
+            self.rules, self.encoding, self.module_set, evaluator, memo, cand_memo
+        )
         kind = getattr(task, "kind", "total")
         arrays = evaluator.task_arrays(task, np.asarray(task.wrenches, dtype=float), kind)
         self._state = initial_state(self._episode, arrays, types)
@@ -364,7 +397,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         state = self._require("step()")
         if state.done:
             raise ResetNeeded("the episode is over; call reset() before step()")
-        a = parse_action(action, self.grid.n_actions)
+        a = parse_action(action, self.encoding.n_actions)
         valid = state.success or (a is not None and bool(state.mask[a]))
         self._state = nxt = transition(self._episode, state, a, valid)
         reward, terms = step_reward(self.reward, state, a, nxt, valid)
@@ -379,7 +412,8 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         s = self.structure
         W, _, _ = self.evaluator.at_mass(state.task, s.mass)
         f_max = self.evaluator.oracle.f_max
-        return self.viewer.render(self.render_mode, state, s, W, f_max, self.oracle_method)
+        valid = self.encoding.valid_cells(state)
+        return self.viewer.render(self.render_mode, state, s, W, f_max, self.oracle_method, valid)
 
     def close(self) -> None:
         self.viewer.close()

@@ -10,6 +10,11 @@ Each step's decisions are one call of :meth:`~modquad_gym.oracle.WrenchOracle.sc
 structure's support values screen the wrenches, the oracle decides the rest (with the default
 method ``"auto"``, both in one compiled call).
 
+Structures of more than :data:`COMPILED_FROM` - 1 modules (beyond the grid env's old reach) build
+their configuration matrix in one compiled call, the same matrix as
+:meth:`~modquad_gym.geometry.structure.Structure.configuration_matrix` up to round-off; smaller
+ones through it (so recorded episodes replay bit for bit).
+
 Why not :class:`~modquad_gym.search.checker.TaskChecker`: the searches decide thousands of
 structures per task in compiled batches and need only a yes/no; the env decides one structure
 per step and needs the count of satisfied wrenches and the features, from the same exact oracle.
@@ -17,9 +22,11 @@ per step and needs the count of satisfied wrenches and the features, from the sa
 
 from __future__ import annotations
 
+from itertools import chain
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from modquad_gym.envs.assembly.features import AssemblyFeatures
 from modquad_gym.envs.assembly.types import TaskArrays
@@ -36,6 +43,38 @@ CACHE_SIZE = 16384
 """Entries per cache before it is cleared (there are 1,067 structures of at most 7 modules)."""
 MEMO_TASKS = 16
 """Tasks whose decisions are remembered."""
+COMPILED_FROM = 17
+"""Structures of at least this many modules build their matrix with :func:`_matrix`."""
+
+
+@njit(cache=True)
+def _matrix(cells, types, cols, masses, side):  # pragma: no cover - compiled
+    """The configuration matrix (6, n r) of modules at grid ``cells`` (n, 2) of palette
+    ``types`` (n,) with columns ``cols`` (K, 6, r) about their own centres and ``masses`` (K,):
+    each module's columns plus c x d for its centre c from the (mass-weighted) centre of mass,
+    as :func:`~modquad_gym.geometry.structure.configuration_matrices` computes them."""
+    n, r = cells.shape[0], cols.shape[2]
+    total = cx0 = cy0 = 0.0
+    for i in range(n):
+        w = masses[types[i]]
+        total += w
+        cx0 += w * cells[i, 0]
+        cy0 += w * cells[i, 1]
+    cx0 /= total
+    cy0 /= total
+    A = np.empty((6, n * r))
+    for i in range(n):
+        t = types[i]
+        cx = (cells[i, 0] - cx0) * side
+        cy = (cells[i, 1] - cy0) * side
+        for j in range(r):
+            k = i * r + j
+            dx, dy, dz = cols[t, 0, j], cols[t, 1, j], cols[t, 2, j]
+            A[0, k], A[1, k], A[2, k] = dx, dy, dz
+            A[3, k] = cols[t, 3, j] + cy * dz
+            A[4, k] = cols[t, 4, j] - cx * dz
+            A[5, k] = cols[t, 5, j] + cx * dy - cy * dx
+    return A
 
 
 class Capability:
@@ -72,11 +111,25 @@ class StructureEvaluator:
         self.capability: dict[Key, Capability] = {}
         self.supports: dict[Key, tuple[np.ndarray, float]] = {}
         self.tests = 0
+        self._cols = module.columns[None]  # (1, 6, r): the compiled matrix's type table
+        self._masses = np.ones(1)  # one type: the plain mean of the cells
 
     # --- per structure ----------------------------------------------------------------------
     def structure_of(self, key: Any) -> Structure:
         """The structure of ``key``."""
         return Structure.from_trusted(key, module=self.module)
+
+    def matrix_of(self, key: Any) -> np.ndarray:
+        """The configuration matrix of the structure ``key`` (compiled for large ones)."""
+        if len(key) < COMPILED_FROM:
+            return self.structure_of(key).configuration_matrix()
+        cells, types = self._cells_types(key)
+        return _matrix(cells, types, self._cols, self._masses, self.module.side)
+
+    def _cells_types(self, key: Any) -> tuple[np.ndarray, np.ndarray]:
+        """(cells (n, 2) float, types (n,) int) of ``key``."""
+        cells = np.fromiter(chain.from_iterable(key), dtype=np.float64, count=2 * len(key))
+        return cells.reshape(-1, 2), np.zeros(len(key), dtype=np.int64)
 
     def capability_of(self, key: Any) -> Capability:
         """The :class:`Capability` of the structure ``key``, cached."""
@@ -84,7 +137,7 @@ class StructureEvaluator:
         if hit is None:
             if len(self.capability) >= CACHE_SIZE:
                 self.capability.clear()
-            A = self.structure_of(key).configuration_matrix()
+            A = self.matrix_of(key)
             rank = self.oracle.zonotope(A, key=key).rank
             hit = self.capability[key] = Capability(A, rank, len(key), self.features)
         return hit
@@ -168,9 +221,15 @@ class MixedStructureEvaluator(StructureEvaluator):
         super().__init__(palette[0], n_max, f_max, n_directions, method)
         self.palette = palette
         self.index = {id(m): k for k, m in enumerate(palette)}
+        self._cols = np.stack([m.columns for m in palette])
+        self._masses = np.array([m.mass for m in palette])
 
     def structure_of(self, key: Any) -> Structure:
         return Structure.from_trusted(tuple(c for c, _ in key), modules=tuple(m for _, m in key))
+
+    def _cells_types(self, key: Any) -> tuple[np.ndarray, np.ndarray]:
+        cells = np.array([c for c, _ in key], dtype=np.float64)
+        return cells, np.array([self.index[id(m)] for _, m in key], dtype=np.int64)
 
     def _matrices(self, keys: list) -> np.ndarray:
         cells = np.array([[c for c, _ in k] for k in keys], dtype=float)

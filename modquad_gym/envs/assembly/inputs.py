@@ -37,6 +37,13 @@ def make_rules(
     return Rules(n_max, max_steps, invalid_action, bool(lookahead))
 
 
+def make_encoding(actions: Any, encodings: dict) -> Any:
+    """The action encoding class named ``actions``; ValueError naming the known ones."""
+    if not isinstance(actions, str) or actions not in encodings:
+        raise ValueError(f"actions must be one of {sorted(encodings)}, got {actions!r}")
+    return encodings[actions]
+
+
 def check_render_mode(render_mode: Any, metadata: dict) -> None:
     """ValueError for a render mode the env does not have."""
     if render_mode is not None and render_mode not in metadata["render_modes"]:

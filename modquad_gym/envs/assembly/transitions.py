@@ -1,12 +1,9 @@
 """The transitions of the assembly environment: pure functions from an :class:`~.types.Episode`
-(the context: grid, module set, evaluator, memos), a state and an action to the next state
-(Jumanji keeps these beside ``step``)."""
+(the context: action encoding, module set, evaluator, memos), a state and an action to the next
+state (Jumanji keeps these beside ``step``)."""
 
 from __future__ import annotations
 
-import numpy as np
-
-from modquad_gym.envs.assembly.lookahead import candidate_rows
 from modquad_gym.envs.assembly.types import AssemblyState, Episode, TaskArrays
 
 
@@ -25,38 +22,23 @@ def decided_fields(ep: Episode, state: AssemblyState, cells: tuple, types: tuple
 
 
 def initial_state(ep: Episode, task: TaskArrays, types: tuple[int, ...]) -> AssemblyState:
-    """One module at cell (0, 0) (of type ``types[0]`` with a palette) facing ``task``; no
-    action is valid when it already satisfies the task (see the env's "Episode End")."""
-    grid = ep.grid
-    onehot = None
-    if types:
-        onehot = np.zeros(grid.n_actions, dtype=np.float32)
-        onehot[types[0] * grid.n_cells + grid.centre] = 1.0
-    occ = grid.initial_occupancy()
-    state = AssemblyState(task, ((0, 0),), occ, grid.initial_mask.copy(), None, 0.0, False,
-                          evaluated=0, types=types, types_onehot=onehot)  # fmt: skip
-    fields = decided_fields(ep, state, state.cells, state.types)
-    if fields["success"]:  # one module suffices: nothing may be added
-        fields["mask"] = np.zeros_like(state.mask)
-    return _with_candidates(ep, state.but(**fields))
+    """One module at cell (0, 0) (of type ``types[0]`` with a palette) facing ``task``."""
+    fields = ep.actions.initial_fields(types)
+    state = AssemblyState(task, ((0, 0),), structure_vec=None, frac=0.0, success=False,
+                          evaluated=0, types=types, **fields)  # fmt: skip
+    return _with_candidates(ep, state.but(**decided_fields(ep, state, state.cells, state.types)))
 
 
 def dock(ep: Episode, state: AssemblyState, a: int) -> AssemblyState:
     """The state after docking action ``a`` (valid) to ``state``."""
-    G2 = ep.grid.n_cells
-    c, k = a % G2, a // G2
-    cells, types = (*state.cells, ep.grid.cell(c)), (*state.types, k) if state.types else ()
-    occ, mask = ep.grid.dock(state.occupancy, state.mask, c)
-    onehot = state.types_onehot
-    if onehot is not None:
-        onehot = onehot.copy()
-        onehot[a] = 1.0
-    fields = decided_fields(ep, state, cells, types)
-    terminated = fields["success"] or len(cells) >= ep.rules.n_max or not mask.any()
+    cell, k = ep.actions.decode(state, a)
+    cells, types = (*state.cells, cell), (*state.types, k) if state.types else ()
+    fields = ep.actions.docked_fields(state, a)
+    fields.update(decided_fields(ep, state, cells, types))
+    terminated = fields["success"] or len(cells) >= ep.rules.n_max or not fields["mask"].any()
     return state.but(
-        cells=cells, types=types, occupancy=occ, mask=mask, types_onehot=onehot,
-        steps=state.steps + 1, terminated=terminated, **fields,
-    )  # fmt: skip
+        cells=cells, types=types, steps=state.steps + 1, terminated=terminated, **fields
+    )
 
 
 def transition(ep: Episode, state: AssemblyState, a: int | None, valid: bool) -> AssemblyState:
@@ -69,17 +51,13 @@ def transition(ep: Episode, state: AssemblyState, a: int | None, valid: bool) ->
     else:
         terminated = ep.rules.invalid_action == "terminate"
         nxt = state.but(steps=state.steps + 1, terminated=terminated)
-    end = {"truncated": not nxt.terminated and nxt.steps >= ep.rules.max_steps}
-    if nxt.terminated:
-        end["mask"] = np.zeros_like(nxt.mask)
-    nxt = nxt.but(**end)
-    if len(nxt.cells) > len(state.cells) or nxt.terminated:
+    nxt = nxt.but(truncated=not nxt.terminated and nxt.steps >= ep.rules.max_steps)
+    if len(nxt.cells) > len(state.cells):
         nxt = _with_candidates(ep, nxt)
     return nxt
 
 
 def _with_candidates(ep: Episode, state: AssemblyState) -> AssemblyState:
-    """``state`` with its lookahead rows (``lookahead=True``)."""
-    if not ep.rules.lookahead:
-        return state
-    return state.but(candidates=candidate_rows(ep, state))
+    """``state`` with its ``"candidates"`` rows, where the encoding has them."""
+    rows = ep.actions.candidates(ep, state)
+    return state if rows is None else state.but(candidates=rows)

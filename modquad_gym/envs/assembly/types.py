@@ -66,7 +66,7 @@ class Episode:
 
     Attributes:
         rules: the :class:`Rules`.
-        grid: cells <-> actions and masks (:class:`~.grid.Grid`).
+        actions: the action encoding (:class:`~.grid.Grid` or :class:`~.faces.Faces`).
         modules: the module set (:class:`~.modules.OneType` or :class:`~.modules.Palette`).
         evaluator: the :class:`~.evaluator.StructureEvaluator` of the episode's f_max.
         memo: the task's decisions, key -> (n_satisfied, structure vector) (shared by every
@@ -75,7 +75,7 @@ class Episode:
     """
 
     rules: Rules
-    grid: Any
+    actions: Any
     modules: Any
     evaluator: Any
     memo: dict
@@ -90,7 +90,8 @@ class AssemblyState:
         task: the task arrays.
         cells: module cells in docking order, the initial module first.
         types: palette index of each module (the mixed env; empty for one type).
-        occupancy: float32 (G * G,), 1 where a module sits.
+        occupancy: (G * G,), 1 where a module sits on the encoding's grid (float32; int8 in
+            the faces encoding).
         mask: int8, 1 for valid actions.
         structure_vec: float32 structure features against the task.
         frac: fraction of task wrenches the structure satisfies (exact oracle).
@@ -100,7 +101,10 @@ class AssemblyState:
         oracle_calls: wrench-structure tests made this episode.
         terminated, truncated: how the episode ended (both False while it runs).
         types_onehot: float32 (G * G * K,) type one-hot (the mixed env), else None.
-        candidates: float32 (actions, k) lookahead rows (``lookahead=True``), else None.
+        candidates: float32 (actions, k) rows per action (the faces encoding; the grid's with
+            ``lookahead=True``), else None.
+        faces: the faces encoding's free faces, as grid cell indices in action order, else
+            None.
     """
 
     task: TaskArrays
@@ -118,6 +122,7 @@ class AssemblyState:
     types: tuple[int, ...] = ()
     types_onehot: np.ndarray | None = None
     candidates: np.ndarray | None = field(default=None)
+    faces: np.ndarray | None = None
 
     @property
     def done(self) -> bool:
@@ -160,7 +165,7 @@ class AssemblyState:
         }
 
 
-_ARRAYS = ("occupancy", "mask", "structure_vec", "types_onehot", "candidates")
+_ARRAYS = ("occupancy", "mask", "structure_vec", "types_onehot", "candidates", "faces")
 
 
 def _freeze(array: np.ndarray | None) -> None:

@@ -3,12 +3,14 @@ pygame window (the ``viz`` extra)."""
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from modquad_gym.core.extras import import_optional
 from modquad_gym.envs.assembly.types import AssemblyState
 from modquad_gym.geometry.module import ModuleType
-from modquad_gym.geometry.structure import Structure
+from modquad_gym.geometry.structure import Cell, Structure
 
 RENDER_FPS = 4
 
@@ -46,10 +48,12 @@ class AssemblyViewer:
         W: np.ndarray,
         f_max: float,
         method: str,
+        valid: set[Cell] = frozenset(),
     ) -> np.ndarray | str | None:
-        """What ``env.render()`` returns in ``mode`` (``"human"`` shows the frame, None)."""
+        """What ``env.render()`` returns in ``mode`` (``"human"`` shows the frame, None);
+        ``valid``: the cells where a module may dock (the text grid marks them)."""
         if mode == "ansi":
-            return self.ansi(state)
+            return self.ansi(state, valid)
         frame = self.frame(structure, W, f_max, method)
         if mode == "rgb_array":
             return frame
@@ -66,9 +70,10 @@ class AssemblyViewer:
 
     def show(self, frame: np.ndarray) -> None:
         """Draw ``frame`` in a pygame window."""
+        os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")  # no banner on import
         pygame = import_optional("pygame")
         if self.window is None:
-            pygame.init()
+            pygame.display.init()  # the display only: pygame.init() would open audio too
             pygame.display.set_caption("ModQuadAssembly")
             self.window = pygame.display.set_mode(frame.shape[1::-1])
             self.clock = pygame.time.Clock()
@@ -86,14 +91,15 @@ class AssemblyViewer:
             pygame.quit()
             self.window = None
 
-    def ansi(self, state: AssemblyState) -> str:
-        """A text grid: ``@`` the initial module, ``#`` a module, ``+`` a valid cell, ``.`` an
-        empty one (with a palette, modules are letters: lower case for the initial one)."""
-        r, G = self.radius, self.side
+    def ansi(self, state: AssemblyState, valid: set[Cell]) -> str:
+        """A text grid: ``@`` the initial module, ``#`` a module, ``+`` a cell in ``valid``
+        (where a module may dock), ``.`` an empty one (with a palette, modules are letters:
+        lower case for the initial one)."""
+        r = self.radius
+        occupied = set(state.cells)
         letters = {}
         if self.palette is not None:
             letters = {c: chr(65 + t) for c, t in zip(state.cells, state.types)}
-        cell_mask = state.mask.reshape(-1, G * G).any(axis=0)
         rows = [
             f"task {state.task.name!r} (t={len(state.task.W)}): {len(state.cells)}/{self.n_max}"
             f" modules, satisfied {state.frac:.3f}{' SUCCESS' if state.success else ''}"
@@ -101,14 +107,13 @@ class AssemblyViewer:
         for y in range(r, -r - 1, -1):
             row = []
             for x in range(-r, r + 1):
-                a = (y + r) * G + x + r
                 if (x, y) in letters:
                     row.append(letters[(x, y)].lower() if (x, y) == (0, 0) else letters[(x, y)])
                 elif (x, y) == (0, 0):
                     row.append("@")
-                elif state.occupancy[a]:
+                elif (x, y) in occupied:
                     row.append("#")
-                elif cell_mask[a]:
+                elif (x, y) in valid:
                     row.append("+")
                 else:
                     row.append(".")
