@@ -15,8 +15,11 @@ state and commands
   the current feed-forward (the rotors' wrench tilts with the body while the inertial and
   gravity load stays fixed in the world: a line of modules, rank 5, rolls to push itself
   sideways), redesigned every ``reschedule_s`` seconds; the PD fallback where none stabilises;
-* the allocation is the hover's (:class:`~modquad_gym.sim.hover.allocator.Allocator`): exact
-  when possible, else the feed-forward first, then the attitude, then the position correction.
+* the allocation is the hover's (:class:`~modquad_gym.sim.hover.allocator.Allocator`):
+  ``u = u_ref + A^+ (w - A u_ref)`` while it stays in the box (else an exact allocation inside
+  it, else the feed-forward first, then the attitude, then the position correction), with the
+  reference u_ref interpolated linearly between the oracle's most centred allocations of the
+  feed-forward every ``reschedule_s`` seconds: smooth inputs that keep away from the limits.
 
 The exerted wrench is applied to the body as the environment's reaction (``-R w_exerted``) in
 the simulation, so the rotors must really produce it. Reported: the largest and RMS distance
@@ -72,7 +75,8 @@ class TrackResult:
 
     Attributes:
         t: (N,) control times, s. desired, flown: (N, 3) COM positions in the world, m.
-        attitude_error: (N,) rad. inputs: (N, 4n) rotor thrusts, N. saturated: (N,) bool.
+        attitude: (N, 4) flown quaternions (w, x, y, z). attitude_error: (N,) rad.
+        inputs: (N, 4n) rotor thrusts, N. saturated: (N,) bool.
         wrench_ff: (N, 6) feed-forward rotor wrenches. f_max: the thrust limit.
         diverged: why the flight was stopped early, or None.
     """
@@ -80,6 +84,7 @@ class TrackResult:
     t: np.ndarray
     desired: np.ndarray
     flown: np.ndarray
+    attitude: np.ndarray
     attitude_error: np.ndarray
     inputs: np.ndarray
     saturated: np.ndarray
@@ -195,11 +200,13 @@ def fly_trajectory(
     plant = _plant(sim, task)
     alloc = Allocator(plant)
     gains = _Gains(plant, cfg.gains, round(cfg.reschedule_s / dt))
+    u_ref = _reference_inputs(plant, ff, gains.every)
     data.qpos[:3], data.qpos[3:7] = ref["position"][0], ref["quaternion"][0]
     data.qvel[:3], data.qvel[3:6] = ref["velocity"][0], ref["angular_velocity"][0]
     mujoco.mj_forward(model, data)
     N, m = len(times), sim.n_rotors
     flown, att, inputs = np.zeros((N, 3)), np.zeros(N), np.zeros((N, m))
+    attitude = np.zeros((N, 4))
     saturated = np.zeros(N, dtype=bool)
     diverged = None
     b = sim.body_id
@@ -207,23 +214,39 @@ def fly_trajectory(
         R = body_rotation(sim, data)
         Rd = quat.to_matrix(ref["quaternion"][k])
         x = _errors(R, Rd, data, b, ref, k)
-        if k % gains.every == 0:
-            alloc.recentre(ff[k])
         gains.update(k, ff[k])
+        alloc.u_ref, alloc.w_ref = u_ref[k], plant.A @ u_ref[k]
         w_att, w_pos = gains.corrections(x)
         u, _ = alloc(ff[k] + w_att + w_pos, ff[k], w_att)
         data.ctrl[:] = u
         data.xfrc_applied[b, :3] = -R @ exerted[k, :3]
         data.xfrc_applied[b, 3:] = -R @ exerted[k, 3:]
         flown[k], att[k], inputs[k] = data.xpos[b], rotation_angle(Rd.T @ R), u
+        attitude[k] = data.xquat[b]
         saturated[k] = alloc.saturated(u)
         if np.linalg.norm(flown[k] - ref["position"][k]) > cfg.drift_limit_m:
             diverged = f"more than {cfg.drift_limit_m:g} m off the path at t = {times[k]:.3g} s"
             break
         mujoco.mj_step(model, data, nstep=substeps)
     n = k + 1
-    return TrackResult(times[:n], ref["position"][:n], flown[:n], att[:n], inputs[:n],
-                       saturated[:n], ff[:n], task.f_max, diverged)  # fmt: skip
+    return TrackResult(times[:n], ref["position"][:n], flown[:n], attitude[:n], att[:n],
+                       inputs[:n], saturated[:n], ff[:n], task.f_max, diverged)  # fmt: skip
+
+
+def _reference_inputs(plant: Plant, ff: np.ndarray, every: int) -> np.ndarray:
+    """(N, m) reference inputs: the most centred exact allocation of the feed-forward every
+    ``every`` steps (the box's centre where it has none), linearly interpolated between."""
+    from modquad_gym.oracle import TOL, allocate
+
+    knots = np.unique(np.r_[np.arange(0, len(ff), every), len(ff) - 1])
+    centre = np.full(plant.A.shape[1], plant.f_max / 2)
+    U = []
+    for k in knots:
+        u, gamma = allocate(plant.A, ff[k], plant.f_max)
+        U.append(u if math.isfinite(gamma) and gamma <= 1.0 + TOL else centre)
+    U = np.array(U)
+    steps = np.arange(len(ff))
+    return np.stack([np.interp(steps, knots, U[:, j]) for j in range(U.shape[1])], axis=1)
 
 
 def _errors(R, Rd, data, b, ref, k) -> np.ndarray:
