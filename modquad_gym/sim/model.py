@@ -146,13 +146,15 @@ def model_xml(
             'type="sphere" size="0.04" mass="0" rgba="0.9 0.5 0.1 1"/></body>'
         )
     nl = "\n    "
+    extent = structure.side * (1 + max(np.ptp(np.asarray(structure.cells), axis=0)))
     return _MJCF.format(
         inertial=_inertial(structure, masses),
         n_modules=structure.n_modules,
         timestep=TIMESTEP,
         gravity=f"{-GRAVITY:.17g}",
         home=HOME_HEIGHT,
-        extent=f"{structure.side * (1 + max(np.ptp(np.asarray(structure.cells), axis=0))):.6g}",
+        extent=f"{extent:.6g}",
+        floor=f"{max(5.0, 2.0 * extent + 2.0):.6g}",
         geoms=nl.join(_module_geoms(structure, masses) + discs),
         sites=nl.join(sites),
         load_cell=load_cell,
@@ -239,7 +241,8 @@ _MJCF = """<mujoco model="modquad_{n_modules}">
   </asset>
   <worldbody>
     <light pos="0 0 4" dir="0 0 -1" directional="true"/>
-    <geom name="floor" type="plane" size="5 5 0.05" material="grid" contype="0" conaffinity="0"/>
+    <geom name="floor" type="plane" size="{floor} {floor} 0.05" material="grid" contype="0"
+      conaffinity="0"/>
     <body name="structure" pos="0 0 {home}">
     <freejoint name="root"/>
     {inertial}

@@ -1,9 +1,9 @@
 """Pictures of a flight along a trajectory: the 3D path desired vs flown, the rotor inputs over
 time (as in the paper's Fig. 8) and an animation (GIF).
 
-Large structures stay readable: past :data:`MAX_LINES` rotors the inputs are drawn as a heat map
-(rotor x time) with the envelope (min, max) over rotors instead of one line per rotor, and the
-animation's camera backs off with the structure's extent.
+Large structures stay readable: past :data:`~modquad_gym.sim.pictures.MAX_LINES` rotors the
+inputs are drawn as a heat map (rotor x time) with the envelope (min, max) over rotors instead of
+one line per rotor, and the animation's camera backs off with the structure's extent.
 """
 
 from __future__ import annotations
@@ -19,11 +19,8 @@ import numpy as np  # noqa: E402
 from modquad_gym.core.outputs import save_figure  # noqa: E402
 from modquad_gym.dynamics import quaternions as quat  # noqa: E402
 from modquad_gym.sim.model import SimModel  # noqa: E402
-from modquad_gym.sim.pictures import _plt  # noqa: E402
+from modquad_gym.sim.pictures import _plt, inputs_panel  # noqa: E402
 from modquad_gym.sim.track import TrackResult  # noqa: E402
-
-MAX_LINES = 32
-"""Most rotors drawn one line each; more are drawn as a heat map."""
 
 GIF_FPS = 12
 """Frames per second of the animation."""
@@ -70,15 +67,7 @@ def plot_track_inputs(res: TrackResult, path: str | Path, title: str = "") -> No
     fig, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True,
                              gridspec_kw={"height_ratios": [3, 1]})  # fmt: skip
     ax = axes[0]
-    if u.shape[1] <= MAX_LINES:
-        ax.plot(res.t, u, lw=0.8)
-        ax.set_ylabel("rotor input [N]")
-    else:
-        extent = (res.t[0], res.t[-1], -0.5, u.shape[1] - 0.5)
-        img = ax.imshow(u.T, aspect="auto", origin="lower", extent=extent, vmin=0, vmax=f_max,
-                        cmap="viridis", interpolation="nearest")  # fmt: skip
-        fig.colorbar(img, ax=ax, label="rotor input [N]")
-        ax.set_ylabel(f"rotor (of {u.shape[1]})")
+    inputs_panel(fig, ax, res.t, u, f_max)
     sat = res.saturated
     ax.set_title(
         (title + ": " if title else "")
@@ -96,9 +85,6 @@ def plot_track_inputs(res: TrackResult, path: str | Path, title: str = "") -> No
     env.set_ylabel("[N]")
     env.set_xlabel("time [s]")
     env.legend(loc="upper right", fontsize=7, ncol=3)
-    if u.shape[1] <= MAX_LINES:
-        ax.axhline(f_max, ls=":", color="k", lw=1.5)
-        ax.set_ylim(-0.05 * f_max, 1.1 * f_max)
     fig.tight_layout()
     save_figure(fig, path, dpi=120)
     plt.close(fig)
