@@ -192,7 +192,7 @@ def test_faces_actions_of_cells_and_errors():
         env.action_of((0, 0))
     with pytest.raises(ValueError, match="holds no face"):
         env.cell_of(5)
-    with pytest.raises(AttributeError, match="faces encoding"):
+    with pytest.raises(AttributeError, match="faces encoding: use env.action_of"):
         _ = env.grid
     _, r, *_, info = env.step(7)  # an empty slot: an invalid action, never an error
     assert info["invalid_action"] and r < 0

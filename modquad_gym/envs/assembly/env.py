@@ -68,10 +68,9 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     W = {A u : 0 <= u <= f_max}, decided exactly by :class:`~modquad_gym.oracle.WrenchOracle`.
     The goal is to satisfy every wrench with as few modules as possible (paper Problem 1).
 
-    Make it with ``gym.make("modquad_gym:ModQuadAssembly-v0", **kwargs)``, which imports
-    ``modquad_gym`` (and so registers the environment) first and works in a fresh process; after
-    ``import modquad_gym``, ``gym.make("ModQuadAssembly-v0", **kwargs)`` works too. (Gymnasium 1.x
-    does not load the ``gymnasium.envs`` entry point, so the bare id needs the import.)
+    Make it with ``gym.make("modquad_gym:ModQuadAssembly-v0", **kwargs)`` (the prefix imports
+    ``modquad_gym``, which registers the ids), or ``gym.make("ModQuadAssembly-v0")`` after
+    ``import modquad_gym``.
 
     ## Action Space
     ``Discrete(G * G)`` with G = 2 * n_max - 1: one action per grid cell (x, y), with x and y in
@@ -96,9 +95,8 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     structure unchanged and costs ``w_invalid`` (``invalid_action="penalise"``) or also ends the
     episode (``"terminate"``), with ``info["invalid_action"]`` True. Invalid are an empty cell
     that is not adjacent, an occupied cell, and anything that is not an integer in
-    ``[0, G * G)``: -1, G * G, 2.5, nan, True, None, "3", [1, 2], ... An integer is a Python
-    or numpy integer or a one-element array of integer dtype; a whole-number float (3.0,
-    ``np.float32(3)``, ``np.array([3.0])``) counts as that integer; a boolean never does.
+    ``[0, G * G)``: -1, G * G, 2.5, nan, True, None, "3", [1, 2], ... A one-element integer
+    array or a whole-number float (3.0, ``np.array([3.0])``) counts as that integer.
 
     ## Observation Space
     A ``Dict`` of Boxes (float32 unless noted), fixed-size for any number t of task wrenches:
@@ -114,13 +112,10 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
       the task per direction, the fraction of satisfied wrenches, n_modules / n_max, rank / 6 and
       per-wrench directional deficits.
     * ``"candidates"`` (G * G * k,) in [-1, 1], only with ``lookahead=True`` (k = 5,
-      :data:`~.features.CANDIDATE_FEATURES`): per-action lookahead, row a
-      (``candidates.reshape(G * G, k)[a]``) describes the child structure that action a would
-      build, from its support function alone (its capability, the fraction of directions and
-      the largest and mean normalised support deficit against the task, the fraction of task
-      wrenches its support certainly rejects). Rows of invalid actions are zero, rows of valid
-      ones never all zero. These are cheap necessary tests, not oracle calls: they do not count
-      in ``info["evaluated"]`` or ``info["oracle_calls"]``.
+      :data:`~.features.CANDIDATE_FEATURES`): row a (``candidates.reshape(G * G, k)[a]``)
+      describes the child structure that action a would build from its support function alone
+      (zero for invalid actions, never all zero for valid ones): cheap necessary tests, not
+      oracle calls (they count in neither ``info["evaluated"]`` nor ``info["oracle_calls"]``).
 
     K = ``n_directions`` (default 48); :mod:`modquad_gym.envs.assembly.features` documents
     every entry and its normalisation.
@@ -160,17 +155,12 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     * ``n_max``: the largest number of modules (default 7, as in the paper), 2 to 64.
     * ``module``: the :class:`~modquad_gym.geometry.module.ModuleType` of every module (default the
       T-module, eta = pi/4).
-    * ``modules``: several module types (or stock names, ``"t45,t45m,flat"``), or a module set
-      (:class:`~.modules.OneType`, :class:`~.modules.Palette`): each action then docks a module
-      *of a type*, ``Discrete(G * G * K)`` for K types, type-major: ``a = k * G * G + c``
-      (``action_of(cell, k)``, ``cell_of(a)``, ``type_of(a)``); every type of a valid cell is
-      valid; the masks have G * G * K entries (``mask.reshape(K, G * G)[k]`` is type k's);
-      the observation adds ``"types"`` (G * G * K,) in {0, 1}, type-major one-hot of the
-      module types (with K > 1), the structure features are those of the mixed structure
-      normalised with the first type's single-module support, and ``"candidates"`` has one row
-      per (type, cell) action. Tasks of kind ``external`` (self-weight) are decided on
-      ``w + M g e_z`` for the structure's mass M; ``info`` adds ``modules`` (type names in
-      ``cells`` order) and ``mass_kg``. See :mod:`.modules`. Default None: one type.
+    * ``modules``: several module types (stock names ``"t45,t45m,flat"`` or ModuleType objects)
+      or a module set (:class:`~.modules.Palette`, :class:`~.modules.OneType`): each action then
+      docks a module *of a type*, type-major (``a = k * G * G + c`` on the grid;
+      ``action_of(cell, k)``, ``type_of(a)``); the observation adds ``"types"`` (type-major
+      one-hot, K > 1 types), tasks of kind ``external`` are decided with the structure's weight
+      and ``info`` adds ``modules`` and ``mass_kg`` (see :mod:`.modules`). Default: one type.
     * ``initial_type``: with a palette, the first module's type index (default 0) or
       ``"random"`` (drawn at each reset); ``reset(options={"initial_type": k})`` for one episode.
     * ``f_max``: maximum thrust per rotor, 1e-9 to 1e12; None (default) uses each task's own.
@@ -275,25 +265,15 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     actions = property(lambda self: self.encoding.name, doc="The action encoding's name.")
     render_size = property(lambda self: self.viewer.size, doc="(height, width) of frames.")
 
-    @property
-    def weights(self) -> Any:
-        """The reward's :class:`~.reward.RewardWeights` (None for a reward without)."""
-        return getattr(self.reward, "weights", None)
-
-    @property
-    def initial_type(self) -> int | str | None:
-        """The palette's first-module type (None for one type)."""
-        return getattr(self.module_set, "initial_type", None)
+    weights = property(lambda self: getattr(self.reward, "weights", None), doc="Reward weights.")
+    initial_type = property(lambda self: getattr(self.module_set, "initial_type", None))
 
     # --- cells <-> actions --------------------------------------------------------------
     @property
     def grid(self) -> Grid:
         """The grid encoding (``actions="grid"``): cells <-> actions in every state."""
         if not isinstance(self.encoding, Grid):
-            raise AttributeError(
-                "the faces encoding has no fixed grid of actions: use env.action_of, "
-                "env.cell_of, env.type_of (they read the state)"
-            )
+            raise AttributeError("faces encoding: use env.action_of, env.cell_of, env.type_of")
         return self.encoding
 
     def action_of(self, cell: Cell, type_index: int = 0) -> int:
