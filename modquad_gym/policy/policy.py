@@ -95,9 +95,9 @@ class Policy:
             )
         self.n_max = int(n_max)
         self.env = ModQuadAssemblyEnv(**kwargs)
-        self.typed = hasattr(self.env, "palette")  # (cell, type) actions: decode from each type
+        self.typed = self.env.palette is not None  # (cell, type) actions: decode from each type
         self.starts: list[int | None] = list(range(self.env.n_types)) if self.typed else [None]
-        self.palette = list(self.env.palette) if self.typed else [self.env.module]
+        self.palette = list(self.env.palette or [self.env.module])
 
     def check_palette(self, modules: list | None) -> None:
         """ValueError unless ``modules`` (None: one type) is the palette the model was trained
@@ -177,9 +177,11 @@ def search_result(
     t0: float,
     certified: bool = False,
     proof: str = "",
+    lower_bound: int | None = None,
 ) -> SearchResult:
     """The search record of a learned solver ``name`` that started at ``t0`` and kept
-    ``best``."""
+    ``best`` (with the proved ``lower_bound`` on the module count, when the solver knows
+    one)."""
     return SearchResult(
         structure=best,
         n_modules=best.n_modules if best is not None else None,
@@ -190,4 +192,5 @@ def search_result(
         method=name,
         n_max=n_max,
         proof=proof,
+        lower_bound=lower_bound,
     )
