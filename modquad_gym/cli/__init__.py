@@ -31,14 +31,9 @@ COMMANDS = (add_solve, add_optima, add_task, add_show, add_validate, add_bench)
 
 
 def _version() -> str:
-    from importlib import metadata
+    from modquad_gym import __version__  # the one source (pyproject reads it too)
 
-    try:
-        return metadata.version("modquad_gym")
-    except metadata.PackageNotFoundError:
-        from modquad_gym import __version__
-
-        return __version__
+    return __version__
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -41,11 +41,15 @@ Seeded task generators share one interface, :class:`TaskGenerator` (``name`` and
 :func:`make_generator` turns a spec (a name, a file, tasks) into a generator; a *suite* is a JSON
 file of several tasks (:func:`load_suite`, :func:`save_suite`).
 
+Example tasks ship with the package: ``example:NAME`` wherever a task file is read
+(:mod:`.examples`, :func:`example_names`).
+
 Modules: :mod:`.wrenches` (wrench checks, kinds), :mod:`.files` (reading and writing task
 files), :mod:`.requirement` (:class:`TaskRequirement`), :mod:`.suites`, :mod:`.generators` (the
 seeded generators) and :mod:`.specs` (the generators by name, :func:`make_generator`).
 """
 
+from modquad_gym.tasks.examples import example_names, example_path
 from modquad_gym.tasks.files import (
     CSV_HEADER_MODES,
     MAX_FILE_BYTES,
@@ -73,6 +77,8 @@ from modquad_gym.tasks.suites import load_suite, save_suite
 from modquad_gym.tasks.wrenches import COLUMNS, MAX_WRENCHES, TASK_KINDS, check_kind, rotor_wrenches
 
 __all__ = [
+    "example_names",
+    "example_path",
     "COLUMNS",
     "CSV_HEADER_MODES",
     "FZ_READINGS",
