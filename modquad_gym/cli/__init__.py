@@ -8,8 +8,8 @@ cannot be written, a missing optional dependency, a closed output pipe), reporte
 
 One module per command, each with ``add_COMMAND(sub)`` (its parser) beside its handler
 ``cmd_COMMAND(args)``: :mod:`.solve`, :mod:`.optima`, :mod:`.task`, :mod:`.show`,
-:mod:`.validate`, :mod:`.bench`; the options they share are in :mod:`.common`. A new command is
-a module with those two functions, added to :data:`COMMANDS`.
+:mod:`.validate`, :mod:`.bench`; the options they share are in :mod:`.common`.
+A new command is a module with those two functions, added to :data:`COMMANDS`.
 """
 
 from __future__ import annotations
