@@ -30,10 +30,11 @@ Command = Callable[[argparse.Namespace], int]
 
 
 def load_task(path, csv_header: str = "auto"):
-    """The task in the file ``path`` (``--csv-header`` says how a CSV's first row reads)."""
-    from modquad_gym.tasks import TaskRequirement
+    """The task in the file ``path`` (``--csv-header`` says how a CSV's first row reads): a
+    TaskRequirement, or a DynamicTask for a JSON file with a trajectory."""
+    from modquad_gym.tasks import load_task as load
 
-    return TaskRequirement.load(path, csv_header=csv_header)
+    return load(path, csv_header=csv_header)
 
 
 def palette_of(text: str | None):

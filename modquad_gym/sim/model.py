@@ -7,11 +7,15 @@ spec by about 1e-6 relative, e.g. in the rotor site quaternions). It has:
 
 * Body ``structure`` with a free joint. Its frame is the structure frame {S}: origin at the COM of
   the module centres, axes parallel to the modules', z up. It starts at ``(0, 0, HOME_HEIGHT)``.
-* One box geom per module (side x side x ``MODULE_THICKNESS``), weighing its module type's
-  ``mass`` (default 0.3 kg, a ModQuad-size module; ``module_mass`` overrides every module);
-  MuJoCo computes the inertia from the boxes. {S} sits at the mass-weighted centre of the module
-  centres, so the body's COM is the origin of {S} for mixed structures too. Rotor discs are
-  massless visual geoms; modules are coloured by type (the first module of a one-type structure
+* The body's mass and inertia are given explicitly (an inertial at the origin):
+  :attr:`Structure.mass` and :attr:`Structure.inertia` (each module its type's ``mass``, default
+  0.3 kg, and ``inertia``, default a uniform box of side x side x 0.05 m, with parallel-axis
+  terms; ``module_mass`` overrides every module's mass and scales its inertia alike). {S} sits at
+  the mass-weighted centre of the module centres, so the body's COM is the origin of {S} for
+  mixed structures too. So the simulated body is exactly the one the dynamic tasks' wrenches are
+  computed for (:mod:`modquad_gym.dynamics`). One box geom per module (side x side x
+  ``MODULE_THICKNESS``, drawn 3 % smaller so that neighbours show apart) and the rotor discs
+  are massless visuals; modules are coloured by type (the first module of a one-type structure
   green).
 * One site ``rotor{k}`` per rotor at p_k, oriented so that its z-axis is the thrust direction d_k.
 * One ``general`` actuator per rotor on its site: ``gear = (0, 0, 1, 0, 0, s_k c_tau)`` (thrust
@@ -33,7 +37,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from modquad_gym.geometry.module import DEFAULT_MASS, GRAVITY
+from modquad_gym.geometry.inertia import inertia_about_com
+from modquad_gym.geometry.module import DEFAULT_HEIGHT, DEFAULT_MASS, GRAVITY
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_f_max
 from modquad_gym.viz.raster import type_colour
@@ -41,8 +46,8 @@ from modquad_gym.viz.raster import type_colour
 MODULE_MASS = DEFAULT_MASS
 """Default mass of one module in kg (:data:`modquad_gym.geometry.module.DEFAULT_MASS`)."""
 
-MODULE_THICKNESS = 0.05
-"""Height of a module's box in metres."""
+MODULE_THICKNESS = DEFAULT_HEIGHT
+"""Height of a module's box in metres (drawn; the inertia is each module type's own)."""
 
 HOME_HEIGHT = 1.0
 """Height of the COM above the floor at qpos0, in metres."""
@@ -136,7 +141,8 @@ def model_spec(
     _set_scene(spec, structure)
     body = spec.worldbody.add_body(name="structure", pos=[0.0, 0.0, HOME_HEIGHT])
     body.add_freejoint(name="root")
-    _add_modules(body, structure, masses)
+    _set_inertial(body, structure, masses)
+    _add_modules(body, structure)
     _add_rotors(spec, body, structure, f_max)
     if bench:
         _add_load_cell(spec, body)
@@ -186,8 +192,19 @@ def _set_scene(spec, structure: Structure) -> None:
     )  # fmt: skip
 
 
-def _add_modules(body, structure: Structure, masses: np.ndarray) -> None:
-    """One box geom per module, coloured by type (one type: the first module green)."""
+def _set_inertial(body, structure: Structure, masses: np.ndarray) -> None:
+    """The body's explicit inertial: total mass and inertia about the COM (module docstring)."""
+    scale = masses / structure.masses
+    own = [m.inertia * k for m, k in zip(structure.modules, scale)]
+    J = inertia_about_com(structure.module_centres, masses, own)
+    body.explicitinertial = True
+    body.mass = float(masses.sum())
+    body.ipos = [0.0, 0.0, 0.0]
+    body.fullinertia = [J[0, 0], J[1, 1], J[2, 2], J[0, 1], J[0, 2], J[1, 2]]
+
+
+def _add_modules(body, structure: Structure) -> None:
+    """One massless box geom per module, coloured by type (one type: the first module green)."""
     import mujoco
 
     half = structure.side / 2.0 * 0.97
@@ -199,7 +216,7 @@ def _add_modules(body, structure: Structure, masses: np.ndarray) -> None:
             rgba = _MODULE_COLOURS[0] if i == 0 else _MODULE_COLOURS[1]
         body.add_geom(
             name=f"module{i}", type=mujoco.mjtGeom.mjGEOM_BOX, pos=c,
-            size=[half, half, MODULE_THICKNESS / 2], mass=masses[i], rgba=rgba,
+            size=[half, half, MODULE_THICKNESS / 2], mass=0.0, rgba=rgba,
         )  # fmt: skip
 
 

@@ -44,9 +44,14 @@ file of several tasks (:func:`load_suite`, :func:`save_suite`).
 Example tasks ship with the package: ``example:NAME`` wherever a task file is read
 (:mod:`.examples`, :func:`example_names`).
 
+A JSON object with a ``"trajectory"`` is a *dynamic* task (:mod:`modquad_gym.dynamics`): a
+motion, an optional payload and exerted wrenches, whose rotor wrenches depend on the structure's
+mass and inertia; :func:`load_task` reads either kind of file.
+
 Modules: :mod:`.wrenches` (wrench checks, kinds), :mod:`.files` (reading and writing task
-files), :mod:`.requirement` (:class:`TaskRequirement`), :mod:`.suites`, :mod:`.generators` (the
-seeded generators) and :mod:`.specs` (the generators by name, :func:`make_generator`).
+files), :mod:`.requirement` (:class:`TaskRequirement`), :mod:`.loading` (:func:`load_task`),
+:mod:`.suites`, :mod:`.generators` (the seeded generators) and :mod:`.specs` (the generators
+by name, :func:`make_generator`).
 """
 
 from modquad_gym.tasks.examples import example_names, example_path
@@ -71,6 +76,7 @@ from modquad_gym.tasks.generators import (
     planted_structure,
     random_cells,
 )
+from modquad_gym.tasks.loading import is_dynamic, load_task
 from modquad_gym.tasks.requirement import TaskRequirement
 from modquad_gym.tasks.specs import GENERATORS, NAMED_GENERATORS, make_generator
 from modquad_gym.tasks.suites import load_suite, save_suite
@@ -100,6 +106,8 @@ __all__ = [
     "TaskGenerator",
     "TaskRequirement",
     "check_kind",
+    "is_dynamic",
+    "load_task",
     "load_suite",
     "make_generator",
     "planted_structure",
