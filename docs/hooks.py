@@ -105,13 +105,10 @@ def environment_page(env_id: str) -> str:
         ]
     finally:
         env.close()
-    from modquad_gym.envs import ModQuadAssemblyEnv
-
-    parts = []
-    for klass in cls.__mro__[: cls.__mro__.index(ModQuadAssemblyEnv) + 1]:
-        if klass is not ModQuadAssemblyEnv:  # a subclass: its module docstring says more
-            parts.append(inspect.getdoc(inspect.getmodule(klass)) or "")
-        parts.append(inspect.getdoc(klass) or "")
+    parts = [inspect.getdoc(cls) or ""]
+    module_set = getattr(base, "module_set", None)
+    if module_set is not None and getattr(base, "n_types", 1) > 1:  # a palette: its rules
+        parts.append("## Module types\n\n" + inspect.getdoc(inspect.getmodule(type(module_set))))
     doc = markdown_docstring("\n\n".join(parts))
     lines = [
         f"# {env_id}",

@@ -118,11 +118,13 @@ def model_spec(
     f_max: float = 1.0,
     module_mass: float | None = None,
     bench: bool = False,
+    payload=None,
 ):
     """The ``mujoco.MjSpec`` of a structure's model (see the module docstring), built with
     MuJoCo's model-editing API. ``module_mass`` (kg) overrides every module's own type mass; with
     differing type masses it would move the COM away from {S}, so it is refused for such a mixed
-    structure."""
+    structure. ``payload`` (a :class:`~modquad_gym.dynamics.Payload`) adds a point mass welded at
+    its offset from the COM (body ``payload``, drawn as a small sphere)."""
     import mujoco
 
     if not isinstance(structure, Structure):
@@ -146,6 +148,8 @@ def model_spec(
     _add_rotors(spec, body, structure, f_max)
     if bench:
         _add_load_cell(spec, body)
+    if payload is not None and payload.mass > 0:
+        _add_payload(body, payload)
     return spec
 
 
@@ -154,9 +158,10 @@ def model_xml(
     f_max: float = 1.0,
     module_mass: float | None = None,
     bench: bool = False,
+    payload=None,
 ) -> str:
     """The MJCF text of a structure's model (:func:`model_spec` written out by MuJoCo)."""
-    return model_spec(structure, f_max, module_mass, bench).to_xml()
+    return model_spec(structure, f_max, module_mass, bench, payload).to_xml()
 
 
 def _set_scene(spec, structure: Structure) -> None:
@@ -171,8 +176,9 @@ def _set_scene(spec, structure: Structure) -> None:
     opt.gravity = [0.0, 0.0, -GRAVITY]
     opt.tolerance, opt.iterations, opt.ls_tolerance = 1e-15, 200, 1e-12
     opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    extent = structure.side * (1 + max(np.ptp(np.asarray(structure.cells), axis=0)))
     spec.stat.center = [0.0, 0.0, HOME_HEIGHT]
-    spec.stat.extent = structure.side * (1 + max(np.ptp(np.asarray(structure.cells), axis=0)))
+    spec.stat.extent = float(f"{extent:.6g}")
     spec.visual.headlight.ambient = [0.4, 0.4, 0.4]
     spec.visual.headlight.diffuse = [0.6, 0.6, 0.6]
     spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 960
@@ -186,9 +192,10 @@ def _set_scene(spec, structure: Structure) -> None:
     spec.worldbody.add_light(
         pos=[0, 0, 4], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
     )
+    floor = float(f"{max(5.0, 2.0 * extent + 2.0):.6g}")  # the floor grows with the structure
     spec.worldbody.add_geom(
-        name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5, 5, 0.05], material="grid",
-        contype=0, conaffinity=0,
+        name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[floor, floor, 0.05],
+        material="grid", contype=0, conaffinity=0,
     )  # fmt: skip
 
 
@@ -248,6 +255,19 @@ def _add_rotors(spec, body, structure: Structure, f_max: float) -> None:
         )  # fmt: skip
 
 
+def _add_payload(body, payload) -> None:
+    """A point mass welded to the structure at its offset from the COM, drawn as a sphere."""
+    import mujoco
+
+    child = body.add_body(name="payload", pos=np.asarray(payload.offset, dtype=float))
+    child.explicitinertial = True
+    child.mass, child.ipos, child.inertia = float(payload.mass), [0.0] * 3, [0.0] * 3
+    child.add_geom(
+        name="payload", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.04, 0.0, 0.0], mass=0.0,
+        rgba=[0.9, 0.5, 0.1, 1.0],
+    )  # fmt: skip
+
+
 def _add_load_cell(spec, body) -> None:
     """The bench's load cell: a child body at the COM (no joint), its force and torque sensors,
     and the weld that bolts it to the world (the wall)."""
@@ -278,6 +298,7 @@ def build_model(
     f_max: float = 1.0,
     module_mass: float | None = None,
     bench: bool = False,
+    payload=None,
 ) -> SimModel:
     """Compile the MuJoCo model of ``structure`` (see the module docstring).
 
@@ -286,10 +307,11 @@ def build_model(
         f_max: rotor thrust limit in N (actuator ctrlrange [0, f_max]).
         module_mass: mass of every module in kg (default: each module type's ``mass``).
         bench: add the load cell and the wall weld of the wrench bench.
+        payload: a :class:`~modquad_gym.dynamics.Payload` welded to the structure, or None.
     """
     import mujoco
 
-    spec = model_spec(structure, f_max, module_mass, bench)
+    spec = model_spec(structure, f_max, module_mass, bench, payload)
     model = spec.compile()
     xml = spec.to_xml()
     body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "structure")
