@@ -14,9 +14,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 PAGES = sorted(p.relative_to(DOCS).as_posix() for p in DOCS.rglob("*.md"))
-TUTORIALS = [
-    page for page in PAGES if re.search(r"^```python$", (DOCS / page).read_text(), re.M)
-]
+TUTORIALS = [page for page in PAGES if re.search(r"^```python$", (DOCS / page).read_text(), re.M)]
 """Pages with ``python`` code blocks: they run (a schematic snippet is fenced ``py`` instead)."""
 
 
