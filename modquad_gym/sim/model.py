@@ -34,6 +34,7 @@ makes flows through the load cell into the wall.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -42,6 +43,9 @@ from modquad_gym.geometry.module import DEFAULT_HEIGHT, DEFAULT_MASS, GRAVITY
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_f_max
 from modquad_gym.viz.raster import type_colour
+
+if TYPE_CHECKING:  # pragma: no cover
+    from modquad_gym.dynamics import Payload
 
 MODULE_MASS = DEFAULT_MASS
 """Default mass of one module in kg (:data:`modquad_gym.geometry.module.DEFAULT_MASS`)."""
@@ -118,7 +122,7 @@ def model_spec(
     f_max: float = 1.0,
     module_mass: float | None = None,
     bench: bool = False,
-    payload=None,
+    payload: Payload | None = None,
 ):
     """The ``mujoco.MjSpec`` of a structure's model (see the module docstring), built with
     MuJoCo's model-editing API. ``module_mass`` (kg) overrides every module's own type mass; with
@@ -158,7 +162,7 @@ def model_xml(
     f_max: float = 1.0,
     module_mass: float | None = None,
     bench: bool = False,
-    payload=None,
+    payload: Payload | None = None,
 ) -> str:
     """The MJCF text of a structure's model (:func:`model_spec` written out by MuJoCo)."""
     return model_spec(structure, f_max, module_mass, bench, payload).to_xml()
@@ -298,7 +302,7 @@ def build_model(
     f_max: float = 1.0,
     module_mass: float | None = None,
     bench: bool = False,
-    payload=None,
+    payload: Payload | None = None,
 ) -> SimModel:
     """Compile the MuJoCo model of ``structure`` (see the module docstring).
 
