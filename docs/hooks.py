@@ -110,6 +110,7 @@ def environment_page(env_id: str) -> str:
     if module_set is not None and getattr(base, "n_types", 1) > 1:  # a palette: its rules
         parts.append("## Module types\n\n" + inspect.getdoc(inspect.getmodule(type(module_set))))
     doc = markdown_docstring("\n\n".join(parts))
+    history = version_history(Path(__file__).resolve().parents[1] / "CHANGELOG.md", env_id)
     lines = [
         f"# {env_id}",
         "",
@@ -128,8 +129,23 @@ def environment_page(env_id: str) -> str:
         "## Documentation",
         "",
         doc,
+        "",
+        "## Version history",
+        "",
+        history,
     ]
     return "\n".join(lines) + "\n"
+
+
+def version_history(changelog: Path, env_id: str) -> str:
+    """The environments' version history: the CHANGELOG.md section titled "... -v0 history"
+    (every registered id shares the version of the one environment class)."""
+    version = env_id.rsplit("-", 1)[1]
+    match = re.search(rf"^## .*-{version} history.*?\n(.*?)(?=^## |\Z)", changelog.read_text(),
+                      flags=re.M | re.S)  # fmt: skip
+    if match is None:
+        raise ValueError(f"{changelog}: no section '## ...-{version} history' for {env_id}")
+    return match.group(1).strip()
 
 
 def _bounds(space) -> str:

@@ -45,7 +45,7 @@ def test_generated_pages_hold_every_environment_and_command(site):
 
     for env_id in ENV_IDS:
         page = (site / "environments" / env_id / "index.html").read_text()
-        assert "Observation space" in page and "Version History" in page and "Rewards" in page
+        assert "Observation space" in page and "Version history" in page and "Rewards" in page
     cli = (site / "cli" / "index.html").read_text()
     names = [add.__name__.removeprefix("add_") for add in COMMANDS]
     for name in (*names, "task generate", "task example", "bench agents"):
