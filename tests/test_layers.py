@@ -18,7 +18,7 @@ PACKAGE = ROOT / "modquad_gym"
 
 LAYERS = (
     "core", "geometry", "oracle", "dynamics", "tasks", "search", "viz", "envs", "policy",
-    "solvers", "sim", "bench", "cli",
+    "solvers", "sim", "export", "bench", "cli",
 )  # fmt: skip
 """Bottom to top: a module may import its own layer and those below it."""
 ROOT_LAYER = "envs"
@@ -136,6 +136,11 @@ def cycles(edges: dict[str, set[str]]) -> list[frozenset[str]]:
                 if len(component) > 1:
                     found.append(frozenset(component))
     return found
+
+
+def test_every_part_of_the_package_has_a_layer():
+    parts = {name.split(".")[1] for name in modules() if "." in name}
+    assert parts <= set(LAYERS), sorted(parts - set(LAYERS))
 
 
 def test_the_cycle_finder_finds_cycles():
