@@ -33,7 +33,7 @@ import gymnasium as gym
 import numpy as np
 
 from modquad_gym.bench import machine_description, markdown_table, parse_bench_args, write_csv
-from modquad_gym.bench.env_scale import ENCODINGS, measure_encoding, scale_section
+from modquad_gym.bench.env_scale import ENCODINGS, measure_encoding, play_timed, scale_section
 from modquad_gym.core.extras import import_optional
 from modquad_gym.core.options import int_option, seed_option
 from modquad_gym.core.outputs import check_output_dir, write_text
@@ -82,36 +82,6 @@ def measure(family: str, t: int, steps: int, warmup: int, seed: int, n_max: int)
         "episodes": counts["episodes"],
         "oracle_tests_per_step": counts["oracle_calls"] / steps,
         "goal": "met" if steps / warm_s >= TARGET else "NOT met",
-    }
-
-
-def play_timed(env: gym.Env, steps: int, warmup: int, seed: int) -> dict:
-    """Random masked actions from ``obs["action_mask"]`` on ``env`` (a ``gym.make`` env), every
-    reset inside the timed loop (and timed apart): wall and CPU rates after ``warmup`` steps."""
-    rng = np.random.default_rng(seed)
-    obs, _ = env.reset(seed=seed)
-    reset_s = 0.0
-    episodes = 0
-    start, cpu = time.perf_counter(), time.process_time()
-    for i in range(warmup + steps):
-        if i == warmup:
-            start, cpu, reset_s, episodes = time.perf_counter(), time.process_time(), 0.0, 0
-        valid = np.flatnonzero(obs["action_mask"])
-        a = int(valid[rng.integers(len(valid))]) if len(valid) else 0
-        obs, _, term, trunc, _ = env.step(a)
-        if term or trunc:
-            t0 = time.perf_counter()
-            obs, _ = env.reset()
-            reset_s += time.perf_counter() - t0
-            episodes += 1
-    seconds = time.perf_counter() - start
-    cpu_s = time.process_time() - cpu
-    return {
-        "steps_per_s": steps / seconds,
-        "cpu_steps_per_s": steps / cpu_s,
-        "us_per_step": 1e6 * (seconds - reset_s) / steps,
-        "us_per_reset": 1e6 * reset_s / max(episodes, 1),
-        "steps_per_episode": steps / max(episodes, 1),
     }
 
 

@@ -11,7 +11,10 @@ action count, the observation's entries per step and the weights of a policy's l
 
 from __future__ import annotations
 
+import time
+
 import gymnasium as gym
+import numpy as np
 
 from modquad_gym.bench import markdown_table
 from modquad_gym.tasks import PlantedTasks
@@ -22,6 +25,36 @@ SCALE_TARGET = 2000.0
 ENCODINGS = ("grid", "faces")
 
 
+def play_timed(env: gym.Env, steps: int, warmup: int, seed: int) -> dict:
+    """Random masked actions from ``obs["action_mask"]`` on ``env`` (a ``gym.make`` env), every
+    reset inside the timed loop (and timed apart): wall and CPU rates after ``warmup`` steps."""
+    rng = np.random.default_rng(seed)
+    obs, _ = env.reset(seed=seed)
+    reset_s = 0.0
+    episodes = 0
+    start, cpu = time.perf_counter(), time.process_time()
+    for i in range(warmup + steps):
+        if i == warmup:
+            start, cpu, reset_s, episodes = time.perf_counter(), time.process_time(), 0.0, 0
+        valid = np.flatnonzero(obs["action_mask"])
+        a = int(valid[rng.integers(len(valid))]) if len(valid) else 0
+        obs, _, term, trunc, _ = env.step(a)
+        if term or trunc:
+            t0 = time.perf_counter()
+            obs, _ = env.reset()
+            reset_s += time.perf_counter() - t0
+            episodes += 1
+    seconds = time.perf_counter() - start
+    cpu_s = time.process_time() - cpu
+    return {
+        "steps_per_s": steps / seconds,
+        "cpu_steps_per_s": steps / cpu_s,
+        "us_per_step": 1e6 * (seconds - reset_s) / steps,
+        "us_per_reset": 1e6 * reset_s / max(episodes, 1),
+        "steps_per_episode": steps / max(episodes, 1),
+    }
+
+
 def scale_tasks(n_max: int) -> PlantedTasks:
     """Tasks planted in n_max / 4 to n_max modules (16-64 at n_max 64, as the Scale id)."""
     return PlantedTasks(n_modules=(max(2, n_max // 4), n_max), name=f"planted-{n_max}")
@@ -29,8 +62,6 @@ def scale_tasks(n_max: int) -> PlantedTasks:
 
 def measure_encoding(actions: str, n_max: int, steps: int, warmup: int, seed: int) -> dict:
     """One row: the encoding ``actions`` at ``n_max`` (see the module docstring)."""
-    from modquad_gym.bench.env import play_timed
-
     env = gym.make(SCALE_ID, actions=actions, n_max=n_max, tasks=scale_tasks(n_max),
                    max_episode_steps=4 * n_max)  # fmt: skip
     n_actions = int(env.action_space.n)
