@@ -73,7 +73,7 @@ def _float_array(value: object, name: str) -> np.ndarray:
 
 def check_wrenches(W: object, *, allow_empty: bool = True) -> np.ndarray:
     """W as a float (t, 6) array (a single 6-vector is promoted), or a ValueError naming the
-    shape or the first non-finite row."""
+    shape or the first non-finite row (1-based)."""
     arr = _float_array(W, "wrenches")
     if arr.ndim == 1:
         arr = arr[None, :]
@@ -83,7 +83,7 @@ def check_wrenches(W: object, *, allow_empty: bool = True) -> np.ndarray:
         raise ValueError("the task has no wrenches: expected at least one row of 6 numbers")
     if not np.isfinite(arr).all():
         row = int(np.argwhere(~np.isfinite(arr))[0, 0])
-        raise ValueError(f"wrench row {row} is not finite: {arr[row].tolist()}")
+        raise ValueError(f"wrench row {row + 1} is not finite: {arr[row].tolist()}")
     return arr
 
 
