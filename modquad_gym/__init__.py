@@ -6,6 +6,7 @@ Layers, bottom to top (a lower layer never imports a higher one):
 Importing this package stays light: torch, SB3 and MuJoCo load only where they are used.
 """
 
+import modquad_gym.core.caches  # noqa: F401 - first: writable caches (numba, matplotlib)
 from modquad_gym import envs  # noqa: F401 - registers ModQuadAssembly-v0 with Gymnasium
 from modquad_gym.geometry.module import DEFAULT_C_TAU, DEFAULT_SIDE, ModuleType, TModule
 from modquad_gym.geometry.structure import Structure, structure_levels
