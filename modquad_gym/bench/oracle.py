@@ -257,6 +257,7 @@ def main(argv: list[str] | None = None) -> None:
         "structures, check the goals of issue 3; write results/oracle_benchmark.{md,csv}.",
         options,
         seed_help="random seed",
+        outputs=("oracle_benchmark.md", "oracle_benchmark.csv"),
     )
     rows, goals = run(args.structures, args.wrenches, args.seed, args.out, args.repeats)
     print(markdown_table(goals))

@@ -110,7 +110,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
     palette(args)  # a bad --modules is refused before any work
     paths = task_files(args.task)
-    engine = Engine(args.workers, args.ray_address, local_default=1)
+    engine = Engine(args.workers, args.ray_address, local_default=1, option="--workers")
     if len(paths) == 1 or not engine.use_ray:
         return solve_here(args, paths, engine.workers or engine.cluster_cpus())
     # a batch: tasks spread over the workers, each search in one process

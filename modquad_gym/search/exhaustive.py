@@ -34,7 +34,7 @@ from modquad_gym.geometry.structure import Key, Structure, normalise, normalise_
 from modquad_gym.search.bounds import NO_SIZE, force_lower_bound, level_excluded
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.search.levels import level_progress, level_size
-from modquad_gym.search.result import Optima, SearchResult, SearchRun
+from modquad_gym.search.result import KeptKeys, Optima, SearchResult, SearchRun
 from modquad_gym.search.typed import (
     MAX_PAIRS,
     PAIRS_PER_BLOCK,
@@ -178,7 +178,7 @@ def _levels_to_search(run: SearchRun) -> tuple[int, list[int], str]:
     return n_lb, skipped, ""
 
 
-def _search_levels(run: SearchRun, chunk, engine, progress, first_only):
+def _search_levels(run: SearchRun, chunk, engine, progress, first_only, keep=None):
     n_lb, skipped, proof = _levels_to_search(run)
     run.skipped += sum(level_size(n) or 0 for n in skipped)
     for n in range(n_lb, run.n_max + 1) if not proof else ():
@@ -188,9 +188,9 @@ def _search_levels(run: SearchRun, chunk, engine, progress, first_only):
             continue
         bar = level_progress(progress, n)
         try:
-            found = []
+            found = KeptKeys(keep)  # the first `keep` keys, and how many
             for key in _scan(run, n, chunk, engine if first_only else None, bar):
-                found.append(key)
+                found.add(key)
                 if first_only:
                     break
         finally:
@@ -253,21 +253,28 @@ def optimal_level(
     module: ModuleType | None = None,
     *,
     chunk: int = DEFAULT_CHUNK,
+    max_keys: int | None = None,
 ) -> Optima:
     """Every minimum-module structure of ``task`` (one module type) with the work it took
     (:class:`Optima`). Certified like :func:`exhaustive_search`, which stops at the first
     feasible structure; this one decides the whole minimal level (in this process: batches of
-    tasks are what :mod:`modquad_gym.core.distributed` spreads)."""
+    tasks are what :mod:`modquad_gym.core.distributed` spreads). ``max_keys`` keeps only the
+    first structures (``count`` still counts them all), bounding memory on huge levels."""
     run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES)
     chunk = check_int(chunk, "chunk", low=1)
+    if max_keys is not None:
+        max_keys = check_int(max_keys, "max_keys", low=1)
     if run.homogeneous_total:
-        n, keys, _, proof = _search_levels(run, chunk, None, False, False)
+        n, keys, _, proof = _search_levels(run, chunk, None, False, False, max_keys)
     else:  # an external task: self-weight, one type
         n, found, _, proof = search_typed(run, False, False)
-        keys = [typed_structure(run, f).key for f in found]
+        keys = KeptKeys(max_keys)
+        for f in found:
+            keys.add(typed_structure(run, f).key)
     return Optima(
         n_modules=n,
-        keys=keys,
+        keys=list(keys),
+        count=getattr(keys, "total", len(keys)),
         evaluated=run.checker.evaluated,
         oracle_calls=run.checker.oracle_calls,
         seconds=time.perf_counter() - run.t0,

@@ -18,9 +18,11 @@ call :func:`search_typed` for any search that is not one type with a ``total`` t
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
+from modquad_gym.core.resources import check_memory
 from modquad_gym.geometry.polyominoes import PolyominoStream
 from modquad_gym.geometry.structure import Structure, normalise_typed
 from modquad_gym.search.levels import level_progress, level_size
@@ -45,6 +47,19 @@ def assignments(n: int, allowed: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(rows[keep])
 
 
+def typed_search_bytes(K: int, n: int) -> int:
+    """Peak bytes the typed search allocates up to level n with K types, before it decides any
+    pair: the count vectors (C(n + K - 1, K - 1) rows of K, built as Python lists), the table of
+    allowed counts ((n + 1)^K booleans) and the assignments (K^n rows, Python tuples first)."""
+    return math.comb(n + K - 1, K - 1) * K * 48 + (n + 1) ** K + K**n * (72 + 9 * n)
+
+
+def check_typed_memory(run: SearchRun) -> None:
+    """Refuse before any allocation a typed search that would not fit in memory."""
+    K = len(run.palette)
+    check_memory(typed_search_bytes(K, run.n_max), f"n_max={run.n_max} with {K} module types")
+
+
 def check_pair_budget(run: SearchRun, first_level: int) -> None:
     """Refuse before any work a typed search whose last level holds more than MAX_PAIRS."""
     n, K = run.n_max, len(run.palette)
@@ -61,6 +76,7 @@ def check_pair_budget(run: SearchRun, first_level: int) -> None:
 def search_typed(run: SearchRun, progress: bool, first_only: bool):
     """(n*, found, skipped levels, proof), found a list of (cells tuple, types tuple) pairs of
     level n* in the typed search's order (module docstring)."""
+    check_typed_memory(run)
     first, proof = first_possible_level(run)
     if proof:
         run.skipped += sum(allowed_counts(run, n)[1] for n in range(1, run.n_max + 1))

@@ -142,6 +142,27 @@ def draw_structure(
 # --------------------------------------------------------------------------------------------
 # torque-space projection of the feasible wrenches (paper Fig. 3b)
 # --------------------------------------------------------------------------------------------
+_DIRECTIONS_PER_BLOCK = 8192
+
+MAX_DRAWN_MODULES = 256
+"""Most modules a top view draws (a larger one is unreadable and slow to draw)."""
+
+MAX_PROJECTED_MODULES = 64
+"""Most modules whose torque projection is drawn: its support directions grow as the square of
+the rotor count, the work as the cube (64 modules: 2 million directions)."""
+
+
+def check_drawable(structure: Structure, projection: bool = False) -> None:
+    """Refuse before drawing a structure too large for a figure (the limits above)."""
+    limit = MAX_PROJECTED_MODULES if projection else MAX_DRAWN_MODULES
+    if structure.n_modules > limit:
+        what = "torque projection beside the task" if projection else "top view"
+        raise ValueError(
+            f"a structure of {structure.n_modules:,} modules is too large to draw: the {what} "
+            f"draws at most {limit} modules"
+        )
+
+
 def torque_zonotope_vertices(A: np.ndarray, f_max: float = 1.0) -> np.ndarray:
     """Vertices (k, 3) of the projection of W = {A u : 0 <= u <= f_max} onto torque space.
 
@@ -174,8 +195,11 @@ def torque_zonotope_vertices(A: np.ndarray, f_max: float = 1.0) -> np.ndarray:
             tilt = eps * (math.cos(theta) * e1 + math.sin(theta) * e2)
             dirs += [N + tilt, -N + tilt]
     D = np.vstack(dirs)
-    P = (D @ G > 0).astype(float) @ G.T
-    return np.unique(np.round(P, 12), axis=0)
+    points = []
+    for start in range(0, len(D), _DIRECTIONS_PER_BLOCK):  # memory: one block of supports
+        P = (D[start : start + _DIRECTIONS_PER_BLOCK] @ G > 0).astype(float) @ G.T
+        points.append(np.unique(np.round(P, 12), axis=0))
+    return np.unique(np.vstack(points), axis=0)
 
 
 @lru_cache(maxsize=8)
@@ -285,6 +309,7 @@ def save_structure_figure(
     from matplotlib.figure import Figure
 
     s = check_structure(structure)
+    check_drawable(s, projection=task is not None)
     if task is None:
         fig = Figure(figsize=(5.0, 5.0), layout="constrained")
         FigureCanvasAgg(fig)
