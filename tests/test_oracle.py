@@ -19,6 +19,7 @@ from modquad_gym.oracle import (
     Backend,
     Zonotope,
     decide_from_gamma,
+    decide_with,
     gamma_with,
     margin_from_gamma,
     ray_lp,
@@ -37,8 +38,8 @@ STRUCTURES = {
     "2x2": [(0, 0), (1, 0), (0, 1), (1, 1)],
     "7 modules": [(0, 0), (1, 0), (2, 0), (1, 1), (1, -1), (0, -1), (3, 0)],
 }
-FAST = ("auto", "daqp", "hrep")
-EVERY = ("auto", "daqp", "scipy", "cvxpy", "hrep")
+FAST = ("auto", "certified", "daqp", "hrep")
+EVERY = ("auto", "certified", "daqp", "scipy", "cvxpy", "hrep")
 # wrenches scaled to these multiples of the boundary (gamma = s): the rule says feasible exactly
 # when s <= 1 + TOL, margin 0 for s in [1 - TOL, 1 + TOL]
 SCALES = (1 - 1.5e-6, 1 - 0.5e-6, 1 + 0.5e-6, 1 + 1.5e-6)
@@ -191,10 +192,11 @@ def test_methods_agree_with_highs(name):
 
 
 @pytest.mark.parametrize("n", [7, 10])
-def test_auto_fast_path_agrees_with_highs_on_the_boundary_workload(n):
-    """The benchmark's boundary-heavy workload (certificates, Douglas-Rachford rounds and LP
-    fallbacks all used) against HiGHS, for fresh structures and for a reused zonotope whose
-    cache of separating directions is filled."""
+@pytest.mark.parametrize("method, cache", [("auto", "compiled"), ("certified", "directions")])
+def test_fast_paths_agree_with_highs_on_the_boundary_workload(n, method, cache):
+    """The benchmark's boundary-heavy workload (certificates, simplex or Douglas-Rachford rounds
+    and LP fallbacks all used) against HiGHS, for fresh structures and for a reused zonotope
+    whose cache of separating directions is filled."""
     from modquad_gym.bench.oracle import random_structure
 
     rng = np.random.default_rng(seed(f"boundary {n}"))
@@ -204,10 +206,10 @@ def test_auto_fast_path_agrees_with_highs_on_the_boundary_workload(n):
         g_ref = gamma_with(Zonotope(A), W, "scipy")
         clear = clear_of_band(g_ref)
         z = Zonotope(A)
-        first = z.decide_certified(W)
+        first = decide_with(z, W, method)
         np.testing.assert_array_equal(first[clear], decide_from_gamma(g_ref)[clear])
-        assert "directions" in z.prepared  # rejections were learned
-        again = z.decide_certified(W[::-1])[::-1]
+        assert cache in z.prepared  # rejections were learned
+        again = decide_with(z, W[::-1], method)[::-1]
         np.testing.assert_array_equal(again, first)
         # the LP gamma itself
         np.testing.assert_allclose(gamma_daqp(z, z.reduce(W)[0]), g_ref, atol=1e-9)
@@ -252,7 +254,7 @@ def test_rank_deficient_off_range_is_infeasible():
     assert z.rank == 5
     normal = np.linalg.svd(A)[0][:, 5]  # orthogonal to range(A)
     w = A.sum(axis=1) / 2 + 1e-4 * normal  # the centre, nudged off range
-    for method in ("auto", "daqp", "scipy", "hrep", "cvxpy", "quickhull"):
+    for method in EVERY + ("compiled", "quickhull"):
         assert not mq.feasible(A, w, method=method)[0], method
         assert np.isneginf(mq.margin(A, w, method=method)[0]), method
     assert mq.lambda_ratio(A, w)[0] == 0.0

@@ -1,9 +1,10 @@
 """Geometry, the bottom layer: module types and their rotor data (:mod:`.module`), grid cells
-(:mod:`.cells`), structures and their configuration matrix (:mod:`.structure`), and the
-enumeration of every structure of n modules (:mod:`.polyominoes`)."""
+(:mod:`.cells`), mass properties (:mod:`.inertia`), structures and their configuration matrix
+(:mod:`.structure`), and the enumeration of every structure of n modules (:mod:`.polyominoes`)."""
 
 from modquad_gym.geometry.module import (
     DEFAULT_C_TAU,
+    DEFAULT_HEIGHT,
     DEFAULT_MASS,
     DEFAULT_SIDE,
     GRAVITY,
@@ -16,6 +17,7 @@ from modquad_gym.geometry.structure import Structure, structure_levels
 
 __all__ = [
     "DEFAULT_C_TAU",
+    "DEFAULT_HEIGHT",
     "DEFAULT_MASS",
     "DEFAULT_SIDE",
     "GRAVITY",

@@ -20,6 +20,14 @@ modelling assumption for a 0.4 m module with frame, battery and four motors; the
 uses it too). It places the centre of mass of a mixed structure (each module's mass at its
 centre) and, for tasks of kind ``external``, is weight the rotors must also carry.
 
+Inertia: every module type carries its inertia tensor about the module centre in module axes
+(:attr:`ModuleType.inertia`, kg m^2). Unless given, it is that of a uniform box of the module's
+side l, side l and height h (default :data:`DEFAULT_HEIGHT` = 0.05 m, the MuJoCo model's box):
+``m / 12 * diag(l^2 + h^2, l^2 + h^2, 2 l^2)`` - for the default 0.3 kg, 0.4 m module
+diag(4.0625e-3, 4.0625e-3, 8.0e-3) kg m^2. A structure sums these with parallel-axis terms
+(:attr:`modquad_gym.geometry.structure.Structure.inertia`). Dynamic tasks
+(:mod:`modquad_gym.dynamics`) need it; static tasks do not.
+
 Stock types (:data:`STOCK_TYPES`, short names for the command line, :func:`palette`):
 
 * ``t45``: the paper's T-module (Def. 5), eta = pi/4;
@@ -53,6 +61,9 @@ DEFAULT_C_TAU = 0.01
 DEFAULT_MASS = 0.3
 """Mass of one module in kg (see the module docstring)."""
 
+DEFAULT_HEIGHT = 0.05
+"""Height in metres of the uniform box whose inertia a module has unless given."""
+
 GRAVITY = 9.81
 """Gravitational acceleration in m/s^2 (the self-weight of ``external`` tasks, MuJoCo)."""
 
@@ -80,10 +91,16 @@ class ModuleType:
         side: module side length l in metres (modules dock on a grid of pitch ``side``).
         c_tau: drag-to-thrust ratio in metres.
         name: a label for reports (the stock types use their short command-line names).
-        mass: mass in kg, at the module centre (default :data:`DEFAULT_MASS`).
+        mass: mass in kg, its centre of mass at the module centre (default :data:`DEFAULT_MASS`).
+        height: height in metres of the uniform box whose inertia the module has by default.
+        inertia: (3, 3) inertia tensor in kg m^2 about the module centre, module axes; default
+            (None) the uniform box of side x side x ``height`` (module docstring). A given one
+            must be symmetric with principal moments that are >= 0 and obey the triangle
+            inequality (a real body's).
 
     Types compare by identity (two equal-looking types are two types); :attr:`digest` names the
-    rotor data, side, drag ratio and mass, so that copies can be recognised.
+    rotor data, side, drag ratio and mass (and a given non-box inertia), so that copies can be
+    recognised.
     """
 
     positions: np.ndarray
@@ -93,6 +110,8 @@ class ModuleType:
     c_tau: float = DEFAULT_C_TAU
     name: str = "module"
     mass: float = DEFAULT_MASS
+    height: float = DEFAULT_HEIGHT
+    inertia: np.ndarray | None = None
     columns: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -117,6 +136,14 @@ class ModuleType:
         ):
             raise ValueError(f"mass must be a positive mass in kg, got {self.mass!r}")
         object.__setattr__(self, "mass", float(self.mass))
+        if not (isinstance(self.height, (int, float)) and 0 <= self.height < math.inf):
+            raise ValueError(f"height must be a length >= 0 in metres, got {self.height!r}")
+        box = box_inertia(self.mass, self.side, self.side, float(self.height))
+        given = self.inertia is not None
+        J = check_inertia(self.inertia) if given else box
+        object.__setattr__(self, "_box_inertia", not given or bool(np.allclose(J, box, 0, 1e-15)))
+        J.setflags(write=False)
+        object.__setattr__(self, "inertia", J)
         dirs = dirs / norms[:, None]
         for name, value in (("positions", pos), ("directions", dirs), ("spins", spins)):
             value.setflags(write=False)
@@ -137,12 +164,15 @@ class ModuleType:
 
     @property
     def digest(self) -> str:
-        """A short hash of the rotor data, side, drag ratio and mass (rounded to 12 decimals):
-        equal for copies of one type, different for types that act or weigh differently."""
+        """A short hash of the rotor data, side, drag ratio, mass and a given (non-box) inertia
+        (rounded to 12 decimals): equal for copies of one type, different for types that act or
+        weigh differently."""
         h = hashlib.sha256()
         for a in (self.positions, self.directions, self.spins):
             h.update(np.ascontiguousarray(np.round(a, 12) + 0.0, dtype=float).tobytes())
         h.update(np.round([self.side, self.c_tau, self.mass], 12).tobytes())
+        if not self._box_inertia:  # the default box inertia follows from side and mass
+            h.update(np.ascontiguousarray(np.round(self.inertia, 12) + 0.0).tobytes())
         return h.hexdigest()[:16]
 
     @classmethod
@@ -153,10 +183,13 @@ class ModuleType:
         c_tau: float = DEFAULT_C_TAU,
         name: str = "tilted",
         mass: float = DEFAULT_MASS,
+        height: float = DEFAULT_HEIGHT,
+        inertia: np.ndarray | None = None,
     ) -> ModuleType:
         """A quadrotor module whose rotor j is tilted by ``tilts[j]`` (radians) about its arm p_j.
 
         Positive tilt turns the thrust vector by the right-hand rule about the arm direction.
+        ``height`` and ``inertia`` as in the class docstring.
         """
         tilts = np.asarray(tilts, dtype=float)
         if tilts.shape != (4,) or not np.all(np.isfinite(tilts)):
@@ -166,14 +199,43 @@ class ModuleType:
         e3 = np.array([0.0, 0.0, 1.0])
         directions = np.array([_rotate_about(arm, t, e3) for arm, t in zip(arms, tilts)])
         return cls(
-            positions, directions, _SPINS.copy(), side=side, c_tau=c_tau, name=name, mass=mass
-        )
+            positions, directions, _SPINS.copy(), side=side, c_tau=c_tau, name=name, mass=mass,
+            height=height, inertia=inertia,
+        )  # fmt: skip
 
     def __repr__(self) -> str:
         return (
             f"ModuleType(name={self.name!r}, rotors={self.n_rotors}, side={self.side:g} m, "
             f"c_tau={self.c_tau:g} m, mass={self.mass:g} kg)"
         )
+
+
+def box_inertia(mass: float, x: float, y: float, z: float) -> np.ndarray:
+    """(3, 3) inertia of a uniform box of ``mass`` kg and edges x, y, z m about its centre."""
+    return mass / 12.0 * np.diag([y * y + z * z, x * x + z * z, x * x + y * y])
+
+
+def check_inertia(J: object, what: str = "inertia") -> np.ndarray:
+    """A float (3, 3) copy of ``J`` if it is a physical inertia tensor (symmetric, principal
+    moments >= 0 obeying the triangle inequality), else a ValueError naming ``what``."""
+    try:
+        arr = np.array(J, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be a (3, 3) array of numbers in kg m^2") from None
+    if arr.shape != (3, 3) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{what} must be a finite (3, 3) array in kg m^2, got shape {arr.shape}")
+    scale = float(np.abs(arr).max())
+    if not np.allclose(arr, arr.T, rtol=0, atol=1e-12 * scale):
+        raise ValueError(f"{what} must be symmetric, got {arr.tolist()}")
+    arr = (arr + arr.T) / 2
+    p = np.linalg.eigvalsh(arr)
+    slack = 1e-12 * scale
+    if p[0] < -slack or p[0] + p[1] < p[2] - slack:
+        raise ValueError(
+            f"{what}: principal moments {p.tolist()} are not those of a body (each >= 0, each "
+            "at most the sum of the other two)"
+        )
+    return arr
 
 
 def TModule(

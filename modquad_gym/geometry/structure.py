@@ -31,6 +31,7 @@ from modquad_gym.geometry.cells import (
     normalise_typed,
     structure_levels,
 )
+from modquad_gym.geometry.inertia import inertia_about_com
 from modquad_gym.geometry.module import ModuleType, TModule
 
 __all__ = [
@@ -189,6 +190,14 @@ class Structure:
     def mass(self) -> float:
         """Total mass of the modules in kg."""
         return float(self.masses.sum())
+
+    @cached_property
+    def inertia(self) -> np.ndarray:
+        """(3, 3) inertia tensor in kg m^2 about the COM, {S} axes: each module's own inertia
+        plus its parallel-axis term (:mod:`modquad_gym.geometry.inertia`). Read-only."""
+        J = inertia_about_com(self.module_centres, self.masses, [m.inertia for m in self.modules])
+        J.setflags(write=False)
+        return J
 
     @cached_property
     def key(self) -> Key | tuple:

@@ -13,9 +13,12 @@ s (:mod:`~modquad_gym.oracle.scale`).
 Methods (``method=`` in :func:`feasible`, :func:`margin`, :class:`WrenchOracle`), one module
 each, behind the name -> backend table :data:`~modquad_gym.oracle.backends.BACKENDS`:
 
-``"auto"`` (default, :mod:`~modquad_gym.oracle.certified`)
-    Certificates first (an allocation in the cube, or a separating direction), the DAQP LP for
-    the undecided rest; margins from the exact LP gamma.
+``"auto"`` (default) and ``"compiled"`` (:mod:`~modquad_gym.oracle.compiled`)
+    Compiled certificates first (an allocation in the cube, or a separating direction), the
+    DAQP LP for the undecided rest; margins from the exact LP gamma. The env and the searches
+    decide this way.
+``"certified"`` (:mod:`~modquad_gym.oracle.certified`)
+    The same certificates in vectorised numpy (Douglas-Rachford iterations), no compilation.
 ``"daqp"`` (:mod:`~modquad_gym.oracle.daqp_lp`)
     One dense active-set LP per wrench.
 ``"scipy"`` (:mod:`~modquad_gym.oracle.highs_lp`)

@@ -26,7 +26,9 @@ class WrenchOracle:
             ``"auto"`` is the default.
         cache_size: how many prepared zonotopes to keep (least recently used are dropped).
 
-    ``calls`` counts the wrench-structure tests made (one per wrench per structure).
+    ``calls`` counts the wrench-structure tests made (one per wrench per structure);
+    ``fallback`` the wrenches of :meth:`screened` that no compiled certificate decided (the exact
+    LP did).
     """
 
     def __init__(self, f_max: float = 1.0, method: str = "auto", cache_size: int = 4096) -> None:
@@ -35,6 +37,7 @@ class WrenchOracle:
         self.cache_size = int(cache_size)
         self._cache: OrderedDict[Hashable, Zonotope] = OrderedDict()
         self.calls = 0
+        self.fallback = 0
 
     def zonotope(self, A: np.ndarray, key: Hashable | None = None) -> Zonotope:
         """The prepared zonotope of A, cached under ``key`` (e.g. a structure's key)."""
@@ -61,6 +64,44 @@ class WrenchOracle:
         z = self.zonotope(A, key)
         self.calls += len(W)
         return margin_with(z, W, self.method)
+
+    def screened(
+        self,
+        A: np.ndarray,
+        W: np.ndarray,
+        WD: np.ndarray,
+        h: np.ndarray,
+        slack: float,
+        key: Hashable | None = None,
+    ) -> tuple[np.ndarray, int, int]:
+        """(per_wrench, tested, satisfied): the structure of A against finite wrenches W (t, 6)
+        behind a support screen the caller proved.
+
+        ``per_wrench = max_d (WD[:, d] - h[d])`` (t,), with WD (t, k) the wrenches' projections
+        on k directions and h (k,) the structure's supports there, in the caller's units; a
+        wrench with ``per_wrench > slack`` is outside the structure (the caller's proof) and is
+        not tested. The others are decided by the method: ``tested`` of them, ``satisfied``
+        feasible. With ``"auto"`` or ``"compiled"`` the screen and the decisions are one
+        compiled call (the environment decides every step this way)."""
+        z = self.zonotope(A, key)
+        screen = BACKENDS[self.method].screen
+        if screen is None or not z.rank:
+            per_wrench = np.maximum.reduce(WD - h, axis=1)
+            open_ = per_wrench <= slack
+            n_open = int(np.count_nonzero(open_))
+            if not n_open:
+                return per_wrench, 0, 0
+            W_open = W if n_open == len(open_) else W[open_]
+            self.calls += n_open
+            return per_wrench, n_open, int(np.count_nonzero(decide_with(z, W_open, self.method)))
+        per_wrench, verdict, counts = screen(z, W, WD, h, slack)
+        tested, satisfied = int(counts[0]), int(counts[1])
+        self.calls += tested
+        if counts[2]:
+            rest = np.flatnonzero(verdict == -1)
+            self.fallback += len(rest)
+            satisfied += int(np.count_nonzero(decide_with(z, W[rest], "daqp")))
+        return per_wrench, tested, satisfied
 
 
 def feasible(A: np.ndarray, W: np.ndarray, f_max: float = 1.0, method: str = "auto") -> np.ndarray:

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from modquad_gym.oracle.certified import decide_reduced
+from modquad_gym.oracle.compiled import decide_compiled, screen_compiled
 from modquad_gym.oracle.cvxpy_lp import gamma_cvxpy, ray_cvxpy
 from modquad_gym.oracle.daqp_lp import gamma_daqp
 from modquad_gym.oracle.highs_lp import gamma_highs, ray_highs
@@ -33,6 +34,13 @@ Ray = Callable[["Zonotope", np.ndarray, float, float], np.ndarray]
 """``(z, D, lo, hi) -> lambda*`` per row d of D: the paper's LP from the origin,
 ``max lambda s.t. Q^T A u = lambda d_hat, lo <= u <= hi`` (units of f_max)."""
 
+Screen = Callable[
+    ["Zonotope", np.ndarray, np.ndarray, np.ndarray, float],
+    tuple[np.ndarray, np.ndarray, np.ndarray],
+]
+"""``(z, W, WD, h, slack) -> (per_wrench, verdict, counts)``: a caller's support screen fused
+with the decisions (:func:`~modquad_gym.oracle.compiled.screen_compiled`)."""
+
 _FAR = 1e6  # rows beyond this many bounding boxes get their gamma by homogeneity (gamma_with)
 
 
@@ -49,16 +57,22 @@ class Backend:
             feasible even though decisions and margins come from different computations.
         ray: the paper's LP from the origin, for :func:`~modquad_gym.oracle.lambda_ratio`
             (None: the method does not offer it).
+        screen: the decisions fused with a support screen, for
+            :meth:`~modquad_gym.oracle.WrenchOracle.screened` (None: the screen in numpy, then
+            ``decide``).
     """
 
     gamma: Rows
     decide: Rows | None = None
     margin_sign_from_decide: bool = False
     ray: Ray | None = None
+    screen: Screen | None = None
 
 
 BACKENDS: dict[str, Backend] = {
-    "auto": Backend(gamma_daqp, decide_reduced, margin_sign_from_decide=True),
+    "auto": Backend(gamma_daqp, decide_compiled, True, screen=screen_compiled),
+    "compiled": Backend(gamma_daqp, decide_compiled, True, screen=screen_compiled),
+    "certified": Backend(gamma_daqp, decide_reduced, margin_sign_from_decide=True),
     "daqp": Backend(gamma_daqp),
     "scipy": Backend(gamma_highs, ray=ray_highs),
     "cvxpy": Backend(gamma_cvxpy, ray=ray_cvxpy),

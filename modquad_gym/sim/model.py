@@ -4,11 +4,15 @@ The model (MJCF, compiled by :func:`build_model`):
 
 * Body ``structure`` with a free joint. Its frame is the structure frame {S}: origin at the COM of
   the module centres, axes parallel to the modules', z up. It starts at ``(0, 0, HOME_HEIGHT)``.
-* One box geom per module (side x side x ``MODULE_THICKNESS``), weighing its module type's
-  ``mass`` (default 0.3 kg, a ModQuad-size module; ``module_mass`` overrides every module);
-  MuJoCo computes the inertia from the boxes. {S} sits at the mass-weighted centre of the module
-  centres, so the body's COM is the origin of {S} for mixed structures too. Rotor discs are
-  massless visual geoms; modules are coloured by type (the first module of a one-type structure
+* The body's mass and inertia are given explicitly (an ``inertial`` element at the origin):
+  :attr:`Structure.mass` and :attr:`Structure.inertia` (each module its type's ``mass``, default
+  0.3 kg, and ``inertia``, default a uniform box of side x side x 0.05 m, with parallel-axis
+  terms; ``module_mass`` overrides every module's mass and scales its inertia alike). {S} sits at
+  the mass-weighted centre of the module centres, so the body's COM is the origin of {S} for
+  mixed structures too. So the simulated body is exactly the one the dynamic tasks' wrenches are
+  computed for (:mod:`modquad_gym.dynamics`). One box geom per module (side x side x
+  ``MODULE_THICKNESS``, drawn 3 % smaller so that neighbours show apart) and the rotor discs
+  are massless visuals; modules are coloured by type (the first module of a one-type structure
   green).
 * One site ``rotor{k}`` per rotor at p_k, oriented so that its z-axis is the thrust direction d_k.
 * One ``general`` actuator per rotor on its site: ``gear = (0, 0, 1, 0, 0, s_k c_tau)`` (thrust
@@ -30,7 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from modquad_gym.geometry.module import DEFAULT_MASS, GRAVITY
+from modquad_gym.geometry.inertia import inertia_about_com
+from modquad_gym.geometry.module import DEFAULT_HEIGHT, DEFAULT_MASS, GRAVITY
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_f_max
 from modquad_gym.viz.raster import type_colour
@@ -38,8 +43,8 @@ from modquad_gym.viz.raster import type_colour
 MODULE_MASS = DEFAULT_MASS
 """Default mass of one module in kg (:data:`modquad_gym.geometry.module.DEFAULT_MASS`)."""
 
-MODULE_THICKNESS = 0.05
-"""Height of a module's box in metres."""
+MODULE_THICKNESS = DEFAULT_HEIGHT
+"""Height of a module's box in metres (drawn; the inertia is each module type's own)."""
 
 HOME_HEIGHT = 1.0
 """Height of the COM above the floor at qpos0, in metres."""
@@ -133,6 +138,7 @@ def model_xml(
     load_cell, equality, sensors = _BENCH_ELEMENTS if bench else ("", "", "")
     nl = "\n    "
     return _MJCF.format(
+        inertial=_inertial(structure, masses),
         n_modules=structure.n_modules,
         timestep=TIMESTEP,
         gravity=f"{-GRAVITY:.17g}",
@@ -145,6 +151,15 @@ def model_xml(
         actuators=nl.join(actuators),
         sensors=sensors,
     )
+
+
+def _inertial(structure: Structure, masses: np.ndarray) -> str:
+    """The body's ``inertial`` element: total mass and inertia about the COM (module docstring)."""
+    scale = masses / structure.masses
+    own = [m.inertia * k for m, k in zip(structure.modules, scale)]
+    J = inertia_about_com(structure.module_centres, masses, own)
+    full = _fmt([J[0, 0], J[1, 1], J[2, 2], J[0, 1], J[0, 2], J[1, 2]])
+    return f'<inertial pos="0 0 0" mass="{float(masses.sum()):.17g}" fullinertia="{full}"/>'
 
 
 def _module_geoms(structure: Structure, masses: np.ndarray) -> list[str]:
@@ -160,7 +175,7 @@ def _module_geoms(structure: Structure, masses: np.ndarray) -> list[str]:
         geoms.append(
             f'<geom name="module{i}" type="box" pos="{_fmt(c)}" '
             f'size="{half * 0.97:.17g} {half * 0.97:.17g} {MODULE_THICKNESS / 2:.17g}" '
-            f'mass="{masses[i]:.17g}" rgba="{rgba}"/>'
+            f'mass="0" rgba="{rgba}"/>'
         )
     return geoms
 
@@ -218,6 +233,7 @@ _MJCF = """<mujoco model="modquad_{n_modules}">
     <geom name="floor" type="plane" size="5 5 0.05" material="grid" contype="0" conaffinity="0"/>
     <body name="structure" pos="0 0 {home}">
     <freejoint name="root"/>
+    {inertial}
     {geoms}
     {sites}
     {load_cell}

@@ -45,8 +45,13 @@ Seeded task generators share one interface, :class:`TaskGenerator` (``name`` and
 :func:`make_generator` turns a spec (a name, a file, tasks) into a generator; a *suite* is a JSON
 file of several tasks (:func:`load_suite`, :func:`save_suite`).
 
+A JSON object with a ``"trajectory"`` is a *dynamic* task (:mod:`modquad_gym.dynamics`): a
+motion, an optional payload and exerted wrenches, whose rotor wrenches depend on the structure's
+mass and inertia; :func:`load_task` reads either kind of file.
+
 Modules: :mod:`.wrenches` (wrench checks, kinds), :mod:`.files` (reading task files: JSON,
 .npy, the known keys), :mod:`.csvfile` (CSV), :mod:`.requirement` (:class:`TaskRequirement`),
+:mod:`.loading` (:func:`load_task`),
 :mod:`.suites`, :mod:`.generators` (the seeded generators) and :mod:`.specs` (the generators
 by name, :func:`make_generator`).
 """
@@ -74,6 +79,7 @@ from modquad_gym.tasks.generators import (
     planted_structure,
     random_cells,
 )
+from modquad_gym.tasks.loading import is_dynamic, load_task
 from modquad_gym.tasks.requirement import TaskRequirement
 from modquad_gym.tasks.specs import GENERATORS, NAMED_GENERATORS, make_generator
 from modquad_gym.tasks.suites import load_suite, save_suite
@@ -104,6 +110,8 @@ __all__ = [
     "TaskGenerator",
     "TaskRequirement",
     "check_kind",
+    "is_dynamic",
+    "load_task",
     "load_suite",
     "make_generator",
     "planted_structure",

@@ -33,9 +33,10 @@ MAX_FILE_BYTES = 100 * 2**20
 
 TASK_KEYS: dict[str, tuple[str, ...]] = {
     "wrenches": ("wrenches", "name", "f_max", "kind", "meta"),
+    "trajectory": ("trajectory", "payload", "exerted", "f_max", "name", "kind", "meta"),
 }
 """The keys a task JSON object may hold, by the key that marks its format (a static task holds
-``"wrenches"``). Any other key is refused with this list, so a misspelt ``"fmax"`` is never read
+``"wrenches"``, a dynamic one, :class:`~modquad_gym.dynamics.DynamicTask`, ``"trajectory"``). Any other key is refused with this list, so a misspelt ``"fmax"`` is never read
 as a default; free-form extras go into ``"meta"``. A new format adds its row here."""
 
 SUITE_KEYS = ("name", "tasks")

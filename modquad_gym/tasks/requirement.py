@@ -123,7 +123,8 @@ class TaskRequirement:
         """Build from a dict as written by :meth:`to_dict`. Only ``"wrenches"`` is required; a
         key other than those of :data:`~modquad_gym.tasks.files.TASK_KEYS` is refused (free-form
         extras go into ``"meta"``). Raises ValueError naming the key or the 1-based row."""
-        task_format(data)
+        if task_format(data) != "wrenches":
+            raise ValueError("a task with a trajectory is dynamic: read it with tasks.load_task")
         wrenches = rows_to_array(data["wrenches"])
         name = data.get("name", default_name)
         if not isinstance(name, str):

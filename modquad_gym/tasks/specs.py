@@ -21,6 +21,7 @@ from modquad_gym.tasks.generators import (
     ScrewdriverTask,
     TaskGenerator,
 )
+from modquad_gym.tasks.loading import load_task
 from modquad_gym.tasks.requirement import TaskRequirement
 from modquad_gym.tasks.suites import load_suite
 
@@ -79,7 +80,7 @@ def make_generator(spec: Any) -> TaskGenerator:
         if path.is_file():
             if path.suffix.lower() == ".json" and "tasks" in json_keys(path):
                 return FixedTasks(tuple(load_suite(path)), name=path.stem)
-            return FixedTasks((TaskRequirement.load(path),), name=path.stem)
+            return FixedTasks((load_task(path),), name=path.stem)
         raise ValueError(
             f"unknown task spec {key!r}: not one of {', '.join(GENERATORS)} and not an existing "
             f"task file ({', '.join(SUFFIXES)})"

@@ -2,7 +2,7 @@
 API, :mod:`.transitions` the state transitions, :mod:`.grid` cells <-> actions and the mask,
 :mod:`.types` the episode state, :mod:`.reward` the reward functions, :mod:`.features` the
 observation blocks, :mod:`.lookahead` the per-action candidate rows, :mod:`.evaluator` the exact
-decisions and their caches, :mod:`.certify` their compiled fast path (:mod:`.simplex` its LP),
+decisions (by :meth:`modquad_gym.oracle.WrenchOracle.screened`) and their caches,
 :mod:`.viewer` the pictures, :mod:`.inputs` the input cleaning, :mod:`.mixed` the env of several
 module types.
 

@@ -6,9 +6,9 @@ structure its configuration matrix, support values and task-independent features
 :class:`TaskMemos` keeps what was decided (a task that comes back costs no oracle call for the
 structures seen before).
 
-With the default oracle method (``"auto"``) the decisions go through
-:class:`~.certify.FastDecider` (compiled certificates, the oracle for the rest: the same
-answers); :meth:`StructureEvaluator.against_plain` is the plain path and its reference.
+Each step's decisions are one call of :meth:`~modquad_gym.oracle.WrenchOracle.screened`: the
+structure's support values screen the wrenches, the oracle decides the rest (with the default
+method ``"auto"``, both in one compiled call).
 
 Why not :class:`~modquad_gym.search.checker.TaskChecker`: the searches decide thousands of
 structures per task in compiled batches and need only a yes/no; the env decides one structure
@@ -21,7 +21,6 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.envs.assembly.certify import FastDecider
 from modquad_gym.envs.assembly.features import AssemblyFeatures
 from modquad_gym.envs.assembly.types import TaskArrays
 from modquad_gym.geometry.module import GRAVITY, ModuleType
@@ -69,8 +68,6 @@ class StructureEvaluator:
     ) -> None:
         self.module = module
         self.oracle = WrenchOracle(f_max, method=method)
-        # the default method's decisions, certified by compiled tests first (same answers)
-        self.fast = FastDecider(self.oracle) if method == "auto" else None
         self.features = AssemblyFeatures(module, n_max, f_max, n_directions)
         self.capability: dict[Key, Capability] = {}
         self.supports: dict[Key, tuple[np.ndarray, float]] = {}
@@ -139,35 +136,15 @@ class StructureEvaluator:
             return hit[0], hit[1], 0
         W, h_Tn, WD = self.at_mass(task, mass)
         cap = self.capability.get(key) or self.capability_of(key)
-        if self.fast is not None:
-            per_wrench, tests, n_sat = self.fast.against(cap.A, key, W, WD, cap.h_Wn, cap.slack)
-        else:
-            per_wrench, tests, n_sat = self.against_plain(cap, key, W, WD)
+        # a wrench beyond the exact support of the structure in a feature direction (by more
+        # than the oracle's tolerance, ``cap.slack``) is certainly infeasible: not tested
+        per_wrench, tests, n_sat = self.oracle.screened(cap.A, W, WD, cap.h_Wn, cap.slack, key)
         self.tests += tests
         vec = self.features.structure_against(
             cap.head, cap.h_Wn, h_Tn, per_wrench, n_sat / len(task.W)
         )
         memo[key] = (n_sat, vec)
         return n_sat, vec, tests
-
-    def against_plain(
-        self, cap: Capability, key: Any, W: np.ndarray, WD: np.ndarray
-    ) -> tuple[np.ndarray, int, int]:
-        """(per-wrench support deficit, wrenches tested, wrenches satisfied) of the structure
-        against wrenches W with their normalised projections WD, by the oracle itself.
-
-        A wrench beyond the exact support of the structure in a feature direction (by more than
-        the oracle's tolerance, ``cap.slack``) is certainly infeasible; only the others are
-        tested. :class:`~.certify.FastDecider` gives the same triple faster (method
-        ``"auto"``)."""
-        per_wrench = np.maximum.reduce(WD - cap.h_Wn, axis=1)
-        open_ = per_wrench <= cap.slack
-        n_open = np.count_nonzero(open_)
-        if not n_open:
-            return per_wrench, 0, 0
-        W_open = W if n_open == len(open_) else W[open_]
-        n_sat = int(np.count_nonzero(self.oracle.feasible(cap.A, W_open, key=key)))
-        return per_wrench, len(W_open), n_sat
 
     def candidate_rows(
         self, keys: list, task: TaskArrays, mass: float, memo: dict

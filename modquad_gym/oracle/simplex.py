@@ -3,9 +3,9 @@ dual direction showing there is none.
 
 Bounded-variable primal simplex on ``min sum_i |G x - r|_i`` with one artificial variable per
 row, started at the vertex nearest the minimum-norm allocation, Dantzig's pricing, an explicit
-basis inverse (G has at most 6 rows). Its answers are *candidates*: :mod:`.certify` checks
+basis inverse (G has at most 6 rows). Its answers are *candidates*: :mod:`.kernels` checks
 each one in float64 before it decides anything, so round-off or a pivot limit here can only
-hand a wrench to the oracle, never change a decision.
+leave a wrench to the exact LP, never change a decision.
 """
 
 from __future__ import annotations

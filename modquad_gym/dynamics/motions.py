@@ -1,0 +1,280 @@
+"""Dynamic tasks by motion: hover with a payload, a straight line with an acceleration limit, a
+circle, a figure-eight and a push (a contact force along a straight path).
+
+Every motion starts and ends at rest at the origin's level (so it can be flown from a hover),
+holds ``hold`` seconds of hover at both ends, and is sampled at ``rate`` Hz with its
+derivatives given in closed form (no spline error). Moving along a path uses a smooth time law:
+the path parameter's rate rises from 0 to its cruise value over ``ramp`` seconds with the
+quintic smoothstep ``10 s^3 - 15 s^4 + 6 s^5`` (continuous acceleration and jerk), cruises, and
+falls back the same way. Each function returns a :class:`~modquad_gym.dynamics.task.DynamicTask`
+(:data:`MOTIONS` by name); its ``meta`` records the motion and its parameters.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from modquad_gym.core.validation import check_real
+from modquad_gym.dynamics import quaternions as quat
+from modquad_gym.dynamics.task import DynamicTask
+from modquad_gym.dynamics.trajectory import Trajectory
+from modquad_gym.dynamics.wrenches import Payload
+
+DEFAULT_F_MAX = 2.0
+"""Rotor thrust limit of the motions, newtons: a 0.3 kg module's four 45-degree rotors then
+lift 5.66 N against its 2.94 N weight (thrust-to-weight 1.9)."""
+
+DEFAULT_RATE = 100.0
+"""Samples per second."""
+
+
+def _times(duration: float, rate: float) -> np.ndarray:
+    n = max(2, int(math.ceil(duration * rate - 1e-9)) + 1)
+    return np.linspace(0.0, duration, n)
+
+
+def _time_law(t: np.ndarray, cruise: float, total: float, ramp: float) -> tuple:
+    """(phi, phi', phi'') of a parameter going from 0 to ``total`` with cruise rate ``cruise``,
+    ramping up and down over ``ramp`` seconds each (module docstring), starting at t = 0."""
+    t_cruise = total / cruise - ramp
+    if t_cruise < -1e-12:
+        raise ValueError(
+            f"ramp: {ramp:g} s of speeding up and slowing down is longer than the whole motion "
+            f"at this speed; use a shorter ramp or a longer path"
+        )
+    t_cruise = max(t_cruise, 0.0)
+    end = 2 * ramp + t_cruise
+    x = np.clip(t, 0.0, end)
+    phi, rate, acc = np.zeros_like(x), np.zeros_like(x), np.zeros_like(x)
+    up = x < ramp
+    down = x > ramp + t_cruise
+    mid = ~up & ~down
+    for mask, tau, sign in ((up, x / ramp, 1.0), (down, (end - x) / ramp, -1.0)):
+        s = tau[mask]
+        part = cruise * ramp * (2.5 * s**4 - 3 * s**5 + s**6)
+        phi[mask] = part if sign > 0 else total - part
+        rate[mask] = cruise * (10 * s**3 - 15 * s**4 + 6 * s**5)
+        acc[mask] = sign * cruise * (30 * s**2 - 60 * s**3 + 30 * s**4) / ramp
+    phi[mid] = cruise * ramp / 2 + cruise * (x[mid] - ramp)
+    rate[mid] = cruise
+    return phi, rate, acc, end
+
+
+def _along(path: Callable, law: tuple) -> tuple:
+    """Positions, velocities, accelerations of ``path(phi) -> (p, p', p'')`` under a time
+    law (:func:`_time_law`)."""
+    phi, rate, acc, _ = law
+    p, dp, ddp = path(phi)
+    v = dp * rate[:, None]
+    a = ddp * (rate**2)[:, None] + dp * acc[:, None]
+    return p, v, a
+
+
+def _task(
+    t,
+    p,
+    v,
+    a,
+    name: str,
+    meta: dict,
+    f_max: float,
+    payload,
+    exerted=None,
+    quaternion=None,
+    omega=None,
+    alpha=None,
+) -> DynamicTask:
+    traj = Trajectory(t, p, quaternion, v, a, omega, alpha)
+    if payload is not None and not isinstance(payload, Payload):
+        payload = Payload(*payload) if isinstance(payload, (tuple, list)) else Payload(payload)
+    if payload is not None:
+        meta = {**meta, "payload_kg": payload.mass}
+    return DynamicTask(traj, payload, exerted, f_max, name, meta)
+
+
+def _checked(**values: float) -> dict:
+    return {k: check_real(v, k, positive=True) for k, v in values.items()}
+
+
+def hover(
+    duration: float = 2.0,
+    *,
+    f_max: float = DEFAULT_F_MAX,
+    payload=None,
+    rate: float = DEFAULT_RATE,
+    name: str = "hover",
+) -> DynamicTask:
+    """Hover in place for ``duration`` seconds (with a payload: ``payload`` a :class:`Payload`,
+    a mass in kg, or (mass, offset))."""
+    c = _checked(duration=duration, rate=rate)
+    t = _times(c["duration"], c["rate"])
+    zero = np.zeros((len(t), 3))
+    meta = {"motion": "hover", "duration": c["duration"]}
+    return _task(t, zero, zero, zero, name, meta, f_max, payload)
+
+
+def line(
+    distance: float = 2.0,
+    max_acceleration: float = 2.0,
+    *,
+    direction=(1.0, 0.0, 0.0),
+    hold: float = 0.5,
+    f_max: float = DEFAULT_F_MAX,
+    payload=None,
+    rate: float = DEFAULT_RATE,
+    name: str = "line",
+) -> DynamicTask:
+    """A straight rest-to-rest move of ``distance`` metres along ``direction`` (world) whose
+    acceleration peaks at exactly ``max_acceleration`` m/s^2: the minimum-jerk profile
+    ``s = D (10 u^3 - 15 u^4 + 6 u^5)``, u = t / T, whose peak acceleration is
+    ``10 / sqrt(3) D / T^2``."""
+    c = _checked(distance=distance, max_acceleration=max_acceleration, rate=rate)
+    hold = check_real(hold, "hold", low=0.0)
+    d = np.asarray(direction, dtype=float)
+    if d.shape != (3,) or not np.linalg.norm(d) > 0:
+        raise ValueError(f"direction must be a non-zero [x, y, z], got {direction!r}")
+    d = d / np.linalg.norm(d)
+    D = c["distance"]
+    T = math.sqrt(10.0 / math.sqrt(3.0) * D / c["max_acceleration"])
+    t = _times(T + 2 * hold, c["rate"])
+    u = np.clip((t - hold) / T, 0.0, 1.0)
+    s = D * (10 * u**3 - 15 * u**4 + 6 * u**5)
+    ds = D * (30 * u**2 - 60 * u**3 + 30 * u**4) / T
+    dds = D * (60 * u - 180 * u**2 + 120 * u**3) / T**2
+    meta = {
+        "motion": "line",
+        "distance": D,
+        "max_acceleration": c["max_acceleration"],
+        "seconds": T,
+    }
+    return _task(t, s[:, None] * d, ds[:, None] * d, dds[:, None] * d, name, meta, f_max, payload)
+
+
+def circle(
+    radius: float = 1.0,
+    speed: float = 1.0,
+    *,
+    laps: float = 1.0,
+    ramp: float = 1.0,
+    hold: float = 0.5,
+    heading: str = "fixed",
+    f_max: float = DEFAULT_F_MAX,
+    payload=None,
+    rate: float = DEFAULT_RATE,
+    name: str = "circle",
+) -> DynamicTask:
+    """``laps`` turns of a horizontal circle of ``radius`` m at cruise ``speed`` m/s
+    (centripetal acceleration speed^2 / radius), counter-clockwise from the origin. ``heading``
+    ``"fixed"`` keeps the attitude level and the heading constant; ``"tangent"`` turns the
+    body about z with the path (yaw rate speed / radius: the inertia enters the wrenches)."""
+    c = _checked(radius=radius, speed=speed, laps=laps, ramp=ramp, rate=rate)
+    hold = check_real(hold, "hold", low=0.0)
+    if heading not in ("fixed", "tangent"):
+        raise ValueError(f"heading must be 'fixed' or 'tangent', got {heading!r}")
+    R = c["radius"]
+
+    def path(phi):
+        cs, sn, z = np.cos(phi), np.sin(phi), np.zeros_like(phi)
+        return (R * np.c_[cs - 1, sn, z], R * np.c_[-sn, cs, z], R * np.c_[-cs, -sn, z])
+
+    total = 2 * math.pi * c["laps"]
+    end = _time_law(np.zeros(1), c["speed"] / R, total, c["ramp"])[3]
+    t = _times(end + 2 * hold, c["rate"])
+    law = _time_law(t - hold, c["speed"] / R, total, c["ramp"])
+    p, v, a = _along(path, law)
+    meta = {
+        "motion": "circle",
+        "radius": R,
+        "speed": c["speed"],
+        "laps": c["laps"],
+        "heading": heading,
+    }
+    if heading == "fixed":
+        return _task(t, p, v, a, name, meta, f_max, payload)
+    phi, dphi, ddphi, _ = law
+    zero = np.zeros_like(phi)
+    q, w, al = quat.about_z(phi), np.c_[zero, zero, dphi], np.c_[zero, zero, ddphi]
+    return _task(t, p, v, a, name, meta, f_max, payload, None, q, w, al)
+
+
+def figure_eight(
+    size: float = 1.0,
+    speed: float = 1.0,
+    *,
+    laps: float = 1.0,
+    ramp: float = 1.0,
+    hold: float = 0.5,
+    f_max: float = DEFAULT_F_MAX,
+    payload=None,
+    rate: float = DEFAULT_RATE,
+    name: str = "figure-eight",
+) -> DynamicTask:
+    """``laps`` of the horizontal figure-eight (lemniscate of Gerono) ``x = A sin phi,
+    y = A/2 sin 2 phi`` of half-width A = ``size`` m, whose speed peaks at ``speed`` m/s at the
+    crossing (cruise rate speed / (A sqrt 2)); level attitude."""
+    c = _checked(size=size, speed=speed, laps=laps, ramp=ramp, rate=rate)
+    hold = check_real(hold, "hold", low=0.0)
+    A = c["size"]
+
+    def path(phi):
+        z = np.zeros_like(phi)
+        s1, c1, s2, c2 = np.sin(phi), np.cos(phi), np.sin(2 * phi), np.cos(2 * phi)
+        return A * np.c_[s1, s2 / 2, z], A * np.c_[c1, c2, z], A * np.c_[-s1, -2 * s2, z]
+
+    cruise = c["speed"] / (A * math.sqrt(2.0))
+    total = 2 * math.pi * c["laps"]
+    end = _time_law(np.zeros(1), cruise, total, c["ramp"])[3]
+    t = _times(end + 2 * hold, c["rate"])
+    p, v, a = _along(path, _time_law(t - hold, cruise, total, c["ramp"]))
+    meta = {"motion": "figure-eight", "size": A, "speed": c["speed"], "laps": c["laps"]}
+    return _task(t, p, v, a, name, meta, f_max, payload)
+
+
+def push(
+    distance: float = 2.0,
+    speed: float = 0.5,
+    force: float = 2.0,
+    *,
+    direction=(1.0, 0.0, 0.0),
+    ramp: float = 1.0,
+    hold: float = 0.5,
+    f_max: float = DEFAULT_F_MAX,
+    payload=None,
+    rate: float = DEFAULT_RATE,
+    name: str = "push",
+) -> DynamicTask:
+    """Push an object ``distance`` metres along a horizontal ``direction`` at cruise ``speed``
+    m/s against a contact force of ``force`` N (sliding friction): the structure exerts
+    ``force`` along the direction, at its COM, rising and falling with the speed (quintic
+    smoothstep of the speed fraction), as exerted wrenches in {S}."""
+    c = _checked(distance=distance, speed=speed, force=force, ramp=ramp, rate=rate)
+    hold = check_real(hold, "hold", low=0.0)
+    d = np.asarray(direction, dtype=float)
+    if d.shape != (3,) or abs(d[2]) > 0 or not np.linalg.norm(d) > 0:
+        raise ValueError(f"direction must be a horizontal non-zero [x, y, 0], got {direction!r}")
+    d = d / np.linalg.norm(d)
+
+    def path(s):
+        return s[:, None] * d, np.ones_like(s)[:, None] * d, np.zeros((len(s), 3))
+
+    end = _time_law(np.zeros(1), c["speed"], c["distance"], c["ramp"])[3]
+    t = _times(end + 2 * hold, c["rate"])
+    law = _time_law(t - hold, c["speed"], c["distance"], c["ramp"])
+    p, v, a = _along(path, law)
+    exerted = np.zeros((len(t), 6))
+    exerted[:, :3] = (c["force"] * law[1] / c["speed"])[:, None] * d  # level: {S} axes = world
+    meta = {"motion": "push", "distance": c["distance"], "speed": c["speed"], "force": c["force"]}
+    return _task(t, p, v, a, name, meta, f_max, payload, exerted)
+
+
+MOTIONS: dict[str, Callable[..., DynamicTask]] = {
+    "hover": hover,
+    "line": line,
+    "circle": circle,
+    "figure-eight": figure_eight,
+    "push": push,
+}
+"""The motions by name."""

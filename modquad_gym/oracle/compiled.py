@@ -1,0 +1,74 @@
+"""The ``"compiled"`` method (and the decisions of ``"auto"``): compiled certificates, the exact
+LP for the rest.
+
+Each batch of wrenches against one zonotope is one compiled call (:mod:`.kernels`): an
+allocation in the cube or a separating direction, both checked in float64 by the tolerance rule
+(:mod:`~modquad_gym.oracle.tolerance`), for every wrench it decides. The directions that
+separated earlier wrenches are remembered per zonotope (``prepared["compiled"]``) and tried first
+on later ones. The few wrenches no certificate decides (within GUARD of the threshold, or a
+simplex stopped by its pivot limit) get the exact DAQP gamma (:mod:`.daqp_lp`).
+
+:func:`screen_compiled` fuses a caller's support screen with the decisions, for
+:meth:`~modquad_gym.oracle.WrenchOracle.screened` (the environment decides every step this way).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from modquad_gym.oracle.daqp_lp import gamma_daqp
+from modquad_gym.oracle.tolerance import decide_from_gamma
+
+if TYPE_CHECKING:
+    from modquad_gym.oracle.zonotope import Zonotope
+
+DIRECTIONS = 16
+"""Separating directions remembered per zonotope (tried before the simplex)."""
+
+
+def _memory(z: Zonotope) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(directions (DIRECTIONS, rank), their supports, how many were added) of z."""
+    memory = z.prepared.get("compiled")
+    if memory is None:
+        memory = (np.empty((DIRECTIONS, z.rank)), np.empty(DIRECTIONS), np.zeros(1, np.int64))
+        z.prepared["compiled"] = memory
+    return memory
+
+
+def verdicts(z: Zonotope, R: np.ndarray) -> np.ndarray:
+    """int8 (t,) per row of R (centred reduced wrenches in range(A)): 1 feasible, 0 infeasible
+    (each by a certificate), -1 undecided."""
+    from modquad_gym.oracle import kernels  # numba: compiled on first use, cached on disk
+
+    out = np.empty(len(R), dtype=np.int8)
+    kernels.decide_rows(z.G, z.P, np.ascontiguousarray(R, dtype=float), _memory(z), out)
+    return out
+
+
+def decide_compiled(z: Zonotope, R: np.ndarray) -> np.ndarray:
+    """Exact decisions (t,) for rows of R (centred reduced wrenches in range(A)): certificates,
+    the DAQP gamma and the tolerance rule for the undecided."""
+    verdict = verdicts(z, R)
+    rest = np.flatnonzero(verdict == -1)
+    if len(rest):
+        verdict[rest] = decide_from_gamma(gamma_daqp(z, R[rest]))
+    return verdict == 1
+
+
+def screen_compiled(
+    z: Zonotope, W: np.ndarray, WD: np.ndarray, h: np.ndarray, slack: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(per_wrench (t,), verdict int8 (t,), counts (tested, feasible, undecided)) of raw
+    wrenches W (t, 6) after the screen ``per_wrench = max_d (WD - h) <= slack``: verdict -2 where
+    the screen rejects a wrench (not tested), 0 / 1 decided, -1 undecided (near the off-range
+    rule, huge, or no certificate: the caller settles those by an LP)."""
+    from modquad_gym.oracle import kernels
+
+    per_wrench = np.empty(len(W))
+    verdict = np.empty(len(W), dtype=np.int8)
+    counts = np.zeros(3, dtype=np.int64)
+    kernels.decide_screened(W, WD, h, slack, z.f_max, z.Q, z.c, z.G, z.P, _memory(z),
+                            per_wrench, verdict, counts)  # fmt: skip
+    return per_wrench, verdict, counts
