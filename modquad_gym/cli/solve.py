@@ -170,8 +170,13 @@ def print_result(args: argparse.Namespace, path, task, result) -> None:
         return
     kind = "" if task.kind == "total" else f" ({task.kind})"
     print(f"task {task.name!r} ({path}): {task.n_wrenches} wrenches{kind}, method {args.method}")
-    if result.structure is None:
-        print(f"  no structure of up to {args.n_max} modules satisfies the task")
+    if result.structure is None and result.certified:
+        print(f"  no structure of up to {args.n_max} modules satisfies the task (certified)")
+    elif result.structure is None:  # a heuristic failing proves nothing
+        print(
+            f"  {args.method} found no structure of up to {args.n_max} modules (a heuristic: "
+            "one may still exist; --method exhaustive decides)"
+        )
     else:
         cert = " (certified minimum)" if result.certified else ""
         print(f"  {result.n_modules} modules{cert}: cells {list(result.structure.cells)}")

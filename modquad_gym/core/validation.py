@@ -64,8 +64,23 @@ def check_f_max(f_max: object) -> float:
     return check_real(f_max, "f_max", positive=True)
 
 
+def _ragged_row(value: object) -> str:
+    """Where a nested list is ragged: ``row 2 has 3 entries, row 1 has 6`` (1-based)."""
+    try:
+        lengths = [len(row) for row in value]  # type: ignore[union-attr]
+    except TypeError:
+        return "its rows are not all sequences of numbers"
+    row = next((i for i, n in enumerate(lengths) if n != lengths[0]), None)
+    if row is None:
+        return "its entries are nested unevenly"
+    return f"row {row + 1} has {lengths[row]} entries, row 1 has {lengths[0]}"
+
+
 def _float_array(value: object, name: str) -> np.ndarray:
-    arr = np.asarray(value)
+    try:
+        arr = np.asarray(value)
+    except ValueError:  # a ragged nested list
+        raise ValueError(f"{name} must be a rectangular array: {_ragged_row(value)}") from None
     if arr.dtype == object or arr.dtype.kind in "USVb":
         raise ValueError(f"{name} must hold real numbers, got dtype {arr.dtype}")
     return arr.astype(float, copy=False)

@@ -18,6 +18,7 @@ from collections.abc import Iterable, Iterator, Sequence
 
 import numpy as np
 
+from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import (
     Cell,
@@ -235,7 +236,7 @@ def random_search(
     run = SearchRun("random", task, n_max, f_max, module, MAX_MODULES, modules, kind)
     if (done := _impossible(run)) is not None:
         return done
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(None if seed is None else check_int(seed, "seed", low=0))
     K = len(run.palette)
     best: Structure | None = None
     for _ in range(max(1, int(restarts))):

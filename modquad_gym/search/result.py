@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -224,7 +224,7 @@ def check_palette(
         return [module if module is not None else DEFAULT_MODULE]
     if module is not None:
         raise ValueError("give module= (one type) or modules= (a palette), not both")
-    if isinstance(modules, (str, ModuleType)):
+    if isinstance(modules, (str, ModuleType)) or not isinstance(modules, Iterable):
         raise ValueError(
             "modules must be a list of ModuleType (see modquad_gym.geometry.module.palette)"
         )

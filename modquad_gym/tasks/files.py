@@ -35,9 +35,10 @@ TASK_KEYS: dict[str, tuple[str, ...]] = {
     "wrenches": ("wrenches", "name", "f_max", "kind", "meta"),
     "trajectory": ("trajectory", "payload", "exerted", "f_max", "name", "kind", "meta"),
 }
-"""The keys a task JSON object may hold, by the key that marks its format (a static task holds
-``"wrenches"``, a dynamic one, :class:`~modquad_gym.dynamics.DynamicTask`, ``"trajectory"``). Any other key is refused with this list, so a misspelt ``"fmax"`` is never read
-as a default; free-form extras go into ``"meta"``. A new format adds its row here."""
+"""The keys a task JSON object may hold, by the key that marks its format: a static task holds
+``"wrenches"``, a dynamic one (:class:`~modquad_gym.dynamics.DynamicTask`) ``"trajectory"``. Any
+other key is refused with this list, so a misspelt ``"fmax"`` is never read as a default;
+free-form extras go into ``"meta"``. A new format adds its row here."""
 
 SUITE_KEYS = ("name", "tasks")
 """The keys a suite JSON object may hold."""
@@ -153,7 +154,11 @@ def read_bytes(path: Path, limit: int = MAX_FILE_BYTES) -> bytes:
 
 def read_text(path: Path) -> str:
     """The file's text (UTF-8, with or without a byte-order mark), refusing huge files."""
-    data = read_bytes(path)
+    return decode_text(read_bytes(path), path)
+
+
+def decode_text(data: bytes, path: Path) -> str:
+    """``data`` as UTF-8 text (a byte-order mark dropped), or a TaskFileError naming ``path``."""
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
