@@ -73,8 +73,9 @@ def test_devices_are_no_outputs(tmp_path, capsys, device):
 
 @pytest.mark.parametrize(
     "what, name",
-    [("oracle", "oracle_benchmark.md"), ("env", "env_benchmark.csv"), ("search", "search_benchmark.md"),
-     ("paper", "paper_structures.png"), ("scaling", "search_scaling.csv")],
+    [("oracle", "oracle_benchmark.md"), ("env", "env_benchmark.csv"),
+     ("search", "search_benchmark.md"), ("paper", "paper_structures.png"),
+     ("scaling", "search_scaling.csv")],
 )  # fmt: skip
 def test_benchmarks_refuse_to_replace_reports(tmp_path, capsys, what, name):
     (tmp_path / name).write_text("the user's report")

@@ -111,5 +111,5 @@ def check_matrix(A: object) -> np.ndarray:
         )
     if not np.isfinite(arr).all():
         bad = np.argwhere(~np.isfinite(arr))[0]
-        raise ValueError(f"A has a non-finite entry at row {bad[0]}, column {bad[1]}")
+        raise ValueError(f"A has a non-finite entry at row {bad[0] + 1}, column {bad[1] + 1}")
     return arr
