@@ -10,7 +10,7 @@ The expert: for a training task, :func:`~modquad_gym.search.optimal_structures` 
 minimum-module structure O (certified). In a state with cells P (initial module at (0, 0)), an
 action is *good* when P plus its cell still fits inside some translate of some O; an expert
 episode follows good actions chosen at random, so it ends with an optimal structure. With
-several module types (:class:`~modquad_gym.envs.assembly.mixed.MixedAssemblyEnv`) a cell of O
+several module types (:class:`~modquad_gym.envs.assembly.modules.Palette`) a cell of O
 carries its type, an action docks (cell, type), and the episode starts with a module of a type
 drawn from O's (a structure is reachable only from a type it holds). The
 cloning loss is ``-log sum_{a good} pi(a | s)`` (any good action is right) plus a value loss

@@ -92,7 +92,7 @@ def make_solver(
             from modquad_gym.policy.ppo import PPOSolver
 
             solver = PPOSolver(model=model, n_max=n_max, seed=seed, samples=samples)
-        trained = getattr(solver.env, "palette", [solver.env.module])
+        trained = solver.env.palette or [solver.env.module]
         same = [m.digest for m in modules or []] == [m.digest for m in trained]
         if modules and not same or not modules and len(trained) > 1:
             given = ",".join(m.name for m in modules) if modules else "one type"

@@ -1,4 +1,7 @@
-"""The assembly env's pluggable parts: reward, viewer, state and observation blocks."""
+"""The assembly env's pluggable parts: reward, viewer, state, transitions, module set and
+observation blocks."""
+
+import dataclasses
 
 import gymnasium as gym
 import numpy as np
@@ -8,11 +11,17 @@ import modquad_gym.envs  # noqa: F401  (registers the environments)
 from modquad_gym.envs.assembly import (
     AssemblyState,
     AssemblyViewer,
+    Episode,
     ModQuadAssemblyEnv,
+    OneType,
+    Palette,
     RewardFn,
     WeightedReward,
 )
 from modquad_gym.envs.assembly.features import observation_blocks
+from modquad_gym.envs.assembly.grid import Grid
+from modquad_gym.envs.assembly.transitions import initial_state, transition
+from modquad_gym.tasks import TaskRequirement
 
 
 class ModuleCount:
@@ -115,3 +124,75 @@ def test_observation_blocks_derive_the_spaces():
     obs, _ = env.reset(seed=0)
     for b in blocks:
         assert obs[b.name].shape == (b.size,) and obs[b.name].dtype == b.dtype
+
+
+# --- the state, the transitions and the module set as parts ----------------------------------
+def test_states_are_frozen_with_read_only_arrays():
+    env = ModQuadAssemblyEnv(tasks="paper", lookahead=True, modules="t45,flat")
+    env.reset(seed=3)
+    state = env.state
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        state.cells = ((0, 0), (1, 0))
+    for name in ("occupancy", "mask", "structure_vec", "types_onehot", "candidates"):
+        with pytest.raises(ValueError, match="read-only"):
+            getattr(state, name)[0] = 1
+    obs, *_ = env.step(env.action_of((1, 0), 1))
+    obs["action_mask"][:] = 0  # observations are the caller's copies
+    assert env.state.mask.any() and env.state.but(steps=9).steps == 9 and env.state.steps == 1
+
+
+def test_transitions_are_functions_of_an_episode_context_and_a_state():
+    """No env needed: the pure transitions, given the parts, replay what the env does."""
+    env = ModQuadAssemblyEnv(tasks="planted", modules="t45,flat", lookahead=True, n_max=5)
+    obs, _ = env.reset(seed=2)
+    task = env.task
+    palette = Palette("t45,flat")
+    evaluator = palette.evaluator(5, task.f_max, env.n_directions, "auto")
+    ep = Episode(env.rules, Grid(5, 2), palette, evaluator, {}, {})
+    arrays = evaluator.task_arrays(task, np.asarray(task.wrenches, dtype=float))
+    state = initial_state(ep, arrays, (0,))
+    np.testing.assert_array_equal(state.candidates.reshape(-1), obs["candidates"])
+    rng = np.random.default_rng(0)
+    while not state.done:
+        a = int(rng.choice(np.flatnonzero(state.mask)))
+        again = transition(ep, state, a, True)
+        state = transition(ep, state, a, True)
+        assert state.cells == again.cells and state.frac == again.frac
+        obs, _, term, _, info = env.step(a)
+        for name in ("mask", "occupancy", "types_onehot", "structure_vec", "candidates"):
+            np.testing.assert_array_equal(getattr(state, name), getattr(env.state, name))
+        assert (state.terminated, state.success, state.cells) == (
+            term,
+            info["success"],
+            tuple(map(tuple, info["cells"])),
+        )
+
+
+def test_one_env_class_takes_any_module_set():
+    mixed = gym.make("ModQuadAssemblyMixed-v0").unwrapped
+    assert type(mixed) is ModQuadAssemblyEnv and mixed.n_types == 3
+    env = ModQuadAssemblyEnv(modules=Palette("t45,flat", initial_type=1))
+    env.reset(seed=0)
+    assert env.state.types == (1,) and env.palette[1].name == "flat"
+    one = ModQuadAssemblyEnv(modules=OneType())
+    assert one.palette is None and one.n_types == 1 and one.action_space.n == 13**2
+    with pytest.raises(ValueError, match="initial_type needs a palette"):
+        ModQuadAssemblyEnv(initial_type=1)
+    with pytest.raises(ValueError, match="not both"):
+        ModQuadAssemblyEnv(module=OneType().module, modules="t45")
+    with pytest.raises(ValueError, match="carries its own"):
+        ModQuadAssemblyEnv(modules=Palette("t45"), initial_type=0)
+
+
+def test_a_one_type_palette_looks_ahead_with_the_child_mass():
+    """A palette of one type decides external tasks: each child's row is that of the child's
+    own mass (parent + one module)."""
+    task = TaskRequirement([[0.0, 0.0, 5.0, 0.0, 0.0, 0.1]], kind="external", f_max=2.0)
+    env = ModQuadAssemblyEnv(modules="t45", lookahead=True, tasks=task, n_max=4)
+    obs, _ = env.reset(seed=0)
+    rows = obs["candidates"].reshape(-1, 5)
+    ev = env.evaluator
+    for a in np.flatnonzero(obs["action_mask"]):
+        key = env.module_set.key(((0, 0), env.cell_of(a)), (0, 0))
+        expected = ev.candidate_rows([key], env.state.task, 0.6, {})[0]
+        np.testing.assert_array_equal(rows[a], expected)

@@ -9,7 +9,7 @@ package first) registers:
 * ``ModQuadAssemblyPlanted-v0``: the same with ``tasks="planted"`` (tasks planted from a
   random structure, so a solution within n_max is known to exist).
 * ``ModQuadAssemblyMixed-v0``: the same with ``modules="t45,t45m,flat"``: three module types,
-  (cell, type) actions (:class:`~modquad_gym.envs.assembly.mixed.MixedAssemblyEnv`).
+  (cell, type) actions (:class:`~modquad_gym.envs.assembly.modules.Palette`).
 * ``ModQuadAssemblyLarge-v0``: the same with ``n_max=12`` and ``tasks="planted-large"`` (tasks
   planted in 6-12 modules): the large benchmark tier (:mod:`modquad_gym.bench.tiers`).
 """
@@ -22,7 +22,6 @@ from modquad_gym.envs.assembly import (
     MAX_STEPS_LIMIT,
     AssemblyFeatures,
     AssemblyState,
-    MixedAssemblyEnv,
     ModQuadAssemblyEnv,
     RewardFn,
     RewardWeights,
@@ -60,7 +59,6 @@ __all__ = [
     "ENV_IDS",
     "AssemblyFeatures",
     "AssemblyState",
-    "MixedAssemblyEnv",
     "ModQuadAssemblyEnv",
     "RewardFn",
     "RewardWeights",

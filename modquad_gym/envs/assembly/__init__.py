@@ -3,12 +3,12 @@ API, :mod:`.transitions` the state transitions, :mod:`.grid` cells <-> actions a
 :mod:`.types` the episode state, :mod:`.reward` the reward functions, :mod:`.features` the
 observation blocks, :mod:`.lookahead` the per-action candidate rows, :mod:`.evaluator` the exact
 decisions (by :meth:`modquad_gym.oracle.WrenchOracle.screened`) and their caches,
-:mod:`.viewer` the pictures, :mod:`.inputs` the input cleaning, :mod:`.mixed` the env of several
-module types.
+:mod:`.viewer` the pictures, :mod:`.inputs` the input cleaning, :mod:`.modules` the module set
+(one type or a palette).
 
 Where to add: a reward term in :mod:`.reward` (:class:`WeightedReward.terms`), an observation
-feature in :mod:`.features` (:func:`observation_blocks`), a module type's env behaviour in
-:mod:`.mixed`."""
+feature in :mod:`.features` (:func:`observation_blocks`), a module set's env behaviour in
+:mod:`.modules`."""
 
 from modquad_gym.envs.assembly.env import MAX_STEPS_LIMIT, N_MAX_LIMIT, ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.features import (
@@ -18,9 +18,9 @@ from modquad_gym.envs.assembly.features import (
     unit_directions,
 )
 from modquad_gym.envs.assembly.inputs import INVALID_ACTION_MODES, as_task
-from modquad_gym.envs.assembly.mixed import MixedAssemblyEnv
+from modquad_gym.envs.assembly.modules import OneType, Palette
 from modquad_gym.envs.assembly.reward import RewardFn, RewardWeights, WeightedReward, episode_return
-from modquad_gym.envs.assembly.types import AssemblyState, TaskArrays
+from modquad_gym.envs.assembly.types import AssemblyState, Episode, Rules, TaskArrays
 from modquad_gym.envs.assembly.viewer import AssemblyViewer
 
 __all__ = [
@@ -31,11 +31,14 @@ __all__ = [
     "AssemblyFeatures",
     "AssemblyState",
     "AssemblyViewer",
-    "MixedAssemblyEnv",
+    "Episode",
     "ModQuadAssemblyEnv",
     "ObservationBlock",
+    "OneType",
+    "Palette",
     "RewardFn",
     "RewardWeights",
+    "Rules",
     "TaskArrays",
     "WeightedReward",
     "as_task",

@@ -1,9 +1,11 @@
 """The Gymnasium environment ``ModQuadAssembly-v0``: build a structure module by module.
 
-Split as in Jumanji: this module holds the transitions; the state is
-:class:`~.types.AssemblyState`, tasks come from a generator (:mod:`modquad_gym.tasks`), the
-reward is a :class:`~.reward.RewardFn`, the observation is made of the blocks of :mod:`.features`,
-structures are decided by :mod:`.evaluator` and drawn by :mod:`.viewer`.
+Split as in Jumanji: this module holds the Gymnasium API, thin over the pure transitions of
+:mod:`.transitions`; the state is the immutable :class:`~.types.AssemblyState`; the parts are
+passed in: tasks come from a generator (:mod:`modquad_gym.tasks`), the module set is one type or
+a palette (:mod:`.modules`), the reward is a :class:`~.reward.RewardFn`, pictures come from an
+:class:`~.viewer.AssemblyViewer`; the observation is made of the blocks of :mod:`.features` and
+structures are decided by :mod:`.evaluator`.
 """
 
 from __future__ import annotations
@@ -27,21 +29,22 @@ from modquad_gym.envs.assembly.features import (
 )
 from modquad_gym.envs.assembly.grid import Grid
 from modquad_gym.envs.assembly.inputs import (
-    check_arguments,
     check_f_max,
     check_oracle_method,
+    check_render_mode,
     check_render_size,
     check_restore,
     draw_task,
+    make_rules,
     parse_action,
 )
-from modquad_gym.envs.assembly.lookahead import candidate_rows
+from modquad_gym.envs.assembly.modules import make_module_set
 from modquad_gym.envs.assembly.reward import RewardFn, make_reward, reset_terms, step_reward
-from modquad_gym.envs.assembly.transitions import decided_fields, transition
-from modquad_gym.envs.assembly.types import AssemblyState
+from modquad_gym.envs.assembly.transitions import initial_state, transition
+from modquad_gym.envs.assembly.types import AssemblyState, Episode
 from modquad_gym.envs.assembly.viewer import RENDER_FPS, AssemblyViewer
 from modquad_gym.geometry.module import ModuleType
-from modquad_gym.geometry.structure import Cell, Structure, normalise
+from modquad_gym.geometry.structure import Cell, Structure
 from modquad_gym.tasks import make_generator
 
 N_MAX_LIMIT = 16
@@ -140,10 +143,19 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     * ``n_max``: the largest number of modules (default 7, as in the paper), 2 to 16.
     * ``module``: the :class:`~modquad_gym.geometry.module.ModuleType` of every module (default the
       T-module, eta = pi/4).
-    * ``modules``: several module types (or stock names, ``"t45,t45m,flat"``): the env is then
-      :class:`~modquad_gym.envs.assembly.mixed.MixedAssemblyEnv`, whose action is (cell, type)
-      as one ``Discrete(G * G * K)`` and whose observation adds the types (see there); also for
-      tasks of kind ``external`` (self-weight). Default None: one type, this class.
+    * ``modules``: several module types (or stock names, ``"t45,t45m,flat"``), or a module set
+      (:class:`~.modules.OneType`, :class:`~.modules.Palette`): each action then docks a module
+      *of a type*, ``Discrete(G * G * K)`` for K types, type-major: ``a = k * G * G + c``
+      (``action_of(cell, k)``, ``cell_of(a)``, ``type_of(a)``); every type of a valid cell is
+      valid; the masks have G * G * K entries (``mask.reshape(K, G * G)[k]`` is type k's);
+      the observation adds ``"types"`` (G * G * K,) in {0, 1}, type-major one-hot of the
+      module types (with K > 1), the structure features are those of the mixed structure
+      normalised with the first type's single-module support, and ``"candidates"`` has one row
+      per (type, cell) action. Tasks of kind ``external`` (self-weight) are decided on
+      ``w + M g e_z`` for the structure's mass M; ``info`` adds ``modules`` (type names in
+      ``cells`` order) and ``mass_kg``. See :mod:`.modules`. Default None: one type.
+    * ``initial_type``: with a palette, the first module's type index (default 0) or
+      ``"random"`` (drawn at each reset); ``reset(options={"initial_type": k})`` for one episode.
     * ``f_max``: maximum thrust per rotor, 1e-9 to 1e12; None (default) uses each task's own.
     * ``reward_weights``: a :class:`~modquad_gym.envs.assembly.reward.RewardWeights` or a dict
       of some of ``w_sat``, ``w_module``, ``w_success``, ``w_invalid`` (the default reward).
@@ -170,126 +182,111 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     the initial one plus one per docking), ``oracle_calls`` (wrench tests this episode),
     ``action_mask``, ``task_name``, ``n_wrenches``, ``invalid_action`` and ``reward_terms``.
 
-    ## Version History
-    * v0: initial version; the opt-in ``lookahead`` keyword (``"candidates"`` observation)
-      was added later and leaves the default observation unchanged. Later still, actions that
-      are not integers of the action space became invalid actions (they used to raise a
-      ValueError), and any callable became a task source; observations, rewards and infos of
-      valid input are unchanged. ``info["is_success"]``, ``render_mode="human"`` and
-      ``max_episode_steps`` at registration were added without changing any episode, and so
-      were the package layout and the ``reward``/``viewer`` keywords (a recorded replay test
-      checks that observations, rewards and infos are bit-identical).
+    Changes between versions are listed in the repository's ``CHANGELOG.md``.
     """
 
-    decides_self_weight = False
-    """Whether tasks of kind ``external`` are accepted (the mixed env adds each weight)."""
     metadata = {"render_modes": ["human", "rgb_array", "ansi"], "render_fps": RENDER_FPS}
-
-    def __new__(cls, *args: Any, **kwargs: Any):
-        if cls is ModQuadAssemblyEnv and kwargs.get("modules") is not None:
-            from modquad_gym.envs.assembly.mixed import (
-                MixedAssemblyEnv,  # several module types: (cell, type) actions
-            )
-
-            cls = MixedAssemblyEnv
-        return super().__new__(cls)
 
     def __init__(
         self,
+        # the task source
         tasks: Any = "mixed",
-        n_max: int = 7,
-        module: ModuleType | None = None,
         f_max: float | None = None,
-        reward_weights: Any = None,
-        invalid_action: str = "penalise",
-        max_steps: int | None = None,
-        render_mode: str | None = None,
-        n_directions: int = DEFAULT_N_DIRECTIONS,
-        oracle_method: str = "auto",
-        render_size: tuple[int, int] = (256, 256),
-        lookahead: bool = False,
+        # the module set
+        module: ModuleType | None = None,
         modules: Any = None,
+        initial_type: Any = None,
+        # the episode rules
+        n_max: int = 7,
+        max_steps: int | None = None,
+        invalid_action: str = "penalise",
+        # the observation and the decisions
+        n_directions: int = DEFAULT_N_DIRECTIONS,
+        lookahead: bool = False,
+        oracle_method: str = "auto",
+        # the reward
+        reward_weights: Any = None,
         reward: RewardFn | None = None,
+        # the pictures
+        render_mode: str | None = None,
+        render_size: tuple[int, int] = (256, 256),
         viewer: AssemblyViewer | None = None,
     ) -> None:
-        if modules is not None:  # only MixedAssemblyEnv takes a palette
-            raise ValueError("modules: a palette needs MixedAssemblyEnv (what gym.make builds)")
-        check_arguments(module, invalid_action, render_mode, lookahead, self.metadata)
-        self.n_max = check_int(n_max, "n_max", 2, N_MAX_LIMIT)
-        if max_steps is None:
-            max_steps = 4 * self.n_max
-        self.max_steps = check_int(max_steps, "max_steps", self.n_max - 1, MAX_STEPS_LIMIT)
-        self.lookahead = bool(lookahead)
-        self.module = module if module is not None else Structure([(0, 0)]).module
+        self.module_set = make_module_set(module, modules, initial_type)
+        self.rules = make_rules(n_max, max_steps, invalid_action, lookahead, N_MAX_LIMIT)
+        check_render_mode(render_mode, self.metadata)
         self.f_max = None if f_max is None else check_f_max(f_max)
-        self.reward: RewardFn = make_reward(reward, reward_weights)
-        self.weights = getattr(self.reward, "weights", None)
-        self.invalid_action = invalid_action
-        self.render_mode = render_mode
-        self.render_size = check_render_size(render_size)
-        self.n_directions = check_int(n_directions, "n_directions", 12, MAX_N_DIRECTIONS)
-        self.oracle_method = check_oracle_method(oracle_method)
         self.task_source = tasks
         self.generator: Callable[[np.random.Generator], Any] = make_generator(tasks)
+        self.n_directions = check_int(n_directions, "n_directions", 12, MAX_N_DIRECTIONS)
+        self.oracle_method = check_oracle_method(oracle_method)
+        self.reward: RewardFn = make_reward(reward, reward_weights)
+        self.render_mode = render_mode
+        size = check_render_size(render_size)
+        if viewer is None:
+            viewer = AssemblyViewer(self.n_max - 1, self.n_max, size, self.palette)
+        self.viewer = viewer
 
-        self.n_types = self._n_types()
         self.grid = Grid(self.n_max, self.n_types)
-        self.radius, self.side = self.grid.radius, self.grid.side
-        self._n_cells, self._n_actions = self.grid.n_cells, self.grid.n_actions
-        self._centre = self.grid.centre
         self.evaluators: dict[float, StructureEvaluator] = {}  # per f_max, across episodes
         self._memos = TaskMemos()
         probe = self._evaluator(1.0 if self.f_max is None else self.f_max).features
         self._blocks = self.make_blocks(probe)
-        self.action_space = spaces.Discrete(self._n_actions)
+        self.action_space = spaces.Discrete(self.grid.n_actions)
         self.observation_space = spaces.Dict({b.name: b.space() for b in self._blocks})
         self._readers = [(b.name, b.read) for b in self._blocks]
-        if viewer is None:
-            palette = getattr(self, "palette", None)  # the mixed env letters its types
-            viewer = AssemblyViewer(self.radius, self.n_max, self.render_size, palette)
-        self.viewer = viewer
         self._state: AssemblyState | None = None
-        self.evaluator: StructureEvaluator | None = None
+        self._episode: Episode | None = None
 
-    # --- hooks of the mixed env -----------------------------------------------------------
     def make_blocks(self, features: AssemblyFeatures) -> list[ObservationBlock]:
         """The observation's blocks, in order; override to add a feature (append an
         :class:`~.features.ObservationBlock`): the spaces follow from the blocks."""
-        return observation_blocks(self._n_cells, self.n_types, features, self.lookahead)
+        return observation_blocks(self.grid.n_cells, self.n_types, features, self.lookahead)
 
-    def _n_types(self) -> int:
-        return 1
+    # --- the parts' settings, by name -----------------------------------------------------
+    n_max = property(lambda self: self.rules.n_max, doc="The largest number of modules.")
+    max_steps = property(lambda self: self.rules.max_steps, doc="The step limit.")
+    invalid_action = property(lambda self: self.rules.invalid_action, doc="Its mode.")
+    lookahead = property(lambda self: self.rules.lookahead, doc="Whether candidates are shown.")
+    module = property(lambda self: self.module_set.module, doc="The (first) module type.")
+    palette = property(lambda self: self.module_set.palette, doc="The types, or None (one).")
+    n_types = property(lambda self: self.module_set.n_types, doc="The number of types.")
+    radius = property(lambda self: self.grid.radius, doc="n_max - 1, the largest |x|, |y|.")
+    side = property(lambda self: self.grid.side, doc="G = 2 n_max - 1, cells a side.")
+    render_size = property(lambda self: self.viewer.size, doc="(height, width) of frames.")
 
-    def _new_evaluator(self, f_max: float) -> StructureEvaluator:
-        return StructureEvaluator(
-            self.module, self.n_max, f_max, self.n_directions, self.oracle_method
-        )
+    @property
+    def weights(self) -> Any:
+        """The reward's :class:`~.reward.RewardWeights` (None for a reward without)."""
+        return getattr(self.reward, "weights", None)
 
-    def _key(self, cells: tuple[Cell, ...], types: tuple[int, ...]) -> Any:
-        return normalise(cells)
-
-    def _mass(self, types: tuple[int, ...]) -> float:
-        return 0.0  # one type decides total tasks only: the mass is not needed
-
-    def _start(self, options: dict) -> dict:
-        """State fields of the initial module's type (the mixed env); pops its options."""
-        return {}
+    @property
+    def initial_type(self) -> int | str | None:
+        """The palette's first-module type (None for one type)."""
+        return getattr(self.module_set, "initial_type", None)
 
     # --- grid <-> actions -----------------------------------------------------------------
-    def action_of(self, cell: Cell) -> int:
-        """The action that docks a module at grid ``cell`` (x, y); ValueError off the grid."""
-        return self.grid.action_of(cell)
+    def action_of(self, cell: Cell, type_index: int = 0) -> int:
+        """The action that docks a module (of palette type ``type_index``) at grid ``cell``
+        (x, y); ValueError off the grid."""
+        return self.grid.action_of(cell, type_index)
 
     def cell_of(self, action: int) -> Cell:
         """The grid cell (x, y) of ``action``."""
         return self.grid.cell_of(action)
+
+    def type_of(self, action: int) -> int:
+        """The palette index of the type that ``action`` docks (0 for one type)."""
+        return self.grid.type_of(action)
 
     # --- state ----------------------------------------------------------------------------
     def _evaluator(self, f_max: float) -> StructureEvaluator:
         """The evaluator of ``f_max`` (kept across episodes: its caches make steps fast)."""
         ev = self.evaluators.get(f_max)
         if ev is None:
-            ev = self.evaluators[f_max] = self._new_evaluator(f_max)
+            ev = self.evaluators[f_max] = self.module_set.evaluator(
+                self.n_max, f_max, self.n_directions, self.oracle_method
+            )
         return ev
 
     def _require(self, what: str) -> AssemblyState:
@@ -302,6 +299,11 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         """The episode's current :class:`~.types.AssemblyState`."""
         return self._require("asking for the state")
 
+    @property
+    def evaluator(self) -> StructureEvaluator | None:
+        """The current episode's evaluator (None before ``reset``)."""
+        return None if self._episode is None else self._episode.evaluator
+
     def restore(self, state: AssemblyState) -> dict[str, np.ndarray]:
         """Continue the episode from an earlier ``state`` of it (one ``env.state`` returned;
         states are immutable): planners branch from stored states instead of replaying
@@ -312,8 +314,9 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
 
     @property
     def structure(self) -> Structure:
-        """The current structure (cells in docking order, initial module first)."""
-        return Structure(list(self._require("asking for the structure").cells), module=self.module)
+        """The current structure (cells in docking order, initial module first, with types)."""
+        s = self._require("asking for the structure")
+        return self.module_set.structure(s.cells, s.types)
 
     @property
     def task(self) -> Any:
@@ -326,17 +329,15 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
             return self.grid.initial_mask.astype(bool)
         return self._state.mask.astype(bool)
 
-    def _decide(self, state: AssemblyState, cells: tuple, types: tuple) -> dict:
-        """The state fields of the structure (cells, types) against the episode's task."""
-        return decided_fields(self, state, cells, types)
-
     def _observation(self) -> dict[str, np.ndarray]:
         s = self._state
         return {name: read(s).copy() for name, read in self._readers}
 
     def _info(self, invalid: bool = False, terms: dict[str, float] | None = None) -> dict:
         s = self._state
-        return s.info(invalid, terms if terms is not None else reset_terms(self.reward, s))
+        info = s.info(invalid, terms if terms is not None else reset_terms(self.reward, s))
+        info.update(self.module_set.info(s.types))
+        return info
 
     # --- Gymnasium API --------------------------------------------------------------------
     def reset(
@@ -344,36 +345,28 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     ) -> tuple[dict[str, np.ndarray], dict]:
         super().reset(seed=seed)
         options = dict(options or {})
-        start = self._start(options)  # before the task: a random initial type follows the seed
-        unknown = sorted(set(options) - {"task"})
+        types = self.module_set.start(options, self.np_random)  # before the task: a random
+        unknown = sorted(set(options) - {"task"})  # initial type follows the seed
         if unknown:
             raise ValueError(f"unknown reset options {unknown}; known: ['task']")
-        task = draw_task(
-            self.generator, self.np_random, options.get("task"), self.decides_self_weight
-        )
+        self_weight = self.module_set.self_weight
+        task = draw_task(self.generator, self.np_random, options.get("task"), self_weight)
         f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
-        self.evaluator = self._evaluator(f_max)
-        self._memo, self._cand_memo = self._memos.of(task, f_max)
+        evaluator = self._evaluator(f_max)
+        memo, cand_memo = self._memos.of(task, f_max)
+        self._episode = Episode(self.rules, self.grid, self.module_set, evaluator, memo, cand_memo)
         kind = getattr(task, "kind", "total")
-        arrays = self.evaluator.task_arrays(task, np.asarray(task.wrenches, dtype=float), kind)
-        occ = self.grid.initial_occupancy()
-        state = AssemblyState(arrays, ((0, 0),), occ, self.grid.initial_mask.copy(), None, 0.0,
-                              False, evaluated=0, **start)  # fmt: skip
-        state = state.but(**self._decide(state, state.cells, state.types))
-        if state.success:  # one module suffices: nothing may be added (see Episode End)
-            state.mask = np.zeros_like(state.mask)
-        if self.lookahead:
-            state.candidates = candidate_rows(self, state)
-        self._state = state
+        arrays = evaluator.task_arrays(task, np.asarray(task.wrenches, dtype=float), kind)
+        self._state = initial_state(self._episode, arrays, types)
         return self._observation(), self._info()
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict]:
         state = self._require("step()")
         if state.done:
             raise ResetNeeded("the episode is over; call reset() before step()")
-        a = parse_action(action, self._n_actions)
+        a = parse_action(action, self.grid.n_actions)
         valid = state.success or (a is not None and bool(state.mask[a]))
-        self._state = nxt = transition(self, state, a, valid)
+        self._state = nxt = transition(self._episode, state, a, valid)
         reward, terms = step_reward(self.reward, state, a, nxt, valid)
         info = self._info(not valid, terms)
         return self._observation(), reward, nxt.terminated, nxt.truncated, info

@@ -12,29 +12,37 @@ from typing import Any
 import numpy as np
 
 from modquad_gym.core.validation import check_int, check_real
-from modquad_gym.geometry.module import ModuleType
+from modquad_gym.envs.assembly.types import Rules
 from modquad_gym.oracle import METHODS as ORACLE_METHODS
 from modquad_gym.tasks import TaskRequirement
 
 INVALID_ACTION_MODES = ("penalise", "terminate")
 
 
-def check_arguments(
-    module: Any, invalid_action: str, render_mode: str | None, lookahead: Any, metadata: dict
-) -> None:
-    """ValueError for a bad ``module``, ``invalid_action``, ``render_mode`` or ``lookahead``."""
-    if module is not None and not isinstance(module, ModuleType):
-        raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
+def make_rules(
+    n_max: Any, max_steps: Any, invalid_action: Any, lookahead: Any, n_max_limit: int
+) -> Rules:
+    """The episode :class:`~.types.Rules`; ValueError naming a bad argument. ``max_steps``
+    None means 4 * n_max; it lies in [n_max - 1, 4 * n_max_limit]."""
     if invalid_action not in INVALID_ACTION_MODES:
         raise ValueError(
             f"invalid_action must be one of {INVALID_ACTION_MODES}, got {invalid_action!r}"
         )
+    if not isinstance(lookahead, (bool, np.bool_)):
+        raise ValueError(f"lookahead must be a bool, got {lookahead!r}")
+    n_max = check_int(n_max, "n_max", 2, n_max_limit)
+    if max_steps is None:
+        max_steps = 4 * n_max
+    max_steps = check_int(max_steps, "max_steps", n_max - 1, 4 * n_max_limit)
+    return Rules(n_max, max_steps, invalid_action, bool(lookahead))
+
+
+def check_render_mode(render_mode: Any, metadata: dict) -> None:
+    """ValueError for a render mode the env does not have."""
     if render_mode is not None and render_mode not in metadata["render_modes"]:
         raise ValueError(
             f"render_mode must be None or one of {metadata['render_modes']}, got {render_mode!r}"
         )
-    if not isinstance(lookahead, (bool, np.bool_)):
-        raise ValueError(f"lookahead must be a bool, got {lookahead!r}")
 
 
 F_MAX_RANGE = (1e-9, 1e12)

@@ -3,25 +3,24 @@ child structure it would build, from support functions alone (see :mod:`.feature
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from modquad_gym.envs.assembly.features import CANDIDATE_FEATURES
-from modquad_gym.envs.assembly.types import AssemblyState
+from modquad_gym.envs.assembly.types import AssemblyState, Episode
 
 
-def candidate_rows(env: Any, state: AssemblyState) -> np.ndarray:
-    """float32 (actions, k) rows of ``env`` (a :class:`~.env.ModQuadAssemblyEnv`) in
-    ``state``: those of valid actions filled, the others zero."""
-    cand = np.zeros((env.grid.n_actions, CANDIDATE_FEATURES), dtype=np.float32)
+def candidate_rows(ep: Episode, state: AssemblyState) -> np.ndarray:
+    """float32 (actions, k) rows of ``state`` in episode ``ep``: those of valid actions
+    filled, the others zero."""
+    grid, modules = ep.grid, ep.modules
+    cand = np.zeros((grid.n_actions, CANDIDATE_FEATURES), dtype=np.float32)
     valid = np.flatnonzero(state.mask)
-    mass0 = env._mass(state.types)
-    G2 = env.grid.n_cells
-    for k in range(env.n_types):  # one child mass per type: one batch each
-        acts = valid if env.n_types == 1 else valid[valid // G2 == k]
+    mass0 = modules.mass(state.types)
+    G2 = grid.n_cells
+    for k in range(modules.n_types):  # one child mass per type: one batch each
+        acts = valid if modules.n_types == 1 else valid[valid // G2 == k]
         if len(acts):
-            keys = [env._key((*state.cells, env.cell_of(a)), (*state.types, k)) for a in acts]
-            mass = mass0 + env._masses[k] if env.n_types > 1 else mass0
-            cand[acts] = env.evaluator.candidate_rows(keys, state.task, mass, env._cand_memo)
+            keys = [modules.key((*state.cells, grid.cell_of(a)), (*state.types, k)) for a in acts]
+            mass = modules.child_mass(mass0, k)
+            cand[acts] = ep.evaluator.candidate_rows(keys, state.task, mass, ep.cand_memo)
     return cand

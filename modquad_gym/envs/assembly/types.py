@@ -1,8 +1,11 @@
-"""The typed state of one assembly episode (what Jumanji keeps in ``types.py``).
+"""The typed state of one assembly episode and the context its transitions read (what Jumanji
+keeps in ``types.py``).
 
-States are treated as immutable (not frozen, for speed): a transition never edits one in place,
+States are immutable: frozen dataclasses whose arrays are read-only. A transition never edits one,
 :meth:`AssemblyState.but` makes the next one, so a reward function sees the state before and
-after a step side by side.
+after a step side by side and a planner can branch from any stored state (``env.restore``).
+What a transition needs besides the state (the grid, the module set, the evaluator and the
+episode's memos of decisions) is an :class:`Episode`, passed explicitly.
 """
 
 from __future__ import annotations
@@ -40,7 +43,46 @@ class TaskArrays:
     lift_n: np.ndarray | None = None
 
 
-@dataclass
+@dataclass(frozen=True)
+class Rules:
+    """How episodes run (fixed at construction).
+
+    Attributes:
+        n_max: the largest number of modules.
+        max_steps: the step limit for truncation.
+        invalid_action: ``"penalise"`` or ``"terminate"``.
+        lookahead: whether states carry the ``"candidates"`` rows.
+    """
+
+    n_max: int
+    max_steps: int
+    invalid_action: str = "penalise"
+    lookahead: bool = False
+
+
+@dataclass(frozen=True)
+class Episode:
+    """The context of one episode's transitions: everything but the state.
+
+    Attributes:
+        rules: the :class:`Rules`.
+        grid: cells <-> actions and masks (:class:`~.grid.Grid`).
+        modules: the module set (:class:`~.modules.OneType` or :class:`~.modules.Palette`).
+        evaluator: the :class:`~.evaluator.StructureEvaluator` of the episode's f_max.
+        memo: the task's decisions, key -> (n_satisfied, structure vector) (shared by every
+            episode of the same task object: a structure met again costs no oracle call).
+        cand_memo: the task's lookahead rows, child key -> row.
+    """
+
+    rules: Rules
+    grid: Any
+    modules: Any
+    evaluator: Any
+    memo: dict
+    cand_memo: dict
+
+
+@dataclass(frozen=True)
 class AssemblyState:
     """Everything that changes during an episode.
 
@@ -86,11 +128,18 @@ class AssemblyState:
     def n_modules(self) -> int:
         return len(self.cells)
 
+    def __post_init__(self) -> None:
+        for name in _ARRAYS:
+            _freeze(getattr(self, name))
+
     def but(self, **changes: Any) -> AssemblyState:
-        """A copy with ``changes`` (arrays not named are shared: never edit them in place).
+        """A copy with ``changes`` (arrays not named are shared; every array is read-only).
         Same as ``dataclasses.replace`` without re-running ``__init__`` (the hot path)."""
+        for name in _ARRAYS:
+            if name in changes:
+                _freeze(changes[name])
         new = object.__new__(AssemblyState)
-        new.__dict__ = {**self.__dict__, **changes}
+        object.__setattr__(new, "__dict__", {**self.__dict__, **changes})
         return new
 
     def info(self, invalid: bool, terms: dict[str, float]) -> dict:
@@ -109,3 +158,11 @@ class AssemblyState:
             "invalid_action": invalid,
             "reward_terms": terms,
         }
+
+
+_ARRAYS = ("occupancy", "mask", "structure_vec", "types_onehot", "candidates")
+
+
+def _freeze(array: np.ndarray | None) -> None:
+    if array is not None:
+        array.flags.writeable = False
