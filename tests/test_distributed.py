@@ -155,13 +155,13 @@ def test_split_search_equals_serial(local_ray, monkeypatch):
     for seed in (1, 2):
         W = planted_wrenches(8, 12, seed)
         serial = exhaustive_search(W, n_max=8, chunk=97)
-        two = exhaustive_search(W, n_max=8, chunk=97, workers=2)
-        three = exhaustive_search(W, n_max=8, chunk=97, workers=3)
+        two = exhaustive_search(W, n_max=8, chunk=97, engine=Engine(2))
+        three = exhaustive_search(W, n_max=8, chunk=97, engine=Engine(3))
         assert serial.structure is not None
         assert serial.structure.key == two.structure.key == three.structure.key
         assert two.evaluated == three.evaluated  # each range learns alone: same work
     impossible = np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 50.0]])  # no structure: every range runs
-    r = exhaustive_search(impossible, n_max=8, chunk=97, workers=2)
+    r = exhaustive_search(impossible, n_max=8, chunk=97, engine=Engine(2))
     assert r.structure is None and r.certified
 
 

@@ -103,10 +103,12 @@ def test_centrosymmetric_finds_a_planted_centrosymmetric_structure(cells, block_
     W = planted_on(cells, 10, seed=n)
     result = centrosymmetric_search(W, n_max=n, block_seed=block_seed)
     assert result.structure is not None  # the planted structure is on the search's path
-    assert result.n_modules <= n and not result.certified
+    assert result.n_modules <= n
+    assert result.certified == (result.n_modules == result.lower_bound)  # met the exact bound
     assert result.structure.is_centrosymmetric()
     assert mq.feasible(result.structure.configuration_matrix(), W, method="scipy").all()
-    assert result.n_modules >= exhaustive_search(W, n_max=n).n_modules
+    optimum = exhaustive_search(W, n_max=n).n_modules
+    assert result.lower_bound <= optimum <= result.n_modules
     assert result.evaluated >= 1
 
 
@@ -128,6 +130,7 @@ def test_centrosymmetric_reports_none_when_no_centrosymmetric_structure_works():
         result = centrosymmetric_search(W, n_max=3, block_seed=block_seed)
         assert result.structure is None and result.n_modules is None
         assert not result.certified and result.evaluated == 3  # 1 module, 2 lines
+        assert result.lower_bound <= 3
     assert exhaustive_search(W, n_max=3).n_modules == 3  # the L itself is feasible
 
 
@@ -136,7 +139,8 @@ def test_centrosymmetric_levels_follow_algorithm_2():
     # structure made from a line by a pair of cells symmetric about its centre
     W = np.array([[0, 0, 1.0, 0, 0, 50.0]])
     result = centrosymmetric_search(W, n_max=5)
-    assert result.structure is None and not result.certified
+    assert result.structure is None  # and the level bounds prove that no structure works:
+    assert result.certified and result.lower_bound == 6 and "exact bounds" in result.proof
     lines = {((0, 0), (1, 0), (2, 0)), ((0, 0), (0, 1), (0, 2))}
     fives = 0
     for key in list(structure_levels(5))[-1]:

@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 
 import modquad_gym as mq
 import modquad_gym.bench.reference_search as reference
+from modquad_gym.core.distributed import Engine
 from modquad_gym.geometry import polyominoes
 from modquad_gym.geometry.structure import free_neighbours, normalise, structure_levels
 from modquad_gym.search import exhaustive_search, optimal_structures, scan_chunks
@@ -93,8 +94,8 @@ def test_answer_does_not_depend_on_chunk_or_workers():
     rng = np.random.default_rng(7)
     W = planted(9, 10, rng)
     answers = {
-        exhaustive_search(W, n_max=10, chunk=c, workers=w).structure.key
-        for c, w in [(16384, 1), (97, 1), (5000, 2)]
+        exhaustive_search(W, n_max=10, chunk=c, engine=e).structure.key
+        for c, e in [(16384, None), (97, None), (5000, Engine(2))]
     }
     assert len(answers) == 1
 

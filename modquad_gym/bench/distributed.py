@@ -100,12 +100,14 @@ def run_batch(tasks: list, n_max: int) -> list[dict]:
 
 def run_search(n_max: int, seed: int) -> list[dict]:
     from modquad_gym.bench.scaling import refuting_task
+    from modquad_gym.core.distributed import Engine
     from modquad_gym.search import exhaustive_search
 
     W = refuting_task(seed, n_max)
 
     def work(workers: int):
-        r = exhaustive_search(W, n_max=n_max, workers=workers)
+        engine = Engine(workers) if workers > 1 else None
+        r = exhaustive_search(W, n_max=n_max, engine=engine)
         return r.structure, r.evaluated
 
     rows, reference = [], None

@@ -15,7 +15,7 @@ import numpy as np
 from modquad_gym.bench import bench_args, int_option
 from modquad_gym.core.outputs import atomic_write
 from modquad_gym.search.bounds import compute_level_bounds, module_digest
-from modquad_gym.search.result import DEFAULT_MODULE
+from modquad_gym.search.problem import DEFAULT_MODULE
 
 
 def main(argv: list[str] | None = None) -> None:

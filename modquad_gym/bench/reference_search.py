@@ -19,7 +19,7 @@ fast one's on purpose: it is the code the fast checker started from, kept as it 
 
 Imported, not copied, because they are not the search: the result record
 (:class:`~modquad_gym.search.SearchResult`), reading the task
-(:func:`~modquad_gym.search.result.task_arrays`), and the force bound
+(:func:`~modquad_gym.search.problem.task_arrays`), and the force bound
 (:func:`~modquad_gym.search.force_lower_bound`, checked on its own in ``tests/test_search.py``:
 no structure below it is feasible). Every returned structure is re-verified by the exact DAQP LP.
 """
@@ -43,7 +43,8 @@ from modquad_gym.geometry.structure import (
 )
 from modquad_gym.oracle import TOL, Zonotope, feasible
 from modquad_gym.search.bounds import force_lower_bound
-from modquad_gym.search.result import DEFAULT_MODULE, SearchResult, task_arrays
+from modquad_gym.search.problem import DEFAULT_MODULE, task_arrays
+from modquad_gym.search.result import SearchResult
 
 _POOL_SIZE = 48
 

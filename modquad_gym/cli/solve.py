@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import functools
 import json
 from pathlib import Path
@@ -44,9 +45,10 @@ def add_solve(sub) -> None:
     p.add_argument(
         "--json",
         action="store_true",
-        help="print one JSON object per task per line: cells, n_modules, evaluated, "
-        "oracle_calls, feasible, certified, seconds (and modules, the type of each cell, "
-        "with --modules)",
+        help="print one JSON object per task per line: cells, n_modules, lower_bound (proved: "
+        "no structure of fewer modules works), evaluated, oracle_calls, feasible, certified "
+        "(n_modules == lower_bound), seconds (and modules, the type of each cell, with "
+        "--modules)",
     )
     p.add_argument(
         "--quiet",
@@ -65,9 +67,10 @@ def add_solve(sub) -> None:
 
 
 @functools.lru_cache(maxsize=4)
-def make_solver(method, n_max, model, seed, modules_text, workers, address, progress: bool):
+def make_solver(method, n_max, model, seed, modules_text, engine, progress: bool):
     """The solver for ``--method`` (PPO lives in the agents package, searches here); cached, so
-    a worker process that solves many tasks loads a PPO model once."""
+    a worker process that solves many tasks loads a PPO model once. ``engine`` (or None)
+    splits the large levels of one exhaustive search."""
     modules = palette_of(modules_text)
     if method in LEARNED:  # with --modules, a model trained with that palette
         from modquad_gym.solvers import make_solver as make_learned
@@ -80,27 +83,23 @@ def make_solver(method, n_max, model, seed, modules_text, workers, address, prog
     if method == "random":
         return lambda task: fn(task, n_max=n_max, seed=seed, **typed)
     if method == "exhaustive":
-        return lambda task: fn(
-            task, n_max=n_max, workers=workers, address=address, progress=progress, **typed
-        )
+        return lambda task: fn(task, n_max=n_max, engine=engine, progress=progress, **typed)
     return lambda task: fn(task, n_max=n_max, **typed)
 
 
-def solver(args: argparse.Namespace, workers: int = 1):
-    """The solver of ``args`` (``workers`` share the levels of one exhaustive search)."""
+def solver(args: argparse.Namespace, engine=None):
+    """The solver of ``args`` (``engine``'s workers share the levels of one exhaustive
+    search)."""
     progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
     modules = getattr(args, "modules", None)
-    address = getattr(args, "ray_address", None)
-    return make_solver(
-        args.method, args.n_max, args.model, args.seed, modules, workers, address, progress
-    )
+    return make_solver(args.method, args.n_max, args.model, args.seed, modules, engine, progress)
 
 
 def solve_file(options: tuple, path: Path):
     """Load and solve one task file (the unit of work of a batch): (task, result)."""
     method, n_max, model, seed, modules, csv_header = options
     task = common.load_task(path, csv_header)
-    result = make_solver(method, n_max, model, seed, modules, 1, None, False)(task)
+    result = make_solver(method, n_max, model, seed, modules, None, False)(task)
     return task, result
 
 
@@ -112,7 +111,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     paths = task_files(args.task)
     engine = Engine(args.workers, args.ray_address, local_default=1, option="--workers")
     if len(paths) == 1 or not engine.use_ray:
-        return solve_here(args, paths, engine.workers or engine.cluster_cpus())
+        return solve_here(args, paths, engine)
     # a batch: tasks spread over the workers, each search in one process
     options = (args.method, args.n_max, args.model, args.seed, args.modules, args.csv_header)
     failed: list[Failed] = []
@@ -144,22 +143,31 @@ def cmd_solve(args: argparse.Namespace) -> int:
     return batch_status(failed, len(paths))
 
 
-def solve_here(args: argparse.Namespace, paths: list[Path], workers: int) -> int:
+def solve_here(args: argparse.Namespace, paths: list[Path], engine) -> int:
     """Solve in this process, one task after the other (a single task's exhaustive search may
-    still split its large levels over ``workers``)."""
-    solve = solver(args, workers=workers if len(paths) == 1 else 1)
+    still split its large levels over ``engine``'s workers; Ray starts once, at the first
+    split level)."""
+    split = engine if len(paths) == 1 and engine.use_ray else None
+    solve = solver(args, engine=split)
     failed = []
-    for path in paths:
-        try:
-            task = common.load_task(path, args.csv_header)
-        except (ValueError, OSError) as exc:
-            if len(paths) == 1:
-                raise
-            failed.append(exc)
-            report_error(one_line(exc))
-            continue
-        print_result(args, path, task, solve(task))
+    with split or contextlib.nullcontext():
+        for path in paths:
+            failed += solve_path(args, path, solve, single=len(paths) == 1)
     return batch_status(failed, len(paths))
+
+
+def solve_path(args: argparse.Namespace, path: Path, solve, single: bool) -> list[Exception]:
+    """Load, solve and print one task file; a file that cannot be read is reported (raised
+    when it is the only one) and returned."""
+    try:
+        task = common.load_task(path, args.csv_header)
+    except (ValueError, OSError) as exc:
+        if single:
+            raise
+        report_error(one_line(exc))
+        return [exc]
+    print_result(args, path, task, solve(task))
+    return []
 
 
 def print_result(args: argparse.Namespace, path, task, result) -> None:
@@ -178,7 +186,9 @@ def print_result(args: argparse.Namespace, path, task, result) -> None:
             "one may still exist; --method exhaustive decides)"
         )
     else:
-        cert = " (certified minimum)" if result.certified else ""
+        cert = (
+            " (certified minimum)" if result.certified else f" (lower bound {result.lower_bound})"
+        )
         print(f"  {result.n_modules} modules{cert}: cells {list(result.structure.cells)}")
         if result.palette:
             print(f"  module types: {[m.name for m in result.structure.modules]}")

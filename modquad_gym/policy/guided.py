@@ -25,8 +25,8 @@ from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
 from modquad_gym.policy.ppo import PPOSolver
 from modquad_gym.search import SearchResult, verified
-from modquad_gym.search.bounds import force_lower_bound, level_excluded
-from modquad_gym.search.result import SearchRun, first_possible_level
+from modquad_gym.search.bounds import first_possible_level, force_lower_bound, level_excluded
+from modquad_gym.search.problem import SearchProblem
 from modquad_gym.tasks import TaskRequirement
 
 
@@ -41,8 +41,7 @@ def lower_bound(W: np.ndarray, f_max: float, module, n_max: int) -> int:
 def typed_lower_bound(task: TaskRequirement, palette: list, n_max: int) -> int:
     """The smallest module count the count bound of the typed search leaves for several
     module types (self-weight included for external tasks; n_max + 1 when it leaves none)."""
-    run = SearchRun("bound", task, n_max, None, None, n_max, modules=palette)
-    n, _ = first_possible_level(run)
+    n, _ = first_possible_level(SearchProblem.build(task, n_max, modules=palette))
     return min(n, n_max + 1)
 
 
@@ -136,7 +135,7 @@ class GuidedSolver(PPOSolver):
             proof = "lower bound reached"
         else:
             proof = f"exact bounds rule out every level up to {self.n_max}"
-        return self._result(best, len(evaluated), oracle_calls, t0, certified, proof)
+        return self._result(best, len(evaluated), oracle_calls, t0, certified, proof, bound)
 
     def _child_key(self, s: Structure, cell: tuple, type_index: int) -> Any:
         """The translation-normalised key of ``s`` with a module of ``type_index`` at ``cell``."""

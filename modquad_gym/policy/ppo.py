@@ -198,8 +198,10 @@ class PPOSolver:
         t0: float,
         certified: bool = False,
         proof: str = "",
+        lower_bound: int | None = None,
     ) -> SearchResult:
-        """The search record of a solve that started at ``t0`` and kept ``best``."""
+        """The search record of a solve that started at ``t0`` and kept ``best`` (with the
+        proved ``lower_bound`` on the module count, when the solver knows one)."""
         return SearchResult(
             structure=best,
             n_modules=best.n_modules if best is not None else None,
@@ -210,6 +212,7 @@ class PPOSolver:
             method=self.name,
             n_max=self.n_max,
             proof=proof,
+            lower_bound=lower_bound,
         )
 
     def __repr__(self) -> str:

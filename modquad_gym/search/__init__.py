@@ -1,20 +1,25 @@
 """Searches for the smallest structure whose feasible wrenches contain a task (paper Sec. V).
 
+* :mod:`.problem`: :class:`SearchProblem`, the validated arguments every search shares;
 * :mod:`.exhaustive`: the certified exhaustive search and the whole minimal level;
 * :mod:`.typed`: its pairs of shapes and type assignments (several types, or self-weight);
 * :mod:`.levels`: the size of each level and its progress bar;
 * :mod:`.baselines`: the centrosymmetric heuristic (Algorithm 2), greedy and random;
-* :mod:`.bounds`: exact lower bounds (force, level) that rule out whole levels;
+* :mod:`.bounds`: exact lower bounds (force, count, level) that rule out whole levels;
+* :mod:`.partial`: searching only the structures that contain a partial one (``start=``);
 * :mod:`.checker` and :mod:`.supports`: deciding a task against many structures.
 
 Every returned structure is re-verified by the exact DAQP LP oracle, independently of the path
 that found it. Counts follow the paper: ``evaluated`` is the number of configurations whose
 feasibility against the task was decided; ``oracle_calls`` the number of wrench-structure tests
-(a rejection by a cached separating direction counts as one).
+(a rejection by a cached separating direction counts as one). Every result carries a proved
+``lower_bound`` on the module count and is ``certified`` when its answer meets it
+(:mod:`.result`). This package never imports Ray: a caller that wants a level split over
+workers passes an engine (:class:`modquad_gym.core.distributed.Engine`).
 """
 
 from modquad_gym.search.baselines import centrosymmetric_search, greedy_search, random_search
-from modquad_gym.search.bounds import force_lower_bound, level_bounds
+from modquad_gym.search.bounds import bound_levels, force_lower_bound, level_bounds
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.search.exhaustive import (
     exhaustive_search,
@@ -22,6 +27,7 @@ from modquad_gym.search.exhaustive import (
     optimal_structures,
     scan_chunks,
 )
+from modquad_gym.search.problem import SearchProblem
 from modquad_gym.search.result import Optima, SearchResult, verified
 
 SEARCHES = {
@@ -35,8 +41,10 @@ SEARCHES = {
 __all__ = [
     "SEARCHES",
     "Optima",
+    "SearchProblem",
     "SearchResult",
     "TaskChecker",
+    "bound_levels",
     "centrosymmetric_search",
     "exhaustive_search",
     "force_lower_bound",

@@ -5,11 +5,12 @@
 * :func:`greedy_search`: attach the module that most increases the satisfied share.
 * :func:`random_search`: attach modules at random free cells.
 
-None is certified minimal; each returns at once when the exact force bound proves the task
-impossible up to ``n_max``. With ``modules=[...]`` each also chooses module types: the
-centrosymmetric partner gets the same type (so the centre of mass stays put), greedy tries every
-(cell, type) child, random draws a type with each cell. With one type and a ``total`` task each
-runs exactly as before.
+Each reports the exact lower bound the force (or count) and level bounds prove
+(:func:`.bounds.bound_levels`), so an answer is certified when it meets it; each returns at once
+when the exact force bound proves the task impossible up to ``n_max``. With ``modules=[...]``
+each also chooses module types: the centrosymmetric partner gets the same type (so the centre
+of mass stays put), greedy tries every (cell, type) child, random draws a type with each cell.
+With one type and a ``total`` task each runs exactly as before.
 """
 
 from __future__ import annotations
@@ -29,8 +30,14 @@ from modquad_gym.geometry.structure import (
     normalise_typed,
 )
 from modquad_gym.oracle import Zonotope, margin
-from modquad_gym.search.bounds import NO_SIZE, force_lower_bound
-from modquad_gym.search.result import SearchResult, SearchRun, first_possible_level
+from modquad_gym.search.bounds import (
+    NO_SIZE,
+    bound_levels,
+    first_possible_level,
+    force_lower_bound,
+)
+from modquad_gym.search.problem import SearchProblem
+from modquad_gym.search.result import SearchResult, SearchRun
 
 MAX_MODULES = 64
 """Module limit of the constructive baselines (each step decides O(n) children of 4n rotors)."""
@@ -40,25 +47,37 @@ MAX_CENTROSYMMETRIC_MODULES = 21
 (249,283 structures at 21 modules, about 3.7 million at 25), and each level is held in memory."""
 
 
-def _impossible(run: SearchRun) -> SearchResult | None:
+def _impossible(run: SearchRun, limit: int) -> SearchResult | None:
     """The result at once when the force bound rules out every size up to n_max."""
-    if run.homogeneous_total:
-        n_lb = force_lower_bound(run.W, run.module, run.f_max)
+    p = run.problem
+    none_left = p.n_max + 1
+    if p.homogeneous_total:
+        n_lb = force_lower_bound(p.wrenches, p.module, p.f_max)
         if n_lb == NO_SIZE:
             proof = "force bound: no number of modules can exert the task's forces"
-            return run.finish(None, False, proof=proof)
-        if n_lb > run.n_max:
-            return run.finish(None, False, proof=f"force bound: needs at least {n_lb} modules")
+            return run.finish(None, none_left, proof=proof)
+        if n_lb > p.n_max:
+            return run.finish(None, none_left, proof=f"force bound: needs at least {n_lb} modules")
     else:
-        n_lb, proof = first_possible_level(run)
+        n_lb, proof = first_possible_level(p)
         if proof:
-            return run.finish(None, False, proof=proof)
-    run.check_budget(n_lb)
+            return run.finish(None, none_left, proof=proof)
+    run.check_budget(limit, n_lb)
     return None
 
 
+def _done(run: SearchRun, structure: Structure | None) -> SearchResult:
+    """The result of a heuristic with the lower bound the exact bounds prove."""
+    bound = bound_levels(run.problem)
+    proof = ""
+    if structure is None and bound > run.problem.n_max:
+        proof = f"exact bounds rule out every level up to {run.problem.n_max}"
+    return run.finish(structure, bound, proof=proof)
+
+
 def _typed(run: SearchRun, cells: Iterable[Cell], types: Iterable[int]) -> Structure:
-    return Structure.from_trusted(tuple(cells), modules=tuple(run.palette[t] for t in types))
+    palette = run.problem.palette
+    return Structure.from_trusted(tuple(cells), modules=tuple(palette[t] for t in types))
 
 
 def centrosymmetric_search(
@@ -80,37 +99,36 @@ def centrosymmetric_search(
     this way, not certified minimal overall. With ``modules`` every seed type and every type
     of each added pair is tried (a pair shares one type, diagonal pairs of the block too).
     """
-    run = SearchRun(
-        "centrosymmetric", task, n_max, f_max, module, MAX_CENTROSYMMETRIC_MODULES, modules, kind
-    )
-    if (done := _impossible(run)) is not None:
+    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    run = SearchRun("centrosymmetric", problem)
+    if (done := _impossible(run, MAX_CENTROSYMMETRIC_MODULES)) is not None:
         return done
-    K = len(run.palette)
+    K = len(problem.palette)
     if K == 1:
         fronts: dict[int, list] = {1: [((0, 0),)]}
-        if block_seed and run.n_max >= 4:
+        if block_seed and problem.n_max >= 4:
             fronts[4] = [((0, 0), (0, 1), (1, 0), (1, 1))]
     else:
         fronts = {1: [(((0, 0), t),) for t in range(K)]}
-        if block_seed and run.n_max >= 4:
+        if block_seed and problem.n_max >= 4:
             fronts[4] = [
                 tuple(sorted((((0, 0), a), ((1, 1), a), ((0, 1), b), ((1, 0), b))))
                 for a in range(K)
                 for b in range(K)
             ]
-    for n in range(1, run.n_max + 1):
+    for n in range(1, problem.n_max + 1):
         level = fronts.get(n, [])
         for key in level:
             if K == 1:
-                s = Structure.from_trusted(key, run.module)
+                s = Structure.from_trusted(key, problem.module)
             else:
                 s = _typed(run, (c for c, _ in key), (t for _, t in key))
             if run.checker.check(s):
-                return run.finish(s, False)
-        if level and n + 2 <= run.n_max:
+                return _done(run, s)
+        if level and n + 2 <= problem.n_max:
             grow = grow_symmetric(level) if K == 1 else grow_symmetric_typed(level, K)
             fronts[n + 2] = list(dict.fromkeys(fronts.setdefault(n + 2, []) + grow))
-    return run.finish(None, False)
+    return _done(run, None)
 
 
 def _symmetric_pairs(cells: Key) -> Iterator[tuple[Cell, Cell]]:
@@ -165,13 +183,14 @@ def greedy_search(
     their first cell in sorted order; equal structures score equally, so results are unchanged.
     With ``modules`` the first module is the best-scoring type and every child is a (cell,
     type) pair (ties by cell order, then palette order)."""
-    run = SearchRun("greedy", task, n_max, f_max, module, MAX_MODULES, modules, kind)
-    if (done := _impossible(run)) is not None:
+    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    run = SearchRun("greedy", problem)
+    if (done := _impossible(run, MAX_MODULES)) is not None:
         return done
-    f, checker = run.f_max, run.checker
+    f, checker, palette = problem.f_max, run.checker, problem.palette
 
     def score(s: Structure) -> tuple[bool, tuple[float, float]]:
-        W = run.rotor_wrenches(s)
+        W = problem.rotor_wrenches(s.mass)
         z = Zonotope(s.configuration_matrix(), f)
         checker.evaluated += 1
         checker.oracle_calls += len(W)
@@ -181,30 +200,30 @@ def greedy_search(
         total = float(np.clip(margin(z.A, W, f, method="daqp"), -1.0, 1.0).sum())
         return False, (float(ok.mean()), total)
 
-    if len(run.palette) == 1:
-        current = Structure([(0, 0)], run.module)
+    if len(palette) == 1:
+        current = Structure([(0, 0)], problem.module)
         checker.evaluated += 1
-        W = run.rotor_wrenches(current)
+        W = problem.rotor_wrenches(current.mass)
         checker.oracle_calls += len(W)
         if Zonotope(current.configuration_matrix(), f).decide_certified(W).all():
-            return run.finish(current, False)
+            return _done(run, current)
     else:
         current, best_score = None, None
-        for m in run.palette:
+        for m in palette:
             s = Structure([(0, 0)], module=m)
             done, sc = score(s)
             if done:
-                return run.finish(s, False)
+                return _done(run, s)
             if best_score is None or sc > best_score:
                 current, best_score = s, sc
-    while current.n_modules < run.n_max:
+    while current.n_modules < problem.n_max:
         best, best_score = None, None
         seen: set[Structure] = set()
         for cell in current.attachable_cells():  # sorted: ties go to the first cell
-            for m in run.palette:
+            for m in palette:
                 child = (
                     current.with_cells(cell)
-                    if len(run.palette) == 1
+                    if len(palette) == 1
                     else Structure(current.cells + (cell,), modules=current.modules + (m,))
                 )
                 if child in seen:  # the same structure up to translation: already scored
@@ -212,11 +231,11 @@ def greedy_search(
                 seen.add(child)
                 done, sc = score(child)
                 if done:
-                    return run.finish(child, False)
+                    return _done(run, child)
                 if best_score is None or sc > best_score:
                     best, best_score = child, sc
         current = best
-    return run.finish(None, False)
+    return _done(run, None)
 
 
 def random_search(
@@ -233,11 +252,12 @@ def random_search(
     """Baseline: attach modules at uniformly random free cells until the task is satisfied or
     ``n_max`` is reached, ``restarts`` times; returns the smallest feasible structure seen.
     With several ``modules`` each module's type is drawn uniformly too."""
-    run = SearchRun("random", task, n_max, f_max, module, MAX_MODULES, modules, kind)
-    if (done := _impossible(run)) is not None:
+    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    run = SearchRun("random", problem)
+    if (done := _impossible(run, MAX_MODULES)) is not None:
         return done
     rng = np.random.default_rng(None if seed is None else check_int(seed, "seed", low=0))
-    K = len(run.palette)
+    K = len(problem.palette)
     best: Structure | None = None
     for _ in range(max(1, int(restarts))):
         cells: list[Cell] = [(0, 0)]
@@ -246,13 +266,13 @@ def random_search(
             if K > 1:
                 s = _typed(run, cells, types)
             else:
-                s = Structure.from_trusted(tuple(cells), run.module)
+                s = Structure.from_trusted(tuple(cells), problem.module)
             if best is not None and s.n_modules >= best.n_modules:
                 break
             if run.checker.check(s):
                 best = s
                 break
-            if s.n_modules >= run.n_max:
+            if s.n_modules >= problem.n_max:
                 break
             options = free_neighbours(cells)
             cells.append(options[int(rng.integers(len(options)))])
@@ -260,4 +280,4 @@ def random_search(
                 types.append(int(rng.integers(K)))
     if best is not None:
         best = Structure(best.cells, modules=best.modules)
-    return run.finish(best, False)
+    return _done(run, best)

@@ -18,6 +18,9 @@
   task force f (plus M g e_z for ``external`` tasks) has N . f above sum_t c_t h_t(N) (widened
   by the oracle's tolerance) for a facet normal N of the sum (a cross product of two rotor
   directions) or a coordinate axis. The level bounds apply to the counts of one type alone.
+
+:func:`bound_levels` combines them for a :class:`~.problem.SearchProblem`: the smallest module
+count none of them rules out, the lower bound every search reports before searching.
 """
 
 from __future__ import annotations
@@ -29,14 +32,19 @@ import os
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from modquad_gym.core.outputs import atomic_write
 from modquad_gym.geometry.module import ModuleType
-from modquad_gym.geometry.polyominoes import PolyominoStream
+from modquad_gym.geometry.polyominoes import A001168, PolyominoStream
 from modquad_gym.oracle import RESIDUAL_TOL, TOL
 from modquad_gym.search import supports
+from modquad_gym.tasks import rotor_wrenches
+
+if TYPE_CHECKING:
+    from modquad_gym.search.problem import SearchProblem
 
 NO_SIZE = 10**9
 """What :func:`force_lower_bound` returns when no number of modules can exert the forces."""
@@ -202,3 +210,85 @@ def level_excluded(W: np.ndarray, f_max: float, module: ModuleType, n: int) -> b
     values = (level_directions() @ W.T).max(axis=1)
     widened = f_max * (bounds[0] + 0.5 * TOL * bounds[1]) + supports.SLACK
     return bool((values > widened).any())
+
+
+MAX_COUNT_VECTORS = 50_000
+"""Most count vectors (ways of choosing n modules from the palette's types) a bound
+enumerates; past it :func:`bound_levels` stops raising its bound (still a valid bound)."""
+
+
+def n_count_vectors(n: int, k: int) -> int:
+    """How many count vectors of n modules of k types there are."""
+    return math.comb(n + k - 1, k - 1)
+
+
+def counts_left(problem: SearchProblem, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(counts (C, K), ok (C,)): the count vectors of level n and which of them the count
+    bound and, for one type alone, the level bound leave."""
+    p = problem
+    counts = count_vectors(n, len(p.palette))
+    ok = counts_possible(p.wrenches, list(p.palette), counts, p.f_max, p.kind)
+    for i, c in enumerate(counts):
+        if ok[i] and int(c.max()) == n:  # one type alone: the level bounds apply
+            m = p.palette[int(np.argmax(c))]
+            Wn = rotor_wrenches(p.wrenches, p.kind, n * m.mass)
+            if level_excluded(Wn, p.f_max, m, n):
+                ok[i] = False
+    return counts, ok
+
+
+def allowed_counts(problem: SearchProblem, n: int) -> tuple[np.ndarray, int]:
+    """(allowed, pairs skipped) for level n of a typed search: a bool array indexed by count
+    vectors (one axis of length n + 1 per palette type) of the counts :func:`counts_left`
+    leaves; and how many (shape, assignment) pairs the others hold (fixed polyominoes of n
+    cells times the multinomial of each count vector)."""
+    counts, ok = counts_left(problem, n)
+    allowed = np.zeros((n + 1,) * len(problem.palette), dtype=bool)
+    allowed[tuple(counts.T)] = ok
+    shapes = A001168[n - 1] if n <= len(A001168) else 0
+    skipped = shapes * sum(_multinomial(c) for c, good in zip(counts, ok) if not good)
+    return allowed, skipped
+
+
+def first_possible_level(problem: SearchProblem) -> tuple[int, str]:
+    """(the smallest module count the count bound leaves, "") or (NO_SIZE, proof) when it
+    rules out every count up to n_max."""
+    p = problem
+    for n in range(1, p.n_max + 1):
+        counts = count_vectors(n, len(p.palette))
+        if counts_possible(p.wrenches, list(p.palette), counts, p.f_max, p.kind).any():
+            return n, ""
+    lift = " and lift its own weight" if p.kind == "external" else ""
+    return (
+        NO_SIZE,
+        f"count bound: no mix of up to {p.n_max} modules can exert the task's forces{lift}",
+    )
+
+
+def _multinomial(c: np.ndarray) -> int:
+    out, total = 1, 0
+    for k in c:
+        total += int(k)
+        out *= math.comb(total, int(k))
+    return out
+
+
+def bound_levels(problem: SearchProblem) -> int:
+    """The smallest module count that no exact bound rules out, n_max + 1 when they rule out
+    every count up to n_max: one type and a ``total`` task, the force bound and then the level
+    bounds; otherwise the count bound (forces, and weight for ``external`` tasks, per count
+    vector) and the level bounds of one type alone. Proved: no structure of fewer modules
+    satisfies the task."""
+    p = problem
+    if p.homogeneous_total:
+        n = force_lower_bound(p.wrenches, p.module, p.f_max)
+        while n <= p.n_max and level_excluded(p.wrenches, p.f_max, p.module, n):
+            n += 1
+        return min(n, p.n_max + 1)
+    K = len(p.palette)
+    n = 1
+    while n <= p.n_max and n_count_vectors(n, K) <= MAX_COUNT_VECTORS:
+        if counts_left(p, n)[1].any():
+            break
+        n += 1
+    return min(n, p.n_max + 1)

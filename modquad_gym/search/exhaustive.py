@@ -6,34 +6,39 @@ feasible structure is the certified minimum, and the structure returned is the f
 one in canonical order, whatever the chunk size or the number of workers. Nothing is pruned
 except by exact bounds (:mod:`.bounds`) and cached separating directions (:mod:`.checker`).
 
-Large levels are split into ranges of chunks decided as Ray tasks
-(:mod:`modquad_gym.core.distributed`; :func:`scan_chunks` decides any range alone); the answer
-is the first feasible structure of the first range that has one, so it is the same for any number of
-workers, on one machine or a cluster.
+Large levels may be split into ranges of chunks decided in parallel by an ``engine`` the caller
+passes in (the CLI and the benchmarks pass :class:`modquad_gym.core.distributed.Engine`: Ray
+tasks; :func:`scan_chunks` decides any range alone); the answer is the first feasible structure
+of the first range that has one, so it is the same for any number of workers, on one machine or
+a cluster. This package never imports Ray itself.
 
 Several module types (``modules=[...]``) or a task of kind ``external``: every (shape, type
 assignment) pair is visited level by level, by :mod:`.typed` (re-exported here).
+
+``start=``: only the structures containing a given partial structure are searched
+(:mod:`.partial`); the result is certified among them.
 """
 
 from __future__ import annotations
 
-import os
 import time
-from collections.abc import Iterator, Sequence
-from contextlib import nullcontext
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
 from functools import partial
 from itertools import islice
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
-from modquad_gym.core.distributed import Engine
 from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream, level_chunks
 from modquad_gym.geometry.structure import Key, Structure, normalise, normalise_typed
 from modquad_gym.search.bounds import NO_SIZE, force_lower_bound, level_excluded
 from modquad_gym.search.checker import TaskChecker
-from modquad_gym.search.levels import level_progress, level_size
+from modquad_gym.search.levels import MAX_MODULES, LevelAnswer, level_progress, level_size
+from modquad_gym.search.partial import Partial, make_partial
+from modquad_gym.search.problem import SearchProblem
 from modquad_gym.search.result import KeptKeys, Optima, SearchResult, SearchRun
 from modquad_gym.search.typed import (
     MAX_PAIRS,
@@ -44,15 +49,46 @@ from modquad_gym.search.typed import (
     typed_structure,
 )
 
-MAX_MODULES = 16
-"""The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8."""
-
 PARALLEL_FROM = 100_000
-"""Levels with at least this many structures are split into Ray tasks (with workers > 1)."""
+"""Levels with at least this many structures are split into ranges (with an engine)."""
 
 CHUNKS_PER_RANGE = 16
-"""Chunks per Ray task of a split level (262,144 structures with the default chunk): each task
-starts a fresh cache of separating directions, so fewer, longer tasks waste less."""
+"""Chunks per range of a split level (262,144 structures with the default chunk): each range
+starts a fresh cache of separating directions, so fewer, longer ranges waste less."""
+
+
+class OrderedEngine(Protocol):
+    """What a search needs to split a level: ``first(fn, items, accept, on_result=)`` returns
+    the results of items 0..k in item order, k the first item whose result is accepted (every
+    item when none is), as :meth:`modquad_gym.core.distributed.Engine.first` does."""
+
+    def first(
+        self,
+        fn: Callable[[Any], Any],
+        items: Iterable[Any],
+        accept: Callable[[Any], bool],
+        *,
+        on_result: Callable[[int, Any], None] | None = None,
+    ) -> list[Any]: ...
+
+
+class ChunkScan(NamedTuple):
+    """What :func:`scan_chunks` found in a range of chunks."""
+
+    key: Key | None
+    evaluated: int
+    oracle_calls: int
+
+
+@dataclass
+class RangeScan:
+    """One range of a split level, decided alone (one engine task)."""
+
+    key: Key | None  # the first feasible structure of the range, or None
+    evaluated: int
+    oracle_calls: int
+    pool: np.ndarray  # the separating directions known at the end
+    seen: int  # structures of the range decided or passed
 
 
 def _key(cells: np.ndarray) -> Key:
@@ -68,29 +104,30 @@ def scan_chunks(
     start: int,
     stop: int,
     pool: np.ndarray | None = None,
-) -> tuple[Key | None, int, int]:
-    """Decide chunks [start, stop) of level n: (key of the first feasible structure or None,
-    structures evaluated, oracle calls). ``pool`` seeds the separating directions."""
-    checker = _seeded_checker(W, f_max, module, pool)
-    key, _ = _first_key(checker, level_chunks(n, chunk, start, stop))
-    return key, checker.evaluated, checker.oracle_calls
+) -> ChunkScan:
+    """Decide chunks [start, stop) of level n: the key of the first feasible structure or None,
+    structures evaluated, oracle calls. ``pool`` seeds the separating directions."""
+    checker = _seeded_checker(TaskChecker(W, f_max, module), pool)
+    key, _ = _first_key(checker, level_chunks(n, chunk, start, stop), None)
+    return ChunkScan(key, checker.evaluated, checker.oracle_calls)
 
 
-def _seeded_checker(W, f_max, module, pool) -> TaskChecker:
-    checker = TaskChecker(W, f_max, module)
+def _seeded_checker(checker: TaskChecker, pool: np.ndarray | None) -> TaskChecker:
     if pool is not None and len(pool):
         checker.adopt(pool)
     return checker
 
 
-def _first_key(checker: TaskChecker, chunks) -> tuple[Key | None, int]:
-    """(key of the first feasible structure of ``chunks``, structures in the chunks read)."""
+def _first_key(checker: TaskChecker, chunks, part: Partial | None) -> tuple[Key | None, int]:
+    """(key of the first feasible structure of ``chunks`` (containing ``part``), structures
+    in the chunks read)."""
     seen = 0
     for cells in chunks:
         seen += len(cells)
-        i = checker.first_feasible(cells)
+        kept = cells if part is None else cells[part.mask(cells)]
+        i = checker.first_feasible(kept)
         if i is not None:
-            return _key(cells[i]), seen
+            return _key(kept[i]), seen
     return None, seen
 
 
@@ -107,49 +144,57 @@ def _ranges(n: int, chunk: int) -> Iterator[tuple[int, tuple]]:
         stream.skip(count)
 
 
-def _scan_range(W, f_max, module, n, chunk, pool, job) -> tuple:
-    """One range (a Ray task): (first feasible key or None, evaluated, oracle calls, the
-    separating directions known at the end, structures decided or passed)."""
+def _scan_range(
+    problem: SearchProblem, n: int, chunk: int, pool, part: Partial | None, job
+) -> RangeScan:
+    """One range (an engine task), decided with a fresh checker seeded with ``pool``."""
     count, state = job
     stream = PolyominoStream(n, chunk)
     stream.restore(state)
-    checker = _seeded_checker(W, f_max, module, pool)
-    key, seen = _first_key(checker, islice(stream, count))
-    return key, checker.evaluated, checker.oracle_calls, checker.pool, seen
+    checker = _seeded_checker(problem.checker(), pool)
+    key, seen = _first_key(checker, islice(stream, count), part)
+    return RangeScan(key, checker.evaluated, checker.oracle_calls, checker.pool, seen)
 
 
-def _scan_parallel(run: SearchRun, n: int, chunk: int, engine: Engine, progress) -> Key | None:
+def _scan_parallel(
+    run: SearchRun, n: int, chunk: int, engine: OrderedEngine, progress, part
+) -> Key | None:
     """The first feasible structure of level n: ranges of chunks as tasks on ``engine``, each
     seeded with the separating directions known before the level; ranges after the first
     answer are cancelled, the work of ranges up to it is counted. With no answer, the
     directions the ranges learnt are kept for the next level."""
 
-    def advance(_i: int, result) -> None:
+    def advance(_i: int, result: RangeScan) -> None:
         if progress is not None:
-            progress.update(result[4])
+            progress.update(result.seen)
 
-    scan = partial(_scan_range, run.W, run.f_max, run.module, n, chunk, run.checker.pool.copy())
-    results = engine.first(scan, _ranges(n, chunk), lambda r: r[0] is not None, on_result=advance)
-    for _, evaluated, calls, _, _ in results:
-        run.checker.evaluated += evaluated
-        run.checker.oracle_calls += calls
-    key = results[-1][0]
+    pool = run.checker.pool.copy()
+    scan = partial(_scan_range, run.problem, n, chunk, pool, part)
+    results: list[RangeScan] = engine.first(
+        scan, _ranges(n, chunk), lambda r: r.key is not None, on_result=advance
+    )
+    for r in results:
+        run.checker.evaluated += r.evaluated
+        run.checker.oracle_calls += r.oracle_calls
+    key = results[-1].key
     if key is None:  # newest first: the last ranges' directions, then the earlier ones
-        run.checker.adopt(np.vstack([r[3] for r in reversed(results)]))
+        run.checker.adopt(np.vstack([r.pool for r in reversed(results)]))
     return key
 
 
-def _scan(run: SearchRun, n: int, chunk: int, engine: Engine | None, progress) -> Iterator[Key]:
-    """Keys of the feasible structures of level n, in canonical order (lazily); only the first
-    one when the level is split across ``engine``'s workers."""
+def _scan(
+    run: SearchRun, n: int, chunk: int, engine: OrderedEngine | None, progress, part
+) -> Iterator[Key]:
+    """Keys of the feasible structures of level n (containing ``part``), in canonical order
+    (lazily); only the first one when the level is split across ``engine``'s workers."""
     size = level_size(n)
     if engine is not None and size is not None and size >= PARALLEL_FROM:
-        key = _scan_parallel(run, n, chunk, engine, progress)
+        key = _scan_parallel(run, n, chunk, engine, progress, part)
         if key is not None:
             yield key
         return
     for cells in PolyominoStream(n, chunk):
-        rest = cells
+        rest = cells if part is None else cells[part.mask(cells)]
         while len(rest):
             i = run.checker.first_feasible(rest)
             if i is None:
@@ -160,36 +205,52 @@ def _scan(run: SearchRun, n: int, chunk: int, engine: Engine | None, progress) -
             progress.update(len(cells))
 
 
-def _workers(workers: int | None) -> int:
-    if workers is None:
-        return max(1, min(os.cpu_count() or 1, 8))
-    return check_int(workers, "workers", low=1)
+@dataclass
+class Levels:
+    """Which levels a search visits: the first one, those ruled out before it, and the proof
+    when none is left."""
+
+    first: int
+    skipped: list[int]
+    proof: str
 
 
-def _levels_to_search(run: SearchRun) -> tuple[int, list[int], str]:
-    """(first level to search, levels ruled out as a whole, proof when none is left)."""
-    n_lb = force_lower_bound(run.W, run.module, run.f_max)
+def _levels_to_search(run: SearchRun, part: Partial | None) -> Levels:
+    """The levels left by the force bound (and by the size of ``part``)."""
+    p = run.problem
+    n_lb = force_lower_bound(p.wrenches, p.module, p.f_max)
     if n_lb == NO_SIZE:
-        return NO_SIZE, [], "force bound: no number of modules can exert the task's forces"
-    run.check_budget(n_lb)
-    skipped = list(range(1, min(n_lb, run.n_max + 1)))
-    if n_lb > run.n_max:
-        return n_lb, skipped, f"force bound: the task's forces need at least {n_lb} modules"
-    return n_lb, skipped, ""
+        return Levels(NO_SIZE, [], "force bound: no number of modules can exert the task's forces")
+    run.check_budget(MAX_MODULES, n_lb)
+    if part is not None:
+        n_lb = max(n_lb, part.size)
+    skipped = list(range(1, min(n_lb, p.n_max + 1)))
+    if n_lb > p.n_max:
+        proof = f"force bound: the task's forces need at least {n_lb} modules"
+        if part is not None and part.size > p.n_max:
+            proof = f"start: the partial structure already has {part.size} modules"
+        return Levels(n_lb, skipped, proof)
+    return Levels(n_lb, skipped, "")
 
 
-def _search_levels(run: SearchRun, chunk, engine, progress, first_only, keep=None):
-    n_lb, skipped, proof = _levels_to_search(run)
+def _search_levels(
+    run: SearchRun, chunk, engine, progress, first_only, part, keep=None
+) -> LevelAnswer:
+    """The first level holding a feasible structure (containing ``part``) and its feasible
+    structures (only the first with ``first_only``)."""
+    p = run.problem
+    levels = _levels_to_search(run, part)
+    skipped = levels.skipped
     run.skipped += sum(level_size(n) or 0 for n in skipped)
-    for n in range(n_lb, run.n_max + 1) if not proof else ():
-        if level_excluded(run.W, run.f_max, run.module, n):
+    for n in range(levels.first, p.n_max + 1) if not levels.proof else ():
+        if level_excluded(p.wrenches, p.f_max, p.module, n):
             skipped.append(n)
             run.skipped += level_size(n) or 0
             continue
         bar = level_progress(progress, n)
         try:
             found = KeptKeys(keep)  # the first `keep` keys, and how many
-            for key in _scan(run, n, chunk, engine if first_only else None, bar):
+            for key in _scan(run, n, chunk, engine if first_only else None, bar, part):
                 found.add(key)
                 if first_only:
                     break
@@ -197,8 +258,18 @@ def _search_levels(run: SearchRun, chunk, engine, progress, first_only, keep=Non
             if bar is not None:
                 bar.close()
         if found:
-            return n, found, skipped, proof
-    return None, [], skipped, proof
+            return LevelAnswer(n, found, skipped, levels.proof)
+    return LevelAnswer(None, [], skipped, levels.proof)
+
+
+def _exhaustive(
+    run: SearchRun, chunk: int, engine, progress: bool, first_only: bool, part, keep=None
+) -> LevelAnswer:
+    """The minimal level of ``run``'s problem: the one-type search or the typed one (``keep``:
+    the one-type search keeps that many structures of the level, counting them all)."""
+    if run.problem.homogeneous_total:
+        return _search_levels(run, chunk, engine, progress, first_only, part, keep)
+    return search_typed(run, progress, first_only, part)
 
 
 def exhaustive_search(
@@ -209,41 +280,47 @@ def exhaustive_search(
     *,
     modules: Sequence[ModuleType] | None = None,
     kind: str | None = None,
-    workers: int | None = 1,
-    address: str | None = None,
+    engine: OrderedEngine | None = None,
     chunk: int = DEFAULT_CHUNK,
     progress: bool = False,
+    start: Structure | Sequence[tuple[int, int]] | None = None,
 ) -> SearchResult:
     """Certified minimum-module structure for ``task`` (a (t, 6) wrench array or a
     TaskRequirement), searching every connected structure of up to ``n_max`` modules.
 
-    ``certified`` is always True: either the structure is minimal, or no structure of up to
-    ``n_max`` modules can satisfy the task. With ``workers`` > 1 (None: every local core, at
-    most 8) levels of at least :data:`PARALLEL_FROM` structures are split into Ray tasks, on
-    an embedded Ray or the cluster at ``address`` / ``RAY_ADDRESS``
-    (:mod:`modquad_gym.core.distributed`; serial when Ray is not installed). The answer does not
-    depend on ``workers``, ``address`` or ``chunk``; ``evaluated`` depends on ``chunk`` and on
-    whether levels are split (each range learns its own separating directions), not on the
-    number of workers. ``progress`` shows a bar per level on stderr.
+    ``certified`` is always True: either the structure is minimal (``lower_bound`` =
+    ``n_modules``: every smaller level was refuted, by exact bounds or structure by structure),
+    or no structure of up to ``n_max`` modules can satisfy the task (``lower_bound`` = n_max +
+    1). With an ``engine`` (e.g. ``modquad_gym.core.distributed.Engine(workers)``, used inside
+    its ``with`` block so Ray starts once) levels of at least :data:`PARALLEL_FROM` structures
+    are split into ranges decided in parallel. The answer does not depend on the engine or
+    ``chunk``; ``evaluated`` depends on ``chunk`` and on whether levels are split (each range
+    learns its own separating directions), not on the number of workers. ``progress`` shows a
+    bar per level on stderr.
 
     ``modules=[mA, mB, ...]`` searches every shape with every assignment of those types (one
     per cell; the module docstring gives the order and the pruning); the result's
     ``structure.modules`` lists each cell's type in ``structure.cells`` order. ``kind``
     overrides the task's kind (``external``: the rotors also carry the structure's weight).
-    The typed search runs in this process (``workers`` applies to one-type ``total`` tasks).
+    The typed search runs in this process (``engine`` applies to one-type ``total`` tasks).
+
+    ``start`` (a Structure, or connected (x, y) cells): only structures containing it up to
+    translation are searched (its module types too when it is a Structure of a search over
+    several types); the result is the certified minimum among them and ``lower_bound`` refers
+    to them.
     """
-    run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES, modules, kind)
+    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    run = SearchRun("exhaustive", problem)
     chunk = check_int(chunk, "chunk", low=1)
-    if not run.homogeneous_total:
-        n, found, skipped, proof = search_typed(run, progress, True)
-        structure = typed_structure(run, found[0]) if found else None
-        return run.finish(structure, True, skipped, proof)
-    workers = _workers(workers)
-    engine = Engine(workers, address) if workers > 1 else None
-    with engine or nullcontext():  # Ray starts at the first split level, once per search
-        n, keys, skipped, proof = _search_levels(run, chunk, engine, progress, True)
-    structure = Structure.from_trusted(keys[0], run.module) if keys else None
-    return run.finish(structure, True, skipped, proof)
+    part = None if start is None else make_partial(start, problem.palette, problem.typed)
+    answer = _exhaustive(run, chunk, engine, progress, True, part)
+    if answer.n is None:
+        return run.finish(None, problem.n_max + 1, answer.skipped, answer.proof)
+    if problem.homogeneous_total:
+        structure = Structure.from_trusted(answer.found[0], problem.module)
+    else:
+        structure = typed_structure(problem, answer.found[0])
+    return run.finish(structure, answer.n, answer.skipped, answer.proof)
 
 
 def optimal_level(
@@ -260,25 +337,22 @@ def optimal_level(
     feasible structure; this one decides the whole minimal level (in this process: batches of
     tasks are what :mod:`modquad_gym.core.distributed` spreads). ``max_keys`` keeps only the
     first structures (``count`` still counts them all), bounding memory on huge levels."""
-    run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES)
-    chunk = check_int(chunk, "chunk", low=1)
-    if max_keys is not None:
-        max_keys = check_int(max_keys, "max_keys", low=1)
-    if run.homogeneous_total:
-        n, keys, _, proof = _search_levels(run, chunk, None, False, False, max_keys)
-    else:  # an external task: self-weight, one type
-        n, found, _, proof = search_typed(run, False, False)
-        keys = KeptKeys(max_keys)
-        for f in found:
-            keys.add(typed_structure(run, f).key)
+    run = SearchRun("exhaustive", SearchProblem.build(task, n_max, f_max, module))
+    keep = None if max_keys is None else check_int(max_keys, "max_keys", low=1)
+    answer = _exhaustive(run, check_int(chunk, "chunk", low=1), None, False, False, None, keep)
+    keys = KeptKeys(keep)
+    for found in answer.found:  # an external task's are (cells, types) pairs: one type here
+        keys.add(
+            found if run.problem.homogeneous_total else typed_structure(run.problem, found).key
+        )
     return Optima(
-        n_modules=n,
+        n_modules=answer.n,
         keys=list(keys),
-        count=getattr(keys, "total", len(keys)),
+        count=getattr(answer.found, "total", keys.total),
         evaluated=run.checker.evaluated,
         oracle_calls=run.checker.oracle_calls,
         seconds=time.perf_counter() - run.t0,
-        proof=proof,
+        proof=answer.proof,
     )
 
 
@@ -299,21 +373,23 @@ def optimal_structures(
     an ``external`` task the keys are typed
     (:func:`~modquad_gym.geometry.structure.normalise_typed`; one-type structures of such a
     search too)."""
-    run = SearchRun("exhaustive", task, n_max, f_max, module, MAX_MODULES, modules, kind)
-    if not run.homogeneous_total:
-        n, found, _, _ = search_typed(run, False, False)
-        structures = (typed_structure(run, f) for f in found)
-        if run.typed:
-            return n, [normalise_typed(s.cells, s.modules) for s in structures]
-        return n, [s.key for s in structures]
-    n, keys, _, _ = _search_levels(run, check_int(chunk, "chunk", low=1), None, False, False)
-    return n, keys
+    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    run = SearchRun("exhaustive", problem)
+    answer = _exhaustive(run, check_int(chunk, "chunk", low=1), None, False, False, None)
+    if problem.homogeneous_total:
+        return answer.n, answer.found
+    structures = (typed_structure(problem, f) for f in answer.found)
+    if problem.typed:
+        return answer.n, [normalise_typed(s.cells, s.modules) for s in structures]
+    return answer.n, [s.key for s in structures]
 
 
 __all__ = [
     "MAX_MODULES",
     "MAX_PAIRS",
     "PAIRS_PER_BLOCK",
+    "ChunkScan",
+    "OrderedEngine",
     "assignments",
     "check_pair_budget",
     "exhaustive_search",

@@ -1,11 +1,36 @@
-"""Levels of the exhaustive searches: how many structures level n holds, and its progress bar.
+"""Levels of the exhaustive searches: how many structures level n holds, its progress bar, the
+search's module limit and the answer of a level-by-level search.
 
 Shared by the one-type search (:mod:`.exhaustive`) and the typed one (:mod:`.typed`).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+from typing import Any
+
 from modquad_gym.geometry.polyominoes import A001168
+
+MAX_MODULES = 16
+"""The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8."""
+
+
+@dataclass
+class LevelAnswer:
+    """What a level-by-level search found.
+
+    Attributes:
+        n: the first level holding a feasible structure, or None (none up to n_max).
+        found: its feasible structures in the search's order (keys for the one-type search,
+            (cells, types) pairs for the typed one); only the first when asked for one.
+        skipped: levels ruled out as a whole by exact bounds.
+        proof: how infeasibility was proven without searching, when it was ("" otherwise).
+    """
+
+    n: int | None
+    found: list[Any] = field(default_factory=list)
+    skipped: list[int] = field(default_factory=list)
+    proof: str = ""
 
 
 def level_size(n: int) -> int | None:

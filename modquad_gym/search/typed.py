@@ -25,8 +25,11 @@ import numpy as np
 from modquad_gym.core.resources import check_memory
 from modquad_gym.geometry.polyominoes import PolyominoStream
 from modquad_gym.geometry.structure import Structure, normalise_typed
-from modquad_gym.search.levels import level_progress, level_size
-from modquad_gym.search.result import SearchRun, allowed_counts, first_possible_level
+from modquad_gym.search.bounds import allowed_counts, first_possible_level
+from modquad_gym.search.levels import MAX_MODULES, LevelAnswer, level_progress, level_size
+from modquad_gym.search.partial import Partial
+from modquad_gym.search.problem import SearchProblem
+from modquad_gym.search.result import SearchRun
 
 MAX_PAIRS = 10**9
 """Most (shape, type assignment) pairs a level of the typed search may hold (fixed
@@ -54,73 +57,87 @@ def typed_search_bytes(K: int, n: int) -> int:
     return math.comb(n + K - 1, K - 1) * K * 48 + (n + 1) ** K + K**n * (72 + 9 * n)
 
 
-def check_typed_memory(run: SearchRun) -> None:
+def check_typed_memory(problem: SearchProblem) -> None:
     """Refuse before any allocation a typed search that would not fit in memory."""
-    K = len(run.palette)
-    check_memory(typed_search_bytes(K, run.n_max), f"n_max={run.n_max} with {K} module types")
+    n, K = problem.n_max, len(problem.palette)
+    check_memory(typed_search_bytes(K, n), f"n_max={n} with {K} module types")
 
 
-def check_pair_budget(run: SearchRun, first_level: int) -> None:
+def check_pair_budget(problem: SearchProblem, first_level: int) -> None:
     """Refuse before any work a typed search whose last level holds more than MAX_PAIRS."""
-    n, K = run.n_max, len(run.palette)
+    n, K = problem.n_max, len(problem.palette)
     size = level_size(n)
     if first_level > n:
         return
-    if n > run.n_max_limit or size is None or size * K**n > MAX_PAIRS:
+    if n > MAX_MODULES or size is None or size * K**n > MAX_PAIRS:
         raise ValueError(
             f"n_max={n} with {K} module type(s) is beyond what the exhaustive search can "
             f"finish: at most {MAX_PAIRS:.0e} (shape, assignment) pairs per level"
         )
 
 
-def search_typed(run: SearchRun, progress: bool, first_only: bool):
-    """(n*, found, skipped levels, proof), found a list of (cells tuple, types tuple) pairs of
-    level n* in the typed search's order (module docstring)."""
-    check_typed_memory(run)
-    first, proof = first_possible_level(run)
+def search_typed(
+    run: SearchRun, progress: bool, first_only: bool, part: Partial | None = None
+) -> LevelAnswer:
+    """The first level of ``run``'s problem holding a feasible (shape, assignment) pair
+    (containing ``part``) and its feasible pairs, (cells tuple, types tuple), in the typed
+    search's order (module docstring); only the first with ``first_only``."""
+    p = run.problem
+    check_typed_memory(p)
+    first, proof = first_possible_level(p)
     if proof:
-        run.skipped += sum(allowed_counts(run, n)[1] for n in range(1, run.n_max + 1))
-        return None, [], list(range(1, run.n_max + 1)), proof
-    check_pair_budget(run, first)
+        run.skipped += sum(allowed_counts(p, n)[1] for n in range(1, p.n_max + 1))
+        return LevelAnswer(None, [], list(range(1, p.n_max + 1)), proof)
+    check_pair_budget(p, first)
     skipped_levels = []
-    for n in range(1, run.n_max + 1):
-        allowed, skipped = allowed_counts(run, n)
+    for n in range(1, p.n_max + 1):
+        allowed, skipped = allowed_counts(p, n)
         run.skipped += skipped
-        if not allowed.any():
+        if not allowed.any() or (part is not None and n < part.size):
             skipped_levels.append(n)
             continue
-        assign = assignments(n, allowed)
-        per_block = max(1, PAIRS_PER_BLOCK // len(assign))
-        bar = level_progress(progress, n)
-        found = []
-        try:
-            for shapes in PolyominoStream(n, max(per_block, 1024)):
-                for start in range(0, len(shapes), per_block):
-                    block = shapes[start : start + per_block]
-                    cells = np.repeat(block, len(assign), axis=0)
-                    types = np.tile(assign, (len(block), 1))
-                    rest = 0
-                    while rest < len(cells):
-                        i = run.checker.first_feasible(cells[rest:], types[rest:])
-                        if i is None:
-                            break
-                        j = rest + i
-                        found.append((tuple(map(tuple, cells[j].tolist())), tuple(types[j])))
-                        if first_only:
-                            return n, found, skipped_levels, ""
-                        rest = j + 1
-                if bar is not None:
-                    bar.update(len(shapes))
-        finally:
-            if bar is not None:
-                bar.close()
+        found = _search_level(run, n, assignments(n, allowed), progress, first_only, part)
         if found:
-            return n, found, skipped_levels, ""
-    return None, [], skipped_levels, ""
+            return LevelAnswer(n, found, skipped_levels, "")
+    return LevelAnswer(None, [], skipped_levels, "")
 
 
-def typed_structure(run: SearchRun, pair) -> Structure:
+def _search_level(run: SearchRun, n, assign, progress, first_only, part) -> list:
+    """The feasible (cells, types) pairs of level n with the assignments ``assign``."""
+    per_block = max(1, PAIRS_PER_BLOCK // len(assign))
+    bar = level_progress(progress, n)
+    found = []
+    try:
+        for shapes in PolyominoStream(n, max(per_block, 1024)):
+            for start in range(0, len(shapes), per_block):
+                block = shapes[start : start + per_block]
+                if part is not None:
+                    block = block[part.mask(block)]
+                cells = np.repeat(block, len(assign), axis=0)
+                types = np.tile(assign, (len(block), 1))
+                if part is not None and (part.types >= 0).any():
+                    keep = part.mask(cells, types)
+                    cells, types = cells[keep], types[keep]
+                rest = 0
+                while rest < len(cells):
+                    i = run.checker.first_feasible(cells[rest:], types[rest:])
+                    if i is None:
+                        break
+                    j = rest + i
+                    found.append((tuple(map(tuple, cells[j].tolist())), tuple(types[j])))
+                    if first_only:
+                        return found
+                    rest = j + 1
+            if bar is not None:
+                bar.update(len(shapes))
+    finally:
+        if bar is not None:
+            bar.close()
+    return found
+
+
+def typed_structure(problem: SearchProblem, pair) -> Structure:
     """The structure of a (cells, types) pair, translation-normalised (sorted cells)."""
     cells, types = pair
-    key = normalise_typed(cells, (run.palette[int(t)] for t in types))
+    key = normalise_typed(cells, (problem.palette[int(t)] for t in types))
     return Structure.from_trusted(tuple(c for c, _ in key), modules=tuple(m for _, m in key))

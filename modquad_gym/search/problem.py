@@ -1,0 +1,145 @@
+"""One search problem: the task, the module budget, the thrust limit, the palette and the kind.
+
+Every search (exhaustive, typed, centrosymmetric, greedy, random, anytime) takes its user
+arguments through :meth:`SearchProblem.build`, which validates them once, and then reads this
+value only. :meth:`SearchProblem.rotor_wrenches` is the one place where a task becomes the
+wrenches a structure's rotors must produce (its own weight added for ``external`` tasks).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
+from modquad_gym.geometry.module import ModuleType
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.oracle import check_task_scale
+from modquad_gym.search.checker import TaskChecker
+from modquad_gym.tasks import check_kind, rotor_wrenches
+
+DEFAULT_MODULE = Structure([(0, 0)]).module
+
+MAX_TYPES = 127
+"""Most module types in one palette (type indices are int8)."""
+
+
+@dataclass(frozen=True, eq=False)
+class SearchProblem:
+    """A validated search problem (build it with :meth:`build` from a search's arguments).
+
+    Attributes:
+        wrenches: (t, 6) task wrenches (the problem's own copy: do not modify it).
+        f_max: per-rotor thrust limit.
+        n_max: the module budget: structures of 1..n_max modules are searched.
+        palette: the module types, without repeats (one type for the paper's search).
+        kind: ``total`` or ``external`` (the rotors also carry the structure's weight).
+        typed: the caller gave a palette (``modules=``): results list each module's type.
+    """
+
+    wrenches: np.ndarray
+    f_max: float
+    n_max: int
+    palette: tuple[ModuleType, ...]
+    kind: str = "total"
+    typed: bool = False
+
+    def __post_init__(self) -> None:
+        W = np.array(check_wrenches(self.wrenches, allow_empty=False), dtype=float)  # a copy
+        f_max = check_f_max(self.f_max)
+        check_task_scale(W, f_max)  # absurd values: one clear error, no overflow later
+        object.__setattr__(self, "wrenches", W)
+        object.__setattr__(self, "f_max", f_max)
+        object.__setattr__(self, "n_max", check_int(self.n_max, "n_max", low=1))
+        object.__setattr__(self, "palette", tuple(check_palette(None, self.palette)))
+        object.__setattr__(self, "kind", check_kind(self.kind))
+        object.__setattr__(self, "typed", bool(self.typed))
+
+    @classmethod
+    def build(
+        cls,
+        task,
+        n_max: int = 7,
+        f_max: float | None = None,
+        module: ModuleType | None = None,
+        *,
+        modules: Sequence[ModuleType] | None = None,
+        kind: str | None = None,
+    ) -> SearchProblem:
+        """The problem of a search's arguments: ``task`` a (t, 6) wrench array or anything with
+        ``wrenches`` (and ``f_max``, ``kind``); ``f_max`` and ``kind`` override the task's;
+        ``module`` (one type, default the T-module) or ``modules`` (a palette)."""
+        W, f = task_arrays(task, f_max)
+        check_task_scale(W, f)  # the old order of the checks: the same first error
+        kind = check_kind(kind if kind is not None else getattr(task, "kind", "total"))
+        n_max = check_int(n_max, "n_max", low=1)
+        palette = tuple(check_palette(module, modules))
+        return cls(W, f, n_max, palette, kind, typed=modules is not None)
+
+    @property
+    def module(self) -> ModuleType:
+        """The first palette type (the only one of a one-type search)."""
+        return self.palette[0]
+
+    @property
+    def homogeneous_total(self) -> bool:
+        """One module type and a ``total`` task: the paper's search, unchanged."""
+        return len(self.palette) == 1 and self.kind == "total"
+
+    def rotor_wrenches(self, mass: float) -> np.ndarray:
+        """What the rotors of a structure of ``mass`` kg must produce for the task."""
+        return rotor_wrenches(self.wrenches, self.kind, mass)
+
+    def checker(self) -> TaskChecker:
+        """A fresh :class:`TaskChecker` of this problem."""
+        return TaskChecker(self.wrenches, self.f_max, self.palette, self.kind)
+
+    def with_n_max(self, n_max: int) -> SearchProblem:
+        """The same problem with another module budget."""
+        return SearchProblem(self.wrenches, self.f_max, n_max, self.palette, self.kind, self.typed)
+
+
+def check_palette(
+    module: ModuleType | None, modules: Sequence[ModuleType] | None
+) -> list[ModuleType]:
+    """The module types of a search: ``[module]`` (default the T-module) or ``modules``
+    without repeats (types with one :attr:`~ModuleType.digest` are one type; the first is
+    kept). ValueError for both or neither being usable, or types of different sides."""
+    if modules is None:
+        if module is not None and not isinstance(module, ModuleType):
+            raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
+        return [module if module is not None else DEFAULT_MODULE]
+    if module is not None:
+        raise ValueError("give module= (one type) or modules= (a palette), not both")
+    if isinstance(modules, (str, ModuleType)) or not isinstance(modules, Iterable):
+        raise ValueError(
+            "modules must be a list of ModuleType (see modquad_gym.geometry.module.palette)"
+        )
+    out: dict[str, ModuleType] = {}
+    for i, m in enumerate(modules):
+        if not isinstance(m, ModuleType):
+            raise ValueError(f"modules[{i}] must be a ModuleType, got {type(m).__name__}")
+        out.setdefault(m.digest, m)
+    if not out:
+        raise ValueError("modules: give at least one module type")
+    palette = list(out.values())
+    if len(palette) > MAX_TYPES:
+        raise ValueError(f"modules: at most {MAX_TYPES} types, got {len(palette)}")
+    if len({m.side for m in palette}) > 1:
+        raise ValueError("modules: every type must have the same side (one docking grid)")
+    if len({m.n_rotors for m in palette}) > 1:
+        raise ValueError("modules: every type must have the same number of rotors")
+    return palette
+
+
+def task_arrays(task, f_max: float | None) -> tuple[np.ndarray, float]:
+    """(W, f_max) from a (t, 6) array or anything with ``wrenches`` (and ``f_max``)."""
+    if hasattr(task, "wrenches"):
+        W = check_wrenches(task.wrenches, allow_empty=False)
+        f = f_max if f_max is not None else getattr(task, "f_max", 1.0)
+    else:
+        W = check_wrenches(task, allow_empty=False)
+        f = 1.0 if f_max is None else f_max
+    return W, check_f_max(f)
