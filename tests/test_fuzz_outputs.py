@@ -197,10 +197,10 @@ def _report_names(what: str) -> tuple[str, ...]:
         "agents": REPORT_FILES[:1],
     }
     if what == "level-bounds":
+        from modquad_gym import TModule
         from modquad_gym.search.bounds import module_digest
-        from modquad_gym.search.result import DEFAULT_MODULE
 
-        return (f"{module_digest(DEFAULT_MODULE)}.npz",)
+        return (f"{module_digest(TModule())}.npz",)
     return names[what]
 
 
