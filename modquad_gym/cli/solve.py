@@ -21,7 +21,7 @@ from modquad_gym.cli.common import (
     palette_of,
     report_error,
 )
-from modquad_gym.solvers import LEARNED
+from modquad_gym.solvers import make_solver
 
 
 def add_solve(sub) -> None:
@@ -77,24 +77,13 @@ def add_solve(sub) -> None:
 
 
 @functools.lru_cache(maxsize=4)
-def make_solver(method, n_max, model, seed, modules_text, engine, progress: bool):
-    """The solver for ``--method`` (PPO lives in the agents package, searches here); cached, so
-    a worker process that solves many tasks loads a PPO model once. ``engine`` (or None)
-    splits the large levels of one exhaustive search."""
-    modules = palette_of(modules_text)
-    if method in LEARNED:  # with --modules, a model trained with that palette
-        from modquad_gym.solvers import make_solver as make_learned
-
-        return make_learned(method, n_max=n_max, model=model, seed=seed, modules=modules).solve
-    from modquad_gym.search import SEARCHES
-
-    fn = SEARCHES[method]
-    typed = {} if modules is None else {"modules": modules}
-    if method == "random":
-        return lambda task: fn(task, n_max=n_max, seed=seed, **typed)
-    if method == "exhaustive":
-        return lambda task: fn(task, n_max=n_max, engine=engine, progress=progress, **typed)
-    return lambda task: fn(task, n_max=n_max, **typed)
+def cached_solver(method, n_max, model, seed, modules_text, engine, progress: bool):
+    """The ``solve`` function of :func:`modquad_gym.solvers.make_solver` for these options;
+    cached, so a worker process that solves many tasks loads a PPO model once. ``engine`` (or
+    None) splits the large levels of one exhaustive search."""
+    modules = palette_of(modules_text)  # with --modules, a model trained with that palette
+    options = {"engine": engine, "progress": progress}
+    return make_solver(method, n_max, model, seed, modules=modules, **options).solve
 
 
 def solver(args: argparse.Namespace, engine=None):
@@ -102,14 +91,14 @@ def solver(args: argparse.Namespace, engine=None):
     search)."""
     progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
     modules = getattr(args, "modules", None)
-    return make_solver(args.method, args.n_max, args.model, args.seed, modules, engine, progress)
+    return cached_solver(args.method, args.n_max, args.model, args.seed, modules, engine, progress)
 
 
 def solve_file(options: tuple, path: Path):
     """Load and solve one task file (the unit of work of a batch): (task, result)."""
     method, n_max, model, seed, modules, csv_header = options
     task = common.load_task(path, csv_header)
-    result = make_solver(method, n_max, model, seed, modules, None, False)(task)
+    result = cached_solver(method, n_max, model, seed, modules, None, False)(task)
     return task, result
 
 
