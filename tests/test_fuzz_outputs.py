@@ -195,12 +195,15 @@ def _report_names(what: str) -> tuple[str, ...]:
         "heterogeneous": ("heterogeneous.png",),
         "paper": OUTPUTS[:1],
         "agents": REPORT_FILES[:1],
+        "coldstart": ("coldstart.csv",),
     }
     if what == "level-bounds":
         from modquad_gym import TModule
         from modquad_gym.search.bounds import module_digest
 
         return (f"{module_digest(TModule())}.npz",)
+    if what not in names:
+        pytest.fail(f"bench {what}: name the reports it writes here (and in its outputs=)")
     return names[what]
 
 

@@ -265,8 +265,7 @@ def _search_levels(
 def _exhaustive(
     run: SearchRun, chunk: int, engine, progress: bool, first_only: bool, part, keep=None
 ) -> LevelAnswer:
-    """The minimal level of ``run``'s problem: the one-type search or the typed one (``keep``:
-    the one-type search keeps that many structures of the level, counting them all)."""
+    """The minimal level of ``run``'s problem: the one-type search or the typed one."""
     if run.problem.homogeneous_total:
         return _search_levels(run, chunk, engine, progress, first_only, part, keep)
     return search_typed(run, progress, first_only, part)
@@ -340,11 +339,9 @@ def optimal_level(
     run = SearchRun("exhaustive", SearchProblem.build(task, n_max, f_max, module))
     keep = None if max_keys is None else check_int(max_keys, "max_keys", low=1)
     answer = _exhaustive(run, check_int(chunk, "chunk", low=1), None, False, False, None, keep)
-    keys = KeptKeys(keep)
-    for found in answer.found:  # an external task's are (cells, types) pairs: one type here
-        keys.add(
-            found if run.problem.homogeneous_total else typed_structure(run.problem, found).key
-        )
+    keys, typed = KeptKeys(keep), not run.problem.homogeneous_total  # typed: external task
+    for found in answer.found:
+        keys.add(typed_structure(run.problem, found).key if typed else found)
     return Optima(
         n_modules=answer.n,
         keys=list(keys),
