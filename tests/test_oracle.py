@@ -432,8 +432,8 @@ A1 = mq.Structure([(0, 0), (1, 0), (0, 1)]).configuration_matrix()
     [
         (A1, np.zeros((3, 5)), 1.0, r"shape \(t, 6\)"),
         (A1, np.zeros((2, 3, 6)), 1.0, r"shape \(t, 6\)"),
-        (A1, np.array([[0, 0, np.nan, 0, 0, 0.0]]), 1.0, "row 0 is not finite"),
-        (A1, np.array([[0, 0, 1, 0, 0, 0.0], [np.inf, 0, 0, 0, 0, 0]]), 1.0, "row 1"),
+        (A1, np.array([[0, 0, np.nan, 0, 0, 0.0]]), 1.0, "row 1 is not finite"),
+        (A1, np.array([[0, 0, 1, 0, 0, 0.0], [np.inf, 0, 0, 0, 0, 0]]), 1.0, "row 2"),
         (A1, np.zeros((1, 6)), 0.0, "f_max"),
         (A1, np.zeros((1, 6)), -1.0, "f_max"),
         (np.zeros((5, 12)), np.zeros((1, 6)), 1.0, "6 x m"),

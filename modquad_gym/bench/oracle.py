@@ -318,6 +318,7 @@ def main(argv: list[str] | None = None) -> None:
         "check the goals of issues 3 and 26; write results/oracle_benchmark.{md,csv}.",
         options,
         seed_help="random seed",
+        outputs=("oracle_benchmark.md", "oracle_benchmark.csv"),
     )
     rows, goals = run(
         args.structures, args.wrenches, args.seed, args.out, args.repeats, args.modules
