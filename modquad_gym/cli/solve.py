@@ -110,7 +110,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     paths = task_files(args.task)
     if args.export is not None:
         check_export(args.export, len(paths), args.force)
-    engine = Engine(args.workers, args.ray_address, local_default=1)
+    engine = Engine(args.workers, args.ray_address, local_default=1, option="--workers")
     if len(paths) == 1 or not engine.use_ray:
         return solve_here(args, paths, engine)
     # a batch: tasks spread over the workers, each search in one process
@@ -177,7 +177,7 @@ def solve_path(args: argparse.Namespace, path: Path, solve, single: bool) -> lis
 def check_export(out: str, n_tasks: int, force: bool) -> None:
     """``--export`` is checked before any search: one task, a known suffix, a writable file."""
     from modquad_gym.core.outputs import check_output_file
-    from modquad_gym.export import SUFFIXES
+    from modquad_gym.sim.export import SUFFIXES
 
     if n_tasks != 1:
         raise ValueError(f"--export: give one task, not {n_tasks} (it writes one structure)")
@@ -190,7 +190,7 @@ def check_export(out: str, n_tasks: int, force: bool) -> None:
 
 def export_result(args: argparse.Namespace, task, result) -> None:
     """Write the structure found to ``--export`` (the task's f_max in the model)."""
-    from modquad_gym.export import save_structure
+    from modquad_gym.sim.export import save_structure
 
     if result.structure is None:
         raise ValueError(f"--export: no structure found for {task.name!r}; nothing written")
@@ -207,8 +207,13 @@ def print_result(args: argparse.Namespace, path, task, result) -> None:
         return
     kind = "" if task.kind == "total" else f" ({task.kind})"
     print(f"task {task.name!r} ({path}): {task.n_wrenches} wrenches{kind}, method {args.method}")
-    if result.structure is None:
-        print(f"  no structure of up to {args.n_max} modules satisfies the task")
+    if result.structure is None and result.certified:
+        print(f"  no structure of up to {args.n_max} modules satisfies the task (certified)")
+    elif result.structure is None:  # a heuristic failing proves nothing
+        print(
+            f"  {args.method} found no structure of up to {args.n_max} modules (a heuristic: "
+            "one may still exist; --method exhaustive decides)"
+        )
     else:
         cert = (
             " (certified minimum)" if result.certified else f" (lower bound {result.lower_bound})"
