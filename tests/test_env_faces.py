@@ -25,6 +25,7 @@ from modquad_gym.envs.assembly.modules import OneType
 from modquad_gym.geometry.cells import free_neighbours, normalise, normalise_typed
 from modquad_gym.geometry.module import palette
 from modquad_gym.geometry.structure import Structure
+from modquad_gym.oracle import TOL
 from modquad_gym.tasks import PlantedTasks
 from modquad_gym.tasks.generators import random_cells
 
@@ -223,3 +224,18 @@ def test_human_rendering_prints_no_audio_noise():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert out.returncode == 0, out.stderr
     assert out.stdout == "" and "ALSA" not in out.stderr and "pygame" not in out.stderr
+
+
+def test_fused_supports_equal_the_plain_ones():
+    from modquad_gym.envs.assembly.features import FUSED_FROM, AssemblyFeatures
+
+    rng = np.random.default_rng(6)
+    features = AssemblyFeatures(OneType().module, 64, 1.7, 48)
+    for n in (FUSED_FROM // 4 + 1, 64):
+        A = Structure(random_cells(rng, n)).configuration_matrix()
+        h, slack = features.support(A)
+        P = features.D @ A
+        plain = np.maximum(P, 0.0).sum(axis=1) * 1.7 / features.denom
+        np.testing.assert_allclose(h, plain, rtol=1e-12, atol=1e-15)
+        s_plain = ((2.0 * TOL * 1.7 * np.abs(P).sum(axis=1) + 1e-12) / features.denom).max()
+        assert slack == pytest.approx(s_plain, rel=1e-12)

@@ -25,10 +25,10 @@ grid encoding; these cost one support evaluation per candidate).
 
 from __future__ import annotations
 
-from itertools import chain
 from operator import attrgetter
 
 import numpy as np
+from numba import njit
 
 from modquad_gym.envs.assembly.features import (
     CANDIDATE_FEATURES,
@@ -81,7 +81,8 @@ class Faces:
         """The state fields of the one-module start."""
         occ = np.zeros(self.grid.n_cells, dtype=np.int8)
         occ[self.grid.centre] = 1
-        return {"occupancy": occ, "faces": self.initial_faces.copy(),
+        sites = np.array([self.grid.centre])
+        return {"occupancy": occ, "faces": self.initial_faces.copy(), "sites": sites,
                 "mask": self.initial_mask.copy()}  # fmt: skip
 
     def decode(self, state: AssemblyState, a: int) -> tuple[Cell, int]:
@@ -90,19 +91,12 @@ class Faces:
         return self.grid.cell(int(state.faces[i])), k
 
     def docked_fields(self, state: AssemblyState, a: int) -> dict:
-        """The state fields that action ``a`` (valid) changes: the faces are updated where the
-        module docks (no scan of the grid: the hot path)."""
-        faces, g = state.faces, self.grid
-        c = int(faces[a % self.slots])
-        occ = state.occupancy.copy()
-        occ[c] = 1
-        new = [b for b in g.neighbours(c) if not occ[b] and not self._touches(occ, b, c)]
-        faces = np.sort(np.concatenate((faces[faces != c], np.array(new, dtype=faces.dtype))))
-        return {"occupancy": occ, "faces": faces, "mask": self._mask(len(faces))}
-
-    def _touches(self, occ: np.ndarray, b: int, c: int) -> bool:
-        """Whether cell ``b`` touches a module other than the one at ``c`` (it was a face)."""
-        return any(occ[n] for n in self.grid.neighbours(b) if n != c)
+        """The state fields that action ``a`` (valid) changes: the faces are updated around
+        the docked cell (no scan of the grid: the hot path)."""
+        c = int(state.faces[a % self.slots])
+        occ, faces = _dock(state.occupancy, state.faces, c, self.grid.side)
+        sites = np.append(state.sites, c)
+        return {"occupancy": occ, "faces": faces, "sites": sites, "mask": self._mask(len(faces))}
 
     def candidates(self, ep: Episode, state: AssemblyState) -> np.ndarray:
         """The candidate rows (n_actions, k) of ``state`` (module docstring)."""
@@ -119,17 +113,7 @@ class Faces:
 
     def _geometry(self, state: AssemblyState) -> np.ndarray:
         """(faces, FACE_FEATURES): the geometric entries of the current faces."""
-        n = len(state.cells)
-        xy = np.fromiter(chain.from_iterable(state.cells), np.float64, 2 * n).reshape(n, 2)
-        centre = xy.mean(axis=0)
-        reach = np.abs(xy - centre).max() + 1.0
-        faces = state.faces
-        out = np.empty((len(faces), FACE_FEATURES), dtype=np.float32)
-        out[:, :2] = (self.xy[faces] - centre) / reach
-        ring = state.occupancy[faces[:, None] + self.ring[None, :]]  # (faces, 8)
-        out[:, 3:] = ring
-        out[:, 2] = ring[:, 0::2].sum(axis=1) / 4.0
-        return out
+        return _geometry(state.sites, state.faces, state.occupancy, self.xy, self.ring)
 
     def width(self, lookahead: bool) -> int:
         """Entries per candidate row."""
@@ -181,3 +165,73 @@ class Faces:
 
 def _rows(state: AssemblyState) -> np.ndarray:
     return state.candidates.reshape(-1)
+
+
+@njit(cache=True)
+def _dock(occupancy, faces, c, side):  # pragma: no cover - compiled
+    """(occupancy, faces) after a module docks at grid cell ``c``, one of the sorted ``faces``:
+    ``c`` leaves them, each empty neighbour of ``c`` that touched no module before joins them.
+    Cells lie at most n_max - 1 from the centre of a grid of radius n_max + 1, so every index
+    looked at is on the grid."""
+    occ = occupancy.copy()
+    occ[c] = 1
+    steps = np.array([1, -1, side, -side])
+    new = np.empty(4, faces.dtype)
+    m = 0
+    for s in steps:
+        b = c + s
+        if occ[b]:
+            continue
+        touches = False
+        for t in steps:
+            if b + t != c and occ[b + t]:
+                touches = True
+        if not touches:
+            new[m] = b
+            m += 1
+    new = np.sort(new[:m])
+    out = np.empty(len(faces) - 1 + m, faces.dtype)
+    i = j = n = 0
+    while i < len(faces) or j < m:
+        if i < len(faces) and faces[i] == c:
+            i += 1
+        elif j == m or (i < len(faces) and faces[i] < new[j]):
+            out[n] = faces[i]
+            i += 1
+            n += 1
+        else:
+            out[n] = new[j]
+            j += 1
+            n += 1
+    return occ, out
+
+
+@njit(cache=True)
+def _geometry(sites, faces, occ, xy, ring):  # pragma: no cover - compiled
+    """The geometric candidate rows (module docstring) of ``faces`` for modules at ``sites``
+    (grid indices), ``xy`` the cells' coordinates, ``ring`` the index offsets of the 8
+    neighbours."""
+    n = len(sites)
+    cx = cy = 0.0
+    for s in sites:
+        cx += xy[s, 0]
+        cy += xy[s, 1]
+    cx /= n
+    cy /= n
+    reach = 0.0
+    for s in sites:
+        reach = max(reach, abs(xy[s, 0] - cx), abs(xy[s, 1] - cy))
+    reach += 1.0
+    out = np.empty((len(faces), FACE_FEATURES), dtype=np.float32)
+    for j in range(len(faces)):
+        f = faces[j]
+        out[j, 0] = (xy[f, 0] - cx) / reach
+        out[j, 1] = (xy[f, 1] - cy) / reach
+        count = 0.0
+        for r in range(8):
+            v = float(occ[f + ring[r]])
+            out[j, 3 + r] = v
+            if r % 2 == 0:
+                count += v
+        out[j, 2] = count / 4.0
+    return out

@@ -73,6 +73,11 @@ STRUCTURE_SCALARS = 7
 CANDIDATE_FEATURES = 5
 """k: entries per action of the ``"candidates"`` observation (see the module docstring)."""
 
+FUSED_FROM = 65
+"""Configuration matrices with at least this many columns (more than 16 four-rotor modules,
+beyond the grid env's old reach, so recorded episodes replay bit for bit) get their support in
+one compiled pass (:func:`_support`: the same values up to round-off)."""
+
 _DIRECTION_SEED = 20240611
 _CANDIDATES = 4096
 MAX_N_DIRECTIONS = _CANDIDATES
@@ -170,6 +175,9 @@ class AssemblyFeatures:
         slack, 2 * TOL * f_max * sum_k |d . a_k| / denom(d), is four times that, so the test
         never rejects a wrench the oracle accepts.
         """
+        if A.shape[1] >= FUSED_FROM:  # large structures: one compiled pass, no (K, m) arrays
+            h_Wn, slack_max = _support(self.D, A, self.f_max, TOL, self.denom)
+            return h_Wn, float(slack_max)
         P = self.D @ A
         h_W = np.maximum(P, 0.0).sum(axis=1) * self.f_max
         slack = (2.0 * TOL * self.f_max * np.abs(P).sum(axis=1) + 1e-12) / self.denom
@@ -244,6 +252,29 @@ def _task_parts(proj, W, denom):  # pragma: no cover - compiled
         f[i] = np.sqrt(W[i, 0] * W[i, 0] + W[i, 1] * W[i, 1] + W[i, 2] * W[i, 2])
         tau[i] = np.sqrt(W[i, 3] * W[i, 3] + W[i, 4] * W[i, 4] + W[i, 5] * W[i, 5])
     return h_T, f, tau, WD, h_T / denom
+
+
+@njit(cache=True)
+def _support(D, A, f_max, tol, denom):  # pragma: no cover - compiled
+    """:meth:`AssemblyFeatures.support` in one pass over P = D A: (h_W / denom, max slack)."""
+    K, m = D.shape[0], A.shape[1]
+    h = np.empty(K)
+    worst = 0.0
+    for d in range(K):
+        pos = 0.0
+        total = 0.0
+        for k in range(m):
+            p = 0.0
+            for i in range(6):
+                p += D[d, i] * A[i, k]
+            if p > 0.0:
+                pos += p
+                total += p
+            else:
+                total -= p
+        h[d] = pos * f_max / denom[d]
+        worst = max(worst, (2.0 * tol * f_max * total + 1e-12) / denom[d])
+    return h, worst
 
 
 @njit(cache=True)

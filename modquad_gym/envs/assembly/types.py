@@ -105,6 +105,7 @@ class AssemblyState:
             ``lookahead=True``), else None.
         faces: the faces encoding's free faces, as grid cell indices in action order, else
             None.
+        sites: the faces encoding's module cells as grid indices, in docking order, else None.
     """
 
     task: TaskArrays
@@ -123,6 +124,7 @@ class AssemblyState:
     types_onehot: np.ndarray | None = None
     candidates: np.ndarray | None = field(default=None)
     faces: np.ndarray | None = None
+    sites: np.ndarray | None = None
 
     @property
     def done(self) -> bool:
@@ -165,7 +167,7 @@ class AssemblyState:
         }
 
 
-_ARRAYS = ("occupancy", "mask", "structure_vec", "types_onehot", "candidates", "faces")
+_ARRAYS = ("occupancy", "mask", "structure_vec", "types_onehot", "candidates", "faces", "sites")
 
 
 def _freeze(array: np.ndarray | None) -> None:
