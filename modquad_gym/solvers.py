@@ -110,7 +110,7 @@ def make_solver(
         from modquad_gym.policy.ppo import PPOSolver
 
         solver = PPOSolver(model=model, n_max=n_max, seed=seed, **{"samples": samples, **options})
-    solver.policy.check_palette(modules)
+    solver.policy.use_palette(modules)
     if method != "ppo":  # a variant keeps its full name (plain ppo with samples: ppo-kN)
         solver.name = method
     return solver
