@@ -177,7 +177,7 @@ def solve_path(args: argparse.Namespace, path: Path, solve, single: bool) -> lis
 def check_export(out: str, n_tasks: int, force: bool) -> None:
     """``--export`` is checked before any search: one task, a known suffix, a writable file."""
     from modquad_gym.core.outputs import check_output_file
-    from modquad_gym.export import SUFFIXES
+    from modquad_gym.sim.export import SUFFIXES
 
     if n_tasks != 1:
         raise ValueError(f"--export: give one task, not {n_tasks} (it writes one structure)")
@@ -190,7 +190,7 @@ def check_export(out: str, n_tasks: int, force: bool) -> None:
 
 def export_result(args: argparse.Namespace, task, result) -> None:
     """Write the structure found to ``--export`` (the task's f_max in the model)."""
-    from modquad_gym.export import save_structure
+    from modquad_gym.sim.export import save_structure
 
     if result.structure is None:
         raise ValueError(f"--export: no structure found for {task.name!r}; nothing written")
