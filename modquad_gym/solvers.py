@@ -102,6 +102,8 @@ def make_solver(
             raise ValueError(f"--model applies to {', '.join(LEARNED)} only, not {method!r}")
         return SearchSolver(method, n_max=n_max, modules=modules, seed=seed, **search_options)
     base, options = learned
+    if search_options.get("time_limit") is not None:  # the one search option they honour
+        options["time_limit"] = search_options["time_limit"]
     if base == "ppo-guided":
         from modquad_gym.policy.guided import GuidedSolver
 

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.validation import check_int
+from modquad_gym.core.validation import check_int, check_real
 from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
 from modquad_gym.policy.policy import Policy, as_task, search_result
 from modquad_gym.search import SearchResult, verified
@@ -55,6 +55,8 @@ class GuidedSolver:
         budget: most structures to evaluate per task.
         branching: children queued per expanded structure (the policy's most likely dockings).
         dive: start with the policy's greedy episode (default True); False: best-first only.
+        time_limit: seconds after which the search stops with what it has (None: none); the
+            dive always finishes.
     """
 
     def __init__(
@@ -65,12 +67,14 @@ class GuidedSolver:
         branching: int = 4,
         config: dict | None = None,
         dive: bool = True,
+        time_limit: float | None = None,
     ) -> None:
         self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config)
         self.n_max = self.policy.n_max
         self.dive = bool(dive)
         self.budget = check_int(budget, "budget", low=1)
         self.branching = check_int(branching, "branching", low=1)
+        self.time_limit = None if time_limit is None else check_real(time_limit, "time_limit", 0)
         self.name = "ppo-guided"
 
     def lower_bound(self, task: TaskRequirement) -> int:
@@ -97,7 +101,10 @@ class GuidedSolver:
         ]
         pushes, oracle_calls = len(heap), 0
         dive = heapq.heappop(heap) if self.dive else None  # the policy's episode: an incumbent
+        deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
         while (dive or heap) and not certified and len(evaluated) < self.budget:
+            if dive is None and time.perf_counter() > deadline:
+                break
             cost, _, parent, move = dive if dive is not None else heapq.heappop(heap)
             diving, dive = dive is not None, None
             if parent is None:
