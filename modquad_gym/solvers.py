@@ -165,7 +165,13 @@ class ExternalSolver:
     def solve(self, task: Any) -> SearchResult:
         t0 = time.perf_counter()
         fn = self.agent.solve if hasattr(self.agent, "solve") else self.agent
-        answer = fn(task)
+        try:
+            answer = fn(task)
+        except Exception as exc:  # the agent's own failure, named in one line
+            raise ValueError(
+                f"solver {self.name!r} failed on task {getattr(task, 'name', task)!r}: "
+                f"{type(exc).__name__}: {exc}"
+            ) from exc
         seconds = time.perf_counter() - t0
         if isinstance(answer, SearchResult):
             return answer
@@ -197,6 +203,8 @@ def load_solver(spec: str, n_max: int = 7) -> Solver:
     module_name, sep, attr = spec.partition(":")
     if not sep or not module_name or not attr:
         raise ValueError(f"--solver {spec!r}: write it as package.module:Name")
+    if module_name.split(".")[0] in sys.stdlib_module_names:  # os:system is not an agent
+        raise ValueError(f"--solver {spec!r}: {module_name} is a standard-library module")
     if "" not in sys.path and str(Path.cwd()) not in sys.path:
         sys.path.insert(0, str(Path.cwd()))  # like python -m: modules of the working folder
     try:

@@ -97,6 +97,7 @@ def main(argv: list[str] | None = None) -> int:
         "`modquad solve --method ppo`; with an empty and with a filled numba cache.",
         {"--repeats": {"type": int_option(1, 100), "default": 3,
                        "help": "fresh processes per measurement (the median is reported)"}},
+        outputs=("coldstart.md", "coldstart.csv"),
     )  # fmt: skip
     root = Path(__file__).resolve().parents[2]
     rows = []

@@ -110,7 +110,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     paths = task_files(args.task)
     if args.export is not None:
         check_export(args.export, len(paths), args.force)
-    engine = Engine(args.workers, args.ray_address, local_default=1)
+    engine = Engine(args.workers, args.ray_address, local_default=1, option="--workers")
     if len(paths) == 1 or not engine.use_ray:
         return solve_here(args, paths, engine)
     # a batch: tasks spread over the workers, each search in one process
@@ -207,8 +207,13 @@ def print_result(args: argparse.Namespace, path, task, result) -> None:
         return
     kind = "" if task.kind == "total" else f" ({task.kind})"
     print(f"task {task.name!r} ({path}): {task.n_wrenches} wrenches{kind}, method {args.method}")
-    if result.structure is None:
-        print(f"  no structure of up to {args.n_max} modules satisfies the task")
+    if result.structure is None and result.certified:
+        print(f"  no structure of up to {args.n_max} modules satisfies the task (certified)")
+    elif result.structure is None:  # a heuristic failing proves nothing
+        print(
+            f"  {args.method} found no structure of up to {args.n_max} modules (a heuristic: "
+            "one may still exist; --method exhaustive decides)"
+        )
     else:
         cert = (
             " (certified minimum)" if result.certified else f" (lower bound {result.lower_bound})"

@@ -81,6 +81,8 @@ def read_model(path: str | Path | None = None) -> SavedModel:
 
     torch.set_num_threads(1)
     path = Path(path) if path is not None else DEFAULT_MODEL
+    if path.is_dir():
+        raise ValueError(f"--model {path}: a folder; give the model .zip file in it")
     if not path.is_file():
         hint = " (train it with `python train.py`)" if path == DEFAULT_MODEL else ""
         raise ValueError(f"PPO model file {path} does not exist{hint}")
