@@ -53,8 +53,8 @@ HYPERPARAMETERS = {
 }
 """MaskablePPO hyperparameters of the recipe (fine-tuning after behaviour cloning); ``net_arch``
 shapes the ``mlp`` architecture, ``hidden`` the ``candidates`` one."""
-IMITATION = {"demo_tasks": 12_000, "bc_epochs": 40, "bc_batch_size": 256, "bc_learning_rate": 1e-3,
-             "dagger_rounds": 2, "dagger_epochs": 10}  # fmt: skip
+IMITATION = {"demo_tasks": 6_000, "bc_epochs": 30, "bc_batch_size": 256, "bc_learning_rate": 1e-3,
+             "dagger_rounds": 3, "dagger_epochs": 10}  # fmt: skip
 """Behaviour-cloning settings of the recipe (see :mod:`.imitation`) and of the expert in the
 loop (:mod:`.dagger`: rounds, cloning epochs after each round; fresh tasks per round default
 to a tenth of the demonstration tasks)."""
@@ -62,7 +62,7 @@ ARCHITECTURES = ("candidates", "mlp")
 """Policy networks: ``candidates`` scores each candidate docking with shared weights
 (:mod:`modquad_gym.policy.network`: any n_max, any palette; the env's lookahead rows), ``mlp``
 is SB3's MultiInputPolicy over the whole observation (one grid size)."""
-DEFAULT_TIMESTEPS = 200_000
+DEFAULT_TIMESTEPS = 20_000
 
 
 @dataclass(frozen=True)
