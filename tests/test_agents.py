@@ -57,11 +57,12 @@ def _train_tiny(tmp: Path, *options: str) -> Path:
 
 @pytest.fixture(scope="module")
 def tiny_model(tmp_path_factory) -> Path:
-    """A few thousand steps of PPO alone (no cloning) with from-scratch settings: this model
-    shows that PPO itself learns."""
+    """A few thousand steps of PPO alone (no cloning) with from-scratch settings, on the grid
+    MLP (the size-free network is tested in test_policy_network.py): this model shows that PPO
+    itself learns."""
     hyperparameters = '{"learning_rate": 3e-4, "ent_coef": 0.01, "net_arch": [128, 128]}'
     out = _train_tiny(tmp_path_factory.mktemp("tiny"), "--timesteps", "3072", "--eval-freq",
-                      "1024", "--seed", "3", "--bc-epochs", "0",
+                      "1024", "--seed", "3", "--bc-epochs", "0", "--architecture", "mlp",
                       "--hyperparameters", hyperparameters)  # fmt: skip
     config = json.loads((out / "config.json").read_text())
     assert config["timesteps"] >= 3072 and config["imitation"] is None

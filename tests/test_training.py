@@ -66,7 +66,7 @@ def test_config_takes_the_tier_defaults(tmp_path):
     assert TrainConfig(out=tmp_path, tier="large", timesteps=7).timesteps == 7  # given wins
     current = TrainConfig(out=tmp_path, task_source=str(tmp_path / "tasks.json"))
     assert current.max_modules == 7 and current.validation_source == "mixed"
-    assert TIERS["large"].model.parent.name == "ppo_large"
+    assert TIERS["large"].model.parent.name == "ppo_default"  # the size-free default model
     mixed = TrainConfig(out=tmp_path, tier="mixed")  # several types: each episode a random start
     assert mixed.env_kwargs_full == {
         "tasks": "planted-mixed-external",
