@@ -21,6 +21,8 @@ from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.policy.models import read_model
 from modquad_gym.search import SearchResult
+from modquad_gym.search.bounds import bound_levels
+from modquad_gym.search.problem import SearchProblem
 from modquad_gym.tasks import TaskRequirement
 
 ENV_KWARG_KEYS = (
@@ -144,6 +146,13 @@ class Policy:
                 "(the mixed tier's, t45,t45m,flat: modquad_gym/data/models/ppo_mixed/model.zip)"
             )
 
+    def lower_bound(self, task: TaskRequirement) -> int:
+        """The exact lower bound on the module count of ``task`` with the policy's module types
+        and budget (:func:`~modquad_gym.search.bounds.bound_levels`: n_max + 1 when every count
+        is ruled out); it certifies an answer that reaches it."""
+        palette = {"modules": self.palette} if self.typed else {"module": self.env.module}
+        return bound_levels(SearchProblem.build(task, self.n_max, **palette))
+
     def probabilities(self, obs: dict, mask: np.ndarray) -> np.ndarray:
         """The policy's action probabilities at ``obs``, zero outside ``mask`` (sb3-contrib's
         masked distribution)."""
@@ -207,13 +216,13 @@ def search_result(
     evaluated: int,
     oracle_calls: int,
     t0: float,
-    certified: bool = False,
+    certified: bool | None = False,
     proof: str = "",
     lower_bound: int | None = None,
 ) -> SearchResult:
     """The search record of a learned solver ``name`` that started at ``t0`` and kept
     ``best`` (with the proved ``lower_bound`` on the module count, when the solver knows
-    one)."""
+    one; ``certified`` None: derived from it)."""
     return SearchResult(
         structure=best,
         n_modules=best.n_modules if best is not None else None,

@@ -86,7 +86,12 @@ class PPOSolver:
             s = policy.env.structure
             if verified(s, task):
                 best = s
-        return search_result(self.name, self.n_max, best, len(seen), oracle_calls, t0)
+        bound = policy.lower_bound(task)
+        certified = (
+            best is not None and best.n_modules == bound or best is None and bound > self.n_max
+        )
+        return search_result(self.name, self.n_max, best, len(seen), oracle_calls, t0, certified,
+                             "lower bound reached" if certified else "", bound)  # fmt: skip
 
     def __repr__(self) -> str:
         return (
