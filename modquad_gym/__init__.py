@@ -22,7 +22,9 @@ from modquad_gym.oracle import (
     margin,
 )
 from modquad_gym.search import (
+    SearchProblem,
     SearchResult,
+    anytime_search,
     centrosymmetric_search,
     exhaustive_search,
     greedy_search,
@@ -44,6 +46,7 @@ __all__ = [
     "METHODS",
     "TOL",
     "ModuleType",
+    "SearchProblem",
     "SearchResult",
     "Structure",
     "TaskRequirement",
@@ -51,6 +54,7 @@ __all__ = [
     "WrenchOracle",
     "Zonotope",
     "allocate",
+    "anytime_search",
     "centrosymmetric_search",
     "exhaustive_search",
     "greedy_search",

@@ -67,7 +67,7 @@ def add_solve(sub) -> None:
 
 
 @functools.lru_cache(maxsize=4)
-def make_solver(method, n_max, model, seed, modules_text, engine, progress: bool):
+def make_solver(method, n_max, model, seed, modules_text, engine, progress: bool, time_limit=None):
     """The solver for ``--method`` (PPO lives in the agents package, searches here); cached, so
     a worker process that solves many tasks loads a PPO model once. ``engine`` (or None)
     splits the large levels of one exhaustive search."""
@@ -82,6 +82,9 @@ def make_solver(method, n_max, model, seed, modules_text, engine, progress: bool
     typed = {} if modules is None else {"modules": modules}
     if method == "random":
         return lambda task: fn(task, n_max=n_max, seed=seed, **typed)
+    if method == "anytime":
+        limit = {} if time_limit is None else {"time_limit": time_limit}
+        return lambda task: fn(task, n_max=n_max, seed=seed, **limit, **typed)
     if method == "exhaustive":
         return lambda task: fn(task, n_max=n_max, engine=engine, progress=progress, **typed)
     return lambda task: fn(task, n_max=n_max, **typed)
@@ -92,14 +95,17 @@ def solver(args: argparse.Namespace, engine=None):
     search)."""
     progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
     modules = getattr(args, "modules", None)
-    return make_solver(args.method, args.n_max, args.model, args.seed, modules, engine, progress)
+    limit = getattr(args, "time_limit", None)
+    return make_solver(
+        args.method, args.n_max, args.model, args.seed, modules, engine, progress, limit
+    )
 
 
 def solve_file(options: tuple, path: Path):
     """Load and solve one task file (the unit of work of a batch): (task, result)."""
-    method, n_max, model, seed, modules, csv_header = options
+    method, n_max, model, seed, modules, csv_header, limit = options
     task = common.load_task(path, csv_header)
-    result = make_solver(method, n_max, model, seed, modules, None, False)(task)
+    result = make_solver(method, n_max, model, seed, modules, None, False, limit)(task)
     return task, result
 
 
@@ -113,7 +119,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if len(paths) == 1 or not engine.use_ray:
         return solve_here(args, paths, engine)
     # a batch: tasks spread over the workers, each search in one process
-    options = (args.method, args.n_max, args.model, args.seed, args.modules, args.csv_header)
+    options = (args.method, args.n_max, args.model, args.seed, args.modules, args.csv_header,
+               args.time_limit)  # fmt: skip
     failed: list[Failed] = []
     printed = 0
     done: dict[int, object] = {}
