@@ -119,10 +119,13 @@ def model_xml(
     f_max: float = 1.0,
     module_mass: float | None = None,
     bench: bool = False,
+    payload=None,
 ) -> str:
     """The MJCF text of a structure's model (see the module docstring). ``module_mass`` (kg)
     overrides every module's own type mass; with differing type masses it would move the COM
-    away from {S}, so it is refused for such a mixed structure."""
+    away from {S}, so it is refused for such a mixed structure. ``payload`` (a
+    :class:`~modquad_gym.dynamics.Payload`) adds a point mass welded at its offset from the COM
+    (body ``payload``, drawn as a small sphere)."""
     if not isinstance(structure, Structure):
         raise ValueError(
             f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
@@ -136,14 +139,22 @@ def model_xml(
         )
     discs, sites, actuators = _rotor_elements(structure, f_max)
     load_cell, equality, sensors = _BENCH_ELEMENTS if bench else ("", "", "")
+    if payload is not None and payload.mass > 0:
+        load_cell += (
+            f'<body name="payload" pos="{_fmt(payload.offset)}"><inertial pos="0 0 0" '
+            f'mass="{payload.mass:.17g}" diaginertia="0 0 0"/><geom name="payload" '
+            'type="sphere" size="0.04" mass="0" rgba="0.9 0.5 0.1 1"/></body>'
+        )
     nl = "\n    "
+    extent = structure.side * (1 + max(np.ptp(np.asarray(structure.cells), axis=0)))
     return _MJCF.format(
         inertial=_inertial(structure, masses),
         n_modules=structure.n_modules,
         timestep=TIMESTEP,
         gravity=f"{-GRAVITY:.17g}",
         home=HOME_HEIGHT,
-        extent=f"{structure.side * (1 + max(np.ptp(np.asarray(structure.cells), axis=0))):.6g}",
+        extent=f"{extent:.6g}",
+        floor=f"{max(5.0, 2.0 * extent + 2.0):.6g}",
         geoms=nl.join(_module_geoms(structure, masses) + discs),
         sites=nl.join(sites),
         load_cell=load_cell,
@@ -230,7 +241,8 @@ _MJCF = """<mujoco model="modquad_{n_modules}">
   </asset>
   <worldbody>
     <light pos="0 0 4" dir="0 0 -1" directional="true"/>
-    <geom name="floor" type="plane" size="5 5 0.05" material="grid" contype="0" conaffinity="0"/>
+    <geom name="floor" type="plane" size="{floor} {floor} 0.05" material="grid" contype="0"
+      conaffinity="0"/>
     <body name="structure" pos="0 0 {home}">
     <freejoint name="root"/>
     {inertial}
@@ -254,6 +266,7 @@ def build_model(
     f_max: float = 1.0,
     module_mass: float | None = None,
     bench: bool = False,
+    payload=None,
 ) -> SimModel:
     """Compile the MuJoCo model of ``structure`` (see the module docstring).
 
@@ -262,10 +275,11 @@ def build_model(
         f_max: rotor thrust limit in N (actuator ctrlrange [0, f_max]).
         module_mass: mass of every module in kg (default: each module type's ``mass``).
         bench: add the load cell and the wall weld of the wrench bench.
+        payload: a :class:`~modquad_gym.dynamics.Payload` welded to the structure, or None.
     """
     import mujoco
 
-    xml = model_xml(structure, f_max, module_mass, bench)
+    xml = model_xml(structure, f_max, module_mass, bench, payload)
     model = mujoco.MjModel.from_xml_string(xml)
     body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "structure")
     mass = float(model.body_mass[body])

@@ -20,6 +20,10 @@ from modquad_gym.sim.model import HOME_HEIGHT, SimModel, build_model  # noqa: E4
 BENCH_HOLD_S = 0.5
 """Seconds each wrench is held in the rotor-input plot (the paper commands one every 500 ms)."""
 
+MAX_LINES = 32
+"""Most rotors drawn one line each in a rotor-input panel; more (e.g. 256 rotors of a 64-module
+structure) are drawn as a heat map, rotor x time, which stays readable."""
+
 
 def _plt():
     import matplotlib
@@ -104,21 +108,37 @@ def _render_matplotlib(structure: Structure, path: Path) -> None:
     plt.close(fig)
 
 
+def inputs_panel(fig, ax, t: np.ndarray, u: np.ndarray, f_max: float, step: bool = False) -> None:
+    """Rotor inputs u (N, m) over times t on ``ax``: one line per rotor with f_max dotted, or,
+    past :data:`MAX_LINES` rotors, a heat map (rotor x time, 0 to f_max) with a colour bar.
+    ``step``: u[i] holds from t[i] to t[i + 1] (len(t) = N + 1)."""
+    if u.shape[1] > MAX_LINES:
+        edges = t if step else np.r_[t, t[-1] + (t[-1] - t[-2] if len(t) > 1 else 1.0)]
+        img = ax.pcolormesh(edges, np.arange(u.shape[1] + 1) - 0.5, u.T, vmin=0.0, vmax=f_max,
+                            cmap="viridis", shading="flat")  # fmt: skip
+        fig.colorbar(img, ax=ax, label="rotor input [N]", pad=0.01)
+        ax.set_ylabel(f"rotor (of {u.shape[1]})")
+        return
+    if step:
+        ax.step(t, np.vstack([u, u[-1:]]), where="post", lw=1.0)
+    else:
+        ax.plot(t, u, lw=0.8)
+    ax.axhline(f_max, ls=":", color="k", lw=1.5, label="f_max")
+    ax.axhline(0.0, ls=":", color="0.5", lw=1.0)
+    ax.set_ylim(-0.05 * f_max, 1.1 * f_max)
+    ax.set_ylabel("rotor input [N]")
+    ax.legend(loc="upper right")
+
+
 def plot_rotor_inputs(results: list[BenchResult], path: str | Path) -> None:
     """Paper Fig. 7: rotor inputs per commanded wrench (held 500 ms each), f_max dotted."""
     plt = _plt()
     fig, axes = plt.subplots(len(results), 1, figsize=(9, 3.2 * len(results)), squeeze=False)
     for ax, res in zip(axes[:, 0], results, strict=True):
         t = np.arange(len(res.u) + 1) * BENCH_HOLD_S
-        u = np.vstack([res.u, res.u[-1:]])
-        ax.step(t, u, where="post", lw=1.0)
-        ax.axhline(res.f_max, ls=":", color="k", lw=1.5, label="f_max")
-        ax.axhline(0.0, ls=":", color="0.5", lw=1.0)
-        ax.set_ylim(-0.05 * res.f_max, 1.1 * res.f_max)
-        ax.set_ylabel("rotor input [N]")
+        inputs_panel(fig, ax, t, res.u, res.f_max, step=True)
         n_lim = int(res.at_limit.sum())
         ax.set_title(f"{res.allocation}: {n_lim}/{len(res.u)} wrenches with a rotor at a limit")
-        ax.legend(loc="upper right")
     axes[-1, 0].set_xlabel("time [s] (one task wrench every 500 ms)")
     fig.tight_layout()
     save_figure(fig, path, dpi=120)
@@ -164,13 +184,8 @@ def plot_hover(res: HoverResult, path: str | Path, title: str = "hover") -> None
     axes[0].legend(loc="upper right")
     axes[1].semilogy(res.time, np.maximum(res.attitude_error, floor), lw=1, color="tab:purple")
     axes[1].set_ylabel("attitude error [rad]")
-    axes[2].plot(res.time, res.u, lw=0.8)
-    axes[2].axhline(res.f_max, ls=":", color="k", lw=1.5, label="f_max")
-    axes[2].axhline(0.0, ls=":", color="0.5", lw=1.0)
-    axes[2].set_ylim(-0.05 * res.f_max, 1.1 * res.f_max)
-    axes[2].set_ylabel("rotor input [N]")
+    inputs_panel(fig, axes[2], res.time, res.u, res.f_max)
     axes[2].set_xlabel("time [s]")
-    axes[2].legend(loc="upper right")
     starts = res.time[np.flatnonzero(np.diff(res.segment)) + 1] if len(res.time) else []
     for ax in axes:
         for t in starts:
