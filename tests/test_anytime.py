@@ -100,9 +100,13 @@ def test_bad_input_is_refused_before_work():
 
 
 def test_cli_default_search_at_scale(tmp_path, capsys):
-    task = PlantedTasks(n_modules=20, n_wrenches=12)(np.random.default_rng(1))
     path = tmp_path / "t.json"
-    task.save(path)
+    assert (
+        main(["task", "generate", "--kind", "planted", "--n-modules", "20", "--out", str(path)])
+        == 0
+    )
+    assert len(TaskRequirement.load(path).meta["planted_cells"]) == 20
+    capsys.readouterr()
     assert (
         main(["solve", "--task", str(path), "--n-max", "64", "--time-limit", "10", "--json"]) == 0
     )

@@ -21,6 +21,7 @@ Writes ``results/anytime.md`` and ``.csv``. Two workloads, each run in a fresh s
 from __future__ import annotations
 
 import argparse
+import contextlib
 import multiprocessing as mp
 import os
 import resource
@@ -109,21 +110,13 @@ def _exhaustive(W: np.ndarray, n_max: int, workers: int) -> dict:
 
     def run():
         engine = Engine(workers) if workers > 1 else None
-        with engine or _Null():
+        with engine or contextlib.nullcontext():
             return exhaustive_search(W, n_max=n_max, engine=engine)
 
     r, seconds, peak = _measured(run)
     return {"found": r.n_modules, "lower_bound": r.lower_bound, "certified": r.certified,
             "verified": True, "seconds": seconds, "peak_MB": peak,
             "evaluated": r.evaluated}  # fmt: skip
-
-
-class _Null:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return None
 
 
 def fresh(fn, *args) -> dict:

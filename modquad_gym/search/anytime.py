@@ -334,6 +334,8 @@ def anytime_search(
     found = exact.advance(run.t0 + EXACT_SHARE * (time_limit - reserve))
     if found is not None:
         return run.finish(found, found.n_modules)
+    if exact.n > problem.n_max:  # every level refuted
+        return run.finish(None, exact.n)
     incumbents = Incumbents(run, seed, deadline)
     if incumbents.first(exact.n):
         incumbents.improve(exact.n)
