@@ -1,4 +1,5 @@
-"""Regenerate the example task files in this folder (deterministic: fixed seeds).
+"""Regenerate the example task files (deterministic: fixed seeds). They live in the package,
+``modquad_gym/data/examples`` (so they travel with the wheel); this folder links to them.
 
 Run from the repository root:  python examples/make_examples.py
 Each task's exhaustive optimum (smallest module count, n <= 7) is computed with the exact oracle
@@ -7,14 +8,12 @@ and stored in the task's ``meta`` as ``optimum`` (null when no structure of <= 7
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from modquad_gym import Structure, feasible, structure_levels
 from modquad_gym.tasks import PaperTasks, PlantedTasks, ScrewdriverTask, TaskRequirement, save_suite
+from modquad_gym.tasks.examples import EXAMPLES_DIR as HERE
 
-HERE = Path(__file__).resolve().parent
 N_MAX = 7
 
 

@@ -94,6 +94,22 @@ def test_model_rejects_bad_input():
         build_model([(0, 0)])
 
 
+@pytest.mark.parametrize("bench", [False, True])
+def test_model_is_built_with_mjspec_and_its_mjcf_loads_back(bench):
+    from modquad_gym.sim.model import model_spec, model_xml
+
+    s = mq.Structure(L3, modules=[mq.TModule(), mq.ModuleType.from_tilts([0.3] * 4), mq.TModule()])
+    spec = model_spec(s, f_max=2.0, bench=bench)
+    assert isinstance(spec, mujoco.MjSpec)
+    compiled = build_model(s, f_max=2.0, bench=bench).model
+    loaded = mujoco.MjModel.from_xml_string(model_xml(s, f_max=2.0, bench=bench))
+    assert loaded.nu == compiled.nu == 12 and loaded.nbody == compiled.nbody
+    # MuJoCo's XML writer keeps 6 significant digits
+    for name in ("site_pos", "site_quat", "actuator_gear", "actuator_ctrlrange", "body_mass",
+                 "body_inertia", "body_ipos", "geom_size", "eq_data"):  # fmt: skip
+        np.testing.assert_allclose(getattr(loaded, name), getattr(compiled, name), atol=2e-6)
+
+
 def test_bench_on_L_structure_reads_commanded_wrench():
     s = mq.Structure(L3)
     W = _interior_wrenches(s, 6, seed=1)

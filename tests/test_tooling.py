@@ -106,7 +106,7 @@ def installed_wheel(tmp_path_factory) -> Path:
 
 
 def test_installed_wheel_solves_with_the_shipped_ppo_model(installed_wheel, tmp_path):
-    task = ROOT / "examples" / "screwdriver.json"
+    task = "example:screwdriver"  # shipped in the wheel: no repository file is read
     code = (
         "import modquad_gym, json\n"
         f"assert modquad_gym.__file__.startswith({str(installed_wheel)!r}), modquad_gym.__file__\n"

@@ -1,4 +1,5 @@
-"""Pictures: each drawing function produces a non-empty picture; the torque hull is exact."""
+"""Pictures: each drawing function produces a non-empty picture; the force and torque hulls are
+exact; the labels say what a projection shows and in which units."""
 
 from __future__ import annotations
 
@@ -7,16 +8,20 @@ import time
 import numpy as np
 import pytest
 
-from modquad_gym import Structure, allocate
+from modquad_gym import Structure, TaskRequirement, allocate
+from modquad_gym.geometry.module import STOCK_TYPES
 from modquad_gym.tasks import PaperTasks, ScrewdriverTask
 from modquad_gym.viz.drawing import (
+    draw_projection,
     draw_rotor_inputs,
     draw_structure,
     draw_torque_projection,
+    force_zonotope_vertices,
     save_structure_figure,
     structure_image,
     torque_zonotope_vertices,
 )
+from modquad_gym.viz.zonotope import hull_faces, projection_vertices, units
 
 CELLS = [(0, 0), (1, 0), (1, 1), (2, 1), (0, -1)]
 
@@ -55,14 +60,35 @@ def test_draw_structure(tmp_path):
     assert _non_white_fraction(_png_pixels(path)) > 0.02
 
 
-def test_torque_vertices_match_the_support_function():
-    for cells in ([(0, 0)], [(0, 0), (1, 0)], CELLS):
-        A = Structure(cells).configuration_matrix()
+@pytest.mark.parametrize("space", ["force", "torque"])
+def test_projection_vertices_match_the_support_function(space):
+    rows = slice(0, 3) if space == "force" else slice(3, 6)
+    flat = STOCK_TYPES["flat"]  # every thrust along z: a flat force projection (a segment)
+    for s in (Structure([(0, 0)]), Structure([(0, 0), (1, 0)]), Structure(CELLS),
+              Structure([(0, 0), (1, 0)], module=flat)):  # fmt: skip
+        A = s.configuration_matrix()
         for f_max in (1.0, 2.0):
-            V = torque_zonotope_vertices(A, f_max)
+            V = projection_vertices(A, space, f_max)
             D = np.random.default_rng(0).normal(size=(3000, 3))
-            exact = np.maximum(D @ A[3:], 0.0).sum(axis=1) * f_max
+            exact = np.maximum(D @ A[rows], 0.0).sum(axis=1) * f_max
             assert np.allclose((D @ V.T).max(axis=1), exact, atol=1e-9)
+    assert np.array_equal(torque_zonotope_vertices(A), projection_vertices(A, "torque"))
+    assert np.array_equal(force_zonotope_vertices(A), projection_vertices(A, "force"))
+    assert hull_faces(projection_vertices(A, "force")) is None  # the flat type's segment
+
+
+def test_projection_labels_say_what_and_which_units():
+    s = Structure(CELLS)
+    normalised = PaperTasks(n_wrenches=5)(np.random.default_rng(0))
+    ax = draw_projection(s, "force", task=normalised)
+    assert ax.get_title() == "feasible forces: projection of the 6-D set"
+    assert ax.get_xlabel() == "$f_x$ [f_max]"
+    legend = {t.get_text() for t in ax.get_legend().get_texts()}
+    assert "feasible (6-D)" in legend and legend <= {"feasible (6-D)", "infeasible (6-D)"}
+    external = TaskRequirement([[0, 0, 2.0, 0, 0, 0.05]], kind="external", f_max=2.0)
+    ax = draw_projection(s, "torque", task=external)
+    assert ax.get_zlabel() == r"$\tau_z$ [N m]"
+    assert units(TaskRequirement([[0, 0, 2.0, 0, 0, 0]], f_max=3.0)) == ("N", "N m")
 
 
 def test_draw_torque_projection(tmp_path):
@@ -121,7 +147,7 @@ def test_save_structure_figure(tmp_path, with_task):
     img = _png_pixels(path)
     assert _non_white_fraction(img) > 0.02
     if with_task:
-        assert img.shape[1] > 1.5 * img.shape[0]  # two panels side by side
+        assert img.shape[1] > 2.5 * img.shape[0]  # top view, forces, torques side by side
 
 
 def test_draw_rotor_inputs(tmp_path):

@@ -8,8 +8,8 @@ cannot be written, a missing optional dependency, a closed output pipe), reporte
 
 One module per command, each with ``add_COMMAND(sub)`` (its parser) beside its handler
 ``cmd_COMMAND(args)``: :mod:`.solve`, :mod:`.optima`, :mod:`.task`, :mod:`.show`,
-:mod:`.validate`, :mod:`.bench`; the options they share are in :mod:`.common`. A new command is
-a module with those two functions, added to :data:`COMMANDS`.
+:mod:`.export`, :mod:`.validate`, :mod:`.bench`; the options they share are in :mod:`.common`.
+A new command is a module with those two functions, added to :data:`COMMANDS`.
 """
 
 from __future__ import annotations
@@ -20,25 +20,21 @@ import sys
 
 from modquad_gym.cli.bench import add_bench
 from modquad_gym.cli.common import one_line
+from modquad_gym.cli.export import add_export
 from modquad_gym.cli.optima import add_optima
 from modquad_gym.cli.show import add_show
 from modquad_gym.cli.solve import add_solve
 from modquad_gym.cli.task import add_task
 from modquad_gym.cli.validate import add_validate
 
-COMMANDS = (add_solve, add_optima, add_task, add_show, add_validate, add_bench)
+COMMANDS = (add_solve, add_optima, add_task, add_show, add_export, add_validate, add_bench)
 """The commands, in the order ``modquad --help`` lists them."""
 
 
 def _version() -> str:
-    from importlib import metadata
+    from modquad_gym import __version__  # the one source (pyproject reads it too)
 
-    try:
-        return metadata.version("modquad_gym")
-    except metadata.PackageNotFoundError:
-        from modquad_gym import __version__
-
-        return __version__
+    return __version__
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,4 +1,5 @@
-"""``modquad show``: draw a structure (given, or the exhaustive search's answer) as a PNG."""
+"""``modquad show``: draw a structure (given, or the exhaustive search's answer) as a PNG and/or
+an interactive, self-contained HTML page."""
 
 from __future__ import annotations
 
@@ -22,9 +23,12 @@ def add_show(sub) -> None:
         sub,
         "show",
         cmd_show,
-        help="draw a structure (top view + torque-space projection)",
-        description="Draw a structure given by --cells, or the exhaustive "
-        "search's answer for --task, as a PNG.",
+        help="draw a structure (top view, feasible forces and torques; PNG or HTML)",
+        description="Draw a structure given by --cells, or the exhaustive search's answer for "
+        "--task: a PNG (top view; with --task also the feasible forces and torques, projections "
+        "of the 6-D feasible set, with the task's wrenches coloured by 6-D feasibility) and/or, "
+        "with --html, one self-contained interactive page (3-D structure with thrust "
+        "directions, the same projections to turn and zoom; no network needed).",
     )
     p.add_argument("--cells", help="JSON list of [x, y] cells, e.g. '[[0,0],[1,0],[0,1]]'")
     p.add_argument("--task", help="task file: solve it (exhaustive) unless --cells is given")
@@ -33,8 +37,15 @@ def add_show(sub) -> None:
     )
     p.add_argument(
         "--out",
-        default="structure.png",
-        help="PNG path; '.png' is added when missing (default %(default)s)",
+        default=None,
+        help="PNG path; '.png' is added when missing (default structure.png, none with --html)",
+    )
+    p.add_argument(
+        "--html",
+        default=None,
+        metavar="OUT.html",
+        help="also (or, without --out, only) write the interactive page here (needs plotly: "
+        "pip install 'modquad_gym[viz]')",
     )
     add_modules(
         p,
@@ -75,32 +86,45 @@ def structure_from_cells(text: str, modules):
 
 def cmd_show(args: argparse.Namespace) -> int:
     from modquad_gym.core.outputs import check_output_file
-    from modquad_gym.viz.drawing import save_structure_figure
 
-    out = Path(args.out)
-    if out.suffix.lower() != ".png":
-        out = out.with_name(out.name + ".png")
-    out = check_output_file(out, force=args.force, what="--out")
+    out = args.out if args.out is not None or args.html is not None else "structure.png"
+    if out is not None:
+        out = Path(out)
+        if out.suffix.lower() != ".png":
+            out = out.with_name(out.name + ".png")
+        out = check_output_file(out, force=args.force, what="--out")
+    if args.html is not None:
+        check_output_file(args.html, force=args.force, what="--html")
+    task, structure = shown(args)
+    if structure is None:
+        return 0
+    print(structure)
+    if out is not None:
+        from modquad_gym.viz.drawing import save_structure_figure
+
+        save_structure_figure(structure, out, task=task)
+        print(f"wrote {out}")
+    if args.html is not None:
+        from modquad_gym.viz.interactive import save_structure_page
+
+        print(f"wrote {save_structure_page(structure, args.html, task=task, force=args.force)}")
+    return 0
+
+
+def shown(args: argparse.Namespace):
+    """(task or None, structure to draw or None when the search finds none)."""
     modules = palette(args)
-    if args.task:
-        task = common.load_task(args.task, args.csv_header)
-        if args.cells:
-            structure = structure_from_cells(args.cells, modules)
-        else:
-            from modquad_gym.search import exhaustive_search
-
-            typed = {} if modules is None else {"modules": modules}
-            result = exhaustive_search(task, n_max=args.n_max, **typed)
-            if result.structure is None:
-                print(f"no structure of up to {args.n_max} modules satisfies {args.task}")
-                return 0
-            structure = result.structure
-    else:
+    if not args.task:
         if not args.cells:
             raise ValueError("give --cells (e.g. '[[0,0],[1,0]]') or --task")
-        task = None
-        structure = structure_from_cells(args.cells, modules)
-    save_structure_figure(structure, out, task=task)
-    print(structure)
-    print(f"wrote {out}")
-    return 0
+        return None, structure_from_cells(args.cells, modules)
+    task = common.load_task(args.task, args.csv_header)
+    if args.cells:
+        return task, structure_from_cells(args.cells, modules)
+    from modquad_gym.search import exhaustive_search
+
+    typed = {} if modules is None else {"modules": modules}
+    result = exhaustive_search(task, n_max=args.n_max, **typed)
+    if result.structure is None:
+        print(f"no structure of up to {args.n_max} modules satisfies {args.task}")
+    return task, result.structure

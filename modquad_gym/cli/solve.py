@@ -12,6 +12,7 @@ from modquad_gym.cli import common  # commands call common.load_task (tests repl
 from modquad_gym.cli.common import (
     add_command,
     add_csv_header,
+    add_force,
     add_method,
     add_workers,
     batch_status,
@@ -64,6 +65,15 @@ def add_solve(sub) -> None:
         "answers do not depend on the number of workers",
     )
     add_csv_header(p)
+    p.add_argument(
+        "--export",
+        metavar="FILE",
+        default=None,
+        help="also write the structure found (one task only) to FILE, in the format of its "
+        "suffix: .xml = MJCF, .urdf = URDF, .json = rotor poses, mass, inertia and the "
+        "configuration matrix (see `modquad export --help`)",
+    )
+    add_force(p)
 
 
 @functools.lru_cache(maxsize=4)
@@ -115,6 +125,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
     palette(args)  # a bad --modules is refused before any work
     paths = task_files(args.task)
+    if args.export is not None:
+        check_export(args.export, len(paths), args.force)
     engine = Engine(args.workers, args.ray_address, local_default=1)
     if len(paths) == 1 or not engine.use_ray:
         return solve_here(args, paths, engine)
@@ -173,8 +185,36 @@ def solve_path(args: argparse.Namespace, path: Path, solve, single: bool) -> lis
             raise
         report_error(one_line(exc))
         return [exc]
-    print_result(args, path, task, solve(task))
+    result = solve(task)
+    print_result(args, path, task, result)
+    if args.export is not None:
+        export_result(args, task, result)
     return []
+
+
+def check_export(out: str, n_tasks: int, force: bool) -> None:
+    """``--export`` is checked before any search: one task, a known suffix, a writable file."""
+    from modquad_gym.core.outputs import check_output_file
+    from modquad_gym.export import SUFFIXES
+
+    if n_tasks != 1:
+        raise ValueError(f"--export: give one task, not {n_tasks} (it writes one structure)")
+    if Path(out).suffix.lower() not in SUFFIXES.values():
+        raise ValueError(
+            f"--export: {out} must end in {', '.join(SUFFIXES.values())} (MJCF, URDF, JSON)"
+        )
+    check_output_file(out, force=force, what="--export")
+
+
+def export_result(args: argparse.Namespace, task, result) -> None:
+    """Write the structure found to ``--export`` (the task's f_max in the model)."""
+    from modquad_gym.export import save_structure
+
+    if result.structure is None:
+        raise ValueError(f"--export: no structure found for {task.name!r}; nothing written")
+    out = save_structure(result.structure, args.export, f_max=task.f_max, force=args.force)
+    if not args.json:
+        print(f"  wrote {out}")
 
 
 def print_result(args: argparse.Namespace, path, task, result) -> None:

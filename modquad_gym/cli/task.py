@@ -20,12 +20,14 @@ def add_task(sub) -> None:
     """``task`` and its actions (``task`` alone prints its help)."""
     p = sub.add_parser(
         "task",
-        help="task files (generate)",
+        help="task files (generate, example)",
         description="Work with task files. `modquad task generate --help` explains the "
         "options of each action.",
     )
     p.set_defaults(func=print_help(p))
-    add_generate(p.add_subparsers(dest="task_command", metavar="ACTION"))
+    actions = p.add_subparsers(dest="task_command", metavar="ACTION")
+    add_generate(actions)
+    add_example(actions)
 
 
 def add_generate(tsub) -> None:
@@ -100,4 +102,51 @@ def cmd_task_generate(args: argparse.Namespace) -> int:
         f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, kind {task.kind}, "
         f"f_max {task.f_max:g}, seed {args.seed})"
     )
+    return 0
+
+
+def add_example(tsub) -> None:
+    from modquad_gym.tasks import example_names
+
+    e = tsub.add_parser(
+        "example",
+        help="copy a task file shipped with the package",
+        description="Copy one of the example task files shipped with the package (they travel "
+        "with the wheel); without NAME, list them. Any --task also reads them directly as "
+        "example:NAME, e.g. `modquad solve --task example:screwdriver`.",
+    )
+    e.set_defaults(func=cmd_task_example)
+    e.add_argument(
+        "name",
+        nargs="?",
+        metavar="NAME",
+        help=f"the example: {', '.join(example_names())} (default: list them)",
+    )
+    e.add_argument("--out", help="output file (default: print the file's path)")
+    add_force(e)
+
+
+def cmd_task_example(args: argparse.Namespace) -> int:
+    import shutil
+
+    from modquad_gym.core.outputs import check_output_file
+    from modquad_gym.tasks import TaskRequirement, example_names, example_path, load_suite
+
+    if args.name is None:
+        for name in example_names():
+            try:
+                what = f"{TaskRequirement.load(example_path(name)).n_wrenches} wrenches"
+            except ValueError:  # a suite file (load_suite reads it)
+                what = f"a suite of {len(load_suite(example_path(name)))} tasks"
+            print(f"{name:18s} {what}")
+        return 0
+    source = example_path(args.name)
+    if args.out is None:
+        print(source)
+        return 0
+    out = check_output_file(args.out, force=args.force, what="--out")
+    if out.suffix.lower() != source.suffix.lower():
+        raise ValueError(f"--out: {out} must end in {source.suffix} like the example {source.name}")
+    shutil.copyfile(source, out)
+    print(f"wrote {out} (example {args.name})")
     return 0

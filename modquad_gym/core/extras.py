@@ -18,6 +18,7 @@ EXTRA_OF = {
     "matplotlib": "viz",
     "pygame": "viz",
     "moviepy": "viz",
+    "plotly": "viz",
     "cvxpy": "reference",
     "ray": "distributed",
 }

@@ -1,10 +1,13 @@
 """MuJoCo model of a :class:`~modquad_gym.Structure`: one free rigid body driven by 4n rotors.
 
-The model (MJCF, compiled by :func:`build_model`):
+The model is built with MuJoCo's model-editing API (:func:`model_spec`, a ``mujoco.MjSpec``) and
+compiled by :func:`build_model`; :func:`model_xml` is its MJCF text, written by MuJoCo (whose XML
+writer keeps 6 significant digits: a model loaded back from the text differs from the compiled
+spec by about 1e-6 relative, e.g. in the rotor site quaternions). It has:
 
 * Body ``structure`` with a free joint. Its frame is the structure frame {S}: origin at the COM of
   the module centres, axes parallel to the modules', z up. It starts at ``(0, 0, HOME_HEIGHT)``.
-* The body's mass and inertia are given explicitly (an ``inertial`` element at the origin):
+* The body's mass and inertia are given explicitly (an inertial at the origin):
   :attr:`Structure.mass` and :attr:`Structure.inertia` (each module its type's ``mass``, default
   0.3 kg, and ``inertia``, default a uniform box of side x side x 0.05 m, with parallel-axis
   terms; ``module_mass`` overrides every module's mass and scales its inertia alike). {S} sits at
@@ -31,6 +34,7 @@ makes flows through the load cell into the wall.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -39,6 +43,9 @@ from modquad_gym.geometry.module import DEFAULT_HEIGHT, DEFAULT_MASS, GRAVITY
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_f_max
 from modquad_gym.viz.raster import type_colour
+
+if TYPE_CHECKING:  # pragma: no cover
+    from modquad_gym.dynamics import Payload
 
 MODULE_MASS = DEFAULT_MASS
 """Default mass of one module in kg (:data:`modquad_gym.geometry.module.DEFAULT_MASS`)."""
@@ -56,8 +63,8 @@ LOAD_CELL_MASS = 0.01
 """Mass of the load cell's plate (bench only), kg."""
 
 _ROTOR_RADIUS_FRACTION = 0.14  # rotor disc radius as a fraction of the module side
-_ROTOR_COLOURS = {1.0: "0.85 0.2 0.2 0.9", -1.0: "0.2 0.35 0.85 0.9"}
-_MODULE_COLOURS = ("0.3 0.7 0.35 1", "0.55 0.55 0.6 1")  # first (initial) module green
+_ROTOR_COLOURS = {1.0: [0.85, 0.2, 0.2, 0.9], -1.0: [0.2, 0.35, 0.85, 0.9]}
+_MODULE_COLOURS = ([0.3, 0.7, 0.35, 1.0], [0.55, 0.55, 0.6, 1.0])  # first (initial) module green
 
 
 @dataclass(frozen=True)
@@ -72,7 +79,7 @@ class SimModel:
         mass: mass of body ``structure`` (the modules) in kg, the load cell excluded.
         body_id: id of body ``structure``.
         bench: True when the model holds the load cell and the wall weld.
-        xml: the MJCF text it was compiled from.
+        xml: the MJCF text of its spec (MuJoCo's writer: 6 significant digits).
     """
 
     model: object
@@ -97,10 +104,6 @@ class SimModel:
         return data
 
 
-def _fmt(v: np.ndarray | list[float]) -> str:
-    return " ".join(f"{float(x):.17g}" for x in v)
-
-
 def _masses(structure: Structure, module_mass: float | None) -> np.ndarray:
     """Each module's mass in kg: its type's, or ``module_mass`` for every module."""
     if module_mass is None:
@@ -114,18 +117,20 @@ def _masses(structure: Structure, module_mass: float | None) -> np.ndarray:
     return np.full(structure.n_modules, float(module_mass))
 
 
-def model_xml(
+def model_spec(
     structure: Structure,
     f_max: float = 1.0,
     module_mass: float | None = None,
     bench: bool = False,
-    payload=None,
-) -> str:
-    """The MJCF text of a structure's model (see the module docstring). ``module_mass`` (kg)
-    overrides every module's own type mass; with differing type masses it would move the COM
-    away from {S}, so it is refused for such a mixed structure. ``payload`` (a
-    :class:`~modquad_gym.dynamics.Payload`) adds a point mass welded at its offset from the COM
-    (body ``payload``, drawn as a small sphere)."""
+    payload: Payload | None = None,
+):
+    """The ``mujoco.MjSpec`` of a structure's model (see the module docstring), built with
+    MuJoCo's model-editing API. ``module_mass`` (kg) overrides every module's own type mass; with
+    differing type masses it would move the COM away from {S}, so it is refused for such a mixed
+    structure. ``payload`` (a :class:`~modquad_gym.dynamics.Payload`) adds a point mass welded at
+    its offset from the COM (body ``payload``, drawn as a small sphere)."""
+    import mujoco
+
     if not isinstance(structure, Structure):
         raise ValueError(
             f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
@@ -137,128 +142,159 @@ def model_xml(
             "module_mass: the structure's module types weigh differently; their masses place "
             "its COM, so leave module_mass=None"
         )
-    discs, sites, actuators = _rotor_elements(structure, f_max)
-    load_cell, equality, sensors = _BENCH_ELEMENTS if bench else ("", "", "")
+    spec = mujoco.MjSpec()
+    spec.modelname = f"modquad_{structure.n_modules}"
+    _set_scene(spec, structure)
+    body = spec.worldbody.add_body(name="structure", pos=[0.0, 0.0, HOME_HEIGHT])
+    body.add_freejoint(name="root")
+    _set_inertial(body, structure, masses)
+    _add_modules(body, structure)
+    _add_rotors(spec, body, structure, f_max)
+    if bench:
+        _add_load_cell(spec, body)
     if payload is not None and payload.mass > 0:
-        load_cell += (
-            f'<body name="payload" pos="{_fmt(payload.offset)}"><inertial pos="0 0 0" '
-            f'mass="{payload.mass:.17g}" diaginertia="0 0 0"/><geom name="payload" '
-            'type="sphere" size="0.04" mass="0" rgba="0.9 0.5 0.1 1"/></body>'
-        )
-    nl = "\n    "
+        _add_payload(body, payload)
+    return spec
+
+
+def model_xml(
+    structure: Structure,
+    f_max: float = 1.0,
+    module_mass: float | None = None,
+    bench: bool = False,
+    payload: Payload | None = None,
+) -> str:
+    """The MJCF text of a structure's model (:func:`model_spec` written out by MuJoCo)."""
+    return model_spec(structure, f_max, module_mass, bench, payload).to_xml()
+
+
+def _set_scene(spec, structure: Structure) -> None:
+    """Options (flying, no contacts, tight solver tolerances), statistic, light and floor."""
+    import mujoco
+
+    spec.compiler.degree = False
+    spec.compiler.autolimits = True
+    opt = spec.option
+    opt.timestep = TIMESTEP
+    opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    opt.gravity = [0.0, 0.0, -GRAVITY]
+    opt.tolerance, opt.iterations, opt.ls_tolerance = 1e-15, 200, 1e-12
+    opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
     extent = structure.side * (1 + max(np.ptp(np.asarray(structure.cells), axis=0)))
-    return _MJCF.format(
-        inertial=_inertial(structure, masses),
-        n_modules=structure.n_modules,
-        timestep=TIMESTEP,
-        gravity=f"{-GRAVITY:.17g}",
-        home=HOME_HEIGHT,
-        extent=f"{extent:.6g}",
-        floor=f"{max(5.0, 2.0 * extent + 2.0):.6g}",
-        geoms=nl.join(_module_geoms(structure, masses) + discs),
-        sites=nl.join(sites),
-        load_cell=load_cell,
-        equality=equality,
-        actuators=nl.join(actuators),
-        sensors=sensors,
+    spec.stat.center = [0.0, 0.0, HOME_HEIGHT]
+    spec.stat.extent = float(f"{extent:.6g}")
+    spec.visual.headlight.ambient = [0.4, 0.4, 0.4]
+    spec.visual.headlight.diffuse = [0.6, 0.6, 0.6]
+    spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 960
+    spec.add_texture(
+        name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.92] * 3, rgb2=[0.8] * 3, width=256,
+        height=256,
+    )  # fmt: skip
+    grid = spec.add_material(name="grid", texrepeat=[8, 8])
+    grid.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
+    spec.worldbody.add_light(
+        pos=[0, 0, 4], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
     )
+    floor = float(f"{max(5.0, 2.0 * extent + 2.0):.6g}")  # the floor grows with the structure
+    spec.worldbody.add_geom(
+        name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[floor, floor, 0.05],
+        material="grid", contype=0, conaffinity=0,
+    )  # fmt: skip
 
 
-def _inertial(structure: Structure, masses: np.ndarray) -> str:
-    """The body's ``inertial`` element: total mass and inertia about the COM (module docstring)."""
+def _set_inertial(body, structure: Structure, masses: np.ndarray) -> None:
+    """The body's explicit inertial: total mass and inertia about the COM (module docstring)."""
     scale = masses / structure.masses
     own = [m.inertia * k for m, k in zip(structure.modules, scale)]
     J = inertia_about_com(structure.module_centres, masses, own)
-    full = _fmt([J[0, 0], J[1, 1], J[2, 2], J[0, 1], J[0, 2], J[1, 2]])
-    return f'<inertial pos="0 0 0" mass="{float(masses.sum()):.17g}" fullinertia="{full}"/>'
+    body.explicitinertial = True
+    body.mass = float(masses.sum())
+    body.ipos = [0.0, 0.0, 0.0]
+    body.fullinertia = [J[0, 0], J[1, 1], J[2, 2], J[0, 1], J[0, 2], J[1, 2]]
 
 
-def _module_geoms(structure: Structure, masses: np.ndarray) -> list[str]:
-    """One box geom per module, coloured by type (one type: the first module green)."""
-    half = structure.side / 2.0
-    geoms = []
+def _add_modules(body, structure: Structure) -> None:
+    """One massless box geom per module, coloured by type (one type: the first module green)."""
+    import mujoco
+
+    half = structure.side / 2.0 * 0.97
     for i, (c, t) in enumerate(zip(structure.module_centres, structure.type_indices)):
         if structure.is_mixed:  # the fills of the pictures (modquad_gym.viz.raster.type_colour)
             fill = type_colour(structure.modules[i], t)
-            rgba = " ".join(f"{int(fill[k : k + 2], 16) / 255:.3g}" for k in (1, 3, 5)) + " 1"
+            rgba = [float(f"{int(fill[k : k + 2], 16) / 255:.3g}") for k in (1, 3, 5)] + [1.0]
         else:
             rgba = _MODULE_COLOURS[0] if i == 0 else _MODULE_COLOURS[1]
-        geoms.append(
-            f'<geom name="module{i}" type="box" pos="{_fmt(c)}" '
-            f'size="{half * 0.97:.17g} {half * 0.97:.17g} {MODULE_THICKNESS / 2:.17g}" '
-            f'mass="0" rgba="{rgba}"/>'
-        )
-    return geoms
+        body.add_geom(
+            name=f"module{i}", type=mujoco.mjtGeom.mjGEOM_BOX, pos=c,
+            size=[half, half, MODULE_THICKNESS / 2], mass=0.0, rgba=rgba,
+        )  # fmt: skip
 
 
-def _rotor_elements(structure: Structure, f_max: float) -> tuple[list, list, list]:
-    """Per rotor: its visual disc geom, its thrust site and its actuator."""
-    discs, sites, actuators = [], [], []
+def _add_rotors(spec, body, structure: Structure, f_max: float) -> None:
+    """Per rotor: a massless visual disc, a site whose z-axis is the thrust direction, and one
+    ``general`` actuator on the site (thrust along z plus the spin-signed drag torque)."""
+    import mujoco
+
     radius = _ROTOR_RADIUS_FRACTION * structure.side
     lift = MODULE_THICKNESS / 2 + 0.8 * radius  # discs clear the box at 45 degree tilt
     rotors = zip(structure.rotor_positions, structure.rotor_directions, structure.rotor_spins,
                  structure.rotor_c_tau, strict=True)  # fmt: skip
+    zaxis = mujoco.mjtOrientation.mjORIENTATION_ZAXIS
     for k, (p, d, s, c_tau) in enumerate(rotors):
         rgba = _ROTOR_COLOURS[1.0 if s > 0 else -1.0]
-        sites.append(f'<site name="rotor{k}" pos="{_fmt(p)}" zaxis="{_fmt(d)}" size="0.005"/>')
-        disc_pos = p + np.array([0.0, 0.0, lift])
-        discs.append(
-            f'<geom name="disc{k}" type="cylinder" pos="{_fmt(disc_pos)}" zaxis="{_fmt(d)}" '
-            f'size="{radius:.17g} 0.004" mass="0" rgba="{rgba}" group="1"/>'
+        site = body.add_site(name=f"rotor{k}", pos=p, size=[0.005, 0.005, 0.005])
+        site.alt.type, site.alt.zaxis = zaxis, d
+        disc = body.add_geom(
+            name=f"disc{k}", type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=p + [0.0, 0.0, lift],
+            size=[radius, 0.004, 0.0], mass=0.0, rgba=rgba, group=1,
+        )  # fmt: skip
+        disc.alt.type, disc.alt.zaxis = zaxis, d
+        spec.add_actuator(
+            name=f"thrust{k}", target=f"rotor{k}", trntype=mujoco.mjtTrn.mjTRN_SITE,
+            gear=[0, 0, 1, 0, 0, s * c_tau], ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE,
+            ctrlrange=[0.0, f_max], dyntype=mujoco.mjtDyn.mjDYN_NONE,
+            gaintype=mujoco.mjtGain.mjGAIN_FIXED, gainprm=[1.0] + [0.0] * 9,
+            biastype=mujoco.mjtBias.mjBIAS_NONE,
+        )  # fmt: skip
+
+
+def _add_payload(body, payload) -> None:
+    """A point mass welded to the structure at its offset from the COM, drawn as a sphere."""
+    import mujoco
+
+    child = body.add_body(name="payload", pos=np.asarray(payload.offset, dtype=float))
+    child.explicitinertial = True
+    child.mass, child.ipos, child.inertia = float(payload.mass), [0.0] * 3, [0.0] * 3
+    child.add_geom(
+        name="payload", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.04, 0.0, 0.0], mass=0.0,
+        rgba=[0.9, 0.5, 0.1, 1.0],
+    )  # fmt: skip
+
+
+def _add_load_cell(spec, body) -> None:
+    """The bench's load cell: a child body at the COM (no joint), its force and torque sensors,
+    and the weld that bolts it to the world (the wall)."""
+    import mujoco
+
+    cell = body.add_body(name="load_cell", pos=[0.0, 0.0, 0.0])
+    cell.add_geom(
+        name="load_cell", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.03, 0.03, 0.0],
+        mass=LOAD_CELL_MASS, rgba=[0.9, 0.8, 0.1, 1.0],
+    )  # fmt: skip
+    cell.add_site(name="load_cell", pos=[0.0, 0.0, 0.0], size=[0.01, 0.005, 0.005])
+    # weld data: anchor (0, 0, 0); relpose (0, 1, 0, 0, 0, 0, 0), MuJoCo's "keep the pose at
+    # qpos0"; torquescale 1 (MJCF's defaults)
+    spec.add_equality(
+        name="wall", type=mujoco.mjtEq.mjEQ_WELD, name1="load_cell",
+        objtype=mujoco.mjtObj.mjOBJ_BODY, solref=[0.005, 1.0],
+        data=[0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+    )  # fmt: skip
+    for kind, sensor in (("force", mujoco.mjtSensor.mjSENS_FORCE),
+                         ("torque", mujoco.mjtSensor.mjSENS_TORQUE)):  # fmt: skip
+        spec.add_sensor(
+            name=kind, type=sensor, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="load_cell"
         )
-        actuators.append(
-            f'<general name="thrust{k}" site="rotor{k}" gear="0 0 1 0 0 {s * c_tau:.17g}" '
-            f'ctrllimited="true" ctrlrange="0 {f_max:.17g}" dyntype="none" gaintype="fixed" '
-            f'gainprm="1" biastype="none"/>'
-        )
-    return discs, sites, actuators
-
-
-_BENCH_ELEMENTS = (
-    f'<body name="load_cell" pos="0 0 0">'
-    f'<geom name="load_cell" type="cylinder" size="0.03 0.03" mass="{LOAD_CELL_MASS}" '
-    f'rgba="0.9 0.8 0.1 1"/>'
-    f'<site name="load_cell" pos="0 0 0" size="0.01"/></body>',
-    '<equality><weld name="wall" body1="load_cell" solref="0.005 1"/></equality>',
-    '<sensor><force name="force" site="load_cell"/>'
-    '<torque name="torque" site="load_cell"/></sensor>',
-)
-"""The bench's load cell body (inside ``structure``), its wall weld and its sensors."""
-
-_MJCF = """<mujoco model="modquad_{n_modules}">
-  <compiler angle="radian" autolimits="true"/>
-  <option timestep="{timestep}" integrator="implicitfast" gravity="0 0 {gravity}"
-    tolerance="1e-15" iterations="200" ls_tolerance="1e-12">
-    <flag contact="disable"/>
-  </option>
-  <statistic center="0 0 {home}" extent="{extent}"/>
-  <visual><headlight ambient="0.4 0.4 0.4" diffuse="0.6 0.6 0.6"/>
-    <global offwidth="1280" offheight="960"/></visual>
-  <asset>
-    <texture name="grid" type="2d" builtin="checker" rgb1="0.92 0.92 0.92" rgb2="0.8 0.8 0.8"
-      width="256" height="256"/>
-    <material name="grid" texture="grid" texrepeat="8 8"/>
-  </asset>
-  <worldbody>
-    <light pos="0 0 4" dir="0 0 -1" directional="true"/>
-    <geom name="floor" type="plane" size="{floor} {floor} 0.05" material="grid" contype="0"
-      conaffinity="0"/>
-    <body name="structure" pos="0 0 {home}">
-    <freejoint name="root"/>
-    {inertial}
-    {geoms}
-    {sites}
-    {load_cell}
-    </body>
-  </worldbody>
-  {equality}
-  <actuator>
-    {actuators}
-  </actuator>
-  {sensors}
-</mujoco>
-"""
-"""The MJCF skeleton :func:`model_xml` fills in."""
 
 
 def build_model(
@@ -266,7 +302,7 @@ def build_model(
     f_max: float = 1.0,
     module_mass: float | None = None,
     bench: bool = False,
-    payload=None,
+    payload: Payload | None = None,
 ) -> SimModel:
     """Compile the MuJoCo model of ``structure`` (see the module docstring).
 
@@ -279,8 +315,9 @@ def build_model(
     """
     import mujoco
 
-    xml = model_xml(structure, f_max, module_mass, bench, payload)
-    model = mujoco.MjModel.from_xml_string(xml)
+    spec = model_spec(structure, f_max, module_mass, bench, payload)
+    model = spec.compile()
+    xml = spec.to_xml()
     body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "structure")
     mass = float(model.body_mass[body])
     A = np.array(structure.configuration_matrix())

@@ -41,6 +41,9 @@ Seeded task generators share one interface, :class:`TaskGenerator` (``name`` and
 :func:`make_generator` turns a spec (a name, a file, tasks) into a generator; a *suite* is a JSON
 file of several tasks (:func:`load_suite`, :func:`save_suite`).
 
+Example tasks ship with the package: ``example:NAME`` wherever a task file is read
+(:mod:`.examples`, :func:`example_names`).
+
 A JSON object with a ``"trajectory"`` is a *dynamic* task (:mod:`modquad_gym.dynamics`): a
 motion, an optional payload and exerted wrenches, whose rotor wrenches depend on the structure's
 mass and inertia; :func:`load_task` reads either kind of file.
@@ -51,6 +54,7 @@ files), :mod:`.requirement` (:class:`TaskRequirement`), :mod:`.loading` (:func:`
 by name, :func:`make_generator`).
 """
 
+from modquad_gym.tasks.examples import example_names, example_path
 from modquad_gym.tasks.files import (
     CSV_HEADER_MODES,
     MAX_FILE_BYTES,
@@ -79,6 +83,8 @@ from modquad_gym.tasks.suites import load_suite, save_suite
 from modquad_gym.tasks.wrenches import COLUMNS, MAX_WRENCHES, TASK_KINDS, check_kind, rotor_wrenches
 
 __all__ = [
+    "example_names",
+    "example_path",
     "COLUMNS",
     "CSV_HEADER_MODES",
     "FZ_READINGS",

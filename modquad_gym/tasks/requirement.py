@@ -11,6 +11,7 @@ import numpy as np
 
 from modquad_gym.core.outputs import atomic_write, write_text
 from modquad_gym.core.validation import check_f_max
+from modquad_gym.tasks.examples import resolve_task_path
 from modquad_gym.tasks.files import (
     SUFFIXES,
     PathLike,
@@ -145,13 +146,14 @@ class TaskRequirement:
     @classmethod
     def load(cls, path: PathLike, csv_header: str = "auto") -> TaskRequirement:
         """Read a ``.json``, ``.csv`` or ``.npy`` task file (formats in the module docstring;
-        ``csv_header`` as in :data:`CSV_HEADER_MODES`).
+        ``csv_header`` as in :data:`CSV_HEADER_MODES`); ``example:NAME`` reads a shipped
+        example (:mod:`modquad_gym.tasks.examples`).
 
         Raises:
             FileNotFoundError: naming the path, when there is no such file.
             TaskFileError: naming the file (and 1-based row) for anything wrong in it.
         """
-        path = Path(path)
+        path = resolve_task_path(path)  # "example:NAME" names a shipped example
         suffix = path.suffix.lower()
         if suffix not in SUFFIXES:
             raise TaskFileError(

@@ -1,4 +1,5 @@
-"""Pictures: a structure from above, its torque-space zonotope, rotor inputs, and a fast RGB render.
+"""Pictures: a structure from above, its feasible forces and torques (projections of the 6-D
+feasible set, :mod:`modquad_gym.viz.zonotope`), rotor inputs, and a fast RGB render.
 
 Matplotlib is imported inside the functions (``import modquad_gym`` stays light) and figures are
 made with ``matplotlib.figure.Figure`` on an Agg canvas, never through pyplot, so nothing here
@@ -16,16 +17,14 @@ type, and the first module keeps a thick outline instead of the green fill.
 
 from __future__ import annotations
 
-import math
 import os
-from functools import lru_cache
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from modquad_gym.core.outputs import save_figure
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.oracle import check_f_max, feasible
+from modquad_gym.oracle import check_f_max
 from modquad_gym.viz.raster import (
     ARROW_COLOUR,
     FIRST_COLOUR,
@@ -36,6 +35,15 @@ from modquad_gym.viz.raster import (
     check_structure,
     structure_image,
     type_colour,
+)
+from modquad_gym.viz.zonotope import (
+    FEASIBLE_COLOUR,
+    INFEASIBLE_COLOUR,
+    SPACES,
+    hull_faces,
+    projection_vertices,
+    task_wrenches,
+    units,
 )
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -50,8 +58,10 @@ __all__ = [
     "SPIN_COLOURS",
     "STOCK_FILLS",
     "TYPE_COLOURS",
+    "draw_projection",
     "draw_rotor_inputs",
     "draw_structure",
+    "force_zonotope_vertices",
     "draw_torque_projection",
     "save_structure_figure",
     "structure_image",
@@ -143,49 +153,66 @@ def draw_structure(
 # torque-space projection of the feasible wrenches (paper Fig. 3b)
 # --------------------------------------------------------------------------------------------
 def torque_zonotope_vertices(A: np.ndarray, f_max: float = 1.0) -> np.ndarray:
-    """Vertices (k, 3) of the projection of W = {A u : 0 <= u <= f_max} onto torque space.
-
-    The projection is the 3-d zonotope with generators ``A[3:] * f_max``. Every vertex is a
-    support point ``sum_j f_max a_j [d . a_j > 0]``. Directions: the normals of all generator
-    pairs (every facet of a 3-d zonotope is normal to some a_i x a_j), each tilted slightly
-    around its normal to land in every neighbouring cell, plus a Fibonacci sphere. The hull of
-    the support points is then exactly the zonotope (checked against its support function in
-    the tests).
-    """
-    f_max = check_f_max(f_max)
-    G = np.asarray(A, dtype=float)[3:] * f_max  # (3, m)
-    if G.ndim != 2 or G.shape[0] != 3:
-        raise ValueError(f"A must be a 6 x m configuration matrix, got shape {np.shape(A)}")
-    m = G.shape[1]
-    dirs = [_fibonacci_sphere(400)]
-    i, j = np.triu_indices(m, k=1)
-    N = np.cross(G[:, i].T, G[:, j].T)
-    norm = np.linalg.norm(N, axis=1)
-    N = N[norm > 1e-12 * max(1.0, float(np.abs(G).max()) ** 2)]
-    if len(N):
-        N /= np.linalg.norm(N, axis=1, keepdims=True)
-        # two unit vectors orthogonal to each normal, for the tilts
-        ref = np.where(np.abs(N[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-        e1 = np.cross(N, ref)
-        e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-        e2 = np.cross(N, e1)
-        eps = 1e-5
-        for theta in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
-            tilt = eps * (math.cos(theta) * e1 + math.sin(theta) * e2)
-            dirs += [N + tilt, -N + tilt]
-    D = np.vstack(dirs)
-    P = (D @ G > 0).astype(float) @ G.T
-    return np.unique(np.round(P, 12), axis=0)
+    """Vertices (k, 3) of the projection of W = {A u : 0 <= u <= f_max} onto torque space
+    (:func:`modquad_gym.viz.zonotope.projection_vertices`)."""
+    return projection_vertices(A, "torque", f_max)
 
 
-@lru_cache(maxsize=8)
-def _fibonacci_sphere(k: int) -> np.ndarray:
-    i = np.arange(k) + 0.5
-    phi = np.arccos(1 - 2 * i / k)
-    theta = math.pi * (1 + 5**0.5) * i
-    out = np.stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)], 1)
-    out.setflags(write=False)
-    return out
+def force_zonotope_vertices(A: np.ndarray, f_max: float = 1.0) -> np.ndarray:
+    """Vertices (k, 3) of the projection of W onto force space."""
+    return projection_vertices(A, "force", f_max)
+
+
+def draw_projection(
+    structure: Structure,
+    space: str = "torque",
+    f_max: float = 1.0,
+    ax: Axes | None = None,
+    task=None,
+) -> Axes:
+    """The feasible wrenches projected onto force (``space="force"``) or torque space as a
+    translucent convex hull (paper Fig. 3b) on a 3-d axes. ``task`` (a TaskRequirement, or
+    (t, 6) wrenches), if given, is scattered by the same coordinates, green where the whole
+    6-D wrench is feasible and red where not (so a red point may lie inside the projection).
+    Axis units follow :func:`modquad_gym.viz.zonotope.units`. Returns the axes."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    s = check_structure(structure)
+    first, names = SPACES[space]
+    f_max = check_f_max(getattr(task, "f_max", f_max))
+    V = projection_vertices(s.configuration_matrix(), space, f_max)
+    ax = ax if ax is not None else _new_axes(projection="3d")
+    faces = hull_faces(V)
+    if faces is not None:
+        ax.add_collection3d(Poly3DCollection(
+            [V[f] for f in faces], facecolor="#4c72b0", edgecolor="none", linewidths=0.0,
+            alpha=0.25,
+        ))  # fmt: skip
+    ax.scatter(V[:, 0], V[:, 1], V[:, 2], s=2, color="#2b4570", alpha=0.5, depthshade=False)
+    pts = [V]
+    if task is not None:
+        W, ok, _ = task_wrenches(s, task)
+        for mask, colour, label in ((ok, FEASIBLE_COLOUR, "feasible (6-D)"),
+                                    (~ok, INFEASIBLE_COLOUR, "infeasible (6-D)")):  # fmt: skip
+            if mask.any():
+                P = W[mask, first : first + 3]
+                ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=12, color=colour, label=label,
+                           depthshade=False)  # fmt: skip
+        ax.legend(loc="upper left", fontsize="x-small")
+        pts.append(W[:, first : first + 3])
+    allp = np.vstack(pts)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    pad = 0.05 * max(float((hi - lo).max()), 1e-6)
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_zlim(lo[2] - pad, hi[2] + pad)
+    unit = units(task, f_max)[0 if space == "force" else 1]
+    symbol = "f" if space == "force" else r"\tau"
+    ax.set_xlabel(rf"${symbol}_x$ [{unit}]")
+    ax.set_ylabel(rf"${symbol}_y$ [{unit}]")
+    ax.set_zlabel(rf"${symbol}_z$ [{unit}]")
+    ax.set_title(f"feasible {space}s: projection of the 6-D set", fontsize="medium")
+    return ax
 
 
 def draw_torque_projection(
@@ -194,51 +221,8 @@ def draw_torque_projection(
     ax: Axes | None = None,
     wrenches: np.ndarray | None = None,
 ) -> Axes:
-    """The feasible wrenches projected onto (tau_x, tau_y, tau_z) as a translucent convex hull
-    (paper Fig. 3b) on a 3-d axes; ``wrenches`` (t, 6), if given, are scattered by their
-    torques, green where the whole wrench is feasible and red where not. Returns the axes."""
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-    from scipy.spatial import ConvexHull, QhullError
-
-    s = check_structure(structure)
-    A = s.configuration_matrix()
-    V = torque_zonotope_vertices(A, f_max)
-    ax = ax if ax is not None else _new_axes(projection="3d")
-    try:
-        hull = ConvexHull(V)
-        faces = [V[simplex] for simplex in hull.simplices]
-        ax.add_collection3d(
-            Poly3DCollection(
-                faces, facecolor="#4c72b0", edgecolor="none", linewidths=0.0, alpha=0.25
-            )
-        )
-    except (QhullError, ValueError):  # a flat projection: show the points only
-        pass
-    ax.scatter(V[:, 0], V[:, 1], V[:, 2], s=2, color="#2b4570", alpha=0.5, depthshade=False)
-    pts = [V]
-    if wrenches is not None:
-        W = np.atleast_2d(np.asarray(wrenches, dtype=float))
-        if W.ndim != 2 or W.shape[1] != 6:
-            raise ValueError(f"wrenches must have shape (t, 6), got {np.shape(wrenches)}")
-        ok = feasible(A, W, f_max=f_max)
-        for mask, colour, label in ((ok, "#2ca02c", "feasible"), (~ok, "#d62728", "infeasible")):
-            if mask.any():
-                T = W[mask, 3:]
-                ax.scatter(T[:, 0], T[:, 1], T[:, 2], s=12, color=colour, label=label,
-                           depthshade=False)  # fmt: skip
-        ax.legend(loc="upper left", fontsize="x-small")
-        pts.append(W[:, 3:])
-    allp = np.vstack(pts)
-    lo, hi = allp.min(axis=0), allp.max(axis=0)
-    pad = 0.05 * max(float((hi - lo).max()), 1e-6)
-    ax.set_xlim(lo[0] - pad, hi[0] + pad)
-    ax.set_ylim(lo[1] - pad, hi[1] + pad)
-    ax.set_zlim(lo[2] - pad, hi[2] + pad)
-    ax.set_xlabel(r"$\tau_x$ [N m]")
-    ax.set_ylabel(r"$\tau_y$ [N m]")
-    ax.set_zlabel(r"$\tau_z$ [N m]")
-    ax.set_title("feasible torques")
-    return ax
+    """:func:`draw_projection` onto torque space (``wrenches`` (t, 6) scattered if given)."""
+    return draw_projection(structure, "torque", f_max, ax, wrenches)
 
 
 # --------------------------------------------------------------------------------------------
@@ -279,8 +263,9 @@ def save_structure_figure(
     dpi: int = 120,
 ) -> str:
     """Save a PNG with the top view and, if ``task`` (a TaskRequirement or (t, 6) wrenches) is
-    given, the torque projection with the task's torques beside it (feasibility of the rotor
-    wrenches: an ``external`` task's plus the structure's weight). Returns the path."""
+    given, the force and torque projections of the feasible set with the task's wrenches
+    beside it (6-D feasibility of the rotor wrenches: an ``external`` task's plus the
+    structure's weight). Returns the path."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -290,14 +275,16 @@ def save_structure_figure(
         FigureCanvasAgg(fig)
         draw_structure(s, ax=fig.add_subplot(1, 1, 1))
     else:
-        W = task.rotor_wrenches(s.mass) if hasattr(task, "rotor_wrenches") else task
-        f_max = float(getattr(task, "f_max", 1.0))
-        fig = Figure(figsize=(10.5, 5.0), layout="constrained")
+        fig = Figure(figsize=(15.0, 5.0), layout="constrained")
         FigureCanvasAgg(fig)
+        draw_structure(s, ax=fig.add_subplot(1, 3, 1))
+        for i, space in enumerate(("force", "torque")):
+            draw_projection(s, space, ax=fig.add_subplot(1, 3, 2 + i, projection="3d"), task=task)
         name = getattr(task, "name", None)
-        draw_structure(s, ax=fig.add_subplot(1, 2, 1))
-        draw_torque_projection(s, f_max, ax=fig.add_subplot(1, 2, 2, projection="3d"), wrenches=W)
-        if name:
-            fig.suptitle(f"task: {name}")
+        fig.suptitle(
+            (f"task: {name}. " if name else "")
+            + "Points: the task's wrenches, green where the structure can exert the whole "
+            "6-D wrench, red where not."
+        )
     save_figure(fig, os.fspath(path), dpi=dpi)
     return os.fspath(path)

@@ -1,0 +1,81 @@
+"""``modquad export``: write a structure (given, or found for a task) as MJCF, URDF or JSON."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from modquad_gym.cli import common  # commands call common.load_task (tests replace it)
+from modquad_gym.cli.common import add_command, add_csv_header, add_force, add_method, palette
+from modquad_gym.core.options import real_option
+
+
+def add_export(sub) -> None:
+    from modquad_gym.export import FORMATS, SUFFIXES
+
+    p = add_command(
+        sub,
+        "export",
+        cmd_export,
+        help="write a structure as MJCF, URDF or JSON",
+        description="Write a structure for other tools: the one given by --cells, or the one "
+        "--method finds for --task. mjcf: MuJoCo model (one free body, one actuator per rotor, "
+        "ctrl = thrust in [0, f_max]); urdf: base_link with mass and inertia, one link and "
+        "continuous joint per rotor (its frame's z-axis is the thrust direction); json: rotor "
+        "poses, directions, spins, c_tau, masses, inertia and the configuration matrix. "
+        "Frame {S}: origin at the COM, z up, SI units.",
+    )
+    p.add_argument("--cells", help="JSON list of [x, y] cells, e.g. '[[0,0],[1,0],[0,1]]'")
+    p.add_argument("--task", help="task file: export the structure --method finds for it")
+    add_method(p)
+    p.add_argument(
+        "--format",
+        choices=FORMATS,
+        default=None,
+        help="output format (default: from --out's suffix: "
+        + ", ".join(f"{s} = {f}" for f, s in SUFFIXES.items())
+        + ")",
+    )
+    p.add_argument("--out", required=True, help="output file")
+    p.add_argument(
+        "--f-max",
+        type=real_option,
+        default=None,
+        help="rotor thrust limit written to the model (default: the task's f_max, else 1)",
+    )
+    add_csv_header(p)
+    add_force(p)
+
+
+def found_structure(args: argparse.Namespace, task):
+    """The structure ``--method`` finds for ``task``; a ValueError when it finds none."""
+    from modquad_gym.cli.solve import solver
+
+    result = solver(args)(task)
+    if result.structure is None:
+        raise ValueError(
+            f"--task: {args.method} found no structure of up to {args.n_max} modules for "
+            f"{args.task}; nothing to export"
+        )
+    return result.structure
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from modquad_gym.cli.show import structure_from_cells
+    from modquad_gym.core.outputs import check_output_file
+    from modquad_gym.export import save_structure
+
+    if bool(args.cells) == bool(args.task):
+        raise ValueError("give either --cells (e.g. '[[0,0],[1,0]]') or --task")
+    check_output_file(args.out, force=args.force, what="--out")  # before any search
+    f_max = args.f_max
+    if args.cells:
+        structure = structure_from_cells(args.cells, palette(args))
+    else:
+        task = common.load_task(args.task, args.csv_header)
+        structure = found_structure(args, task)
+        f_max = task.f_max if f_max is None else f_max
+    out = save_structure(structure, Path(args.out), args.format, 1.0 if f_max is None else f_max,
+                         force=args.force)  # fmt: skip
+    print(f"wrote {out}: {structure.n_modules} modules, cells {list(structure.cells)}")
+    return 0

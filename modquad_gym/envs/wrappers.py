@@ -1,0 +1,71 @@
+"""Wrappers for algorithms that cannot use action masks (SB3's PPO, A2C and DQN, the RL Zoo).
+
+The environments mask their actions: most of the grid is not a valid docking at any step, and
+an invalid action only costs a penalty. MaskablePPO (sb3-contrib) reads the mask; other
+algorithms spend their episodes on invalid actions and learn nothing.
+:class:`NearestValidAction` makes every action valid instead, so that any algorithm for a
+``Discrete`` action space learns the design problem:
+
+    env = NearestValidAction(gym.make("ModQuadAssembly-v0"))
+
+In the RL Zoo, name it in the hyperparameter file (``examples/rl_zoo/ppo.yml``)::
+
+    env_wrapper:
+      - modquad_gym.envs.wrappers.NearestValidAction
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from modquad_gym.envs.assembly.inputs import parse_action
+
+__all__ = ["NearestValidAction"]
+
+
+class NearestValidAction(gym.Wrapper):
+    """Replace an action that cannot dock by the valid action whose grid cell is nearest to its
+    cell (Euclidean distance on the grid; a module of the same type first, in the several-type
+    environment; ties to the lowest action index). A valid action is kept as it is, so a policy
+    that has learned the mask loses nothing. Anything that is not an action of the space (a
+    float, -1, ...) counts as the centre cell.
+
+    Spaces are those of the wrapped environment (the observation keeps ``"action_mask"``).
+    ``info["requested_action"]`` and ``info["applied_action"]`` say what was asked and done.
+    When no action is valid (the episode is over, or one module already satisfies the task),
+    the action passes through unchanged and the environment ends the episode as documented.
+    """
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        grid = env.unwrapped.grid
+        index = np.arange(grid.n_actions)
+        y, x = np.divmod(index % grid.n_cells, grid.side)
+        self._xy = np.stack([x, y], axis=1).astype(float)
+        self._type = index // grid.n_cells
+        self._centre = grid.centre
+        self._far = 4.0 * grid.side**2  # more than any squared distance on the grid
+
+    def valid_action(self, action: Any) -> int:
+        """The action that :meth:`step` applies for ``action``."""
+        mask = np.asarray(self.env.unwrapped.action_masks(), dtype=bool)
+        a = parse_action(action, len(mask))
+        if a is not None and mask[a]:
+            return a
+        valid = np.flatnonzero(mask)
+        if a is None:
+            a = self._centre
+        if not len(valid):
+            return a
+        distance = ((self._xy[valid] - self._xy[a]) ** 2).sum(axis=1)
+        distance += self._far * (self._type[valid] != self._type[a])
+        return int(valid[np.argmin(distance)])
+
+    def step(self, action: Any):
+        applied = self.valid_action(action)
+        obs, reward, terminated, truncated, info = self.env.step(applied)
+        info["requested_action"], info["applied_action"] = action, applied
+        return obs, reward, terminated, truncated, info

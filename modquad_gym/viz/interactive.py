@@ -1,0 +1,198 @@
+"""An interactive page of a structure: one self-contained HTML file (plotly, its JavaScript inline,
+nothing fetched from the network) with three 3-D views to turn and zoom:
+
+* the structure: module boxes (coloured by type), rotors (coloured by spin) and cones along the
+  rotors' thrust directions, in {S} (metres, origin at the COM);
+* the feasible forces and the feasible torques: the projections of the 6-D feasible set onto
+  force and torque space (:mod:`modquad_gym.viz.zonotope`), with the task's wrenches, green where
+  the structure can exert the whole 6-D wrench and red where not (a red point may lie inside a
+  projection: it fails in the other three coordinates).
+
+Plotly is imported only here (the ``viz`` extra).
+"""
+
+from __future__ import annotations
+
+import html
+import os
+
+import numpy as np
+
+from modquad_gym.core.outputs import check_output_file, write_text
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.viz.raster import SPIN_COLOURS, check_structure, type_colour
+from modquad_gym.viz.zonotope import (
+    FEASIBLE_COLOUR,
+    INFEASIBLE_COLOUR,
+    SPACES,
+    hull_faces,
+    projection_vertices,
+    task_wrenches,
+    units,
+)
+
+_BOX = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], dtype=float)
+_BOX_TRIANGLES = np.array([
+    [0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+    [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3],
+])  # fmt: skip
+_THICKNESS = 0.05  # module box height in metres, as in the MuJoCo model
+
+
+def structure_traces(structure: Structure) -> list:
+    """Plotly traces of the structure in {S}: module boxes, rotors, thrust-direction cones."""
+    import plotly.graph_objects as go
+
+    s = check_structure(structure)
+    traces = []
+    half = np.array([s.side / 2 * 0.97, s.side / 2 * 0.97, _THICKNESS / 2])
+    for i, (centre, m, t) in enumerate(zip(s.module_centres, s.modules, s.type_indices)):
+        V = centre + _BOX * half
+        traces.append(go.Mesh3d(
+            x=V[:, 0], y=V[:, 1], z=V[:, 2], i=_BOX_TRIANGLES[:, 0], j=_BOX_TRIANGLES[:, 1],
+            k=_BOX_TRIANGLES[:, 2], color=type_colour(m, t), opacity=0.55, flatshading=True,
+            name=f"module {i}: {m.name}, cell {tuple(s.cells[i])}", hoverinfo="name",
+            showlegend=False,
+        ))  # fmt: skip
+    P, D = s.rotor_positions, s.rotor_directions
+    lift = _THICKNESS / 2
+    for spin in (1.0, -1.0):
+        k = np.flatnonzero(s.rotor_spins == spin)
+        if not len(k):
+            continue
+        text = [f"rotor {j}: spin {spin:+.0f}, thrust direction {np.round(D[j], 3)}" for j in k]
+        traces.append(go.Scatter3d(
+            x=P[k, 0], y=P[k, 1], z=P[k, 2] + lift, mode="markers", text=text, hoverinfo="text",
+            marker={"size": 6, "color": SPIN_COLOURS[spin]}, name=f"rotor, spin {spin:+.0f}",
+        ))  # fmt: skip
+    length = 0.4 * s.side
+    traces.append(go.Cone(
+        x=P[:, 0], y=P[:, 1], z=P[:, 2] + lift, u=D[:, 0] * length, v=D[:, 1] * length,
+        w=D[:, 2] * length, anchor="tail", sizemode="raw", sizeref=0.35, showscale=False,
+        colorscale=[[0, "#8b1a1a"], [1, "#8b1a1a"]], name="thrust direction",
+        hoverinfo="name", showlegend=True,
+    ))  # fmt: skip
+    traces.append(go.Scatter3d(
+        x=[0.0], y=[0.0], z=[0.0], mode="markers", marker={"size": 5, "color": "black",
+        "symbol": "cross"}, name="COM (origin of {S})",
+    ))  # fmt: skip
+    return traces
+
+
+def projection_traces(structure: Structure, space: str, task=None, f_max: float = 1.0) -> list:
+    """Plotly traces of the feasible set's projection onto ``space`` ("force" or "torque") and
+    of the task's wrenches there, coloured by their 6-D feasibility."""
+    import plotly.graph_objects as go
+
+    s = check_structure(structure)
+    first, names = SPACES[space]
+    f_max = float(getattr(task, "f_max", f_max))
+    V = projection_vertices(s.configuration_matrix(), space, f_max)
+    faces = hull_faces(V)
+    traces = []
+    if faces is not None:
+        traces.append(go.Mesh3d(
+            x=V[:, 0], y=V[:, 1], z=V[:, 2], i=faces[:, 0], j=faces[:, 1], k=faces[:, 2],
+            color="#4c72b0", opacity=0.25, name=f"feasible {space}s (projection)",
+            hoverinfo="name", showlegend=False,
+        ))  # fmt: skip
+    traces.append(go.Scatter3d(
+        x=V[:, 0], y=V[:, 1], z=V[:, 2], mode="markers", marker={"size": 2, "color": "#2b4570"},
+        name=f"vertices of the {space} projection", hoverinfo="skip", showlegend=False,
+    ))  # fmt: skip
+    if task is not None:
+        W, ok, _ = task_wrenches(s, task)
+        for mask, colour, label in ((ok, FEASIBLE_COLOUR, "feasible"),
+                                    (~ok, INFEASIBLE_COLOUR, "infeasible")):  # fmt: skip
+            idx = np.flatnonzero(mask)
+            if not len(idx):
+                continue
+            Q = W[idx, first : first + 3]
+            text = [f"wrench {i + 1}: {np.round(W[i], 4).tolist()} ({label} in 6-D)" for i in idx]
+            traces.append(go.Scatter3d(
+                x=Q[:, 0], y=Q[:, 1], z=Q[:, 2], mode="markers", text=text, hoverinfo="text",
+                marker={"size": 4, "color": colour}, name=f"task wrench, {label} (6-D)",
+                legendgroup=label, showlegend=space == "force",
+            ))  # fmt: skip
+    return traces
+
+
+def structure_figure(structure: Structure, task=None, f_max: float = 1.0):
+    """A plotly figure: the structure, and its feasible forces and torques with the task."""
+    from plotly.subplots import make_subplots
+
+    s = check_structure(structure)
+    f_max = float(getattr(task, "f_max", f_max))
+    force_unit, torque_unit = units(task, f_max)
+    fig = make_subplots(
+        rows=1, cols=3, specs=[[{"type": "scene"}] * 3], horizontal_spacing=0.02,
+        subplot_titles=(
+            f"structure: {s.n_modules} modules, {s.mass:g} kg (metres, {{S}})",
+            f"feasible forces [{force_unit}]: projection of the 6-D set",
+            f"feasible torques [{torque_unit}]: projection of the 6-D set",
+        ),
+    )  # fmt: skip
+    for trace in structure_traces(s):
+        fig.add_trace(trace, row=1, col=1)
+    for col, space in ((2, "force"), (3, "torque")):
+        for trace in projection_traces(s, space, task, f_max):
+            fig.add_trace(trace, row=1, col=col)
+    axes = {"force": ("f_x", "f_y", "f_z"), "torque": ("τ_x", "τ_y", "τ_z")}
+    fig.update_layout(
+        scene=_structure_scene(s),
+        scene2={f"{a}axis_title": f"{n} [{force_unit}]" for a, n in zip("xyz", axes["force"])},
+        scene3={f"{a}axis_title": f"{n} [{torque_unit}]" for a, n in zip("xyz", axes["torque"])},
+        legend={"orientation": "h", "y": -0.05},
+        margin={"l": 10, "r": 10, "t": 60, "b": 10}, height=620,
+    )  # fmt: skip
+    return fig
+
+
+def _structure_scene(s: Structure) -> dict:
+    """Axes of the structure view: metres, equal scales, a little room above and below."""
+    lo = s.module_centres.min(axis=0) - s.side
+    hi = s.module_centres.max(axis=0) + s.side
+    lo[2], hi[2] = -s.side, s.side
+    span = hi - lo
+    return {
+        "aspectmode": "manual",
+        "aspectratio": dict(zip("xyz", span / span.max())),
+        **{f"{a}axis": {"range": [lo[i], hi[i]], "title": f"{a} [m]"} for i, a in enumerate("xyz")},
+        "camera": {"eye": {"x": 0.9, "y": -1.3, "z": 0.9}},
+    }
+
+
+def structure_page(structure: Structure, task=None, f_max: float = 1.0) -> str:
+    """The self-contained HTML page of :func:`structure_figure` with a short explanation."""
+    s = check_structure(structure)
+    fig = structure_figure(s, task, f_max)
+    name = getattr(task, "name", None)
+    title = f"modquad_gym: {s.n_modules}-module structure" + (f" for task {name}" if name else "")
+    note = (
+        "Drag to turn a view, scroll to zoom, hover for values. The feasible set of wrenches "
+        "[f; τ] is 6-dimensional: the middle and right views are its projections onto force and "
+        "torque space. A task wrench is green when the structure can exert the whole 6-D wrench "
+        "and red when not, so a red point may lie inside both projections."
+    )
+    if task is not None and getattr(task, "kind", "total") == "external":
+        note += " The task is external: the points are its wrenches plus the structure's weight."
+    body = fig.to_html(
+        include_plotlyjs=True, full_html=False, config={"displaylogo": False, "responsive": True}
+    )
+    return (
+        '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+        f'<title>{html.escape(title)}</title>\n</head>\n<body style="font-family: sans-serif">\n'
+        f"<h2>{html.escape(title)}</h2>\n<p>cells {html.escape(str(list(s.cells)))}; "
+        f"types {html.escape(', '.join(m.name for m in s.modules))}</p>\n"
+        f"<p>{html.escape(note)}</p>\n{body}\n</body>\n</html>\n"
+    )
+
+
+def save_structure_page(
+    structure: Structure, path: str | os.PathLike, task=None, force: bool = False
+) -> str:
+    """Write :func:`structure_page` to ``path`` (an existing file only with ``force``)."""
+    text = structure_page(structure, task)
+    path = check_output_file(path, force=force, what="--html")
+    write_text(path, text)
+    return os.fspath(path)

@@ -1,0 +1,104 @@
+"""What the pictures of the feasible wrenches share: the set's projections onto force and torque
+space, their hulls, a task's wrenches with their feasibility, and the units to write on the axes.
+
+The feasible set W = {A u : 0 <= u <= f_max} is 6-dimensional. A picture shows its *projection*
+onto the three force or the three torque coordinates: the set of forces (torques) that some
+feasible wrench has, whatever its torque (force). A task wrench is coloured by its feasibility
+as a whole, in 6-D: an infeasible wrench may well lie inside both projections.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+
+from modquad_gym.oracle import check_f_max, feasible
+
+SPACES = {"force": (0, ("f_x", "f_y", "f_z")), "torque": (3, ("tau_x", "tau_y", "tau_z"))}
+"""The two projections: first row of A and the coordinate names."""
+
+FEASIBLE_COLOUR, INFEASIBLE_COLOUR = "#2ca02c", "#d62728"
+"""Task wrenches that the structure can (green) and cannot (red) exert, judged in 6-D."""
+
+
+def projection_vertices(A: np.ndarray, space: str, f_max: float = 1.0) -> np.ndarray:
+    """Vertices (k, 3) of the projection of W onto force (``space="force"``) or torque space.
+
+    The projection is the 3-d zonotope with generators ``A[rows] * f_max``. Every vertex is a
+    support point ``sum_j f_max a_j [d . a_j > 0]``. Directions: the normals of all generator
+    pairs (every facet of a 3-d zonotope is normal to some a_i x a_j), each tilted slightly
+    around its normal to land in every neighbouring cell, plus a Fibonacci sphere. The hull of
+    the support points is then exactly the zonotope (checked against its support function in
+    the tests).
+    """
+    if space not in SPACES:
+        raise ValueError(f"space must be one of {tuple(SPACES)}, got {space!r}")
+    f_max = check_f_max(f_max)
+    A = np.asarray(A, dtype=float)
+    if A.ndim != 2 or A.shape[0] != 6:
+        raise ValueError(f"A must be a 6 x m configuration matrix, got shape {np.shape(A)}")
+    first = SPACES[space][0]
+    G = A[first : first + 3] * f_max  # (3, m)
+    m = G.shape[1]
+    dirs = [_fibonacci_sphere(400)]
+    i, j = np.triu_indices(m, k=1)
+    N = np.cross(G[:, i].T, G[:, j].T)
+    norm = np.linalg.norm(N, axis=1)
+    N = N[norm > 1e-12 * max(1.0, float(np.abs(G).max()) ** 2)]
+    if len(N):
+        N /= np.linalg.norm(N, axis=1, keepdims=True)
+        # two unit vectors orthogonal to each normal, for the tilts
+        ref = np.where(np.abs(N[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+        e1 = np.cross(N, ref)
+        e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+        e2 = np.cross(N, e1)
+        eps = 1e-5
+        for theta in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
+            tilt = eps * (math.cos(theta) * e1 + math.sin(theta) * e2)
+            dirs += [N + tilt, -N + tilt]
+    D = np.vstack(dirs)
+    P = (D @ G > 0).astype(float) @ G.T
+    return np.unique(np.round(P, 12), axis=0)
+
+
+@lru_cache(maxsize=8)
+def _fibonacci_sphere(k: int) -> np.ndarray:
+    i = np.arange(k) + 0.5
+    phi = np.arccos(1 - 2 * i / k)
+    theta = math.pi * (1 + 5**0.5) * i
+    out = np.stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)], 1)
+    out.setflags(write=False)
+    return out
+
+
+def hull_faces(V: np.ndarray) -> np.ndarray | None:
+    """Triangles (s, 3) of the convex hull of the points ``V`` (indices into V), or None when
+    the points are flat (a rank-deficient projection): then only the points can be shown."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        return ConvexHull(V).simplices
+    except (QhullError, ValueError):
+        return None
+
+
+def task_wrenches(structure, task) -> tuple[np.ndarray, np.ndarray, float]:
+    """The wrenches the rotors must produce for ``task`` (a TaskRequirement: an ``external``
+    task's plus the structure's weight; or a (t, 6) array), their 6-D feasibility, and f_max."""
+    W = task.rotor_wrenches(structure.mass) if hasattr(task, "rotor_wrenches") else task
+    W = np.atleast_2d(np.asarray(W, dtype=float))
+    if W.ndim != 2 or W.shape[1] != 6:
+        raise ValueError(f"wrenches must have shape (t, 6), got {np.shape(W)}")
+    f_max = float(getattr(task, "f_max", 1.0))
+    return W, feasible(structure.configuration_matrix(), W, f_max=f_max), f_max
+
+
+def units(task=None, f_max: float = 1.0) -> tuple[str, str]:
+    """Axis units of forces and torques: SI (N, N m) for ``external`` tasks and for thrust
+    limits other than 1; "f_max" and "f_max·m" for the paper's normalised tasks (f_max = 1)."""
+    kind = getattr(task, "kind", "total")
+    if kind == "total" and float(getattr(task, "f_max", f_max)) == 1.0:
+        return "f_max", "f_max·m"
+    return "N", "N m"
