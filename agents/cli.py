@@ -11,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+from agents.checks import check_environment, check_model, check_publishable
 from agents.imitation import EXPERTS
 from agents.training import (
     DEFAULT_TIMESTEPS,
@@ -23,9 +24,13 @@ from agents.training import (
 )
 from modquad_gym.bench.agents import REPORT_FILES
 from modquad_gym.bench.tiers import TIERS
+from modquad_gym.core.options import int_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir
 
 ROOT = Path(__file__).resolve().parents[1]
+INTEGER = int_option(-(2**63), 2**63)
+"""Integer options parse strictly (no ``1_000``); their ranges are checked with the recipe
+(:mod:`agents.checks`)."""
 QUICK_TIMESTEPS = 4_096
 QUICK_DEMO_TASKS = 40
 POSITIVE = (
@@ -60,7 +65,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--seed",
-        type=int,
+        type=seed_option,
         default=0,
         help="training seed; env i uses seed + i (default %(default)s)",
     )
@@ -98,7 +103,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--seeds",
-        type=int,
+        type=seed_option,
         nargs="+",
         default=None,
         metavar="SEED",
@@ -107,7 +112,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--seed-workers",
-        type=int,
+        type=INTEGER,
         default=None,
         help="with --seeds: runs at a time (default: one per seed, at most the local "
         "cores; every CPU of the cluster with RAY_ADDRESS)",
@@ -134,13 +139,13 @@ def add_recipe_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("recipe")
     g.add_argument(
         "--timesteps",
-        type=int,
+        type=INTEGER,
         default=None,
         help=f"total PPO environment steps (default {DEFAULT_TIMESTEPS}, the tier's recipe may "
         f"change it: {recipe('timesteps')}; {QUICK_TIMESTEPS} with --quick)",
     )
     g.add_argument(
-        "--n-envs", type=int, default=2, help="parallel environments (default %(default)s)"
+        "--n-envs", type=INTEGER, default=2, help="parallel environments (default %(default)s)"
     )
     g.add_argument(
         "--vec-env",
@@ -156,24 +161,26 @@ def add_recipe_options(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--n-max",
-        type=int,
+        type=INTEGER,
         default=None,
         help="largest structure in modules (default: the tier's, 7 on current)",
     )
     g.add_argument(
         "--eval-freq",
-        type=int,
+        type=INTEGER,
         default=None,
         help="evaluate every this many total steps (default timesteps / 20)",
     )
-    g.add_argument("--n-eval", type=int, default=40, help="validation tasks (default %(default)s)")
+    g.add_argument(
+        "--n-eval", type=INTEGER, default=40, help="validation tasks (default %(default)s)"
+    )
     g.add_argument(
         "--checkpoint-freq",
-        type=int,
+        type=INTEGER,
         default=50_000,
         help="checkpoint every this many total steps, under --tensorboard (default %(default)s)",
     )
-    g.add_argument("--threads", type=int, default=1, help="torch threads (default %(default)s)")
+    g.add_argument("--threads", type=INTEGER, default=1, help="torch threads (default %(default)s)")
     g.add_argument(
         "--env-kwargs",
         type=json.loads,
@@ -194,7 +201,7 @@ def add_imitation_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("imitation")
     g.add_argument(
         "--demo-tasks",
-        type=int,
+        type=INTEGER,
         default=None,
         help="training tasks with an expert episode each for behaviour cloning (default "
         f"{IMITATION['demo_tasks']}; {recipe('demo_tasks')}; {QUICK_DEMO_TASKS} with --quick)",
@@ -208,13 +215,13 @@ def add_imitation_options(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--bc-epochs",
-        type=int,
+        type=INTEGER,
         default=IMITATION["bc_epochs"],
         help="behaviour-cloning epochs before PPO; 0: PPO alone from scratch (default %(default)s)",
     )
     g.add_argument(
         "--workers",
-        type=int,
+        type=INTEGER,
         default=2,
         help="processes that collect the expert demonstrations (default %(default)s)",
     )
@@ -253,15 +260,16 @@ def complete(args: argparse.Namespace) -> None:
     for name in ("env_kwargs", "hyperparameters"):
         if not isinstance(getattr(args, name), dict):
             raise ValueError(f"--{name.replace('_', '-')} must be a JSON object")
-    if args.resume is not None and not args.resume.is_file():
-        raise ValueError(f"--resume: no model file {args.resume}")
+    if args.seeds and len(set(args.seeds)) != len(args.seeds):
+        raise ValueError(f"--seeds: a seed is given twice in {args.seeds}")
     if args.seeds and (args.publish or args.publish_run):
         raise ValueError("--publish installs one run: train the seeds, then --publish-run one")
     if args.publish_run is not None:
         config = args.publish_run / "config.json"
         if not (args.publish_run / "model.zip").is_file() or not config.is_file():
             raise ValueError(f"--publish-run: no model.zip and config.json in {args.publish_run}")
-        args.tier = json.loads(config.read_text()).get("tier", "current")
+        args.tier = run_tier(config)
+        check_publishable(args.publish_run, tier_env_kwargs(args.tier))
         args.out = args.publish_run
     elif args.out is None:
         prefix = "ppo-" if args.tier == "current" else f"{args.tier}-"
@@ -270,7 +278,13 @@ def complete(args: argparse.Namespace) -> None:
     publishing = args.publish or args.publish_run is not None
     if args.report_dir is None:
         args.report_dir = ROOT / TIERS[args.tier].results if publishing else args.out / "report"
-    args.config = None if args.seeds or args.publish_run else config_of(args)
+    if args.publish_run is None:  # every seed of --seeds runs this recipe
+        config = config_of(args)
+        check_environment(config)
+        if args.resume is not None:
+            check_model(args.resume, config.env_kwargs_full, "--resume")
+        check_output_dir(args.tensorboard, what="--tensorboard")
+    args.config = None if args.seeds or args.publish_run else config
     runs = [Path(args.out) / f"seed-{s}" for s in args.seeds] if args.seeds else [args.out]
     for out in runs:
         if args.publish_run is None:
@@ -278,6 +292,22 @@ def complete(args: argparse.Namespace) -> None:
         if not args.no_report:
             report = out / "report" if args.seeds else args.report_dir
             check_output_dir(report, REPORT_FILES, args.force or publishing, "--report-dir")
+
+
+def run_tier(config: Path) -> str:
+    """The tier a run folder's ``config.json`` names (``--publish-run``)."""
+    try:
+        tier = json.loads(config.read_text()).get("tier", "current")
+    except (OSError, ValueError, AttributeError) as exc:
+        raise ValueError(f"--publish-run: {config} is not a run's config ({exc})") from None
+    if tier not in TIERS:
+        raise ValueError(f"--publish-run: {config} names an unknown tier {tier!r}")
+    return tier
+
+
+def tier_env_kwargs(tier: str) -> dict:
+    """The environment a tier's shipped model plays (its recipe's training environment)."""
+    return TrainConfig(out=Path("."), tier=tier).env_kwargs_full
 
 
 def config_of(args: argparse.Namespace) -> TrainConfig:

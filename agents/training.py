@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from agents.checks import check_hyperparameters, check_numbers, check_publishable
 from agents.imitation import EXPERTS
 from modquad_gym.bench.tiers import get_tier
 from modquad_gym.core.extras import import_optional
@@ -100,6 +101,8 @@ class TrainConfig:
             raise ValueError(
                 f"--hyperparameters: unknown keys {unknown}; known: {sorted(HYPERPARAMETERS)}"
             )
+        check_numbers(self)  # every number in range, named by its train.py option
+        check_hyperparameters(self.hyperparameters)
         if {"tasks", "n_max"} & set(self.env_kwargs):
             raise ValueError("--env-kwargs: give tasks and n_max with --task-source and --n-max")
 
@@ -391,7 +394,10 @@ def versions() -> dict:
 
 def publish(run: Path, model: Path = DEFAULT_MODEL) -> Path:
     """Install a run's model, config and learning curve as a shipped model (``model``: the
-    model.zip path to write; default the package's default model)."""
+    model.zip path to write; default the package's default model). The run's model is checked
+    first (a saved MaskablePPO of the run's own environment): nothing is replaced otherwise."""
+    tier = json.loads((Path(run) / "config.json").read_text()).get("tier", "current")
+    check_publishable(run, TrainConfig(out=Path(run), tier=tier).env_kwargs_full)
     target = Path(model).parent
     target.mkdir(parents=True, exist_ok=True)
     for name in RUN_FILES:

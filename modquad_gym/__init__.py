@@ -7,6 +7,7 @@ and their structure-dependent wrenches) -> ``tasks``/``search``
 Importing this package stays light: torch, SB3 and MuJoCo load only where they are used.
 """
 
+import modquad_gym.core.caches  # noqa: F401 - first: writable caches (numba, matplotlib)
 from modquad_gym import envs  # noqa: F401 - registers ModQuadAssembly-v0 with Gymnasium
 from modquad_gym.dynamics import DynamicTask, Payload, Trajectory, required_wrenches
 from modquad_gym.geometry.module import DEFAULT_C_TAU, DEFAULT_SIDE, GRAVITY, ModuleType, TModule

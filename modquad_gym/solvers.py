@@ -9,6 +9,7 @@ alike. Torch and SB3 load only when a PPO solver is made (:mod:`modquad_gym.poli
 from __future__ import annotations
 
 import importlib
+import inspect
 import sys
 import time
 from pathlib import Path
@@ -32,7 +33,7 @@ METHOD_HELP = {
 default methods): every search of :data:`modquad_gym.search.SEARCHES`, then the learned ones."""
 assert list(METHOD_HELP)[: len(SEARCHES)] == list(SEARCHES)
 METHODS = tuple(METHOD_HELP)
-"""Names understood by :func:`make_solver`."""
+"""Names understood by :func:`make_solver` (besides the variants of the learned ones)."""
 LEARNED = tuple(m for m in METHODS if m not in SEARCHES)
 
 
@@ -46,69 +47,105 @@ class Solver(Protocol):
 
 
 class SearchSolver:
-    """A search of :mod:`modquad_gym.search` behind the :class:`Solver` interface."""
+    """A search of :mod:`modquad_gym.search` behind the :class:`Solver` interface.
 
-    def __init__(self, method: str, n_max: int = 7, seed: int = 0, modules=None) -> None:
+    ``options`` (e.g. ``seed``, ``workers``, ``address``, ``progress``, ``time_limit``) go to the
+    search where its signature takes them and are dropped otherwise, so one call site can make
+    any search; ``modules`` (a list of module types) searches shapes x type assignments.
+    """
+
+    def __init__(self, method: str, n_max: int = 7, modules=None, **options: Any) -> None:
         if method not in SEARCHES:
             raise ValueError(f"unknown search {method!r}; choose one of {', '.join(SEARCHES)}")
         self.name = method
         self.n_max = n_max
-        self.seed = seed
-        self._fn = SEARCHES[method]
-        self._kwargs = {"modules": list(modules)} if modules else {}
-        if method in ("random", "anytime"):
-            self._kwargs["seed"] = seed
+        self.search = SEARCHES[method]
+        takes = inspect.signature(self.search).parameters
+        self.options = {k: v for k, v in options.items() if k in takes}
+        if modules:
+            self.options["modules"] = list(modules)
 
     def solve(self, task: Any) -> SearchResult:
-        return self._fn(task, n_max=self.n_max, **self._kwargs)
+        return self.search(task, n_max=self.n_max, **self.options)
 
     def __repr__(self) -> str:
-        return f"SearchSolver({self.name!r}, n_max={self.n_max}, seed={self.seed})"
+        return f"SearchSolver({self.name!r}, n_max={self.n_max}, **{self.options!r})"
 
 
 def make_solver(
     method: str,
     n_max: int = 7,
-    model: str | Path | None = None,
+    model: Any = None,
     seed: int = 0,
     samples: int = 0,
     modules=None,
     guided: dict | None = None,
+    **search_options: Any,
 ) -> Solver:
-    """The solver for ``method`` (one of :data:`METHODS`).
+    """The one factory of solvers: ``method`` is a name of :data:`METHODS`, a variant of a
+    learned one (``ppo-kN``: N sampled rollouts besides the deterministic one;
+    ``ppo-guided[-bN][-wN][-nodive]``: the guided search with budget N, branching N, no dive)
+    or ``package.module:Name`` (an outside agent, :func:`load_solver`).
 
-    ``model`` (a PPO .zip, default :data:`DEFAULT_MODEL`) and ``samples`` (extra stochastic
-    rollouts, best verified structure kept) apply to ``"ppo"`` only; ``seed`` seeds the random
-    search and PPO's sampled rollouts; ``modules`` (a list of module types) makes the searches
-    search over shapes x type assignments, and must be the palette a learned model was
-    trained with; ``guided`` holds :class:`~.guided.GuidedSolver` keywords (budget, branching,
-    dive) for ``"ppo-guided"``.
+    ``model`` (a PPO .zip, a loaded :class:`~modquad_gym.policy.policy.Policy`; default the
+    shipped model) applies to the learned methods only; ``samples`` (extra stochastic rollouts)
+    to ``"ppo"``; ``guided`` holds :class:`~modquad_gym.policy.guided.GuidedSolver` keywords;
+    ``seed`` seeds the random search and PPO's sampled rollouts; ``modules`` (a list of module
+    types) makes the searches search over shapes x type assignments and must be the palette a
+    learned model was trained with; ``search_options`` go to the searches that take them
+    (:class:`SearchSolver`).
     """
-    if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
-    if method in LEARNED:
-        if method == "ppo-guided":
-            from modquad_gym.policy.guided import GuidedSolver
+    if ":" in method:
+        return load_solver(method, n_max=n_max)
+    learned = learned_options(method)
+    if learned is None:
+        if method not in METHODS:
+            raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+        if model is not None:
+            raise ValueError(f"--model applies to {', '.join(LEARNED)} only, not {method!r}")
+        return SearchSolver(method, n_max=n_max, modules=modules, seed=seed, **search_options)
+    base, options = learned
+    if base == "ppo-guided":
+        from modquad_gym.policy.guided import GuidedSolver
 
-            solver = GuidedSolver(model=model, n_max=n_max, **(guided or {}))
+        solver: Any = GuidedSolver(model=model, n_max=n_max, **{**(guided or {}), **options})
+    else:
+        from modquad_gym.policy.ppo import PPOSolver
+
+        solver = PPOSolver(model=model, n_max=n_max, seed=seed, **{"samples": samples, **options})
+    solver.policy.check_palette(modules)
+    if method != "ppo":  # a variant keeps its full name (plain ppo with samples: ppo-kN)
+        solver.name = method
+    return solver
+
+
+def learned_options(method: str) -> tuple[str, dict] | None:
+    """(learned method, its keywords) of a learned method name or variant (see
+    :func:`make_solver`); None for any other name; ValueError for a malformed variant."""
+    if method.startswith("ppo-k"):
+        k = method[len("ppo-k") :]
+        if not k.isdigit():
+            raise ValueError(f"bad method {method!r}; write ppo-kN with N an integer")
+        return "ppo", {"samples": int(k)}
+    if method == "ppo-guided" or method.startswith("ppo-guided-"):
+        return "ppo-guided", guided_options(method)
+    return (method, {}) if method in LEARNED else None
+
+
+def guided_options(method: str) -> dict:
+    """GuidedSolver keywords from ``ppo-guided[-bN][-wN][-nodive]`` (see :func:`make_solver`)."""
+    options: dict = {}
+    for part in method[len("ppo-guided") :].split("-")[1:]:
+        if part == "nodive":
+            options["dive"] = False
+        elif part[:1] in ("b", "w") and part[1:].isdigit() and int(part[1:]) > 0:
+            options["budget" if part[0] == "b" else "branching"] = int(part[1:])
         else:
-            from modquad_gym.policy.ppo import PPOSolver
-
-            solver = PPOSolver(model=model, n_max=n_max, seed=seed, samples=samples)
-        trained = solver.env.palette or [solver.env.module]
-        same = [m.digest for m in modules or []] == [m.digest for m in trained]
-        if modules and not same or not modules and len(trained) > 1:
-            given = ",".join(m.name for m in modules) if modules else "one type"
             raise ValueError(
-                f"--model {solver.model_path or 'given'}: trained with the module types "
-                f"{','.join(m.name for m in trained)}, not {given}: give --model of one trained "
-                "with them "
-                "(the mixed tier's, t45,t45m,flat: modquad_gym/data/models/ppo_mixed/model.zip)"
+                f"bad method {method!r}: write ppo-guided with -bN (budget), -wN (branching) "
+                "or -nodive, N a positive integer"
             )
-        return solver
-    if model is not None:
-        raise ValueError(f"--model applies to {', '.join(LEARNED)} only, not {method!r}")
-    return SearchSolver(method, n_max=n_max, seed=seed, modules=modules)
+    return options
 
 
 class ExternalSolver:
@@ -129,7 +166,13 @@ class ExternalSolver:
     def solve(self, task: Any) -> SearchResult:
         t0 = time.perf_counter()
         fn = self.agent.solve if hasattr(self.agent, "solve") else self.agent
-        answer = fn(task)
+        try:
+            answer = fn(task)
+        except Exception as exc:  # the agent's own failure, named in one line
+            raise ValueError(
+                f"solver {self.name!r} failed on task {getattr(task, 'name', task)!r}: "
+                f"{type(exc).__name__}: {exc}"
+            ) from exc
         seconds = time.perf_counter() - t0
         if isinstance(answer, SearchResult):
             return answer
@@ -161,6 +204,8 @@ def load_solver(spec: str, n_max: int = 7) -> Solver:
     module_name, sep, attr = spec.partition(":")
     if not sep or not module_name or not attr:
         raise ValueError(f"--solver {spec!r}: write it as package.module:Name")
+    if module_name.split(".")[0] in sys.stdlib_module_names:  # os:system is not an agent
+        raise ValueError(f"--solver {spec!r}: {module_name} is a standard-library module")
     if "" not in sys.path and str(Path.cwd()) not in sys.path:
         sys.path.insert(0, str(Path.cwd()))  # like python -m: modules of the working folder
     try:

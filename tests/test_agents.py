@@ -225,7 +225,7 @@ def test_ppo_solver_rebuilds_a_lookahead_env_from_the_model(tmp_path):
     config = {"env_kwargs": {"tasks": "planted", "n_max": 3, "lookahead": True}}
     (tmp_path / "config.json").write_text(json.dumps(config))
     solver = PPOSolver(tmp_path / "model.zip", n_max=3)
-    assert solver.env.lookahead
+    assert solver.policy.env.lookahead
     task = _tiny_tasks()[0]
     r = solver.solve(task)
     assert r.structure is None or _ok(r.structure.cells, task)
@@ -246,7 +246,7 @@ def test_policy_guided_search_is_verified_and_its_certificate_holds():
         r = solver.solve(task)
         optimum = task.meta["optimum"]
         assert r.evaluated <= 40
-        assert lower_bound(task.wrenches, task.f_max, solver.env.module, 7) <= optimum
+        assert lower_bound(task.wrenches, task.f_max, solver.policy.env.module, 7) <= optimum
         if r.structure is not None:
             assert r.n_modules >= optimum
             A = r.structure.configuration_matrix()

@@ -50,7 +50,7 @@ def test_solve_text_output(method, capsys):
     [
         ("{not json", ".json", "a.json"),
         ('{"wrenches": [[1, 2, 3]]}', ".json", "row 1"),
-        ("1,2,3,4,5,6\n1,2,x,4,5,6\n", ".csv", "row 2"),
+        ("1,2,3,4,5,7\n1,2,x,4,5,6\n", ".csv", "row 2"),
         ("", ".csv", "a.csv"),
     ],
 )

@@ -12,8 +12,8 @@ import pytest
 
 import modquad_gym as mq
 from modquad_gym.cli import main
-from modquad_gym.export import quaternion_matrix, rotor_quaternion, structure_dict, urdf_text
 from modquad_gym.geometry.module import STOCK_TYPES as T
+from modquad_gym.sim.export import quaternion_matrix, rotor_quaternion, structure_dict, urdf_text
 
 STRUCTURES = [
     mq.Structure([(0, 0)]),
@@ -28,7 +28,7 @@ IDS = ["one", "L3", "mixed4"]
 @pytest.mark.parametrize("s", STRUCTURES, ids=IDS)
 def test_mjcf_loads_in_mujoco_with_one_actuator_per_rotor(s):
     mujoco = pytest.importorskip("mujoco")
-    from modquad_gym.export import mjcf_text
+    from modquad_gym.sim.export import mjcf_text
 
     model = mujoco.MjModel.from_xml_string(mjcf_text(s, f_max=2.0))
     n = 4 * s.n_modules

@@ -99,7 +99,7 @@ def test_learned_solvers_on_several_module_types(mixed_model, method):
     structures verified with their weight; another palette is refused."""
     types = palette("t45,t45m,flat")
     solver = make_solver(method, n_max=4, model=mixed_model, modules=types)
-    assert solver.starts == [0, 1, 2]
+    assert solver.policy.starts == [0, 1, 2]
     for task in _mixed_tasks():
         r = solver.solve(task)
         assert r.evaluated >= 1
@@ -112,7 +112,7 @@ def test_learned_solvers_on_several_module_types(mixed_model, method):
 
 
 def test_guided_method_names_carry_its_settings():
-    from modquad_gym.bench.agents import guided_options
+    from modquad_gym.solvers import guided_options
 
     assert guided_options("ppo-guided") == {}
     assert guided_options("ppo-guided-b128-w3-nodive") == {

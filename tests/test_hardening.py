@@ -393,7 +393,7 @@ def test_huge_torques_and_f_max(tmp_path, capsys):
     assert json.loads(out)["feasible"] is False
     absurd = write(tmp_path / "absurd.json", '{"wrenches": [[0, 0, 3, 1e200, 0, 0]]}')
     code, _, err = run_main(capsys, "solve", "--task", str(absurd), "--quiet")
-    assert_one_line_error(code, err, "wrench row 0", "f_max")
+    assert_one_line_error(code, err, "wrench row 1", "f_max")
     strong = write(tmp_path / "strong.json", '{"wrenches": [[0, 0, 3, 0, 0, 0]], "f_max": 1e300}')
     code, out, err = run_main(capsys, "solve", "--task", str(strong), "--json", "--quiet")
     assert code == 0, err

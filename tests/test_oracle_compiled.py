@@ -1,8 +1,10 @@
-"""The compiled certificates (method ``"compiled"``, the decisions of ``"auto"``) against HiGHS.
+"""The compiled certificates and gamma (method ``"compiled"``; the decisions of ``"auto"``)
+against HiGHS.
 
 Wrenches are placed at chosen gauges gamma about the hover centre, down to within GUARD of the
 threshold 1 + TOL on both sides (where no certificate may decide and the exact LP must), on
-structures of every rank (one module: 4, straight lines: 5) and up to 64 modules (m = 256).
+structures of every rank (one module: 4, straight lines: 5) and up to 64 modules (m = 256),
+including the lattice's symmetric shapes, whose facets hold many columns (degenerate vertices).
 """
 
 import numpy as np
@@ -11,8 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from modquad_gym.geometry.structure import Structure, normalise
-from modquad_gym.oracle import TOL, WrenchOracle, Zonotope, decide_with
-from modquad_gym.oracle.compiled import verdicts
+from modquad_gym.oracle import TOL, WrenchOracle, Zonotope, decide_with, margin_with
+from modquad_gym.oracle.compiled import gamma_compiled, verdicts
 from modquad_gym.oracle.highs_lp import gamma_highs
 from modquad_gym.oracle.tolerance import ACCEPT, BAND, GUARD, REJECT
 from modquad_gym.tasks import random_cells
@@ -92,19 +94,83 @@ def test_remembered_directions_keep_answers_across_calls():
     for seed in range(6):
         W = wrenches_at(z, seed, np.linspace(0.2, 3.0, 40))
         np.testing.assert_array_equal(decide_with(z, W, "compiled"), reference(Zonotope(A), W))
-    assert z.prepared["compiled"][2][0] > 0  # directions were remembered
+    assert z.prepared["compiled"][1][2][0] > 0  # directions were remembered
 
 
-@pytest.mark.parametrize("n", [32, 64])
-def test_large_structures_near_the_boundary(n):
-    """m = 128 and m = 256 rotors: gauges on both sides of the threshold, HiGHS agrees."""
-    z = Zonotope(structure(n, n))
-    gauges = np.array([0.5, 0.95, 0.999, 1.0 + TOL - 5 * GUARD, 1.0 + TOL + 5 * GUARD, 1.001,
-                       1.05, 2.0] * 2)  # fmt: skip
-    W = wrenches_at(z, n, gauges)
+SHAPES = {
+    "random 32": lambda: structure(32, 32),
+    "random 64": lambda: structure(64, 64),
+    "square 8x8": lambda: Structure([(i, j) for i in range(8) for j in range(8)]),
+    "line of 64 (rank 5)": lambda: Structure([(i, 0) for i in range(64)]),
+    "one module (rank 4)": lambda: Structure([(0, 0)]),
+}
+
+
+def matrix_of(name: str) -> np.ndarray:
+    made = SHAPES[name]()
+    return made if isinstance(made, np.ndarray) else made.configuration_matrix()
+
+
+@pytest.mark.parametrize("name", list(SHAPES))
+def test_large_and_degenerate_structures_near_the_boundary(name):
+    """Up to m = 256: gauges on both sides of the threshold (5 GUARD away: certificates must
+    decide them) and far from it; HiGHS agrees, and no wrench is left to the LP."""
+    z = Zonotope(matrix_of(name))
+    gauges = np.array([0.2, 0.5, 0.95, 0.999, 1.0 + TOL - 5 * GUARD, 1.0 + TOL + 5 * GUARD,
+                       1.001, 1.05, 2.0, 40.0] * 3)  # fmt: skip
+    W = wrenches_at(z, len(name), gauges)
     got = decide_with(z, W, "compiled")
     np.testing.assert_array_equal(got, gauges <= 1.0 + TOL)
     np.testing.assert_array_equal(got, reference(z, W))
+    assert (verdicts(Zonotope(z.A), z.reduce(W)[0]) >= 0).all()
+
+
+@pytest.mark.parametrize("name", ["random 64", "square 8x8", "line of 64 (rank 5)"])
+def test_margins_within_1e9_of_zero_at_m_256(name):
+    """Margins within 1e-9 of 0 on both sides, at the two edges of the tolerance band: at
+    gamma = 1 -+ 1e-9 (margin 0, feasible) and at gamma = 1 + TOL -+ 1e-9 (inside GUARD: no
+    certificate may claim them; the LP decides, as the plain DAQP method does)."""
+    z = Zonotope(matrix_of(name))
+    inner = wrenches_at(z, 7, [1.0 - 1e-9, 1.0 + 1e-9] * 3)
+    np.testing.assert_array_equal(decide_with(z, inner, "compiled"), True)
+    np.testing.assert_array_equal(margin_with(z, inner, "compiled"), 0.0)
+    edge = wrenches_at(z, 8, [1.0 + TOL - 1e-9, 1.0 + TOL + 1e-9] * 3)
+    assert (verdicts(z, z.reduce(edge)[0]) == -1).all()
+    np.testing.assert_array_equal(decide_with(z, edge, "compiled"), decide_with(z, edge, "daqp"))
+    m = margin_with(z, edge, "compiled")
+    np.testing.assert_array_equal(m >= 0, decide_with(z, edge, "compiled"))
+    assert np.abs(m).max() <= TOL + 2e-9
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**20), n=st.sampled_from([1, 2, 3, 5, 9, 16, 40, 64]))
+def test_compiled_gamma_equals_highs(seed, n):
+    """The walk run to the optimum gives HiGHS's gamma (both within 1e-9 of the truth), inside,
+    outside and far outside the zonotope, and never below the dual bound it certifies."""
+    z = Zonotope(structure(seed, n))
+    rng = np.random.default_rng(seed)
+    R = rng.standard_normal((12, z.rank)) * rng.uniform(0.01, 3.0, (12, 1)) * z.box
+    np.testing.assert_allclose(gamma_compiled(z, R), gamma_highs(z, R), rtol=1e-9, atol=1e-9)
+    assert gamma_compiled(z, np.zeros((1, z.rank)))[0] == 0.0
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    seed=st.integers(0, 2**20),
+    n=st.sampled_from([4, 16, 48, 64]),
+    spread=st.sampled_from([1e-3, 0.05, 0.5]),
+)
+def test_boundary_heavy_batches_equal_highs(seed, n, spread):
+    """Batches around the boundary (gauges 1 +- spread) on one zonotope, remembered directions
+    carried from batch to batch: every decision clear of the band is HiGHS's."""
+    z = Zonotope(structure(seed, n))
+    rng = np.random.default_rng(seed)
+    for batch in range(2):
+        gauges = 1.0 + spread * rng.uniform(-1.0, 1.0, 16)
+        W = wrenches_at(z, seed + batch, gauges)
+        clear = np.abs(gauges - (1.0 + TOL)) > BAND
+        got = decide_with(z, W, "compiled")
+        np.testing.assert_array_equal(got[clear], (gauges <= 1.0 + TOL)[clear])
 
 
 def test_screened_counts_undecided_wrenches_as_fallback():
@@ -119,3 +185,28 @@ def test_screened_counts_undecided_wrenches_as_fallback():
     np.testing.assert_array_equal(per_wrench, 0.0)
     _, tested, satisfied = oracle.screened(A, W, WD, h, -1.0, "k")  # the screen rejects all
     assert (tested, satisfied) == (0, 0)
+
+
+@pytest.mark.parametrize("value", ["3", "7,65", "", "x", "16,,64"])
+def test_bench_oracle_refuses_bad_sizes_before_work(capsys, tmp_path, value):
+    """`modquad bench oracle --modules` takes sizes 7..64: anything else is argparse's error
+    (exit 2) naming the option, with nothing written."""
+    from modquad_gym import cli
+
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["bench", "oracle", "--modules", value, "--out", str(tmp_path / "r")])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and "Traceback" not in err
+    assert "--modules" in err.strip().splitlines()[-1]
+    assert not (tmp_path / "r").exists()
+
+
+def test_bench_oracle_writes_its_report_at_m_256(tmp_path):
+    """One tiny run at 7 and 64 modules: the report has both goals' rows and every method's."""
+    from modquad_gym.bench.oracle import run
+
+    rows, goals = run(1, 4, 0, tmp_path, repeats=1, sizes=(7, 64))
+    assert {r["rotors_m"] for r in rows} == {28, 256}
+    assert any("m = 256" in g["goal"] for g in goals)
+    assert {"auto", "compiled", "scipy"} <= {r["method"] for r in rows if r["rotors_m"] == 256}
+    assert (tmp_path / "oracle_benchmark.md").exists()

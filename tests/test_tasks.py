@@ -83,14 +83,16 @@ def test_requirement_rejects(wrenches, f_max, words):
         assert word in str(info.value)
 
 
-def test_dict_round_trip_keeps_extra_keys_in_meta():
+def test_dict_round_trip_keeps_meta_and_refuses_unknown_keys():
     task = _task()
     d = task.to_dict()
     assert set(d) == {"name", "f_max", "wrenches"}
-    back = TaskRequirement.from_dict({**d, "optimum": 4, "meta": {"generator": "x"}})
+    back = TaskRequirement.from_dict({**d, "meta": {"generator": "x", "optimum": 4}})
     assert back == task
     assert back.meta == {"generator": "x", "optimum": 4}
     assert TaskRequirement.from_dict({"wrenches": [[0, 0, 1, 0, 0, 0]]}).name == "task"
+    with pytest.raises(ValueError, match="unknown key 'optimum'.*meta"):
+        TaskRequirement.from_dict({**d, "optimum": 4})
 
 
 # --------------------------------------------------------------------------------------------

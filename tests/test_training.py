@@ -25,9 +25,9 @@ def _parameters(model_zip: Path) -> dict:
         return torch.load(io.BytesIO(z.read("policy.pth")), map_location="cpu")
 
 
-def _short_run(tmp: Path, name: str, suite: Path, seed: int = 0) -> Path:
+def _short_run(tmp: Path, name: str, suite: Path, seed: int = 0, n_max: int = 3) -> Path:
     config = TrainConfig(
-        out=tmp / name, task_source=str(suite), n_max=3, timesteps=512, eval_freq=256,
+        out=tmp / name, task_source=str(suite), n_max=n_max, timesteps=512, eval_freq=256,
         demo_tasks=12, bc_epochs=3, workers=1, n_eval=3, tensorboard=tmp / "tb", seed=seed,
         progress=False,
     )  # fmt: skip
@@ -101,7 +101,7 @@ def _script():
 def test_publish_run_installs_an_earlier_run_without_training(tmp_path, suite, monkeypatch):
     """--publish-run copies the run's files to its tier's shipped model (redirected here)."""
     script = _script()
-    _short_run(tmp_path, "run", suite)
+    _short_run(tmp_path, "run", suite, n_max=7)  # the current tier's actions
     target = tmp_path / "shipped" / "model.zip"
     monkeypatch.setattr("modquad_gym.policy.models.DEFAULT_MODEL", target)
     assert script.main(["--publish-run", str(tmp_path / "run"), "--no-report"]) == 0

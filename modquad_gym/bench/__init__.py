@@ -17,6 +17,7 @@ from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv, w
 from modquad_gym.geometry.structure import Structure
 
 __all__ = [
+    "add_force",
     "bench_args",
     "int_option",
     "machine_description",
@@ -39,30 +40,41 @@ def bench_args(
     out: str = "results",
     out_help: str = "report folder",
     force: bool = False,
+    outputs: tuple[str, ...] = (),
     **parser_kwargs,
 ) -> argparse.Namespace:
     """The parsed options of one benchmark: ``options`` maps each flag to its
     ``add_argument`` keywords; every benchmark also takes ``--seed`` (unless ``seed_help`` is
-    None), ``--out`` (default ``out``) and, with ``force``, ``--force``."""
+    None), ``--out`` (default ``out``) and, with ``force`` or ``outputs`` (the files it writes
+    into ``--out``, refused when they exist), ``--force``."""
     parser = argparse.ArgumentParser(prog=prog, description=description, **parser_kwargs)
     for flag, kwargs in options.items():
         parser.add_argument(flag, **kwargs)
     if seed_help is not None:
         parser.add_argument("--seed", type=seed_option, default=0, help=seed_help)
     parser.add_argument("--out", type=Path, default=Path(out), help=out_help)
-    if force:
-        parser.add_argument("--force", action="store_true", help="replace existing reports")
-    return parse_bench_args(parser, argv)
+    if force or outputs:
+        add_force(parser)
+    return parse_bench_args(parser, argv, outputs)
 
 
-def parse_bench_args(parser: argparse.ArgumentParser, argv: list[str] | None):
+def add_force(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--force", action="store_true", help="replace existing reports (default: refuse)"
+    )
+
+
+def parse_bench_args(
+    parser: argparse.ArgumentParser, argv: list[str] | None, outputs: tuple[str, ...] = ()
+):
     """Parse ``argv``; when the benchmark has ``--out``, check that it is (or can become) a
-    writable folder before any work starts (an argparse error otherwise)."""
+    writable folder holding none of ``outputs`` (unless ``--force``) before any work starts
+    (an argparse error otherwise)."""
     args = parser.parse_args(argv)
     out = getattr(args, "out", None)
     if out is not None:
         try:
-            check_output_dir(out, force=True)
+            check_output_dir(out, outputs, force=getattr(args, "force", False))
         except OutputError as exc:
             parser.error(str(exc))
     return args

@@ -36,51 +36,11 @@ from modquad_gym.core.options import int_option
 from modquad_gym.core.outputs import check_output_dir, write_csv
 from modquad_gym.geometry.module import palette
 from modquad_gym.search import SEARCHES, verified
-from modquad_gym.solvers import Solver, load_solver, make_solver
+from modquad_gym.solvers import Solver, guided_options, make_solver
 from modquad_gym.tasks import TaskRequirement, load_suite
 
 SEARCH_METHODS = tuple(SEARCHES)
 DEFAULT_METHODS = (*SEARCH_METHODS, "ppo", "ppo-k2", "ppo-k8")
-
-
-def parse_method(method: str, n_max: int, model: Path | None, seed: int, modules=None) -> Solver:
-    """A solver from a benchmark method name: a search name, ``ppo``, ``ppo-kN`` (PPO with N
-    sampled rollouts besides the deterministic one), ``ppo-guided`` (the policy-guided search of
-    :mod:`.guided`; settings other than its defaults as suffixes: ``-bN`` budget, ``-wN``
-    branching, ``-nodive``, e.g. ``ppo-guided-b128-nodive``), or ``package.module:Name`` (an
-    outside agent, see :func:`~.solvers.load_solver`)."""
-    if ":" in method:
-        return load_solver(method, n_max=n_max)
-    if method.startswith("ppo-k"):
-        try:
-            k = int(method[len("ppo-k") :])
-        except ValueError:
-            raise ValueError(f"bad method {method!r}; write ppo-kN with N an integer") from None
-        return make_solver("ppo", n_max=n_max, model=model, seed=seed, samples=k, modules=modules)
-    if method == "ppo-guided" or method.startswith("ppo-guided-"):
-        guided = guided_options(method)
-        solver = make_solver("ppo-guided", n_max, model, seed, modules=modules, guided=guided)
-        solver.name = method
-        return solver
-    if method == "ppo":
-        return make_solver(method, n_max=n_max, model=model, seed=seed, modules=modules)
-    return make_solver(method, n_max=n_max, seed=seed, modules=modules)
-
-
-def guided_options(method: str) -> dict:
-    """GuidedSolver keywords from ``ppo-guided[-bN][-wN][-nodive]`` (see :func:`parse_method`)."""
-    options: dict = {}
-    for part in method[len("ppo-guided") :].split("-")[1:]:
-        if part == "nodive":
-            options["dive"] = False
-        elif part[:1] in ("b", "w") and part[1:].isdigit() and int(part[1:]) > 0:
-            options["budget" if part[0] == "b" else "branching"] = int(part[1:])
-        else:
-            raise ValueError(
-                f"bad method {method!r}: write ppo-guided with -bN (budget), -wN (branching) "
-                "or -nodive, N a positive integer"
-            )
-    return options
 
 
 def run_benchmark(
@@ -112,7 +72,8 @@ def _solvers(
     methods: tuple, n_max: int, model: Path | None, seed: int, modules: str | None
 ) -> dict[str, Solver]:
     types = palette(modules) if modules else None
-    return {m: parse_method(m, n_max, model, seed, types) for m in methods}
+    return {m: make_solver(m, n_max, model if m.startswith("ppo") else None, seed, modules=types)
+            for m in methods}  # fmt: skip
 
 
 def _solve_chunk(config: tuple, jobs: list) -> list[Row]:

@@ -233,6 +233,7 @@ def main(argv: list[str] | None = None) -> None:
         "Time a batch of certified optima and one large exhaustive search serially and on an "
         "embedded Ray with 1 and 2 CPUs; write results/distributed.{md,csv}.",
         options,
+        outputs=("distributed.md", "distributed.csv"),
     )
     from modquad_gym.core.extras import import_optional
 

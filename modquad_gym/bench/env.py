@@ -28,10 +28,16 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
-from modquad_gym.bench import machine_description, markdown_table, parse_bench_args, write_csv
+from modquad_gym.bench import (
+    add_force,
+    machine_description,
+    markdown_table,
+    parse_bench_args,
+    write_csv,
+)
 from modquad_gym.core.extras import import_optional
 from modquad_gym.core.options import int_option, seed_option
-from modquad_gym.core.outputs import check_output_dir, write_text
+from modquad_gym.core.outputs import write_text
 from modquad_gym.envs import ModQuadAssemblyEnv
 from modquad_gym.tasks import PaperTasks, PlantedTasks
 
@@ -281,7 +287,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--no-ppo", action="store_true", help="skip the PPO update timing")
     parser.add_argument("--machine-note", default="", help="said after the machine line")
     parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
-    args = parse_bench_args(parser, argv)
+    add_force(parser)
+    args = parse_bench_args(parser, argv, ("env_benchmark.md", "env_benchmark.csv"))
     if not args.default_steps and not args.sizes:
         parser.error("nothing to measure: give --sizes or --default-steps > 0")
     return args
@@ -289,7 +296,6 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> list[dict]:
     args = parse_args(argv)
-    check_output_dir(args.out, what="--out")
     args.load_start = load_average()
     pinning = pin_to_one_core()
     default = None

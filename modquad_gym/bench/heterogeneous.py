@@ -41,7 +41,7 @@ from modquad_gym.bench.heterogeneous_measure import (
     worst_case,
 )
 from modquad_gym.bench.heterogeneous_report import COST_COLUMNS, SAVINGS_COLUMNS, figure, report
-from modquad_gym.core.outputs import check_output_dir, write_text
+from modquad_gym.core.outputs import write_text
 from modquad_gym.geometry.module import palette
 from modquad_gym.search import exhaustive_search
 
@@ -78,10 +78,8 @@ def main(argv: list[str] | None = None) -> None:
         "external tasks), search cost, worst case, MuJoCo; writes "
         "results/heterogeneous.{md,csv,png}.",
         options,
-        force=True,
+        outputs=("heterogeneous.md", "heterogeneous.csv", "heterogeneous.png"),
     )
-    names = ("heterogeneous.md", "heterogeneous.csv", "heterogeneous.png")
-    check_output_dir(args.out, names, force=args.force)
     exhaustive_search(np.array([[0, 0, 1.0, 0, 0, 0]]), n_max=2, modules=palette("t45,flat"))
     sets = task_sets(args.tasks, args.seed)
     rows = compare(sets, args.n_max)

@@ -23,7 +23,8 @@ def main(argv: list[str] | None = None) -> None:
         "--n-max": dict(type=int_option(1, 16), default=14, help="largest level (default 14)"),
     }
     args = bench_args(argv, "modquad bench level-bounds", __doc__, options, seed_help=None,
-                      out="modquad_gym/data/level_bounds", out_help="folder")  # fmt: skip
+                      out="modquad_gym/data/level_bounds", out_help="folder",
+                      outputs=(f"{module_digest(DEFAULT_MODULE)}.npz",))  # fmt: skip
     t0 = time.perf_counter()
     arrays = {f"n{n}": compute_level_bounds(DEFAULT_MODULE, n) for n in range(1, args.n_max + 1)}
     path = args.out / f"{module_digest(DEFAULT_MODULE)}.npz"

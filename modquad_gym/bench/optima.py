@@ -10,8 +10,9 @@ had written. Keys of a record:
 ``n_max``       the module budget searched
 ``optimum``     the certified minimum module count, or null when no structure of up to n_max works
 ``structures``  every optimal structure as a list of [x, y] cells (up to translation), in
-                canonical order (:mod:`modquad_gym.geometry.polyominoes`)
-``count``       how many structures
+                canonical order (:mod:`modquad_gym.geometry.polyominoes`); the first
+                :data:`MAX_STRUCTURES` when there are more
+``count``       how many optimal structures there are
 ``evaluated``, ``oracle_calls``, ``seconds``   the work it took
 ``proof``       how infeasibility was proven without a search, when it was
 
@@ -44,6 +45,12 @@ KEYS = ("task", "name", "digest", "n_max", "optimum", "structures", "count", "ev
 """Keys every record has (``proof`` too when it applies)."""
 
 
+MAX_STRUCTURES = 10_000
+"""Most structures a record lists (in canonical order); ``count`` counts them all. A level
+where every structure is optimal (level 12 holds 505,861) would otherwise be a line of tens of
+megabytes and a gigabyte of memory."""
+
+
 def task_digest(task: TaskRequirement) -> str:
     """The task's identity in a dataset: SHA-256 of f_max and the wrenches, 16 hex digits."""
     h = hashlib.sha256(np.float64(task.f_max).tobytes())
@@ -54,7 +61,7 @@ def task_digest(task: TaskRequirement) -> str:
 def optimum_record(n_max: int, source: tuple[str, TaskRequirement]) -> dict:
     """The record of one task (the unit of work of a dataset)."""
     task_id, task = source
-    optima = optimal_level(task, n_max=n_max)
+    optima = optimal_level(task, n_max=n_max, max_keys=MAX_STRUCTURES)
     record = {
         "task": task_id,
         "name": task.name,
@@ -62,7 +69,7 @@ def optimum_record(n_max: int, source: tuple[str, TaskRequirement]) -> dict:
         "n_max": n_max,
         "optimum": optima.n_modules,
         "structures": [[list(cell) for cell in key] for key in optima.keys],
-        "count": len(optima.keys),
+        "count": optima.count,
         "evaluated": optima.evaluated,
         "oracle_calls": optima.oracle_calls,
         "seconds": round(optima.seconds, 6),
@@ -72,22 +79,45 @@ def optimum_record(n_max: int, source: tuple[str, TaskRequirement]) -> dict:
     return record
 
 
-def read_dataset(path: str | os.PathLike) -> tuple[list[dict], int]:
-    """(records, bytes of complete lines) of a dataset file; a last line with no newline (an
-    interrupted write) is not counted. A complete line that is not a record is a ValueError
-    naming the file and line."""
-    data = Path(path).read_bytes()
-    end = data.rfind(b"\n") + 1
-    records = []
-    for number, line in enumerate(data[:end].splitlines(), 1):
-        try:
-            record = json.loads(line)
-        except (json.JSONDecodeError, UnicodeDecodeError, RecursionError):
-            record = None
-        if not isinstance(record, dict) or not set(KEYS) <= set(record):
-            raise ValueError(f"{path}: line {number} is not an optima record")
-        records.append(record)
+RECORD_START = b'{"task": '
+"""How every record line begins (``task`` is the first key): an unfinished last line that does not
+is not an interrupted record, and the file is not a dataset."""
+
+
+def read_dataset(path: str | os.PathLike, fh=None) -> tuple[list[dict], int]:
+    """(records, bytes of complete lines) of a dataset file (or of the open binary file ``fh``);
+    a last line with no newline (an interrupted write) is not counted. A file that is not a
+    dataset (a complete line that is not a record, a line longer than
+    :data:`MAX_RECORD_BYTES`, an unfinished last line that does not begin as records do) is a
+    ValueError naming the file and line: nothing the user saved is taken for a dataset. Read
+    line by line, so memory stays at one line."""
+    with contextlib.ExitStack() as stack:
+        if fh is None:
+            fh = stack.enter_context(open(path, "rb"))
+        fh.seek(0)
+        records: list[dict] = []
+        end = 0
+        for number, line in enumerate(iter(lambda: fh.readline(MAX_RECORD_BYTES + 1), b""), 1):
+            if not line.endswith(b"\n"):
+                if len(line) <= MAX_RECORD_BYTES and RECORD_START.startswith(
+                    line[: len(RECORD_START)]
+                ):
+                    break  # an interrupted last record
+                raise ValueError(f"{path}: line {number} is not an optima record{NOT_A_DATASET}")
+            try:
+                record = json.loads(line)
+            except (json.JSONDecodeError, UnicodeDecodeError, RecursionError):
+                record = None
+            if not isinstance(record, dict) or not set(KEYS) <= set(record):
+                raise ValueError(f"{path}: line {number} is not an optima record{NOT_A_DATASET}")
+            records.append(record)
+            end += len(line)
     return records, end
+
+
+MAX_RECORD_BYTES = 256 * 2**20
+"""Longest record line read back (a record lists at most ``MAX_STRUCTURES`` structures)."""
+NOT_A_DATASET = " (not an optima dataset: give a new --out, or --force to replace the file)"
 
 
 @dataclass
@@ -108,9 +138,12 @@ def build_dataset(
     engine: Engine,
     *,
     progress: bool = False,
+    fresh: bool = False,
 ) -> DatasetRun:
     """Append the record of every task of ``sources`` ((task id, task or the Failed of its
-    loading)) that ``out`` does not hold yet, computing them on ``engine``."""
+    loading)) that ``out`` does not hold yet, computing them on ``engine``. ``fresh`` (the
+    CLI's ``--force``) empties ``out`` first, once its lock is held: a run that another one is
+    writing is refused, never cut short."""
     out = Path(out)
     ids = [task_id for task_id, _ in sources]
     if len(set(ids)) != len(ids):
@@ -123,7 +156,9 @@ def build_dataset(
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             raise ValueError(f"--out: {out} is being written by another run") from None
-        done, end = read_dataset(out)
+        if fresh:
+            fh.truncate(0)
+        done, end = read_dataset(out, fh)
         run.dropped_bytes = fh.seek(0, os.SEEK_END) - end
         fh.truncate(end)  # an interrupted last line is recomputed
         todo = _pending(sources, {r["task"]: r for r in done}, n_max, out)

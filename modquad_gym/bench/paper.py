@@ -157,6 +157,15 @@ def _figures(seed, task, ex, cs, out: Path) -> list[str]:
     ]
 
 
+OUTPUTS = (
+    "paper_reproduction.md",
+    "paper_reproduction.csv",
+    "paper_structures.png",
+    "paper_rotor_inputs.png",
+)
+"""What the benchmark writes into ``--out``."""
+
+
 def main(argv: list[str] | None = None) -> None:
     options = {
         "--seeds": dict(type=int_option(1, 10_000), default=10, help="number of random tasks"),
@@ -168,6 +177,7 @@ def main(argv: list[str] | None = None) -> None:
         "results/paper_reproduction.md with the structures and rotor-input figures.",
         options,
         seed_help=None,
+        outputs=OUTPUTS,
     )
     print(markdown_table(run(args.seeds, args.out)))
 

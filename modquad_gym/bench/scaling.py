@@ -178,6 +178,7 @@ def main(argv: list[str] | None = None) -> None:
         "Time the certified exhaustive search level by level (n = 8..N) against the previous "
         "implementation; write results/search_scaling.{md,csv}.",
         options,
+        outputs=("search_scaling.md", "search_scaling.csv"),
     )
     rows = run(args.seed, args.n_max, args.reference_n_max, args.tasks, args.out)
     write_csv(rows, args.out / "search_scaling.csv")

@@ -271,6 +271,7 @@ def main(argv: list[str] | None = None) -> None:
         "Time the certified exhaustive search against a plain LP reference; write "
         "results/search_benchmark.{md,csv}.",
         options,
+        outputs=("search_benchmark.md", "search_benchmark.csv"),
     )
     rows = run(args.tasks, args.seed, args.reference_structures, args.out)
     print(markdown_table(rows))

@@ -30,6 +30,7 @@ BENCHMARKS = {
     "env": ("modquad_gym.bench.env", "environment steps/s"),
     "paper": ("modquad_gym.bench.paper", "the paper's Sec. VI experiment"),
     "agents": ("modquad_gym.bench.agents", "PPO vs the searches on held-out tasks"),
+    "coldstart": ("modquad_gym.bench.coldstart", "a fresh process's first search and PPO answer"),
 }
 """Benchmark name -> (module with ``main(argv)``, what it measures): the choices and help of
 ``bench``."""

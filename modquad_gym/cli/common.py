@@ -35,10 +35,19 @@ Command = Callable[[argparse.Namespace], int]
 
 def load_task(path, csv_header: str = "auto"):
     """The task in the file ``path`` (``--csv-header`` says how a CSV's first row reads): a
-    TaskRequirement, or a DynamicTask for a JSON file with a trajectory."""
+    TaskRequirement, or a DynamicTask for a JSON file with a trajectory. A static task's scale is
+    checked as the searches will (an error names the file and the 1-based row)."""
+    from modquad_gym.oracle import check_task_scale
+    from modquad_gym.tasks import TaskFileError, TaskRequirement
     from modquad_gym.tasks import load_task as load
 
-    return load(path, csv_header=csv_header)
+    task = load(path, csv_header=csv_header)
+    if isinstance(task, TaskRequirement):
+        try:
+            check_task_scale(task.wrenches, task.f_max)
+        except ValueError as exc:
+            raise TaskFileError(f"{path}: {exc}") from None
+    return task
 
 
 def palette_of(text: str | None):

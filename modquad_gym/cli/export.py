@@ -11,7 +11,7 @@ from modquad_gym.core.options import real_option
 
 
 def add_export(sub) -> None:
-    from modquad_gym.export import FORMATS, SUFFIXES
+    from modquad_gym.sim.export import FORMATS, SUFFIXES
 
     p = add_command(
         sub,
@@ -63,7 +63,7 @@ def found_structure(args: argparse.Namespace, task):
 def cmd_export(args: argparse.Namespace) -> int:
     from modquad_gym.cli.show import structure_from_cells
     from modquad_gym.core.outputs import check_output_file
-    from modquad_gym.export import save_structure
+    from modquad_gym.sim.export import save_structure
 
     if bool(args.cells) == bool(args.task):
         raise ValueError("give either --cells (e.g. '[[0,0],[1,0]]') or --task")

@@ -50,7 +50,12 @@ def add_optima(sub) -> None:
     add_workers(p, "every local core, or every CPU of the cluster")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_csv_header(p)
-    p.add_argument("--force", action="store_true", help="discard --out's records and start over")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="empty --out and start over (a file that is not an optima dataset is otherwise "
+        "refused; a run that another process is writing is refused even so)",
+    )
 
 
 def suite_path(name: str) -> Path:
@@ -90,12 +95,10 @@ def cmd_optima(args: argparse.Namespace) -> int:
     from modquad_gym.search.exhaustive import MAX_MODULES
 
     n_max = check_int(args.n_max, "--n-max", low=1, high=MAX_MODULES)
-    out = check_output_file(args.out, force=True, what="--out")
+    out = check_output_file(args.out, force=True, what="--out")  # resumed, or new
     tasks = sources(args)
-    if args.force:
-        out.unlink(missing_ok=True)
-    with Engine(args.workers, args.ray_address) as engine:
-        run = build_dataset(tasks, out, n_max, engine, progress=not args.quiet)
+    with Engine(args.workers, args.ray_address, option="--workers") as engine:
+        run = build_dataset(tasks, out, n_max, engine, progress=not args.quiet, fresh=args.force)
     for failure in run.failed:
         report_error(failure.error)
     dropped = ", an unfinished last line dropped" if run.dropped_bytes else ""

@@ -72,16 +72,22 @@ def structure_from_cells(text: str, modules):
     from modquad_gym.geometry.structure import Structure
 
     cells = parse_cells(text)
-    if modules is None:
-        return Structure(cells)
-    if len(modules) == 1:
-        return Structure(cells, module=modules[0])
-    if len(modules) != len(cells):
+    if modules is not None and len(modules) not in (1, len(cells)):
         raise ValueError(
             f"--modules: with --cells give one type (all cells) or one per cell; got "
             f"{len(modules)} types for {len(cells)} cells"
         )
-    return Structure(cells, modules=modules)
+    typed = {} if modules is None else {"modules": modules}
+    if modules is not None and len(modules) == 1:
+        typed = {"module": modules[0]}
+    from modquad_gym.viz.drawing import check_drawable
+
+    try:
+        structure = Structure(cells, **typed)
+        check_drawable(structure)
+    except ValueError as exc:  # not connected, overlapping, too large to draw ...
+        raise ValueError(f"--cells: {exc}") from None
+    return structure
 
 
 def cmd_show(args: argparse.Namespace) -> int:

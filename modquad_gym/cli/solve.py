@@ -21,7 +21,7 @@ from modquad_gym.cli.common import (
     palette_of,
     report_error,
 )
-from modquad_gym.solvers import LEARNED
+from modquad_gym.solvers import make_solver
 
 
 def add_solve(sub) -> None:
@@ -77,27 +77,15 @@ def add_solve(sub) -> None:
 
 
 @functools.lru_cache(maxsize=4)
-def make_solver(method, n_max, model, seed, modules_text, engine, progress: bool, time_limit=None):
-    """The solver for ``--method`` (PPO lives in the agents package, searches here); cached, so
-    a worker process that solves many tasks loads a PPO model once. ``engine`` (or None)
-    splits the large levels of one exhaustive search."""
-    modules = palette_of(modules_text)
-    if method in LEARNED:  # with --modules, a model trained with that palette
-        from modquad_gym.solvers import make_solver as make_learned
-
-        return make_learned(method, n_max=n_max, model=model, seed=seed, modules=modules).solve
-    from modquad_gym.search import SEARCHES
-
-    fn = SEARCHES[method]
-    typed = {} if modules is None else {"modules": modules}
-    if method == "random":
-        return lambda task: fn(task, n_max=n_max, seed=seed, **typed)
-    if method == "anytime":
-        limit = {} if time_limit is None else {"time_limit": time_limit}
-        return lambda task: fn(task, n_max=n_max, seed=seed, **limit, **typed)
-    if method == "exhaustive":
-        return lambda task: fn(task, n_max=n_max, engine=engine, progress=progress, **typed)
-    return lambda task: fn(task, n_max=n_max, **typed)
+def cached_solver(method, n_max, model, seed, modules_text, engine, progress: bool, limit=None):
+    """The ``solve`` function of :func:`modquad_gym.solvers.make_solver` for these options;
+    cached, so a worker process that solves many tasks loads a PPO model once. ``engine`` (or
+    None) splits the large levels of one exhaustive search; ``limit`` is ``--time-limit``."""
+    modules = palette_of(modules_text)  # with --modules, a model trained with that palette
+    options = {"engine": engine, "progress": progress}
+    if limit is not None:
+        options["time_limit"] = limit
+    return make_solver(method, n_max, model, seed, modules=modules, **options).solve
 
 
 def solver(args: argparse.Namespace, engine=None):
@@ -106,7 +94,7 @@ def solver(args: argparse.Namespace, engine=None):
     progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
     modules = getattr(args, "modules", None)
     limit = getattr(args, "time_limit", None)
-    return make_solver(
+    return cached_solver(
         args.method, args.n_max, args.model, args.seed, modules, engine, progress, limit
     )
 
@@ -115,7 +103,7 @@ def solve_file(options: tuple, path: Path):
     """Load and solve one task file (the unit of work of a batch): (task, result)."""
     method, n_max, model, seed, modules, csv_header, limit = options
     task = common.load_task(path, csv_header)
-    result = make_solver(method, n_max, model, seed, modules, None, False, limit)(task)
+    result = cached_solver(method, n_max, model, seed, modules, None, False, limit)(task)
     return task, result
 
 
@@ -127,7 +115,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     paths = task_files(args.task)
     if args.export is not None:
         check_export(args.export, len(paths), args.force)
-    engine = Engine(args.workers, args.ray_address, local_default=1)
+    engine = Engine(args.workers, args.ray_address, local_default=1, option="--workers")
     if len(paths) == 1 or not engine.use_ray:
         return solve_here(args, paths, engine)
     # a batch: tasks spread over the workers, each search in one process
@@ -195,7 +183,7 @@ def solve_path(args: argparse.Namespace, path: Path, solve, single: bool) -> lis
 def check_export(out: str, n_tasks: int, force: bool) -> None:
     """``--export`` is checked before any search: one task, a known suffix, a writable file."""
     from modquad_gym.core.outputs import check_output_file
-    from modquad_gym.export import SUFFIXES
+    from modquad_gym.sim.export import SUFFIXES
 
     if n_tasks != 1:
         raise ValueError(f"--export: give one task, not {n_tasks} (it writes one structure)")
@@ -208,7 +196,7 @@ def check_export(out: str, n_tasks: int, force: bool) -> None:
 
 def export_result(args: argparse.Namespace, task, result) -> None:
     """Write the structure found to ``--export`` (the task's f_max in the model)."""
-    from modquad_gym.export import save_structure
+    from modquad_gym.sim.export import save_structure
 
     if result.structure is None:
         raise ValueError(f"--export: no structure found for {task.name!r}; nothing written")
@@ -225,8 +213,13 @@ def print_result(args: argparse.Namespace, path, task, result) -> None:
         return
     kind = "" if task.kind == "total" else f" ({task.kind})"
     print(f"task {task.name!r} ({path}): {task.n_wrenches} wrenches{kind}, method {args.method}")
-    if result.structure is None:
-        print(f"  no structure of up to {args.n_max} modules satisfies the task")
+    if result.structure is None and result.certified:
+        print(f"  no structure of up to {args.n_max} modules satisfies the task (certified)")
+    elif result.structure is None:  # a heuristic failing proves nothing
+        print(
+            f"  {args.method} found no structure of up to {args.n_max} modules (a heuristic: "
+            "one may still exist; --method exhaustive decides)"
+        )
     else:
         cert = (
             " (certified minimum)" if result.certified else f" (lower bound {result.lower_bound})"

@@ -85,6 +85,7 @@ def cmd_task_generate(args: argparse.Namespace) -> int:
 
     from modquad_gym.core.outputs import check_output_file
     from modquad_gym.core.validation import check_f_max
+    from modquad_gym.oracle import check_task_scale
 
     out = check_output_file(args.out, force=args.force, what="--out")
     f_max = 1.0 if args.f_max is None else check_f_max(args.f_max)
@@ -97,6 +98,10 @@ def cmd_task_generate(args: argparse.Namespace) -> int:
         size = {"n_modules": args.n_modules}
     generator = GENERATE[args.kind](f_max=f_max, kind=args.task_kind, **size)
     task = generator(np.random.default_rng(args.seed))
+    try:  # a file `solve` would refuse is not written
+        check_task_scale(task.wrenches, task.f_max)
+    except ValueError as exc:
+        raise ValueError(f"--f-max {f_max:g}: {exc}") from None
     task.save(out)
     print(
         f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, kind {task.kind}, "

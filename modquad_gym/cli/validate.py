@@ -13,6 +13,11 @@ from modquad_gym.core.options import int_option, real_option
 
 DEFAULT_HOVER_WRENCHES = 20
 MAX_HOVER_SECONDS = 60.0
+DEFAULT_LOAD_RAMP = 1.0
+"""Seconds of the unknown-load ramp when ``--load-ramp-seconds`` is not given (the simulation
+shortens it for segments shorter than the ramp)."""
+MAX_ESTIMATED_SECONDS = 3600.0
+"""Longest estimated run ``validate`` starts without ``--allow-long``."""
 SECONDS_PER_SIMULATED_SECOND = 0.25
 """Wall seconds per simulated hover second on the reference machine (2 cores), for the
 estimate ``validate`` prints before it starts."""
@@ -65,15 +70,22 @@ def add_validate(sub) -> None:
     p.add_argument(
         "--load-ramp-seconds",
         type=real_option,
-        default=1.0,
+        default=None,
         help="unknown-load hover: seconds over which the load moves from one task wrench to the "
-        "next (0: a step; default %(default)s)",
+        f"next, at most --hover-seconds (0: a step; default {DEFAULT_LOAD_RAMP:g}, shortened "
+        "for short segments)",
     )
     p.add_argument(
         "--known-load-only",
         action="store_true",
         help="fly only the hover whose controller knows the applied load (feed-forward); by "
         "default a second hover estimates the load by integral action",
+    )
+    p.add_argument(
+        "--allow-long",
+        action="store_true",
+        help=f"run even when the time estimate exceeds {MAX_ESTIMATED_SECONDS:,.0f} s "
+        "(default: refuse before any simulation)",
     )
     add_csv_header(p)
     add_force(p)
@@ -85,16 +97,25 @@ def cmd_validate(args: argparse.Namespace) -> int:
     from modquad_gym.sim.validate import validate
 
     check_real(args.hover_seconds, "--hover-seconds", 0.05, MAX_HOVER_SECONDS)
-    check_real(args.load_ramp_seconds, "--load-ramp-seconds", 0.0, args.hover_seconds)
+    ramp = DEFAULT_LOAD_RAMP
+    if args.load_ramp_seconds is not None:  # only a value the user gave is checked against theirs
+        ramp = check_real(args.load_ramp_seconds, "--load-ramp-seconds", 0.0, args.hover_seconds)
     k = None if args.all_wrenches else check_int(args.max_hover_wrenches, "--max-hover-wrenches", 1)
     check_output_dir(args.out, OUTPUT_NAMES, force=args.force)
     task = common.load_task(args.task, args.csv_header)
     n_hover = task.n_wrenches if k is None else min(k, task.n_wrenches)
     flights = 1 if args.known_load_only else 2
     simulated = flights * (n_hover + 1) * args.hover_seconds
+    estimate = simulated * SECONDS_PER_SIMULATED_SECOND
+    if estimate > MAX_ESTIMATED_SECONDS and not args.allow_long:
+        raise ValueError(
+            f"{args.task}: hovering under {n_hover:,} wrenches takes about {estimate:,.0f} s, "
+            f"more than {MAX_ESTIMATED_SECONDS:,.0f} s; hover under fewer "
+            "(--max-hover-wrenches N) or give --allow-long"
+        )
     print(
         f"validate: bench on {task.n_wrenches} wrenches, hover under {n_hover}: about "
-        f"{simulated:g} simulated s (~{simulated * SECONDS_PER_SIMULATED_SECOND:.0f} s here)",
+        f"{simulated:g} simulated s (~{estimate:.0f} s here)",
         file=sys.stderr,
     )
     result = solve.solver(args)(task)
@@ -117,7 +138,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         max_hover_wrenches=k,
         hover_seconds=args.hover_seconds,
         unknown_load=not args.known_load_only,
-        load_ramp_seconds=args.load_ramp_seconds,
+        load_ramp_seconds=ramp,
         kind=task.kind,
     ).to_dict()
     if args.json:

@@ -24,6 +24,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import re
+import socket
 import sys
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
@@ -31,6 +32,7 @@ from itertools import chain, islice
 from typing import Any
 
 from modquad_gym.core.extras import import_optional, missing_extra_message
+from modquad_gym.core.resources import cap_workers, usable_cpus
 from modquad_gym.core.validation import check_int
 
 ADDRESS_VARIABLE = "RAY_ADDRESS"
@@ -92,6 +94,10 @@ class Engine:
         address: a Ray cluster address (``auto``, ``HOST:PORT``, ``ray://HOST:10001``); None
             reads ``RAY_ADDRESS``.
         local_default: workers when none are given and no cluster is.
+        option: how the caller names ``workers`` in its one-line notes (``--workers``).
+
+    On this machine the workers are capped to its usable CPUs (a note says so); a cluster
+    address must answer before anything starts (one line, at once, when nothing listens).
 
     Use it as a context manager so Ray, started at the first batch that needs it, serves every
     batch of the block and is shut down at its end; the methods also work outside one (Ray
@@ -104,12 +110,15 @@ class Engine:
         address: str | None = None,
         *,
         local_default: int | None = None,
+        option: str = "workers",
     ) -> None:
         self.address = address or os.environ.get(ADDRESS_VARIABLE) or None
         if workers is not None:
-            workers = check_int(workers, "workers", low=1)
+            workers = check_int(workers, option, low=1)
+            if not self.address and workers > 1:
+                workers = cap_workers(workers, option)
         elif not self.address:
-            workers = local_default or os.cpu_count() or 1
+            workers = local_default or usable_cpus()
         self.workers = workers
         self.use_ray = workers != 1 and ray_installed()
         if workers != 1 and not self.use_ray:
@@ -123,6 +132,8 @@ class Engine:
                 "(pip install 'modquad_gym[distributed]' to use several workers)",
                 file=sys.stderr,
             )
+        if self.use_ray and self.address:
+            check_reachable(self.address)
         self._started = False
         self._depth = 0
 
@@ -149,7 +160,10 @@ class Engine:
             return
         options = {"include_dashboard": False, "log_to_driver": False, "logging_level": "ERROR"}
         if self.address:
-            ray.init(address=self.address, **options)
+            try:
+                ray.init(address=self.address, **options)
+            except (ConnectionError, RuntimeError, TimeoutError) as exc:
+                raise ConnectionError(f"Ray cluster {self.address}: {_one_line(exc)}") from None
         else:
             # "local": a new embedded Ray even when RAY_ADDRESS names a cluster elsewhere
             ray.init(address="local", num_cpus=self.workers, **options)
@@ -251,10 +265,11 @@ class Engine:
         ray = import_optional("ray")
         remote = ray.remote(num_cpus=1, max_retries=max_retries, retry_exceptions=False)(_call)
         fn_ref = ray.put(fn)
+        cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
         if self.address and self.workers:
-            cap = self.workers
+            cap = min(self.workers, 2 * cpus)  # never more in flight than the cluster can run
         else:
-            cap = 2 * max(1, int(ray.cluster_resources().get("CPU", 1)))
+            cap = 2 * cpus
         source = enumerate(items)
         index: dict[Any, int] = {}
         pending: list[Any] = []
@@ -285,6 +300,32 @@ class Engine:
         finally:
             for ref in pending:
                 ray.cancel(ref)
+
+
+CONNECT_SECONDS = 5.0
+"""How long a cluster address has to accept a connection before the run is refused."""
+
+
+def check_reachable(address: str) -> None:
+    """A cluster address (``HOST:PORT``, ``ray://HOST:PORT``; ``auto`` is left to Ray) must
+    accept a TCP connection within :data:`CONNECT_SECONDS`, else one ValueError line, at once
+    (Ray itself retries for a minute and logs many lines)."""
+    if address in ("auto", "local"):
+        return
+    host, sep, port = address.removeprefix("ray://").rpartition(":")
+    if not sep or not host or not port.isdigit():
+        raise ValueError(
+            f"Ray address {address!r} (--ray-address / {ADDRESS_VARIABLE}): expected HOST:PORT, "
+            "ray://HOST:PORT or auto"
+        )
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_SECONDS).close()
+    except (OSError, ValueError, OverflowError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+        raise ValueError(
+            f"Ray address {address} (--ray-address / {ADDRESS_VARIABLE}): nothing answers there "
+            f"({reason}); start the cluster with `ray start --head` or check the address"
+        ) from None
 
 
 def _label(labels: Sequence[str] | None, i: int) -> str:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import io
 import os
+import stat
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -41,13 +42,26 @@ def _check_writable_dir(folder: Path, what: str) -> None:
         raise OutputError(f"{what}: folder {folder} is not writable")
 
 
+def _refuse_special(path: Path, what: str) -> None:
+    """A device, pipe or socket is never an output: writing /dev/full fails late, /dev/null
+    loses the result, and replacing either would break the system."""
+    try:
+        mode = path.stat().st_mode
+    except OSError:
+        return  # nothing there (or unreachable: the folder check says so)
+    if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+        raise OutputError(f"{what}: {path} is not a regular file (a device, pipe or socket)")
+
+
 def check_output_file(path: str | os.PathLike, force: bool = False, what: str = "output") -> Path:
     """The destination file as a Path, after checking it can be written: its folder exists or
-    can be created and is writable, and the file does not exist yet (unless ``force``).
+    can be created and is writable, it is not a device, pipe or socket, and it does not exist
+    yet (unless ``force``).
     Call it before long work starts."""
     path = Path(path)
     if path.is_dir():
         raise OutputError(f"{what}: {path} is a folder, expected a file name")
+    _refuse_special(path, what)
     if path.exists() and not force:
         raise OutputError(f"{what}: {path} exists (use --force to replace it)")
     _check_writable_dir(path.parent if str(path.parent) else Path("."), what)
@@ -61,6 +75,8 @@ def check_output_dir(
     in which none of ``names`` exists yet (unless ``force``)."""
     folder = Path(path)
     _check_writable_dir(folder, what)
+    for name in names:
+        _refuse_special(folder / name, what)
     if not force:
         taken = [n for n in names if (folder / n).exists()]
         if taken:

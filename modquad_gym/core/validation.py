@@ -64,8 +64,23 @@ def check_f_max(f_max: object) -> float:
     return check_real(f_max, "f_max", positive=True)
 
 
+def _ragged_row(value: object) -> str:
+    """Where a nested list is ragged: ``row 2 has 3 entries, row 1 has 6`` (1-based)."""
+    try:
+        lengths = [len(row) for row in value]  # type: ignore[union-attr]
+    except TypeError:
+        return "its rows are not all sequences of numbers"
+    row = next((i for i, n in enumerate(lengths) if n != lengths[0]), None)
+    if row is None:
+        return "its entries are nested unevenly"
+    return f"row {row + 1} has {lengths[row]} entries, row 1 has {lengths[0]}"
+
+
 def _float_array(value: object, name: str) -> np.ndarray:
-    arr = np.asarray(value)
+    try:
+        arr = np.asarray(value)
+    except ValueError:  # a ragged nested list
+        raise ValueError(f"{name} must be a rectangular array: {_ragged_row(value)}") from None
     if arr.dtype == object or arr.dtype.kind in "USVb":
         raise ValueError(f"{name} must hold real numbers, got dtype {arr.dtype}")
     return arr.astype(float, copy=False)
@@ -73,7 +88,7 @@ def _float_array(value: object, name: str) -> np.ndarray:
 
 def check_wrenches(W: object, *, allow_empty: bool = True) -> np.ndarray:
     """W as a float (t, 6) array (a single 6-vector is promoted), or a ValueError naming the
-    shape or the first non-finite row."""
+    shape or the first non-finite row (1-based)."""
     arr = _float_array(W, "wrenches")
     if arr.ndim == 1:
         arr = arr[None, :]
@@ -83,7 +98,7 @@ def check_wrenches(W: object, *, allow_empty: bool = True) -> np.ndarray:
         raise ValueError("the task has no wrenches: expected at least one row of 6 numbers")
     if not np.isfinite(arr).all():
         row = int(np.argwhere(~np.isfinite(arr))[0, 0])
-        raise ValueError(f"wrench row {row} is not finite: {arr[row].tolist()}")
+        raise ValueError(f"wrench row {row + 1} is not finite: {arr[row].tolist()}")
     return arr
 
 
@@ -96,5 +111,5 @@ def check_matrix(A: object) -> np.ndarray:
         )
     if not np.isfinite(arr).all():
         bad = np.argwhere(~np.isfinite(arr))[0]
-        raise ValueError(f"A has a non-finite entry at row {bad[0]}, column {bad[1]}")
+        raise ValueError(f"A has a non-finite entry at row {bad[0] + 1}, column {bad[1] + 1}")
     return arr

@@ -277,6 +277,10 @@ def palette(spec: str | Iterable[str | ModuleType]) -> list[ModuleType]:
     """Module types from a comma-separated list of stock names (``"t45,t45m,flat"``) or a list
     of names and :class:`ModuleType` objects. Raises ValueError naming an unknown name, an empty
     or repeated entry."""
+    if not isinstance(spec, (str, Iterable)):
+        raise ValueError(
+            f"modules must be comma-separated type names or a list of them, got {spec!r}"
+        )
     items = spec.split(",") if isinstance(spec, str) else list(spec)
     if not items:
         raise ValueError("modules: give at least one module type")

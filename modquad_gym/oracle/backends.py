@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from modquad_gym.oracle.certified import decide_reduced
-from modquad_gym.oracle.compiled import decide_compiled, screen_compiled
+from modquad_gym.oracle.compiled import decide_compiled, gamma_compiled, screen_compiled
 from modquad_gym.oracle.cvxpy_lp import gamma_cvxpy, ray_cvxpy
 from modquad_gym.oracle.daqp_lp import gamma_daqp
 from modquad_gym.oracle.highs_lp import gamma_highs, ray_highs
@@ -71,7 +71,7 @@ class Backend:
 
 BACKENDS: dict[str, Backend] = {
     "auto": Backend(gamma_daqp, decide_compiled, True, screen=screen_compiled),
-    "compiled": Backend(gamma_daqp, decide_compiled, True, screen=screen_compiled),
+    "compiled": Backend(gamma_compiled, decide_compiled, True, screen=screen_compiled),
     "certified": Backend(gamma_daqp, decide_reduced, margin_sign_from_decide=True),
     "daqp": Backend(gamma_daqp),
     "scipy": Backend(gamma_highs, ray=ray_highs),

@@ -6,7 +6,8 @@ allocation in the cube or a separating direction, both checked in float64 by the
 (:mod:`~modquad_gym.oracle.tolerance`), for every wrench it decides. The directions that
 separated earlier wrenches are remembered per zonotope (``prepared["compiled"]``) and tried first
 on later ones. The few wrenches no certificate decides (within GUARD of the threshold, or a
-simplex stopped by its pivot limit) get the exact DAQP gamma (:mod:`.daqp_lp`).
+walk stopped by its pivot limit) get the exact DAQP gamma (:mod:`.daqp_lp`). Margins come from
+the same walk run to the optimum (:func:`gamma_compiled`).
 
 :func:`screen_compiled` fuses a caller's support screen with the decisions, for
 :meth:`~modquad_gym.oracle.WrenchOracle.screened` (the environment decides every step this way).
@@ -25,25 +26,29 @@ if TYPE_CHECKING:
     from modquad_gym.oracle.zonotope import Zonotope
 
 DIRECTIONS = 16
-"""Separating directions remembered per zonotope (tried before the simplex)."""
+"""Directions remembered per zonotope (where earlier wrenches were decided; tried first)."""
 
 
-def _memory(z: Zonotope) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(directions (DIRECTIONS, rank), their supports, how many were added) of z."""
-    memory = z.prepared.get("compiled")
-    if memory is None:
-        memory = (np.empty((DIRECTIONS, z.rank)), np.empty(DIRECTIONS), np.zeros(1, np.int64))
-        z.prepared["compiled"] = memory
-    return memory
+def _prepared(z: Zonotope) -> tuple[tuple, tuple]:
+    """(the kernels' per-zonotope arrays, the remembered directions: (DIRECTIONS, rank), their
+    supports, how many were added) of z, built once."""
+    prepared = z.prepared.get("compiled")
+    if prepared is None:
+        from modquad_gym.oracle import kernels  # numba: compiled on first use, cached on disk
+
+        memory = (np.zeros((DIRECTIONS, z.rank)), np.ones(DIRECTIONS), np.zeros(1, np.int64))
+        prepared = z.prepared["compiled"] = (kernels.prepare(z.G, z.P), memory)
+    return prepared
 
 
 def verdicts(z: Zonotope, R: np.ndarray) -> np.ndarray:
     """int8 (t,) per row of R (centred reduced wrenches in range(A)): 1 feasible, 0 infeasible
     (each by a certificate), -1 undecided."""
-    from modquad_gym.oracle import kernels  # numba: compiled on first use, cached on disk
+    from modquad_gym.oracle import kernels
 
+    prep, memory = _prepared(z)
     out = np.empty(len(R), dtype=np.int8)
-    kernels.decide_rows(z.G, z.P, np.ascontiguousarray(R, dtype=float), _memory(z), out)
+    kernels.decide_rows(z.G, z.P, prep, np.ascontiguousarray(R, dtype=float), memory, out)
     return out
 
 
@@ -57,6 +62,21 @@ def decide_compiled(z: Zonotope, R: np.ndarray) -> np.ndarray:
     return verdict == 1
 
 
+def gamma_compiled(z: Zonotope, R: np.ndarray) -> np.ndarray:
+    """Exact gamma per row of R (centred reduced wrenches in range(A)): the walk to the optimum
+    (:func:`~modquad_gym.oracle.kernels.gamma_rows`), the DAQP gamma where it gives up."""
+    from modquad_gym.oracle import kernels
+
+    prep, _ = _prepared(z)
+    R = np.ascontiguousarray(R, dtype=float)
+    out = np.empty(len(R))
+    kernels.gamma_rows(z.G, z.P, prep, R, out)
+    rest = np.flatnonzero(np.isnan(out))
+    if len(rest):
+        out[rest] = gamma_daqp(z, R[rest])
+    return out
+
+
 def screen_compiled(
     z: Zonotope, W: np.ndarray, WD: np.ndarray, h: np.ndarray, slack: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -66,9 +86,10 @@ def screen_compiled(
     rule, huge, or no certificate: the caller settles those by an LP)."""
     from modquad_gym.oracle import kernels
 
+    prep, memory = _prepared(z)
     per_wrench = np.empty(len(W))
     verdict = np.empty(len(W), dtype=np.int8)
     counts = np.zeros(3, dtype=np.int64)
-    kernels.decide_screened(W, WD, h, slack, z.f_max, z.Q, z.c, z.G, z.P, _memory(z),
+    kernels.decide_screened(W, WD, h, slack, z.f_max, z.Q, z.c, z.G, z.P, prep, memory,
                             per_wrench, verdict, counts)  # fmt: skip
     return per_wrench, verdict, counts

@@ -3,8 +3,8 @@
 One compiled call per structure and batch of wrenches does, per wrench in the oracle's centred
 reduced coordinates r (those of :meth:`~modquad_gym.oracle.Zonotope.reduce`): the off-range rule
 (when called with raw wrenches), the bounding box, the minimum-norm allocation, the directions
-that separated earlier wrenches of the structure, then the phase-1 simplex of :mod:`.simplex`,
-which ends with
+where earlier wrenches of the structure were decided, then the dual simplex on the support
+function of :mod:`.walk` (a few pivots of O(m) each, at any m), which ends with
 
 * an allocation x: after the correction x - P (G x - r) onto G x = r (P the pseudo-inverse of
   G), ``|x|_inf <= ACCEPT`` certifies gamma(r) <= 1 + TOL: feasible; or
@@ -12,10 +12,10 @@ which ends with
   y) certifies gamma(r) > 1 + TOL: infeasible.
 
 ACCEPT and REJECT are the tolerance rule's (:mod:`~modquad_gym.oracle.tolerance`). Both tests are
-evaluated here in float64 from x or y alone, so they are exact whatever the simplex did. A
+evaluated here in float64 from x or y alone, so they are exact whatever the walk did. A
 wrench that no certificate decides (within GUARD of the threshold, within 1 % of the off-range
-rule, too large, or a simplex stopped by its pivot limit) is marked undecided (-1) for the exact
-LP (:mod:`.compiled`).
+rule, too large, or a walk stopped by its pivot limit) is marked undecided (-1) for the exact
+LP (:mod:`.compiled`). :func:`gamma_rows` runs the walk to the optimum for margins.
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from modquad_gym.oracle.simplex import phase_one
 from modquad_gym.oracle.tolerance import ACCEPT, REJECT, RESIDUAL_TOL
+from modquad_gym.oracle.walk import vertex_walk, walk_workspace
 
 _HUGE = 1e100  # rows of w / f_max beyond this are left undecided (reduce() avoids overflow)
 _OFF = 1.01  # off-range margin: residuals within this factor of the rule are left undecided
@@ -43,25 +43,33 @@ def _l1_support(y, G):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _verdict(G, P, r, x, y, status):  # pragma: no cover - compiled
-    """1 (feasible), 0 (infeasible) or -1 (undecided) for wrench r from the simplex's x or y,
-    by the certificates of the module docstring (computed here from x or y alone)."""
+def _corrected_max(G, P, r, x):  # pragma: no cover - compiled
+    """|x - P (G x - r)|_inf: the allocation x corrected onto G x = r (up to round-off), the
+    number the accept certificate and gamma read."""
     n, m = G.shape
-    if status == 1:
-        e = np.empty(n)  # the residual G x - r, then x - P e lies on G x = r
-        for i in range(n):
-            acc = -r[i]
-            for j in range(m):
-                acc += G[i, j] * x[j]
-            e[i] = acc
+    e = np.empty(n)
+    for i in range(n):
+        acc = -r[i]
         for j in range(m):
-            acc = x[j]
-            for i in range(n):
-                acc -= P[j, i] * e[i]
-            if abs(acc) > ACCEPT:
-                return -1
+            acc += G[i, j] * x[j]
+        e[i] = acc
+    worst = 0.0
+    for j in range(m):
+        acc = x[j]
+        for i in range(n):
+            acc -= P[j, i] * e[i]
+        worst = max(worst, abs(acc))
+    return worst
+
+
+@njit(cache=True)
+def _verdict(G, P, r, x, y, status):  # pragma: no cover - compiled
+    """1 (feasible), 0 (infeasible) or -1 (undecided) for wrench r from the walk's x or y, by
+    the certificates of the module docstring (computed here from x or y alone)."""
+    n = G.shape[0]
+    if (status == 1 or status == 2) and _corrected_max(G, P, r, x) <= ACCEPT:
         return 1
-    if status == 0:
+    if status == 0 or status == 2:
         proj = 0.0
         for i in range(n):
             proj += y[i] * r[i]
@@ -71,35 +79,49 @@ def _verdict(G, P, r, x, y, status):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _decide_row(G, P, axes, r, memory, work):  # pragma: no cover - compiled
-    """The verdict (1, 0, -1) of one centred reduced wrench r: the bounding box (supports
-    ``axes``), the minimum-norm allocation (accepted by the rule's ACCEPT, G P = I up to
-    round-off far below GUARD), the remembered separating directions, then
-    :func:`~.simplex.phase_one`; a new separating direction is remembered."""
+def _separated(r, memory):  # pragma: no cover - compiled
+    """Whether a remembered direction separates r (its support is remembered with it)."""
     dirs, supports, added = memory
-    Binv, value, basic, head, alpha, x, y = work
+    for d in range(min(added[0], len(supports))):
+        proj = 0.0
+        for i in range(len(r)):
+            proj += dirs[d, i] * r[i]
+        if proj > REJECT * supports[d]:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _decide_row(G, P, prep, r, memory, work):  # pragma: no cover - compiled
+    """The verdict (1, 0, -1) of one centred reduced wrench r: the bounding box, the
+    minimum-norm allocation (accepted by the rule's ACCEPT, G P = I up to round-off far below
+    GUARD), the remembered directions, then :func:`~.walk.vertex_walk` from the dual-metric
+    direction r / sigma^2; the vertex where the walk decided is remembered for later rows and
+    calls."""
+    PT, norms, axes, dual = prep
+    dirs, supports, added = memory
+    walk, x, y = work
     n, m = G.shape
     for i in range(n):
         if abs(r[i]) > REJECT * axes[i]:  # beyond the bounding box: y = +-e_i separates
             return 0
+    for j in range(m):
+        x[j] = 0.0
+    for i in range(n):  # the minimum-norm allocation P r (G P = I), row-wise
+        for j in range(m):
+            x[j] += PT[i, j] * r[i]
     inside = True
     for j in range(m):
-        acc = 0.0
-        for i in range(n):
-            acc += P[j, i] * r[i]
-        x[j] = acc
-        inside &= abs(acc) <= ACCEPT
-    if inside:  # the minimum-norm allocation P r (G P = I) lies in the cube
+        inside &= abs(x[j]) <= ACCEPT
+    if inside:  # it lies in the cube
         return 1
-    for d in range(min(added[0], len(supports))):
-        proj = 0.0
-        for i in range(n):
-            proj += dirs[d, i] * r[i]
-        if proj > REJECT * supports[d]:
-            return 0
-    status = phase_one(G, r, x, y, Binv, value, basic, head, alpha)
+    if _separated(r, memory):
+        return 0
+    for i in range(n):
+        y[i] = r[i] * dual[i]
+    status = vertex_walk(G, norms, r, y, x, ACCEPT, REJECT, walk)
     verdict = _verdict(G, P, r, x, y, status)
-    if verdict == 0 and len(supports):  # remember its direction for later rows and calls
+    if verdict >= 0 and len(supports):
         slot = added[0] % len(supports)
         dirs[slot] = y
         supports[slot] = _l1_support(y, G)
@@ -109,30 +131,59 @@ def _decide_row(G, P, axes, r, memory, work):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _workspace(G):  # pragma: no cover - compiled
-    """(box supports, work arrays of :func:`_decide_row`) for generators G."""
+    """(the walk's work arrays, x, y) for generators G."""
     n, m = G.shape
-    axes = np.zeros(n)
-    for i in range(n):
-        for j in range(m):
-            axes[i] += abs(G[i, j])
-    work = (
-        np.empty((n, n)),
-        np.empty(m + n),
-        np.empty(m + n, dtype=np.int64),
-        np.empty(n, dtype=np.int64),
-        np.empty(n),
-        np.empty(m),
-        np.zeros(n),
-    )
-    return axes, work
+    return walk_workspace(m, n), np.empty(m), np.empty(n)
 
 
 @njit(cache=True)
-def decide_rows(G, P, R, memory, out):  # pragma: no cover - compiled
+def prepare(G, P):  # pragma: no cover - compiled
+    """What the kernels keep per zonotope: (P^T contiguous, the columns' 1-norms, the bounding
+    box (supports of the coordinate axes), the dual metric 1 / sigma^2 (G G^T is diagonal))."""
+    n, m = G.shape
+    PT = np.ascontiguousarray(P.T)
+    norms = np.zeros(m)
+    axes = np.zeros(n)
+    dual = np.zeros(n)
+    for j in range(m):
+        for i in range(n):
+            norms[j] += abs(G[i, j])
+            axes[i] += abs(G[i, j])
+            dual[i] += G[i, j] * G[i, j]
+    for i in range(n):
+        dual[i] = 1.0 / dual[i]
+    return PT, norms, axes, dual
+
+
+@njit(cache=True)
+def decide_rows(G, P, prep, R, memory, out):  # pragma: no cover - compiled
     """Verdicts of the rows of R (centred reduced wrenches) into out."""
-    axes, work = _workspace(G)
+    work = _workspace(G)
     for k in range(R.shape[0]):
-        out[k] = _decide_row(G, P, axes, R[k], memory, work)
+        out[k] = _decide_row(G, P, prep, R[k], memory, work)
+
+
+@njit(cache=True)
+def gamma_rows(G, P, prep, R, out):  # pragma: no cover - compiled
+    """gamma of the rows of R (centred reduced wrenches) into out: the walk to the optimum from
+    the dual-metric direction, measured by the allocation corrected onto G x = r (never below
+    the true gamma); nan where the walk gives up."""
+    walk, x, y = _workspace(G)
+    _, norms, _, dual = prep
+    n = G.shape[0]
+    for k in range(R.shape[0]):
+        r = R[k]
+        norm = 0.0
+        for i in range(n):
+            norm += abs(r[i])
+            y[i] = r[i] * dual[i]
+        if norm == 0.0:
+            out[k] = 0.0
+            continue
+        if vertex_walk(G, norms, r, y, x, 0.0, np.inf, walk) != 2:
+            out[k] = np.nan
+            continue
+        out[k] = _corrected_max(G, P, r, x)
 
 
 @njit(cache=True)
@@ -171,13 +222,13 @@ def _reduce_row(w, f_max, Q, c, r):  # pragma: no cover - compiled
 
 
 @njit(cache=True)  # pragma: no cover - compiled
-def decide_screened(W, WD, h, slack, f_max, Q, c, G, P, memory, per_wrench, out, counts):
+def decide_screened(W, WD, h, slack, f_max, Q, c, G, P, prep, memory, per_wrench, out, counts):
     """A structure against wrenches W (t, 6) after a support screen: per_wrench (t,) =
     max_d (WD - h) (see :meth:`~modquad_gym.oracle.WrenchOracle.screened`), and the verdict of
     each row into out: -2 where the screen rejects it (not tested), else 0 off range(A), else
     that of :func:`_decide_row` on its centred reduced coordinates (-1: undecided).
     counts: (tested, feasible, undecided)."""
-    axes, work = _workspace(G)
+    work = _workspace(G)
     r = np.empty(G.shape[0])
     counts[:] = 0
     for k in range(W.shape[0]):
@@ -192,7 +243,7 @@ def decide_screened(W, WD, h, slack, f_max, Q, c, G, P, memory, per_wrench, out,
             continue
         verdict = _reduce_row(W[k], f_max, Q, c, r)
         if verdict == 1:
-            verdict = _decide_row(G, P, axes, r, memory, work)
+            verdict = _decide_row(G, P, prep, r, memory, work)
         out[k] = verdict
         counts[0] += 1
         if verdict == 1:

@@ -29,9 +29,9 @@ def row_norms(X: np.ndarray) -> np.ndarray:
 
 def check_task_scale(W: np.ndarray, f_max: float) -> np.ndarray:
     """W (checked, (t, 6)) when f_max lies in [1e-300, 1e300] and every |w_i| and every
-    |w_i| / f_max is at most :data:`MAX_TASK_VALUE`, else a ValueError naming the value. The
-    searches call it: they test one task against many structures and multiply and square its
-    numbers on the way, where the oracle itself takes any finite value
+    |w_i| / f_max is at most :data:`MAX_TASK_VALUE`, else a ValueError naming the value and its
+    1-based row. The searches call it: they test one task against many structures and
+    multiply and square its numbers on the way, where the oracle itself takes any finite value
     (:meth:`~modquad_gym.oracle.Zonotope.reduce`)."""
     W, f_max = check_wrenches(W), check_f_max(f_max)
     if not 1e-300 <= f_max <= 1e300:
@@ -43,7 +43,7 @@ def check_task_scale(W: np.ndarray, f_max: float) -> np.ndarray:
     if not size.max() <= MAX_TASK_VALUE:
         row = int(np.argmax(~(size <= MAX_TASK_VALUE)))
         raise ValueError(
-            f"wrench row {row} {W[row].tolist()} with f_max = {f_max:g} is beyond "
+            f"wrench row {row + 1} {W[row].tolist()} with f_max = {f_max:g} is beyond "
             f"{MAX_TASK_VALUE:g} (newtons, and times f_max): far beyond what any structure can "
             "exert (check the units)"
         )

@@ -23,7 +23,7 @@ import numpy as np
 
 from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
-from modquad_gym.policy.ppo import PPOSolver
+from modquad_gym.policy.policy import Policy, as_task, search_result
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.search.bounds import first_possible_level, force_lower_bound, level_excluded
 from modquad_gym.search.problem import SearchProblem
@@ -45,11 +45,13 @@ def typed_lower_bound(task: TaskRequirement, palette: list, n_max: int) -> int:
     return min(n, n_max + 1)
 
 
-class GuidedSolver(PPOSolver):
-    """Best-first search over dockings ordered by a MaskablePPO policy (see the module doc).
+class GuidedSolver:
+    """Best-first search over dockings ordered by a trained policy (see the module doc).
 
     Args:
-        model, n_max, config: as for :class:`~.ppo.PPOSolver`.
+        model: a :class:`~.policy.Policy`, a model .zip path (default the shipped model) or a
+            loaded MaskablePPO.
+        n_max, config: as for :class:`~.policy.Policy`.
         budget: most structures to evaluate per task.
         branching: children queued per expanded structure (the policy's most likely dockings).
         dive: start with the policy's greedy episode (default True); False: best-first only.
@@ -64,7 +66,8 @@ class GuidedSolver(PPOSolver):
         config: dict | None = None,
         dive: bool = True,
     ) -> None:
-        super().__init__(model=model, n_max=n_max, config=config)
+        self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config)
+        self.n_max = self.policy.n_max
         self.dive = bool(dive)
         self.budget = check_int(budget, "budget", low=1)
         self.branching = check_int(branching, "branching", low=1)
@@ -72,17 +75,17 @@ class GuidedSolver(PPOSolver):
 
     def lower_bound(self, task: TaskRequirement) -> int:
         """The exact lower bound on the module count that certifies an answer."""
-        palette = getattr(self.env, "palette", None)
-        if palette is not None:
+        palette = self.policy.palette
+        if self.policy.typed:
             return typed_lower_bound(task, palette, self.n_max)
         W = np.asarray(task.wrenches, dtype=float)
-        return lower_bound(W, task.f_max, self.env.module, self.n_max)
+        return lower_bound(W, task.f_max, palette[0], self.n_max)
 
     def solve(self, task: Any) -> SearchResult:
         t0 = time.perf_counter()
-        if not isinstance(task, TaskRequirement):
-            task = TaskRequirement(task, name="task")
-        env = self.env
+        task = as_task(task)
+        policy = self.policy
+        env = policy.env
         bound = self.lower_bound(task)
         best: Structure | None = None
         certified = bound > self.n_max  # every level ruled out: proven infeasible
@@ -90,7 +93,7 @@ class GuidedSolver(PPOSolver):
         queued: set = set()
         # a node: (priority, tie-break, parent state or None for a root, action or start type)
         heap: list[tuple[float, int, Any, Any]] = [
-            (0.0, i, None, start) for i, start in enumerate(self.starts)
+            (0.0, i, None, start) for i, start in enumerate(policy.starts)
         ]
         pushes, oracle_calls = len(heap), 0
         dive = heapq.heappop(heap) if self.dive else None  # the policy's episode: an incumbent
@@ -98,7 +101,7 @@ class GuidedSolver(PPOSolver):
             cost, _, parent, move = dive if dive is not None else heapq.heappop(heap)
             diving, dive = dive is not None, None
             if parent is None:
-                obs, info = self.reset(task, move)
+                obs, info = policy.reset(task, move)
                 oracle_calls += int(info["oracle_calls"])
             else:
                 env.restore(parent)
@@ -115,11 +118,11 @@ class GuidedSolver(PPOSolver):
             if n >= self.n_max or (best is not None and n + 1 >= best.n_modules):
                 continue
             state, mask = env.state, env.action_masks()
-            probs = self.probabilities(obs, mask)
+            probs = policy.probabilities(obs, mask)
             for a in np.argsort(-probs, kind="stable")[: self.branching]:
                 if probs[a] <= 0.0:
                     break
-                key = self._child_key(s, env.grid.cell_of(a), env.grid.type_of(a))
+                key = child_key(s, env.grid.cell_of(a), env.grid.type_of(a), env)
                 if key in queued:
                     continue
                 queued.add(key)
@@ -135,17 +138,22 @@ class GuidedSolver(PPOSolver):
             proof = "lower bound reached"
         else:
             proof = f"exact bounds rule out every level up to {self.n_max}"
-        return self._result(best, len(evaluated), oracle_calls, t0, certified, proof, bound)
-
-    def _child_key(self, s: Structure, cell: tuple, type_index: int) -> Any:
-        """The translation-normalised key of ``s`` with a module of ``type_index`` at ``cell``."""
-        palette = getattr(self.env, "palette", None)
-        if palette is None:
-            return normalise([*s.cells, cell])
-        return normalise_typed([*s.cells, cell], [*s.modules, palette[type_index]])
+        n_evaluated = len(evaluated)
+        return search_result(
+            self.name, self.n_max, best, n_evaluated, oracle_calls, t0, certified, proof, bound
+        )
 
     def __repr__(self) -> str:
         return (
-            f"GuidedSolver(model={self.model_path!r}, n_max={self.n_max}, budget={self.budget}, "
-            f"branching={self.branching}, dive={self.dive})"
+            f"GuidedSolver(model={self.policy.model_path!r}, n_max={self.n_max}, "
+            f"budget={self.budget}, branching={self.branching}, dive={self.dive})"
         )
+
+
+def child_key(s: Structure, cell: tuple, type_index: int, env: Any) -> Any:
+    """The translation-normalised key of ``s`` with a module of ``type_index`` at ``cell`` (the
+    type from ``env``'s palette when it has several)."""
+    palette = getattr(env, "palette", None)
+    if palette is None:
+        return normalise([*s.cells, cell])
+    return normalise_typed([*s.cells, cell], [*s.modules, palette[type_index]])

@@ -19,6 +19,7 @@ from collections.abc import Iterable, Iterator, Sequence
 
 import numpy as np
 
+from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import (
     Cell,
@@ -255,7 +256,7 @@ def random_search(
     run = SearchRun("random", problem)
     if (done := _impossible(run, MAX_MODULES)) is not None:
         return done
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(None if seed is None else check_int(seed, "seed", low=0))
     K = len(problem.palette)
     best: Structure | None = None
     for _ in range(max(1, int(restarts))):

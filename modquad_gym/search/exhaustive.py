@@ -39,7 +39,7 @@ from modquad_gym.search.checker import TaskChecker
 from modquad_gym.search.levels import MAX_MODULES, LevelAnswer, level_progress, level_size
 from modquad_gym.search.partial import Partial, make_partial
 from modquad_gym.search.problem import SearchProblem
-from modquad_gym.search.result import Optima, SearchResult, SearchRun
+from modquad_gym.search.result import KeptKeys, Optima, SearchResult, SearchRun
 from modquad_gym.search.typed import (
     MAX_PAIRS,
     PAIRS_PER_BLOCK,
@@ -233,7 +233,9 @@ def _levels_to_search(run: SearchRun, part: Partial | None) -> Levels:
     return Levels(n_lb, skipped, "")
 
 
-def _search_levels(run: SearchRun, chunk, engine, progress, first_only, part) -> LevelAnswer:
+def _search_levels(
+    run: SearchRun, chunk, engine, progress, first_only, part, keep=None
+) -> LevelAnswer:
     """The first level holding a feasible structure (containing ``part``) and its feasible
     structures (only the first with ``first_only``)."""
     p = run.problem
@@ -247,9 +249,9 @@ def _search_levels(run: SearchRun, chunk, engine, progress, first_only, part) ->
             continue
         bar = level_progress(progress, n)
         try:
-            found = []
+            found = KeptKeys(keep)  # the first `keep` keys, and how many
             for key in _scan(run, n, chunk, engine if first_only else None, bar, part):
-                found.append(key)
+                found.add(key)
                 if first_only:
                     break
         finally:
@@ -261,11 +263,11 @@ def _search_levels(run: SearchRun, chunk, engine, progress, first_only, part) ->
 
 
 def _exhaustive(
-    run: SearchRun, chunk: int, engine, progress: bool, first_only: bool, part
+    run: SearchRun, chunk: int, engine, progress: bool, first_only: bool, part, keep=None
 ) -> LevelAnswer:
     """The minimal level of ``run``'s problem: the one-type search or the typed one."""
     if run.problem.homogeneous_total:
-        return _search_levels(run, chunk, engine, progress, first_only, part)
+        return _search_levels(run, chunk, engine, progress, first_only, part, keep)
     return search_typed(run, progress, first_only, part)
 
 
@@ -327,19 +329,23 @@ def optimal_level(
     module: ModuleType | None = None,
     *,
     chunk: int = DEFAULT_CHUNK,
+    max_keys: int | None = None,
 ) -> Optima:
     """Every minimum-module structure of ``task`` (one module type) with the work it took
     (:class:`Optima`). Certified like :func:`exhaustive_search`, which stops at the first
     feasible structure; this one decides the whole minimal level (in this process: batches of
-    tasks are what :mod:`modquad_gym.core.distributed` spreads)."""
+    tasks are what :mod:`modquad_gym.core.distributed` spreads). ``max_keys`` keeps only the
+    first structures (``count`` still counts them all), bounding memory on huge levels."""
     run = SearchRun("exhaustive", SearchProblem.build(task, n_max, f_max, module))
-    answer = _exhaustive(run, check_int(chunk, "chunk", low=1), None, False, False, None)
-    keys = answer.found
-    if not run.problem.homogeneous_total:  # an external task: self-weight, one type
-        keys = [typed_structure(run.problem, f).key for f in answer.found]
+    keep = None if max_keys is None else check_int(max_keys, "max_keys", low=1)
+    answer = _exhaustive(run, check_int(chunk, "chunk", low=1), None, False, False, None, keep)
+    keys, typed = KeptKeys(keep), not run.problem.homogeneous_total  # typed: external task
+    for found in answer.found:
+        keys.add(typed_structure(run.problem, found).key if typed else found)
     return Optima(
         n_modules=answer.n,
-        keys=keys,
+        keys=list(keys),
+        count=getattr(answer.found, "total", keys.total),
         evaluated=run.checker.evaluated,
         oracle_calls=run.checker.oracle_calls,
         seconds=time.perf_counter() - run.t0,

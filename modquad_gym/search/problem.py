@@ -8,7 +8,7 @@ wrenches a structure's rotors must produce (its own weight added for ``external`
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -120,7 +120,7 @@ def check_palette(
         return [module if module is not None else DEFAULT_MODULE]
     if module is not None:
         raise ValueError("give module= (one type) or modules= (a palette), not both")
-    if isinstance(modules, (str, ModuleType)):
+    if isinstance(modules, (str, ModuleType)) or not isinstance(modules, Iterable):
         raise ValueError(
             "modules must be a list of ModuleType (see modquad_gym.geometry.module.palette)"
         )

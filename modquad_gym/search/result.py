@@ -123,9 +123,10 @@ class Optima:
     Attributes:
         n_modules: the certified minimum, or None when no structure up to n_max works.
         keys: every feasible structure of ``n_modules`` modules (cells up to translation), in
-            canonical order.
+            canonical order (the first ``max_keys`` of them when that is given).
         evaluated, oracle_calls, seconds: the work it took, as in :class:`SearchResult`.
         proof: how infeasibility was proven without searching, when it was ("" otherwise).
+        count: how many feasible structures the level holds (``len(keys)`` unless capped).
     """
 
     n_modules: int | None
@@ -134,6 +135,26 @@ class Optima:
     oracle_calls: int
     seconds: float
     proof: str = ""
+    count: int = -1
+
+    def __post_init__(self) -> None:
+        if self.count < 0:
+            self.count = len(self.keys)
+
+
+class KeptKeys(list):
+    """The first ``limit`` keys added (all when None) and how many were added (``total``):
+    memory stays bounded when a level holds millions of feasible structures."""
+
+    def __init__(self, limit: int | None = None) -> None:
+        super().__init__()
+        self.limit = limit
+        self.total = 0
+
+    def add(self, key: Key) -> None:
+        self.total += 1
+        if self.limit is None or len(self) < self.limit:
+            self.append(key)
 
 
 class SearchRun:

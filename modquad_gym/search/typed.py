@@ -18,9 +18,11 @@ call :func:`search_typed` for any search that is not one type with a ``total`` t
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
+from modquad_gym.core.resources import check_memory
 from modquad_gym.geometry.polyominoes import PolyominoStream
 from modquad_gym.geometry.structure import Structure, normalise_typed
 from modquad_gym.search.bounds import allowed_counts, first_possible_level
@@ -48,6 +50,19 @@ def assignments(n: int, allowed: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(rows[keep])
 
 
+def typed_search_bytes(K: int, n: int) -> int:
+    """Peak bytes the typed search allocates up to level n with K types, before it decides any
+    pair: the count vectors (C(n + K - 1, K - 1) rows of K, built as Python lists), the table of
+    allowed counts ((n + 1)^K booleans) and the assignments (K^n rows, Python tuples first)."""
+    return math.comb(n + K - 1, K - 1) * K * 48 + (n + 1) ** K + K**n * (72 + 9 * n)
+
+
+def check_typed_memory(problem: SearchProblem) -> None:
+    """Refuse before any allocation a typed search that would not fit in memory."""
+    n, K = problem.n_max, len(problem.palette)
+    check_memory(typed_search_bytes(K, n), f"n_max={n} with {K} module types")
+
+
 def check_pair_budget(problem: SearchProblem, first_level: int) -> None:
     """Refuse before any work a typed search whose last level holds more than MAX_PAIRS."""
     n, K = problem.n_max, len(problem.palette)
@@ -68,6 +83,7 @@ def search_typed(
     (containing ``part``) and its feasible pairs, (cells tuple, types tuple), in the typed
     search's order (module docstring); only the first with ``first_only``."""
     p = run.problem
+    check_typed_memory(p)
     first, proof = first_possible_level(p)
     if proof:
         run.skipped += sum(allowed_counts(p, n)[1] for n in range(1, p.n_max + 1))

@@ -21,12 +21,16 @@ Task files (:mod:`.files`):
     ``{"wrenches": [[fx, fy, fz, tx, ty, tz], ...], "f_max": 1.0, "name": "..."}``; only
     ``wrenches`` is required (``name`` defaults to the file stem, ``f_max`` to 1, ``kind`` to
     ``"total"``, so every file written before kinds existed means what it meant). An optional
-    ``meta`` object carries extra information (e.g. a planted structure, a known optimum).
+    ``meta`` object carries extra information (e.g. a planted structure, a known optimum). Any
+    other key, and a key given twice, is refused (:data:`TASK_KEYS` lists the known ones).
 ``.csv``
-    Six comma-separated columns, one wrench per line. An optional first line of non-numbers is a
-    header; blank lines are ignored; lines starting with ``#`` are comments, and the comments
-    ``# name: ...``, ``# f_max: ...`` and ``# kind: ...`` (written by :meth:`TaskRequirement.save`)
-    set those fields.
+    Six comma-separated columns, one wrench per line. An optional first line is a header naming
+    the columns ``fx, fy, fz, tx, ty, tz`` (in any order: the names are honoured); a first line
+    ``0,1,2,3,4,5`` or ``1,2,3,4,5,6`` (column numbers) is refused as ambiguous unless
+    ``csv_header`` says how to read it. Blank lines are ignored; lines starting with ``#`` are
+    comments, and the comments ``# name: ...``, ``# f_max: ...``, ``# kind: ...`` and
+    ``# meta: {...}`` (one line of JSON), each at most once, set those fields (a name in double
+    quotes is a JSON string: how :meth:`TaskRequirement.save` writes a name with a newline).
 ``.npy``
     A float array of shape (t, 6) (``f_max`` = 1, kind ``total``, name = file stem).
 
@@ -48,17 +52,20 @@ A JSON object with a ``"trajectory"`` is a *dynamic* task (:mod:`modquad_gym.dyn
 motion, an optional payload and exerted wrenches, whose rotor wrenches depend on the structure's
 mass and inertia; :func:`load_task` reads either kind of file.
 
-Modules: :mod:`.wrenches` (wrench checks, kinds), :mod:`.files` (reading and writing task
-files), :mod:`.requirement` (:class:`TaskRequirement`), :mod:`.loading` (:func:`load_task`),
+Modules: :mod:`.wrenches` (wrench checks, kinds), :mod:`.files` (reading task files: JSON,
+.npy, the known keys), :mod:`.csvfile` (CSV), :mod:`.requirement` (:class:`TaskRequirement`),
+:mod:`.loading` (:func:`load_task`),
 :mod:`.suites`, :mod:`.generators` (the seeded generators) and :mod:`.specs` (the generators
 by name, :func:`make_generator`).
 """
 
+from modquad_gym.tasks.csvfile import CSV_COMMENT_KEYS, CSV_HEADER_MODES
 from modquad_gym.tasks.examples import example_names, example_path
 from modquad_gym.tasks.files import (
-    CSV_HEADER_MODES,
     MAX_FILE_BYTES,
     SUFFIXES,
+    SUITE_KEYS,
+    TASK_KEYS,
     PathLike,
     TaskFileError,
     task_files,
@@ -86,6 +93,7 @@ __all__ = [
     "example_names",
     "example_path",
     "COLUMNS",
+    "CSV_COMMENT_KEYS",
     "CSV_HEADER_MODES",
     "FZ_READINGS",
     "GENERATORS",
@@ -93,6 +101,8 @@ __all__ = [
     "MAX_WRENCHES",
     "NAMED_GENERATORS",
     "SUFFIXES",
+    "SUITE_KEYS",
+    "TASK_KEYS",
     "TASK_KINDS",
     "Count",
     "FixedTasks",

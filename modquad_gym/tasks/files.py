@@ -2,25 +2,26 @@
 described in the package docstring, :mod:`modquad_gym.tasks`), folders and globs of them.
 
 A bad file raises :class:`TaskFileError` (a ValueError) naming the file and, where it applies,
-the 1-based data row and the line. Files are parsed completely before a task is built: nothing is
-ever half-loaded. ``TaskRequirement.load`` (:mod:`.requirement`) turns what these readers return
-into a task.
+the 1-based data row and the line. Reading is strict: a key the format does not know, a key given
+twice, a CSV header that names no column are refused, never guessed at. Sizes are checked before
+the work that depends on them (bytes before reading, rows before parsing, an .npy header before its
+data). Files are parsed completely before a task is built: nothing is ever half-loaded.
+``TaskRequirement.load`` (:mod:`.requirement`) turns what these readers return into a task.
 """
 
 from __future__ import annotations
 
-import csv
+import difflib
 import json
-import math
 import os
-import re
+import stat
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from modquad_gym.tasks.wrenches import COLUMNS, check_kind
+from modquad_gym.tasks.wrenches import MAX_WRENCHES
 
 SUFFIXES = (".json", ".csv", ".npy")
 """Task file formats understood by :meth:`TaskRequirement.load`."""
@@ -30,16 +31,54 @@ PathLike = str | os.PathLike
 MAX_FILE_BYTES = 100 * 2**20
 """Largest task or suite file read (100 MiB): a larger one is refused before reading."""
 
-CSV_HEADER_MODES = ("auto", "yes", "no")
-"""How a CSV's first row is read: ``auto`` (a row of non-numbers is a header; a row that reads
-as the column numbers 0..5 that pandas writes, is refused as ambiguous), ``yes`` (the
-first row is a header whatever it holds) or ``no`` (every row is a wrench)."""
+TASK_KEYS: dict[str, tuple[str, ...]] = {
+    "wrenches": ("wrenches", "name", "f_max", "kind", "meta"),
+    "trajectory": ("trajectory", "payload", "exerted", "f_max", "name", "kind", "meta"),
+}
+"""The keys a task JSON object may hold, by the key that marks its format: a static task holds
+``"wrenches"``, a dynamic one (:class:`~modquad_gym.dynamics.DynamicTask`) ``"trajectory"``. Any
+other key is refused with this list, so a misspelt ``"fmax"`` is never read as a default;
+free-form extras go into ``"meta"``. A new format adds its row here."""
 
-_DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.I)
+SUITE_KEYS = ("name", "tasks")
+"""The keys a suite JSON object may hold."""
+
+MAX_JSON_ARRAYS = MAX_WRENCHES + 100_000
+"""Most JSON arrays (``[``) a task or suite file may hold: every wrench is one, so a file
+beyond this is refused before it is parsed (parsing builds a Python list per array)."""
 
 
 class TaskFileError(ValueError):
     """A task or suite file that cannot be read; the message names the file (and row)."""
+
+
+def unknown_key_message(key: str, known: Sequence[str]) -> str:
+    """``unknown key 'fmax' (did you mean 'f_max'?)``: the close match, when there is one."""
+    folded = {k.replace("_", "").replace("-", "").lower(): k for k in known}
+    guess = folded.get(key.replace("_", "").replace("-", "").replace(" ", "").lower())
+    guess = guess or next(iter(difflib.get_close_matches(key, known, n=1, cutoff=0.75)), None)
+    return f"unknown key {key!r}" + (f" (did you mean {guess!r}?)" if guess else "")
+
+
+def task_format(data: object) -> str:
+    """The key of :data:`TASK_KEYS` that marks the task object ``data``, after checking it holds
+    no other keys; a ValueError names the unknown or missing key and lists the known ones."""
+    if not isinstance(data, dict):
+        raise ValueError(f"a task must be a JSON object with a 'wrenches' list, got {data!r:.80}")
+    marks = [mark for mark in TASK_KEYS if mark in data]
+    if not marks:
+        hint = " (this looks like a suite: use load_suite)" if "tasks" in data else ""
+        raise ValueError(f"no 'wrenches' key{hint}; keys present: {sorted(data)}")
+    if len(marks) > 1:
+        raise ValueError(f"a task holds one of {', '.join(map(repr, marks))}, not several")
+    known = TASK_KEYS[marks[0]]
+    for key in data:
+        if key not in known:
+            raise ValueError(
+                f"{unknown_key_message(key, known)}; a task's keys are {', '.join(known)} "
+                '(put free-form extras in "meta")'
+            )
+    return marks[0]
 
 
 def task_files(specs: Sequence[PathLike], what: str = "--task") -> list[Path]:
@@ -51,6 +90,8 @@ def task_files(specs: Sequence[PathLike], what: str = "--task") -> list[Path]:
     out: dict[Path, None] = {}
     for spec in specs:
         text = str(spec)
+        if not text.strip():
+            raise ValueError(f"{what}: an empty path (give a file, a folder or a quoted glob)")
         path = Path(text)
         if path.is_dir():
             found = sorted(
@@ -96,13 +137,30 @@ def task_json(d: dict[str, Any], indent: str = "") -> str:
     return "{\n" + ",\n".join(parts) + f"\n{indent}}}"
 
 
+def read_bytes(path: Path, limit: int = MAX_FILE_BYTES) -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes; anything else (a folder, a
+    device such as /dev/zero, a pipe, a larger file) is refused before it is read."""
+    with open(path, "rb") as fh:
+        info = os.fstat(fh.fileno())
+        if not stat.S_ISREG(info.st_mode):
+            raise TaskFileError(f"{path}: not a regular file")
+        if info.st_size > limit:
+            raise TaskFileError(f"{path}: {info.st_size:,} bytes, more than the {limit:,} read")
+        data = fh.read(limit + 1)
+    if len(data) > limit:  # it grew while we read it
+        raise TaskFileError(f"{path}: more than the {limit:,} bytes read")
+    return data
+
+
 def read_text(path: Path) -> str:
     """The file's text (UTF-8, with or without a byte-order mark), refusing huge files."""
-    size = path.stat().st_size
-    if size > MAX_FILE_BYTES:
-        raise TaskFileError(f"{path}: {size:,} bytes, more than the {MAX_FILE_BYTES:,} read")
+    return decode_text(read_bytes(path), path)
+
+
+def decode_text(data: bytes, path: Path) -> str:
+    """``data`` as UTF-8 text (a byte-order mark dropped), or a TaskFileError naming ``path``."""
     try:
-        return path.read_text(encoding="utf-8-sig")
+        return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise TaskFileError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
 
@@ -113,105 +171,81 @@ def _json_int(text: str) -> int | float:
     return int(text) if len(text) <= 300 else float("inf")
 
 
-def read_json(path: Path) -> Any:
-    """A JSON file's data; a bad file is a TaskFileError naming the line and column."""
-    text = read_text(path)
-    if not text.strip():
-        raise TaskFileError(f"{path}: the file is empty")
+class _DuplicateKeyError(Exception):
+    pass
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object that holds no key twice (``json`` would keep the last silently)."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise _DuplicateKeyError(key)
+        out[key] = value
+    return out
+
+
+def parse_json(text: str, where: str) -> Any:
+    """JSON ``text`` (no key twice in an object); a ValueError names ``where``, the line and
+    the column."""
     try:
-        return json.loads(text, parse_int=_json_int)
+        return json.loads(text, parse_int=_json_int, object_pairs_hook=_unique_keys)
+    except _DuplicateKeyError as exc:
+        raise TaskFileError(f"{where}: the key {exc.args[0]!r} is given twice") from None
     except json.JSONDecodeError as exc:
         raise TaskFileError(
-            f"{path}: not valid JSON: {exc.msg} at line {exc.lineno}, column {exc.colno} "
+            f"{where}: not valid JSON: {exc.msg} at line {exc.lineno}, column {exc.colno} "
             f"(char {exc.pos})"
         ) from None
     except RecursionError:
-        raise TaskFileError(f"{path}: JSON nested too deeply") from None
+        raise TaskFileError(f"{where}: JSON nested too deeply") from None
 
 
-def _looks_like_column_numbers(values: list[float | None]) -> bool:
-    return values == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
-
-
-def read_csv(path: Path, header: str = "auto") -> tuple[np.ndarray, str, float, str]:
-    """The wrenches, name, f_max and kind of a CSV task file (module docstring); a bad file
-    is a TaskFileError naming the file, the 1-based row and the line."""
-    if header not in CSV_HEADER_MODES:
-        raise ValueError(f"csv_header must be one of {', '.join(CSV_HEADER_MODES)}, got {header!r}")
+def read_json(path: Path) -> Any:
+    """A JSON file's data; a bad file (not JSON, a key given twice, more arrays than
+    :data:`MAX_JSON_ARRAYS`) is a TaskFileError naming the file, and the line where it applies."""
     text = read_text(path)
-    name, f_max, kind = path.stem, 1.0, "total"
-    rows: list[list[float]] = []
-    header_allowed = header != "no"
-    for lineno, cells in enumerate(csv.reader(text.splitlines()), 1):
-        cells = [c.strip() for c in cells]
-        if not any(cells):
-            continue
-        if cells[0].startswith("#"):
-            comment = ",".join(cells).lstrip("#").strip()
-            key, _, value = comment.partition(":")
-            if key.strip() == "name" and value.strip():
-                name = value.strip()
-            elif key.strip() == "f_max":
-                try:
-                    f_max = float(value)
-                except ValueError:
-                    raise TaskFileError(
-                        f"{path}: line {lineno}: f_max comment {value.strip()!r} is not a number"
-                    ) from None
-            elif key.strip() == "kind":
-                try:
-                    kind = check_kind(value.strip(), "kind comment")
-                except ValueError as exc:
-                    raise TaskFileError(f"{path}: line {lineno}: {exc}") from None
-            continue
-        parsed = [_to_float(c) for c in cells]
-        if header_allowed and (header == "yes" or all(v is None for v in parsed)):
-            header_allowed = False  # the header line
-            continue
-        if header_allowed and header == "auto" and _looks_like_column_numbers(parsed):
-            raise TaskFileError(
-                f"{path}: line {lineno}: the first row {','.join(cells)} looks like column "
-                "numbers (pandas writes them as a header); say how to read it with "
-                "--csv-header yes (skip it) or --csv-header no (a wrench)"
-            )
-        header_allowed = False
-        row = len(rows) + 1
-        where = f"{path}: row {row} (line {lineno})"
-        if len(cells) != 6:
-            raise TaskFileError(
-                f"{where}: expected 6 columns (fx, fy, fz, tx, ty, tz), got {len(cells)}"
-            )
-        for j, (cell, v) in enumerate(zip(cells, parsed, strict=True)):
-            if v is None:
-                raise TaskFileError(f"{where}: {COLUMNS[j]} = {cell!r} is not a number")
-            if not math.isfinite(v):
-                raise TaskFileError(f"{where}: {COLUMNS[j]} is {cell!r} (wrenches must be finite)")
-        rows.append(parsed)  # type: ignore[arg-type]
-    if not rows:
-        raise TaskFileError(f"{path}: no wrenches (the file is empty or has only a header)")
-    return np.array(rows), name, f_max, kind
-
-
-def _to_float(cell: str) -> float | None:
-    """The number a CSV cell holds (plain decimal notation only: ``1_0`` is not ten)."""
-    return float(cell) if _DECIMAL.fullmatch(cell) else None
+    if not text.strip():
+        raise TaskFileError(f"{path}: the file is empty")
+    arrays = text.count("[")
+    if arrays > MAX_JSON_ARRAYS:
+        raise TaskFileError(
+            f"{path}: {arrays:,} JSON arrays, more than the {MAX_JSON_ARRAYS:,} read (a task "
+            f"holds at most {MAX_WRENCHES:,} wrenches); refused before parsing"
+        )
+    return parse_json(text, str(path))
 
 
 def read_npy(path: Path) -> np.ndarray:
-    """The (t, 6) array of an ``.npy`` task file; a bad file is a TaskFileError naming it."""
+    """The (t, 6) array of an ``.npy`` task file; its header (format, dtype, shape) is checked
+    before the data is read, and a bad file is a TaskFileError naming it."""
+    from numpy.lib import format as npy
+
+    with open(path, "rb") as fh:
+        magic = fh.read(6)
+        fh.seek(0)
+        if magic[:2] == b"PK":
+            raise TaskFileError(f"{path}: an .npz archive, not an .npy array of shape (t, 6)")
+        if magic != b"\x93NUMPY":
+            raise TaskFileError(f"{path}: not an .npy file (it does not start as NumPy's do)")
+        try:
+            major, _ = npy.read_magic(fh)
+            read_header = npy.read_array_header_1_0 if major == 1 else npy.read_array_header_2_0
+            shape, _, dtype = read_header(fh, max_header_size=10_000)
+        except (ValueError, OSError, EOFError) as exc:
+            raise TaskFileError(f"{path}: not a readable .npy array: {exc}") from None
+    if dtype.kind not in "iuf" or dtype.hasobject:
+        raise TaskFileError(f"{path}: expected a numeric array of shape (t, 6), got {dtype}")
+    if len(shape) != 2 or shape[1] != 6 or shape[0] == 0:
+        raise TaskFileError(f"{path}: expected an array of shape (t, 6) with t >= 1, got {shape}")
+    if shape[0] > MAX_WRENCHES:
+        raise TaskFileError(
+            f"{path}: {shape[0]:,} wrenches, more than the {MAX_WRENCHES:,} a task holds"
+        )
     try:
-        arr = np.load(path, allow_pickle=False)
+        return np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
         raise TaskFileError(f"{path}: not a readable .npy array: {exc}") from None
-    if not isinstance(arr, np.ndarray):
-        raise TaskFileError(f"{path}: an .npz archive, not an .npy array of shape (t, 6)")
-    if arr.dtype.kind not in "iuf":
-        raise TaskFileError(f"{path}: expected a numeric array of shape (t, 6), got {arr.dtype}")
-    if arr.ndim != 2 or arr.shape[1] != 6 or arr.shape[0] == 0:
-        raise TaskFileError(
-            f"{path}: expected an array of shape (t, 6) with t >= 1, got {arr.shape}"
-        )
-    return arr
 
 
 def json_keys(path: Path) -> set[str]:

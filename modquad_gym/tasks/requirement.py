@@ -11,19 +11,19 @@ import numpy as np
 
 from modquad_gym.core.outputs import atomic_write, write_text
 from modquad_gym.core.validation import check_f_max
+from modquad_gym.tasks.csvfile import csv_text, read_csv
 from modquad_gym.tasks.examples import resolve_task_path
 from modquad_gym.tasks.files import (
     SUFFIXES,
     PathLike,
     TaskFileError,
     jsonable,
-    read_csv,
     read_json,
     read_npy,
+    task_format,
     task_json,
 )
 from modquad_gym.tasks.wrenches import (
-    COLUMNS,
     check_kind,
     check_wrench_array,
     rotor_wrenches,
@@ -121,14 +121,11 @@ class TaskRequirement:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], default_name: str = "task") -> TaskRequirement:
-        """Build from a dict as written by :meth:`to_dict`. Only ``"wrenches"`` is required;
-        keys other than name, f_max, wrenches and meta are kept in ``meta`` (e.g. ``"optimum"``).
-        Raises ValueError naming the missing key or bad row."""
-        if not isinstance(data, dict):
-            raise ValueError(f"a task must be a JSON object with a 'wrenches' list, got {data!r}")
-        if "wrenches" not in data:
-            hint = " (this looks like a suite: use load_suite)" if "tasks" in data else ""
-            raise ValueError(f"no 'wrenches' key{hint}; keys present: {sorted(data)}")
+        """Build from a dict as written by :meth:`to_dict`. Only ``"wrenches"`` is required; a
+        key other than those of :data:`~modquad_gym.tasks.files.TASK_KEYS` is refused (free-form
+        extras go into ``"meta"``). Raises ValueError naming the key or the 1-based row."""
+        if task_format(data) != "wrenches":
+            raise ValueError("a task with a trajectory is dynamic: read it with tasks.load_task")
         wrenches = rows_to_array(data["wrenches"])
         name = data.get("name", default_name)
         if not isinstance(name, str):
@@ -138,9 +135,7 @@ class TaskRequirement:
         meta = data.get("meta", {})
         if not isinstance(meta, dict):
             raise ValueError(f"'meta' must be an object, got {meta!r}")
-        known = ("name", "f_max", "wrenches", "meta", "kind")
-        extra = {k: v for k, v in data.items() if k not in known}
-        return cls(wrenches, name=name, f_max=f_max, meta={**meta, **extra}, kind=kind)
+        return cls(wrenches, name=name, f_max=f_max, meta=meta, kind=kind)
 
     # --- files ----------------------------------------------------------------------------
     @classmethod
@@ -167,8 +162,8 @@ class TaskRequirement:
             if suffix == ".json":
                 return cls.from_dict(read_json(path), default_name=path.stem)
             if suffix == ".csv":
-                wrenches, name, f_max, kind = read_csv(path, csv_header)
-                return cls(wrenches, name=name, f_max=f_max, kind=kind)
+                wrenches, fields = read_csv(path, csv_header)
+                return cls(wrenches, **{"name": path.stem, **fields})
             return cls(read_npy(path), name=path.stem)
         except TaskFileError:
             raise
@@ -177,9 +172,11 @@ class TaskRequirement:
 
     def save(self, path: PathLike) -> Path:
         """Write the task as ``.json`` (name, f_max, kind, wrenches, meta), ``.csv`` (header and
-        ``# name`` / ``# f_max`` / ``# kind`` comments) or ``.npy`` (wrenches only; needs
-        f_max == 1 and kind ``total``, since the format cannot hold them). Floats are written
-        exactly (shortest round-trip repr)."""
+        ``# name`` / ``# f_max`` / ``# kind`` / ``# meta`` comments) or ``.npy`` (wrenches only;
+        needs f_max == 1 and kind ``total``, since the format cannot hold them; the name read
+        back is the file's stem, meta is not kept). :meth:`load` reads a ``.json`` or ``.csv``
+        back identically (name, f_max, kind, meta and the exact floats: shortest round-trip
+        repr)."""
         path = Path(path)
         suffix = path.suffix.lower()
         if suffix not in SUFFIXES:
@@ -189,16 +186,17 @@ class TaskRequirement:
         if suffix == ".json":
             write_text(path, task_json(self.to_dict()) + "\n")
         elif suffix == ".csv":
-            lines = [f"# name: {self.name}", f"# f_max: {self.f_max!r}"]
-            if self.kind != "total":
-                lines.append(f"# kind: {self.kind}")
-            lines.append(",".join(COLUMNS))
-            lines += [",".join(repr(float(v)) for v in row) for row in self.wrenches]
-            write_text(path, "\n".join(lines) + "\n")
+            meta = jsonable(self.meta)
+            write_text(path, csv_text(self.wrenches, self.name, self.f_max, self.kind, meta))
         else:
             if self.f_max != 1.0 or self.kind != "total":
                 what = f"f_max={self.f_max:g}" if self.f_max != 1.0 else f"kind={self.kind}"
                 raise ValueError(f"{path}: .npy holds only the wrenches, not {what}; save as .json")
             data = np.asarray(self.wrenches, dtype=float)
-            atomic_write(path, lambda tmp: np.save(tmp.open("wb"), data))
+            atomic_write(path, lambda tmp: _save_npy(tmp, data))
         return path
+
+
+def _save_npy(tmp: Path, data: np.ndarray) -> None:
+    with tmp.open("wb") as fh:  # a file object: np.save would add ".npy" to a path
+        np.save(fh, data)

@@ -7,20 +7,33 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from modquad_gym.core.outputs import write_text
-from modquad_gym.tasks.files import PathLike, TaskFileError, read_json, task_json
+from modquad_gym.tasks.files import (
+    SUITE_KEYS,
+    PathLike,
+    TaskFileError,
+    read_json,
+    task_json,
+    unknown_key_message,
+)
 from modquad_gym.tasks.requirement import TaskRequirement
 
 
 def load_suite(path: PathLike) -> list[TaskRequirement]:
     """Read a suite: a JSON file ``{"name": ..., "tasks": [task dicts...]}`` (task dicts as in
-    :meth:`TaskRequirement.to_dict`, extra keys such as ``"optimum"`` kept in ``meta``).
-    Raises TaskFileError naming the file and the 1-based task (and row)."""
+    :meth:`TaskRequirement.to_dict`; extras such as ``"optimum"`` live in each task's ``meta``).
+    Raises TaskFileError naming the file and the 1-based task (and row), or an unknown key."""
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"suite file not found: {path}")
     data = read_json(path)
     if not isinstance(data, dict) or not isinstance(data.get("tasks"), list):
         raise TaskFileError(f'{path}: a suite is a JSON object with a "tasks" list')
+    for key in data:
+        if key not in SUITE_KEYS:
+            raise TaskFileError(
+                f"{path}: {unknown_key_message(key, SUITE_KEYS)}; a suite's keys are "
+                f"{', '.join(SUITE_KEYS)}"
+            )
     if not data["tasks"]:
         raise TaskFileError(f"{path}: the suite has no tasks")
     tasks = []

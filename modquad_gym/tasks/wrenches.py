@@ -30,6 +30,9 @@ def check_wrench_array(wrenches: object) -> np.ndarray:
     try:
         arr = np.array(wrenches, dtype=float)
     except (TypeError, ValueError, OverflowError) as exc:
+        from modquad_gym.core.validation import check_wrenches
+
+        check_wrenches(wrenches)  # names a ragged row, when that is what is wrong
         raise ValueError(f"wrenches must be a (t, 6) array of numbers: {exc}") from None
     if arr.ndim != 2 or arr.shape[1] != 6:
         raise ValueError(f"wrenches must have shape (t, 6), got {arr.shape}")

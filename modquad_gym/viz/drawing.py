@@ -152,6 +152,21 @@ def draw_structure(
 # --------------------------------------------------------------------------------------------
 # torque-space projection of the feasible wrenches (paper Fig. 3b)
 # --------------------------------------------------------------------------------------------
+
+MAX_DRAWN_MODULES = 256
+"""Most modules a top view draws (a larger one is unreadable and slow to draw); the torque
+projection beside a task has its own limit (:data:`~.zonotope.MAX_PROJECTED_ROTORS`)."""
+
+
+def check_drawable(structure: Structure) -> None:
+    """Refuse before drawing a structure too large for a figure."""
+    if structure.n_modules > MAX_DRAWN_MODULES:
+        raise ValueError(
+            f"a structure of {structure.n_modules:,} modules is too large to draw: the top view "
+            f"draws at most {MAX_DRAWN_MODULES} modules"
+        )
+
+
 def torque_zonotope_vertices(A: np.ndarray, f_max: float = 1.0) -> np.ndarray:
     """Vertices (k, 3) of the projection of W = {A u : 0 <= u <= f_max} onto torque space
     (:func:`modquad_gym.viz.zonotope.projection_vertices`)."""
@@ -270,6 +285,7 @@ def save_structure_figure(
     from matplotlib.figure import Figure
 
     s = check_structure(structure)
+    check_drawable(s)
     if task is None:
         fig = Figure(figsize=(5.0, 5.0), layout="constrained")
         FigureCanvasAgg(fig)

@@ -23,6 +23,14 @@ FEASIBLE_COLOUR, INFEASIBLE_COLOUR = "#2ca02c", "#d62728"
 """Task wrenches that the structure can (green) and cannot (red) exert, judged in 6-D."""
 
 
+DIRECTIONS_PER_BLOCK = 8192
+"""Support directions evaluated together (memory: one block times the rotor count)."""
+
+MAX_PROJECTED_ROTORS = 256
+"""Most rotors (64 four-rotor modules) a projection is computed for: its support directions
+grow as the square of the rotor count, the work as the cube (256 rotors: 2 million directions)."""
+
+
 def projection_vertices(A: np.ndarray, space: str, f_max: float = 1.0) -> np.ndarray:
     """Vertices (k, 3) of the projection of W onto force (``space="force"``) or torque space.
 
@@ -42,6 +50,11 @@ def projection_vertices(A: np.ndarray, space: str, f_max: float = 1.0) -> np.nda
     first = SPACES[space][0]
     G = A[first : first + 3] * f_max  # (3, m)
     m = G.shape[1]
+    if m > MAX_PROJECTED_ROTORS:
+        raise ValueError(
+            f"a structure of {m:,} rotors is too large for its {space} projection: at most "
+            f"{MAX_PROJECTED_ROTORS} rotors are drawn"
+        )
     dirs = [_fibonacci_sphere(400)]
     i, j = np.triu_indices(m, k=1)
     N = np.cross(G[:, i].T, G[:, j].T)
@@ -59,8 +72,11 @@ def projection_vertices(A: np.ndarray, space: str, f_max: float = 1.0) -> np.nda
             tilt = eps * (math.cos(theta) * e1 + math.sin(theta) * e2)
             dirs += [N + tilt, -N + tilt]
     D = np.vstack(dirs)
-    P = (D @ G > 0).astype(float) @ G.T
-    return np.unique(np.round(P, 12), axis=0)
+    points = []
+    for start in range(0, len(D), DIRECTIONS_PER_BLOCK):  # memory: one block of supports
+        P = (D[start : start + DIRECTIONS_PER_BLOCK] @ G > 0).astype(float) @ G.T
+        points.append(np.unique(np.round(P, 12), axis=0))
+    return np.unique(np.vstack(points), axis=0)
 
 
 @lru_cache(maxsize=8)

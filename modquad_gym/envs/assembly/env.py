@@ -33,6 +33,7 @@ from modquad_gym.envs.assembly.inputs import (
     check_oracle_method,
     check_render_mode,
     check_render_size,
+    check_restore,
     draw_task,
     make_rules,
     parse_action,
@@ -307,8 +308,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         """Continue the episode from an earlier ``state`` of it (one ``env.state`` returned;
         states are immutable): planners branch from stored states instead of replaying
         actions from reset. Returns that state's observation."""
-        if state.task.requirement is not self._require("restore()").task.requirement:
-            raise ValueError("restore: the state belongs to an episode of another task")
+        check_restore(self._require("restore()"), state, int(self.action_space.n), self.n_max)
         self._state = state
         return self._observation()
 

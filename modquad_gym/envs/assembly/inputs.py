@@ -136,3 +136,31 @@ def as_task(task: Any, what: str, name: str = "options-task") -> TaskRequirement
         return TaskRequirement(arr, name=name)
     except ValueError as exc:
         raise ValueError(f"{what}: not a valid task: {exc}") from None
+
+
+def check_restore(current: Any, state: Any, n_actions: int, n_max: int) -> None:
+    """``state`` may continue the episode whose state is ``current``: an AssemblyState (from
+    ``env.state``) of this episode's task, made by an environment of the same shape (action
+    count, n_max, module types, lookahead); else a ValueError naming the argument."""
+    from modquad_gym.envs.assembly.types import AssemblyState
+
+    if not isinstance(state, AssemblyState):
+        raise ValueError(
+            f"restore: state must be an AssemblyState (one env.state returned), "
+            f"got {type(state).__name__}"
+        )
+    if state.task.requirement is not current.task.requirement:
+        raise ValueError("restore: the state belongs to an episode of another task")
+    same_shape = (
+        np.shape(state.mask) == (n_actions,)
+        and np.shape(state.occupancy) == np.shape(current.occupancy)
+        and len(state.cells) <= n_max
+        and np.shape(state.types_onehot) == np.shape(current.types_onehot)
+        and np.shape(state.candidates) == np.shape(current.candidates)
+    )
+    if not same_shape:
+        raise ValueError(
+            f"restore: the state was made by another environment ({len(state.cells)} modules, "
+            f"{np.size(state.mask)} actions; this one: n_max {n_max}, {n_actions} actions, its "
+            "module types and lookahead)"
+        )

@@ -11,7 +11,8 @@ SI units, :mod:`modquad_gym.geometry.structure`):
   ``-s_k d_k``.
 * ``mjcf``: the model of :func:`modquad_gym.sim.model.model_spec` (built with ``mujoco.MjSpec``,
   written by MuJoCo): one free body, a box per module, one site ``rotor{k}`` and one actuator
-  ``thrust{k}`` per rotor, ``ctrl = u`` in [0, f_max] producing ``A u``. Needs the ``sim`` extra.
+  ``thrust{k}`` per rotor, ``ctrl = u`` in [0, f_max] producing ``A u``. Needs the ``sim`` extra
+  (the URDF and the JSON need nothing beyond the core install).
 * ``urdf``: link ``base_link`` at {S} carrying the total mass and inertia about the COM and a box
   visual per module; per rotor a massless link ``rotor{k}`` on a ``continuous`` joint
   ``rotor{k}_joint`` whose origin is the rotor frame and whose axis is the propeller's turning

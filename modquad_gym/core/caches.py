@@ -1,0 +1,86 @@
+"""Where compiled code and library caches go, for a user who cannot write everywhere.
+
+The compiled kernels are declared ``@njit(cache=True)``: numba stores them beside the sources
+(``__pycache__``) or in the user's cache folder (``~/.cache/numba``), and raises "cannot cache
+function" at import when neither is writable (a package installed read-only, no writable HOME).
+Matplotlib, likewise, warns in two lines and makes a new temporary folder on every run when
+``~/.config/matplotlib`` is not writable. Importing this module, first thing in
+``modquad_gym/__init__.py``, checks those places and, for each that is not writable and whose
+variable (``NUMBA_CACHE_DIR``, ``MPLCONFIGDIR``) is not set, points the library at a private
+folder in the temporary directory, saying so in one line the first time. It imports neither
+library.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parents[1]
+
+
+def _writable(folder: Path) -> bool:
+    """Whether files can be created in ``folder`` (created if missing), as numba checks it."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=folder).close()
+    except OSError:
+        return False
+    return True
+
+
+def _home_folder(variable: str, default: str, name: str) -> Path:
+    """``$variable/name``, or ``~/default/name`` (the XDG folders numba and matplotlib use)."""
+    base = os.environ.get(variable) or os.path.expanduser(default)
+    return Path(base) / name
+
+
+def default_places() -> dict[str, list[Path]]:
+    """For each variable, the places its library tries before giving up."""
+    numba_user = _home_folder("XDG_CACHE_HOME", "~/.cache", "numba")
+    if sys.platform == "darwin":
+        numba_user = Path("~/Library/Caches/numba").expanduser()
+    return {
+        "NUMBA_CACHE_DIR": [PACKAGE / "envs" / "assembly" / "__pycache__", numba_user],
+        "MPLCONFIGDIR": [_home_folder("XDG_CONFIG_HOME", "~/.config", "matplotlib")],
+    }
+
+
+def private_folder(variable: str) -> Path:
+    """The folder in the temporary directory used for ``variable`` when its places are not
+    writable."""
+    uid = os.getuid() if hasattr(os, "getuid") else "user"
+    return Path(tempfile.gettempdir()) / f"modquad_gym-{variable.lower()}-{uid}"
+
+
+def configure() -> dict[str, str]:
+    """Set each variable whose library could not write otherwise; {variable: folder} set."""
+    if sys.platform == "win32":
+        return {}
+    chosen: dict[str, str] = {}
+    fresh = False
+    for variable, places in default_places().items():
+        if os.environ.get(variable) or any(_writable(p) for p in places):
+            continue
+        folder = private_folder(variable)
+        fresh = fresh or not folder.exists()
+        try:
+            folder.mkdir(mode=0o700, exist_ok=True)
+        except OSError:
+            continue  # nothing writable at all: the library says so itself
+        os.environ[variable] = chosen[variable] = str(folder)
+    if "NUMBA_CACHE_DIR" in chosen and "numba" in sys.modules:  # imported before us
+        sys.modules["numba"].core.config.reload_config()
+    if chosen and fresh:
+        where = ", ".join(f"{k}={v}" for k, v in chosen.items())
+        print(
+            f"modquad_gym: note: the package folder or HOME is not writable; caches go to {where}",
+            file=sys.stderr,
+        )
+    return chosen
+
+
+CHOSEN = configure()
+"""The variables set at import (empty when the libraries' own places serve)."""

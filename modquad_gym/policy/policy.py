@@ -1,0 +1,196 @@
+"""A trained policy ready to act: its model, the environment it acts in, its action
+probabilities and its greedy episode.
+
+:class:`Policy` is what the learned solvers *use*: plain decoding (:mod:`.ppo`) runs its
+episodes, the policy-guided search (:mod:`.guided`) orders its branches by its probabilities.
+Torch and SB3 load only when a model is loaded.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from modquad_gym.core.extras import import_optional
+from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.policy import models
+from modquad_gym.policy.models import load_model
+from modquad_gym.search import SearchResult
+from modquad_gym.tasks import TaskRequirement
+
+ENV_KWARG_KEYS = (
+    "n_max", "n_directions", "reward_weights", "invalid_action", "oracle_method", "lookahead",
+    "modules",
+)  # fmt: skip
+"""Environment keywords a model's config.json may fix (the task source is given per task)."""
+
+
+def make_env(tasks: Any = "mixed", n_max: int = 7, **env_kwargs: Any) -> gym.Env:
+    """One training/evaluation environment: the assembly env in a Monitor that records
+    ``is_success`` per episode (SB3's callbacks read it; MaskablePPO finds ``action_masks``
+    through the wrapper)."""
+    Monitor = import_optional("stable_baselines3.common.monitor").Monitor
+
+    env = ModQuadAssemblyEnv(tasks=tasks, n_max=n_max, **env_kwargs)
+    return Monitor(env, info_keywords=("is_success",))
+
+
+def env_kwargs_of(model, config: dict) -> dict:
+    """The environment keywords ``model`` (a MaskablePPO or its policy network) was trained
+    with (from its config, else inferred from its observation space)."""
+    kwargs = {k: v for k, v in config.get("env_kwargs", {}).items() if k in ENV_KWARG_KEYS}
+    if "n_max" not in kwargs:
+        side = math.isqrt(model.observation_space["occupancy"].shape[0])  # G * G cells
+        kwargs["n_max"] = (side + 1) // 2
+    if "n_directions" not in kwargs:
+        kwargs["n_directions"] = int(model.observation_space["task"].shape[0]) - 7
+    if "lookahead" not in kwargs:
+        kwargs["lookahead"] = "candidates" in model.observation_space.spaces
+    return kwargs
+
+
+def as_task(task: Any) -> TaskRequirement:
+    """``task`` as a TaskRequirement (a (t, 6) wrench array is wrapped)."""
+    return task if isinstance(task, TaskRequirement) else TaskRequirement(task, name="task")
+
+
+class Policy:
+    """A trained policy network with the environment it acts in.
+
+    Args:
+        model: a model .zip path (default the shipped model), a loaded MaskablePPO or its
+            policy network.
+        n_max: the module budget; at most the n_max the model was trained with (its grid size);
+            None: the trained one.
+        config: the model's config when ``model`` is a loaded model.
+
+    Attributes:
+        net (the actor-critic: an sb3-contrib masked policy), model_path (None for a loaded
+        model), n_max, env, typed (trained with a palette:
+        (cell, type) actions), starts (the start types a decoding tries: each type of the
+        palette, else [None]), palette (the module types it was trained with).
+    """
+
+    def __init__(self, model: Any = None, n_max: int | None = 7, config: dict | None = None):
+        if model is None or isinstance(model, (str, Path)):
+            self.net, config = load_model(model)
+            self.model_path = str(model if model is not None else models.DEFAULT_MODEL)
+        else:
+            self.net, self.model_path = getattr(model, "policy", model), None
+        kwargs = env_kwargs_of(self.net, config or {})
+        trained = int(kwargs["n_max"])
+        n_max = trained if n_max is None else n_max
+        if isinstance(n_max, bool) or not isinstance(n_max, (int, np.integer)) or n_max < 1:
+            raise ValueError(f"n_max must be a positive integer, got {n_max!r}")
+        if n_max > trained:
+            raise ValueError(
+                f"n_max={n_max} exceeds the n_max={trained} the PPO model was trained with "
+                "(its action grid cannot hold larger structures)"
+            )
+        self.n_max = int(n_max)
+        self.env = ModQuadAssemblyEnv(**kwargs)
+        self.typed = self.env.palette is not None  # (cell, type) actions: decode from each type
+        self.starts: list[int | None] = list(range(self.env.n_types)) if self.typed else [None]
+        self.palette = list(self.env.palette or [self.env.module])
+
+    def check_palette(self, modules: list | None) -> None:
+        """ValueError unless ``modules`` (None: one type) is the palette the model was trained
+        with."""
+        same = [m.digest for m in modules or []] == [m.digest for m in self.palette]
+        if modules and not same or not modules and len(self.palette) > 1:
+            given = ",".join(m.name for m in modules) if modules else "one type"
+            raise ValueError(
+                f"--model {self.model_path or 'given'}: trained with the module types "
+                f"{','.join(m.name for m in self.palette)}, not {given}: give --model of one "
+                "trained with them "
+                "(the mixed tier's, t45,t45m,flat: modquad_gym/data/models/ppo_mixed/model.zip)"
+            )
+
+    def probabilities(self, obs: dict, mask: np.ndarray) -> np.ndarray:
+        """The policy's action probabilities at ``obs``, zero outside ``mask`` (sb3-contrib's
+        masked distribution)."""
+        import torch
+
+        obs_t, _ = self.net.obs_to_tensor(obs)
+        with torch.no_grad():
+            dist = self.net.get_distribution(obs_t, action_masks=np.asarray(mask)[None])
+            probs = dist.distribution.probs[0].double().numpy()
+        return np.where(mask, probs, 0.0)
+
+    def greedy(self, obs: dict, mask: np.ndarray) -> int:
+        """The most likely valid action at ``obs``."""
+        action, _ = self.net.predict(obs, action_masks=mask, deterministic=True)
+        return int(action)
+
+    def reset(self, task: Any, start: int | None = None) -> tuple[dict, dict]:
+        """The environment reset on ``task`` (a first module of type ``start``, several types)."""
+        options = {"task": task} if start is None else {"task": task, "initial_type": start}
+        return self.env.reset(options=options)
+
+    def rollout(
+        self,
+        task: Any,
+        rng: np.random.Generator | None = None,
+        seen: set | None = None,
+        stop_at: int | None = None,
+        start: int | None = None,
+    ) -> dict:
+        """One episode on ``task`` from a first module of type ``start``: the most likely action
+        at each step when ``rng`` is None, else sampled. Stops early once the structure has
+        ``stop_at - 1`` modules without success (it could no longer beat a verified structure
+        of ``stop_at`` modules). Adds every structure it evaluates to ``seen``
+        (translation-normalised). Returns the final info; ``env.structure`` is its structure."""
+        env = self.env
+        seen = set() if seen is None else seen
+        stop_at = env.n_max + 2 if stop_at is None else stop_at
+        obs, info = self.reset(task, start)
+        seen.add(env.structure.key)
+        done = info["success"]  # one module suffices: nothing to decide
+        while not done and len(info["cells"]) < stop_at - 1:
+            mask = env.action_masks()
+            if rng is None:
+                action = self.greedy(obs, mask)
+            else:
+                probs = self.probabilities(obs, mask)
+                action = rng.choice(len(probs), p=probs / probs.sum())
+            obs, _, terminated, truncated, info = env.step(int(action))
+            seen.add(env.structure.key)
+            done = terminated or truncated
+        return info
+
+    def __repr__(self) -> str:
+        return f"Policy(model={self.model_path!r}, n_max={self.n_max})"
+
+
+def search_result(
+    name: str,
+    n_max: int,
+    best: Structure | None,
+    evaluated: int,
+    oracle_calls: int,
+    t0: float,
+    certified: bool = False,
+    proof: str = "",
+    lower_bound: int | None = None,
+) -> SearchResult:
+    """The search record of a learned solver ``name`` that started at ``t0`` and kept
+    ``best`` (with the proved ``lower_bound`` on the module count, when the solver knows
+    one)."""
+    return SearchResult(
+        structure=best,
+        n_modules=best.n_modules if best is not None else None,
+        evaluated=evaluated,
+        oracle_calls=oracle_calls,
+        seconds=time.perf_counter() - t0,
+        certified=certified,
+        method=name,
+        n_max=n_max,
+        proof=proof,
+        lower_bound=lower_bound,
+    )

@@ -1,0 +1,100 @@
+"""Issue 24, family 6: a user who can write neither the package folder nor HOME still runs every
+command; numba's compiled code and matplotlib's cache go to a private temporary folder, with one
+note line the first time."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SCREWDRIVER = ROOT / "examples" / "screwdriver.json"
+
+
+def test_unwritable_places_move_the_caches_to_a_private_folder(tmp_path):
+    """configure() with numba's and matplotlib's places below a regular file (never writable,
+    not even for root): both variables point into TMPDIR, the note is one line, once."""
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    code = (
+        "import os, sys, tempfile; from pathlib import Path\n"
+        "import modquad_gym.core.caches as c\n"
+        f"b = Path({str(blocker)!r})\n"
+        "c.default_places = lambda: {'NUMBA_CACHE_DIR': [b / 'n'], 'MPLCONFIGDIR': [b / 'm']}\n"
+        "for v in ('NUMBA_CACHE_DIR', 'MPLCONFIGDIR'): os.environ.pop(v, None)\n"
+        "first = c.configure()\n"
+        "for v in ('NUMBA_CACHE_DIR', 'MPLCONFIGDIR'): os.environ.pop(v, None)\n"
+        "second = c.configure()\n"
+        "print(sorted(first) == sorted(second) == ['MPLCONFIGDIR', 'NUMBA_CACHE_DIR'])\n"
+        "print(all(Path(p).is_dir() and p.startswith(tempfile.gettempdir()) "
+        "for p in first.values()))\n"
+    )
+    env = {**os.environ, "TMPDIR": str(tmp_path), "PYTHONPATH": str(ROOT)}
+    env.pop("NUMBA_CACHE_DIR", None)
+    run = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["True", "True"]
+    notes = [line for line in run.stderr.splitlines() if "modquad_gym: note" in line]
+    assert len(notes) == 1 and "not writable" in notes[0], run.stderr
+
+
+def _locked_down_command(tmp_path: Path) -> tuple[list[str], Path]:
+    """A shell prefix that runs with the package read-only and HOME not writable, and the
+    package root that prefix sees; skips where neither a mount namespace (root) nor file
+    permissions (other users) can make the package read-only."""
+    if os.geteuid() != 0:
+        copy = tmp_path / "pkg"
+        shutil.copytree(ROOT / "modquad_gym", copy / "modquad_gym",
+                        ignore=shutil.ignore_patterns("__pycache__"))  # fmt: skip
+        for folder, dirs, files in os.walk(copy):
+            for name in dirs + files:
+                os.chmod(Path(folder) / name, 0o555)
+        os.chmod(copy, 0o555)
+        return [], copy
+    unshare = shutil.which("unshare")
+    probe = unshare and subprocess.run(
+        [unshare, "-m", "--propagation", "private", "true"], capture_output=True
+    )
+    if not probe or probe.returncode != 0:
+        pytest.skip("root without mount namespaces: the package cannot be made read-only")
+    mount = f'mount --bind -o ro {ROOT} {ROOT} && exec "$@"'
+    return [unshare, "-m", "--propagation", "private", "sh", "-c", mount, "sh"], ROOT
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [["--help"], ["solve", "--task", str(SCREWDRIVER), "--n-max", "3", "--json"]],
+    ids=["help", "solve"],
+)
+def test_commands_run_for_a_locked_down_user(tmp_path, argv):
+    prefix, package = _locked_down_command(tmp_path)
+    home = tmp_path / "home-is-a-file"
+    home.write_text("")
+    env = {
+        **os.environ,
+        "HOME": str(home),
+        "TMPDIR": str(tmp_path),
+        "PYTHONPATH": str(package),
+        "PYTHONDONTWRITEBYTECODE": "1",
+    }
+    for variable in ("NUMBA_CACHE_DIR", "MPLCONFIGDIR", "XDG_CACHE_HOME", "XDG_CONFIG_HOME"):
+        env.pop(variable, None)
+    run = subprocess.run(
+        [*prefix, sys.executable, "-m", "modquad_gym.cli", *argv],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=tmp_path,
+        timeout=300,
+    )
+    assert run.returncode == 0, run.stderr
+    assert "Traceback" not in run.stderr
+    assert len(run.stderr.strip().splitlines()) <= 1, run.stderr  # at most the note
+    assert list(tmp_path.glob("modquad_gym-numba_cache_dir-*"))

@@ -1,0 +1,86 @@
+"""Issue 24, family 7: every ``train.py`` option that used to end in a traceback (or started a
+run it should refuse) now stops while parsing: one error line naming the option, exit 2, before
+any environment, demonstration or model is made."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from modquad_gym.policy.models import MODELS_DIR
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture()
+def parse(tmp_path, monkeypatch):
+    from agents.cli import parse_args
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "junk.zip").write_text("not a model")
+    real = MODELS_DIR / "ppo_default" / "model.zip"
+    if real.is_file():
+        (tmp_path / "truncated.zip").write_bytes(real.read_bytes()[:3000])
+
+    def run(*argv: str):
+        return parse_args(["--out", str(tmp_path / "run"), *argv])
+
+    return run
+
+
+CASES = [
+    (["--seed", "-1"], "--seed"),
+    (["--n-max", "100"], "--n-max"),
+    (["--env-kwargs", '{"bogus": 1}'], "--env-kwargs"),
+    (["--hyperparameters", '{"learning_rate": -1}'], "learning_rate"),
+    (["--hyperparameters", '{"net_arch": [0]}'], "net_arch"),
+    (["--hyperparameters", '{"batch_size": 1}'], "batch_size"),
+    (["--hyperparameters", '{"gamma": 2}'], "gamma"),
+    (["--task-source", "nope"], "--task-source"),
+    (["--n-eval", "0"], "--n-eval"),
+    (["--resume", "junk.zip"], "--resume"),
+    (["--resume", "."], "--resume"),
+    (["--seeds", "-1", "2"], "--seeds"),
+    (["--seeds", "2", "2"], "--seeds"),
+    (["--n-envs", "100000"], "--n-envs"),
+    (["--timesteps", "1_000"], "--timesteps"),
+    (["--threads", "0"], "--threads"),
+    (["--eval-freq", "-5"], "--eval-freq"),
+    (["--checkpoint-freq", "0"], "--checkpoint-freq"),
+    (["--demo-tasks", "0"], "--demo-tasks"),
+    (["--bc-epochs", "-1"], "--bc-epochs"),
+    (["--tensorboard", "/dev/null"], "--tensorboard"),
+]
+
+
+@pytest.mark.parametrize("argv, option", CASES, ids=[" ".join(a) for a, _ in CASES])
+def test_bad_train_options_stop_in_one_line(parse, capsys, argv, option):
+    with pytest.raises(SystemExit) as exc:
+        parse(*argv)
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and "Traceback" not in err
+    assert option in err.strip().splitlines()[-1], err
+
+
+def test_subprocess_environments_are_capped_to_the_machine(parse, capsys, monkeypatch):
+    monkeypatch.setattr("agents.checks.usable_cpus", lambda: 2)
+    with pytest.raises(SystemExit):
+        parse("--n-envs", "8", "--vec-env", "subproc")
+    assert "2 usable CPU(s)" in capsys.readouterr().err
+
+
+def test_resume_refuses_a_truncated_model_and_another_tiers(parse, capsys):
+    pytest.importorskip("sb3_contrib")
+    large = MODELS_DIR / "ppo_large" / "model.zip"
+    for model in ("truncated.zip", str(large)):
+        if not Path(model).is_file():
+            continue
+        with pytest.raises(SystemExit):
+            parse("--resume", model)
+        assert "--resume" in capsys.readouterr().err.splitlines()[-1]
+
+
+def test_a_good_recipe_still_parses(parse):
+    args = parse("--seed", "3", "--n-envs", "4", "--hyperparameters", '{"ent_coef": 0.02}')
+    assert args.config.seed == 3 and args.config.n_envs == 4
