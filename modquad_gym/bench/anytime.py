@@ -257,6 +257,7 @@ def main(argv: list[str] | None = None) -> None:
         "The anytime default search on planted tasks of 16-64 modules, and (--reach) the "
         "exhaustive search refuting every level to 16; write results/anytime.{md,csv}.",
         options,
+        outputs=("anytime.md", "anytime.csv"),
     )
     rows = planted_rows(args.sizes, args.tasks, args.seed, args.time_limit)
     if args.reach:
