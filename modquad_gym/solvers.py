@@ -23,6 +23,9 @@ METHOD_HELP = {
     "centrosymmetric": "the paper's Algorithm 2",
     "greedy": "baseline: the child satisfying most wrenches",
     "random": "baseline: random dockings",
+    "anytime": "the default: the exhaustive search's answer where it finishes within "
+    "--time-limit, else the best structure found by local moves with its proved lower bound "
+    "(up to 64 modules)",
     "ppo": "the learned agent (the shipped model unless --model)",
     "ppo-guided": "best-first search ordered by the learned policy, certified at the lower bound",
 }
