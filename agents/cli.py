@@ -14,6 +14,7 @@ from pathlib import Path
 from agents.checks import check_environment, check_model, check_publishable
 from agents.imitation import EXPERTS
 from agents.training import (
+    ARCHITECTURES,
     DEFAULT_TIMESTEPS,
     HYPERPARAMETERS,
     IMITATION,
@@ -43,6 +44,7 @@ POSITIVE = (
     "workers",
     "demo_tasks",
     "seed_workers",
+    "dagger_tasks",
 )
 """Integer options that must be >= 1 when given."""
 
@@ -182,6 +184,14 @@ def add_recipe_options(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument("--threads", type=INTEGER, default=1, help="torch threads (default %(default)s)")
     g.add_argument(
+        "--architecture",
+        choices=ARCHITECTURES,
+        default="candidates",
+        help="policy network: candidates (one score per candidate docking, shared weights: "
+        "acts at any n_max and palette; the env's lookahead rows) or mlp (SB3's "
+        "MultiInputPolicy, one grid size) (default %(default)s)",
+    )
+    g.add_argument(
         "--env-kwargs",
         type=json.loads,
         default={},
@@ -225,6 +235,20 @@ def add_imitation_options(p: argparse.ArgumentParser) -> None:
         default=2,
         help="processes that collect the expert demonstrations (default %(default)s)",
     )
+    g.add_argument(
+        "--dagger-rounds",
+        type=int,
+        default=IMITATION["dagger_rounds"],
+        help="rounds of the expert in the loop after cloning: the learner's own episodes on "
+        "fresh tasks, every state labelled by the certified search, cloned again; 0: none "
+        "(default %(default)s)",
+    )
+    g.add_argument(
+        "--dagger-tasks",
+        type=int,
+        default=None,
+        help="fresh training tasks per DAgger round (default a tenth of --demo-tasks)",
+    )
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -255,8 +279,9 @@ def complete(args: argparse.Namespace) -> None:
     for name in POSITIVE:
         if getattr(args, name) is not None and getattr(args, name) < 1:
             raise ValueError(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
-    if args.bc_epochs < 0:
-        raise ValueError(f"--bc-epochs must be >= 0, got {args.bc_epochs}")
+    for name in ("bc_epochs", "dagger_rounds"):
+        if getattr(args, name) < 0:
+            raise ValueError(f"--{name.replace('_', '-')} must be >= 0, got {getattr(args, name)}")
     for name in ("env_kwargs", "hyperparameters"):
         if not isinstance(getattr(args, name), dict):
             raise ValueError(f"--{name.replace('_', '-')} must be a JSON object")
@@ -324,6 +349,9 @@ def config_of(args: argparse.Namespace) -> TrainConfig:
         demo_tasks=args.demo_tasks,
         bc_epochs=args.bc_epochs,
         expert=args.expert,
+        architecture=args.architecture,
+        dagger_rounds=args.dagger_rounds,
+        dagger_tasks=args.dagger_tasks,
         workers=args.workers,
         resume=args.resume,
         eval_freq=args.eval_freq,

@@ -108,6 +108,19 @@ def expert_targets(
     raise ValueError(f"expert must be one of {EXPERTS}, got {expert!r}")
 
 
+def expert_start(
+    task: Any, keys: Sequence[Key], palette: Sequence[Any] | None, rng: np.random.Generator
+) -> tuple[dict, int]:
+    """(reset options, start type) of an episode towards the optima ``keys``: with several
+    module types, a type some optimum holds, drawn with ``rng`` (a structure is reachable only
+    from a type it holds)."""
+    if palette is None:
+        return {"task": task}, 0
+    held = sorted({k for key in keys for _, k in typed_cells(key, palette)})
+    start = int(rng.choice(held))
+    return {"task": task, "initial_type": start}, start
+
+
 def collect(
     env: ModQuadAssemblyEnv,
     tasks: Sequence[Any],
@@ -133,11 +146,7 @@ def collect(
         n_star, keys = expert_targets(task, n_max, expert, palette)
         if n_star is None or n_star == 1:
             continue
-        options: dict[str, Any] = {"task": task}
-        start = 0
-        if palette is not None:  # start with a type some optimum holds
-            held = sorted({k for key in keys for _, k in typed_cells(key, palette)})
-            start = options["initial_type"] = int(rng.choice(held))
+        options, start = expert_start(task, keys, palette, rng)
         targets = placements(keys, palette, start)
         obs, info = env.reset(options=options)
         rewards: list[float] = []

@@ -49,11 +49,20 @@ HYPERPARAMETERS = {
     "vf_coef": 0.5,
     "max_grad_norm": 0.5,
     "net_arch": [256, 256],
+    "hidden": 64,
 }
-"""MaskablePPO hyperparameters of the recipe (fine-tuning after behaviour cloning)."""
-IMITATION = {"demo_tasks": 12_000, "bc_epochs": 40, "bc_batch_size": 256, "bc_learning_rate": 1e-3}
-"""Behaviour-cloning settings of the recipe (see :mod:`.imitation`)."""
-DEFAULT_TIMESTEPS = 200_000
+"""MaskablePPO hyperparameters of the recipe (fine-tuning after behaviour cloning); ``net_arch``
+shapes the ``mlp`` architecture, ``hidden`` the ``candidates`` one."""
+IMITATION = {"demo_tasks": 6_000, "bc_epochs": 30, "bc_batch_size": 256, "bc_learning_rate": 1e-3,
+             "dagger_rounds": 3, "dagger_epochs": 10}  # fmt: skip
+"""Behaviour-cloning settings of the recipe (see :mod:`.imitation`) and of the expert in the
+loop (:mod:`.dagger`: rounds, cloning epochs after each round; fresh tasks per round default
+to a tenth of the demonstration tasks)."""
+ARCHITECTURES = ("candidates", "mlp")
+"""Policy networks: ``candidates`` scores each candidate docking with shared weights
+(:mod:`modquad_gym.policy.network`: any n_max, any palette; the env's lookahead rows), ``mlp``
+is SB3's MultiInputPolicy over the whole observation (one grid size)."""
+DEFAULT_TIMESTEPS = 20_000
 
 
 @dataclass(frozen=True)
@@ -72,6 +81,9 @@ class TrainConfig:
     demo_tasks: int | None = None
     bc_epochs: int = IMITATION["bc_epochs"]
     expert: str | None = None
+    architecture: str = "candidates"
+    dagger_rounds: int = IMITATION["dagger_rounds"]
+    dagger_tasks: int | None = None
     workers: int = 2
     resume: Path | None = None
     eval_freq: int | None = None
@@ -94,8 +106,14 @@ class TrainConfig:
         for name, value in defaults.items():
             if getattr(self, name) is None:
                 object.__setattr__(self, name, value)
+        if self.dagger_tasks is None:
+            object.__setattr__(self, "dagger_tasks", max(1, self.demo_tasks // 10))
         if self.expert not in EXPERTS:
             raise ValueError(f"expert must be one of {EXPERTS}, got {self.expert!r}")
+        if self.architecture not in ARCHITECTURES:
+            raise ValueError(
+                f"architecture must be one of {ARCHITECTURES}, got {self.architecture!r}"
+            )
         unknown = sorted(set(self.hyperparameters) - set(HYPERPARAMETERS))
         if unknown:
             raise ValueError(
@@ -127,7 +145,8 @@ class TrainConfig:
         """Keywords of the validation environment besides its tasks and n_max (episodes start
         with the first type, as :class:`~.ppo.PPOSolver` does first)."""
         modules = get_tier(self.tier).modules
-        return {**({"modules": modules} if modules else {}), **self.env_kwargs}
+        lookahead = {"lookahead": True} if self.architecture == "candidates" else {}
+        return {**({"modules": modules} if modules else {}), **lookahead, **self.env_kwargs}
 
     @property
     def validation_source(self) -> str:
@@ -195,6 +214,8 @@ def train(config: TrainConfig) -> Path:
         (log_dir / stale).unlink(missing_ok=True)
     imitation = None
     if config.resume is None and config.bc_epochs > 0:
+        from agents.pretraining import pretrain
+
         imitation = pretrain(model, config, Path(config.tensorboard) / name / "bc")
     eval_freq = config.eval_freq or max(config.timesteps // 20, 512)
     eval_cb = _eval_callback_class()(
@@ -272,9 +293,19 @@ def _new_model(config: TrainConfig, venv: Any, MaskablePPO: Any) -> Any:
             config.resume, env=venv, device="cpu", tensorboard_log=str(config.tensorboard)
         )
     hp = config.ppo_hyperparameters()
-    policy_kwargs = {"net_arch": hp.pop("net_arch")}
+    net_arch, hidden = hp.pop("net_arch"), hp.pop("hidden")
+    policy: Any = "MultiInputPolicy"
+    policy_kwargs: dict = {"net_arch": net_arch}
+    if config.architecture == "candidates":
+        from modquad_gym.geometry.module import palette
+        from modquad_gym.policy.network import CandidatePolicy, type_features
+
+        policy = CandidatePolicy
+        modules = get_tier(config.tier).modules
+        types = palette(modules or "t45")
+        policy_kwargs = {"hidden": hidden, "types": type_features(types)}
     return MaskablePPO(
-        "MultiInputPolicy",
+        policy,
         venv,
         policy_kwargs=policy_kwargs,
         seed=config.seed,
@@ -293,7 +324,8 @@ def run_record(config: TrainConfig, model: Any, n_validation: int) -> dict:
         "tier": config.tier,
         "env_kwargs": config.env_kwargs_full,
         "algorithm": "MaskablePPO",
-        "policy": "MultiInputPolicy",
+        "policy": type(model.policy).__name__,
+        "architecture": config.architecture,
         "hyperparameters": config.ppo_hyperparameters(),
         "seed": config.seed,
         "n_envs": config.n_envs,
@@ -309,64 +341,6 @@ def run_record(config: TrainConfig, model: Any, n_validation: int) -> dict:
         "torch_threads": config.threads,
         "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
         "versions": versions(),
-    }
-
-
-def pretrain(model: Any, config: TrainConfig, log_dir: Path) -> dict:
-    """Expert demonstrations, then behaviour cloning of ``model``'s policy (TensorBoard scalars
-    ``bc/loss`` and ``bc/greedy_good`` per epoch in ``log_dir``). Returns what the config
-    records about it."""
-    import numpy as np
-    from torch.utils.tensorboard import SummaryWriter
-
-    from agents.imitation import clone, collect_parallel
-    from modquad_gym.tasks import make_generator
-
-    t0 = time.perf_counter()
-    generator = make_generator(config.source)
-    rng = np.random.default_rng([config.seed, 1])  # never a validation or held-out seed
-    tasks = [generator(rng) for _ in range(config.demo_tasks)]
-    demos = collect_parallel(
-        tasks,
-        config.env_kwargs_full,
-        config.max_modules,
-        seed=config.seed,
-        workers=config.workers,
-        progress=config.progress,
-        expert=config.expert,
-    )
-    collect_s = time.perf_counter() - t0
-    writer = SummaryWriter(str(log_dir))
-
-    def log(epoch: int, stats: dict) -> None:
-        for key, value in stats.items():
-            writer.add_scalar(f"bc/{key}", value, epoch)
-
-    t1 = time.perf_counter()
-    history = clone(
-        model,
-        demos,
-        epochs=config.bc_epochs,
-        batch_size=IMITATION["bc_batch_size"],
-        learning_rate=IMITATION["bc_learning_rate"],
-        seed=config.seed,
-        progress=config.progress,
-        log=log,
-    )
-    writer.close()
-    return {
-        "demo_tasks": config.demo_tasks,
-        "expert": config.expert,
-        "expert_episodes": demos.n_tasks,
-        "states": len(demos),
-        "epochs": config.bc_epochs,
-        "batch_size": IMITATION["bc_batch_size"],
-        "learning_rate": IMITATION["bc_learning_rate"],
-        "task_seed": f"default_rng([{config.seed}, 1])",
-        "collect_seconds": round(collect_s, 1),
-        "clone_seconds": round(time.perf_counter() - t1, 1),
-        "final_loss": round(history[-1]["loss"], 4),
-        "final_greedy_good": round(history[-1]["greedy_good"], 4),
     }
 
 

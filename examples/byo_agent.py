@@ -41,8 +41,8 @@ def shipped_model_episode(seed: int = 0) -> dict | None:
         return None  # pip install 'modquad_gym[train]'
     from modquad_gym.policy import DEFAULT_MODEL
 
-    model = MaskablePPO.load(DEFAULT_MODEL, device="cpu")
-    env = gym.make("ModQuadAssembly-v0", tasks="planted", n_max=7)
+    model = MaskablePPO.load(DEFAULT_MODEL, device="cpu")  # trained with the lookahead rows
+    env = gym.make("ModQuadAssembly-v0", tasks="planted", n_max=7, lookahead=True)
     obs, info = env.reset(seed=seed)
     done = False
     while not done:

@@ -23,7 +23,9 @@ from modquad_gym.oracle import (
     margin,
 )
 from modquad_gym.search import (
+    SearchProblem,
     SearchResult,
+    anytime_search,
     centrosymmetric_search,
     exhaustive_search,
     greedy_search,
@@ -45,6 +47,7 @@ __all__ = [
     "METHODS",
     "TOL",
     "ModuleType",
+    "SearchProblem",
     "SearchResult",
     "Structure",
     "TaskRequirement",
@@ -52,6 +55,7 @@ __all__ = [
     "WrenchOracle",
     "Zonotope",
     "allocate",
+    "anytime_search",
     "centrosymmetric_search",
     "exhaustive_search",
     "greedy_search",

@@ -23,6 +23,9 @@ METHOD_HELP = {
     "centrosymmetric": "the paper's Algorithm 2",
     "greedy": "baseline: the child satisfying most wrenches",
     "random": "baseline: random dockings",
+    "anytime": "the default: the exhaustive search's answer where it finishes within "
+    "--time-limit, else the best structure found by local moves with its proved lower bound "
+    "(up to 64 modules)",
     "ppo": "the learned agent (the shipped model unless --model)",
     "ppo-guided": "best-first search ordered by the learned policy, certified at the lower bound",
 }
@@ -102,6 +105,8 @@ def make_solver(
             raise ValueError(f"--model applies to {', '.join(LEARNED)} only, not {method!r}")
         return SearchSolver(method, n_max=n_max, modules=modules, seed=seed, **search_options)
     base, options = learned
+    if search_options.get("time_limit") is not None:  # the one search option they honour
+        options["time_limit"] = search_options["time_limit"]
     if base == "ppo-guided":
         from modquad_gym.policy.guided import GuidedSolver
 
@@ -110,7 +115,7 @@ def make_solver(
         from modquad_gym.policy.ppo import PPOSolver
 
         solver = PPOSolver(model=model, n_max=n_max, seed=seed, **{"samples": samples, **options})
-    solver.policy.check_palette(modules)
+    solver.policy.use_palette(modules)
     if method != "ppo":  # a variant keeps its full name (plain ppo with samples: ppo-kN)
         solver.name = method
     return solver

@@ -196,6 +196,7 @@ def _report_names(what: str) -> tuple[str, ...]:
         "paper": OUTPUTS[:1],
         "agents": REPORT_FILES[:1],
         "coldstart": ("coldstart.csv",),
+        "anytime": ("anytime.md",),
     }
     if what == "level-bounds":
         from modquad_gym import TModule

@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from modquad_gym.bench.agents import SEARCH_METHODS
 from modquad_gym.bench.seeds import SeedScore, goal_lines, interval, iqm, main, summary
 from modquad_gym.policy import DEFAULT_MODEL
 
@@ -80,7 +81,8 @@ def test_report_on_copies_of_the_shipped_model(tmp_path, capsys):
     text = (out / "seeds.md").read_text()
     assert "over 2 training seeds" in text and "| ppo | 2 |" in text
     rows = (out / "seeds.csv").read_text().splitlines()
-    assert len(rows) == 1 + 2 * 2 + 4 * 2  # header, ppo x 2 seeds x 2 suites, 4 searches x 2
+    searches = len(SEARCH_METHODS)
+    assert len(rows) == 1 + 2 * 2 + searches * 2  # header, ppo x 2 seeds x 2 suites, searches x 2
     assert (out / "seeds.png").stat().st_size > 1000
     with pytest.raises(SystemExit) as exc:  # an existing report is never replaced unasked
         main(argv)

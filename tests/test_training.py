@@ -59,21 +59,26 @@ def test_a_short_run_twice_gives_the_same_parameters(tmp_path, suite):
 def test_config_takes_the_tier_defaults(tmp_path):
     large = TrainConfig(out=tmp_path, tier="large")
     assert large.max_modules == 12 and large.source == TIERS["large"].source
-    assert large.env_kwargs_full == {"tasks": "planted-large", "n_max": 12}
+    assert large.env_kwargs_full == {"tasks": "planted-large", "n_max": 12, "lookahead": True}
+    assert large.dagger_tasks == large.demo_tasks // 10
     assert large.validation_source == "planted-large"
     assert (large.expert, large.timesteps) == ("one", TIERS["large"].recipe["timesteps"])
     assert TrainConfig(out=tmp_path, tier="large", timesteps=7).timesteps == 7  # given wins
     current = TrainConfig(out=tmp_path, task_source=str(tmp_path / "tasks.json"))
     assert current.max_modules == 7 and current.validation_source == "mixed"
-    assert TIERS["large"].model.parent.name == "ppo_large"
+    assert TIERS["large"].model.parent.name == "ppo_default"  # the size-free default model
     mixed = TrainConfig(out=tmp_path, tier="mixed")  # several types: each episode a random start
     assert mixed.env_kwargs_full == {
         "tasks": "planted-mixed-external",
         "n_max": 7,
         "modules": "t45,t45m,flat",
+        "lookahead": True,
         "initial_type": "random",
     }
-    assert mixed.eval_env_kwargs == {"modules": "t45,t45m,flat"} and mixed.expert == "one"
+    assert mixed.eval_env_kwargs == {"modules": "t45,t45m,flat", "lookahead": True}
+    assert mixed.expert == "one"
+    mlp = TrainConfig(out=tmp_path, architecture="mlp")  # the grid MLP: no lookahead rows
+    assert mlp.env_kwargs_full == {"tasks": "mixed", "n_max": 7}
     assert TIERS["current"].results == "results"
 
 
@@ -84,6 +89,7 @@ def test_config_takes_the_tier_defaults(tmp_path):
         ({"hyperparameters": {"lr": 1}}, "unknown keys"),
         ({"env_kwargs": {"n_max": 3}}, "--n-max"),
         ({"expert": "best"}, "expert must be"),
+        ({"architecture": "cnn"}, "architecture must be"),
     ],
 )
 def test_config_rejects_what_it_cannot_train(tmp_path, kwargs, message):

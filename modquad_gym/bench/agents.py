@@ -24,12 +24,8 @@ from functools import lru_cache, partial
 from pathlib import Path
 
 from modquad_gym.bench import bench_args
-from modquad_gym.bench.agents_report import (
-    plot_bars,
-    plot_learning_curve,
-    plot_structures,
-    write_report,
-)
+from modquad_gym.bench.agents_figures import plot_bars, plot_learning_curve, plot_structures
+from modquad_gym.bench.agents_report import write_report
 from modquad_gym.bench.scores import Row, summarise
 from modquad_gym.bench.tiers import TIERS, Tier, get_tier, validation_suite
 from modquad_gym.core.options import int_option

@@ -8,7 +8,9 @@ Each measurement runs in a fresh Python process, ``--repeats`` times (the median
 * ``exhaustive_search`` on an 8-module planted task: its first call in the process and a second
   call on the same task (warm);
 * ``modquad solve --method ppo`` (the shipped model) as a user runs it, wall clock of the whole
-  command, beside ``import torch`` alone (its floor).
+  command, beside ``import torch`` alone (its floor), and loading the shipped model (torch and
+  SB3 imported) as SB3 does (``MaskablePPO.load``: the algorithm and its optimizer, whose
+  construction imports torch's compiler) and as inference does (the policy network only).
 
 Run once with an empty numba cache (``NUMBA_CACHE_DIR`` in a temporary folder: the first run
 after an install compiles every function it calls) and then with that cache filled (every later
@@ -49,6 +51,17 @@ mq.exhaustive_search(task, n_max=8)
 t4 = time.perf_counter()
 print(t1 - t0, t3 - t2, t4 - t3)
 """
+LOAD_CODE = """
+import time
+import torch, sb3_contrib
+from modquad_gym.policy.models import DEFAULT_MODEL, load_model
+t0 = time.perf_counter()
+if {full}:
+    sb3_contrib.MaskablePPO.load(DEFAULT_MODEL, device="cpu")
+else:
+    load_model(DEFAULT_MODEL)
+print(time.perf_counter() - t0)
+"""
 NUMBA_CODE = """
 import time
 from modquad_gym.geometry import polyominoes
@@ -79,6 +92,8 @@ def measure(env: dict, task: Path, root: Path) -> dict[str, float]:
                     str(root / "examples" / "screwdriver.json"), "--method", "ppo", "--json"],
                    env)  # fmt: skip
     torch, _ = timed([py, "-c", "import torch"], env)
+    (full,) = printed([py, "-c", LOAD_CODE.format(full=True)], env)
+    (net,) = printed([py, "-c", LOAD_CODE.format(full=False)], env)
     return {
         "import modquad_gym (s)": imp,
         "first numba dispatch (s)": numba,
@@ -86,6 +101,8 @@ def measure(env: dict, task: Path, root: Path) -> dict[str, float]:
         "exhaustive second call (s)": second,
         "modquad solve --method ppo (s)": ppo,
         "import torch (s)": torch,
+        "load the shipped model: MaskablePPO.load (s)": full,
+        "load the shipped model: policy network only (s)": net,
     }
 
 

@@ -50,9 +50,13 @@ class Tier:
     learned: tuple[str, ...] = ("ppo", "ppo-k8", "ppo-guided")
     """The learned methods its reports score (benchmark method names; settings of the guided
     search chosen on validation tasks, ``modquad bench agents --validation``)."""
+    model_tier: str = ""
+    """The tier whose shipped model this tier uses ("": its own): a size-free model trained on
+    one tier acts on another."""
     goals: dict = field(default_factory=dict)
-    """The tier's goals on its held-out suites: {method: {metric: least share}} for the
-    metrics ``success`` and ``optimal``, and ``configs``: a share of the exhaustive search's
+    """The tier's goals on its held-out suites: {method: {metric: least share, or a search's
+    name: at least its share}} for the metrics ``success`` and ``optimal``, and ``configs``: a
+    share of the exhaustive search's
     configurations per task, or the search to evaluate fewer than (without it: fewer than every
     search but random)."""
 
@@ -62,9 +66,10 @@ class Tier:
 
     @property
     def model(self) -> Path:
-        """The tier's shipped PPO model: ``data/models/ppo_default`` on the current tier,
-        ``data/models/ppo_<name>`` on the others."""
-        return shipped_model(self.name)
+        """The tier's shipped PPO model: ``data/models/ppo_default`` on the current tier (and
+        on the tiers whose ``model_tier`` is ``current``), ``data/models/ppo_<name>`` on the
+        others."""
+        return shipped_model(self.model_tier or self.name)
 
     @property
     def results(self) -> str:
@@ -83,9 +88,11 @@ TIERS = {
     "large": Tier("large", "ModQuadAssemblyLarge-v0", 12, ("large_planted",),
                   source="planted-large", seed0=3_000_000, n_tasks=40,
                   recipe={"expert": "one", "demo_tasks": 800, "timesteps": 30_000},
+                  model_tier="current",
                   learned=("ppo", "ppo-k8", "ppo-guided", "ppo-guided-b256-w8"),
-                  goals={m: {"optimal": 0.95, "configs": 0.05}
-                         for m in ("ppo-guided", "ppo-guided-b256-w8")}),
+                  goals={**{m: {"optimal": 0.95, "configs": 0.05}
+                            for m in ("ppo-guided", "ppo-guided-b256-w8")},
+                         "ppo": {"optimal": "greedy"}}),
     "mixed": Tier("mixed", "ModQuadAssemblyMixed-v0", 7, ("mixed_external",),
                   env_kwargs={"tasks": "planted-mixed-external"}, modules="t45,t45m,flat",
                   source="planted-mixed-external", seed0=4_000_000, n_tasks=40,

@@ -14,6 +14,10 @@ BENCHMARKS = {
         "modquad_gym.bench.scaling",
         "the exhaustive search level by level up to 14 modules",
     ),
+    "anytime": (
+        "modquad_gym.bench.anytime",
+        "the default anytime search on planted 16-64-module tasks; --reach: exact to 16",
+    ),
     "level-bounds": ("modquad_gym.bench.level_bounds", "regenerate the shipped level bounds"),
     "distributed": (
         "modquad_gym.bench.distributed",

@@ -9,9 +9,13 @@ import sys
 from collections.abc import Callable
 
 from modquad_gym.core.extras import EXTRA_OF, missing_extra_message
-from modquad_gym.core.options import int_option, seed_option
+from modquad_gym.core.options import int_option, real_option, seed_option
 from modquad_gym.solvers import METHOD_HELP, METHODS
 from modquad_gym.tasks import CSV_HEADER_MODES
+
+DEFAULT_TIME_LIMIT = 60.0
+"""``--time-limit`` default (seconds; = :data:`modquad_gym.search.anytime.DEFAULT_TIME_LIMIT`,
+not imported here to keep the command line's start light)."""
 
 N_MAX_OPTION = int_option(1, 2**63 - 1)
 """``--n-max``: any positive integer parses; each search says how far it can go."""
@@ -74,9 +78,22 @@ def add_n_max(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--n-max", type=N_MAX_OPTION, default=7, help=help)
 
 
-def add_method(p: argparse.ArgumentParser, default: str = "exhaustive") -> None:
-    """``--method`` (choices and help from the solver table), ``--n-max``, ``--model``,
-    ``--seed`` and ``--modules``."""
+def time_limit_option(text: str) -> float:
+    """An argparse ``type`` for ``--time-limit``: seconds in (0, one day]."""
+    from modquad_gym.search.anytime import check_time_limit
+
+    try:
+        return check_time_limit(real_option(text))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc).replace("time_limit ", "")) from None
+
+
+time_limit_option.__name__ = "seconds"
+
+
+def add_method(p: argparse.ArgumentParser, default: str = "anytime") -> None:
+    """``--method`` (choices and help from the solver table), ``--n-max``, ``--time-limit``,
+    ``--model``, ``--seed`` and ``--modules``."""
     p.add_argument(
         "--method",
         choices=METHODS,
@@ -86,8 +103,16 @@ def add_method(p: argparse.ArgumentParser, default: str = "exhaustive") -> None:
     )
     add_n_max(
         p,
-        "largest module count (default %(default)s; the exhaustive search goes up to "
-        "16, centrosymmetric to 21, greedy and random to 64)",
+        "largest module count (default %(default)s; the anytime search, greedy and random go "
+        "up to 64, centrosymmetric to 21, the exhaustive search to 16)",
+    )
+    p.add_argument(
+        "--time-limit",
+        type=time_limit_option,
+        default=DEFAULT_TIME_LIMIT,
+        metavar="SECONDS",
+        help="seconds the anytime search may take, in (0, 86400] (default %(default)s): it "
+        "stops earlier when its lower bound meets the structure found",
     )
     p.add_argument(
         "--model",

@@ -77,12 +77,14 @@ def add_solve(sub) -> None:
 
 
 @functools.lru_cache(maxsize=4)
-def cached_solver(method, n_max, model, seed, modules_text, engine, progress: bool):
+def cached_solver(method, n_max, model, seed, modules_text, engine, progress: bool, limit=None):
     """The ``solve`` function of :func:`modquad_gym.solvers.make_solver` for these options;
     cached, so a worker process that solves many tasks loads a PPO model once. ``engine`` (or
-    None) splits the large levels of one exhaustive search."""
+    None) splits the large levels of one exhaustive search; ``limit`` is ``--time-limit``."""
     modules = palette_of(modules_text)  # with --modules, a model trained with that palette
     options = {"engine": engine, "progress": progress}
+    if limit is not None:
+        options["time_limit"] = limit
     return make_solver(method, n_max, model, seed, modules=modules, **options).solve
 
 
@@ -91,14 +93,17 @@ def solver(args: argparse.Namespace, engine=None):
     search)."""
     progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
     modules = getattr(args, "modules", None)
-    return cached_solver(args.method, args.n_max, args.model, args.seed, modules, engine, progress)
+    limit = getattr(args, "time_limit", None)
+    return cached_solver(
+        args.method, args.n_max, args.model, args.seed, modules, engine, progress, limit
+    )
 
 
 def solve_file(options: tuple, path: Path):
     """Load and solve one task file (the unit of work of a batch): (task, result)."""
-    method, n_max, model, seed, modules, csv_header = options
+    method, n_max, model, seed, modules, csv_header, limit = options
     task = common.load_task(path, csv_header)
-    result = cached_solver(method, n_max, model, seed, modules, None, False)(task)
+    result = cached_solver(method, n_max, model, seed, modules, None, False, limit)(task)
     return task, result
 
 
@@ -114,7 +119,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if len(paths) == 1 or not engine.use_ray:
         return solve_here(args, paths, engine)
     # a batch: tasks spread over the workers, each search in one process
-    options = (args.method, args.n_max, args.model, args.seed, args.modules, args.csv_header)
+    options = (args.method, args.n_max, args.model, args.seed, args.modules, args.csv_header,
+               args.time_limit)  # fmt: skip
     failed: list[Failed] = []
     printed = 0
     done: dict[int, object] = {}

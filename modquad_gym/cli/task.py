@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from modquad_gym.cli.common import add_force, print_help
-from modquad_gym.core.options import real_option, seed_option
+from modquad_gym.core.options import int_option, real_option, seed_option
 from modquad_gym.tasks import TASK_KINDS, PaperTasks, PlantedTasks, ScrewdriverTask
 
 GENERATE = {"paper": PaperTasks, "planted": PlantedTasks, "screwdriver": ScrewdriverTask}
@@ -69,6 +69,13 @@ def add_generate(tsub) -> None:
         help=f"rotor thrust limit written to the task (default 1, or {EXTERNAL_F_MAX:g} N for "
         "--task-kind external)",
     )
+    g.add_argument(
+        "--n-modules",
+        type=int_option(1, 64),
+        default=None,
+        metavar="N",
+        help="planted: the hidden structure's module count, 1 to 64 (default: 2 to 6 at random)",
+    )
     g.add_argument("--out", required=True, help="output file; format from suffix .json/.csv/.npy")
     add_force(g)
 
@@ -84,7 +91,12 @@ def cmd_task_generate(args: argparse.Namespace) -> int:
     f_max = 1.0 if args.f_max is None else check_f_max(args.f_max)
     if args.task_kind == "external" and args.f_max is None:
         f_max = EXTERNAL_F_MAX
-    generator = GENERATE[args.kind](f_max=f_max, kind=args.task_kind)
+    size = {}
+    if args.n_modules is not None:
+        if args.kind != "planted":
+            raise ValueError("--n-modules applies to --kind planted only")
+        size = {"n_modules": args.n_modules}
+    generator = GENERATE[args.kind](f_max=f_max, kind=args.task_kind, **size)
     task = generator(np.random.default_rng(args.seed))
     try:  # a file `solve` would refuse is not written
         check_task_scale(task.wrenches, task.f_max)

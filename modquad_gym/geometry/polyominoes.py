@@ -32,9 +32,10 @@ __all__ = ["A001168", "DEFAULT_CHUNK", "PolyominoStream", "count", "level_chunks
 
 
 @njit(cache=True)
-def _advance(n, width, untried, n_untried, pos, path, added, n_added, reached, state, out):
+def _advance(n, width, untried, n_untried, pos, path, xy, added, n_added, reached, state, out):
     """Continue the depth-first search from ``state`` until ``out`` is full or the level ends;
-    returns how many polyominoes were written to ``out``."""
+    returns how many polyominoes were written to ``out``. ``xy`` holds the (x, y) of each cell
+    of ``path``, decoded once when the cell is placed."""
     d = state[0]
     k = 0
     cap = out.shape[0]
@@ -52,10 +53,12 @@ def _advance(n, width, untried, n_untried, pos, path, added, n_added, reached, s
             continue
         c = untried[d, pos[d]]
         path[d] = c
+        xy[d, 0] = c % width - (n + 1)
+        xy[d, 1] = c // width - 1
         if d + 1 == n:
             for i in range(n):
-                out[k, i, 0] = path[i] % width - (n + 1)
-                out[k, i, 1] = path[i] // width - 1
+                out[k, i, 0] = xy[i, 0]
+                out[k, i, 1] = xy[i, 1]
             k += 1
             pos[d] += 1
             continue
@@ -106,6 +109,7 @@ class PolyominoStream:
         self._n_untried[0] = 1
         self._pos = np.zeros(self.n, dtype=np.int64)
         self._path = np.zeros(self.n, dtype=np.int64)
+        self._xy = np.zeros((self.n, 2), dtype=np.int32)
         self._added = np.zeros((self.n, 4), dtype=np.int64)
         self._n_added = np.zeros(self.n, dtype=np.int64)
         self._state = np.zeros(2, dtype=np.int64)  # depth, done
@@ -122,6 +126,7 @@ class PolyominoStream:
                 self._n_untried,
                 self._pos,
                 self._path,
+                self._xy,
                 self._added,
                 self._n_added,
                 self._reached,
@@ -130,8 +135,8 @@ class PolyominoStream:
             )
         )
 
-    _STATE = ("_reached", "_untried", "_n_untried", "_pos", "_path", "_added", "_n_added",
-              "_state")  # fmt: skip
+    _STATE = ("_reached", "_untried", "_n_untried", "_pos", "_path", "_xy", "_added",
+              "_n_added", "_state")  # fmt: skip
 
     def snapshot(self) -> tuple[np.ndarray, ...]:
         """The enumeration's whole state between two chunks (a few KB): a stream of the same n

@@ -117,8 +117,14 @@ def _decide_row(G, P, prep, r, memory, work):  # pragma: no cover - compiled
         return 1
     if _separated(r, memory):
         return 0
+    ry, l1 = 0.0, 0.0  # the dual-metric direction y = r / sigma^2 has h(y) = |P r|_1
     for i in range(n):
         y[i] = r[i] * dual[i]
+        ry += r[i] * y[i]
+    for j in range(m):
+        l1 += abs(x[j])
+    if ry > REJECT * l1:
+        return 0
     status = vertex_walk(G, norms, r, y, x, ACCEPT, REJECT, walk)
     verdict = _verdict(G, P, r, x, y, status)
     if verdict >= 0 and len(supports):

@@ -205,10 +205,11 @@ def _project_off(basis, rows, d, n):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _crash(G, norms, r, y, T, work):  # pragma: no cover - compiled
+def _crash(G, norms, r, y, T, reject, work):  # pragma: no cover - compiled
     """From y (r . y = 1) to a vertex: rank - 1 exact line searches along the projected negative
-    gradient of h (never increasing h); T receives the tight columns. False when it gets stuck
-    (degenerate data): the caller gives up."""
+    gradient of h (never increasing h); T receives the tight columns. Returns 1 at the vertex,
+    0 as soon as y separates (1 > reject h(y)), -1 when it gets stuck (degenerate data: the
+    caller gives up)."""
     tight, bound, _, _, basis, a, s, d, c, alpha, order, _, _ = work
     n, m = G.shape
     for j in range(m):
@@ -219,7 +220,8 @@ def _crash(G, norms, r, y, T, work):  # pragma: no cover - compiled
     for i in range(n):
         basis[0, i] = r[i] / np.sqrt(norm)
     for k in range(n - 1):
-        _pass(G, norms, y, tight, bound, a, s, c)
+        if reject * _pass(G, norms, y, tight, bound, a, s, c) < 1.0:
+            return 0
         for i in range(n):
             d[i] = -s[i]
         slope = -_project_off(basis, k + 1, d, n)
@@ -230,14 +232,14 @@ def _crash(G, norms, r, y, T, work):  # pragma: no cover - compiled
             trial += 1
             slope = -1e-300 if _project_off(basis, k + 1, d, n) > _TINY else 0.0
         if slope == 0.0:
-            return False
+            return -1
         j, step = _line_search(G, tight, bound, a, d, slope, c, alpha, order)
         if j < 0 and slope == -1e-300:
             for i in range(n):
                 d[i] = -d[i]
             j, step = _line_search(G, tight, bound, a, d, slope, c, alpha, order)
         if j < 0:
-            return False
+            return -1
         for i in range(n):
             y[i] += step * d[i]
             basis[k + 1, i] = G[i, j]
@@ -245,10 +247,10 @@ def _crash(G, norms, r, y, T, work):  # pragma: no cover - compiled
         T[k] = j
         norm2 = _project_off(basis, k + 1, basis[k + 1], n)
         if norm2 <= _TINY:
-            return False
+            return -1
         for i in range(n):
             basis[k + 1, i] /= np.sqrt(norm2)
-    return True
+    return 1
 
 
 @njit(cache=True)
@@ -285,7 +287,10 @@ def vertex_walk(G, norms, r, y, x, accept, reject, work):  # pragma: no cover - 
         ry += r[i] * y[i]
     for i in range(n):
         y[i] /= ry
-    if not (_crash(G, norms, r, y, T, work) and _basis(G, r, T, tight, M, Minv)):
+    crash = _crash(G, norms, r, y, T, reject, work)
+    if crash <= 0:
+        return crash
+    if not _basis(G, r, T, tight, M, Minv):
         return -1
     for _ in range(MAX_PIVOTS):
         for i in range(n):

@@ -21,28 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.validation import check_int
+from modquad_gym.core.validation import check_int, check_real
 from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
 from modquad_gym.policy.policy import Policy, as_task, search_result
 from modquad_gym.search import SearchResult, verified
-from modquad_gym.search.bounds import first_possible_level, force_lower_bound, level_excluded
-from modquad_gym.search.problem import SearchProblem
-from modquad_gym.tasks import TaskRequirement
-
-
-def lower_bound(W: np.ndarray, f_max: float, module, n_max: int) -> int:
-    """The smallest module count no exact bound rules out (n_max + 1 when all are)."""
-    n = max(1, force_lower_bound(W, module, f_max))
-    while n <= n_max and level_excluded(W, f_max, module, n):
-        n += 1
-    return min(n, n_max + 1)
-
-
-def typed_lower_bound(task: TaskRequirement, palette: list, n_max: int) -> int:
-    """The smallest module count the count bound of the typed search leaves for several
-    module types (self-weight included for external tasks; n_max + 1 when it leaves none)."""
-    n, _ = first_possible_level(SearchProblem.build(task, n_max, modules=palette))
-    return min(n, n_max + 1)
 
 
 class GuidedSolver:
@@ -55,6 +37,8 @@ class GuidedSolver:
         budget: most structures to evaluate per task.
         branching: children queued per expanded structure (the policy's most likely dockings).
         dive: start with the policy's greedy episode (default True); False: best-first only.
+        time_limit: seconds after which the search stops with what it has (None: none); the
+            dive always finishes.
     """
 
     def __init__(
@@ -65,28 +49,22 @@ class GuidedSolver:
         branching: int = 4,
         config: dict | None = None,
         dive: bool = True,
+        time_limit: float | None = None,
     ) -> None:
         self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config)
         self.n_max = self.policy.n_max
         self.dive = bool(dive)
         self.budget = check_int(budget, "budget", low=1)
         self.branching = check_int(branching, "branching", low=1)
+        self.time_limit = None if time_limit is None else check_real(time_limit, "time_limit", 0)
         self.name = "ppo-guided"
-
-    def lower_bound(self, task: TaskRequirement) -> int:
-        """The exact lower bound on the module count that certifies an answer."""
-        palette = self.policy.palette
-        if self.policy.typed:
-            return typed_lower_bound(task, palette, self.n_max)
-        W = np.asarray(task.wrenches, dtype=float)
-        return lower_bound(W, task.f_max, palette[0], self.n_max)
 
     def solve(self, task: Any) -> SearchResult:
         t0 = time.perf_counter()
         task = as_task(task)
         policy = self.policy
         env = policy.env
-        bound = self.lower_bound(task)
+        bound = policy.lower_bound(task)
         best: Structure | None = None
         certified = bound > self.n_max  # every level ruled out: proven infeasible
         evaluated: set = set()
@@ -97,7 +75,10 @@ class GuidedSolver:
         ]
         pushes, oracle_calls = len(heap), 0
         dive = heapq.heappop(heap) if self.dive else None  # the policy's episode: an incumbent
+        deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
         while (dive or heap) and not certified and len(evaluated) < self.budget:
+            if dive is None and time.perf_counter() > deadline:
+                break
             cost, _, parent, move = dive if dive is not None else heapq.heappop(heap)
             diving, dive = dive is not None, None
             if parent is None:

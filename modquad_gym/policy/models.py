@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from modquad_gym.core.extras import import_optional
 
@@ -33,10 +35,43 @@ class NoOptimizer:
         pass
 
 
-def load_model(path: str | Path | None = None):
-    """(policy network, its config dict or {}) from a saved MaskablePPO ``path`` (default
-    :data:`DEFAULT_MODEL`): the trained actor-critic (an SB3 policy, in evaluation mode), without
-    the PPO algorithm and its optimizer, which inference does not need.
+@dataclass(frozen=True)
+class SavedModel:
+    """A saved MaskablePPO read for inference: its policy class, keywords, spaces, weights, and
+    the config.json beside it ({} when none)."""
+
+    path: Path
+    policy_class: type
+    policy_kwargs: dict
+    observation_space: Any
+    action_space: Any
+    weights: dict
+    config: dict
+
+    @property
+    def size_free(self) -> bool:
+        """Whether its weights fit any grid size and palette (rebuilt for any environment)."""
+        return bool(getattr(self.policy_class, "size_free", False))
+
+    def build(self, observation_space=None, action_space=None, **overrides):
+        """The policy network (evaluation mode) for the given spaces (default the saved ones;
+        others only for a :attr:`size_free` model), its saved keywords updated by
+        ``overrides``."""
+        spaces = (observation_space or self.observation_space, action_space or self.action_space)
+        kwargs = {**self.policy_kwargs, **overrides, "optimizer_class": NoOptimizer}
+        try:
+            policy = self.policy_class(*spaces, lambda _: 0.0, **kwargs)
+            policy.load_state_dict(self.weights)
+        except LOAD_ERRORS as exc:  # a state dict of another network
+            reason = " ".join(str(exc).split()) or type(exc).__name__
+            raise ValueError(f"--model {self.path}: cannot rebuild its policy ({reason})") from None
+        policy.set_training_mode(False)
+        return policy
+
+
+def read_model(path: str | Path | None = None) -> SavedModel:
+    """The saved MaskablePPO at ``path`` (default :data:`DEFAULT_MODEL`), without the PPO
+    algorithm and its optimizer, which inference does not need.
 
     Raises ValueError when the file does not exist or is not a saved MaskablePPO model. Sets torch
     to one thread."""
@@ -53,14 +88,18 @@ def load_model(path: str | Path | None = None):
         raise ValueError(f"PPO model file {path} does not exist{hint}")
     try:
         data, params, _ = load_from_zip_file(path, device="cpu", print_system_info=False)
-        kwargs = {**data["policy_kwargs"], "optimizer_class": NoOptimizer}
         spaces = data["observation_space"], data["action_space"]
-        policy = data["policy_class"](*spaces, lambda _: 0.0, **kwargs)
-        policy.load_state_dict(params["policy"])
-    except LOAD_ERRORS as exc:  # no model data, zipfile/pickle/torch errors, another net
+        saved = (data["policy_class"], dict(data["policy_kwargs"]), *spaces, params["policy"])
+    except LOAD_ERRORS as exc:  # no model data, zipfile/pickle/torch errors
         reason = " ".join(str(exc).split()) or type(exc).__name__
         raise ValueError(f"--model {path}: not a MaskablePPO model .zip ({reason})") from None
-    policy.set_training_mode(False)
     config_path = path.with_name("config.json")
     config = json.loads(config_path.read_text()) if config_path.is_file() else {}
-    return policy, config
+    return SavedModel(path, *saved, config)
+
+
+def load_model(path: str | Path | None = None):
+    """(policy network, config dict) of the saved model at ``path`` (see :func:`read_model`),
+    for the spaces it was trained with."""
+    saved = read_model(path)
+    return saved.build(), saved.config

@@ -19,9 +19,10 @@ import numpy as np
 from modquad_gym.core.extras import import_optional
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy import models
-from modquad_gym.policy.models import load_model
+from modquad_gym.policy.models import read_model
 from modquad_gym.search import SearchResult
+from modquad_gym.search.bounds import bound_levels
+from modquad_gym.search.problem import SearchProblem
 from modquad_gym.tasks import TaskRequirement
 
 ENV_KWARG_KEYS = (
@@ -42,16 +43,17 @@ def make_env(tasks: Any = "mixed", n_max: int = 7, **env_kwargs: Any) -> gym.Env
 
 
 def env_kwargs_of(model, config: dict) -> dict:
-    """The environment keywords ``model`` (a MaskablePPO or its policy network) was trained
-    with (from its config, else inferred from its observation space)."""
+    """The environment keywords ``model`` (a MaskablePPO, its policy network or its observation
+    space) was trained with (from its config, else inferred from the observation space)."""
+    space = getattr(model, "observation_space", model)
     kwargs = {k: v for k, v in config.get("env_kwargs", {}).items() if k in ENV_KWARG_KEYS}
     if "n_max" not in kwargs:
-        side = math.isqrt(model.observation_space["occupancy"].shape[0])  # G * G cells
+        side = math.isqrt(space["occupancy"].shape[0])  # G * G cells
         kwargs["n_max"] = (side + 1) // 2
     if "n_directions" not in kwargs:
-        kwargs["n_directions"] = int(model.observation_space["task"].shape[0]) - 7
+        kwargs["n_directions"] = int(space["task"].shape[0]) - 7
     if "lookahead" not in kwargs:
-        kwargs["lookahead"] = "candidates" in model.observation_space.spaces
+        kwargs["lookahead"] = "candidates" in space.spaces
     return kwargs
 
 
@@ -74,30 +76,62 @@ class Policy:
         net (the actor-critic: an sb3-contrib masked policy), model_path (None for a loaded
         model), n_max, env, typed (trained with a palette:
         (cell, type) actions), starts (the start types a decoding tries: each type of the
-        palette, else [None]), palette (the module types it was trained with).
+        palette, else [None]), palette (the module types it acts with).
     """
 
     def __init__(self, model: Any = None, n_max: int | None = 7, config: dict | None = None):
+        self.saved = None
         if model is None or isinstance(model, (str, Path)):
-            self.net, config = load_model(model)
-            self.model_path = str(model if model is not None else models.DEFAULT_MODEL)
+            self.saved = read_model(model)
+            self.model_path, config = str(self.saved.path), self.saved.config
+            space = self.saved.observation_space
         else:
             self.net, self.model_path = getattr(model, "policy", model), None
-        kwargs = env_kwargs_of(self.net, config or {})
+            space = self.net.observation_space
+        kwargs = env_kwargs_of(space, config or {})
         trained = int(kwargs["n_max"])
         n_max = trained if n_max is None else n_max
         if isinstance(n_max, bool) or not isinstance(n_max, (int, np.integer)) or n_max < 1:
             raise ValueError(f"n_max must be a positive integer, got {n_max!r}")
-        if n_max > trained:
+        if n_max > trained and not self.size_free:
             raise ValueError(
                 f"n_max={n_max} exceeds the n_max={trained} the PPO model was trained with "
                 "(its action grid cannot hold larger structures)"
             )
         self.n_max = int(n_max)
-        self.env = ModQuadAssemblyEnv(**kwargs)
+        if self.size_free:  # the environment of the budget asked for (at least 2 modules)
+            kwargs["n_max"] = max(self.n_max, 2)
+        self.build(kwargs)
+
+    @property
+    def size_free(self) -> bool:
+        """Whether the network acts at any n_max and palette (a saved size-free model)."""
+        return self.saved is not None and self.saved.size_free
+
+    def build(self, env_kwargs: dict) -> None:
+        """(Re)build the environment of ``env_kwargs`` and, for a saved model, the network for
+        its spaces (a size-free one with the descriptors of its module types)."""
+        self.env_kwargs = env_kwargs
+        self.env = ModQuadAssemblyEnv(**env_kwargs)
         self.typed = self.env.palette is not None  # (cell, type) actions: decode from each type
         self.starts: list[int | None] = list(range(self.env.n_types)) if self.typed else [None]
         self.palette = list(self.env.palette or [self.env.module])
+        if self.size_free:
+            from modquad_gym.policy.network import type_features
+
+            spaces = self.env.observation_space, self.env.action_space
+            self.net = self.saved.build(*spaces, types=type_features(self.palette))
+        elif self.saved is not None:
+            self.net = self.saved.build()
+
+    def use_palette(self, modules: list | None) -> None:
+        """Act with the module types ``modules`` (None: one type, the T-module): a size-free
+        network is rebuilt for them; any other must have been trained with exactly them
+        (ValueError otherwise)."""
+        if not self.size_free:
+            return self.check_palette(modules)
+        kwargs = {k: v for k, v in self.env_kwargs.items() if k not in ("modules", "initial_type")}
+        self.build({**kwargs, **({"modules": list(modules)} if modules else {})})
 
     def check_palette(self, modules: list | None) -> None:
         """ValueError unless ``modules`` (None: one type) is the palette the model was trained
@@ -111,6 +145,13 @@ class Policy:
                 "trained with them "
                 "(the mixed tier's, t45,t45m,flat: modquad_gym/data/models/ppo_mixed/model.zip)"
             )
+
+    def lower_bound(self, task: TaskRequirement) -> int:
+        """The exact lower bound on the module count of ``task`` with the policy's module types
+        and budget (:func:`~modquad_gym.search.bounds.bound_levels`: n_max + 1 when every count
+        is ruled out); it certifies an answer that reaches it."""
+        palette = {"modules": self.palette} if self.typed else {"module": self.env.module}
+        return bound_levels(SearchProblem.build(task, self.n_max, **palette))
 
     def probabilities(self, obs: dict, mask: np.ndarray) -> np.ndarray:
         """The policy's action probabilities at ``obs``, zero outside ``mask`` (sb3-contrib's
@@ -175,13 +216,13 @@ def search_result(
     evaluated: int,
     oracle_calls: int,
     t0: float,
-    certified: bool = False,
+    certified: bool | None = False,
     proof: str = "",
     lower_bound: int | None = None,
 ) -> SearchResult:
     """The search record of a learned solver ``name`` that started at ``t0`` and kept
     ``best`` (with the proved ``lower_bound`` on the module count, when the solver knows
-    one)."""
+    one; ``certified`` None: derived from it)."""
     return SearchResult(
         structure=best,
         n_modules=best.n_modules if best is not None else None,

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from modquad_gym.core.validation import check_real
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.policy.policy import Policy, as_task, env_kwargs_of, make_env, search_result
 from modquad_gym.search import SearchResult, verified
@@ -34,6 +35,7 @@ class PPOSolver:
         seed: seeds the sampled rollouts.
         samples: extra stochastic rollouts per task (0: deterministic decoding only).
         config: the model's config when ``model`` is a loaded model.
+        time_limit: seconds after which no further sampled rollout starts (None: none).
     """
 
     def __init__(
@@ -43,6 +45,7 @@ class PPOSolver:
         seed: int = 0,
         samples: int = 0,
         config: dict | None = None,
+        time_limit: float | None = None,
     ) -> None:
         if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
             raise ValueError(f"samples must be an integer >= 0, got {samples!r}")
@@ -51,6 +54,7 @@ class PPOSolver:
         self.seed = int(seed)
         self.samples = int(samples)
         self.name = "ppo" if self.samples == 0 else f"ppo-k{self.samples}"
+        self.time_limit = None if time_limit is None else check_real(time_limit, "time_limit", 0)
 
     def solve(self, task: Any) -> SearchResult:
         """The smallest verified structure over the deterministic rollout and ``samples``
@@ -69,9 +73,10 @@ class PPOSolver:
             (np.random.default_rng([self.seed, i]), starts[i % len(starts)])
             for i in range(self.samples)
         ]
+        deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
         for rng, start in runs:
             stop_at = best.n_modules if best is not None else policy.env.n_max + 2
-            if stop_at <= 1:
+            if stop_at <= 1 or rng is not None and time.perf_counter() > deadline:
                 break
             info = policy.rollout(task, rng, seen, stop_at, start)
             oracle_calls += int(info["oracle_calls"])
@@ -81,7 +86,12 @@ class PPOSolver:
             s = policy.env.structure
             if verified(s, task):
                 best = s
-        return search_result(self.name, self.n_max, best, len(seen), oracle_calls, t0)
+        bound = policy.lower_bound(task)
+        certified = (
+            best is not None and best.n_modules == bound or best is None and bound > self.n_max
+        )
+        return search_result(self.name, self.n_max, best, len(seen), oracle_calls, t0, certified,
+                             "lower bound reached" if certified else "", bound)  # fmt: skip
 
     def __repr__(self) -> str:
         return (

@@ -2,6 +2,8 @@
 
 * :mod:`.problem`: :class:`SearchProblem`, the validated arguments every search shares;
 * :mod:`.exhaustive`: the certified exhaustive search and the whole minimal level;
+* :mod:`.anytime`: the default search, to 64 modules within a time limit: an incumbent improved
+  by local moves (:mod:`.moves`) and a proved lower bound, certified when they meet;
 * :mod:`.typed`: its pairs of shapes and type assignments (several types, or self-weight);
 * :mod:`.levels`: the size of each level and its progress bar;
 * :mod:`.baselines`: the centrosymmetric heuristic (Algorithm 2), greedy and random;
@@ -18,6 +20,7 @@ feasibility against the task was decided; ``oracle_calls`` the number of wrench-
 workers passes an engine (:class:`modquad_gym.core.distributed.Engine`).
 """
 
+from modquad_gym.search.anytime import anytime_search
 from modquad_gym.search.baselines import centrosymmetric_search, greedy_search, random_search
 from modquad_gym.search.bounds import bound_levels, force_lower_bound, level_bounds
 from modquad_gym.search.checker import TaskChecker
@@ -35,6 +38,7 @@ SEARCHES = {
     "centrosymmetric": centrosymmetric_search,
     "greedy": greedy_search,
     "random": random_search,
+    "anytime": anytime_search,
 }
 """The searches by name (the CLI's ``--method``)."""
 
@@ -44,6 +48,7 @@ __all__ = [
     "SearchProblem",
     "SearchResult",
     "TaskChecker",
+    "anytime_search",
     "bound_levels",
     "centrosymmetric_search",
     "exhaustive_search",

@@ -212,6 +212,10 @@ def level_excluded(W: np.ndarray, f_max: float, module: ModuleType, n: int) -> b
     return bool((values > widened).any())
 
 
+MAX_BOUND_LEVELS = 256
+"""Levels :func:`bound_levels` examines at most with several types (each its count
+vectors); past it the bound stays where the scan stopped (still a valid bound)."""
+
 MAX_COUNT_VECTORS = 50_000
 """Most count vectors (ways of choosing n modules from the palette's types) a bound
 enumerates; past it :func:`bound_levels` stops raising its bound (still a valid bound)."""
@@ -282,12 +286,14 @@ def bound_levels(problem: SearchProblem) -> int:
     p = problem
     if p.homogeneous_total:
         n = force_lower_bound(p.wrenches, p.module, p.f_max)
+        if n == NO_SIZE:
+            return p.n_max + 1
         while n <= p.n_max and level_excluded(p.wrenches, p.f_max, p.module, n):
             n += 1
         return min(n, p.n_max + 1)
     K = len(p.palette)
     n = 1
-    while n <= p.n_max and n_count_vectors(n, K) <= MAX_COUNT_VECTORS:
+    while n <= min(p.n_max, MAX_BOUND_LEVELS) and n_count_vectors(n, K) <= MAX_COUNT_VECTORS:
         if counts_left(p, n)[1].any():
             break
         n += 1

@@ -131,9 +131,10 @@ class TaskChecker:
         up to it counts as evaluated."""
         types = self._types(cells, types)
         alive = self.alive(cells, types)
-        for i in range(len(cells)):
-            if not alive[i]:
-                continue
+        survivors = np.flatnonzero(alive)
+        while len(survivors):
+            i = int(survivors[0])
+            survivors = survivors[1:]
             learned = self.learned
             A, mass = self.matrix(cells[i], types[i])
             if self.check_matrix(A, mass):
@@ -141,6 +142,7 @@ class TaskChecker:
                 return i
             if self.learned != learned and i + 1 < len(cells):  # one new direction
                 alive[i + 1 :] &= self.alive(cells[i + 1 :], types[i + 1 :], newest_only=True)
+                survivors = i + 1 + np.flatnonzero(alive[i + 1 :])
         self._count_rejected(len(cells) - int(alive.sum()))
         return None
 

@@ -25,6 +25,11 @@ DEFAULT_MODULE = Structure([(0, 0)]).module
 MAX_TYPES = 127
 """Most module types in one palette (type indices are int8)."""
 
+MAX_SEARCH_WRENCHES = 10_000
+"""Most task wrenches a search takes: it decides every one of them for each structure it
+evaluates (at 64 modules about 20,000 decisions a second). Only the extreme wrenches matter
+(a structure exerts every wrench of their convex hull), so a longer task can be thinned."""
+
 
 @dataclass(frozen=True, eq=False)
 class SearchProblem:
@@ -49,6 +54,7 @@ class SearchProblem:
     def __post_init__(self) -> None:
         W = np.array(check_wrenches(self.wrenches, allow_empty=False), dtype=float)  # a copy
         f_max = check_f_max(self.f_max)
+        check_search_size(W)
         check_task_scale(W, f_max)  # absurd values: one clear error, no overflow later
         object.__setattr__(self, "wrenches", W)
         object.__setattr__(self, "f_max", f_max)
@@ -72,6 +78,7 @@ class SearchProblem:
         ``wrenches`` (and ``f_max``, ``kind``); ``f_max`` and ``kind`` override the task's;
         ``module`` (one type, default the T-module) or ``modules`` (a palette)."""
         W, f = task_arrays(task, f_max)
+        check_search_size(W)
         check_task_scale(W, f)  # the old order of the checks: the same first error
         kind = check_kind(kind if kind is not None else getattr(task, "kind", "total"))
         n_max = check_int(n_max, "n_max", low=1)
@@ -132,6 +139,16 @@ def check_palette(
     if len({m.n_rotors for m in palette}) > 1:
         raise ValueError("modules: every type must have the same number of rotors")
     return palette
+
+
+def check_search_size(W: np.ndarray) -> None:
+    """ValueError when the task holds more than :data:`MAX_SEARCH_WRENCHES` wrenches."""
+    if len(W) > MAX_SEARCH_WRENCHES:
+        raise ValueError(
+            f"the task has {len(W):,} wrenches; a search takes at most {MAX_SEARCH_WRENCHES:,} "
+            "(it decides each for every structure it evaluates): keep the extreme ones, e.g. "
+            "the vertices of their convex hull"
+        )
 
 
 def task_arrays(task, f_max: float | None) -> tuple[np.ndarray, float]:

@@ -88,23 +88,29 @@ def _support(b, alpha, beta, p, types, l, cx, cy):
 def reject(cells, types, masses, side, b, alpha, beta, values, f_max, half_tol, alive, lift, dz):
     """Clear ``alive[l]`` for every structure l that some direction p separates from a task
     wrench: values[p] (the task's max_i d_p . w_i) plus the weight term (sum of ``lift`` over
-    the structure's modules) * dz[p] above its widened support. Directions are tried in order,
-    stopping at the first that rejects."""
+    the structure's modules) * dz[p] above its widened support. The direction that rejected
+    the previous structure is tried first (neighbours in the canonical order are alike), then
+    the others in order; the outcome does not depend on the order."""
     L, n, _ = cells.shape
     P = b.shape[0]
     cx = np.empty(n)
     cy = np.empty(n)
+    last = 0
+    lifting = np.any(lift != 0.0)
     for l in range(L):
         if not alive[l]:
             continue
         _centres(cells, types, l, masses, side, cx, cy)
         weight = 0.0
-        for i in range(n):
-            weight += lift[types[l, i]]
-        for p in range(P):
+        if lifting:
+            for i in range(n):
+                weight += lift[types[l, i]]
+        for q in range(P):
+            p = last if q == 0 else (q - 1 if q <= last else q)
             plus, total = _support(b, alpha, beta, p, types, l, cx, cy)
             if values[p] + weight * dz[p] > f_max * (plus + half_tol * total) + SLACK:
                 alive[l] = False
+                last = p
                 break
 
 

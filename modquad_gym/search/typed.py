@@ -104,36 +104,46 @@ def search_typed(
 
 def _search_level(run: SearchRun, n, assign, progress, first_only, part) -> list:
     """The feasible (cells, types) pairs of level n with the assignments ``assign``."""
-    per_block = max(1, PAIRS_PER_BLOCK // len(assign))
     bar = level_progress(progress, n)
     found = []
     try:
-        for shapes in PolyominoStream(n, max(per_block, 1024)):
-            for start in range(0, len(shapes), per_block):
-                block = shapes[start : start + per_block]
-                if part is not None:
-                    block = block[part.mask(block)]
-                cells = np.repeat(block, len(assign), axis=0)
-                types = np.tile(assign, (len(block), 1))
-                if part is not None and (part.types >= 0).any():
-                    keep = part.mask(cells, types)
-                    cells, types = cells[keep], types[keep]
-                rest = 0
-                while rest < len(cells):
-                    i = run.checker.first_feasible(cells[rest:], types[rest:])
-                    if i is None:
-                        break
-                    j = rest + i
-                    found.append((tuple(map(tuple, cells[j].tolist())), tuple(types[j])))
-                    if first_only:
-                        return found
-                    rest = j + 1
-            if bar is not None:
-                bar.update(len(shapes))
+        for pair in level_pairs(run, n, assign, part, bar):
+            if pair is not None:
+                found.append(pair)
+                if first_only:
+                    return found
     finally:
         if bar is not None:
             bar.close()
     return found
+
+
+def level_pairs(run: SearchRun, n: int, assign: np.ndarray, part: Partial | None = None, bar=None):
+    """Generator over level n of the typed search (assignments ``assign``): yields each
+    feasible (cells, types) pair in order, and None after each chunk of shapes (a point where
+    a caller may stop for the clock)."""
+    per_block = max(1, PAIRS_PER_BLOCK // len(assign))
+    for shapes in PolyominoStream(n, max(per_block, 1024)):
+        for start in range(0, len(shapes), per_block):
+            block = shapes[start : start + per_block]
+            if part is not None:
+                block = block[part.mask(block)]
+            cells = np.repeat(block, len(assign), axis=0)
+            types = np.tile(assign, (len(block), 1))
+            if part is not None and (part.types >= 0).any():
+                keep = part.mask(cells, types)
+                cells, types = cells[keep], types[keep]
+            rest = 0
+            while rest < len(cells):
+                i = run.checker.first_feasible(cells[rest:], types[rest:])
+                if i is None:
+                    break
+                j = rest + i
+                yield tuple(map(tuple, cells[j].tolist())), tuple(types[j])
+                rest = j + 1
+        if bar is not None:
+            bar.update(len(shapes))
+        yield None
 
 
 def typed_structure(problem: SearchProblem, pair) -> Structure:

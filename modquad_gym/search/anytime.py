@@ -1,0 +1,349 @@
+"""The anytime search: the default of ``modquad solve``, answering up to 64 modules within a time
+limit the way a MIP solver does, with an incumbent and a proved lower bound.
+
+1. **Bounds** (instant, :func:`.bounds.bound_levels`): the force bound (one module type and a
+   ``total`` task: the task's forces need at least that many modules, whatever their shape),
+   the count bound (several types or an ``external`` task: no mix of fewer modules exerts the
+   forces and lifts its weight) and the level bounds (every structure of n modules has a
+   smaller support than a task wrench in a fixed direction). Each rules out whole levels.
+2. **Exact levels** (:class:`ExactLevels`): the levels from the bound upward are decided
+   exactly, in the exhaustive search's canonical order, as long as they fit (up to 16 modules;
+   for several types up to :data:`~.typed.MAX_PAIRS` pairs a level) and for at most
+   :data:`EXACT_SHARE` of the time at first. A level decided to its end with no feasible
+   structure is refuted: the bound rises past it. A feasible structure found there is the
+   exhaustive search's answer (the first in canonical order of the minimal level): certified.
+3. **Incumbent** (:class:`Incumbents`): compact shapes (:mod:`.moves`) of increasing size up
+   to n_max until one is feasible, then local moves: drop a module while the rest stays
+   feasible; when none can go, look for a feasible structure of one module fewer by moving
+   modules (and changing their types) to reduce the number of task wrenches it misses.
+4. With the time left, the exact levels go on from where they stopped, raising the bound.
+
+It stops at the time limit, or as soon as the bound meets the incumbent; when that happens
+at a level the exact scan can decide, the level is scanned for its first feasible structure
+so that the answer is the exhaustive search's. Every answer is verified by the exact LP
+oracle; ``lower_bound`` is the largest proved bound, ``certified`` is True when they meet.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from modquad_gym.core.validation import check_int
+from modquad_gym.geometry.module import ModuleType
+from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream
+from modquad_gym.geometry.structure import Structure, normalise
+from modquad_gym.oracle import Zonotope
+from modquad_gym.search.bounds import (
+    NO_SIZE,
+    allowed_counts,
+    bound_levels,
+    force_lower_bound,
+    level_excluded,
+)
+from modquad_gym.search.levels import MAX_MODULES as EXACT_MODULES
+from modquad_gym.search.levels import level_size
+from modquad_gym.search.moves import compact_shapes, relocations, removable
+from modquad_gym.search.problem import SearchProblem
+from modquad_gym.search.result import SearchResult, SearchRun
+from modquad_gym.search.typed import MAX_PAIRS, assignments, level_pairs, typed_structure
+
+MAX_MODULES = 64
+"""The anytime search's module limit (structures of up to 256 rotors)."""
+
+DEFAULT_TIME_LIMIT = 60.0
+"""Seconds the anytime search takes at most by default (``modquad solve --time-limit``)."""
+
+MAX_TIME_LIMIT = 86_400.0
+"""The longest time limit accepted: one day."""
+
+EXACT_SHARE = 0.5
+"""Share of the time limit the exact levels get before an incumbent is built."""
+
+REPAIR_MOVES = 48
+"""Moves tried per step of the repair search before it settles for a sideways move."""
+
+
+def check_time_limit(seconds: object) -> float:
+    """``seconds`` as a float in (0, :data:`MAX_TIME_LIMIT`], else a one-line ValueError."""
+    try:
+        value = float(seconds)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"time_limit must be a number of seconds, got {seconds!r}") from None
+    if not 0.0 < value <= MAX_TIME_LIMIT:
+        raise ValueError(
+            f"time_limit must lie in (0, {MAX_TIME_LIMIT:,.0f}] seconds, got {seconds!r}"
+        )
+    return value
+
+
+class ExactLevels:
+    """The exact scan of levels ``first``, ``first + 1``, ... in the exhaustive search's order,
+    resumable at any chunk: :meth:`advance` works until a deadline."""
+
+    def __init__(self, run: SearchRun, first: int, chunk: int = DEFAULT_CHUNK) -> None:
+        self.run = run
+        self.problem = run.problem
+        self.n = first  # every level below is refuted
+        self.chunk = chunk
+        self._steps = None
+
+    def fits(self, n: int) -> bool:
+        """Can level n be decided exactly (its size within the exhaustive search's reach)?"""
+        p = self.problem
+        if n > min(p.n_max, EXACT_MODULES):
+            return False
+        return p.homogeneous_total or (level_size(n) or 0) * len(p.palette) ** n <= MAX_PAIRS
+
+    def advance(self, deadline: float, stop_at: int | None = None) -> Structure | None:
+        """Decide levels until a feasible structure is found (returned: the first of the
+        minimal level), the deadline passes, level ``stop_at`` is reached, or no level fits."""
+        while self.fits(self.n) and (stop_at is None or self.n < stop_at):
+            if self._steps is None:
+                self._steps = self._level(self.n)
+            for found in self._steps:
+                if found is not None:
+                    return found
+                if time.perf_counter() >= deadline:
+                    return None
+            self.n += 1
+            self._steps = None
+        return None
+
+    def first_of(self, n: int, deadline: float) -> Structure | None:
+        """The first feasible structure of level n (every level below refuted), or None when
+        the deadline passes first."""
+        self.n, self._steps = n, None
+        return self.advance(deadline, stop_at=n + 1)
+
+    def _level(self, n: int):
+        """Generator over level n: None after each chunk, then the first feasible structure."""
+        p, run = self.problem, self.run
+        if p.homogeneous_total:
+            if level_excluded(p.wrenches, p.f_max, p.module, n):
+                return
+            for cells in PolyominoStream(n, self.chunk):
+                i = run.checker.first_feasible(cells)
+                if i is not None:
+                    yield Structure.from_trusted(normalise(map(tuple, cells[i].tolist())), p.module)
+                    return
+                yield None
+            return
+        allowed, _ = allowed_counts(p, n)
+        if not allowed.any():
+            return
+        for pair in level_pairs(run, n, assignments(n, allowed)):
+            if pair is not None:
+                yield typed_structure(p, pair)
+                return
+            yield None
+
+
+class Incumbents:
+    """The best verified structure found so far and the local moves that improve it.
+
+    A candidate is (cells, types): cells a tuple of (x, y), types a tuple of palette indices.
+    """
+
+    def __init__(self, run: SearchRun, seed: int | None, deadline: float) -> None:
+        self.run = run
+        self.problem = run.problem
+        self.rng = np.random.default_rng(seed)
+        self.deadline = deadline
+        self.best: tuple | None = None
+        self._missed: dict = {}
+
+    def out_of_time(self) -> bool:
+        return time.perf_counter() >= self.deadline
+
+    def structure(self, cand) -> Structure:
+        cells, types = cand
+        palette = self.problem.palette
+        if len(palette) == 1:
+            return Structure.from_trusted(tuple(cells), palette[0])
+        return Structure.from_trusted(tuple(cells), modules=tuple(palette[t] for t in types))
+
+    def _key(self, cand) -> bytes:
+        """The candidate up to translation, as compact bytes (the cache holds many)."""
+        cells, types = cand
+        rows = np.column_stack([np.array(cells, dtype=np.int32), np.array(types, dtype=np.int32)])
+        rows[:, :2] -= rows[:, :2].min(axis=0)
+        return rows[np.lexsort((rows[:, 1], rows[:, 0]))].astype(np.int16).tobytes()
+
+    def missed(self, cand) -> int:
+        """How many task wrenches the candidate cannot exert (exact decisions; cached)."""
+        key = self._key(cand)
+        if key not in self._missed:
+            s = self.structure(cand)
+            W = self.problem.rotor_wrenches(s.mass)
+            checker = self.run.checker
+            checker.evaluated += 1
+            checker.oracle_calls += len(W)
+            ok = Zonotope(s.configuration_matrix(), self.problem.f_max).decide_certified(W)
+            self._missed[key] = int(len(W) - ok.sum())
+        return self._missed[key]
+
+    def feasible(self, cand) -> bool:
+        """Exact, screened first by the checker's separating directions."""
+        key = self._key(cand)
+        if key in self._missed:
+            return self._missed[key] == 0
+        ok = self.run.checker.check(self.structure(cand))
+        if ok:
+            self._missed[key] = 0
+        return ok
+
+    def first(self, lower: int) -> bool:
+        """The smallest compact shape (each palette type throughout) of lower..n_max modules
+        that is feasible becomes the incumbent; when none is, the n_max-module shapes that
+        miss the fewest wrenches are repaired by moves. False when nothing feasible is found
+        in time."""
+        K, n_max = len(self.problem.palette), self.problem.n_max
+        for n in range(lower, n_max + 1):
+            for cells in compact_shapes(n):
+                for t in range(K):
+                    if self.out_of_time():
+                        return False
+                    if self.feasible((cells, (t,) * n)):
+                        self.best = (cells, (t,) * n)
+                        return True
+        shapes = [(c, (t,) * n_max) for c in compact_shapes(n_max) for t in range(K)]
+        shapes.sort(key=self.missed)
+        for cand in shapes:
+            self.best = self._descend(cand, patience=4 * n_max)
+            if self.best is not None or self.out_of_time():
+                break
+        return self.best is not None
+
+    def improve(self, lower: int) -> None:
+        """Shrink the incumbent by local moves until it meets ``lower`` or time runs out."""
+        while self.best is not None and len(self.best[0]) > lower and not self.out_of_time():
+            smaller = self._drop(self.best) or self._repair(self.best)
+            if smaller is None:
+                return
+            self.best = smaller
+
+    def _without(self, cand, i: int):
+        cells, types = cand
+        return cells[:i] + cells[i + 1 :], types[:i] + types[i + 1 :]
+
+    def _drop(self, cand):
+        """A feasible structure of one module fewer, or None."""
+        for i in removable(cand[0]):
+            if self.out_of_time():
+                return None
+            smaller = self._without(cand, i)
+            if self.feasible(smaller):
+                return smaller
+        return None
+
+    def _repair(self, cand):
+        """One module fewer, then moves that reduce the wrenches missed, to zero (or None)."""
+        starts = []
+        for i in removable(cand[0]):
+            if self.out_of_time():
+                return None
+            smaller = self._without(cand, i)
+            starts.append((self.missed(smaller), i, smaller))
+        starts.sort(key=lambda s: (s[0], s[1]))
+        for _, _, start in starts[:3]:
+            found = self._descend(start)
+            if found is not None or self.out_of_time():
+                return found
+        return None
+
+    def _descend(self, cand, patience: int = 12):
+        """Local search on structures of one size, minimising the wrenches missed: take the
+        first of up to :data:`REPAIR_MOVES` random moves that misses fewer, else a move that
+        misses as many (at most ``patience`` in a row); the feasible structure or None."""
+        current, missed, flat = cand, self.missed(cand), 0
+        seen = {self._key(current)}
+        while missed and flat <= patience and not self.out_of_time():
+            moves = self._moves(current)
+            self.rng.shuffle(moves)
+            sideways = None
+            for move in moves[:REPAIR_MOVES]:
+                if self.out_of_time():
+                    return None
+                m = self.missed(move)
+                if m < missed:
+                    current, missed, flat = move, m, 0
+                    break
+                if m == missed and sideways is None and self._key(move) not in seen:
+                    sideways = move
+            else:
+                if sideways is None:
+                    return None
+                current, flat = sideways, flat + 1
+            seen.add(self._key(current))
+        return current if missed == 0 else None
+
+    def _moves(self, cand) -> list:
+        """Relocations of one module, and (several types) changes of one module's type."""
+        cells, types = cand
+        out = []
+        for i, c in relocations(cells):
+            out.append((cells[:i] + (c,) + cells[i + 1 :], types))
+        for k in range(1, len(self.problem.palette)):
+            for i in range(len(cells)):
+                t = (types[i] + k) % len(self.problem.palette)
+                out.append((cells, types[:i] + (t,) + types[i + 1 :]))
+        return out
+
+
+def _proof(problem: SearchProblem) -> str:
+    """Why no level up to n_max is left, in the words of the bound that says so."""
+    if problem.homogeneous_total:
+        n = force_lower_bound(problem.wrenches, problem.module, problem.f_max)
+        if n == NO_SIZE:
+            return "force bound: no number of modules can exert the task's forces"
+        if n > problem.n_max:
+            return f"force bound: the task's forces need at least {n} modules"
+    return f"exact bounds (force, count, level) rule out every level up to {problem.n_max}"
+
+
+def anytime_search(
+    task,
+    n_max: int = 7,
+    f_max: float | None = None,
+    module: ModuleType | None = None,
+    *,
+    modules: Sequence[ModuleType] | None = None,
+    kind: str | None = None,
+    time_limit: float = DEFAULT_TIME_LIMIT,
+    seed: int | None = 0,
+    chunk: int = DEFAULT_CHUNK,
+) -> SearchResult:
+    """The smallest structure found for ``task`` within ``time_limit`` seconds, with a proved
+    lower bound (module docstring). Up to :data:`MAX_MODULES` modules; ``modules``, ``kind``
+    and ``f_max`` as for :func:`~.exhaustive.exhaustive_search`, whose answer it returns
+    whenever the exact levels reach the minimum in time; ``seed`` seeds the local moves."""
+    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    time_limit = check_time_limit(time_limit)
+    chunk = check_int(chunk, "chunk", low=1)
+    run = SearchRun("anytime", problem)
+    lower = bound_levels(problem)
+    if lower > problem.n_max:
+        return run.finish(None, lower, proof=_proof(problem))
+    run.check_budget(MAX_MODULES, lower)
+    reserve = min(0.1 * time_limit, 2.0)  # the final verification by the exact LP
+    deadline = run.t0 + time_limit - reserve
+    exact = ExactLevels(run, lower, chunk)
+    found = exact.advance(run.t0 + EXACT_SHARE * (time_limit - reserve))
+    if found is not None:
+        return run.finish(found, found.n_modules)
+    if exact.n > problem.n_max:  # every level refuted
+        return run.finish(None, exact.n)
+    incumbents = Incumbents(run, seed, deadline)
+    if incumbents.first(exact.n):
+        incumbents.improve(exact.n)
+    size = len(incumbents.best[0]) if incumbents.best is not None else problem.n_max + 1
+    found = exact.advance(deadline, stop_at=size)  # raise the bound with the time left
+    if found is None and exact.n == size and exact.fits(size):
+        found = exact.first_of(size, deadline)  # the exhaustive search's own answer
+    if found is not None:
+        return run.finish(found, found.n_modules)
+    best = incumbents.structure(incumbents.best) if incumbents.best is not None else None
+    return run.finish(best, min(exact.n, size))
