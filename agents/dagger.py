@@ -27,11 +27,9 @@ import numpy as np
 
 from agents.imitation import (
     Demonstrations,
-    expert_start,
-    expert_targets,
+    expert_episode,
     good_actions,
     merge,
-    placements,
 )
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.search import exhaustive_search
@@ -95,17 +93,14 @@ def learner_states(
     how the learner did: its episodes that ended optimal, and its good actions among the
     labelled states."""
     rng = np.random.default_rng(seed)
-    palette = getattr(env, "palette", None)
     rows: dict[str, list[np.ndarray]] = {}
     valid, good, returns = [], [], []
     used = optimal = hits = 0
     for task in _maybe_progress(tasks, progress):
-        n_star, keys = expert_targets(task, n_max, expert, palette)
-        if n_star is None or n_star == 1:
+        episode = expert_episode(env, task, n_max, expert, rng)
+        if episode is None:
             continue
-        options, start = expert_start(task, keys, palette, rng)
-        targets = placements(keys, palette, start)
-        obs, _ = env.reset(options=options)
+        n_star, targets, obs = episode
         rewards, labelled, done = [], [], False
         while not done:
             mask = env.action_masks()

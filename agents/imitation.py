@@ -121,6 +121,26 @@ def expert_start(
     return {"task": task, "initial_type": start}, start
 
 
+def expert_episode(
+    env: ModQuadAssemblyEnv,
+    task: Any,
+    n_max: int,
+    expert: str,
+    rng: np.random.Generator,
+) -> tuple[int, list, dict] | None:
+    """Reset ``env`` for an episode towards ``task``'s optima: (n*, targets as
+    :func:`placements` gives them, first observation), or None for a task with no decision to
+    learn (no structure of up to ``n_max`` modules, or one module already satisfies it)."""
+    palette = getattr(env, "palette", None)
+    n_star, keys = expert_targets(task, n_max, expert, palette)
+    if n_star is None or n_star == 1:
+        return None
+    options, start = expert_start(task, keys, palette, rng)
+    targets = placements(keys, palette, start)
+    obs, _ = env.reset(options=options)
+    return n_star, targets, obs
+
+
 def collect(
     env: ModQuadAssemblyEnv,
     tasks: Sequence[Any],
@@ -141,14 +161,11 @@ def collect(
         from tqdm.auto import tqdm
 
         iterator = tqdm(tasks, desc="expert episodes", unit="task")
-    palette = getattr(env, "palette", None)
     for task in iterator:
-        n_star, keys = expert_targets(task, n_max, expert, palette)
-        if n_star is None or n_star == 1:
+        episode = expert_episode(env, task, n_max, expert, rng)
+        if episode is None:
             continue
-        options, start = expert_start(task, keys, palette, rng)
-        targets = placements(keys, palette, start)
-        obs, info = env.reset(options=options)
+        n_star, targets, obs = episode
         rewards: list[float] = []
         done = False
         while not done:
