@@ -177,7 +177,7 @@ class Incumbents:
         key = self._key(cand)
         if key not in self._missed:
             s = self.structure(cand)
-            W = self.problem.rotor_wrenches(s.mass)
+            W = self.problem.rotor_wrenches(s)
             checker = self.run.checker
             checker.evaluated += 1
             checker.oracle_calls += len(W)

@@ -190,7 +190,7 @@ def greedy_search(
     f, checker, palette = problem.f_max, run.checker, problem.palette
 
     def score(s: Structure) -> tuple[bool, tuple[float, float]]:
-        W = problem.rotor_wrenches(s.mass)
+        W = problem.rotor_wrenches(s)
         z = Zonotope(s.configuration_matrix(), f)
         checker.evaluated += 1
         checker.oracle_calls += len(W)
@@ -203,7 +203,7 @@ def greedy_search(
     if len(palette) == 1:
         current = Structure([(0, 0)], problem.module)
         checker.evaluated += 1
-        W = problem.rotor_wrenches(current.mass)
+        W = problem.rotor_wrenches(current)
         checker.oracle_calls += len(W)
         if Zonotope(current.configuration_matrix(), f).decide_certified(W).all():
             return _done(run, current)

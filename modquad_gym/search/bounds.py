@@ -18,6 +18,18 @@
   task force f (plus M g e_z for ``external`` tasks) has N . f above sum_t c_t h_t(N) (widened
   by the oracle's tolerance) for a facet normal N of the sum (a cross product of two rotor
   directions) or a coordinate axis. The level bounds apply to the counts of one type alone.
+* Dynamic tasks (kind ``dynamic``: the rotors must produce ``base_i + M s_i + P_i j`` at each
+  sample i, :mod:`.dynamic`) take the count-bound path of ``external`` tasks. Proof that the
+  bounds stay valid although M grows with n: the force rows of a structure's wrenches are
+  ``f_base_i + M s_i`` (P_i has torque rows only), fixed by the count vector through M, and its
+  force set is the Minkowski sum above, fixed by the counts too; so a count vector whose
+  demand ``max_i N . (f_base_i + M s_i)`` exceeds the widened support of that sum in N holds no
+  feasible structure, whatever the shape (exact per count vector, for that vector's own M).
+  The level bounds of one type alone use, for n modules of mass M = n m, the task values
+  :class:`~.dynamic.DynamicValues` (exact without inertia terms, a lower bound of every
+  n-module structure's value with them), so a level they exclude holds no feasible structure.
+  No bound is assumed monotone in n: :func:`bound_levels` returns the first count not ruled
+  out, below which every count is ruled out.
 
 :func:`bound_levels` combines them for a :class:`~.problem.SearchProblem`: the smallest module
 count none of them rules out, the lower bound every search reports before searching.
@@ -41,6 +53,7 @@ from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.polyominoes import A001168, PolyominoStream
 from modquad_gym.oracle import RESIDUAL_TOL, TOL
 from modquad_gym.search import supports
+from modquad_gym.search.dynamic import DynamicValues, force_needs
 from modquad_gym.tasks import rotor_wrenches
 
 if TYPE_CHECKING:
@@ -105,18 +118,22 @@ def counts_possible(
     counts: np.ndarray,
     f_max: float = 1.0,
     kind: str = "total",
+    model=None,
 ) -> np.ndarray:
     """bool (C,): False where the count vector (row of ``counts``, one count per palette type)
     certainly cannot exert the task's forces, whatever the shape (module docstring). Exact:
-    a structure the oracle accepts always passes."""
+    a structure the oracle accepts always passes. A ``dynamic`` task gives its wrench
+    ``model`` (W is then its structure-independent part)."""
     counts = np.atleast_2d(np.asarray(counts, dtype=float))
     N = force_normals(palette)  # (k, 3)
     proj = [N @ m.directions.T for m in palette]  # each (k, r)
     h = np.array([np.maximum(p, 0.0).sum(axis=1) for p in proj])  # (K, k)
     a = np.array([np.abs(p).sum(axis=1) for p in proj])  # (K, k)
     cap = counts @ (f_max * (h + 0.5 * TOL * a))  # (C, k) widened supports
-    values = (W[:, :3] @ N.T).max(axis=0)  # (k,)
-    need = np.broadcast_to(values, cap.shape).copy()
+    if model is not None:  # dynamic: the demand of each count vector's own mass
+        need = force_needs(model, N, counts @ np.array([m.mass for m in palette]))
+    else:
+        need = np.broadcast_to((W[:, :3] @ N.T).max(axis=0), cap.shape).copy()
     if kind == "external":
         weight = counts @ np.array([m.weight for m in palette])  # (C,)
         need = need + weight[:, None] * N[:, 2][None, :]
@@ -204,10 +221,15 @@ def level_bounds(module: ModuleType, n: int) -> np.ndarray | None:
 def level_excluded(W: np.ndarray, f_max: float, module: ModuleType, n: int) -> bool:
     """True when some task wrench (rotor wrench: for ``external`` tasks pass W plus the
     weight of n modules) lies beyond every n-module structure in a level direction."""
+    return values_excluded((level_directions() @ W.T).max(axis=1), f_max, module, n)
+
+
+def values_excluded(values: np.ndarray, f_max: float, module: ModuleType, n: int) -> bool:
+    """True when a task value per level direction (its max over the task's rotor wrenches, or
+    a lower bound of it) exceeds the widened support of every n-module structure."""
     bounds = level_bounds(module, n)
     if bounds is None:
         return False
-    values = (level_directions() @ W.T).max(axis=1)
     widened = f_max * (bounds[0] + 0.5 * TOL * bounds[1]) + supports.SLACK
     return bool((values > widened).any())
 
@@ -231,10 +253,14 @@ def counts_left(problem: SearchProblem, n: int) -> tuple[np.ndarray, np.ndarray]
     bound and, for one type alone, the level bound leave."""
     p = problem
     counts = count_vectors(n, len(p.palette))
-    ok = counts_possible(p.wrenches, list(p.palette), counts, p.f_max, p.kind)
+    ok = counts_possible(p.wrenches, list(p.palette), counts, p.f_max, p.kind, p.model)
     for i, c in enumerate(counts):
         if ok[i] and int(c.max()) == n:  # one type alone: the level bounds apply
             m = p.palette[int(np.argmax(c))]
+            if p.model is not None:
+                values = DynamicValues(p.model, [m]).values(level_directions(), n * m.mass, n)
+                ok[i] = not values_excluded(values, p.f_max, m, n)
+                continue
             Wn = rotor_wrenches(p.wrenches, p.kind, n * m.mass)
             if level_excluded(Wn, p.f_max, m, n):
                 ok[i] = False
@@ -260,9 +286,9 @@ def first_possible_level(problem: SearchProblem) -> tuple[int, str]:
     p = problem
     for n in range(1, p.n_max + 1):
         counts = count_vectors(n, len(p.palette))
-        if counts_possible(p.wrenches, list(p.palette), counts, p.f_max, p.kind).any():
+        if counts_possible(p.wrenches, list(p.palette), counts, p.f_max, p.kind, p.model).any():
             return n, ""
-    lift = " and lift its own weight" if p.kind == "external" else ""
+    lift = " and lift its own weight" if p.kind in ("external", "dynamic") else ""
     return (
         NO_SIZE,
         f"count bound: no mix of up to {p.n_max} modules can exert the task's forces{lift}",

@@ -9,7 +9,10 @@ oracle, whose rejections teach the cache new directions.
 
 Structures may mix module types: ``types`` (L, n) holds each module's index into the checker's
 palette. For a task of kind ``external`` each structure is decided against the rotor wrenches
-w + M g e_z of its own mass M (:func:`modquad_gym.tasks.rotor_wrenches`).
+w + M g e_z of its own mass M (:func:`modquad_gym.tasks.rotor_wrenches`); for one of kind
+``dynamic`` against the wrenches of its mass and inertia (the task's wrench model), and a cached
+direction rejects it only when a lower bound of the task's value for its mass and size exceeds
+its support (:class:`~modquad_gym.search.dynamic.DynamicValues`).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from modquad_gym.geometry.inertia import inertia_vectors
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import (
     Structure,
@@ -26,6 +30,7 @@ from modquad_gym.geometry.structure import (
 )
 from modquad_gym.oracle import TOL, Zonotope
 from modquad_gym.search import supports
+from modquad_gym.search.dynamic import DynamicValues
 from modquad_gym.tasks import check_kind, rotor_wrenches
 
 POOL_SIZE = 512
@@ -34,7 +39,9 @@ POOL_SIZE = 512
 
 class TaskChecker:
     """Decides a task (W, f_max, kind) against structures of the module types ``palette`` (one
-    type, or a list of types of one side), counting the work.
+    type, or a list of types of one side), counting the work. A ``dynamic`` task gives its
+    wrench ``model`` (:class:`~modquad_gym.dynamics.LinearWrenches`); W is then its
+    structure-independent part.
 
     Attributes:
         evaluated: structures whose feasibility against the whole task was decided.
@@ -47,12 +54,14 @@ class TaskChecker:
         f_max: float,
         palette: ModuleType | Sequence[ModuleType],
         kind: str = "total",
+        model=None,
     ) -> None:
         self.W = W
         self.f_max = f_max
         self.palette = [palette] if isinstance(palette, ModuleType) else list(palette)
         self.module = self.palette[0]
-        self.kind = check_kind(kind)
+        self.kind = check_kind(kind) if model is None else kind
+        self.dynamic = None if model is None else DynamicValues(model, self.palette)
         self.evaluated = 0
         self.oracle_calls = 0
         masses = np.array([m.mass for m in self.palette])
@@ -63,6 +72,8 @@ class TaskChecker:
         self._lift = np.array(weights)  # per type: m g for external tasks, else 0
         # hardest wrenches first: by decreasing Euclidean norm (ties keep the task's order), so
         # an infeasible structure usually fails on an early batch
+        if self.dynamic is not None:  # the order of the wrenches of one module
+            W = self.dynamic.model.base + self.module.mass * self.dynamic.model.per_mass
         self.order = np.argsort(-np.linalg.norm(W, axis=1), kind="stable")
         self.pool = np.zeros((0, 6))  # separating directions in wrench space, newest first
         self._terms = supports.direction_terms(self.palette, self.pool)
@@ -87,7 +98,8 @@ class TaskChecker:
     def _set_pool(self, pool: np.ndarray) -> None:
         self.pool = pool[:POOL_SIZE]
         self._terms = supports.direction_terms(self.palette, self.pool)
-        self._values = (self.pool @ self.W.T).max(axis=1)
+        if self.dynamic is None:
+            self._values = (self.pool @ self.W.T).max(axis=1)
         self._dz = np.ascontiguousarray(self.pool[:, 2])
 
     def _types(self, cells: np.ndarray, types: np.ndarray | None) -> np.ndarray:
@@ -104,7 +116,9 @@ class TaskChecker:
         cells = np.ascontiguousarray(cells, dtype=np.int32)
         alive = np.ones(len(cells), dtype=bool)
         k = min(1, len(self.pool)) if newest_only else len(self.pool)
-        if k:
+        if k and self.dynamic is not None:
+            self._reject_dynamic(cells, self._types(cells, types), k, alive)
+        elif k:
             b, alpha, beta = (t[:k] for t in self._terms)
             types = self._types(cells, types)
             supports.reject(
@@ -124,6 +138,33 @@ class TaskChecker:
             )
         return alive
 
+    def _reject_dynamic(self, cells, types, k: int, alive: np.ndarray) -> None:
+        """The cache test of a dynamic task: structures grouped by mass, each group against
+        the lower bounds of the task's values for its mass and size (module docstring)."""
+        b, alpha, beta = (np.ascontiguousarray(t[:k]) for t in self._terms)
+        masses = self.type_masses[types].sum(axis=1)
+        zero = np.zeros(len(self.palette))
+        for mass in np.unique(masses):
+            idx = np.flatnonzero(masses == mass)
+            values = self.dynamic.values(self.pool[:k], float(mass), cells.shape[1])
+            sub = alive[idx]
+            supports.reject(
+                np.ascontiguousarray(cells[idx]),
+                np.ascontiguousarray(types[idx]),
+                self._masses,
+                float(self.module.side),
+                b,
+                alpha,
+                beta,
+                values,
+                self.f_max,
+                0.5 * TOL,
+                sub,
+                zero,
+                self._dz[:k],
+            )
+            alive[idx] = sub
+
     # --- deciding ---------------------------------------------------------------------------
     def first_feasible(self, cells: np.ndarray, types: np.ndarray | None = None) -> int | None:
         """Index of the first structure of ``cells`` (L, n, 2) (with palette indices ``types``
@@ -137,7 +178,7 @@ class TaskChecker:
             survivors = survivors[1:]
             learned = self.learned
             A, mass = self.matrix(cells[i], types[i])
-            if self.check_matrix(A, mass):
+            if self.check_matrix(A, mass, self._inertia(cells[i], types[i])):
                 self._count_rejected(i - int(alive[:i].sum()))
                 return i
             if self.learned != learned and i + 1 < len(cells):  # one new direction
@@ -153,6 +194,12 @@ class TaskChecker:
             return configuration_matrices(cells[None], self.palette[int(types[0])])[0], mass
         A = mixed_configuration_matrices(cells[None], types[None], self.palette)[0]
         return A, mass
+
+    def _inertia(self, cells: np.ndarray, types: np.ndarray) -> np.ndarray | None:
+        """The inertia vector of one structure when the task's wrenches need it, else None."""
+        if self.dynamic is None or not self.dynamic.inertial:
+            return None
+        return inertia_vectors(cells[None], types[None], self.palette)[1][0]
 
     def _count_rejected(self, k: int) -> None:
         self.evaluated += k
@@ -173,15 +220,20 @@ class TaskChecker:
         if not self.alive(cells, types)[0]:
             self._count_rejected(1)
             return False
-        return self.check_matrix(structure.configuration_matrix(), structure.mass)
+        A = structure.configuration_matrix()
+        return self.check_matrix(A, structure.mass, structure.inertia)
 
-    def check_matrix(self, A: np.ndarray, mass: float = 0.0) -> bool:
-        """Decide the task on one configuration matrix (of a structure of ``mass`` kg, which
-        matters for ``external`` tasks) with the certified oracle, small batches of the
-        hardest wrenches first; a rejection teaches the cache a direction."""
+    def check_matrix(self, A: np.ndarray, mass: float = 0.0, inertia=None) -> bool:
+        """Decide the task on one configuration matrix (of a structure of ``mass`` kg and
+        ``inertia`` (3, 3) or (6,), which matter for ``external`` and ``dynamic`` tasks) with
+        the certified oracle, small batches of the hardest wrenches first; a rejection teaches
+        the cache a direction."""
         self.evaluated += 1
         z = Zonotope(A, self.f_max)
-        W = rotor_wrenches(self.W, self.kind, mass)[self.order]
+        if self.dynamic is None:
+            W = rotor_wrenches(self.W, self.kind, mass)[self.order]
+        else:
+            W = self.dynamic.wrenches(mass, inertia)[self.order]
         start = 0
         for size in (4, 16, len(W)):  # small batches first: most structures fail early
             batch = W[start:size]

@@ -3,7 +3,8 @@
 Every search (exhaustive, typed, centrosymmetric, greedy, random, anytime) takes its user
 arguments through :meth:`SearchProblem.build`, which validates them once, and then reads this
 value only. :meth:`SearchProblem.rotor_wrenches` is the one place where a task becomes the
-wrenches a structure's rotors must produce (its own weight added for ``external`` tasks).
+wrenches a structure's rotors must produce (its own weight added for ``external`` tasks; its
+mass and inertia put into the wrench model of a ``dynamic`` task, :mod:`.dynamic`).
 """
 
 from __future__ import annotations
@@ -14,13 +15,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
+from modquad_gym.dynamics import DynamicTask, LinearWrenches, check_liftable
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_task_scale
 from modquad_gym.search.checker import TaskChecker
+from modquad_gym.search.dynamic import compact
 from modquad_gym.tasks import check_kind, rotor_wrenches
 
 DEFAULT_MODULE = Structure([(0, 0)]).module
+
+DYNAMIC = "dynamic"
+"""The kind of a search problem whose wrenches depend on the structure's mass and inertia."""
 
 MAX_TYPES = 127
 """Most module types in one palette (type indices are int8)."""
@@ -40,8 +46,11 @@ class SearchProblem:
         f_max: per-rotor thrust limit.
         n_max: the module budget: structures of 1..n_max modules are searched.
         palette: the module types, without repeats (one type for the paper's search).
-        kind: ``total`` or ``external`` (the rotors also carry the structure's weight).
+        kind: ``total``, ``external`` (the rotors also carry the structure's weight) or
+            ``dynamic`` (``model`` gives the wrenches from the structure's mass and inertia).
         typed: the caller gave a palette (``modules=``): results list each module's type.
+        model: the wrench model of a ``dynamic`` task (repeated samples dropped); then
+            ``wrenches`` is its structure-independent part (payload, exerted wrenches).
     """
 
     wrenches: np.ndarray
@@ -50,6 +59,7 @@ class SearchProblem:
     palette: tuple[ModuleType, ...]
     kind: str = "total"
     typed: bool = False
+    model: LinearWrenches | None = None
 
     def __post_init__(self) -> None:
         W = np.array(check_wrenches(self.wrenches, allow_empty=False), dtype=float)  # a copy
@@ -60,7 +70,14 @@ class SearchProblem:
         object.__setattr__(self, "f_max", f_max)
         object.__setattr__(self, "n_max", check_int(self.n_max, "n_max", low=1))
         object.__setattr__(self, "palette", tuple(check_palette(None, self.palette)))
-        object.__setattr__(self, "kind", check_kind(self.kind))
+        if (self.kind == DYNAMIC) != (self.model is not None):
+            raise ValueError("a dynamic search problem needs its wrench model (and only it)")
+        if self.model is None:
+            object.__setattr__(self, "kind", check_kind(self.kind))
+        else:
+            object.__setattr__(self, "model", compact(self.model))
+            check_search_size(self.model.base)
+            check_task_scale(self.model.per_mass, f_max)
         object.__setattr__(self, "typed", bool(self.typed))
 
     @classmethod
@@ -74,9 +91,12 @@ class SearchProblem:
         modules: Sequence[ModuleType] | None = None,
         kind: str | None = None,
     ) -> SearchProblem:
-        """The problem of a search's arguments: ``task`` a (t, 6) wrench array or anything with
-        ``wrenches`` (and ``f_max``, ``kind``); ``f_max`` and ``kind`` override the task's;
-        ``module`` (one type, default the T-module) or ``modules`` (a palette)."""
+        """The problem of a search's arguments: ``task`` a (t, 6) wrench array, anything with
+        ``wrenches`` (and ``f_max``, ``kind``) or a :class:`DynamicTask`; ``f_max`` and
+        ``kind`` override the task's; ``module`` (one type, default the T-module) or
+        ``modules`` (a palette)."""
+        if isinstance(task, DynamicTask):
+            return dynamic_problem(task, n_max, f_max, module, modules, kind)
         W, f = task_arrays(task, f_max)
         check_search_size(W)
         check_task_scale(W, f)  # the old order of the checks: the same first error
@@ -95,17 +115,45 @@ class SearchProblem:
         """One module type and a ``total`` task: the paper's search, unchanged."""
         return len(self.palette) == 1 and self.kind == "total"
 
-    def rotor_wrenches(self, mass: float) -> np.ndarray:
-        """What the rotors of a structure of ``mass`` kg must produce for the task."""
-        return rotor_wrenches(self.wrenches, self.kind, mass)
+    def rotor_wrenches(self, structure: Structure | float) -> np.ndarray:
+        """What the rotors of ``structure`` must produce for the task. A mass in kg does for
+        ``total`` and ``external`` tasks, and for ``dynamic`` ones whose wrenches do not
+        depend on the inertia (ValueError otherwise)."""
+        if isinstance(structure, Structure):
+            mass, inertia = structure.mass, structure.inertia
+        else:
+            mass, inertia = float(structure), None
+        if self.model is None:
+            return rotor_wrenches(self.wrenches, self.kind, mass)
+        return self.model.at(mass, inertia)
 
     def checker(self) -> TaskChecker:
         """A fresh :class:`TaskChecker` of this problem."""
-        return TaskChecker(self.wrenches, self.f_max, self.palette, self.kind)
+        return TaskChecker(self.wrenches, self.f_max, self.palette, self.kind, self.model)
 
     def with_n_max(self, n_max: int) -> SearchProblem:
         """The same problem with another module budget."""
-        return SearchProblem(self.wrenches, self.f_max, n_max, self.palette, self.kind, self.typed)
+        return SearchProblem(
+            self.wrenches, self.f_max, n_max, self.palette, self.kind, self.typed, self.model
+        )
+
+
+def dynamic_problem(task: DynamicTask, n_max, f_max, module, modules, kind) -> SearchProblem:
+    """The problem of a dynamic task (its wrench model; ``f_max`` overrides the task's). A
+    payload or exerted wrench that no structure of up to 64 modules can carry is refused
+    here, before any work (:func:`~modquad_gym.dynamics.check_liftable`)."""
+    if kind is not None and kind != DYNAMIC:
+        raise ValueError(f"kind: a task with a trajectory is {DYNAMIC!r}, got {kind!r}")
+    n_max = check_int(n_max, "n_max", low=1)
+    palette = tuple(check_palette(module, modules))
+    if f_max is not None and check_f_max(f_max) != task.f_max:
+        task = DynamicTask(task.trajectory, task.payload, task.exerted, f_max, task.name)
+    model = compact(task.wrench_model)
+    check_search_size(model.base)
+    check_liftable(task, palette)
+    return SearchProblem(
+        model.base, task.f_max, n_max, palette, DYNAMIC, modules is not None, model
+    )
 
 
 def check_palette(

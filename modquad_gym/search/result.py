@@ -43,7 +43,7 @@ class SearchResult:
         proof: how infeasibility was proven without searching, when it was ("" otherwise).
         palette: names of the module types searched when the search was given ``modules``
             (then ``to_dict`` lists each module's type); empty for a one-type search.
-        kind: the task kind searched (``total`` or ``external``).
+        kind: the task kind searched (``total``, ``external`` or ``dynamic``).
         skipped: (shape, type assignment) pairs ruled out by exact bounds without being
             evaluated (force and count bounds, level bounds), in the levels visited.
         lower_bound: proved: no structure of fewer modules satisfies the task (1 <=
@@ -193,7 +193,7 @@ class SearchRun:
             structure is not None
             and not feasible(
                 structure.configuration_matrix(),
-                p.rotor_wrenches(structure.mass),
+                p.rotor_wrenches(structure),
                 p.f_max,
                 method="daqp",
             ).all()
@@ -220,9 +220,13 @@ class SearchRun:
 
 
 def verified(structure: Structure | None, task: Any) -> bool:
-    """Does ``structure`` exert every wrench of ``task`` (a TaskRequirement; its own weight
-    added for external tasks)? Decided by the exact DAQP LP oracle."""
+    """Does ``structure`` exert every wrench of ``task`` (a TaskRequirement, its own weight
+    added for external tasks; or a DynamicTask, its own mass and inertia)? Decided by the
+    exact DAQP LP oracle."""
     if structure is None:
         return False
-    W = rotor_wrenches(task.wrenches, task.kind, structure.mass)
+    if task.kind == "dynamic":
+        W = task.rotor_wrenches(structure)
+    else:
+        W = rotor_wrenches(task.wrenches, task.kind, structure.mass)
     return bool(feasible(structure.configuration_matrix(), W, task.f_max, method="daqp").all())
