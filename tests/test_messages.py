@@ -45,6 +45,20 @@ def test_scale_errors_name_the_file_and_a_one_based_row(tmp_path, capsys):
     assert_rejected(code, err, "scale.json", "wrench row 2")
 
 
+def test_too_many_wrenches_name_the_file_and_a_batch_goes_on(tmp_path, capsys, monkeypatch):
+    """A task of more wrenches than a search takes is refused before any work, naming its file;
+    in a batch the other tasks are still solved."""
+    monkeypatch.chdir(tmp_path)
+    rows = "\n".join("0,0,1,0,0,0" for _ in range(10_001))
+    (tmp_path / "a_big.csv").write_text(rows + "\n")
+    (tmp_path / "b_ok.json").write_text('{"wrenches": [[0, 0, 1, 0, 0, 0]]}')
+    code, _, err = run_main(capsys, "solve", "--task", "a_big.csv")
+    assert_rejected(code, err, "a_big.csv", "10,001 wrenches")
+    code, out, err = run_main(capsys, "solve", "--task", ".", "--json", "--workers", "1")
+    assert code == 2 and "a_big.csv: the task has 10,001 wrenches" in err
+    assert '"n_modules": 1' in out
+
+
 def test_generate_refuses_an_f_max_that_solve_would_refuse(tmp_path, capsys):
     out = tmp_path / "tiny.json"
     code, _, err = run_main(capsys, "task", "generate", "--kind", "paper", "--f-max", "1e-300",

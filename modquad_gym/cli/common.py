@@ -50,6 +50,27 @@ def load_task(path, csv_header: str = "auto"):
     return task
 
 
+def check_method_for(task, method: str | None, path=None) -> None:
+    """A dynamic task (its wrenches depend on the structure) is answered by the searches only:
+    ValueError naming ``--method`` for a learned one. A static task of more wrenches than a
+    search takes: TaskFileError naming the file ``path``, before any work."""
+    from modquad_gym.search import SEARCHES
+    from modquad_gym.search.problem import check_search_size
+    from modquad_gym.tasks import TaskFileError
+
+    if getattr(task, "kind", None) == "dynamic" and method is not None and method not in SEARCHES:
+        raise ValueError(
+            f"--method {method}: a dynamic task (wrenches that depend on the structure's mass "
+            f"and inertia) is solved by the searches: {', '.join(SEARCHES)}"
+        )
+    wrenches = getattr(task, "wrenches", None)
+    if wrenches is not None and path is not None:
+        try:
+            check_search_size(wrenches)
+        except ValueError as exc:
+            raise TaskFileError(f"{path}: {exc}") from None
+
+
 def palette_of(text: str | None):
     """``--modules`` text as a list of module types, or None when not given."""
     if text is None:
