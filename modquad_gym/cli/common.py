@@ -50,19 +50,26 @@ def load_task(path, csv_header: str = "auto"):
     return task
 
 
-def check_method_for(task, method: str | None, path=None) -> None:
-    """A dynamic task (its wrenches depend on the structure) is answered by the searches only:
-    ValueError naming ``--method`` for a learned one. A static task of more wrenches than a
-    search takes: TaskFileError naming the file ``path``, before any work."""
+def check_method_for(task, method: str | None, path=None, modules=None) -> None:
+    """Checks before any work. A dynamic task (its wrenches depend on the structure) is
+    answered by the searches only (ValueError naming ``--method`` for a learned one) and is
+    refused when no structure of the module types ``modules`` (default the T-module) can lift
+    its payload. A static task of more wrenches than a search takes: TaskFileError naming the
+    file ``path``."""
     from modquad_gym.search import SEARCHES
     from modquad_gym.search.problem import check_search_size
     from modquad_gym.tasks import TaskFileError
 
-    if getattr(task, "kind", None) == "dynamic" and method is not None and method not in SEARCHES:
-        raise ValueError(
-            f"--method {method}: a dynamic task (wrenches that depend on the structure's mass "
-            f"and inertia) is solved by the searches: {', '.join(SEARCHES)}"
-        )
+    if getattr(task, "kind", None) == "dynamic":
+        from modquad_gym.dynamics import check_liftable
+        from modquad_gym.geometry.structure import Structure
+
+        if method is not None and method not in SEARCHES:
+            raise ValueError(
+                f"--method {method}: a dynamic task (wrenches that depend on the structure's "
+                f"mass and inertia) is solved by the searches: {', '.join(SEARCHES)}"
+            )
+        check_liftable(task, modules or [Structure([(0, 0)]).module])
     wrenches = getattr(task, "wrenches", None)
     if wrenches is not None and path is not None:
         try:

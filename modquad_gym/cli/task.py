@@ -1,10 +1,12 @@
-"""``modquad task generate``: write a seeded task file."""
+"""``modquad task generate``: write a seeded task file (``task motion``, a dynamic one:
+:mod:`.task_motion`)."""
 
 from __future__ import annotations
 
 import argparse
 
 from modquad_gym.cli.common import add_force, print_help
+from modquad_gym.cli.task_motion import add_motion
 from modquad_gym.core.options import int_option, real_option, seed_option
 from modquad_gym.tasks import TASK_KINDS, PaperTasks, PlantedTasks, ScrewdriverTask
 
@@ -20,13 +22,14 @@ def add_task(sub) -> None:
     """``task`` and its actions (``task`` alone prints its help)."""
     p = sub.add_parser(
         "task",
-        help="task files (generate, example)",
+        help="task files (generate, motion, example)",
         description="Work with task files. `modquad task generate --help` explains the "
         "options of each action.",
     )
     p.set_defaults(func=print_help(p))
     actions = p.add_subparsers(dest="task_command", metavar="ACTION")
     add_generate(actions)
+    add_motion(actions)
     add_example(actions)
 
 

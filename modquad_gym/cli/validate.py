@@ -1,5 +1,6 @@
 """``modquad validate``: solve a task, then check the structure in MuJoCo (wrench bench and
-hover)."""
+hover; for a dynamic task also a flight along its trajectory,
+:func:`modquad_gym.sim.validate_track.validate_trajectory`)."""
 
 from __future__ import annotations
 
@@ -24,6 +25,10 @@ estimate ``validate`` prints before it starts."""
 
 OUTPUT_NAMES = ("report.md", "validation.json", "hover.png", "bench_wrench.png", "rotor_inputs.png")
 """The files ``validate`` writes into ``--out`` (refused up front when they exist)."""
+TRACK_NAMES = ("track_path.png", "track_inputs.png", "track.gif")
+"""What a dynamic task's flight adds to ``--out``."""
+SECONDS_PER_FLOWN_SECOND = 1.5
+"""Wall seconds per simulated second of a trajectory flight (2 cores, pictures included)."""
 
 
 def add_validate(sub) -> None:
@@ -101,12 +106,17 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if args.load_ramp_seconds is not None:  # only a value the user gave is checked against theirs
         ramp = check_real(args.load_ramp_seconds, "--load-ramp-seconds", 0.0, args.hover_seconds)
     k = None if args.all_wrenches else check_int(args.max_hover_wrenches, "--max-hover-wrenches", 1)
-    check_output_dir(args.out, OUTPUT_NAMES, force=args.force)
     task = common.load_task(args.task, args.csv_header)
+    dynamic = getattr(task, "kind", None) == "dynamic"
+    common.check_method_for(task, args.method, args.task, common.palette(args))
+    check_output_dir(args.out, OUTPUT_NAMES + (TRACK_NAMES if dynamic else ()), force=args.force)
     n_hover = task.n_wrenches if k is None else min(k, task.n_wrenches)
     flights = 1 if args.known_load_only else 2
     simulated = flights * (n_hover + 1) * args.hover_seconds
     estimate = simulated * SECONDS_PER_SIMULATED_SECOND
+    if dynamic:
+        simulated += task.trajectory.duration
+        estimate += task.trajectory.duration * SECONDS_PER_FLOWN_SECOND
     if estimate > MAX_ESTIMATED_SECONDS and not args.allow_long:
         raise ValueError(
             f"{args.task}: hovering under {n_hover:,} wrenches takes about {estimate:,.0f} s, "
@@ -114,8 +124,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
             "(--max-hover-wrenches N) or give --allow-long"
         )
     print(
-        f"validate: bench on {task.n_wrenches} wrenches, hover under {n_hover}: about "
-        f"{simulated:g} simulated s (~{estimate:.0f} s here)",
+        f"validate: bench on {n_hover if dynamic else task.n_wrenches} wrenches, hover under "
+        f"{n_hover}{', fly the trajectory' if dynamic else ''}: about {simulated:g} simulated s "
+        f"(~{estimate:.0f} s here)",
         file=sys.stderr,
     )
     result = solve.solver(args)(task)
@@ -127,8 +138,17 @@ def cmd_validate(args: argparse.Namespace) -> int:
             "bench_max_error": None,
             "hover_max_position_error_m": None,
         }
+        if dynamic:
+            record["track_max_position_error_m"] = None
         print(json.dumps(record) if args.json else f"no structure found for {args.task}")
         return 0
+    if dynamic:
+        from modquad_gym.sim.validate_track import validate_trajectory
+
+        report = validate_trajectory(result.structure, task, out_dir=args.out,
+                                     max_bench_wrenches=n_hover, hover_seconds=args.hover_seconds,
+                                     unknown_load=not args.known_load_only)  # fmt: skip
+        return show(args, report)
     report = validate(
         result.structure,
         task.wrenches,
@@ -141,6 +161,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
         load_ramp_seconds=ramp,
         kind=task.kind,
     ).to_dict()
+    return show(args, report)
+
+
+def show(args: argparse.Namespace, report: dict) -> int:
+    """Print the validation record (one JSON object with ``--json``)."""
     if args.json:
         print(json.dumps({"task": args.task, "method": args.method, **report}))
     else:

@@ -1,0 +1,105 @@
+"""``modquad task motion``: write a dynamic task file (a motion of :mod:`modquad_gym.dynamics`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from modquad_gym.cli.common import add_force
+from modquad_gym.core.options import real_option
+
+PARAMETERS = {
+    "hover": ("duration",),
+    "line": ("distance", "max_acceleration"),
+    "circle": ("radius", "speed", "laps", "heading"),
+    "figure-eight": ("size", "speed", "laps"),
+    "push": ("distance", "speed", "push_force"),
+}
+"""The motion options each ``--kind`` takes (the others are refused)."""
+
+OPTION_HELP = {
+    "duration": "hover: seconds (default 2)",
+    "distance": "line, push: metres along x (default 2)",
+    "max_acceleration": "line: peak acceleration, m/s^2 (default 2)",
+    "radius": "circle: metres (default 1)",
+    "size": "figure-eight: half-width, metres (default 1)",
+    "speed": "circle, figure-eight, push: cruise speed, m/s (default 1; push 0.5)",
+    "laps": "circle, figure-eight: turns (default 1)",
+    "push_force": "push: contact force the structure exerts along the path, N (default 2)",
+}
+
+
+def add_motion(tsub) -> None:
+    m = tsub.add_parser(
+        "motion",
+        help="write a dynamic task file (a trajectory, optional payload)",
+        description="Write a dynamic task: a motion (hover, straight line, circle, "
+        "figure-eight, push) sampled with closed-form derivatives, holding a payload. Its "
+        "wrenches depend on the structure that flies it; `modquad solve` finds the smallest "
+        "structure that can, `modquad validate` flies it in MuJoCo.",
+    )
+    m.set_defaults(func=cmd_task_motion)
+    m.add_argument("--kind", choices=tuple(PARAMETERS), required=True, help="the motion")
+    for name, text in OPTION_HELP.items():
+        flag = "--force-n" if name == "push_force" else "--" + name.replace("_", "-")
+        m.add_argument(flag, dest=name, type=real_option, default=None, help=text)
+    m.add_argument(
+        "--heading",
+        choices=("fixed", "tangent"),
+        default=None,
+        help="circle: keep the heading (fixed, default) or turn with the path (tangent: the "
+        "structure's inertia enters the wrenches)",
+    )
+    m.add_argument("--payload-mass", type=real_option, default=0.0, help="kg (default 0)")
+    m.add_argument(
+        "--payload-offset",
+        default="0,0,0",
+        metavar="X,Y,Z",
+        help="payload position from the structure's COM, metres (default 0,0,0)",
+    )
+    m.add_argument("--f-max", type=real_option, default=2.0, help="rotor limit, N (default 2)")
+    m.add_argument("--rate", type=real_option, default=100.0, help="samples/s (default 100)")
+    m.add_argument("--name", default=None, help="task name (default: the kind)")
+    m.add_argument("--out", required=True, help="output .json file")
+    add_force(m)
+
+
+def motion_task(args: argparse.Namespace):
+    """The DynamicTask of the parsed options (ValueError naming a misplaced option)."""
+    from modquad_gym import dynamics as dy
+
+    given = {k: getattr(args, k) for k in (*OPTION_HELP, "heading") if getattr(args, k) is not None}
+    for key in given:
+        if key not in PARAMETERS[args.kind]:
+            flag = "--force-n" if key == "push_force" else "--" + key.replace("_", "-")
+            raise ValueError(f"{flag} does not apply to --kind {args.kind}")
+    try:
+        offset = tuple(float(v) for v in args.payload_offset.split(","))
+    except ValueError:
+        raise ValueError(
+            f"--payload-offset must be X,Y,Z in metres, got {args.payload_offset!r}"
+        ) from None
+    payload = dy.Payload(args.payload_mass, offset) if args.payload_mass else None
+    if "push_force" in given:
+        given["force"] = given.pop("push_force")
+    common = dict(f_max=args.f_max, payload=payload, rate=args.rate, name=args.name or args.kind)
+    motion = dy.MOTIONS[args.kind]
+    return motion(**given, **common)
+
+
+def cmd_task_motion(args: argparse.Namespace) -> int:
+    from modquad_gym.core.outputs import check_output_file
+    from modquad_gym.geometry.module import STOCK_TYPES
+
+    out = check_output_file(args.out, force=args.force, what="--out")
+    if out.suffix.lower() != ".json":
+        raise ValueError(f"--out {out}: a dynamic task is written as .json")
+    task = motion_task(args)
+    from modquad_gym.dynamics import check_liftable
+
+    lift = check_liftable(task, [STOCK_TYPES["t45"]])  # a task no structure flies: refused
+    task.save(out)
+    print(
+        f"wrote {out}: {task.n_wrenches} samples over {task.trajectory.duration:.3g} s "
+        f"({args.kind}, f_max {task.f_max:g} N; at least {lift} T-module(s) by the lift bound)"
+    )
+    return 0
