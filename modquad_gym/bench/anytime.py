@@ -22,67 +22,16 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import multiprocessing as mp
 import os
-import resource
-import threading
-import time
 from pathlib import Path
 
 import numpy as np
 
 from modquad_gym.bench import bench_args, int_option, machine_description, markdown_table, write_csv
+from modquad_gym.bench.measure import fresh, measured
 from modquad_gym.core.outputs import write_text
 
 GOALS = {"gap_64_pct": 5.0, "seconds": 60.0, "memory_MB": 2048.0}
-
-
-def _tree_rss_mb(root: int) -> float:
-    """Resident memory of process ``root`` and all its descendants (MB, from /proc)."""
-    children: dict[int, list[int]] = {}
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/stat") as fh:
-                    ppid = int(fh.read().rsplit(")", 1)[1].split()[1])
-            except (OSError, IndexError, ValueError):
-                continue
-            children.setdefault(ppid, []).append(int(entry))
-    total, stack = 0.0, [root]
-    while stack:
-        pid = stack.pop()
-        stack.extend(children.get(pid, []))
-        try:
-            with open(f"/proc/{pid}/status") as fh:
-                for line in fh:
-                    if line.startswith("VmRSS:"):
-                        total += int(line.split()[1]) / 1024
-        except OSError:
-            pass
-    return total
-
-
-def _measured(fn, *args) -> tuple[object, float, float]:
-    """(result, seconds, peak MB of this process and its descendants, sampled every 0.2 s)."""
-    peak = [0.0]
-    done = threading.Event()
-
-    def sample() -> None:
-        while not done.is_set():
-            peak[0] = max(peak[0], _tree_rss_mb(os.getpid()))
-            done.wait(0.2)
-
-    sampler = threading.Thread(target=sample, daemon=True)
-    sampler.start()
-    t0 = time.perf_counter()
-    try:
-        result = fn(*args)
-    finally:
-        seconds = time.perf_counter() - t0
-        done.set()
-        sampler.join()
-    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    return result, seconds, max(peak[0], own)
 
 
 def _warm() -> None:
@@ -96,7 +45,7 @@ def _anytime(task, time_limit: float) -> dict:
     from modquad_gym.search import anytime_search, verified
 
     _warm()
-    r, seconds, peak = _measured(lambda: anytime_search(task, n_max=64, time_limit=time_limit))
+    r, seconds, peak = measured(lambda: anytime_search(task, n_max=64, time_limit=time_limit))
     ok = verified(r.structure, task)
     return {"found": r.n_modules, "lower_bound": r.lower_bound, "certified": r.certified,
             "verified": ok, "seconds": seconds, "peak_MB": peak}  # fmt: skip
@@ -113,16 +62,10 @@ def _exhaustive(W: np.ndarray, n_max: int, workers: int) -> dict:
         with engine or contextlib.nullcontext():
             return exhaustive_search(W, n_max=n_max, engine=engine)
 
-    r, seconds, peak = _measured(run)
+    r, seconds, peak = measured(run)
     return {"found": r.n_modules, "lower_bound": r.lower_bound, "certified": r.certified,
             "verified": True, "seconds": seconds, "peak_MB": peak,
             "evaluated": r.evaluated}  # fmt: skip
-
-
-def fresh(fn, *args) -> dict:
-    """``fn(*args)`` in a fresh spawned process."""
-    with mp.get_context("spawn").Pool(1) as pool:
-        return pool.apply(fn, args)
 
 
 def _row(workload: str, method: str, planted, lift: int, out: dict) -> dict:

@@ -18,6 +18,10 @@ BENCHMARKS = {
         "modquad_gym.bench.anytime",
         "the default anytime search on planted 16-64-module tasks; --reach: exact to 16",
     ),
+    "scale": (
+        "modquad_gym.bench.scale",
+        "every method (anytime, baselines, learned) on the held-out 16-64-module suites",
+    ),
     "level-bounds": ("modquad_gym.bench.level_bounds", "regenerate the shipped level bounds"),
     "distributed": (
         "modquad_gym.bench.distributed",

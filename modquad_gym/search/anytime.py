@@ -95,7 +95,10 @@ class ExactLevels:
         p = self.problem
         if n > min(p.n_max, EXACT_MODULES):
             return False
-        return p.homogeneous_total or (level_size(n) or 0) * len(p.palette) ** n <= MAX_PAIRS
+        if p.homogeneous_total:
+            return True
+        size = level_size(n)  # None past the tabulated counts: far beyond MAX_PAIRS
+        return size is not None and size * len(p.palette) ** n <= MAX_PAIRS
 
     def advance(self, deadline: float, stop_at: int | None = None) -> Structure | None:
         """Decide levels until a feasible structure is found (returned: the first of the

@@ -120,8 +120,9 @@ def _search_level(run: SearchRun, n, assign, progress, first_only, part) -> list
 
 def level_pairs(run: SearchRun, n: int, assign: np.ndarray, part: Partial | None = None, bar=None):
     """Generator over level n of the typed search (assignments ``assign``): yields each
-    feasible (cells, types) pair in order, and None after each chunk of shapes (a point where
-    a caller may stop for the clock)."""
+    feasible (cells, types) pair in order, and None after each block of shapes (about
+    ``PAIRS_PER_BLOCK`` pairs, at least one shape): a point where a caller may stop for the
+    clock."""
     per_block = max(1, PAIRS_PER_BLOCK // len(assign))
     for shapes in PolyominoStream(n, max(per_block, 1024)):
         for start in range(0, len(shapes), per_block):
@@ -141,9 +142,9 @@ def level_pairs(run: SearchRun, n: int, assign: np.ndarray, part: Partial | None
                 j = rest + i
                 yield tuple(map(tuple, cells[j].tolist())), tuple(types[j])
                 rest = j + 1
+            yield None
         if bar is not None:
             bar.update(len(shapes))
-        yield None
 
 
 def typed_structure(problem: SearchProblem, pair) -> Structure:

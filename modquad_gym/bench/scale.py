@@ -1,0 +1,307 @@
+"""Every method at the field's sizes, on the same held-out tasks of 16-64 modules.
+
+    modquad bench scale [--bands 16 24 32 48 64] [--families ...] [--per-family 1]
+                        [--methods anytime greedy beam genetic centrosymmetric random ppo
+                         ppo-guided] [--time-limit 30] [--workers 1] [--validation]
+
+Writes ``results/scale/report.md``, ``rows.csv`` (one row per task and method), ``summary.csv``
+(one row per band and method) and ``gap_vs_size.png``. Tasks: the shipped scale suites
+(:mod:`.scale_suites`: planted, mixed palette, heavy payload, low force / high torque), or with
+``--validation`` the validation draws (where settings are tuned; bounds computed on the fly).
+
+Each (method, band) runs in a fresh spawned process (its first call pays imports and compiled
+caches loading, as a user's first call does; its peak resident memory is the band's), with
+``n_max`` 64 and every method given the same ``--time-limit``. Every structure is re-verified
+by the exact LP oracle. A task's certified lower bound is the largest of the suite's (what the
+default search proved when the suite was built) and what any method proved in this run; the gap
+of an answer is measured to it and to the planted size (an upper bound on the optimum).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from modquad_gym.bench import bench_args, int_option, machine_description, markdown_table, write_csv
+from modquad_gym.bench.measure import fresh, measured
+from modquad_gym.bench.scale_suites import BANDS, FAMILIES
+from modquad_gym.core.outputs import write_text
+from modquad_gym.core.resources import cap_workers
+
+METHODS = ("anytime", "greedy", "beam", "genetic", "centrosymmetric", "random", "ppo", "ppo-guided")
+"""The methods compared by default: the default search, the field's baselines, the learned
+designer (the shipped size-free model, trained on tasks of at most 7 modules)."""
+BASELINES = ("greedy", "beam", "genetic", "centrosymmetric")
+LEARNED = ("ppo", "ppo-guided")
+OUTPUTS = ("report.md", "rows.csv", "summary.csv", "gap_vs_size.png")
+GOALS = {"anytime_gap_pct": 5.0, "heuristic_gap_pct": 10.0, "seconds": 60.0}
+
+
+def band_tasks(band: int, families, per_family: int, validation: bool, time_limit: float):
+    from modquad_gym.bench.scale_suites import build_band, load_scale_suite
+
+    if validation:
+        tasks = build_band(band, per_family, time_limit, validation=True)
+        return [t for t in tasks if t.meta["family"] in families]
+    return load_scale_suite(band, families, per_family)
+
+
+def run_band(method: str, tasks: list, time_limit: float, seed: int) -> list[dict]:
+    """Solve ``tasks`` with ``method`` (one process: solvers made once per palette)."""
+    from modquad_gym.bench.scale_suites import task_palette
+    from modquad_gym.search import verified
+    from modquad_gym.solvers import make_solver
+
+    solvers: dict = {}
+    out = []
+    for task in tasks:
+        names = task.meta.get("palette")
+        if names not in solvers:
+            modules = task_palette(task)
+            solvers[names] = make_solver(
+                method, n_max=64, seed=seed, modules=modules, time_limit=time_limit
+            )
+        r, seconds, peak = measured(solvers[names].solve, task)
+        out.append({"task": task.name, "found": r.n_modules, "proved": r.lower_bound,
+                    "verified": verified(r.structure, task), "seconds": seconds,
+                    "peak_MB": peak})  # fmt: skip
+    return out
+
+
+def task_row(task, method: str, res: dict, bound: int) -> dict:
+    m, found = task.meta, res["found"]
+    planted = m["planted"]
+    return {
+        "band": m["band"],
+        "family": m["family"],
+        "task": task.name,
+        "method": method,
+        "planted": planted,
+        "lower_bound": bound,
+        "found": found if found is not None else "none",
+        "verified": res["verified"],
+        "gap_to_planted_pct": round(100.0 * (found - planted) / planted, 1) if found else "",
+        "gap_to_bound": found - bound if found is not None else "",
+        "seconds": round(res["seconds"], 2),
+        "peak_MB": round(res["peak_MB"]),
+    }
+
+
+def measure(args) -> list[dict]:
+    """Every (band, method) run; rows with each task's best proved bound."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    rows: list[dict] = []
+    for band in args.bands:
+        tasks = band_tasks(band, args.families, args.per_family, args.validation, args.time_limit)
+        jobs = [(m, tasks, args.time_limit, args.seed) for m in args.methods]
+        with ThreadPoolExecutor(args.workers) as pool:  # each thread waits on its own process
+            results = list(pool.map(lambda job: fresh(run_band, *job), jobs))
+        for i, task in enumerate(tasks):
+            bound = max([task.meta["lower_bound"]] + [res[i]["proved"] for res in results])
+            for method, res in zip(args.methods, results, strict=True):
+                rows.append(task_row(task, method, res[i], bound))
+                print(rows[-1], flush=True)
+    return rows
+
+
+def summary(rows: list[dict]) -> list[dict]:
+    """Per band and method: tasks solved, mean modules and gap to the bound on the tasks every
+    method solved (so means compare the same tasks), mean seconds, peak memory."""
+    out = []
+    for band in sorted({r["band"] for r in rows}):
+        mine = [r for r in rows if r["band"] == band]
+        solved_by_all = {
+            t for t in {r["task"] for r in mine} if all(r["found"] != "none" for r in mine
+                                                        if r["task"] == t)
+        }  # fmt: skip
+        for method in dict.fromkeys(r["method"] for r in mine):
+            rs = [r for r in mine if r["method"] == method]
+            common = [r for r in rs if r["task"] in solved_by_all]
+            out.append({
+                "band": band, "method": method, "tasks": len(rs),
+                "solved": sum(r["found"] != "none" for r in rs),
+                "common": len(common),
+                "mean_modules": _mean([r["found"] for r in common]),
+                "mean_gap_to_bound": _mean([r["gap_to_bound"] for r in common]),
+                "mean_seconds": _mean([r["seconds"] for r in rs]),
+                "peak_MB": max(r["peak_MB"] for r in rs),
+            })  # fmt: skip
+    return out
+
+
+def _mean(values: list) -> float | str:
+    return round(float(np.mean(values)), 2) if values else ""
+
+
+def overall(rows: list[dict], methods) -> dict[str, dict]:
+    """Per method over every band: mean modules on the tasks all ``methods`` solved, mean
+    seconds, tasks solved."""
+    tasks = {r["task"] for r in rows}
+    common = {t for t in tasks if all(r["found"] != "none" for r in rows
+                                      if r["task"] == t and r["method"] in methods)}  # fmt: skip
+    out = {}
+    for method in methods:
+        rs = [r for r in rows if r["method"] == method]
+        out[method] = {
+            "modules": _mean([r["found"] for r in rs if r["task"] in common]),
+            "seconds": _mean([r["seconds"] for r in rs]),
+            "solved": sum(r["found"] != "none" for r in rs),
+            "tasks": len(rs),
+            "common": len(common),
+        }
+    return out
+
+
+def goal_lines(rows: list[dict], methods, time_limit: float) -> list[str]:
+    """The issues' goals, judged on this run (each line says met or NOT met)."""
+    lines = []
+    big = [r for r in rows if r["band"] == 64 and r["family"] == "planted"]
+    for method, goal in (("anytime", "anytime_gap_pct"), ("beam", "heuristic_gap_pct"),
+                         ("genetic", "heuristic_gap_pct")):  # fmt: skip
+        rs = [r for r in big if r["method"] == method]
+        if not rs:
+            continue
+        worst = max(r["gap_to_planted_pct"] if r["found"] != "none" else 1e9 for r in rs)
+        slow = max(r["seconds"] for r in rs)
+        ok = worst <= GOALS[goal] and slow <= min(GOALS["seconds"], time_limit * 1.1)
+        lines.append(f"- 64-module planted tasks, {method}: worst gap to the planted size "
+                     f"{worst:g} % (goal <= {GOALS[goal]:g} %), slowest {slow:g} s (limit "
+                     f"{time_limit:g} s): {'met' if ok else 'NOT met'}")  # fmt: skip
+    rivals = [m for m in BASELINES if m in methods]
+    for method in (m for m in LEARNED if m in methods):
+        if not rivals:
+            break
+        stats = overall(rows, [method, *rivals])
+        me = stats[method]
+        beaten = [m for m in rivals if me["modules"] != "" and me["modules"] < stats[m]["modules"]
+                  and me["seconds"] <= stats[m]["seconds"]]  # fmt: skip
+        versus = ", ".join(f"{m} {stats[m]['modules']} modules in {stats[m]['seconds']} s"
+                           for m in rivals)  # fmt: skip
+        lines.append(f"- learned `{method}` vs the baselines at 16-64 modules (mean modules on "
+                     f"the {me['common']} tasks all of them solved, mean seconds on all): "
+                     f"{me['modules']} modules in {me['seconds']} s, solved {me['solved']}/"
+                     f"{me['tasks']}; {versus}: fewer modules at no more time than "
+                     f"{len(beaten)}/{len(rivals)} ({', '.join(beaten) or 'none'}): "
+                     f"{'met' if len(beaten) == len(rivals) else 'NOT met'}")  # fmt: skip
+    return lines
+
+
+def plot(summary_rows: list[dict], path: Path) -> None:
+    """Mean gap to the certified lower bound against the band, one line per method."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for method in dict.fromkeys(r["method"] for r in summary_rows):
+        pts = [(r["band"], r["mean_gap_to_bound"]) for r in summary_rows
+               if r["method"] == method and r["mean_gap_to_bound"] != ""]  # fmt: skip
+        if pts:
+            x, y = zip(*pts, strict=True)
+            ax.plot(x, y, marker="o", label=method)
+    ax.set_xlabel("planted size (modules)")
+    ax.set_ylabel("mean modules above the certified lower bound")
+    ax.set_title("Gap to the certified lower bound (tasks every method solved)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def command_line(args) -> str:
+    return (f"modquad bench scale --bands {' '.join(map(str, args.bands))} --families "
+            f"{' '.join(args.families)} --per-family {args.per_family} --methods "
+            f"{' '.join(args.methods)} --time-limit {args.time_limit:g} --workers {args.workers}"
+            + (" --validation" if args.validation else "") + f" --seed {args.seed}")  # fmt: skip
+
+
+def report(rows: list[dict], summary_rows: list[dict], args) -> str:
+    load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
+    return "\n".join([
+        "# Every method at 16-64 modules",
+        "",
+        f"Made by `{command_line(args)}` on {machine_description()}; each (method, band) in a "
+        f"fresh process, {args.workers} at a time; load average at the end {load}.",
+        "",
+        "Tasks: the held-out scale suites (`modquad_gym/data/suites/scale_N.json`; families "
+        "`planted` one type, `mixed` palette t45/t45m/flat, `payload` heavy payload with "
+        "self-weight, `torque` low force and high torque where no lift bound helps). "
+        "`lower_bound`: certified (the largest proved by the suite's default search or by any "
+        "method here). `gap_to_bound`: modules above it. `planted`: the hidden structure's size, "
+        "an upper bound on the optimum. Learned methods use the shipped size-free model "
+        "(trained on tasks of at most 7 modules). Every structure is verified by the exact LP.",
+        "",
+        "## Per band and method",
+        "",
+        markdown_table(summary_rows),
+        "",
+        "Goals:",
+        *goal_lines(rows, args.methods, args.time_limit),
+        "",
+        "![gap vs size](gap_vs_size.png)",
+        "",
+        "## Every task",
+        "",
+        markdown_table(rows),
+        "",
+    ])  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> None:
+    options = {
+        "--bands": dict(type=int_option(1, 64), nargs="+", default=list(BANDS),
+                        help="size bands (default 16 24 32 48 64)"),
+        "--families": dict(nargs="+", choices=tuple(FAMILIES), default=list(FAMILIES),
+                           help="task families (default all)"),
+        "--per-family": dict(type=int_option(1, 100), default=1,
+                             help="tasks per family and band (default 1)"),
+        "--methods": dict(nargs="+", default=list(METHODS),
+                          help=f"solver names (default {' '.join(METHODS)})"),
+        "--time-limit": dict(type=float, default=30.0,
+                             help="seconds each method gets per task (default 30)"),
+        "--workers": dict(type=int_option(1, 64), default=1,
+                          help="(method, band) processes at a time (default 1)"),
+        "--validation": dict(action="store_true",
+                             help="validation draws instead of the held-out suites"),
+    }  # fmt: skip
+    args = bench_args(
+        argv,
+        "modquad bench scale",
+        "Every method on the held-out scale suites (16-64 modules) with one time limit; "
+        "write results/scale/.",
+        options,
+        seed_help="seed of the seeded methods (default 0)",
+        out="results/scale",
+        outputs=OUTPUTS,
+    )
+    from modquad_gym.search.anytime import check_time_limit
+    from modquad_gym.solvers import METHODS as KNOWN
+    from modquad_gym.solvers import learned_options
+
+    try:  # a ValueError: one line, exit 2 (the CLI's rule)
+        check_time_limit(args.time_limit)
+    except ValueError as exc:
+        raise ValueError(f"--time-limit: {exc}") from None
+    for method in args.methods:
+        if method not in KNOWN and learned_options(method) is None:
+            raise ValueError(f"--methods: unknown method {method!r}; choose from "
+                             f"{', '.join(KNOWN)} or a learned variant")  # fmt: skip
+    args.workers = cap_workers(args.workers)
+    rows = measure(args)
+    summary_rows = summary(rows)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(rows, out / "rows.csv")
+    write_csv(summary_rows, out / "summary.csv")
+    plot(summary_rows, out / "gap_vs_size.png")
+    write_text(out / "report.md", report(rows, summary_rows, args))
+    print("\n".join(goal_lines(rows, args.methods, args.time_limit)))
+
+
+if __name__ == "__main__":
+    main()

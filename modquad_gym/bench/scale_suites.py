@@ -1,0 +1,197 @@
+"""Held-out suites at the field's sizes: tasks planted in hidden structures of 16-64 modules.
+
+Four families, each a seeded draw around a hidden random connected structure of ``n`` modules
+(``n`` the size band: 16, 24, 32, 48 or 64), so the planted size bounds the optimum from above:
+
+* ``planted``: one module type, 40 wrenches inside the hidden zonotope, half near its boundary
+  (:class:`~modquad_gym.tasks.PlantedTasks`): the lift bound is usually close to the optimum;
+* ``mixed``: the palette t45, t45m, flat, 40 wrenches of a hidden mixed structure
+  (:class:`~modquad_gym.tasks.PlantedMixedTasks`): searches choose shapes and types;
+* ``payload``: carrying a heavy payload with the structure's own weight (kind ``external``,
+  f_max 2 N): the hidden structure runs its rotors at 70-100 % of f_max, and the wrench on the
+  payload is what is left after lifting itself (:func:`payload_task`);
+* ``torque``: low force, high torque (:func:`.search.low_force_task`): forces one module can
+  exert, torques that need the hidden structure's lever arms. No lift bound helps there.
+
+Seeds: held-out task ``i`` of family ``f`` (index in :data:`FAMILIES`) in band ``n`` is drawn
+from ``default_rng(SCALE_SEED0 + 10_000 f + 100 n + i)``; validation tasks (where settings are
+tuned) from ``SCALE_VALIDATION_SEED0`` in the same layout. Training never uses either range.
+
+Each task's ``meta`` holds ``seed``, ``family``, ``band``, ``palette`` (stock names, or None for
+the T-module), ``planted`` (the hidden size: an upper bound on the optimum), ``lift_bound`` (the
+instant bounds: force or count, and the level bounds), and what the default search proved within
+``--time-limit`` seconds: ``lower_bound`` (certified: no smaller structure works) and
+``best_known`` (the smallest verified structure it found).
+
+``python -m modquad_gym.bench.scale_suites`` rewrites ``modquad_gym/data/suites/scale_N.json``
+(deterministic up to the time limit's reach).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from modquad_gym.bench import random_structure
+from modquad_gym.bench.search import low_force_task
+from modquad_gym.bench.suites import SUITES_DIR
+from modquad_gym.core.options import int_option, real_option
+from modquad_gym.geometry.module import GRAVITY, palette
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.search import SearchProblem, anytime_search, bound_levels
+from modquad_gym.tasks import (
+    PlantedMixedTasks,
+    PlantedTasks,
+    TaskRequirement,
+    load_suite,
+    random_cells,
+    save_suite,
+)
+
+BANDS = (16, 24, 32, 48, 64)
+"""The size bands of the scale suites (planted module counts)."""
+
+SCALE_SEED0 = 5_000_000
+SCALE_VALIDATION_SEED0 = 6_000_000
+MIXED_PALETTE = "t45,t45m,flat"
+PAYLOAD_F_MAX = 2.0
+"""Rotor limit (N) of the payload family: a 0.3 kg module lifts itself with 2.9 of its 5.7 N."""
+
+
+def payload_task(n: int, rng: np.random.Generator, t: int = 24) -> TaskRequirement:
+    """Carry a heavy payload: ``t`` rotor wrenches ``A u`` of a hidden n-module structure with
+    every rotor at 70-100 % of f_max, minus the structure's weight (kind ``external``): the
+    wrenches it applies to the payload. The hidden structure satisfies it exactly."""
+    cells = random_cells(rng, n)
+    hidden = Structure(cells)
+    A = hidden.configuration_matrix()
+    U = rng.uniform(0.7, 1.0, size=(t, A.shape[1])) * PAYLOAD_F_MAX
+    W = U @ A.T
+    W[:, 2] -= hidden.mass * GRAVITY
+    meta = {"planted_cells": [list(c) for c in cells], "optimum_upper_bound": n}
+    return TaskRequirement(W, name="payload", f_max=PAYLOAD_F_MAX, kind="external", meta=meta)
+
+
+def torque_task(n: int, rng: np.random.Generator, t: int = 16) -> TaskRequirement:
+    """Low force, high torque: ``t`` wrenches of a hidden n-module structure
+    (:func:`.search.low_force_task`)."""
+    hidden = random_structure(n, rng)
+    W = low_force_task(hidden, t, rng)
+    meta = {"planted_cells": [list(c) for c in hidden.cells], "optimum_upper_bound": n}
+    return TaskRequirement(W, name="torque", meta=meta)
+
+
+FAMILIES: dict[str, tuple[Callable[[int, np.random.Generator], TaskRequirement], str | None]] = {
+    "planted": (lambda n, rng: PlantedTasks(n_modules=n, n_wrenches=40)(rng), None),
+    "mixed": (lambda n, rng: PlantedMixedTasks(n_modules=n)(rng), MIXED_PALETTE),
+    "payload": (payload_task, None),
+    "torque": (torque_task, None),
+}
+"""Family name -> (draw(n, rng), palette of stock names or None for the T-module)."""
+
+
+def task_seed(family: str, band: int, i: int, validation: bool = False) -> int:
+    """The seed of task ``i`` of ``family`` in ``band`` (module docstring)."""
+    if not 0 <= i < 100:
+        raise ValueError(f"at most 100 tasks per family and band, got index {i}")
+    seed0 = SCALE_VALIDATION_SEED0 if validation else SCALE_SEED0
+    return seed0 + 10_000 * list(FAMILIES).index(family) + 100 * band + i
+
+
+def draw(family: str, band: int, i: int, validation: bool = False) -> TaskRequirement:
+    """Task ``i`` of ``family`` in ``band`` with its seed, family, band, palette and planted size
+    in ``meta`` (no bounds yet: :func:`with_bounds`)."""
+    make, names = FAMILIES[family]
+    seed = task_seed(family, band, i, validation)
+    task = make(band, np.random.default_rng(seed))
+    prefix = "val-" if validation else ""
+    meta = {**task.meta, "seed": seed, "family": family, "band": band, "palette": names,
+            "planted": band}  # fmt: skip
+    return TaskRequirement(task.wrenches, name=f"{prefix}{family}-{band}-{i}", f_max=task.f_max,
+                           kind=task.kind, meta=meta)  # fmt: skip
+
+
+def task_palette(task: TaskRequirement) -> list | None:
+    """The module types a scale task is searched with (None: the T-module alone)."""
+    names = task.meta.get("palette")
+    return palette(names) if names else None
+
+
+def with_bounds(task: TaskRequirement, time_limit: float) -> TaskRequirement:
+    """``task`` with ``lift_bound`` (instant), ``lower_bound`` and ``best_known`` (the default
+    search within ``time_limit``) and ``bound_seconds`` in its meta."""
+    modules = task_palette(task)
+    extra = {"modules": modules} if modules else {}
+    problem = SearchProblem.build(task, 64, **extra)
+    t0 = time.perf_counter()
+    r = anytime_search(task, n_max=64, time_limit=time_limit, **extra)
+    seconds = round(time.perf_counter() - t0, 2)
+    meta = {**task.meta, "lift_bound": bound_levels(problem), "lower_bound": r.lower_bound,
+            "best_known": r.n_modules, "bound_seconds": seconds}  # fmt: skip
+    return TaskRequirement(task.wrenches, name=task.name, f_max=task.f_max, kind=task.kind,
+                           meta=meta)  # fmt: skip
+
+
+def suite_path(band: int, root: Path = SUITES_DIR) -> Path:
+    return root / f"scale_{band}.json"
+
+
+def load_scale_suite(band: int, families=None, per_family: int | None = None) -> list:
+    """The shipped held-out tasks of ``band`` (only ``families``, the first ``per_family`` of
+    each, when given)."""
+    tasks = load_suite(suite_path(band))
+    keep = set(families or FAMILIES)
+    counts: dict[str, int] = {}
+    out = []
+    for task in tasks:
+        family = task.meta["family"]
+        counts[family] = counts.get(family, 0) + 1
+        if family in keep and (per_family is None or counts[family] <= per_family):
+            out.append(task)
+    return out
+
+
+def build_band(band: int, per_family: int, time_limit: float, validation: bool = False) -> list:
+    """``per_family`` tasks of every family in ``band`` with their bounds."""
+    tasks = []
+    for family in FAMILIES:
+        for i in range(per_family):
+            tasks.append(with_bounds(draw(family, band, i, validation), time_limit))
+            m = tasks[-1].meta
+            print(f"{tasks[-1].name}: planted {m['planted']}, lift bound {m['lift_bound']}, "
+                  f"lower bound {m['lower_bound']}, best known {m['best_known']} "
+                  f"({m['bound_seconds']} s)", flush=True)  # fmt: skip
+    return tasks
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(
+        prog="python -m modquad_gym.bench.scale_suites",
+        description="Write the held-out scale suites (modquad_gym/data/suites/scale_N.json): "
+        "fixed seeds, the planted size and the bounds the default search proves.",
+    )
+    p.add_argument("--bands", type=int_option(1, 64), nargs="+", default=list(BANDS))
+    p.add_argument("--per-family", type=int_option(1, 100), default=3)
+    p.add_argument(
+        "--time-limit",
+        type=real_option,
+        default=10.0,
+        help="seconds of the default search per task for the bounds (default 10)",
+    )
+    p.add_argument("--out", type=Path, default=SUITES_DIR)
+    args = p.parse_args(argv)
+    if not 0 < args.time_limit <= 3600:
+        p.error(f"--time-limit must lie in (0, 3600] seconds, got {args.time_limit:g}")
+    for band in args.bands:
+        tasks = build_band(band, args.per_family, args.time_limit)
+        path = save_suite(tasks, suite_path(band, args.out), name=f"scale_{band}")
+        print(f"{path}: {len(tasks)} tasks")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

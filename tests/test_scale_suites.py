@@ -1,0 +1,124 @@
+"""The held-out scale suites (16-64 modules) and `modquad bench scale`."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from modquad_gym.bench.scale_suites import (
+    BANDS,
+    FAMILIES,
+    draw,
+    load_scale_suite,
+    task_palette,
+    task_seed,
+    with_bounds,
+)
+from modquad_gym.geometry.module import STOCK_TYPES
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.search import anytime_search, verified
+
+
+def hidden_structure(task) -> Structure:
+    """The structure a scale task was planted in."""
+    m = task.meta
+    if "hidden_cells" in m:  # the mixed family
+        cells = [tuple(c) for c in m["hidden_cells"]]
+        return Structure(cells, modules=[STOCK_TYPES[name] for name in m["hidden_modules"]])
+    return Structure([tuple(c) for c in m["planted_cells"]])
+
+
+@pytest.mark.parametrize("band", BANDS)
+def test_shipped_suites_hold_their_planted_size_and_bounds(band):
+    tasks = load_scale_suite(band)
+    assert {t.meta["family"] for t in tasks} == set(FAMILIES)
+    for task in tasks:
+        m = task.meta
+        assert m["band"] == band == m["planted"] == hidden_structure(task).n_modules
+        assert verified(hidden_structure(task), task), task.name  # the planted size is reachable
+        assert m["lift_bound"] <= m["lower_bound"] <= m["planted"]
+        if m["best_known"] is not None:
+            assert m["lower_bound"] <= m["best_known"] <= 64
+
+
+@pytest.mark.parametrize("band", (16, 64))
+def test_shipped_suites_are_redrawn_from_their_seeds(band):
+    """Recomputed wrenches match the shipped ones within a tolerance (CPUs differ in the last
+    bits), and so do the kind, f_max and palette."""
+    counts: dict = {}
+    for task in load_scale_suite(band):
+        family = task.meta["family"]
+        i = counts.setdefault(family, 0)
+        counts[family] += 1
+        assert task.meta["seed"] == task_seed(family, band, i)
+        again = draw(family, band, i)
+        np.testing.assert_allclose(again.wrenches, task.wrenches, rtol=1e-12, atol=1e-12)
+        assert (again.kind, again.f_max, again.meta["palette"]) == (
+            task.kind,
+            task.f_max,
+            task.meta["palette"],
+        )
+
+
+def test_validation_draws_are_not_held_out_tasks():
+    held = {task_seed(f, b, i) for f in FAMILIES for b in BANDS for i in range(100)}
+    val = {task_seed(f, b, i, validation=True) for f in FAMILIES for b in BANDS for i in range(100)}
+    assert not held & val
+    with pytest.raises(ValueError, match="at most 100"):
+        task_seed("planted", 16, 100)
+
+
+def test_bounds_of_a_fresh_draw_never_exceed_its_planted_size():
+    task = with_bounds(draw("torque", 16, 0, validation=True), time_limit=3.0)
+    m = task.meta
+    assert m["lift_bound"] <= m["lower_bound"] <= m["planted"]
+
+
+def test_anytime_honours_its_time_limit_with_a_palette_at_scale():
+    """Regression: with three types the exact levels past the tabulated level sizes were
+    taken as fitting, and listing 3^15 type assignments ran for minutes past the limit."""
+    task = draw("mixed", 24, 0, validation=True)
+    t0 = time.perf_counter()
+    r = anytime_search(task, n_max=64, time_limit=3.0, modules=task_palette(task))
+    assert time.perf_counter() - t0 < 6.0
+    assert r.structure is None or verified(r.structure, task)
+    assert r.lower_bound <= task.meta["planted"]
+
+
+def run_bench(*args, cwd):
+    return subprocess.run(
+        [sys.executable, "-m", "modquad_gym.cli", "bench", "scale", *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=600,
+    )
+
+
+@pytest.mark.slow
+def test_bench_scale_writes_its_report_and_refuses_to_overwrite(tmp_path):
+    out = tmp_path / "scale"
+    args = ["--bands", "16", "--families", "planted", "torque", "--methods", "anytime",
+            "greedy", "--time-limit", "2", "--out", str(out)]  # fmt: skip
+    done = run_bench(*args, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    for name in ("report.md", "rows.csv", "summary.csv", "gap_vs_size.png"):
+        assert (out / name).stat().st_size > 0
+    report = (out / "report.md").read_text()
+    assert "modquad bench scale --bands 16" in report and "Goals:" in report
+    rows = (out / "rows.csv").read_text().splitlines()
+    assert len(rows) == 1 + 2 * 2  # header, 2 tasks x 2 methods
+    again = run_bench(*args, cwd=tmp_path)
+    assert again.returncode == 2 and "--force" in again.stderr
+
+
+def test_bench_scale_refuses_bad_options_in_one_line(tmp_path):
+    for bad in (["--methods", "nope"], ["--time-limit", "0"], ["--bands", "65"]):
+        done = run_bench(*bad, "--out", str(tmp_path / "x"), cwd=tmp_path)
+        assert done.returncode == 2, (bad, done.stderr)
+        last = done.stderr.strip().splitlines()[-1]  # argparse prints its usage first
+        assert "error" in last and bad[0] in last and "Traceback" not in done.stderr
