@@ -197,6 +197,7 @@ def _report_names(what: str) -> tuple[str, ...]:
         "agents": REPORT_FILES[:1],
         "coldstart": ("coldstart.csv",),
         "anytime": ("anytime.md",),
+        "scale": ("report.md",),
     }
     if what == "level-bounds":
         from modquad_gym import TModule
