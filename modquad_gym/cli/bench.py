@@ -35,6 +35,10 @@ BENCHMARKS = {
     "paper": ("modquad_gym.bench.paper", "the paper's Sec. VI experiment"),
     "agents": ("modquad_gym.bench.agents", "PPO vs the searches on held-out tasks"),
     "coldstart": ("modquad_gym.bench.coldstart", "a fresh process's first search and PPO answer"),
+    "dynamics": (
+        "modquad_gym.bench.dynamics",
+        "minimum structures for motions (circle, figure-eight, push), flown in MuJoCo",
+    ),
 }
 """Benchmark name -> (module with ``main(argv)``, what it measures): the choices and help of
 ``bench``."""
