@@ -4,6 +4,7 @@ nothing exists); every message names the file, the 1-based row, the option or th
 from __future__ import annotations
 
 import argparse
+import sys
 
 import gymnasium as gym
 import numpy as np
@@ -57,6 +58,13 @@ def test_too_many_wrenches_name_the_file_and_a_batch_goes_on(tmp_path, capsys, m
     code, out, err = run_main(capsys, "solve", "--task", ".", "--json", "--workers", "1")
     assert code == 2 and "a_big.csv: the task has 10,001 wrenches" in err
     assert '"n_modules": 1' in out
+
+
+def test_bench_oracle_names_its_missing_extra_before_work(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "cvxpy", None)  # as if not installed
+    code, _, err = run_main(capsys, "bench", "oracle", "--out", str(tmp_path / "rep"))
+    assert_rejected(code, err, "cvxpy", "modquad_gym[reference]")
+    assert not (tmp_path / "rep").exists() or not any((tmp_path / "rep").iterdir())
 
 
 def test_generate_refuses_an_f_max_that_solve_would_refuse(tmp_path, capsys):

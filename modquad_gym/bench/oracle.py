@@ -30,6 +30,7 @@ boundary workload, with its ratio to HiGHS in the same run.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import os
 import time
 import tracemalloc
@@ -45,6 +46,7 @@ from modquad_gym.bench import (
     random_structure,
     write_csv,
 )
+from modquad_gym.core.extras import missing_extra_message
 from modquad_gym.core.outputs import write_text
 from modquad_gym.oracle import BAND, TOL, Zonotope, decide_with, margin_with
 from modquad_gym.oracle.daqp_lp import gamma_daqp
@@ -326,6 +328,8 @@ def main(argv: list[str] | None = None) -> None:
         seed_help="random seed",
         outputs=("oracle_benchmark.md", "oracle_benchmark.csv"),
     )
+    if importlib.util.find_spec("cvxpy") is None:  # a reference it times: say so before work
+        raise ImportError(missing_extra_message("cvxpy"))
     rows, goals = run(
         args.structures, args.wrenches, args.seed, args.out, args.repeats, args.modules
     )
