@@ -67,6 +67,13 @@ def test_bench_oracle_names_its_missing_extra_before_work(tmp_path, capsys, monk
     assert not (tmp_path / "rep").exists() or not any((tmp_path / "rep").iterdir())
 
 
+def test_bench_agents_refuses_a_bad_solver_before_the_benchmark_starts(tmp_path, capsys):
+    code, _, err = run_main(capsys, "bench", "agents", "--solver", "os:system", "--out",
+                            str(tmp_path / "rep"))  # fmt: skip
+    assert_rejected(code, err, "--solver 'os:system'", "standard-library")
+    assert "benchmark:" not in err  # no progress bar: nothing was started
+
+
 def test_generate_refuses_an_f_max_that_solve_would_refuse(tmp_path, capsys):
     out = tmp_path / "tiny.json"
     code, _, err = run_main(capsys, "task", "generate", "--kind", "paper", "--f-max", "1e-300",

@@ -32,7 +32,7 @@ from modquad_gym.core.options import int_option
 from modquad_gym.core.outputs import check_output_dir, write_csv
 from modquad_gym.geometry.module import palette
 from modquad_gym.search import SEARCHES, verified
-from modquad_gym.solvers import Solver, guided_options, make_solver
+from modquad_gym.solvers import Solver, guided_options, load_solver, make_solver
 from modquad_gym.tasks import TaskRequirement, load_suite
 
 SEARCH_METHODS = tuple(SEARCHES)
@@ -165,6 +165,8 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
     for m in methods:  # a bad name fails now, not in a worker after the work has started
         if m.startswith("ppo-guided-"):
             guided_options(m)
+    for spec in args.solver:  # likewise an outside agent that cannot be loaded
+        load_solver(spec)
     return methods
 
 
