@@ -198,6 +198,7 @@ def _report_names(what: str) -> tuple[str, ...]:
         "coldstart": ("coldstart.csv",),
         "anytime": ("anytime.md",),
         "scale": ("report.md",),
+        "dynamics": ("dynamics.csv",),
     }
     if what == "level-bounds":
         from modquad_gym import TModule
