@@ -131,16 +131,17 @@ def add_method(p: argparse.ArgumentParser, default: str = "anytime") -> None:
     )
     add_n_max(
         p,
-        "largest module count (default %(default)s; the anytime search, greedy and random go "
-        "up to 64, centrosymmetric to 21, the exhaustive search to 16)",
+        "largest module count (default %(default)s; the exhaustive search goes up to 16, "
+        "every other search up to 64)",
     )
     p.add_argument(
         "--time-limit",
         type=time_limit_option,
         default=DEFAULT_TIME_LIMIT,
         metavar="SECONDS",
-        help="seconds the anytime search may take, in (0, 86400] (default %(default)s): it "
-        "stops earlier when its lower bound meets the structure found",
+        help="seconds a search may take, in (0, 86400] (default %(default)s): the anytime "
+        "search stops earlier when its lower bound meets the structure found; centrosymmetric, "
+        "beam, genetic, greedy and random return what they have found by then",
     )
     p.add_argument(
         "--model",

@@ -6,7 +6,9 @@
   by local moves (:mod:`.moves`) and a proved lower bound, certified when they meet;
 * :mod:`.typed`: its pairs of shapes and type assignments (several types, or self-weight);
 * :mod:`.levels`: the size of each level and its progress bar;
-* :mod:`.baselines`: the centrosymmetric heuristic (Algorithm 2), greedy and random;
+* :mod:`.centrosymmetric`: the paper's heuristic (Algorithm 2), bounded by time and memory;
+* :mod:`.baselines`: greedy and random; :mod:`.beam` and :mod:`.genetic` (operators in
+  :mod:`.chromosomes`): the field's heuristics at scale; :mod:`.heuristic`: what they share;
 * :mod:`.bounds`: exact lower bounds (force, count, level) that rule out whole levels;
 * :mod:`.partial`: searching only the structures that contain a partial one (``start=``);
 * :mod:`.checker` and :mod:`.supports`: deciding a task against many structures.
@@ -21,8 +23,10 @@ workers passes an engine (:class:`modquad_gym.core.distributed.Engine`).
 """
 
 from modquad_gym.search.anytime import anytime_search
-from modquad_gym.search.baselines import centrosymmetric_search, greedy_search, random_search
+from modquad_gym.search.baselines import greedy_search, random_search
+from modquad_gym.search.beam import beam_search
 from modquad_gym.search.bounds import bound_levels, force_lower_bound, level_bounds
+from modquad_gym.search.centrosymmetric import centrosymmetric_search
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.search.exhaustive import (
     exhaustive_search,
@@ -30,6 +34,7 @@ from modquad_gym.search.exhaustive import (
     optimal_structures,
     scan_chunks,
 )
+from modquad_gym.search.genetic import genetic_search
 from modquad_gym.search.problem import SearchProblem
 from modquad_gym.search.result import Optima, SearchResult, verified
 
@@ -39,6 +44,8 @@ SEARCHES = {
     "greedy": greedy_search,
     "random": random_search,
     "anytime": anytime_search,
+    "beam": beam_search,
+    "genetic": genetic_search,
 }
 """The searches by name (the CLI's ``--method``)."""
 
@@ -49,10 +56,12 @@ __all__ = [
     "SearchResult",
     "TaskChecker",
     "anytime_search",
+    "beam_search",
     "bound_levels",
     "centrosymmetric_search",
     "exhaustive_search",
     "force_lower_bound",
+    "genetic_search",
     "greedy_search",
     "level_bounds",
     "optimal_level",
