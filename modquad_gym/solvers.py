@@ -26,7 +26,7 @@ METHOD_HELP = {
     "anytime": "the default: the exhaustive search's answer where it finishes within "
     "--time-limit, else the best structure found by local moves with its proved lower bound "
     "(up to 64 modules)",
-    "beam": "heuristic: beam search over growing structures (width 6, up to 64 modules)",
+    "beam": "heuristic: beam search over growing structures (width 4, up to 64 modules)",
     "genetic": "heuristic: genetic algorithm over structures, after Su et al. 2024 (up to 64 "
     "modules)",
     "ppo": "the learned agent (the shipped model unless --model)",

@@ -36,9 +36,11 @@ from modquad_gym.search.result import SearchResult, SearchRun
 MAX_MODULES = 64
 """The beam search's module limit (structures of up to 256 rotors)."""
 
-DEFAULT_BEAM_WIDTH = 6
-"""Structures kept per size (tuned on planted 64-module tasks of seeds >= 1000: a 64-module
-task then takes about 20-40 s on one core; wider beams rarely find smaller structures)."""
+DEFAULT_BEAM_WIDTH = 4
+"""Structures kept per size. Tuned on planted 64-module tasks (40 wrenches, generator seeds
+1000 and 1001, 60 s): widths 4, 6 and 10 found 59/58, 59/61 and 59/58 modules (lower bounds 59
+and 58); 4 found as small structures at the least work per level (20-55 s on a loaded 2-core
+machine), within the default time limit."""
 
 MAX_BEAM_WIDTH = 4096
 """The widest beam accepted (each level scores up to width x perimeter x types children)."""

@@ -60,7 +60,8 @@ def _centre(cand: Candidate) -> tuple[int, int]:
 def crossover(a: Candidate, b: Candidate, rng: np.random.Generator, n_max: int) -> Candidate:
     """The cells of ``a`` on one side of a random line through its centre and those of ``b``
     (translated so that the centres meet) on the other (``a``'s where both are), cut to their
-    largest connected piece and to ``n_max`` modules."""
+    largest connected piece and to the ``n_max`` cells of it nearest the centre by breadth
+    first search."""
     ax, ay = _centre(a)
     bx, by = _centre(b)
     theta = rng.uniform(0.0, 2.0 * np.pi)
@@ -74,11 +75,24 @@ def crossover(a: Candidate, b: Candidate, rng: np.random.Generator, n_max: int) 
         if (x - ax) * d[0] + (y - ay) * d[1] <= 0 or (x, y) not in typed:
             typed[(x, y)] = t
     piece = _largest_piece(typed)
-    cells, types = list(piece), list(piece.values())
-    while len(cells) > n_max:
-        i = int(rng.choice(removable(cells)))
-        del cells[i], types[i]
-    return candidate(cells, types)
+    cells = _nearest_connected(piece, (ax, ay), n_max)
+    return candidate(cells, [piece[c] for c in cells])
+
+
+def _nearest_connected(piece: dict[Cell, int], centre: Cell, n_max: int) -> list[Cell]:
+    """At most n_max cells of the connected ``piece``, connected: breadth first from its cell
+    nearest ``centre`` (ties: the smallest cell), neighbours in a fixed order."""
+    start = min(piece, key=lambda c: ((c[0] - centre[0]) ** 2 + (c[1] - centre[1]) ** 2, c))
+    out, seen = [start], {start}
+    for x, y in out:
+        if len(out) >= n_max:
+            break
+        for dx, dy in NEIGHBOURS:
+            nb = (x + dx, y + dy)
+            if nb in piece and nb not in seen and len(out) < n_max:
+                seen.add(nb)
+                out.append(nb)
+    return out
 
 
 def mutate(cand: Candidate, rng: np.random.Generator, n_types: int, n_max: int) -> Candidate:

@@ -62,7 +62,8 @@ def removable(cells: Sequence[Cell]) -> list[int]:
     index = {c: i for i, c in enumerate(cells)}
     adj = [[index[(x + dx, y + dy)] for dx, dy in NEIGHBOURS if (x + dx, y + dy) in index]
            for x, y in cells]  # fmt: skip
-    return [i for i in range(n) if i not in _articulation_points(adj)]
+    cut = _articulation_points(adj)  # once: not once per cell
+    return [i for i in range(n) if i not in cut]
 
 
 def _articulation_points(adj: list[list[int]]) -> set[int]:
