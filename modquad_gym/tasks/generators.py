@@ -13,6 +13,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from modquad_gym.core.validation import check_f_max
+from modquad_gym.dynamics import DynamicTask
 from modquad_gym.geometry.module import GRAVITY, ModuleType, palette
 from modquad_gym.geometry.structure import Cell, Structure, free_neighbours
 from modquad_gym.tasks.requirement import TaskRequirement
@@ -267,17 +268,23 @@ class ScrewdriverTask:
 
 @dataclass(frozen=True)
 class FixedTasks:
-    """Given tasks, one drawn uniformly at random per call (deterministic under the seed)."""
+    """Given tasks, one drawn uniformly at random per call (deterministic under the seed):
+    static (:class:`TaskRequirement`) or dynamic (:class:`~modquad_gym.dynamics.DynamicTask`,
+    whose wrenches depend on the structure)."""
 
-    tasks: tuple[TaskRequirement, ...]
+    tasks: tuple[TaskRequirement | DynamicTask, ...]
     name: str = "fixed"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "tasks", tuple(self.tasks))
-        if not self.tasks or not all(isinstance(t, TaskRequirement) for t in self.tasks):
-            raise ValueError("FixedTasks needs a non-empty sequence of TaskRequirement")
+        if not self.tasks or not all(
+            isinstance(t, (TaskRequirement, DynamicTask)) for t in self.tasks
+        ):
+            raise ValueError(
+                "FixedTasks needs a non-empty sequence of tasks (TaskRequirement, DynamicTask)"
+            )
 
-    def __call__(self, rng: np.random.Generator) -> TaskRequirement:
+    def __call__(self, rng: np.random.Generator) -> TaskRequirement | DynamicTask:
         if len(self.tasks) == 1:
             return self.tasks[0]
         return self.tasks[int(rng.integers(len(self.tasks)))]

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from modquad_gym.dynamics import DynamicTask
 from modquad_gym.tasks.files import SUFFIXES, json_keys
 from modquad_gym.tasks.generators import (
     FixedTasks,
@@ -49,20 +50,22 @@ def make_generator(spec: Any) -> TaskGenerator:
       (paper-like wrenches on the environment, kind ``external``, f_max 2 N) and
       ``"planted-mixed-external"`` (:class:`PlantedMixedTasks`, external, f_max 2 N: the mixed
       tier);
-    * a path to a task file (``.json``/``.csv``/``.npy``) or a suite JSON: those fixed tasks;
-    * a :class:`TaskRequirement`: always that task; a :class:`TaskGenerator` (``name`` and
-      ``__call__(rng)``): itself;
+    * a path to a task file (``.json``/``.csv``/``.npy``, a dynamic task's JSON too) or a suite
+      JSON: those fixed tasks;
+    * a :class:`TaskRequirement` or a :class:`~modquad_gym.dynamics.DynamicTask`: always that
+      task; a :class:`TaskGenerator` (``name`` and ``__call__(rng)``): itself;
     * any other callable ``gen(rng)`` (a function, a lambda, a bound method): wrapped as a
-      generator named after it; each result must be a :class:`TaskRequirement` or a (t, 6)
-      wrench array (made a TaskRequirement), anything else raises ValueError when drawn. The
-      wrapper pickles when ``gen`` does;
+      generator named after it; each result must be a :class:`TaskRequirement`, a
+      :class:`~modquad_gym.dynamics.DynamicTask` or a (t, 6) wrench array (made a
+      TaskRequirement), anything else raises ValueError when drawn. The wrapper pickles when
+      ``gen`` does;
     * a list or tuple of any of these: tasks are pooled into one :class:`FixedTasks` (uniform
       over tasks); if any element is a random generator, a :class:`MixedTasks` (uniform over
       elements).
 
     Raises ValueError naming the spec (TaskFileError for a bad file).
     """
-    if isinstance(spec, TaskRequirement):
+    if isinstance(spec, (TaskRequirement, DynamicTask)):
         return FixedTasks((spec,), name=spec.name)
     if isinstance(spec, (list, tuple)):
         if not spec:
@@ -96,8 +99,8 @@ def make_generator(spec: Any) -> TaskGenerator:
         return CallableTasks(spec)
     raise ValueError(
         f"cannot make a task generator from {type(spec).__name__} {spec!r}; give a name "
-        f"({', '.join(GENERATORS)}), a task file, a TaskRequirement, a generator (any "
-        f"callable gen(rng) -> TaskRequirement) or a list"
+        f"({', '.join(GENERATORS)}), a task file, a TaskRequirement, a DynamicTask, a "
+        f"generator (any callable gen(rng) -> TaskRequirement) or a list"
     )
 
 
@@ -108,15 +111,15 @@ class CallableTasks:
         self.fn = fn
         self.name = str(getattr(fn, "__name__", None) or type(fn).__name__)
 
-    def __call__(self, rng: np.random.Generator) -> TaskRequirement:
+    def __call__(self, rng: np.random.Generator) -> TaskRequirement | DynamicTask:
         task = self.fn(rng)
-        if isinstance(task, TaskRequirement):
+        if isinstance(task, (TaskRequirement, DynamicTask)):
             return task
         what = f"task generator {self.name!r} returned"
         if not isinstance(task, (np.ndarray, list, tuple)):
             raise ValueError(
-                f"{what} {type(task).__name__}; it must return a TaskRequirement or a "
-                f"(t, 6) wrench array"
+                f"{what} {type(task).__name__}; it must return a TaskRequirement, a "
+                f"DynamicTask or a (t, 6) wrench array"
             )
         try:
             return TaskRequirement(task, name=self.name)

@@ -5,7 +5,7 @@ encodings (grid cells, or the structure's free faces) and their masks,
 observation blocks, :mod:`.lookahead` the per-action candidate rows, :mod:`.evaluator` the exact
 decisions (by :meth:`modquad_gym.oracle.WrenchOracle.screened`) and their caches,
 :mod:`.viewer` the pictures, :mod:`.inputs` the input cleaning, :mod:`.modules` the module set
-(one type or a palette).
+(one type or a palette), :mod:`.dynamic` dynamic tasks (each structure's own wrenches).
 
 Where to add: a reward term in :mod:`.reward` (:class:`WeightedReward.terms`), an observation
 feature in :mod:`.features` (:func:`observation_blocks`), a module set's env behaviour in

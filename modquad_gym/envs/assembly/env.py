@@ -133,7 +133,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     ## Starting State
     One module at cell (0, 0) and a task drawn from the task source with ``self.np_random``
     (seeded by ``reset(seed=...)``), or the task given as ``reset(options={"task": task})``
-    (a :class:`~modquad_gym.tasks.TaskRequirement` or a (t, 6) wrench array).
+    (a :class:`~modquad_gym.tasks.TaskRequirement`, a DynamicTask or a (t, 6) wrench array).
 
     ## Episode End
     * Termination (success): every task wrench is satisfied. If one module already satisfies the
@@ -149,10 +149,11 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
 
     ## Arguments
     * ``tasks``: task source: ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"``
-      (default), a task file path, a TaskRequirement, a list of them, or a generator: any
-      callable ``gen(rng) -> TaskRequirement`` (or a (t, 6) wrench array), called with
-      ``self.np_random`` at each reset; a result of another kind raises a ValueError there.
-      See :func:`modquad_gym.tasks.make_generator`.
+      (default), a task file path, a TaskRequirement, a DynamicTask (a motion: each structure
+      decided on its own rotor wrenches, :mod:`~modquad_gym.envs.assembly.dynamic`), a list of
+      them, or a generator: any callable ``gen(rng) -> TaskRequirement`` (or DynamicTask, or
+      (t, 6) wrench array), called with ``self.np_random`` at each reset; a result of another
+      kind raises a ValueError there. See :func:`modquad_gym.tasks.make_generator`.
     * ``n_max``: the largest number of modules (default 7, as in the paper), 2 to 64.
     * ``module``: the :class:`~modquad_gym.geometry.module.ModuleType` of every module (default the
       T-module, eta = pi/4).
@@ -331,7 +332,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
 
     @property
     def task(self) -> Any:
-        """The current task (a TaskRequirement)."""
+        """The current task (a TaskRequirement or a DynamicTask)."""
         return self._require("asking for the task").task.requirement
 
     def action_masks(self) -> np.ndarray:
@@ -368,8 +369,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
         self._episode = Episode(
             self.rules, self.encoding, self.module_set, evaluator, memo, cand_memo
         )
-        kind = getattr(task, "kind", "total")
-        arrays = evaluator.task_arrays(task, np.asarray(task.wrenches, dtype=float), kind)
+        arrays = evaluator.episode_arrays(task, self.module_set.key(((0, 0),), types))
         self._state = initial_state(self._episode, arrays, types)
         return self._observation(), self._info()
 

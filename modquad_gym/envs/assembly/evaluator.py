@@ -10,6 +10,9 @@ Each step's decisions are one call of :meth:`~modquad_gym.oracle.WrenchOracle.sc
 structure's support values screen the wrenches, the oracle decides the rest (with the default
 method ``"auto"``, both in one compiled call).
 
+A dynamic task (:mod:`.dynamic`) is decided the same way, each structure on its own rotor
+wrenches (:meth:`StructureEvaluator.task_of`).
+
 Structures of more than :data:`COMPILED_FROM` - 1 modules (beyond the grid env's old reach) build
 their configuration matrix in one compiled call, the same matrix as
 :meth:`~modquad_gym.geometry.structure.Structure.configuration_matrix` up to round-off; smaller
@@ -28,6 +31,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from modquad_gym.envs.assembly.dynamic import is_dynamic, own_arrays, start_arrays
 from modquad_gym.envs.assembly.features import AssemblyFeatures
 from modquad_gym.envs.assembly.types import TaskArrays
 from modquad_gym.geometry.module import GRAVITY, ModuleType
@@ -168,11 +172,25 @@ class StructureEvaluator:
             lift = GRAVITY * self.features.D[:, 2] / self.features.denom
         return TaskArrays(requirement, str(requirement.name), W, vec, h_Tn, WD, kind, lift)
 
+    def episode_arrays(self, task: Any, key: Any) -> TaskArrays:
+        """The arrays an episode of ``task`` starts with, ``key`` its initial structure: a
+        static task's wrenches, or a dynamic task's for that structure (:mod:`.dynamic`)."""
+        if is_dynamic(task):
+            return start_arrays(self, task, key)
+        kind = getattr(task, "kind", "total")
+        return self.task_arrays(task, np.asarray(task.wrenches, dtype=float), kind)
+
+    def task_of(self, task: TaskArrays, key: Any) -> TaskArrays:
+        """The arrays that decide the structure ``key``: ``task`` itself, or for a dynamic task
+        those of the structure's own wrenches (:func:`.dynamic.own_arrays`)."""
+        return own_arrays(self, task, key) if is_dynamic(task) else task
+
     @staticmethod
     def at_mass(task: TaskArrays, mass: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(rotor wrenches, h_T / denom, WD) of ``task`` for a structure of ``mass`` kg: the
-        task itself when it is ``total``, else shifted by the weight."""
-        if task.kind == "total":
+        task itself when it is ``total`` (or ``dynamic``: arrays of :meth:`task_of` are the
+        structure's own), else shifted by the weight."""
+        if task.kind == "total" or is_dynamic(task):
             return task.W, task.h_Tn, task.WD
         W = task.W.copy()
         W[:, 2] += mass * GRAVITY
@@ -183,7 +201,8 @@ class StructureEvaluator:
         self, key: Any, task: TaskArrays, mass: float, memo: dict
     ) -> tuple[int, np.ndarray, int]:
         """(satisfied wrenches, structure vector, oracle tests made) of structure ``key`` against
-        ``task``; ``memo`` is the task's memo from :class:`TaskMemos`."""
+        ``task`` (for a dynamic task: ``task_of(task, key)``); ``memo`` is the task's memo from
+        :class:`TaskMemos`."""
         hit = memo.get(key)
         if hit is not None:
             return hit[0], hit[1], 0
@@ -203,9 +222,15 @@ class StructureEvaluator:
         self, keys: list, task: TaskArrays, mass: float, memo: dict
     ) -> list[np.ndarray]:
         """Lookahead rows of the child structures ``keys`` (one size, one mass) against
-        ``task``, memoised per task in ``memo`` (support functions only, no oracle call)."""
+        ``task``, memoised per task in ``memo`` (support functions only, no oracle call); a
+        dynamic task's child against its own wrenches."""
         missing = [k for k in dict.fromkeys(keys) if k not in memo]
-        if missing:
+        if missing and is_dynamic(task):
+            h, slack = self.supports_of(missing)
+            for k, hk, sk in zip(missing, h, slack):
+                own = self.task_of(task, k)
+                memo[k] = self.features.candidates(hk[None], sk[None], own.h_Tn, own.WD)[0]
+        elif missing:
             _, h_Tn, WD = self.at_mass(task, mass)
             h, slack = self.supports_of(missing)
             memo.update(zip(missing, self.features.candidates(h, slack, h_Tn, WD)))

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from modquad_gym.core.validation import check_int, check_real
+from modquad_gym.dynamics import DynamicTask
 from modquad_gym.envs.assembly.types import Rules
 from modquad_gym.oracle import METHODS as ORACLE_METHODS
 from modquad_gym.tasks import TaskRequirement
@@ -104,16 +105,20 @@ def draw_task(
     rng: np.random.Generator,
     given: Any,
     self_weight: bool,
-) -> TaskRequirement:
+) -> TaskRequirement | DynamicTask:
     """The episode's task: ``given`` (the reset option) or one drawn from ``generator`` with
-    ``rng``; tasks of kind ``external`` only when the env decides ``self_weight``."""
+    ``rng``; tasks of kind ``external`` only when the env decides ``self_weight``; a
+    :class:`~modquad_gym.dynamics.DynamicTask` always (each structure's own mass and inertia
+    decide it, :mod:`.dynamic`)."""
     if given is not None:
         task = as_task(given, "options['task']")
     else:
         task = generator(rng)
-        if not isinstance(task, TaskRequirement):
+        if not isinstance(task, (TaskRequirement, DynamicTask)):
             name = str(getattr(generator, "name", type(generator).__name__))
             task = as_task(task, f"task generator {name!r} returned a bad task", name)
+    if isinstance(task, DynamicTask):
+        return task
     W = np.asarray(task.wrenches, dtype=float)
     if W.ndim != 2 or W.shape[1] != 6 or len(W) == 0:
         raise ValueError(f"task {task.name!r} wrenches must have shape (t >= 1, 6), got {W.shape}")
@@ -125,10 +130,11 @@ def draw_task(
     return task
 
 
-def as_task(task: Any, what: str, name: str = "options-task") -> TaskRequirement:
-    """A TaskRequirement from a TaskRequirement or a (t, 6) wrench array (named ``name``); for
-    anything else a ValueError whose message starts with ``what``."""
-    if isinstance(task, TaskRequirement):
+def as_task(task: Any, what: str, name: str = "options-task") -> TaskRequirement | DynamicTask:
+    """A task from a TaskRequirement or a DynamicTask (itself) or a (t, 6) wrench array (a
+    TaskRequirement named ``name``); for anything else a ValueError whose message starts with
+    ``what``."""
+    if isinstance(task, (TaskRequirement, DynamicTask)):
         return task
     try:
         arr = np.asarray(task, dtype=float)
@@ -137,7 +143,7 @@ def as_task(task: Any, what: str, name: str = "options-task") -> TaskRequirement
     if arr is None or arr.ndim != 2 or arr.shape[1] != 6:
         got = type(task).__name__ if arr is None or arr.ndim == 0 else f"shape {arr.shape}"
         raise ValueError(
-            f"{what}: expected a TaskRequirement or a (t, 6) wrench array, got {got}"
+            f"{what}: expected a TaskRequirement, a DynamicTask or a (t, 6) wrench array, got {got}"
         ) from None
     try:
         return TaskRequirement(arr, name=name)

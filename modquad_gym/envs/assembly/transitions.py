@@ -8,11 +8,14 @@ from modquad_gym.envs.assembly.types import AssemblyState, Episode, TaskArrays
 
 
 def decided_fields(ep: Episode, state: AssemblyState, cells: tuple, types: tuple) -> dict:
-    """The state fields of the structure (cells, types) against the episode's task."""
+    """The state fields of the structure (cells, types) against the episode's task (with the
+    structure's own task arrays: those of a dynamic task change with it)."""
     key = ep.modules.key(cells, types)
-    n_sat, vec, tests = ep.evaluator.evaluate(key, state.task, ep.modules.mass(types), ep.memo)
-    t = len(state.task.W)
+    task = ep.evaluator.task_of(state.task, key)  # a dynamic task: the structure's own wrenches
+    n_sat, vec, tests = ep.evaluator.evaluate(key, task, ep.modules.mass(types), ep.memo)
+    t = len(task.W)
     return {
+        "task": task,
         "structure_vec": vec,
         "frac": n_sat / t,
         "success": n_sat == t,

@@ -23,13 +23,15 @@ class TaskArrays:
     """One episode's task as the env uses it.
 
     Attributes:
-        requirement: the task (a :class:`~modquad_gym.tasks.TaskRequirement`).
+        requirement: the task (a :class:`~modquad_gym.tasks.TaskRequirement`, or a
+            :class:`~modquad_gym.dynamics.DynamicTask`).
         name: its name.
-        W: wrenches (t, 6).
+        W: wrenches (t, 6) (a dynamic task's: those of one structure, :mod:`.dynamic`).
         vec: the task feature vector (float32).
         h_Tn: the task's support on the feature directions, divided by denom (K,).
         WD: each wrench's projections on the directions, divided by denom (t, K).
-        kind: ``"total"`` or ``"external"`` (self-weight added per structure).
+        kind: ``"total"``, ``"external"`` (self-weight added per structure) or ``"dynamic"``
+            (the arrays are one structure's own).
         lift_n: per direction, the normalised change of WD per kg of structure (external tasks).
     """
 
