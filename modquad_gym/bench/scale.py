@@ -49,24 +49,35 @@ def band_tasks(band: int, families, per_family: int, validation: bool, time_limi
 
 
 def run_band(method: str, tasks: list, time_limit: float, seed: int) -> list[dict]:
-    """Solve ``tasks`` with ``method`` (one process: solvers made once per palette)."""
+    """Solve ``tasks`` with ``method`` (one process: a solver made once per palette and kind).
+    A task the method refuses (a ValueError) is recorded with its one-line reason."""
     from modquad_gym.bench.scale_suites import task_palette
+    from modquad_gym.geometry.module import TModule
     from modquad_gym.search import verified
-    from modquad_gym.solvers import make_solver
+    from modquad_gym.solvers import learned_options, make_solver
 
+    learned = learned_options(method) is not None
     solvers: dict = {}
     out = []
     for task in tasks:
-        names = task.meta.get("palette")
-        if names not in solvers:
-            modules = task_palette(task)
-            solvers[names] = make_solver(
-                method, n_max=64, seed=seed, modules=modules, time_limit=time_limit
-            )
-        r, seconds, peak = measured(solvers[names].solve, task)
+        modules = task_palette(task)
+        if modules is None and learned and task.kind != "total":
+            modules = [TModule()]  # the env decides self-weight through a module set
+        key = (task.meta.get("palette"), task.kind)
+        try:
+            if key not in solvers:
+                solvers[key] = make_solver(
+                    method, n_max=64, seed=seed, modules=modules, time_limit=time_limit
+                )
+            r, seconds, peak = measured(solvers[key].solve, task)
+        except ValueError as exc:
+            note = str(exc).splitlines()[0]
+            out.append({"task": task.name, "found": None, "proved": 0, "verified": False,
+                        "seconds": 0.0, "peak_MB": 0.0, "note": note})  # fmt: skip
+            continue
         out.append({"task": task.name, "found": r.n_modules, "proved": r.lower_bound,
                     "verified": verified(r.structure, task), "seconds": seconds,
-                    "peak_MB": peak})  # fmt: skip
+                    "peak_MB": peak, "note": ""})  # fmt: skip
     return out
 
 
@@ -86,6 +97,7 @@ def task_row(task, method: str, res: dict, bound: int) -> dict:
         "gap_to_bound": found - bound if found is not None else "",
         "seconds": round(res["seconds"], 2),
         "peak_MB": round(res["peak_MB"]),
+        "note": res["note"],
     }
 
 
