@@ -120,9 +120,8 @@ class GuidedSolver:
         else:
             proof = f"exact bounds rule out every level up to {self.n_max}"
         n_evaluated = len(evaluated)
-        return search_result(
-            self.name, self.n_max, best, n_evaluated, oracle_calls, t0, certified, proof, bound
-        )
+        return search_result(self.name, self.n_max, best, n_evaluated, oracle_calls, t0,
+                             certified, proof, bound, task.kind)  # fmt: skip
 
     def __repr__(self) -> str:
         return (

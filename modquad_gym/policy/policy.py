@@ -17,6 +17,7 @@ import gymnasium as gym
 import numpy as np
 
 from modquad_gym.core.extras import import_optional
+from modquad_gym.dynamics import DynamicTask
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.policy.models import read_model
@@ -57,9 +58,12 @@ def env_kwargs_of(model, config: dict) -> dict:
     return kwargs
 
 
-def as_task(task: Any) -> TaskRequirement:
-    """``task`` as a TaskRequirement (a (t, 6) wrench array is wrapped)."""
-    return task if isinstance(task, TaskRequirement) else TaskRequirement(task, name="task")
+def as_task(task: Any) -> TaskRequirement | DynamicTask:
+    """``task`` as a TaskRequirement (a (t, 6) wrench array is wrapped); a dynamic task as it
+    is (the environment decides each structure on its own wrenches)."""
+    if isinstance(task, (TaskRequirement, DynamicTask)):
+        return task
+    return TaskRequirement(task, name="task")
 
 
 class Policy:
@@ -219,10 +223,11 @@ def search_result(
     certified: bool | None = False,
     proof: str = "",
     lower_bound: int | None = None,
+    kind: str = "total",
 ) -> SearchResult:
     """The search record of a learned solver ``name`` that started at ``t0`` and kept
     ``best`` (with the proved ``lower_bound`` on the module count, when the solver knows
-    one; ``certified`` None: derived from it)."""
+    one; ``certified`` None: derived from it) on a task of ``kind``."""
     return SearchResult(
         structure=best,
         n_modules=best.n_modules if best is not None else None,
@@ -234,4 +239,5 @@ def search_result(
         n_max=n_max,
         proof=proof,
         lower_bound=lower_bound,
+        kind=kind,
     )

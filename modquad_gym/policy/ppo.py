@@ -90,8 +90,9 @@ class PPOSolver:
         certified = (
             best is not None and best.n_modules == bound or best is None and bound > self.n_max
         )
+        proof = "lower bound reached" if certified else ""
         return search_result(self.name, self.n_max, best, len(seen), oracle_calls, t0, certified,
-                             "lower bound reached" if certified else "", bound)  # fmt: skip
+                             proof, bound, task.kind)  # fmt: skip
 
     def __repr__(self) -> str:
         return (
