@@ -35,7 +35,6 @@ from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream
 from modquad_gym.geometry.structure import Structure, normalise
-from modquad_gym.oracle import Zonotope
 from modquad_gym.search.bounds import (
     NO_SIZE,
     allowed_counts,
@@ -179,12 +178,7 @@ class Incumbents:
         """How many task wrenches the candidate cannot exert (exact decisions; cached)."""
         key = self._key(cand)
         if key not in self._missed:
-            s = self.structure(cand)
-            W = self.problem.rotor_wrenches(s)
-            checker = self.run.checker
-            checker.evaluated += 1
-            checker.oracle_calls += len(W)
-            ok = Zonotope(s.configuration_matrix(), self.problem.f_max).decide_certified(W)
+            _, W, ok = self.run.decide(self.structure(cand))
             self._missed[key] = int(len(W) - ok.sum())
         return self._missed[key]
 

@@ -21,7 +21,7 @@ import numpy as np
 from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Cell, Structure, free_neighbours
-from modquad_gym.oracle import Zonotope, margin
+from modquad_gym.oracle import margin
 from modquad_gym.search.anytime import DEFAULT_TIME_LIMIT
 from modquad_gym.search.heuristic import Deadline, heuristic_result, impossible_result
 from modquad_gym.search.problem import SearchProblem
@@ -60,14 +60,10 @@ def greedy_search(
     deadline = Deadline(run, time_limit)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
         return done
-    f, checker, palette = problem.f_max, run.checker, problem.palette
+    f, palette = problem.f_max, problem.palette
 
     def score(s: Structure) -> tuple[bool, tuple[float, float]]:
-        W = problem.rotor_wrenches(s)
-        z = Zonotope(s.configuration_matrix(), f)
-        checker.evaluated += 1
-        checker.oracle_calls += len(W)
-        ok = z.decide_certified(W)
+        z, W, ok = run.decide(s)
         if ok.all():
             return True, (1.0, 0.0)
         total = float(np.clip(margin(z.A, W, f, method="daqp"), -1.0, 1.0).sum())
@@ -75,10 +71,7 @@ def greedy_search(
 
     if len(palette) == 1:
         current = Structure([(0, 0)], problem.module)
-        checker.evaluated += 1
-        W = problem.rotor_wrenches(current)
-        checker.oracle_calls += len(W)
-        if Zonotope(current.configuration_matrix(), f).decide_certified(W).all():
+        if run.decide(current)[2].all():
             return heuristic_result(run, current)
     else:
         current, best_score = None, None

@@ -20,7 +20,6 @@ import numpy as np
 
 from modquad_gym.geometry.cells import Cell, normalise_typed
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.oracle import Zonotope
 from modquad_gym.search.anytime import check_time_limit
 from modquad_gym.search.bounds import (
     NO_SIZE,
@@ -111,13 +110,7 @@ class Scores:
     def score(self, cand: Candidate) -> tuple[int, float, float]:
         key = np.array([(x, y, t) for (x, y), t in cand], dtype=np.int32).tobytes()
         if key not in self.cache:
-            s = self.structure(cand)
-            W = self.problem.rotor_wrenches(s)
-            checker = self.run.checker
-            checker.evaluated += 1
-            checker.oracle_calls += len(W)
-            z = Zonotope(s.configuration_matrix(), self.problem.f_max)
-            ok = z.decide_certified(W)
+            z, W, ok = self.run.decide(self.structure(cand))
             R, off = z.reduce(W)
             gamma = np.abs(R @ z.P.T).max(axis=1)
             tie = np.where(off, -1.0, np.clip(1.0 - gamma, -1.0, 1.0))

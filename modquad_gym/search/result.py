@@ -15,8 +15,10 @@ import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from modquad_gym.geometry.structure import Key, Structure
-from modquad_gym.oracle import feasible
+from modquad_gym.oracle import Zonotope, feasible
 from modquad_gym.tasks import rotor_wrenches
 
 if TYPE_CHECKING:
@@ -168,6 +170,15 @@ class SearchRun:
         self.problem = problem
         self.skipped = 0
         self.checker = problem.checker()
+
+    def decide(self, s: Structure) -> tuple[Zonotope, np.ndarray, np.ndarray]:
+        """(zonotope of ``s``, its own rotor wrenches W, the exact decision of each), counted as
+        one evaluated configuration and ``len(W)`` oracle calls."""
+        W = self.problem.rotor_wrenches(s)
+        self.checker.evaluated += 1
+        self.checker.oracle_calls += len(W)
+        z = Zonotope(s.configuration_matrix(), self.problem.f_max)
+        return z, W, z.decide_certified(W)
 
     def check_budget(self, limit: int, first_level: int) -> None:
         """Refuse before any work an n_max beyond ``limit``, this method's reach in bounded
