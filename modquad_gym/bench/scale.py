@@ -27,7 +27,13 @@ import numpy as np
 
 from modquad_gym.bench import bench_args, int_option, machine_description, markdown_table, write_csv
 from modquad_gym.bench.measure import fresh, measured
-from modquad_gym.bench.scale_suites import BANDS, FAMILIES
+from modquad_gym.bench.scale_suites import (
+    BANDS,
+    FAMILIES,
+    build_band,
+    load_scale_suite,
+    task_palette,
+)
 from modquad_gym.core.outputs import write_text
 from modquad_gym.core.resources import cap_workers
 
@@ -44,8 +50,6 @@ GOALS = {"anytime_gap_pct": 5.0, "heuristic_gap_pct": 10.0, "seconds": 60.0}
 
 
 def band_tasks(band: int, families, per_family: int, validation: bool, time_limit: float):
-    from modquad_gym.bench.scale_suites import build_band, load_scale_suite
-
     if validation:
         tasks = build_band(band, per_family, time_limit, validation=True)
         return [t for t in tasks if t.meta["family"] in families]
@@ -55,7 +59,6 @@ def band_tasks(band: int, families, per_family: int, validation: bool, time_limi
 def run_band(method: str, tasks: list, time_limit: float, seed: int) -> list[dict]:
     """Solve ``tasks`` with ``method`` (one process: a solver made once per palette and kind).
     A task the method refuses (a ValueError) is recorded with its one-line reason."""
-    from modquad_gym.bench.scale_suites import task_palette
     from modquad_gym.geometry.module import TModule
     from modquad_gym.search import verified
     from modquad_gym.solvers import learned_options, make_solver

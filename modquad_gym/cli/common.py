@@ -50,11 +50,11 @@ def load_task(path, csv_header: str = "auto"):
     return task
 
 
-def check_method_for(task, method: str | None, path=None, modules=None) -> None:
+def check_task(task, path=None, modules=None) -> None:
     """Checks before any work. A dynamic task (its wrenches depend on the structure) is
     refused when no structure of the module types ``modules`` (default the T-module) can lift
     its payload. A static task of more wrenches than a search takes: TaskFileError naming the
-    file ``path``. (``method``: the method that will answer; every method takes both kinds.)"""
+    file ``path``. Every method takes both kinds of task."""
     from modquad_gym.search.problem import check_search_size
     from modquad_gym.tasks import TaskFileError
 

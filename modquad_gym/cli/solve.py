@@ -103,7 +103,7 @@ def solve_file(options: tuple, path: Path):
     """Load and solve one task file (the unit of work of a batch): (task, result)."""
     method, n_max, model, seed, modules, csv_header, limit = options
     task = common.load_task(path, csv_header)
-    common.check_method_for(task, method, path, palette_of(modules))
+    common.check_task(task, path, palette_of(modules))
     result = cached_solver(method, n_max, model, seed, modules, None, False, limit)(task)
     return task, result
 
@@ -169,7 +169,7 @@ def solve_path(args: argparse.Namespace, path: Path, solve, single: bool) -> lis
     when it is the only one) and returned."""
     try:
         task = common.load_task(path, args.csv_header)
-        common.check_method_for(task, args.method, path, palette(args))
+        common.check_task(task, path, palette(args))
     except (ValueError, OSError) as exc:
         if single:
             raise

@@ -108,7 +108,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     k = None if args.all_wrenches else check_int(args.max_hover_wrenches, "--max-hover-wrenches", 1)
     task = common.load_task(args.task, args.csv_header)
     dynamic = getattr(task, "kind", None) == "dynamic"
-    common.check_method_for(task, args.method, args.task, common.palette(args))
+    common.check_task(task, args.task, common.palette(args))
     check_output_dir(args.out, OUTPUT_NAMES + (TRACK_NAMES if dynamic else ()), force=args.force)
     n_hover = task.n_wrenches if k is None else min(k, task.n_wrenches)
     flights = 1 if args.known_load_only else 2
