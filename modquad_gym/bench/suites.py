@@ -22,12 +22,14 @@ of up to ``n_max`` modules works).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
 
+from modquad_gym.dynamics import DynamicTask
 from modquad_gym.search import exhaustive_search
 from modquad_gym.tasks import (
     PaperTasks,
@@ -47,19 +49,23 @@ HELDOUT = {"heldout_planted": 60, "heldout_paper": 40}
 """Default held-out suites and their sizes."""
 
 
-def draw_task(generator: TaskGenerator, seed: int, name: str | None = None) -> TaskRequirement:
+def draw_task(generator: TaskGenerator, seed: int, name: str | None = None):
     """The task ``generator`` draws from ``default_rng(seed)``, with ``meta["seed"]`` set."""
     task = generator(np.random.default_rng(seed))
-    meta = {**task.meta, "seed": int(seed)}
-    return TaskRequirement(
-        task.wrenches, name=name or task.name, f_max=task.f_max, kind=task.kind, meta=meta
-    )
+    return relabelled(task, name or task.name, {**task.meta, "seed": int(seed)})
 
 
-def with_optimum(task: TaskRequirement, n_max: int = 7, modules=None) -> TaskRequirement:
-    """``task`` with its certified optimum in ``meta`` (exhaustive search up to ``n_max``, over
-    the ``modules`` palette if given): ``optimum`` (None beyond n_max), ``optimum_n_max``,
-    ``optimum_cells``, ``optimum_modules`` (with a palette), and the search's
+def relabelled(task, name: str, meta: dict):
+    """``task`` (static or dynamic) under another name and meta."""
+    if isinstance(task, DynamicTask):
+        return DynamicTask(task.trajectory, task.payload, task.exerted, task.f_max, name, meta)
+    return dataclasses.replace(task, name=name, meta=meta)
+
+
+def with_optimum(task, n_max: int = 7, modules=None):
+    """``task`` (static or dynamic) with its certified optimum in ``meta`` (exhaustive search up
+    to ``n_max``, over the ``modules`` palette if given): ``optimum`` (None beyond n_max),
+    ``optimum_n_max``, ``optimum_cells``, ``optimum_modules`` (with a palette), and the search's
     ``exhaustive_evaluated`` and ``exhaustive_seconds``."""
     t0 = time.perf_counter()
     r = exhaustive_search(task, n_max=n_max, **({"modules": modules} if modules else {}))
@@ -69,9 +75,7 @@ def with_optimum(task: TaskRequirement, n_max: int = 7, modules=None) -> TaskReq
             "optimum_modules": [m.name for m in s.modules] if s is not None and modules else None,
             "exhaustive_evaluated": r.evaluated,
             "exhaustive_seconds": round(time.perf_counter() - t0, 3)}  # fmt: skip
-    return TaskRequirement(
-        task.wrenches, name=task.name, f_max=task.f_max, kind=task.kind, meta=meta
-    )
+    return relabelled(task, task.name, meta)
 
 
 def build_suite(kind: str, n: int, n_max: int = 7) -> list[TaskRequirement]:

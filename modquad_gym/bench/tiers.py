@@ -6,10 +6,14 @@
   where the certified search costs seconds per task;
 * ``mixed``: ``ModQuadAssemblyMixed-v0`` with the palette t45, t45m, flat (n_max 7) on
   self-weight (``external``) tasks planted in mixed structures of 3-6 modules: the rotors also
-  lift the structure.
+  lift the structure;
+* ``dynamic``: ``ModQuadAssemblyDynamic-v0`` (one type, n_max 7) on random dynamic tasks
+  (:class:`~modquad_gym.dynamics.random_motions.MotionTasks`: motions, off-centre payloads,
+  pushes through a tool), each structure judged on its own mass and inertia; its model is the
+  default recipe trained on that source.
 
 Suites are package data (``modquad_gym/data/suites``); ``python -m modquad_gym.bench.tiers
-large`` (or ``mixed``) rewrites a tier's suite from its fixed seeds, each task with its
+large`` (or ``mixed``, ``dynamic``) rewrites a tier's suite from its fixed seeds, each task with its
 certified optimum from :func:`~modquad_gym.search.exhaustive_search`.
 """
 
@@ -26,6 +30,7 @@ from modquad_gym.bench.suites import (
     validation_tasks,
     with_optimum,
 )
+from modquad_gym.dynamics import DynamicTask
 from modquad_gym.geometry.module import palette
 from modquad_gym.policy.models import shipped_model
 from modquad_gym.tasks import TaskRequirement, load_suite, make_generator, save_suite
@@ -60,7 +65,9 @@ class Tier:
     configurations per task, or the search to evaluate fewer than (without it: fewer than every
     search but random)."""
 
-    def load_suites(self, limit: int | None = None) -> dict[str, list[TaskRequirement]]:
+    def load_suites(
+        self, limit: int | None = None
+    ) -> dict[str, list[TaskRequirement | DynamicTask]]:
         """The tier's held-out suites by name (first ``limit`` tasks of each)."""
         return {s: load_suite(SUITES_DIR / f"{s}.json")[:limit] for s in self.suites}
 
@@ -98,6 +105,10 @@ TIERS = {
                   source="planted-mixed-external", seed0=4_000_000, n_tasks=40,
                   recipe={"expert": "one", "demo_tasks": 3000, "timesteps": 100_000},
                   goals={m: {"success": 0.98, "optimal": 0.80} for m in ("ppo", "ppo-guided")}),
+    "dynamic": Tier("dynamic", "ModQuadAssemblyDynamic-v0", 7, ("dynamic_motions",),
+                    source="motions", seed0=7_000_000, n_tasks=60,
+                    goals={"ppo-guided": {"success": 0.98, "optimal": 0.95},
+                           "ppo": {"optimal": "greedy"}}),
 }  # fmt: skip
 """The tiers by name."""
 

@@ -12,6 +12,10 @@ package first) registers:
   (cell, type) actions (:class:`~modquad_gym.envs.assembly.modules.Palette`).
 * ``ModQuadAssemblyLarge-v0``: the same with ``n_max=12`` and ``tasks="planted-large"`` (tasks
   planted in 6-12 modules): the large benchmark tier (:mod:`modquad_gym.bench.tiers`).
+* ``ModQuadAssemblyDynamic-v0``: the same with ``tasks="motions"``: random dynamic tasks
+  (:class:`~modquad_gym.dynamics.random_motions.MotionTasks`: motions, off-centre payloads,
+  pushes through a tool), each structure decided on its own mass and inertia; the dynamic
+  benchmark tier.
 * ``ModQuadAssemblyScale-v0``: designs at the field's sizes: ``n_max=64``, tasks planted in
   16-64 modules, and the free-faces action encoding (``actions="faces"``,
   :mod:`~modquad_gym.envs.assembly.faces`): one action per free face of the structure (at most
@@ -46,6 +50,7 @@ ENV_IDS: dict[str, dict] = {
     "ModQuadAssemblyPlanted-v0": {"tasks": "planted"},
     "ModQuadAssemblyMixed-v0": {"modules": "t45,t45m,flat"},
     "ModQuadAssemblyLarge-v0": {"tasks": "planted-large", "n_max": 12},
+    "ModQuadAssemblyDynamic-v0": {"tasks": "motions"},
     "ModQuadAssemblyScale-v0": {
         "tasks": PlantedTasks(n_modules=(16, 64), name="planted-16-64"),
         "n_max": 64,

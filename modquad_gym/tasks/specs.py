@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from modquad_gym.dynamics import DynamicTask
+from modquad_gym.dynamics.random_motions import MotionTasks
 from modquad_gym.tasks.files import SUFFIXES, json_keys
 from modquad_gym.tasks.generators import (
     FixedTasks,
@@ -36,6 +37,7 @@ NAMED_GENERATORS: dict[str, Callable[[], TaskGenerator]] = {
                                          fz_offset=1.0, fz_gain=8.0, name="paper-external"),
     "planted-mixed-external": lambda: PlantedMixedTasks(kind="external", f_max=2.0,
                                                         name="planted-mixed-external"),
+    "motions": MotionTasks,
 }  # fmt: skip
 """The task sources by name (each call makes a fresh generator)."""
 GENERATORS = tuple(NAMED_GENERATORS)
@@ -49,7 +51,8 @@ def make_generator(spec: Any) -> TaskGenerator:
       ``"planted-large"`` (planted in 6-12 modules: the large tier), ``"paper-external"``
       (paper-like wrenches on the environment, kind ``external``, f_max 2 N) and
       ``"planted-mixed-external"`` (:class:`PlantedMixedTasks`, external, f_max 2 N: the mixed
-      tier);
+      tier); ``"motions"`` (:class:`~modquad_gym.dynamics.random_motions.MotionTasks`: random
+      dynamic tasks, the dynamic tier);
     * a path to a task file (``.json``/``.csv``/``.npy``, a dynamic task's JSON too) or a suite
       JSON: those fixed tasks;
     * a :class:`TaskRequirement` or a :class:`~modquad_gym.dynamics.DynamicTask`: always that

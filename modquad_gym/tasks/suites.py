@@ -1,4 +1,5 @@
-"""Suites: several tasks in one JSON file ``{"name": ..., "tasks": [task dicts...]}``."""
+"""Suites: several tasks in one JSON file ``{"name": ..., "tasks": [task dicts...]}``; a task
+dict with a ``"trajectory"`` is a dynamic task (:class:`~modquad_gym.dynamics.DynamicTask`)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from modquad_gym.core.outputs import write_text
+from modquad_gym.dynamics import DynamicTask
 from modquad_gym.tasks.files import (
     SUITE_KEYS,
     PathLike,
@@ -18,9 +20,10 @@ from modquad_gym.tasks.files import (
 from modquad_gym.tasks.requirement import TaskRequirement
 
 
-def load_suite(path: PathLike) -> list[TaskRequirement]:
+def load_suite(path: PathLike) -> list[TaskRequirement | DynamicTask]:
     """Read a suite: a JSON file ``{"name": ..., "tasks": [task dicts...]}`` (task dicts as in
-    :meth:`TaskRequirement.to_dict`; extras such as ``"optimum"`` live in each task's ``meta``).
+    :meth:`TaskRequirement.to_dict`, or :meth:`DynamicTask.to_dict` for those with a
+    ``"trajectory"``; extras such as ``"optimum"`` live in each task's ``meta``).
     Raises TaskFileError naming the file and the 1-based task (and row), or an unknown key."""
     path = Path(path)
     if not path.exists():
@@ -39,18 +42,22 @@ def load_suite(path: PathLike) -> list[TaskRequirement]:
     tasks = []
     for i, item in enumerate(data["tasks"], 1):
         try:
-            tasks.append(TaskRequirement.from_dict(item, default_name=f"{path.stem}-{i}"))
+            dynamic = isinstance(item, dict) and "trajectory" in item
+            kind = DynamicTask if dynamic else TaskRequirement
+            tasks.append(kind.from_dict(item, default_name=f"{path.stem}-{i}"))
         except ValueError as exc:
             raise TaskFileError(f"{path}: task {i}: {exc}") from None
     return tasks
 
 
-def save_suite(tasks: Sequence[TaskRequirement], path: PathLike, name: str | None = None) -> Path:
+def save_suite(
+    tasks: Sequence[TaskRequirement | DynamicTask], path: PathLike, name: str | None = None
+) -> Path:
     """Write ``tasks`` as a suite JSON file (see :func:`load_suite`); name defaults to the stem."""
     path = Path(path)
     tasks = list(tasks)
-    if not tasks or not all(isinstance(t, TaskRequirement) for t in tasks):
-        raise ValueError("save_suite needs a non-empty sequence of TaskRequirement")
+    if not tasks or not all(isinstance(t, (TaskRequirement, DynamicTask)) for t in tasks):
+        raise ValueError("save_suite needs a non-empty sequence of TaskRequirement or DynamicTask")
     body = ",\n".join("    " + task_json(t.to_dict(), indent="    ") for t in tasks)
     head = json.dumps(name if name is not None else path.stem)
     write_text(path, f'{{\n  "name": {head},\n  "tasks": [\n{body}\n  ]\n}}\n')
