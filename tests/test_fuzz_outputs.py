@@ -64,7 +64,7 @@ TRAIN_OPTIONS = {
     "--env-kwargs": st.sampled_from(JSON_VALUES),
     "--hyperparameters": HYPERPARAMETERS.map(json.dumps) | st.sampled_from(JSON_VALUES),
     "--task-source": st.sampled_from(["nope", "planted", "paper", "", "missing.json"]),
-    "--tier": st.sampled_from(["current", "large", "mixed", "huge"]),
+    "--tier": st.sampled_from(["current", "large", "mixed", "dynamic", "huge"]),
     "--vec-env": st.sampled_from(["dummy", "subproc", "bogus"]),
     "--expert": st.sampled_from(["all", "first", "best"]),
     "--resume": st.sampled_from(["missing.zip", ".", "junk.zip"]),
