@@ -99,3 +99,30 @@ def test_bad_dynamic_input_exits_2_with_one_line(tmp_path, capsys, data, field):
         if command == "validate":
             argv += ["--out", str(tmp_path / "v")]
         one_line_error(capsys, argv, field)
+
+
+def test_learned_methods_use_the_dynamic_model_for_dynamic_tasks(tmp_path, capsys, monkeypatch):
+    """Without --model, ppo on a dynamic task of one module type acts with the model trained
+    on motions; a static task, --model, --modules or a search keep their choice."""
+    from modquad_gym.cli import solve
+    from modquad_gym.policy.models import shipped_model
+
+    circle = dy.circle(radius=1.0, speed=1.0, rate=10)
+    static = mq.TaskRequirement([[0, 0, 3.0, 0, 0, 0]])
+    dynamic_model = shipped_model("dynamic")
+    assert dynamic_model.is_file() and dynamic_model != shipped_model("current")
+    assert solve.model_for("ppo", None, circle, None) == dynamic_model
+    assert solve.model_for("ppo-guided-b64", None, circle, None) == dynamic_model
+    assert solve.model_for("ppo", None, static, None) is None
+    assert solve.model_for("ppo", "my.zip", circle, None) == "my.zip"
+    assert solve.model_for("ppo", None, circle, "t45,flat") is None
+    assert solve.model_for("exhaustive", None, circle, None) is None
+    seen = []
+    real = solve.make_solver
+    monkeypatch.setattr(solve, "make_solver", lambda *a, **k: seen.append(a[2]) or real(*a, **k))
+    solve.cached_solver.cache_clear()
+    path = tmp_path / "circle.json"
+    circle.save(path)
+    assert main(["solve", "--task", str(path), "--method", "ppo", "--json"]) == 0
+    assert seen == [dynamic_model] and json.loads(capsys.readouterr().out)["feasible"]
+    solve.cached_solver.cache_clear()

@@ -140,7 +140,8 @@ def add_method(p: argparse.ArgumentParser, default: str = "anytime") -> None:
         "--model",
         default=None,
         help="PPO model .zip for --method ppo/ppo-guided (default: the model shipped with "
-        "the package, modquad_gym/data/models/ppo_default/model.zip)",
+        "the package, modquad_gym/data/models/ppo_default/model.zip; for a dynamic task of one "
+        "module type the one trained on motions, modquad_gym/data/models/ppo_dynamic)",
     )
     p.add_argument(
         "--seed",

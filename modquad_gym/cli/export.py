@@ -51,7 +51,7 @@ def found_structure(args: argparse.Namespace, task):
     """The structure ``--method`` finds for ``task``; a ValueError when it finds none."""
     from modquad_gym.cli.solve import solver
 
-    result = solver(args)(task)
+    result = solver(args, task)(task)
     if result.structure is None:
         raise ValueError(
             f"--task: {args.method} found no structure of up to {args.n_max} modules for "

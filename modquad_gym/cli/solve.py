@@ -88,15 +88,31 @@ def cached_solver(method, n_max, model, seed, modules_text, engine, progress: bo
     return make_solver(method, n_max, model, seed, modules=modules, **options).solve
 
 
-def solver(args: argparse.Namespace, engine=None):
-    """The solver of ``args`` (``engine``'s workers share the levels of one exhaustive
-    search)."""
+def solver(args: argparse.Namespace, task=None, engine=None):
+    """The solver of ``args`` for ``task`` (:func:`model_for`; ``engine``'s workers share the
+    levels of one exhaustive search)."""
     progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
     modules = getattr(args, "modules", None)
     limit = getattr(args, "time_limit", None)
-    return cached_solver(
-        args.method, args.n_max, args.model, args.seed, modules, engine, progress, limit
-    )
+    model = model_for(args.method, args.model, task, modules)
+    return cached_solver(args.method, args.n_max, model, args.seed, modules, engine, progress,
+                         limit)  # fmt: skip
+
+
+def model_for(method: str, model, task, modules: str | None):
+    """``--model``, else the shipped model for ``task``: the dynamic tier's
+    (``data/models/ppo_dynamic``, trained on motions) for a learned method on a dynamic task of
+    one module type, the default model (None) otherwise."""
+    from modquad_gym.solvers import learned_options
+    from modquad_gym.tasks import is_dynamic
+
+    if model is not None or modules or not is_dynamic(task) or ":" in method:
+        return model
+    if learned_options(method) is None:
+        return model
+    from modquad_gym.policy.models import shipped_model
+
+    return shipped_model("dynamic")
 
 
 def solve_file(options: tuple, path: Path):
@@ -104,6 +120,7 @@ def solve_file(options: tuple, path: Path):
     method, n_max, model, seed, modules, csv_header, limit = options
     task = common.load_task(path, csv_header)
     common.check_task(task, path, palette_of(modules))
+    model = model_for(method, model, task, modules)
     result = cached_solver(method, n_max, model, seed, modules, None, False, limit)(task)
     return task, result
 
@@ -156,17 +173,16 @@ def solve_here(args: argparse.Namespace, paths: list[Path], engine) -> int:
     still split its large levels over ``engine``'s workers; Ray starts once, at the first
     split level)."""
     split = engine if len(paths) == 1 and engine.use_ray else None
-    solve = solver(args, engine=split)
     failed = []
     with split or contextlib.nullcontext():
         for path in paths:
-            failed += solve_path(args, path, solve, single=len(paths) == 1)
+            failed += solve_path(args, path, split, single=len(paths) == 1)
     return batch_status(failed, len(paths))
 
 
-def solve_path(args: argparse.Namespace, path: Path, solve, single: bool) -> list[Exception]:
-    """Load, solve and print one task file; a file that cannot be read is reported (raised
-    when it is the only one) and returned."""
+def solve_path(args: argparse.Namespace, path: Path, engine, single: bool) -> list[Exception]:
+    """Load, solve and print one task file (``engine``: see :func:`solver`); a file that
+    cannot be read is reported (raised when it is the only one) and returned."""
     try:
         task = common.load_task(path, args.csv_header)
         common.check_task(task, path, palette(args))
@@ -175,7 +191,7 @@ def solve_path(args: argparse.Namespace, path: Path, solve, single: bool) -> lis
             raise
         report_error(one_line(exc))
         return [exc]
-    result = solve(task)
+    result = solver(args, task, engine)(task)
     print_result(args, path, task, result)
     if args.export is not None:
         export_result(args, task, result)

@@ -129,7 +129,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         f"(~{estimate:.0f} s here)",
         file=sys.stderr,
     )
-    result = solve.solver(args)(task)
+    result = solve.solver(args, task)(task)
     if result.structure is None:
         record = {
             "task": args.task,
