@@ -106,9 +106,7 @@ def model_for(method: str, model, task, modules: str | None):
     from modquad_gym.solvers import learned_options
     from modquad_gym.tasks import is_dynamic
 
-    if model is not None or modules or not is_dynamic(task) or ":" in method:
-        return model
-    if learned_options(method) is None:
+    if model is not None or modules or not is_dynamic(task) or learned_options(method) is None:
         return model
     from modquad_gym.policy.models import shipped_model
 
