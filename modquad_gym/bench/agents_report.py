@@ -298,15 +298,24 @@ def config_limit(goal: float | str | None, searches: dict[str, float]) -> tuple[
     return less, f"< {best}" + ("" if goal else ", the fewest but random")
 
 
-def _share_goal(by: dict, metric: str, goal: float | str) -> tuple[float | None, str]:
-    """(least share of ``metric`` that meets ``goal``, the goal in words): a share, or a
-    search's name (at least that search's share in this run); (None, why) if it did not run."""
+def share_limit(goal: float | str, shares: dict[str, float]) -> tuple[float | None, str]:
+    """(least share that meets ``goal``, the goal in words) given each search's share of the
+    metric: ``goal`` a share, or a search's name (at least its share); (None, why) when that
+    search was not run."""
     if not isinstance(goal, str):
-        return goal, f"goal >= {100 * goal:.0f} %"
-    if goal not in by:
-        return None, f"goal: {goal} not run"
-    share = by[goal][SHARE_KEYS[metric]]
-    return share - 1e-9, f"goal >= {goal}'s {100 * share:.1f} %"
+        return goal, f"{100 * goal:.0f} %"
+    if goal not in shares:
+        return None, f"{goal} not run"
+    return shares[goal] - 1e-9, f">= {goal}'s {100 * shares[goal]:.1f} %"
+
+
+def _share_goal(by: dict, metric: str, goal: float | str) -> tuple[float | None, str]:
+    """:func:`share_limit` on this run's summary (``by`` method), the words as the goal."""
+    key = SHARE_KEYS[metric]
+    least, words = share_limit(goal, {m: s[key] for m, s in by.items() if m in SEARCHES})
+    if least is None:
+        return None, f"goal: {words}"
+    return least, f"goal {words}" if isinstance(goal, str) else f"goal >= {words}"
 
 
 def _share_met(by: dict, method: str, metric: str, goal: float | str) -> bool:

@@ -31,7 +31,7 @@ from scipy import stats
 
 from modquad_gym.bench import machine_description
 from modquad_gym.bench.agents import SEARCH_METHODS, run_benchmark
-from modquad_gym.bench.agents_report import config_limit
+from modquad_gym.bench.agents_report import config_limit, share_limit
 from modquad_gym.bench.scores import Row
 from modquad_gym.bench.tiers import TIERS, get_tier
 from modquad_gym.core.options import int_option
@@ -209,16 +209,15 @@ def _configs_goal(scores: list[SeedScore], method: str, goal: Any, searches: dic
 
 
 def share_goal(scores: list[SeedScore], metric: str, goal: float | str) -> tuple[float | None, str]:
-    """(least share that meets ``goal``, the goal in words): a share, or a search's name (at
-    least that search's share of ``metric`` on the same tasks, pooled over the suites); (None,
-    why) when that search was not run."""
-    if not isinstance(goal, str):
-        return goal, f"{100 * goal:.0f} %"
+    """(least share that meets ``goal``, the goal in words) (:func:`~.agents_report.share_limit`):
+    a share, or a search's name (at least that search's share of ``metric`` on the same tasks,
+    pooled over the suites); (None, why) when that search was not run."""
     rs = [s for s in scores if s.method == goal]
-    if not rs:
-        return None, f"{goal} not run"
-    share = float(np.average([getattr(s, metric) for s in rs], weights=[s.tasks for s in rs]))
-    return share - 1e-9, f">= {goal}'s {100 * share:.1f} %"
+    shares = {}
+    if rs:
+        weights = [s.tasks for s in rs]
+        shares[goal] = float(np.average([getattr(s, metric) for s in rs], weights=weights))
+    return share_limit(goal, shares)
 
 
 def goal_lines(scores: list[SeedScore], tier_name: str) -> list[str]:
