@@ -58,12 +58,12 @@ def test_urdf_parses_into_the_same_rotor_frames_mass_and_inertia(s):
     robot = yourdfpy.URDF.load(io.StringIO(urdf_text(s)), load_meshes=False)
     assert robot.validate()
     assert robot.base_link == "base_link"
-    base = robot.link_map["base_link"].inertial
-    assert base.mass == pytest.approx(s.mass, rel=1e-12)
-    np.testing.assert_allclose(base.inertia, s.inertia, atol=1e-15)
-    assert sum(link.inertial.mass for link in robot.robot.links if link.inertial) == pytest.approx(
-        s.mass
-    )
+    # the links together (base and propellers) are exactly the structure's rigid body
+    mass, com, J = composite_inertial(robot)
+    assert mass == pytest.approx(s.mass, rel=1e-12)
+    np.testing.assert_allclose(com, 0.0, atol=1e-15)
+    np.testing.assert_allclose(J, s.inertia, atol=1e-15)
+    assert all(link.inertial.mass > 0 for link in robot.robot.links)  # no massless moving link
     for k in range(4 * s.n_modules):
         T_k = robot.get_transform(f"rotor{k}", "base_link")
         np.testing.assert_allclose(T_k[:3, 3], s.rotor_positions[k], atol=1e-12)
@@ -72,6 +72,45 @@ def test_urdf_parses_into_the_same_rotor_frames_mass_and_inertia(s):
         assert joint.type == "continuous"
         np.testing.assert_allclose(joint.axis, [0, 0, -s.rotor_spins[k]])
     assert len([v for v in robot.link_map["base_link"].visuals]) == s.n_modules
+
+
+def composite_inertial(robot) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass, COM, inertia about the COM) of every link of a yourdfpy robot, in base_link axes."""
+    parts = []
+    for link in robot.robot.links:
+        T = robot.get_transform(link.name, "base_link") @ link.inertial.origin
+        parts.append(
+            (link.inertial.mass, T[:3, 3], T[:3, :3] @ link.inertial.inertia @ T[:3, :3].T)
+        )
+    mass = sum(m for m, _, _ in parts)
+    com = sum(m * c for m, c, _ in parts) / mass
+    J = sum(I + m * (np.eye(3) * ((c - com) @ (c - com)) - np.outer(c - com, c - com))
+            for m, c, I in parts)  # fmt: skip
+    return mass, com, J
+
+
+@pytest.mark.parametrize("fmt", ["mjcf", "urdf"])
+@pytest.mark.parametrize("s", STRUCTURES, ids=IDS)
+def test_mjcf_and_urdf_load_in_mujoco_and_step(s, fmt):
+    """Both exports load in MuJoCo (the URDF's propeller links have mass: a massless moving link
+    is refused) and simulate: a few steps with the rotors at half thrust stay finite."""
+    mujoco = pytest.importorskip("mujoco")
+    from modquad_gym.sim.export import export_text
+
+    model = mujoco.MjModel.from_xml_string(export_text(s, fmt, f_max=2.0))
+    data = mujoco.MjData(model)
+    if fmt == "mjcf":  # one free body, one actuator per rotor
+        assert model.nv == 6 and model.nu == 4 * s.n_modules
+        data.ctrl[:] = 1.0
+    else:  # base_link fixed to the world (URDF has no floating base), a hinge per propeller
+        assert model.njnt == model.nv == 4 * s.n_modules
+        assert model.body_mass[1:].sum() == pytest.approx(0.04 * s.mass)  # the propellers
+        data.qvel[:] = 100.0  # spinning propellers
+    qpos0 = data.qpos.copy()
+    for _ in range(20):
+        mujoco.mj_step(model, data)
+    assert np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()
+    assert not np.allclose(data.qpos, qpos0)  # it moved: the steps did simulate
 
 
 @pytest.mark.parametrize("s", STRUCTURES, ids=IDS)

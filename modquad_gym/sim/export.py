@@ -13,10 +13,16 @@ SI units, :mod:`modquad_gym.geometry.structure`):
   written by MuJoCo): one free body, a box per module, one site ``rotor{k}`` and one actuator
   ``thrust{k}`` per rotor, ``ctrl = u`` in [0, f_max] producing ``A u``. Needs the ``sim`` extra
   (the URDF and the JSON need nothing beyond the core install).
-* ``urdf``: link ``base_link`` at {S} carrying the total mass and inertia about the COM and a box
-  visual per module; per rotor a massless link ``rotor{k}`` on a ``continuous`` joint
-  ``rotor{k}_joint`` whose origin is the rotor frame and whose axis is the propeller's turning
-  direction (``0 0 -s_k`` in the rotor frame). URDF has no thrust: the JSON (or the MJCF) holds
+* ``urdf``: link ``base_link`` at {S} with a box visual per module; per rotor a link
+  ``rotor{k}`` (the propeller) on a ``continuous`` joint ``rotor{k}_joint`` whose origin is the
+  rotor frame and whose axis is the propeller's turning direction (``0 0 -s_k`` in the rotor
+  frame). Each propeller carries :data:`ROTOR_MASS_FRACTION` of its module's mass as a solid
+  disc (radius :data:`ROTOR_RADIUS_FRACTION` of the module side, :data:`ROTOR_THICKNESS` thick)
+  and ``base_link`` the rest, its inertial placed so that the whole robot has exactly the
+  structure's mass, COM (the origin of {S}) and inertia about the COM. (Simulators refuse a
+  moving link without mass, e.g. MuJoCo's "mass and inertia of moving bodies must be larger
+  than mjMINVAL".) URDF has no floating base: MuJoCo, PyBullet and Drake fix ``base_link`` to
+  the world unless told otherwise. URDF has no thrust either: the JSON (or the MJCF) holds
   ``f_max``, ``c_tau`` and the configuration matrix.
 * ``json``: :func:`structure_dict`.
 """
@@ -30,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from modquad_gym.geometry.inertia import inertia_about_com
 from modquad_gym.geometry.structure import Structure
 
 FORMATS = ("mjcf", "urdf", "json")
@@ -40,6 +47,16 @@ SUFFIXES = {"mjcf": ".xml", "urdf": ".urdf", "json": ".json"}
 
 MODULE_THICKNESS = 0.05
 """Height of a module's box in the URDF visuals, metres (as in the MuJoCo model)."""
+
+ROTOR_MASS_FRACTION = 0.01
+"""Share of its module's mass that each URDF propeller link carries (3 g of a 0.3 kg module: a
+small propeller); ``base_link`` carries the rest."""
+
+ROTOR_RADIUS_FRACTION = 0.14
+"""A URDF propeller's radius as a fraction of its module's side (the MuJoCo model's rotor discs)."""
+
+ROTOR_THICKNESS = 0.01
+"""A URDF propeller disc's thickness, metres."""
 
 
 def rotor_quaternion(direction) -> np.ndarray:
@@ -112,27 +129,50 @@ def structure_dict(structure: Structure, f_max: float = 1.0) -> dict:
     }
 
 
+def rotor_links(structure: Structure) -> list[tuple[float, np.ndarray]]:
+    """(mass, inertia (3, 3) about its centre in the rotor frame) of each URDF propeller link:
+    a solid disc of :data:`ROTOR_MASS_FRACTION` of its module's mass (module docstring)."""
+    out = []
+    for m in structure.modules:
+        mass = ROTOR_MASS_FRACTION * m.mass
+        r, h = ROTOR_RADIUS_FRACTION * m.side, ROTOR_THICKNESS
+        across = mass * (3 * r * r + h * h) / 12  # about a diameter
+        out += [(mass, np.diag([across, across, mass * r * r / 2]))] * 4
+    return out
+
+
+def base_inertial(structure: Structure) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass, COM (3,) in {S}, inertia (3, 3) about that COM) of the URDF's ``base_link``: the
+    structure less its propeller links, so that base and propellers together have exactly the
+    structure's mass, COM (the origin) and inertia about the COM."""
+    s = structure
+    rotors = rotor_links(s)
+    P = np.asarray(s.rotor_positions, dtype=float)
+    masses = np.array([m for m, _ in rotors])
+    own = [R @ J @ R.T for (_, J), R in zip(rotors, _rotor_matrices(s), strict=True)]
+    mass = s.mass - masses.sum()
+    com = -(masses @ P) / mass  # the whole robot's COM stays at the origin
+    J = np.asarray(s.inertia, dtype=float) - inertia_about_com(P, masses, own)
+    J -= mass * (np.eye(3) * (com @ com) - np.outer(com, com))  # about the base's own COM
+    return mass, com, (J + J.T) / 2
+
+
 def urdf_text(structure: Structure, name: str | None = None) -> str:
     """The URDF of ``structure`` (see the module docstring)."""
     s = structure
     robot = ET.Element("robot", name=name or f"modquad_{s.n_modules}")
     base = ET.SubElement(robot, "link", name="base_link")
-    inertial = ET.SubElement(base, "inertial")
-    ET.SubElement(inertial, "origin", xyz="0 0 0", rpy="0 0 0")
-    ET.SubElement(inertial, "mass", value=_num(s.mass))
-    J = np.asarray(s.inertia, dtype=float)
-    ET.SubElement(inertial, "inertia", **{
-        f"i{a}{b}": _num(J[i, j]) for (a, i), (b, j) in
-        ((("x", 0), ("x", 0)), (("x", 0), ("y", 1)), (("x", 0), ("z", 2)),
-         (("y", 1), ("y", 1)), (("y", 1), ("z", 2)), (("z", 2), ("z", 2)))
-    })  # fmt: skip
+    mass, com, J = base_inertial(s)
+    _inertial(base, mass, com, J)
     for i, (centre, m) in enumerate(zip(s.module_centres, s.modules, strict=True)):
         visual = ET.SubElement(base, "visual", name=f"module{i}_{m.name}")
         ET.SubElement(visual, "origin", xyz=_vec(centre), rpy="0 0 0")
         geometry = ET.SubElement(visual, "geometry")
         ET.SubElement(geometry, "box", size=_vec([m.side, m.side, MODULE_THICKNESS]))
-    for k, (p, d, spin) in enumerate(zip(s.rotor_positions, s.rotor_directions, s.rotor_spins)):
-        ET.SubElement(robot, "link", name=f"rotor{k}")
+    rotors = zip(s.rotor_positions, s.rotor_directions, s.rotor_spins, rotor_links(s),
+                 strict=True)  # fmt: skip
+    for k, (p, d, spin, (mass, J)) in enumerate(rotors):
+        _inertial(ET.SubElement(robot, "link", name=f"rotor{k}"), mass, np.zeros(3), J)
         joint = ET.SubElement(robot, "joint", name=f"rotor{k}_joint", type="continuous")
         rpy = _rpy(quaternion_matrix(rotor_quaternion(d)))
         ET.SubElement(joint, "origin", xyz=_vec(p), rpy=_vec(rpy))
@@ -181,6 +221,23 @@ def save_structure(
     path = check_output_file(path, force=force, what="--out")
     write_text(path, text)
     return path
+
+
+def _rotor_matrices(structure: Structure) -> list[np.ndarray]:
+    """Each rotor frame's rotation in {S} (z-axis = the thrust direction)."""
+    return [quaternion_matrix(rotor_quaternion(d)) for d in structure.rotor_directions]
+
+
+def _inertial(link: ET.Element, mass: float, com: np.ndarray, J: np.ndarray) -> None:
+    """``link``'s ``<inertial>``: ``mass`` at ``com`` with inertia ``J`` about it (link axes)."""
+    inertial = ET.SubElement(link, "inertial")
+    ET.SubElement(inertial, "origin", xyz=_vec(com), rpy="0 0 0")
+    ET.SubElement(inertial, "mass", value=_num(mass))
+    ET.SubElement(inertial, "inertia", **{
+        f"i{a}{b}": _num(J[i, j]) for (a, i), (b, j) in
+        ((("x", 0), ("x", 0)), (("x", 0), ("y", 1)), (("x", 0), ("z", 2)),
+         (("y", 1), ("y", 1)), (("y", 1), ("z", 2)), (("z", 2), ("z", 2)))
+    })  # fmt: skip
 
 
 def _num(x: float) -> str:
