@@ -55,7 +55,7 @@ def test_wheel_has_one_package_with_its_examples_and_type_marker(dists):
         f"modquad_gym-{modquad_gym.__version__}.dist-info",
     }
     for name in ("modquad_gym/py.typed", "modquad_gym/data/examples/screwdriver.json",
-                 "modquad_gym/data/examples/paper_seed0.csv",
+                 "modquad_gym/data/examples/paper_seed0.csv", "modquad_gym/data/rl_zoo/ppo.yml",
                  f"modquad_gym-{modquad_gym.__version__}.dist-info/licenses/LICENSE"):  # fmt: skip
         assert name in names
     assert f"Version: {modquad_gym.__version__}\n" in meta
@@ -96,3 +96,27 @@ def test_unknown_example_is_one_line_naming_the_known(capsys):
     err = capsys.readouterr().err
     assert "unknown example 'nope'" in err and "screwdriver" in err and err.count("\n") == 1
     assert main(["task", "example", "../pyproject"]) == 2
+
+
+def test_rl_zoo_config_is_package_data_naming_the_wrapper():
+    """The RL Zoo hyperparameter file the docs' command reads is installed with the package
+    (package-data names it; the wheel test above finds it in the wheel) and configures an id
+    and a wrapper that exist; the repository's examples/ links to it."""
+    yaml = pytest.importorskip("yaml")
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11+
+
+    from modquad_gym.envs.wrappers import RL_ZOO_CONFIG, NearestValidAction
+
+    package = Path(modquad_gym.__file__).parent
+    assert RL_ZOO_CONFIG.is_file() and RL_ZOO_CONFIG.is_relative_to(package)
+    globs = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    assert any(
+        RL_ZOO_CONFIG.relative_to(package).match(g) for g in globs["package-data"]["modquad_gym"]
+    )
+    config = yaml.load(RL_ZOO_CONFIG.read_text(), Loader=yaml.UnsafeLoader)  # the Zoo's loader
+    (env_id,) = config
+    assert env_id in __import__("gymnasium").registry
+    assert config[env_id]["env_wrapper"] == [
+        f"{NearestValidAction.__module__}.{NearestValidAction.__name__}"
+    ]
+    assert (ROOT / "examples" / "rl_zoo" / "ppo.yml").read_bytes() == RL_ZOO_CONFIG.read_bytes()

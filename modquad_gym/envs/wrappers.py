@@ -8,7 +8,11 @@ algorithms spend their episodes on invalid actions and learn nothing.
 
     env = NearestValidAction(gym.make("ModQuadAssembly-v0"))
 
-In the RL Zoo, name it in the hyperparameter file (``examples/rl_zoo/ppo.yml``)::
+It records its construction (``gymnasium.utils.RecordConstructorArgs``), so ``env.spec`` names
+it and ``gym.make(env.spec)`` rebuilds the wrapped environment, and ``check_env`` runs on it.
+
+In the RL Zoo, name it in the hyperparameter file (:data:`RL_ZOO_CONFIG`, shipped with the
+package)::
 
     env_wrapper:
       - modquad_gym.envs.wrappers.NearestValidAction
@@ -16,6 +20,7 @@ In the RL Zoo, name it in the hyperparameter file (``examples/rl_zoo/ppo.yml``):
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -23,10 +28,16 @@ import numpy as np
 
 from modquad_gym.envs.assembly.inputs import parse_action
 
-__all__ = ["NearestValidAction"]
+__all__ = ["RL_ZOO_CONFIG", "NearestValidAction"]
+
+RL_ZOO_CONFIG = Path(__file__).resolve().parents[1] / "data" / "rl_zoo" / "ppo.yml"
+"""The RL Baselines3 Zoo hyperparameter file for ``ModQuadAssembly-v0`` with plain PPO through
+:class:`NearestValidAction`, installed with the package: ``python -m rl_zoo3.train --algo ppo
+--env ModQuadAssembly-v0 --gym-packages modquad_gym --conf-file "$(python -c 'from
+modquad_gym.envs.wrappers import RL_ZOO_CONFIG; print(RL_ZOO_CONFIG)')"``."""
 
 
-class NearestValidAction(gym.Wrapper):
+class NearestValidAction(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """Replace an action that cannot dock by the valid action whose grid cell is nearest to its
     cell (Euclidean distance on the grid; a module of the same type first, in the several-type
     environment; ties to the lowest action index). A valid action is kept as it is, so a policy
@@ -40,7 +51,8 @@ class NearestValidAction(gym.Wrapper):
     """
 
     def __init__(self, env: gym.Env) -> None:
-        super().__init__(env)
+        gym.utils.RecordConstructorArgs.__init__(self)
+        gym.Wrapper.__init__(self, env)
         grid = env.unwrapped.grid
         index = np.arange(grid.n_actions)
         y, x = np.divmod(index % grid.n_cells, grid.side)
