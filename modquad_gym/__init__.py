@@ -22,6 +22,7 @@ from modquad_gym.oracle import (
     lambda_ratio,
     margin,
 )
+from modquad_gym.oracle.faults import FAULTS, fault_margin, tolerates
 from modquad_gym.search import (
     SearchProblem,
     SearchResult,
@@ -63,6 +64,9 @@ __all__ = [
     "feasible",
     "lambda_ratio",
     "margin",
+    "FAULTS",
+    "fault_margin",
+    "tolerates",
     "optimal_structures",
     "structure_levels",
 ]

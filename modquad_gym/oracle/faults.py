@@ -1,0 +1,260 @@
+"""Does a structure keep exerting a wrench after any single failure? (fault tolerance)
+
+A failure stops a set S of rotors: one rotor (``fault="rotor"``) or the four of one module
+(``fault="module"``; the module stays docked, so its mass still counts for ``external`` and
+dynamic tasks, whose rotor wrenches do not change). The structure then exerts the zonotope of A
+without the columns of S, Z_S = {A u : 0 <= u <= f_max, u_S = 0}. A wrench is **tolerated** when
+it is feasible for Z_S for every failure S, each decided by the oracle's tolerance rule on the
+matrix A_{-S} (:mod:`~modquad_gym.oracle.tolerance`); the **fault margin** is the worst margin
+over the failures, so it is >= 0 exactly when the wrench is tolerated.
+
+Fast and exact (:class:`FaultTolerance`). Z_S is a subset of the intact zonotope, so a wrench
+the intact structure cannot exert is tolerated by no failure (one compiled decision rejects
+it). For the others, an allocation certificate serves every failure at once: with the intact
+centred allocation x (G x = r, rotor j at (1 + x_j) f_max / 2) set to x_S = -1 (the failed
+rotors off), the least-norm correction of the other rotors is ``K_S (1 + x_S)``, with ``K_S =
+H_{:,S} (I - H_SS)^-1`` and ``H = V^T V`` the projection on the row space of G (Woodbury; the
+same for every wrench, so built once per structure). Where the corrected allocation stays in
+the cube (with the certificates' clearance GUARD) and solves the equations to round-off, the
+wrench is tolerated under S; every other (wrench, failure) pair is decided by the oracle on
+A_{-S} itself (its own zonotope, built once per failure; the compiled certificates remember
+its separating directions across wrenches). A failure that lowers the rank (I - H_SS singular:
+a single module, a line) is always decided on A_{-S}.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from modquad_gym.core.validation import check_f_max, check_wrenches
+from modquad_gym.oracle.backends import check_method, decide_with, margin_with
+from modquad_gym.oracle.tolerance import RESIDUAL_TOL, TOL
+from modquad_gym.oracle.zonotope import Zonotope
+
+FAULTS = ("rotor", "module")
+"""The kinds of single failure: one rotor stops, or one module's rotors all stop."""
+
+_SINGULAR = 1e-6  # smallest eigenvalue of I - H_SS below which the failure is decided on A_{-S}
+_EXACT = 1e-9  # residual of a certificate's equations accepted, relative to 1 + |r|_inf
+
+
+def check_fault(fault: object) -> str:
+    """``fault`` when it names a kind of failure, else a ValueError listing them."""
+    if fault not in FAULTS:
+        raise ValueError(f"fault must be one of {', '.join(map(repr, FAULTS))}, got {fault!r}")
+    return str(fault)
+
+
+def failure_sets(n_rotors: int, fault: str, rotors_per_module: int = 4) -> list[np.ndarray]:
+    """The column sets a single failure removes from a (6, n_rotors) matrix whose columns are
+    grouped by module (``rotors_per_module`` each, in cell order, as
+    :meth:`~modquad_gym.geometry.structure.Structure.configuration_matrix` has them)."""
+    fault = check_fault(fault)
+    if fault == "rotor":
+        return [np.array([k]) for k in range(n_rotors)]
+    if n_rotors % rotors_per_module:
+        raise ValueError(
+            f"A has {n_rotors} columns, not a multiple of {rotors_per_module} rotors per module"
+        )
+    return [np.arange(i, i + rotors_per_module) for i in range(0, n_rotors, rotors_per_module)]
+
+
+class FaultTolerance:
+    """Fault tolerance of one structure's matrix A against many wrenches.
+
+    Args:
+        A: the (6, m) configuration matrix.
+        f_max: per-rotor thrust limit.
+        failures: the column sets of the single failures (:func:`failure_sets`).
+        zonotope: the intact zonotope of A when the caller has it already.
+
+    ``tests`` counts the (wrench, failure) pairs decided by the oracle on A_{-S}; ``certified``
+    those the shared allocation certificate settled.
+    """
+
+    def __init__(
+        self,
+        A: np.ndarray,
+        f_max: float,
+        failures: Sequence[np.ndarray],
+        zonotope: Zonotope | None = None,
+    ) -> None:
+        self.intact = zonotope if zonotope is not None else Zonotope(A, f_max)
+        self.failures = [np.asarray(S, dtype=np.intp) for S in failures]
+        self.tests = 0
+        self.certified = 0
+        self._zonotopes: dict[int, Zonotope | None] = {}
+        self._K: tuple[np.ndarray, ...] | None = None
+
+    # --- the failed structures ----------------------------------------------------------
+    def failed(self, i: int) -> Zonotope | None:
+        """The zonotope of A without the columns of failure i (None: no rotor is left)."""
+        if i not in self._zonotopes:
+            z = self.intact
+            keep = np.ones(z.m, dtype=bool)
+            keep[self.failures[i]] = False
+            self._zonotopes[i] = Zonotope(z.A[:, keep], z.f_max) if keep.any() else None
+        return self._zonotopes[i]
+
+    def _decide_failed(self, i: int, W: np.ndarray, method: str) -> np.ndarray:
+        self.tests += len(W)
+        z = self.failed(i)
+        if z is None:  # nothing left: only the zero wrench
+            return _zero_rows(W, self.intact.f_max)
+        return decide_with(z, W, method)
+
+    def _margin_failed(self, i: int, W: np.ndarray, method: str) -> np.ndarray:
+        self.tests += len(W)
+        z = self.failed(i)
+        if z is None:
+            return np.where(_zero_rows(W, self.intact.f_max), 0.0, -np.inf)
+        return margin_with(z, W, method)
+
+    # --- the shared certificate -----------------------------------------------------------
+    def _corrections(self) -> tuple[np.ndarray, ...]:
+        """The certificate's arrays (:func:`~.fault_kernels.certify_rows`): every failure's
+        correction C_S^T one above the other (the least-norm correction of the other rotors per
+        unit of 1 + x_S, entries of S set to -I), the rotors they stand for, each failure's
+        first row, and its round-off ``max |G C_S|`` (inf where removing S lowers the rank)."""
+        if self._K is None:
+            z = self.intact
+            H = z.V.T @ z.V
+            sizes = {len(S) for S in self.failures}
+            if len(sizes) != 1:  # failures of different sizes: one at a time
+                groups = [[i] for i in range(len(self.failures))]
+            else:
+                groups = [list(range(len(self.failures)))]
+            C = np.zeros((sum(len(S) for S in self.failures), z.m))
+            errors = np.full(len(self.failures), np.inf)
+            starts = np.cumsum([0] + [len(S) for S in self.failures])
+            for group in groups:
+                S = np.array([self.failures[i] for i in group])  # (F, s)
+                s = S.shape[1]
+                M = np.eye(s) - H[S[:, :, None], S[:, None, :]]  # (F, s, s)
+                usable = np.linalg.eigvalsh(M).min(axis=1) >= _SINGULAR if z.rank else None
+                if usable is None or not usable.any():
+                    continue
+                idx = np.flatnonzero(usable)
+                CS = np.linalg.solve(M[idx], H[S[idx]])  # (F', s, m): H_{S,:} = H_{:,S}^T
+                for row, i in zip(CS, idx):
+                    g = group[i]
+                    row[:, self.failures[g]] = -np.eye(s)
+                    C[starts[g] : starts[g + 1]] = row
+                    errors[g] = float(np.abs(z.G @ row.T).max())
+            off = np.abs(C)
+            off[np.arange(len(C)), np.concatenate(self.failures)] = 0.0
+            self._K = (
+                np.ascontiguousarray(C),
+                np.concatenate(self.failures).astype(np.int64),
+                starts.astype(np.int64),
+                errors,
+                off.max(axis=1),
+            )
+        return self._K
+
+    def _certify(self, R: np.ndarray) -> np.ndarray:
+        """int8 (t, F) per centred reduced wrench (row of R, intact coordinates) and failure:
+        1 certified tolerated, 0 certified not, -1 undecided."""
+        from modquad_gym.oracle.fault_kernels import certify_rows  # numba: compiled on first use
+
+        z = self.intact
+        C, columns, starts, errors, reach = self._corrections()
+        out = np.empty((len(R), len(self.failures)), dtype=np.int8)
+        R = np.ascontiguousarray(R, dtype=float)
+        P = np.ascontiguousarray(z.P)
+        certify_rows(R, z.G, P, z.dual, C, columns, starts, errors, reach, _EXACT, out)
+        return out
+
+    # --- the questions --------------------------------------------------------------------
+    def decide(self, W: np.ndarray, method: str = "auto") -> np.ndarray:
+        """bool (t,): is each wrench (row of W) feasible after every failure?"""
+        ok = decide_with(self.intact, W, method)
+        live = np.flatnonzero(ok)
+        if not len(live) or not self.failures:
+            return ok
+        R, _ = self.intact.reduce(W[live])
+        cert = self._certify(R)
+        self.certified += int(np.count_nonzero(cert >= 0))
+        alive = ~(cert == 0).any(axis=1)
+        # failures with the most undecided wrenches first: they are the likely breakers
+        order = np.argsort((cert == 1).sum(axis=0), kind="stable")
+        for i in order:
+            todo = np.flatnonzero(alive & (cert[:, i] == -1))
+            if len(todo):
+                alive[todo] = self._decide_failed(int(i), W[live[todo]], method)
+            if not alive.any():
+                break
+        ok[live] = alive
+        return ok
+
+    def margin(self, W: np.ndarray, method: str = "auto") -> np.ndarray:
+        """float (t,): the worst margin over the failures, >= 0 exactly when tolerated (where
+        the LPs' round-off and the certificates disagree, within the oracle's agreement band,
+        the margin takes its sign from :meth:`decide`, as :func:`~modquad_gym.oracle.margin`
+        does)."""
+        out = np.full(len(W), np.inf)
+        for i in range(len(self.failures)):
+            out = np.minimum(out, self._margin_failed(i, W, method))
+        ok = self.decide(W, method)
+        out[ok & (out < 0)] = 0.0
+        out[~ok & (out >= 0)] = np.nextafter(-TOL, -np.inf)
+        return out
+
+    def worst_failure(self, W: np.ndarray, method: str = "auto") -> tuple[int, float]:
+        """(index of the failure that leaves the smallest margin over the wrenches, that
+        margin)."""
+        worst = [float(self._margin_failed(i, W, method).min()) for i in range(len(self.failures))]
+        i = int(np.argmin(worst))
+        return i, worst[i]
+
+
+def _zero_rows(W: np.ndarray, f_max: float) -> np.ndarray:
+    """bool (t,): rows that are zero within the off-range tolerance (all a rotorless failure
+    can exert)."""
+    Wn = W / f_max
+    norms = np.sqrt(np.einsum("ij,ij->i", Wn, Wn))
+    return norms <= RESIDUAL_TOL
+
+
+def _matrix_and_failures(structure, fault: str) -> tuple[np.ndarray, list[np.ndarray]]:
+    """(A, failure sets) of a Structure (module faults take its own rotor counts) or of a
+    (6, 4n) matrix whose columns come four per module."""
+    fault = check_fault(fault)
+    if hasattr(structure, "configuration_matrix"):
+        A = structure.configuration_matrix()
+        if fault == "rotor":
+            return A, failure_sets(A.shape[1], fault)
+        starts = np.cumsum([0] + [m.n_rotors for m in structure.modules])
+        return A, [np.arange(a, b) for a, b in zip(starts[:-1], starts[1:])]
+    A = np.asarray(structure)
+    return A, failure_sets(A.shape[1] if A.ndim == 2 else 0, fault)
+
+
+def tolerates(
+    structure, W: np.ndarray, f_max: float = 1.0, fault: str = "rotor", method: str = "auto"
+) -> np.ndarray:
+    """bool (t,): does each wrench (row of W, (t, 6)) stay feasible after ANY single failure?
+
+    ``structure`` is a :class:`~modquad_gym.geometry.structure.Structure` or its (6, 4n)
+    configuration matrix (columns four per module, in cell order). ``fault="rotor"``: any one
+    rotor stops (its column leaves A); ``"module"``: any one module's rotors stop (its columns
+    leave A; its mass stays, so pass the rotor wrenches of the whole structure). Exact by the
+    oracle's tolerance rule on each failed matrix (module docstring)."""
+    A, failures = _matrix_and_failures(structure, fault)
+    W = check_wrenches(W)
+    z = Zonotope(A, check_f_max(f_max))
+    return FaultTolerance(A, z.f_max, failures, z).decide(W, check_method(method))
+
+
+def fault_margin(
+    structure, W: np.ndarray, f_max: float = 1.0, fault: str = "rotor", method: str = "auto"
+) -> np.ndarray:
+    """float (t,): the worst margin (:func:`~modquad_gym.oracle.margin`) of each wrench over
+    every single failure of kind ``fault``; >= 0 exactly when :func:`tolerates` is True. A
+    failure that leaves no rotor gives -inf (0 for the zero wrench)."""
+    A, failures = _matrix_and_failures(structure, fault)
+    W = check_wrenches(W)
+    z = Zonotope(A, check_f_max(f_max))
+    return FaultTolerance(A, z.f_max, failures, z).margin(W, check_method(method))
