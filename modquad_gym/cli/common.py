@@ -154,6 +154,31 @@ def add_method(p: argparse.ArgumentParser, default: str = "anytime") -> None:
 
 def add_csv_header(p: argparse.ArgumentParser) -> None:
     p.add_argument(
+FAULT_HELP = (
+    "the answer must keep doing the task after any single failure: rotor (any one rotor "
+    "stops) or module (any one module's rotors stop; it stays docked and its weight still "
+    "counts). Every search but the learned ones takes it; --json adds fault and "
+    "worst_fault_margin (the smallest margin over the failures and wrenches, >= 0)"
+)
+
+
+def add_fault(p: argparse.ArgumentParser, help: str = FAULT_HELP) -> None:
+    """``--fault {rotor,module}``: the single failure an answer must survive."""
+    p.add_argument("--fault", choices=("rotor", "module"), default=None, help=help)
+
+
+def check_fault_method(args: argparse.Namespace) -> None:
+    """``--fault`` with a method that cannot honour it: one line, before any work."""
+    from modquad_gym.search import SEARCHES
+
+    fault, method = getattr(args, "fault", None), getattr(args, "method", None)
+    if fault is not None and method not in SEARCHES:
+        raise ValueError(
+            f"--fault {fault}: method {method!r} cannot guarantee fault tolerance; use one of "
+            f"{', '.join(SEARCHES)}"
+        )
+
+
         "--csv-header",
         choices=CSV_HEADER_MODES,
         default="auto",

@@ -12,10 +12,12 @@ from modquad_gym.cli import common  # commands call common.load_task (tests repl
 from modquad_gym.cli.common import (
     add_command,
     add_csv_header,
+    add_fault,
     add_force,
     add_method,
     add_workers,
     batch_status,
+    check_fault_method,
     one_line,
     palette,
     palette_of,
@@ -43,6 +45,7 @@ def add_solve(sub) -> None:
         "'tasks/*.json'; repeat for several",
     )
     add_method(p)
+    add_fault(p)
     p.add_argument(
         "--json",
         action="store_true",
@@ -77,14 +80,19 @@ def add_solve(sub) -> None:
 
 
 @functools.lru_cache(maxsize=4)
-def cached_solver(method, n_max, model, seed, modules_text, engine, progress: bool, limit=None):
+def cached_solver(
+    method, n_max, model, seed, modules_text, engine, progress: bool, limit=None, fault=None
+):
     """The ``solve`` function of :func:`modquad_gym.solvers.make_solver` for these options;
     cached, so a worker process that solves many tasks loads a PPO model once. ``engine`` (or
-    None) splits the large levels of one exhaustive search; ``limit`` is ``--time-limit``."""
+    None) splits the large levels of one exhaustive search; ``limit`` is ``--time-limit``;
+    ``fault`` is ``--fault``."""
     modules = palette_of(modules_text)  # with --modules, a model trained with that palette
     options = {"engine": engine, "progress": progress}
     if limit is not None:
         options["time_limit"] = limit
+    if fault is not None:
+        options["fault"] = fault
     return make_solver(method, n_max, model, seed, modules=modules, **options).solve
 
 
@@ -96,7 +104,7 @@ def solver(args: argparse.Namespace, task=None, engine=None):
     limit = getattr(args, "time_limit", None)
     model = model_for(args.method, args.model, task, modules)
     return cached_solver(args.method, args.n_max, model, args.seed, modules, engine, progress,
-                         limit)  # fmt: skip
+                         limit, getattr(args, "fault", None))  # fmt: skip
 
 
 def model_for(method: str, model, task, modules: str | None):
@@ -115,11 +123,11 @@ def model_for(method: str, model, task, modules: str | None):
 
 def solve_file(options: tuple, path: Path):
     """Load and solve one task file (the unit of work of a batch): (task, result)."""
-    method, n_max, model, seed, modules, csv_header, limit = options
+    method, n_max, model, seed, modules, csv_header, limit, fault = options
     task = common.load_task(path, csv_header)
     common.check_task(task, path, palette_of(modules))
     model = model_for(method, model, task, modules)
-    result = cached_solver(method, n_max, model, seed, modules, None, False, limit)(task)
+    result = cached_solver(method, n_max, model, seed, modules, None, False, limit, fault)(task)
     return task, result
 
 
@@ -128,6 +136,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     from modquad_gym.tasks import task_files
 
     palette(args)  # a bad --modules is refused before any work
+    check_fault_method(args)
     paths = task_files(args.task)
     if args.export is not None:
         check_export(args.export, len(paths), args.force)
@@ -136,7 +145,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         return solve_here(args, paths, engine)
     # a batch: tasks spread over the workers, each search in one process
     options = (args.method, args.n_max, args.model, args.seed, args.modules, args.csv_header,
-               args.time_limit)  # fmt: skip
+               args.time_limit, args.fault)  # fmt: skip
     failed: list[Failed] = []
     printed = 0
     done: dict[int, object] = {}
@@ -225,6 +234,8 @@ def print_result(args: argparse.Namespace, path, task, result) -> None:
     """One solved task: a JSON line with ``--json``, else the structure drawn as a grid."""
     if args.json:
         record = {"task": str(path), "name": task.name, **result.to_dict()}
+        if result.fault is not None:
+            record["worst_fault_margin"] = worst_fault_margin(task, result)
         print(json.dumps(record), flush=True)
         return
     kind = "" if task.kind == "total" else f" ({task.kind})"
@@ -241,6 +252,11 @@ def print_result(args: argparse.Namespace, path, task, result) -> None:
             " (certified minimum)" if result.certified else f" (lower bound {result.lower_bound})"
         )
         print(f"  {result.n_modules} modules{cert}: cells {list(result.structure.cells)}")
+        if result.fault is not None:
+            print(
+                f"  survives any single {result.fault} failure (worst margin over failures: "
+                f"{worst_fault_margin(task, result):.4f})"
+            )
         if result.palette:
             print(f"  module types: {[m.name for m in result.structure.modules]}")
         print("  " + result.structure.to_text().replace("\n", "\n  "))
@@ -249,3 +265,14 @@ def print_result(args: argparse.Namespace, path, task, result) -> None:
         f"{result.oracle_calls}, seconds: {result.seconds:.3f}",
         flush=True,
     )
+
+
+def worst_fault_margin(task, result) -> float | None:
+    """The smallest margin over every single failure of ``result.fault`` and every wrench of
+    ``task`` for the structure found (>= 0: it survives them all), None without a structure."""
+    from modquad_gym.oracle.faults import fault_margin
+
+    if result.structure is None:
+        return None
+    W = task.rotor_wrenches(result.structure)
+    return float(fault_margin(result.structure, W, task.f_max, fault=result.fault).min())

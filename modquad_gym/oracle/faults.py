@@ -169,13 +169,18 @@ class FaultTolerance:
 
     # --- the questions --------------------------------------------------------------------
     def decide(self, W: np.ndarray, method: str = "auto") -> np.ndarray:
-        """bool (t,): is each wrench (row of W) feasible after every failure?"""
+        """bool (t,): is each wrench (row of W) feasible after every failure? With ``"auto"``
+        or ``"compiled"`` the shared certificate settles what it can; any other method decides
+        every failure by itself (a reference)."""
         ok = decide_with(self.intact, W, method)
         live = np.flatnonzero(ok)
         if not len(live) or not self.failures:
             return ok
-        R, _ = self.intact.reduce(W[live])
-        cert = self._certify(R)
+        if method in ("auto", "compiled"):
+            R, _ = self.intact.reduce(W[live])
+            cert = self._certify(R)
+        else:
+            cert = np.full((len(live), len(self.failures)), -1, dtype=np.int8)
         self.certified += int(np.count_nonzero(cert >= 0))
         alive = ~(cert == 0).any(axis=1)
         # failures with the most undecided wrenches first: they are the likely breakers

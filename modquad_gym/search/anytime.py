@@ -293,7 +293,7 @@ class Incumbents:
 def _proof(problem: SearchProblem) -> str:
     """Why no level up to n_max is left, in the words of the bound that says so."""
     if problem.homogeneous_total:
-        n = force_lower_bound(problem.wrenches, problem.module, problem.f_max)
+        n = force_lower_bound(problem.wrenches, problem.module, problem.f_max, problem.fault)
         if n == NO_SIZE:
             return "force bound: no number of modules can exert the task's forces"
         if n > problem.n_max:
@@ -309,6 +309,7 @@ def anytime_search(
     *,
     modules: Sequence[ModuleType] | None = None,
     kind: str | None = None,
+    fault: str | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
     seed: int | None = 0,
     chunk: int = DEFAULT_CHUNK,
@@ -317,7 +318,9 @@ def anytime_search(
     lower bound (module docstring). Up to :data:`MAX_MODULES` modules; ``modules``, ``kind``
     and ``f_max`` as for :func:`~.exhaustive.exhaustive_search`, whose answer it returns
     whenever the exact levels reach the minimum in time; ``seed`` seeds the local moves."""
-    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    problem = SearchProblem.build(
+        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
+    )
     time_limit = check_time_limit(time_limit)
     chunk = check_int(chunk, "chunk", low=1)
     run = SearchRun("anytime", problem)

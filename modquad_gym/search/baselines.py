@@ -44,6 +44,7 @@ def greedy_search(
     *,
     modules: Sequence[ModuleType] | None = None,
     kind: str | None = None,
+    fault: str | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> SearchResult:
     """Baseline: from one module, repeatedly attach the module that most increases the fraction
@@ -55,7 +56,9 @@ def greedy_search(
     With ``modules`` the first module is the best-scoring type and every child is a (cell,
     type) pair (ties by cell order, then palette order). At ``time_limit`` seconds it stops
     with no structure (and the proved lower bound)."""
-    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    problem = SearchProblem.build(
+        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
+    )
     run = SearchRun("greedy", problem)
     deadline = Deadline(run, time_limit)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
@@ -116,13 +119,16 @@ def random_search(
     *,
     modules: Sequence[ModuleType] | None = None,
     kind: str | None = None,
+    fault: str | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> SearchResult:
     """Baseline: attach modules at uniformly random free cells until the task is satisfied or
     ``n_max`` is reached, ``restarts`` times (or until ``time_limit`` seconds); returns the
     smallest feasible structure seen. With several ``modules`` each module's type is drawn
     uniformly too."""
-    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    problem = SearchProblem.build(
+        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
+    )
     run = SearchRun("random", problem)
     deadline = Deadline(run, time_limit)
     if (done := impossible_result(run, MAX_MODULES)) is not None:

@@ -67,6 +67,7 @@ def beam_search(
     *,
     modules: Sequence[ModuleType] | None = None,
     kind: str | None = None,
+    fault: str | None = None,
     beam_width: int = DEFAULT_BEAM_WIDTH,
     time_limit: float = DEFAULT_TIME_LIMIT,
     seed: int | None = 0,
@@ -75,7 +76,9 @@ def beam_search(
     (module docstring), or None when the beam reaches ``n_max`` (or the time limit) first;
     always with the proved lower bound. ``modules``, ``kind`` and ``f_max`` as for
     :func:`~.exhaustive.exhaustive_search`; ``seed`` orders children of equal scores."""
-    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    problem = SearchProblem.build(
+        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
+    )
     run = SearchRun("beam", problem)
     deadline = Deadline(run, time_limit)
     width = check_int(beam_width, "beam_width", low=1, high=MAX_BEAM_WIDTH)

@@ -67,10 +67,18 @@ COMPUTE_ON_DEMAND_UP_TO = 10
 structures); larger levels use the shipped or cached bounds only."""
 
 
-def force_lower_bound(W: np.ndarray, module: ModuleType, f_max: float = 1.0) -> int:
+def force_lower_bound(
+    W: np.ndarray, module: ModuleType, f_max: float = 1.0, fault: str | None = None
+) -> int:
     """Smallest n such that every task force lies in n * Z_F, with Z_F the force zonotope of
     one module {sum_j u_j d_j : 0 <= u_j <= f_max}. Exact: no structure of fewer modules can
-    exert the task's forces, whatever its shape. :data:`NO_SIZE` if no n works."""
+    exert the task's forces, whatever its shape. :data:`NO_SIZE` if no n works.
+
+    With a ``fault`` the forces must stay within reach after any single failure: after a
+    module fails, n - 1 modules' force set (so n >= the intact bound + 1); after a rotor fails,
+    n Z_F less that rotor's force segment, whose support in a direction N is at most
+    ``n h_1(N) - f_max max(0, N . d_j)`` for the rotor j of the module with the largest
+    ``N . d_j`` (any rotor may fail, so a tolerant structure survives losing that one)."""
     dirs = module.directions
     normals = [
         np.cross(dirs[i], dirs[j]) for i in range(len(dirs)) for j in range(i + 1, len(dirs))
@@ -80,6 +88,10 @@ def force_lower_bound(W: np.ndarray, module: ModuleType, f_max: float = 1.0) -> 
     N = np.array(normals + [-n for n in normals])
     h1 = np.maximum(N @ dirs.T, 0.0).sum(axis=1) * f_max  # support of one module's force set
     proj = W[:, :3] @ N.T  # (t, k)
+    if fault == "rotor":
+        proj = proj + np.maximum(N @ dirs.T, 0.0).max(axis=1) * f_max
+    elif fault == "module":
+        proj = proj + h1
     need = np.where(
         h1 > 1e-12, proj / np.where(h1 > 1e-12, h1, 1.0), np.where(proj > 1e-12, np.inf, 0)
     )
@@ -119,17 +131,27 @@ def counts_possible(
     f_max: float = 1.0,
     kind: str = "total",
     model=None,
+    fault: str | None = None,
 ) -> np.ndarray:
     """bool (C,): False where the count vector (row of ``counts``, one count per palette type)
     certainly cannot exert the task's forces, whatever the shape (module docstring). Exact:
     a structure the oracle accepts always passes. A ``dynamic`` task gives its wrench
-    ``model`` (W is then its structure-independent part)."""
+    ``model`` (W is then its structure-independent part). With a ``fault`` the capacity
+    left after the worst single failure of a type present in the counts is used (a module's
+    whole force support, or its strongest rotor's in each direction; the mass stays)."""
     counts = np.atleast_2d(np.asarray(counts, dtype=float))
     N = force_normals(palette)  # (k, 3)
     proj = [N @ m.directions.T for m in palette]  # each (k, r)
     h = np.array([np.maximum(p, 0.0).sum(axis=1) for p in proj])  # (K, k)
     a = np.array([np.abs(p).sum(axis=1) for p in proj])  # (K, k)
     cap = counts @ (f_max * (h + 0.5 * TOL * a))  # (C, k) widened supports
+    if fault is not None:
+        if fault == "module":
+            loss = f_max * h  # (K, k): one module of each type
+        else:
+            loss = f_max * np.array([np.maximum(p, 0.0).max(axis=1) for p in proj])
+        present = counts > 0  # (C, K)
+        cap = cap - np.where(present[:, :, None], loss[None], 0.0).max(axis=1)
     if model is not None:  # dynamic: the demand of each count vector's own mass
         need = force_needs(model, N, counts @ np.array([m.mass for m in palette]))
     else:
@@ -253,7 +275,7 @@ def counts_left(problem: SearchProblem, n: int) -> tuple[np.ndarray, np.ndarray]
     bound and, for one type alone, the level bound leave."""
     p = problem
     counts = count_vectors(n, len(p.palette))
-    ok = counts_possible(p.wrenches, list(p.palette), counts, p.f_max, p.kind, p.model)
+    ok = counts_possible(p.wrenches, list(p.palette), counts, p.f_max, p.kind, p.model, p.fault)
     for i, c in enumerate(counts):
         if ok[i] and int(c.max()) == n:  # one type alone: the level bounds apply
             m = p.palette[int(np.argmax(c))]
@@ -286,7 +308,8 @@ def first_possible_level(problem: SearchProblem) -> tuple[int, str]:
     p = problem
     for n in range(1, p.n_max + 1):
         counts = count_vectors(n, len(p.palette))
-        if counts_possible(p.wrenches, list(p.palette), counts, p.f_max, p.kind, p.model).any():
+        palette = list(p.palette)
+        if counts_possible(p.wrenches, palette, counts, p.f_max, p.kind, p.model, p.fault).any():
             return n, ""
     lift = " and lift its own weight" if p.kind in ("external", "dynamic") else ""
     return (
@@ -311,7 +334,7 @@ def bound_levels(problem: SearchProblem) -> int:
     satisfies the task."""
     p = problem
     if p.homogeneous_total:
-        n = force_lower_bound(p.wrenches, p.module, p.f_max)
+        n = force_lower_bound(p.wrenches, p.module, p.f_max, p.fault)
         if n == NO_SIZE:
             return p.n_max + 1
         while n <= p.n_max and level_excluded(p.wrenches, p.f_max, p.module, n):

@@ -56,6 +56,7 @@ def centrosymmetric_search(
     *,
     modules: Sequence[ModuleType] | None = None,
     kind: str | None = None,
+    fault: str | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> SearchResult:
     """Paper Algorithm 2: grow structures by a module *and* its centrosymmetric partner about
@@ -69,7 +70,9 @@ def centrosymmetric_search(
     Up to 64 modules within ``time_limit`` seconds and :data:`MEMORY_BUDGET` (module
     docstring).
     """
-    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    problem = SearchProblem.build(
+        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
+    )
     run = SearchRun("centrosymmetric", problem)
     deadline = Deadline(run, time_limit)
     if (done := impossible_result(run, MAX_MODULES)) is not None:

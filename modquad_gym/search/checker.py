@@ -13,6 +13,11 @@ w + M g e_z of its own mass M (:func:`modquad_gym.tasks.rotor_wrenches`); for on
 ``dynamic`` against the wrenches of its mass and inertia (the task's wrench model), and a cached
 direction rejects it only when a lower bound of the task's value for its mass and size exceeds
 its support (:class:`~modquad_gym.search.dynamic.DynamicValues`).
+
+With a ``fault`` (``"rotor"`` or ``"module"``) a structure satisfies the task only when it still
+does after any single failure of that kind (:mod:`modquad_gym.oracle.faults`). A tolerant
+structure is feasible, so the intact decisions and the cached directions still rule structures
+out exactly; a structure that passes them is then decided failure by failure.
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ from modquad_gym.geometry.structure import (
     mixed_configuration_matrices,
 )
 from modquad_gym.oracle import TOL, Zonotope
+from modquad_gym.oracle.faults import FaultTolerance, failure_sets
 from modquad_gym.search import supports
 from modquad_gym.search.dynamic import DynamicValues
 from modquad_gym.tasks import check_kind, rotor_wrenches
@@ -55,8 +61,10 @@ class TaskChecker:
         palette: ModuleType | Sequence[ModuleType],
         kind: str = "total",
         model=None,
+        fault: str | None = None,
     ) -> None:
         self.W = W
+        self.fault = fault
         self.f_max = f_max
         self.palette = [palette] if isinstance(palette, ModuleType) else list(palette)
         self.module = self.palette[0]
@@ -245,7 +253,19 @@ class TaskChecker:
                 self._learn(z, batch[int(np.argmin(ok))])
                 return False
             start = size
+        if self.fault is not None:
+            tolerance = self.tolerance(A, z)
+            ok = tolerance.decide(W)
+            self.oracle_calls += tolerance.tests
+            return bool(ok.all())
         return True
+
+    def tolerance(self, A: np.ndarray, z: Zonotope | None = None) -> FaultTolerance:
+        """The fault tolerance of a structure's matrix A (columns by module) for this task's
+        ``fault``."""
+        rotors = self.module.n_rotors
+        failures = failure_sets(A.shape[1], self.fault, rotors)
+        return FaultTolerance(A, self.f_max, failures, z)
 
     def _learn(self, z: Zonotope, w: np.ndarray) -> None:
         R, off = z.reduce(w[None])

@@ -218,7 +218,7 @@ class Levels:
 def _levels_to_search(run: SearchRun, part: Partial | None) -> Levels:
     """The levels left by the force bound (and by the size of ``part``)."""
     p = run.problem
-    n_lb = force_lower_bound(p.wrenches, p.module, p.f_max)
+    n_lb = force_lower_bound(p.wrenches, p.module, p.f_max, p.fault)
     if n_lb == NO_SIZE:
         return Levels(NO_SIZE, [], "force bound: no number of modules can exert the task's forces")
     run.check_budget(MAX_MODULES, n_lb)
@@ -279,6 +279,7 @@ def exhaustive_search(
     *,
     modules: Sequence[ModuleType] | None = None,
     kind: str | None = None,
+    fault: str | None = None,
     engine: OrderedEngine | None = None,
     chunk: int = DEFAULT_CHUNK,
     progress: bool = False,
@@ -308,7 +309,9 @@ def exhaustive_search(
     several types); the result is the certified minimum among them and ``lower_bound`` refers
     to them.
     """
-    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    problem = SearchProblem.build(
+        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
+    )
     run = SearchRun("exhaustive", problem)
     chunk = check_int(chunk, "chunk", low=1)
     part = None if start is None else make_partial(start, problem.palette, problem.typed)
@@ -361,6 +364,7 @@ def optimal_structures(
     *,
     modules: Sequence[ModuleType] | None = None,
     kind: str | None = None,
+    fault: str | None = None,
     chunk: int = DEFAULT_CHUNK,
 ) -> tuple[int | None, list]:
     """Every minimum-module structure of ``task``: (n*, keys of all feasible structures of n*
@@ -370,7 +374,9 @@ def optimal_structures(
     an ``external`` task the keys are typed
     (:func:`~modquad_gym.geometry.structure.normalise_typed`; one-type structures of such a
     search too)."""
-    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    problem = SearchProblem.build(
+        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
+    )
     run = SearchRun("exhaustive", problem)
     answer = _exhaustive(run, check_int(chunk, "chunk", low=1), None, False, False, None)
     if problem.homogeneous_total:

@@ -97,6 +97,7 @@ def genetic_search(
     *,
     modules: Sequence[ModuleType] | None = None,
     kind: str | None = None,
+    fault: str | None = None,
     population: int = DEFAULT_POPULATION,
     generations: int = DEFAULT_GENERATIONS,
     stall: int = DEFAULT_STALL,
@@ -112,7 +113,9 @@ def genetic_search(
     with the proved lower bound. ``penalty`` (default ``n_max``) weighs the share of wrenches
     missed against the module count; ``modules``, ``kind`` and ``f_max`` as for
     :func:`~.exhaustive.exhaustive_search`; ``seed`` seeds everything random."""
-    problem = SearchProblem.build(task, n_max, f_max, module, modules=modules, kind=kind)
+    problem = SearchProblem.build(
+        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
+    )
     run = SearchRun("genetic", problem)
     deadline = Deadline(run, time_limit)
     opt = _options(population, generations, stall, mutation_rate, crossover_rate, elite,

@@ -42,7 +42,7 @@ def impossible_result(run: SearchRun, limit: int) -> SearchResult | None:
     p = run.problem
     none_left = p.n_max + 1
     if p.homogeneous_total:
-        n_lb = force_lower_bound(p.wrenches, p.module, p.f_max)
+        n_lb = force_lower_bound(p.wrenches, p.module, p.f_max, p.fault)
         if n_lb == NO_SIZE:
             proof = "force bound: no number of modules can exert the task's forces"
             return run.finish(None, none_left, proof=proof)

@@ -9,6 +9,7 @@ mass and inertia put into the wrench model of a ``dynamic`` task, :mod:`.dynamic
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -19,6 +20,7 @@ from modquad_gym.dynamics import DynamicTask, LinearWrenches, check_liftable
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_task_scale
+from modquad_gym.oracle.faults import check_fault, failure_sets
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.search.dynamic import compact
 from modquad_gym.tasks import check_kind, rotor_wrenches
@@ -51,6 +53,9 @@ class SearchProblem:
         typed: the caller gave a palette (``modules=``): results list each module's type.
         model: the wrench model of a ``dynamic`` task (repeated samples dropped); then
             ``wrenches`` is its structure-independent part (payload, exerted wrenches).
+        fault: None (every rotor works), ``"rotor"`` or ``"module"``: a structure satisfies
+            the task only when it still does after any single failure of that kind
+            (:func:`~modquad_gym.oracle.faults.tolerates`).
     """
 
     wrenches: np.ndarray
@@ -60,6 +65,7 @@ class SearchProblem:
     kind: str = "total"
     typed: bool = False
     model: LinearWrenches | None = None
+    fault: str | None = None
 
     def __post_init__(self) -> None:
         W = np.array(check_wrenches(self.wrenches, allow_empty=False), dtype=float)  # a copy
@@ -79,6 +85,8 @@ class SearchProblem:
             check_search_size(self.model.base)
             check_task_scale(self.model.per_mass, f_max)
         object.__setattr__(self, "typed", bool(self.typed))
+        if self.fault is not None:
+            object.__setattr__(self, "fault", check_fault(self.fault))
 
     @classmethod
     def build(
@@ -90,20 +98,24 @@ class SearchProblem:
         *,
         modules: Sequence[ModuleType] | None = None,
         kind: str | None = None,
+        fault: str | None = None,
     ) -> SearchProblem:
         """The problem of a search's arguments: ``task`` a (t, 6) wrench array, anything with
         ``wrenches`` (and ``f_max``, ``kind``) or a :class:`DynamicTask`; ``f_max`` and
         ``kind`` override the task's; ``module`` (one type, default the T-module) or
-        ``modules`` (a palette)."""
+        ``modules`` (a palette); ``fault`` the single failure every answer must survive."""
+        if fault is not None:
+            check_fault(fault)
         if isinstance(task, DynamicTask):
-            return dynamic_problem(task, n_max, f_max, module, modules, kind)
+            problem = dynamic_problem(task, n_max, f_max, module, modules, kind)
+            return problem.with_fault(fault) if fault is not None else problem
         W, f = task_arrays(task, f_max)
         check_search_size(W)
         check_task_scale(W, f)  # the old order of the checks: the same first error
         kind = check_kind(kind if kind is not None else getattr(task, "kind", "total"))
         n_max = check_int(n_max, "n_max", low=1)
         palette = tuple(check_palette(module, modules))
-        return cls(W, f, n_max, palette, kind, typed=modules is not None)
+        return cls(W, f, n_max, palette, kind, typed=modules is not None, fault=fault)
 
     @property
     def module(self) -> ModuleType:
@@ -114,6 +126,14 @@ class SearchProblem:
     def homogeneous_total(self) -> bool:
         """One module type and a ``total`` task: the paper's search, unchanged."""
         return len(self.palette) == 1 and self.kind == "total"
+
+    def failures(self, n_modules: int) -> list[np.ndarray]:
+        """The column sets of the single failures of an ``n_modules`` structure (empty without
+        a fault)."""
+        if self.fault is None:
+            return []
+        rotors = self.palette[0].n_rotors
+        return failure_sets(n_modules * rotors, self.fault, rotors)
 
     def rotor_wrenches(self, structure: Structure | float) -> np.ndarray:
         """What the rotors of ``structure`` must produce for the task. A mass in kg does for
@@ -129,13 +149,17 @@ class SearchProblem:
 
     def checker(self) -> TaskChecker:
         """A fresh :class:`TaskChecker` of this problem."""
-        return TaskChecker(self.wrenches, self.f_max, self.palette, self.kind, self.model)
+        return TaskChecker(
+            self.wrenches, self.f_max, self.palette, self.kind, self.model, self.fault
+        )
 
     def with_n_max(self, n_max: int) -> SearchProblem:
         """The same problem with another module budget."""
-        return SearchProblem(
-            self.wrenches, self.f_max, n_max, self.palette, self.kind, self.typed, self.model
-        )
+        return dataclasses.replace(self, n_max=n_max)
+
+    def with_fault(self, fault: str | None) -> SearchProblem:
+        """The same problem with another single failure to survive (None: none)."""
+        return dataclasses.replace(self, fault=fault)
 
 
 def dynamic_problem(task: DynamicTask, n_max, f_max, module, modules, kind) -> SearchProblem:

@@ -19,7 +19,7 @@ import numpy as np
 
 from modquad_gym.geometry.structure import Key, Structure
 from modquad_gym.oracle import Zonotope, feasible
-from modquad_gym.tasks import rotor_wrenches
+from modquad_gym.oracle.faults import tolerates
 
 if TYPE_CHECKING:
     from modquad_gym.search.problem import SearchProblem
@@ -52,6 +52,8 @@ class SearchResult:
             lower_bound <= n_max + 1; how each search proves it: module docstring). None at
             construction means what ``certified`` says: ``n_modules`` (or ``n_max + 1``) when
             certified, else the trivial bound 1.
+        fault: the single failure the structure survives (``"rotor"``, ``"module"``), or
+            None when every rotor was assumed to work.
     """
 
     structure: Structure | None
@@ -68,6 +70,7 @@ class SearchResult:
     kind: str = "total"
     skipped: int = 0
     lower_bound: int | None = None
+    fault: str | None = None
 
     def __post_init__(self) -> None:
         if self.lower_bound is None:
@@ -113,6 +116,8 @@ class SearchResult:
             )
         if self.kind != "total":
             out["kind"] = self.kind
+        if self.fault is not None:
+            out["fault"] = self.fault
         if self.proof:
             out["proof"] = self.proof
         return out
@@ -172,13 +177,20 @@ class SearchRun:
         self.checker = problem.checker()
 
     def decide(self, s: Structure) -> tuple[Zonotope, np.ndarray, np.ndarray]:
-        """(zonotope of ``s``, its own rotor wrenches W, the exact decision of each), counted as
-        one evaluated configuration and ``len(W)`` oracle calls."""
+        """(zonotope of ``s``, its own rotor wrenches W, the exact decision of each: feasible,
+        or tolerated when the problem has a fault), counted as one evaluated configuration and
+        ``len(W)`` oracle calls (plus the LPs on failed matrices)."""
         W = self.problem.rotor_wrenches(s)
         self.checker.evaluated += 1
         self.checker.oracle_calls += len(W)
-        z = Zonotope(s.configuration_matrix(), self.problem.f_max)
-        return z, W, z.decide_certified(W)
+        A = s.configuration_matrix()
+        z = Zonotope(A, self.problem.f_max)
+        if self.problem.fault is None:
+            return z, W, z.decide_certified(W)
+        tolerance = self.checker.tolerance(A, z)
+        ok = tolerance.decide(W)
+        self.checker.oracle_calls += tolerance.tests
+        return z, W, ok
 
     def check_budget(self, limit: int, first_level: int) -> None:
         """Refuse before any work an n_max beyond ``limit``, this method's reach in bounded
@@ -200,18 +212,16 @@ class SearchRun:
         """The result: ``structure`` (verified here by the exact LP) and ``lower_bound``, the
         proved bound on the module count (:class:`SearchResult`)."""
         p = self.problem
-        if (
-            structure is not None
-            and not feasible(
-                structure.configuration_matrix(),
-                p.rotor_wrenches(structure),
-                p.f_max,
-                method="daqp",
-            ).all()
-        ):
-            raise RuntimeError(  # pragma: no cover - an oracle bug, never a silent success
-                f"{self.method} search found {structure!r} but the exact LP rejects it"
-            )
+        if structure is not None:
+            W = p.rotor_wrenches(structure)
+            if p.fault is None:
+                ok = feasible(structure.configuration_matrix(), W, p.f_max, method="daqp")
+            else:
+                ok = tolerates(structure, W, p.f_max, fault=p.fault, method="daqp")
+            if not ok.all():
+                raise RuntimeError(  # pragma: no cover - an oracle bug, never a silent success
+                    f"{self.method} search found {structure!r} but the exact LP rejects it"
+                )
         return SearchResult(
             structure=structure,
             n_modules=structure.n_modules if structure is not None else None,
@@ -227,6 +237,7 @@ class SearchRun:
             kind=p.kind,
             skipped=self.skipped,
             lower_bound=lower_bound,
+            fault=p.fault,
         )
 
 
@@ -236,8 +247,5 @@ def verified(structure: Structure | None, task: Any) -> bool:
     exact DAQP LP oracle."""
     if structure is None:
         return False
-    if task.kind == "dynamic":
-        W = task.rotor_wrenches(structure)
-    else:
-        W = rotor_wrenches(task.wrenches, task.kind, structure.mass)
+    W = task.rotor_wrenches(structure)
     return bool(feasible(structure.configuration_matrix(), W, task.f_max, method="daqp").all())

@@ -102,10 +102,12 @@ class TaskRequirement:
             f"f_max={self.f_max:g}{kind})"
         )
 
-    def rotor_wrenches(self, mass: float = 0.0) -> np.ndarray:
-        """(t, 6) what the rotors must produce for a structure of ``mass`` kg: the wrenches
-        themselves for a ``total`` task, plus the weight for an ``external`` one."""
-        return rotor_wrenches(self.wrenches, self.kind, mass)
+    def rotor_wrenches(self, structure: Any = 0.0) -> np.ndarray:
+        """(t, 6) what the rotors of ``structure`` (a Structure, or its mass in kg) must
+        produce: the wrenches themselves for a ``total`` task, plus the weight for an
+        ``external`` one (the same question a DynamicTask answers)."""
+        mass = getattr(structure, "mass", structure)
+        return rotor_wrenches(self.wrenches, self.kind, float(mass))
 
     # --- dicts ----------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
