@@ -95,7 +95,16 @@ def environment_page(env_id: str) -> str:
             ("make", f'`gym.make("{env_id}")`'),
             ("class", f"`{cls.__module__}.{cls.__qualname__}`"),
             ("registered keywords", f"`{spec.kwargs}`" if spec.kwargs else "none"),
-            ("max_episode_steps", f"`{spec.max_episode_steps}`"),
+            (
+                "max_episode_steps",
+                f"`{env.spec.max_episode_steps}` (the env's own limit, "
+                "4 * n_max: it follows `n_max`; registered without a `TimeLimit`)",
+            ),
+            (
+                "reward_threshold",
+                f"`{env.spec.reward_threshold}` (the return every successful "
+                "episode without invalid actions reaches; see Rewards)",
+            ),
             ("action space", f"`{env.action_space}`"),
             ("render modes", ", ".join(f"`{m}`" for m in base.metadata["render_modes"])),
         ]

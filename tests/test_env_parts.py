@@ -169,7 +169,7 @@ def test_transitions_are_functions_of_an_episode_context_and_a_state():
 
 
 def test_one_env_class_takes_any_module_set():
-    mixed = gym.make("ModQuadAssemblyMixed-v0").unwrapped
+    mixed = gym.make("ModQuadAssemblyMixed-v1").unwrapped
     assert type(mixed) is ModQuadAssemblyEnv and mixed.n_types == 3
     env = ModQuadAssemblyEnv(modules=Palette("t45,flat", initial_type=1))
     env.reset(seed=0)

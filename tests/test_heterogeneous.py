@@ -364,7 +364,7 @@ def test_mixed_env_spaces_masks_and_oracle_agreement():
         env.reset(seed=0)
         _, _, _, _, info = env.step(bad)
         assert info["invalid_action"]
-    assert gym.make("ModQuadAssemblyMixed-v0").unwrapped.n_types == 3
+    assert gym.make("ModQuadAssemblyMixed-v1").unwrapped.n_types == 3
 
 
 def test_mixed_env_initial_type_action_layout_and_external_tasks():

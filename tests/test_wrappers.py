@@ -11,7 +11,7 @@ import modquad_gym  # noqa: F401 - registers the environments
 from modquad_gym.envs.wrappers import NearestValidAction
 
 
-@pytest.mark.parametrize("env_id", ["ModQuadAssembly-v0", "ModQuadAssemblyMixed-v0"])
+@pytest.mark.parametrize("env_id", ["ModQuadAssembly-v0", "ModQuadAssemblyMixed-v1"])
 def test_every_action_docks_a_module(env_id):
     env = NearestValidAction(gym.make(env_id, n_max=5))
     rng = np.random.default_rng(0)
@@ -40,7 +40,7 @@ def test_valid_actions_are_kept_and_invalid_ones_go_to_the_nearest_cell():
 
 
 def test_mixed_env_keeps_the_requested_type():
-    env = NearestValidAction(gym.make("ModQuadAssemblyMixed-v0", n_max=4))
+    env = NearestValidAction(gym.make("ModQuadAssemblyMixed-v1", n_max=4))
     env.reset(seed=0)
     base = env.unwrapped
     for k in range(3):

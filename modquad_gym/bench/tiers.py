@@ -4,7 +4,7 @@
   held-out suites (:mod:`.suites`);
 * ``large``: ``ModQuadAssemblyLarge-v0`` (one type, n_max 12), tasks planted in 6-12 modules,
   where the certified search costs seconds per task;
-* ``mixed``: ``ModQuadAssemblyMixed-v0`` with the palette t45, t45m, flat (n_max 7) on
+* ``mixed``: ``ModQuadAssemblyMixed-v1`` with the palette t45, t45m, flat (n_max 7) on
   self-weight (``external``) tasks planted in mixed structures of 3-6 modules: the rotors also
   lift the structure;
 * ``dynamic``: ``ModQuadAssemblyDynamic-v0`` (one type, n_max 7) on random dynamic tasks
@@ -100,7 +100,7 @@ TIERS = {
                   goals={**{m: {"optimal": 0.95, "configs": 0.05}
                             for m in ("ppo-guided", "ppo-guided-b256-w8")},
                          "ppo": {"optimal": "greedy"}}),
-    "mixed": Tier("mixed", "ModQuadAssemblyMixed-v0", 7, ("mixed_external",),
+    "mixed": Tier("mixed", "ModQuadAssemblyMixed-v1", 7, ("mixed_external",),
                   env_kwargs={"tasks": "planted-mixed-external"}, modules="t45,t45m,flat",
                   source="planted-mixed-external", seed0=4_000_000, n_tasks=40,
                   recipe={"expert": "one", "demo_tasks": 3000, "timesteps": 100_000},

@@ -47,7 +47,8 @@ def add_generate(tsub) -> None:
         choices=tuple(GENERATE),
         required=True,
         help="paper: 80 random wrenches as in Sec. VI; planted: wrenches inside a hidden "
-        "random structure (a .json file keeps its cells in meta.planted_cells); "
+        "random structure (a .json file keeps its cells in meta.planted_cells, hidden, for "
+        "benchmarks; the task's name is neutral: planted-seedS); "
         "screwdriver: the two wrenches of Fig. 1 (the seed is ignored)",
     )
     g.add_argument(
@@ -84,6 +85,8 @@ def add_generate(tsub) -> None:
 
 
 def cmd_task_generate(args: argparse.Namespace) -> int:
+    import dataclasses
+
     import numpy as np
 
     from modquad_gym.core.outputs import check_output_file
@@ -101,6 +104,8 @@ def cmd_task_generate(args: argparse.Namespace) -> int:
         size = {"n_modules": args.n_modules}
     generator = GENERATE[args.kind](f_max=f_max, kind=args.task_kind, **size)
     task = generator(np.random.default_rng(args.seed))
+    if args.kind != "screwdriver":  # a neutral name: the seed, never the answer
+        task = dataclasses.replace(task, name=f"{task.name}-seed{args.seed}")
     try:  # a file `solve` would refuse is not written
         check_task_scale(task.wrenches, task.f_max)
     except ValueError as exc:

@@ -8,8 +8,12 @@ package first) registers:
 * ``ModQuadAssemblyPaper-v0``: the same with ``tasks="paper"`` (the paper's random tasks).
 * ``ModQuadAssemblyPlanted-v0``: the same with ``tasks="planted"`` (tasks planted from a
   random structure, so a solution within n_max is known to exist).
-* ``ModQuadAssemblyMixed-v0``: the same with ``modules="t45,t45m,flat"``: three module types,
-  (cell, type) actions (:class:`~modquad_gym.envs.assembly.modules.Palette`).
+* ``ModQuadAssemblyMixed-v1``: the same with ``modules="t45,t45m,flat"``: three module types,
+  (cell, type) actions (:class:`~modquad_gym.envs.assembly.modules.Palette`), and
+  ``tasks="planted-mixed-external"``: the mixed tier's tasks (self-weight tasks planted in
+  structures of mixed types, :class:`~modquad_gym.tasks.PlantedMixedTasks`).
+* ``ModQuadAssemblyMixed-v0`` (superseded by -v1, kept so that its runs repeat): the palette
+  with the default single-type tasks (``tasks="mixed"``).
 * ``ModQuadAssemblyLarge-v0``: the same with ``n_max=12`` and ``tasks="planted-large"`` (tasks
   planted in 6-12 modules): the large benchmark tier (:mod:`modquad_gym.bench.tiers`).
 * ``ModQuadAssemblyDynamic-v0``: the same with ``tasks="motions"``: random dynamic tasks
@@ -22,7 +26,12 @@ package first) registers:
   130), each with a row of ``"candidates"`` features, for policies that score candidates at any
   size.
 
-Each id's ``max_episode_steps`` is the env's own step limit for the id's arguments (4 * n_max).
+No id registers a ``max_episode_steps`` (Gymnasium's ``TimeLimit``): the env truncates itself at
+its own ``max_steps`` (4 * n_max), so the limit follows ``gym.make(id, n_max=N)``, and
+``env.spec.max_episode_steps`` reports it. ``reward_threshold`` is the least return of a
+successful episode without invalid actions (:func:`~.assembly.reward.success_threshold`: 0.4
+at n_max 7), where success beats every failure (not at n_max 12 or 64: None there);
+``env.spec`` gives the value for the arguments the env was made with.
 """
 
 from __future__ import annotations
@@ -31,6 +40,7 @@ import gymnasium as gym
 
 from modquad_gym.envs.assembly import (
     DEFAULT_N_MAX,
+    ENTRY_POINT,
     AssemblyFeatures,
     AssemblyState,
     ModQuadAssemblyEnv,
@@ -40,15 +50,15 @@ from modquad_gym.envs.assembly import (
     episode_return,
     unit_directions,
 )
+from modquad_gym.envs.assembly.reward import success_threshold
 from modquad_gym.tasks import PlantedTasks
-
-ENTRY_POINT = "modquad_gym.envs.assembly:ModQuadAssemblyEnv"
 
 ENV_IDS: dict[str, dict] = {
     "ModQuadAssembly-v0": {},
     "ModQuadAssemblyPaper-v0": {"tasks": "paper"},
     "ModQuadAssemblyPlanted-v0": {"tasks": "planted"},
     "ModQuadAssemblyMixed-v0": {"modules": "t45,t45m,flat"},
+    "ModQuadAssemblyMixed-v1": {"modules": "t45,t45m,flat", "tasks": "planted-mixed-external"},
     "ModQuadAssemblyLarge-v0": {"tasks": "planted-large", "n_max": 12},
     "ModQuadAssemblyDynamic-v0": {"tasks": "motions"},
     "ModQuadAssemblyScale-v0": {
@@ -67,12 +77,16 @@ def register_envs() -> None:
                 id=env_id,
                 entry_point=ENTRY_POINT,
                 kwargs=dict(kwargs),
-                max_episode_steps=episode_limit(kwargs),
+                max_episode_steps=None,  # the env's own limit, which follows n_max
+                reward_threshold=success_threshold(
+                    RewardWeights(), kwargs.get("n_max", DEFAULT_N_MAX)
+                ),
             )
 
 
 def episode_limit(kwargs: dict) -> int:
-    """The env's own step limit for these arguments (its default ``max_steps``, 4 * n_max)."""
+    """The env's own step limit for these arguments (its default ``max_steps``, 4 * n_max):
+    ``env.spec.max_episode_steps`` of ``gym.make(id, **kwargs)``."""
     return kwargs.get("max_steps") or 4 * kwargs.get("n_max", DEFAULT_N_MAX)
 
 

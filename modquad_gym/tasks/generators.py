@@ -146,8 +146,10 @@ class PlantedTasks:
     such inputs map to interior wrenches.)
     Every entry is then clipped to [slack, 1 - slack] * f_max, so the hidden structure's margin
     (:func:`modquad_gym.oracle.margin`) is >= 2 * slack: feasible beyond any solver tolerance.
-    Hence the optimum is <= n. ``meta`` holds ``planted_cells`` (growth order) and
-    ``optimum_upper_bound``; see :func:`planted_structure`.
+    Hence the optimum is <= n. The task's name is the generator's ``name`` alone (``"planted"``):
+    it says nothing of the answer. ``meta`` holds ``planted_cells`` (growth order) and
+    ``optimum_upper_bound``: hidden, for benchmarks (a solver must not read them; the
+    environment shows neither); see :func:`planted_structure`.
 
     With ``kind="external"`` the hidden structure's weight is subtracted (w = A u - m g e_z), so
     it still produces exactly the rotor wrenches A u and the optimum stays <= n.
@@ -195,16 +197,13 @@ class PlantedTasks:
         W = U @ A.T
         if self.kind == "external":
             W[:, 2] -= hidden.mass * GRAVITY
-        text = ";".join(f"{x},{y}" for x, y in cells)
         meta = {
             "generator": "planted",
             "planted_cells": [list(c) for c in cells],
             "optimum_upper_bound": n,
             "n_boundary": int(boundary.sum()),
         }
-        return TaskRequirement(
-            W, name=f"{self.name}[{text}]", f_max=self.f_max, meta=meta, kind=self.kind
-        )
+        return TaskRequirement(W, name=self.name, f_max=self.f_max, meta=meta, kind=self.kind)
 
 
 def planted_structure(task: TaskRequirement, module: ModuleType | None = None) -> Structure | None:

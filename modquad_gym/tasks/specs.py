@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.dynamics.random_motions import MotionTasks
+from modquad_gym.tasks.examples import resolve_task_path
 from modquad_gym.tasks.files import SUFFIXES, json_keys
 from modquad_gym.tasks.generators import (
     FixedTasks,
@@ -54,7 +54,7 @@ def make_generator(spec: Any) -> TaskGenerator:
       tier); ``"motions"`` (:class:`~modquad_gym.dynamics.random_motions.MotionTasks`: random
       dynamic tasks, the dynamic tier);
     * a path to a task file (``.json``/``.csv``/``.npy``, a dynamic task's JSON too) or a suite
-      JSON: those fixed tasks;
+      JSON: those fixed tasks; ``example:NAME`` reads the shipped example (as the CLI does);
     * a :class:`TaskRequirement` or a :class:`~modquad_gym.dynamics.DynamicTask`: always that
       task; a :class:`TaskGenerator` (``name`` and ``__call__(rng)``): itself;
     * any other callable ``gen(rng)`` (a function, a lambda, a bound method): wrapped as a
@@ -82,7 +82,7 @@ def make_generator(spec: Any) -> TaskGenerator:
         key = os.fspath(spec)
         if key in NAMED_GENERATORS:
             return NAMED_GENERATORS[key]()
-        path = Path(key)
+        path = resolve_task_path(key)  # example:NAME -> the shipped file (else ValueError)
         if path.is_file():
             if path.suffix.lower() == ".json" and "tasks" in json_keys(path):
                 return FixedTasks(tuple(load_suite(path)), name=path.stem)

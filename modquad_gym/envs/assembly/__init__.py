@@ -4,8 +4,9 @@ encodings (grid cells, or the structure's free faces) and their masks,
 :mod:`.types` the episode state, :mod:`.reward` the reward functions, :mod:`.features` the
 observation blocks, :mod:`.lookahead` the per-action candidate rows, :mod:`.evaluator` the exact
 decisions (by :meth:`modquad_gym.oracle.WrenchOracle.screened`) and their caches,
-:mod:`.viewer` the pictures, :mod:`.inputs` the input cleaning, :mod:`.modules` the module set
-(one type or a palette), :mod:`.dynamic` dynamic tasks (each structure's own wrenches).
+:mod:`.viewer` the pictures, :mod:`.spec` the Gymnasium spec of the env's arguments,
+:mod:`.inputs` the input cleaning, :mod:`.modules` the module set (one type or a palette),
+:mod:`.dynamic` dynamic tasks (each structure's own wrenches).
 
 Where to add: a reward term in :mod:`.reward` (:class:`WeightedReward.terms`), an observation
 feature in :mod:`.features` (:func:`observation_blocks`), a module set's env behaviour in
@@ -28,6 +29,7 @@ from modquad_gym.envs.assembly.features import (
 from modquad_gym.envs.assembly.inputs import INVALID_ACTION_MODES, as_task
 from modquad_gym.envs.assembly.modules import OneType, Palette
 from modquad_gym.envs.assembly.reward import RewardFn, RewardWeights, WeightedReward, episode_return
+from modquad_gym.envs.assembly.spec import ENTRY_POINT, ArgumentSpec
 from modquad_gym.envs.assembly.types import AssemblyState, Episode, Rules, TaskArrays
 from modquad_gym.envs.assembly.viewer import AssemblyViewer
 
@@ -35,10 +37,12 @@ __all__ = [
     "CANDIDATE_FEATURES",
     "DEFAULT_N_MAX",
     "ENCODINGS",
+    "ENTRY_POINT",
     "FACE_FEATURES",
     "INVALID_ACTION_MODES",
     "MAX_STEPS_LIMIT",
     "N_MAX_LIMIT",
+    "ArgumentSpec",
     "AssemblyFeatures",
     "AssemblyState",
     "AssemblyViewer",

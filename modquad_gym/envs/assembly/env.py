@@ -41,6 +41,7 @@ from modquad_gym.envs.assembly.inputs import (
 )
 from modquad_gym.envs.assembly.modules import make_module_set
 from modquad_gym.envs.assembly.reward import RewardFn, make_reward, reset_terms, step_reward
+from modquad_gym.envs.assembly.spec import ArgumentSpec
 from modquad_gym.envs.assembly.transitions import initial_state, transition
 from modquad_gym.envs.assembly.types import AssemblyState, Episode
 from modquad_gym.envs.assembly.viewer import RENDER_FPS, AssemblyViewer
@@ -59,7 +60,7 @@ ENCODINGS = {"grid": Grid, "faces": Faces}
 """The action encodings by name (:mod:`.grid`, :mod:`.faces`)."""
 
 
-class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
+class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64]):
     """Assemble the smallest modular multirotor (H-ModQuad) that can exert a task's wrenches.
 
     ## Description
@@ -127,8 +128,9 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     is therefore ``w_sat * (frac_T - frac_0) - w_module * (n_T - 1) + w_success * success
     - w_invalid * n_invalid``: for a successful episode, fewer modules always earn more
     (w_module > 0), and success beats failure when w_success > w_module * (n_max - 1). Defaults:
-    w_sat = 1, w_module = 0.1, w_success = 1, w_invalid = 0.1. ``info["reward_terms"]`` holds the
-    four terms of each step.
+    w_sat = 1, w_module = 0.1, w_success = 1, w_invalid = 0.1; ``info["reward_terms"]`` has the
+    terms. ``env.spec.reward_threshold``: the return every success without invalid actions
+    reaches (0.4 at n_max 7; :func:`~.reward.success_threshold`).
 
     ## Starting State
     One module at cell (0, 0) and a task drawn from the task source with ``self.np_random``
@@ -141,22 +143,22 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
       counted invalid) ends the episode with the success bonus and no module added.
     * Termination (failure): n_max modules without success, no valid action left, or an invalid
       action with ``invalid_action="terminate"``.
-    * Truncation: ``max_steps`` steps (default 4 * n_max) without termination; only reachable
-      through invalid actions. Each registered id's ``max_episode_steps`` (``env.spec``) is the
-      env's own limit for the id's arguments (4 * n_max: 28 for n_max 7); ``gym.make(id,
-      n_max=N)`` keeps the id's limit (as Gymnasium's ids do): pass ``max_episode_steps=4 * N``
-      too, or use the id registered for that size.
+    * Truncation: the env itself truncates (``truncated`` True, ``terminated`` False) the step
+      that reaches ``max_steps`` steps (default 4 * n_max) without termination: only invalid
+      actions get there (valid ones terminate within n_max - 1 steps). The ids register no
+      ``TimeLimit``, so the limit follows ``gym.make(id, n_max=N)`` (N modules reachable), and
+      ``env.spec.max_episode_steps`` reports it (:mod:`.spec`).
 
     ## Arguments
     * ``tasks``: task source: ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"``
-      (default), a task file path, a TaskRequirement, a DynamicTask (a motion: each structure
-      decided on its own rotor wrenches, :mod:`~modquad_gym.envs.assembly.dynamic`), a list of
-      them, or a generator: any callable ``gen(rng) -> TaskRequirement`` (or DynamicTask, or
-      (t, 6) wrench array), called with ``self.np_random`` at each reset; a result of another
-      kind raises a ValueError there. See :func:`modquad_gym.tasks.make_generator`.
+      (default), a task file path, a shipped example (``"example:screwdriver"``), a
+      TaskRequirement, a DynamicTask (a motion: each structure decided on its own rotor
+      wrenches, :mod:`.dynamic`), a list of them, or a generator: any callable ``gen(rng) ->
+      TaskRequirement`` (or DynamicTask, or (t, 6) wrench array), called with
+      ``self.np_random`` at each reset (another result: ValueError); see
+      :func:`modquad_gym.tasks.make_generator`.
     * ``n_max``: the largest number of modules (default 7, as in the paper), 2 to 64.
-    * ``module``: the :class:`~modquad_gym.geometry.module.ModuleType` of every module (default the
-      T-module, eta = pi/4).
+    * ``module``: the ``ModuleType`` of every module (default the T-module, eta = pi/4).
     * ``modules``: several module types (stock names ``"t45,t45m,flat"`` or ModuleType objects)
       or a module set (:class:`~.modules.Palette`, :class:`~.modules.OneType`): each action then
       docks a module *of a type*, type-major (``a = k * G * G + c`` on the grid;
@@ -166,12 +168,10 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     * ``initial_type``: with a palette, the first module's type index (default 0) or
       ``"random"`` (drawn at each reset); ``reset(options={"initial_type": k})`` for one episode.
     * ``f_max``: maximum thrust per rotor, 1e-9 to 1e12; None (default) uses each task's own.
-    * ``reward_weights``: a :class:`~modquad_gym.envs.assembly.reward.RewardWeights` or a dict
-      of some of ``w_sat``, ``w_module``, ``w_success``, ``w_invalid`` (the default reward).
-    * ``reward``: any :class:`~modquad_gym.envs.assembly.reward.RewardFn` (default
-      :class:`~modquad_gym.envs.assembly.reward.WeightedReward` of ``reward_weights``).
-    * ``viewer``: an :class:`~modquad_gym.envs.assembly.viewer.AssemblyViewer` (default one of
-      ``render_size``).
+    * ``reward_weights``: a :class:`~.reward.RewardWeights` or a dict of some of ``w_sat``,
+      ``w_module``, ``w_success``, ``w_invalid`` (the default reward).
+    * ``reward``: any :class:`~.reward.RewardFn` (default :class:`~.reward.WeightedReward`).
+    * ``viewer``: an :class:`~.viewer.AssemblyViewer` (default one of ``render_size``).
     * ``invalid_action``: ``"penalise"`` (default) or ``"terminate"``.
     * ``max_steps``: the step limit for truncation (default 4 * n_max, at most 4 * 64).
     * ``render_mode``: None, ``"rgb_array"`` (the structure picture, (H, W, 3) uint8),
@@ -180,8 +180,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     * ``actions``: the action encoding, ``"grid"`` (default) or ``"faces"`` (above).
     * ``n_directions``: K, the support directions of the features (default 48, 12..4096).
     * ``oracle_method``: the oracle's method (default ``"auto"``, exact and certified).
-    * ``render_size``: (height, width) of ``rgb_array`` frames, each 16..4096 (default
-      (256, 256)).
+    * ``render_size``: (height, width) of ``rgb_array`` frames, 16..4096 each, default (256, 256).
     * ``lookahead``: add the ``"candidates"`` observation (default False: the observation is
       exactly the four entries above).
 
@@ -190,6 +189,7 @@ class ModQuadAssemblyEnv(gym.Env[dict[str, np.ndarray], np.int64]):
     [x, y], initial module first), ``evaluated`` (structures the oracle evaluated this episode:
     the initial one plus one per docking), ``oracle_calls`` (wrench tests this episode),
     ``action_mask``, ``task_name``, ``n_wrenches``, ``invalid_action`` and ``reward_terms``.
+    No answer in ``info``: task names are neutral (``"planted"``); ``task.meta`` is for benchmarks.
 
     Changes between versions are listed in the repository's ``CHANGELOG.md``.
     """

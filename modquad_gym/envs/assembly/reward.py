@@ -17,6 +17,15 @@ For a successful episode frac_T = 1, so G falls by ``w_module`` per module: with
 fewer modules always earn more. Success beats every failed episode of the same task when
 ``w_success > w_module * (n_max - 1)`` (the defaults satisfy this up to n_max = 10).
 
+The success threshold (:func:`success_threshold`; ``env.spec.reward_threshold`` of the
+registered ids) is the least return of a successful episode without invalid actions,
+``w_success - w_module * (n_max - 1)`` (frac_T = 1 >= frac_0 and at most n_max modules): 0.4
+with the default weights at n_max = 7. It is defined only where success beats every failed
+episode of the same task (the value is then > 0); with the default weights that is n_max <= 10,
+so the ids at n_max 12 and 64 have none. Read it as a necessary mark, not a sufficient one: a
+policy that succeeds on every task without invalid actions has a mean return of at least the
+threshold, but a failed episode of an easy task can also return up to ``w_sat``.
+
 A reward is any :class:`RewardFn`, ``reward(state, action, next_state, is_valid) -> float``,
 given to the env as ``reward=``; :class:`WeightedReward` (this formula) is the default. To add a
 term, subclass it and extend :meth:`WeightedReward.terms` (``info["reward_terms"]`` shows it).
@@ -97,6 +106,14 @@ def episode_return(
         + weights.w_success * float(success)
         - weights.w_invalid * n_invalid
     )
+
+
+def success_threshold(weights: RewardWeights, n_max: int) -> float | None:
+    """The least return of a successful episode without invalid actions, ``w_success - w_module
+    * (n_max - 1)`` (rounded to 12 decimals), where success beats every failed episode of the
+    same task (that value > 0); else None (module docstring)."""
+    value = round(weights.w_success - weights.w_module * (n_max - 1), 12)
+    return value if value > 0 else None
 
 
 @runtime_checkable
