@@ -129,6 +129,15 @@ class FaultTolerance:
             C = np.zeros((sum(len(S) for S in self.failures), z.m))
             errors = np.full(len(self.failures), np.inf)
             starts = np.cumsum([0] + [len(S) for S in self.failures])
+            if all(len(S) == 1 for S in self.failures) and z.rank:  # one rotor each: no solve
+                k = np.concatenate(self.failures)
+                gap = 1.0 - H[k, k]
+                usable = gap >= _SINGULAR
+                C = H[k] / np.where(usable, gap, 1.0)[:, None]
+                C[np.arange(len(k)), k] = -1.0
+                C[~usable] = 0.0
+                errors = np.where(usable, np.abs(C @ z.G.T).max(axis=1), np.inf)
+                groups = []
             for group in groups:
                 S = np.array([self.failures[i] for i in group])  # (F, s)
                 s = S.shape[1]
