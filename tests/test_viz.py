@@ -84,7 +84,8 @@ def test_projection_labels_say_what_and_which_units():
     assert ax.get_title() == "feasible forces: projection of the 6-D set"
     assert ax.get_xlabel() == "$f_x$ [f_max]"
     legend = {t.get_text() for t in ax.get_legend().get_texts()}
-    assert "feasible (6-D)" in legend and legend <= {"feasible (6-D)", "infeasible (6-D)"}
+    feasible, infeasible = "task wrench, feasible (6-D)", "task wrench, infeasible (6-D)"
+    assert feasible in legend and legend <= {feasible, infeasible}
     external = TaskRequirement([[0, 0, 2.0, 0, 0, 0.05]], kind="external", f_max=2.0)
     ax = draw_projection(s, "torque", task=external)
     assert ax.get_zlabel() == r"$\tau_z$ [N m]"

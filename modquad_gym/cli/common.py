@@ -112,9 +112,11 @@ def time_limit_option(text: str) -> float:
 time_limit_option.__name__ = "seconds"
 
 
-def add_method(p: argparse.ArgumentParser, default: str = "anytime") -> None:
+def add_method(
+    p: argparse.ArgumentParser, default: str = "anytime", modules_help: str = MODULES_HELP
+) -> None:
     """``--method`` (choices and help from the solver table), ``--n-max``, ``--time-limit``,
-    ``--model``, ``--seed`` and ``--modules``."""
+    ``--model``, ``--seed`` and ``--modules`` (help ``modules_help``)."""
     p.add_argument(
         "--method",
         choices=METHODS,
@@ -149,11 +151,9 @@ def add_method(p: argparse.ArgumentParser, default: str = "anytime") -> None:
         default=0,
         help="seed for the random search and PPO sampling, 0 to 2**63-1 (default %(default)s)",
     )
-    add_modules(p)
+    add_modules(p, modules_help)
 
 
-def add_csv_header(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
 FAULT_HELP = (
     "the answer must keep doing the task after any single failure: rotor (any one rotor "
     "stops) or module (any one module's rotors stop; it stays docked and its weight still "
@@ -179,6 +179,8 @@ def check_fault_method(args: argparse.Namespace) -> None:
         )
 
 
+def add_csv_header(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
         "--csv-header",
         choices=CSV_HEADER_MODES,
         default="auto",

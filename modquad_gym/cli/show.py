@@ -1,5 +1,6 @@
-"""``modquad show``: draw a structure (given, or the exhaustive search's answer) as a PNG and/or
-an interactive, self-contained HTML page."""
+"""``modquad show``: draw a structure (given, or a search's answer: ``--method``, ``--n-max`` and
+``--time-limit`` as in ``modquad solve``, with its solver) as a PNG and/or an interactive,
+self-contained HTML page."""
 
 from __future__ import annotations
 
@@ -7,15 +8,12 @@ import argparse
 import json
 from pathlib import Path
 
-from modquad_gym.cli import common  # commands call common.load_task (tests replace it)
-from modquad_gym.cli.common import (
-    add_command,
-    add_csv_header,
-    add_force,
-    add_modules,
-    add_n_max,
-    palette,
-)
+from modquad_gym.cli import common, solve  # common.load_task, solve.solver (tests replace them)
+from modquad_gym.cli.common import add_command, add_csv_header, add_force, add_method, palette
+
+MAX_SHOWN_MODULES = 64
+"""Largest ``--n-max`` for a search: the picture's force and torque projections are computed
+for structures of up to 64 modules (:data:`modquad_gym.viz.zonotope.MAX_PROJECTED_ROTORS`)."""
 
 
 def add_show(sub) -> None:
@@ -24,16 +22,22 @@ def add_show(sub) -> None:
         "show",
         cmd_show,
         help="draw a structure (top view, feasible forces and torques; PNG or HTML)",
-        description="Draw a structure given by --cells, or the exhaustive search's answer for "
-        "--task: a PNG (top view; with --task also the feasible forces and torques, projections "
-        "of the 6-D feasible set, with the task's wrenches coloured by 6-D feasibility) and/or, "
+        description="Draw a structure given by --cells, or the answer of a search for --task "
+        "(--method, --n-max up to 64, --time-limit as in `modquad solve`): a PNG (top view; "
+        "with --task also the feasible forces and torques, projections of the 6-D feasible "
+        "set, with the task's wrenches coloured by 6-D feasibility) and/or, "
         "with --html, one self-contained interactive page (3-D structure with thrust "
         "directions, the same projections to turn and zoom; no network needed).",
     )
     p.add_argument("--cells", help="JSON list of [x, y] cells, e.g. '[[0,0],[1,0],[0,1]]'")
-    p.add_argument("--task", help="task file: solve it (exhaustive) unless --cells is given")
-    add_n_max(
-        p, "largest module count the exhaustive search tries for --task (default %(default)s)"
+    p.add_argument(
+        "--task",
+        help="task file: solve it with --method (as `modquad solve`) unless --cells is given",
+    )
+    add_method(
+        p,
+        modules_help="comma-separated module types: with --task the palette the search mixes; "
+        "with --cells one type for every cell or one per cell, in order (e.g. t45,flat,t45m)",
     )
     p.add_argument(
         "--out",
@@ -46,11 +50,6 @@ def add_show(sub) -> None:
         metavar="OUT.html",
         help="also (or, without --out, only) write the interactive page here (needs plotly: "
         "pip install 'modquad_gym[viz]')",
-    )
-    add_modules(
-        p,
-        "comma-separated module types: with --task the palette the search mixes; with "
-        "--cells one type for every cell or one per cell, in order (e.g. t45,flat,t45m)",
     )
     add_csv_header(p)
     add_force(p)
@@ -93,6 +92,11 @@ def structure_from_cells(text: str, modules):
 def cmd_show(args: argparse.Namespace) -> int:
     from modquad_gym.core.outputs import check_output_file
 
+    if args.task and not args.cells and args.n_max > MAX_SHOWN_MODULES:
+        raise ValueError(
+            f"--n-max: show draws structures of up to {MAX_SHOWN_MODULES} modules (the "
+            f"feasible forces and torques), got {args.n_max}; `modquad solve` goes further"
+        )
     out = args.out if args.out is not None or args.html is not None else "structure.png"
     if out is not None:
         out = Path(out)
@@ -104,7 +108,6 @@ def cmd_show(args: argparse.Namespace) -> int:
     task, structure = shown(args)
     if structure is None:
         return 0
-    print(structure)
     if out is not None:
         from modquad_gym.viz.drawing import save_structure_figure
 
@@ -123,14 +126,15 @@ def shown(args: argparse.Namespace):
     if not args.task:
         if not args.cells:
             raise ValueError("give --cells (e.g. '[[0,0],[1,0]]') or --task")
-        return None, structure_from_cells(args.cells, modules)
+        structure = structure_from_cells(args.cells, modules)
+        print(structure)
+        return None, structure
     task = common.load_task(args.task, args.csv_header)
     if args.cells:
-        return task, structure_from_cells(args.cells, modules)
-    from modquad_gym.search import exhaustive_search
-
-    typed = {} if modules is None else {"modules": modules}
-    result = exhaustive_search(task, n_max=args.n_max, **typed)
-    if result.structure is None:
-        print(f"no structure of up to {args.n_max} modules satisfies {args.task}")
+        structure = structure_from_cells(args.cells, modules)
+        print(structure)
+        return task, structure
+    common.check_task(task, args.task, modules)
+    result = solve.solver(args, task)(task)
+    solve.print_result(args, args.task, task, result)  # as `modquad solve` prints it
     return task, result.structure

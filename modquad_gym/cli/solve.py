@@ -232,7 +232,7 @@ def export_result(args: argparse.Namespace, task, result) -> None:
 
 def print_result(args: argparse.Namespace, path, task, result) -> None:
     """One solved task: a JSON line with ``--json``, else the structure drawn as a grid."""
-    if args.json:
+    if getattr(args, "json", False):
         record = {"task": str(path), "name": task.name, **result.to_dict()}
         if result.fault is not None:
             record["worst_fault_margin"] = worst_fault_margin(task, result)

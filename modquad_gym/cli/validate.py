@@ -27,6 +27,8 @@ OUTPUT_NAMES = ("report.md", "validation.json", "hover.png", "bench_wrench.png",
 """The files ``validate`` writes into ``--out`` (refused up front when they exist)."""
 TRACK_NAMES = ("track_path.png", "track_inputs.png", "track.gif")
 """What a dynamic task's flight adds to ``--out``."""
+MAX_PRINTED_CELLS = 8
+"""Cells the console summary lists (all of them are in ``validation.json``)."""
 SECONDS_PER_FLOWN_SECOND = 1.5
 """Wall seconds per simulated second of a trajectory flight (2 cores, pictures included)."""
 
@@ -165,10 +167,93 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 
 def show(args: argparse.Namespace, report: dict) -> int:
-    """Print the validation record (one JSON object with ``--json``)."""
+    """Print the validation record: one JSON object with ``--json``, else a short summary
+    (:func:`summary_lines`; every number is in ``validation.json`` and ``report.md``)."""
     if args.json:
         print(json.dumps({"task": args.task, "method": args.method, **report}))
     else:
-        for key, value in report.items():
-            print(f"{key}: {value}")
+        print("\n".join(summary_lines(report)))
     return 0
+
+
+def _length(metres) -> str:
+    """A distance in m (1 m and up), cm (1 cm and up) or mm, to 2 or 3 significant digits."""
+    if metres is None:
+        return "n/a"
+    if metres >= 1.0:
+        return f"{metres:.3g} m"
+    return f"{100 * metres:.2g} cm" if metres >= 0.01 else f"{1000 * metres:.2g} mm"
+
+
+def _share(fraction) -> str:
+    return "n/a" if fraction is None else f"{100 * fraction:.3g} %"
+
+
+def _number(x, spec: str = ".2g") -> str:
+    return "n/a" if x is None else format(x, spec)
+
+
+def summary_lines(r: dict) -> list[str]:
+    """A validation record (:meth:`~modquad_gym.sim.report.ValidationReport.to_dict`, with the
+    ``track_*`` keys of a flight) as a few lines a reader takes in at a glance."""
+    cells = r.get("cells") or []
+    if len(cells) > MAX_PRINTED_CELLS:  # every cell is in validation.json
+        cells = f"{cells[:MAX_PRINTED_CELLS]}"[:-1] + ", ...]"
+    names = r.get("modules") or []
+    types = f", module types {', '.join(dict.fromkeys(names))}" if len(set(names)) > 1 else ""
+    lines = [
+        f"structure: {r.get('n_modules')} modules, {_number(r.get('mass_kg'), '.3g')} kg"
+        f"{types}; cells {cells}",
+        f"task: {r.get('n_wrenches')} wrenches ({r.get('task_kind')}), {r.get('n_feasible')} "
+        f"feasible, smallest margin {_number(r.get('min_margin'), '.3g')}"
+        if r.get("task_kind") != "dynamic"
+        else f"task: dynamic, {r.get('n_wrenches')} of its rotor wrenches sampled for the bench "
+        f"and hovers ({r.get('n_feasible')} feasible), smallest margin along the trajectory "
+        f"{_number(r.get('min_margin_trajectory'), '.3g')}",
+        "bench: largest relative error, measured vs commanded wrench, "
+        f"{_number(r.get('bench_max_error'))} (exact allocation), "
+        f"{_number(r.get('bench_max_error_pinv_clip'))} (pseudo-inverse and clip: "
+        f"{r.get('bench_pinv_clip_wrenches_missed')} wrenches missed)",
+    ]
+    hovers = r.get("hover_wrenches")
+    lines.append(
+        f"hover, load known: {hovers} wrenches x {_number(r.get('hover_seconds_per_wrench'), 'g')}"
+        f" s: position error up to {_length(r.get('hover_max_position_error_m'))}, attitude "
+        f"{_number(r.get('hover_max_attitude_error_rad'))} rad, saturated "
+        f"{_share(r.get('saturated_fraction'))} of steps, {r.get('hover_diverged_segments')} "
+        f"diverged, {r.get('hover_segments_within_1cm')} of {hovers} within 1 cm"
+    )
+    if "hover_unknown_load_max_position_error_m" in r:
+        lines.append(
+            "hover, load estimated: position error up to "
+            f"{_length(r.get('hover_unknown_load_max_position_error_m'))}, attitude "
+            f"{_number(r.get('hover_unknown_load_max_attitude_error_rad'))} rad, saturated "
+            f"{_share(r.get('hover_unknown_load_saturated_fraction'))} of steps, "
+            f"{r.get('hover_unknown_load_diverged_segments')} diverged, "
+            f"{r.get('hover_unknown_load_segments_within_1cm')} of {hovers} within 1 cm, load "
+            f"estimate error {_number(r.get('hover_unknown_load_max_load_estimate_error'))}"
+        )
+    demo = r.get("infeasible_demo")
+    if isinstance(demo, dict):
+        lines.append(
+            f"infeasible demo (task row {demo.get('from_task_row')} scaled out of the set): "
+            f"saturated {_share(demo.get('saturated_fraction'))} of steps, position error up to "
+            f"{_length(demo.get('max_position_error_m'))}"
+            f"{', diverged' if demo.get('diverged') else ''}"
+        )
+    if "track_max_position_error_m" in r:
+        lines.append(
+            f"flight: {_number(r.get('track_seconds'), '.3g')} s along the trajectory, position "
+            f"error up to {_length(r.get('track_max_position_error_m'))} (rms "
+            f"{_length(r.get('track_rms_position_error_m'))}), attitude "
+            f"{_number(r.get('track_max_attitude_error_rad'))} rad, saturated "
+            f"{_share(r.get('track_saturated_fraction'))} of steps"
+            f"{', diverged' if r.get('track_diverged') else ''}"
+        )
+    files = [str(f) for f in (r.get("files") or {}).values()]
+    if files:
+        from os.path import basename, commonpath, dirname
+
+        folder = commonpath([dirname(f) or "." for f in files])
+        lines.append(f"wrote {folder}: {', '.join(basename(f) for f in files)}")
+    return lines

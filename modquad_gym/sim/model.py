@@ -186,12 +186,21 @@ def _set_scene(spec, structure: Structure) -> None:
     spec.visual.headlight.ambient = [0.4, 0.4, 0.4]
     spec.visual.headlight.diffuse = [0.6, 0.6, 0.6]
     spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 960
+    # a sky and a floor a reader recognises: MuJoCo's gradient skybox (blue above, pale at the
+    # horizon) and a checker floor of 0.5 m squares with marked edges (texuniform: the squares
+    # keep their size as the floor grows with the structure)
+    spec.add_texture(
+        name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.35, 0.55, 0.85],
+        rgb2=[0.9, 0.93, 0.97], width=256, height=1536,
+    )  # fmt: skip
     spec.add_texture(
         name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
-        builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.92] * 3, rgb2=[0.8] * 3, width=256,
-        height=256,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.3, 0.35, 0.4],
+        rgb2=[0.42, 0.47, 0.52], mark=mujoco.mjtMark.mjMARK_EDGE, markrgb=[0.7, 0.7, 0.7],
+        width=256, height=256,
     )  # fmt: skip
-    grid = spec.add_material(name="grid", texrepeat=[8, 8])
+    grid = spec.add_material(name="grid", texrepeat=[1, 1], texuniform=True)
     grid.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
     spec.worldbody.add_light(
         pos=[0, 0, 4], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL

@@ -21,14 +21,51 @@ from modquad_gym.dynamics import quaternions as quat  # noqa: E402
 from modquad_gym.sim.model import SimModel  # noqa: E402
 from modquad_gym.sim.pictures import _plt, inputs_panel  # noqa: E402
 from modquad_gym.sim.track import TrackResult  # noqa: E402
+from modquad_gym.viz.drawing import short_name  # noqa: E402
 
 GIF_FPS = 12
 """Frames per second of the animation."""
 
+GOAL_ERROR_CM = 5.0
+"""The position-error goal drawn as a reference in the flight's error plot (centimetres)."""
+
+GOAL_IN_VIEW = 3.0
+"""The goal line is drawn when it lies within this many times the largest error; a goal further
+above would squash the data to a flat line at zero, so the legend names it instead."""
+
+
+def error_panel(ax, t: np.ndarray, error_cm: np.ndarray, goal_cm: float = GOAL_ERROR_CM) -> None:
+    """Position error over time on ``ax``, its y-axis scaled to the data (0 to the largest error
+    and a margin) with the goal as a reference: a dashed line where it lies within
+    :data:`GOAL_IN_VIEW` times the largest error, else a legend entry saying how far above."""
+    error_cm = np.asarray(error_cm, dtype=float)
+    finite = error_cm[np.isfinite(error_cm)]
+    peak = float(finite.max()) if finite.size else 0.0
+    ax.plot(t, error_cm, color="tab:blue", lw=1, label="position error")
+    top = 1.15 * peak
+    if goal_cm <= GOAL_IN_VIEW * peak:
+        ax.axhline(goal_cm, ls="--", color="tab:red", lw=1, label=f"goal {goal_cm:g} cm")
+        top = max(top, 1.15 * goal_cm)
+    else:  # a legend entry, placed where the data is not
+        above = f"{goal_cm / peak:,.0f}x the largest error" if peak > 0 else "no error"
+        ax.plot([], [], ls="--", color="tab:red", lw=1,
+                label=f"goal {goal_cm:g} cm (off this scale: {above})")  # fmt: skip
+        top = top if peak > 0 else goal_cm
+    ax.set_ylim(0.0, top * 1.12)  # headroom for the legend
+    ax.legend(loc="best", fontsize=8)
+
 
 def plot_track_path(res: TrackResult, path: str | Path, title: str = "") -> None:
+    """Write :func:`track_path_figure` to ``path``."""
+    fig = track_path_figure(res, title)
+    save_figure(fig, path, dpi=120)
+    _plt().close(fig)
+
+
+def track_path_figure(res: TrackResult, title: str = ""):
     """The COM's path in 3D, desired (dashed) and flown, with start and end marked, and the
-    position error over time."""
+    position error over time (:func:`error_panel`: scaled to the data, the goal a reference);
+    a pyplot figure (close it)."""
     plt = _plt()
     fig = plt.figure(figsize=(10, 4.8))
     ax = fig.add_subplot(1, 2, 1, projection="3d")
@@ -46,18 +83,15 @@ def plot_track_path(res: TrackResult, path: str | Path, title: str = "") -> None
     ax.set_zlabel("z [m]")
     ax.legend(loc="upper left", fontsize=8)
     ax2 = fig.add_subplot(1, 2, 2)
-    ax2.plot(res.t, 100 * res.position_error, color="tab:blue", lw=1)
-    ax2.axhline(5.0, ls="--", color="tab:red", lw=1, label="5 cm")
+    error_panel(ax2, res.t, 100 * res.position_error)
     ax2.set_xlabel("time [s]")
     ax2.set_ylabel("position error [cm]")
-    ax2.legend(loc="upper right")
     ax2.set_title(
         f"max {100 * res.max_position_error_m:.2g} cm, rms {100 * res.rms_position_error_m:.2g} cm"
     )
-    fig.suptitle(title or "trajectory: desired vs flown")
+    fig.suptitle(short_name(title) or "trajectory: desired vs flown")
     fig.tight_layout()
-    save_figure(fig, path, dpi=120)
-    plt.close(fig)
+    return fig
 
 
 def plot_track_inputs(res: TrackResult, path: str | Path, title: str = "") -> None:
@@ -70,7 +104,7 @@ def plot_track_inputs(res: TrackResult, path: str | Path, title: str = "") -> No
     inputs_panel(fig, ax, res.t, u, f_max)
     sat = res.saturated
     ax.set_title(
-        (title + ": " if title else "")
+        (short_name(title) + ": " if title else "")
         + f"rotor inputs, saturated {100 * res.saturated_fraction:.1f}% of control steps"
     )
     env = axes[1]

@@ -40,6 +40,7 @@ from modquad_gym.viz.zonotope import (
     FEASIBLE_COLOUR,
     INFEASIBLE_COLOUR,
     SPACES,
+    drawn_vertices,
     hull_faces,
     projection_vertices,
     task_wrenches,
@@ -63,7 +64,9 @@ __all__ = [
     "draw_structure",
     "force_zonotope_vertices",
     "draw_torque_projection",
+    "figure_title",
     "save_structure_figure",
+    "short_name",
     "structure_image",
     "torque_zonotope_vertices",
     "type_colour",
@@ -144,7 +147,9 @@ def draw_structure(
             Patch(facecolor=type_colour(m, k), edgecolor="#3a3a3a", label=f"module {m.name}")
             for k, m in enumerate(s.palette)
         ]
-    ax.legend(handles=handles, loc="best", fontsize="x-small", framealpha=0.8)
+    # beside the top view, never over a module (a large structure fills its axes)
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
+              fontsize="x-small", framealpha=0.8)  # fmt: skip
     ax.set_title(title if title is not None else f"{s.n_modules} module(s)")
     return ax
 
@@ -152,6 +157,12 @@ def draw_structure(
 # --------------------------------------------------------------------------------------------
 # torque-space projection of the feasible wrenches (paper Fig. 3b)
 # --------------------------------------------------------------------------------------------
+
+HULL_COLOUR, VERTEX_COLOUR = "#4c72b0", "#2b4570"
+"""The feasible set's projection (translucent) and its vertices."""
+
+MAX_MARKED_VERTICES = 300
+"""Most vertices a projection marks with dots (more merge into a dark blob over the hull)."""
 
 MAX_DRAWN_MODULES = 256
 """Most modules a top view draws (a larger one is unreadable and slow to draw); the torque
@@ -187,32 +198,39 @@ def draw_projection(
 ) -> Axes:
     """The feasible wrenches projected onto force (``space="force"``) or torque space as a
     translucent convex hull (paper Fig. 3b) on a 3-d axes. ``task`` (a TaskRequirement, or
-    (t, 6) wrenches), if given, is scattered by the same coordinates, green where the whole
-    6-D wrench is feasible and red where not (so a red point may lie inside the projection).
-    Axis units follow :func:`modquad_gym.viz.zonotope.units`. Returns the axes."""
+    (t, 6) wrenches), if given, is scattered by the same coordinates on top of the hull (dark
+    outlines), green where the whole 6-D wrench is feasible and red where not (so a red point
+    may lie inside the projection). Past :data:`~.zonotope.EXACT_DRAWN_ROTORS` rotors the hull
+    is that of sampled vertices (:func:`~.zonotope.drawn_vertices`). Axis units follow
+    :func:`modquad_gym.viz.zonotope.units`. Returns the axes."""
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     s = check_structure(structure)
     first, names = SPACES[space]
     f_max = check_f_max(getattr(task, "f_max", f_max))
-    V = projection_vertices(s.configuration_matrix(), space, f_max)
+    V, exact = drawn_vertices(s.configuration_matrix(), space, f_max)
     ax = ax if ax is not None else _new_axes(projection="3d")
+    ax.computed_zorder = False  # draw order by zorder: the task's points over the hull
+    ax.set_box_aspect(None, zoom=0.85)  # the axis labels inside the axes, not over a neighbour
     faces = hull_faces(V)
     if faces is not None:
         ax.add_collection3d(Poly3DCollection(
-            [V[f] for f in faces], facecolor="#4c72b0", edgecolor="none", linewidths=0.0,
-            alpha=0.25,
+            [V[f] for f in faces], facecolor=HULL_COLOUR, edgecolor="none", linewidths=0.0,
+            alpha=0.2, zorder=1,
         ))  # fmt: skip
-    ax.scatter(V[:, 0], V[:, 1], V[:, 2], s=2, color="#2b4570", alpha=0.5, depthshade=False)
+    if faces is None or (exact and len(V) <= MAX_MARKED_VERTICES):
+        ax.scatter(V[:, 0], V[:, 1], V[:, 2], s=2, color=VERTEX_COLOUR, alpha=0.5,
+                   depthshade=False, zorder=2)  # fmt: skip
     pts = [V]
     if task is not None:
         W, ok, _ = task_wrenches(s, task)
-        for mask, colour, label in ((ok, FEASIBLE_COLOUR, "feasible (6-D)"),
-                                    (~ok, INFEASIBLE_COLOUR, "infeasible (6-D)")):  # fmt: skip
+        kinds = ((ok, FEASIBLE_COLOUR, "task wrench, feasible (6-D)"),
+                 (~ok, INFEASIBLE_COLOUR, "task wrench, infeasible (6-D)"))  # fmt: skip
+        for mask, colour, label in kinds:
             if mask.any():
                 P = W[mask, first : first + 3]
-                ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=12, color=colour, label=label,
-                           depthshade=False)  # fmt: skip
+                ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=22, color=colour, label=label,
+                           edgecolors="k", linewidths=0.5, depthshade=False, zorder=5)  # fmt: skip
         ax.legend(loc="upper left", fontsize="x-small")
         pts.append(W[:, first : first + 3])
     allp = np.vstack(pts)
@@ -221,6 +239,10 @@ def draw_projection(
     ax.set_xlim(lo[0] - pad, hi[0] + pad)
     ax.set_ylim(lo[1] - pad, hi[1] + pad)
     ax.set_zlim(lo[2] - pad, hi[2] + pad)
+    from matplotlib.ticker import MaxNLocator
+
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):  # few, short tick labels: the labels stay inside
+        axis.set_major_locator(MaxNLocator(5, steps=[1, 2, 2.5, 5, 10]))
     unit = units(task, f_max)[0 if space == "force" else 1]
     symbol = "f" if space == "force" else r"\tau"
     ax.set_xlabel(rf"${symbol}_x$ [{unit}]")
@@ -271,6 +293,33 @@ def draw_rotor_inputs(U: np.ndarray, f_max: float = 1.0, ax: Axes | None = None)
 # --------------------------------------------------------------------------------------------
 # figure file
 # --------------------------------------------------------------------------------------------
+MAX_TITLE_NAME = 48
+"""Most characters of a task's name in a figure's title (longer names are cut with "...")."""
+
+TITLE_WIDTH = 110
+"""Characters per line of a figure's title (wrapped beyond)."""
+
+
+def short_name(name: str | None, limit: int = MAX_TITLE_NAME) -> str:
+    """A task's name for a title: one line, cut to ``limit`` characters with "..."."""
+    name = " ".join(str(name).split()) if name else ""
+    return name if len(name) <= limit else name[: limit - 3] + "..."
+
+
+def figure_title(name: str | None) -> str:
+    """The title of a structure figure with a task: the task's name, cut to
+    :data:`MAX_TITLE_NAME` characters, and what the points mean, wrapped to
+    :data:`TITLE_WIDTH` characters a line (a long name never runs off the figure)."""
+    import textwrap
+
+    name = short_name(name)
+    text = (f"task {name}: " if name else "") + (
+        "points are the task's wrenches, green where the structure can exert the whole 6-D "
+        "wrench, red where not"
+    )
+    return textwrap.fill(text, TITLE_WIDTH, break_long_words=True)
+
+
 def save_structure_figure(
     structure: Structure,
     path: str | os.PathLike,
@@ -293,14 +342,10 @@ def save_structure_figure(
     else:
         fig = Figure(figsize=(15.0, 5.0), layout="constrained")
         FigureCanvasAgg(fig)
-        draw_structure(s, ax=fig.add_subplot(1, 3, 1))
+        top = draw_structure(s, ax=fig.add_subplot(1, 3, 1))
+        top.set_anchor("N")  # a wide structure's top view under its title, x label in the figure
         for i, space in enumerate(("force", "torque")):
             draw_projection(s, space, ax=fig.add_subplot(1, 3, 2 + i, projection="3d"), task=task)
-        name = getattr(task, "name", None)
-        fig.suptitle(
-            (f"task: {name}. " if name else "")
-            + "Points: the task's wrenches, green where the structure can exert the whole "
-            "6-D wrench, red where not."
-        )
+        fig.suptitle(figure_title(getattr(task, "name", None)))
     save_figure(fig, os.fspath(path), dpi=dpi)
     return os.fspath(path)

@@ -25,8 +25,8 @@ from modquad_gym.viz.zonotope import (
     FEASIBLE_COLOUR,
     INFEASIBLE_COLOUR,
     SPACES,
+    drawn_vertices,
     hull_faces,
-    projection_vertices,
     task_wrenches,
     units,
 )
@@ -87,7 +87,7 @@ def projection_traces(structure: Structure, space: str, task=None, f_max: float 
     s = check_structure(structure)
     first, names = SPACES[space]
     f_max = float(getattr(task, "f_max", f_max))
-    V = projection_vertices(s.configuration_matrix(), space, f_max)
+    V, exact = drawn_vertices(s.configuration_matrix(), space, f_max)  # sampled past 8 modules
     faces = hull_faces(V)
     traces = []
     if faces is not None:
@@ -96,10 +96,12 @@ def projection_traces(structure: Structure, space: str, task=None, f_max: float 
             color="#4c72b0", opacity=0.25, name=f"feasible {space}s (projection)",
             hoverinfo="name", showlegend=False,
         ))  # fmt: skip
-    traces.append(go.Scatter3d(
-        x=V[:, 0], y=V[:, 1], z=V[:, 2], mode="markers", marker={"size": 2, "color": "#2b4570"},
-        name=f"vertices of the {space} projection", hoverinfo="skip", showlegend=False,
-    ))  # fmt: skip
+    if exact or faces is None:  # sampled vertices mark nothing a reader needs
+        traces.append(go.Scatter3d(
+            x=V[:, 0], y=V[:, 1], z=V[:, 2], mode="markers",
+            marker={"size": 2, "color": "#2b4570"}, name=f"vertices of the {space} projection",
+            hoverinfo="skip", showlegend=False,
+        ))  # fmt: skip
     if task is not None:
         W, ok, _ = task_wrenches(s, task)
         for mask, colour, label in ((ok, FEASIBLE_COLOUR, "feasible"),
