@@ -20,6 +20,9 @@ package first) registers:
   (:class:`~modquad_gym.dynamics.random_motions.MotionTasks`: motions, off-centre payloads,
   pushes through a tool), each structure decided on its own mass and inertia; the dynamic
   benchmark tier.
+* ``ModQuadAssemblyFaultTolerant-v0``: the same with ``fault="rotor"`` and ``n_max=10``: success
+  means the structure still exerts every task wrench after any single rotor failure (default
+  tasks, whose rotor-tolerant minimum is usually the intact one or one or two modules more).
 * ``ModQuadAssemblyScale-v0``: designs at the field's sizes: ``n_max=64``, tasks planted in
   16-64 modules, and the free-faces action encoding (``actions="faces"``,
   :mod:`~modquad_gym.envs.assembly.faces`): one action per free face of the structure (at most
@@ -61,6 +64,7 @@ ENV_IDS: dict[str, dict] = {
     "ModQuadAssemblyMixed-v1": {"modules": "t45,t45m,flat", "tasks": "planted-mixed-external"},
     "ModQuadAssemblyLarge-v0": {"tasks": "planted-large", "n_max": 12},
     "ModQuadAssemblyDynamic-v0": {"tasks": "motions"},
+    "ModQuadAssemblyFaultTolerant-v0": {"fault": "rotor", "n_max": 10},
     "ModQuadAssemblyScale-v0": {
         "tasks": PlantedTasks(n_modules=(16, 64), name="planted-16-64"),
         "n_max": 64,

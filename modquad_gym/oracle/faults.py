@@ -87,6 +87,7 @@ class FaultTolerance:
         self.certified = 0
         self._zonotopes: dict[int, Zonotope | None] = {}
         self._K: tuple[np.ndarray, ...] | None = None
+        self._directions: tuple[np.ndarray, np.ndarray] | None = None
 
     # --- the failed structures ----------------------------------------------------------
     def failed(self, i: int) -> Zonotope | None:
@@ -176,6 +177,34 @@ class FaultTolerance:
         certify_rows(R, z.G, P, z.dual, C, columns, starts, errors, reach, _EXACT, out)
         return out
 
+    def _screen(self, W: np.ndarray, cert: np.ndarray) -> None:
+        """Mark in ``cert`` (0) the undecided pairs that a support rejects: with the failed
+        rotors S off, the support of the (tolerance-widened) zonotope in a direction d is
+        ``f_max sum_{j not in S} (max(0, d . a_j) + TOL / 2 |d . a_j|)``; a wrench beyond it in
+        some d of a fixed set (each rotor's own direction, its opposite, and the coordinate
+        axes) is not tolerated. Exact, like every rejection certificate."""
+        undecided = cert == -1
+        if not undecided.any():
+            return
+        if self._directions is None:
+            z = self.intact
+            A = z.A / np.maximum(np.linalg.norm(z.A, axis=0), 1e-300)
+            D = np.vstack([A.T, -A.T, np.eye(6), -np.eye(6)])
+            DA = D @ z.A  # (k, m)
+            per_rotor = np.maximum(DA, 0.0) + 0.5 * TOL * np.abs(DA)
+            h = per_rotor.sum(axis=1)
+            loss = np.array([per_rotor[:, S].sum(axis=1) for S in self.failures])  # (F, k)
+            self._directions = (D, z.f_max * (h[None] - loss))
+        D, h_failed = self._directions
+        rows = np.flatnonzero(undecided.any(axis=1))
+        WD = W[rows] @ D.T  # (t', k)
+        scale = 1.0 + np.abs(WD).max(axis=1)
+        beyond = (WD[:, None, :] - h_failed[None]).max(axis=2)  # (t', F)
+        rejected = beyond > 1e3 * RESIDUAL_TOL * scale[:, None]
+        sub = cert[rows]
+        sub[rejected & (sub == -1)] = 0
+        cert[rows] = sub
+
     # --- the questions --------------------------------------------------------------------
     def decide(self, W: np.ndarray, method: str = "auto") -> np.ndarray:
         """bool (t,): is each wrench (row of W) feasible after every failure? With ``"auto"``
@@ -190,6 +219,7 @@ class FaultTolerance:
             cert = self._certify(R)
         else:
             cert = np.full((len(live), len(self.failures)), -1, dtype=np.int8)
+            self._screen(W[live], cert)
         self.certified += int(np.count_nonzero(cert >= 0))
         alive = ~(cert == 0).any(axis=1)
         # failures with the most undecided wrenches first: they are the likely breakers

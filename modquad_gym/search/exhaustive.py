@@ -387,18 +387,6 @@ def optimal_structures(
     return answer.n, [s.key for s in structures]
 
 
-__all__ = [
-    "MAX_MODULES",
-    "MAX_PAIRS",
-    "PAIRS_PER_BLOCK",
-    "ChunkScan",
-    "OrderedEngine",
-    "assignments",
-    "check_pair_budget",
-    "exhaustive_search",
-    "level_size",
-    "normalise_typed",
-    "optimal_level",
-    "optimal_structures",
-    "scan_chunks",
-]
+__all__ = ["MAX_MODULES", "MAX_PAIRS", "PAIRS_PER_BLOCK", "ChunkScan", "OrderedEngine",
+           "assignments", "check_pair_budget", "exhaustive_search", "level_size",
+           "normalise_typed", "optimal_level", "optimal_structures", "scan_chunks"]  # fmt: skip

@@ -47,17 +47,16 @@ from modquad_gym.envs.assembly.types import AssemblyState, Episode
 from modquad_gym.envs.assembly.viewer import RENDER_FPS, AssemblyViewer
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Cell, Structure
+from modquad_gym.oracle.faults import check_fault
 from modquad_gym.tasks import make_generator
 
 N_MAX_LIMIT = 64
 """Largest ``n_max`` (the field's largest designs; the grid encoding then has 127^2 actions, the
 faces encoding 130)."""
-MAX_STEPS_LIMIT = 4 * N_MAX_LIMIT
-"""Largest ``max_steps``."""
+MAX_STEPS_LIMIT = 4 * N_MAX_LIMIT  # the largest max_steps
 DEFAULT_N_MAX = 7
 """The default ``n_max`` (the paper's)."""
-ENCODINGS = {"grid": Grid, "faces": Faces}
-"""The action encodings by name (:mod:`.grid`, :mod:`.faces`)."""
+ENCODINGS = {"grid": Grid, "faces": Faces}  # the action encodings (:mod:`.grid`, .faces)
 
 
 class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64]):
@@ -180,6 +179,8 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     * ``actions``: the action encoding, ``"grid"`` (default) or ``"faces"`` (above).
     * ``n_directions``: K, the support directions of the features (default 48, 12..4096).
     * ``oracle_method``: the oracle's method (default ``"auto"``, exact and certified).
+    * ``fault``: None (default), ``"rotor"`` or ``"module"``: a wrench is satisfied only when
+      it survives ANY single failure of that kind, so success is tolerance (:mod:`.evaluator`).
     * ``render_size``: (height, width) of ``rgb_array`` frames, 16..4096 each, default (256, 256).
     * ``lookahead``: add the ``"candidates"`` observation (default False: the observation is
       exactly the four entries above).
@@ -214,6 +215,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         n_directions: int = DEFAULT_N_DIRECTIONS,
         lookahead: bool = False,
         oracle_method: str = "auto",
+        fault: str | None = None,
         # the reward
         reward_weights: Any = None,
         reward: RewardFn | None = None,
@@ -231,6 +233,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         self.generator: Callable[[np.random.Generator], Any] = make_generator(tasks)
         self.n_directions = check_int(n_directions, "n_directions", 12, MAX_N_DIRECTIONS)
         self.oracle_method = check_oracle_method(oracle_method)
+        self.fault = None if fault is None else check_fault(fault)
         self.reward: RewardFn = make_reward(reward, reward_weights)
         self.render_mode = render_mode
         size = check_render_size(render_size)
@@ -299,6 +302,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
             ev = self.evaluators[f_max] = self.module_set.evaluator(
                 self.n_max, f_max, self.n_directions, self.oracle_method
             )
+            ev.fault = self.fault
         return ev
 
     def _require(self, what: str) -> AssemblyState:
@@ -342,13 +346,12 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         return self._state.mask.astype(bool)
 
     def _observation(self) -> dict[str, np.ndarray]:
-        s = self._state
-        return {name: read(s).copy() for name, read in self._readers}
+        return {name: read(self._state).copy() for name, read in self._readers}
 
     def _info(self, invalid: bool = False, terms: dict[str, float] | None = None) -> dict:
-        s = self._state
-        info = s.info(invalid, terms if terms is not None else reset_terms(self.reward, s))
-        info.update(self.module_set.info(s.types))
+        terms = reset_terms(self.reward, self._state) if terms is None else terms
+        info = self._state.info(invalid, terms)
+        info.update(self.module_set.info(self._state.types))
         return info
 
     # --- Gymnasium API --------------------------------------------------------------------
@@ -366,9 +369,8 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
         evaluator = self._evaluator(f_max)
         memo, cand_memo = self._memos.of(task, f_max)
-        self._episode = Episode(
-            self.rules, self.encoding, self.module_set, evaluator, memo, cand_memo
-        )
+        parts = (self.rules, self.encoding, self.module_set, evaluator, memo, cand_memo)
+        self._episode = Episode(*parts)
         arrays = evaluator.episode_arrays(task, self.module_set.key(((0, 0),), types))
         self._state = initial_state(self._episode, arrays, types)
         return self._observation(), self._info()
@@ -388,10 +390,8 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         if self.render_mode is None:
             gym.logger.warn("render() called with render_mode=None; pass render_mode to the env")
             return None
-        state = self._require("render()")
-        s = self.structure
-        W, _, _ = self.evaluator.at_mass(state.task, s.mass)
-        f_max = self.evaluator.oracle.f_max
+        state, s = self._require("render()"), self.structure
+        W, f_max = self.evaluator.at_mass(state.task, s.mass)[0], self.evaluator.oracle.f_max
         valid = self.encoding.valid_cells(state)
         return self.viewer.render(self.render_mode, state, s, W, f_max, self.oracle_method, valid)
 

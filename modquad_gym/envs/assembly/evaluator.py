@@ -13,6 +13,11 @@ method ``"auto"``, both in one compiled call).
 A dynamic task (:mod:`.dynamic`) is decided the same way, each structure on its own rotor
 wrenches (:meth:`StructureEvaluator.task_of`).
 
+With a ``fault`` (``"rotor"`` or ``"module"``) a wrench counts as satisfied only when the
+structure still exerts it after any single failure of that kind
+(:class:`~modquad_gym.oracle.faults.FaultTolerance`, kept per structure); the screened call
+still gives the features.
+
 Structures of more than :data:`COMPILED_FROM` - 1 modules (beyond the grid env's old reach) build
 their configuration matrix in one compiled call, the same matrix as
 :meth:`~modquad_gym.geometry.structure.Structure.configuration_matrix` up to round-off; smaller
@@ -42,6 +47,7 @@ from modquad_gym.geometry.structure import (
     mixed_configuration_matrices,
 )
 from modquad_gym.oracle import WrenchOracle
+from modquad_gym.oracle.faults import FaultTolerance, failure_sets
 
 CACHE_SIZE = 16384
 """Entries per cache before it is cleared (there are 1,067 structures of at most 7 modules)."""
@@ -104,7 +110,11 @@ class StructureEvaluator:
 
     Attributes:
         tests: wrench-structure tests sent to the oracle so far (all episodes).
+        fault: None, or the single failure a satisfied wrench must survive (``"rotor"``,
+            ``"module"``); the environment sets it.
     """
+
+    fault: str | None = None
 
     def __init__(
         self, module: ModuleType, n_max: int, f_max: float, n_directions: int, method: str
@@ -113,6 +123,7 @@ class StructureEvaluator:
         self.oracle = WrenchOracle(f_max, method=method)
         self.features = AssemblyFeatures(module, n_max, f_max, n_directions)
         self.capability: dict[Key, Capability] = {}
+        self.tolerance: dict[Key, FaultTolerance] = {}
         self.supports: dict[Key, tuple[np.ndarray, float]] = {}
         self.tests = 0
         self._cols = module.columns[None]  # (1, 6, r): the compiled matrix's type table
@@ -211,12 +222,29 @@ class StructureEvaluator:
         # a wrench beyond the exact support of the structure in a feature direction (by more
         # than the oracle's tolerance, ``cap.slack``) is certainly infeasible: not tested
         per_wrench, tests, n_sat = self.oracle.screened(cap.A, W, WD, cap.h_Wn, cap.slack, key)
+        if self.fault is not None and n_sat:
+            n_sat, extra = self.tolerated(key, cap.A, W)
+            tests += extra
         self.tests += tests
         vec = self.features.structure_against(
             cap.head, cap.h_Wn, h_Tn, per_wrench, n_sat / len(task.W)
         )
         memo[key] = (n_sat, vec)
         return n_sat, vec, tests
+
+    def tolerated(self, key: Any, A: np.ndarray, W: np.ndarray) -> tuple[int, int]:
+        """(wrenches the structure ``key`` still exerts after any single ``fault``, LPs on
+        failed matrices this took)."""
+        ft = self.tolerance.get(key)
+        if ft is None:
+            if len(self.tolerance) >= CACHE_SIZE:
+                self.tolerance.clear()
+            failures = failure_sets(A.shape[1], self.fault, self.module.n_rotors)
+            zonotope = self.oracle.zonotope(A, key=key)
+            ft = self.tolerance[key] = FaultTolerance(A, zonotope.f_max, failures, zonotope)
+        before = ft.tests
+        ok = ft.decide(W, self.oracle.method)
+        return int(np.count_nonzero(ok)), ft.tests - before
 
     def candidate_rows(
         self, keys: list, task: TaskArrays, mass: float, memo: dict
