@@ -49,7 +49,7 @@ def test_task_motion_refuses_misplaced_options(tmp_path, capsys):
         capsys, ["task", "motion", "--kind", "hover", "--speed", "1", "--out", out], "--speed"
     )
     argv = ["task", "motion", "--kind", "hover", "--payload-mass", "1000", "--out", out]
-    one_line_error(capsys, argv, "payload.mass")
+    one_line_error(capsys, argv, "--payload-mass")  # the option, not the file's key
 
 
 def test_validate_flies_a_dynamic_task(tmp_path, capsys, monkeypatch):

@@ -6,6 +6,7 @@ Every report states the machine it ran on and compares methods as ratios within 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import platform
 from pathlib import Path
@@ -24,6 +25,7 @@ __all__ = [
     "markdown_table",
     "parse_bench_args",
     "random_structure",
+    "run_as",
     "seed_option",
     "write_csv",
     "write_text",
@@ -64,12 +66,29 @@ def add_force(parser: argparse.ArgumentParser) -> None:
     )
 
 
+_COMMAND: list[str] = []
+"""The command the user typed to run a benchmark (``modquad bench NAME``), while it runs."""
+
+
+@contextlib.contextmanager
+def run_as(command: str):
+    """Within this block a benchmark's usage and errors name ``command`` (``modquad bench X``
+    runs it) instead of the ``python -m modquad_gym.bench.X`` its parser is written for."""
+    _COMMAND.append(command)
+    try:
+        yield
+    finally:
+        _COMMAND.pop()
+
+
 def parse_bench_args(
     parser: argparse.ArgumentParser, argv: list[str] | None, outputs: tuple[str, ...] = ()
 ):
-    """Parse ``argv``; when the benchmark has ``--out``, check that it is (or can become) a
-    writable folder holding none of ``outputs`` (unless ``--force``) before any work starts
-    (an argparse error otherwise)."""
+    """Parse ``argv`` (usage and errors naming the command typed, :func:`run_as`); when the
+    benchmark has ``--out``, check that it is (or can become) a writable folder holding none of
+    ``outputs`` (unless ``--force``) before any work starts (an argparse error otherwise)."""
+    if _COMMAND:
+        parser.prog = _COMMAND[-1]
     args = parser.parse_args(argv)
     out = getattr(args, "out", None)
     if out is not None:

@@ -28,7 +28,7 @@ from modquad_gym.bench.agents_figures import plot_bars, plot_learning_curve, plo
 from modquad_gym.bench.agents_report import write_report
 from modquad_gym.bench.scores import Row, summarise
 from modquad_gym.bench.tiers import TIERS, Tier, get_tier, validation_suite
-from modquad_gym.core.options import int_option
+from modquad_gym.core.options import DefaultsHelpFormatter, int_option
 from modquad_gym.core.outputs import check_output_dir, write_csv
 from modquad_gym.geometry.module import palette
 from modquad_gym.search import SEARCHES, verified
@@ -143,7 +143,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         OPTIONS,
         seed_help="solver seed (sampled PPO rollouts, random search)",
         force=True,
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=DefaultsHelpFormatter,
     )
 
 

@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from modquad_gym.core.distributed import Engine, Failed
+from modquad_gym.core.outputs import named_os_error
 from modquad_gym.search import optimal_level
 from modquad_gym.tasks import TaskRequirement
 
@@ -168,9 +169,12 @@ def build_dataset(
             if isinstance(record, Failed):
                 run.failed.append(record)
                 return
-            fh.write(json.dumps(record).encode() + b"\n")
-            fh.flush()
-            os.fsync(fh.fileno())
+            try:
+                fh.write(json.dumps(record).encode() + b"\n")
+                fh.flush()
+                os.fsync(fh.fileno())
+            except OSError as exc:  # no space left, ...: say which file
+                raise named_os_error(exc, out) from exc
             run.written += 1
 
         engine.map(

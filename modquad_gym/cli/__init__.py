@@ -52,12 +52,22 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from modquad_gym.core.caches import setting_error
+
+    setting = setting_error()  # changed since the import (which stopped on it otherwise)
+    if setting is not None:
+        print(f"modquad: error: {setting}", file=sys.stderr)
+        return 2
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
     try:
+        from modquad_gym.cli.given import TYPED, refuse_ignored_method_options, typed_options
+
+        setattr(args, TYPED, typed_options(parser, sys.argv[1:] if argv is None else argv))
+        refuse_ignored_method_options(args)  # before any file is read
         return args.func(args)
     except KeyboardInterrupt:
         print("modquad: interrupted", file=sys.stderr)

@@ -67,6 +67,9 @@ def add_bench(sub) -> None:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
+    from modquad_gym.bench import run_as
+
     module, _ = BENCHMARKS[args.what]
-    importlib.import_module(module).main(args.rest)
+    with run_as(f"modquad bench {args.what}"):  # its usage and errors name what the user typed
+        importlib.import_module(module).main(args.rest)
     return 0

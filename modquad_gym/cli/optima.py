@@ -15,6 +15,7 @@ from modquad_gym.cli.common import (
     one_line,
     report_error,
 )
+from modquad_gym.cli.given import refuse_ignored
 
 SUITES_DIR = Path(__file__).resolve().parents[1] / "data" / "suites"
 """The suites shipped with the package (``--suite NAME``)."""
@@ -40,10 +41,13 @@ def add_optima(sub) -> None:
         help="a shipped suite (heldout_planted, heldout_paper) or a suite JSON file",
     )
     src.add_argument(
-        "--tasks",
+        "--task",
+        "--tasks",  # its former name, as no other command spells it: still accepted
+        dest="task",
         action="append",
         metavar="DIR|GLOB|FILE",
-        help="a folder of task files, a quoted glob or a file; repeat for several",
+        help="a folder of task files, a quoted glob or a file, as for `modquad solve`; repeat "
+        "for several (--tasks, its former name, deprecated, still works)",
     )
     p.add_argument("--out", required=True, metavar="FILE.jsonl", help="the dataset file")
     add_n_max(p, "largest module count searched (default %(default)s, at most 16)")
@@ -70,7 +74,7 @@ def suite_path(name: str) -> Path:
 
 
 def sources(args: argparse.Namespace) -> list:
-    """(label, task) for each task of ``--suite`` or ``--tasks``; a task file that cannot be
+    """(label, task) for each task of ``--suite`` or ``--task``; a task file that cannot be
     read is a (label, Failed) entry, reported with the others' results."""
     from modquad_gym.core.distributed import Failed
     from modquad_gym.tasks import load_suite, task_files
@@ -79,7 +83,7 @@ def sources(args: argparse.Namespace) -> list:
         path = suite_path(args.suite)
         return [(f"{path.name}#{i}", t) for i, t in enumerate(load_suite(path), 1)]
     out = []
-    for p in task_files(args.tasks, what="--tasks"):
+    for p in task_files(args.task, what="--task"):
         try:
             out.append((str(p), common.load_task(p, args.csv_header)))
         except (ValueError, OSError) as exc:
@@ -94,6 +98,8 @@ def cmd_optima(args: argparse.Namespace) -> int:
     from modquad_gym.core.validation import check_int
     from modquad_gym.search.exhaustive import MAX_MODULES
 
+    if args.suite:
+        refuse_ignored(args, ["csv_header"], "applies to --task files, not to --suite")
     n_max = check_int(args.n_max, "--n-max", low=1, high=MAX_MODULES)
     out = check_output_file(args.out, force=True, what="--out")  # resumed, or new
     tasks = sources(args)

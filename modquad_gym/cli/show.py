@@ -90,7 +90,7 @@ def structure_from_cells(text: str, modules):
 
 
 def cmd_show(args: argparse.Namespace) -> int:
-    from modquad_gym.core.outputs import check_output_file
+    from modquad_gym.core.outputs import check_outputs
 
     if args.task and not args.cells and args.n_max > MAX_SHOWN_MODULES:
         raise ValueError(
@@ -102,9 +102,8 @@ def cmd_show(args: argparse.Namespace) -> int:
         out = Path(out)
         if out.suffix.lower() != ".png":
             out = out.with_name(out.name + ".png")
-        out = check_output_file(out, force=args.force, what="--out")
-    if args.html is not None:
-        check_output_file(args.html, force=args.force, what="--html")
+    # both checked before any work or write (--out X --html X would write X, then refuse)
+    out = check_outputs({"--out": out, "--html": args.html}, force=args.force).get("--out")
     task, structure = shown(args)
     if structure is None:
         return 0

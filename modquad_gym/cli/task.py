@@ -142,10 +142,12 @@ def add_example(tsub) -> None:
 def cmd_task_example(args: argparse.Namespace) -> int:
     import shutil
 
-    from modquad_gym.core.outputs import check_output_file
+    from modquad_gym.core.outputs import atomic_write, check_output_file
     from modquad_gym.tasks import TaskRequirement, example_names, example_path, load_suite
 
     if args.name is None:
+        if args.out is not None:  # it would be ignored: the list is printed, nothing written
+            raise ValueError(f"--out {args.out}: name the example to copy (NAME), e.g. screwdriver")
         for name in example_names():
             try:
                 what = f"{TaskRequirement.load(example_path(name)).n_wrenches} wrenches"
@@ -160,6 +162,6 @@ def cmd_task_example(args: argparse.Namespace) -> int:
     out = check_output_file(args.out, force=args.force, what="--out")
     if out.suffix.lower() != source.suffix.lower():
         raise ValueError(f"--out: {out} must end in {source.suffix} like the example {source.name}")
-    shutil.copyfile(source, out)
+    atomic_write(out, lambda tmp: shutil.copyfile(source, tmp))  # a link at --out is replaced
     print(f"wrote {out} (example {args.name})")
     return 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 
 from modquad_gym.cli.common import add_force
 from modquad_gym.core.options import real_option
@@ -49,18 +50,71 @@ def add_motion(tsub) -> None:
         help="circle: keep the heading (fixed, default) or turn with the path (tangent: the "
         "structure's inertia enters the wrenches)",
     )
-    m.add_argument("--payload-mass", type=real_option, default=0.0, help="kg (default 0)")
+    m.add_argument(
+        "--payload-mass", type=real_option, default=None, help="kg (default 0: no payload)"
+    )
     m.add_argument(
         "--payload-offset",
-        default="0,0,0",
+        default=None,
         metavar="X,Y,Z",
-        help="payload position from the structure's COM, metres (default 0,0,0)",
+        help="payload position from the structure's COM, metres (default 0,0,0); needs "
+        "--payload-mass",
     )
     m.add_argument("--f-max", type=real_option, default=2.0, help="rotor limit, N (default 2)")
     m.add_argument("--rate", type=real_option, default=100.0, help="samples/s (default 100)")
     m.add_argument("--name", default=None, help="task name (default: the kind)")
     m.add_argument("--out", required=True, help="output .json file")
     add_force(m)
+
+
+OPTION_OF = {
+    **{name: "--" + name.replace("_", "-") for name in (*OPTION_HELP, "rate", "f_max", "name")},
+    "push_force": "--force-n",
+    "force": "--force-n",
+    "exerted": "--force-n",
+    "payload.mass": "--payload-mass",
+    "payload.offset": "--payload-offset",
+}
+"""The option of each name the motions' errors start with (``rate: ...``, ``f_max must ...``)."""
+
+
+def option_message(exc: ValueError, kind: str) -> str:
+    """A motion's error as the command line says it: the option in place of the keyword. The
+    ramp, which the command line does not set, is named by what makes the path too short."""
+    text = str(exc)
+    if text.startswith("ramp:"):
+        path = {"circle": "--radius or --laps", "figure-eight": "--size or --laps"}
+        return (
+            f"--speed: too fast for this --kind {kind} path: speeding up and slowing down take "
+            f"1 s each, longer than the whole path at this speed; lower --speed or lengthen the "
+            f"path ({path.get(kind, '--distance')})"
+        )
+    match = re.match(r"([a-z_.]+)(:| must)", text)
+    if match and match[1] in OPTION_OF:
+        return OPTION_OF[match[1]] + text[len(match[1]) :]
+    return text
+
+
+def payload_of(args: argparse.Namespace):
+    """``--payload-mass`` and ``--payload-offset`` as a Payload, or None; an offset without a
+    mass (it would be dropped) is refused."""
+    from modquad_gym import dynamics as dy
+
+    mass = args.payload_mass
+    if args.payload_offset is not None and not mass:
+        raise ValueError(
+            f"--payload-offset {args.payload_offset} places a payload, but there is none: give "
+            "--payload-mass (kg, above 0)"
+        )
+    if not mass:
+        return None
+    try:
+        offset = tuple(float(v) for v in (args.payload_offset or "0,0,0").split(","))
+    except ValueError:
+        raise ValueError(
+            f"--payload-offset must be X,Y,Z in metres, got {args.payload_offset!r}"
+        ) from None
+    return dy.Payload(mass, offset)
 
 
 def motion_task(args: argparse.Namespace):
@@ -70,20 +124,15 @@ def motion_task(args: argparse.Namespace):
     given = {k: getattr(args, k) for k in (*OPTION_HELP, "heading") if getattr(args, k) is not None}
     for key in given:
         if key not in PARAMETERS[args.kind]:
-            flag = "--force-n" if key == "push_force" else "--" + key.replace("_", "-")
-            raise ValueError(f"{flag} does not apply to --kind {args.kind}")
-    try:
-        offset = tuple(float(v) for v in args.payload_offset.split(","))
-    except ValueError:
-        raise ValueError(
-            f"--payload-offset must be X,Y,Z in metres, got {args.payload_offset!r}"
-        ) from None
-    payload = dy.Payload(args.payload_mass, offset) if args.payload_mass else None
+            raise ValueError(f"{OPTION_OF[key]} does not apply to --kind {args.kind}")
     if "push_force" in given:
         given["force"] = given.pop("push_force")
-    common = dict(f_max=args.f_max, payload=payload, rate=args.rate, name=args.name or args.kind)
-    motion = dy.MOTIONS[args.kind]
-    return motion(**given, **common)
+    try:
+        common = dict(f_max=args.f_max, payload=payload_of(args), rate=args.rate,
+                      name=args.name or args.kind)  # fmt: skip
+        return dy.MOTIONS[args.kind](**given, **common)
+    except ValueError as exc:
+        raise ValueError(option_message(exc, args.kind)) from None
 
 
 def cmd_task_motion(args: argparse.Namespace) -> int:
@@ -96,7 +145,10 @@ def cmd_task_motion(args: argparse.Namespace) -> int:
     task = motion_task(args)
     from modquad_gym.dynamics import check_liftable
 
-    lift = check_liftable(task, [STOCK_TYPES["t45"]])  # a task no structure flies: refused
+    try:  # a task no structure flies: refused
+        lift = check_liftable(task, [STOCK_TYPES["t45"]])
+    except ValueError as exc:
+        raise ValueError(option_message(exc, args.kind)) from None
     task.save(out)
     print(
         f"wrote {out}: {task.n_wrenches} samples over {task.trajectory.duration:.3g} s "

@@ -10,6 +10,7 @@ import sys
 
 from modquad_gym.cli import common, solve  # common.load_task, solve.solver (tests replace them)
 from modquad_gym.cli.common import add_command, add_csv_header, add_force, add_method
+from modquad_gym.cli.given import refuse_ignored
 from modquad_gym.core.options import int_option, real_option
 
 DEFAULT_HOVER_WRENCHES = 20
@@ -108,8 +109,16 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if args.load_ramp_seconds is not None:  # only a value the user gave is checked against theirs
         ramp = check_real(args.load_ramp_seconds, "--load-ramp-seconds", 0.0, args.hover_seconds)
     k = None if args.all_wrenches else check_int(args.max_hover_wrenches, "--max-hover-wrenches", 1)
+    if args.all_wrenches:
+        refuse_ignored(args, ["max_hover_wrenches"], "--all-wrenches hovers under every wrench")
+    if args.known_load_only:
+        refuse_ignored(args, ["load_ramp_seconds"], "it ramps the unknown load, whose hover "
+                       "--known-load-only leaves out")  # fmt: skip
     task = common.load_task(args.task, args.csv_header)
     dynamic = getattr(task, "kind", None) == "dynamic"
+    refuse_ignored(args, ["infeasible_demo", "load_ramp_seconds"] if dynamic else [],
+                   f"applies to a static task; {args.task} is a dynamic one (flown along its "
+                   "trajectory)")  # fmt: skip
     common.check_task(task, args.task, common.palette(args))
     check_output_dir(args.out, OUTPUT_NAMES + (TRACK_NAMES if dynamic else ()), force=args.force)
     n_hover = task.n_wrenches if k is None else min(k, task.n_wrenches)

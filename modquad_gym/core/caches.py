@@ -8,7 +8,8 @@ Matplotlib, likewise, warns in two lines and makes a new temporary folder on eve
 ``modquad_gym/__init__.py``, checks those places and, for each that is not writable and whose
 variable (``NUMBA_CACHE_DIR``, ``MPLCONFIGDIR``) is not set, points the library at a private
 folder in the temporary directory, saying so in one line the first time. It imports neither
-library.
+library. Before that it checks the numba settings that would stop numba's import with a
+traceback, or that numba would ignore (:data:`NUMBA_SETTINGS`).
 """
 
 from __future__ import annotations
@@ -82,5 +83,59 @@ def configure() -> dict[str, str]:
     return chosen
 
 
+NUMBA_SETTINGS = {
+    "NUMBA_NUM_THREADS": ("numba's thread count: an integer >= 1", lambda v: int(v) >= 1),
+    "NUMBA_OPT": (
+        "numba's optimisation level: 0, 1, 2, 3 or max",
+        lambda v: v.strip() in ("0", "1", "2", "3", "max"),
+    ),  # fmt: skip
+    "NUMBA_DISABLE_JIT": ("an integer (0: compile, 1: no compilation)", lambda v: int(v) >= 0),
+}
+"""The numba variables checked before numba is imported: their meaning and a test of a value.
+Out of range, numba's import stops with a traceback (``NUMBA_NUM_THREADS=0``); unparsable,
+numba prints a warning with a traceback and ignores the value."""
+
+
+class SettingError(ValueError):
+    """A setting in the environment that the libraries below would crash on or ignore."""
+
+
+def setting_error(environ=os.environ) -> str | None:
+    """One line naming the first variable of :data:`NUMBA_SETTINGS` whose value is not valid,
+    or None."""
+    for name, (meaning, valid) in NUMBA_SETTINGS.items():
+        value = environ.get(name)
+        if value is None:
+            continue
+        try:
+            ok = valid(value)
+        except ValueError:
+            ok = False
+        if not ok:
+            return f"{name}={value!r} in the environment: expected {meaning} (or unset it)"
+    return None
+
+
+def _invoked_as_command() -> bool:
+    """True when this process is the ``modquad`` command (the console script, or ``python -m
+    modquad_gym.cli``): its errors are one line and exit code 2."""
+    argv = list(getattr(sys, "orig_argv", ())) or sys.argv
+    return (bool(sys.argv) and Path(sys.argv[0]).name == "modquad") or "modquad_gym.cli" in argv
+
+
+def check_settings() -> None:
+    """Stop on a setting of :func:`setting_error` before numba is imported: for the ``modquad``
+    command one line ``modquad: error: ...`` and exit code 2, for a program importing the package
+    a :class:`SettingError` naming the variable."""
+    message = setting_error()
+    if message is None:
+        return
+    if _invoked_as_command():
+        print(f"modquad: error: {message}", file=sys.stderr)
+        raise SystemExit(2)
+    raise SettingError(message)
+
+
+check_settings()
 CHOSEN = configure()
 """The variables set at import (empty when the libraries' own places serve)."""

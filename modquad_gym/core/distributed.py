@@ -115,6 +115,12 @@ class Engine:
         self.address = address or os.environ.get(ADDRESS_VARIABLE) or None
         if workers is not None:
             workers = check_int(workers, option, low=1)
+            if address and workers == 1:  # given here, not by RAY_ADDRESS: it would be ignored
+                name = "--ray-address" if option.startswith("--") else "address"
+                raise ValueError(
+                    f"{name} {address}: not used with {option} 1, which runs everything in this "
+                    "process; leave out one of them"
+                )
             if not self.address and workers > 1:
                 workers = cap_workers(workers, option)
         elif not self.address:

@@ -11,7 +11,14 @@ import argparse
 import math
 import re
 
-__all__ = ["MAX_COUNT", "MAX_SEED", "int_option", "real_option", "seed_option"]
+__all__ = [
+    "MAX_COUNT",
+    "MAX_SEED",
+    "DefaultsHelpFormatter",
+    "int_option",
+    "real_option",
+    "seed_option",
+]
 
 MAX_COUNT = 1_000_000
 """Largest count (tasks, seeds, structures, steps, ...) an option accepts by default."""
@@ -55,3 +62,23 @@ def real_option(text: str) -> float:
 
 
 real_option.__name__ = "number"
+
+
+class DefaultsHelpFormatter(argparse.HelpFormatter):
+    """Help that states each option's default once: ``(default: X)`` is added where the help
+    does not already speak of its default, and never for a default that says nothing (None,
+    False, an empty list) (argparse's ``ArgumentDefaultsHelpFormatter`` adds it to every option:
+    ``(default: the tier's) (default: None)``)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        default = action.default
+        silent = default is None or default is False or default == [] or default == ()
+        if (
+            "default" in text.lower()
+            or silent
+            or default is argparse.SUPPRESS
+            or not (action.option_strings or action.nargs in (argparse.OPTIONAL, "*"))
+        ):
+            return text
+        return f"{text} (default: %(default)s)"

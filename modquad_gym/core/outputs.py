@@ -21,6 +21,8 @@ __all__ = [
     "atomic_write",
     "check_output_dir",
     "check_output_file",
+    "check_outputs",
+    "named_os_error",
     "save_figure",
     "write_text",
 ]
@@ -30,7 +32,25 @@ class OutputError(ValueError):
     """An output path that cannot be written (exists, read-only, not a folder, ...)."""
 
 
+def _dangling(path: Path) -> bool:
+    """A symbolic link whose target does not exist (``exists()`` says False: it follows links)."""
+    return path.is_symlink() and not path.exists()
+
+
+def _refuse_dangling_folder(folder: Path, what: str) -> None:
+    """A folder on the way that is a dangling symbolic link: creating it fails late, after the
+    work (``mkdir`` finds the link), or creates folders where the link points."""
+    for p in (folder, *folder.parents):
+        if _dangling(p):
+            raise OutputError(
+                f"{what}: {p} is a symbolic link to {os.readlink(p)}, which does not exist"
+            )
+        if p.exists():
+            return
+
+
 def _check_writable_dir(folder: Path, what: str) -> None:
+    _refuse_dangling_folder(folder, what)
     if not folder.exists():
         parent = next((p for p in folder.parents if p.exists()), None)
         if parent is None or not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
@@ -62,10 +82,37 @@ def check_output_file(path: str | os.PathLike, force: bool = False, what: str = 
     if path.is_dir():
         raise OutputError(f"{what}: {path} is a folder, expected a file name")
     _refuse_special(path, what)
+    if _dangling(path) and not force:  # a link the user made is theirs: replaced only on demand
+        raise OutputError(
+            f"{what}: {path} is a symbolic link (to {os.readlink(path)}, which does not exist); "
+            "use --force to replace it"
+        )
     if path.exists() and not force:
         raise OutputError(f"{what}: {path} exists (use --force to replace it)")
     _check_writable_dir(path.parent if str(path.parent) else Path("."), what)
     return path
+
+
+def check_outputs(outputs: dict[str, str | os.PathLike | None], force: bool = False) -> dict:
+    """Every output file of one command checked together, before any work or write: each as
+    :func:`check_output_file` (``outputs`` maps the option, e.g. ``"--out"``, to its path, or
+    to None when not given), and no two naming the same file (the second would replace the
+    first, or be refused after the first was written). Returns {option: Path} of those
+    given."""
+    checked = {
+        what: check_output_file(path, force=force, what=what)
+        for what, path in outputs.items()
+        if path is not None
+    }
+    seen: dict[str, str] = {}
+    for what, path in checked.items():
+        key = os.path.realpath(path)
+        if key in seen:
+            raise OutputError(
+                f"{what}: {path} is also the file of {seen[key]}; give each output its own file"
+            )
+        seen[key] = what
+    return checked
 
 
 def check_output_dir(
@@ -77,8 +124,8 @@ def check_output_dir(
     _check_writable_dir(folder, what)
     for name in names:
         _refuse_special(folder / name, what)
-    if not force:
-        taken = [n for n in names if (folder / n).exists()]
+    if not force:  # a dangling symbolic link counts: the user put it there
+        taken = [n for n in names if os.path.lexists(folder / n)]
         if taken:
             raise OutputError(
                 f"{what}: {folder} already holds {', '.join(taken)} (use --force to replace)"
@@ -98,9 +145,18 @@ def atomic_write(path: str | os.PathLike, write: Callable[[Path], None]) -> Path
         write(tmp)
         os.chmod(tmp, 0o644)
         os.replace(tmp, path)
+    except OSError as exc:  # name the output, not the temporary file (or nothing)
+        raise named_os_error(exc, path) from exc
     finally:
         tmp.unlink(missing_ok=True)
     return path
+
+
+def named_os_error(exc: OSError, path: Path) -> OSError:
+    """``exc`` (no space left, quota, I/O error, ...) as an OSError of the same kind whose
+    file is ``path``: what the user asked for, which the one-line error then names."""
+    reason = exc.strerror or " ".join(str(exc).split()) or type(exc).__name__
+    return OSError(exc.errno, reason, str(path))  # the subclass of its errno
 
 
 def write_text(path: str | os.PathLike, text: str) -> Path:

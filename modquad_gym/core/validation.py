@@ -10,10 +10,22 @@ from __future__ import annotations
 
 import math
 import numbers
+import warnings
 
 import numpy as np
 
-__all__ = ["check_f_max", "check_int", "check_matrix", "check_real", "check_wrenches"]
+__all__ = [
+    "check_f_max",
+    "float_array",
+    "check_int",
+    "check_matrix",
+    "check_real",
+    "check_wrenches",
+    "refuse_complex",
+]
+
+
+_ComplexWarning = getattr(np, "exceptions", np).ComplexWarning
 
 
 def _is_bool(value: object) -> bool:
@@ -76,11 +88,54 @@ def _ragged_row(value: object) -> str:
     return f"row {row + 1} has {lengths[row]} entries, row 1 has {lengths[0]}"
 
 
+def _complex_message(name: str, dtype: object) -> str:
+    return (
+        f"{name} must hold real numbers, got complex values ({dtype}); pass the real part "
+        "(np.real) if that is what you mean"
+    )
+
+
+def refuse_complex(value: object, name: str) -> None:
+    """A ValueError naming ``name`` when ``value`` (an array, a NumPy scalar, a list or tuple of
+    numbers) holds complex numbers: NumPy would drop their imaginary parts with only a
+    ``ComplexWarning``. Anything else passes (the caller's own conversion judges it)."""
+    dtype = getattr(value, "dtype", None)
+    if dtype is None and isinstance(value, (list, tuple)):
+        try:
+            dtype = np.asarray(value).dtype
+        except (ValueError, TypeError, OverflowError):
+            return
+    if getattr(dtype, "kind", "") == "c":
+        raise ValueError(_complex_message(name, dtype))
+
+
+def float_array(value: object, name: str, expected: str | None = None) -> np.ndarray:
+    """``np.array(value, dtype=float)`` (a copy), except that complex numbers, which NumPy
+    would cut to their real parts with only a warning, are a ValueError naming ``name``. Other
+    conversion errors become ``ValueError(f"{name} must be {expected}")``, or pass to the caller
+    (TypeError, ValueError, OverflowError) when ``expected`` is None."""
+    dtype = getattr(value, "dtype", None)
+    if getattr(dtype, "kind", "") == "c":
+        raise ValueError(_complex_message(name, dtype))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", _ComplexWarning)
+        try:
+            return np.array(value, dtype=float)
+        except _ComplexWarning:  # a list holding NumPy complex scalars
+            raise ValueError(_complex_message(name, "complex")) from None
+        except (TypeError, ValueError, OverflowError):
+            refuse_complex(value, name)  # Python complex numbers in a list
+            if expected is None:
+                raise
+    raise ValueError(f"{name} must be {expected}")
+
+
 def _float_array(value: object, name: str) -> np.ndarray:
     try:
         arr = np.asarray(value)
     except ValueError:  # a ragged nested list
         raise ValueError(f"{name} must be a rectangular array: {_ragged_row(value)}") from None
+    refuse_complex(arr, name)
     if arr.dtype == object or arr.dtype.kind in "USVb":
         raise ValueError(f"{name} must hold real numbers, got dtype {arr.dtype}")
     return arr.astype(float, copy=False)

@@ -20,7 +20,7 @@ import numpy as np
 from modquad_gym.core.validation import check_real
 from modquad_gym.dynamics import quaternions as quat
 from modquad_gym.dynamics.task import DynamicTask
-from modquad_gym.dynamics.trajectory import Trajectory
+from modquad_gym.dynamics.trajectory import MAX_SAMPLES, Trajectory
 from modquad_gym.dynamics.wrenches import Payload
 
 DEFAULT_F_MAX = 2.0
@@ -31,9 +31,28 @@ DEFAULT_RATE = 100.0
 """Samples per second."""
 
 
+def sample_count(duration: float, rate: float) -> int:
+    """How many samples a motion of ``duration`` seconds at ``rate`` Hz has (at least 2), or a
+    ValueError naming ``rate`` when that is more than a trajectory holds
+    (:data:`~modquad_gym.dynamics.trajectory.MAX_SAMPLES`): checked from the two numbers,
+    before any sample is built."""
+    with np.errstate(over="ignore"):
+        span = float(np.float64(duration) * np.float64(rate))
+    n = max(2, int(math.ceil(span - 1e-9)) + 1) if span < MAX_SAMPLES else math.inf
+    if n > MAX_SAMPLES:
+        raise ValueError(
+            f"rate: {rate:g} samples/s over {duration:.6g} s is {_count(span + 1)} samples, more "
+            f"than the {MAX_SAMPLES:,} a trajectory holds; lower the rate or shorten the motion"
+        )
+    return n
+
+
+def _count(n: float) -> str:
+    return f"{n:,.0f}" if n < 1e15 else f"{n:.3g}"
+
+
 def _times(duration: float, rate: float) -> np.ndarray:
-    n = max(2, int(math.ceil(duration * rate - 1e-9)) + 1)
-    return np.linspace(0.0, duration, n)
+    return np.linspace(0.0, duration, sample_count(duration, rate))
 
 
 def _time_law(t: np.ndarray, cruise: float, total: float, ramp: float) -> tuple:

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.validation import check_f_max
+from modquad_gym.core.validation import check_f_max, float_array
 from modquad_gym.dynamics.trajectory import Trajectory
 from modquad_gym.dynamics.wrenches import LinearWrenches, Payload
 from modquad_gym.geometry.module import ModuleType
@@ -47,10 +47,7 @@ MAX_LIFT_MODULES = 64
 
 
 def _exerted(value: object, k: int) -> np.ndarray:
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        raise ValueError("exerted must be a list of [fx, fy, fz, tx, ty, tz] rows") from None
+    arr = float_array(value, "exerted", "a list of [fx, fy, fz, tx, ty, tz] rows")
     if arr.shape != (k, 6):
         raise ValueError(
             f"exerted must have shape ({k}, 6), one wrench per sample, got {arr.shape}"
@@ -101,11 +98,13 @@ class DynamicTask:
         self.f_max = check_f_max(f_max)
         self.name = name
         self.meta = dict(meta or {})
+        check_scale(self)
 
     @cached_property
     def wrench_model(self) -> LinearWrenches:
         """The rotor wrenches as a linear function of a structure's mass and inertia."""
-        return LinearWrenches.of(self.trajectory, self.payload, self.exerted)
+        with np.errstate(over="ignore", invalid="ignore"):  # check_scale names what overflows
+            return LinearWrenches.of(self.trajectory, self.payload, self.exerted)
 
     @property
     def n_wrenches(self) -> int:
@@ -191,6 +190,39 @@ class DynamicTask:
         )
 
 
+def check_scale(task: DynamicTask) -> None:
+    """A ValueError naming the field whose numbers are beyond what a search handles: ``f_max``
+    outside 1e-300..1e300, or a part of the rotor wrenches (the motion's per kilogram and per
+    unit of inertia, what the payload and the exerted wrenches add) not finite or beyond
+    :data:`~modquad_gym.oracle.scale.MAX_TASK_VALUE`, in newtons or in units of f_max (the
+    static tasks' bound, :func:`~modquad_gym.oracle.scale.check_task_scale`). Checked when the
+    task is made, so that a task file's error names the file."""
+    from modquad_gym.oracle.scale import MAX_TASK_VALUE
+
+    if not 1e-300 <= task.f_max <= 1e300:
+        raise ValueError(f"f_max: {task.f_max:g} N is outside 1e-300..1e300 (check the units)")
+    model = task.wrench_model
+    parts = (
+        ("payload.mass" if task.payload is not None else "exerted", model.base),
+        ("trajectory (its accelerations)", model.per_mass),
+        ("trajectory (its angular velocities and accelerations)", model.per_inertia),
+    )
+    for field, values in parts:
+        with np.errstate(over="ignore", invalid="ignore"):
+            size = np.abs(values).reshape(len(values), -1).max(axis=1, initial=0.0)
+            size = np.maximum(size, size / task.f_max)
+        bad = ~(size <= MAX_TASK_VALUE)
+        if bad.any():
+            i = int(np.argmax(bad))
+            if field == "exerted" and task.exerted is None:  # the payload's offset alone
+                field = "payload.offset"
+            raise ValueError(
+                f"{field}: the rotor wrench at sample {i + 1} is {size[i]:.3g} (newtons, or "
+                f"units of f_max = {task.f_max:g} N), beyond {MAX_TASK_VALUE:g}: far beyond "
+                "what any structure can exert (check the units)"
+            )
+
+
 def lift_capacity(
     task: DynamicTask, modules: Sequence[ModuleType]
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -234,8 +266,10 @@ def check_liftable(
             f"{task.name!r}: its rotors cannot carry its own weight there"
         )
     field = "payload.mass" if task.payload is not None else "exerted"
-    what = f"{task.payload.mass:g} kg" if task.payload is not None else "the exerted wrenches"
+    what = "the exerted wrenches are"
+    if task.payload is not None:
+        what = f"{task.payload.mass:g} kg is"
     raise ValueError(
-        f"{field}: {what} is more than any structure of up to {limit} modules of type {names} "
+        f"{field}: {what} more than any structure of up to {limit} modules of type {names} "
         f"can carry along {task.name!r} with f_max = {task.f_max:g} N"
     )

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from modquad_gym.core.validation import float_array
 from modquad_gym.dynamics import quaternions as quat
 
 MAX_SAMPLES = 100_000
@@ -50,10 +51,7 @@ FIELDS = (
 
 def _array(value: object, field: str, k: int | None, width: int) -> np.ndarray:
     """A float (k, width) copy of ``value``; errors name the field and the 1-based sample."""
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"{field} must be an array of numbers") from None
+    arr = float_array(value, field, "an array of numbers")
     shape = (k if k is not None else "k", width)
     if arr.ndim != 2 or arr.shape[1] != width or (k is not None and arr.shape[0] != k):
         raise ValueError(f"{field} must have shape {shape} (one row per sample), got {arr.shape}")
@@ -67,10 +65,7 @@ def _array(value: object, field: str, k: int | None, width: int) -> np.ndarray:
 def check_times(t: object) -> np.ndarray:
     """The sample times as a float (k,) array, k in [2, MAX_SAMPLES], finite and strictly
     increasing; else a ValueError naming ``t`` and the first bad sample (1-based)."""
-    try:
-        arr = np.array(t, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        raise ValueError("t must be a list of sample times in seconds") from None
+    arr = float_array(t, "t", "a list of sample times in seconds")
     if arr.ndim != 1:
         raise ValueError(f"t must be a flat list of times, got shape {arr.shape}")
     if arr.size > MAX_SAMPLES:
@@ -219,8 +214,10 @@ class Trajectory:
             given.add("quaternion")
         self.given = tuple(f for f in FIELDS if f in given)
         self.derivative_error = {}
-        self._linear(checked, accuracy, smoothing)
-        self._angular(checked, accuracy, smoothing, quaternion is not None)
+        with np.errstate(all="ignore"):  # a non-finite derivative is refused below, by name
+            self._linear(checked, accuracy, smoothing)
+            self._angular(checked, accuracy, smoothing, quaternion is not None)
+        self._check_derived()
         for name in FIELDS[1:]:
             getattr(self, name).setflags(write=False)
         self.t.setflags(write=False)
@@ -277,6 +274,20 @@ class Trajectory:
                 t, q, qs(t, 2), 2, accuracy / 2.0, "angular_acceleration", "rad/s^2", smoothing
             )
         self.derivative_error["angular_acceleration"] = err
+
+    def _check_derived(self) -> None:
+        """A ValueError naming the first derivative the splines made non-finite (samples too
+        close in time for floating point: steps of 1e-300 s, say), and its sample."""
+        for name in FIELDS[3:]:
+            arr = getattr(self, name)
+            bad = ~np.isfinite(arr)
+            if bad.any():
+                i = int(np.argwhere(bad)[0, 0])
+                raise ValueError(
+                    f"{name}: not finite at sample {i + 1} when derived from the samples, which "
+                    f"are as little as {np.diff(self.t).min():.3g} s apart (too close for the "
+                    f"splines); space the samples further or give {name}"
+                )
 
     # --- reading ----------------------------------------------------------------------------
     @property

@@ -52,6 +52,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from modquad_gym.core.validation import refuse_complex
+
 DEFAULT_SIDE = 0.4
 """Module side length l in metres (paper Sec. VI)."""
 
@@ -115,6 +117,8 @@ class ModuleType:
     columns: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        for what in ("positions", "directions", "spins", "inertia"):
+            refuse_complex(getattr(self, what), what)
         pos = np.array(self.positions, dtype=float)
         dirs = np.array(self.directions, dtype=float)
         spins = np.array(self.spins, dtype=float)
@@ -191,6 +195,7 @@ class ModuleType:
         Positive tilt turns the thrust vector by the right-hand rule about the arm direction.
         ``height`` and ``inertia`` as in the class docstring.
         """
+        refuse_complex(tilts, "tilts")
         tilts = np.asarray(tilts, dtype=float)
         if tilts.shape != (4,) or not np.all(np.isfinite(tilts)):
             raise ValueError(f"tilts must be 4 finite angles in radians, got {tilts!r}")
@@ -218,6 +223,7 @@ def box_inertia(mass: float, x: float, y: float, z: float) -> np.ndarray:
 def check_inertia(J: object, what: str = "inertia") -> np.ndarray:
     """A float (3, 3) copy of ``J`` if it is a physical inertia tensor (symmetric, principal
     moments >= 0 obeying the triangle inequality), else a ValueError naming ``what``."""
+    refuse_complex(J, what)
     try:
         arr = np.array(J, dtype=float)
     except (TypeError, ValueError):

@@ -26,12 +26,13 @@ def _is_number(v: object) -> bool:
 
 
 def check_wrench_array(wrenches: object) -> np.ndarray:
-    """A float (t, 6) copy of ``wrenches``; errors name the shape or the 1-based row."""
-    try:
-        arr = np.array(wrenches, dtype=float)
-    except (TypeError, ValueError, OverflowError) as exc:
-        from modquad_gym.core.validation import check_wrenches
+    """A float (t, 6) copy of ``wrenches``; errors name the shape or the 1-based row (complex
+    numbers are refused, not cut to their real parts)."""
+    from modquad_gym.core.validation import check_wrenches, float_array
 
+    try:
+        arr = float_array(wrenches, "wrenches")
+    except (TypeError, ValueError, OverflowError) as exc:
         check_wrenches(wrenches)  # names a ragged row, when that is what is wrong
         raise ValueError(f"wrenches must be a (t, 6) array of numbers: {exc}") from None
     if arr.ndim != 2 or arr.shape[1] != 6:

@@ -1,0 +1,85 @@
+"""Which options the user typed, and the refusal of those a command would ignore.
+
+An option's value alone cannot tell ``--n-max 7`` from the default 7, so :func:`typed_options`
+parses the command line a second time with every default suppressed: what is left is what the
+user typed (abbreviations such as ``--payl`` included). :func:`refuse_ignored` turns an option
+that does not apply (a search option beside ``--cells``, ``--seed`` for a method that draws
+nothing at random, ...) into one error line naming it, instead of a run that silently drops it.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Iterable
+
+TYPED = "typed_options"
+"""The attribute of the parsed arguments that holds the typed options' destinations."""
+
+
+def _parsers(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser]:
+    """``parser`` and every subcommand parser below it."""
+    out = [parser]
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in dict.fromkeys(action.choices.values()):
+                out += _parsers(sub)
+    return out
+
+
+def typed_options(parser: argparse.ArgumentParser, argv: list[str]) -> frozenset[str]:
+    """The destinations of the options present in ``argv`` (which ``parser`` has parsed
+    without error): a second parse in which no default fills in what was not typed."""
+    actions = [a for p in _parsers(parser) for a in p._actions]
+    saved = [a.default for a in actions]
+    try:
+        for a in actions:
+            a.default = argparse.SUPPRESS
+        return frozenset(vars(parser.parse_args(argv)))
+    finally:
+        for a, default in zip(actions, saved):
+            a.default = default
+
+
+def typed(args: argparse.Namespace, dest: str) -> bool:
+    """Whether the option of destination ``dest`` was typed (False when the arguments were not
+    parsed by :func:`modquad_gym.cli.main`, as in tests calling a command directly)."""
+    return dest in getattr(args, TYPED, ())
+
+
+def option_name(dest: str) -> str:
+    return "--" + dest.replace("_", "-")
+
+
+def refuse_ignored(args: argparse.Namespace, dests: Iterable[str], reason: str) -> None:
+    """A ValueError ``--OPTION ...: REASON`` for the first of ``dests`` that was typed."""
+    for dest in dests:
+        if typed(args, dest):
+            value = getattr(args, dest)
+            shown = "" if isinstance(value, bool) else f" {value}"  # a flag has no value
+            raise ValueError(f"{option_name(dest)}{shown}: {reason}")
+
+
+SEEDED = ("random", "anytime", "beam", "genetic")
+"""The searches that draw at random (``--seed``); the learned methods sample with it too."""
+
+
+def refuse_ignored_method_options(args: argparse.Namespace) -> None:
+    """``--seed`` for a method that draws nothing at random, ``--time-limit`` for the exhaustive
+    search (exact, it has none) or for an outside agent (``pkg.module:Name``, which takes
+    neither): refused before the search starts."""
+    from modquad_gym.solvers import learned_options
+
+    method = getattr(args, "method", None)
+    if method is None:
+        return
+    outside = ":" in method
+    learned = not outside and learned_options(method) is not None
+    if outside or not (learned or method in SEEDED):
+        refuse_ignored(args, ["seed"], f"--method {method} draws nothing at random")
+    if outside or method == "exhaustive":
+        what = "an outside agent" if outside else "exact"
+        refuse_ignored(
+            args,
+            ["time_limit"],
+            f"--method {method} ({what}) takes no time limit; --method anytime stops at one",
+        )
