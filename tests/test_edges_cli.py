@@ -280,7 +280,13 @@ def _ignored_cases(tmp: Path, dynamic: Path) -> list[tuple[list[str], str]]:
     solve = ["solve", "--task", SCREWDRIVER, "--quiet"]
     validate = ["validate", "--task", SCREWDRIVER, "--out", str(tmp / "v")]
     export = ["export", "--cells", "[[0,0]]", "--out", out]
+    show = ["show", "--cells", "[[0,0]]", "--out", str(tmp / "s.png")]
     return [
+        ([*show, "--method", "greedy"], "--method"),
+        ([*show, "--n-max", "20"], "--n-max"),
+        ([*show, "--time-limit", "5"], "--time-limit"),
+        ([*show, "--csv-header", "no"], "--csv-header"),
+        ([*show, "--task", SCREWDRIVER, "--seed", "3"], "--seed"),
         ([*motion, "--payload-offset", "0,0,-0.2"], "--payload-offset"),
         ([*motion, "--payload-mass", "0", "--payload-offset", "0,0,-0.2"], "--payload-offset"),
         ([*motion, "--payload-off", "0,0,-0.2"], "--payload-offset"),  # an abbreviation
@@ -500,6 +506,15 @@ def test_numba_setting_before_the_import_is_one_line_exit_2():
         timeout=60,
     )
     assert run.returncode == 1 and "SettingError: NUMBA_NUM_THREADS='0'" in run.stderr
+    run = subprocess.run(
+        [sys.executable, "train.py", "--help"],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 2 and run.stderr.startswith("python train.py: error: NUMBA_NUM")
 
 
 # ------------------------------------------------------------- 7. messages naming the file

@@ -7,11 +7,8 @@ from pathlib import Path
 
 from modquad_gym.cli import common  # commands call common.load_task (tests replace it)
 from modquad_gym.cli.common import add_command, add_csv_header, add_force, add_method, palette
-from modquad_gym.cli.given import refuse_ignored
+from modquad_gym.cli.given import SEARCH_OPTIONS, refuse_ignored
 from modquad_gym.core.options import real_option
-
-SEARCH_OPTIONS = ("method", "n_max", "time_limit", "model", "seed", "csv_header")
-"""The options that say how ``--task`` is read and solved (refused with ``--cells``)."""
 
 
 def add_export(sub) -> None:
@@ -72,8 +69,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     if bool(args.cells) == bool(args.task):
         raise ValueError("give either --cells (e.g. '[[0,0],[1,0]]') or --task")
     if args.cells:  # what finds a structure for --task means nothing beside --cells
-        refuse_ignored(args, SEARCH_OPTIONS, "applies with --task (a search finds the "
-                       "structure), not with --cells (which gives it)")  # fmt: skip
+        how = [*SEARCH_OPTIONS, "csv_header"]
+        refuse_ignored(args, how, "applies with --task (a search finds the structure), not "
+                       "with --cells (which gives it)")  # fmt: skip
     check_output_file(args.out, force=args.force, what="--out")  # before any search
     f_max = args.f_max
     if args.cells:

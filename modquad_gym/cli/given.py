@@ -59,27 +59,26 @@ def refuse_ignored(args: argparse.Namespace, dests: Iterable[str], reason: str) 
             raise ValueError(f"{option_name(dest)}{shown}: {reason}")
 
 
+SEARCH_OPTIONS = ("method", "n_max", "time_limit", "model", "seed")
+"""The options that say how a structure is searched for (meaningless beside ``--cells``)."""
+
 SEEDED = ("random", "anytime", "beam", "genetic")
 """The searches that draw at random (``--seed``); the learned methods sample with it too."""
 
 
 def refuse_ignored_method_options(args: argparse.Namespace) -> None:
     """``--seed`` for a method that draws nothing at random, ``--time-limit`` for the exhaustive
-    search (exact, it has none) or for an outside agent (``pkg.module:Name``, which takes
-    neither): refused before the search starts."""
+    search (exact, it has none): refused before the search starts."""
     from modquad_gym.solvers import learned_options
 
     method = getattr(args, "method", None)
     if method is None:
         return
-    outside = ":" in method
-    learned = not outside and learned_options(method) is not None
-    if outside or not (learned or method in SEEDED):
+    if not (method in SEEDED or learned_options(method) is not None):
         refuse_ignored(args, ["seed"], f"--method {method} draws nothing at random")
-    if outside or method == "exhaustive":
-        what = "an outside agent" if outside else "exact"
+    if method == "exhaustive":
         refuse_ignored(
             args,
             ["time_limit"],
-            f"--method {method} ({what}) takes no time limit; --method anytime stops at one",
+            "--method exhaustive (exact) takes no time limit; --method anytime stops at one",
         )

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from modquad_gym.cli import common, solve  # common.load_task, solve.solver (tests replace them)
 from modquad_gym.cli.common import add_command, add_csv_header, add_force, add_method, palette
+from modquad_gym.cli.given import SEARCH_OPTIONS, refuse_ignored
 
 MAX_SHOWN_MODULES = 64
 """Largest ``--n-max`` for a search: the picture's force and torque projections are computed
@@ -97,6 +98,11 @@ def cmd_show(args: argparse.Namespace) -> int:
             f"--n-max: show draws structures of up to {MAX_SHOWN_MODULES} modules (the "
             f"feasible forces and torques), got {args.n_max}; `modquad solve` goes further"
         )
+    if args.cells:  # --cells gives the structure: nothing is searched for
+        refuse_ignored(args, SEARCH_OPTIONS, "applies to a search for --task, not with --cells "
+                       "(which gives the structure)")  # fmt: skip
+    if not args.task:
+        refuse_ignored(args, ["csv_header"], "applies to a --task file")
     out = args.out if args.out is not None or args.html is not None else "structure.png"
     if out is not None:
         out = Path(out)

@@ -116,22 +116,27 @@ def setting_error(environ=os.environ) -> str | None:
     return None
 
 
-def _invoked_as_command() -> bool:
-    """True when this process is the ``modquad`` command (the console script, or ``python -m
-    modquad_gym.cli``): its errors are one line and exit code 2."""
+def _command_name() -> str | None:
+    """The command this process is, whose errors are one line and exit code 2: ``modquad``
+    (the console script, or ``python -m modquad_gym.cli``) or ``python train.py``; None for a
+    program that imports the package."""
     argv = list(getattr(sys, "orig_argv", ())) or sys.argv
-    return (bool(sys.argv) and Path(sys.argv[0]).name == "modquad") or "modquad_gym.cli" in argv
+    script = Path(sys.argv[0]).name if sys.argv else ""
+    if script == "modquad" or "modquad_gym.cli" in argv:
+        return "modquad"
+    return "python train.py" if script == "train.py" else None
 
 
 def check_settings() -> None:
-    """Stop on a setting of :func:`setting_error` before numba is imported: for the ``modquad``
-    command one line ``modquad: error: ...`` and exit code 2, for a program importing the package
-    a :class:`SettingError` naming the variable."""
+    """Stop on a setting of :func:`setting_error` before numba is imported: for a command
+    (``modquad``, ``python train.py``) one line ``NAME: error: ...`` and exit code 2, for a
+    program importing the package a :class:`SettingError` naming the variable."""
     message = setting_error()
     if message is None:
         return
-    if _invoked_as_command():
-        print(f"modquad: error: {message}", file=sys.stderr)
+    command = _command_name()
+    if command is not None:
+        print(f"{command}: error: {message}", file=sys.stderr)
         raise SystemExit(2)
     raise SettingError(message)
 
