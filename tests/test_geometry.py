@@ -148,16 +148,30 @@ def test_normalise_is_translation_only():
 
 
 def test_import_is_light():
-    """`import modquad_gym` loads no torch, SB3 or MuJoCo (they load where they are used). Its
-    time (about 0.2 s here) is reported, not asserted: speed belongs to benchmarks."""
+    """`import modquad_gym` loads no numba, torch, SB3, Ray, MuJoCo, scipy or environment module
+    (they load where they are used; the ids register by entry-point strings). Its time is
+    reported, not asserted: speed belongs to benchmarks (benchmarks/startup.py)."""
     import subprocess
     import sys
 
     code = (
         "import sys, time; t = time.perf_counter(); import modquad_gym; "
         "print(time.perf_counter() - t, *sorted(m for m in ('torch', 'stable_baselines3', "
-        "'sb3_contrib', 'mujoco') if m in sys.modules))"
+        "'sb3_contrib', 'mujoco', 'numba', 'ray', 'scipy', 'modquad_gym.envs.assembly.env', "
+        "'modquad_gym.search', 'modquad_gym.oracle') if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     seconds, *heavy = out.stdout.split()
     assert heavy == [], f"import modquad_gym ({float(seconds):.2f} s) loaded {heavy}"
+
+
+def test_public_names_resolve_and_match_all():
+    """Every lazily loaded public name resolves, and ``__all__`` lists exactly them."""
+    import modquad_gym as mq
+    import modquad_gym.envs.assembly as assembly
+
+    for package in (mq, assembly):
+        table = sorted(n for names in package._NAMES.values() for n in names)
+        assert sorted(package.__all__) == table
+        assert all(getattr(package, name) is not None for name in table)
+        assert set(table) <= set(dir(package))

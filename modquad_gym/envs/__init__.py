@@ -39,22 +39,13 @@ at n_max 7), where success beats every failure (not at n_max 12 or 64: None ther
 
 from __future__ import annotations
 
-import gymnasium as gym
+from typing import TYPE_CHECKING
 
-from modquad_gym.envs.assembly import (
-    DEFAULT_N_MAX,
-    ENTRY_POINT,
-    AssemblyFeatures,
-    AssemblyState,
-    ModQuadAssemblyEnv,
-    RewardFn,
-    RewardWeights,
-    WeightedReward,
-    episode_return,
-    unit_directions,
-)
-from modquad_gym.envs.assembly.reward import success_threshold
-from modquad_gym.tasks import PlantedTasks
+import gymnasium as gym
+import lazy_loader
+
+from modquad_gym.envs.assembly.reward import RewardWeights, success_threshold
+from modquad_gym.envs.assembly.spec import DEFAULT_N_MAX, ENTRY_POINT
 
 ENV_IDS: dict[str, dict] = {
     "ModQuadAssembly-v0": {},
@@ -65,11 +56,7 @@ ENV_IDS: dict[str, dict] = {
     "ModQuadAssemblyLarge-v0": {"tasks": "planted-large", "n_max": 12},
     "ModQuadAssemblyDynamic-v0": {"tasks": "motions"},
     "ModQuadAssemblyFaultTolerant-v0": {"fault": "rotor", "n_max": 10},
-    "ModQuadAssemblyScale-v0": {
-        "tasks": PlantedTasks(n_modules=(16, 64), name="planted-16-64"),
-        "n_max": 64,
-        "actions": "faces",
-    },
+    "ModQuadAssemblyScale-v0": {"tasks": "planted-16-64", "n_max": 64, "actions": "faces"},
 }
 
 
@@ -96,15 +83,34 @@ def episode_limit(kwargs: dict) -> int:
 
 register_envs()
 
+_NAMES = {
+    "assembly": [
+        "AssemblyFeatures", "AssemblyState", "ModQuadAssemblyEnv", "RewardFn", "WeightedReward",
+        "episode_return", "unit_directions",
+    ],
+}  # fmt: skip
+__getattr__, __dir__, _ = lazy_loader.attach(__name__, ["assembly", "wrappers"], _NAMES)
 __all__ = [
     "ENV_IDS",
+    "RewardWeights",
+    "episode_limit",
+    "register_envs",
     "AssemblyFeatures",
     "AssemblyState",
     "ModQuadAssemblyEnv",
     "RewardFn",
-    "RewardWeights",
     "WeightedReward",
     "episode_return",
-    "register_envs",
     "unit_directions",
 ]
+
+if TYPE_CHECKING:
+    from modquad_gym.envs.assembly import (
+        AssemblyFeatures,
+        AssemblyState,
+        ModQuadAssemblyEnv,
+        RewardFn,
+        WeightedReward,
+        episode_return,
+        unit_directions,
+    )

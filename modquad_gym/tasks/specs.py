@@ -33,6 +33,7 @@ NAMED_GENERATORS: dict[str, Callable[[], TaskGenerator]] = {
     "screwdriver": ScrewdriverTask,
     "mixed": lambda: MixedTasks((PlantedTasks(), PaperTasks())),
     "planted-large": lambda: PlantedTasks(n_modules=(6, 12), name="planted-large"),
+    "planted-16-64": lambda: PlantedTasks(n_modules=(16, 64), name="planted-16-64"),
     "paper-external": lambda: PaperTasks(n_wrenches=40, kind="external", f_max=2.0,
                                          fz_offset=1.0, fz_gain=8.0, name="paper-external"),
     "planted-mixed-external": lambda: PlantedMixedTasks(kind="external", f_max=2.0,
@@ -48,7 +49,8 @@ def make_generator(spec: Any) -> TaskGenerator:
     """A task generator from a spec:
 
     * ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"`` (planted and paper, equal odds);
-      ``"planted-large"`` (planted in 6-12 modules: the large tier), ``"paper-external"``
+      ``"planted-large"`` (planted in 6-12 modules: the large tier), ``"planted-16-64"`` (the
+      scale id's), ``"paper-external"``
       (paper-like wrenches on the environment, kind ``external``, f_max 2 N) and
       ``"planted-mixed-external"`` (:class:`PlantedMixedTasks`, external, f_max 2 N: the mixed
       tier); ``"motions"`` (:class:`~modquad_gym.dynamics.random_motions.MotionTasks`: random

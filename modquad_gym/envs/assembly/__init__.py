@@ -12,43 +12,42 @@ Where to add: a reward term in :mod:`.reward` (:class:`WeightedReward.terms`), a
 feature in :mod:`.features` (:func:`observation_blocks`), a module set's env behaviour in
 :mod:`.modules`."""
 
-from modquad_gym.envs.assembly.env import (
-    DEFAULT_N_MAX,
-    ENCODINGS,
-    MAX_STEPS_LIMIT,
-    N_MAX_LIMIT,
-    ModQuadAssemblyEnv,
-)
-from modquad_gym.envs.assembly.faces import FACE_FEATURES, Faces
-from modquad_gym.envs.assembly.features import (
-    CANDIDATE_FEATURES,
-    AssemblyFeatures,
-    ObservationBlock,
-    unit_directions,
-)
-from modquad_gym.envs.assembly.inputs import INVALID_ACTION_MODES, as_task
-from modquad_gym.envs.assembly.modules import OneType, Palette
-from modquad_gym.envs.assembly.reward import RewardFn, RewardWeights, WeightedReward, episode_return
-from modquad_gym.envs.assembly.spec import ENTRY_POINT, ArgumentSpec
-from modquad_gym.envs.assembly.types import AssemblyState, Episode, Rules, TaskArrays
-from modquad_gym.envs.assembly.viewer import AssemblyViewer
+from typing import TYPE_CHECKING
+
+import lazy_loader
+
+_NAMES = {
+    "env": ["ENCODINGS", "MAX_STEPS_LIMIT", "N_MAX_LIMIT", "ModQuadAssemblyEnv"],
+    "faces": ["FACE_FEATURES", "Faces"],
+    "features": ["CANDIDATE_FEATURES", "AssemblyFeatures", "ObservationBlock", "unit_directions"],
+    "inputs": ["INVALID_ACTION_MODES", "as_task"],
+    "modules": ["OneType", "Palette"],
+    "reward": ["RewardFn", "RewardWeights", "WeightedReward", "episode_return"],
+    "spec": ["DEFAULT_N_MAX", "ENTRY_POINT", "ArgumentSpec"],
+    "types": ["AssemblyState", "Episode", "Rules", "TaskArrays"],
+    "viewer": ["AssemblyViewer"],
+}
+"""The public names, by the module that defines them (loaded on first use: registering the
+environments imports only :mod:`.reward` and :mod:`.spec`)."""
+
+__getattr__, __dir__, _ = lazy_loader.attach(__name__, submod_attrs=_NAMES)
 
 __all__ = [
-    "CANDIDATE_FEATURES",
-    "DEFAULT_N_MAX",
-    "ENCODINGS",
-    "ENTRY_POINT",
-    "FACE_FEATURES",
-    "INVALID_ACTION_MODES",
-    "MAX_STEPS_LIMIT",
-    "N_MAX_LIMIT",
     "ArgumentSpec",
     "AssemblyFeatures",
     "AssemblyState",
     "AssemblyViewer",
+    "CANDIDATE_FEATURES",
+    "DEFAULT_N_MAX",
+    "ENCODINGS",
+    "ENTRY_POINT",
     "Episode",
+    "FACE_FEATURES",
     "Faces",
+    "INVALID_ACTION_MODES",
+    "MAX_STEPS_LIMIT",
     "ModQuadAssemblyEnv",
+    "N_MAX_LIMIT",
     "ObservationBlock",
     "OneType",
     "Palette",
@@ -61,3 +60,29 @@ __all__ = [
     "episode_return",
     "unit_directions",
 ]
+
+if TYPE_CHECKING:
+    from modquad_gym.envs.assembly.env import (
+        ENCODINGS,
+        MAX_STEPS_LIMIT,
+        N_MAX_LIMIT,
+        ModQuadAssemblyEnv,
+    )
+    from modquad_gym.envs.assembly.faces import FACE_FEATURES, Faces
+    from modquad_gym.envs.assembly.features import (
+        CANDIDATE_FEATURES,
+        AssemblyFeatures,
+        ObservationBlock,
+        unit_directions,
+    )
+    from modquad_gym.envs.assembly.inputs import INVALID_ACTION_MODES, as_task
+    from modquad_gym.envs.assembly.modules import OneType, Palette
+    from modquad_gym.envs.assembly.reward import (
+        RewardFn,
+        RewardWeights,
+        WeightedReward,
+        episode_return,
+    )
+    from modquad_gym.envs.assembly.spec import DEFAULT_N_MAX, ENTRY_POINT, ArgumentSpec
+    from modquad_gym.envs.assembly.types import AssemblyState, Episode, Rules, TaskArrays
+    from modquad_gym.envs.assembly.viewer import AssemblyViewer

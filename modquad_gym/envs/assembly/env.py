@@ -41,7 +41,7 @@ from modquad_gym.envs.assembly.inputs import (
 )
 from modquad_gym.envs.assembly.modules import make_module_set
 from modquad_gym.envs.assembly.reward import RewardFn, make_reward, reset_terms, step_reward
-from modquad_gym.envs.assembly.spec import ArgumentSpec
+from modquad_gym.envs.assembly.spec import DEFAULT_N_MAX, ArgumentSpec
 from modquad_gym.envs.assembly.transitions import initial_state, transition
 from modquad_gym.envs.assembly.types import AssemblyState, Episode
 from modquad_gym.envs.assembly.viewer import RENDER_FPS, AssemblyViewer
@@ -54,8 +54,6 @@ N_MAX_LIMIT = 64
 """Largest ``n_max`` (the field's largest designs; the grid encoding then has 127^2 actions, the
 faces encoding 130)."""
 MAX_STEPS_LIMIT = 4 * N_MAX_LIMIT  # the largest max_steps
-DEFAULT_N_MAX = 7
-"""The default ``n_max`` (the paper's)."""
 ENCODINGS = {"grid": Grid, "faces": Faces}  # the action encodings (:mod:`.grid`, .faces)
 
 

@@ -35,9 +35,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
-from modquad_gym.envs.assembly.types import AssemblyState
+if TYPE_CHECKING:
+    from modquad_gym.envs.assembly.types import AssemblyState
 
 
 @dataclass(frozen=True)

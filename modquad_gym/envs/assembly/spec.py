@@ -14,6 +14,8 @@ from gymnasium.envs.registration import EnvSpec
 
 from modquad_gym.envs.assembly.reward import WeightedReward, success_threshold
 
+DEFAULT_N_MAX = 7
+"""The default ``n_max`` (the paper's)."""
 ENTRY_POINT = "modquad_gym.envs.assembly:ModQuadAssemblyEnv"
 """The Gymnasium entry point of the assembly environment (every registered id's)."""
 
