@@ -538,6 +538,10 @@ def _dynamic_variants() -> dict[str, tuple[dict, str]]:
         "huge payload": ({"payload": {"mass": 1e300}}, "payload.mass"),
         "huge payload and f_max": ({"payload": {"mass": 1e200}, "f_max": 1e200}, "payload.mass"),
         "huge exerted": ({"exerted": [[1e200, 0, 0, 0, 0, 0]] * len(zeros)}, "exerted"),
+        "huge exerted beside a payload": (
+            {"exerted": [[1e200, 0, 0, 0, 0, 0]] * len(zeros), "payload": {"mass": 0.1}},
+            "exerted",
+        ),
         "huge acceleration": (
             {"trajectory": {**ok["trajectory"], "acceleration": big_acc}},
             "trajectory (its accelerations)",

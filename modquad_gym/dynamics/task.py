@@ -203,7 +203,8 @@ def check_scale(task: DynamicTask) -> None:
         raise ValueError(f"f_max: {task.f_max:g} N is outside 1e-300..1e300 (check the units)")
     model = task.wrench_model
     parts = (
-        ("payload.mass" if task.payload is not None else "exerted", model.base),
+        ("exerted", task.exerted if task.exerted is not None else np.zeros((1, 6))),
+        ("payload.mass", model.base),  # the payload's part, once the exerted part passed
         ("trajectory (its accelerations)", model.per_mass),
         ("trajectory (its angular velocities and accelerations)", model.per_inertia),
     )
@@ -214,8 +215,6 @@ def check_scale(task: DynamicTask) -> None:
         bad = ~(size <= MAX_TASK_VALUE)
         if bad.any():
             i = int(np.argmax(bad))
-            if field == "exerted" and task.exerted is None:  # the payload's offset alone
-                field = "payload.offset"
             raise ValueError(
                 f"{field}: the rotor wrench at sample {i + 1} is {size[i]:.3g} (newtons, or "
                 f"units of f_max = {task.f_max:g} N), beyond {MAX_TASK_VALUE:g}: far beyond "
