@@ -282,6 +282,9 @@ def _ignored_cases(tmp: Path, dynamic: Path) -> list[tuple[list[str], str]]:
     export = ["export", "--cells", "[[0,0]]", "--out", out]
     show = ["show", "--cells", "[[0,0]]", "--out", str(tmp / "s.png")]
     return [
+        ([*solve, "--csv-header", "yes"], "--csv-header"),  # a JSON file has no header row
+        ([*validate, "--csv-header", "no"], "--csv-header"),
+        (["optima", "--task", SCREWDRIVER, "--csv-header", "no", "--out", out], "--csv-header"),
         ([*show, "--method", "greedy"], "--method"),
         ([*show, "--n-max", "20"], "--n-max"),
         ([*show, "--time-limit", "5"], "--time-limit"),
@@ -378,6 +381,10 @@ def test_the_same_options_where_they_apply_are_used(tmp_path, capsys):
     )
     assert code == 0, err
     assert json.loads(out.read_text())["payload"] == {"mass": 0.1, "offset": [0.0, 0.0, -0.2]}
+    csv = ROOT / "examples" / "paper_seed0.csv"  # --csv-header applies to the CSV file here
+    argv = ["solve", "--task", SCREWDRIVER, "--task", str(csv), "--csv-header", "yes"]
+    code, _, err = run_main(capsys, *argv, "--method", "greedy", "--quiet", "--n-max", "3")
+    assert code == 0, err
     code, out_text, err = run_main(
         capsys,
         "solve",

@@ -64,10 +64,13 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 0
     try:
-        from modquad_gym.cli.given import TYPED, refuse_ignored_method_options, typed_options
+        from modquad_gym.cli import given
 
-        setattr(args, TYPED, typed_options(parser, sys.argv[1:] if argv is None else argv))
-        refuse_ignored_method_options(args)  # before any file is read
+        setattr(
+            args, given.TYPED, given.typed_options(parser, sys.argv[1:] if argv is None else argv)
+        )
+        given.refuse_ignored_method_options(args)  # before any file is read
+        given.refuse_ignored_csv_header(args)
         return args.func(args)
     except KeyboardInterrupt:
         print("modquad: interrupted", file=sys.stderr)

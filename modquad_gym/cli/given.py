@@ -82,3 +82,25 @@ def refuse_ignored_method_options(args: argparse.Namespace) -> None:
             ["time_limit"],
             "--method exhaustive (exact) takes no time limit; --method anytime stops at one",
         )
+
+
+def refuse_ignored_csv_header(args: argparse.Namespace) -> None:
+    """``--csv-header`` when no task file of ``--task`` is a CSV file (it says how a CSV file's
+    first row reads; JSON and .npy files have none): refused before any file is read. A
+    ``--task`` that cannot be listed is left to the command, which names what is wrong."""
+    specs = getattr(args, "task", None)
+    if not typed(args, "csv_header") or specs is None:
+        return
+    from pathlib import Path
+
+    from modquad_gym.tasks import task_files
+    from modquad_gym.tasks.examples import resolve_task_path
+
+    try:
+        paths = [
+            resolve_task_path(p) for p in task_files([specs] if isinstance(specs, str) else specs)
+        ]
+    except (ValueError, OSError):
+        return
+    if not any(Path(p).suffix.lower() == ".csv" for p in paths):
+        refuse_ignored(args, ["csv_header"], "applies to CSV task files; --task gives none")
