@@ -1,13 +1,19 @@
 """Bring your own agent: play ModQuadAssembly-v0, use the shipped model, score an agent.
 
 Run it from the repository root: ``python examples/byo_agent.py`` (tests run it too). Then score
-the agent below on the held-out suites, against the certified optimum, with one command::
+the agent below on a tier's held-out suites, against the certified optimum, with one command::
 
-    modquad bench agents --solver examples.byo_agent:LargestSupportAgent \\
-        --methods exhaustive centrosymmetric --out my_scores
+    modquad bench agents --solver examples.byo_agent:LargestSupportAgent --out my_scores
 
 (``--solver`` imports ``package.module:Name`` from the working folder or the installed
-packages; the report is ``my_scores/benchmark.md`` and ``my_scores/benchmark.csv``.)
+packages; ``--tier large`` (or mixed, dynamic) picks a tier; the report is
+``my_scores/benchmark.md`` and ``my_scores/benchmark.csv``, the agent beside the searches.)
+
+The protocol: the benchmark makes the class with the keywords it takes among ``n_max``, ``tier``
+and ``modules`` (the tier's budget, name and module types), then calls ``solve(task,
+evaluator)`` per task. The task comes without its meta (no optimum); the evaluator
+(:class:`modquad_gym.solvers.Evaluator`) decides structures with the exact oracle and counts
+each new one, so the report's configurations and oracle calls are the benchmark's count.
 """
 
 from __future__ import annotations
@@ -16,7 +22,7 @@ import gymnasium as gym
 import numpy as np
 
 import modquad_gym as mq
-from modquad_gym.envs import ModQuadAssemblyEnv
+from modquad_gym.solvers import Evaluator
 
 
 def masked_random_episode(seed: int = 0) -> dict:
@@ -67,34 +73,28 @@ def vector_envs(seed: int = 0, n: int = 2) -> np.ndarray:
 
 
 class LargestSupportAgent:
-    """A small agent with the solver interface: ``name`` and ``solve(task)``.
+    """A small agent with the solver interface: ``name`` and ``solve(task, evaluator)``.
 
-    It grows the structure one docking at a time, always taking the docking whose structure
-    satisfies the most task wrenches (ties: the first valid action), as an outside agent would
-    with its own policy. ``solve`` may return a Structure, a list of cells, a
+    It grows the structure one module at a time, always taking the docking whose structure
+    satisfies the most task wrenches, asking the evaluator it is handed (the exact oracle,
+    counted by the benchmark). ``solve`` may return a Structure, a list of cells, a
     :class:`modquad_gym.search.SearchResult` or None; the benchmark verifies it exactly.
     """
 
     name = "largest-support"
 
-    def __init__(self, n_max: int = 7) -> None:
-        self.env = ModQuadAssemblyEnv(n_max=n_max)
+    def __init__(self, n_max: int = 7, tier: str | None = None) -> None:
+        self.n_max = n_max  # the tier's budget, told by the benchmark
+        self.tier = tier
 
-    def solve(self, task) -> mq.Structure | None:
-        obs, info = self.env.reset(options={"task": task})
-        done = False
-        while not done:
-            valid = np.flatnonzero(self.env.action_masks())
-            if len(valid) == 0:
-                break
-            scores = [self._satisfied(task, info["cells"], a) for a in valid]
-            obs, _, terminated, truncated, info = self.env.step(int(valid[int(np.argmax(scores))]))
-            done = terminated or truncated
-        return mq.Structure(info["cells"]) if info["is_success"] else None
-
-    def _satisfied(self, task, cells: list, action: int) -> int:
-        s = mq.Structure([*map(tuple, cells), self.env.cell_of(action)])
-        return int(mq.feasible(s.configuration_matrix(), task.wrenches, task.f_max).sum())
+    def solve(self, task, evaluator: Evaluator) -> mq.Structure | None:
+        structure = mq.Structure([(0, 0)], module=evaluator.modules[0])
+        while not evaluator.evaluate(structure):
+            if structure.n_modules >= min(self.n_max, evaluator.n_max):
+                return None
+            children = [structure.with_cells(c) for c in structure.attachable_cells()]
+            structure = max(children, key=lambda s: int(evaluator.feasible(s).sum()))
+        return structure
 
 
 def main() -> int:
@@ -105,11 +105,13 @@ def main() -> int:
         print(f"shipped PPO:   success={info['is_success']} modules={info['n_modules']}")
     print(f"vector envs:   rewards {vector_envs()}")
     task = mq.TaskRequirement.load("examples/screwdriver.json")
-    structure = LargestSupportAgent().solve(task)
+    evaluator = Evaluator(task, n_max=7)  # what the benchmark hands the agent, per task
+    structure = LargestSupportAgent().solve(task, evaluator)
     optimum = mq.exhaustive_search(task, n_max=7)
     found = structure.n_modules if structure else None
     print(
-        f"own agent:     {found} modules on {task.name!r} (certified optimum {optimum.n_modules})"
+        f"own agent:     {found} modules on {task.name!r} (certified optimum {optimum.n_modules}"
+        f"; {evaluator.evaluated} configurations evaluated, exhaustive {optimum.evaluated})"
     )
     return 0
 

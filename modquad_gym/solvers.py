@@ -8,12 +8,15 @@ alike. Torch and SB3 load only when a PPO solver is made (:mod:`modquad_gym.poli
 
 from __future__ import annotations
 
+import copy
 import importlib
 import inspect
 import sys
 import time
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
 
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.search import SEARCHES, SearchResult
@@ -83,12 +86,14 @@ def make_solver(
     samples: int = 0,
     modules=None,
     guided: dict | None = None,
+    tier: str | None = None,
     **search_options: Any,
 ) -> Solver:
     """The one factory of solvers: ``method`` is a name of :data:`METHODS`, a variant of a
     learned one (``ppo-kN``: N sampled rollouts besides the deterministic one;
     ``ppo-guided[-bN][-wN][-nodive]``: the guided search with budget N, branching N, no dive)
-    or ``package.module:Name`` (an outside agent, :func:`load_solver`).
+    or ``package.module:Name`` (an outside agent, :func:`load_solver`, told ``n_max``,
+    ``tier`` and ``modules``).
 
     ``model`` (a PPO .zip, a loaded :class:`~modquad_gym.policy.policy.Policy`; default the
     shipped model) applies to the learned methods only; ``samples`` (extra stochastic rollouts)
@@ -99,7 +104,7 @@ def make_solver(
     (:class:`SearchSolver`).
     """
     if ":" in method:
-        return load_solver(method, n_max=n_max)
+        return load_solver(method, n_max=n_max, tier=tier, modules=modules)
     learned = learned_options(method)
     if learned is None:
         if method not in METHODS:
@@ -153,48 +158,194 @@ def guided_options(method: str) -> dict:
     return options
 
 
-class ExternalSolver:
-    """Someone else's agent behind the :class:`Solver` interface.
+class Evaluator:
+    """The exact oracle on one task, counted by the benchmark: what an outside agent is handed.
 
-    ``agent.solve(task)`` (or ``agent(task)`` for a plain function) may return a
-    :class:`SearchResult`, a :class:`~modquad_gym.geometry.Structure`, a list of (x, y) cells,
-    or None (no answer). Anything but a SearchResult is timed here and counts 0 configurations
-    evaluated and 0 oracle calls unless the agent reports ``evaluated``/``oracle_calls``
-    attributes. The benchmark verifies every answer with the exact oracle.
+    ``modquad bench agents --solver pkg:Agent`` makes one per task and passes it to the agent's
+    ``solve(task, evaluator)``; every configuration the agent decides through it is counted,
+    so outside agents are charged like the searches and the learned methods (which count the
+    structures they decide themselves).
+
+    Args:
+        task: the task (a :class:`~modquad_gym.tasks.TaskRequirement`, a
+            :class:`~modquad_gym.dynamics.DynamicTask`, or a (t, 6) wrench array).
+        n_max: the tier's module budget: a structure of more modules is refused (ValueError).
+        tier: the tier's name (``current``, ``large``, ``mixed``, ``dynamic``), or None.
+        modules: the module types a structure may use (the tier's palette); default one type,
+            ``TModule()``. A structure of another type is refused (ValueError).
+
+    Attributes:
+        evaluated: distinct configurations decided (a structure asked again is answered from
+            memory and not counted again; structures are the same up to translation).
+        oracle_calls: wrench-structure tests made (one per task wrench of each new structure).
     """
 
-    def __init__(self, agent: Any, name: str, n_max: int = 7) -> None:
+    def __init__(self, task: Any, n_max: int = 7, tier: str | None = None, modules=None) -> None:
+        from modquad_gym.tasks import TaskRequirement
+
+        if not hasattr(task, "rotor_wrenches"):
+            task = TaskRequirement(np.atleast_2d(np.asarray(task, dtype=float)))
+        self.task = task
+        self.n_max = int(n_max)
+        self.tier = tier
+        self.modules = list(modules) if modules else [Structure([(0, 0)]).module]
+        self.f_max = float(task.f_max)
+        self.evaluated = 0
+        self.oracle_calls = 0
+        self._decided: dict[Any, np.ndarray] = {}
+
+    def structure(self, structure: Any) -> Structure:
+        """``structure`` (a Structure, or a list of (x, y) cells of the first module type) on
+        the allowed types (:func:`conform`); ValueError beyond n_max or off the types."""
+        return conform(structure, self.n_max, self.modules)
+
+    def feasible(self, structure: Any) -> np.ndarray:
+        """Bool (t,): can ``structure`` exert each wrench of the task (its own weight added
+        for self-weight tasks; its own mass and inertia for dynamic ones)? Exact (the
+        certified oracle the searches use); counted on the first ask of each structure."""
+        from modquad_gym.oracle import Zonotope
+
+        s = self.structure(structure)
+        if s not in self._decided:
+            W = self.task.rotor_wrenches(s)
+            self.evaluated += 1
+            self.oracle_calls += len(W)
+            ok = Zonotope(s.configuration_matrix(), self.f_max).decide_certified(W)
+            self._decided[s] = np.asarray(ok, dtype=bool)
+        return self._decided[s].copy()
+
+    def evaluate(self, structure: Any) -> bool:
+        """Can ``structure`` exert every wrench of the task? (:meth:`feasible`, all of them.)"""
+        return bool(self.feasible(structure).all())
+
+    def seen(self, structure: Any) -> bool:
+        """Has ``structure`` been decided through this evaluator?"""
+        return self.structure(structure) in self._decided
+
+
+def conform(structure: Any, n_max: int, modules: list) -> Structure:
+    """``structure`` (a Structure, or a list of (x, y) cells of ``modules[0]``) rebuilt on the
+    allowed ``modules`` (each module mapped to the allowed type holding the same data); a
+    ValueError names a structure beyond ``n_max`` modules or a type not allowed."""
+    if not isinstance(structure, Structure):
+        structure = Structure([tuple(c) for c in structure], module=modules[0])
+    if structure.n_modules > n_max:
+        raise ValueError(f"{structure.n_modules} modules exceed this tier's n_max = {n_max}")
+    types = []
+    for module in structure.modules:
+        same = [m for m in modules if m is module or _same_type(m, module)]
+        if not same:
+            names = ", ".join(m.name for m in modules)
+            raise ValueError(f"module type {module.name!r} is not allowed here (types: {names})")
+        types.append(same[0])
+    return Structure(structure.cells, modules=types)
+
+
+def _same_type(a: Any, b: Any) -> bool:
+    """Do two module types hold the same rotor data, mass and inertia?"""
+    return all(
+        np.allclose(getattr(a, k), getattr(b, k), rtol=0, atol=1e-12)
+        for k in ("positions", "directions", "spins", "c_tau", "side", "mass", "inertia")
+    )
+
+
+def hidden(task: Any) -> Any:
+    """A shallow copy of ``task`` without its ``meta`` (held-out tasks carry their certified
+    optimum and planted cells there): what an outside agent is given."""
+    if not hasattr(task, "meta"):
+        return task
+    out = copy.copy(task)
+    object.__setattr__(out, "meta", {})
+    return out
+
+
+def _takes(fn: Any, name: str) -> bool:
+    """Does ``fn`` take the keyword argument ``name`` (by its name, or through ``**kwargs``)?"""
+    try:
+        params = inspect.signature(fn).parameters.values()
+    except (TypeError, ValueError):
+        return False
+    return any(p.name == name or p.kind == p.VAR_KEYWORD for p in params)
+
+
+def _second_required(fn: Any) -> bool:
+    """Does ``fn`` need a second positional argument (one without a default)?"""
+    try:
+        params = list(inspect.signature(fn).parameters.values())
+    except (TypeError, ValueError):
+        return False
+    positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    return len(positional) > 1 and positional[1].default is inspect.Parameter.empty
+
+
+class ExternalSolver:
+    """Someone else's agent behind the :class:`Solver` interface, scored like every method.
+
+    Per task the agent gets the task without its ``meta`` (:func:`hidden`) and, when its
+    ``solve`` (or the function itself) takes a second argument or one named ``evaluator``, an
+    :class:`Evaluator`: the exact oracle on that task, with the tier's ``n_max``, ``tier`` and
+    module ``types``, which counts every configuration decided. It may return a
+    :class:`SearchResult`, a :class:`~modquad_gym.geometry.Structure`, a list of (x, y) cells
+    or None (no answer). The result's ``evaluated`` and ``oracle_calls`` are the evaluator's
+    counts, the answer included (an answer it never decided counts as one more configuration,
+    as every search decides its own answer), or the agent's own report (a SearchResult's
+    counts, or ``evaluated``/``oracle_calls`` attributes) where that is larger: an agent that
+    decides structures its own way and says so is charged for them. Seconds are timed here.
+    The benchmark verifies every answer with the exact LP oracle and counts one beyond n_max
+    or off the tier's module types as a failure.
+    """
+
+    def __init__(
+        self, agent: Any, name: str, n_max: int = 7, tier: str | None = None, modules=None
+    ) -> None:
         self.agent = agent
         self.name = name
         self.n_max = n_max
+        self.tier = tier
+        self.modules = list(modules) if modules else None
+
+    def evaluator(self, task: Any) -> Evaluator:
+        """A fresh counted evaluator for ``task`` with this solver's budget and types."""
+        return Evaluator(task, self.n_max, self.tier, self.modules)
 
     def solve(self, task: Any) -> SearchResult:
-        t0 = time.perf_counter()
         fn = self.agent.solve if hasattr(self.agent, "solve") else self.agent
+        evaluator = self.evaluator(task)
+        given = hidden(task)
+        t0 = time.perf_counter()
         try:
-            answer = fn(task)
+            if _second_required(fn):
+                answer = fn(given, evaluator)
+            elif _takes(fn, "evaluator"):
+                answer = fn(given, evaluator=evaluator)
+            else:
+                answer = fn(given)
         except Exception as exc:  # the agent's own failure, named in one line
             raise ValueError(
                 f"solver {self.name!r} failed on task {getattr(task, 'name', task)!r}: "
                 f"{type(exc).__name__}: {exc}"
             ) from exc
         seconds = time.perf_counter() - t0
-        if isinstance(answer, SearchResult):
-            return answer
-        structure = answer if isinstance(answer, Structure) or answer is None else None
-        if structure is None and answer is not None:
+        structure = answer.structure if isinstance(answer, SearchResult) else answer
+        if structure is not None and not isinstance(structure, Structure):
             try:
-                structure = Structure([tuple(c) for c in answer])
+                structure = Structure([tuple(c) for c in structure])
             except (TypeError, ValueError) as err:
                 raise ValueError(
                     f"solver {self.name!r} returned {type(answer).__name__}, not a SearchResult, "
                     f"Structure, list of (x, y) cells or None: {err}"
                 ) from None
+        if structure is not None:
+            try:
+                evaluator.feasible(structure)  # its answer counts, once, as every method's does
+            except ValueError:
+                pass  # beyond n_max or off the types: the benchmark counts it a failure
+        source = answer if isinstance(answer, SearchResult) else self.agent
         return SearchResult(
             structure=structure,
             n_modules=structure.n_modules if structure is not None else None,
-            evaluated=int(getattr(self.agent, "evaluated", 0)),
-            oracle_calls=int(getattr(self.agent, "oracle_calls", 0)),
+            evaluated=max(evaluator.evaluated, int(getattr(source, "evaluated", 0) or 0)),
+            oracle_calls=max(evaluator.oracle_calls, int(getattr(source, "oracle_calls", 0) or 0)),
             seconds=seconds,
             certified=False,
             method=self.name,
@@ -202,10 +353,24 @@ class ExternalSolver:
         )
 
 
-def load_solver(spec: str, n_max: int = 7) -> Solver:
-    """The agent named ``"package.module:Name"``: a Solver instance, a class made with no
-    arguments, or a function ``task -> answer`` (see :class:`ExternalSolver`). The module is
-    looked up in the working folder first, as ``python -m`` does."""
+def admissible(structure: Structure | None, n_max: int, modules=None) -> bool:
+    """Is ``structure`` within the budget (at most ``n_max`` modules) and made of the allowed
+    module types (``modules``; default one type, ``TModule()``)? None is not."""
+    if structure is None:
+        return False
+    try:
+        conform(structure, n_max, list(modules) if modules else [Structure([(0, 0)]).module])
+    except ValueError:
+        return False
+    return True
+
+
+def load_solver(spec: str, n_max: int = 7, tier: str | None = None, modules=None) -> Solver:
+    """The agent named ``"package.module:Name"``: a Solver instance, a class, or a function
+    ``task -> answer`` (see :class:`ExternalSolver`). A class is made with the keywords among
+    ``n_max``, ``tier`` and ``modules`` (the module types allowed, default one type) that its
+    constructor takes, so the agent is told the tier's budget. The module is looked up in the
+    working folder first, as ``python -m`` does."""
     module_name, sep, attr = spec.partition(":")
     if not sep or not module_name or not attr:
         raise ValueError(f"--solver {spec!r}: write it as package.module:Name")
@@ -222,7 +387,9 @@ def load_solver(spec: str, n_max: int = 7) -> Solver:
     except AttributeError:
         raise ValueError(f"--solver {spec!r}: {module_name} has no {attr!r}") from None
     if isinstance(obj, type):
-        obj = obj()
+        told = {"n_max": n_max, "tier": tier, "modules": list(modules) if modules else None}
+        obj = obj(**{k: v for k, v in told.items() if _takes(obj, k)})
     if not (hasattr(obj, "solve") or callable(obj)):
         raise ValueError(f"--solver {spec!r}: {attr} has no solve(task) and is not callable")
-    return ExternalSolver(obj, name=str(getattr(obj, "name", attr)), n_max=n_max)
+    name = str(getattr(obj, "name", attr))
+    return ExternalSolver(obj, name=name, n_max=n_max, tier=tier, modules=modules)

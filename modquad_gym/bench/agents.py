@@ -9,10 +9,15 @@ carries its optimum from the exhaustive search) and writes to ``--out`` (default
   solved with the optimal module count, mean gap to the optimum, configurations evaluated and
   oracle calls per task, wall time), the goals beside what was reached, the figures;
 * ``benchmark.csv``: one row per (method, task);
-* ``benchmark_bars.png``, ``learning_curve.png`` (from the training run's ``evaluations.npz``),
-  ``structures.png`` (PPO vs exhaustive vs centrosymmetric on the same tasks).
+* ``benchmark_bars.png``, ``learning_curve.png`` (from the training run's ``evaluations.npz``,
+  when a learned method is scored), ``structures.png`` (the outside agents and learned methods
+  vs exhaustive vs centrosymmetric on the same tasks).
 
-Every reported success is re-verified here by the exact DAQP LP oracle.
+``--solver package.module:Name`` scores an outside agent (beside the searches unless
+``--methods`` says otherwise): it is told the tier's n_max, name and module types and counted
+through the :class:`~modquad_gym.solvers.Evaluator` it is handed (docs/benchmarks.md, "Score
+your own agent"). Every reported success is an answer of at most n_max modules of the allowed
+types, re-verified here by the exact DAQP LP oracle.
 """
 
 from __future__ import annotations
@@ -32,7 +37,7 @@ from modquad_gym.core.options import DefaultsHelpFormatter, int_option
 from modquad_gym.core.outputs import check_output_dir, write_csv
 from modquad_gym.geometry.module import palette
 from modquad_gym.search import SEARCHES, verified
-from modquad_gym.solvers import Solver, guided_options, load_solver, make_solver
+from modquad_gym.solvers import Solver, admissible, guided_options, load_solver, make_solver
 from modquad_gym.tasks import TaskRequirement, load_suite
 
 SEARCH_METHODS = tuple(SEARCHES)
@@ -48,39 +53,46 @@ def run_benchmark(
     progress: bool = True,
     workers: int = 1,
     modules: str | None = None,
+    tier: str | None = None,
 ) -> list[Row]:
-    """Every method on every task; successes re-verified by the exact oracle. ``workers`` > 1
-    spreads chunks of tasks over Ray tasks (:mod:`modquad_gym.core.distributed`; same rows, but
-    each solver's seconds are then measured beside the others). ``modules`` (stock type names,
-    comma-separated) makes the searches search over shapes x type assignments."""
+    """Every method on every task; a success is an answer of at most ``n_max`` modules of the
+    allowed types that the exact oracle verifies. ``workers`` > 1 spreads chunks of tasks over
+    Ray tasks (:mod:`modquad_gym.core.distributed`; same rows, but each solver's seconds are
+    then measured beside the others). ``modules`` (stock type names, comma-separated) makes the
+    searches search over shapes x type assignments; ``tier`` (its name) and both are told to
+    outside agents (``package.module:Name`` methods, :class:`~modquad_gym.solvers.ExternalSolver`,
+    which count their configurations through an evaluator)."""
     from modquad_gym.core.distributed import map_tasks
 
     jobs = [(name, task) for name, tasks in suites.items() for task in tasks]
     size = 1 if workers == 1 else 8
     chunks = [jobs[i : i + size] for i in range(0, len(jobs), size)]
-    solve = partial(_solve_chunk, (tuple(methods), n_max, model, seed, modules))
+    solve = partial(_solve_chunk, (tuple(methods), n_max, model, seed, modules, tier))
     parts = map_tasks(solve, chunks, workers=workers, progress=progress, desc="benchmark")
     return [row for part in parts for row in part]
 
 
 @lru_cache(maxsize=2)
 def _solvers(
-    methods: tuple, n_max: int, model: Path | None, seed: int, modules: str | None
+    methods: tuple, n_max: int, model: Path | None, seed: int, modules: str | None, tier=None
 ) -> dict[str, Solver]:
     types = palette(modules) if modules else None
-    return {m: make_solver(m, n_max, model if m.startswith("ppo") else None, seed, modules=types)
+    return {m: make_solver(m, n_max, model if m.startswith("ppo") else None, seed, modules=types,
+                           tier=tier)
             for m in methods}  # fmt: skip
 
 
 def _solve_chunk(config: tuple, jobs: list) -> list[Row]:
     """Rows of every method on a chunk of (suite, task) (solvers made once per process)."""
     solvers = _solvers(*config)
+    n_max, modules = config[1], config[4]
+    types = palette(modules) if modules else None
     rows: list[Row] = []
     for suite, task in jobs:
         optimum = task.meta.get("optimum")
         for method, solver in solvers.items():
             r = solver.solve(task)
-            ok = verified(r.structure, task)
+            ok = admissible(r.structure, n_max, types) and verified(r.structure, task)
             rows.append(
                 Row(suite, task.name, optimum, method, ok, r.n_modules if ok else None,
                     int(r.evaluated), int(r.oracle_calls), float(r.seconds),
@@ -116,8 +128,10 @@ OPTIONS = {
                       f"outside agent (default: {' '.join(DEFAULT_METHODS)}; on other tiers "
                       "the searches, and the tier's learned methods when it ships a model)"),
     "--solver": dict(action="append", default=[], metavar="PKG.MOD:NAME",
-                     help="score an outside agent too (repeatable): a Solver instance or class, "
-                     "or a function task -> structure, imported from PKG.MOD"),
+                     help="score an outside agent (repeatable): a Solver instance or class, or a "
+                     "function task -> structure, imported from PKG.MOD; it is told the tier's "
+                     "n_max, and counted through the evaluator it is handed (docs: "
+                     "benchmarks.md); without --methods it is scored beside the searches"),
     "--samples": dict(type=int_option(0, 1000), default=None,
                       help="replace ppo-kN in --methods by ppo-k<samples> (0 drops it)"),
     "--n-max": dict(type=int_option(1, 16), default=None,
@@ -148,13 +162,16 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 
 def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
-    """The methods to score: ``--methods`` (default: all on the current tier, the searches on
-    the others), the ``--solver`` agents, and ``--samples`` in place of ``ppo-kN``."""
+    """The methods to score: ``--methods`` (default: the searches and the tier's learned
+    methods; with ``--solver``, the searches alone beside the outside agents), the ``--solver``
+    agents, and ``--samples`` in place of ``ppo-kN``."""
     if args.model is None:
         args.model = tier.model
     default = DEFAULT_METHODS if tier.name == "current" else SEARCH_METHODS
     if tier.name != "current" and args.model.is_file():
         default = (*SEARCH_METHODS, *tier.learned)
+    if args.solver:  # the report is about the outside agent: the searches are its reference
+        default = SEARCH_METHODS
     methods = list(dict.fromkeys([*(args.methods or default), *args.solver]))
     if args.samples is not None:
         methods = [m for m in methods if not m.startswith("ppo-k")]
@@ -165,8 +182,9 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
     for m in methods:  # a bad name fails now, not in a worker after the work has started
         if m.startswith("ppo-guided-"):
             guided_options(m)
-    for spec in args.solver:  # likewise an outside agent that cannot be loaded
-        load_solver(spec)
+    types = palette(tier.modules) if tier.modules else None
+    for spec in (m for m in methods if ":" in m):  # likewise an outside agent
+        load_solver(spec, n_max=args.n_max or tier.n_max, tier=tier.name, modules=types)
     return methods
 
 
@@ -190,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
 
     t0 = time.perf_counter()
     rows = run_benchmark(suites, methods, n_max, args.model, args.seed, not args.no_progress,
-                         args.workers, tier.modules)  # fmt: skip
+                         args.workers, tier.modules, tier.name)  # fmt: skip
     wall = time.perf_counter() - t0
     write_csv([r.as_csv() for r in rows], args.out / "benchmark.csv")
     summary = summarise(rows, methods, n_max)

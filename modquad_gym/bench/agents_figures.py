@@ -19,9 +19,22 @@ def _new_figure(w: float, h: float):
     return fig
 
 
+def short(method: str) -> str:
+    """A method's label in a figure: an outside agent ``package.module:Name`` as ``Name``."""
+    return method.rpartition(":")[2]
+
+
+def colour(method: str) -> str:
+    """Outside agents orange, the learned methods blue, the searches grey."""
+    if ":" in method:
+        return "#dd8452"
+    return "#4c72b0" if method.startswith("ppo") else "#999999"
+
+
 def plot_bars(summary: list[dict], path: Path) -> Path:
-    fig = _new_figure(13, 3.6)
-    names = [s["method"] for s in summary]
+    """Success, optimal share, configurations and seconds per task of every method."""
+    fig = _new_figure(max(13, 1.2 * len(summary) * 4 / 3), 3.6)
+    names = [short(s["method"]) for s in summary]
     panels = [
         ("success_rate", "success rate", False), ("optimal_share", "optimal module count", False),
         ("mean_evaluated", "configurations evaluated / task", True),
@@ -30,13 +43,13 @@ def plot_bars(summary: list[dict], path: Path) -> Path:
     for i, (key, label, log) in enumerate(panels):
         ax = fig.add_subplot(1, 4, i + 1)
         vals = [s[key] for s in summary]
-        ax.bar(names, vals, color=["#4c72b0" if "ppo" in n else "#999999" for n in names])
+        ax.bar(range(len(names)), vals, color=[colour(s["method"]) for s in summary])
+        ax.set_xticks(range(len(names)), names, rotation=45, ha="right", rotation_mode="anchor")
         ax.set_title(label)
         if log:
             ax.set_yscale("log")
         else:
             ax.set_ylim(0, 1.05)
-        ax.tick_params(axis="x", rotation=45)
     save_figure(fig, path, dpi=110)
     return path
 
@@ -70,30 +83,50 @@ def plot_learning_curve(evals: Path, path: Path) -> Path | None:
 
 
 def plot_structures(rows: list[Row], path: Path, n_tasks: int = 4) -> Path | None:
-    """A few tasks, one row each: PPO vs exhaustive vs centrosymmetric."""
+    """A few tasks, one row each: every outside agent and learned method scored (``ppo`` and
+    its variants, at most three of them) beside the exhaustive and centrosymmetric searches.
+    Tasks where every method answered come first; a method without an answer on a task says
+    so in its panel."""
     from modquad_gym.geometry.structure import Structure
     from modquad_gym.viz.drawing import draw_structure
 
-    methods = [
-        m for m in ("ppo", "exhaustive", "centrosymmetric") if any(r.method == m for r in rows)
-    ]
+    scored = list(dict.fromkeys(r.method for r in rows))
+    outside = [m for m in scored if ":" in m]
+    learned = [m for m in scored if m.startswith("ppo")][: max(1, 3 - len(outside))]
+    methods = [*outside, *learned, *(m for m in ("exhaustive", "centrosymmetric") if m in scored)]
+    if not methods:
+        return None
     by = {(r.suite, r.task, r.method): r for r in rows}
     tasks = list(dict.fromkeys((r.suite, r.task) for r in rows))
-    # prefer tasks where all methods succeeded, spread over the suites
-    good = [t for t in tasks if all(by[(*t, m)].success for m in methods if (*t, m) in by)]
+
+    def answered(t, ms) -> bool:
+        return all(by[(*t, m)].success for m in ms if (*t, m) in by)
+
+    # prefer tasks where all methods succeeded, spread over the suites; then any task the
+    # reference (the exhaustive search, else the first method) answered
+    reference = ["exhaustive"] if "exhaustive" in methods else methods[:1]
     picked = []
-    for suite in dict.fromkeys(s for s, _ in good):
-        picked += [t for t in good if t[0] == suite][: max(1, n_tasks // 2)]
+    for good in (
+        [t for t in tasks if answered(t, methods)],
+        [t for t in tasks if answered(t, reference)],
+    ):
+        for suite in dict.fromkeys(s for s, _ in good):
+            picked += [t for t in good if t[0] == suite and t not in picked][: max(1, n_tasks // 2)]
     picked = picked[:n_tasks]
-    if not picked or not methods:
+    if not picked:
         return None
     fig = _new_figure(3.2 * len(methods), 3.2 * len(picked))
     for i, key in enumerate(picked):
         for j, m in enumerate(methods):
             ax = fig.add_subplot(len(picked), len(methods), i * len(methods) + j + 1)
-            r = by[(*key, m)]
+            r = by.get((*key, m))
+            if r is None or not r.success:
+                ax.text(0.5, 0.5, "no answer", ha="center", va="center", transform=ax.transAxes)
+                ax.set_title(f"{short(m)}: - (opt {r.optimum if r else '-'})\n{key[1]}")
+                ax.set_axis_off()
+                continue
             s = Structure([tuple(c) for c in r.cells])
-            draw_structure(s, ax=ax, title=f"{m}: {r.n_modules} (opt {r.optimum})\n{key[1]}")
+            draw_structure(s, ax=ax, title=f"{short(m)}: {r.n_modules} (opt {r.optimum})\n{key[1]}")
             if ax.get_legend() is not None:
                 ax.get_legend().remove()
     save_figure(fig, path, dpi=90)

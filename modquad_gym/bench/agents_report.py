@@ -1,5 +1,6 @@
-"""The agent benchmark's report: ``benchmark.md`` (machine, summary, goals, where PPO falls
-short); its figures are drawn by :mod:`.agents_figures`."""
+"""The agent benchmark's report: ``benchmark.md`` (machine, summary, each outside agent against
+the searches, the learned methods' goals, where PPO falls short; nothing about the shipped model
+when it was not scored); its figures are drawn by :mod:`.agents_figures`."""
 
 from __future__ import annotations
 
@@ -47,6 +48,7 @@ def write_report(
         cfg = json.loads(config_path.read_text())
         lines += [_model_line(cfg, model), ""]
     lines += _summary_table(summary)
+    lines += _outside(summary, n_max, tier)
     lines += _per_suite(rows, suites, methods, n_max)
     lines += _by_optimum(rows, methods, n_max)
     goals = _tier_goals(tier)
@@ -129,6 +131,57 @@ def _summary_table(summary: list[dict]) -> list[str]:
             f"{s['mean_seconds']:.4f} |"
         )
     return [*lines, ""]
+
+
+def is_outside(method: str) -> bool:
+    """Is ``method`` an outside agent (``package.module:Name``)?"""
+    return ":" in method
+
+
+def _outside(summary: list[dict], n_max: int, tier: str) -> list[str]:
+    """One paragraph per outside agent: how it was scored and how it compares with the
+    searches of the same run (the exhaustive search's optimum and work, the best heuristic)."""
+    by = {s["method"]: s for s in summary}
+    searches = {m: s for m, s in by.items() if m in SEARCHES}
+    out: list[str] = []
+    for name, s in by.items():
+        if not is_outside(name):
+            continue
+        text = [
+            f"## Outside agent `{name}`",
+            "",
+            f"Told n_max = {n_max} and tier `{tier}` (constructor keywords it takes, and the "
+            "evaluator's attributes); given each task without its meta (no optimum, no planted "
+            "cells). Its configurations and oracle calls are counted by the benchmark: those it "
+            "decided through the evaluator handed to `solve(task, evaluator)`, its answer "
+            "included, or its own report where that is larger. A success is an answer of at "
+            f"most {n_max} modules of the tier's types that the exact LP oracle verifies.",
+            "",
+            f"Success {_fmt(s['success_rate'], True)}, optimal module count on "
+            f"{_fmt(s['optimal_share'], True)} of {s['tasks']} tasks (mean gap "
+            f"{_fmt(s['mean_gap'])} modules), {s['mean_evaluated']:.1f} configurations and "
+            f"{s['mean_oracle_calls']:.0f} oracle calls per task, {s['mean_seconds']:.4f} s per "
+            "task.",
+        ]
+        ex = searches.get("exhaustive")
+        if ex is not None and ex["mean_evaluated"] > 0:
+            text[-1] += (
+                f" The exhaustive search (certified optimum on every task) evaluates "
+                f"{ex['mean_evaluated']:.1f} configurations per task: the agent uses "
+                f"{100 * s['mean_evaluated'] / ex['mean_evaluated']:.0f} % of that."
+            )
+        rivals = {m: v for m, v in searches.items() if m not in ("exhaustive", "anytime")}
+        if rivals:
+            rank = {m: (v["optimal_share"], -v["mean_evaluated"]) for m, v in rivals.items()}
+            best = max(rivals, key=rank.get)
+            r = rivals[best]
+            text[-1] += (
+                f" The best other search here, {best}, is optimal on "
+                f"{_fmt(r['optimal_share'], True)} at {r['mean_evaluated']:.1f} configurations "
+                "per task."
+            )
+        out += [*text, ""]
+    return out
 
 
 def _per_suite(
@@ -337,7 +390,7 @@ def _goals(summary: list[dict], goals: dict) -> list[str]:
         "|---|---|---|---|",
     ]
     for name, s in by.items():
-        if name in SEARCHES:
+        if name in SEARCHES or is_outside(name):  # the tier's goals are its learned methods'
             continue
         wanted = _method_goals(goals, name)
         cells = []
