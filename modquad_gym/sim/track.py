@@ -39,6 +39,7 @@ from modquad_gym.dynamics import DynamicTask, Trajectory
 from modquad_gym.dynamics import quaternions as quat
 from modquad_gym.dynamics.wrenches import rigid_body_wrenches
 from modquad_gym.geometry.structure import Structure
+from modquad_gym.sim.failure import Failure
 from modquad_gym.sim.hover.allocator import Allocator
 from modquad_gym.sim.hover.config import HoverGains
 from modquad_gym.sim.hover.gains import LQR, design_gains
@@ -182,10 +183,36 @@ class _Gains:
         return p.P @ np.concatenate([zero, tau]), p.P @ np.concatenate([f, zero])
 
 
+class _Control:
+    """Gains, allocator and reference inputs on one set of working rotors ``keep``."""
+
+    def __init__(self, plant: Plant, keep: np.ndarray, cfg: TrackConfig, dt: float, ff) -> None:
+        self.plant, self.keep = plant, keep
+        self.alloc = Allocator(plant)
+        self.gains = _Gains(plant, cfg.gains, round(cfg.reschedule_s / dt))
+        self.u_ref = _reference_inputs(plant, ff, self.gains.every)
+
+    def command(self, k: int, w_ff: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Every rotor's input at step k (0 for the rotors not in ``keep``)."""
+        self.gains.update(k, w_ff)
+        self.alloc.u_ref, self.alloc.w_ref = self.u_ref[k], self.plant.A @ self.u_ref[k]
+        w_att, w_pos = self.gains.corrections(x)
+        u = np.zeros(len(self.keep))
+        u[self.keep], _ = self.alloc(w_ff + w_att + w_pos, w_ff, w_att)
+        return u
+
+
 def fly_trajectory(
-    structure: Structure, task: DynamicTask, config: TrackConfig | None = None
+    structure: Structure,
+    task: DynamicTask,
+    config: TrackConfig | None = None,
+    failure: Failure | None = None,
 ) -> TrackResult:
-    """Fly ``structure`` along ``task``'s trajectory in MuJoCo (module docstring)."""
+    """Fly ``structure`` along ``task``'s trajectory in MuJoCo (module docstring).
+
+    ``failure``: rotors that stop during the flight (:class:`~modquad_gym.sim.failure.Failure`:
+    their thrust 0 from ``failure.time_s``; from ``failure.detected_s`` the controller
+    allocates without them); ``saturated`` then counts only the rotors still working."""
     import mujoco
 
     if not isinstance(task, DynamicTask):
@@ -198,9 +225,8 @@ def fly_trajectory(
     times = np.arange(0.0, task.trajectory.duration + 1e-9, dt)
     ref, ff, exerted = reference(task, times, structure)
     plant = _plant(sim, task)
-    alloc = Allocator(plant)
-    gains = _Gains(plant, cfg.gains, round(cfg.reschedule_s / dt))
-    u_ref = _reference_inputs(plant, ff, gains.every)
+    control = _Control(plant, np.ones(sim.n_rotors, dtype=bool), cfg, dt, ff)
+    working, known = control.keep, False
     data.qpos[:3], data.qpos[3:7] = ref["position"][0], ref["quaternion"][0]
     data.qvel[:3], data.qvel[3:6] = ref["velocity"][0], ref["angular_velocity"][0]
     mujoco.mj_forward(model, data)
@@ -211,19 +237,21 @@ def fly_trajectory(
     diverged = None
     b = sim.body_id
     for k in range(N):
+        if failure is not None and not known and times[k] >= failure.detected_s - 1e-9:
+            control, known = _failed_control(failure, plant, cfg, dt, ff), True
         R = body_rotation(sim, data)
         Rd = quat.to_matrix(ref["quaternion"][k])
         x = _errors(R, Rd, data, b, ref, k)
-        gains.update(k, ff[k])
-        alloc.u_ref, alloc.w_ref = u_ref[k], plant.A @ u_ref[k]
-        w_att, w_pos = gains.corrections(x)
-        u, _ = alloc(ff[k] + w_att + w_pos, ff[k], w_att)
+        u = control.command(k, ff[k], x) if control is not None else np.zeros(m)
+        if failure is not None and times[k] >= failure.time_s - 1e-9:
+            working = failure.working(m)
+            u[~working] = 0.0  # the failed rotors give no thrust, whatever is commanded
         data.ctrl[:] = u
         data.xfrc_applied[b, :3] = -R @ exerted[k, :3]
         data.xfrc_applied[b, 3:] = -R @ exerted[k, 3:]
         flown[k], att[k], inputs[k] = data.xpos[b], rotation_angle(Rd.T @ R), u
         attitude[k] = data.xquat[b]
-        saturated[k] = alloc.saturated(u)
+        saturated[k] = _at_limit(u[working], task.f_max)
         if np.linalg.norm(flown[k] - ref["position"][k]) > cfg.drift_limit_m:
             diverged = f"more than {cfg.drift_limit_m:g} m off the path at t = {times[k]:.3g} s"
             break
@@ -231,6 +259,22 @@ def fly_trajectory(
     n = k + 1
     return TrackResult(times[:n], ref["position"][:n], flown[:n], attitude[:n], att[:n],
                        inputs[:n], saturated[:n], ff[:n], task.f_max, diverged)  # fmt: skip
+
+
+def _failed_control(failure: Failure, plant: Plant, cfg: TrackConfig, dt: float, ff):
+    """The control once the failure is known (None when no rotor is left)."""
+    reduced = failure.plant(plant)
+    if reduced is None:
+        return None
+    return _Control(reduced, failure.working(plant.A.shape[1]), cfg, dt, ff)
+
+
+def _at_limit(u: np.ndarray, f_max: float) -> bool:
+    """Some rotor of u at 0 or f_max (within the oracle's tolerance, as the allocator says)."""
+    from modquad_gym.oracle import TOL
+
+    tol = TOL * f_max
+    return bool(np.any((u <= tol) | (u >= f_max - tol)))
 
 
 def _reference_inputs(plant: Plant, ff: np.ndarray, every: int) -> np.ndarray:

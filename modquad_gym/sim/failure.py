@@ -1,0 +1,68 @@
+"""A failure during a flight: some rotors stop, and the controller learns it a little later.
+
+At ``time_s`` the rotors ``columns`` (columns of A, actuators of the MuJoCo model) stop: their
+thrust is forced to 0 in the actuators from then on, whatever the controller commands. From
+``time_s + detection_delay_s`` the controller knows it: it allocates on A without those columns
+(:meth:`Failure.plant`) and designs its gains on that matrix; the structure's mass and inertia
+do not change (a failed module stays docked). Between the two the controller still allocates on
+the intact A, so the failed rotors' share of the wrench is missing: the transient a real failure
+detector's latency causes.
+
+The flights that take a :class:`Failure` are the trajectory flight
+(:func:`modquad_gym.sim.track.fly_trajectory`) and the hover through a failure
+(:func:`modquad_gym.sim.fault_flight.hover_with_failure`); which rotors to stop is chosen by
+:func:`modquad_gym.sim.fault_flight.worst_failure`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from modquad_gym.core.validation import check_real
+from modquad_gym.sim.hover.linearization import Plant
+
+
+@dataclass(frozen=True)
+class Failure:
+    """Rotors ``columns`` stop at ``time_s`` seconds; the controller knows from ``detected_s``.
+
+    Attributes:
+        columns: the failed rotors (columns of A, in the structure's order: module-major, cells
+            order).
+        time_s: when they stop, seconds from the start of the flight.
+        detection_delay_s: how long the controller keeps allocating on the intact A (>= 0).
+        kind: ``"rotor"`` or ``"module"`` (what failed; for the reports).
+    """
+
+    columns: tuple[int, ...]
+    time_s: float
+    detection_delay_s: float = 0.0
+    kind: str = "rotor"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "columns", tuple(int(c) for c in self.columns))
+        if not self.columns:
+            raise ValueError("a failure stops at least one rotor")
+        check_real(self.time_s, "time_s", low=0.0)
+        check_real(self.detection_delay_s, "detection_delay_s", low=0.0)
+
+    @property
+    def detected_s(self) -> float:
+        """When the controller starts allocating without the failed rotors."""
+        return self.time_s + self.detection_delay_s
+
+    def working(self, n_rotors: int) -> np.ndarray:
+        """bool (n_rotors,): the rotors that still work after the failure."""
+        keep = np.ones(n_rotors, dtype=bool)
+        keep[list(self.columns)] = False
+        return keep
+
+    def plant(self, plant: Plant) -> Plant | None:
+        """The controller's model once it knows: A without the failed columns, the same mass,
+        inertia and f_max (None when no rotor is left)."""
+        keep = self.working(plant.A.shape[1])
+        if not keep.any():
+            return None
+        return Plant.build(plant.A[:, keep], plant.f_max, plant.mass, plant.J)

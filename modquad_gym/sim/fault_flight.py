@@ -1,0 +1,453 @@
+"""Fly a structure through its worst single failure (a rotor, or a module's rotors, stop).
+
+:func:`fly_with_failure` picks the failure of kind ``fault`` that leaves the smallest margin over
+the task's rotor wrenches (:func:`worst_failure`, the oracle's
+:meth:`~modquad_gym.oracle.faults.FaultTolerance.worst_failure`) and flies it in MuJoCo
+(:mod:`modquad_gym.sim.failure`: the failed rotors' thrust is 0 from the failure on; after a
+detection delay the allocator and the gains work on A without them):
+
+* a **static task** (wrenches): the structure starts at rest at home, level, holding the task
+  wrench with the smallest margin under that failure (the hover's load convention,
+  :mod:`modquad_gym.sim.hover.load`: the external load is ``-(w + gravity wrench)``, so the
+  rotors must produce w, with the load known to the controller), for ``seconds``; the failure
+  strikes halfway (:func:`hover_with_failure`);
+* a **dynamic task**: the flight along its trajectory (:func:`modquad_gym.sim.track.fly_trajectory`)
+  with the failure halfway through the trajectory's duration.
+
+Reported (:meth:`FaultFlight.summary`): over the control steps from the failure on, the largest
+distance between the flown and desired COM (``fault_max_position_error_m``) and the share of
+steps in which some rotor that still works sits at 0 or f_max (``fault_saturated_fraction``);
+which rotors failed (their module and cell) and when; the failure's margin and whether the
+structure tolerates every failure of that kind (:func:`modquad_gym.oracle.faults.tolerates`).
+A certified tolerant structure should keep within :data:`GOAL_M` after the failure; a structure
+that does not tolerate it saturates (the task wrench leaves its feasible set) and drifts.
+
+:func:`validate_with_failure` does this for a structure and, for comparison, for the intact
+(non-tolerant) minimum of the same task, and writes the pictures
+(:mod:`modquad_gym.sim.fault_pictures`); ``modquad validate --fault rotor|module`` calls it.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is first imported: headless rendering
+
+import json  # noqa: E402
+import math  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from modquad_gym.core.validation import check_f_max, check_real, check_wrenches  # noqa: E402
+from modquad_gym.geometry.structure import Structure  # noqa: E402
+from modquad_gym.oracle import TOL, margin  # noqa: E402
+from modquad_gym.oracle.faults import FaultTolerance, check_fault  # noqa: E402
+from modquad_gym.sim.failure import Failure  # noqa: E402
+from modquad_gym.sim.report import finite_or_none  # noqa: E402
+from modquad_gym.sim.track import TrackConfig, TrackResult  # noqa: E402
+
+FAULT_HOVER_SECONDS = 4.0
+"""Simulated seconds of the hover through a failure (static tasks); the failure is at half."""
+
+DETECTION_DELAY_S = 0.02
+"""Seconds between the failure and the controller knowing it (default; 10 control steps at
+500 Hz): meanwhile it allocates on the intact A and misses the failed rotors' share."""
+
+GOAL_M = 0.05
+"""The position error a tolerant structure should keep within after the failure (5 cm)."""
+
+FAULT_FILES = ("fault_flight.png", "fault_flight_intact_minimum.png")
+"""The pictures :func:`validate_with_failure` writes (the second with an intact minimum)."""
+
+
+def failure_columns(structure: Structure, fault: str) -> list[np.ndarray]:
+    """The column sets of A that one failure of kind ``fault`` removes: each rotor, or each
+    module's rotors (its own rotor count), in the order of
+    :meth:`~modquad_gym.geometry.structure.Structure.configuration_matrix`."""
+    fault = check_fault(fault)
+    starts = np.cumsum([0] + [m.n_rotors for m in structure.modules])
+    if fault == "rotor":
+        return [np.array([k]) for k in range(int(starts[-1]))]
+    return [np.arange(a, b) for a, b in zip(starts[:-1], starts[1:])]
+
+
+@dataclass(frozen=True)
+class WorstFailure:
+    """The failure that leaves the smallest margin over a task's rotor wrenches.
+
+    Attributes:
+        index: its index among :func:`failure_columns`.
+        columns: the rotors it stops.
+        margin: the smallest margin over the wrenches after it (< 0: some wrench is lost),
+            signed as :func:`~modquad_gym.oracle.faults.fault_margin` signs it.
+        row: the wrench with that margin.
+        tolerates: the structure keeps every wrench after every failure of that kind.
+    """
+
+    index: int
+    columns: np.ndarray
+    margin: float
+    row: int
+    tolerates: bool
+
+
+def worst_failure(structure: Structure, W: np.ndarray, f_max: float, fault: str) -> WorstFailure:
+    """The failure of kind ``fault`` that leaves the smallest margin over the rotor wrenches W
+    (rows of a (t, 6) array), and the wrench nearest the boundary after it."""
+    W = check_wrenches(W)
+    f_max = check_f_max(f_max)
+    A = np.array(structure.configuration_matrix())
+    sets = failure_columns(structure, fault)
+    tol = FaultTolerance(A, f_max, sets)
+    i, worst = tol.worst_failure(W)
+    tolerates = bool(tol.decide(W).all())
+    keep = np.ones(A.shape[1], dtype=bool)
+    keep[sets[i]] = False
+    if keep.any():
+        row = int(np.argmin(margin(A[:, keep], W, f_max)))
+    else:  # a one-module structure without its module: nothing is left
+        row = int(np.argmax(np.linalg.norm(W, axis=1)))
+    if tolerates and worst < 0:  # the LP's round-off against the exact decision
+        worst = 0.0
+    elif not tolerates and worst >= 0:
+        worst = float(np.nextafter(-TOL, -np.inf))
+    return WorstFailure(i, sets[i], float(worst), row, tolerates)
+
+
+@dataclass
+class FaultFlight:
+    """A flight through a failure and the failure it went through.
+
+    Attributes:
+        structure: the structure flown.
+        flight: ``"hover"`` (static task) or ``"trajectory"`` (dynamic task).
+        fault: ``"rotor"`` or ``"module"``.
+        failure: what stopped and when (:class:`~modquad_gym.sim.failure.Failure`).
+        worst: why this failure (:class:`WorstFailure`).
+        run: the time series (:class:`~modquad_gym.sim.track.TrackResult`; for a hover the
+            desired position is home throughout and ``wrench_ff`` the held wrench).
+        task_name: for titles.
+    """
+
+    structure: Structure
+    flight: str
+    fault: str
+    failure: Failure
+    worst: WorstFailure
+    run: TrackResult
+    task_name: str = ""
+
+    @property
+    def after(self) -> np.ndarray:
+        """bool (N,): the control steps from the failure on."""
+        return self.run.t >= self.failure.time_s - 1e-9
+
+    @property
+    def max_position_error_m(self) -> float:
+        """Largest distance between flown and desired COM from the failure on (m; up to the
+        drift limit where the flight was stopped)."""
+        e = self.run.position_error[self.after]
+        return float(e.max(initial=0.0))
+
+    @property
+    def before_max_position_error_m(self) -> float:
+        """Largest position error before the failure (m)."""
+        return float(self.run.position_error[~self.after].max(initial=0.0))
+
+    @property
+    def max_attitude_error_rad(self) -> float:
+        return float(self.run.attitude_error[self.after].max(initial=0.0))
+
+    @property
+    def saturated_fraction(self) -> float:
+        """Share of the control steps from the failure on in which some working rotor is at 0
+        or f_max."""
+        sat = self.run.saturated[self.after]
+        return float(sat.mean()) if len(sat) else 0.0
+
+    @property
+    def within_goal(self) -> bool:
+        """Flown to the end and within :data:`GOAL_M` after the failure."""
+        return self.run.diverged is None and self.max_position_error_m <= GOAL_M
+
+    def failed_part(self) -> dict:
+        """The failed module (index in the cells and its cell) and, for a rotor failure, which
+        of the module's rotors (0-based)."""
+        starts = np.cumsum([0] + [m.n_rotors for m in self.structure.modules])
+        first = self.failure.columns[0]
+        module = int(np.searchsorted(starts, first, side="right") - 1)
+        return {
+            "fault_failed_module": module,
+            "fault_failed_cell": list(self.structure.cells[module]),
+            "fault_failed_rotor_in_module": (
+                int(first - starts[module]) if self.fault == "rotor" else None
+            ),
+        }
+
+    def summary(self) -> dict:
+        """The ``fault_*`` keys of a validation record (JSON-ready)."""
+        return {
+            "fault": self.fault,
+            "fault_flight": self.flight,
+            "fault_tolerates": self.worst.tolerates,
+            "fault_worst_margin": finite_or_none(self.worst.margin),
+            "fault_failed_rotors": list(self.failure.columns),
+            **self.failed_part(),
+            "fault_time_s": self.failure.time_s,
+            "fault_detection_delay_s": self.failure.detection_delay_s,
+            "fault_seconds": float(self.run.t[-1]) if len(self.run.t) else 0.0,
+            "fault_hover_wrench_row": self.worst.row if self.flight == "hover" else None,
+            "fault_max_position_error_m": finite_or_none(self.max_position_error_m),
+            "fault_saturated_fraction": self.saturated_fraction,
+            "fault_max_attitude_error_rad": finite_or_none(self.max_attitude_error_rad),
+            "fault_before_max_position_error_m": finite_or_none(self.before_max_position_error_m),
+            "fault_diverged": self.run.diverged,
+            "fault_within_5cm": self.within_goal,
+        }
+
+
+def hover_with_failure(
+    structure: Structure,
+    w: np.ndarray,
+    failure: Failure,
+    seconds: float = FAULT_HOVER_SECONDS,
+    f_max: float = 1.0,
+    config=None,
+) -> TrackResult:
+    """Hold the rotor wrench ``w`` (6,) at home for ``seconds`` through ``failure``.
+
+    Starts at rest, level, at home; the world-fixed load ``-(w + gravity wrench)`` acts
+    throughout, the load known to the controller (:class:`~modquad_gym.sim.hover.HoverController`
+    with a :class:`~modquad_gym.sim.hover.HoverConfig`, ``config`` or the defaults). Stopped
+    early past the hover's drift limits (``diverged`` says why). Arrays per control step, the
+    state read before the step as in :func:`~modquad_gym.sim.track.fly_trajectory`."""
+    from modquad_gym.sim.hover import HoverConfig, HoverController, Plant, rotation_angle
+    from modquad_gym.sim.hover.recorder import drift_reason
+    from modquad_gym.sim.hover.run import Flight
+    from modquad_gym.sim.model import build_model
+
+    seconds = check_real(seconds, "seconds", positive=True)
+    w = check_wrenches(np.asarray(w, dtype=float)[None])[0]
+    cfg = HoverConfig.make(config, f_max=check_f_max(f_max), takeoff_seconds=0.0,
+                           known_load=True, load_frame="world")  # fmt: skip
+    sim = build_model(structure, cfg.f_max, bench=False)
+    flight = Flight(sim, cfg)
+    flight.reset(perturb=False)
+    plant = Plant.of(sim)
+    ctrl = HoverController(plant, cfg, flight.ctrl_dt)
+    ctrl.begin_segment(w)
+    flight.apply_load(w)
+    m, dt = sim.n_rotors, flight.ctrl_dt
+    N = max(1, round(seconds / dt))
+    t = np.arange(N) * dt
+    flown, att, quat_ = np.zeros((N, 3)), np.zeros(N), np.zeros((N, 4))
+    inputs, saturated = np.zeros((N, m)), np.zeros(N, dtype=bool)
+    working, known, diverged = np.ones(m, dtype=bool), False, None
+    for k in range(N):
+        if not known and t[k] >= failure.detected_s - 1e-9:
+            ctrl, known = _failed_controller(failure, plant, cfg, dt, w), True
+        state = flight.state()
+        u = np.zeros(m)
+        if ctrl is not None:  # the intact controller, or the reduced one once it knows
+            u[failure.working(m) if known else slice(None)], _ = ctrl.command(w, state)
+        if t[k] >= failure.time_s - 1e-9:
+            working = failure.working(m)
+            u[~working] = 0.0  # the failed rotors give no thrust, whatever is commanded
+        flown[k] = flight.data.xpos[flight.body]
+        quat_[k] = flight.data.xquat[flight.body]
+        att[k] = rotation_angle(state[0])
+        inputs[k], saturated[k] = u, _at_limit(u[working], cfg.f_max)
+        diverged = drift_reason(float(np.linalg.norm(state[1])), att[k], cfg)
+        if diverged:
+            diverged = f"{diverged} at t = {t[k]:.3g} s"
+            break
+        flight.step(u)
+    n = k + 1
+    desired = np.tile(flight.p_ref, (n, 1))
+    return TrackResult(t[:n], desired, flown[:n], quat_[:n], att[:n], inputs[:n],
+                       saturated[:n], np.tile(w, (n, 1)), cfg.f_max, diverged)  # fmt: skip
+
+
+def _failed_controller(failure: Failure, plant, cfg, dt: float, w: np.ndarray):
+    """The hover controller once the failure is known (None when no rotor is left)."""
+    from modquad_gym.sim.hover import HoverController
+
+    reduced = failure.plant(plant)
+    if reduced is None:
+        return None
+    ctrl = HoverController(reduced, cfg, dt)
+    ctrl.begin_segment(w)
+    return ctrl
+
+
+def _at_limit(u: np.ndarray, f_max: float) -> bool:
+    tol = TOL * f_max
+    return bool(np.any((u <= tol) | (u >= f_max - tol)))
+
+
+def _rotor_wrenches(structure: Structure, task, f_max: float | None) -> tuple[np.ndarray, float]:
+    """(rotor wrenches of ``structure`` for ``task``, f_max): a task object (its own f_max) or a
+    (t, 6) array of total wrenches (``f_max``, default 1)."""
+    if hasattr(task, "rotor_wrenches"):
+        return np.asarray(task.rotor_wrenches(structure), dtype=float), float(task.f_max)
+    return check_wrenches(task), check_f_max(1.0 if f_max is None else f_max)
+
+
+def fly_with_failure(
+    structure: Structure,
+    task,
+    fault: str = "rotor",
+    *,
+    seconds: float = FAULT_HOVER_SECONDS,
+    detection_delay_s: float = DETECTION_DELAY_S,
+    f_max: float | None = None,
+    track_config: TrackConfig | None = None,
+) -> FaultFlight:
+    """Fly ``structure`` on ``task`` through its worst single failure of kind ``fault``.
+
+    Args:
+        structure: the structure to fly.
+        task: a task (:class:`~modquad_gym.tasks.TaskRequirement`, a
+            :class:`~modquad_gym.dynamics.DynamicTask`, anything with ``rotor_wrenches`` and
+            ``f_max``) or a (t, 6) array of total rotor wrenches.
+        fault: ``"rotor"`` or ``"module"``.
+        seconds: static task: how long the hover lasts (the failure strikes at half).
+        detection_delay_s: seconds before the controller knows (:mod:`~modquad_gym.sim.failure`).
+        f_max: the thrust limit for an array task (a task object carries its own).
+        track_config: dynamic task: how to fly the trajectory.
+
+    Returns:
+        A :class:`FaultFlight`; ``summary()`` is its record (``fault_max_position_error_m``,
+        ``fault_saturated_fraction``, ``fault_failed_rotors``, ``fault_time_s``, ...).
+    """
+    from modquad_gym.dynamics import DynamicTask
+
+    if not isinstance(structure, Structure):
+        raise ValueError(f"structure must be a Structure, got {type(structure).__name__}")
+    fault = check_fault(fault)
+    detection_delay_s = check_real(detection_delay_s, "detection_delay_s", low=0.0)
+    W, fm = _rotor_wrenches(structure, task, f_max)
+    worst = worst_failure(structure, W, fm, fault)
+    name = getattr(task, "name", "") or ""
+    if isinstance(task, DynamicTask):
+        from modquad_gym.sim.track import fly_trajectory
+
+        at = task.trajectory.duration / 2.0
+        failure = Failure(tuple(worst.columns), at, detection_delay_s, fault)
+        run = fly_trajectory(structure, task, track_config, failure=failure)
+        return FaultFlight(structure, "trajectory", fault, failure, worst, run, name)
+    seconds = check_real(seconds, "seconds", positive=True)
+    failure = Failure(tuple(worst.columns), seconds / 2.0, detection_delay_s, fault)
+    run = hover_with_failure(structure, W[worst.row], failure, seconds, fm)
+    return FaultFlight(structure, "hover", fault, failure, worst, run, name)
+
+
+def intact_record(flight: FaultFlight) -> dict:
+    """The comparison record of the intact minimum: its cells, size, module types, whether it
+    tolerates the fault, its worst margin and its ``fault_*`` flight keys."""
+    s = flight.structure
+    record = flight.summary()
+    return {
+        "cells": [list(c) for c in s.cells],
+        "n_modules": s.n_modules,
+        "modules": [m.name for m in s.modules],
+        "tolerates": flight.worst.tolerates,
+        "worst_fault_margin": record.pop("fault_worst_margin"),
+        **{k: v for k, v in record.items() if k not in ("fault", "fault_tolerates")},
+    }
+
+
+def validate_with_failure(
+    structure: Structure,
+    task,
+    fault: str,
+    intact: Structure | None = None,
+    out_dir: str | Path | None = None,
+    **options,
+) -> dict:
+    """Fly ``structure`` through its worst failure (:func:`fly_with_failure`, ``options``
+    passed on) and, when given, the intact minimum ``intact`` through its own worst failure of
+    the same kind; with ``out_dir`` the pictures ``fault_flight.png`` and
+    ``fault_flight_intact_minimum.png`` (:func:`~modquad_gym.sim.fault_pictures.plot_fault_flight`).
+
+    Returns the ``fault_*`` keys of ``structure``'s flight, ``intact_minimum``
+    (:func:`intact_record`, or None without ``intact``) and ``fault_files`` (picture paths)."""
+    flight = fly_with_failure(structure, task, fault, **options)
+    record = flight.summary()
+    other = fly_with_failure(intact, task, fault, **options) if intact is not None else None
+    record["intact_minimum"] = intact_record(other) if other is not None else None
+    record["fault_files"] = {}
+    if out_dir is not None:
+        from modquad_gym.sim.fault_pictures import plot_fault_flight
+
+        d = Path(out_dir)
+        d.mkdir(parents=True, exist_ok=True)
+        plot_fault_flight(flight, d / FAULT_FILES[0], label="found structure")
+        record["fault_files"]["fault_flight"] = str(d / FAULT_FILES[0])
+        if other is not None:
+            plot_fault_flight(other, d / FAULT_FILES[1], label="intact minimum")
+            record["fault_files"]["fault_flight_intact_minimum"] = str(d / FAULT_FILES[1])
+    return record
+
+
+def fault_markdown(record: dict, n_modules: int | str = "") -> str:
+    """The section of ``report.md`` on the flight through the failure (``n_modules``: the
+    found structure's size)."""
+
+    def row(name: str, r: dict, n_modules, tolerates) -> str:
+        err = r.get("fault_max_position_error_m")
+        err_text = "n/a" if err is None else f"{100 * err:.3g} cm"
+        part = f"module {r['fault_failed_module']} at {r['fault_failed_cell']}"
+        if r.get("fault_failed_rotor_in_module") is not None:
+            part = f"rotor {r['fault_failed_rotor_in_module']} of {part}"
+        margin_ = r.get("fault_worst_margin", r.get("worst_fault_margin"))
+        return (
+            f"| {name} | {n_modules} "
+            f"| {'yes' if tolerates else 'no'} | {_fmt(margin_)} | {part} "
+            f"| {r['fault_time_s']:.3g} s | {err_text} "
+            f"| {100 * r['fault_saturated_fraction']:.3g} % "
+            f"| {r.get('fault_diverged') or 'no'} |"
+        )
+
+    lines = [
+        f"## Flight through a {record['fault']} failure",
+        "",
+        f"The {record['fault']} failure that leaves the smallest margin over the task's rotor "
+        f"wrenches stops halfway through the {record['fault_flight']} (its thrust forced to 0); "
+        f"{record['fault_detection_delay_s']:g} s later the allocator and the gains drop its "
+        "columns. Errors and saturation (some working rotor at 0 or f_max) are measured from "
+        "the failure on; a tolerant structure should stay within 5 cm.",
+        "",
+        "| structure | modules | tolerates | worst margin | failed | at | max position error "
+        "after | saturated after | diverged |",
+        "|---|---|---|---|---|---|---|---|---|",
+        row("found", record, n_modules, record["fault_tolerates"]),
+    ]
+    intact = record.get("intact_minimum")
+    if intact:
+        lines.append(row("intact minimum", intact, intact["n_modules"], intact["tolerates"]))
+    lines.append("")
+    for path in (record.get("fault_files") or {}).values():
+        lines.append(f"![{Path(path).stem}]({Path(path).name})")
+    return "\n".join(lines) + "\n"
+
+
+def _fmt(x) -> str:
+    return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.3g}"
+
+
+def add_to_report(out_dir: str | Path, report: dict, record: dict) -> dict:
+    """``report`` (a validation record) with the fault ``record`` merged in (pictures into
+    ``files``), ``report.md`` extended by :func:`fault_markdown` and ``validation.json``
+    rewritten; returns the merged record."""
+    from modquad_gym.core.outputs import write_text
+
+    merged = {**report, **{k: v for k, v in record.items() if k != "fault_files"}}
+    merged["files"] = {**(report.get("files") or {}), **record.get("fault_files", {})}
+    d = Path(out_dir)
+    text = (d / "report.md").read_text() if (d / "report.md").exists() else ""
+    write_text(d / "report.md", text + "\n" + fault_markdown(record, report.get("n_modules", "")))
+    write_text(d / "validation.json", json.dumps(merged, indent=2) + "\n")
+    return merged

@@ -1,0 +1,144 @@
+"""The picture of a flight through a failure (:class:`~modquad_gym.sim.fault_flight.FaultFlight`).
+
+One figure: the COM's path (3D; before the failure blue, after it orange, the failure marked; a
+hover's path is drawn in centimetres about home), the position error over time with the 5 cm goal
+and the rotor inputs over time (:func:`~modquad_gym.sim.pictures.inputs_panel`: one line per
+rotor, the failed ones drawn thick and dashed in red, or a heat map for many rotors with the
+failed rows marked), a vertical line at the failure time in both.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from modquad_gym.core.outputs import save_figure
+from modquad_gym.sim.fault_flight import GOAL_M, FaultFlight
+from modquad_gym.sim.pictures import MAX_LINES, _plt, inputs_panel
+
+BEFORE, AFTER, FAILURE = "tab:blue", "tab:orange", "tab:red"
+
+
+def plot_fault_flight(flight: FaultFlight, path: str | Path, label: str = "") -> None:
+    """Write :func:`fault_flight_figure` to ``path`` (PNG)."""
+    fig = fault_flight_figure(flight, label)
+    save_figure(fig, path, dpi=120)
+    _plt().close(fig)
+
+
+def fault_flight_figure(flight: FaultFlight, label: str = ""):
+    """The figure of the module docstring; a pyplot figure (close it)."""
+    plt = _plt()
+    run, failure = flight.run, flight.failure
+    fig = plt.figure(figsize=(13, 7.5))
+    grid = fig.add_gridspec(2, 2, width_ratios=[1, 1.5])
+    _path_panel(fig.add_subplot(grid[:, 0], projection="3d"), flight)
+    ax_err = fig.add_subplot(grid[0, 1])
+    ax_u = fig.add_subplot(grid[1, 1], sharex=ax_err)
+    _error_panel(ax_err, run.t, 100 * run.position_error, 100 * GOAL_M)
+    ax_err.set_ylabel("position error [cm]")
+    ax_err.set_title(
+        f"after the failure: max {_cm(flight.max_position_error_m)}, "
+        f"saturated {100 * flight.saturated_fraction:.3g} % of control steps"
+        + (f"\nstopped: {run.diverged}" if run.diverged else ""),
+        fontsize=10,
+    )
+    inputs_panel(fig, ax_u, run.t, run.inputs, run.f_max)
+    _mark_failed(ax_u, run, failure.columns)
+    ax_u.set_xlabel("time [s]")
+    for ax in (ax_err, ax_u):
+        ax.axvline(failure.time_s, color=FAILURE, lw=1.5, ls="-", zorder=5)
+        if failure.detection_delay_s > 0:
+            ax.axvspan(failure.time_s, failure.detected_s, color=FAILURE, alpha=0.12, lw=0)
+    ax_err.text(failure.time_s, 0.97, f" {flight.fault} fails", color=FAILURE, fontsize=9,
+                va="top", ha="left", transform=ax_err.get_xaxis_transform())  # fmt: skip
+    fig.suptitle(_title(flight, label), fontsize=11)
+    fig.tight_layout()
+    return fig
+
+
+def _title(flight: FaultFlight, label: str) -> str:
+    s, part = flight.structure, flight.failed_part()
+    what = f"module {part['fault_failed_module']} at cell {tuple(part['fault_failed_cell'])}"
+    if part["fault_failed_rotor_in_module"] is not None:
+        what = f"rotor {part['fault_failed_rotor_in_module']} of {what}"
+    tolerant = "tolerates" if flight.worst.tolerates else "does NOT tolerate"
+    head = f"{label}: " if label else ""
+    task = f" - task {flight.task_name}" if flight.task_name else ""
+    return (
+        f"{head}{s.n_modules} modules, {tolerant} any single {flight.fault} failure{task}\n"
+        f"{flight.flight}: the worst failure ({what}, margin after it "
+        f"{flight.worst.margin:.3g}) at t = {flight.failure.time_s:.3g} s, known "
+        f"{flight.failure.detection_delay_s:g} s later"
+    )
+
+
+def _cm(metres: float) -> str:
+    return f"{100 * metres:.3g} cm" if metres < 1.0 else f"{metres:.3g} m"
+
+
+def _path_panel(ax, flight: FaultFlight) -> None:
+    """The COM's path, before (blue) and after (orange) the failure; a hover in cm about home."""
+    run = flight.run
+    hover = flight.flight == "hover"
+    scale, unit = (100.0, "cm") if hover else (1.0, "m")
+    origin = run.desired[0] if hover else np.zeros(3)
+    d = (run.desired - origin) * scale
+    f = (run.flown - origin) * scale
+    after = flight.after
+    if hover:
+        ax.scatter(*d[0], color="0.3", marker="+", s=80, label="home (desired)")
+    else:
+        ax.plot(*d.T, "--", color="0.45", lw=1.3, label="desired")
+    k = int(np.argmax(after)) if after.any() else len(f)
+    ax.plot(*f[: k + 1].T, color=BEFORE, lw=1.4, label="flown before the failure")
+    if after.any():
+        ax.plot(*f[k:].T, color=AFTER, lw=1.4, label="flown after")
+        ax.scatter(*f[k], color=FAILURE, marker="x", s=70, label="failure")
+    pts = np.vstack([d, f])
+    span = max(float(np.ptp(pts, axis=0).max()), 1.0 if hover else 0.2)
+    centre = (pts.max(axis=0) + pts.min(axis=0)) / 2
+    for set_lim, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
+        set_lim(c - 0.55 * span, c + 0.55 * span)
+    ax.set_xlabel(f"x [{unit}]")
+    ax.set_ylabel(f"y [{unit}]")
+    ax.set_zlabel(f"z [{unit}]")
+    ax.set_title("COM path" + (" about home" if hover else ""), fontsize=10)
+    ax.legend(loc="upper left", fontsize=8)
+
+
+def _error_panel(ax, t: np.ndarray, error_cm: np.ndarray, goal_cm: float) -> None:
+    """Position error over time, the y-axis scaled to the data; the goal a dashed line where it
+    lies within 3x the largest error, else named in the legend."""
+    peak = float(np.nanmax(error_cm)) if len(error_cm) else 0.0
+    ax.plot(t, error_cm, color=BEFORE, lw=1, label="position error")
+    top = max(1.15 * peak, 1e-3)
+    if goal_cm <= 3.0 * peak:
+        ax.axhline(goal_cm, ls="--", color=FAILURE, lw=1, label=f"goal {goal_cm:g} cm")
+        top = max(top, 1.15 * goal_cm)
+    else:
+        ax.plot([], [], ls="--", color=FAILURE, lw=1,
+                label=f"goal {goal_cm:g} cm (above this scale)")  # fmt: skip
+    ax.set_ylim(0.0, top * 1.15)
+    ax.legend(loc="upper left", fontsize=8)
+
+
+def _mark_failed(ax, run, columns) -> None:
+    """The failed rotors' inputs drawn thick and dashed (lines), or their rows marked (heat
+    map)."""
+    cols = list(columns)
+    if run.inputs.shape[1] > MAX_LINES:
+        for c in cols:
+            ax.axhline(c, color=FAILURE, lw=0.8, ls=":")
+        ax.plot([], [], color=FAILURE, ls=":", label=f"failed rotor(s) {_list(cols)}")
+        ax.legend(loc="upper right", fontsize=8)
+        return
+    for i, c in enumerate(cols):
+        ax.plot(run.t, run.inputs[:, c], color=FAILURE, lw=2.2, ls="--",
+                label=f"failed rotor(s) {_list(cols)}" if i == 0 else None)  # fmt: skip
+    ax.legend(loc="upper right", fontsize=8)
+
+
+def _list(cols: list[int]) -> str:
+    return ", ".join(map(str, cols[:4])) + (", ..." if len(cols) > 4 else "")
