@@ -175,3 +175,16 @@ def test_public_names_resolve_and_match_all():
         assert sorted(package.__all__) == table
         assert all(getattr(package, name) is not None for name in table)
         assert set(table) <= set(dir(package))
+
+
+def test_small_levels_enumerate_in_plain_python_in_the_compiled_order(monkeypatch):
+    """Levels up to PLAIN_UP_TO cells run the enumeration without numba; the compiled run of
+    the same function gives the same canonical order."""
+    import modquad_gym.geometry.polyominoes as poly
+
+    for n in range(1, poly.PLAIN_UP_TO + 1):
+        plain = np.concatenate(list(poly.PolyominoStream(n, 100)))
+        monkeypatch.setattr(poly, "PLAIN_UP_TO", 0)
+        compiled = np.concatenate(list(poly.PolyominoStream(n, 100)))
+        monkeypatch.undo()
+        assert len(plain) == poly.A001168[n - 1] and np.array_equal(plain, compiled)

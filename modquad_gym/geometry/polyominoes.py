@@ -4,8 +4,10 @@ Redelmeier's algorithm (D. H. Redelmeier, "Counting polyominoes: yet another att
 Math. 36, 1981) grows each polyomino from its lowest-leftmost cell (the origin; cells lie in
 y > 0 or y = 0, x >= 0) and visits every fixed polyomino exactly once, with no set of seen shapes:
 memory is a few arrays of O(n) plus the chunk being filled. The depth-first search is compiled
-with numba (a pure-Python version is about 100x slower; level 14 holds 7.2 M polyominoes) and is
-resumable, so a level is produced chunk by chunk and never held whole.
+with numba for levels beyond :data:`PLAIN_UP_TO` cells (a pure-Python run is about 100x slower;
+level 14 holds 7.2 M polyominoes) and runs as plain Python up to it (at most 760 polyominoes,
+a few milliseconds: a small search pays no compilation); it is resumable, so a level is produced
+chunk by chunk and never held whole. Both runs are the same function: the same order.
 
 Canonical order: the order of that depth-first search, with the untried cells kept in the order
 they were reached and the neighbours of a cell reached in the order +x, +y, -x, -y. It is fixed
@@ -17,9 +19,9 @@ Each polyomino comes as an (n, 2) array of integer cells, origin first, in the o
 from __future__ import annotations
 
 from collections.abc import Iterator
+from functools import cache
 
 import numpy as np
-from numba import njit
 
 from modquad_gym.core.validation import check_int
 
@@ -28,14 +30,16 @@ A001168 = (1, 2, 6, 19, 63, 216, 760, 2725, 9910, 36446, 135268, 505861, 1903890
 
 DEFAULT_CHUNK = 16384
 
+PLAIN_UP_TO = 7
+"""Levels of at most this many cells are enumerated in plain Python (no numba)."""
+
 __all__ = ["A001168", "DEFAULT_CHUNK", "PolyominoStream", "count", "level_chunks"]
 
 
-@njit(cache=True)
 def _advance(n, width, untried, n_untried, pos, path, xy, added, n_added, reached, state, out):
     """Continue the depth-first search from ``state`` until ``out`` is full or the level ends;
     returns how many polyominoes were written to ``out``. ``xy`` holds the (x, y) of each cell
-    of ``path``, decoded once when the cell is placed."""
+    of ``path``, decoded once when the cell is placed. Compiled by :func:`_compiled`."""
     d = state[0]
     k = 0
     cap = out.shape[0]
@@ -84,6 +88,14 @@ def _advance(n, width, untried, n_untried, pos, path, xy, added, n_added, reache
     return k
 
 
+@cache
+def _compiled():
+    """:func:`_advance` compiled by numba (cached on disk, like every kernel)."""
+    from numba import njit
+
+    return njit(cache=True)(_advance)
+
+
 class PolyominoStream:
     """The fixed polyominoes of ``n`` cells in canonical order, as chunks of (L, n, 2) int32
     arrays. ``skip(k)`` passes over whole chunks without returning them."""
@@ -118,8 +130,9 @@ class PolyominoStream:
     def _fill(self) -> int:
         if self._state[1]:
             return 0
+        advance = _advance if self.n <= PLAIN_UP_TO else _compiled()
         return int(
-            _advance(
+            advance(
                 self.n,
                 self._width,
                 self._untried,

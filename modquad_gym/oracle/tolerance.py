@@ -38,6 +38,10 @@ BAND = 1e-7
 GUARD = 1e-8
 """Clearance of every certificate from the threshold 1 + TOL."""
 
+SUPPORT_SLACK = 1e-12
+"""Absolute slack (in units of f_max-normalised wrenches) before a support test rejects (the
+searches' cached directions and level bounds)."""
+
 ACCEPT = 1.0 + TOL - GUARD
 """Certificates accept when some allocation has |x|_inf <= ACCEPT."""
 

@@ -52,7 +52,7 @@ from modquad_gym.core.outputs import atomic_write
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.polyominoes import A001168, PolyominoStream
 from modquad_gym.oracle import RESIDUAL_TOL, TOL
-from modquad_gym.search import supports
+from modquad_gym.oracle.tolerance import SUPPORT_SLACK
 from modquad_gym.search.dynamic import DynamicValues, force_needs
 from modquad_gym.tasks import rotor_wrenches
 
@@ -160,7 +160,7 @@ def counts_possible(
         weight = counts @ np.array([m.weight for m in palette])  # (C,)
         need = need + weight[:, None] * N[:, 2][None, :]
     scale = 1.0 + float(np.abs(W).max()) + (float(np.max(need)) if need.size else 0.0)
-    slack = RESIDUAL_TOL * scale + supports.SLACK
+    slack = RESIDUAL_TOL * scale + SUPPORT_SLACK
     return ~np.any(need > cap + slack, axis=1)
 
 
@@ -189,6 +189,8 @@ def module_digest(module: ModuleType) -> str:
 def compute_level_bounds(module: ModuleType, n: int) -> np.ndarray:
     """(2, P): max over level n of (sum_k max(0, d . a_k), sum_k |d . a_k|) per direction,
     per unit thrust, by one pass over the level."""
+    from modquad_gym.search import supports  # numba
+
     b, alpha, beta = supports.direction_terms([module], level_directions())
     out = np.zeros((2, b.shape[0]))
     masses = np.ones(1)
@@ -252,7 +254,7 @@ def values_excluded(values: np.ndarray, f_max: float, module: ModuleType, n: int
     bounds = level_bounds(module, n)
     if bounds is None:
         return False
-    widened = f_max * (bounds[0] + 0.5 * TOL * bounds[1]) + supports.SLACK
+    widened = f_max * (bounds[0] + 0.5 * TOL * bounds[1]) + SUPPORT_SLACK
     return bool((values > widened).any())
 
 

@@ -33,14 +33,23 @@ from modquad_gym.geometry.structure import (
     configuration_matrices,
     mixed_configuration_matrices,
 )
-from modquad_gym.oracle import TOL, Zonotope
+from modquad_gym.oracle import TOL, Zonotope, decide_with
 from modquad_gym.oracle.faults import FaultTolerance, failure_sets
-from modquad_gym.search import supports
 from modquad_gym.search.dynamic import DynamicValues
 from modquad_gym.tasks import check_kind, rotor_wrenches
 
 POOL_SIZE = 512
 """How many separating directions are kept (most recent first)."""
+
+COMPILED_AFTER = 2000
+"""Wrench tests decided by the DAQP LP before the checker switches to the compiled certificates
+(the oracle's ``"auto"`` method), for structures of at most :data:`LP_ROTORS` rotors: loading
+numba and the cached kernels costs about 0.5 s, some 10,000 such LPs (0.05 ms each), so a small
+search answers without it. The decisions are the same exact ones."""
+
+LP_ROTORS = 32
+"""Largest structure (rotors) decided by the LP first: the LP's time grows fast with the rotors
+(0.3 ms at 64, 7 ms at 256), the certificates' hardly."""
 
 
 class TaskChecker:
@@ -84,7 +93,7 @@ class TaskChecker:
             W = self.dynamic.model.base + self.module.mass * self.dynamic.model.per_mass
         self.order = np.argsort(-np.linalg.norm(W, axis=1), kind="stable")
         self.pool = np.zeros((0, 6))  # separating directions in wrench space, newest first
-        self._terms = supports.direction_terms(self.palette, self.pool)
+        self._terms_of: tuple | None = None  # the pool's (b, alpha, beta), made on demand
         self._values = np.zeros(0)  # max_i d . w_i over the task, per direction
         self._dz = np.zeros(0)  # the directions' f_z components (the weight term)
         self.learned = 0  # directions remembered so far (the pool's length stops at POOL_SIZE)
@@ -105,10 +114,18 @@ class TaskChecker:
 
     def _set_pool(self, pool: np.ndarray) -> None:
         self.pool = pool[:POOL_SIZE]
-        self._terms = supports.direction_terms(self.palette, self.pool)
+        self._terms_of = None
         if self.dynamic is None:
             self._values = (self.pool @ self.W.T).max(axis=1)
         self._dz = np.ascontiguousarray(self.pool[:, 2])
+
+    def _terms(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The pool's per-rotor support terms (:func:`~.supports.direction_terms`), cached."""
+        if self._terms_of is None:
+            from modquad_gym.search.supports import direction_terms
+
+            self._terms_of = direction_terms(self.palette, self.pool)
+        return self._terms_of
 
     def _types(self, cells: np.ndarray, types: np.ndarray | None) -> np.ndarray:
         if types is None:
@@ -127,7 +144,9 @@ class TaskChecker:
         if k and self.dynamic is not None:
             self._reject_dynamic(cells, self._types(cells, types), k, alive)
         elif k:
-            b, alpha, beta = (t[:k] for t in self._terms)
+            from modquad_gym.search import supports  # numba: only once directions exist
+
+            b, alpha, beta = (t[:k] for t in self._terms())
             types = self._types(cells, types)
             supports.reject(
                 cells,
@@ -149,7 +168,9 @@ class TaskChecker:
     def _reject_dynamic(self, cells, types, k: int, alive: np.ndarray) -> None:
         """The cache test of a dynamic task: structures grouped by mass, each group against
         the lower bounds of the task's values for its mass and size (module docstring)."""
-        b, alpha, beta = (np.ascontiguousarray(t[:k]) for t in self._terms)
+        from modquad_gym.search import supports
+
+        b, alpha, beta = (np.ascontiguousarray(t[:k]) for t in self._terms())
         masses = self.type_masses[types].sum(axis=1)
         zero = np.zeros(len(self.palette))
         for mass in np.unique(masses):
@@ -247,8 +268,7 @@ class TaskChecker:
             batch = W[start:size]
             if not len(batch):
                 continue
-            self.oracle_calls += len(batch)
-            ok = z.decide_certified(batch)
+            ok = self.decide(z, batch)
             if not ok.all():
                 self._learn(z, batch[int(np.argmin(ok))])
                 return False
@@ -266,6 +286,15 @@ class TaskChecker:
         rotors = self.module.n_rotors
         failures = failure_sets(A.shape[1], self.fault, rotors)
         return FaultTolerance(A, self.f_max, failures, z)
+
+    def decide(self, z: Zonotope, W: np.ndarray) -> np.ndarray:
+        """Exact decisions (t,) of wrenches W for the zonotope z, counted as ``len(W)`` oracle
+        calls: by the DAQP LP while the work is small (:data:`COMPILED_AFTER`), then by the
+        compiled certificates."""
+        small = z.m <= LP_ROTORS and self.oracle_calls < COMPILED_AFTER
+        method = "daqp" if small else "auto"
+        self.oracle_calls += len(W)
+        return decide_with(z, W, method)
 
     def _learn(self, z: Zonotope, w: np.ndarray) -> None:
         R, off = z.reduce(w[None])

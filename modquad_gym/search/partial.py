@@ -11,9 +11,9 @@ cells. :func:`contains` decides it for a whole chunk of structures in compiled c
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
-from numba import njit
 
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Structure
@@ -46,7 +46,7 @@ class Partial:
             part_types = self.types
         out = np.zeros(len(cells), dtype=bool)
         if len(cells):
-            contains(cells, types, self.cells, part_types, out)
+            _compiled_contains()(cells, types, self.cells, part_types, out)
         return out
 
 
@@ -76,7 +76,14 @@ def make_partial(start, palette: tuple[ModuleType, ...], typed: bool) -> Partial
     return Partial(cells - cells.min(axis=0), types)
 
 
-@njit(cache=True)
+@cache
+def _compiled_contains():
+    """:func:`contains` compiled by numba (on first use: a search with no ``start`` needs none)."""
+    from numba import njit
+
+    return njit(cache=True)(contains)
+
+
 def contains(cells, types, part, part_types, out):
     """out[l] = structure l (cells[l] (n, 2), palette indices types[l]) contains a translate of
     ``part`` (k, 2) with matching types (``part_types[j]`` = -1 matches any type)."""

@@ -25,9 +25,7 @@ import numpy as np
 from numba import njit
 
 from modquad_gym.geometry.module import ModuleType
-
-SLACK = 1e-12
-"""Absolute slack (in units of f_max-normalised wrenches) before a support test rejects."""
+from modquad_gym.oracle.tolerance import SUPPORT_SLACK as SLACK
 
 
 def direction_terms(
