@@ -9,6 +9,7 @@ import json
 import sys
 
 from modquad_gym.cli import common, solve  # common.load_task, solve.solver (tests replace them)
+from modquad_gym.cli import validate_fault as fault  # --fault: flights through a failure
 from modquad_gym.cli.common import add_command, add_csv_header, add_force, add_method
 from modquad_gym.cli.given import refuse_ignored
 from modquad_gym.core.options import int_option, real_option
@@ -97,6 +98,7 @@ def add_validate(sub) -> None:
     )
     add_csv_header(p)
     add_force(p)
+    fault.add_fault_options(p)
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
@@ -104,6 +106,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     from modquad_gym.core.validation import check_int, check_real
     from modquad_gym.sim.validate import validate
 
+    fault.check_fault_options(args)
     check_real(args.hover_seconds, "--hover-seconds", 0.05, MAX_HOVER_SECONDS)
     ramp = DEFAULT_LOAD_RAMP
     if args.load_ramp_seconds is not None:  # only a value the user gave is checked against theirs
@@ -120,7 +123,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
                    f"applies to a static task; {args.task} is a dynamic one (flown along its "
                    "trajectory)")  # fmt: skip
     common.check_task(task, args.task, common.palette(args))
-    check_output_dir(args.out, OUTPUT_NAMES + (TRACK_NAMES if dynamic else ()), force=args.force)
+    names = OUTPUT_NAMES + (TRACK_NAMES if dynamic else ()) + fault.fault_output_names(args)
+    check_output_dir(args.out, names, force=args.force)
     n_hover = task.n_wrenches if k is None else min(k, task.n_wrenches)
     flights = 1 if args.known_load_only else 2
     simulated = flights * (n_hover + 1) * args.hover_seconds
@@ -128,6 +132,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if dynamic:
         simulated += task.trajectory.duration
         estimate += task.trajectory.duration * SECONDS_PER_FLOWN_SECOND
+    simulated += fault.fault_seconds(args, task)
+    estimate += fault.fault_seconds(args, task) * SECONDS_PER_FLOWN_SECOND
     if estimate > MAX_ESTIMATED_SECONDS and not args.allow_long:
         raise ValueError(
             f"{args.task}: hovering under {n_hover:,} wrenches takes about {estimate:,.0f} s, "
@@ -141,6 +147,10 @@ def cmd_validate(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     result = solve.solver(args, task)(task)
+
+    def intact_solver(intact_args: argparse.Namespace):  # --fault: the intact minimum's search
+        return solve.solver(intact_args, task)
+
     if result.structure is None:
         record = {
             "task": args.task,
@@ -151,6 +161,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         }
         if dynamic:
             record["track_max_position_error_m"] = None
+        record |= fault.no_structure_keys(args)
         print(json.dumps(record) if args.json else f"no structure found for {args.task}")
         return 0
     if dynamic:
@@ -159,7 +170,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         report = validate_trajectory(result.structure, task, out_dir=args.out,
                                      max_bench_wrenches=n_hover, hover_seconds=args.hover_seconds,
                                      unknown_load=not args.known_load_only)  # fmt: skip
-        return show(args, report)
+        return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
     report = validate(
         result.structure,
         task.wrenches,
@@ -172,7 +183,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         load_ramp_seconds=ramp,
         kind=task.kind,
     ).to_dict()
-    return show(args, report)
+    return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
 
 
 def show(args: argparse.Namespace, report: dict) -> int:
@@ -181,7 +192,7 @@ def show(args: argparse.Namespace, report: dict) -> int:
     if args.json:
         print(json.dumps({"task": args.task, "method": args.method, **report}))
     else:
-        print("\n".join(summary_lines(report)))
+        print("\n".join(summary_lines(report) + fault.fault_lines(report)))
     return 0
 
 

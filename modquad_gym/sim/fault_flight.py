@@ -12,7 +12,9 @@ detection delay the allocator and the gains work on A without them):
   rotors must produce w, with the load known to the controller), for ``seconds``; the failure
   strikes halfway (:func:`hover_with_failure`);
 * a **dynamic task**: the flight along its trajectory (:func:`modquad_gym.sim.track.fly_trajectory`)
-  with the failure halfway through the trajectory's duration.
+  with the failure halfway through the trajectory's duration, or :data:`LEAD_S` before the
+  moment the failure hurts most (the sample with the smallest margin after it) when that moment
+  comes earlier.
 
 Reported (:meth:`FaultFlight.summary`): over the control steps from the failure on, the largest
 distance between the flown and desired COM (``fault_max_position_error_m``) and the share of
@@ -54,6 +56,11 @@ FAULT_HOVER_SECONDS = 4.0
 DETECTION_DELAY_S = 0.02
 """Seconds between the failure and the controller knowing it (default; 10 control steps at
 500 Hz): meanwhile it allocates on the intact A and misses the failed rotors' share."""
+
+LEAD_S = 0.5
+"""Dynamic task: the failure strikes halfway through the trajectory, or this many seconds before
+the moment it hurts most (its sample of smallest margin) when that moment comes earlier, so that
+the flight after the failure always passes it."""
 
 GOAL_M = 0.05
 """The position error a tolerant structure should keep within after the failure (5 cm)."""
@@ -187,7 +194,20 @@ class FaultFlight:
         }
 
     def summary(self) -> dict:
-        """The ``fault_*`` keys of a validation record (JSON-ready)."""
+        """The ``fault_*`` keys of a validation record (JSON-ready; None for a number that is
+        not finite, e.g. a margin of -inf: a wrench off the span of the working rotors):
+
+        ``fault`` (kind), ``fault_flight`` (``"hover"`` or ``"trajectory"``), ``fault_tolerates``
+        (every wrench feasible after every failure of that kind), ``fault_worst_margin`` (the
+        smallest margin over the task after the failure flown, the worst one),
+        ``fault_failed_rotors`` (columns of A), ``fault_failed_module`` (index in the cells),
+        ``fault_failed_cell``, ``fault_failed_rotor_in_module`` (rotor failures),
+        ``fault_time_s``, ``fault_detection_delay_s``, ``fault_seconds`` (flight length),
+        ``fault_hardest_row`` (the task row, wrench or trajectory sample, of that margin; the
+        wrench a hover holds), ``fault_max_position_error_m`` and ``fault_saturated_fraction``
+        (from the failure on), ``fault_max_attitude_error_rad``,
+        ``fault_before_max_position_error_m``, ``fault_diverged`` (why the flight was stopped,
+        or None) and ``fault_within_5cm``."""
         return {
             "fault": self.fault,
             "fault_flight": self.flight,
@@ -198,7 +218,7 @@ class FaultFlight:
             "fault_time_s": self.failure.time_s,
             "fault_detection_delay_s": self.failure.detection_delay_s,
             "fault_seconds": float(self.run.t[-1]) if len(self.run.t) else 0.0,
-            "fault_hover_wrench_row": self.worst.row if self.flight == "hover" else None,
+            "fault_hardest_row": self.worst.row,
             "fault_max_position_error_m": finite_or_none(self.max_position_error_m),
             "fault_saturated_fraction": self.saturated_fraction,
             "fault_max_attitude_error_rad": finite_or_none(self.max_attitude_error_rad),
@@ -334,7 +354,9 @@ def fly_with_failure(
     if isinstance(task, DynamicTask):
         from modquad_gym.sim.track import fly_trajectory
 
-        at = task.trajectory.duration / 2.0
+        traj = task.trajectory
+        hardest = float(traj.t[worst.row] - traj.t[0])
+        at = min(traj.duration / 2.0, max(0.0, hardest - LEAD_S))
         failure = Failure(tuple(worst.columns), at, detection_delay_s, fault)
         run = fly_trajectory(structure, task, track_config, failure=failure)
         return FaultFlight(structure, "trajectory", fault, failure, worst, run, name)
@@ -415,7 +437,9 @@ def fault_markdown(record: dict, n_modules: int | str = "") -> str:
         f"## Flight through a {record['fault']} failure",
         "",
         f"The {record['fault']} failure that leaves the smallest margin over the task's rotor "
-        f"wrenches stops halfway through the {record['fault_flight']} (its thrust forced to 0); "
+        f"wrenches strikes during the {record['fault_flight']} (its thrust forced to 0; halfway, "
+        "or for a trajectory half a second before the moment it hurts most if that comes "
+        "earlier); "
         f"{record['fault_detection_delay_s']:g} s later the allocator and the gains drop its "
         "columns. Errors and saturation (some working rotor at 0 or f_max) are measured from "
         "the failure on; a tolerant structure should stay within 5 cm.",

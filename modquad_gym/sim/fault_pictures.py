@@ -1,10 +1,11 @@
 """The picture of a flight through a failure (:class:`~modquad_gym.sim.fault_flight.FaultFlight`).
 
 One figure: the COM's path (3D; before the failure blue, after it orange, the failure marked; a
-hover's path is drawn in centimetres about home), the position error over time with the 5 cm goal
-and the rotor inputs over time (:func:`~modquad_gym.sim.pictures.inputs_panel`: one line per
-rotor, the failed ones drawn thick and dashed in red, or a heat map for many rotors with the
-failed rows marked), a vertical line at the failure time in both.
+hover's path is drawn in centimetres about home), the position error over time with the 5 cm
+goal (:func:`~modquad_gym.sim.track_pictures.error_panel`) and the rotor inputs over time
+(:func:`~modquad_gym.sim.pictures.inputs_panel`: one line per rotor, the failed ones drawn thick
+and dashed in red, or a heat map for many rotors with the failed rows framed), a vertical line at
+the failure time in both.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import numpy as np
 from modquad_gym.core.outputs import save_figure
 from modquad_gym.sim.fault_flight import GOAL_M, FaultFlight
 from modquad_gym.sim.pictures import MAX_LINES, _plt, inputs_panel
+from modquad_gym.sim.track_pictures import error_panel
 
 BEFORE, AFTER, FAILURE = "tab:blue", "tab:orange", "tab:red"
 
@@ -36,7 +38,7 @@ def fault_flight_figure(flight: FaultFlight, label: str = ""):
     _path_panel(fig.add_subplot(grid[:, 0], projection="3d"), flight)
     ax_err = fig.add_subplot(grid[0, 1])
     ax_u = fig.add_subplot(grid[1, 1], sharex=ax_err)
-    _error_panel(ax_err, run.t, 100 * run.position_error, 100 * GOAL_M)
+    error_panel(ax_err, run.t, 100 * run.position_error, 100 * GOAL_M)
     ax_err.set_ylabel("position error [cm]")
     ax_err.set_title(
         f"after the failure: max {_cm(flight.max_position_error_m)}, "
@@ -46,6 +48,8 @@ def fault_flight_figure(flight: FaultFlight, label: str = ""):
     )
     inputs_panel(fig, ax_u, run.t, run.inputs, run.f_max)
     _mark_failed(ax_u, run, failure.columns)
+    if run.inputs.shape[1] > MAX_LINES:  # the heat map's colour bar: the same room above
+        fig.colorbar(ax_u.collections[0], ax=ax_err, pad=0.01).ax.set_visible(False)
     ax_u.set_xlabel("time [s]")
     for ax in (ax_err, ax_u):
         ax.axvline(failure.time_s, color=FAILURE, lw=1.5, ls="-", zorder=5)
@@ -66,10 +70,12 @@ def _title(flight: FaultFlight, label: str) -> str:
     tolerant = "tolerates" if flight.worst.tolerates else "does NOT tolerate"
     head = f"{label}: " if label else ""
     task = f" - task {flight.task_name}" if flight.task_name else ""
+    margin = flight.worst.margin
+    left = f"{margin:.3g}" if np.isfinite(margin) else "-inf: off the working rotors' span"
     return (
         f"{head}{s.n_modules} modules, {tolerant} any single {flight.fault} failure{task}\n"
         f"{flight.flight}: the worst failure ({what}, margin after it "
-        f"{flight.worst.margin:.3g}) at t = {flight.failure.time_s:.3g} s, known "
+        f"{left}) at t = {flight.failure.time_s:.3g} s, known "
         f"{flight.failure.detection_delay_s:g} s later"
     )
 
@@ -108,30 +114,18 @@ def _path_panel(ax, flight: FaultFlight) -> None:
     ax.legend(loc="upper left", fontsize=8)
 
 
-def _error_panel(ax, t: np.ndarray, error_cm: np.ndarray, goal_cm: float) -> None:
-    """Position error over time, the y-axis scaled to the data; the goal a dashed line where it
-    lies within 3x the largest error, else named in the legend."""
-    peak = float(np.nanmax(error_cm)) if len(error_cm) else 0.0
-    ax.plot(t, error_cm, color=BEFORE, lw=1, label="position error")
-    top = max(1.15 * peak, 1e-3)
-    if goal_cm <= 3.0 * peak:
-        ax.axhline(goal_cm, ls="--", color=FAILURE, lw=1, label=f"goal {goal_cm:g} cm")
-        top = max(top, 1.15 * goal_cm)
-    else:
-        ax.plot([], [], ls="--", color=FAILURE, lw=1,
-                label=f"goal {goal_cm:g} cm (above this scale)")  # fmt: skip
-    ax.set_ylim(0.0, top * 1.15)
-    ax.legend(loc="upper left", fontsize=8)
-
-
 def _mark_failed(ax, run, columns) -> None:
     """The failed rotors' inputs drawn thick and dashed (lines), or their rows marked (heat
     map)."""
     cols = list(columns)
-    if run.inputs.shape[1] > MAX_LINES:
-        for c in cols:
-            ax.axhline(c, color=FAILURE, lw=0.8, ls=":")
-        ax.plot([], [], color=FAILURE, ls=":", label=f"failed rotor(s) {_list(cols)}")
+    if run.inputs.shape[1] > MAX_LINES:  # a red frame round each run of failed rows
+        runs = np.split(np.array(cols), np.flatnonzero(np.diff(cols) != 1) + 1)
+        for i, rows in enumerate(runs):
+            label = f"failed rotor(s) {_list(cols)}" if i == 0 else None
+            ax.axhspan(rows[0] - 0.5, rows[-1] + 0.5, facecolor="none", edgecolor=FAILURE,
+                       lw=1.0, label=label)  # fmt: skip
+            ax.plot([0.0], [(rows[0] + rows[-1]) / 2], ">", color=FAILURE, ms=7, clip_on=False,
+                    transform=ax.get_yaxis_transform())  # fmt: skip
         ax.legend(loc="upper right", fontsize=8)
         return
     for i, c in enumerate(cols):

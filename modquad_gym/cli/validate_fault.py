@@ -1,0 +1,135 @@
+"""``modquad validate --fault rotor|module``: the structure found by the fault-tolerant search
+flown through its worst single failure, and the intact minimum of the same task through its own
+(:func:`modquad_gym.sim.fault_flight.validate_with_failure`).
+
+The parts :mod:`modquad_gym.cli.validate` calls: :func:`add_fault_options` (``--fault``,
+``--detection-delay``), :func:`check_fault_options` (before any work), :func:`fault_output_names`
+and :func:`fault_seconds` (the output check and the time estimate), :func:`fly_fault` (after the
+validation: the flights, pictures, report section and JSON keys), :func:`no_structure_keys` and
+:func:`fault_lines` (the console summary).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from modquad_gym.cli.common import add_fault, check_fault_method
+from modquad_gym.core.options import real_option
+
+DEFAULT_DETECTION_DELAY = 0.02
+"""= :data:`modquad_gym.sim.fault_flight.DETECTION_DELAY_S` (here: the parser imports no
+simulation)."""
+
+MAX_DETECTION_DELAY = 1.0
+
+FAULT_HELP = (
+    "search for a structure that survives any single failure (rotor: any one rotor stops; "
+    "module: any one module's rotors stop), then also fly it through the failure that leaves "
+    "the smallest margin, halfway through a hover under the hardest task wrench (or through the "
+    "trajectory of a dynamic task), and the same kind of failure on the intact minimum of the "
+    "task for comparison; --json adds fault_max_position_error_m, fault_saturated_fraction, "
+    "the failed rotors and intact_minimum; pictures fault_flight*.png. Not with the learned "
+    "methods"
+)
+
+
+def add_fault_options(p: argparse.ArgumentParser) -> None:
+    """``--fault`` and ``--detection-delay``."""
+    add_fault(p, FAULT_HELP)
+    p.add_argument(
+        "--detection-delay",
+        type=real_option,
+        default=DEFAULT_DETECTION_DELAY,
+        metavar="SECONDS",
+        help="with --fault: seconds between the failure and the controller knowing it, 0 to "
+        f"{MAX_DETECTION_DELAY:g} (default %(default)s): meanwhile it still allocates on the "
+        "failed rotors",
+    )
+
+
+def check_fault_options(args: argparse.Namespace) -> None:
+    """``--fault`` with a learned method, ``--detection-delay`` out of range or without
+    ``--fault``: one line, before any work."""
+    from modquad_gym.cli.given import refuse_ignored
+    from modquad_gym.core.validation import check_real
+
+    check_fault_method(args)
+    if args.fault is None:
+        refuse_ignored(args, ["detection_delay"], "it applies with --fault")
+    check_real(args.detection_delay, "--detection-delay", 0.0, MAX_DETECTION_DELAY)
+
+
+def fault_output_names(args: argparse.Namespace) -> tuple[str, ...]:
+    """What ``--fault`` adds to ``--out`` (:data:`modquad_gym.sim.fault_flight.FAULT_FILES`)."""
+    if args.fault is None:
+        return ()
+    from modquad_gym.sim.fault_flight import FAULT_FILES
+
+    return FAULT_FILES
+
+
+def fault_seconds(args: argparse.Namespace, task) -> float:
+    """Simulated seconds of the two flights through a failure (0 without ``--fault``)."""
+    if args.fault is None:
+        return 0.0
+    from modquad_gym.tasks import is_dynamic
+
+    if is_dynamic(task):
+        return 2.0 * task.trajectory.duration
+    from modquad_gym.sim import fault_flight
+
+    return 2.0 * fault_flight.FAULT_HOVER_SECONDS
+
+
+def no_structure_keys(args: argparse.Namespace) -> dict:
+    """The fault keys of a record without a structure (no tolerant one up to --n-max)."""
+    if args.fault is None:
+        return {}
+    return {"fault": args.fault, "fault_max_position_error_m": None,
+            "fault_saturated_fraction": None}  # fmt: skip
+
+
+def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -> dict:
+    """``report`` with the flights through a failure merged in (``report.md`` and
+    ``validation.json`` in ``--out`` updated); ``solver(args_without_fault)`` gives the
+    solve function of the intact search."""
+    if args.fault is None:
+        return report
+    from modquad_gym.sim import fault_flight
+    from modquad_gym.sim.fault_flight import add_to_report, validate_with_failure
+
+    intact_args = argparse.Namespace(**{**vars(args), "fault": None})
+    intact = solver(intact_args)(task).structure
+    record = validate_with_failure(structure, task, args.fault, intact=intact, out_dir=args.out,
+                                   detection_delay_s=args.detection_delay,
+                                   seconds=fault_flight.FAULT_HOVER_SECONDS)  # fmt: skip
+    return add_to_report(args.out, report, record)
+
+
+def _cm(metres) -> str:
+    return "n/a" if metres is None else f"{100 * metres:.3g} cm"
+
+
+def fault_lines(r: dict) -> list[str]:
+    """The console lines of the flights through a failure (none without them)."""
+    if r.get("fault_flight") is None:
+        return []
+
+    def line(name: str, x: dict, tolerates: bool) -> str:
+        part = f"module {x['fault_failed_module']} {tuple(x['fault_failed_cell'])}"
+        if x.get("fault_failed_rotor_in_module") is not None:
+            part = f"rotor {x['fault_failed_rotor_in_module']} of {part}"
+        return (
+            f"{name}: {'tolerates' if tolerates else 'does not tolerate'} any {r['fault']} "
+            f"failure; {part} stopped at {x['fault_time_s']:.3g} s: position error after it up "
+            f"to {_cm(x['fault_max_position_error_m'])}, a working rotor at a limit in "
+            f"{100 * x['fault_saturated_fraction']:.3g} % of steps"
+            + (f" ({x['fault_diverged']})" if x.get("fault_diverged") else "")
+        )
+
+    lines = [line("fault flight", r, r["fault_tolerates"])]
+    intact = r.get("intact_minimum")
+    if intact:
+        lines.append(line(f"intact minimum ({intact['n_modules']} modules)", intact,
+                          intact["tolerates"]))  # fmt: skip
+    return lines
