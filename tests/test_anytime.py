@@ -11,9 +11,9 @@ from modquad_gym.cli import main
 from modquad_gym.geometry.cells import is_connected, normalise
 from modquad_gym.geometry.module import GRAVITY, palette
 from modquad_gym.search import anytime_search, exhaustive_search
-from modquad_gym.search.anytime import check_time_limit
 from modquad_gym.search.bounds import force_lower_bound
 from modquad_gym.search.moves import compact_shapes, relocations, removable
+from modquad_gym.search.problem import check_time_limit
 from modquad_gym.tasks import PlantedTasks, TaskRequirement
 
 T = palette("t45,t45m,flat")

@@ -18,7 +18,7 @@ from modquad_gym.search.bounds import (
     level_directions,
     level_excluded,
 )
-from modquad_gym.search.exhaustive import MAX_MODULES
+from modquad_gym.search.problem import EXACT_MODULES
 
 
 def random_structure(n, rng):
@@ -149,7 +149,7 @@ def test_n_max_beyond_the_limit_is_refused_before_work():
     W = np.array([[0.0, 0.0, 3.0, 50.0, 0.0, 0.0]])
     with pytest.raises(ValueError, match="n_max=30"):
         exhaustive_search(W, n_max=30)
-    assert MAX_MODULES >= 14
+    assert EXACT_MODULES >= 14
 
 
 @pytest.mark.parametrize("bad", [True, 2.0, "7", 0, -1, None])

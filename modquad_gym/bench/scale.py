@@ -332,7 +332,7 @@ def main(argv: list[str] | None = None) -> None:
         out="results/scale",
         outputs=OUTPUTS,
     )
-    from modquad_gym.search.anytime import check_time_limit
+    from modquad_gym.search.problem import check_time_limit
     from modquad_gym.solvers import METHODS as KNOWN
     from modquad_gym.solvers import learned_options
 

@@ -10,12 +10,9 @@ from collections.abc import Callable
 
 from modquad_gym.core.extras import EXTRA_OF, missing_extra_message
 from modquad_gym.core.options import int_option, real_option, seed_option
+from modquad_gym.search.problem import DEFAULT_TIME_LIMIT
 from modquad_gym.solvers import METHOD_HELP, METHODS
 from modquad_gym.tasks import CSV_HEADER_MODES
-
-DEFAULT_TIME_LIMIT = 60.0
-"""``--time-limit`` default (seconds; = :data:`modquad_gym.search.anytime.DEFAULT_TIME_LIMIT`,
-not imported here to keep the command line's start light)."""
 
 N_MAX_OPTION = int_option(1, 2**63 - 1)
 """``--n-max``: any positive integer parses; each search says how far it can go."""
@@ -101,7 +98,7 @@ def add_n_max(p: argparse.ArgumentParser, help: str) -> None:
 
 def time_limit_option(text: str) -> float:
     """An argparse ``type`` for ``--time-limit``: seconds in (0, one day]."""
-    from modquad_gym.search.anytime import check_time_limit
+    from modquad_gym.search.problem import check_time_limit
 
     try:
         return check_time_limit(real_option(text))

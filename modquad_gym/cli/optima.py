@@ -96,11 +96,11 @@ def cmd_optima(args: argparse.Namespace) -> int:
     from modquad_gym.core.distributed import Engine
     from modquad_gym.core.outputs import check_output_file
     from modquad_gym.core.validation import check_int
-    from modquad_gym.search.exhaustive import MAX_MODULES
+    from modquad_gym.search.problem import EXACT_MODULES
 
     if args.suite:
         refuse_ignored(args, ["csv_header"], "applies to --task files, not to --suite")
-    n_max = check_int(args.n_max, "--n-max", low=1, high=MAX_MODULES)
+    n_max = check_int(args.n_max, "--n-max", low=1, high=EXACT_MODULES)
     out = check_output_file(args.out, force=True, what="--out")  # resumed, or new
     tasks = sources(args)
     with Engine(args.workers, args.ray_address, option="--workers") as engine:

@@ -27,12 +27,10 @@ oracle; ``lower_bound`` is the largest proved bound, ``certified`` is True when 
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
 
 import numpy as np
 
 from modquad_gym.core.validation import check_int
-from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream
 from modquad_gym.geometry.structure import Structure, normalise
 from modquad_gym.search.bounds import (
@@ -42,40 +40,24 @@ from modquad_gym.search.bounds import (
     force_lower_bound,
     level_excluded,
 )
-from modquad_gym.search.levels import MAX_MODULES as EXACT_MODULES
 from modquad_gym.search.levels import level_size
 from modquad_gym.search.moves import compact_shapes, relocations, removable
-from modquad_gym.search.problem import SearchProblem
+from modquad_gym.search.problem import (
+    DEFAULT_TIME_LIMIT,
+    EXACT_MODULES,
+    MAX_MODULES,
+    SearchProblem,
+    check_time_limit,
+    search_entry,
+)
 from modquad_gym.search.result import SearchResult, SearchRun
 from modquad_gym.search.typed import MAX_PAIRS, assignments, level_pairs, typed_structure
-
-MAX_MODULES = 64
-"""The anytime search's module limit (structures of up to 256 rotors)."""
-
-DEFAULT_TIME_LIMIT = 60.0
-"""Seconds the anytime search takes at most by default (``modquad solve --time-limit``)."""
-
-MAX_TIME_LIMIT = 86_400.0
-"""The longest time limit accepted: one day."""
 
 EXACT_SHARE = 0.5
 """Share of the time limit the exact levels get before an incumbent is built."""
 
 REPAIR_MOVES = 48
 """Moves tried per step of the repair search before it settles for a sideways move."""
-
-
-def check_time_limit(seconds: object) -> float:
-    """``seconds`` as a float in (0, :data:`MAX_TIME_LIMIT`], else a one-line ValueError."""
-    try:
-        value = float(seconds)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"time_limit must be a number of seconds, got {seconds!r}") from None
-    if not 0.0 < value <= MAX_TIME_LIMIT:
-        raise ValueError(
-            f"time_limit must lie in (0, {MAX_TIME_LIMIT:,.0f}] seconds, got {seconds!r}"
-        )
-    return value
 
 
 class ExactLevels:
@@ -301,26 +283,18 @@ def _proof(problem: SearchProblem) -> str:
     return f"exact bounds (force, count, level) rule out every level up to {problem.n_max}"
 
 
+@search_entry("anytime")
 def anytime_search(
-    task,
-    n_max: int = 7,
-    f_max: float | None = None,
-    module: ModuleType | None = None,
+    problem: SearchProblem,
     *,
-    modules: Sequence[ModuleType] | None = None,
-    kind: str | None = None,
-    fault: str | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
     seed: int | None = 0,
     chunk: int = DEFAULT_CHUNK,
 ) -> SearchResult:
     """The smallest structure found for ``task`` within ``time_limit`` seconds, with a proved
-    lower bound (module docstring). Up to :data:`MAX_MODULES` modules; ``modules``, ``kind``
-    and ``f_max`` as for :func:`~.exhaustive.exhaustive_search`, whose answer it returns
-    whenever the exact levels reach the minimum in time; ``seed`` seeds the local moves."""
-    problem = SearchProblem.build(
-        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
-    )
+    lower bound (module docstring). Up to :data:`MAX_MODULES` modules; the task's arguments as
+    for :func:`~.exhaustive.exhaustive_search`, whose answer it returns whenever the exact
+    levels reach the minimum in time; ``seed`` seeds the local moves."""
     time_limit = check_time_limit(time_limit)
     chunk = check_int(chunk, "chunk", low=1)
     run = SearchRun("anytime", problem)

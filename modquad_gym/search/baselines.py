@@ -14,21 +14,16 @@ draws a type with each cell. With one type and a ``total`` task each runs exactl
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 
 import numpy as np
 
 from modquad_gym.core.validation import check_int
-from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Cell, Structure, free_neighbours
 from modquad_gym.oracle import margin
-from modquad_gym.search.anytime import DEFAULT_TIME_LIMIT
 from modquad_gym.search.heuristic import Deadline, heuristic_result, impossible_result
-from modquad_gym.search.problem import SearchProblem
+from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
 from modquad_gym.search.result import SearchResult, SearchRun
-
-MAX_MODULES = 64
-"""Module limit of the constructive baselines (each step decides O(n) children of 4n rotors)."""
 
 
 def _typed(run: SearchRun, cells: Iterable[Cell], types: Iterable[int]) -> Structure:
@@ -36,15 +31,10 @@ def _typed(run: SearchRun, cells: Iterable[Cell], types: Iterable[int]) -> Struc
     return Structure.from_trusted(tuple(cells), modules=tuple(palette[t] for t in types))
 
 
+@search_entry("greedy")
 def greedy_search(
-    task,
-    n_max: int = 7,
-    f_max: float | None = None,
-    module: ModuleType | None = None,
+    problem: SearchProblem,
     *,
-    modules: Sequence[ModuleType] | None = None,
-    kind: str | None = None,
-    fault: str | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> SearchResult:
     """Baseline: from one module, repeatedly attach the module that most increases the fraction
@@ -56,9 +46,6 @@ def greedy_search(
     With ``modules`` the first module is the best-scoring type and every child is a (cell,
     type) pair (ties by cell order, then palette order). At ``time_limit`` seconds it stops
     with no structure (and the proved lower bound)."""
-    problem = SearchProblem.build(
-        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
-    )
     run = SearchRun("greedy", problem)
     deadline = Deadline(run, time_limit)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
@@ -109,26 +96,18 @@ def greedy_search(
     return heuristic_result(run, None)
 
 
+@search_entry("random")
 def random_search(
-    task,
-    n_max: int = 7,
-    f_max: float | None = None,
-    module: ModuleType | None = None,
+    problem: SearchProblem,
+    *,
     seed: int | None = 0,
     restarts: int = 1,
-    *,
-    modules: Sequence[ModuleType] | None = None,
-    kind: str | None = None,
-    fault: str | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> SearchResult:
     """Baseline: attach modules at uniformly random free cells until the task is satisfied or
     ``n_max`` is reached, ``restarts`` times (or until ``time_limit`` seconds); returns the
     smallest feasible structure seen. With several ``modules`` each module's type is drawn
     uniformly too."""
-    problem = SearchProblem.build(
-        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
-    )
     run = SearchRun("random", problem)
     deadline = Deadline(run, time_limit)
     if (done := impossible_result(run, MAX_MODULES)) is not None:

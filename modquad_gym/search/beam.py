@@ -19,8 +19,6 @@ import numpy as np
 
 from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.cells import free_neighbours
-from modquad_gym.geometry.module import ModuleType
-from modquad_gym.search.anytime import DEFAULT_TIME_LIMIT
 from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.heuristic import (
     Candidate,
@@ -30,11 +28,8 @@ from modquad_gym.search.heuristic import (
     heuristic_result,
     impossible_result,
 )
-from modquad_gym.search.problem import SearchProblem
+from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
 from modquad_gym.search.result import SearchResult, SearchRun
-
-MAX_MODULES = 64
-"""The beam search's module limit (structures of up to 256 rotors)."""
 
 DEFAULT_BEAM_WIDTH = 4
 """Structures kept per size. Tuned on planted 64-module tasks (40 wrenches, generator seeds
@@ -59,15 +54,10 @@ def children(beam: Sequence[Candidate], n_types: int) -> list[Candidate]:
     return list(out)
 
 
+@search_entry("beam")
 def beam_search(
-    task,
-    n_max: int = 7,
-    f_max: float | None = None,
-    module: ModuleType | None = None,
+    problem: SearchProblem,
     *,
-    modules: Sequence[ModuleType] | None = None,
-    kind: str | None = None,
-    fault: str | None = None,
     beam_width: int = DEFAULT_BEAM_WIDTH,
     time_limit: float = DEFAULT_TIME_LIMIT,
     seed: int | None = 0,
@@ -76,9 +66,6 @@ def beam_search(
     (module docstring), or None when the beam reaches ``n_max`` (or the time limit) first;
     always with the proved lower bound. ``modules``, ``kind`` and ``f_max`` as for
     :func:`~.exhaustive.exhaustive_search`; ``seed`` orders children of equal scores."""
-    problem = SearchProblem.build(
-        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
-    )
     run = SearchRun("beam", problem)
     deadline = Deadline(run, time_limit)
     width = check_int(beam_width, "beam_width", low=1, high=MAX_BEAM_WIDTH)

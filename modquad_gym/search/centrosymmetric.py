@@ -13,9 +13,8 @@ finishes, its answers are those of the paper's algorithm, unchanged.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator
 
-from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import (
     Cell,
     Key,
@@ -24,13 +23,9 @@ from modquad_gym.geometry.structure import (
     normalise,
     normalise_typed,
 )
-from modquad_gym.search.anytime import DEFAULT_TIME_LIMIT
 from modquad_gym.search.heuristic import Deadline, heuristic_result, impossible_result
-from modquad_gym.search.problem import SearchProblem
+from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
 from modquad_gym.search.result import SearchResult, SearchRun
-
-MAX_MODULES = 64
-"""Module limit of the centrosymmetric search (its levels are bounded by memory and time)."""
 
 MEMORY_BUDGET = 2 * 2**30
 """Bytes the levels held at once (both parities, and the level being built) may take."""
@@ -47,16 +42,11 @@ def key_bytes(n: int, typed: bool) -> int:
     return 120 + n * (8 + 56 + (64 if typed else 0))
 
 
+@search_entry("centrosymmetric")
 def centrosymmetric_search(
-    task,
-    n_max: int = 7,
-    f_max: float | None = None,
-    module: ModuleType | None = None,
-    block_seed: bool = False,
+    problem: SearchProblem,
     *,
-    modules: Sequence[ModuleType] | None = None,
-    kind: str | None = None,
-    fault: str | None = None,
+    block_seed: bool = False,
     time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> SearchResult:
     """Paper Algorithm 2: grow structures by a module *and* its centrosymmetric partner about
@@ -70,9 +60,6 @@ def centrosymmetric_search(
     Up to 64 modules within ``time_limit`` seconds and :data:`MEMORY_BUDGET` (module
     docstring).
     """
-    problem = SearchProblem.build(
-        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
-    )
     run = SearchRun("centrosymmetric", problem)
     deadline = Deadline(run, time_limit)
     if (done := impossible_result(run, MAX_MODULES)) is not None:

@@ -36,9 +36,9 @@ from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream, lev
 from modquad_gym.geometry.structure import Key, Structure, normalise, normalise_typed
 from modquad_gym.search.bounds import NO_SIZE, force_lower_bound, level_excluded
 from modquad_gym.search.checker import TaskChecker
-from modquad_gym.search.levels import MAX_MODULES, LevelAnswer, level_progress, level_size
+from modquad_gym.search.levels import LevelAnswer, level_progress, level_size
 from modquad_gym.search.partial import Partial, make_partial
-from modquad_gym.search.problem import SearchProblem
+from modquad_gym.search.problem import EXACT_MODULES, SearchProblem, search_entry
 from modquad_gym.search.result import KeptKeys, Optima, SearchResult, SearchRun
 from modquad_gym.search.typed import (
     MAX_PAIRS,
@@ -221,7 +221,7 @@ def _levels_to_search(run: SearchRun, part: Partial | None) -> Levels:
     n_lb = force_lower_bound(p.wrenches, p.module, p.f_max, p.fault)
     if n_lb == NO_SIZE:
         return Levels(NO_SIZE, [], "force bound: no number of modules can exert the task's forces")
-    run.check_budget(MAX_MODULES, n_lb)
+    run.check_budget(EXACT_MODULES, n_lb)
     if part is not None:
         n_lb = max(n_lb, part.size)
     skipped = list(range(1, min(n_lb, p.n_max + 1)))
@@ -271,15 +271,10 @@ def _exhaustive(
     return search_typed(run, progress, first_only, part)
 
 
+@search_entry("exhaustive")
 def exhaustive_search(
-    task,
-    n_max: int = 7,
-    f_max: float | None = None,
-    module: ModuleType | None = None,
+    problem: SearchProblem,
     *,
-    modules: Sequence[ModuleType] | None = None,
-    kind: str | None = None,
-    fault: str | None = None,
     engine: OrderedEngine | None = None,
     chunk: int = DEFAULT_CHUNK,
     progress: bool = False,
@@ -309,9 +304,6 @@ def exhaustive_search(
     several types); the result is the certified minimum among them and ``lower_bound`` refers
     to them.
     """
-    problem = SearchProblem.build(
-        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
-    )
     run = SearchRun("exhaustive", problem)
     chunk = check_int(chunk, "chunk", low=1)
     part = None if start is None else make_partial(start, problem.palette, problem.typed)
@@ -325,11 +317,9 @@ def exhaustive_search(
     return run.finish(structure, answer.n, answer.skipped, answer.proof)
 
 
+@search_entry("exhaustive")
 def optimal_level(
-    task,
-    n_max: int = 7,
-    f_max: float | None = None,
-    module: ModuleType | None = None,
+    problem: SearchProblem,
     *,
     chunk: int = DEFAULT_CHUNK,
     max_keys: int | None = None,
@@ -339,7 +329,7 @@ def optimal_level(
     feasible structure; this one decides the whole minimal level (in this process: batches of
     tasks are what :mod:`modquad_gym.core.distributed` spreads). ``max_keys`` keeps only the
     first structures (``count`` still counts them all), bounding memory on huge levels."""
-    run = SearchRun("exhaustive", SearchProblem.build(task, n_max, f_max, module))
+    run = SearchRun("exhaustive", problem)
     keep = None if max_keys is None else check_int(max_keys, "max_keys", low=1)
     answer = _exhaustive(run, check_int(chunk, "chunk", low=1), None, False, False, None, keep)
     keys, typed = KeptKeys(keep), not run.problem.homogeneous_total  # typed: external task
@@ -356,15 +346,10 @@ def optimal_level(
     )
 
 
+@search_entry("exhaustive")
 def optimal_structures(
-    task,
-    n_max: int = 7,
-    f_max: float | None = None,
-    module: ModuleType | None = None,
+    problem: SearchProblem,
     *,
-    modules: Sequence[ModuleType] | None = None,
-    kind: str | None = None,
-    fault: str | None = None,
     chunk: int = DEFAULT_CHUNK,
 ) -> tuple[int | None, list]:
     """Every minimum-module structure of ``task``: (n*, keys of all feasible structures of n*
@@ -374,9 +359,6 @@ def optimal_structures(
     an ``external`` task the keys are typed
     (:func:`~modquad_gym.geometry.structure.normalise_typed`; one-type structures of such a
     search too)."""
-    problem = SearchProblem.build(
-        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
-    )
     run = SearchRun("exhaustive", problem)
     answer = _exhaustive(run, check_int(chunk, "chunk", low=1), None, False, False, None)
     if problem.homogeneous_total:
@@ -387,6 +369,6 @@ def optimal_structures(
     return answer.n, [s.key for s in structures]
 
 
-__all__ = ["MAX_MODULES", "MAX_PAIRS", "PAIRS_PER_BLOCK", "ChunkScan", "OrderedEngine",
+__all__ = ["EXACT_MODULES", "MAX_PAIRS", "PAIRS_PER_BLOCK", "ChunkScan", "OrderedEngine",
            "assignments", "check_pair_budget", "exhaustive_search", "level_size",
            "normalise_typed", "optimal_level", "optimal_structures", "scan_chunks"]  # fmt: skip

@@ -23,13 +23,9 @@ gives the same answer on one machine (when the time limit does not cut it short)
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
 from modquad_gym.core.validation import check_int, check_real
-from modquad_gym.geometry.module import ModuleType
-from modquad_gym.search.anytime import DEFAULT_TIME_LIMIT
 from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.chromosomes import crossover, mutate, random_structure
 from modquad_gym.search.heuristic import (
@@ -39,11 +35,8 @@ from modquad_gym.search.heuristic import (
     heuristic_result,
     impossible_result,
 )
-from modquad_gym.search.problem import SearchProblem
+from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
 from modquad_gym.search.result import SearchResult, SearchRun
-
-MAX_MODULES = 64
-"""The genetic search's module limit (structures of up to 256 rotors)."""
 
 DEFAULT_POPULATION = 24
 DEFAULT_GENERATIONS = 1000
@@ -89,15 +82,10 @@ def _options(population, generations, stall, mutation_rate, crossover_rate, elit
     }
 
 
+@search_entry("genetic")
 def genetic_search(
-    task,
-    n_max: int = 7,
-    f_max: float | None = None,
-    module: ModuleType | None = None,
+    problem: SearchProblem,
     *,
-    modules: Sequence[ModuleType] | None = None,
-    kind: str | None = None,
-    fault: str | None = None,
     population: int = DEFAULT_POPULATION,
     generations: int = DEFAULT_GENERATIONS,
     stall: int = DEFAULT_STALL,
@@ -113,9 +101,6 @@ def genetic_search(
     with the proved lower bound. ``penalty`` (default ``n_max``) weighs the share of wrenches
     missed against the module count; ``modules``, ``kind`` and ``f_max`` as for
     :func:`~.exhaustive.exhaustive_search`; ``seed`` seeds everything random."""
-    problem = SearchProblem.build(
-        task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
-    )
     run = SearchRun("genetic", problem)
     deadline = Deadline(run, time_limit)
     opt = _options(population, generations, stall, mutation_rate, crossover_rate, elite,

@@ -20,13 +20,13 @@ import numpy as np
 
 from modquad_gym.geometry.cells import Cell, normalise_typed
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.search.anytime import check_time_limit
 from modquad_gym.search.bounds import (
     NO_SIZE,
     bound_levels,
     first_possible_level,
     force_lower_bound,
 )
+from modquad_gym.search.problem import check_time_limit
 from modquad_gym.search.result import SearchResult, SearchRun
 
 Candidate = tuple[tuple[Cell, int], ...]

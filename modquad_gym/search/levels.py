@@ -1,5 +1,5 @@
-"""Levels of the exhaustive searches: how many structures level n holds, its progress bar, the
-search's module limit and the answer of a level-by-level search.
+"""Levels of the exhaustive searches: how many structures level n holds, its progress bar and
+the answer of a level-by-level search.
 
 Shared by the one-type search (:mod:`.exhaustive`) and the typed one (:mod:`.typed`).
 """
@@ -10,9 +10,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from modquad_gym.geometry.polyominoes import A001168
-
-MAX_MODULES = 16
-"""The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8."""
 
 
 @dataclass

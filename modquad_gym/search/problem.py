@@ -1,8 +1,12 @@
 """One search problem: the task, the module budget, the thrust limit, the palette and the kind.
 
-Every search (exhaustive, typed, centrosymmetric, greedy, random, anytime) takes its user
-arguments through :meth:`SearchProblem.build`, which validates them once, and then reads this
-value only. :meth:`SearchProblem.rotor_wrenches` is the one place where a task becomes the
+Every search (exhaustive, typed, centrosymmetric, greedy, random, anytime, beam, genetic) is a
+function of a :class:`SearchProblem` and its own keyword options; :func:`search_entry` makes its
+public entry point, which takes the task's arguments (``task, n_max, f_max, module, *,
+modules, kind, fault``), validates them once (:meth:`SearchProblem.build`) and refuses an
+option the search does not take, naming it. The limits every search shares live here:
+:data:`MAX_MODULES`, :data:`EXACT_MODULES`, :data:`DEFAULT_TIME_LIMIT`.
+:meth:`SearchProblem.rotor_wrenches` is the one place where a task becomes the
 wrenches a structure's rotors must produce (its own weight added for ``external`` tasks; its
 mass and inertia put into the wrench model of a ``dynamic`` task, :mod:`.dynamic`).
 """
@@ -10,7 +14,9 @@ mass and inertia put into the wrench model of a ``dynamic`` task, :mod:`.dynamic
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterable, Sequence
+import functools
+import inspect
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +32,18 @@ from modquad_gym.search.dynamic import compact
 from modquad_gym.tasks import check_kind, rotor_wrenches
 
 DEFAULT_MODULE = Structure([(0, 0)]).module
+
+MAX_MODULES = 64
+"""The searches' module limit (structures of up to 256 rotors): the field's largest designs."""
+
+EXACT_MODULES = 16
+"""The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8."""
+
+DEFAULT_TIME_LIMIT = 60.0
+"""Seconds a search takes at most by default (``modquad solve --time-limit``)."""
+
+MAX_TIME_LIMIT = 86_400.0
+"""The longest time limit accepted: one day."""
 
 DYNAMIC = "dynamic"
 """The kind of a search problem whose wrenches depend on the structure's mass and inertia."""
@@ -232,3 +250,70 @@ def task_arrays(task, f_max: float | None) -> tuple[np.ndarray, float]:
         W = check_wrenches(task, allow_empty=False)
         f = 1.0 if f_max is None else f_max
     return W, check_f_max(f)
+
+
+def check_time_limit(seconds: object) -> float:
+    """``seconds`` as a float in (0, :data:`MAX_TIME_LIMIT`], else a one-line ValueError."""
+    try:
+        value = float(seconds)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"time_limit must be a number of seconds, got {seconds!r}") from None
+    if not 0.0 < value <= MAX_TIME_LIMIT:
+        raise ValueError(
+            f"time_limit must lie in (0, {MAX_TIME_LIMIT:,.0f}] seconds, got {seconds!r}"
+        )
+    return value
+
+
+def _task_arguments(
+    task,
+    n_max: int = 7,
+    f_max: float | None = None,
+    module: ModuleType | None = None,
+    *,
+    modules: Sequence[ModuleType] | None = None,
+    kind: str | None = None,
+    fault: str | None = None,
+) -> None:
+    """The arguments every search's entry point takes first (see :meth:`SearchProblem.build`)."""
+
+
+TASK_PARAMETERS = tuple(inspect.signature(_task_arguments).parameters.values())
+
+
+def search_entry(name: str) -> Callable[[Callable], Callable]:
+    """Decorator: the public entry point of the search ``solve(problem, **options)``.
+
+    The entry takes the task's arguments (``task, n_max=7, f_max=None, module=None, *,
+    modules=None, kind=None, fault=None``: :meth:`SearchProblem.build`) and then the search's
+    own keyword options; its signature says so. An option the search does not take is refused
+    with a ValueError naming it. ``entry.solve`` is the problem's function, for callers that
+    already hold a :class:`SearchProblem`."""
+
+    def wrap(solve: Callable) -> Callable:
+        options = list(inspect.signature(solve).parameters.values())[1:]
+        names = {p.name for p in options}
+
+        @functools.wraps(solve)
+        def entry(task, n_max=7, f_max=None, module=None, *, modules=None, kind=None,
+                  fault=None, **kwargs):  # fmt: skip
+            unknown = sorted(set(kwargs) - names)
+            if unknown:
+                takes = ", ".join(sorted(names)) or "no options"
+                raise ValueError(
+                    f"the {name} search has no option {unknown[0]!r} (it takes {takes})"
+                )
+            problem = SearchProblem.build(
+                task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
+            )
+            return solve(problem, **kwargs)
+
+        returns = inspect.signature(solve).return_annotation
+        entry.__signature__ = inspect.Signature(
+            [*TASK_PARAMETERS, *options], return_annotation=returns
+        )
+        entry.solve = solve
+        entry.options = tuple(sorted(names))
+        return entry
+
+    return wrap

@@ -26,9 +26,9 @@ from modquad_gym.core.resources import check_memory
 from modquad_gym.geometry.polyominoes import PolyominoStream
 from modquad_gym.geometry.structure import Structure, normalise_typed
 from modquad_gym.search.bounds import allowed_counts, first_possible_level
-from modquad_gym.search.levels import MAX_MODULES, LevelAnswer, level_progress, level_size
+from modquad_gym.search.levels import LevelAnswer, level_progress, level_size
 from modquad_gym.search.partial import Partial
-from modquad_gym.search.problem import SearchProblem
+from modquad_gym.search.problem import EXACT_MODULES, SearchProblem
 from modquad_gym.search.result import SearchRun
 
 MAX_PAIRS = 10**9
@@ -69,7 +69,7 @@ def check_pair_budget(problem: SearchProblem, first_level: int) -> None:
     size = level_size(n)
     if first_level > n:
         return
-    if n > MAX_MODULES or size is None or size * K**n > MAX_PAIRS:
+    if n > EXACT_MODULES or size is None or size * K**n > MAX_PAIRS:
         raise ValueError(
             f"n_max={n} with {K} module type(s) is beyond what the exhaustive search can "
             f"finish: at most {MAX_PAIRS:.0e} (shape, assignment) pairs per level"
