@@ -9,7 +9,8 @@ searches once as the reference, and writes to ``--out``:
   95 % stratified bootstrap interval (percentile method, runs resampled within each suite, as in
   ``rliable``), per suite, the tier's goals (:attr:`.tiers.Tier.goals`) judged on the
   interval's pessimistic end (the lower end of a share, the upper end of configurations);
-* ``seeds.csv``: one row per (seed, method, suite) with the suite-level figures;
+* ``seeds.csv``: one row per (seed, method, suite) with the suite-level figures (success,
+  optimal share, configurations and seconds per task, mean modules over the solved tasks);
 * ``seeds.png``: the intervals as bars.
 
 Scores per run are suite-level rates (success, optimal share) and means (configurations
@@ -84,9 +85,12 @@ class SeedScore:
     optimal: float
     evaluated: float
     seconds: float
+    modules: float | None = None
+    """Mean module count over the solved tasks (None when none was solved)."""
 
     @classmethod
     def of(cls, seed: str, method: str, suite: str, rows: list[Row]) -> SeedScore:
+        solved = [r.n_modules for r in rows if r.success]
         return cls(
             seed,
             method,
@@ -96,6 +100,7 @@ class SeedScore:
             float(np.mean([r.optimal for r in rows])),
             float(np.mean([r.evaluated for r in rows])),
             float(np.mean([r.seconds for r in rows])),
+            float(np.mean(solved)) if solved else None,
         )
 
 
