@@ -127,7 +127,7 @@ def test_cli_validate_fault_json_pictures_and_intact_minimum(tmp_path, capsys, m
     assert record["fault_saturated_fraction"] == 0.0
     assert record["fault_time_s"] == pytest.approx(SHORT / 2)
     intact = record["intact_minimum"]
-    assert intact["n_modules"] == 3 and intact["tolerates"] is False
+    assert intact["n_modules"] == 3 and intact["tolerates"] is False and intact["certified"]
     assert intact["cells"] == [list(c) for c in INTACT.cells]
     assert intact["fault_saturated_fraction"] > 0.5 or intact["fault_max_position_error_m"] > 0.05
     out = tmp_path / "out"

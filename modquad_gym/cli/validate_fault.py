@@ -92,17 +92,20 @@ def no_structure_keys(args: argparse.Namespace) -> dict:
 def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -> dict:
     """``report`` with the flights through a failure merged in (``report.md`` and
     ``validation.json`` in ``--out`` updated); ``solver(args_without_fault)`` gives the
-    solve function of the intact search."""
+    solve function of the intact search (the same method without ``--fault``; whether it
+    certified its answer minimal is ``intact_minimum["certified"]``)."""
     if args.fault is None:
         return report
     from modquad_gym.sim import fault_flight
     from modquad_gym.sim.fault_flight import add_to_report, validate_with_failure
 
     intact_args = argparse.Namespace(**{**vars(args), "fault": None})
-    intact = solver(intact_args)(task).structure
-    record = validate_with_failure(structure, task, args.fault, intact=intact, out_dir=args.out,
-                                   detection_delay_s=args.detection_delay,
+    intact = solver(intact_args)(task)
+    record = validate_with_failure(structure, task, args.fault, intact=intact.structure,
+                                   out_dir=args.out, detection_delay_s=args.detection_delay,
                                    seconds=fault_flight.FAULT_HOVER_SECONDS)  # fmt: skip
+    if record["intact_minimum"] is not None:  # the search's word on it being the minimum
+        record["intact_minimum"]["certified"] = bool(intact.certified)
     return add_to_report(args.out, report, record)
 
 
