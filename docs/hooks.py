@@ -5,7 +5,8 @@
   docstring (description, spaces, rewards, episode end, arguments, version history).
 * ``<!-- modquad-cli -->`` in a page becomes the ``--help`` text of every ``modquad`` command and
   action, from the argparse parsers themselves.
-* The pictures of ``results/`` are copied into the site as ``results/*.png``.
+* The pictures of ``results/`` (and its report folders) are copied into the site under
+  ``results/``.
 * A Markdown page under docs/ that the nav does not list is added under "Topics", so a plain
   ``docs/<topic>.md`` is always reachable.
 """
@@ -70,8 +71,8 @@ def on_files(files, config):
     from modquad_gym.envs import ENV_IDS
 
     root = Path(config["config_file_path"]).parent
-    for png in sorted((root / RESULTS).glob("*.png")):  # the reports' pictures, as results/*.png
-        files.append(File(f"{RESULTS}/{png.name}", str(root), config["site_dir"],
+    for png in sorted((root / RESULTS).rglob("*.png")):  # the reports' pictures, as results/...
+        files.append(File(png.relative_to(root).as_posix(), str(root), config["site_dir"],
                           config["use_directory_urls"]))  # fmt: skip
     for env_id in ENV_IDS:
         files.append(

@@ -180,7 +180,9 @@ class Evaluator:
         oracle_calls: wrench-structure tests made (one per task wrench of each new structure).
     """
 
-    def __init__(self, task: Any, n_max: int = 7, tier: str | None = None, modules=None) -> None:
+    def __init__(
+        self, task: Any, n_max: int = 7, tier: str | None = None, modules: list | None = None
+    ) -> None:
         from modquad_gym.tasks import TaskRequirement
 
         if not hasattr(task, "rotor_wrenches"):

@@ -161,9 +161,11 @@ class Trajectory:
         t: (k,) sample times in seconds, strictly increasing, 2 <= k <= :data:`MAX_SAMPLES`.
         position: (k, 3) positions of the {S} origin in the world, metres.
         quaternion: (k, 4) unit quaternions (w, x, y, z), world <- body; default level.
-        velocity, acceleration: (k, 3) world frame; computed by splines when not given.
-        angular_velocity, angular_acceleration: (k, 3) body frame; from the quaternions'
-            spline when not given (zero for a level trajectory).
+        velocity: (k, 3) world frame; computed by splines when not given.
+        acceleration: (k, 3) world frame; computed by splines when not given.
+        angular_velocity: (k, 3) body frame; from the quaternions' spline when not given (zero
+            for a level trajectory).
+        angular_acceleration: (k, 3) body frame; likewise.
         accuracy: largest accepted estimated error of a spline-derived acceleration (m/s^2)
             or angular acceleration (rad/s^2).
         smoothing: None (interpolating quintic splines) or the ``lam`` of cubic smoothing

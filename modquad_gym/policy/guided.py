@@ -33,7 +33,8 @@ class GuidedSolver:
     Args:
         model: a :class:`~.policy.Policy`, a model .zip path (default the shipped model) or a
             loaded MaskablePPO.
-        n_max, config: as for :class:`~.policy.Policy`.
+        n_max: as for :class:`~.policy.Policy`.
+        config: as for :class:`~.policy.Policy`.
         budget: most structures to evaluate per task.
         branching: children queued per expanded structure (the policy's most likely dockings).
         dive: start with the policy's greedy episode (default True); False: best-first only.
