@@ -1,6 +1,6 @@
 """``modquad validate --fault rotor|module``: the structure found by the fault-tolerant search
 flown through its worst single failure, and the intact minimum of the same task through its own
-(:func:`modquad_gym.sim.fault_flight.validate_with_failure`).
+(:func:`modquad_gym.sim.validate_fault.validate_with_failure`).
 
 The parts :mod:`modquad_gym.cli.validate` calls: :func:`add_fault_options` (``--fault``,
 ``--detection-delay``), :func:`check_fault_options` (before any work), :func:`fault_output_names`
@@ -60,10 +60,10 @@ def check_fault_options(args: argparse.Namespace) -> None:
 
 
 def fault_output_names(args: argparse.Namespace) -> tuple[str, ...]:
-    """What ``--fault`` adds to ``--out`` (:data:`modquad_gym.sim.fault_flight.FAULT_FILES`)."""
+    """What ``--fault`` adds to ``--out`` (:data:`modquad_gym.sim.validate_fault.FAULT_FILES`)."""
     if args.fault is None:
         return ()
-    from modquad_gym.sim.fault_flight import FAULT_FILES
+    from modquad_gym.sim.validate_fault import FAULT_FILES
 
     return FAULT_FILES
 
@@ -97,7 +97,7 @@ def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -
     if args.fault is None:
         return report
     from modquad_gym.sim import fault_flight
-    from modquad_gym.sim.fault_flight import add_to_report, validate_with_failure
+    from modquad_gym.sim.validate_fault import add_to_report, validate_with_failure
 
     intact_args = argparse.Namespace(**{**vars(args), "fault": None})
     intact = solver(intact_args)(task)
@@ -110,7 +110,9 @@ def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -
 
 
 def _cm(metres) -> str:
-    return "n/a" if metres is None else f"{100 * metres:.3g} cm"
+    if metres is None:
+        return "n/a"
+    return f"{100 * metres:.3g} cm" if metres >= 1e-4 else "under 0.1 mm"
 
 
 def fault_lines(r: dict) -> list[str]:

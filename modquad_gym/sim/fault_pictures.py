@@ -2,7 +2,7 @@
 
 One figure: the COM's path (3D; before the failure blue, after it orange, the failure marked; a
 hover's path is drawn in centimetres about home), the position error over time with the 5 cm
-goal (:func:`~modquad_gym.sim.track_pictures.error_panel`) and the rotor inputs over time
+goal (scaled to the data, at least to :data:`MIN_SCALE_CM`) and the rotor inputs over time
 (:func:`~modquad_gym.sim.pictures.inputs_panel`: one line per rotor, the failed ones drawn thick
 and dashed in red, or a heat map for many rotors with the failed rows framed), a vertical line at
 the failure time in both.
@@ -16,29 +16,30 @@ import numpy as np
 
 from modquad_gym.core.outputs import save_figure
 from modquad_gym.sim.fault_flight import GOAL_M, FaultFlight
-from modquad_gym.sim.pictures import MAX_LINES, _plt, inputs_panel
-from modquad_gym.sim.track_pictures import error_panel
+from modquad_gym.sim.pictures import MAX_LINES, inputs_panel
 
 BEFORE, AFTER, FAILURE = "tab:blue", "tab:orange", "tab:red"
+
+MIN_SCALE_CM = 0.1
+"""The error panel shows at least 0 to 1 mm: a flight held to round-off stays a flat line."""
 
 
 def plot_fault_flight(flight: FaultFlight, path: str | Path, label: str = "") -> None:
     """Write :func:`fault_flight_figure` to ``path`` (PNG)."""
-    fig = fault_flight_figure(flight, label)
-    save_figure(fig, path, dpi=120)
-    _plt().close(fig)
+    save_figure(fault_flight_figure(flight, label), path, dpi=120)
 
 
 def fault_flight_figure(flight: FaultFlight, label: str = ""):
-    """The figure of the module docstring; a pyplot figure (close it)."""
-    plt = _plt()
+    """The figure of the module docstring (a ``matplotlib.figure.Figure``, no pyplot)."""
+    from matplotlib.figure import Figure
+
     run, failure = flight.run, flight.failure
-    fig = plt.figure(figsize=(13, 7.5))
+    fig = Figure(figsize=(13, 7.5))
     grid = fig.add_gridspec(2, 2, width_ratios=[1, 1.5])
     _path_panel(fig.add_subplot(grid[:, 0], projection="3d"), flight)
     ax_err = fig.add_subplot(grid[0, 1])
     ax_u = fig.add_subplot(grid[1, 1], sharex=ax_err)
-    error_panel(ax_err, run.t, 100 * run.position_error, 100 * GOAL_M)
+    _error_panel(ax_err, run.t, 100 * run.position_error, 100 * GOAL_M)
     ax_err.set_ylabel("position error [cm]")
     ax_err.set_title(
         f"after the failure: max {_cm(flight.max_position_error_m)}, "
@@ -70,17 +71,19 @@ def _title(flight: FaultFlight, label: str) -> str:
     tolerant = "tolerates" if flight.worst.tolerates else "does NOT tolerate"
     head = f"{label}: " if label else ""
     task = f" - task {flight.task_name}" if flight.task_name else ""
-    margin = flight.worst.margin
+    margin, delay = flight.worst.margin, flight.failure.detection_delay_s
     left = f"{margin:.3g}" if np.isfinite(margin) else "-inf: off the working rotors' span"
     return (
         f"{head}{s.n_modules} modules, {tolerant} any single {flight.fault} failure{task}\n"
         f"{flight.flight}: the worst failure ({what}, margin after it "
-        f"{left}) at t = {flight.failure.time_s:.3g} s, known "
-        f"{flight.failure.detection_delay_s:g} s later"
+        f"{left}) at t = {flight.failure.time_s:.3g} s, "
+        + (f"known {delay:g} s later" if delay > 0 else "known at once")
     )
 
 
 def _cm(metres: float) -> str:
+    if metres < 1e-4:
+        return "under 0.1 mm"
     return f"{100 * metres:.3g} cm" if metres < 1.0 else f"{metres:.3g} m"
 
 
@@ -111,6 +114,22 @@ def _path_panel(ax, flight: FaultFlight) -> None:
     ax.set_ylabel(f"y [{unit}]")
     ax.set_zlabel(f"z [{unit}]")
     ax.set_title("COM path" + (" about home" if hover else ""), fontsize=10)
+    ax.legend(loc="upper left", fontsize=8)
+
+
+def _error_panel(ax, t: np.ndarray, error_cm: np.ndarray, goal_cm: float) -> None:
+    """Position error over time, the y-axis scaled to the data (at least MIN_SCALE_CM); the goal
+    a dashed line where it lies within 3x that scale, else named in the legend."""
+    finite = error_cm[np.isfinite(error_cm)]
+    top = max(1.15 * float(finite.max(initial=0.0)), MIN_SCALE_CM)
+    ax.plot(t, error_cm, color=BEFORE, lw=1, label="position error")
+    if goal_cm <= 3.0 * top:
+        ax.axhline(goal_cm, ls="--", color=FAILURE, lw=1, label=f"goal {goal_cm:g} cm")
+        top = max(top, 1.15 * goal_cm)
+    else:
+        ax.plot([], [], ls="--", color=FAILURE, lw=1,
+                label=f"goal {goal_cm:g} cm (above this scale)")  # fmt: skip
+    ax.set_ylim(0.0, 1.15 * top)
     ax.legend(loc="upper left", fontsize=8)
 
 

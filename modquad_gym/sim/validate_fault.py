@@ -1,0 +1,127 @@
+"""A validation through a failure: a structure and the intact minimum of its task flown through
+their worst single failure (:func:`modquad_gym.sim.fault_flight.fly_with_failure`), the pictures
+(:mod:`modquad_gym.sim.fault_pictures`), a section of ``report.md`` and the JSON keys
+(``modquad validate --fault rotor|module``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.sim.fault_flight import FaultFlight, fly_with_failure
+from modquad_gym.sim.fault_pictures import plot_fault_flight
+
+FAULT_FILES = ("fault_flight.png", "fault_flight_intact_minimum.png")
+"""The pictures :func:`validate_with_failure` writes (the second with an intact minimum)."""
+
+
+def intact_record(flight: FaultFlight) -> dict:
+    """The comparison record of the intact minimum: its cells, size, module types, whether it
+    tolerates the fault, its worst margin and its ``fault_*`` flight keys."""
+    s = flight.structure
+    record = flight.summary()
+    return {
+        "cells": [list(c) for c in s.cells],
+        "n_modules": s.n_modules,
+        "modules": [m.name for m in s.modules],
+        "tolerates": flight.worst.tolerates,
+        "worst_fault_margin": record.pop("fault_worst_margin"),
+        **{k: v for k, v in record.items() if k not in ("fault", "fault_tolerates")},
+    }
+
+
+def validate_with_failure(
+    structure: Structure,
+    task,
+    fault: str,
+    intact: Structure | None = None,
+    out_dir: str | Path | None = None,
+    **options,
+) -> dict:
+    """Fly ``structure`` through its worst failure (:func:`fly_with_failure`, ``options``
+    passed on) and, when given, the intact minimum ``intact`` through its own worst failure of
+    the same kind; with ``out_dir`` the pictures ``fault_flight.png`` and
+    ``fault_flight_intact_minimum.png`` (:func:`~modquad_gym.sim.fault_pictures.plot_fault_flight`).
+
+    Returns the ``fault_*`` keys of ``structure``'s flight, ``intact_minimum``
+    (:func:`intact_record`, or None without ``intact``) and ``fault_files`` (picture paths)."""
+    flight = fly_with_failure(structure, task, fault, **options)
+    record = flight.summary()
+    other = fly_with_failure(intact, task, fault, **options) if intact is not None else None
+    record["intact_minimum"] = intact_record(other) if other is not None else None
+    record["fault_files"] = {}
+    if out_dir is not None:
+        d = Path(out_dir)
+        d.mkdir(parents=True, exist_ok=True)
+        plot_fault_flight(flight, d / FAULT_FILES[0], label="found structure")
+        record["fault_files"]["fault_flight"] = str(d / FAULT_FILES[0])
+        if other is not None:
+            plot_fault_flight(other, d / FAULT_FILES[1], label="intact minimum")
+            record["fault_files"]["fault_flight_intact_minimum"] = str(d / FAULT_FILES[1])
+    return record
+
+
+def fault_markdown(record: dict, n_modules: int | str = "") -> str:
+    """The section of ``report.md`` on the flight through the failure (``n_modules``: the
+    found structure's size)."""
+
+    def row(name: str, r: dict, n_modules, tolerates) -> str:
+        err = r.get("fault_max_position_error_m")
+        err_text = "n/a" if err is None else f"{100 * err:.3g} cm"
+        part = f"module {r['fault_failed_module']} at {r['fault_failed_cell']}"
+        if r.get("fault_failed_rotor_in_module") is not None:
+            part = f"rotor {r['fault_failed_rotor_in_module']} of {part}"
+        margin_ = r.get("fault_worst_margin", r.get("worst_fault_margin"))
+        return (
+            f"| {name} | {n_modules} "
+            f"| {'yes' if tolerates else 'no'} | {_fmt(margin_)} | {part} "
+            f"| {r['fault_time_s']:.3g} s | {err_text} "
+            f"| {100 * r['fault_saturated_fraction']:.3g} % "
+            f"| {r.get('fault_diverged') or 'no'} |"
+        )
+
+    lines = [
+        f"## Flight through a {record['fault']} failure",
+        "",
+        f"The {record['fault']} failure that leaves the smallest margin over the task's rotor "
+        f"wrenches strikes during the {record['fault_flight']} (its thrust forced to 0; halfway, "
+        "or for a trajectory half a second before the moment it hurts most if that comes "
+        "earlier); "
+        f"{record['fault_detection_delay_s']:g} s later the allocator and the gains drop its "
+        "columns. Errors and saturation (some working rotor at 0 or f_max) are measured from "
+        "the failure on; a tolerant structure should stay within 5 cm.",
+        "",
+        "| structure | modules | tolerates | worst margin | failed | at | max position error "
+        "after | saturated after | diverged |",
+        "|---|---|---|---|---|---|---|---|---|",
+        row("found", record, n_modules, record["fault_tolerates"]),
+    ]
+    intact = record.get("intact_minimum")
+    if intact:
+        lines.append(row("intact minimum", intact, intact["n_modules"], intact["tolerates"]))
+    lines.append("")
+    for path in (record.get("fault_files") or {}).values():
+        lines.append(f"![{Path(path).stem}]({Path(path).name})")
+    return "\n".join(lines) + "\n"
+
+
+def _fmt(x) -> str:
+    return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.3g}"
+
+
+def add_to_report(out_dir: str | Path, report: dict, record: dict) -> dict:
+    """``report`` (a validation record) with the fault ``record`` merged in (pictures into
+    ``files``), ``report.md`` extended by :func:`fault_markdown` and ``validation.json``
+    rewritten; returns the merged record."""
+    from modquad_gym.core.outputs import write_text
+
+    merged = {**report, **{k: v for k, v in record.items() if k != "fault_files"}}
+    merged["files"] = {**(report.get("files") or {}), **record.get("fault_files", {})}
+    d = Path(out_dir)
+    text = (d / "report.md").read_text() if (d / "report.md").exists() else ""
+    write_text(d / "report.md", text + "\n" + fault_markdown(record, report.get("n_modules", "")))
+    write_text(d / "validation.json", json.dumps(merged, indent=2) + "\n")
+    return merged
