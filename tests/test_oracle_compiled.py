@@ -94,7 +94,7 @@ def test_remembered_directions_keep_answers_across_calls():
     for seed in range(6):
         W = wrenches_at(z, seed, np.linspace(0.2, 3.0, 40))
         np.testing.assert_array_equal(decide_with(z, W, "compiled"), reference(Zonotope(A), W))
-    assert z.prepared["compiled"][1][2][0] > 0  # directions were remembered
+    assert z.kernel[1][2][0] > 0  # directions were remembered
 
 
 SHAPES = {

@@ -19,7 +19,7 @@ EXTRA_OF = {
     "pygame": "viz",
     "moviepy": "viz",
     "plotly": "viz",
-    "cvxpy": "reference",
+    "cvxpy": "test",
     "ray": "distributed",
 }
 """Top-level module name -> the extra of ``pip install 'modquad_gym[extra]'`` that brings it."""

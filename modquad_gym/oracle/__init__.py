@@ -19,18 +19,16 @@ each, behind the name -> backend table :data:`~modquad_gym.oracle.backends.BACKE
     the DAQP LP for the undecided rest. The env and the searches decide this way. Margins: the
     DAQP gamma for ``"auto"`` (unchanged values), the same walk run to the optimum for
     ``"compiled"`` (10-80x faster, the fast choice at 64 modules).
-``"certified"`` (:mod:`~modquad_gym.oracle.certified`)
-    The same certificates in vectorised numpy (Douglas-Rachford iterations), no compilation.
 ``"daqp"`` (:mod:`~modquad_gym.oracle.daqp_lp`)
-    One dense active-set LP per wrench.
+    One dense active-set LP per wrench: the exact fallback, and the searches' method while
+    their work is small (no compilation to load).
 ``"scipy"`` (:mod:`~modquad_gym.oracle.highs_lp`)
     HiGHS through ``scipy.optimize.linprog``: the plain reference.
-``"cvxpy"`` (:mod:`~modquad_gym.oracle.cvxpy_lp`)
-    The paper's LP in cvxpy: the readable reference.
-``"hrep"`` (:mod:`~modquad_gym.oracle.hrep`)
-    The exact H-representation by hyperplane shifting: for large batches against one structure.
-``"quickhull"`` (:mod:`~modquad_gym.oracle.quickhull`)
-    The paper's Algorithm 1; exponential, up to 3 modules, a cross-check only.
+
+The cross-check methods (the certificates in numpy, the paper's LP in cvxpy, the
+H-representation and the paper's Algorithm 1) live beside the tests
+(``tests/reference_oracle``), which add them to the table as one row each: no product path uses
+them.
 
 The LPs themselves are built in one place, :mod:`~modquad_gym.oracle.lp` (used by
 :func:`allocate`, :func:`lambda_ratio`, the methods and the hover); the entry points live in

@@ -132,8 +132,8 @@ def lambda_ratio(
     A: np.ndarray, W: np.ndarray, f_max: float = 1.0, method: str = "scipy"
 ) -> np.ndarray:
     """The paper's measure per wrench: lambda* / |w| with (errata 1, an LP)
-    ``max lambda s.t. A u = lambda w_hat, lo <= u <= hi``, solved by HiGHS (``method="scipy"``)
-    or the cvxpy problem (``method="cvxpy"``).
+    ``max lambda s.t. A u = lambda w_hat, lo <= u <= hi``, solved by HiGHS
+    (``method="scipy"``).
 
     The same tolerance rule as :func:`feasible`: the thrust bounds are widened to
     ``[-TOL f_max / 2, (1 + TOL / 2) f_max]`` (the zonotope scaled by 1 + TOL about its centre),

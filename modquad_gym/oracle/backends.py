@@ -15,13 +15,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from modquad_gym.oracle.certified import decide_reduced
 from modquad_gym.oracle.compiled import decide_compiled, gamma_compiled, screen_compiled
-from modquad_gym.oracle.cvxpy_lp import gamma_cvxpy, ray_cvxpy
 from modquad_gym.oracle.daqp_lp import gamma_daqp
 from modquad_gym.oracle.highs_lp import gamma_highs, ray_highs
-from modquad_gym.oracle.hrep import decide_hrep, gamma_hrep
-from modquad_gym.oracle.quickhull import gamma_quickhull
 from modquad_gym.oracle.tolerance import TOL, decide_from_gamma, margin_from_gamma
 
 if TYPE_CHECKING:
@@ -72,12 +68,8 @@ class Backend:
 BACKENDS: dict[str, Backend] = {
     "auto": Backend(gamma_daqp, decide_compiled, True, screen=screen_compiled),
     "compiled": Backend(gamma_compiled, decide_compiled, True, screen=screen_compiled),
-    "certified": Backend(gamma_daqp, decide_reduced, margin_sign_from_decide=True),
     "daqp": Backend(gamma_daqp),
     "scipy": Backend(gamma_highs, ray=ray_highs),
-    "cvxpy": Backend(gamma_cvxpy, ray=ray_cvxpy),
-    "hrep": Backend(gamma_hrep, decide_hrep),
-    "quickhull": Backend(gamma_quickhull),
 }
 
 METHODS = tuple(BACKENDS)
@@ -87,7 +79,7 @@ METHODS = tuple(BACKENDS)
 def check_method(method: str) -> str:
     """``method`` when it names a backend, else a ValueError listing them."""
     if method not in BACKENDS:
-        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(BACKENDS)}")
     return method
 
 

