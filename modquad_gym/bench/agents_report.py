@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from modquad_gym.bench import machine_description
-from modquad_gym.bench.scores import Row, summarise
+from modquad_gym.bench.scores import Row, config_limit, share_limit, summarise
 from modquad_gym.bench.tiers import TIERS, get_tier
 from modquad_gym.core.outputs import write_text
 from modquad_gym.search import SEARCHES
@@ -332,34 +332,6 @@ def _rel(path: Path) -> str:
         return str(Path(path).resolve().relative_to(Path.cwd()))
     except ValueError:
         return str(path)
-
-
-def config_limit(goal: float | str | None, searches: dict[str, float]) -> tuple[float | None, str]:
-    """(most configurations per task that meet ``goal``, the goal in words) given each search's
-    configurations per task: ``goal`` a share of the exhaustive search's, a search's name (fewer
-    than it), or None (fewer than every search but random); (None, why) when not decidable."""
-    if isinstance(goal, float):
-        if "exhaustive" not in searches:
-            return None, "exhaustive not run"
-        limit = goal * searches["exhaustive"]
-        return limit, f"<= {100 * goal:.0f} % of exhaustive, {limit:.1f}"
-    rivals = {m: e for m, e in searches.items() if m == goal or (goal is None and m != "random")}
-    if not rivals:
-        return None, f"{goal or 'no search'} not run"
-    best = min(rivals, key=rivals.get)
-    less = rivals[best] - 1e-9  # strictly fewer
-    return less, f"< {best}" + ("" if goal else ", the fewest but random")
-
-
-def share_limit(goal: float | str, shares: dict[str, float]) -> tuple[float | None, str]:
-    """(least share that meets ``goal``, the goal in words) given each search's share of the
-    metric: ``goal`` a share, or a search's name (at least its share); (None, why) when that
-    search was not run."""
-    if not isinstance(goal, str):
-        return goal, f"{100 * goal:.0f} %"
-    if goal not in shares:
-        return None, f"{goal} not run"
-    return shares[goal] - 1e-9, f">= {goal}'s {100 * shares[goal]:.1f} %"
 
 
 def _share_goal(by: dict, metric: str, goal: float | str) -> tuple[float | None, str]:

@@ -1,6 +1,7 @@
 """What an agent benchmark run yields: one :class:`Row` per (method, task) and the per-method
-summary over the goals' scope (:mod:`.benchmark` makes the rows, :mod:`.report` writes them;
-the goals are the tier's, :attr:`.tiers.Tier.goals`)."""
+summary over the goals' scope (:mod:`.agents` makes the rows, :mod:`.agents_report` writes them),
+and what meets a goal (:func:`config_limit`, :func:`share_limit`; the goals are the tier's,
+:attr:`.tiers.Tier.goals`)."""
 
 from __future__ import annotations
 
@@ -64,3 +65,31 @@ def summarise(rows: list[Row], methods: list[str], n_max: int) -> list[dict]:
             "mean_seconds": float(np.mean([r.seconds for r in rs])),
         })  # fmt: skip
     return out
+
+
+def config_limit(goal: float | str | None, searches: dict[str, float]) -> tuple[float | None, str]:
+    """(most configurations per task that meet ``goal``, the goal in words) given each search's
+    configurations per task: ``goal`` a share of the exhaustive search's, a search's name (fewer
+    than it), or None (fewer than every search but random); (None, why) when not decidable."""
+    if isinstance(goal, float):
+        if "exhaustive" not in searches:
+            return None, "exhaustive not run"
+        limit = goal * searches["exhaustive"]
+        return limit, f"<= {100 * goal:.0f} % of exhaustive, {limit:.1f}"
+    rivals = {m: e for m, e in searches.items() if m == goal or (goal is None and m != "random")}
+    if not rivals:
+        return None, f"{goal or 'no search'} not run"
+    best = min(rivals, key=rivals.get)
+    less = rivals[best] - 1e-9  # strictly fewer
+    return less, f"< {best}" + ("" if goal else ", the fewest but random")
+
+
+def share_limit(goal: float | str, shares: dict[str, float]) -> tuple[float | None, str]:
+    """(least share that meets ``goal``, the goal in words) given each search's share of the
+    metric: ``goal`` a share, or a search's name (at least its share); (None, why) when that
+    search was not run."""
+    if not isinstance(goal, str):
+        return goal, f"{100 * goal:.0f} %"
+    if goal not in shares:
+        return None, f"{goal} not run"
+    return shares[goal] - 1e-9, f">= {goal}'s {100 * shares[goal]:.1f} %"

@@ -32,8 +32,7 @@ from scipy import stats
 
 from modquad_gym.bench import machine_description
 from modquad_gym.bench.agents import SEARCH_METHODS, run_benchmark
-from modquad_gym.bench.agents_report import config_limit, share_limit
-from modquad_gym.bench.scores import Row
+from modquad_gym.bench.scores import Row, config_limit, share_limit
 from modquad_gym.bench.tiers import TIERS, get_tier
 from modquad_gym.core.options import int_option
 from modquad_gym.core.outputs import check_output_dir, save_figure, write_csv, write_text
