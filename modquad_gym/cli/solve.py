@@ -275,4 +275,5 @@ def worst_fault_margin(task, result) -> float | None:
     if result.structure is None:
         return None
     W = task.rotor_wrenches(result.structure)
-    return float(fault_margin(result.structure, W, task.f_max, fault=result.fault).min())
+    margins = fault_margin(result.structure, W, task.f_max, fault=result.fault, method="compiled")
+    return float(margins.min())

@@ -45,6 +45,7 @@ from modquad_gym.search.moves import compact_shapes, relocations, removable
 from modquad_gym.search.problem import (
     DEFAULT_TIME_LIMIT,
     EXACT_MODULES,
+    FAULT_BLOCK,
     MAX_MODULES,
     SearchProblem,
     check_time_limit,
@@ -108,7 +109,8 @@ class ExactLevels:
         if p.homogeneous_total:
             if level_excluded(p.wrenches, p.f_max, p.module, n):
                 return
-            for cells in PolyominoStream(n, self.chunk):
+            chunk = self.chunk if p.fault is None else min(self.chunk, FAULT_BLOCK)
+            for cells in PolyominoStream(n, chunk):
                 i = run.checker.first_feasible(cells)
                 if i is not None:
                     yield Structure.from_trusted(normalise(map(tuple, cells[i].tolist())), p.module)
@@ -302,7 +304,7 @@ def anytime_search(
     if lower > problem.n_max:
         return run.finish(None, lower, proof=_proof(problem))
     run.check_budget(MAX_MODULES, lower)
-    reserve = min(0.1 * time_limit, 2.0)  # the final verification by the exact LP
+    reserve = problem.verify_reserve(time_limit)  # the final verification by the exact LP
     deadline = run.t0 + time_limit - reserve
     exact = ExactLevels(run, lower, chunk)
     found = exact.advance(run.t0 + EXACT_SHARE * (time_limit - reserve))

@@ -31,10 +31,6 @@ from modquad_gym.search.result import SearchResult, SearchRun
 
 Candidate = tuple[tuple[Cell, int], ...]
 
-VERIFY_RESERVE = 2.0
-"""Seconds at most kept back from the time limit for the final verification by the exact LP
-(a tenth of the limit when that is less)."""
-
 
 def impossible_result(run: SearchRun, limit: int) -> SearchResult | None:
     """The result at once when the force (or count) bound rules out every size up to n_max;
@@ -67,11 +63,12 @@ def heuristic_result(run: SearchRun, structure: Structure | None) -> SearchResul
 
 class Deadline:
     """``time_limit`` seconds (checked: (0, one day]) from the run's start, less a reserve
-    (:data:`VERIFY_RESERVE`) for the final verification by the exact LP."""
+    (:meth:`~.problem.SearchProblem.verify_reserve`) for the final verification by the exact
+    LP."""
 
     def __init__(self, run: SearchRun, time_limit: object) -> None:
         self.time_limit = check_time_limit(time_limit)
-        reserve = min(0.1 * self.time_limit, VERIFY_RESERVE)
+        reserve = run.problem.verify_reserve(self.time_limit)
         self.at = run.t0 + self.time_limit - reserve
 
     def passed(self) -> bool:

@@ -45,6 +45,11 @@ DEFAULT_TIME_LIMIT = 60.0
 MAX_TIME_LIMIT = 86_400.0
 """The longest time limit accepted: one day."""
 
+FAULT_BLOCK = 8
+"""With a fault, the exact levels stop for the clock every this many structures (a structure
+that passes the intact task is decided failure by failure: up to a tenth of a second for a
+dynamic task of hundreds of samples)."""
+
 DYNAMIC = "dynamic"
 """The kind of a search problem whose wrenches depend on the structure's mass and inertia."""
 
@@ -174,6 +179,14 @@ class SearchProblem:
     def with_n_max(self, n_max: int) -> SearchProblem:
         """The same problem with another module budget."""
         return dataclasses.replace(self, n_max=n_max)
+
+    def verify_reserve(self, time_limit: float) -> float:
+        """Seconds kept back from ``time_limit`` for the final verification by the exact LP:
+        a tenth, at most 2 s; with a fault a quarter, at most 10 s (an LP per wrench and
+        failure)."""
+        if self.fault is None:
+            return min(0.1 * time_limit, 2.0)
+        return min(0.25 * time_limit, 10.0)
 
     def with_fault(self, fault: str | None) -> SearchProblem:
         """The same problem with another single failure to survive (None: none)."""

@@ -28,7 +28,7 @@ from modquad_gym.geometry.structure import Structure, normalise_typed
 from modquad_gym.search.bounds import allowed_counts, first_possible_level
 from modquad_gym.search.levels import LevelAnswer, level_progress, level_size
 from modquad_gym.search.partial import Partial
-from modquad_gym.search.problem import EXACT_MODULES, SearchProblem
+from modquad_gym.search.problem import EXACT_MODULES, FAULT_BLOCK, SearchProblem
 from modquad_gym.search.result import SearchRun
 
 MAX_PAIRS = 10**9
@@ -123,7 +123,8 @@ def level_pairs(run: SearchRun, n: int, assign: np.ndarray, part: Partial | None
     feasible (cells, types) pair in order, and None after each block of shapes (about
     ``PAIRS_PER_BLOCK`` pairs, at least one shape): a point where a caller may stop for the
     clock."""
-    per_block = max(1, PAIRS_PER_BLOCK // len(assign))
+    pairs = PAIRS_PER_BLOCK if run.problem.fault is None else FAULT_BLOCK
+    per_block = max(1, pairs // len(assign))
     for shapes in PolyominoStream(n, max(per_block, 1024)):
         for start in range(0, len(shapes), per_block):
             block = shapes[start : start + per_block]
