@@ -35,6 +35,7 @@ from modquad_gym.search.exhaustive import (
     scan_chunks,
 )
 from modquad_gym.search.genetic import genetic_search
+from modquad_gym.search.milp import milp_search
 from modquad_gym.search.problem import SearchProblem
 from modquad_gym.search.result import Optima, SearchResult, verified
 
@@ -46,6 +47,7 @@ SEARCHES = {
     "anytime": anytime_search,
     "beam": beam_search,
     "genetic": genetic_search,
+    "milp": milp_search,
 }
 """The searches by name (the CLI's ``--method``)."""
 
