@@ -217,7 +217,7 @@ def test_count_bound_never_rejects_a_feasible_structure():
             s = random_mixed(rng, int(rng.integers(1, 7)), pal)
             task = planted_mixed(rng, s, kind=kind, slack=0.0)
             counts = [sum(m is p for m in s.modules) for p in pal]
-            assert counts_possible(task.wrenches, pal, [counts], 1.0, kind)[0]
+            assert counts_possible(task.wrench_model, pal, [counts], 1.0)[0]
     assert len(count_vectors(7, 3)) == math.comb(9, 2)
 
 

@@ -53,9 +53,9 @@ def task_of(seed):
 def test_problem_is_built_once_and_validated():
     p = SearchProblem.build([[0, 0, 2.0, 0, 0, 0]], n_max=5, modules=T + T[:1])
     assert p.palette == tuple(T) and p.typed and p.kind == "total" and p.n_max == 5
-    assert not p.homogeneous_total and p.with_n_max(9).n_max == 9
+    assert not p.shape_only and p.with_n_max(9).n_max == 9
     one = SearchProblem.build(mq.TaskRequirement([[0, 0, 2.0, 0, 0, 0]], f_max=2.0))
-    assert one.f_max == 2.0 and one.homogeneous_total and not one.typed
+    assert one.f_max == 2.0 and one.shape_only and not one.typed
     with pytest.raises(AttributeError):
         one.n_max = 3  # frozen
     for bad, match in [

@@ -77,7 +77,7 @@ def random_task(seed: int) -> dy.DynamicTask:
 def test_dynamic_problem_and_rotor_wrenches():
     task = dy.circle(speed=1.5, heading="tangent", payload=dy.Payload(0.2, (0.1, 0.0, -0.1)))
     p = SearchProblem.build(task, n_max=5)
-    assert p.kind == "dynamic" and not p.homogeneous_total and p.model is not None
+    assert p.kind == "dynamic" and not p.shape_only and p.model is not None
     s = mq.Structure([(0, 0), (1, 0), (1, 1)])
     direct = mq.required_wrenches(s, task.trajectory, task.payload)
     got = p.rotor_wrenches(s)

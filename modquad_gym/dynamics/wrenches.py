@@ -161,6 +161,34 @@ class LinearWrenches:
             a.setflags(write=False)
         return cls(base, per_mass, per_inertia)
 
+    @classmethod
+    def of_static(cls, wrenches: np.ndarray, carries_weight: bool = False) -> LinearWrenches:
+        """The model of static task wrenches (t, 6): the wrenches themselves, plus the
+        structure's weight ``m g e_z`` when the rotors also carry it (a task of kind
+        ``external``; the weight acts at the COM, so it adds no torque)."""
+        base = np.array(wrenches, dtype=float)
+        per_mass = np.zeros_like(base)
+        if carries_weight:
+            per_mass[:, 2] = GRAVITY
+        per_inertia = np.zeros((len(base), 6, 6))
+        for a in (base, per_mass, per_inertia):
+            a.setflags(write=False)
+        return cls(base, per_mass, per_inertia)
+
+    @property
+    def uses_mass(self) -> bool:
+        """True when the wrenches depend on the structure's mass."""
+        return bool(np.any(self.per_mass))
+
+    @property
+    def lift_per_kg(self) -> float | None:
+        """The structure's weight term when every row carries the same ``c e_z`` per kg (c;
+        0.0 when the wrenches do not depend on the mass), None otherwise."""
+        p = self.per_mass
+        if not len(p) or np.any(p[:, [0, 1, 3, 4, 5]]) or np.any(p[:, 2] != p[0, 2]):
+            return None if len(p) else 0.0
+        return float(p[0, 2])
+
     @property
     def uses_inertia(self) -> bool:
         """False when the wrenches depend on the structure through its mass alone."""

@@ -77,7 +77,7 @@ class ExactLevels:
         p = self.problem
         if n > min(p.n_max, EXACT_MODULES):
             return False
-        if p.homogeneous_total:
+        if p.shape_only:
             return True
         size = level_size(n)  # None past the tabulated counts: far beyond MAX_PAIRS
         return size is not None and size * len(p.palette) ** n <= MAX_PAIRS
@@ -106,7 +106,7 @@ class ExactLevels:
     def _level(self, n: int):
         """Generator over level n: None after each chunk, then the first feasible structure."""
         p, run = self.problem, self.run
-        if p.homogeneous_total:
+        if p.shape_only:
             if level_excluded(p.wrenches, p.f_max, p.module, n):
                 return
             chunk = self.chunk if p.fault is None else min(self.chunk, FAULT_BLOCK)
@@ -276,7 +276,7 @@ class Incumbents:
 
 def _proof(problem: SearchProblem) -> str:
     """Why no level up to n_max is left, in the words of the bound that says so."""
-    if problem.homogeneous_total:
+    if problem.shape_only:
         n = force_lower_bound(problem.wrenches, problem.module, problem.f_max, problem.fault)
         if n == NO_SIZE:
             return "force bound: no number of modules can exert the task's forces"

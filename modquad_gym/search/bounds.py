@@ -54,9 +54,9 @@ from modquad_gym.geometry.polyominoes import A001168, PolyominoStream
 from modquad_gym.oracle import RESIDUAL_TOL, TOL
 from modquad_gym.oracle.tolerance import SUPPORT_SLACK
 from modquad_gym.search.dynamic import DynamicValues, force_needs
-from modquad_gym.tasks import rotor_wrenches
 
 if TYPE_CHECKING:
+    from modquad_gym.dynamics import LinearWrenches
     from modquad_gym.search.problem import SearchProblem
 
 NO_SIZE = 10**9
@@ -125,20 +125,19 @@ def count_vectors(n: int, k: int) -> np.ndarray:
 
 
 def counts_possible(
-    W: np.ndarray,
+    model: LinearWrenches,
     palette: list[ModuleType],
     counts: np.ndarray,
     f_max: float = 1.0,
-    kind: str = "total",
-    model=None,
     fault: str | None = None,
 ) -> np.ndarray:
     """bool (C,): False where the count vector (row of ``counts``, one count per palette type)
-    certainly cannot exert the task's forces, whatever the shape (module docstring). Exact:
-    a structure the oracle accepts always passes. A ``dynamic`` task gives its wrench
-    ``model`` (W is then its structure-independent part). With a ``fault`` the capacity
-    left after the worst single failure of a type present in the counts is used (a module's
-    whole force support, or its strongest rotor's in each direction; the mass stays)."""
+    certainly cannot exert the task's forces, whatever the shape (module docstring), for the
+    task's wrench ``model`` (each count vector's own mass: its weight, a dynamic task's
+    inertial forces). Exact: a structure the oracle accepts always passes. With a ``fault``
+    the capacity left after the worst single failure of a type present in the counts is used
+    (a module's whole force support, or its strongest rotor's in each direction; the mass
+    stays)."""
     counts = np.atleast_2d(np.asarray(counts, dtype=float))
     N = force_normals(palette)  # (k, 3)
     proj = [N @ m.directions.T for m in palette]  # each (k, r)
@@ -152,14 +151,11 @@ def counts_possible(
             loss = f_max * np.array([np.maximum(p, 0.0).max(axis=1) for p in proj])
         present = counts > 0  # (C, K)
         cap = cap - np.where(present[:, :, None], loss[None], 0.0).max(axis=1)
-    if model is not None:  # dynamic: the demand of each count vector's own mass
+    if model.uses_mass:  # the demand of each count vector's own mass
         need = force_needs(model, N, counts @ np.array([m.mass for m in palette]))
     else:
-        need = np.broadcast_to((W[:, :3] @ N.T).max(axis=0), cap.shape).copy()
-    if kind == "external":
-        weight = counts @ np.array([m.weight for m in palette])  # (C,)
-        need = need + weight[:, None] * N[:, 2][None, :]
-    scale = 1.0 + float(np.abs(W).max()) + (float(np.max(need)) if need.size else 0.0)
+        need = np.broadcast_to((model.base[:, :3] @ N.T).max(axis=0), cap.shape).copy()
+    scale = 1.0 + float(np.abs(model.base).max()) + (float(np.max(need)) if need.size else 0.0)
     slack = RESIDUAL_TOL * scale + SUPPORT_SLACK
     return ~np.any(need > cap + slack, axis=1)
 
@@ -277,17 +273,12 @@ def counts_left(problem: SearchProblem, n: int) -> tuple[np.ndarray, np.ndarray]
     bound and, for one type alone, the level bound leave."""
     p = problem
     counts = count_vectors(n, len(p.palette))
-    ok = counts_possible(p.wrenches, list(p.palette), counts, p.f_max, p.kind, p.model, p.fault)
+    ok = counts_possible(p.model, list(p.palette), counts, p.f_max, p.fault)
     for i, c in enumerate(counts):
         if ok[i] and int(c.max()) == n:  # one type alone: the level bounds apply
             m = p.palette[int(np.argmax(c))]
-            if p.model is not None:
-                values = DynamicValues(p.model, [m]).values(level_directions(), n * m.mass, n)
-                ok[i] = not values_excluded(values, p.f_max, m, n)
-                continue
-            Wn = rotor_wrenches(p.wrenches, p.kind, n * m.mass)
-            if level_excluded(Wn, p.f_max, m, n):
-                ok[i] = False
+            values = DynamicValues(p.model, [m]).values(level_directions(), n * m.mass, n)
+            ok[i] = not values_excluded(values, p.f_max, m, n)
     return counts, ok
 
 
@@ -310,10 +301,9 @@ def first_possible_level(problem: SearchProblem) -> tuple[int, str]:
     p = problem
     for n in range(1, p.n_max + 1):
         counts = count_vectors(n, len(p.palette))
-        palette = list(p.palette)
-        if counts_possible(p.wrenches, palette, counts, p.f_max, p.kind, p.model, p.fault).any():
+        if counts_possible(p.model, list(p.palette), counts, p.f_max, p.fault).any():
             return n, ""
-    lift = " and lift its own weight" if p.kind in ("external", "dynamic") else ""
+    lift = " and lift its own weight" if p.model.uses_mass else ""
     return (
         NO_SIZE,
         f"count bound: no mix of up to {p.n_max} modules can exert the task's forces{lift}",
@@ -335,7 +325,7 @@ def bound_levels(problem: SearchProblem) -> int:
     vector) and the level bounds of one type alone. Proved: no structure of fewer modules
     satisfies the task."""
     p = problem
-    if p.homogeneous_total:
+    if p.shape_only:
         n = force_lower_bound(p.wrenches, p.module, p.f_max, p.fault)
         if n == NO_SIZE:
             return p.n_max + 1

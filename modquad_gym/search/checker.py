@@ -8,11 +8,13 @@ from the cells (:mod:`.supports`). Exact, not a heuristic. The survivors go to t
 oracle, whose rejections teach the cache new directions.
 
 Structures may mix module types: ``types`` (L, n) holds each module's index into the checker's
-palette. For a task of kind ``external`` each structure is decided against the rotor wrenches
-w + M g e_z of its own mass M (:func:`modquad_gym.tasks.rotor_wrenches`); for one of kind
-``dynamic`` against the wrenches of its mass and inertia (the task's wrench model), and a cached
-direction rejects it only when a lower bound of the task's value for its mass and size exceeds
-its support (:class:`~modquad_gym.search.dynamic.DynamicValues`).
+palette. The task comes as its wrench model (:class:`~modquad_gym.dynamics.LinearWrenches`):
+each structure is decided against its own rotor wrenches ``base + M per_mass + P j`` (its mass
+M and inertia j). Where every wrench gains the same ``c M e_z`` (the structure's weight, or
+nothing) a cached direction's task value is exact for every structure, the weight added in
+compiled code; otherwise a cached direction rejects a structure only when a lower bound of the
+task's value for its mass and size exceeds its support
+(:class:`~modquad_gym.search.dynamic.DynamicValues`).
 
 With a ``fault`` (``"rotor"`` or ``"module"``) a structure satisfies the task only when it still
 does after any single failure of that kind (:mod:`modquad_gym.oracle.faults`). A tolerant
@@ -26,6 +28,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from modquad_gym.dynamics import LinearWrenches
 from modquad_gym.geometry.inertia import inertia_vectors
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import (
@@ -36,7 +39,6 @@ from modquad_gym.geometry.structure import (
 from modquad_gym.oracle import TOL, Zonotope, decide_with
 from modquad_gym.oracle.faults import FaultTolerance, failure_sets
 from modquad_gym.search.dynamic import DynamicValues
-from modquad_gym.tasks import check_kind, rotor_wrenches
 
 POOL_SIZE = 512
 """How many separating directions are kept (most recent first)."""
@@ -53,10 +55,8 @@ LP_ROTORS = 32
 
 
 class TaskChecker:
-    """Decides a task (W, f_max, kind) against structures of the module types ``palette`` (one
-    type, or a list of types of one side), counting the work. A ``dynamic`` task gives its
-    wrench ``model`` (:class:`~modquad_gym.dynamics.LinearWrenches`); W is then its
-    structure-independent part.
+    """Decides a task (its wrench ``model``, f_max) against structures of the module types
+    ``palette`` (one type, or a list of types of one side), counting the work.
 
     Attributes:
         evaluated: structures whose feasibility against the whole task was decided.
@@ -65,30 +65,29 @@ class TaskChecker:
 
     def __init__(
         self,
-        W: np.ndarray,
+        model: LinearWrenches,
         f_max: float,
         palette: ModuleType | Sequence[ModuleType],
-        kind: str = "total",
-        model=None,
         fault: str | None = None,
     ) -> None:
-        self.W = W
+        self.model = model
+        self.W = model.base
         self.fault = fault
         self.f_max = f_max
         self.palette = [palette] if isinstance(palette, ModuleType) else list(palette)
         self.module = self.palette[0]
-        self.kind = check_kind(kind) if model is None else kind
-        self.dynamic = None if model is None else DynamicValues(model, self.palette)
+        lift = model.lift_per_kg if not model.uses_inertia else None
+        self.dynamic = None if lift is not None else DynamicValues(model, self.palette)
         self.evaluated = 0
         self.oracle_calls = 0
         masses = np.array([m.mass for m in self.palette])
         self.type_masses = masses
         # equal masses weigh the cells equally: the COM is the plain mean of the cells
         self._masses = np.ones(len(masses)) if np.all(masses == masses[0]) else masses
-        weights = [m.weight if self.kind == "external" else 0.0 for m in self.palette]
-        self._lift = np.array(weights)  # per type: m g for external tasks, else 0
+        self._lift = masses * (lift or 0.0)  # per type: its weight term (m g, or 0)
         # hardest wrenches first: by decreasing Euclidean norm (ties keep the task's order), so
         # an infeasible structure usually fails on an early batch
+        W = self.W
         if self.dynamic is not None:  # the order of the wrenches of one module
             W = self.dynamic.model.base + self.module.mass * self.dynamic.model.per_mass
         self.order = np.argsort(-np.linalg.norm(W, axis=1), kind="stable")
@@ -260,7 +259,7 @@ class TaskChecker:
         self.evaluated += 1
         z = Zonotope(A, self.f_max)
         if self.dynamic is None:
-            W = rotor_wrenches(self.W, self.kind, mass)[self.order]
+            W = self.model.at(mass)[self.order]
         else:
             W = self.dynamic.wrenches(mass, inertia)[self.order]
         start = 0

@@ -31,6 +31,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 
 from modquad_gym.core.validation import check_int
+from modquad_gym.dynamics import LinearWrenches
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream, level_chunks
 from modquad_gym.geometry.structure import Key, Structure, normalise, normalise_typed
@@ -107,7 +108,7 @@ def scan_chunks(
 ) -> ChunkScan:
     """Decide chunks [start, stop) of level n: the key of the first feasible structure or None,
     structures evaluated, oracle calls. ``pool`` seeds the separating directions."""
-    checker = _seeded_checker(TaskChecker(W, f_max, module), pool)
+    checker = _seeded_checker(TaskChecker(LinearWrenches.of_static(W), f_max, module), pool)
     key, _ = _first_key(checker, level_chunks(n, chunk, start, stop), None)
     return ChunkScan(key, checker.evaluated, checker.oracle_calls)
 
@@ -266,7 +267,7 @@ def _exhaustive(
     run: SearchRun, chunk: int, engine, progress: bool, first_only: bool, part, keep=None
 ) -> LevelAnswer:
     """The minimal level of ``run``'s problem: the one-type search or the typed one."""
-    if run.problem.homogeneous_total:
+    if run.problem.shape_only:
         return _search_levels(run, chunk, engine, progress, first_only, part, keep)
     return search_typed(run, progress, first_only, part)
 
@@ -310,7 +311,7 @@ def exhaustive_search(
     answer = _exhaustive(run, chunk, engine, progress, True, part)
     if answer.n is None:
         return run.finish(None, problem.n_max + 1, answer.skipped, answer.proof)
-    if problem.homogeneous_total:
+    if problem.shape_only:
         structure = Structure.from_trusted(answer.found[0], problem.module)
     else:
         structure = typed_structure(problem, answer.found[0])
@@ -332,7 +333,7 @@ def optimal_level(
     run = SearchRun("exhaustive", problem)
     keep = None if max_keys is None else check_int(max_keys, "max_keys", low=1)
     answer = _exhaustive(run, check_int(chunk, "chunk", low=1), None, False, False, None, keep)
-    keys, typed = KeptKeys(keep), not run.problem.homogeneous_total  # typed: external task
+    keys, typed = KeptKeys(keep), not run.problem.shape_only  # typed: external task
     for found in answer.found:
         keys.add(typed_structure(run.problem, found).key if typed else found)
     return Optima(
@@ -361,7 +362,7 @@ def optimal_structures(
     search too)."""
     run = SearchRun("exhaustive", problem)
     answer = _exhaustive(run, check_int(chunk, "chunk", low=1), None, False, False, None)
-    if problem.homogeneous_total:
+    if problem.shape_only:
         return answer.n, answer.found
     structures = (typed_structure(problem, f) for f in answer.found)
     if problem.typed:

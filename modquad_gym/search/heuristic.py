@@ -37,7 +37,7 @@ def impossible_result(run: SearchRun, limit: int) -> SearchResult | None:
     else None, after refusing an n_max beyond ``limit`` (the method's reach)."""
     p = run.problem
     none_left = p.n_max + 1
-    if p.homogeneous_total:
+    if p.shape_only:
         n_lb = force_lower_bound(p.wrenches, p.module, p.f_max, p.fault)
         if n_lb == NO_SIZE:
             proof = "force bound: no number of modules can exert the task's forces"

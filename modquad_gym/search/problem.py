@@ -29,7 +29,7 @@ from modquad_gym.oracle import check_task_scale
 from modquad_gym.oracle.faults import check_fault, failure_sets
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.search.dynamic import compact
-from modquad_gym.tasks import check_kind, rotor_wrenches
+from modquad_gym.tasks import check_kind
 
 DEFAULT_MODULE = Structure([(0, 0)]).module
 
@@ -67,15 +67,17 @@ class SearchProblem:
     """A validated search problem (build it with :meth:`build` from a search's arguments).
 
     Attributes:
-        wrenches: (t, 6) task wrenches (the problem's own copy: do not modify it).
+        wrenches: (t, 6) the task's structure-independent wrenches (its model's base; the
+            problem's own copy: do not modify it).
         f_max: per-rotor thrust limit.
         n_max: the module budget: structures of 1..n_max modules are searched.
         palette: the module types, without repeats (one type for the paper's search).
-        kind: ``total``, ``external`` (the rotors also carry the structure's weight) or
-            ``dynamic`` (``model`` gives the wrenches from the structure's mass and inertia).
+        kind: the task's kind, a label for the results (``total``, ``external`` or
+            ``dynamic``); the searches read ``model``.
         typed: the caller gave a palette (``modules=``): results list each module's type.
-        model: the wrench model of a ``dynamic`` task (repeated samples dropped); then
-            ``wrenches`` is its structure-independent part (payload, exerted wrenches).
+        model: the task's rotor wrenches, linear in a structure's mass and inertia
+            (:class:`~modquad_gym.dynamics.LinearWrenches`; a dynamic task's with repeated
+            samples dropped). Made from ``wrenches`` and ``kind`` when not given.
         fault: None (every rotor works), ``"rotor"`` or ``"module"``: a structure satisfies
             the task only when it still does after any single failure of that kind
             (:func:`~modquad_gym.oracle.faults.tolerates`).
@@ -99,12 +101,11 @@ class SearchProblem:
         object.__setattr__(self, "f_max", f_max)
         object.__setattr__(self, "n_max", check_int(self.n_max, "n_max", low=1))
         object.__setattr__(self, "palette", tuple(check_palette(None, self.palette)))
-        if (self.kind == DYNAMIC) != (self.model is not None):
-            raise ValueError("a dynamic search problem needs its wrench model (and only it)")
         if self.model is None:
-            object.__setattr__(self, "kind", check_kind(self.kind))
+            kind = check_kind(self.kind)
+            model = LinearWrenches.of_static(W, carries_weight=kind == "external")
+            object.__setattr__(self, "model", model)
         else:
-            object.__setattr__(self, "model", compact(self.model))
             check_search_size(self.model.base)
             check_task_scale(self.model.per_mass, f_max)
         object.__setattr__(self, "typed", bool(self.typed))
@@ -146,9 +147,11 @@ class SearchProblem:
         return self.palette[0]
 
     @property
-    def homogeneous_total(self) -> bool:
-        """One module type and a ``total`` task: the paper's search, unchanged."""
-        return len(self.palette) == 1 and self.kind == "total"
+    def shape_only(self) -> bool:
+        """One module type and rotor wrenches that do not depend on the structure (the
+        paper's tasks): only the shapes are searched, the paper's search unchanged."""
+        m = self.model
+        return len(self.palette) == 1 and not m.uses_mass and not m.uses_inertia
 
     def failures(self, n_modules: int) -> list[np.ndarray]:
         """The column sets of the single failures of an ``n_modules`` structure (empty without
@@ -163,18 +166,12 @@ class SearchProblem:
         ``total`` and ``external`` tasks, and for ``dynamic`` ones whose wrenches do not
         depend on the inertia (ValueError otherwise)."""
         if isinstance(structure, Structure):
-            mass, inertia = structure.mass, structure.inertia
-        else:
-            mass, inertia = float(structure), None
-        if self.model is None:
-            return rotor_wrenches(self.wrenches, self.kind, mass)
-        return self.model.at(mass, inertia)
+            return self.model.at(structure.mass, structure.inertia)
+        return self.model.at(float(structure))
 
     def checker(self) -> TaskChecker:
         """A fresh :class:`TaskChecker` of this problem."""
-        return TaskChecker(
-            self.wrenches, self.f_max, self.palette, self.kind, self.model, self.fault
-        )
+        return TaskChecker(self.model, self.f_max, self.palette, self.fault)
 
     def with_n_max(self, n_max: int) -> SearchProblem:
         """The same problem with another module budget."""

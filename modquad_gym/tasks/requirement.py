@@ -11,6 +11,7 @@ import numpy as np
 
 from modquad_gym.core.outputs import atomic_write, write_text
 from modquad_gym.core.validation import check_f_max
+from modquad_gym.dynamics.wrenches import LinearWrenches
 from modquad_gym.tasks.csvfile import csv_text, read_csv
 from modquad_gym.tasks.examples import resolve_task_path
 from modquad_gym.tasks.files import (
@@ -101,6 +102,13 @@ class TaskRequirement:
             f"TaskRequirement(name={self.name!r}, n_wrenches={self.n_wrenches}, "
             f"f_max={self.f_max:g}{kind})"
         )
+
+    @property
+    def wrench_model(self) -> LinearWrenches:
+        """The rotor wrenches as a model linear in the structure's mass (the interface every
+        task shares with :class:`~modquad_gym.dynamics.DynamicTask`): the wrenches, plus the
+        weight for an ``external`` task."""
+        return LinearWrenches.of_static(self.wrenches, carries_weight=self.kind == "external")
 
     def rotor_wrenches(self, structure: Any = 0.0) -> np.ndarray:
         """(t, 6) what the rotors of ``structure`` (a Structure, or its mass in kg) must
