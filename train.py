@@ -10,7 +10,7 @@ in ``report/``); it refuses a run folder that exists unless ``--force``.
   ``--tier mixed`` on the mixed one (three module types: each action docks a (cell, type)).
 * ``--seeds 0 1 2 3 4`` trains one run per seed as parallel Ray tasks (an embedded Ray on the
   local cores, or the cluster of ``RAY_ADDRESS``), each into ``<out>/seed-S``; ``python -m
-  modquad_gym.bench.seeds`` then reports them over seeds (IQM with 95 % bootstrap intervals).
+  modquad_gym.scoring.seeds`` then reports them over seeds (IQM with 95 % bootstrap intervals).
 * ``--publish`` also installs the model as its tier's shipped model
   (``modquad_gym/data/models/ppo_default/`` on the current tier, ``ppo_<tier>/`` on others) and
   writes the report into ``results/`` (``results/tier_<tier>/``); ``--publish-run RUN`` does

@@ -23,10 +23,10 @@ from agents.training import (
     publish,
     train,
 )
-from modquad_gym.bench.agents import REPORT_FILES
-from modquad_gym.bench.tiers import TIERS
 from modquad_gym.core.options import int_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir
+from modquad_gym.scoring.agents import REPORT_FILES
+from modquad_gym.scoring.tiers import TIERS
 
 ROOT = Path(__file__).resolve().parents[1]
 INTEGER = int_option(-(2**63), 2**63)
@@ -373,7 +373,7 @@ def shown(path: Path) -> str:
 
 def report(args: argparse.Namespace, model_path: Path) -> None:
     """The benchmark report of ``model_path`` on its tier's held-out suites."""
-    from modquad_gym.bench import agents as benchmark
+    from modquad_gym.scoring import agents as benchmark
 
     model, out = shown(model_path), shown(args.report_dir)
     bench_args = ["--model", model, "--out", out, "--tier", args.tier, "--force"]

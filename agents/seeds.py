@@ -1,6 +1,6 @@
 """Training several seeds: one ``train.py`` run per seed of ``--seeds``, as parallel Ray tasks.
 
-``python -m modquad_gym.bench.seeds`` then reports the runs over seeds.
+``python -m modquad_gym.scoring.seeds`` then reports the runs over seeds.
 """
 
 from __future__ import annotations

@@ -28,10 +28,10 @@ from typing import Any
 
 from agents.checks import check_hyperparameters, check_numbers, check_publishable
 from agents.imitation import EXPERTS
-from modquad_gym.bench.tiers import get_tier
 from modquad_gym.core.extras import import_optional
 from modquad_gym.core.outputs import atomic_write, write_text
 from modquad_gym.policy.models import DEFAULT_MODEL
+from modquad_gym.scoring.tiers import get_tier
 from modquad_gym.tasks import GENERATORS
 
 RUN_FILES = ("model.zip", "config.json", "evaluations.npz")
@@ -188,8 +188,8 @@ def train(config: TrainConfig) -> Path:
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-    from modquad_gym.bench.suites import CyclingTasks, validation_tasks
     from modquad_gym.policy.ppo import make_env
+    from modquad_gym.scoring.suites import CyclingTasks, validation_tasks
 
     t_start = time.perf_counter()
     torch.set_num_threads(config.threads)
@@ -336,7 +336,7 @@ def run_record(config: TrainConfig, model: Any, n_validation: int) -> dict:
         "validation": {
             "n_tasks": n_validation,
             "source": config.validation_source,
-            "seeds": "modquad_gym.bench.suites.VALIDATION_SEED0 + i",
+            "seeds": "modquad_gym.scoring.suites.VALIDATION_SEED0 + i",
         },
         "torch_threads": config.threads,
         "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),

@@ -20,7 +20,7 @@ changes)::
 
     python benchmarks/leaderboard.py --solver my_agent:Agent --out my_board
 
-It follows the protocol of ``modquad bench agents --solver`` (docs/benchmarks.md, "Score your own
+It follows the protocol of ``modquad score --solver`` (docs/benchmarks.md, "Score your own
 agent"): told each tier's n_max, counted through the evaluator it is handed.
 """
 
@@ -85,8 +85,8 @@ def _point(v: float) -> tuple[float, float, float]:
 
 # --- reading the committed data ---------------------------------------------------------------
 def read_rows(path: Path):
-    """The per-task rows (:class:`~modquad_gym.bench.scores.Row`) of a benchmark CSV."""
-    from modquad_gym.bench.scores import Row
+    """The per-task rows (:class:`~modquad_gym.scoring.scores.Row`) of a benchmark CSV."""
+    from modquad_gym.scoring.scores import Row
 
     def num(v: str) -> int | None:
         return int(v) if v not in ("", None) else None
@@ -103,7 +103,7 @@ def read_rows(path: Path):
 def one_run(rows, tier, methods: Iterable[str], kind: str, source: str) -> list[Entry]:
     """Entries of ``methods`` from one run's per-task rows (the tasks whose optimum is within
     the tier's n_max, as every report of the project counts them)."""
-    from modquad_gym.bench.scores import summarise
+    from modquad_gym.scoring.scores import summarise
 
     out = []
     for s in summarise(rows, list(methods), tier.n_max):
@@ -121,9 +121,9 @@ def read_seeds(path: Path) -> list[dict]:
 def over_seeds(records: list[dict], tier, source: str, fallback: dict) -> list[Entry]:
     """The learned methods of a five-seed report: per seed, each metric pooled over the tier's
     tasks (suites weighted by their task counts); the mean over seeds with its 95 % percentile
-    bootstrap interval (:func:`modquad_gym.bench.seeds.interval`, seeds resampled). Mean
+    bootstrap interval (:func:`modquad_gym.scoring.seeds.interval`, seeds resampled). Mean
     modules from the report where it holds them, else ``fallback`` (method -> (value, where))."""
-    from modquad_gym.bench.seeds import interval
+    from modquad_gym.scoring.seeds import interval
 
     out = []
     methods = list(dict.fromkeys(r["method"] for r in records if r["seed"] != "-"))
@@ -159,7 +159,7 @@ def over_seeds(records: list[dict], tier, source: str, fallback: dict) -> list[E
 
 def tier_entries(tier_name: str, results: Path = RESULTS) -> list[Entry]:
     """Every committed method on one tier: the searches, then the learned methods."""
-    from modquad_gym.bench.tiers import get_tier
+    from modquad_gym.scoring.tiers import get_tier
     from modquad_gym.search import SEARCHES
 
     tier = get_tier(tier_name)
@@ -201,9 +201,9 @@ def _rel(path: Path) -> str:
 def rescore_searches(results: Path = RESULTS, progress: bool = True) -> Path:
     """Run the searches that a tier report did not run on that tier's held-out suites and write
     their per-task rows to ``results/leaderboard_searches.csv``."""
-    from modquad_gym.bench.agents import run_benchmark
-    from modquad_gym.bench.tiers import get_tier
     from modquad_gym.core.outputs import write_csv, write_text
+    from modquad_gym.scoring.agents import run_benchmark
+    from modquad_gym.scoring.tiers import get_tier
     from modquad_gym.search import SEARCHES
 
     rows = []
@@ -223,7 +223,7 @@ def rescore_searches(results: Path = RESULTS, progress: bool = True) -> Path:
 
 def rescored_note(rows) -> str:
     """What ``results/leaderboard_searches.csv`` holds and how it was made (its provenance)."""
-    from modquad_gym.bench import machine_description
+    from modquad_gym.scoring import machine_description
 
     suites: dict[tuple, list[str]] = {}  # the methods run -> the suites they ran on
     for suite in dict.fromkeys(r.suite for r in rows):
@@ -244,9 +244,9 @@ def rescored_note(rows) -> str:
 
 def score_agent(spec: str, tiers: Iterable[str], limit: int | None, progress: bool) -> list[Entry]:
     """An outside agent on every tier's held-out suites (first ``limit`` tasks of each), one run."""
-    from modquad_gym.bench.agents import run_benchmark
-    from modquad_gym.bench.tiers import get_tier
     from modquad_gym.geometry.module import palette
+    from modquad_gym.scoring.agents import run_benchmark
+    from modquad_gym.scoring.tiers import get_tier
     from modquad_gym.solvers import load_solver
 
     out = []
@@ -357,7 +357,7 @@ def plot(entries: list[Entry], tiers: list[str], path: Path) -> Path:
 def page(entries: list[Entry], tiers: list[str], image: str, results_prefix: str) -> str:
     """The leaderboard in Markdown; ``image`` is the plot's path from the page,
     ``results_prefix`` the path of ``results/`` files as written in the text."""
-    from modquad_gym.bench.tiers import get_tier
+    from modquad_gym.scoring.tiers import get_tier
 
     r = results_prefix
     text = [

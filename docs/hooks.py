@@ -4,7 +4,8 @@
   its registration, its action and observation spaces as built by ``gym.make``, and its class
   docstring (description, spaces, rewards, episode end, arguments, version history).
 * ``<!-- modquad-cli -->`` in a page becomes the ``--help`` text of every ``modquad`` command and
-  action, from the argparse parsers themselves.
+  action, from the argparse parsers themselves, and of every ``python -m benchmarks.NAME``
+  script of the repository.
 * The pictures of ``results/`` (and its report folders) are copied into the site under
   ``results/``.
 * A Markdown page under docs/ that the nav does not list is added under "Topics", so a plain
@@ -183,7 +184,6 @@ def on_page_markdown(markdown, page, config, files):
 def cli_reference() -> str:
     """``modquad --help`` and the help of every command, action and benchmark, as Markdown."""
     from modquad_gym.cli import build_parser
-    from modquad_gym.cli.bench import BENCHMARKS
 
     os.environ["COLUMNS"] = "100"  # argparse wraps at the terminal width: fix it
     out: list[str] = []
@@ -197,21 +197,37 @@ def cli_reference() -> str:
                     walk(sub, min(depth + 1, 4))
 
     walk(build_parser(), 2)
-    out += ["## Benchmarks", "", "`modquad bench WHAT` passes its options on to the benchmark:", ""]
-    for name in BENCHMARKS:
-        out.extend([f"### `modquad bench {name}`", "", "```text", bench_help(name), "```", ""])
+    out += ["## Benchmarks", "",
+            "The project's measurement scripts are not installed with the package: from the "
+            "repository's root, `python -m benchmarks.NAME` runs one (each writes its report "
+            "under `results/`; see [Results](results.md)).", ""]  # fmt: skip
+    for name in _benchmarks():
+        out.extend([f"### `python -m benchmarks.{name}`", "", "```text", bench_help(name), "```",
+                    ""])  # fmt: skip
     return "\n".join(out)
 
 
+def _benchmarks() -> dict[str, str]:
+    """:func:`benchmarks.common.scripts` (the repository's root put on the path)."""
+    import sys
+
+    root = str(Path(__file__).resolve().parents[1])
+    if root not in sys.path:
+        sys.path.insert(0, root)
+    from benchmarks.common import scripts
+
+    return scripts()
+
+
 def bench_help(name: str) -> str:
-    """``modquad bench NAME --help``: each benchmark parses its own options in ``main(argv)``."""
+    """``python -m benchmarks.NAME --help``: each script parses its own options in
+    ``main(argv)``."""
     import contextlib
     import importlib
     import io
 
-    from modquad_gym.cli.bench import BENCHMARKS
-
+    _benchmarks()
     text = io.StringIO()
     with contextlib.redirect_stdout(text), contextlib.suppress(SystemExit):
-        importlib.import_module(BENCHMARKS[name][0]).main(["--help"])
+        importlib.import_module(f"benchmarks.{name}").main(["--help"])
     return text.getvalue().rstrip()

@@ -3,7 +3,7 @@
 Run it from the repository root: ``python examples/byo_agent.py`` (tests run it too). Then score
 the agent below on a tier's held-out suites, against the certified optimum, with one command::
 
-    modquad bench agents --solver examples.byo_agent:LargestSupportAgent --out my_scores
+    modquad score --solver examples.byo_agent:LargestSupportAgent --out my_scores
 
 (``--solver`` imports ``package.module:Name`` from the working folder or the installed
 packages; ``--tier large`` (or mixed, dynamic) picks a tier; the report is

@@ -22,8 +22,8 @@ import gymnasium as gym
 import numpy as np
 
 import modquad_gym  # noqa: F401 - registers the environments
-from modquad_gym.bench.suites import SUITES_DIR
 from modquad_gym.envs.wrappers import NearestValidAction
+from modquad_gym.scoring.suites import SUITES_DIR
 from modquad_gym.tasks import load_suite
 
 ALGOS = ("ppo", "a2c", "dqn")

@@ -183,8 +183,8 @@ def test_cli_solve_ppo_json_round_trip(tiny_model, tmp_path):
 
 
 def test_benchmark_runs_on_three_tasks(tiny_model, tmp_path):
-    from modquad_gym.bench import agents as benchmark
-    from modquad_gym.bench.suites import with_optimum
+    from modquad_gym.scoring import agents as benchmark
+    from modquad_gym.scoring.suites import with_optimum
 
     tasks = [*_tiny_tasks(), PlantedTasks(n_modules=3, n_wrenches=10)(np.random.default_rng(7))]
     suite = save_suite([with_optimum(t, TINY_N_MAX) for t in tasks], tmp_path / "three.json")
@@ -258,8 +258,8 @@ def test_policy_guided_search_is_verified_and_its_certificate_holds():
 
 
 def test_one_solver_table_drives_cli_benchmark_and_solvers():
-    from modquad_gym.bench.agents import SEARCH_METHODS
     from modquad_gym.cli import build_parser
+    from modquad_gym.scoring.agents import SEARCH_METHODS
     from modquad_gym.search import SEARCHES
     from modquad_gym.solvers import METHODS
 

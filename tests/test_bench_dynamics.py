@@ -1,12 +1,12 @@
-"""`modquad bench dynamics`: its rows, report and refusal to overwrite (flights stubbed: the
+"""`python -m benchmarks.dynamics`: its rows, report and refusal to overwrite (flights stubbed: the
 flight itself is tested in test_track.py)."""
 
 import numpy as np
 import pytest
 
 import modquad_gym as mq
+from benchmarks import dynamics as bench
 from modquad_gym import dynamics as dy
-from modquad_gym.bench import dynamics as bench
 
 
 def test_static_task_is_the_motion_at_rest():
@@ -30,7 +30,7 @@ def test_bench_writes_its_report_and_refuses_to_overwrite(tmp_path, monkeypatch,
     argv = ["--circle-speeds", "1", "2.2", "--eight-speeds", "--push-forces", "2"]
     bench.main([*argv, "--out", str(tmp_path)])
     text = (tmp_path / "report.md").read_text()
-    assert text.startswith("# Designing for a motion") and "modquad bench dynamics" in text
+    assert text.startswith("# Designing for a motion") and "python -m benchmarks.dynamics" in text
     assert "cores, no GPU" in text and (tmp_path / "modules_vs_speed.png").stat().st_size > 0
     rows = (tmp_path / "dynamics.csv").read_text().splitlines()
     assert len(rows) == 4  # header + 3 rows

@@ -80,7 +80,7 @@ def test_generate_and_show(tmp_path):
 def test_help_explains_every_command():
     proc = run_cli("--help")
     assert proc.returncode == 0
-    for command in ("solve", "task", "show", "validate", "bench"):
+    for command in ("solve", "task", "show", "validate", "score", "bench"):
         assert command in proc.stdout
     proc = run_cli("solve", "--help")
     assert "--method" in proc.stdout and "--json" in proc.stdout
@@ -108,7 +108,7 @@ def test_help_explains_every_option():
                 continue
             label = "/".join(action.option_strings) or action.dest
             assert action.help and action.help.strip(), f"`{name}` {label} has no help text"
-    assert {"modquad task generate", "modquad validate", "modquad bench"} <= seen
+    assert {"modquad task generate", "modquad validate", "modquad score", "modquad bench"} <= seen
 
 
 def test_command_without_action_prints_its_own_help(capsys):

@@ -20,10 +20,10 @@ import numpy as np
 import pytest
 
 import modquad_gym.search.exhaustive as exhaustive
-from modquad_gym.bench.optima import read_dataset
 from modquad_gym.cli import main
 from modquad_gym.core.distributed import Engine, Failed, map_tasks
 from modquad_gym.geometry.polyominoes import PolyominoStream
+from modquad_gym.scoring.optima import read_dataset
 from modquad_gym.search import exhaustive_search
 from modquad_gym.tasks import PlantedTasks, save_suite, task_files
 

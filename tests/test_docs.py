@@ -48,8 +48,9 @@ def test_generated_pages_hold_every_environment_and_command(site):
         assert "Observation space" in page and "Version history" in page and "Rewards" in page
     cli = (site / "cli" / "index.html").read_text()
     names = [add.__name__.removeprefix("add_") for add in COMMANDS]
-    for name in (*names, "task generate", "task example", "bench agents"):
+    for name in (*names, "task generate", "task example"):
         assert f"modquad {name}</code>" in cli, name
+    assert "python -m benchmarks.oracle</code>" in cli
     assert "results/example_structure.png" in (site / "index.html").read_text()
     assert (site / "results" / "example_structure.png").is_file()
 

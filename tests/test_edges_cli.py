@@ -26,11 +26,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_fuzz_outputs import MOVED
 
 import modquad_gym as mq
+from benchmarks.common import run_script
 from modquad_gym import cli
 from modquad_gym import dynamics as dy
-from modquad_gym.cli.bench import BENCHMARKS
 from modquad_gym.core import outputs
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -152,10 +153,21 @@ FILE_WRITERS = {
 }
 FOLDER_WRITERS = {
     "validate": ["validate", "--task", SCREWDRIVER, "--out", "{out}"],
-    "bench oracle": ["bench", "oracle", "--out", "{out}"],
-    "bench env": ["bench", "env", "--out", "{out}"],
-    "bench level-bounds": ["bench", "level-bounds", "--n-max", "1", "--out", "{out}"],
+    "score": ["score", "--out", "{out}"],
+    "benchmarks.oracle": ["oracle", "--out", "{out}"],
+    "benchmarks.env": ["env", "--out", "{out}"],
+    "benchmarks.level_bounds": ["level_bounds", "--n-max", "1", "--out", "{out}"],
 }
+"""The commands that write a folder: ``modquad`` ones, and ``python -m benchmarks.NAME``."""
+
+
+def run_command(capsys, name: str, argv: list[str]) -> tuple[int, str, str]:
+    """(exit code, stdout, stderr) of the command ``name`` of :data:`FOLDER_WRITERS`."""
+    if not name.startswith("benchmarks."):
+        return run_main(capsys, *argv)
+    code = run_script(argv[0], argv[1:])
+    out, err = capsys.readouterr()
+    return code, out, err
 
 
 def _argv(template: list[str], out: Path) -> list[str]:
@@ -212,10 +224,11 @@ def test_a_dangling_link_in_an_output_folder_is_kept(tmp_path, capsys, monkeypat
         from test_fuzz_outputs import _report_names
 
         folder.mkdir()
-        first = "report.md" if name == "validate" else _report_names(name.split()[1])[0]
+        what = {"validate": None, "score": "agents"}.get(name, name.split(".")[-1])
+        first = "report.md" if what is None else _report_names(what)[0]
         (folder / first).symlink_to(tmp_path / "nowhere")
     before = files_under(tmp_path)
-    code, _, err = run_main(capsys, *_argv(FOLDER_WRITERS[name], folder))
+    code, _, err = run_command(capsys, name, _argv(FOLDER_WRITERS[name], folder))
     assert code == 2 and "Traceback" not in err, err
     assert "error: " in err.strip().splitlines()[-1] and "out" in err.strip().splitlines()[-1]
     assert files_under(tmp_path) == before and not (tmp_path / "nowhere").exists()
@@ -649,7 +662,7 @@ def test_a_full_disk_names_the_output(tmp_path, capsys, monkeypatch, name):
 
 
 def test_a_full_disk_names_the_optima_dataset(tmp_path, capsys, monkeypatch):
-    import modquad_gym.bench.optima as optima
+    import modquad_gym.scoring.optima as optima
 
     _full_disk(optima, monkeypatch, "fsync")
     out = tmp_path / "o.jsonl"
@@ -669,12 +682,45 @@ def test_a_full_disk_names_the_optima_dataset(tmp_path, capsys, monkeypatch):
     assert_one_line_error(code, err, f"{out}: No space left on device")
 
 
-@pytest.mark.parametrize("what", sorted(BENCHMARKS))
-def test_benchmark_usage_names_the_command_typed(capsys, what):
-    """`modquad bench X --bogus` said `usage: python -m modquad_gym.bench.X`."""
-    code, _, err = run_main(capsys, "bench", what, "--bogus")
+@pytest.mark.parametrize("what", sorted(MOVED))
+def test_benchmark_usage_names_its_command(capsys, what):
+    """`python -m benchmarks.X --bogus`: the usage and the error name that command."""
+    code = run_script(what, ["--bogus"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    command = f"python -m benchmarks.{what}"
+    assert err.startswith(f"usage: {command} ") and f"{command}: error" in err
+
+
+@pytest.mark.parametrize("argv", [["score"], ["bench", "agents"]])
+def test_score_usage_names_the_command_typed(capsys, argv):
+    """`modquad score --limit 0`, and its deprecated name `modquad bench agents --limit 0`."""
+    code, _, err = run_main(capsys, *argv, "--limit", "0")
+    command = "modquad " + " ".join(argv)
     assert code == 2 and "python -m" not in err, err
-    assert err.startswith(f"usage: modquad bench {what} ") and f"modquad bench {what}: error" in err
+    assert f"usage: {command} " in err and f"{command}: error" in err
+
+
+def test_bench_agents_still_scores_and_says_it_is_deprecated(tmp_path, capsys):
+    """`modquad bench agents` is `modquad score` for one release: the same report, stdout
+    untouched, one note on stderr; the report gives the new command."""
+    argv = ["--limit", "1", "--methods", "greedy", "--no-progress"]
+    code, out, err = run_main(capsys, "bench", "agents", *argv, "--out", str(tmp_path / "old"))
+    assert code == 0, err
+    assert "deprecated: use `modquad score`" in err and "deprecated" not in out
+    report = (tmp_path / "old" / "benchmark.md").read_text()
+    assert out.startswith(report.splitlines()[0]) and "modquad score --limit 1" in report
+    code, _, err = run_main(capsys, "score", *argv, "--out", str(tmp_path / "new"))
+    assert code == 0 and not err.strip(), err
+    assert "modquad score --limit 1" in (tmp_path / "new" / "benchmark.md").read_text()
+
+
+@pytest.mark.parametrize("what", ["oracle", "level-bounds", "nope"])
+def test_removed_bench_commands_say_where_they_went(capsys, what):
+    code, _, err = run_main(capsys, "bench", what)
+    line = assert_one_line_error(code, err, f"modquad bench {what}")
+    name = what.replace("-", "_")
+    assert (f"python -m benchmarks.{name}" if what != "nope" else "modquad score") in line
 
 
 def test_optima_takes_task_like_every_command_and_still_tasks(tmp_path, capsys):
@@ -690,21 +736,21 @@ def test_optima_takes_task_like_every_command_and_still_tasks(tmp_path, capsys):
 
 def _all_helps(capsys) -> dict[str, str]:
     """The --help text of every command, action and benchmark."""
-    from modquad_gym.cli.bench import BENCHMARKS
-
-    argvs = [[c] for c in ("solve", "optima", "show", "export", "validate")]
-    argvs += [["task", a] for a in ("generate", "motion", "example")]
-    argvs += [["bench", b] for b in BENCHMARKS]
+    argvs = [[c] for c in ("solve", "optima", "show", "export", "validate", "score")]
+    argvs += [*(["task", a] for a in ("generate", "motion", "example")), ["bench", "agents"]]
     helps = {}
     for argv in argvs:
         code, out, err = run_main(capsys, *argv, "--help")
         assert code == 0, err
         helps[" ".join(argv)] = out
+    for name in MOVED:
+        assert run_script(name, ["--help"]) == 0
+        helps[f"python -m benchmarks.{name}"] = capsys.readouterr().out
     return helps
 
 
 def test_every_help_states_each_default_once(capsys):
-    """`modquad bench agents --help` printed "(default: the tier's) (default: None)"."""
+    """`modquad score --help` printed "(default: the tier's) (default: None)"."""
     for name, text in _all_helps(capsys).items():
         flat = " ".join(text.split())
         assert "(default: None)" not in flat, name

@@ -120,7 +120,7 @@ def test_generated_task_files_have_neutral_names(tmp_path, capsys):
 
 # --- the mixed id draws the mixed tier's palette tasks -------------------------------------
 def test_mixed_v1_draws_the_mixed_tiers_tasks_and_v0_is_kept():
-    from modquad_gym.bench.tiers import TIERS
+    from modquad_gym.scoring.tiers import TIERS
 
     v1 = gym.make("ModQuadAssemblyMixed-v1").unwrapped
     assert TIERS["mixed"].env_id == "ModQuadAssemblyMixed-v1" and v1.n_types == 3

@@ -60,6 +60,18 @@ def run_main(capsys, argv: list[str]) -> tuple[int, str, str]:
     return code, out, err
 
 
+def run_bench(capsys, argv: list[str]) -> tuple[int, str, str]:
+    """``python -m benchmarks.NAME REST`` for ``argv`` = [NAME, *REST] in this process (NAME
+    ``agents``: ``modquad score REST``)."""
+    from benchmarks.common import run_script
+
+    if argv[0] == "agents":
+        return run_main(capsys, ["score", *argv[1:]])
+    code = run_script(argv[0], argv[1:])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
 def assert_clean_exit(code: int, err: str) -> None:
     """Exit 0 or 2, never a traceback; 2 ends with one error line."""
     assert code in (0, 2), (code, err)
@@ -322,7 +334,7 @@ BENCH_COUNTS = {
     "search": ["--tasks", "--reference-structures", "--seed"],
     "env": ["--steps", "--n-max", "--sizes", "--seed"],
     "scaling": ["--n-max", "--seed"],
-    "level-bounds": ["--n-max"],
+    "level_bounds": ["--n-max"],
     "heterogeneous": ["--tasks", "--seed", "--n-max"],
     "agents": ["--n-max", "--seed", "--limit", "--workers"],
     "distributed": ["--tasks", "--n-max", "--search-n-max", "--seed"],
@@ -336,11 +348,12 @@ BENCH_COUNTS = {
     value=st.sampled_from([v for v in HOSTILE if v != "0"] + ["0"]),
 )
 def test_bench_rejects_hostile_counts_before_work(tmp_path, capsys, monkeypatch, what, data, value):
-    """Every benchmark refuses a hostile count or seed while parsing: exit 2, nothing written."""
+    """Every benchmark (and ``modquad score``) refuses a hostile count or seed while parsing:
+    exit 2, nothing written."""
     option = data.draw(st.sampled_from(BENCH_COUNTS[what]))
     assume(not (value == "0" and option == "--seed"))  # seed 0 is a fine seed
     monkeypatch.chdir(tmp_path)
-    code, _, err = run_main(capsys, ["bench", what, f"{option}={value}", "--out", str(tmp_path)])
+    code, _, err = run_bench(capsys, [what, f"{option}={value}", "--out", str(tmp_path)])
     assert code == 2, err
     assert "Traceback" not in err and option in err.strip().splitlines()[-1]
     assert not list(tmp_path.iterdir())
@@ -350,7 +363,7 @@ def test_bench_out_must_be_a_folder(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("x")
     for what in sorted(BENCH_COUNTS):
-        code, _, err = run_main(capsys, ["bench", what, "--out", str(blocker)])
+        code, _, err = run_bench(capsys, [what, "--out", str(blocker)])
         assert code == 2 and "not a folder" in err, (what, err)
 
 

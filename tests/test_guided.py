@@ -8,10 +8,10 @@ import json
 import numpy as np
 import pytest
 
-from modquad_gym.bench.suites import SUITES_DIR as SUITES
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.geometry.module import palette
 from modquad_gym.policy import DEFAULT_MODEL
+from modquad_gym.scoring.suites import SUITES_DIR as SUITES
 from modquad_gym.search import verified
 from modquad_gym.solvers import make_solver
 from modquad_gym.tasks import PlantedTasks, load_suite, make_generator
@@ -126,7 +126,7 @@ def test_guided_method_names_carry_its_settings():
 
 
 def test_validation_suite_is_certified_and_disjoint_from_the_held_out_suite():
-    from modquad_gym.bench.tiers import TIERS, validation_suite
+    from modquad_gym.scoring.tiers import TIERS, validation_suite
     from modquad_gym.search import exhaustive_search
 
     tier = TIERS["mixed"]
@@ -140,7 +140,7 @@ def test_validation_suite_is_certified_and_disjoint_from_the_held_out_suite():
 
 
 def test_bench_agents_scores_validation_tasks(tmp_path, capsys):
-    from modquad_gym.bench.agents import main
+    from modquad_gym.scoring.agents import main
 
     out = tmp_path / "val"
     argv = ["--tier", "mixed", "--validation", "2", "--methods", "exhaustive", "random"]

@@ -35,6 +35,15 @@ def run_main(capsys, *argv: str) -> tuple[int, str, str]:
     return code, out, err
 
 
+def run_bench(capsys, name: str, *argv: str) -> tuple[int, str, str]:
+    """(exit code, stdout, stderr) of ``python -m benchmarks.NAME argv`` in this process."""
+    from benchmarks.common import run_script
+
+    code = run_script(name, list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
 def assert_one_line_error(code: int, err: str, *names: str) -> None:
     assert code == 2, err
     assert "Traceback" not in err
@@ -467,15 +476,16 @@ def test_show_cells_not_a_list(capsys, tmp_path):
         ("oracle", "--repeats", "0"),
         ("env", "--sizes", "0"),
         ("scaling", "--n-max", "7"),
-        ("level-bounds", "--n-max", "0"),
+        ("level_bounds", "--n-max", "0"),
     ],
 )
 def test_bench_counts_are_rejected_before_work(capsys, tmp_path, monkeypatch, argv):
-    """`bench paper --seeds 0` and friends used to crash after working (IndexError); now the
-    option is an argparse error, exit 2, before anything runs or is written."""
+    """`python -m benchmarks.paper --seeds 0` and friends used to crash after working
+    (IndexError); now the option is an argparse error, exit 2, before anything runs or is
+    written."""
     monkeypatch.chdir(tmp_path)
     t0 = time.perf_counter()
-    code, out, err = run_main(capsys, "bench", *argv)
+    code, out, err = run_bench(capsys, *argv)
     assert_rejected(code, err, argv[1], f"got {argv[-1]}")
     assert time.perf_counter() - t0 < 5
     assert not list(tmp_path.iterdir())  # nothing written

@@ -45,7 +45,7 @@ def _same_text(a: str, b: str) -> None:
 
 
 def test_every_method_is_on_every_tier(board, entries):
-    from modquad_gym.bench.tiers import get_tier
+    from modquad_gym.scoring.tiers import get_tier
     from modquad_gym.search import SEARCHES
 
     for name in board.TIERS:

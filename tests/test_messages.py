@@ -9,7 +9,7 @@ import sys
 import gymnasium as gym
 import numpy as np
 import pytest
-from test_hardening import assert_rejected, run_main
+from test_hardening import assert_rejected, run_bench, run_main
 
 import modquad_gym as mq
 from modquad_gym.cli.solve import print_result
@@ -62,13 +62,13 @@ def test_too_many_wrenches_name_the_file_and_a_batch_goes_on(tmp_path, capsys, m
 
 def test_bench_oracle_names_its_missing_extra_before_work(tmp_path, capsys, monkeypatch):
     monkeypatch.setitem(sys.modules, "cvxpy", None)  # as if not installed
-    code, _, err = run_main(capsys, "bench", "oracle", "--out", str(tmp_path / "rep"))
-    assert_rejected(code, err, "cvxpy", "modquad_gym[reference]")
+    code, _, err = run_bench(capsys, "oracle", "--out", str(tmp_path / "rep"))
+    assert_rejected(code, err, "cvxpy", "modquad_gym[test]")
     assert not (tmp_path / "rep").exists() or not any((tmp_path / "rep").iterdir())
 
 
-def test_bench_agents_refuses_a_bad_solver_before_the_benchmark_starts(tmp_path, capsys):
-    code, _, err = run_main(capsys, "bench", "agents", "--solver", "os:system", "--out",
+def test_score_refuses_a_bad_solver_before_the_benchmark_starts(tmp_path, capsys):
+    code, _, err = run_main(capsys, "score", "--solver", "os:system", "--out",
                             str(tmp_path / "rep"))  # fmt: skip
     assert_rejected(code, err, "--solver 'os:system'", "standard-library")
     assert "benchmark:" not in err  # no progress bar: nothing was started

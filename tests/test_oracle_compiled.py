@@ -189,12 +189,12 @@ def test_screened_counts_undecided_wrenches_as_fallback():
 
 @pytest.mark.parametrize("value", ["3", "7,65", "", "x", "16,,64"])
 def test_bench_oracle_refuses_bad_sizes_before_work(capsys, tmp_path, value):
-    """`modquad bench oracle --modules` takes sizes 7..64: anything else is argparse's error
-    (exit 2) naming the option, with nothing written."""
-    from modquad_gym import cli
+    """`python -m benchmarks.oracle --modules` takes sizes 7..64: anything else is argparse's
+    error (exit 2) naming the option, with nothing written."""
+    from benchmarks.oracle import main
 
     with pytest.raises(SystemExit) as exc:
-        cli.main(["bench", "oracle", "--modules", value, "--out", str(tmp_path / "r")])
+        main(["--modules", value, "--out", str(tmp_path / "r")])
     err = capsys.readouterr().err
     assert exc.value.code == 2 and "Traceback" not in err
     assert "--modules" in err.strip().splitlines()[-1]
@@ -203,7 +203,7 @@ def test_bench_oracle_refuses_bad_sizes_before_work(capsys, tmp_path, value):
 
 def test_bench_oracle_writes_its_report_at_m_256(tmp_path):
     """One tiny run at 7 and 64 modules: the report has both goals' rows and every method's."""
-    from modquad_gym.bench.oracle import run
+    from benchmarks.oracle import run
 
     rows, goals = run(1, 4, 0, tmp_path, repeats=1, sizes=(7, 64))
     assert {r["rotors_m"] for r in rows} == {28, 256}

@@ -9,7 +9,7 @@ import json
 from pathlib import Path
 
 import pytest
-from test_hardening import assert_rejected, run_main
+from test_hardening import assert_rejected, run_bench, run_main
 
 ROOT = Path(__file__).resolve().parents[1]
 TASK = '{"wrenches": [[0, 0, 6, 0.1, 0, 0]]}'
@@ -79,7 +79,7 @@ def test_devices_are_no_outputs(tmp_path, capsys, device):
 )  # fmt: skip
 def test_benchmarks_refuse_to_replace_reports(tmp_path, capsys, what, name):
     (tmp_path / name).write_text("the user's report")
-    code, _, err = run_main(capsys, "bench", what, "--out", str(tmp_path))
+    code, _, err = run_bench(capsys, what, "--out", str(tmp_path))
     assert_rejected(code, err, name, "--force")
     assert (tmp_path / name).read_text() == "the user's report"
 

@@ -23,7 +23,7 @@ N_MAX = 3
 
 def _tasks() -> list[TaskRequirement]:
     """Two planted 2-module tasks (a horizontal and a vertical pair), each with its optimum."""
-    from modquad_gym.bench.suites import with_optimum
+    from modquad_gym.scoring.suites import with_optimum
 
     gen = PlantedTasks(n_modules=2, n_wrenches=12)
     return [with_optimum(gen(np.random.default_rng(seed)), N_MAX) for seed in (0, 1)]
@@ -137,7 +137,7 @@ def test_load_solver_tells_the_agent_the_tier(tmp_path, monkeypatch):
 
 
 def test_the_benchmark_reports_the_agent_and_draws_it(tmp_path, monkeypatch):
-    from modquad_gym.bench import agents as benchmark
+    from modquad_gym.scoring import agents as benchmark
     from modquad_gym.viz import drawing
 
     monkeypatch.syspath_prepend(str(tmp_path))
@@ -169,7 +169,7 @@ def test_the_benchmark_reports_the_agent_and_draws_it(tmp_path, monkeypatch):
 
 
 def test_outside_agents_are_not_judged_on_the_learned_methods_goals():
-    from modquad_gym.bench.agents_report import _goals
+    from modquad_gym.scoring.agents_report import _goals
 
     def summary(method, evaluated):
         return {"method": method, "success_rate": 1.0, "optimal_share": 1.0,

@@ -36,6 +36,7 @@ def test_sdist_holds_the_whole_project(dists):
     for name in ("train.py", "requirements.txt", "LICENSE", "CITATION.cff", "README.md",
                  "pyproject.toml", "MANIFEST.in", "examples/screwdriver.json",
                  "examples/byo_agent.py", "examples/rl_zoo/ppo.yml", "agents/training.py",
+                 "benchmarks/common.py", "benchmarks/oracle.py", "tests/reference_search.py",
                  "tests/conftest.py", "tests/test_packaging.py", ".ci/run",
                  "modquad_gym/data/examples/screwdriver.json"):  # fmt: skip
         assert name in members, f"sdist lacks {name}"
@@ -53,7 +54,9 @@ def test_wheel_has_one_package_with_its_examples_and_type_marker(dists):
     assert {n.split("/")[0] for n in names} == {
         "modquad_gym",
         f"modquad_gym-{modquad_gym.__version__}.dist-info",
-    }
+    }  # no benchmarks/, tests/ or agents/: the laboratory stays in the repository
+    assert "modquad_gym/scoring/agents.py" in names
+    assert not any(n.startswith("modquad_gym/bench/") for n in names)
     for name in ("modquad_gym/py.typed", "modquad_gym/data/examples/screwdriver.json",
                  "modquad_gym/data/examples/paper_seed0.csv", "modquad_gym/data/rl_zoo/ppo.yml",
                  f"modquad_gym-{modquad_gym.__version__}.dist-info/licenses/LICENSE"):  # fmt: skip

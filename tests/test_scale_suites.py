@@ -1,15 +1,17 @@
-"""The held-out scale suites (16-64 modules) and `modquad bench scale`."""
+"""The held-out scale suites (16-64 modules) and `python -m benchmarks.scale`."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from modquad_gym.bench.scale_suites import (
+from benchmarks.scale_suites import (
     BANDS,
     FAMILIES,
     draw,
@@ -90,11 +92,14 @@ def test_anytime_honours_its_time_limit_with_a_palette_at_scale():
 
 
 def run_bench(*args, cwd):
+    """``python -m benchmarks.scale ARGS`` in ``cwd`` (the repository on the path)."""
+    root = str(Path(__file__).resolve().parents[1])
     return subprocess.run(
-        [sys.executable, "-m", "modquad_gym.cli", "bench", "scale", *args],
+        [sys.executable, "-m", "benchmarks.scale", *args],
         capture_output=True,
         text=True,
         cwd=cwd,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])},
         timeout=600,
     )
 
@@ -109,7 +114,7 @@ def test_bench_scale_writes_its_report_and_refuses_to_overwrite(tmp_path):
     for name in ("report.md", "rows.csv", "summary.csv", "gap_vs_size.png"):
         assert (out / name).stat().st_size > 0
     report = (out / "report.md").read_text()
-    assert "modquad bench scale --bands 16" in report and "Goals:" in report
+    assert "python -m benchmarks.scale --bands 16" in report and "Goals:" in report
     rows = (out / "rows.csv").read_text().splitlines()
     assert len(rows) == 1 + 2 * 2  # header, 2 tasks x 2 methods
     again = run_bench(*args, cwd=tmp_path)

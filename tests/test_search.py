@@ -201,7 +201,7 @@ def test_greedy_evaluates_each_child_structure_once():
 def test_low_force_benchmark_tasks_skip_no_level():
     """The benchmark's low-force tasks: the hidden structure satisfies them, their forces fit
     one module (the force bound skips no level) and f_z stays small."""
-    from modquad_gym.bench.search import low_force_task, random_structure
+    from benchmarks.search import low_force_task, random_structure
 
     rng = np.random.default_rng(3)
     hidden = random_structure(8, rng)

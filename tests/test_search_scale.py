@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import modquad_gym as mq
-import modquad_gym.bench.reference_search as reference
+import tests.reference_search as reference
 from modquad_gym.core.distributed import Engine
 from modquad_gym.geometry import polyominoes
 from modquad_gym.geometry.structure import free_neighbours, normalise, structure_levels

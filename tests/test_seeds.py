@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from modquad_gym.bench.agents import SEARCH_METHODS
-from modquad_gym.bench.seeds import SeedScore, goal_lines, interval, iqm, main, summary
 from modquad_gym.policy import DEFAULT_MODEL
+from modquad_gym.scoring.agents import SEARCH_METHODS
+from modquad_gym.scoring.seeds import SeedScore, goal_lines, interval, iqm, main, summary
 
 
 def test_iqm_is_the_mean_of_the_middle_half():
@@ -55,7 +55,7 @@ def test_goals_are_judged_on_the_lower_end():
 def test_configuration_goals_take_the_pessimistic_end():
     """A share of the exhaustive search's configurations, one named search, or (no goal given)
     every search but random; met only when the interval's upper end is within it."""
-    from modquad_gym.bench.agents_report import config_limit
+    from modquad_gym.scoring.agents_report import config_limit
 
     searches = {"exhaustive": 200.0, "centrosymmetric": 60.0, "greedy": 50.0, "random": 5.0}
     assert config_limit(0.05, searches)[0] == pytest.approx(10.0)

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 import modquad_gym as mq
-from modquad_gym.bench.agents import main as bench_main
-from modquad_gym.bench.agents_report import _goals
-from modquad_gym.bench.suites import draw_task, with_optimum
-from modquad_gym.bench.tiers import TIERS
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.dynamics.random_motions import RANGES, MotionTasks
+from modquad_gym.scoring.agents import main as bench_main
+from modquad_gym.scoring.agents_report import _goals
+from modquad_gym.scoring.suites import draw_task, with_optimum
+from modquad_gym.scoring.tiers import TIERS
 from modquad_gym.search import exhaustive_search, verified
 from modquad_gym.tasks import load_suite, make_generator, save_suite
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import modquad_gym as mq
-from modquad_gym.bench.agents import main as bench_main
-from modquad_gym.bench.tiers import TIERS, build_tier_suite, get_tier
 from modquad_gym.dynamics.trajectory import FIELDS
+from modquad_gym.scoring.agents import main as bench_main
+from modquad_gym.scoring.tiers import TIERS, build_tier_suite, get_tier
 from modquad_gym.search import verified
 
 

@@ -151,7 +151,7 @@ def test_bring_your_own_agent_example_runs_and_is_scored(tmp_path):
     cwd = os.getcwd()
     try:
         os.chdir(ROOT)
-        code = main(["bench", "agents", "--solver", "examples.byo_agent:LargestSupportAgent",
+        code = main(["score", "--solver", "examples.byo_agent:LargestSupportAgent",
                      "--methods", "exhaustive", "--limit", "2", "--out", str(tmp_path / "rep"),
                      "--no-progress"])  # fmt: skip
     finally:
@@ -172,7 +172,7 @@ def test_readme_python_examples_run(monkeypatch):
 
 
 def test_bench_env_reports_the_default_config_with_resets_and_the_ppo_update(tmp_path):
-    from modquad_gym.bench import env as bench_env
+    from benchmarks import env as bench_env
 
     cores = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
     try:

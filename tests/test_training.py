@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from agents.training import TrainConfig, train
-from modquad_gym.bench.tiers import TIERS
+from modquad_gym.scoring.tiers import TIERS
 from modquad_gym.tasks import PlantedTasks, save_suite
 
 torch = pytest.importorskip("torch")

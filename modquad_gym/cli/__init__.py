@@ -1,5 +1,6 @@
 """The ``modquad`` command line: solve tasks, generate task files, draw structures, validate in
-MuJoCo, and run the benchmarks. ``modquad COMMAND --help`` explains each command.
+MuJoCo, and score agents on the benchmark tiers. ``modquad COMMAND --help`` explains each
+command.
 
 Exit codes: 0 on success (an infeasible task is a result, not an error); 2 for every expected
 failure (a task file that cannot be read, a bad option value, an output path that exists or
@@ -8,7 +9,8 @@ cannot be written, a missing optional dependency, a closed output pipe), reporte
 
 One module per command, each with ``add_COMMAND(sub)`` (its parser) beside its handler
 ``cmd_COMMAND(args)``: :mod:`.solve`, :mod:`.optima`, :mod:`.task`, :mod:`.show`,
-:mod:`.export`, :mod:`.validate`, :mod:`.bench`; the options they share are in :mod:`.common`.
+:mod:`.export`, :mod:`.validate`, :mod:`.score` (and :mod:`.bench`, its deprecated name); the
+options they share are in :mod:`.common`.
 A new command is a module with those two functions, added to :data:`COMMANDS`.
 """
 
@@ -22,12 +24,15 @@ from modquad_gym.cli.bench import add_bench
 from modquad_gym.cli.common import one_line
 from modquad_gym.cli.export import add_export
 from modquad_gym.cli.optima import add_optima
+from modquad_gym.cli.score import ARGV, add_score
 from modquad_gym.cli.show import add_show
 from modquad_gym.cli.solve import add_solve
 from modquad_gym.cli.task import add_task
 from modquad_gym.cli.validate import add_validate
 
-COMMANDS = (add_solve, add_optima, add_task, add_show, add_export, add_validate, add_bench)
+COMMANDS = (
+    add_solve, add_optima, add_task, add_show, add_export, add_validate, add_score, add_bench,
+)  # fmt: skip
 """The commands, in the order ``modquad --help`` lists them."""
 
 
@@ -66,9 +71,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         from modquad_gym.cli import given
 
-        setattr(
-            args, given.TYPED, given.typed_options(parser, sys.argv[1:] if argv is None else argv)
-        )
+        typed = sys.argv[1:] if argv is None else list(argv)
+        setattr(args, ARGV, typed)
+        setattr(args, given.TYPED, given.typed_options(parser, typed))
         given.refuse_ignored_method_options(args)  # before any file is read
         given.refuse_ignored_csv_header(args)
         return args.func(args)

@@ -1,47 +1,19 @@
-"""``modquad bench WHAT``: run one of the benchmarks (each writes its report under results/)."""
+"""``modquad bench agents``: the former name of ``modquad score`` (deprecated; kept for one
+release). The project's other benchmarks left the package: they are the repository's
+``benchmarks/`` scripts (``python -m benchmarks.NAME``)."""
 
 from __future__ import annotations
 
 import argparse
-import importlib
+import sys
 
 from modquad_gym.cli.common import add_command
 
-BENCHMARKS = {
-    "oracle": ("modquad_gym.bench.oracle", "feasibility methods compared"),
-    "search": ("modquad_gym.bench.search", "exhaustive search vs an LP reference"),
-    "scaling": (
-        "modquad_gym.bench.scaling",
-        "the exhaustive search level by level up to 14 modules",
-    ),
-    "anytime": (
-        "modquad_gym.bench.anytime",
-        "the default anytime search on planted 16-64-module tasks; --reach: exact to 16",
-    ),
-    "scale": (
-        "modquad_gym.bench.scale",
-        "every method (anytime, baselines, learned) on the held-out 16-64-module suites",
-    ),
-    "level-bounds": ("modquad_gym.bench.level_bounds", "regenerate the shipped level bounds"),
-    "distributed": (
-        "modquad_gym.bench.distributed",
-        "a batch and a large search serially and on Ray with 1 and 2 CPUs",
-    ),
-    "heterogeneous": (
-        "modquad_gym.bench.heterogeneous",
-        "mixing module types and self-weight against one type",
-    ),
-    "env": ("modquad_gym.bench.env", "environment steps/s"),
-    "paper": ("modquad_gym.bench.paper", "the paper's Sec. VI experiment"),
-    "agents": ("modquad_gym.bench.agents", "PPO vs the searches on held-out tasks"),
-    "coldstart": ("modquad_gym.bench.coldstart", "a fresh process's first search and PPO answer"),
-    "dynamics": (
-        "modquad_gym.bench.dynamics",
-        "minimum structures for motions (circle, figure-eight, push), flown in MuJoCo",
-    ),
-}
-"""Benchmark name -> (module with ``main(argv)``, what it measures): the choices and help of
-``bench``."""
+REMOVED = (
+    "oracle", "search", "scaling", "anytime", "scale", "level-bounds", "distributed",
+    "heterogeneous", "env", "paper", "coldstart", "dynamics",
+)  # fmt: skip
+"""The other ``modquad bench`` names, removed: each is ``python -m benchmarks.NAME`` now."""
 
 
 def add_bench(sub) -> None:
@@ -49,27 +21,30 @@ def add_bench(sub) -> None:
         sub,
         "bench",
         cmd_bench,
-        help="run a benchmark (writes results/)",
-        description="Run a benchmark; options after the name go to it "
-        "(e.g. `modquad bench oracle --help`).",
+        help="deprecated: use modquad score",
+        description="Deprecated: use `modquad score` (`modquad bench agents OPTIONS` runs "
+        "`modquad score OPTIONS`). The other benchmarks are the repository's scripts: "
+        "`python -m benchmarks.NAME` (docs: results.md).",
     )
-    p.add_argument(
-        "what",
-        choices=tuple(BENCHMARKS),
-        help="; ".join(f"{name}: {what}" for name, (_, what) in BENCHMARKS.items()),
-    )
+    p.add_argument("what", metavar="agents", help="agents: the former name of modquad score")
     p.add_argument(
         "rest",
         nargs=argparse.REMAINDER,
         metavar="OPTIONS",
-        help="options passed on to the benchmark (see `modquad bench WHAT --help`)",
+        help="options of modquad score (see `modquad score --help`)",
     )
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from modquad_gym.bench import run_as
+    from modquad_gym.scoring.agents import main
 
-    module, _ = BENCHMARKS[args.what]
-    with run_as(f"modquad bench {args.what}"):  # its usage and errors name what the user typed
-        importlib.import_module(module).main(args.rest)
-    return 0
+    if args.what != "agents":
+        name = args.what.replace("-", "_")
+        where = (
+            f"it moved out of the package: run `python -m benchmarks.{name}` in the repository"
+            if args.what in REMOVED
+            else "use `modquad score`"
+        )
+        raise ValueError(f"modquad bench {args.what}: no such command; {where}")
+    print("modquad: `modquad bench agents` is deprecated: use `modquad score`", file=sys.stderr)
+    return main(args.rest, prog="modquad bench agents")

@@ -92,10 +92,10 @@ def sources(args: argparse.Namespace) -> list:
 
 
 def cmd_optima(args: argparse.Namespace) -> int:
-    from modquad_gym.bench.optima import build_dataset
     from modquad_gym.core.distributed import Engine
     from modquad_gym.core.outputs import check_output_file
     from modquad_gym.core.validation import check_int
+    from modquad_gym.scoring.optima import build_dataset
     from modquad_gym.search.problem import EXACT_MODULES
 
     if args.suite:

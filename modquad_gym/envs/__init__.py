@@ -15,7 +15,7 @@ package first) registers:
 * ``ModQuadAssemblyMixed-v0`` (superseded by -v1, kept so that its runs repeat): the palette
   with the default single-type tasks (``tasks="mixed"``).
 * ``ModQuadAssemblyLarge-v0``: the same with ``n_max=12`` and ``tasks="planted-large"`` (tasks
-  planted in 6-12 modules): the large benchmark tier (:mod:`modquad_gym.bench.tiers`).
+  planted in 6-12 modules): the large benchmark tier (:mod:`modquad_gym.scoring.tiers`).
 * ``ModQuadAssemblyDynamic-v0``: the same with ``tasks="motions"``: random dynamic tasks
   (:class:`~modquad_gym.dynamics.random_motions.MotionTasks`: motions, off-centre payloads,
   pushes through a tool), each structure decided on its own mass and inertia; the dynamic

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.bench.scores import Row
 from modquad_gym.core.outputs import save_figure
+from modquad_gym.scoring.scores import Row
 
 
 def _new_figure(w: float, h: float):

@@ -1,7 +1,7 @@
 """Speed of ModQuadAssembly-v0: steps per second with random masked actions, a fresh task every
 episode, in one process pinned to one core; and the cost per step as a function of task size t.
 
-Run ``python -m modquad_gym.bench.env`` (``--help`` for options). Writes
+Run ``python -m benchmarks.env`` (``--help`` for options). Writes
 ``results/env_benchmark.md`` and ``results/env_benchmark.csv``.
 
 What is timed: ``env.step`` and ``env.reset`` (which draws a fresh task from the generator) on the
@@ -17,7 +17,7 @@ cost reported apart. Next to it, one MaskablePPO update (``.train()`` on a 256-s
 same env, the hyperparameters of ``train.py``) is timed in the same run, so the env's cost can be
 read against the learner's.
 
-The encodings table (``--scale``, :mod:`modquad_gym.bench.env_scale`) compares the grid and the
+The encodings table (``--scale``, :mod:`benchmarks.env_scale`) compares the grid and the
 free-faces action encodings at n_max 16, 32 and 64, resets counted (issue 26's goal: 2,000
 steps/s at n_max 64 on one core).
 """
@@ -32,14 +32,15 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
-from modquad_gym.bench import (
+from benchmarks.common import (
     add_force,
     machine_description,
     markdown_table,
     parse_bench_args,
+    run_main,
     write_csv,
 )
-from modquad_gym.bench.env_scale import ENCODINGS, measure_encoding, play_timed, scale_section
+from benchmarks.env_scale import ENCODINGS, measure_encoding, play_timed, scale_section
 from modquad_gym.core.extras import import_optional
 from modquad_gym.core.options import int_option, seed_option
 from modquad_gym.core.outputs import write_text
@@ -245,7 +246,7 @@ def load_line(start: tuple[float, float, float] | None) -> str:
 def command_line(args: argparse.Namespace) -> str:
     """The command that reproduces the report."""
     parts = [
-        f"python -m modquad_gym.bench.env --steps {args.steps} --warmup {args.warmup}",
+        f"python -m benchmarks.env --steps {args.steps} --warmup {args.warmup}",
         f"--seed {args.seed} --n-max {args.n_max} --default-steps {args.default_steps}",
         "--sizes " + " ".join(str(t) for t in args.sizes),
         "--scale " + " ".join(str(n) for n in args.scale),
@@ -260,7 +261,7 @@ def command_line(args: argparse.Namespace) -> str:
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
-        prog="python -m modquad_gym.bench.env", description=__doc__.split("\n\n")[0]
+        prog="python -m benchmarks.env", description=__doc__.split("\n\n")[0]
     )
     parser.add_argument("--steps", type=int_option(1), default=5000, help="timed steps per row")
     parser.add_argument(
@@ -342,4 +343,4 @@ def main(argv: list[str] | None = None) -> list[dict]:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_main(main, "env"))

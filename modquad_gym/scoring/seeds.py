@@ -1,7 +1,7 @@
 """Learned agents over training seeds: interquartile mean with 95 % bootstrap intervals.
 
 A single training seed is not a result (Henderson et al. 2018; Agarwal et al. 2021). ``python -m
-modquad_gym.bench.seeds RUNS --tier T`` scores the model of every ``RUNS/seed-*`` folder (from
+modquad_gym.scoring.seeds RUNS --tier T`` scores the model of every ``RUNS/seed-*`` folder (from
 ``python train.py --seeds ...``) with each learned method on the tier's held-out suites, the
 searches once as the reference, and writes to ``--out``:
 
@@ -30,12 +30,12 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from modquad_gym.bench import machine_description
-from modquad_gym.bench.agents import SEARCH_METHODS, run_benchmark
-from modquad_gym.bench.scores import Row, config_limit, share_limit
-from modquad_gym.bench.tiers import TIERS, get_tier
 from modquad_gym.core.options import int_option
 from modquad_gym.core.outputs import check_output_dir, save_figure, write_csv, write_text
+from modquad_gym.scoring import machine_description
+from modquad_gym.scoring.agents import SEARCH_METHODS, run_benchmark
+from modquad_gym.scoring.scores import Row, config_limit, share_limit
+from modquad_gym.scoring.tiers import TIERS, get_tier
 
 METRICS = {"success": "success", "optimal": "optimal share", "evaluated": "configs / task"}
 SEED_FILES = ("seeds.md", "seeds.csv", "seeds.png")
@@ -340,7 +340,7 @@ def find_runs(folders: list[Path]) -> dict[str, Path]:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
-        prog="python -m modquad_gym.bench.seeds",
+        prog="python -m modquad_gym.scoring.seeds",
         description="Score every seed's model of a `train.py --seeds` folder on a tier's "
         "held-out suites and report the IQM and mean with 95 % bootstrap intervals.",
     )
@@ -376,7 +376,7 @@ def main(argv: list[str] | None = None) -> int:
         args.tier,
         out,
         runs,
-        f"python -m modquad_gym.bench.seeds {argv_text}",
+        f"python -m modquad_gym.scoring.seeds {argv_text}",
         time.perf_counter() - t0,
     )
     print(path.read_text())

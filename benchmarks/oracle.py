@@ -2,7 +2,7 @@
 64 modules, and the goals of issues 3 and 26, each marked "met" or "NOT met" beside the measured
 value.
 
-    modquad bench oracle [--structures 20] [--wrenches 80] [--seed 0] [--repeats 3]
+    python -m benchmarks.oracle [--structures 20] [--wrenches 80] [--seed 0] [--repeats 3]
                          [--modules 7,10,16,32,64]
 
 Writes ``results/oracle_benchmark.md`` and ``results/oracle_benchmark.csv`` (``--out`` to change
@@ -38,12 +38,13 @@ from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.bench import (
+from benchmarks.common import (
     bench_args,
     int_option,
     machine_description,
     markdown_table,
     random_structure,
+    run_main,
     write_csv,
 )
 from modquad_gym.core.extras import missing_extra_message
@@ -283,7 +284,8 @@ def write_report(
         "",
         f"Machine: {machine_description()}. One process; OMP_NUM_THREADS={threads}; "
         f"load average (1, 5, 15 min) at the start: {load}.",
-        f"Command: `modquad bench oracle --structures {n_structures} --wrenches {n_wrenches} "
+        f"Command: `python -m benchmarks.oracle --structures {n_structures} "
+        f"--wrenches {n_wrenches} "
         f"--seed {seed} --repeats {repeats} --modules {','.join(map(str, sizes))}`",
         "",
         "## Goals (issues 3 and 26)",
@@ -324,7 +326,7 @@ def main(argv: list[str] | None = None) -> None:
     }  # fmt: skip
     args = bench_args(
         argv,
-        "modquad bench oracle",
+        "python -m benchmarks.oracle",
         "Measure decisions/s and margins/s of every oracle method on fresh structures of 7 to "
         "64 modules (boundary-heavy and random wrenches, ratios to HiGHS in the same run), "
         "check the goals of issues 3 and 26; write results/oracle_benchmark.{md,csv}.",
@@ -343,4 +345,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_main(main, "oracle"))

@@ -1,6 +1,6 @@
 """The exhaustive search as it was before the streaming engine, kept frozen as the plain
 reference the fast search (:mod:`modquad_gym.search`) is cross-checked against
-(``tests/test_search_scale.py``) and timed against (``modquad bench scaling``).
+(``tests/test_search_scale.py``) and timed against (``python -m benchmarks.scaling``).
 
 :func:`exhaustive_search` (paper Sec. V-A) walks every connected structure up to translation,
 level by level, and returns the first feasible one of the first level holding one: the

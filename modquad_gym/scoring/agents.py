@@ -1,7 +1,6 @@
 """The agent benchmark: every solver on the held-out suites, against the certified optimum.
 
-``modquad bench agents`` (or ``python -m modquad_gym.bench.agents``) runs each method on every
-task of
+``modquad score`` (or ``python -m modquad_gym.scoring.agents``) runs each method on every task of
 the held-out suites (``modquad_gym/data/suites/heldout_*.json``, never seen in training; each task
 carries its optimum from the exhaustive search) and writes to ``--out`` (default ``results``):
 
@@ -28,20 +27,24 @@ import time
 from functools import lru_cache, partial
 from pathlib import Path
 
-from modquad_gym.bench import bench_args
-from modquad_gym.bench.agents_figures import plot_bars, plot_learning_curve, plot_structures
-from modquad_gym.bench.agents_report import write_report
-from modquad_gym.bench.scores import Row, summarise
-from modquad_gym.bench.tiers import TIERS, Tier, get_tier, validation_suite
-from modquad_gym.core.options import DefaultsHelpFormatter, int_option
-from modquad_gym.core.outputs import check_output_dir, write_csv
+from modquad_gym.core.options import DefaultsHelpFormatter
+from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv
 from modquad_gym.geometry.module import palette
-from modquad_gym.search import SEARCHES, verified
+from modquad_gym.scoring.agents_figures import plot_bars, plot_learning_curve, plot_structures
+from modquad_gym.scoring.agents_report import write_report
+from modquad_gym.scoring.options import (
+    COMMAND,
+    DEFAULT_METHODS,
+    DESCRIPTION,
+    REPORT_FILES,
+    SEARCH_METHODS,
+    add_options,
+)
+from modquad_gym.scoring.scores import Row, summarise
+from modquad_gym.scoring.tiers import Tier, get_tier, validation_suite
+from modquad_gym.search import verified
 from modquad_gym.solvers import Solver, admissible, guided_options, load_solver, make_solver
 from modquad_gym.tasks import TaskRequirement, load_suite
-
-SEARCH_METHODS = tuple(SEARCHES)
-DEFAULT_METHODS = (*SEARCH_METHODS, "ppo", "ppo-k2", "ppo-k8")
 
 
 def run_benchmark(
@@ -101,64 +104,19 @@ def _solve_chunk(config: tuple, jobs: list) -> list[Row]:
     return rows
 
 
-REPORT_FILES = (
-    "benchmark.md",
-    "benchmark.csv",
-    "benchmark_bars.png",
-    "learning_curve.png",
-    "structures.png",
-)
-"""What the benchmark writes into ``--out``."""
-
-
-OPTIONS = {
-    "--suite": dict(type=Path, action="append", default=None,
-                    help="suite JSON (repeatable; default the held-out suites in "
-                    "modquad_gym/data/suites)"),
-    "--model": dict(type=Path, default=None, help="PPO model .zip (default: the tier's "
-                    "shipped model, modquad_gym/data/models/ppo_default or ppo_<tier>)"),
-    "--train-dir": dict(type=Path, default=None, help="training output with config.json and "
-                        "evaluations.npz (default: the model's folder)"),
-    "--tier": dict(default=None, help="score on a benchmark tier's held-out suites and budget: "
-                   f"{', '.join(TIERS)} (default: current, or the --suite files)"),
-    "--methods": dict(nargs="+", default=None,
-                      help="search names, ppo, ppo-kN, ppo-guided (settings as suffixes: "
-                      "-bN budget, -wN branching, -nodive, e.g. ppo-guided-b256-w8), or "
-                      "package.module:Name of an "
-                      f"outside agent (default: {' '.join(DEFAULT_METHODS)}; on other tiers "
-                      "the searches, and the tier's learned methods when it ships a model)"),
-    "--solver": dict(action="append", default=[], metavar="PKG.MOD:NAME",
-                     help="score an outside agent (repeatable): a Solver instance or class, or a "
-                     "function task -> structure, imported from PKG.MOD; it is told the tier's "
-                     "n_max, and counted through the evaluator it is handed (docs: "
-                     "benchmarks.md); without --methods it is scored beside the searches"),
-    "--samples": dict(type=int_option(0, 1000), default=None,
-                      help="replace ppo-kN in --methods by ppo-k<samples> (0 drops it)"),
-    "--n-max": dict(type=int_option(1, 16), default=None,
-                    help="module budget (default: the tier's)"),
-    "--limit": dict(type=int_option(1), default=None, help="first N tasks of each suite only"),
-    "--validation": dict(type=int_option(1, 10_000), default=None, metavar="N",
-                         help="score on the tier's first N validation tasks (what training "
-                         "selects on; optima certified here) instead of its held-out suites: "
-                         "tune decoders and recipes here, never on the held-out suites"),
-    "--no-progress": dict(action="store_true"),
-    "--workers": dict(type=int_option(1, 256), default=1,
-                      help="Ray tasks sharing the tasks (1: one process, so each solver's "
-                      "seconds are timed alone; RAY_ADDRESS joins a cluster)"),
-}  # fmt: skip
-"""The options of ``modquad bench agents`` besides ``--seed``, ``--out`` and ``--force``."""
-
-
-def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    return bench_args(
-        argv,
-        "python -m modquad_gym.bench.agents",
-        "Run every solver on the held-out suites and write benchmark.md, benchmark.csv and plots.",
-        OPTIONS,
-        seed_help="solver seed (sampled PPO rollouts, random search)",
-        force=True,
-        formatter_class=DefaultsHelpFormatter,
+def parse_args(argv: list[str] | None, prog: str = COMMAND) -> argparse.Namespace:
+    """The options of ``argv``; an ``--out`` that cannot take the report is argparse's error
+    before any work."""
+    parser = argparse.ArgumentParser(
+        prog=prog, description=DESCRIPTION, formatter_class=DefaultsHelpFormatter
     )
+    add_options(parser)
+    args = parser.parse_args(argv)
+    try:
+        check_output_dir(args.out, REPORT_FILES, args.force)
+    except OutputError as exc:
+        parser.error(str(exc))
+    return args
 
 
 def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
@@ -188,8 +146,16 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
     return methods
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = parse_args(argv)
+def main(argv: list[str] | None = None, prog: str = COMMAND) -> int:
+    """``modquad score`` with the options ``argv`` (default the command line's); usage and
+    errors name ``prog``."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    return score(parse_args(argv, prog), " ".join([COMMAND, *argv]))
+
+
+def score(args: argparse.Namespace, command: str) -> int:
+    """Score the methods of ``args`` (:func:`add_options`) and write the report, which records
+    ``command`` (the command line that reproduces it)."""
     if args.tier is not None and args.suite:
         raise ValueError("give --tier or --suite, not both")
     tier = get_tier(args.tier or "current")
@@ -221,7 +187,6 @@ def main(argv: list[str] | None = None) -> int:
         else None,
         "structures": plot_structures(rows, args.out / "structures.png"),
     }
-    command = " ".join(["modquad bench agents", *(argv if argv is not None else sys.argv[1:])])
     path = write_report(rows, summary, args.out, suites, args.model, train_dir, n_max,
                         figures, wall, tier.name, command)  # fmt: skip
     print(path.read_text())

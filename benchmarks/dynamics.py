@@ -1,8 +1,9 @@
 """Designing for a motion: the certified minimum structure per speed, flown in MuJoCo, against
 the static (hover-only) design.
 
-    modquad bench dynamics [--circle-speeds 1 1.5 1.75 2 2.1 2.2] [--eight-speeds 1 1.5 2 2.5]
-                           [--push-forces 1 2 4 6 8] [--n-max 8] [--out results/dynamics]
+    python -m benchmarks.dynamics [--circle-speeds 1 1.5 1.75 2 2.1 2.2]
+                                  [--eight-speeds 1 1.5 2 2.5] [--push-forces 1 2 4 6 8]
+                                  [--n-max 8] [--out results/dynamics]
 
 Writes ``report.md``, ``dynamics.csv`` and ``modules_vs_speed.png`` into ``--out``. Three
 motions (:mod:`modquad_gym.dynamics.motions`, 50 samples/s, f_max 2 N, 0.3 kg T-modules): a
@@ -24,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.bench import bench_args, machine_description, markdown_table, write_csv
+from benchmarks.common import bench_args, machine_description, markdown_table, run_main, write_csv
 from modquad_gym.core.outputs import write_text
 
 OUTPUTS = ("report.md", "dynamics.csv", "modules_vs_speed.png")
@@ -160,7 +161,7 @@ def goal_lines(rows: list[dict]) -> list[str]:
 def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
     load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
     command = (
-        "modquad bench dynamics --circle-speeds "
+        "python -m benchmarks.dynamics --circle-speeds "
         + " ".join(f"{v:g}" for v in args.circle_speeds)
         + " --eight-speeds "
         + " ".join(f"{v:g}" for v in args.eight_speeds)
@@ -214,7 +215,7 @@ def main(argv: list[str] | None = None) -> None:
     }  # fmt: skip
     args = bench_args(
         argv,
-        "modquad bench dynamics",
+        "python -m benchmarks.dynamics",
         "Certified minimum structures for a circle at increasing speed, a figure-eight with a "
         "payload and a push, flown in MuJoCo, against the static (hover-only) design; write "
         "report.md, dynamics.csv and modules_vs_speed.png into --out.",
@@ -239,4 +240,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_main(main, "dynamics"))

@@ -1,6 +1,6 @@
 """Heterogeneous modules: does mixing module types save modules, and what does the search cost?
 
-    modquad bench heterogeneous [--tasks 12] [--seed 0] [--n-max 7] [--out results]
+    python -m benchmarks.heterogeneous [--tasks 12] [--seed 0] [--n-max 7] [--out results]
 
 Writes ``results/heterogeneous.md``, ``.csv`` (one row per task and palette) and
 ``heterogeneous.png`` (examples). Everything in the report comes from this run:
@@ -26,8 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from modquad_gym.bench import bench_args, int_option, markdown_table, write_csv
-from modquad_gym.bench.heterogeneous_measure import (
+from benchmarks.common import bench_args, int_option, markdown_table, run_main, write_csv
+from benchmarks.heterogeneous_measure import (
     EXTERNAL_F_MAX,
     GOALS,
     PAIR,
@@ -40,7 +40,7 @@ from modquad_gym.bench.heterogeneous_measure import (
     task_sets,
     worst_case,
 )
-from modquad_gym.bench.heterogeneous_report import COST_COLUMNS, SAVINGS_COLUMNS, figure, report
+from benchmarks.heterogeneous_report import COST_COLUMNS, SAVINGS_COLUMNS, figure, report
 from modquad_gym.core.outputs import write_text
 from modquad_gym.geometry.module import palette
 from modquad_gym.search import exhaustive_search
@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> None:
     }  # fmt: skip
     args = bench_args(
         argv,
-        "modquad bench heterogeneous",
+        "python -m benchmarks.heterogeneous",
         "Certified minima with a palette of module types against each type alone (total and "
         "external tasks), search cost, worst case, MuJoCo; writes "
         "results/heterogeneous.{md,csv,png}.",
@@ -93,4 +93,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_main(main, "heterogeneous"))

@@ -1,12 +1,13 @@
 """Batch work and a large search on Ray: wall time with 1 and 2 local workers, Ray's start-up.
 
-    modquad bench distributed [--tasks 1000] [--n-max 7] [--search-n-max 13 [14 ...]] [--seed 0]
+    python -m benchmarks.distributed [--tasks 1000] [--n-max 7] [--search-n-max 13 [14 ...]]
+                                     [--seed 0]
 
 Writes ``results/distributed.md`` and ``.csv``. Two workloads, each run serially (no Ray), on an
 embedded Ray with 1 CPU and with 2 CPUs, every answer compared with the serial one:
 
 * a batch: the certified optima (every optimal structure,
-  :func:`modquad_gym.bench.optima.optimum_record`,
+  :func:`modquad_gym.scoring.optima.optimum_record`,
   the unit of work of ``modquad optima``) of ``--tasks`` training-like tasks (the ``mixed`` task
   source of ``train.py``: planted tasks of 2-6 modules and paper-like tasks);
 * for each ``--search-n-max``, one certified exhaustive search on a task that no structure of
@@ -26,7 +27,14 @@ import time
 
 import numpy as np
 
-from modquad_gym.bench import bench_args, int_option, machine_description, markdown_table, write_csv
+from benchmarks.common import (
+    bench_args,
+    int_option,
+    machine_description,
+    markdown_table,
+    run_main,
+    write_csv,
+)
 from modquad_gym.core.outputs import write_text
 
 MODES = (("serial (no Ray)", 0), ("Ray, 1 CPU", 1), ("Ray, 2 CPUs", 2))
@@ -80,8 +88,8 @@ def batch_tasks(n: int, seed: int) -> list:
 def run_batch(tasks: list, n_max: int) -> list[dict]:
     from functools import partial
 
-    from modquad_gym.bench.optima import optimum_record
     from modquad_gym.core.distributed import map_tasks
+    from modquad_gym.scoring.optima import optimum_record
 
     def work(workers: int):
         records = map_tasks(partial(optimum_record, n_max), tasks, workers=workers)
@@ -99,7 +107,7 @@ def run_batch(tasks: list, n_max: int) -> list[dict]:
 
 
 def run_search(n_max: int, seed: int) -> list[dict]:
-    from modquad_gym.bench.scaling import refuting_task
+    from benchmarks.scaling import refuting_task
     from modquad_gym.core.distributed import Engine
     from modquad_gym.search import exhaustive_search
 
@@ -179,7 +187,7 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
     return "\n".join([
         "# Batch work and a large search on Ray",
         "",
-        f"Made by `modquad bench distributed --tasks {args.tasks} --n-max {args.n_max} "
+        f"Made by `python -m benchmarks.distributed --tasks {args.tasks} --n-max {args.n_max} "
         f"--search-n-max {' '.join(map(str, args.search_n_max))} --seed {args.seed}` on "
         f"{machine_description()}, "
         f"in {seconds:.0f} s; load average at the end {load} (above ~1 another job shared the "
@@ -229,7 +237,7 @@ def main(argv: list[str] | None = None) -> None:
     }  # fmt: skip
     args = bench_args(
         argv,
-        "modquad bench distributed",
+        "python -m benchmarks.distributed",
         "Time a batch of certified optima and one large exhaustive search serially and on an "
         "embedded Ray with 1 and 2 CPUs; write results/distributed.{md,csv}.",
         options,
@@ -250,4 +258,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_main(main, "distributed"))

@@ -1,6 +1,6 @@
 """Every method at the field's sizes, on the same held-out tasks of 16-64 modules.
 
-    modquad bench scale [--bands 16 24 32 48 64] [--families ...] [--per-family 1]
+    python -m benchmarks.scale [--bands 16 24 32 48 64] [--families ...] [--per-family 1]
                         [--methods anytime greedy beam genetic centrosymmetric random ppo
                          ppo-guided] [--time-limit 30] [--workers 1] [--validation]
 
@@ -11,7 +11,8 @@ Writes ``results/scale/report.md``, ``rows.csv`` (one row per task and method), 
 
 Each (method, band) runs in a fresh spawned process (its peak resident memory is the band's),
 after an untimed warm-up run of at most 5 s on the band's first task of each palette and kind
-(imports, numba compilation and caches: a one-off cost, see ``modquad bench coldstart``), with
+(imports, numba compilation and caches: a one-off cost, see ``python -m benchmarks.coldstart``),
+with
 ``n_max`` 64 and every method given the same ``--time-limit``. Every structure is re-verified
 by the exact LP oracle. A task's certified lower bound is the largest of the suite's (what the
 default search proved when the suite was built) and what any method proved in this run; the gap
@@ -25,9 +26,16 @@ from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.bench import bench_args, int_option, machine_description, markdown_table, write_csv
-from modquad_gym.bench.measure import fresh, measured
-from modquad_gym.bench.scale_suites import (
+from benchmarks.common import (
+    bench_args,
+    int_option,
+    machine_description,
+    markdown_table,
+    run_main,
+    write_csv,
+)
+from benchmarks.measure import fresh, measured
+from benchmarks.scale_suites import (
     BANDS,
     FAMILIES,
     build_band,
@@ -257,7 +265,7 @@ def read_rows(path: Path) -> list[dict]:
 
 
 def command_line(args) -> str:
-    line = (f"modquad bench scale --bands {' '.join(map(str, args.bands))} --families "
+    line = (f"python -m benchmarks.scale --bands {' '.join(map(str, args.bands))} --families "
             f"{' '.join(args.families)} --per-family {args.per_family} --methods "
             f"{' '.join(args.methods)} --time-limit {args.time_limit:g} --workers {args.workers}"
             + (" --validation" if args.validation else "") + f" --seed {args.seed}")  # fmt: skip
@@ -324,7 +332,7 @@ def main(argv: list[str] | None = None) -> None:
     }  # fmt: skip
     args = bench_args(
         argv,
-        "modquad bench scale",
+        "python -m benchmarks.scale",
         "Every method on the held-out scale suites (16-64 modules) with one time limit; "
         "write results/scale/.",
         options,
@@ -357,4 +365,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_main(main, "scale"))

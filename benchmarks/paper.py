@@ -2,7 +2,7 @@
 paper-like random tasks (80 wrenches, n_max = 7, f_max = 1, l = 0.4), the structures found
 (paper Fig. 6) and the rotor inputs over the 80 wrenches (paper Fig. 7).
 
-    python -m modquad_gym.bench.paper [--seeds 10] [--out results]
+    python -m benchmarks.paper [--seeds 10] [--out results]
 
 Writes ``results/paper_reproduction.md`` with ``paper_structures.png`` and
 ``paper_rotor_inputs.png``.
@@ -14,7 +14,14 @@ from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.bench import bench_args, int_option, machine_description, markdown_table, write_csv
+from benchmarks.common import (
+    bench_args,
+    int_option,
+    machine_description,
+    markdown_table,
+    run_main,
+    write_csv,
+)
 from modquad_gym.core.outputs import save_figure, write_text
 from modquad_gym.geometry.polyominoes import A001168
 from modquad_gym.oracle import allocate
@@ -60,7 +67,7 @@ def run(n_seeds: int, out: Path) -> list[dict]:
     text = [
         "# Reproducing the paper's evaluation (Sec. VI)",
         "",
-        f"Command: `python -m modquad_gym.bench.paper --seeds {n_seeds}`. "
+        f"Command: `python -m benchmarks.paper --seeds {n_seeds}`. "
         f"Machine: {machine_description()}.",
         "",
         "Paper-like random tasks of 80 wrenches (`modquad_gym.tasks.PaperTasks()`: "
@@ -172,7 +179,7 @@ def main(argv: list[str] | None = None) -> None:
     }
     args = bench_args(
         argv,
-        "python -m modquad_gym.bench.paper",
+        "python -m benchmarks.paper",
         "Exhaustive vs centrosymmetric search on paper-like random tasks; writes "
         "results/paper_reproduction.md with the structures and rotor-input figures.",
         options,
@@ -183,4 +190,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_main(main, "paper"))

@@ -15,7 +15,7 @@ streams. Each held-out task stores ``meta["seed"]`` and ``meta["optimum"]``: the
 minimum module count from :func:`~modquad_gym.search.exhaustive_search` (None when no structure
 of up to ``n_max`` modules works).
 
-``python -m modquad_gym.bench.suites`` rewrites ``modquad_gym/data/suites/heldout_*.json``
+``python -m modquad_gym.scoring.suites`` rewrites ``modquad_gym/data/suites/heldout_*.json``
 (deterministic).
 """
 
@@ -154,7 +154,7 @@ def check_disjoint(suite: Sequence[TaskRequirement], root: Path | None = None) -
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m modquad_gym.bench.suites",
+        prog="python -m modquad_gym.scoring.suites",
         description="Write the held-out benchmark suites (deterministic seeds, optimum by the "
         "exhaustive search).",
     )

@@ -1,4 +1,5 @@
-"""Cold start: what a fresh process pays before its first answer (``modquad bench coldstart``).
+"""Cold start: what a fresh process pays before its first answer
+(``python -m benchmarks.coldstart``).
 
 Each measurement runs in a fresh Python process, ``--repeats`` times (the median is reported):
 
@@ -27,7 +28,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from modquad_gym.bench import bench_args, machine_description, markdown_table, write_csv
+from benchmarks.common import bench_args, machine_description, markdown_table, run_main, write_csv
 from modquad_gym.core.options import int_option
 from modquad_gym.core.outputs import write_text
 
@@ -109,7 +110,7 @@ def measure(env: dict, task: Path, root: Path) -> dict[str, float]:
 def main(argv: list[str] | None = None) -> int:
     args = bench_args(
         argv,
-        "modquad bench coldstart",
+        "python -m benchmarks.coldstart",
         "Time a fresh process's first answers: import, the first exhaustive search, the first "
         "`modquad solve --method ppo`; with an empty and with a filled numba cache.",
         {"--repeats": {"type": int_option(1, 100), "default": 3,
@@ -135,7 +136,8 @@ def main(argv: list[str] | None = None) -> int:
     write_csv(rows, args.out / "coldstart.csv")
     load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
     text = (
-        f"# Cold start\n\nCommand: `modquad bench coldstart {' '.join(argv or sys.argv[1:])}`"
+        "# Cold start\n\nCommand: "
+        f"`python -m benchmarks.coldstart {' '.join(argv or sys.argv[1:])}`"
         f"\n\nMachine: {machine_description()}; load average {load} (a shared machine: "
         "compare rows of one run).\n\n" + markdown_table(rows) + "\n\n"
         "The first numba dispatch of a process loads numba's runtime (its typing and lowering "
@@ -150,4 +152,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_main(main, "coldstart"))

@@ -1,6 +1,6 @@
 """Scaling of the certified exhaustive search, level by level, against the search as it was.
 
-    modquad bench scaling [--seed 0] [--n-max 14] [--reference-n-max 12] [--tasks 3]
+    python -m benchmarks.scaling [--seed 0] [--n-max 14] [--reference-n-max 12] [--tasks 3]
 
 Writes ``results/search_scaling.md`` and ``.csv``. Two workloads:
 * a low-force task that refutes every level up to ``--n-max`` (wrenches of a hidden large
@@ -23,7 +23,14 @@ from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.bench import bench_args, int_option, machine_description, markdown_table, write_csv
+from benchmarks.common import (
+    bench_args,
+    int_option,
+    machine_description,
+    markdown_table,
+    run_main,
+    write_csv,
+)
 from modquad_gym.core.outputs import write_text
 from modquad_gym.geometry.polyominoes import A001168
 
@@ -33,7 +40,7 @@ GOALS = {"refute 12": 3.0, "refute 14": 60.0, "planted 12": 5.0, "memory_MB": 20
 def _timed(impl: str, W: np.ndarray, n_max: int) -> tuple[float, int | None, int, float]:
     """Run one search in this (fresh) process: (seconds, n_modules, evaluated, peak MB)."""
     if impl == "reference":
-        from modquad_gym.bench.reference_search import exhaustive_search
+        from tests.reference_search import exhaustive_search
     else:
         from modquad_gym.search import exhaustive_search
     exhaustive_search(np.array([[0, 0, 1.0, 0, 0, 0]]), n_max=1)  # imports and JIT warm-up
@@ -53,7 +60,7 @@ def measure(impl: str, W: np.ndarray, n_max: int) -> tuple[float, int | None, in
 def refuting_task(seed: int, n_max: int) -> np.ndarray:
     """A low-force task (see :func:`.search.low_force_task`) whose certified optimum exceeds
     ``n_max``: hidden structures of 3 n_max modules, redrawn until none of up to n_max works."""
-    from modquad_gym.bench.search import low_force_task, random_structure
+    from benchmarks.search import low_force_task, random_structure
     from modquad_gym.search import exhaustive_search
 
     rng = np.random.default_rng(seed)
@@ -65,7 +72,7 @@ def refuting_task(seed: int, n_max: int) -> np.ndarray:
 
 def planted_12(seed: int, count: int) -> list[np.ndarray]:
     """``count`` planted tasks (80 wrenches of a hidden 12-module structure) with optimum 12."""
-    from modquad_gym.bench.search import planted_task
+    from benchmarks.search import planted_task
     from modquad_gym.search import exhaustive_search
 
     rng = np.random.default_rng(seed)
@@ -143,7 +150,7 @@ def report(rows: list[dict], args: argparse.Namespace) -> str:
         [
             "# Certified exhaustive search at scale",
             "",
-            f"Made by `modquad bench scaling --seed {args.seed} --n-max {args.n_max} "
+            f"Made by `python -m benchmarks.scaling --seed {args.seed} --n-max {args.n_max} "
             f"--reference-n-max {args.reference_n_max} --tasks {args.tasks}` on "
             f"{machine_description()}; one process per run (workers = 1); load average at "
             f"the end {load}.",
@@ -174,7 +181,7 @@ def main(argv: list[str] | None = None) -> None:
     }  # fmt: skip
     args = bench_args(
         argv,
-        "modquad bench scaling",
+        "python -m benchmarks.scaling",
         "Time the certified exhaustive search level by level (n = 8..N) against the previous "
         "implementation; write results/search_scaling.{md,csv}.",
         options,
@@ -187,4 +194,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_main(main, "scaling"))

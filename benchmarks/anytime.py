@@ -1,6 +1,6 @@
 """The anytime default search at the field's sizes, and the exact search's reach.
 
-    modquad bench anytime [--sizes 16 24 32 48 64] [--tasks 3] [--time-limit 60] [--seed 0]
+    python -m benchmarks.anytime [--sizes 16 24 32 48 64] [--tasks 3] [--time-limit 60] [--seed 0]
                           [--reach] [--workers 2]
 
 Writes ``results/anytime.md`` and ``.csv``. Two workloads, each run in a fresh spawned process
@@ -27,8 +27,15 @@ from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.bench import bench_args, int_option, machine_description, markdown_table, write_csv
-from modquad_gym.bench.measure import fresh, measured
+from benchmarks.common import (
+    bench_args,
+    int_option,
+    machine_description,
+    markdown_table,
+    run_main,
+    write_csv,
+)
+from benchmarks.measure import fresh, measured
 from modquad_gym.core.outputs import write_text
 
 GOALS = {"gap_64_pct": 5.0, "seconds": 60.0, "memory_MB": 2048.0}
@@ -105,8 +112,8 @@ def planted_rows(sizes, n_tasks: int, seed: int, time_limit: float) -> list[dict
 
 def reach_rows(seed: int, workers: int, time_limit: float) -> list[dict]:
     import modquad_gym as mq
-    from modquad_gym.bench.scaling import refuting_task
-    from modquad_gym.bench.search import low_force_task, random_structure
+    from benchmarks.scaling import refuting_task
+    from benchmarks.search import low_force_task, random_structure
     from modquad_gym.search import force_lower_bound
 
     rng = np.random.default_rng(seed)
@@ -154,7 +161,8 @@ def goal_lines(rows: list[dict], time_limit: float) -> list[str]:
 def report(rows: list[dict], args: argparse.Namespace) -> str:
     load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
     command = (
-        f"modquad bench anytime --sizes {' '.join(map(str, args.sizes))} --tasks {args.tasks} "
+        f"python -m benchmarks.anytime --sizes {' '.join(map(str, args.sizes))} "
+        f"--tasks {args.tasks} "
         f"--time-limit {args.time_limit:g} --seed {args.seed}"
         + (f" --reach --workers {args.workers}" if args.reach else "")
     )
@@ -196,7 +204,7 @@ def main(argv: list[str] | None = None) -> None:
     }  # fmt: skip
     args = bench_args(
         argv,
-        "modquad bench anytime",
+        "python -m benchmarks.anytime",
         "The anytime default search on planted tasks of 16-64 modules, and (--reach) the "
         "exhaustive search refuting every level to 16; write results/anytime.{md,csv}.",
         options,
@@ -211,4 +219,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_main(main, "anytime"))

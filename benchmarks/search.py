@@ -1,7 +1,7 @@
 """Search speed: the certified exhaustive search against a plain reference on the same
 enumeration (one scipy/HiGHS LP per wrench, stopping at a structure's first infeasible wrench).
 
-    python -m modquad_gym.bench.search [--tasks 5] [--seed 0] [--reference-structures 300]
+    python -m benchmarks.search [--tasks 5] [--seed 0] [--reference-structures 300]
 
 Writes ``results/search_benchmark.md`` and ``.csv``. Four workloads:
 * ``optimum 8``: planted tasks whose certified optimum is 8 modules, searched with n_max = 8.
@@ -26,12 +26,13 @@ from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.bench import (
+from benchmarks.common import (
     bench_args,
     int_option,
     machine_description,
     markdown_table,
     random_structure,
+    run_main,
     write_csv,
 )
 from modquad_gym.core.outputs import write_text
@@ -225,7 +226,7 @@ def _report(rows, goals, machine, n_tasks, seed, ref_limit, enum_seconds) -> str
         "# Search benchmark",
         "",
         f"Machine: {machine}. One process.",
-        f"Command: `python -m modquad_gym.bench.search --tasks {n_tasks} --seed {seed} "
+        f"Command: `python -m benchmarks.search --tasks {n_tasks} --seed {seed} "
         f"--reference-structures {ref_limit}`",
         "",
         f"Enumerating every structure up to 10 modules (50,148) took {enum_seconds:.2f} s, once "
@@ -267,7 +268,7 @@ def main(argv: list[str] | None = None) -> None:
     }  # fmt: skip
     args = bench_args(
         argv,
-        "python -m modquad_gym.bench.search",
+        "python -m benchmarks.search",
         "Time the certified exhaustive search against a plain LP reference; write "
         "results/search_benchmark.{md,csv}.",
         options,
@@ -278,4 +279,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_main(main, "search"))

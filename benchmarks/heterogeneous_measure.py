@@ -1,7 +1,7 @@
 """Heterogeneous-modules benchmark, the measurements: task sets, certified minima with a palette
 and with each type alone, the worst case, MuJoCo validation and the per-workload summary.
 
-Run through :mod:`modquad_gym.bench.heterogeneous` (``modquad bench heterogeneous``), which
+Run through :mod:`benchmarks.heterogeneous` (``python -m benchmarks.heterogeneous``), which
 describes the experiment; the report text and figure are :mod:`.heterogeneous_report`.
 """
 
@@ -117,7 +117,7 @@ def _saved(best_alone: int | None, mixed: int | None, n_max: int) -> int | str:
 def refuting_task(seed: int, n_max: int) -> np.ndarray:
     """Low forces, torques of a large hidden T-module structure: no structure of up to
     ``n_max`` modules of the palette satisfies it, and the force bounds skip no level."""
-    from modquad_gym.bench.search import low_force_task, random_structure
+    from benchmarks.search import low_force_task, random_structure
 
     rng = np.random.default_rng(seed)
     while True:

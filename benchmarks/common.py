@@ -1,14 +1,12 @@
-"""Benchmarks: scripts that measure speed and write reports to ``results/``.
-
-Every report states the machine it ran on and compares methods as ratios within one run.
-"""
+"""What the measurement scripts share: their option parsing and running, the machine line, a random
+structure and a markdown table, and the list of the scripts (:func:`scripts`)."""
 
 from __future__ import annotations
 
 import argparse
-import contextlib
-import os
-import platform
+import importlib
+import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +14,7 @@ import numpy as np
 from modquad_gym.core.options import int_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv, write_text
 from modquad_gym.geometry.structure import Structure
+from modquad_gym.scoring import machine_description
 
 __all__ = [
     "add_force",
@@ -25,11 +24,55 @@ __all__ = [
     "markdown_table",
     "parse_bench_args",
     "random_structure",
-    "run_as",
+    "run_main",
+    "run_script",
+    "scripts",
     "seed_option",
     "write_csv",
     "write_text",
 ]
+
+
+def scripts() -> dict[str, str]:
+    """Every script of ``benchmarks/`` (a module with ``main``; ``python -m benchmarks.NAME``
+    runs it) by name, with the first line of its docstring (what it measures), read without
+    importing them."""
+    import ast
+
+    out = {}
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        if any(isinstance(n, ast.FunctionDef) and n.name == "main" for n in tree.body):
+            out[path.stem] = (ast.get_docstring(tree) or "").split("\n\n")[0].replace("\n", " ")
+    return out
+
+
+def run_main(
+    main: Callable[[list[str] | None], object], name: str, argv: list[str] | None = None
+) -> int:
+    """``python -m benchmarks.NAME`` (``main``) with the options ``argv`` (default the command
+    line's), run as the ``modquad`` command runs its commands: 0 when it finishes (or the status
+    it returns), 2 for a refused option (argparse's usage and error line) or an expected failure
+    (a missing optional package, a file that cannot be written: one line
+    ``python -m benchmarks.NAME: error: ...``), 130 when interrupted."""
+    from modquad_gym.cli.common import one_line
+
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # argparse: --help (0) or a refused option (2)
+        return exc.code if isinstance(exc.code, int) else 0 if exc.code is None else 2
+    except KeyboardInterrupt:
+        print(f"python -m benchmarks.{name}: interrupted", file=sys.stderr)
+        return 130
+    except (ValueError, OSError, ImportError, MemoryError, OverflowError) as exc:
+        print(f"python -m benchmarks.{name}: error: {one_line(exc)}", file=sys.stderr)
+        return 2
+    return code if isinstance(code, int) else 0  # some return their rows
+
+
+def run_script(name: str, argv: list[str] | None = None) -> int:
+    """:func:`run_main` of the script ``benchmarks.NAME`` (imported here)."""
+    return run_main(importlib.import_module(f"benchmarks.{name}").main, name, argv)
 
 
 def bench_args(
@@ -66,29 +109,12 @@ def add_force(parser: argparse.ArgumentParser) -> None:
     )
 
 
-_COMMAND: list[str] = []
-"""The command the user typed to run a benchmark (``modquad bench NAME``), while it runs."""
-
-
-@contextlib.contextmanager
-def run_as(command: str):
-    """Within this block a benchmark's usage and errors name ``command`` (``modquad bench X``
-    runs it) instead of the ``python -m modquad_gym.bench.X`` its parser is written for."""
-    _COMMAND.append(command)
-    try:
-        yield
-    finally:
-        _COMMAND.pop()
-
-
 def parse_bench_args(
     parser: argparse.ArgumentParser, argv: list[str] | None, outputs: tuple[str, ...] = ()
 ):
-    """Parse ``argv`` (usage and errors naming the command typed, :func:`run_as`); when the
-    benchmark has ``--out``, check that it is (or can become) a writable folder holding none of
-    ``outputs`` (unless ``--force``) before any work starts (an argparse error otherwise)."""
-    if _COMMAND:
-        parser.prog = _COMMAND[-1]
+    """Parse ``argv``; when the benchmark has ``--out``, check that it is (or can become) a
+    writable folder holding none of ``outputs`` (unless ``--force``) before any work starts (an
+    argparse error otherwise)."""
     args = parser.parse_args(argv)
     out = getattr(args, "out", None)
     if out is not None:
@@ -97,20 +123,6 @@ def parse_bench_args(
         except OutputError as exc:
             parser.error(str(exc))
     return args
-
-
-def machine_description() -> str:
-    """One line naming the CPU, its core count and the absence of a GPU: the machine line of
-    every benchmark report (the agent benchmark's too)."""
-    model = platform.processor() or "unknown CPU"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return f"{model}, {os.cpu_count()} cores, no GPU, Python {platform.python_version()}"
 
 
 def random_structure(n: int, rng: np.random.Generator) -> Structure:

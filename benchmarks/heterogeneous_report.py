@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from modquad_gym.bench import machine_description, markdown_table
-from modquad_gym.bench.heterogeneous_measure import EXTERNAL_F_MAX, PALETTE
+from benchmarks.common import machine_description, markdown_table
+from benchmarks.heterogeneous_measure import EXTERNAL_F_MAX, PALETTE
 from modquad_gym.geometry.module import STOCK_TYPES, palette
 from modquad_gym.search import exhaustive_search
 
@@ -77,7 +77,7 @@ def report(args, rows, summ, worst, sim, captions) -> str:
     lines = [
         "# Heterogeneous modules: mixing types, self-weight, search cost",
         "",
-        f"Made by `modquad bench heterogeneous --tasks {args.tasks} --seed {args.seed} "
+        f"Made by `python -m benchmarks.heterogeneous --tasks {args.tasks} --seed {args.seed} "
         f"--n-max {args.n_max}` on {machine_description()}; one process; load average at the "
         f"end {load}. Per-task rows: `heterogeneous.csv`.",
         "",

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.bench import machine_description
-from modquad_gym.bench.scores import Row, config_limit, share_limit, summarise
-from modquad_gym.bench.tiers import TIERS, get_tier
 from modquad_gym.core.outputs import write_text
+from modquad_gym.scoring import machine_description
+from modquad_gym.scoring.scores import Row, config_limit, share_limit, summarise
+from modquad_gym.scoring.tiers import TIERS, get_tier
 from modquad_gym.search import SEARCHES
 from modquad_gym.tasks import TaskRequirement
 
@@ -36,7 +36,7 @@ def write_report(
     figures: dict[str, Path | None],
     wall: float,
     tier: str = "current",
-    command: str = "modquad bench agents",
+    command: str = "modquad score",
 ) -> Path:
     """Write ``out/benchmark.md`` from the rows of one run and return its path."""
     has_ppo = any(s["method"].startswith("ppo") for s in summary)
@@ -77,11 +77,11 @@ def _header(
         "",
         (
             "Validation tasks (what training selects its model on, seeds "
-            "`VALIDATION_SEED0 + i` in `modquad_gym/bench/suites.py`; settings are tuned here, "
+            "`VALIDATION_SEED0 + i` in `modquad_gym/scoring/suites.py`; settings are tuned here, "
             "never on the held-out suites): "
             if set(suites) == {"validation"}
             else "Held-out suites (never seen in training; seeds in "
-            "`modquad_gym/bench/suites.py` and `tiers.py`): "
+            "`modquad_gym/scoring/suites.py` and `tiers.py`): "
         )
         + ", ".join(f"`{name}` ({len(t)} tasks)" for name, t in suites.items())
         + f", {n_tasks} tasks in all. The optimum is the certified minimum from the exhaustive "

@@ -23,7 +23,7 @@ instant bounds: force or count, and the level bounds), and what the default sear
 ``--time-limit`` seconds: ``lower_bound`` (certified: no smaller structure works) and
 ``best_known`` (the smallest verified structure it found).
 
-``python -m modquad_gym.bench.scale_suites`` rewrites ``modquad_gym/data/suites/scale_N.json``
+``python -m benchmarks.scale_suites`` rewrites ``modquad_gym/data/suites/scale_N.json``
 (deterministic up to the time limit's reach).
 """
 
@@ -36,12 +36,12 @@ from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.bench import random_structure
-from modquad_gym.bench.search import low_force_task
-from modquad_gym.bench.suites import SUITES_DIR
+from benchmarks.common import random_structure, run_main
+from benchmarks.search import low_force_task
 from modquad_gym.core.options import int_option, real_option
 from modquad_gym.geometry.module import GRAVITY, palette
 from modquad_gym.geometry.structure import Structure
+from modquad_gym.scoring.suites import SUITES_DIR
 from modquad_gym.search import SearchProblem, anytime_search, bound_levels
 from modquad_gym.tasks import (
     PlantedMixedTasks,
@@ -170,7 +170,7 @@ def build_band(band: int, per_family: int, time_limit: float, validation: bool =
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
-        prog="python -m modquad_gym.bench.scale_suites",
+        prog="python -m benchmarks.scale_suites",
         description="Write the held-out scale suites (modquad_gym/data/suites/scale_N.json): "
         "fixed seeds, the planted size and the bounds the default search proves.",
     )
@@ -194,4 +194,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_main(main, "scale_suites"))

@@ -12,7 +12,7 @@
   pushes through a tool), each structure judged on its own mass and inertia; its model is the
   default recipe trained on that source.
 
-Suites are package data (``modquad_gym/data/suites``); ``python -m modquad_gym.bench.tiers
+Suites are package data (``modquad_gym/data/suites``); ``python -m modquad_gym.scoring.tiers
 large`` (or ``mixed``, ``dynamic``) rewrites a tier's suite from its fixed seeds, each task with its
 certified optimum from :func:`~modquad_gym.search.exhaustive_search`.
 """
@@ -23,16 +23,16 @@ import argparse
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from modquad_gym.bench.suites import (
+from modquad_gym.dynamics import DynamicTask
+from modquad_gym.geometry.module import palette
+from modquad_gym.policy.models import shipped_model
+from modquad_gym.scoring.suites import (
     SUITES_DIR,
     draw_task,
     optimum_counts,
     validation_tasks,
     with_optimum,
 )
-from modquad_gym.dynamics import DynamicTask
-from modquad_gym.geometry.module import palette
-from modquad_gym.policy.models import shipped_model
 from modquad_gym.tasks import TaskRequirement, load_suite, make_generator, save_suite
 
 
@@ -54,7 +54,7 @@ class Tier:
     (:class:`~.training.TrainConfig` fields)."""
     learned: tuple[str, ...] = ("ppo", "ppo-k8", "ppo-guided")
     """The learned methods its reports score (benchmark method names; settings of the guided
-    search chosen on validation tasks, ``modquad bench agents --validation``)."""
+    search chosen on validation tasks, ``modquad score --validation``)."""
     model_tier: str = ""
     """The tier whose shipped model this tier uses ("": its own): a size-free model trained on
     one tier acts on another."""
@@ -144,7 +144,7 @@ def certify(tier: Tier, tasks: list, progress: bool = True) -> list:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
-        prog="python -m modquad_gym.bench.tiers",
+        prog="python -m modquad_gym.scoring.tiers",
         description="Rewrite a tier's held-out suite (fixed seeds, certified optima).",
     )
     p.add_argument("tier", choices=[t for t in TIERS if TIERS[t].source])

@@ -16,7 +16,7 @@ import time
 import gymnasium as gym
 import numpy as np
 
-from modquad_gym.bench import markdown_table
+from benchmarks.common import markdown_table
 from modquad_gym.tasks import PlantedTasks
 
 SCALE_ID = "modquad_gym:ModQuadAssemblyScale-v0"

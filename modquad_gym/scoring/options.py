@@ -1,0 +1,81 @@
+"""The options of ``modquad score`` (:mod:`.agents`), apart from the scoring itself so that the
+command line builds its parser without importing the scorer, its report and its figures."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from modquad_gym.core.options import int_option, seed_option
+from modquad_gym.scoring.tiers import TIERS
+from modquad_gym.search import SEARCHES
+
+SEARCH_METHODS = tuple(SEARCHES)
+DEFAULT_METHODS = (*SEARCH_METHODS, "ppo", "ppo-k2", "ppo-k8")
+
+REPORT_FILES = (
+    "benchmark.md",
+    "benchmark.csv",
+    "benchmark_bars.png",
+    "learning_curve.png",
+    "structures.png",
+)
+"""What the benchmark writes into ``--out``."""
+
+
+OPTIONS = {
+    "--suite": dict(type=Path, action="append", default=None,
+                    help="suite JSON (repeatable; default the held-out suites in "
+                    "modquad_gym/data/suites)"),
+    "--model": dict(type=Path, default=None, help="PPO model .zip (default: the tier's "
+                    "shipped model, modquad_gym/data/models/ppo_default or ppo_<tier>)"),
+    "--train-dir": dict(type=Path, default=None, help="training output with config.json and "
+                        "evaluations.npz (default: the model's folder)"),
+    "--tier": dict(default=None, help="score on a benchmark tier's held-out suites and budget: "
+                   f"{', '.join(TIERS)} (default: current, or the --suite files)"),
+    "--methods": dict(nargs="+", default=None,
+                      help="search names, ppo, ppo-kN, ppo-guided (settings as suffixes: "
+                      "-bN budget, -wN branching, -nodive, e.g. ppo-guided-b256-w8), or "
+                      "package.module:Name of an "
+                      f"outside agent (default: {' '.join(DEFAULT_METHODS)}; on other tiers "
+                      "the searches, and the tier's learned methods when it ships a model)"),
+    "--solver": dict(action="append", default=[], metavar="PKG.MOD:NAME",
+                     help="score an outside agent (repeatable): a Solver instance or class, or a "
+                     "function task -> structure, imported from PKG.MOD; it is told the tier's "
+                     "n_max, and counted through the evaluator it is handed (docs: "
+                     "benchmarks.md); without --methods it is scored beside the searches"),
+    "--samples": dict(type=int_option(0, 1000), default=None,
+                      help="replace ppo-kN in --methods by ppo-k<samples> (0 drops it)"),
+    "--n-max": dict(type=int_option(1, 16), default=None,
+                    help="module budget (default: the tier's)"),
+    "--limit": dict(type=int_option(1), default=None, help="first N tasks of each suite only"),
+    "--validation": dict(type=int_option(1, 10_000), default=None, metavar="N",
+                         help="score on the tier's first N validation tasks (what training "
+                         "selects on; optima certified here) instead of its held-out suites: "
+                         "tune decoders and recipes here, never on the held-out suites"),
+    "--no-progress": dict(action="store_true", help="no progress bars"),
+    "--workers": dict(type=int_option(1, 256), default=1,
+                      help="Ray tasks sharing the tasks (1: one process, so each solver's "
+                      "seconds are timed alone; RAY_ADDRESS joins a cluster)"),
+}  # fmt: skip
+"""The options of ``modquad score`` besides ``--seed``, ``--out`` and ``--force``."""
+
+COMMAND = "modquad score"
+"""The command that scores agents (its usage, and the command line its report records)."""
+
+DESCRIPTION = (
+    "Score every solver (searches, learned methods, outside agents) on a tier's held-out suites "
+    "against their certified optima and write benchmark.md, benchmark.csv and plots."
+)
+
+
+def add_options(parser: argparse.ArgumentParser) -> None:
+    """The options of ``modquad score``, added to ``parser``."""
+    for flag, kwargs in OPTIONS.items():
+        parser.add_argument(flag, **kwargs)
+    parser.add_argument("--seed", type=seed_option, default=0,
+                        help="solver seed (sampled PPO rollouts, random search)")  # fmt: skip
+    parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
+    parser.add_argument(
+        "--force", action="store_true", help="replace existing reports (default: refuse)"
+    )
