@@ -100,12 +100,11 @@ def test_publish_run_checks_the_model_before_replacing_anything(tmp_path, capsys
         train_main(["--publish-run", str(run), "--no-report"])
     assert exc.value.code == 2
     assert "--publish-run" in capsys.readouterr().err.splitlines()[-1]
-    large = ROOT / "modquad_gym" / "data" / "models" / "ppo_large" / "model.zip"
-    if large.is_file():  # the large tier's model published as the current tier's
-        (run / "model.zip").write_bytes(large.read_bytes())
-        (run / "config.json").write_text(
-            json.dumps({"tier": "current", "env_kwargs": {"tasks": "planted", "n_max": 12}})
-        )
+    mixed = ROOT / "modquad_gym" / "data" / "models" / "ppo_mixed"
+    if (mixed / "model.zip").is_file():  # the mixed tier's model published as the current tier's
+        (run / "model.zip").write_bytes((mixed / "model.zip").read_bytes())
+        own = json.loads((mixed / "config.json").read_text())["env_kwargs"]
+        (run / "config.json").write_text(json.dumps({"tier": "current", "env_kwargs": own}))
         with pytest.raises(SystemExit):
             train_main(["--publish-run", str(run), "--no-report"])
         assert "its tier's" in capsys.readouterr().err

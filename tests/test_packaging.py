@@ -57,6 +57,7 @@ def test_wheel_has_one_package_with_its_examples_and_type_marker(dists):
     }  # no benchmarks/, tests/ or agents/: the laboratory stays in the repository
     assert "modquad_gym/scoring/agents.py" in names
     assert not any(n.startswith("modquad_gym/bench/") for n in names)
+    assert not any("ppo_large" in n for n in names)  # no product path loads it
     for name in ("modquad_gym/py.typed", "modquad_gym/data/examples/screwdriver.json",
                  "modquad_gym/data/examples/paper_seed0.csv", "modquad_gym/data/rl_zoo/ppo.yml",
                  f"modquad_gym-{modquad_gym.__version__}.dist-info/licenses/LICENSE"):  # fmt: skip

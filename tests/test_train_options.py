@@ -72,8 +72,8 @@ def test_subprocess_environments_are_capped_to_the_machine(parse, capsys, monkey
 
 def test_resume_refuses_a_truncated_model_and_another_tiers(parse, capsys):
     pytest.importorskip("sb3_contrib")
-    large = MODELS_DIR / "ppo_large" / "model.zip"
-    for model in ("truncated.zip", str(large)):
+    mixed = MODELS_DIR / "ppo_mixed" / "model.zip"  # another tier's model
+    for model in ("truncated.zip", str(mixed)):
         if not Path(model).is_file():
             continue
         with pytest.raises(SystemExit):

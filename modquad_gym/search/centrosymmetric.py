@@ -165,10 +165,3 @@ def grow_symmetric(level: Iterable[Key]) -> list[Key]:
     """Errata 3 fixed: every structure of the level, grown by each attachable cell s together
     with the cell s_sym centrosymmetric to s about the COM (when s_sym is also attachable)."""
     return list(dict.fromkeys(k for keys in _children(level, 1) for k in keys))
-
-
-def grow_symmetric_typed(level: Iterable[tuple], n_types: int) -> list[tuple]:
-    """:func:`grow_symmetric` for typed keys (``((x, y), type index)`` pairs, sorted): each
-    pair of added cells takes each type in turn. Partners of equal type weigh the same, so the
-    mass-weighted COM is the geometric centre the partners are taken about."""
-    return list(dict.fromkeys(k for keys in _children(level, n_types) for k in keys))

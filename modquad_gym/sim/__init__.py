@@ -11,7 +11,6 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from modquad_gym.sim.bench import ALLOCATIONS, BenchResult, allocate_inputs, run_bench  # noqa: E402
 from modquad_gym.sim.hover import (  # noqa: E402
     LOAD_FRAMES,
     LOAD_RAMP_PROFILES,
@@ -28,6 +27,7 @@ from modquad_gym.sim.model import SimModel, actuator_wrench, build_model, model_
 from modquad_gym.sim.pictures import render_structure  # noqa: E402
 from modquad_gym.sim.report import ValidationReport  # noqa: E402
 from modquad_gym.sim.validate import validate  # noqa: E402
+from modquad_gym.sim.wrench_stand import ALLOCATIONS, BenchResult, allocate_inputs, run_bench  # noqa: E402
 
 __all__ = [
     "ALLOCATIONS",

@@ -24,11 +24,12 @@ spec by about 1e-6 relative, e.g. in the rotor site quaternions). It has:
   exactly the wrench ``A u`` about the COM (checked by :func:`actuator_wrench`).
 * Contacts are disabled: the structure flies, or hangs on the bench, and never touches anything.
 
-With ``bench=True`` the model also holds the load cell of :mod:`modquad_gym.sim.bench`: a child
-body ``load_cell`` rigidly attached to ``structure`` at the COM (no joint), with force and torque
-sensors on its site ``load_cell``, and a weld equality that bolts ``load_cell`` to the world (the
-wall). The structure therefore keeps its six DOF (nv = 6, actuators act) and every wrench it
-makes flows through the load cell into the wall.
+With ``bench=True`` the model also holds the load cell of the wrench test stand
+(:mod:`modquad_gym.sim.wrench_stand`): a child body ``load_cell`` rigidly attached to
+``structure`` at the COM (no joint), with force and torque sensors on its site ``load_cell``, and
+a weld equality that bolts ``load_cell`` to the world (the wall). The structure therefore keeps
+its six DOF (nv = 6, actuators act) and every wrench it makes flows through the load cell into
+the wall.
 """
 
 from __future__ import annotations

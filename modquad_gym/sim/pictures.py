@@ -13,9 +13,9 @@ import numpy as np  # noqa: E402
 
 from modquad_gym.core.outputs import save_figure  # noqa: E402
 from modquad_gym.geometry.structure import Structure  # noqa: E402
-from modquad_gym.sim.bench import BenchResult  # noqa: E402
 from modquad_gym.sim.hover import HoverResult  # noqa: E402
 from modquad_gym.sim.model import HOME_HEIGHT, SimModel, build_model  # noqa: E402
+from modquad_gym.sim.wrench_stand import BenchResult  # noqa: E402
 
 BENCH_HOLD_S = 0.5
 """Seconds each wrench is held in the rotor-input plot (the paper commands one every 500 ms)."""

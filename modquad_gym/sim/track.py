@@ -300,8 +300,3 @@ def _errors(R, Rd, data, b, ref, k) -> np.ndarray:
     theta = rotation_vector(Rd.T @ R)
     e_w = np.array(data.qvel[3:6]) - R.T @ Rd @ ref["angular_velocity"][k]
     return np.concatenate([e_p, theta, e_v, e_w])
-
-
-def track_steps(task: DynamicTask, control_hz: float = 500.0) -> int:
-    """Control steps of a flight (for time estimates)."""
-    return int(math.ceil(task.trajectory.duration * control_hz)) + 1

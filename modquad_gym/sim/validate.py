@@ -53,7 +53,6 @@ from modquad_gym.core.outputs import write_text  # noqa: E402
 from modquad_gym.core.validation import check_f_max, check_int, check_wrenches  # noqa: E402
 from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.oracle import feasible, lambda_ratio, margin  # noqa: E402
-from modquad_gym.sim.bench import BenchResult, run_bench  # noqa: E402
 from modquad_gym.sim.hover import HoverConfig, run_hover, unreachable_wrench_directions, wrench_axis  # noqa: E402
 from modquad_gym.sim.model import build_model  # noqa: E402
 from modquad_gym.sim.pictures import (  # noqa: E402
@@ -70,6 +69,7 @@ from modquad_gym.sim.report import (  # noqa: E402
     finite_or_none,
 )
 from modquad_gym.sim.report_markdown import markdown  # noqa: E402
+from modquad_gym.sim.wrench_stand import BenchResult, run_bench  # noqa: E402
 from modquad_gym.tasks import rotor_wrenches  # noqa: E402
 
 INFEASIBLE_SCALE = 1.3

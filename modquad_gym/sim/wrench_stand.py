@@ -1,4 +1,5 @@
-"""Wrench bench: bolt the structure to a wall through a load cell and measure what it produces.
+"""The wrench test stand (the "bench" of `validate` and its JSON keys): bolt the structure to a
+wall through a load cell and measure what it produces.
 
 The paper (Sec. VI) connects the structure's COM to a static wall through a CoppeliaSim force
 sensor. Copied literally into MuJoCo, a body with no joint welded to the world has nv = 0: its
