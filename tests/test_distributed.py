@@ -250,6 +250,33 @@ def test_task_files_and_suite_names_are_checked(tmp_path, task_dir, capsys):
     assert len(read_dataset(out)[0]) == 1
 
 
+def test_a_refused_cluster_join_names_token_authentication(task_dir, tmp_path, monkeypatch,
+                                                          capsys):  # fmt: skip
+    """A driver that sends no token to a head with token authentication (Ray >= 2.59 turns it on
+    where a token exists) is refused by Ray after its retries: the one line says what to set."""
+    with socket.socket() as head:  # something listens: the address passes the reachability check
+        head.bind(("127.0.0.1", 0))
+        head.listen()
+        address = f"127.0.0.1:{head.getsockname()[1]}"
+
+        def refused(*args, **kwargs):
+            raise ConnectionError(f"Failed to connect to Ray cluster at {address}.")
+
+        monkeypatch.setattr(ray, "is_initialized", lambda: False)
+        monkeypatch.setattr(ray, "init", refused)
+        args = ["optima", "--task", str(task_dir / "t[0-3].json"), "--out",
+                str(tmp_path / "o.jsonl"), "--ray-address", address, "--quiet"]  # fmt: skip
+        monkeypatch.delenv("RAY_AUTH_MODE", raising=False)
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"Ray cluster {address}: Failed to connect" in err
+        assert "RAY_AUTH_MODE=token" in err and "RAY_AUTH_TOKEN" in err
+        monkeypatch.setenv("RAY_AUTH_MODE", "token")  # sent a token: the hint would mislead
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert "Failed to connect" in err and "RAY_AUTH_MODE" not in err
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

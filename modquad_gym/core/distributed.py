@@ -169,7 +169,9 @@ class Engine:
             try:
                 ray.init(address=self.address, **options)
             except (ConnectionError, RuntimeError, TimeoutError) as exc:
-                raise ConnectionError(f"Ray cluster {self.address}: {_one_line(exc)}") from None
+                raise ConnectionError(
+                    f"Ray cluster {self.address}: {_one_line(exc)}{_token_hint()}"
+                ) from None
         else:
             # "local": a new embedded Ray even when RAY_ADDRESS names a cluster elsewhere
             ray.init(address="local", num_cpus=self.workers, **options)
@@ -332,6 +334,18 @@ def check_reachable(address: str) -> None:
             f"Ray address {address} (--ray-address / {ADDRESS_VARIABLE}): nothing answers there "
             f"({reason}); start the cluster with `ray start --head` or check the address"
         ) from None
+
+
+def _token_hint() -> str:
+    """Joining a cluster failed and this driver sent no token: Ray >= 2.59 starts a head with
+    token authentication wherever a token exists, and sends a token to an explicit address only
+    with RAY_AUTH_MODE=token (so this module does not send it unasked either)."""
+    if os.environ.get("RAY_AUTH_MODE", "").lower() == "token":
+        return ""
+    return (
+        "; if the cluster uses token authentication (Ray >= 2.59 turns it on by default), set "
+        "RAY_AUTH_MODE=token and the cluster's RAY_AUTH_TOKEN (or RAY_AUTH_TOKEN_PATH) here too"
+    )
 
 
 def _label(labels: Sequence[str] | None, i: int) -> str:
