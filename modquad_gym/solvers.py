@@ -163,7 +163,7 @@ def guided_options(method: str) -> dict:
 class Evaluator:
     """The exact oracle on one task, counted by the benchmark: what an outside agent is handed.
 
-    ``modquad bench agents --solver pkg:Agent`` makes one per task and passes it to the agent's
+    ``modquad score --solver pkg:Agent`` makes one per task and passes it to the agent's
     ``solve(task, evaluator)``; every configuration the agent decides through it is counted,
     so outside agents are charged like the searches and the learned methods (which count the
     structures they decide themselves).

@@ -64,3 +64,19 @@ def test_docs_python_blocks_run(page, tmp_path, monkeypatch, capsys):
     blocks = re.findall(r"^```python\n(.*?)^```", (DOCS / page).read_text(), re.S | re.M)
     for i, block in enumerate(blocks):
         exec(compile(block, f"docs/{page} python block {i + 1}", "exec"), namespace)
+
+
+def test_docs_name_only_commands_that_exist():
+    """The README and the docs name the benchmarks as the scripts they are
+    (``python -m benchmarks.NAME``, issue 33): every one named exists, and no removed
+    ``modquad bench NAME`` is left (``modquad bench agents`` is ``modquad score``'s deprecated
+    name; the changelog keeps the history)."""
+    from benchmarks.common import scripts
+
+    pages = [ROOT / "README.md", *(DOCS / p for p in PAGES if p != "changelog.md")]
+    for page in pages:
+        text = page.read_text()
+        for name in re.findall(r"python -m benchmarks\.([a-z_]+)", text):
+            assert name in scripts(), (page.name, name)
+        for name in re.findall(r"modquad bench ([a-z-]+)", text):
+            assert name == "agents", (page.name, name)

@@ -8,7 +8,7 @@
   d . w > h_n(d) (widened by the oracle's tolerance) rules out the whole level n. h_n is
   computed once per (module type, n) by one pass over the level and cached on disk
   (``$MODQUAD_CACHE`` or ``~/.cache/modquad_gym``); the default T-module's bounds up to
-  14 modules ship with the package (regenerate: ``modquad bench level-bounds``).
+  14 modules ship with the package (regenerate: ``python -m benchmarks.level_bounds``).
   An upper bound of the widened support is used (max of each sum taken separately), so the
   test stays exact.
 * Count bounds (mixed types, and tasks of kind ``external``): the force part of a structure with
