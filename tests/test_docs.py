@@ -80,3 +80,33 @@ def test_docs_name_only_commands_that_exist():
             assert name in scripts(), (page.name, name)
         for name in re.findall(r"modquad bench ([a-z-]+)", text):
             assert name == "agents", (page.name, name)
+
+
+def shell_commands(page: Path) -> list[str]:
+    """The command lines of a page's ``bash``/``sh`` blocks (continuations joined, comments
+    dropped)."""
+    blocks = re.findall(r"^```(?:bash|sh)[^\n]*\n(.*?)^```", page.read_text(), re.S | re.M)
+    lines = (line for block in blocks for line in block.replace("\\\n", " ").splitlines())
+    return [c for c in (" ".join(re.sub(r"\s#\s.*$", "", ln).split()) for ln in lines) if c]
+
+
+def test_docs_commands_that_rewrite_a_committed_report_say_force():
+    """A documented command that reproduces a committed report writes where that report is, in
+    results/; every such script refuses to replace files without ``--force`` (nothing lost), so
+    without it the docs' command stops at once with exit 2 in a fresh clone (the wheel check,
+    benchmarks/wheel_check.sh, found ten). Seeds reports go to RUNS/report unless told."""
+    report = re.compile(
+        r"^(python -m benchmarks\.\w+|python -m modquad_gym\.scoring\.seeds|modquad score)\b"
+    )
+    missing = []
+    for page in [ROOT / "README.md", *(DOCS / p for p in PAGES)]:
+        for command in shell_commands(page):
+            if not (found := report.match(command)):
+                continue
+            args = command.split()
+            out = args[args.index("--out") + 1] if "--out" in args else "results"
+            if "seeds" in found.group(1) and "--out" not in args:
+                continue
+            if (out == "results" or out.startswith("results/")) and "--force" not in args:
+                missing.append(f"{page.relative_to(ROOT)}: {command}")
+    assert not missing, missing
