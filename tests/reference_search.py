@@ -19,7 +19,7 @@ fast one's on purpose: it is the code the fast checker started from, kept as it 
 
 Imported, not copied, because they are not the search: the result record
 (:class:`~modquad_gym.search.SearchResult`), reading the task
-(:func:`~modquad_gym.search.problem.task_arrays`), and the force bound
+(:func:`task_arrays`), and the force bound
 (:func:`~modquad_gym.search.force_lower_bound`, checked on its own in ``tests/test_search.py``:
 no structure below it is feasible). Every returned structure is re-verified by the exact DAQP LP.
 """
@@ -32,7 +32,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from modquad_gym.core.validation import check_int
+from modquad_gym.core.validation import check_f_max, check_int
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import (
     Key,
@@ -43,8 +43,9 @@ from modquad_gym.geometry.structure import (
 )
 from modquad_gym.oracle import TOL, Zonotope, feasible
 from modquad_gym.search.bounds import force_lower_bound
-from modquad_gym.search.problem import DEFAULT_MODULE, task_arrays
+from modquad_gym.search.problem import DEFAULT_MODULE
 from modquad_gym.search.result import SearchResult
+from modquad_gym.tasks import as_task
 
 _POOL_SIZE = 48
 
@@ -80,6 +81,12 @@ def _level(n: int) -> tuple[Key, ...]:
             while len(_LEVELS) < n:
                 _LEVELS.append(tuple(grow(_LEVELS[-1])))
     return _LEVELS[n - 1]
+
+
+def task_arrays(task, f_max):
+    """(W, f_max) of a search's task argument (the product's ``as_task``)."""
+    task = as_task(task)
+    return task.wrenches, task.f_max if f_max is None else check_f_max(f_max)
 
 
 class _TaskChecker:

@@ -23,8 +23,9 @@ import numpy as np
 
 from modquad_gym.core.validation import check_int, check_real
 from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
-from modquad_gym.policy.policy import Policy, as_task, search_result
+from modquad_gym.policy.policy import Policy, search_result
 from modquad_gym.search import SearchResult, verified
+from modquad_gym.tasks import as_task
 
 
 class GuidedSolver:

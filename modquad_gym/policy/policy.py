@@ -17,7 +17,6 @@ import gymnasium as gym
 import numpy as np
 
 from modquad_gym.core.extras import import_optional
-from modquad_gym.dynamics import DynamicTask
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.policy.models import read_model
@@ -56,14 +55,6 @@ def env_kwargs_of(model, config: dict) -> dict:
     if "lookahead" not in kwargs:
         kwargs["lookahead"] = "candidates" in space.spaces
     return kwargs
-
-
-def as_task(task: Any) -> TaskRequirement | DynamicTask:
-    """``task`` as a TaskRequirement (a (t, 6) wrench array is wrapped); a dynamic task as it
-    is (the environment decides each structure on its own wrenches)."""
-    if isinstance(task, (TaskRequirement, DynamicTask)):
-        return task
-    return TaskRequirement(task, name="task")
 
 
 class Policy:

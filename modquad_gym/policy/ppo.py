@@ -19,8 +19,9 @@ import numpy as np
 
 from modquad_gym.core.validation import check_real
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.policy import Policy, as_task, env_kwargs_of, make_env, search_result
+from modquad_gym.policy.policy import Policy, env_kwargs_of, make_env, search_result
 from modquad_gym.search import SearchResult, verified
+from modquad_gym.tasks import as_task
 
 __all__ = ["PPOSolver", "env_kwargs_of", "make_env"]
 

@@ -29,7 +29,7 @@ from modquad_gym.oracle import check_task_scale
 from modquad_gym.oracle.faults import check_fault, failure_sets
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.search.dynamic import compact
-from modquad_gym.tasks import check_kind
+from modquad_gym.tasks import as_task, check_kind
 
 DEFAULT_MODULE = Structure([(0, 0)]).module
 
@@ -124,19 +124,21 @@ class SearchProblem:
         kind: str | None = None,
         fault: str | None = None,
     ) -> SearchProblem:
-        """The problem of a search's arguments: ``task`` a (t, 6) wrench array, anything with
-        ``wrenches`` (and ``f_max``, ``kind``) or a :class:`DynamicTask`; ``f_max`` and
-        ``kind`` override the task's; ``module`` (one type, default the T-module) or
-        ``modules`` (a palette); ``fault`` the single failure every answer must survive."""
+        """The problem of a search's arguments: ``task`` anything
+        :func:`~modquad_gym.tasks.as_task` takes (a task, anything with ``wrenches``, a (t, 6)
+        wrench array); ``f_max`` and ``kind`` override the task's; ``module`` (one type,
+        default the T-module) or ``modules`` (a palette); ``fault`` the single failure every
+        answer must survive."""
         if fault is not None:
             check_fault(fault)
+        task = as_task(task)
         if isinstance(task, DynamicTask):
             problem = dynamic_problem(task, n_max, f_max, module, modules, kind)
             return problem.with_fault(fault) if fault is not None else problem
-        W, f = task_arrays(task, f_max)
+        W, f = task.wrenches, task.f_max if f_max is None else check_f_max(f_max)
         check_search_size(W)
         check_task_scale(W, f)  # the old order of the checks: the same first error
-        kind = check_kind(kind if kind is not None else getattr(task, "kind", "total"))
+        kind = check_kind(kind if kind is not None else task.kind)
         n_max = check_int(n_max, "n_max", low=1)
         palette = tuple(check_palette(module, modules))
         return cls(W, f, n_max, palette, kind, typed=modules is not None, fault=fault)
@@ -249,17 +251,6 @@ def check_search_size(W: np.ndarray) -> None:
             "(it decides each for every structure it evaluates): keep the extreme ones, e.g. "
             "the vertices of their convex hull"
         )
-
-
-def task_arrays(task, f_max: float | None) -> tuple[np.ndarray, float]:
-    """(W, f_max) from a (t, 6) array or anything with ``wrenches`` (and ``f_max``)."""
-    if hasattr(task, "wrenches"):
-        W = check_wrenches(task.wrenches, allow_empty=False)
-        f = f_max if f_max is not None else getattr(task, "f_max", 1.0)
-    else:
-        W = check_wrenches(task, allow_empty=False)
-        f = 1.0 if f_max is None else f_max
-    return W, check_f_max(f)
 
 
 def check_time_limit(seconds: object) -> float:

@@ -83,13 +83,14 @@ from modquad_gym.tasks.generators import (
     planted_structure,
     random_cells,
 )
-from modquad_gym.tasks.loading import is_dynamic, load_task
+from modquad_gym.tasks.loading import as_task, is_dynamic, load_task
 from modquad_gym.tasks.requirement import TaskRequirement
 from modquad_gym.tasks.specs import GENERATORS, NAMED_GENERATORS, make_generator
 from modquad_gym.tasks.suites import load_suite, save_suite
 from modquad_gym.tasks.wrenches import COLUMNS, MAX_WRENCHES, TASK_KINDS, check_kind, rotor_wrenches
 
 __all__ = [
+    "as_task",
     "example_names",
     "example_path",
     "COLUMNS",

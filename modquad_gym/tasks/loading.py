@@ -1,12 +1,17 @@
-"""Reading any task file: a static task (:class:`TaskRequirement`) or a dynamic one
-(:class:`~modquad_gym.dynamics.DynamicTask`, a JSON object with a ``"trajectory"``)."""
+"""The one way user input becomes a task: :func:`as_task` (a task object, anything with
+``wrenches``, or a wrench array) and :func:`load_task` (any task file: a static task,
+:class:`TaskRequirement`, or a dynamic one, :class:`~modquad_gym.dynamics.DynamicTask`, a JSON
+object with a ``"trajectory"``). The searches, the environment, the learned solvers and the
+command line all go through them."""
 
 from __future__ import annotations
 
-from pathlib import Path
+from typing import Any
 
+from modquad_gym.core.validation import check_wrenches
 from modquad_gym.dynamics import DynamicTask
-from modquad_gym.tasks.files import PathLike, TaskFileError, read_json, read_text
+from modquad_gym.tasks.examples import resolve_task_path
+from modquad_gym.tasks.files import PathLike, TaskFileError, read_json
 from modquad_gym.tasks.requirement import TaskRequirement
 
 
@@ -15,16 +20,43 @@ def is_dynamic(task: object) -> bool:
     return isinstance(task, DynamicTask)
 
 
+def as_task(
+    task: Any, what: str | None = None, name: str = "task"
+) -> TaskRequirement | DynamicTask:
+    """``task`` as a task: a :class:`TaskRequirement` or :class:`DynamicTask` as it is; anything
+    with ``wrenches`` (and, if it has them, ``f_max``, ``kind``, ``name``) or a (t, 6) wrench
+    array (one 6-vector too) as a TaskRequirement named ``name``. A ValueError names what is
+    wrong, after ``what:`` when ``what`` is given."""
+    if isinstance(task, (TaskRequirement, DynamicTask)):
+        return task
+    fields: dict[str, Any] = {"name": name}
+    W = task
+    if hasattr(task, "wrenches"):
+        W = task.wrenches
+        fields.update({k: getattr(task, k) for k in ("f_max", "kind", "name") if hasattr(task, k)})
+    try:
+        return TaskRequirement(check_wrenches(W, allow_empty=False), **fields)
+    except ValueError as exc:
+        if what is None:
+            raise
+        raise ValueError(f"{what}: {exc}") from None
+
+
 def load_task(path: PathLike, csv_header: str = "auto") -> TaskRequirement | DynamicTask:
-    """The task in ``path``: a :class:`DynamicTask` for a JSON object with a ``"trajectory"``
-    key, else :meth:`TaskRequirement.load`. Errors are TaskFileErrors naming the file and the
-    field (``trajectory.t: ...``, ``payload.mass: ...``)."""
-    p = Path(path)
-    if p.suffix.lower() == ".json" and p.is_file() and '"trajectory"' in read_text(p):
-        data = read_json(p)
-        if isinstance(data, dict) and "trajectory" in data:
-            try:
-                return DynamicTask.from_dict(data, default_name=p.stem)
-            except ValueError as exc:
-                raise TaskFileError(f"{p}: {exc}") from None
-    return TaskRequirement.load(path, csv_header=csv_header)
+    """The task in ``path`` (``example:NAME``: a shipped example), read once: a
+    :class:`DynamicTask` for a JSON object with a ``"trajectory"`` key, else a
+    :class:`TaskRequirement` (:meth:`TaskRequirement.load`). Errors are TaskFileErrors naming
+    the file and the field (``trajectory.t: ...``, ``payload.mass: ...``)."""
+    p = resolve_task_path(path)
+    if p.suffix.lower() != ".json" or not p.is_file():
+        return TaskRequirement.load(p, csv_header=csv_header)
+    data = read_json(p)
+    is_motion = isinstance(data, dict) and "trajectory" in data
+    try:
+        if is_motion:
+            return DynamicTask.from_dict(data, default_name=p.stem)
+        return TaskRequirement.from_dict(data, default_name=p.stem)
+    except TaskFileError:
+        raise
+    except ValueError as exc:
+        raise TaskFileError(f"{p}: {exc}") from None

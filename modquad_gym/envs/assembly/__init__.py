@@ -20,7 +20,7 @@ _NAMES = {
     "env": ["ENCODINGS", "MAX_STEPS_LIMIT", "N_MAX_LIMIT", "ModQuadAssemblyEnv"],
     "faces": ["FACE_FEATURES", "Faces"],
     "features": ["CANDIDATE_FEATURES", "AssemblyFeatures", "ObservationBlock", "unit_directions"],
-    "inputs": ["INVALID_ACTION_MODES", "as_task"],
+    "inputs": ["INVALID_ACTION_MODES", "as_task"],  # as_task: the tasks layer's
     "modules": ["OneType", "Palette"],
     "reward": ["RewardFn", "RewardWeights", "WeightedReward", "episode_return"],
     "spec": ["DEFAULT_N_MAX", "ENTRY_POINT", "ArgumentSpec"],

@@ -15,7 +15,7 @@ from modquad_gym.core.validation import check_int, check_real
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.envs.assembly.types import Rules
 from modquad_gym.oracle import METHODS as ORACLE_METHODS
-from modquad_gym.tasks import TaskRequirement
+from modquad_gym.tasks import TaskRequirement, as_task
 
 INVALID_ACTION_MODES = ("penalise", "terminate")
 
@@ -128,27 +128,6 @@ def draw_task(
             "(e.g. modules=[module]), which decides self-weight"
         )
     return task
-
-
-def as_task(task: Any, what: str, name: str = "options-task") -> TaskRequirement | DynamicTask:
-    """A task from a TaskRequirement or a DynamicTask (itself) or a (t, 6) wrench array (a
-    TaskRequirement named ``name``); for anything else a ValueError whose message starts with
-    ``what``."""
-    if isinstance(task, (TaskRequirement, DynamicTask)):
-        return task
-    try:
-        arr = np.asarray(task, dtype=float)
-    except (TypeError, ValueError):
-        arr = None
-    if arr is None or arr.ndim != 2 or arr.shape[1] != 6:
-        got = type(task).__name__ if arr is None or arr.ndim == 0 else f"shape {arr.shape}"
-        raise ValueError(
-            f"{what}: expected a TaskRequirement, a DynamicTask or a (t, 6) wrench array, got {got}"
-        ) from None
-    try:
-        return TaskRequirement(arr, name=name)
-    except ValueError as exc:
-        raise ValueError(f"{what}: not a valid task: {exc}") from None
 
 
 def check_restore(current: Any, state: Any, n_actions: int, n_max: int) -> None:
