@@ -206,14 +206,17 @@ class FaultTolerance:
         cert[rows] = sub
 
     # --- the questions --------------------------------------------------------------------
-    def decide(self, W: np.ndarray, method: str = "auto") -> np.ndarray:
+    def decide(self, W: np.ndarray, method: str = "auto", *, stop_early: bool = False):
         """bool (t,): is each wrench (row of W) feasible after every failure? With ``"auto"``
         or ``"compiled"`` the shared certificate settles what it can; any other method decides
-        every failure by itself (a reference)."""
+        every failure by itself (a reference). With ``stop_early`` the answer is only
+        whether every wrench is tolerated (a bool): it stops at the first wrench that is not."""
         ok = decide_with(self.intact, W, method)
+        if stop_early and not ok.all():
+            return False
         live = np.flatnonzero(ok)
         if not len(live) or not self.failures:
-            return ok
+            return bool(ok.all()) if stop_early else ok
         if method in ("auto", "compiled"):
             R, _ = self.intact.reduce(W[live])
             cert = self._certify(R)
@@ -222,14 +225,20 @@ class FaultTolerance:
             self._screen(W[live], cert)
         self.certified += int(np.count_nonzero(cert >= 0))
         alive = ~(cert == 0).any(axis=1)
+        if stop_early and not alive.all():
+            return False
         # failures with the most undecided wrenches first: they are the likely breakers
         order = np.argsort((cert == 1).sum(axis=0), kind="stable")
         for i in order:
             todo = np.flatnonzero(alive & (cert[:, i] == -1))
             if len(todo):
                 alive[todo] = self._decide_failed(int(i), W[live[todo]], method)
+            if stop_early and not alive[todo].all():
+                return False
             if not alive.any():
                 break
+        if stop_early:
+            return True
         ok[live] = alive
         return ok
 
