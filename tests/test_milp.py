@@ -17,8 +17,9 @@ from modquad_gym.geometry.cells import free_neighbours, structure_levels
 from modquad_gym.geometry.inertia import to_vector
 from modquad_gym.geometry.module import palette
 from modquad_gym.search import SEARCHES, SearchProblem, bound_levels, exhaustive_search
-from modquad_gym.search import milp as milp_module
-from modquad_gym.search.milp import inertia_terms, milp_lower_bound, milp_search, window
+from modquad_gym.search import milp_program as milp_module
+from modquad_gym.search.milp import milp_lower_bound, milp_search
+from modquad_gym.search.milp_program import inertia_terms, window
 from modquad_gym.tasks import PlantedTasks, TaskRequirement
 
 SCREWDRIVER = TaskRequirement.load("examples/screwdriver.json")
