@@ -35,7 +35,7 @@ def test_screened_equals_the_plain_screen(seed, n, family):
     task = gen(rng)
     module = Structure([(0, 0)]).module
     ev = StructureEvaluator(module, 7, task.f_max, 48, "auto")
-    arrays = ev.task_arrays(task, np.asarray(task.wrenches, dtype=float))
+    arrays = ev.task_arrays(task)
     key = normalise(random_cells(rng, n))
     cap = ev.capability_of(key)
     got = ev.oracle.screened(cap.A, arrays.W, arrays.WD, cap.h_Wn, cap.slack, key)

@@ -149,7 +149,7 @@ def test_transitions_are_functions_of_an_episode_context_and_a_state():
     palette = Palette("t45,flat")
     evaluator = palette.evaluator(5, task.f_max, env.n_directions, "auto")
     ep = Episode(env.rules, Grid(5, 2), palette, evaluator, {}, {})
-    arrays = evaluator.task_arrays(task, np.asarray(task.wrenches, dtype=float))
+    arrays = evaluator.task_arrays(task)
     state = initial_state(ep, arrays, (0,))
     np.testing.assert_array_equal(state.candidates.reshape(-1), obs["candidates"])
     rng = np.random.default_rng(0)

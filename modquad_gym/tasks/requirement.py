@@ -4,6 +4,7 @@ with the per-rotor thrust limit, a kind and a name; it loads and saves task file
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -103,7 +104,7 @@ class TaskRequirement:
             f"f_max={self.f_max:g}{kind})"
         )
 
-    @property
+    @cached_property
     def wrench_model(self) -> LinearWrenches:
         """The rotor wrenches as a model linear in the structure's mass (the interface every
         task shares with :class:`~modquad_gym.dynamics.DynamicTask`): the wrenches, plus the

@@ -24,14 +24,6 @@ import numpy as np
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.envs.assembly.types import TaskArrays
 
-DYNAMIC = DynamicTask.kind
-"""The kind of a dynamic task's arrays (``"dynamic"``)."""
-
-
-def is_dynamic(task: Any) -> bool:
-    """Is ``task`` (a task or its :class:`~.types.TaskArrays`) structure-dependent?"""
-    return getattr(task, "kind", "total") == DYNAMIC
-
 
 def own_arrays(evaluator: Any, task: TaskArrays, key: Any) -> TaskArrays:
     """The arrays of the dynamic ``task`` for the structure ``key`` of ``evaluator``: its own
@@ -45,5 +37,6 @@ def own_arrays(evaluator: Any, task: TaskArrays, key: Any) -> TaskArrays:
 def start_arrays(evaluator: Any, task: DynamicTask, key: Any) -> TaskArrays:
     """The :class:`~.types.TaskArrays` an episode of the dynamic ``task`` starts with: the
     wrenches of its initial structure ``key``."""
-    template = TaskArrays(task, str(task.name), np.zeros((0, 6)), None, None, None, DYNAMIC)
+    template = TaskArrays(task, str(task.name), np.zeros((0, 6)), None, None, None, task.kind,
+                          per_structure=True)  # fmt: skip
     return own_arrays(evaluator, template, key)

@@ -369,7 +369,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         memo, cand_memo = self._memos.of(task, f_max)
         parts = (self.rules, self.encoding, self.module_set, evaluator, memo, cand_memo)
         self._episode = Episode(*parts)
-        arrays = evaluator.episode_arrays(task, self.module_set.key(((0, 0),), types))
+        arrays = evaluator.task_arrays(task, self.module_set.key(((0, 0),), types))
         self._state = initial_state(self._episode, arrays, types)
         return self._observation(), self._info()
 

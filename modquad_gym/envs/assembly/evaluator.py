@@ -36,10 +36,11 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from modquad_gym.envs.assembly.dynamic import is_dynamic, own_arrays, start_arrays
+from modquad_gym.dynamics import DynamicTask
+from modquad_gym.envs.assembly.dynamic import own_arrays, start_arrays
 from modquad_gym.envs.assembly.features import AssemblyFeatures
 from modquad_gym.envs.assembly.types import TaskArrays
-from modquad_gym.geometry.module import GRAVITY, ModuleType
+from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import (
     Key,
     Structure,
@@ -175,36 +176,33 @@ class StructureEvaluator:
         return np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
 
     # --- against a task ---------------------------------------------------------------------
-    def task_arrays(self, requirement: Any, W: np.ndarray, kind: str = "total") -> TaskArrays:
-        """The :class:`TaskArrays` of a task with wrenches W (t, 6)."""
-        vec, h_Tn, WD = self.features.task(W)
-        lift = None
-        if kind != "total":
-            lift = GRAVITY * self.features.D[:, 2] / self.features.denom
-        return TaskArrays(requirement, str(requirement.name), W, vec, h_Tn, WD, kind, lift)
-
-    def episode_arrays(self, task: Any, key: Any) -> TaskArrays:
-        """The arrays an episode of ``task`` starts with, ``key`` its initial structure: a
-        static task's wrenches, or a dynamic task's for that structure (:mod:`.dynamic`)."""
-        if is_dynamic(task):
+    def task_arrays(self, task: Any, key: Any = None) -> TaskArrays:
+        """The :class:`TaskArrays` of ``task`` (its wrench model decides how): its wrenches
+        and, when every wrench gains the same ``c M e_z`` for a structure of M kg, that lift;
+        otherwise (a dynamic task) the arrays of the structure ``key``'s own wrenches."""
+        model = task.wrench_model
+        lift = model.lift_per_kg if not model.uses_inertia else None
+        if lift is None or isinstance(task, DynamicTask):
             return start_arrays(self, task, key)
-        kind = getattr(task, "kind", "total")
-        return self.task_arrays(task, np.asarray(task.wrenches, dtype=float), kind)
+        W = np.asarray(model.base, dtype=float)
+        vec, h_Tn, WD = self.features.task(W)
+        lift_n = lift * self.features.D[:, 2] / self.features.denom if lift else None
+        return TaskArrays(task, str(task.name), W, vec, h_Tn, WD, task.kind, lift_n, lift)
 
     def task_of(self, task: TaskArrays, key: Any) -> TaskArrays:
-        """The arrays that decide the structure ``key``: ``task`` itself, or for a dynamic task
-        those of the structure's own wrenches (:func:`.dynamic.own_arrays`)."""
-        return own_arrays(self, task, key) if is_dynamic(task) else task
+        """The arrays that decide the structure ``key``: ``task`` itself, or, when its arrays
+        are per structure, those of the structure's own wrenches (:func:`.dynamic.own_arrays`)."""
+        return own_arrays(self, task, key) if task.per_structure else task
 
     @staticmethod
     def at_mass(task: TaskArrays, mass: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(rotor wrenches, h_T / denom, WD) of ``task`` for a structure of ``mass`` kg: the
-        task itself when it is ``total`` (or ``dynamic``: arrays of :meth:`task_of` are the
-        structure's own), else shifted by the weight."""
-        if task.kind == "total" or is_dynamic(task):
+        arrays themselves when nothing is added (or they are one structure's own, from
+        :meth:`task_of`), else shifted by ``lift * mass`` (the weight)."""
+        if task.lift_n is None:
             return task.W, task.h_Tn, task.WD
         W = task.W.copy()
-        W[:, 2] += mass * GRAVITY
+        W[:, 2] += mass * task.lift
         WD = task.WD + mass * task.lift_n
         return W, WD.max(axis=0), WD
 
@@ -253,7 +251,7 @@ class StructureEvaluator:
         ``task``, memoised per task in ``memo`` (support functions only, no oracle call); a
         dynamic task's child against its own wrenches."""
         missing = [k for k in dict.fromkeys(keys) if k not in memo]
-        if missing and is_dynamic(task):
+        if missing and task.per_structure:
             h, slack = self.supports_of(missing)
             for k, hk, sk in zip(missing, h, slack):
                 own = self.task_of(task, k)

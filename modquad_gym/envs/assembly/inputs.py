@@ -113,16 +113,9 @@ def draw_task(
     if given is not None:
         task = as_task(given, "options['task']")
     else:
-        task = generator(rng)
-        if not isinstance(task, (TaskRequirement, DynamicTask)):
-            name = str(getattr(generator, "name", type(generator).__name__))
-            task = as_task(task, f"task generator {name!r} returned a bad task", name)
-    if isinstance(task, DynamicTask):
-        return task
-    W = np.asarray(task.wrenches, dtype=float)
-    if W.ndim != 2 or W.shape[1] != 6 or len(W) == 0:
-        raise ValueError(f"task {task.name!r} wrenches must have shape (t >= 1, 6), got {W.shape}")
-    if getattr(task, "kind", "total") != "total" and not self_weight:
+        name = str(getattr(generator, "name", type(generator).__name__))
+        task = as_task(generator(rng), f"task generator {name!r} returned a bad task", name)
+    if task.kind == "external" and not self_weight:
         raise ValueError(
             f"task {task.name!r} is of kind {task.kind!r}: make the env with modules=[...] "
             "(e.g. modules=[module]), which decides self-weight"

@@ -30,9 +30,13 @@ class TaskArrays:
         vec: the task feature vector (float32).
         h_Tn: the task's support on the feature directions, divided by denom (K,).
         WD: each wrench's projections on the directions, divided by denom (t, K).
-        kind: ``"total"``, ``"external"`` (self-weight added per structure) or ``"dynamic"``
-            (the arrays are one structure's own).
-        lift_n: per direction, the normalised change of WD per kg of structure (external tasks).
+        kind: the task's kind, a label (``"total"``, ``"external"``, ``"dynamic"``).
+        lift_n: per direction, the normalised change of WD per kg of structure, when every
+            wrench gains the same ``c M e_z`` for a structure of M kg (the weight of an
+            ``external`` task; None when nothing is added).
+        lift: that c (m/s^2; 0 when nothing is added).
+        per_structure: the task's wrenches depend on the structure otherwise (a dynamic
+            task's inertial forces): the arrays are one structure's own (:mod:`.dynamic`).
     """
 
     requirement: Any
@@ -43,6 +47,8 @@ class TaskArrays:
     WD: np.ndarray
     kind: str = "total"
     lift_n: np.ndarray | None = None
+    lift: float = 0.0
+    per_structure: bool = False
 
 
 @dataclass(frozen=True)
