@@ -18,8 +18,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -27,21 +25,12 @@ from pathlib import Path
 import numpy as np
 
 import modquad_gym as mq
+from modquad_gym.scoring import machine_description
 from modquad_gym.tasks.suites import load_suite
 
 SUITES = ("heldout_paper", "heldout_planted", "dynamic_motions")
 FAULTS = ("rotor", "module")
 SUITES_DIR = Path(mq.__file__).parent / "data" / "suites"
-
-
-def machine() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as fh:
-            cpu = next(line.split(":", 1)[1].strip() for line in fh if "model name" in line)
-    except (OSError, StopIteration):
-        pass
-    return f"{cpu}, {os.cpu_count()} cores, no GPU; Python {platform.python_version()}"
 
 
 def price(per_suite: int, n_max: int, time_limit: float) -> list[dict]:
@@ -196,7 +185,7 @@ def report(out: Path, rows: list[dict], speed: list[dict], args) -> None:
         "",
         f"Made by `python benchmarks/faults.py --per-suite {args.per_suite} --time-limit "
         f"{args.time_limit:g} --n-max {args.n_max}{' --fly' if args.fly else ''} --out {out}` "
-        f"on {machine()}.",
+        f"on {machine_description()}.",
         "",
         "Per task: the default search's intact minimum and its minimum structure that still "
         "exerts every task wrench after ANY single rotor failure (the rotor's column leaves A) "

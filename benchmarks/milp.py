@@ -17,14 +17,13 @@ from __future__ import annotations
 
 import argparse
 import csv
-import os
-import platform
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 import modquad_gym as mq
+from modquad_gym.scoring import machine_description
 from modquad_gym.search import SearchProblem, bound_levels
 from modquad_gym.search.milp import milp_lower_bound
 from modquad_gym.tasks.suites import load_suite
@@ -33,16 +32,6 @@ SUITES_DIR = Path(mq.__file__).parent / "data" / "suites"
 SUITES = ("heldout_paper", "heldout_planted", "large_planted")
 METHODS = ("exhaustive", "anytime", "milp")
 N_MAX = 8
-
-
-def machine() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as fh:
-            cpu = next(line.split(":", 1)[1].strip() for line in fh if "model name" in line)
-    except (OSError, StopIteration):
-        pass
-    return f"{cpu}, {os.cpu_count()} cores, no GPU; Python {platform.python_version()}"
 
 
 def commit() -> str:
@@ -134,7 +123,7 @@ def report(rows: list[dict], out: Path, per_suite: int, time_limit: float, wall:
         f"--out {out}",
         "```",
         "",
-        f"Machine: {machine()} (shared with other developers: timings are indicative). "
+        f"Machine: {machine_description()} (shared with other developers: timings are indicative). "
         f"Code: commit {commit()}. Whole run: {wall:.0f} s.",
         "",
         "Tasks: the first tasks of the held-out paper-like and planted suites whose optimum is 5 "

@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import statistics
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+from modquad_gym.scoring import machine_description
 
 HEAVY = ("numba", "torch", "ray", "mujoco", "scipy", "matplotlib", "gymnasium")
 
@@ -63,16 +64,6 @@ def heavy_imports(cmd: list[str]) -> list[str]:
     return line.split()[1:]
 
 
-def machine() -> str:
-    cpu = platform.machine()
-    try:
-        with open("/proc/cpuinfo") as fh:
-            cpu = next(x.split(":", 1)[1].strip() for x in fh if x.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    return f"{cpu}, {os.cpu_count()} cores, no GPU; Python {platform.python_version()}"
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.startup", description=__doc__)
     parser.add_argument("--runs", type=int, default=15, help="timed runs per case (default 15)")
@@ -93,7 +84,8 @@ def main(argv: list[str] | None = None) -> int:
         "# Start-up: the first answer",
         "",
         f"Made by `python -m benchmarks.startup --runs {args.runs} --out {args.out}` on "
-        f"{machine()}; 1-minute load average {load0:.2f} at the start, {load1:.2f} at the end "
+        f"{machine_description()}; 1-minute load average {load0:.2f} at the start, "
+        f"{load1:.2f} at the end "
         "(2.0 means both cores busy with other work).",
         "",
         "Whole fresh processes, after one warm-up run (bytecode and numba's cache written, as "

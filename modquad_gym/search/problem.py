@@ -266,20 +266,8 @@ def check_time_limit(seconds: object) -> float:
     return value
 
 
-def _task_arguments(
-    task,
-    n_max: int = 7,
-    f_max: float | None = None,
-    module: ModuleType | None = None,
-    *,
-    modules: Sequence[ModuleType] | None = None,
-    kind: str | None = None,
-    fault: str | None = None,
-) -> None:
-    """The arguments every search's entry point takes first (see :meth:`SearchProblem.build`)."""
-
-
-TASK_PARAMETERS = tuple(inspect.signature(_task_arguments).parameters.values())
+TASK_PARAMETERS = tuple(inspect.signature(SearchProblem.build).parameters.values())
+"""The arguments every search's entry point takes first (those of :meth:`SearchProblem.build`)."""
 
 
 def search_entry(name: str) -> Callable[[Callable], Callable]:
