@@ -2,7 +2,7 @@
 after any single rotor or module failure, how long the certified search takes, and how fast the
 oracle decides tolerance.
 
-    python benchmarks/faults.py --per-suite 20 --time-limit 10 --out results/faults
+    python -m benchmarks.faults --per-suite 10 --time-limit 10 --fly --out results/faults
 
 For the first ``--per-suite`` tasks of the shipped paper-like, planted and dynamic suites: the
 intact minimum and the minimum rotor- and module-tolerant structures by the default search
@@ -183,7 +183,7 @@ def report(out: Path, rows: list[dict], speed: list[dict], args) -> None:
     lines = [
         "# The price of fault tolerance",
         "",
-        f"Made by `python benchmarks/faults.py --per-suite {args.per_suite} --time-limit "
+        f"Made by `python -m benchmarks.faults --per-suite {args.per_suite} --time-limit "
         f"{args.time_limit:g} --n-max {args.n_max}{' --fly' if args.fly else ''} --out {out}` "
         f"on {machine_description()}.",
         "",
@@ -298,7 +298,7 @@ def report(out: Path, rows: list[dict], speed: list[dict], args) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python benchmarks/faults.py", description=__doc__.split("\n\n")[0]
+        prog="python -m benchmarks.faults", description=__doc__.split("\n\n")[0]
     )
     parser.add_argument("--per-suite", type=int, default=20, help="tasks per suite (default 20)")
     parser.add_argument("--n-max", type=int, default=10, help="module budget (default 10)")

@@ -28,12 +28,12 @@ METHOD_HELP = {
     "random": "baseline: random dockings",
     "anytime": "the default: the exhaustive search's answer where it finishes within "
     "--time-limit, else the best structure found by local moves with its proved lower bound "
-    "(up to 64 modules)",
-    "beam": "heuristic: beam search over growing structures (width 4, up to 64 modules)",
-    "genetic": "heuristic: genetic algorithm over structures, after Su et al. 2024 (up to 64 "
+    "(up to 128 modules)",
+    "beam": "heuristic: beam search over growing structures (width 4, up to 128 modules)",
+    "genetic": "heuristic: genetic algorithm over structures, after Su et al. 2024 (up to 128 "
     "modules)",
     "milp": "the mixed-integer program solved by HiGHS, level by level from its LP relaxation's "
-    "bound: certified where it finishes within --time-limit (up to 64 modules; no --fault)",
+    "bound: certified where it finishes within --time-limit (up to 128 modules; no --fault)",
     "ppo": "the learned agent (the shipped model unless --model)",
     "ppo-guided": "best-first search ordered by the learned policy, certified at the lower bound",
 }

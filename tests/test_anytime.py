@@ -91,7 +91,7 @@ def test_bad_input_is_refused_before_work():
         with pytest.raises(ValueError, match="time_limit"):
             anytime_search(W, time_limit=bad)
     assert check_time_limit(86_400) == 86_400.0
-    with pytest.raises(ValueError, match="at most 64 modules"):
+    with pytest.raises(ValueError, match="at most 128 modules"):
         anytime_search(W, n_max=10**6)
     with pytest.raises(ValueError, match="at most 10,000"):
         anytime_search(np.tile(W, (100_000, 1)), n_max=64)

@@ -146,7 +146,7 @@ def test_solve_memory_stays_bounded(tmp_path):
 
 def test_n_max_16_checks_the_budget_before_work(tmp_path, capsys):
     """n_max 16 is allowed (the search stops at the first feasible level); 17 is refused before
-    any level is enumerated (the default anytime search: 65)."""
+    any level is enumerated (the default anytime search: 129)."""
     exhaustive = ("solve", "--task", str(SCREWDRIVER), "--method", "exhaustive")
     code, out, err = run_main(capsys, *exhaustive, "--n-max", "16", "--json", "--quiet")
     assert code == 0, err
@@ -154,8 +154,8 @@ def test_n_max_16_checks_the_budget_before_work(tmp_path, capsys):
     t0 = time.perf_counter()
     code, _, err = run_main(capsys, *exhaustive, "--n-max", "17")
     assert_one_line_error(code, err, "n_max=17")
-    code, _, err = run_main(capsys, "solve", "--task", str(SCREWDRIVER), "--n-max", "65")
-    assert_one_line_error(code, err, "n_max=65")
+    code, _, err = run_main(capsys, "solve", "--task", str(SCREWDRIVER), "--n-max", "129")
+    assert_one_line_error(code, err, "n_max=129")
     assert time.perf_counter() - t0 < 2
 
 

@@ -191,8 +191,8 @@ def test_bad_options_are_refused_in_one_line(capsys):
         with pytest.raises(ValueError, match=match) as err:
             milp_search(SCREWDRIVER, n_max=5, **kwargs)
         assert "\n" not in str(err.value)
-    with pytest.raises(ValueError, match="n_max=65"):
-        milp_search(np.array([[0, 0, 3.0, 20.0, 0, 0]]), n_max=65)
+    with pytest.raises(ValueError, match="n_max=129"):
+        milp_search(np.array([[0, 0, 3.0, 20.0, 0, 0]]), n_max=129)
     args = ["solve", "--task", "example:screwdriver", "--method", "milp", "--fault", "rotor"]
     assert main(args) == 2
     assert "method 'milp' cannot guarantee fault tolerance" in capsys.readouterr().err

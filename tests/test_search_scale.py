@@ -161,3 +161,19 @@ def test_n_max_must_be_a_positive_integer(bad):
 def test_empty_task_is_a_clear_error():
     with pytest.raises(ValueError, match="no wrenches"):
         exhaustive_search(np.zeros((0, 6)), n_max=3)
+
+
+def test_a_task_planted_in_128_modules():
+    """n_max 128 (issue 35): the default search answers a task planted in 128 modules with a
+    verified structure within 5 % of the planted size and a proved bound, in bounded memory."""
+    import resource
+
+    from modquad_gym.tasks import PlantedTasks
+
+    task = PlantedTasks(n_modules=(128, 128), n_wrenches=(8, 8))(np.random.default_rng(3))
+    r = mq.anytime_search(task, n_max=128, time_limit=60)
+    assert r.structure is not None and r.n_modules <= 1.05 * 128
+    assert mq.search.verified(r.structure, task) and r.lower_bound <= r.n_modules
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss < 2 * 1024**2  # KB: 2 GB
+    with pytest.raises(ValueError, match="n_max=129"):
+        mq.anytime_search(task, n_max=129)

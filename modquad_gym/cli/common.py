@@ -124,7 +124,7 @@ def add_method(
     add_n_max(
         p,
         "largest module count (default %(default)s; the exhaustive search goes up to 16, "
-        "every other search up to 64)",
+        "every other search up to 128)",
     )
     p.add_argument(
         "--time-limit",

@@ -75,10 +75,10 @@ def add_generate(tsub) -> None:
     )
     g.add_argument(
         "--n-modules",
-        type=int_option(1, 64),
+        type=int_option(1, 128),
         default=None,
         metavar="N",
-        help="planted: the hidden structure's module count, 1 to 64 (default: 2 to 6 at random)",
+        help="planted: the hidden structure's module count, 1 to 128 (default: 2 to 6 at random)",
     )
     g.add_argument("--out", required=True, help="output file; format from suffix .json/.csv/.npy")
     add_force(g)

@@ -41,7 +41,7 @@ KEYS = ("trajectory", "payload", "exerted", "f_max", "name", "kind", "meta")
 KIND = "dynamic"
 """The ``kind`` of every dynamic task (static tasks are ``total`` or ``external``)."""
 
-MAX_LIFT_MODULES = 64
+MAX_LIFT_MODULES = 128
 """A payload that needs more modules than this to lift is refused as too heavy
 (:func:`check_liftable`)."""
 

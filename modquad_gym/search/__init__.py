@@ -2,7 +2,7 @@
 
 * :mod:`.problem`: :class:`SearchProblem`, the validated arguments every search shares;
 * :mod:`.exhaustive`: the certified exhaustive search and the whole minimal level;
-* :mod:`.anytime`: the default search, to 64 modules within a time limit: an incumbent improved
+* :mod:`.anytime`: the default search, to 128 modules within a time limit: an incumbent improved
   by local moves (:mod:`.moves`) and a proved lower bound, certified when they meet;
 * :mod:`.typed`: its pairs of shapes and type assignments (several types, or self-weight);
 * :mod:`.levels`: the size of each level and its progress bar;

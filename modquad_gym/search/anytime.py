@@ -1,4 +1,4 @@
-"""The anytime search: the default of ``modquad solve``, answering up to 64 modules within a time
+"""The anytime search: the default of ``modquad solve``, answering up to 128 modules within a time
 limit the way a MIP solver does, with an incumbent and a proved lower bound.
 
 1. **Bounds** (instant, :func:`.bounds.bound_levels`): the force bound (one module type and a

@@ -1,4 +1,4 @@
-"""Two constructive baselines, up to 64 modules within a time limit (the centrosymmetric
+"""Two constructive baselines, up to 128 modules within a time limit (the centrosymmetric
 heuristic, the beam and the genetic search have modules of their own).
 
 * :func:`greedy_search`: attach the module that most increases the satisfied share.

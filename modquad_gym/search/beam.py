@@ -1,5 +1,5 @@
 """Beam search over growing structures: the greedy baseline widened to ``beam_width``
-structures per size, up to 64 modules, within a time limit.
+structures per size, up to 128 modules, within a time limit.
 
 Level 1 holds one module of each palette type. Each level's children are every docking of one
 module (each palette type in turn) at a free neighbour cell of a structure of the beam,

@@ -57,7 +57,7 @@ def centrosymmetric_search(
     feasible structure is returned; it is minimal among centrosymmetric structures reachable
     this way, not certified minimal overall. With ``modules`` every seed type and every type
     of each added pair is tried (a pair shares one type, diagonal pairs of the block too).
-    Up to 64 modules within ``time_limit`` seconds and :data:`MEMORY_BUDGET` (module
+    Up to 128 modules within ``time_limit`` seconds and :data:`MEMORY_BUDGET` (module
     docstring).
     """
     run = SearchRun("centrosymmetric", problem)

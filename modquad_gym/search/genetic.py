@@ -1,5 +1,5 @@
 """A genetic algorithm over structure configurations, in the spirit of Su et al. ("Flight
-Structure Optimization of Modular Reconfigurable UAVs", 2024), up to 64 modules.
+Structure Optimization of Modular Reconfigurable UAVs", 2024), up to 128 modules.
 
 * Encoding: a connected set of cells, each with a palette type (:data:`.heuristic.Candidate`).
 * Population: ``population`` random connected structures (seeded), sizes uniform between the

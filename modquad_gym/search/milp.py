@@ -23,9 +23,9 @@ peer"):
   in ``z`` and in products ``z[a] z[b]`` of two cells (exact McCormick rows for binaries).
 * **Tolerance**: the rows are the oracle's rule (:mod:`modquad_gym.oracle.tolerance`: thrusts in
   [-TOL f_max / 2, (1 + TOL / 2) f_max], a wrench off the range of A by RESIDUAL_TOL) widened by
-  :data:`~.milp_program.MARGIN` (and the thrusts' lower bound not tied to occupancy), so that HiGHS's own
-  tolerances never cut off a structure the oracle accepts: the program holds every structure
-  the exact oracle accepts. What it returns is decided again by the oracle; a rejected
+  :data:`~.milp_program.MARGIN` (and the thrusts' lower bound not tied to occupancy), so that
+  HiGHS's own tolerances never cut off a structure the oracle accepts: the program holds every
+  structure the exact oracle accepts. What it returns is decided again by the oracle; a rejected
   structure adds the wrenches it misses to the program (only the task's extreme wrenches enter
   at first: fewer wrench rows, a larger feasible set) or, when they are in it already, a cut
   excluding that one structure; then the program is solved again.

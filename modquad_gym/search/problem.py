@@ -33,8 +33,9 @@ from modquad_gym.tasks import as_task, check_kind
 
 DEFAULT_MODULE = Structure([(0, 0)]).module
 
-MAX_MODULES = 64
-"""The searches' module limit (structures of up to 256 rotors): the field's largest designs."""
+MAX_MODULES = 128
+"""The searches' module limit (structures of up to 512 rotors): beyond the field's largest
+designs (Li & Koeppl 2026: up to 90 modules)."""
 
 EXACT_MODULES = 16
 """The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8."""
@@ -194,7 +195,7 @@ class SearchProblem:
 
 def dynamic_problem(task: DynamicTask, n_max, f_max, module, modules, kind) -> SearchProblem:
     """The problem of a dynamic task (its wrench model; ``f_max`` overrides the task's). A
-    payload or exerted wrench that no structure of up to 64 modules can carry is refused
+    payload or exerted wrench that no structure of up to 128 modules can carry is refused
     here, before any work (:func:`~modquad_gym.dynamics.check_liftable`)."""
     if kind is not None and kind != DYNAMIC:
         raise ValueError(f"kind: a task with a trajectory is {DYNAMIC!r}, got {kind!r}")
