@@ -1,6 +1,6 @@
 """The leaderboard: every method on every benchmark tier, from the committed reports.
 
-    python benchmarks/leaderboard.py
+    python -m benchmarks.leaderboard
 
 reads the committed data files and writes ``results/leaderboard.md``, ``results/leaderboard.csv``,
 ``results/leaderboard.png`` and the documentation page ``docs/leaderboard.md`` (no number is
@@ -12,13 +12,13 @@ typed by hand):
 * the searches (one deterministic run; random and genetic seeded) from the one-run tier reports
   ``results/tier_<tier>/benchmark.csv`` (one row per method and task), and, for the searches a
   tier report did not run, from ``results/leaderboard_searches.csv``, which
-  ``python benchmarks/leaderboard.py --rescore-searches`` fills by running just those searches
+  ``python -m benchmarks.leaderboard --rescore-searches`` fills by running just those searches
   on the tier's held-out suites (seconds, not hours: no training, no learned method).
 
 Add your own agent (scored now on every tier, beside the committed rows; nothing committed
 changes)::
 
-    python benchmarks/leaderboard.py --solver my_agent:Agent --out my_board
+    python -m benchmarks.leaderboard --solver my_agent:Agent --out my_board
 
 It follows the protocol of ``modquad score --solver`` (docs/benchmarks.md, "Score your own
 agent"): told each tier's n_max, counted through the evaluator it is handed.
@@ -38,7 +38,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results"
 DOCS = ROOT / "docs"
-COMMAND = "python benchmarks/leaderboard.py"
+COMMAND = "python -m benchmarks.leaderboard"
 TIERS = ("current", "large", "mixed", "dynamic")
 RESCORED = "leaderboard_searches.csv"
 """The searches a tier report did not run, scored by ``--rescore-searches`` (in results/)."""
@@ -236,7 +236,7 @@ def rescored_note(rows) -> str:
         f"Made by `{COMMAND} --rescore-searches`. Machine: {machine_description()}.",
         "",
         "The searches that a one-run tier report did not run, on that tier's held-out suites, "
-        f"one row per method and task in `{RESCORED}` (as `modquad bench agents` writes "
+        f"one row per method and task in `{RESCORED}` (as `modquad score` writes "
         f"them): {what}.",
         "",
     ])  # fmt: skip
@@ -438,7 +438,7 @@ def page(entries: list[Entry], tiers: list[str], image: str, results_prefix: str
         "package) on every tier's held-out suites and writes `my_board/leaderboard.md` with its "
         "rows beside the committed ones (`--limit N`: the first N tasks of each suite; "
         "`--tiers current large`: some tiers). The agent is told each tier's n_max and counted "
-        "through the evaluator it is handed, as `modquad bench agents --solver` does: the "
+        "through the evaluator it is handed, as `modquad score --solver` does: the "
         "protocol is in [Benchmark tiers and agents]("
         + ("" if r else "../docs/")
         + "benchmarks.md#score-your-own-agent).",

@@ -84,7 +84,7 @@ def test_the_committed_pages_are_what_the_command_makes(board, entries):
     results = (RESULTS / "leaderboard.md").read_text()
     docs = (ROOT / "docs" / "leaderboard.md").read_text()
     for text in (results, docs):
-        assert "Made by `python benchmarks/leaderboard.py`" in "\n".join(text.splitlines()[:3])
+        assert "Made by `python -m benchmarks.leaderboard`" in "\n".join(text.splitlines()[:3])
     tiers = list(board.TIERS)
     _same_text(board.page(entries, tiers, "leaderboard.png", ""), results)
     _same_text(board.page(entries, tiers, "results/leaderboard.png", "results/"), docs)
