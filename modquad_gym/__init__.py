@@ -6,9 +6,9 @@ and their structure-dependent wrenches) -> ``tasks``/``search``
 -> ``envs`` (Gymnasium) -> ``agents`` (PPO, baselines) ; ``sim`` (MuJoCo) and ``viz`` on the side.
 
 Importing this package is light: it registers the environments with Gymnasium (by entry-point
-strings: no environment module is imported) and loads every public name below on first use
-(``lazy_loader``, SPEC 1), so neither numba, torch, Ray nor MuJoCo load until a name that needs
-them is used.
+strings, no environment module imported; at once when Gymnasium is loaded, else right after it
+is imported) and loads every public name below on first use (``lazy_loader``, SPEC 1), so
+neither numpy, Gymnasium, numba, torch, Ray nor MuJoCo load until something needs them.
 """
 
 from typing import TYPE_CHECKING

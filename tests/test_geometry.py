@@ -157,7 +157,8 @@ def test_import_is_light():
     code = (
         "import sys, time; t = time.perf_counter(); import modquad_gym; "
         "print(time.perf_counter() - t, *sorted(m for m in ('torch', 'stable_baselines3', "
-        "'sb3_contrib', 'mujoco', 'numba', 'ray', 'scipy', 'modquad_gym.envs.assembly.env', "
+        "'sb3_contrib', 'mujoco', 'numba', 'ray', 'scipy', 'gymnasium', 'numpy', "
+        "'modquad_gym.envs.assembly.env', "
         "'modquad_gym.search', 'modquad_gym.oracle') if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -188,3 +189,17 @@ def test_small_levels_enumerate_in_plain_python_in_the_compiled_order(monkeypatc
         compiled = np.concatenate(list(poly.PolyominoStream(n, 100)))
         monkeypatch.undo()
         assert len(plain) == poly.A001168[n - 1] and np.array_equal(plain, compiled)
+
+
+def test_ids_register_when_gymnasium_is_imported_after_the_package():
+    """``import modquad_gym`` then ``import gymnasium``: the ids are registered by then."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, modquad_gym; assert 'gymnasium' not in sys.modules; "
+        "import gymnasium as gym; env = gym.make('ModQuadAssembly-v0'); "
+        "print(env.spec.reward_threshold, 'ModQuadAssemblyFaultTolerant-v0' in gym.registry)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["0.4", "True"]

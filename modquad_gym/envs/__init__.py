@@ -1,7 +1,8 @@
-"""Gymnasium environments of modquad_gym, registered on import.
+"""Gymnasium environments of modquad_gym, registered by entry-point strings.
 
 ``import modquad_gym`` (or ``gym.make("modquad_gym:ModQuadAssembly-v0")``, which imports the
-package first) registers:
+package first) registers these ids with Gymnasium: at once when Gymnasium is loaded, else as
+soon as it is imported (so importing the package loads neither Gymnasium nor numpy):
 
 * ``ModQuadAssembly-v0``: :class:`~modquad_gym.envs.assembly.env.ModQuadAssemblyEnv`, every keyword
   of its constructor accepted by ``gym.make``.
@@ -39,9 +40,11 @@ at n_max 7), where success beats every failure (not at n_max 12 or 64: None ther
 
 from __future__ import annotations
 
+import importlib.abc
+import importlib.util
+import sys
 from typing import TYPE_CHECKING
 
-import gymnasium as gym
 import lazy_loader
 
 from modquad_gym.envs.assembly.reward import RewardWeights, success_threshold
@@ -62,6 +65,8 @@ ENV_IDS: dict[str, dict] = {
 
 def register_envs() -> None:
     """Register every id of :data:`ENV_IDS` with Gymnasium; a second call does nothing."""
+    import gymnasium as gym
+
     for env_id, kwargs in ENV_IDS.items():
         if env_id not in gym.registry:
             gym.register(
@@ -81,7 +86,38 @@ def episode_limit(kwargs: dict) -> int:
     return kwargs.get("max_steps") or 4 * kwargs.get("n_max", DEFAULT_N_MAX)
 
 
-register_envs()
+class _RegisterAfterGymnasium(importlib.abc.MetaPathFinder):
+    """A post-import hook: when ``gymnasium`` is imported (after this package), the ids are
+    registered as soon as it has loaded, so ``import modquad_gym`` need not load Gymnasium (and
+    numpy) itself. It finds gymnasium's spec as Python would and runs :func:`register_envs`
+    after the module's own code; then it leaves ``sys.meta_path``."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name != "gymnasium":
+            return None
+        sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(name)
+        if spec is None or spec.loader is None:
+            return spec
+        run = spec.loader.exec_module
+
+        def exec_module(module) -> None:
+            run(module)
+            register_envs()
+
+        spec.loader.exec_module = exec_module
+        return spec
+
+
+def register_when_gymnasium_loads() -> None:
+    """Register the ids now if Gymnasium is loaded, else right after it is imported."""
+    if "gymnasium" in sys.modules:
+        register_envs()
+    elif not any(isinstance(f, _RegisterAfterGymnasium) for f in sys.meta_path):
+        sys.meta_path.insert(0, _RegisterAfterGymnasium())
+
+
+register_when_gymnasium_loads()
 
 _NAMES = {
     "assembly": [

@@ -9,10 +9,12 @@ fills ``env.spec`` in with the env's own step limit and success threshold.
 from __future__ import annotations
 
 import dataclasses
-
-from gymnasium.envs.registration import EnvSpec
+from typing import TYPE_CHECKING
 
 from modquad_gym.envs.assembly.reward import WeightedReward, success_threshold
+
+if TYPE_CHECKING:
+    from gymnasium.envs.registration import EnvSpec
 
 DEFAULT_N_MAX = 7
 """The default ``n_max`` (the paper's)."""
