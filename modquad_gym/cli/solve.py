@@ -271,9 +271,12 @@ def worst_fault_margin(task, result) -> float | None:
     """The smallest margin over every single failure of ``result.fault`` and every wrench of
     ``task`` for the structure found (>= 0: it survives them all), None without a structure."""
     from modquad_gym.oracle.faults import fault_margin
+    from modquad_gym.search.checker import LP_ROTORS
 
     if result.structure is None:
         return None
     W = task.rotor_wrenches(result.structure)
-    margins = fault_margin(result.structure, W, task.f_max, fault=result.fault, method="compiled")
+    rotors = result.structure.configuration_matrix().shape[1]
+    method = "daqp" if rotors <= LP_ROTORS else "compiled"  # as the searches: no compilation
+    margins = fault_margin(result.structure, W, task.f_max, fault=result.fault, method=method)
     return float(margins.min())

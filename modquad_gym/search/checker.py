@@ -274,7 +274,7 @@ class TaskChecker:
             start = size
         if self.fault is not None:
             tolerance = self.tolerance(A, z)
-            ok = tolerance.decide(W, stop_early=True)
+            ok = tolerance.decide(W, self.method(z), stop_early=True)
             self.oracle_calls += tolerance.tests
             return ok
         return True
@@ -290,10 +290,17 @@ class TaskChecker:
         """Exact decisions (t,) of wrenches W for the zonotope z, counted as ``len(W)`` oracle
         calls: by the DAQP LP while the work is small (:data:`COMPILED_AFTER`), then by the
         compiled certificates."""
-        small = z.m <= LP_ROTORS and self.oracle_calls < COMPILED_AFTER
-        method = "daqp" if small else "auto"
+        method = self.method(z)
         self.oracle_calls += len(W)
         return decide_with(z, W, method)
+
+    def method(self, z: Zonotope) -> str:
+        """The oracle's method for the next decisions on z: ``"daqp"`` while the work is small
+        (structures of at most :data:`LP_ROTORS` rotors, fewer than :data:`COMPILED_AFTER`
+        wrench tests so far), then ``"auto"``. Fault decisions follow it (the LP skips the
+        compiled allocation certificate)."""
+        small = z.m <= LP_ROTORS and self.oracle_calls < COMPILED_AFTER
+        return "daqp" if small else "auto"
 
     def _learn(self, z: Zonotope, w: np.ndarray) -> None:
         R, off = z.reduce(w[None])

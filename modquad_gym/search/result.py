@@ -188,7 +188,7 @@ class SearchRun:
         if self.problem.fault is None:
             return z, W, ok
         tolerance = self.checker.tolerance(A, z)
-        ok = tolerance.decide(W)
+        ok = tolerance.decide(W, self.checker.method(z))
         self.checker.oracle_calls += tolerance.tests
         return z, W, ok
 
