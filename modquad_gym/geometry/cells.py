@@ -66,6 +66,16 @@ def normalise_typed(cells: Iterable[Cell], modules: Iterable[ModuleType]) -> tup
     return tuple(sorted(pairs, key=lambda p: p[0]))
 
 
+def packed_key(cells: Iterable[Cell], types: Iterable[int]) -> bytes:
+    """The structure of ``cells`` with palette indices ``types``, up to translation, as compact
+    bytes (int16 rows (x, y, type), sorted by cell): the caches of the searches' candidates hold
+    many (a 64-module structure takes 384 bytes)."""
+    rows = np.column_stack([np.array(list(cells), dtype=np.int32).reshape(-1, 2),
+                            np.array(list(types), dtype=np.int32)])  # fmt: skip
+    rows[:, :2] -= rows[:, :2].min(axis=0)
+    return rows[np.lexsort((rows[:, 1], rows[:, 0]))].astype(np.int16).tobytes()
+
+
 def is_connected(cells: Iterable[Cell]) -> bool:
     """True when the cells form one face-connected group."""
     cells = set(cells)

@@ -31,6 +31,7 @@ import time
 import numpy as np
 
 from modquad_gym.core.validation import check_int
+from modquad_gym.geometry.cells import packed_key
 from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream
 from modquad_gym.geometry.structure import Structure, normalise
 from modquad_gym.search.bounds import (
@@ -153,10 +154,7 @@ class Incumbents:
 
     def _key(self, cand) -> bytes:
         """The candidate up to translation, as compact bytes (the cache holds many)."""
-        cells, types = cand
-        rows = np.column_stack([np.array(cells, dtype=np.int32), np.array(types, dtype=np.int32)])
-        rows[:, :2] -= rows[:, :2].min(axis=0)
-        return rows[np.lexsort((rows[:, 1], rows[:, 0]))].astype(np.int16).tobytes()
+        return packed_key(*cand)
 
     def missed(self, cand) -> int:
         """How many task wrenches the candidate cannot exert (exact decisions; cached)."""

@@ -18,7 +18,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from modquad_gym.geometry.cells import Cell, normalise_typed
+from modquad_gym.geometry.cells import Cell, normalise_typed, packed_key
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.search.bounds import (
     NO_SIZE,
@@ -105,7 +105,7 @@ class Scores:
         return Structure.from_trusted(cells, modules=tuple(palette[t] for _, t in cand))
 
     def score(self, cand: Candidate) -> tuple[int, float, float]:
-        key = np.array([(x, y, t) for (x, y), t in cand], dtype=np.int32).tobytes()
+        key = packed_key((c for c, _ in cand), (t for _, t in cand))
         if key not in self.cache:
             z, W, ok = self.run.decide(self.structure(cand))
             R, off = z.reduce(W)
