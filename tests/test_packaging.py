@@ -66,6 +66,28 @@ def test_wheel_has_one_package_with_its_examples_and_type_marker(dists):
     assert "License-Expression: MIT\n" in meta
 
 
+def test_the_package_imports_nothing_of_the_repository_outside_it():
+    """The wheel holds only ``modquad_gym``: a module of it that imports the repository's
+    ``tests``, ``benchmarks``, ``agents``, ``examples`` or ``train`` (even lazily, inside a
+    function) works in a clone and fails installed. The wheel check found one: ``modquad bench
+    oracle`` and the docs build stopped at ``No module named 'tests'`` from the wheel."""
+    import ast
+
+    outside = {"tests", "benchmarks", "agents", "examples", "docs", "train"}
+    found = []
+    for path in sorted((ROOT / "modquad_gym").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            else:
+                continue
+            found += [f"{path.relative_to(ROOT)}:{node.lineno} {name}" for name in names
+                      if name.split(".")[0] in outside]  # fmt: skip
+    assert not found, found
+
+
 def test_citation_names_the_paper_and_this_version():
     yaml = pytest.importorskip("yaml")
     cff = yaml.safe_load((ROOT / "CITATION.cff").read_text(encoding="utf-8"))
