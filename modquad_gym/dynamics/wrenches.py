@@ -24,6 +24,7 @@ dynamics, and bounds reason about mass and inertia that grow with the module cou
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -170,17 +171,21 @@ class LinearWrenches:
         per_mass = np.zeros_like(base)
         if carries_weight:
             per_mass[:, 2] = GRAVITY
-        per_inertia = np.zeros((len(base), 6, 6))
-        for a in (base, per_mass, per_inertia):
+        per_inertia = np.broadcast_to(np.zeros((1, 6, 6)), (len(base), 6, 6))  # no copy
+        for a in (base, per_mass):
             a.setflags(write=False)
-        return cls(base, per_mass, per_inertia)
+        model = cls(base, per_mass, per_inertia)
+        # known without looking at the arrays (an environment makes one per episode)
+        model.__dict__.update(uses_mass=carries_weight, uses_inertia=False,
+                              lift_per_kg=GRAVITY if carries_weight else 0.0)  # fmt: skip
+        return model
 
-    @property
+    @cached_property
     def uses_mass(self) -> bool:
         """True when the wrenches depend on the structure's mass."""
         return bool(np.any(self.per_mass))
 
-    @property
+    @cached_property
     def lift_per_kg(self) -> float | None:
         """The structure's weight term when every row carries the same ``c e_z`` per kg (c;
         0.0 when the wrenches do not depend on the mass), None otherwise."""
@@ -189,7 +194,7 @@ class LinearWrenches:
             return None if len(p) else 0.0
         return float(p[0, 2])
 
-    @property
+    @cached_property
     def uses_inertia(self) -> bool:
         """False when the wrenches depend on the structure through its mass alone."""
         return bool(np.any(self.per_inertia))
