@@ -245,7 +245,7 @@ def report(out: Path, rows: list[dict], speed: list[dict], args) -> None:
             f"optimum is at most 6 modules in at most 10 s each: {cert} of {len(small)} "
             f"certified, slowest {slow:.2f} s.",
         ]
-    flown = [r for r in rows if "error_m_0ms" in r]
+    flown = [r for r in rows if r.get("error_m_0ms") is not None]
     if flown:
         lines += ["", "## Flown through the worst failure (MuJoCo)", ""]
         lines += [
@@ -270,7 +270,7 @@ def report(out: Path, rows: list[dict], speed: list[dict], args) -> None:
                     f"| {fault} | {tag} | {len(sel)} | {sum(e <= 0.05 for e in errors)} | "
                     f"{100 * max(errors):.2f} | {max(r[f'saturated_{tag}'] for r in sel):.2f} |"
                 )
-        lost = [r for r in flown if "intact_error_m_20ms" in r]
+        lost = [r for r in flown if r.get("intact_error_m_20ms") is not None]
         if lost:
             gone = sum(
                 r["intact_error_m_20ms"] > 0.05 or r["intact_saturated_20ms"] > 0 for r in lost
