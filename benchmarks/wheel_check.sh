@@ -205,6 +205,8 @@ check repo $P 'python -m benchmarks.scale --bands 16 24 --methods anytime greedy
 
 # docs/distributed.md (big.json: the README's 50-module task)
 P=docs/distributed.md
+check wheel $P 'mkdir -p tasks && for s in 1 2 3 4; do modquad task generate --kind paper --seed $s --out tasks/t$s.json; done' \
+  'mkdir -p tasks && for s in 1 2 3 4; do modquad task generate --kind paper --seed $s --out tasks/t$s.json; done'
 check wheel $P 'modquad solve --task tasks/ --workers 2 --json' \
   'for s in 1 2 3; do modquad task generate --kind planted --seed $s --out tasks/t$s.json; done && modquad solve --task tasks/ --workers 2 --json'
 check wheel $P 'modquad solve --task big.json --method exhaustive --n-max 14 --workers 2' \

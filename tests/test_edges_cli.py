@@ -771,3 +771,28 @@ def test_defaults_help_formatter():
     text = " ".join(p.format_help().split())
     assert "count (default: 3)" in text and "path --c" in text
     assert "(default: the tier's) --d" in text and text.count("(default") == 2
+
+
+def test_missing_extras_are_refused_before_any_work(monkeypatch, tmp_path, capsys):
+    """Without matplotlib (show --out), plotly (show --html) or MuJoCo (validate) the command
+    says which extra to install in one line before it searches, flies or writes anything."""
+    import importlib.util
+
+    from modquad_gym import cli
+
+    real = importlib.util.find_spec
+    for missing, argv in [
+        ("matplotlib", ["show", "--task", "example:screwdriver", "--out", str(tmp_path / "a.png")]),
+        ("plotly", ["show", "--task", "example:screwdriver", "--html", str(tmp_path / "a.html")]),
+        ("mujoco", ["validate", "--task", "example:screwdriver", "--out", str(tmp_path / "v")]),
+    ]:
+        monkeypatch.setattr(
+            importlib.util,
+            "find_spec",
+            lambda name, *a, m=missing: None if name == m else real(name, *a),
+        )
+        code = cli.main(argv)
+        err = capsys.readouterr().err
+        monkeypatch.undo()
+        assert code == 2 and err.count("\n") == 1 and missing in err and "modquad_gym[" in err
+        assert not any(tmp_path.iterdir())

@@ -91,6 +91,7 @@ def structure_from_cells(text: str, modules):
 
 
 def cmd_show(args: argparse.Namespace) -> int:
+    from modquad_gym.core.extras import require
     from modquad_gym.core.outputs import check_outputs
 
     if args.task and not args.cells and args.n_max > MAX_SHOWN_MODULES:
@@ -110,7 +111,8 @@ def cmd_show(args: argparse.Namespace) -> int:
             out = out.with_name(out.name + ".png")
     # both checked before any work or write (--out X --html X would write X, then refuse)
     out = check_outputs({"--out": out, "--html": args.html}, force=args.force).get("--out")
-    task, structure = shown(args)
+    require(*(["matplotlib"] if out is not None else []), *(["plotly"] if args.html else []))
+    task, structure = shown(args)  # the search runs only when the pictures can be drawn
     if structure is None:
         return 0
     if out is not None:

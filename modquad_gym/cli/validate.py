@@ -102,6 +102,10 @@ def add_validate(sub) -> None:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
+    from modquad_gym.core.extras import require
+
+    require("mujoco", "matplotlib")  # the [sim] extra, before any work or output
+
     from modquad_gym.core.outputs import check_output_dir
     from modquad_gym.core.validation import check_int, check_real
     from modquad_gym.sim.validate import validate

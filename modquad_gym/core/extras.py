@@ -7,6 +7,7 @@ questions; training, simulation, pictures, the cvxpy reference and Ray are packa
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from types import ModuleType
 
 EXTRA_OF = {
@@ -30,6 +31,14 @@ def missing_extra_message(module: str) -> str:
     top = module.split(".")[0]
     extra = EXTRA_OF.get(top, "all")
     return f"{top} is not installed; install it with: pip install 'modquad_gym[{extra}]'"
+
+
+def require(*modules: str) -> None:
+    """An ImportError naming the extra to install for the first of ``modules`` that is not
+    installed (found without importing it): a command checks before any work."""
+    for module in modules:
+        if importlib.util.find_spec(module.split(".")[0]) is None:
+            raise ImportError(missing_extra_message(module))
 
 
 def import_optional(module: str) -> ModuleType:
