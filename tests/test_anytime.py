@@ -138,3 +138,23 @@ def test_removable_modules_are_exactly_the_non_cut_cells(seed, n):
     for i, c in relocations(cells):
         moved = cells[:i] + [c] + cells[i + 1 :]
         assert is_connected(moved) and len(set(moved)) == n
+
+
+def test_the_time_left_goes_to_the_fields_heuristics(monkeypatch):
+    """The portfolio (issue 35): when the local moves stop early without meeting the bound, beam
+    and genetic get the time left, and the smaller verified structure is the answer (here the
+    exact levels and the moves are switched off: the compact-shape incumbent alone is far
+    larger than beam's)."""
+    import modquad_gym.search.anytime as anytime
+    from benchmarks.scale_suites import draw
+    from modquad_gym.search import beam_search
+
+    task = draw("torque", 16, 0, validation=True)  # a validation draw, not a held-out task
+    monkeypatch.setattr(anytime.ExactLevels, "fits", lambda self, n: False)
+    monkeypatch.setattr(anytime.Incumbents, "improve", lambda self, lower: None)
+    r = anytime_search(task, n_max=24, time_limit=6)
+    beam = beam_search(task, n_max=24, time_limit=6)
+    assert r.structure is not None and r.n_modules <= beam.n_modules
+    monkeypatch.setattr(anytime, "with_heuristics", lambda run, best, bound, deadline: best)
+    alone = anytime_search(task, n_max=24, time_limit=6)
+    assert alone.n_modules > r.n_modules and r.evaluated > alone.evaluated

@@ -17,6 +17,9 @@ limit the way a MIP solver does, with an incumbent and a proved lower bound.
    feasible; when none can go, look for a feasible structure of one module fewer by moving
    modules (and changing their types) to reduce the number of task wrenches it misses.
 4. With the time left, the exact levels go on from where they stopped, raising the bound.
+5. **Portfolio** (:func:`with_heuristics`): when the local moves stopped early without meeting
+   the bound, the field's heuristics (beam, then genetic) get the time left; the smallest
+   verified structure is the answer, the bound stays the proved one.
 
 It stops at the time limit, or as soon as the bound meets the incumbent; when that happens
 at a level the exact scan can decide, the level is scanned for its first feasible structure
@@ -57,6 +60,10 @@ from modquad_gym.search.typed import MAX_PAIRS, assignments, level_pairs, typed_
 
 EXACT_SHARE = 0.5
 """Share of the time limit the exact levels get before an incumbent is built."""
+
+PORTFOLIO_MIN_SECONDS = 1.0
+"""The heuristics of the portfolio (:func:`with_heuristics`) run only with at least this many
+seconds left."""
 
 REPAIR_MOVES = 48
 """Moves tried per step of the repair search before it settles for a sideways move."""
@@ -320,4 +327,25 @@ def anytime_search(
     if found is not None:
         return run.finish(found, found.n_modules)
     best = incumbents.structure(incumbents.best) if incumbents.best is not None else None
+    best = with_heuristics(run, best, min(exact.n, size), deadline)
+    size = best.n_modules if best is not None else problem.n_max + 1
     return run.finish(best, min(exact.n, size))
+
+
+def with_heuristics(run: SearchRun, best, bound: int, deadline: float):
+    """The smaller of ``best`` and what the field's heuristics (beam, then genetic) find with
+    the time left before ``deadline`` when the local moves stopped early without meeting the
+    ``bound`` (a portfolio: one incumbent, one bound); their work is counted as this run's."""
+    from modquad_gym.search.beam import beam_search
+    from modquad_gym.search.genetic import genetic_search
+
+    for search in (beam_search, genetic_search):
+        left = deadline - time.perf_counter()
+        if left < PORTFOLIO_MIN_SECONDS or (best is not None and best.n_modules <= bound):
+            break
+        r = search.solve(run.problem, time_limit=left)
+        run.checker.evaluated += r.evaluated
+        run.checker.oracle_calls += r.oracle_calls
+        if r.structure is not None and (best is None or r.n_modules < best.n_modules):
+            best = r.structure
+    return best
