@@ -1,8 +1,10 @@
 """A policy that acts at any size and palette: one score per candidate docking, shared weights.
 
-The assembly environment with ``lookahead=True`` describes every action (a cell, and a module
+The assembly environment with ``lookahead`` on describes every action (a cell, and a module
 type with several types) by a row of lookahead features of the child structure it would build
-(:mod:`modquad_gym.envs.assembly.features`). :class:`CandidateScorer` turns each row, the
+(:mod:`modquad_gym.envs.assembly.lookahead`: support features, and with ``lookahead="exact"``
+the exact share, margin and greedy's choice; the row's width is read from the observation
+space). :class:`CandidateScorer` turns each row, the
 action's neighbourhood on the grid and its position from the structure's centre, and its module
 type's descriptor into one logit with the *same* weights for every action (a DeepSets scorer:
 each candidate also sees a masked mean and max over all candidates and a summary of the task and
@@ -32,13 +34,14 @@ from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
 from torch.nn import functional as F  # noqa: N812
 
-from modquad_gym.envs.assembly.features import CANDIDATE_FEATURES, STRUCTURE_SCALARS, TASK_SCALARS
+from modquad_gym.envs.assembly.features import STRUCTURE_SCALARS, TASK_SCALARS
 
 TYPE_FEATURES = 7
 """Per module type: its rotors' mean wrench column (6, at f_max, torques per metre of side) and
 its mass in units of 0.3 kg."""
-CELL_FEATURES = CANDIDATE_FEATURES + 9 + 2 + TYPE_FEATURES
-"""Per candidate: lookahead row, 3 x 3 occupancy patch, offset from the centre, type."""
+CELL_EXTRAS = 9 + 2 + TYPE_FEATURES
+"""Per candidate beside its lookahead row: 3 x 3 occupancy patch, offset from the centre,
+type."""
 
 
 def type_features(modules) -> list[list[float]]:
@@ -83,6 +86,7 @@ class CandidateScorer(BaseFeaturesExtractor):
     def __init__(self, observation_space: spaces.Dict, hidden: int = 64, types=None) -> None:
         n_actions = int(observation_space["action_mask"].shape[0])
         super().__init__(observation_space, features_dim=n_actions + hidden)
+        self.width = int(observation_space["candidates"].shape[0]) // n_actions
         task_size = int(observation_space["task"].shape[0])
         self.k = task_size - TASK_SCALARS
         self.hidden = hidden
@@ -94,7 +98,7 @@ class CandidateScorer(BaseFeaturesExtractor):
             self.register_buffer(name, value, persistent=False)
         context_in = task_size + 2 * self.k + STRUCTURE_SCALARS + 1
         self.context = mlp([context_in, hidden, hidden])
-        self.embed = mlp([CELL_FEATURES, hidden, hidden])
+        self.embed = mlp([self.width + CELL_EXTRAS, hidden, hidden])
         self.mix = nn.Linear(hidden, hidden)
         self.score_cell = nn.Linear(hidden, hidden)
         self.score_pool = nn.Linear(2 * hidden, hidden)
@@ -126,11 +130,12 @@ class CandidateScorer(BaseFeaturesExtractor):
         return torch.cat([logits, summary], dim=1)
 
     def cell_inputs(self, obs, occupancy, side: int, n_max: float, b, a) -> torch.Tensor:
-        """(rows, CELL_FEATURES) for the actions ``a`` of samples ``b``: each one's lookahead
-        row (de-normalised), the 3 x 3 occupancy around its cell, its offset from the
-        structure's centre and its module type's descriptor."""
+        """(rows, width + CELL_EXTRAS) for the actions ``a`` of samples ``b``: each one's
+        lookahead row (support entries de-normalised; the exact ones, when there, as they are),
+        the 3 x 3 occupancy around its cell, its offset from the structure's centre and its
+        module type's descriptor."""
         batch, n_cells = occupancy.shape
-        rows = obs["candidates"].reshape(batch, -1, CANDIDATE_FEATURES)[b, a]
+        rows = obs["candidates"].reshape(batch, -1, self.width)[b, a]
         rows = torch.cat([symlog(rows[:, :1] * n_max), rows[:, 1:2],
                           symlog(rows[:, 2:4] * n_max), rows[:, 4:]], dim=1)  # fmt: skip
         cell, kind = a % n_cells, a // n_cells

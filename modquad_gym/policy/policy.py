@@ -18,6 +18,7 @@ import numpy as np
 
 from modquad_gym.core.extras import import_optional
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+from modquad_gym.envs.assembly.features import lookahead_width
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.policy.models import read_model
 from modquad_gym.search import SearchResult
@@ -53,8 +54,16 @@ def env_kwargs_of(model, config: dict) -> dict:
     if "n_directions" not in kwargs:
         kwargs["n_directions"] = int(space["task"].shape[0]) - 7
     if "lookahead" not in kwargs:
-        kwargs["lookahead"] = "candidates" in space.spaces
+        kwargs["lookahead"] = lookahead_of(space)
     return kwargs
+
+
+def lookahead_of(space) -> bool | str:
+    """The env's ``lookahead`` that made the observation ``space`` (by its rows' width)."""
+    if "candidates" not in space.spaces:
+        return False
+    width = int(space["candidates"].shape[0]) // int(space["action_mask"].shape[0])
+    return "exact" if width == lookahead_width("exact") else True
 
 
 class Policy:

@@ -25,6 +25,20 @@ from modquad_gym.search.heuristic import Deadline, heuristic_result, impossible_
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
 from modquad_gym.search.result import SearchResult, SearchRun
 
+TIE_DECIMALS = 9
+"""Greedy compares mean margins rounded to this many decimals: children that differ by round-off
+only (mirror images of a symmetric task) tie on every machine, and the first in cell order
+wins."""
+
+
+def greedy_rank(share: float, mean_margin: float) -> tuple[float, float]:
+    """How greedy ranks a child structure: (satisfied share, mean of its margins clipped to
+    [-1, 1], rounded to :data:`TIE_DECIMALS`), a feasible child (share 1) scoring (1, 0). The
+    environment's exact lookahead flags its choice by the same rank."""
+    if share == 1.0:
+        return 1.0, 0.0
+    return share, round(mean_margin, TIE_DECIMALS)
+
 
 def _typed(run: SearchRun, cells: Iterable[Cell], types: Iterable[int]) -> Structure:
     palette = run.problem.palette
@@ -38,8 +52,9 @@ def greedy_search(
     time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> SearchResult:
     """Baseline: from one module, repeatedly attach the module that most increases the fraction
-    of satisfied wrenches, ties broken by the larger total margin (sum of exact margins clipped
-    to [-1, 1]), then by cell order. Stops at the first feasible structure or at ``n_max``.
+    of satisfied wrenches, ties broken by the larger mean margin (exact margins clipped to
+    [-1, 1], :func:`greedy_rank`), then by cell order. Stops at the first feasible structure or
+    at ``n_max``.
 
     Children that are the same structure up to translation are evaluated and counted once, at
     their first cell in sorted order; equal structures score equally, so results are unchanged.
@@ -56,8 +71,8 @@ def greedy_search(
         z, W, ok = run.decide(s)
         if ok.all():
             return True, (1.0, 0.0)
-        total = float(np.clip(margin(z.A, W, f, method="daqp"), -1.0, 1.0).sum())
-        return False, (float(ok.mean()), total)
+        mean = float(np.clip(margin(z.A, W, f, method="compiled"), -1.0, 1.0).mean())
+        return False, greedy_rank(float(ok.mean()), mean)
 
     if len(palette) == 1:
         current = Structure([(0, 0)], problem.module)

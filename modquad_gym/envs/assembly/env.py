@@ -110,11 +110,14 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     * ``"structure"`` (2K + 7,) in [-1, 1]: the structure's support function, its deficit against
       the task per direction, the fraction of satisfied wrenches, n_modules / n_max, rank / 6 and
       per-wrench directional deficits.
-    * ``"candidates"`` (G * G * k,) in [-1, 1], only with ``lookahead=True`` (k = 5,
-      :data:`~.features.CANDIDATE_FEATURES`): row a (``candidates.reshape(G * G, k)[a]``)
-      describes the child structure that action a would build from its support function alone
-      (zero for invalid actions, never all zero for valid ones): cheap necessary tests, not
-      oracle calls (they count in neither ``info["evaluated"]`` nor ``info["oracle_calls"]``).
+    * ``"candidates"`` (G * G * k,) in [-1, 1], only with ``lookahead`` on: row a
+      (``candidates.reshape(G * G, k)[a]``) describes the child structure that action a would
+      build (zero for invalid actions, never all zero for valid ones). ``lookahead=True``
+      (k = 5, :data:`~.features.CANDIDATE_FEATURES`): from its support function alone, cheap
+      necessary tests, not oracle calls (they count in neither ``info["evaluated"]`` nor
+      ``info["oracle_calls"]``). ``lookahead="exact"`` (k = 8): also the child's exact
+      satisfied share, its clipped mean margin and a flag on greedy's choice
+      (:mod:`.lookahead`); those oracle tests count in ``info["oracle_calls"]``.
 
     K = ``n_directions`` (default 48); :mod:`modquad_gym.envs.assembly.features` documents
     every entry and its normalisation.
@@ -181,7 +184,8 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
       it survives ANY single failure of that kind, so success is tolerance (:mod:`.evaluator`).
     * ``render_size``: (height, width) of ``rgb_array`` frames, 16..4096 each, default (256, 256).
     * ``lookahead``: add the ``"candidates"`` observation (default False: the observation is
-      exactly the four entries above).
+      exactly the four entries above): True for the support rows, ``"exact"`` for the exact
+      one-step lookahead too (about 20 times slower per step: every child is decided).
 
     ``info`` carries ``n_modules``, ``satisfied_fraction``, ``success`` (and the same as
     ``is_success``, which SB3's ``Monitor``/``EvalCallback`` and RL Zoo read), ``cells`` (list of
@@ -211,7 +215,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         # the actions, the observation and the decisions
         actions: str = "grid",
         n_directions: int = DEFAULT_N_DIRECTIONS,
-        lookahead: bool = False,
+        lookahead: bool | str = False,
         oracle_method: str = "auto",
         fault: str | None = None,
         # the reward
@@ -259,7 +263,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     n_max = property(lambda self: self.rules.n_max, doc="The largest number of modules.")
     max_steps = property(lambda self: self.rules.max_steps, doc="The step limit.")
     invalid_action = property(lambda self: self.rules.invalid_action, doc="Its mode.")
-    lookahead = property(lambda self: self.rules.lookahead, doc="Whether candidates are shown.")
+    lookahead = property(lambda self: self.rules.lookahead, doc="False, True or 'exact'.")
     module = property(lambda self: self.module_set.module, doc="The (first) module type.")
     palette = property(lambda self: self.module_set.palette, doc="The types, or None (one).")
     n_types = property(lambda self: self.module_set.n_types, doc="The number of types.")
@@ -366,8 +370,8 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         task = draw_task(self.generator, self.np_random, options.get("task"), self_weight)
         f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
         evaluator = self._evaluator(f_max)
-        memo, cand_memo = self._memos.of(task, f_max)
-        parts = (self.rules, self.encoding, self.module_set, evaluator, memo, cand_memo)
+        memos = self._memos.of(task, f_max)
+        parts = (self.rules, self.encoding, self.module_set, evaluator, *memos)
         self._episode = Episode(*parts)
         arrays = evaluator.task_arrays(task, self.module_set.key(((0, 0),), types))
         self._state = initial_state(self._episode, arrays, types)

@@ -48,7 +48,9 @@ from modquad_gym.geometry.structure import (
     mixed_configuration_matrices,
 )
 from modquad_gym.oracle import WrenchOracle
+from modquad_gym.oracle.backends import gamma_with
 from modquad_gym.oracle.faults import FaultTolerance, failure_sets
+from modquad_gym.oracle.tolerance import margin_from_gamma
 
 CACHE_SIZE = 16384
 """Entries per cache before it is cleared (there are 1,067 structures of at most 7 modules)."""
@@ -262,6 +264,30 @@ class StructureEvaluator:
             memo.update(zip(missing, self.features.candidates(h, slack, h_Tn, WD)))
         return [memo[k] for k in keys]
 
+    def exact_rows(
+        self, keys: list, task: TaskArrays, mass: float, memo: dict, exact_memo: dict
+    ) -> list[tuple[float, float]]:
+        """(satisfied share, mean margin clipped to [-1, 1]) of the child structures ``keys``
+        (one size, one mass) against ``task``: what the greedy rule ranks children by
+        (:func:`~modquad_gym.search.baselines.greedy_search`), from the exact oracle. The share
+        is the one a step to that child would report (decided through :meth:`evaluate`, whose
+        ``memo`` the step then hits; with a ``fault``, the tolerant share); the margins are
+        ``1 - gamma`` by the compiled method (as :func:`~modquad_gym.oracle.margin`, without
+        its sign repair within the LP's accuracy of the boundary: a feature, not a decision),
+        memoised per task in ``exact_memo``."""
+        for k in dict.fromkeys(keys):
+            if k in exact_memo:
+                continue
+            own = self.task_of(task, k)
+            n_sat, _, _ = self.evaluate(k, own, mass, memo)
+            W = self.at_mass(own, mass)[0]
+            cap = self.capability.get(k) or self.capability_of(k)
+            gamma = gamma_with(self.oracle.zonotope(cap.A, key=k), W, "compiled")
+            gaps = margin_from_gamma(gamma)
+            self.tests += len(W)
+            exact_memo[k] = (n_sat / len(W), float(np.clip(gaps, -1.0, 1.0).mean()))
+        return [exact_memo[k] for k in keys]
+
 
 class MixedStructureEvaluator(StructureEvaluator):
     """The evaluator for typed keys ``(((x, y), module), ...)`` of a palette (one side)."""
@@ -289,21 +315,22 @@ class MixedStructureEvaluator(StructureEvaluator):
 
 
 class TaskMemos:
-    """Per task (by identity) and f_max: decisions (key -> (n_satisfied, structure vector)) and
-    lookahead rows (child key -> row); the last :data:`MEMO_TASKS` tasks are kept."""
+    """Per task (by identity) and f_max: decisions (key -> (n_satisfied, structure vector)),
+    support lookahead rows (child key -> row) and exact lookahead entries (child key ->
+    (share, margin)); the last :data:`MEMO_TASKS` tasks are kept."""
 
     def __init__(self) -> None:
-        self._memos: dict[tuple[int, float], tuple[Any, dict, dict]] = {}
+        self._memos: dict[tuple[int, float], tuple[Any, dict, dict, dict]] = {}
 
-    def of(self, task: Any, f_max: float) -> tuple[dict, dict]:
-        """(decision memo, candidate memo) of ``task`` at ``f_max``."""
+    def of(self, task: Any, f_max: float) -> tuple[dict, dict, dict]:
+        """(decision memo, candidate memo, exact candidate memo) of ``task`` at ``f_max``."""
         ident = (id(task), f_max)
         entry = self._memos.get(ident)
         if entry is None or entry[0] is not task:
             if len(self._memos) >= MEMO_TASKS:
                 self._memos.clear()
-            entry = self._memos[ident] = (task, {}, {})
+            entry = self._memos[ident] = (task, {}, {}, {})
         for memo in entry[1:]:
             if len(memo) >= CACHE_SIZE:
                 memo.clear()
-        return entry[1], entry[2]
+        return entry[1], entry[2], entry[3]

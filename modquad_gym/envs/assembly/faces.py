@@ -18,9 +18,9 @@ Candidate rows (float32, ``FACE_FEATURES`` per action, each in [-1, 1]):
 3. to 10. whether each of its eight neighbours holds a module (east, north-east, north,
    north-west, west, south-west, south, south-east);
 
-then, with K > 1 types, the one-hot of the action's type (K entries), and with ``lookahead=True``
-the child structure's five support features (:data:`~.features.CANDIDATE_FEATURES`, as in the
-grid encoding; these cost one support evaluation per candidate).
+then, with K > 1 types, the one-hot of the action's type (K entries), and with ``lookahead``
+the child structure's lookahead row as in the grid encoding (:mod:`.lookahead`: five support
+features, one support evaluation per candidate; eight with ``lookahead="exact"``).
 """
 
 from __future__ import annotations
@@ -31,9 +31,9 @@ import numpy as np
 from numba import njit
 
 from modquad_gym.envs.assembly.features import (
-    CANDIDATE_FEATURES,
     AssemblyFeatures,
     ObservationBlock,
+    lookahead_width,
 )
 from modquad_gym.envs.assembly.grid import Grid
 from modquad_gym.envs.assembly.lookahead import candidate_rows
@@ -108,24 +108,24 @@ class Faces:
                 rows[k, : len(geo), FACE_FEATURES + k] = 1.0
         rows = rows.reshape(self.n_actions, -1)
         if ep.rules.lookahead:
-            rows[:, -CANDIDATE_FEATURES:] = candidate_rows(ep, state)
+            rows[:, -lookahead_width(ep.rules.lookahead) :] = candidate_rows(ep, state)
         return rows
 
     def _geometry(self, state: AssemblyState) -> np.ndarray:
         """(faces, FACE_FEATURES): the geometric entries of the current faces."""
         return _geometry(state.sites, state.faces, state.occupancy, self.xy, self.ring)
 
-    def width(self, lookahead: bool) -> int:
+    def width(self, lookahead: bool | str) -> int:
         """Entries per candidate row."""
         types = self.n_types if self.n_types > 1 else 0
-        return FACE_FEATURES + types + (CANDIDATE_FEATURES if lookahead else 0)
+        return FACE_FEATURES + types + lookahead_width(lookahead)
 
     def valid_cells(self, state: AssemblyState) -> set[Cell]:
         """The cells where a module may dock now."""
         return {self.grid.cell(int(c)) for c in state.faces}
 
     def blocks(
-        self, features: AssemblyFeatures, n_types: int, lookahead: bool
+        self, features: AssemblyFeatures, n_types: int, lookahead: bool | str
     ) -> list[ObservationBlock]:
         """``"action_mask"``, ``"candidates"`` (n_actions * k, flat as SB3 expects: reshape to
         (n_actions, k)), ``"task"``, ``"structure"``."""

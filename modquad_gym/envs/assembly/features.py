@@ -43,6 +43,16 @@ h_C on the same K directions (COM and torques recomputed for C; no oracle call):
    denom(d) > slack_C (each such wrench is certainly infeasible for C; the others may or may
    not be feasible: a necessary test only).
 
+With ``lookahead="exact"`` each row has ``EXACT_FEATURES`` = 3 more entries, from the exact
+oracle (:mod:`.lookahead`): what the greedy rule ranks children by, so a policy can copy it and
+learn where to depart from it:
+
+5. the child's exact satisfied share (the ``satisfied_fraction`` a step to it would report);
+6. the mean over the task's wrenches of the child's exact margin ``1 - gamma`` clipped to
+   [-1, 1] (>= 0 exactly where a wrench is feasible);
+7. 1 for greedy's choice (the first valid action, in (cell, type) order, of the best
+   :func:`~modquad_gym.search.baselines.greedy_rank` of entries 5 and 6), else 0.
+
 Rows of invalid actions are all zero.
 
 The observation itself is a list of named :class:`ObservationBlock` (see
@@ -72,6 +82,16 @@ TASK_SCALARS = 7
 STRUCTURE_SCALARS = 7
 CANDIDATE_FEATURES = 5
 """k: entries per action of the ``"candidates"`` observation (see the module docstring)."""
+EXACT_FEATURES = 3
+"""Entries the exact lookahead (``lookahead="exact"``) adds to each candidate row."""
+
+
+def lookahead_width(lookahead: bool | str) -> int:
+    """Entries per action of the lookahead rows: 0 (off), k (True), k + 3 (``"exact"``)."""
+    if not lookahead:
+        return 0
+    return CANDIDATE_FEATURES + (EXACT_FEATURES if lookahead == "exact" else 0)
+
 
 FUSED_FROM = 65
 """Configuration matrices with at least this many columns (more than 16 four-rotor modules,
@@ -333,7 +353,7 @@ def _candidate_rows(state: AssemblyState) -> np.ndarray:
 
 
 def observation_blocks(
-    n_cells: int, n_types: int, features: AssemblyFeatures, lookahead: bool
+    n_cells: int, n_types: int, features: AssemblyFeatures, lookahead: bool | str
 ) -> list[ObservationBlock]:
     """The observation's blocks, in order, for a grid of ``n_cells`` cells and ``n_types``
     module types (the ``"types"`` block only when several); add a block here to add a
@@ -346,7 +366,7 @@ def observation_blocks(
         ObservationBlock("structure", features.structure_size, attrgetter("structure_vec")),
     ]
     if lookahead:
-        size = n_actions * CANDIDATE_FEATURES
+        size = n_actions * lookahead_width(lookahead)
         blocks.append(ObservationBlock("candidates", size, _candidate_rows))
     if n_types > 1:
         blocks.append(ObservationBlock("types", n_actions, attrgetter("types_onehot"), 0.0, 1.0))

@@ -123,7 +123,7 @@ class Grid:
         return {"occupancy": occ, "mask": mask, "types_onehot": onehot}
 
     def candidates(self, ep: Episode, state: AssemblyState) -> np.ndarray | None:
-        """The ``"candidates"`` rows: the lookahead rows (``lookahead=True``), else None."""
+        """The ``"candidates"`` rows: the lookahead rows (``lookahead`` on), else None."""
         return candidate_rows(ep, state) if ep.rules.lookahead else None
 
     def valid_cells(self, state: AssemblyState) -> set[Cell]:
@@ -132,7 +132,7 @@ class Grid:
         return {self._cells[c] for c in np.flatnonzero(cell_mask)}
 
     def blocks(
-        self, features: AssemblyFeatures, n_types: int, lookahead: bool
+        self, features: AssemblyFeatures, n_types: int, lookahead: bool | str
     ) -> list[ObservationBlock]:
         """The observation's blocks (:func:`~.features.observation_blocks`)."""
         return observation_blocks(self.n_cells, n_types, features, lookahead)

@@ -29,13 +29,15 @@ def make_rules(
         raise ValueError(
             f"invalid_action must be one of {INVALID_ACTION_MODES}, got {invalid_action!r}"
         )
-    if not isinstance(lookahead, (bool, np.bool_)):
-        raise ValueError(f"lookahead must be a bool, got {lookahead!r}")
+    if lookahead != "exact" and not isinstance(lookahead, (bool, np.bool_)):
+        raise ValueError(f"lookahead must be False, True or 'exact', got {lookahead!r}")
     n_max = check_int(n_max, "n_max", 2, n_max_limit)
     if max_steps is None:
         max_steps = 4 * n_max
     max_steps = check_int(max_steps, "max_steps", n_max - 1, 4 * n_max_limit)
-    return Rules(n_max, max_steps, invalid_action, bool(lookahead))
+    return Rules(
+        n_max, max_steps, invalid_action, lookahead if lookahead == "exact" else bool(lookahead)
+    )
 
 
 def make_encoding(actions: Any, encodings: dict) -> Any:

@@ -61,6 +61,10 @@ def transition(ep: Episode, state: AssemblyState, a: int | None, valid: bool) ->
 
 
 def _with_candidates(ep: Episode, state: AssemblyState) -> AssemblyState:
-    """``state`` with its ``"candidates"`` rows, where the encoding has them."""
+    """``state`` with its ``"candidates"`` rows, where the encoding has them (the exact
+    lookahead's oracle tests counted in ``oracle_calls``)."""
+    before = ep.evaluator.tests
     rows = ep.actions.candidates(ep, state)
-    return state if rows is None else state.but(candidates=rows)
+    if rows is None:
+        return state
+    return state.but(candidates=rows, oracle_calls=state.oracle_calls + ep.evaluator.tests - before)

@@ -59,13 +59,14 @@ class Rules:
         n_max: the largest number of modules.
         max_steps: the step limit for truncation.
         invalid_action: ``"penalise"`` or ``"terminate"``.
-        lookahead: whether states carry the ``"candidates"`` rows.
+        lookahead: False, or which ``"candidates"`` rows states carry: True (support rows),
+            ``"exact"`` (support rows and the exact lookahead, :mod:`.lookahead`).
     """
 
     n_max: int
     max_steps: int
     invalid_action: str = "penalise"
-    lookahead: bool = False
+    lookahead: bool | str = False
 
 
 @dataclass(frozen=True)
@@ -80,6 +81,8 @@ class Episode:
         memo: the task's decisions, key -> (n_satisfied, structure vector) (shared by every
             episode of the same task object: a structure met again costs no oracle call).
         cand_memo: the task's lookahead rows, child key -> row.
+        exact_memo: the task's exact lookahead entries, child key -> (share, margin)
+            (``lookahead="exact"``).
     """
 
     rules: Rules
@@ -88,6 +91,7 @@ class Episode:
     evaluator: Any
     memo: dict
     cand_memo: dict
+    exact_memo: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,141 @@
+"""The exact lookahead (``lookahead="exact"``): per action, the child's exact satisfied share,
+its clipped mean margin and greedy's choice. Checked against plain references: the greedy
+search itself, a step to each child, and the HiGHS LP's margins."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+from modquad_gym.envs.assembly.features import CANDIDATE_FEATURES, lookahead_width
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.oracle import margin
+from modquad_gym.policy.policy import lookahead_of
+from modquad_gym.search.baselines import greedy_search
+from modquad_gym.tasks import PlantedTasks, make_generator
+
+WIDTH = lookahead_width("exact")
+SHARE, MARGIN, GREEDY = CANDIDATE_FEATURES, CANDIDATE_FEATURES + 1, CANDIDATE_FEATURES + 2
+
+
+def rows_of(obs) -> np.ndarray:
+    return obs["candidates"].reshape(-1, WIDTH)
+
+
+def follow_greedy_flag(env: ModQuadAssemblyEnv, task, seed: int = 0) -> dict:
+    """Play the episode that always takes the flagged action; the last info."""
+    obs, info = env.reset(seed=seed, options={"task": task})
+    done = info["success"]
+    while not done:
+        flagged = np.flatnonzero(rows_of(obs)[:, GREEDY])
+        assert len(flagged) == 1 and obs["action_mask"][flagged[0]]
+        obs, _, terminated, truncated, info = env.step(int(flagged[0]))
+        done = terminated or truncated
+    return info
+
+
+def same_answer(info: dict, result) -> bool:
+    if result.structure is None:
+        return not info["success"]
+    return info["success"] and Structure(info["cells"]) == result.structure
+
+
+@pytest.mark.parametrize("source", ["mixed", "planted"])
+def test_following_the_flag_builds_what_the_greedy_search_builds(source):
+    generate, rng = make_generator(source), np.random.default_rng(11)
+    env = ModQuadAssemblyEnv(tasks=source, n_max=6, lookahead="exact")
+    for i in range(12):
+        task = generate(rng)
+        assert same_answer(follow_greedy_flag(env, task, i), greedy_search(task, n_max=6))
+
+
+def test_the_flag_follows_greedy_on_dynamic_tasks_and_under_a_rotor_fault():
+    rng = np.random.default_rng(3)
+    motions = make_generator("motions")
+    env = ModQuadAssemblyEnv(tasks="motions", n_max=5, lookahead="exact")
+    for i in range(3):
+        task = motions(rng)
+        assert same_answer(follow_greedy_flag(env, task, i), greedy_search(task, n_max=5))
+    planted = PlantedTasks(n_modules=(2, 3), n_wrenches=(3, 6))
+    env = ModQuadAssemblyEnv(tasks=planted, n_max=5, lookahead="exact", fault="rotor")
+    for i in range(3):
+        task = planted(rng)
+        result = greedy_search(task, n_max=5, fault="rotor")
+        assert same_answer(follow_greedy_flag(env, task, i), result)
+
+
+def test_each_share_is_what_the_step_reports_and_each_margin_the_lps():
+    task = PlantedTasks(n_modules=(4, 5), n_wrenches=(8, 12))(np.random.default_rng(2))
+    env = ModQuadAssemblyEnv(tasks=[task], n_max=6, lookahead="exact")
+    obs, _ = env.reset(seed=0)
+    obs, *_ = env.step(env.action_of((1, 0)))
+    state, rows = env.state, rows_of(obs).copy()
+    W = np.asarray(task.wrenches)
+    for a in np.flatnonzero(obs["action_mask"]):
+        child = Structure([(0, 0), (1, 0), env.cell_of(int(a))])
+        reference = np.clip(margin(child.configuration_matrix(), W, task.f_max, "scipy"), -1, 1)
+        np.testing.assert_allclose(rows[a, MARGIN], reference.mean(), atol=1e-6)
+        _, _, _, _, info = env.step(int(a))
+        assert rows[a, SHARE] == np.float32(info["satisfied_fraction"])
+        env.restore(state)
+    assert np.all(rows[obs["action_mask"] == 0] == 0.0)
+
+
+def test_near_the_boundary_and_rank_deficient_children_keep_their_meaning():
+    # a one-row structure is rank deficient (no torque about its axis): wrenches off its range
+    # have margin -inf, clipped to -1; a wrench on the boundary of a child has margin ~0
+    lift = Structure([(0, 0), (1, 0)]).configuration_matrix().sum(axis=1) * 2.0  # all rotors
+    off_range = np.array([0.0, 0.0, 5.0, 0.0, 0.0, 3.0])
+    from modquad_gym.tasks import TaskRequirement
+
+    task = TaskRequirement(np.array([lift, off_range]), f_max=2.0, name="edge")
+    env = ModQuadAssemblyEnv(tasks=[task], n_max=3, lookahead="exact")
+    obs, _ = env.reset(seed=0)
+    rows = rows_of(obs)
+    a = env.action_of((1, 0))
+    reference = np.clip(margin(Structure([(0, 0), (1, 0)]).configuration_matrix(),
+                               task.wrenches, 2.0, "scipy"), -1, 1)  # fmt: skip
+    np.testing.assert_allclose(rows[a, MARGIN], reference.mean(), atol=1e-6)
+    assert rows[a, SHARE] == np.float32(np.mean(reference >= 0))
+
+
+def test_exact_rows_count_their_oracle_tests_and_replay_the_same():
+    env = ModQuadAssemblyEnv(tasks="mixed", n_max=5, lookahead="exact")
+    plain = ModQuadAssemblyEnv(tasks="mixed", n_max=5)
+    _, with_rows = env.reset(seed=4)
+    _, without = plain.reset(seed=4)
+    assert with_rows["oracle_calls"] > without["oracle_calls"]
+    again = ModQuadAssemblyEnv(tasks="mixed", n_max=5, lookahead="exact")
+    first, second = env.reset(seed=9)[0], again.reset(seed=9)[0]
+    np.testing.assert_array_equal(first["candidates"], second["candidates"])
+    assert env.observation_space.contains(first)
+
+
+def test_the_exact_width_is_read_back_from_the_space_and_bad_values_refused():
+    exact = ModQuadAssemblyEnv(tasks="mixed", n_max=4, lookahead="exact")
+    assert exact.observation_space["candidates"].shape == (49 * WIDTH,)
+    assert lookahead_of(exact.observation_space) == "exact"
+    assert lookahead_of(ModQuadAssemblyEnv(n_max=4, lookahead=True).observation_space) is True
+    assert lookahead_of(ModQuadAssemblyEnv(n_max=4).observation_space) is False
+    faces = ModQuadAssemblyEnv(n_max=4, lookahead="exact", actions="faces")
+    obs, _ = faces.reset(seed=0)
+    assert faces.observation_space.contains(obs)
+    for bad in ("yes", 1, None, "support"):
+        with pytest.raises(ValueError, match="lookahead must be False, True or 'exact'"):
+            ModQuadAssemblyEnv(lookahead=bad)
+
+
+def test_the_candidate_policy_acts_on_exact_rows():
+    torch = pytest.importorskip("torch")
+    from sb3_contrib import MaskablePPO
+
+    from modquad_gym.policy.network import CandidatePolicy
+
+    env = ModQuadAssemblyEnv(tasks="planted", n_max=4, lookahead="exact")
+    model = MaskablePPO(CandidatePolicy, env, seed=0, n_steps=32, batch_size=16)
+    obs, _ = env.reset(seed=0)
+    action, _ = model.predict(obs, action_masks=env.action_masks(), deterministic=True)
+    assert env.action_masks()[int(action)]
+    assert model.policy.features_extractor.width == WIDTH
+    assert torch.is_tensor(next(model.policy.parameters()))
