@@ -17,6 +17,10 @@ cost reported apart. Next to it, one MaskablePPO update (``.train()`` on a 256-s
 same env, the hyperparameters of ``train.py``) is timed in the same run, so the env's cost can be
 read against the learner's.
 
+The lookahead table (``--lookahead-steps``) times the default env id with each ``lookahead``
+(off, the support rows, ``"exact"``: the exact one-step lookahead of every child) in the same
+run, resets counted, and gives each as a ratio to the default (off).
+
 The encodings table (``--scale``, :mod:`benchmarks.env_scale`) compares the grid and the
 free-faces action encodings at n_max 16, 32 and 64, resets counted (issue 26's goal: 2,000
 steps/s at n_max 64 on one core).
@@ -102,6 +106,45 @@ def measure_default(steps: int, warmup: int, seed: int) -> dict:
     row["oracle_fallback_wrenches"] = sum(o.fallback for o in oracles)
     row["goal"] = "met" if row["steps_per_s"] >= TARGET else "NOT met"
     return row
+
+
+LOOKAHEADS = (False, True, "exact")
+
+
+def measure_lookahead(steps: int, warmup: int, seed: int) -> list[dict]:
+    """The lookahead rows: the default env id with each of :data:`LOOKAHEADS`, resets counted,
+    as ratios to the first (off)."""
+    rows = []
+    for lookahead in LOOKAHEADS:
+        env = gym.make(DEFAULT_ID, lookahead=lookahead)
+        row = {"lookahead": repr(lookahead)}
+        row.update(play_timed(env, steps, warmup, seed))
+        row["oracle_tests_per_step"] = sum(ev.tests for ev in env.unwrapped.evaluators.values()) / (
+            warmup + steps
+        )
+        rows.append(row)
+    for row in rows:
+        row["cpu_rate_over_off"] = row["cpu_steps_per_s"] / rows[0]["cpu_steps_per_s"]
+    return rows
+
+
+def lookahead_section(rows: list[dict], steps: int) -> list[str]:
+    """The report's lines for the lookahead rows."""
+    exact = rows[-1]
+    return [
+        "## Lookahead rows, resets counted",
+        "",
+        f"`gym.make({DEFAULT_ID!r}, lookahead=...)`, {steps} timed steps each, random masked "
+        "actions, resets inside the loop. `cpu_rate_over_off`: steps per CPU second over the "
+        'default\'s (off), in this run. With `lookahead="exact"` every child of every state is '
+        "decided by the exact oracle and its margins computed (what greedy ranks by): "
+        f"**{exact['cpu_steps_per_s']:,.0f} steps per CPU second, "
+        f"{exact['cpu_rate_over_off']:.3f} of the default's**; the default (off) keeps its speed "
+        "(the option costs nothing when off).",
+        "",
+        markdown_table(rows),
+        "",
+    ]
 
 
 def ppo_update_seconds(seed: int) -> tuple[float, float]:
@@ -191,6 +234,7 @@ def report(
     scale: list[dict],
     args: argparse.Namespace,
     pinning: str,
+    lookahead: list[dict] = (),
 ) -> str:
     machine = machine_description()
     note = f" ({args.machine_note})" if args.machine_note else ""
@@ -203,6 +247,8 @@ def report(
     ]
     if default is not None:
         lines += default_section(default)
+    if lookahead:
+        lines += lookahead_section(lookahead, args.lookahead_steps)
     if rows:
         lines += [
             "## Per task family and size",
@@ -251,6 +297,7 @@ def command_line(args: argparse.Namespace) -> str:
         "--sizes " + " ".join(str(t) for t in args.sizes),
         "--scale " + " ".join(str(n) for n in args.scale),
         f"--scale-steps {args.scale_steps} --scale-warmup {args.scale_warmup}",
+        f"--lookahead-steps {args.lookahead_steps}",
     ]
     if args.no_ppo:
         parts.append("--no-ppo")
@@ -287,13 +334,20 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument(
         "--scale-warmup", type=int_option(0), default=300, help="untimed steps per encodings row"
     )
+    parser.add_argument(
+        "--lookahead-steps", type=int_option(0), default=2000,
+        help="timed steps per lookahead row (off, support, exact; 0: skip that table)",
+    )  # fmt: skip
     parser.add_argument("--no-ppo", action="store_true", help="skip the PPO update timing")
     parser.add_argument("--machine-note", default="", help="said after the machine line")
     parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
     add_force(parser)
     args = parse_bench_args(parser, argv, ("env_benchmark.md", "env_benchmark.csv"))
-    if not args.default_steps and not args.sizes and not args.scale:
-        parser.error("nothing to measure: give --sizes, --scale or --default-steps > 0")
+    if not (args.default_steps or args.sizes or args.scale or args.lookahead_steps):
+        parser.error(
+            "nothing to measure: give --sizes, --scale, --default-steps > 0 or "
+            "--lookahead-steps > 0"
+        )
     return args
 
 
@@ -311,6 +365,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
             default["env_ms_per_rollout"] = 1e3 * n / default["steps_per_s"]
             default["env_over_update"] = default["env_ms_per_rollout"] / default["ppo_update_ms"]
         print(f"default, resets counted: {default['steps_per_s']:.0f} steps/s", flush=True)
+    lookahead = []
+    if args.lookahead_steps:
+        lookahead = measure_lookahead(args.lookahead_steps, min(args.warmup, 500), args.seed)
+        for row in lookahead:
+            print(f"lookahead={row['lookahead']}: {row['cpu_steps_per_s']:.0f} steps/CPU s")
     rows = []
     for family in FAMILIES:
         for t in args.sizes:
@@ -334,10 +393,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
                 flush=True,
             )
             scale.append(row)
-    every = ([default] if default else []) + rows + scale
+    every = ([default] if default else []) + lookahead + rows + scale
     keys = list(dict.fromkeys(k for r in every for k in r))  # the default row has its own
     write_csv([{k: r.get(k, "") for k in keys} for r in every], args.out / "env_benchmark.csv")
-    write_text(args.out / "env_benchmark.md", report(rows, default, scale, args, pinning))
+    text = report(rows, default, scale, args, pinning, lookahead)
+    write_text(args.out / "env_benchmark.md", text)
     print(f"wrote {args.out / 'env_benchmark.md'} and {args.out / 'env_benchmark.csv'}")
     return every
 

@@ -179,6 +179,7 @@ def test_bench_env_reports_the_default_config_with_resets_and_the_ppo_update(tmp
         rows = bench_env.main(
             ["--steps", "20", "--warmup", "5", "--default-steps", "60", "--sizes", "1"]
             + ["--scale", "5", "--scale-steps", "20", "--scale-warmup", "2"]
+            + ["--lookahead-steps", "10"]
             + ["--out", str(tmp_path), "--machine-note", "shared"]
         )
     finally:  # the benchmark pins this process to one core
@@ -193,7 +194,8 @@ def test_bench_env_reports_the_default_config_with_resets_and_the_ppo_update(tmp
     )
     text = (tmp_path / "env_benchmark.md").read_text()
     assert "resets counted" in text and "(shared)" in text and "env / update" in text
-    assert len((tmp_path / "env_benchmark.csv").read_text().splitlines()) == 1 + 3 + 2
+    assert len((tmp_path / "env_benchmark.csv").read_text().splitlines()) == 1 + 3 + 3 + 2
+    assert "Lookahead rows" in text
     grid, faces = rows[-2:]
     assert (grid["encoding"], faces["encoding"]) == ("grid", "faces")
     assert (grid["actions"], faces["actions"]) == (9**2, 2 * 5 + 2) and faces["steps_per_s"] > 0
