@@ -110,10 +110,13 @@ def test_raising_task_is_reported_by_label(local_ray):
 def test_killed_worker_is_retried_with_identical_results(local_ray, tmp_path):
     """The first attempt at item 5 kills its own worker process (SIGKILL); Ray resubmits it."""
     marker = tmp_path / "killed"
+    driver = os.getpid()
 
     def solve(seed):
         if seed == 5 and not marker.exists():
             marker.write_text(str(os.getpid()))
+            if os.getpid() == driver:  # never kill the test run itself (a serial fallback)
+                raise RuntimeError("item 5 ran in the driver process, not in a worker")
             os.kill(os.getpid(), signal.SIGKILL)
         return exhaustive_search(planted_wrenches(3, 12, seed), n_max=4).to_dict()
 
