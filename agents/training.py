@@ -62,6 +62,10 @@ ARCHITECTURES = ("candidates", "mlp")
 """Policy networks: ``candidates`` scores each candidate docking with shared weights
 (:mod:`modquad_gym.policy.network`: any n_max, any palette; the env's lookahead rows), ``mlp``
 is SB3's MultiInputPolicy over the whole observation (one grid size)."""
+LOOKAHEAD = "exact"
+"""The lookahead rows the ``candidates`` network sees: the exact one-step lookahead (each
+child's exact share, margin and greedy's choice, :mod:`modquad_gym.envs.assembly.lookahead`);
+``--env-kwargs '{"lookahead": true}'`` trains on the support rows alone, as models before it."""
 DEFAULT_TIMESTEPS = 20_000
 
 
@@ -145,7 +149,7 @@ class TrainConfig:
         """Keywords of the validation environment besides its tasks and n_max (episodes start
         with the first type, as :class:`~.ppo.PPOSolver` does first)."""
         modules = get_tier(self.tier).modules
-        lookahead = {"lookahead": True} if self.architecture == "candidates" else {}
+        lookahead = {"lookahead": LOOKAHEAD} if self.architecture == "candidates" else {}
         return {**({"modules": modules} if modules else {}), **lookahead, **self.env_kwargs}
 
     @property

@@ -50,7 +50,7 @@ def _train_tiny(tmp: Path, *options: str) -> Path:
             *options]  # fmt: skip
     assert train.main(argv) == 0
     config = json.loads((out / "config.json").read_text())
-    lookahead = {} if "mlp" in options else {"lookahead": True}
+    lookahead = {} if "mlp" in options else {"lookahead": "exact"}
     assert config["env_kwargs"] == {"tasks": str(suite), "n_max": TINY_N_MAX, **lookahead}
     return out
 

@@ -59,7 +59,7 @@ def test_a_short_run_twice_gives_the_same_parameters(tmp_path, suite):
 def test_config_takes_the_tier_defaults(tmp_path):
     large = TrainConfig(out=tmp_path, tier="large")
     assert large.max_modules == 12 and large.source == TIERS["large"].source
-    assert large.env_kwargs_full == {"tasks": "planted-large", "n_max": 12, "lookahead": True}
+    assert large.env_kwargs_full == {"tasks": "planted-large", "n_max": 12, "lookahead": "exact"}
     assert large.dagger_tasks == large.demo_tasks // 10
     assert large.validation_source == "planted-large"
     assert (large.expert, large.timesteps) == ("one", TIERS["large"].recipe["timesteps"])
@@ -72,10 +72,10 @@ def test_config_takes_the_tier_defaults(tmp_path):
         "tasks": "planted-mixed-external",
         "n_max": 7,
         "modules": "t45,t45m,flat",
-        "lookahead": True,
+        "lookahead": "exact",
         "initial_type": "random",
     }
-    assert mixed.eval_env_kwargs == {"modules": "t45,t45m,flat", "lookahead": True}
+    assert mixed.eval_env_kwargs == {"modules": "t45,t45m,flat", "lookahead": "exact"}
     assert mixed.expert == "one"
     mlp = TrainConfig(out=tmp_path, architecture="mlp")  # the grid MLP: no lookahead rows
     assert mlp.env_kwargs_full == {"tasks": "mixed", "n_max": 7}
