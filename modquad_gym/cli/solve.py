@@ -52,12 +52,14 @@ def add_solve(sub) -> None:
         help="print one JSON object per task per line: cells, n_modules, lower_bound (proved: "
         "no structure of fewer modules works), evaluated, oracle_calls, feasible, certified "
         "(n_modules == lower_bound), seconds (and modules, the type of each cell, with "
-        "--modules)",
+        "--modules; for the default search, history: how the bound and the structure found "
+        "improved, a list of {seconds, lower_bound, n_modules, source})",
     )
     p.add_argument(
         "--quiet",
         action="store_true",
-        help="no progress bar (the exhaustive search shows one per level on stderr)",
+        help="no progress on stderr (the exhaustive search shows a bar per level, the default "
+        "search a line with the structure found and the proved bound)",
     )
     add_workers(
         p,

@@ -3,7 +3,8 @@
 * :mod:`.problem`: :class:`SearchProblem`, the validated arguments every search shares;
 * :mod:`.exhaustive`: the certified exhaustive search and the whole minimal level;
 * :mod:`.anytime`: the default search, to 128 modules within a time limit: an incumbent improved
-  by local moves (:mod:`.moves`) and a proved lower bound, certified when they meet;
+  by local moves (:mod:`.moves`) and a proved lower bound, certified when they meet; its
+  progress line (:mod:`.progress`);
 * :mod:`.typed`: its pairs of shapes and type assignments (several types, or self-weight);
 * :mod:`.levels`: the size of each level and its progress bar;
 * :mod:`.centrosymmetric`: the paper's heuristic (Algorithm 2), bounded by time and memory;

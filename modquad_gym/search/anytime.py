@@ -25,6 +25,10 @@ It stops at the time limit, or as soon as the bound meets the incumbent; when th
 at a level the exact scan can decide, the level is scanned for its first feasible structure
 so that the answer is the exhaustive search's. Every answer is verified by the exact LP
 oracle; ``lower_bound`` is the largest proved bound, ``certified`` is True when they meet.
+
+Each rise of the bound and each smaller incumbent is an event of the result's ``history``
+(:class:`~.result.Improvement`: seconds, bound, incumbent, which step found it); with
+``progress=True`` the latest is shown on stderr (:mod:`.progress`).
 """
 
 from __future__ import annotations
@@ -55,6 +59,7 @@ from modquad_gym.search.problem import (
     check_time_limit,
     search_entry,
 )
+from modquad_gym.search.progress import progress_line
 from modquad_gym.search.result import SearchResult, SearchRun
 from modquad_gym.search.typed import MAX_PAIRS, assignments, level_pairs, typed_structure
 
@@ -103,6 +108,7 @@ class ExactLevels:
                     return None
             self.n += 1
             self._steps = None
+            self.run.improve("exact", lower_bound=self.n)
         return None
 
     def first_of(self, n: int, deadline: float) -> Structure | None:
@@ -152,6 +158,11 @@ class Incumbents:
     def out_of_time(self) -> bool:
         return time.perf_counter() >= self.deadline
 
+    def _take(self, cand, source: str) -> None:
+        """``cand`` becomes the incumbent (an event of the run's history)."""
+        self.best = cand
+        self.run.improve(source, n_modules=len(cand[0]))
+
     def structure(self, cand) -> Structure:
         cells, types = cand
         palette = self.problem.palette
@@ -193,13 +204,15 @@ class Incumbents:
                     if self.out_of_time():
                         return False
                     if self.feasible((cells, (t,) * n)):
-                        self.best = (cells, (t,) * n)
+                        self._take((cells, (t,) * n), "compact")
                         return True
         shapes = [(c, (t,) * n_max) for c in compact_shapes(n_max) for t in range(K)]
         shapes.sort(key=self.missed)
         for cand in shapes:
-            self.best = self._descend(cand, patience=4 * n_max)
-            if self.best is not None or self.out_of_time():
+            found = self._descend(cand, patience=4 * n_max)
+            if found is not None:
+                self._take(found, "moves")
+            if found is not None or self.out_of_time():
                 break
         return self.best is not None
 
@@ -209,7 +222,7 @@ class Incumbents:
             smaller = self._drop(self.best) or self._repair(self.best)
             if smaller is None:
                 return
-            self.best = smaller
+            self._take(smaller, "moves")
 
     def _without(self, cand, i: int):
         cells, types = cand
@@ -297,23 +310,34 @@ def anytime_search(
     time_limit: float = DEFAULT_TIME_LIMIT,
     seed: int | None = 0,
     chunk: int = DEFAULT_CHUNK,
+    progress: bool = False,
 ) -> SearchResult:
     """The smallest structure found for ``task`` within ``time_limit`` seconds, with a proved
     lower bound (module docstring). Up to :data:`MAX_MODULES` modules; the task's arguments as
     for :func:`~.exhaustive.exhaustive_search`, whose answer it returns whenever the exact
-    levels reach the minimum in time; ``seed`` seeds the local moves."""
+    levels reach the minimum in time; ``seed`` seeds the local moves; ``progress`` shows the
+    incumbent and the bound on stderr as they improve."""
     time_limit = check_time_limit(time_limit)
     chunk = check_int(chunk, "chunk", low=1)
     run = SearchRun("anytime", problem)
+    with progress_line(run, progress):
+        return _search(run, time_limit, seed, chunk)
+
+
+def _search(run: SearchRun, time_limit: float, seed: int | None, chunk: int) -> SearchResult:
+    """The steps of :func:`anytime_search` (module docstring)."""
+    problem = run.problem
     lower = bound_levels(problem)
+    run.check_budget(MAX_MODULES, lower)  # refused before any work or output
+    run.improve("bounds", lower_bound=lower)
     if lower > problem.n_max:
         return run.finish(None, lower, proof=_proof(problem))
-    run.check_budget(MAX_MODULES, lower)
     reserve = problem.verify_reserve(time_limit)  # the final verification by the exact LP
     deadline = run.t0 + time_limit - reserve
     exact = ExactLevels(run, lower, chunk)
     found = exact.advance(run.t0 + EXACT_SHARE * (time_limit - reserve))
     if found is not None:
+        run.improve("exact", found.n_modules, found.n_modules)
         return run.finish(found, found.n_modules)
     if exact.n > problem.n_max:  # every level refuted
         return run.finish(None, exact.n)
@@ -325,6 +349,7 @@ def anytime_search(
     if found is None and exact.n == size and exact.fits(size):
         found = exact.first_of(size, deadline)  # the exhaustive search's own answer
     if found is not None:
+        run.improve("exact", found.n_modules, found.n_modules)
         return run.finish(found, found.n_modules)
     best = incumbents.structure(incumbents.best) if incumbents.best is not None else None
     best = with_heuristics(run, best, min(exact.n, size), deadline)
@@ -348,4 +373,5 @@ def with_heuristics(run: SearchRun, best, bound: int, deadline: float):
         run.checker.oracle_calls += r.oracle_calls
         if r.structure is not None and (best is None or r.n_modules < best.n_modules):
             best = r.structure
+            run.improve(r.method, n_modules=best.n_modules)
     return best

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -22,7 +22,23 @@ from modquad_gym.oracle import Zonotope, feasible
 from modquad_gym.oracle.faults import tolerates
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from modquad_gym.search.problem import SearchProblem
+
+
+class Improvement(NamedTuple):
+    """One event of a search's history: ``seconds`` after it started, the proved bound and the
+    incumbent's module count (None before the first structure) became these, by ``source``
+    (the anytime search: ``bounds``, ``exact``, ``compact``, ``moves``, ``beam``, ``genetic``)."""
+
+    seconds: float
+    lower_bound: int
+    n_modules: int | None
+    source: str
+
+    def to_dict(self) -> dict:
+        return {**self._asdict(), "seconds": round(self.seconds, 3)}
 
 
 @dataclass
@@ -54,6 +70,8 @@ class SearchResult:
             certified, else the trivial bound 1.
         fault: the single failure the structure survives (``"rotor"``, ``"module"``), or
             None when every rotor was assumed to work.
+        history: how the bound and the incumbent improved over time (:class:`Improvement`,
+            in order; the anytime search fills it, the others leave it empty).
     """
 
     structure: Structure | None
@@ -71,6 +89,7 @@ class SearchResult:
     skipped: int = 0
     lower_bound: int | None = None
     fault: str | None = None
+    history: tuple[Improvement, ...] = ()
 
     def __post_init__(self) -> None:
         if self.lower_bound is None:
@@ -120,6 +139,8 @@ class SearchResult:
             out["fault"] = self.fault
         if self.proof:
             out["proof"] = self.proof
+        if self.history:
+            out["history"] = [event.to_dict() for event in self.history]
         return out
 
 
@@ -167,7 +188,8 @@ class KeptKeys(list):
 class SearchRun:
     """One search in progress: its :class:`~.problem.SearchProblem`, the shared checker, the
     clock and the structures ruled out by bounds. ``finish`` re-verifies the answer with the
-    exact LP and builds the result."""
+    exact LP and builds the result. A search that reports its progress calls :meth:`improve`;
+    ``listener`` (when set) sees each event as it happens."""
 
     def __init__(self, method: str, problem: SearchProblem) -> None:
         self.t0 = time.perf_counter()
@@ -175,6 +197,26 @@ class SearchRun:
         self.problem = problem
         self.skipped = 0
         self.checker = problem.checker()
+        self.history: list[Improvement] = []
+        self.listener: Callable[[Improvement], None] | None = None
+
+    def improve(
+        self, source: str, lower_bound: int | None = None, n_modules: int | None = None
+    ) -> None:
+        """``source`` proved ``lower_bound`` or found a structure of ``n_modules``: an event in
+        the history when the bound rose or the incumbent shrank (the first call always), so the
+        history is monotone."""
+        last = self.history[-1] if self.history else Improvement(0.0, 1, None, "")
+        bound = max(last.lower_bound, lower_bound or 1)
+        n = last.n_modules
+        if n_modules is not None and (n is None or n_modules < n):
+            n = n_modules
+        if self.history and (bound, n) == (last.lower_bound, last.n_modules):
+            return
+        event = Improvement(time.perf_counter() - self.t0, bound, n, source)
+        self.history.append(event)
+        if self.listener is not None:
+            self.listener(event)
 
     def decide(self, s: Structure) -> tuple[Zonotope, np.ndarray, np.ndarray]:
         """(zonotope of ``s``, its own rotor wrenches W, the exact decision of each: feasible,
@@ -238,6 +280,7 @@ class SearchRun:
             skipped=self.skipped,
             lower_bound=lower_bound,
             fault=p.fault,
+            history=tuple(self.history),
         )
 
 
