@@ -111,13 +111,10 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
       the task per direction, the fraction of satisfied wrenches, n_modules / n_max, rank / 6 and
       per-wrench directional deficits.
     * ``"candidates"`` (G * G * k,) in [-1, 1], only with ``lookahead`` on: row a
-      (``candidates.reshape(G * G, k)[a]``) describes the child structure that action a would
-      build (zero for invalid actions, never all zero for valid ones). ``lookahead=True``
-      (k = 5, :data:`~.features.CANDIDATE_FEATURES`): from its support function alone, cheap
-      necessary tests, not oracle calls (they count in neither ``info["evaluated"]`` nor
-      ``info["oracle_calls"]``). ``lookahead="exact"`` (k = 8): also the child's exact
-      satisfied share, its clipped mean margin and a flag on greedy's choice
-      (:mod:`.lookahead`); those oracle tests count in ``info["oracle_calls"]``.
+      (``candidates.reshape(G * G, k)[a]``) describes the child that action a would build (zero
+      for invalid actions, never all zero for valid ones): with True (k = 5) from its support
+      function alone (no oracle call); with ``"exact"`` (k = 8) also its exact satisfied share,
+      clipped mean margin and greedy's choice (:mod:`.lookahead`; counted in ``oracle_calls``).
 
     K = ``n_directions`` (default 48); :mod:`modquad_gym.envs.assembly.features` documents
     every entry and its normalisation.
@@ -183,9 +180,8 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     * ``fault``: None (default), ``"rotor"`` or ``"module"``: a wrench is satisfied only when
       it survives ANY single failure of that kind, so success is tolerance (:mod:`.evaluator`).
     * ``render_size``: (height, width) of ``rgb_array`` frames, 16..4096 each, default (256, 256).
-    * ``lookahead``: add the ``"candidates"`` observation (default False: the observation is
-      exactly the four entries above): True for the support rows, ``"exact"`` for the exact
-      one-step lookahead too (about 20 times slower per step: every child is decided).
+    * ``lookahead``: add the ``"candidates"`` observation (default False): True (support rows)
+      or ``"exact"`` (the exact one-step lookahead too; slower: every child is decided).
 
     ``info`` carries ``n_modules``, ``satisfied_fraction``, ``success`` (and the same as
     ``is_success``, which SB3's ``Monitor``/``EvalCallback`` and RL Zoo read), ``cells`` (list of
