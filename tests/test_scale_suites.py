@@ -115,6 +115,7 @@ def test_bench_scale_writes_its_report_and_refuses_to_overwrite(tmp_path):
         assert (out / name).stat().st_size > 0
     report = (out / "report.md").read_text()
     assert "python -m benchmarks.scale --bands 16" in report and "Goals:" in report
+    assert "never uses more modules than another method" in report
     rows = (out / "rows.csv").read_text().splitlines()
     assert len(rows) == 1 + 2 * 2  # header, 2 tasks x 2 methods
     again = run_bench(*args, cwd=tmp_path)
@@ -127,3 +128,20 @@ def test_bench_scale_refuses_bad_options_in_one_line(tmp_path):
         assert done.returncode == 2, (bad, done.stderr)
         last = done.stderr.strip().splitlines()[-1]  # argparse prints its usage first
         assert "error" in last and bad[0] in last and "Traceback" not in done.stderr
+
+
+def test_the_portfolio_goals_count_tasks_and_name_who_beat_it():
+    from benchmarks.scale import portfolio_goal_lines
+
+    def row(task, method, found, bound=10):
+        return {"task": task, "method": method, "found": found, "lower_bound": bound}
+
+    rows = [row("a", "anytime", 10), row("a", "beam", 12),  # certified, best
+            row("b", "anytime", 20), row("b", "beam", 18), row("b", "greedy", 19),
+            row("c", "anytime", "none"), row("c", "genetic", 30)]  # fmt: skip
+    never_worse, gap = portfolio_goal_lines(rows)
+    assert "1 of 3 tasks" in never_worse and "NOT met" in never_worse
+    assert "b (beam 18 vs 20)" in never_worse and "c (genetic 30 vs none)" in never_worse
+    assert "1 of 3 tasks, worst 100.0 % (c)" in gap and gap.endswith("NOT met")
+    never_worse, gap = portfolio_goal_lines(rows[:2])
+    assert never_worse.endswith("met") and "1 of 1 tasks" in never_worse and "0.0 %" in gap
