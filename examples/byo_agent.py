@@ -47,8 +47,8 @@ def shipped_model_episode(seed: int = 0) -> dict | None:
         return None  # pip install 'modquad_gym[train]'
     from modquad_gym.policy import DEFAULT_MODEL
 
-    model = MaskablePPO.load(DEFAULT_MODEL, device="cpu")  # trained with the lookahead rows
-    env = gym.make("ModQuadAssembly-v0", tasks="planted", n_max=7, lookahead=True)
+    model = MaskablePPO.load(DEFAULT_MODEL, device="cpu")  # trained with the exact lookahead rows
+    env = gym.make("ModQuadAssembly-v0", tasks="planted", n_max=7, lookahead="exact")
     obs, info = env.reset(seed=seed)
     done = False
     while not done:
