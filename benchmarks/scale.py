@@ -1,7 +1,7 @@
-"""Every method at the field's sizes, on the same held-out tasks of 16-64 modules.
+"""Every method at the field's sizes, on the same held-out tasks of 16-128 modules.
 
-    python -m benchmarks.scale [--bands 16 24 32 48 64] [--families ...] [--per-family 1]
-                        [--methods anytime greedy beam genetic centrosymmetric random ppo
+    python -m benchmarks.scale [--bands 16 24 32 48 64 96 128] [--families ...] [--per-family 1]
+                        [--methods anytime greedy beam genetic centrosymmetric random milp ppo
                          ppo-guided] [--time-limit 30] [--workers 1] [--validation]
 
 Writes ``results/scale/report.md``, ``rows.csv`` (one row per task and method), ``summary.csv``
@@ -13,7 +13,9 @@ Each (method, band) runs in a fresh spawned process (its peak resident memory is
 after an untimed warm-up run of at most 5 s on the band's first task of each palette and kind
 (imports, numba compilation and caches: a one-off cost, see ``python -m benchmarks.coldstart``),
 with
-``n_max`` 64 and every method given the same ``--time-limit``. Every structure is re-verified
+``n_max`` 64 (the band, past 64) and every method given the same ``--time-limit``. A method
+``anytime-wN`` is the default search with N Ray workers for its producers (it uses N cores: run
+it with ``--workers 1``). Every structure is re-verified
 by the exact LP oracle. A task's certified lower bound is the largest of the suite's (what the
 default search proved when the suite was built) and what any method proved in this run; the gap
 of an answer is measured to it and to the planted size (an upper bound on the optimum).
@@ -40,6 +42,7 @@ from benchmarks.scale_suites import (
     FAMILIES,
     build_band,
     load_scale_suite,
+    search_budget,
     task_palette,
 )
 from modquad_gym.core.outputs import write_text
@@ -57,7 +60,7 @@ WARMUP_SECONDS = 5.0
 """Time limit of the untimed warm-up run that precedes each (method, palette, kind) in a fresh
 process, so that no timed run pays the one-off compilation and imports."""
 GOALS = {"anytime_gap_pct": 5.0, "heuristic_gap_pct": 10.0, "seconds": 60.0,
-         "certified_gap_pct": 10.0}  # fmt: skip
+         "certified_gap_pct": 10.0, "seconds_128": 120.0, "peak_MB_128": 2048.0}  # fmt: skip
 
 
 def band_tasks(band: int, families, per_family: int, validation: bool, time_limit: float):
@@ -70,6 +73,21 @@ def band_tasks(band: int, families, per_family: int, validation: bool, time_limi
 def run_band(method: str, tasks: list, time_limit: float, seed: int) -> list[dict]:
     """Solve ``tasks`` with ``method`` (one process: a solver made once per palette and kind).
     A task the method refuses (a ValueError) is recorded with its one-line reason."""
+    from modquad_gym.core.distributed import Engine
+
+    workers = portfolio_workers(method)
+    with Engine(workers or 1) as engine:  # Ray, when asked for, serves every task of the band
+        return solve_band(method, tasks, time_limit, seed, engine if workers else None)
+
+
+def portfolio_workers(method: str) -> int | None:
+    """N of a method named ``anytime-wN`` (the default search on N workers), else None."""
+    head, _, n = method.partition("-w")
+    return int(n) if head == "anytime" and n.isdigit() and int(n) > 0 else None
+
+
+def solve_band(method: str, tasks: list, time_limit: float, seed: int, engine) -> list[dict]:
+    """:func:`run_band` in this process (``engine``: the ``anytime-wN`` search's)."""
     from modquad_gym.geometry.module import TModule
     from modquad_gym.search import verified
     from modquad_gym.solvers import learned_options, make_solver
@@ -77,6 +95,8 @@ def run_band(method: str, tasks: list, time_limit: float, seed: int) -> list[dic
     learned = learned_options(method) is not None
     solvers: dict = {}
     out = []
+    n_max = search_budget(tasks[0].meta["band"]) if tasks else 64
+    name, extra = (method, {}) if engine is None else ("anytime", {"engine": engine})
     for task in tasks:
         modules = task_palette(task)
         if modules is None and learned and task.kind != "total":
@@ -84,10 +104,10 @@ def run_band(method: str, tasks: list, time_limit: float, seed: int) -> list[dic
         key = (task.meta.get("palette"), task.kind)
         try:
             if key not in solvers:
-                options = dict(n_max=64, seed=seed, modules=modules)
-                warm = make_solver(method, time_limit=min(WARMUP_SECONDS, time_limit), **options)
+                options = dict(n_max=n_max, seed=seed, modules=modules, **extra)
+                warm = make_solver(name, time_limit=min(WARMUP_SECONDS, time_limit), **options)
                 warm.solve(task)  # untimed: imports, compilation, caches (the process is new)
-                solvers[key] = make_solver(method, time_limit=time_limit, **options)
+                solvers[key] = make_solver(name, time_limit=time_limit, **options)
             r, seconds, peak = measured(solvers[key].solve, task)
         except ValueError as exc:
             note = str(exc).splitlines()[0]
@@ -185,18 +205,23 @@ def versus(rows: list[dict], method: str, rival: str) -> dict:
 def goal_lines(rows: list[dict], methods, time_limit: float) -> list[str]:
     """The issues' goals, judged on this run (each line says met or NOT met)."""
     lines = []
-    big = [r for r in rows if r["band"] == 64 and r["family"] == "planted"]
-    for method, goal in (("anytime", "anytime_gap_pct"), ("beam", "heuristic_gap_pct"),
-                         ("genetic", "heuristic_gap_pct")):  # fmt: skip
-        rs = [r for r in big if r["method"] == method]
+    checks = ((64, "anytime", "anytime_gap_pct"), (64, "beam", "heuristic_gap_pct"),
+              (64, "genetic", "heuristic_gap_pct"),
+              (128, "anytime", "anytime_gap_pct"))  # fmt: skip
+    for band, method, goal in checks:
+        rs = [r for r in rows if (r["band"], r["family"], r["method"]) == (band, "planted", method)]
         if not rs:
             continue
         worst = max(r["gap_to_planted_pct"] if r["found"] != "none" else 1e9 for r in rs)
-        slow = max(r["seconds"] for r in rs)
-        ok = worst <= GOALS[goal] and slow <= min(GOALS["seconds"], time_limit * 1.1)
-        lines.append(f"- 64-module planted tasks, {method}: worst gap to the planted size "
+        slow, peak = max(r["seconds"] for r in rs), max(r["peak_MB"] for r in rs)
+        limit = GOALS["seconds"] if band == 64 else GOALS["seconds_128"]
+        ok = worst <= GOALS[goal] and slow <= min(limit, time_limit * 1.1)
+        ok = ok and (band == 64 or peak <= GOALS["peak_MB_128"])
+        lines.append(f"- {band}-module planted tasks, {method}: worst gap to the planted size "
                      f"{worst:g} % (goal <= {GOALS[goal]:g} %), slowest {slow:g} s (limit "
-                     f"{time_limit:g} s): {'met' if ok else 'NOT met'}")  # fmt: skip
+                     f"{min(limit, time_limit):g} s), peak {peak:g} MB"
+                     + (f" (goal <= {GOALS['peak_MB_128']:g} MB)" if band == 128 else "")
+                     + f": {'met' if ok else 'NOT met'}")  # fmt: skip
     if "anytime" in methods:
         lines += portfolio_goal_lines(rows)
     rivals = [m for m in BASELINES if m in methods]
@@ -233,7 +258,7 @@ def portfolio_goal_lines(rows: list[dict]) -> list[str]:
             continue
         found = mine["found"] if mine["found"] != "none" else None
         for method, r in methods.items():
-            if method != "anytime" and r["found"] != "none":
+            if not method.startswith("anytime") and r["found"] != "none":
                 if found is None or int(r["found"]) < int(found):
                     beaten.append(f"{task} ({method} {r['found']} vs {found or 'none'})")
         bound = int(mine["lower_bound"])
@@ -315,7 +340,7 @@ def command_line(args) -> str:
 def report(rows: list[dict], summary_rows: list[dict], args) -> str:
     load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
     return "\n".join([
-        "# Every method at 16-64 modules",
+        f"# Every method at {min(args.bands)}-{max(args.bands)} modules",
         "",
         f"Made by `{command_line(args)}` on {machine_description()}; each (method, band) in a "
         f"fresh process, {args.workers} at a time; "
@@ -350,8 +375,8 @@ def report(rows: list[dict], summary_rows: list[dict], args) -> str:
 
 def main(argv: list[str] | None = None) -> None:
     options = {
-        "--bands": dict(type=int_option(1, 64), nargs="+", default=list(BANDS),
-                        help="size bands (default 16 24 32 48 64)"),
+        "--bands": dict(type=int_option(1, 128), nargs="+", default=list(BANDS),
+                        help=f"size bands (default {' '.join(map(str, BANDS))})"),
         "--families": dict(nargs="+", choices=tuple(FAMILIES), default=list(FAMILIES),
                            help="task families (default all)"),
         "--per-family": dict(type=int_option(1, 100), default=1,
@@ -371,7 +396,7 @@ def main(argv: list[str] | None = None) -> None:
     args = bench_args(
         argv,
         "python -m benchmarks.scale",
-        "Every method on the held-out scale suites (16-64 modules) with one time limit; "
+        "Every method on the held-out scale suites (16-128 modules) with one time limit; "
         "write results/scale/.",
         options,
         seed_help="seed of the seeded methods (default 0)",
@@ -387,9 +412,17 @@ def main(argv: list[str] | None = None) -> None:
     except ValueError as exc:
         raise ValueError(f"--time-limit: {exc}") from None
     for method in args.methods:
-        if method not in KNOWN and learned_options(method) is None:
+        if (
+            method not in KNOWN
+            and learned_options(method) is None
+            and not portfolio_workers(method)
+        ):
             raise ValueError(f"--methods: unknown method {method!r}; choose from "
                              f"{', '.join(KNOWN)} or a learned variant")  # fmt: skip
+    unknown = [b for b in args.bands if b not in BANDS and not args.validation]
+    if unknown:
+        raise ValueError(f"--bands {unknown[0]}: no held-out suite of that size (bands "
+                         f"{' '.join(map(str, BANDS))}; --validation draws any size)")  # fmt: skip
     args.workers = cap_workers(args.workers)
     rows = read_rows(args.rows) if args.rows else measure(args)
     summary_rows = summary(rows)

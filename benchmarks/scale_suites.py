@@ -1,7 +1,7 @@
-"""Held-out suites at the field's sizes: tasks planted in hidden structures of 16-64 modules.
+"""Held-out suites at the field's sizes: tasks planted in hidden structures of 16-128 modules.
 
 Four families, each a seeded draw around a hidden random connected structure of ``n`` modules
-(``n`` the size band: 16, 24, 32, 48 or 64), so the planted size bounds the optimum from above:
+(``n`` the size band: 16 to 128), so the planted size bounds the optimum from above:
 
 * ``planted``: one module type, 40 wrenches inside the hidden zonotope, half near its boundary
   (:class:`~modquad_gym.tasks.PlantedTasks`): the lift bound is usually close to the optimum;
@@ -52,7 +52,7 @@ from modquad_gym.tasks import (
     save_suite,
 )
 
-BANDS = (16, 24, 32, 48, 64)
+BANDS = (16, 24, 32, 48, 64, 96, 128)
 """The size bands of the scale suites (planted module counts)."""
 
 SCALE_SEED0 = 5_000_000
@@ -126,14 +126,20 @@ def with_bounds(task: TaskRequirement, time_limit: float) -> TaskRequirement:
     search within ``time_limit``) and ``bound_seconds`` in its meta."""
     modules = task_palette(task)
     extra = {"modules": modules} if modules else {}
-    problem = SearchProblem.build(task, 64, **extra)
+    n_max = search_budget(task.meta["band"])
+    problem = SearchProblem.build(task, n_max, **extra)
     t0 = time.perf_counter()
-    r = anytime_search(task, n_max=64, time_limit=time_limit, **extra)
+    r = anytime_search(task, n_max=n_max, time_limit=time_limit, **extra)
     seconds = round(time.perf_counter() - t0, 2)
     meta = {**task.meta, "lift_bound": bound_levels(problem), "lower_bound": r.lower_bound,
             "best_known": r.n_modules, "bound_seconds": seconds}  # fmt: skip
     return TaskRequirement(task.wrenches, name=task.name, f_max=task.f_max, kind=task.kind,
                            meta=meta)  # fmt: skip
+
+
+def search_budget(band: int) -> int:
+    """The module budget the scale tasks of ``band`` are searched with: 64, or the band above."""
+    return max(64, band)
 
 
 def suite_path(band: int, root: Path = SUITES_DIR) -> Path:
@@ -174,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
         description="Write the held-out scale suites (modquad_gym/data/suites/scale_N.json): "
         "fixed seeds, the planted size and the bounds the default search proves.",
     )
-    p.add_argument("--bands", type=int_option(1, 64), nargs="+", default=list(BANDS))
+    p.add_argument("--bands", type=int_option(1, 128), nargs="+", default=list(BANDS))
     p.add_argument("--per-family", type=int_option(1, 100), default=3)
     p.add_argument(
         "--time-limit",

@@ -57,10 +57,9 @@ class Solver(Protocol):
 class SearchSolver:
     """A search of :mod:`modquad_gym.search` behind the :class:`Solver` interface.
 
-    ``options`` (e.g. ``seed``, ``workers``, ``address``, ``progress``, ``time_limit``) go to the
-    search where its signature takes them and are dropped otherwise, so one call site can make
-    any search; ``modules`` (a list of module types) searches shapes x type assignments.
-    """
+    ``options`` (``seed``, ``engine``, ``progress``, ``time_limit``, ...) go to the search where
+    it takes them, so one call site makes any search (the anytime search on an engine with Ray
+    gets the policy among its producers); ``modules``: shapes x type assignments."""
 
     def __init__(self, method: str, n_max: int = 7, modules=None, **options: Any) -> None:
         if method not in SEARCHES:
@@ -72,6 +71,10 @@ class SearchSolver:
         self.options = {k: v for k, v in options.items() if k in takes}
         if modules:
             self.options["modules"] = list(modules)
+        if method == "anytime" and getattr(self.options.get("engine"), "use_ray", False):
+            from modquad_gym.policy.guided import producers_with_policy
+
+            self.options.setdefault("producers", producers_with_policy())
 
     def solve(self, task: Any) -> SearchResult:
         return self.search(task, n_max=self.n_max, **self.options)
@@ -290,11 +293,9 @@ class ExternalSolver:
     :class:`Evaluator`: the exact oracle on that task, with the tier's ``n_max``, ``tier`` and
     module ``types``, which counts every configuration decided. It may return a
     :class:`SearchResult`, a :class:`~modquad_gym.geometry.Structure`, a list of (x, y) cells
-    or None (no answer). The result's ``evaluated`` and ``oracle_calls`` are the evaluator's
-    counts, the answer included (an answer it never decided counts as one more configuration,
-    as every search decides its own answer), or the agent's own report (a SearchResult's
-    counts, or ``evaluated``/``oracle_calls`` attributes) where that is larger: an agent that
-    decides structures its own way and says so is charged for them. Seconds are timed here.
+    or None (no answer). ``evaluated`` and ``oracle_calls`` are the evaluator's counts (an
+    answer never decided counts as one more), or the agent's own report (a SearchResult's, or
+    its attributes) where that is larger. Seconds are timed here.
     The benchmark verifies every answer with the exact LP oracle and counts one beyond n_max
     or off the tier's module types as a failure.
     """

@@ -75,7 +75,7 @@ def _one_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
-def _call(fn: Callable, item: Any, label: str, catch: bool) -> Any:
+def run_item(fn: Callable, item: Any, label: str, catch: bool) -> Any:
     """Run one item (in this process or in a Ray worker): the same code on both paths."""
     if not catch:
         return fn(item)
@@ -260,7 +260,7 @@ class Engine:
         items = chain(head, it)
         if not self.use_ray or len(head) <= 1:
             for i, item in enumerate(items):
-                yield i, _call(fn, item, _label(labels, i), catch)
+                yield i, run_item(fn, item, _label(labels, i), catch)
             return
         with self:
             self._start()
@@ -271,7 +271,7 @@ class Engine:
         of workers, else twice the CPUs Ray has (the queue stays full, and a lazy ``items`` is
         read only that far ahead)."""
         ray = import_optional("ray")
-        remote = ray.remote(num_cpus=1, max_retries=max_retries, retry_exceptions=False)(_call)
+        remote = ray.remote(num_cpus=1, max_retries=max_retries, retry_exceptions=False)(run_item)
         fn_ref = ray.put(fn)
         cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
         if self.address and self.workers:
@@ -303,7 +303,7 @@ class Engine:
                     except ray.exceptions.RayError as exc:
                         if not catch:
                             raise
-                        result = Failed(_label(labels, i), _ray_error_line(exc))
+                        result = Failed(_label(labels, i), ray_error_line(exc))
                     yield i, result
         finally:
             for ref in pending:
@@ -352,7 +352,7 @@ def _label(labels: Sequence[str] | None, i: int) -> str:
     return str(i) if labels is None else labels[i]
 
 
-def _ray_error_line(exc: BaseException) -> str:
+def ray_error_line(exc: BaseException) -> str:
     """A Ray failure (worker died past its retries, a function Ray could not run, ...) as one
     line: its cause when Ray knows it, else its first line without terminal colours."""
     cause = getattr(exc, "cause", None)

@@ -16,6 +16,7 @@ returns the smallest feasible structure found within its budget of evaluated str
 from __future__ import annotations
 
 import heapq
+import importlib.util
 import time
 from typing import Any
 
@@ -139,3 +140,31 @@ def child_key(s: Structure, cell: tuple, type_index: int, env: Any) -> Any:
     if palette is None:
         return normalise([*s.cells, cell])
     return normalise_typed([*s.cells, cell], [*s.modules, palette[type_index]])
+
+
+def producers_with_policy() -> tuple:
+    """The anytime search's incumbent producers on workers (:mod:`modquad_gym.search.portfolio`):
+    the field's heuristics, then the shipped policy's guided search when its extra (torch,
+    sb3-contrib) is installed."""
+    from modquad_gym.search.portfolio import HEURISTICS
+
+    if any(importlib.util.find_spec(m) is None for m in ("torch", "sb3_contrib")):
+        return HEURISTICS
+    return (*HEURISTICS, guided_producer)
+
+
+def guided_producer(problem, time_limit: float, seed: int | None = 0) -> SearchResult | None:
+    """The shipped policy's guided search on a search problem, for at most ``time_limit``
+    seconds; None where the policy does not act: a fault, a dynamic task, or one module type
+    other than the T-module."""
+    from modquad_gym.search.problem import DEFAULT_MODULE
+    from modquad_gym.tasks import TaskRequirement
+
+    if problem.fault is not None or problem.kind not in ("total", "external"):
+        return None
+    if not problem.typed and problem.palette[0].digest != DEFAULT_MODULE.digest:
+        return None
+    solver = GuidedSolver(n_max=problem.n_max, time_limit=time_limit)
+    if problem.typed or problem.kind == "external":  # self-weight through a module set
+        solver.policy.use_palette(list(problem.palette))
+    return solver.solve(TaskRequirement(problem.wrenches, f_max=problem.f_max, kind=problem.kind))

@@ -1,11 +1,8 @@
 """The anytime search: the default of ``modquad solve``, answering up to 128 modules within a time
 limit the way a MIP solver does, with an incumbent and a proved lower bound.
 
-1. **Bounds** (instant, :func:`.bounds.bound_levels`): the force bound (one module type and a
-   ``total`` task: the task's forces need at least that many modules, whatever their shape),
-   the count bound (several types or an ``external`` task: no mix of fewer modules exerts the
-   forces and lifts its weight) and the level bounds (every structure of n modules has a
-   smaller support than a task wrench in a fixed direction). Each rules out whole levels.
+1. **Bounds** (instant, :func:`.bounds.bound_levels`): the force, count and level bounds
+   (docs/search.md) rule out whole levels.
 2. **Exact levels** (:class:`ExactLevels`): the levels from the bound upward are decided
    exactly, in the exhaustive search's canonical order, as long as they fit (up to 16 modules;
    for several types up to :data:`~.typed.MAX_PAIRS` pairs a level) and for at most
@@ -17,9 +14,11 @@ limit the way a MIP solver does, with an incumbent and a proved lower bound.
    feasible; when none can go, look for a feasible structure of one module fewer by moving
    modules (and changing their types) to reduce the number of task wrenches it misses.
 4. With the time left, the exact levels go on from where they stopped, raising the bound.
-5. **Portfolio** (:func:`with_heuristics`): when the local moves stopped early without meeting
-   the bound, the field's heuristics (beam, then genetic) get the time left; the smallest
-   verified structure is the answer, the bound stays the proved one.
+5. **Portfolio** (:mod:`.portfolio`): the field's heuristics (and the learned designer when a
+   caller adds it) produce incumbents too: in this process with the time the local moves leave,
+   or, with an ``engine`` of Ray workers, beside steps 2-4 after a first :data:`QUICK_SECONDS`
+   of exact levels (a task those decide at once never starts Ray), every step stopping as soon
+   as an incumbent meets the bound.
 
 It stops at the time limit, or as soon as the bound meets the incumbent; when that happens
 at a level the exact scan can decide, the level is scanned for its first feasible structure
@@ -50,6 +49,7 @@ from modquad_gym.search.bounds import (
 )
 from modquad_gym.search.levels import level_size
 from modquad_gym.search.moves import compact_shapes, relocations, removable
+from modquad_gym.search.portfolio import HEURISTICS, Producers, run_in_turn
 from modquad_gym.search.problem import (
     DEFAULT_TIME_LIMIT,
     EXACT_MODULES,
@@ -66,9 +66,8 @@ from modquad_gym.search.typed import MAX_PAIRS, assignments, level_pairs, typed_
 EXACT_SHARE = 0.5
 """Share of the time limit the exact levels get before an incumbent is built."""
 
-PORTFOLIO_MIN_SECONDS = 1.0
-"""The heuristics of the portfolio (:func:`with_heuristics`) run only with at least this many
-seconds left."""
+QUICK_SECONDS = 1.0
+"""The exact levels get this long (at most) before incumbent producers start on workers."""
 
 REPAIR_MOVES = 48
 """Moves tried per step of the repair search before it settles for a sideways move."""
@@ -95,16 +94,21 @@ class ExactLevels:
         size = level_size(n)  # None past the tabulated counts: far beyond MAX_PAIRS
         return size is not None and size * len(p.palette) ** n <= MAX_PAIRS
 
-    def advance(self, deadline: float, stop_at: int | None = None) -> Structure | None:
+    def advance(
+        self, deadline: float, stop_at: int | None = None, settled=lambda _n: False
+    ) -> Structure | None:
         """Decide levels until a feasible structure is found (returned: the first of the
-        minimal level), the deadline passes, level ``stop_at`` is reached, or no level fits."""
+        minimal level), the deadline passes, level ``stop_at`` is reached, ``settled(bound)``
+        (an incumbent meets the bound) or no level fits."""
         while self.fits(self.n) and (stop_at is None or self.n < stop_at):
+            if time.perf_counter() >= deadline or settled(self.n):
+                return None
             if self._steps is None:
                 self._steps = self._level(self.n)
             for found in self._steps:
                 if found is not None:
                     return found
-                if time.perf_counter() >= deadline:
+                if time.perf_counter() >= deadline or settled(self.n):
                     return None
             self.n += 1
             self._steps = None
@@ -142,10 +146,9 @@ class ExactLevels:
 
 
 class Incumbents:
-    """The best verified structure found so far and the local moves that improve it.
-
-    A candidate is (cells, types): cells a tuple of (x, y), types a tuple of palette indices.
-    """
+    """The best verified structure found so far and the local moves that improve it. A candidate
+    is (cells, types): cells a tuple of (x, y), types a tuple of palette indices (cached by its
+    :func:`~modquad_gym.geometry.cells.packed_key`, compact bytes up to translation)."""
 
     def __init__(self, run: SearchRun, seed: int | None, deadline: float) -> None:
         self.run = run
@@ -153,15 +156,34 @@ class Incumbents:
         self.rng = np.random.default_rng(seed)
         self.deadline = deadline
         self.best: tuple | None = None
+        self.bound = 1  # the proved lower bound, kept up to date by the search
+        self.producers: Producers | None = None
         self._missed: dict = {}
 
+    def settled(self, bound: int | None = None) -> bool:
+        """Whether the incumbent meets the proved bound (``bound``, else the last one known),
+        after taking what the producers on workers found meanwhile."""
+        if bound is not None:
+            self.bound = max(self.bound, bound)
+        if self.producers is not None:
+            self.producers.poll()
+        return self.best is not None and len(self.best[0]) <= self.bound
+
     def out_of_time(self) -> bool:
-        return time.perf_counter() >= self.deadline
+        return time.perf_counter() >= self.deadline or self.settled()
 
     def _take(self, cand, source: str) -> None:
-        """``cand`` becomes the incumbent (an event of the run's history)."""
-        self.best = cand
-        self.run.improve(source, n_modules=len(cand[0]))
+        """``cand`` becomes the incumbent (an event of the run's history) when it is smaller."""
+        if self.best is None or len(cand[0]) < len(self.best[0]):
+            self.best = cand
+            self.run.improve(source, n_modules=len(cand[0]))
+
+    def offer(self, structure: Structure, source: str) -> None:
+        """A structure found by a producer: the incumbent when it is smaller and feasible."""
+        digests = [m.digest for m in self.problem.palette]
+        cand = (tuple(structure.cells), tuple(digests.index(m.digest) for m in structure.modules))
+        if (self.best is None or len(cand[0]) < len(self.best[0])) and self.feasible(cand):
+            self._take(cand, source)
 
     def structure(self, cand) -> Structure:
         cells, types = cand
@@ -170,13 +192,9 @@ class Incumbents:
             return Structure.from_trusted(tuple(cells), palette[0])
         return Structure.from_trusted(tuple(cells), modules=tuple(palette[t] for t in types))
 
-    def _key(self, cand) -> bytes:
-        """The candidate up to translation, as compact bytes (the cache holds many)."""
-        return packed_key(*cand)
-
     def missed(self, cand) -> int:
         """How many task wrenches the candidate cannot exert (exact decisions; cached)."""
-        key = self._key(cand)
+        key = packed_key(*cand)
         if key not in self._missed:
             _, W, ok = self.run.decide(self.structure(cand))
             self._missed[key] = int(len(W) - ok.sum())
@@ -184,7 +202,7 @@ class Incumbents:
 
     def feasible(self, cand) -> bool:
         """Exact, screened first by the checker's separating directions."""
-        key = self._key(cand)
+        key = packed_key(*cand)
         if key in self._missed:
             return self._missed[key] == 0
         ok = self.run.checker.check(self.structure(cand))
@@ -258,7 +276,7 @@ class Incumbents:
         first of up to :data:`REPAIR_MOVES` random moves that misses fewer, else a move that
         misses as many (at most ``patience`` in a row); the feasible structure or None."""
         current, missed, flat = cand, self.missed(cand), 0
-        seen = {self._key(current)}
+        seen = {packed_key(*current)}
         while missed and flat <= patience and not self.out_of_time():
             moves = self._moves(current)
             self.rng.shuffle(moves)
@@ -270,21 +288,19 @@ class Incumbents:
                 if m < missed:
                     current, missed, flat = move, m, 0
                     break
-                if m == missed and sideways is None and self._key(move) not in seen:
+                if m == missed and sideways is None and packed_key(*move) not in seen:
                     sideways = move
             else:
                 if sideways is None:
                     return None
                 current, flat = sideways, flat + 1
-            seen.add(self._key(current))
+            seen.add(packed_key(*current))
         return current if missed == 0 else None
 
     def _moves(self, cand) -> list:
         """Relocations of one module, and (several types) changes of one module's type."""
         cells, types = cand
-        out = []
-        for i, c in relocations(cells):
-            out.append((cells[:i] + (c,) + cells[i + 1 :], types))
+        out = [(cells[:i] + (c,) + cells[i + 1 :], types) for i, c in relocations(cells)]
         for k in range(1, len(self.problem.palette)):
             for i in range(len(cells)):
                 t = (types[i] + k) % len(self.problem.palette)
@@ -311,20 +327,26 @@ def anytime_search(
     seed: int | None = 0,
     chunk: int = DEFAULT_CHUNK,
     progress: bool = False,
+    engine=None,
+    producers=None,
 ) -> SearchResult:
     """The smallest structure found for ``task`` within ``time_limit`` seconds, with a proved
     lower bound (module docstring). Up to :data:`MAX_MODULES` modules; the task's arguments as
     for :func:`~.exhaustive.exhaustive_search`, whose answer it returns whenever the exact
-    levels reach the minimum in time; ``seed`` seeds the local moves; ``progress`` shows the
-    incumbent and the bound on stderr as they improve."""
+    levels reach the minimum in time; ``seed`` seeds the local moves and the producers;
+    ``progress`` shows the incumbent and the bound on stderr as they improve. ``engine`` (a
+    :class:`~modquad_gym.core.distributed.Engine` with Ray workers) runs the incumbent
+    producers in parallel; ``producers`` replaces :data:`~.portfolio.HEURISTICS`
+    (:mod:`.portfolio`)."""
     time_limit = check_time_limit(time_limit)
     chunk = check_int(chunk, "chunk", low=1)
+    producers = HEURISTICS if producers is None else tuple(producers)
     run = SearchRun("anytime", problem)
     with progress_line(run, progress):
-        return _search(run, time_limit, seed, chunk)
+        return _search(run, time_limit, seed, chunk, engine, producers)
 
 
-def _search(run: SearchRun, time_limit: float, seed: int | None, chunk: int) -> SearchResult:
+def _search(run: SearchRun, time_limit: float, seed, chunk: int, engine, producers) -> SearchResult:
     """The steps of :func:`anytime_search` (module docstring)."""
     problem = run.problem
     lower = bound_levels(problem)
@@ -334,44 +356,45 @@ def _search(run: SearchRun, time_limit: float, seed: int | None, chunk: int) -> 
         return run.finish(None, lower, proof=_proof(problem))
     reserve = problem.verify_reserve(time_limit)  # the final verification by the exact LP
     deadline = run.t0 + time_limit - reserve
+    share = run.t0 + EXACT_SHARE * (time_limit - reserve)
     exact = ExactLevels(run, lower, chunk)
-    found = exact.advance(run.t0 + EXACT_SHARE * (time_limit - reserve))
+    parallel = engine is not None and engine.use_ray and bool(producers)
+    found = exact.advance(min(share, run.t0 + QUICK_SECONDS) if parallel else share)
+    if found is None and exact.n <= problem.n_max:
+        incumbents = Incumbents(run, seed, deadline)
+        if not parallel:
+            return _steps(run, exact, incumbents, share, deadline, producers, seed)
+        with Producers(run, engine, producers, incumbents.offer, deadline, seed) as workers:
+            incumbents.producers = workers
+            return _steps(run, exact, incumbents, share, deadline, producers, seed)
     if found is not None:
         run.improve("exact", found.n_modules, found.n_modules)
         return run.finish(found, found.n_modules)
-    if exact.n > problem.n_max:  # every level refuted
-        return run.finish(None, exact.n)
-    incumbents = Incumbents(run, seed, deadline)
-    if incumbents.first(exact.n):
-        incumbents.improve(exact.n)
-    size = len(incumbents.best[0]) if incumbents.best is not None else problem.n_max + 1
-    found = exact.advance(deadline, stop_at=size)  # raise the bound with the time left
-    if found is None and exact.n == size and exact.fits(size):
-        found = exact.first_of(size, deadline)  # the exhaustive search's own answer
+    return run.finish(None, exact.n)  # every level refuted
+
+
+def _steps(run, exact, incumbents, share, deadline, producers, seed) -> SearchResult:
+    """Steps 2-5 of the module docstring, once the quick exact levels did not answer."""
+    found = None
+    if incumbents.producers is not None:  # the exact levels' share, beside the producers
+        found = exact.advance(share, settled=incumbents.settled)
+    if found is None and exact.n <= run.problem.n_max and not incumbents.settled(exact.n):
+        if incumbents.first(exact.n):
+            incumbents.improve(exact.n)
+        size = len(incumbents.best[0]) if incumbents.best is not None else run.problem.n_max + 1
+        found = exact.advance(deadline, stop_at=size, settled=incumbents.settled)
+        if found is None and exact.n == size and exact.fits(size):
+            found = exact.first_of(size, deadline)  # the exhaustive search's own answer
     if found is not None:
         run.improve("exact", found.n_modules, found.n_modules)
         return run.finish(found, found.n_modules)
+    if exact.n > run.problem.n_max and incumbents.best is None:
+        return run.finish(None, exact.n)  # every level refuted
+    incumbents.bound = max(incumbents.bound, exact.n)
+    if incumbents.producers is not None:
+        incumbents.producers.wait(incumbents.settled, deadline)
+    else:
+        run_in_turn(run, producers, incumbents.offer, incumbents.settled, deadline, seed)
     best = incumbents.structure(incumbents.best) if incumbents.best is not None else None
-    best = with_heuristics(run, best, min(exact.n, size), deadline)
-    size = best.n_modules if best is not None else problem.n_max + 1
+    size = best.n_modules if best is not None else run.problem.n_max + 1
     return run.finish(best, min(exact.n, size))
-
-
-def with_heuristics(run: SearchRun, best, bound: int, deadline: float):
-    """The smaller of ``best`` and what the field's heuristics (beam, then genetic) find with
-    the time left before ``deadline`` when the local moves stopped early without meeting the
-    ``bound`` (a portfolio: one incumbent, one bound); their work is counted as this run's."""
-    from modquad_gym.search.beam import beam_search
-    from modquad_gym.search.genetic import genetic_search
-
-    for search in (beam_search, genetic_search):
-        left = deadline - time.perf_counter()
-        if left < PORTFOLIO_MIN_SECONDS or (best is not None and best.n_modules <= bound):
-            break
-        r = search.solve(run.problem, time_limit=left)
-        run.checker.evaluated += r.evaluated
-        run.checker.oracle_calls += r.oracle_calls
-        if r.structure is not None and (best is None or r.n_modules < best.n_modules):
-            best = r.structure
-            run.improve(r.method, n_modules=best.n_modules)
-    return best
