@@ -95,7 +95,10 @@ def expert_targets(
     task: Any, n_max: int, expert: str = "all", palette: Sequence[Any] | None = None
 ) -> tuple[int | None, list[Key]]:
     """(n*, optimal structure keys) that the ``expert`` steers towards (see :data:`EXPERTS`);
-    typed keys with a ``palette`` (several module types)."""
+    typed keys with a ``palette`` (several module types). A callable ``expert(task, n_max,
+    palette)`` gives them itself (expert iteration: the best structure found, not certified)."""
+    if callable(expert):
+        return expert(task, n_max, palette)
     kwargs = {"modules": list(palette)} if palette is not None else {}
     if expert == "all":
         return optimal_structures(task, n_max=n_max, **kwargs)
@@ -179,8 +182,8 @@ def collect(
             obs, reward, terminated, truncated, info = env.step(int(rng.choice(np.flatnonzero(g))))
             rewards.append(reward)
             done = terminated or truncated
-        if not info["success"] or info["n_modules"] != n_star:
-            raise RuntimeError(f"expert episode on {task.name!r} did not end optimal")
+        if not info["success"] or info["n_modules"] > n_star:  # fewer: a part of it suffices
+            raise RuntimeError(f"expert episode on {task.name!r} did not reach its target")
         returns.extend(np.cumsum(rewards[::-1])[::-1])
         used += 1
     return Demonstrations(

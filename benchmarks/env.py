@@ -325,7 +325,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         help="timed steps of the default configuration, resets counted (0: skip that row)",
     )  # fmt: skip
     parser.add_argument(
-        "--scale", type=int_option(2, 64), nargs="*", default=[16, 32, 64],
+        "--scale", type=int_option(2, 128), nargs="*", default=[16, 32, 64, 128],
         help="n_max values of the encodings table (grid vs faces; none: skip it)",
     )  # fmt: skip
     parser.add_argument(

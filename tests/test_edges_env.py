@@ -54,7 +54,7 @@ def test_example_names_work_in_tasks_as_in_the_cli():
 
 # --- the episode limit follows n_max --------------------------------------------------------
 IMPOSSIBLE = np.array([[0.0, 0.0, 1e3, 0.0, 0.0, 0.0]])
-"""A lift no structure of <= 64 modules makes (256 rotors of f_max 1): episodes never succeed."""
+"""A lift no structure of <= 128 modules makes (512 rotors of f_max 1): episodes never succeed."""
 
 
 @pytest.mark.parametrize("env_id", ["ModQuadAssembly-v0", "ModQuadAssemblyScale-v0"])

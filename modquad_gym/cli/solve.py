@@ -66,8 +66,10 @@ def add_solve(sub) -> None:
         "1, or every CPU of the cluster given by --ray-address / RAY_ADDRESS. Several tasks are "
         "spread over the workers (each search in one process; a task file that cannot be read "
         "is reported and the others go on, exit code 2 at the end); a single task's exhaustive "
-        "search splits its levels of 100,000 structures or more (11 modules and up). The "
-        "answers do not depend on the number of workers",
+        "search splits its levels of 100,000 structures or more (11 modules and up), its "
+        "default search runs the portfolio's producers (beam, genetic, greedy, the policy) on "
+        "N-1 workers beside its own steps. Only the default search's answer may depend on the "
+        "number of workers (it depends on timing)",
     )
     add_csv_header(p)
     p.add_argument(

@@ -50,9 +50,9 @@ from modquad_gym.geometry.structure import Cell, Structure
 from modquad_gym.oracle.faults import check_fault
 from modquad_gym.tasks import make_generator
 
-N_MAX_LIMIT = 64
-"""Largest ``n_max`` (the field's largest designs; the grid encoding then has 127^2 actions, the
-faces encoding 130)."""
+N_MAX_LIMIT = 128
+"""Largest ``n_max``, the searches' limit (beyond the field's largest designs, 90 modules; the
+grid encoding then has 255^2 actions, the faces encoding 258)."""
 MAX_STEPS_LIMIT = 4 * N_MAX_LIMIT  # the largest max_steps
 ENCODINGS = {"grid": Grid, "faces": Faces}  # the action encodings (:mod:`.grid`, .faces)
 
@@ -154,7 +154,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
       TaskRequirement`` (or DynamicTask, or (t, 6) wrench array), called with
       ``self.np_random`` at each reset (another result: ValueError); see
       :func:`modquad_gym.tasks.make_generator`.
-    * ``n_max``: the largest number of modules (default 7, as in the paper), 2 to 64.
+    * ``n_max``: the largest number of modules (default 7, as in the paper), 2 to 128.
     * ``module``: the ``ModuleType`` of every module (default the T-module, eta = pi/4).
     * ``modules``: several module types (stock names ``"t45,t45m,flat"`` or ModuleType objects)
       or a module set (:class:`~.modules.Palette`, :class:`~.modules.OneType`): each action then

@@ -1,0 +1,257 @@
+"""Expert iteration at the field's sizes: the policy cloned towards the best structure that the
+default search or its own guided search finds, round after round (ExIt; issue 36, item 2).
+
+    python -m agents.expert_iteration [--rounds 2] [--tasks 48] [--out runs/exit]
+
+Where the certified search cannot go (8-32 modules), the labels come from search: in round r,
+``tasks`` fresh training tasks of the one-type scale families (``planted`` and ``torque``, low
+force and high torque, :mod:`benchmarks.scale_suites`), each of 8-32 modules and drawn from
+``default_rng([EXIT_SEED0, seed, r, i])`` (never a held-out or validation seed), are solved by
+the default search (``--search-seconds``) and by the current policy's guided search; the smaller
+verified structure is the target, one expert episode towards it (:mod:`.imitation`, an
+environment of n_max ``--n-max`` with the policy's exact lookahead) gives labelled states, and
+the policy is cloned on every round's states so far. As the policy improves, so does its guided
+search, and so do the targets. The model of each round is saved in ``OUT/round-R/`` (size-free:
+``modquad solve --method ppo --model OUT/round-R/model.zip`` acts at any n_max) and scored on
+validation draws of the same families (16, 24 and 32 modules), single pass, beside greedy;
+``OUT/report.md`` and ``OUT/rows.csv`` hold the scores, ``OUT/labels.csv`` every label.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+EXIT_SEED0 = 7_000_000
+"""Training draws of the expert iteration (held-out scale tasks use 5,000,000 + ..., validation
+draws 6,000,000 + ..., both as single integers)."""
+FAMILIES = ("planted", "torque")
+SIZES = (8, 32)
+BANDS = (16, 24, 32)
+"""Validation bands the rounds are scored on."""
+CLONE = {"epochs": 12, "batch_size": 64, "learning_rate": 3e-4}
+
+
+def training_task(seed: int, round_: int, i: int):
+    """Training task ``i`` of round ``round_``: family by parity, 8-32 modules."""
+    from benchmarks.scale_suites import FAMILIES as DRAWS
+
+    rng = np.random.default_rng([EXIT_SEED0, seed, round_, i])
+    family = FAMILIES[i % len(FAMILIES)]
+    n = int(rng.integers(SIZES[0], SIZES[1] + 1))
+    task = DRAWS[family][0](n, rng)
+    return type(task)(task.wrenches, name=f"exit-{round_}-{i}-{family}-{n}", f_max=task.f_max,
+                      kind=task.kind, meta={"family": family, "planted": n})  # fmt: skip
+
+
+def label_chunk(job: tuple) -> tuple[Any, list[dict]]:
+    """One worker's tasks: each solved by the default search and the policy's guided search,
+    one expert episode towards the smaller answer. (demonstrations, one row per task)."""
+    from agents.imitation import collect, merge
+    from modquad_gym.policy.guided import GuidedSolver
+    from modquad_gym.policy.policy import Policy
+    from modquad_gym.search import anytime_search
+
+    model, tasks, n_max, search_seconds, budget, seed = job
+    policy = Policy(model, n_max=n_max)
+    parts, rows = [], []
+    for k, task in enumerate(tasks):
+        search = anytime_search(task, n_max=n_max, time_limit=search_seconds)
+        guided = GuidedSolver(policy, budget=budget).solve(task)
+        single = policy.env.structure.n_modules if policy.rollout(task)["success"] else None
+        found = [r for r in (search, guided) if r.structure is not None]
+        rows.append({"task": task.name, "family": task.meta["family"],
+                     "planted": task.meta["planted"], "search": search.n_modules,
+                     "bound": search.lower_bound, "guided": guided.n_modules,
+                     "ppo": single})  # fmt: skip
+        if not found:
+            continue
+        best = min(found, key=lambda r: (r.n_modules, r is guided))
+        rows[-1]["target"] = best.n_modules
+        target = (best.n_modules, [best.structure.key])
+        parts.append(collect(policy.env, [task], n_max, seed=[*seed, k],
+                             expert=lambda task, n_max, palette, t=target: t))  # fmt: skip
+    return (merge(parts) if parts else None), rows
+
+
+def load_for_training(model: Path, n_max: int):
+    """The MaskablePPO at ``model`` with the spaces of the environment at ``n_max`` (a
+    size-free policy: the same weights act at any size)."""
+    from sb3_contrib import MaskablePPO
+
+    from modquad_gym.policy.policy import Policy
+
+    env = Policy(model, n_max=n_max).env
+    spaces = {"observation_space": env.observation_space, "action_space": env.action_space}
+    return MaskablePPO.load(str(model), custom_objects=spaces, device="cpu")
+
+
+def score(model: Path, n_max: int, per_family: int) -> list[dict]:
+    """Single-pass ``ppo`` of ``model`` and ``greedy`` on the validation draws of
+    :data:`BANDS` (``per_family`` tasks per family and band)."""
+    from benchmarks.scale_suites import draw
+    from modquad_gym.search import greedy_search, verified
+    from modquad_gym.solvers import make_solver
+
+    ppo = make_solver("ppo", n_max=n_max, model=str(model))
+    rows = []
+    for band in BANDS:
+        for family in FAMILIES:
+            for i in range(per_family):
+                task = draw(family, band, i, validation=True)
+                mine, rule = ppo.solve(task), greedy_search(task, n_max=n_max, time_limit=60)
+                rows.append({"task": task.name, "family": family, "band": band,
+                             "ppo": mine.n_modules if verified(mine.structure, task) else None,
+                             "greedy": rule.n_modules, "ppo_s": round(mine.seconds, 2),
+                             "greedy_s": round(rule.seconds, 2)})  # fmt: skip
+    return rows
+
+
+def summary(rows: list[dict]) -> dict:
+    """Solved counts, mean modules on the tasks both solved, and wins/ties/losses against
+    greedy."""
+    both = [r for r in rows if r["ppo"] is not None and r["greedy"] is not None]
+    return {
+        "tasks": len(rows),
+        "ppo_solved": sum(r["ppo"] is not None for r in rows),
+        "greedy_solved": sum(r["greedy"] is not None for r in rows),
+        "ppo_mean": round(float(np.mean([r["ppo"] for r in both])), 2) if both else None,
+        "greedy_mean": round(float(np.mean([r["greedy"] for r in both])), 2) if both else None,
+        "fewer": sum(r["ppo"] < r["greedy"] for r in both),
+        "equal": sum(r["ppo"] == r["greedy"] for r in both),
+        "more": sum(r["ppo"] > r["greedy"] for r in both),
+        "ppo_s": round(float(np.mean([r["ppo_s"] for r in rows])), 2),
+        "greedy_s": round(float(np.mean([r["greedy_s"] for r in rows])), 2),
+    }
+
+
+def run(args: argparse.Namespace) -> list[dict]:
+    """The rounds (module docstring); one summary row per model (round 0: the start model)."""
+    from agents.imitation import clone, merge
+    from modquad_gym.core.distributed import map_tasks
+
+    out, model = Path(args.out), Path(args.model)
+    demos, labels, rows = None, [], []
+    rows.append(
+        {"round": 0, "model": str(model), **summary(score(model, args.n_max, args.per_family))}
+    )
+    print(rows[-1], flush=True)
+    for r in range(1, args.rounds + 1):
+        t0 = time.perf_counter()
+        tasks = [training_task(args.seed, r, i) for i in range(args.tasks)]
+        chunks = [tasks[w :: args.workers] for w in range(args.workers)]
+        jobs = [(str(model), c, args.n_max, args.search_seconds, args.budget, [args.seed, r, w])
+                for w, c in enumerate(chunks) if c]  # fmt: skip
+        parts = map_tasks(label_chunk, jobs, workers=args.workers)
+        labels += [{"round": r, **row} for _, chunk in parts for row in chunk]
+        demos = merge([d for d in [demos, *(part for part, _ in parts)] if d is not None])
+        labelled = time.perf_counter() - t0
+        ppo = load_for_training(model, args.n_max)
+        history = clone(ppo, demos, seed=args.seed + r, **CLONE)
+        model = out / f"round-{r}" / "model.zip"
+        model.parent.mkdir(parents=True, exist_ok=True)
+        ppo.save(str(model))
+        write_config(model.parent, args, r, len(demos))
+        cloned = time.perf_counter() - t0 - labelled
+        rows.append({"round": r, "model": str(model), "states": len(demos),
+                     "label_s": round(labelled), "clone_s": round(cloned),
+                     "greedy_good": round(history[-1]["greedy_good"], 3),
+                     **summary(score(model, args.n_max, args.per_family))})  # fmt: skip
+        print(rows[-1], flush=True)
+    write_rows(out / "labels.csv", labels)
+    return rows
+
+
+def write_config(folder: Path, args: argparse.Namespace, round_: int, states: int) -> None:
+    """The start model's config.json with this round's environment and recipe."""
+    from modquad_gym.policy.models import read_model
+
+    config = dict(read_model(args.model).config)
+    config["env_kwargs"] = {**config.get("env_kwargs", {}), "n_max": args.n_max}
+    config["expert_iteration"] = {
+        "round": round_, "states": states, "start": str(args.model), "tasks_per_round": args.tasks,
+        "search_seconds": args.search_seconds, "budget": args.budget, "seed": args.seed, **CLONE,
+    }  # fmt: skip
+    (folder / "config.json").write_text(json.dumps(config, indent=2) + "\n")
+
+
+def write_rows(path: Path, rows: list[dict]) -> None:
+    import csv
+
+    keys = list(dict.fromkeys(k for row in rows for k in row))
+    with path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=keys)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
+    from benchmarks.common import machine_description, markdown_table
+
+    return "\n".join([
+        "# Expert iteration at 8-32 modules",
+        "",
+        f"Made by `python -m agents.expert_iteration {' '.join(args.argv)}` on "
+        f"{machine_description()} in {seconds / 60:.1f} min.",
+        "",
+        "Round 0 is the start model. Each later round: the training tasks' labels (the "
+        "smaller of the default search's and the guided search's answer), one expert episode "
+        "each, the policy cloned on all rounds' states. Every model is scored single pass "
+        f"(`ppo`) against `greedy` on the validation draws of {', '.join(FAMILIES)} at "
+        f"{', '.join(map(str, BANDS))} modules ({args.per_family} per family and band), "
+        f"n_max {args.n_max}. `fewer`/`equal`/`more`: tasks where ppo used fewer, as many or more "
+        "modules than greedy, of those both solved.",
+        "",
+        markdown_table(rows),
+        "",
+    ])  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> int:
+    import sys
+
+    from modquad_gym.policy.models import DEFAULT_MODEL
+
+    p = argparse.ArgumentParser(
+        prog="python -m agents.expert_iteration", description=__doc__.split("\n\n")[0]
+    )
+    p.add_argument(
+        "--model", type=Path, default=DEFAULT_MODEL, help="start model (default: shipped)"
+    )
+    p.add_argument("--rounds", type=int, default=2, help="expert-iteration rounds (default 2)")
+    p.add_argument("--tasks", type=int, default=48, help="training tasks per round (default 48)")
+    p.add_argument("--search-seconds", type=float, default=4.0, help="default search per task (4)")
+    p.add_argument(
+        "--budget", type=int, default=64, help="guided search's structures per task (64)"
+    )
+    p.add_argument("--n-max", type=int, default=40, help="module budget (default 40)")
+    p.add_argument(
+        "--per-family", type=int, default=3, help="validation draws per family and band (3)"
+    )
+    p.add_argument("--workers", type=int, default=2, help="labelling processes (default 2)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", type=Path, default=Path("runs/exit"))
+    p.add_argument("--force", action="store_true", help="replace an existing --out")
+    args = p.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)
+    if args.out.exists() and any(args.out.iterdir()):
+        if not args.force:
+            p.error(f"--out {args.out} exists and is not empty (--force replaces it)")
+        shutil.rmtree(args.out)
+    args.out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    rows = run(args)
+    write_rows(args.out / "rows.csv", rows)
+    (args.out / "report.md").write_text(report(rows, args, time.perf_counter() - t0))
+    print(f"wrote {args.out / 'report.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
