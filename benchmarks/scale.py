@@ -70,14 +70,16 @@ def band_tasks(band: int, families, per_family: int, validation: bool, time_limi
     return load_scale_suite(band, families, per_family)
 
 
-def run_band(method: str, tasks: list, time_limit: float, seed: int) -> list[dict]:
+def run_band(
+    method: str, tasks: list, time_limit: float, seed: int, model: str | None = None
+) -> list[dict]:
     """Solve ``tasks`` with ``method`` (one process: a solver made once per palette and kind).
     A task the method refuses (a ValueError) is recorded with its one-line reason."""
     from modquad_gym.core.distributed import Engine
 
     workers = portfolio_workers(method)
     with Engine(workers or 1) as engine:  # Ray, when asked for, serves every task of the band
-        return solve_band(method, tasks, time_limit, seed, engine if workers else None)
+        return solve_band(method, tasks, time_limit, seed, engine if workers else None, model)
 
 
 def portfolio_workers(method: str) -> int | None:
@@ -86,8 +88,9 @@ def portfolio_workers(method: str) -> int | None:
     return int(n) if head == "anytime" and n.isdigit() and int(n) > 0 else None
 
 
-def solve_band(method: str, tasks: list, time_limit: float, seed: int, engine) -> list[dict]:
-    """:func:`run_band` in this process (``engine``: the ``anytime-wN`` search's)."""
+def solve_band(method: str, tasks: list, time_limit: float, seed: int, engine, model=None):
+    """:func:`run_band` in this process (``engine``: the ``anytime-wN`` search's; ``model``:
+    the learned methods' model, default the shipped one)."""
     from modquad_gym.geometry.module import TModule
     from modquad_gym.search import verified
     from modquad_gym.solvers import learned_options, make_solver
@@ -97,6 +100,8 @@ def solve_band(method: str, tasks: list, time_limit: float, seed: int, engine) -
     out = []
     n_max = search_budget(tasks[0].meta["band"]) if tasks else 64
     name, extra = (method, {}) if engine is None else ("anytime", {"engine": engine})
+    if learned and model is not None:
+        extra["model"] = model
     for task in tasks:
         modules = task_palette(task)
         if modules is None and learned and task.kind != "total":
@@ -147,7 +152,7 @@ def measure(args) -> list[dict]:
     rows: list[dict] = []
     for band in args.bands:
         tasks = band_tasks(band, args.families, args.per_family, args.validation, args.time_limit)
-        jobs = [(m, tasks, args.time_limit, args.seed) for m in args.methods]
+        jobs = [(m, tasks, args.time_limit, args.seed, args.model) for m in args.methods]
         with ThreadPoolExecutor(args.workers) as pool:  # each thread waits on its own process
             results = list(pool.map(lambda job: fresh(run_band, *job), jobs))
         for i, task in enumerate(tasks):
@@ -331,7 +336,8 @@ def command_line(args) -> str:
     line = (f"python -m benchmarks.scale --bands {' '.join(map(str, args.bands))} --families "
             f"{' '.join(args.families)} --per-family {args.per_family} --methods "
             f"{' '.join(args.methods)} --time-limit {args.time_limit:g} --workers {args.workers}"
-            + (" --validation" if args.validation else "") + f" --seed {args.seed}")  # fmt: skip
+            + (" --validation" if args.validation else "") + f" --seed {args.seed}"
+            + (f" --model {args.model}" if args.model else ""))  # fmt: skip
     if args.rows:  # re-rendered: the measuring run's command, then the re-rendering
         line += f"`, re-rendered by `... --rows {args.rows} --out {args.out} --force"
     return line
@@ -352,8 +358,11 @@ def report(rows: list[dict], summary_rows: list[dict], args) -> str:
         "self-weight, `torque` low force and high torque where no lift bound helps). "
         "`lower_bound`: certified (the largest proved by the suite's default search or by any "
         "method here). `gap_to_bound`: modules above it. `planted`: the hidden structure's size, "
-        "an upper bound on the optimum. Learned methods use the shipped size-free model "
-        "(trained on tasks of at most 7 modules). Every structure is verified by the exact LP. "
+        "an upper bound on the optimum. "
+        + (f"Learned methods use the model {args.model}. " if args.model else
+           "Learned methods use the shipped size-free model (trained on tasks of at most 7 "
+           "modules). ")
+        + "Every structure is verified by the exact LP. "
         "Per band, `mean_modules` and `mean_gap_to_bound` are over the tasks the method solved "
         "(read them beside `solved`); `mean_seconds` over all its tasks.",
         "",
@@ -389,6 +398,8 @@ def main(argv: list[str] | None = None) -> None:
                           help="(method, band) processes at a time (default 1)"),
         "--validation": dict(action="store_true",
                              help="validation draws instead of the held-out suites"),
+        "--model": dict(default=None, metavar="ZIP",
+                        help="the learned methods' model (default the shipped one)"),
         "--rows": dict(type=Path, default=None, metavar="CSV",
                        help="re-render the report from an earlier run's rows.csv (no solving; "
                             "give the options that run used)"),

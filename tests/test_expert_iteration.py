@@ -1,0 +1,54 @@
+"""Expert iteration at 8-32 modules (agents/expert_iteration.py): labels are the smaller answer
+of the default search and the policy's guided search, the expert episode reaches its target, and
+the training draws are neither held-out nor validation tasks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("sb3_contrib")
+
+from agents.expert_iteration import EXIT_SEED0, SIZES, label_chunk, summary, training_task  # noqa: E402
+from benchmarks.scale_suites import SCALE_SEED0, SCALE_VALIDATION_SEED0, draw  # noqa: E402
+
+
+def test_training_tasks_are_fresh_draws_of_the_one_type_families():
+    tasks = [training_task(0, 1, i) for i in range(4)]
+    assert [t.meta["family"] for t in tasks] == ["planted", "torque"] * 2
+    assert all(SIZES[0] <= t.meta["planted"] <= SIZES[1] for t in tasks)
+    again = training_task(0, 1, 0)
+    np.testing.assert_array_equal(again.wrenches, tasks[0].wrenches)
+    assert EXIT_SEED0 not in (SCALE_SEED0, SCALE_VALIDATION_SEED0)
+    for family in ("planted", "torque"):  # no training task is a validation draw of its band
+        for t in tasks:
+            if t.meta["family"] == family:
+                other = draw(family, t.meta["planted"], 0, validation=True)
+                assert other.wrenches.shape != t.wrenches.shape or not np.allclose(
+                    other.wrenches, t.wrenches
+                )
+
+
+def test_a_label_is_the_better_answer_and_its_episode_reaches_it():
+    task = training_task(0, 1, 1)  # a low-force, high-torque task
+    demos, rows = label_chunk((None, [task], 36, 2.0, 8, [0, 1, 0]))
+    (row,) = rows
+    answers = [n for n in (row["search"], row["guided"]) if n is not None]
+    assert row["target"] == min(answers) and row["bound"] <= row["target"]
+    assert demos is not None and len(demos) >= 1 and demos.n_tasks == 1
+    assert demos.good.any(axis=1).all() and not (demos.good & ~demos.valid).any()
+
+
+def test_summary_counts_wins_against_greedy():
+    rows = [{"ppo": 10, "greedy": 12, "ppo_s": 1.0, "greedy_s": 2.0},
+            {"ppo": None, "greedy": 20, "ppo_s": 1.0, "greedy_s": 2.0},
+            {"ppo": 15, "greedy": 15, "ppo_s": 1.0, "greedy_s": 2.0}]  # fmt: skip
+    s = summary(rows)
+    assert (s["ppo_solved"], s["greedy_solved"], s["fewer"], s["equal"], s["more"]) == (
+        2,
+        3,
+        1,
+        1,
+        0,
+    )
+    assert s["ppo_mean"] == 12.5 and s["greedy_mean"] == 13.5
