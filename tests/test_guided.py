@@ -152,3 +152,20 @@ def test_bench_agents_scores_validation_tasks(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:  # no task to score: a one-line usage error
         main(["--tier", "mixed", "--validation", "0", "--out", str(tmp_path / "v3")])
     assert exc.value.code == 2 and "--validation" in capsys.readouterr().err
+
+
+def test_the_dive_finishes_past_the_budget_and_later_rollouts_respect_the_time_limit():
+    """At the field's sizes the policy's own episode docks more modules than the guided
+    search's budget: the dive still ends with its structure (it is the incumbent); with several
+    start types only the first deterministic rollout may outlast ``time_limit``."""
+    task = PlantedTasks(n_modules=8, n_wrenches=20)(np.random.default_rng(5))
+    guided = make_solver("ppo-guided-b2", n_max=12).solve(task)
+    plain = make_solver("ppo", n_max=12).solve(task)
+    assert guided.structure is not None and guided.n_modules <= plain.n_modules
+    assert guided.evaluated > 2  # the dive's structures, beyond the budget
+    mods = palette("t45,t45m,flat")
+    mixed = make_generator("planted-mixed-external")(np.random.default_rng(2))
+    model = str(DEFAULT_MODEL.parent.parent / "ppo_mixed" / "model.zip")
+    one = make_solver("ppo", n_max=7, model=model, modules=mods, time_limit=1e-9).solve(mixed)
+    every = make_solver("ppo", n_max=7, model=model, modules=mods).solve(mixed)
+    assert one.evaluated < every.evaluated  # one start type tried, not three

@@ -41,7 +41,7 @@ class GuidedSolver:
         branching: children queued per expanded structure (the policy's most likely dockings).
         dive: start with the policy's greedy episode (default True); False: best-first only.
         time_limit: seconds after which the search stops with what it has (None: none); the
-            dive always finishes.
+            dive always finishes, whatever the budget and the time limit.
     """
 
     def __init__(
@@ -79,7 +79,7 @@ class GuidedSolver:
         pushes, oracle_calls = len(heap), 0
         dive = heapq.heappop(heap) if self.dive else None  # the policy's episode: an incumbent
         deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
-        while (dive or heap) and not certified and len(evaluated) < self.budget:
+        while (dive or heap) and not certified and (dive or len(evaluated) < self.budget):
             if dive is None and time.perf_counter() > deadline:
                 break
             cost, _, parent, move = dive if dive is not None else heapq.heappop(heap)

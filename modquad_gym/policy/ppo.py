@@ -75,9 +75,9 @@ class PPOSolver:
             for i in range(self.samples)
         ]
         deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
-        for rng, start in runs:
+        for i, (rng, start) in enumerate(runs):
             stop_at = best.n_modules if best is not None else policy.env.n_max + 2
-            if stop_at <= 1 or rng is not None and time.perf_counter() > deadline:
+            if stop_at <= 1 or i > 0 and time.perf_counter() > deadline:  # the first one runs
                 break
             info = policy.rollout(task, rng, seen, stop_at, start)
             oracle_calls += int(info["oracle_calls"])
