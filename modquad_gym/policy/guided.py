@@ -40,8 +40,8 @@ class GuidedSolver:
         budget: most structures to evaluate per task.
         branching: children queued per expanded structure (the policy's most likely dockings).
         dive: start with the policy's greedy episode (default True); False: best-first only.
-        time_limit: seconds after which the search stops with what it has (None: none); the
-            dive always finishes, whatever the budget and the time limit.
+        time_limit: seconds after which the search stops with what it has (None: none), in
+            the dive too (which otherwise finishes, whatever the budget).
     """
 
     def __init__(
@@ -80,7 +80,7 @@ class GuidedSolver:
         dive = heapq.heappop(heap) if self.dive else None  # the policy's episode: an incumbent
         deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
         while (dive or heap) and not certified and (dive or len(evaluated) < self.budget):
-            if dive is None and time.perf_counter() > deadline:
+            if time.perf_counter() > deadline:
                 break
             cost, _, parent, move = dive if dive is not None else heapq.heappop(heap)
             diving, dive = dive is not None, None

@@ -185,19 +185,21 @@ class Policy:
         seen: set | None = None,
         stop_at: int | None = None,
         start: int | None = None,
+        deadline: float = float("inf"),
     ) -> dict:
         """One episode on ``task`` from a first module of type ``start``: the most likely action
         at each step when ``rng`` is None, else sampled. Stops early once the structure has
         ``stop_at - 1`` modules without success (it could no longer beat a verified structure
-        of ``stop_at`` modules). Adds every structure it evaluates to ``seen``
-        (translation-normalised). Returns the final info; ``env.structure`` is its structure."""
+        of ``stop_at`` modules) or at ``deadline`` (:func:`time.perf_counter`). Adds every
+        structure it evaluates to ``seen`` (translation-normalised). Returns the final info;
+        ``env.structure`` is its structure."""
         env = self.env
         seen = set() if seen is None else seen
         stop_at = env.n_max + 2 if stop_at is None else stop_at
         obs, info = self.reset(task, start)
         seen.add(env.structure.key)
         done = info["success"]  # one module suffices: nothing to decide
-        while not done and len(info["cells"]) < stop_at - 1:
+        while not done and len(info["cells"]) < stop_at - 1 and time.perf_counter() < deadline:
             mask = env.action_masks()
             if rng is None:
                 action = self.greedy(obs, mask)

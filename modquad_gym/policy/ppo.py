@@ -36,7 +36,7 @@ class PPOSolver:
         seed: seeds the sampled rollouts.
         samples: extra stochastic rollouts per task (0: deterministic decoding only).
         config: the model's config when ``model`` is a loaded model.
-        time_limit: seconds after which no further sampled rollout starts (None: none).
+        time_limit: seconds after which the rollouts stop, the first one too (None: none).
     """
 
     def __init__(
@@ -75,11 +75,11 @@ class PPOSolver:
             for i in range(self.samples)
         ]
         deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
-        for i, (rng, start) in enumerate(runs):
+        for rng, start in runs:
             stop_at = best.n_modules if best is not None else policy.env.n_max + 2
-            if stop_at <= 1 or i > 0 and time.perf_counter() > deadline:  # the first one runs
+            if stop_at <= 1 or time.perf_counter() > deadline:
                 break
-            info = policy.rollout(task, rng, seen, stop_at, start)
+            info = policy.rollout(task, rng, seen, stop_at, start, deadline)
             oracle_calls += int(info["oracle_calls"])
             n = len(info["cells"])
             if not info["success"] or n > self.n_max or (best is not None and n >= best.n_modules):
