@@ -311,6 +311,23 @@ def plot(summary_rows: list[dict], path: Path) -> None:
     plt.close(fig)
 
 
+def read_runs(paths: list[Path]) -> list[dict]:
+    """The rows of earlier runs (:func:`read_rows`), merged: a (task, method) row of a later
+    file replaces an earlier one, and each task's ``lower_bound`` (and so ``gap_to_bound``) is
+    the largest any of them proved."""
+    merged: dict[tuple, dict] = {}
+    for path in paths:
+        merged.update({(r["task"], r["method"]): r for r in read_rows(path)})
+    bound: dict[str, int] = {}
+    for r in merged.values():
+        bound[r["task"]] = max(bound.get(r["task"], 0), r["lower_bound"])
+    rows = sorted(merged.values(), key=lambda r: r["band"])  # stable: each run's order kept
+    for r in rows:
+        r["lower_bound"] = bound[r["task"]]
+        r["gap_to_bound"] = r["found"] - r["lower_bound"] if r["found"] != "none" else ""
+    return rows
+
+
 def read_rows(path: Path) -> list[dict]:
     """The rows of an earlier run's ``rows.csv``, typed as :func:`task_row` makes them."""
     import csv
@@ -339,7 +356,10 @@ def command_line(args) -> str:
             + (" --validation" if args.validation else "") + f" --seed {args.seed}"
             + (f" --model {args.model}" if args.model else ""))  # fmt: skip
     if args.rows:  # re-rendered: the measuring run's command, then the re-rendering
-        line += f"`, re-rendered by `... --rows {args.rows} --out {args.out} --force"
+        line += (
+            f"`, re-rendered by `... --rows {' '.join(map(str, args.rows))} --out {args.out} "
+            "--force"
+        )
     return line
 
 
@@ -400,9 +420,10 @@ def main(argv: list[str] | None = None) -> None:
                              help="validation draws instead of the held-out suites"),
         "--model": dict(default=None, metavar="ZIP",
                         help="the learned methods' model (default the shipped one)"),
-        "--rows": dict(type=Path, default=None, metavar="CSV",
-                       help="re-render the report from an earlier run's rows.csv (no solving; "
-                            "give the options that run used)"),
+        "--rows": dict(type=Path, nargs="+", default=None, metavar="CSV",
+                       help="re-render the report from earlier runs' rows.csv (no solving; "
+                            "give the options they used; several runs are merged, a later "
+                            "file's (task, method) rows replacing an earlier one's)"),
     }  # fmt: skip
     args = bench_args(
         argv,
@@ -435,7 +456,7 @@ def main(argv: list[str] | None = None) -> None:
         raise ValueError(f"--bands {unknown[0]}: no held-out suite of that size (bands "
                          f"{' '.join(map(str, BANDS))}; --validation draws any size)")  # fmt: skip
     args.workers = cap_workers(args.workers)
-    rows = read_rows(args.rows) if args.rows else measure(args)
+    rows = read_runs(args.rows) if args.rows else measure(args)
     summary_rows = summary(rows)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

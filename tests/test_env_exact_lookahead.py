@@ -139,3 +139,22 @@ def test_the_candidate_policy_acts_on_exact_rows():
     assert env.action_masks()[int(action)]
     assert model.policy.features_extractor.width == WIDTH
     assert torch.is_tensor(next(model.policy.parameters()))
+
+
+def test_a_full_support_cache_is_refilled_for_every_key_asked(monkeypatch):
+    """When the support cache overflows it is cleared: keys cached before must be computed
+    again in the same call (a long guided search at 36 modules raised KeyError here), with the
+    same rows."""
+    import modquad_gym.envs.assembly.evaluator as evaluator
+
+    env = ModQuadAssemblyEnv(n_max=8, lookahead=True)
+    env.reset(seed=0)
+    ev = env.evaluator
+    ev.supports.clear()
+    keys = [Structure(cells).key for cells in ([(0, 0), (1, 0)], [(0, 0), (0, 1)])]
+    first = ev.supports_of(keys[:1])
+    assert len(ev.supports) == 1
+    monkeypatch.setattr(evaluator, "CACHE_SIZE", 1)
+    h, slack = ev.supports_of(keys)  # the new key overflows: the cache is cleared
+    np.testing.assert_array_equal(h[0], first[0][0])
+    assert set(keys) <= set(ev.supports)

@@ -146,3 +146,22 @@ def test_the_portfolio_goals_count_tasks_and_name_who_beat_it():
     assert "1 of 3 tasks, worst 100.0 % (c)" in gap and gap.endswith("NOT met")
     never_worse, gap = portfolio_goal_lines(rows[:2])
     assert never_worse.endswith("met") and "1 of 1 tasks" in never_worse and "0.0 %" in gap
+
+
+def test_runs_merge_with_the_largest_bound_and_later_rows_first(tmp_path):
+    from benchmarks.common import write_csv
+    from benchmarks.scale import read_runs
+
+    def row(task, method, found, bound, band=16):
+        return {"band": band, "family": "planted", "task": task, "method": method, "planted": 16,
+                "lower_bound": bound, "found": found, "verified": found != "none",
+                "gap_to_planted_pct": "", "gap_to_bound": "", "seconds": 1.0, "peak_MB": 100,
+                "note": ""}  # fmt: skip
+
+    write_csv([row("a", "anytime", 14, 12), row("a", "ppo", 16, 12)], tmp_path / "one.csv")
+    write_csv([row("a", "ppo", 15, 13), row("b", "ppo", "none", 20, 32)], tmp_path / "two.csv")
+    rows = read_runs([tmp_path / "one.csv", tmp_path / "two.csv"])
+    by = {(r["task"], r["method"]): r for r in rows}
+    assert len(rows) == 3 and by["a", "ppo"]["found"] == 15  # the later run's row
+    assert by["a", "anytime"]["lower_bound"] == 13 and by["a", "anytime"]["gap_to_bound"] == 1
+    assert by["b", "ppo"]["gap_to_bound"] == "" and [r["band"] for r in rows] == [16, 16, 32]

@@ -171,6 +171,7 @@ class StructureEvaluator:
         if missing:
             if len(self.supports) + len(missing) > CACHE_SIZE:
                 self.supports.clear()
+                missing = list(dict.fromkeys(keys))  # the cached ones went too
             h, slack = self.features.supports(self._matrices(missing))
             for k, hk, sk in zip(missing, h, slack):
                 self.supports[k] = (hk, float(sk))
