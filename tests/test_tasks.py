@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from modquad_gym import Structure, feasible, margin, structure_levels
 from modquad_gym.tasks import (
@@ -440,3 +442,20 @@ def test_pickle_keeps_tasks_and_generators():
     gen = make_generator("mixed")
     again = pickle.loads(pickle.dumps(gen))
     assert again(np.random.default_rng(7)) == gen(np.random.default_rng(7))
+
+
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 130))
+@settings(max_examples=40, deadline=None)
+def test_random_cells_grow_as_the_plain_rule_does(seed, n):
+    """The grown structure keeps its frontier as it grows: the same draws, cell for cell, as
+    choosing among ``free_neighbours`` of all the cells at each step (seeded tasks and suites
+    depend on it)."""
+    from modquad_gym.geometry.structure import free_neighbours
+    from modquad_gym.tasks.generators import random_cells
+
+    rng = np.random.default_rng(seed)
+    plain = [(0, 0)]
+    while len(plain) < n:
+        free = free_neighbours(plain)
+        plain.append(free[int(rng.integers(len(free)))])
+    assert random_cells(np.random.default_rng(seed), n) == plain

@@ -127,9 +127,14 @@ def random_cells(rng: np.random.Generator, n: int) -> list[Cell]:
     if n < 1:
         raise ValueError(f"a structure needs n >= 1 modules, got {n}")
     cells: list[Cell] = [(0, 0)]
+    taken, frontier = {(0, 0)}, set(free_neighbours(cells))  # kept as cells grow
     while len(cells) < n:
-        free = free_neighbours(cells)
-        cells.append(free[int(rng.integers(len(free)))])
+        free = sorted(frontier)  # = free_neighbours(cells), without rebuilding it
+        cell = free[int(rng.integers(len(free)))]
+        cells.append(cell)
+        taken.add(cell)
+        frontier.discard(cell)
+        frontier.update(c for c in free_neighbours([cell]) if c not in taken)
     return cells
 
 
