@@ -139,7 +139,15 @@ def run(args: argparse.Namespace) -> list[dict]:
     out, model = Path(args.out), Path(args.model)
     demos, labels, rows = None, [], []
     rows.append(
-        {"round": 0, "model": str(model), **summary(score(model, args.n_max, args.per_family))}
+        {
+            "round": 0,
+            "model": str(model),
+            "states": 0,
+            "label_s": 0,
+            "clone_s": 0,
+            "greedy_good": "",
+            **summary(score(model, args.n_max, args.per_family)),
+        }  # fmt: skip
     )
     print(rows[-1], flush=True)
     for r in range(1, args.rounds + 1):
@@ -153,7 +161,7 @@ def run(args: argparse.Namespace) -> list[dict]:
         demos = merge([d for d in [demos, *(part for part, _ in parts)] if d is not None])
         labelled = time.perf_counter() - t0
         ppo = load_for_training(model, args.n_max)
-        history = clone(ppo, demos, seed=args.seed + r, **CLONE)
+        history = clone(ppo, demos, seed=args.seed + r, **{**CLONE, "epochs": args.epochs})
         model = out / f"round-{r}" / "model.zip"
         model.parent.mkdir(parents=True, exist_ok=True)
         ppo.save(str(model))
@@ -177,6 +185,7 @@ def write_config(folder: Path, args: argparse.Namespace, round_: int, states: in
     config["expert_iteration"] = {
         "round": round_, "states": states, "start": str(args.model), "tasks_per_round": args.tasks,
         "search_seconds": args.search_seconds, "budget": args.budget, "seed": args.seed, **CLONE,
+        "epochs": args.epochs,
     }  # fmt: skip
     (folder / "config.json").write_text(json.dumps(config, indent=2) + "\n")
 
@@ -230,6 +239,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--budget", type=int, default=64, help="guided search's structures per task (64)"
     )
+    p.add_argument("--epochs", type=int, default=CLONE["epochs"], help="cloning epochs per round")
     p.add_argument("--n-max", type=int, default=40, help="module budget (default 40)")
     p.add_argument(
         "--per-family", type=int, default=3, help="validation draws per family and band (3)"
