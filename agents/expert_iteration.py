@@ -173,6 +173,7 @@ def run(args: argparse.Namespace) -> list[dict]:
                      **summary(score(model, args.n_max, args.per_family))})  # fmt: skip
         print(rows[-1], flush=True)
     write_rows(out / "labels.csv", labels)
+    args.labels = labels
     return rows
 
 
@@ -200,7 +201,29 @@ def write_rows(path: Path, rows: list[dict]) -> None:
         writer.writerows(rows)
 
 
-def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
+def label_summary(labels: list[dict]) -> list[dict]:
+    """Per round, on its training tasks: mean modules of the default search, the guided search,
+    the single pass and the target (each over the tasks it solved), and how often the guided
+    search's answer was the smaller one."""
+
+    def mean(rs, key):
+        xs = [int(r[key]) for r in rs if r.get(key) not in (None, "", "None")]
+        return round(float(np.mean(xs)), 2) if xs else ""
+
+    out = []
+    for r in sorted({int(row["round"]) for row in labels}):
+        rs = [row for row in labels if int(row["round"]) == r]
+        won = sum(mean([x], "guided") != "" and mean([x], "search") != ""
+                  and int(x["guided"]) < int(x["search"]) for x in rs)  # fmt: skip
+        out.append({"round": r, "tasks": len(rs), "search": mean(rs, "search"),
+                    "guided": mean(rs, "guided"), "ppo": mean(rs, "ppo"),
+                    "target": mean(rs, "target"), "guided_smaller": won})  # fmt: skip
+    return out
+
+
+def report(
+    rows: list[dict], args: argparse.Namespace, seconds: float, labels: list[dict] = ()
+) -> str:
     from benchmarks.common import machine_description, markdown_table
 
     return "\n".join([
@@ -218,6 +241,13 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
         "modules than greedy, of those both solved.",
         "",
         markdown_table(rows),
+        "",
+        "On each round's training tasks (`labels.csv`): mean modules of the default search "
+        f"({args.search_seconds:g} s), the current policy's guided search and single pass, and "
+        "of the target (the smaller); `guided_smaller`: tasks where the guided search's answer "
+        "was the target.",
+        "",
+        markdown_table(label_summary(list(labels))),
         "",
     ])  # fmt: skip
 
@@ -258,7 +288,7 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     rows = run(args)
     write_rows(args.out / "rows.csv", rows)
-    (args.out / "report.md").write_text(report(rows, args, time.perf_counter() - t0))
+    (args.out / "report.md").write_text(report(rows, args, time.perf_counter() - t0, args.labels))
     print(f"wrote {args.out / 'report.md'}")
     return 0
 

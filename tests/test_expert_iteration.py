@@ -52,3 +52,14 @@ def test_summary_counts_wins_against_greedy():
         0,
     )
     assert s["ppo_mean"] == 12.5 and s["greedy_mean"] == 13.5
+
+
+def test_label_summary_means_each_answer_over_the_tasks_it_solved():
+    from agents.expert_iteration import label_summary
+
+    labels = [{"round": "1", "search": "10", "guided": "9", "ppo": "", "target": "9"},
+              {"round": "1", "search": "12", "guided": "", "ppo": "14", "target": "12"},
+              {"round": 2, "search": 8, "guided": 8, "ppo": 9, "target": 8}]  # fmt: skip
+    one, two = label_summary(labels)
+    assert (one["search"], one["guided"], one["ppo"], one["target"]) == (11, 9, 14, 10.5)
+    assert one["guided_smaller"] == 1 and two["guided_smaller"] == 0 and two["tasks"] == 1
