@@ -162,7 +162,7 @@ def test_n_max_16_checks_the_budget_before_work(tmp_path, capsys):
 def test_env_with_huge_n_max_is_rejected_at_make_time():
     import gymnasium as gym
 
-    for n_max in (65, 10**9):  # the env goes to 64 modules (issue 26)
+    for n_max in (129, 10**9):  # the env goes to 128 modules (the searches' limit)
         with pytest.raises(ValueError, match="n_max"):
             gym.make("ModQuadAssembly-v0", n_max=n_max)
     with pytest.raises(ValueError, match="n_directions"):

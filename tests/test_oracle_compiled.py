@@ -9,7 +9,7 @@ including the lattice's symmetric shapes, whose facets hold many columns (degene
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from modquad_gym.geometry.structure import Structure, normalise
@@ -144,13 +144,15 @@ def test_margins_within_1e9_of_zero_at_m_256(name):
 
 @settings(max_examples=20, deadline=None)
 @given(seed=st.integers(0, 2**20), n=st.sampled_from([1, 2, 3, 5, 9, 16, 40, 64]))
+@example(seed=141271, n=64)  # HiGHS 1.7e-9 (relative) above the walk's optimum
 def test_compiled_gamma_equals_highs(seed, n):
-    """The walk run to the optimum gives HiGHS's gamma (both within 1e-9 of the truth), inside,
-    outside and far outside the zonotope, and never below the dual bound it certifies."""
+    """The walk run to the optimum gives HiGHS's gamma, inside, outside and far outside the
+    zonotope, within 1e-8: HiGHS solves to its own tolerances (a random example found it 1.7e-9
+    off at 64 modules), the decisions' band is far wider."""
     z = Zonotope(structure(seed, n))
     rng = np.random.default_rng(seed)
     R = rng.standard_normal((12, z.rank)) * rng.uniform(0.01, 3.0, (12, 1)) * z.box
-    np.testing.assert_allclose(gamma_compiled(z, R), gamma_highs(z, R), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(gamma_compiled(z, R), gamma_highs(z, R), rtol=1e-8, atol=1e-8)
     assert gamma_compiled(z, np.zeros((1, z.rank)))[0] == 0.0
 
 

@@ -31,7 +31,7 @@ def parse(tmp_path, monkeypatch):
 
 CASES = [
     (["--seed", "-1"], "--seed"),
-    (["--n-max", "100"], "--n-max"),
+    (["--n-max", "200"], "--n-max"),
     (["--env-kwargs", '{"bogus": 1}'], "--env-kwargs"),
     (["--hyperparameters", '{"learning_rate": -1}'], "learning_rate"),
     (["--hyperparameters", '{"net_arch": [0]}'], "net_arch"),
