@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from modquad_gym.core.outputs import write_csv
+
 EXIT_SEED0 = 7_000_000
 """Training draws of the expert iteration (held-out scale tasks use 5,000,000 + ..., validation
 draws 6,000,000 + ..., both as single integers)."""
@@ -69,7 +71,7 @@ def label_chunk(job: tuple) -> tuple[Any, list[dict]]:
         rows.append({"task": task.name, "family": task.meta["family"],
                      "planted": task.meta["planted"], "search": search.n_modules,
                      "bound": search.lower_bound, "guided": guided.n_modules,
-                     "ppo": single})  # fmt: skip
+                     "ppo": single, "target": None})  # fmt: skip
         if not found:
             continue
         best = min(found, key=lambda r: (r.n_modules, r is guided))
@@ -172,7 +174,7 @@ def run(args: argparse.Namespace) -> list[dict]:
                      "greedy_good": round(history[-1]["greedy_good"], 3),
                      **summary(score(model, args.n_max, args.per_family))})  # fmt: skip
         print(rows[-1], flush=True)
-    write_rows(out / "labels.csv", labels)
+    write_csv(labels, out / "labels.csv")
     args.labels = labels
     return rows
 
@@ -189,16 +191,6 @@ def write_config(folder: Path, args: argparse.Namespace, round_: int, states: in
         "epochs": args.epochs,
     }  # fmt: skip
     (folder / "config.json").write_text(json.dumps(config, indent=2) + "\n")
-
-
-def write_rows(path: Path, rows: list[dict]) -> None:
-    import csv
-
-    keys = list(dict.fromkeys(k for row in rows for k in row))
-    with path.open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=keys)
-        writer.writeheader()
-        writer.writerows(rows)
 
 
 def label_summary(labels: list[dict]) -> list[dict]:
@@ -287,7 +279,7 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     rows = run(args)
-    write_rows(args.out / "rows.csv", rows)
+    write_csv(rows, args.out / "rows.csv")
     (args.out / "report.md").write_text(report(rows, args, time.perf_counter() - t0, args.labels))
     print(f"wrote {args.out / 'report.md'}")
     return 0
