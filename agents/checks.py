@@ -33,6 +33,9 @@ INTEGERS = {
     "n_eval": (1, 100_000),
     "checkpoint_freq": (1, MAX_STEPS),
     "threads": (1, 1024),
+    "n_max": (1, 10**4),
+    "dagger_rounds": (0, 10**4),
+    "dagger_tasks": (1, 10**7),
 }
 """The integer fields of a training config and their ranges."""
 

@@ -1,35 +1,58 @@
-"""Training several seeds: one ``train.py`` run per seed of ``--seeds``, as parallel Ray tasks.
+"""Training several seeds: one run of a :class:`~agents.training.TrainConfig` per seed of
+``--seeds``, as parallel Ray tasks, each into ``<out>/seed-S`` with its report.
 
 ``python -m modquad_gym.scoring.seeds`` then reports the runs over seeds.
 """
 
 from __future__ import annotations
 
-import argparse
-import subprocess
-import sys
+import dataclasses
+import os
 from pathlib import Path
 
-TRAIN_SCRIPT = Path(__file__).resolve().parents[1] / "train.py"
+from agents.training import TrainConfig, report, train
 
 
-def train_seeds(args: argparse.Namespace, argv: list[str]) -> int:
-    """One run of this script per seed of ``--seeds``, as parallel Ray tasks, each into
-    ``<out>/seed-S`` (the other options as given). Returns 0 when every run finished."""
-    import os
+def seed_out(out: Path, seed: int) -> Path:
+    """The run folder of ``seed`` under the seeds' folder ``out``."""
+    return Path(out) / f"seed-{seed}"
 
-    from modquad_gym.core.distributed import Engine, Failed
 
-    seeds = list(dict.fromkeys(args.seeds))
-    runs = [seed_argv(argv, seed, Path(args.out) / f"seed-{seed}") for seed in seeds]
+def seed_config(config: TrainConfig, seed: int) -> TrainConfig:
+    """``config`` for one seed: its own run folder, one demonstration process, no progress."""
+    return dataclasses.replace(
+        config, seed=seed, out=seed_out(config.out, seed), workers=1, progress=False
+    )
+
+
+def train_seeds(
+    config: TrainConfig,
+    seeds: list[int],
+    seed_workers: int | None = None,
+    with_report: bool = True,
+    quick: bool = False,
+) -> int:
+    """Train ``config`` once per seed, as parallel Ray tasks (``seed_workers`` at a time,
+    default one per seed up to the local cores), each with its report in ``<run>/report``
+    unless ``with_report`` is False. Returns 0 when every run finished."""
+    from modquad_gym.core.distributed import Engine, Failed, ray_installed
+
+    seeds = list(dict.fromkeys(seeds))
+    runs = [(seed_config(config, seed), with_report, quick) for seed in seeds]
+    if ray_installed():  # workers need not find agents/ on their path: its code travels
+        from ray import cloudpickle
+
+        import agents
+
+        cloudpickle.register_pickle_by_value(agents)
     local = min(len(runs), os.cpu_count() or 1)
-    with Engine(args.seed_workers, local_default=local) as engine:
+    with Engine(seed_workers, local_default=local, option="--seed-workers") as engine:
         results = engine.map(
-            _train_run,
+            train_and_report,
             runs,
             labels=[f"seed {s}" for s in seeds],
             catch=True,
-            progress=not args.no_progress,
+            progress=config.progress,
             desc="training seeds",
         )
     for seed, result in zip(seeds, results):
@@ -37,38 +60,10 @@ def train_seeds(args: argparse.Namespace, argv: list[str]) -> int:
     return 1 if any(isinstance(r, Failed) for r in results) else 0
 
 
-def seed_argv(argv: list[str], seed: int, out: Path) -> list[str]:
-    """``argv`` without --seeds/--seed-workers/--seed/--out, for one run of ``seed`` in ``out``."""
-    drop = {"--seeds": True, "--seed-workers": False, "--seed": False, "--out": False}
-    kept, skip, many = [], 0, False
-    for token in argv:
-        name = token.split("=", 1)[0]
-        if name in drop:
-            many, skip = drop[name], 0 if "=" in token else 1
-            continue
-        if skip or (many and token.lstrip("-").isdigit()):
-            skip = 0
-            continue
-        many = False
-        kept.append(token)
-    return [
-        *kept,
-        "--seed",
-        str(seed),
-        "--out",
-        str(out),
-        "--workers",
-        "1",
-        "--report-dir",
-        str(out / "report"),
-        "--no-progress",
-    ]
-
-
-def _train_run(argv: list[str]) -> str:
-    """One training run (in a Ray worker): ``python train.py ARGV`` in its own process, so the
-    worker needs nothing of the repository but the script; the folder it wrote."""
-    done = subprocess.run([sys.executable, str(TRAIN_SCRIPT), *argv], cwd=Path.cwd())
-    if done.returncode != 0:
-        raise RuntimeError(f"train.py {' '.join(argv)} failed (exit code {done.returncode})")
-    return argv[argv.index("--out") + 1]
+def train_and_report(run: tuple[TrainConfig, bool, bool]) -> str:
+    """One seed's run (in a Ray worker): train, then its report; the run folder."""
+    config, with_report, quick = run
+    model = train(config)
+    if with_report:
+        report(model, Path(config.out) / "report", config.tier, quick, progress=False)
+    return str(config.out)

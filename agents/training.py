@@ -19,19 +19,20 @@ from __future__ import annotations
 
 import json
 import platform
+import shlex
 import shutil
-import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 from agents.checks import check_hyperparameters, check_numbers, check_publishable
 from agents.imitation import EXPERTS
 from modquad_gym.core.extras import import_optional
+from modquad_gym.core.options import seed_option
 from modquad_gym.core.outputs import atomic_write, write_text
 from modquad_gym.policy.models import DEFAULT_MODEL
-from modquad_gym.scoring.tiers import get_tier
+from modquad_gym.scoring.tiers import TIERS, get_tier
 from modquad_gym.tasks import GENERATORS
 
 RUN_FILES = ("model.zip", "config.json", "evaluations.npz")
@@ -67,37 +68,114 @@ LOOKAHEAD = "exact"
 child's exact share, margin and greedy's choice, :mod:`modquad_gym.envs.assembly.lookahead`);
 ``--env-kwargs '{"lookahead": true}'`` trains on the support rows alone, as models before it."""
 DEFAULT_TIMESTEPS = 20_000
+VEC_ENVS = ("dummy", "subproc")
+
+
+def option(default: Any, help: str, group: str = "recipe", **argparse: Any) -> Any:
+    """A :class:`TrainConfig` field that is also the ``train.py`` option ``--name``
+    (:mod:`agents.cli` derives the option from the field): its help (``{recipe}`` stands for
+    the tiers' recipes of it), its group of ``--help`` and argparse keywords besides the type
+    and default, which come from the field."""
+    metadata = {"help": help, "group": group, **argparse}
+    if isinstance(default, dict):
+        return field(default_factory=dict, metadata=metadata)
+    return field(default=default, metadata=metadata)
 
 
 @dataclass(frozen=True)
 class TrainConfig:
     """One training run. Fields left None take the tier's value (``task_source``, ``n_max`` and
-    the tier's ``recipe``), then the recipe's; ``eval_freq`` defaults to ``timesteps / 20``."""
+    the tier's ``recipe``), then the recipe's; ``eval_freq`` defaults to ``timesteps / 20``.
+    Every field is a ``train.py`` option (``--n-envs`` for ``n_envs``; ``--no-progress`` for
+    ``progress``)."""
 
-    out: Path
-    tier: str = "current"
-    seed: int = 0
-    timesteps: int | None = None
-    n_envs: int = 2
-    vec_env: str = "dummy"
-    task_source: str | None = None
-    n_max: int | None = None
-    demo_tasks: int | None = None
-    bc_epochs: int = IMITATION["bc_epochs"]
-    expert: str | None = None
-    architecture: str = "candidates"
-    dagger_rounds: int = IMITATION["dagger_rounds"]
-    dagger_tasks: int | None = None
-    workers: int = 2
-    resume: Path | None = None
-    eval_freq: int | None = None
-    n_eval: int = 40
-    checkpoint_freq: int = 50_000
-    tensorboard: Path = Path("runs")
-    threads: int = 1
-    progress: bool = True
-    env_kwargs: dict = field(default_factory=dict)
-    hyperparameters: dict = field(default_factory=dict)
+    out: Path = option(
+        None,
+        "run folder for model.zip, config.json, evaluations.npz and report/ (default "
+        "runs/ppo-seed<seed>; runs/<tier>-seed<seed> on other tiers; runs/ppo-seeds with "
+        "--seeds; runs/quick with --quick)",
+        "run",
+    )
+    tier: str = option(
+        "current",
+        "benchmark tier: its environment, task source, n_max and held-out suites",
+        "run",
+        choices=tuple(TIERS),
+    )
+    seed: int = option(0, "training seed; env i uses seed + i", "run", type=seed_option)
+    timesteps: int | None = option(
+        None, f"total PPO environment steps (default {DEFAULT_TIMESTEPS}; {{recipe}})"
+    )
+    n_envs: int = option(2, "parallel environments")
+    vec_env: str = option(
+        "dummy", "vectorised env class (dummy: faster on 2 cores)", choices=VEC_ENVS
+    )
+    task_source: str | None = option(
+        None,
+        "a task generator name (planted, paper, mixed, planted-large, ...) or a task/suite "
+        "file (default: the tier's: mixed on current)",
+    )
+    n_max: int | None = option(
+        None, "largest structure in modules (default: the tier's, 7 on current)"
+    )
+    demo_tasks: int | None = option(
+        None,
+        "training tasks with an expert episode each for behaviour cloning (default "
+        f"{IMITATION['demo_tasks']}; {{recipe}})",
+        "imitation",
+    )
+    bc_epochs: int = option(
+        IMITATION["bc_epochs"],
+        "behaviour-cloning epochs before PPO; 0: PPO alone from scratch",
+        "imitation",
+    )
+    expert: str | None = option(
+        None,
+        "what the expert docks towards: all optimal structures, or one, the first the "
+        "certified search finds (default all; {recipe})",
+        "imitation",
+        choices=EXPERTS,
+    )
+    architecture: str = option(
+        "candidates",
+        "policy network: candidates (one score per candidate docking, shared weights: acts at "
+        "any n_max and palette; the env's lookahead rows) or mlp (SB3's MultiInputPolicy, one "
+        "grid size)",
+        choices=ARCHITECTURES,
+    )
+    dagger_rounds: int = option(
+        IMITATION["dagger_rounds"],
+        "rounds of the expert in the loop after cloning: the learner's own episodes on fresh "
+        "tasks, every state labelled by the certified search, cloned again; 0: none",
+        "imitation",
+    )
+    dagger_tasks: int | None = option(
+        None, "fresh training tasks per DAgger round (default a tenth of --demo-tasks)", "imitation"
+    )
+    workers: int = option(2, "processes that collect the expert demonstrations", "imitation")
+    resume: Path | None = option(
+        None, "continue PPO from this model .zip (no behaviour cloning)", "run"
+    )
+    eval_freq: int | None = option(
+        None, "evaluate every this many total steps (default timesteps / 20)"
+    )
+    n_eval: int = option(40, "validation tasks")
+    checkpoint_freq: int = option(
+        50_000, "checkpoint every this many total steps, under --tensorboard"
+    )
+    tensorboard: Path = option(
+        Path("runs"), "TensorBoard logs and checkpoints (runs/ is gitignored)", "run"
+    )
+    threads: int = option(1, "torch threads")
+    progress: bool = option(True, "no progress bars", "run")
+    env_kwargs: dict = option(
+        {}, 'extra env keywords as JSON, e.g. \'{"reward_weights": {"w_module": 0.2}}\''
+    )
+    hyperparameters: dict = option(
+        {},
+        "MaskablePPO hyperparameters overriding the recipe, as JSON, e.g. "
+        f"'{{\"ent_coef\": 0.02}}'; known: {', '.join(HYPERPARAMETERS)}",
+    )
 
     def __post_init__(self) -> None:
         tier = get_tier(self.tier)
@@ -161,6 +239,28 @@ class TrainConfig:
     def ppo_hyperparameters(self) -> dict:
         return {**HYPERPARAMETERS, **self.hyperparameters}
 
+    def command(self) -> str:
+        """The ``python train.py`` command line that runs this config (what ``config.json``
+        records): the tier, the seed, the run folder and every field away from its default."""
+        parts = ["train.py"]
+        for f in fields(self):
+            value = getattr(self, f.name)
+            default = f.default_factory() if f.default is MISSING else f.default
+            if f.name not in ("tier", "seed", "out") and _same(value, default):
+                continue
+            flag = "--" + f.name.replace("_", "-")
+            if f.type == "bool":
+                parts.append(f"--no-{f.name}")
+            else:
+                parts += [flag, json.dumps(value) if isinstance(value, dict) else str(value)]
+        return shlex.join(parts)
+
+
+def _same(value: Any, default: Any) -> bool:
+    if isinstance(value, Path) and isinstance(default, Path):
+        return value.resolve() == default.resolve()
+    return value == default
+
 
 def _eval_callback_class():
     """:class:`EvalFromStart`, built on first use so importing this module needs no SB3."""
@@ -195,6 +295,8 @@ def train(config: TrainConfig) -> Path:
     from modquad_gym.policy.ppo import make_env
     from modquad_gym.scoring.suites import CyclingTasks, validation_tasks
 
+    if config.out is None:
+        raise ValueError("--out: a run folder is needed")
     t_start = time.perf_counter()
     torch.set_num_threads(config.threads)
     out = Path(config.out)
@@ -343,7 +445,7 @@ def run_record(config: TrainConfig, model: Any, n_validation: int) -> dict:
             "seeds": "modquad_gym.scoring.suites.VALIDATION_SEED0 + i",
         },
         "torch_threads": config.threads,
-        "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
+        "command": config.command(),
         "versions": versions(),
     }
 
@@ -368,6 +470,25 @@ def versions() -> dict:
         "sb3_contrib": sb3_contrib.__version__,
         "platform": platform.platform(),
     }
+
+
+def report(model: Path, out: Path, tier: str, quick: bool = False, progress: bool = True) -> None:
+    """The benchmark report of ``model`` on its tier's held-out suites, into ``out``
+    (``modquad score``, called as a function; ``quick``: 3 tasks per suite, 2 samples)."""
+    from modquad_gym.scoring.agents import score
+    from modquad_gym.scoring.options import command_line, score_options
+
+    given = {"model": shown(model), "out": shown(out), "tier": tier, "force": True,
+             "train_dir": shown(Path(model).parent)}  # fmt: skip
+    if quick:
+        given.update(limit=3, samples=2)
+    score(score_options(**given, no_progress=not progress), command_line(**given))
+
+
+def shown(path: Path) -> Path:
+    """``path`` relative to the working folder when it lies inside it (as reports print it)."""
+    path, here = Path(path).resolve(), Path.cwd().resolve()
+    return path.relative_to(here) if path.is_relative_to(here) else path
 
 
 def publish(run: Path, model: Path = DEFAULT_MODEL) -> Path:

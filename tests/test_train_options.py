@@ -84,3 +84,47 @@ def test_resume_refuses_a_truncated_model_and_another_tiers(parse, capsys):
 def test_a_good_recipe_still_parses(parse):
     args = parse("--seed", "3", "--n-envs", "4", "--hyperparameters", '{"ent_coef": 0.02}')
     assert args.config.seed == 3 and args.config.n_envs == 4
+
+
+def test_every_config_field_is_an_option_and_the_recorded_command_rebuilds_the_config(parse):
+    """The options are derived from TrainConfig (issue 33, item 5): each field has its option,
+    and the command line config.json records parses back to the same config."""
+    import argparse
+    import shlex
+    from dataclasses import fields
+
+    from agents.cli import add_config_options
+    from agents.training import TrainConfig
+
+    args = parse("--n-envs", "3", "--tier", "large", "--no-progress", "--seed", "4",
+                 "--env-kwargs", '{"reward_weights": {"w_module": 0.2}}', "--bc-epochs", "0",
+                 "--dagger-rounds", "0")  # fmt: skip
+    config = args.config
+    assert (config.n_envs, config.tier, config.progress, config.seed) == (3, "large", False, 4)
+    assert config.env_kwargs == {"reward_weights": {"w_module": 0.2}}
+    parser = argparse.ArgumentParser()
+    add_config_options(parser)
+    assert {a.dest for a in parser._actions} - {"help"} == {f.name for f in fields(TrainConfig)}
+    again = parse(*shlex.split(config.command())[1:]).config
+    assert again == config
+
+
+def test_seeds_are_configs_and_the_report_is_a_function(tmp_path):
+    """Seeds run as tasks over configs (no argv): each seed its own folder and one
+    demonstration process; the report's options are refused when unknown."""
+    from agents.seeds import seed_config
+    from agents.training import TrainConfig
+    from modquad_gym.scoring.agents import parse_args
+    from modquad_gym.scoring.options import command_line, score_options
+
+    config = TrainConfig(out=tmp_path / "seeds", workers=2)
+    one = seed_config(config, 3)
+    assert (one.seed, one.workers, one.progress) == (3, 1, False)
+    assert one.out == tmp_path / "seeds" / "seed-3"
+    assert one.timesteps == config.timesteps and one.tier == config.tier
+    given = {"out": tmp_path / "r", "limit": 3, "force": True}
+    argv = ["--out", str(tmp_path / "r"), "--limit", "3", "--force"]
+    assert vars(score_options(**given)) == vars(parse_args(argv))
+    assert command_line(**given) == f"modquad score --out {tmp_path / 'r'} --limit 3 --force"
+    with pytest.raises(ValueError, match="unknown options \\['limits'\\]"):
+        score_options(limits=3)

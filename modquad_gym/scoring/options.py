@@ -79,3 +79,31 @@ def add_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--force", action="store_true", help="replace existing reports (default: refuse)"
     )
+
+
+def score_options(**given: object) -> argparse.Namespace:
+    """The options of ``modquad score`` as a caller gives them (the options' names with ``_``,
+    e.g. ``train_dir``; paths as Paths), the command line's defaults for the rest, so that
+    :func:`~.agents.score` is called as a function. An unknown name is a ValueError."""
+    known = {flag[2:].replace("-", "_"): kwargs for flag, kwargs in OPTIONS.items()}
+    values = {name: list(kw["default"]) if isinstance(kw.get("default"), list)
+              else kw.get("default", kw.get("action") != "store_true" and None)
+              for name, kw in known.items()}  # fmt: skip
+    values.update(seed=0, out=Path("results"), force=False)
+    unknown = sorted(set(given) - set(values))
+    if unknown:
+        raise ValueError(f"{COMMAND}: unknown options {unknown}; known: {sorted(values)}")
+    return argparse.Namespace(**{**values, **given})
+
+
+def command_line(**given: object) -> str:
+    """The ``modquad score`` command line that gives these options (what a report records)."""
+    parts = [COMMAND]
+    for name, value in given.items():
+        flag = "--" + name.replace("_", "-")
+        if value is True:
+            parts.append(flag)
+        elif value is not None and value is not False:
+            items = value if isinstance(value, (list, tuple)) else [value]
+            parts += [flag, *map(str, items)]
+    return " ".join(parts)
