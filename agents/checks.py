@@ -9,10 +9,10 @@ environments, collects demonstrations or replaces a shipped model.
 from __future__ import annotations
 
 import numbers
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
-from modquad_gym.core.options import MAX_SEED
 from modquad_gym.core.resources import usable_cpus
 from modquad_gym.core.validation import check_int, check_real
 
@@ -22,22 +22,6 @@ MAX_N_ENVS = 256
 MAX_STEPS = 10**10
 """Most PPO steps, demonstrations or evaluation episodes one run may ask for."""
 
-INTEGERS = {
-    "seed": (0, MAX_SEED),
-    "timesteps": (1, MAX_STEPS),
-    "n_envs": (1, MAX_N_ENVS),
-    "demo_tasks": (1, 10**7),
-    "bc_epochs": (0, 10**5),
-    "workers": (1, 1024),
-    "eval_freq": (1, MAX_STEPS),
-    "n_eval": (1, 100_000),
-    "checkpoint_freq": (1, MAX_STEPS),
-    "threads": (1, 1024),
-    "n_max": (1, 10**4),
-    "dagger_rounds": (0, 10**4),
-    "dagger_tasks": (1, 10**7),
-}
-"""The integer fields of a training config and their ranges."""
 
 HYPERPARAMETER_RANGES: dict[str, tuple[type, float, float, bool]] = {
     "learning_rate": (float, 0.0, 1.0, False),
@@ -59,11 +43,12 @@ def option(name: str) -> str:
 
 
 def check_numbers(config: Any) -> None:
-    """The integer fields of ``config`` (a TrainConfig) within :data:`INTEGERS`."""
-    for name, (low, high) in INTEGERS.items():
-        value = getattr(config, name)
-        if value is not None:
-            check_int(value, option(name), low=low, high=high)
+    """The integer fields of ``config`` (a TrainConfig) within their ``limits``."""
+    for f in fields(config):
+        value = getattr(config, f.name)
+        if "limits" in f.metadata and value is not None:
+            low, high = f.metadata["limits"]
+            check_int(value, option(f.name), low=low, high=high)
     if config.vec_env == "subproc" and config.n_envs > 2 * usable_cpus():
         raise ValueError(
             f"--n-envs {config.n_envs} with --vec-env subproc starts {config.n_envs} processes; "

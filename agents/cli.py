@@ -46,6 +46,7 @@ def add_config_options(p: argparse.ArgumentParser) -> None:
     for f in fields(TrainConfig):
         meta = dict(f.metadata)
         group, text = groups[meta.pop("group")], meta.pop("help")
+        meta.pop("limits", None)  # checked with the config
         text = text.replace("{recipe}", recipe(f.name))
         if f.name in QUICK:
             text += f"; {QUICK[f.name]} with --quick"

@@ -26,10 +26,16 @@ from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from agents.checks import check_hyperparameters, check_numbers, check_publishable
+from agents.checks import (
+    MAX_N_ENVS,
+    MAX_STEPS,
+    check_hyperparameters,
+    check_numbers,
+    check_publishable,
+)
 from agents.imitation import EXPERTS
 from modquad_gym.core.extras import import_optional
-from modquad_gym.core.options import seed_option
+from modquad_gym.core.options import MAX_SEED, seed_option
 from modquad_gym.core.outputs import atomic_write, write_text
 from modquad_gym.policy.models import DEFAULT_MODEL
 from modquad_gym.scoring.tiers import TIERS, get_tier
@@ -74,8 +80,9 @@ VEC_ENVS = ("dummy", "subproc")
 def option(default: Any, help: str, group: str = "recipe", **argparse: Any) -> Any:
     """A :class:`TrainConfig` field that is also the ``train.py`` option ``--name``
     (:mod:`agents.cli` derives the option from the field): its help (``{recipe}`` stands for
-    the tiers' recipes of it), its group of ``--help`` and argparse keywords besides the type
-    and default, which come from the field."""
+    the tiers' recipes of it), its group of ``--help``, an integer's ``limits`` (low, high;
+    :func:`~agents.checks.check_numbers`) and argparse keywords besides the type and default,
+    which come from the field."""
     metadata = {"help": help, "group": group, **argparse}
     if isinstance(default, dict):
         return field(default_factory=dict, metadata=metadata)
@@ -102,11 +109,15 @@ class TrainConfig:
         "run",
         choices=tuple(TIERS),
     )
-    seed: int = option(0, "training seed; env i uses seed + i", "run", type=seed_option)
-    timesteps: int | None = option(
-        None, f"total PPO environment steps (default {DEFAULT_TIMESTEPS}; {{recipe}})"
+    seed: int = option(
+        0, "training seed; env i uses seed + i", "run", type=seed_option, limits=(0, MAX_SEED)
     )
-    n_envs: int = option(2, "parallel environments")
+    timesteps: int | None = option(
+        None,
+        f"total PPO environment steps (default {DEFAULT_TIMESTEPS}; {{recipe}})",
+        limits=(1, MAX_STEPS),
+    )
+    n_envs: int = option(2, "parallel environments", limits=(1, MAX_N_ENVS))
     vec_env: str = option(
         "dummy", "vectorised env class (dummy: faster on 2 cores)", choices=VEC_ENVS
     )
@@ -116,18 +127,22 @@ class TrainConfig:
         "file (default: the tier's: mixed on current)",
     )
     n_max: int | None = option(
-        None, "largest structure in modules (default: the tier's, 7 on current)"
+        None,
+        "largest structure in modules (default: the tier's, 7 on current)",
+        limits=(1, 10**4),
     )
     demo_tasks: int | None = option(
         None,
         "training tasks with an expert episode each for behaviour cloning (default "
         f"{IMITATION['demo_tasks']}; {{recipe}})",
         "imitation",
+        limits=(1, 10**7),
     )
     bc_epochs: int = option(
         IMITATION["bc_epochs"],
         "behaviour-cloning epochs before PPO; 0: PPO alone from scratch",
         "imitation",
+        limits=(0, 10**5),
     )
     expert: str | None = option(
         None,
@@ -148,25 +163,35 @@ class TrainConfig:
         "rounds of the expert in the loop after cloning: the learner's own episodes on fresh "
         "tasks, every state labelled by the certified search, cloned again; 0: none",
         "imitation",
+        limits=(0, 10**4),
     )
     dagger_tasks: int | None = option(
-        None, "fresh training tasks per DAgger round (default a tenth of --demo-tasks)", "imitation"
+        None,
+        "fresh training tasks per DAgger round (default a tenth of --demo-tasks)",
+        "imitation",
+        limits=(1, 10**7),
     )
-    workers: int = option(2, "processes that collect the expert demonstrations", "imitation")
+    workers: int = option(
+        2, "processes that collect the expert demonstrations", "imitation", limits=(1, 1024)
+    )
     resume: Path | None = option(
         None, "continue PPO from this model .zip (no behaviour cloning)", "run"
     )
     eval_freq: int | None = option(
-        None, "evaluate every this many total steps (default timesteps / 20)"
+        None,
+        "evaluate every this many total steps (default timesteps / 20)",
+        limits=(1, MAX_STEPS),
     )
-    n_eval: int = option(40, "validation tasks")
+    n_eval: int = option(40, "validation tasks", limits=(1, 100_000))
     checkpoint_freq: int = option(
-        50_000, "checkpoint every this many total steps, under --tensorboard"
+        50_000,
+        "checkpoint every this many total steps, under --tensorboard",
+        limits=(1, MAX_STEPS),
     )
     tensorboard: Path = option(
         Path("runs"), "TensorBoard logs and checkpoints (runs/ is gitignored)", "run"
     )
-    threads: int = option(1, "torch threads")
+    threads: int = option(1, "torch threads", limits=(1, 1024))
     progress: bool = option(True, "no progress bars", "run")
     env_kwargs: dict = option(
         {}, 'extra env keywords as JSON, e.g. \'{"reward_weights": {"w_module": 0.2}}\''
