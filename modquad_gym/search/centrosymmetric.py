@@ -159,9 +159,3 @@ def _symmetric_pairs(cells: Key) -> Iterator[tuple[Cell, Cell]]:
         sym = s.centrosymmetric_partner(cell)
         if sym is not None and sym != cell and sym not in taken:
             yield cell, sym
-
-
-def grow_symmetric(level: Iterable[Key]) -> list[Key]:
-    """Errata 3 fixed: every structure of the level, grown by each attachable cell s together
-    with the cell s_sym centrosymmetric to s about the COM (when s_sym is also attachable)."""
-    return list(dict.fromkeys(k for keys in _children(level, 1) for k in keys))

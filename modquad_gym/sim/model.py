@@ -40,16 +40,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from modquad_gym.geometry.inertia import inertia_about_com
-from modquad_gym.geometry.module import DEFAULT_HEIGHT, DEFAULT_MASS, GRAVITY
+from modquad_gym.geometry.module import DEFAULT_HEIGHT, GRAVITY
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_f_max
 from modquad_gym.viz.raster import type_colour
 
 if TYPE_CHECKING:  # pragma: no cover
     from modquad_gym.dynamics import Payload
-
-MODULE_MASS = DEFAULT_MASS
-"""Default mass of one module in kg (:data:`modquad_gym.geometry.module.DEFAULT_MASS`)."""
 
 MODULE_THICKNESS = DEFAULT_HEIGHT
 """Height of a module's box in metres (drawn; the inertia is each module type's own)."""

@@ -73,10 +73,6 @@ class Grid:
         y, x = divmod(int(action) % self.n_cells, self.side)
         return (x - self.radius, y - self.radius)
 
-    def neighbours(self, index: int) -> list[int]:
-        """The indices of the grid neighbours of cell ``index``."""
-        return self._neighbours[index]
-
     def cell(self, index: int) -> Cell:
         """The cell (x, y) of a cell index (a table look-up: the hot path)."""
         return self._cells[index]
