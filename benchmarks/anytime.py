@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import os
 from pathlib import Path
 
 import numpy as np
@@ -30,13 +29,12 @@ import numpy as np
 from benchmarks.common import (
     bench_args,
     int_option,
-    machine_description,
+    made_by,
     markdown_table,
     run_main,
-    write_csv,
+    write_report,
 )
 from benchmarks.measure import fresh, measured
-from modquad_gym.core.outputs import write_text
 
 GOALS = {"gap_64_pct": 5.0, "seconds": 60.0, "memory_MB": 2048.0}
 
@@ -159,7 +157,6 @@ def goal_lines(rows: list[dict], time_limit: float) -> list[str]:
 
 
 def report(rows: list[dict], args: argparse.Namespace) -> str:
-    load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
     command = (
         f"python -m benchmarks.anytime --sizes {' '.join(map(str, args.sizes))} "
         f"--tasks {args.tasks} "
@@ -170,9 +167,8 @@ def report(rows: list[dict], args: argparse.Namespace) -> str:
         [
             "# The anytime search at scale, and the exact search's reach",
             "",
-            f"Made by `{command}` on {machine_description()}; each run in a fresh process; "
-            f"load average at the end {load} (the machine was shared: seconds are upper "
-            "bounds of a quiet machine's).",
+            made_by(command, "; each run in a fresh process")
+            + " (the machine was shared: seconds are upper bounds of a quiet machine's).",
             "",
             "`planted n`: 40 wrenches planted in a hidden random n-module structure (the "
             "planted size bounds the optimum from above). `lift_bound`: the force bound (no "
@@ -213,8 +209,7 @@ def main(argv: list[str] | None = None) -> None:
     rows = planted_rows(args.sizes, args.tasks, args.seed, args.time_limit)
     if args.reach:
         rows += reach_rows(args.seed, args.workers, args.time_limit)
-    write_csv(rows, Path(args.out) / "anytime.csv")
-    write_text(Path(args.out) / "anytime.md", report(rows, args))
+    write_report(Path(args.out), "anytime", rows, report(rows, args))
     print("\n".join(goal_lines(rows, args.time_limit)))
 
 

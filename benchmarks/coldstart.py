@@ -28,7 +28,14 @@ import tempfile
 import time
 from pathlib import Path
 
-from benchmarks.common import bench_args, machine_description, markdown_table, run_main, write_csv
+from benchmarks.common import (
+    bench_args,
+    load_average,
+    machine_description,
+    markdown_table,
+    run_main,
+    write_csv,
+)
 from modquad_gym.core.options import int_option
 from modquad_gym.core.outputs import write_text
 
@@ -134,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
                 rows.append({"numba cache": cache, "measurement": key, "median": round(value, 4),
                              "runs": len(rounds), "goal": goal or "", "": met})  # fmt: skip
     write_csv(rows, args.out / "coldstart.csv")
-    load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
+    load = load_average(", ")
     text = (
         "# Cold start\n\nCommand: "
         f"`python -m benchmarks.coldstart {' '.join(argv or sys.argv[1:])}`"

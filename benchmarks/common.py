@@ -1,10 +1,11 @@
 """What the measurement scripts share: their option parsing and running, the machine line, a random
-structure and a markdown table, and the list of the scripts (:func:`scripts`)."""
+structure, a markdown table, writing a report, and the list of the scripts (:func:`scripts`)."""
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -20,7 +21,9 @@ __all__ = [
     "add_force",
     "bench_args",
     "int_option",
+    "load_average",
     "machine_description",
+    "made_by",
     "markdown_table",
     "parse_bench_args",
     "random_structure",
@@ -29,6 +32,7 @@ __all__ = [
     "scripts",
     "seed_option",
     "write_csv",
+    "write_report",
     "write_text",
 ]
 
@@ -143,3 +147,24 @@ def markdown_table(rows: list[dict], floatfmt: str = ".3g") -> str:
     lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
     lines += ["| " + " | ".join(fmt(r[k]) for k in keys) + " |" for r in rows]
     return "\n".join(lines)
+
+
+def load_average(sep: str = " / ") -> str:
+    """The 1-, 5- and 15-minute load averages joined by ``sep``: how busy the (often shared)
+    machine was when a report was written."""
+    return sep.join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def made_by(command: str, how: str = "") -> str:
+    """A report's "Made by" line: ``command``, the machine, ``how`` it ran (text that follows
+    the machine, e.g. ``"; one process"``) and the load average at the end (no final stop)."""
+    return (
+        f"Made by `{command}` on {machine_description()}{how}; load average at the end "
+        f"{load_average()}"
+    )
+
+
+def write_report(out: Path, stem: str, rows: list[dict], text: str) -> None:
+    """A benchmark's report: ``rows`` to ``out/STEM.csv``, ``text`` to ``out/STEM.md``."""
+    write_csv(rows, out / f"{stem}.csv")
+    write_text(out / f"{stem}.md", text)

@@ -22,7 +22,6 @@ returned on every CPU. The report ends with the commands that run the same on a 
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
 import numpy as np
@@ -30,12 +29,11 @@ import numpy as np
 from benchmarks.common import (
     bench_args,
     int_option,
-    machine_description,
+    made_by,
     markdown_table,
     run_main,
-    write_csv,
+    write_report,
 )
-from modquad_gym.core.outputs import write_text
 
 MODES = (("serial (no Ray)", 0), ("Ray, 1 CPU", 1), ("Ray, 2 CPUs", 2))
 """(label, Ray CPUs; 0: the serial path of :mod:`modquad_gym.core.distributed`)."""
@@ -171,7 +169,10 @@ ray stop
 
 
 def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
-    load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
+    command = (
+        f"python -m benchmarks.distributed --tasks {args.tasks} --n-max {args.n_max} "
+        f"--search-n-max {' '.join(map(str, args.search_n_max))} --seed {args.seed}"
+    )
     batch = [r for r in rows if r["workload"].startswith("optima")]
     searches: dict[str, list[dict]] = {}
     for r in rows:
@@ -187,10 +188,7 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
     return "\n".join([
         "# Batch work and a large search on Ray",
         "",
-        f"Made by `python -m benchmarks.distributed --tasks {args.tasks} --n-max {args.n_max} "
-        f"--search-n-max {' '.join(map(str, args.search_n_max))} --seed {args.seed}` on "
-        f"{machine_description()}, "
-        f"in {seconds:.0f} s; load average at the end {load} (above ~1 another job shared the "
+        made_by(command, f", in {seconds:.0f} s") + " (above ~1 another job shared the "
         "CPUs, so the speed-ups are those of a shared machine).",
         "",
         "Each workload runs three ways: the serial path of "
@@ -251,9 +249,8 @@ def main(argv: list[str] | None = None) -> None:
     for n in args.search_n_max:
         rows += run_search(n, args.seed)
     rows = _with_speedups(rows)
-    write_csv(rows, args.out / "distributed.csv")
     text = report(rows, args, time.perf_counter() - t0)
-    write_text(args.out / "distributed.md", text)
+    write_report(args.out, "distributed", rows, text)
     print(text)
 
 

@@ -19,13 +19,12 @@ acceleration), whether it can produce the motion's wrenches (exact oracle) and h
 from __future__ import annotations
 
 import argparse
-import os
 import time
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import bench_args, machine_description, markdown_table, run_main, write_csv
+from benchmarks.common import bench_args, made_by, markdown_table, run_main, write_csv
 from modquad_gym.core.outputs import write_text
 
 OUTPUTS = ("report.md", "dynamics.csv", "modules_vs_speed.png")
@@ -159,7 +158,6 @@ def goal_lines(rows: list[dict]) -> list[str]:
 
 
 def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
-    load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
     command = (
         "python -m benchmarks.dynamics --circle-speeds "
         + " ".join(f"{v:g}" for v in args.circle_speeds)
@@ -173,8 +171,8 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
     return "\n".join([
         "# Designing for a motion: minimum structures per speed, flown in MuJoCo",
         "",
-        f"Made by `{command}` on {machine_description()} in {seconds:.0f} s; load average at "
-        f"the end {load} (the machine was shared: seconds are upper bounds).",
+        made_by(command, f" in {seconds:.0f} s") + " (the machine was shared: seconds are upper "
+        "bounds).",
         "",
         "Motions sampled at 50 Hz, f_max = 2 N per rotor, 0.3 kg T-modules (eta = 45 deg). "
         "`n_min`: the certified minimum module count for the motion (exhaustive search over "

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.common import bench_args, int_option, markdown_table, run_main, write_csv
+from benchmarks.common import bench_args, int_option, markdown_table, run_main, write_report
 from benchmarks.heterogeneous_measure import (
     EXTERNAL_F_MAX,
     GOALS,
@@ -41,7 +41,6 @@ from benchmarks.heterogeneous_measure import (
     worst_case,
 )
 from benchmarks.heterogeneous_report import COST_COLUMNS, SAVINGS_COLUMNS, figure, report
-from modquad_gym.core.outputs import write_text
 from modquad_gym.geometry.module import palette
 from modquad_gym.search import exhaustive_search
 
@@ -87,8 +86,7 @@ def main(argv: list[str] | None = None) -> None:
     worst = worst_case(args.seed, args.n_max)
     sim = mujoco_rows(rows, sets, args.mujoco) if args.mujoco else []
     captions = figure(rows, sets, args.n_max, args.out / "heterogeneous.png")
-    write_csv(rows, args.out / "heterogeneous.csv")
-    write_text(args.out / "heterogeneous.md", report(args, rows, summ, worst, sim, captions))
+    write_report(args.out, "heterogeneous", rows, report(args, rows, summ, worst, sim, captions))
     print(markdown_table(summ))
 
 

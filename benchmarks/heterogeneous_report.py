@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from benchmarks.common import machine_description, markdown_table
+from benchmarks.common import made_by, markdown_table
 from benchmarks.heterogeneous_measure import EXTERNAL_F_MAX, PALETTE
 from modquad_gym.geometry.module import STOCK_TYPES, palette
 from modquad_gym.search import exhaustive_search
@@ -71,15 +71,14 @@ def _columns(rows: list[dict], keys: tuple[str, ...]) -> str:
 
 def report(args, rows, summ, worst, sim, captions) -> str:
     """The text of ``heterogeneous.md``."""
-    import os
-
-    load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
+    command = (
+        f"python -m benchmarks.heterogeneous --tasks {args.tasks} --seed {args.seed} "
+        f"--n-max {args.n_max}"
+    )
     lines = [
         "# Heterogeneous modules: mixing types, self-weight, search cost",
         "",
-        f"Made by `python -m benchmarks.heterogeneous --tasks {args.tasks} --seed {args.seed} "
-        f"--n-max {args.n_max}` on {machine_description()}; one process; load average at the "
-        f"end {load}. Per-task rows: `heterogeneous.csv`.",
+        made_by(command, "; one process") + ". Per-task rows: `heterogeneous.csv`.",
         "",
         "Module types (`modquad_gym.geometry.module.STOCK_TYPES`, 0.3 kg each): `t45` the paper's "
         "T-module (eta = pi/4), `t45m` its mirrored tilts, `flat` an untilted quadrotor. "

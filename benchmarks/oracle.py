@@ -41,6 +41,7 @@ import numpy as np
 from benchmarks.common import (
     bench_args,
     int_option,
+    load_average,
     machine_description,
     markdown_table,
     random_structure,
@@ -260,7 +261,7 @@ def _small_goals(auto: list[dict], builds: dict, peak_mb: float, facets_40: int)
 
 def _load_average() -> str:
     try:
-        return ", ".join(f"{x:.2f}" for x in os.getloadavg())
+        return load_average(", ")
     except OSError:  # pragma: no cover - not on every platform
         return "unknown"
 

@@ -20,9 +20,9 @@ from benchmarks.common import (
     machine_description,
     markdown_table,
     run_main,
-    write_csv,
+    write_report,
 )
-from modquad_gym.core.outputs import save_figure, write_text
+from modquad_gym.core.outputs import save_figure
 from modquad_gym.geometry.polyominoes import A001168
 from modquad_gym.oracle import allocate
 from modquad_gym.search import centrosymmetric_search, exhaustive_search
@@ -60,7 +60,6 @@ def run(n_seeds: int, out: Path) -> list[dict]:
     literal = PaperTasks(fz_offset=0.0, fz_gain=30.0, fz_reading="literal")
     lit = [exhaustive_search(literal(np.random.default_rng(s)), n_max=7) for s in range(n_seeds)]
     literal_feasible = sum(r.structure is not None for r in lit)
-    write_csv(rows, out / "paper_reproduction.csv")
     figure_text = []
     if shown is not None:
         figure_text = _figures(*shown, out)
@@ -107,7 +106,7 @@ def run(n_seeds: int, out: Path) -> list[dict]:
         "",
         *figure_text,
     ]
-    write_text(out / "paper_reproduction.md", "\n".join(text) + "\n")
+    write_report(out, "paper_reproduction", rows, "\n".join(text) + "\n")
     return rows
 
 

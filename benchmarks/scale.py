@@ -23,7 +23,6 @@ of an answer is measured to it and to the planted size (an upper bound on the op
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +30,7 @@ import numpy as np
 from benchmarks.common import (
     bench_args,
     int_option,
+    load_average,
     machine_description,
     markdown_table,
     run_main,
@@ -369,7 +369,7 @@ def command_line(args) -> str:
 
 
 def report(rows: list[dict], summary_rows: list[dict], args) -> str:
-    load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
+    load = load_average()
     return "\n".join([
         f"# Every method at {min(args.bands)}-{max(args.bands)} modules",
         "",

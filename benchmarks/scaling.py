@@ -26,12 +26,11 @@ import numpy as np
 from benchmarks.common import (
     bench_args,
     int_option,
-    machine_description,
+    made_by,
     markdown_table,
     run_main,
-    write_csv,
+    write_report,
 )
-from modquad_gym.core.outputs import write_text
 from modquad_gym.geometry.polyominoes import A001168
 
 GOALS = {"refute 12": 3.0, "refute 14": 60.0, "planted 12": 5.0, "memory_MB": 2048.0}
@@ -145,15 +144,15 @@ def goal_lines(rows: list[dict]) -> list[str]:
 
 
 def report(rows: list[dict], args: argparse.Namespace) -> str:
-    load = " / ".join(f"{x:.2f}" for x in __import__("os").getloadavg())
+    command = (
+        f"python -m benchmarks.scaling --seed {args.seed} --n-max {args.n_max} "
+        f"--reference-n-max {args.reference_n_max} --tasks {args.tasks}"
+    )
     return "\n".join(
         [
             "# Certified exhaustive search at scale",
             "",
-            f"Made by `python -m benchmarks.scaling --seed {args.seed} --n-max {args.n_max} "
-            f"--reference-n-max {args.reference_n_max} --tasks {args.tasks}` on "
-            f"{machine_description()}; one process per run (workers = 1); load average at "
-            f"the end {load}.",
+            made_by(command, "; one process per run (workers = 1)") + ".",
             "",
             "`refute every level`: one low-force task with no structure of up to "
             f"{args.n_max} modules, searched with n_max = n (every level up to n decided: "
@@ -188,8 +187,7 @@ def main(argv: list[str] | None = None) -> None:
         outputs=("search_scaling.md", "search_scaling.csv"),
     )
     rows = run(args.seed, args.n_max, args.reference_n_max, args.tasks, args.out)
-    write_csv(rows, args.out / "search_scaling.csv")
-    write_text(args.out / "search_scaling.md", report(rows, args))
+    write_report(args.out, "search_scaling", rows, report(rows, args))
     print("\n".join(goal_lines(rows)))
 
 

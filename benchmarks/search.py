@@ -33,9 +33,8 @@ from benchmarks.common import (
     markdown_table,
     random_structure,
     run_main,
-    write_csv,
+    write_report,
 )
-from modquad_gym.core.outputs import write_text
 from modquad_gym.geometry.polyominoes import PolyominoStream
 from modquad_gym.geometry.structure import Structure, normalise
 from modquad_gym.oracle import Zonotope, decide_from_gamma
@@ -170,9 +169,8 @@ def run(n_tasks: int, seed: int, ref_limit: int, out: Path) -> list[dict]:
     goals = _goal_lines(rows, machine)
     for r in rows:
         del r["skipped_levels_list"]
-    write_csv(rows, out / "search_benchmark.csv")
     text = _report(rows, goals, machine, n_tasks, seed, ref_limit, enum_seconds)
-    write_text(out / "search_benchmark.md", text)
+    write_report(out, "search_benchmark", rows, text)
     return rows
 
 
