@@ -29,8 +29,7 @@ import numpy as np
 from benchmarks.common import (
     bench_args,
     int_option,
-    made_by,
-    markdown_table,
+    report_page,
     run_main,
     write_report,
 )
@@ -163,28 +162,23 @@ def report(rows: list[dict], args: argparse.Namespace) -> str:
         f"--time-limit {args.time_limit:g} --seed {args.seed}"
         + (f" --reach --workers {args.workers}" if args.reach else "")
     )
-    return "\n".join(
-        [
-            "# The anytime search at scale, and the exact search's reach",
-            "",
-            made_by(command, "; each run in a fresh process")
-            + " (the machine was shared: seconds are upper bounds of a quiet machine's).",
-            "",
-            "`planted n`: 40 wrenches planted in a hidden random n-module structure (the "
-            "planted size bounds the optimum from above). `lift_bound`: the force bound (no "
-            "structure of fewer modules can exert the task's forces). `lower_bound`: what the "
-            "search proved (lift, level bounds, levels refuted exactly). `gap_to_planted_pct`: "
-            "(found - planted) / planted; negative: smaller than the hidden structure. "
-            "`refute every level to 16`: a low-force task no structure of up to 14 modules "
-            "satisfies; `planted 16`: a low-force task planted in a hidden 16-module structure. "
-            "`peak_MB`: the process and its descendants (Ray workers), sampled.",
-            "",
-            markdown_table(rows),
-            "",
-            "Goals of the issue:",
-            *goal_lines(rows, args.time_limit),
-            "",
-        ]
+    return report_page(
+        "The anytime search at scale, and the exact search's reach",
+        command,
+        "`planted n`: 40 wrenches planted in a hidden random n-module structure (the "
+        "planted size bounds the optimum from above). `lift_bound`: the force bound (no "
+        "structure of fewer modules can exert the task's forces). `lower_bound`: what the "
+        "search proved (lift, level bounds, levels refuted exactly). `gap_to_planted_pct`: "
+        "(found - planted) / planted; negative: smaller than the hidden structure. "
+        "`refute every level to 16`: a low-force task no structure of up to 14 modules "
+        "satisfies; `planted 16`: a low-force task planted in a hidden 16-module structure. "
+        "`peak_MB`: the process and its descendants (Ray workers), sampled.",
+        rows,
+        "Goals of the issue:",
+        *goal_lines(rows, args.time_limit),
+        "",
+        how="; each run in a fresh process",
+        caveat=" (the machine was shared: seconds are upper bounds of a quiet machine's)",
     )
 
 

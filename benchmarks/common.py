@@ -1,5 +1,6 @@
 """What the measurement scripts share: their option parsing and running, the machine line, a random
-structure, a markdown table, writing a report, and the list of the scripts (:func:`scripts`)."""
+structure, a markdown table, a report's page and its writing, and the list of the scripts
+(:func:`scripts`)."""
 
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ __all__ = [
     "markdown_table",
     "parse_bench_args",
     "random_structure",
+    "report_page",
     "run_main",
     "run_script",
     "scripts",
@@ -155,13 +157,22 @@ def load_average(sep: str = " / ") -> str:
     return sep.join(f"{x:.2f}" for x in os.getloadavg())
 
 
-def made_by(command: str, how: str = "") -> str:
-    """A report's "Made by" line: ``command``, the machine, ``how`` it ran (text that follows
-    the machine, e.g. ``"; one process"``) and the load average at the end (no final stop)."""
+def made_by(command: str, how: str = "", caveat: str = "") -> str:
+    """A report's "Made by" sentence: ``command``, the machine, ``how`` it ran (text after the
+    machine, e.g. ``"; one process"``), the load average at the end, then ``caveat``."""
     return (
         f"Made by `{command}` on {machine_description()}{how}; load average at the end "
-        f"{load_average()}"
+        f"{load_average()}{caveat}."
     )
+
+
+def report_page(
+    title: str, command: str, notes: str, rows: list[dict], *more: str, how="", caveat=""
+) -> str:
+    """A report's markdown page: ``# title``, its :func:`made_by` sentence, ``notes`` (what the
+    columns mean), the table of ``rows``, then the ``more`` lines."""
+    made = made_by(command, how, caveat)
+    return "\n".join([f"# {title}", "", made, "", notes, "", markdown_table(rows), "", *more])
 
 
 def write_report(out: Path, stem: str, rows: list[dict], text: str) -> None:

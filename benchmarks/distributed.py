@@ -29,8 +29,7 @@ import numpy as np
 from benchmarks.common import (
     bench_args,
     int_option,
-    made_by,
-    markdown_table,
+    report_page,
     run_main,
     write_report,
 )
@@ -185,12 +184,9 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
                 f"{two['speedup_work']:g}x without Ray's start-up")  # fmt: skip
 
     startups = [r["startup_s"] for r in rows if r["startup_s"] > 0]
-    return "\n".join([
-        "# Batch work and a large search on Ray",
-        "",
-        made_by(command, f", in {seconds:.0f} s") + " (above ~1 another job shared the "
-        "CPUs, so the speed-ups are those of a shared machine).",
-        "",
+    return report_page(
+        "Batch work and a large search on Ray",
+        command,
         "Each workload runs three ways: the serial path of "
         "`modquad_gym.core.distributed` (no Ray), "
         "an embedded Ray with 1 CPU, and one with 2 CPUs. `wall_s` is what a user waits for "
@@ -205,9 +201,7 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
         "tasks of 262,144 structures, each starting from the separating directions known "
         "before the level (the serial search carries them from one structure to the next, so "
         "a split level costs more CPU time in all; less so the larger the level).",
-        "",
-        markdown_table(rows),
-        "",
+        rows,
         f"- Batch of {args.tasks} tasks, 2 CPUs vs serial: {line(batch)}.",
         *[f"- {name}, 2 CPUs vs serial: {line(rs)}." for name, rs in searches.items()],
         f"- Ray's start-up on this machine: {min(startups):g}-{max(startups):g} s per start, "
@@ -223,7 +217,10 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
         "",
         CLUSTER,
         "",
-    ])  # fmt: skip
+        how=f", in {seconds:.0f} s",
+        caveat=" (above ~1 another job shared the CPUs, so the speed-ups are those of a shared "
+        "machine)",
+    )  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import bench_args, made_by, markdown_table, run_main, write_csv
+from benchmarks.common import bench_args, report_page, run_main, write_csv
 from modquad_gym.core.outputs import write_text
 
 OUTPUTS = ("report.md", "dynamics.csv", "modules_vs_speed.png")
@@ -168,12 +168,9 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
         + f" --n-max {args.n_max}"
     )
     table = [{k: v for k, v in r.items() if k != "cells"} for r in rows]
-    return "\n".join([
-        "# Designing for a motion: minimum structures per speed, flown in MuJoCo",
-        "",
-        made_by(command, f" in {seconds:.0f} s") + " (the machine was shared: seconds are upper "
-        "bounds).",
-        "",
+    return report_page(
+        "Designing for a motion: minimum structures per speed, flown in MuJoCo",
+        command,
         "Motions sampled at 50 Hz, f_max = 2 N per rotor, 0.3 kg T-modules (eta = 45 deg). "
         "`n_min`: the certified minimum module count for the motion (exhaustive search over "
         f"every structure up to {args.n_max} modules with the structure's own mass and inertia "
@@ -185,9 +182,7 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
         "oracle); its flight along the motion. `diverged`: the flight left the path by 1 m. "
         "`lower_bound` `any`: the lift check proves that no number of modules can fly the "
         "motion (the modules cannot carry their own weight along it).",
-        "",
-        markdown_table(table),
-        "",
+        table,
         "![modules vs speed](modules_vs_speed.png)",
         "",
         "Goals of the issue:",
@@ -197,7 +192,9 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
         "",
         *[f"- {r['motion']} {r['parameter']}={r['value']:g}: {r['cells']}" for r in rows],
         "",
-    ])  # fmt: skip
+        how=f" in {seconds:.0f} s",
+        caveat=" (the machine was shared: seconds are upper bounds)",
+    )
 
 
 def main(argv: list[str] | None = None) -> None:

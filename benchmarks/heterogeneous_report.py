@@ -78,7 +78,7 @@ def report(args, rows, summ, worst, sim, captions) -> str:
     lines = [
         "# Heterogeneous modules: mixing types, self-weight, search cost",
         "",
-        made_by(command, "; one process") + ". Per-task rows: `heterogeneous.csv`.",
+        made_by(command, "; one process") + " Per-task rows: `heterogeneous.csv`.",
         "",
         "Module types (`modquad_gym.geometry.module.STOCK_TYPES`, 0.3 kg each): `t45` the paper's "
         "T-module (eta = pi/4), `t45m` its mirrored tilts, `flat` an untilted quadrotor. "

@@ -26,8 +26,7 @@ import numpy as np
 from benchmarks.common import (
     bench_args,
     int_option,
-    made_by,
-    markdown_table,
+    report_page,
     run_main,
     write_report,
 )
@@ -148,26 +147,21 @@ def report(rows: list[dict], args: argparse.Namespace) -> str:
         f"python -m benchmarks.scaling --seed {args.seed} --n-max {args.n_max} "
         f"--reference-n-max {args.reference_n_max} --tasks {args.tasks}"
     )
-    return "\n".join(
-        [
-            "# Certified exhaustive search at scale",
-            "",
-            made_by(command, "; one process per run (workers = 1)") + ".",
-            "",
-            "`refute every level`: one low-force task with no structure of up to "
-            f"{args.n_max} modules, searched with n_max = n (every level up to n decided: "
-            "`evaluated` counts the structures decided, the rest of each level is skipped by "
-            "exact level bounds). `planted optimum 12`: tasks whose certified optimum is 12. "
-            "`reference` is the previous implementation on the same task; `speedup` = its wall "
-            "time / the streaming search's, in this run. `peak_MB` is the run's peak resident "
-            "memory (its own process, Python and numba included).",
-            "",
-            markdown_table(rows),
-            "",
-            "Goals of the issue:",
-            *goal_lines(rows),
-            "",
-        ]
+    return report_page(
+        "Certified exhaustive search at scale",
+        command,
+        "`refute every level`: one low-force task with no structure of up to "
+        f"{args.n_max} modules, searched with n_max = n (every level up to n decided: "
+        "`evaluated` counts the structures decided, the rest of each level is skipped by "
+        "exact level bounds). `planted optimum 12`: tasks whose certified optimum is 12. "
+        "`reference` is the previous implementation on the same task; `speedup` = its wall "
+        "time / the streaming search's, in this run. `peak_MB` is the run's peak resident "
+        "memory (its own process, Python and numba included).",
+        rows,
+        "Goals of the issue:",
+        *goal_lines(rows),
+        "",
+        how="; one process per run (workers = 1)",
     )
 
 
