@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from modquad_gym.cli.common import add_force, print_help
+from modquad_gym.cli.common import add_command, add_force, print_help
 from modquad_gym.cli.task_motion import add_motion
 from modquad_gym.core.options import int_option, real_option, seed_option
 from modquad_gym.tasks import TASK_KINDS, PaperTasks, PlantedTasks, ScrewdriverTask
@@ -34,14 +34,15 @@ def add_task(sub) -> None:
 
 
 def add_generate(tsub) -> None:
-    g = tsub.add_parser(
+    g = add_command(
+        tsub,
         "generate",
+        cmd_task_generate,
         help="write a generated task file",
         description="Write a seeded task: paper-like random wrenches (Sec. VI, "
         "f_z reading documented in modquad_gym.tasks), a planted task (wrenches "
         "inside a hidden random structure), or the screwdriver of Fig. 1.",
     )
-    g.set_defaults(func=cmd_task_generate)
     g.add_argument(
         "--kind",
         choices=tuple(GENERATE),
@@ -121,14 +122,15 @@ def cmd_task_generate(args: argparse.Namespace) -> int:
 def add_example(tsub) -> None:
     from modquad_gym.tasks import example_names
 
-    e = tsub.add_parser(
+    e = add_command(
+        tsub,
         "example",
+        cmd_task_example,
         help="copy a task file shipped with the package",
         description="Copy one of the example task files shipped with the package (they travel "
         "with the wheel); without NAME, list them. Any --task also reads them directly as "
         "example:NAME, e.g. `modquad solve --task example:screwdriver`.",
     )
-    e.set_defaults(func=cmd_task_example)
     e.add_argument(
         "name",
         nargs="?",

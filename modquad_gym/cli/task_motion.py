@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import re
 
-from modquad_gym.cli.common import add_force
+from modquad_gym.cli.common import add_command, add_force
 from modquad_gym.core.options import real_option
 
 PARAMETERS = {
@@ -30,15 +30,16 @@ OPTION_HELP = {
 
 
 def add_motion(tsub) -> None:
-    m = tsub.add_parser(
+    m = add_command(
+        tsub,
         "motion",
+        cmd_task_motion,
         help="write a dynamic task file (a trajectory, optional payload)",
         description="Write a dynamic task: a motion (hover, straight line, circle, "
         "figure-eight, push) sampled with closed-form derivatives, holding a payload. Its "
         "wrenches depend on the structure that flies it; `modquad solve` finds the smallest "
         "structure that can, `modquad validate` flies it in MuJoCo.",
     )
-    m.set_defaults(func=cmd_task_motion)
     m.add_argument("--kind", choices=tuple(PARAMETERS), required=True, help="the motion")
     for name, text in OPTION_HELP.items():
         flag = "--force-n" if name == "push_force" else "--" + name.replace("_", "-")
