@@ -1,0 +1,49 @@
+"""Every search's answers and counts on the shipped held-out suites are those the committed
+reports hold (issue 33: consolidation changes the code, never an answer).
+
+``results/tier_current/benchmark.csv`` (``modquad score --tier current``) and
+``results/leaderboard_searches.csv`` (``python -m benchmarks.leaderboard --rescore-searches``)
+hold one row per (method, task): the module count, the structure and the configurations
+evaluated. The searches are run again here on the current tier's tasks and compared row by row
+(counts and cells exactly: they are decisions, not floats)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+
+from modquad_gym.scoring.agents import run_benchmark
+from modquad_gym.scoring.tiers import get_tier
+
+RESULTS = Path(__file__).resolve().parents[1] / "results"
+FAST = ("exhaustive", "centrosymmetric", "greedy", "random", "anytime", "beam")
+"""The searches compared on every task; genetic and milp (a second per task) on the first
+tasks of each suite."""
+
+
+def stored_rows() -> dict[tuple[str, str, str], dict]:
+    rows = {}
+    for name in ("tier_current/benchmark.csv", "leaderboard_searches.csv"):
+        with open(RESULTS / name, newline="") as f:
+            for row in csv.DictReader(f):
+                rows[row["method"], row["suite"], row["task"]] = row
+    return rows
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("methods,limit", [(FAST, None), (("genetic",), 5), (("milp",), 2)])
+def test_searches_answer_the_held_out_suites_as_the_committed_reports(methods, limit):
+    tier = get_tier("current")
+    suites = tier.load_suites(limit)
+    stored = stored_rows()
+    rows = run_benchmark(suites, list(methods), tier.n_max, progress=False, tier=tier.name)
+    for r in rows:
+        want = stored[r.method, r.suite, r.task]
+        got_cells = ";".join(f"{x},{y}" for x, y in r.cells) if r.cells else ""
+        assert (r.n_modules, got_cells, r.evaluated) == (
+            int(want["n_modules"]) if want["n_modules"] else None,
+            want["cells"],
+            int(want["evaluated"]),
+        ), (r.method, r.suite, r.task)
