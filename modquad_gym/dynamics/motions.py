@@ -92,6 +92,15 @@ def _along(path: Callable, law: tuple) -> tuple:
     return p, v, a
 
 
+def _moved(path: Callable, cruise: float, total: float, ramp: float, hold: float, rate: float):
+    """(t, time law, (p, v, a)) of a move along ``path`` (:func:`_along`, :func:`_time_law`),
+    sampled at ``rate`` Hz with ``hold`` seconds of hover before and after."""
+    end = _time_law(np.zeros(1), cruise, total, ramp)[3]
+    t = _times(end + 2 * hold, rate)
+    law = _time_law(t - hold, cruise, total, ramp)
+    return t, law, _along(path, law)
+
+
 def _task(
     t,
     p,
@@ -200,10 +209,7 @@ def circle(
         return (R * np.c_[cs - 1, sn, z], R * np.c_[-sn, cs, z], R * np.c_[-cs, -sn, z])
 
     total = 2 * math.pi * c["laps"]
-    end = _time_law(np.zeros(1), c["speed"] / R, total, c["ramp"])[3]
-    t = _times(end + 2 * hold, c["rate"])
-    law = _time_law(t - hold, c["speed"] / R, total, c["ramp"])
-    p, v, a = _along(path, law)
+    t, law, (p, v, a) = _moved(path, c["speed"] / R, total, c["ramp"], hold, c["rate"])
     meta = {
         "motion": "circle",
         "radius": R,
@@ -245,9 +251,7 @@ def figure_eight(
 
     cruise = c["speed"] / (A * math.sqrt(2.0))
     total = 2 * math.pi * c["laps"]
-    end = _time_law(np.zeros(1), cruise, total, c["ramp"])[3]
-    t = _times(end + 2 * hold, c["rate"])
-    p, v, a = _along(path, _time_law(t - hold, cruise, total, c["ramp"]))
+    t, _, (p, v, a) = _moved(path, cruise, total, c["ramp"], hold, c["rate"])
     meta = {"motion": "figure-eight", "size": A, "speed": c["speed"], "laps": c["laps"]}
     return _task(t, p, v, a, name, meta, f_max, payload)
 
@@ -279,10 +283,7 @@ def push(
     def path(s):
         return s[:, None] * d, np.ones_like(s)[:, None] * d, np.zeros((len(s), 3))
 
-    end = _time_law(np.zeros(1), c["speed"], c["distance"], c["ramp"])[3]
-    t = _times(end + 2 * hold, c["rate"])
-    law = _time_law(t - hold, c["speed"], c["distance"], c["ramp"])
-    p, v, a = _along(path, law)
+    t, law, (p, v, a) = _moved(path, c["speed"], c["distance"], c["ramp"], hold, c["rate"])
     exerted = np.zeros((len(t), 6))
     exerted[:, :3] = (c["force"] * law[1] / c["speed"])[:, None] * d  # level: {S} axes = world
     meta = {"motion": "push", "distance": c["distance"], "speed": c["speed"], "force": c["force"]}
