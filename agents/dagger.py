@@ -127,13 +127,7 @@ def learner_states(
         return merge([]), {}  # raises: nothing to learn
     stats = {"tasks": used, "learner_optimal": round(optimal / used, 4),
              "learner_good": round(hits / len(valid), 4)}  # fmt: skip
-    return Demonstrations(
-        obs={k: np.stack(v) for k, v in rows.items()},
-        valid=np.array(valid),
-        good=np.array(good),
-        returns=np.array(returns, dtype=np.float32),
-        n_tasks=used,
-    ), stats
+    return Demonstrations.stacked(rows, valid, good, returns, used), stats
 
 
 def _maybe_progress(items: Sequence[Any], progress: bool):

@@ -84,6 +84,18 @@ class Demonstrations:
     def __len__(self) -> int:
         return len(self.valid)
 
+    @classmethod
+    def stacked(cls, obs_rows: dict[str, list], valid: list, good: list, returns: list,
+                n_tasks: int) -> Demonstrations:  # fmt: skip
+        """Demonstrations from the rows an episode loop collected (one per labelled state)."""
+        return cls(
+            obs={k: np.stack(v) for k, v in obs_rows.items()},
+            valid=np.array(valid),
+            good=np.array(good),
+            returns=np.array(returns, dtype=np.float32),
+            n_tasks=n_tasks,
+        )
+
 
 EXPERTS = ("all", "one")
 """Expert targets: ``all`` optimal structures (:func:`optimal_structures`), or ``one``, the
@@ -186,13 +198,7 @@ def collect(
             raise RuntimeError(f"expert episode on {task.name!r} did not reach its target")
         returns.extend(np.cumsum(rewards[::-1])[::-1])
         used += 1
-    return Demonstrations(
-        obs={k: np.stack(v) for k, v in obs_rows.items()},
-        valid=np.array(valid),
-        good=np.array(good),
-        returns=np.array(returns, dtype=np.float32),
-        n_tasks=used,
-    )
+    return Demonstrations.stacked(obs_rows, valid, good, returns, used)
 
 
 def _collect_chunk(args: tuple) -> Demonstrations:
