@@ -25,9 +25,14 @@ def figure(rows: list[dict], sets: dict, n_max: int, path: Path, k: int = 4) -> 
         return r["saved"] if isinstance(r["saved"], int) else n_max + 1 - int(r["n_mixed"])
 
     chosen = sorted((r for r in rows if r["n_mixed"] != "none"), key=lambda r: -gain(r))[:k]
-    fig = Figure(figsize=(9.0, 4.2 * len(chosen)), layout="constrained")
+    fig = Figure(figsize=(9.0, 4.2 * max(len(chosen), 1)), layout="constrained")
     FigureCanvasAgg(fig)
     captions = []
+    if not chosen:  # a figure of height 0 cannot be saved: say why it is empty
+        ax = fig.add_subplot()
+        ax.text(0.5, 0.5, f"no task is satisfied by a mix of up to {n_max} modules",
+                ha="center", va="center")  # fmt: skip
+        ax.set_axis_off()
     for i, r in enumerate(chosen):
         task = sets[r["workload"]][r["task"]]
         mixed = exhaustive_search(task, n_max=n_max, modules=palette(",".join(PALETTE)))

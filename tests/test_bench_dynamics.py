@@ -38,3 +38,13 @@ def test_bench_writes_its_report_and_refuses_to_overwrite(tmp_path, monkeypatch,
     with pytest.raises(SystemExit):
         bench.main([*argv, "--out", str(tmp_path)])
     assert "--force" in capsys.readouterr().err
+
+
+def test_heterogeneous_figure_says_why_it_is_empty(tmp_path):
+    """No task a mix satisfies within n_max (e.g. ``--n-max 2``): the figure is one panel that
+    says so (a figure of height 0 could not be saved)."""
+    from benchmarks.heterogeneous_report import figure
+
+    rows = [{"workload": "planted", "task": 0, "n_mixed": "none", "saved": "n/a"}]
+    assert figure(rows, {}, 2, tmp_path / "h.png") == []
+    assert (tmp_path / "h.png").stat().st_size > 0
