@@ -10,7 +10,7 @@ structure's own mass and inertia (its wrenches depend on the structure being des
 """
 
 from modquad_gym.dynamics.motions import MOTIONS, circle, figure_eight, hover, line, push
-from modquad_gym.dynamics.task import DynamicTask, check_liftable, lift_capacity
+from modquad_gym.dynamics.task import DynamicTask, as_dynamic, check_liftable, lift_capacity
 from modquad_gym.dynamics.trajectory import MAX_SAMPLES, Trajectory
 from modquad_gym.dynamics.wrenches import (
     LinearWrenches,
@@ -26,6 +26,7 @@ __all__ = [
     "LinearWrenches",
     "Payload",
     "Trajectory",
+    "as_dynamic",
     "check_liftable",
     "circle",
     "figure_eight",

@@ -74,6 +74,13 @@ class DynamicTask:
     """
 
     kind = KIND
+    per_structure = True
+    """Each structure's rotor wrenches are its own (its mass and inertia): the interface of
+    every task (False for a :class:`~modquad_gym.tasks.TaskRequirement`)."""
+    policy_tier = KIND
+    """The benchmark tier whose shipped model the learned solvers use on the task."""
+    normalised_units = False
+    """SI units always (newtons, newton-metres)."""
 
     def __init__(
         self,
@@ -105,6 +112,40 @@ class DynamicTask:
         """The rotor wrenches as a linear function of a structure's mass and inertia."""
         with np.errstate(over="ignore", invalid="ignore"):  # check_scale names what overflows
             return LinearWrenches.of(self.trajectory, self.payload, self.exerted)
+
+    @property
+    def decision_model(self) -> LinearWrenches:
+        """The wrench model a search decides: :attr:`wrench_model` with repeated samples (e.g.
+        the hover holds) kept once (every decision is a max or an all() over the samples)."""
+        return self.wrench_model.compact()
+
+    def describe(self) -> str:
+        """``"<k> wrenches (dynamic)"``: one per trajectory sample."""
+        return f"{self.n_wrenches} wrenches ({KIND})"
+
+    def relabelled(self, name: str, meta: dict) -> DynamicTask:
+        """The same task under another name and meta."""
+        return DynamicTask(self.trajectory, self.payload, self.exerted, self.f_max, name, meta)
+
+    def with_kind(self, kind: str | None) -> DynamicTask:
+        """This task (None or ``"dynamic"``); ValueError for another kind."""
+        if kind is not None and kind != KIND:
+            raise ValueError(f"kind: a task with a trajectory is {KIND!r}, got {kind!r}")
+        return self
+
+    def with_f_max(self, f_max: float | None) -> DynamicTask:
+        """The same task with another thrust limit (None or the same: this task)."""
+        if f_max is None or check_f_max(f_max) == self.f_max:
+            return self
+        return DynamicTask(self.trajectory, self.payload, self.exerted, f_max, self.name)
+
+    def check_liftable(self, modules: Sequence[ModuleType]) -> int:
+        """:func:`check_liftable` of this task."""
+        return check_liftable(self, modules)
+
+    def flight_seconds(self, hover_seconds: float) -> float:
+        """How long one flight of the task lasts: its trajectory's duration."""
+        return float(self.trajectory.duration)
 
     @property
     def n_wrenches(self) -> int:
@@ -188,6 +229,14 @@ class DynamicTask:
             f"DynamicTask(name={self.name!r}, samples={self.n_wrenches}, "
             f"duration={self.trajectory.duration:g} s, f_max={self.f_max:g} N{extra})"
         )
+
+
+def as_dynamic(task: object) -> DynamicTask:
+    """``task`` when it is a :class:`DynamicTask` (what a flight along a trajectory needs),
+    else a ValueError naming its type."""
+    if not isinstance(task, DynamicTask):
+        raise ValueError(f"task must be a DynamicTask, got {type(task).__name__}")
+    return task
 
 
 def check_scale(task: DynamicTask) -> None:

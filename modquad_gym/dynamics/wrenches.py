@@ -210,6 +210,22 @@ class LinearWrenches:
             W = W + self.per_inertia @ (to_vector(j) if j.shape == (3, 3) else j)
         return W
 
+    def compact(self) -> LinearWrenches:
+        """The same wrench model with repeated samples (e.g. the hover holds) kept once: every
+        search decision is a max or an all() over the samples, which repeats do not change."""
+        k = len(self.base)
+        rows = np.hstack([self.base, self.per_mass, self.per_inertia.reshape(k, -1)])
+        _, first = np.unique(np.round(rows, 12), axis=0, return_index=True)
+        keep = np.sort(first)
+        if len(keep) == k:
+            return self
+        parts = [
+            np.ascontiguousarray(a[keep]) for a in (self.base, self.per_mass, self.per_inertia)
+        ]
+        for a in parts:
+            a.setflags(write=False)
+        return LinearWrenches(*parts)
+
     def for_structure(self, structure: Structure) -> np.ndarray:
         """(k, 6) the wrenches for ``structure`` (its mass and inertia)."""
         return self.at(structure.mass, structure.inertia)

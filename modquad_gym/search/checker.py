@@ -13,8 +13,8 @@ each structure is decided against its own rotor wrenches ``base + M per_mass + P
 M and inertia j). Where every wrench gains the same ``c M e_z`` (the structure's weight, or
 nothing) a cached direction's task value is exact for every structure, the weight added in
 compiled code; otherwise a cached direction rejects a structure only when a lower bound of the
-task's value for its mass and size exceeds its support
-(:class:`~modquad_gym.search.dynamic.DynamicValues`).
+task's value for its mass and size exceeds its support. One *wrench values* object holds which
+(:func:`~modquad_gym.search.dynamic.wrench_values`): the checker asks it, whatever the task.
 
 With a ``fault`` (``"rotor"`` or ``"module"``) a structure satisfies the task only when it still
 does after any single failure of that kind (:mod:`modquad_gym.oracle.faults`). A tolerant
@@ -38,7 +38,7 @@ from modquad_gym.geometry.structure import (
 )
 from modquad_gym.oracle import TOL, Zonotope, decide_with
 from modquad_gym.oracle.faults import FaultTolerance, failure_sets
-from modquad_gym.search.dynamic import DynamicValues
+from modquad_gym.search.dynamic import wrench_values
 
 POOL_SIZE = 512
 """How many separating directions are kept (most recent first)."""
@@ -76,24 +76,16 @@ class TaskChecker:
         self.f_max = f_max
         self.palette = [palette] if isinstance(palette, ModuleType) else list(palette)
         self.module = self.palette[0]
-        lift = model.lift_per_kg if not model.uses_inertia else None
-        self.dynamic = None if lift is not None else DynamicValues(model, self.palette)
+        self.values = wrench_values(model, self.palette)  # the task's wrenches, per structure
         self.evaluated = 0
         self.oracle_calls = 0
-        masses = np.array([m.mass for m in self.palette])
-        self.type_masses = masses
-        # equal masses weigh the cells equally: the COM is the plain mean of the cells
-        self._masses = np.ones(len(masses)) if np.all(masses == masses[0]) else masses
-        self._lift = masses * (lift or 0.0)  # per type: its weight term (m g, or 0)
+        self.type_masses = np.array([m.mass for m in self.palette])
         # hardest wrenches first: by decreasing Euclidean norm (ties keep the task's order), so
         # an infeasible structure usually fails on an early batch
-        W = self.W
-        if self.dynamic is not None:  # the order of the wrenches of one module
-            W = self.dynamic.model.base + self.module.mass * self.dynamic.model.per_mass
+        W = self.values.order_wrenches(self.module)
         self.order = np.argsort(-np.linalg.norm(W, axis=1), kind="stable")
         self.pool = np.zeros((0, 6))  # separating directions in wrench space, newest first
         self._terms_of: tuple | None = None  # the pool's (b, alpha, beta), made on demand
-        self._values = np.zeros(0)  # max_i d . w_i over the task, per direction
         self._dz = np.zeros(0)  # the directions' f_z components (the weight term)
         self.learned = 0  # directions remembered so far (the pool's length stops at POOL_SIZE)
 
@@ -114,8 +106,7 @@ class TaskChecker:
     def _set_pool(self, pool: np.ndarray) -> None:
         self.pool = pool[:POOL_SIZE]
         self._terms_of = None
-        if self.dynamic is None:
-            self._values = (self.pool @ self.W.T).max(axis=1)
+        self.values.set_pool(self.pool)
         self._dz = np.ascontiguousarray(self.pool[:, 2])
 
     def _terms(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -140,58 +131,11 @@ class TaskChecker:
         cells = np.ascontiguousarray(cells, dtype=np.int32)
         alive = np.ones(len(cells), dtype=bool)
         k = min(1, len(self.pool)) if newest_only else len(self.pool)
-        if k and self.dynamic is not None:
-            self._reject_dynamic(cells, self._types(cells, types), k, alive)
-        elif k:
-            from modquad_gym.search import supports  # numba: only once directions exist
-
-            b, alpha, beta = (t[:k] for t in self._terms())
-            types = self._types(cells, types)
-            supports.reject(
-                cells,
-                types,
-                self._masses,
-                float(self.module.side),
-                b,
-                alpha,
-                beta,
-                self._values[:k],
-                self.f_max,
-                0.5 * TOL,
-                alive,
-                self._lift,
-                self._dz[:k],
-            )
+        if k:  # numba (supports): only once directions exist
+            terms = tuple(t[:k] for t in self._terms())
+            self.values.reject(cells, self._types(cells, types), self.pool[:k], terms,
+                               self._dz[:k], self.f_max, 0.5 * TOL, alive)  # fmt: skip
         return alive
-
-    def _reject_dynamic(self, cells, types, k: int, alive: np.ndarray) -> None:
-        """The cache test of a dynamic task: structures grouped by mass, each group against
-        the lower bounds of the task's values for its mass and size (module docstring)."""
-        from modquad_gym.search import supports
-
-        b, alpha, beta = (np.ascontiguousarray(t[:k]) for t in self._terms())
-        masses = self.type_masses[types].sum(axis=1)
-        zero = np.zeros(len(self.palette))
-        for mass in np.unique(masses):
-            idx = np.flatnonzero(masses == mass)
-            values = self.dynamic.values(self.pool[:k], float(mass), cells.shape[1])
-            sub = alive[idx]
-            supports.reject(
-                np.ascontiguousarray(cells[idx]),
-                np.ascontiguousarray(types[idx]),
-                self._masses,
-                float(self.module.side),
-                b,
-                alpha,
-                beta,
-                values,
-                self.f_max,
-                0.5 * TOL,
-                sub,
-                zero,
-                self._dz[:k],
-            )
-            alive[idx] = sub
 
     # --- deciding ---------------------------------------------------------------------------
     def first_feasible(self, cells: np.ndarray, types: np.ndarray | None = None) -> int | None:
@@ -225,7 +169,7 @@ class TaskChecker:
 
     def _inertia(self, cells: np.ndarray, types: np.ndarray) -> np.ndarray | None:
         """The inertia vector of one structure when the task's wrenches need it, else None."""
-        if self.dynamic is None or not self.dynamic.inertial:
+        if not self.values.inertial:
             return None
         return inertia_vectors(cells[None], types[None], self.palette)[1][0]
 
@@ -258,10 +202,7 @@ class TaskChecker:
         the cache a direction."""
         self.evaluated += 1
         z = Zonotope(A, self.f_max)
-        if self.dynamic is None:
-            W = self.model.at(mass)[self.order]
-        else:
-            W = self.dynamic.wrenches(mass, inertia)[self.order]
+        W = self.values.wrenches(mass, inertia)[self.order]
         start = 0
         for size in (4, 16, len(W)):  # small batches first: most structures fail early
             batch = W[start:size]

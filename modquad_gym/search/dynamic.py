@@ -1,4 +1,14 @@
-"""Structure-dependent task wrenches in the searches: tasks of kind ``dynamic``.
+"""Structure-dependent task wrenches in the searches: one *wrench values* interface for every task.
+
+A task's wrench model (:class:`~modquad_gym.dynamics.LinearWrenches`) becomes, for a checker,
+one of two objects with the same interface (:func:`wrench_values`): :class:`UniformLiftValues`
+when every wrench gains the same ``c M e_z`` for a structure of M kg (a ``total`` task, c = 0;
+an ``external`` one, c = g; a level motion), whose values are exact for every structure and
+cached per direction; :class:`DynamicValues` otherwise. Both give ``wrenches(mass, inertia)``
+(one structure's own), ``values(D, mass, n)`` (the task's value per direction, a lower bound
+for the second), ``order_wrenches(module)`` (what orders the wrenches hardest first),
+``set_pool(pool)`` and ``reject(...)`` (the cached directions' test, in compiled code), and
+``inertial``.
 
 A dynamic task (:class:`~modquad_gym.dynamics.DynamicTask`) asks the rotors of a structure S of
 mass M and inertia vector j for ``w_i(S) = base_i + M s_i + P_i j`` at each trajectory sample i
@@ -32,18 +42,9 @@ CHUNK = 64
 
 
 def compact(model: LinearWrenches) -> LinearWrenches:
-    """The same wrench model with repeated samples (e.g. the hover holds) kept once: every
-    search decision is a max or an all() over the samples, which repeats do not change."""
-    k = len(model.base)
-    rows = np.hstack([model.base, model.per_mass, model.per_inertia.reshape(k, -1)])
-    _, first = np.unique(np.round(rows, 12), axis=0, return_index=True)
-    keep = np.sort(first)
-    if len(keep) == k:
-        return model
-    parts = [np.ascontiguousarray(a[keep]) for a in (model.base, model.per_mass, model.per_inertia)]
-    for a in parts:
-        a.setflags(write=False)
-    return LinearWrenches(*parts)
+    """The same wrench model with repeated samples kept once
+    (:meth:`~modquad_gym.dynamics.LinearWrenches.compact`)."""
+    return model.compact()
 
 
 def inertia_box(palette: Sequence[ModuleType], n: int, mass: float) -> tuple[np.ndarray, ...]:
@@ -71,6 +72,70 @@ def force_needs(model: LinearWrenches, N: np.ndarray, masses: np.ndarray) -> np.
     return out[where.reshape(-1)] if len(unique) else np.zeros((0, N.shape[0]))
 
 
+def wrench_values(model: LinearWrenches, palette: Sequence[ModuleType]):
+    """The wrench values of ``model`` for structures of ``palette`` types (module docstring):
+    :class:`UniformLiftValues` when every wrench gains the same ``c M e_z``, else
+    :class:`DynamicValues`."""
+    lift = model.lift_per_kg if not model.uses_inertia else None
+    if lift is None:
+        return DynamicValues(model, palette)
+    return UniformLiftValues(model, palette, lift)
+
+
+def _weights(palette: Sequence[ModuleType]) -> np.ndarray:
+    """The types' weights in a structure's COM: equal masses weigh the cells equally (the COM
+    is the plain mean of the cells)."""
+    masses = np.array([m.mass for m in palette])
+    return np.ones(len(masses)) if np.all(masses == masses[0]) else masses
+
+
+class UniformLiftValues:
+    """The values of a task whose every wrench gains the same ``lift M e_z`` for a structure
+    of M kg (the weight, or nothing): ``max_i d . w_i + lift M d_z``, exact; the first term is
+    cached per direction of the pool and the weight is added in compiled code."""
+
+    inertial = False
+
+    def __init__(self, model: LinearWrenches, palette: Sequence[ModuleType], lift: float):
+        self.model = model
+        self.palette = list(palette)
+        self.lift_per_kg = lift
+        self.lift = np.array([m.mass for m in self.palette]) * (lift or 0.0)  # per type
+        self.weights = _weights(self.palette)
+        self._values = np.zeros(0)  # max_i d . w_i over the task, per pool direction
+
+    def order_wrenches(self, module: ModuleType) -> np.ndarray:
+        """(k, 6) the wrenches whose norms order the task, hardest first: the task's own."""
+        return self.model.base
+
+    def set_pool(self, pool: np.ndarray) -> None:
+        """Cache the task's value of each pool direction."""
+        self._values = (pool @ self.model.base.T).max(axis=1)
+
+    def values(self, D: np.ndarray, mass: float, n: int) -> np.ndarray:
+        """(P,) the exact values of the directions D (P, 6) for a structure of ``mass`` kg."""
+        D = np.asarray(D, dtype=float).reshape(-1, 6)
+        if not len(D):
+            return np.zeros(0)
+        return (D @ self.model.base.T).max(axis=1) + self.lift_per_kg * mass * D[:, 2]
+
+    def wrenches(self, mass: float, inertia: np.ndarray | None) -> np.ndarray:
+        """(k, 6) the wrenches of one structure (its mass; the inertia is not used)."""
+        return self.model.at(mass)
+
+    def reject(self, cells, types, pool, terms, dz, f_max: float, half_tol: float, alive):
+        """Clear ``alive`` for the structures (cells (L, n, 2), types (L, n)) that one of the
+        first ``len(pool)`` cached directions (their support ``terms``) separates from the
+        task, in one compiled pass."""
+        from modquad_gym.search import supports
+
+        b, alpha, beta = terms
+        side = float(self.palette[0].side)
+        values = self._values[: len(pool)]
+        supports.reject(cells, types, self.weights, side, b, alpha, beta, values, f_max,
+                        half_tol, alive, self.lift, dz)  # fmt: skip
+
+
 class DynamicValues:
     """Lower bounds of ``max_i d . w_i(S)`` per direction d for the structures of n modules of
     a given mass (module docstring), for a dynamic task's wrench model and palette."""
@@ -79,6 +144,34 @@ class DynamicValues:
         self.model = compact(model)
         self.palette = list(palette)
         self.inertial = self.model.uses_inertia
+        self.weights = _weights(self.palette)
+        self.type_masses = np.array([m.mass for m in self.palette])
+
+    def order_wrenches(self, module: ModuleType) -> np.ndarray:
+        """(k, 6) the wrenches whose norms order the task, hardest first: those of one
+        ``module``."""
+        return self.model.base + module.mass * self.model.per_mass
+
+    def set_pool(self, pool: np.ndarray) -> None:
+        """Nothing to cache: the values depend on each structure's mass and size."""
+
+    def reject(self, cells, types, pool, terms, dz, f_max: float, half_tol: float, alive):
+        """The cache test: structures grouped by mass, each group against the lower bounds of
+        the task's values for its mass and size (module docstring)."""
+        from modquad_gym.search import supports
+
+        b, alpha, beta = (np.ascontiguousarray(t) for t in terms)
+        side = float(self.palette[0].side)
+        masses = self.type_masses[types].sum(axis=1)
+        zero = np.zeros(len(self.palette))
+        for mass in np.unique(masses):
+            idx = np.flatnonzero(masses == mass)
+            values = self.values(pool, float(mass), cells.shape[1])
+            sub = alive[idx]
+            group = np.ascontiguousarray(cells[idx]), np.ascontiguousarray(types[idx])
+            supports.reject(*group, self.weights, side, b, alpha, beta, values, f_max,
+                            half_tol, sub, zero, dz)  # fmt: skip
+            alive[idx] = sub
 
     def values(self, D: np.ndarray, mass: float, n: int) -> np.ndarray:
         """(P,) the lower bounds for the directions D (P, 6), structures of ``n`` modules

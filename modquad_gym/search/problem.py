@@ -6,9 +6,10 @@ public entry point, which takes the task's arguments (``task, n_max, f_max, modu
 modules, kind, fault``), validates them once (:meth:`SearchProblem.build`) and refuses an
 option the search does not take, naming it. The limits every search shares live here:
 :data:`MAX_MODULES`, :data:`EXACT_MODULES`, :data:`DEFAULT_TIME_LIMIT`.
-:meth:`SearchProblem.rotor_wrenches` is the one place where a task becomes the
-wrenches a structure's rotors must produce (its own weight added for ``external`` tasks; its
-mass and inertia put into the wrench model of a ``dynamic`` task, :mod:`.dynamic`).
+Every kind of task is read through one interface: its ``decision_model`` (the rotor wrenches,
+linear in a structure's mass and inertia), ``with_kind``, ``with_f_max`` and
+``check_liftable``; :meth:`SearchProblem.rotor_wrenches` is the one place where a task becomes
+the wrenches a structure's rotors must produce.
 """
 
 from __future__ import annotations
@@ -22,14 +23,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
-from modquad_gym.dynamics import DynamicTask, LinearWrenches, check_liftable
+from modquad_gym.dynamics import LinearWrenches
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_task_scale
 from modquad_gym.oracle.faults import check_fault, failure_sets
 from modquad_gym.search.checker import TaskChecker
-from modquad_gym.search.dynamic import compact
-from modquad_gym.tasks import as_task, check_kind
+from modquad_gym.tasks import as_task
+from modquad_gym.tasks.wrenches import static_model
 
 DEFAULT_MODULE = Structure([(0, 0)]).module
 
@@ -50,9 +51,6 @@ FAULT_BLOCK = 8
 """With a fault, the exact levels stop for the clock every this many structures (a structure
 that passes the intact task is decided failure by failure: up to a tenth of a second for a
 dynamic task of hundreds of samples)."""
-
-DYNAMIC = "dynamic"
-"""The kind of a search problem whose wrenches depend on the structure's mass and inertia."""
 
 MAX_TYPES = 127
 """Most module types in one palette (type indices are int8)."""
@@ -82,6 +80,8 @@ class SearchProblem:
         fault: None (every rotor works), ``"rotor"`` or ``"module"``: a structure satisfies
             the task only when it still does after any single failure of that kind
             (:func:`~modquad_gym.oracle.faults.tolerates`).
+        task: the task it was built from, with the ``f_max`` and ``kind`` it was given (None
+            for a problem made directly).
     """
 
     wrenches: np.ndarray
@@ -92,6 +92,7 @@ class SearchProblem:
     typed: bool = False
     model: LinearWrenches | None = None
     fault: str | None = None
+    task: object = None
 
     def __post_init__(self) -> None:
         W = np.array(check_wrenches(self.wrenches, allow_empty=False), dtype=float)  # a copy
@@ -103,9 +104,7 @@ class SearchProblem:
         object.__setattr__(self, "n_max", check_int(self.n_max, "n_max", low=1))
         object.__setattr__(self, "palette", tuple(check_palette(None, self.palette)))
         if self.model is None:
-            kind = check_kind(self.kind)
-            model = LinearWrenches.of_static(W, carries_weight=kind == "external")
-            object.__setattr__(self, "model", model)
+            object.__setattr__(self, "model", static_model(W, self.kind))
         else:
             check_search_size(self.model.base)
             check_task_scale(self.model.per_mass, f_max)
@@ -132,17 +131,15 @@ class SearchProblem:
         answer must survive."""
         if fault is not None:
             check_fault(fault)
-        task = as_task(task)
-        if isinstance(task, DynamicTask):
-            problem = dynamic_problem(task, n_max, f_max, module, modules, kind)
-            return problem.with_fault(fault) if fault is not None else problem
-        W, f = task.wrenches, task.f_max if f_max is None else check_f_max(f_max)
-        check_search_size(W)
-        check_task_scale(W, f)  # the old order of the checks: the same first error
-        kind = check_kind(kind if kind is not None else task.kind)
+        task = as_task(task).with_f_max(f_max).with_kind(kind)
+        model = task.decision_model
+        check_search_size(model.base)
+        check_task_scale(model.base, task.f_max)  # absurd values: one clear error first
         n_max = check_int(n_max, "n_max", low=1)
         palette = tuple(check_palette(module, modules))
-        return cls(W, f, n_max, palette, kind, typed=modules is not None, fault=fault)
+        task.check_liftable(palette)  # a payload no structure carries: refused before any work
+        return cls(model.base, task.f_max, n_max, palette, task.kind, modules is not None,
+                   model, fault, task)  # fmt: skip
 
     @property
     def module(self) -> ModuleType:
@@ -191,24 +188,6 @@ class SearchProblem:
     def with_fault(self, fault: str | None) -> SearchProblem:
         """The same problem with another single failure to survive (None: none)."""
         return dataclasses.replace(self, fault=fault)
-
-
-def dynamic_problem(task: DynamicTask, n_max, f_max, module, modules, kind) -> SearchProblem:
-    """The problem of a dynamic task (its wrench model; ``f_max`` overrides the task's). A
-    payload or exerted wrench that no structure of up to 128 modules can carry is refused
-    here, before any work (:func:`~modquad_gym.dynamics.check_liftable`)."""
-    if kind is not None and kind != DYNAMIC:
-        raise ValueError(f"kind: a task with a trajectory is {DYNAMIC!r}, got {kind!r}")
-    n_max = check_int(n_max, "n_max", low=1)
-    palette = tuple(check_palette(module, modules))
-    if f_max is not None and check_f_max(f_max) != task.f_max:
-        task = DynamicTask(task.trajectory, task.payload, task.exerted, f_max, task.name)
-    model = compact(task.wrench_model)
-    check_search_size(model.base)
-    check_liftable(task, palette)
-    return SearchProblem(
-        model.base, task.f_max, n_max, palette, DYNAMIC, modules is not None, model
-    )
 
 
 def check_palette(

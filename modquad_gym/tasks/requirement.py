@@ -3,10 +3,11 @@ with the per-rotor thrust limit, a kind and a name; it loads and saves task file
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -26,10 +27,14 @@ from modquad_gym.tasks.files import (
     task_json,
 )
 from modquad_gym.tasks.wrenches import (
+    DEFAULT_KIND,
     check_kind,
     check_wrench_array,
+    kind_entry,
+    kind_note,
     rotor_wrenches,
     rows_to_array,
+    static_model,
 )
 
 
@@ -56,6 +61,15 @@ class TaskRequirement:
     f_max: float = 1.0
     meta: dict = field(default_factory=dict)
     kind: str = "total"
+
+    per_structure: ClassVar[bool] = False
+    """False: one wrench set for every structure (plus its weight for ``external``), so a
+    decision on it can be shared across structures (the interface of every task; True for a
+    :class:`~modquad_gym.dynamics.DynamicTask`, whose wrenches are each structure's own)."""
+
+    policy_tier: ClassVar[str | None] = None
+    """The benchmark tier whose shipped model the learned solvers use on the task (None: the
+    default model)."""
 
     def __post_init__(self) -> None:
         arr = check_wrench_array(self.wrenches)
@@ -98,7 +112,7 @@ class TaskRequirement:
         return hash((self.name, self.f_max, self.kind, self.wrenches.tobytes()))
 
     def __repr__(self) -> str:
-        kind = "" if self.kind == "total" else f", kind={self.kind!r}"
+        kind = "" if self.kind == DEFAULT_KIND else f", kind={self.kind!r}"
         return (
             f"TaskRequirement(name={self.name!r}, n_wrenches={self.n_wrenches}, "
             f"f_max={self.f_max:g}{kind})"
@@ -109,7 +123,47 @@ class TaskRequirement:
         """The rotor wrenches as a model linear in the structure's mass (the interface every
         task shares with :class:`~modquad_gym.dynamics.DynamicTask`): the wrenches, plus the
         weight for an ``external`` task."""
-        return LinearWrenches.of_static(self.wrenches, carries_weight=self.kind == "external")
+        return static_model(self.wrenches, self.kind)
+
+    @property
+    def decision_model(self) -> LinearWrenches:
+        """The wrench model a search decides (:attr:`wrench_model`; a dynamic task's drops its
+        repeated samples)."""
+        return self.wrench_model
+
+    @property
+    def normalised_units(self) -> bool:
+        """True for the paper's normalised units (kind ``total``, f_max = 1): forces in units
+        of f_max; SI (N, N m) otherwise."""
+        return self.kind == DEFAULT_KIND and self.f_max == 1.0
+
+    def describe(self) -> str:
+        """``"<t> wrenches"``, with the kind in parentheses unless ``total``."""
+        return f"{self.n_wrenches} wrenches{kind_note(self.kind)}"
+
+    def relabelled(self, name: str, meta: dict) -> TaskRequirement:
+        """The same task under another name and meta."""
+        return dataclasses.replace(self, name=name, meta=meta)
+
+    def with_kind(self, kind: str | None) -> TaskRequirement:
+        """The same wrenches of another kind (None: this task; ValueError for an unknown
+        kind)."""
+        return self if kind is None else dataclasses.replace(self, kind=check_kind(kind))
+
+    def with_f_max(self, f_max: float | None) -> TaskRequirement:
+        """The same task with another thrust limit (None: this task)."""
+        return self if f_max is None else dataclasses.replace(self, f_max=check_f_max(f_max))
+
+    def check_liftable(self, modules: Any) -> int:
+        """The fewest modules the task needs by its weight alone (the interface of
+        :func:`~modquad_gym.dynamics.check_liftable`): 1, a static task's weight is decided
+        with the rest."""
+        return 1
+
+    def flight_seconds(self, hover_seconds: float) -> float:
+        """How long one flight of the task lasts: a static task is held for ``hover_seconds``
+        (a dynamic task's trajectory sets its own)."""
+        return float(hover_seconds)
 
     def rotor_wrenches(self, structure: Any = 0.0) -> np.ndarray:
         """(t, 6) what the rotors of ``structure`` (a Structure, or its mass in kg) must
@@ -122,9 +176,7 @@ class TaskRequirement:
     def to_dict(self) -> dict[str, Any]:
         """``{"name", "f_max", "wrenches"}`` (plus ``"kind"`` when not ``total`` and ``"meta"``
         when not empty), JSON-ready."""
-        out: dict[str, Any] = {"name": self.name, "f_max": self.f_max}
-        if self.kind != "total":
-            out["kind"] = self.kind
+        out: dict[str, Any] = {"name": self.name, "f_max": self.f_max, **kind_entry(self.kind)}
         out["wrenches"] = self.wrenches.tolist()
         if self.meta:
             out["meta"] = jsonable(self.meta)

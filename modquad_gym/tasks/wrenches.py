@@ -78,6 +78,30 @@ def check_kind(kind: object, what: str = "kind") -> str:
     return kind
 
 
+DEFAULT_KIND = "total"
+"""The kind a task has unless it says otherwise (the paper's), left out of files and records."""
+
+
+def kind_entry(kind: str) -> dict[str, str]:
+    """``{"kind": kind}`` for a record or a task file, ``{}`` for the default kind
+    (:data:`DEFAULT_KIND`: what every record and file written before kinds existed means)."""
+    return {} if kind == DEFAULT_KIND else {"kind": kind}
+
+
+def kind_note(kind: str) -> str:
+    """`` (kind)`` to follow a task's description, ``""`` for the default kind."""
+    return "".join(f" ({v})" for v in kind_entry(kind).values())
+
+
+def static_model(W: np.ndarray, kind: str):
+    """The rotor wrenches of static task wrenches W (t, 6) of ``kind`` as a model linear in the
+    structure's mass (:class:`~modquad_gym.dynamics.wrenches.LinearWrenches`): W itself, plus
+    the structure's weight for ``external`` (:func:`rotor_wrenches`)."""
+    from modquad_gym.dynamics.wrenches import LinearWrenches
+
+    return LinearWrenches.of_static(W, carries_weight=check_kind(kind) == "external")
+
+
 def rotor_wrenches(W: np.ndarray, kind: str, mass: float) -> np.ndarray:
     """What the rotors must produce for task wrenches W (t, 6) of ``kind`` on a structure of
     ``mass`` kg: W for ``total``; W + [0, 0, mass g, 0, 0, 0] for ``external`` (the weight acts
