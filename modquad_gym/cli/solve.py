@@ -116,13 +116,13 @@ def model_for(method: str, model, task, modules: str | None):
     (``data/models/ppo_dynamic``, trained on motions) for a learned method on a dynamic task of
     one module type, the default model (None) otherwise."""
     from modquad_gym.solvers import learned_options
-    from modquad_gym.tasks import is_dynamic
 
-    if model is not None or modules or not is_dynamic(task) or learned_options(method) is None:
+    tier = task.policy_tier  # None: the default model
+    if model is not None or modules or tier is None or learned_options(method) is None:
         return model
     from modquad_gym.policy.models import shipped_model
 
-    return shipped_model("dynamic")
+    return shipped_model(tier)
 
 
 def solve_file(options: tuple, path: Path):
@@ -242,8 +242,7 @@ def print_result(args: argparse.Namespace, path, task, result) -> None:
             record["worst_fault_margin"] = worst_fault_margin(task, result)
         print(json.dumps(record), flush=True)
         return
-    kind = "" if task.kind == "total" else f" ({task.kind})"
-    print(f"task {task.name!r} ({path}): {task.n_wrenches} wrenches{kind}, method {args.method}")
+    print(f"task {task.name!r} ({path}): {task.describe()}, method {args.method}")
     if result.structure is None and result.certified:
         print(f"  no structure of up to {args.n_max} modules satisfies the task (certified)")
     elif result.structure is None:  # a heuristic failing proves nothing

@@ -72,13 +72,9 @@ def fault_seconds(args: argparse.Namespace, task) -> float:
     """Simulated seconds of the two flights through a failure (0 without ``--fault``)."""
     if args.fault is None:
         return 0.0
-    from modquad_gym.tasks import is_dynamic
-
-    if is_dynamic(task):
-        return 2.0 * task.trajectory.duration
     from modquad_gym.sim import fault_flight
 
-    return 2.0 * fault_flight.FAULT_HOVER_SECONDS
+    return 2.0 * task.flight_seconds(fault_flight.FAULT_HOVER_SECONDS)
 
 
 def no_structure_keys(args: argparse.Namespace) -> dict:

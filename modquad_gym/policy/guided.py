@@ -158,13 +158,13 @@ def guided_producer(problem, time_limit: float, seed: int | None = 0) -> SearchR
     seconds; None where the policy does not act: a fault, a dynamic task, or one module type
     other than the T-module."""
     from modquad_gym.search.problem import DEFAULT_MODULE
-    from modquad_gym.tasks import TaskRequirement
 
-    if problem.fault is not None or problem.kind not in ("total", "external"):
+    task = problem.task
+    if problem.fault is not None or task is None or task.per_structure:
         return None
     if not problem.typed and problem.palette[0].digest != DEFAULT_MODULE.digest:
         return None
     solver = GuidedSolver(n_max=problem.n_max, time_limit=time_limit)
-    if problem.typed or problem.kind == "external":  # self-weight through a module set
+    if problem.typed or problem.model.uses_mass:  # self-weight through a module set
         solver.policy.use_palette(list(problem.palette))
-    return solver.solve(TaskRequirement(problem.wrenches, f_max=problem.f_max, kind=problem.kind))
+    return solver.solve(task)

@@ -22,14 +22,12 @@ of up to ``n_max`` modules works).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.dynamics import DynamicTask
 from modquad_gym.search import exhaustive_search
 from modquad_gym.tasks import (
     PaperTasks,
@@ -57,9 +55,7 @@ def draw_task(generator: TaskGenerator, seed: int, name: str | None = None):
 
 def relabelled(task, name: str, meta: dict):
     """``task`` (static or dynamic) under another name and meta."""
-    if isinstance(task, DynamicTask):
-        return DynamicTask(task.trajectory, task.payload, task.exerted, task.f_max, name, meta)
-    return dataclasses.replace(task, name=name, meta=meta)
+    return task.relabelled(name, meta)
 
 
 def with_optimum(task, n_max: int = 7, modules=None):

@@ -20,6 +20,7 @@ import numpy as np
 from modquad_gym.geometry.structure import Key, Structure
 from modquad_gym.oracle import Zonotope, feasible
 from modquad_gym.oracle.faults import tolerates
+from modquad_gym.tasks.wrenches import kind_entry
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -133,8 +134,7 @@ class SearchResult:
             out["modules"] = (
                 [m.name for m in self.structure.modules] if self.structure is not None else None
             )
-        if self.kind != "total":
-            out["kind"] = self.kind
+        out.update(kind_entry(self.kind))  # the default kind left out, as in task files
         if self.fault is not None:
             out["fault"] = self.fault
         if self.proof:

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from modquad_gym.core.validation import check_real
-from modquad_gym.dynamics import DynamicTask, Trajectory
+from modquad_gym.dynamics import DynamicTask, Trajectory, as_dynamic
 from modquad_gym.dynamics import quaternions as quat
 from modquad_gym.dynamics.wrenches import rigid_body_wrenches
 from modquad_gym.geometry.structure import Structure
@@ -215,8 +215,7 @@ def fly_trajectory(
     allocates without them); ``saturated`` then counts only the rotors still working."""
     import mujoco
 
-    if not isinstance(task, DynamicTask):
-        raise ValueError(f"task must be a DynamicTask, got {type(task).__name__}")
+    task = as_dynamic(task)  # a ValueError naming the type of anything else
     cfg = config or TrackConfig()
     sim = build_model(structure, task.f_max, payload=task.payload)
     model, data = sim.model, mujoco.MjData(sim.model)

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from modquad_gym.core.outputs import write_text
-from modquad_gym.dynamics import DynamicTask
+from modquad_gym.dynamics import DynamicTask, as_dynamic
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import margin
 from modquad_gym.sim.report import finite_or_none
@@ -54,8 +54,7 @@ def validate_trajectory(
     """Bench, hover and fly ``structure`` on the dynamic ``task`` (module docstring); the JSON
     record of :func:`.validate.validate` (``task_kind`` ``"dynamic"``) plus the ``track_*``
     keys, ``mass_with_payload_kg`` and the pictures in ``files``."""
-    if not isinstance(task, DynamicTask):
-        raise ValueError(f"task must be a DynamicTask, got {type(task).__name__}")
+    task = as_dynamic(task)  # a ValueError naming the type of anything else
     W = task.rotor_wrenches(structure)
     A = np.array(structure.configuration_matrix())
     rows = bench_sample(W, A, task.f_max, max_bench_wrenches)

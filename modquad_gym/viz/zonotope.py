@@ -144,9 +144,9 @@ def task_wrenches(structure, task) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 def units(task=None, f_max: float = 1.0) -> tuple[str, str]:
-    """Axis units of forces and torques: SI (N, N m) for ``external`` tasks and for thrust
+    """Axis units of forces and torques: a task's own (``task.normalised_units``), else by
+    ``f_max``: SI (N, N m) for ``external`` and dynamic tasks and for thrust
     limits other than 1; "f_max" and "f_max·m" for the paper's normalised tasks (f_max = 1)."""
-    kind = getattr(task, "kind", "total")
-    if kind == "total" and float(getattr(task, "f_max", f_max)) == 1.0:
+    if getattr(task, "normalised_units", float(getattr(task, "f_max", f_max)) == 1.0):
         return "f_max", "f_max·m"
     return "N", "N m"

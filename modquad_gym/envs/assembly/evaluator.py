@@ -36,7 +36,6 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from modquad_gym.dynamics import DynamicTask
 from modquad_gym.envs.assembly.dynamic import own_arrays, start_arrays
 from modquad_gym.envs.assembly.features import AssemblyFeatures
 from modquad_gym.envs.assembly.types import TaskArrays
@@ -182,10 +181,11 @@ class StructureEvaluator:
     def task_arrays(self, task: Any, key: Any = None) -> TaskArrays:
         """The :class:`TaskArrays` of ``task`` (its wrench model decides how): its wrenches
         and, when every wrench gains the same ``c M e_z`` for a structure of M kg, that lift;
-        otherwise (a dynamic task) the arrays of the structure ``key``'s own wrenches."""
+        otherwise (a task whose wrenches are each structure's own, ``task.per_structure``: a
+        dynamic task) the arrays of the structure ``key``'s own wrenches."""
         model = task.wrench_model
         lift = model.lift_per_kg if not model.uses_inertia else None
-        if lift is None or isinstance(task, DynamicTask):
+        if lift is None or task.per_structure:
             return start_arrays(self, task, key)
         W = np.asarray(model.base, dtype=float)
         vec, h_Tn, WD = self.features.task(W)

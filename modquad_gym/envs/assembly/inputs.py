@@ -117,7 +117,8 @@ def draw_task(
     else:
         name = str(getattr(generator, "name", type(generator).__name__))
         task = as_task(generator(rng), f"task generator {name!r} returned a bad task", name)
-    if task.kind == "external" and not self_weight:
+    shared_weight = task.wrench_model.uses_mass and not task.per_structure
+    if shared_weight and not self_weight:  # the palette's masses add the weight
         raise ValueError(
             f"task {task.name!r} is of kind {task.kind!r}: make the env with modules=[...] "
             "(e.g. modules=[module]), which decides self-weight"
