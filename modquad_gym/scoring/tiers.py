@@ -103,7 +103,7 @@ TIERS = {
     "mixed": Tier("mixed", "ModQuadAssemblyMixed-v1", 7, ("mixed_external",),
                   env_kwargs={"tasks": "planted-mixed-external"}, modules="t45,t45m,flat",
                   source="planted-mixed-external", seed0=4_000_000, n_tasks=40,
-                  recipe={"expert": "one", "demo_tasks": 3000, "timesteps": 100_000},
+                  recipe={"expert": "one", "demo_tasks": 3000},
                   goals={m: {"success": 0.98, "optimal": 0.80} for m in ("ppo", "ppo-guided")}),
     "dynamic": Tier("dynamic", "ModQuadAssemblyDynamic-v0", 7, ("dynamic_motions",),
                     source="motions", seed0=7_000_000, n_tasks=60,
