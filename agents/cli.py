@@ -12,8 +12,9 @@ from dataclasses import MISSING, fields
 from pathlib import Path
 
 from agents.checks import check_environment, check_model, check_publishable
+from agents.config import TrainConfig
 from agents.seeds import seed_out
-from agents.training import RUN_FILES, TrainConfig, publish, report, train
+from agents.training import RUN_FILES, publish, report, train
 from modquad_gym.core.options import int_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir
 from modquad_gym.scoring.options import REPORT_FILES

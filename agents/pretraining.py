@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from agents.training import IMITATION, TrainConfig
+from agents.config import IMITATION, TrainConfig
 
 
 def pretrain(model: Any, config: TrainConfig, log_dir: Path) -> dict:

@@ -1,4 +1,4 @@
-"""Training several seeds: one run of a :class:`~agents.training.TrainConfig` per seed of
+"""Training several seeds: one run of a :class:`~agents.config.TrainConfig` per seed of
 ``--seeds``, as parallel Ray tasks, each into ``<out>/seed-S`` with its report.
 
 ``python -m modquad_gym.scoring.seeds`` then reports the runs over seeds.
@@ -10,7 +10,8 @@ import dataclasses
 import os
 from pathlib import Path
 
-from agents.training import TrainConfig, report, train
+from agents.config import TrainConfig
+from agents.training import report, train
 
 
 def seed_out(out: Path, seed: int) -> Path:

@@ -1,9 +1,9 @@
 """The training recipe: behaviour cloning on certified expert episodes, then MaskablePPO.
 
-:class:`TrainConfig` holds one run's settings (the defaults are the recipe); :func:`train` runs
-it into ``config.out`` (``model.zip``, ``config.json``, ``evaluations.npz``). ``train.py`` at the
-repository root is the command-line entry point; a tier (:mod:`.tiers`) fixes the environment,
-the task source and n_max.
+:class:`~agents.config.TrainConfig` holds one run's settings (the defaults are the recipe);
+:func:`train` runs it into ``config.out`` (``model.zip``, ``config.json``,
+``evaluations.npz``). ``train.py`` at the repository root is the command-line entry point; a
+tier (:mod:`modquad_gym.scoring.tiers`) fixes the environment, the task source and n_max.
 
 1. Expert demonstrations: ``demo_tasks`` training tasks from the tier's task source, drawn from
    ``default_rng([seed, 1])`` (disjoint from the validation and held-out seeds); for each, every
@@ -19,272 +19,20 @@ from __future__ import annotations
 
 import json
 import platform
-import shlex
 import shutil
 import time
-from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from agents.checks import (
-    MAX_N_ENVS,
-    MAX_STEPS,
-    check_hyperparameters,
-    check_numbers,
-    check_publishable,
-)
-from agents.imitation import EXPERTS
+from agents.checks import check_publishable
+from agents.config import TrainConfig
 from modquad_gym.core.extras import import_optional
-from modquad_gym.core.options import MAX_SEED, seed_option
 from modquad_gym.core.outputs import atomic_write, write_text
 from modquad_gym.policy.models import DEFAULT_MODEL
-from modquad_gym.scoring.tiers import TIERS, get_tier
-from modquad_gym.tasks import GENERATORS
+from modquad_gym.scoring.tiers import get_tier
 
 RUN_FILES = ("model.zip", "config.json", "evaluations.npz")
 """What a training run writes into its run folder."""
-
-HYPERPARAMETERS = {
-    "learning_rate": 1e-4,
-    "n_steps": 256,
-    "batch_size": 128,
-    "n_epochs": 8,
-    "gamma": 1.0,
-    "gae_lambda": 0.95,
-    "clip_range": 0.2,
-    "ent_coef": 0.005,
-    "vf_coef": 0.5,
-    "max_grad_norm": 0.5,
-    "net_arch": [256, 256],
-    "hidden": 64,
-}
-"""MaskablePPO hyperparameters of the recipe (fine-tuning after behaviour cloning); ``net_arch``
-shapes the ``mlp`` architecture, ``hidden`` the ``candidates`` one."""
-IMITATION = {"demo_tasks": 6_000, "bc_epochs": 30, "bc_batch_size": 256, "bc_learning_rate": 1e-3,
-             "dagger_rounds": 3, "dagger_epochs": 10}  # fmt: skip
-"""Behaviour-cloning settings of the recipe (see :mod:`.imitation`) and of the expert in the
-loop (:mod:`.dagger`: rounds, cloning epochs after each round; fresh tasks per round default
-to a tenth of the demonstration tasks)."""
-ARCHITECTURES = ("candidates", "mlp")
-"""Policy networks: ``candidates`` scores each candidate docking with shared weights
-(:mod:`modquad_gym.policy.network`: any n_max, any palette; the env's lookahead rows), ``mlp``
-is SB3's MultiInputPolicy over the whole observation (one grid size)."""
-LOOKAHEAD = "exact"
-"""The lookahead rows the ``candidates`` network sees: the exact one-step lookahead (each
-child's exact share, margin and greedy's choice, :mod:`modquad_gym.envs.assembly.lookahead`);
-``--env-kwargs '{"lookahead": true}'`` trains on the support rows alone, as models before it."""
-DEFAULT_TIMESTEPS = 20_000
-VEC_ENVS = ("dummy", "subproc")
-
-
-def option(default: Any, help: str, group: str = "recipe", **argparse: Any) -> Any:
-    """A :class:`TrainConfig` field that is also the ``train.py`` option ``--name``
-    (:mod:`agents.cli` derives the option from the field): its help (``{recipe}`` stands for
-    the tiers' recipes of it), its group of ``--help``, an integer's ``limits`` (low, high;
-    :func:`~agents.checks.check_numbers`) and argparse keywords besides the type and default,
-    which come from the field."""
-    metadata = {"help": help, "group": group, **argparse}
-    if isinstance(default, dict):
-        return field(default_factory=dict, metadata=metadata)
-    return field(default=default, metadata=metadata)
-
-
-@dataclass(frozen=True)
-class TrainConfig:
-    """One training run. Fields left None take the tier's value (``task_source``, ``n_max`` and
-    the tier's ``recipe``), then the recipe's; ``eval_freq`` defaults to ``timesteps / 20``.
-    Every field is a ``train.py`` option (``--n-envs`` for ``n_envs``; ``--no-progress`` for
-    ``progress``)."""
-
-    out: Path = option(
-        None,
-        "run folder for model.zip, config.json, evaluations.npz and report/ (default "
-        "runs/ppo-seed<seed>; runs/<tier>-seed<seed> on other tiers; runs/ppo-seeds with "
-        "--seeds; runs/quick with --quick)",
-        "run",
-    )
-    tier: str = option(
-        "current",
-        "benchmark tier: its environment, task source, n_max and held-out suites",
-        "run",
-        choices=tuple(TIERS),
-    )
-    seed: int = option(
-        0, "training seed; env i uses seed + i", "run", type=seed_option, limits=(0, MAX_SEED)
-    )
-    timesteps: int | None = option(
-        None,
-        f"total PPO environment steps (default {DEFAULT_TIMESTEPS}; {{recipe}})",
-        limits=(1, MAX_STEPS),
-    )
-    n_envs: int = option(2, "parallel environments", limits=(1, MAX_N_ENVS))
-    vec_env: str = option(
-        "dummy", "vectorised env class (dummy: faster on 2 cores)", choices=VEC_ENVS
-    )
-    task_source: str | None = option(
-        None,
-        "a task generator name (planted, paper, mixed, planted-large, ...) or a task/suite "
-        "file (default: the tier's: mixed on current)",
-    )
-    n_max: int | None = option(
-        None,
-        "largest structure in modules (default: the tier's, 7 on current)",
-        limits=(1, 10**4),
-    )
-    demo_tasks: int | None = option(
-        None,
-        "training tasks with an expert episode each for behaviour cloning (default "
-        f"{IMITATION['demo_tasks']}; {{recipe}})",
-        "imitation",
-        limits=(1, 10**7),
-    )
-    bc_epochs: int = option(
-        IMITATION["bc_epochs"],
-        "behaviour-cloning epochs before PPO; 0: PPO alone from scratch",
-        "imitation",
-        limits=(0, 10**5),
-    )
-    expert: str | None = option(
-        None,
-        "what the expert docks towards: all optimal structures, or one, the first the "
-        "certified search finds (default all; {recipe})",
-        "imitation",
-        choices=EXPERTS,
-    )
-    architecture: str = option(
-        "candidates",
-        "policy network: candidates (one score per candidate docking, shared weights: acts at "
-        "any n_max and palette; the env's lookahead rows) or mlp (SB3's MultiInputPolicy, one "
-        "grid size)",
-        choices=ARCHITECTURES,
-    )
-    dagger_rounds: int = option(
-        IMITATION["dagger_rounds"],
-        "rounds of the expert in the loop after cloning: the learner's own episodes on fresh "
-        "tasks, every state labelled by the certified search, cloned again; 0: none",
-        "imitation",
-        limits=(0, 10**4),
-    )
-    dagger_tasks: int | None = option(
-        None,
-        "fresh training tasks per DAgger round (default a tenth of --demo-tasks)",
-        "imitation",
-        limits=(1, 10**7),
-    )
-    workers: int = option(
-        2, "processes that collect the expert demonstrations", "imitation", limits=(1, 1024)
-    )
-    resume: Path | None = option(
-        None, "continue PPO from this model .zip (no behaviour cloning)", "run"
-    )
-    eval_freq: int | None = option(
-        None,
-        "evaluate every this many total steps (default timesteps / 20)",
-        limits=(1, MAX_STEPS),
-    )
-    n_eval: int = option(40, "validation tasks", limits=(1, 100_000))
-    checkpoint_freq: int = option(
-        50_000,
-        "checkpoint every this many total steps, under --tensorboard",
-        limits=(1, MAX_STEPS),
-    )
-    tensorboard: Path = option(
-        Path("runs"), "TensorBoard logs and checkpoints (runs/ is gitignored)", "run"
-    )
-    threads: int = option(1, "torch threads", limits=(1, 1024))
-    progress: bool = option(True, "no progress bars", "run")
-    env_kwargs: dict = option(
-        {}, 'extra env keywords as JSON, e.g. \'{"reward_weights": {"w_module": 0.2}}\''
-    )
-    hyperparameters: dict = option(
-        {},
-        "MaskablePPO hyperparameters overriding the recipe, as JSON, e.g. "
-        f"'{{\"ent_coef\": 0.02}}'; known: {', '.join(HYPERPARAMETERS)}",
-    )
-
-    def __post_init__(self) -> None:
-        tier = get_tier(self.tier)
-        defaults = {
-            "timesteps": DEFAULT_TIMESTEPS,
-            "demo_tasks": IMITATION["demo_tasks"],
-            "expert": "all",
-            **tier.recipe,
-        }
-        for name, value in defaults.items():
-            if getattr(self, name) is None:
-                object.__setattr__(self, name, value)
-        if self.dagger_tasks is None:
-            object.__setattr__(self, "dagger_tasks", max(1, self.demo_tasks // 10))
-        if self.expert not in EXPERTS:
-            raise ValueError(f"expert must be one of {EXPERTS}, got {self.expert!r}")
-        if self.architecture not in ARCHITECTURES:
-            raise ValueError(
-                f"architecture must be one of {ARCHITECTURES}, got {self.architecture!r}"
-            )
-        unknown = sorted(set(self.hyperparameters) - set(HYPERPARAMETERS))
-        if unknown:
-            raise ValueError(
-                f"--hyperparameters: unknown keys {unknown}; known: {sorted(HYPERPARAMETERS)}"
-            )
-        check_numbers(self)  # every number in range, named by its train.py option
-        check_hyperparameters(self.hyperparameters)
-        if {"tasks", "n_max"} & set(self.env_kwargs):
-            raise ValueError("--env-kwargs: give tasks and n_max with --task-source and --n-max")
-
-    @property
-    def source(self) -> str:
-        """The training task source (the tier's unless given)."""
-        return self.task_source or get_tier(self.tier).source or "mixed"
-
-    @property
-    def max_modules(self) -> int:
-        return self.n_max if self.n_max is not None else get_tier(self.tier).n_max
-
-    @property
-    def env_kwargs_full(self) -> dict:
-        """The training environment's keywords (what the model's config.json records): on a
-        tier of several module types its palette, each episode starting with a random type."""
-        return {"tasks": self.source, "n_max": self.max_modules, **self.eval_env_kwargs,
-                **({"initial_type": "random"} if get_tier(self.tier).modules else {})}  # fmt: skip
-
-    @property
-    def eval_env_kwargs(self) -> dict:
-        """Keywords of the validation environment besides its tasks and n_max (episodes start
-        with the first type, as :class:`~.ppo.PPOSolver` does first)."""
-        modules = get_tier(self.tier).modules
-        lookahead = {"lookahead": LOOKAHEAD} if self.architecture == "candidates" else {}
-        return {**({"modules": modules} if modules else {}), **lookahead, **self.env_kwargs}
-
-    @property
-    def validation_source(self) -> str:
-        """The validation tasks' generator: the training source when it is a generator name,
-        else (a task file) the tier's."""
-        return self.source if self.source in GENERATORS else get_tier(self.tier).source or "mixed"
-
-    def ppo_hyperparameters(self) -> dict:
-        return {**HYPERPARAMETERS, **self.hyperparameters}
-
-    def command(self) -> str:
-        """The ``python train.py`` command line that runs this config (what ``config.json``
-        records): the tier, the seed, the run folder and every field away from its default."""
-        parts = ["train.py"]
-        for f in fields(self):
-            value = getattr(self, f.name)
-            default = f.default_factory() if f.default is MISSING else f.default
-            if f.name not in ("tier", "seed", "out") and _same(value, default):
-                continue
-            flag = "--" + f.name.replace("_", "-")
-            if f.type == "bool":
-                parts.append(f"--no-{f.name}")
-            else:
-                parts += [flag, json.dumps(value) if isinstance(value, dict) else str(value)]
-        return shlex.join(parts)
-
-
-def _same(value: Any, default: Any) -> bool:
-    if isinstance(value, Path) and isinstance(default, Path):
-        return value.resolve() == default.resolve()
-    return value == default
 
 
 def _eval_callback_class():
