@@ -51,6 +51,9 @@ CASES = [
     (["--demo-tasks", "0"], "--demo-tasks"),
     (["--bc-epochs", "-1"], "--bc-epochs"),
     (["--tensorboard", "/dev/null"], "--tensorboard"),
+    (["--dagger-rounds", "-1"], "--dagger-rounds"),
+    (["--dagger-tasks", "0"], "--dagger-tasks"),
+    (["--seeds", "1", "2", "--seed-workers", "0"], "--seed-workers"),
 ]
 
 
