@@ -99,6 +99,30 @@ def test_ray_map_and_first_equal_serial(local_ray):
     assert map_tasks(work, items, workers=2) == serial
 
 
+def test_first_stops_early_without_a_soft_cancel(local_ray, monkeypatch):
+    """What still runs after the accepted item is cancelled with force: Ray 2.60's soft cancel
+    of a task that is just finishing aborts the driver (here: the test run) about once in a
+    hundred early stops; 12 early stops here, each checked against the serial answer."""
+    forced = []
+    cancel = ray.cancel
+
+    def recording_cancel(ref, *, force=False, recursive=True):
+        forced.append(force)
+        cancel(ref, force=force, recursive=recursive)
+
+    monkeypatch.setattr(ray, "cancel", recording_cancel)
+
+    def work(x):
+        time.sleep(0.002 * (x % 3))
+        return x
+
+    with Engine(2) as engine:
+        for trial in range(12):
+            k = trial % 4
+            assert engine.first(work, range(12), k.__eq__) == list(range(k + 1))
+    assert forced and all(forced)
+
+
 def test_raising_task_is_reported_by_label(local_ray):
     def parse(text):
         return int(text)

@@ -306,8 +306,10 @@ class Engine:
                         result = Failed(_label(labels, i), ray_error_line(exc))
                     yield i, result
         finally:
+            # force: Ray's soft cancel of a task that is just finishing aborts this (driver)
+            # process (a RAY_CHECK in TaskManager::CompletePendingTask, Ray 2.60)
             for ref in pending:
-                ray.cancel(ref)
+                ray.cancel(ref, force=True)
 
 
 CONNECT_SECONDS = 5.0
