@@ -71,11 +71,13 @@ def tiny_model(tmp_path_factory) -> Path:
 
 
 def test_train_clones_the_expert_before_ppo(tmp_path):
-    """The default recipe's path: demonstrations, cloning, a step-0 evaluation, fine-tuning."""
-    out = _train_tiny(tmp_path, "--timesteps", "512", "--eval-freq", "256", "--demo-tasks",
-                      "16", "--bc-epochs", "30", "--workers", "1")  # fmt: skip
+    """The default recipe's path: demonstrations, cloning, DAgger (its three rounds on 16 tasks
+    each), a step-0 evaluation, fine-tuning."""
+    out = _train_tiny(tmp_path, "--timesteps", "512", "--eval-freq", "256", "--demo-tasks", "16",
+                      "--bc-epochs", "30", "--dagger-tasks", "16", "--workers", "1")  # fmt: skip
     config = json.loads((out / "config.json").read_text())
     assert config["imitation"]["expert_episodes"] == 16
+    assert [r["tasks"] for r in config["imitation"]["dagger"]] == [16, 16, 16]
     assert config["imitation"]["final_greedy_good"] == 1.0
     evals = np.load(out / "evaluations.npz")
     assert evals["timesteps"][0] == 0 and evals["results"].shape[1] == 4  # cloned, before PPO

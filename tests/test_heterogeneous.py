@@ -250,7 +250,7 @@ def test_typed_search_equals_brute_force(kind):
     rng = np.random.default_rng(3 if kind == "total" else 4)
     pal = [T45, T45M, FLAT]
     f_max = 1.0 if kind == "total" else 2.0
-    for _ in range(4):
+    for _ in range(2):
         hidden = random_mixed(rng, 3, pal)
         task = planted_mixed(rng, hidden, t=6, kind=kind, f_max=f_max)
         n_ref, keys_ref = brute_force(task, pal, 3)

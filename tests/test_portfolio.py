@@ -113,10 +113,10 @@ def test_producers_on_workers_feed_the_incumbent_while_the_search_runs(local_ray
         assert verified(r.structure, task) and r.lower_bound <= r.n_modules
         assert {e.source for e in r.history} & {"beam", "genetic", "greedy"}
         t0 = time.perf_counter()
-        mine = anytime_search(task, n_max=40, time_limit=30, engine=engine,
+        mine = anytime_search(task, n_max=40, time_limit=8, engine=engine,
                               producers=(planted_answer,))  # fmt: skip
     assert mine.n_modules <= 32 and "planted" in {e.source for e in mine.history}
-    assert time.perf_counter() - t0 < 30
+    assert time.perf_counter() - t0 < 8 + 10  # its limit, and room for the workers' start
 
 
 def test_the_policy_joins_the_producers_when_its_extra_is_installed():
