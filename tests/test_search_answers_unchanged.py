@@ -19,8 +19,8 @@ from modquad_gym.scoring.tiers import get_tier
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
 FAST = ("exhaustive", "centrosymmetric", "greedy", "random", "anytime", "beam")
-"""The searches compared on every task; genetic and milp (a second per task) on the first
-tasks of each suite."""
+"""The searches compared on the first 30 tasks of each suite (60 of the 100 held-out tasks);
+genetic and milp (a second per task) on the first few."""
 
 
 def stored_rows() -> dict[tuple[str, str, str], dict]:
@@ -33,7 +33,7 @@ def stored_rows() -> dict[tuple[str, str, str], dict]:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("methods,limit", [(FAST, None), (("genetic",), 5), (("milp",), 2)])
+@pytest.mark.parametrize("methods,limit", [(FAST, 30), (("genetic",), 5), (("milp",), 2)])
 def test_searches_answer_the_held_out_suites_as_the_committed_reports(methods, limit):
     tier = get_tier("current")
     suites = tier.load_suites(limit)
