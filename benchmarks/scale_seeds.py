@@ -89,6 +89,38 @@ def band_summary(rows: list[dict], band: int) -> dict:
             "ppo_over_greedy_seconds": ci(ratio, ".2f")}  # fmt: skip
 
 
+def family_rows(rows: list[dict]) -> list[dict]:
+    """Per band and family over every seed: tasks ppo solves (of seed x task runs) and its mean
+    modules above greedy's where both solve."""
+    greedy = {r["task"]: r["found"] for r in rows if r["method"] == "greedy"}
+    out = []
+    keys = dict.fromkeys((r["band"], r["family"]) for r in rows)
+    for band, family in sorted(keys, key=lambda k: (int(k[0]), k[1])):
+        here = (band, family)
+        mine = [r for r in rows if r["method"] == "ppo" and (r["band"], r["family"]) == here]
+        both = [r["found"] - greedy[r["task"]] for r in mine
+                if r["found"] is not None and greedy[r["task"]] is not None]  # fmt: skip
+        out.append({"band": band, "family": family, "runs": len(mine),
+                    "ppo_solved": sum(r["found"] is not None for r in mine),
+                    "greedy_solved": sum(greedy[r["task"]] is not None for r in mine),
+                    "ppo_minus_greedy_modules": round(float(np.mean(both)), 2) if both
+                    else "-"})  # fmt: skip
+    return out
+
+
+def read_rows(path: Path) -> list[dict]:
+    """Rows of an earlier run's rows.csv, typed as :func:`solve` writes them."""
+    import csv
+
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    for r in rows:
+        r["band"] = int(r["band"])
+        r["found"] = int(r["found"]) if r["found"] else None
+        r["seconds"] = float(r["seconds"])
+    return rows
+
+
 def main(argv: list[str] | None = None) -> list[dict]:
     options = {
         "--bands": dict(type=int_option(16, 128), nargs="+", default=[16, 32, 64],
@@ -103,18 +135,25 @@ def main(argv: list[str] | None = None) -> list[dict]:
                              help="seconds each method gets per task (default 30)"),
         "--workers": dict(type=int_option(1, 64), default=2,
                           help="processes at a time (default 2)"),
+        "--rows": dict(type=Path, default=None, metavar="CSV",
+                       help="re-render the report from an earlier run's rows.csv (no solving; "
+                            "give the options it used)"),
     }  # fmt: skip
     args = bench_args(argv, "python -m benchmarks.scale_seeds", __doc__.split("\n\n")[0],
                       options, seed_help=None, out="results/scale_seeds",
                       outputs=OUTPUTS)  # fmt: skip
     runs, mixed_runs = find_runs([args.runs]), find_runs([args.mixed_runs])
-    work = jobs(args.bands, runs, mixed_runs, args.time_limit)
-    with ThreadPoolExecutor(args.workers) as pool:  # each thread waits on its own process
-        rows = [r for part in pool.map(lambda j: solve(j, args.time_limit), work) for r in part]
+    if args.rows is not None:
+        rows = read_rows(args.rows)
+    else:
+        work = jobs(args.bands, runs, mixed_runs, args.time_limit)
+        with ThreadPoolExecutor(args.workers) as pool:  # each thread waits on its own process
+            rows = [r for part in pool.map(lambda j: solve(j, args.time_limit), work) for r in part]
     summary = [band_summary(rows, band) for band in args.bands]
     command = (f"python -m benchmarks.scale_seeds --bands {' '.join(map(str, args.bands))} "
                f"--runs {args.runs} --mixed-runs {args.mixed_runs} --time-limit "
-               f"{args.time_limit:g} --workers {args.workers} --out {args.out}")  # fmt: skip
+               f"{args.time_limit:g} --workers {args.workers} --out {args.out}"
+               + (f" --rows {args.rows}" if args.rows else ""))  # fmt: skip
     notes = (
         f"Seeds: {', '.join(runs)} (`{args.runs}`; mixed palette `{args.mixed_runs}`). "
         "`ppo_solves_greedys_pct`: of the tasks greedy solves, the share `ppo` solves (mean "
@@ -122,8 +161,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
         "them; `ppo_minus_greedy_modules`: mean modules above greedy's on the tasks both solve; "
         "`ppo_over_greedy_seconds`: `ppo`'s total wall time over greedy's on the same tasks. "
         "A structure counts only when the exact LP verifies it."
-    )
+        + (" Re-rendered from the rows the same command wrote without `--rows`." if args.rows
+           else "")
+    )  # fmt: skip
     text = report_page("The learned designer's seeds at 16-64 modules", command, notes, summary,
+                       "## Per family (every seed)", "", markdown_table(family_rows(rows)), "",
                        "## Every task and seed", "", markdown_table(rows), "",
                        how=f"; {args.workers} processes at a time")  # fmt: skip
     write_report(args.out, "report", summary, text)
