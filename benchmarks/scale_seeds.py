@@ -1,4 +1,4 @@
-"""The learned designer's five training seeds on the held-out scale suites, single pass, beside
+"""The learned designer's training seeds on the held-out scale suites, single pass, beside
 greedy with the same time limit: does `ppo` solve what greedy solves, with no more modules and
 in less time (issue 36's scale goal)?
 
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import bench_args, markdown_table, report_page, write_report
+from benchmarks.common import bench_args, markdown_table, report_page, write_csv, write_report
 from benchmarks.measure import fresh
 from benchmarks.scale import run_band
 from benchmarks.scale_suites import FAMILIES, load_scale_suite
@@ -32,7 +32,7 @@ OUTPUTS = ("report.md", "report.csv", "rows.csv")
 ONE_TYPE = tuple(f for f in FAMILIES if f != "mixed")
 
 
-def jobs(bands, runs: dict, mixed_runs: dict, time_limit: float) -> list[tuple]:
+def jobs(bands, runs: dict, mixed_runs: dict) -> list[tuple]:
     """(band, method, seed, tasks, model) per fresh process: greedy once, ppo per seed and
     palette."""
     out = []
@@ -121,6 +121,14 @@ def read_rows(path: Path) -> list[dict]:
     return rows
 
 
+def seed_models(folder: Path, option: str) -> dict[str, Path]:
+    """``seed-S/model.zip`` of ``folder`` by seed; a ValueError naming ``option`` if none."""
+    try:
+        return find_runs([folder])
+    except ValueError as exc:
+        raise ValueError(f"{option}: {str(exc).removeprefix('RUNS: ')}") from None
+
+
 def main(argv: list[str] | None = None) -> list[dict]:
     options = {
         "--bands": dict(type=int_option(16, 128), nargs="+", default=[16, 32, 64],
@@ -142,11 +150,14 @@ def main(argv: list[str] | None = None) -> list[dict]:
     args = bench_args(argv, "python -m benchmarks.scale_seeds", __doc__.split("\n\n")[0],
                       options, seed_help=None, out="results/scale_seeds",
                       outputs=OUTPUTS)  # fmt: skip
-    runs, mixed_runs = find_runs([args.runs]), find_runs([args.mixed_runs])
+    runs, mixed_runs = (
+        seed_models(args.runs, "--runs"),
+        seed_models(args.mixed_runs, "--mixed-runs"),
+    )
     if args.rows is not None:
         rows = read_rows(args.rows)
     else:
-        work = jobs(args.bands, runs, mixed_runs, args.time_limit)
+        work = jobs(args.bands, runs, mixed_runs)
         with ThreadPoolExecutor(args.workers) as pool:  # each thread waits on its own process
             rows = [r for part in pool.map(lambda j: solve(j, args.time_limit), work) for r in part]
     summary = [band_summary(rows, band) for band in args.bands]
@@ -169,8 +180,6 @@ def main(argv: list[str] | None = None) -> list[dict]:
                        "## Every task and seed", "", markdown_table(rows), "",
                        how=f"; {args.workers} processes at a time")  # fmt: skip
     write_report(args.out, "report", summary, text)
-    from modquad_gym.core.outputs import write_csv
-
     write_csv(rows, args.out / "rows.csv")
     print(markdown_table(summary))
     return summary
