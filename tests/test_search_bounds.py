@@ -92,7 +92,7 @@ def test_result_certified_follows_the_lower_bound():
 def test_no_lower_bound_exceeds_the_certified_optimum(seed):
     """Every search's bound (and bound_levels) <= the exhaustive search's certified optimum
     (n_max + 1 when no structure of up to n_max works), on 50 small tasks per run (a fresh
-    draw each run; 200 took 95 s of CI, mostly the genetic search)."""
+    draw each run)."""
     W = task_of(seed)
     exact = exhaustive_search(W, n_max=6)
     optimum = exact.n_modules if exact.n_modules is not None else 7

@@ -114,8 +114,8 @@ def test_installed_wheel_solves_with_the_shipped_ppo_model(installed_wheel, tmp_
         "from modquad_gym.cli import main\n"
         f"raise SystemExit(main(['solve', '--task', {str(task)!r}, '--method', 'ppo', '--json']))"
     )
-    # numba's kernels run as Python here: compiling them for the wheel's new path took 40 s of
-    # CI, and the compiled kernels are checked from the source tree by every other test
+    # numba's kernels run as Python here: this checks the packaging, and compiling them anew
+    # for the wheel's path costs most of a minute (the source tree's tests check them compiled)
     out = _python_S(code, installed_wheel, Path(sysconfig.get_paths()["purelib"]), cwd=tmp_path,
                     NUMBA_DISABLE_JIT="1")  # fmt: skip
     assert out.returncode == 0, out.stderr
