@@ -108,16 +108,32 @@ def family_rows(rows: list[dict]) -> list[dict]:
     return out
 
 
+COLUMNS = ("band", "family", "task", "method", "seed", "found", "seconds")
+"""The columns of ``rows.csv``, as :func:`solve` writes them."""
+
+
 def read_rows(path: Path) -> list[dict]:
-    """Rows of an earlier run's rows.csv, typed as :func:`solve` writes them."""
+    """Rows of an earlier run's rows.csv, typed as :func:`solve` writes them; a ValueError
+    naming the file, the 1-based row and the column for anything else."""
     import csv
 
     with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    for r in rows:
-        r["band"] = int(r["band"])
-        r["found"] = int(r["found"]) if r["found"] else None
-        r["seconds"] = float(r["seconds"])
+        reader = csv.DictReader(f)
+        missing = [c for c in COLUMNS if c not in (reader.fieldnames or ())]
+        if missing:
+            raise ValueError(f"--rows {path}: no column {', '.join(missing)} (expected "
+                             f"{', '.join(COLUMNS)})")  # fmt: skip
+        rows = []
+        for i, r in enumerate(reader, start=1):
+            try:
+                typed = {"band": int(r["band"]), "seconds": float(r["seconds"]),
+                         "found": int(r["found"]) if r["found"] else None}  # fmt: skip
+            except ValueError:
+                raise ValueError(f"--rows {path}: row {i}: band, found and seconds must be "
+                                 f"numbers") from None  # fmt: skip
+            rows.append({c: r[c] for c in COLUMNS} | typed)
+    if not rows:
+        raise ValueError(f"--rows {path}: no rows")
     return rows
 
 

@@ -191,3 +191,26 @@ def test_scale_seeds_summary_compares_each_seed_with_greedy():
     assert s["ppo_solves_greedys_pct"].startswith("75.0 [50.0, 100.0]")
     assert s["ppo_minus_greedy_modules"] == "+1.00 [+1.00, +1.00]"
     assert s["ppo_over_greedy_seconds"].startswith("0.83 [0.67, 1.00]")
+
+
+def test_scale_seeds_refuses_foreign_rows_in_one_line(tmp_path, capsys):
+    """--rows of another report, or a row with a word for a number: exit 2, one line naming the
+    file, the row or the missing column; nothing is written."""
+    from benchmarks.common import run_script
+
+    runs = tmp_path / "runs" / "seed-0"
+    runs.mkdir(parents=True)
+    (runs / "model.zip").write_bytes(b"")
+    header = "band,family,task,method,seed,found,seconds\n"
+    foreign = "band,family,task,method,found\n16,planted,a,ppo,3\n"
+    cases = {"foreign.csv": (foreign, "no column seed"),
+             "bad.csv": (header + "16,planted,a,ppo,0,three,1.0\n", "row 1: band, found"),
+             "empty.csv": (header, "no rows")}  # fmt: skip
+    for name, (text, message) in cases.items():
+        (tmp_path / name).write_text(text)
+        argv = ["--rows", str(tmp_path / name), "--runs", str(tmp_path / "runs"), "--mixed-runs",
+                str(tmp_path / "runs"), "--out", str(tmp_path / "out")]  # fmt: skip
+        assert run_script("scale_seeds", argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and message in err and name in err, err
+    assert not (tmp_path / "out" / "report.md").exists()

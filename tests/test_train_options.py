@@ -97,7 +97,7 @@ def test_every_config_field_is_an_option_and_the_recorded_command_rebuilds_the_c
     from dataclasses import fields
 
     from agents.cli import add_config_options
-    from agents.training import TrainConfig
+    from agents.config import TrainConfig
 
     args = parse("--n-envs", "3", "--tier", "large", "--no-progress", "--seed", "4",
                  "--env-kwargs", '{"reward_weights": {"w_module": 0.2}}', "--bc-epochs", "0",
@@ -115,8 +115,8 @@ def test_every_config_field_is_an_option_and_the_recorded_command_rebuilds_the_c
 def test_seeds_are_configs_and_the_report_is_a_function(tmp_path):
     """Seeds run as tasks over configs (no argv): each seed its own folder and one
     demonstration process; the report's options are refused when unknown."""
+    from agents.config import TrainConfig
     from agents.seeds import seed_config
-    from agents.training import TrainConfig
     from modquad_gym.scoring.agents import parse_args
     from modquad_gym.scoring.options import command_line, score_options
 

@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.training import TrainConfig, train
+from agents.config import TrainConfig
+from agents.training import train
 from modquad_gym.scoring.tiers import TIERS
 from modquad_gym.tasks import PlantedTasks, save_suite
 

@@ -51,7 +51,7 @@ class Tier:
     n_tasks: int = 0
     recipe: dict = field(default_factory=dict)
     """Training settings that differ from the recipe's defaults on this tier
-    (:class:`~.training.TrainConfig` fields)."""
+    (:class:`agents.config.TrainConfig` fields)."""
     learned: tuple[str, ...] = ("ppo", "ppo-k8", "ppo-guided")
     """The learned methods its reports score (benchmark method names; settings of the guided
     search chosen on validation tasks, ``modquad score --validation``)."""
