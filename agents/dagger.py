@@ -32,7 +32,7 @@ from agents.imitation import (
     merge,
 )
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
-from modquad_gym.search import exhaustive_search
+from modquad_gym.search import exhaustive_search, greedy_search
 
 
 def search_starts_anywhere() -> bool:
@@ -40,16 +40,21 @@ def search_starts_anywhere() -> bool:
     return "start" in inspect.signature(exhaustive_search).parameters
 
 
-def completion_targets(env: ModQuadAssemblyEnv, task: Any, n_max: int) -> list:
+def completion_targets(
+    env: ModQuadAssemblyEnv, task: Any, n_max: int, by: str = "certified"
+) -> list:
     """Targets (as :func:`~.imitation.placements` gives them, on the episode's own grid) of a
-    minimum completion of the current structure, from the certified search started at it;
-    [] when the search cannot start there or no completion of up to ``n_max`` modules works."""
-    if not search_starts_anywhere():
+    completion of the current structure: ``by="certified"`` a minimum one, from the certified
+    search started at it; ``by="greedy"`` greedy's (:func:`greedy_search` with ``start=``),
+    where no certified search finishes (expert iteration at the field's sizes). [] when the
+    search cannot start there or no completion of up to ``n_max`` modules works."""
+    if by == "certified" and not search_starts_anywhere():
         return []
     palette = env.palette
     kwargs = {"modules": list(palette)} if palette is not None else {}
     built = env.structure
-    r = exhaustive_search(task, n_max=n_max, start=built, **kwargs)
+    search = exhaustive_search if by == "certified" else greedy_search
+    r = search(task, n_max=n_max, start=built, **kwargs)
     if r.structure is None:
         return []
     found = _typed(r.structure, palette)
@@ -85,13 +90,15 @@ def learner_states(
     tasks: Sequence[Any],
     n_max: int,
     seed: int = 0,
-    expert: str = "all",
+    expert: Any = "all",
     progress: bool = False,
+    completion: str = "certified",
 ) -> tuple[Demonstrations, dict]:
     """One greedy episode of ``policy`` (an SB3 masked policy) per task, every state it visits
     labelled by the expert (see the module docstring; unlabelled states are left out), and
     how the learner did: its episodes that ended optimal, and its good actions among the
-    labelled states."""
+    labelled states. ``completion``: how a state off every target is labelled
+    (:func:`completion_targets`' ``by``)."""
     rng = np.random.default_rng(seed)
     rows: dict[str, list[np.ndarray]] = {}
     valid, good, returns = [], [], []
@@ -106,7 +113,7 @@ def learner_states(
             mask = env.action_masks()
             g = good_actions(env, targets)
             if not g.any():  # off every optimum: towards a minimum completion, if any
-                targets = completion_targets(env, task, n_max)
+                targets = completion_targets(env, task, n_max, by=completion)
                 g = good_actions(env, targets)
             if g.any():
                 for k, v in obs.items():

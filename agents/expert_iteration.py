@@ -9,12 +9,17 @@ force and high torque, :mod:`benchmarks.scale_suites`), each of 8-32 modules and
 ``default_rng([EXIT_SEED0, seed, r, i])`` (never a held-out or validation seed), are solved by
 the default search (``--search-seconds``) and by the current policy's guided search; the smaller
 verified structure is the target, one expert episode towards it (:mod:`.imitation`, an
-environment of n_max ``--n-max`` with the policy's exact lookahead) gives labelled states, and
-the policy is cloned on every round's states so far. As the policy improves, so does its guided
+environment of n_max ``--n-max`` with the policy's exact lookahead) gives labelled states, the
+learner's own episode gives more (``--learner``, DAgger: towards the target while its structure
+fits in it, else towards greedy's completion of what it built), ``--replay`` certified episodes
+of the current tier's training tasks keep the small tasks in view, and the policy is cloned on
+every round's states so far. As the policy improves, so does its guided
 search, and so do the targets. The model of each round is saved in ``OUT/round-R/`` (size-free:
 ``modquad solve --method ppo --model OUT/round-R/model.zip`` acts at any n_max) and scored on
-validation draws of the same families (16, 24 and 32 modules), single pass, beside greedy;
-``OUT/report.md`` and ``OUT/rows.csv`` hold the scores, ``OUT/labels.csv`` every label.
+validation draws of the same families (16, 24 and 32 modules), single pass, beside greedy, and
+on the current tier's validation tasks;
+``OUT/report.md`` and ``OUT/rows.csv`` hold the scores, ``OUT/labels.csv`` every label, and
+``OUT/model.zip`` is the last round's model.
 """
 
 from __future__ import annotations
@@ -55,12 +60,13 @@ def training_task(seed: int, round_: int, i: int):
 def label_chunk(job: tuple) -> tuple[Any, list[dict]]:
     """One worker's tasks: each solved by the default search and the policy's guided search,
     one expert episode towards the smaller answer. (demonstrations, one row per task)."""
+    from agents.dagger import learner_states
     from agents.imitation import collect, merge
     from modquad_gym.policy.guided import GuidedSolver
     from modquad_gym.policy.policy import Policy
     from modquad_gym.search import anytime_search
 
-    model, tasks, n_max, search_seconds, budget, seed = job
+    model, tasks, n_max, search_seconds, budget, seed, learner = job
     policy = Policy(model, n_max=n_max)
     parts, rows = [], []
     for k, task in enumerate(tasks):
@@ -77,9 +83,27 @@ def label_chunk(job: tuple) -> tuple[Any, list[dict]]:
         best = min(found, key=lambda r: (r.n_modules, r is guided))
         rows[-1]["target"] = best.n_modules
         target = (best.n_modules, [best.structure.key])
-        parts.append(collect(policy.env, [task], n_max, seed=[*seed, k],
-                             expert=lambda task, n_max, palette, t=target: t))  # fmt: skip
+        expert = lambda task, n_max, palette, t=target: t  # noqa: E731
+        parts.append(collect(policy.env, [task], n_max, seed=[*seed, k], expert=expert))
+        if learner:  # the learner's own states: towards the target, else greedy's completion
+            states, _ = learner_states(policy.net, policy.env, [task], n_max, seed=[*seed, k],
+                                       expert=expert, completion="greedy")  # fmt: skip
+            parts.append(states)
     return (merge(parts) if parts else None), rows
+
+
+def replay_demos(model: str, n_max: int, n_tasks: int, seed: int):
+    """Certified demonstrations of ``n_tasks`` training tasks of the current tier (the default
+    model's task source, 7 modules; draws ``default_rng([EXIT_SEED0, seed, 0])``, never a
+    validation or held-out seed) in the environment of ``n_max``: cloned beside the scale
+    states, so the small tasks the model was trained on are not forgotten."""
+    from agents.imitation import collect
+    from modquad_gym.policy.policy import Policy
+    from modquad_gym.tasks import make_generator
+
+    generate, rng = make_generator("mixed"), np.random.default_rng([EXIT_SEED0, seed, 0])
+    tasks = [generate(rng) for _ in range(n_tasks)]
+    return collect(Policy(model, n_max=n_max).env, tasks, 7, seed=[EXIT_SEED0, seed, 1])
 
 
 def load_for_training(model: Path, n_max: int):
@@ -115,6 +139,20 @@ def score(model: Path, n_max: int, per_family: int) -> list[dict]:
     return rows
 
 
+def current_tier(model: Path, tasks: list) -> dict:
+    """Single-pass ``ppo`` of ``model`` on the current tier's validation tasks (certified
+    optima): optimal and success shares, so a round that forgets the small tasks shows it."""
+    from modquad_gym.search import verified
+    from modquad_gym.solvers import make_solver
+
+    ppo = make_solver("ppo", n_max=7, model=str(model))
+    found = [ppo.solve(t) for t in tasks]
+    ok = [verified(r.structure, t) for r, t in zip(found, tasks)]
+    best = [o and r.n_modules == t.meta["optimum"] for o, r, t in zip(ok, found, tasks)]
+    return {"current_optimal": round(float(np.mean(best)), 3),
+            "current_success": round(float(np.mean(ok)), 3)}  # fmt: skip
+
+
 def summary(rows: list[dict]) -> dict:
     """Solved counts, mean modules on the tasks both solved, and wins/ties/losses against
     greedy."""
@@ -137,9 +175,12 @@ def run(args: argparse.Namespace) -> list[dict]:
     """The rounds (module docstring); one summary row per model (round 0: the start model)."""
     from agents.imitation import clone, merge
     from modquad_gym.core.distributed import map_tasks
+    from modquad_gym.scoring.tiers import get_tier, validation_suite
 
     out, model = Path(args.out), Path(args.model)
-    demos, labels, rows = None, [], []
+    small = validation_suite(get_tier("current"), progress=False)
+    demos = replay_demos(str(model), args.n_max, args.replay, args.seed) if args.replay else None
+    labels, rows = [], []
     rows.append(
         {
             "round": 0,
@@ -149,6 +190,7 @@ def run(args: argparse.Namespace) -> list[dict]:
             "clone_s": 0,
             "greedy_good": "",
             **summary(score(model, args.n_max, args.per_family)),
+            **current_tier(model, small),
         }  # fmt: skip
     )
     print(rows[-1], flush=True)
@@ -156,8 +198,8 @@ def run(args: argparse.Namespace) -> list[dict]:
         t0 = time.perf_counter()
         tasks = [training_task(args.seed, r, i) for i in range(args.tasks)]
         chunks = [tasks[w :: args.workers] for w in range(args.workers)]
-        jobs = [(str(model), c, args.n_max, args.search_seconds, args.budget, [args.seed, r, w])
-                for w, c in enumerate(chunks) if c]  # fmt: skip
+        jobs = [(str(model), c, args.n_max, args.search_seconds, args.budget, [args.seed, r, w],
+                 args.learner) for w, c in enumerate(chunks) if c]  # fmt: skip
         parts = map_tasks(label_chunk, jobs, workers=args.workers)
         labels += [{"round": r, **row} for _, chunk in parts for row in chunk]
         demos = merge([d for d in [demos, *(part for part, _ in parts)] if d is not None])
@@ -172,7 +214,8 @@ def run(args: argparse.Namespace) -> list[dict]:
         rows.append({"round": r, "model": str(model), "states": len(demos),
                      "label_s": round(labelled), "clone_s": round(cloned),
                      "greedy_good": round(history[-1]["greedy_good"], 3),
-                     **summary(score(model, args.n_max, args.per_family))})  # fmt: skip
+                     **summary(score(model, args.n_max, args.per_family)),
+                     **current_tier(model, small)})  # fmt: skip
         print(rows[-1], flush=True)
     write_csv(labels, out / "labels.csv")
     args.labels = labels
@@ -188,7 +231,7 @@ def write_config(folder: Path, args: argparse.Namespace, round_: int, states: in
     config["expert_iteration"] = {
         "round": round_, "states": states, "start": str(args.model), "tasks_per_round": args.tasks,
         "search_seconds": args.search_seconds, "budget": args.budget, "seed": args.seed, **CLONE,
-        "epochs": args.epochs,
+        "epochs": args.epochs, "learner": args.learner, "replay": args.replay,
     }  # fmt: skip
     (folder / "config.json").write_text(json.dumps(config, indent=2) + "\n")
 
@@ -267,6 +310,20 @@ def main(argv: list[str] | None = None) -> int:
         "--per-family", type=int, default=3, help="validation draws per family and band (3)"
     )
     p.add_argument("--workers", type=int, default=2, help="labelling processes (default 2)")
+    p.add_argument(
+        "--learner",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="also label the states of the learner's own episode: towards the "
+        "target while it fits, else towards greedy's completion (default on)",
+    )
+    p.add_argument(
+        "--replay",
+        type=int,
+        default=0,
+        help="certified demonstrations of this "
+        "many current-tier training tasks cloned beside the scale states (default 0)",
+    )
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", type=Path, default=Path("runs/exit"))
     p.add_argument("--force", action="store_true", help="replace an existing --out")
@@ -279,6 +336,9 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     rows = run(args)
+    if args.rounds:  # OUT is a run folder too: its model is the last round's
+        for name in ("model.zip", "config.json"):
+            shutil.copy2(args.out / f"round-{args.rounds}" / name, args.out / name)
     write_csv(rows, args.out / "rows.csv")
     (args.out / "report.md").write_text(report(rows, args, time.perf_counter() - t0, args.labels))
     print(f"wrote {args.out / 'report.md'}")

@@ -50,6 +50,23 @@ def test_following_the_flag_builds_what_the_greedy_search_builds(source):
         assert same_answer(follow_greedy_flag(env, task, i), greedy_search(task, n_max=6))
 
 
+def test_greedy_completes_a_prefix_of_its_own_episode_to_its_answer():
+    # greedy_search(start=): the completion expert iteration labels a learner's states by
+    rng = np.random.default_rng(5)
+    task = PlantedTasks(n_modules=(4, 5), n_wrenches=(6, 10))(rng)
+    env = ModQuadAssemblyEnv(tasks=[task], n_max=7, lookahead="exact")
+    whole = greedy_search(task, n_max=7)
+    assert whole.n_modules > 3  # the prefix of two dockings is not the answer
+    obs, info = env.reset(seed=0, options={"task": task})
+    for _ in range(2):
+        obs, *_, info = env.step(int(np.flatnonzero(rows_of(obs)[:, GREEDY])[0]))
+    prefix = Structure(info["cells"])
+    assert greedy_search(task, n_max=7, start=prefix).structure == whole.structure
+    odd = Structure([(0, 0), (0, 1), (0, 2)])  # not greedy's: its completion contains it
+    done = greedy_search(task, n_max=7, start=odd)
+    assert done.structure is None or {(0, 0), (0, 1), (0, 2)} <= set(done.structure.cells)
+
+
 def test_the_flag_follows_greedy_on_dynamic_tasks_and_under_a_rotor_fault():
     rng = np.random.default_rng(3)
     motions = make_generator("motions")

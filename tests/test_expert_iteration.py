@@ -33,11 +33,14 @@ def test_a_label_is_the_better_answer_and_its_episode_reaches_it():
     task = training_task(0, 1, 3)  # low force, high torque, 10 modules planted
     # the search proves its answer optimal in well under a second here and stops; 10 s leaves
     # room for a loaded machine (the label must not depend on the machine's speed)
-    demos, rows = label_chunk((None, [task], 36, 10.0, 8, [0, 1, 0]))
+    alone, _ = label_chunk((None, [task], 36, 10.0, 8, [0, 1, 0], False))
+    demos, rows = label_chunk((None, [task], 36, 10.0, 8, [0, 1, 0], True))
     (row,) = rows
     answers = [n for n in (row["search"], row["guided"]) if n is not None]
     assert row["target"] == min(answers) and row["bound"] <= row["target"]
-    assert demos is not None and len(demos) >= 1 and demos.n_tasks == 1
+    assert alone is not None and len(alone) >= 1 and alone.n_tasks == 1
+    # with the learner's own episode: its states join the expert's, each labelled
+    assert len(demos) > len(alone) and demos.n_tasks == 2
     assert demos.good.any(axis=1).all() and not (demos.good & ~demos.valid).any()
 
 

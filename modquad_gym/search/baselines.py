@@ -50,6 +50,7 @@ def greedy_search(
     problem: SearchProblem,
     *,
     time_limit: float = DEFAULT_TIME_LIMIT,
+    start: Structure | None = None,
 ) -> SearchResult:
     """Baseline: from one module, repeatedly attach the module that most increases the fraction
     of satisfied wrenches, ties broken by the larger mean margin (exact margins clipped to
@@ -60,7 +61,9 @@ def greedy_search(
     their first cell in sorted order; equal structures score equally, so results are unchanged.
     With ``modules`` the first module is the best-scoring type and every child is a (cell,
     type) pair (ties by cell order, then palette order). At ``time_limit`` seconds it stops
-    with no structure (and the proved lower bound)."""
+    with no structure (and the proved lower bound). ``start`` (a Structure) is extended
+    instead of one module: greedy's completion of a partial structure, as expert iteration
+    labels a learner's states by it."""
     run = SearchRun("greedy", problem)
     deadline = Deadline(run, time_limit)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
@@ -74,8 +77,8 @@ def greedy_search(
         mean = float(np.clip(margin(z.A, W, f, method="compiled"), -1.0, 1.0).mean())
         return False, greedy_rank(float(ok.mean()), mean)
 
-    if len(palette) == 1:
-        current = Structure([(0, 0)], problem.module)
+    if start is not None or len(palette) == 1:
+        current = Structure([(0, 0)], problem.module) if start is None else start
         if run.decide(current)[2].all():
             return heuristic_result(run, current)
     else:
