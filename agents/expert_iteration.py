@@ -42,7 +42,7 @@ FAMILIES = ("planted", "torque")
 SIZES = (8, 32)
 BANDS = (16, 24, 32)
 """Validation bands the rounds are scored on."""
-CLONE = {"epochs": 12, "batch_size": 64, "learning_rate": 3e-4}
+CLONE = {"epochs": 25, "batch_size": 64, "learning_rate": 3e-4}
 
 
 def training_task(seed: int, round_: int, i: int):
@@ -224,14 +224,18 @@ def run(args: argparse.Namespace) -> list[dict]:
 
 def write_config(folder: Path, args: argparse.Namespace, round_: int, states: int) -> None:
     """The start model's config.json with this round's environment and recipe."""
+    from agents.training import shown
     from modquad_gym.policy.models import read_model
 
     config = dict(read_model(args.model).config)
     config["env_kwargs"] = {**config.get("env_kwargs", {}), "n_max": args.n_max}
     config["expert_iteration"] = {
-        "round": round_, "states": states, "start": str(args.model), "tasks_per_round": args.tasks,
-        "search_seconds": args.search_seconds, "budget": args.budget, "seed": args.seed, **CLONE,
-        "epochs": args.epochs, "learner": args.learner, "replay": args.replay,
+        "command": " ".join(["python -m agents.expert_iteration", *args.argv]),
+        "round": round_, "rounds": args.rounds, "states": states,
+        "start": shown(args.model).as_posix(), "tasks_per_round": args.tasks,
+        "search_seconds": args.search_seconds,
+        "budget": args.budget, "seed": args.seed, **CLONE, "epochs": args.epochs,
+        "learner": args.learner, "replay": args.replay,
     }  # fmt: skip
     (folder / "config.json").write_text(json.dumps(config, indent=2) + "\n")
 
@@ -320,9 +324,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--replay",
         type=int,
-        default=0,
+        default=800,
         help="certified demonstrations of this "
-        "many current-tier training tasks cloned beside the scale states (default 0)",
+        "many current-tier training tasks cloned beside the scale states (default 800)",
     )
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", type=Path, default=Path("runs/exit"))

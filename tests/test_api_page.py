@@ -20,6 +20,7 @@ SUBPACKAGE_NAMES = (
     "modquad_gym.envs.ModQuadAssemblyEnv",
     "modquad_gym.envs.wrappers.NearestValidAction",
     "modquad_gym.policy.DEFAULT_MODEL",
+    "modquad_gym.policy.default_model",
     "modquad_gym.search.SEARCHES",
 )
 

@@ -68,3 +68,25 @@ def test_label_summary_means_each_answer_over_the_tasks_it_solved():
     one, two = label_summary(labels)
     assert (one["search"], one["guided"], one["ppo"], one["target"]) == (11, 9, 14, 10.5)
     assert one["guided_smaller"] == 1 and two["guided_smaller"] == 0 and two["tasks"] == 1
+
+
+def test_a_rounds_config_names_its_command_and_its_start_without_a_machines_folder(
+    tmp_path, monkeypatch
+):
+    import argparse
+    import json
+
+    from agents.expert_iteration import write_config
+    from modquad_gym.policy import DEFAULT_MODEL
+
+    monkeypatch.chdir(DEFAULT_MODEL.parents[4])  # the repository (or the install's site folder)
+    args = argparse.Namespace(model=DEFAULT_MODEL, n_max=40, argv=["--rounds", "1"], rounds=1,
+                              tasks=4, search_seconds=1.0, budget=8, seed=3, epochs=2,
+                              learner=True, replay=0)  # fmt: skip
+    write_config(tmp_path, args, 1, 10)
+    config = json.loads((tmp_path / "config.json").read_text())
+    made = config["expert_iteration"]
+    assert made["start"] == "modquad_gym/data/models/ppo_default/model.zip"
+    assert made["command"] == "python -m agents.expert_iteration --rounds 1"
+    assert (made["round"], made["rounds"], made["states"], made["seed"]) == (1, 1, 10, 3)
+    assert config["env_kwargs"]["n_max"] == 40 and config["env_kwargs"]["lookahead"] == "exact"

@@ -6,6 +6,13 @@ what an installed wheel needs to answer ``modquad solve --method ppo``. Torch an
 when a model is loaded.
 """
 
-from modquad_gym.policy.models import DEFAULT_MODEL, MODELS_DIR, shipped_model
+from modquad_gym.policy.models import (
+    DEFAULT_MODEL,
+    MODELS_DIR,
+    SCALE_FROM,
+    SCALE_MODEL,
+    default_model,
+    shipped_model,
+)
 
-__all__ = ["DEFAULT_MODEL", "MODELS_DIR", "shipped_model"]
+__all__ = ["DEFAULT_MODEL", "MODELS_DIR", "SCALE_FROM", "SCALE_MODEL", "default_model", "shipped_model"]

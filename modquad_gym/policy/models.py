@@ -15,6 +15,22 @@ MODELS_DIR = Path(__file__).resolve().parents[1] / "data" / "models"
 DEFAULT_MODEL = MODELS_DIR / "ppo_default" / "model.zip"
 """The default PPO model shipped with the package (its config.json lies beside it)."""
 
+SCALE_MODEL = MODELS_DIR / "ppo_scale" / "model.zip"
+"""The shipped model for budgets of :data:`SCALE_FROM` modules and more: the default recipe's
+model after expert iteration on tasks of 8-32 modules (``agents.expert_iteration``)."""
+SCALE_FROM = 16
+"""The budget (n_max) from which a learned method without ``--model`` uses :data:`SCALE_MODEL`."""
+
+
+def default_model(n_max: int | None = None) -> Path:
+    """The model a learned method uses without ``--model`` (one pair, the same network): for a
+    budget of at least :data:`SCALE_FROM` modules :data:`SCALE_MODEL`, which has seen the long
+    lever arms of large structures, else :data:`DEFAULT_MODEL`, which is the better one on
+    small tasks (``results/expert_iteration``)."""
+    if n_max is not None and n_max >= SCALE_FROM:
+        return globals()["SCALE_MODEL"]
+    return globals()["DEFAULT_MODEL"]  # looked up per call: tests redirect it
+
 
 def shipped_model(name: str) -> Path:
     """The shipped model of a benchmark tier: ``ppo_default`` for ``current``, ``ppo_<name>``

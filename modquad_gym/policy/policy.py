@@ -20,7 +20,7 @@ from modquad_gym.core.extras import import_optional
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.features import lookahead_width
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.models import read_model
+from modquad_gym.policy.models import default_model, read_model
 from modquad_gym.search import SearchResult
 from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.problem import SearchProblem
@@ -70,7 +70,8 @@ class Policy:
     """A trained policy network with the environment it acts in.
 
     Args:
-        model: a model .zip path (default the shipped model), a loaded MaskablePPO or its
+        model: a model .zip path (default the shipped model for ``n_max``,
+            :func:`~modquad_gym.policy.models.default_model`), a loaded MaskablePPO or its
             policy network.
         n_max: the module budget; at most the n_max the model was trained with (its grid size);
             None: the trained one.
@@ -86,7 +87,7 @@ class Policy:
     def __init__(self, model: Any = None, n_max: int | None = 7, config: dict | None = None):
         self.saved = None
         if model is None or isinstance(model, (str, Path)):
-            self.saved = read_model(model)
+            self.saved = read_model(default_model(n_max) if model is None else model)
             self.model_path, config = str(self.saved.path), self.saved.config
             space = self.saved.observation_space
         else:
