@@ -174,6 +174,7 @@ def summary(rows: list[dict]) -> dict:
 def run(args: argparse.Namespace) -> list[dict]:
     """The rounds (module docstring); one summary row per model (round 0: the start model)."""
     from agents.imitation import clone, merge
+    from agents.training import shown
     from modquad_gym.core.distributed import map_tasks
     from modquad_gym.scoring.tiers import get_tier, validation_suite
 
@@ -184,7 +185,7 @@ def run(args: argparse.Namespace) -> list[dict]:
     rows.append(
         {
             "round": 0,
-            "model": str(model),
+            "model": shown(model).as_posix(),
             "states": 0,
             "label_s": 0,
             "clone_s": 0,
@@ -273,11 +274,16 @@ def report(
         "",
         "Round 0 is the start model. Each later round: the training tasks' labels (the "
         "smaller of the default search's and the guided search's answer), one expert episode "
-        "each, the policy cloned on all rounds' states. Every model is scored single pass "
+        "each"
+        + (", the learner's own episode labelled towards the label or greedy's completion"
+           if args.learner else "")
+        + (f", {args.replay} replayed current-tier episodes" if args.replay else "")
+        + "; the policy cloned on all rounds' states. Every model is scored single pass "
         f"(`ppo`) against `greedy` on the validation draws of {', '.join(FAMILIES)} at "
         f"{', '.join(map(str, BANDS))} modules ({args.per_family} per family and band), "
         f"n_max {args.n_max}. `fewer`/`equal`/`more`: tasks where ppo used fewer, as many or more "
-        "modules than greedy, of those both solved.",
+        "modules than greedy, of those both solved; `current_optimal`/`current_success`: on "
+        "the current tier's 40 validation tasks (n_max 7).",
         "",
         markdown_table(rows),
         "",

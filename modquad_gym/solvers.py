@@ -101,11 +101,12 @@ def make_solver(
     ``tier`` and ``modules``).
 
     ``model`` (a PPO .zip, a loaded :class:`~modquad_gym.policy.policy.Policy`; default the
-    shipped model) applies to the learned methods only; ``samples`` (extra stochastic rollouts)
-    to ``"ppo"``; ``guided`` holds :class:`~modquad_gym.policy.guided.GuidedSolver` keywords;
-    ``seed`` seeds the random search and PPO's sampled rollouts; ``modules`` (a list of module
-    types) makes the searches search over shapes x type assignments and must be the palette a
-    learned model was trained with; ``search_options`` go to the searches that take them
+    shipped model for the budget and palette, :func:`~modquad_gym.policy.default_model`) applies
+    to the learned methods only; ``samples`` (extra stochastic rollouts) to ``"ppo"``;
+    ``guided`` holds :class:`~modquad_gym.policy.guided.GuidedSolver` keywords; ``seed`` seeds
+    the random search and PPO's sampled rollouts; ``modules`` (a list of module types) makes the
+    searches search over shapes x type assignments and must be the palette a learned model was
+    trained with; ``search_options`` go to the searches that take them
     (:class:`SearchSolver`).
     """
     if ":" in method:
@@ -118,6 +119,10 @@ def make_solver(
             raise ValueError(f"--model applies to {', '.join(LEARNED)} only, not {method!r}")
         return SearchSolver(method, n_max=n_max, modules=modules, seed=seed, **search_options)
     base, options = learned
+    if model is None:
+        from modquad_gym.policy.models import default_model
+
+        model = default_model(n_max, modules)
     if search_options.get("time_limit") is not None:  # the one search option they honour
         options["time_limit"] = search_options["time_limit"]
     if base == "ppo-guided":

@@ -114,7 +114,8 @@ def solver(args: argparse.Namespace, task=None, engine=None):
 def model_for(method: str, model, task, modules: str | None):
     """``--model``, else the shipped model for ``task``: the dynamic tier's
     (``data/models/ppo_dynamic``, trained on motions) for a learned method on a dynamic task of
-    one module type, the default model (None) otherwise."""
+    one module type, None otherwise (the shipped pair for the budget,
+    :func:`~modquad_gym.policy.models.default_model`)."""
     from modquad_gym.solvers import learned_options
 
     tier = task.policy_tier  # None: the default model

@@ -15,4 +15,11 @@ from modquad_gym.policy.models import (
     shipped_model,
 )
 
-__all__ = ["DEFAULT_MODEL", "MODELS_DIR", "SCALE_FROM", "SCALE_MODEL", "default_model", "shipped_model"]
+__all__ = [
+    "DEFAULT_MODEL",
+    "MODELS_DIR",
+    "SCALE_FROM",
+    "SCALE_MODEL",
+    "default_model",
+    "shipped_model",
+]

@@ -24,6 +24,7 @@ import numpy as np
 
 from modquad_gym.core.validation import check_int, check_real
 from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
+from modquad_gym.policy.models import default_model
 from modquad_gym.policy.policy import Policy, search_result
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.tasks import as_task
@@ -164,7 +165,8 @@ def guided_producer(problem, time_limit: float, seed: int | None = 0) -> SearchR
         return None
     if not problem.typed and problem.palette[0].digest != DEFAULT_MODULE.digest:
         return None
-    solver = GuidedSolver(n_max=problem.n_max, time_limit=time_limit)
+    model = default_model(problem.n_max, list(problem.palette) if problem.typed else None)
+    solver = GuidedSolver(model=model, n_max=problem.n_max, time_limit=time_limit)
     if problem.typed or problem.model.uses_mass:  # self-weight through a module set
         solver.policy.use_palette(list(problem.palette))
     return solver.solve(task)

@@ -22,12 +22,13 @@ SCALE_FROM = 16
 """The budget (n_max) from which a learned method without ``--model`` uses :data:`SCALE_MODEL`."""
 
 
-def default_model(n_max: int | None = None) -> Path:
-    """The model a learned method uses without ``--model`` (one pair, the same network): for a
-    budget of at least :data:`SCALE_FROM` modules :data:`SCALE_MODEL`, which has seen the long
-    lever arms of large structures, else :data:`DEFAULT_MODEL`, which is the better one on
-    small tasks (``results/expert_iteration``)."""
-    if n_max is not None and n_max >= SCALE_FROM:
+def default_model(n_max: int | None = None, modules: Any = None) -> Path:
+    """The model a learned method uses without ``--model`` (one pair, the same network): with
+    one module type and a budget of at least :data:`SCALE_FROM` modules :data:`SCALE_MODEL`,
+    which has seen the long lever arms of large one-type structures, else
+    :data:`DEFAULT_MODEL`, the better one on small tasks (``results/expert_iteration``) and
+    the one with a palette of ``modules``."""
+    if n_max is not None and n_max >= SCALE_FROM and not modules:
         return globals()["SCALE_MODEL"]
     return globals()["DEFAULT_MODEL"]  # looked up per call: tests redirect it
 
