@@ -385,8 +385,9 @@ def report(rows: list[dict], summary_rows: list[dict], args) -> str:
         "method here). `gap_to_bound`: modules above it. `planted`: the hidden structure's size, "
         "an upper bound on the optimum. "
         + (f"Learned methods use the model {args.model}. " if args.model else
-           "Learned methods use the shipped size-free model (trained on tasks of at most 7 "
-           "modules). ")
+           "Learned methods use the shipped pair (`modquad_gym.policy.default_model`): "
+           "`ppo_scale`, trained further on one-type tasks of 8-32 modules, for the one-type "
+           "families, the default model with the mixed palette. ")
         + "Every structure is verified by the exact LP. "
         "Per band, `mean_modules` and `mean_gap_to_bound` are over the tasks the method solved "
         "(read them beside `solved`); `mean_seconds` over all its tasks.",

@@ -19,6 +19,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from modquad_gym.geometry.structure import Structure
+from modquad_gym.policy.models import default_model
 from modquad_gym.search import SEARCHES, SearchResult
 
 METHOD_HELP = {
@@ -100,15 +101,12 @@ def make_solver(
     or ``package.module:Name`` (an outside agent, :func:`load_solver`, told ``n_max``,
     ``tier`` and ``modules``).
 
-    ``model`` (a PPO .zip, a loaded :class:`~modquad_gym.policy.policy.Policy`; default the
-    shipped model for the budget and palette, :func:`~modquad_gym.policy.default_model`) applies
-    to the learned methods only; ``samples`` (extra stochastic rollouts) to ``"ppo"``;
-    ``guided`` holds :class:`~modquad_gym.policy.guided.GuidedSolver` keywords; ``seed`` seeds
-    the random search and PPO's sampled rollouts; ``modules`` (a list of module types) makes the
-    searches search over shapes x type assignments and must be the palette a learned model was
-    trained with; ``search_options`` go to the searches that take them
-    (:class:`SearchSolver`).
-    """
+    ``model`` (a PPO .zip or a loaded :class:`~modquad_gym.policy.policy.Policy`; default
+    :func:`~modquad_gym.policy.default_model` of the budget and palette) applies to the learned
+    methods only, ``samples`` (extra stochastic rollouts) to ``"ppo"``, ``guided``
+    (:class:`~modquad_gym.policy.guided.GuidedSolver` keywords) to ``ppo-guided``; ``seed``
+    seeds the random search and sampled rollouts; ``modules`` (module types) makes every method
+    design over shapes x type assignments; ``search_options`` go to the searches that take them."""
     if ":" in method:
         return load_solver(method, n_max=n_max, tier=tier, modules=modules)
     learned = learned_options(method)
@@ -119,10 +117,7 @@ def make_solver(
             raise ValueError(f"--model applies to {', '.join(LEARNED)} only, not {method!r}")
         return SearchSolver(method, n_max=n_max, modules=modules, seed=seed, **search_options)
     base, options = learned
-    if model is None:
-        from modquad_gym.policy.models import default_model
-
-        model = default_model(n_max, modules)
+    model = default_model(n_max, modules) if model is None else model
     if search_options.get("time_limit") is not None:  # the one search option they honour
         options["time_limit"] = search_options["time_limit"]
     if base == "ppo-guided":
