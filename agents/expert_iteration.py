@@ -13,13 +13,12 @@ environment of n_max ``--n-max`` with the policy's exact lookahead) gives labell
 learner's own episode gives more (``--learner``, DAgger: towards the target while its structure
 fits in it, else towards greedy's completion of what it built), ``--replay`` certified episodes
 of the current tier's training tasks keep the small tasks in view, and the policy is cloned on
-every round's states so far. As the policy improves, so does its guided
-search, and so do the targets. The model of each round is saved in ``OUT/round-R/`` (size-free:
-``modquad solve --method ppo --model OUT/round-R/model.zip`` acts at any n_max) and scored on
-validation draws of the same families (16, 24 and 32 modules), single pass, beside greedy, and
-on the current tier's validation tasks;
-``OUT/report.md`` and ``OUT/rows.csv`` hold the scores, ``OUT/labels.csv`` every label, and
-``OUT/model.zip`` is the last round's model.
+every round's states so far. As the policy improves, so does its guided search, and so do the
+targets. The model of each round is saved in ``OUT/round-R/`` (size-free: ``modquad solve
+--method ppo --model OUT/round-R/model.zip`` acts at any n_max) and scored on validation draws
+of the same families (16, 24 and 32 modules), single pass, beside greedy, and on the current
+tier's validation tasks; ``OUT/report.md`` and ``OUT/rows.csv`` hold the scores,
+``OUT/labels.csv`` every label, and ``OUT/model.zip`` is the last round's model.
 """
 
 from __future__ import annotations
@@ -59,7 +58,9 @@ def training_task(seed: int, round_: int, i: int):
 
 def label_chunk(job: tuple) -> tuple[Any, list[dict]]:
     """One worker's tasks: each solved by the default search and the policy's guided search,
-    one expert episode towards the smaller answer. (demonstrations, one row per task)."""
+    one expert episode towards the smaller answer and, with ``learner``, the learner's own
+    episode labelled towards it (:func:`agents.dagger.learner_states`, greedy's completion off
+    it). (demonstrations, one row per task)."""
     from agents.dagger import learner_states
     from agents.imitation import collect, merge
     from modquad_gym.policy.guided import GuidedSolver
@@ -212,7 +213,7 @@ def run(args: argparse.Namespace) -> list[dict]:
         ppo.save(str(model))
         write_config(model.parent, args, r, len(demos))
         cloned = time.perf_counter() - t0 - labelled
-        rows.append({"round": r, "model": str(model), "states": len(demos),
+        rows.append({"round": r, "model": shown(model).as_posix(), "states": len(demos),
                      "label_s": round(labelled), "clone_s": round(cloned),
                      "greedy_good": round(history[-1]["greedy_good"], 3),
                      **summary(score(model, args.n_max, args.per_family)),

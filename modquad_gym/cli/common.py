@@ -139,8 +139,9 @@ def add_method(
         "--model",
         default=None,
         help="PPO model .zip for --method ppo/ppo-guided (default: the model shipped with "
-        "the package, modquad_gym/data/models/ppo_default/model.zip, and from --n-max 16 on "
-        "ppo_scale, trained further on tasks of 8-32 modules; for a dynamic task of one "
+        "the package, modquad_gym/data/models/ppo_default/model.zip, and for one module type "
+        "from --n-max 16 on ppo_scale, trained further on tasks of 8-32 modules; for a "
+        "dynamic task of one "
         "module type the one trained on motions, modquad_gym/data/models/ppo_dynamic)",
     )
     p.add_argument(
