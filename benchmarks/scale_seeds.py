@@ -58,21 +58,41 @@ def solve(job: tuple, time_limit: float) -> list[dict]:
     ]  # fmt: skip
 
 
-def band_summary(rows: list[dict], band: int) -> dict:
-    """The band's greedy line and ppo's per-seed scores with their bootstrap intervals."""
+def seed_rows(rows: list[dict], band: int) -> list[dict]:
+    """Per seed in ``band``: the share of greedy's solved tasks ``ppo`` solves, its mean modules
+    above greedy's where both solve, and its total wall time over greedy's."""
     greedy = {r["task"]: r for r in rows if r["band"] == band and r["method"] == "greedy"}
     solved = [t for t, r in greedy.items() if r["found"] is not None]
     seeds = sorted({r["seed"] for r in rows if r["method"] == "ppo"}, key=lambda s: (len(s), s))
-    share, extra, ratio = [], [], []
+    out = []
     for seed in seeds:
         mine = {r["task"]: r for r in rows
                 if r["band"] == band and r["method"] == "ppo" and r["seed"] == seed}  # fmt: skip
         both = [t for t in solved if mine[t]["found"] is not None]
-        share.append(100.0 * len(both) / max(1, len(solved)))
-        extra.append(np.mean([mine[t]["found"] - greedy[t]["found"] for t in both])
-                     if both else np.nan)  # fmt: skip
-        ratio.append(sum(r["seconds"] for r in mine.values())
-                     / max(1e-9, sum(greedy[t]["seconds"] for t in mine)))  # fmt: skip
+        extra = np.mean([mine[t]["found"] - greedy[t]["found"] for t in both]) if both else np.nan
+        ratio = sum(r["seconds"] for r in mine.values()) / max(
+            1e-9, sum(greedy[t]["seconds"] for t in mine)
+        )
+        out.append({"band": band, "seed": seed,
+                    "ppo_solves_greedys_pct": 100.0 * len(both) / max(1, len(solved)),
+                    "ppo_minus_greedy_modules": float(extra),
+                    "ppo_over_greedy_seconds": float(ratio)})  # fmt: skip
+    return out
+
+
+def per_seed_table(rows: list[dict], bands) -> list[dict]:
+    """:func:`seed_rows` of every band, rounded for the report."""
+    return [{k: round(v, 2) if isinstance(v, float) else v for k, v in r.items()}
+            for band in bands for r in seed_rows(rows, band)]  # fmt: skip
+
+
+def band_summary(rows: list[dict], band: int) -> dict:
+    """The band's greedy line and ppo's per-seed scores with their bootstrap intervals."""
+    greedy = [r for r in rows if r["band"] == band and r["method"] == "greedy"]
+    per_seed = seed_rows(rows, band)
+    share = [r["ppo_solves_greedys_pct"] for r in per_seed]
+    extra = [r["ppo_minus_greedy_modules"] for r in per_seed]
+    ratio = [r["ppo_over_greedy_seconds"] for r in per_seed]
 
     def ci(values, fmt):
         v = np.asarray(values, dtype=float)
@@ -82,8 +102,9 @@ def band_summary(rows: list[dict], band: int) -> dict:
         point, low, high = interval([v], np.mean)
         return f"{point:{fmt}} [{low:{fmt}}, {high:{fmt}}]"
 
-    return {"band": band, "tasks": len(greedy), "greedy_solved": len(solved),
-            "seeds": len(seeds), "ppo_solves_greedys_pct": ci(share, ".1f"),
+    return {"band": band, "tasks": len(greedy),
+            "greedy_solved": sum(r["found"] is not None for r in greedy),
+            "seeds": len(per_seed), "ppo_solves_greedys_pct": ci(share, ".1f"),
             "ppo_every_seed_all": sum(s == 100.0 for s in share),
             "ppo_minus_greedy_modules": ci(extra, "+.2f"),
             "ppo_over_greedy_seconds": ci(ratio, ".2f")}  # fmt: skip
@@ -193,6 +214,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     )  # fmt: skip
     text = report_page("The learned designer's seeds at 16-64 modules", command, notes, summary,
                        "## Per family (every seed)", "", markdown_table(family_rows(rows)), "",
+                       "## Per seed", "",
+                       markdown_table(per_seed_table(rows, args.bands)), "",
                        "## Every task and seed", "", markdown_table(rows), "",
                        how=f"; {args.workers} processes at a time")  # fmt: skip
     write_report(args.out, "report", summary, text)

@@ -173,7 +173,7 @@ def test_runs_merge_with_the_largest_bound_and_later_rows_first(tmp_path):
 def test_scale_seeds_summary_compares_each_seed_with_greedy():
     """benchmarks.scale_seeds: per seed, the share of greedy's solved tasks ppo solves, the
     modules above greedy's on tasks both solve, and the time ratio; then over the seeds."""
-    from benchmarks.scale_seeds import band_summary
+    from benchmarks.scale_seeds import band_summary, per_seed_table
 
     def row(task, method, seed, found, seconds):
         return {"band": 16, "family": "planted", "task": task, "method": method, "seed": seed,
@@ -191,6 +191,14 @@ def test_scale_seeds_summary_compares_each_seed_with_greedy():
     assert s["ppo_solves_greedys_pct"].startswith("75.0 [50.0, 100.0]")
     assert s["ppo_minus_greedy_modules"] == "+1.00 [+1.00, +1.00]"
     assert s["ppo_over_greedy_seconds"].startswith("0.83 [0.67, 1.00]")
+    (one, two) = per_seed_table(rows, [16])  # the report's per-seed lines, the same scores
+    assert (one["seed"], one["ppo_solves_greedys_pct"], one["ppo_minus_greedy_modules"]) == (
+        "0",
+        100.0,
+        1.0,
+    )
+    assert (two["ppo_solves_greedys_pct"], two["ppo_over_greedy_seconds"]) == (50.0, 1.0)
+    assert one["ppo_over_greedy_seconds"] == 0.67
 
 
 def test_scale_seeds_refuses_foreign_rows_in_one_line(tmp_path, capsys):
