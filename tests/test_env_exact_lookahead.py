@@ -65,6 +65,10 @@ def test_greedy_completes_a_prefix_of_its_own_episode_to_its_answer():
     odd = Structure([(0, 0), (0, 1), (0, 2)])  # not greedy's: its completion contains it
     done = greedy_search(task, n_max=7, start=odd)
     assert done.structure is None or {(0, 0), (0, 1), (0, 2)} <= set(done.structure.cells)
+    as_cells = greedy_search(task, n_max=7, start=[(0, 0), (0, 1), (0, 2)])
+    assert as_cells.structure == done.structure
+    with pytest.raises(ValueError, match="start"):  # not connected
+        greedy_search(task, n_max=7, start=[(0, 0), (0, 2)])
 
 
 def test_the_flag_follows_greedy_on_dynamic_tasks_and_under_a_rotor_fault():

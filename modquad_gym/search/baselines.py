@@ -22,6 +22,7 @@ from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.structure import Cell, Structure, free_neighbours
 from modquad_gym.oracle import margin
 from modquad_gym.search.heuristic import Deadline, heuristic_result, impossible_result
+from modquad_gym.search.partial import make_partial
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
 from modquad_gym.search.result import SearchResult, SearchRun
 
@@ -50,7 +51,7 @@ def greedy_search(
     problem: SearchProblem,
     *,
     time_limit: float = DEFAULT_TIME_LIMIT,
-    start: Structure | None = None,
+    start: Structure | Iterable[Cell] | None = None,
 ) -> SearchResult:
     """Baseline: from one module, repeatedly attach the module that most increases the fraction
     of satisfied wrenches, ties broken by the larger mean margin (exact margins clipped to
@@ -61,14 +62,18 @@ def greedy_search(
     their first cell in sorted order; equal structures score equally, so results are unchanged.
     With ``modules`` the first module is the best-scoring type and every child is a (cell,
     type) pair (ties by cell order, then palette order). At ``time_limit`` seconds it stops
-    with no structure (and the proved lower bound). ``start`` (a Structure) is extended
-    instead of one module: greedy's completion of a partial structure, as expert iteration
-    labels a learner's states by it."""
+    with no structure (and the proved lower bound). ``start`` (a Structure of the searched
+    types, or connected cells) is extended instead of one module: greedy's completion of a
+    partial structure, as expert iteration labels a learner's states by it."""
     run = SearchRun("greedy", problem)
     deadline = Deadline(run, time_limit)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
         return done
     f, palette = problem.f_max, problem.palette
+    if start is not None:
+        make_partial(start, palette, problem.typed)  # ValueError naming what is wrong
+        if not isinstance(start, Structure):
+            start = Structure([tuple(c) for c in start], problem.module)
 
     def score(s: Structure) -> tuple[bool, tuple[float, float]]:
         z, W, ok = run.decide(s)
