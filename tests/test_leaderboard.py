@@ -128,3 +128,16 @@ def test_an_outside_agent_joins_with_one_command(board, tmp_path, monkeypatch, c
     with pytest.raises(SystemExit) as exit_:
         board.main(["--solver", "board_agent_for_tests:Line"])  # the committed page stays
     assert exit_.value.code == 2 and "--solver needs --out" in capsys.readouterr().err
+
+
+def test_the_scale_section_is_the_five_seed_scale_reports(board, tmp_path):
+    lines = board.scale_section("results/")
+    rows = [line for line in lines if line.startswith("| ") and not line.startswith("| band")]
+    with open(RESULTS / "scale_seeds_exit" / "report.csv", newline="") as fh:
+        after = {r["band"]: r for r in csv.DictReader(fh)}
+    assert [row.split(" | ")[0].strip("| ") for row in rows] == list(after)
+    for row in rows:  # each band's cells, before and after expert iteration, from the files
+        band = row.split(" | ")[0].strip("| ")
+        assert after[band]["ppo_solves_greedys_pct"] in row
+        assert after[band]["ppo_minus_greedy_modules"] in row
+    assert board.scale_section("results/", results=tmp_path) == []  # no reports: no section
