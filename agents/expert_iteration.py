@@ -340,6 +340,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--force", action="store_true", help="replace an existing --out")
     args = p.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)
+    if args.replay < 0:
+        p.error(f"--replay {args.replay}: give a number of tasks, 0 or more")
     if args.out.exists() and any(args.out.iterdir()):
         if not args.force:
             p.error(f"--out {args.out} exists and is not empty (--force replaces it)")

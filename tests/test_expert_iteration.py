@@ -90,3 +90,14 @@ def test_a_rounds_config_names_its_command_and_its_start_without_a_machines_fold
     assert made["command"] == "python -m agents.expert_iteration --rounds 1"
     assert (made["round"], made["rounds"], made["states"], made["seed"]) == (1, 1, 10, 3)
     assert config["env_kwargs"]["n_max"] == 40 and config["env_kwargs"]["lookahead"] == "exact"
+
+
+def test_a_negative_replay_is_refused_in_one_line_before_any_work(tmp_path, capsys):
+    from agents.expert_iteration import main
+
+    out = tmp_path / "exit"
+    with pytest.raises(SystemExit) as stop:
+        main(["--replay", "-5", "--out", str(out)])
+    assert stop.value.code == 2 and not out.exists()
+    err = capsys.readouterr().err
+    assert "--replay -5" in err.strip().splitlines()[-1] and "Traceback" not in err
