@@ -1,4 +1,5 @@
-"""The environment's edges that users hit (issue 34): example task names in ``tasks=``, the
+"""The environment's edges that users hit (issue 34): example task names in ``tasks=``, one task
+in ``task=``, the
 episode limit following ``n_max``, no hidden answer in ``info`` or task names, the mixed id's
 palette tasks, a re-makeable ``NearestValidAction`` and the ids' ``reward_threshold``."""
 
@@ -50,6 +51,28 @@ def test_example_names_work_in_tasks_as_in_the_cli():
     assert {both.reset(seed=s)[1]["task_name"] for s in range(12)} == {"screwdriver", "paper-abs"}
     with pytest.raises(ValueError, match="unknown example 'nope'; known: .*screwdriver"):
         gym.make("ModQuadAssembly-v0", tasks="example:nope")
+
+
+def test_task_keyword_takes_one_task_and_names_tasks_when_refused():
+    from modquad_gym.tasks import TaskRequirement, example_path
+
+    shipped = TaskRequirement.load(example_path("screwdriver"))
+    for task in ("example:screwdriver", example_path("screwdriver"), shipped):
+        env = gym.make("ModQuadAssembly-v0", task=task, n_max=5)
+        _, info = env.reset(seed=0)
+        assert info["task_name"] == "screwdriver"
+        np.testing.assert_array_equal(env.unwrapped.task.wrenches, shipped.wrenches)
+    refused = {
+        "a family of random tasks: pass it as tasks='paper'": {"task": "paper"},
+        "not both": {"task": "example:screwdriver", "tasks": "planted"},
+        "use tasks=": {"task": "example:suite_small"},
+        "task= takes one task .* got 3": {"task": 3},
+    }
+    with pytest.raises(ValueError, match="not both.*sets tasks= itself"):
+        gym.make("ModQuadAssemblyPaper-v0", task=shipped)  # the id registers tasks="paper"
+    for words, kwargs in refused.items():
+        with pytest.raises(ValueError, match=words):
+            gym.make("ModQuadAssembly-v0", **kwargs)
 
 
 # --- the episode limit follows n_max --------------------------------------------------------

@@ -37,6 +37,7 @@ from modquad_gym.envs.assembly.inputs import (
     draw_task,
     make_encoding,
     make_rules,
+    one_task,
     parse_action,
 )
 from modquad_gym.envs.assembly.modules import make_module_set
@@ -53,6 +54,7 @@ from modquad_gym.tasks import make_generator
 N_MAX_LIMIT = 128
 """Largest ``n_max``, the searches' limit (beyond the field's largest designs, 90 modules; the
 grid encoding then has 255^2 actions, the faces encoding 258)."""
+DEFAULT_TASKS = "mixed"  # the default task source
 MAX_STEPS_LIMIT = 4 * N_MAX_LIMIT  # the largest max_steps
 ENCODINGS = {"grid": Grid, "faces": Faces}  # the action encodings (:mod:`.grid`, .faces)
 
@@ -154,6 +156,9 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
       TaskRequirement`` (or DynamicTask, or (t, 6) wrench array), called with
       ``self.np_random`` at each reset (another result: ValueError); see
       :func:`modquad_gym.tasks.make_generator`.
+    * ``task``: one task instead of ``tasks`` (a task file, ``"example:NAME"``, a
+      TaskRequirement or a DynamicTask); a family of tasks or a suite is refused with a
+      ValueError that names ``tasks=``.
     * ``n_max``: the largest number of modules (default 7, as in the paper), 2 to 128.
     * ``module``: the ``ModuleType`` of every module (default the T-module, eta = pi/4).
     * ``modules``: several module types (stock names ``"t45,t45m,flat"`` or ModuleType objects)
@@ -198,7 +203,8 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     def __init__(
         self,
         # the task source
-        tasks: Any = "mixed",
+        tasks: Any = DEFAULT_TASKS,
+        task: Any = None,
         f_max: float | None = None,
         # the module set
         module: ModuleType | None = None,
@@ -222,6 +228,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         render_size: tuple[int, int] = (256, 256),
         viewer: AssemblyViewer | None = None,
     ) -> None:
+        tasks = one_task(task, tasks, DEFAULT_TASKS)
         self.module_set = make_module_set(module, modules, initial_type)
         self.rules = make_rules(n_max, max_steps, invalid_action, lookahead, N_MAX_LIMIT)
         self.encoding: Grid | Faces = make_encoding(actions, ENCODINGS)(self.n_max, self.n_types)

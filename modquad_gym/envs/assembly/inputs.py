@@ -20,6 +20,37 @@ from modquad_gym.tasks import TaskRequirement, as_task
 INVALID_ACTION_MODES = ("penalise", "terminate")
 
 
+def one_task(task: Any, tasks: Any, default_tasks: Any) -> Any:
+    """The task source of a constructor given ``task=`` (one task) or ``tasks=`` (a source).
+
+    ``task`` is one task: a TaskRequirement, a DynamicTask, a task file or ``"example:NAME"``;
+    it replaces ``tasks``. Giving both, or naming a family of random tasks or a suite with
+    ``task=``, is a ValueError that names ``tasks=``."""
+    if task is None:
+        return tasks
+    if not (isinstance(tasks, str) and tasks == default_tasks):
+        raise ValueError(
+            f"give task= (one task) or tasks= (a task source), not both; got task={task!r} "
+            f"and tasks={tasks!r} (an id such as ModQuadAssemblyPaper-v0 sets tasks= itself: "
+            "make ModQuadAssembly-v0 with task=)"
+        )
+    from modquad_gym.tasks import NAMED_GENERATORS, FixedTasks, make_generator
+
+    if isinstance(task, str) and task in NAMED_GENERATORS:
+        raise ValueError(
+            f"task={task!r} names a family of random tasks: pass it as tasks={task!r} "
+            "(task= takes one task: a task file, 'example:NAME' or a TaskRequirement)"
+        )
+    if isinstance(task, (TaskRequirement, DynamicTask, str)) or hasattr(task, "__fspath__"):
+        gen = make_generator(task)
+        if isinstance(gen, FixedTasks) and len(gen.tasks) == 1:
+            return task
+    raise ValueError(
+        f"task= takes one task (a task file, 'example:NAME', a TaskRequirement or a "
+        f"DynamicTask), got {task!r}; for a suite, a list or a generator use tasks="
+    )
+
+
 def make_rules(
     n_max: Any, max_steps: Any, invalid_action: Any, lookahead: Any, n_max_limit: int
 ) -> Rules:
