@@ -66,6 +66,7 @@ __all__ = [
     "draw_torque_projection",
     "figure_title",
     "save_structure_figure",
+    "top_view_inches",
     "short_name",
     "structure_image",
     "torque_zonotope_vertices",
@@ -114,17 +115,17 @@ def draw_structure(
                 zorder=1,
             )
         )
-    radius = side / 9
+    radius = side / 8
     spins = s.rotor_spins
     for p, d, spin in zip(s.rotor_positions, s.rotor_directions, spins, strict=True):
         colour = SPIN_COLOURS[1 if spin > 0 else -1]
-        ax.add_patch(Circle(p[:2], radius, facecolor=colour, edgecolor="k", alpha=0.85, zorder=2))
-        h = d[:2] * (side / 3)
-        if np.linalg.norm(h) > 1e-9:
+        ax.add_patch(Circle(p[:2], radius, facecolor=colour, edgecolor="k", lw=0.6, zorder=3))
+        h = d[:2] * (0.4 * side)
+        if np.linalg.norm(h) > 1e-9:  # under the rotor disc: its spin colour stays visible
             ax.add_patch(
                 FancyArrow(
-                    p[0], p[1], h[0], h[1], width=side / 60, head_width=side / 18,
-                    length_includes_head=True, color=ARROW_COLOUR, zorder=3,
+                    p[0], p[1], h[0], h[1], width=side / 90, head_width=side / 20,
+                    length_includes_head=True, color=ARROW_COLOUR, lw=0, zorder=2,
                 )
             )  # fmt: skip
     ax.plot([0.0], [0.0], marker="+", color="k", markersize=14, mew=2.5, zorder=4)
@@ -138,11 +139,22 @@ def draw_structure(
     handles = [
         Line2D([], [], marker="o", ls="", color=SPIN_COLOURS[1], label="rotor, spin +1"),
         Line2D([], [], marker="o", ls="", color=SPIN_COLOURS[-1], label="rotor, spin -1"),
+        Line2D(
+            [],
+            [],
+            marker=r"$\rightarrow$",
+            ls="",
+            color=ARROW_COLOUR,
+            markersize=10,
+            label="thrust, horizontal part",
+        ),
         Line2D([], [], marker="+", ls="", color="k", mew=2, label="COM"),
     ]
-    if mixed:
-        from matplotlib.patches import Patch
+    from matplotlib.patches import Patch
 
+    if highlight_first and not mixed:
+        handles.append(Patch(facecolor=FIRST_COLOUR, edgecolor="#3a3a3a", label="first module"))
+    if mixed:
         handles += [
             Patch(facecolor=type_colour(m, k), edgecolor="#3a3a3a", label=f"module {m.name}")
             for k, m in enumerate(s.palette)
@@ -150,7 +162,8 @@ def draw_structure(
     # beside the top view, never over a module (a large structure fills its axes)
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
               fontsize="x-small", framealpha=0.8)  # fmt: skip
-    ax.set_title(title if title is not None else f"{s.n_modules} module(s)")
+    n = s.n_modules
+    ax.set_title(title if title is not None else f"{n} module{'s' if n > 1 else ''}")
     return ax
 
 
@@ -211,7 +224,7 @@ def draw_projection(
     V, exact = drawn_vertices(s.configuration_matrix(), space, f_max)
     ax = ax if ax is not None else _new_axes(projection="3d")
     ax.computed_zorder = False  # draw order by zorder: the task's points over the hull
-    ax.set_box_aspect(None, zoom=0.85)  # the axis labels inside the axes, not over a neighbour
+    ax.set_box_aspect(None, zoom=0.78)  # the axis labels inside the axes, not over a neighbour
     faces = hull_faces(V)
     if faces is not None:
         ax.add_collection3d(Poly3DCollection(
@@ -242,7 +255,9 @@ def draw_projection(
     from matplotlib.ticker import MaxNLocator
 
     for axis in (ax.xaxis, ax.yaxis, ax.zaxis):  # few, short tick labels: the labels stay inside
-        axis.set_major_locator(MaxNLocator(5, steps=[1, 2, 2.5, 5, 10]))
+        axis.set_major_locator(MaxNLocator(4, steps=[1, 2, 2.5, 5, 10]))
+        axis.labelpad = 7  # the axis title clear of its tick labels
+    ax.tick_params(labelsize="small", pad=1)
     unit = units(task, f_max)[0 if space == "force" else 1]
     symbol = "f" if space == "force" else r"\tau"
     ax.set_xlabel(rf"${symbol}_x$ [{unit}]")
@@ -320,32 +335,59 @@ def figure_title(name: str | None) -> str:
     return textwrap.fill(text, TITLE_WIDTH, break_long_words=True)
 
 
+INCHES_PER_MODULE = 0.45
+"""Width of a module in a saved top view (54 px at 120 dpi: rotors about 14 px across, their
+spin colours readable); the view grows with the structure between :data:`TOP_VIEW_INCHES`."""
+
+TOP_VIEW_INCHES = (4.0, 12.0)
+"""Least and most width or height of the top view's axes, in inches."""
+
+
+def top_view_inches(structure: Structure) -> tuple[float, float]:
+    """(width, height) in inches of a top view's axes: :data:`INCHES_PER_MODULE` per module
+    side of the structure's extent (plus the margin), shrunk together to fit
+    :data:`TOP_VIEW_INCHES` (equal scales)."""
+    c = structure.module_centres[:, :2] / structure.side
+    span = c.max(axis=0) - c.min(axis=0) + 1.5  # the margin of draw_structure's limits
+    inches = INCHES_PER_MODULE * span
+    lo, hi = TOP_VIEW_INCHES
+    inches *= min(1.0, hi / inches.max())
+    inches *= max(1.0, lo / inches.max())
+    return float(inches[0]), float(inches[1])
+
+
 def save_structure_figure(
     structure: Structure,
     path: str | os.PathLike,
     task: TaskRequirement | np.ndarray | None = None,
     dpi: int = 120,
 ) -> str:
-    """Save a PNG with the top view and, if ``task`` (a TaskRequirement or (t, 6) wrenches) is
-    given, the force and torque projections of the feasible set with the task's wrenches
-    beside it (6-D feasibility of the rotor wrenches: an ``external`` task's plus the
-    structure's weight). Returns the path."""
+    """Save a PNG with the top view (sized with the structure: :func:`top_view_inches`) and, if
+    ``task`` (a TaskRequirement or (t, 6) wrenches) is given, the force and torque projections
+    of the feasible set with the task's wrenches beside it (6-D feasibility of the rotor
+    wrenches: an ``external`` task's plus the structure's weight). Returns the path."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     s = check_structure(structure)
     check_drawable(s)
+    w, h = top_view_inches(s)
+    legend, label, projection = 2.0, 0.8, 4.6  # inches: the legend beside, the axis labels
     if task is None:
-        fig = Figure(figsize=(5.0, 5.0), layout="constrained")
+        fig = Figure(figsize=(w + legend + label, h + label), layout="constrained")
         FigureCanvasAgg(fig)
         draw_structure(s, ax=fig.add_subplot(1, 1, 1))
     else:
-        fig = Figure(figsize=(15.0, 5.0), layout="constrained")
+        height = max(h + label, projection) + 0.6  # the title above
+        fig = Figure(figsize=(w + legend + label + 2 * projection, height), layout="constrained")
         FigureCanvasAgg(fig)
-        top = draw_structure(s, ax=fig.add_subplot(1, 3, 1))
+        grid = fig.add_gridspec(1, 3, width_ratios=[w + legend + label, projection, projection])
+        top = draw_structure(s, ax=fig.add_subplot(grid[0]))
         top.set_anchor("N")  # a wide structure's top view under its title, x label in the figure
         for i, space in enumerate(("force", "torque")):
-            draw_projection(s, space, ax=fig.add_subplot(1, 3, 2 + i, projection="3d"), task=task)
+            ax = fig.add_subplot(grid[1 + i], projection="3d")
+            draw_projection(s, space, ax=ax, task=task)
+            ax.set_anchor("N")
         fig.suptitle(figure_title(getattr(task, "name", None)))
     save_figure(fig, os.fspath(path), dpi=dpi)
     return os.fspath(path)

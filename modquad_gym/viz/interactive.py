@@ -13,8 +13,12 @@ Plotly is imported only here (the ``viz`` extra).
 
 from __future__ import annotations
 
+import base64
+import gzip
 import html
+import json
 import os
+from functools import lru_cache
 
 import numpy as np
 
@@ -38,6 +42,15 @@ _BOX_TRIANGLES = np.array([
 ])  # fmt: skip
 _THICKNESS = 0.05  # module box height in metres, as in the MuJoCo model
 
+DIGITS = 4
+"""Decimals of the coordinates written into the page (a tenth of a millimetre of a structure
+in metres; far below a pixel of the views, and short in the page's JSON)."""
+
+
+def _rounded(a) -> list:
+    """Coordinates as a short list of floats (plotly writes numpy arrays as float64 base64)."""
+    return np.round(np.asarray(a, dtype=float), DIGITS).tolist()
+
 
 def structure_traces(structure: Structure) -> list:
     """Plotly traces of the structure in {S}: module boxes, rotors, thrust-direction cones."""
@@ -46,13 +59,15 @@ def structure_traces(structure: Structure) -> list:
     s = check_structure(structure)
     traces = []
     half = np.array([s.side / 2 * 0.97, s.side / 2 * 0.97, _THICKNESS / 2])
-    for i, (centre, m, t) in enumerate(zip(s.module_centres, s.modules, s.type_indices)):
-        V = centre + _BOX * half
+    for t, m in enumerate(s.palette):  # one mesh per module type: one box geometry repeated
+        idx = np.flatnonzero(np.asarray(s.type_indices) == t)
+        V = (s.module_centres[idx, None, :] + _BOX * half).reshape(-1, 3)
+        F = (_BOX_TRIANGLES[None] + len(_BOX) * np.arange(len(idx))[:, None, None]).reshape(-1, 3)
+        text = [f"module {i}, cell {tuple(s.cells[i])}" for i in idx for _ in _BOX]
         traces.append(go.Mesh3d(
-            x=V[:, 0], y=V[:, 1], z=V[:, 2], i=_BOX_TRIANGLES[:, 0], j=_BOX_TRIANGLES[:, 1],
-            k=_BOX_TRIANGLES[:, 2], color=type_colour(m, t), opacity=0.55, flatshading=True,
-            name=f"module {i}: {m.name}, cell {tuple(s.cells[i])}", hoverinfo="name",
-            showlegend=False,
+            x=_rounded(V[:, 0]), y=_rounded(V[:, 1]), z=_rounded(V[:, 2]), i=F[:, 0], j=F[:, 1],
+            k=F[:, 2], color=type_colour(m, t), opacity=0.55, flatshading=True, text=text,
+            hoverinfo="text", name=f"module {m.name}", showlegend=s.is_mixed,
         ))  # fmt: skip
     P, D = s.rotor_positions, s.rotor_directions
     lift = _THICKNESS / 2
@@ -60,15 +75,17 @@ def structure_traces(structure: Structure) -> list:
         k = np.flatnonzero(s.rotor_spins == spin)
         if not len(k):
             continue
-        text = [f"rotor {j}: spin {spin:+.0f}, thrust direction {np.round(D[j], 3)}" for j in k]
+        text = [f"rotor {j}: spin {spin:+.0f}, thrust {np.round(D[j], 2).tolist()}" for j in k]
         traces.append(go.Scatter3d(
-            x=P[k, 0], y=P[k, 1], z=P[k, 2] + lift, mode="markers", text=text, hoverinfo="text",
+            x=_rounded(P[k, 0]), y=_rounded(P[k, 1]), z=_rounded(P[k, 2] + lift),
+            mode="markers", text=text, hoverinfo="text",
             marker={"size": 6, "color": SPIN_COLOURS[spin]}, name=f"rotor, spin {spin:+.0f}",
         ))  # fmt: skip
     length = 0.4 * s.side
     traces.append(go.Cone(
-        x=P[:, 0], y=P[:, 1], z=P[:, 2] + lift, u=D[:, 0] * length, v=D[:, 1] * length,
-        w=D[:, 2] * length, anchor="tail", sizemode="raw", sizeref=0.35, showscale=False,
+        x=_rounded(P[:, 0]), y=_rounded(P[:, 1]), z=_rounded(P[:, 2] + lift),
+        u=_rounded(D[:, 0] * length), v=_rounded(D[:, 1] * length), w=_rounded(D[:, 2] * length),
+        anchor="tail", sizemode="raw", sizeref=0.35, showscale=False,
         colorscale=[[0, "#8b1a1a"], [1, "#8b1a1a"]], name="thrust direction",
         hoverinfo="name", showlegend=True,
     ))  # fmt: skip
@@ -92,13 +109,14 @@ def projection_traces(structure: Structure, space: str, task=None, f_max: float 
     traces = []
     if faces is not None:
         traces.append(go.Mesh3d(
-            x=V[:, 0], y=V[:, 1], z=V[:, 2], i=faces[:, 0], j=faces[:, 1], k=faces[:, 2],
+            x=_rounded(V[:, 0]), y=_rounded(V[:, 1]), z=_rounded(V[:, 2]), i=faces[:, 0],
+            j=faces[:, 1], k=faces[:, 2],
             color="#4c72b0", opacity=0.25, name=f"feasible {space}s (projection)",
             hoverinfo="name", showlegend=False,
         ))  # fmt: skip
     if exact or faces is None:  # sampled vertices mark nothing a reader needs
         traces.append(go.Scatter3d(
-            x=V[:, 0], y=V[:, 1], z=V[:, 2], mode="markers",
+            x=_rounded(V[:, 0]), y=_rounded(V[:, 1]), z=_rounded(V[:, 2]), mode="markers",
             marker={"size": 2, "color": "#2b4570"}, name=f"vertices of the {space} projection",
             hoverinfo="skip", showlegend=False,
         ))  # fmt: skip
@@ -112,7 +130,8 @@ def projection_traces(structure: Structure, space: str, task=None, f_max: float 
             Q = W[idx, first : first + 3]
             text = [f"wrench {i + 1}: {np.round(W[i], 4).tolist()} ({label} in 6-D)" for i in idx]
             traces.append(go.Scatter3d(
-                x=Q[:, 0], y=Q[:, 1], z=Q[:, 2], mode="markers", text=text, hoverinfo="text",
+                x=_rounded(Q[:, 0]), y=_rounded(Q[:, 1]), z=_rounded(Q[:, 2]), mode="markers",
+                text=text, hoverinfo="text",
                 marker={"size": 4, "color": colour}, name=f"task wrench, {label} (6-D)",
                 legendgroup=label, showlegend=space == "force",
             ))  # fmt: skip
@@ -142,12 +161,23 @@ def structure_figure(structure: Structure, task=None, f_max: float = 1.0):
     axes = {"force": ("f_x", "f_y", "f_z"), "torque": ("τ_x", "τ_y", "τ_z")}
     fig.update_layout(
         scene=_structure_scene(s),
-        scene2={f"{a}axis_title": f"{n} [{force_unit}]" for a, n in zip("xyz", axes["force"])},
-        scene3={f"{a}axis_title": f"{n} [{torque_unit}]" for a, n in zip("xyz", axes["torque"])},
+        scene2=_projection_scene(axes["force"], force_unit),
+        scene3=_projection_scene(axes["torque"], torque_unit),
         legend={"orientation": "h", "y": -0.05},
         margin={"l": 10, "r": 10, "t": 60, "b": 10}, height=620,
     )  # fmt: skip
     return fig
+
+
+PROJECTION_EYE = {"x": 1.7, "y": -1.7, "z": 1.1}
+"""Camera of the projection views: far enough that the cube's axis titles stay inside a
+third of the page (plotly's default eye, 1.25 on each axis, clips them)."""
+
+
+def _projection_scene(names: tuple[str, str, str], unit: str) -> dict:
+    """Axes of a projection view: titled with units, seen from :data:`PROJECTION_EYE`."""
+    titles = {f"{a}axis_title": f"{n} [{unit}]" for a, n in zip("xyz", names)}
+    return {**titles, "camera": {"eye": PROJECTION_EYE}}
 
 
 def _structure_scene(s: Structure) -> dict:
@@ -178,15 +208,65 @@ def structure_page(structure: Structure, task=None, f_max: float = 1.0) -> str:
     )
     if task is not None and getattr(task, "kind", "total") == "external":
         note += " The task is external: the points are its wrenches plus the structure's weight."
-    body = fig.to_html(
-        include_plotlyjs=True, full_html=False, config={"displaylogo": False, "responsive": True}
-    )
+    body = _plot_html(fig, config={"displaylogo": False, "responsive": True})
+    cells = html.escape(", ".join(f"({x}, {y})" for x, y in s.cells))
+    types = html.escape(", ".join(m.name for m in s.modules))
     return (
         '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
         f'<title>{html.escape(title)}</title>\n</head>\n<body style="font-family: sans-serif">\n'
-        f"<h2>{html.escape(title)}</h2>\n<p>cells {html.escape(str(list(s.cells)))}; "
-        f"types {html.escape(', '.join(m.name for m in s.modules))}</p>\n"
-        f"<p>{html.escape(note)}</p>\n{body}\n</body>\n</html>\n"
+        f"<h2>{html.escape(title)}</h2>\n<p>{html.escape(structure_summary(s))}</p>\n"
+        f"<details><summary>cells and module types, in order</summary>\n<p>cells {cells}</p>\n"
+        f"<p>types {types}</p>\n</details>\n<p>{html.escape(note)}</p>\n{body}\n</body>\n</html>\n"
+    )
+
+
+_LOADER = """<div id="figure" style="height: {height}px; width: 100%"></div>
+<script type="application/json" id="figure-data">{figure}</script>
+<script>
+(async () => {{
+  const packed = Uint8Array.from(atob("{packed}"), (c) => c.charCodeAt(0));
+  const stream = new Blob([packed]).stream().pipeThrough(new DecompressionStream("gzip"));
+  const plotly = document.createElement("script");
+  plotly.text = await new Response(stream).text();
+  document.head.appendChild(plotly);
+  const fig = JSON.parse(document.getElementById("figure-data").textContent);
+  Plotly.newPlot("figure", fig.data, fig.layout, {config});
+}})();
+</script>"""
+
+
+@lru_cache(maxsize=1)
+def _packed_plotlyjs() -> str:
+    """plotly.js, gzipped and base64-encoded: 1.96 MB instead of 4.8 MB in the page."""
+    from plotly.offline import get_plotlyjs
+
+    return base64.b64encode(gzip.compress(get_plotlyjs().encode(), 9, mtime=0)).decode()
+
+
+def _plot_html(fig, config: dict) -> str:
+    """The figure and plotly.js in one block of HTML: plotly.js travels gzipped and the
+    browser unpacks it (``DecompressionStream``, in every current browser), so the page stays
+    self-contained at less than half the size of plotly's own inline copy."""
+    figure = fig.to_json().replace("</", "<\\/")  # nothing in the data closes the <script>
+    height = fig.layout.height or 620
+    return _LOADER.format(
+        height=height, figure=figure, packed=_packed_plotlyjs(), config=json.dumps(config)
+    )
+
+
+def structure_summary(structure: Structure) -> str:
+    """One line about a structure: module count, types with counts, mass and bounding box
+    (the cells themselves are long at 64 modules: the page folds them away)."""
+    from collections import Counter
+
+    s = check_structure(structure)
+    counts = Counter(m.name for m in s.modules)
+    types = ", ".join(f"{n} x {name}" for name, n in counts.items())
+    cells = np.asarray(s.cells)
+    nx, ny = cells.max(axis=0) - cells.min(axis=0) + 1
+    return (
+        f"{s.n_modules} module{'s' if s.n_modules > 1 else ''} ({types}), {s.mass:g} kg; "
+        f"bounding box {nx} x {ny} cells ({nx * s.side:g} m x {ny * s.side:g} m)"
     )
 
 

@@ -61,7 +61,12 @@ _RGB = {
     "bad": (214, 39, 40),
 }
 
-_MIN_HALF_EXTENT_MODULES = 2.5
+_MIN_EXTENT_MODULES = 5.0
+"""Least width and height of the view, in module sides (one module is not blown up)."""
+
+ARROW_MIN_SIDE_PX = 32.0
+"""Least module side in pixels at which thrust arrows are drawn: below it they would cover the
+rotors' spin colours (a large structure shows its modules and rotors only)."""
 
 
 def _hex_rgb(colour: str) -> tuple[int, int, int]:
@@ -84,10 +89,11 @@ def structure_image(
     """Top view as a uint8 (H, W, 3) image, ``size = (H, W)``: a numpy rasteriser, deterministic
     and fast (about 10-15 ms for 5-7 modules at 256 x 256).
 
-    The view is centred at the COM, x to the right and y up, with a scale fitted to the
-    structure but never closer than 2.5 module sides from the centre (small structures are not
-    blown up). ``wrench_status`` (t,) - booleans (feasible?) or margins (>= 0 feasible) - adds a
-    strip of t green/red cells along the bottom.
+    x to the right and y up; the structure's bounding box fills the frame (equal scales), but
+    the view is at least 5 module sides across (small structures are not blown up). Thrust
+    arrows are drawn under the rotors, and only where a module is at least 32 pixels wide
+    (smaller, they would hide the spin colours). ``wrench_status`` (t,) - booleans (feasible?)
+    or margins (>= 0 feasible) - adds a strip of t green/red cells along the bottom.
     """
     s = check_structure(structure)
     H, Wd = _check_size(size)
@@ -102,8 +108,9 @@ def structure_image(
         _draw_status_strip(img, status, strip)
     canvas = _Canvas.fit(img, H - strip - (2 if strip else 0), s)
     canvas.modules(s)
+    if s.side * canvas.scale >= ARROW_MIN_SIDE_PX:
+        canvas.arrows(s)  # under the rotors: the spin colours stay visible
     canvas.rotors(s)
-    canvas.arrows(s)
     canvas.com_cross(s.side)
     return img
 
@@ -133,14 +140,18 @@ class _Canvas:
 
     @classmethod
     def fit(cls, img: np.ndarray, h: int, s: Structure) -> _Canvas:
-        """The COM at the centre of the drawing area, the scale fitted to the structure but
-        never closer than 2.5 module sides from the centre."""
+        """The structure's bounding box centred in the drawing area and scaled to fill it (a
+        long structure fills the frame's length, not a square around the COM), but never
+        closer than :data:`_MIN_EXTENT_MODULES` module sides across (small structures are not
+        blown up)."""
         H, Wd = img.shape[:2]
         side = s.side
         centres = s.module_centres[:, :2]
-        half = max(np.abs(centres).max() + 0.6 * side, _MIN_HALF_EXTENT_MODULES * side)
+        lo, hi = centres.min(axis=0) - 0.6 * side, centres.max(axis=0) + 0.6 * side
+        mid, span = (lo + hi) / 2, np.maximum(hi - lo, _MIN_EXTENT_MODULES * side)
+        scale = min(Wd / span[0], h / span[1])
         X, Y = _pixel_grid(H, Wd)
-        return cls(img, h, X, Y, Wd / 2.0, h / 2.0, 0.5 * min(h, Wd) / half)
+        return cls(img, h, X, Y, Wd / 2.0 - mid[0] * scale, h / 2.0 + mid[1] * scale, scale)
 
     def to_px(self, p: np.ndarray) -> tuple[float, float]:
         return self.ox + p[0] * self.scale, self.oy - p[1] * self.scale
@@ -152,8 +163,8 @@ class _Canvas:
         return slice(r0, max(r0, r1)), slice(c0, max(c0, c1))
 
     def edge(self, side: float) -> float:
-        """Outline width in pixels."""
-        return max(1.0, 0.5 * side * self.scale / 14)
+        """Outline width in pixels (thinner for small modules: the fill stays visible)."""
+        return max(0.6 if side * self.scale < 16 else 1.0, 0.5 * side * self.scale / 14)
 
     def line_width(self, side: float) -> float:
         return max(1.0, side * self.scale / 40)
@@ -177,8 +188,8 @@ class _Canvas:
 
     def rotors(self, s: Structure) -> None:
         """Rotor discs with an outline, coloured by spin."""
-        rad = s.side / 9 * self.scale
-        edge = self.edge(s.side)
+        rad = max(1.5, s.side / 7 * self.scale)
+        edge = self.edge(s.side) if rad > 4 else 0.0
         for p, spin in zip(s.rotor_positions, s.rotor_spins, strict=True):
             px, py = self.to_px(p)
             sl = self.box(px, py, rad)
@@ -189,18 +200,18 @@ class _Canvas:
     def arrows(self, s: Structure) -> None:
         """The horizontal part of each rotor's thrust direction, with a dot as the head."""
         side = s.side
-        width = self.line_width(side)
+        width = max(1.0, side * self.scale / 60)
         for p, d in zip(s.rotor_positions, s.rotor_directions, strict=True):
             if np.linalg.norm(d[:2]) < 1e-9:
                 continue
             a = np.array(self.to_px(p))
-            b = np.array(self.to_px(p[:2] + d[:2] * (side / 3)))
+            b = np.array(self.to_px(p[:2] + d[:2] * (0.3 * side)))
             self.segment(a, b, width, _RGB["arrow"])
-            self.segment(b, b, 2.2 * width, _RGB["arrow"])
+            self.segment(b, b, 1.6 * width, _RGB["arrow"])
 
     def com_cross(self, side: float) -> None:
         """A black cross at the COM, the origin of {S}."""
-        cx, cy = self.ox, self.oy
+        cx, cy = self.ox, self.oy  # the pixel of {S}'s origin
         arm = max(3.0, side * self.scale / 8)
         width = self.line_width(side)
         self.segment(np.array([cx - arm, cy]), np.array([cx + arm, cy]), width, _RGB["com"])
