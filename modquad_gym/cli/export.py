@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from modquad_gym.cli import common  # commands call common.load_task (tests replace it)
@@ -22,9 +23,12 @@ def add_export(sub) -> None:
         description="Write a structure for other tools: the one given by --cells, or the one "
         "--method finds for --task. mjcf: MuJoCo model (one free body, one actuator per rotor, "
         "ctrl = thrust in [0, f_max]); urdf: base_link with mass and inertia, one link and "
-        "continuous joint per rotor (its frame's z-axis is the thrust direction); json: rotor "
-        "poses, directions, spins, c_tau, masses, inertia and the configuration matrix. "
-        "Frame {S}: origin at the COM, z up, SI units.",
+        "continuous joint per rotor (its frame's z-axis is the thrust direction), collision "
+        "boxes and discs; json: rotor poses, directions, spins, c_tau, masses, inertia and the "
+        "configuration matrix. Frame {S}: origin at the COM, z up, SI units, thrust in N. The "
+        "file and this command state the thrust-to-weight ratio at --f-max and warn when the "
+        "robot cannot lift itself: a default T-module (0.3 kg) needs --f-max 1.04 N to hover, "
+        "about 2.1 N for a thrust-to-weight ratio of 2 (room to steer).",
     )
     p.add_argument("--cells", help="JSON list of [x, y] cells, e.g. '[[0,0],[1,0],[0,1]]'")
     p.add_argument("--task", help="task file: export the structure --method finds for it")
@@ -42,7 +46,9 @@ def add_export(sub) -> None:
         "--f-max",
         type=real_option,
         default=None,
-        help="rotor thrust limit written to the model (default: the task's f_max, else 1)",
+        help="each rotor's largest thrust in N, written to the model (default: the task's "
+        "f_max, else 1, the searches' normalised unit, which leaves T-modules of 0.3 kg short "
+        "of their weight)",
     )
     add_csv_header(p)
     add_force(p)
@@ -64,7 +70,7 @@ def found_structure(args: argparse.Namespace, task):
 def cmd_export(args: argparse.Namespace) -> int:
     from modquad_gym.cli.show import structure_from_cells
     from modquad_gym.core.outputs import check_output_file
-    from modquad_gym.sim.export import save_structure
+    from modquad_gym.sim.export import lift_statement, save_structure, thrust_to_weight
 
     if bool(args.cells) == bool(args.task):
         raise ValueError("give either --cells (e.g. '[[0,0],[1,0]]') or --task")
@@ -80,7 +86,14 @@ def cmd_export(args: argparse.Namespace) -> int:
         task = common.load_task(args.task, args.csv_header)
         structure = found_structure(args, task)
         f_max = task.f_max if f_max is None else f_max
-    out = save_structure(structure, Path(args.out), args.format, 1.0 if f_max is None else f_max,
-                         force=args.force)  # fmt: skip
+    f_max = 1.0 if f_max is None else f_max
+    out = save_structure(structure, Path(args.out), args.format, f_max, force=args.force)
     print(f"wrote {out}: {structure.n_modules} modules, cells {list(structure.cells)}")
+    print(lift_statement(structure, f_max))
+    if thrust_to_weight(structure, f_max) < 1.0:
+        print(
+            "warning: this robot cannot hover on its own rotors; raise --f-max (see "
+            "'Exports that fly' in docs/export.md)",
+            file=sys.stderr,
+        )
     return 0

@@ -9,21 +9,33 @@ SI units, :mod:`modquad_gym.geometry.structure`):
   ``zaxis`` makes the same frame). Its spin sign s_k says which way its drag torque acts:
   thrust f gives the torque ``s_k c_tau f d_k`` on the body, so the propeller turns about
   ``-s_k d_k``.
+* Thrust is in newtons in an export: ``f_max`` is each rotor's largest thrust. Whether the robot
+  can lift itself is :func:`thrust_to_weight` (>= 1 exactly when it can hover level with no
+  external load); every file states it, and :func:`hover_f_max` is the least ``f_max`` that
+  hovers. The searches' normalised units (f_max = 1) leave a default T-module short of its
+  0.3 kg weight (ratio 0.961), so a robot meant to fly needs a larger ``f_max``.
 * ``mjcf``: the model of :func:`modquad_gym.sim.model.model_spec` (built with ``mujoco.MjSpec``,
   written by MuJoCo): one free body, a box per module, one site ``rotor{k}`` and one actuator
-  ``thrust{k}`` per rotor, ``ctrl = u`` in [0, f_max] producing ``A u``. Needs the ``sim`` extra
-  (the URDF and the JSON need nothing beyond the core install).
-* ``urdf``: link ``base_link`` at {S} with a box visual per module; per rotor a link
-  ``rotor{k}`` (the propeller) on a ``continuous`` joint ``rotor{k}_joint`` whose origin is the
-  rotor frame and whose axis is the propeller's turning direction (``0 0 -s_k`` in the rotor
-  frame). Each propeller carries :data:`ROTOR_MASS_FRACTION` of its module's mass as a solid
-  disc (radius :data:`ROTOR_RADIUS_FRACTION` of the module side, :data:`ROTOR_THICKNESS` thick)
-  and ``base_link`` the rest, its inertial placed so that the whole robot has exactly the
+  ``thrust{k}`` per rotor, ``ctrl = u`` in [0, f_max] producing ``A u``, and custom numerics
+  ``thrust_to_weight`` and ``hover_f_max``. Needs the ``sim`` extra (the URDF and the JSON need
+  nothing beyond the core install). :mod:`modquad_gym.sim.export_flight` flies such a file.
+* ``urdf``: link ``base_link`` at {S} with a box (visual and collision) per module; per rotor a
+  link ``rotor{k}`` (the propeller: a disc, visual and collision) on a ``continuous`` joint
+  ``rotor{k}_joint`` whose origin is the rotor frame and whose axis is the propeller's turning
+  direction (``0 0 -s_k`` in the rotor frame). Each propeller carries
+  :data:`ROTOR_MASS_FRACTION` of its module's mass as a solid disc (radius
+  :data:`ROTOR_RADIUS_FRACTION` of the module side, :data:`ROTOR_THICKNESS` thick) and
+  ``base_link`` the rest, its inertial placed so that the whole robot has exactly the
   structure's mass, COM (the origin of {S}) and inertia about the COM. (Simulators refuse a
   moving link without mass, e.g. MuJoCo's "mass and inertia of moving bodies must be larger
-  than mjMINVAL".) URDF has no floating base: MuJoCo, PyBullet and Drake fix ``base_link`` to
-  the world unless told otherwise. URDF has no thrust either: the JSON (or the MJCF) holds
-  ``f_max``, ``c_tau`` and the configuration matrix.
+  than mjMINVAL".) The root link floats in PyBullet (``useFixedBase=False``, its default) and
+  Drake (a body not welded to the world); MuJoCo's URDF import attaches the root link to the
+  world without a joint, so :func:`urdf_spec` loads the file and adds a free joint. A
+  ``<mujoco><compiler .../></mujoco>`` element (MuJoCo's URDF extension, ignored by other
+  readers) keeps the visuals and the base as a body. URDF has no thrust: the JSON (or the
+  MJCF) holds ``f_max``, ``c_tau`` and the configuration matrix. The URDF is written with
+  ElementTree: the maintained URDF libraries (yourdfpy, urdfpy) would add trimesh and lxml to
+  the core install and drop the ``<mujoco>`` element; the tests read it back with yourdfpy.
 * ``json``: :func:`structure_dict`.
 """
 
@@ -31,10 +43,12 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from modquad_gym.geometry.inertia import inertia_about_com
 from modquad_gym.geometry.structure import Structure
@@ -60,28 +74,67 @@ ROTOR_THICKNESS = 0.01
 
 
 def rotor_quaternion(direction) -> np.ndarray:
-    """(w, x, y, z): the smallest rotation that turns e3 onto the unit ``direction``."""
+    """(w, x, y, z), w >= 0: the smallest rotation that turns e3 onto the unit ``direction``
+    (scipy's ``Rotation.align_vectors`` of one pair; straight down: half a turn about x)."""
     d = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
-    if d[2] < -1.0 + 1e-12:  # straight down: half a turn about x
+    if d[2] < -1.0 + 1e-12:  # antiparallel: every half turn about a horizontal axis is smallest
         return np.array([0.0, 1.0, 0.0, 0.0])
-    q = np.array([1.0 + d[2], -d[1], d[0], 0.0])
-    return q / np.linalg.norm(q)
+    rotation, _ = Rotation.align_vectors([d], [[0.0, 0.0, 1.0]])
+    x, y, z, w = rotation.as_quat(canonical=True)
+    return np.array([w, x, y, z])
 
 
 def quaternion_matrix(q) -> np.ndarray:
     """The rotation matrix of the unit quaternion (w, x, y, z)."""
     w, x, y, z = q
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])  # fmt: skip
+    return Rotation.from_quat([x, y, z, w]).as_matrix()
 
 
 def _rpy(R: np.ndarray) -> tuple[float, float, float]:
-    """URDF roll, pitch, yaw of R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    pitch = math.asin(max(-1.0, min(1.0, -R[2, 0])))
-    return math.atan2(R[2, 1], R[2, 2]), pitch, math.atan2(R[1, 0], R[0, 0])
+    """URDF roll, pitch, yaw of R = Rz(yaw) Ry(pitch) Rx(roll) (extrinsic x, y, z). At pitch
+    +-pi/2 (a horizontal rotor) only roll - yaw or roll + yaw is defined: scipy sets yaw to 0
+    and the angles still rebuild R."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "Gimbal lock detected", UserWarning)
+        roll, pitch, yaw = Rotation.from_matrix(R).as_euler("xyz")
+    return float(roll), float(pitch), float(yaw)
+
+
+def thrust_to_weight(structure: Structure, f_max: float = 1.0) -> float:
+    """The largest multiple of its own weight the robot holds up level, with no net torque or
+    sideways force, at ``f_max`` newtons per rotor: the oracle's
+    :func:`~modquad_gym.oracle.lambda_ratio` of the hover wrench ``[0, 0, m g, 0, 0, 0]``.
+    >= 1 exactly when it can hover with no external load, by the oracle's rule (the plain LP's
+    value within its tolerance, 1e-6 relative); for T-modules the rotors' summed vertical
+    thrust over the weight, 4 n f_max cos(eta) / (m g)."""
+    from modquad_gym.core.validation import check_f_max
+    from modquad_gym.geometry.module import GRAVITY
+    from modquad_gym.oracle import lambda_ratio
+
+    f_max = check_f_max(f_max)
+    hover = [[0.0, 0.0, structure.mass * GRAVITY, 0.0, 0.0, 0.0]]
+    return float(lambda_ratio(structure.configuration_matrix(), hover, f_max)[0])
+
+
+def hover_f_max(structure: Structure) -> float:
+    """The least thrust per rotor (N) at which the robot hovers: the feasible wrenches scale
+    with f_max, so ``f_max / thrust_to_weight`` (inf if no thrust can hold it level)."""
+    ratio = thrust_to_weight(structure, 1.0)
+    return math.inf if ratio <= 0 else 1.0 / ratio
+
+
+def lift_statement(structure: Structure, f_max: float = 1.0) -> str:
+    """One line on whether the robot lifts itself at ``f_max`` N per rotor, for files and the
+    command line."""
+    ratio = thrust_to_weight(structure, f_max)
+    need = hover_f_max(structure)
+    head = (
+        f"thrust-to-weight {ratio:.3f} at f_max {f_max:g} N per rotor "
+        f"({structure.n_modules} modules, {structure.mass:g} kg)"
+    )
+    if ratio >= 1.0:
+        return f"{head}: it hovers (from f_max {need:.3g} N)"
+    return f"{head}: it cannot lift itself; it hovers from f_max {need:.3g} N"
 
 
 def structure_dict(structure: Structure, f_max: float = 1.0) -> dict:
@@ -98,11 +151,13 @@ def structure_dict(structure: Structure, f_max: float = 1.0) -> dict:
         "format": "modquad_gym.structure",
         "version": 1,
         "frame": "{S}: origin at the centre of mass, axes parallel to the modules', z up",
-        "units": {"length": "m", "mass": "kg", "inertia": "kg m^2", "thrust": "f_max units"},
+        "units": {"length": "m", "mass": "kg", "inertia": "kg m^2", "thrust": "N"},
         "n_modules": s.n_modules,
         "mass": s.mass,
         "inertia": np.asarray(s.inertia).tolist(),
         "f_max": f_max,
+        "thrust_to_weight": thrust_to_weight(s, f_max),
+        "hover_f_max": hover_f_max(s),
         "modules": [
             {
                 "cell": list(cell),
@@ -157,22 +212,33 @@ def base_inertial(structure: Structure) -> tuple[float, np.ndarray, np.ndarray]:
     return mass, com, (J + J.T) / 2
 
 
-def urdf_text(structure: Structure, name: str | None = None) -> str:
-    """The URDF of ``structure`` (see the module docstring)."""
+MUJOCO_URDF_COMPILER = {"discardvisual": "false", "fusestatic": "false", "strippath": "false"}
+"""Attributes of the URDF's ``<mujoco><compiler/></mujoco>`` element (MuJoCo's URDF extension):
+keep the visuals (MuJoCo drops them by default) and keep ``base_link`` a body of its own."""
+
+
+def urdf_text(structure: Structure, name: str | None = None, f_max: float = 1.0) -> str:
+    """The URDF of ``structure`` (see the module docstring); a comment states its
+    thrust-to-weight ratio at ``f_max`` N per rotor (:func:`lift_statement`)."""
     s = structure
     robot = ET.Element("robot", name=name or f"modquad_{s.n_modules}")
+    ET.SubElement(ET.SubElement(robot, "mujoco"), "compiler", **MUJOCO_URDF_COMPILER)
     base = ET.SubElement(robot, "link", name="base_link")
     mass, com, J = base_inertial(s)
     _inertial(base, mass, com, J)
     for i, (centre, m) in enumerate(zip(s.module_centres, s.modules, strict=True)):
-        visual = ET.SubElement(base, "visual", name=f"module{i}_{m.name}")
-        ET.SubElement(visual, "origin", xyz=_vec(centre), rpy="0 0 0")
-        geometry = ET.SubElement(visual, "geometry")
-        ET.SubElement(geometry, "box", size=_vec([m.side, m.side, MODULE_THICKNESS]))
+        box = ("box", {"size": _vec([m.side, m.side, MODULE_THICKNESS])})
+        _shape(base, "visual", f"module{i}_{m.name}", centre, box)
+        _shape(base, "collision", f"module{i}_collision", centre, box)
     rotors = zip(s.rotor_positions, s.rotor_directions, s.rotor_spins, rotor_links(s),
-                 strict=True)  # fmt: skip
-    for k, (p, d, spin, (mass, J)) in enumerate(rotors):
-        _inertial(ET.SubElement(robot, "link", name=f"rotor{k}"), mass, np.zeros(3), J)
+                 [m for m in s.modules for _ in range(4)], strict=True)  # fmt: skip
+    for k, (p, d, spin, (mass, J), m) in enumerate(rotors):
+        link = ET.SubElement(robot, "link", name=f"rotor{k}")
+        _inertial(link, mass, np.zeros(3), J)
+        disc = ("cylinder", {"radius": _num(ROTOR_RADIUS_FRACTION * m.side),
+                             "length": _num(ROTOR_THICKNESS)})  # fmt: skip
+        _shape(link, "visual", f"propeller{k}", np.zeros(3), disc)
+        _shape(link, "collision", f"propeller{k}_collision", np.zeros(3), disc)
         joint = ET.SubElement(robot, "joint", name=f"rotor{k}_joint", type="continuous")
         rpy = _rpy(quaternion_matrix(rotor_quaternion(d)))
         ET.SubElement(joint, "origin", xyz=_vec(p), rpy=_vec(rpy))
@@ -180,14 +246,40 @@ def urdf_text(structure: Structure, name: str | None = None) -> str:
         ET.SubElement(joint, "child", link=f"rotor{k}")
         ET.SubElement(joint, "axis", xyz=_vec([0.0, 0.0, -float(spin)]))
     ET.indent(robot)
-    return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
+    comment = (
+        f"<!-- modquad_gym structure: {lift_statement(s, f_max)}. URDF holds no thrust: take "
+        "f_max, c_tau and the configuration matrix from the JSON export or the MJCF. -->\n"
+    )
+    return '<?xml version="1.0"?>\n' + comment + ET.tostring(robot, encoding="unicode") + "\n"
+
+
+def urdf_spec(source):
+    """A ``mujoco.MjSpec`` of an exported URDF (a path, or the URDF text) that floats: MuJoCo's
+    URDF import attaches the root link to the world without a joint, so a free joint ``root``
+    is added to ``base_link``. ``urdf_spec(path).compile()`` is the floating robot."""
+    import mujoco
+
+    text = Path(source).read_text() if _is_path(source) else str(source)
+    spec = mujoco.MjSpec.from_string(text)
+    base = spec.body("base_link")
+    if base is None:
+        raise ValueError(f"{_name(source)}: no link 'base_link' (not a modquad_gym URDF export)")
+    if not any(j.type == mujoco.mjtJoint.mjJNT_FREE for j in base.joints):
+        base.add_freejoint(name="root")
+    return spec
 
 
 def mjcf_text(structure: Structure, f_max: float = 1.0) -> str:
-    """The MJCF of ``structure``'s MuJoCo model (:func:`modquad_gym.sim.model.model_xml`)."""
-    from modquad_gym.sim.model import model_xml
+    """The MJCF of ``structure``'s MuJoCo model (:func:`modquad_gym.sim.model.model_spec`) with
+    its thrust-to-weight ratio: a comment and the custom numerics ``thrust_to_weight`` and
+    ``hover_f_max`` (N; ``model.numeric("thrust_to_weight").data`` once loaded)."""
+    from modquad_gym.sim.model import model_spec
 
-    return model_xml(structure, f_max)
+    spec = model_spec(structure, f_max)
+    spec.add_numeric(name="thrust_to_weight", data=[thrust_to_weight(structure, f_max)])
+    spec.add_numeric(name="hover_f_max", data=[min(hover_f_max(structure), 1e300)])
+    comment = f"<!-- modquad_gym structure: {lift_statement(structure, f_max)} -->\n"
+    return comment + spec.to_xml()
 
 
 def export_text(structure: Structure, fmt: str, f_max: float = 1.0) -> str:
@@ -197,8 +289,7 @@ def export_text(structure: Structure, fmt: str, f_max: float = 1.0) -> str:
     if fmt == "urdf":
         from modquad_gym.core.validation import check_f_max
 
-        check_f_max(f_max)
-        return urdf_text(structure)
+        return urdf_text(structure, f_max=check_f_max(f_max))
     if fmt == "json":
         return json.dumps(structure_dict(structure, f_max), indent=1) + "\n"
     raise ValueError(f"format: unknown {fmt!r}; use one of {', '.join(FORMATS)}")
@@ -238,6 +329,25 @@ def _inertial(link: ET.Element, mass: float, com: np.ndarray, J: np.ndarray) -> 
         ((("x", 0), ("x", 0)), (("x", 0), ("y", 1)), (("x", 0), ("z", 2)),
          (("y", 1), ("y", 1)), (("y", 1), ("z", 2)), (("z", 2), ("z", 2)))
     })  # fmt: skip
+
+
+def _shape(link: ET.Element, kind: str, name: str, at: np.ndarray, shape: tuple) -> None:
+    """A ``<visual>`` or ``<collision>`` (``kind``) of ``link``: ``shape`` = (geometry tag,
+    attributes) at ``at`` in the link frame."""
+    element = ET.SubElement(link, kind, name=name)
+    ET.SubElement(element, "origin", xyz=_vec(at), rpy="0 0 0")
+    ET.SubElement(ET.SubElement(element, "geometry"), shape[0], **shape[1])
+
+
+def _is_path(source) -> bool:
+    """A path (not the text of a file): a PathLike, or a one-line string not starting with <."""
+    if isinstance(source, Path) or hasattr(source, "__fspath__"):
+        return True
+    return isinstance(source, str) and "\n" not in source and not source.lstrip().startswith("<")
+
+
+def _name(source) -> str:
+    return str(source) if _is_path(source) else "the URDF text"
 
 
 def _num(x: float) -> str:

@@ -1,4 +1,9 @@
-"""Small rotation helpers for the hover loop: skew matrices, cross products, angle and log map."""
+"""Small rotation helpers for the hover loop: skew matrices, cross products, angle and log map.
+
+Written out rather than taken from ``scipy.spatial.transform.Rotation``: they run at every
+control step, where one scipy call costs about 75-90 us against about 10 us here (a 3 x 3
+matrix, no orthonormalisation); tests/test_rotations.py checks them against scipy.
+"""
 
 from __future__ import annotations
 
