@@ -48,7 +48,6 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from modquad_gym.geometry.inertia import inertia_about_com
 from modquad_gym.geometry.structure import Structure
@@ -79,6 +78,8 @@ def rotor_quaternion(direction) -> np.ndarray:
     d = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
     if d[2] < -1.0 + 1e-12:  # antiparallel: every half turn about a horizontal axis is smallest
         return np.array([0.0, 1.0, 0.0, 0.0])
+    from scipy.spatial.transform import Rotation
+
     rotation, _ = Rotation.align_vectors([d], [[0.0, 0.0, 1.0]])
     x, y, z, w = rotation.as_quat(canonical=True)
     return np.array([w, x, y, z])
@@ -86,6 +87,8 @@ def rotor_quaternion(direction) -> np.ndarray:
 
 def quaternion_matrix(q) -> np.ndarray:
     """The rotation matrix of the unit quaternion (w, x, y, z)."""
+    from scipy.spatial.transform import Rotation
+
     w, x, y, z = q
     return Rotation.from_quat([x, y, z, w]).as_matrix()
 
@@ -94,6 +97,8 @@ def _rpy(R: np.ndarray) -> tuple[float, float, float]:
     """URDF roll, pitch, yaw of R = Rz(yaw) Ry(pitch) Rx(roll) (extrinsic x, y, z). At pitch
     +-pi/2 (a horizontal rotor) only roll - yaw or roll + yaw is defined: scipy sets yaw to 0
     and the angles still rebuild R."""
+    from scipy.spatial.transform import Rotation
+
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", "Gimbal lock detected", UserWarning)
         roll, pitch, yaw = Rotation.from_matrix(R).as_euler("xyz")
