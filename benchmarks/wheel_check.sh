@@ -240,10 +240,37 @@ check wheel $P 'modquad score --tier dynamic --out results/tier_dynamic --force'
 
 # docs/export.md, faults.md, heterogeneous.md, learned-designer.md
 for c in 'modquad export --task example:screwdriver --format mjcf --out screwdriver.xml' \
+         'modquad export --task example:screwdriver --f-max 2.1 --out flying.xml' \
          "modquad export --cells '[[0,0],[1,0],[0,1]]' --modules t45,flat,t45m --out mixed.urdf" \
          'modquad solve --task example:paper_seed0 --export paper_seed0.json'; do
   check wheel docs/export.md "$c"
 done
+# exports that fly: the MJCF at 2.1 N per rotor hovers on its own rotors with the package's
+# controller and no external load; at the default 1 N the command warns and the robot sinks
+FLY='from modquad_gym.sim.export_flight import fly_mjcf
+up, down = fly_mjcf("flying.xml"), fly_mjcf("screwdriver.xml")
+print("2.1 N:", up.to_dict()); print("1 N:", down.to_dict())
+assert up.thrust_to_weight > 2 and up.final_position_error_m < 0.01 and up.saturated_fraction == 0
+assert down.thrust_to_weight < 1 and down.final_position_error_m > 0.1'
+check wheel docs/export.md 'exports fly: fly_mjcf(flying.xml) holds its place, fly_mjcf(screwdriver.xml) sinks' \
+  "modquad export --task example:screwdriver --f-max 2.1 --out flying.xml --force | grep -q 'it hovers' && modquad export --task example:screwdriver --out screwdriver.xml --force 2>&1 | grep -q 'warning: this robot cannot hover' && python -c '$FLY'"
+# the URDF in MuJoCo as a floating robot (urdf_spec adds the free joint) and in yourdfpy
+URDF='import mujoco, numpy as np, yourdfpy
+import modquad_gym as mq
+from modquad_gym.sim.export import urdf_spec
+model = urdf_spec("screwdriver.urdf").compile()
+data = mujoco.MjData(model)
+mujoco.mj_forward(model, data)
+assert model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE and model.nq == 7 + 12
+assert abs(model.body_subtreemass[1] - 0.9) < 1e-9 and np.abs(data.subtree_com[1]).max() < 1e-12
+assert (model.geom_contype != 0).sum() == 3 + 12  # collision boxes and propeller discs
+mujoco.mj_step(model, data, nstep=100)
+assert data.qpos[2] < -0.19  # it falls: a floating base
+robot = yourdfpy.URDF.load("screwdriver.urdf", load_meshes=False)
+assert robot.validate() and robot.base_link == "base_link" and len(robot.joint_map) == 12
+print("URDF floats in MuJoCo:", model.nq, "qpos,", model.ngeom, "geoms; yourdfpy:", len(robot.link_map), "links")'
+check wheel docs/export.md 'URDF in MuJoCo: urdf_spec(screwdriver.urdf) floats, with inertials and collisions; yourdfpy reads it' \
+  "modquad export --task example:screwdriver --out screwdriver.urdf --force && python -c '$URDF'"
 for c in 'modquad solve --task example:screwdriver --fault rotor' \
          'modquad solve --task example:screwdriver --fault module --json' \
          'modquad validate --task example:screwdriver --fault rotor --out fault/'; do
