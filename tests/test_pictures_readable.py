@@ -115,3 +115,100 @@ def test_page_at_64_modules_renders_in_headless_chromium(tmp_path):
     assert errors == [] and n_scenes == 3
     assert [url for url in requests if not url.startswith("file:")] == []
     assert path.endswith("page.html")
+
+
+# ----------------------------------------------------------------------- the reports' plots
+def test_benchmark_bars_have_y_labels_and_a_legend(tmp_path, monkeypatch):
+    from matplotlib.figure import Figure
+
+    from modquad_gym.scoring import agents_figures
+
+    figures = []
+    monkeypatch.setattr(agents_figures, "save_figure", lambda fig, *a, **k: figures.append(fig))
+    summary = [
+        {"method": m, "tasks": 10, "success_rate": 0.9, "optimal_share": 0.5,
+         "mean_evaluated": 12.0, "mean_seconds": 0.05}
+        for m in ("exhaustive", "greedy", "ppo")
+    ]  # fmt: skip
+    agents_figures.plot_bars(summary, tmp_path / "bars.png")
+    (fig,) = figures
+    assert isinstance(fig, Figure)
+    assert all(ax.get_ylabel() for ax in fig.axes)
+    labels = {t.get_text() for t in fig.legends[0].get_texts()}
+    assert labels == {"search", "learned (ppo and variants)"}
+    assert fig.axes[0].get_ylim() == (0, 105)  # shares from zero
+
+
+def test_learning_curve_keeps_the_full_success_axis(tmp_path):
+    from matplotlib.image import imread
+
+    from modquad_gym.scoring.agents_figures import plot_learning_curve
+
+    evals = tmp_path / "evaluations.npz"
+    rng = np.random.default_rng(0)
+    np.savez(evals, timesteps=np.arange(0, 5000, 1000), results=1.6 + rng.normal(0, 0.01, (5, 8)),
+             successes=np.ones((5, 8)))  # fmt: skip
+    path = plot_learning_curve(evals, tmp_path / "curve.png")
+    assert imread(path).shape[1] > 1000
+
+
+def test_seed_intervals_start_at_zero_and_show_a_zero_width_interval(tmp_path, monkeypatch):
+    from modquad_gym.scoring import seeds
+
+    figures = []
+    monkeypatch.setattr(seeds, "save_figure", lambda fig, path: figures.append(fig) or path)
+    scores = [
+        seeds.SeedScore(str(k), m, "suite", 10, 1.0 if m == "ppo-guided" else 0.98 + 0.005 * k,
+                        0.9, 5.0 + k, 0.1)
+        for k in range(5) for m in ("ppo", "ppo-guided")
+    ]  # fmt: skip
+    seeds.plot(scores, tmp_path / "seeds.png")
+    (fig,) = figures
+    success, share, configs = fig.axes
+    assert success.get_xlim() == (0, 105) and share.get_xlim() == (0, 105)
+    assert configs.get_xlim()[0] == 0
+    dots = [line for line in success.lines if line.get_marker() == "o"]
+    assert len(dots) == 2  # ppo-guided's zero-width interval is still a dot
+    assert any("100.0 [100.0, 100.0]" in t.get_text() for t in success.texts)
+
+
+def test_scale_gap_compares_methods_on_the_same_solved_tasks(tmp_path):
+    from benchmarks.scale import common_solved, plot
+
+    def row(band, task, method, found, gap):
+        return {"band": band, "task": task, "method": method, "found": found,
+                "gap_to_bound": gap}  # fmt: skip
+
+    rows = [row(16, "a", "ppo", 10, 1), row(16, "b", "ppo", "none", ""),
+            row(16, "a", "ppo-guided", 10, 1), row(16, "b", "ppo-guided", 12, 3),
+            row(32, "c", "ppo", 20, 0), row(32, "c", "ppo-guided", 20, 0)]  # fmt: skip
+    assert common_solved(rows, ["ppo", "ppo-guided"]) == {16: ["a"], 32: ["c"]}
+    plot(rows, tmp_path / "gap.png")  # ppo and ppo-guided equal: side by side, both drawn
+    assert (tmp_path / "gap.png").stat().st_size > 10_000
+
+
+def test_bench_axes_never_zoom_into_rounding_noise():
+    from modquad_gym.sim.pictures import bench_limits
+
+    commanded = np.zeros(5)  # a component the task never asks for
+    measured = np.array([1e-13, -2e-13, 0.0, 3e-14, 0.0])
+    lo, hi = bench_limits(commanded, measured)
+    assert hi - lo >= 1e-7  # not 1e-13
+    lo, hi = bench_limits(np.array([3.0, 3.0]), np.array([3.0 + 1e-13, 3.0]))
+    assert hi - lo >= 0.1 * 3.0 and lo < 3.0 < hi
+
+
+def test_grid_layout_is_readable_at_the_docs_width(tmp_path):
+    """The docs show a picture about 700 px wide: the grid layout's text then keeps >= 70 % of
+    its size at 120 dpi (10 pt text 12 px or more)."""
+    from matplotlib.image import imread
+
+    from modquad_gym.tasks import ScrewdriverTask
+    from modquad_gym.viz.drawing import save_structure_figure
+
+    task = ScrewdriverTask()(np.random.default_rng(0))
+    s = Structure([(0, 0), (1, 0), (0, 1)])
+    grid = imread(save_structure_figure(s, tmp_path / "grid.png", task=task, layout="grid"))
+    assert grid.shape[1] <= 700 / 0.7 + 1
+    with pytest.raises(ValueError, match="layout"):
+        save_structure_figure(s, tmp_path / "x.png", task=task, layout="column")

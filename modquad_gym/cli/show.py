@@ -52,6 +52,14 @@ def add_show(sub) -> None:
         help="also (or, without --out, only) write the interactive page here (needs plotly: "
         "pip install 'modquad_gym[viz]')",
     )
+    p.add_argument(
+        "--layout",
+        choices=("row", "grid"),
+        default="row",
+        help="with --task, how the PNG arranges its three views: row (side by side, for a "
+        "screen) or grid (the top view above the two projections, about 8 inches wide: "
+        "readable on a narrow page such as the documentation)",
+    )
     add_csv_header(p)
     add_force(p)
 
@@ -118,7 +126,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     if out is not None:
         from modquad_gym.viz.drawing import save_structure_figure
 
-        save_structure_figure(structure, out, task=task)
+        save_structure_figure(structure, out, task=task, layout=args.layout)
         print(f"wrote {out}")
     if args.html is not None:
         from modquad_gym.viz.interactive import save_structure_page

@@ -31,32 +31,49 @@ def colour(method: str) -> str:
     return "#4c72b0" if method.startswith("ppo") else "#999999"
 
 
+KINDS = {"#999999": "search", "#4c72b0": "learned (ppo and variants)", "#dd8452": "outside agent"}
+"""The bar colours of :func:`colour` and what they mean (the figures' legend)."""
+
+
 def plot_bars(summary: list[dict], path: Path) -> Path:
-    """Success, optimal share, configurations and seconds per task of every method."""
-    fig = _new_figure(max(13, 1.2 * len(summary) * 4 / 3), 3.6)
+    """Success, optimal share, configurations and seconds per task of every method (means
+    over the tier's tasks), coloured by kind with a legend."""
+    from matplotlib.patches import Patch
+
+    fig = _new_figure(max(13, 1.2 * len(summary) * 4 / 3), 4.0)
     names = [short(s["method"]) for s in summary]
+    n = summary[0]["tasks"] if summary else 0
     panels = [
-        ("success_rate", "success rate", False), ("optimal_share", "optimal module count", False),
-        ("mean_evaluated", "configurations evaluated / task", True),
-        ("mean_seconds", "seconds / task", True),
+        ("success_rate", "success rate", "tasks solved (%)", False),
+        ("optimal_share", "optimal module count", "tasks solved with the optimum (%)", False),
+        ("mean_evaluated", "configurations evaluated", "mean per task (log scale)", True),
+        ("mean_seconds", "wall time", "mean seconds per task (log scale)", True),
     ]  # fmt: skip
-    for i, (key, label, log) in enumerate(panels):
+    colours = [colour(s["method"]) for s in summary]
+    for i, (key, title, ylabel, log) in enumerate(panels):
         ax = fig.add_subplot(1, 4, i + 1)
-        vals = [s[key] for s in summary]
-        ax.bar(range(len(names)), vals, color=[colour(s["method"]) for s in summary])
+        vals = [s[key] * (1 if log else 100) for s in summary]
+        ax.bar(range(len(names)), vals, color=colours)
         ax.set_xticks(range(len(names)), names, rotation=45, ha="right", rotation_mode="anchor")
-        ax.set_title(label)
+        ax.set_title(title)
+        ax.set_ylabel(ylabel)
         if log:
             ax.set_yscale("log")
         else:
-            ax.set_ylim(0, 1.05)
+            ax.set_ylim(0, 105)
+        ax.grid(axis="y", alpha=0.3)
+    kinds = [Patch(color=c, label=label) for c, label in KINDS.items() if c in colours]
+    fig.legend(handles=kinds, loc="outside lower center", ncols=len(kinds), frameon=False,
+               title=f"{n} held-out tasks per method; bars: means over the tasks")  # fmt: skip
     save_figure(fig, path, dpi=110)
     return path
 
 
 def plot_learning_curve(evals: Path, path: Path) -> Path | None:
     """Validation return and success rate over PPO steps (step 0: the cloned policy, when the
-    run cloned an expert first)."""
+    run cloned an expert first). The success rate keeps its full 0-100 % axis; the return's
+    axis is fitted to the data and the title says how much PPO changed either after step 0
+    (a policy cloned from an expert often starts near its final score)."""
     if not evals.is_file():
         return None
     from matplotlib.ticker import FuncFormatter
@@ -64,20 +81,33 @@ def plot_learning_curve(evals: Path, path: Path) -> Path | None:
     data = np.load(evals)
     steps = data["timesteps"]
     thousands = FuncFormatter(lambda x, _: f"{x / 1000:g}k")
-    fig = _new_figure(9, 3.4)
+    fig = _new_figure(10, 3.8)
     ax = fig.add_subplot(1, 2, 1)
     mean, std = data["results"].mean(axis=1), data["results"].std(axis=1)
-    ax.plot(steps, mean, marker="o")
-    ax.fill_between(steps, mean - std, mean + std, alpha=0.2)
-    ax.set_title("validation return (mean ± std over tasks)")
+    ax.plot(steps, mean, marker="o", label="mean over the validation tasks")
+    ax.fill_between(steps, mean - std, mean + std, alpha=0.2, label="± one std over the tasks")
+    ax.set_ylabel("episode return")
+    change = float(mean[-1] - mean[0])
+    ax.set_title(f"validation return\n{mean[0]:.2f} at step 0, {change:+.2f} by the end",
+                 fontsize="medium")  # fmt: skip
+    ax.legend(loc="lower right", fontsize="small")
     ax = fig.add_subplot(1, 2, 2)
     if "successes" in data and data["successes"].size:
-        ax.plot(steps, data["successes"].mean(axis=1), marker="o", color="#2a9d8f")
-    ax.set_ylim(0, 1.05)
-    ax.set_title("validation success rate")
+        success = 100 * data["successes"].mean(axis=1)
+        ax.plot(steps, success, marker="o", color="#2a9d8f")
+        ax.set_title(
+            f"validation success\n{success[0]:.1f} % at step 0, {success.min():.1f}-"
+            f"{success.max():.1f} % over the run",
+            fontsize="medium",
+        )
+    else:
+        ax.set_title("validation success rate (not recorded)")
+    ax.set_ylim(0, 105)
+    ax.set_ylabel("tasks solved (%)")
     for ax in fig.axes:
         ax.xaxis.set_major_formatter(thousands)
         ax.set_xlabel("PPO steps (0: before PPO)")
+        ax.grid(alpha=0.3)
     save_figure(fig, path, dpi=110)
     return path
 

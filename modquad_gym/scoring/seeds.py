@@ -275,21 +275,50 @@ def goal_lines(scores: list[SeedScore], tier_name: str) -> list[str]:
 
 
 def plot(scores: list[SeedScore], path: Path) -> Path:
-    """Horizontal bars: each learned method's IQM with its 95 % interval, per metric."""
+    """Each learned method's IQM (dot) with its 95 % interval (bar with caps), per metric, on
+    axes from zero (shares from 0 to 100 %): a zero-width interval stays a visible dot."""
     import matplotlib.pyplot as plt
 
     methods = [m for m in dict.fromkeys(s.method for s in scores) if m not in SEARCH_METHODS]
-    fig, axes = plt.subplots(1, len(METRICS), figsize=(4 * len(METRICS), 0.6 * len(methods) + 1.4))
+    seeds = len({s.seed for s in scores if s.method in methods})
+    suites = len({s.suite for s in scores if s.method in methods})
+    fig, axes = plt.subplots(1, len(METRICS), figsize=(4 * len(METRICS), 0.6 * len(methods) + 1.8))
     for ax, (metric, title) in zip(axes, METRICS.items()):
+        share = metric != "evaluated"
+        k = 100.0 if share else 1.0
+        points = []
         for i, m in enumerate(methods):
-            point, low, high = summary(scores, metric, m)["iqm"]
-            ax.barh(i, high - low, left=low, height=0.6, alpha=0.6, color=f"C{i}")
-            ax.plot([point, point], [i - 0.3, i + 0.3], color="k")
+            point, low, high = (k * v for v in summary(scores, metric, m)["iqm"])
+            ax.errorbar(point, i, xerr=[[point - low], [high - point]], fmt="o", color=f"C{i}",
+                        capsize=5, markersize=7, elinewidth=2)  # fmt: skip
+            points.append((i, point, low, high))
         ax.set_yticks(range(len(methods)), methods if ax is axes[0] else [""] * len(methods))
-        ax.set_title(f"{title} (IQM, 95 % CI)")
+        ax.set_ylim(-0.6, len(methods) - 0.4)
+        right = 105 if share else 1.15 * max(ax.get_xlim()[1], 1e-9)
+        ax.set_xlim(0, right)
+        for i, point, low, high in points:  # the numbers beside each dot: a narrow CI is read
+            ax.text(point, i + 0.18, f"{point:.1f} [{low:.1f}, {high:.1f}]", fontsize="small",
+                    ha="right" if point > 0.6 * right else "left", va="bottom")  # fmt: skip
+        ax.set_xlabel(f"{title} (%)" if share else title)
+        ax.set_title(f"{title}")
         ax.grid(axis="x", alpha=0.3)
+    fig.suptitle(f"IQM over {seeds} seeds x {suites} suites, bars: 95 % bootstrap CI",
+                 fontsize="medium")  # fmt: skip
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+def read_scores(path: Path) -> list[SeedScore]:
+    """The per-seed scores of a ``seeds.csv`` (:func:`write_report`), to re-draw its figure."""
+    import csv
+
+    with open(path, newline="") as fh:
+        return [
+            SeedScore(r["seed"], r["method"], r["suite"], int(r["tasks"]), float(r["success"]),
+                      float(r["optimal"]), float(r["evaluated"]), float(r["seconds"]),
+                      float(r["modules"]) if r.get("modules") else None)
+            for r in csv.DictReader(fh)
+        ]  # fmt: skip
 
 
 def write_report(

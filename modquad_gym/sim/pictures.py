@@ -145,16 +145,35 @@ def plot_rotor_inputs(results: list[BenchResult], path: str | Path) -> None:
     plt.close(fig)
 
 
+BENCH_MIN_SPAN = 0.1
+"""Least span of a bench panel's axes, as a share of the largest commanded component: a
+component that stays (nearly) constant shows its points on the diagonal at the scale of the
+task, not its 1e-13 floating-point noise blown up to fill the panel."""
+
+
+def bench_limits(commanded: np.ndarray, measured: np.ndarray) -> tuple[float, float]:
+    """Shared (lo, hi) of a bench panel's x and y axes: the data's range, widened to at least
+    :data:`BENCH_MIN_SPAN` of the largest commanded magnitude (and 1e-6) about its middle."""
+    both = np.concatenate([np.ravel(commanded), np.ravel(measured)])
+    lo, hi = float(both.min()), float(both.max())
+    scale = max(float(np.abs(commanded).max()), 1e-6)
+    span = max(hi - lo, BENCH_MIN_SPAN * scale)
+    mid = 0.5 * (lo + hi)
+    return mid - 0.55 * span, mid + 0.55 * span
+
+
 def plot_bench_wrench(results: list[BenchResult], path: str | Path) -> None:
-    """Measured (load cell) against commanded wrench, one panel per component."""
+    """Measured (load cell) against commanded wrench, one panel per component, x and y on one
+    scale with a floor (:func:`bench_limits`): a constant component is a point on the
+    diagonal, not noise."""
     plt = _plt()
     names = ["f_x [N]", "f_y [N]", "f_z [N]", "tau_x [Nm]", "tau_y [Nm]", "tau_z [Nm]"]
     fig, axes = plt.subplots(2, 3, figsize=(11, 6.5))
     markers = {"exact": "o", "pinv_clip": "x"}
+    commanded = np.vstack([r.commanded for r in results])
+    measured = np.vstack([r.measured for r in results])
     for j, ax in enumerate(axes.flat):
-        lo = min(float(r.commanded[:, j].min()) for r in results)
-        hi = max(float(r.commanded[:, j].max()) for r in results)
-        ax.plot([lo, hi], [lo, hi], color="0.6", lw=1, label="measured = commanded")
+        lo, hi = bench_limits(commanded[:, j], measured[:, j])
         for res in results:
             ax.plot(
                 res.commanded[:, j],
@@ -164,6 +183,10 @@ def plot_bench_wrench(results: list[BenchResult], path: str | Path) -> None:
                 fillstyle="none",
                 label=f"{res.allocation} (max rel. err {res.max_error:.1e})",
             )
+        ax.plot([lo, hi], [lo, hi], color="0.6", lw=1, zorder=0, label="measured = commanded")
+        ax.set_xlim(lo, hi)
+        ax.set_ylim(lo, hi)
+        ax.ticklabel_format(useOffset=False)
         ax.set_title(names[j])
         ax.set_xlabel("commanded")
         ax.set_ylabel("measured")

@@ -321,10 +321,10 @@ def short_name(name: str | None, limit: int = MAX_TITLE_NAME) -> str:
     return name if len(name) <= limit else name[: limit - 3] + "..."
 
 
-def figure_title(name: str | None) -> str:
+def figure_title(name: str | None, width: int = TITLE_WIDTH) -> str:
     """The title of a structure figure with a task: the task's name, cut to
-    :data:`MAX_TITLE_NAME` characters, and what the points mean, wrapped to
-    :data:`TITLE_WIDTH` characters a line (a long name never runs off the figure)."""
+    :data:`MAX_TITLE_NAME` characters, and what the points mean, wrapped to ``width``
+    characters a line (default :data:`TITLE_WIDTH`; a long name never runs off the figure)."""
     import textwrap
 
     name = short_name(name)
@@ -332,7 +332,7 @@ def figure_title(name: str | None) -> str:
         "points are the task's wrenches, green where the structure can exert the whole 6-D "
         "wrench, red where not"
     )
-    return textwrap.fill(text, TITLE_WIDTH, break_long_words=True)
+    return textwrap.fill(text, width, break_long_words=True)
 
 
 INCHES_PER_MODULE = 0.45
@@ -356,19 +356,29 @@ def top_view_inches(structure: Structure) -> tuple[float, float]:
     return float(inches[0]), float(inches[1])
 
 
+LAYOUTS = ("row", "grid")
+"""How a figure with a task arranges its three views: ``row`` side by side (a wide figure for a
+screen), ``grid`` the top view above the two projections (about 8 inches wide: readable where a
+page shows it 700 pixels wide, as the documentation does)."""
+
+
 def save_structure_figure(
     structure: Structure,
     path: str | os.PathLike,
     task: TaskRequirement | np.ndarray | None = None,
     dpi: int = 120,
+    layout: str = "row",
 ) -> str:
     """Save a PNG with the top view (sized with the structure: :func:`top_view_inches`) and, if
     ``task`` (a TaskRequirement or (t, 6) wrenches) is given, the force and torque projections
     of the feasible set with the task's wrenches beside it (6-D feasibility of the rotor
-    wrenches: an ``external`` task's plus the structure's weight). Returns the path."""
+    wrenches: an ``external`` task's plus the structure's weight), arranged as ``layout``
+    (:data:`LAYOUTS`). Returns the path."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
+    if layout not in LAYOUTS:
+        raise ValueError(f"layout must be one of {LAYOUTS}, got {layout!r}")
     s = check_structure(structure)
     check_drawable(s)
     w, h = top_view_inches(s)
@@ -377,17 +387,27 @@ def save_structure_figure(
         fig = Figure(figsize=(w + legend + label, h + label), layout="constrained")
         FigureCanvasAgg(fig)
         draw_structure(s, ax=fig.add_subplot(1, 1, 1))
-    else:
+        save_figure(fig, os.fspath(path), dpi=dpi)
+        return os.fspath(path)
+    if layout == "row":
         height = max(h + label, projection) + 0.6  # the title above
         fig = Figure(figsize=(w + legend + label + 2 * projection, height), layout="constrained")
-        FigureCanvasAgg(fig)
         grid = fig.add_gridspec(1, 3, width_ratios=[w + legend + label, projection, projection])
-        top = draw_structure(s, ax=fig.add_subplot(grid[0]))
-        top.set_anchor("N")  # a wide structure's top view under its title, x label in the figure
-        for i, space in enumerate(("force", "torque")):
-            ax = fig.add_subplot(grid[1 + i], projection="3d")
-            draw_projection(s, space, ax=ax, task=task)
-            ax.set_anchor("N")
-        fig.suptitle(figure_title(getattr(task, "name", None)))
+        cells = grid[0], grid[1], grid[2]
+    else:
+        projection = 4.0  # two side by side: 8 inches, 960 px at 120 dpi
+        width = max(w + legend + label, 2 * projection)
+        fig = Figure(figsize=(width, h + label + projection + 1.0), layout="constrained")
+        grid = fig.add_gridspec(2, 2, height_ratios=[h + label, projection])
+        cells = grid[0, :], grid[1, 0], grid[1, 1]
+    FigureCanvasAgg(fig)
+    top = draw_structure(s, ax=fig.add_subplot(cells[0]))
+    top.set_anchor("N")  # a wide structure's top view under its title, x label in the figure
+    for i, space in enumerate(("force", "torque")):
+        ax = fig.add_subplot(cells[1 + i], projection="3d")
+        draw_projection(s, space, ax=ax, task=task)
+        ax.set_anchor("N")
+    width = TITLE_WIDTH if layout == "row" else int(TITLE_WIDTH * fig.get_figwidth() / 15)
+    fig.suptitle(figure_title(getattr(task, "name", None), width))
     save_figure(fig, os.fspath(path), dpi=dpi)
     return os.fspath(path)
