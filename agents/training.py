@@ -12,7 +12,10 @@ tier (:mod:`modquad_gym.scoring.tiers`) fixes the environment, the task source a
 2. Behaviour cloning of the actor-critic on them (``bc_epochs``).
 3. MaskablePPO fine-tuning on the environment's reward (``timesteps``), evaluated on validation
    tasks after cloning (step 0) and every ``eval_freq`` steps by :class:`EvalFromStart`; the
-   model with the best validation return is kept.
+   model with the best validation return is kept (the cloned one unless fine-tuning beats it).
+   For the first ``critic_warmup`` steps only the critic learns (:class:`CriticWarmup`: the
+   actor's parameters are frozen), then both, in small steps (the recipe's learning rate, clip
+   range and ``target_kl``): the cloned policy is the start, not something to undo.
 """
 
 from __future__ import annotations
@@ -56,6 +59,56 @@ def _eval_callback_class():
                 self._on_step()  # n_calls == 0: the parent's evaluation runs
 
     return EvalFromStart
+
+
+def critic_parameters(policy: Any) -> set[str]:
+    """Names of the parameters of ``policy`` (an SB3 actor-critic) that only the critic uses:
+    its value head and the critic's own layers (``critic`` in the candidates network, the
+    ``value_net`` branch of SB3's MLP extractor). Every other parameter moves the actor."""
+    return {
+        name
+        for name, _ in policy.named_parameters()
+        if name.startswith(("value_net.", "mlp_extractor.value_net.", "vf_features_extractor."))
+        or name.startswith("features_extractor.critic.")
+    }
+
+
+def _critic_warmup_class():
+    """:class:`CriticWarmup`, built on first use so importing this module needs no SB3."""
+    BaseCallback = import_optional("stable_baselines3.common.callbacks").BaseCallback
+
+    class CriticWarmup(BaseCallback):
+        """Freezes every parameter of the actor for the first ``steps`` PPO steps, so the
+        critic fits the cloned policy's returns before any policy update (the first updates
+        then follow fitted advantages instead of a critic's errors)."""
+
+        def __init__(self, steps: int) -> None:
+            super().__init__()
+            self.steps = steps
+            self.frozen: list = []
+
+        def _on_training_start(self) -> None:
+            critic = critic_parameters(self.model.policy)
+            if self.num_timesteps < self.steps:
+                self.frozen = [p for name, p in self.model.policy.named_parameters()
+                               if name not in critic and p.requires_grad]  # fmt: skip
+                for p in self.frozen:
+                    p.requires_grad_(False)
+
+        def _on_step(self) -> bool:
+            if self.frozen and self.num_timesteps >= self.steps:
+                self.thaw()
+            return True
+
+        def _on_training_end(self) -> None:
+            self.thaw()
+
+        def thaw(self) -> None:
+            for p in self.frozen:
+                p.requires_grad_(True)
+            self.frozen = []
+
+    return CriticWarmup
 
 
 def train(config: TrainConfig) -> Path:
@@ -110,10 +163,11 @@ def train(config: TrainConfig) -> Path:
     checkpoints = CheckpointCallback(
         per_env(config.checkpoint_freq), str(log_dir / "checkpoints"), name_prefix="ppo"
     )
+    warmup = config.critic_warmup if imitation is not None else 0  # a cloned actor to keep
     t0 = time.perf_counter()
     model.learn(
         total_timesteps=config.timesteps,
-        callback=CallbackList([eval_cb, checkpoints]),
+        callback=CallbackList([eval_cb, checkpoints, _critic_warmup_class()(warmup)]),
         tb_log_name=name,
         progress_bar=config.progress,
         reset_num_timesteps=config.resume is None,
@@ -126,6 +180,7 @@ def train(config: TrainConfig) -> Path:
         **run_record(config, model, len(val)),
         **kept,
         "imitation": imitation,
+        "critic_warmup_steps": warmup,
         "wall_seconds": round(time.perf_counter() - t_start, 1),
         "ppo_seconds": round(wall, 1),
         "steps_per_second": round(config.timesteps / wall, 1),

@@ -135,3 +135,47 @@ def test_log_names_keep_runs_of_different_folders_apart(tmp_path):
     a = log_name(runs / "seeds-large" / "seed-0", runs)
     b = log_name(runs / "seeds-current" / "seed-0", runs)
     assert a == "seeds-large-seed-0" and a != b
+
+
+@pytest.mark.parametrize("warmup", [0, 10**6])
+def test_critic_warmup_keeps_the_actor_and_fits_the_critic(suite, warmup):
+    """During the warm-up PPO moves only the critic's own parameters (the cloned actor acts
+    exactly as before); without it the actor moves too."""
+    from sb3_contrib import MaskablePPO
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from agents.training import _critic_warmup_class, _new_model, critic_parameters
+    from modquad_gym.policy.ppo import make_env
+
+    config = TrainConfig(out=Path("unused"), task_source=str(suite), n_max=3, seed=0,
+                         hyperparameters={"n_steps": 64, "batch_size": 32})  # fmt: skip
+    venv = DummyVecEnv([lambda: make_env(**config.env_kwargs_full)])
+    model = _new_model(config, venv, MaskablePPO)
+    before = {n: p.detach().clone() for n, p in model.policy.named_parameters()}
+    model.learn(128, callback=_critic_warmup_class()(warmup))
+    critic = critic_parameters(model.policy)
+    assert critic and critic < set(before)
+    moved = {n for n, p in model.policy.named_parameters() if not torch.equal(p, before[n])}
+    assert moved & critic
+    assert bool(moved - critic) == (warmup == 0)
+    assert all(p.requires_grad for p in model.policy.parameters())  # thawed at the end
+
+
+def test_the_report_says_what_fine_tuning_did_from_the_learning_curve(tmp_path):
+    """The report's sentence on PPO is read off evaluations.npz: a falling curve is never
+    called a rise, and a rise names its numbers."""
+    from modquad_gym.scoring.agents_report import fine_tuning_words
+
+    def words(returns, successes) -> str:
+        path = tmp_path / "evaluations.npz"
+        steps = np.arange(len(returns)) * 1000
+        np.savez(path, timesteps=steps, results=np.array(returns)[:, None].repeat(2, axis=1),
+                 successes=np.array(successes)[:, None].repeat(2, axis=1))  # fmt: skip
+        return fine_tuning_words(path)
+
+    fell = words([1.65, 1.62, 1.62], [1.0, 0.975, 0.975])
+    assert "did not raise" in fell and "1.650 at step 0, success 100.0 %" in fell
+    assert "1.620 at step 2000, success 97.5 %" in fell
+    rose = words([1.60, 1.58, 1.64, 1.63], [0.95, 0.95, 1.0, 1.0])
+    assert "raised the validation return from the cloned policy's 1.600 at step 0" in rose
+    assert "to 1.640 at step 2000" in rose and "ended at 1.630 at step 3000" in rose

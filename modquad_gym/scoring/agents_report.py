@@ -56,7 +56,9 @@ def write_report(
         lines += ["## Goals", ""]
         lines += _goals(summary, goals)
     if not get_tier(tier).modules:  # the note explains one-type shapes
-        lines += _shortfall(rows, summary, n_max, suites, cfg, goals, tier)
+        evals = train_dir / "evaluations.npz"
+        tuning = fine_tuning_words(evals) if evals.is_file() else ""
+        lines += _shortfall(rows, summary, n_max, suites, cfg, goals, tier, tuning)
     lines += ["", "## Figures", ""]
     for title, fig in figures.items():
         if fig is not None:
@@ -257,8 +259,10 @@ def _shortfall(
     cfg: dict,
     goals: dict,
     tier: str = "current",
+    tuning: str = "",
 ) -> list[str]:
-    """Where the deterministic PPO agent falls short, in numbers measured here, and why."""
+    """Where the deterministic PPO agent falls short, in numbers measured here, and why
+    (``tuning``: what fine-tuning did, :func:`fine_tuning_words`)."""
     from modquad_gym.search import optimal_structures
 
     by = {s["method"]: s for s in summary}
@@ -317,13 +321,40 @@ def _shortfall(
             f"optimal structure on {_fmt(np.mean([r.optimal for r in planted]), True)} of the "
             "held-out planted tasks. The gap is generalisation, not fitting: the task features "
             "(support function on fixed directions, force/torque statistics) do not pin down the "
-            "hidden shape of an unseen task. PPO fine-tuning raises the validation return only a "
-            "little (learning curve; step 0 is the cloned policy). The greedy baseline, which "
+            f"hidden shape of an unseen task. {tuning} The greedy baseline, which "
             "evaluates every child structure with the exact oracle at each step, does better on "
             "planted tasks at about three times the configurations evaluated; sampled rollouts "
             "(ppo-kN) trade configurations evaluated for quality."
         )
     return text
+
+
+def fine_tuning_words(evals: Path) -> str:
+    """What PPO fine-tuning did to the validation return and success, in the numbers of the
+    run's ``evaluations.npz`` (step 0: the cloned policy, when the run cloned first)."""
+    data = np.load(evals)
+    steps, ret = data["timesteps"], data["results"].mean(axis=1)
+    has_success = "successes" in data and data["successes"].size
+    success = data["successes"].mean(axis=1) if has_success else None
+    if not len(steps):
+        return ""
+    best = int(np.argmax(ret))  # the first evaluation of the highest mean return
+
+    def at(i: int) -> str:
+        tail = f", success {_fmt(float(success[i]), True)}" if success is not None else ""
+        return f"{ret[i]:.3f} at step {int(steps[i])}{tail}"
+
+    start = "the cloned policy's" if steps[0] == 0 else "the first evaluation's"
+    if best == 0:
+        return (
+            f"PPO fine-tuning did not raise the validation return above {start} ({at(0)}); "
+            f"it ended at {at(len(steps) - 1)} (learning curve), so the kept model is the "
+            "one it started from."
+        )
+    return (
+        f"PPO fine-tuning raised the validation return from {start} {at(0)} to {at(best)} "
+        f"and ended at {at(len(steps) - 1)} (learning curve); the kept model is the best."
+    )
 
 
 def _rel(path: Path) -> str:
