@@ -138,7 +138,7 @@ def test_log_names_keep_runs_of_different_folders_apart(tmp_path):
 
 
 @pytest.mark.parametrize("warmup", [0, 10**6])
-def test_critic_warmup_keeps_the_actor_and_fits_the_critic(suite, warmup):
+def test_critic_warmup_keeps_the_actor_and_fits_the_critic(tmp_path, suite, warmup):
     """During the warm-up PPO moves only the critic's own parameters (the cloned actor acts
     exactly as before); without it the actor moves too."""
     from sb3_contrib import MaskablePPO
@@ -147,7 +147,8 @@ def test_critic_warmup_keeps_the_actor_and_fits_the_critic(suite, warmup):
     from agents.training import _critic_warmup_class, _new_model, critic_parameters
     from modquad_gym.policy.ppo import make_env
 
-    config = TrainConfig(out=Path("unused"), task_source=str(suite), n_max=3, seed=0,
+    config = TrainConfig(out=tmp_path / "run", task_source=str(suite), n_max=3, seed=0,
+                         tensorboard=tmp_path / "tb",
                          hyperparameters={"n_steps": 64, "batch_size": 32})  # fmt: skip
     venv = DummyVecEnv([lambda: make_env(**config.env_kwargs_full)])
     model = _new_model(config, venv, MaskablePPO)
