@@ -179,3 +179,88 @@ def test_a_full_support_cache_is_refilled_for_every_key_asked(monkeypatch):
     h, slack = ev.supports_of(keys)  # the new key overflows: the cache is cleared
     np.testing.assert_array_equal(h[0], first[0][0])
     assert set(keys) <= set(ev.supports)
+
+
+def reference_rows(ev, keys, task, mass) -> list[tuple[float, float]]:
+    """The exact rows as first built: every child decided by the certified screened oracle
+    (:meth:`evaluate`, a fresh memo) and every wrench's gamma by the compiled walk to its
+    optimum (no cap)."""
+    from modquad_gym.oracle.backends import gamma_with
+    from modquad_gym.oracle.tolerance import margin_from_gamma
+
+    out = []
+    for k in keys:
+        own = ev.task_of(task, k)
+        n_sat, _, _ = ev.evaluate(k, own, mass, {})
+        W = ev.at_mass(own, mass)[0]
+        gamma = gamma_with(ev.oracle.zonotope(ev.capability_of(k).A, key=k), W, "compiled")
+        out.append((n_sat / len(W), float(np.clip(margin_from_gamma(gamma), -1, 1).mean())))
+    return out
+
+
+@pytest.mark.parametrize(
+    "source, kwargs",
+    [
+        ("mixed", {}),
+        ("planted", {}),  # wrenches on the boundary of a hidden structure: gamma ~ 1
+        ("planted-mixed-external", {"modules": "t45,t45m,flat"}),  # weight grows per child
+        ("motions", {}),  # each child on its own wrenches
+        ("planted", {"fault": "rotor"}),
+    ],
+)
+def test_the_exact_rows_are_those_of_the_plain_reference_on_many_states(source, kwargs):
+    """The capped walk and the shares read off gamma give the rows of the plain reference
+    (every child decided, every gamma to its optimum): shares equal, margins within 1e-12,
+    on every state of random episodes."""
+    env = ModQuadAssemblyEnv(tasks=source, n_max=5, lookahead="exact", **kwargs)
+    checked = []
+
+    def checking(keys, task, mass, memo, exact_memo):
+        got = original(keys, task, mass, memo, exact_memo)
+        want = reference_rows(env.evaluator, keys, task, mass)
+        for (share, margin_), (share_ref, margin_ref) in zip(got, want):
+            assert share == share_ref
+            assert abs(margin_ - margin_ref) <= 1e-12
+        checked.extend(got)
+        return got
+
+    rng = np.random.default_rng(7)
+    for episode in range(6):
+        env.reset(seed=episode)
+        original = env.evaluator.exact_rows
+        env.evaluator.exact_rows = checking
+        done = False
+        while not done:
+            valid = np.flatnonzero(env.action_masks())
+            *_, terminated, truncated, _ = env.step(int(rng.choice(valid)))
+            done = terminated or truncated
+        del env.evaluator.exact_rows
+    assert len(checked) > 30
+    margins = np.array([m for _, m in checked])
+    assert (margins > -1).any() and (margins < 1).any()
+
+
+def test_a_wrench_within_the_band_of_the_threshold_is_decided_as_the_step_decides():
+    """A wrench put at gamma = 1 + TOL of a child (where round-off decides) takes its share
+    from the certified decision, the one the step to that child reports."""
+    from modquad_gym.oracle import Zonotope
+    from modquad_gym.oracle.backends import gamma_with
+    from modquad_gym.oracle.tolerance import TOL
+    from modquad_gym.tasks import TaskRequirement
+
+    child = Structure([(0, 0), (1, 0), (1, 1)])
+    A = child.configuration_matrix()
+    centre = A.sum(axis=1) / 2.0
+    w = centre + np.array([0.3, -0.2, 0.5, 0.05, 0.04, -0.03])
+    g = gamma_with(Zonotope(A), w[None], "compiled")[0]
+    for gamma in (1.0 + TOL, 1.0 + TOL - 1e-12, 1.0 + TOL + 1e-12):
+        edge = centre + (w - centre) * gamma / g
+        task = TaskRequirement(np.array([edge, centre]), name="band")
+        env = ModQuadAssemblyEnv(tasks=[task], n_max=4, lookahead="exact")
+        obs, _ = env.reset(seed=0)
+        obs, *_ = env.step(env.action_of((1, 0)))
+        state, rows = env.state, rows_of(obs).copy()
+        a = env.action_of((1, 1))
+        _, _, _, _, info = env.step(a)
+        assert rows[a, SHARE] == np.float32(info["satisfied_fraction"])
+        env.restore(state)

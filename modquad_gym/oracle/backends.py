@@ -83,14 +83,23 @@ def check_method(method: str) -> str:
     return method
 
 
-def _gamma_rows(z: Zonotope, R: np.ndarray, backend: Backend) -> np.ndarray:
+def _gamma_rows(z: Zonotope, R: np.ndarray, backend: Backend, cap: float = np.inf) -> np.ndarray:
     """gamma per row of R (in range(A)) by ``backend``.
 
     gamma is positively homogeneous in the centred reduced wrench r, so a row far outside the
     zonotope (beyond ``_FAR`` times its bounding box: huge torques, say) is solved as
-    ``t * gamma(r / t)`` with t = max |r_i|, and the LPs only ever see numbers of order one."""
+    ``t * gamma(r / t)`` with t = max |r_i|, and the LPs only ever see numbers of order one.
+    With a finite ``cap`` (< ``_FAR``), the compiled walk, which stops at a proof of gamma >
+    cap and returns that proved lower bound; a far row's is t / max(box) > _FAR (its box)."""
     t = np.abs(R).max(axis=1)
-    far = t > _FAR * max(float(z.box.max()), 1e-300)
+    box = max(float(z.box.max()), 1e-300)
+    far = t > _FAR * box
+    if cap < _FAR:
+        g = t / box
+        near = np.flatnonzero(~far)
+        if len(near):
+            g[near] = gamma_compiled(z, R[near], cap)
+        return g
     if far.any():
         R = R.copy()
         R[far] /= t[far, None]
@@ -100,13 +109,16 @@ def _gamma_rows(z: Zonotope, R: np.ndarray, backend: Backend) -> np.ndarray:
     return g
 
 
-def gamma_with(z: Zonotope, W: np.ndarray, method: str) -> np.ndarray:
-    """gamma per wrench (row of W) by ``method``: inf off range(A)."""
+def gamma_with(z: Zonotope, W: np.ndarray, method: str, cap: float = np.inf) -> np.ndarray:
+    """gamma per wrench (row of W) by ``method``: inf off range(A). With ``cap`` below
+    ``_FAR`` (the compiled walk whatever ``method``: only it stops early), a wrench whose
+    gamma is proved above ``cap`` gets that proved lower bound (> cap) instead: enough for a
+    margin clipped at ``1 - cap``."""
     R, off = z.reduce(W)
     out = np.full(len(W), np.inf)
     on = np.flatnonzero(~off)
     if len(on):
-        out[on] = _gamma_rows(z, R[on], BACKENDS[method])
+        out[on] = _gamma_rows(z, R[on], BACKENDS[method], cap)
     return out
 
 

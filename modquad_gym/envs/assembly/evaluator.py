@@ -49,12 +49,15 @@ from modquad_gym.geometry.structure import (
 from modquad_gym.oracle import WrenchOracle
 from modquad_gym.oracle.backends import gamma_with
 from modquad_gym.oracle.faults import FaultTolerance, failure_sets
-from modquad_gym.oracle.tolerance import margin_from_gamma
+from modquad_gym.oracle.tolerance import BAND, TOL, decide_from_gamma, margin_from_gamma
 
 CACHE_SIZE = 16384
 """Entries per cache before it is cleared (there are 1,067 structures of at most 7 modules)."""
 MEMO_TASKS = 16
 """Tasks whose decisions are remembered."""
+CLIP_GAMMA = 2.0
+"""The exact lookahead's margins are clipped at ``1 - CLIP_GAMMA`` = -1: past it, gamma itself is
+not needed."""
 COMPILED_FROM = 17
 """Structures of at least this many modules build their matrix with :func:`_matrix`."""
 
@@ -270,23 +273,34 @@ class StructureEvaluator:
     ) -> list[tuple[float, float]]:
         """(satisfied share, mean margin clipped to [-1, 1]) of the child structures ``keys``
         (one size, one mass) against ``task``: what the greedy rule ranks children by
-        (:func:`~modquad_gym.search.baselines.greedy_search`), from the exact oracle. The share
-        is the one a step to that child would report (decided through :meth:`evaluate`, whose
-        ``memo`` the step then hits; with a ``fault``, the tolerant share); the margins are
-        ``1 - gamma`` by the compiled method (as :func:`~modquad_gym.oracle.margin`, without
-        its sign repair within the LP's accuracy of the boundary: a feature, not a decision),
-        memoised per task in ``exact_memo``."""
+        (:func:`~modquad_gym.search.baselines.greedy_search`), from the exact oracle, memoised
+        per task in ``exact_memo``.
+
+        The margins are ``1 - gamma`` by the compiled walk (as :func:`~modquad_gym.oracle.margin`,
+        without its sign repair within the LP's accuracy of the boundary: a feature, not a
+        decision), which stops as soon as it proves gamma > :data:`CLIP_GAMMA` (the margin is
+        then -1 whatever gamma is). The share is the one a step to that child would report:
+        read off gamma (the tolerance rule, on which every method agrees outside
+        :data:`~modquad_gym.oracle.tolerance.BAND`), or, with a ``fault`` or a gamma within the
+        band of the threshold, decided through :meth:`evaluate` (whose ``memo`` the step then
+        hits)."""
         for k in dict.fromkeys(keys):
             if k in exact_memo:
                 continue
             own = self.task_of(task, k)
-            n_sat, _, _ = self.evaluate(k, own, mass, memo)
             W = self.at_mass(own, mass)[0]
             cap = self.capability.get(k) or self.capability_of(k)
-            gamma = gamma_with(self.oracle.zonotope(cap.A, key=k), W, "compiled")
-            gaps = margin_from_gamma(gamma)
+            gamma = gamma_with(self.oracle.zonotope(cap.A, key=k), W, "compiled", CLIP_GAMMA)
             self.tests += len(W)
-            exact_memo[k] = (n_sat / len(W), float(np.clip(gaps, -1.0, 1.0).mean()))
+            decided = memo.get(k)
+            if decided is not None:
+                n_sat = decided[0]
+            elif self.fault is None and not np.any(np.abs(gamma - (1.0 + TOL)) <= BAND):
+                n_sat = int(np.count_nonzero(decide_from_gamma(gamma)))
+            else:
+                n_sat = self.evaluate(k, own, mass, memo)[0]
+            margins = np.clip(margin_from_gamma(gamma), -1.0, 1.0)
+            exact_memo[k] = (n_sat / len(W), float(margins.mean()))
         return [exact_memo[k] for k in keys]
 
 
