@@ -53,6 +53,10 @@ from modquad_gym.oracle.tolerance import BAND, TOL, decide_from_gamma, margin_fr
 
 CACHE_SIZE = 16384
 """Entries per cache before it is cleared (there are 1,067 structures of at most 7 modules)."""
+CACHED_COLUMNS = 2**18
+"""Configuration-matrix columns the per-structure caches (matrices, prepared zonotopes, fault
+tolerance) hold at most, counted at n_max modules a structure: every structure up to 7 modules
+fits, and at 128 modules (512 columns, ~150 kB a structure) 512 structures, not 16,384 (GBs)."""
 MEMO_TASKS = 16
 """Tasks whose decisions are remembered."""
 CLIP_GAMMA = 2.0
@@ -115,6 +119,7 @@ class StructureEvaluator:
 
     Attributes:
         tests: wrench-structure tests sent to the oracle so far (all episodes).
+        cache_size: structures each per-structure cache holds (:data:`CACHED_COLUMNS`).
         fault: None, or the single failure a satisfied wrench must survive (``"rotor"``,
             ``"module"``); the environment sets it.
     """
@@ -125,7 +130,8 @@ class StructureEvaluator:
         self, module: ModuleType, n_max: int, f_max: float, n_directions: int, method: str
     ) -> None:
         self.module = module
-        self.oracle = WrenchOracle(f_max, method=method)
+        self.cache_size = min(CACHE_SIZE, CACHED_COLUMNS // (module.n_rotors * max(n_max, 1)))
+        self.oracle = WrenchOracle(f_max, method=method, cache_size=self.cache_size)
         self.features = AssemblyFeatures(module, n_max, f_max, n_directions)
         self.capability: dict[Key, Capability] = {}
         self.tolerance: dict[Key, FaultTolerance] = {}
@@ -155,7 +161,7 @@ class StructureEvaluator:
         """The :class:`Capability` of the structure ``key``, cached."""
         hit = self.capability.get(key)
         if hit is None:
-            if len(self.capability) >= CACHE_SIZE:
+            if len(self.capability) >= self.cache_size:
                 self.capability.clear()
             A = self.matrix_of(key)
             rank = self.oracle.zonotope(A, key=key).rank
@@ -241,7 +247,7 @@ class StructureEvaluator:
         failed matrices this took)."""
         ft = self.tolerance.get(key)
         if ft is None:
-            if len(self.tolerance) >= CACHE_SIZE:
+            if len(self.tolerance) >= self.cache_size:
                 self.tolerance.clear()
             failures = failure_sets(A.shape[1], self.fault, self.module.n_rotors)
             zonotope = self.oracle.zonotope(A, key=key)
