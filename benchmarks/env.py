@@ -19,7 +19,9 @@ read against the learner's.
 
 The lookahead table (``--lookahead-steps``) times the default env id with each ``lookahead``
 (off, the support rows, ``"exact"``: the exact one-step lookahead of every child) in the same
-run, resets counted, and gives each as a ratio to the default (off).
+run, resets counted, and gives each as a ratio to the default (off), at each n_max of
+``--lookahead-n-max`` (beyond 7 on tasks planted in n_max / 4 to n_max modules, as the scale
+benchmarks; the grid encoding, as the learned solvers act).
 
 The encodings table (``--scale``, :mod:`benchmarks.env_scale`) compares the grid and the
 free-faces action encodings at n_max 16, 32 and 64, resets counted (issue 26's goal: 2,000
@@ -44,7 +46,13 @@ from benchmarks.common import (
     run_main,
     write_csv,
 )
-from benchmarks.env_scale import ENCODINGS, measure_encoding, play_timed, scale_section
+from benchmarks.env_scale import (
+    ENCODINGS,
+    measure_encoding,
+    play_timed,
+    scale_section,
+    scale_tasks,
+)
 from modquad_gym.core.extras import import_optional
 from modquad_gym.core.options import int_option, seed_option
 from modquad_gym.core.outputs import write_text
@@ -109,15 +117,18 @@ def measure_default(steps: int, warmup: int, seed: int) -> dict:
 
 
 LOOKAHEADS = (False, True, "exact")
+EXACT_TARGETS = {7: 1500.0, 64: 300.0}
+"""Issue 48's goals for ``lookahead="exact"``: steps per CPU second at n_max 7 and 64."""
 
 
-def measure_lookahead(steps: int, warmup: int, seed: int) -> list[dict]:
-    """The lookahead rows: the default env id with each of :data:`LOOKAHEADS`, resets counted,
-    as ratios to the first (off)."""
+def measure_lookahead(steps: int, warmup: int, seed: int, n_max: int = 7) -> list[dict]:
+    """The lookahead rows at ``n_max``: the default env id with each of :data:`LOOKAHEADS`,
+    resets counted, as ratios to the first (off)."""
     rows = []
+    tasks = {} if n_max == 7 else {"tasks": scale_tasks(n_max)}
     for lookahead in LOOKAHEADS:
-        env = gym.make(DEFAULT_ID, lookahead=lookahead)
-        row = {"lookahead": repr(lookahead)}
+        env = gym.make(DEFAULT_ID, lookahead=lookahead, n_max=n_max, **tasks)
+        row = {"n_max": n_max, "lookahead": repr(lookahead)}
         row.update(play_timed(env, steps, warmup, seed))
         row["oracle_tests_per_step"] = sum(ev.tests for ev in env.unwrapped.evaluators.values()) / (
             warmup + steps
@@ -125,22 +136,31 @@ def measure_lookahead(steps: int, warmup: int, seed: int) -> list[dict]:
         rows.append(row)
     for row in rows:
         row["cpu_rate_over_off"] = row["cpu_steps_per_s"] / rows[0]["cpu_steps_per_s"]
+    if n_max in EXACT_TARGETS:
+        met = rows[-1]["cpu_steps_per_s"] >= EXACT_TARGETS[n_max]
+        rows[-1]["goal"] = f"{EXACT_TARGETS[n_max]:,.0f}: {'met' if met else 'NOT met'}"
     return rows
 
 
 def lookahead_section(rows: list[dict], steps: int) -> list[str]:
     """The report's lines for the lookahead rows."""
-    exact = rows[-1]
+    exact = [r for r in rows if r["lookahead"] == repr("exact")]
+    said = "; ".join(
+        f"**{r['cpu_steps_per_s']:,.0f} steps per CPU second at n_max {r['n_max']}, "
+        f"{r['cpu_rate_over_off']:.3f} of the default's**"
+        + (f" (goal {r['goal']})" if "goal" in r else "")
+        for r in exact
+    )
     return [
         "## Lookahead rows, resets counted",
         "",
-        f"`gym.make({DEFAULT_ID!r}, lookahead=...)`, {steps} timed steps each, random masked "
-        "actions, resets inside the loop. `cpu_rate_over_off`: steps per CPU second over the "
-        'default\'s (off), in this run. With `lookahead="exact"` every child of every state is '
-        "decided by the exact oracle and its margins computed (what greedy ranks by): "
-        f"**{exact['cpu_steps_per_s']:,.0f} steps per CPU second, "
-        f"{exact['cpu_rate_over_off']:.3f} of the default's**; the default (off) keeps its speed "
-        "(the option costs nothing when off).",
+        f"`gym.make({DEFAULT_ID!r}, lookahead=..., n_max=...)`, {steps} timed steps each (a "
+        "tenth of them beyond n_max 7), random masked actions, resets inside the loop (beyond "
+        "n_max 7: tasks planted in n_max / 4 to n_max modules). `cpu_rate_over_off`: steps per "
+        "CPU second over the default's (off) at the same n_max, in this run. With "
+        '`lookahead="exact"` every child of every state gets its exact share and clipped mean '
+        "margin (what greedy ranks by): "
+        f"{said}; the default (off) keeps its speed (the option costs nothing when off).",
         "",
         markdown_table(rows),
         "",
@@ -298,6 +318,7 @@ def command_line(args: argparse.Namespace) -> str:
         "--scale " + " ".join(str(n) for n in args.scale),
         f"--scale-steps {args.scale_steps} --scale-warmup {args.scale_warmup}",
         f"--lookahead-steps {args.lookahead_steps}",
+        "--lookahead-n-max " + " ".join(str(n) for n in args.lookahead_n_max),
     ]
     if args.no_ppo:
         parts.append("--no-ppo")
@@ -338,6 +359,11 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "--lookahead-steps", type=int_option(0), default=2000,
         help="timed steps per lookahead row (off, support, exact; 0: skip that table)",
     )  # fmt: skip
+    parser.add_argument(
+        "--lookahead-n-max", type=int_option(2, 128), nargs="+", default=[7],
+        help="n_max values of the lookahead table (timed steps: --lookahead-steps at 7, a "
+        "tenth of them beyond)",
+    )  # fmt: skip
     parser.add_argument("--no-ppo", action="store_true", help="skip the PPO update timing")
     parser.add_argument("--machine-note", default="", help="said after the machine line")
     parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
@@ -367,9 +393,13 @@ def main(argv: list[str] | None = None) -> list[dict]:
         print(f"default, resets counted: {default['steps_per_s']:.0f} steps/s", flush=True)
     lookahead = []
     if args.lookahead_steps:
-        lookahead = measure_lookahead(args.lookahead_steps, min(args.warmup, 500), args.seed)
+        for n_max in args.lookahead_n_max:
+            steps = args.lookahead_steps if n_max <= 7 else max(args.lookahead_steps // 10, 1)
+            warmup = min(args.warmup, 500) if n_max <= 7 else min(args.warmup, 50)
+            lookahead += measure_lookahead(steps, warmup, args.seed, n_max)
         for row in lookahead:
-            print(f"lookahead={row['lookahead']}: {row['cpu_steps_per_s']:.0f} steps/CPU s")
+            print(f"n_max {row['n_max']} lookahead={row['lookahead']}: "
+                  f"{row['cpu_steps_per_s']:.0f} steps/CPU s")  # fmt: skip
     rows = []
     for family in FAMILIES:
         for t in args.sizes:
