@@ -46,7 +46,7 @@ CLONE = {"epochs": 25, "batch_size": 64, "learning_rate": 3e-4}
 
 def training_task(seed: int, round_: int, i: int):
     """Training task ``i`` of round ``round_``: family by parity, 8-32 modules."""
-    from benchmarks.scale_suites import FAMILIES as DRAWS
+    from modquad_gym.scoring.scale_tasks import FAMILIES as DRAWS
 
     rng = np.random.default_rng([EXIT_SEED0, seed, round_, i])
     family = FAMILIES[i % len(FAMILIES)]
@@ -122,7 +122,7 @@ def load_for_training(model: Path, n_max: int):
 def score(model: Path, n_max: int, per_family: int) -> list[dict]:
     """Single-pass ``ppo`` of ``model`` and ``greedy`` on the validation draws of
     :data:`BANDS` (``per_family`` tasks per family and band)."""
-    from benchmarks.scale_suites import draw
+    from modquad_gym.scoring.scale_tasks import draw
     from modquad_gym.search import greedy_search, verified
     from modquad_gym.solvers import make_solver
 
@@ -265,7 +265,7 @@ def label_summary(labels: list[dict]) -> list[dict]:
 def report(
     rows: list[dict], args: argparse.Namespace, seconds: float, labels: list[dict] = ()
 ) -> str:
-    from benchmarks.common import machine_description, markdown_table
+    from modquad_gym.scoring import machine_description, markdown_table
 
     return "\n".join([
         "# Expert iteration at 8-32 modules",

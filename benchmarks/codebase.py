@@ -59,6 +59,37 @@ def kind_branches(package: Path = PACKAGE) -> list[tuple[str, int, str]]:
     return found
 
 
+SOLVE_ARGV = ("solve", "--task", "example:screwdriver", "--json", "--quiet")
+"""The traced call: the default search on a shipped example, as a user types it."""
+
+
+def solve_path_files(argv: tuple[str, ...] = SOLVE_ARGV) -> list[str]:
+    """The package's files whose code runs in a warm ``modquad solve`` (the second of two
+    calls in one process, so imports and first-call caches are not counted): how many hands
+    a task and its options pass through between the command line and the answer."""
+    import contextlib
+    import io
+    import sys
+
+    from modquad_gym.cli import main as modquad
+
+    with contextlib.redirect_stdout(io.StringIO()):
+        modquad(list(argv))
+        seen: set[str] = set()
+
+        def trace(frame, event, arg):
+            if event == "call":
+                seen.add(frame.f_code.co_filename)
+
+        sys.setprofile(trace)
+        try:
+            modquad(list(argv))
+        finally:
+            sys.setprofile(None)
+    root = str(PACKAGE.parent) + "/"
+    return sorted(f.removeprefix(root) for f in seen if f.startswith(str(PACKAGE)))
+
+
 def _string_lines(source: str) -> set[int]:
     """The lines that lie inside a string constant spanning several lines (docstrings)."""
     lines: set[int] = set()
@@ -130,6 +161,14 @@ def main(argv: list[str] | None = None) -> int:
         f"{len(branches)} (goal <= {BRANCHES_GOAL}: {met[len(branches) <= BRANCHES_GOAL]}).**",
         "",
         markdown_table(listed) if listed else "None.",
+    ]
+    crossed = solve_path_files()
+    more += [
+        "",
+        f"**Files of the package a warm `modquad {' '.join(SOLVE_ARGV)}` runs code in: "
+        f"{len(crossed)}** (traced with `sys.setprofile`, the second call in one process):",
+        "",
+        ", ".join(f"`{f.removeprefix('modquad_gym/')}`" for f in crossed),
     ]
     command = "python -m benchmarks.codebase --out results/codebase --force"
     text = report_page("The shape of the code", command, notes, counts, *more)

@@ -16,7 +16,7 @@ import numpy as np
 from modquad_gym.core.options import int_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv, write_text
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.scoring import machine_description
+from modquad_gym.scoring import machine_description, markdown_table
 
 __all__ = [
     "add_force",
@@ -137,18 +137,6 @@ def random_structure(n: int, rng: np.random.Generator) -> Structure:
     from modquad_gym.tasks import random_cells
 
     return Structure(random_cells(rng, n))
-
-
-def markdown_table(rows: list[dict], floatfmt: str = ".3g") -> str:
-    """A GitHub markdown table of dict rows."""
-    keys = list(rows[0])
-
-    def fmt(v):
-        return format(v, floatfmt) if isinstance(v, float) else str(v)
-
-    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
-    lines += ["| " + " | ".join(fmt(r[k]) for k in keys) + " |" for r in rows]
-    return "\n".join(lines)
 
 
 def load_average(sep: str = " / ") -> str:

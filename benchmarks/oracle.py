@@ -48,12 +48,12 @@ from benchmarks.common import (
     run_main,
     write_csv,
 )
+from benchmarks.reference_oracle import register
+from benchmarks.reference_oracle.hrep import zonotope_hrep
 from modquad_gym.core.extras import missing_extra_message
 from modquad_gym.core.outputs import write_text
 from modquad_gym.oracle import BAND, TOL, Zonotope, decide_with, margin_with
 from modquad_gym.oracle.daqp_lp import gamma_daqp
-from tests.reference_oracle import register
-from tests.reference_oracle.hrep import zonotope_hrep
 
 register()  # the reference methods it times beside the product's
 

@@ -31,94 +31,30 @@ from __future__ import annotations
 
 import argparse
 import time
-from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
-
-from benchmarks.common import random_structure, run_main
-from benchmarks.search import low_force_task
+from benchmarks.common import run_main
 from modquad_gym.core.options import int_option, real_option
-from modquad_gym.geometry.module import GRAVITY, palette
-from modquad_gym.geometry.structure import Structure
+from modquad_gym.scoring.scale_tasks import (  # noqa: F401 - the suites' families, re-exported
+    BANDS,
+    FAMILIES,
+    MIXED_PALETTE,
+    PAYLOAD_F_MAX,
+    SCALE_SEED0,
+    SCALE_VALIDATION_SEED0,
+    draw,
+    payload_task,
+    task_palette,
+    task_seed,
+    torque_task,
+)
 from modquad_gym.scoring.suites import SUITES_DIR
 from modquad_gym.search import SearchProblem, anytime_search, bound_levels
 from modquad_gym.tasks import (
-    PlantedMixedTasks,
-    PlantedTasks,
     TaskRequirement,
     load_suite,
-    random_cells,
     save_suite,
 )
-
-BANDS = (16, 24, 32, 48, 64, 96, 128)
-"""The size bands of the scale suites (planted module counts)."""
-
-SCALE_SEED0 = 5_000_000
-SCALE_VALIDATION_SEED0 = 6_000_000
-MIXED_PALETTE = "t45,t45m,flat"
-PAYLOAD_F_MAX = 2.0
-"""Rotor limit (N) of the payload family: a 0.3 kg module lifts itself with 2.9 of its 5.7 N."""
-
-
-def payload_task(n: int, rng: np.random.Generator, t: int = 24) -> TaskRequirement:
-    """Carry a heavy payload: ``t`` rotor wrenches ``A u`` of a hidden n-module structure with
-    every rotor at 70-100 % of f_max, minus the structure's weight (kind ``external``): the
-    wrenches it applies to the payload. The hidden structure satisfies it exactly."""
-    cells = random_cells(rng, n)
-    hidden = Structure(cells)
-    A = hidden.configuration_matrix()
-    U = rng.uniform(0.7, 1.0, size=(t, A.shape[1])) * PAYLOAD_F_MAX
-    W = U @ A.T
-    W[:, 2] -= hidden.mass * GRAVITY
-    meta = {"planted_cells": [list(c) for c in cells], "optimum_upper_bound": n}
-    return TaskRequirement(W, name="payload", f_max=PAYLOAD_F_MAX, kind="external", meta=meta)
-
-
-def torque_task(n: int, rng: np.random.Generator, t: int = 16) -> TaskRequirement:
-    """Low force, high torque: ``t`` wrenches of a hidden n-module structure
-    (:func:`.search.low_force_task`)."""
-    hidden = random_structure(n, rng)
-    W = low_force_task(hidden, t, rng)
-    meta = {"planted_cells": [list(c) for c in hidden.cells], "optimum_upper_bound": n}
-    return TaskRequirement(W, name="torque", meta=meta)
-
-
-FAMILIES: dict[str, tuple[Callable[[int, np.random.Generator], TaskRequirement], str | None]] = {
-    "planted": (lambda n, rng: PlantedTasks(n_modules=n, n_wrenches=40)(rng), None),
-    "mixed": (lambda n, rng: PlantedMixedTasks(n_modules=n)(rng), MIXED_PALETTE),
-    "payload": (payload_task, None),
-    "torque": (torque_task, None),
-}
-"""Family name -> (draw(n, rng), palette of stock names or None for the T-module)."""
-
-
-def task_seed(family: str, band: int, i: int, validation: bool = False) -> int:
-    """The seed of task ``i`` of ``family`` in ``band`` (module docstring)."""
-    if not 0 <= i < 100:
-        raise ValueError(f"at most 100 tasks per family and band, got index {i}")
-    seed0 = SCALE_VALIDATION_SEED0 if validation else SCALE_SEED0
-    return seed0 + 10_000 * list(FAMILIES).index(family) + 100 * band + i
-
-
-def draw(family: str, band: int, i: int, validation: bool = False) -> TaskRequirement:
-    """Task ``i`` of ``family`` in ``band`` with its seed, family, band, palette and planted size
-    in ``meta`` (no bounds yet: :func:`with_bounds`)."""
-    make, names = FAMILIES[family]
-    seed = task_seed(family, band, i, validation)
-    task = make(band, np.random.default_rng(seed))
-    prefix = "val-" if validation else ""
-    meta = {**task.meta, "seed": seed, "family": family, "band": band, "palette": names,
-            "planted": band}  # fmt: skip
-    return TaskRequirement(task.wrenches, name=f"{prefix}{family}-{band}-{i}", f_max=task.f_max,
-                           kind=task.kind, meta=meta)  # fmt: skip
-
-
-def task_palette(task: TaskRequirement) -> list | None:
-    """The module types a scale task is searched with (None: the T-module alone)."""
-    names = task.meta.get("palette")
-    return palette(names) if names else None
 
 
 def with_bounds(task: TaskRequirement, time_limit: float) -> TaskRequirement:

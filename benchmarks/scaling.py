@@ -38,7 +38,7 @@ GOALS = {"refute 12": 3.0, "refute 14": 60.0, "planted 12": 5.0, "memory_MB": 20
 def _timed(impl: str, W: np.ndarray, n_max: int) -> tuple[float, int | None, int, float]:
     """Run one search in this (fresh) process: (seconds, n_modules, evaluated, peak MB)."""
     if impl == "reference":
-        from tests.reference_search import exhaustive_search
+        from benchmarks.reference_search import exhaustive_search
     else:
         from modquad_gym.search import exhaustive_search
     exhaustive_search(np.array([[0, 0, 1.0, 0, 0, 0]]), n_max=1)  # imports and JIT warm-up

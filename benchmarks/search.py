@@ -39,6 +39,7 @@ from modquad_gym.geometry.polyominoes import PolyominoStream
 from modquad_gym.geometry.structure import Structure, normalise
 from modquad_gym.oracle import Zonotope, decide_from_gamma
 from modquad_gym.oracle.highs_lp import gamma_highs
+from modquad_gym.scoring.scale_tasks import low_force_task  # noqa: F401 - used by the benchmarks
 from modquad_gym.search import exhaustive_search, force_lower_bound
 
 
@@ -49,35 +50,6 @@ def planted_task(n: int, t: int, rng: np.random.Generator) -> np.ndarray:
     vertex = rng.uniform(size=U.shape) < 0.9
     U[vertex] = rng.integers(0, 2, int(vertex.sum()))
     return (A @ U.T).T
-
-
-def low_force_task(
-    hidden: Structure,
-    t: int,
-    rng: np.random.Generator,
-    fz: tuple[float, float] = (0.5, 2.5),
-) -> np.ndarray:
-    """``t`` wrenches that ``hidden`` produces, with small forces and torques near its limit.
-
-    Each wrench is the vertex A u (u in {0, 1}^4n) of the hidden structure's zonotope that is
-    extreme in a direction d = (small f_x, f_y weights, -beta, unit torque direction), i.e.
-    it maximises the torque along a random direction while penalising f_z. The wrench is then
-    scaled by alpha <= 1 (thrusts alpha u stay in [0, 1]) to a random f_z in ``fz``, and further
-    until its force lies in the force set of ONE module. So the exact force bound skips no
-    level, while the torque-to-thrust ratios need the hidden structure's lever arms."""
-    A = hidden.configuration_matrix()
-    W: list[np.ndarray] = []
-    while len(W) < t:
-        tau = rng.normal(size=3)
-        d = np.concatenate([0.1 * rng.normal(size=2), [-rng.uniform(0.5, 3.0)], tau])
-        w = A @ (A.T @ d > 0).astype(float)
-        if w[2] < 1e-6:  # no rotor on: the zero wrench
-            continue
-        alpha = min(1.0, rng.uniform(*fz) / w[2])
-        while force_lower_bound(alpha * w[None], hidden.module) > 1:
-            alpha *= 0.9
-        W.append(alpha * w)
-    return np.array(W)
 
 
 def torque_task(t: int, rng: np.random.Generator) -> np.ndarray:

@@ -3,6 +3,8 @@
 * ``environments/<id>.md``: one page per registered environment (:data:`modquad_gym.envs.ENV_IDS`):
   its registration, its action and observation spaces as built by ``gym.make``, and its class
   docstring (description, spaces, rewards, episode end, arguments, version history).
+* ``<!-- modquad-methods -->`` in a page becomes the table of registered methods, their options
+  and capabilities (:func:`modquad_gym.methods.table`).
 * ``<!-- modquad-cli -->`` in a page becomes the ``--help`` text of every ``modquad`` command and
   action, from the argparse parsers themselves, and of every ``python -m benchmarks.NAME``
   script of the repository.
@@ -23,6 +25,7 @@ from pathlib import Path
 from mkdocs.structure.files import File
 
 CLI_MARKER = "<!-- modquad-cli -->"
+METHODS_MARKER = "<!-- modquad-methods -->"
 ENV_FOLDER = "environments"
 ENV_SECTION = "Environments"
 TOPICS = "Topics"
@@ -178,6 +181,10 @@ def markdown_docstring(text: str) -> str:
 def on_page_markdown(markdown, page, config, files):
     if CLI_MARKER in markdown:
         markdown = markdown.replace(CLI_MARKER, cli_reference())
+    if METHODS_MARKER in markdown:
+        from modquad_gym.methods import table
+
+        markdown = markdown.replace(METHODS_MARKER, table())
     return markdown
 
 

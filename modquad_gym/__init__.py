@@ -30,16 +30,19 @@ _NAMES = {
     ],
     "oracle.faults": ["FAULTS", "fault_margin", "tolerates"],
     "search": [
-        "SearchProblem", "SearchResult", "anytime_search", "beam_search",
+        "SearchProblem", "SearchResult", "Status", "anytime_search", "beam_search",
         "centrosymmetric_search", "exhaustive_search", "genetic_search", "greedy_search",
         "optimal_structures", "random_search",
     ],
+    "methods": ["REGISTRY", "register"],
     "solvers": ["make_solver"],
     "tasks": ["TaskRequirement"],
 }  # fmt: skip
 """The public names, by the module that defines them (loaded on first use)."""
 
-_SUBPACKAGES = ["core", "dynamics", "geometry", "oracle", "policy", "search", "sim", "tasks", "viz"]
+_SUBPACKAGES = [
+    "core", "dynamics", "geometry", "methods", "oracle", "policy", "search", "sim", "tasks", "viz",
+]  # fmt: skip
 
 __getattr__, __dir__, _ = lazy_loader.attach(__name__, _SUBPACKAGES, _NAMES)
 
@@ -68,6 +71,7 @@ __all__ = [
     "tolerates",
     "SearchProblem",
     "SearchResult",
+    "Status",
     "anytime_search",
     "beam_search",
     "centrosymmetric_search",
@@ -76,6 +80,8 @@ __all__ = [
     "greedy_search",
     "optimal_structures",
     "random_search",
+    "REGISTRY",
+    "register",
     "make_solver",
     "TaskRequirement",
 ]

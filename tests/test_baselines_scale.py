@@ -206,7 +206,7 @@ def test_bad_settings_are_refused_in_one_line():
 def test_the_solver_table_and_the_command_line_know_them(tmp_path, capsys):
     assert {"beam", "genetic"} <= set(SEARCHES) and {"beam", "genetic"} <= set(METHOD_HELP)
     for name in ("beam", "genetic", "centrosymmetric", "greedy", "random"):
-        assert make_solver(name, n_max=5, time_limit=3.0).options["time_limit"] == 3.0
+        assert make_solver(name, n_max=5, time_limit=3.0).settings.time_limit == 3.0
     path = tmp_path / "t.json"
     args = ["task", "generate", "--kind", "planted", "--n-modules", "5", "--seed", "1000"]
     assert main([*args, "--out", str(path)]) == 0

@@ -101,28 +101,28 @@ def test_bad_dynamic_input_exits_2_with_one_line(tmp_path, capsys, data, field):
         one_line_error(capsys, argv, field)
 
 
-def test_learned_methods_use_the_dynamic_model_for_dynamic_tasks(tmp_path, capsys, monkeypatch):
-    """Without --model, ppo on a dynamic task of one module type acts with the model trained
-    on motions; a static task, --model, --modules or a search keep their choice."""
-    from modquad_gym.cli import solve
-    from modquad_gym.policy.models import shipped_model
+def test_learned_methods_use_the_dynamic_model_for_dynamic_tasks(tmp_path, capsys):
+    """Without a model, ppo on a dynamic task of one module type acts with the model trained
+    on motions, in Python and on the command line alike; a static task, a model or a palette
+    keep their choice."""
+    from modquad_gym.geometry.module import palette
+    from modquad_gym.policy.models import default_model, shipped_model
+    from modquad_gym.solvers import make_solver
 
     circle = dy.circle(radius=1.0, speed=1.0, rate=10)
-    static = mq.TaskRequirement([[0, 0, 3.0, 0, 0, 0]])
     dynamic_model = shipped_model("dynamic")
     assert dynamic_model.is_file() and dynamic_model != shipped_model("current")
-    assert solve.model_for("ppo", None, circle, None) == dynamic_model
-    assert solve.model_for("ppo-guided-b64", None, circle, None) == dynamic_model
-    assert solve.model_for("ppo", None, static, None) is None
-    assert solve.model_for("ppo", "my.zip", circle, None) == "my.zip"
-    assert solve.model_for("ppo", None, circle, "t45,flat") is None
-    assert solve.model_for("exhaustive", None, circle, None) is None
-    seen = []
-    real = solve.make_solver
-    monkeypatch.setattr(solve, "make_solver", lambda *a, **k: seen.append(a[2]) or real(*a, **k))
-    solve.cached_solver.cache_clear()
+    for method in ("ppo", "ppo-guided-b64"):
+        solver = make_solver(method)
+        assert solver.inner(7, None, "dynamic").policy.model_path == str(dynamic_model)
+        assert solver.inner(7, None, None).policy.model_path == str(default_model(7))
+    types = palette("t45,flat")
+    assert make_solver("ppo", modules=types).inner(7, types, "dynamic").policy.model_path == str(
+        default_model(7, types)
+    )
     path = tmp_path / "circle.json"
     circle.save(path)
     assert main(["solve", "--task", str(path), "--method", "ppo", "--json"]) == 0
-    assert seen == [dynamic_model] and json.loads(capsys.readouterr().out)["feasible"]
-    solve.cached_solver.cache_clear()
+    line = json.loads(capsys.readouterr().out)
+    python = make_solver("ppo").solve(circle).to_dict()
+    assert line == {**line, **python, "seconds": line["seconds"]}

@@ -18,7 +18,7 @@ PACKAGE = ROOT / "modquad_gym"
 
 LAYERS = (
     "core", "geometry", "oracle", "dynamics", "tasks", "search", "viz", "envs", "policy",
-    "solvers", "sim", "scoring", "cli",
+    "methods", "solvers", "sim", "scoring", "cli",
 )  # fmt: skip
 """Bottom to top: a module may import its own layer and those below it."""
 ROOT_LAYER = "envs"

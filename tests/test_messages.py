@@ -30,13 +30,13 @@ def _printed(capsys, certified: bool, method: str) -> str:
 @pytest.mark.parametrize("method", ["ppo", "random", "centrosymmetric", "greedy"])
 def test_a_failed_heuristic_does_not_claim_that_nothing_exists(capsys, method):
     out = _printed(capsys, certified=False, method=method)
-    assert f"{method} found no structure of up to 7 modules" in out
+    assert f"no answer: {method} found no structure of up to 7 modules" in out
     assert "one may still exist" in out and "satisfies" not in out
 
 
 def test_a_certified_search_says_that_nothing_exists(capsys):
     out = _printed(capsys, certified=True, method="exhaustive")
-    assert "no structure of up to 7 modules satisfies the task (certified)" in out
+    assert "infeasible: no structure of up to 7 modules satisfies the task (proved)" in out
 
 
 def test_scale_errors_name_the_file_and_a_one_based_row(tmp_path, capsys):

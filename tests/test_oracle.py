@@ -11,6 +11,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import modquad_gym as mq
+from benchmarks.reference_oracle import cache, register
+from benchmarks.reference_oracle.cvxpy_lp import cvxpy_problem, lambda_cvxpy
+from benchmarks.reference_oracle.hrep import (
+    decide_hrep,
+    gamma_hrep,
+    hyperplane_shifting,
+    zonotope_hrep,
+)
 from modquad_gym.oracle import (
     BACKENDS,
     BAND,
@@ -27,9 +35,6 @@ from modquad_gym.oracle import (
 from modquad_gym.oracle.daqp_lp import gamma_daqp
 from modquad_gym.oracle.highs_lp import gamma_highs
 from modquad_gym.oracle.lp import HIGHS_OPTIONS
-from tests.reference_oracle import cache, register
-from tests.reference_oracle.cvxpy_lp import cvxpy_problem, lambda_cvxpy
-from tests.reference_oracle.hrep import decide_hrep, gamma_hrep, hyperplane_shifting, zonotope_hrep
 
 register()  # the cross-check methods, as rows of the oracle's table
 

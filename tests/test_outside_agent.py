@@ -64,8 +64,9 @@ class Counting:
         self.told = (n_max, tier)
         self.seen_meta: list[dict] = []
 
-    def solve(self, task, evaluator):
-        self.seen_meta.append(dict(task.meta))
+    def solve(self, problem, evaluator):
+        assert isinstance(problem, mq.SearchProblem) and problem.n_max == N_MAX
+        self.seen_meta.append(dict(problem.task.meta))
         for cells in ([(0, 0)], [(0, 0), (0, 1)], [(0, 0), (1, 0)]):
             if evaluator.evaluate(cells):
                 return cells
@@ -78,6 +79,31 @@ def test_an_outside_agent_is_counted_by_the_benchmark_and_sees_no_meta():
     r = ExternalSolver(agent, "counting", n_max=N_MAX).solve(task)
     assert r.n_modules == 2 and r.evaluated == 3 and r.oracle_calls == 3 * len(task.wrenches)
     assert agent.seen_meta == [{}] and "optimum" in task.meta  # the task itself keeps it
+
+
+class Cheating:
+    """Reads the answer from whatever it is handed: the problem, its task, the evaluator."""
+
+    name = "cheating"
+
+    def solve(self, problem, evaluator):
+        for holder in (problem.task, evaluator.task, evaluator.problem.task):
+            meta = getattr(holder, "meta", None) or {}
+            if "cells" in meta or "planted" in meta:
+                return [tuple(c) for c in meta.get("cells", meta.get("planted"))]
+        return None
+
+
+def test_a_cheating_agent_finds_no_answer_in_what_it_is_handed():
+    from modquad_gym.scoring.tiers import SUITES_DIR
+    from modquad_gym.tasks.suites import load_suite
+
+    tasks = load_suite(SUITES_DIR / "heldout_planted.json")[:3]
+    assert all(t.meta for t in tasks)  # the held-out tasks do carry their optimum
+    for task in tasks:
+        r = ExternalSolver(Cheating(), "cheating", n_max=7).solve(task)
+        assert r.structure is None and r.status == "no answer"
+        assert task.meta  # the benchmark's own copy keeps it
 
 
 def test_an_answer_never_evaluated_counts_once_and_a_larger_own_report_wins():

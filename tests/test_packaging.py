@@ -36,7 +36,7 @@ def test_sdist_holds_the_whole_project(dists):
     for name in ("train.py", "requirements.txt", "LICENSE", "CITATION.cff", "README.md",
                  "pyproject.toml", "MANIFEST.in", "examples/screwdriver.json",
                  "examples/byo_agent.py", "examples/rl_zoo/ppo.yml", "agents/training.py",
-                 "benchmarks/common.py", "benchmarks/oracle.py", "tests/reference_search.py",
+                 "benchmarks/common.py", "benchmarks/oracle.py", "benchmarks/reference_search.py",
                  "tests/conftest.py", "tests/test_packaging.py", ".ci/run",
                  "modquad_gym/data/examples/screwdriver.json"):  # fmt: skip
         assert name in members, f"sdist lacks {name}"

@@ -132,7 +132,7 @@ def test_cli_fault_json_and_refusals(capsys):
     code = cli.main(["solve", "--task", "examples/screwdriver.json", "--fault", "rotor",
                      "--method", "ppo"])  # fmt: skip
     err = capsys.readouterr().err
-    assert code == 2 and err.count("\n") == 1 and "--fault rotor" in err and "ppo" in err
+    assert code == 2 and err.count("\n") == 1 and "fault='rotor'" in err and "ppo" in err
     code = cli.main(["solve", "--task", "example:screwdriver", "--n-max", "2", "--fault",
                      "module", "--json"])  # fmt: skip
     out = json.loads(capsys.readouterr().out)

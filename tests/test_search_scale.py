@@ -1,13 +1,13 @@
 """The streaming search engine: polyomino counts, canonical order, agreement with the search as
-it was (tests/reference_search.py), exact level bounds, and bounded resources."""
+it was (benchmarks/reference_search.py), exact level bounds, and bounded resources."""
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import benchmarks.reference_search as reference
 import modquad_gym as mq
-import tests.reference_search as reference
 from modquad_gym.core.distributed import Engine
 from modquad_gym.geometry import polyominoes
 from modquad_gym.geometry.structure import free_neighbours, normalise, structure_levels

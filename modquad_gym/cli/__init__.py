@@ -42,7 +42,10 @@ def _version() -> str:
     return __version__
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The parser of ``modquad``; given ``argv`` whose command is known, only that command's
+    parser is built in full (the others are named, for the usage line): a command pays for
+    its own options only."""
     parser = argparse.ArgumentParser(
         prog="modquad",
         description="Find the smallest modular multirotor (H-ModQuad) whose feasible wrenches "
@@ -51,8 +54,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for add in COMMANDS:
-        add(sub)
+    names = [add.__name__.removeprefix("add_") for add in COMMANDS]
+    wanted = next((a for a in argv or () if not a.startswith("-")), None)
+    for name, add in zip(names, COMMANDS):
+        if wanted in names and wanted != name:
+            sub.add_parser(name)
+        else:
+            add(sub)
     return parser
 
 
@@ -63,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
     if setting is not None:
         print(f"modquad: error: {setting}", file=sys.stderr)
         return 2
-    parser = build_parser()
+    parser = build_parser(sys.argv[1:] if argv is None else list(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()

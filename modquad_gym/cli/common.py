@@ -10,8 +10,8 @@ from collections.abc import Callable
 
 from modquad_gym.core.extras import EXTRA_OF, missing_extra_message
 from modquad_gym.core.options import int_option, real_option, seed_option
+from modquad_gym.methods import REGISTRY
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT
-from modquad_gym.solvers import METHOD_HELP, METHODS
 from modquad_gym.tasks import CSV_HEADER_MODES
 
 N_MAX_OPTION = int_option(1, 2**63 - 1)
@@ -116,10 +116,12 @@ def add_method(
     ``--model``, ``--seed`` and ``--modules`` (help ``modules_help``)."""
     p.add_argument(
         "--method",
-        choices=METHODS,
         default=default,
-        help="; ".join(f"{name}: {text}" for name, text in METHOD_HELP.items())
-        + " (default %(default)s)",
+        metavar="{" + ",".join(REGISTRY) + "}",
+        type=method_option,
+        help="; ".join(f"{name}: {m.help}" for name, m in REGISTRY.items())
+        + "; also ppo-kN (N sampled rollouts) and ppo-guided-bN-wN (budget, branching) "
+        "(default %(default)s)",
     )
     add_n_max(
         p,
@@ -151,6 +153,29 @@ def add_method(
         help="seed for the random search and PPO sampling, 0 to 2**63-1 (default %(default)s)",
     )
     add_modules(p, modules_help)
+    p.add_argument(
+        "--option",
+        action="append",
+        metavar="KEY=VALUE",
+        default=None,
+        help="set one of the method's own options (repeat for several), e.g. beam_width=8 for "
+        "beam, population=48 for genetic, budget=128 for ppo-guided; an option the method does "
+        "not take is refused, naming the ones it takes (the docs' method table lists them)",
+    )
+
+
+def method_option(text: str) -> str:
+    """An argparse ``type`` for ``--method``: a registered method or a learned variant."""
+    from modquad_gym.methods import method_of
+
+    try:
+        method_of(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
+method_option.__name__ = "method"
 
 
 FAULT_HELP = (
@@ -167,16 +192,13 @@ def add_fault(p: argparse.ArgumentParser, help: str = FAULT_HELP) -> None:
 
 
 def check_fault_method(args: argparse.Namespace) -> None:
-    """``--fault`` with a method that cannot honour it: one line, before any work."""
-    from modquad_gym.search import SEARCHES
+    """``--fault`` with a method that cannot honour it: before any work, the words Python's
+    :func:`~modquad_gym.solvers.make_solver` uses."""
+    from modquad_gym.methods import method_of, refused_fault
 
     fault, method = getattr(args, "fault", None), getattr(args, "method", None)
-    honour = [m for m, search in SEARCHES.items() if getattr(search, "takes_fault", True)]
-    if fault is not None and method not in honour:
-        raise ValueError(
-            f"--fault {fault}: method {method!r} cannot guarantee fault tolerance; use one of "
-            f"{', '.join(honour)}"
-        )
+    if fault is not None and method is not None and not method_of(method)[0].fault:
+        raise ValueError(refused_fault(method_of(method)[0].name, fault))
 
 
 def add_csv_header(p: argparse.ArgumentParser) -> None:

@@ -62,26 +62,21 @@ def refuse_ignored(args: argparse.Namespace, dests: Iterable[str], reason: str) 
 SEARCH_OPTIONS = ("method", "n_max", "time_limit", "model", "seed")
 """The options that say how a structure is searched for (meaningless beside ``--cells``)."""
 
-SEEDED = ("random", "anytime", "beam", "genetic")
-"""The searches that draw at random (``--seed``); the learned methods sample with it too."""
-
 
 def refuse_ignored_method_options(args: argparse.Namespace) -> None:
-    """``--seed`` for a method that draws nothing at random, ``--time-limit`` for the exhaustive
-    search (exact, it has none): refused before the search starts."""
-    from modquad_gym.solvers import learned_options
+    """``--seed``, ``--time-limit`` or ``--model`` typed for a method that does not take it
+    (its registered options, :mod:`modquad_gym.methods`): refused before the search starts."""
+    from modquad_gym.methods import method_of
 
     method = getattr(args, "method", None)
     if method is None:
         return
-    if not (method in SEEDED or learned_options(method) is not None):
-        refuse_ignored(args, ["seed"], f"--method {method} draws nothing at random")
-    if method == "exhaustive":
-        refuse_ignored(
-            args,
-            ["time_limit"],
-            "--method exhaustive (exact) takes no time limit; --method anytime stops at one",
-        )
+    entry, _ = method_of(method)
+    takes = entry.options.names()
+    listed = ", ".join(takes) or "no options"
+    for dest in ("seed", "time_limit", "model"):
+        if dest not in takes:
+            refuse_ignored(args, [dest], f"method {method!r} does not take it (it takes: {listed})")
 
 
 def refuse_ignored_csv_header(args: argparse.Namespace) -> None:

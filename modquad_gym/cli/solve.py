@@ -6,7 +6,9 @@ import argparse
 import contextlib
 import functools
 import json
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from modquad_gym.cli import common  # commands call common.load_task (tests replace it)
 from modquad_gym.cli.common import (
@@ -23,6 +25,7 @@ from modquad_gym.cli.common import (
     palette_of,
     report_error,
 )
+from modquad_gym.methods import method_of
 from modquad_gym.solvers import make_solver
 
 
@@ -83,57 +86,72 @@ def add_solve(sub) -> None:
     add_force(p)
 
 
+@dataclass(frozen=True)
+class SolveSpec:
+    """What the command line asks of a solver, parsed once: the method, its options (the
+    method's own fields, :mod:`modquad_gym.methods`) and the problem's budget, palette and
+    fault. Hashable and picklable: Ray workers make the same solver from it."""
+
+    method: str
+    n_max: int
+    options: tuple[tuple[str, Any], ...]
+    modules: str | None = None
+    fault: str | None = None
+
+    @classmethod
+    def of(cls, args: argparse.Namespace, progress: bool = False) -> SolveSpec:
+        """The spec of the parsed arguments: ``--time-limit``, ``--seed``, ``--model`` go to the
+        method where it takes them (a typed one it does not take was refused before,
+        :func:`~modquad_gym.cli.given.refuse_ignored_method_options`), ``--option KEY=VALUE``
+        sets any other of its options; ``progress`` where it shows progress."""
+        entry, _ = method_of(args.method)
+        takes = entry.options.names()
+        options: dict[str, Any] = {}
+        for key, value in (("time_limit", getattr(args, "time_limit", None)),
+                           ("seed", getattr(args, "seed", None)),
+                           ("model", getattr(args, "model", None)),
+                           ("progress", progress)):  # fmt: skip
+            if key in takes and value is not None:
+                options[key] = value
+        for text in getattr(args, "option", None) or ():
+            try:
+                key, value = entry.options.parse(args.method, text)
+            except TypeError as exc:  # an unknown key: the same words as make_solver's
+                raise ValueError(f"--option {text}: {exc}") from None
+            options[key] = value
+        return cls(args.method, args.n_max, tuple(sorted(options.items())),
+                   getattr(args, "modules", None), getattr(args, "fault", None))  # fmt: skip
+
+    def solver(self, engine=None):
+        """The solver (:func:`~modquad_gym.solvers.make_solver`); ``engine`` (or None) splits
+        the large levels of one search where the method takes one."""
+        entry, _ = method_of(self.method)
+        options = dict(self.options)
+        if engine is not None and "engine" in entry.options.names():
+            options["engine"] = engine
+        return make_solver(self.method, self.n_max, modules=palette_of(self.modules),
+                           fault=self.fault, **options)  # fmt: skip
+
+
 @functools.lru_cache(maxsize=4)
-def cached_solver(
-    method, n_max, model, seed, modules_text, engine, progress: bool, limit=None, fault=None
-):
-    """The ``solve`` function of :func:`modquad_gym.solvers.make_solver` for these options;
-    cached, so a worker process that solves many tasks loads a PPO model once. ``engine`` (or
-    None) splits the large levels of one exhaustive search; ``limit`` is ``--time-limit``;
-    ``fault`` is ``--fault``."""
-    modules = palette_of(modules_text)  # with --modules, a model trained with that palette
-    options = {"engine": engine, "progress": progress}
-    if limit is not None:
-        options["time_limit"] = limit
-    if fault is not None:
-        options["fault"] = fault
-    return make_solver(method, n_max, model, seed, modules=modules, **options).solve
+def cached_solver(spec: SolveSpec, engine=None):
+    """The ``solve`` function of ``spec``'s solver; cached, so a worker process that solves
+    many tasks loads a PPO model once."""
+    return spec.solver(engine).solve
 
 
 def solver(args: argparse.Namespace, task=None, engine=None):
-    """The solver of ``args`` for ``task`` (:func:`model_for`; ``engine``'s workers share the
-    levels of one exhaustive search)."""
+    """The ``solve`` function of ``args`` (``engine``'s workers share the levels of one
+    search)."""
     progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
-    modules = getattr(args, "modules", None)
-    limit = getattr(args, "time_limit", None)
-    model = model_for(args.method, args.model, task, modules)
-    return cached_solver(args.method, args.n_max, model, args.seed, modules, engine, progress,
-                         limit, getattr(args, "fault", None))  # fmt: skip
+    return cached_solver(SolveSpec.of(args, progress), engine)
 
 
-def model_for(method: str, model, task, modules: str | None):
-    """``--model``, else the shipped model for ``task``: the dynamic tier's
-    (``data/models/ppo_dynamic``, trained on motions) for a learned method on a dynamic task of
-    one module type, None otherwise (the shipped pair for the budget,
-    :func:`~modquad_gym.policy.models.default_model`)."""
-    from modquad_gym.solvers import learned_options
-
-    tier = task.policy_tier  # None: the default model
-    if model is not None or modules or tier is None or learned_options(method) is None:
-        return model
-    from modquad_gym.policy.models import shipped_model
-
-    return shipped_model(tier)
-
-
-def solve_file(options: tuple, path: Path):
+def solve_file(spec: SolveSpec, csv_header: str, path: Path):
     """Load and solve one task file (the unit of work of a batch): (task, result)."""
-    method, n_max, model, seed, modules, csv_header, limit, fault = options
     task = common.load_task(path, csv_header)
-    common.check_task(task, path, palette_of(modules))
-    model = model_for(method, model, task, modules)
-    result = cached_solver(method, n_max, model, seed, modules, None, False, limit, fault)(task)
-    return task, result
+    common.check_task(task, path, palette_of(spec.modules))
+    return task, cached_solver(spec)(task)
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
@@ -142,6 +160,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
     palette(args)  # a bad --modules is refused before any work
     check_fault_method(args)
+    spec = SolveSpec.of(args)  # a bad --option too
     paths = task_files(args.task)
     if args.export is not None:
         check_export(args.export, len(paths), args.force)
@@ -149,8 +168,6 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if len(paths) == 1 or not engine.use_ray:
         return solve_here(args, paths, engine)
     # a batch: tasks spread over the workers, each search in one process
-    options = (args.method, args.n_max, args.model, args.seed, args.modules, args.csv_header,
-               args.time_limit, args.fault)  # fmt: skip
     failed: list[Failed] = []
     printed = 0
     done: dict[int, object] = {}
@@ -169,7 +186,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
     with engine:
         engine.map(
-            functools.partial(solve_file, options),  # by module name: Ray workers import it
+            functools.partial(solve_file, spec, args.csv_header),  # Ray workers import it
             paths,
             labels=[str(p) for p in paths],
             catch=True,
@@ -244,18 +261,9 @@ def print_result(args: argparse.Namespace, path, task, result) -> None:
         print(json.dumps(record), flush=True)
         return
     print(f"task {task.name!r} ({path}): {task.describe()}, method {args.method}")
-    if result.structure is None and result.certified:
-        print(f"  no structure of up to {args.n_max} modules satisfies the task (certified)")
-    elif result.structure is None:  # a heuristic failing proves nothing
-        print(
-            f"  {args.method} found no structure of up to {args.n_max} modules (a heuristic: "
-            "one may still exist; --method exhaustive decides)"
-        )
-    else:
-        cert = (
-            " (certified minimum)" if result.certified else f" (lower bound {result.lower_bound})"
-        )
-        print(f"  {result.n_modules} modules{cert}: cells {list(result.structure.cells)}")
+    print(f"  {result.status}: {result.message}")
+    if result.structure is not None:
+        print(f"  cells {list(result.structure.cells)}")
         if result.fault is not None:
             print(
                 f"  survives any single {result.fault} failure (worst margin over failures: "

@@ -27,7 +27,7 @@ each, behind the name -> backend table :data:`~modquad_gym.oracle.backends.BACKE
 
 The cross-check methods (the certificates in numpy, the paper's LP in cvxpy, the
 H-representation and the paper's Algorithm 1) live beside the tests
-(``tests/reference_oracle``), which add them to the table as one row each: no product path uses
+(``benchmarks/reference_oracle``), which add them to the table as one row each: no product path uses
 them.
 
 The LPs themselves are built in one place, :mod:`~modquad_gym.oracle.lp` (used by

@@ -14,7 +14,7 @@ import os
 import platform
 from pathlib import Path
 
-__all__ = ["machine_description"]
+__all__ = ["machine_description", "markdown_table"]
 
 
 def machine_description() -> str:
@@ -29,3 +29,15 @@ def machine_description() -> str:
     except OSError:
         pass
     return f"{model}, {os.cpu_count()} cores, no GPU, Python {platform.python_version()}"
+
+
+def markdown_table(rows: list[dict], floatfmt: str = ".3g") -> str:
+    """A GitHub markdown table of dict rows (the keys of the first row are the columns)."""
+    keys = list(rows[0])
+
+    def fmt(v):
+        return format(v, floatfmt) if isinstance(v, float) else str(v)
+
+    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    lines += ["| " + " | ".join(fmt(r[k]) for k in keys) + " |" for r in rows]
+    return "\n".join(lines)

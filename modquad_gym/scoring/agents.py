@@ -30,6 +30,7 @@ from pathlib import Path
 from modquad_gym.core.options import DefaultsHelpFormatter
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv
 from modquad_gym.geometry.module import palette
+from modquad_gym.methods import method_of
 from modquad_gym.scoring.agents_figures import plot_bars, plot_learning_curve, plot_structures
 from modquad_gym.scoring.agents_report import write_report
 from modquad_gym.scoring.options import (
@@ -43,7 +44,7 @@ from modquad_gym.scoring.options import (
 from modquad_gym.scoring.scores import Row, summarise
 from modquad_gym.scoring.tiers import Tier, get_tier, validation_suite
 from modquad_gym.search import verified
-from modquad_gym.solvers import Solver, admissible, guided_options, load_solver, make_solver
+from modquad_gym.solvers import Solver, admissible, load_solver, make_solver
 from modquad_gym.tasks import TaskRequirement, load_suite
 
 
@@ -80,9 +81,12 @@ def _solvers(
     methods: tuple, n_max: int, model: Path | None, seed: int, modules: str | None, tier=None
 ) -> dict[str, Solver]:
     types = palette(modules) if modules else None
-    return {m: make_solver(m, n_max, model if m.startswith("ppo") else None, seed, modules=types,
-                           tier=tier)
-            for m in methods}  # fmt: skip
+    solvers = {}
+    for m in methods:
+        takes = () if ":" in m else method_of(m)[0].options.names()
+        given = {k: v for k, v in (("model", model), ("seed", seed)) if k in takes}
+        solvers[m] = make_solver(m, n_max, modules=types, tier=tier, **given)
+    return solvers
 
 
 def _solve_chunk(config: tuple, jobs: list) -> list[Row]:
@@ -138,8 +142,8 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
     if any(m.startswith("ppo") for m in methods) and not args.model.is_file():
         raise ValueError(f"PPO model file {args.model} does not exist (train: python train.py)")
     for m in methods:  # a bad name fails now, not in a worker after the work has started
-        if m.startswith("ppo-guided-"):
-            guided_options(m)
+        if ":" not in m:
+            method_of(m)
     types = palette(tier.modules) if tier.modules else None
     for spec in (m for m in methods if ":" in m):  # likewise an outside agent
         load_solver(spec, n_max=args.n_max or tier.n_max, tier=tier.name, modules=types)

@@ -38,7 +38,7 @@ from modquad_gym.search.exhaustive import (
 from modquad_gym.search.genetic import genetic_search
 from modquad_gym.search.milp import milp_search
 from modquad_gym.search.problem import SearchProblem
-from modquad_gym.search.result import Optima, SearchResult, verified
+from modquad_gym.search.result import Optima, SearchResult, Status, verified
 
 SEARCHES = {
     "exhaustive": exhaustive_search,
@@ -57,6 +57,7 @@ __all__ = [
     "Optima",
     "SearchProblem",
     "SearchResult",
+    "Status",
     "TaskChecker",
     "anytime_search",
     "beam_search",

@@ -14,23 +14,20 @@ the wrenches a structure's rotors must produce.
 
 from __future__ import annotations
 
-import dataclasses
+import copy
 import functools
 import inspect
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
 from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
-from modquad_gym.dynamics import LinearWrenches
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_task_scale
 from modquad_gym.oracle.faults import check_fault, failure_sets
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.tasks import as_task
-from modquad_gym.tasks.wrenches import static_model
 
 DEFAULT_MODULE = Structure([(0, 0)]).module
 
@@ -61,9 +58,16 @@ evaluates (at 64 modules about 20,000 decisions a second). Only the extreme wren
 (a structure exerts every wrench of their convex hull), so a longer task can be thinned."""
 
 
-@dataclass(frozen=True, eq=False)
 class SearchProblem:
-    """A validated search problem (build it with :meth:`build` from a search's arguments).
+    """The one validated problem every solver acts on: a task and the answers it accepts.
+
+    ``SearchProblem(task, n_max=7, f_max=None, module=None, *, modules=None, kind=None,
+    fault=None)``: ``task`` anything :func:`~modquad_gym.tasks.as_task` takes (a task, anything
+    with ``wrenches``, a (t, 6) wrench array); ``f_max`` and ``kind`` override the task's;
+    ``module`` (one type, default the T-module) or ``modules`` (a palette); ``fault`` the
+    single failure every answer must survive. Every field is checked here, once, and honoured
+    by every solver it is handed to (a solver that cannot honour a field refuses the problem).
+    Immutable.
 
     Attributes:
         wrenches: (t, 6) the task's structure-independent wrenches (its model's base; the
@@ -71,50 +75,22 @@ class SearchProblem:
         f_max: per-rotor thrust limit.
         n_max: the module budget: structures of 1..n_max modules are searched.
         palette: the module types, without repeats (one type for the paper's search).
-        kind: the task's kind, a label for the results (``total``, ``external`` or
-            ``dynamic``); the searches read ``model``.
+        kind: the task's kind (``total``, ``external`` or ``dynamic``).
         typed: the caller gave a palette (``modules=``): results list each module's type.
         model: the task's rotor wrenches, linear in a structure's mass and inertia
             (:class:`~modquad_gym.dynamics.LinearWrenches`; a dynamic task's with repeated
-            samples dropped). Made from ``wrenches`` and ``kind`` when not given.
+            samples dropped).
         fault: None (every rotor works), ``"rotor"`` or ``"module"``: a structure satisfies
             the task only when it still does after any single failure of that kind
             (:func:`~modquad_gym.oracle.faults.tolerates`).
-        task: the task it was built from, with the ``f_max`` and ``kind`` it was given (None
-            for a problem made directly).
+        task: the task it was built from, with the ``f_max`` and ``kind`` it was given.
     """
 
-    wrenches: np.ndarray
-    f_max: float
-    n_max: int
-    palette: tuple[ModuleType, ...]
-    kind: str = "total"
-    typed: bool = False
-    model: LinearWrenches | None = None
-    fault: str | None = None
-    task: object = None
+    __slots__ = ("wrenches", "f_max", "n_max", "palette", "kind", "typed", "model", "fault",
+                 "task")  # fmt: skip
 
-    def __post_init__(self) -> None:
-        W = np.array(check_wrenches(self.wrenches, allow_empty=False), dtype=float)  # a copy
-        f_max = check_f_max(self.f_max)
-        check_search_size(W)
-        check_task_scale(W, f_max)  # absurd values: one clear error, no overflow later
-        object.__setattr__(self, "wrenches", W)
-        object.__setattr__(self, "f_max", f_max)
-        object.__setattr__(self, "n_max", check_int(self.n_max, "n_max", low=1))
-        object.__setattr__(self, "palette", tuple(check_palette(None, self.palette)))
-        if self.model is None:
-            object.__setattr__(self, "model", static_model(W, self.kind))
-        else:
-            check_search_size(self.model.base)
-            check_task_scale(self.model.per_mass, f_max)
-        object.__setattr__(self, "typed", bool(self.typed))
-        if self.fault is not None:
-            object.__setattr__(self, "fault", check_fault(self.fault))
-
-    @classmethod
-    def build(
-        cls,
+    def __init__(
+        self,
         task,
         n_max: int = 7,
         f_max: float | None = None,
@@ -123,23 +99,63 @@ class SearchProblem:
         modules: Sequence[ModuleType] | None = None,
         kind: str | None = None,
         fault: str | None = None,
-    ) -> SearchProblem:
-        """The problem of a search's arguments: ``task`` anything
-        :func:`~modquad_gym.tasks.as_task` takes (a task, anything with ``wrenches``, a (t, 6)
-        wrench array); ``f_max`` and ``kind`` override the task's; ``module`` (one type,
-        default the T-module) or ``modules`` (a palette); ``fault`` the single failure every
-        answer must survive."""
+    ) -> None:
+        if isinstance(task, SearchProblem):
+            raise TypeError("task is already a SearchProblem; use it as it is")
         if fault is not None:
-            check_fault(fault)
+            fault = check_fault(fault)
         task = as_task(task).with_f_max(f_max).with_kind(kind)
         model = task.decision_model
         check_search_size(model.base)
         check_task_scale(model.base, task.f_max)  # absurd values: one clear error first
+        check_task_scale(model.per_mass, task.f_max)
         n_max = check_int(n_max, "n_max", low=1)
         palette = tuple(check_palette(module, modules))
         task.check_liftable(palette)  # a payload no structure carries: refused before any work
-        return cls(model.base, task.f_max, n_max, palette, task.kind, modules is not None,
-                   model, fault, task)  # fmt: skip
+        base = np.array(check_wrenches(model.base, allow_empty=False), dtype=float)  # a copy
+        values = dict(wrenches=base, f_max=check_f_max(task.f_max), n_max=n_max,
+                      palette=palette, kind=task.kind, typed=modules is not None, model=model,
+                      fault=fault, task=task)  # fmt: skip
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
+
+    def __setattr__(self, name: str, value) -> None:
+        raise AttributeError(f"a SearchProblem is immutable: {name} cannot be set")
+
+    def __getstate__(self) -> dict:
+        return {name: getattr(self, name) for name in self.__slots__}
+
+    def __setstate__(self, state: dict) -> None:
+        for name, value in state.items():
+            object.__setattr__(self, name, value)
+
+    def replace(self, **changes) -> SearchProblem:
+        """A copy with some fields changed (``n_max``, ``fault``), checked as at construction."""
+        unknown = sorted(set(changes) - {"n_max", "fault"})
+        if unknown:
+            raise TypeError(f"SearchProblem.replace takes n_max and fault, not {unknown[0]!r}")
+        out = copy.copy(self)
+        if "n_max" in changes:
+            object.__setattr__(out, "n_max", check_int(changes["n_max"], "n_max", low=1))
+        if "fault" in changes:
+            fault = changes["fault"]
+            object.__setattr__(out, "fault", None if fault is None else check_fault(fault))
+        return out
+
+    @classmethod
+    def build(cls, task, n_max: int = 7, f_max: float | None = None,
+              module: ModuleType | None = None, *, modules: Sequence[ModuleType] | None = None,
+              kind: str | None = None, fault: str | None = None) -> SearchProblem:  # fmt: skip
+        """The same as the constructor (kept for callers of earlier versions)."""
+        return cls(task, n_max, f_max, module, modules=modules, kind=kind, fault=fault)
+
+    def __repr__(self) -> str:
+        types = ",".join(m.name for m in self.palette)
+        fault = f", fault={self.fault!r}" if self.fault else ""
+        return (
+            f"SearchProblem({self.task.name!r}: {len(self.wrenches)} wrenches, kind={self.kind}, "
+            f"n_max={self.n_max}, f_max={self.f_max:g}, modules={types}{fault})"
+        )
 
     @property
     def module(self) -> ModuleType:
@@ -169,13 +185,42 @@ class SearchProblem:
             return self.model.at(structure.mass, structure.inertia)
         return self.model.at(float(structure))
 
+    @property
+    def name(self) -> str:
+        """The task's name."""
+        return self.task.name
+
+    def decide(self, structure: Structure) -> np.ndarray:
+        """Bool (t,): does ``structure`` exert each of the task's rotor wrenches (with its own
+        mass and inertia where the task depends on them) and, with ``fault``, still after every
+        failure of that kind? Exact (the DAQP LP oracle, or the fault decision's); the decision
+        every door verifies answers with (results, the evaluator of outside agents)."""
+        from modquad_gym.oracle import feasible
+        from modquad_gym.oracle.faults import tolerates
+
+        W = self.rotor_wrenches(structure)
+        if self.fault is None:
+            return feasible(structure.configuration_matrix(), W, self.f_max, method="daqp")
+        return tolerates(structure, W, self.f_max, fault=self.fault)
+
+    def without_meta(self) -> SearchProblem:
+        """The same problem whose task carries no ``meta`` (a held-out task's certified optimum
+        and planted cells): what an outside agent is handed."""
+        if not getattr(self.task, "meta", None):
+            return self
+        task = copy.copy(self.task)
+        object.__setattr__(task, "meta", {})
+        out = copy.copy(self)
+        object.__setattr__(out, "task", task)
+        return out
+
     def checker(self) -> TaskChecker:
         """A fresh :class:`TaskChecker` of this problem."""
         return TaskChecker(self.model, self.f_max, self.palette, self.fault)
 
     def with_n_max(self, n_max: int) -> SearchProblem:
         """The same problem with another module budget."""
-        return dataclasses.replace(self, n_max=n_max)
+        return self.replace(n_max=n_max)
 
     def verify_reserve(self, time_limit: float) -> float:
         """Seconds kept back from ``time_limit`` for the final verification by the exact LP:
@@ -187,7 +232,7 @@ class SearchProblem:
 
     def with_fault(self, fault: str | None) -> SearchProblem:
         """The same problem with another single failure to survive (None: none)."""
-        return dataclasses.replace(self, fault=fault)
+        return self.replace(fault=fault)
 
 
 def check_palette(
@@ -246,33 +291,58 @@ def check_time_limit(seconds: object) -> float:
     return value
 
 
-TASK_PARAMETERS = tuple(inspect.signature(SearchProblem.build).parameters.values())
-"""The arguments every search's entry point takes first (those of :meth:`SearchProblem.build`)."""
+TASK_PARAMETERS = tuple(
+    p.replace(default=None) if p.name == "n_max" else p
+    for p in inspect.signature(SearchProblem.build).parameters.values()
+    if p.name != "cls"
+)
+"""The arguments every search's entry point takes first (those of :class:`SearchProblem`;
+``n_max`` None means 7 for a task and the problem's own for a problem)."""
+
+PROBLEM_FIELDS = ("n_max", "f_max", "module", "modules", "kind", "fault")
+"""The keywords that describe a problem: given beside a :class:`SearchProblem`, refused."""
+
+
+def as_problem(task, n_max=None, f_max=None, module=None, *, modules=None, kind=None,
+               fault=None) -> SearchProblem:  # fmt: skip
+    """``task`` itself when it is a :class:`SearchProblem` (then a keyword that would change it
+    is refused: a ValueError names it), else the problem of these arguments (``n_max`` default
+    7)."""
+    given = dict(n_max=n_max, f_max=f_max, module=module, modules=modules, kind=kind,
+                 fault=fault)  # fmt: skip
+    if isinstance(task, SearchProblem):
+        extra = [k for k, v in given.items() if v is not None]
+        if extra:
+            raise ValueError(
+                f"{extra[0]}={given[extra[0]]!r} given beside a SearchProblem: the problem "
+                f"already says it ({extra[0]}={getattr(task, extra[0], None)!r}); give one or "
+                "the other (problem.replace(...) makes a changed copy)"
+            )
+        return task
+    return SearchProblem(task, 7 if n_max is None else n_max, f_max, module, modules=modules,
+                         kind=kind, fault=fault)  # fmt: skip
 
 
 def search_entry(name: str) -> Callable[[Callable], Callable]:
     """Decorator: the public entry point of the search ``solve(problem, **options)``.
 
-    The entry takes the task's arguments (``task, n_max=7, f_max=None, module=None, *,
-    modules=None, kind=None, fault=None``: :meth:`SearchProblem.build`) and then the search's
-    own keyword options; its signature says so. An option the search does not take is refused
-    with a ValueError naming it. ``entry.solve`` is the problem's function, for callers that
-    already hold a :class:`SearchProblem`."""
+    The entry takes a :class:`SearchProblem`, or the task's arguments (``task, n_max=7,
+    f_max=None, module=None, *, modules=None, kind=None, fault=None``) from which it builds
+    one (:func:`as_problem`), and then the search's own keyword options; its signature says so.
+    An option the search does not take is refused with a TypeError naming it and the options
+    it takes. ``entry.solve`` is the problem's function."""
 
     def wrap(solve: Callable) -> Callable:
         options = list(inspect.signature(solve).parameters.values())[1:]
         names = {p.name for p in options}
 
         @functools.wraps(solve)
-        def entry(task, n_max=7, f_max=None, module=None, *, modules=None, kind=None,
+        def entry(task, n_max=None, f_max=None, module=None, *, modules=None, kind=None,
                   fault=None, **kwargs):  # fmt: skip
             unknown = sorted(set(kwargs) - names)
             if unknown:
-                takes = ", ".join(sorted(names)) or "no options"
-                raise ValueError(
-                    f"the {name} search has no option {unknown[0]!r} (it takes {takes})"
-                )
-            problem = SearchProblem.build(
+                raise TypeError(unknown_option(name, unknown[0], names))
+            problem = as_problem(
                 task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
             )
             return solve(problem, **kwargs)
@@ -286,3 +356,9 @@ def search_entry(name: str) -> Callable[[Callable], Callable]:
         return entry
 
     return wrap
+
+
+def unknown_option(method: str, option: str, takes) -> str:
+    """The one refusal of an option a method does not take (Python and the CLI alike)."""
+    listed = ", ".join(sorted(takes)) or "no options"
+    return f"method {method!r} has no option {option!r}; it takes: {listed}"

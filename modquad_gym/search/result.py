@@ -11,6 +11,7 @@ by the certified oracle). ``certified`` follows from it: the answer is proved.
 
 from __future__ import annotations
 
+import enum
 import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, NamedTuple
@@ -40,6 +41,24 @@ class Improvement(NamedTuple):
 
     def to_dict(self) -> dict:
         return {**self._asdict(), "seconds": round(self.seconds, 3)}
+
+
+class Status(str, enum.Enum):
+    """What a result proves, for a program to branch on (a string enum: ``status == "optimal"``
+    holds; JSON writes its value)."""
+
+    OPTIMAL = "optimal"
+    """A structure was found and proved minimal (``n_modules == lower_bound``)."""
+    FEASIBLE = "feasible"
+    """A structure was found; a smaller one may exist (``lower_bound < n_modules``)."""
+    INFEASIBLE = "infeasible"
+    """Proved: no structure of at most ``n_max`` modules satisfies the task."""
+    NO_ANSWER = "no answer"
+    """No structure found and none ruled out for every size up to ``n_max`` (a heuristic, or a
+    time limit reached)."""
+
+    def __str__(self) -> str:
+        return self.value
 
 
 @dataclass
@@ -117,6 +136,31 @@ class SearchResult:
     def feasible(self) -> bool:
         return self.structure is not None
 
+    @property
+    def status(self) -> Status:
+        """:class:`Status`: optimal, feasible, infeasible (proved) or no answer."""
+        if self.structure is not None:
+            return Status.OPTIMAL if self.certified else Status.FEASIBLE
+        return Status.INFEASIBLE if self.certified else Status.NO_ANSWER
+
+    @property
+    def message(self) -> str:
+        """One line that says what :attr:`status` means for this result."""
+        status, fault = self.status, f" surviving any {self.fault} failure" if self.fault else ""
+        if status is Status.OPTIMAL:
+            return f"{self.n_modules} modules{fault}, proved minimal"
+        if status is Status.FEASIBLE:
+            return (
+                f"{self.n_modules} modules{fault}; proved: at least {self.lower_bound} (a smaller "
+                "structure may exist)"
+            )
+        if status is Status.INFEASIBLE:
+            return f"no structure of up to {self.n_max} modules{fault} satisfies the task (proved)"
+        return (
+            f"{self.method} found no structure of up to {self.n_max} modules{fault} (not a proof: "
+            f"one may still exist; proved: at least {self.lower_bound})"
+        )
+
     def to_dict(self) -> dict:
         out = {
             "cells": [list(c) for c in self.structure.cells] if self.structure else None,
@@ -126,6 +170,8 @@ class SearchResult:
             "oracle_calls": self.oracle_calls,
             "feasible": self.feasible,
             "certified": self.certified,
+            "status": self.status.value,
+            "message": self.message,
             "seconds": self.seconds,
             "method": self.method,
             "n_max": self.n_max,
@@ -287,8 +333,11 @@ class SearchRun:
 def verified(structure: Structure | None, task: Any) -> bool:
     """Does ``structure`` exert every wrench of ``task`` (a TaskRequirement, its own weight
     added for external tasks; or a DynamicTask, its own mass and inertia)? Decided by the
-    exact DAQP LP oracle."""
+    exact DAQP LP oracle. For a :class:`~.problem.SearchProblem`, its own decision
+    (:meth:`~.problem.SearchProblem.decide`: with ``fault``, after every failure too)."""
     if structure is None:
         return False
+    if hasattr(task, "decide"):
+        return bool(task.decide(structure).all())
     W = task.rotor_wrenches(structure)
     return bool(feasible(structure.configuration_matrix(), W, task.f_max, method="daqp").all())

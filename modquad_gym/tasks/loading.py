@@ -23,12 +23,16 @@ def is_dynamic(task: object) -> bool:
 def as_task(
     task: Any, what: str | None = None, name: str = "task"
 ) -> TaskRequirement | DynamicTask:
-    """``task`` as a task: a :class:`TaskRequirement` or :class:`DynamicTask` as it is; anything
+    """``task`` as a task: a :class:`TaskRequirement` or :class:`DynamicTask` as it is (a search
+    problem: its task, with the problem's ``f_max`` and kind); anything
     with ``wrenches`` (and, if it has them, ``f_max``, ``kind``, ``name``) or a (t, 6) wrench
     array (one 6-vector too) as a TaskRequirement named ``name``. A ValueError names what is
     wrong, after ``what:`` when ``what`` is given."""
     if isinstance(task, (TaskRequirement, DynamicTask)):
         return task
+    inner = getattr(task, "task", None)  # a search problem: the task it was built from
+    if isinstance(inner, (TaskRequirement, DynamicTask)):
+        return inner
     fields: dict[str, Any] = {"name": name}
     W = task
     if hasattr(task, "wrenches"):

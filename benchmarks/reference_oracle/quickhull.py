@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tests.reference_oracle import cache
+from benchmarks.reference_oracle import cache
 
 if TYPE_CHECKING:
     from modquad_gym.oracle.zonotope import Zonotope

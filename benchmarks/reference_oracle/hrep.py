@@ -16,9 +16,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from benchmarks.reference_oracle import cache
+from benchmarks.reference_oracle.certified import reject_by_support
 from modquad_gym.oracle.tolerance import decide_from_gamma
-from tests.reference_oracle import cache
-from tests.reference_oracle.certified import reject_by_support
 
 if TYPE_CHECKING:
     from modquad_gym.oracle.zonotope import Zonotope

@@ -16,9 +16,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from benchmarks.reference_oracle import cache
 from modquad_gym.oracle.daqp_lp import gamma_and_direction
 from modquad_gym.oracle.tolerance import ACCEPT, REJECT, decide_from_gamma
-from tests.reference_oracle import cache
 
 if TYPE_CHECKING:
     from modquad_gym.oracle.zonotope import Zonotope

@@ -21,12 +21,12 @@ def cache(z) -> dict:
 
 def register() -> None:
     """Add the reference methods to the oracle's table (a second call changes nothing)."""
+    from benchmarks.reference_oracle.certified import decide_reduced
+    from benchmarks.reference_oracle.cvxpy_lp import gamma_cvxpy, ray_cvxpy
+    from benchmarks.reference_oracle.hrep import decide_hrep, gamma_hrep
+    from benchmarks.reference_oracle.quickhull import gamma_quickhull
     from modquad_gym.oracle.backends import BACKENDS, Backend
     from modquad_gym.oracle.daqp_lp import gamma_daqp
-    from tests.reference_oracle.certified import decide_reduced
-    from tests.reference_oracle.cvxpy_lp import gamma_cvxpy, ray_cvxpy
-    from tests.reference_oracle.hrep import decide_hrep, gamma_hrep
-    from tests.reference_oracle.quickhull import gamma_quickhull
 
     BACKENDS.setdefault(
         "certified", Backend(gamma_daqp, decide_reduced, margin_sign_from_decide=True)

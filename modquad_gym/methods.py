@@ -1,0 +1,341 @@
+"""The one registry of solving methods: each registered once, with its options and capabilities.
+
+A :class:`Method` names how to make its solver, a frozen, typed options dataclass (each field
+with its one-line help and its check) and what it can do (certify, draw at random, stop at a
+time limit, survive a failure, mix module types). ``modquad solve --method`` (its choices, its
+help and its refusals), :func:`modquad_gym.solvers.make_solver`, ``modquad score`` and the
+docs' method table all read :data:`REGISTRY`; adding a method is one module with its solve
+function and one :func:`register` line.
+
+An option a method does not take is refused with a TypeError that names the option and the
+method's options; a problem field a method cannot honour (``fault=`` for a method that never
+checks failures) with a ValueError that names it and the methods that can. The same messages
+reach Python callers and the command line.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import inspect
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from modquad_gym.core.validation import check_int, check_real
+from modquad_gym.search.problem import MAX_TIME_LIMIT, unknown_option
+
+
+# ---------------------------------------------------------------------------------- options
+@dataclass(frozen=True)
+class Options:
+    """Base of every method's options: frozen, typed, each field checked when made."""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            check = f.metadata.get("check")
+            value = getattr(self, f.name)
+            if check is not None and value is not None:
+                object.__setattr__(self, f.name, check(value, f.name))
+
+    @classmethod
+    def names(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    @classmethod
+    def help(cls) -> dict[str, str]:
+        """Each option's one-line help, with its default."""
+        return {
+            f.name: f"{f.metadata.get('help', '')} (default {f.default!r})"
+            for f in dataclasses.fields(cls)
+        }
+
+    @classmethod
+    def settable(cls) -> tuple[str, ...]:
+        """The options a command line can set (numbers and flags; objects are Python-only)."""
+        return tuple(f.name for f in dataclasses.fields(cls) if _parser(f) is not None)
+
+    @classmethod
+    def parse(cls, method: str, text: str) -> tuple[str, Any]:
+        """``KEY=VALUE`` of ``--option`` as (name, typed value); a TypeError names an unknown
+        key, a ValueError a value of the wrong type."""
+        key, sep, value = text.partition("=")
+        key = key.strip().replace("-", "_")
+        by_name = {f.name: f for f in dataclasses.fields(cls)}
+        if not sep or key not in by_name or _parser(by_name[key]) is None:
+            raise TypeError(unknown_option(method, key or text, cls.names()))
+        try:
+            return key, _parser(by_name[key])(value.strip())
+        except ValueError:
+            raise ValueError(
+                f"--option {text}: {key} takes {by_name[key].type}, got {value!r}"
+            ) from None
+
+    def as_dict(self) -> dict[str, Any]:
+        """The fields as keywords (objects kept as they are, not copied)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+
+def _bool(text: str) -> bool:
+    low = text.lower()
+    if low in ("1", "true", "yes", "on"):
+        return True
+    if low in ("0", "false", "no", "off"):
+        return False
+    raise ValueError(text)
+
+
+def _optional(parse: Callable[[str], Any]) -> Callable[[str], Any]:
+    return lambda text: None if text.lower() == "none" else parse(text)
+
+
+_PARSERS = {"int": int, "float": float, "bool": _bool}
+
+
+def _parser(f: dataclasses.Field) -> Callable[[str], Any] | None:
+    """How a command line writes the field, from its type (None: Python only)."""
+    kind = f.type.__name__ if isinstance(f.type, type) else str(f.type).replace(" ", "")
+    if kind in _PARSERS:
+        return _PARSERS[kind]
+    base = kind.removesuffix("|None")
+    return _optional(_PARSERS[base]) if base in _PARSERS and base != kind else None
+
+
+def _seconds(value: Any, name: str) -> float:
+    seconds = check_real(value, name, 0.0)
+    if not 0.0 < seconds <= MAX_TIME_LIMIT:
+        raise ValueError(f"{name} must lie in (0, {MAX_TIME_LIMIT:,.0f}] seconds, got {value!r}")
+    return seconds
+
+
+def _count(low: int) -> Callable[[Any, str], int]:
+    return lambda value, name: check_int(value, name, low=low)
+
+
+def _share(value: Any, name: str) -> float:
+    return check_real(value, name, 0.0, 1.0)
+
+
+def _seed(value: Any, name: str) -> int:
+    return check_int(value, name, low=0, high=2**63 - 1)
+
+
+COMMON_HELP: dict[str, tuple[str, Callable | None]] = {
+    "time_limit": ("seconds the method may take; it returns what it has by then", _seconds),
+    "seed": ("seed of its random draws (0 to 2**63-1)", _seed),
+    "progress": ("show progress on stderr", None),
+    "engine": ("an Engine whose workers share the work (Python only)", None),
+    "chunk": ("structures decided per batch", _count(1)),
+    "start": ("a partial structure every answer contains (Python only)", None),
+    "producers": ("the producers run beside the anytime search's own steps (Python only)", None),
+}
+"""Help and check of the options several methods share."""
+
+
+def options_of(name: str, solve: Callable, own: dict[str, tuple[str, Callable | None]]):
+    """The options dataclass of a search: its keyword-only parameters with their types and
+    defaults, each with its help and check (``own``, else :data:`COMMON_HELP`)."""
+    specs = []
+    for p in inspect.signature(solve).parameters.values():
+        if p.kind is not p.KEYWORD_ONLY:
+            continue
+        text, check = own.get(p.name) or COMMON_HELP[p.name]
+        meta = {"help": text, "check": check}
+        specs.append((p.name, p.annotation, field(default=p.default, metadata=meta)))
+    title = "".join(part.title() for part in name.replace("-", "_").split("_"))
+    return dataclasses.make_dataclass(f"{title}Options", specs, bases=(Options,), frozen=True)
+
+
+def options(name: str, **fields: tuple[Any, str, str, Callable | None]):
+    """An options dataclass from ``NAME=(type, default, help, check)`` (for methods whose
+    solver is a class made elsewhere, as the learned ones)."""
+    specs = [
+        (key, kind, field(default=default, metadata={"help": text, "check": check}))
+        for key, (kind, default, text, check) in fields.items()
+    ]
+    title = "".join(part.title() for part in name.replace("-", "_").split("_"))
+    return dataclasses.make_dataclass(f"{title}Options", specs, bases=(Options,), frozen=True)
+
+
+# ---------------------------------------------------------------------------------- methods
+@dataclass(frozen=True)
+class Method:
+    """One way of answering a problem.
+
+    Attributes:
+        name: what ``--method`` and :func:`~modquad_gym.solvers.make_solver` call it.
+        help: one line for ``--help`` and the docs.
+        options: its :class:`Options` dataclass.
+        make: ``make(method, options, problem_defaults) -> solver`` (a solver's ``solve``
+            takes a :class:`~modquad_gym.search.SearchProblem`), or its ``"module:name"``
+            (imported when the first solver is made, as Gymnasium's entry points are).
+        certifies: it proves its answers minimal (or the task infeasible) when it finishes.
+        seeded: it draws at random (``seed``).
+        timed: it stops at ``time_limit``.
+        fault: it honours ``fault=`` (every answer survives the failure).
+        palette: it designs over several module types (``modules=``).
+        extra: the package extra it needs (``train`` for torch and SB3), or None.
+    """
+
+    name: str
+    help: str
+    options: type[Options]
+    make: Callable[..., Any] | str
+    certifies: bool = False
+    seeded: bool = False
+    timed: bool = True
+    fault: bool = True
+    palette: bool = True
+    extra: str | None = None
+
+    def solver(self, settings: Options, defaults: dict) -> Any:
+        """A solver of this method with these checked options and problem defaults."""
+        make = self.make
+        if isinstance(make, str):
+            module, _, name = make.partition(":")
+            make = getattr(importlib.import_module(module), name)
+        return make(self, settings, defaults)
+
+    def settings(self, **values: Any) -> Options:
+        """The options ``values`` checked (TypeError for one the method does not take)."""
+        unknown = sorted(set(values) - set(self.options.names()))
+        if unknown:
+            raise TypeError(unknown_option(self.name, unknown[0], self.options.names()))
+        return self.options(**values)
+
+    def check(self, problem: Any) -> None:
+        """ValueError (the one message of Python and the CLI) for a problem field this method
+        cannot honour."""
+        if problem.fault is not None and not self.fault:
+            raise ValueError(refused_fault(self.name, problem.fault))
+        if problem.typed and len(problem.palette) > 1 and not self.palette:
+            raise ValueError(f"method {self.name!r} designs with one module type; modules= gave "
+                             f"{len(problem.palette)}")  # fmt: skip
+
+
+def refused_fault(method: str, fault: str) -> str:
+    honour = ", ".join(m.name for m in REGISTRY.values() if m.fault)
+    return (
+        f"method {method!r} cannot honour fault={fault!r} (it never checks failures); the "
+        f"methods that do: {honour}"
+    )
+
+
+REGISTRY: dict[str, Method] = {}
+"""Every method by name, in the order ``--help`` lists them."""
+
+
+def register(method: Method) -> Method:
+    """Add ``method`` (a name already taken: ValueError)."""
+    if method.name in REGISTRY:
+        raise ValueError(f"method {method.name!r} is already registered")
+    if ":" in method.name or not method.name:
+        raise ValueError(f"method name {method.name!r}: no colon (those name outside agents)")
+    REGISTRY[method.name] = method
+    return method
+
+
+def unregister(name: str) -> None:
+    """Remove the method ``name`` (for tests and plug-ins that replace one)."""
+    REGISTRY.pop(name, None)
+
+
+# ------------------------------------------------------------------------------- the built-in
+def _search(name: str, help: str, own: dict | None = None, **capabilities: Any) -> Method:
+    from modquad_gym.search import SEARCHES
+
+    return Method(name, help, options_of(name, SEARCHES[name].solve, own or {}),
+                  "modquad_gym.solvers.factory:SearchSolver", **capabilities)  # fmt: skip
+
+
+_MODEL = (object, None, "a PPO .zip or a loaded Policy (default: the shipped model of the "
+          "budget and palette)", None)  # fmt: skip
+_LEARNED_LIMIT = (float | None, None, "seconds after which it stops (None: none)", _seconds)
+
+for _method in (
+    _search("exhaustive", "the certified minimum (exhaustive search, up to 16 modules)",
+            certifies=True, timed=False),
+    _search("centrosymmetric", "the paper's Algorithm 2",
+            {"block_seed": ("also grow from a 2 x 2 block (even counts)", None)}),
+    _search("greedy", "baseline: the child satisfying most wrenches"),
+    _search("random", "baseline: random dockings",
+            {"restarts": ("independent random builds", _count(1))}, seeded=True),
+    _search("anytime", "the default: the exhaustive search's answer where it finishes within "
+            "the time limit, else the best structure found by local moves with its proved lower "
+            "bound (up to 128 modules)", certifies=True, seeded=True),
+    _search("beam", "heuristic: beam search over growing structures (up to 128 modules)",
+            {"beam_width": ("structures kept per level", _count(1))}, seeded=True),
+    _search("genetic", "heuristic: genetic algorithm over structures, after Su et al. 2024 (up "
+            "to 128 modules)", {
+                "population": ("chromosomes per generation", _count(2)),
+                "generations": ("most generations", _count(1)),
+                "stall": ("generations without improvement before it stops", _count(1)),
+                "mutation_rate": ("probability of a mutation", _share),
+                "crossover_rate": ("probability of a crossover", _share),
+                "elite": ("best chromosomes kept unchanged", _count(0)),
+                "tournament": ("chromosomes per selection tournament", _count(1)),
+                "penalty": ("fitness per unsatisfied wrench (None: the module budget + 1)",
+                            None),
+            }, seeded=True),
+    _search("milp", "the mixed-integer program solved by HiGHS, level by level from its LP "
+            "relaxation's bound: certified where it finishes within the time limit (up to 128 "
+            "modules)", certifies=True, fault=False),
+    Method("ppo", "the learned agent's single pass (the shipped model unless model=)",
+           options("ppo", model=_MODEL, seed=(int, 0, COMMON_HELP["seed"][0], _seed),
+                   samples=(int, 0, "extra sampled rollouts besides the deterministic one",
+                            _count(0)), time_limit=_LEARNED_LIMIT),
+           "modquad_gym.solvers.factory:LearnedSolver", seeded=True, fault=False, extra="train"),
+    Method("ppo-guided", "best-first search ordered by the learned policy, certified at the "
+           "lower bound", options("ppo-guided", model=_MODEL,
+                                  budget=(int, 64, "most structures evaluated", _count(1)),
+                                  branching=(int, 4, "children expanded per node", _count(1)),
+                                  dive=(bool, True, "first follow the policy's own episode",
+                                        None), time_limit=_LEARNED_LIMIT),
+           "modquad_gym.solvers.factory:LearnedSolver", fault=False, extra="train"),
+):  # fmt: skip
+    register(_method)
+
+
+def method_of(name: str) -> tuple[Method, dict[str, Any]]:
+    """The registered method of ``name`` and the options its variant sets: ``ppo-kN`` (N
+    sampled rollouts) and ``ppo-guided[-bN][-wN][-nodive]`` (budget, branching, no dive).
+    ValueError for an unknown name, naming the known ones."""
+    if name in REGISTRY:
+        return REGISTRY[name], {}
+    if name.startswith("ppo-k") and "ppo" in REGISTRY:
+        k = name[len("ppo-k") :]
+        if not k.isdigit():
+            raise ValueError(f"bad method {name!r}; write ppo-kN with N an integer")
+        return REGISTRY["ppo"], {"samples": int(k)}
+    if name.startswith("ppo-guided-") and "ppo-guided" in REGISTRY:
+        return REGISTRY["ppo-guided"], _guided_variant(name)
+    raise ValueError(f"unknown method {name!r}; choose one of {', '.join(REGISTRY)}")
+
+
+def _guided_variant(name: str) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for part in name[len("ppo-guided") :].split("-")[1:]:
+        if part == "nodive":
+            out["dive"] = False
+        elif part[:1] in ("b", "w") and part[1:].isdigit() and int(part[1:]) > 0:
+            out["budget" if part[0] == "b" else "branching"] = int(part[1:])
+        else:
+            raise ValueError(
+                f"bad method {name!r}: write ppo-guided with -bN (budget), -wN (branching) or "
+                "-nodive, N a positive integer"
+            )
+    return out
+
+
+def table() -> str:
+    """The methods as a Markdown table (the docs' method table is generated from it)."""
+    rows = ["| method | what it does | options | certifies | seeded | time limit | fault= |",
+            "|---|---|---|---|---|---|---|"]  # fmt: skip
+    mark = {True: "yes", False: "no"}
+    for m in REGISTRY.values():
+        opts = ", ".join(f"`{o}`" for o in m.options.names()) or "none"
+        rows.append(
+            f"| `{m.name}` | {m.help} | {opts} | {mark[m.certifies]} | {mark[m.seeded]} | "
+            f"{mark[m.timed]} | {mark[m.fault]} |"
+        )
+    return "\n".join(rows)

@@ -1,0 +1,188 @@
+"""Solvers of the registered methods: :func:`make_solver`, the one factory, and the solvers it
+makes (a search, a learned method). Torch and SB3 load only when a learned solver is made
+(:mod:`modquad_gym.policy.ppo`)."""
+
+from __future__ import annotations
+
+from typing import Any, Protocol, runtime_checkable
+
+from modquad_gym.methods import REGISTRY, Method, Options, method_of, refused_fault
+from modquad_gym.policy.models import default_model, shipped_model
+from modquad_gym.search import SearchResult
+from modquad_gym.search.problem import SearchProblem, as_problem
+from modquad_gym.solvers.outside import load_solver
+
+METHOD_HELP = {name: m.help for name, m in REGISTRY.items()}
+"""The built-in methods' one-line help (read from :data:`~modquad_gym.methods.REGISTRY`, which
+is what the CLI, :func:`make_solver` and ``modquad score`` read)."""
+METHODS = tuple(METHOD_HELP)
+"""The built-in methods' names (besides the variants of the learned ones)."""
+LEARNED = tuple(name for name, m in REGISTRY.items() if m.extra == "train")
+
+
+@runtime_checkable
+class Solver(Protocol):
+    """Anything with a ``name`` that turns a task or a :class:`SearchProblem` into a verified
+    :class:`SearchResult`."""
+
+    name: str
+
+    def solve(self, task: Any) -> SearchResult: ...
+
+
+class MethodSolver:
+    """A registered method with its checked options: ``solve(problem)`` honours every field of
+    the problem or refuses it (:meth:`~modquad_gym.methods.Method.check`). A task that is not a
+    problem becomes one with the ``n_max``, ``modules`` and ``fault`` given to
+    :func:`make_solver`."""
+
+    def __init__(self, method: Method, settings: Options, defaults: dict) -> None:
+        self.method = method
+        self.name = method.name
+        self.settings = settings
+        self.defaults = defaults
+        self.n_max = defaults.get("n_max", 7)
+
+    def problem(self, task: Any) -> SearchProblem:
+        """The problem the method acts on (checked against what it can honour)."""
+        problem = task if isinstance(task, SearchProblem) else as_problem(task, **self.defaults)
+        self.method.check(problem)
+        return problem
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.name!r}, {self.settings!r}, {self.defaults!r})"
+
+
+class SearchSolver(MethodSolver):
+    """A search of :mod:`modquad_gym.search` behind the :class:`Solver` interface (the anytime
+    search on an engine with Ray gets the learned policy among its producers)."""
+
+    def solve(self, task: Any) -> SearchResult:
+        from modquad_gym.search import SEARCHES
+
+        options = self.settings.as_dict()
+        engine = options.get("engine")
+        if self.method.name == "anytime" and getattr(engine, "use_ray", False):
+            if options.get("producers") is None:
+                from modquad_gym.policy.guided import producers_with_policy
+
+                options["producers"] = producers_with_policy()
+        return SEARCHES[self.method.name].solve(self.problem(task), **options)
+
+
+class LearnedSolver(MethodSolver):
+    """A learned method (``ppo`` or ``ppo-guided``): the policy acts on the problem's budget
+    and palette, with the shipped model of that budget and palette unless ``model`` is given
+    (:func:`~modquad_gym.policy.default_model`). It never checks failures, so it refuses a
+    problem with ``fault=``."""
+
+    def __init__(self, method: Method, settings: Options, defaults: dict) -> None:
+        super().__init__(method, settings, defaults)
+        self.kind = method.name
+        self._solvers: dict[tuple, Any] = {}
+        self.inner(self.defaults.get("n_max", 7), self.defaults.get("modules"))  # load now
+
+    def inner(self, n_max: int, palette: list | None, tier: str | None = None) -> Any:
+        """The PPO or guided solver of this budget and palette (None: one type), made once;
+        without ``model``, the shipped model of the task's tier (``tier``: a dynamic task of one
+        type acts with the model trained on motions) or of the budget and palette."""
+        key = (n_max, tuple(m.digest for m in palette or ()), tier)
+        if key not in self._solvers:
+            options = self.settings.as_dict()
+            model = options.pop("model")
+            if model is None and tier is not None and not palette:
+                model = shipped_model(tier)
+            model = default_model(n_max, palette) if model is None else model
+            if self.kind == "ppo-guided":
+                from modquad_gym.policy.guided import GuidedSolver
+
+                solver: Any = GuidedSolver(model=model, n_max=n_max, **options)
+            else:
+                from modquad_gym.policy.ppo import PPOSolver
+
+                solver = PPOSolver(model=model, n_max=n_max, **options)
+            if solver.n_max != n_max:
+                raise ValueError(
+                    f"the loaded policy acts with n_max={solver.n_max}, not n_max={n_max} (give "
+                    "a model path, or a problem of that budget)"
+                )
+            solver.policy.use_palette(palette)
+            self._solvers[key] = solver
+        return self._solvers[key]
+
+    def __getattr__(self, name: str) -> Any:
+        """The default budget's PPO or guided solver answers the rest (``policy``, ``dive``,
+        ``budget``, ...)."""
+        if name.startswith("_") or name in ("defaults", "settings"):
+            raise AttributeError(name)
+        return getattr(self.inner(self.defaults.get("n_max", 7), self.defaults.get("modules")),
+                       name)  # fmt: skip
+
+    def solve(self, task: Any) -> SearchResult:
+        problem = self.problem(task)
+        palette = list(problem.palette) if problem.typed else None
+        tier = problem.task.policy_tier
+        result = self.inner(problem.n_max, palette, tier).solve(problem.task)
+        result.method = self.name
+        return result
+
+
+def make_solver(
+    method: str,
+    n_max: int = 7,
+    model: Any = None,
+    seed: int | None = None,
+    samples: int | None = None,
+    modules=None,
+    guided: dict | None = None,
+    tier: str | None = None,
+    fault: str | None = None,
+    **options: Any,
+) -> Solver:
+    """The one factory of solvers, read from :data:`~modquad_gym.methods.REGISTRY`: ``method``
+    is a registered name, a variant of a learned one (``ppo-kN``: N sampled rollouts besides
+    the deterministic one; ``ppo-guided[-bN][-wN][-nodive]``: budget N, branching N, no dive)
+    or ``package.module:Name`` (an outside agent, :func:`load_solver`, told ``n_max``,
+    ``tier`` and ``modules``).
+
+    ``n_max``, ``modules`` (a palette) and ``fault`` make the :class:`SearchProblem` of a task
+    handed to ``solve``; a problem handed to ``solve`` is used as it is. ``model``, ``seed``,
+    ``samples``, ``guided`` (a dict of guided-search options) and ``options`` are the method's
+    options: one it does not take is refused (TypeError naming it and the ones it takes), and
+    so is a ``fault`` it cannot honour (ValueError), in Python as on the command line."""
+    if ":" in method:
+        return load_solver(method, n_max=n_max, tier=tier, modules=modules, fault=fault)
+    entry, variant = method_of(method)
+    given = {**variant, **(guided or {}), **options}
+    for key, value in (("model", model), ("seed", seed), ("samples", samples)):
+        if value is not None:
+            given[key] = value
+    settings = entry.settings(**given)
+    if fault is not None and not entry.fault:
+        raise ValueError(refused_fault(entry.name, fault))
+    defaults = {"n_max": n_max, "modules": list(modules) if modules else None, "fault": fault}
+    solver = entry.solver(settings, defaults)
+    solver.name = method  # a variant keeps its full name
+    return solver
+
+
+def learned_options(method: str) -> tuple[str, dict] | None:
+    """(learned method, the options its variant sets) of a learned method name or variant (see
+    :func:`make_solver`); None for any other name; ValueError for a malformed variant."""
+    if ":" in method:
+        return None
+    try:
+        entry, variant = method_of(method)
+    except ValueError:
+        if method.startswith("ppo-"):
+            raise
+        return None
+    return (entry.name, variant) if entry.extra == "train" else None
+
+
+def guided_options(method: str) -> dict:
+    """The guided-search options of ``ppo-guided[-bN][-wN][-nodive]`` (see :func:`make_solver`)."""
+    entry, variant = method_of(method)
+    if entry.name != "ppo-guided":
+        raise ValueError(f"bad method {method!r}: not a ppo-guided variant")
+    return variant

@@ -1,0 +1,275 @@
+"""Someone else's agent scored like every method: the problem it is handed, the counted
+evaluator it decides structures with, and how it is loaded from ``package.module:Name``."""
+
+from __future__ import annotations
+
+import copy
+import importlib
+import inspect
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.search import SearchResult
+from modquad_gym.search.problem import SearchProblem
+
+
+class Evaluator:
+    """The problem's exact decision, counted: what an outside agent is handed.
+
+    ``modquad score --solver pkg:Agent`` makes one per task and passes it to the agent's
+    ``solve(problem, evaluator)``; every configuration the agent decides through it is counted,
+    so outside agents are charged like the searches and the learned methods (which count the
+    structures they decide themselves). It holds the problem without the task's ``meta`` (a
+    held-out task's optimum and planted cells), and nothing else of the task.
+
+    Args:
+        problem: a :class:`SearchProblem`, or a task (a TaskRequirement, a DynamicTask, a (t, 6)
+            wrench array) made into one with ``n_max`` and ``modules``.
+        n_max: the tier's module budget: a structure of more modules is refused (ValueError).
+        tier: the tier's name (``current``, ``large``, ``mixed``, ``dynamic``), or None.
+        modules: the module types a structure may use (the tier's palette); default one type,
+            ``TModule()``. A structure of another type is refused (ValueError).
+
+    Attributes:
+        evaluated: distinct configurations decided (a structure asked again is answered from
+            memory and not counted again; structures are the same up to translation).
+        oracle_calls: wrench-structure tests made (one per task wrench of each new structure).
+    """
+
+    def __init__(
+        self, problem: Any, n_max: int = 7, tier: str | None = None, modules: list | None = None
+    ) -> None:
+        if not isinstance(problem, SearchProblem):
+            problem = SearchProblem(problem, n_max, modules=list(modules) if modules else None)
+        self.problem = problem.without_meta()
+        self.n_max = problem.n_max
+        self.tier = tier
+        self.modules = list(problem.palette)
+        self.f_max = problem.f_max
+        self.evaluated = 0
+        self.oracle_calls = 0
+        self._decided: dict[Any, np.ndarray] = {}
+
+    @property
+    def task(self) -> Any:
+        """The problem's task, without its ``meta``."""
+        return self.problem.task
+
+    def structure(self, structure: Any) -> Structure:
+        """``structure`` (a Structure, or a list of (x, y) cells of the first module type) on
+        the allowed types (:func:`conform`); ValueError beyond n_max or off the types."""
+        return conform(structure, self.n_max, self.modules)
+
+    def feasible(self, structure: Any) -> np.ndarray:
+        """Bool (t,): can ``structure`` exert each wrench of the task (its own weight added
+        for self-weight tasks; its own mass and inertia for dynamic ones; after every failure
+        of the problem's ``fault``)? The problem's exact decision
+        (:meth:`SearchProblem.decide`); counted on the first ask of each structure."""
+        s = self.structure(structure)
+        if s not in self._decided:
+            self.evaluated += 1
+            self.oracle_calls += len(self.problem.wrenches)
+            self._decided[s] = np.asarray(self.problem.decide(s), dtype=bool)
+        return self._decided[s].copy()
+
+    def evaluate(self, structure: Any) -> bool:
+        """Can ``structure`` exert every wrench of the task? (:meth:`feasible`, all of them.)"""
+        return bool(self.feasible(structure).all())
+
+    def seen(self, structure: Any) -> bool:
+        """Has ``structure`` been decided through this evaluator?"""
+        return self.structure(structure) in self._decided
+
+
+def conform(structure: Any, n_max: int, modules: list) -> Structure:
+    """``structure`` (a Structure, or a list of (x, y) cells of ``modules[0]``) rebuilt on the
+    allowed ``modules`` (each module mapped to the allowed type holding the same data); a
+    ValueError names a structure beyond ``n_max`` modules or a type not allowed."""
+    if not isinstance(structure, Structure):
+        structure = Structure([tuple(c) for c in structure], module=modules[0])
+    if structure.n_modules > n_max:
+        raise ValueError(f"{structure.n_modules} modules exceed this tier's n_max = {n_max}")
+    types = []
+    for module in structure.modules:
+        same = [m for m in modules if m is module or _same_type(m, module)]
+        if not same:
+            names = ", ".join(m.name for m in modules)
+            raise ValueError(f"module type {module.name!r} is not allowed here (types: {names})")
+        types.append(same[0])
+    return Structure(structure.cells, modules=types)
+
+
+def _same_type(a: Any, b: Any) -> bool:
+    """Do two module types hold the same rotor data, mass and inertia?"""
+    return all(
+        np.allclose(getattr(a, k), getattr(b, k), rtol=0, atol=1e-12)
+        for k in ("positions", "directions", "spins", "c_tau", "side", "mass", "inertia")
+    )
+
+
+def hidden(task: Any) -> Any:
+    """A shallow copy of ``task`` without its ``meta`` (held-out tasks carry their certified
+    optimum and planted cells there); a problem's :meth:`~SearchProblem.without_meta`."""
+    if isinstance(task, SearchProblem):
+        return task.without_meta()
+    if not hasattr(task, "meta"):
+        return task
+    out = copy.copy(task)
+    object.__setattr__(out, "meta", {})
+    return out
+
+
+def _takes(fn: Any, name: str) -> bool:
+    """Does ``fn`` take the keyword argument ``name`` (by its name, or through ``**kwargs``)?"""
+    try:
+        params = inspect.signature(fn).parameters.values()
+    except (TypeError, ValueError):
+        return False
+    return any(p.name == name or p.kind == p.VAR_KEYWORD for p in params)
+
+
+def _second_required(fn: Any) -> bool:
+    """Does ``fn`` need a second positional argument (one without a default)?"""
+    try:
+        params = list(inspect.signature(fn).parameters.values())
+    except (TypeError, ValueError):
+        return False
+    positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    return len(positional) > 1 and positional[1].default is inspect.Parameter.empty
+
+
+class ExternalSolver:
+    """Someone else's agent behind the :class:`Solver` interface, scored like every method.
+
+    Per task the agent gets the :class:`SearchProblem` (the task without its ``meta``, the
+    tier's ``n_max``, module types and ``fault``) and, when its ``solve`` (or the function
+    itself) takes a second argument or one named ``evaluator``, an :class:`Evaluator`: the
+    problem's exact decision, which counts every configuration decided. It may return a
+    :class:`SearchResult`, a :class:`~modquad_gym.geometry.Structure`, a list of (x, y) cells
+    or None (no answer). ``evaluated`` and ``oracle_calls`` are the evaluator's counts (an
+    answer never decided counts as one more), or the agent's own report (a SearchResult's, or
+    its attributes) where that is larger. Seconds are timed here.
+    The benchmark verifies every answer with the problem's decision and counts one beyond n_max
+    or off the tier's module types as a failure.
+    """
+
+    def __init__(
+        self,
+        agent: Any,
+        name: str,
+        n_max: int = 7,
+        tier: str | None = None,
+        modules=None,
+        fault: str | None = None,
+    ) -> None:
+        self.agent = agent
+        self.name = name
+        self.n_max = n_max
+        self.tier = tier
+        self.modules = list(modules) if modules else None
+        self.fault = fault
+
+    def problem(self, task: Any) -> SearchProblem:
+        """The problem handed to the agent: ``task``'s own when it is one, else ``task`` with
+        this solver's budget, types and fault; never with the task's ``meta``."""
+        if not isinstance(task, SearchProblem):
+            task = SearchProblem(task, self.n_max, modules=self.modules, fault=self.fault)
+        return task.without_meta()
+
+    def evaluator(self, task: Any) -> Evaluator:
+        """A fresh counted evaluator for ``task`` with this solver's budget and types."""
+        return Evaluator(self.problem(task), tier=self.tier)
+
+    def solve(self, task: Any) -> SearchResult:
+        fn = self.agent.solve if hasattr(self.agent, "solve") else self.agent
+        given = self.problem(task)
+        evaluator = Evaluator(given, tier=self.tier)
+        t0 = time.perf_counter()
+        try:
+            if _second_required(fn):
+                answer = fn(given, evaluator)
+            elif _takes(fn, "evaluator"):
+                answer = fn(given, evaluator=evaluator)
+            else:
+                answer = fn(given)
+        except Exception as exc:  # the agent's own failure, named in one line
+            raise ValueError(
+                f"solver {self.name!r} failed on task {getattr(task, 'name', task)!r}: "
+                f"{type(exc).__name__}: {exc}"
+            ) from exc
+        seconds = time.perf_counter() - t0
+        structure = answer.structure if isinstance(answer, SearchResult) else answer
+        if structure is not None and not isinstance(structure, Structure):
+            try:
+                structure = Structure([tuple(c) for c in structure])
+            except (TypeError, ValueError) as err:
+                raise ValueError(
+                    f"solver {self.name!r} returned {type(answer).__name__}, not a SearchResult, "
+                    f"Structure, list of (x, y) cells or None: {err}"
+                ) from None
+        if structure is not None:
+            try:
+                evaluator.feasible(structure)  # its answer counts, once, as every method's does
+            except ValueError:
+                pass  # beyond n_max or off the types: the benchmark counts it a failure
+        source = answer if isinstance(answer, SearchResult) else self.agent
+        return SearchResult(
+            structure=structure,
+            n_modules=structure.n_modules if structure is not None else None,
+            evaluated=max(evaluator.evaluated, int(getattr(source, "evaluated", 0) or 0)),
+            oracle_calls=max(evaluator.oracle_calls, int(getattr(source, "oracle_calls", 0) or 0)),
+            seconds=seconds,
+            certified=False,
+            method=self.name,
+            n_max=given.n_max,
+            fault=given.fault,
+        )
+
+
+def admissible(structure: Structure | None, n_max: int, modules=None) -> bool:
+    """Is ``structure`` within the budget (at most ``n_max`` modules) and made of the allowed
+    module types (``modules``; default one type, ``TModule()``)? None is not."""
+    if structure is None:
+        return False
+    try:
+        conform(structure, n_max, list(modules) if modules else [Structure([(0, 0)]).module])
+    except ValueError:
+        return False
+    return True
+
+
+def load_solver(
+    spec: str, n_max: int = 7, tier: str | None = None, modules=None, fault: str | None = None
+) -> ExternalSolver:
+    """The agent named ``"package.module:Name"``: a Solver instance, a class, or a function
+    ``task -> answer`` (see :class:`ExternalSolver`). A class is made with the keywords among
+    ``n_max``, ``tier`` and ``modules`` (the module types allowed, default one type) that its
+    constructor takes, so the agent is told the tier's budget. The module is looked up in the
+    working folder first, as ``python -m`` does."""
+    module_name, sep, attr = spec.partition(":")
+    if not sep or not module_name or not attr:
+        raise ValueError(f"--solver {spec!r}: write it as package.module:Name")
+    if module_name.split(".")[0] in sys.stdlib_module_names:  # os:system is not an agent
+        raise ValueError(f"--solver {spec!r}: {module_name} is a standard-library module")
+    if "" not in sys.path and str(Path.cwd()) not in sys.path:
+        sys.path.insert(0, str(Path.cwd()))  # like python -m: modules of the working folder
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as err:
+        raise ValueError(f"--solver {spec!r}: cannot import {module_name!r}: {err}") from None
+    try:
+        obj = getattr(module, attr)
+    except AttributeError:
+        raise ValueError(f"--solver {spec!r}: {module_name} has no {attr!r}") from None
+    if isinstance(obj, type):
+        told = {"n_max": n_max, "tier": tier, "modules": list(modules) if modules else None}
+        obj = obj(**{k: v for k, v in told.items() if _takes(obj, k)})
+    if not (hasattr(obj, "solve") or callable(obj)):
+        raise ValueError(f"--solver {spec!r}: {attr} has no solve(task) and is not callable")
+    name = str(getattr(obj, "name", attr))
+    return ExternalSolver(obj, name=name, n_max=n_max, tier=tier, modules=modules, fault=fault)
