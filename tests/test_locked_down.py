@@ -25,7 +25,8 @@ def test_unwritable_places_move_the_caches_to_a_private_folder(tmp_path):
         "import os, sys, tempfile; from pathlib import Path\n"
         "import modquad_gym.core.caches as c\n"
         f"b = Path({str(blocker)!r})\n"
-        "c.default_places = lambda: {'NUMBA_CACHE_DIR': [b / 'n'], 'MPLCONFIGDIR': [b / 'm']}\n"
+        "c.default_places = lambda: {'NUMBA_CACHE_DIR': [lambda: b / 'n'], "
+        "'MPLCONFIGDIR': [lambda: b / 'm']}\n"
         "for v in ('NUMBA_CACHE_DIR', 'MPLCONFIGDIR'): os.environ.pop(v, None)\n"
         "first = c.configure()\n"
         "for v in ('NUMBA_CACHE_DIR', 'MPLCONFIGDIR'): os.environ.pop(v, None)\n"
@@ -43,6 +44,30 @@ def test_unwritable_places_move_the_caches_to_a_private_folder(tmp_path):
     assert run.stdout.split() == ["True", "True"]
     notes = [line for line in run.stderr.splitlines() if "modquad_gym: note" in line]
     assert len(notes) == 1 and "not writable" in notes[0], run.stderr
+
+
+def test_the_places_checked_are_the_libraries_own(tmp_path, monkeypatch):
+    """numba's user cache folder (its own AppDirs) and matplotlib's config folder (its own
+    rule) are the ones configure() checks; the bounds' disk cache is platformdirs' user cache
+    folder unless MODQUAD_CACHE names one."""
+    from numba.misc.appdirs import AppDirs
+
+    from modquad_gym.core.caches import matplotlib_folder, numba_user_folder
+    from modquad_gym.search.bounds import _cache_dir
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+    monkeypatch.delenv("MPLCONFIGDIR", raising=False)
+    assert numba_user_folder() == Path(AppDirs(appname="numba", appauthor=False).user_cache_dir)
+    assert numba_user_folder() == tmp_path / "cache" / "numba"
+    code = "import matplotlib; print(matplotlib.get_configdir())"
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=dict(os.environ), timeout=60)  # fmt: skip
+    assert Path(run.stdout.strip()) == matplotlib_folder() == tmp_path / "config" / "matplotlib"
+    monkeypatch.delenv("MODQUAD_CACHE", raising=False)
+    assert _cache_dir() == tmp_path / "cache" / "modquad_gym"
+    monkeypatch.setenv("MODQUAD_CACHE", str(tmp_path / "mine"))
+    assert _cache_dir() == tmp_path / "mine"
 
 
 def _locked_down_command(tmp_path: Path) -> tuple[list[str], Path]:

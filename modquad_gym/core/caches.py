@@ -17,6 +17,7 @@ from __future__ import annotations
 import os
 import sys
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1]
@@ -32,20 +33,32 @@ def _writable(folder: Path) -> bool:
     return True
 
 
-def _home_folder(variable: str, default: str, name: str) -> Path:
-    """``$variable/name``, or ``~/default/name`` (the XDG folders numba and matplotlib use)."""
-    base = os.environ.get(variable) or os.path.expanduser(default)
-    return Path(base) / name
+def numba_user_folder() -> Path:
+    """numba's user-wide cache folder: its ``AppDirs(appname="numba", appauthor=False)``, the
+    rule platformdirs keeps (``$XDG_CACHE_HOME/numba`` or ``~/.cache/numba`` on Linux,
+    ``~/Library/Caches/numba`` on macOS)."""
+    import platformdirs  # only when the package folder is not writable (rare): 5 ms
+
+    return Path(platformdirs.user_cache_dir("numba", appauthor=False))
 
 
-def default_places() -> dict[str, list[Path]]:
-    """For each variable, the places its library tries before giving up."""
-    numba_user = _home_folder("XDG_CACHE_HOME", "~/.cache", "numba")
-    if sys.platform == "darwin":
-        numba_user = Path("~/Library/Caches/numba").expanduser()
+def matplotlib_folder() -> Path:
+    """Matplotlib's config folder: ``$XDG_CONFIG_HOME/matplotlib`` or ``~/.config/matplotlib``
+    on Linux and FreeBSD, ``~/.matplotlib`` elsewhere (matplotlib's own rule, not
+    platformdirs')."""
+    if sys.platform.startswith(("linux", "freebsd")):
+        base = os.environ.get("XDG_CONFIG_HOME") or os.path.expanduser("~/.config")
+        return Path(base) / "matplotlib"
+    return Path(os.path.expanduser("~/.matplotlib"))
+
+
+def default_places() -> dict[str, list[Callable[[], Path]]]:
+    """For each variable, the places its library tries before giving up, in order (each a
+    function, so that a later place is looked up only when the earlier ones fail)."""
     return {
-        "NUMBA_CACHE_DIR": [PACKAGE / "envs" / "assembly" / "__pycache__", numba_user],
-        "MPLCONFIGDIR": [_home_folder("XDG_CONFIG_HOME", "~/.config", "matplotlib")],
+        "NUMBA_CACHE_DIR": [lambda: PACKAGE / "envs" / "assembly" / "__pycache__",
+                            numba_user_folder],  # fmt: skip
+        "MPLCONFIGDIR": [matplotlib_folder],
     }
 
 
@@ -63,7 +76,7 @@ def configure() -> dict[str, str]:
     chosen: dict[str, str] = {}
     fresh = False
     for variable, places in default_places().items():
-        if os.environ.get(variable) or any(_writable(p) for p in places):
+        if os.environ.get(variable) or any(_writable(place()) for place in places):
             continue
         folder = private_folder(variable)
         fresh = fresh or not folder.exists()

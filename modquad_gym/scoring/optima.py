@@ -20,12 +20,16 @@ Resuming: a rerun into the same file reads the records there and skips the tasks
 ``task``, ``digest`` and ``n_max``); a last line cut short by an interruption is dropped and
 recomputed. A record for the same task with other wrenches or another n_max is refused (the file
 would mix two datasets). The work is spread by :mod:`modquad_gym.core.distributed`.
+
+One run writes a file at a time: it holds a lock on the hidden file ``.NAME.lock`` beside it
+(:func:`lock_path`, the ``filelock`` package: ``flock`` on POSIX, ``msvcrt`` on Windows), and a
+second run on the same file is refused, ``--force`` or not. The lock file stays (deleting it
+would let a third run lock a new file while the second still holds the old one).
 """
 
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import hashlib
 import json
 import os
@@ -152,11 +156,7 @@ def build_dataset(
         raise ValueError(f"task {twice!r} is given twice")
     run = DatasetRun(failed=[s for _, s in sources if isinstance(s, Failed)])
     out.parent.mkdir(parents=True, exist_ok=True)
-    with open(out, "a+b") as fh:
-        try:
-            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise ValueError(f"--out: {out} is being written by another run") from None
+    with _writer_lock(out), open(out, "a+b") as fh:
         if fresh:
             fh.truncate(0)
         done, end = read_dataset(out, fh)
@@ -193,6 +193,24 @@ def build_dataset(
         finally:
             os.close(fd)
     return run
+
+
+def lock_path(out: str | os.PathLike) -> Path:
+    """The lock file of the dataset ``out``: ``.NAME.lock`` in its folder."""
+    out = Path(out)
+    return out.with_name(f".{out.name}.lock")
+
+
+@contextlib.contextmanager
+def _writer_lock(out: Path):
+    """Hold the lock of ``out`` for the block; a ValueError when another run holds it."""
+    from filelock import FileLock, Timeout
+
+    try:
+        with FileLock(lock_path(out), timeout=0):
+            yield
+    except Timeout:
+        raise ValueError(f"--out: {out} is being written by another run") from None
 
 
 def _pending(sources, done: dict[str, dict], n_max: int, out: Path) -> list:

@@ -7,10 +7,10 @@
   n-module structure S of its support h_S(d) is task-independent. A task wrench with
   d . w > h_n(d) (widened by the oracle's tolerance) rules out the whole level n. h_n is
   computed once per (module type, n) by one pass over the level and cached on disk
-  (``$MODQUAD_CACHE`` or ``~/.cache/modquad_gym``); the default T-module's bounds up to
-  14 modules ship with the package (regenerate: ``python -m benchmarks.level_bounds``).
-  An upper bound of the widened support is used (max of each sum taken separately), so the
-  test stays exact.
+  (``$MODQUAD_CACHE`` or the user's cache folder, e.g. ``~/.cache/modquad_gym``); the default
+  T-module's bounds up to 14 modules ship with the package (regenerate:
+  ``python -m benchmarks.level_bounds``). An upper bound of the widened support is used (max
+  of each sum taken separately), so the test stays exact.
 * Count bounds (mixed types, and tasks of kind ``external``): the force part of a structure with
   c_t modules of type t is the Minkowski sum of c_t copies of each type's force zonotope,
   whatever the shape, and its weight M g = sum_t c_t m_t g is fixed by the counts too. So a
@@ -197,7 +197,13 @@ def compute_level_bounds(module: ModuleType, n: int) -> np.ndarray:
 
 
 def _cache_dir() -> Path:
-    return Path(os.environ.get("MODQUAD_CACHE", Path.home() / ".cache" / "modquad_gym"))
+    """``$MODQUAD_CACHE``, else the user's cache folder (platformdirs: ``~/.cache/modquad_gym``
+    on Linux, ``~/Library/Caches/modquad_gym`` on macOS, ``%LOCALAPPDATA%``'s on Windows)."""
+    if os.environ.get("MODQUAD_CACHE"):
+        return Path(os.environ["MODQUAD_CACHE"])
+    import platformdirs
+
+    return Path(platformdirs.user_cache_dir("modquad_gym", appauthor=False))
 
 
 def _shipped(digest: str, n: int) -> np.ndarray | None:
