@@ -56,8 +56,10 @@ def default_places() -> dict[str, list[Callable[[], Path]]]:
     """For each variable, the places its library tries before giving up, in order (each a
     function, so that a later place is looked up only when the earlier ones fail)."""
     return {
-        "NUMBA_CACHE_DIR": [lambda: PACKAGE / "envs" / "assembly" / "__pycache__",
-                            numba_user_folder],  # fmt: skip
+        "NUMBA_CACHE_DIR": [
+            lambda: PACKAGE / "envs" / "assembly" / "__pycache__",
+            numba_user_folder,
+        ],  # fmt: skip
         "MPLCONFIGDIR": [matplotlib_folder],
     }
 
