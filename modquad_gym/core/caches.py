@@ -59,7 +59,7 @@ def default_places() -> dict[str, list[Callable[[], Path]]]:
         "NUMBA_CACHE_DIR": [
             lambda: PACKAGE / "envs" / "assembly" / "__pycache__",
             numba_user_folder,
-        ],  # fmt: skip
+        ],
         "MPLCONFIGDIR": [matplotlib_folder],
     }
 
