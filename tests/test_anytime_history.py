@@ -103,11 +103,16 @@ def test_on_a_terminal_the_line_is_redrawn_in_place(monkeypatch):
     run.listener = line
     run.improve("bounds", lower_bound=3)
     run.improve("compact", n_modules=4)
-    time.sleep(0.1)  # the clock moves between events
+    time.sleep(0.15)  # the clock moves between events
     line.close()
     out = stream.getvalue()
     assert out.count("\n") == 1 and out.endswith("\n") and out.count("\r") > 3
     assert "4 modules found (compact), bound 3 (gap 25 %)" in out.split("\r")[-1]
+    clocks = {d.rstrip().rsplit(", ", 1)[-1] for d in out.split("\r") if "4 modules" in d}
+    assert len(clocks) > 1  # tqdm's line redrawn by the ticker: the seconds move
+    silent = Terminal()
+    ProgressLine(new_run(), silent).close()  # no event: nothing drawn, not even a line end
+    assert silent.getvalue() == ""
 
 
 def test_in_a_log_a_burst_is_thinned_and_the_last_event_shown():

@@ -1,5 +1,12 @@
 """The progress line of a search that keeps an incumbent and a bound (the anytime search) on
-stderr, e.g. ``anytime: 23 modules found (moves), bound 19 (gap 17 %), 4.2 s``."""
+stderr, e.g. ``anytime: 23 modules found (moves), bound 19 (gap 17 %), 4.2 s``.
+
+On a terminal tqdm draws the line in place (its text is the whole bar: ``bar_format="{desc}"``);
+a daemon thread redraws it every :data:`REDRAW_SECONDS` so that the clock moves while a search
+works between events (tqdm redraws only on an update). In a log (not a terminal) each event is
+a line of its own, without tqdm's carriage returns. ``--quiet`` and ``--json`` show nothing
+(:func:`progress_line` is not enabled).
+"""
 
 from __future__ import annotations
 
@@ -46,7 +53,7 @@ class ProgressLine:
         self.found_by = ""  # the source of the event that set the incumbent
         self._shown: Improvement | None = None
         self._drawn_at = -float("inf")
-        self._width = 0
+        self._bar = None  # the tqdm line on a terminal, made at the first event
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._ticker = threading.Thread(target=self._tick, daemon=True)
@@ -75,11 +82,14 @@ class ProgressLine:
             seconds = now - self.run.t0 if self.tty else event.seconds  # a log: when it happened
             line = describe(self.run.method, event, seconds, self.found_by)
             if self.tty:
-                self.stream.write("\r" + line.ljust(self._width))
-                self._width = len(line)
+                if self._bar is None:
+                    from tqdm import tqdm
+
+                    self._bar = tqdm(file=self.stream, bar_format="{desc}", dynamic_ncols=True)
+                self._bar.set_description_str(line)  # redrawn in place now
             else:
                 self.stream.write(line + "\n")
-            self.stream.flush()
+                self.stream.flush()
 
     def close(self) -> None:
         """Stop redrawing and show the last event (on a terminal, end the line)."""
@@ -88,9 +98,8 @@ class ProgressLine:
         if self.last is None:
             return
         self._draw(only_new=not self.tty)
-        if self.tty:
-            self.stream.write("\n")
-            self.stream.flush()
+        if self._bar is not None:
+            self._bar.close()  # leaves the line and ends it
 
 
 @contextlib.contextmanager
