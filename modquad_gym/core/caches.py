@@ -91,9 +91,11 @@ def configure() -> dict[str, str]:
         sys.modules["numba"].core.config.reload_config()
     if chosen and fresh:
         where = ", ".join(f"{k}={v}" for k, v in chosen.items())
-        print(
+        from modquad_gym.core.notes import note  # logging only when there is a note
+
+        note(
             f"modquad_gym: note: the package folder or HOME is not writable; caches go to {where}",
-            file=sys.stderr,
+            __name__,
         )
     return chosen
 

@@ -25,13 +25,13 @@ import importlib.util
 import os
 import re
 import socket
-import sys
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from itertools import chain, islice
 from typing import Any
 
 from modquad_gym.core.extras import import_optional, missing_extra_message
+from modquad_gym.core.notes import note
 from modquad_gym.core.resources import cap_workers, usable_cpus
 from modquad_gym.core.validation import check_int
 
@@ -133,10 +133,10 @@ class Engine:
                     f"a Ray cluster was asked for ({self.address}) but "
                     + missing_extra_message("ray")
                 )
-            print(
+            note(
                 "modquad: note: Ray is not installed, running serially "
                 "(pip install 'modquad_gym[distributed]' to use several workers)",
-                file=sys.stderr,
+                __name__,
             )
         if self.use_ray and self.address:
             check_reachable(self.address)

@@ -9,8 +9,9 @@ capped to the cores this process may use (:func:`cap_workers`).
 from __future__ import annotations
 
 import os
-import sys
 from pathlib import Path
+
+from modquad_gym.core.notes import note
 
 MEMORY_FRACTION = 0.8
 """Share of the available memory one estimate may take."""
@@ -79,9 +80,9 @@ def cap_workers(workers: int, what: str = "--workers") -> int:
     cpus = usable_cpus()
     if workers <= cpus:
         return workers
-    print(
+    note(
         f"modquad: note: {what} {workers}: this machine has {cpus} usable CPU(s); "
         f"running {cpus} at a time",
-        file=sys.stderr,
+        __name__,
     )
     return cpus

@@ -14,12 +14,12 @@ workers the answer depends on timing, as any anytime answer does.
 
 from __future__ import annotations
 
-import sys
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from modquad_gym.core.flight import launch
+from modquad_gym.core.notes import note
 from modquad_gym.search.baselines import greedy_search
 from modquad_gym.search.beam import beam_search
 from modquad_gym.search.genetic import genetic_search
@@ -119,7 +119,7 @@ class Producers:
             if out is None:
                 continue
             if not isinstance(out, tuple):  # a Failed record: say so, the search goes on
-                print(f"modquad: note: an incumbent producer failed: {out.error}", file=sys.stderr)
+                note(f"modquad: note: an incumbent producer failed: {out.error}", __name__)
                 continue
             method, structure, evaluated, oracle_calls = out
             _count(self.run, evaluated, oracle_calls)
