@@ -40,6 +40,34 @@ def test_interval_is_stratified_by_suite():
     assert 0.44 < low < point < high < 0.56
 
 
+def rliable_interval(scores: np.ndarray, reps: int, seed: int) -> tuple[float, float, float]:
+    """rliable's definitions written out (``metrics.aggregate_iqm`` and
+    ``library.get_interval_estimates`` with ``StratifiedBootstrap``, percentile method, no task
+    bootstrap): scores (runs x tasks), runs resampled with replacement within each task, the
+    IQM of the whole resampled matrix, the 2.5 and 97.5 percentiles."""
+    from scipy import stats
+
+    rng = np.random.default_rng(seed)
+    runs, tasks = scores.shape
+    rows = rng.integers(0, runs, size=(reps, runs, tasks))
+    draws = stats.trim_mean(scores[rows, np.arange(tasks)].reshape(reps, -1), 0.25, axis=1)
+    point = float(stats.trim_mean(scores, 0.25, axis=None))
+    return point, float(np.percentile(draws, 2.5)), float(np.percentile(draws, 97.5))
+
+
+def test_iqm_and_interval_follow_rliables_definitions():
+    """Five seeds x three suites: the same IQM exactly, the same interval within the Monte Carlo
+    error of 2000 resamples each (rliable itself is not a dependency: it pulls arch, pandas,
+    seaborn and absl for these twenty lines)."""
+    scores = np.random.default_rng(3).beta(8, 2, size=(5, 3))
+    columns = [scores[:, j] for j in range(3)]
+    point, low, high = interval(columns, iqm, reps=2000, seed=1)
+    ref_point, ref_low, ref_high = rliable_interval(scores, reps=2000, seed=2)
+    assert point == ref_point
+    assert low == pytest.approx(ref_low, abs=0.01) and high == pytest.approx(ref_high, abs=0.01)
+    assert high - low > 0.05  # a real interval, not a degenerate one
+
+
 def _score(seed, method, suite, success, optimal, evaluated=5.0, seconds=0.01):
     return SeedScore(str(seed), method, suite, 10, success, optimal, evaluated, seconds)
 
