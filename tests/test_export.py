@@ -286,6 +286,10 @@ def test_an_exported_mjcf_hovers_on_its_own_rotors_when_it_can_lift_itself(tmp_p
     said = capsys.readouterr()
     assert "thrust-to-weight 0.961" in said.out and "cannot lift itself" in said.out
     assert said.err.count("\n") == 1 and "warning: this robot cannot hover" in said.err
+    # the warning comes from save_structure (logger modquad_gym): solve --export says it too
+    assert main(["solve", "--task", "example:screwdriver", "--quiet", "--export",
+                 str(tmp_path / "solved.urdf")]) == 0  # fmt: skip
+    assert "warning: this robot cannot hover" in capsys.readouterr().err
     fall = fly_mjcf(sinks.read_text(), seconds=1.0)
     assert fall.thrust_to_weight < 1 and fall.saturated_fraction == 1.0
     assert fall.final_position_error_m > 0.2  # it sank

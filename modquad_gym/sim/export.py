@@ -304,7 +304,9 @@ def save_structure(
     structure: Structure, path, fmt: str | None = None, f_max: float = 1.0, force: bool = False
 ) -> Path:
     """Write ``structure`` to ``path`` in ``fmt`` (default: from the suffix, ``.xml`` = MJCF);
-    an existing file is replaced only with ``force``. Returns the path written."""
+    an existing file is replaced only with ``force``. A robot that cannot lift itself at
+    ``f_max`` N per rotor gets a warning on the ``modquad_gym`` logger
+    (:mod:`modquad_gym.core.notes`). Returns the path written."""
     from modquad_gym.core.outputs import check_output_file, write_text
 
     path = Path(path)
@@ -316,6 +318,16 @@ def save_structure(
     text = export_text(structure, fmt, f_max)  # before touching the file: errors leave it alone
     path = check_output_file(path, force=force, what="--out")
     write_text(path, text)
+    ratio = thrust_to_weight(structure, f_max)
+    if ratio < 1.0:
+        from modquad_gym.core.notes import note
+
+        note(
+            f"warning: this robot cannot hover on its own rotors ({path}: thrust-to-weight "
+            f"{ratio:.3f} at f_max {f_max:g} N); it hovers from "
+            f"f_max {hover_f_max(structure):.3g} N (docs/export.md, 'Exports that fly')",
+            __name__,
+        )
     return path
 
 
