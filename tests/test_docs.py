@@ -112,3 +112,32 @@ def test_docs_commands_that_rewrite_a_committed_report_say_force():
             if (out == "results" or out.startswith("results/")) and "--force" not in args:
                 missing.append(f"{page.relative_to(ROOT)}: {command}")
     assert not missing, missing
+
+
+def test_pages_in_a_browser_show_the_home_picture_readable_and_the_numbers_inline(site):
+    """Headless Chromium at a laptop's width: the home picture is shown at least 650 px wide
+    and at most 1.5 times smaller than drawn (its 10 pt text >= 11 px); a quoted result sits in
+    its sentence (a marker opening a line would have ended the paragraph)."""
+    sync_api = pytest.importorskip("playwright.sync_api")
+    from tests.test_interactive import CHROMIUM, CHROMIUM_FLAGS
+
+    if CHROMIUM is None:
+        pytest.skip("no chromium (apt-get install chromium; .ci/run installs it)")
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_FLAGS)
+        try:
+            page = browser.new_page(viewport={"width": 1280, "height": 900})
+            page.goto((site / "index.html").as_uri())
+            shown, drawn = page.evaluate(
+                "() => { const i = document.querySelector('img[src*=\"example_structure\"]');"
+                " return [i.clientWidth, i.naturalWidth]; }"
+            )
+            page.goto((site / "results" / "index.html").as_uri())
+            sentence = page.evaluate(
+                "() => [...document.querySelectorAll('p')].map(p => p.innerText)"
+                ".find(t => t.includes('beats the greedy rule'))"
+            )
+        finally:
+            browser.close()
+    assert shown >= 650 and drawn <= 1.5 * shown, (shown, drawn)
+    assert re.search(r"is optimal on \d+\.\d % \[[\d.]+, [\d.]+\] \(mean over 5 seeds", sentence)
