@@ -63,11 +63,8 @@ def seeds_number(tier: str, method: str, metric: str) -> str:
     unit = " %" if metric in ("optimal", "success") else ""
     k = 100 if unit else 1
     return (
-        f"{k * point:.1f}{unit} [{k * low:.1f}, {k * high:.1f}] (mean over {e.seeds} seeds of "
-        f"the share of {e.tasks} held-out tasks, 95 % CI)"
-        if unit
-        else f"{point:.1f} [{low:.1f}, {high:.1f}] (mean over {e.seeds} seeds, {e.tasks} "
-        "held-out tasks, 95 % CI)"
+        f"{k * point:.1f}{unit} [{k * low:.1f}, {k * high:.1f}] (mean of {e.seeds} seeds, "
+        f"{e.tasks} held-out tasks, 95 % CI)"
     )
 
 

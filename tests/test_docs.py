@@ -140,4 +140,4 @@ def test_pages_in_a_browser_show_the_home_picture_readable_and_the_numbers_inlin
         finally:
             browser.close()
     assert shown >= 650 and drawn <= 1.5 * shown, (shown, drawn)
-    assert re.search(r"is optimal on \d+\.\d % \[[\d.]+, [\d.]+\] \(mean over 5 seeds", sentence)
+    assert re.search(r"is optimal on \d+\.\d % \[[\d.]+, [\d.]+\] \(mean of 5 seeds", sentence)

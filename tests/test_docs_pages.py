@@ -35,7 +35,8 @@ def test_quoted_results_are_the_reports_numbers_with_their_statistic():
         assert result_numbers.fill(text) == text, f"{_rel(page)}: run python docs/result_numbers.py"
         for m in result_numbers.MARKER.finditer(text):
             quoted += 1
-            assert re.search(r"\((mean over \d+ seeds|one run)[ ,]", m["text"]), m["text"]
+            statistic = r"\((mean of \d+ seeds|one run), \d+ held-out tasks"
+            assert re.search(statistic, m["text"]), m["text"]
         # an HTML comment opening a line would end the paragraph before it
         assert not re.search(r"^\(?<!--n ", text, re.M), _rel(page)
     assert quoted >= 20
