@@ -194,6 +194,8 @@ def test_bench_axes_never_zoom_into_rounding_noise():
     measured = np.array([1e-13, -2e-13, 0.0, 3e-14, 0.0])
     lo, hi = bench_limits(commanded, measured)
     assert hi - lo >= 1e-7  # not 1e-13
+    lo, hi = bench_limits(commanded, measured, scale=3.5)  # at the scale of the other forces
+    assert hi - lo >= 0.35 and lo < 0 < hi
     lo, hi = bench_limits(np.array([3.0, 3.0]), np.array([3.0 + 1e-13, 3.0]))
     assert hi - lo >= 0.1 * 3.0 and lo < 3.0 < hi
 

@@ -146,17 +146,21 @@ def plot_rotor_inputs(results: list[BenchResult], path: str | Path) -> None:
 
 
 BENCH_MIN_SPAN = 0.1
-"""Least span of a bench panel's axes, as a share of the largest commanded component: a
-component that stays (nearly) constant shows its points on the diagonal at the scale of the
-task, not its 1e-13 floating-point noise blown up to fill the panel."""
+"""Least span of a bench panel's axes, as a share of the largest commanded force (or torque) of
+any component: a component that stays (nearly) constant, zero included, shows its points on
+the diagonal at the scale of the task, not its 1e-13 floating-point noise blown up to fill the
+panel."""
 
 
-def bench_limits(commanded: np.ndarray, measured: np.ndarray) -> tuple[float, float]:
+def bench_limits(
+    commanded: np.ndarray, measured: np.ndarray, scale: float | None = None
+) -> tuple[float, float]:
     """Shared (lo, hi) of a bench panel's x and y axes: the data's range, widened to at least
-    :data:`BENCH_MIN_SPAN` of the largest commanded magnitude (and 1e-6) about its middle."""
+    :data:`BENCH_MIN_SPAN` of ``scale`` (default: the largest commanded magnitude here; at
+    least 1e-6) about its middle."""
     both = np.concatenate([np.ravel(commanded), np.ravel(measured)])
     lo, hi = float(both.min()), float(both.max())
-    scale = max(float(np.abs(commanded).max()), 1e-6)
+    scale = max(float(np.abs(commanded).max()) if scale is None else scale, 1e-6)
     span = max(hi - lo, BENCH_MIN_SPAN * scale)
     mid = 0.5 * (lo + hi)
     return mid - 0.55 * span, mid + 0.55 * span
@@ -173,7 +177,8 @@ def plot_bench_wrench(results: list[BenchResult], path: str | Path) -> None:
     commanded = np.vstack([r.commanded for r in results])
     measured = np.vstack([r.measured for r in results])
     for j, ax in enumerate(axes.flat):
-        lo, hi = bench_limits(commanded[:, j], measured[:, j])
+        block = commanded[:, :3] if j < 3 else commanded[:, 3:]  # forces, or torques
+        lo, hi = bench_limits(commanded[:, j], measured[:, j], float(np.abs(block).max()))
         for res in results:
             ax.plot(
                 res.commanded[:, j],
