@@ -20,6 +20,16 @@ from modquad_gym.core.outputs import write_text
 COMMAND = "python -m benchmarks.figures --force"
 
 
+def training_run(report: str) -> Path | None:
+    """The training run a benchmark report's learning curve came from: its ``--train-dir``,
+    else the folder of the model it names (as ``modquad score`` chooses)."""
+    found = re.search(r"--train-dir (\S+?)[` ]", report)
+    if found:
+        return Path(found.group(1))
+    found = re.search(r"model: `([^`]+\.zip)`", report)
+    return Path(found.group(1)).parent if found else None
+
+
 def agent_figures(results: Path) -> list[tuple[Path, Path]]:
     """(figure, source) of every agent benchmark's bars and learning curve."""
     from benchmarks.leaderboard import read_rows
@@ -38,11 +48,11 @@ def agent_figures(results: Path) -> list[tuple[Path, Path]]:
             rows = read_rows(csv_path)
             plot_bars(summarise(rows, list(dict.fromkeys(r.method for r in rows)), n_max), bars)
             done.append((bars, csv_path))
-        train_dir = re.search(r"--train-dir (\S+?)[` ]", report)
         curve = folder / "learning_curve.png"
-        if curve.is_file() and train_dir:
-            evals = Path(train_dir.group(1)) / "evaluations.npz"
-            if plot_learning_curve(evals, curve):
+        train_dir = training_run(report)
+        if curve.is_file() and train_dir is not None:
+            evals = train_dir / "evaluations.npz"
+            if plot_learning_curve(evals, curve):  # None when the run is not at hand
                 done.append((curve, evals))
     return done
 

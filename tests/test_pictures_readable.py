@@ -214,3 +214,16 @@ def test_grid_layout_is_readable_at_the_docs_width(tmp_path):
     assert grid.shape[1] <= 700 / 0.7 + 1
     with pytest.raises(ValueError, match="layout"):
         save_structure_figure(s, tmp_path / "x.png", task=task, layout="column")
+
+
+def test_figures_find_the_training_run_a_report_names():
+    from pathlib import Path
+
+    from benchmarks.figures import training_run
+
+    made = "Made by `modquad score --model m/model.zip --train-dir runs/a --out x`."
+    assert training_run(made) == Path("runs/a")
+    assert training_run("model: `modquad_gym/data/models/ppo_default/model.zip` (trained") == Path(
+        "modquad_gym/data/models/ppo_default"
+    )
+    assert training_run("no model") is None
