@@ -1,0 +1,309 @@
+"""Certificates of certified answers: a file an outsider checks with :mod:`modquad_gym.proofcheck`.
+
+A certificate holds the task (its rotor-wrench model, linear in a structure's mass and inertia),
+``f_max``, the module types' rotor data, the fault model, the answer with thrusts for every task
+wrench (and after every single failure of a tolerant answer) and, for every smaller level, either
+a bound that covers the whole level or one proof per structure: a separating direction (an index
+into shared directions), the task wrench it separates and, for a tolerant search, the failure.
+The format is documented in ``docs/certificates.md``.
+
+It is made after the search, from the problem and the answer alone (whichever search found it):
+the structures of each smaller level are taken in the checker's canonical order and each is
+separated by a direction already known, the ones left by the oracle's LP duals
+(:meth:`~modquad_gym.oracle.Zonotope.separating_direction`), which then serve the rest; every
+test is the checker's own formula (:func:`~modquad_gym.proofcheck.separation`), so a certificate
+made here passes the checker unless the answer is wrong.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+from pathlib import Path
+
+import numpy as np
+
+from modquad_gym import proofcheck as pc
+
+STRICT = 4.0
+"""A direction is used only where it separates with this many times the checker's tolerance."""
+
+
+class CertificateError(ValueError):
+    """The result cannot be certified (not certified, or a level too large to prove)."""
+
+
+def make(result, problem, progress: bool = False) -> dict:
+    """The certificate (a JSON-ready dict) of a certified ``result`` of ``problem`` (a
+    :class:`~modquad_gym.search.problem.SearchProblem`). ``progress`` shows a bar per level."""
+    if not result.certified:
+        raise CertificateError("only a certified answer has a certificate (this one is not)")
+    T = pc.Types([_type_dict(m) for m in problem.palette])
+    model = problem.model
+    task = (np.asarray(model.base, float), np.asarray(model.per_mass, float),
+            np.asarray(model.per_inertia, float))  # fmt: skip
+    f_max, fault = float(problem.f_max), problem.fault
+    cert: dict = {"format": pc.FORMAT, "version": pc.VERSION, "f_max": f_max, "fault": fault}
+    cert["types"] = [_type_dict(m) for m in problem.palette]
+    cert["task"] = {"name": getattr(problem.task, "name", None), "kind": problem.kind,
+                    "base": task[0].tolist(), "per_mass": task[1].tolist(),
+                    "per_inertia": task[2].tolist() if model.uses_inertia else None}  # fmt: skip
+    if result.structure is None:
+        cert["minimum"], cert["n_max"], top = None, int(result.n_max), int(result.n_max)
+    else:
+        cert["minimum"] = top = result.n_modules
+        cert["answer"] = _answer(result.structure, problem, T, task, f_max, fault)
+        top -= 1
+    prover = _Prover(T, task, f_max, fault, problem)
+    cert["levels"] = [prover.level(n, progress) for n in range(1, top + 1)]
+    used = sorted({int(p) for e in cert["levels"] for p in _directions_of(e)})
+    index = np.full(len(prover.pool) + 1, -1)
+    index[used] = np.arange(len(used))
+    for e in cert["levels"]:
+        if "bound" in e:
+            e["bound"]["direction"] = int(index[e["bound"]["direction"]])
+        else:
+            e["direction"] = index[np.asarray(e["direction"])].tolist()
+    cert["directions"] = np.array(prover.pool)[used].reshape(-1, 6).tolist()
+    from modquad_gym import __version__
+
+    cert["producer"] = {"package": f"modquad_gym {__version__}", "method": result.method}
+    return cert
+
+
+def write(result, problem, path: str | Path, force: bool = False) -> Path:
+    """Write the certificate of ``result`` to ``path`` (gzip-compressed JSON when it ends in
+    ``.gz``); an existing file is kept unless ``force`` (FileExistsError)."""
+    from modquad_gym.core.outputs import atomic_write
+
+    path = Path(path)
+    if path.exists() and not force:
+        raise FileExistsError(f"{path} exists (pass --force to overwrite it)")
+    text = json.dumps(make(result, problem), separators=(",", ":"))
+
+    def fill(tmp: Path) -> None:
+        if path.name.endswith(".gz"):
+            with gzip.GzipFile(tmp, "wb", mtime=0) as fh:  # mtime 0: reproducible bytes
+                fh.write(text.encode())
+        else:
+            tmp.write_text(text)
+
+    return atomic_write(path, fill)
+
+
+def _directions_of(entry: dict):
+    return [entry["bound"]["direction"]] if "bound" in entry else entry["direction"]
+
+
+def _type_dict(m) -> dict:
+    return {"name": m.name, "side": m.side, "c_tau": m.c_tau, "mass": m.mass,
+            "inertia": np.asarray(m.inertia).tolist(), "positions": m.positions.tolist(),
+            "directions": m.directions.tolist(), "spins": m.spins.tolist()}  # fmt: skip
+
+
+def _type_indices(structure, palette) -> np.ndarray:
+    ids = {id(m): k for k, m in enumerate(palette)}
+    digests = {m.digest: k for k, m in enumerate(palette)}
+    return np.array([ids.get(id(m), digests.get(m.digest, -1)) for m in structure.modules])
+
+
+def _answer(structure, problem, T, task, f_max, fault) -> dict:
+    """The answer's cells, types and thrusts for every wrench (after every failure)."""
+    cells = np.asarray(structure.cells, dtype=np.int64)
+    types = _type_indices(structure, problem.palette)
+    if types.min() < 0:
+        raise CertificateError("the answer has a module type outside the problem's palette")
+    a, M, j = T.columns(cells[None].astype(float), types[None])
+    A = a[0].T
+    t = len(task[0])
+    W = pc._wrenches(task, np.arange(t), np.repeat(M, t), np.repeat(j, t, axis=0))
+    m, n = A.shape[1], len(cells)
+    fails = [np.zeros(m, bool)] if fault is None else list(
+        pc.failed_columns(fault, np.arange(m if fault == "rotor" else n), n, T.rotors))
+    allocations = [_allocate(A, W, f_max, ~off) for off in fails]
+    return {"cells": cells.tolist(), "types": types.tolist(), "allocations": allocations}
+
+
+def _allocate(A, W, f_max, keep) -> list:
+    """(t, m) thrusts reaching each wrench with the columns ``keep`` (the others zero): the
+    most centred allocation of the oracle's LP, corrected onto A u = w by least squares."""
+    from modquad_gym.oracle import Zonotope
+    from modquad_gym.oracle.lp import GammaLP
+
+    z = Zonotope(A[:, keep], f_max)
+    R, off = z.reduce(W)
+    if off.any():
+        raise CertificateError(f"the answer cannot exert wrench {int(np.argmax(off))}")
+    lp = GammaLP.build(z.G)
+    pinv = np.linalg.pinv(A[:, keep])
+    U = np.zeros((len(W), A.shape[1]))
+    for i, r in enumerate(R):
+        x = lp.solve(r).x[:-1]
+        u = (1.0 + x) * (f_max / 2.0)
+        U[i, keep] = u - pinv @ (A[:, keep] @ u - W[i])
+    return U.tolist()
+
+
+class _Prover:
+    """Finds the proof of each smaller level, keeping the directions found (``pool``)."""
+
+    def __init__(self, T, task, f_max, fault, problem) -> None:
+        self.T, self.task, self.f_max, self.fault, self.problem = T, task, f_max, fault, problem
+        self.pool: list[np.ndarray] = []
+        self.uses: list[int] = []
+
+    # -- whole levels ------------------------------------------------------------------------
+    def level(self, n: int, progress: bool) -> dict:
+        bound = self._bound(n)
+        if bound is not None:
+            return {"n": n, "bound": {"direction": bound[0], "wrench": bound[1]}}
+        if n > pc.MAX_ENUMERATED:
+            raise CertificateError(
+                f"level {n}: no bound covers it and it is too large to enumerate "
+                f"(at most {pc.MAX_ENUMERATED} modules)"
+            )
+        total = pc.count(n, self.T.n)
+        P, I, F = (np.full(total, -1, np.int64) for _ in range(3))
+        bar = _bar(progress, n, total)
+        for s, cells, types in pc.structures(n, self.T.n):
+            self._block(cells, types, P[s : s + len(cells)], I[s : s + len(cells)],
+                        F[s : s + len(cells)])  # fmt: skip
+            if bar is not None:
+                bar.update(len(cells))
+        if bar is not None:
+            bar.close()
+        entry = {"n": n, "direction": P.tolist(), "wrench": I.tolist()}
+        if self.fault is not None:
+            entry["failure"] = F.tolist()
+        return entry
+
+    def _candidates(self) -> np.ndarray:
+        from modquad_gym.search.bounds import force_normals, level_directions
+
+        N = force_normals(list(self.problem.palette))
+        forces = np.hstack([N, np.zeros_like(N)])
+        return np.vstack([forces, level_directions()] + ([np.array(self.pool)] if self.pool else []))
+
+    def _bound(self, n: int):
+        """(direction index, wrench) of a bound covering level n, or None."""
+        D = self._candidates()
+        t = len(self.task[0])
+        for p in range(len(D)):
+            values = D[p] @ self.task[0].T  # try the wrenches with the largest values first
+            for i in np.argsort(-values)[: min(t, 8)]:
+                if pc.bound_margin(self.T, self.task, self.f_max, self.fault, n, D[p], int(i)) > 0:
+                    return self._add(D[p]), int(i)
+        return None
+
+    def _add(self, d: np.ndarray) -> int:
+        d = np.asarray(d, float) / np.linalg.norm(d)
+        self.pool.append(d)
+        self.uses.append(0)
+        return len(self.pool) - 1
+
+    # -- structure by structure --------------------------------------------------------------
+    def _block(self, cells, types, P, I, F) -> None:
+        T, task, f_max = self.T, self.task, self.f_max
+        a, M, j = T.columns(cells.astype(float), types)
+        t = len(task[0])
+        W = task[0][None] + M[:, None, None] * task[1][None] + np.einsum("tqc,lc->ltq", task[2], j)
+        alive = np.ones(len(cells), bool)
+        for p in np.argsort(-np.array(self.uses, dtype=float), kind="stable"):
+            if not alive.any():
+                break
+            self._try(int(p), a, W, alive, P, I)
+        while alive.any():
+            k = int(np.argmax(alive))
+            A = a[k].T
+            found = _separate(A, W[k], f_max)
+            if found is not None:
+                p = self._add(found[0])
+                self._try(p, a, W, alive, P, I)
+                if alive[k]:  # the LP's direction failed the strict test: keep the proof anyway
+                    raise CertificateError(f"a separating direction of structure {cells[k].tolist()} "
+                                           "is too close to the boundary to certify")  # fmt: skip
+                continue
+            if self.fault is None:
+                raise CertificateError(
+                    f"the structure {cells[k].tolist()} (types {types[k].tolist()}) of "
+                    f"{len(cells[k])} modules satisfies the task: the answer is not a minimum"
+                )
+            P[k], I[k], F[k] = self._failure(a[k], W[k], cells[k], types[k])
+            alive[k] = False
+        del t
+
+    def _try(self, p: int, a, W, alive, P, I) -> None:
+        """Assign direction p to the alive structures it separates (strictly)."""
+        d = self.pool[p]
+        idx = np.flatnonzero(alive)
+        values = W[idx] @ d  # (L, t)
+        i = values.argmax(axis=1)
+        w = W[idx, i]
+        margin = pc.separation(a[idx], w, np.broadcast_to(d, w.shape), self.f_max)
+        tol = _tolerance(a[idx], w, d, self.f_max)
+        hit = margin > (STRICT - 1.0) * tol
+        P[idx[hit]], I[idx[hit]] = p, i[hit]
+        alive[idx[hit]] = False
+        self.uses[p] += int(hit.sum())
+
+    def _failure(self, a, W, cells, types):
+        """(direction, wrench, failure) after which one intact-feasible structure fails."""
+        n, r = len(cells), self.T.rotors
+        failures = np.arange(n * r if self.fault == "rotor" else n)
+        offs = pc.failed_columns(self.fault, failures, n, r)
+        for f, off in zip(failures, offs):
+            for p in np.argsort(-np.array(self.uses, dtype=float), kind="stable"):
+                got = self._test_one(self.pool[p], a, W, off)
+                if got is not None:
+                    self.uses[p] += 1
+                    return int(p), got, int(f)
+            found = _separate(a[~off].T, W, self.f_max)
+            if found is not None:
+                p = self._add(found[0])
+                got = self._test_one(self.pool[p], a, W, off)
+                if got is not None:
+                    return p, got, int(f)
+        raise CertificateError(
+            f"the structure {cells.tolist()} (types {types.tolist()}) tolerates every single "
+            f"{self.fault} failure: the answer is not a minimum"
+        )
+
+    def _test_one(self, d, a, W, off):
+        i = int(np.argmax(W @ d))
+        w = W[i][None]
+        margin = pc.separation(a[None], w, d[None], self.f_max, off[None])[0]
+        return i if margin > (STRICT - 1.0) * _tolerance(a[None], w, d, self.f_max)[0] else None
+
+
+def _tolerance(a, w, d, f_max) -> np.ndarray:
+    scale = np.linalg.norm(w, axis=1) + f_max * np.linalg.norm(a, axis=2).sum(axis=1)
+    return pc.SEPARATION_TOL * np.linalg.norm(d) * scale
+
+
+def _separate(A: np.ndarray, W: np.ndarray, f_max: float):
+    """(direction in wrench space, wrench index) separating the hardest wrench of W from the
+    zonotope of A, or None when A satisfies every wrench (the oracle's decision)."""
+    from modquad_gym.oracle import Zonotope, margin
+
+    z = Zonotope(A, f_max)
+    R, off = z.reduce(W)
+    if off.any():
+        i = int(np.argmax(off))
+        return W[i] - z.Q @ (z.Q.T @ W[i]), i
+    mg = margin(A, W, f_max)
+    i = int(np.argmin(mg))
+    if mg[i] >= 0:
+        return None
+    _, d = z.separating_direction(R[i])
+    if not np.any(d):
+        return None
+    return z.Q @ d, i
+
+
+def _bar(progress: bool, n: int, total: int):
+    if not progress:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc=f"certificate level {n}", unit=" structures", leave=False,
+                delay=0.5)  # fmt: skip

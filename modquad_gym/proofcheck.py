@@ -1,0 +1,385 @@
+"""An independent checker of minimum-structure certificates (numpy and the standard library only).
+
+A certificate (format: ``docs/certificates.md``) claims that a structure of ``minimum`` modules
+satisfies a task and that no structure with fewer modules does. This module verifies the claim
+without any other part of modquad_gym: it rebuilds every configuration matrix from the rotor
+data in the certificate, enumerates every smaller structure itself and checks each proof.
+
+Why "valid" is sound:
+
+* The answer: for each task wrench w (and, with a fault, after each single failure, the failed
+  columns forced to zero) the certificate gives thrusts u with ``|A u - w|_inf <=``
+  :data:`RESIDUAL_TOL` ``(f_max + |w|_inf)`` and ``-TOL f_max <= u <= (1 + TOL) f_max``
+  (:data:`THRUST_TOL`): the answer works, up to that tolerance.
+* A smaller structure with columns a_k can exert exactly the zonotope Z = {A u : 0 <= u <= f_max},
+  whose support in a direction d is h(d) = f_max sum_k max(0, d . a_k). If d . w > h(d), no u in
+  the box reaches w: the structure fails the task (with a failure, the failed columns are left
+  out of the sum: the structure fails after that failure, so it does not tolerate it). The test
+  demands d . w - h(d) > :data:`SEPARATION_TOL` |d| (|w| + f_max sum_k |a_k|); the round-off of
+  computing both sides in floating point is below (4 n + 6) 2^-53 times that scale, under
+  1e-13 of it up to 128 modules, so a passing test cannot be a rounding artefact.
+* Structures are enumerated here, not read: fixed polyominoes grow cell by cell from the one
+  cell (every connected n-cell set keeps a connected (n-1)-cell subset: drop a leaf of a
+  spanning tree; so growing every (n-1)-polyomino by every free neighbour reaches every
+  n-polyomino), deduplicated up to translation by a key; every assignment of the module types
+  to the cells is taken. A level proved structure by structure must give one proof per
+  enumerated structure, in this enumeration's order.
+* A bound covers a whole level n without enumeration: a module centre lies within L1 distance
+  R = (n - 1) side of the centre of mass (a convex combination of the centres, all within n - 1
+  grid steps), so a module of type t adds at most H_t = f_max max_{|v|_1 <= R} sum_k max(0,
+  d . a_k(v)) to the support, a convex function of v whose maximum is at one of the four
+  vertices (+-R, 0), (0, +-R). The task value d . w_i(M, j) is affine in the structure's mass M
+  and inertia vector j; each module adds at most |J_t| + m_t R^2 to each |j_c|. Both sides are
+  affine in the module counts, so the bound holds for every mix of types when it holds for n
+  modules of each type alone: d . w_i >= n H_t - (the least single-failure loss, with a fault)
+  plus a margin, for every type t.
+
+Tolerances: :data:`THRUST_TOL`, :data:`RESIDUAL_TOL`, :data:`SEPARATION_TOL`, :data:`BOUND_TOL`.
+Command line: ``python -m modquad_gym.proofcheck FILE`` or ``modquad check FILE``.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+import sys
+from functools import lru_cache
+
+import numpy as np
+
+FORMAT, VERSION = "modquad-certificate", 1
+THRUST_TOL = 1e-6  # thrusts of the answer may leave [0, f_max] by this fraction of f_max
+RESIDUAL_TOL = 1e-9  # |A u - w|_inf allowed, relative to f_max + |w|_inf
+SEPARATION_TOL = 1e-11  # relative margin of a separating direction (module docstring)
+BOUND_TOL = 1e-9  # relative margin of a level bound
+MAX_ENUMERATED = 14  # shape keys fit in 63 bits up to 14 cells
+KEY_SHIFT = 56  # key = width << KEY_SHIFT | sum of 2^(x + y width) over the cells
+BLOCK = 16384  # structures checked at once
+STEPS = np.array([[1, 0], [-1, 0], [0, 1], [0, -1]])
+
+
+class BadCertificate(ValueError):
+    """The file is not a certificate of this format (a malformed field, named)."""
+
+
+class Invalid(Exception):
+    """The certificate is well formed but a proof fails (the message names it)."""
+
+
+def load(path: str) -> dict:
+    """The certificate in ``path`` (JSON, gzip-compressed when the name ends in ``.gz``)."""
+    opener = gzip.open if str(path).endswith(".gz") else open
+    try:
+        with opener(path, "rt", encoding="utf-8") as fh:
+            return json.load(fh)
+    except (OSError, EOFError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise BadCertificate(f"{path}: cannot read a JSON certificate ({e})") from None
+
+
+# --- structures -----------------------------------------------------------------------------
+def keys_of(cells: np.ndarray) -> np.ndarray:
+    """int64 keys (L,) of cell sets (L, n, 2), equal exactly for translates."""
+    c = cells - cells.min(axis=1, keepdims=True)
+    width = c[:, :, 0].max(axis=1) + 1
+    bits = np.left_shift(np.int64(1), c[:, :, 0] + c[:, :, 1] * width[:, None])
+    return np.bitwise_or.reduce(bits, axis=1) | (width << KEY_SHIFT)
+
+
+def cells_of(keys: np.ndarray, n: int) -> np.ndarray:
+    """(L, n, 2) cells of keys, translated to x, y >= 0, in order of x + y width."""
+    width = (keys >> KEY_SHIFT)[:, None]
+    bits = (keys[:, None] >> np.arange(KEY_SHIFT)) & 1
+    index = np.nonzero(bits)[1].reshape(len(keys), n)
+    return np.stack([index % width, index // width], axis=2)
+
+
+@lru_cache(maxsize=None)
+def shape_keys(n: int) -> np.ndarray:
+    """Sorted keys of every fixed polyomino of n cells (module docstring)."""
+    if not 1 <= n <= MAX_ENUMERATED:
+        raise Invalid(f"level {n}: only levels of 1 to {MAX_ENUMERATED} modules are enumerated")
+    if n == 1:
+        return np.zeros(1, dtype=np.int64) | (np.int64(1) << KEY_SHIFT) | 1
+    found = []
+    parents = shape_keys(n - 1)
+    for s in range(0, len(parents), 4096):
+        cells = cells_of(parents[s : s + 4096], n - 1)  # (L, m, 2)
+        grown = (cells[:, :, None, :] + STEPS).reshape(len(cells), -1, 2)  # (L, 4m, 2)
+        free = ~(grown[:, :, None, :] == cells[:, None, :, :]).all(axis=3).any(axis=2)
+        rows, new = np.nonzero(free)
+        found.append(np.unique(keys_of(np.concatenate([cells[rows], grown[rows, new, None]], 1))))
+    return np.unique(np.concatenate(found))
+
+
+def count(n: int, n_types: int) -> int:
+    """Structures of n modules of ``n_types`` types up to translation."""
+    return len(shape_keys(n)) * n_types**n
+
+
+def structures(n: int, n_types: int, block: int = BLOCK):
+    """(start, cells (B, n, 2), types (B, n)) in blocks, in canonical order: shapes by key,
+    then type assignments (a type index per cell, cells in key order) in lexicographic order."""
+    keys = shape_keys(n)
+    per = n_types**n
+    assign = np.stack(np.unravel_index(np.arange(per), (n_types,) * n), axis=1)
+    step = max(1, block // per)
+    for s in range(0, len(keys), step):
+        cells = cells_of(keys[s : s + step], n)
+        yield (s * per, np.repeat(cells, per, axis=0), np.tile(assign, (len(cells), 1)))
+
+
+# --- the physics ----------------------------------------------------------------------------
+class Types:
+    """The module types of a certificate as arrays, indexed by type."""
+
+    def __init__(self, types: list) -> None:
+        def field(k, shape):
+            a = np.array([_floats(t.get(k), f"types[{i}].{k}") for i, t in enumerate(types)])
+            if a.shape[1:] != shape or not np.all(np.isfinite(a)):
+                raise BadCertificate(f"types: every {k} must be finite numbers of shape {shape}")
+            return a
+
+        if not isinstance(types, list) or not types or not all(isinstance(t, dict) for t in types):
+            raise BadCertificate("types: must be a non-empty list of module types")
+        r = len(types[0].get("spins") or [])
+        self.pos, self.dirs = field("positions", (r, 3)), field("directions", (r, 3))
+        self.dirs = self.dirs / np.linalg.norm(self.dirs, axis=2, keepdims=True)
+        self.spins, J = field("spins", (r,)), field("inertia", (3, 3))
+        self.side, self.c_tau, self.mass = (field(k, ()) for k in ("side", "c_tau", "mass"))
+        if r == 0 or np.any(self.mass <= 0) or np.any(self.side != self.side[0]):
+            raise BadCertificate("types: need rotors, positive masses and one common side")
+        self.J = np.stack([J[:, 0, 0], J[:, 1, 1], J[:, 2, 2], J[:, 0, 1], J[:, 0, 2],
+                           J[:, 1, 2]], axis=1)  # fmt: skip
+        self.n, self.rotors, self.l = len(types), r, float(self.side[0])
+
+    def columns(self, cells: np.ndarray, types: np.ndarray):
+        """(columns (L, n r, 6), masses (L,), inertia vectors (L, 6)) of structures: column k
+        is [d_k ; p_k x d_k + spin_k c_tau d_k], p_k from the centre of mass."""
+        m = self.mass[types]
+        M = m.sum(axis=1)
+        c = (cells - np.einsum("ln,lni->li", m, cells)[:, None, :] / M[:, None, None]) * self.l
+        p = self.pos[types] + np.concatenate([c, np.zeros(c.shape[:2] + (1,))], 2)[:, :, None]
+        d = self.dirs[types]
+        tau = np.cross(p, d) + (self.spins * self.c_tau[:, None])[types][..., None] * d
+        a = np.concatenate([d, tau], axis=3).reshape(len(cells), -1, 6)
+        x, y = c[..., 0], c[..., 1]
+        own = self.J[types].sum(axis=1)
+        sums = [np.einsum("ln,ln->l", m, v) for v in (y * y, x * x, x * x + y * y, -x * y)]
+        return a, M, own + np.stack(sums + [0 * M, 0 * M], axis=1)
+
+
+def _floats(value, what: str) -> np.ndarray:
+    try:
+        return np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise BadCertificate(f"{what}: must be numbers") from None
+
+
+def _ints(value, what: str, shape_len: int | None = None) -> np.ndarray:
+    a = np.array(value if value is not None else [], dtype=object)
+    if a.dtype == object and a.size and not all(type(v) is int for v in a.ravel()):
+        raise BadCertificate(f"{what}: must be integers")
+    a = a.astype(np.int64)
+    if shape_len is not None and a.shape != (shape_len,):
+        raise Invalid(f"{what}: has {len(a)} entries, there are {shape_len} structures")
+    return a
+
+
+def separation(a, w, d, f_max: float, off=None) -> np.ndarray:
+    """(L,) d . w - h(d) - the tolerance: > 0 where d separates w from the structure's
+    zonotope (columns ``a`` (L, m, 6), without the columns where ``off`` (L, m) is True)."""
+    da = np.einsum("lkq,lq->lk", a, d)
+    plus = np.maximum(da, 0.0) if off is None else np.where(off, 0.0, np.maximum(da, 0.0))
+    scale = np.linalg.norm(w, axis=1) + f_max * np.linalg.norm(a, axis=2).sum(axis=1)
+    tol = SEPARATION_TOL * np.linalg.norm(d, axis=1) * scale
+    return np.einsum("lq,lq->l", d, w) - f_max * plus.sum(axis=1) - tol
+
+
+def failed_columns(fault, failure: np.ndarray, n: int, rotors: int) -> np.ndarray:
+    """(L, n rotors) bool: the columns each structure's failure index stops (-1: none)."""
+    k = np.arange(n * rotors)[None, :]
+    f = failure[:, None]
+    if fault == "module":
+        return (f >= 0) & (k // rotors == f)
+    return (f >= 0) & (k == f)
+
+
+def bound_margin(T: Types, task, f_max: float, fault, n: int, d: np.ndarray, i: int) -> float:
+    """The least margin over the types of the level bound of n modules (module docstring):
+    > 0 proves that no structure of n modules satisfies wrench i (direction d)."""
+    base, per_mass, per_inertia = task
+    R = (n - 1) * T.l
+    corners = np.array([[R, 0, 0], [-R, 0, 0], [0, R, 0], [0, -R, 0]])
+    p = T.pos[:, None] + corners[None, :, None, :]  # (K, 4, r, 3)
+    dirs = T.dirs[:, None]
+    tau = np.cross(p, dirs) + (T.spins * T.c_tau[:, None])[:, None, :, None] * dirs
+    da = np.concatenate([np.broadcast_to(dirs, tau.shape), tau], axis=3) @ d  # (K, 4, r)
+    H = f_max * np.maximum(da, 0.0).sum(axis=2).max(axis=1)  # (K,)
+    loss = 0.0
+    if fault is not None and not np.any(d[3:]):
+        force = np.maximum(T.dirs @ d[:3], 0.0)  # (K, r): placement-free
+        loss = f_max * float((force.max(axis=1) if fault == "rotor" else force.sum(axis=1)).min())
+    inertia = np.abs(d @ per_inertia[i]) @ (np.abs(T.J) + T.mass[:, None] * R * R).T  # (K,)
+    value = d @ base[i] + n * T.mass * (d @ per_mass[i]) - n * inertia
+    scale = 1.0 + abs(d @ base[i]) + n * (T.mass * abs(d @ per_mass[i]) + inertia + H)
+    return float((value - n * H + loss - BOUND_TOL * scale).min())
+
+
+# --- the checks ------------------------------------------------------------------------------
+def _task(cert: dict):
+    task = cert.get("task")
+    if not isinstance(task, dict):
+        raise BadCertificate("task: missing")
+    base = _floats(task.get("base"), "task.base")
+    if base.ndim != 2 or base.shape[1] != 6 or not len(base) or not np.all(np.isfinite(base)):
+        raise BadCertificate("task.base: must be a non-empty list of 6-vectors")
+    t = len(base)
+    pm = np.zeros((t, 6)) if task.get("per_mass") is None else _floats(task["per_mass"], "per_mass")
+    pi = task.get("per_inertia")
+    pi = np.zeros((t, 6, 6)) if pi is None else _floats(pi, "task.per_inertia")
+    if pm.shape != (t, 6) or pi.shape != (t, 6, 6) or not np.all(np.isfinite(pm)) or not (
+        np.all(np.isfinite(pi))
+    ):
+        raise BadCertificate("task.per_mass / per_inertia: shapes (t, 6) and (t, 6, 6), finite")
+    return base, pm, pi
+
+
+def _wrenches(task, i, M, j) -> np.ndarray:
+    base, pm, pi = task
+    return base[i] + M[:, None] * pm[i] + np.einsum("lqc,lc->lq", pi[i], j)
+
+
+def _connected(cells: np.ndarray) -> bool:
+    seen, todo = {tuple(cells[0])}, [tuple(cells[0])]
+    cellset = set(map(tuple, cells.tolist()))
+    while todo:
+        x, y = todo.pop()
+        for dx, dy in STEPS.tolist():
+            if (x + dx, y + dy) in cellset - seen:
+                seen.add((x + dx, y + dy))
+                todo.append((x + dx, y + dy))
+    return len(seen) == len(cellset) == len(cells)
+
+
+def check_answer(cert, T: Types, task, f_max: float, fault, minimum: int) -> None:
+    answer = cert.get("answer")
+    if not isinstance(answer, dict):
+        raise BadCertificate("answer: missing")
+    cells = _ints(answer.get("cells"), "answer.cells").reshape(-1, 2)
+    types = _ints(answer.get("types"), "answer.types")
+    if len(cells) != minimum or types.shape != (minimum,) or not _connected(cells):
+        raise Invalid(f"answer: needs {minimum} distinct connected cells, one type each")
+    if types.min() < 0 or types.max() >= T.n:
+        raise Invalid("answer.types: a type index outside the types")
+    a, M, j = T.columns(cells[None].astype(float), types[None])
+    A = a[0].T
+    m = A.shape[1]
+    W = _wrenches(task, np.arange(len(task[0])), np.repeat(M, len(task[0])), np.repeat(j, len(
+        task[0]), axis=0))  # fmt: skip
+    fails = [np.zeros(m, bool)] if fault is None else list(
+        failed_columns(fault, np.arange(m if fault == "rotor" else minimum), minimum, T.rotors))
+    U = _floats(answer.get("allocations"), "answer.allocations")
+    if U.shape != (len(fails), len(W), m):
+        raise Invalid(f"answer.allocations: shape {U.shape}, needs {(len(fails), len(W), m)} "
+                      "(failures, wrenches, rotors)")  # fmt: skip
+    for f, off in enumerate(fails):
+        u = U[f]
+        where = f"answer: allocation of failure {f}" if fault else "answer: allocation"
+        if np.any(u[:, off] != 0):
+            raise Invalid(f"{where}: a failed rotor has thrust")
+        low = np.flatnonzero((u < -THRUST_TOL * f_max).any(1) | (u > (1 + THRUST_TOL) * f_max).any(1))
+        if len(low):
+            raise Invalid(f"{where}: wrench {low[0]}: a thrust outside [0, f_max]")
+        resid = np.abs(u @ A.T - W).max(axis=1)
+        bad = np.flatnonzero(resid > RESIDUAL_TOL * (f_max + np.abs(W).max(axis=1)))
+        if len(bad):
+            raise Invalid(f"{where}: wrench {bad[0]}: A u differs from the wrench by {resid[bad[0]]:.3g}")
+
+
+def check_level(entry, n, T: Types, task, f_max, fault, D) -> str:
+    """Verify the proof of level n; returns how it was proved."""
+    if "bound" in entry:
+        b = entry["bound"]
+        p, i = int(b.get("direction", -1)), int(b.get("wrench", -1))
+        if not (0 <= p < len(D) and 0 <= i < len(task[0])):
+            raise Invalid(f"level {n}: bound: direction or wrench index out of range")
+        if bound_margin(T, task, f_max, fault, n, D[p], i) <= 0:
+            raise Invalid(f"level {n}: bound: direction {p} does not exceed the level's support")
+        return "bound"
+    total = count(n, T.n)
+    P = _ints(entry.get("direction"), f"level {n}: direction", total)
+    I = _ints(entry.get("wrench"), f"level {n}: wrench", total)  # noqa: E741
+    F = -np.ones(total, np.int64) if fault is None else _ints(entry.get("failure"), f"level {n}: failure", total)
+    if P.min() < 0 or P.max() >= len(D) or I.min() < 0 or I.max() >= len(task[0]):
+        raise Invalid(f"level {n}: a direction or wrench index out of range")
+    if F.max() >= (n * T.rotors if fault == "rotor" else n) or F.min() < -1:
+        raise Invalid(f"level {n}: a failure index out of range")
+    for s, cells, types in structures(n, T.n):
+        sl = slice(s, s + len(cells))
+        a, M, j = T.columns(cells.astype(float), types)
+        off = failed_columns(fault, F[sl], n, T.rotors) if fault else None
+        ok = separation(a, _wrenches(task, I[sl], M, j), D[P[sl]], f_max, off) > 0
+        if not ok.all():
+            k = int(np.argmin(ok))
+            raise Invalid(f"level {n}: structure {s + k} (cells {cells[k].tolist()}, types "
+                          f"{types[k].tolist()}): direction {P[s + k]} does not separate wrench "
+                          f"{I[s + k]}" + (f" after failure {F[s + k]}" if fault else ""))  # fmt: skip
+    return f"{total} structures"
+
+
+def check(cert: dict, report=None) -> str:
+    """Verify a certificate (a dict): a one-line summary if valid; raises :class:`Invalid`
+    naming the first thing that fails, :class:`BadCertificate` for a malformed one.
+    ``report(n, how)`` is called after each level."""
+    if not isinstance(cert, dict) or cert.get("format") != FORMAT or cert.get("version") != VERSION:
+        raise BadCertificate(f"not a {FORMAT} of version {VERSION}")
+    fault = cert.get("fault")
+    if fault not in (None, "rotor", "module"):
+        raise BadCertificate(f"fault: unknown {fault!r} (null, 'rotor' or 'module')")
+    f_max = float(_floats(cert.get("f_max"), "f_max"))
+    if not 0 < f_max < np.inf:
+        raise BadCertificate("f_max: must be positive")
+    T, task = Types(cert.get("types")), _task(cert)
+    D = _floats(cert.get("directions", []), "directions").reshape(-1, 6)
+    minimum, n_max = cert.get("minimum"), cert.get("n_max")
+    top = minimum - 1 if minimum is not None else n_max
+    if type(top) is not int or top < 0:
+        raise BadCertificate("minimum / n_max: must be integers")
+    if minimum is not None:
+        check_answer(cert, T, task, f_max, fault, minimum)
+    levels = {e.get("n"): e for e in cert.get("levels", []) if isinstance(e, dict)}
+    if set(levels) - set(range(1, top + 1)):
+        raise Invalid(f"levels: proofs of levels outside 1..{top}")
+    for n in range(1, top + 1):
+        if n not in levels:
+            raise Invalid(f"level {n}: no proof")
+        how = check_level(levels[n], n, T, task, f_max, fault, D)
+        if report is not None:
+            report(n, how)
+    tolerant = f", tolerating any single {fault} failure" if fault else ""
+    if minimum is None:
+        return f"valid: no structure of up to {n_max} modules satisfies the task{tolerant}"
+    return (f"valid: the minimum is {minimum} modules: the answer satisfies the task's "
+            f"{len(task[0])} wrenches{tolerant}; no structure of fewer modules does")  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m modquad_gym.proofcheck FILE``: prints "valid ..." (exit 0), "invalid: ..."
+    (exit 1) or "error: ..." for a file that is not a certificate (exit 2)."""
+    args = sys.argv[1:] if argv is None else argv
+    if len(args) != 1:
+        print("usage: python -m modquad_gym.proofcheck CERTIFICATE.json[.gz]", file=sys.stderr)
+        return 2
+    try:
+        print(check(load(args[0])))
+        return 0
+    except BadCertificate as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except Invalid as e:
+        print(f"invalid: {e}")
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
