@@ -126,22 +126,46 @@ def _answer(structure, problem, T, task, f_max, fault) -> dict:
 
 def _allocate(A, W, f_max, keep) -> list:
     """(t, m) thrusts reaching each wrench with the columns ``keep`` (the others zero): the
-    most centred allocation of the oracle's LP, corrected onto A u = w by least squares."""
+    least-norm correction of half thrust where it stays within [0, f_max], else the most
+    centred allocation of the oracle's LP, corrected onto A u = w by least squares."""
     from modquad_gym.oracle import Zonotope
+
+    B = A[:, keep]
+    pinv = np.linalg.pinv(B)
+    half = np.full(B.shape[1], f_max / 2.0)
+    U = np.zeros((len(W), A.shape[1]))
+    U[:, keep] = half + (W - B @ half) @ pinv.T
+    inside = (U[:, keep] >= 0).all(axis=1) & (U[:, keep] <= f_max).all(axis=1)
+    resid = np.abs(U @ A.T - W).max(axis=1) <= 1e-3 * pc.RESIDUAL_TOL * (f_max + np.abs(W).max(1))
+    rest = np.flatnonzero(~(inside & resid))
+    if len(rest):
+        z = Zonotope(B, f_max)
+        R, off = z.reduce(W[rest])
+        if off.any():
+            raise CertificateError(f"the answer cannot exert wrench {rest[np.argmax(off)]}")
+        for i, r in zip(rest, R):
+            u = (1.0 + _centred(z, r)) * (f_max / 2.0)
+            U[i, keep] = u - pinv @ (B @ u - W[i])
+    return U.tolist()
+
+
+def _centred(z, r: np.ndarray) -> np.ndarray:
+    """The most centred allocation x (G x = r, |x|_inf = gamma) of one centred reduced wrench:
+    the DAQP LP of the oracle (:mod:`modquad_gym.oracle.daqp_lp`), HiGHS when DAQP fails."""
+    import daqp
+
+    from modquad_gym.oracle.daqp_lp import _daqp_arrays
     from modquad_gym.oracle.lp import GammaLP
 
-    z = Zonotope(A[:, keep], f_max)
-    R, off = z.reduce(W)
-    if off.any():
-        raise CertificateError(f"the answer cannot exert wrench {int(np.argmax(off))}")
-    lp = GammaLP.build(z.G)
-    pinv = np.linalg.pinv(A[:, keep])
-    U = np.zeros((len(W), A.shape[1]))
-    for i, r in enumerate(R):
-        x = lp.solve(r).x[:-1]
-        u = (1.0 + x) * (f_max / 2.0)
-        U[i, keep] = u - pinv @ (A[:, keep] @ u - W[i])
-    return U.tolist()
+    nr = float(np.linalg.norm(r))
+    if nr <= 1e-14 * max(z.scale, 1.0):
+        return np.zeros(z.m)
+    a = _daqp_arrays(z)
+    a["A"][:, -1] = -r / nr
+    x, _, flag, _ = daqp.solve(a["H"], a["f"], a["A"], a["bu"], a["bl"], a["sense"])
+    if flag == 1 and x[-1] > 0:
+        return x[: z.m] * (nr / x[-1])
+    return GammaLP.build(z.G).solve(r).x[:-1]
 
 
 class _Prover:
@@ -185,15 +209,16 @@ class _Prover:
         return np.vstack([forces, level_directions()] + ([np.array(self.pool)] if self.pool else []))
 
     def _bound(self, n: int):
-        """(direction index, wrench) of a bound covering level n, or None."""
+        """(direction index, wrench) of a bound covering level n, or None: the candidate pair
+        of the largest margin (:func:`bound_margins`), confirmed by the checker's formula."""
         D = self._candidates()
-        t = len(self.task[0])
-        for p in range(len(D)):
-            values = D[p] @ self.task[0].T  # try the wrenches with the largest values first
-            for i in np.argsort(-values)[: min(t, 8)]:
-                if pc.bound_margin(self.T, self.task, self.f_max, self.fault, n, D[p], int(i)) > 0:
-                    return self._add(D[p]), int(i)
-        return None
+        margins = bound_margins(self.T, self.task, self.f_max, self.fault, n, D)
+        p, i = np.unravel_index(int(np.argmax(margins)), margins.shape)
+        if margins[p, i] <= 0:
+            return None
+        if pc.bound_margin(self.T, self.task, self.f_max, self.fault, n, D[p], int(i)) <= 0:
+            return None
+        return self._add(D[p]), int(i)
 
     def _add(self, d: np.ndarray) -> int:
         d = np.asarray(d, float) / np.linalg.norm(d)
@@ -275,6 +300,28 @@ class _Prover:
         return i if margin > (STRICT - 1.0) * _tolerance(a[None], w, d, self.f_max)[0] else None
 
 
+def bound_margins(T, task, f_max, fault, n, D) -> np.ndarray:
+    """(P, t) :func:`~modquad_gym.proofcheck.bound_margin` of every direction (rows of D) and
+    wrench at once, up to its tolerance term (a search for the best pair)."""
+    base, per_mass, per_inertia = task
+    R = (n - 1) * T.l
+    corners = np.array([[R, 0, 0], [-R, 0, 0], [0, R, 0], [0, -R, 0]])
+    p = T.pos[:, None] + corners[None, :, None, :]  # (K, 4, r, 3)
+    dirs = np.broadcast_to(T.dirs[:, None], p.shape)
+    tau = np.cross(p, dirs) + (T.spins * T.c_tau[:, None])[:, None, :, None] * dirs
+    da = np.concatenate([dirs, tau], axis=3) @ D.T  # (K, 4, r, P)
+    H = f_max * np.maximum(da, 0.0).sum(axis=2).max(axis=1).T  # (P, K)
+    loss = np.zeros(len(D))
+    if fault is not None:
+        force = np.maximum(np.einsum("krq,pq->pkr", T.dirs, D[:, :3]), 0.0)
+        per = force.max(axis=2) if fault == "rotor" else force.sum(axis=2)  # (P, K)
+        loss = np.where(np.any(D[:, 3:], axis=1), 0.0, f_max * per.min(axis=1))
+    dP = np.abs(np.einsum("pq,tqc->ptc", D, per_inertia))  # (P, t, 6)
+    inertia = dP @ (np.abs(T.J) + T.mass[:, None] * R * R).T  # (P, t, K)
+    value = (D @ base.T)[:, :, None] + n * T.mass * (D @ per_mass.T)[:, :, None] - n * inertia
+    return (value - n * H[:, None, :] + loss[:, None, None]).min(axis=2)
+
+
 def _tolerance(a, w, d, f_max) -> np.ndarray:
     scale = np.linalg.norm(w, axis=1) + f_max * np.linalg.norm(a, axis=2).sum(axis=1)
     return pc.SEPARATION_TOL * np.linalg.norm(d) * scale
@@ -283,21 +330,18 @@ def _tolerance(a, w, d, f_max) -> np.ndarray:
 def _separate(A: np.ndarray, W: np.ndarray, f_max: float):
     """(direction in wrench space, wrench index) separating the hardest wrench of W from the
     zonotope of A, or None when A satisfies every wrench (the oracle's decision)."""
-    from modquad_gym.oracle import Zonotope, margin
+    from modquad_gym.oracle import TOL, Zonotope
 
     z = Zonotope(A, f_max)
     R, off = z.reduce(W)
     if off.any():
         i = int(np.argmax(off))
         return W[i] - z.Q @ (z.Q.T @ W[i]), i
-    mg = margin(A, W, f_max)
-    i = int(np.argmin(mg))
-    if mg[i] >= 0:
-        return None
-    _, d = z.separating_direction(R[i])
-    if not np.any(d):
-        return None
-    return z.Q @ d, i
+    for i in np.argsort(-np.linalg.norm(W, axis=1), kind="stable"):  # hardest first
+        gamma, d = z.separating_direction(R[i])
+        if gamma > 1.0 + TOL and np.any(d):
+            return z.Q @ d, int(i)
+    return None
 
 
 def _bar(progress: bool, n: int, total: int):
