@@ -33,9 +33,10 @@ class CertificateError(ValueError):
     """The result cannot be certified (not certified, or a level too large to prove)."""
 
 
-def make(result, problem, progress: bool = False) -> dict:
+def make(result, problem, progress: bool = False, bounds: bool = True) -> dict:
     """The certificate (a JSON-ready dict) of a certified ``result`` of ``problem`` (a
-    :class:`~modquad_gym.search.problem.SearchProblem`). ``progress`` shows a bar per level."""
+    :class:`~modquad_gym.search.problem.SearchProblem`). ``progress`` shows a bar per level;
+    ``bounds=False`` proves every level structure by structure (to measure what bounds save)."""
     if not result.certified:
         raise CertificateError("only a certified answer has a certificate (this one is not)")
     T = pc.Types([_type_dict(m) for m in problem.palette])
@@ -54,7 +55,7 @@ def make(result, problem, progress: bool = False) -> dict:
         cert["minimum"] = top = result.n_modules
         cert["answer"] = _answer(result.structure, problem, T, task, f_max, fault)
         top -= 1
-    prover = _Prover(T, task, f_max, fault, problem)
+    prover = _Prover(T, task, f_max, fault, problem, bounds)
     cert["levels"] = [prover.level(n, progress) for n in range(1, top + 1)]
     used = sorted({int(p) for e in cert["levels"] for p in _directions_of(e)})
     index = np.full(len(prover.pool) + 1, -1)
@@ -71,15 +72,16 @@ def make(result, problem, progress: bool = False) -> dict:
     return cert
 
 
-def write(result, problem, path: str | Path, force: bool = False) -> Path:
+def write(result, problem, path: str | Path, force: bool = False, **options) -> Path:
     """Write the certificate of ``result`` to ``path`` (gzip-compressed JSON when it ends in
-    ``.gz``); an existing file is kept unless ``force`` (FileExistsError)."""
+    ``.gz``); an existing file is kept unless ``force`` (FileExistsError). ``options`` go to
+    :func:`make`."""
     from modquad_gym.core.outputs import atomic_write
 
     path = Path(path)
     if path.exists() and not force:
         raise FileExistsError(f"{path} exists (pass --force to overwrite it)")
-    text = json.dumps(make(result, problem), separators=(",", ":"))
+    text = json.dumps(make(result, problem, **options), separators=(",", ":"))
 
     def fill(tmp: Path) -> None:
         if path.name.endswith(".gz"):
@@ -171,14 +173,15 @@ def _centred(z, r: np.ndarray) -> np.ndarray:
 class _Prover:
     """Finds the proof of each smaller level, keeping the directions found (``pool``)."""
 
-    def __init__(self, T, task, f_max, fault, problem) -> None:
+    def __init__(self, T, task, f_max, fault, problem, bounds: bool = True) -> None:
         self.T, self.task, self.f_max, self.fault, self.problem = T, task, f_max, fault, problem
+        self.bounds = bounds
         self.pool: list[np.ndarray] = []
         self.uses: list[int] = []
 
     # -- whole levels ------------------------------------------------------------------------
     def level(self, n: int, progress: bool) -> dict:
-        bound = self._bound(n)
+        bound = self._bound(n) if self.bounds else None
         if bound is not None:
             return {"n": n, "bound": {"direction": bound[0], "wrench": bound[1]}}
         if n > pc.MAX_ENUMERATED:
