@@ -43,7 +43,7 @@ from __future__ import annotations
 import gzip
 import json
 import sys
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -58,11 +58,11 @@ BLOCK = 16384  # structures checked at once
 STEPS = np.array([[1, 0], [-1, 0], [0, 1], [0, -1]])
 
 
-class BadCertificate(ValueError):
+class CertificateFormatError(ValueError):
     """The file is not a certificate of this format (a malformed field, named)."""
 
 
-class Invalid(Exception):
+class ProofError(Exception):
     """The certificate is well formed but a proof fails (the message names it)."""
 
 
@@ -73,7 +73,7 @@ def load(path: str) -> dict:
         with opener(path, "rt", encoding="utf-8") as fh:
             return json.load(fh)
     except (OSError, EOFError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise BadCertificate(f"{path}: cannot read a JSON certificate ({e})") from None
+        raise CertificateFormatError(f"{path}: cannot read a JSON certificate ({e})") from None
 
 
 # --- structures -----------------------------------------------------------------------------
@@ -93,11 +93,11 @@ def cells_of(keys: np.ndarray, n: int) -> np.ndarray:
     return np.stack([index % width, index // width], axis=2)
 
 
-@lru_cache(maxsize=None)
+@cache
 def shape_keys(n: int) -> np.ndarray:
     """Sorted keys of every fixed polyomino of n cells (module docstring)."""
     if not 1 <= n <= MAX_ENUMERATED:
-        raise Invalid(f"level {n}: only levels of 1 to {MAX_ENUMERATED} modules are enumerated")
+        raise ProofError(f"level {n}: only levels of 1 to {MAX_ENUMERATED} modules are enumerated")
     if n == 1:
         return np.zeros(1, dtype=np.int64) | (np.int64(1) << KEY_SHIFT) | 1
     found = []
@@ -136,18 +136,20 @@ class Types:
         def field(k, shape):
             a = np.array([_floats(t.get(k), f"types[{i}].{k}") for i, t in enumerate(types)])
             if a.shape[1:] != shape or not np.all(np.isfinite(a)):
-                raise BadCertificate(f"types: every {k} must be finite numbers of shape {shape}")
+                raise CertificateFormatError(
+                    f"types: every {k} must be finite numbers of shape {shape}"
+                )
             return a
 
         if not isinstance(types, list) or not types or not all(isinstance(t, dict) for t in types):
-            raise BadCertificate("types: must be a non-empty list of module types")
+            raise CertificateFormatError("types: must be a non-empty list of module types")
         r = len(types[0].get("spins") or [])
         self.pos, self.dirs = field("positions", (r, 3)), field("directions", (r, 3))
         self.dirs = self.dirs / np.linalg.norm(self.dirs, axis=2, keepdims=True)
         self.spins, J = field("spins", (r,)), field("inertia", (3, 3))
         self.side, self.c_tau, self.mass = (field(k, ()) for k in ("side", "c_tau", "mass"))
         if r == 0 or np.any(self.mass <= 0) or np.any(self.side != self.side[0]):
-            raise BadCertificate("types: need rotors, positive masses and one common side")
+            raise CertificateFormatError("types: need rotors, positive masses and one common side")
         self.J = np.stack([J[:, 0, 0], J[:, 1, 1], J[:, 2, 2], J[:, 0, 1], J[:, 0, 2],
                            J[:, 1, 2]], axis=1)  # fmt: skip
         self.n, self.rotors, self.l = len(types), r, float(self.side[0])
@@ -172,16 +174,16 @@ def _floats(value, what: str) -> np.ndarray:
     try:
         return np.array(value, dtype=float)
     except (TypeError, ValueError):
-        raise BadCertificate(f"{what}: must be numbers") from None
+        raise CertificateFormatError(f"{what}: must be numbers") from None
 
 
 def _ints(value, what: str, shape_len: int | None = None) -> np.ndarray:
     a = np.array(value if value is not None else [], dtype=object)
     if a.dtype == object and a.size and not all(type(v) is int for v in a.ravel()):
-        raise BadCertificate(f"{what}: must be integers")
+        raise CertificateFormatError(f"{what}: must be integers")
     a = a.astype(np.int64)
     if shape_len is not None and a.shape != (shape_len,):
-        raise Invalid(f"{what}: has {len(a)} entries, there are {shape_len} structures")
+        raise ProofError(f"{what}: has {len(a)} entries, there are {shape_len} structures")
     return a
 
 
@@ -229,22 +231,21 @@ def bound_margin(T: Types, task, f_max: float, fault, n: int, d: np.ndarray, i: 
 def _task(cert: dict):
     task = cert.get("task")
     if not isinstance(task, dict):
-        raise BadCertificate("task: missing")
+        raise CertificateFormatError("task: missing")
     base = _floats(task.get("base"), "task.base")
     if base.ndim != 2 or base.shape[1] != 6 or not len(base) or not np.all(np.isfinite(base)):
-        raise BadCertificate("task.base: must be a non-empty list of 6-vectors")
+        raise CertificateFormatError("task.base: must be a non-empty list of 6-vectors")
     t = len(base)
-    pm = np.zeros((t, 6)) if task.get("per_mass") is None else _floats(task["per_mass"], "per_mass")
-    pi = task.get("per_inertia")
+    pm, pi = task.get("per_mass"), task.get("per_inertia")
+    pm = np.zeros((t, 6)) if pm is None else _floats(pm, "task.per_mass")
     pi = np.zeros((t, 6, 6)) if pi is None else _floats(pi, "task.per_inertia")
-    if pm.shape != (t, 6) or pi.shape != (t, 6, 6) or not np.all(np.isfinite(pm)) or not (
-        np.all(np.isfinite(pi))
-    ):
-        raise BadCertificate("task.per_mass / per_inertia: shapes (t, 6) and (t, 6, 6), finite")
+    if pm.shape != (t, 6) or pi.shape != (t, 6, 6) or not np.isfinite(pm.sum() + pi.sum()):
+        raise CertificateFormatError("task.per_mass, per_inertia: finite, (t, 6) and (t, 6, 6)")
     return base, pm, pi
 
 
-def _wrenches(task, i, M, j) -> np.ndarray:
+def wrenches(task, i, M, j) -> np.ndarray:
+    """(L, 6) task wrenches i (L,) of structures of masses M (L,) and inertia vectors j."""
     base, pm, pi = task
     return base[i] + M[:, None] * pm[i] + np.einsum("lqc,lc->lq", pi[i], j)
 
@@ -264,36 +265,41 @@ def _connected(cells: np.ndarray) -> bool:
 def check_answer(cert, T: Types, task, f_max: float, fault, minimum: int) -> None:
     answer = cert.get("answer")
     if not isinstance(answer, dict):
-        raise BadCertificate("answer: missing")
+        raise CertificateFormatError("answer: missing")
     cells = _ints(answer.get("cells"), "answer.cells").reshape(-1, 2)
     types = _ints(answer.get("types"), "answer.types")
     if len(cells) != minimum or types.shape != (minimum,) or not _connected(cells):
-        raise Invalid(f"answer: needs {minimum} distinct connected cells, one type each")
+        raise ProofError(f"answer: needs {minimum} distinct connected cells, one type each")
     if types.min() < 0 or types.max() >= T.n:
-        raise Invalid("answer.types: a type index outside the types")
+        raise ProofError("answer.types: a type index outside the types")
     a, M, j = T.columns(cells[None].astype(float), types[None])
     A = a[0].T
     m = A.shape[1]
-    W = _wrenches(task, np.arange(len(task[0])), np.repeat(M, len(task[0])), np.repeat(j, len(
-        task[0]), axis=0))  # fmt: skip
+    t = len(task[0])
+    W = wrenches(task, np.arange(t), np.repeat(M, t), np.repeat(j, t, axis=0))
+    failures = np.arange(m if fault == "rotor" else minimum)
     fails = [np.zeros(m, bool)] if fault is None else list(
-        failed_columns(fault, np.arange(m if fault == "rotor" else minimum), minimum, T.rotors))
+        failed_columns(fault, failures, minimum, T.rotors))  # fmt: skip
     U = _floats(answer.get("allocations"), "answer.allocations")
     if U.shape != (len(fails), len(W), m):
-        raise Invalid(f"answer.allocations: shape {U.shape}, needs {(len(fails), len(W), m)} "
+        raise ProofError(f"answer.allocations: shape {U.shape}, needs {(len(fails), len(W), m)} "
                       "(failures, wrenches, rotors)")  # fmt: skip
     for f, off in enumerate(fails):
         u = U[f]
         where = f"answer: allocation of failure {f}" if fault else "answer: allocation"
         if np.any(u[:, off] != 0):
-            raise Invalid(f"{where}: a failed rotor has thrust")
-        low = np.flatnonzero((u < -THRUST_TOL * f_max).any(1) | (u > (1 + THRUST_TOL) * f_max).any(1))
+            raise ProofError(f"{where}: a failed rotor has thrust")
+        low = np.flatnonzero(
+            (u < -THRUST_TOL * f_max).any(1) | (u > (1 + THRUST_TOL) * f_max).any(1)
+        )
         if len(low):
-            raise Invalid(f"{where}: wrench {low[0]}: a thrust outside [0, f_max]")
+            raise ProofError(f"{where}: wrench {low[0]}: a thrust outside [0, f_max]")
         resid = np.abs(u @ A.T - W).max(axis=1)
         bad = np.flatnonzero(resid > RESIDUAL_TOL * (f_max + np.abs(W).max(axis=1)))
         if len(bad):
-            raise Invalid(f"{where}: wrench {bad[0]}: A u differs from the wrench by {resid[bad[0]]:.3g}")
+            raise ProofError(
+                f"{where}: wrench {bad[0]}: A u differs from the wrench by {resid[bad[0]]:.3g}"
+            )
 
 
 def check_level(entry, n, T: Types, task, f_max, fault, D) -> str:
@@ -302,57 +308,64 @@ def check_level(entry, n, T: Types, task, f_max, fault, D) -> str:
         b = entry["bound"]
         p, i = int(b.get("direction", -1)), int(b.get("wrench", -1))
         if not (0 <= p < len(D) and 0 <= i < len(task[0])):
-            raise Invalid(f"level {n}: bound: direction or wrench index out of range")
+            raise ProofError(f"level {n}: bound: direction or wrench index out of range")
         if bound_margin(T, task, f_max, fault, n, D[p], i) <= 0:
-            raise Invalid(f"level {n}: bound: direction {p} does not exceed the level's support")
+            raise ProofError(f"level {n}: bound: direction {p} does not exceed the level's support")
         return "bound"
     total = count(n, T.n)
     P = _ints(entry.get("direction"), f"level {n}: direction", total)
     I = _ints(entry.get("wrench"), f"level {n}: wrench", total)  # noqa: E741
-    F = -np.ones(total, np.int64) if fault is None else _ints(entry.get("failure"), f"level {n}: failure", total)
+    F = (
+        -np.ones(total, np.int64)
+        if fault is None
+        else _ints(entry.get("failure"), f"level {n}: failure", total)
+    )
     if P.min() < 0 or P.max() >= len(D) or I.min() < 0 or I.max() >= len(task[0]):
-        raise Invalid(f"level {n}: a direction or wrench index out of range")
+        raise ProofError(f"level {n}: a direction or wrench index out of range")
     if F.max() >= (n * T.rotors if fault == "rotor" else n) or F.min() < -1:
-        raise Invalid(f"level {n}: a failure index out of range")
+        raise ProofError(f"level {n}: a failure index out of range")
     for s, cells, types in structures(n, T.n):
         sl = slice(s, s + len(cells))
         a, M, j = T.columns(cells.astype(float), types)
         off = failed_columns(fault, F[sl], n, T.rotors) if fault else None
-        ok = separation(a, _wrenches(task, I[sl], M, j), D[P[sl]], f_max, off) > 0
+        ok = separation(a, wrenches(task, I[sl], M, j), D[P[sl]], f_max, off) > 0
         if not ok.all():
             k = int(np.argmin(ok))
-            raise Invalid(f"level {n}: structure {s + k} (cells {cells[k].tolist()}, types "
-                          f"{types[k].tolist()}): direction {P[s + k]} does not separate wrench "
-                          f"{I[s + k]}" + (f" after failure {F[s + k]}" if fault else ""))  # fmt: skip
+            after = f" after failure {F[s + k]}" if fault else ""
+            raise ProofError(
+                f"level {n}: structure {s + k} (cells {cells[k].tolist()}, types "
+                f"{types[k].tolist()}): direction {P[s + k]} does not separate wrench "
+                f"{I[s + k]}{after}"
+            )
     return f"{total} structures"
 
 
 def check(cert: dict, report=None) -> str:
-    """Verify a certificate (a dict): a one-line summary if valid; raises :class:`Invalid`
-    naming the first thing that fails, :class:`BadCertificate` for a malformed one.
+    """Verify a certificate (a dict): a one-line summary if valid; raises :class:`ProofError`
+    naming the first thing that fails, :class:`CertificateFormatError` for a malformed one.
     ``report(n, how)`` is called after each level."""
     if not isinstance(cert, dict) or cert.get("format") != FORMAT or cert.get("version") != VERSION:
-        raise BadCertificate(f"not a {FORMAT} of version {VERSION}")
+        raise CertificateFormatError(f"not a {FORMAT} of version {VERSION}")
     fault = cert.get("fault")
     if fault not in (None, "rotor", "module"):
-        raise BadCertificate(f"fault: unknown {fault!r} (null, 'rotor' or 'module')")
+        raise CertificateFormatError(f"fault: unknown {fault!r} (null, 'rotor' or 'module')")
     f_max = float(_floats(cert.get("f_max"), "f_max"))
     if not 0 < f_max < np.inf:
-        raise BadCertificate("f_max: must be positive")
+        raise CertificateFormatError("f_max: must be positive")
     T, task = Types(cert.get("types")), _task(cert)
     D = _floats(cert.get("directions", []), "directions").reshape(-1, 6)
     minimum, n_max = cert.get("minimum"), cert.get("n_max")
     top = minimum - 1 if minimum is not None else n_max
     if type(top) is not int or top < 0:
-        raise BadCertificate("minimum / n_max: must be integers")
+        raise CertificateFormatError("minimum / n_max: must be integers")
     if minimum is not None:
         check_answer(cert, T, task, f_max, fault, minimum)
     levels = {e.get("n"): e for e in cert.get("levels", []) if isinstance(e, dict)}
     if set(levels) - set(range(1, top + 1)):
-        raise Invalid(f"levels: proofs of levels outside 1..{top}")
+        raise ProofError(f"levels: proofs of levels outside 1..{top}")
     for n in range(1, top + 1):
         if n not in levels:
-            raise Invalid(f"level {n}: no proof")
+            raise ProofError(f"level {n}: no proof")
         how = check_level(levels[n], n, T, task, f_max, fault, D)
         if report is not None:
             report(n, how)
@@ -373,10 +386,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         print(check(load(args[0])))
         return 0
-    except BadCertificate as e:
+    except CertificateFormatError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    except Invalid as e:
+    except ProofError as e:
         print(f"invalid: {e}")
         return 1
 

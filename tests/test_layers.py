@@ -17,10 +17,11 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "modquad_gym"
 
 LAYERS = (
-    "core", "geometry", "oracle", "dynamics", "tasks", "search", "viz", "envs", "policy",
-    "methods", "solvers", "sim", "scoring", "cli",
+    "proofcheck", "core", "geometry", "oracle", "dynamics", "tasks", "search", "viz", "envs",
+    "policy", "methods", "solvers", "sim", "scoring", "cli",
 )  # fmt: skip
-"""Bottom to top: a module may import its own layer and those below it."""
+"""Bottom to top: a module may import its own layer and those below it (the certificate
+checker, ``proofcheck``, imports no other module of the package)."""
 ROOT_LAYER = "envs"
 """``modquad_gym/__init__.py`` (the public names) imports up to the envs (it registers them)."""
 

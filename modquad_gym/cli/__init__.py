@@ -9,7 +9,8 @@ cannot be written, a missing optional dependency, a closed output pipe), reporte
 
 One module per command, each with ``add_COMMAND(sub)`` (its parser) beside its handler
 ``cmd_COMMAND(args)``: :mod:`.solve`, :mod:`.optima`, :mod:`.task`, :mod:`.show`,
-:mod:`.export`, :mod:`.validate`, :mod:`.score` (and :mod:`.bench`, its deprecated name); the
+:mod:`.export`, :mod:`.validate`, :mod:`.score`, :mod:`.check` (and :mod:`.bench`, the deprecated
+name of score); the
 options they share are in :mod:`.common`.
 A new command is a module with those two functions, added to :data:`COMMANDS`.
 """
@@ -21,6 +22,7 @@ import os
 import sys
 
 from modquad_gym.cli.bench import add_bench
+from modquad_gym.cli.check import add_check
 from modquad_gym.cli.common import one_line
 from modquad_gym.cli.export import add_export
 from modquad_gym.cli.optima import add_optima
@@ -31,7 +33,8 @@ from modquad_gym.cli.task import add_task
 from modquad_gym.cli.validate import add_validate
 
 COMMANDS = (
-    add_solve, add_optima, add_task, add_show, add_export, add_validate, add_score, add_bench,
+    add_solve, add_optima, add_task, add_show, add_export, add_validate, add_score, add_check,
+    add_bench,
 )  # fmt: skip
 """The commands, in the order ``modquad --help`` lists them."""
 

@@ -39,13 +39,13 @@ def make(result, problem, progress: bool = False, bounds: bool = True) -> dict:
     ``bounds=False`` proves every level structure by structure (to measure what bounds save)."""
     if not result.certified:
         raise CertificateError("only a certified answer has a certificate (this one is not)")
-    T = pc.Types([_type_dict(m) for m in problem.palette])
+    T = pc.Types([type_dict(m) for m in problem.palette])
     model = problem.model
     task = (np.asarray(model.base, float), np.asarray(model.per_mass, float),
             np.asarray(model.per_inertia, float))  # fmt: skip
     f_max, fault = float(problem.f_max), problem.fault
     cert: dict = {"format": pc.FORMAT, "version": pc.VERSION, "f_max": f_max, "fault": fault}
-    cert["types"] = [_type_dict(m) for m in problem.palette]
+    cert["types"] = [type_dict(m) for m in problem.palette]
     cert["task"] = {"name": getattr(problem.task, "name", None), "kind": problem.kind,
                     "base": task[0].tolist(), "per_mass": task[1].tolist(),
                     "per_inertia": task[2].tolist() if model.uses_inertia else None}  # fmt: skip
@@ -66,9 +66,7 @@ def make(result, problem, progress: bool = False, bounds: bool = True) -> dict:
         else:
             e["direction"] = index[np.asarray(e["direction"])].tolist()
     cert["directions"] = np.array(prover.pool)[used].reshape(-1, 6).tolist()
-    from modquad_gym import __version__
-
-    cert["producer"] = {"package": f"modquad_gym {__version__}", "method": result.method}
+    cert["producer"] = {"method": result.method}
     return cert
 
 
@@ -97,7 +95,8 @@ def _directions_of(entry: dict):
     return [entry["bound"]["direction"]] if "bound" in entry else entry["direction"]
 
 
-def _type_dict(m) -> dict:
+def type_dict(m) -> dict:
+    """A module type's entry of a certificate (its rotor data, side, drag ratio, mass, inertia)."""
     return {"name": m.name, "side": m.side, "c_tau": m.c_tau, "mass": m.mass,
             "inertia": np.asarray(m.inertia).tolist(), "positions": m.positions.tolist(),
             "directions": m.directions.tolist(), "spins": m.spins.tolist()}  # fmt: skip
@@ -118,10 +117,13 @@ def _answer(structure, problem, T, task, f_max, fault) -> dict:
     a, M, j = T.columns(cells[None].astype(float), types[None])
     A = a[0].T
     t = len(task[0])
-    W = pc._wrenches(task, np.arange(t), np.repeat(M, t), np.repeat(j, t, axis=0))
+    W = pc.wrenches(task, np.arange(t), np.repeat(M, t), np.repeat(j, t, axis=0))
     m, n = A.shape[1], len(cells)
-    fails = [np.zeros(m, bool)] if fault is None else list(
-        pc.failed_columns(fault, np.arange(m if fault == "rotor" else n), n, T.rotors))
+    fails = (
+        [np.zeros(m, bool)]
+        if fault is None
+        else list(pc.failed_columns(fault, np.arange(m if fault == "rotor" else n), n, T.rotors))
+    )
     allocations = [_allocate(A, W, f_max, ~off) for off in fails]
     return {"cells": cells.tolist(), "types": types.tolist(), "allocations": allocations}
 
@@ -156,17 +158,20 @@ def _centred(z, r: np.ndarray) -> np.ndarray:
     the DAQP LP of the oracle (:mod:`modquad_gym.oracle.daqp_lp`), HiGHS when DAQP fails."""
     import daqp
 
-    from modquad_gym.oracle.daqp_lp import _daqp_arrays
-    from modquad_gym.oracle.lp import GammaLP
+    from modquad_gym.oracle.lp import GammaLP, ray_cost, ray_matrix
 
     nr = float(np.linalg.norm(r))
     if nr <= 1e-14 * max(z.scale, 1.0):
         return np.zeros(z.m)
-    a = _daqp_arrays(z)
-    a["A"][:, -1] = -r / nr
-    x, _, flag, _ = daqp.solve(a["H"], a["f"], a["A"], a["bu"], a["bl"], a["sense"])
+    m = z.m
+    x, _, flag, _ = daqp.solve(
+        np.zeros((m + 1, m + 1)), ray_cost(m), ray_matrix(z.G, r / nr),
+        np.concatenate([np.ones(m), [1e30], np.zeros(z.rank)]),
+        np.concatenate([-np.ones(m), [0.0], np.zeros(z.rank)]),
+        np.array([0] * (m + 1) + [5] * z.rank, dtype=np.int32),
+    )  # fmt: skip
     if flag == 1 and x[-1] > 0:
-        return x[: z.m] * (nr / x[-1])
+        return x[:m] * (nr / x[-1])
     return GammaLP.build(z.G).solve(r).x[:-1]
 
 
@@ -209,7 +214,9 @@ class _Prover:
 
         N = force_normals(list(self.problem.palette))
         forces = np.hstack([N, np.zeros_like(N)])
-        return np.vstack([forces, level_directions()] + ([np.array(self.pool)] if self.pool else []))
+        return np.vstack(
+            [forces, level_directions()] + ([np.array(self.pool)] if self.pool else [])
+        )
 
     def _bound(self, n: int):
         """(direction index, wrench) of a bound covering level n, or None: the candidate pair
@@ -247,9 +254,11 @@ class _Prover:
             if found is not None:
                 p = self._add(found[0])
                 self._try(p, a, W, alive, P, I)
-                if alive[k]:  # the LP's direction failed the strict test: keep the proof anyway
-                    raise CertificateError(f"a separating direction of structure {cells[k].tolist()} "
-                                           "is too close to the boundary to certify")  # fmt: skip
+                if alive[k]:  # the LP's direction fails the strict test
+                    raise CertificateError(
+                        f"the separating direction of the structure {cells[k].tolist()} is "
+                        "too close to its boundary to certify"
+                    )
                 continue
             if self.fault is None:
                 raise CertificateError(

@@ -1,0 +1,55 @@
+"""``modquad check``: verify a certificate with the independent checker
+(:mod:`modquad_gym.proofcheck`)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+from modquad_gym.cli.common import add_command
+
+
+def add_check(sub) -> None:
+    p = add_command(
+        sub,
+        "check",
+        cmd_check,
+        help="verify a certificate of a minimum structure (written by solve --certificate)",
+        description="Verify a certificate written by `modquad solve --certificate FILE` with "
+        "the independent checker modquad_gym/proofcheck.py (numpy only, no other part of "
+        "the package): it rebuilds every configuration matrix from the rotor data in the "
+        "file, checks the answer's thrusts for every task wrench, enumerates every smaller "
+        "structure itself and checks each one's separating direction (or the bound that covers "
+        "its level). Prints 'valid: ...' (exit 0) or 'invalid: ' and the first thing that "
+        "fails (exit 1); a file that is not a certificate exits 2. The format and the "
+        "checker's argument: docs/certificates.md.",
+    )
+    p.add_argument("file", metavar="FILE", help="the certificate (.json, or .json.gz)")
+    p.add_argument(
+        "--levels",
+        action="store_true",
+        help="also print how each smaller level was proved and how long its check took",
+    )
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    from modquad_gym import proofcheck
+
+    cert = proofcheck.load(args.file)  # CertificateFormatError is a ValueError: exit 2
+    start = [time.perf_counter()]
+
+    def report(n: int, how: str) -> None:
+        now = time.perf_counter()
+        if args.levels:
+            print(f"level {n}: {how} ({now - start[0]:.2f} s)", file=sys.stderr)
+        start[0] = now
+
+    try:
+        print(proofcheck.check(cert, report))
+    except proofcheck.ProofError as exc:
+        print(f"invalid: {exc}")
+        return 1
+    except (TypeError, KeyError, IndexError, AttributeError) as exc:
+        raise ValueError(f"{args.file}: not a well-formed certificate ({exc})") from None
+    return 0
