@@ -56,7 +56,8 @@ def make(result, problem, progress: bool = False, bounds: bool = True) -> dict:
         cert["answer"] = _answer(result.structure, problem, T, task, f_max, fault)
         top -= 1
     prover = _Prover(T, task, f_max, fault, problem, bounds)
-    cert["levels"] = [prover.level(n, progress) for n in range(1, top + 1)]
+    # top down: the bound of a level usually covers the smaller ones too
+    cert["levels"] = [prover.level(n, progress) for n in range(top, 0, -1)][::-1]
     used = sorted({int(p) for e in cert["levels"] for p in _directions_of(e)})
     index = np.full(len(prover.pool) + 1, -1)
     index[used] = np.arange(len(used))
@@ -181,6 +182,9 @@ class _Prover:
     def __init__(self, T, task, f_max, fault, problem, bounds: bool = True) -> None:
         self.T, self.task, self.f_max, self.fault, self.problem = T, task, f_max, fault, problem
         self.bounds = bounds
+        self.bound_pairs: list[tuple[int, int]] = []  # (direction, wrench) of bounds found
+        self._fixed: np.ndarray | None = None
+        self._forces = 0
         self.pool: list[np.ndarray] = []
         self.uses: list[int] = []
 
@@ -210,25 +214,34 @@ class _Prover:
         return entry
 
     def _candidates(self) -> np.ndarray:
-        from modquad_gym.search.bounds import force_normals, level_directions
+        """Directions a level bound may use: the palette's force-facet normals (the force
+        bound's), the level bounds' fixed directions, and the directions found so far."""
+        if self._fixed is None:
+            from modquad_gym.search.bounds import force_normals, level_directions
 
-        N = force_normals(list(self.problem.palette))
-        forces = np.hstack([N, np.zeros_like(N)])
-        return np.vstack(
-            [forces, level_directions()] + ([np.array(self.pool)] if self.pool else [])
-        )
+            N = force_normals(list(self.problem.palette))
+            self._forces = len(N)
+            self._fixed = np.vstack([np.hstack([N, np.zeros_like(N)]), level_directions()])
+        return np.vstack([self._fixed, *([np.array(self.pool)] if self.pool else [])])
 
     def _bound(self, n: int):
-        """(direction index, wrench) of a bound covering level n, or None: the candidate pair
-        of the largest margin (:func:`bound_margins`), confirmed by the checker's formula."""
+        """(direction index, wrench) of a bound covering level n, or None: a bound found for
+        another level, else the candidate pair of the largest margin (:func:`bound_margins`),
+        each confirmed by the checker's formula."""
+        args = (self.T, self.task, self.f_max, self.fault, n)
         D = self._candidates()
-        margins = bound_margins(self.T, self.task, self.f_max, self.fault, n, D)
+        for p, i in self.bound_pairs:
+            if pc.bound_margin(*args, self.pool[p], i) > 0:
+                return p, i
+        D = self._candidates()
+        margins = bound_margins(*args, D[: self._forces])  # the force bound's first: fewer
+        if margins.max() <= 0:
+            margins = bound_margins(*args, D)
         p, i = np.unravel_index(int(np.argmax(margins)), margins.shape)
-        if margins[p, i] <= 0:
+        if margins[p, i] <= 0 or pc.bound_margin(*args, D[p], int(i)) <= 0:
             return None
-        if pc.bound_margin(self.T, self.task, self.f_max, self.fault, n, D[p], int(i)) <= 0:
-            return None
-        return self._add(D[p]), int(i)
+        self.bound_pairs.append((self._add(D[p]), int(i)))
+        return self.bound_pairs[-1]
 
     def _add(self, d: np.ndarray) -> int:
         d = np.asarray(d, float) / np.linalg.norm(d)
