@@ -5,7 +5,8 @@ command.
 Exit codes: 0 on success (an infeasible task is a result, not an error); 2 for every expected
 failure (a task file that cannot be read, a bad option value, an output path that exists or
 cannot be written, a missing optional dependency, a closed output pipe), reported as one line
-``modquad: error: ...`` naming the file or option; 130 when interrupted (Ctrl-C).
+``modquad: error: ...`` naming the file or option; 130 when interrupted (Ctrl-C); 1 when
+``modquad check`` finds a certificate invalid.
 
 One module per command, each with ``add_COMMAND(sub)`` (its parser) beside its handler
 ``cmd_COMMAND(args)``: :mod:`.solve`, :mod:`.optima`, :mod:`.task`, :mod:`.show`,
