@@ -35,6 +35,8 @@ from modquad_gym.search.problem import SearchProblem
 from modquad_gym.tasks import load_suite
 
 SUITES_DIR = Path(mq.__file__).parent / "data" / "suites"
+SCALE_TIME = 20.0
+"""Seconds of the default search per scale task (``--scale``)."""
 FAULT_SUITES = ("heldout_paper", "heldout_planted", "dynamic_motions")
 CHILD = (
     "import importlib.util, json, sys, time\n"
@@ -50,8 +52,11 @@ CHILD = (
 )
 
 
-def jobs(fault_tasks: int, limit: int | None):
-    """(suite, task, n_max, palette, fault) of every certificate to make."""
+SCALE_SUITES = ("scale_16", "scale_24", "scale_32", "scale_48", "scale_64")
+
+
+def jobs(fault_tasks: int, limit: int | None, scale: int):
+    """(tier, suite, task, n_max, palette, fault) of every certificate to make."""
     for name in ("current", "large", "mixed", "dynamic"):
         tier = get_tier(name)
         for suite in tier.suites:
@@ -61,6 +66,9 @@ def jobs(fault_tasks: int, limit: int | None):
         for task in load_suite(SUITES_DIR / f"{suite}.json")[:fault_tasks]:
             for fault in ("rotor", "module"):
                 yield "faults", suite, task, 7, None, fault
+    for suite in SCALE_SUITES[: 5 if scale else 0]:
+        for task in load_suite(SUITES_DIR / f"{suite}.json")[:scale]:
+            yield "scale", suite, task, 64, task.meta.get("palette"), None
 
 
 def certify(tier, suite, task, n_max, modules, fault, out: Path) -> dict:
@@ -69,12 +77,20 @@ def certify(tier, suite, task, n_max, modules, fault, out: Path) -> dict:
         task, n_max=n_max, modules=None if modules is None else palette(modules), fault=fault
     )
     t0 = time.perf_counter()
-    result = mq.exhaustive_search.solve(problem)
+    if tier == "scale":  # beyond the exhaustive search: the default one, certified or not
+        result = mq.anytime_search.solve(problem, time_limit=SCALE_TIME, seed=0)
+    else:
+        result = mq.exhaustive_search.solve(problem)
     search = time.perf_counter() - t0
+    if not result.certified:
+        return {"tier": tier, "suite": suite, "task": task.name, "certified": False}
     row = {"tier": tier, "suite": suite, "task": task.name, "fault": fault or "",
            "minimum": result.n_modules, "certified": result.certified}  # fmt: skip
     t0 = time.perf_counter()
-    cert = certificates.make(result, problem)
+    try:
+        cert = certificates.make(result, problem)
+    except certificates.CertificateError as exc:
+        return {**row, "certified": False, "why": str(exc)}
     make = time.perf_counter() - t0
     default = None
     if tier == "current":
@@ -158,19 +174,27 @@ def main(argv: list[str] | None = None) -> int:
         argv, "python -m benchmarks.certificates", __doc__,
         {"--fault-tasks": {"type": int, "default": 10, "help": "tasks per fault suite"},
          "--limit": {"type": int, "default": None, "help": "first tasks of each tier suite"},
-         "--enumerated": {"action": "store_true", "help": "also the 10/12-module checks"}},
+         "--enumerated": {"action": "store_true", "help": "also the 10/12-module checks"},
+         "--scale": {"type": int, "default": 0, "help": "also the first N tasks of each scale "
+                     "suite of 16-64 modules, the default search (20 s), where certified"}},
         seed_help=None, out="results/certificates", outputs=("hashes.csv", "report.md"),
     )  # fmt: skip
-    rows = []
-    for job in jobs(args.fault_tasks, args.limit):
-        rows.append(certify(*job, args.out))
-        r = rows[-1]
+    rows, uncertified = [], []
+    for job in jobs(args.fault_tasks, args.limit, args.scale):
+        r = certify(*job, args.out)
+        if not r["certified"]:
+            uncertified.append(
+                f"{r['suite']}/{r['task']}" + (f" ({r['why']})" if "why" in r else "")
+            )
+            continue
+        rows.append(r)
         print(f"{r['suite']} {r['task']} {r['fault']}: {r['minimum']} modules, make "
               f"{r['make_s']:.3f} s, search {r['search_s']:.3f} s", file=sys.stderr)  # fmt: skip
     keys = ("tier", "suite", "task", "fault", "minimum", "levels", "bytes", "sha256", "file")
     write_csv([{k: r[k] for k in keys} for r in rows], args.out / "hashes.csv")
     write_csv(rows, args.out / "certificates.csv")
     command = "python -m benchmarks.certificates" + (" --enumerated" if args.enumerated else "")
+    command += f" --scale {args.scale}" if args.scale else ""
     lines = ["# Certificates of the held-out suites' certified optima", "",
              made_by(f"{command} --out {args.out} --force", "; one process"), "",
              "Each certificate is made after the certified exhaustive search from its answer "
@@ -179,6 +203,10 @@ def main(argv: list[str] | None = None) -> int:
              "by modquad_gym/proofcheck.py. Levels: `bound` where a level bound covers the "
              "level, else the number of structures proved one by one.", "",
              *summary(rows)]  # fmt: skip
+    if uncertified:
+        lines += ["", "No certificate (not certified by the default search in "
+                  f"{SCALE_TIME:g} s, or a level beyond bounds and enumeration): "
+                  + "; ".join(uncertified) + "."]  # fmt: skip
     if args.enumerated:
         lines += ["", "## Checking large optima (a fresh process that loads only the checker)",
                   "", markdown_table(enumerated(args.out), ".2f")]  # fmt: skip

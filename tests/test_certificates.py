@@ -241,3 +241,31 @@ def test_modquad_check_exit_codes(paper, tmp_path, capsys):
     bad.write_text('{"format": "something else"}')
     assert main(["check", str(bad)]) == 2
     assert "not a modquad-certificate" in capsys.readouterr().err
+
+
+RESULTS = ROOT / "results" / "certificates"
+
+
+def test_the_committed_certificates_check_and_a_sample_regenerates_alike(tmp_path):
+    """The benchmark's certificates: the sample files committed with it have the sha256 of
+    hashes.csv and the checker accepts them; two rows made again here give the same minimum
+    and the same proof of each level (bytes may differ across CPUs in the last bits)."""
+    import csv
+    import gzip
+    import hashlib
+
+    from benchmarks.certificates import certify
+
+    rows = list(csv.DictReader((RESULTS / "hashes.csv").open()))
+    committed = [r for r in rows if (RESULTS / r["file"]).exists()]
+    assert committed
+    for r in committed:
+        data = (RESULTS / r["file"]).read_bytes()
+        assert hashlib.sha256(data).hexdigest() == r["sha256"]
+        assert pc.check(json.loads(gzip.decompress(data))).startswith("valid")
+    for r in (rows[0], next(r for r in rows if r["tier"] == "mixed")):
+        task = next(t for t in load_suite(SUITES / f"{r['suite']}.json") if t.name == r["task"])
+        modules = "t45,t45m,flat" if r["tier"] == "mixed" else None
+        again = certify(r["tier"], r["suite"], task, 7, modules, r["fault"] or None, tmp_path)
+        assert again["valid"] and str(again["minimum"]) == r["minimum"]
+        assert again["levels"] == r["levels"]

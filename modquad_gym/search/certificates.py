@@ -25,6 +25,9 @@ import numpy as np
 
 from modquad_gym import proofcheck as pc
 
+MAX_STRUCTURES = 2_000_000
+"""Most structures of a level proved one by one (level 13 of one type: 1.9 million)."""
+
 STRICT = 4.0
 """A direction is used only where it separates with this many times the checker's tolerance."""
 
@@ -82,12 +85,9 @@ def write(result, problem, path: str | Path, force: bool = False, **options) -> 
         raise FileExistsError(f"{path} exists (pass --force to overwrite it)")
     text = json.dumps(make(result, problem, **options), separators=(",", ":"))
 
-    def fill(tmp: Path) -> None:
-        if path.name.endswith(".gz"):
-            with gzip.GzipFile(tmp, "wb", mtime=0) as fh:  # mtime 0: reproducible bytes
-                fh.write(text.encode())
-        else:
-            tmp.write_text(text)
+    def fill(tmp: Path) -> None:  # gzip without a name or time: the same bytes every time
+        gz = path.name.endswith(".gz")
+        tmp.write_bytes(gzip.compress(text.encode(), mtime=0) if gz else text.encode())
 
     return atomic_write(path, fill)
 
@@ -193,12 +193,12 @@ class _Prover:
         bound = self._bound(n) if self.bounds else None
         if bound is not None:
             return {"n": n, "bound": {"direction": bound[0], "wrench": bound[1]}}
-        if n > pc.MAX_ENUMERATED:
+        total = pc.count(n, self.T.n) if n <= pc.MAX_ENUMERATED else None
+        if total is None or total > MAX_STRUCTURES:
             raise CertificateError(
-                f"level {n}: no bound covers it and it is too large to enumerate "
-                f"(at most {pc.MAX_ENUMERATED} modules)"
+                f"level {n}: no level bound covers it and it holds too many structures to "
+                f"prove one by one (at most {MAX_STRUCTURES:,})"
             )
-        total = pc.count(n, self.T.n)
         P, I, F = (np.full(total, -1, np.int64) for _ in range(3))
         bar = _bar(progress, n, total)
         for s, cells, types in pc.structures(n, self.T.n):
