@@ -269,3 +269,23 @@ def test_the_committed_certificates_check_and_a_sample_regenerates_alike(tmp_pat
         again = certify(r["tier"], r["suite"], task, 7, modules, r["fault"] or None, tmp_path)
         assert again["valid"] and str(again["minimum"]) == r["minimum"]
         assert again["levels"] == r["levels"]
+
+
+def test_modquad_solve_writes_a_certificate_that_checks(tmp_path, capsys):
+    from modquad_gym.cli import main
+
+    task = tmp_path / "task.json"
+    task.write_text(json.dumps({"wrenches": [[0, 0, 5.0, 0, 0, 0], [0.4, 0, 4.0, 0, 0, 0.05]]}))
+    out = tmp_path / "proof.json.gz"
+    args = ["solve", "--task", str(task), "--method", "exhaustive", "--n-max", "5", "--json"]
+    assert main([*args, "--certificate", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["check", str(out)]) == 0
+    assert capsys.readouterr().out.startswith("valid: the minimum is 2 modules")
+    assert main([*args, "--certificate", str(out)]) == 2  # kept unless --force
+    assert "--certificate" in capsys.readouterr().err
+    assert main([*args, "--certificate", str(tmp_path / "proof.txt")]) == 2
+    assert ".json or .json.gz" in capsys.readouterr().err
+    problem = SearchProblem.build(json.loads(task.read_text())["wrenches"], n_max=5)
+    result = mq.exhaustive_search.solve(problem)
+    assert pc.check(result.certificate(problem)).startswith("valid")

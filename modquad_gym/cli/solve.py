@@ -83,6 +83,14 @@ def add_solve(sub) -> None:
         "suffix: .xml = MJCF, .urdf = URDF, .json = rotor poses, mass, inertia and the "
         "configuration matrix (see `modquad export --help`)",
     )
+    p.add_argument(
+        "--certificate",
+        metavar="FILE",
+        default=None,
+        help="also write a certificate of the certified answer (one task only) to FILE (.json, "
+        "or .json.gz compressed): a proof that `modquad check FILE` verifies without trusting "
+        "the search (docs/certificates.md); an answer that is not certified is refused",
+    )
     add_force(p)
 
 
@@ -164,6 +172,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     paths = task_files(args.task)
     if args.export is not None:
         check_export(args.export, len(paths), args.force)
+    if args.certificate is not None:
+        check_certificate(args.certificate, len(paths), args.force)
     engine = Engine(args.workers, args.ray_address, local_default=1, option="--workers")
     if len(paths) == 1 or not engine.use_ray:
         return solve_here(args, paths, engine)
@@ -224,6 +234,8 @@ def solve_path(args: argparse.Namespace, path: Path, engine, single: bool) -> li
     print_result(args, path, task, result)
     if args.export is not None:
         export_result(args, task, result)
+    if args.certificate is not None:
+        write_certificate(args, task, result)
     return []
 
 
@@ -248,6 +260,35 @@ def export_result(args: argparse.Namespace, task, result) -> None:
     if result.structure is None:
         raise ValueError(f"--export: no structure found for {task.name!r}; nothing written")
     out = save_structure(result.structure, args.export, f_max=task.f_max, force=args.force)
+    if not args.json:
+        print(f"  wrote {out}")
+
+
+def check_certificate(out: str, n_tasks: int, force: bool) -> None:
+    """``--certificate`` is checked before any search: one task, .json(.gz), a writable file."""
+    from modquad_gym.core.outputs import check_output_file
+
+    if n_tasks != 1:
+        raise ValueError(f"--certificate: give one task, not {n_tasks} (it proves one answer)")
+    if not out.endswith((".json", ".json.gz")):
+        raise ValueError(f"--certificate: {out} must end in .json or .json.gz")
+    check_output_file(out, force=force, what="--certificate")
+
+
+def write_certificate(args: argparse.Namespace, task, result) -> None:
+    """Write the certificate of a certified answer to ``--certificate``
+    (:mod:`modquad_gym.search.certificates`)."""
+    from modquad_gym.search.certificates import write
+    from modquad_gym.search.problem import SearchProblem
+
+    if not result.certified:
+        raise ValueError(
+            f"--certificate: the answer for {task.name!r} is not certified (proved bound "
+            f"{result.lower_bound}, {result.n_modules} modules); nothing written: give a longer "
+            "--time-limit or --method exhaustive"
+        )
+    problem = SearchProblem.build(task, args.n_max, modules=palette(args), fault=args.fault)
+    out = write(result, problem, args.certificate, force=args.force)
     if not args.json:
         print(f"  wrote {out}")
 

@@ -161,6 +161,13 @@ class SearchResult:
             f"one may still exist; proved: at least {self.lower_bound})"
         )
 
+    def certificate(self, problem: SearchProblem) -> dict:
+        """The certificate of this certified answer to ``problem``: a proof that
+        :mod:`modquad_gym.proofcheck` (``modquad check``) verifies (:mod:`.certificates`)."""
+        from modquad_gym.search.certificates import make
+
+        return make(self, problem)
+
     def to_dict(self) -> dict:
         out = {
             "cells": [list(c) for c in self.structure.cells] if self.structure else None,
