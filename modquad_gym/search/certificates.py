@@ -301,28 +301,42 @@ class _Prover:
         n, r = len(cells), self.T.rotors
         failures = np.arange(n * r if self.fault == "rotor" else n)
         offs = pc.failed_columns(self.fault, failures, n, r)
+        got = self._pool_failure(a, W, offs)
+        if got is not None:
+            return got[0], got[1], int(failures[got[2]])
         for f, off in zip(failures, offs):
-            for p in np.argsort(-np.array(self.uses, dtype=float), kind="stable"):
-                got = self._test_one(self.pool[p], a, W, off)
-                if got is not None:
-                    self.uses[p] += 1
-                    return int(p), got, int(f)
             found = _separate(a[~off].T, W, self.f_max)
             if found is not None:
                 p = self._add(found[0])
-                got = self._test_one(self.pool[p], a, W, off)
+                got = self._pool_failure(a, W, off[None], [p])
                 if got is not None:
-                    return p, got, int(f)
+                    return p, got[1], int(f)
         raise CertificateError(
             f"the structure {cells.tolist()} (types {types.tolist()}) tolerates every single "
             f"{self.fault} failure: the answer is not a minimum"
         )
 
-    def _test_one(self, d, a, W, off):
-        i = int(np.argmax(W @ d))
-        w = W[i][None]
-        margin = pc.separation(a[None], w, d[None], self.f_max, off[None])[0]
-        return i if margin > (STRICT - 1.0) * _tolerance(a[None], w, d, self.f_max)[0] else None
+    def _pool_failure(self, a, W, offs, among=None):
+        """(direction, wrench, index into ``offs``) of a pool direction (or one of ``among``)
+        that separates a task wrench from the structure (columns ``a``) after a failure (rows
+        of ``offs``: the failed columns), strictly; None when none does."""
+        idx = np.arange(len(self.pool)) if among is None else np.array(among)
+        if not len(idx):
+            return None
+        D = np.array(self.pool)[idx]  # (P, 6)
+        plus = np.maximum(D @ a.T, 0.0)  # (P, m)
+        h = self.f_max * (plus.sum(axis=1)[:, None] - plus @ offs.T)  # (P, F)
+        values = D @ W.T  # (P, t)
+        best = values.argmax(axis=1)
+        w = W[best]  # (P, 6)
+        scale = np.linalg.norm(w, axis=1) + self.f_max * np.linalg.norm(a, axis=1).sum()
+        tol = pc.SEPARATION_TOL * np.linalg.norm(D, axis=1) * scale
+        margin = values.max(axis=1)[:, None] - h - STRICT * tol[:, None]  # (P, F)
+        p, f = np.unravel_index(int(np.argmax(margin)), margin.shape)
+        if margin[p, f] <= 0:
+            return None
+        self.uses[idx[p]] += 1
+        return int(idx[p]), int(best[p]), int(f)
 
 
 def bound_margins(T, task, f_max, fault, n, D) -> np.ndarray:
@@ -356,13 +370,15 @@ def _separate(A: np.ndarray, W: np.ndarray, f_max: float):
     """(direction in wrench space, wrench index) separating the hardest wrench of W from the
     zonotope of A, or None when A satisfies every wrench (the oracle's decision)."""
     from modquad_gym.oracle import TOL, Zonotope
+    from modquad_gym.oracle.backends import decide_with
 
     z = Zonotope(A, f_max)
     R, off = z.reduce(W)
     if off.any():
         i = int(np.argmax(off))
         return W[i] - z.Q @ (z.Q.T @ W[i]), i
-    for i in np.argsort(-np.linalg.norm(W, axis=1), kind="stable"):  # hardest first
+    bad = np.flatnonzero(~decide_with(z, W, "auto"))  # the oracle's exact decisions
+    for i in bad[np.argsort(-np.linalg.norm(W[bad], axis=1), kind="stable")]:  # hardest first
         gamma, d = z.separating_direction(R[i])
         if gamma > 1.0 + TOL and np.any(d):
             return z.Q @ d, int(i)
