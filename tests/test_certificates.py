@@ -289,3 +289,24 @@ def test_modquad_solve_writes_a_certificate_that_checks(tmp_path, capsys):
     problem = SearchProblem.build(json.loads(task.read_text())["wrenches"], n_max=5)
     result = mq.exhaustive_search.solve(problem)
     assert pc.check(result.certificate(problem)).startswith("valid")
+
+
+def test_a_malformed_certificate_is_named_in_one_line(paper, tmp_path, capsys):
+    from modquad_gym.cli import main
+
+    level = next(e["n"] for e in paper[0]["levels"] if "direction" in e)
+    changes = {
+        "types": lambda c: c.pop("types"),
+        "task.base": lambda c: c["task"].__setitem__("base", [["a"] * 6]),
+        f"level {level}: direction": lambda c: next(
+            e for e in c["levels"] if e["n"] == level)["direction"].__setitem__(0, "x"),
+        "fault": lambda c: c.__setitem__("fault", "rotor3"),
+    }  # fmt: skip
+    for words, change in changes.items():
+        c = copy.deepcopy(paper[0])
+        change(c)
+        path = tmp_path / "bad.json"
+        path.write_text(json.dumps(c))
+        assert main(["check", str(path)]) == 2, words
+        err = capsys.readouterr().err
+        assert err.startswith("modquad: error: ") and words in err and len(err.splitlines()) == 1
