@@ -260,8 +260,6 @@ class _Prover:
             if not alive.any():
                 break
             self._try(int(p), a, W, alive, P, I)
-        if alive.any():
-            self._try_fixed(a, W, alive, P, I)
         while alive.any():
             k = int(np.argmax(alive))
             A = a[k].T
@@ -283,19 +281,6 @@ class _Prover:
             P[k], I[k], F[k] = self._failure(a[k], W[k], cells[k], types[k])
             alive[k] = False
         del t
-
-    def _try_fixed(self, a, W, alive, P, I) -> None:
-        """Try the fixed candidate directions (:meth:`_candidates`) on the alive structures
-        all at once where that is small (a few LPs fewer), keeping those that separate one."""
-        D = self._candidates()[: len(self._fixed)]
-        idx = np.flatnonzero(alive)
-        if len(idx) * a.shape[1] * len(D) > 4_000_000:
-            return
-        da = a[idx] @ D.T  # (L, m, P)
-        values = np.einsum("ltq,pq->lpt", W[idx], D).max(axis=2)  # (L, P)
-        margin = values - self.f_max * np.maximum(da, 0.0).sum(axis=1)  # (L, P)
-        for q in np.unique(np.argmax(margin, axis=1)[margin.max(axis=1) > 0]):
-            self._try(self._add(D[q]), a, W, alive, P, I)
 
     def _try(self, p: int, a, W, alive, P, I) -> None:
         """Assign direction p to the alive structures it separates (strictly)."""
