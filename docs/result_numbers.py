@@ -9,7 +9,10 @@ every page and as in the leaderboard:
   the tier's held-out tasks, then the mean over seeds with its 95 % percentile bootstrap interval
   (seeds resampled; ``benchmarks.leaderboard.over_seeds``);
 * ``run FOLDER METHOD METRIC``: one run of ``results/FOLDER/benchmark.csv`` (a deterministic
-  search, or the shipped model), over the tier's held-out tasks.
+  search, or the shipped model), over the tier's held-out tasks;
+* ``scale FOLDER BAND solves|modules``: the learned designer's seeds at one size band of
+  ``results/FOLDER/report.csv`` (``python -m benchmarks.scale_seeds``): the share of the tasks
+  greedy solves that ``ppo`` solves, or its modules above greedy's, mean of the seeds [95 % CI].
 
 METRIC is ``optimal`` (share solved with the certified optimum), ``success`` or ``evaluated``
 (configurations per task). The build fills the markers (``on_page_markdown``);
@@ -83,13 +86,35 @@ def run_number(folder: str, method: str, metric: str) -> str:
     return f"{_format(metric, s[key[metric]])} (one run, {s['tasks']} held-out tasks)"
 
 
+def scale_number(folder: str, band: str, metric: str) -> str:
+    """The learned designer's seeds at one band, beside greedy (``benchmarks.scale_seeds``)."""
+    import csv
+
+    with open(RESULTS / folder / "report.csv", newline="") as fh:
+        rows = {r["band"]: r for r in csv.DictReader(fh)}
+    if band not in rows:
+        raise ValueError(f"results/{folder}/report.csv: no band {band} (has {', '.join(rows)})")
+    r = rows[band]
+    value = r["ppo_solves_greedys_pct"] if metric == "solves" else r["ppo_minus_greedy_modules"]
+    point, interval = value.split(" ", 1)
+    unit = " %" if metric == "solves" else " modules"
+    return (
+        f"{point}{unit} {interval} (mean of {r['seeds']} seeds, {r['greedy_solved']} held-out "
+        f"tasks that greedy solves, 95 % CI)"
+    )
+
+
+METRICS = {"seeds": ("optimal", "success", "evaluated"), "run": ("optimal", "success", "evaluated"),
+           "scale": ("solves", "modules")}  # fmt: skip
+
+
 def number(key: str) -> str:
     """The text of one marker's KEY."""
     kind, *args = key.split()
-    makers = {"seeds": seeds_number, "run": run_number}
-    if kind not in makers or len(args) != 3 or args[2] not in ("optimal", "success", "evaluated"):
+    makers = {"seeds": seeds_number, "run": run_number, "scale": scale_number}
+    if kind not in makers or len(args) != 3 or args[2] not in METRICS[kind]:
         raise ValueError(f"bad result marker {key!r}: 'seeds|run WHERE METHOD optimal|success|"
-                         "evaluated'")  # fmt: skip
+                         "evaluated' or 'scale FOLDER BAND solves|modules'")  # fmt: skip
     return makers[kind](*args)
 
 
