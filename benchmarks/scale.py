@@ -93,6 +93,7 @@ def solve_band(method: str, tasks: list, time_limit: float, seed: int, engine, m
     the learned methods' model, default the shipped one)."""
     from modquad_gym.geometry.module import TModule
     from modquad_gym.search import verified
+    from modquad_gym.methods import method_of
     from modquad_gym.solvers import learned_options, make_solver
 
     learned = learned_options(method) is not None
@@ -109,7 +110,8 @@ def solve_band(method: str, tasks: list, time_limit: float, seed: int, engine, m
         key = (task.meta.get("palette"), task.kind)
         try:
             if key not in solvers:
-                options = dict(n_max=n_max, seed=seed, modules=modules, **extra)
+                seeded = {"seed": seed} if "seed" in method_of(name)[0].options.names() else {}
+                options = dict(n_max=n_max, modules=modules, **seeded, **extra)
                 warm = make_solver(name, time_limit=min(WARMUP_SECONDS, time_limit), **options)
                 warm.solve(task)  # untimed: imports, compilation, caches (the process is new)
                 solvers[key] = make_solver(name, time_limit=time_limit, **options)

@@ -177,15 +177,13 @@ def cmd_validate(args: argparse.Namespace) -> int:
         return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
     report = validate(
         result.structure,
-        task.wrenches,
-        f_max=task.f_max,
+        task,
         out_dir=args.out,
         include_infeasible_demo=args.infeasible_demo,
         max_hover_wrenches=k,
         hover_seconds=args.hover_seconds,
         unknown_load=not args.known_load_only,
         load_ramp_seconds=ramp,
-        kind=task.kind,
     ).to_dict()
     return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
 

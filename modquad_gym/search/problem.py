@@ -291,27 +291,34 @@ def check_time_limit(seconds: object) -> float:
     return value
 
 
+class _Default(int):
+    """The default budget, 7, told apart from a 7 the caller gave (a keyword given beside a
+    problem is refused; the default is not)."""
+
+    def __repr__(self) -> str:
+        return "7"
+
+
+DEFAULT_N_MAX = _Default(7)
+
 TASK_PARAMETERS = tuple(
-    p.replace(default=None) if p.name == "n_max" else p
+    p.replace(default=DEFAULT_N_MAX) if p.name == "n_max" else p
     for p in inspect.signature(SearchProblem.build).parameters.values()
-    if p.name != "cls"
 )
-"""The arguments every search's entry point takes first (those of :class:`SearchProblem`;
-``n_max`` None means 7 for a task and the problem's own for a problem)."""
+"""The arguments every search's entry point takes first (those of :class:`SearchProblem`)."""
 
 PROBLEM_FIELDS = ("n_max", "f_max", "module", "modules", "kind", "fault")
 """The keywords that describe a problem: given beside a :class:`SearchProblem`, refused."""
 
 
-def as_problem(task, n_max=None, f_max=None, module=None, *, modules=None, kind=None,
+def as_problem(task, n_max=DEFAULT_N_MAX, f_max=None, module=None, *, modules=None, kind=None,
                fault=None) -> SearchProblem:  # fmt: skip
     """``task`` itself when it is a :class:`SearchProblem` (then a keyword that would change it
-    is refused: a ValueError names it), else the problem of these arguments (``n_max`` default
-    7)."""
+    is refused: a ValueError names it), else the problem of these arguments."""
     given = dict(n_max=n_max, f_max=f_max, module=module, modules=modules, kind=kind,
                  fault=fault)  # fmt: skip
     if isinstance(task, SearchProblem):
-        extra = [k for k, v in given.items() if v is not None]
+        extra = [k for k, v in given.items() if v is not None and v is not DEFAULT_N_MAX]
         if extra:
             raise ValueError(
                 f"{extra[0]}={given[extra[0]]!r} given beside a SearchProblem: the problem "
@@ -319,8 +326,8 @@ def as_problem(task, n_max=None, f_max=None, module=None, *, modules=None, kind=
                 "the other (problem.replace(...) makes a changed copy)"
             )
         return task
-    return SearchProblem(task, 7 if n_max is None else n_max, f_max, module, modules=modules,
-                         kind=kind, fault=fault)  # fmt: skip
+    return SearchProblem(task, int(n_max) if n_max is DEFAULT_N_MAX else n_max, f_max, module,
+                         modules=modules, kind=kind, fault=fault)  # fmt: skip
 
 
 def search_entry(name: str) -> Callable[[Callable], Callable]:
@@ -337,8 +344,8 @@ def search_entry(name: str) -> Callable[[Callable], Callable]:
         names = {p.name for p in options}
 
         @functools.wraps(solve)
-        def entry(task, n_max=None, f_max=None, module=None, *, modules=None, kind=None,
-                  fault=None, **kwargs):  # fmt: skip
+        def entry(task, n_max=DEFAULT_N_MAX, f_max=None, module=None, *, modules=None,
+                  kind=None, fault=None, **kwargs):  # fmt: skip
             unknown = sorted(set(kwargs) - names)
             if unknown:
                 raise TypeError(unknown_option(name, unknown[0], names))

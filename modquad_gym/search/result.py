@@ -148,7 +148,7 @@ class SearchResult:
         """One line that says what :attr:`status` means for this result."""
         status, fault = self.status, f" surviving any {self.fault} failure" if self.fault else ""
         if status is Status.OPTIMAL:
-            return f"{self.n_modules} modules{fault}, proved minimal"
+            return f"{self.n_modules} modules{fault} (certified minimum)"
         if status is Status.FEASIBLE:
             return (
                 f"{self.n_modules} modules{fault}; proved: at least {self.lower_bound} (a smaller "

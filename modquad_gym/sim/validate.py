@@ -70,7 +70,7 @@ from modquad_gym.sim.report import (  # noqa: E402
 )
 from modquad_gym.sim.report_markdown import markdown  # noqa: E402
 from modquad_gym.sim.wrench_stand import BenchResult, run_bench  # noqa: E402
-from modquad_gym.tasks import rotor_wrenches  # noqa: E402
+from modquad_gym.tasks import as_task  # noqa: E402
 
 INFEASIBLE_SCALE = 1.3
 """The infeasible demo scales a task wrench to this multiple of its feasibility boundary."""
@@ -103,8 +103,8 @@ def hover_wrench_sample(margins: np.ndarray, k: int | None, seed: int = 0) -> np
 
 def validate(
     structure: Structure,
-    task_wrenches: np.ndarray,
-    f_max: float = 1.0,
+    task,
+    f_max: float | None = None,
     out_dir: str | Path | None = None,
     hover_seconds: float = 2.0,
     render: bool = True,
@@ -113,7 +113,7 @@ def validate(
     unknown_load: bool = True,
     load_frame: str = "world",
     load_ramp_seconds: float = 1.0,
-    kind: str = "total",
+    kind: str | None = None,
 ) -> ValidationReport:
     """Bench and hover ``structure`` on ``task_wrenches``; write pictures and a report.
 
@@ -126,9 +126,10 @@ def validate(
 
     Args:
         structure: the structure to validate (e.g. a search result's ``structure``).
-        task_wrenches: (t, 6) task wrenches in {S}: the total the rotors must produce
-            (``kind="total"``) or the wrench applied to the environment (``"external"``).
-        f_max: rotor thrust limit in N.
+        task: the task (anything :func:`~modquad_gym.tasks.as_task` takes: a task, a search
+            problem, or (t, 6) wrenches in {S}); its rotor wrenches are what the structure's
+            rotors must produce, its ``f_max`` and kind apply unless given here.
+        f_max: rotor thrust limit in N (default the task's).
         out_dir: where to write the pictures, ``report.md`` and ``validation.json`` (created);
             None writes nothing.
         hover_seconds: simulated seconds per task wrench in the hover.
@@ -140,7 +141,7 @@ def validate(
             order); None: all.
         unknown_load: also fly the hover with the load unknown to the controller.
         load_frame: ``"world"`` or ``"body"``: how the hover's load moves when the body tilts.
-        kind: the task kind, ``"total"`` or ``"external"``.
+        kind: the task kind, ``"total"`` or ``"external"`` (default the task's).
         load_ramp_seconds: unknown-load hover: seconds over which the load goes from one task
             wrench to the next (default 1; 0: a step). The settled part of a segment (its last
             30 %) must come after the ramp, so the ramp is shortened to ``0.7 hover_seconds``
@@ -164,8 +165,10 @@ def validate(
         raise ValueError(
             f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
         )
-    W = rotor_wrenches(check_wrenches(task_wrenches), kind, structure.mass)
-    f_max = check_f_max(f_max)
+    task = as_task(task).with_f_max(f_max).with_kind(kind)
+    kind = task.kind
+    W = check_wrenches(task.rotor_wrenches(structure))
+    f_max = check_f_max(task.f_max)
     if unknown_load and not load_ramp_seconds >= 0:
         raise ValueError(f"load_ramp_seconds must be >= 0, got {load_ramp_seconds}")
     A = np.array(structure.configuration_matrix())

@@ -162,7 +162,8 @@ def make_solver(
         raise ValueError(refused_fault(entry.name, fault))
     defaults = {"n_max": n_max, "modules": list(modules) if modules else None, "fault": fault}
     solver = entry.solver(settings, defaults)
-    solver.name = method  # a variant keeps its full name
+    samples = getattr(settings, "samples", 0)
+    solver.name = f"ppo-k{samples}" if method == "ppo" and samples else method  # a variant's
     return solver
 
 
