@@ -92,8 +92,8 @@ def solve_band(method: str, tasks: list, time_limit: float, seed: int, engine, m
     """:func:`run_band` in this process (``engine``: the ``anytime-wN`` search's; ``model``:
     the learned methods' model, default the shipped one)."""
     from modquad_gym.geometry.module import TModule
-    from modquad_gym.search import verified
     from modquad_gym.methods import method_of
+    from modquad_gym.search import verified
     from modquad_gym.solvers import learned_options, make_solver
 
     learned = learned_options(method) is not None
