@@ -264,7 +264,7 @@ def urdf_spec(source):
     is added to ``base_link``. ``urdf_spec(path).compile()`` is the floating robot."""
     import mujoco
 
-    text = Path(source).read_text() if _is_path(source) else str(source)
+    text = Path(source).read_text() if is_path(source) else str(source)
     spec = mujoco.MjSpec.from_string(text)
     base = spec.body("base_link")
     if base is None:
@@ -356,7 +356,7 @@ def _shape(link: ET.Element, kind: str, name: str, at: np.ndarray, shape: tuple)
     ET.SubElement(ET.SubElement(element, "geometry"), shape[0], **shape[1])
 
 
-def _is_path(source) -> bool:
+def is_path(source) -> bool:
     """A path (not the text of a file): a PathLike, or a one-line string not starting with <."""
     if isinstance(source, Path) or hasattr(source, "__fspath__"):
         return True
@@ -364,7 +364,7 @@ def _is_path(source) -> bool:
 
 
 def _name(source) -> str:
-    return str(source) if _is_path(source) else "the URDF text"
+    return str(source) if is_path(source) else "the URDF text"
 
 
 def _num(x: float) -> str:

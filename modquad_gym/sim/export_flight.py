@@ -103,13 +103,13 @@ def fly_mjcf(source, seconds: float = 1.0, config: HoverConfig | None = None) ->
 
     from modquad_gym.core.validation import check_real
     from modquad_gym.oracle import lambda_ratio
-    from modquad_gym.sim.export import _is_path
+    from modquad_gym.sim.export import is_path
     from modquad_gym.sim.hover.controller import HoverController
     from modquad_gym.sim.hover.linearization import Plant
 
     seconds = check_real(seconds, "seconds", positive=True)
-    where = str(source) if _is_path(source) else "the MJCF text"
-    text = Path(source).read_text() if _is_path(source) else str(source)
+    where = str(source) if is_path(source) else "the MJCF text"
+    text = Path(source).read_text() if is_path(source) else str(source)
     robot = robot_of(mujoco.MjModel.from_xml_string(text), where)
     model = robot.model
     cfg = HoverConfig.make(config, known_load=True)
