@@ -170,14 +170,15 @@ def structure_figure(structure: Structure, task=None, f_max: float = 1.0):
 
 
 PROJECTION_EYE = {"x": 1.7, "y": -1.7, "z": 1.1}
-"""Camera of the projection views: far enough that the cube's axis titles stay inside a
-third of the page (plotly's default eye, 1.25 on each axis, clips them)."""
+"""Camera of the projection views, drawn as cubes (a tall force projection would squeeze its
+x and y ticks together): far enough that the axis titles stay inside a third of the page
+(plotly's default eye, 1.25 on each axis, clips them)."""
 
 
 def _projection_scene(names: tuple[str, str, str], unit: str) -> dict:
     """Axes of a projection view: titled with units, seen from :data:`PROJECTION_EYE`."""
     titles = {f"{a}axis_title": f"{n} [{unit}]" for a, n in zip("xyz", names)}
-    return {**titles, "camera": {"eye": PROJECTION_EYE}}
+    return {**titles, "aspectmode": "cube", "camera": {"eye": PROJECTION_EYE}}
 
 
 def _structure_scene(s: Structure) -> dict:
@@ -190,7 +191,7 @@ def _structure_scene(s: Structure) -> dict:
         "aspectmode": "manual",
         "aspectratio": dict(zip("xyz", span / span.max())),
         **{f"{a}axis": {"range": [lo[i], hi[i]], "title": f"{a} [m]"} for i, a in enumerate("xyz")},
-        "camera": {"eye": {"x": 0.9, "y": -1.3, "z": 0.9}},
+        "camera": {"eye": {"x": 1.1, "y": -1.6, "z": 1.1}},  # the axis titles inside the view
     }
 
 
