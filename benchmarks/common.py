@@ -28,7 +28,9 @@ __all__ = [
     "markdown_table",
     "parse_bench_args",
     "random_structure",
+    "refuse_as_script",
     "report_page",
+    "run_command",
     "run_main",
     "run_script",
     "scripts",
@@ -57,23 +59,44 @@ def run_main(
     main: Callable[[list[str] | None], object], name: str, argv: list[str] | None = None
 ) -> int:
     """``python -m benchmarks.NAME`` (``main``) with the options ``argv`` (default the command
-    line's), run as the ``modquad`` command runs its commands: 0 when it finishes (or the status
-    it returns), 2 for a refused option (argparse's usage and error line) or an expected failure
-    (a missing optional package, a file that cannot be written: one line
-    ``python -m benchmarks.NAME: error: ...``), 130 when interrupted."""
+    line's), run as :func:`run_command` runs a command."""
+    return run_command(main, f"python -m benchmarks.{name}", argv)
+
+
+def run_command(
+    main: Callable[[list[str] | None], object], prog: str, argv: list[str] | None = None
+) -> int:
+    """``main(argv)`` run as the ``modquad`` command runs its commands: 0 when it finishes (or
+    the status it returns), 2 for a refused option (argparse's usage and error line) or an
+    expected failure (a missing optional package, a file that cannot be written: one line
+    ``PROG: error: ...``), 130 when interrupted (Ctrl-C) and 143 on SIGTERM (one line each:
+    the command's ``finally`` blocks stop its workers and keep what it finished)."""
     from modquad_gym.cli.common import one_line
+    from modquad_gym.core.interrupts import exit_status, sigterm_as_interrupt, stop_line
 
     try:
-        code = main(argv)
+        with sigterm_as_interrupt():
+            code = main(argv)
     except SystemExit as exc:  # argparse: --help (0) or a refused option (2)
         return exc.code if isinstance(exc.code, int) else 0 if exc.code is None else 2
-    except KeyboardInterrupt:
-        print(f"python -m benchmarks.{name}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        print(stop_line(prog, exc), file=sys.stderr)
+        return exit_status(exc)
     except (ValueError, OSError, ImportError, MemoryError, OverflowError) as exc:
-        print(f"python -m benchmarks.{name}: error: {one_line(exc)}", file=sys.stderr)
+        print(f"{prog}: error: {one_line(exc)}", file=sys.stderr)
         return 2
     return code if isinstance(code, int) else 0  # some return their rows
+
+
+def refuse_as_script(name: str) -> int:
+    """What a helper module of the benchmarks does when run as a script: one line saying so
+    and naming the scripts, exit status 2."""
+    print(
+        f"python -m benchmarks.{name}: error: a helper module of the benchmarks, not a "
+        "script; run one of: " + ", ".join(f"benchmarks.{s}" for s in scripts()),
+        file=sys.stderr,
+    )
+    return 2
 
 
 def run_script(name: str, argv: list[str] | None = None) -> int:
@@ -167,3 +190,7 @@ def write_report(out: Path, stem: str, rows: list[dict], text: str) -> None:
     """A benchmark's report: ``rows`` to ``out/STEM.csv``, ``text`` to ``out/STEM.md``."""
     write_csv(rows, out / f"{stem}.csv")
     write_text(out / f"{stem}.md", text)
+
+
+if __name__ == "__main__":
+    raise SystemExit(refuse_as_script("common"))

@@ -113,3 +113,9 @@ def scale_section(rows: list[dict]) -> list[str]:
         markdown_table(rows),
         "",
     ]
+
+
+if __name__ == "__main__":
+    from benchmarks.common import refuse_as_script
+
+    raise SystemExit(refuse_as_script("env_scale"))

@@ -241,3 +241,9 @@ def _mean(values) -> float | str:
 
 def _median(values) -> float:
     return round(float(np.median(list(values))), 4)
+
+
+if __name__ == "__main__":
+    from benchmarks.common import refuse_as_script
+
+    raise SystemExit(refuse_as_script("heterogeneous_measure"))

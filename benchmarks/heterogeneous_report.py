@@ -175,3 +175,9 @@ def _mujoco_section(sim: list[dict]) -> list[str]:
         markdown_table(sim),
         "",
     ]
+
+
+if __name__ == "__main__":
+    from benchmarks.common import refuse_as_script
+
+    raise SystemExit(refuse_as_script("heterogeneous_report"))

@@ -1,6 +1,6 @@
 """The leaderboard: every method on every benchmark tier, from the committed reports.
 
-    python -m benchmarks.leaderboard
+    python -m benchmarks.leaderboard --force
 
 reads the committed data files and writes ``results/leaderboard.md``, ``results/leaderboard.csv``,
 ``results/leaderboard.png`` and the documentation page ``docs/leaderboard.md`` (no number is
@@ -12,8 +12,8 @@ typed by hand):
 * the searches (one deterministic run; random and genetic seeded) from the one-run tier reports
   ``results/tier_<tier>/benchmark.csv`` (one row per method and task), and, for the searches a
   tier report did not run, from ``results/leaderboard_searches.csv``, which
-  ``python -m benchmarks.leaderboard --rescore-searches`` fills by running just those searches
-  on the tier's held-out suites (seconds, not hours: no training, no learned method).
+  ``python -m benchmarks.leaderboard --rescore-searches --force`` fills by running just those
+  searches on the tier's held-out suites (seconds, not hours: no training, no learned method).
 
 Add your own agent (scored now on every tier, beside the committed rows; nothing committed
 changes)::
@@ -547,7 +547,13 @@ def main(argv: list[str] | None = None) -> int:
         help="folder for the leaderboard (default: results/ and docs/leaderboard.md; "
         "required with --solver, so the committed page stays the committed data's)",
     )
-    p.add_argument("--force", action="store_true", help="replace files in --out")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace the leaderboard's files in --out (without --out: the committed pages "
+        "results/leaderboard.*, docs/leaderboard.md and, with --rescore-searches, "
+        f"results/{RESCORED}); default: refuse",
+    )
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)  # fmt: skip
     if args.solver and args.out is None:
@@ -556,13 +562,16 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--tiers needs --out: the committed leaderboard holds every tier")
     if args.limit is not None and (args.limit < 1 or not args.solver):
         p.error("--limit takes a positive count, with --solver")
-    if args.out is not None:
-        from modquad_gym.core.outputs import check_output_dir
+    from modquad_gym.core.outputs import check_output_dir
 
-        try:
-            check_output_dir(args.out, OUTPUTS, args.force)
-        except ValueError as err:
-            p.error(str(err))
+    try:  # the committed pages too: replaced only with --force
+        check_output_dir(args.out or RESULTS, OUTPUTS, args.force)
+        if args.out is None:
+            check_output_dir(DOCS, ("leaderboard.md",), args.force)
+            if args.rescore_searches:
+                check_output_dir(RESULTS, (RESCORED,), args.force)
+    except ValueError as err:
+        p.error(str(err))
     try:
         if args.rescore_searches:
             print(rescore_searches(progress=not args.no_progress))
@@ -579,4 +588,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from benchmarks.common import run_main
+
+    raise SystemExit(run_main(main, "leaderboard"))

@@ -64,3 +64,9 @@ def fresh(fn, *args):
     function)."""
     with mp.get_context("spawn").Pool(1) as pool:
         return pool.apply(fn, args)
+
+
+if __name__ == "__main__":
+    from benchmarks.common import refuse_as_script
+
+    raise SystemExit(refuse_as_script("measure"))

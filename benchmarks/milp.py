@@ -1,7 +1,7 @@
 """The MILP peer against the exhaustive and the anytime searches on paper-like and planted tasks
 of 5 to 8 modules (issue 35, item 2), and its LP relaxation as a lower bound (item 3).
 
-    python benchmarks/milp.py --per-suite 4 --time-limit 30 --out results/milp
+    python -m benchmarks.milp --per-suite 4 --time-limit 30 --out results/milp
 
 For the first ``--per-suite`` tasks whose optimum (the suite's meta, checked here by the
 exhaustive search) is 5 to 8 modules, of each of the shipped held-out paper-like and planted
@@ -15,14 +15,12 @@ One process, one core at a time. Writes report.md and milp.csv into ``--out``.
 
 from __future__ import annotations
 
-import argparse
-import csv
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import modquad_gym as mq
+from benchmarks.common import bench_args, int_option, run_main, write_csv, write_text
 from modquad_gym.scoring import machine_description
 from modquad_gym.search import SearchProblem, bound_levels
 from modquad_gym.search.milp import milp_lower_bound
@@ -119,7 +117,7 @@ def report(rows: list[dict], out: Path, per_suite: int, time_limit: float, wall:
         "# The MILP peer against the exhaustive and anytime searches",
         "",
         "```",
-        f"python benchmarks/milp.py --per-suite {per_suite} --time-limit {time_limit:g} "
+        f"python -m benchmarks.milp --per-suite {per_suite} --time-limit {time_limit:g} "
         f"--out {out}",
         "```",
         "",
@@ -183,25 +181,30 @@ def report(rows: list[dict], out: Path, per_suite: int, time_limit: float, wall:
     return "\n".join(lines) + "\n"
 
 
+OUTPUTS = ("report.md", "milp.csv")
+
+
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--per-suite", type=int, default=4)
-    p.add_argument("--time-limit", type=float, default=30.0)
-    p.add_argument("--out", type=Path, default=Path("results/milp"))
-    args = p.parse_args(argv)
+    from modquad_gym.cli.common import time_limit_option
+
+    options = {
+        "--per-suite": dict(type=int_option(1, 1000), default=4,
+                            help="tasks per suite, 1 to 1000 (default 4)"),
+        "--time-limit": dict(type=time_limit_option, default=30.0, metavar="SECONDS",
+                             help="seconds of anytime and milp per task, in (0, 86400] "
+                                  "(default 30)"),
+    }  # fmt: skip
+    args = bench_args(argv, "python -m benchmarks.milp", __doc__.split("\n\n")[0], options,
+                      seed_help=None, out="results/milp", outputs=OUTPUTS)  # fmt: skip
     t0 = time.perf_counter()
     rows = run(args.per_suite, args.time_limit)
     wall = time.perf_counter() - t0
-    args.out.mkdir(parents=True, exist_ok=True)
-    with open(args.out / "milp.csv", "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
     text = report(rows, args.out, args.per_suite, args.time_limit, wall)
-    (args.out / "report.md").write_text(text)
+    write_csv(rows, args.out / "milp.csv")
+    write_text(args.out / "report.md", text)
     print(text)
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(run_main(main, "milp"))

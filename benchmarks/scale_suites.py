@@ -23,8 +23,9 @@ instant bounds: force or count, and the level bounds), and what the default sear
 ``--time-limit`` seconds: ``lower_bound`` (certified: no smaller structure works) and
 ``best_known`` (the smallest verified structure it found).
 
-``python -m benchmarks.scale_suites`` rewrites ``modquad_gym/data/suites/scale_N.json``
-(deterministic up to the time limit's reach).
+``python -m benchmarks.scale_suites`` writes ``scale_N.json`` into ``results/scale_suites``
+(deterministic up to the time limit's reach); ``--out modquad_gym/data/suites --force`` replaces
+the shipped suites.
 """
 
 from __future__ import annotations
@@ -33,8 +34,9 @@ import argparse
 import time
 from pathlib import Path
 
-from benchmarks.common import run_main
+from benchmarks.common import add_force, run_main
 from modquad_gym.core.options import int_option, real_option
+from modquad_gym.core.outputs import OutputError, check_output_dir
 from modquad_gym.scoring.scale_tasks import (  # noqa: F401 - the suites' families, re-exported
     BANDS,
     FAMILIES,
@@ -113,8 +115,9 @@ def build_band(band: int, per_family: int, time_limit: float, validation: bool =
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         prog="python -m benchmarks.scale_suites",
-        description="Write the held-out scale suites (modquad_gym/data/suites/scale_N.json): "
-        "fixed seeds, the planted size and the bounds the default search proves.",
+        description="Write the held-out scale suites (scale_N.json): fixed seeds, the planted "
+        "size and the bounds the default search proves. The shipped suites are replaced only "
+        f"when asked: --out {SUITES_DIR.relative_to(SUITES_DIR.parents[2])} --force.",
     )
     p.add_argument("--bands", type=int_option(1, 128), nargs="+", default=list(BANDS))
     p.add_argument("--per-family", type=int_option(1, 100), default=3)
@@ -124,10 +127,22 @@ def main(argv: list[str] | None = None) -> int:
         default=10.0,
         help="seconds of the default search per task for the bounds (default 10)",
     )
-    p.add_argument("--out", type=Path, default=SUITES_DIR)
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=Path("results/scale_suites"),
+        help="folder of the suite files (default %(default)s; the shipped ones are in "
+        f"{SUITES_DIR.relative_to(SUITES_DIR.parents[2])})",
+    )
+    add_force(p)
     args = p.parse_args(argv)
     if not 0 < args.time_limit <= 3600:
         p.error(f"--time-limit must lie in (0, 3600] seconds, got {args.time_limit:g}")
+    try:  # before any work: never replace a suite (the shipped ones least) unasked
+        check_output_dir(args.out, tuple(suite_path(b, Path()).name for b in args.bands),
+                         args.force)  # fmt: skip
+    except OutputError as exc:
+        p.error(str(exc))
     for band in args.bands:
         tasks = build_band(band, args.per_family, args.time_limit)
         path = save_suite(tasks, suite_path(band, args.out), name=f"scale_{band}")

@@ -17,8 +17,8 @@ import statistics
 import subprocess
 import sys
 import time
-from pathlib import Path
 
+from benchmarks.common import bench_args, int_option, run_main, write_text
 from modquad_gym.scoring import machine_description
 
 HEAVY = ("numba", "torch", "ray", "mujoco", "scipy", "matplotlib", "gymnasium")
@@ -65,13 +65,11 @@ def heavy_imports(cmd: list[str]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.startup", description=__doc__)
-    parser.add_argument("--runs", type=int, default=15, help="timed runs per case (default 15)")
-    parser.add_argument("--out", type=Path, default=Path("results/startup"))
-    args = parser.parse_args(argv)
-    if not 1 <= args.runs <= 1000:
-        parser.error("--runs must be in 1..1000")
-    args.out.mkdir(parents=True, exist_ok=True)
+    options = {"--runs": dict(type=int_option(1, 1000), default=15,
+                              help="timed runs per case, 1 to 1000 (default 15)")}  # fmt: skip
+    args = bench_args(argv, "python -m benchmarks.startup", __doc__, options, seed_help=None,
+                      out="results/startup", outputs=("report.md",),
+                      formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     rows = []
     load0 = os.getloadavg()[0]
     for name, cmd in CASES.items():
@@ -100,10 +98,10 @@ def main(argv: list[str] | None = None) -> int:
             f"| `{name}` | {median:.3f} | {fastest:.3f} | {goal if goal else '-'} | "
             f"{', '.join(heavy) or 'none'} |"
         )
-    (args.out / "report.md").write_text("\n".join(lines) + "\n")
+    write_text(args.out / "report.md", "\n".join(lines) + "\n")
     print(f"wrote {args.out / 'report.md'}", file=sys.stderr)
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_main(main, "startup"))

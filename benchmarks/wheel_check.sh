@@ -191,7 +191,7 @@ check repo $P 'python train.py --seeds 0 1 2 3 4' "$T --seeds 0 1 --quick --no-r
 check repo docs/leaderboard.md 'python -m benchmarks.leaderboard --solver my_agent:Agent --out my_board' \
   "$AGENT && echo 'Agent = LineAgent' >> my_agent.py && python -m benchmarks.leaderboard --solver my_agent:Agent --out \"\$WORK/my_board\" --limit 1 --no-progress; rc=\$?; rm my_agent.py; exit \$rc"
 P=docs/results.md
-check repo $P 'python -m benchmarks.leaderboard'
+check repo $P 'python -m benchmarks.leaderboard --force'
 
 # docs/benchmarks.md
 P=docs/benchmarks.md

@@ -5,8 +5,9 @@ command.
 Exit codes: 0 on success (an infeasible task is a result, not an error); 2 for every expected
 failure (a task file that cannot be read, a bad option value, an output path that exists or
 cannot be written, a missing optional dependency, a closed output pipe), reported as one line
-``modquad: error: ...`` naming the file or option; 130 when interrupted (Ctrl-C); 1 when
-``modquad check`` finds a certificate invalid.
+``modquad: error: ...`` naming the file or option; 130 when interrupted (Ctrl-C), 143 on
+SIGTERM (one line, ``modquad: interrupted`` or ``modquad: terminated``); 1 when ``modquad
+check`` finds a certificate invalid.
 
 One module per command, each with ``add_COMMAND(sub)`` (its parser) beside its handler
 ``cmd_COMMAND(args)``: :mod:`.solve`, :mod:`.optima`, :mod:`.task`, :mod:`.show`,
@@ -32,6 +33,7 @@ from modquad_gym.cli.show import add_show
 from modquad_gym.cli.solve import add_solve
 from modquad_gym.cli.task import add_task
 from modquad_gym.cli.validate import add_validate
+from modquad_gym.core.interrupts import exit_status, sigterm_as_interrupt, stop_line
 
 COMMANDS = (
     add_solve, add_optima, add_task, add_show, add_export, add_validate, add_score, add_check,
@@ -75,6 +77,11 @@ def main(argv: list[str] | None = None) -> int:
     if setting is not None:
         print(f"modquad: error: {setting}", file=sys.stderr)
         return 2
+    with sigterm_as_interrupt():  # SIGTERM: one line and exit 143, as Ctrl-C
+        return _run(argv)
+
+
+def _run(argv: list[str] | None) -> int:
     parser = build_parser(sys.argv[1:] if argv is None else list(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
@@ -89,9 +96,9 @@ def main(argv: list[str] | None = None) -> int:
         given.refuse_ignored_method_options(args)  # before any file is read
         given.refuse_ignored_csv_header(args)
         return args.func(args)
-    except KeyboardInterrupt:
-        print("modquad: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (Terminated)
+        print(stop_line("modquad", exc), file=sys.stderr)
+        return exit_status(exc)
     except BrokenPipeError:
         # the reader closed our output (e.g. `| head -1`): stop writing, say so once
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

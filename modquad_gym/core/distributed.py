@@ -164,17 +164,20 @@ class Engine:
         ray = import_optional("ray")
         if ray.is_initialized():
             return
+        from modquad_gym.core.interrupts import keep_sigterm
+
         options = {"include_dashboard": False, "log_to_driver": False, "logging_level": "ERROR"}
-        if self.address:
-            try:
-                ray.init(address=self.address, **options)
-            except (ConnectionError, RuntimeError, TimeoutError) as exc:
-                raise ConnectionError(
-                    f"Ray cluster {self.address}: {_one_line(exc)}{_token_hint()}"
-                ) from None
-        else:
-            # "local": a new embedded Ray even when RAY_ADDRESS names a cluster elsewhere
-            ray.init(address="local", num_cpus=self.workers, **options)
+        with keep_sigterm():  # SIGTERM stays one line, not Ray's native crash dump
+            if self.address:
+                try:
+                    ray.init(address=self.address, **options)
+                except (ConnectionError, RuntimeError, TimeoutError) as exc:
+                    raise ConnectionError(
+                        f"Ray cluster {self.address}: {_one_line(exc)}{_token_hint()}"
+                    ) from None
+            else:
+                # "local": a new embedded Ray even when RAY_ADDRESS names a cluster elsewhere
+                ray.init(address="local", num_cpus=self.workers, **options)
         self._started = True
 
     def cluster_cpus(self) -> int:

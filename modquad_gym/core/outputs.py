@@ -3,23 +3,32 @@ what the user saved unless asked.
 
 Every command that writes goes through here, so two runs into one place never leave a mixed or
 half-written file (each write goes to a temporary file in the same folder, then ``os.replace``),
-and an existing file is replaced only with ``force=True``.
+and an existing file is replaced only with ``force=True``. A command that fills a folder claims it
+(:func:`claim_output_dir`): a second run into the same folder is refused while the first runs,
+and ``force`` removes only the files an earlier run of the command recorded there.
 """
 
 from __future__ import annotations
 
 import csv
 import io
+import json
 import os
 import stat
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 __all__ = [
+    "LOCK_NAME",
+    "MANIFEST_NAME",
+    "ClaimedDir",
     "OutputError",
     "atomic_write",
+    "check_name_length",
     "check_output_dir",
+    "claim_output_dir",
     "check_output_file",
     "check_outputs",
     "named_os_error",
@@ -73,12 +82,37 @@ def _refuse_special(path: Path, what: str) -> None:
         raise OutputError(f"{what}: {path} is not a regular file (a device, pipe or socket)")
 
 
+def _name_max(folder: Path) -> int:
+    """The longest file name (bytes) the file system of ``folder`` (or its nearest existing
+    parent) takes; 255 where the system does not say."""
+    existing = next((p for p in (folder, *folder.parents) if p.exists()), Path("."))
+    try:
+        return os.pathconf(existing, "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):  # no pathconf (Windows) or no answer
+        return 255
+
+
+def check_name_length(path: str | os.PathLike, what: str = "output") -> None:
+    """An OutputError naming ``what`` when a component of ``path`` is longer than its file
+    system takes: refused before the work, not after it ("File name too long")."""
+    path = Path(path)
+    limit = _name_max(path.parent)
+    for part in path.parts:
+        size = len(os.fsencode(part))
+        if size > limit and part != path.anchor:
+            raise OutputError(
+                f"{what}: the name {part[:40]}... is {size} bytes long; this file system takes "
+                f"at most {limit}"
+            )
+
+
 def check_output_file(path: str | os.PathLike, force: bool = False, what: str = "output") -> Path:
     """The destination file as a Path, after checking it can be written: its folder exists or
     can be created and is writable, it is not a device, pipe or socket, and it does not exist
     yet (unless ``force``).
     Call it before long work starts."""
     path = Path(path)
+    check_name_length(path, what)
     if path.is_dir():
         raise OutputError(f"{what}: {path} is a folder, expected a file name")
     _refuse_special(path, what)
@@ -121,6 +155,7 @@ def check_output_dir(
     """The destination folder as a Path, after checking it is (or can become) a writable folder
     in which none of ``names`` exists yet (unless ``force``)."""
     folder = Path(path)
+    check_name_length(folder, what)
     _check_writable_dir(folder, what)
     for name in names:
         _refuse_special(folder / name, what)
@@ -133,12 +168,90 @@ def check_output_dir(
     return folder
 
 
+LOCK_NAME = ".modquad.lock"
+"""The lock file a running command holds in the folder it fills (:func:`claim_output_dir`)."""
+MANIFEST_NAME = ".modquad-files.json"
+"""The files a command wrote into its folder, relative to it: what a later ``--force`` removes."""
+
+
+class ClaimedDir:
+    """An output folder a command holds (:func:`claim_output_dir`): ``claim.path(name)`` is the
+    path of a file it writes there, recorded in the folder's manifest."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self.written: list[str] = []
+
+    def path(self, name: str | os.PathLike) -> Path:
+        """``folder / name``, recorded as written by this command (the manifest is updated at
+        once, so an interrupted run's files are known too)."""
+        key = Path(name).as_posix()
+        if key not in self.written:
+            self.written.append(key)
+            write_text(self.folder / MANIFEST_NAME, json.dumps(self.written, indent=1) + "\n")
+        return self.folder / name
+
+
+def _remove_recorded(folder: Path) -> None:
+    """Remove the files an earlier run recorded in ``folder``'s manifest (and the folders they
+    leave empty); nothing else."""
+    try:
+        recorded = json.loads((folder / MANIFEST_NAME).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return
+    root = folder.resolve()
+    for name in recorded if isinstance(recorded, list) else ():
+        path = (folder / str(name)).resolve()
+        if root not in path.parents or not path.is_file():
+            continue  # never outside the folder, never a folder
+        path.unlink()
+        for parent in path.parents:
+            if parent == root:
+                break
+            try:
+                parent.rmdir()  # only when empty
+            except OSError:
+                break
+    (folder / MANIFEST_NAME).unlink(missing_ok=True)
+
+
+@contextmanager
+def claim_output_dir(
+    path: str | os.PathLike, names: tuple[str, ...] = (), force: bool = False, what: str = "--out"
+) -> Iterator[ClaimedDir]:
+    """Hold the output folder ``path`` for one run: check it as :func:`check_output_dir`, create
+    it, and lock it (``LOCK_NAME``, the ``filelock`` package) so that a second run into it is
+    refused at once (an OutputError) instead of mixing or replacing files; the check is repeated
+    under the lock. With ``force``, the files an earlier run recorded in the folder's manifest
+    are removed first, and only those: whatever else the folder holds is the user's."""
+    from filelock import FileLock, Timeout
+
+    folder = check_output_dir(path, names, force, what)
+    folder.mkdir(parents=True, exist_ok=True)
+    lock = FileLock(folder / LOCK_NAME)
+    try:
+        lock.acquire(timeout=0)
+    except Timeout:
+        raise OutputError(
+            f"{what}: {folder} is being written by another run (it holds "
+            f"{folder / LOCK_NAME}); wait for it or choose another folder"
+        ) from None
+    try:
+        check_output_dir(folder, names, force, what)  # a run that finished while we checked
+        if force:
+            _remove_recorded(folder)
+        yield ClaimedDir(folder)
+    finally:
+        lock.release()
+
+
 def atomic_write(path: str | os.PathLike, write: Callable[[Path], None]) -> Path:
     """Call ``write(tmp)`` to fill a temporary file beside ``path``, then move it into place
     in one step. ``path``'s folder is created if needed; the temporary file never survives."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    # a short temporary name: a legal name of 250 bytes plus a suffix would be too long
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name[:32]}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     tmp = Path(tmp_name)
     try:

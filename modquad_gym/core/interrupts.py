@@ -1,0 +1,58 @@
+"""Ctrl-C and SIGTERM end a command the same way: one line on stderr and exit 130 (Ctrl-C) or
+143 (SIGTERM), never a traceback or a native crash dump.
+
+SIGTERM is raised in the main thread as :class:`Terminated`, a ``KeyboardInterrupt``, so the
+cleanup written for Ctrl-C (``finally`` blocks: worker processes stopped, Ray shut down, the rows
+finished so far kept) runs for both.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+__all__ = ["Terminated", "exit_status", "keep_sigterm", "stop_line", "sigterm_as_interrupt"]
+
+
+class Terminated(KeyboardInterrupt):
+    """The process received SIGTERM."""
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated()
+
+
+@contextmanager
+def sigterm_as_interrupt() -> Iterator[None]:
+    """Within the block SIGTERM raises :class:`Terminated` in the main thread; the previous
+    handler comes back after it (nothing changes when called from another thread, where Python
+    cannot set handlers)."""
+    with keep_sigterm():
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, _raise_terminated)
+        yield
+
+
+@contextmanager
+def keep_sigterm() -> Iterator[None]:
+    """Keep this process's SIGTERM handler across the block: a library started in it (Ray's
+    ``ray.init`` installs a native handler that prints a crash dump) does not replace it."""
+    main = threading.current_thread() is threading.main_thread()
+    before = signal.getsignal(signal.SIGTERM) if main else None
+    try:
+        yield
+    finally:
+        if main and before is not None:
+            signal.signal(signal.SIGTERM, before)
+
+
+def exit_status(exc: KeyboardInterrupt) -> int:
+    """143 for SIGTERM, 130 for Ctrl-C (128 + the signal's number, as shells report them)."""
+    return 128 + signal.SIGTERM if isinstance(exc, Terminated) else 130
+
+
+def stop_line(prog: str, exc: KeyboardInterrupt) -> str:
+    """The one line an interrupted command prints."""
+    return f"{prog}: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}"
