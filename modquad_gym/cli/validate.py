@@ -50,7 +50,12 @@ def add_validate(sub) -> None:
     )
     add_method(p)
     p.add_argument("--out", default="validation", help="output folder (default %(default)s)")
-    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print the summary as one JSON object (a number with no finite value, such as the "
+        "step headroom between two equal wrenches, which is unlimited, is null)",
+    )
     p.add_argument(
         "--infeasible-demo",
         action="store_true",
@@ -106,9 +111,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
     require("mujoco", "matplotlib")  # the [sim] extra, before any work or output
 
-    from modquad_gym.core.outputs import check_output_dir
+    from modquad_gym.core.outputs import check_output_dir, claim_output_dir
     from modquad_gym.core.validation import check_int, check_real
-    from modquad_gym.sim.validate import validate
 
     fault.check_fault_options(args)
     check_real(args.hover_seconds, "--hover-seconds", 0.05, MAX_HOVER_SECONDS)
@@ -150,6 +154,16 @@ def cmd_validate(args: argparse.Namespace) -> int:
         f"(~{estimate:.0f} s here)",
         file=sys.stderr,
     )
+    with claim_output_dir(args.out, names, force=args.force):  # a second run is refused
+        return solve_and_fly(args, task, k, ramp, n_hover)
+
+
+def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float, n_hover: int):
+    """The work of :func:`cmd_validate` once its options and ``--out`` are checked: solve, then
+    bench, hover and (a dynamic task) fly the answer, writing into ``--out``."""
+    from modquad_gym.sim.validate import validate
+
+    dynamic = getattr(task, "kind", None) == "dynamic"
     result = solve.solver(args, task)(task)
 
     def intact_solver(intact_args: argparse.Namespace):  # --fault: the intact minimum's search
@@ -191,8 +205,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
 def show(args: argparse.Namespace, report: dict) -> int:
     """Print the validation record: one JSON object with ``--json``, else a short summary
     (:func:`summary_lines`; every number is in ``validation.json`` and ``report.md``)."""
-    if args.json:
-        print(json.dumps({"task": args.task, "method": args.method, **report}))
+    if args.json:  # JSON: a number with no finite value (unlimited headroom) is null
+        print(json.dumps({"task": args.task, "method": args.method, **report}, allow_nan=False))
     else:
         print("\n".join(summary_lines(report) + fault.fault_lines(report)))
     return 0

@@ -220,9 +220,9 @@ def claim_output_dir(
     path: str | os.PathLike, names: tuple[str, ...] = (), force: bool = False, what: str = "--out"
 ) -> Iterator[ClaimedDir]:
     """Hold the output folder ``path`` for one run: check it as :func:`check_output_dir`, create
-    it, and lock it (``LOCK_NAME``, the ``filelock`` package) so that a second run into it is
-    refused at once (an OutputError) instead of mixing or replacing files; the check is repeated
-    under the lock. With ``force``, the files an earlier run recorded in the folder's manifest
+    it, and lock it (``LOCK_NAME``, the ``filelock`` package, removed at the end) so that a
+    second run into it is refused at once (an OutputError) instead of mixing or replacing files;
+    the check is repeated under the lock. With ``force``, the files an earlier run recorded in the folder's manifest
     are removed first, and only those: whatever else the folder holds is the user's."""
     from filelock import FileLock, Timeout
 
@@ -241,7 +241,8 @@ def claim_output_dir(
         if force:
             _remove_recorded(folder)
         yield ClaimedDir(folder)
-    finally:
+    finally:  # the lock file goes (a run that opened it meanwhile re-checks the names)
+        (folder / LOCK_NAME).unlink(missing_ok=True)
         lock.release()
 
 

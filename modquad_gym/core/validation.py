@@ -63,12 +63,18 @@ def check_real(
     if not math.isfinite(v):
         raise ValueError(f"{name} must be finite, got {value!r}")
     if positive and not v > 0:
-        raise ValueError(f"{name} must be positive, got {v:g}")
+        raise ValueError(f"{name} must be positive, got {_shown(v)}")
     if low is not None and v < low:
-        raise ValueError(f"{name} must be >= {low:g}, got {v:g}")
+        raise ValueError(f"{name} must be >= {low:g}, got {_shown(v)}")
     if high is not None and v > high:
-        raise ValueError(f"{name} must be <= {high:g}, got {v:g}")
+        raise ValueError(f"{name} must be <= {high:g}, got {_shown(v)}")
     return v
+
+
+def _shown(v: float) -> str:
+    """``v`` short (``:g``) where that is exact, else in full: 1.0000001 is not shown as 1."""
+    short = f"{v:g}"
+    return short if float(short) == v else repr(v)
 
 
 def check_f_max(f_max: object) -> float:

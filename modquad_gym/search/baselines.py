@@ -71,6 +71,8 @@ def greedy_search(
         return done
     f, palette = problem.f_max, problem.palette
     if start is not None:
+        if not isinstance(start, Structure) and isinstance(start, Iterable):
+            start = list(start)  # read once: checking would use up a generator
         make_partial(start, palette, problem.typed)  # ValueError naming what is wrong
         if not isinstance(start, Structure):
             start = Structure([tuple(c) for c in start], problem.module)

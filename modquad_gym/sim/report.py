@@ -2,7 +2,8 @@
 ``report.md`` text.
 
 ``ValidationReport.to_dict()`` gives the flat JSON record of ``modquad validate --json`` (the
-keys and their order are part of the CLI's contract; non-finite numbers become None).
+keys and their order are part of the CLI's contract; non-finite numbers become None, JSON's null:
+e.g. a ``step_headroom`` with no load step, which is unlimited, :func:`json_ready`).
 """
 
 from __future__ import annotations
@@ -31,6 +32,18 @@ def finite_or_none(x: float) -> float | None:
     """``x`` as a float, None when not finite (JSON has no inf or nan)."""
     x = float(x)
     return x if math.isfinite(x) else None
+
+
+def json_ready(value):
+    """``value`` (dicts, lists and tuples of numbers, strings, ...) with every non-finite float
+    replaced by None, so that ``json.dumps`` writes JSON (which has no Infinity or NaN)."""
+    if isinstance(value, dict):
+        return {k: json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_ready(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 @dataclass
@@ -159,7 +172,7 @@ class ValidationReport:
             out["infeasible_demo"] = dict(vars(self.infeasible_demo))
         if self.render_backend is not None:
             out["render_backend"] = self.render_backend
-        return out
+        return json_ready(out)
 
 
 _HEAD = (

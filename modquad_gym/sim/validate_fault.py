@@ -117,8 +117,9 @@ def add_to_report(out_dir: str | Path, report: dict, record: dict) -> dict:
     ``files``), ``report.md`` extended by :func:`fault_markdown` and ``validation.json``
     rewritten; returns the merged record."""
     from modquad_gym.core.outputs import write_text
+    from modquad_gym.sim.report import json_ready
 
-    merged = {**report, **{k: v for k, v in record.items() if k != "fault_files"}}
+    merged = json_ready({**report, **{k: v for k, v in record.items() if k != "fault_files"}})
     merged["files"] = {**(report.get("files") or {}), **record.get("fault_files", {})}
     d = Path(out_dir)
     text = (d / "report.md").read_text() if (d / "report.md").exists() else ""

@@ -21,7 +21,7 @@ from modquad_gym.core.outputs import write_text
 from modquad_gym.dynamics import DynamicTask, as_dynamic
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import margin
-from modquad_gym.sim.report import finite_or_none
+from modquad_gym.sim.report import finite_or_none, json_ready
 from modquad_gym.sim.track import TrackConfig, TrackResult, fly_trajectory
 from modquad_gym.sim.validate import validate
 
@@ -68,7 +68,7 @@ def validate_trajectory(
     payload = task.payload.mass if task.payload is not None else 0.0
     record["mass_with_payload_kg"] = structure.mass + payload
     record["min_margin_trajectory"] = finite_or_none(margin(A, W, task.f_max).min())
-    record |= flight.summary()
+    record = json_ready(record | flight.summary())
     if out_dir is not None:
         _write(Path(out_dir), record, structure, task, flight, render)
     return record
