@@ -6,8 +6,10 @@ from __future__ import annotations
 import multiprocessing as mp
 import os
 import resource
+import signal
 import threading
 import time
+from multiprocessing.connection import wait
 
 
 def tree_rss_mb(root: int) -> float:
@@ -62,8 +64,67 @@ def measured(fn, *args) -> tuple[object, float, float]:
 def fresh(fn, *args):
     """``fn(*args)`` in a fresh spawned process (``fn`` must be importable: a module-level
     function)."""
-    with mp.get_context("spawn").Pool(1) as pool:
-        return pool.apply(fn, args)
+    return fresh_map(fn, [args], 1)[0]
+
+
+def fresh_map(fn, jobs: list[tuple], workers: int, on_result=None) -> list:
+    """``[fn(*job) for job in jobs]``, each job in a fresh spawned process, at most ``workers``
+    at a time; ``on_result(i, result)`` is called here as job ``i`` finishes (e.g. to write its
+    rows at once). An exception in a job is raised here. However this ends (Ctrl-C, SIGTERM, an
+    error), no job's process outlives it: the running ones are terminated, and each exits by
+    itself if this process is killed (:func:`_child`)."""
+    ctx = mp.get_context("spawn")
+    pending, running, results = list(enumerate(jobs)), {}, [None] * len(jobs)
+    try:
+        while pending or running:
+            while pending and len(running) < workers:
+                i, job = pending.pop(0)
+                receive, send = ctx.Pipe(duplex=False)
+                proc = ctx.Process(target=_child, args=(send, os.getpid(), fn, job), daemon=True)
+                proc.start()
+                send.close()
+                running[receive] = (i, proc)
+            for conn in wait(list(running)):
+                i, proc = running.pop(conn)
+                try:
+                    ok, value = conn.recv()
+                except EOFError:  # the process died without an answer
+                    proc.join()
+                    ok, value = False, RuntimeError(f"a job's process died (exit {proc.exitcode})")
+                proc.join()
+                if not ok:
+                    raise value
+                results[i] = value
+                if on_result is not None:
+                    on_result(i, value)
+    finally:
+        for _, proc in running.values():
+            proc.terminate()
+        for _, proc in running.values():
+            proc.join()
+    return results
+
+
+def _child(conn, parent: int, fn, args: tuple) -> None:
+    """A job's process: Ctrl-C is its parent's to handle (which terminates it), and a watcher
+    ends it when the parent is gone (killed, even by SIGKILL), so no orphan keeps computing."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+    try:
+        answer = (True, fn(*args))
+    except Exception as exc:  # raised in the parent
+        answer = (False, exc)
+    try:
+        conn.send(answer)
+    except Exception as exc:  # an answer that does not pickle
+        conn.send((False, RuntimeError(f"{fn.__name__}: {type(exc).__name__}: {exc}")))
+    conn.close()
 
 
 if __name__ == "__main__":

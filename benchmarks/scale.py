@@ -23,6 +23,7 @@ of an answer is measured to it and to the planted size (an upper bound on the op
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -36,7 +37,7 @@ from benchmarks.common import (
     run_main,
     write_csv,
 )
-from benchmarks.measure import fresh, measured
+from benchmarks.measure import fresh_map, measured
 from benchmarks.scale_suites import (
     BANDS,
     FAMILIES,
@@ -45,7 +46,7 @@ from benchmarks.scale_suites import (
     search_budget,
     task_palette,
 )
-from modquad_gym.core.outputs import write_text
+from modquad_gym.core.outputs import claim_output_dir, save_figure, write_text
 from modquad_gym.core.resources import cap_workers
 
 METHODS = ("anytime", "greedy", "beam", "genetic", "centrosymmetric", "random", "milp", "ppo",
@@ -147,21 +148,35 @@ def task_row(task, method: str, res: dict, bound: int) -> dict:
     }
 
 
-def measure(args) -> list[dict]:
-    """Every (band, method) run; rows with each task's best proved bound."""
-    from concurrent.futures import ThreadPoolExecutor
-
+def measure(args, keep=None) -> list[dict]:
+    """Every (band, method) run; rows with each task's best proved bound. ``keep(rows)`` is
+    called with the rows so far each time a (band, method) run finishes, so an interrupted run
+    keeps them."""
     rows: list[dict] = []
     for band in args.bands:
         tasks = band_tasks(band, args.families, args.per_family, args.validation, args.time_limit)
         jobs = [(m, tasks, args.time_limit, args.seed, args.model) for m in args.methods]
-        with ThreadPoolExecutor(args.workers) as pool:  # each thread waits on its own process
-            results = list(pool.map(lambda job: fresh(run_band, *job), jobs))
-        for i, task in enumerate(tasks):
-            bound = max([task.meta["lower_bound"]] + [res[i]["proved"] for res in results])
-            for method, res in zip(args.methods, results, strict=True):
-                rows.append(task_row(task, method, res[i], bound))
-                print(rows[-1], flush=True)
+        done: dict[str, list] = {}
+
+        def finished(i: int, result: list, tasks=tasks, done=done, rows=rows) -> None:
+            done[args.methods[i]] = result
+            if keep is not None:
+                keep(rows + band_rows(tasks, args.methods, done))
+
+        fresh_map(run_band, jobs, args.workers, finished)  # each (method, band) in a new process
+        rows += band_rows(tasks, args.methods, done)
+        for row in rows[-len(tasks) * len(args.methods) :]:
+            print(row, flush=True)
+    return rows
+
+
+def band_rows(tasks: list, methods, done: dict[str, list]) -> list[dict]:
+    """The rows of one band's finished methods (``done``: method -> its results, one per
+    task), in task then method order; each task's bound is the best any of them proved."""
+    rows = []
+    for i, task in enumerate(tasks):
+        bound = max([task.meta["lower_bound"]] + [res[i]["proved"] for res in done.values()])
+        rows += [task_row(task, m, done[m][i], bound) for m in methods if m in done]
     return rows
 
 
@@ -360,7 +375,7 @@ def plot(rows: list[dict], path: Path) -> None:
         ax.set_xlabel("planted size (modules)")
         ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -509,16 +524,49 @@ def main(argv: list[str] | None = None) -> None:
     if unknown:
         raise ValueError(f"--bands {unknown[0]}: no held-out suite of that size (bands "
                          f"{' '.join(map(str, BANDS))}; --validation draws any size)")  # fmt: skip
+    check_model_option(args.model, args.methods)
     args.workers = cap_workers(args.workers)
-    rows = read_runs(args.rows) if args.rows else measure(args)
-    summary_rows = summary(rows)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    write_csv(rows, out / "rows.csv")
-    write_csv(summary_rows, out / "summary.csv")
-    plot(rows, out / "gap_vs_size.png")
-    write_text(out / "report.md", report(rows, summary_rows, args))
+    with claim_output_dir(args.out, OUTPUTS, args.force) as claim:  # a second run is refused
+        kept = claim.path("rows.csv")
+        try:
+            rows = read_runs(args.rows) if args.rows else measure(args, keep_rows(kept))
+        except KeyboardInterrupt:
+            if kept.exists():
+                print(f"kept the finished rows in {kept}", file=sys.stderr)
+            raise
+        summary_rows = summary(rows)
+        write_csv(rows, kept)
+        write_csv(summary_rows, claim.path("summary.csv"))
+        plot(rows, claim.path("gap_vs_size.png"))
+        write_text(claim.path("report.md"), report(rows, summary_rows, args))
     print("\n".join(goal_lines(rows, args.methods, args.time_limit)))
+
+
+def keep_rows(path: Path):
+    """What :func:`measure` calls with the rows so far: they go to ``path`` at once."""
+
+    def keep(rows: list[dict]) -> None:
+        if rows:
+            write_csv(rows, path)
+
+    return keep
+
+
+def check_model_option(model: str | None, methods) -> None:
+    """``--model``: a saved model, for a learned method among ``methods`` (one line, before any
+    work; a missing file would leave every learned answer empty)."""
+    from modquad_gym.solvers import learned_options
+
+    if model is None:
+        return
+    if not any(learned_options(m) is not None for m in methods):
+        raise ValueError(f"--model {model}: no learned method among --methods to use it")
+    from modquad_gym.policy.models import read_model
+
+    try:
+        read_model(model)
+    except ValueError as exc:
+        raise ValueError(f"--model {model}: {exc}") from None
 
 
 if __name__ == "__main__":
