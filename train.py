@@ -19,6 +19,7 @@ in ``report/``); it refuses a run folder that exists unless ``--force``.
 """
 
 from agents.cli import main
+from benchmarks.common import run_command
 
-if __name__ == "__main__":
-    raise SystemExit(main())
+if __name__ == "__main__":  # Ctrl-C or SIGTERM: one line, exit 130 or 143
+    raise SystemExit(run_command(main, "python train.py"))

@@ -8,15 +8,16 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from contextlib import ExitStack
 from dataclasses import MISSING, fields
 from pathlib import Path
 
 from agents.checks import check_environment, check_model, check_publishable
 from agents.config import TrainConfig
 from agents.seeds import seed_out
-from agents.training import RUN_FILES, publish, report, train
+from agents.training import RUN_FILES, log_name, publish, report, train
 from modquad_gym.core.options import int_option, seed_option
-from modquad_gym.core.outputs import OutputError, check_output_dir
+from modquad_gym.core.outputs import OutputError, check_output_dir, claim_output_dir
 from modquad_gym.scoring.options import REPORT_FILES
 from modquad_gym.scoring.tiers import TIERS
 
@@ -191,8 +192,29 @@ def tier_env_kwargs(tier: str) -> dict:
     return TrainConfig(out=Path("."), tier=tier).env_kwargs_full
 
 
+def run_folders(args: argparse.Namespace) -> list[Path]:
+    """The run folders this command trains into (none with ``--publish-run``, which reads
+    one)."""
+    if args.publish_run is not None:
+        return []
+    return [seed_out(args.out, s) for s in args.seeds] if args.seeds else [args.out]
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
+    runs = run_folders(args)
+    logs = {(Path(args.tensorboard) / log_name(out, Path(args.tensorboard))).resolve()
+            for out in runs} - {out.resolve() for out in runs}  # fmt: skip
+    with ExitStack() as held:  # a second run into one of these folders is refused at once
+        for out in runs:
+            held.enter_context(claim_output_dir(out, RUN_FILES, args.force, "--out"))
+        for log in sorted(logs):  # its checkpoints and evaluations, when not in the run folder
+            held.enter_context(claim_output_dir(log, what="--tensorboard"))
+        return run(args)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Train (one run, or one per seed), publish, report, as the options say."""
     quick = args.quick
     if args.seeds:
         from agents.seeds import train_seeds

@@ -32,7 +32,14 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.outputs import write_csv
+from modquad_gym.core.options import int_option
+from modquad_gym.core.outputs import (
+    OutputError,
+    check_output_dir,
+    claim_output_dir,
+    write_csv,
+    write_text,
+)
 
 EXIT_SEED0 = 7_000_000
 """Training draws of the expert iteration (held-out scale tasks use 5,000,000 + ..., validation
@@ -42,6 +49,9 @@ SIZES = (8, 32)
 BANDS = (16, 24, 32)
 """Validation bands the rounds are scored on."""
 CLONE = {"epochs": 25, "batch_size": 64, "learning_rate": 3e-4}
+OUTPUTS = ("model.zip", "config.json", "rows.csv", "report.md", "labels.csv")
+"""The files of ``--out`` besides the rounds' folders ``round-R``."""
+INTEGER = int_option(-(2**63), 2**63)
 
 
 def training_task(seed: int, round_: int, i: int):
@@ -179,7 +189,7 @@ def run(args: argparse.Namespace) -> list[dict]:
     from modquad_gym.core.distributed import map_tasks
     from modquad_gym.scoring.tiers import get_tier, validation_suite
 
-    out, model = Path(args.out), Path(args.model)
+    model = Path(args.model)
     small = validation_suite(get_tier("current"), progress=False)
     demos = replay_demos(str(model), args.n_max, args.replay, args.seed) if args.replay else None
     labels, rows = [], []
@@ -208,9 +218,10 @@ def run(args: argparse.Namespace) -> list[dict]:
         labelled = time.perf_counter() - t0
         ppo = load_for_training(model, args.n_max)
         history = clone(ppo, demos, seed=args.seed + r, **{**CLONE, "epochs": args.epochs})
-        model = out / f"round-{r}" / "model.zip"
+        model = args.claim.path(f"round-{r}/model.zip")
         model.parent.mkdir(parents=True, exist_ok=True)
         ppo.save(str(model))
+        args.claim.path(f"round-{r}/config.json")
         write_config(model.parent, args, r, len(demos))
         cloned = time.perf_counter() - t0 - labelled
         rows.append({"round": r, "model": shown(model).as_posix(), "states": len(demos),
@@ -219,7 +230,7 @@ def run(args: argparse.Namespace) -> list[dict]:
                      **summary(score(model, args.n_max, args.per_family)),
                      **current_tier(model, small)})  # fmt: skip
         print(rows[-1], flush=True)
-    write_csv(labels, out / "labels.csv")
+    write_csv(labels, args.claim.path("labels.csv"))
     args.labels = labels
     return rows
 
@@ -239,7 +250,7 @@ def write_config(folder: Path, args: argparse.Namespace, round_: int, states: in
         "budget": args.budget, "seed": args.seed, **CLONE, "epochs": args.epochs,
         "learner": args.learner, "replay": args.replay,
     }  # fmt: skip
-    (folder / "config.json").write_text(json.dumps(config, indent=2) + "\n")
+    write_text(folder / "config.json", json.dumps(config, indent=2) + "\n")
 
 
 def label_summary(labels: list[dict]) -> list[dict]:
@@ -298,29 +309,39 @@ def report(
     ])  # fmt: skip
 
 
-def main(argv: list[str] | None = None) -> int:
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The options, each checked before any work (argparse's usage and one error line, exit 2);
+    the start model is loaded once to check it."""
     import sys
 
-    from modquad_gym.policy.models import DEFAULT_MODEL
+    from modquad_gym.cli.common import time_limit_option
+    from modquad_gym.core.options import int_option, seed_option
+    from modquad_gym.policy.models import DEFAULT_MODEL, read_model
 
+    count = int_option(1, 1_000_000)
     p = argparse.ArgumentParser(
         prog="python -m agents.expert_iteration", description=__doc__.split("\n\n")[0]
     )
     p.add_argument(
         "--model", type=Path, default=DEFAULT_MODEL, help="start model (default: shipped)"
     )
-    p.add_argument("--rounds", type=int, default=2, help="expert-iteration rounds (default 2)")
-    p.add_argument("--tasks", type=int, default=48, help="training tasks per round (default 48)")
-    p.add_argument("--search-seconds", type=float, default=4.0, help="default search per task (4)")
+    p.add_argument("--rounds", type=int_option(1, 1000), default=2,
+                   help="expert-iteration rounds, 1 to 1000 (default 2)")  # fmt: skip
+    p.add_argument("--tasks", type=count, default=48, help="training tasks per round (default 48)")
+    p.add_argument("--search-seconds", type=time_limit_option, default=4.0, metavar="SECONDS",
+                   help="default search per task, in (0, 86400] (default 4)")  # fmt: skip
     p.add_argument(
-        "--budget", type=int, default=64, help="guided search's structures per task (64)"
+        "--budget", type=count, default=64, help="guided search's structures per task (64)"
     )
-    p.add_argument("--epochs", type=int, default=CLONE["epochs"], help="cloning epochs per round")
-    p.add_argument("--n-max", type=int, default=40, help="module budget (default 40)")
-    p.add_argument(
-        "--per-family", type=int, default=3, help="validation draws per family and band (3)"
-    )
-    p.add_argument("--workers", type=int, default=2, help="labelling processes (default 2)")
+    p.add_argument("--epochs", type=count, default=CLONE["epochs"],
+                   help=f"cloning epochs per round (default {CLONE['epochs']})")  # fmt: skip
+    p.add_argument("--n-max", type=int_option(SIZES[1], 128), default=40,
+                   help=f"module budget, {SIZES[1]} (the largest task) to 128 "
+                        "(default 40)")  # fmt: skip
+    p.add_argument("--per-family", type=int_option(1, 1000), default=3,
+                   help="validation draws per family and band (3)")  # fmt: skip
+    p.add_argument("--workers", type=int_option(1, 256), default=2,
+                   help="labelling processes (default 2)")  # fmt: skip
     p.add_argument(
         "--learner",
         action=argparse.BooleanOptionalAction,
@@ -330,33 +351,51 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument(
         "--replay",
-        type=int,
+        type=INTEGER,
         default=800,
         help="certified demonstrations of this "
         "many current-tier training tasks cloned beside the scale states (default 800)",
     )
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed_option, default=0, help="seed, 0 to 2**63-1 (default 0)")
     p.add_argument("--out", type=Path, default=Path("runs/exit"))
-    p.add_argument("--force", action="store_true", help="replace an existing --out")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace the files an earlier run wrote into --out (nothing else there)",
+    )
     args = p.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)
     if args.replay < 0:
         p.error(f"--replay {args.replay}: give a number of tasks, 0 or more")
-    if args.out.exists() and any(args.out.iterdir()):
-        if not args.force:
-            p.error(f"--out {args.out} exists and is not empty (--force replaces it)")
-        shutil.rmtree(args.out)
-    args.out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    rows = run(args)
-    if args.rounds:  # OUT is a run folder too: its model is the last round's
-        for name in ("model.zip", "config.json"):
-            shutil.copy2(args.out / f"round-{args.rounds}" / name, args.out / name)
-    write_csv(rows, args.out / "rows.csv")
-    (args.out / "report.md").write_text(report(rows, args, time.perf_counter() - t0, args.labels))
+    try:
+        check_output_dir(args.out, output_names(args.rounds), args.force)
+        read_model(args.model)
+    except ValueError as exc:  # OutputError too
+        p.error(str(exc) if isinstance(exc, OutputError) else f"--model {args.model}: {exc}")
+    return args
+
+
+def output_names(rounds: int) -> tuple[str, ...]:
+    """What a run of ``rounds`` rounds writes into ``--out``."""
+    return (*OUTPUTS, *(f"round-{r}" for r in range(1, rounds + 1)))
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    with claim_output_dir(args.out, output_names(args.rounds), args.force) as claim:
+        args.claim = claim
+        t0 = time.perf_counter()
+        rows = run(args)
+        for name in ("model.zip", "config.json"):  # OUT is a run folder: the last round's model
+            shutil.copy2(args.out / f"round-{args.rounds}" / name, claim.path(name))
+        write_csv(rows, claim.path("rows.csv"))
+        text = report(rows, args, time.perf_counter() - t0, args.labels)
+        write_text(claim.path("report.md"), text)
     print(f"wrote {args.out / 'report.md'}")
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from benchmarks.common import run_command
+
+    raise SystemExit(run_command(main, "python -m agents.expert_iteration"))
