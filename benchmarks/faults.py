@@ -11,7 +11,7 @@ every answer re-verified by an LP per failure. The oracle section times ``mq.tol
 ``mq.feasible`` on a 7-module structure (m = 28 rotors) for batches of wrenches inside W, one
 core. ``--fly`` also flies every certified tolerant structure in MuJoCo through its worst
 failure (and the intact minimum through the same failure). Writes report.md, faults.csv,
-oracle.csv and price.png into ``--out``.
+oracle.csv and price.png into ``--out`` (existing ones only with ``--force``).
 """
 
 from __future__ import annotations
@@ -25,12 +25,15 @@ from pathlib import Path
 import numpy as np
 
 import modquad_gym as mq
+from benchmarks.common import add_force, run_main
+from modquad_gym.core.outputs import OutputError, check_output_dir
 from modquad_gym.scoring import machine_description
 from modquad_gym.tasks.suites import load_suite
 
 SUITES = ("heldout_paper", "heldout_planted", "dynamic_motions")
 FAULTS = ("rotor", "module")
 SUITES_DIR = Path(mq.__file__).parent / "data" / "suites"
+OUTPUTS = ("report.md", "faults.csv", "oracle.csv", "price.png")
 
 
 def price(per_suite: int, n_max: int, time_limit: float) -> list[dict]:
@@ -336,9 +339,20 @@ def main(argv: list[str] | None = None) -> int:
         "report from the faults.csv already in --out",
     )
     parser.add_argument("--out", type=Path, default=Path("results/faults"))
+    add_force(parser)
     args = parser.parse_args(argv)
     if args.per_suite < 1 or args.n_max < 1 or not 0 < args.time_limit <= 3600:
         parser.error("--per-suite and --n-max must be >= 1, --time-limit in (0, 3600]")
+    if args.oracle_only and args.fly:
+        parser.error("--oracle-only rewrites the report from the rows in --out without "
+                     "searching or flying; leave out --fly")  # fmt: skip
+    if args.oracle_only and not (args.out / "faults.csv").is_file():
+        parser.error(f"--oracle-only: no faults.csv in {args.out} to rewrite the report from "
+                     "(run once without --oracle-only)")  # fmt: skip
+    try:
+        check_output_dir(args.out, OUTPUTS, args.force)
+    except OutputError as exc:
+        parser.error(str(exc))
     args.out.mkdir(parents=True, exist_ok=True)
     if args.oracle_only:
         rows = read_rows(args.out / "faults.csv")
@@ -356,4 +370,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_main(main, "faults"))
