@@ -20,7 +20,12 @@ class Terminated(KeyboardInterrupt):
     """The process received SIGTERM."""
 
 
+_terminated: list[bool] = []
+"""Whether SIGTERM came (a library may turn the exception into a plain KeyboardInterrupt)."""
+
+
 def _raise_terminated(signum, frame) -> None:
+    _terminated.append(True)
     raise Terminated()
 
 
@@ -29,30 +34,48 @@ def sigterm_as_interrupt() -> Iterator[None]:
     """Within the block SIGTERM raises :class:`Terminated` in the main thread; the previous
     handler comes back after it (nothing changes when called from another thread, where Python
     cannot set handlers)."""
-    with keep_sigterm():
-        if threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGTERM, _raise_terminated)
+    if threading.current_thread() is not threading.main_thread():
         yield
+        return
+    before = signal.getsignal(signal.SIGTERM)
+    _terminated.clear()
+    signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        yield
+    finally:
+        if before is not None:
+            signal.signal(signal.SIGTERM, before)
 
 
 @contextmanager
 def keep_sigterm() -> Iterator[None]:
     """Keep this process's SIGTERM handler across the block: a library started in it (Ray's
-    ``ray.init`` installs a native handler that prints a crash dump) does not replace it."""
+    ``ray.init`` installs a native handler that prints a crash dump) does not replace it.
+    SIGTERM is held back during the block (where the platform allows) and delivered to that
+    handler after it."""
     main = threading.current_thread() is threading.main_thread()
     before = signal.getsignal(signal.SIGTERM) if main else None
+    hold = main and hasattr(signal, "pthread_sigmask")
+    if hold:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
     try:
         yield
     finally:
         if main and before is not None:
             signal.signal(signal.SIGTERM, before)
+        if hold:  # a SIGTERM that came meanwhile reaches the handler now
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
 
 
 def exit_status(exc: KeyboardInterrupt) -> int:
     """143 for SIGTERM, 130 for Ctrl-C (128 + the signal's number, as shells report them)."""
-    return 128 + signal.SIGTERM if isinstance(exc, Terminated) else 130
+    return 128 + signal.SIGTERM if _was_terminated(exc) else 130
+
+
+def _was_terminated(exc: KeyboardInterrupt) -> bool:
+    return isinstance(exc, Terminated) or bool(_terminated)
 
 
 def stop_line(prog: str, exc: KeyboardInterrupt) -> str:
     """The one line an interrupted command prints."""
-    return f"{prog}: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}"
+    return f"{prog}: {'terminated' if _was_terminated(exc) else 'interrupted'}"
