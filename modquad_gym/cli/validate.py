@@ -206,7 +206,9 @@ def show(args: argparse.Namespace, report: dict) -> int:
     """Print the validation record: one JSON object with ``--json``, else a short summary
     (:func:`summary_lines`; every number is in ``validation.json`` and ``report.md``)."""
     if args.json:  # JSON: a number with no finite value (unlimited headroom) is null
-        print(json.dumps({"task": args.task, "method": args.method, **report}, allow_nan=False))
+        from modquad_gym.core.outputs import json_ready
+
+        print(json.dumps(json_ready({"task": args.task, "method": args.method, **report})))
     else:
         print("\n".join(summary_lines(report) + fault.fault_lines(report)))
     return 0

@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
 import stat
 import tempfile
@@ -29,6 +30,7 @@ __all__ = [
     "check_name_length",
     "check_output_dir",
     "claim_output_dir",
+    "json_ready",
     "check_output_file",
     "check_outputs",
     "named_os_error",
@@ -222,8 +224,9 @@ def claim_output_dir(
     """Hold the output folder ``path`` for one run: check it as :func:`check_output_dir`, create
     it, and lock it (``LOCK_NAME``, the ``filelock`` package, removed at the end) so that a
     second run into it is refused at once (an OutputError) instead of mixing or replacing files;
-    the check is repeated under the lock. With ``force``, the files an earlier run recorded in the folder's manifest
-    are removed first, and only those: whatever else the folder holds is the user's."""
+    the check is repeated under the lock. With ``force``, the files an earlier run recorded in
+    the folder's manifest are removed first, and only those: whatever else the folder holds is
+    the user's."""
     from filelock import FileLock, Timeout
 
     folder = check_output_dir(path, names, force, what)
@@ -271,6 +274,18 @@ def named_os_error(exc: OSError, path: Path) -> OSError:
     file is ``path``: what the user asked for, which the one-line error then names."""
     reason = exc.strerror or " ".join(str(exc).split()) or type(exc).__name__
     return OSError(exc.errno, reason, str(path))  # the subclass of its errno
+
+
+def json_ready(value):
+    """``value`` (dicts, lists and tuples of numbers, strings, ...) with every non-finite float
+    replaced by None, so that ``json.dumps`` writes JSON (which has no Infinity or NaN)."""
+    if isinstance(value, dict):
+        return {k: json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_ready(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def write_text(path: str | os.PathLike, text: str) -> Path:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from modquad_gym.core.outputs import json_ready
 from modquad_gym.sim.hover import HoverResult
 
 SEGMENT_KEYS = (
@@ -32,18 +33,6 @@ def finite_or_none(x: float) -> float | None:
     """``x`` as a float, None when not finite (JSON has no inf or nan)."""
     x = float(x)
     return x if math.isfinite(x) else None
-
-
-def json_ready(value):
-    """``value`` (dicts, lists and tuples of numbers, strings, ...) with every non-finite float
-    replaced by None, so that ``json.dumps`` writes JSON (which has no Infinity or NaN)."""
-    if isinstance(value, dict):
-        return {k: json_ready(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_ready(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 @dataclass

@@ -116,8 +116,7 @@ def add_to_report(out_dir: str | Path, report: dict, record: dict) -> dict:
     """``report`` (a validation record) with the fault ``record`` merged in (pictures into
     ``files``), ``report.md`` extended by :func:`fault_markdown` and ``validation.json``
     rewritten; returns the merged record."""
-    from modquad_gym.core.outputs import write_text
-    from modquad_gym.sim.report import json_ready
+    from modquad_gym.core.outputs import json_ready, write_text
 
     merged = json_ready({**report, **{k: v for k, v in record.items() if k != "fault_files"}})
     merged["files"] = {**(report.get("files") or {}), **record.get("fault_files", {})}

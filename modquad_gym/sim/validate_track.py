@@ -17,11 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.core.outputs import write_text
+from modquad_gym.core.outputs import json_ready, write_text
 from modquad_gym.dynamics import DynamicTask, as_dynamic
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import margin
-from modquad_gym.sim.report import finite_or_none, json_ready
+from modquad_gym.sim.report import finite_or_none
 from modquad_gym.sim.track import TrackConfig, TrackResult, fly_trajectory
 from modquad_gym.sim.validate import validate
 
