@@ -1,0 +1,382 @@
+"""The tools around the product (training, expert iteration, the benchmarks, validate) under
+hostile input, as ``modquad`` is: bad options refused in one line before any work, a second run
+into the same output refused, ``--force`` that removes only what the command wrote, Ctrl-C and
+SIGTERM ending in one line with the finished work kept and no process left behind."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+
+import modquad_gym as mq
+from benchmarks.common import run_command, run_main
+from modquad_gym.core.interrupts import (
+    Terminated,
+    exit_status,
+    keep_sigterm,
+    sigterm_as_interrupt,
+    stop_line,
+)
+from modquad_gym.core.outputs import (
+    LOCK_NAME,
+    MANIFEST_NAME,
+    OutputError,
+    check_output_file,
+    claim_output_dir,
+    json_ready,
+    write_text,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, "PYTHONPATH": str(ROOT), "OMP_NUM_THREADS": "1"}
+
+
+def _exits_2(capsys, main, argv, match: str) -> str:
+    """``main(argv)`` stops with exit status 2 and one error line holding ``match``."""
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    last = err.strip().splitlines()[-1]
+    assert match in last and "Traceback" not in err, err
+    return last
+
+
+# --- outputs: names, locks, --force -----------------------------------------------------------
+
+
+def test_a_legal_long_name_is_written_and_an_illegal_one_refused_before_work(tmp_path):
+    long = tmp_path / ("a" * 250 + ".md")  # 253 bytes: legal; the old temporary name was not
+    write_text(long, "x")
+    assert long.read_text() == "x" and os.listdir(tmp_path) == [long.name]
+    with pytest.raises(OutputError, match="bytes long"):
+        check_output_file(tmp_path / ("b" * 300 + ".md"))
+
+
+def test_a_claimed_folder_refuses_a_second_run_and_force_removes_only_recorded_files(tmp_path):
+    out = tmp_path / "out"
+    with claim_output_dir(out, ("report.md",)) as claim:
+        write_text(claim.path("report.md"), "first")
+        write_text(claim.path("round-3/model.zip"), "old round")
+        with pytest.raises(OutputError, match="another run"):
+            with claim_output_dir(out, ("report.md",), force=True):
+                pass
+    assert not (out / LOCK_NAME).exists()  # the lock goes with the run
+    (out / "notes.txt").write_text("the user's")
+    with pytest.raises(OutputError, match="already holds report.md"):
+        with claim_output_dir(out, ("report.md",)):
+            pass
+    with claim_output_dir(out, ("report.md",), force=True):
+        assert sorted(p.name for p in out.iterdir()) == [LOCK_NAME, "notes.txt"]
+    assert (out / "notes.txt").read_text() == "the user's" and not (out / MANIFEST_NAME).exists()
+
+
+def test_json_ready_turns_non_finite_numbers_into_null():
+    record = {"a": math.inf, "b": [1.0, -math.inf, {"c": math.nan}], "d": (2, "x")}
+    assert json_ready(record) == {"a": None, "b": [1.0, None, {"c": None}], "d": [2, "x"]}
+
+
+def test_validate_json_of_a_dynamic_task_is_strict_json(tmp_path, capsys, monkeypatch):
+    """A flight record with an unlimited step headroom prints null, never bare Infinity."""
+    from modquad_gym import dynamics as dy
+    from modquad_gym.cli import main
+    from modquad_gym.sim import validate_track
+
+    def fake(structure, task, **kw):
+        return {"track_max_position_error_m": 0.001, "hover_unknown_load_segments": [
+            {"segment": 0, "step_headroom": math.inf}]}  # fmt: skip
+
+    monkeypatch.setattr(validate_track, "validate_trajectory", fake)
+    path = dy.line(0.5, 1.0, rate=20).save(tmp_path / "line.json")
+    argv = ["validate", "--task", str(path), "--method", "exhaustive", "--json"]
+    assert main([*argv, "--max-hover-wrenches", "3", "--out", str(tmp_path / "v")]) == 0
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+
+    def refuse(name):
+        raise ValueError(f"not JSON: {name}")
+
+    record = json.loads(line, parse_constant=refuse)
+    assert record["hover_unknown_load_segments"][0]["step_headroom"] is None
+
+
+def test_validate_refuses_an_out_folder_another_run_holds(tmp_path, capsys):
+    from modquad_gym.cli import main
+
+    with claim_output_dir(tmp_path / "v"):
+        argv = ["validate", "--task", "example:screwdriver", "--out", str(tmp_path / "v")]
+        assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert "another run" in err[-1] and len([e for e in err if "error" in e]) == 1
+
+
+# --- small library fixes ------------------------------------------------------------------
+
+
+def test_a_value_just_past_a_bound_is_shown_as_given(capsys):
+    from modquad_gym.core.validation import check_real
+
+    with pytest.raises(ValueError, match=r"must be <= 1, got 1\.0000001$"):
+        check_real(1.0000001, "--detection-delay", 0.0, 1.0)
+    with pytest.raises(ValueError, match=r"must be >= 0, got -1$"):
+        check_real(-1, "x", 0.0)
+
+
+def test_greedy_start_may_be_a_generator():
+    from modquad_gym.tasks import load_task
+
+    task = load_task("example:screwdriver")
+    cells = [(0, 0), (1, 0)]
+    from_list = mq.greedy_search(task, n_max=8, start=cells)
+    from_generator = mq.greedy_search(task, n_max=8, start=(c for c in cells))
+    assert from_generator.structure.cells == from_list.structure.cells
+    with pytest.raises(ValueError, match="start"):
+        mq.greedy_search(task, n_max=8, start=[5])
+
+
+# --- Ctrl-C and SIGTERM -------------------------------------------------------------------
+
+
+def test_sigterm_becomes_one_line_and_exit_143_and_survives_a_library_handler(capsys):
+    with sigterm_as_interrupt():
+        with pytest.raises(Terminated):
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5)
+        with pytest.raises(Terminated):  # held back while a library replaces the handler
+            with keep_sigterm():
+                signal.signal(signal.SIGTERM, signal.SIG_DFL)  # as ray.init installs its own
+                os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5)
+
+    def stopped(argv):
+        raise KeyboardInterrupt
+
+    assert run_command(stopped, "python train.py", []) == 130
+    assert capsys.readouterr().err == "python train.py: interrupted\n"
+    assert exit_status(Terminated()) == 143 and stop_line("x", Terminated()) == "x: terminated"
+
+
+_JOBS = """
+import sys, time
+from benchmarks.common import run_command
+from benchmarks.measure import fresh_map
+
+def main(argv):
+    fresh_map(time.sleep, [(0.01,), (120,), (120,)], 2,
+              on_result=lambda i, r: print("finished", i, flush=True))
+
+sys.exit(run_command(main, "jobs"))
+"""
+
+
+def _children(pid: int) -> list[int]:
+    out = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout
+    return [int(p) for p in out.split()]
+
+
+def _gone(pids: list[int], seconds: float = 10.0) -> bool:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        if not any(Path(f"/proc/{p}").exists() and "Z" not in _state(p) for p in pids):
+            return True
+        time.sleep(0.1)
+    return False
+
+
+def _state(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return "Z"
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads /proc")
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
+def test_stopping_fresh_processes_keeps_finished_work_and_leaves_no_process(sig):
+    """The benchmarks' fresh processes (benchmarks.scale's jobs): a finished job was reported
+    at once; Ctrl-C or SIGTERM ends with one line and no traceback; even SIGKILL of the main
+    process leaves no job running."""
+    proc = subprocess.Popen([sys.executable, "-c", _JOBS], env=ENV, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)  # fmt: skip
+    try:
+        assert proc.stdout.readline().strip() == "finished 0"
+        end = time.monotonic() + 30
+        while len(_children(proc.pid)) < 2 and time.monotonic() < end:  # the two sleepers
+            time.sleep(0.1)
+        jobs = _children(proc.pid)
+        assert jobs
+        os.kill(proc.pid, sig)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+    assert _gone(jobs), "a job process outlived the main one"
+    if sig == signal.SIGKILL:
+        return
+    assert proc.returncode == (130 if sig == signal.SIGINT else 143)
+    assert err.strip() == ("jobs: interrupted" if sig == signal.SIGINT else "jobs: terminated")
+
+
+# --- benchmarks ---------------------------------------------------------------------------
+
+
+def test_helper_modules_run_as_scripts_say_so():
+    for name in ("common", "measure", "env_scale", "heterogeneous_measure", "heterogeneous_report"):
+        done = subprocess.run([sys.executable, "-m", f"benchmarks.{name}", "--help"], env=ENV,
+                              capture_output=True, text=True, cwd=ROOT, timeout=60)  # fmt: skip
+        assert done.returncode == 2 and not done.stdout, name
+        assert "helper module" in done.stderr and len(done.stderr.splitlines()) == 1, done.stderr
+
+
+@pytest.mark.parametrize(
+    "argv, match",
+    [
+        (["--per-suite", "0"], "--per-suite"),
+        (["--time-limit", "-1"], "--time-limit"),
+        (["--time-limit", "nan"], "--time-limit"),
+    ],
+)
+def test_milp_refuses_bad_options_before_work(tmp_path, capsys, argv, match):
+    from benchmarks import milp
+
+    _exits_2(capsys, milp.main, [*argv, "--out", str(tmp_path / "m")], match)
+    assert not (tmp_path / "m").exists()
+
+
+def test_reports_are_replaced_only_with_force(tmp_path, capsys):
+    from benchmarks import faults, leaderboard, milp, scale_suites, startup
+
+    (tmp_path / "report.md").write_text("mine")
+    for main in (milp.main, startup.main):
+        _exits_2(capsys, main, ["--out", str(tmp_path)], "use --force")
+    _exits_2(capsys, faults.main, ["--out", str(tmp_path)], "use --force")
+    _exits_2(capsys, leaderboard.main, [], "use --force")  # the committed pages
+    shipped = scale_suites.suite_path(16)
+    before = shipped.stat().st_mtime_ns
+    _exits_2(capsys, scale_suites.main, ["--bands", "16", "--out", str(shipped.parent)], "--force")
+    assert shipped.stat().st_mtime_ns == before and (tmp_path / "report.md").read_text() == "mine"
+    with pytest.raises(SystemExit):  # the default --out is not the shipped folder
+        scale_suites.main(["--help"])
+    assert "default results/scale_suites" in " ".join(capsys.readouterr().out.split())
+
+
+def test_faults_oracle_only_needs_earlier_rows_and_no_fly(tmp_path, capsys):
+    from benchmarks import faults
+
+    out = tmp_path / "new"
+    _exits_2(capsys, faults.main, ["--fly", "--oracle-only", "--out", str(out)], "--fly")
+    _exits_2(capsys, faults.main, ["--oracle-only", "--out", str(out)], "no faults.csv")
+    assert not out.exists()
+
+
+def test_scale_refuses_a_missing_model_and_a_held_out_folder(tmp_path, capsys):
+    from benchmarks import scale
+
+    base = ["--bands", "16", "--per-family", "1", "--time-limit", "1"]
+    argv = [*base, "--methods", "ppo", "--model", str(tmp_path / "missing.zip")]
+    assert run_main(scale.main, "scale", [*argv, "--out", str(tmp_path / "a")]) == 2
+    assert "--model" in capsys.readouterr().err
+    argv = [*base, "--methods", "greedy", "--model", str(tmp_path / "missing.zip")]
+    assert run_main(scale.main, "scale", [*argv, "--out", str(tmp_path / "a")]) == 2
+    assert "no learned method" in capsys.readouterr().err
+    with claim_output_dir(tmp_path / "b"):
+        argv = [*base, "--methods", "greedy", "--out", str(tmp_path / "b")]
+        assert run_main(scale.main, "scale", argv) == 2
+    assert "another run" in capsys.readouterr().err
+
+
+def test_scale_keeps_the_rows_of_finished_runs_when_interrupted(monkeypatch):
+    from benchmarks import scale
+
+    tasks = [SimpleNamespace(name=f"t{i}", meta={"band": 16, "family": "planted",
+                                                "planted": 16, "lower_bound": 14})
+             for i in range(2)]  # fmt: skip
+    answer = {"found": 15, "proved": 15, "verified": True, "seconds": 1.0, "peak_MB": 1.0,
+              "note": ""}  # fmt: skip
+
+    def first_then_stop(fn, jobs, workers, on_result):
+        on_result(0, [answer, answer])
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(scale, "fresh_map", first_then_stop)
+    monkeypatch.setattr(scale, "band_tasks", lambda *a: tasks)
+    kept = []
+    args = SimpleNamespace(bands=[16], families=["planted"], per_family=2, validation=False,
+                           time_limit=1.0, seed=0, model=None, methods=["greedy", "beam"],
+                           workers=1)  # fmt: skip
+    with pytest.raises(KeyboardInterrupt):
+        scale.measure(args, kept.append)
+    (rows,) = kept
+    assert [(r["task"], r["method"], r["lower_bound"]) for r in rows] == [
+        ("t0", "greedy", 15),
+        ("t1", "greedy", 15),
+    ]
+
+
+# --- expert iteration and train.py ----------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "argv, match",
+    [
+        (["--rounds", "-1"], "--rounds"),
+        (["--rounds", "0"], "--rounds"),
+        (["--epochs", "-1"], "--epochs"),
+        (["--tasks", "0"], "--tasks"),
+        (["--workers", "0"], "--workers"),
+        (["--n-max", "0"], "--n-max"),
+        (["--search-seconds", "nan"], "--search-seconds"),
+        (["--budget", "0"], "--budget"),
+        (["--seed", "-1"], "--seed"),
+        (["--per-family", "0"], "--per-family"),
+        (["--model", "missing.zip"], "--model missing.zip"),
+    ],
+)
+def test_expert_iteration_refuses_bad_options_before_work(tmp_path, capsys, argv, match):
+    pytest.importorskip("sb3_contrib")
+    from agents.expert_iteration import main
+
+    out = tmp_path / "exit"
+    _exits_2(capsys, main, [*argv, "--out", str(out)], match)
+    assert not out.exists()
+
+
+def test_expert_iteration_force_replaces_only_its_own_files(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("sb3_contrib")
+    from agents import expert_iteration as exit_
+
+    def fake_run(args):  # one round's files, as run() writes them
+        for name in ("model.zip", "config.json"):
+            write_text(args.claim.path(f"round-1/{name}"), name)
+        write_text(args.claim.path("labels.csv"), "round\n1\n")
+        args.labels = [{"round": 1, "search": 9, "guided": 9, "ppo": 9, "target": 9}]
+        return [{"round": 1, "model": "m", "states": 1}]
+
+    monkeypatch.setattr(exit_, "run", fake_run)
+    out = tmp_path / "exit"
+    assert exit_.main(["--rounds", "1", "--replay", "0", "--out", str(out)]) == 0
+    (out / "my_notes.txt").write_text("keep me")
+    _exits_2(capsys, exit_.main, ["--rounds", "1", "--out", str(out)], "--force")
+    assert exit_.main(["--rounds", "1", "--out", str(out), "--force"]) == 0
+    assert (out / "my_notes.txt").read_text() == "keep me"
+    assert {"report.md", "rows.csv", "model.zip", "round-1"} <= {p.name for p in out.iterdir()}
+
+
+def test_train_refuses_a_run_folder_another_run_holds(tmp_path):
+    pytest.importorskip("sb3_contrib")
+    from agents.cli import main
+
+    run = tmp_path / "run"
+    argv = ["--quick", "--no-report", "--no-progress", "--out", str(run), "--tensorboard",
+            str(tmp_path / "tb")]  # fmt: skip
+    with claim_output_dir(run):
+        with pytest.raises(OutputError, match="another run"):
+            main(argv)
+    assert not (run / "model.zip").exists()
