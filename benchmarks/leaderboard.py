@@ -1,19 +1,25 @@
-"""The leaderboard: every method on every benchmark tier, from the committed reports.
+"""The leaderboard: every method on every benchmark tier, ranked at a stated time budget per task.
 
     python -m benchmarks.leaderboard --force
 
 reads the committed data files and writes ``results/leaderboard.md``, ``results/leaderboard.csv``,
-``results/leaderboard.png`` and the documentation page ``docs/leaderboard.md`` (no number is
-typed by hand):
+``results/leaderboard.png`` (optimal share against seconds per task),
+``results/leaderboard_anytime.png`` (the share of tasks answered optimally within t seconds,
+against t) and the documentation page ``docs/leaderboard.md`` (no number is typed by hand):
 
 * the learned methods over five training seeds from ``results/seeds_<tier>/seeds.csv`` (one row
   per seed, method and suite): each seed's scores pooled over the tier's held-out tasks, the
-  mean over seeds with a 95 % percentile bootstrap interval over seeds;
+  mean over seeds with a 95 % percentile bootstrap interval over seeds; their oracle calls and
+  optimal share within the budget from the shipped model's one run in the tier report;
 * the searches (one deterministic run; random and genetic seeded) from the one-run tier reports
   ``results/tier_<tier>/benchmark.csv`` (one row per method and task), and, for the searches a
   tier report did not run, from ``results/leaderboard_searches.csv``, which
   ``python -m benchmarks.leaderboard --rescore-searches --force`` fills by running just those
-  searches on the tier's held-out suites (seconds, not hours: no training, no learned method).
+  searches on the tier's held-out suites (seconds, not hours: no training, no learned method);
+* the anytime search's history (when its incumbent first reached the optimum) from
+  ``results/leaderboard_anytime.csv`` (``--anytime-history`` runs it again);
+* outside agents' submissions, ``results/submissions/*.csv`` (the ``submission.csv`` that
+  ``--solver`` writes), over their seeds like the learned methods.
 
 Add your own agent (scored now on every tier, beside the committed rows; nothing committed
 changes)::
@@ -21,13 +27,15 @@ changes)::
     python -m benchmarks.leaderboard --solver my_agent:Agent --out my_board
 
 It follows the protocol of ``modquad score --solver`` (docs/benchmarks.md, "Score your own
-agent"): told each tier's n_max, counted through the evaluator it is handed.
+agent"): told each tier's n_max and the run's seed, counted through the evaluator it is handed.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import inspect
+import math
 import sys
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -39,53 +47,71 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results"
 DOCS = ROOT / "docs"
 COMMAND = "python -m benchmarks.leaderboard"
-TIERS = ("current", "large", "mixed", "dynamic")
+TIERS = ("current", "large", "mixed", "dynamic", "fault")
+BUDGET = 1.0
+"""Seconds per task at which every method is ranked: a task counts when the method's answer is
+optimal and came within this wall time."""
 RESCORED = "leaderboard_searches.csv"
 """The searches a tier report did not run, scored by ``--rescore-searches`` (in results/)."""
-OUTPUTS = ("leaderboard.md", "leaderboard.csv", "leaderboard.png")
+ANYTIME = "leaderboard_anytime.csv"
+"""The anytime search's history per task, written by ``--anytime-history`` (in results/)."""
+SUBMISSIONS = "submissions"
+"""The folder of results/ that holds outside agents' submissions (``*.csv``)."""
+SUBMISSION = "submission.csv"
+"""What ``--solver`` writes beside its leaderboard: the file an outside agent submits."""
+OUTPUTS = ("leaderboard.md", "leaderboard.csv", "leaderboard.png", "leaderboard_anytime.png",
+           SUBMISSION)  # fmt: skip
+METRICS = ("success", "optimal", "budget", "evaluated", "oracle_calls", "seconds")
+NA = (math.nan, math.nan, math.nan)
+T3 = tuple[float, float, float]
 
 
 @dataclass
 class Entry:
-    """One method on one tier: each metric as (point, low, high) (low = high = point for one
-    run); ``modules`` the mean module count over the solved tasks."""
+    """One method on one tier: each metric of :data:`METRICS` as (point, low, high) (low = high
+    = point for one run; NaN where not scored); ``budget`` the optimal share within
+    :data:`BUDGET` seconds per task; ``modules`` the mean module count over the solved tasks;
+    ``full`` the tier's task count (a row of fewer ``tasks`` is partial); ``status`` why the
+    method has no scores here ("" when it has)."""
 
     tier: str
     method: str
-    kind: str  # "search", "learned" or "yours"
+    kind: str  # "search", "learned" or "outside"
     tasks: int
     seeds: int
-    success: tuple[float, float, float]
-    optimal: tuple[float, float, float]
-    evaluated: tuple[float, float, float]
-    seconds: tuple[float, float, float]
-    modules: float | None
-    source: str
+    success: T3 = NA
+    optimal: T3 = NA
+    budget: T3 = NA
+    evaluated: T3 = NA
+    oracle_calls: T3 = NA
+    seconds: T3 = NA
+    modules: float | None = None
+    source: str = ""
     notes: list[str] = field(default_factory=list)
+    status: str = ""
+    full: int = 0
 
     def as_csv(self) -> dict:
         out = {"tier": self.tier, "method": self.method, "kind": self.kind, "tasks": self.tasks,
-               "seeds": self.seeds}  # fmt: skip
-        for name in ("success", "optimal", "evaluated", "seconds"):
+               "tier_tasks": self.full, "seeds": self.seeds}  # fmt: skip
+        for name in METRICS:
             point, low, high = getattr(self, name)
-            out |= {
-                name: f"{point:.6g}",
-                f"{name}_low": f"{low:.6g}",
-                f"{name}_high": f"{high:.6g}",
-            }
+            out |= {name: _g(point), f"{name}_low": _g(low), f"{name}_high": _g(high)}
         out["modules"] = "" if self.modules is None else f"{self.modules:.6g}"
+        out["status"] = self.status
         out["source"] = self.source
         out["notes"] = "; ".join(self.notes)
         return out
 
 
-def _point(v: float) -> tuple[float, float, float]:
-    return (float(v), float(v), float(v))
+def _g(v: float) -> str:
+    return "" if math.isnan(v) else f"{v:.6g}"
 
 
 # --- reading the committed data ---------------------------------------------------------------
 def read_rows(path: Path):
-    """The per-task rows (:class:`~modquad_gym.scoring.scores.Row`) of a benchmark CSV."""
+    """The per-task rows (:class:`~modquad_gym.scoring.scores.Row`) of a benchmark CSV (rows
+    with a ``status``, a submission's unscored tiers, are left out)."""
     from modquad_gym.scoring.scores import Row
 
     def num(v: str) -> int | None:
@@ -96,21 +122,50 @@ def read_rows(path: Path):
             Row(r["suite"], r["task"], num(r["optimum"]), r["method"], r["success"] == "1",
                 num(r["n_modules"]), int(r["evaluated"]), int(r["oracle_calls"]),
                 float(r["seconds"]), None)
-            for r in csv.DictReader(fh)
+            for r in csv.DictReader(fh) if not r.get("status")
         ]  # fmt: skip
 
 
-def one_run(rows, tier, methods: Iterable[str], kind: str, source: str) -> list[Entry]:
-    """Entries of ``methods`` from one run's per-task rows (the tasks whose optimum is within
-    the tier's n_max, as every report of the project counts them)."""
-    from modquad_gym.scoring.scores import summarise
+def in_scope(rows, n_max: int) -> list:
+    """The rows of the tasks whose certified optimum is within n_max (every report's scope)."""
+    return [r for r in rows if r.optimum is not None and r.optimum <= n_max]
 
-    out = []
-    for s in summarise(rows, list(methods), tier.n_max):
-        out.append(Entry(tier.name, s["method"], kind, s["tasks"], 1, _point(s["success_rate"]),
-                         _point(s["optimal_share"]), _point(s["mean_evaluated"]),
-                         _point(s["mean_seconds"]), s["mean_modules"], source))  # fmt: skip
-    return out
+
+def task_metrics(rows) -> dict[str, float]:
+    """Each metric of :data:`METRICS` over one run's rows (of one method, in scope)."""
+    return {
+        "success": float(np.mean([r.success for r in rows])),
+        "optimal": float(np.mean([r.optimal for r in rows])),
+        "budget": float(np.mean([r.optimal and r.seconds <= BUDGET for r in rows])),
+        "evaluated": float(np.mean([r.evaluated for r in rows])),
+        "oracle_calls": float(np.mean([r.oracle_calls for r in rows])),
+        "seconds": float(np.mean([r.seconds for r in rows])),
+    }
+
+
+def over_runs(tier, method: str, kind: str, runs: dict[str, list], source: str,
+              full: int = 0) -> Entry:  # fmt: skip
+    """The entry of ``method`` from its per-task rows of one or more seeded runs (seed ->
+    rows): per seed each metric over the tier's tasks, then the mean over seeds with its 95 %
+    percentile bootstrap interval (:func:`modquad_gym.scoring.seeds.interval`; the point for
+    one run)."""
+    from modquad_gym.scoring.seeds import interval
+
+    per_seed = {k: [] for k in METRICS}
+    modules = []
+    tasks = 0
+    for rows in runs.values():
+        rows = in_scope([r for r in rows if r.method == method], tier.n_max)
+        tasks = len(rows)
+        for k, v in task_metrics(rows).items():
+            per_seed[k].append(v)
+        solved = [r.n_modules for r in rows if r.success]
+        if solved:
+            modules.append(float(np.mean(solved)))
+    stats = {k: interval([np.array(v)], lambda x: float(np.mean(x))) for k, v in per_seed.items()}
+    return Entry(tier.name, method, kind, tasks, len(runs), **stats,
+                 modules=float(np.mean(modules)) if modules else None, source=source,
+                 full=full or tasks)  # fmt: skip
 
 
 def read_seeds(path: Path) -> list[dict]:
@@ -118,11 +173,13 @@ def read_seeds(path: Path) -> list[dict]:
         return list(csv.DictReader(fh))
 
 
-def over_seeds(records: list[dict], tier, source: str, fallback: dict) -> list[Entry]:
+def over_seeds(records: list[dict], tier, source: str, one_run: dict[str, Entry]) -> list[Entry]:
     """The learned methods of a five-seed report: per seed, each metric pooled over the tier's
     tasks (suites weighted by their task counts); the mean over seeds with its 95 % percentile
-    bootstrap interval (:func:`modquad_gym.scoring.seeds.interval`, seeds resampled). Mean
-    modules from the report where it holds them, else ``fallback`` (method -> (value, where))."""
+    bootstrap interval (:func:`modquad_gym.scoring.seeds.interval`, seeds resampled). What the
+    report does not hold (per-task seconds, so the optimal share within the budget; oracle
+    calls; mean modules in older reports) comes from ``one_run`` (method -> the shipped
+    model's entry in the tier report), with a note."""
     from modquad_gym.scoring.seeds import interval
 
     out = []
@@ -144,39 +201,111 @@ def over_seeds(records: list[dict], tier, source: str, fallback: dict) -> list[E
                                                 weights=solved)))  # fmt: skip
         tasks = int(sum(float(r["tasks"]) for r in mine if r["seed"] == seeds[0]))
         stats = {k: interval([np.array(v)], lambda x: float(np.mean(x))) for k, v in pooled.items()}
+        single = one_run.get(method)
         notes = []
-        if len(modules) == len(seeds):
-            mean_modules = float(np.mean(modules))
-        else:
-            mean_modules, where = fallback.get(method, (None, ""))
-            if mean_modules is not None:
-                notes.append(f"modules: {where}")
-        out.append(Entry(tier.name, method, "learned", tasks, len(seeds), stats["success"],
-                         stats["optimal"], stats["evaluated"], stats["seconds"], mean_modules,
-                         source, notes))  # fmt: skip
+        mean_modules = float(np.mean(modules)) if len(modules) == len(seeds) else None
+        if single is not None:
+            stats |= {"budget": single.budget, "oracle_calls": single.oracle_calls}
+            notes.append(f"one run: {single.source}")
+            if mean_modules is None and single.modules is not None:
+                mean_modules = single.modules
+                notes.append(f"modules: {single.source}")
+        out.append(Entry(tier.name, method, "learned", tasks, len(seeds), **stats,
+                         modules=mean_modules, source=source, notes=notes,
+                         full=tasks))  # fmt: skip
     return out
 
 
-def tier_entries(tier_name: str, results: Path = RESULTS) -> list[Entry]:
-    """Every committed method on one tier: the searches, then the learned methods."""
-    from modquad_gym.scoring.tiers import get_tier
+def unscored(tier, method: str, kind: str, why: str) -> Entry:
+    """A method that has no scores on ``tier``, and why (shown in place of its numbers)."""
+    return Entry(tier.name, method, kind, 0, 0, status=why)
+
+
+FAULT_REFUSED = "refused: takes no fault="
+FAULT_LEARNED = "not applicable: trained without failures; takes no fault="
+
+
+def tier_entries(tier_name: str, results: Path = RESULTS,
+                 submissions: Path | None = None) -> list[Entry]:  # fmt: skip
+    """Every committed method on one tier: the searches, the learned methods, then the outside
+    agents' submissions (``submissions``, default ``results/submissions``). On a fault tier the
+    methods that cannot honour the failure are listed with the reason instead of numbers."""
+    from modquad_gym.scoring.tiers import TIERS as TIER_TABLE
+    from modquad_gym.scoring.tiers import get_tier, honours_fault
     from modquad_gym.search import SEARCHES
 
     tier = get_tier(tier_name)
     report = results / f"tier_{tier.name}" / "benchmark.csv"
-    seeds = results / f"seeds_{tier.name}" / "seeds.csv"
     rows = read_rows(report)
-    entries = one_run(rows, tier, SEARCHES, "search", _rel(report))
-    missing = [m for m in SEARCHES if m not in {e.method for e in entries}]
+    full = len({r.task for r in in_scope(rows, tier.n_max)})
+    ran = {r.method for r in rows}
     rescored = results / RESCORED
-    if missing and rescored.is_file():
-        extra = [r for r in read_rows(rescored) if r.suite in tier.suites]
-        entries += one_run(extra, tier, missing, "search", _rel(rescored))
-    fallback = {e.method: (e.modules, _rel(report))
-                for e in one_run(rows, tier, tier.learned, "learned", "")}  # fmt: skip
-    entries += over_seeds(read_seeds(seeds), tier, _rel(seeds), fallback)
-    order = [*SEARCHES, *tier.learned]
-    return sorted(entries, key=lambda e: order.index(e.method) if e.method in order else 99)
+    extra = [r for r in read_rows(rescored) if r.suite in tier.suites] if rescored.is_file() else []
+    entries = []
+    for m in SEARCHES:
+        if tier.fault and not honours_fault(m):
+            entries.append(unscored(tier, m, "search", FAULT_REFUSED))
+        elif m in ran:
+            entries.append(over_runs(tier, m, "search", {"-": rows}, _rel(report)))
+        elif any(r.method == m for r in extra):
+            entries.append(over_runs(tier, m, "search", {"-": extra}, _rel(rescored)))
+    if tier.fault:
+        entries += [unscored(tier, m, "learned", FAULT_LEARNED)
+                    for m in TIER_TABLE["current"].learned]  # fmt: skip
+    else:
+        one = {m: over_runs(tier, m, "learned", {"-": rows}, _rel(report))
+               for m in tier.learned if m in ran}  # fmt: skip
+        seeds = results / f"seeds_{tier.name}" / "seeds.csv"
+        entries += over_seeds(read_seeds(seeds), tier, _rel(seeds), one)
+    folder = results / SUBMISSIONS if submissions is None else submissions
+    for path in sorted(folder.glob("*.csv")) if folder.is_dir() else []:
+        entries += submission_entries(path, tier, full)
+    return entries
+
+
+def submission_entries(path: Path, tier, full: int) -> list[Entry]:
+    """The outside agents of a submission file (:func:`write_submission`) on ``tier``."""
+    with open(path, newline="") as fh:
+        records = [r for r in csv.DictReader(fh) if r["tier"] == tier.name]
+    out = []
+    for method in dict.fromkeys(r["method"] for r in records):
+        mine = [r for r in records if r["method"] == method]
+        status = next((r["status"] for r in mine if r["status"]), "")
+        if status:
+            out.append(unscored(tier, method, "outside", status))
+            continue
+        rows = {s: [] for s in dict.fromkeys(r["seed"] for r in mine)}
+        for row in _rows_of(mine):
+            rows[row[0]].append(row[1])
+        out.append(over_runs(tier, method, "outside", rows, _rel(path), full))
+    return out
+
+
+def _rows_of(records: list[dict]):
+    """(seed, Row) of submission records."""
+    from modquad_gym.scoring.scores import Row
+
+    def num(v: str) -> int | None:
+        return int(v) if v not in ("", None) else None
+
+    for r in records:
+        yield r["seed"], Row(r["suite"], r["task"], num(r["optimum"]), r["method"],
+                             r["success"] == "1", num(r["n_modules"]), int(r["evaluated"]),
+                             int(r["oracle_calls"]), float(r["seconds"]), None)  # fmt: skip
+
+
+def read_anytime(path: Path) -> dict[str, list[tuple[float, bool]]]:
+    """Per tier, (seconds until the anytime search's incumbent first had the optimal count,
+    reached) of every task in scope, from ``--anytime-history``'s file ({} without it)."""
+    if not path.is_file():
+        return {}
+    out: dict[str, list[tuple[float, bool]]] = {}
+    with open(path, newline="") as fh:
+        for r in csv.DictReader(fh):
+            if r["in_scope"] == "1":
+                t = float(r["optimal_at"]) if r["optimal_at"] else math.inf
+                out.setdefault(r["tier"], []).append((t, r["optimal_at"] != ""))
+    return out
 
 
 def made_by(path: Path) -> str:
@@ -200,21 +329,22 @@ def _rel(path: Path) -> str:
 # --- scoring what is not committed --------------------------------------------------------------
 def rescore_searches(results: Path = RESULTS, progress: bool = True) -> Path:
     """Run the searches that a tier report did not run on that tier's held-out suites and write
-    their per-task rows to ``results/leaderboard_searches.csv``."""
+    their per-task rows to ``results/leaderboard_searches.csv`` (on a fault tier, those that
+    honour the failure)."""
     from modquad_gym.core.outputs import write_csv, write_text
     from modquad_gym.scoring.agents import run_benchmark
-    from modquad_gym.scoring.tiers import get_tier
+    from modquad_gym.scoring.tiers import get_tier, honours_fault
     from modquad_gym.search import SEARCHES
 
     rows = []
     for name in TIERS:
         tier = get_tier(name)
         have = {r.method for r in read_rows(results / f"tier_{name}" / "benchmark.csv")}
-        missing = [m for m in SEARCHES if m not in have]
+        missing = [m for m in SEARCHES if m not in have and (not tier.fault or honours_fault(m))]
         if missing:
             print(f"{name}: scoring {', '.join(missing)}", file=sys.stderr)
             rows += run_benchmark(tier.load_suites(), missing, tier.n_max, None, 0, progress, 1,
-                                  tier.modules, tier.name)  # fmt: skip
+                                  tier.modules, tier.name, tier.fault)  # fmt: skip
     path = results / RESCORED
     write_csv([r.as_csv() for r in rows], path)
     write_text(path.with_suffix(".md"), rescored_note(rows))
@@ -242,34 +372,122 @@ def rescored_note(rows) -> str:
     ])  # fmt: skip
 
 
-def score_agent(spec: str, tiers: Iterable[str], limit: int | None, progress: bool) -> list[Entry]:
-    """An outside agent on every tier's held-out suites (first ``limit`` tasks of each), one run."""
+def anytime_history(results: Path = RESULTS, progress: bool = True) -> Path:
+    """Run the anytime search on every tier's held-out tasks and write, per task, when its
+    incumbent first had the certified optimum's module count (its history's events) to
+    ``results/leaderboard_anytime.csv``, with a note of the machine beside it."""
+    from tqdm import tqdm
+
+    from modquad_gym.core.outputs import write_csv, write_text
+    from modquad_gym.scoring import machine_description
+    from modquad_gym.scoring.tiers import get_tier
+    from modquad_gym.search import anytime_search
+
+    out = []
+    for name in TIERS:
+        tier = get_tier(name)
+        jobs = [(s, t) for s, tasks in tier.load_suites().items() for t in tasks]
+        for suite, task in tqdm(jobs, f"anytime history ({name})", disable=not progress):
+            optimum = task.meta.get("optimum")
+            r = anytime_search(task, n_max=tier.n_max, **tier.search_kwargs())
+            at = [e.seconds for e in r.history if optimum is not None and e.n_modules == optimum]
+            out.append({"tier": name, "suite": suite, "task": task.name, "optimum": optimum,
+                        "in_scope": int(optimum is not None and optimum <= tier.n_max),
+                        "n_modules": r.n_modules, "certified": int(r.certified),
+                        "seconds": f"{r.seconds:.5f}",
+                        "optimal_at": f"{min(at):.5f}" if at else "",
+                        "history": ";".join(f"{e.seconds:.5f}:{e.lower_bound}:{e.n_modules}"
+                                            for e in r.history)})  # fmt: skip
+    path = results / ANYTIME
+    write_csv(out, path)
+    write_text(path.with_suffix(".md"), "\n".join([
+        "# The anytime search's history on the tiers' held-out tasks",
+        "",
+        f"Made by `{COMMAND} --anytime-history`. Machine: {machine_description()}.",
+        "",
+        "Per task (one row in `leaderboard_anytime.csv`): the anytime search's answer, its wall "
+        "time, `optimal_at` (the seconds after which its incumbent had the certified optimum's "
+        "module count) and its `history` (seconds:lower bound:incumbent modules per event).",
+        "",
+    ]))  # fmt: skip
+    return path
+
+
+def _takes_seed(agent) -> bool:
+    """Is the outside agent made with a ``seed`` (its class's constructor takes one)?"""
+    if inspect.isfunction(agent) or inspect.ismethod(agent):
+        return False
+    try:
+        params = inspect.signature(type(agent)).parameters.values()
+    except (TypeError, ValueError):
+        return False
+    return any(p.name == "seed" or p.kind == p.VAR_KEYWORD for p in params)
+
+
+def _one_line(err: BaseException) -> str:
+    text = str(err).strip().splitlines()
+    return f"{type(err).__name__}: {text[0] if text else ''}"
+
+
+def score_agent(spec: str, tiers: Iterable[str], limit: int | None, seeds: list[int],
+                progress: bool) -> list[dict]:  # fmt: skip
+    """An outside agent on every tier's held-out suites (the first ``limit`` tasks of each),
+    once per seed of ``seeds`` (once when the agent takes no seed): the submission's records
+    (:func:`write_submission`), one per (tier, seed, task), the agent's own ``name`` as its
+    method. A tier where the agent fails is one record with the failure in ``status``; the
+    other tiers go on. An import error is a ValueError before any work."""
     from modquad_gym.geometry.module import palette
     from modquad_gym.scoring.agents import run_benchmark
     from modquad_gym.scoring.tiers import get_tier
     from modquad_gym.solvers import load_solver
 
-    out = []
-    for name in tiers:
-        tier = get_tier(name)
+    first = load_solver(spec, seed=seeds[0])  # a bad spec fails now, before any work
+    name = first.name
+    runs = seeds if _takes_seed(first.agent) else seeds[:1]
+    records: list[dict] = []
+    for tier_name in tiers:
+        tier = get_tier(tier_name)
+        status = {"tier": tier.name, "seed": "", "method": name, "status": ""}
         types = palette(tier.modules) if tier.modules else None
-        load_solver(spec, n_max=tier.n_max, tier=tier.name, modules=types)  # fails before work
-        rows = run_benchmark(tier.load_suites(limit), [spec], tier.n_max, None, 0, progress, 1,
-                             tier.modules, tier.name)  # fmt: skip
-        source = "scored now" + (f", first {limit} tasks of each suite" if limit else "")
-        out += one_run(rows, tier, [spec], "yours", source)
-    return out
+        try:
+            mine = []
+            for seed in runs:
+                load_solver(spec, n_max=tier.n_max, tier=tier.name, modules=types, seed=seed)
+                rows = run_benchmark(tier.load_suites(limit), [spec], tier.n_max, None, seed,
+                                     progress, 1, tier.modules, tier.name,
+                                     tier.fault)  # fmt: skip
+                mine += [{"tier": tier.name, "seed": str(seed), **r.as_csv(), "method": name,
+                          "status": ""} for r in rows]  # fmt: skip
+            records += mine
+        except Exception as err:  # the agent's failure on this tier; the others go on
+            print(f"{tier.name}: {name} failed: {_one_line(err)}", file=sys.stderr)
+            records.append({**status, "status": f"failed: {_one_line(err)}"})
+    return records
+
+
+SUBMISSION_KEYS = ("tier", "seed", "method", "status", "suite", "task", "optimum", "success",
+                   "n_modules", "gap", "optimal", "evaluated", "oracle_calls", "seconds",
+                   "cells")  # fmt: skip
+
+
+def write_submission(records: list[dict], path: Path) -> Path:
+    """The submission file: one row per (tier, seed, task) as ``modquad score`` writes its rows,
+    with the tier, the seed and ``status`` (a tier not scored: one row saying why)."""
+    from modquad_gym.core.outputs import write_csv
+
+    write_csv([{k: r.get(k, "") for k in SUBMISSION_KEYS} for r in records], path)
+    return path
 
 
 # --- writing ----------------------------------------------------------------------------------
-def _pct(v: tuple[float, float, float], interval: bool) -> str:
-    if not interval:
+def _pct(v: T3, interval: bool) -> str:
+    if not interval or v[1] == v[2]:
         return f"{100 * v[0]:.1f} %"
     return f"{100 * v[0]:.1f} % [{100 * v[1]:.1f}, {100 * v[2]:.1f}]"
 
 
-def _num(v: tuple[float, float, float], interval: bool, fmt: str) -> str:
-    if not interval:
+def _num(v: T3, interval: bool, fmt: str) -> str:
+    if not interval or v[1] == v[2]:
         return format(v[0], fmt)
     return f"{format(v[0], fmt)} [{format(v[1], fmt)}, {format(v[2], fmt)}]"
 
@@ -277,29 +495,47 @@ def _num(v: tuple[float, float, float], interval: bool, fmt: str) -> str:
 def _label(e: Entry) -> str:
     if e.kind == "learned":
         return f"{e.method} ({e.seeds} seeds)"
-    if e.kind == "yours":
-        return f"**{e.method}** (yours)"
+    if e.kind == "outside":
+        runs = f", {e.seeds} seed{'s' if e.seeds != 1 else ''}" if e.seeds else ""
+        return f"**{e.method}** (outside{runs})"
     return e.method
 
 
+def ranked(entries: list[Entry]) -> list[Entry]:
+    """Scored entries by optimal share within the budget (then success, fewer seconds), then
+    the unscored ones."""
+    scored = [e for e in entries if not e.status]
+    scored.sort(key=lambda e: (-e.budget[0], -e.optimal[0], e.seconds[0]))
+    return scored + [e for e in entries if e.status]
+
+
 def tier_table(entries: list[Entry]) -> list[str]:
-    lines = [
-        "| method | success | optimal share | mean modules | configs / task | seconds / task |",
-        "|---|---|---|---|---|---|",
-    ]
-    for e in entries:
-        ci = e.kind == "learned"
+    """One tier's methods ranked at the budget; every row with its task count and seeds."""
+    head = (f"| rank | method | tasks | optimal within {BUDGET:g} s | success | optimal share | "
+            "mean modules | configs / task | oracle calls / task | seconds / task |")  # fmt: skip
+    lines = [head, "|---|---|---|---|---|---|---|---|---|---|"]
+    rank = 0
+    for e in ranked(entries):
+        if e.status:
+            lines.append(f"| - | {_label(e)} | - | {e.status} | | | | | | |")
+            continue
+        rank += 1
+        ci = e.seeds > 1
+        one = " ‡" if any(n.startswith("one run:") for n in e.notes) else ""
         mark = " †" if any(n.startswith("modules:") for n in e.notes) else ""
         modules = "-" if e.modules is None else f"{e.modules:.2f}{mark}"
+        tasks = f"{e.tasks}" if e.tasks >= e.full else f"{e.tasks} of {e.full} (partial)"
         lines.append(
-            f"| {_label(e)} | {_pct(e.success, ci)} | {_pct(e.optimal, ci)} | {modules} | "
-            f"{_num(e.evaluated, ci, '.1f')} | {_num(e.seconds, ci, '.3f')} |"
+            f"| {rank} | {_label(e)} | {tasks} | {_pct(e.budget, ci)}{one} | "
+            f"{_pct(e.success, ci)} | {_pct(e.optimal, ci)} | {modules} | "
+            f"{_num(e.evaluated, ci, '.1f')} | {_num(e.oracle_calls, ci, ',.0f')}{one} | "
+            f"{_num(e.seconds, ci, '.3f')} |"
         )
     return lines
 
 
 def glance(entries: list[Entry], tiers: list[str]) -> list[str]:
-    """Optimal share (success) of every method on every tier: one table."""
+    """Optimal share within the budget (and without a limit) of every method on every tier."""
     methods = list(dict.fromkeys(e.method for e in entries))
     by = {(e.tier, e.method): e for e in entries}
     lines = ["| method | " + " | ".join(f"`{t}`" for t in tiers) + " |",
@@ -308,49 +544,170 @@ def glance(entries: list[Entry], tiers: list[str]) -> list[str]:
         cells = []
         for t in tiers:
             e = by.get((t, method))
-            cells.append("-" if e is None else
-                         f"{100 * e.optimal[0]:.1f} % ({100 * e.success[0]:.0f} %)")  # fmt: skip
+            if e is None:
+                cells.append("-")
+            elif e.status:
+                cells.append(e.status.partition(":")[0])
+            else:
+                part = "" if e.tasks >= e.full else f", {e.tasks} of {e.full} tasks"
+                cells.append(f"{100 * e.budget[0]:.1f} % ({100 * e.optimal[0]:.1f} %{part})")
         first = next(e for e in entries if e.method == method)
         lines.append(f"| {_label(first)} | " + " | ".join(cells) + " |")
     return lines
 
 
-def plot(entries: list[Entry], tiers: list[str], path: Path) -> Path:
-    """Per tier: optimal share against configurations per task (log), learned methods with
-    their 95 % intervals over seeds; methods at the same point share one label."""
+COLOURS = {"search": "#555555", "learned": "#4c72b0", "outside": "#dd8452"}
+MARKERS = {"search": "o", "learned": "s", "outside": "D"}
+KIND_NAMES = {"search": "search (one run)", "learned": "learned (mean of 5 seeds, 95 % interval)",
+              "outside": "outside agent"}  # fmt: skip
+
+
+def _panels(n: int):
+    """A figure of ``n`` tier panels and one more for the legend (two columns)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
+    cols = 2
+    rows = -(-(n + 1) // cols)
+    fig = Figure(figsize=(6.4 * cols, 4.4 * rows), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = [fig.add_subplot(rows, cols, i + 1) for i in range(rows * cols)]
+    for ax in axes[n + 1 :]:
+        ax.set_visible(False)
+    return fig, axes[:n], axes[n]
+
+
+def _place_labels(ax, points: list[tuple[float, float, str, str]]) -> None:
+    """Each label beside its point, joined to it by a thin line, at the first of a few offsets
+    where it overlaps no label placed before and no other point."""
+    fig = ax.figure
+    renderer = fig.canvas.get_renderer()
+    to_px = ax.transData.transform
+    dots = [to_px((x, y)) for x, y, _, _ in points]
+    placed = []
+    offsets = [(10, 8), (10, -14), (-10, 8), (-10, -14), (14, 22), (14, -28), (-14, 22),
+               (-14, -28), (24, 0), (-24, 0), (30, 38), (30, -42), (-30, 38), (-30, -42),
+               (40, 56), (40, -60), (-40, 56), (-40, -60)]  # fmt: skip
+    for x, y, text, colour in sorted(points, key=lambda p: (-p[1], p[0])):
+        best = None
+        for dx, dy in offsets:
+            ann = ax.annotate(text, (x, y), textcoords="offset points", xytext=(dx, dy),
+                              ha="left" if dx > 0 else "right", va="center", fontsize=8,
+                              color=colour,
+                              arrowprops=dict(arrowstyle="-", color=colour, lw=0.6,
+                                              shrinkA=0, shrinkB=3))  # fmt: skip
+            box = ann.get_window_extent(renderer).expanded(1.05, 1.15)
+            clash = sum(box.overlaps(b) for b in placed) + sum(
+                box.contains(px, py) for px, py in dots
+            )
+            if best is None or clash < best[0]:
+                if best is not None:
+                    best[1].remove()
+                best = (clash, ann, box)
+            else:
+                ann.remove()
+            if clash == 0:
+                break
+        placed.append(best[2])
+
+
+def plot(entries: list[Entry], tiers: list[str], path: Path) -> Path:
+    """Per tier: optimal share against seconds per task (log), learned methods with their 95 %
+    intervals over seeds; each label joined to its point; a legend of the kinds."""
+    from matplotlib.lines import Line2D
+
     from modquad_gym.core.outputs import save_figure
 
-    cols = min(2, len(tiers))
-    rows = -(-len(tiers) // cols)
-    fig = Figure(figsize=(6.2 * cols, 4.6 * rows), layout="constrained")
-    FigureCanvasAgg(fig)
-    colours = {"search": "#555555", "learned": "#4c72b0", "yours": "#dd8452"}
-    for i, t in enumerate(tiers):
-        ax = fig.add_subplot(rows, cols, i + 1)
-        points: dict[tuple, list[Entry]] = {}
-        for e in (e for e in entries if e.tier == t):
-            x, y = e.evaluated[0], 100 * e.optimal[0]
-            xerr = [[x - e.evaluated[1]], [e.evaluated[2] - x]]
+    fig, axes, legend_ax = _panels(len(tiers))
+    for ax, t in zip(axes, tiers):
+        mine = [e for e in entries if e.tier == t and not e.status]
+        points = []
+        for e in mine:
+            x, y = e.seconds[0], 100 * e.optimal[0]
+            xerr = [[x - e.seconds[1]], [e.seconds[2] - x]]
             yerr = [[y - 100 * e.optimal[1]], [100 * e.optimal[2] - y]]
-            ax.errorbar(x, y, xerr=xerr, yerr=yerr, fmt="o", color=colours[e.kind], ms=5,
-                        capsize=2)  # fmt: skip
-            points.setdefault((round(np.log10(x), 2), round(y, 1)), []).append(e)
-        placed: list[tuple[float, float]] = []  # label anchors (log x, y) already used
-        for (lx, y), group in sorted(points.items(), key=lambda kv: (-kv[0][1], kv[0][0])):
-            label = " = ".join(e.method.rpartition(":")[2] for e in group)
-            near = sum(abs(lx - px) < 0.35 and abs(y - py) < 6 for px, py in placed)
-            placed.append((lx, y))
-            ax.annotate(label, (10**lx, y), textcoords="offset points", xytext=(5, 3 - 10 * near),
-                        fontsize=8, color=colours[group[0].kind])  # fmt: skip
+            ax.errorbar(x, y, xerr=xerr, yerr=yerr, fmt=MARKERS[e.kind], color=COLOURS[e.kind],
+                        ms=5, capsize=2, lw=0.8)  # fmt: skip
+            points.append((x, y, e.method.rpartition(":")[2], COLOURS[e.kind]))
         ax.set_xscale("log")
-        ax.set_ylim(-3, 106)
+        lo = min(e.seconds[1] for e in mine)
+        hi = max(e.seconds[2] for e in mine)
+        ax.set_xlim(lo / 3, hi * 3)
+        ax.set_ylim(-5, 112)
         ax.set_title(f"tier {t}")
-        ax.set_xlabel("configurations evaluated / task (log)")
+        ax.set_xlabel("seconds per task (log scale)")
         ax.set_ylabel("optimal module count (% of tasks)")
         ax.grid(alpha=0.3)
+        _place_labels(ax, points)
+    handles = [Line2D([], [], ls="", marker=MARKERS[k], color=COLOURS[k], label=KIND_NAMES[k])
+               for k in COLOURS if any(e.kind == k for e in entries)]  # fmt: skip
+    legend_ax.axis("off")
+    legend_ax.legend(handles=handles, loc="center", title="method kind", frameon=False)
+    return save_figure(fig, path, dpi=100)
+
+
+def curves(tier, rows_by_method: dict[str, list], anytime: list[tuple[float, bool]]):
+    """(method, sorted seconds at which each task in scope was answered optimally (inf: never))
+    per method of one run, the anytime search's history as ``anytime (history)``."""
+    out = []
+    for method, rows in rows_by_method.items():
+        rs = in_scope(rows, tier.n_max)
+        out.append((method, sorted(r.seconds if r.optimal else math.inf for r in rs)))
+    if anytime:
+        out.append(("anytime (history)", sorted(t for t, _ in anytime)))
+    return out
+
+
+def _style(method: str) -> str:
+    """Line style of a curve: the anytime history dashed, learned methods dash-dotted."""
+    return "--" if "history" in method else "-." if method.startswith("ppo") else "-"
+
+
+def plot_curves(tiers: list[str], results: Path, path: Path) -> Path:
+    """Per tier, the share of tasks answered with the optimal count within t seconds, against
+    t (log): each method's one run (the tier report, the rescored searches), and the anytime
+    search's incumbent history where it was recorded; the budget as a vertical line."""
+    from matplotlib import colormaps
+    from matplotlib.lines import Line2D
+
+    from modquad_gym.core.outputs import save_figure
+    from modquad_gym.scoring.tiers import get_tier
+
+    fig, axes, legend_ax = _panels(len(tiers))
+    history = read_anytime(results / ANYTIME)
+    colours: dict[str, tuple] = {}
+    palette = colormaps["tab20"]
+    for ax, name in zip(axes, tiers):
+        tier = get_tier(name)
+        rows = read_rows(results / f"tier_{name}" / "benchmark.csv")
+        rescored = results / RESCORED
+        if rescored.is_file():
+            rows += [r for r in read_rows(rescored) if r.suite in tier.suites]
+        by: dict[str, list] = {}
+        for r in rows:
+            by.setdefault(r.method, []).append(r)
+        for method, times in curves(tier, by, history.get(name, [])):
+            k = len(colours) % 20  # the ten dark colours first, then their light pairs
+            colour = colours.setdefault(method, palette(2 * k % 20 + (k >= 10)))
+            n = len(times)
+            finite = [t for t in times if math.isfinite(t)]
+            xs = [1e-3, *finite, 1e3]
+            ys = [0.0, *[100 * (i + 1) / n for i in range(len(finite))], 100 * len(finite) / n]
+            style = _style(method)
+            ax.step(xs, ys, where="post", color=colour, lw=1.3, ls=style)
+        ax.axvline(BUDGET, color="k", lw=0.8, ls=":")
+        ax.set_xscale("log")
+        ax.set_xlim(1e-3, 1e2)
+        ax.set_ylim(-3, 103)
+        ax.set_title(f"tier {name}")
+        ax.set_xlabel("time budget per task, seconds (log scale)")
+        ax.set_ylabel("answered optimally within it (% of tasks)")
+        ax.grid(alpha=0.3)
+    handles = [Line2D([], [], color=c, lw=1.5, ls=_style(m), label=m)
+               for m, c in colours.items()]  # fmt: skip
+    handles.append(Line2D([], [], color="k", lw=0.8, ls=":", label=f"budget {BUDGET:g} s"))
+    legend_ax.axis("off")
+    legend_ax.legend(handles=handles, loc="center", ncols=2, frameon=False, fontsize=9)
     return save_figure(fig, path, dpi=100)
 
 
@@ -394,35 +751,47 @@ def scale_section(results_prefix: str, results: Path = RESULTS) -> list[str]:
 
 
 def page(entries: list[Entry], tiers: list[str], image: str, results_prefix: str) -> str:
-    """The leaderboard in Markdown; ``image`` is the plot's path from the page,
-    ``results_prefix`` the path of ``results/`` files as written in the text."""
+    """The leaderboard in Markdown; ``image`` is the plot's path from the page (the anytime
+    curves lie beside it), ``results_prefix`` the path of ``results/`` files as written in the
+    text."""
     from modquad_gym.scoring.tiers import get_tier
 
     r = results_prefix
+    curves_image = image.replace("leaderboard.png", "leaderboard_anytime.png")
     text = [
         "# Leaderboard",
         "",
         f"Made by `{COMMAND}` from the committed reports (every number below is read from their "
-        "data files; none is typed by hand). Add your own agent with one command: "
+        "data files; none is typed by hand). Add your own agent: "
         "[below](#add-your-own-agent).",
         "",
-        "Every method on the held-out suites of the four benchmark tiers, against each task's "
-        "certified optimum (the exhaustive search's minimum module count). Success: an answer "
-        "of at most the tier's n_max modules that the exact LP oracle verifies; optimal share: "
-        "an answer with the certified minimum count; mean modules over the tasks solved; "
-        "configurations evaluated (structures whose feasibility was decided) and seconds per "
-        "task. Learned methods: mean over five training seeds with the 95 % bootstrap "
-        "interval over seeds in brackets; searches: one run.",
+        f"Every method on the held-out suites of the {len(tiers)} benchmark tiers, against each "
+        "task's certified optimum (the exhaustive search's minimum module count), **ranked at "
+        f"a time budget of {BUDGET:g} s per task**: the share of tasks a method answers with "
+        f"the optimal module count within {BUDGET:g} s of wall time (every method gets the same "
+        "budget). Beside it: success (an answer of at most the tier's n_max modules that the "
+        "exact LP oracle verifies), the optimal share without a time limit, mean modules over "
+        "the tasks solved, configurations evaluated (structures whose feasibility was decided), "
+        "oracle calls (wrench-structure tests) and seconds per task, and the number of tasks "
+        "each row was scored on. Learned methods and outside agents with several seeds: mean "
+        "over the seeds with the 95 % bootstrap interval over seeds in brackets; searches: one "
+        "run.",
         "",
         "## At a glance",
         "",
-        "Optimal share (success) per tier:",
+        f"Optimal share within {BUDGET:g} s per task (without a time limit) per tier:",
         "",
         "<!-- --8<-- [start:glance] -->",
         *glance(entries, tiers),
         "<!-- --8<-- [end:glance] -->",
         "",
-        f"![optimal share against configurations per task]({image})",
+        f"![optimal share against seconds per task, per tier]({image})",
+        "",
+        f"The share of tasks answered optimally within t seconds, against t ({BUDGET:g} s "
+        "dotted): each method's one run, and the anytime search's incumbent over time "
+        "(dashed), which reaches the optimum before it has proved it:",
+        "",
+        f"![tasks answered optimally within a time budget, per tier]({curves_image})",
         "",
     ]
     for t in tiers:
@@ -431,28 +800,44 @@ def page(entries: list[Entry], tiers: list[str], image: str, results_prefix: str
         if not mine:
             continue
         types = f"module types {tier.modules}" if tier.modules else "one module type"
-        tasks = max(e.tasks for e in mine if e.kind != "yours")
+        tasks = max(e.full for e in mine if not e.status)
+        fault = (f", `fault=\"{tier.fault}\"`: an answer counts only when it still exerts every "
+                 f"task wrench after any single {tier.fault} failure, and the optimum is the "
+                 "smallest such structure" if tier.fault else "")  # fmt: skip
         text += [
             f"## Tier `{t}`",
             "",
-            f"`{tier.env_id}`, {types}, n_max {tier.n_max}; held-out suites "
+            f"`{tier.env_id}`, {types}, n_max {tier.n_max}{fault}; held-out suites "
             f"{', '.join(f'`{s}`' for s in tier.suites)}: {tasks} tasks whose certified optimum "
             f"is within n_max.{_models(tier)}",
             "",
             *tier_table(mine),
             "",
         ]
-        notes = sorted({n.removeprefix("modules: ") for e in mine for n in e.notes})
+        one = sorted({n.removeprefix("one run: ") for e in mine for n in e.notes
+                      if n.startswith("one run:")})  # fmt: skip
+        if one:
+            where = "; ".join(f"`{r}{n.removeprefix('results/')}`" for n in one)
+            text += [f"‡ The shipped model's one run ({where}): the five-seed data file holds "
+                     "no per-task seconds or oracle calls (its optimal share may differ from "
+                     "the five seeds' mean).", ""]  # fmt: skip
+        notes = sorted({n.removeprefix("modules: ") for e in mine for n in e.notes
+                        if n.startswith("modules:")})  # fmt: skip
         if notes:
             where = "; ".join(f"`{r}{n.removeprefix('results/')}`" for n in notes)
             text += [f"† Mean modules of the shipped model's one run ({where}): the five-seed "
                      "data file predates its modules column.", ""]  # fmt: skip
-        sources = dict.fromkeys(e.source for e in mine)
+        sources = dict.fromkeys(e.source for e in mine if e.source)
         text += ["Sources: " + "; ".join(_source(s, r) for s in sources) + ".", ""]
     text += scale_section(r)
     text += [
         "## How the numbers are made",
         "",
+        f"- **The budget**: a task counts within {BUDGET:g} s when the method's answer has the "
+        f"optimal module count and its wall time on the task was at most {BUDGET:g} s (one "
+        "run per task, without a time limit: a slower answer counts as none, as it would under "
+        "the limit). Ties are broken by the optimal share without a limit, then by fewer "
+        "seconds.",
         "- **Learned methods** (`ppo`: one deterministic pass of the shipped policy; `ppo-k8`: "
         "eight sampled rollouts more; `ppo-guided`: best-first search ordered by the policy, "
         "certified at the lower bound): the five-seed reports "
@@ -461,30 +846,66 @@ def page(entries: list[Entry], tiers: list[str], image: str, results_prefix: str
         "weighted by their size), then averaged over the seeds; the interval is the 95 % "
         "percentile bootstrap over seeds (2,000 resamples, seeded). The seeds reports "
         f"(`{r}seeds_<tier>/seeds.md`) give the interquartile mean over seeds x suites and "
-        "judge the tiers' goals.",
+        "judge the tiers' goals. The five-seed files hold no per-task seconds or oracle calls: "
+        "those two columns (‡) are the shipped model's one run in the tier report.",
         f"- **Searches**: the one-run tier reports `{r}tier_<tier>/benchmark.csv` (one row per "
         f"task), and `{r}{RESCORED}` for the searches a tier report did not run "
         f"(`{COMMAND} --rescore-searches`). `random` and `genetic` are seeded (seed 0).",
+        "- **The fault tier**: only the methods that guarantee an answer surviving the failure "
+        "are scored, and an answer counts only when it survives; milp refuses `fault=` and the "
+        "learned policies were trained without failures: their rows say so in place of "
+        "numbers. An outside agent is handed the problem with its fault and an evaluator that "
+        "decides survival.",
+        f"- **Anytime curves**: from the same per-task rows; the anytime search's history "
+        f"(`{r}{ANYTIME}`, `{COMMAND} --anytime-history`) gives when its incumbent first had "
+        "the optimal count.",
         "- **Seconds** are wall time per task on the machine each source names (2 shared "
         "cores, no GPU): compare them within a tier, with care.",
         "",
+        *how_to_add(r),
+    ]
+    return "\n".join(text)
+
+
+def how_to_add(prefix: str) -> list[str]:
+    """The page's section on adding a row: what to run, what to submit, how it is merged."""
+    return [
         "## Add your own agent",
+        "",
+        "An agent is a class (or function) with `solve(task, evaluator)` that returns a "
+        "structure; it is told each tier's `n_max`, `tier`, `modules` and the run's `seed` "
+        "when its constructor takes them, and is counted through the evaluator it is handed: "
+        "the protocol is in [Benchmark tiers and agents]("
+        + ("" if prefix else "../docs/")
+        + "benchmarks.md#score-your-own-agent). Its row is named by its own `name` attribute.",
+        "",
+        "**From the installed wheel** (no clone), score it on one tier beside the searches:",
+        "",
+        "```bash",
+        "modquad score --tier current --solver my_agent:Agent --seed 0 --out my_scores",
+        "```",
+        "",
+        "**A leaderboard row** needs a clone of the repository (`benchmarks/` is not in the "
+        "wheel):",
         "",
         "```bash",
         f"{COMMAND} --solver my_agent:Agent --out my_board",
         "```",
         "",
-        "scores `Agent` (imported from `my_agent.py` in the working folder, or an installed "
-        "package) on every tier's held-out suites and writes `my_board/leaderboard.md` with its "
-        "rows beside the committed ones (`--limit N`: the first N tasks of each suite; "
-        "`--tiers current large`: some tiers). The agent is told each tier's n_max and counted "
-        "through the evaluator it is handed, as `modquad score --solver` does: the "
-        "protocol is in [Benchmark tiers and agents]("
-        + ("" if r else "../docs/")
-        + "benchmarks.md#score-your-own-agent).",
+        "scores it on every tier's held-out suites, once per seed (`--seeds`, default five "
+        "like the learned methods; once when its constructor takes no `seed`), and writes "
+        f"`my_board/leaderboard.md` with its rows ranked among the committed ones and "
+        f"`my_board/{SUBMISSION}`: one row per (tier, seed, task). `--limit N` scores the first "
+        "N tasks of each suite (the row is marked partial, with its task count); `--tiers` "
+        "some tiers; a tier where the agent fails is reported as failed and the others are "
+        "kept.",
+        "",
+        f"**To submit it**, open a pull request that adds `{SUBMISSION}` as "
+        f"`{prefix}{SUBMISSIONS}/<your agent>.csv`; the maintainers check it and rebuild the "
+        f"page with `{COMMAND} --force`, which reads every file of `{prefix}{SUBMISSIONS}/` "
+        "(no rerun: the rows are the submitted ones, seconds on the submitter's machine).",
         "",
     ]
-    return "\n".join(text)
 
 
 def _models(tier) -> str:
@@ -505,15 +926,23 @@ def _source(source: str, prefix: str) -> str:
     return shown + (f" (`{command}`)" if command else "")
 
 
-def build(tiers: list[str], extra: list[Entry], out: Path, docs: Path | None) -> Path:
-    """Write the leaderboard of the committed entries (and ``extra``) into ``out`` (and the
-    documentation page into ``docs``)."""
+def build(tiers: list[str], out: Path, docs: Path | None, records: list[dict] | None = None,
+          results: Path = RESULTS) -> Path:  # fmt: skip
+    """Write the leaderboard of the committed entries into ``out`` (and the documentation page
+    into ``docs``); ``records`` (an outside agent scored now) are written as ``out``'s
+    submission file and ranked beside them."""
     from modquad_gym.core.outputs import write_csv, write_text
+    from modquad_gym.scoring.tiers import get_tier
 
-    entries = [e for t in tiers for e in tier_entries(t)]
-    entries += extra
+    entries = [e for t in tiers for e in tier_entries(t, results)]
+    if records:
+        path = write_submission(records, out / SUBMISSION)
+        for t in tiers:
+            full = max((e.full for e in entries if e.tier == t and not e.status), default=0)
+            entries += submission_entries(path, get_tier(t), full)
     write_csv([e.as_csv() for e in entries], out / "leaderboard.csv")
     plot(entries, tiers, out / "leaderboard.png")
+    plot_curves(tiers, results, out / "leaderboard_anytime.png")
     path = write_text(out / "leaderboard.md", page(entries, tiers, "leaderboard.png", ""))
     if docs is not None:
         write_text(docs / "leaderboard.md", page(entries, tiers, "results/leaderboard.png",
@@ -522,6 +951,8 @@ def build(tiers: list[str], extra: list[Entry], out: Path, docs: Path | None) ->
 
 
 def main(argv: list[str] | None = None) -> int:
+    from modquad_gym.core.options import int_option
+
     p = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n\n")[0])
     p.add_argument(
         "--rescore-searches",
@@ -529,16 +960,32 @@ def main(argv: list[str] | None = None) -> int:
         help=f"first run the searches the tier reports lack into results/{RESCORED}",
     )
     p.add_argument(
+        "--anytime-history",
+        action="store_true",
+        help=f"first run the anytime search on every tier's tasks into results/{ANYTIME}",
+    )
+    p.add_argument(
         "--solver",
         metavar="PKG.MOD:NAME",
         default=None,
-        help="also score this outside agent on every tier (needs --out)",
+        help="also score this outside agent on every tier (needs --out; a clone of the "
+        "repository: `modquad score --solver` works from the wheel, one tier at a time)",
+    )
+    p.add_argument(
+        "--seeds",
+        nargs="+",
+        type=int_option(0),
+        default=[0, 1, 2, 3, 4],
+        help="with --solver: the seeds it is run with (one run when it takes no seed)",
     )
     p.add_argument(
         "--tiers", nargs="+", choices=TIERS, default=list(TIERS), help="tiers to show (default all)"
     )
     p.add_argument(
-        "--limit", type=int, default=None, help="with --solver: the first N tasks of each suite"
+        "--limit",
+        type=int_option(1),
+        default=None,
+        help="with --solver: the first N tasks of each suite (the row is marked partial)",
     )
     p.add_argument(
         "--out",
@@ -551,8 +998,8 @@ def main(argv: list[str] | None = None) -> int:
         "--force",
         action="store_true",
         help="replace the leaderboard's files in --out (without --out: the committed pages "
-        "results/leaderboard.*, docs/leaderboard.md and, with --rescore-searches, "
-        f"results/{RESCORED}); default: refuse",
+        "results/leaderboard.*, docs/leaderboard.md and, with --rescore-searches or "
+        f"--anytime-history, results/{RESCORED} or results/{ANYTIME}); default: refuse",
     )
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)  # fmt: skip
@@ -560,29 +1007,40 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--solver needs --out: the committed leaderboard holds committed data only")
     if args.out is None and sorted(args.tiers) != sorted(TIERS):
         p.error("--tiers needs --out: the committed leaderboard holds every tier")
-    if args.limit is not None and (args.limit < 1 or not args.solver):
-        p.error("--limit takes a positive count, with --solver")
+    if args.limit is not None and not args.solver:
+        p.error("--limit goes with --solver")
+    if len(set(args.seeds)) != len(args.seeds):
+        p.error(f"--seeds: a seed is given twice: {args.seeds}")
     from modquad_gym.core.outputs import check_output_dir
 
-    try:  # the committed pages too: replaced only with --force
-        check_output_dir(args.out or RESULTS, OUTPUTS, args.force)
+    written = OUTPUTS if args.solver else OUTPUTS[:-1]
+    try:
         if args.out is None:
+            check_output_dir(RESULTS, written, args.force)
             check_output_dir(DOCS, ("leaderboard.md",), args.force)
-            if args.rescore_searches:
-                check_output_dir(RESULTS, (RESCORED,), args.force)
+            data = (RESCORED,) * args.rescore_searches + (ANYTIME,) * args.anytime_history
+            check_output_dir(RESULTS, data, args.force)
+        else:
+            check_output_dir(args.out, written, args.force)
     except ValueError as err:
         p.error(str(err))
     try:
         if args.rescore_searches:
             print(rescore_searches(progress=not args.no_progress))
-        extra = []
+        if args.anytime_history:
+            print(anytime_history(progress=not args.no_progress))
+        records = None
         if args.solver:
-            extra = score_agent(args.solver, args.tiers, args.limit, not args.no_progress)
+            records = score_agent(args.solver, args.tiers, args.limit, args.seeds,
+                                  not args.no_progress)  # fmt: skip
     except ValueError as err:
         p.error(str(err))
+    except KeyboardInterrupt:
+        print(f"{COMMAND}: interrupted; nothing written", file=sys.stderr)
+        return 130
     out = args.out or RESULTS
     docs = DOCS if args.out is None else None
-    path = build(args.tiers, extra, out, docs)
+    path = build(args.tiers, out, docs, records)
     print(path.read_text())
     return 0
 

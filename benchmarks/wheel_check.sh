@@ -193,6 +193,13 @@ check repo docs/leaderboard.md 'python -m benchmarks.leaderboard --solver my_age
 P=docs/results.md
 check repo $P 'python -m benchmarks.leaderboard --force'
 
+# docs/leaderboard.md: a leaderboard row from the wheel (no clone): a tiny outside agent scored by
+# `modquad score`, with a seed; and the fault tier's held-out suite shipped in the wheel
+check wheel docs/leaderboard.md 'modquad score --tier current --solver my_agent:Agent --seed 0 --out my_scores' \
+  "$AGENT && echo 'Agent = LineAgent' >> my_agent.py && modquad score --tier current --solver my_agent:Agent --seed 0 --out my_scores --limit 2 --no-progress && grep -q 'my_agent:Agent' my_scores/benchmark.md"
+check wheel docs/leaderboard.md 'modquad score --tier fault --out fault_scores' \
+  'modquad score --tier fault --out fault_scores --limit 2 --methods exhaustive greedy --no-progress'
+
 # docs/benchmarks.md
 P=docs/benchmarks.md
 check repo $P 'python train.py --seeds 0 1 2 3 4 --no-report --out runs/seeds-current' \

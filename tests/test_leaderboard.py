@@ -8,7 +8,6 @@ import csv
 import importlib.util
 import re
 import sys
-import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -45,7 +44,7 @@ def _same_text(a: str, b: str) -> None:
 
 
 def test_every_method_is_on_every_tier(board, entries):
-    from modquad_gym.scoring.tiers import get_tier
+    from modquad_gym.scoring.tiers import get_tier, honours_fault
     from modquad_gym.search import SEARCHES
 
     for name in board.TIERS:
@@ -56,6 +55,19 @@ def test_every_method_is_on_every_tier(board, entries):
             assert methods[m].kind == "learned" and methods[m].seeds == 5
             assert methods[m].optimal[1] <= methods[m].optimal[0] <= methods[m].optimal[2]
         assert methods["exhaustive"].optimal == (1.0, 1.0, 1.0)  # the optimum is its answer
+        for e in methods.values():
+            assert bool(e.status) == bool(tier.fault and not honours_fault(e.method)), e
+            if e.kind == "search" and not e.status:  # one run: within the budget is optimal
+                assert e.budget[0] <= e.optimal[0] and e.tasks == e.full
+
+
+def test_the_fault_tier_lists_what_cannot_honour_the_failure(entries):
+    fault = {e.method: e for e in entries if e.tier == "fault"}
+    assert fault["milp"].status.startswith("refused")
+    assert all(fault[m].status.startswith("not applicable") for m in ("ppo", "ppo-guided"))
+    assert {m for m, e in fault.items() if not e.status} == {
+        "exhaustive", "centrosymmetric", "greedy", "random", "anytime", "beam", "genetic"
+    }  # fmt: skip
 
 
 def test_learned_numbers_are_the_seed_reports_pooled_over_tasks(entries):
@@ -70,7 +82,7 @@ def test_learned_numbers_are_the_seed_reports_pooled_over_tasks(entries):
     assert entry.optimal[0] == pytest.approx(np.mean(per_seed), abs=1e-12)
 
 
-def test_search_numbers_are_the_tier_reports(entries):
+def test_search_numbers_are_the_tier_reports(board, entries):
     with open(RESULTS / "tier_large" / "benchmark.csv", newline="") as fh:
         rows = [r for r in csv.DictReader(fh) if r["method"] == "greedy"]
     (entry,) = [e for e in entries if e.tier == "large" and e.method == "greedy"]
@@ -78,6 +90,50 @@ def test_search_numbers_are_the_tier_reports(entries):
     solved = [int(r["n_modules"]) for r in rows if r["success"] == "1"]
     assert entry.modules == pytest.approx(np.mean(solved))
     assert entry.evaluated[0] == pytest.approx(np.mean([int(r["evaluated"]) for r in rows]))
+    assert entry.oracle_calls[0] == pytest.approx(np.mean([int(r["oracle_calls"]) for r in rows]))
+    within = [r["optimal"] == "1" and float(r["seconds"]) <= board.BUDGET for r in rows]
+    assert entry.budget[0] == pytest.approx(np.mean(within))
+
+
+def _table(text: str, tier: str) -> dict[str, dict[str, str]]:
+    """The cells of one tier's table on the page, by method (bold and kind marks stripped)."""
+    section = text.split(f"## Tier `{tier}`", 1)[1].split("\n## ", 1)[0]
+    lines = [line for line in section.splitlines() if line.startswith("| ")]
+    head = [c.strip() for c in lines[0].strip("|").split("|")]
+    out = {}
+    for line in lines[1:]:
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        out[cells[1].split(" (")[0].strip("*")] = dict(zip(head, cells))
+    return out
+
+
+@pytest.mark.parametrize("tier", ["current", "mixed", "fault"])
+def test_the_page_cells_are_the_reports(board, tier):
+    """Each search's cells on the committed page, recomputed here from the tier report's rows
+    (or the rescored searches' file) without the leaderboard's code."""
+    from modquad_gym.scoring.tiers import get_tier
+
+    n_max = get_tier(tier).n_max
+    table = _table((RESULTS / "leaderboard.md").read_text(), tier)
+    rows = []
+    for name in (f"tier_{tier}/benchmark.csv", board.RESCORED):
+        with open(RESULTS / name, newline="") as fh:
+            rows += [r for r in csv.DictReader(fh) if r["suite"] in get_tier(tier).suites]
+    ranks = []
+    for method, cells in table.items():
+        mine = [r for r in rows if r["method"] == method and r["optimum"]]
+        mine = [r for r in mine if int(r["optimum"]) <= n_max]
+        if cells["rank"] == "-" or cells["method"].endswith("seeds)"):
+            continue
+        within = np.mean([r["optimal"] == "1" and float(r["seconds"]) <= 1.0 for r in mine])
+        assert cells[f"optimal within {board.BUDGET:g} s"] == f"{100 * within:.1f} %", method
+        assert cells["tasks"] == str(len(mine))
+        calls = np.mean([int(r["oracle_calls"]) for r in mine])
+        assert cells["oracle calls / task"] == f"{calls:,.0f}", method
+        seconds = np.mean([float(r["seconds"]) for r in mine])
+        assert float(cells["seconds / task"]) == pytest.approx(seconds, abs=6e-4), method
+        ranks.append((int(cells["rank"]), -within))
+    assert [w for _, w in sorted(ranks)] == sorted(w for _, w in ranks)  # ranked at the budget
 
 
 def test_the_committed_pages_are_what_the_command_makes(board, entries):
@@ -91,43 +147,71 @@ def test_the_committed_pages_are_what_the_command_makes(board, entries):
     with open(RESULTS / "leaderboard.csv", newline="") as fh:
         committed = list(csv.DictReader(fh))
     fresh = [e.as_csv() for e in entries]
-    assert [(r["tier"], r["method"]) for r in committed] == [
-        (r["tier"], r["method"]) for r in fresh
+    assert [(r["tier"], r["method"], r["status"]) for r in committed] == [
+        (r["tier"], r["method"], r["status"]) for r in fresh
     ]
     for old, new in zip(committed, fresh):
-        for key in ("success", "optimal", "evaluated", "seconds", "optimal_low", "optimal_high"):
-            assert float(old[key]) == pytest.approx(float(new[key]), rel=1e-5)
-    assert (RESULTS / "leaderboard.png").is_file()
+        for key in ("success", "optimal", "budget", "evaluated", "oracle_calls", "seconds",
+                    "optimal_low", "optimal_high"):  # fmt: skip
+            if old[key] or new[key]:
+                assert float(old[key]) == pytest.approx(float(new[key]), rel=1e-5)
+    for name in ("leaderboard.png", "leaderboard_anytime.png"):
+        assert (RESULTS / name).is_file()
+
+
+AGENT = '''
+class Line:
+    """Straight lines of growing length; fails on purpose on the large tier."""
+
+    name = "line"
+
+    def __init__(self, n_max=7, seed=0):
+        self.n_max = n_max
+        self.seed = seed
+
+    def solve(self, task, evaluator):
+        if self.n_max == 12:
+            raise RuntimeError("no lines beyond 7 modules")
+        for n in range(1, self.n_max + 1):
+            if evaluator.evaluate([(i, 0) for i in range(n)]):
+                return [(i, 0) for i in range(n)]
+        return None
+'''
 
 
 def test_an_outside_agent_joins_with_one_command(board, tmp_path, monkeypatch, capsys):
-    (tmp_path / "board_agent_for_tests.py").write_text(textwrap.dedent('''
-        class Line:
-            name = "line"
-
-            def __init__(self, n_max=7):
-                self.n_max = n_max
-
-            def solve(self, task, evaluator):
-                for n in range(1, self.n_max + 1):
-                    if evaluator.evaluate([(i, 0) for i in range(n)]):
-                        return [(i, 0) for i in range(n)]
-                return None
-        '''))  # fmt: skip
+    """Its own name, its seeds with an interval, its task count marked partial, a failing tier
+    reported beside the others, the fault tier not applicable; its submission merged."""
+    (tmp_path / "board_agent_for_tests.py").write_text(AGENT)
     monkeypatch.syspath_prepend(str(tmp_path))
     out = tmp_path / "board"
-    argv = ["--solver", "board_agent_for_tests:Line", "--tiers", "current", "--limit", "1",
-            "--out", str(out), "--no-progress"]  # fmt: skip
+    argv = ["--solver", "board_agent_for_tests:Line", "--tiers", "current", "large", "fault",
+            "--limit", "1", "--seeds", "0", "1", "--out", str(out), "--no-progress"]  # fmt: skip
     assert board.main(argv) == 0
     text = (out / "leaderboard.md").read_text()
-    assert (
-        "| **board_agent_for_tests:Line** (yours) |" in text and "| ppo-guided (5 seeds) |" in text
+    current = _table(text, "current")
+    assert current["line"]["tasks"] == "2 of 100 (partial)"
+    assert "2 seeds" in current["line"]["method"] and "| ppo-guided (5 seeds) |" in text
+    assert _table(text, "large")["line"]["optimal within 1 s"].startswith(
+        "failed: ValueError: solver 'line' failed"
     )
-    assert "scored now, first 1 tasks of each suite" in text
-    assert not (ROOT / "docs" / "leaderboard.md").read_text().count("(yours)")
+    assert _table(text, "fault")["line"]["optimal within 1 s"].startswith("not applicable")
+    with open(out / "submission.csv", newline="") as fh:
+        records = list(csv.DictReader(fh))
+    assert {r["seed"] for r in records if r["tier"] == "current"} == {"0", "1"}
+    assert not (ROOT / "docs" / "leaderboard.md").read_text().count("(outside")
+    # merged: the submission in a submissions folder joins the committed board
+    (tmp_path / "subs").mkdir()
+    (out / "submission.csv").rename(tmp_path / "subs" / "line.csv")
+    (merged,) = [e for e in board.tier_entries("current", submissions=tmp_path / "subs")
+                 if e.kind == "outside"]  # fmt: skip
+    assert (merged.method, merged.tasks, merged.full, merged.seeds) == ("line", 2, 100, 2)
     with pytest.raises(SystemExit) as exit_:
         board.main(["--solver", "board_agent_for_tests:Line"])  # the committed page stays
     assert exit_.value.code == 2 and "--solver needs --out" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:  # its files are not replaced without --force
+        board.main([*argv[:-3], "--out", str(out)])
+    assert exit_.value.code == 2 and "--force" in capsys.readouterr().err
 
 
 def test_the_scale_section_is_the_five_seed_scale_reports(board, tmp_path):

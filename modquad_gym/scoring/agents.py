@@ -42,7 +42,7 @@ from modquad_gym.scoring.options import (
     add_options,
 )
 from modquad_gym.scoring.scores import Row, summarise
-from modquad_gym.scoring.tiers import Tier, get_tier, validation_suite
+from modquad_gym.scoring.tiers import Tier, get_tier, honours_fault, validation_suite
 from modquad_gym.search import verified
 from modquad_gym.solvers import Solver, admissible, load_solver, make_solver
 from modquad_gym.tasks import TaskRequirement, load_suite
@@ -58,6 +58,7 @@ def run_benchmark(
     workers: int = 1,
     modules: str | None = None,
     tier: str | None = None,
+    fault: str | None = None,
 ) -> list[Row]:
     """Every method on every task; a success is an answer of at most ``n_max`` modules of the
     allowed types that the exact oracle verifies. ``workers`` > 1 spreads chunks of tasks over
@@ -65,34 +66,45 @@ def run_benchmark(
     then measured beside the others). ``modules`` (stock type names, comma-separated) makes the
     searches search over shapes x type assignments; ``tier`` (its name) and both are told to
     outside agents (``package.module:Name`` methods, :class:`~modquad_gym.solvers.ExternalSolver`,
-    which count their configurations through an evaluator)."""
+    which count their configurations through an evaluator). ``fault`` (``"rotor"``,
+    ``"module"``): every search is asked for an answer that survives any single failure of that
+    kind, and a success is one that does (:func:`~modquad_gym.oracle.faults.tolerates`); a
+    method that cannot honour it is a ValueError (:func:`~.tiers.honours_fault`)."""
     from modquad_gym.core.distributed import map_tasks
 
     jobs = [(name, task) for name, tasks in suites.items() for task in tasks]
     size = 1 if workers == 1 else 8
     chunks = [jobs[i : i + size] for i in range(0, len(jobs), size)]
-    solve = partial(_solve_chunk, (tuple(methods), n_max, model, seed, modules, tier))
+    if fault is not None and (refused := [m for m in methods if not honours_fault(m)]):
+        raise ValueError(f"fault={fault!r}: {', '.join(refused)} cannot honour it")
+    solve = partial(_solve_chunk, (tuple(methods), n_max, model, seed, modules, tier, fault))
     parts = map_tasks(solve, chunks, workers=workers, progress=progress, desc="benchmark")
     return [row for part in parts for row in part]
 
 
 @lru_cache(maxsize=2)
 def _solvers(
-    methods: tuple, n_max: int, model: Path | None, seed: int, modules: str | None, tier=None
+    methods: tuple,
+    n_max: int,
+    model: Path | None,
+    seed: int,
+    modules: str | None,
+    tier=None,
+    fault: str | None = None,
 ) -> dict[str, Solver]:
     types = palette(modules) if modules else None
     solvers = {}
     for m in methods:
-        takes = () if ":" in m else method_of(m)[0].options.names()
+        takes = ("seed",) if ":" in m else method_of(m)[0].options.names()
         given = {k: v for k, v in (("model", model), ("seed", seed)) if k in takes}
-        solvers[m] = make_solver(m, n_max, modules=types, tier=tier, **given)
+        solvers[m] = make_solver(m, n_max, modules=types, tier=tier, fault=fault, **given)
     return solvers
 
 
 def _solve_chunk(config: tuple, jobs: list) -> list[Row]:
     """Rows of every method on a chunk of (suite, task) (solvers made once per process)."""
     solvers = _solvers(*config)
-    n_max, modules = config[1], config[4]
+    n_max, modules, fault = config[1], config[4], config[6]
     types = palette(modules) if modules else None
     rows: list[Row] = []
     for suite, task in jobs:
@@ -100,12 +112,21 @@ def _solve_chunk(config: tuple, jobs: list) -> list[Row]:
         for method, solver in solvers.items():
             r = solver.solve(task)
             ok = admissible(r.structure, n_max, types) and verified(r.structure, task)
+            ok = ok and (fault is None or survives(r.structure, task, fault))
             rows.append(
                 Row(suite, task.name, optimum, method, ok, r.n_modules if ok else None,
                     int(r.evaluated), int(r.oracle_calls), float(r.seconds),
                     [list(c) for c in r.structure.cells] if ok else None)
             )  # fmt: skip
     return rows
+
+
+def survives(structure, task, fault: str) -> bool:
+    """Does ``structure`` still exert every wrench of ``task`` after any single ``fault``?"""
+    from modquad_gym.oracle.faults import tolerates
+
+    W = task.rotor_wrenches(structure)
+    return bool(tolerates(structure, W, task.f_max, fault).all())
 
 
 def parse_args(argv: list[str] | None, prog: str = COMMAND) -> argparse.Namespace:
@@ -134,7 +155,15 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
         default = (*SEARCH_METHODS, *tier.learned)
     if args.solver:  # the report is about the outside agent: the searches are its reference
         default = SEARCH_METHODS
+    if tier.fault:  # only the methods that guarantee survival are scored there
+        default = tuple(m for m in default if honours_fault(m))
     methods = list(dict.fromkeys([*(args.methods or default), *args.solver]))
+    if tier.fault and (refused := [m for m in methods if not honours_fault(m)]):
+        raise ValueError(
+            f"--tier {tier.name}: {', '.join(refused)} cannot guarantee an answer that survives "
+            f"a {tier.fault} failure; score the searches that take fault= "
+            f"({', '.join(m for m in SEARCH_METHODS if honours_fault(m))})"
+        )
     if args.samples is not None:
         methods = [m for m in methods if not m.startswith("ppo-k")]
         if args.samples > 0:
@@ -178,7 +207,7 @@ def score(args: argparse.Namespace, command: str) -> int:
 
     t0 = time.perf_counter()
     rows = run_benchmark(suites, methods, n_max, args.model, args.seed, not args.no_progress,
-                         args.workers, tier.modules, tier.name)  # fmt: skip
+                         args.workers, tier.modules, tier.name, tier.fault)  # fmt: skip
     wall = time.perf_counter() - t0
     write_csv([r.as_csv() for r in rows], args.out / "benchmark.csv")
     summary = summarise(rows, methods, n_max)

@@ -87,9 +87,19 @@ def _header(
         )
         + ", ".join(f"`{name}` ({len(t)} tasks)" for name, t in suites.items())
         + f", {n_tasks} tasks in all. The optimum is the certified minimum from the exhaustive "
-        f"search with n_max = {n_max}; the table covers the tasks whose optimum is <= n_max.",
+        f"search with n_max = {n_max}{_survives(tier)}; the table covers the tasks whose optimum "
+        "is <= n_max.",
         "",
     ]
+
+
+def _survives(tier: str) -> str:
+    """On a fault tier: what every answer (and the optimum) must survive, in words."""
+    fault = get_tier(tier).fault if tier in TIERS else None
+    if not fault:
+        return ""
+    return (f" among the structures that still exert every task wrench after any single {fault} "
+            "failure (a success must survive it too)")  # fmt: skip
 
 
 def _model_line(cfg: dict, model: Path) -> str:

@@ -58,19 +58,24 @@ def relabelled(task, name: str, meta: dict):
     return task.relabelled(name, meta)
 
 
-def with_optimum(task, n_max: int = 7, modules=None):
+def with_optimum(task, n_max: int = 7, modules=None, fault: str | None = None):
     """``task`` (static or dynamic) with its certified optimum in ``meta`` (exhaustive search up
-    to ``n_max``, over the ``modules`` palette if given): ``optimum`` (None beyond n_max),
+    to ``n_max``, over the ``modules`` palette if given; with a ``fault``, the smallest structure
+    that survives any single failure of that kind, and ``optimum_fault``): ``optimum`` (None
+    beyond n_max),
     ``optimum_n_max``, ``optimum_cells``, ``optimum_modules`` (with a palette), and the search's
     ``exhaustive_evaluated`` and ``exhaustive_seconds``."""
     t0 = time.perf_counter()
-    r = exhaustive_search(task, n_max=n_max, **({"modules": modules} if modules else {}))
+    options = {"modules": modules} if modules else {}
+    r = exhaustive_search(task, n_max=n_max, **options, **({"fault": fault} if fault else {}))
     s = r.structure
     meta = {**task.meta, "optimum": r.n_modules, "optimum_n_max": n_max,
             "optimum_cells": [list(c) for c in s.cells] if s is not None else None,
             "optimum_modules": [m.name for m in s.modules] if s is not None and modules else None,
             "exhaustive_evaluated": r.evaluated,
             "exhaustive_seconds": round(time.perf_counter() - t0, 3)}  # fmt: skip
+    if fault:
+        meta["optimum_fault"] = fault
     return relabelled(task, task.name, meta)
 
 

@@ -151,7 +151,7 @@ def make_solver(
     options: one it does not take is refused (TypeError naming it and the ones it takes), and
     so is a ``fault`` it cannot honour (ValueError), in Python as on the command line."""
     if ":" in method:
-        return load_solver(method, n_max=n_max, tier=tier, modules=modules, fault=fault)
+        return load_solver(method, n_max=n_max, tier=tier, modules=modules, fault=fault, seed=seed)
     entry, variant = method_of(method)
     given = {**variant, **(guided or {}), **options}
     for key, value in (("model", model), ("seed", seed), ("samples", samples)):

@@ -244,13 +244,18 @@ def admissible(structure: Structure | None, n_max: int, modules=None) -> bool:
 
 
 def load_solver(
-    spec: str, n_max: int = 7, tier: str | None = None, modules=None, fault: str | None = None
+    spec: str,
+    n_max: int = 7,
+    tier: str | None = None,
+    modules=None,
+    fault: str | None = None,
+    seed: int | None = None,
 ) -> ExternalSolver:
     """The agent named ``"package.module:Name"``: a Solver instance, a class, or a function
     ``task -> answer`` (see :class:`ExternalSolver`). A class is made with the keywords among
-    ``n_max``, ``tier`` and ``modules`` (the module types allowed, default one type) that its
-    constructor takes, so the agent is told the tier's budget. The module is looked up in the
-    working folder first, as ``python -m`` does."""
+    ``n_max``, ``tier``, ``modules`` (the module types allowed, default one type) and ``seed``
+    that its constructor takes, so the agent is told the tier's budget and the run's seed. The
+    module is looked up in the working folder first, as ``python -m`` does."""
     module_name, sep, attr = spec.partition(":")
     if not sep or not module_name or not attr:
         raise ValueError(f"--solver {spec!r}: write it as package.module:Name")
@@ -267,7 +272,8 @@ def load_solver(
     except AttributeError:
         raise ValueError(f"--solver {spec!r}: {module_name} has no {attr!r}") from None
     if isinstance(obj, type):
-        told = {"n_max": n_max, "tier": tier, "modules": list(modules) if modules else None}
+        told = {"n_max": n_max, "tier": tier, "modules": list(modules) if modules else None,
+                "seed": seed}  # fmt: skip
         obj = obj(**{k: v for k, v in told.items() if _takes(obj, k)})
     if not (hasattr(obj, "solve") or callable(obj)):
         raise ValueError(f"--solver {spec!r}: {attr} has no solve(task) and is not callable")

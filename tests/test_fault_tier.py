@@ -1,0 +1,75 @@
+"""The fault-tolerant tier: its held-out suite's optima survive a rotor failure and are no smaller
+than the intact optima; scoring asks the searches for tolerant answers and counts only those;
+the methods that cannot honour the failure are refused in one line."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import modquad_gym as mq
+from modquad_gym.cli import main as cli_main
+from modquad_gym.geometry.cells import is_connected
+from modquad_gym.scoring.agents import run_benchmark, survives
+from modquad_gym.scoring.tiers import TIERS, honours_fault
+
+TIER = TIERS["fault"]
+
+
+def _tasks(n: int):
+    return TIER.load_suites(limit=n)[TIER.suites[0]]
+
+
+def survives_by_hand(structure, task) -> bool:
+    """Plain reference: the oracle on A without each rotor's column in turn."""
+    A = structure.configuration_matrix()
+    W = task.rotor_wrenches(structure)
+    return all(mq.feasible(np.delete(A, k, axis=1), W, task.f_max).all() for k in range(A.shape[1]))
+
+
+def test_the_suite_optima_survive_a_rotor_failure_and_bound_the_intact_optimum():
+    for task in _tasks(6):
+        meta = task.meta
+        assert (meta["optimum_fault"], meta["optimum_n_max"]) == ("rotor", TIER.n_max)
+        best = mq.Structure([tuple(c) for c in meta["optimum_cells"]])
+        assert best.n_modules == meta["optimum"]
+        assert survives(best, task, "rotor") and survives_by_hand(best, task)
+        intact = mq.exhaustive_search(task, n_max=TIER.n_max)
+        assert intact.n_modules <= meta["optimum"]  # tolerance never costs fewer modules
+
+
+def test_survives_agrees_with_the_plain_reference_near_the_boundary():
+    """Structures one module short of the tolerant optimum and the optimum itself: the fast
+    decision and the column-by-column LP agree on every one."""
+    task = _tasks(1)[0]
+    best = mq.Structure([tuple(c) for c in task.meta["optimum_cells"]])
+    smaller = [best.cells[:k] for k in range(1, best.n_modules) if is_connected(best.cells[:k])]
+    smaller = [mq.Structure(cells) for cells in smaller]
+    line = mq.Structure([(i, 0) for i in range(best.n_modules)])  # rank-deficient: a line
+    for s in [best, line, *smaller]:
+        assert survives(s, task, "rotor") == survives_by_hand(s, task), s.cells
+
+
+def test_scoring_asks_for_tolerant_answers_and_counts_only_those():
+    suites = {TIER.suites[0]: _tasks(2)}
+    rows = run_benchmark(suites, ["greedy", "exhaustive"], TIER.n_max, progress=False,
+                         fault="rotor")  # fmt: skip
+    tasks = {t.name: t for t in suites[TIER.suites[0]]}
+    for r in rows:
+        structure = mq.Structure([tuple(c) for c in r.cells]) if r.cells else None
+        assert r.success == (structure is not None and survives_by_hand(structure, tasks[r.task]))
+    assert all(r.optimal for r in rows if r.method == "exhaustive")
+    with pytest.raises(ValueError, match="milp cannot honour it"):
+        run_benchmark(suites, ["milp"], TIER.n_max, progress=False, fault="rotor")
+
+
+def test_methods_that_cannot_honour_the_failure_are_refused_in_one_line(tmp_path, capsys):
+    assert [m for m in ("exhaustive", "anytime", "milp", "ppo", "x:Y") if honours_fault(m)] == [
+        "exhaustive",
+        "anytime",
+    ]
+    argv = ["score", "--tier", "fault", "--methods", "greedy", "ppo", "--out", str(tmp_path)]
+    assert cli_main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "ppo cannot guarantee" in err[0]
+    assert not list(tmp_path.iterdir())  # refused before any work
