@@ -436,7 +436,6 @@ def score_agent(spec: str, tiers: Iterable[str], limit: int | None, seeds: list[
     (:func:`write_submission`), one per (tier, seed, task), the agent's own ``name`` as its
     method. A tier where the agent fails is one record with the failure in ``status``; the
     other tiers go on. An import error is a ValueError before any work."""
-    from modquad_gym.geometry.module import palette
     from modquad_gym.scoring.agents import run_benchmark
     from modquad_gym.scoring.tiers import get_tier
     from modquad_gym.solvers import load_solver
@@ -448,11 +447,9 @@ def score_agent(spec: str, tiers: Iterable[str], limit: int | None, seeds: list[
     for tier_name in tiers:
         tier = get_tier(tier_name)
         status = {"tier": tier.name, "seed": "", "method": name, "status": ""}
-        types = palette(tier.modules) if tier.modules else None
         try:
             mine = []
             for seed in runs:
-                load_solver(spec, n_max=tier.n_max, tier=tier.name, modules=types, seed=seed)
                 rows = run_benchmark(tier.load_suites(limit), [spec], tier.n_max, None, seed,
                                      progress, 1, tier.modules, tier.name,
                                      tier.fault)  # fmt: skip
@@ -901,8 +898,8 @@ def how_to_add(prefix: str) -> list[str]:
         "kept.",
         "",
         f"**To submit it**, open a pull request that adds `{SUBMISSION}` as "
-        f"`{prefix}{SUBMISSIONS}/<your agent>.csv`; the maintainers check it and rebuild the "
-        f"page with `{COMMAND} --force`, which reads every file of `{prefix}{SUBMISSIONS}/` "
+        f"`results/{SUBMISSIONS}/<your agent>.csv`; the maintainers check it and rebuild the "
+        f"page with `{COMMAND} --force`, which reads every file of `results/{SUBMISSIONS}/` "
         "(no rerun: the rows are the submitted ones, seconds on the submitter's machine).",
         "",
     ]

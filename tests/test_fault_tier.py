@@ -73,3 +73,13 @@ def test_methods_that_cannot_honour_the_failure_are_refused_in_one_line(tmp_path
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "ppo cannot guarantee" in err[0]
     assert not list(tmp_path.iterdir())  # refused before any work
+
+
+def test_the_shipped_suite_is_reproduced_from_its_seeds():
+    """python -m modquad_gym.scoring.tiers fault: the same draws (within a tolerance: CPUs
+    differ in the last bits) and the same certified optima."""
+    from modquad_gym.scoring.tiers import build_tier_suite
+
+    for shipped, rebuilt in zip(_tasks(2), build_tier_suite(TIER, 2, progress=False), strict=True):
+        np.testing.assert_allclose(rebuilt.wrenches, shipped.wrenches, rtol=1e-12, atol=1e-12)
+        assert rebuilt.meta["optimum"] == shipped.meta["optimum"]
