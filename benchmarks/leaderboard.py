@@ -225,6 +225,20 @@ FAULT_REFUSED = "refused: takes no fault="
 FAULT_LEARNED = "not applicable: trained without failures; takes no fault="
 
 
+def one_run_rows(tier, results: Path = RESULTS) -> dict[str, tuple[list, Path]]:
+    """Per method, its per-task rows of one run on ``tier`` and their file: the tier report's,
+    else (a search it did not run) the rescored searches' file."""
+    report = results / f"tier_{tier.name}" / "benchmark.csv"
+    out: dict[str, tuple[list, Path]] = {}
+    for path in (report, results / RESCORED):
+        if not path.is_file():
+            continue
+        for r in read_rows(path):
+            if r.suite in tier.suites and (r.method not in out or out[r.method][1] == path):
+                out.setdefault(r.method, ([], path))[0].append(r)
+    return out
+
+
 def tier_entries(tier_name: str, results: Path = RESULTS,
                  submissions: Path | None = None) -> list[Entry]:  # fmt: skip
     """Every committed method on one tier: the searches, the learned methods, then the outside
@@ -235,26 +249,21 @@ def tier_entries(tier_name: str, results: Path = RESULTS,
     from modquad_gym.search import SEARCHES
 
     tier = get_tier(tier_name)
-    report = results / f"tier_{tier.name}" / "benchmark.csv"
-    rows = read_rows(report)
-    full = len({r.task for r in in_scope(rows, tier.n_max)})
-    ran = {r.method for r in rows}
-    rescored = results / RESCORED
-    extra = [r for r in read_rows(rescored) if r.suite in tier.suites] if rescored.is_file() else []
+    runs = one_run_rows(tier, results)
+    full = len({r.task for r in in_scope(runs["exhaustive"][0], tier.n_max)})
     entries = []
     for m in SEARCHES:
         if tier.fault and not honours_fault(m):
             entries.append(unscored(tier, m, "search", FAULT_REFUSED))
-        elif m in ran:
-            entries.append(over_runs(tier, m, "search", {"-": rows}, _rel(report)))
-        elif any(r.method == m for r in extra):
-            entries.append(over_runs(tier, m, "search", {"-": extra}, _rel(rescored)))
+        elif m in runs:
+            rows, path = runs[m]
+            entries.append(over_runs(tier, m, "search", {"-": rows}, _rel(path)))
     if tier.fault:
         entries += [unscored(tier, m, "learned", FAULT_LEARNED)
                     for m in TIER_TABLE["current"].learned]  # fmt: skip
     else:
-        one = {m: over_runs(tier, m, "learned", {"-": rows}, _rel(report))
-               for m in tier.learned if m in ran}  # fmt: skip
+        one = {m: over_runs(tier, m, "learned", {"-": runs[m][0]}, _rel(runs[m][1]))
+               for m in tier.learned if m in runs}  # fmt: skip
         seeds = results / f"seeds_{tier.name}" / "seeds.csv"
         entries += over_seeds(read_seeds(seeds), tier, _rel(seeds), one)
     folder = results / SUBMISSIONS if submissions is None else submissions
@@ -490,7 +499,7 @@ def _num(v: T3, interval: bool, fmt: str) -> str:
 
 
 def _label(e: Entry) -> str:
-    if e.kind == "learned":
+    if e.kind == "learned" and e.seeds:
         return f"{e.method} ({e.seeds} seeds)"
     if e.kind == "outside":
         runs = f", {e.seeds} seed{'s' if e.seeds != 1 else ''}" if e.seeds else ""
@@ -575,12 +584,14 @@ def _panels(n: int):
 
 
 def _place_labels(ax, points: list[tuple[float, float, str, str]]) -> None:
-    """Each label beside its point, joined to it by a thin line, at the first of a few offsets
-    where it overlaps no label placed before and no other point."""
-    fig = ax.figure
-    renderer = fig.canvas.get_renderer()
-    to_px = ax.transData.transform
-    dots = [to_px((x, y)) for x, y, _, _ in points]
+    """Each label beside its point, joined to it by a thin line, at the nearest of a few offsets
+    where it stays inside the axes and overlaps no label placed before and no point (the
+    figure's layout must be final: display coordinates are compared)."""
+    from matplotlib.text import Text
+
+    renderer = ax.figure.canvas.get_renderer()
+    frame = ax.get_window_extent(renderer)
+    dots = [ax.transData.transform((x, y)) for x, y, _, _ in points]
     placed = []
     offsets = [(10, 8), (10, -14), (-10, 8), (-10, -14), (14, 22), (14, -28), (-14, 22),
                (-14, -28), (24, 0), (-24, 0), (30, 38), (30, -42), (-30, 38), (-30, -42),
@@ -593,10 +604,13 @@ def _place_labels(ax, points: list[tuple[float, float, str, str]]) -> None:
                               color=colour,
                               arrowprops=dict(arrowstyle="-", color=colour, lw=0.6,
                                               shrinkA=0, shrinkB=3))  # fmt: skip
-            box = ann.get_window_extent(renderer).expanded(1.05, 1.15)
+            ann.update_positions(renderer)
+            box = Text.get_window_extent(ann, renderer).expanded(1.05, 1.15)  # no arrow
             clash = sum(box.overlaps(b) for b in placed) + sum(
                 box.contains(px, py) for px, py in dots
             )
+            inside = frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0 <= frame.y1
+            clash += 0 if inside and box.y1 <= frame.y1 else 10
             if best is None or clash < best[0]:
                 if best is not None:
                     best[1].remove()
@@ -616,6 +630,7 @@ def plot(entries: list[Entry], tiers: list[str], path: Path) -> Path:
     from modquad_gym.core.outputs import save_figure
 
     fig, axes, legend_ax = _panels(len(tiers))
+    labels = []
     for ax, t in zip(axes, tiers):
         mine = [e for e in entries if e.tier == t and not e.status]
         points = []
@@ -635,11 +650,15 @@ def plot(entries: list[Entry], tiers: list[str], path: Path) -> Path:
         ax.set_xlabel("seconds per task (log scale)")
         ax.set_ylabel("optimal module count (% of tasks)")
         ax.grid(alpha=0.3)
-        _place_labels(ax, points)
+        labels.append((ax, points))
     handles = [Line2D([], [], ls="", marker=MARKERS[k], color=COLOURS[k], label=KIND_NAMES[k])
                for k in COLOURS if any(e.kind == k for e in entries)]  # fmt: skip
     legend_ax.axis("off")
     legend_ax.legend(handles=handles, loc="center", title="method kind", frameon=False)
+    fig.canvas.draw()  # the layout, final before the labels are placed in display coordinates
+    fig.set_layout_engine("none")
+    for ax, points in labels:
+        _place_labels(ax, points)
     return save_figure(fig, path, dpi=100)
 
 
@@ -676,13 +695,7 @@ def plot_curves(tiers: list[str], results: Path, path: Path) -> Path:
     palette = colormaps["tab20"]
     for ax, name in zip(axes, tiers):
         tier = get_tier(name)
-        rows = read_rows(results / f"tier_{name}" / "benchmark.csv")
-        rescored = results / RESCORED
-        if rescored.is_file():
-            rows += [r for r in read_rows(rescored) if r.suite in tier.suites]
-        by: dict[str, list] = {}
-        for r in rows:
-            by.setdefault(r.method, []).append(r)
+        by = {m: rows for m, (rows, _) in one_run_rows(tier, results).items()}
         for method, times in curves(tier, by, history.get(name, [])):
             k = len(colours) % 20  # the ten dark colours first, then their light pairs
             colour = colours.setdefault(method, palette(2 * k % 20 + (k >= 10)))
