@@ -64,10 +64,9 @@ def test_scoring_asks_for_tolerant_answers_and_counts_only_those():
 
 
 def test_methods_that_cannot_honour_the_failure_are_refused_in_one_line(tmp_path, capsys):
-    assert [m for m in ("exhaustive", "anytime", "milp", "ppo", "x:Y") if honours_fault(m)] == [
-        "exhaustive",
-        "anytime",
-    ]
+    honoured = [m for m in ("exhaustive", "anytime", "milp", "ppo", "ppo-k8", "x:Y", "bogus")
+                if honours_fault(m)]  # fmt: skip
+    assert honoured == ["exhaustive", "anytime", "x:Y"]
     argv = ["score", "--tier", "fault", "--methods", "greedy", "ppo", "--out", str(tmp_path)]
     assert cli_main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
