@@ -99,9 +99,8 @@ def shape_keys(n: int) -> np.ndarray:
     if not 1 <= n <= MAX_ENUMERATED:
         raise ProofError(f"level {n}: only levels of 1 to {MAX_ENUMERATED} modules are enumerated")
     if n == 1:
-        return np.zeros(1, dtype=np.int64) | (np.int64(1) << KEY_SHIFT) | 1
-    found = []
-    parents = shape_keys(n - 1)
+        return np.array([(1 << KEY_SHIFT) | 1], dtype=np.int64)
+    found, parents = [], shape_keys(n - 1)
     for s in range(0, len(parents), 4096):
         cells = cells_of(parents[s : s + 4096], n - 1)  # (L, m, 2)
         grown = (cells[:, :, None, :] + STEPS).reshape(len(cells), -1, 2)  # (L, 4m, 2)
@@ -136,20 +135,20 @@ class Types:
         def field(k, shape):
             a = np.array([_floats(t.get(k), f"types[{i}].{k}") for i, t in enumerate(types)])
             if a.shape[1:] != shape or not np.all(np.isfinite(a)):
-                raise CertificateFormatError(
-                    f"types: every {k} must be finite numbers of shape {shape}"
-                )
+                raise CertificateFormatError(f"types: every {k}: finite, of shape {shape}")
             return a
 
         if not isinstance(types, list) or not types or not all(isinstance(t, dict) for t in types):
             raise CertificateFormatError("types: must be a non-empty list of module types")
         r = len(types[0].get("spins") or [])
         self.pos, self.dirs = field("positions", (r, 3)), field("directions", (r, 3))
-        self.dirs = self.dirs / np.linalg.norm(self.dirs, axis=2, keepdims=True)
+        norms = np.linalg.norm(self.dirs, axis=2, keepdims=True)
+        self.dirs = self.dirs / np.where(norms > 0, norms, np.nan)  # zero: refused below
         self.spins, J = field("spins", (r,)), field("inertia", (3, 3))
         self.side, self.c_tau, self.mass = (field(k, ()) for k in ("side", "c_tau", "mass"))
-        if r == 0 or np.any(self.mass <= 0) or np.any(self.side != self.side[0]):
-            raise CertificateFormatError("types: need rotors, positive masses and one common side")
+        if r == 0 or np.any(self.mass <= 0) or np.any(self.side != self.side[0]) or not norms.all():
+            raise CertificateFormatError("types: need rotors of non-zero directions, positive "
+                                         "masses, one common side")  # fmt: skip
         self.J = np.stack([J[:, 0, 0], J[:, 1, 1], J[:, 2, 2], J[:, 0, 1], J[:, 0, 2],
                            J[:, 1, 2]], axis=1)  # fmt: skip
         self.n, self.rotors, self.l = len(types), r, float(self.side[0])
@@ -273,14 +272,15 @@ def check_answer(cert, T: Types, task, f_max: float, fault, minimum: int) -> Non
     if types.min() < 0 or types.max() >= T.n:
         raise ProofError("answer.types: a type index outside the types")
     a, M, j = T.columns(cells[None].astype(float), types[None])
-    A = a[0].T
+    A, t = a[0].T, len(task[0])
     m = A.shape[1]
-    t = len(task[0])
     W = wrenches(task, np.arange(t), np.repeat(M, t), np.repeat(j, t, axis=0))
     failures = np.arange(m if fault == "rotor" else minimum)
     fails = [np.zeros(m, bool)] if fault is None else list(
         failed_columns(fault, failures, minimum, T.rotors))  # fmt: skip
     U = _floats(answer.get("allocations"), "answer.allocations")
+    if not np.all(np.isfinite(U)):
+        raise ProofError("answer.allocations: a thrust is not a finite number")
     if U.shape != (len(fails), len(W), m):
         raise ProofError(f"answer.allocations: shape {U.shape}, needs {(len(fails), len(W), m)} "
                       "(failures, wrenches, rotors)")  # fmt: skip
@@ -289,9 +289,7 @@ def check_answer(cert, T: Types, task, f_max: float, fault, minimum: int) -> Non
         where = f"answer: allocation of failure {f}" if fault else "answer: allocation"
         if np.any(u[:, off] != 0):
             raise ProofError(f"{where}: a failed rotor has thrust")
-        low = np.flatnonzero(
-            (u < -THRUST_TOL * f_max).any(1) | (u > (1 + THRUST_TOL) * f_max).any(1)
-        )
+        low = np.flatnonzero(((u < -THRUST_TOL * f_max) | (u > (1 + THRUST_TOL) * f_max)).any(1))
         if len(low):
             raise ProofError(f"{where}: wrench {low[0]}: a thrust outside [0, f_max]")
         resid = np.abs(u @ A.T - W).max(axis=1)
@@ -309,7 +307,7 @@ def check_level(entry, n, T: Types, task, f_max, fault, D) -> str:
         p, i = int(b.get("direction", -1)), int(b.get("wrench", -1))
         if not (0 <= p < len(D) and 0 <= i < len(task[0])):
             raise ProofError(f"level {n}: bound: direction or wrench index out of range")
-        if bound_margin(T, task, f_max, fault, n, D[p], i) <= 0:
+        if not bound_margin(T, task, f_max, fault, n, D[p], i) > 0:  # NaN fails too
             raise ProofError(f"level {n}: bound: direction {p} does not exceed the level's support")
         return "bound"
     total = count(n, T.n)
@@ -354,6 +352,8 @@ def check(cert: dict, report=None) -> str:
         raise CertificateFormatError("f_max: must be positive")
     T, task = Types(cert.get("types")), _task(cert)
     D = _floats(cert.get("directions", []), "directions").reshape(-1, 6)
+    if not np.all(np.isfinite(D)):
+        raise CertificateFormatError("directions: must be finite numbers")
     minimum, n_max = cert.get("minimum"), cert.get("n_max")
     top = minimum - 1 if minimum is not None else n_max
     if type(top) is not int or top < 0:

@@ -310,3 +310,24 @@ def test_a_malformed_certificate_is_named_in_one_line(paper, tmp_path, capsys):
         assert main(["check", str(path)]) == 2, words
         err = capsys.readouterr().err
         assert err.startswith("modquad: error: ") and words in err and len(err.splitlines()) == 1
+
+
+def test_not_a_number_never_passes(paper):
+    """NaN compares false both ways: a NaN thrust, bound or direction must still fail."""
+    c = copy.deepcopy(paper[0])
+    c["answer"]["allocations"][0][0][0] = float("nan")
+    with pytest.raises(pc.ProofError, match="not a finite number"):
+        pc.check(c)
+    c = copy.deepcopy(paper[0])
+    c["directions"][0][0] = float("nan")
+    with pytest.raises(pc.CertificateFormatError, match="directions"):
+        pc.check(c)
+    c = copy.deepcopy(paper[0])
+    c["types"][0]["directions"][0] = [0.0, 0.0, 0.0]
+    with pytest.raises(pc.CertificateFormatError, match="non-zero directions"):
+        pc.check(c)
+    bounded = next(e for e in c["levels"] if "bound" in e)
+    T = pc.Types(paper[0]["types"])
+    task = pc._task(paper[0])
+    d = np.array(paper[0]["directions"][bounded["bound"]["direction"]])
+    assert not pc.bound_margin(T, task, np.nan, None, bounded["n"], d, 0) > 0
