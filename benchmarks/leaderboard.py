@@ -16,7 +16,7 @@ against t) and the documentation page ``docs/leaderboard.md`` (no number is type
   tier report did not run, from ``results/leaderboard_searches.csv``, which
   ``python -m benchmarks.leaderboard --rescore-searches --force`` fills by running just those
   searches on the tier's held-out suites (seconds, not hours: no training, no learned method);
-* the anytime search's history (when its incumbent first reached the optimum) from
+* the anytime search's history (when its best structure so far first had the optimal count) from
   ``results/leaderboard_anytime.csv`` (``--anytime-history`` runs it again);
 * outside agents' submissions, ``results/submissions/*.csv`` (the ``submission.csv`` that
   ``--solver`` writes), over their seeds like the learned methods.
@@ -304,8 +304,9 @@ def _rows_of(records: list[dict]):
 
 
 def read_anytime(path: Path) -> dict[str, list[tuple[float, bool]]]:
-    """Per tier, (seconds until the anytime search's incumbent first had the optimal count,
-    reached) of every task in scope, from ``--anytime-history``'s file ({} without it)."""
+    """Per tier, (seconds until the anytime search's best structure so far first had the
+    optimal count, reached) of every task in scope, from ``--anytime-history``'s file ({}
+    without it)."""
     if not path.is_file():
         return {}
     out: dict[str, list[tuple[float, bool]]] = {}
@@ -383,7 +384,7 @@ def rescored_note(rows) -> str:
 
 def anytime_history(results: Path = RESULTS, progress: bool = True) -> Path:
     """Run the anytime search on every tier's held-out tasks and write, per task, when its
-    incumbent first had the certified optimum's module count (its history's events) to
+    best structure so far first had the certified optimum's module count (its history's events) to
     ``results/leaderboard_anytime.csv``, with a note of the machine beside it."""
     from tqdm import tqdm
 
@@ -415,8 +416,9 @@ def anytime_history(results: Path = RESULTS, progress: bool = True) -> Path:
         f"Made by `{COMMAND} --anytime-history`. Machine: {machine_description()}.",
         "",
         "Per task (one row in `leaderboard_anytime.csv`): the anytime search's answer, its wall "
-        "time, `optimal_at` (the seconds after which its incumbent had the certified optimum's "
-        "module count) and its `history` (seconds:lower bound:incumbent modules per event).",
+        "time, `optimal_at` (the seconds after which its best structure so far had the "
+        "certified optimum's module count) and its `history` (seconds:lower bound:best "
+        "structure's modules per event).",
         "",
     ]))  # fmt: skip
     return path
@@ -541,7 +543,7 @@ def tier_table(entries: list[Entry]) -> list[str]:
 
 
 def glance(entries: list[Entry], tiers: list[str]) -> list[str]:
-    """Optimal share within the budget (and without a limit) of every method on every tier."""
+    """Optimal share (and within the budget) of every method on every tier."""
     methods = list(dict.fromkeys(e.method for e in entries))
     by = {(e.tier, e.method): e for e in entries}
     lines = ["| method | " + " | ".join(f"`{t}`" for t in tiers) + " |",
@@ -556,7 +558,8 @@ def glance(entries: list[Entry], tiers: list[str]) -> list[str]:
                 cells.append(e.status.partition(":")[0])
             else:
                 part = "" if e.tasks >= e.full else f", {e.tasks} of {e.full} tasks"
-                cells.append(f"{100 * e.budget[0]:.1f} % ({100 * e.optimal[0]:.1f} %{part})")
+                cells.append(f"{100 * e.optimal[0]:.1f} % ({100 * e.budget[0]:.1f} % within "
+                             f"{BUDGET:g} s{part})")  # fmt: skip
         first = next(e for e in entries if e.method == method)
         lines.append(f"| {_label(first)} | " + " | ".join(cells) + " |")
     return lines
@@ -682,7 +685,7 @@ def _style(method: str) -> str:
 def plot_curves(tiers: list[str], results: Path, path: Path) -> Path:
     """Per tier, the share of tasks answered with the optimal count within t seconds, against
     t (log): each method's one run (the tier report, the rescored searches), and the anytime
-    search's incumbent history where it was recorded; the budget as a vertical line."""
+    search's history where it was recorded; the budget as a vertical line."""
     from matplotlib import colormaps
     from matplotlib.lines import Line2D
 
@@ -789,7 +792,8 @@ def page(entries: list[Entry], tiers: list[str], image: str, results_prefix: str
         "",
         "## At a glance",
         "",
-        f"Optimal share within {BUDGET:g} s per task (without a time limit) per tier:",
+        f"Optimal share per tier (in brackets: within {BUDGET:g} s per task, the rank's "
+        "measure); learned methods: mean over five seeds:",
         "",
         "<!-- --8<-- [start:glance] -->",
         *glance(entries, tiers),
@@ -798,7 +802,7 @@ def page(entries: list[Entry], tiers: list[str], image: str, results_prefix: str
         f"![optimal share against seconds per task, per tier]({image})",
         "",
         f"The share of tasks answered optimally within t seconds, against t ({BUDGET:g} s "
-        "dotted): each method's one run, and the anytime search's incumbent over time "
+        "dotted): each method's one run, and the anytime search's best structure so far "
         "(dashed), which reaches the optimum before it has proved it:",
         "",
         f"![tasks answered optimally within a time budget, per tier]({curves_image})",
@@ -867,8 +871,8 @@ def page(entries: list[Entry], tiers: list[str], image: str, results_prefix: str
         "numbers. An outside agent is handed the problem with its fault and an evaluator that "
         "decides survival.",
         f"- **Anytime curves**: from the same per-task rows; the anytime search's history "
-        f"(`{r}{ANYTIME}`, `{COMMAND} --anytime-history`) gives when its incumbent first had "
-        "the optimal count.",
+        f"(`{r}{ANYTIME}`, `{COMMAND} --anytime-history`) gives when its best structure so "
+        "far first had the optimal count.",
         "- **Seconds** are wall time per task on the machine each source names (2 shared "
         "cores, no GPU): compare them within a tier, with care.",
         "",
