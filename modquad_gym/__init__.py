@@ -110,6 +110,7 @@ if TYPE_CHECKING:  # for type checkers and the API docs: the same names, eagerly
     from modquad_gym.search import (
         SearchProblem,
         SearchResult,
+        Status,
         anytime_search,
         beam_search,
         centrosymmetric_search,
@@ -119,5 +120,6 @@ if TYPE_CHECKING:  # for type checkers and the API docs: the same names, eagerly
         optimal_structures,
         random_search,
     )
+    from modquad_gym.methods import REGISTRY, register
     from modquad_gym.solvers import make_solver
     from modquad_gym.tasks import TaskRequirement
