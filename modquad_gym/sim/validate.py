@@ -46,6 +46,7 @@ import json  # noqa: E402
 import math  # noqa: E402
 from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 
@@ -103,7 +104,7 @@ def hover_wrench_sample(margins: np.ndarray, k: int | None, seed: int = 0) -> np
 
 def validate(
     structure: Structure,
-    task,
+    task: Any,
     f_max: float | None = None,
     out_dir: str | Path | None = None,
     hover_seconds: float = 2.0,
