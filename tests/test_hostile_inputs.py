@@ -164,6 +164,47 @@ def test_sigterm_becomes_one_line_and_exit_143_and_survives_a_library_handler(ca
     assert exit_status(Terminated()) == 143 and stop_line("x", Terminated()) == "x: terminated"
 
 
+class _FakeRay:
+    """What Ray does to SIGTERM: ``init`` installs a handler that calls ``sys.exit(15)``
+    (``kill`` sends SIGTERM meanwhile), ``shutdown`` resets it to the default."""
+
+    def __init__(self, kill: bool = False):
+        self.kill, self.up = kill, False
+
+    def is_initialized(self):
+        return self.up
+
+    def init(self, **kwargs):
+        signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(signum))
+        self.up = True
+        if self.kill:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.5)
+
+    def shutdown(self):
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        self.up = False
+
+
+@pytest.mark.parametrize("kill", [False, True])
+def test_ray_starting_and_stopping_keeps_the_sigterm_handler(monkeypatch, kill):
+    from modquad_gym.core import distributed, interrupts
+
+    monkeypatch.setattr(distributed, "import_optional", lambda name: _FakeRay(kill))
+    monkeypatch.setattr(distributed, "ray_installed", lambda: True)
+    monkeypatch.delenv("RAY_ADDRESS", raising=False)
+    with sigterm_as_interrupt():
+        engine = distributed.Engine(2)
+        with engine:
+            if kill:  # Ray's handler ran during init: still one Terminated, not sys.exit(15)
+                with pytest.raises(Terminated):
+                    engine._start()
+            else:
+                engine._start()
+            assert signal.getsignal(signal.SIGTERM) is interrupts._raise_terminated
+        assert signal.getsignal(signal.SIGTERM) is interrupts._raise_terminated
+
+
 _JOBS = """
 import sys, time
 from benchmarks.common import run_command

@@ -155,7 +155,10 @@ class Engine:
     def __exit__(self, *exc: object) -> None:
         self._depth -= 1
         if self._depth == 0 and self._started:
-            import_optional("ray").shutdown()
+            from modquad_gym.core.interrupts import keep_sigterm
+
+            with keep_sigterm():  # ray.shutdown resets SIGTERM to the default: killed silently
+                import_optional("ray").shutdown()
             self._started = False
 
     def _start(self) -> None:

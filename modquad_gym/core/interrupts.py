@@ -60,6 +60,11 @@ def keep_sigterm() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
     try:
         yield
+    except SystemExit as exc:  # Ray's own handler, while it was in place: sys.exit(SIGTERM)
+        if exc.code != signal.SIGTERM:
+            raise
+        _terminated.append(True)
+        raise Terminated() from None
     finally:
         if main and before is not None:
             signal.signal(signal.SIGTERM, before)
