@@ -5,7 +5,8 @@
 reads the committed data files and writes ``results/leaderboard.md``, ``results/leaderboard.csv``,
 ``results/leaderboard.png`` (optimal share against seconds per task),
 ``results/leaderboard_anytime.png`` (the share of tasks answered optimally within t seconds,
-against t) and the documentation page ``docs/leaderboard.md`` (no number is typed by hand):
+against t; both drawn by :mod:`benchmarks.leaderboard_figures`) and the documentation page
+``docs/leaderboard.md`` (no number is typed by hand):
 
 * the learned methods over five training seeds from ``results/seeds_<tier>/seeds.csv`` (one row
   per seed, method and suite): each seed's scores pooled over the tier's held-out tasks, the
@@ -42,6 +43,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from benchmarks.leaderboard_figures import plot, plot_curves
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results"
@@ -565,106 +568,6 @@ def glance(entries: list[Entry], tiers: list[str]) -> list[str]:
     return lines
 
 
-COLOURS = {"search": "#555555", "learned": "#4c72b0", "outside": "#dd8452"}
-MARKERS = {"search": "o", "learned": "s", "outside": "D"}
-KIND_NAMES = {"search": "search (one run)", "learned": "learned (mean of 5 seeds, 95 % interval)",
-              "outside": "outside agent"}  # fmt: skip
-
-
-def _panels(n: int):
-    """A figure of ``n`` tier panels and one more for the legend (two columns)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    cols = 2
-    rows = -(-(n + 1) // cols)
-    fig = Figure(figsize=(6.4 * cols, 4.4 * rows), layout="constrained")
-    FigureCanvasAgg(fig)
-    axes = [fig.add_subplot(rows, cols, i + 1) for i in range(rows * cols)]
-    for ax in axes[n + 1 :]:
-        ax.set_visible(False)
-    return fig, axes[:n], axes[n]
-
-
-def _place_labels(ax, points: list[tuple[float, float, str, str]]) -> None:
-    """Each label beside its point, joined to it by a thin line, at the nearest of a few offsets
-    where it stays inside the axes and overlaps no label placed before and no point (the
-    figure's layout must be final: display coordinates are compared)."""
-    from matplotlib.text import Text
-
-    renderer = ax.figure.canvas.get_renderer()
-    frame = ax.get_window_extent(renderer)
-    dots = [ax.transData.transform((x, y)) for x, y, _, _ in points]
-    placed = []
-    offsets = [(10, 8), (10, -14), (-10, 8), (-10, -14), (14, 22), (14, -28), (-14, 22),
-               (-14, -28), (24, 0), (-24, 0), (30, 38), (30, -42), (-30, 38), (-30, -42),
-               (40, 56), (40, -60), (-40, 56), (-40, -60)]  # fmt: skip
-    for x, y, text, colour in sorted(points, key=lambda p: (-p[1], p[0])):
-        best = None
-        for dx, dy in offsets:
-            ann = ax.annotate(text, (x, y), textcoords="offset points", xytext=(dx, dy),
-                              ha="left" if dx > 0 else "right", va="center", fontsize=8,
-                              color=colour,
-                              arrowprops=dict(arrowstyle="-", color=colour, lw=0.6,
-                                              shrinkA=0, shrinkB=3))  # fmt: skip
-            ann.update_positions(renderer)
-            box = Text.get_window_extent(ann, renderer).expanded(1.05, 1.15)  # no arrow
-            clash = sum(box.overlaps(b) for b in placed) + sum(
-                box.contains(px, py) for px, py in dots
-            )
-            inside = frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0 <= frame.y1
-            clash += 0 if inside and box.y1 <= frame.y1 else 10
-            if best is None or clash < best[0]:
-                if best is not None:
-                    best[1].remove()
-                best = (clash, ann, box)
-            else:
-                ann.remove()
-            if clash == 0:
-                break
-        placed.append(best[2])
-
-
-def plot(entries: list[Entry], tiers: list[str], path: Path) -> Path:
-    """Per tier: optimal share against seconds per task (log), learned methods with their 95 %
-    intervals over seeds; each label joined to its point; a legend of the kinds."""
-    from matplotlib.lines import Line2D
-
-    from modquad_gym.core.outputs import save_figure
-
-    fig, axes, legend_ax = _panels(len(tiers))
-    labels = []
-    for ax, t in zip(axes, tiers):
-        mine = [e for e in entries if e.tier == t and not e.status]
-        points = []
-        for e in mine:
-            x, y = e.seconds[0], 100 * e.optimal[0]
-            xerr = [[x - e.seconds[1]], [e.seconds[2] - x]]
-            yerr = [[y - 100 * e.optimal[1]], [100 * e.optimal[2] - y]]
-            ax.errorbar(x, y, xerr=xerr, yerr=yerr, fmt=MARKERS[e.kind], color=COLOURS[e.kind],
-                        ms=5, capsize=2, lw=0.8)  # fmt: skip
-            points.append((x, y, e.method.rpartition(":")[2], COLOURS[e.kind]))
-        ax.set_xscale("log")
-        lo = min(e.seconds[1] for e in mine)
-        hi = max(e.seconds[2] for e in mine)
-        ax.set_xlim(lo / 3, hi * 3)
-        ax.set_ylim(-5, 112)
-        ax.set_title(f"tier {t}")
-        ax.set_xlabel("seconds per task (log scale)")
-        ax.set_ylabel("optimal module count (% of tasks)")
-        ax.grid(alpha=0.3)
-        labels.append((ax, points))
-    handles = [Line2D([], [], ls="", marker=MARKERS[k], color=COLOURS[k], label=KIND_NAMES[k])
-               for k in COLOURS if any(e.kind == k for e in entries)]  # fmt: skip
-    legend_ax.axis("off")
-    legend_ax.legend(handles=handles, loc="center", title="method kind", frameon=False)
-    fig.canvas.draw()  # the layout, final before the labels are placed in display coordinates
-    fig.set_layout_engine("none")
-    for ax, points in labels:
-        _place_labels(ax, points)
-    return save_figure(fig, path, dpi=100)
-
-
 def curves(tier, rows_by_method: dict[str, list], anytime: list[tuple[float, bool]]):
     """(method, sorted seconds at which each task in scope was answered optimally (inf: never))
     per method of one run, the anytime search's history as ``anytime (history)``."""
@@ -675,53 +578,6 @@ def curves(tier, rows_by_method: dict[str, list], anytime: list[tuple[float, boo
     if anytime:
         out.append(("anytime (history)", sorted(t for t, _ in anytime)))
     return out
-
-
-def _style(method: str) -> str:
-    """Line style of a curve: the anytime history dashed, learned methods dash-dotted."""
-    return "--" if "history" in method else "-." if method.startswith("ppo") else "-"
-
-
-def plot_curves(tiers: list[str], results: Path, path: Path) -> Path:
-    """Per tier, the share of tasks answered with the optimal count within t seconds, against
-    t (log): each method's one run (the tier report, the rescored searches), and the anytime
-    search's history where it was recorded; the budget as a vertical line."""
-    from matplotlib import colormaps
-    from matplotlib.lines import Line2D
-
-    from modquad_gym.core.outputs import save_figure
-    from modquad_gym.scoring.tiers import get_tier
-
-    fig, axes, legend_ax = _panels(len(tiers))
-    history = read_anytime(results / ANYTIME)
-    colours: dict[str, tuple] = {}
-    palette = colormaps["tab20"]
-    for ax, name in zip(axes, tiers):
-        tier = get_tier(name)
-        by = {m: rows for m, (rows, _) in one_run_rows(tier, results).items()}
-        for method, times in curves(tier, by, history.get(name, [])):
-            k = len(colours) % 20  # the ten dark colours first, then their light pairs
-            colour = colours.setdefault(method, palette(2 * k % 20 + (k >= 10)))
-            n = len(times)
-            finite = [t for t in times if math.isfinite(t)]
-            xs = [1e-3, *finite, 1e3]
-            ys = [0.0, *[100 * (i + 1) / n for i in range(len(finite))], 100 * len(finite) / n]
-            style = _style(method)
-            ax.step(xs, ys, where="post", color=colour, lw=1.3, ls=style)
-        ax.axvline(BUDGET, color="k", lw=0.8, ls=":")
-        ax.set_xscale("log")
-        ax.set_xlim(1e-3, 1e2)
-        ax.set_ylim(-3, 103)
-        ax.set_title(f"tier {name}")
-        ax.set_xlabel("time budget per task, seconds (log scale)")
-        ax.set_ylabel("answered optimally within it (% of tasks)")
-        ax.grid(alpha=0.3)
-    handles = [Line2D([], [], color=c, lw=1.5, ls=_style(m), label=m)
-               for m, c in colours.items()]  # fmt: skip
-    handles.append(Line2D([], [], color="k", lw=0.8, ls=":", label=f"budget {BUDGET:g} s"))
-    legend_ax.axis("off")
-    legend_ax.legend(handles=handles, loc="center", ncols=2, frameon=False, fontsize=9)
-    return save_figure(fig, path, dpi=100)
 
 
 SCALE_REPORTS = {"default recipe": "scale_seeds", "+ expert iteration": "scale_seeds_exit"}
@@ -955,8 +811,14 @@ def build(tiers: list[str], out: Path, docs: Path | None, records: list[dict] | 
             full = max((e.full for e in entries if e.tier == t and not e.status), default=0)
             entries += submission_entries(path, get_tier(t), full)
     write_csv([e.as_csv() for e in entries], out / "leaderboard.csv")
+    history = read_anytime(results / ANYTIME)
+    series = {}
+    for t in tiers:
+        tier = get_tier(t)
+        by = {m: rows for m, (rows, _) in one_run_rows(tier, results).items()}
+        series[t] = curves(tier, by, history.get(t, []))
     plot(entries, tiers, out / "leaderboard.png")
-    plot_curves(tiers, results, out / "leaderboard_anytime.png")
+    plot_curves(series, BUDGET, out / "leaderboard_anytime.png")
     path = write_text(out / "leaderboard.md", page(entries, tiers, "leaderboard.png", ""))
     if docs is not None:
         write_text(docs / "leaderboard.md", page(entries, tiers, "results/leaderboard.png",
