@@ -27,6 +27,7 @@ import time
 from functools import lru_cache, partial
 from pathlib import Path
 
+from modquad_gym.core.extras import require
 from modquad_gym.core.options import DefaultsHelpFormatter
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv
 from modquad_gym.geometry.module import palette
@@ -204,6 +205,7 @@ def score(args: argparse.Namespace, command: str) -> int:
     methods = chosen_methods(args, tier)
     train_dir = args.train_dir or args.model.parent
     check_output_dir(args.out, REPORT_FILES, args.force)
+    require("matplotlib")  # the report's figures ([viz] extra): said before the work, not after
 
     t0 = time.perf_counter()
     rows = run_benchmark(suites, methods, n_max, args.model, args.seed, not args.no_progress,
