@@ -96,6 +96,7 @@ if TYPE_CHECKING:  # for type checkers and the API docs: the same names, eagerly
         TModule,
     )
     from modquad_gym.geometry.structure import Structure, structure_levels
+    from modquad_gym.methods import REGISTRY, register
     from modquad_gym.oracle import (
         METHODS,
         TOL,
@@ -120,6 +121,5 @@ if TYPE_CHECKING:  # for type checkers and the API docs: the same names, eagerly
         optimal_structures,
         random_search,
     )
-    from modquad_gym.methods import REGISTRY, register
     from modquad_gym.solvers import make_solver
     from modquad_gym.tasks import TaskRequirement

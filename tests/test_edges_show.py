@@ -14,13 +14,8 @@ import pytest
 
 from modquad_gym import Structure, TaskRequirement
 from modquad_gym.cli import build_parser, main
-from modquad_gym.viz.drawing import (
-    MAX_TITLE_NAME,
-    TITLE_WIDTH,
-    draw_projection,
-    draw_structure,
-    figure_title,
-)
+from modquad_gym.viz.drawing import draw_projection, draw_structure
+from modquad_gym.viz.titles import MAX_TITLE_NAME, TITLE_WIDTH, figure_title
 from modquad_gym.viz.zonotope import EXACT_DRAWN_ROTORS, drawn_vertices, projection_vertices
 
 

@@ -21,7 +21,7 @@ from modquad_gym.dynamics import quaternions as quat  # noqa: E402
 from modquad_gym.sim.model import SimModel  # noqa: E402
 from modquad_gym.sim.pictures import _plt, inputs_panel  # noqa: E402
 from modquad_gym.sim.track import TrackResult  # noqa: E402
-from modquad_gym.viz.drawing import short_name  # noqa: E402
+from modquad_gym.viz.titles import short_name  # noqa: E402
 
 GIF_FPS = 12
 """Frames per second of the animation."""

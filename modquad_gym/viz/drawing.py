@@ -36,6 +36,7 @@ from modquad_gym.viz.raster import (
     structure_image,
     type_colour,
 )
+from modquad_gym.viz.titles import TITLE_WIDTH, figure_title, short_name
 from modquad_gym.viz.zonotope import (
     FEASIBLE_COLOUR,
     INFEASIBLE_COLOUR,
@@ -308,33 +309,6 @@ def draw_rotor_inputs(U: np.ndarray, f_max: float = 1.0, ax: Axes | None = None)
 # --------------------------------------------------------------------------------------------
 # figure file
 # --------------------------------------------------------------------------------------------
-MAX_TITLE_NAME = 48
-"""Most characters of a task's name in a figure's title (longer names are cut with "...")."""
-
-TITLE_WIDTH = 110
-"""Characters per line of a figure's title (wrapped beyond)."""
-
-
-def short_name(name: str | None, limit: int = MAX_TITLE_NAME) -> str:
-    """A task's name for a title: one line, cut to ``limit`` characters with "..."."""
-    name = " ".join(str(name).split()) if name else ""
-    return name if len(name) <= limit else name[: limit - 3] + "..."
-
-
-def figure_title(name: str | None, width: int = TITLE_WIDTH) -> str:
-    """The title of a structure figure with a task: the task's name, cut to
-    :data:`MAX_TITLE_NAME` characters, and what the points mean, wrapped to ``width``
-    characters a line (default :data:`TITLE_WIDTH`; a long name never runs off the figure)."""
-    import textwrap
-
-    name = short_name(name)
-    text = (f"task {name}: " if name else "") + (
-        "points are the task's wrenches, green where the structure can exert the whole 6-D "
-        "wrench, red where not"
-    )
-    return textwrap.fill(text, width, break_long_words=True)
-
-
 INCHES_PER_MODULE = 0.45
 """Width of a module in a saved top view (54 px at 120 dpi: rotors about 14 px across, their
 spin colours readable); the view grows with the structure between :data:`TOP_VIEW_INCHES`."""
