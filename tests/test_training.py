@@ -175,8 +175,11 @@ def test_the_report_says_what_fine_tuning_did_from_the_learning_curve(tmp_path):
         return fine_tuning_words(path)
 
     fell = words([1.65, 1.62, 1.62], [1.0, 0.975, 0.975])
-    assert "did not raise" in fell and "1.650 at step 0, success 100.0 %" in fell
-    assert "1.620 at step 2000, success 97.5 %" in fell
+    assert "did not raise" in fell and "1.6500 at step 0, success 100.0 %" in fell
+    assert "ended at 1.6200 at step 2000, success 97.5 %" in fell
+    noise = words([1.6167, 1.6171, 1.6146], [0.975, 0.975, 0.975])  # a partial share: no module
+    assert "did not raise" in noise and "best was 1.6171 at step 1000" in noise
     rose = words([1.60, 1.58, 1.64, 1.63], [0.95, 0.95, 1.0, 1.0])
-    assert "raised the validation return from the cloned policy's 1.600 at step 0" in rose
-    assert "to 1.640 at step 2000" in rose and "ended at 1.630 at step 3000" in rose
+    assert "raised the validation return from the cloned policy's 1.6000 at step 0" in rose
+    assert "to 1.6400 at step 2000" in rose and "ended at 1.6300 at step 3000" in rose
+    assert "(0.8 modules over the 2 validation tasks)" in rose
