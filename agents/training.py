@@ -13,9 +13,8 @@ tier (:mod:`modquad_gym.scoring.tiers`) fixes the environment, the task source a
 3. MaskablePPO fine-tuning on the environment's reward (``timesteps``), evaluated on validation
    tasks after cloning (step 0) and every ``eval_freq`` steps by :class:`EvalFromStart`; the
    model with the best validation return is kept (the cloned one unless fine-tuning beats it).
-   For the first ``critic_warmup`` steps only the critic learns (:class:`CriticWarmup`: the
-   actor's parameters are frozen), then both, in small steps (the recipe's learning rate, clip
-   range and ``target_kl``): the cloned policy is the start, not something to undo.
+   With ``--critic-warmup N`` only the critic learns for the first N steps
+   (:class:`CriticWarmup`: the actor's parameters are frozen); off in the recipe.
 """
 
 from __future__ import annotations
