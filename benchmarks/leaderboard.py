@@ -376,7 +376,7 @@ def rescored_note(rows) -> str:
     return "\n".join([
         "# Searches scored for the leaderboard",
         "",
-        f"Made by `{COMMAND} --rescore-searches`. Machine: {machine_description()}.",
+        f"Made by `{COMMAND} --rescore-searches --force`. Machine: {machine_description()}.",
         "",
         "The searches that a one-run tier report did not run, on that tier's held-out suites, "
         f"one row per method and task in `{RESCORED}` (as `modquad score` writes "
@@ -416,7 +416,7 @@ def anytime_history(results: Path = RESULTS, progress: bool = True) -> Path:
     write_text(path.with_suffix(".md"), "\n".join([
         "# The anytime search's history on the tiers' held-out tasks",
         "",
-        f"Made by `{COMMAND} --anytime-history`. Machine: {machine_description()}.",
+        f"Made by `{COMMAND} --anytime-history --force`. Machine: {machine_description()}.",
         "",
         "Per task (one row in `leaderboard_anytime.csv`): the anytime search's answer, its wall "
         "time, `optimal_at` (the seconds after which its best structure so far had the "
@@ -720,14 +720,14 @@ def page(entries: list[Entry], tiers: list[str], image: str, results_prefix: str
         "those two columns (‡) are the shipped model's one run in the tier report.",
         f"- **Searches**: the one-run tier reports `{r}tier_<tier>/benchmark.csv` (one row per "
         f"task), and `{r}{RESCORED}` for the searches a tier report did not run "
-        f"(`{COMMAND} --rescore-searches`). `random` and `genetic` are seeded (seed 0).",
+        f"(`{COMMAND} --rescore-searches --force`). `random` and `genetic` are seeded (seed 0).",
         "- **The fault tier**: only the methods that guarantee an answer surviving the failure "
         "are scored, and an answer counts only when it survives; milp refuses `fault=` and the "
         "learned policies were trained without failures: their rows say so in place of "
         "numbers. An outside agent is handed the problem with its fault and an evaluator that "
         "decides survival.",
         f"- **Anytime curves**: from the same per-task rows; the anytime search's history "
-        f"(`{r}{ANYTIME}`, `{COMMAND} --anytime-history`) gives when its best structure so "
+        f"(`{r}{ANYTIME}`, `{COMMAND} --anytime-history --force`) gives when its best structure so "
         "far first had the optimal count.",
         "- **Seconds** are wall time per task on the machine each source names (2 shared "
         "cores, no GPU): compare them within a tier, with care.",
@@ -791,7 +791,7 @@ def _source(source: str, prefix: str) -> str:
         return source
     command = made_by(ROOT / source)
     if source.endswith(RESCORED):
-        command = f"{COMMAND} --rescore-searches"
+        command = f"{COMMAND} --rescore-searches --force"
     shown = f"`{prefix}{source.removeprefix('results/')}`"
     return shown + (f" (`{command}`)" if command else "")
 
