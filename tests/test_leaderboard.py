@@ -227,3 +227,36 @@ def test_the_scale_section_is_the_five_seed_scale_reports(board, tmp_path):
         assert after[band]["ppo_solves_greedys_pct"] in row
         assert after[band]["ppo_minus_greedy_modules"] in row
     assert board.scale_section("results/", results=tmp_path) == []  # no reports: no section
+
+
+def test_labels_sit_beside_their_points_without_overlapping():
+    """The scatter's labels (leaderboard_figures._place_labels) on a crowded panel: each
+    joined to its own point, none overlapping another or leaving the axes."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.text import Text
+
+    from benchmarks.leaderboard_figures import _place_labels
+
+    fig = Figure(figsize=(6, 4))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.set_xscale("log")
+    points = [(0.02 * 1.1**i, 95 + (i % 3), f"method-{i}", "k") for i in range(6)]
+    ax.plot([p[0] for p in points], [p[1] for p in points], "o")
+    ax.set_xlim(1e-3, 1)
+    ax.set_ylim(0, 105)
+    fig.canvas.draw()
+    _place_labels(ax, points)
+    renderer = fig.canvas.get_renderer()
+    labels = [a for a in ax.texts]
+    assert sorted(a.get_text() for a in labels) == sorted(p[2] for p in points)
+    boxes = []
+    for a in labels:
+        a.update_positions(renderer)
+        boxes.append(Text.get_window_extent(a, renderer))
+        assert a.xy == next((x, y) for x, y, t, _ in points if t == a.get_text())
+    frame = ax.get_window_extent(renderer)
+    for i, b in enumerate(boxes):
+        assert frame.x0 <= b.x0 and b.x1 <= frame.x1 and frame.y0 <= b.y0 and b.y1 <= frame.y1
+        assert not any(b.overlaps(c) for c in boxes[i + 1 :])
