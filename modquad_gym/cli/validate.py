@@ -33,6 +33,8 @@ MAX_PRINTED_CELLS = 8
 """Cells the console summary lists (all of them are in ``validation.json``)."""
 SECONDS_PER_FLOWN_SECOND = 1.5
 """Wall seconds per simulated second of a trajectory flight (2 cores, pictures included)."""
+SECONDS_PER_PICTURE = 2.0
+"""Wall seconds to draw and write one picture of the report (a 47-module structure's, 2 cores)."""
 
 
 def add_validate(sub) -> None:
@@ -142,6 +144,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         estimate += task.trajectory.duration * SECONDS_PER_FLOWN_SECOND
     simulated += fault.fault_seconds(args, task)
     estimate += fault.fault_seconds(args, task) * SECONDS_PER_FLOWN_SECOND
+    estimate += SECONDS_PER_PICTURE * sum(name.endswith(".png") for name in names)
     if estimate > MAX_ESTIMATED_SECONDS and not args.allow_long:
         raise ValueError(
             f"{args.task}: hovering under {n_hover:,} wrenches takes about {estimate:,.0f} s, "
@@ -151,7 +154,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     print(
         f"validate: bench on {n_hover if dynamic else task.n_wrenches} wrenches, hover under "
         f"{n_hover}{', fly the trajectory' if dynamic else ''}: about {simulated:g} simulated s "
-        f"(~{estimate:.0f} s here)",
+        f"(~{estimate:.0f} s here){fault.search_seconds_text(args)}",
         file=sys.stderr,
     )
     with claim_output_dir(args.out, names, force=args.force):  # a second run is refused

@@ -77,6 +77,15 @@ def fault_seconds(args: argparse.Namespace, task) -> float:
     return 2.0 * task.flight_seconds(fault_flight.FAULT_HOVER_SECONDS)
 
 
+def search_seconds_text(args: argparse.Namespace) -> str:
+    """What the estimate adds for the searches: with ``--fault`` two (the tolerant structure
+    and the intact minimum), each kept within ``--time-limit`` when one is given."""
+    limit = getattr(args, "time_limit", None)
+    if args.fault is None or limit is None:
+        return ""
+    return f", plus two searches of at most {limit:g} s each"
+
+
 def no_structure_keys(args: argparse.Namespace) -> dict:
     """The fault keys of a record without a structure (no tolerant one up to --n-max)."""
     if args.fault is None:

@@ -115,11 +115,13 @@ def genetic_search(
     fitness = Fitness(scores, problem.n_max if opt["penalty"] is None else opt["penalty"])
     K, n_max = len(problem.palette), problem.n_max
     pop: list[Candidate] = []
-    for _ in range(opt["population"]):
+    values: list = []
+    for _ in range(opt["population"]):  # each scored as it is drawn: the clock between them
         if deadline.passed():
-            return heuristic_result(run, None)
+            best = fitness.best
+            return heuristic_result(run, None if best is None else scores.structure(best))
         pop.append(random_structure(rng, int(rng.integers(lower, n_max + 1)), K))
-    values = [fitness(c) for c in pop]
+        values.append(fitness(pop[-1]))
     record, since = min(values), 0
     for _ in range(opt["generations"]):
         if fitness.best is not None and len(fitness.best) <= lower or since >= opt["stall"]:

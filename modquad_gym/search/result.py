@@ -21,6 +21,7 @@ import numpy as np
 from modquad_gym.geometry.structure import Key, Structure
 from modquad_gym.oracle import Zonotope, feasible
 from modquad_gym.oracle.faults import tolerates
+from modquad_gym.search.checker import LP_ROTORS
 from modquad_gym.tasks.wrenches import kind_entry
 
 if TYPE_CHECKING:
@@ -311,8 +312,10 @@ class SearchRun:
             W = p.rotor_wrenches(structure)
             if p.fault is None:
                 ok = feasible(structure.configuration_matrix(), W, p.f_max, method="daqp")
-            else:
-                ok = tolerates(structure, W, p.f_max, fault=p.fault, method="daqp")
+            else:  # the LP per failure up to LP_ROTORS rotors, else the explicit certificates
+                A = structure.configuration_matrix()
+                method = "daqp" if A.shape[1] <= LP_ROTORS else "auto"
+                ok = tolerates(structure, W, p.f_max, fault=p.fault, method=method)
             if not ok.all():
                 raise RuntimeError(  # pragma: no cover - an oracle bug, never a silent success
                     f"{self.method} search found {structure!r} but the exact LP rejects it"

@@ -43,6 +43,7 @@ from modquad_gym.core.validation import check_f_max, check_real, check_wrenches 
 from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.oracle import TOL, margin  # noqa: E402
 from modquad_gym.oracle.faults import FaultTolerance, check_fault  # noqa: E402
+from modquad_gym.search.checker import LP_ROTORS  # noqa: E402
 from modquad_gym.sim.failure import Failure  # noqa: E402
 from modquad_gym.sim.report import finite_or_none  # noqa: E402
 from modquad_gym.sim.track import TrackConfig, TrackResult  # noqa: E402
@@ -102,12 +103,13 @@ def worst_failure(structure: Structure, W: np.ndarray, f_max: float, fault: str)
     A = np.array(structure.configuration_matrix())
     sets = failure_columns(structure, fault)
     tol = FaultTolerance(A, f_max, sets)
-    i, worst = tol.worst_failure(W)
-    tolerates = bool(tol.decide(W).all())
+    method = "daqp" if A.shape[1] <= LP_ROTORS else "compiled"  # as the searches decide
+    i, worst = tol.worst_failure(W, method)
+    tolerates = bool(tol.decide(W, method).all())
     keep = np.ones(A.shape[1], dtype=bool)
     keep[sets[i]] = False
     if keep.any():
-        row = int(np.argmin(margin(A[:, keep], W, f_max)))
+        row = int(np.argmin(margin(A[:, keep], W, f_max, method)))
     else:  # a one-module structure without its module: nothing is left
         row = int(np.argmax(np.linalg.norm(W, axis=1)))
     if tolerates and worst < 0:  # the LP's round-off against the exact decision
