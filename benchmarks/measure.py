@@ -11,6 +11,8 @@ import threading
 import time
 from multiprocessing.connection import wait
 
+from modquad_gym.core.interrupts import deferred_signals
+
 
 def tree_rss_mb(root: int) -> float:
     """Resident memory of process ``root`` and all its descendants (MB, from /proc)."""
@@ -81,9 +83,10 @@ def fresh_map(fn, jobs: list[tuple], workers: int, on_result=None) -> list:
                 i, job = pending.pop(0)
                 receive, send = ctx.Pipe(duplex=False)
                 proc = ctx.Process(target=_child, args=(send, os.getpid(), fn, job), daemon=True)
-                proc.start()
+                with deferred_signals():  # started whole, and known, before a stop is handled
+                    proc.start()
+                    running[receive] = (i, proc)
                 send.close()
-                running[receive] = (i, proc)
             for conn in wait(list(running)):
                 i, proc = running.pop(conn)
                 try:

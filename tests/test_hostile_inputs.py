@@ -21,6 +21,7 @@ import modquad_gym as mq
 from benchmarks.common import run_command, run_main
 from modquad_gym.core.interrupts import (
     Terminated,
+    deferred_signals,
     exit_status,
     keep_sigterm,
     sigterm_as_interrupt,
@@ -155,6 +156,14 @@ def test_sigterm_becomes_one_line_and_exit_143_and_survives_a_library_handler(ca
                 signal.signal(signal.SIGTERM, signal.SIG_DFL)  # as ray.init installs its own
                 os.kill(os.getpid(), signal.SIGTERM)
             time.sleep(5)
+        started = []
+        with pytest.raises(Terminated):  # deferred: the step in the block finishes first
+            with deferred_signals():
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(0.2)
+                started.append(True)
+            time.sleep(5)
+        assert started == [True]
 
     def stopped(argv):
         raise KeyboardInterrupt

@@ -8,12 +8,20 @@ finished so far kept) runs for both.
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-__all__ = ["Terminated", "exit_status", "keep_sigterm", "stop_line", "sigterm_as_interrupt"]
+__all__ = [
+    "Terminated",
+    "deferred_signals",
+    "exit_status",
+    "keep_sigterm",
+    "sigterm_as_interrupt",
+    "stop_line",
+]
 
 
 class Terminated(KeyboardInterrupt):
@@ -70,6 +78,27 @@ def keep_sigterm() -> Iterator[None]:
             signal.signal(signal.SIGTERM, before)
         if hold:  # a SIGTERM that came meanwhile reaches the handler now
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
+
+
+@contextmanager
+def deferred_signals() -> Iterator[None]:
+    """Ctrl-C and SIGTERM wait until the block ends, then reach the handlers they would have
+    reached: a step that must not be cut in half (a child process being started, whose half-sent
+    start-up data makes it print a traceback) finishes first. Nothing changes outside the main
+    thread."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    came: list[int] = []
+    before = {s: signal.signal(s, lambda signum, frame: came.append(signum))
+              for s in (signal.SIGINT, signal.SIGTERM)}  # fmt: skip
+    try:
+        yield
+    finally:
+        for s, handler in before.items():
+            signal.signal(s, handler)
+        for s in came:
+            os.kill(os.getpid(), s)
 
 
 def exit_status(exc: KeyboardInterrupt) -> int:
