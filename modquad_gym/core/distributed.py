@@ -31,6 +31,7 @@ from itertools import chain, islice
 from typing import Any
 
 from modquad_gym.core.extras import import_optional, missing_extra_message
+from modquad_gym.core.interrupts import keep_sigterm
 from modquad_gym.core.notes import note
 from modquad_gym.core.resources import cap_workers, usable_cpus
 from modquad_gym.core.validation import check_int
@@ -39,15 +40,8 @@ ADDRESS_VARIABLE = "RAY_ADDRESS"
 DEFAULT_RETRIES = 3
 """Resubmissions of a task whose worker process died (Ray's ``max_retries``)."""
 
-__all__ = [
-    "ADDRESS_VARIABLE",
-    "DEFAULT_RETRIES",
-    "Engine",
-    "Failed",
-    "first_in_order",
-    "map_tasks",
-    "ray_installed",
-]
+__all__ = ["ADDRESS_VARIABLE", "DEFAULT_RETRIES", "Engine", "Failed", "first_in_order", "map_tasks",
+           "ray_installed"]  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -155,8 +149,6 @@ class Engine:
     def __exit__(self, *exc: object) -> None:
         self._depth -= 1
         if self._depth == 0 and self._started:
-            from modquad_gym.core.interrupts import keep_sigterm
-
             with keep_sigterm():  # ray.shutdown resets SIGTERM to the default: killed silently
                 import_optional("ray").shutdown()
             self._started = False
@@ -167,8 +159,6 @@ class Engine:
         ray = import_optional("ray")
         if ray.is_initialized():
             return
-        from modquad_gym.core.interrupts import keep_sigterm
-
         options = {"include_dashboard": False, "log_to_driver": False, "logging_level": "ERROR"}
         with keep_sigterm():  # SIGTERM stays one line, not Ray's native crash dump
             if self.address:
