@@ -69,10 +69,11 @@ def fresh(fn, *args):
     return fresh_map(fn, [args], 1)[0]
 
 
-def fresh_map(fn, jobs: list[tuple], workers: int, on_result=None) -> list:
+def fresh_map(fn, jobs: list[tuple], workers: int, on_result=None, on_part=None) -> list:
     """``[fn(*job) for job in jobs]``, each job in a fresh spawned process, at most ``workers``
-    at a time; ``on_result(i, result)`` is called here as job ``i`` finishes (e.g. to write its
-    rows at once). An exception in a job is raised here. However this ends (Ctrl-C, SIGTERM, an
+    at a time; ``on_result(i, result)`` is called here as job ``i`` finishes and
+    ``on_part(i, value)`` for each :func:`report_part` of it meanwhile (e.g. to write rows as
+    they come). An exception in a job is raised here. However this ends (Ctrl-C, SIGTERM, an
     error), no job's process outlives it: the running ones are terminated, and each exits by
     itself if this process is killed (:func:`_child`)."""
     ctx = mp.get_context("spawn")
@@ -88,14 +89,22 @@ def fresh_map(fn, jobs: list[tuple], workers: int, on_result=None) -> list:
                     running[receive] = (i, proc)
                 send.close()
             for conn in wait(list(running)):
-                i, proc = running.pop(conn)
+                i, proc = running[conn]
                 try:
-                    ok, value = conn.recv()
+                    kind, value = conn.recv()
                 except EOFError:  # the process died without an answer
                     proc.join()
-                    ok, value = False, RuntimeError(f"a job's process died (exit {proc.exitcode})")
+                    kind, value = (
+                        "error",
+                        RuntimeError(f"a job's process died (exit {proc.exitcode})"),
+                    )
+                if kind == "part":
+                    if on_part is not None:
+                        on_part(i, value)
+                    continue
+                del running[conn]
                 proc.join()
-                if not ok:
+                if kind == "error":
                     raise value
                 results[i] = value
                 if on_result is not None:
@@ -108,9 +117,21 @@ def fresh_map(fn, jobs: list[tuple], workers: int, on_result=None) -> list:
     return results
 
 
+_parts = None
+"""In a job's process: the connection :func:`report_part` sends on (None elsewhere)."""
+
+
+def report_part(value) -> None:
+    """From a job of :func:`fresh_map`: hand ``value`` (e.g. one task's row) to the parent's
+    ``on_part`` now, so it is kept if the job is stopped. Nothing happens outside a job."""
+    if _parts is not None:
+        _parts.send(("part", value))
+
+
 def _child(conn, parent: int, fn, args: tuple) -> None:
     """A job's process: Ctrl-C is its parent's to handle (which terminates it), and a watcher
     ends it when the parent is gone (killed, even by SIGKILL), so no orphan keeps computing."""
+    global _parts
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
     def watch() -> None:
@@ -119,14 +140,15 @@ def _child(conn, parent: int, fn, args: tuple) -> None:
         os._exit(1)
 
     threading.Thread(target=watch, daemon=True).start()
+    _parts = conn
     try:
-        answer = (True, fn(*args))
+        answer = ("done", fn(*args))
     except Exception as exc:  # raised in the parent
-        answer = (False, exc)
+        answer = ("error", exc)
     try:
         conn.send(answer)
     except Exception as exc:  # an answer that does not pickle
-        conn.send((False, RuntimeError(f"{fn.__name__}: {type(exc).__name__}: {exc}")))
+        conn.send(("error", RuntimeError(f"{fn.__name__}: {type(exc).__name__}: {exc}")))
     conn.close()
 
 

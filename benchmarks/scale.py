@@ -37,7 +37,7 @@ from benchmarks.common import (
     run_main,
     write_csv,
 )
-from benchmarks.measure import fresh_map, measured
+from benchmarks.measure import fresh_map, measured, report_part
 from benchmarks.scale_suites import (
     BANDS,
     FAMILIES,
@@ -121,10 +121,11 @@ def solve_band(method: str, tasks: list, time_limit: float, seed: int, engine, m
             note = str(exc).splitlines()[0]
             out.append({"task": task.name, "found": None, "proved": 0, "verified": False,
                         "seconds": 0.0, "peak_MB": 0.0, "note": note})  # fmt: skip
-            continue
-        out.append({"task": task.name, "found": r.n_modules, "proved": r.lower_bound,
-                    "verified": verified(r.structure, task), "seconds": seconds,
-                    "peak_MB": peak, "note": ""})  # fmt: skip
+        else:
+            out.append({"task": task.name, "found": r.n_modules, "proved": r.lower_bound,
+                        "verified": verified(r.structure, task), "seconds": seconds,
+                        "peak_MB": peak, "note": ""})  # fmt: skip
+        report_part(out[-1])  # kept by the parent if the run is stopped
     return out
 
 
@@ -150,20 +151,26 @@ def task_row(task, method: str, res: dict, bound: int) -> dict:
 
 def measure(args, keep=None) -> list[dict]:
     """Every (band, method) run; rows with each task's best proved bound. ``keep(rows)`` is
-    called with the rows so far each time a (band, method) run finishes, so an interrupted run
+    called with the rows so far each time a task's answer comes in, so an interrupted run
     keeps them."""
     rows: list[dict] = []
     for band in args.bands:
         tasks = band_tasks(band, args.families, args.per_family, args.validation, args.time_limit)
         jobs = [(m, tasks, args.time_limit, args.seed, args.model) for m in args.methods]
-        done: dict[str, list] = {}
+        done: dict[str, list] = {m: [] for m in args.methods}
+
+        def arrived(i: int, answer: dict, tasks=tasks, done=done, rows=rows) -> None:
+            done[args.methods[i]].append(answer)
+            if keep is not None:
+                keep(rows + band_rows(tasks, args.methods, done))
 
         def finished(i: int, result: list, tasks=tasks, done=done, rows=rows) -> None:
             done[args.methods[i]] = result
             if keep is not None:
                 keep(rows + band_rows(tasks, args.methods, done))
 
-        fresh_map(run_band, jobs, args.workers, finished)  # each (method, band) in a new process
+        # each (method, band) in a new process, each task's answer sent back as it comes
+        fresh_map(run_band, jobs, args.workers, finished, on_part=arrived)
         rows += band_rows(tasks, args.methods, done)
         for row in rows[-len(tasks) * len(args.methods) :]:
             print(row, flush=True)
@@ -171,12 +178,14 @@ def measure(args, keep=None) -> list[dict]:
 
 
 def band_rows(tasks: list, methods, done: dict[str, list]) -> list[dict]:
-    """The rows of one band's finished methods (``done``: method -> its results, one per
-    task), in task then method order; each task's bound is the best any of them proved."""
+    """The rows of one band's answers so far (``done``: method -> its results, one per task
+    in task order, fewer while it runs), in task then method order; each task's bound is the
+    best any of them proved."""
     rows = []
     for i, task in enumerate(tasks):
-        bound = max([task.meta["lower_bound"]] + [res[i]["proved"] for res in done.values()])
-        rows += [task_row(task, m, done[m][i], bound) for m in methods if m in done]
+        have = {m: res[i] for m, res in done.items() if i < len(res)}
+        bound = max([task.meta["lower_bound"]] + [r["proved"] for r in have.values()])
+        rows += [task_row(task, m, have[m], bound) for m in methods if m in have]
     return rows
 
 

@@ -351,11 +351,13 @@ def test_scale_keeps_the_rows_of_finished_runs_when_interrupted(monkeypatch):
     answer = {"found": 15, "proved": 15, "verified": True, "seconds": 1.0, "peak_MB": 1.0,
               "note": ""}  # fmt: skip
 
-    def first_then_stop(fn, jobs, workers, on_result):
-        on_result(0, [answer, answer])
+    def stopped_midway(fn, jobs, workers, on_result, on_part):
+        on_part(0, answer)  # greedy's first task
+        on_result(0, [answer, answer])  # greedy done
+        on_part(1, answer)  # beam's first task, then Ctrl-C
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(scale, "fresh_map", first_then_stop)
+    monkeypatch.setattr(scale, "fresh_map", stopped_midway)
     monkeypatch.setattr(scale, "band_tasks", lambda *a: tasks)
     kept = []
     args = SimpleNamespace(bands=[16], families=["planted"], per_family=2, validation=False,
@@ -363,11 +365,30 @@ def test_scale_keeps_the_rows_of_finished_runs_when_interrupted(monkeypatch):
                            workers=1)  # fmt: skip
     with pytest.raises(KeyboardInterrupt):
         scale.measure(args, kept.append)
-    (rows,) = kept
-    assert [(r["task"], r["method"], r["lower_bound"]) for r in rows] == [
+    assert [(r["task"], r["method"]) for r in kept[0]] == [("t0", "greedy")]
+    assert [(r["task"], r["method"], r["lower_bound"]) for r in kept[-1]] == [
         ("t0", "greedy", 15),
+        ("t0", "beam", 15),
         ("t1", "greedy", 15),
     ]
+
+
+def _answer_in_parts(n: int) -> str:
+    """A job of :func:`benchmarks.measure.fresh_map` that hands back ``n`` parts first."""
+    from benchmarks.measure import report_part
+
+    for k in range(n):
+        report_part(k)
+    return "done"
+
+
+def test_a_fresh_job_hands_back_parts_as_they_come():
+    from benchmarks.measure import fresh_map
+
+    parts, results = [], []
+    out = fresh_map(_answer_in_parts, [(3,)], 1, lambda i, r: results.append((i, r)),
+                    on_part=lambda i, v: parts.append((i, v)))  # fmt: skip
+    assert out == ["done"] and results == [(0, "done")] and parts == [(0, 0), (0, 1), (0, 2)]
 
 
 # --- expert iteration and train.py ----------------------------------------------------------
