@@ -179,16 +179,53 @@ method_option.__name__ = "method"
 
 
 FAULT_HELP = (
-    "the answer must keep doing the task after any single failure: rotor (any one rotor "
-    "stops) or module (any one module's rotors stop; it stays docked and its weight still "
-    "counts). Every search but the learned ones takes it; --json adds fault and "
-    "worst_fault_margin (the smallest margin over the failures and wrenches, >= 0)"
+    "the answer must keep doing the task after any failure of this kind: rotor (any one rotor "
+    "stops), module (any one module's rotors stop; it stays docked and its weight still "
+    "counts) or rotor2 (any two rotors stop). Every search but the learned ones takes it; "
+    "--json adds fault and worst_fault_margin (the smallest margin over the failures and "
+    "wrenches, >= 0)"
 )
 
 
 def add_fault(p: argparse.ArgumentParser, help: str = FAULT_HELP) -> None:
-    """``--fault {rotor,module}``: the single failure an answer must survive."""
-    p.add_argument("--fault", choices=("rotor", "module"), default=None, help=help)
+    """``--fault {rotor,module,rotor2}`` (the failure an answer must survive) and
+    ``--fault-margin`` (the worst margin it must keep after it)."""
+    p.add_argument("--fault", choices=("rotor", "module", "rotor2"), default=None, help=help)
+    p.add_argument(
+        "--fault-margin",
+        type=real_option,
+        default=None,
+        metavar="MU",
+        help="with --fault: the worst margin (1 - gamma, as worst_fault_margin) every task "
+        "wrench must keep after the failure, in [0, 1) (default 0): thrust to spare while the "
+        "controller does not yet know of the failure. --detection-delay picks it from the delay",
+    )
+
+
+def fault_margin_of(args: argparse.Namespace) -> float | None:
+    """The required fault margin of the command line: ``--fault-margin``, else the one
+    :func:`~modquad_gym.oracle.faults.margin_for_delay` derives from a ``--detection-delay``
+    given for the design (None: no margin asked). ValueError for both, or either without
+    ``--fault``."""
+    from modquad_gym.oracle.faults import check_fault_margin, margin_for_delay
+
+    margin = getattr(args, "fault_margin", None)
+    delay = getattr(args, "detection_delay", None)
+    if margin is not None and delay is not None:
+        raise ValueError("give --fault-margin or --detection-delay, not both")
+    if margin is None and delay is None:
+        return None
+    if getattr(args, "fault", None) is None:
+        raise ValueError(
+            f"{'--fault-margin' if margin is not None else '--detection-delay'} applies with "
+            "--fault"
+        )
+    if margin is not None:
+        try:
+            return check_fault_margin(margin, args.fault)
+        except ValueError as exc:
+            raise ValueError(f"--fault-margin {margin:g}: {exc}") from None
+    return margin_for_delay(delay)
 
 
 def check_fault_method(args: argparse.Namespace) -> None:

@@ -20,12 +20,15 @@ from modquad_gym.cli.common import (
     add_workers,
     batch_status,
     check_fault_method,
+    fault_margin_of,
     one_line,
     palette,
     palette_of,
     report_error,
 )
+from modquad_gym.core.options import real_option
 from modquad_gym.methods import method_of
+from modquad_gym.oracle.faults import DELAY_SLOPE
 from modquad_gym.solvers import make_solver
 
 
@@ -49,6 +52,15 @@ def add_solve(sub) -> None:
     )
     add_method(p)
     add_fault(p)
+    p.add_argument(
+        "--detection-delay",
+        type=real_option,
+        default=None,
+        metavar="SECONDS",
+        help="with --fault: design for a controller that learns of the failure this many "
+        "seconds late, 0 to 0.05: the required --fault-margin is derived from it by the rule "
+        f"calibrated on MuJoCo flights (docs/faults.md; margin = {DELAY_SLOPE:g} x delay)",
+    )
     p.add_argument(
         "--json",
         action="store_true",
@@ -105,6 +117,7 @@ class SolveSpec:
     options: tuple[tuple[str, Any], ...]
     modules: str | None = None
     fault: str | None = None
+    fault_margin: float | None = None
 
     @classmethod
     def of(cls, args: argparse.Namespace, progress: bool = False) -> SolveSpec:
@@ -128,7 +141,8 @@ class SolveSpec:
                 raise ValueError(f"--option {text}: {exc}") from None
             options[key] = value
         return cls(args.method, args.n_max, tuple(sorted(options.items())),
-                   getattr(args, "modules", None), getattr(args, "fault", None))  # fmt: skip
+                   getattr(args, "modules", None), getattr(args, "fault", None),
+                   fault_margin_of(args))  # fmt: skip
 
     def solver(self, engine=None):
         """The solver (:func:`~modquad_gym.solvers.make_solver`); ``engine`` (or None) splits
@@ -138,7 +152,8 @@ class SolveSpec:
         if engine is not None and "engine" in entry.options.names():
             options["engine"] = engine
         return make_solver(self.method, self.n_max, modules=palette_of(self.modules),
-                           fault=self.fault, **options)  # fmt: skip
+                           fault=self.fault, fault_margin=self.fault_margin,
+                           **options)  # fmt: skip
 
 
 @functools.lru_cache(maxsize=4)
@@ -307,7 +322,7 @@ def print_result(args: argparse.Namespace, path, task, result) -> None:
         print(f"  cells {list(result.structure.cells)}")
         if result.fault is not None:
             print(
-                f"  survives any single {result.fault} failure (worst margin over failures: "
+                f"  survives any {result.fault} failure (worst margin over failures: "
                 f"{worst_fault_margin(task, result):.4f})"
             )
         if result.palette:
@@ -321,7 +336,7 @@ def print_result(args: argparse.Namespace, path, task, result) -> None:
 
 
 def worst_fault_margin(task, result) -> float | None:
-    """The smallest margin over every single failure of ``result.fault`` and every wrench of
+    """The smallest margin over every failure of ``result.fault`` and every wrench of
     ``task`` for the structure found (>= 0: it survives them all), None without a structure."""
     from modquad_gym.oracle.faults import fault_margin
     from modquad_gym.search.checker import LP_ROTORS

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import argparse
 
-from modquad_gym.cli.common import add_fault, check_fault_method
+from modquad_gym.cli.common import add_fault, check_fault_method, fault_margin_of
 from modquad_gym.core.options import real_option
 
 DEFAULT_DETECTION_DELAY = 0.02
@@ -23,12 +23,13 @@ simulation)."""
 MAX_DETECTION_DELAY = 1.0
 
 FAULT_HELP = (
-    "search for a structure that survives any single failure (rotor: any one rotor stops; "
-    "module: any one module's rotors stop), then also fly it through the failure that leaves "
-    "the smallest margin, halfway through a hover under the hardest task wrench (or through the "
-    "trajectory of a dynamic task), and the same kind of failure on the intact minimum of the "
-    "task for comparison; --json adds fault_max_position_error_m, fault_saturated_fraction, "
-    "the failed rotors and intact_minimum; pictures fault_flight*.png. Not with the learned "
+    "search for a structure that survives any failure of this kind (rotor: any one rotor "
+    "stops; module: any one module's rotors stop; rotor2: any two rotors), then also fly it "
+    "through the failure that leaves the smallest margin, halfway through a hover under the "
+    "hardest task wrench (or through the trajectory of a dynamic task), and the same kind of "
+    "failure on the intact minimum of the task for comparison; --json adds "
+    "fault_max_position_error_m, fault_saturated_fraction, the failed rotors and "
+    "intact_minimum; pictures fault_flight*.png. Not with the learned "
     "methods"
 )
 
@@ -39,11 +40,13 @@ def add_fault_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--detection-delay",
         type=real_option,
-        default=DEFAULT_DETECTION_DELAY,
+        default=None,
         metavar="SECONDS",
-        help="with --fault: seconds between the failure and the controller knowing it, 0 to "
-        f"{MAX_DETECTION_DELAY:g} (default %(default)s): meanwhile it still allocates on the "
-        "failed rotors",
+        help="with --fault: design for a controller that learns of the failure this many "
+        "seconds late (the required --fault-margin derived from it, as `modquad solve "
+        "--detection-delay`; 0 to 0.05) and fly with that delay; the design without the margin "
+        "is flown beside it (JSON key without_margin). Without it the flights use "
+        f"{DEFAULT_DETECTION_DELAY:g} s and the design has no margin",
     )
 
 
@@ -55,8 +58,10 @@ def check_fault_options(args: argparse.Namespace) -> None:
 
     check_fault_method(args)
     if args.fault is None:
-        refuse_ignored(args, ["detection_delay"], "it applies with --fault")
-    check_real(args.detection_delay, "--detection-delay", 0.0, MAX_DETECTION_DELAY)
+        refuse_ignored(args, ["detection_delay", "fault_margin"], "it applies with --fault")
+    if args.detection_delay is not None:
+        check_real(args.detection_delay, "--detection-delay", 0.0, MAX_DETECTION_DELAY)
+    fault_margin_of(args)  # the margin's range, the delay's calibrated range
 
 
 def fault_output_names(args: argparse.Namespace) -> tuple[str, ...]:
@@ -104,13 +109,26 @@ def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -
     from modquad_gym.sim import fault_flight
     from modquad_gym.sim.validate_fault import add_to_report, validate_with_failure
 
-    intact_args = argparse.Namespace(**{**vars(args), "fault": None})
+    plain = {"fault_margin": None, "detection_delay": None}
+    intact_args = argparse.Namespace(**{**vars(args), **plain, "fault": None})
     intact = solver(intact_args)(task)
+    delay = DEFAULT_DETECTION_DELAY if args.detection_delay is None else args.detection_delay
     record = validate_with_failure(structure, task, args.fault, intact=intact.structure,
-                                   out_dir=args.out, detection_delay_s=args.detection_delay,
+                                   out_dir=args.out, detection_delay_s=delay,
                                    seconds=fault_flight.FAULT_HOVER_SECONDS)  # fmt: skip
     if record["intact_minimum"] is not None:  # the search's word on it being the minimum
         record["intact_minimum"]["certified"] = bool(intact.certified)
+    margin = fault_margin_of(args)
+    record["fault_margin_required"] = margin or 0.0
+    if margin:  # the design without the margin, through its own worst failure, same delay
+        from modquad_gym.sim.validate_fault import intact_record
+
+        bare = solver(argparse.Namespace(**{**vars(args), **plain}))(task).structure
+        if bare is not None:
+            flight = fault_flight.fly_with_failure(
+                bare, task, args.fault, detection_delay_s=delay,
+                seconds=fault_flight.FAULT_HOVER_SECONDS)  # fmt: skip
+            record["without_margin"] = intact_record(flight)
     return add_to_report(args.out, report, record)
 
 
@@ -138,6 +156,10 @@ def fault_lines(r: dict) -> list[str]:
         )
 
     lines = [line("fault flight", r, r["fault_tolerates"])]
+    bare = r.get("without_margin")
+    if bare:
+        lines.append(line(f"without the margin ({bare['n_modules']} modules)", bare,
+                          bare["tolerates"]))  # fmt: skip
     intact = r.get("intact_minimum")
     if intact:
         lines.append(line(f"intact minimum ({intact['n_modules']} modules)", intact,

@@ -68,7 +68,7 @@ def certify_rows(R, G, P, dual, C, columns, starts, errors, reach, tol, out):  #
     y = np.empty(m)
     pe = np.empty(m)
     e = np.empty(rank)
-    a = np.empty(C.shape[1])
+    a = np.empty(C.shape[0])  # one entry per row of C (per failed rotor of every failure)
     for t in range(t_rows):
         big = 0.0
         for i in range(rank):

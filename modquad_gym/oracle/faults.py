@@ -1,12 +1,15 @@
-"""Does a structure keep exerting a wrench after any single failure? (fault tolerance)
+"""Does a structure keep exerting a wrench after any failure of one kind? (fault tolerance)
 
-A failure stops a set S of rotors: one rotor (``fault="rotor"``) or the four of one module
+A failure stops a set S of rotors: one rotor (``fault="rotor"``), the four of one module
 (``fault="module"``; the module stays docked, so its mass still counts for ``external`` and
-dynamic tasks, whose rotor wrenches do not change). The structure then exerts the zonotope of A
-without the columns of S, Z_S = {A u : 0 <= u <= f_max, u_S = 0}. A wrench is **tolerated** when
-it is feasible for Z_S for every failure S, each decided by the oracle's tolerance rule on the
-matrix A_{-S} (:mod:`~modquad_gym.oracle.tolerance`); the **fault margin** is the worst margin
-over the failures, so it is >= 0 exactly when the wrench is tolerated.
+dynamic tasks, whose rotor wrenches do not change) or any two rotors (``fault="rotor2"``). The
+structure then exerts the zonotope of A without the columns of S, Z_S = {A u : 0 <= u <= f_max,
+u_S = 0}. A wrench is **tolerated** when it is feasible for Z_S for every failure S, each decided
+by the oracle's tolerance rule on the matrix A_{-S} (:mod:`~modquad_gym.oracle.tolerance`); the
+**fault margin** is the worst margin over the failures, so it is >= 0 exactly when the wrench is
+tolerated. A required margin ``fault_margin=mu`` (thrust to spare while the controller does not
+yet know of the failure) asks the fault margin to be >= mu: decided, once the plain tolerance
+holds, on each A_{-S} with its thrust range shrunk about its centre by the factor 1 - mu.
 
 Fast and exact (:class:`FaultTolerance`). Z_S is a subset of the intact zonotope, so a wrench
 the intact structure cannot exert is tolerated by no failure (one compiled decision rejects
@@ -24,6 +27,7 @@ a single module, a line) is always decided on A_{-S}.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 
 import numpy as np
@@ -33,8 +37,9 @@ from modquad_gym.oracle.backends import check_method, decide_with, margin_with
 from modquad_gym.oracle.tolerance import RESIDUAL_TOL, TOL
 from modquad_gym.oracle.zonotope import Zonotope
 
-FAULTS = ("rotor", "module")
-"""The kinds of single failure: one rotor stops, or one module's rotors all stop."""
+FAULTS = ("rotor", "module", "rotor2")
+"""The kinds of failure: one rotor stops, one module's rotors all stop, or any two rotors stop
+(``"rotor2"``: in one module or in two)."""
 
 _SINGULAR = 1e-6  # smallest eigenvalue of I - H_SS below which the failure is decided on A_{-S}
 _EXACT = 1e-9  # residual of a certificate's equations accepted, relative to 1 + |r|_inf
@@ -47,13 +52,57 @@ def check_fault(fault: object) -> str:
     return str(fault)
 
 
+def check_fault_margin(value: object, fault: object = "rotor") -> float:
+    """``value`` as a float in [0, 1) (the worst margin required after a failure, in the units
+    of :func:`fault_margin`), else a one-line ValueError; a positive margin needs a ``fault``."""
+    try:
+        mu = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"fault_margin must be a number in [0, 1), got {value!r}") from None
+    if not 0.0 <= mu < 1.0:
+        raise ValueError(f"fault_margin must lie in [0, 1), got {value!r}")
+    if mu > 0.0 and fault is None:
+        raise ValueError("fault_margin applies with a fault (rotor, module or rotor2)")
+    return mu
+
+
+DELAY_SLOPE = 0.9
+"""mu per second of detection delay (:func:`margin_for_delay`): 1.25 times the fit 0.71 / s on
+56 MuJoCo flights of the fault_rotor suite's designs at 10-50 ms (results/fault_delay)."""
+
+MAX_DELAY_S = 0.05
+"""The longest detection delay the rule was calibrated for (s)."""
+
+
+def margin_for_delay(delay_s: object) -> float:
+    """The worst fault margin a design needs so that it stays within 5 cm through its worst
+    failure when the controller learns of it ``delay_s`` seconds late: ``DELAY_SLOPE *
+    delay_s``, fitted on MuJoCo flights of the fault_rotor suite's structures
+    (``python -m benchmarks.fault_delay``; docs/faults.md). ValueError outside [0,
+    :data:`MAX_DELAY_S`], where it was not calibrated."""
+    try:
+        d = float(delay_s)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"detection delay must be a number of seconds, got {delay_s!r}") from None
+    if not 0.0 <= d <= MAX_DELAY_S:
+        raise ValueError(
+            f"detection delay must lie in [0, {MAX_DELAY_S:g}] s (the rule's calibrated range), "
+            f"got {delay_s!r}"
+        )
+    return DELAY_SLOPE * d
+
+
 def failure_sets(n_rotors: int, fault: str, rotors_per_module: int = 4) -> list[np.ndarray]:
-    """The column sets a single failure removes from a (6, n_rotors) matrix whose columns are
+    """The column sets a failure removes from a (6, n_rotors) matrix whose columns are
     grouped by module (``rotors_per_module`` each, in cell order, as
-    :meth:`~modquad_gym.geometry.structure.Structure.configuration_matrix` has them)."""
+    :meth:`~modquad_gym.geometry.structure.Structure.configuration_matrix` has them): each
+    rotor, each module's rotors, or each pair of rotors (``"rotor2"``, in the order of
+    :func:`itertools.combinations`)."""
     fault = check_fault(fault)
     if fault == "rotor":
         return [np.array([k]) for k in range(n_rotors)]
+    if fault == "rotor2":
+        return [np.array(pair) for pair in itertools.combinations(range(n_rotors), 2)]
     if n_rotors % rotors_per_module:
         raise ValueError(
             f"A has {n_rotors} columns, not a multiple of {rotors_per_module} rotors per module"
@@ -67,8 +116,10 @@ class FaultTolerance:
     Args:
         A: the (6, m) configuration matrix.
         f_max: per-rotor thrust limit.
-        failures: the column sets of the single failures (:func:`failure_sets`).
+        failures: the column sets of the failures (:func:`failure_sets`).
         zonotope: the intact zonotope of A when the caller has it already.
+        fault_margin: the worst margin a wrench must keep after each failure (0: feasible
+            after it; :func:`check_fault_margin`).
 
     ``tests`` counts the (wrench, failure) pairs decided by the oracle on A_{-S}; ``certified``
     those the shared allocation certificate settled.
@@ -80,12 +131,15 @@ class FaultTolerance:
         f_max: float,
         failures: Sequence[np.ndarray],
         zonotope: Zonotope | None = None,
+        fault_margin: float = 0.0,
     ) -> None:
         self.intact = zonotope if zonotope is not None else Zonotope(A, f_max)
         self.failures = [np.asarray(S, dtype=np.intp) for S in failures]
+        self.fault_margin = check_fault_margin(fault_margin)
         self.tests = 0
         self.certified = 0
         self._zonotopes: dict[int, Zonotope | None] = {}
+        self._shrunk: dict[int, tuple[Zonotope, np.ndarray] | None] = {}
         self._K: tuple[np.ndarray, ...] | None = None
         self._directions: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -105,6 +159,26 @@ class FaultTolerance:
         if z is None:  # nothing left: only the zero wrench
             return _zero_rows(W, self.intact.f_max)
         return decide_with(z, W, method)
+
+    def _decide_with_margin(self, i: int, W: np.ndarray, method: str) -> np.ndarray:
+        """bool: is the margin of each wrench after failure i at least ``fault_margin``? The
+        margin is 1 - gamma about the centre c = A_{-S} f_max / 2, so margin >= mu exactly when
+        w - mu c lies in the zonotope of A_{-S} with thrusts up to (1 - mu) f_max (decided by
+        the oracle with its tolerance rule: margin >= mu - TOL (1 - mu))."""
+        self.tests += len(W)
+        if i not in self._shrunk:
+            z = self.failed(i)
+            if z is None:
+                self._shrunk[i] = None
+            else:
+                mu = self.fault_margin
+                centre = 0.5 * z.f_max * z.A.sum(axis=1)
+                self._shrunk[i] = (Zonotope(z.A, (1.0 - mu) * z.f_max), mu * centre)
+        shrunk = self._shrunk[i]
+        if shrunk is None:  # nothing left: every margin is 0 or -inf, below mu
+            return np.zeros(len(W), dtype=bool)
+        z, shift = shrunk
+        return decide_with(z, W - shift, method)
 
     def _margin_failed(self, i: int, W: np.ndarray, method: str) -> np.ndarray:
         self.tests += len(W)
@@ -207,10 +281,12 @@ class FaultTolerance:
 
     # --- the questions --------------------------------------------------------------------
     def decide(self, W: np.ndarray, method: str = "auto", *, stop_early: bool = False):
-        """bool (t,): is each wrench (row of W) feasible after every failure? With ``"auto"``
-        or ``"compiled"`` the shared certificate settles what it can; any other method decides
-        every failure by itself (a reference). With ``stop_early`` the answer is only
-        whether every wrench is tolerated (a bool): it stops at the first wrench that is not."""
+        """bool (t,): is each wrench (row of W) feasible after every failure (with at least
+        ``fault_margin`` left)? With ``"auto"`` or ``"compiled"`` the shared certificate
+        settles what it can; any other method decides every failure by itself (a reference).
+        With ``stop_early`` the answer is only whether every wrench is tolerated (a bool): it
+        stops at the first wrench that is not. A margin is required after the plain
+        tolerance holds (it needs it), failure by failure."""
         ok = decide_with(self.intact, W, method)
         if stop_early and not ok.all():
             return False
@@ -237,6 +313,14 @@ class FaultTolerance:
                 return False
             if not alive.any():
                 break
+        if self.fault_margin > 0.0:
+            for i in range(len(self.failures)):
+                todo = np.flatnonzero(alive)
+                if not len(todo):
+                    break
+                alive[todo] = self._decide_with_margin(i, W[live[todo]], method)
+                if stop_early and not alive[todo].all():
+                    return False
         if stop_early:
             return True
         ok[live] = alive
@@ -277,7 +361,7 @@ def _matrix_and_failures(structure, fault: str) -> tuple[np.ndarray, list[np.nda
     fault = check_fault(fault)
     if hasattr(structure, "configuration_matrix"):
         A = structure.configuration_matrix()
-        if fault == "rotor":
+        if fault != "module":
             return A, failure_sets(A.shape[1], fault)
         starts = np.cumsum([0] + [m.n_rotors for m in structure.modules])
         return A, [np.arange(a, b) for a, b in zip(starts[:-1], starts[1:])]
@@ -286,27 +370,37 @@ def _matrix_and_failures(structure, fault: str) -> tuple[np.ndarray, list[np.nda
 
 
 def tolerates(
-    structure, W: np.ndarray, f_max: float = 1.0, fault: str = "rotor", method: str = "auto"
+    structure,
+    W: np.ndarray,
+    f_max: float = 1.0,
+    fault: str = "rotor",
+    method: str = "auto",
+    fault_margin: float = 0.0,
 ) -> np.ndarray:
-    """bool (t,): does each wrench (row of W, (t, 6)) stay feasible after ANY single failure?
+    """bool (t,): does each wrench (row of W, (t, 6)) stay feasible after ANY failure?
 
     ``structure`` is a :class:`~modquad_gym.geometry.structure.Structure` or its (6, 4n)
     configuration matrix (columns four per module, in cell order). ``fault="rotor"``: any one
     rotor stops (its column leaves A); ``"module"``: any one module's rotors stop (its columns
-    leave A; its mass stays, so pass the rotor wrenches of the whole structure). Exact by the
-    oracle's tolerance rule on each failed matrix (module docstring)."""
+    leave A; its mass stays, so pass the rotor wrenches of the whole structure); ``"rotor2"``:
+    any two rotors stop. With ``fault_margin=mu`` each wrench must also keep a margin of at
+    least mu after every failure (:func:`fault_margin` >= mu): thrust to spare for the
+    transient before the controller knows. Exact by the oracle's tolerance rule on each failed
+    matrix (module docstring)."""
     A, failures = _matrix_and_failures(structure, fault)
     W = check_wrenches(W)
     z = Zonotope(A, check_f_max(f_max))
-    return FaultTolerance(A, z.f_max, failures, z).decide(W, check_method(method))
+    tolerance = FaultTolerance(A, z.f_max, failures, z, check_fault_margin(fault_margin, fault))
+    return tolerance.decide(W, check_method(method))
 
 
 def fault_margin(
     structure, W: np.ndarray, f_max: float = 1.0, fault: str = "rotor", method: str = "auto"
 ) -> np.ndarray:
     """float (t,): the worst margin (:func:`~modquad_gym.oracle.margin`) of each wrench over
-    every single failure of kind ``fault``; >= 0 exactly when :func:`tolerates` is True. A
-    failure that leaves no rotor gives -inf (0 for the zero wrench)."""
+    every failure of kind ``fault``; >= 0 exactly when :func:`tolerates` is True (and >= mu,
+    up to the oracle's tolerance band, exactly when ``tolerates(..., fault_margin=mu)`` is).
+    A failure that leaves no rotor gives -inf (0 for the zero wrench)."""
     A, failures = _matrix_and_failures(structure, fault)
     W = check_wrenches(W)
     z = Zonotope(A, check_f_max(f_max))

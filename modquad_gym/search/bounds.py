@@ -78,7 +78,9 @@ def force_lower_bound(
     module fails, n - 1 modules' force set (so n >= the intact bound + 1); after a rotor fails,
     n Z_F less that rotor's force segment, whose support in a direction N is at most
     ``n h_1(N) - f_max max(0, N . d_j)`` for the rotor j of the module with the largest
-    ``N . d_j`` (any rotor may fail, so a tolerant structure survives losing that one)."""
+    ``N . d_j`` (any rotor may fail, so a tolerant structure survives losing that one); after
+    two rotors fail (``"rotor2"``), less the two largest of one module (a pair that may fail).
+    A required fault margin only shrinks what is feasible: these bounds stay valid for it."""
     dirs = module.directions
     normals = [
         np.cross(dirs[i], dirs[j]) for i in range(len(dirs)) for j in range(i + 1, len(dirs))
@@ -90,6 +92,9 @@ def force_lower_bound(
     proj = W[:, :3] @ N.T  # (t, k)
     if fault == "rotor":
         proj = proj + np.maximum(N @ dirs.T, 0.0).max(axis=1) * f_max
+    elif fault == "rotor2":
+        top = -np.sort(-np.maximum(N @ dirs.T, 0.0), axis=1)
+        proj = proj + top[:, :2].sum(axis=1) * f_max
     elif fault == "module":
         proj = proj + h1
     need = np.where(
@@ -136,8 +141,8 @@ def counts_possible(
     task's wrench ``model`` (each count vector's own mass: its weight, a dynamic task's
     inertial forces). Exact: a structure the oracle accepts always passes. With a ``fault``
     the capacity left after the worst single failure of a type present in the counts is used
-    (a module's whole force support, or its strongest rotor's in each direction; the mass
-    stays)."""
+    (a module's whole force support, or its strongest rotor's, or its two strongest rotors'
+    in each direction; the mass stays)."""
     counts = np.atleast_2d(np.asarray(counts, dtype=float))
     N = force_normals(palette)  # (k, 3)
     proj = [N @ m.directions.T for m in palette]  # each (k, r)
@@ -147,6 +152,9 @@ def counts_possible(
     if fault is not None:
         if fault == "module":
             loss = f_max * h  # (K, k): one module of each type
+        elif fault == "rotor2":  # two rotors of one module of each type
+            top = [-np.sort(-np.maximum(p, 0.0), axis=1)[:, :2].sum(axis=1) for p in proj]
+            loss = f_max * np.array(top)
         else:
             loss = f_max * np.array([np.maximum(p, 0.0).max(axis=1) for p in proj])
         present = counts > 0  # (C, K)

@@ -16,8 +16,9 @@ compiled code; otherwise a cached direction rejects a structure only when a lowe
 task's value for its mass and size exceeds its support. One *wrench values* object holds which
 (:func:`~modquad_gym.search.dynamic.wrench_values`): the checker asks it, whatever the task.
 
-With a ``fault`` (``"rotor"`` or ``"module"``) a structure satisfies the task only when it still
-does after any single failure of that kind (:mod:`modquad_gym.oracle.faults`). A tolerant
+With a ``fault`` (``"rotor"``, ``"module"`` or ``"rotor2"``) a structure satisfies the task only
+when it still does after any failure of that kind, with ``fault_margin`` to spare
+(:mod:`modquad_gym.oracle.faults`). A tolerant
 structure is feasible, so the intact decisions and the cached directions still rule structures
 out exactly; a structure that passes them is then decided failure by failure.
 """
@@ -69,10 +70,12 @@ class TaskChecker:
         f_max: float,
         palette: ModuleType | Sequence[ModuleType],
         fault: str | None = None,
+        fault_margin: float = 0.0,
     ) -> None:
         self.model = model
         self.W = model.base
         self.fault = fault
+        self.fault_margin = fault_margin
         self.f_max = f_max
         self.palette = [palette] if isinstance(palette, ModuleType) else list(palette)
         self.module = self.palette[0]
@@ -222,10 +225,10 @@ class TaskChecker:
 
     def tolerance(self, A: np.ndarray, z: Zonotope | None = None) -> FaultTolerance:
         """The fault tolerance of a structure's matrix A (columns by module) for this task's
-        ``fault``."""
+        ``fault`` and ``fault_margin``."""
         rotors = self.module.n_rotors
         failures = failure_sets(A.shape[1], self.fault, rotors)
-        return FaultTolerance(A, self.f_max, failures, z)
+        return FaultTolerance(A, self.f_max, failures, z, self.fault_margin)
 
     def decide(self, z: Zonotope, W: np.ndarray) -> np.ndarray:
         """Exact decisions (t,) of wrenches W for the zonotope z, counted as ``len(W)`` oracle

@@ -25,7 +25,7 @@ from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_task_scale
-from modquad_gym.oracle.faults import check_fault, failure_sets
+from modquad_gym.oracle.faults import check_fault, check_fault_margin, failure_sets
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.tasks import as_task
 
@@ -80,14 +80,17 @@ class SearchProblem:
         model: the task's rotor wrenches, linear in a structure's mass and inertia
             (:class:`~modquad_gym.dynamics.LinearWrenches`; a dynamic task's with repeated
             samples dropped).
-        fault: None (every rotor works), ``"rotor"`` or ``"module"``: a structure satisfies
-            the task only when it still does after any single failure of that kind
-            (:func:`~modquad_gym.oracle.faults.tolerates`).
+        fault: None (every rotor works), ``"rotor"``, ``"module"`` or ``"rotor2"``: a
+            structure satisfies the task only when it still does after any failure of that
+            kind (:func:`~modquad_gym.oracle.faults.tolerates`).
+        fault_margin: the worst margin each task wrench must keep after the failure (0 with
+            no fault; :func:`~modquad_gym.oracle.faults.fault_margin` measures it): thrust to
+            spare while the controller does not yet know of the failure.
         task: the task it was built from, with the ``f_max`` and ``kind`` it was given.
     """
 
     __slots__ = ("wrenches", "f_max", "n_max", "palette", "kind", "typed", "model", "fault",
-                 "task")  # fmt: skip
+                 "fault_margin", "task")  # fmt: skip
 
     def __init__(
         self,
@@ -99,11 +102,13 @@ class SearchProblem:
         modules: Sequence[ModuleType] | None = None,
         kind: str | None = None,
         fault: str | None = None,
+        fault_margin: float = 0.0,
     ) -> None:
         if isinstance(task, SearchProblem):
             raise TypeError("task is already a SearchProblem; use it as it is")
         if fault is not None:
             fault = check_fault(fault)
+        fault_margin = check_fault_margin(fault_margin, fault)
         task = as_task(task).with_f_max(f_max).with_kind(kind)
         model = task.decision_model
         check_search_size(model.base)
@@ -115,7 +120,7 @@ class SearchProblem:
         base = np.array(check_wrenches(model.base, allow_empty=False), dtype=float)  # a copy
         values = dict(wrenches=base, f_max=check_f_max(task.f_max), n_max=n_max,
                       palette=palette, kind=task.kind, typed=modules is not None, model=model,
-                      fault=fault, task=task)  # fmt: skip
+                      fault=fault, fault_margin=fault_margin, task=task)  # fmt: skip
         for name, value in values.items():
             object.__setattr__(self, name, value)
 
@@ -130,28 +135,40 @@ class SearchProblem:
             object.__setattr__(self, name, value)
 
     def replace(self, **changes) -> SearchProblem:
-        """A copy with some fields changed (``n_max``, ``fault``), checked as at construction."""
-        unknown = sorted(set(changes) - {"n_max", "fault"})
+        """A copy with some fields changed (``n_max``, ``fault``, ``fault_margin``), checked as
+        at construction (no fault: no margin)."""
+        unknown = sorted(set(changes) - {"n_max", "fault", "fault_margin"})
         if unknown:
-            raise TypeError(f"SearchProblem.replace takes n_max and fault, not {unknown[0]!r}")
+            raise TypeError(
+                f"SearchProblem.replace takes n_max, fault and fault_margin, not {unknown[0]!r}"
+            )
         out = copy.copy(self)
         if "n_max" in changes:
             object.__setattr__(out, "n_max", check_int(changes["n_max"], "n_max", low=1))
         if "fault" in changes:
             fault = changes["fault"]
             object.__setattr__(out, "fault", None if fault is None else check_fault(fault))
+            if out.fault is None:
+                object.__setattr__(out, "fault_margin", 0.0)
+        if "fault_margin" in changes:
+            margin = check_fault_margin(changes["fault_margin"], out.fault)
+            object.__setattr__(out, "fault_margin", margin)
         return out
 
     @classmethod
     def build(cls, task, n_max: int = 7, f_max: float | None = None,
               module: ModuleType | None = None, *, modules: Sequence[ModuleType] | None = None,
-              kind: str | None = None, fault: str | None = None) -> SearchProblem:  # fmt: skip
+              kind: str | None = None, fault: str | None = None,
+              fault_margin: float = 0.0) -> SearchProblem:  # fmt: skip
         """The same as the constructor (kept for callers of earlier versions)."""
-        return cls(task, n_max, f_max, module, modules=modules, kind=kind, fault=fault)
+        return cls(task, n_max, f_max, module, modules=modules, kind=kind, fault=fault,
+                   fault_margin=fault_margin)  # fmt: skip
 
     def __repr__(self) -> str:
         types = ",".join(m.name for m in self.palette)
         fault = f", fault={self.fault!r}" if self.fault else ""
+        if self.fault_margin:
+            fault += f", fault_margin={self.fault_margin:g}"
         return (
             f"SearchProblem({self.task.name!r}: {len(self.wrenches)} wrenches, kind={self.kind}, "
             f"n_max={self.n_max}, f_max={self.f_max:g}, modules={types}{fault})"
@@ -201,7 +218,8 @@ class SearchProblem:
         W = self.rotor_wrenches(structure)
         if self.fault is None:
             return feasible(structure.configuration_matrix(), W, self.f_max, method="daqp")
-        return tolerates(structure, W, self.f_max, fault=self.fault)
+        return tolerates(structure, W, self.f_max, fault=self.fault,
+                         fault_margin=self.fault_margin)  # fmt: skip
 
     def without_meta(self) -> SearchProblem:
         """The same problem whose task carries no ``meta`` (a held-out task's certified optimum
@@ -216,7 +234,7 @@ class SearchProblem:
 
     def checker(self) -> TaskChecker:
         """A fresh :class:`TaskChecker` of this problem."""
-        return TaskChecker(self.model, self.f_max, self.palette, self.fault)
+        return TaskChecker(self.model, self.f_max, self.palette, self.fault, self.fault_margin)
 
     def with_n_max(self, n_max: int) -> SearchProblem:
         """The same problem with another module budget."""
@@ -307,16 +325,16 @@ TASK_PARAMETERS = tuple(
 )
 """The arguments every search's entry point takes first (those of :class:`SearchProblem`)."""
 
-PROBLEM_FIELDS = ("n_max", "f_max", "module", "modules", "kind", "fault")
+PROBLEM_FIELDS = ("n_max", "f_max", "module", "modules", "kind", "fault", "fault_margin")
 """The keywords that describe a problem: given beside a :class:`SearchProblem`, refused."""
 
 
 def as_problem(task, n_max=DEFAULT_N_MAX, f_max=None, module=None, *, modules=None, kind=None,
-               fault=None) -> SearchProblem:  # fmt: skip
+               fault=None, fault_margin=None) -> SearchProblem:  # fmt: skip
     """``task`` itself when it is a :class:`SearchProblem` (then a keyword that would change it
     is refused: a ValueError names it), else the problem of these arguments."""
     given = dict(n_max=n_max, f_max=f_max, module=module, modules=modules, kind=kind,
-                 fault=fault)  # fmt: skip
+                 fault=fault, fault_margin=fault_margin)  # fmt: skip
     if isinstance(task, SearchProblem):
         extra = [k for k, v in given.items() if v is not None and v is not DEFAULT_N_MAX]
         if extra:
@@ -327,7 +345,8 @@ def as_problem(task, n_max=DEFAULT_N_MAX, f_max=None, module=None, *, modules=No
             )
         return task
     return SearchProblem(task, int(n_max) if n_max is DEFAULT_N_MAX else n_max, f_max, module,
-                         modules=modules, kind=kind, fault=fault)  # fmt: skip
+                         modules=modules, kind=kind, fault=fault,
+                         fault_margin=0.0 if fault_margin is None else fault_margin)  # fmt: skip
 
 
 def search_entry(name: str) -> Callable[[Callable], Callable]:
@@ -345,13 +364,12 @@ def search_entry(name: str) -> Callable[[Callable], Callable]:
 
         @functools.wraps(solve)
         def entry(task, n_max=DEFAULT_N_MAX, f_max=None, module=None, *, modules=None,
-                  kind=None, fault=None, **kwargs):  # fmt: skip
+                  kind=None, fault=None, fault_margin=None, **kwargs):  # fmt: skip
             unknown = sorted(set(kwargs) - names)
             if unknown:
                 raise TypeError(unknown_option(name, unknown[0], names))
-            problem = as_problem(
-                task, n_max, f_max, module, modules=modules, kind=kind, fault=fault
-            )
+            problem = as_problem(task, n_max, f_max, module, modules=modules, kind=kind,
+                                 fault=fault, fault_margin=fault_margin)  # fmt: skip
             return solve(problem, **kwargs)
 
         returns = inspect.signature(solve).return_annotation

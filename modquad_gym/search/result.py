@@ -89,8 +89,9 @@ class SearchResult:
             lower_bound <= n_max + 1; how each search proves it: module docstring). None at
             construction means what ``certified`` says: ``n_modules`` (or ``n_max + 1``) when
             certified, else the trivial bound 1.
-        fault: the single failure the structure survives (``"rotor"``, ``"module"``), or
-            None when every rotor was assumed to work.
+        fault: the failure the structure survives (``"rotor"``, ``"module"``, ``"rotor2"``),
+            or None when every rotor was assumed to work.
+        fault_margin: the worst margin it keeps after that failure, at least (0: none asked).
         history: how the bound and the incumbent improved over time (:class:`Improvement`,
             in order; the anytime search fills it, the others leave it empty).
     """
@@ -110,6 +111,7 @@ class SearchResult:
     skipped: int = 0
     lower_bound: int | None = None
     fault: str | None = None
+    fault_margin: float = 0.0
     history: tuple[Improvement, ...] = ()
 
     def __post_init__(self) -> None:
@@ -148,6 +150,8 @@ class SearchResult:
     def message(self) -> str:
         """One line that says what :attr:`status` means for this result."""
         status, fault = self.status, f" surviving any {self.fault} failure" if self.fault else ""
+        if self.fault_margin:
+            fault += f" with a margin of {self.fault_margin:g}"
         if status is Status.OPTIMAL:
             return f"{self.n_modules} modules{fault} (certified minimum)"
         if status is Status.FEASIBLE:
@@ -191,6 +195,8 @@ class SearchResult:
         out.update(kind_entry(self.kind))  # the default kind left out, as in task files
         if self.fault is not None:
             out["fault"] = self.fault
+        if self.fault_margin:
+            out["fault_margin"] = self.fault_margin
         if self.proof:
             out["proof"] = self.proof
         if self.history:
@@ -315,7 +321,8 @@ class SearchRun:
             else:  # the LP per failure up to LP_ROTORS rotors, else the explicit certificates
                 A = structure.configuration_matrix()
                 method = "daqp" if A.shape[1] <= LP_ROTORS else "auto"
-                ok = tolerates(structure, W, p.f_max, fault=p.fault, method=method)
+                ok = tolerates(structure, W, p.f_max, fault=p.fault, method=method,
+                               fault_margin=p.fault_margin)  # fmt: skip
             if not ok.all():
                 raise RuntimeError(  # pragma: no cover - an oracle bug, never a silent success
                     f"{self.method} search found {structure!r} but the exact LP rejects it"
@@ -336,6 +343,7 @@ class SearchRun:
             skipped=self.skipped,
             lower_bound=lower_bound,
             fault=p.fault,
+            fault_margin=p.fault_margin,
             history=tuple(self.history),
         )
 

@@ -42,7 +42,7 @@ import numpy as np  # noqa: E402
 from modquad_gym.core.validation import check_f_max, check_real, check_wrenches  # noqa: E402
 from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.oracle import TOL, margin  # noqa: E402
-from modquad_gym.oracle.faults import FaultTolerance, check_fault  # noqa: E402
+from modquad_gym.oracle.faults import FaultTolerance, check_fault, failure_sets  # noqa: E402
 from modquad_gym.search.checker import LP_ROTORS  # noqa: E402
 from modquad_gym.sim.failure import Failure  # noqa: E402
 from modquad_gym.sim.report import finite_or_none  # noqa: E402
@@ -65,13 +65,13 @@ GOAL_M = 0.05
 
 
 def failure_columns(structure: Structure, fault: str) -> list[np.ndarray]:
-    """The column sets of A that one failure of kind ``fault`` removes: each rotor, or each
-    module's rotors (its own rotor count), in the order of
+    """The column sets of A that one failure of kind ``fault`` removes: each rotor, each
+    module's rotors (its own rotor count) or each pair of rotors, in the order of
     :meth:`~modquad_gym.geometry.structure.Structure.configuration_matrix`."""
     fault = check_fault(fault)
     starts = np.cumsum([0] + [m.n_rotors for m in structure.modules])
-    if fault == "rotor":
-        return [np.array([k]) for k in range(int(starts[-1]))]
+    if fault != "module":  # each rotor, or each pair of rotors
+        return failure_sets(int(starts[-1]), fault)
     return [np.arange(a, b) for a, b in zip(starts[:-1], starts[1:])]
 
 
@@ -185,7 +185,7 @@ class FaultFlight:
             "fault_failed_module": module,
             "fault_failed_cell": list(self.structure.cells[module]),
             "fault_failed_rotor_in_module": (
-                int(first - starts[module]) if self.fault == "rotor" else None
+                int(first - starts[module]) if self.fault != "module" else None
             ),
         }
 

@@ -137,6 +137,7 @@ def make_solver(
     guided: dict | None = None,
     tier: str | None = None,
     fault: str | None = None,
+    fault_margin: float | None = None,
     **options: Any,
 ) -> Solver:
     """The one factory of solvers, read from :data:`~modquad_gym.methods.REGISTRY`: ``method``
@@ -145,7 +146,8 @@ def make_solver(
     or ``package.module:Name`` (an outside agent, :func:`load_solver`, told ``n_max``,
     ``tier`` and ``modules``).
 
-    ``n_max``, ``modules`` (a palette) and ``fault`` make the :class:`SearchProblem` of a task
+    ``n_max``, ``modules`` (a palette), ``fault`` and ``fault_margin`` (the worst margin
+    required after the failure) make the :class:`SearchProblem` of a task
     handed to ``solve``; a problem handed to ``solve`` is used as it is. ``model``, ``seed``,
     ``samples``, ``guided`` (a dict of guided-search options) and ``options`` are the method's
     options: one it does not take is refused (TypeError naming it and the ones it takes), and
@@ -161,6 +163,10 @@ def make_solver(
     if fault is not None and not entry.fault:
         raise ValueError(refused_fault(entry.name, fault))
     defaults = {"n_max": n_max, "modules": list(modules) if modules else None, "fault": fault}
+    if fault_margin is not None:
+        from modquad_gym.oracle.faults import check_fault_margin
+
+        defaults["fault_margin"] = check_fault_margin(fault_margin, fault)
     solver = entry.solver(settings, defaults)
     samples = getattr(settings, "samples", 0)
     solver.name = f"ppo-k{samples}" if method == "ppo" and samples else method  # a variant's

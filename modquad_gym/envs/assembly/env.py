@@ -48,7 +48,7 @@ from modquad_gym.envs.assembly.types import AssemblyState, Episode
 from modquad_gym.envs.assembly.viewer import RENDER_FPS, AssemblyViewer
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Cell, Structure
-from modquad_gym.oracle.faults import check_fault
+from modquad_gym.oracle.faults import check_fault, check_fault_margin
 from modquad_gym.tasks import make_generator
 
 N_MAX_LIMIT = 128
@@ -182,8 +182,11 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     * ``actions``: the action encoding, ``"grid"`` (default) or ``"faces"`` (above).
     * ``n_directions``: K, the support directions of the features (default 48, 12..4096).
     * ``oracle_method``: the oracle's method (default ``"auto"``, exact and certified).
-    * ``fault``: None (default), ``"rotor"`` or ``"module"``: a wrench is satisfied only when
-      it survives ANY single failure of that kind, so success is tolerance (:mod:`.evaluator`).
+    * ``fault``: None (default), ``"rotor"``, ``"module"`` or ``"rotor2"`` (any two rotors): a
+      wrench is satisfied only when it survives ANY failure of that kind, so success is
+      tolerance (:mod:`.evaluator`).
+    * ``fault_margin``: with ``fault``, the worst margin a wrench must keep after the failure
+      (default 0; :func:`~modquad_gym.oracle.faults.fault_margin`), in [0, 1).
     * ``render_size``: (height, width) of ``rgb_array`` frames, 16..4096 each, default (256, 256).
     * ``lookahead``: add the ``"candidates"`` observation (default False): True (support rows)
       or ``"exact"`` (the exact one-step lookahead too; slower: every child is decided).
@@ -220,6 +223,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         lookahead: bool | str = False,
         oracle_method: str = "auto",
         fault: str | None = None,
+        fault_margin: float = 0.0,
         # the reward
         reward_weights: Any = None,
         reward: RewardFn | None = None,
@@ -239,6 +243,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         self.n_directions = check_int(n_directions, "n_directions", 12, MAX_N_DIRECTIONS)
         self.oracle_method = check_oracle_method(oracle_method)
         self.fault = None if fault is None else check_fault(fault)
+        self.fault_margin = check_fault_margin(fault_margin, self.fault)
         self.reward: RewardFn = make_reward(reward, reward_weights)
         self.render_mode = render_mode
         size = check_render_size(render_size)
@@ -307,7 +312,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
             ev = self.evaluators[f_max] = self.module_set.evaluator(
                 self.n_max, f_max, self.n_directions, self.oracle_method
             )
-            ev.fault = self.fault
+            ev.fault, ev.fault_margin = self.fault, self.fault_margin
         return ev
 
     def _require(self, what: str) -> AssemblyState:

@@ -120,11 +120,13 @@ class StructureEvaluator:
     Attributes:
         tests: wrench-structure tests sent to the oracle so far (all episodes).
         cache_size: structures each per-structure cache holds (:data:`CACHED_COLUMNS`).
-        fault: None, or the single failure a satisfied wrench must survive (``"rotor"``,
-            ``"module"``); the environment sets it.
+        fault: None, or the failure a satisfied wrench must survive (``"rotor"``,
+            ``"module"``, ``"rotor2"``); the environment sets it.
+        fault_margin: the worst margin it must keep after that failure (default 0).
     """
 
     fault: str | None = None
+    fault_margin: float = 0.0
 
     def __init__(
         self, module: ModuleType, n_max: int, f_max: float, n_directions: int, method: str
@@ -251,7 +253,9 @@ class StructureEvaluator:
                 self.tolerance.clear()
             failures = failure_sets(A.shape[1], self.fault, self.module.n_rotors)
             zonotope = self.oracle.zonotope(A, key=key)
-            ft = self.tolerance[key] = FaultTolerance(A, zonotope.f_max, failures, zonotope)
+            ft = self.tolerance[key] = FaultTolerance(
+                A, zonotope.f_max, failures, zonotope, self.fault_margin
+            )
         before = ft.tests
         ok = ft.decide(W, self.oracle.method)
         return int(np.count_nonzero(ok)), ft.tests - before
