@@ -165,7 +165,7 @@ def test_critic_warmup_keeps_the_actor_and_fits_the_critic(tmp_path, suite, warm
 def test_the_report_says_what_fine_tuning_did_from_the_learning_curve(tmp_path):
     """The report's sentence on PPO is read off evaluations.npz: a falling curve is never
     called a rise, and a rise names its numbers."""
-    from modquad_gym.scoring.agents_report import fine_tuning_words
+    from modquad_gym.scoring.fine_tuning import fine_tuning_words
 
     def words(returns, successes) -> str:
         path = tmp_path / "evaluations.npz"

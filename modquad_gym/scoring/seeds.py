@@ -22,54 +22,23 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from modquad_gym.core.options import int_option
 from modquad_gym.core.outputs import check_output_dir, save_figure, write_csv, write_text
 from modquad_gym.scoring import machine_description
 from modquad_gym.scoring.agents import SEARCH_METHODS, run_benchmark
 from modquad_gym.scoring.scores import Row, config_limit, share_limit
+from modquad_gym.scoring.stats import interval, iqm
 from modquad_gym.scoring.tiers import TIERS, get_tier
 
 METRICS = {"success": "success", "optimal": "optimal share", "evaluated": "configs / task"}
 SEED_FILES = ("seeds.md", "seeds.csv", "seeds.png")
-
-
-def iqm(scores: np.ndarray) -> float:
-    """Interquartile mean: the mean of the middle 50 % (25 % trimmed at each end)."""
-    return float(stats.trim_mean(np.ravel(scores), 0.25))
-
-
-def interval(
-    columns: Sequence[np.ndarray],
-    aggregate: Callable[[np.ndarray], float],
-    reps: int = 2000,
-    seed: int = 0,
-) -> tuple[float, float, float]:
-    """(point, low, high): ``aggregate`` of the pooled columns (one column of per-seed scores
-    per suite) with its 95 % percentile bootstrap interval, each column resampled on its own
-    (stratified by suite)."""
-    cols = [np.asarray(c, dtype=float) for c in columns]
-    point = aggregate(np.concatenate(cols))
-    if all(np.ptp(c) == 0 for c in cols):  # nothing varies: the interval is the point
-        return point, point, point
-    res = stats.bootstrap(
-        cols,
-        lambda *cs: aggregate(np.concatenate(cs)),
-        n_resamples=reps,
-        vectorized=False,
-        paired=False,
-        confidence_level=0.95,
-        method="percentile",
-        random_state=np.random.default_rng(seed),
-    )
-    return point, float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
 @dataclass

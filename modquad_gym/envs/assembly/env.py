@@ -1,12 +1,7 @@
-"""The Gymnasium environment ``ModQuadAssembly-v0``: build a structure module by module.
-
-Split as in Jumanji: this module holds the Gymnasium API, thin over the pure transitions of
-:mod:`.transitions`; the state is the immutable :class:`~.types.AssemblyState`; the parts are
-passed in: tasks come from a generator (:mod:`modquad_gym.tasks`), the module set is one type or
-a palette (:mod:`.modules`), the reward is a :class:`~.reward.RewardFn`, pictures come from an
-:class:`~.viewer.AssemblyViewer`; the observation is made of the blocks of :mod:`.features` and
-structures are decided by :mod:`.evaluator`.
-"""
+"""The Gymnasium environment ``ModQuadAssembly-v0``: build a structure module by module. Split as
+in Jumanji: the Gymnasium API, thin over the pure :mod:`.transitions` of an immutable
+:class:`~.types.AssemblyState`, with its parts passed in (task generator, module set, reward,
+viewer; observation blocks of :mod:`.features`, decisions of :mod:`.evaluator`)."""
 
 from __future__ import annotations
 
@@ -51,9 +46,7 @@ from modquad_gym.geometry.structure import Cell, Structure
 from modquad_gym.oracle.faults import check_fault, check_fault_margin
 from modquad_gym.tasks import make_generator
 
-N_MAX_LIMIT = 128
-"""Largest ``n_max``, the searches' limit (beyond the field's largest designs, 90 modules; the
-grid encoding then has 255^2 actions, the faces encoding 258)."""
+N_MAX_LIMIT = 128  # the searches' limit (grid encoding: 255^2 actions; faces: 258)
 DEFAULT_TASKS = "mixed"  # the default task source
 MAX_STEPS_LIMIT = 4 * N_MAX_LIMIT  # the largest max_steps
 ENCODINGS = {"grid": Grid, "faces": Faces}  # the action encodings (:mod:`.grid`, .faces)
@@ -320,15 +313,11 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
             raise ResetNeeded(f"call reset() before {what}")
         return self._state
 
-    @property
-    def state(self) -> AssemblyState:
-        """The episode's current :class:`~.types.AssemblyState`."""
-        return self._require("asking for the state")
+    state = property(lambda self: self._require("asking for the state"),
+                     doc="The episode's current :class:`~.types.AssemblyState`.")  # fmt: skip
 
-    @property
-    def evaluator(self) -> StructureEvaluator | None:
-        """The current episode's evaluator (None before ``reset``)."""
-        return None if self._episode is None else self._episode.evaluator
+    evaluator = property(lambda self: None if self._episode is None else self._episode.evaluator,
+                         doc="The episode's evaluator (None before ``reset``).")  # fmt: skip
 
     def restore(self, state: AssemblyState) -> dict[str, np.ndarray]:
         """Continue the episode from an earlier ``state`` of it (one ``env.state`` returned;
