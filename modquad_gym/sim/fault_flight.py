@@ -221,7 +221,19 @@ class FaultFlight:
             "fault_before_max_position_error_m": finite_or_none(self.before_max_position_error_m),
             "fault_diverged": self.run.diverged,
             "fault_within_5cm": self.within_goal,
+            **self.detection(),
         }
+
+    def detection(self) -> dict:
+        """With a detector: how long after the failure it decided (None: never) and the rotors
+        it named."""
+        if getattr(self.run, "detector", None) is None:
+            return {}
+        hit = self.run.detection
+        if hit is None:
+            return {"fault_detected_after_s": None, "fault_detected_rotors": None}
+        return {"fault_detected_after_s": float(hit[0] - self.failure.time_s),
+                "fault_detected_rotors": [int(c) for c in hit[1]]}  # fmt: skip
 
 
 def hover_with_failure(
@@ -231,6 +243,7 @@ def hover_with_failure(
     seconds: float = FAULT_HOVER_SECONDS,
     f_max: float = 1.0,
     config=None,
+    detector=None,
 ) -> TrackResult:
     """Hold the rotor wrench ``w`` (6,) at home for ``seconds`` through ``failure``.
 
@@ -238,7 +251,11 @@ def hover_with_failure(
     throughout, the load known to the controller (:class:`~modquad_gym.sim.hover.HoverController`
     with a :class:`~modquad_gym.sim.hover.HoverConfig`, ``config`` or the defaults). Stopped
     early past the hover's drift limits (``diverged`` says why). Arrays per control step, the
-    state read before the step as in :func:`~modquad_gym.sim.track.fly_trajectory`."""
+    state read before the step as in :func:`~modquad_gym.sim.track.fly_trajectory`. With a
+    ``detector`` (:class:`~modquad_gym.sim.detector.DetectorConfig`, or a (config, noise)
+    pair) the controller is not told of the failure: it switches when the
+    :class:`~modquad_gym.sim.detector.FailureDetector` decides, to the rotors it names
+    (``run.detection``: (time, columns) or None)."""
     from modquad_gym.sim.hover import HoverConfig, HoverController, Plant, rotation_angle
     from modquad_gym.sim.hover.recorder import drift_reason
     from modquad_gym.sim.hover.run import Flight
@@ -261,13 +278,21 @@ def hover_with_failure(
     flown, att, quat_ = np.zeros((N, 3)), np.zeros(N), np.zeros((N, 4))
     inputs, saturated = np.zeros((N, m)), np.zeros(N, dtype=bool)
     working, known, diverged = np.ones(m, dtype=bool), False, None
+    watch = _detector(detector, plant, failure, dt)
+    believed = failure
     for k in range(N):
-        if not known and t[k] >= failure.detected_s - 1e-9:
+        if watch is None and not known and t[k] >= failure.detected_s - 1e-9:
             ctrl, known = _failed_controller(failure, plant, cfg, dt, w), True
         state = flight.state()
         u = np.zeros(m)
         if ctrl is not None:  # the intact controller, or the reduced one once it knows
-            u[failure.working(m) if known else slice(None)], _ = ctrl.command(w, state)
+            u[believed.working(m) if known else slice(None)], _ = ctrl.command(w, state)
+        if watch is not None and not known:
+            load = np.array(flight.data.xfrc_applied[flight.body])
+            hit = watch.update(t[k], state[0], state[3], state[4], u, load, flight.gravity)
+            if hit is not None:
+                believed = Failure(tuple(hit[1]), failure.time_s, 0.0, failure.kind)
+                ctrl, known = _failed_controller(believed, plant, cfg, dt, w), True
         if t[k] >= failure.time_s - 1e-9:
             working = failure.working(m)
             u[~working] = 0.0  # the failed rotors give no thrust, whatever is commanded
@@ -282,8 +307,27 @@ def hover_with_failure(
         flight.step(u)
     n = k + 1
     desired = np.tile(flight.p_ref, (n, 1))
-    return TrackResult(t[:n], desired, flown[:n], quat_[:n], att[:n], inputs[:n],
-                       saturated[:n], np.tile(w, (n, 1)), cfg.f_max, diverged)  # fmt: skip
+    run = TrackResult(t[:n], desired, flown[:n], quat_[:n], att[:n], inputs[:n],
+                      saturated[:n], np.tile(w, (n, 1)), cfg.f_max, diverged)  # fmt: skip
+    run.detection = None if watch is None else watch.detected
+    run.detector = watch
+    return run
+
+
+def _detector(detector, plant, failure: Failure, dt: float):
+    """The :class:`~modquad_gym.sim.detector.FailureDetector` of a flight (None without one):
+    it may name any failure of the flown kind."""
+    if detector is None:
+        return None
+    from modquad_gym.sim.detector import DetectorConfig, FailureDetector, SensorNoise
+
+    config, noise = detector if isinstance(detector, tuple) else (detector, None)
+    m = plant.A.shape[1]
+    kind = failure.kind if failure.kind in ("rotor", "module", "rotor2") else "rotor"
+    sets = failure_sets(m, kind) if kind != "module" or m % 4 == 0 else [np.arange(m)]
+    return FailureDetector(plant.A, plant.mass, plant.J, plant.f_max, sets, dt,
+                           config if isinstance(config, DetectorConfig) else None,
+                           noise if isinstance(noise, SensorNoise) else None)  # fmt: skip
 
 
 def _failed_controller(failure: Failure, plant, cfg, dt: float, w: np.ndarray):
@@ -320,6 +364,7 @@ def fly_with_failure(
     detection_delay_s: float = DETECTION_DELAY_S,
     f_max: float | None = None,
     track_config: TrackConfig | None = None,
+    detector=None,
 ) -> FaultFlight:
     """Fly ``structure`` on ``task`` through its worst single failure of kind ``fault``.
 
@@ -333,6 +378,11 @@ def fly_with_failure(
         detection_delay_s: seconds before the controller knows (:mod:`~modquad_gym.sim.failure`).
         f_max: the thrust limit for an array task (a task object carries its own).
         track_config: dynamic task: how to fly the trajectory.
+        detector: static task: a :class:`~modquad_gym.sim.detector.DetectorConfig` (or a
+            (config, :class:`~modquad_gym.sim.detector.SensorNoise`) pair): the controller is
+            not told of the failure, the detector decides when and which rotors
+            (``detection_delay_s`` is then unused); the summary adds ``fault_detected_after_s``
+            and ``fault_detected_rotors``.
 
     Returns:
         A :class:`FaultFlight`; ``summary()`` is its record (``fault_max_position_error_m``,
@@ -350,6 +400,8 @@ def fly_with_failure(
     if isinstance(task, DynamicTask):
         from modquad_gym.sim.track import fly_trajectory
 
+        if detector is not None:
+            raise ValueError("detector: the failure detector flies static tasks (a hover) only")
         traj = task.trajectory
         hardest = float(traj.t[worst.row] - traj.t[0])
         at = min(traj.duration / 2.0, max(0.0, hardest - LEAD_S))
@@ -358,5 +410,5 @@ def fly_with_failure(
         return FaultFlight(structure, "trajectory", fault, failure, worst, run, name)
     seconds = check_real(seconds, "seconds", positive=True)
     failure = Failure(tuple(worst.columns), seconds / 2.0, detection_delay_s, fault)
-    run = hover_with_failure(structure, W[worst.row], failure, seconds, fm)
+    run = hover_with_failure(structure, W[worst.row], failure, seconds, fm, detector=detector)
     return FaultFlight(structure, "hover", fault, failure, worst, run, name)

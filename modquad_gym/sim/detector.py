@@ -1,0 +1,124 @@
+"""A failure detector on what the vehicle senses: a momentum observer of the unexplained wrench.
+
+The vehicle measures its velocity v (world frame, from its state estimator) and its body rate
+omega (gyro), both with Gaussian noise (:class:`SensorNoise`), and knows what it commands: the
+thrusts u, hence the wrench A u, and the load it holds. A generalized-momentum observer (De Luca
+and Mattone's residual, standard in robot fault detection) turns these into the wrench the model
+does not explain, low-pass filtered with bandwidth K (1/s):
+
+    p = [m v ; J omega],   r_k = K (p_k - p_0 - sum_i (predicted_i + r_i) dt),
+
+predicted = [R A_f u + load + m g ; A_t u + load torque (body) - omega x J omega]. Intact, r is
+sensor noise; when rotors S stop, r tends to the thrust they no longer give, -A_S u_S (body
+frame). The detector declares a failure when the residual's size (force and torque scaled by one
+rotor's full thrust and its torque at the longest arm) exceeds ``threshold`` for ``persistence``
+control steps in a row, and names the failure set S whose missing wrench -A_S u_S points most
+nearly along the residual (u the commanded thrusts; the direction, since the filtered residual
+is still rising). The allocator then switches to A without S
+(:class:`~modquad_gym.sim.failure.Failure`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class SensorNoise:
+    """Standard deviations of the measured velocity (m/s) and body rate (rad/s) per control
+    step, and the seed of their noise."""
+
+    velocity: float = 0.001
+    rate: float = 0.002
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class DetectorConfig:
+    """The observer's bandwidth (1/s), the residual threshold (a fraction of one rotor's full
+    thrust, and of its torque at the longest arm) and the persistence window (control
+    steps)."""
+
+    bandwidth: float = 60.0
+    threshold: float = 0.3
+    persistence: int = 6
+
+
+class FailureDetector:
+    """The residual observer and its decision for one flight (one control step per
+    :meth:`update`).
+
+    Args:
+        A: the (6, m) configuration matrix (body frame, about the COM).
+        mass, J: the structure's mass (kg) and inertia (3, 3) about the COM.
+        f_max: per-rotor thrust limit.
+        candidates: the failure sets it may name (column sets of A).
+        dt: the control period (s).
+        config, noise: :class:`DetectorConfig`, :class:`SensorNoise`.
+    """
+
+    def __init__(self, A, mass, J, f_max, candidates, dt, config=None, noise=None) -> None:
+        self.A = np.asarray(A, dtype=float)
+        self.mass, self.J, self.dt = float(mass), np.asarray(J, dtype=float), float(dt)
+        self.candidates = [np.asarray(S, dtype=int) for S in candidates]
+        self.config = config or DetectorConfig()
+        self.noise = noise or SensorNoise()
+        self.rng = np.random.default_rng(self.noise.seed)
+        self.scale = np.array([f_max] * 3 + [f_max * _arm(self.A)] * 3)  # one rotor's
+        self.r = np.zeros(6)
+        self._integral = np.zeros(6)
+        self._p0: np.ndarray | None = None
+        self._over = 0
+        self.detected: tuple[float, np.ndarray] | None = None  # (time, failure set)
+        self.peak = 0.0  # the largest scaled residual seen before a detection
+
+    def sense(self, v: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The noisy measurements of the true velocity and body rate."""
+        return (v + self.rng.normal(0.0, self.noise.velocity, 3),
+                omega + self.rng.normal(0.0, self.noise.rate, 3))  # fmt: skip
+
+    def update(self, t, R, v, omega, u, load_world, gravity) -> tuple[float, np.ndarray] | None:
+        """One control step: true state (R body-to-world, v, omega), commanded thrusts u, the
+        load (6,) applied in the world frame and the gravity vector; returns the detection
+        (time, failure set) once made."""
+        if self.detected is not None:
+            return self.detected
+        v_m, w_m = self.sense(v, omega)
+        p = np.concatenate([self.mass * v_m, self.J @ w_m])
+        if self._p0 is None:
+            self._p0 = p
+        wrench = self.A @ u
+        force = R @ wrench[:3] + load_world[:3] + self.mass * gravity
+        torque = wrench[3:] + R.T @ load_world[3:] - np.cross(w_m, self.J @ w_m)
+        predicted = np.concatenate([force, torque])
+        self.r = self.config.bandwidth * (p - self._p0 - self._integral)
+        self._integral += (predicted + self.r) * self.dt
+        body = np.concatenate([R.T @ self.r[:3], self.r[3:]])
+        size = float(np.abs(body / self.scale).max())
+        self._over = self._over + 1 if size > self.config.threshold else 0
+        if self._over < self.config.persistence:
+            self.peak = max(self.peak, size)
+            return None
+        self.detected = (t, self._isolate(body, u))
+        return self.detected
+
+    def _isolate(self, residual: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """The failure set whose missing wrench d_S = -A_S u_S best explains the residual up to
+        a positive factor (the observer's filter has not reached the full step yet): the least
+        angle between the scaled residual and the scaled d_S."""
+        r = residual / self.scale
+        best, score = self.candidates[0], -np.inf
+        for S in self.candidates:
+            d = -(self.A[:, S] @ u[S]) / self.scale
+            norm = float(np.linalg.norm(d))
+            cos = float(r @ d) / (norm * float(np.linalg.norm(r))) if norm > 0 else -np.inf
+            if cos > score:
+                best, score = S, cos
+        return best
+
+
+def _arm(A: np.ndarray) -> float:
+    """A typical lever arm (m): the largest torque per unit thrust of a column."""
+    return float(np.linalg.norm(A[3:], axis=0).max()) or 1.0
