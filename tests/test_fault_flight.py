@@ -152,7 +152,7 @@ def test_cli_fault_refusals_before_work(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(_argv(tmp_path, "--fault", "rotor", "--method", "ppo")) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "--fault rotor" in err and "ppo" in err
+    assert err.count("\n") == 1 and "fault='rotor'" in err and "ppo" in err
     assert not out.exists()
     assert main(_argv(tmp_path, "--detection-delay", "0.1")) == 2
     err = capsys.readouterr().err
