@@ -88,9 +88,10 @@ def main(argv=None) -> int:
         f"Made by `python -m benchmarks.fault_detector {' '.join(argv or sys.argv[1:])}` on "
         f"{machine_description()}.",
         "",
-        "Detector defaults (modquad_gym.sim.detector): observer bandwidth 60 /s, threshold 0.3 of "
-        "one rotor's full thrust (torque: at the longest arm), 6 control steps (12 ms) in a row; "
-        "sensor noise 0.001 m/s on the velocity and 0.002 rad/s on the body rate per 2 ms step.",
+        "Detector defaults (modquad_gym.sim.detector.DetectorConfig): observer bandwidth 60 /s; "
+        "the residual must exceed 0.1 of one rotor's full thrust (torque: at the longest arm) "
+        "and 4 times its own noise, 6 control steps (12 ms) in a row; sensor noise 0.001 m/s on "
+        "the velocity and 0.002 rad/s on the body rate per 2 ms step.",
         "",
         "| fault | design | structures | detected | within 30 ms | detection ms (median, max) "
         "| right rotors | within 5 cm | largest error (cm) | false alarms in "

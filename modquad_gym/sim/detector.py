@@ -10,9 +10,10 @@ does not explain, low-pass filtered with bandwidth K (1/s):
 
 predicted = [R A_f u + load + m g ; A_t u + load torque (body) - omega x J omega]. Intact, r is
 sensor noise; when rotors S stop, r tends to the thrust they no longer give, -A_S u_S (body
-frame). The detector declares a failure when the residual's size (force and torque scaled by one
-rotor's full thrust and its torque at the longest arm) exceeds ``threshold`` for ``persistence``
-control steps in a row, and names the failure set S whose missing wrench -A_S u_S points most
+frame). The detector declares a failure when the residual exceeds both ``threshold`` (force and
+torque scaled by one rotor's full thrust and its torque at the longest arm) and ``z`` times its
+noise (K times the momentum's measurement noise, per component: a heavier structure's force
+residual is noisier) for ``persistence`` control steps in a row, and names the failure set S whose missing wrench -A_S u_S points most
 nearly along the residual (u the commanded thrusts; the direction, since the filtered residual
 is still rising). The allocator then switches to A without S
 (:class:`~modquad_gym.sim.failure.Failure`).
@@ -37,12 +38,13 @@ class SensorNoise:
 
 @dataclass(frozen=True)
 class DetectorConfig:
-    """The observer's bandwidth (1/s), the residual threshold (a fraction of one rotor's full
-    thrust, and of its torque at the longest arm) and the persistence window (control
-    steps)."""
+    """The observer's bandwidth (1/s); the residual must exceed ``threshold`` (a fraction of
+    one rotor's full thrust, or of its torque at the longest arm) and ``z`` times its own noise
+    (in some component) for ``persistence`` control steps in a row."""
 
     bandwidth: float = 60.0
-    threshold: float = 0.3
+    threshold: float = 0.1
+    z: float = 4.0
     persistence: int = 6
 
 
@@ -67,6 +69,10 @@ class FailureDetector:
         self.noise = noise or SensorNoise()
         self.rng = np.random.default_rng(self.noise.seed)
         self.scale = np.array([f_max] * 3 + [f_max * _arm(self.A)] * 3)  # one rotor's
+        # the residual's noise per component: K times the momentum's measurement noise
+        K = self.config.bandwidth
+        self.sigma = K * np.concatenate([np.full(3, self.mass * self.noise.velocity),
+                                         np.linalg.norm(self.J, axis=1) * self.noise.rate])  # fmt: skip
         self.r = np.zeros(6)
         self._integral = np.zeros(6)
         self._p0: np.ndarray | None = None
@@ -97,7 +103,9 @@ class FailureDetector:
         self._integral += (predicted + self.r) * self.dt
         body = np.concatenate([R.T @ self.r[:3], self.r[3:]])
         size = float(np.abs(body / self.scale).max())
-        self._over = self._over + 1 if size > self.config.threshold else 0
+        z = float(np.abs(body / np.maximum(self.sigma, 1e-12)).max())
+        over = size > self.config.threshold and z > self.config.z
+        self._over = self._over + 1 if over else 0
         if self._over < self.config.persistence:
             self.peak = max(self.peak, size)
             return None
