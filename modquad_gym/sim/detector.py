@@ -13,10 +13,10 @@ sensor noise; when rotors S stop, r tends to the thrust they no longer give, -A_
 frame). The detector declares a failure when the residual exceeds both ``threshold`` (force and
 torque scaled by one rotor's full thrust and its torque at the longest arm) and ``z`` times its
 noise (K times the momentum's measurement noise, per component: a heavier structure's force
-residual is noisier) for ``persistence`` control steps in a row, and names the failure set S whose missing wrench -A_S u_S points most
-nearly along the residual (u the commanded thrusts; the direction, since the filtered residual
-is still rising). The allocator then switches to A without S
-(:class:`~modquad_gym.sim.failure.Failure`).
+residual is noisier) for ``persistence`` control steps in a row, and names the failure set S
+whose missing wrench -A_S u_S points most nearly along the residual (u the commanded thrusts;
+the direction, since the filtered residual is still rising). The allocator then switches to A
+without S (:class:`~modquad_gym.sim.failure.Failure`).
 """
 
 from __future__ import annotations
@@ -71,8 +71,8 @@ class FailureDetector:
         self.scale = np.array([f_max] * 3 + [f_max * _arm(self.A)] * 3)  # one rotor's
         # the residual's noise per component: K times the momentum's measurement noise
         K = self.config.bandwidth
-        self.sigma = K * np.concatenate([np.full(3, self.mass * self.noise.velocity),
-                                         np.linalg.norm(self.J, axis=1) * self.noise.rate])  # fmt: skip
+        force = np.full(3, self.mass * self.noise.velocity)
+        self.sigma = K * np.concatenate([force, np.linalg.norm(self.J, axis=1) * self.noise.rate])
         self.r = np.zeros(6)
         self._integral = np.zeros(6)
         self._p0: np.ndarray | None = None
