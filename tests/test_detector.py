@@ -43,3 +43,22 @@ def test_without_noise_the_residual_is_the_missing_thrust(screwdriver):
     noiseless = (DetectorConfig(), SensorNoise(0.0, 0.0))
     f = ff.fly_with_failure(s, task, "rotor", seconds=3.0, detector=noiseless)
     assert f.summary()["fault_detected_rotors"] == list(f.worst.columns)
+
+
+def test_validate_designs_for_the_delay_and_flies_with_the_detector(tmp_path, capsys):
+    import json
+
+    from modquad_gym.cli import main
+
+    argv = ["validate", "--task", "example:screwdriver", "--out", str(tmp_path / "out"),
+            "--max-hover-wrenches", "1", "--hover-seconds", "0.5", "--known-load-only",
+            "--fault", "rotor", "--detection-delay", "0.05", "--detect", "--json"]  # fmt: skip
+    assert main(argv) == 0
+    record = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert record["fault_margin_required"] == pytest.approx(0.045)
+    assert record["fault_worst_margin"] >= 0.045 - 1e-6
+    assert 0.0 < record["fault_detected_after_s"] <= 0.03 and record["fault_within_5cm"]
+    assert record["without_margin"]["n_modules"] <= record["n_modules"]
+    bad = ["validate", "--task", "example:screwdriver", "--out", str(tmp_path / "o2"), "--detect"]
+    assert main(bad) == 2
+    assert "--detect" in capsys.readouterr().err

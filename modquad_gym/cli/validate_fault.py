@@ -35,8 +35,9 @@ FAULT_HELP = (
 
 
 def add_fault_options(p: argparse.ArgumentParser) -> None:
-    """``--fault`` and ``--detection-delay``."""
+    """``--fault``, ``--fault-margin``, ``--detection-delay`` and ``--detect``."""
     add_fault(p, FAULT_HELP)
+    add_detect_option(p)
     p.add_argument(
         "--detection-delay",
         type=real_option,
@@ -50,6 +51,18 @@ def add_fault_options(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_detect_option(p: argparse.ArgumentParser) -> None:
+    """``--detect``: the flights through the failure with the in-flight detector."""
+    p.add_argument(
+        "--detect",
+        action="store_true",
+        help="with --fault, a static task: the controller is not told of the failure; a "
+        "detector on its noisy velocity and body rate decides when and which rotors failed "
+        "(modquad_gym.sim.detector) and the allocator switches on its decision; --json adds "
+        "fault_detected_after_s and fault_detected_rotors",
+    )
+
+
 def check_fault_options(args: argparse.Namespace) -> None:
     """``--fault`` with a learned method, ``--detection-delay`` out of range or without
     ``--fault``: one line, before any work."""
@@ -58,7 +71,8 @@ def check_fault_options(args: argparse.Namespace) -> None:
 
     check_fault_method(args)
     if args.fault is None:
-        refuse_ignored(args, ["detection_delay", "fault_margin"], "it applies with --fault")
+        refuse_ignored(args, ["detection_delay", "fault_margin", "detect"],
+                       "it applies with --fault")  # fmt: skip
     if args.detection_delay is not None:
         check_real(args.detection_delay, "--detection-delay", 0.0, MAX_DETECTION_DELAY)
     fault_margin_of(args)  # the margin's range, the delay's calibrated range
@@ -113,8 +127,13 @@ def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -
     intact_args = argparse.Namespace(**{**vars(args), **plain, "fault": None})
     intact = solver(intact_args)(task)
     delay = DEFAULT_DETECTION_DELAY if args.detection_delay is None else args.detection_delay
+    detector = None
+    if getattr(args, "detect", False):
+        from modquad_gym.sim.detector import DetectorConfig
+
+        detector = DetectorConfig()
     record = validate_with_failure(structure, task, args.fault, intact=intact.structure,
-                                   out_dir=args.out, detection_delay_s=delay,
+                                   out_dir=args.out, detection_delay_s=delay, detector=detector,
                                    seconds=fault_flight.FAULT_HOVER_SECONDS)  # fmt: skip
     if record["intact_minimum"] is not None:  # the search's word on it being the minimum
         record["intact_minimum"]["certified"] = bool(intact.certified)
@@ -126,7 +145,7 @@ def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -
         bare = solver(argparse.Namespace(**{**vars(args), **plain}))(task).structure
         if bare is not None:
             flight = fault_flight.fly_with_failure(
-                bare, task, args.fault, detection_delay_s=delay,
+                bare, task, args.fault, detection_delay_s=delay, detector=detector,
                 seconds=fault_flight.FAULT_HOVER_SECONDS)  # fmt: skip
             record["without_margin"] = intact_record(flight)
     return add_to_report(args.out, report, record)
