@@ -105,13 +105,20 @@ def certify_rows(R, G, P, dual, C, columns, starts, errors, reach, tol, out):  #
                 out[t, f] = 1
                 continue
             ok = True
-            for j in range(m):  # the first correction, stopping at an entry out of the cube
-                v = x[j]
-                for k in range(lo, hi):
-                    v += C[k, j] * a[k]
-                if abs(v) > ACCEPT:
-                    ok = False
-                    break
+            if hi - lo == 2:  # a pair (rotor2): one branch-free pass the compiler vectorises
+                a0, a1 = a[lo], a[lo + 1]
+                worst = 0.0
+                for j in range(m):
+                    worst = max(worst, abs(x[j] + C[lo, j] * a0 + C[lo + 1, j] * a1))
+                ok = worst <= ACCEPT
+            else:
+                for j in range(m):  # the first correction, stopping at an entry out of the cube
+                    v = x[j]
+                    for k in range(lo, hi):
+                        v += C[k, j] * a[k]
+                    if abs(v) > ACCEPT:
+                        ok = False
+                        break
             if not ok and ROUNDS:
                 for j in range(m):
                     v = x[j]
