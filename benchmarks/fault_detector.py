@@ -2,13 +2,14 @@
 
     python -m benchmarks.fault_detector --per-suite 4 --out results/faults/detector
 
-For the first ``--per-suite`` tasks of the held-out paper-like and planted suites (static tasks:
-the detector flies hovers), each fault (rotor, module) and two designs (the tolerant minimum,
-and the one with the margin the rule gives a 30 ms delay), the structure is flown through its
-worst failure with the controller told nothing: the detector
+For the first ``--per-suite`` tasks of the held-out paper-like and planted suites and the dynamic
+suite (hovers, and flights along the trajectories), each fault (rotor, module) and two designs
+(the tolerant minimum, and the one with the margin the rule gives a 30 ms delay), the structure
+is flown through its worst failure with the controller told nothing: the detector
 (:class:`modquad_gym.sim.detector.FailureDetector`, default sensor noise) decides when and which
 rotors, and the allocator switches on its decision. Each structure also hovers 60 s intact under
-the same wrench with the detector on (false alarms). Writes report.md and detector.csv.
+the wrench (or trajectory sample) its worst failure makes hardest, with the detector on (false
+alarms). Writes report.md and detector.csv.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from modquad_gym.oracle.faults import margin_for_delay
 from modquad_gym.scoring import machine_description
 from modquad_gym.tasks.suites import load_suite
 
-SUITES = ("heldout_paper", "heldout_planted")
+SUITES = ("heldout_paper", "heldout_planted", "dynamic_motions")
 SUITES_DIR = Path(mq.__file__).parent / "data" / "suites"
 
 
@@ -46,10 +47,10 @@ def run(per_suite: int, n_max: int, time_limit: float, intact_seconds: float) ->
                     s = r.structure
                     f = ff.fly_with_failure(s, task, fault, detector=DetectorConfig())
                     rec = f.summary()
-                    W = task.rotor_wrenches(s)
+                    w = np.asarray(task.rotor_wrenches(s))[f.worst.row]
                     never = Failure((0,), 1e9, 0.0, fault)
-                    calm = ff.hover_with_failure(s, W[f.worst.row], never, intact_seconds,
-                                                 task.f_max, detector=DetectorConfig())  # fmt: skip
+                    calm = ff.hover_with_failure(s, w, never, intact_seconds, task.f_max,
+                                                 detector=DetectorConfig())  # fmt: skip
                     after = rec["fault_detected_after_s"]
                     rows.append({
                         "suite": suite, "task": task.name, "fault": fault, "margin": mu,

@@ -62,3 +62,18 @@ def test_validate_designs_for_the_delay_and_flies_with_the_detector(tmp_path, ca
     bad = ["validate", "--task", "example:screwdriver", "--out", str(tmp_path / "o2"), "--detect"]
     assert main(bad) == 2
     assert "--detect" in capsys.readouterr().err
+
+
+def test_the_detector_flies_a_trajectory_with_a_payload():
+    from pathlib import Path
+
+    from modquad_gym.tasks.suites import load_suite
+
+    suite = Path(mq.__file__).parent / "data" / "suites" / "dynamic_motions.json"
+    task = load_suite(suite)[1]  # carries a payload off the structure's centre
+    assert task.payload is not None
+    s = mq.anytime_search(task, n_max=8, time_limit=10, fault="rotor").structure
+    f = ff.fly_with_failure(s, task, "rotor", detector=DetectorConfig())
+    record = f.summary()
+    assert 0.0 < record["fault_detected_after_s"] <= 0.03
+    assert record["fault_detected_rotors"] == list(f.worst.columns) and f.within_goal

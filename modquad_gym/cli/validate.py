@@ -129,7 +129,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
                        "--known-load-only leaves out")  # fmt: skip
     task = common.load_task(args.task, args.csv_header)
     dynamic = getattr(task, "kind", None) == "dynamic"
-    refuse_ignored(args, ["infeasible_demo", "load_ramp_seconds", "detect"] if dynamic else [],
+    refuse_ignored(args, ["infeasible_demo", "load_ramp_seconds"] if dynamic else [],
                    f"applies to a static task; {args.task} is a dynamic one (flown along its "
                    "trajectory)")  # fmt: skip
     common.check_task(task, args.task, common.palette(args))

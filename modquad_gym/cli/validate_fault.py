@@ -56,7 +56,7 @@ def add_detect_option(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--detect",
         action="store_true",
-        help="with --fault, a static task: the controller is not told of the failure; a "
+        help="with --fault: the controller is not told of the failure; a "
         "detector on its noisy velocity and body rate decides when and which rotors failed "
         "(modquad_gym.sim.detector) and the allocator switches on its decision; --json adds "
         "fault_detected_after_s and fault_detected_rotors",

@@ -53,17 +53,23 @@ class FailureDetector:
     :meth:`update`).
 
     Args:
-        A: the (6, m) configuration matrix (body frame, about the COM).
-        mass, J: the structure's mass (kg) and inertia (3, 3) about the COM.
+        A: the (6, m) configuration matrix (body frame, about the origin of {S}).
+        mass, J: the body's mass (kg) and inertia (3, 3) about the origin of {S}.
         f_max: per-rotor thrust limit.
         candidates: the failure sets it may name (column sets of A).
         dt: the control period (s).
         config, noise: :class:`DetectorConfig`, :class:`SensorNoise`.
+        com: the body's centre of mass in {S} (3,) when a payload moves it off the origin
+            (the momenta are the COM's; velocities are measured at the origin).
     """
 
-    def __init__(self, A, mass, J, f_max, candidates, dt, config=None, noise=None) -> None:
+    def __init__(self, A, mass, J, f_max, candidates, dt, config=None, noise=None,
+                 com=None) -> None:  # fmt: skip
         self.A = np.asarray(A, dtype=float)
-        self.mass, self.J, self.dt = float(mass), np.asarray(J, dtype=float), float(dt)
+        self.mass, self.dt = float(mass), float(dt)
+        self.com = np.zeros(3) if com is None else np.asarray(com, dtype=float)
+        c = self.com  # the inertia about the COM (parallel axis back from the origin)
+        self.J = np.asarray(J, dtype=float) - self.mass * (c @ c * np.eye(3) - np.outer(c, c))
         self.candidates = [np.asarray(S, dtype=int) for S in candidates]
         self.config = config or DetectorConfig()
         self.noise = noise or SensorNoise()
@@ -92,12 +98,14 @@ class FailureDetector:
         if self.detected is not None:
             return self.detected
         v_m, w_m = self.sense(v, omega)
-        p = np.concatenate([self.mass * v_m, self.J @ w_m])
+        v_com = v_m + R @ np.cross(w_m, self.com)
+        p = np.concatenate([self.mass * v_com, self.J @ w_m])
         if self._p0 is None:
             self._p0 = p
         wrench = self.A @ u
         force = R @ wrench[:3] + load_world[:3] + self.mass * gravity
-        torque = wrench[3:] + R.T @ load_world[3:] - np.cross(w_m, self.J @ w_m)
+        about_com = wrench[3:] - np.cross(self.com, wrench[:3])
+        torque = about_com + R.T @ load_world[3:] - np.cross(w_m, self.J @ w_m)
         predicted = np.concatenate([force, torque])
         self.r = self.config.bandwidth * (p - self._p0 - self._integral)
         self._integral += (predicted + self.r) * self.dt
@@ -130,3 +138,20 @@ class FailureDetector:
 def _arm(A: np.ndarray) -> float:
     """A typical lever arm (m): the largest torque per unit thrust of a column."""
     return float(np.linalg.norm(A[3:], axis=0).max()) or 1.0
+
+
+def make_detector(detector, plant, kind: str, dt: float, com=None) -> FailureDetector | None:
+    """The :class:`FailureDetector` of a flight of ``plant`` (what the controller knows: A,
+    mass, inertia, f_max) for ``detector`` (None: none; a :class:`DetectorConfig`, or a
+    (config, :class:`SensorNoise`) pair); it may name any failure of kind ``kind``; ``com``
+    the body's centre of mass in {S} (a payload's offset)."""
+    if detector is None:
+        return None
+    from modquad_gym.oracle.faults import failure_sets
+
+    config, noise = detector if isinstance(detector, tuple) else (detector, None)
+    m = plant.A.shape[1]
+    sets = failure_sets(m, kind if kind in ("rotor", "module", "rotor2") else "rotor")
+    return FailureDetector(plant.A, plant.mass, plant.J, plant.f_max, sets, dt,
+                           config if isinstance(config, DetectorConfig) else None,
+                           noise if isinstance(noise, SensorNoise) else None, com)  # fmt: skip

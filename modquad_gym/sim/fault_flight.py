@@ -44,6 +44,7 @@ from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.oracle import TOL, margin  # noqa: E402
 from modquad_gym.oracle.faults import FaultTolerance, check_fault, failure_sets  # noqa: E402
 from modquad_gym.search.checker import LP_ROTORS  # noqa: E402
+from modquad_gym.sim.detector import make_detector  # noqa: E402
 from modquad_gym.sim.failure import Failure  # noqa: E402
 from modquad_gym.sim.report import finite_or_none  # noqa: E402
 from modquad_gym.sim.track import TrackConfig, TrackResult  # noqa: E402
@@ -278,7 +279,7 @@ def hover_with_failure(
     flown, att, quat_ = np.zeros((N, 3)), np.zeros(N), np.zeros((N, 4))
     inputs, saturated = np.zeros((N, m)), np.zeros(N, dtype=bool)
     working, known, diverged = np.ones(m, dtype=bool), False, None
-    watch = _detector(detector, plant, failure, dt)
+    watch = make_detector(detector, plant, failure.kind, dt)
     believed = failure
     for k in range(N):
         if watch is None and not known and t[k] >= failure.detected_s - 1e-9:
@@ -312,22 +313,6 @@ def hover_with_failure(
     run.detection = None if watch is None else watch.detected
     run.detector = watch
     return run
-
-
-def _detector(detector, plant, failure: Failure, dt: float):
-    """The :class:`~modquad_gym.sim.detector.FailureDetector` of a flight (None without one):
-    it may name any failure of the flown kind."""
-    if detector is None:
-        return None
-    from modquad_gym.sim.detector import DetectorConfig, FailureDetector, SensorNoise
-
-    config, noise = detector if isinstance(detector, tuple) else (detector, None)
-    m = plant.A.shape[1]
-    kind = failure.kind if failure.kind in ("rotor", "module", "rotor2") else "rotor"
-    sets = failure_sets(m, kind) if kind != "module" or m % 4 == 0 else [np.arange(m)]
-    return FailureDetector(plant.A, plant.mass, plant.J, plant.f_max, sets, dt,
-                           config if isinstance(config, DetectorConfig) else None,
-                           noise if isinstance(noise, SensorNoise) else None)  # fmt: skip
 
 
 def _failed_controller(failure: Failure, plant, cfg, dt: float, w: np.ndarray):
@@ -378,7 +363,7 @@ def fly_with_failure(
         detection_delay_s: seconds before the controller knows (:mod:`~modquad_gym.sim.failure`).
         f_max: the thrust limit for an array task (a task object carries its own).
         track_config: dynamic task: how to fly the trajectory.
-        detector: static task: a :class:`~modquad_gym.sim.detector.DetectorConfig` (or a
+        detector: a :class:`~modquad_gym.sim.detector.DetectorConfig` (or a
             (config, :class:`~modquad_gym.sim.detector.SensorNoise`) pair): the controller is
             not told of the failure, the detector decides when and which rotors
             (``detection_delay_s`` is then unused); the summary adds ``fault_detected_after_s``
@@ -400,13 +385,11 @@ def fly_with_failure(
     if isinstance(task, DynamicTask):
         from modquad_gym.sim.track import fly_trajectory
 
-        if detector is not None:
-            raise ValueError("detector: the failure detector flies static tasks (a hover) only")
         traj = task.trajectory
         hardest = float(traj.t[worst.row] - traj.t[0])
         at = min(traj.duration / 2.0, max(0.0, hardest - LEAD_S))
         failure = Failure(tuple(worst.columns), at, detection_delay_s, fault)
-        run = fly_trajectory(structure, task, track_config, failure=failure)
+        run = fly_trajectory(structure, task, track_config, failure=failure, detector=detector)
         return FaultFlight(structure, "trajectory", fault, failure, worst, run, name)
     seconds = check_real(seconds, "seconds", positive=True)
     failure = Failure(tuple(worst.columns), seconds / 2.0, detection_delay_s, fault)

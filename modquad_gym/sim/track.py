@@ -207,13 +207,18 @@ def fly_trajectory(
     task: DynamicTask,
     config: TrackConfig | None = None,
     failure: Failure | None = None,
+    detector=None,
 ) -> TrackResult:
     """Fly ``structure`` along ``task``'s trajectory in MuJoCo (module docstring).
 
     ``failure``: rotors that stop during the flight (:class:`~modquad_gym.sim.failure.Failure`:
     their thrust 0 from ``failure.time_s``; from ``failure.detected_s`` the controller
-    allocates without them); ``saturated`` then counts only the rotors still working."""
+    allocates without them); ``saturated`` then counts only the rotors still working. With a
+    ``detector`` (:func:`~modquad_gym.sim.detector.make_detector`) the controller is not told:
+    it switches when the detector decides, to the rotors it names (``run.detection``)."""
     import mujoco
+
+    from modquad_gym.sim.detector import make_detector
 
     task = as_dynamic(task)  # a ValueError naming the type of anything else
     cfg = config or TrackConfig()
@@ -235,19 +240,32 @@ def fly_trajectory(
     saturated = np.zeros(N, dtype=bool)
     diverged = None
     b = sim.body_id
+    com = None  # the body's COM in {S}: a payload moves it off the origin
+    if task.payload is not None:
+        com = task.payload.mass * np.asarray(task.payload.offset) / plant.mass
+    watch = None if failure is None else make_detector(detector, plant, failure.kind, dt, com)
     for k in range(N):
-        if failure is not None and not known and times[k] >= failure.detected_s - 1e-9:
+        late = watch is None and failure is not None and not known
+        if late and times[k] >= failure.detected_s - 1e-9:
             control, known = _failed_control(failure, plant, cfg, dt, ff), True
         R = body_rotation(sim, data)
         Rd = quat.to_matrix(ref["quaternion"][k])
         x = _errors(R, Rd, data, b, ref, k)
         u = control.command(k, ff[k], x) if control is not None else np.zeros(m)
+        u_cmd = u.copy()
         if failure is not None and times[k] >= failure.time_s - 1e-9:
             working = failure.working(m)
             u[~working] = 0.0  # the failed rotors give no thrust, whatever is commanded
         data.ctrl[:] = u
         data.xfrc_applied[b, :3] = -R @ exerted[k, :3]
         data.xfrc_applied[b, 3:] = -R @ exerted[k, 3:]
+        if watch is not None and not known:
+            v, omega, load = (np.array(data.qvel[:3]), np.array(data.qvel[3:6]),
+                              np.array(data.xfrc_applied[b]))  # fmt: skip
+            hit = watch.update(times[k], R, v, omega, u_cmd, load, model.opt.gravity)
+            if hit is not None:
+                named = Failure(tuple(hit[1]), failure.time_s, 0.0, failure.kind)
+                control, known = _failed_control(named, plant, cfg, dt, ff), True
         flown[k], att[k], inputs[k] = data.xpos[b], rotation_angle(Rd.T @ R), u
         attitude[k] = data.xquat[b]
         saturated[k] = _at_limit(u[working], task.f_max)
@@ -256,8 +274,11 @@ def fly_trajectory(
             break
         mujoco.mj_step(model, data, nstep=substeps)
     n = k + 1
-    return TrackResult(times[:n], ref["position"][:n], flown[:n], attitude[:n], att[:n],
-                       inputs[:n], saturated[:n], ff[:n], task.f_max, diverged)  # fmt: skip
+    run = TrackResult(times[:n], ref["position"][:n], flown[:n], attitude[:n], att[:n],
+                      inputs[:n], saturated[:n], ff[:n], task.f_max, diverged)  # fmt: skip
+    run.detector = watch
+    run.detection = None if watch is None else watch.detected
+    return run
 
 
 def _failed_control(failure: Failure, plant: Plant, cfg: TrackConfig, dt: float, ff):
