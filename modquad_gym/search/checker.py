@@ -217,6 +217,13 @@ class TaskChecker:
                 return False
             start = size
         if self.fault is not None:
+            if self.fault == "rotor2":  # what a pair leaves lies in what each of its rotors
+                # leaves: single failures (4n, not 8n^2 pairs) rule out most structures first
+                single = FaultTolerance(A, self.f_max, failure_sets(A.shape[1], "rotor"), z)
+                ok = single.decide(W, self.method(z), stop_early=True)
+                self.oracle_calls += single.tests
+                if not ok:
+                    return False
             tolerance = self.tolerance(A, z)
             ok = tolerance.decide(W, self.method(z), stop_early=True)
             self.oracle_calls += tolerance.tests
