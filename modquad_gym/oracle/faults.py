@@ -34,6 +34,7 @@ import numpy as np
 
 from modquad_gym.core.validation import check_f_max, check_wrenches
 from modquad_gym.oracle.backends import check_method, decide_with, margin_with
+from modquad_gym.oracle.fault_delay import DELAY_SLOPE, MAX_DELAY_S, margin_for_delay  # noqa: F401 - re-exported
 from modquad_gym.oracle.tolerance import RESIDUAL_TOL, TOL
 from modquad_gym.oracle.zonotope import Zonotope
 
@@ -64,32 +65,6 @@ def check_fault_margin(value: object, fault: object = "rotor") -> float:
     if mu > 0.0 and fault is None:
         raise ValueError("fault_margin applies with a fault (rotor, module or rotor2)")
     return mu
-
-
-DELAY_SLOPE = 0.9
-"""mu per second of detection delay (:func:`margin_for_delay`): 1.25 times the fit 0.71 / s on
-56 MuJoCo flights of the fault_rotor suite's designs at 10-50 ms (results/fault_delay)."""
-
-MAX_DELAY_S = 0.05
-"""The longest detection delay the rule was calibrated for (s)."""
-
-
-def margin_for_delay(delay_s: object) -> float:
-    """The worst fault margin a design needs so that it stays within 5 cm through its worst
-    failure when the controller learns of it ``delay_s`` seconds late: ``DELAY_SLOPE *
-    delay_s``, fitted on MuJoCo flights of the fault_rotor suite's structures
-    (``python -m benchmarks.fault_delay``; docs/faults.md). ValueError outside [0,
-    :data:`MAX_DELAY_S`], where it was not calibrated."""
-    try:
-        d = float(delay_s)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"detection delay must be a number of seconds, got {delay_s!r}") from None
-    if not 0.0 <= d <= MAX_DELAY_S:
-        raise ValueError(
-            f"detection delay must lie in [0, {MAX_DELAY_S:g}] s (the rule's calibrated range), "
-            f"got {delay_s!r}"
-        )
-    return DELAY_SLOPE * d
 
 
 def failure_sets(n_rotors: int, fault: str, rotors_per_module: int = 4) -> list[np.ndarray]:
