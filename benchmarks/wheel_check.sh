@@ -144,9 +144,12 @@ for c in 'modquad solve --task example:screwdriver' \
          'modquad solve --task circle.json --n-max 8' \
          'modquad validate --task circle.json --out flight/' \
          'modquad solve --task example:screwdriver --fault rotor' \
-         'modquad validate --task example:screwdriver --fault rotor --out fault/'; do
+         'modquad validate --task example:screwdriver --fault rotor --out fault/' \
+         'modquad solve --task example:screwdriver --certificate proof.json.gz && modquad check proof.json.gz'; do
   check wheel README.md "$c"
 done
+check wheel README.md 'modquad solve --task big.json --n-max 64 --time-limit 60 --workers 2' \
+  'modquad solve --task big.json --n-max 64 --time-limit 20 --workers 2'
 # mkdocs serve: served, then stopped (a free port instead of 8000)
 SERVE='port=$(python -c "import socket; s=socket.socket(); s.bind((\"127.0.0.1\", 0)); print(s.getsockname()[1])")
 mkdocs serve -a 127.0.0.1:$port & pid=$!
@@ -218,9 +221,11 @@ P=docs/distributed.md
 check wheel $P 'mkdir -p tasks && for s in 1 2 3 4; do modquad task generate --kind paper --seed $s --out tasks/t$s.json; done' \
   'mkdir -p tasks && for s in 1 2 3 4; do modquad task generate --kind paper --seed $s --out tasks/t$s.json; done'
 check wheel $P 'modquad solve --task tasks/ --workers 2 --json' \
-  'for s in 1 2 3; do modquad task generate --kind planted --seed $s --out tasks/t$s.json; done && modquad solve --task tasks/ --workers 2 --json'
+  'for s in 1 2 3; do modquad task generate --kind planted --seed $s --out tasks/t$s.json --force; done && modquad solve --task tasks/ --workers 2 --json'
 check wheel $P 'modquad solve --task big.json --method exhaustive --n-max 14 --workers 2' \
   'modquad task generate --kind planted --n-modules 50 --seed 3 --out big.json && modquad solve --task big.json --method exhaustive --n-max 14 --workers 2'
+check wheel $P 'modquad solve --task big.json --n-max 64 --time-limit 60 --workers 2' \
+  'modquad solve --task big.json --n-max 64 --time-limit 20 --workers 2'
 check wheel $P 'modquad optima --suite heldout_paper --out optima.jsonl'
 norm 'python train.py --seeds 0 1 2 3 4' >> "$COVERED"  # agents.md's, above
 # a cluster on this host as the page says (shared token), its driver commands, then stopped
@@ -283,9 +288,20 @@ check wheel docs/export.md 'URDF in MuJoCo: urdf_spec(screwdriver.urdf) floats, 
   "modquad export --task example:screwdriver --out screwdriver.urdf --force && python -c '$URDF'"
 for c in 'modquad solve --task example:screwdriver --fault rotor' \
          'modquad solve --task example:screwdriver --fault module --json' \
-         'modquad validate --task example:screwdriver --fault rotor --out fault/'; do
+         'modquad validate --task example:screwdriver --fault rotor --out fault/' \
+         'modquad solve --task example:screwdriver --fault rotor --fault-margin 0.05 --json' \
+         'modquad solve --task example:screwdriver --fault rotor --detection-delay 0.02' \
+         'modquad validate --task example:screwdriver --fault rotor --detection-delay 0.05 --out v/'; do
   check wheel docs/faults.md "$c"
 done
+# docs/certificates.md: a certificate written, checked by the command and by the checker alone
+P=docs/certificates.md
+check wheel $P 'modquad solve --task task.json --method exhaustive --certificate proof.json.gz' \
+  'modquad task generate --kind planted --n-modules 2 --seed 1 --out task.json && modquad solve --task task.json --method exhaustive --certificate proof.json.gz'
+check wheel $P 'modquad check proof.json.gz'
+check wheel $P 'modquad check proof.json.gz --levels'
+check wheel $P 'python modquad_gym/proofcheck.py proof.json.gz' \
+  'python "$(python -c "import modquad_gym.proofcheck as m; print(m.__file__)")" proof.json.gz'
 for c in 'modquad solve --task example:paper_seed0 --modules t45,t45m,flat --json' \
          'modquad task generate --kind planted --task-kind external --seed 2 --out ext.json' \
          "modquad show --cells '[[0,0],[1,0],[0,1]]' --modules t45,flat,t45m --out mixed.png"; do
@@ -298,6 +314,10 @@ for c in 'modquad solve --task example:planted_seed1 --method ppo' \
          'modquad solve --task example:paper_seed0 --method ppo --modules t45,t45m,flat'; do
   check wheel docs/learned-designer.md "$c"
 done
+skip docs/learned-designer.md 'python -m agents.expert_iteration --rounds 2 --out runs/exit' \
+  'two rounds of expert iteration at 8-32 modules take 14-30 min of training (the page says so)'
+skip docs/learned-designer.md 'cp runs/exit/model.zip runs/exit/config.json modquad_gym/data/models/ppo_scale/' \
+  'replaces the shipped scale model on purpose, after the command above'
 
 # docs/index.md: the clone's environment and the site (the README's commands, above)
 for c in 'pip install torch==2.13.0 --index-url https://download.pytorch.org/whl/cpu && pip install -r requirements.txt && pip install --no-deps -e .' \
