@@ -187,6 +187,13 @@ FAULT_HELP = (
 )
 
 
+def add_detection_delay(p: argparse.ArgumentParser, help: str) -> None:
+    """``--detection-delay SECONDS`` (the required fault margin derived from it)."""
+    p.add_argument(
+        "--detection-delay", type=real_option, default=None, metavar="SECONDS", help=help
+    )
+
+
 def add_fault(p: argparse.ArgumentParser, help: str = FAULT_HELP) -> None:
     """``--fault {rotor,module,rotor2}`` (the failure an answer must survive) and
     ``--fault-margin`` (the worst margin it must keep after it)."""

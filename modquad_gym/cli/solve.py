@@ -14,6 +14,7 @@ from modquad_gym.cli import common  # commands call common.load_task (tests repl
 from modquad_gym.cli.common import (
     add_command,
     add_csv_header,
+    add_detection_delay,
     add_fault,
     add_force,
     add_method,
@@ -26,7 +27,6 @@ from modquad_gym.cli.common import (
     palette_of,
     report_error,
 )
-from modquad_gym.core.options import real_option
 from modquad_gym.methods import method_of
 from modquad_gym.oracle.faults import DELAY_SLOPE
 from modquad_gym.solvers import make_solver
@@ -52,12 +52,9 @@ def add_solve(sub) -> None:
     )
     add_method(p)
     add_fault(p)
-    p.add_argument(
-        "--detection-delay",
-        type=real_option,
-        default=None,
-        metavar="SECONDS",
-        help="with --fault: design for a controller that learns of the failure this many "
+    add_detection_delay(
+        p,
+        "with --fault: design for a controller that learns of the failure this many "
         "seconds late, 0 to 0.05: the required --fault-margin is derived from it by the rule "
         f"calibrated on MuJoCo flights (docs/faults.md; margin = {DELAY_SLOPE:g} x delay)",
     )

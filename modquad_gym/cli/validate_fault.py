@@ -13,8 +13,12 @@ from __future__ import annotations
 
 import argparse
 
-from modquad_gym.cli.common import add_fault, check_fault_method, fault_margin_of
-from modquad_gym.core.options import real_option
+from modquad_gym.cli.common import (
+    add_detection_delay,
+    add_fault,
+    check_fault_method,
+    fault_margin_of,
+)
 
 DEFAULT_DETECTION_DELAY = 0.02
 """= :data:`modquad_gym.sim.fault_flight.DETECTION_DELAY_S` (here: the parser imports no
@@ -38,12 +42,9 @@ def add_fault_options(p: argparse.ArgumentParser) -> None:
     """``--fault``, ``--fault-margin``, ``--detection-delay`` and ``--detect``."""
     add_fault(p, FAULT_HELP)
     add_detect_option(p)
-    p.add_argument(
-        "--detection-delay",
-        type=real_option,
-        default=None,
-        metavar="SECONDS",
-        help="with --fault: design for a controller that learns of the failure this many "
+    add_detection_delay(
+        p,
+        "with --fault: design for a controller that learns of the failure this many "
         "seconds late (the required --fault-margin derived from it, as `modquad solve "
         "--detection-delay`; 0 to 0.05) and fly with that delay; the design without the margin "
         "is flown beside it (JSON key without_margin). Without it the flights use "

@@ -28,7 +28,6 @@ from modquad_gym.solvers.outside import (
     ExternalSolver,
     admissible,
     conform,
-    hidden,
     load_solver,
 )
 
@@ -45,7 +44,6 @@ __all__ = [
     "admissible",
     "conform",
     "guided_options",
-    "hidden",
     "learned_options",
     "load_solver",
     "make_solver",

@@ -3,7 +3,6 @@ evaluator it decides structures with, and how it is loaded from ``package.module
 
 from __future__ import annotations
 
-import copy
 import importlib
 import inspect
 import sys
@@ -72,9 +71,10 @@ class Evaluator:
         (:meth:`SearchProblem.decide`); counted on the first ask of each structure."""
         s = self.structure(structure)
         if s not in self._decided:
+            decided = np.asarray(self.problem.decide(s), dtype=bool)
             self.evaluated += 1
-            self.oracle_calls += len(self.problem.wrenches)
-            self._decided[s] = np.asarray(self.problem.decide(s), dtype=bool)
+            self.oracle_calls += len(decided)  # one test per rotor wrench of this structure
+            self._decided[s] = decided
         return self._decided[s].copy()
 
     def evaluate(self, structure: Any) -> bool:
@@ -110,18 +110,6 @@ def _same_type(a: Any, b: Any) -> bool:
         np.allclose(getattr(a, k), getattr(b, k), rtol=0, atol=1e-12)
         for k in ("positions", "directions", "spins", "c_tau", "side", "mass", "inertia")
     )
-
-
-def hidden(task: Any) -> Any:
-    """A shallow copy of ``task`` without its ``meta`` (held-out tasks carry their certified
-    optimum and planted cells there); a problem's :meth:`~SearchProblem.without_meta`."""
-    if isinstance(task, SearchProblem):
-        return task.without_meta()
-    if not hasattr(task, "meta"):
-        return task
-    out = copy.copy(task)
-    object.__setattr__(out, "meta", {})
-    return out
 
 
 def _takes(fn: Any, name: str) -> bool:
