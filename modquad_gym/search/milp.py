@@ -122,9 +122,6 @@ def milp_search(problem: SearchProblem, *, time_limit: float = DEFAULT_TIME_LIMI
     return run.finish(None, n)
 
 
-milp_search.takes_fault = False  # fault= is refused (check_supported): the CLI says so first
-
-
 def decide_level(run: SearchRun, n: int, deadline: Deadline) -> Structure | bool | None:
     """A structure of level n the exact oracle accepts, False when the program proves that
     none exists, None when undecided (the deadline, a program too large, too many rounds)."""
