@@ -63,8 +63,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     The goal is to satisfy every wrench with as few modules as possible (paper Problem 1).
 
     Make it with ``gym.make("modquad_gym:ModQuadAssembly-v0", **kwargs)`` (the prefix imports
-    ``modquad_gym``, which registers the ids), or ``gym.make("ModQuadAssembly-v0")`` after
-    ``import modquad_gym``.
+    ``modquad_gym``, which registers the ids) or ``gym.make("ModQuadAssembly-v0")`` after it.
 
     ## Action Space
     ``Discrete(G * G)`` with G = 2 * n_max - 1: one action per grid cell (x, y), with x and y in
@@ -111,8 +110,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
       function alone (no oracle call); with ``"exact"`` (k = 8) also its exact satisfied share,
       clipped mean margin and greedy's choice (:mod:`.lookahead`; counted in ``oracle_calls``).
 
-    K = ``n_directions`` (default 48); :mod:`modquad_gym.envs.assembly.features` documents
-    every entry and its normalisation.
+    K = ``n_directions`` (default 48); :mod:`.features` documents every entry and its scale.
 
     ## Rewards
     ``r_t = w_sat * (frac_t - frac_{t-1}) - w_module * added_t + w_success * success_t
@@ -183,6 +181,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     * ``render_size``: (height, width) of ``rgb_array`` frames, 16..4096 each, default (256, 256).
     * ``lookahead``: add the ``"candidates"`` observation (default False): True (support rows)
       or ``"exact"`` (the exact one-step lookahead too; slower: every child is decided).
+      ``lookahead_top_k=k`` with ``"exact"``: the k best actions by support bounds stay valid.
 
     ``info`` carries ``n_modules``, ``satisfied_fraction``, ``success`` (and the same as
     ``is_success``, which SB3's ``Monitor``/``EvalCallback`` and RL Zoo read), ``cells`` (list of
@@ -214,6 +213,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         actions: str = "grid",
         n_directions: int = DEFAULT_N_DIRECTIONS,
         lookahead: bool | str = False,
+        lookahead_top_k: int | None = None,
         oracle_method: str = "auto",
         fault: str | None = None,
         fault_margin: float = 0.0,
@@ -227,7 +227,8 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     ) -> None:
         tasks = one_task(task, tasks, DEFAULT_TASKS)
         self.module_set = make_module_set(module, modules, initial_type)
-        self.rules = make_rules(n_max, max_steps, invalid_action, lookahead, N_MAX_LIMIT)
+        self.rules = make_rules(n_max, max_steps, invalid_action, lookahead, N_MAX_LIMIT,
+                                lookahead_top_k)  # fmt: skip
         self.encoding: Grid | Faces = make_encoding(actions, ENCODINGS)(self.n_max, self.n_types)
         check_render_mode(render_mode, self.metadata)
         self.f_max = None if f_max is None else check_f_max(f_max)

@@ -111,7 +111,8 @@ class Grid:
 
     def docked_fields(self, state: AssemblyState, a: int) -> dict:
         """The state fields that action ``a`` (valid) changes in the encoding."""
-        occ, mask = self.dock(state.occupancy, state.mask, a % self.n_cells)
+        mask = state.mask if state.free is None else state.free  # not the lookahead's shortlist
+        occ, mask = self.dock(state.occupancy, mask, a % self.n_cells)
         onehot = state.types_onehot
         if onehot is not None:
             onehot = onehot.copy()

@@ -52,10 +52,12 @@ def one_task(task: Any, tasks: Any, default_tasks: Any) -> Any:
 
 
 def make_rules(
-    n_max: Any, max_steps: Any, invalid_action: Any, lookahead: Any, n_max_limit: int
-) -> Rules:
+    n_max: Any, max_steps: Any, invalid_action: Any, lookahead: Any, n_max_limit: int,
+    top_k: Any = None,
+) -> Rules:  # fmt: skip
     """The episode :class:`~.types.Rules`; ValueError naming a bad argument. ``max_steps``
-    None means 4 * n_max; it lies in [n_max - 1, 4 * n_max_limit]."""
+    None means 4 * n_max; it lies in [n_max - 1, 4 * n_max_limit]. ``top_k`` (the exact
+    lookahead's shortlist) is None or an integer >= 1, with ``lookahead="exact"`` only."""
     if invalid_action not in INVALID_ACTION_MODES:
         raise ValueError(
             f"invalid_action must be one of {INVALID_ACTION_MODES}, got {invalid_action!r}"
@@ -66,9 +68,15 @@ def make_rules(
     if max_steps is None:
         max_steps = 4 * n_max
     max_steps = check_int(max_steps, "max_steps", n_max - 1, 4 * n_max_limit)
-    return Rules(
-        n_max, max_steps, invalid_action, lookahead if lookahead == "exact" else bool(lookahead)
-    )
+    if top_k is not None:
+        top_k = check_int(top_k, "lookahead_top_k", 1)
+        if lookahead != "exact":
+            raise ValueError(
+                f"lookahead_top_k={top_k} shortlists the exact lookahead: it needs "
+                f"lookahead='exact', got lookahead={lookahead!r}"
+            )
+    lookahead = lookahead if lookahead == "exact" else bool(lookahead)
+    return Rules(n_max, max_steps, invalid_action, lookahead, top_k)
 
 
 def make_encoding(actions: Any, encodings: dict) -> Any:

@@ -4,6 +4,7 @@ state (Jumanji keeps these beside ``step``)."""
 
 from __future__ import annotations
 
+from modquad_gym.envs.assembly.lookahead import shortlisted
 from modquad_gym.envs.assembly.types import AssemblyState, Episode, TaskArrays
 
 
@@ -62,8 +63,11 @@ def transition(ep: Episode, state: AssemblyState, a: int | None, valid: bool) ->
 
 def _with_candidates(ep: Episode, state: AssemblyState) -> AssemblyState:
     """``state`` with its ``"candidates"`` rows, where the encoding has them (the exact
-    lookahead's oracle tests counted in ``oracle_calls``)."""
+    lookahead's oracle tests counted in ``oracle_calls``), its actions cut to the lookahead's
+    shortlist with ``lookahead_top_k``."""
     before = ep.evaluator.tests
+    if ep.rules.top_k is not None:
+        state = shortlisted(ep, state)
     rows = ep.actions.candidates(ep, state)
     if rows is None:
         return state

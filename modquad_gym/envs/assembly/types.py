@@ -61,12 +61,15 @@ class Rules:
         invalid_action: ``"penalise"`` or ``"terminate"``.
         lookahead: False, or which ``"candidates"`` rows states carry: True (support rows),
             ``"exact"`` (support rows and the exact lookahead, :mod:`.lookahead`).
+        top_k: None, or the exact lookahead's shortlist: the valid actions per state
+            (:func:`.lookahead.shortlisted`).
     """
 
     n_max: int
     max_steps: int
     invalid_action: str = "penalise"
     lookahead: bool | str = False
+    top_k: int | None = None
 
 
 @dataclass(frozen=True)
@@ -118,6 +121,8 @@ class AssemblyState:
         faces: the faces encoding's free faces, as grid cell indices in action order, else
             None.
         sites: the faces encoding's module cells as grid indices, in docking order, else None.
+        free: the encoding's mask of the state when the lookahead's shortlist cut ``mask``
+            (``lookahead_top_k``), else None.
     """
 
     task: TaskArrays
@@ -137,6 +142,7 @@ class AssemblyState:
     candidates: np.ndarray | None = field(default=None)
     faces: np.ndarray | None = None
     sites: np.ndarray | None = None
+    free: np.ndarray | None = None
 
     @property
     def done(self) -> bool:
@@ -179,7 +185,8 @@ class AssemblyState:
         }
 
 
-_ARRAYS = ("occupancy", "mask", "structure_vec", "types_onehot", "candidates", "faces", "sites")
+_ARRAYS = ("occupancy", "mask", "structure_vec", "types_onehot", "candidates", "faces", "sites",
+           "free")  # fmt: skip
 
 
 def _freeze(array: np.ndarray | None) -> None:
