@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from modquad_gym.core.validation import check_int, check_real
+from modquad_gym.policy.models import TOP_K
 from modquad_gym.search.problem import MAX_TIME_LIMIT, unknown_option
 
 
@@ -251,6 +252,9 @@ def _search(name: str, help: str, own: dict | None = None, **capabilities: Any) 
 _MODEL = (object, None, "a PPO .zip or a loaded Policy (default: the shipped model of the "
           "budget and palette)", None)  # fmt: skip
 _LEARNED_LIMIT = (float | None, None, "seconds after which it stops (None: none)", _seconds)
+_TOP_K = (int | None, TOP_K, "children decided exactly per step by a model reading the exact "
+          "lookahead, the rest ranked lower by support bounds and masked out (None: all)",
+          _count(1))  # fmt: skip
 
 for _method in (
     _search("exhaustive", "the certified minimum (exhaustive search, up to 16 modules)",
@@ -283,14 +287,14 @@ for _method in (
     Method("ppo", "the learned agent's single pass (the shipped model unless model=)",
            options("ppo", model=_MODEL, seed=(int, 0, COMMON_HELP["seed"][0], _seed),
                    samples=(int, 0, "extra sampled rollouts besides the deterministic one",
-                            _count(0)), time_limit=_LEARNED_LIMIT),
+                            _count(0)), time_limit=_LEARNED_LIMIT, top_k=_TOP_K),
            "modquad_gym.solvers.factory:LearnedSolver", seeded=True, fault=False, extra="train"),
     Method("ppo-guided", "best-first search ordered by the learned policy, certified at the "
            "lower bound", options("ppo-guided", model=_MODEL,
                                   budget=(int, 64, "most structures evaluated", _count(1)),
                                   branching=(int, 4, "children expanded per node", _count(1)),
                                   dive=(bool, True, "first follow the policy's own episode",
-                                        None), time_limit=_LEARNED_LIMIT),
+                                        None), time_limit=_LEARNED_LIMIT, top_k=_TOP_K),
            "modquad_gym.solvers.factory:LearnedSolver", fault=False, extra="train"),
 ):  # fmt: skip
     register(_method)

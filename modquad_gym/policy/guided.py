@@ -24,7 +24,7 @@ import numpy as np
 
 from modquad_gym.core.validation import check_int, check_real
 from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
-from modquad_gym.policy.models import default_model
+from modquad_gym.policy.models import TOP_K, default_model
 from modquad_gym.policy.policy import Policy, search_result
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.tasks import as_task
@@ -43,6 +43,7 @@ class GuidedSolver:
         dive: start with the policy's greedy episode (default True); False: best-first only.
         time_limit: seconds after which the search stops with what it has (None: none), in
             the dive too (which otherwise finishes, whatever the budget).
+        top_k: as for :class:`~.policy.Policy` (the children decided exactly per step).
     """
 
     def __init__(
@@ -54,8 +55,9 @@ class GuidedSolver:
         config: dict | None = None,
         dive: bool = True,
         time_limit: float | None = None,
+        top_k: int | None = TOP_K,
     ) -> None:
-        self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config)
+        self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config, top_k)
         self.n_max = self.policy.n_max
         self.dive = bool(dive)
         self.budget = check_int(budget, "budget", low=1)

@@ -20,7 +20,7 @@ from modquad_gym.core.extras import import_optional
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.features import lookahead_width
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.models import default_model, read_model
+from modquad_gym.policy.models import TOP_K, default_model, read_model
 from modquad_gym.search import SearchResult
 from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.problem import SearchProblem
@@ -28,7 +28,7 @@ from modquad_gym.tasks import TaskRequirement
 
 ENV_KWARG_KEYS = (
     "n_max", "n_directions", "reward_weights", "invalid_action", "oracle_method", "lookahead",
-    "modules",
+    "modules", "lookahead_top_k",
 )  # fmt: skip
 """Environment keywords a model's config.json may fix (the task source is given per task)."""
 
@@ -76,6 +76,8 @@ class Policy:
         n_max: the module budget; at most the n_max the model was trained with (its grid size);
             None: the trained one.
         config: the model's config when ``model`` is a loaded model.
+        top_k: with a model that reads the exact lookahead, the children decided exactly per
+            step (the env's ``lookahead_top_k``, default :data:`~.models.TOP_K`); None: all.
 
     Attributes:
         net (the actor-critic: an sb3-contrib masked policy), model_path (None for a loaded
@@ -84,7 +86,13 @@ class Policy:
         palette, else [None]), palette (the module types it acts with).
     """
 
-    def __init__(self, model: Any = None, n_max: int | None = 7, config: dict | None = None):
+    def __init__(
+        self,
+        model: Any = None,
+        n_max: int | None = 7,
+        config: dict | None = None,
+        top_k: int | None = TOP_K,
+    ) -> None:
         self.saved = None
         if model is None or isinstance(model, (str, Path)):
             self.saved = read_model(default_model(n_max) if model is None else model)
@@ -106,6 +114,9 @@ class Policy:
         self.n_max = int(n_max)
         if self.size_free:  # the environment of the budget asked for (at least 2 modules)
             kwargs["n_max"] = max(self.n_max, 2)
+        kwargs.pop("lookahead_top_k", None)
+        if kwargs.get("lookahead") == "exact" and top_k is not None:
+            kwargs["lookahead_top_k"] = top_k
         self.build(kwargs)
 
     @property

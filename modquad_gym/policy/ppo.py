@@ -19,6 +19,7 @@ import numpy as np
 
 from modquad_gym.core.validation import check_real
 from modquad_gym.geometry.structure import Structure
+from modquad_gym.policy.models import TOP_K
 from modquad_gym.policy.policy import Policy, env_kwargs_of, make_env, search_result
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.tasks import as_task
@@ -37,6 +38,7 @@ class PPOSolver:
         samples: extra stochastic rollouts per task (0: deterministic decoding only).
         config: the model's config when ``model`` is a loaded model.
         time_limit: seconds after which the rollouts stop, the first one too (None: none).
+        top_k: as for :class:`~.policy.Policy` (the children decided exactly per step).
     """
 
     def __init__(
@@ -47,10 +49,11 @@ class PPOSolver:
         samples: int = 0,
         config: dict | None = None,
         time_limit: float | None = None,
+        top_k: int | None = TOP_K,
     ) -> None:
         if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
             raise ValueError(f"samples must be an integer >= 0, got {samples!r}")
-        self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config)
+        self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config, top_k)
         self.n_max = self.policy.n_max
         self.seed = int(seed)
         self.samples = int(samples)

@@ -170,23 +170,25 @@ class StructureEvaluator:
             hit = self.capability[key] = Capability(A, rank, len(key), self.features)
         return hit
 
-    def _matrices(self, keys: list) -> np.ndarray:
+    def matrices(self, keys: list) -> np.ndarray:
         """Configuration matrices (L, 6, m) of structures of one size."""
         return configuration_matrices(keys, self.module)
 
-    def supports_of(self, keys: list) -> tuple[np.ndarray, np.ndarray]:
-        """(h_W / denom (L, K), slack (L,)) of the structures ``keys`` (all of one size), cached
-        per key; misses in one batch from their configuration matrices (no oracle call)."""
+    def supports_of(self, keys: list, centres: bool = False) -> tuple[np.ndarray, ...]:
+        """(h_W / denom (L, K), slack (L,)) of the structures ``keys`` (all of one size), and
+        with ``centres`` the projections of W's centre / denom (L, K), cached per key; misses
+        in one batch from their configuration matrices (no oracle call)."""
         missing = [k for k in dict.fromkeys(keys) if k not in self.supports]
         if missing:
             if len(self.supports) + len(missing) > CACHE_SIZE:
                 self.supports.clear()
                 missing = list(dict.fromkeys(keys))  # the cached ones went too
-            h, slack = self.features.supports(self._matrices(missing))
-            for k, hk, sk in zip(missing, h, slack):
-                self.supports[k] = (hk, float(sk))
+            h, slack, centre = self.features.supports(self.matrices(missing))
+            for k, hk, sk, ck in zip(missing, h, slack, centre):
+                self.supports[k] = (hk, float(sk), ck)
         rows = [self.supports[k] for k in keys]
-        return np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
+        h, slack = np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
+        return (h, slack, np.array([r[2] for r in rows])) if centres else (h, slack)
 
     # --- against a task ---------------------------------------------------------------------
     def task_arrays(self, task: Any, key: Any = None) -> TaskArrays:
@@ -333,7 +335,7 @@ class MixedStructureEvaluator(StructureEvaluator):
         cells = np.array([c for c, _ in key], dtype=np.float64)
         return cells, np.array([self.index[id(m)] for _, m in key], dtype=np.int64)
 
-    def _matrices(self, keys: list) -> np.ndarray:
+    def matrices(self, keys: list) -> np.ndarray:
         cells = np.array([[c for c, _ in k] for k in keys], dtype=float)
         types = np.array([[self.index[id(m)] for _, m in k] for k in keys])
         return mixed_configuration_matrices(cells, types, self.palette)

@@ -203,12 +203,14 @@ class AssemblyFeatures:
         slack = (2.0 * TOL * self.f_max * np.abs(P).sum(axis=1) + 1e-12) / self.denom
         return h_W / self.denom, float(slack.max())
 
-    def supports(self, A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Batched :meth:`support`: (h_W / denom (L, K), slack (L,)) for A of shape (L, 6, m)."""
+    def supports(self, A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Batched :meth:`support`: (h_W / denom (L, K), slack (L,), d . c / denom (L, K) with
+        c = A 1 f_max / 2 the centre of W) for A of shape (L, 6, m)."""
         P = np.einsum("kj,ljm->lkm", self.D, A)
         h_W = np.maximum(P, 0.0).sum(axis=2) * self.f_max
         slack = (2.0 * TOL * self.f_max * np.abs(P).sum(axis=2) + 1e-12) / self.denom
-        return h_W / self.denom, slack.max(axis=1)
+        centre = P.sum(axis=2) * (self.f_max / 2.0) / self.denom
+        return h_W / self.denom, slack.max(axis=1), centre
 
     def candidates(
         self, h_Cn: np.ndarray, slack: np.ndarray, h_Tn: np.ndarray, WD: np.ndarray

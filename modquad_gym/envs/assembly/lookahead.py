@@ -28,6 +28,9 @@ from modquad_gym.search.baselines import TIE_DECIMALS, greedy_rank
 
 SHARE, MARGIN, GREEDY = CANDIDATE_FEATURES, CANDIDATE_FEATURES + 1, CANDIDATE_FEATURES + 2
 """Columns of the exact entries in a row."""
+FLAT = 1e-9
+"""Widths (and offsets) below this (in units of denom) count as zero: a flat direction of a
+rank-deficient W bounds nothing but what lies off it."""
 CHUNK = 2**21
 """Most (child, wrench, direction) entries :func:`support_bounds` holds at once (16 MB)."""
 
@@ -80,58 +83,124 @@ def greedy_choice(scores: dict, cells: dict, actions) -> int:
 
 
 def shortlisted(ep: Episode, state: AssemblyState) -> AssemblyState:
-    """``state`` with its valid actions cut to the ``ep.rules.top_k`` best by
-    :func:`support_bounds` (share bound, then margin bound, then (cell, type) order as greedy
-    breaks ties), the encoding's own mask kept in ``free`` (None when nothing was cut)."""
+    """``state`` with its valid actions cut to the first ``ep.rules.top_k`` of
+    :func:`ranked`, the encoding's own mask kept in ``free`` (None when nothing was cut)."""
     valid = np.flatnonzero(state.mask)
     if len(valid) <= ep.rules.top_k:
         return state.but(free=None)
-    acts, order, share, margin = [], [], [], []
-    for batch, cells, keys, mass in children(ep, state, valid):
-        s, m = child_bounds(ep.evaluator, state.task, keys, mass)
-        acts.append(batch)
+    mask = np.zeros_like(state.mask)
+    mask[ranked(ep, state, valid)[: ep.rules.top_k]] = 1
+    return state.but(mask=mask, free=state.mask)
+
+
+def ranked(ep: Episode, state: AssemblyState, acts: np.ndarray) -> np.ndarray:
+    """The actions ``acts`` of ``state``, best first by :func:`child_bounds`: the share
+    bound, then the margin bound (rounded as greedy rounds), then (cell, type) order."""
+    batches, order, share, margin = [], [], [], []
+    directions = None if state.task.per_structure else parent_directions(ep, state)
+    for batch, cells, keys, mass in children(ep, state, acts):
+        s, m = child_bounds(ep, state, keys, mass, directions)
+        batches.append(batch)
         share.append(s)
         margin.append(m)
         order += [(c, ep.actions.type_of(a)) for a, c in zip(batch.tolist(), cells)]
     tie = np.empty(len(order), dtype=np.int64)
     tie[sorted(range(len(order)), key=order.__getitem__)] = np.arange(len(order))
     share, margin = np.concatenate(share), np.round(np.concatenate(margin), TIE_DECIMALS)
-    best = np.concatenate(acts)[np.lexsort((tie, -margin, -share))[: ep.rules.top_k]]
-    mask = np.zeros_like(state.mask)
-    mask[best] = 1
-    return state.but(mask=mask, free=state.mask)
+    return np.concatenate(batches)[np.lexsort((tie, -margin, -share))]
 
 
-def child_bounds(evaluator, task, keys: list, mass: float) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`support_bounds` of the child structures ``keys`` (one size, one mass) against
-    ``task`` (a dynamic task: each child against its own wrenches)."""
-    h, slack = evaluator.supports_of(keys)
-    if not task.per_structure:
-        return support_bounds(h, slack, evaluator.at_mass(task, mass)[2])
-    own = [evaluator.task_of(task, k).WD for k in keys]
-    rows = [support_bounds(h[i : i + 1], slack[i : i + 1], WD) for i, WD in enumerate(own)]
-    return np.concatenate([r[0] for r in rows]), np.concatenate([r[1] for r in rows])
+def parent_directions(ep: Episode, state: AssemblyState) -> np.ndarray:
+    """(2, t, 6): per task wrench, two directions that nearly decide its gauge in a child of
+    ``state``'s structure: the dual of that structure's own exact LP (a facet normal where
+    the wrench leaves its zonotope, :func:`~modquad_gym.oracle.daqp_lp.gamma_and_direction`;
+    one LP per wrench, where the children would take one per wrench and child), and the
+    dual-metric direction ``(A A^T)^+ (w - c)`` (the normal where the ray from the centre
+    leaves the ellipsoid of the same second moment)."""
+    from modquad_gym.oracle.daqp_lp import gamma_and_direction
+
+    ev = ep.evaluator
+    key = ep.modules.key(state.cells, state.types)
+    A = ev.capability_of(key).A
+    W = ev.at_mass(state.task, ep.modules.mass(state.types))[0]
+    z = ev.oracle.zonotope(A, key=key)
+    R, off = z.reduce(W)
+    out = np.zeros((2, len(W), 6))
+    for i in np.flatnonzero(~off):
+        d = gamma_and_direction(z, R[i])[1]
+        if d is not None:
+            out[0, i] = z.Q @ d
+    out[1] = (W - A.sum(axis=1) * (ev.features.f_max / 2.0)) @ np.linalg.pinv(A @ A.T, 1e-10, True)
+    return out
+
+
+def child_bounds(
+    ep: Episode, state: AssemblyState, keys: list, mass: float, directions=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """(share bound, mean margin bound) of the children ``keys`` (one size, one mass) of
+    ``state`` against its task: :func:`support_bounds` on the feature directions and
+    :func:`ray_bounds` on ``directions`` (s, t, 6) per wrench (a dynamic task: each child
+    against its own wrenches, feature directions only)."""
+    ev, task = ep.evaluator, state.task
+    h, slack, centre = ev.supports_of(keys, centres=True)
+    if task.per_structure:
+        parts = [
+            support_bounds(h[i : i + 1], slack[i : i + 1], centre[i : i + 1], own.WD)
+            for i, own in enumerate(ev.task_of(task, k) for k in keys)
+        ]
+        share = np.concatenate([s for s, _ in parts])
+        return share, np.array([margin_bound(g)[0] for _, g in parts])
+    W, _, WD = ev.at_mass(task, mass)
+    share, gamma = support_bounds(h, slack, centre, WD)
+    if directions is not None:
+        A = ev.matrices(keys)
+        for D in directions:
+            gamma = np.maximum(gamma, ray_bounds(A, D, W, ev.features.f_max))
+    return share, margin_bound(gamma)
+
+
+def margin_bound(gamma: np.ndarray) -> np.ndarray:
+    """The mean over wrenches of ``1 - gamma`` clipped to [-1, 1], per row of ``gamma``."""
+    return np.clip(1.0 - gamma, -1.0, 1.0).mean(axis=1)
 
 
 def support_bounds(
-    h_Cn: np.ndarray, slack: np.ndarray, WD: np.ndarray
+    h_Cn: np.ndarray, slack: np.ndarray, centre: np.ndarray, WD: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(share bound (L,), margin bound (L,)) of L structures with supports ``h_Cn`` (L, K) and
-    slacks (L,) (:meth:`~.features.AssemblyFeatures.supports`) against wrenches of projections
-    ``WD`` (t, K) (all divided by denom, which cancels in a ratio).
+    """(share bound (L,), gamma bound (L, t)) of L structures with supports ``h_Cn`` (L, K),
+    slacks (L,) and centres ``centre`` (L, K) (:meth:`~.features.AssemblyFeatures.supports`)
+    against wrenches of projections ``WD`` (t, K), all divided by denom (which cancels).
 
-    A wrench w lies in gamma W only if d . w <= gamma h_W(d) in every direction d, so
-    max_d (d . w) / h_W(d) bounds its gamma from below and 1 minus it bounds its margin
-    1 - gamma from above; clipped to [-1, 1] and averaged, the exact lookahead's mean margin
-    from above. The share bound counts the wrenches the support test cannot reject (the
-    oracle accepts every wrench it decides feasible; see ``slack``)."""
+    gamma is a wrench's gauge about W's centre c (the oracle's: its margin is 1 - gamma). W is
+    symmetric about c, so w = c + gamma z with z in W - c gives |d . (w - c)| <= gamma
+    (h_W(d) - d . c) in every direction d: the largest ratio bounds gamma from below, hence
+    the margin from above. The share bound counts the wrenches the support test cannot
+    reject (it never rejects one the oracle accepts; see ``slack``)."""
     n, t, k = len(h_Cn), len(WD), WD.shape[1]
-    share, margin = np.empty(n), np.empty(n)
+    share, gamma = np.empty(n), np.empty((n, t))
     step = max(1, CHUNK // max(t * k, 1))
     for i in range(0, n, step):
-        h, cut = h_Cn[i : i + step, None, :], slice(i, i + step)
-        share[cut] = np.count_nonzero((WD[None] - h).max(axis=2) <= slack[cut, None], axis=1) / t
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(h > 0.0, WD[None] / h, np.where(WD[None] > 0.0, np.inf, -np.inf))
-        margin[cut] = np.clip(1.0 - ratio.max(axis=2), -1.0, 1.0).mean(axis=1)
-    return share, margin
+        cut = slice(i, i + step)
+        h, c = h_Cn[cut, None, :], centre[cut, None, :]
+        deficit = (WD[None] - h).max(axis=2)
+        share[cut] = np.count_nonzero(deficit <= slack[cut, None], axis=1) / t
+        gamma[cut] = ratios(np.abs(WD[None] - c), h - c, FLAT).max(axis=2)
+    return share, gamma
+
+
+def ray_bounds(A: np.ndarray, D: np.ndarray, W: np.ndarray, f_max: float) -> np.ndarray:
+    """gamma bound (L, t) of the structures of configuration matrices ``A`` (L, 6, m) for the
+    wrenches ``W`` (t, 6), each in its own direction (a row of ``D``, (t, 6); zero: none),
+    by the inequality of :func:`support_bounds`."""
+    half = f_max / 2.0
+    width = np.abs(np.matmul(D[None], A)).sum(axis=2) * half  # (L, t)
+    off = np.abs(np.einsum("ti,ti->t", D, W)[None] - A.sum(axis=2) @ D.T * half)
+    scale = np.linalg.norm(D, axis=1)[None] * np.linalg.norm(A, axis=1).sum(axis=1)[:, None]
+    return ratios(off, width, FLAT * half * scale)
+
+
+def ratios(off: np.ndarray, width: np.ndarray, flat) -> np.ndarray:
+    """off / width where the width exceeds ``flat``; else inf where the offset does too (off a
+    flat direction: not in W), 0 where it does not (no bound)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(width > flat, off / width, np.where(off > flat, np.inf, 0.0))
