@@ -62,17 +62,22 @@ def decide_compiled(z: Zonotope, R: np.ndarray) -> np.ndarray:
     return verdict == 1
 
 
-def gamma_compiled(z: Zonotope, R: np.ndarray, cap: float = np.inf) -> np.ndarray:
+def gamma_compiled(
+    z: Zonotope, R: np.ndarray, cap: float = np.inf, dirs: np.ndarray | None = None
+) -> np.ndarray:
     """Exact gamma per row of R (centred reduced wrenches in range(A)): the walk to the optimum
     (:func:`~modquad_gym.oracle.kernels.gamma_rows`), the DAQP gamma where it gives up. A row
     whose gamma is certified above ``cap`` gets a certified lower bound (> cap) instead: the
-    walk stops as soon as it proves that (a clipped margin needs no more)."""
+    walk stops as soon as it proves that (a clipped margin needs no more). ``dirs`` (t, rank),
+    when given, receives each row's last direction of the walk (a facet normal at the
+    optimum, a separating direction past ``cap``)."""
     from modquad_gym.oracle import kernels
 
     prep, _ = _prepared(z)
     R = np.ascontiguousarray(R, dtype=float)
     out = np.empty(len(R))
-    kernels.gamma_rows(z.G, z.P, prep, R, float(cap), out)
+    dirs = np.empty((0, z.rank)) if dirs is None else dirs
+    kernels.gamma_rows(z.G, z.P, prep, R, float(cap), out, dirs)
     rest = np.flatnonzero(np.isnan(out))
     if len(rest):
         out[rest] = gamma_daqp(z, R[rest])

@@ -170,12 +170,13 @@ def decide_rows(G, P, prep, R, memory, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def gamma_rows(G, P, prep, R, cap, out):  # pragma: no cover - compiled
+def gamma_rows(G, P, prep, R, cap, out, dirs):  # pragma: no cover - compiled
     """gamma of the rows of R (centred reduced wrenches) into out: the walk to the optimum from
     the dual-metric direction, measured by the allocation corrected onto G x = r (never below
     the true gamma); nan where the walk gives up. A row whose gamma is certified above ``cap``
     (the bounding box, or a direction y of the walk with r . y > cap h(y)) gets that certified
-    lower bound instead (> cap; the walk stops there): ``cap = inf`` computes every gamma."""
+    lower bound instead (> cap; the walk stops there): ``cap = inf`` computes every gamma.
+    With rows in ``dirs`` (else shape (0, n)), each row's last direction y goes there."""
     walk, x, y = _workspace(G)
     _, norms, axes, dual = prep
     n = G.shape[0]
@@ -189,20 +190,21 @@ def gamma_rows(G, P, prep, R, cap, out):  # pragma: no cover - compiled
             box = max(box, abs(r[i]) / axes[i])
         if norm == 0.0:
             out[k] = 0.0
-            continue
-        if box > cap:  # beyond the box scaled by cap: y = +-e_i proves gamma >= box
+        elif box > cap:  # beyond the box scaled by cap: y = +-e_i proves gamma >= box
             out[k] = box
-            continue
-        status = vertex_walk(G, norms, r, y, x, 0.0, cap, walk)
-        if status == 0:  # y proves gamma >= r . y / h(y) > cap
-            ry = 0.0
-            for i in range(n):
-                ry += r[i] * y[i]
-            out[k] = ry / _l1_support(y, G)
-        elif status == 2:
-            out[k] = _corrected_max(G, P, r, x)
         else:
-            out[k] = np.nan
+            status = vertex_walk(G, norms, r, y, x, 0.0, cap, walk)
+            if status == 0:  # y proves gamma >= r . y / h(y) > cap
+                ry = 0.0
+                for i in range(n):
+                    ry += r[i] * y[i]
+                out[k] = ry / _l1_support(y, G)
+            elif status == 2:
+                out[k] = _corrected_max(G, P, r, x)
+            else:
+                out[k] = np.nan
+        if dirs.shape[0]:
+            dirs[k] = y
 
 
 @njit(cache=True)

@@ -22,6 +22,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from modquad_gym.envs.assembly.evaluator import CLIP_GAMMA
 from modquad_gym.envs.assembly.features import CANDIDATE_FEATURES, lookahead_width
 from modquad_gym.envs.assembly.types import AssemblyState, Episode
 from modquad_gym.search.baselines import TIE_DECIMALS, greedy_rank
@@ -112,12 +113,12 @@ def ranked(ep: Episode, state: AssemblyState, acts: np.ndarray) -> np.ndarray:
 
 def parent_directions(ep: Episode, state: AssemblyState) -> np.ndarray:
     """(2, t, 6): per task wrench, two directions that nearly decide its gauge in a child of
-    ``state``'s structure: the dual of that structure's own exact LP (a facet normal where
-    the wrench leaves its zonotope, :func:`~modquad_gym.oracle.daqp_lp.gamma_and_direction`;
-    one LP per wrench, where the children would take one per wrench and child), and the
-    dual-metric direction ``(A A^T)^+ (w - c)`` (the normal where the ray from the centre
-    leaves the ellipsoid of the same second moment)."""
-    from modquad_gym.oracle.daqp_lp import gamma_and_direction
+    ``state``'s structure: the last direction of that structure's own exact walk (a facet
+    normal where the wrench leaves its zonotope, or a direction proving it lies beyond
+    :data:`~.evaluator.CLIP_GAMMA`; one exact evaluation a step, where the children would
+    take one each), and the dual-metric direction ``(A A^T)^+ (w - c)`` (the normal where the
+    ray from the centre leaves the ellipsoid of the same second moment)."""
+    from modquad_gym.oracle.compiled import gamma_compiled
 
     ev = ep.evaluator
     key = ep.modules.key(state.cells, state.types)
@@ -125,11 +126,12 @@ def parent_directions(ep: Episode, state: AssemblyState) -> np.ndarray:
     W = ev.at_mass(state.task, ep.modules.mass(state.types))[0]
     z = ev.oracle.zonotope(A, key=key)
     R, off = z.reduce(W)
+    on = np.flatnonzero(~off)
+    dirs = np.zeros((len(on), z.rank))
+    gamma_compiled(z, R[on], CLIP_GAMMA, dirs)
+    ev.tests += len(on)
     out = np.zeros((2, len(W), 6))
-    for i in np.flatnonzero(~off):
-        d = gamma_and_direction(z, R[i])[1]
-        if d is not None:
-            out[0, i] = z.Q @ d
+    out[0, on] = dirs @ z.Q.T
     out[1] = (W - A.sum(axis=1) * (ev.features.f_max / 2.0)) @ np.linalg.pinv(A @ A.T, 1e-10, True)
     return out
 
