@@ -267,7 +267,7 @@ def test_a_wrench_within_the_band_of_the_threshold_is_decided_as_the_step_decide
 
 
 def test_the_per_structure_caches_are_bounded_by_columns_not_entries(monkeypatch):
-    """At 128 modules a structure's matrix and zonotope take ~150 kB: the caches hold 512 of
+    """At 128 modules a structure's matrix and zonotope take ~150 kB: the caches hold 256 of
     them (not 16,384: GBs), while every structure of at most 7 modules still fits at n_max 7."""
     import modquad_gym.envs.assembly.evaluator as evaluator
 
@@ -276,8 +276,8 @@ def test_the_per_structure_caches_are_bounded_by_columns_not_entries(monkeypatch
     assert small.evaluator.cache_size >= 1067  # structures of at most 7 modules
     large = ModQuadAssemblyEnv(n_max=128, lookahead="exact", actions="faces")
     large.reset(seed=0)
-    assert large.evaluator.cache_size == evaluator.CACHED_COLUMNS // (4 * 128) == 512
-    assert large.evaluator.oracle.cache_size == 512
+    assert large.evaluator.cache_size == evaluator.CACHED_COLUMNS // (4 * 128) == 256
+    assert large.evaluator.oracle.cache_size == 256
     monkeypatch.setattr(large.evaluator, "cache_size", 3)
     large.evaluator.oracle.cache_size = 3
     for _ in range(3):

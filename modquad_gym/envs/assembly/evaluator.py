@@ -53,10 +53,14 @@ from modquad_gym.oracle.tolerance import BAND, TOL, decide_from_gamma, margin_fr
 
 CACHE_SIZE = 16384
 """Entries per cache before it is cleared (there are 1,067 structures of at most 7 modules)."""
-CACHED_COLUMNS = 2**18
+CACHED_COLUMNS = 2**17
 """Configuration-matrix columns the per-structure caches (matrices, prepared zonotopes, fault
 tolerance) hold at most, counted at n_max modules a structure: every structure up to 7 modules
-fits, and at 128 modules (512 columns, ~150 kB a structure) 512 structures, not 16,384 (GBs)."""
+fits, and at 128 modules (512 columns, ~150 kB a structure) 256 structures (~40 MB), not 16,384
+(GBs): a single pass needs the few of each step."""
+CACHED_CELLS = 2**18
+"""Module cells the support cache's keys hold at most, counted at n_max modules a key (a key of
+128 cells takes ~8 kB: 16,384 of them took 130 MB): 16,384 keys up to 16 modules, 2,048 at 128."""
 MEMO_TASKS = 16
 """Tasks whose decisions are remembered."""
 CLIP_GAMMA = 2.0
@@ -132,6 +136,7 @@ class StructureEvaluator:
         self, module: ModuleType, n_max: int, f_max: float, n_directions: int, method: str
     ) -> None:
         self.module = module
+        self.n_max = max(n_max, 1)
         self.cache_size = min(CACHE_SIZE, CACHED_COLUMNS // (module.n_rotors * max(n_max, 1)))
         self.oracle = WrenchOracle(f_max, method=method, cache_size=self.cache_size)
         self.features = AssemblyFeatures(module, n_max, f_max, n_directions)
@@ -180,7 +185,7 @@ class StructureEvaluator:
         in one batch from their configuration matrices (no oracle call)."""
         missing = [k for k in dict.fromkeys(keys) if k not in self.supports]
         if missing:
-            if len(self.supports) + len(missing) > CACHE_SIZE:
+            if len(self.supports) + len(missing) > min(CACHE_SIZE, CACHED_CELLS // self.n_max):
                 self.supports.clear()
                 missing = list(dict.fromkeys(keys))  # the cached ones went too
             h, slack, centre = self.features.supports(self.matrices(missing))

@@ -93,6 +93,9 @@ def lookahead_width(lookahead: bool | str) -> int:
     return CANDIDATE_FEATURES + (EXACT_FEATURES if lookahead == "exact" else 0)
 
 
+BATCH = 2**19
+"""Most (structure, direction, column) projections :meth:`AssemblyFeatures.supports` holds at
+once (4 MB)."""
 FUSED_FROM = 65
 """Configuration matrices with at least this many columns (more than 16 four-rotor modules,
 beyond the grid env's old reach, so recorded episodes replay bit for bit) get their support in
@@ -205,7 +208,12 @@ class AssemblyFeatures:
 
     def supports(self, A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Batched :meth:`support`: (h_W / denom (L, K), slack (L,), d . c / denom (L, K) with
-        c = A 1 f_max / 2 the centre of W) for A of shape (L, 6, m)."""
+        c = A 1 f_max / 2 the centre of W) for A of shape (L, 6, m), a few structures at a
+        time (the (L, K, m) projections of 300 children of 128 modules took 470 MB at once)."""
+        step = max(1, BATCH // (self.k * A.shape[2]))
+        if len(A) > step:
+            parts = [self.supports(A[i : i + step]) for i in range(0, len(A), step)]
+            return tuple(np.concatenate(p) for p in zip(*parts))
         P = np.einsum("kj,ljm->lkm", self.D, A)
         h_W = np.maximum(P, 0.0).sum(axis=2) * self.f_max
         slack = (2.0 * TOL * self.f_max * np.abs(P).sum(axis=2) + 1e-12) / self.denom

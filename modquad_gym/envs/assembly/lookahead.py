@@ -32,8 +32,8 @@ SHARE, MARGIN, GREEDY = CANDIDATE_FEATURES, CANDIDATE_FEATURES + 1, CANDIDATE_FE
 FLAT = 1e-9
 """Widths (and offsets) below this (in units of denom) count as zero: a flat direction of a
 rank-deficient W bounds nothing but what lies off it."""
-CHUNK = 2**21
-"""Most (child, wrench, direction) entries :func:`support_bounds` holds at once (16 MB)."""
+CHUNK = 2**19
+"""Most (child, wrench, direction or column) entries the bounds hold at once (4 MB)."""
 
 
 def children(ep: Episode, state: AssemblyState, acts: np.ndarray) -> Iterator[tuple]:
@@ -195,7 +195,16 @@ def ray_bounds(A: np.ndarray, D: np.ndarray, W: np.ndarray, f_max: float) -> np.
     wrenches ``W`` (t, 6), each in its own direction (a row of ``D``, (t, 6); zero: none),
     by the inequality of :func:`support_bounds`."""
     half = f_max / 2.0
-    width = np.abs(np.matmul(D[None], A)).sum(axis=2) * half  # (L, t)
+    step = max(1, CHUNK // (len(D) * A.shape[2]))
+    width = (
+        np.concatenate(
+            [
+                np.abs(np.matmul(D[None], A[i : i + step])).sum(axis=2)
+                for i in range(0, len(A), step)
+            ]
+        )
+        * half
+    )  # (L, t)
     off = np.abs(np.einsum("ti,ti->t", D, W)[None] - A.sum(axis=2) @ D.T * half)
     scale = np.linalg.norm(D, axis=1)[None] * np.linalg.norm(A, axis=1).sum(axis=1)[:, None]
     return ratios(off, width, FLAT * half * scale)
