@@ -19,6 +19,7 @@ greedy. Modules and CPU seconds per pass (each structure verified by the exact L
 
 from __future__ import annotations
 
+import sys
 import time
 
 import numpy as np
@@ -168,7 +169,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     rows, ranks = measure(args)
     recall, passes = summary(rows, ranks, args.k)
-    command = "python -m benchmarks.lookahead_top_k " + " ".join(argv or [])
+    given = sys.argv[1:] if argv is None else argv
+    command = "python -m benchmarks.lookahead_top_k " + " ".join(given)
     text = "\n".join([
         "# The exact lookahead's shortlist (lookahead_top_k)", "",
         made_by(command.strip(), "; one process"), "", __doc__.split("\n\n", 2)[2].strip(), "",
