@@ -164,9 +164,13 @@ def test_bad_shortlists_are_refused_with_the_option_named():
 
 
 def test_the_learned_solvers_act_on_the_shortlist_unless_told_otherwise():
+    """The solvers default to the shortlist; a bare Policy (training, expert labels) does not."""
     pytest.importorskip("sb3_contrib")
     from modquad_gym.policy.models import TOP_K
+    from modquad_gym.policy.policy import Policy
     from modquad_gym.solvers import make_solver
+
+    assert Policy(n_max=7).env.rules.top_k is None  # training and labelling: every child
 
     ppo = make_solver("ppo", n_max=7)
     assert ppo.policy.env.rules.top_k == TOP_K

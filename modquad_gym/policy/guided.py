@@ -43,7 +43,8 @@ class GuidedSolver:
         dive: start with the policy's greedy episode (default True); False: best-first only.
         time_limit: seconds after which the search stops with what it has (None: none), in
             the dive too (which otherwise finishes, whatever the budget).
-        top_k: as for :class:`~.policy.Policy` (the children decided exactly per step).
+        top_k: as for :class:`~.policy.Policy` (the children decided exactly per step;
+            default :data:`~.models.TOP_K`), unless ``model`` is a Policy.
     """
 
     def __init__(

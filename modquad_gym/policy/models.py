@@ -21,9 +21,10 @@ model after expert iteration on tasks of 8-32 modules (``agents.expert_iteration
 SCALE_FROM = 16
 """The budget (n_max) from which a learned method without ``--model`` uses :data:`SCALE_MODEL`."""
 TOP_K = 8
-"""Children a model that reads the exact lookahead has decided exactly per step (the env's
-``lookahead_top_k``: the others, ranked lower by cheap support bounds, are masked out), unless
-told otherwise: :class:`~modquad_gym.policy.policy.Policy`'s ``top_k``."""
+"""Children the learned solvers (``ppo``, ``ppo-guided``) decide exactly per step with a model
+that reads the exact lookahead (the env's ``lookahead_top_k``: the others, ranked lower by cheap
+support bounds, are masked out); their option ``top_k`` (None: every child, as in training).
+Chosen on validation draws: ``results/lookahead_top_k/``."""
 
 
 def default_model(n_max: int | None = None, modules: Any = None) -> Path:

@@ -20,7 +20,7 @@ from modquad_gym.core.extras import import_optional
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.features import lookahead_width
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.models import TOP_K, default_model, read_model
+from modquad_gym.policy.models import default_model, read_model
 from modquad_gym.search import SearchResult
 from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.problem import SearchProblem
@@ -77,7 +77,8 @@ class Policy:
             None: the trained one.
         config: the model's config when ``model`` is a loaded model.
         top_k: with a model that reads the exact lookahead, the children decided exactly per
-            step (the env's ``lookahead_top_k``, default :data:`~.models.TOP_K`); None: all.
+            step (the env's ``lookahead_top_k``); None (default): all, as in training. The
+            learned solvers pass :data:`~.models.TOP_K`.
 
     Attributes:
         net (the actor-critic: an sb3-contrib masked policy), model_path (None for a loaded
@@ -91,7 +92,7 @@ class Policy:
         model: Any = None,
         n_max: int | None = 7,
         config: dict | None = None,
-        top_k: int | None = TOP_K,
+        top_k: int | None = None,
     ) -> None:
         self.saved = None
         if model is None or isinstance(model, (str, Path)):

@@ -38,7 +38,8 @@ class PPOSolver:
         samples: extra stochastic rollouts per task (0: deterministic decoding only).
         config: the model's config when ``model`` is a loaded model.
         time_limit: seconds after which the rollouts stop, the first one too (None: none).
-        top_k: as for :class:`~.policy.Policy` (the children decided exactly per step).
+        top_k: as for :class:`~.policy.Policy` (the children decided exactly per step;
+            default :data:`~.models.TOP_K`), unless ``model`` is a Policy.
     """
 
     def __init__(
