@@ -164,8 +164,10 @@ def complete(args: argparse.Namespace) -> None:
     if args.publish_run is None:
         args.config = TrainConfig(**{f.name: getattr(args, f.name) for f in fields(TrainConfig)})
         check_environment(args.config)
-        if args.resume is not None:
-            check_model(args.resume, args.config.env_kwargs_full, "--resume")
+        for option in ("resume", "init_from"):
+            if getattr(args, option) is not None:
+                where = "--" + option.replace("_", "-")
+                check_model(getattr(args, option), args.config.env_kwargs_full, where)
         check_output_dir(args.tensorboard, what="--tensorboard")
     runs = [seed_out(args.out, s) for s in args.seeds] if args.seeds else [args.out]
     for out in runs:

@@ -49,6 +49,9 @@ the cloned policy but were measured to add nothing where these settings add a ta
 CRITIC_WARMUP = 0
 """PPO steps at the start during which only the critic learns (:mod:`.training`); off in the
 recipe (measured: docs/learned-designer.md)."""
+FOCUS = {"focus_tasks": 0, "focus_percent": 50}
+"""Where PPO trains (:mod:`.focus`): fresh tasks the cloned policy plays first, and the share of
+PPO's episodes on those it missed."""
 IMITATION = {"demo_tasks": 6_000, "bc_epochs": 30, "bc_batch_size": 256, "bc_learning_rate": 1e-3,
              "dagger_rounds": 3, "dagger_epochs": 10}  # fmt: skip
 """Behaviour-cloning settings of the recipe (see :mod:`.imitation`) and of the expert in the
@@ -166,6 +169,24 @@ class TrainConfig:
     resume: Path | None = option(
         None, "continue PPO from this model .zip (no behaviour cloning)", "run"
     )
+    init_from: Path | None = option(
+        None,
+        "start PPO from this model's policy (e.g. runs/<run>/train/cloned_model.zip: "
+        "another RL recipe from the same cloned start) with this run's hyperparameters and a "
+        "step-0 evaluation; no cloning",
+        "run",
+    )
+    focus_tasks: int = option(
+        FOCUS["focus_tasks"],
+        "fresh training tasks the cloned policy plays before PPO; the ones it does not solve "
+        "optimally get --focus-percent of PPO's episodes; 0: none",
+        limits=(0, 10**7),
+    )
+    focus_percent: int = option(
+        FOCUS["focus_percent"],
+        "percent of PPO's episodes on the tasks the cloned policy missed (the rest fresh)",
+        limits=(0, 100),
+    )
     critic_warmup: int = option(
         CRITIC_WARMUP,
         "PPO steps at the start during which only the critic learns (the cloned actor is "
@@ -223,6 +244,8 @@ class TrainConfig:
             )
         check_numbers(self)  # every number in range, named by its train.py option
         check_hyperparameters(self.hyperparameters)
+        if self.resume is not None and self.init_from is not None:
+            raise ValueError("--init-from starts a new PPO run: not with --resume")
         if {"tasks", "n_max"} & set(self.env_kwargs):
             raise ValueError("--env-kwargs: give tasks and n_max with --task-source and --n-max")
 

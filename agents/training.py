@@ -10,11 +10,14 @@ tier (:mod:`modquad_gym.scoring.tiers`) fixes the environment, the task source a
    optimal structure from the certified search and one expert episode that docks towards them
    (:mod:`.imitation`), on ``workers`` processes.
 2. Behaviour cloning of the actor-critic on them (``bc_epochs``).
-3. MaskablePPO fine-tuning on the environment's reward (``timesteps``), evaluated on validation
-   tasks after cloning (step 0) and every ``eval_freq`` steps by :class:`EvalFromStart`; the
-   model with the best validation return is kept (the cloned one unless fine-tuning beats it).
-   With ``--critic-warmup N`` only the critic learns for the first N steps
-   (:class:`CriticWarmup`: the actor's parameters are frozen); off in the recipe.
+3. MaskablePPO fine-tuning on the environment's reward (``timesteps``), on fresh tasks and, with
+   ``focus_tasks``, a share of tasks the cloned policy misses (:mod:`.focus`); evaluated on
+   certified validation tasks after cloning (step 0) and every ``eval_freq`` steps
+   (:mod:`.validation`); the model with the best validation optimal share is kept (the cloned
+   one unless fine-tuning builds more optimal designs). The cloned policy stays beside the
+   checkpoints (``cloned_model.zip``) to measure what RL added. With ``--critic-warmup N`` only
+   the critic learns for the first N steps (:class:`CriticWarmup`: the actor's parameters are
+   frozen); off in the recipe.
 """
 
 from __future__ import annotations
@@ -35,29 +38,6 @@ from modquad_gym.scoring.tiers import get_tier
 
 RUN_FILES = ("model.zip", "config.json", "evaluations.npz")
 """What a training run writes into its run folder."""
-
-
-def _eval_callback_class():
-    """:class:`EvalFromStart`, built on first use so importing this module needs no SB3."""
-    MaskableEvalCallback = import_optional(
-        "sb3_contrib.common.maskable.callbacks"
-    ).MaskableEvalCallback
-
-    class EvalFromStart(MaskableEvalCallback):
-        """MaskableEvalCallback that also evaluates when training starts (step 0 of the
-        learning curve), so the cloned policy is the best model to beat: fine-tuning is kept
-        only if it does better on validation."""
-
-        def __init__(self, *args: Any, at_start: bool = True, **kwargs: Any) -> None:
-            super().__init__(*args, **kwargs)
-            self.at_start = at_start
-
-        def _on_training_start(self) -> None:
-            super()._on_training_start()
-            if self.at_start:
-                self._on_step()  # n_calls == 0: the parent's evaluation runs
-
-    return EvalFromStart
 
 
 def critic_parameters(policy: Any) -> set[str]:
@@ -117,8 +97,9 @@ def train(config: TrainConfig) -> Path:
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
+    from agents.validation import certified_validation, optimal_eval_class
     from modquad_gym.policy.ppo import make_env
-    from modquad_gym.scoring.suites import CyclingTasks, validation_tasks
+    from modquad_gym.scoring.suites import CyclingTasks
 
     if config.out is None:
         raise ValueError("--out: a run folder is needed")
@@ -130,27 +111,46 @@ def train(config: TrainConfig) -> Path:
     log_dir = Path(config.tensorboard) / name / "train"  # checkpoints, evaluations
     log_dir.mkdir(parents=True, exist_ok=True)
 
-    env_kwargs = config.env_kwargs_full
     vec_cls = SubprocVecEnv if config.vec_env == "subproc" else DummyVecEnv
-    venv = vec_cls([lambda: make_env(**env_kwargs) for _ in range(config.n_envs)])
-    venv.seed(config.seed)
-    val = validation_tasks(config.n_eval, config.validation_source)
+
+    def training_envs(tasks: Any) -> Any:
+        kwargs = {**config.env_kwargs_full, "tasks": tasks}
+        venv = vec_cls([lambda: make_env(**kwargs) for _ in range(config.n_envs)])
+        venv.seed(config.seed)
+        return venv
+
+    venv = training_envs(config.source)
+    modules = get_tier(config.tier).search_kwargs().get("modules")
+    val = certified_validation(config.n_eval, config.validation_source, config.max_modules,
+                               modules)  # fmt: skip
     val_tasks = CyclingTasks(val, name="validation")
     eval_env = DummyVecEnv(
         [lambda: make_env(tasks=val_tasks, n_max=config.max_modules, **config.eval_env_kwargs)]
     )
     model = _new_model(config, venv, MaskablePPO)
     per_env = lambda steps: max(steps // config.n_envs, 1)  # noqa: E731
-    for stale in ("best_model.zip", "evaluations.npz"):  # from an earlier run into this folder
+    for stale in ("best_model.zip", "evaluations.npz", "cloned_model.zip"):  # an earlier run's
         (log_dir / stale).unlink(missing_ok=True)
-    imitation = None
-    if config.resume is None and config.bc_epochs > 0:
+    imitation = cloned = None
+    if config.init_from is not None:
+        model.policy.load_state_dict(MaskablePPO.load(config.init_from, device="cpu").policy
+                                     .state_dict())  # fmt: skip
+        imitation, cloned = {"init_from": str(config.init_from)}, str(config.init_from)
+    elif config.resume is None and config.bc_epochs > 0:
         from agents.pretraining import pretrain
 
         imitation = pretrain(model, config, Path(config.tensorboard) / name / "bc")
+        model.save(log_dir / "cloned_model.zip")  # the start of PPO, to measure what RL adds
+        cloned = str(log_dir / "cloned_model.zip")
+    focus = None
+    if config.focus_tasks and imitation is not None:
+        focused, focus = _focus(config, model, modules, training_envs)
+        venv.close()
+        venv = focused
     eval_freq = config.eval_freq or max(config.timesteps // 20, 512)
-    eval_cb = _eval_callback_class()(
+    eval_cb = optimal_eval_class()(
         eval_env,
+        optima={t.name: t.meta["optimum"] for t in val},
         n_eval_episodes=len(val),
         eval_freq=per_env(eval_freq),
         log_path=str(log_dir),
@@ -180,6 +180,8 @@ def train(config: TrainConfig) -> Path:
         **kept,
         "imitation": imitation,
         "critic_warmup_steps": warmup,
+        "cloned_model": cloned,
+        "focus": focus,
         "wall_seconds": round(time.perf_counter() - t_start, 1),
         "ppo_seconds": round(wall, 1),
         "steps_per_second": round(config.timesteps / wall, 1),
@@ -191,10 +193,37 @@ def train(config: TrainConfig) -> Path:
     return out / "model.zip"
 
 
+def _focus(config: TrainConfig, model: Any, modules: Any, training_envs: Any) -> tuple:
+    """PPO's training envs, set on ``model``, drawing ``focus_percent`` % of their tasks from
+    those the cloned policy misses among ``focus_tasks`` fresh ones (:mod:`.focus`); and what
+    the config records of it."""
+    import numpy as np
+
+    from agents.focus import FocusedTasks, missed_tasks
+    from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+    from modquad_gym.tasks import make_generator
+
+    t0 = time.perf_counter()
+    generator = make_generator(config.source)
+    rng = np.random.default_rng([config.seed, 3])  # never a validation or held-out seed
+    fresh = [generator(rng) for _ in range(config.focus_tasks)]
+    env = ModQuadAssemblyEnv(**config.env_kwargs_full)
+    missed = missed_tasks(model.policy, env, fresh, config.max_modules, modules, config.progress)
+    env.close()
+    venv = training_envs(FocusedTasks(generator, missed, config.focus_percent))
+    model.set_env(venv)
+    return venv, {"tasks": config.focus_tasks, "missed": len(missed),
+                  "percent": config.focus_percent, "task_seed": f"default_rng([{config.seed}, 3])",
+                  "seconds": round(time.perf_counter() - t0, 1)}  # fmt: skip
+
+
 def keep_best(log_dir: Path, out: Path, final_step: int) -> dict:
-    """Copy the model with the best validation return (the final one if no evaluation ran)
+    """Copy the model with the best validation optimal share (the final one if no evaluation
+    ran; :func:`~modquad_gym.scoring.fine_tuning.best_index`)
     and the learning curve from ``log_dir`` into ``out``; what the config records of it."""
     import numpy as np
+
+    from modquad_gym.scoring.fine_tuning import best_index
 
     best = log_dir / "best_model.zip"
     chosen = best if best.is_file() else log_dir / "final_model.zip"
@@ -205,8 +234,8 @@ def keep_best(log_dir: Path, out: Path, final_step: int) -> dict:
         atomic_write(out / "evaluations.npz", lambda tmp: shutil.copyfile(evals, tmp))
         data = np.load(evals)
         if chosen == best:
-            step = int(data["timesteps"][int(np.argmax(data["results"].mean(axis=1)))])
-    kept = "best validation return" if chosen == best else "final"
+            step = int(data["timesteps"][best_index(data)])
+    kept = "best validation optimal share" if chosen == best else "final"
     return {"kept_model": kept, "kept_model_timesteps": step}
 
 

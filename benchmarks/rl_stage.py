@@ -1,0 +1,153 @@
+"""What the RL stage of training added to the cloned policy, per run and over seeds.
+
+    python -m benchmarks.rl_stage RUN [RUN ...] [--out results/rl_stage] [--force]
+
+A RUN is a ``train.py`` run folder (``model.zip``, ``config.json``, ``evaluations.npz``) whose
+config names its cloned start (``cloned_model``: the policy PPO started from). Per run: the
+validation optimal share and success of the cloned start (step 0) and of the kept model (the best
+validation checkpoint) and its step, the final evaluation, whether the curve rose (its last
+quarter's mean optimal share above step 0's); and, never used in training or selection, a single
+deterministic pass of the cloned start and of the kept model on the tier's held-out suites
+(optimal share and success against the certified optima). Over the runs: the mean of each gain
+(kept minus cloned) with its 95 % percentile bootstrap interval over runs
+(:func:`modquad_gym.scoring.stats.interval`). The validation gain is >= 0 by construction (step 0
+is a candidate of the selection); the held-out gain is the unbiased one. Writes report.md,
+report.csv and curves.png (validation optimal share over PPO steps, one line per run).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.common import bench_args, report_page, run_main, write_report
+from modquad_gym.scoring.fine_tuning import best_index
+from modquad_gym.scoring.stats import interval
+from modquad_gym.scoring.tiers import TIERS
+
+OUTPUTS = ("report.md", "report.csv", "curves.png")
+
+
+def heldout(model: Path, tier: str) -> tuple[float, float]:
+    """(optimal share, success) of a single deterministic pass of ``model`` on the tier's
+    held-out suites, tasks whose certified optimum is within n_max."""
+    from modquad_gym.policy.ppo import PPOSolver
+
+    t = TIERS[tier]
+    solver = PPOSolver(model=model, n_max=t.n_max)
+    optimal = success = n = 0
+    for tasks in t.load_suites().values():
+        for task in tasks:
+            if task.meta.get("optimum") is None:
+                continue
+            r = solver.solve(task)
+            n += 1
+            success += r.structure is not None
+            optimal += r.n_modules == task.meta["optimum"]
+    return optimal / n, success / n
+
+
+def cloned_beside(run: Path, tensorboard: Path = Path("runs")) -> Path:
+    """The cloned start a run saved among its checkpoints, for runs whose config predates the
+    ``cloned_model`` entry (``train.py``'s log folder: ``<parent>-<run>`` under ``runs/``)."""
+    run = run.resolve()
+    name = run.name if run.parent == tensorboard.resolve() else f"{run.parent.name}-{run.name}"
+    return tensorboard / name / "train" / "cloned_model.zip"
+
+
+def run_row(run: Path) -> tuple[dict, dict]:
+    """The report's row of one run and its validation curve."""
+    config = json.loads((run / "config.json").read_text())
+    data = np.load(run / "evaluations.npz")
+    steps = data["timesteps"]
+    opt = data["optimal"].mean(axis=1)
+    suc = data["successes"].mean(axis=1)
+    best = best_index(data)
+    tail = opt[-max(1, len(opt) // 4) :].mean()
+    cloned = Path(config.get("cloned_model") or cloned_beside(run))
+    h_clone = heldout(cloned, config["tier"])
+    h_kept = heldout(run / "model.zip", config["tier"])
+    row = {
+        "run": str(run),
+        "seed": config["seed"],
+        "validation tasks": data["optimal"].shape[1],
+        "val optimal, cloned": round(opt[0], 4),
+        "val optimal, kept": round(opt[best], 4),
+        "kept step": int(steps[best]),
+        "val optimal, final": round(opt[-1], 4),
+        "val optimal, last quarter mean": round(tail, 4),
+        "curve rose": bool(tail > opt[0]),
+        "val success, cloned": round(suc[0], 4),
+        "val success, kept": round(suc[best], 4),
+        "held-out optimal, cloned": round(h_clone[0], 4),
+        "held-out optimal, kept": round(h_kept[0], 4),
+        "held-out success, cloned": round(h_clone[1], 4),
+        "held-out success, kept": round(h_kept[1], 4),
+        "ppo seconds": config.get("ppo_seconds"),
+    }
+    return row, {"steps": steps, "optimal": opt, "label": f"{run.name} (seed {config['seed']})"}
+
+
+def gains(rows: list[dict]) -> list[dict]:
+    """Mean gain (kept minus cloned) over the runs with its 95 % bootstrap interval."""
+    out = []
+    for what in ("val optimal", "val success", "held-out optimal", "held-out success"):
+        g = np.array([r[f"{what}, kept"] - r[f"{what}, cloned"] for r in rows])
+        point, low, high = interval([g], np.mean)
+        out.append({"gain (kept - cloned)": what, "runs": len(g), "mean": f"{100 * point:+.2f} pt",
+                    "95 % CI": f"[{100 * low:+.2f}, {100 * high:+.2f}]",
+                    "per run": " ".join(f"{100 * x:+.1f}" for x in g)})  # fmt: skip
+    return out
+
+
+def plot(curves: list[dict], path: Path) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.4, 4))
+    ax = fig.add_subplot()
+    for c in curves:
+        ax.plot(c["steps"], 100 * c["optimal"], marker=".", label=c["label"])
+    ax.set_xlabel("PPO steps (0: the cloned policy)")
+    ax.set_ylabel("validation optimal share (%)")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    FigureCanvasAgg(fig).print_png(str(path))
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = bench_args(
+        argv, "python -m benchmarks.rl_stage", __doc__.split("\n\n")[0],
+        {"runs": {"nargs": "+", "type": Path, "help": "train.py run folders"}},
+        seed_help=None, out="results/rl_stage", outputs=OUTPUTS,
+    )  # fmt: skip
+    rows, curves = [], []
+    for run in args.runs:
+        row, curve = run_row(run)
+        rows.append(row)
+        curves.append(curve)
+    args.out.mkdir(parents=True, exist_ok=True)
+    plot(curves, args.out / "curves.png")
+    command = "python -m benchmarks.rl_stage " + " ".join(str(r) for r in args.runs)
+    notes = (
+        "Per run: validation optimal share of the cloned start (step 0), of the kept model (the "
+        "best validation checkpoint) and at the end; the held-out suites' single pass of the "
+        "cloned start and of the kept model (never used in training or selection)."
+    )
+    text = report_page("What the RL stage added", command, notes, rows, "## Gains over runs", "",
+                       _table(gains(rows)), "", "![curves](curves.png)", "")  # fmt: skip
+    write_report(args.out, "report", rows, text)
+    print(text)
+    return 0
+
+
+def _table(rows: list[dict]) -> str:
+    from benchmarks.common import markdown_table
+
+    return markdown_table(rows)
+
+
+if __name__ == "__main__":
+    raise SystemExit(run_main(main, "rl_stage"))

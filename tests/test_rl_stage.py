@@ -1,0 +1,126 @@
+"""The RL stage of training: validation by optimal share (the kept model), the tasks PPO focuses
+on (those the cloned policy misses), and a PPO run started from a saved cloned policy."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from agents.config import TrainConfig
+from agents.focus import FocusedTasks, missed_tasks
+from agents.validation import episode_optimal
+from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+from modquad_gym.scoring.fine_tuning import best_index
+from modquad_gym.search import exhaustive_search
+from modquad_gym.tasks import PlantedTasks, save_suite
+
+torch = pytest.importorskip("torch")
+
+
+def _evals(optimal, successes, returns) -> dict:
+    rows = lambda v: np.array(v, dtype=float)[:, None].repeat(2, axis=1)  # noqa: E731
+    return {"timesteps": np.arange(len(returns)) * 100, "results": rows(returns),
+            "successes": rows(successes), "optimal": rows(optimal)}  # fmt: skip
+
+
+def test_the_kept_evaluation_is_the_best_optimal_share_then_success_then_return():
+    # the highest return loses to a higher optimal share; success breaks a tie of optima
+    assert best_index(_evals([0.5, 0.5, 0.75, 0.75], [1, 1, 0.5, 1], [9, 9, 1, 0])) == 3
+    assert best_index(_evals([0.5, 0.5, 0.5], [1, 1, 1], [1.0, 1.0 + 1e-12, 0.9])) == 0  # ties
+    assert best_index(_evals([0.5, 0.5], [1, 1], [1.0, 1.1])) == 1  # then the return
+    legacy = {k: v for k, v in _evals([0, 0], [1, 1], [1.0, 1.5]).items() if k != "optimal"}
+    assert best_index(legacy) == 1  # a run before the optimal share: by its return
+
+
+def test_an_episode_is_optimal_with_the_certified_count_or_when_none_exists():
+    assert episode_optimal({"success": True, "n_modules": 3}, 3)
+    assert not episode_optimal({"success": True, "n_modules": 4}, 3)
+    assert not episode_optimal({"success": False, "n_modules": 3}, 3)
+    assert episode_optimal({"success": False, "n_modules": 7}, None)
+
+
+class FirstValid:
+    """A policy that always docks the first valid action (wrong on half the tiny tasks)."""
+
+    def predict(self, obs, action_masks, deterministic=True):
+        return int(np.flatnonzero(action_masks)[0]), None
+
+
+@pytest.fixture(scope="module")
+def tiny_tasks() -> list:
+    gen = PlantedTasks(n_modules=2, n_wrenches=24)
+    return [gen(np.random.default_rng(s)) for s in range(6)]
+
+
+def test_missed_tasks_are_those_a_plain_rollout_does_not_solve_optimally(tiny_tasks):
+    env = ModQuadAssemblyEnv(tasks="planted", n_max=3)
+    missed = missed_tasks(FirstValid(), env, tiny_tasks, n_max=3)
+    reference = []
+    for task in tiny_tasks:  # the same policy, played and judged by hand
+        env.reset(options={"task": task})
+        done = False
+        while not done:
+            _, _, term, trunc, info = env.step(int(np.flatnonzero(env.action_masks())[0]))
+            done = term or trunc
+        n_star = exhaustive_search(task, n_max=3).n_modules
+        if not (info["success"] and info["n_modules"] == n_star):
+            reference.append(task.name)
+    assert [t.name for t in missed] == reference and 0 < len(missed) < len(tiny_tasks)
+
+
+def test_focused_tasks_draw_the_missed_share_with_the_envs_rng(tiny_tasks):
+    fresh = PlantedTasks(n_modules=3)
+    missed = tiny_tasks[:2]
+    draws = [FocusedTasks(fresh, missed, 30)(np.random.default_rng(s)) for s in range(400)]
+    share = np.mean([any(d is m for m in missed) for d in draws])
+    assert 0.22 < share < 0.38
+    again = [FocusedTasks(fresh, missed, 30)(np.random.default_rng(s)) for s in range(5)]
+    assert all(np.array_equal(a.wrenches, d.wrenches) for a, d in zip(again, draws))  # seeded
+    none = FocusedTasks(fresh, [], 100)  # nothing missed: every task fresh
+    assert all(none(np.random.default_rng(s)).n_wrenches != 24 for s in range(20))
+
+
+def test_ppo_from_a_saved_cloned_policy_focuses_and_keeps_the_best_optimal_share(
+    tmp_path, tiny_tasks
+):
+    """A run saves its cloned policy; a second run starts PPO from it, evaluates it at step 0,
+    plays fresh tasks first and records the optimal share of every evaluation; its kept model
+    is the evaluation best_index picks."""
+    from agents.training import train
+
+    suite = save_suite(tiny_tasks, tmp_path / "tiny.json")
+    common = dict(task_source=str(suite), n_max=3, timesteps=512, eval_freq=256, n_eval=4,
+                  tensorboard=tmp_path / "tb", progress=False, workers=1)  # fmt: skip
+    train(TrainConfig(out=tmp_path / "a", demo_tasks=6, bc_epochs=2, dagger_rounds=0, **common))
+    cloned = tmp_path / "tb" / f"{tmp_path.name}-a" / "train" / "cloned_model.zip"
+    assert cloned.is_file()
+    train(TrainConfig(out=tmp_path / "b", init_from=cloned, focus_tasks=6, **common))
+    config = json.loads((tmp_path / "b" / "config.json").read_text())
+    assert config["imitation"] == {"init_from": str(cloned)}
+    assert config["focus"]["tasks"] == 6 and 0 <= config["focus"]["missed"] <= 6
+    evals = np.load(tmp_path / "b" / "evaluations.npz")
+    assert evals["timesteps"][0] == 0 and evals["optimal"].shape == evals["results"].shape
+    assert config["kept_model_timesteps"] == evals["timesteps"][best_index(evals)]
+    with pytest.raises(ValueError, match="--init-from"):
+        TrainConfig(out=tmp_path / "c", init_from=cloned, resume=cloned)
+
+
+def test_the_report_says_what_fine_tuning_did_in_optimal_designs(tmp_path):
+    """With optimal shares recorded, the report's sentence counts optimal validation tasks and
+    names the kept evaluation (the one best_index picks); no rise is never called one."""
+    from modquad_gym.scoring.fine_tuning import fine_tuning_words
+
+    def words(optimal, successes, returns) -> str:
+        np.savez(tmp_path / "e.npz", **_evals(optimal, successes, returns))
+        return fine_tuning_words(tmp_path / "e.npz")
+
+    rose = words([0.5, 0.5, 1.0, 0.5], [1, 1, 1, 1], [1, 2, 1, 1])
+    assert "from the cloned policy's 1 of 2 optimal at step 0, success 100.0 %" in rose
+    assert "to 2 of 2 optimal at step 200, success 100.0 % (+1)" in rose
+    assert "ended at 1 of 2 optimal at step 300" in rose
+    flat = words([0.5, 0.5, 0.0], [1, 1, 1], [2, 1, 0])
+    assert "did not solve more validation tasks optimally" in flat and "first one" in flat
+    tie = words([0.5, 0.5, 0.0], [1, 1, 1], [1, 2, 0])  # a higher return, as many optima
+    assert "did not solve more" in tie and "step 100's (as many optimal)" in tie
