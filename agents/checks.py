@@ -35,6 +35,7 @@ HYPERPARAMETER_RANGES: dict[str, tuple[type, float, float, bool]] = {
     "vf_coef": (float, 0.0, 10.0, True),
     "max_grad_norm": (float, 0.0, 1e6, False),
     "target_kl": (float, 0.0, 10.0, False),
+    "kl_coef": (float, 0.0, 1e3, True),
 }
 """(type, low, high, low included) per MaskablePPO hyperparameter; ``net_arch`` is a list."""
 

@@ -37,15 +37,15 @@ HYPERPARAMETERS = {
     "vf_coef": 0.5,
     "max_grad_norm": 0.5,
     "target_kl": None,
+    "kl_coef": 0.0,
     "net_arch": [256, 256],
     "hidden": 64,
 }
 """MaskablePPO hyperparameters of the recipe (fine-tuning after behaviour cloning); ``net_arch``
 shapes the ``mlp`` architecture, ``hidden`` the ``candidates`` one; ``target_kl`` (None: off)
 ends an update's epochs once the policy has moved that far from the one that collected the
-rollout. Smaller steps (3e-5, clip 0.1, target_kl 0.01, with ``--critic-warmup 4096``) keep
-the cloned policy but were measured to add nothing where these settings add a task
-(docs/learned-designer.md)."""
+rollout; ``kl_coef`` (0: off) weighs a KL term towards the cloned policy in the loss
+(:mod:`.anchored_ppo`). What each was worth: docs/learned-designer.md."""
 CRITIC_WARMUP = 0
 """PPO steps at the start during which only the critic learns (:mod:`.training`); off in the
 recipe (measured: docs/learned-designer.md)."""
@@ -244,6 +244,9 @@ class TrainConfig:
             )
         check_numbers(self)  # every number in range, named by its train.py option
         check_hyperparameters(self.hyperparameters)
+        hp = self.ppo_hyperparameters()
+        if hp["kl_coef"] and not hp["ent_coef"]:
+            raise ValueError("--hyperparameters: kl_coef > 0 needs ent_coef > 0 (anchored_ppo)")
         if self.resume is not None and self.init_from is not None:
             raise ValueError("--init-from starts a new PPO run: not with --resume")
         if {"tasks", "n_max"} & set(self.env_kwargs):

@@ -142,6 +142,8 @@ def train(config: TrainConfig) -> Path:
         imitation = pretrain(model, config, Path(config.tensorboard) / name / "bc")
         model.save(log_dir / "cloned_model.zip")  # the start of PPO, to measure what RL adds
         cloned = str(log_dir / "cloned_model.zip")
+    if imitation is not None:
+        model.set_anchor()  # the cloned policy a kl_coef term pulls towards
     focus = None
     if config.focus_tasks and imitation is not None:
         focused, focus = _focus(config, model, modules, training_envs)
@@ -266,7 +268,9 @@ def _new_model(config: TrainConfig, venv: Any, MaskablePPO: Any) -> Any:
         modules = get_tier(config.tier).modules
         types = palette(modules or "t45")
         policy_kwargs = {"hidden": hidden, "types": type_features(types)}
-    return MaskablePPO(
+    from agents.anchored_ppo import anchored_ppo_class
+
+    return anchored_ppo_class()(
         policy,
         venv,
         policy_kwargs=policy_kwargs,

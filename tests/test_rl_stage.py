@@ -124,3 +124,51 @@ def test_the_report_says_what_fine_tuning_did_in_optimal_designs(tmp_path):
     assert "did not solve more validation tasks optimally" in flat and "first one" in flat
     tie = words([0.5, 0.5, 0.0], [1, 1, 1], [1, 2, 0])  # a higher return, as many optima
     assert "did not solve more" in tie and "step 100's (as many optimal)" in tie
+
+
+def _tiny_model(tmp_path, suite, kl_coef: float):
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from agents.training import _new_model
+    from modquad_gym.policy.ppo import make_env
+
+    config = TrainConfig(out=tmp_path / "run", task_source=str(suite), n_max=3, seed=0,
+                         tensorboard=tmp_path / "tb",
+                         hyperparameters={"n_steps": 64, "batch_size": 32, "kl_coef": kl_coef,
+                                          "learning_rate": 3e-3})  # fmt: skip
+    venv = DummyVecEnv([lambda: make_env(**config.env_kwargs_full)])
+    return _new_model(config, venv, None), venv
+
+
+def test_the_kl_term_is_the_exact_divergence_and_holds_the_policy_near_its_anchor(
+    tmp_path, tiny_tasks
+):
+    from agents.anchored_ppo import kl_divergence
+
+    suite = save_suite(tiny_tasks, tmp_path / "tiny.json")
+    model, venv = _tiny_model(tmp_path, suite, 0.0)
+    model.set_anchor()
+    obs = venv.reset()
+    masks = np.stack(venv.env_method("action_masks"))
+    obs_t, _ = model.policy.obs_to_tensor(obs)
+    assert float(kl_divergence(model.policy, model.anchor, obs_t, masks)[0].detach()) == 0.0
+    with torch.no_grad():  # move the policy; the reference KL over the valid actions by hand
+        for p in model.policy.parameters():
+            p.add_(0.5 * torch.randn_like(p))
+    kl = float(kl_divergence(model.policy, model.anchor, obs_t, masks)[0].detach())
+    logits = [m.get_distribution(obs_t, action_masks=masks).distribution.logits[0].detach()
+              for m in (model.policy, model.anchor)]  # fmt: skip
+    lp, lq = (torch.log_softmax(x[torch.as_tensor(masks[0])], 0).double() for x in logits)
+    assert kl > 0 and kl == pytest.approx(float((lp.exp() * (lp - lq)).sum()), rel=1e-3)
+
+    moved = {}
+    for coef in (0.0, 100.0):  # the same seeded updates, with and without the term
+        model, venv = _tiny_model(tmp_path, suite, coef)
+        model.set_anchor()
+        model.learn(256)
+        obs_t, _ = model.policy.obs_to_tensor(venv.reset())
+        masks = np.stack(venv.env_method("action_masks"))
+        moved[coef] = float(kl_divergence(model.policy, model.anchor, obs_t, masks).mean().detach())
+    assert moved[100.0] < moved[0.0]
+    with pytest.raises(ValueError, match="ent_coef"):
+        TrainConfig(out=tmp_path, hyperparameters={"kl_coef": 1.0, "ent_coef": 0.0})
