@@ -49,6 +49,8 @@ rollout; ``kl_coef`` (0: off) weighs a KL term towards the cloned policy in the 
 CRITIC_WARMUP = 0
 """PPO steps at the start during which only the critic learns (:mod:`.training`); off in the
 recipe (measured: docs/learned-designer.md)."""
+ADVANTAGES = ("gae", "group")
+"""How PPO's advantages are estimated (:mod:`.group_ppo`)."""
 FOCUS = {"focus_tasks": 0, "focus_percent": 50}
 """Where PPO trains (:mod:`.focus`): fresh tasks the cloned policy plays first, and the share of
 PPO's episodes on those it missed."""
@@ -187,6 +189,15 @@ class TrainConfig:
         "percent of PPO's episodes on the tasks the cloned policy missed (the rest fresh)",
         limits=(0, 100),
     )
+    advantage: str = option(
+        "gae",
+        "PPO's advantages: gae (the critic's, SB3's) or group (each training task sampled "
+        "--group-size times, each episode against its group's mean return: agents/group_ppo.py)",
+        choices=ADVANTAGES,
+    )
+    group_size: int = option(
+        8, "sampled episodes per training task with --advantage group", limits=(2, 1024)
+    )
     critic_warmup: int = option(
         CRITIC_WARMUP,
         "PPO steps at the start during which only the critic learns (the cloned actor is "
@@ -247,8 +258,12 @@ class TrainConfig:
         hp = self.ppo_hyperparameters()
         if hp["kl_coef"] and not hp["ent_coef"]:
             raise ValueError("--hyperparameters: kl_coef > 0 needs ent_coef > 0 (anchored_ppo)")
+        if self.advantage not in ADVANTAGES:
+            raise ValueError(f"advantage must be one of {ADVANTAGES}, got {self.advantage!r}")
         if self.resume is not None and self.init_from is not None:
             raise ValueError("--init-from starts a new PPO run: not with --resume")
+        if self.resume is not None and self.advantage != "gae":
+            raise ValueError("--advantage group: not with --resume (a new run's option)")
         if {"tasks", "n_max"} & set(self.env_kwargs):
             raise ValueError("--env-kwargs: give tasks and n_max with --task-source and --n-max")
 

@@ -98,8 +98,10 @@ def train(config: TrainConfig) -> Path:
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
     from agents.validation import certified_validation, optimal_eval_class
+    from modquad_gym.envs.assembly import ModQuadAssemblyEnv
     from modquad_gym.policy.ppo import make_env
     from modquad_gym.scoring.suites import CyclingTasks
+    from modquad_gym.tasks import make_generator
 
     if config.out is None:
         raise ValueError("--out: a run folder is needed")
@@ -144,11 +146,15 @@ def train(config: TrainConfig) -> Path:
         cloned = str(log_dir / "cloned_model.zip")
     if imitation is not None:
         model.set_anchor()  # the cloned policy a kl_coef term pulls towards
-    focus = None
+    tasks, focus = make_generator(config.source), None
     if config.focus_tasks and imitation is not None:
-        focused, focus = _focus(config, model, modules, training_envs)
+        tasks, focus = _focus(config, model, modules, tasks)
         venv.close()
-        venv = focused
+        venv = training_envs(tasks)
+        model.set_env(venv)
+    if config.advantage == "group":
+        sampler = ModQuadAssemblyEnv(**{**config.env_kwargs_full, "tasks": tasks})
+        model.set_sampler(sampler, config.group_size, [config.seed, 4])
     eval_freq = config.eval_freq or max(config.timesteps // 20, 512)
     eval_cb = optimal_eval_class()(
         eval_env,
@@ -195,28 +201,25 @@ def train(config: TrainConfig) -> Path:
     return out / "model.zip"
 
 
-def _focus(config: TrainConfig, model: Any, modules: Any, training_envs: Any) -> tuple:
-    """PPO's training envs, set on ``model``, drawing ``focus_percent`` % of their tasks from
-    those the cloned policy misses among ``focus_tasks`` fresh ones (:mod:`.focus`); and what
-    the config records of it."""
+def _focus(config: TrainConfig, model: Any, modules: Any, generator: Any) -> tuple:
+    """The training tasks' generator that draws ``focus_percent`` % of them from those the
+    cloned policy misses among ``focus_tasks`` fresh ones (:mod:`.focus`), and what the config
+    records of it."""
     import numpy as np
 
     from agents.focus import FocusedTasks, missed_tasks
     from modquad_gym.envs.assembly import ModQuadAssemblyEnv
-    from modquad_gym.tasks import make_generator
 
     t0 = time.perf_counter()
-    generator = make_generator(config.source)
     rng = np.random.default_rng([config.seed, 3])  # never a validation or held-out seed
     fresh = [generator(rng) for _ in range(config.focus_tasks)]
     env = ModQuadAssemblyEnv(**config.env_kwargs_full)
     missed = missed_tasks(model.policy, env, fresh, config.max_modules, modules, config.progress)
     env.close()
-    venv = training_envs(FocusedTasks(generator, missed, config.focus_percent))
-    model.set_env(venv)
-    return venv, {"tasks": config.focus_tasks, "missed": len(missed),
-                  "percent": config.focus_percent, "task_seed": f"default_rng([{config.seed}, 3])",
-                  "seconds": round(time.perf_counter() - t0, 1)}  # fmt: skip
+    return FocusedTasks(generator, missed, config.focus_percent), {
+        "tasks": config.focus_tasks, "missed": len(missed), "percent": config.focus_percent,
+        "task_seed": f"default_rng([{config.seed}, 3])",
+        "seconds": round(time.perf_counter() - t0, 1)}  # fmt: skip
 
 
 def keep_best(log_dir: Path, out: Path, final_step: int) -> dict:
@@ -268,9 +271,9 @@ def _new_model(config: TrainConfig, venv: Any, MaskablePPO: Any) -> Any:
         modules = get_tier(config.tier).modules
         types = palette(modules or "t45")
         policy_kwargs = {"hidden": hidden, "types": type_features(types)}
-    from agents.anchored_ppo import anchored_ppo_class
+    from agents.group_ppo import group_ppo_class
 
-    return anchored_ppo_class()(
+    return group_ppo_class()(
         policy,
         venv,
         policy_kwargs=policy_kwargs,

@@ -172,3 +172,61 @@ def test_the_kl_term_is_the_exact_divergence_and_holds_the_policy_near_its_ancho
     assert moved[100.0] < moved[0.0]
     with pytest.raises(ValueError, match="ent_coef"):
         TrainConfig(out=tmp_path, hyperparameters={"kl_coef": 1.0, "ent_coef": 0.0})
+
+
+def test_group_advantages_judge_each_episode_against_its_group():
+    from agents.group_ppo import group_advantages
+
+    assert np.array_equal(group_advantages([0.4, 0.4, 0.4]), np.zeros(3))  # alike: no update
+    a = group_advantages([0.5, 0.4, 0.4, 0.3])
+    assert a[0] > 0 > a[3] and a[1] == a[2] == 0 and np.std(a) == pytest.approx(1.0)
+
+
+def test_group_ppo_fills_its_rollouts_with_sampled_groups(tmp_path, tiny_tasks):
+    """With --advantage group a run's rollouts are groups of sampled episodes of one task: the
+    buffer's advantages are the group-relative ones of its returns, and the run trains, keeps
+    its best validation model and is deterministic."""
+    from agents.training import train
+
+    suite = save_suite(tiny_tasks, tmp_path / "tiny.json")
+    common = dict(task_source=str(suite), n_max=3, timesteps=256, eval_freq=128, n_eval=3,
+                  tensorboard=tmp_path / "tb", progress=False, workers=1, demo_tasks=6,
+                  bc_epochs=1, dagger_rounds=0, advantage="group", group_size=4,
+                  hyperparameters={"n_steps": 32, "batch_size": 16})  # fmt: skip
+    params = []
+    for name in ("a", "b"):
+        train(TrainConfig(out=tmp_path / name, **common))
+        from sb3_contrib import MaskablePPO
+
+        params.append(MaskablePPO.load(tmp_path / name / "model.zip").policy.state_dict())
+    assert all(torch.equal(params[0][k], params[1][k]) for k in params[0])
+    config = json.loads((tmp_path / "a" / "config.json").read_text())
+    assert config["timesteps"] >= 256 and "group" in config["command"]
+
+
+def test_group_rollouts_hold_each_episode_with_its_groups_advantage(tmp_path, tiny_tasks):
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from agents.group_ppo import group_advantages
+
+    class Count(BaseCallback):
+        def _on_step(self) -> bool:
+            return True
+
+    suite = save_suite(tiny_tasks, tmp_path / "tiny.json")
+    model, venv = _tiny_model(tmp_path, suite, 0.0)
+    model.set_sampler(ModQuadAssemblyEnv(tasks=str(suite), n_max=3, lookahead="exact"), 4, [0, 4])
+    callback = Count()
+    callback.init_callback(model)
+    assert model.collect_rollouts(venv, callback, model.rollout_buffer, model.n_steps)
+    buf = model.rollout_buffer
+    starts = np.flatnonzero(buf.episode_starts.ravel()).tolist() + [buf.advantages.size]
+    episodes = [(buf.returns.ravel()[a], buf.advantages.ravel()[a:b])
+                for a, b in zip(starts, starts[1:])]  # fmt: skip
+    full = len(episodes) // 4 - 1  # the last group may be cut by the buffer's end
+    assert full >= 2 and callback.n_calls * venv.num_envs >= buf.advantages.size
+    for g in range(full):
+        group = episodes[4 * g : 4 * g + 4]
+        expected = group_advantages([r for r, _ in group])
+        for (_, adv), e in zip(group, expected):
+            assert np.allclose(adv, e, atol=1e-6)  # every step of an episode: its advantage
