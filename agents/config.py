@@ -209,7 +209,11 @@ class TrainConfig:
         "evaluate every this many total steps (default timesteps / 20)",
         limits=(1, MAX_STEPS),
     )
-    n_eval: int = option(40, "validation tasks", limits=(1, 100_000))
+    n_eval: int = option(
+        100,
+        "validation tasks (certified; the kept model solves the most optimally)",
+        limits=(1, 100_000),
+    )
     checkpoint_freq: int = option(
         50_000,
         "checkpoint every this many total steps, under --tensorboard",
