@@ -70,10 +70,11 @@ def plot_bars(summary: list[dict], path: Path) -> Path:
 
 
 def plot_learning_curve(evals: Path, path: Path) -> Path | None:
-    """Validation return and success rate over PPO steps (step 0: the cloned policy, when the
-    run cloned an expert first). The success rate keeps its full 0-100 % axis; the return's
-    axis is fitted to the data and the title says how much PPO changed either after step 0
-    (a policy cloned from an expert often starts near its final score)."""
+    """Validation return and success rate (and optimal share, when recorded) over PPO steps
+    (step 0: the cloned policy, when the run cloned an expert first). The success rate keeps
+    its full 0-100 % axis; the return's axis is fitted to the data and the title says how much
+    PPO changed either after step 0 (a policy cloned from an expert often starts near its final
+    score)."""
     if not evals.is_file():
         return None
     from matplotlib.ticker import FuncFormatter
@@ -94,12 +95,17 @@ def plot_learning_curve(evals: Path, path: Path) -> Path | None:
     ax = fig.add_subplot(1, 2, 2)
     if "successes" in data and data["successes"].size:
         success = 100 * data["successes"].mean(axis=1)
-        ax.plot(steps, success, marker="o", color="#2a9d8f")
-        ax.set_title(
-            f"validation success\n{success[0]:.1f} % at step 0, {success.min():.1f}-"
-            f"{success.max():.1f} % over the run",
-            fontsize="medium",
-        )
+        ax.plot(steps, success, marker="o", color="#2a9d8f", label="success")
+        title = f"{success[0]:.1f} % at step 0, {success.min():.1f}-{success.max():.1f} %"
+        head = "validation success"
+        if "optimal" in data and data["optimal"].size:  # certified validation tasks
+            optimal = 100 * data["optimal"].mean(axis=1)
+            ax.plot(steps, optimal, marker="s", color="#e76f51", label="optimal")
+            head = "validation tasks"
+            title = (f"success {title}\noptimal {optimal[0]:.1f} % at step 0, "
+                     f"{optimal.min():.1f}-{optimal.max():.1f} %")  # fmt: skip
+            ax.legend(loc="lower right", fontsize="small")
+        ax.set_title(f"{head}\n{title} over the run", fontsize="medium")
     else:
         ax.set_title("validation success rate (not recorded)")
     ax.set_ylim(0, 105)
