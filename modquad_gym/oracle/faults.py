@@ -167,64 +167,61 @@ class FaultTolerance:
         """The certificate's arrays (:func:`~.fault_kernels.certify_rows`): every failure's
         correction C_S^T one above the other (the least-norm correction of the other rotors per
         unit of 1 + x_S, entries of S set to -I), the rotors they stand for, each failure's
-        first row, and its round-off ``max |G C_S|`` (inf where removing S lowers the rank)."""
+        first row, its round-off ``max |G C_S|`` (inf where removing S lowers the rank), the
+        largest rise and fall of each row off the failed rotors, and H = V^T V."""
         if self._K is None:
             z = self.intact
             H = z.V.T @ z.V
-            sizes = {len(S) for S in self.failures}
-            if len(sizes) != 1:  # failures of different sizes: one at a time
-                groups = [[i] for i in range(len(self.failures))]
-            else:
-                groups = [list(range(len(self.failures)))]
-            C = np.zeros((sum(len(S) for S in self.failures), z.m))
+            sizes = np.array([len(S) for S in self.failures], dtype=np.int64)
+            starts = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+            C = np.zeros((int(starts[-1]), z.m))
             errors = np.full(len(self.failures), np.inf)
-            starts = np.cumsum([0] + [len(S) for S in self.failures])
-            if all(len(S) == 1 for S in self.failures) and z.rank:  # one rotor each: no solve
-                k = np.concatenate(self.failures)
-                gap = 1.0 - H[k, k]
-                usable = gap >= _SINGULAR
-                C = H[k] / np.where(usable, gap, 1.0)[:, None]
-                C[np.arange(len(k)), k] = -1.0
-                C[~usable] = 0.0
-                errors = np.where(usable, np.abs(C @ z.G.T).max(axis=1), np.inf)
-                groups = []
-            for group in groups:
+            off = np.zeros_like(C)  # C off each row's failed rotors
+            for s in np.unique(sizes) if z.rank else []:  # failures of one size at a time
+                group = np.flatnonzero(sizes == s)
                 S = np.array([self.failures[i] for i in group])  # (F, s)
-                s = S.shape[1]
                 M = np.eye(s) - H[S[:, :, None], S[:, None, :]]  # (F, s, s)
-                usable = np.linalg.eigvalsh(M).min(axis=1) >= _SINGULAR if z.rank else None
-                if usable is None or not usable.any():
+                idx = np.flatnonzero(_smallest_eigenvalue(M) >= _SINGULAR)
+                if not len(idx):
                     continue
-                idx = np.flatnonzero(usable)
-                CS = np.linalg.solve(M[idx], H[S[idx]])  # (F', s, m): H_{S,:} = H_{:,S}^T
-                for row, i in zip(CS, idx):
-                    g = group[i]
-                    row[:, self.failures[g]] = -np.eye(s)
-                    C[starts[g] : starts[g + 1]] = row
-                    errors[g] = float(np.abs(z.G @ row.T).max())
-            off = np.abs(C)
-            off[np.arange(len(C)), np.concatenate(self.failures)] = 0.0
+                CS = _solve_small(M[idx], H[S[idx]])  # (F', s, m): H_{S,:} = H_{:,S}^T
+                F = np.arange(len(idx))[:, None, None]
+                CS[F, np.arange(s)[None, :, None], S[idx][:, None, :]] = 0.0
+                rows = starts[group[idx]][:, None] + np.arange(s)  # (F', s)
+                off[rows] = CS
+                CS[F, np.arange(s)[None, :, None], S[idx][:, None, :]] = -np.eye(s)
+                C[rows] = CS
+                errors[group[idx]] = np.abs(np.einsum("im,fsm->fis", z.G, CS)).reshape(
+                    len(idx), -1
+                ).max(axis=1)
+            lift = _pair_lift(H, self.failures)
             self._K = (
                 np.ascontiguousarray(C),
                 np.concatenate(self.failures).astype(np.int64),
-                starts.astype(np.int64),
+                starts,
                 errors,
-                off.max(axis=1),
+                np.maximum(off.max(axis=1), 0.0),
+                np.maximum(-off.min(axis=1), 0.0),
+                lift,
+                np.ascontiguousarray(H),
             )
         return self._K
 
-    def _certify(self, R: np.ndarray) -> np.ndarray:
+    def _certify(self, R: np.ndarray, stop: bool = False) -> np.ndarray:
         """int8 (t, F) per centred reduced wrench (row of R, intact coordinates) and failure:
-        1 certified tolerated, 0 certified not, -1 undecided."""
-        from modquad_gym.oracle.fault_kernels import certify_rows  # numba: compiled on first use
+        1 certified tolerated, 0 certified not, -1 undecided. With ``stop`` the rows after the
+        first pair certified not tolerated are left out (the array ends there)."""
+        from modquad_gym.oracle.fault_kernels import active_set_workspace, certify_rows
 
         z = self.intact
-        C, columns, starts, errors, reach = self._corrections()
+        C, columns, starts, errors, up, down, lift, H = self._corrections()
         out = np.empty((len(R), len(self.failures)), dtype=np.int8)
         R = np.ascontiguousarray(R, dtype=float)
         P = np.ascontiguousarray(z.P)
-        certify_rows(R, z.G, P, z.dual, C, columns, starts, errors, reach, _EXACT, out)
-        return out
+        work = active_set_workspace(z.m)
+        done = certify_rows(R, z.G, P, H, z.dual, C, columns, starts, errors, up, down, lift,
+                            _EXACT, stop, work, out)  # fmt: skip
+        return out[:done]
 
     def _screen(self, W: np.ndarray, cert: np.ndarray) -> None:
         """Mark in ``cert`` (0) the undecided pairs that a support rejects: with the failed
@@ -270,7 +267,9 @@ class FaultTolerance:
             return bool(ok.all()) if stop_early else ok
         if method in ("auto", "compiled"):
             R, _ = self.intact.reduce(W[live])
-            cert = self._certify(R)
+            cert = self._certify(R, stop=stop_early)
+            if len(cert) < len(live):  # stopped at a pair certified not tolerated
+                return False
         else:
             cert = np.full((len(live), len(self.failures)), -1, dtype=np.int8)
             self._screen(W[live], cert)
@@ -279,7 +278,9 @@ class FaultTolerance:
         if stop_early and not alive.all():
             return False
         # failures with the most undecided wrenches first: they are the likely breakers
-        order = np.argsort((cert == 1).sum(axis=0), kind="stable")
+        undecided = (cert == -1) & alive[:, None]
+        order = np.flatnonzero(undecided.any(axis=0))
+        order = order[np.argsort(-undecided[:, order].sum(axis=0), kind="stable")]
         for i in order:
             todo = np.flatnonzero(alive & (cert[:, i] == -1))
             if len(todo):
@@ -320,6 +321,60 @@ class FaultTolerance:
         worst = [float(self._margin_failed(i, W, method).min()) for i in range(len(self.failures))]
         i = int(np.argmin(worst))
         return i, worst[i]
+
+
+def _smallest_eigenvalue(M: np.ndarray) -> np.ndarray:
+    """The smallest eigenvalue of each symmetric (s, s) matrix of M (F, s, s); closed form for
+    s <= 2 (the usual sizes, a per-structure cost of the searches)."""
+    if M.shape[1] == 1:
+        return M[:, 0, 0]
+    if M.shape[1] == 2:
+        p, q, u = M[:, 0, 0], M[:, 0, 1], M[:, 1, 1]
+        return 0.5 * (p + u) - np.hypot(0.5 * (p - u), q)
+    return np.linalg.eigvalsh(M).min(axis=1)
+
+
+def _solve_small(M: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """M^-1 B for each (s, s) matrix of M (F, s, s) and (s, m) block of B; closed form for
+    s <= 2."""
+    if M.shape[1] == 1:
+        return B / M[:, :, :1]
+    if M.shape[1] == 2:
+        p, q, u = M[:, 0, 0, None], M[:, 0, 1, None], M[:, 1, 1, None]
+        det = p * u - q * q
+        return np.stack([(u * B[:, 0] - q * B[:, 1]) / det, (p * B[:, 1] - q * B[:, 0]) / det], 1)
+    return np.linalg.solve(M, B)
+
+
+def _pair_lift(H: np.ndarray, failures: Sequence[np.ndarray]) -> tuple[np.ndarray, ...]:
+    """The arrays of :func:`~.fault_kernels._through` when every failure is a pair (else
+    empty ones): each rotor's single-failure correction (row i: H_{i,:} / (1 - H_ii), entry i
+    -1), and per ordered pair (i, j) the largest rise and fall, off i and j, of the correction
+    of j in A without i (projection H^(i) = H + H_{:,i} H_{i,:} / (1 - H_ii); column j over
+    1 - H^(i)_jj). inf where a correction does not exist (the rank would drop)."""
+    m = len(H)
+    if not failures or any(len(S) != 2 for S in failures):
+        return np.zeros((0, 0)), np.zeros((0, 0)), np.zeros((0, 0))
+    gap = 1.0 - np.diag(H)
+    usable = gap >= _SINGULAR
+    single = np.where(usable[:, None], H / np.where(usable, gap, 1.0)[:, None], 0.0)
+    single[np.arange(m), np.arange(m)] = -1.0
+    up = np.full((m, m), np.inf)
+    down = np.full((m, m), np.inf)
+    rotors = np.flatnonzero(usable)
+    block = max(1, 2**21 // (m * m))  # rotors i at a time: (block, m, m) arrays
+    for start in range(0, len(rotors), block):
+        i = rotors[start : start + block]
+        Hi = H[None] + H[:, i].T[:, :, None] * H[i][:, None, :] / gap[i][:, None, None]
+        gap_j = 1.0 - np.diagonal(Hi, axis1=1, axis2=2)  # (b, m)
+        ok = gap_j >= _SINGULAR
+        ok[np.arange(len(i)), i] = False
+        c = Hi / np.where(ok, gap_j, 1.0)[:, None, :]  # [b, :, j]: the correction of j
+        c[np.arange(len(i)), i, :] = 0.0
+        c[:, np.arange(m), np.arange(m)] = 0.0
+        up[i] = np.where(ok, np.maximum(c.max(axis=1), 0.0), np.inf)
+        down[i] = np.where(ok, np.maximum(-c.min(axis=1), 0.0), np.inf)
+    return np.ascontiguousarray(single), up, down
 
 
 def _zero_rows(W: np.ndarray, f_max: float) -> np.ndarray:
