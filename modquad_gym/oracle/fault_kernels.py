@@ -5,19 +5,26 @@ x = P r is corrected for each failure S by ``x + C_S (1 + x_S)`` (C_S: the least
 of the other rotors with rows S set to -I, so the failed rotors read -1, i.e. zero thrust). The
 pair is certified tolerated when every corrected entry lies within ACCEPT and the equations hold
 to round-off: the residual of x plus the failure's own error ``|G C_S|`` times ``|1 + x_S|_1``
-stays below ``tol``. Most pairs pass without a scan: the largest entry of x plus the largest
-rise any correction row can cause (and the same downwards) already stays in the cube.
+stays below ``tol``. The same correction applies from any allocation y with G y = r (C_S is
+linear in the deviation 1 + y_S), with y's own residual in place of x's. The tests, cheapest
+first (:data:`PATHS`):
 
-Where the first correction leaves the cube, an active set follows: the rotors out of the cube
-are pinned just inside it (at +-SHRINK) beside the failed ones, and the least-norm move in the
-null space of G that puts every pinned rotor on its target, ``(I - H)_{:,T} (I - H_TT)^-1 d_T``
-(H the projection on the row space of G, d_T the pinned rotors' moves), is taken; rotors that
-leave the cube on the way are pinned too, for a few steps. Its result is accepted only after
-the failed rotors are set to exactly -1, every entry is checked against ACCEPT and the residual
-|G y - r| is measured in float64. Where it fails (a pinned rotor would have to come free), a few
-rounds of alternating projections follow (clip into the shrunk cube, then the least-norm move
-of the working rotors back onto the equations), tested the same way; their last residual gives
-a candidate separating direction, which certifies a pair not tolerated.
+1. without a scan: the largest entry of x plus the largest rise the correction rows can cause
+   (and the same downwards) stays in the cube;
+2. for a pair {i, j}, through a single failure: the least-norm corrections compose (the pair's
+   affine set lies in rotor i's), so the pair's correction is y_i + c_{j|i} (1 + (y_i)_j), with
+   y_i = x + C_i (1 + x_i) rotor i's and c_{j|i} the correction of j once i has failed, whose
+   largest rise and fall are made once per structure (:mod:`.fault_corrections`); bounded by
+   y_i's extremes, or with i and j swapped;
+3. the first correction itself, scanned;
+4. from an allocation the active set found for an earlier pair of the wrench that has a
+   failed rotor already off (kept in a pool of :data:`POOL`);
+5. the active set (:mod:`.active_set`): the rotors the first correction took out of the cube are
+   pinned at +-PIN and the least-norm move in the null space of G that puts them there is
+   taken; its residual measured;
+6. alternating projections (clip into the shrunk cube, then back onto the equations); their
+   last residual gives a candidate separating direction, which certifies a pair not tolerated
+   (7).
 """
 
 from __future__ import annotations
@@ -25,22 +32,26 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from modquad_gym.oracle.active_set import active_set
 from modquad_gym.oracle.tolerance import ACCEPT, GUARD, REJECT
 
 ROUNDS = 16
 """Rounds of alternating projections after the active set fails."""
 
-STEPS = 4
-"""Steps of the active set (each pins the rotors that left the cube)."""
+PIN = 0.8
+"""The active set pins a rotor that left the cube at +-PIN: well inside, so that the allocation
+it finds leaves room for the corrections of the wrench's later pairs (it is kept in a pool)."""
 
-PINNED = 12
-"""Most rotors the active set pins (the failed ones included)."""
+POOL = 4
+"""Allocations the active set found for a wrench, kept as starts for its later pairs."""
 
 SURE = ACCEPT - GUARD
 """A pair's correction bounded through a single failure is accepted below this: the bound
 holds to round-off (its rows are computed apart from C_S), kept clear by GUARD."""
 
-_PIVOT = 1e-9  # a pivot of I - H_TT below this: the pinned set leaves too little freedom
+PATHS = ("quick", "through a single failure", "first correction", "pool", "active set",
+         "projections", "separated")  # fmt: skip
+"""The tests of :func:`certify_rows` that settle a (wrench, failure) pair, in order."""
 
 SHRINK = 1.0 - 1e-3
 """The projections clip into the cube shrunk by this factor (so that the move back onto the
@@ -71,126 +82,22 @@ def _separated(r, G, dual, e, failed, work):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _solve(M, b, n):  # pragma: no cover - compiled
-    """Solve M[:n, :n] z = b[:n] in place (z into b) for a symmetric M by its Cholesky
-    factor (M = I - H_TT is positive semi-definite); False when a pivot falls below _PIVOT
-    (the pinned rotors leave too little freedom)."""
-    for c in range(n):
-        d = M[c, c]
-        for k in range(c):
-            d -= M[c, k] * M[c, k]
-        if d < _PIVOT:
-            return False
-        d = np.sqrt(d)
-        M[c, c] = d
-        for i in range(c + 1, n):
-            v = M[i, c]
-            for k in range(c):
-                v -= M[i, k] * M[c, k]
-            M[i, c] = v / d
-    for c in range(n):  # L z' = b, then L^T z = z'
-        v = b[c]
-        for k in range(c):
-            v -= M[c, k] * b[k]
-        b[c] = v / M[c, c]
-    for c in range(n - 1, -1, -1):
-        v = b[c]
-        for k in range(c + 1, n):
-            v -= M[k, c] * b[k]
-        b[c] = v / M[c, c]
-    return True
-
-
-@njit(cache=True, inline="always")
-def _active_set(r, G, H, y, failed, limit, work):  # pragma: no cover - compiled
-    """Move y (G y = r up to round-off, the ``failed`` rotors at -1) into the cube by the
-    active set of the module docstring; True when the result is certified (every entry within
-    ACCEPT, the failed rotors exactly -1, |G y - r|_inf <= limit, measured)."""
-    pinned, target, M, b, mark = work
-    stamp = mark[-1] + 1  # marks this call's pinned rotors without clearing the array
-    mark[-1] = stamp
-    m = len(y)
-    n = 0
-    for k in range(len(failed)):
-        pinned[n] = failed[k]
-        target[n] = -1.0
-        mark[failed[k]] = stamp
-        n += 1
-    added = 0
-    for j in range(m):
-        if abs(y[j]) > ACCEPT and mark[j] != stamp:
-            if n == PINNED:
-                return False
-            pinned[n] = j
-            target[n] = SHRINK if y[j] > 0.0 else -SHRINK
-            mark[j] = stamp
-            n += 1
-            added += 1
-    for step in range(STEPS):
-        if added == 0:
-            break
-        for i in range(n):
-            b[i] = target[i] - y[pinned[i]]
-            for c in range(n):
-                M[i, c] = -H[pinned[i], pinned[c]]
-            M[i, i] += 1.0
-        if not _solve(M, b, n):
-            return False
-        for i in range(n):  # the move (I - H)_{:,T} b (H is symmetric: rows, contiguous)
-            row = pinned[i]
-            bi = b[i]
-            for j in range(m):
-                y[j] -= H[row, j] * bi
-        for i in range(n):
-            y[pinned[i]] += b[i]
-        added = 0
-        for j in range(m):  # rotors the move takes out of the cube are pinned too
-            if abs(y[j]) > ACCEPT and mark[j] != stamp:
-                if n == PINNED or step == STEPS - 1:
-                    return False
-                pinned[n] = j
-                target[n] = SHRINK if y[j] > 0.0 else -SHRINK
-                mark[j] = stamp
-                n += 1
-                added += 1
-    if added:
-        return False
-    for k in range(len(failed)):
-        y[failed[k]] = -1.0
-    for i in range(n):
-        if abs(y[pinned[i]]) > ACCEPT:
-            return False
-    for i in range(G.shape[0]):
-        acc = -r[i]
-        for j in range(m):
-            acc += G[i, j] * y[j]
-        if abs(acc) > limit:
-            return False
-    return True
-
-
-def active_set_workspace(m: int):
-    """The scratch arrays of :func:`_active_set` for m rotors."""
-    mark = np.zeros(m + 1, dtype=np.int64)  # the last entry holds the stamp counter
-    return (np.empty(PINNED, np.int64), np.empty(PINNED), np.empty((PINNED, PINNED)),
-            np.empty(PINNED), mark)  # fmt: skip
-
-
-@njit(cache=True, inline="always")
 def _single_failures(x, single, Y1, hi1, lo1):  # pragma: no cover - compiled
     """Y1[i] = x + single[i] (1 + x_i): the least-norm allocation once rotor i alone has
     failed; hi1[i], lo1[i] its largest and smallest entry off rotor i."""
     m = len(x)
     for i in range(m):
         a = 1.0 + x[i]
+        for k in range(m):
+            Y1[i, k] = x[k] + single[i, k] * a
         hi = -np.inf
         lo = np.inf
-        for k in range(m):
-            v = x[k] + single[i, k] * a
-            Y1[i, k] = v
-            if k != i:
-                hi = max(hi, v)
-                lo = min(lo, v)
+        for k in range(i):
+            hi = max(hi, Y1[i, k])
+            lo = min(lo, Y1[i, k])
+        for k in range(i + 1, m):
+            hi = max(hi, Y1[i, k])
+            lo = min(lo, Y1[i, k])
         hi1[i] = hi
         lo1[i] = lo
 
@@ -216,7 +123,9 @@ def _first_correction(x, C, lo, hi, a, y):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def certify_rows(R, G, P, H, dual, C, columns, starts, errors, up, down, lift, tol, stop, work, out):  # pragma: no cover  # noqa: E501
+def certify_rows(
+    R, G, P, H, dual, C, columns, starts, errors, up, down, lift, tol, stop, work, out, paths, trace
+):  # pragma: no cover
     """out[t, i] = 1: the pair (row t of R, failure i) is certified tolerated; 0: certified
     not (a separating direction of the failed zonotope); -1: undecided. With ``stop`` it
     returns at the first pair certified not tolerated (the rows after it left unset); returns
@@ -230,10 +139,12 @@ def certify_rows(R, G, P, H, dual, C, columns, starts, errors, up, down, lift, t
     without a scan); ``tol`` the largest residual accepted, relative to 1 + |r|_inf; H the
     projection on the row space of G (the active set's); ``dual`` the dual metric (diagonal of
     (G G^T)^-1) that turns the last residual of the projections into a candidate separating
-    direction; ``work`` the active set's scratch (:func:`active_set_workspace`). For pairs,
+    direction; ``work`` the active set's scratch (:func:`~.active_set.workspace`). For pairs,
     ``lift`` = (the single failures' corrections (m, m), and per ordered pair (i, j) the
     largest rise and fall of the correction of j once i has failed, (m, m) each) certifies
-    most pairs without a scan (:func:`_through`); empty arrays skip it."""
+    most pairs without a scan (module docstring); empty arrays skip it. ``paths`` (7,)
+    counts the pairs settled by each test, in :data:`PATHS` order, and ``trace`` (t, F) int8,
+    unless empty, records which settled each pair (for the tests' cross-checks)."""
     t_rows, rank = R.shape
     m = P.shape[0]
     n_fail = len(starts) - 1
@@ -242,6 +153,9 @@ def certify_rows(R, G, P, H, dual, C, columns, starts, errors, up, down, lift, t
     pe = np.empty(m)
     e = np.empty(rank)
     a = np.empty(C.shape[0])  # one entry per row of C (per failed rotor of every failure)
+    a2 = np.empty(C.shape[0])
+    pool = np.empty((POOL, m))
+    pool_resid = np.empty(POOL)
     single, up2, down2 = lift
     Y1 = np.empty(single.shape)
     hi1 = np.empty(len(single))
@@ -267,28 +181,41 @@ def certify_rows(R, G, P, H, dual, C, columns, starts, errors, up, down, lift, t
                 acc += G[i, j] * x[j]
             resid = max(resid, abs(acc))
         limit = tol * (1.0 + big)
+        found = 0  # allocations in the pool for this wrench
         lifted = False  # the single failures' corrections of this wrench not yet made
         for f in range(n_fail):
             out[t, f] = -1
             if errors[f] == np.inf:
                 continue
             lo, hi = starts[f], starts[f + 1]
-            weight = 0.0
-            rise = 0.0
-            fall = 0.0
-            for k in range(lo, hi):
-                a[k] = 1.0 + x[columns[k]]
-                weight += abs(a[k])
-                if a[k] >= 0.0:
-                    rise += up[k] * a[k]
-                    fall += down[k] * a[k]
-                else:
-                    rise -= down[k] * a[k]
-                    fall -= up[k] * a[k]
+            if hi - lo == 2 and x[columns[lo]] >= -1.0 and x[columns[lo + 1]] >= -1.0:
+                a0 = 1.0 + x[columns[lo]]  # a pair, both deviations >= 0: straight-line code
+                a1 = 1.0 + x[columns[lo + 1]]
+                a[lo] = a0
+                a[lo + 1] = a1
+                weight = a0 + a1
+                rise = up[lo] * a0 + up[lo + 1] * a1
+                fall = down[lo] * a0 + down[lo + 1] * a1
+            else:
+                weight = 0.0
+                rise = 0.0
+                fall = 0.0
+                for k in range(lo, hi):
+                    a[k] = 1.0 + x[columns[k]]
+                    weight += abs(a[k])
+                    if a[k] >= 0.0:
+                        rise += up[k] * a[k]
+                        fall += down[k] * a[k]
+                    else:
+                        rise -= down[k] * a[k]
+                        fall -= up[k] * a[k]
             if resid + errors[f] * weight > limit:
                 continue  # (the last residual e is only set by the rounds below)
             if xhi + rise <= ACCEPT and fall - xlo <= ACCEPT:
                 out[t, f] = 1
+                paths[0] += 1
+                if len(trace):
+                    trace[t, f] = 0
                 continue
             if hi - lo == 2 and len(single):  # a pair: through each rotor's own failure
                 if not lifted:
@@ -298,16 +225,54 @@ def certify_rows(R, G, P, H, dual, C, columns, starts, errors, up, down, lift, t
                 b = 1.0 + Y1[i, j]  # through rotor i's failure (module docstring), then j's
                 if b >= 0.0 and hi1[i] + up2[i, j] * b <= SURE and down2[i, j] * b - lo1[i] <= SURE:
                     out[t, f] = 1
+                    paths[1] += 1
+                    if len(trace):
+                        trace[t, f] = 1
                     continue
                 b = 1.0 + Y1[j, i]
                 if b >= 0.0 and hi1[j] + up2[j, i] * b <= SURE and down2[j, i] * b - lo1[j] <= SURE:
                     out[t, f] = 1
+                    paths[1] += 1
+                    if len(trace):
+                        trace[t, f] = 1
                     continue
             if _first_correction(x, C, lo, hi, a, y) <= ACCEPT:
                 out[t, f] = 1
+                paths[2] += 1
+                if len(trace):
+                    trace[t, f] = 2
                 continue
-            if _active_set(R[t], G, H, y, columns[lo:hi], limit, work):
+            ok = False
+            for p in range(min(found, POOL)):  # from an allocation found for an earlier pair
+                weight = 0.0
+                shared = False  # a failed rotor already off in it: the likely successes
+                for k in range(lo, hi):
+                    a2[k] = 1.0 + pool[p, columns[k]]
+                    weight += abs(a2[k])
+                    shared |= a2[k] == 0.0
+                if shared and pool_resid[p] + errors[f] * weight <= limit:
+                    if _first_correction(pool[p], C, lo, hi, a2, pe) <= ACCEPT:
+                        ok = True
+                        break
+            if ok:
                 out[t, f] = 1
+                paths[3] += 1
+                if len(trace):
+                    trace[t, f] = 3
+                continue
+            worst = active_set(R[t], G, H, y, columns[lo:hi], limit, PIN, work)
+            if worst < 0.0:  # again, pinning just inside the cube
+                _first_correction(x, C, lo, hi, a, y)
+                worst = active_set(R[t], G, H, y, columns[lo:hi], limit, SHRINK, work)
+            if worst >= 0.0:
+                slot = found % POOL
+                pool[slot] = y
+                pool_resid[slot] = worst
+                found += 1
+                out[t, f] = 1
+                paths[4] += 1
+                if len(trace):
+                    trace[t, f] = 4
                 continue
             for j in range(m):  # the projections start again from the first correction
                 v = x[j]
@@ -351,8 +316,14 @@ def certify_rows(R, G, P, H, dual, C, columns, starts, errors, up, down, lift, t
                     break
             if ok:
                 out[t, f] = 1
+                paths[5] += 1
+                if len(trace):
+                    trace[t, f] = 5
             elif ROUNDS and _separated(R[t], G, dual, e, columns[lo:hi], y):
                 out[t, f] = 0
+                paths[6] += 1
+                if len(trace):
+                    trace[t, f] = 6
                 if stop:
                     return t + 1
     return t_rows

@@ -19,10 +19,12 @@ rotors off), the least-norm correction of the other rotors is ``K_S (1 + x_S)``,
 H_{:,S} (I - H_SS)^-1`` and ``H = V^T V`` the projection on the row space of G (Woodbury; the
 same for every wrench, so built once per structure). Where the corrected allocation stays in
 the cube (with the certificates' clearance GUARD) and solves the equations to round-off, the
-wrench is tolerated under S; every other (wrench, failure) pair is decided by the oracle on
-A_{-S} itself (its own zonotope, built once per failure; the compiled certificates remember
-its separating directions across wrenches). A failure that lowers the rank (I - H_SS singular:
-a single module, a line) is always decided on A_{-S}.
+wrench is tolerated under S. Most pairs are settled by bounds without scanning the correction;
+the rest by the correction itself, an allocation found for an earlier failure, or an active set
+that pins the rotors the correction took out of the cube (:mod:`.fault_kernels`). Every other
+(wrench, failure) pair is decided by the oracle on A_{-S} itself (its own zonotope, built once
+per failure). A failure that lowers the rank (I - H_SS singular: a single module, a line) is
+always decided on A_{-S}.
 """
 
 from __future__ import annotations
@@ -42,7 +44,6 @@ FAULTS = ("rotor", "module", "rotor2")
 """The kinds of failure: one rotor stops, one module's rotors all stop, or any two rotors stop
 (``"rotor2"``: in one module or in two)."""
 
-_SINGULAR = 1e-6  # smallest eigenvalue of I - H_SS below which the failure is decided on A_{-S}
 _EXACT = 1e-9  # residual of a certificate's equations accepted, relative to 1 + |r|_inf
 
 
@@ -97,7 +98,8 @@ class FaultTolerance:
             after it; :func:`check_fault_margin`).
 
     ``tests`` counts the (wrench, failure) pairs decided by the oracle on A_{-S}; ``certified``
-    those the shared allocation certificate settled.
+    those the shared allocation certificate settled, and ``paths`` how many each of its tests
+    settled (:data:`~.fault_kernels.PATHS`).
     """
 
     def __init__(
@@ -113,6 +115,7 @@ class FaultTolerance:
         self.fault_margin = check_fault_margin(fault_margin)
         self.tests = 0
         self.certified = 0
+        self.paths = np.zeros(7, dtype=np.int64)  # pairs settled per test of the certificate
         self._zonotopes: dict[int, Zonotope | None] = {}
         self._shrunk: dict[int, tuple[Zonotope, np.ndarray] | None] = {}
         self._K: tuple[np.ndarray, ...] | None = None
@@ -164,63 +167,33 @@ class FaultTolerance:
 
     # --- the shared certificate -----------------------------------------------------------
     def _corrections(self) -> tuple[np.ndarray, ...]:
-        """The certificate's arrays (:func:`~.fault_kernels.certify_rows`): every failure's
-        correction C_S^T one above the other (the least-norm correction of the other rotors per
-        unit of 1 + x_S, entries of S set to -I), the rotors they stand for, each failure's
-        first row, its round-off ``max |G C_S|`` (inf where removing S lowers the rank), the
-        largest rise and fall of each row off the failed rotors, and H = V^T V."""
+        """The certificate's arrays (:func:`~.fault_corrections.corrections`), made once."""
         if self._K is None:
-            z = self.intact
-            H = z.V.T @ z.V
-            sizes = np.array([len(S) for S in self.failures], dtype=np.int64)
-            starts = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
-            C = np.zeros((int(starts[-1]), z.m))
-            errors = np.full(len(self.failures), np.inf)
-            off = np.zeros_like(C)  # C off each row's failed rotors
-            for s in np.unique(sizes) if z.rank else []:  # failures of one size at a time
-                group = np.flatnonzero(sizes == s)
-                S = np.array([self.failures[i] for i in group])  # (F, s)
-                M = np.eye(s) - H[S[:, :, None], S[:, None, :]]  # (F, s, s)
-                idx = np.flatnonzero(_smallest_eigenvalue(M) >= _SINGULAR)
-                if not len(idx):
-                    continue
-                CS = _solve_small(M[idx], H[S[idx]])  # (F', s, m): H_{S,:} = H_{:,S}^T
-                F = np.arange(len(idx))[:, None, None]
-                CS[F, np.arange(s)[None, :, None], S[idx][:, None, :]] = 0.0
-                rows = starts[group[idx]][:, None] + np.arange(s)  # (F', s)
-                off[rows] = CS
-                CS[F, np.arange(s)[None, :, None], S[idx][:, None, :]] = -np.eye(s)
-                C[rows] = CS
-                errors[group[idx]] = np.abs(np.einsum("im,fsm->fis", z.G, CS)).reshape(
-                    len(idx), -1
-                ).max(axis=1)
-            lift = _pair_lift(H, self.failures)
-            self._K = (
-                np.ascontiguousarray(C),
-                np.concatenate(self.failures).astype(np.int64),
-                starts,
-                errors,
-                np.maximum(off.max(axis=1), 0.0),
-                np.maximum(-off.min(axis=1), 0.0),
-                lift,
-                np.ascontiguousarray(H),
-            )
+            from modquad_gym.oracle.fault_corrections import corrections
+
+            self._K = corrections(self.intact, self.failures)
         return self._K
 
-    def _certify(self, R: np.ndarray, stop: bool = False) -> np.ndarray:
+    def _certify(
+        self, R: np.ndarray, stop: bool = False, trace: np.ndarray | None = None
+    ) -> np.ndarray:
         """int8 (t, F) per centred reduced wrench (row of R, intact coordinates) and failure:
         1 certified tolerated, 0 certified not, -1 undecided. With ``stop`` the rows after the
-        first pair certified not tolerated are left out (the array ends there)."""
-        from modquad_gym.oracle.fault_kernels import active_set_workspace, certify_rows
+        first pair certified not tolerated are left out (the array ends there). ``trace``
+        (t, F) int8, if given, receives the index of the test that settled each pair
+        (:data:`~.fault_kernels.PATHS`)."""
+        from modquad_gym.oracle.active_set import workspace
+        from modquad_gym.oracle.fault_kernels import certify_rows
 
         z = self.intact
         C, columns, starts, errors, up, down, lift, H = self._corrections()
         out = np.empty((len(R), len(self.failures)), dtype=np.int8)
         R = np.ascontiguousarray(R, dtype=float)
         P = np.ascontiguousarray(z.P)
-        work = active_set_workspace(z.m)
+        work = workspace(z.m)
+        trace = np.zeros((0, 0), dtype=np.int8) if trace is None else trace
         done = certify_rows(R, z.G, P, H, z.dual, C, columns, starts, errors, up, down, lift,
-                            _EXACT, stop, work, out)  # fmt: skip
+                            _EXACT, stop, work, out, self.paths, trace)  # fmt: skip
         return out[:done]
 
     def _screen(self, W: np.ndarray, cert: np.ndarray) -> None:
@@ -273,16 +246,19 @@ class FaultTolerance:
         else:
             cert = np.full((len(live), len(self.failures)), -1, dtype=np.int8)
             self._screen(W[live], cert)
-        self.certified += int(np.count_nonzero(cert >= 0))
-        alive = ~(cert == 0).any(axis=1)
+        rows = np.flatnonzero(cert.min(axis=1, initial=1) < 1)  # wrenches with a pair left
+        sub = cert[rows]
+        self.certified += cert.size - int(np.count_nonzero(sub != 1))
+        alive = np.ones(len(live), dtype=bool)
+        alive[rows] = ~(sub == 0).any(axis=1)
         if stop_early and not alive.all():
             return False
         # failures with the most undecided wrenches first: they are the likely breakers
-        undecided = (cert == -1) & alive[:, None]
+        undecided = (sub == -1) & alive[rows, None]
         order = np.flatnonzero(undecided.any(axis=0))
         order = order[np.argsort(-undecided[:, order].sum(axis=0), kind="stable")]
         for i in order:
-            todo = np.flatnonzero(alive & (cert[:, i] == -1))
+            todo = rows[alive[rows] & (sub[:, i] == -1)]
             if len(todo):
                 alive[todo] = self._decide_failed(int(i), W[live[todo]], method)
             if stop_early and not alive[todo].all():
@@ -321,60 +297,6 @@ class FaultTolerance:
         worst = [float(self._margin_failed(i, W, method).min()) for i in range(len(self.failures))]
         i = int(np.argmin(worst))
         return i, worst[i]
-
-
-def _smallest_eigenvalue(M: np.ndarray) -> np.ndarray:
-    """The smallest eigenvalue of each symmetric (s, s) matrix of M (F, s, s); closed form for
-    s <= 2 (the usual sizes, a per-structure cost of the searches)."""
-    if M.shape[1] == 1:
-        return M[:, 0, 0]
-    if M.shape[1] == 2:
-        p, q, u = M[:, 0, 0], M[:, 0, 1], M[:, 1, 1]
-        return 0.5 * (p + u) - np.hypot(0.5 * (p - u), q)
-    return np.linalg.eigvalsh(M).min(axis=1)
-
-
-def _solve_small(M: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """M^-1 B for each (s, s) matrix of M (F, s, s) and (s, m) block of B; closed form for
-    s <= 2."""
-    if M.shape[1] == 1:
-        return B / M[:, :, :1]
-    if M.shape[1] == 2:
-        p, q, u = M[:, 0, 0, None], M[:, 0, 1, None], M[:, 1, 1, None]
-        det = p * u - q * q
-        return np.stack([(u * B[:, 0] - q * B[:, 1]) / det, (p * B[:, 1] - q * B[:, 0]) / det], 1)
-    return np.linalg.solve(M, B)
-
-
-def _pair_lift(H: np.ndarray, failures: Sequence[np.ndarray]) -> tuple[np.ndarray, ...]:
-    """The arrays of :func:`~.fault_kernels._through` when every failure is a pair (else
-    empty ones): each rotor's single-failure correction (row i: H_{i,:} / (1 - H_ii), entry i
-    -1), and per ordered pair (i, j) the largest rise and fall, off i and j, of the correction
-    of j in A without i (projection H^(i) = H + H_{:,i} H_{i,:} / (1 - H_ii); column j over
-    1 - H^(i)_jj). inf where a correction does not exist (the rank would drop)."""
-    m = len(H)
-    if not failures or any(len(S) != 2 for S in failures):
-        return np.zeros((0, 0)), np.zeros((0, 0)), np.zeros((0, 0))
-    gap = 1.0 - np.diag(H)
-    usable = gap >= _SINGULAR
-    single = np.where(usable[:, None], H / np.where(usable, gap, 1.0)[:, None], 0.0)
-    single[np.arange(m), np.arange(m)] = -1.0
-    up = np.full((m, m), np.inf)
-    down = np.full((m, m), np.inf)
-    rotors = np.flatnonzero(usable)
-    block = max(1, 2**21 // (m * m))  # rotors i at a time: (block, m, m) arrays
-    for start in range(0, len(rotors), block):
-        i = rotors[start : start + block]
-        Hi = H[None] + H[:, i].T[:, :, None] * H[i][:, None, :] / gap[i][:, None, None]
-        gap_j = 1.0 - np.diagonal(Hi, axis1=1, axis2=2)  # (b, m)
-        ok = gap_j >= _SINGULAR
-        ok[np.arange(len(i)), i] = False
-        c = Hi / np.where(ok, gap_j, 1.0)[:, None, :]  # [b, :, j]: the correction of j
-        c[np.arange(len(i)), i, :] = 0.0
-        c[:, np.arange(m), np.arange(m)] = 0.0
-        up[i] = np.where(ok, np.maximum(c.max(axis=1), 0.0), np.inf)
-        down[i] = np.where(ok, np.maximum(-c.min(axis=1), 0.0), np.inf)
-    return np.ascontiguousarray(single), up, down
 
 
 def _zero_rows(W: np.ndarray, f_max: float) -> np.ndarray:

@@ -1,0 +1,102 @@
+"""Two rotor failures (issue 47): every test of the pair certificate cross-checked against HiGHS
+on the failed matrix it speaks for, on random structures (rank-deficient lines and pairs of
+modules included) and wrenches at the boundary of what a pair of failures leaves."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import modquad_gym as mq
+from modquad_gym.oracle import TOL, Zonotope
+from modquad_gym.oracle.fault_corrections import SINGULAR, pair_corrections, pair_lift
+from modquad_gym.oracle.fault_kernels import PATHS
+from modquad_gym.oracle.faults import FaultTolerance, failure_sets
+
+SHAPES = [
+    [(0, 0), (1, 0)],  # rank 5: most pairs lower the rank
+    [(0, 0), (1, 0), (2, 0)],  # a line, rank 5
+    [(0, 0), (1, 0), (0, 1), (1, 1)],
+    [(0, 0), (1, 0), (2, 0), (0, 1), (1, 1)],
+    [(0, 0), (1, 0), (0, 1), (1, 1), (2, 0), (2, 1), (0, 2)],  # the benchmark's structure
+]
+SAMPLE = 6  # (wrench, pair) cases checked by HiGHS per test of the certificate and structure
+
+
+def boundary_wrenches(A: np.ndarray, rng, t: int) -> np.ndarray:
+    """Wrenches inside, on and just outside what a failed pair leaves: allocations with two
+    rotors off (or in [0, 1] for the rest), scaled about 1."""
+    m = A.shape[1]
+    U = rng.uniform(0, 1, (t, m)) * rng.uniform(0.3, 1.0, (t, 1))
+    U[: t // 2, :][np.arange(t // 2)[:, None], rng.integers(0, m, (t // 2, 2))] = 0.0
+    U[: t // 4] = np.round(U[: t // 4])  # vertices
+    scale = rng.choice([0.9, 0.99, 0.999, 1.0, 1.001, 1.01, 1.1], size=(t, 1))
+    return (U @ A.T) * scale
+
+
+def traced(structure: mq.Structure, W: np.ndarray):
+    """(certificate per (wrench, pair), test that settled it, the pairs, the wrenches the intact
+    structure exerts, the FaultTolerance)."""
+    A = structure.configuration_matrix()
+    z = Zonotope(A, 1.0)
+    ft = FaultTolerance(A, 1.0, failure_sets(A.shape[1], "rotor2"), z)
+    live = W[mq.feasible(A, W)]
+    R, _ = z.reduce(live)
+    trace = np.full((len(live), len(ft.failures)), -1, dtype=np.int8)
+    cert = ft._certify(R, trace=trace)
+    return cert, trace, ft.failures, live, ft
+
+
+@settings(max_examples=6, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])  # fmt: skip
+@given(shape=st.integers(0, len(SHAPES) - 1), seed=st.integers(0, 2**31 - 1))
+def test_every_test_of_the_pair_certificate_agrees_with_highs(shape, seed):
+    s = mq.Structure(SHAPES[shape])
+    A = s.configuration_matrix()
+    rng = np.random.default_rng(seed)
+    cert, trace, failures, W, _ = traced(s, boundary_wrenches(A, rng, 40))
+    for path in range(len(PATHS)):
+        cases = np.argwhere(trace == path)
+        for t, f in cases[rng.permutation(len(cases))[:SAMPLE]]:
+            margin = mq.margin(np.delete(A, failures[f], axis=1), W[t : t + 1], method="scipy")[0]
+            if cert[t, f] == 1:  # tolerated: gamma <= 1 + TOL
+                assert margin >= -TOL - 1e-7, (PATHS[path], t, f, margin)
+            else:  # not tolerated: gamma > 1 + TOL
+                assert cert[t, f] == 0 and margin <= -TOL + 1e-7, (PATHS[path], t, f, margin)
+
+
+def test_every_test_is_used_on_the_benchmark_structure():
+    """On the benchmark's 7-module structure every accepting test settles some pairs, and
+    together they leave none to the LP (the rate goal rests on it)."""
+    s = mq.Structure(SHAPES[-1])
+    A = s.configuration_matrix()
+    rng = np.random.default_rng(0)
+    W = (rng.uniform(0.3, 1.0, (200, 28)) * rng.uniform(0, 1, (200, 28))) @ A.T
+    cert, trace, _, _, ft = traced(s, W)
+    for path in ("quick", "through a single failure", "first correction", "pool", "active set"):
+        assert ft.paths[PATHS.index(path)] > 0, path
+    assert (cert == 1).mean() > 0.999
+    assert np.array_equal(np.bincount(trace[trace >= 0], minlength=len(PATHS)), ft.paths)
+
+
+@pytest.mark.parametrize("cells", [SHAPES[2], SHAPES[4]])
+def test_the_pair_arrays_match_the_pair_corrections(cells):
+    """The test through a single failure: the correction of j once i has failed is the pair's
+    correction with i already off (least-norm corrections compose), so its largest rise and
+    fall off i and j are those of the pair's j row of C_S."""
+    A = mq.Structure(cells).configuration_matrix()
+    z = Zonotope(A, 1.0)
+    H = np.ascontiguousarray(z.V.T @ z.V)
+    m = A.shape[1]
+    pairs = np.array(failure_sets(m, "rotor2"), dtype=np.int64)
+    C, errors, up, down = pair_corrections(H, z.G, pairs, SINGULAR)
+    single, rise, fall = pair_lift(H, SINGULAR)
+    assert np.isfinite(errors).all() and errors.max() < 1e-12
+    for f, (i, j) in enumerate(pairs):
+        for a, b, row in ((i, j, 2 * f + 1), (j, i, 2 * f)):
+            off = np.delete(C[row], [i, j])
+            assert rise[a, b] == pytest.approx(max(off.max(), 0.0), abs=1e-9)
+            assert fall[a, b] == pytest.approx(max(-off.min(), 0.0), abs=1e-9)
+    assert np.abs(single @ z.G.T).max() < 1e-9  # a single failure's correction keeps G x
