@@ -115,6 +115,7 @@ class FaultTolerance:
         self.fault_margin = check_fault_margin(fault_margin)
         self.tests = 0
         self.certified = 0
+        self.breaker: tuple[int, int] | None = None  # (wrench, failure) that ended a decide
         self.paths = np.zeros(7, dtype=np.int64)  # pairs settled per test of the certificate
         self._zonotopes: dict[int, Zonotope | None] = {}
         self._shrunk: dict[int, tuple[Zonotope, np.ndarray] | None] = {}
@@ -230,8 +231,10 @@ class FaultTolerance:
         ``fault_margin`` left)? With ``"auto"`` or ``"compiled"`` the shared certificate
         settles what it can; any other method decides every failure by itself (a reference).
         With ``stop_early`` the answer is only whether every wrench is tolerated (a bool): it
-        stops at the first wrench that is not. A margin is required after the plain
-        tolerance holds (it needs it), failure by failure."""
+        stops at the first wrench that is not, and ``breaker`` names (row of W, failure) where
+        a failure rules it out (None when the intact structure or the margin does). A margin
+        is required after the plain tolerance holds (it needs it), failure by failure."""
+        self.breaker = None
         ok = decide_with(self.intact, W, method)
         if stop_early and not ok.all():
             return False
@@ -242,6 +245,7 @@ class FaultTolerance:
             R, _ = self.intact.reduce(W[live])
             cert = self._certify(R, stop=stop_early)
             if len(cert) < len(live):  # stopped at a pair certified not tolerated
+                self.breaker = (int(live[len(cert) - 1]), int(np.argmax(cert[-1] == 0)))
                 return False
         else:
             cert = np.full((len(live), len(self.failures)), -1, dtype=np.int8)
@@ -252,6 +256,8 @@ class FaultTolerance:
         alive = np.ones(len(live), dtype=bool)
         alive[rows] = ~(sub == 0).any(axis=1)
         if stop_early and not alive.all():
+            k = int(np.argmax(~alive[rows]))
+            self.breaker = (int(live[rows[k]]), int(np.argmax(sub[k] == 0)))
             return False
         # failures with the most undecided wrenches first: they are the likely breakers
         undecided = (sub == -1) & alive[rows, None]
@@ -262,6 +268,7 @@ class FaultTolerance:
             if len(todo):
                 alive[todo] = self._decide_failed(int(i), W[live[todo]], method)
             if stop_early and not alive[todo].all():
+                self.breaker = (int(live[todo[np.argmin(alive[todo])]]), int(i))
                 return False
             if not alive.any():
                 break

@@ -130,14 +130,18 @@ class TaskChecker:
     ) -> np.ndarray:
         """bool (L,): structures (cells (L, n, 2), palette indices ``types`` (L, n), default
         all the first type) that no cached direction rejects (only the newest direction with
-        ``newest_only``)."""
+        ``newest_only``); with a ``fault``, rejects by the support left after each structure's
+        worst failure of that kind."""
         cells = np.ascontiguousarray(cells, dtype=np.int32)
         alive = np.ones(len(cells), dtype=bool)
         k = min(1, len(self.pool)) if newest_only else len(self.pool)
         if k:  # numba (supports): only once directions exist
+            from modquad_gym.search.supports import LOSSES
+
             terms = tuple(t[:k] for t in self._terms())
             self.values.reject(cells, self._types(cells, types), self.pool[:k], terms,
-                               self._dz[:k], self.f_max, 0.5 * TOL, alive)  # fmt: skip
+                               self._dz[:k], self.f_max, 0.5 * TOL, alive,
+                               LOSSES[self.fault])  # fmt: skip
         return alive
 
     # --- deciding ---------------------------------------------------------------------------
@@ -223,12 +227,26 @@ class TaskChecker:
                 ok = single.decide(W, self.method(z), stop_early=True)
                 self.oracle_calls += single.tests
                 if not ok:
+                    self._learn_failure(single, W)
                     return False
             tolerance = self.tolerance(A, z)
             ok = tolerance.decide(W, self.method(z), stop_early=True)
             self.oracle_calls += tolerance.tests
+            if not ok:
+                self._learn_failure(tolerance, W)
             return ok
         return True
+
+    def _learn_failure(self, tolerance: FaultTolerance, W: np.ndarray) -> None:
+        """Remember a direction separating the wrench that broke a fault decision from what its
+        failure leaves: the cache then rejects later structures whose support after their own
+        worst failure of the kind (:data:`.supports.LOSSES`) it exceeds (that support is at
+        most what any one failure leaves, so the test stays exact)."""
+        if tolerance.breaker is not None:
+            row, failure = tolerance.breaker
+            z = tolerance.failed(failure)
+            if z is not None:
+                self._learn(z, W[row])
 
     def tolerance(self, A: np.ndarray, z: Zonotope | None = None) -> FaultTolerance:
         """The fault tolerance of a structure's matrix A (columns by module) for this task's

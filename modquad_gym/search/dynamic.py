@@ -123,17 +123,18 @@ class UniformLiftValues:
         """(k, 6) the wrenches of one structure (its mass; the inertia is not used)."""
         return self.model.at(mass)
 
-    def reject(self, cells, types, pool, terms, dz, f_max: float, half_tol: float, alive):
+    def reject(self, cells, types, pool, terms, dz, f_max: float, half_tol: float, alive, lose=0):
         """Clear ``alive`` for the structures (cells (L, n, 2), types (L, n)) that one of the
         first ``len(pool)`` cached directions (their support ``terms``) separates from the
-        task, in one compiled pass."""
+        task (after the worst failure of kind ``lose``, :data:`.supports.LOSSES`), in one
+        compiled pass."""
         from modquad_gym.search import supports
 
         b, alpha, beta = terms
         side = float(self.palette[0].side)
         values = self._values[: len(pool)]
         supports.reject(cells, types, self.weights, side, b, alpha, beta, values, f_max,
-                        half_tol, alive, self.lift, dz)  # fmt: skip
+                        half_tol, alive, self.lift, dz, lose)  # fmt: skip
 
 
 class DynamicValues:
@@ -155,7 +156,7 @@ class DynamicValues:
     def set_pool(self, pool: np.ndarray) -> None:
         """Nothing to cache: the values depend on each structure's mass and size."""
 
-    def reject(self, cells, types, pool, terms, dz, f_max: float, half_tol: float, alive):
+    def reject(self, cells, types, pool, terms, dz, f_max: float, half_tol: float, alive, lose=0):
         """The cache test: structures grouped by mass, each group against the lower bounds of
         the task's values for its mass and size (module docstring)."""
         from modquad_gym.search import supports
@@ -170,7 +171,7 @@ class DynamicValues:
             sub = alive[idx]
             group = np.ascontiguousarray(cells[idx]), np.ascontiguousarray(types[idx])
             supports.reject(*group, self.weights, side, b, alpha, beta, values, f_max,
-                            half_tol, sub, zero, dz)  # fmt: skip
+                            half_tol, sub, zero, dz, lose)  # fmt: skip
             alive[idx] = sub
 
     def values(self, D: np.ndarray, mass: float, n: int) -> np.ndarray:

@@ -8,6 +8,11 @@ d_tau . (c x r_k). Precomputing (b, alpha, beta) per direction makes a support O
 building A: the exhaustive search rejects most structures this way (a separating direction
 learned earlier, or a level bound) before any LP.
 
+After a failure (a rotor, two rotors, a module) the structure's support is that of the rotors
+left; at worst (over every failure of the kind) it is h(d) less the largest positive rotor term,
+the two largest, or the largest module's sum: a direction whose task value exceeds that rules
+the structure out of a fault-tolerant search, exactly.
+
 The oracle's tolerance is included as it is everywhere: thrusts may leave [0, f_max] by
 TOL * f_max / 2, which widens the support by TOL * f_max / 2 * sum_k |d . a_k|.
 
@@ -63,32 +68,59 @@ def _centres(cells, types, l, masses, side, cx, cy):
         cy[i] = (cells[l, i, 1] - my) * side
 
 
+LOSSES = {None: 0, "rotor": 1, "rotor2": 2, "module": 3}
+"""What a failure of each kind takes from a support at worst (the ``lose`` code of
+:func:`reject`): nothing, the largest rotor term, the two largest, the largest module's sum."""
+
+
 @njit(cache=True)
-def _support(b, alpha, beta, p, types, l, cx, cy):
-    """(sum_k max(0, d . a_k), sum_k |d . a_k|) of structure l in direction p."""
+def _support(b, alpha, beta, p, types, l, cx, cy, lose):
+    """(sum_k max(0, d . a_k) less what the worst failure of kind ``lose`` (:data:`LOSSES`)
+    takes from it, sum_k |d . a_k|) of structure l in direction p: after that failure the
+    structure's support in p is at most the first, widened by the second's tolerance share."""
     n = cx.shape[0]
     r = b.shape[2]
     plus = 0.0
     total = 0.0
+    top1 = 0.0  # the two largest positive rotor terms
+    top2 = 0.0
+    module = 0.0  # the largest sum of positive terms of one module
     for i in range(n):
         t = types[l, i]
+        own = 0.0
         for j in range(r):
             v = b[p, t, j] + cx[i] * alpha[p, t, j] + cy[i] * beta[p, t, j]
             if v > 0.0:
                 plus += v
                 total += v
+                own += v
+                if v > top1:
+                    top2 = top1
+                    top1 = v
+                elif v > top2:
+                    top2 = v
             else:
                 total -= v
+        module = max(module, own)
+    if lose == 1:
+        plus -= top1
+    elif lose == 2:
+        plus -= top1 + top2
+    elif lose == 3:
+        plus -= module
     return plus, total
 
 
 @njit(cache=True)
-def reject(cells, types, masses, side, b, alpha, beta, values, f_max, half_tol, alive, lift, dz):
+def reject(
+    cells, types, masses, side, b, alpha, beta, values, f_max, half_tol, alive, lift, dz, lose=0
+):
     """Clear ``alive[l]`` for every structure l that some direction p separates from a task
     wrench: values[p] (the task's max_i d_p . w_i) plus the weight term (sum of ``lift`` over
-    the structure's modules) * dz[p] above its widened support. The direction that rejected
-    the previous structure is tried first (neighbours in the canonical order are alike), then
-    the others in order; the outcome does not depend on the order."""
+    the structure's modules) * dz[p] above its widened support (after the worst failure of
+    kind ``lose``, :data:`LOSSES`: then the structure does not tolerate that failure). The
+    direction that rejected the previous structure is tried first (neighbours in the canonical
+    order are alike), then the others in order; the outcome does not depend on the order."""
     L, n, _ = cells.shape
     P = b.shape[0]
     cx = np.empty(n)
@@ -105,7 +137,7 @@ def reject(cells, types, masses, side, b, alpha, beta, values, f_max, half_tol, 
                 weight += lift[types[l, i]]
         for q in range(P):
             p = last if q == 0 else (q - 1 if q <= last else q)
-            plus, total = _support(b, alpha, beta, p, types, l, cx, cy)
+            plus, total = _support(b, alpha, beta, p, types, l, cx, cy, lose)
             if values[p] + weight * dz[p] > f_max * (plus + half_tol * total) + SLACK:
                 alive[l] = False
                 last = p
@@ -113,8 +145,9 @@ def reject(cells, types, masses, side, b, alpha, beta, values, f_max, half_tol, 
 
 
 @njit(cache=True)
-def max_supports(cells, types, masses, side, b, alpha, beta, plus_out, total_out):
-    """Running maxima over the structures of ``cells`` of both support sums, per direction."""
+def max_supports(cells, types, masses, side, b, alpha, beta, plus_out, total_out, lose=0):
+    """Running maxima over the structures of ``cells`` of both support sums (after the worst
+    failure of kind ``lose``), per direction."""
     L, n, _ = cells.shape
     P = b.shape[0]
     cx = np.empty(n)
@@ -122,7 +155,7 @@ def max_supports(cells, types, masses, side, b, alpha, beta, plus_out, total_out
     for l in range(L):
         _centres(cells, types, l, masses, side, cx, cy)
         for p in range(P):
-            plus, total = _support(b, alpha, beta, p, types, l, cx, cy)
+            plus, total = _support(b, alpha, beta, p, types, l, cx, cy, lose)
             if plus > plus_out[p]:
                 plus_out[p] = plus
             if total > total_out[p]:
