@@ -14,6 +14,7 @@ from modquad_gym.oracle import TOL, Zonotope
 from modquad_gym.oracle.fault_corrections import SINGULAR, pair_corrections, pair_lift
 from modquad_gym.oracle.fault_kernels import PATHS
 from modquad_gym.oracle.faults import FaultTolerance, failure_sets
+from modquad_gym.tasks import PaperTasks
 
 SHAPES = [
     [(0, 0), (1, 0)],  # rank 5: most pairs lower the rank
@@ -100,3 +101,47 @@ def test_the_pair_arrays_match_the_pair_corrections(cells):
             assert rise[a, b] == pytest.approx(max(off.max(), 0.0), abs=1e-9)
             assert fall[a, b] == pytest.approx(max(-off.min(), 0.0), abs=1e-9)
     assert np.abs(single @ z.G.T).max() < 1e-9  # a single failure's correction keeps G x
+
+
+@pytest.mark.parametrize("fault", ["rotor", "rotor2", "module"])
+def test_the_support_after_the_worst_failure_is_the_least_over_failures(fault):
+    """The fault-aware cache test: what the compiled support leaves after the worst failure of
+    the kind is the smallest support over that kind's failed matrices (so a direction beyond it
+    separates the task from some failed structure)."""
+    from modquad_gym.search import supports
+
+    module = mq.TModule()
+    D = np.random.default_rng(7).normal(size=(16, 6))
+    b, alpha, beta = supports.direction_terms([module], D)
+    for cells in SHAPES:
+        A = mq.Structure(cells).configuration_matrix()
+        n = len(cells)
+        c = np.array([cells], dtype=np.int32)
+        types = np.zeros((1, n), dtype=np.int8)
+        cx, cy = np.empty(n), np.empty(n)
+        supports._centres(c, types, 0, np.array([module.mass]), module.side, cx, cy)
+        for p, d in enumerate(D):
+            v = d @ A
+            left = [np.maximum(np.delete(v, S), 0).sum() for S in failure_sets(len(v), fault)]
+            lose = supports.LOSSES[fault]
+            plus, total = supports._support(b, alpha, beta, p, types, 0, cx, cy, lose)
+            assert plus == pytest.approx(min(left), abs=1e-9)
+            assert total == pytest.approx(np.abs(v).sum(), abs=1e-9)
+
+
+@pytest.mark.parametrize("fault", ["rotor", "rotor2", "module"])
+def test_the_fault_cache_changes_no_answer(fault, monkeypatch):
+    """The exhaustive search with the fault-aware cache (directions learnt from failed decisions,
+    supports after the worst failure) returns the same first structure in canonical order as
+    with the plain cache of intact directions."""
+    from modquad_gym.search import supports
+    from modquad_gym.search.checker import TaskChecker
+
+    task = PaperTasks(n_wrenches=10)(np.random.default_rng(3))
+    fast = mq.exhaustive_search(task, n_max=8, fault=fault)
+    monkeypatch.setattr(supports, "LOSSES", dict.fromkeys(supports.LOSSES, 0))
+    monkeypatch.setattr(TaskChecker, "_learn_failure", lambda self, tolerance, W: None)
+    plain = mq.exhaustive_search(task, n_max=8, fault=fault)
+    assert fast.certified and plain.certified
+    assert fast.structure.cells == plain.structure.cells
+    assert fast.evaluated == plain.evaluated
