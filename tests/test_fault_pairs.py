@@ -10,6 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import modquad_gym as mq
+from modquad_gym.geometry.polyominoes import PolyominoStream
 from modquad_gym.oracle import TOL, Zonotope
 from modquad_gym.oracle.fault_corrections import SINGULAR, pair_corrections, pair_lift
 from modquad_gym.oracle.fault_kernels import PATHS
@@ -145,3 +146,23 @@ def test_the_fault_cache_changes_no_answer(fault, monkeypatch):
     assert fast.certified and plain.certified
     assert fast.structure.cells == plain.structure.cells
     assert fast.evaluated == plain.evaluated
+
+
+@pytest.mark.parametrize("fault", ["rotor", "rotor2", "module"])
+def test_the_level_bounds_after_a_failure_are_the_level_maxima(fault):
+    """The fault-aware level bound of n modules is the largest, over every structure of n
+    modules, of its support after its own worst failure (so no tolerant structure of n modules
+    exceeds it), checked by enumerating the levels to 4 modules."""
+    from modquad_gym.search.bounds import compute_level_bounds, level_directions
+
+    D = level_directions()
+    for n in (1, 2, 3, 4):
+        plus, total = np.zeros(len(D)), np.zeros(len(D))
+        for cells in [c for chunk in PolyominoStream(n, 1 << 12) for c in chunk.tolist()]:
+            V = D @ mq.Structure([tuple(c) for c in cells]).configuration_matrix()
+            left = [np.maximum(np.delete(V, S, axis=1), 0).sum(axis=1)
+                    for S in failure_sets(V.shape[1], fault)]  # fmt: skip
+            plus = np.maximum(plus, np.min(left, axis=0))
+            total = np.maximum(total, np.abs(V).sum(axis=1))
+        bounds = compute_level_bounds(mq.TModule(), n, fault)
+        assert np.allclose(bounds[0], plus, atol=1e-9) and np.allclose(bounds[1], total, atol=1e-9)

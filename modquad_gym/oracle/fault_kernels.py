@@ -127,9 +127,9 @@ def certify_rows(
     R, G, P, H, dual, C, columns, starts, errors, up, down, lift, tol, stop, work, out, paths, trace
 ):  # pragma: no cover
     """out[t, i] = 1: the pair (row t of R, failure i) is certified tolerated; 0: certified
-    not (a separating direction of the failed zonotope); -1: undecided. With ``stop`` it
-    returns at the first pair certified not tolerated (the rows after it left unset); returns
-    the number of rows done.
+    not (a separating direction of the failed zonotope); -1: undecided. With ``stop`` 1 it
+    returns at the first pair certified not tolerated, with 2 also after the first row with
+    a pair left undecided (the rows after it left unset); returns the number of rows done.
 
     C (k, m) holds the corrections of every failure one above the other: failure i owns rows
     starts[i]:starts[i + 1] of C, and ``columns`` the rotors they stand for. ``errors[i]`` is
@@ -325,5 +325,9 @@ def certify_rows(
                 if len(trace):
                     trace[t, f] = 6
                 if stop:
+                    return t + 1
+        if stop == 2:  # the row is done: stop when a pair of it is left undecided
+            for f in range(n_fail):
+                if out[t, f] != 1:
                     return t + 1
     return t_rows

@@ -238,12 +238,17 @@ class FaultTolerance:
         ok = decide_with(self.intact, W, method)
         if stop_early and not ok.all():
             return False
-        live = np.flatnonzero(ok)
+        live = every = np.flatnonzero(ok)
         if not len(live) or not self.failures:
             return bool(ok.all()) if stop_early else ok
         if method in ("auto", "compiled"):
             R, _ = self.intact.reduce(W[live])
-            cert = self._certify(R, stop=stop_early)
+            if stop_early:  # the first undecided wrench at once, then the rest in a batch
+                done = self._first_breaker(W, live, R, method)
+                if done is False or done == len(live):
+                    return done is not False and self._margin_holds(W, live, method)
+                live, R = live[done:], R[done:]
+            cert = self._certify(R, stop=1 if stop_early else 0)
             if len(cert) < len(live):  # stopped at a pair certified not tolerated
                 self.breaker = (int(live[len(cert) - 1]), int(np.argmax(cert[-1] == 0)))
                 return False
@@ -272,18 +277,41 @@ class FaultTolerance:
                 return False
             if not alive.any():
                 break
-        if self.fault_margin > 0.0:
-            for i in range(len(self.failures)):
-                todo = np.flatnonzero(alive)
-                if not len(todo):
-                    break
-                alive[todo] = self._decide_with_margin(i, W[live[todo]], method)
-                if stop_early and not alive[todo].all():
-                    return False
         if stop_early:
-            return True
+            return self._margin_holds(W, every, method)
+        for i in range(len(self.failures) if self.fault_margin > 0.0 else 0):
+            todo = np.flatnonzero(alive)
+            if not len(todo):
+                break
+            alive[todo] = self._decide_with_margin(i, W[live[todo]], method)
         ok[live] = alive
         return ok
+
+    def _first_breaker(self, W: np.ndarray, live: np.ndarray, R: np.ndarray, method: str):
+        """For a decision that stops early: the certificate runs to the first pair certified
+        not tolerated, or the first wrench with pairs it leaves undecided, which the oracle on
+        A_{-S} decides at once (in a search most structures fail on the first such pair).
+        Returns False (``breaker`` set) when that rules the structure out, else the number of
+        rows of ``live`` done (all tolerated)."""
+        cert = self._certify(R, stop=2)
+        row, last = len(cert) - 1, cert[-1]
+        self.certified += int(np.count_nonzero(cert[:-1] >= 0)) + int(np.count_nonzero(last == 1))
+        if (last == 0).any():  # a pair certified not tolerated (the row may be unfinished)
+            self.breaker = (int(live[row]), int(np.argmax(last == 0)))
+            return False
+        for i in np.flatnonzero(last == -1):
+            if not self._decide_failed(int(i), W[live[row : row + 1]], method)[0]:
+                self.breaker = (int(live[row]), int(i))
+                return False
+        return len(cert)
+
+    def _margin_holds(self, W: np.ndarray, live: np.ndarray, method: str) -> bool:
+        """Whether the wrenches of ``live`` (each tolerated) keep ``fault_margin`` after every
+        failure."""
+        for i in range(len(self.failures) if self.fault_margin > 0.0 else 0):
+            if not self._decide_with_margin(i, W[live], method).all():
+                return False
+        return True
 
     def margin(self, W: np.ndarray, method: str = "auto") -> np.ndarray:
         """float (t,): the worst margin over the failures, >= 0 exactly when tolerated (where

@@ -12,20 +12,20 @@ limit the way a MIP solver does, with an incumbent and a proved lower bound.
 3. **Incumbent** (:class:`Incumbents`): compact shapes (:mod:`.moves`) of increasing size up
    to n_max until one is feasible, then local moves: drop a module while the rest stays
    feasible; when none can go, look for a feasible structure of one module fewer by moving
-   modules (and changing their types) to reduce the number of task wrenches it misses.
+   modules (and changing their types) to reduce the number of task wrenches it misses (with a
+   fault, whose checks cost much, for half the time left at most).
 4. With the time left, the exact levels go on from where they stopped, raising the bound.
 5. **Portfolio** (:mod:`.portfolio`): the field's heuristics (and the learned designer when a
    caller adds it) produce incumbents too: in this process with the time the local moves leave,
-   or, with an ``engine`` of Ray workers, beside steps 2-4 after a first :data:`QUICK_SECONDS`
-   of exact levels (a task those decide at once never starts Ray), every step stopping as soon
-   as an incumbent meets the bound.
+   or, with an ``engine`` of Ray workers, beside steps 2-4 after a first :data:`QUICK_SECONDS` of
+   exact levels (a task those decide at once never starts Ray), each stopping once an incumbent
+   meets the bound.
 
-It stops at the time limit, or as soon as the bound meets the incumbent; when that happens
-at a level the exact scan can decide, the level is scanned for its first feasible structure
-so that the answer is the exhaustive search's. Every answer is verified by the exact LP
-oracle; ``lower_bound`` is the largest proved bound, ``certified`` is True when they meet.
-
-Each rise of the bound and each smaller incumbent is an event of the result's ``history``
+It stops at the time limit, or as soon as the bound meets the incumbent; when that happens at a
+level the exact scan can decide, the level is scanned for its first feasible structure so that
+the answer is the exhaustive search's. Every answer is verified by the exact LP oracle;
+``lower_bound`` is the largest proved bound, ``certified`` is True when they meet. Each rise of
+the bound and each smaller incumbent is an event of the result's ``history``
 (:class:`~.result.Improvement`: seconds, bound, incumbent, which step found it); with
 ``progress=True`` the latest is shown on stderr (:mod:`.progress`).
 """
@@ -78,11 +78,8 @@ class ExactLevels:
     resumable at any chunk: :meth:`advance` works until a deadline."""
 
     def __init__(self, run: SearchRun, first: int, chunk: int = DEFAULT_CHUNK) -> None:
-        self.run = run
-        self.problem = run.problem
+        self.run, self.problem, self.chunk, self._steps = run, run.problem, chunk, None
         self.n = first  # every level below is refuted
-        self.chunk = chunk
-        self._steps = None
 
     def fits(self, n: int) -> bool:
         """Can level n be decided exactly (its size within the exhaustive search's reach)?"""
@@ -125,7 +122,7 @@ class ExactLevels:
         """Generator over level n: None after each chunk, then the first feasible structure."""
         p, run = self.problem, self.run
         if p.shape_only:
-            if level_excluded(p.wrenches, p.f_max, p.module, n):
+            if level_excluded(p.wrenches, p.f_max, p.module, n, p.fault):
                 return
             chunk = self.chunk if p.fault is None else min(self.chunk, FAULT_BLOCK)
             for cells in PolyominoStream(n, chunk):
@@ -379,8 +376,11 @@ def _steps(run, exact, incumbents, share, deadline, producers, seed) -> SearchRe
     if incumbents.producers is not None:  # the exact levels' share, beside the producers
         found = exact.advance(share, settled=incumbents.settled)
     if found is None and exact.n <= run.problem.n_max and not incumbents.settled(exact.n):
+        half = (time.perf_counter() + deadline) / 2  # with a fault: half the time left at most
+        incumbents.deadline = half if run.problem.fault else deadline
         if incumbents.first(exact.n):
             incumbents.improve(exact.n)
+        incumbents.deadline = deadline
         size = len(incumbents.best[0]) if incumbents.best is not None else run.problem.n_max + 1
         found = exact.advance(deadline, stop_at=size, settled=incumbents.settled)
         if found is None and exact.n == size and exact.fits(size):

@@ -190,17 +190,21 @@ def module_digest(module: ModuleType) -> str:
     return h.hexdigest()[:16]
 
 
-def compute_level_bounds(module: ModuleType, n: int) -> np.ndarray:
+def compute_level_bounds(module: ModuleType, n: int, fault: str | None = None) -> np.ndarray:
     """(2, P): max over level n of (sum_k max(0, d . a_k), sum_k |d . a_k|) per direction,
-    per unit thrust, by one pass over the level."""
+    per unit thrust, by one pass over the level. With a ``fault`` the first is what each
+    structure keeps after its worst failure of that kind (:data:`.supports.LOSSES`): a
+    structure tolerant to it exerts no wrench beyond that in d."""
     from modquad_gym.search import supports  # numba
 
     b, alpha, beta = supports.direction_terms([module], level_directions())
     out = np.zeros((2, b.shape[0]))
     masses = np.ones(1)
+    lose = supports.LOSSES[fault]
     for cells in PolyominoStream(n, 1 << 16):
         types = np.zeros(cells.shape[:2], dtype=np.int8)
-        supports.max_supports(cells, types, masses, float(module.side), b, alpha, beta, *out)
+        supports.max_supports(cells, types, masses, float(module.side), b, alpha, beta, *out,
+                              lose)  # fmt: skip
     return out
 
 
@@ -227,18 +231,19 @@ def _shipped(digest: str, n: int) -> np.ndarray | None:
 
 
 @lru_cache(maxsize=256)
-def _bounds(digest: str, module: ModuleType, n: int) -> np.ndarray | None:
-    shipped = _shipped(digest, n)
+def _bounds(digest: str, module: ModuleType, n: int, fault: str | None) -> np.ndarray | None:
+    shipped = _shipped(digest, n) if fault is None else None
     if shipped is not None:
         return shipped
-    path = _cache_dir() / f"level_bounds_{digest}_n{n}.npy"
+    kind = "" if fault is None else f"_{fault}"
+    path = _cache_dir() / f"level_bounds_{digest}{kind}_n{n}.npy"
     try:
         return np.load(path)
     except (OSError, ValueError):
         pass
     if n > COMPUTE_ON_DEMAND_UP_TO:
         return None
-    out = compute_level_bounds(module, n)
+    out = compute_level_bounds(module, n, fault)
     try:
         atomic_write(path, lambda tmp: np.save(tmp.open("wb"), out))
     except OSError:
@@ -246,22 +251,29 @@ def _bounds(digest: str, module: ModuleType, n: int) -> np.ndarray | None:
     return out
 
 
-def level_bounds(module: ModuleType, n: int) -> np.ndarray | None:
-    """The cached (2, P) level bounds of ``n`` modules of ``module``, or None when they are
-    neither shipped, cached nor cheap enough to compute now."""
-    return _bounds(module_digest(module), module, n)
+def level_bounds(module: ModuleType, n: int, fault: str | None = None) -> np.ndarray | None:
+    """The cached (2, P) level bounds of ``n`` modules of ``module`` (after the worst failure
+    of kind ``fault``), or None when they are neither shipped, cached nor cheap enough to
+    compute now."""
+    return _bounds(module_digest(module), module, n, fault)
 
 
-def level_excluded(W: np.ndarray, f_max: float, module: ModuleType, n: int) -> bool:
+def level_excluded(
+    W: np.ndarray, f_max: float, module: ModuleType, n: int, fault: str | None = None
+) -> bool:
     """True when some task wrench (rotor wrench: for ``external`` tasks pass W plus the
-    weight of n modules) lies beyond every n-module structure in a level direction."""
-    return values_excluded((level_directions() @ W.T).max(axis=1), f_max, module, n)
+    weight of n modules) lies beyond every n-module structure in a level direction (after
+    each structure's worst failure of kind ``fault``)."""
+    return values_excluded((level_directions() @ W.T).max(axis=1), f_max, module, n, fault)
 
 
-def values_excluded(values: np.ndarray, f_max: float, module: ModuleType, n: int) -> bool:
+def values_excluded(
+    values: np.ndarray, f_max: float, module: ModuleType, n: int, fault: str | None = None
+) -> bool:
     """True when a task value per level direction (its max over the task's rotor wrenches, or
-    a lower bound of it) exceeds the widened support of every n-module structure."""
-    bounds = level_bounds(module, n)
+    a lower bound of it) exceeds the widened support of every n-module structure (after its
+    worst failure of kind ``fault``)."""
+    bounds = level_bounds(module, n, fault)
     if bounds is None:
         return False
     widened = f_max * (bounds[0] + 0.5 * TOL * bounds[1]) + SUPPORT_SLACK
@@ -292,7 +304,7 @@ def counts_left(problem: SearchProblem, n: int) -> tuple[np.ndarray, np.ndarray]
         if ok[i] and int(c.max()) == n:  # one type alone: the level bounds apply
             m = p.palette[int(np.argmax(c))]
             values = DynamicValues(p.model, [m]).values(level_directions(), n * m.mass, n)
-            ok[i] = not values_excluded(values, p.f_max, m, n)
+            ok[i] = not values_excluded(values, p.f_max, m, n, p.fault)
     return counts, ok
 
 
@@ -343,7 +355,7 @@ def bound_levels(problem: SearchProblem) -> int:
         n = force_lower_bound(p.wrenches, p.module, p.f_max, p.fault)
         if n == NO_SIZE:
             return p.n_max + 1
-        while n <= p.n_max and level_excluded(p.wrenches, p.f_max, p.module, n):
+        while n <= p.n_max and level_excluded(p.wrenches, p.f_max, p.module, n, p.fault):
             n += 1
         return min(n, p.n_max + 1)
     K = len(p.palette)

@@ -244,7 +244,7 @@ def _search_levels(
     skipped = levels.skipped
     run.skipped += sum(level_size(n) or 0 for n in skipped)
     for n in range(levels.first, p.n_max + 1) if not levels.proof else ():
-        if level_excluded(p.wrenches, p.f_max, p.module, n):
+        if level_excluded(p.wrenches, p.f_max, p.module, n, p.fault):
             skipped.append(n)
             run.skipped += level_size(n) or 0
             continue
