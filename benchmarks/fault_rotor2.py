@@ -71,13 +71,16 @@ def oracle_speed(repeats: int) -> list[dict]:
                     "rotor2": lambda W=W: mq.tolerates(A, W, fault="rotor2")}  # fmt: skip
         for name, fn in deciders.items():
             fn()  # compiled code and caches warm
-            best[name] = min(_timed(fn) for _ in range(repeats))
+            times = [_timed(fn) for _ in range(repeats)]
+            best[name] = min(t[0] for t in times)
+            best[f"{name}_cpu"] = min(t[1] for t in times)
         ft = FaultTolerance(A, 1.0, failure_sets(28, "rotor2"), Zonotope(A, 1.0))
         ft.decide(W)
         share = ft.paths / max(1, ft.paths.sum() + ft.tests)
         row = {"wrenches": t, "feasible_per_s": round(t / best["feasible"]),
                "rotor2_per_s": round(t / best["rotor2"]),
                "ratio": round(best["feasible"] / best["rotor2"], 4),
+               "ratio_cpu": round(best["feasible_cpu"] / best["rotor2_cpu"], 4),
                "lp_pairs": ft.tests}  # fmt: skip
         row.update(
             {f"share_{p.replace(' ', '_')}": round(float(x), 4) for p, x in zip(PATHS, share)}
@@ -86,10 +89,12 @@ def oracle_speed(repeats: int) -> list[dict]:
     return rows
 
 
-def _timed(fn) -> float:
-    t0 = time.perf_counter()
+def _timed(fn) -> tuple[float, float]:
+    """(wall, CPU) seconds of one call: on a shared machine the CPU time of this process is
+    what the call cost, the wall time adds the waits for a core."""
+    t0, c0 = time.perf_counter(), time.process_time()
     fn()
-    return time.perf_counter() - t0
+    return time.perf_counter() - t0, time.process_time() - c0
 
 
 def read_rows(path: Path) -> list[dict]:
@@ -99,7 +104,7 @@ def read_rows(path: Path) -> list[dict]:
         return list(csv.DictReader(fh))
 
 
-def report(out: Path, rows: list[dict], speed: list[dict], command: str) -> str:
+def report(rows: list[dict], speed: list[dict], command: str, repeats: int) -> str:
     small = [r for r in rows if r["intact"] not in ("", None) and int(r["intact"]) <= 6]
     met = [r for r in small if str(r["certified"]) == "True" and float(r["seconds"]) <= 30]
     k = next(r for r in speed if r["wrenches"] == 1000)
@@ -115,12 +120,15 @@ def report(out: Path, rows: list[dict], speed: list[dict], command: str) -> str:
         f"{max((float(r['seconds']) for r in small), default=0):.1f} s.", "",
         "## Deciding two-rotor tolerance", "",
         "Wrenches decided per second, 7-module structure (m = 28, 378 pairs), wrenches inside "
-        "W (benchmarks/fault_price.py's); ratio = rotor2 / feasible in the same run; shares: "
+        "W (benchmarks/fault_price.py's); ratio = rotor2 / feasible in the same run, by wall "
+        "time and by this process's CPU time (ratio_cpu: on a shared machine the wall time of a "
+        "9 ms call includes waits for a core that a 0.4 ms call escapes); shares: "
         "the (wrench, pair) cases each test of the certificate settled (lp_pairs: left to an "
         "LP on the failed matrix).", "",
         markdown_table(speed), "",
         f"Goal (issue 47): at least 5 % of a plain decision's rate at 1,000 wrenches: "
-        f"{100 * k['ratio']:.1f} %.", "",
+        f"{100 * k['ratio']:.1f} % by wall time, {100 * k['ratio_cpu']:.1f} % by CPU time "
+        f"(best of {repeats} each).", "",
     ]  # fmt: skip
     return "\n".join(lines)
 
@@ -146,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
     command = "python -m benchmarks.fault_rotor2 " + " ".join(argv or sys.argv[1:])
     write_csv(rows, args.out / "minima.csv")
     write_csv(speed, args.out / "oracle.csv")
-    write_text(args.out / "report.md", report(args.out, rows, speed, command.strip()))
+    write_text(args.out / "report.md", report(rows, speed, command.strip(), args.repeats))
     print(f"wrote {args.out}/report.md", file=sys.stderr)
     return 0
 
