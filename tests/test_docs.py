@@ -76,7 +76,7 @@ def test_docs_name_only_commands_that_exist():
     pages = [ROOT / "README.md", *(DOCS / p for p in PAGES if p != "changelog.md")]
     for page in pages:
         text = page.read_text()
-        for name in re.findall(r"python -m benchmarks\.([a-z_]+)", text):
+        for name in re.findall(r"python -m benchmarks\.([a-z_0-9]+)", text):
             assert name in scripts(), (page.name, name)
         for name in re.findall(r"modquad bench ([a-z-]+)", text):
             assert name == "agents", (page.name, name)
