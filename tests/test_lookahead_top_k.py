@@ -14,6 +14,7 @@ from modquad_gym.envs.assembly.lookahead import (
     MARGIN,
     SHARE,
     child_bounds,
+    child_keys,
     children,
     greedy_choice,
     parent_directions,
@@ -74,8 +75,9 @@ def test_the_bounds_never_fall_below_the_exact_share_and_margin(source, kwargs):
             ep, state = env.unwrapped._episode, env.state
             valid = np.flatnonzero(state.mask)
             rays = None if state.task.per_structure else parent_directions(ep, state)
-            for _acts, _cells, keys, mass in children(ep, state, valid):
-                share, mean_margin = child_bounds(ep, state, keys, mass, rays)
+            for _acts, cells, k, mass in children(ep, state, valid):
+                share, mean_margin = child_bounds(ep, state, cells, k, mass, rays)
+                keys = child_keys(ep, state, cells, k)
                 exact = env.evaluator.exact_rows(keys, state.task, mass, ep.memo, ep.exact_memo)
                 for s, m, (s_exact, m_exact) in zip(share, mean_margin, exact):
                     assert s >= s_exact and m >= m_exact - 1e-9

@@ -179,6 +179,11 @@ class StructureEvaluator:
         """Configuration matrices (L, 6, m) of structures of one size."""
         return configuration_matrices(keys, self.module)
 
+    def cell_matrices(self, cells: np.ndarray, types: np.ndarray) -> np.ndarray:
+        """Configuration matrices (L, 6, m) of structures of grid ``cells`` (L, n, 2) and
+        palette ``types`` (L, n), in that module order."""
+        return configuration_matrices(cells, self.module)
+
     def supports_of(self, keys: list, centres: bool = False) -> tuple[np.ndarray, ...]:
         """(h_W / denom (L, K), slack (L,)) of the structures ``keys`` (all of one size), and
         with ``centres`` the projections of W's centre / denom (L, K), cached per key; misses
@@ -339,6 +344,9 @@ class MixedStructureEvaluator(StructureEvaluator):
     def _cells_types(self, key: Any) -> tuple[np.ndarray, np.ndarray]:
         cells = np.array([c for c, _ in key], dtype=np.float64)
         return cells, np.array([self.index[id(m)] for _, m in key], dtype=np.int64)
+
+    def cell_matrices(self, cells: np.ndarray, types: np.ndarray) -> np.ndarray:
+        return mixed_configuration_matrices(cells, types, self.palette)
 
     def matrices(self, keys: list) -> np.ndarray:
         cells = np.array([[c for c, _ in k] for k in keys], dtype=float)

@@ -21,10 +21,12 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import numpy as np
+from numba import njit
 
 from modquad_gym.envs.assembly.evaluator import CLIP_GAMMA
 from modquad_gym.envs.assembly.features import CANDIDATE_FEATURES, lookahead_width
 from modquad_gym.envs.assembly.types import AssemblyState, Episode
+from modquad_gym.oracle import TOL
 from modquad_gym.search.baselines import TIE_DECIMALS, greedy_rank
 
 SHARE, MARGIN, GREEDY = CANDIDATE_FEATURES, CANDIDATE_FEATURES + 1, CANDIDATE_FEATURES + 2
@@ -37,16 +39,32 @@ CHUNK = 2**19
 
 
 def children(ep: Episode, state: AssemblyState, acts: np.ndarray) -> Iterator[tuple]:
-    """(actions, child keys, child mass) of the actions ``acts`` of ``state``, one batch per
-    module type (one child mass each)."""
+    """(actions, their cells, module type, child mass) of the actions ``acts`` of ``state``,
+    one batch per module type (one child mass each)."""
     actions, modules = ep.actions, ep.modules
     mass0 = modules.mass(state.types)
     for k in range(modules.n_types):
         batch = acts if modules.n_types == 1 else acts[acts // actions.block == k]
         if len(batch):
             cells = [actions.decode(state, a)[0] for a in batch.tolist()]
-            keys = [modules.key((*state.cells, c), (*state.types, k)) for c in cells]
-            yield batch, cells, keys, modules.child_mass(mass0, k)
+            yield batch, cells, k, modules.child_mass(mass0, k)
+
+
+def child_keys(ep: Episode, state: AssemblyState, cells: list, k: int) -> list:
+    """The evaluator's keys of the children of ``state`` with a module of type ``k`` at
+    ``cells``."""
+    return [ep.modules.key((*state.cells, c), (*state.types, k)) for c in cells]
+
+
+def child_matrices(ep: Episode, state: AssemblyState, cells: list, k: int) -> np.ndarray:
+    """(L, 6, m) configuration matrices of those children, straight from their cells (no key:
+    a key of 128 cells costs more to build than the child's bounds)."""
+    n = len(state.cells)
+    grid = np.empty((len(cells), n + 1, 2))
+    grid[:, :n], grid[:, n] = state.cells, cells
+    types = np.zeros((len(cells), n + 1), dtype=np.int64)
+    types[:, :n], types[:, n] = state.types or 0, k
+    return ep.evaluator.cell_matrices(grid, types)
 
 
 def candidate_rows(ep: Episode, state: AssemblyState) -> np.ndarray:
@@ -57,7 +75,8 @@ def candidate_rows(ep: Episode, state: AssemblyState) -> np.ndarray:
     cand = np.zeros((actions.n_actions, lookahead_width(ep.rules.lookahead)), dtype=np.float32)
     valid = np.flatnonzero(state.mask)
     cells, scores = {}, {}
-    for acts, batch_cells, keys, mass in children(ep, state, valid):
+    for acts, batch_cells, k, mass in children(ep, state, valid):
+        keys = child_keys(ep, state, batch_cells, k)
         cells.update(zip(acts.tolist(), batch_cells))
         cand[acts, :CANDIDATE_FEATURES] = ep.evaluator.candidate_rows(
             keys, state.task, mass, ep.cand_memo
@@ -99,8 +118,8 @@ def ranked(ep: Episode, state: AssemblyState, acts: np.ndarray) -> np.ndarray:
     bound, then the margin bound (rounded as greedy rounds), then (cell, type) order."""
     batches, order, share, margin = [], [], [], []
     directions = None if state.task.per_structure else parent_directions(ep, state)
-    for batch, cells, keys, mass in children(ep, state, acts):
-        s, m = child_bounds(ep, state, keys, mass, directions)
+    for batch, cells, k, mass in children(ep, state, acts):
+        s, m = child_bounds(ep, state, cells, k, mass, directions)
         batches.append(batch)
         share.append(s)
         margin.append(m)
@@ -137,27 +156,34 @@ def parent_directions(ep: Episode, state: AssemblyState) -> np.ndarray:
 
 
 def child_bounds(
-    ep: Episode, state: AssemblyState, keys: list, mass: float, directions=None
+    ep: Episode, state: AssemblyState, cells: list, k: int, mass: float, directions=None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(share bound, mean margin bound) of the children ``keys`` (one size, one mass) of
-    ``state`` against its task: :func:`support_bounds` on the feature directions and
-    :func:`ray_bounds` on ``directions`` (s, t, 6) per wrench (a dynamic task: each child
-    against its own wrenches, feature directions only)."""
+    """(share bound, mean margin bound) of the children of ``state`` with a module of type
+    ``k`` (of ``mass`` kg with it) at ``cells`` against its task: :func:`support_bounds` on
+    the feature directions and :func:`ray_bounds` on ``directions`` (s, t, 6) per wrench (a
+    dynamic task: each child against its own wrenches, feature directions only)."""
     ev, task = ep.evaluator, state.task
-    h, slack, centre = ev.supports_of(keys, centres=True)
     if task.per_structure:
+        keys = child_keys(ep, state, cells, k)
+        h, slack, centre = ev.supports_of(keys, centres=True)
         parts = [
             support_bounds(h[i : i + 1], slack[i : i + 1], centre[i : i + 1], own.WD)
             for i, own in enumerate(ev.task_of(task, k) for k in keys)
         ]
         share = np.concatenate([s for s, _ in parts])
         return share, np.array([margin_bound(g)[0] for _, g in parts])
+    A, f = child_matrices(ep, state, cells, k), ev.features
+    rays = () if directions is None else tuple(directions)
+    absolute, signed = projections(np.vstack([f.D, *rays]), A)  # every direction in one pass
+    h = (absolute[:, : f.k] + signed[:, : f.k]) * (f.f_max / 2.0) / f.denom
+    slack = ((2.0 * TOL * f.f_max * absolute[:, : f.k] + 1e-12) / f.denom).max(axis=1)
     W, _, WD = ev.at_mass(task, mass)
-    share, gamma = support_bounds(h, slack, centre, WD)
-    if directions is not None:
-        A = ev.matrices(keys)
-        for D in directions:
-            gamma = np.maximum(gamma, ray_bounds(A, D, W, ev.features.f_max))
+    share, gamma = support_bounds(h, slack, signed[:, : f.k] * (f.f_max / 2.0) / f.denom, WD)
+    norms = np.linalg.norm(A, axis=1).sum(axis=1)
+    for i, D in enumerate(rays):
+        cut = slice(f.k + i * len(W), f.k + (i + 1) * len(W))
+        bound = ray_ratios(absolute[:, cut], signed[:, cut], D, W, f.f_max, norms)
+        gamma = np.maximum(gamma, bound)
     return share, margin_bound(gamma)
 
 
@@ -194,20 +220,37 @@ def ray_bounds(A: np.ndarray, D: np.ndarray, W: np.ndarray, f_max: float) -> np.
     """gamma bound (L, t) of the structures of configuration matrices ``A`` (L, 6, m) for the
     wrenches ``W`` (t, 6), each in its own direction (a row of ``D``, (t, 6); zero: none),
     by the inequality of :func:`support_bounds`."""
+    absolute, signed = projections(D, A)
+    return ray_ratios(absolute, signed, D, W, f_max, np.linalg.norm(A, axis=1).sum(axis=1))
+
+
+def ray_ratios(absolute, signed, D, W, f_max: float, norms) -> np.ndarray:
+    """:func:`ray_bounds` from the :func:`projections` of the directions ``D`` and the
+    structures' sums of column norms ``norms`` (L,) (the scale of a flat width)."""
     half = f_max / 2.0
-    step = max(1, CHUNK // (len(D) * A.shape[2]))
-    width = (
-        np.concatenate(
-            [
-                np.abs(np.matmul(D[None], A[i : i + step])).sum(axis=2)
-                for i in range(0, len(A), step)
-            ]
-        )
-        * half
-    )  # (L, t)
-    off = np.abs(np.einsum("ti,ti->t", D, W)[None] - A.sum(axis=2) @ D.T * half)
-    scale = np.linalg.norm(D, axis=1)[None] * np.linalg.norm(A, axis=1).sum(axis=1)[:, None]
-    return ratios(off, width, FLAT * half * scale)
+    off = np.abs(np.einsum("ti,ti->t", D, W)[None] - signed * half)
+    flat = FLAT * half * np.linalg.norm(D, axis=1)[None] * norms[:, None]
+    return ratios(off, absolute * half, flat)
+
+
+@njit(cache=True)
+def projections(D, A):  # pragma: no cover - compiled
+    """(sum_k |d . a_k|, sum_k d . a_k), each (L, R), for directions D (R, 6) and the columns
+    a_k of the matrices A (L, 6, m): one pass, no (L, R, m) array (the supports, W's centre
+    and the widths about it follow)."""
+    L, m, R = A.shape[0], A.shape[2], D.shape[0]
+    absolute = np.zeros((L, R))
+    signed = np.zeros((L, R))
+    for l in range(L):
+        for k in range(m):
+            a0, a1, a2 = A[l, 0, k], A[l, 1, k], A[l, 2, k]
+            a3, a4, a5 = A[l, 3, k], A[l, 4, k], A[l, 5, k]
+            for r in range(R):
+                p = D[r, 0] * a0 + D[r, 1] * a1 + D[r, 2] * a2
+                p += D[r, 3] * a3 + D[r, 4] * a4 + D[r, 5] * a5
+                absolute[l, r] += abs(p)
+                signed[l, r] += p
+    return absolute, signed
 
 
 def ratios(off: np.ndarray, width: np.ndarray, flat) -> np.ndarray:
