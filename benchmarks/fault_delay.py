@@ -2,10 +2,12 @@
 margin after the failure, flown in MuJoCo through their worst failure with the controller told
 of it D seconds late.
 
-    python -m benchmarks.fault_delay --tasks 8 --out results/fault_delay
+    python -m benchmarks.fault_delay --tasks 4 --out results/fault_delay
 
-For the first ``--tasks`` tasks of the shipped ``fault_rotor`` suite (not a held-out suite) and
-each fault (rotor, module): the default search's minimum structure for every required margin of
+For ``--tasks`` tasks drawn from each task source of ``--sources`` (the paper-like, planted and
+random-motion generators by default) with the calibration's own seeds ``CALIBRATION_SEED0 + i``
+(a range no suite, validation set or training stream uses: no held-out task is seen) and each
+fault (rotor, module): the default search's minimum structure for every required margin of
 ``--margins`` (certified where its exact levels finish within ``--time-limit``); every distinct
 structure is flown through its worst failure (:func:`modquad_gym.sim.fault_flight.fly_with_failure`,
 a hover under the wrench that failure leaves with the smallest margin) at every delay of
@@ -26,9 +28,13 @@ import numpy as np
 
 import modquad_gym as mq
 from modquad_gym.scoring import machine_description
-from modquad_gym.tasks.suites import load_suite
+from modquad_gym.scoring.suites import draw_task
+from modquad_gym.tasks import GENERATORS, make_generator
 
-SUITE = Path(mq.__file__).parent / "data" / "suites" / "fault_rotor.json"
+CALIBRATION_SEED0 = 9_000_000
+"""Seeds of the calibration's tasks (source k draws ``CALIBRATION_SEED0 + 1000 k + i``); the
+suites use 1-8 million (modquad_gym.scoring.suites, modquad_gym.scoring.tiers)."""
+SOURCES = ("paper", "planted", "motions")
 FAULTS = ("rotor", "module")
 SAFETY = 1.25
 """The rule's slope: the fit's times this, rounded up to 0.05 (few structures per delay)."""
@@ -89,7 +95,14 @@ def fit(flights: list[dict], delays) -> tuple[dict, float]:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--tasks", type=int, default=8)
+    ap.add_argument("--tasks", type=int, default=4, help="tasks per source (default 4)")
+    ap.add_argument(
+        "--sources",
+        nargs="+",
+        default=list(SOURCES),
+        choices=list(GENERATORS),
+        help="task generators (default: paper planted motions)",
+    )
     ap.add_argument("--margins", type=float, nargs="+", default=[0.0, 0.02, 0.05, 0.1, 0.15])
     ap.add_argument("--delays", type=float, nargs="+", default=[0.01, 0.02, 0.03, 0.05])
     ap.add_argument("--n-max", type=int, default=12)
@@ -98,7 +111,11 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    tasks = [t for t in load_suite(SUITE) if getattr(t, "kind", "total") != "dynamic"][: args.tasks]
+    tasks = [
+        draw_task(make_generator(src), CALIBRATION_SEED0 + 1000 * k + i, f"{src}-cal-{i}")
+        for k, src in enumerate(args.sources)
+        for i in range(args.tasks)
+    ]
     flights = fly(designs(tasks, args.margins, args.n_max, args.time_limit), args.delays)
     with open(out / "flights.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(flights[0]))
@@ -126,7 +143,8 @@ def main(argv=None) -> int:
         f"Made by `python -m benchmarks.fault_delay {' '.join(argv or sys.argv[1:])}` on "
         f"{machine_description()}.",
         "",
-        f"{len(tasks)} static tasks of the fault_rotor suite (not held out), faults rotor and "
+        f"{len(tasks)} tasks ({args.tasks} per source: {', '.join(args.sources)}; seeds "
+        f"{CALIBRATION_SEED0:,} + 1000 k + i, disjoint from every suite), faults rotor and "
         f"module, designs for required margins {args.margins}, each flown through its worst "
         f"failure at delays {[f'{1000 * d:g} ms' for d in args.delays]} "
         f"({len(flights)} flights).",

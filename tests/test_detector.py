@@ -4,6 +4,7 @@ rate decides when and which rotors failed; the allocator switches on its decisio
 import pytest
 
 import modquad_gym as mq
+from modquad_gym.oracle.fault_delay import margin_for_delay
 from modquad_gym.sim import fault_flight as ff
 from modquad_gym.sim.detector import DetectorConfig, SensorNoise
 from modquad_gym.sim.failure import Failure
@@ -55,8 +56,8 @@ def test_validate_designs_for_the_delay_and_flies_with_the_detector(tmp_path, ca
             "--fault", "rotor", "--detection-delay", "0.05", "--detect", "--json"]  # fmt: skip
     assert main(argv) == 0
     record = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
-    assert record["fault_margin_required"] == pytest.approx(0.045)
-    assert record["fault_worst_margin"] >= 0.045 - 1e-6
+    assert record["fault_margin_required"] == pytest.approx(margin_for_delay(0.05))
+    assert record["fault_worst_margin"] >= margin_for_delay(0.05) - 1e-6
     assert 0.0 < record["fault_detected_after_s"] <= 0.03 and record["fault_within_5cm"]
     assert record["without_margin"]["n_modules"] <= record["n_modules"]
     bad = ["validate", "--task", "example:screwdriver", "--out", str(tmp_path / "o2"), "--detect"]

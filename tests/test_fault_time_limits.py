@@ -43,3 +43,20 @@ def test_genetic_stops_while_scoring_its_first_population(task48):
     r = mq.genetic_search(task48, n_max=64, time_limit=1.0, fault="rotor")
     assert within(time.perf_counter() - t0, 1.0)
     assert r.lower_bound >= 40
+
+
+def test_validate_estimate_counts_every_design():
+    """validate --fault searches and flies the tolerant design and the intact minimum, and with
+    a margin the design without it too: its estimate says so (it said two searches for three)."""
+    import argparse
+
+    from modquad_gym.cli.validate_fault import fault_seconds, search_seconds_text
+
+    task = mq.TaskRequirement.load(mq.tasks.example_path("screwdriver"))
+    plain = argparse.Namespace(fault="rotor", fault_margin=None, detection_delay=None,
+                               time_limit=10.0)  # fmt: skip
+    delayed = argparse.Namespace(**{**vars(plain), "detection_delay": 0.05})
+    assert search_seconds_text(plain) == ", plus two searches of at most 10 s each"
+    assert search_seconds_text(delayed) == ", plus three searches of at most 10 s each"
+    assert fault_seconds(delayed, task) == pytest.approx(1.5 * fault_seconds(plain, task))
+    assert fault_seconds(argparse.Namespace(**{**vars(plain), "fault": None}), task) == 0.0

@@ -88,22 +88,31 @@ def fault_output_names(args: argparse.Namespace) -> tuple[str, ...]:
     return FAULT_FILES
 
 
+def designs(args: argparse.Namespace) -> int:
+    """How many structures ``--fault`` searches and flies: the tolerant one and the intact
+    minimum, and with a margin (``--fault-margin``, ``--detection-delay``) the design without
+    it (0 without ``--fault``)."""
+    if args.fault is None:
+        return 0
+    return 3 if fault_margin_of(args) else 2
+
+
 def fault_seconds(args: argparse.Namespace, task) -> float:
-    """Simulated seconds of the two flights through a failure (0 without ``--fault``)."""
+    """Simulated seconds of the flights through a failure, one per design (:func:`designs`)."""
     if args.fault is None:
         return 0.0
     from modquad_gym.sim import fault_flight
 
-    return 2.0 * task.flight_seconds(fault_flight.FAULT_HOVER_SECONDS)
+    return designs(args) * task.flight_seconds(fault_flight.FAULT_HOVER_SECONDS)
 
 
 def search_seconds_text(args: argparse.Namespace) -> str:
-    """What the estimate adds for the searches: with ``--fault`` two (the tolerant structure
-    and the intact minimum), each kept within ``--time-limit`` when one is given."""
+    """What the estimate adds for the searches: one per design (:func:`designs`), each kept
+    within ``--time-limit`` when one is given."""
     limit = getattr(args, "time_limit", None)
     if args.fault is None or limit is None:
         return ""
-    return f", plus two searches of at most {limit:g} s each"
+    return f", plus {('two', 'three')[designs(args) - 2]} searches of at most {limit:g} s each"
 
 
 def no_structure_keys(args: argparse.Namespace) -> dict:
