@@ -323,7 +323,24 @@ def test_faults_oracle_only_needs_earlier_rows_and_no_fly(tmp_path, capsys):
     out = tmp_path / "new"
     _exits_2(capsys, faults.main, ["--fly", "--oracle-only", "--out", str(out)], "--fly")
     _exits_2(capsys, faults.main, ["--oracle-only", "--out", str(out)], "no faults.csv")
+    _exits_2(capsys, faults.main, ["--update", "--out", str(out)], "no faults.csv")
+    _exits_2(capsys, faults.main, ["--skip", "3", "--per-suite", "3", "--out", str(out)], "--skip")
     assert not out.exists()
+
+
+def test_faults_update_replaces_only_the_rows_it_makes():
+    from benchmarks.faults import merged
+
+    def row(suite, task, design, modules):
+        return {"suite": suite, "task": task, "design": design, "modules": modules}
+
+    old = [row("heldout_paper", "p0", "intact", 5), row("heldout_paper", "p0", "rotor2", 7),
+           row("fault_rotor", "f0", "rotor2", 9)]  # fmt: skip
+    new = [row("heldout_paper", "p0", "rotor2", 6), row("fault_rotor", "f0", "intact", 6)]
+    assert [(r["suite"], r["design"], r["modules"]) for r in merged(old, new)] == [
+        ("fault_rotor", "intact", 6), ("fault_rotor", "rotor2", 9),
+        ("heldout_paper", "intact", 5), ("heldout_paper", "rotor2", 6),
+    ]  # fmt: skip
 
 
 def test_scale_refuses_a_missing_model_and_a_held_out_folder(tmp_path, capsys):
