@@ -56,7 +56,7 @@ GOAL_CM = 5.0
 def design(task, name: str, n_max: int, time_limit: float) -> dict:
     """The default search's answer for one design of ``task``, re-verified, with its time."""
     fault, delay = DESIGNS[name]
-    mu = margin_for_delay(delay) if delay else None
+    mu = margin_for_delay(delay, fault) if delay else None
     t0 = time.perf_counter()
     r = mq.anytime_search(task, n_max=n_max, time_limit=time_limit, fault=fault, fault_margin=mu)
     row = {"design": name, "fault": fault or "", "delay_ms": round(1000 * delay),
@@ -275,14 +275,18 @@ def report(out: Path, rows: list[dict], speed: list[dict], args) -> None:
     suites = [s for s in SUITES if any(r["suite"] == s for r in rows)]
     names = [n for n in DESIGNS if any(r["design"] == n for r in rows)]
     commands = list(dict.fromkeys(r["command"] for r in rows))
-    mu20, mu50 = margin_for_delay(0.02), margin_for_delay(0.05)
+    mus = "; ".join(
+        f"{r['fault']} {r['delay_ms']} ms: {r['required_margin']:g}"
+        for r in {(r["fault"], r["delay_ms"], r["required_margin"]): r for r in rows
+                  if r["delay_ms"]}.values()
+    )  # fmt: skip
     lines = ["# The price of fault tolerance, and the margin a detection delay needs", "",
              f"Made by {', then '.join(f'`{c}`' for c in commands)} on {machine_description()} "
              "(each row of faults.csv names its command).", "",
              "Per task, the default search's minimum (n_max and time limits in the commands; "
              "rotor2 has its own limit): intact; surviving any single rotor or module failure; "
-             f"the same with the margin the rule derives from a 20 ms (mu = {mu20:.3f}) and a "
-             f"50 ms (mu = {mu50:.3f}) detection delay; surviving any two rotor failures "
+             "the same with the margin the delay rule derives from a 20 ms and a 50 ms "
+             f"detection delay (mu: {mus}); surviving any two rotor failures "
              "(rotor2). Every single-failure answer re-verified by HiGHS on each failed matrix.",
              "", "## Minimum structures per suite", "",
              "Mean modules over the tasks with an answer (tasks with an answer / tasks; "

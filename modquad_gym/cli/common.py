@@ -232,7 +232,7 @@ def fault_margin_of(args: argparse.Namespace) -> float | None:
             return check_fault_margin(margin, args.fault)
         except ValueError as exc:
             raise ValueError(f"--fault-margin {margin:g}: {exc}") from None
-    return margin_for_delay(delay)
+    return margin_for_delay(delay, args.fault)
 
 
 def check_fault_method(args: argparse.Namespace) -> None:

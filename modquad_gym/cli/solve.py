@@ -28,7 +28,7 @@ from modquad_gym.cli.common import (
     report_error,
 )
 from modquad_gym.methods import method_of
-from modquad_gym.oracle.faults import DELAY_SLOPE
+from modquad_gym.oracle.faults import DELAY_SLOPES
 from modquad_gym.solvers import make_solver
 
 
@@ -56,7 +56,9 @@ def add_solve(sub) -> None:
         p,
         "with --fault: design for a controller that learns of the failure this many "
         "seconds late, 0 to 0.05: the required --fault-margin is derived from it by the rule "
-        f"calibrated on MuJoCo flights (docs/faults.md; margin = {DELAY_SLOPE:g} x delay)",
+        "calibrated on MuJoCo flights (docs/faults.md; margin = "
+        f"{DELAY_SLOPES['rotor']:g} x delay for a rotor failure, "
+        f"{DELAY_SLOPES['module']:g} x delay for a module or two rotors)",
     )
     p.add_argument(
         "--json",

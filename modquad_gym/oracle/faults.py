@@ -36,7 +36,7 @@ import numpy as np
 
 from modquad_gym.core.validation import check_f_max, check_wrenches
 from modquad_gym.oracle.backends import check_method, decide_with, margin_with
-from modquad_gym.oracle.fault_delay import DELAY_SLOPE, MAX_DELAY_S, margin_for_delay  # noqa: F401 - re-exported
+from modquad_gym.oracle.fault_delay import DELAY_SLOPES, MAX_DELAY_S, margin_for_delay  # noqa: F401 - re-exported
 from modquad_gym.oracle.tolerance import RESIDUAL_TOL, TOL
 from modquad_gym.oracle.zonotope import Zonotope
 
