@@ -291,7 +291,8 @@ for c in 'modquad solve --task example:screwdriver --fault rotor' \
          'modquad validate --task example:screwdriver --fault rotor --out fault/' \
          'modquad solve --task example:screwdriver --fault rotor --fault-margin 0.05 --json' \
          'modquad solve --task example:screwdriver --fault rotor --detection-delay 0.02' \
-         'modquad validate --task example:screwdriver --fault rotor --detection-delay 0.05 --out v/'; do
+         'modquad validate --task example:screwdriver --fault rotor --detection-delay 0.05 --out v/' \
+         'modquad validate --task example:screwdriver --fault rotor --detection-delay 0.05 --detect --out v2/'; do
   check wheel docs/faults.md "$c"
 done
 # docs/certificates.md: a certificate written, checked by the command and by the checker alone
