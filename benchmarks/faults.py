@@ -250,15 +250,23 @@ def plot(path: Path, rows: list[dict]) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), sharey=True)
     for ax, fault in zip(axes, ("rotor", "module")):
         for suite in suites:
-            ys = []
+            ys, counts = [], []
             for name in (fault, f"{fault}_20ms", f"{fault}_50ms"):
                 e = extra(by_task, suite, name)
                 ys.append(np.mean(e) if e else np.nan)
-            ax.plot([0, 20, 50], ys, "o-", label=suite)
+                counts.append(len(e))
+            line = ax.plot([0, 20, 50], ys, "o-", label=suite)[0]
+            n = sum(s == suite for s, _ in by_task)
+            for x, y, k in zip((0, 20, 50), ys, counts):  # how many tasks have such a design
+                if k:
+                    ax.annotate(f"{k}/{n}", (x, y), textcoords="offset points", xytext=(4, 4),
+                                fontsize=7, color=line.get_color())  # fmt: skip
         ax.set_title(f"any single {fault} failure, margin = rule(delay)")
         ax.set_xlabel("detection delay designed for (ms)")
         ax.set_xticks([0, 20, 50])
-    axes[0].set_ylabel("extra modules over the intact minimum\n(mean over tasks with a design)")
+    axes[0].set_ylabel(
+        "extra modules over the intact minimum\n(mean over the tasks with a design, k/n)"
+    )
     axes[1].legend(frameon=False, fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
@@ -281,11 +289,13 @@ def report(out: Path, rows: list[dict], speed: list[dict], args) -> None:
                   if r["delay_ms"]}.values()
     )  # fmt: skip
     lines = ["# The price of fault tolerance, and the margin a detection delay needs", "",
-             f"Made by {', then '.join(f'`{c}`' for c in commands)} on {machine_description()} "
-             "(each row of faults.csv names its command). The runs shared the two cores with "
-             "other work, up to four at a time: a search's wall-clock limit bought less search "
-             "than on an idle machine (more answers uncertified, a few margin designs not "
-             f"found). Load average when this page was written: {load_average()}.", "",
+             f"Made on {machine_description()} by runs of one command, each making some rows "
+             "of faults.csv (each row names its run; a later run replaces the rows it makes):",
+             "", *[f"- `{c}`" for c in commands], "",
+             "The runs shared the two cores with other work and with each other (up to five at a "
+             "time): a search's wall-clock limit bought less search than on an idle machine "
+             "(more answers uncertified, a few margin designs not found). Load average when "
+             f"this page was written: {load_average()}.", "",
              "Per task, the default search's minimum (n_max and time limits in the commands; "
              "rotor2 has its own limit): intact; surviving any single rotor or module failure; "
              "the same with the margin the delay rule derives from a 20 ms and a 50 ms "
