@@ -1,6 +1,8 @@
-"""Two rotor failures (issue 47): every test of the pair certificate cross-checked against HiGHS
-on the failed matrix it speaks for, on random structures (rank-deficient lines and pairs of
-modules included) and wrenches at the boundary of what a pair of failures leaves."""
+"""Two failures (issue 47): every test of the pair certificate cross-checked against HiGHS on the
+failed matrix it speaks for, on random structures (rank-deficient lines and pairs of modules
+included) and wrenches at the boundary of what a pair of failures leaves; a module and then a
+rotor (``"rotor+module"``) against HiGHS on every failed matrix, through the bounds, the
+searches, the env and the flight; the fault-aware cache and level bounds."""
 
 from __future__ import annotations
 
@@ -104,7 +106,7 @@ def test_the_pair_arrays_match_the_pair_corrections(cells):
     assert np.abs(single @ z.G.T).max() < 1e-9  # a single failure's correction keeps G x
 
 
-@pytest.mark.parametrize("fault", ["rotor", "rotor2", "module"])
+@pytest.mark.parametrize("fault", ["rotor", "rotor2", "module", "rotor+module"])
 def test_the_support_after_the_worst_failure_is_the_least_over_failures(fault):
     """The fault-aware cache test: what the compiled support leaves after the worst failure of
     the kind is the smallest support over that kind's failed matrices (so a direction beyond it
@@ -130,7 +132,7 @@ def test_the_support_after_the_worst_failure_is_the_least_over_failures(fault):
             assert total == pytest.approx(np.abs(v).sum(), abs=1e-9)
 
 
-@pytest.mark.parametrize("fault", ["rotor", "rotor2", "module"])
+@pytest.mark.parametrize("fault", ["rotor", "rotor2", "module", "rotor+module"])
 def test_the_fault_cache_changes_no_answer(fault, monkeypatch):
     """The exhaustive search with the fault-aware cache (directions learnt from failed decisions,
     supports after the worst failure) returns the same first structure in canonical order as
@@ -148,7 +150,7 @@ def test_the_fault_cache_changes_no_answer(fault, monkeypatch):
     assert fast.evaluated == plain.evaluated
 
 
-@pytest.mark.parametrize("fault", ["rotor", "rotor2", "module"])
+@pytest.mark.parametrize("fault", ["rotor", "rotor2", "module", "rotor+module"])
 def test_the_level_bounds_after_a_failure_are_the_level_maxima(fault):
     """The fault-aware level bound of n modules is the largest, over every structure of n
     modules, of its support after its own worst failure (so no tolerant structure of n modules
@@ -166,3 +168,60 @@ def test_the_level_bounds_after_a_failure_are_the_level_maxima(fault):
             total = np.maximum(total, np.abs(V).sum(axis=1))
         bounds = compute_level_bounds(mq.TModule(), n, fault)
         assert np.allclose(bounds[0], plus, atol=1e-9) and np.allclose(bounds[1], total, atol=1e-9)
+
+
+@pytest.mark.parametrize("cells", [[(0, 0)], [(0, 0), (1, 0), (2, 0)], SHAPES[2]])
+def test_rotor_and_module_agrees_with_highs_on_every_failed_matrix(cells):
+    s = mq.Structure(cells)
+    A = s.configuration_matrix()
+    rng = np.random.default_rng(len(cells))
+    U = rng.uniform(0.2, 1.0, (10, A.shape[1]))
+    U[:5, rng.integers(0, A.shape[1], 5)] = 0.0
+    W = (U @ A.T) * rng.choice([0.1, 0.2, 0.3, 0.6], size=(10, 1))
+    W[:3] = [[0, 0, fz, 0, 0, 0] for fz in (1.0, 2.0, 3.0)]  # hovers: a square keeps 2, not 3
+    failures = failure_sets(A.shape[1], "rotor+module")
+    assert len(failures) == (1 if len(cells) == 1 else len(cells) * 4 * (len(cells) - 1))
+    ref = np.min([mq.margin(np.delete(A, S, axis=1), W, method="scipy") if len(S) < A.shape[1]
+                  else np.where(np.linalg.norm(W, axis=1) == 0, 0.0, -np.inf)
+                  for S in failures], axis=0)  # fmt: skip
+    clear = np.abs(ref) > 1e-6
+    for method in ("auto", "daqp"):
+        ok = mq.tolerates(s, W, fault="rotor+module", method=method)
+        assert np.array_equal(ok[clear], ref[clear] >= 0)
+    if cells == SHAPES[2]:
+        assert ok.any() and not ok.all()  # both answers occur
+    margin = mq.fault_margin(s, W, fault="rotor+module")
+    assert np.array_equal(margin >= 0, ok)
+
+
+def test_rotor_and_module_through_the_searches_the_env_and_the_flight():
+    """The force bound stays below the certified minimum, which is at least the module
+    failure's; the default search finds it too; the answer holds on every failed matrix
+    (HiGHS); the env takes the fault; the answer is flown through its worst failure."""
+    import gymnasium as gym
+
+    from modquad_gym.search.bounds import force_lower_bound
+    from modquad_gym.sim.fault_flight import fly_with_failure
+    from modquad_gym.tasks import load_task
+
+    task = load_task("example:screwdriver")
+    both = mq.exhaustive_search(task, n_max=9, fault="rotor+module")
+    module = mq.exhaustive_search(task, n_max=9, fault="module")
+    assert both.certified and module.n_modules <= both.n_modules
+    assert force_lower_bound(task.wrenches, mq.TModule(), task.f_max, "rotor+module") <= (
+        both.n_modules
+    )
+    assert mq.anytime_search(task, n_max=9, fault="rotor+module", time_limit=20).n_modules == (
+        both.n_modules
+    )
+    A = both.structure.configuration_matrix()
+    W = task.rotor_wrenches(both.structure)
+    for S in failure_sets(A.shape[1], "rotor+module"):
+        assert (mq.margin(np.delete(A, S, axis=1), W, method="scipy") > -1e-6).all()
+    env = gym.make("ModQuadAssembly-v0", task="example:screwdriver", fault="rotor+module",
+                   n_max=6)  # fmt: skip
+    env.reset(seed=0)
+    env.step(int(np.flatnonzero(env.unwrapped.action_masks())[0]))
+    f = fly_with_failure(both.structure, task, "rotor+module", seconds=1.0)
+    assert len(f.failure.columns) == 5 and f.worst.tolerates
+    assert f.max_position_error_m < 0.05

@@ -178,10 +178,14 @@ def method_option(text: str) -> str:
 method_option.__name__ = "method"
 
 
+FAULT_KINDS = ("rotor", "module", "rotor2", "rotor+module")
+"""The choices of ``--fault`` (:data:`modquad_gym.oracle.faults.FAULTS`, without importing it)."""
+
 FAULT_HELP = (
     "the answer must keep doing the task after any failure of this kind: rotor (any one rotor "
     "stops), module (any one module's rotors stop; it stays docked and its weight still "
-    "counts) or rotor2 (any two rotors stop). Every search but the learned ones takes it; "
+    "counts), rotor2 (any two rotors stop) or rotor+module (a module's rotors and one rotor of "
+    "another module stop). Every search but the learned ones takes it; "
     "--json adds fault and worst_fault_margin (the smallest margin over the failures and "
     "wrenches, >= 0)"
 )
@@ -195,9 +199,9 @@ def add_detection_delay(p: argparse.ArgumentParser, help: str) -> None:
 
 
 def add_fault(p: argparse.ArgumentParser, help: str = FAULT_HELP) -> None:
-    """``--fault {rotor,module,rotor2}`` (the failure an answer must survive) and
+    """``--fault {rotor,module,rotor2,rotor+module}`` (the failure an answer must survive) and
     ``--fault-margin`` (the worst margin it must keep after it)."""
-    p.add_argument("--fault", choices=("rotor", "module", "rotor2"), default=None, help=help)
+    p.add_argument("--fault", choices=FAULT_KINDS, default=None, help=help)
     p.add_argument(
         "--fault-margin",
         type=real_option,

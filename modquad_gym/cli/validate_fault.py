@@ -28,7 +28,8 @@ MAX_DETECTION_DELAY = 1.0
 
 FAULT_HELP = (
     "search for a structure that survives any failure of this kind (rotor: any one rotor "
-    "stops; module: any one module's rotors stop; rotor2: any two rotors), then also fly it "
+    "stops; module: any one module's rotors stop; rotor2: any two rotors; rotor+module: a "
+    "module's rotors and one rotor of another module), then also fly it "
     "through the failure that leaves the smallest margin, halfway through a hover under the "
     "hardest task wrench (or through the trajectory of a dynamic task), and the same kind of "
     "failure on the intact minimum of the task for comparison; --json adds "

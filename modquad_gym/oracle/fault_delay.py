@@ -4,13 +4,13 @@ docs/faults.md)."""
 
 from __future__ import annotations
 
-DELAY_SLOPES = {"rotor": 2.05, "module": 3.35, "rotor2": 3.35}
+DELAY_SLOPES = {"rotor": 2.05, "module": 3.35, "rotor2": 3.35, "rotor+module": 3.35}
 """mu per second of detection delay, per fault kind (:func:`margin_for_delay`): 1.25 times the
 fit (rotor 1.63 / s, module 2.67 / s), rounded up to 0.05, on 287 MuJoCo flights of 83 designs
 for 18 generated tasks (paper-like, planted, random motions; the calibration's own seeds, no
 suite's) at 10-50 ms (results/fault_delay). A module failure loses up to four rotors' thrust at
-once and needs the steeper line; two rotor failures (not calibrated on their own) take the
-module's."""
+once and needs the steeper line; two rotor failures and a module with a rotor (neither
+calibrated on its own) take the module's."""
 
 MAX_DELAY_S = 0.05
 """The longest detection delay the rule was calibrated for (s)."""

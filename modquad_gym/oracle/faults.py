@@ -2,7 +2,8 @@
 
 A failure stops a set S of rotors: one rotor (``fault="rotor"``), the four of one module
 (``fault="module"``; the module stays docked, so its mass still counts for ``external`` and
-dynamic tasks, whose rotor wrenches do not change) or any two rotors (``fault="rotor2"``). The
+dynamic tasks, whose rotor wrenches do not change), any two rotors (``fault="rotor2"``) or a
+module and then a rotor of another module (``fault="rotor+module"``, its mass kept too). The
 structure then exerts the zonotope of A without the columns of S, Z_S = {A u : 0 <= u <= f_max,
 u_S = 0}. A wrench is **tolerated** when it is feasible for Z_S for every failure S, each decided
 by the oracle's tolerance rule on the matrix A_{-S} (:mod:`~modquad_gym.oracle.tolerance`); the
@@ -29,61 +30,24 @@ always decided on A_{-S}.
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Sequence
 
 import numpy as np
 
 from modquad_gym.core.validation import check_f_max, check_wrenches
 from modquad_gym.oracle.backends import check_method, decide_with, margin_with
+from modquad_gym.oracle.failures import (  # noqa: F401 - re-exported
+    FAULTS,
+    check_fault,
+    check_fault_margin,
+    failure_sets,
+    module_failures,
+)
 from modquad_gym.oracle.fault_delay import DELAY_SLOPES, MAX_DELAY_S, margin_for_delay  # noqa: F401 - re-exported
 from modquad_gym.oracle.tolerance import RESIDUAL_TOL, TOL
 from modquad_gym.oracle.zonotope import Zonotope
 
-FAULTS = ("rotor", "module", "rotor2")
-"""The kinds of failure: one rotor stops, one module's rotors all stop, or any two rotors stop
-(``"rotor2"``: in one module or in two)."""
-
 _EXACT = 1e-9  # residual of a certificate's equations accepted, relative to 1 + |r|_inf
-
-
-def check_fault(fault: object) -> str:
-    """``fault`` when it names a kind of failure, else a ValueError listing them."""
-    if fault not in FAULTS:
-        raise ValueError(f"fault must be one of {', '.join(map(repr, FAULTS))}, got {fault!r}")
-    return str(fault)
-
-
-def check_fault_margin(value: object, fault: object = "rotor") -> float:
-    """``value`` as a float in [0, 1) (the worst margin required after a failure, in the units
-    of :func:`fault_margin`), else a one-line ValueError; a positive margin needs a ``fault``."""
-    try:
-        mu = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"fault_margin must be a number in [0, 1), got {value!r}") from None
-    if not 0.0 <= mu < 1.0:
-        raise ValueError(f"fault_margin must lie in [0, 1), got {value!r}")
-    if mu > 0.0 and fault is None:
-        raise ValueError("fault_margin applies with a fault (rotor, module or rotor2)")
-    return mu
-
-
-def failure_sets(n_rotors: int, fault: str, rotors_per_module: int = 4) -> list[np.ndarray]:
-    """The column sets a failure removes from a (6, n_rotors) matrix whose columns are
-    grouped by module (``rotors_per_module`` each, in cell order, as
-    :meth:`~modquad_gym.geometry.structure.Structure.configuration_matrix` has them): each
-    rotor, each module's rotors, or each pair of rotors (``"rotor2"``, in the order of
-    :func:`itertools.combinations`)."""
-    fault = check_fault(fault)
-    if fault == "rotor":
-        return [np.array([k]) for k in range(n_rotors)]
-    if fault == "rotor2":
-        return [np.array(pair) for pair in itertools.combinations(range(n_rotors), 2)]
-    if n_rotors % rotors_per_module:
-        raise ValueError(
-            f"A has {n_rotors} columns, not a multiple of {rotors_per_module} rotors per module"
-        )
-    return [np.arange(i, i + rotors_per_module) for i in range(0, n_rotors, rotors_per_module)]
 
 
 class FaultTolerance:
@@ -348,10 +312,9 @@ def _matrix_and_failures(structure, fault: str) -> tuple[np.ndarray, list[np.nda
     fault = check_fault(fault)
     if hasattr(structure, "configuration_matrix"):
         A = structure.configuration_matrix()
-        if fault != "module":
+        if fault not in ("module", "rotor+module"):
             return A, failure_sets(A.shape[1], fault)
-        starts = np.cumsum([0] + [m.n_rotors for m in structure.modules])
-        return A, [np.arange(a, b) for a, b in zip(starts[:-1], starts[1:])]
+        return A, module_failures(np.cumsum([0] + [m.n_rotors for m in structure.modules]), fault)
     A = np.asarray(structure)
     return A, failure_sets(A.shape[1] if A.ndim == 2 else 0, fault)
 

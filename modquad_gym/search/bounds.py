@@ -79,7 +79,9 @@ def force_lower_bound(
     n Z_F less that rotor's force segment, whose support in a direction N is at most
     ``n h_1(N) - f_max max(0, N . d_j)`` for the rotor j of the module with the largest
     ``N . d_j`` (any rotor may fail, so a tolerant structure survives losing that one); after
-    two rotors fail (``"rotor2"``), less the two largest of one module (a pair that may fail).
+    two rotors fail (``"rotor2"``), less the two largest of one module (a pair that may fail);
+    after a module and a rotor of another (``"rotor+module"``), n - 1 modules' less that rotor's
+    (for n >= 2; n = 1 is bounded as a module failure).
     A required fault margin only shrinks what is feasible: these bounds stay valid for it."""
     dirs = module.directions
     normals = [
@@ -97,6 +99,11 @@ def force_lower_bound(
         proj = proj + top[:, :2].sum(axis=1) * f_max
     elif fault == "module":
         proj = proj + h1
+    elif fault == "rotor+module":  # a module, then the strongest rotor of another
+        alone = proj + h1  # a single module has only itself to lose
+        proj = proj + h1 + np.maximum(N @ dirs.T, 0.0).max(axis=1) * f_max
+        if (alone <= h1 * (1 + TOL)).all():  # one module may do: bound it as a module failure
+            proj = alone
     need = np.where(
         h1 > 1e-12, proj / np.where(h1 > 1e-12, h1, 1.0), np.where(proj > 1e-12, np.inf, 0)
     )
@@ -150,8 +157,8 @@ def counts_possible(
     a = np.array([np.abs(p).sum(axis=1) for p in proj])  # (K, k)
     cap = counts @ (f_max * (h + 0.5 * TOL * a))  # (C, k) widened supports
     if fault is not None:
-        if fault == "module":
-            loss = f_max * h  # (K, k): one module of each type
+        if fault in ("module", "rotor+module"):  # (K, k): one module of each type (and for
+            loss = f_max * h  # rotor+module no more: the rotor may be of any type, or none)
         elif fault == "rotor2":  # two rotors of one module of each type
             top = [-np.sort(-np.maximum(p, 0.0), axis=1)[:, :2].sum(axis=1) for p in proj]
             loss = f_max * np.array(top)

@@ -42,6 +42,8 @@ def make(result, problem, progress: bool = False, bounds: bool = True) -> dict:
     ``bounds=False`` proves every level structure by structure (to measure what bounds save)."""
     if not result.certified:
         raise CertificateError("only a certified answer has a certificate (this one is not)")
+    if problem.fault not in (None, "rotor", "module"):
+        raise CertificateError(f"certificates cover fault rotor or module, not {problem.fault!r}")
     T = pc.Types([type_dict(m) for m in problem.palette])
     model = problem.model
     task = (np.asarray(model.base, float), np.asarray(model.per_mass, float),

@@ -16,7 +16,7 @@ compiled code; otherwise a cached direction rejects a structure only when a lowe
 task's value for its mass and size exceeds its support. One *wrench values* object holds which
 (:func:`~modquad_gym.search.dynamic.wrench_values`): the checker asks it, whatever the task.
 
-With a ``fault`` (``"rotor"``, ``"module"`` or ``"rotor2"``) a structure satisfies the task only
+With a ``fault`` (:data:`~modquad_gym.oracle.faults.FAULTS`) a structure satisfies the task only
 when it still does after any failure of that kind, with ``fault_margin`` to spare
 (:mod:`modquad_gym.oracle.faults`). A tolerant
 structure is feasible, so the intact decisions and the cached directions still rule structures
@@ -221,9 +221,11 @@ class TaskChecker:
                 return False
             start = size
         if self.fault is not None:
-            if self.fault == "rotor2":  # what a pair leaves lies in what each of its rotors
-                # leaves: single failures (4n, not 8n^2 pairs) rule out most structures first
-                single = FaultTolerance(A, self.f_max, failure_sets(A.shape[1], "rotor"), z)
+            part = {"rotor2": "rotor", "rotor+module": "module"}.get(self.fault)
+            if part is not None:  # what a larger failure leaves lies in what each of its parts
+                # leaves: single rotors or modules (fewer) rule out most structures first
+                sets = failure_sets(A.shape[1], part, self.module.n_rotors)
+                single = FaultTolerance(A, self.f_max, sets, z)
                 ok = single.decide(W, self.method(z), stop_early=True)
                 self.oracle_calls += single.tests
                 if not ok:

@@ -80,9 +80,9 @@ class SearchProblem:
         model: the task's rotor wrenches, linear in a structure's mass and inertia
             (:class:`~modquad_gym.dynamics.LinearWrenches`; a dynamic task's with repeated
             samples dropped).
-        fault: None (every rotor works), ``"rotor"``, ``"module"`` or ``"rotor2"``: a
-            structure satisfies the task only when it still does after any failure of that
-            kind (:func:`~modquad_gym.oracle.faults.tolerates`).
+        fault: None (every rotor works), ``"rotor"``, ``"module"``, ``"rotor2"`` or
+            ``"rotor+module"``: a structure satisfies the task only when it still does after
+            any failure of that kind (:func:`~modquad_gym.oracle.faults.tolerates`).
         fault_margin: the worst margin each task wrench must keep after the failure (0 with
             no fault; :func:`~modquad_gym.oracle.faults.fault_margin` measures it): thrust to
             spare while the controller does not yet know of the failure.

@@ -89,8 +89,8 @@ class SearchResult:
             lower_bound <= n_max + 1; how each search proves it: module docstring). None at
             construction means what ``certified`` says: ``n_modules`` (or ``n_max + 1``) when
             certified, else the trivial bound 1.
-        fault: the failure the structure survives (``"rotor"``, ``"module"``, ``"rotor2"``),
-            or None when every rotor was assumed to work.
+        fault: the failure the structure survives (``"rotor"``, ``"module"``, ``"rotor2"``,
+            ``"rotor+module"``), or None when every rotor was assumed to work.
         fault_margin: the worst margin it keeps after that failure, at least (0: none asked).
         history: how the bound and the incumbent improved over time (:class:`Improvement`,
             in order; the anytime search fills it, the others leave it empty).

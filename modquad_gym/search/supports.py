@@ -68,9 +68,10 @@ def _centres(cells, types, l, masses, side, cx, cy):
         cy[i] = (cells[l, i, 1] - my) * side
 
 
-LOSSES = {None: 0, "rotor": 1, "rotor2": 2, "module": 3}
+LOSSES = {None: 0, "rotor": 1, "rotor2": 2, "module": 3, "rotor+module": 4}
 """What a failure of each kind takes from a support at worst (the ``lose`` code of
-:func:`reject`): nothing, the largest rotor term, the two largest, the largest module's sum."""
+:func:`reject`): nothing, the largest rotor term, the two largest, the largest module's sum, or
+a module's sum with the largest rotor term of another module (a single module: its own sum)."""
 
 
 @njit(cache=True)
@@ -85,15 +86,20 @@ def _support(b, alpha, beta, p, types, l, cx, cy, lose):
     top1 = 0.0  # the two largest positive rotor terms
     top2 = 0.0
     module = 0.0  # the largest sum of positive terms of one module
+    best = 0.0  # the largest rotor term of a module, the module, and the second largest of one
+    best_at = -1  # module's largest terms (of another module than best_at)
+    second = 0.0
     for i in range(n):
         t = types[l, i]
         own = 0.0
+        largest = 0.0
         for j in range(r):
             v = b[p, t, j] + cx[i] * alpha[p, t, j] + cy[i] * beta[p, t, j]
             if v > 0.0:
                 plus += v
                 total += v
                 own += v
+                largest = max(largest, v)
                 if v > top1:
                     top2 = top1
                     top1 = v
@@ -102,11 +108,26 @@ def _support(b, alpha, beta, p, types, l, cx, cy, lose):
             else:
                 total -= v
         module = max(module, own)
+        if largest > best:
+            second, best, best_at = best, largest, i
+        elif largest > second:
+            second = largest
+    if lose == 4:  # a module, then the largest rotor term of another one (a second pass)
+        module = 0.0
+        for i in range(n):
+            t = types[l, i]
+            own = 0.0
+            for j in range(r):
+                v = b[p, t, j] + cx[i] * alpha[p, t, j] + cy[i] * beta[p, t, j]
+                own += max(v, 0.0)
+            if n > 1:
+                own += second if i == best_at else best
+            module = max(module, own)
     if lose == 1:
         plus -= top1
     elif lose == 2:
         plus -= top1 + top2
-    elif lose == 3:
+    elif lose >= 3:
         plus -= module
     return plus, total
 

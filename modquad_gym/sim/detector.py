@@ -147,11 +147,11 @@ def make_detector(detector, plant, kind: str, dt: float, com=None) -> FailureDet
     the body's centre of mass in {S} (a payload's offset)."""
     if detector is None:
         return None
-    from modquad_gym.oracle.faults import failure_sets
+    from modquad_gym.oracle.faults import FAULTS, failure_sets
 
     config, noise = detector if isinstance(detector, tuple) else (detector, None)
     m = plant.A.shape[1]
-    sets = failure_sets(m, kind if kind in ("rotor", "module", "rotor2") else "rotor")
+    sets = failure_sets(m, kind if kind in FAULTS else "rotor")
     return FailureDetector(plant.A, plant.mass, plant.J, plant.f_max, sets, dt,
                            config if isinstance(config, DetectorConfig) else None,
                            noise if isinstance(noise, SensorNoise) else None, com)  # fmt: skip

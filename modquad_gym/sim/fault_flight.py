@@ -42,7 +42,12 @@ import numpy as np  # noqa: E402
 from modquad_gym.core.validation import check_f_max, check_real, check_wrenches  # noqa: E402
 from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.oracle import TOL, margin  # noqa: E402
-from modquad_gym.oracle.faults import FaultTolerance, check_fault, failure_sets  # noqa: E402
+from modquad_gym.oracle.faults import (  # noqa: E402
+    FaultTolerance,
+    check_fault,
+    failure_sets,
+    module_failures,
+)
 from modquad_gym.search.checker import LP_ROTORS  # noqa: E402
 from modquad_gym.sim.detector import make_detector  # noqa: E402
 from modquad_gym.sim.failure import Failure  # noqa: E402
@@ -71,9 +76,9 @@ def failure_columns(structure: Structure, fault: str) -> list[np.ndarray]:
     :meth:`~modquad_gym.geometry.structure.Structure.configuration_matrix`."""
     fault = check_fault(fault)
     starts = np.cumsum([0] + [m.n_rotors for m in structure.modules])
-    if fault != "module":  # each rotor, or each pair of rotors
+    if fault not in ("module", "rotor+module"):  # each rotor, or each pair of rotors
         return failure_sets(int(starts[-1]), fault)
-    return [np.arange(a, b) for a, b in zip(starts[:-1], starts[1:])]
+    return module_failures(starts, fault)
 
 
 @dataclass(frozen=True)
@@ -177,8 +182,9 @@ class FaultFlight:
         return self.run.diverged is None and self.max_position_error_m <= GOAL_M
 
     def failed_part(self) -> dict:
-        """The failed module (index in the cells and its cell) and, for a rotor failure, which
-        of the module's rotors (0-based)."""
+        """The failed module (index in the cells and its cell; the module lost in a
+        rotor+module failure) and, for a rotor failure, which of the module's rotors
+        (0-based)."""
         starts = np.cumsum([0] + [m.n_rotors for m in self.structure.modules])
         first = self.failure.columns[0]
         module = int(np.searchsorted(starts, first, side="right") - 1)
@@ -186,7 +192,7 @@ class FaultFlight:
             "fault_failed_module": module,
             "fault_failed_cell": list(self.structure.cells[module]),
             "fault_failed_rotor_in_module": (
-                int(first - starts[module]) if self.fault != "module" else None
+                int(first - starts[module]) if "module" not in self.fault else None
             ),
         }
 

@@ -173,9 +173,8 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     * ``actions``: the action encoding, ``"grid"`` (default) or ``"faces"`` (above).
     * ``n_directions``: K, the support directions of the features (default 48, 12..4096).
     * ``oracle_method``: the oracle's method (default ``"auto"``, exact and certified).
-    * ``fault``: None (default), ``"rotor"``, ``"module"`` or ``"rotor2"`` (any two rotors): a
-      wrench is satisfied only when it survives ANY failure of that kind, so success is
-      tolerance (:mod:`.evaluator`).
+    * ``fault``: None (default), ``"rotor"``, ``"module"``, ``"rotor2"`` or ``"rotor+module"``:
+      a wrench counts only when it survives ANY failure of that kind: success is tolerance.
     * ``fault_margin``: with ``fault``, the worst margin a wrench must keep after the failure
       (default 0; :func:`~modquad_gym.oracle.faults.fault_margin`), in [0, 1).
     * ``render_size``: (height, width) of ``rgb_array`` frames, 16..4096 each, default (256, 256).

@@ -125,7 +125,7 @@ class StructureEvaluator:
         tests: wrench-structure tests sent to the oracle so far (all episodes).
         cache_size: structures each per-structure cache holds (:data:`CACHED_COLUMNS`).
         fault: None, or the failure a satisfied wrench must survive (``"rotor"``,
-            ``"module"``, ``"rotor2"``); the environment sets it.
+            ``"module"``, ``"rotor2"``, ``"rotor+module"``); the environment sets it.
         fault_margin: the worst margin it must keep after that failure (default 0).
     """
 
