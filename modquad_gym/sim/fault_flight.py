@@ -42,12 +42,8 @@ import numpy as np  # noqa: E402
 from modquad_gym.core.validation import check_f_max, check_real, check_wrenches  # noqa: E402
 from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.oracle import TOL, margin  # noqa: E402
-from modquad_gym.oracle.faults import (  # noqa: E402
-    FaultTolerance,
-    check_fault,
-    failure_sets,
-    module_failures,
-)
+from modquad_gym.oracle.failures import module_failures  # noqa: E402
+from modquad_gym.oracle.faults import FaultTolerance, check_fault, failure_sets  # noqa: E402
 from modquad_gym.search.checker import LP_ROTORS  # noqa: E402
 from modquad_gym.sim.detector import make_detector  # noqa: E402
 from modquad_gym.sim.failure import Failure  # noqa: E402
@@ -182,9 +178,8 @@ class FaultFlight:
         return self.run.diverged is None and self.max_position_error_m <= GOAL_M
 
     def failed_part(self) -> dict:
-        """The failed module (index in the cells and its cell; the module lost in a
-        rotor+module failure) and, for a rotor failure, which of the module's rotors
-        (0-based)."""
+        """The failed module (index in the cells and its cell; a rotor+module failure's module)
+        and, for a rotor failure, which of the module's rotors (0-based)."""
         starts = np.cumsum([0] + [m.n_rotors for m in self.structure.modules])
         first = self.failure.columns[0]
         module = int(np.searchsorted(starts, first, side="right") - 1)
