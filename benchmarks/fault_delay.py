@@ -10,11 +10,13 @@ random-motion generators by default) with the calibration's own seeds ``CALIBRAT
 fault (rotor, module): the default search's minimum structure for every required margin of
 ``--margins`` (certified where its exact levels finish within ``--time-limit``); every distinct
 structure is flown through its worst failure (:func:`modquad_gym.sim.fault_flight.fly_with_failure`,
-a hover under the wrench that failure leaves with the smallest margin) at every delay of
-``--delays``. The rule :func:`modquad_gym.oracle.faults.margin_for_delay` is read off the
-flights: at each delay, the largest worst margin among the structures that left 5 cm (any
-structure with more margin stayed within it), and a line through the origin above every one
-of them. Writes flights.csv, report.md and margin_rule.png into ``--out``.
+a hover under the wrench that failure leaves with the smallest margin, or a dynamic task's
+trajectory) at every delay of ``--delays``. The rule
+:func:`modquad_gym.oracle.fault_delay.margin_for_delay` is read off the flights, for each fault
+on its own: at each delay, the largest worst margin among the structures that left 5 cm, and a
+line through the origin above every one of them (the rule takes 1.25 times its slope, rounded
+up). ``--skip`` and ``--update`` add new tasks to an earlier run's flights.csv (each row names
+its command). Writes flights.csv, report.md and margin_rule.png into ``--out``.
 """
 
 from __future__ import annotations
