@@ -182,7 +182,7 @@ def train(config: TrainConfig) -> Path:
     wall = time.perf_counter() - t0
     model.save(log_dir / "final_model.zip")
 
-    kept = keep_best(log_dir, out, int(model.num_timesteps))
+    kept = keep_best(log_dir, out, int(model.num_timesteps), cloned)
     record = {
         **run_record(config, model, len(val)),
         **kept,
@@ -222,26 +222,33 @@ def _focus(config: TrainConfig, model: Any, modules: Any, generator: Any) -> tup
         "seconds": round(time.perf_counter() - t0, 1)}  # fmt: skip
 
 
-def keep_best(log_dir: Path, out: Path, final_step: int) -> dict:
-    """Copy the model with the best validation optimal share (the final one if no evaluation
-    ran; :func:`~modquad_gym.scoring.fine_tuning.best_index`)
-    and the learning curve from ``log_dir`` into ``out``; what the config records of it."""
+def keep_best(log_dir: Path, out: Path, final_step: int, start: str | None = None) -> dict:
+    """Copy the kept model and the learning curve from ``log_dir`` into ``out``: the best
+    validation checkpoint, or the cloned ``start`` when the checkpoint does not beat it
+    significantly (:func:`~modquad_gym.scoring.fine_tuning.kept_index`), or the final model if
+    no evaluation ran; what the config records of it."""
     import numpy as np
 
-    from modquad_gym.scoring.fine_tuning import best_index
+    from modquad_gym.scoring.fine_tuning import best_index, kept_index
 
     best = log_dir / "best_model.zip"
-    chosen = best if best.is_file() else log_dir / "final_model.zip"
-    atomic_write(out / "model.zip", lambda tmp: shutil.copyfile(chosen, tmp))
+    chosen, kept = (best, "best validation checkpoint") if best.is_file() else (
+        log_dir / "final_model.zip", "final")  # fmt: skip
     evals = log_dir / "evaluations.npz"
-    step = final_step
+    step, best_step = final_step, None
     if evals.is_file():
         atomic_write(out / "evaluations.npz", lambda tmp: shutil.copyfile(evals, tmp))
         data = np.load(evals)
         if chosen == best:
-            step = int(data["timesteps"][best_index(data)])
-    kept = "best validation optimal share" if chosen == best else "final"
-    return {"kept_model": kept, "kept_model_timesteps": step}
+            best_step = step = int(data["timesteps"][best_index(data)])
+            if start is not None and kept_index(data) == 0 != best_index(data):
+                chosen, kept, step = Path(start), "cloned start (best not significantly better)", 0
+    atomic_write(out / "model.zip", lambda tmp: shutil.copyfile(chosen, tmp))
+    return {
+        "kept_model": kept,
+        "kept_model_timesteps": step,
+        "best_checkpoint_timesteps": best_step,
+    }
 
 
 def log_name(out: Path, tensorboard: Path) -> str:

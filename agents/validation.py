@@ -3,11 +3,13 @@
 The validation tasks (seeds ``VALIDATION_SEED0 + i``, never training or held-out tasks) carry
 their certified optimum (:func:`certified_validation`). :class:`OptimalEval` (built by
 :func:`optimal_eval_class`) is sb3-contrib's ``MaskableEvalCallback`` that also evaluates when
-PPO starts (step 0: the cloned policy) and records, per validation episode, whether it ended with
-the optimal module count (``optimal`` in ``evaluations.npz``). The best model is the one with
-the highest optimal share, then success rate, then mean return (:func:`best_index`), the first
-such evaluation on ties: fine-tuning replaces the cloned policy only when it builds more optimal
-designs on validation, not when it gains a partial share on a failed task.
+PPO starts (step 0: the cloned policy) and records, per validation task (in the tasks' order),
+whether its episode ended with the optimal module count (``optimal`` in ``evaluations.npz``). The
+best checkpoint is the one with the highest optimal share, then success rate, then mean return
+(:func:`~modquad_gym.scoring.fine_tuning.best_index`); the run keeps it only when it solves
+significantly more tasks optimally than the cloned start
+(:func:`~modquad_gym.scoring.fine_tuning.kept_index`), since the best of many noisy evaluations
+beats its start by luck alone.
 """
 
 from __future__ import annotations
@@ -45,7 +47,8 @@ def optimal_eval_class():
 
     class OptimalEval(MaskableEvalCallback):
         """MaskableEvalCallback that also evaluates when training starts (``at_start``), records
-        each validation episode's optimality (``optima``: task name -> certified optimum) and
+        each validation task's optimality (``optima``: task name -> certified optimum, in the order
+        ``evaluations.npz`` keeps; every evaluation plays each task once) and
         keeps as ``best_model.zip`` the evaluation :func:`best_index` picks."""
 
         def __init__(self, *args: Any, optima: dict, at_start: bool = True, **kwargs: Any):
@@ -54,7 +57,7 @@ def optimal_eval_class():
             self.optima = optima
             self.at_start = at_start
             self.evaluations_optimal: list[list[bool]] = []
-            self._optimal_buffer: list[bool] = []
+            self._optimal_buffer: dict[str, bool] = {}
             self.best_evaluation = -1
 
         def _on_training_start(self) -> None:
@@ -66,17 +69,17 @@ def optimal_eval_class():
             super()._log_success_callback(locals_, globals_)
             if locals_["done"]:
                 info = locals_["info"]
-                self._optimal_buffer.append(
-                    episode_optimal(info, self.optima.get(info.get("task_name")))
-                )
+                name = info.get("task_name")
+                self._optimal_buffer[name] = episode_optimal(info, self.optima.get(name))
 
         def _on_step(self) -> bool:
             before = len(self.evaluations_timesteps)
-            self._optimal_buffer = []
+            self._optimal_buffer = {}
             go_on = super()._on_step()
-            if len(self.evaluations_timesteps) > before:
-                self.evaluations_optimal.append(self._optimal_buffer)
-                share = float(np.mean(self._optimal_buffer))
+            if len(self.evaluations_timesteps) > before:  # one flag per task, in task order
+                row = [self._optimal_buffer[name] for name in self.optima]
+                self.evaluations_optimal.append(row)
+                share = float(np.mean(row))
                 self.logger.record("eval/optimal_share", share)
                 self._save_log()
                 best = best_index(self._arrays())

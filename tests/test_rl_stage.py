@@ -12,7 +12,7 @@ from agents.config import TrainConfig
 from agents.focus import FocusedTasks, missed_tasks
 from agents.validation import episode_optimal
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
-from modquad_gym.scoring.fine_tuning import best_index
+from modquad_gym.scoring.fine_tuning import best_index, kept_index
 from modquad_gym.search import exhaustive_search
 from modquad_gym.tasks import PlantedTasks, save_suite
 
@@ -102,7 +102,8 @@ def test_ppo_from_a_saved_cloned_policy_focuses_and_keeps_the_best_optimal_share
     assert config["focus"]["tasks"] == 6 and 0 <= config["focus"]["missed"] <= 6
     evals = np.load(tmp_path / "b" / "evaluations.npz")
     assert evals["timesteps"][0] == 0 and evals["optimal"].shape == evals["results"].shape
-    assert config["kept_model_timesteps"] == evals["timesteps"][best_index(evals)]
+    assert config["kept_model_timesteps"] == evals["timesteps"][kept_index(evals)]
+    assert config["best_checkpoint_timesteps"] == evals["timesteps"][best_index(evals)]
     with pytest.raises(ValueError, match="--init-from"):
         TrainConfig(out=tmp_path / "c", init_from=cloned, resume=cloned)
 
@@ -122,8 +123,8 @@ def test_the_report_says_what_fine_tuning_did_in_optimal_designs(tmp_path):
     assert "ended at 1 of 2 optimal at step 300" in rose
     flat = words([0.5, 0.5, 0.0], [1, 1, 1], [2, 1, 0])
     assert "did not solve more validation tasks optimally" in flat and "first one" in flat
-    tie = words([0.5, 0.5, 0.0], [1, 1, 1], [1, 2, 0])  # a higher return, as many optima
-    assert "did not solve more" in tie and "step 100's (as many optimal)" in tie
+    tie = words([0.5, 0.5, 0.0], [1, 1, 1], [1, 2, 0])  # a higher return, as many optima:
+    assert "did not solve more" in tie and "that first one" in tie  # the start is kept
 
 
 def _tiny_model(tmp_path, suite, kl_coef: float):
@@ -230,3 +231,30 @@ def test_group_rollouts_hold_each_episode_with_its_groups_advantage(tmp_path, ti
         expected = group_advantages([r for r, _ in group])
         for (_, adv), e in zip(group, expected):
             assert np.allclose(adv, e, atol=1e-6)  # every step of an episode: its advantage
+
+
+def _flags(rows) -> dict:
+    optimal = np.array(rows, dtype=bool)
+    n = len(optimal)
+    return {"timesteps": np.arange(n) * 100, "results": optimal.astype(float),
+            "successes": np.ones_like(optimal, dtype=float), "optimal": optimal}  # fmt: skip
+
+
+def test_the_cloned_start_is_kept_unless_the_best_checkpoint_beats_it_significantly(tmp_path):
+    """A gain of 2 tasks out of 40 after 20 evaluations is luck's size (the start is kept);
+    10 tasks gained and none lost is not (one-sided exact McNemar, Bonferroni over the
+    evaluations), and the report says which."""
+    from modquad_gym.scoring.fine_tuning import fine_tuning_words, replaces_start
+
+    start = [True] * 30 + [False] * 10
+    small = [_flags([start] * 5 + [[True] * 32 + [False] * 8] + [start] * 15)]
+    big = [_flags([start] * 5 + [[True] * 40] + [start] * 15)]
+    assert best_index(small[0]) == 5 and kept_index(small[0]) == 0
+    assert best_index(big[0]) == 5 and kept_index(big[0]) == 5
+    ok, p = replaces_start(big[0], 5)
+    assert ok and p == pytest.approx(0.5**10)
+    assert not replaces_start(small[0], 5)[0]
+    np.savez(tmp_path / "small.npz", **small[0])
+    words = fine_tuning_words(tmp_path / "small.npz")
+    assert "(+2)" in words and "within chance for the best of 20 evaluations" in words
+    assert "kept model is the cloned start" in words

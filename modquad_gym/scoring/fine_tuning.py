@@ -12,7 +12,7 @@ import numpy as np
 def fine_tuning_words(evals: Path, w_module: float = 0.1) -> str:
     """What PPO fine-tuning did, in the numbers of the run's ``evaluations.npz`` (step 0: the
     cloned policy, when the run cloned first): in validation tasks solved optimally when the
-    file records them (``optimal``; the kept model is the one :func:`best_index` picks),
+    file records them (``optimal``; the kept model is the one :func:`kept_index` picks),
     else in validation return, where a change below half of one module on one validation task
     (``w_module / n``, the reward's module cost) is reported as no rise: it is a partial share
     on a failed task, not a design."""
@@ -25,8 +25,10 @@ def fine_tuning_words(evals: Path, w_module: float = 0.1) -> str:
     n_tasks = data["results"].shape[1]
     start = "the cloned policy's" if steps[0] == 0 else "the first evaluation's"
     if "optimal" in data and data["optimal"].size:
-        best = best_index(data)
-        return _optimal_words(steps, data["optimal"].sum(axis=1), success, n_tasks, start, best)
+        best, kept = best_index(data), kept_index(data)
+        p = replaces_start(data, best)[1] if kept != best else None
+        opt = data["optimal"].sum(axis=1)
+        return _optimal_words(steps, opt, success, n_tasks, start, best, kept, p)
     best = int(np.argmax(ret))  # the first evaluation of the highest mean return
     one_module = w_module / n_tasks
 
@@ -61,20 +63,62 @@ def best_index(data: Any) -> int:
     return max(range(len(rows)), key=lambda i: (rows[i], -i))
 
 
-def _optimal_words(steps, optimal, success, n_tasks: int, start: str, best: int) -> str:
+SIGNIFICANCE = 0.05
+"""The level at which the best checkpoint must beat the cloned start (:func:`kept_index`)."""
+
+
+def replaces_start(data: Any, best: int, alpha: float = SIGNIFICANCE) -> tuple[bool, float]:
+    """(whether evaluation ``best`` solves significantly more validation tasks optimally than
+    step 0, its p-value): a one-sided exact McNemar test on the tasks where the two differ,
+    at ``alpha`` over the number of evaluations after step 0 (Bonferroni: the best of many
+    noisy evaluations beats its start by luck alone). ``optimal`` holds one flag per task in
+    the same task order at every evaluation."""
+    from scipy.stats import binomtest
+
+    opt = np.asarray(data["optimal"], dtype=bool)
+    gained = int((opt[best] & ~opt[0]).sum())
+    lost = int((opt[0] & ~opt[best]).sum())
+    if gained + lost == 0:
+        return False, 1.0
+    p = float(binomtest(gained, gained + lost, 0.5, alternative="greater").pvalue)
+    return p < alpha / max(len(opt) - 1, 1), p
+
+
+def kept_index(data: Any, alpha: float = SIGNIFICANCE) -> int:
+    """The evaluation a run keeps: :func:`best_index`, except that a run that evaluated its
+    cloned start at step 0 (``optimal`` recorded) keeps that start unless the best checkpoint
+    :func:`replaces_start` significantly."""
+    best = best_index(data)
+    has_start = "optimal" in data and np.asarray(data["optimal"]).size and data["timesteps"][0] == 0
+    if best == 0 or not has_start:
+        return best
+    return best if replaces_start(data, best, alpha)[0] else 0
+
+
+def _optimal_words(steps, optimal, success, n_tasks, start, best, kept, p) -> str:
+    """The sentence on a run that recorded its optimal shares (``p``: the test's p-value when
+    the cloned start was kept over a better checkpoint)."""
+
     def at(i: int) -> str:
         tail = f", success {100 * float(success[i]):.1f} %" if success is not None else ""
         return f"{int(optimal[i])} of {n_tasks} optimal at step {int(steps[i])}{tail}"
 
     last = len(steps) - 1
     if optimal[best] <= optimal[0]:
-        kept = "that first one" if best == 0 else f"step {int(steps[best])}'s (as many optimal)"
+        which = "that first one" if kept == 0 else f"step {int(steps[kept])}'s (as many optimal)"
         return (
             f"PPO fine-tuning did not solve more validation tasks optimally than {start} "
-            f"({at(0)}): it ended at {at(last)} (learning curve); the kept model is {kept}."
+            f"({at(0)}): it ended at {at(last)} (learning curve); the kept model is {which}."
         )
-    return (
+    rise = (
         f"PPO fine-tuning raised the validation tasks solved optimally from {start} {at(0)} to "
         f"{at(best)} ({int(optimal[best] - optimal[0]):+d}) and ended at {at(last)} (learning "
-        "curve); the kept model is the best validation checkpoint."
+        "curve); "
+    )
+    if kept == best:
+        return rise + "the kept model is the best validation checkpoint."
+    alpha = SIGNIFICANCE / max(last, 1)
+    return rise + (
+        f"that gain is within chance for the best of {last} evaluations (one-sided McNemar "
+        f"p = {p:.3f}, needed < {alpha:.4f}), so the kept model is the cloned start."
     )
