@@ -2,8 +2,8 @@
 
     python -m benchmarks.fault_rotor2 --per-suite 10 --time-limit 30 --out results/faults/rotor2
 
-For the first ``--per-suite`` tasks of the held-out paper-like and planted suites and the
-dynamic suite: the default search's intact minimum and its minimum structure that still exerts
+For the first ``--per-suite`` tasks of the fault tier's suite, the held-out paper-like and
+planted suites and the dynamic suite (those of benchmarks/faults.py): the default search's intact minimum and its minimum structure that still exerts
 every task wrench after ANY two rotors stop (``fault="rotor2"``), with the search's wall time
 (issue 47's goal: certified within 30 s wherever the intact optimum is at most 6 modules); every
 answer re-verified by an LP (DAQP) on each failed matrix. ``--suites`` re-runs some suites and
@@ -31,7 +31,7 @@ from modquad_gym.oracle.fault_kernels import PATHS
 from modquad_gym.oracle.faults import FaultTolerance, failure_sets
 from modquad_gym.tasks.suites import load_suite
 
-SUITES = ("heldout_paper", "heldout_planted", "dynamic_motions")
+SUITES = ("fault_rotor", "heldout_paper", "heldout_planted", "dynamic_motions")
 SUITES_DIR = Path(mq.__file__).parent / "data" / "suites"
 SIZES = (100, 1000, 10000)
 

@@ -243,7 +243,8 @@ def certify_rows(
                     trace[t, f] = 2
                 continue
             ok = False
-            for p in range(min(found, POOL)):  # from an allocation found for an earlier pair
+            for q in range(min(found, POOL)):  # from an allocation found for an earlier pair
+                p = (found - 1 - q) % POOL  # the newest first: its pair is the likeliest kin
                 weight = 0.0
                 shared = False  # a failed rotor already off in it: the likely successes
                 for k in range(lo, hi):
