@@ -3,16 +3,16 @@
     python -m benchmarks.fault_rotor2 --per-suite 10 --time-limit 30 --out results/faults/rotor2
 
 For the first ``--per-suite`` tasks of the fault tier's suite, the held-out paper-like and
-planted suites and the dynamic suite (those of benchmarks/faults.py): the default search's intact minimum and its minimum structure that still exerts
-every task wrench after ANY two rotors stop (``fault="rotor2"``), with the search's wall time
-(issue 47's goal: certified within 30 s wherever the intact optimum is at most 6 modules); every
-answer re-verified by an LP (DAQP) on each failed matrix. ``--suites`` re-runs some suites and
-keeps the rows of the others already in ``--out``. The oracle part times ``mq.tolerates(...,
-fault="rotor2")`` against ``mq.feasible`` as benchmarks/fault_price.py does (its 7-module
-structure, m = 28 rotors, 378 pairs; its wrenches inside W), best of ``--repeats`` (one
-process), and counts
-which test of the pair certificate settled each (wrench, pair). Writes report.md, minima.csv and
-oracle.csv into ``--out``.
+planted suites and the dynamic suite (those of benchmarks/faults.py): the default search's intact
+minimum and its minimum structure that still exerts every task wrench after ANY two rotors stop
+(``fault="rotor2"``), with the search's wall time (issue 47's goal: certified within 30 s
+wherever the intact optimum is at most 6 modules); every answer re-verified by an LP (DAQP) on
+each failed matrix. ``--suites`` re-runs some suites and keeps the rows of the others already in
+``--out``. The oracle part times ``mq.tolerates(..., fault="rotor2")`` against ``mq.feasible``
+as benchmarks/fault_price.py does (its 7-module structure, m = 28 rotors, 378 pairs; its
+wrenches inside W), best of ``--repeats`` (one process), and counts which test of the pair
+certificate settled each (wrench, pair). Writes report.md, minima.csv and oracle.csv into
+``--out``.
 """
 
 from __future__ import annotations
