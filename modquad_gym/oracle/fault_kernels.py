@@ -82,22 +82,22 @@ def _separated(r, G, dual, e, failed, work):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _single_failures(x, single, Y1, hi1, lo1):  # pragma: no cover - compiled
-    """Y1[i] = x + single[i] (1 + x_i): the least-norm allocation once rotor i alone has
-    failed; hi1[i], lo1[i] its largest and smallest entry off rotor i."""
+def _single_failures(x, single, hi1, lo1):  # pragma: no cover - compiled
+    """hi1[i], lo1[i]: the largest and smallest entry, off rotor i, of x + single[i] (1 + x_i),
+    the least-norm allocation once rotor i alone has failed."""
     m = len(x)
     for i in range(m):
         a = 1.0 + x[i]
-        for k in range(m):
-            Y1[i, k] = x[k] + single[i, k] * a
         hi = -np.inf
         lo = np.inf
         for k in range(i):
-            hi = max(hi, Y1[i, k])
-            lo = min(lo, Y1[i, k])
+            v = x[k] + single[i, k] * a
+            hi = max(hi, v)
+            lo = min(lo, v)
         for k in range(i + 1, m):
-            hi = max(hi, Y1[i, k])
-            lo = min(lo, Y1[i, k])
+            v = x[k] + single[i, k] * a
+            hi = max(hi, v)
+            lo = min(lo, v)
         hi1[i] = hi
         lo1[i] = lo
 
@@ -157,7 +157,6 @@ def certify_rows(
     pool = np.empty((POOL, m))
     pool_resid = np.empty(POOL)
     single, up2, down2 = lift
-    Y1 = np.empty(single.shape)
     hi1 = np.empty(len(single))
     lo1 = np.empty(len(single))
     for t in range(t_rows):
@@ -219,17 +218,18 @@ def certify_rows(
                 continue
             if hi - lo == 2 and len(single):  # a pair: through each rotor's own failure
                 if not lifted:
-                    _single_failures(x, single, Y1, hi1, lo1)
+                    _single_failures(x, single, hi1, lo1)
                     lifted = True
                 i, j = columns[lo], columns[lo + 1]
-                b = 1.0 + Y1[i, j]  # through rotor i's failure (module docstring), then j's
+                # through rotor i's failure (module docstring), then j's: 1 + (y_i)_j
+                b = 1.0 + (x[j] + single[i, j] * (1.0 + x[i]))
                 if b >= 0.0 and hi1[i] + up2[i, j] * b <= SURE and down2[i, j] * b - lo1[i] <= SURE:
                     out[t, f] = 1
                     paths[1] += 1
                     if len(trace):
                         trace[t, f] = 1
                     continue
-                b = 1.0 + Y1[j, i]
+                b = 1.0 + (x[i] + single[j, i] * (1.0 + x[j]))
                 if b >= 0.0 and hi1[j] + up2[j, i] * b <= SURE and down2[j, i] * b - lo1[j] <= SURE:
                     out[t, f] = 1
                     paths[1] += 1
