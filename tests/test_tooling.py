@@ -199,8 +199,9 @@ def test_bench_env_reports_the_default_config_with_resets_and_the_ppo_update(tmp
     )
     text = (tmp_path / "env_benchmark.md").read_text()
     assert "resets counted" in text and "(shared)" in text and "env / update" in text
-    assert len((tmp_path / "env_benchmark.csv").read_text().splitlines()) == 1 + 3 + 3 + 2
-    assert "Lookahead rows" in text
+    lookaheads = len(bench_env.LOOKAHEADS)  # off, support, every child exact, the shortlist
+    assert len((tmp_path / "env_benchmark.csv").read_text().splitlines()) == 1 + 3 + lookaheads + 2
+    assert "Lookahead rows" in text and "lookahead_top_k" in text
     grid, faces = rows[-2:]
     assert (grid["encoding"], faces["encoding"]) == ("grid", "faces")
     assert (grid["actions"], faces["actions"]) == (9**2, 2 * 5 + 2) and faces["steps_per_s"] > 0
