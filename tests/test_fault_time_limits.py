@@ -1,12 +1,17 @@
 """Fault-aware searches keep their time limit on a large task (issue 47): a generated planted
-task whose answer has about 48 modules, searched with a rotor and a module fault."""
+task whose answer has about 48 modules, searched with a rotor, a module and a two-rotor fault;
+a fault decision cut by its deadline answers nothing (never a proof nor a refutation)."""
 
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 import modquad_gym as mq
+from modquad_gym.oracle import faults
+from modquad_gym.oracle.faults import DecisionInterruptedError, FaultTolerance, failure_sets
+from modquad_gym.search.result import Status
 from modquad_gym.tasks import PlantedTasks
 
 
@@ -34,6 +39,53 @@ def test_anytime_keeps_its_limit_with_a_fault(task48, fault, limit):
     assert 40 <= r.lower_bound <= r.n_modules
     W = task48.rotor_wrenches(r.structure)
     assert mq.tolerates(r.structure, W, task48.f_max, fault=fault, method="compiled").all()
+
+
+def test_anytime_keeps_its_limit_with_two_rotor_failures(task48):
+    # one two-rotor decision of a 48-module structure (18,336 pairs x 42 wrenches) ran ~26 s
+    # in one compiled call: the search ran 22-33 s for a 10 s limit
+    t0 = time.perf_counter()
+    r = mq.anytime_search(task48, n_max=64, time_limit=5.0, fault="rotor2")
+    wall = time.perf_counter() - t0
+    assert within(wall, 5.0), f"rotor2: {wall:.1f} s for a 5 s limit"
+    assert r.status is not Status.OPTIMAL and r.lower_bound >= 40  # its proved bound
+    if r.structure is not None:  # its best structure, verified
+        W = task48.rotor_wrenches(r.structure)
+        assert mq.tolerates(r.structure, W, task48.f_max, fault="rotor2").all()
+
+
+@pytest.mark.parametrize("fault", ["rotor2", "rotor+module"])
+@pytest.mark.parametrize("stop_early", [False, True])
+def test_an_interrupted_decision_answers_nothing(monkeypatch, fault, stop_early):
+    """Cut at every look at a fake clock (one tick per look, a few pairs per chunk), a fault
+    decision either raises or gives the full decision's answer: a wrench it had not finished
+    is never counted tolerated (a proof) nor not tolerated (a refutation)."""
+    s = mq.Structure([(0, 0), (1, 0), (0, 1), (1, 1), (2, 0), (2, 1), (0, 2)])
+    A = s.configuration_matrix()
+    rng = np.random.default_rng(3)  # allocations with one to three rotors off, about the edge
+    U = rng.uniform(0, 1, (30, A.shape[1])) * rng.choice([1.0, 1.3, 1.6], (30, 1))
+    U[np.arange(30)[:, None], rng.integers(0, A.shape[1], (30, 3))] = 0.0
+    W = U @ A.T
+    if stop_early:  # else it stops at the first wrench the intact structure cannot exert
+        W = W[mq.feasible(A, W)]
+    failures = failure_sets(A.shape[1], fault)
+    full = FaultTolerance(A, 1.0, failures).decide(W, "auto", stop_early=stop_early)
+    assert (0 < np.mean(full) < 1) if not stop_early else True  # both answers occur
+    monkeypatch.setattr(faults, "CHUNK_PAIRS", 2 * len(failures))  # two wrenches a chunk
+    outcomes = set()
+    for budget in range(40):
+        clock = SimpleNamespace(perf_counter=iter(range(10**6)).__next__)  # one tick a look
+        monkeypatch.setattr(faults, "time", clock)
+        try:
+            got = FaultTolerance(A, 1.0, failures, deadline=budget).decide(
+                W, "auto", stop_early=stop_early
+            )
+        except DecisionInterruptedError:
+            outcomes.add("interrupted")
+            continue
+        outcomes.add("answered")
+        assert np.array_equal(got, full), budget
+    assert outcomes == {"interrupted", "answered"}
 
 
 def test_genetic_stops_while_scoring_its_first_population(task48):

@@ -26,10 +26,16 @@ that pins the rotors the correction took out of the cube (:mod:`.fault_kernels`)
 (wrench, failure) pair is decided by the oracle on A_{-S} itself (its own zonotope, built once
 per failure). A failure that lowers the rank (I - H_SS singular: a single module, a line) is
 always decided on A_{-S}.
+
+A decision may carry a ``deadline`` (:func:`time.perf_counter` seconds): the certificate then
+runs a chunk of about :data:`CHUNK_PAIRS` pairs at a time and the per-failure decisions one
+failure at a time, and past the deadline the decision raises :class:`DecisionInterruptedError`
+instead of answering, so an unfinished decision is never taken as a proof nor as a refutation.
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 
 import numpy as np
@@ -49,6 +55,15 @@ from modquad_gym.oracle.zonotope import Zonotope
 
 _EXACT = 1e-9  # residual of a certificate's equations accepted, relative to 1 + |r|_inf
 
+CHUNK_PAIRS = 4096
+"""(wrench, failure) pairs the compiled certificate decides between two looks at the clock when
+a decision has a deadline (at least one wrench: all its failures)."""
+
+
+class DecisionInterruptedError(Exception):
+    """A fault decision reached its deadline before it finished: neither a proof nor a
+    refutation (the caller stops with what it had verified before)."""
+
 
 class FaultTolerance:
     """Fault tolerance of one structure's matrix A against many wrenches.
@@ -60,6 +75,8 @@ class FaultTolerance:
         zonotope: the intact zonotope of A when the caller has it already.
         fault_margin: the worst margin a wrench must keep after each failure (0: feasible
             after it; :func:`check_fault_margin`).
+        deadline: :func:`time.perf_counter` time past which a decision raises
+            :class:`DecisionInterruptedError` (None: none).
 
     ``tests`` counts the (wrench, failure) pairs decided by the oracle on A_{-S}; ``certified``
     those the shared allocation certificate settled, and ``paths`` how many each of its tests
@@ -73,7 +90,9 @@ class FaultTolerance:
         failures: Sequence[np.ndarray],
         zonotope: Zonotope | None = None,
         fault_margin: float = 0.0,
+        deadline: float | None = None,
     ) -> None:
+        self.deadline = deadline
         self.intact = zonotope if zonotope is not None else Zonotope(A, f_max)
         self.failures = [np.asarray(S, dtype=np.intp) for S in failures]
         self.fault_margin = check_fault_margin(fault_margin)
@@ -86,6 +105,11 @@ class FaultTolerance:
         self._K: tuple[np.ndarray, ...] | None = None
         self._directions: tuple[np.ndarray, np.ndarray] | None = None
 
+    def _on_time(self) -> None:
+        """Raise :class:`DecisionInterruptedError` once the deadline has passed."""
+        if self.deadline is not None and time.perf_counter() >= self.deadline:
+            raise DecisionInterruptedError("the fault decision reached its deadline")
+
     # --- the failed structures ----------------------------------------------------------
     def failed(self, i: int) -> Zonotope | None:
         """The zonotope of A without the columns of failure i (None: no rotor is left)."""
@@ -97,6 +121,7 @@ class FaultTolerance:
         return self._zonotopes[i]
 
     def _decide_failed(self, i: int, W: np.ndarray, method: str) -> np.ndarray:
+        self._on_time()
         self.tests += len(W)
         z = self.failed(i)
         if z is None:  # nothing left: only the zero wrench
@@ -108,6 +133,7 @@ class FaultTolerance:
         margin is 1 - gamma about the centre c = A_{-S} f_max / 2, so margin >= mu exactly when
         w - mu c lies in the zonotope of A_{-S} with thrusts up to (1 - mu) f_max (decided by
         the oracle with its tolerance rule: margin >= mu - TOL (1 - mu))."""
+        self._on_time()
         self.tests += len(W)
         if i not in self._shrunk:
             z = self.failed(i)
@@ -146,7 +172,8 @@ class FaultTolerance:
         1 certified tolerated, 0 certified not, -1 undecided. With ``stop`` the rows after the
         first pair certified not tolerated are left out (the array ends there). ``trace``
         (t, F) int8, if given, receives the index of the test that settled each pair
-        (:data:`~.fault_kernels.PATHS`)."""
+        (:data:`~.fault_kernels.PATHS`). With a deadline, a chunk of rows at a time
+        (:data:`CHUNK_PAIRS`), looking at the clock before each."""
         from modquad_gym.oracle.active_set import workspace
         from modquad_gym.oracle.fault_kernels import certify_rows
 
@@ -157,9 +184,19 @@ class FaultTolerance:
         P = np.ascontiguousarray(z.P)
         work = workspace(z.m)
         trace = np.zeros((0, 0), dtype=np.int8) if trace is None else trace
-        done = certify_rows(R, z.G, P, H, z.dual, C, columns, starts, errors, up, down, lift,
-                            _EXACT, stop, work, out, self.paths, trace)  # fmt: skip
-        return out[:done]
+        step = len(R) if self.deadline is None else CHUNK_PAIRS // max(1, len(self.failures))
+        step = max(step, 1)
+        for a in range(0, len(R), step):
+            self._on_time()
+            b = min(a + step, len(R))
+            done = certify_rows(R[a:b], z.G, P, H, z.dual, C, columns, starts, errors, up, down,
+                                lift, _EXACT, stop, work, out[a:b], self.paths,
+                                trace[a:b] if len(trace) else trace)  # fmt: skip
+            last = out[a + done - 1] if done else None
+            if done < b - a or (stop and last is not None and (last != 1).any() and
+                                (stop == 2 or (last == 0).any())):  # fmt: skip
+                return out[: a + done]
+        return out
 
     def _screen(self, W: np.ndarray, cert: np.ndarray) -> None:
         """Mark in ``cert`` (0) the undecided pairs that a support rejects: with the failed
@@ -326,6 +363,8 @@ def tolerates(
     fault: str = "rotor",
     method: str = "auto",
     fault_margin: float = 0.0,
+    *,
+    deadline: float | None = None,
 ) -> np.ndarray:
     """bool (t,): does each wrench (row of W, (t, 6)) stay feasible after ANY failure?
 
@@ -336,11 +375,13 @@ def tolerates(
     any two rotors stop. With ``fault_margin=mu`` each wrench must also keep a margin of at
     least mu after every failure (:func:`fault_margin` >= mu): thrust to spare for the
     transient before the controller knows. Exact by the oracle's tolerance rule on each failed
-    matrix (module docstring)."""
+    matrix (module docstring). Past ``deadline`` (:func:`time.perf_counter` seconds) it raises
+    :class:`DecisionInterruptedError` rather than answer."""
     A, failures = _matrix_and_failures(structure, fault)
     W = check_wrenches(W)
     z = Zonotope(A, check_f_max(f_max))
-    tolerance = FaultTolerance(A, z.f_max, failures, z, check_fault_margin(fault_margin, fault))
+    mu = check_fault_margin(fault_margin, fault)
+    tolerance = FaultTolerance(A, z.f_max, failures, z, mu, deadline)
     return tolerance.decide(W, check_method(method))
 
 

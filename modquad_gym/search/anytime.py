@@ -40,13 +40,8 @@ from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.cells import packed_key
 from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream
 from modquad_gym.geometry.structure import Structure, normalise
-from modquad_gym.search.bounds import (
-    NO_SIZE,
-    allowed_counts,
-    bound_levels,
-    force_lower_bound,
-    level_excluded,
-)
+from modquad_gym.oracle.faults import DecisionInterruptedError
+from modquad_gym.search.bounds import allowed_counts, bound_levels, bound_proof, level_excluded
 from modquad_gym.search.levels import level_size
 from modquad_gym.search.moves import compact_shapes, relocations, removable
 from modquad_gym.search.portfolio import HEURISTICS, Producers, run_in_turn
@@ -305,17 +300,6 @@ class Incumbents:
         return out
 
 
-def _proof(problem: SearchProblem) -> str:
-    """Why no level up to n_max is left, in the words of the bound that says so."""
-    if problem.shape_only:
-        n = force_lower_bound(problem.wrenches, problem.module, problem.f_max, problem.fault)
-        if n == NO_SIZE:
-            return "force bound: no number of modules can exert the task's forces"
-        if n > problem.n_max:
-            return f"force bound: the task's forces need at least {n} modules"
-    return f"exact bounds (force, count, level) rule out every level up to {problem.n_max}"
-
-
 @search_entry("anytime")
 def anytime_search(
     problem: SearchProblem,
@@ -350,20 +334,23 @@ def _search(run: SearchRun, time_limit: float, seed, chunk: int, engine, produce
     run.check_budget(MAX_MODULES, lower)  # refused before any work or output
     run.improve("bounds", lower_bound=lower)
     if lower > problem.n_max:
-        return run.finish(None, lower, proof=_proof(problem))
+        return run.finish(None, lower, proof=bound_proof(problem))
     reserve = problem.verify_reserve(time_limit)  # the final verification by the exact LP
     deadline = run.t0 + time_limit - reserve
+    run.checker.deadline, run.verify_deadline = deadline, run.t0 + time_limit
     share = run.t0 + EXACT_SHARE * (time_limit - reserve)
-    exact = ExactLevels(run, lower, chunk)
+    exact, incumbents = ExactLevels(run, lower, chunk), Incumbents(run, seed, deadline)
     parallel = engine is not None and engine.use_ray and bool(producers)
-    found = exact.advance(min(share, run.t0 + QUICK_SECONDS) if parallel else share)
-    if found is None and exact.n <= problem.n_max:
-        incumbents = Incumbents(run, seed, deadline)
-        if not parallel:
-            return _steps(run, exact, incumbents, share, deadline, producers, seed)
-        with Producers(run, engine, producers, incumbents.offer, deadline, seed) as workers:
-            incumbents.producers = workers
-            return _steps(run, exact, incumbents, share, deadline, producers, seed)
+    try:  # a fault decision cut by the deadline proves and refutes nothing: stop with the best
+        found = exact.advance(min(share, run.t0 + QUICK_SECONDS) if parallel else share)
+        if found is None and exact.n <= problem.n_max:
+            if not parallel:
+                return _steps(run, exact, incumbents, share, deadline, producers, seed)
+            with Producers(run, engine, producers, incumbents.offer, deadline, seed) as workers:
+                incumbents.producers = workers
+                return _steps(run, exact, incumbents, share, deadline, producers, seed)
+    except DecisionInterruptedError:
+        return _best(run, exact, incumbents)
     if found is not None:
         run.improve("exact", found.n_modules, found.n_modules)
         return run.finish(found, found.n_modules)
@@ -395,6 +382,11 @@ def _steps(run, exact, incumbents, share, deadline, producers, seed) -> SearchRe
         incumbents.producers.wait(incumbents.settled, deadline)
     else:
         run_in_turn(run, producers, incumbents.offer, incumbents.settled, deadline, seed)
+    return _best(run, exact, incumbents)
+
+
+def _best(run: SearchRun, exact: ExactLevels, incumbents: Incumbents) -> SearchResult:
+    """The incumbent (if any) and the bound the exact levels proved."""
     best = incumbents.structure(incumbents.best) if incumbents.best is not None else None
     size = best.n_modules if best is not None else run.problem.n_max + 1
     return run.finish(best, min(exact.n, size))

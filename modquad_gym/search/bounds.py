@@ -372,3 +372,14 @@ def bound_levels(problem: SearchProblem) -> int:
             break
         n += 1
     return min(n, p.n_max + 1)
+
+
+def bound_proof(problem: SearchProblem) -> str:
+    """Why no level up to n_max is left, in the words of the bound that says so."""
+    if problem.shape_only:
+        n = force_lower_bound(problem.wrenches, problem.module, problem.f_max, problem.fault)
+        if n == NO_SIZE:
+            return "force bound: no number of modules can exert the task's forces"
+        if n > problem.n_max:
+            return f"force bound: the task's forces need at least {n} modules"
+    return f"exact bounds (force, count, level) rule out every level up to {problem.n_max}"

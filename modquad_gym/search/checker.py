@@ -20,7 +20,10 @@ With a ``fault`` (:data:`~modquad_gym.oracle.faults.FAULTS`) a structure satisfi
 when it still does after any failure of that kind, with ``fault_margin`` to spare
 (:mod:`modquad_gym.oracle.faults`). A tolerant
 structure is feasible, so the intact decisions and the cached directions still rule structures
-out exactly; a structure that passes them is then decided failure by failure.
+out exactly; a structure that passes them is then decided failure by failure. A ``deadline``
+(:func:`time.perf_counter` seconds, set by a search with a time limit) interrupts such a
+decision: it raises :class:`~modquad_gym.oracle.faults.DecisionInterruptedError` rather than
+answer. Structures it decides tolerant are kept in ``confirmed`` (cells, palette indices).
 """
 
 from __future__ import annotations
@@ -91,6 +94,8 @@ class TaskChecker:
         self._terms_of: tuple | None = None  # the pool's (b, alpha, beta), made on demand
         self._dz = np.zeros(0)  # the directions' f_z components (the weight term)
         self.learned = 0  # directions remembered so far (the pool's length stops at POOL_SIZE)
+        self.deadline: float | None = None  # fault decisions past it are interrupted
+        self.confirmed: set[tuple] = set()  # (cells, types) of structures decided tolerant
 
     # --- the cache of separating directions ------------------------------------------------
     def remember(self, d6: np.ndarray) -> None:
@@ -200,7 +205,14 @@ class TaskChecker:
             self._count_rejected(1)
             return False
         A = structure.configuration_matrix()
-        return self.check_matrix(A, structure.mass, structure.inertia)
+        ok = self.check_matrix(A, structure.mass, structure.inertia)
+        if ok and self.fault is not None:
+            self.confirmed.add(self.key(structure))
+        return ok
+
+    def key(self, structure: Structure) -> tuple:
+        """(cells, palette indices) of a structure, as :attr:`confirmed` holds them."""
+        return tuple(map(tuple, structure.cells)), tuple(self.type_indices(structure).tolist())
 
     def check_matrix(self, A: np.ndarray, mass: float = 0.0, inertia=None) -> bool:
         """Decide the task on one configuration matrix (of a structure of ``mass`` kg and
@@ -225,7 +237,7 @@ class TaskChecker:
             if part is not None:  # what a larger failure leaves lies in what each of its parts
                 # leaves: single rotors or modules (fewer) rule out most structures first
                 sets = failure_sets(A.shape[1], part, self.module.n_rotors)
-                single = FaultTolerance(A, self.f_max, sets, z)
+                single = FaultTolerance(A, self.f_max, sets, z, deadline=self.deadline)
                 ok = single.decide(W, self.method(z), stop_early=True)
                 self.oracle_calls += single.tests
                 if not ok:
@@ -255,7 +267,7 @@ class TaskChecker:
         ``fault`` and ``fault_margin``."""
         rotors = self.module.n_rotors
         failures = failure_sets(A.shape[1], self.fault, rotors)
-        return FaultTolerance(A, self.f_max, failures, z, self.fault_margin)
+        return FaultTolerance(A, self.f_max, failures, z, self.fault_margin, self.deadline)
 
     def decide(self, z: Zonotope, W: np.ndarray) -> np.ndarray:
         """Exact decisions (t,) of wrenches W for the zonotope z, counted as ``len(W)`` oracle

@@ -20,7 +20,7 @@ import numpy as np
 
 from modquad_gym.geometry.structure import Key, Structure
 from modquad_gym.oracle import Zonotope, feasible
-from modquad_gym.oracle.faults import tolerates
+from modquad_gym.oracle.faults import DecisionInterruptedError, tolerates
 from modquad_gym.search.checker import LP_ROTORS
 from modquad_gym.tasks.wrenches import kind_entry
 
@@ -248,8 +248,11 @@ class KeptKeys(list):
 class SearchRun:
     """One search in progress: its :class:`~.problem.SearchProblem`, the shared checker, the
     clock and the structures ruled out by bounds. ``finish`` re-verifies the answer with the
-    exact LP and builds the result. A search that reports its progress calls :meth:`improve`;
-    ``listener`` (when set) sees each event as it happens."""
+    exact LP and builds the result; with a fault, a structure the checker already decided
+    tolerant (:attr:`~.checker.TaskChecker.confirmed`) is re-verified until
+    ``verify_deadline`` at most (a search's time limit), then stands on that decision. A
+    search that reports its progress calls :meth:`improve`; ``listener`` (when set) sees each
+    event as it happens."""
 
     def __init__(self, method: str, problem: SearchProblem) -> None:
         self.t0 = time.perf_counter()
@@ -259,6 +262,7 @@ class SearchRun:
         self.checker = problem.checker()
         self.history: list[Improvement] = []
         self.listener: Callable[[Improvement], None] | None = None
+        self.verify_deadline: float | None = None  # see finish
 
     def improve(
         self, source: str, lower_bound: int | None = None, n_modules: int | None = None
@@ -292,6 +296,8 @@ class SearchRun:
         tolerance = self.checker.tolerance(A, z)
         ok = tolerance.decide(W, self.checker.method(z))
         self.checker.oracle_calls += tolerance.tests
+        if ok.all():
+            self.checker.confirmed.add(self.checker.key(s))
         return z, W, ok
 
     def check_budget(self, limit: int, first_level: int) -> None:
@@ -321,8 +327,13 @@ class SearchRun:
             else:  # the LP per failure up to LP_ROTORS rotors, else the explicit certificates
                 A = structure.configuration_matrix()
                 method = "daqp" if A.shape[1] <= LP_ROTORS else "auto"
-                ok = tolerates(structure, W, p.f_max, fault=p.fault, method=method,
-                               fault_margin=p.fault_margin)  # fmt: skip
+                confirmed = self.checker.key(structure) in self.checker.confirmed
+                try:
+                    ok = tolerates(structure, W, p.f_max, fault=p.fault, method=method,
+                                   fault_margin=p.fault_margin,
+                                   deadline=confirmed and self.verify_deadline or None)  # fmt: skip
+                except DecisionInterruptedError:  # the checker's exact decision of it stands
+                    ok = feasible(A, W, p.f_max, method="daqp")
             if not ok.all():
                 raise RuntimeError(  # pragma: no cover - an oracle bug, never a silent success
                     f"{self.method} search found {structure!r} but the exact LP rejects it"
