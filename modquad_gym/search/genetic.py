@@ -23,9 +23,12 @@ gives the same answer on one machine (when the time limit does not cut it short)
 
 from __future__ import annotations
 
+from contextlib import suppress
+
 import numpy as np
 
 from modquad_gym.core.validation import check_int, check_real
+from modquad_gym.oracle.faults import DecisionInterruptedError
 from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.chromosomes import crossover, mutate, random_structure
 from modquad_gym.search.heuristic import (
@@ -102,7 +105,7 @@ def genetic_search(
     missed against the module count; ``modules``, ``kind`` and ``f_max`` as for
     :func:`~.exhaustive.exhaustive_search`; ``seed`` seeds everything random."""
     run = SearchRun("genetic", problem)
-    deadline = Deadline(run, time_limit)
+    deadline = Deadline(run, time_limit, interrupt=True)
     opt = _options(population, generations, stall, mutation_rate, crossover_rate, elite,
                    tournament, penalty)  # fmt: skip
     rng = np.random.default_rng(None if seed is None else check_int(seed, "seed", low=0))
@@ -114,25 +117,31 @@ def genetic_search(
     scores = Scores(run)
     fitness = Fitness(scores, problem.n_max if opt["penalty"] is None else opt["penalty"])
     K, n_max = len(problem.palette), problem.n_max
+    with suppress(DecisionInterruptedError):  # a cut fault decision scores nothing
+        _evolve(fitness, rng, opt, K, lower, n_max, deadline)
+    best = fitness.best
+    return heuristic_result(run, None if best is None else scores.structure(best))
+
+
+def _evolve(fitness, rng, opt, K, lower, n_max, deadline) -> None:
+    """The generations (their best in ``fitness.best``) until the deadline, a stall or the
+    bound."""
     pop: list[Candidate] = []
     values: list = []
     for _ in range(opt["population"]):  # each scored as it is drawn: the clock between them
         if deadline.passed():
-            best = fitness.best
-            return heuristic_result(run, None if best is None else scores.structure(best))
+            return
         pop.append(random_structure(rng, int(rng.integers(lower, n_max + 1)), K))
         values.append(fitness(pop[-1]))
     record, since = min(values), 0
     for _ in range(opt["generations"]):
         if fitness.best is not None and len(fitness.best) <= lower or since >= opt["stall"]:
-            break
+            return
         pop, values = _generation(pop, values, fitness, rng, opt, K, n_max, deadline)
         if deadline.passed():
-            break
+            return
         since = 0 if min(values) < record else since + 1
         record = min(record, min(values))
-    best = fitness.best
-    return heuristic_result(run, None if best is None else scores.structure(best))
 
 
 def _generation(pop, values, fitness, rng, opt, K, n_max, deadline):

@@ -64,12 +64,15 @@ def heuristic_result(run: SearchRun, structure: Structure | None) -> SearchResul
 class Deadline:
     """``time_limit`` seconds (checked: (0, one day]) from the run's start, less a reserve
     (:meth:`~.problem.SearchProblem.verify_reserve`) for the final verification by the exact
-    LP."""
+    LP. With ``interrupt`` the run's fault decisions stop there too (a search that asks it
+    catches :class:`~modquad_gym.oracle.faults.DecisionInterruptedError`)."""
 
-    def __init__(self, run: SearchRun, time_limit: object) -> None:
+    def __init__(self, run: SearchRun, time_limit: object, interrupt: bool = False) -> None:
         self.time_limit = check_time_limit(time_limit)
         reserve = run.problem.verify_reserve(self.time_limit)
         self.at = run.t0 + self.time_limit - reserve
+        if interrupt:
+            run.checker.deadline, run.verify_deadline = self.at, run.t0 + self.time_limit
 
     def passed(self) -> bool:
         return time.perf_counter() >= self.at
