@@ -112,3 +112,21 @@ def test_validate_estimate_counts_every_design():
     assert search_seconds_text(delayed) == ", plus three searches of at most 10 s each"
     assert fault_seconds(delayed, task) == pytest.approx(1.5 * fault_seconds(plain, task))
     assert fault_seconds(argparse.Namespace(**{**vars(plain), "fault": None}), task) == 0.0
+
+
+def test_the_final_check_past_the_limit_keeps_only_what_the_checker_decided():
+    """An answer the checker decided tolerant stands when its re-verification reaches the time
+    limit; any other answer is verified to the end (a wrong one still raises)."""
+    from modquad_gym.search.result import SearchRun
+
+    task = mq.TaskRequirement.load(mq.tasks.example_path("screwdriver"))
+    problem = mq.SearchProblem(task, n_max=6, fault="rotor")
+    answer = mq.anytime_search(problem, time_limit=30.0).structure
+    smaller = mq.Structure(answer.cells[:-1])  # one module fewer: not tolerant
+    run = SearchRun("anytime", problem)
+    run.verify_deadline = time.perf_counter() - 1.0  # every re-verification past its limit
+    assert run.finish(answer, 1).structure is answer  # decided to the end, not confirmed
+    assert run.checker.check(answer) and run.checker.key(answer) in run.checker.confirmed
+    assert run.finish(answer, 1).structure is answer  # confirmed: stands once cut
+    with pytest.raises(RuntimeError, match="rejects"):
+        run.finish(smaller, 1)
