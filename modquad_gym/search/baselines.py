@@ -15,12 +15,14 @@ draws a type with each cell. With one type and a ``total`` task each runs exactl
 from __future__ import annotations
 
 from collections.abc import Iterable
+from contextlib import suppress
 
 import numpy as np
 
 from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.structure import Cell, Structure, free_neighbours
 from modquad_gym.oracle import margin
+from modquad_gym.oracle.faults import DecisionInterruptedError
 from modquad_gym.search.heuristic import Deadline, heuristic_result, impossible_result
 from modquad_gym.search.partial import make_partial
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
@@ -66,7 +68,7 @@ def greedy_search(
     types, or connected cells) is extended instead of one module: greedy's completion of a
     partial structure, as expert iteration labels a learner's states by it."""
     run = SearchRun("greedy", problem)
-    deadline = Deadline(run, time_limit)
+    deadline = Deadline(run, time_limit, interrupt=True)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
         return done
     f, palette = problem.f_max, problem.palette
@@ -84,40 +86,41 @@ def greedy_search(
         mean = float(np.clip(margin(z.A, W, f, method="compiled"), -1.0, 1.0).mean())
         return False, greedy_rank(float(ok.mean()), mean)
 
-    if start is not None or len(palette) == 1:
-        current = Structure([(0, 0)], problem.module) if start is None else start
-        if run.decide(current)[2].all():
-            return heuristic_result(run, current)
-    else:
-        current, best_score = None, None
-        for m in palette:
-            s = Structure([(0, 0)], module=m)
-            done, sc = score(s)
-            if done:
-                return heuristic_result(run, s)
-            if best_score is None or sc > best_score:
-                current, best_score = s, sc
-    while current.n_modules < problem.n_max:
-        best, best_score = None, None
-        seen: set[Structure] = set()
-        for cell in current.attachable_cells():  # sorted: ties go to the first cell
+    with suppress(DecisionInterruptedError):  # a cut fault decision proves nothing
+        if start is not None or len(palette) == 1:
+            current = Structure([(0, 0)], problem.module) if start is None else start
+            if run.decide(current)[2].all():
+                return heuristic_result(run, current)
+        else:
+            current, best_score = None, None
             for m in palette:
-                child = (
-                    current.with_cells(cell)
-                    if len(palette) == 1
-                    else Structure(current.cells + (cell,), modules=current.modules + (m,))
-                )
-                if child in seen:  # the same structure up to translation: already scored
-                    continue
-                if deadline.passed():
-                    return heuristic_result(run, None)
-                seen.add(child)
-                done, sc = score(child)
+                s = Structure([(0, 0)], module=m)
+                done, sc = score(s)
                 if done:
-                    return heuristic_result(run, child)
+                    return heuristic_result(run, s)
                 if best_score is None or sc > best_score:
-                    best, best_score = child, sc
-        current = best
+                    current, best_score = s, sc
+        while current.n_modules < problem.n_max:
+            best, best_score = None, None
+            seen: set[Structure] = set()
+            for cell in current.attachable_cells():  # sorted: ties go to the first cell
+                for m in palette:
+                    child = (
+                        current.with_cells(cell)
+                        if len(palette) == 1
+                        else Structure(current.cells + (cell,), modules=current.modules + (m,))
+                    )
+                    if child in seen:  # the same structure up to translation: already scored
+                        continue
+                    if deadline.passed():
+                        return heuristic_result(run, None)
+                    seen.add(child)
+                    done, sc = score(child)
+                    if done:
+                        return heuristic_result(run, child)
+                    if best_score is None or sc > best_score:
+                        best, best_score = child, sc
+            current = best
     return heuristic_result(run, None)
 
 
@@ -134,33 +137,34 @@ def random_search(
     smallest feasible structure seen. With several ``modules`` each module's type is drawn
     uniformly too."""
     run = SearchRun("random", problem)
-    deadline = Deadline(run, time_limit)
+    deadline = Deadline(run, time_limit, interrupt=True)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
         return done
     rng = np.random.default_rng(None if seed is None else check_int(seed, "seed", low=0))
     K = len(problem.palette)
     best: Structure | None = None
-    for _ in range(max(1, int(restarts))):
-        if deadline.passed():
-            break
-        cells: list[Cell] = [(0, 0)]
-        types: list[int] = [int(rng.integers(K))] if K > 1 else [0]
-        while True:
-            if K > 1:
-                s = _typed(run, cells, types)
-            else:
-                s = Structure.from_trusted(tuple(cells), problem.module)
-            if (best is not None and s.n_modules >= best.n_modules) or deadline.passed():
+    with suppress(DecisionInterruptedError):  # a cut fault decision proves nothing
+        for _ in range(max(1, int(restarts))):
+            if deadline.passed():
                 break
-            if run.checker.check(s):
-                best = s
-                break
-            if s.n_modules >= problem.n_max:
-                break
-            options = free_neighbours(cells)
-            cells.append(options[int(rng.integers(len(options)))])
-            if K > 1:
-                types.append(int(rng.integers(K)))
+            cells: list[Cell] = [(0, 0)]
+            types: list[int] = [int(rng.integers(K))] if K > 1 else [0]
+            while True:
+                if K > 1:
+                    s = _typed(run, cells, types)
+                else:
+                    s = Structure.from_trusted(tuple(cells), problem.module)
+                if (best is not None and s.n_modules >= best.n_modules) or deadline.passed():
+                    break
+                if run.checker.check(s):
+                    best = s
+                    break
+                if s.n_modules >= problem.n_max:
+                    break
+                options = free_neighbours(cells)
+                cells.append(options[int(rng.integers(len(options)))])
+                if K > 1:
+                    types.append(int(rng.integers(K)))
     if best is not None:
         best = Structure(best.cells, modules=best.modules)
     return heuristic_result(run, best)

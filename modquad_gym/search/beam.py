@@ -14,11 +14,13 @@ answer is verified by the exact LP and comes with the proved lower bound
 from __future__ import annotations
 
 from collections.abc import Sequence
+from contextlib import suppress
 
 import numpy as np
 
 from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.cells import free_neighbours
+from modquad_gym.oracle.faults import DecisionInterruptedError
 from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.heuristic import (
     Candidate,
@@ -67,7 +69,7 @@ def beam_search(
     always with the proved lower bound. ``modules``, ``kind`` and ``f_max`` as for
     :func:`~.exhaustive.exhaustive_search`; ``seed`` orders children of equal scores."""
     run = SearchRun("beam", problem)
-    deadline = Deadline(run, time_limit)
+    deadline = Deadline(run, time_limit, interrupt=True)
     width = check_int(beam_width, "beam_width", low=1, high=MAX_BEAM_WIDTH)
     rng = np.random.default_rng(None if seed is None else check_int(seed, "seed", low=0))
     if (done := impossible_result(run, MAX_MODULES)) is not None:
@@ -76,18 +78,19 @@ def beam_search(
         return heuristic_result(run, None)
     scores = Scores(run)
     K = len(problem.palette)
-    level: list[Candidate] = [(((0, 0), t),) for t in range(K)]
-    for n in range(1, problem.n_max + 1):
-        ranked = []
-        for i, cand in zip(rng.permutation(len(level)), level, strict=True):
-            if deadline.passed():
-                return heuristic_result(run, None)
-            missed, share, tie = scores.score(cand)
-            if missed == 0:
-                return heuristic_result(run, scores.structure(cand))
-            ranked.append((-share, -tie, int(i), cand))
-        if n == problem.n_max:
-            break
-        ranked.sort(key=lambda r: r[:3])
-        level = children([r[3] for r in ranked[:width]], K)
+    with suppress(DecisionInterruptedError):  # a cut fault decision proves nothing
+        level: list[Candidate] = [(((0, 0), t),) for t in range(K)]
+        for n in range(1, problem.n_max + 1):
+            ranked = []
+            for i, cand in zip(rng.permutation(len(level)), level, strict=True):
+                if deadline.passed():
+                    return heuristic_result(run, None)
+                missed, share, tie = scores.score(cand)
+                if missed == 0:
+                    return heuristic_result(run, scores.structure(cand))
+                ranked.append((-share, -tie, int(i), cand))
+            if n == problem.n_max:
+                break
+            ranked.sort(key=lambda r: r[:3])
+            level = children([r[3] for r in ranked[:width]], K)
     return heuristic_result(run, None)
