@@ -243,6 +243,22 @@ def test_modquad_check_exit_codes(paper, tmp_path, capsys):
     assert "not a modquad-certificate" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("fault", ["rotor2", "rotor+module"])
+def test_a_fault_no_certificate_covers_is_refused_before_the_search(fault, tmp_path, capsys):
+    """Both doors say the same words: the CLI refuses before any search (no answer printed,
+    no file), ``certificates.make`` refuses the same fault in Python."""
+    from modquad_gym.cli import main
+
+    out = tmp_path / "proof.json"
+    argv = ["solve", "--task", "example:screwdriver", "--fault", fault, "--certificate", str(out)]
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert f"certificates cover fault rotor or module, not {fault!r}" in captured.err
+    assert "modules" not in captured.out and not out.exists()
+    with pytest.raises(certificates.CertificateError, match="cover fault rotor or module"):
+        certificates.check_fault(fault)
+
+
 RESULTS = ROOT / "results" / "certificates"
 
 

@@ -1,11 +1,11 @@
 """Certificates of certified answers: a file an outsider checks with :mod:`modquad_gym.proofcheck`.
 
 A certificate holds the task (its rotor-wrench model, linear in a structure's mass and inertia),
-``f_max``, the module types' rotor data, the fault model, the answer with thrusts for every task
-wrench (and after every single failure of a tolerant answer) and, for every smaller level, either
-a bound that covers the whole level or one proof per structure: a separating direction (an index
-into shared directions), the task wrench it separates and, for a tolerant search, the failure.
-The format is documented in ``docs/certificates.md``.
+``f_max``, the module types' rotor data, the fault model (none, rotor or module), the answer with
+thrusts for every task wrench (and after every single failure of a tolerant answer) and, for every
+smaller level, a bound that covers the whole level or one proof per structure: a separating
+direction (an index into shared directions), the task wrench it separates and, for a tolerant
+search, the failure. Format: ``docs/certificates.md``.
 
 It is made after the search, from the problem and the answer alone (whichever search found it):
 the structures of each smaller level are taken in the checker's canonical order and each is
@@ -36,18 +36,22 @@ class CertificateError(ValueError):
     """The result cannot be certified (not certified, or a level too large to prove)."""
 
 
+def check_fault(fault: str | None) -> None:
+    """Refuse a fault model the certificate format does not cover (before any search)."""
+    if fault not in (None, "rotor", "module"):
+        raise CertificateError(f"certificates cover fault rotor or module, not {fault!r}")
+
+
 def make(result, problem, progress: bool = False, bounds: bool = True) -> dict:
     """The certificate (a JSON-ready dict) of a certified ``result`` of ``problem`` (a
     :class:`~modquad_gym.search.problem.SearchProblem`). ``progress`` shows a bar per level;
     ``bounds=False`` proves every level structure by structure (to measure what bounds save)."""
     if not result.certified:
         raise CertificateError("only a certified answer has a certificate (this one is not)")
-    if problem.fault not in (None, "rotor", "module"):
-        raise CertificateError(f"certificates cover fault rotor or module, not {problem.fault!r}")
+    check_fault(problem.fault)
     T = pc.Types([type_dict(m) for m in problem.palette])
     model = problem.model
-    task = (np.asarray(model.base, float), np.asarray(model.per_mass, float),
-            np.asarray(model.per_inertia, float))  # fmt: skip
+    task = tuple(np.asarray(a, float) for a in (model.base, model.per_mass, model.per_inertia))
     f_max, fault = float(problem.f_max), problem.fault
     cert: dict = {"format": pc.FORMAT, "version": pc.VERSION, "f_max": f_max, "fault": fault}
     cert["types"] = [type_dict(m) for m in problem.palette]
