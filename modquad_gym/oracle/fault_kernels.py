@@ -103,6 +103,14 @@ def _single_failures(x, single, hi1, lo1):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
+def _through_single(x, single, hi1, lo1, up2, down2, i, j):  # pragma: no cover - compiled
+    """The pair (i, j) is tolerated, bounded through rotor i's own failure (module docstring),
+    then j's: the factor 1 + (y_i)_j."""
+    b = 1.0 + (x[j] + single[i, j] * (1.0 + x[i]))
+    return b >= 0.0 and hi1[i] + up2[i, j] * b <= SURE and down2[i, j] * b - lo1[i] <= SURE
+
+
+@njit(cache=True, inline="always")
 def _first_correction(x, C, lo, hi, a, y):  # pragma: no cover - compiled
     """y = x + sum_k C[k] a[k] (k in lo:hi), the first correction; returns max_j |y_j|."""
     worst = 0.0
@@ -221,16 +229,9 @@ def certify_rows(
                     _single_failures(x, single, hi1, lo1)
                     lifted = True
                 i, j = columns[lo], columns[lo + 1]
-                # through rotor i's failure (module docstring), then j's: 1 + (y_i)_j
-                b = 1.0 + (x[j] + single[i, j] * (1.0 + x[i]))
-                if b >= 0.0 and hi1[i] + up2[i, j] * b <= SURE and down2[i, j] * b - lo1[i] <= SURE:
-                    out[t, f] = 1
-                    paths[1] += 1
-                    if len(trace):
-                        trace[t, f] = 1
-                    continue
-                b = 1.0 + (x[i] + single[j, i] * (1.0 + x[j]))
-                if b >= 0.0 and hi1[j] + up2[j, i] * b <= SURE and down2[j, i] * b - lo1[j] <= SURE:
+                if _through_single(x, single, hi1, lo1, up2, down2, i, j) or _through_single(
+                    x, single, hi1, lo1, up2, down2, j, i
+                ):
                     out[t, f] = 1
                     paths[1] += 1
                     if len(trace):
