@@ -90,6 +90,28 @@ def _critic_warmup_class():
     return CriticWarmup
 
 
+def _ppo_start(config: TrainConfig, model: Any, run_logs: Path, log_dir: Path) -> tuple:
+    """Give ``model`` the policy PPO starts from: a saved one (``init_from``) or the cloned one
+    (behaviour cloning, saved as ``cloned_model.zip`` to measure what RL adds), anchored for a
+    ``kl_coef`` term. (imitation record, the start's path), both None for PPO from scratch."""
+    if config.init_from is not None:
+        from sb3_contrib import MaskablePPO
+
+        start = MaskablePPO.load(config.init_from, device="cpu")
+        model.policy.load_state_dict(start.policy.state_dict())
+        imitation, cloned = {"init_from": str(config.init_from)}, str(config.init_from)
+    elif config.resume is None and config.bc_epochs > 0:
+        from agents.pretraining import pretrain
+
+        imitation = pretrain(model, config, run_logs / "bc")
+        model.save(log_dir / "cloned_model.zip")
+        cloned = str(log_dir / "cloned_model.zip")
+    else:
+        return None, None
+    model.set_anchor()  # the cloned policy a kl_coef term pulls towards
+    return imitation, cloned
+
+
 def train(config: TrainConfig) -> Path:
     """Train; save ``model.zip``, ``config.json`` and ``evaluations.npz`` in ``config.out``."""
     import torch
@@ -133,19 +155,7 @@ def train(config: TrainConfig) -> Path:
     per_env = lambda steps: max(steps // config.n_envs, 1)  # noqa: E731
     for stale in ("best_model.zip", "evaluations.npz", "cloned_model.zip"):  # an earlier run's
         (log_dir / stale).unlink(missing_ok=True)
-    imitation = cloned = None
-    if config.init_from is not None:
-        model.policy.load_state_dict(MaskablePPO.load(config.init_from, device="cpu").policy
-                                     .state_dict())  # fmt: skip
-        imitation, cloned = {"init_from": str(config.init_from)}, str(config.init_from)
-    elif config.resume is None and config.bc_epochs > 0:
-        from agents.pretraining import pretrain
-
-        imitation = pretrain(model, config, Path(config.tensorboard) / name / "bc")
-        model.save(log_dir / "cloned_model.zip")  # the start of PPO, to measure what RL adds
-        cloned = str(log_dir / "cloned_model.zip")
-    if imitation is not None:
-        model.set_anchor()  # the cloned policy a kl_coef term pulls towards
+    imitation, cloned = _ppo_start(config, model, Path(config.tensorboard) / name, log_dir)
     tasks, focus = make_generator(config.source), None
     if config.focus_tasks and imitation is not None:
         tasks, focus = _focus(config, model, modules, tasks)
