@@ -34,9 +34,14 @@ CASES = [
     ("random", dict(n_max=6, time_limit=20.0, seed=2)),
     ("centrosymmetric", dict(n_max=7, time_limit=20.0)),
     ("milp", dict(n_max=5, time_limit=60.0)),
+    ("anytime", dict(n_max=7, time_limit=20.0, fault="rotor2")),
+    ("exhaustive", dict(n_max=7, fault="rotor+module")),
     ("ppo", dict(n_max=7, time_limit=60.0)),
+    ("ppo", dict(n_max=7, time_limit=60.0, top_k=2)),  # the shortlist, an --option in the CLI
     ("ppo-guided", dict(n_max=7, time_limit=60.0)),
 ]
+FLAGS = {"n_max", "fault", "modules", "time_limit", "seed"}
+"""Options with a flag of their own; the others go through ``--option KEY=VALUE``."""
 
 
 def _answer(record: dict) -> tuple:
@@ -46,7 +51,10 @@ def _answer(record: dict) -> tuple:
 def _cli(method: str, options: dict, capsys) -> dict:
     argv = ["solve", "--task", TASK, "--method", method, "--json", "--quiet"]
     for key, value in options.items():
-        argv += [f"--{key.replace('_', '-')}", str(value)]
+        flag = key in FLAGS
+        argv += (
+            [f"--{key.replace('_', '-')}", str(value)] if flag else ["--option", f"{key}={value}"]
+        )
     capsys.readouterr()
     assert main(argv) == 0
     return json.loads(capsys.readouterr().out)
