@@ -247,27 +247,32 @@ def plot(path: Path, rows: list[dict]) -> None:
 
     by_task = table(rows)
     suites = [s for s in SUITES if any(r["suite"] == s for r in rows)]
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), sharey=True)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.8), sharey=True)
     for ax, fault in zip(axes, ("rotor", "module")):
-        for suite in suites:
+        for i, suite in enumerate(suites):
             ys, counts = [], []
             for name in (fault, f"{fault}_20ms", f"{fault}_50ms"):
                 e = extra(by_task, suite, name)
                 ys.append(np.mean(e) if e else np.nan)
                 counts.append(len(e))
-            line = ax.plot([0, 20, 50], ys, "o-", label=suite)[0]
             n = sum(s == suite for s, _ in by_task)
-            for x, y, k in zip((0, 20, 50), ys, counts):  # how many tasks have such a design
-                if k:
-                    ax.annotate(f"{k}/{n}", (x, y), textcoords="offset points", xytext=(4, 4),
-                                fontsize=7, color=line.get_color())  # fmt: skip
+            dodge = 1.2 * (i - (len(suites) - 1) / 2)  # ms: equal means stay apart
+            label = f"{suite} ({', '.join(map(str, counts))} of {n})"  # tasks with a design
+            ax.plot([x + dodge for x in (0, 20, 50)], ys, "o-", label=label)
         ax.set_title(f"any single {fault} failure, margin = rule(delay)")
         ax.set_xlabel("detection delay designed for (ms)")
         ax.set_xticks([0, 20, 50])
-    axes[0].set_ylabel(
-        "extra modules over the intact minimum\n(mean over the tasks with a design, k/n)"
-    )
-    axes[1].legend(frameon=False, fontsize=8)
+    axes[0].set_ylabel("extra modules over the intact minimum\n(mean over the tasks with a design)")
+    for ax in axes:  # per suite: tasks with a design at 0, 20 and 50 ms, of the suite's
+        ax.legend(
+            frameon=False,
+            fontsize=7,
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.18),
+            ncol=2,
+            title="suite (tasks with a design at 0, 20, 50 ms)",
+            title_fontsize=7,
+        )
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
