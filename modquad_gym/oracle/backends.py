@@ -15,7 +15,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from modquad_gym.oracle.compiled import decide_compiled, gamma_compiled, screen_compiled
+from modquad_gym.oracle.compiled import (
+    decide_compiled,
+    gamma_compiled,
+    gamma_compiled_from,
+    screen_compiled,
+)
 from modquad_gym.oracle.daqp_lp import gamma_daqp
 from modquad_gym.oracle.highs_lp import gamma_highs, ray_highs
 from modquad_gym.oracle.tolerance import TOL, decide_from_gamma, margin_from_gamma
@@ -120,6 +125,30 @@ def gamma_with(z: Zonotope, W: np.ndarray, method: str, cap: float = np.inf) -> 
     if len(on):
         out[on] = _gamma_rows(z, R[on], BACKENDS[method], cap)
     return out
+
+
+def gamma_capped_from(
+    z: Zonotope, W: np.ndarray, cap: float, starts: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """(:func:`gamma_with` by the compiled walk with ``cap`` (< ``_FAR``), each row's optimal
+    tight columns (t, rank - 1; -1: none)), the walk of row i started at the vertex of the
+    tight columns ``starts[i]`` (-1 or None: from the dual-metric direction). The same gamma up
+    to round-off; a row proved above ``cap`` may get another proved bound above it."""
+    R, off = z.reduce(W)
+    out = np.full(len(W), np.inf)
+    tights = np.full((len(W), max(z.rank - 1, 1)), -1, dtype=np.int64)
+    t = np.abs(R).max(axis=1) if len(W) else np.zeros(0)
+    box = max(float(z.box.max()), 1e-300)
+    far = t > _FAR * box
+    out[far] = t[far] / box
+    near = np.flatnonzero(~off & ~far)
+    if len(near):
+        if starts is None:
+            starts = tights
+        begin = np.ascontiguousarray(starts[near], dtype=np.int64)
+        out[near], tights[near] = gamma_compiled_from(z, R[near], cap, begin)
+    out[off] = np.inf
+    return out, tights
 
 
 def decide_with(z: Zonotope, W: np.ndarray, method: str) -> np.ndarray:

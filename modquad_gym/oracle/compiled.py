@@ -84,6 +84,27 @@ def gamma_compiled(
     return out
 
 
+def gamma_compiled_from(
+    z: Zonotope, R: np.ndarray, cap: float, starts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(gamma as :func:`gamma_compiled` with ``cap``, the tight columns (t, rank - 1) of each
+    row's optimal vertex, -1 where the walk stopped elsewhere) with each row's walk started at
+    the vertex of its row of ``starts`` (int (t, rank - 1), -1: no start): the optimal
+    vertices of a similar zonotope (one module less) for the same wrenches start next to the
+    optimum, where the crash to a first vertex costs as much as the pivots."""
+    from modquad_gym.oracle import kernels
+
+    prep, _ = _prepared(z)
+    R = np.ascontiguousarray(R, dtype=float)
+    out = np.empty(len(R))
+    tights = np.empty((len(R), max(z.rank - 1, 1)), dtype=np.int64)
+    kernels.gamma_rows_from(z.G, z.P, prep, R, float(cap), out, starts, tights)
+    rest = np.flatnonzero(np.isnan(out))
+    if len(rest):
+        out[rest] = gamma_daqp(z, R[rest])
+    return out, tights
+
+
 def screen_compiled(
     z: Zonotope, W: np.ndarray, WD: np.ndarray, h: np.ndarray, slack: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

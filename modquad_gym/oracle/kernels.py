@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit
 
 from modquad_gym.oracle.tolerance import ACCEPT, REJECT, RESIDUAL_TOL
-from modquad_gym.oracle.walk import vertex_walk, walk_workspace
+from modquad_gym.oracle.walk import vertex_walk, walk_from, walk_workspace
 
 _HUGE = 1e100  # rows of w / f_max beyond this are left undecided (reduce() avoids overflow)
 _OFF = 1.01  # off-range margin: residuals within this factor of the rule are left undecided
@@ -177,34 +177,55 @@ def gamma_rows(G, P, prep, R, cap, out, dirs):  # pragma: no cover - compiled
     (the bounding box, or a direction y of the walk with r . y > cap h(y)) gets that certified
     lower bound instead (> cap; the walk stops there): ``cap = inf`` computes every gamma.
     With rows in ``dirs`` (else shape (0, n)), each row's last direction y goes there."""
-    walk, x, y = _workspace(G)
-    _, norms, axes, dual = prep
+    work = _workspace(G)
+    cold = np.full(max(G.shape[0] - 1, 1), -1, dtype=np.int64)
+    for k in range(R.shape[0]):
+        out[k] = _gamma_row(G, P, prep, R[k], cap, cold, work)[0]
+        if dirs.shape[0]:
+            dirs[k] = work[2]
+
+
+@njit(cache=True)
+def gamma_rows_from(G, P, prep, R, cap, out, starts, tights):  # pragma: no cover - compiled
+    """:func:`gamma_rows` with row k's walk started at the vertex of the tight columns
+    ``starts[k]`` (-1: from the dual-metric direction; see :func:`~.walk.walk_from`); the
+    tight columns of each row's optimal vertex go to ``tights[k]`` (-1 where the walk stopped
+    elsewhere: a certificate above ``cap``, the box, or no answer)."""
+    work = _workspace(G)
     n = G.shape[0]
     for k in range(R.shape[0]):
-        r = R[k]
-        norm = 0.0
-        box = 0.0
+        out[k], status = _gamma_row(G, P, prep, R[k], cap, starts[k], work)
+        for q in range(tights.shape[1]):
+            tights[k, q] = work[0][12][q] if status == 2 and q < n - 1 else -1
+
+
+@njit(cache=True)
+def _gamma_row(G, P, prep, r, cap, start, work):  # pragma: no cover - compiled
+    """(gamma or its certified lower bound above ``cap``, the walk's status: 2 at the optimum,
+    0 a certificate, -1 no answer (gamma nan), -2 no walk) of one row r (:func:`gamma_rows`),
+    the walk from the tight columns ``start``; its last direction left in ``work``'s y."""
+    walk, x, y = work
+    _, norms, axes, dual = prep
+    n = G.shape[0]
+    norm = 0.0
+    box = 0.0
+    for i in range(n):
+        norm += abs(r[i])
+        y[i] = r[i] * dual[i]
+        box = max(box, abs(r[i]) / axes[i])
+    if norm == 0.0:
+        return 0.0, -2
+    if box > cap:  # beyond the box scaled by cap: y = +-e_i proves gamma >= box
+        return box, -2
+    status = walk_from(G, norms, r, y, x, 0.0, cap, walk, start)
+    if status == 0:  # y proves gamma >= r . y / h(y) > cap
+        ry = 0.0
         for i in range(n):
-            norm += abs(r[i])
-            y[i] = r[i] * dual[i]
-            box = max(box, abs(r[i]) / axes[i])
-        if norm == 0.0:
-            out[k] = 0.0
-        elif box > cap:  # beyond the box scaled by cap: y = +-e_i proves gamma >= box
-            out[k] = box
-        else:
-            status = vertex_walk(G, norms, r, y, x, 0.0, cap, walk)
-            if status == 0:  # y proves gamma >= r . y / h(y) > cap
-                ry = 0.0
-                for i in range(n):
-                    ry += r[i] * y[i]
-                out[k] = ry / _l1_support(y, G)
-            elif status == 2:
-                out[k] = _corrected_max(G, P, r, x)
-            else:
-                out[k] = np.nan
-        if dirs.shape[0]:
-            dirs[k] = y
+            ry += r[i] * y[i]
+        return ry / _l1_support(y, G), 0
+    if status == 2:
+        return _corrected_max(G, P, r, x), 2
+    return np.nan, -1
 
 
 @njit(cache=True)

@@ -292,6 +292,37 @@ def vertex_walk(G, norms, r, y, x, accept, reject, work):  # pragma: no cover - 
         return crash
     if not _basis(G, r, T, tight, M, Minv):
         return -1
+    return _pivots(G, norms, r, y, x, accept, reject, work)
+
+
+@njit(cache=True)
+def walk_from(G, norms, r, y, x, accept, reject, work, start):  # pragma: no cover - compiled
+    """:func:`vertex_walk` from the vertex of the tight columns ``start`` (rank - 1 column
+    indices: say the optimal vertex of a similar zonotope for the same wrench), skipping the
+    crash; from the direction y as :func:`vertex_walk` when ``start`` holds a negative index, an
+    index off G or a singular basis. Any vertex is a valid start: the optimum, hence gamma, is
+    the same up to round-off; only a walk stopped early (a certificate) may end elsewhere."""
+    tight, bound, M, Minv, T = work[0], work[1], work[2], work[3], work[12]
+    n, m = G.shape
+    usable = n > 1 and len(start) >= n - 1
+    for k in range(n - 1):
+        usable = usable and 0 <= start[k] < m
+    if usable:
+        for j in range(m):
+            bound[j] = 1.0
+        for k in range(n - 1):
+            T[k] = start[k]
+        if _basis(G, r, T, tight, M, Minv):
+            return _pivots(G, norms, r, y, x, accept, reject, work)
+    return vertex_walk(G, norms, r, y, x, accept, reject, work)
+
+
+@njit(cache=True)
+def _pivots(G, norms, r, y, x, accept, reject, work):  # pragma: no cover - compiled
+    """The pivots of :func:`vertex_walk` from the vertex of its basis (``T``, ``M^-1`` in
+    ``work``); its return values."""
+    tight, bound, M, Minv, _, a, s, d, c, alpha, order, v, T = work
+    n, m = G.shape
     for _ in range(MAX_PIVOTS):
         for i in range(n):
             y[i] = Minv[i, 0]  # the vertex: r . y = 1, g_T . y = 0

@@ -47,7 +47,7 @@ from modquad_gym.geometry.structure import (
     mixed_configuration_matrices,
 )
 from modquad_gym.oracle import WrenchOracle
-from modquad_gym.oracle.backends import gamma_with
+from modquad_gym.oracle.backends import gamma_capped_from
 from modquad_gym.oracle.faults import FaultTolerance, failure_sets
 from modquad_gym.oracle.tolerance import BAND, TOL, decide_from_gamma, margin_from_gamma
 
@@ -291,7 +291,14 @@ class StructureEvaluator:
         return [memo[k] for k in keys]
 
     def exact_rows(
-        self, keys: list, task: TaskArrays, mass: float, memo: dict, exact_memo: dict
+        self,
+        keys: list,
+        task: TaskArrays,
+        mass: float,
+        memo: dict,
+        exact_memo: dict,
+        walks: dict | None = None,
+        starts: list | None = None,
     ) -> list[tuple[float, float]]:
         """(satisfied share, mean margin clipped to [-1, 1]) of the child structures ``keys``
         (one size, one mass) against ``task``: what the greedy rule ranks children by
@@ -305,14 +312,26 @@ class StructureEvaluator:
         read off gamma (the tolerance rule, on which every method agrees outside
         :data:`~modquad_gym.oracle.tolerance.BAND`), or, with a ``fault`` or a gamma within the
         band of the threshold, decided through :meth:`evaluate` (whose ``memo`` the step then
-        hits)."""
+        hits).
+
+        Warm starts: each walk's optimal vertex (its tight columns per wrench) goes to
+        ``walks`` (key -> int16 (t, rank - 1)), and the walks of key i start at the vertices
+        ``starts[i]`` (the parent's, renumbered to the child's columns; None: cold): the same
+        gammas up to round-off, in a fraction of the pivots."""
+        starts = dict(zip(keys, starts)) if starts is not None else {}
         for k in dict.fromkeys(keys):
             if k in exact_memo:
                 continue
             own = self.task_of(task, k)
             W = self.at_mass(own, mass)[0]
             cap = self.capability.get(k) or self.capability_of(k)
-            gamma = gamma_with(self.oracle.zonotope(cap.A, key=k), W, "compiled", CLIP_GAMMA)
+            z = self.oracle.zonotope(cap.A, key=k)
+            start = starts.get(k)
+            if start is not None and start.shape != (len(W), max(z.rank - 1, 1)):
+                start = None  # another rank (or wrench count): no vertex to start from
+            gamma, tights = gamma_capped_from(z, W, CLIP_GAMMA, start)
+            if walks is not None:
+                walks[k] = tights.astype(np.int16)
             self.tests += len(W)
             decided = memo.get(k)
             if decided is not None:
@@ -356,21 +375,23 @@ class MixedStructureEvaluator(StructureEvaluator):
 
 class TaskMemos:
     """Per task (by identity) and f_max: decisions (key -> (n_satisfied, structure vector)),
-    support lookahead rows (child key -> row) and exact lookahead entries (child key ->
-    (share, margin)); the last :data:`MEMO_TASKS` tasks are kept."""
+    support lookahead rows (child key -> row), exact lookahead entries (child key ->
+    (share, margin)) and the exact walks' optimal vertices (child key -> tight columns, the
+    warm starts of its own children); the last :data:`MEMO_TASKS` tasks are kept."""
 
     def __init__(self) -> None:
-        self._memos: dict[tuple[int, float], tuple[Any, dict, dict, dict]] = {}
+        self._memos: dict[tuple[int, float], tuple[Any, dict, dict, dict, dict]] = {}
 
-    def of(self, task: Any, f_max: float) -> tuple[dict, dict, dict]:
-        """(decision memo, candidate memo, exact candidate memo) of ``task`` at ``f_max``."""
+    def of(self, task: Any, f_max: float) -> tuple[dict, dict, dict, dict]:
+        """(decision memo, candidate memo, exact candidate memo, walk memo) of ``task`` at
+        ``f_max``."""
         ident = (id(task), f_max)
         entry = self._memos.get(ident)
         if entry is None or entry[0] is not task:
             if len(self._memos) >= MEMO_TASKS:
                 self._memos.clear()
-            entry = self._memos[ident] = (task, {}, {}, {})
+            entry = self._memos[ident] = (task, {}, {}, {}, {})
         for memo in entry[1:]:
             if len(memo) >= CACHE_SIZE:
                 memo.clear()
-        return entry[1], entry[2], entry[3]
+        return entry[1], entry[2], entry[3], entry[4]

@@ -18,6 +18,7 @@ this state (mask 0, rows zero), so the exact oracle decides k children a step, n
 
 from __future__ import annotations
 
+from bisect import bisect_left
 from collections.abc import Iterator
 
 import numpy as np
@@ -75,6 +76,7 @@ def candidate_rows(ep: Episode, state: AssemblyState) -> np.ndarray:
     cand = np.zeros((actions.n_actions, lookahead_width(ep.rules.lookahead)), dtype=np.float32)
     valid = np.flatnonzero(state.mask)
     cells, scores = {}, {}
+    parent = ep.walk_memo.get(ep.modules.key(state.cells, state.types)) if exact else None
     for acts, batch_cells, k, mass in children(ep, state, valid):
         keys = child_keys(ep, state, batch_cells, k)
         cells.update(zip(acts.tolist(), batch_cells))
@@ -82,12 +84,25 @@ def candidate_rows(ep: Episode, state: AssemblyState) -> np.ndarray:
             keys, state.task, mass, ep.cand_memo
         )
         if exact:
-            rows = ep.evaluator.exact_rows(keys, state.task, mass, ep.memo, ep.exact_memo)
+            starts = None if parent is None else warm_starts(ep, state, batch_cells, parent)
+            rows = ep.evaluator.exact_rows(
+                keys, state.task, mass, ep.memo, ep.exact_memo, ep.walk_memo, starts
+            )
             cand[acts, SHARE:GREEDY] = rows
             scores.update(zip(acts.tolist(), rows))
     if exact and len(valid):
         cand[greedy_choice(scores, cells, actions), GREEDY] = 1.0
     return cand
+
+
+def warm_starts(ep: Episode, state: AssemblyState, cells: list, parent: np.ndarray) -> list:
+    """Per child of ``state`` with a module at one of ``cells``: the optimal vertices of the
+    parent's walks (``parent``, tight columns per wrench) renumbered to the child's columns
+    (a key sorts its cells, the new module's columns go in at its place among them)."""
+    r = ep.evaluator.module.n_rotors
+    order = sorted(state.cells)
+    parent = parent.astype(np.int64)
+    return [parent + r * (parent >= r * bisect_left(order, c)) for c in cells]
 
 
 def greedy_choice(scores: dict, cells: dict, actions) -> int:

@@ -86,6 +86,8 @@ class Episode:
         cand_memo: the task's lookahead rows, child key -> row.
         exact_memo: the task's exact lookahead entries, child key -> (share, margin)
             (``lookahead="exact"``).
+        walk_memo: the optimal vertices of those entries' walks, child key -> tight columns
+            per wrench (where its own children's walks start).
     """
 
     rules: Rules
@@ -95,6 +97,7 @@ class Episode:
     memo: dict
     cand_memo: dict
     exact_memo: dict = field(default_factory=dict)
+    walk_memo: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
