@@ -226,14 +226,14 @@ def test_a_walk_from_any_vertex_gives_the_cold_walks_gamma(seed, n):
 
     z = Zonotope(structure(seed, n))
     rng = np.random.default_rng(seed)
-    R = rng.standard_normal((16, z.rank)) * rng.uniform(0.01, 3.0, (16, 1)) * z.box
+    R = z.reduce(wrenches_at(z, seed, (*GAUGES, 1.9, 2.5)))[0]
     cap = 2.0
     cold = gamma_compiled(z, R, cap)
     none = np.full((len(R), max(z.rank - 1, 1)), -1, dtype=np.int64)
     gamma, tights = gamma_compiled_from(z, R, cap, none)
     np.testing.assert_array_equal(gamma, cold)  # no start: the cold walk itself
     at_optimum = (tights >= 0).all(axis=1)
-    assert at_optimum.any() and (cold[at_optimum] <= cap + 1e-9).all()
+    assert at_optimum.sum() >= 8 and (cold[at_optimum] <= cap + 1e-9).all()
     junk = rng.integers(-2, z.m + 3, size=none.shape)
     for starts in (tights, np.roll(tights, 1, axis=0), junk):
         got, _ = gamma_compiled_from(z, R, cap, np.ascontiguousarray(starts))
