@@ -40,6 +40,7 @@ from modquad_gym.core.outputs import (
     write_csv,
     write_text,
 )
+from modquad_gym.policy.inference import export
 
 EXIT_SEED0 = 7_000_000
 """Training draws of the expert iteration (held-out scale tasks use 5,000,000 + ..., validation
@@ -49,7 +50,7 @@ SIZES = (8, 32)
 BANDS = (16, 24, 32)
 """Validation bands the rounds are scored on."""
 CLONE = {"epochs": 25, "batch_size": 64, "learning_rate": 3e-4}
-OUTPUTS = ("model.zip", "config.json", "rows.csv", "report.md", "labels.csv")
+OUTPUTS = ("model.zip", "model_actor.npz", "config.json", "rows.csv", "report.md", "labels.csv")
 """The files of ``--out`` besides the rounds' folders ``round-R``."""
 INTEGER = int_option(-(2**63), 2**63)
 
@@ -221,6 +222,7 @@ def run(args: argparse.Namespace) -> list[dict]:
         model = args.claim.path(f"round-{r}/model.zip")
         model.parent.mkdir(parents=True, exist_ok=True)
         ppo.save(str(model))
+        export(model)  # its actor in NumPy: the scoring below and later solvers act without torch
         args.claim.path(f"round-{r}/config.json")
         write_config(model.parent, args, r, len(demos))
         cloned = time.perf_counter() - t0 - labelled
@@ -386,7 +388,7 @@ def main(argv: list[str] | None = None) -> int:
         args.claim = claim
         t0 = time.perf_counter()
         rows = run(args)
-        for name in ("model.zip", "config.json"):  # OUT is a run folder: the last round's model
+        for name in ("model.zip", "model_actor.npz", "config.json"):  # OUT: the last round's
             shutil.copy2(args.out / f"round-{args.rounds}" / name, claim.path(name))
         write_csv(rows, claim.path("rows.csv"))
         text = report(rows, args, time.perf_counter() - t0, args.labels)

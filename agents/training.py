@@ -33,11 +33,13 @@ from agents.checks import check_publishable
 from agents.config import TrainConfig
 from modquad_gym.core.extras import import_optional
 from modquad_gym.core.outputs import atomic_write, write_text
+from modquad_gym.policy.inference import export, exported
 from modquad_gym.policy.models import DEFAULT_MODEL
 from modquad_gym.scoring.tiers import get_tier
 
-RUN_FILES = ("model.zip", "config.json", "evaluations.npz")
-"""What a training run writes into its run folder."""
+RUN_FILES = ("model.zip", "model_actor.npz", "config.json", "evaluations.npz")
+"""What a training run writes into its run folder (``model_actor.npz``: the model's actor for
+inference without torch, :mod:`modquad_gym.policy.inference`)."""
 
 
 def critic_parameters(policy: Any) -> set[str]:
@@ -105,6 +107,7 @@ def _ppo_start(config: TrainConfig, model: Any, run_logs: Path, log_dir: Path) -
 
         imitation = pretrain(model, config, run_logs / "bc")
         model.save(log_dir / "cloned_model.zip")
+        export(log_dir / "cloned_model.zip")
         cloned = str(log_dir / "cloned_model.zip")
     else:
         return None, None
@@ -254,6 +257,7 @@ def keep_best(log_dir: Path, out: Path, final_step: int, start: str | None = Non
             if start is not None and kept_index(data) == 0 != best_index(data):
                 chosen, kept, step = Path(start), "cloned start (best not significantly better)", 0
     atomic_write(out / "model.zip", lambda tmp: shutil.copyfile(chosen, tmp))
+    export(out / "model.zip")
     return {
         "kept_model": kept,
         "kept_model_timesteps": step,
@@ -382,5 +386,7 @@ def publish(run: Path, model: Path = DEFAULT_MODEL) -> Path:
     for name in RUN_FILES:
         if (run / name).is_file():
             atomic_write(target / name, lambda tmp, n=name: shutil.copyfile(run / n, tmp))
+    if exported(model) is None:  # a run from before the export, or its export stale
+        export(model)
     print(f"published {run} as the shipped model {model}")
     return Path(model)

@@ -91,6 +91,18 @@ class SavedModel:
         return policy
 
 
+def model_file(path: str | Path | None = None) -> Path:
+    """``path`` (default :data:`DEFAULT_MODEL`) as a Path; ValueError when it is a folder or
+    does not exist."""
+    path = Path(path) if path is not None else DEFAULT_MODEL
+    if path.is_dir():
+        raise ValueError(f"--model {path}: a folder; give the model .zip file in it")
+    if not path.is_file():
+        hint = " (train it with `python train.py`)" if path == DEFAULT_MODEL else ""
+        raise ValueError(f"PPO model file {path} does not exist{hint}")
+    return path
+
+
 def read_model(path: str | Path | None = None) -> SavedModel:
     """The saved MaskablePPO at ``path`` (default :data:`DEFAULT_MODEL`), without the PPO
     algorithm and its optimizer, which inference does not need.
@@ -102,12 +114,7 @@ def read_model(path: str | Path | None = None) -> SavedModel:
     load_from_zip_file = import_optional("stable_baselines3.common.save_util").load_from_zip_file
 
     torch.set_num_threads(1)
-    path = Path(path) if path is not None else DEFAULT_MODEL
-    if path.is_dir():
-        raise ValueError(f"--model {path}: a folder; give the model .zip file in it")
-    if not path.is_file():
-        hint = " (train it with `python train.py`)" if path == DEFAULT_MODEL else ""
-        raise ValueError(f"PPO model file {path} does not exist{hint}")
+    path = model_file(path)
     try:
         data, params, _ = load_from_zip_file(path, device="cpu", print_system_info=False)
         spaces = data["observation_space"], data["action_space"]

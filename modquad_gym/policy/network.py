@@ -26,7 +26,6 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
 import torch
 from gymnasium import spaces
 from sb3_contrib.common.maskable.policies import MaskableActorCriticPolicy
@@ -35,38 +34,16 @@ from torch import nn
 from torch.nn import functional as F  # noqa: N812
 
 from modquad_gym.envs.assembly.features import STRUCTURE_SCALARS, TASK_SCALARS
+from modquad_gym.policy.inference import TYPE_FEATURES, scaled_entries
+from modquad_gym.policy.inference import type_features as type_features  # its home before
 
-TYPE_FEATURES = 7
-"""Per module type: its rotors' mean wrench column (6, at f_max, torques per metre of side) and
-its mass in units of 0.3 kg."""
 CELL_EXTRAS = 9 + 2 + TYPE_FEATURES
 """Per candidate beside its lookahead row: 3 x 3 occupancy patch, offset from the centre,
 type."""
 
 
-def type_features(modules) -> list[list[float]]:
-    """The descriptor of each module type (see :data:`TYPE_FEATURES`): plain lists, so they
-    go into a model's saved keywords."""
-    out = []
-    for m in modules:
-        col = np.asarray(m.columns, dtype=float).mean(axis=1)
-        col[3:] /= float(m.side)
-        out.append([*col.round(12).tolist(), round(float(m.mass) / 0.3, 12)])
-    return out
-
-
 def symlog(x: torch.Tensor) -> torch.Tensor:
     return torch.sign(x) * torch.log1p(torch.abs(x))
-
-
-def scaled_entries(k: int) -> tuple[np.ndarray, np.ndarray]:
-    """bool masks of the task (K + 7) and structure (2K + 7) entries that the environment
-    divides by n_max (capabilities, deficits, counts); the others are shares and ranks."""
-    task = np.ones(k + TASK_SCALARS, dtype=bool)
-    task[-1] = False  # log(1 + t)
-    structure = np.ones(2 * k + STRUCTURE_SCALARS, dtype=bool)
-    structure[[2 * k, 2 * k + 2, 2 * k + 3]] = False  # satisfied share, rank / 6, covered share
-    return task, structure
 
 
 def mlp(sizes: list[int]) -> nn.Sequential:

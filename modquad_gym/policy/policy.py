@@ -3,7 +3,8 @@ probabilities and its greedy episode.
 
 :class:`Policy` is what the learned solvers *use*: plain decoding (:mod:`.ppo`) runs its
 episodes, the policy-guided search (:mod:`.guided`) orders its branches by its probabilities.
-Torch and SB3 load only when a model is loaded.
+A saved model with a fresh NumPy export beside it (:mod:`.inference`) acts without torch;
+torch and SB3 load only for a model without one (or a loaded MaskablePPO).
 """
 
 from __future__ import annotations
@@ -20,7 +21,8 @@ from modquad_gym.core.extras import import_optional
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.features import lookahead_width
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.models import default_model, read_model
+from modquad_gym.policy.inference import exported, type_features
+from modquad_gym.policy.models import default_model, model_file, read_model
 from modquad_gym.search import SearchResult
 from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.problem import SearchProblem
@@ -81,7 +83,9 @@ class Policy:
             learned solvers pass :data:`~.models.TOP_K`.
 
     Attributes:
-        net (the actor-critic: an sb3-contrib masked policy), model_path (None for a loaded
+        actor (the NumPy actor of a saved model's fresh export, :mod:`.inference`; None: the
+        torch network acts), net (the actor-critic: an sb3-contrib masked policy, loaded on
+        first use when the actor acts), model_path (None for a loaded
         model), n_max, env, typed (trained with a palette:
         (cell, type) actions), starts (the start types a decoding tries: each type of the
         palette, else [None]), palette (the module types it acts with).
@@ -94,14 +98,15 @@ class Policy:
         config: dict | None = None,
         top_k: int | None = None,
     ) -> None:
-        self.saved = None
+        self.saved, self.actor, self._net = None, None, None
         if model is None or isinstance(model, (str, Path)):
-            self.saved = read_model(default_model(n_max) if model is None else model)
+            path = model_file(default_model(n_max) if model is None else model)
+            self.saved = exported(path) or read_model(path)
             self.model_path, config = str(self.saved.path), self.saved.config
             space = self.saved.observation_space
         else:
-            self.net, self.model_path = getattr(model, "policy", model), None
-            space = self.net.observation_space
+            self._net, self.model_path = getattr(model, "policy", model), None
+            space = self._net.observation_space
         kwargs = env_kwargs_of(space, config or {})
         trained = int(kwargs["n_max"])
         n_max = trained if n_max is None else n_max
@@ -133,13 +138,29 @@ class Policy:
         self.typed = self.env.palette is not None  # (cell, type) actions: decode from each type
         self.starts: list[int | None] = list(range(self.env.n_types)) if self.typed else [None]
         self.palette = list(self.env.palette or [self.env.module])
+        if self.saved is None:
+            return
         if self.size_free:
-            from modquad_gym.policy.network import type_features
+            *spaces, types = self.spaces
+            net = self.saved.build(*spaces, types=types)
+        else:
+            net = self.saved.build()
+        self.actor, self._net = (None, net) if hasattr(net, "predict") else (net, None)
 
-            spaces = self.env.observation_space, self.env.action_space
-            self.net = self.saved.build(*spaces, types=type_features(self.palette))
-        elif self.saved is not None:
-            self.net = self.saved.build()
+    @property
+    def spaces(self) -> tuple:
+        """(observation space, action space) of the environment, and the palette's types."""
+        env = self.env
+        return env.observation_space, env.action_space, type_features(self.palette)
+
+    @property
+    def net(self) -> Any:
+        """The torch actor-critic (read from the model file on first use when the NumPy actor
+        acts: training code that asks for it gets it)."""
+        if self._net is None:
+            *spaces, types = self.spaces
+            self._net = read_model(self.model_path).build(*spaces, types=types)
+        return self._net
 
     def use_palette(self, modules: list | None) -> None:
         """Act with the module types ``modules`` (None: one type, the T-module): a size-free
@@ -173,6 +194,8 @@ class Policy:
     def probabilities(self, obs: dict, mask: np.ndarray) -> np.ndarray:
         """The policy's action probabilities at ``obs``, zero outside ``mask`` (sb3-contrib's
         masked distribution)."""
+        if self.actor is not None:
+            return self.actor.probabilities(obs, mask)
         import torch
 
         obs_t, _ = self.net.obs_to_tensor(obs)
@@ -183,6 +206,8 @@ class Policy:
 
     def greedy(self, obs: dict, mask: np.ndarray) -> int:
         """The most likely valid action at ``obs``."""
+        if self.actor is not None:
+            return self.actor.greedy(obs, mask)
         action, _ = self.net.predict(obs, action_masks=mask, deterministic=True)
         return int(action)
 
