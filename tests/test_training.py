@@ -14,6 +14,7 @@ import pytest
 
 from agents.config import TrainConfig
 from agents.training import train
+from modquad_gym.policy.inference import exported
 from modquad_gym.scoring.tiers import TIERS
 from modquad_gym.tasks import PlantedTasks, save_suite
 
@@ -112,8 +113,9 @@ def test_publish_run_installs_an_earlier_run_without_training(tmp_path, suite, m
     target = tmp_path / "shipped" / "model.zip"
     monkeypatch.setattr("modquad_gym.policy.models.DEFAULT_MODEL", target)
     assert script.main(["--publish-run", str(tmp_path / "run"), "--no-report"]) == 0
-    for name in ("model.zip", "config.json", "evaluations.npz"):
+    for name in ("model.zip", "model_actor.npz", "config.json", "evaluations.npz"):
         assert (target.parent / name).read_bytes() == (tmp_path / "run" / name).read_bytes()
+    assert exported(target) is not None  # the run wrote its actor for NumPy inference
 
 
 def test_train_script_errors_are_one_line(capsys, tmp_path):

@@ -24,7 +24,8 @@ import numpy as np
 
 from modquad_gym.core.validation import check_int, check_real
 from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
-from modquad_gym.policy.models import TOP_K, default_model
+from modquad_gym.policy.inference import exported
+from modquad_gym.policy.models import SCALE_FROM, TOP_K, default_model
 from modquad_gym.policy.policy import Policy, search_result
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.tasks import as_task
@@ -148,13 +149,16 @@ def child_key(s: Structure, cell: tuple, type_index: int, env: Any) -> Any:
 
 def producers_with_policy() -> tuple:
     """The anytime search's incumbent producers on workers (:mod:`modquad_gym.search.portfolio`):
-    the field's heuristics, then the shipped policy's guided search when its extra (torch,
-    sb3-contrib) is installed."""
+    the field's heuristics, then the shipped policy's guided search when it can act: its
+    models' NumPy actors are fresh (:mod:`.inference`) or its extra (torch, sb3-contrib) is
+    installed."""
     from modquad_gym.search.portfolio import HEURISTICS
 
-    if any(importlib.util.find_spec(m) is None for m in ("torch", "sb3_contrib")):
-        return HEURISTICS
-    return (*HEURISTICS, guided_producer)
+    models = (default_model(), default_model(SCALE_FROM))
+    extra = all(importlib.util.find_spec(m) is not None for m in ("torch", "sb3_contrib"))
+    if extra or all(exported(m) is not None for m in models):
+        return (*HEURISTICS, guided_producer)
+    return HEURISTICS
 
 
 def guided_producer(problem, time_limit: float, seed: int | None = 0) -> SearchResult | None:

@@ -1,0 +1,131 @@
+"""The shipped policy acts without torch (modquad_gym/policy/inference.py): its NumPy actor gives
+the torch network's logits, choices and probabilities on real episodes; a stale export is never
+used; the shipped exports match their models; ``modquad solve --method ppo`` runs with torch
+missing."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from modquad_gym.policy.inference import export_path, exported, file_hash
+from modquad_gym.policy.models import DEFAULT_MODEL, MODELS_DIR, SCALE_MODEL
+from modquad_gym.policy.policy import Policy
+from modquad_gym.tasks import make_generator
+
+MIXED_MODEL = MODELS_DIR / "ppo_mixed" / "model.zip"
+EXAMPLE = MODELS_DIR.parents[0] / "examples" / "paper_seed0.json"
+
+
+def torch_logits(policy: Policy, obs: dict, valid: np.ndarray) -> np.ndarray:
+    """The torch scorer's logits of the actions ``valid`` at ``obs``."""
+    import torch
+
+    obs_t, _ = policy.net.obs_to_tensor(obs)
+    with torch.no_grad():
+        return policy.net.features_extractor(obs_t)[0, valid].numpy()
+
+
+def torch_probabilities(policy: Policy, obs: dict, mask: np.ndarray) -> np.ndarray:
+    """``Policy.probabilities`` through the torch network (sb3-contrib's distribution)."""
+    actor, policy.actor = policy.actor, None
+    try:
+        return policy.probabilities(obs, mask)
+    finally:
+        policy.actor = actor
+
+
+@pytest.mark.parametrize(
+    "model, n_max, family, top_k",
+    [(DEFAULT_MODEL, 7, "mixed", None), (SCALE_MODEL, 16, "planted", 8),
+     (SCALE_MODEL, 64, "planted", 8), (SCALE_MODEL, 16, "paper", 1),
+     (MIXED_MODEL, 7, "planted-mixed-external", None)],
+)  # fmt: skip
+def test_numpy_actor_equals_the_torch_network_on_episodes(model, n_max, family, top_k):
+    """Every state of a greedy episode (every start type of a palette): the NumPy logits of
+    the valid actions equal torch's within float32 rounding, the greedy action is the same
+    unless the best two are tied, and so are the probabilities (zero on masked actions)."""
+    pytest.importorskip("torch")
+    pytest.importorskip("sb3_contrib")
+    policy = Policy(model, n_max=n_max, top_k=top_k)
+    assert policy.actor is not None
+    task = make_generator(family)(np.random.default_rng(n_max))
+    states = 0
+    for start in policy.starts:
+        obs, info = policy.reset(task, start)
+        done = info["success"]
+        while not done:
+            mask = policy.env.action_masks()
+            valid = np.flatnonzero(mask)
+            assert valid.size < mask.size  # masked actions in every state
+            assert top_k != 1 or valid.size == 1
+            ours, theirs = policy.actor.logits(obs, valid), torch_logits(policy, obs, valid)
+            scale = max(1.0, float(np.abs(theirs).max()))
+            np.testing.assert_allclose(ours, theirs, rtol=0, atol=2e-5 * scale)
+            action = policy.greedy(obs, mask)
+            torch_action = int(policy.net.predict(obs, action_masks=mask, deterministic=True)[0])
+            top2 = np.sort(theirs)[-2:]
+            assert action == torch_action or top2[1] - top2[0] < 1e-4 * scale
+            probs = policy.probabilities(obs, mask)
+            np.testing.assert_allclose(probs, torch_probabilities(policy, obs, mask), atol=1e-5)
+            assert np.all(probs[~mask] == 0) and probs.sum() == pytest.approx(1.0)
+            obs, _, terminated, truncated, info = policy.env.step(action)
+            done, states = terminated or truncated, states + 1
+    assert states >= 2
+
+
+def test_a_stale_export_falls_back_to_torch(tmp_path):
+    """An export of another model.zip (hash mismatch) or an unreadable one is never used: the
+    policy acts with torch, as without an export."""
+    pytest.importorskip("torch")
+    pytest.importorskip("sb3_contrib")
+    model = tmp_path / "model.zip"
+    shutil.copyfile(DEFAULT_MODEL, model)
+    shutil.copyfile(export_path(MIXED_MODEL), export_path(model))  # another model's weights
+    assert exported(model) is None
+    policy = Policy(model, n_max=5)
+    assert policy.actor is None and policy.net is not None
+    obs, _ = policy.reset(make_generator("mixed")(np.random.default_rng(0)))
+    mask = policy.env.action_masks()
+    assert policy.greedy(obs, mask) == int(policy.net.predict(obs, action_masks=mask,
+                                                              deterministic=True)[0])  # fmt: skip
+    export_path(model).write_bytes(b"not an npz")
+    assert exported(model) is None
+    shutil.copyfile(export_path(DEFAULT_MODEL), export_path(model))  # its own: fresh again
+    assert exported(model) is not None and Policy(model, n_max=5).actor is not None
+
+
+@pytest.mark.parametrize(
+    "model", sorted(MODELS_DIR.glob("*/model.zip")), ids=lambda p: p.parent.name
+)
+def test_every_shipped_model_has_a_fresh_export(model):
+    """A shipped model retrained without re-export fails here (re-export:
+    ``python -c "from modquad_gym.policy.inference import export; export('PATH')"``)."""
+    data = np.load(export_path(model))
+    assert str(data["model_sha256"]) == file_hash(model)
+    assert exported(model) is not None
+
+
+def test_solve_with_ppo_runs_without_torch():
+    """``modquad solve --method ppo`` (and ppo-guided) with the shipped model where torch and SB3
+    cannot be imported: the same JSON fields, a verified answer."""
+    script = (
+        "import sys\n"
+        "for m in ('torch', 'stable_baselines3', 'sb3_contrib'): sys.modules[m] = None\n"
+        "from modquad_gym.cli import main\n"
+        "codes = [main(['solve', '--task', sys.argv[1], '--method', m, '--json'])\n"
+        "         for m in ('ppo', 'ppo-guided')]\n"
+        "assert 'torch' not in sys.modules or sys.modules['torch'] is None\n"
+        "sys.exit(max(codes))\n"
+    )
+    run = subprocess.run([sys.executable, "-c", script, str(EXAMPLE)], capture_output=True,
+                         text=True, timeout=120)  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    lines = [json.loads(line) for line in run.stdout.splitlines()]
+    assert [r["method"] for r in lines] == ["ppo", "ppo-guided"]
+    assert all(r["feasible"] and r["n_modules"] >= r["lower_bound"] for r in lines)
