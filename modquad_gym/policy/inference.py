@@ -126,7 +126,8 @@ class Actor:
                                symlog(rows[:, 2:4] * n_max), rows[:, 4:]], axis=1)  # fmt: skip
         cell, kind = valid % n_cells, valid // n_cells
         y, x = cell // side, cell % side
-        padded = np.pad(occupancy.reshape(side, side), 1)
+        padded = np.zeros((side + 2, side + 2), dtype=np.float32)  # np.pad costs 0.4 ms a call
+        padded[1:-1, 1:-1] = occupancy.reshape(side, side)
         patch = np.stack([padded[y + dy, x + dx] for dy in range(3) for dx in range(3)], axis=1)
         radius = (side - 1) // 2
         occupied = np.flatnonzero(occupancy)
