@@ -347,8 +347,10 @@ for c in 'modquad solve --task example:screwdriver' 'modquad solve --task exampl
          'modquad export --task example:screwdriver --out screwdriver.urdf'; do
   check core docs/index.md "$c"
 done
-check core docs/index.md 'modquad solve --task example:planted_seed1 --method ppo' \
-  'modquad solve --task example:planted_seed1 --method ppo 2> err; rc=$?; cat err; [ $rc = 2 ] && [ $(wc -l < err) = 1 ] && grep -q "modquad_gym.train" err'
+# the shipped models act without torch (their NumPy actors); a model without one needs [train]
+check core docs/index.md 'modquad solve --task example:planted_seed1 --method ppo'
+check core docs/index.md 'modquad solve --task example:planted_seed1 --method ppo --model model.zip' \
+  'cp "$(python -c "from modquad_gym.policy.models import DEFAULT_MODEL as m; print(m)")" model.zip && modquad solve --task example:planted_seed1 --method ppo --model model.zip 2> err; rc=$?; cat err; [ $rc = 2 ] && [ $(wc -l < err) = 1 ] && grep -q "modquad_gym.train" err'
 
 # --- 4: the python blocks, a page at a time, with the wheel ---------------------------------
 cat > "$WORK/run_blocks.py" <<'PY'
