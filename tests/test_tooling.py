@@ -123,6 +123,8 @@ def test_installed_wheel_solves_with_the_shipped_ppo_model(installed_wheel, tmp_
 
 
 def test_core_install_solves_and_names_the_missing_extra(installed_wheel, tmp_path):
+    """Without the extras: the searches, and the shipped PPO model through its NumPy actor; a
+    model without one needs torch, and the error names the extra."""
     block = (
         "import importlib.abc\n"
         "class Block(importlib.abc.MetaPathFinder):\n"
@@ -136,11 +138,16 @@ def test_core_install_solves_and_names_the_missing_extra(installed_wheel, tmp_pa
         "import modquad_gym as mq\n"
         "from modquad_gym.cli import main\n"
         f"assert main(['solve', '--task', {str(task)!r}]) == 0\n"
-        f"raise SystemExit(main(['solve', '--task', {str(task)!r}, '--method', 'ppo']))"
+        f"assert main(['solve', '--task', {str(task)!r}, '--method', 'ppo']) == 0\n"
+        "import shutil\n"
+        "from modquad_gym.policy.models import DEFAULT_MODEL\n"
+        "shutil.copyfile(DEFAULT_MODEL, 'model.zip')  # without its actor beside it\n"
+        f"raise SystemExit(main(['solve', '--task', {str(task)!r}, '--method', 'ppo', "
+        "'--model', 'model.zip']))"
     )
     out = _python_S(code, installed_wheel, Path(sysconfig.get_paths()["purelib"]), cwd=tmp_path)
     assert out.returncode == 2, out.stderr
-    assert "3 modules (certified minimum)" in out.stdout
+    assert out.stdout.count("3 modules (certified minimum)") == 2  # the search, then ppo
     assert "pip install 'modquad_gym[train]'" in out.stderr
     assert "Traceback" not in out.stderr
 
