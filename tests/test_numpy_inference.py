@@ -13,6 +13,7 @@ import sys
 import numpy as np
 import pytest
 
+from modquad_gym.geometry.module import palette
 from modquad_gym.policy.inference import export_path, exported, file_hash
 from modquad_gym.policy.models import DEFAULT_MODEL, MODELS_DIR, SCALE_MODEL
 from modquad_gym.policy.policy import Policy
@@ -41,18 +42,23 @@ def torch_probabilities(policy: Policy, obs: dict, mask: np.ndarray) -> np.ndarr
 
 
 @pytest.mark.parametrize(
-    "model, n_max, family, top_k",
-    [(DEFAULT_MODEL, 7, "mixed", None), (SCALE_MODEL, 16, "planted", 8),
-     (SCALE_MODEL, 64, "planted", 8), (SCALE_MODEL, 16, "paper", 1),
-     (MIXED_MODEL, 7, "planted-mixed-external", None)],
+    "model, n_max, family, top_k, modules",
+    [(DEFAULT_MODEL, 7, "mixed", None, None), (SCALE_MODEL, 16, "planted", 8, None),
+     (SCALE_MODEL, 64, "planted", 8, None), (SCALE_MODEL, 16, "paper", 1, None),
+     (MIXED_MODEL, 7, "planted-mixed-external", None, None),
+     (DEFAULT_MODEL, 7, "planted-mixed-external", 8, "t45,t45m,flat")],
 )  # fmt: skip
-def test_numpy_actor_equals_the_torch_network_on_episodes(model, n_max, family, top_k):
-    """Every state of a greedy episode (every start type of a palette): the NumPy logits of
-    the valid actions equal torch's within float32 rounding, the greedy action is the same
-    unless the best two are tied, and so are the probabilities (zero on masked actions)."""
+def test_numpy_actor_equals_the_torch_network_on_episodes(model, n_max, family, top_k, modules):
+    """Every state of a greedy episode (every start type of a palette; the last case: a
+    one-type model rebuilt for a palette): the NumPy logits of the valid actions equal
+    torch's within float32 rounding, the greedy action is the same unless the best two are
+    tied, and so are the probabilities (zero on masked actions)."""
     pytest.importorskip("torch")
     pytest.importorskip("sb3_contrib")
     policy = Policy(model, n_max=n_max, top_k=top_k)
+    if modules is not None:
+        policy.use_palette(palette(modules))
+        assert len(policy.starts) == 3
     assert policy.actor is not None
     task = make_generator(family)(np.random.default_rng(n_max))
     states = 0
