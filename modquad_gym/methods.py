@@ -175,7 +175,8 @@ class Method:
         timed: it stops at ``time_limit``.
         fault: it honours ``fault=`` (every answer survives the failure).
         palette: it designs over several module types (``modules=``).
-        extra: the package extra it needs (``train`` for torch and SB3), or None.
+        extra: the package extra it needs (``train`` for torch and SB3; a learned method needs
+            it only for a model without its NumPy actor), or None.
     """
 
     name: str

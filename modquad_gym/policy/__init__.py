@@ -2,8 +2,9 @@
 structure (:mod:`.ppo`) and the policy-guided best-first search (:mod:`.guided`).
 
 Training lives outside the package, in the repository's top-level ``agents/``; what is here is
-what an installed wheel needs to answer ``modquad solve --method ppo``. Torch and SB3 load only
-when a model is loaded.
+what an installed wheel needs to answer ``modquad solve --method ppo``. The shipped models act
+through their actors in NumPy (:mod:`.inference`); torch and SB3 load only for a model without
+a fresh one.
 """
 
 from modquad_gym.policy.models import (

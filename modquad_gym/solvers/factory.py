@@ -1,6 +1,6 @@
 """Solvers of the registered methods: :func:`make_solver`, the one factory, and the solvers it
-makes (a search, a learned method). Torch and SB3 load only when a learned solver is made
-(:mod:`modquad_gym.policy.ppo`)."""
+makes (a search, a learned method). Torch and SB3 load only when a learned solver is made with
+a model that has no fresh NumPy actor (:mod:`modquad_gym.policy.inference`)."""
 
 from __future__ import annotations
 
