@@ -441,7 +441,7 @@ def test_expert_iteration_force_replaces_only_its_own_files(tmp_path, monkeypatc
     from agents import expert_iteration as exit_
 
     def fake_run(args):  # one round's files, as run() writes them
-        for name in ("model.zip", "config.json"):
+        for name in ("model.zip", "model_actor.npz", "config.json"):
             write_text(args.claim.path(f"round-1/{name}"), name)
         write_text(args.claim.path("labels.csv"), "round\n1\n")
         args.labels = [{"round": 1, "search": 9, "guided": 9, "ppo": 9, "target": 9}]
