@@ -10,6 +10,7 @@ import pytest
 
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.lookahead import (
+    FLAT,
     GREEDY,
     MARGIN,
     SHARE,
@@ -19,6 +20,7 @@ from modquad_gym.envs.assembly.lookahead import (
     greedy_choice,
     parent_directions,
     ranked,
+    ratios,
     ray_bounds,
     support_bounds,
 )
@@ -118,6 +120,29 @@ def test_the_margin_bounds_hold_against_highs_on_the_boundary_and_rank_deficient
         assert np.all(np.clip(1.0 - gamma[0], -1, 1) >= reference - 1e-7)
         signs |= set(np.sign(reference).tolist())
     assert {-1.0, 1.0} <= signs
+
+
+def test_the_compiled_support_bounds_are_numpys_bit_for_bit():
+    """:func:`support_bounds` (one compiled pass) gives exactly the numpy formula of its
+    docstring: deficits against the slack, and ratios of offsets to widths with flat widths
+    (zero, or below FLAT) and offsets on both sides of FLAT, on children of a real task."""
+    env = ModQuadAssemblyEnv(tasks="mixed", n_max=16, lookahead="exact")
+    env.reset(seed=4)
+    for _ in range(5):
+        env.step(int(np.flatnonzero(env.action_masks())[0]))
+    ev, state = env.evaluator, env.state
+    keys = [env.module_set.key((*state.cells, c), ()) for c in ((-1, 0), (0, -1), (9, 9))]
+    h, slack, c = ev.supports_of(keys, centres=True)
+    WD = state.task.WD
+    h[0, :5], c[0, :5] = c[0, :5], c[0, :5] + FLAT / 2  # flat directions: width 0 and FLAT / 2
+    WD = np.vstack([WD, c[0] + FLAT / 4, c[0] + 2 * FLAT])  # offsets below and above FLAT
+    share, gamma = support_bounds(h, slack, c, WD)
+    deficit = (WD[None] - h[:, None]).max(axis=2)
+    want_share = np.count_nonzero(deficit <= slack[:, None], axis=1) / len(WD)
+    want_gamma = ratios(np.abs(WD[None] - c[:, None]), h[:, None] - c[:, None], FLAT).max(axis=2)
+    np.testing.assert_array_equal(share, want_share)
+    np.testing.assert_array_equal(gamma, want_gamma)
+    assert np.isinf(gamma[0]).any() and (gamma[1:] > 0).all()
 
 
 def test_the_shortlist_keeps_the_k_best_and_its_rows_are_the_full_ones():

@@ -35,8 +35,6 @@ SHARE, MARGIN, GREEDY = CANDIDATE_FEATURES, CANDIDATE_FEATURES + 1, CANDIDATE_FE
 FLAT = 1e-9
 """Widths (and offsets) below this (in units of denom) count as zero: a flat direction of a
 rank-deficient W bounds nothing but what lies off it."""
-CHUNK = 2**19
-"""Most (child, wrench, direction or column) entries the bounds hold at once (4 MB)."""
 
 
 def children(ep: Episode, state: AssemblyState, acts: np.ndarray) -> Iterator[tuple]:
@@ -219,16 +217,33 @@ def support_bounds(
     (h_W(d) - d . c) in every direction d: the largest ratio bounds gamma from below, hence
     the margin from above. The share bound counts the wrenches the support test cannot
     reject (it never rejects one the oracle accepts; see ``slack``)."""
-    n, t, k = len(h_Cn), len(WD), WD.shape[1]
-    share, gamma = np.empty(n), np.empty((n, t))
-    step = max(1, CHUNK // max(t * k, 1))
-    for i in range(0, n, step):
-        cut = slice(i, i + step)
-        h, c = h_Cn[cut, None, :], centre[cut, None, :]
-        deficit = (WD[None] - h).max(axis=2)
-        share[cut] = np.count_nonzero(deficit <= slack[cut, None], axis=1) / t
-        gamma[cut] = ratios(np.abs(WD[None] - c), h - c, FLAT).max(axis=2)
+    share, gamma = np.empty(len(h_Cn)), np.empty((len(h_Cn), len(WD)))
+    _support_bounds(h_Cn, slack, centre, WD, FLAT, share, gamma)
     return share, gamma
+
+
+@njit(cache=True)
+def _support_bounds(h_Cn, slack, centre, WD, flat, share, gamma):  # pragma: no cover - compiled
+    """:func:`support_bounds` in one pass, no (L, t, K) arrays: per structure and wrench the
+    largest deficit ``WD - h`` and the largest :func:`ratios` of ``|WD - c|`` to ``h - c``
+    (the same operations on the same numbers as numpy's element-wise version)."""
+    L, t, K = h_Cn.shape[0], WD.shape[0], WD.shape[1]
+    for l in range(L):
+        kept = 0
+        for i in range(t):
+            deficit = -np.inf
+            ratio = -np.inf
+            for d in range(K):
+                deficit = max(deficit, WD[i, d] - h_Cn[l, d])
+                off = abs(WD[i, d] - centre[l, d])
+                width = h_Cn[l, d] - centre[l, d]
+                if width > flat:
+                    ratio = max(ratio, off / width)
+                else:
+                    ratio = max(ratio, np.inf if off > flat else 0.0)
+            kept += deficit <= slack[l]
+            gamma[l, i] = ratio
+        share[l] = kept / t
 
 
 def ray_bounds(A: np.ndarray, D: np.ndarray, W: np.ndarray, f_max: float) -> np.ndarray:
