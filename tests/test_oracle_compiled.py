@@ -218,10 +218,10 @@ def test_bench_oracle_writes_its_report_at_m_256(tmp_path):
 @given(seed=st.integers(0, 2**20), n=st.sampled_from([1, 2, 3, 5, 9, 16, 40]))
 def test_a_walk_from_any_vertex_gives_the_cold_walks_gamma(seed, n):
     """Warm starts (:func:`gamma_compiled_from`): from the optimal vertices of the rows
-    themselves, of other rows, from random tight sets (duplicates, indices off G, -1) and with
-    no start, the walk gives the cold walk's gamma within round-off; past the cap both prove a
-    bound above it. Every rank (one module 4, a line 5); rows inside, near and past the
-    threshold and the cap."""
+    themselves (with and without their column bounds), of other rows, from random tight sets
+    and bounds (duplicates, indices off G, -1) and with no start, the walk gives the cold
+    walk's gamma within round-off; past the cap both prove a bound above it. Every rank (one
+    module 4, a line 5); rows inside, near and past the threshold and the cap."""
     from modquad_gym.oracle.compiled import gamma_compiled_from
 
     z = Zonotope(structure(seed, n))
@@ -229,14 +229,19 @@ def test_a_walk_from_any_vertex_gives_the_cold_walks_gamma(seed, n):
     R = z.reduce(wrenches_at(z, seed, (*GAUGES, 1.9, 2.5)))[0]
     cap = 2.0
     cold = gamma_compiled(z, R, cap)
-    none = np.full((len(R), max(z.rank - 1, 1)), -1, dtype=np.int64)
-    gamma, tights = gamma_compiled_from(z, R, cap, none)
+    tights = np.full((len(R), max(z.rank - 1, 1)), -1, dtype=np.int64)
+    signs = np.zeros((len(R), z.m), dtype=np.int8)
+    gamma = gamma_compiled_from(z, R, cap, tights, signs)
     np.testing.assert_array_equal(gamma, cold)  # no start: the cold walk itself
     at_optimum = (tights >= 0).all(axis=1)
     assert at_optimum.sum() >= 8 and (cold[at_optimum] <= cap + 1e-9).all()
-    junk = rng.integers(-2, z.m + 3, size=none.shape)
-    for starts in (tights, np.roll(tights, 1, axis=0), junk):
-        got, _ = gamma_compiled_from(z, R, cap, np.ascontiguousarray(starts))
+    assert np.abs(signs[at_optimum]).sum(axis=1).min() >= z.m - z.rank + 1
+    junk = rng.integers(-2, z.m + 3, size=tights.shape)
+    noise = rng.integers(-1, 2, size=signs.shape).astype(np.int8)
+    starts = [(tights, signs), (tights, 0 * signs), (np.roll(tights, 1, axis=0), signs),
+              (junk, noise)]  # fmt: skip
+    for T, S in starts:
+        got = gamma_compiled_from(z, R, cap, T.copy(), S.copy())
         inside = cold <= cap
         np.testing.assert_allclose(got[inside], cold[inside], rtol=1e-10, atol=1e-12)
         assert (got[~inside] > cap).all()

@@ -128,27 +128,30 @@ def gamma_with(z: Zonotope, W: np.ndarray, method: str, cap: float = np.inf) -> 
 
 
 def gamma_capped_from(
-    z: Zonotope, W: np.ndarray, cap: float, starts: np.ndarray | None
-) -> tuple[np.ndarray, np.ndarray]:
+    z: Zonotope, W: np.ndarray, cap: float, start: tuple | None = None
+) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """(:func:`gamma_with` by the compiled walk with ``cap`` (< ``_FAR``), each row's optimal
-    tight columns (t, rank - 1; -1: none)), the walk of row i started at the vertex of the
-    tight columns ``starts[i]`` (-1 or None: from the dual-metric direction). The same gamma up
-    to round-off; a row proved above ``cap`` may get another proved bound above it."""
+    vertex: (tight columns int (t, rank - 1), column bounds int8 (t, m)), -1 and 0 where the
+    walk stopped elsewhere), the walk of row i started at the vertex ``start`` gives it
+    (:func:`~.compiled.gamma_compiled_from`; None: every walk from the dual-metric direction).
+    The same gamma up to round-off; a row proved above ``cap`` may get another proved bound
+    above it."""
     R, off = z.reduce(W)
     out = np.full(len(W), np.inf)
     tights = np.full((len(W), max(z.rank - 1, 1)), -1, dtype=np.int64)
+    signs = np.zeros((len(W), z.m), dtype=np.int8)
     t = np.abs(R).max(axis=1) if len(W) else np.zeros(0)
     box = max(float(z.box.max()), 1e-300)
     far = t > _FAR * box
     out[far] = t[far] / box
     near = np.flatnonzero(~off & ~far)
     if len(near):
-        if starts is None:
-            starts = tights
-        begin = np.ascontiguousarray(starts[near], dtype=np.int64)
-        out[near], tights[near] = gamma_compiled_from(z, R[near], cap, begin)
+        begin = (tights[near], signs[near]) if start is None else (start[0][near], start[1][near])
+        T, S = np.ascontiguousarray(begin[0], np.int64), np.ascontiguousarray(begin[1], np.int8)
+        out[near] = gamma_compiled_from(z, R[near], cap, T, S)
+        tights[near], signs[near] = T, S
     out[off] = np.inf
-    return out, tights
+    return out, (tights, signs)
 
 
 def decide_with(z: Zonotope, W: np.ndarray, method: str) -> np.ndarray:

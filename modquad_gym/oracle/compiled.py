@@ -85,24 +85,24 @@ def gamma_compiled(
 
 
 def gamma_compiled_from(
-    z: Zonotope, R: np.ndarray, cap: float, starts: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """(gamma as :func:`gamma_compiled` with ``cap``, the tight columns (t, rank - 1) of each
-    row's optimal vertex, -1 where the walk stopped elsewhere) with each row's walk started at
-    the vertex of its row of ``starts`` (int (t, rank - 1), -1: no start): the optimal
-    vertices of a similar zonotope (one module less) for the same wrenches start next to the
-    optimum, where the crash to a first vertex costs as much as the pivots."""
+    z: Zonotope, R: np.ndarray, cap: float, starts: np.ndarray, signs: np.ndarray
+) -> np.ndarray:
+    """gamma as :func:`gamma_compiled` with ``cap``, each row's walk started at the vertex of
+    its row of ``starts`` (int64 (t, rank - 1) tight columns; -1: no start) with the column
+    bounds of its row of ``signs`` (int8 (t, m), 0: unknown): the optimal vertices of a similar
+    zonotope (one module less) for the same wrenches start next to the optimum, where the crash
+    to a first vertex costs as much as the pivots. Both arrays then hold each row's optimal
+    vertex (-1 and 0 where the walk stopped elsewhere)."""
     from modquad_gym.oracle import kernels
 
     prep, _ = _prepared(z)
     R = np.ascontiguousarray(R, dtype=float)
     out = np.empty(len(R))
-    tights = np.empty((len(R), max(z.rank - 1, 1)), dtype=np.int64)
-    kernels.gamma_rows_from(z.G, z.P, prep, R, float(cap), out, starts, tights)
+    kernels.gamma_rows_from(z.G, z.P, prep, R, float(cap), out, starts, signs)
     rest = np.flatnonzero(np.isnan(out))
     if len(rest):
         out[rest] = gamma_daqp(z, R[rest])
-    return out, tights
+    return out
 
 
 def screen_compiled(

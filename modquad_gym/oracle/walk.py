@@ -296,10 +296,12 @@ def vertex_walk(G, norms, r, y, x, accept, reject, work):  # pragma: no cover - 
 
 
 @njit(cache=True)
-def walk_from(G, norms, r, y, x, accept, reject, work, start):  # pragma: no cover - compiled
+def walk_from(G, norms, r, y, x, accept, reject, work, start, signs):  # pragma: no cover
     """:func:`vertex_walk` from the vertex of the tight columns ``start`` (rank - 1 column
     indices: say the optimal vertex of a similar zonotope for the same wrench), skipping the
-    crash; from the direction y as :func:`vertex_walk` when ``start`` holds a negative index, an
+    crash, with the bounds ``signs`` (m,) (+-1; 0: unknown) on the columns that lie on its
+    hyperplane (a facet holds many: their bounds are what the degenerate pivots would find);
+    from the direction y as :func:`vertex_walk` when ``start`` holds a negative index, an
     index off G or a singular basis. Any vertex is a valid start: the optimum, hence gamma, is
     the same up to round-off; only a walk stopped early (a certificate) may end elsewhere."""
     tight, bound, M, Minv, T = work[0], work[1], work[2], work[3], work[12]
@@ -309,7 +311,7 @@ def walk_from(G, norms, r, y, x, accept, reject, work, start):  # pragma: no cov
         usable = usable and 0 <= start[k] < m
     if usable:
         for j in range(m):
-            bound[j] = 1.0
+            bound[j] = -1.0 if signs[j] < 0 else 1.0
         for k in range(n - 1):
             T[k] = start[k]
         if _basis(G, r, T, tight, M, Minv):

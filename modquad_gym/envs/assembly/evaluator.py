@@ -314,10 +314,10 @@ class StructureEvaluator:
         band of the threshold, decided through :meth:`evaluate` (whose ``memo`` the step then
         hits).
 
-        Warm starts: each walk's optimal vertex (its tight columns per wrench) goes to
-        ``walks`` (key -> int16 (t, rank - 1)), and the walks of key i start at the vertices
-        ``starts[i]`` (the parent's, renumbered to the child's columns; None: cold): the same
-        gammas up to round-off, in a fraction of the pivots."""
+        Warm starts: each walk's optimal vertex per wrench (tight columns int16 (t, rank - 1),
+        column bounds int8 (t, m)) goes to ``walks`` (key -> both), and the walks of key i
+        start at the vertices ``starts[i]`` (the parent's, renumbered to the child's columns;
+        None: cold): the same gammas up to round-off, in a fraction of the pivots."""
         starts = dict(zip(keys, starts)) if starts is not None else {}
         for k in dict.fromkeys(keys):
             if k in exact_memo:
@@ -327,11 +327,15 @@ class StructureEvaluator:
             cap = self.capability.get(k) or self.capability_of(k)
             z = self.oracle.zonotope(cap.A, key=k)
             start = starts.get(k)
-            if start is not None and start.shape != (len(W), max(z.rank - 1, 1)):
+            if start is not None and start[0].shape + start[1].shape[1:] != (
+                len(W),
+                max(z.rank - 1, 1),
+                z.m,
+            ):
                 start = None  # another rank (or wrench count): no vertex to start from
-            gamma, tights = gamma_capped_from(z, W, CLIP_GAMMA, start)
+            gamma, (tights, signs) = gamma_capped_from(z, W, CLIP_GAMMA, start)
             if walks is not None:
-                walks[k] = tights.astype(np.int16)
+                walks[k] = (tights.astype(np.int16), signs)
             self.tests += len(W)
             decided = memo.get(k)
             if decided is not None:
@@ -376,8 +380,8 @@ class MixedStructureEvaluator(StructureEvaluator):
 class TaskMemos:
     """Per task (by identity) and f_max: decisions (key -> (n_satisfied, structure vector)),
     support lookahead rows (child key -> row), exact lookahead entries (child key ->
-    (share, margin)) and the exact walks' optimal vertices (child key -> tight columns, the
-    warm starts of its own children); the last :data:`MEMO_TASKS` tasks are kept."""
+    (share, margin)) and the optimal vertices of the current state's children's exact walks
+    (the warm starts of the next step's); the last :data:`MEMO_TASKS` tasks are kept."""
 
     def __init__(self) -> None:
         self._memos: dict[tuple[int, float], tuple[Any, dict, dict, dict, dict]] = {}

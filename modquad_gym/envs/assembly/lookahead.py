@@ -75,6 +75,7 @@ def candidate_rows(ep: Episode, state: AssemblyState) -> np.ndarray:
     valid = np.flatnonzero(state.mask)
     cells, scores = {}, {}
     parent = ep.walk_memo.get(ep.modules.key(state.cells, state.types)) if exact else None
+    ep.walk_memo.clear()  # only this state's children: one of them is the next parent
     for acts, batch_cells, k, mass in children(ep, state, valid):
         keys = child_keys(ep, state, batch_cells, k)
         cells.update(zip(acts.tolist(), batch_cells))
@@ -93,14 +94,21 @@ def candidate_rows(ep: Episode, state: AssemblyState) -> np.ndarray:
     return cand
 
 
-def warm_starts(ep: Episode, state: AssemblyState, cells: list, parent: np.ndarray) -> list:
+def warm_starts(ep: Episode, state: AssemblyState, cells: list, parent: tuple) -> list:
     """Per child of ``state`` with a module at one of ``cells``: the optimal vertices of the
-    parent's walks (``parent``, tight columns per wrench) renumbered to the child's columns
-    (a key sorts its cells, the new module's columns go in at its place among them)."""
+    parent's walks (``parent``: tight columns and column bounds per wrench) renumbered to the
+    child's columns (a key sorts its cells, so the new module's columns go in at its place
+    among them, with unknown bounds)."""
     r = ep.evaluator.module.n_rotors
     order = sorted(state.cells)
-    parent = parent.astype(np.int64)
-    return [parent + r * (parent >= r * bisect_left(order, c)) for c in cells]
+    tights, signs = parent[0].astype(np.int64), parent[1]
+    out = []
+    for c in cells:
+        at = r * bisect_left(order, c)
+        child = np.zeros((len(signs), signs.shape[1] + r), dtype=np.int8)
+        child[:, :at], child[:, at + r :] = signs[:, :at], signs[:, at:]
+        out.append((tights + r * (tights >= at), child))
+    return out
 
 
 def greedy_choice(scores: dict, cells: dict, actions) -> int:

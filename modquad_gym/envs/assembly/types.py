@@ -86,8 +86,9 @@ class Episode:
         cand_memo: the task's lookahead rows, child key -> row.
         exact_memo: the task's exact lookahead entries, child key -> (share, margin)
             (``lookahead="exact"``).
-        walk_memo: the optimal vertices of those entries' walks, child key -> tight columns
-            per wrench (where its own children's walks start).
+        walk_memo: the optimal vertices of the walks of the current state's children, child
+            key -> (tight columns, column bounds) per wrench (where the walks of the chosen
+            child's own children start).
     """
 
     rules: Rules
