@@ -327,11 +327,7 @@ class StructureEvaluator:
             cap = self.capability.get(k) or self.capability_of(k)
             z = self.oracle.zonotope(cap.A, key=k)
             start = starts.get(k)
-            if start is not None and start[0].shape + start[1].shape[1:] != (
-                len(W),
-                max(z.rank - 1, 1),
-                z.m,
-            ):
+            if start is not None and start[0].shape != (len(W), max(z.rank - 1, 1)):
                 start = None  # another rank (or wrench count): no vertex to start from
             gamma, (tights, signs) = gamma_capped_from(z, W, CLIP_GAMMA, start)
             if walks is not None:
