@@ -258,3 +258,21 @@ def test_the_cloned_start_is_kept_unless_the_best_checkpoint_beats_it_significan
     words = fine_tuning_words(tmp_path / "small.npz")
     assert "(+2)" in words and "within chance for the best of 20 evaluations" in words
     assert "kept model is the cloned start" in words
+
+
+def test_the_rl_stage_report_measures_each_gain_over_the_cloned_start():
+    """The report's gains are run minus cloned start, per run and as a mean with its bootstrap
+    interval; the curve's last-quarter level is one of them (a gain no choice inflates)."""
+    from benchmarks.rl_stage import GAINS, gains
+
+    cols = {c for pair in GAINS.values() for c in pair}
+    rows = [{c: 0.9 for c in cols} for _ in range(3)]
+    for row, last in zip(rows, (0.88, 0.89, 0.93)):
+        row["val optimal, last quarter mean"] = last
+    table = {g["gain (over cloned)"]: g for g in gains(rows)}
+    assert set(table) == set(GAINS)
+    curve = table["val optimal, last quarter mean"]
+    assert curve["per run"] == "-2.0 -1.0 +3.0" and curve["mean"] == "+0.00 pt"
+    low, high = (float(x) for x in curve["95 % CI"].strip("[]").split(","))
+    assert -2.0 <= low < 0.0 < high <= 3.0
+    assert table["held-out optimal"]["95 % CI"] == "[+0.00, +0.00]"  # nothing varies
