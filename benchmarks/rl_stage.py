@@ -8,8 +8,9 @@ validation optimal share and success of the cloned start (step 0) and of the kep
 run's ``model.zip``: its best validation checkpoint, or the cloned start when that checkpoint is
 not significantly better) and its step, the best checkpoint's share, the final evaluation,
 whether the curve rose (its last quarter's mean optimal share above step 0's); and, never used
-in training or selection, a single deterministic pass of the cloned start and of the kept model
-on the tier's held-out suites (optimal share and success against the certified optima). Over
+in training or selection, a single deterministic pass of the cloned start, of the kept model
+and of the best checkpoint (``best_model.zip`` in the run's log folder) on the tier's held-out
+suites (optimal share and success against the certified optima). Over
 the runs: the mean of each gain over the cloned start (:data:`GAINS`) with its 95 % percentile
 bootstrap interval over runs (:func:`modquad_gym.scoring.stats.interval`). The kept and best
 checkpoints' validation gains are >= 0 by construction (step 0 is a candidate of the choice);
@@ -72,6 +73,9 @@ def run_row(run: Path) -> tuple[dict, dict]:
     cloned = Path(config.get("cloned_model") or cloned_beside(run))
     h_clone = heldout(cloned, config["tier"])
     h_kept = heldout(run / "model.zip", config["tier"])
+    best = cloned_beside(run).parent / "best_model.zip"  # the best checkpoint, when not kept
+    same = best_index(data) == kept or not best.is_file()
+    h_best = h_kept if same else heldout(best, config["tier"])
     row = {
         "run": str(run),
         "seed": config["seed"],
@@ -89,6 +93,8 @@ def run_row(run: Path) -> tuple[dict, dict]:
         "held-out optimal, kept": round(h_kept[0], 4),
         "held-out success, cloned": round(h_clone[1], 4),
         "held-out success, kept": round(h_kept[1], 4),
+        "held-out optimal, best": round(h_best[0], 4),
+        "held-out success, best": round(h_best[1], 4),
         "ppo seconds": config.get("ppo_seconds"),
     }
     return row, {"steps": steps, "optimal": opt, "label": f"{run.name} (seed {config['seed']})"}
@@ -101,6 +107,8 @@ GAINS = {
     "val success": ("val success, kept", "val success, cloned"),
     "held-out optimal": ("held-out optimal, kept", "held-out optimal, cloned"),
     "held-out success": ("held-out success, kept", "held-out success, cloned"),
+    "held-out optimal, best checkpoint": ("held-out optimal, best", "held-out optimal, cloned"),
+    "held-out success, best checkpoint": ("held-out success, best", "held-out success, cloned"),
 }
 """Each gain over the cloned start: (the run's column, the cloned start's column). The kept and
 best checkpoints' validation gains are >= 0 by construction; the last quarter's mean is the
@@ -149,11 +157,12 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     plot(curves, args.out / "curves.png")
     command = "python -m benchmarks.rl_stage " + " ".join(str(r) for r in args.runs)
+    command += f" --out {args.out}"
     notes = (
         "Per run: validation optimal share of the cloned start (step 0), of the kept model (the "
         "run's model.zip) and of the best checkpoint, and at the end; the held-out suites' "
-        "single pass of the cloned start and of the kept model (never used in training or "
-        "selection)."
+        "single pass of the cloned start, of the kept model and of the best checkpoint (never "
+        "used in training or selection)."
     )
     text = report_page("What the RL stage added", command, notes, rows, "## Gains over runs", "",
                        _table(gains(rows)), "", "![curves](curves.png)", "")  # fmt: skip
