@@ -53,6 +53,13 @@ class WrenchOracle:
             self._cache.move_to_end(key)
         return z
 
+    def cached(self, key: Hashable) -> Zonotope | None:
+        """The zonotope cached under ``key``, or None (no matrix needed to ask)."""
+        z = self._cache.get(key)
+        if z is not None:
+            self._cache.move_to_end(key)
+        return z
+
     def feasible(self, A: np.ndarray, W: np.ndarray, key: Hashable | None = None) -> np.ndarray:
         W = check_wrenches(W)
         z = self.zonotope(A, key)

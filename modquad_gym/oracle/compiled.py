@@ -98,7 +98,9 @@ def gamma_compiled_from(
     prep, _ = _prepared(z)
     R = np.ascontiguousarray(R, dtype=float)
     out = np.empty(len(R))
-    kernels.gamma_rows_from(z.G, z.P, prep, R, float(cap), out, starts, signs)
+    kernels.gamma_rows_from(
+        z.G, z.P, prep, R, float(cap), out, np.empty((0, z.rank)), starts, signs
+    )
     rest = np.flatnonzero(np.isnan(out))
     if len(rest):
         out[rest] = gamma_daqp(z, R[rest])

@@ -177,61 +177,52 @@ def gamma_rows(G, P, prep, R, cap, out, dirs):  # pragma: no cover - compiled
     (the bounding box, or a direction y of the walk with r . y > cap h(y)) gets that certified
     lower bound instead (> cap; the walk stops there): ``cap = inf`` computes every gamma.
     With rows in ``dirs`` (else shape (0, n)), each row's last direction y goes there."""
-    work = _workspace(G)
-    cold = np.full(max(G.shape[0] - 1, 1), -1, dtype=np.int64)
-    signs = np.zeros(G.shape[1], dtype=np.int8)
-    for k in range(R.shape[0]):
-        out[k] = _gamma_row(G, P, prep, R[k], cap, cold, signs, work)[0]
-        if dirs.shape[0]:
-            dirs[k] = work[2]
+    starts = np.full((R.shape[0], max(G.shape[0] - 1, 1)), -1, dtype=np.int64)
+    signs = np.zeros((R.shape[0], G.shape[1]), dtype=np.int8)
+    gamma_rows_from(G, P, prep, R, cap, out, dirs, starts, signs)
 
 
 @njit(cache=True)
-def gamma_rows_from(G, P, prep, R, cap, out, starts, signs):  # pragma: no cover - compiled
+def gamma_rows_from(G, P, prep, R, cap, out, dirs, starts, signs):  # pragma: no cover
     """:func:`gamma_rows` with row k's walk started at the vertex of the tight columns
     ``starts[k]`` (-1: from the dual-metric direction) with the column bounds ``signs[k]``
     (see :func:`~.walk.walk_from`); each row's optimal vertex replaces them: its tight columns
     and every other column's bound (-1 and 0 where the walk stopped elsewhere: a certificate
     above ``cap``, the box, or no answer)."""
-    work = _workspace(G)
+    walk, x, y = _workspace(G)
+    tight, bound, T = walk[0], walk[1], walk[12]
+    _, norms, axes, dual = prep
     n, m = G.shape
-    tight, bound, T = work[0][0], work[0][1], work[0][12]
     for k in range(R.shape[0]):
-        out[k], status = _gamma_row(G, P, prep, R[k], cap, starts[k], signs[k], work)
+        r = R[k]
+        norm = 0.0
+        box = 0.0
+        for i in range(n):
+            norm += abs(r[i])
+            y[i] = r[i] * dual[i]
+            box = max(box, abs(r[i]) / axes[i])
+        status = -2
+        if norm == 0.0:
+            out[k] = 0.0
+        elif box > cap:  # beyond the box scaled by cap: y = +-e_i proves gamma >= box
+            out[k] = box
+        else:
+            status = walk_from(G, norms, r, y, x, 0.0, cap, walk, starts[k], signs[k])
+            if status == 0:  # y proves gamma >= r . y / h(y) > cap
+                ry = 0.0
+                for i in range(n):
+                    ry += r[i] * y[i]
+                out[k] = ry / _l1_support(y, G)
+            elif status == 2:
+                out[k] = _corrected_max(G, P, r, x)
+            else:
+                out[k] = np.nan
+        if dirs.shape[0]:
+            dirs[k] = y
         for q in range(starts.shape[1]):
             starts[k, q] = T[q] if status == 2 and q < n - 1 else -1
         for j in range(m):
             signs[k, j] = 0 if status != 2 or tight[j] else (1 if bound[j] > 0 else -1)
-
-
-@njit(cache=True)
-def _gamma_row(G, P, prep, r, cap, start, signs, work):  # pragma: no cover - compiled
-    """(gamma or its certified lower bound above ``cap``, the walk's status: 2 at the optimum,
-    0 a certificate, -1 no answer (gamma nan), -2 no walk) of one row r (:func:`gamma_rows`),
-    the walk from the tight columns ``start`` and bounds ``signs``; its last direction left in
-    ``work``'s y."""
-    walk, x, y = work
-    _, norms, axes, dual = prep
-    n = G.shape[0]
-    norm = 0.0
-    box = 0.0
-    for i in range(n):
-        norm += abs(r[i])
-        y[i] = r[i] * dual[i]
-        box = max(box, abs(r[i]) / axes[i])
-    if norm == 0.0:
-        return 0.0, -2
-    if box > cap:  # beyond the box scaled by cap: y = +-e_i proves gamma >= box
-        return box, -2
-    status = walk_from(G, norms, r, y, x, 0.0, cap, walk, start, signs)
-    if status == 0:  # y proves gamma >= r . y / h(y) > cap
-        ry = 0.0
-        for i in range(n):
-            ry += r[i] * y[i]
-        return ry / _l1_support(y, G), 0
-    if status == 2:
-        return _corrected_max(G, P, r, x), 2
-    return np.nan, -1
 
 
 @njit(cache=True)

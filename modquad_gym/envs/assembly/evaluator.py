@@ -324,8 +324,9 @@ class StructureEvaluator:
                 continue
             own = self.task_of(task, k)
             W = self.at_mass(own, mass)[0]
-            cap = self.capability.get(k)  # a child's supports wait until a step docks it
-            z = self.oracle.zonotope(self.matrix_of(k) if cap is None else cap.A, key=k)
+            z = self.oracle.cached(k)  # else from its matrix: supports wait for a docking
+            if z is None:
+                z = self.oracle.zonotope(self.matrix_of(k), key=k)
             start = starts.get(k)
             if start is not None and start[0].shape != (len(W), max(z.rank - 1, 1)):
                 start = None  # another rank (or wrench count): no vertex to start from
