@@ -3,22 +3,25 @@ default search or its own guided search finds, round after round (ExIt; issue 36
 
     python -m agents.expert_iteration [--rounds 2] [--tasks 48] [--out runs/exit]
 
-Where the certified search cannot go (8-32 modules), the labels come from search: in round r,
-``tasks`` fresh training tasks of the one-type scale families (``planted`` and ``torque``, low
-force and high torque, :mod:`benchmarks.scale_suites`), each of 8-32 modules and drawn from
-``default_rng([EXIT_SEED0, seed, r, i])`` (never a held-out or validation seed), are solved by
-the default search (``--search-seconds``) and by the current policy's guided search; the smaller
-verified structure is the target, one expert episode towards it (:mod:`.imitation`, an
-environment of n_max ``--n-max`` with the policy's exact lookahead) gives labelled states, the
-learner's own episode gives more (``--learner``, DAgger: towards the target while its structure
-fits in it, else towards greedy's completion of what it built), ``--replay`` certified episodes
-of the current tier's training tasks keep the small tasks in view, and the policy is cloned on
-every round's states so far. As the policy improves, so does its guided search, and so do the
-targets. The model of each round is saved in ``OUT/round-R/`` (size-free: ``modquad solve
---method ppo --model OUT/round-R/model.zip`` acts at any n_max) and scored on validation draws
-of the same families (16, 24 and 32 modules), single pass, beside greedy, and on the current
-tier's validation tasks; ``OUT/report.md`` and ``OUT/rows.csv`` hold the scores,
-``OUT/labels.csv`` every label, and ``OUT/model.zip`` is the last round's model.
+Where the certified search cannot go, the labels come from search: in round r, ``tasks`` fresh
+training tasks of the one-type scale families (``--draws``: ``planted``, ``torque`` (low force
+and high torque) or ``payload``, :mod:`benchmarks.scale_suites`, each with its planted sizes;
+default 8-32 modules of planted and torque), drawn from ``default_rng([EXIT_SEED0, seed, r,
+i])`` (never a held-out or validation seed), are solved by the default search
+(``--search-seconds``), by the current policy's guided search and, with ``--greedy``, by greedy;
+the smallest verified structure is the target, one expert episode towards it (:mod:`.imitation`,
+an environment of n_max ``--n-max`` with the policy's exact lookahead) gives labelled states,
+the learner's own episode gives more (``--learner``, DAgger: towards the target while its
+structure fits in it, else towards greedy's completion of what it built), ``--replay`` certified
+episodes of the current tier's training tasks keep the small tasks in view, and the policy is
+cloned on every round's states so far. As the policy improves, so does its guided search, and so
+do the targets. A run can continue another from its model (``--model OUT/model.zip
+--first-round R``: fresh draws; the states of the earlier run are not kept, its model is). The
+model of each round is saved in ``OUT/round-R/`` (size-free: ``modquad solve --method ppo
+--model OUT/round-R/model.zip`` acts at any n_max) and scored on validation draws of the same
+families (``--bands``), single pass, beside greedy, and on the current tier's validation tasks;
+``OUT/report.md`` and ``OUT/rows.csv`` hold the scores, ``OUT/labels.csv`` every label, and
+``OUT/model.zip`` is the last round's model.
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.scale_scores import current_tier, label_summary, score, summary
 from modquad_gym.core.options import int_option
 from modquad_gym.core.outputs import (
     OutputError,
@@ -47,6 +51,9 @@ EXIT_SEED0 = 7_000_000
 draws 6,000,000 + ..., both as single integers)."""
 FAMILIES = ("planted", "torque")
 SIZES = (8, 32)
+DRAWS = tuple((family, *SIZES) for family in FAMILIES)
+"""Default training draws: (family, fewest, most planted modules), taken in turn (task ``i``
+from entry ``i % len``: an entry given twice is drawn twice as often)."""
 BANDS = (16, 24, 32)
 """Validation bands the rounds are scored on."""
 CLONE = {"epochs": 25, "batch_size": 64, "learning_rate": 3e-4}
@@ -55,44 +62,50 @@ OUTPUTS = ("model.zip", "model_actor.npz", "config.json", "rows.csv", "report.md
 INTEGER = int_option(-(2**63), 2**63)
 
 
-def training_task(seed: int, round_: int, i: int):
-    """Training task ``i`` of round ``round_``: family by parity, 8-32 modules."""
-    from modquad_gym.scoring.scale_tasks import FAMILIES as DRAWS
+def training_task(seed: int, round_: int, i: int, draws=DRAWS):
+    """Training task ``i`` of round ``round_``: entry ``i % len(draws)`` of ``draws`` (family,
+    fewest and most planted modules; :data:`DRAWS`)."""
+    from modquad_gym.scoring.scale_tasks import FAMILIES as MAKERS
 
     rng = np.random.default_rng([EXIT_SEED0, seed, round_, i])
-    family = FAMILIES[i % len(FAMILIES)]
-    n = int(rng.integers(SIZES[0], SIZES[1] + 1))
-    task = DRAWS[family][0](n, rng)
+    family, low, high = draws[i % len(draws)]
+    n = int(rng.integers(low, high + 1))
+    task = MAKERS[family][0](n, rng)
     return type(task)(task.wrenches, name=f"exit-{round_}-{i}-{family}-{n}", f_max=task.f_max,
                       kind=task.kind, meta={"family": family, "planted": n})  # fmt: skip
 
 
 def label_chunk(job: tuple) -> tuple[Any, list[dict]]:
-    """One worker's tasks: each solved by the default search and the policy's guided search,
-    one expert episode towards the smaller answer and, with ``learner``, the learner's own
-    episode labelled towards it (:func:`agents.dagger.learner_states`, greedy's completion off
-    it). (demonstrations, one row per task)."""
+    """One worker's tasks: each solved by the default search and the policy's guided search
+    (with ``greedy``, by greedy too, which wins ties: the policy keeps what greedy has unless
+    a search finds better), one expert episode towards the smallest answer and, with
+    ``learner``, the learner's own episode labelled towards it
+    (:func:`agents.dagger.learner_states`, greedy's completion off it). (demonstrations, one
+    row per task)."""
     from agents.dagger import learner_states
     from agents.imitation import collect, merge
     from modquad_gym.policy.guided import GuidedSolver
     from modquad_gym.policy.policy import Policy
-    from modquad_gym.search import anytime_search
+    from modquad_gym.search import anytime_search, greedy_search
 
-    model, tasks, n_max, search_seconds, budget, seed, learner = job
+    model, tasks, n_max, search_seconds, budget, seed, learner, *rest = job
+    with_greedy = bool(rest and rest[0])
     policy = Policy(model, n_max=n_max)
     parts, rows = [], []
     for k, task in enumerate(tasks):
+        rule = greedy_search(task, n_max=n_max, time_limit=60) if with_greedy else None
         search = anytime_search(task, n_max=n_max, time_limit=search_seconds)
         guided = GuidedSolver(policy, budget=budget).solve(task)
         single = policy.env.structure.n_modules if policy.rollout(task)["success"] else None
-        found = [r for r in (search, guided) if r.structure is not None]
+        found = [r for r in (rule, search, guided) if r is not None and r.structure is not None]
         rows.append({"task": task.name, "family": task.meta["family"],
                      "planted": task.meta["planted"], "search": search.n_modules,
                      "bound": search.lower_bound, "guided": guided.n_modules,
+                     "greedy": rule.n_modules if rule is not None else None,
                      "ppo": single, "target": None})  # fmt: skip
         if not found:
             continue
-        best = min(found, key=lambda r: (r.n_modules, r is guided))
+        best = min(found, key=lambda r: r.n_modules)  # ties: the first (greedy, then search)
         rows[-1]["target"] = best.n_modules
         target = (best.n_modules, [best.structure.key])
         expert = lambda task, n_max, palette, t=target: t  # noqa: E731
@@ -130,59 +143,6 @@ def load_for_training(model: Path, n_max: int):
     return MaskablePPO.load(str(model), custom_objects=spaces, device="cpu")
 
 
-def score(model: Path, n_max: int, per_family: int) -> list[dict]:
-    """Single-pass ``ppo`` of ``model`` and ``greedy`` on the validation draws of
-    :data:`BANDS` (``per_family`` tasks per family and band)."""
-    from modquad_gym.scoring.scale_tasks import draw
-    from modquad_gym.search import greedy_search, verified
-    from modquad_gym.solvers import make_solver
-
-    ppo = make_solver("ppo", n_max=n_max, model=str(model))
-    rows = []
-    for band in BANDS:
-        for family in FAMILIES:
-            for i in range(per_family):
-                task = draw(family, band, i, validation=True)
-                mine, rule = ppo.solve(task), greedy_search(task, n_max=n_max, time_limit=60)
-                rows.append({"task": task.name, "family": family, "band": band,
-                             "ppo": mine.n_modules if verified(mine.structure, task) else None,
-                             "greedy": rule.n_modules, "ppo_s": round(mine.seconds, 2),
-                             "greedy_s": round(rule.seconds, 2)})  # fmt: skip
-    return rows
-
-
-def current_tier(model: Path, tasks: list) -> dict:
-    """Single-pass ``ppo`` of ``model`` on the current tier's validation tasks (certified
-    optima): optimal and success shares, so a round that forgets the small tasks shows it."""
-    from modquad_gym.search import verified
-    from modquad_gym.solvers import make_solver
-
-    ppo = make_solver("ppo", n_max=7, model=str(model))
-    found = [ppo.solve(t) for t in tasks]
-    ok = [verified(r.structure, t) for r, t in zip(found, tasks)]
-    best = [o and r.n_modules == t.meta["optimum"] for o, r, t in zip(ok, found, tasks)]
-    return {"current_optimal": round(float(np.mean(best)), 3),
-            "current_success": round(float(np.mean(ok)), 3)}  # fmt: skip
-
-
-def summary(rows: list[dict]) -> dict:
-    """Solved counts, mean modules on the tasks both solved, and wins/ties/losses against
-    greedy."""
-    both = [r for r in rows if r["ppo"] is not None and r["greedy"] is not None]
-    return {
-        "tasks": len(rows),
-        "ppo_solved": sum(r["ppo"] is not None for r in rows),
-        "greedy_solved": sum(r["greedy"] is not None for r in rows),
-        "ppo_mean": round(float(np.mean([r["ppo"] for r in both])), 2) if both else None,
-        "greedy_mean": round(float(np.mean([r["greedy"] for r in both])), 2) if both else None,
-        "fewer": sum(r["ppo"] < r["greedy"] for r in both),
-        "equal": sum(r["ppo"] == r["greedy"] for r in both),
-        "more": sum(r["ppo"] > r["greedy"] for r in both),
-        "ppo_s": round(float(np.mean([r["ppo_s"] for r in rows])), 2),
-        "greedy_s": round(float(np.mean([r["greedy_s"] for r in rows])), 2),
-    }
-
-
 def run(args: argparse.Namespace) -> list[dict]:
     """The rounds (module docstring); one summary row per model (round 0: the start model)."""
     from agents.imitation import clone, merge
@@ -193,26 +153,20 @@ def run(args: argparse.Namespace) -> list[dict]:
     model = Path(args.model)
     small = validation_suite(get_tier("current"), progress=False)
     demos = replay_demos(str(model), args.n_max, args.replay, args.seed) if args.replay else None
+    families = list(dict.fromkeys(family for family, _, _ in args.draws))
+    scores = lambda m: summary(score(m, args.n_max, args.per_family, args.bands, families))  # noqa: E731
     labels, rows = [], []
-    rows.append(
-        {
-            "round": 0,
-            "model": shown(model).as_posix(),
-            "states": 0,
-            "label_s": 0,
-            "clone_s": 0,
-            "greedy_good": "",
-            **summary(score(model, args.n_max, args.per_family)),
-            **current_tier(model, small),
-        }  # fmt: skip
-    )
-    print(rows[-1], flush=True)
-    for r in range(1, args.rounds + 1):
+    if args.score_start:
+        rows.append({"round": 0, "model": shown(model).as_posix(), "states": 0, "label_s": 0,
+                     "clone_s": 0, "greedy_good": "", **scores(model),
+                     **current_tier(model, small)})  # fmt: skip
+        print(rows[-1], flush=True)
+    for r in rounds(args):
         t0 = time.perf_counter()
-        tasks = [training_task(args.seed, r, i) for i in range(args.tasks)]
+        tasks = [training_task(args.seed, r, i, args.draws) for i in range(args.tasks)]
         chunks = [tasks[w :: args.workers] for w in range(args.workers)]
         jobs = [(str(model), c, args.n_max, args.search_seconds, args.budget, [args.seed, r, w],
-                 args.learner) for w, c in enumerate(chunks) if c]  # fmt: skip
+                 args.learner, args.greedy) for w, c in enumerate(chunks) if c]  # fmt: skip
         parts = map_tasks(label_chunk, jobs, workers=args.workers)
         labels += [{"round": r, **row} for _, chunk in parts for row in chunk]
         demos = merge([d for d in [demos, *(part for part, _ in parts)] if d is not None])
@@ -229,12 +183,17 @@ def run(args: argparse.Namespace) -> list[dict]:
         rows.append({"round": r, "model": shown(model).as_posix(), "states": len(demos),
                      "label_s": round(labelled), "clone_s": round(cloned),
                      "greedy_good": round(history[-1]["greedy_good"], 3),
-                     **summary(score(model, args.n_max, args.per_family)),
-                     **current_tier(model, small)})  # fmt: skip
+                     **scores(model), **current_tier(model, small)})  # fmt: skip
         print(rows[-1], flush=True)
     write_csv(labels, args.claim.path("labels.csv"))
     args.labels = labels
     return rows
+
+
+def rounds(args: argparse.Namespace) -> range:
+    """The rounds this run makes (``--first-round`` on): a later run that starts from an
+    earlier one's model continues its numbering, so its training draws are fresh."""
+    return range(args.first_round, args.first_round + args.rounds)
 
 
 def write_config(folder: Path, args: argparse.Namespace, round_: int, states: int) -> None:
@@ -243,6 +202,7 @@ def write_config(folder: Path, args: argparse.Namespace, round_: int, states: in
     from modquad_gym.policy.models import read_model
 
     config = dict(read_model(args.model).config)
+    earlier = config.get("expert_iteration")  # a warm start: how its start model was made
     config["env_kwargs"] = {**config.get("env_kwargs", {}), "n_max": args.n_max}
     config["expert_iteration"] = {
         "command": " ".join(["python -m agents.expert_iteration", *args.argv]),
@@ -251,28 +211,11 @@ def write_config(folder: Path, args: argparse.Namespace, round_: int, states: in
         "search_seconds": args.search_seconds,
         "budget": args.budget, "seed": args.seed, **CLONE, "epochs": args.epochs,
         "learner": args.learner, "replay": args.replay,
+        "draws": [f"{f}:{lo}-{hi}" for f, lo, hi in getattr(args, "draws", DRAWS)],
+        "greedy_labels": getattr(args, "greedy", False),
+        **({"start_made_by": earlier} if earlier else {}),
     }  # fmt: skip
     write_text(folder / "config.json", json.dumps(config, indent=2) + "\n")
-
-
-def label_summary(labels: list[dict]) -> list[dict]:
-    """Per round, on its training tasks: mean modules of the default search, the guided search,
-    the single pass and the target (each over the tasks it solved), and how often the guided
-    search's answer was the smaller one."""
-
-    def mean(rs, key):
-        xs = [int(r[key]) for r in rs if r.get(key) not in (None, "", "None")]
-        return round(float(np.mean(xs)), 2) if xs else ""
-
-    out = []
-    for r in sorted({int(row["round"]) for row in labels}):
-        rs = [row for row in labels if int(row["round"]) == r]
-        won = sum(mean([x], "guided") != "" and mean([x], "search") != ""
-                  and int(x["guided"]) < int(x["search"]) for x in rs)  # fmt: skip
-        out.append({"round": r, "tasks": len(rs), "search": mean(rs, "search"),
-                    "guided": mean(rs, "guided"), "ppo": mean(rs, "ppo"),
-                    "target": mean(rs, "target"), "guided_smaller": won})  # fmt: skip
-    return out
 
 
 def report(
@@ -281,34 +224,49 @@ def report(
     from modquad_gym.scoring import machine_description, markdown_table
 
     return "\n".join([
-        "# Expert iteration at 8-32 modules",
+        "# Expert iteration at the field's sizes",
         "",
         f"Made by `python -m agents.expert_iteration {' '.join(args.argv)}` on "
         f"{machine_description()} in {seconds / 60:.1f} min.",
         "",
-        "Round 0 is the start model. Each later round: the training tasks' labels (the "
-        "smaller of the default search's and the guided search's answer), one expert episode "
-        "each"
+        ("Round 0 is the start model. " if args.score_start else "")
+        + f"Rounds {', '.join(map(str, rounds(args)))}: {args.tasks} training tasks each, drawn "
+        f"in turn from {', '.join(f'{f} {lo}-{hi}' for f, lo, hi in args.draws)} modules; "
+        "labels: the smallest of the default search's"
+        + (", greedy's (first on ties)" if args.greedy else "")
+        + " and the guided search's answer, one expert episode each"
         + (", the learner's own episode labelled towards the label or greedy's completion"
            if args.learner else "")
         + (f", {args.replay} replayed current-tier episodes" if args.replay else "")
         + "; the policy cloned on all rounds' states. Every model is scored single pass "
-        f"(`ppo`) against `greedy` on the validation draws of {', '.join(FAMILIES)} at "
-        f"{', '.join(map(str, BANDS))} modules ({args.per_family} per family and band), "
-        f"n_max {args.n_max}. `fewer`/`equal`/`more`: tasks where ppo used fewer, as many or more "
-        "modules than greedy, of those both solved; `current_optimal`/`current_success`: on "
-        "the current tier's 40 validation tasks (n_max 7).",
+        "(`ppo`) against `greedy` on the validation draws of "
+        f"{', '.join(dict.fromkeys(f for f, _, _ in args.draws))} at "
+        f"{', '.join(map(str, args.bands))} modules ({args.per_family} per family and band), "
+        f"n_max {args.n_max} (or the band, where larger). `fewer`/`equal`/`more`: tasks where "
+        "ppo used fewer, as many or more modules than greedy, of those both solved; "
+        "`current_optimal`/`current_success`: on the current tier's 40 validation tasks (n_max 7).",
         "",
         markdown_table(rows),
         "",
         "On each round's training tasks (`labels.csv`): mean modules of the default search "
         f"({args.search_seconds:g} s), the current policy's guided search and single pass, and "
-        "of the target (the smaller); `guided_smaller`: tasks where the guided search's answer "
+        "of the target (the smallest); `guided_smaller`: tasks where the guided search's answer "
         "was the target.",
         "",
         markdown_table(label_summary(list(labels))),
         "",
     ])  # fmt: skip
+
+
+def draw_option(text: str) -> tuple[str, int, int]:
+    """``FAMILY:LOW-HIGH`` -> (family, low, high); argparse reports a ValueError's message."""
+    family, _, sizes = text.partition(":")
+    low, _, high = sizes.partition("-")
+    if family not in ("planted", "torque", "payload"):
+        raise argparse.ArgumentTypeError(f"{text}: family planted, torque or payload")
+    if not (low.isdigit() and high.isdigit() and 2 <= int(low) <= int(high) <= 128):
+        raise argparse.ArgumentTypeError(f"{text}: sizes LOW-HIGH with 2 <= LOW <= HIGH <= 128")
+    return family, int(low), int(high)
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -337,9 +295,46 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument("--epochs", type=count, default=CLONE["epochs"],
                    help=f"cloning epochs per round (default {CLONE['epochs']})")  # fmt: skip
-    p.add_argument("--n-max", type=int_option(SIZES[1], 128), default=40,
-                   help=f"module budget, {SIZES[1]} (the largest task) to 128 "
-                        "(default 40)")  # fmt: skip
+    p.add_argument("--n-max", type=int_option(8, 128), default=40,
+                   help="module budget of the labelling environment, 8 to 128 (default 40; "
+                        "a task with no structure within it gives no label)")  # fmt: skip
+    p.add_argument(
+        "--draws",
+        type=draw_option,
+        nargs="+",
+        default=list(DRAWS),
+        metavar="FAMILY:LOW-HIGH",
+        help="training draws taken in turn: a one-type scale family (planted, "
+        "torque, payload) and its planted sizes, 2 to 128; one given twice "
+        "is drawn twice as often (default planted:8-32 torque:8-32)",
+    )
+    p.add_argument(
+        "--greedy",
+        action=argparse.BooleanOptionalAction,
+        default=False,
+        help="also solve each training task by greedy and count its answer among "
+        "the labels, first on ties (default off)",
+    )
+    p.add_argument(
+        "--bands",
+        type=int_option(2, 128),
+        nargs="+",
+        default=list(BANDS),
+        help="validation bands each model is scored on (default 16 24 32)",
+    )
+    p.add_argument(
+        "--first-round",
+        type=int_option(1, 1_000_000),
+        default=1,
+        help="number of this run's first round: continue an earlier run from its "
+        "model (--model) with fresh draws (default 1)",
+    )
+    p.add_argument(
+        "--score-start",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="score the start model too, as round 0 (default on)",
+    )
     p.add_argument("--per-family", type=int_option(1, 1000), default=3,
                    help="validation draws per family and band (3)")  # fmt: skip
     p.add_argument("--workers", type=int_option(1, 256), default=2,
@@ -370,26 +365,26 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     if args.replay < 0:
         p.error(f"--replay {args.replay}: give a number of tasks, 0 or more")
     try:
-        check_output_dir(args.out, output_names(args.rounds), args.force)
+        check_output_dir(args.out, output_names(args), args.force)
         read_model(args.model)
     except ValueError as exc:  # OutputError too
         p.error(str(exc) if isinstance(exc, OutputError) else f"--model {args.model}: {exc}")
     return args
 
 
-def output_names(rounds: int) -> tuple[str, ...]:
-    """What a run of ``rounds`` rounds writes into ``--out``."""
-    return (*OUTPUTS, *(f"round-{r}" for r in range(1, rounds + 1)))
+def output_names(args: argparse.Namespace) -> tuple[str, ...]:
+    """What a run writes into ``--out``."""
+    return (*OUTPUTS, *(f"round-{r}" for r in rounds(args)))
 
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    with claim_output_dir(args.out, output_names(args.rounds), args.force) as claim:
+    with claim_output_dir(args.out, output_names(args), args.force) as claim:
         args.claim = claim
         t0 = time.perf_counter()
         rows = run(args)
         for name in ("model.zip", "model_actor.npz", "config.json"):  # OUT: the last round's
-            shutil.copy2(args.out / f"round-{args.rounds}" / name, claim.path(name))
+            shutil.copy2(args.out / f"round-{rounds(args)[-1]}" / name, claim.path(name))
         write_csv(rows, claim.path("rows.csv"))
         text = report(rows, args, time.perf_counter() - t0, args.labels)
         write_text(claim.path("report.md"), text)
