@@ -9,7 +9,14 @@ import pytest
 
 pytest.importorskip("sb3_contrib")
 
-from agents.expert_iteration import EXIT_SEED0, SIZES, label_chunk, summary, training_task  # noqa: E402
+from agents.expert_iteration import (  # noqa: E402
+    DRAWS,
+    EXIT_SEED0,
+    SIZES,
+    label_chunk,
+    summary,
+    training_task,
+)
 from benchmarks.scale_suites import SCALE_SEED0, SCALE_VALIDATION_SEED0, draw  # noqa: E402
 
 
@@ -29,14 +36,24 @@ def test_training_tasks_are_fresh_draws_of_the_one_type_families():
                 )
 
 
+def test_training_draws_follow_their_families_and_sizes_in_turn():
+    draws = (("torque", 40, 64), ("planted", 16, 20), ("torque", 40, 64))
+    tasks = [training_task(0, 2, i, draws) for i in range(6)]
+    assert [t.meta["family"] for t in tasks] == ["torque", "planted", "torque"] * 2
+    assert all(lo <= t.meta["planted"] <= hi for t, (_, lo, hi) in zip(tasks, draws * 2))
+    default = training_task(0, 1, 1)  # the default draws are the earlier runs' draws
+    np.testing.assert_array_equal(default.wrenches, training_task(0, 1, 1, DRAWS).wrenches)
+
+
 def test_a_label_is_the_better_answer_and_its_episode_reaches_it():
     task = training_task(0, 1, 3)  # low force, high torque, 10 modules planted
     # the search proves its answer optimal in well under a second here and stops; 10 s leaves
     # room for a loaded machine (the label must not depend on the machine's speed)
     alone, _ = label_chunk((None, [task], 36, 10.0, 8, [0, 1, 0], False))
-    demos, rows = label_chunk((None, [task], 36, 10.0, 8, [0, 1, 0], True))
-    (row,) = rows
-    answers = [n for n in (row["search"], row["guided"]) if n is not None]
+    demos, rows = label_chunk((None, [task], 36, 10.0, 8, [0, 1, 0], True, True))
+    (row,) = rows  # with greedy's answer among the labels
+    answers = [n for n in (row["search"], row["guided"], row["greedy"]) if n is not None]
+    assert row["greedy"] is not None
     assert row["target"] == min(answers) and row["bound"] <= row["target"]
     assert alone is not None and len(alone) >= 1 and alone.n_tasks == 1
     # with the learner's own episode: its states join the expert's, each labelled

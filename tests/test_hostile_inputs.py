@@ -425,6 +425,8 @@ def test_a_fresh_job_hands_back_parts_as_they_come():
         (["--seed", "-1"], "--seed"),
         (["--per-family", "0"], "--per-family"),
         (["--model", "missing.zip"], "--model missing.zip"),
+        (["--draws", "mixed:8-32"], "--draws"),
+        (["--draws", "torque:40-20"], "--draws"),
     ],
 )
 def test_expert_iteration_refuses_bad_options_before_work(tmp_path, capsys, argv, match):

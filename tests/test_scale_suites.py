@@ -222,3 +222,41 @@ def test_scale_seeds_refuses_foreign_rows_in_one_line(tmp_path, capsys):
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and message in err and name in err, err
     assert not (tmp_path / "out" / "report.md").exists()
+
+
+def test_scale_models_compares_each_model_with_greedy_per_family_and_band():
+    """benchmarks.scale_models: per model, family and band, greedy's solved tasks it solves and
+    its modules minus greedy's on the tasks both solve, with a bootstrap interval."""
+    from benchmarks.scale_models import summary, versus_greedy
+
+    def row(task, family, method, found, seconds=1.0):
+        return {"band": 16, "family": family, "task": task, "method": method, "found": found,
+                "seconds": seconds}  # fmt: skip
+
+    rows = [row("a", "torque", "greedy", 10), row("b", "torque", "greedy", 12),
+            row("c", "planted", "greedy", None), row("a", "torque", "new", 9, 0.5),
+            row("b", "torque", "new", None, 0.5), row("c", "planted", "new", 15, 0.5)]  # fmt: skip
+    everything = versus_greedy(rows, "new")
+    assert (everything["greedy_solved"], everything["solves_of_greedys"], everything["solved"]) == (
+        2,
+        1,
+        2,
+    )
+    assert everything["minus_greedy_modules"] == everything["high"] == -1.0
+    assert everything["fewer"] == 1 and everything["over_greedy_seconds"] == 0.5
+    planted = versus_greedy(rows, "new", 16, "planted")  # greedy solved none: no difference
+    assert planted["greedy_solved"] == 0 and np.isnan(planted["minus_greedy_modules"])
+    table = summary(rows, ["new"], [16], ["planted", "torque"])
+    assert [(r["band"], r["family"]) for r in table] == [("all", "all"), (16, "planted"),
+                                                         (16, "torque")]  # fmt: skip
+
+
+def test_scale_models_refuses_a_model_without_a_name_in_one_line(tmp_path, capsys):
+    from benchmarks.common import run_script
+
+    for argv, message in ((["--models", "model.zip"], "give NAME=ZIP"),
+                          (["--models", "a=missing.zip"], "--models a=missing.zip")):  # fmt: skip
+        assert run_script("scale_models", [*argv, "--out", str(tmp_path / "out")]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and message in err, err
+    assert not (tmp_path / "out").exists()

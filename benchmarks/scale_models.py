@@ -1,0 +1,158 @@
+"""One-type learned models beside greedy, per scale family and band: which model to ship?
+
+    python -m benchmarks.scale_models --models NAME=ZIP [NAME=ZIP ...] [--bands 16 32 48 64]
+        [--families planted torque payload] [--per-family 4] [--held-out] [--out DIR]
+
+Each model acts single pass (``ppo --model ZIP``) on the validation draws of the one-type scale
+families (where models are chosen; ``--held-out``: the held-out suites, once the choice is
+made), beside greedy with the same time limit; every (method, band) runs in a fresh process
+after an untimed warm-up (:func:`benchmarks.scale.run_band`, n_max as there). Per family and
+band, and over all of them: the tasks each model solves of greedy's, and its mean modules minus
+greedy's on the tasks both solve with a 95 % percentile-bootstrap interval over the tasks (the
+goal: upper end <= 0), and its total time over greedy's.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from benchmarks.common import bench_args, markdown_table, report_page, write_csv, write_report
+from benchmarks.measure import fresh
+from benchmarks.scale import run_band
+from benchmarks.scale_suites import load_scale_suite
+from modquad_gym.core.options import int_option
+from modquad_gym.scoring.stats import interval
+
+OUTPUTS = ("report.md", "report.csv", "rows.csv")
+ONE_TYPE = ("planted", "torque", "payload")
+
+
+def model_option(text: str) -> tuple[str, str]:
+    """``NAME=ZIP`` -> (name, path); a ValueError naming the option otherwise."""
+    name, sep, path = text.partition("=")
+    if not sep or not name or not path:
+        raise ValueError(f"--models {text}: give NAME=ZIP")
+    from modquad_gym.policy.models import read_model
+
+    try:
+        read_model(path)
+    except ValueError as exc:
+        raise ValueError(f"--models {text}: {exc}") from None
+    return name, path
+
+
+def band_tasks(band: int, families, per_family: int, held_out: bool) -> list:
+    from modquad_gym.scoring.scale_tasks import draw
+
+    if held_out:
+        return load_scale_suite(band, list(families), per_family)
+    return [draw(f, band, i, validation=True) for f in families for i in range(per_family)]
+
+
+def solve(job: tuple, time_limit: float) -> list[dict]:
+    """One (band, method) in a fresh process: a row per task (found only when verified)."""
+    band, name, tasks, model = job
+    method = "greedy" if model is None else "ppo"
+    results = fresh(run_band, method, tasks, time_limit, 0, model)
+    return [
+        {"band": band, "family": t.meta["family"], "task": t.name, "method": name,
+         "found": r["found"] if r["verified"] else None, "seconds": round(r["seconds"], 3)}
+        for t, r in zip(tasks, results, strict=True)
+    ]  # fmt: skip
+
+
+def versus_greedy(rows: list[dict], name: str, band="all", family="all") -> dict:
+    """Model ``name`` against greedy on the rows of ``band`` and ``family`` ("all": every)."""
+
+    def here(r):
+        return (band == "all" or r["band"] == band) and (family == "all" or r["family"] == family)
+
+    greedy = {r["task"]: r for r in rows if r["method"] == "greedy" and here(r)}
+    mine = {r["task"]: r for r in rows if r["method"] == name and here(r)}
+    solved = [t for t, r in greedy.items() if r["found"] is not None]
+    both = [t for t in solved if mine[t]["found"] is not None]
+    extra = np.array([mine[t]["found"] - greedy[t]["found"] for t in both], dtype=float)
+    point, low, high = interval([extra], np.mean) if len(extra) else (np.nan,) * 3
+    seconds = sum(r["seconds"] for r in mine.values()) / max(
+        1e-9, sum(r["seconds"] for r in greedy.values())
+    )
+    return {"band": band, "family": family, "model": name, "tasks": len(mine),
+            "greedy_solved": len(solved), "solves_of_greedys": len(both),
+            "solved": sum(r["found"] is not None for r in mine.values()),
+            "fewer": int((extra < 0).sum()), "more": int((extra > 0).sum()),
+            "minus_greedy_modules": round(point, 2), "low": round(low, 2),
+            "high": round(high, 2), "over_greedy_seconds": round(seconds, 2)}  # fmt: skip
+
+
+def summary(rows: list[dict], names, bands, families) -> list[dict]:
+    """:func:`versus_greedy` per model over everything, then per band and family."""
+    out = [versus_greedy(rows, n) for n in names]
+    for band in bands:
+        for family in families:
+            out += [versus_greedy(rows, n, band, family) for n in names]
+    return out
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    options = {
+        "--models": dict(nargs="+", required=True, metavar="NAME=ZIP",
+                         help="the one-type models to compare, each named"),
+        "--bands": dict(type=int_option(2, 128), nargs="+", default=[16, 32, 48, 64],
+                        help="size bands (default 16 32 48 64)"),
+        "--families": dict(nargs="+", choices=ONE_TYPE, default=list(ONE_TYPE),
+                           help="one-type scale families (default all three)"),
+        "--per-family": dict(type=int_option(1, 100), default=4,
+                             help="tasks per family and band (default 4)"),
+        "--held-out": dict(action="store_true",
+                           help="the held-out suites instead of the validation draws"),
+        "--time-limit": dict(type=float, default=30.0,
+                             help="seconds each method gets per task (default 30)"),
+        "--workers": dict(type=int_option(1, 64), default=2,
+                          help="processes at a time (default 2)"),
+    }  # fmt: skip
+    args = bench_args(argv, "python -m benchmarks.scale_models", __doc__.split("\n\n")[0],
+                      options, seed_help=None, out="results/scale_models",
+                      outputs=OUTPUTS)  # fmt: skip
+    args.models = [model_option(text) for text in args.models]
+    names = [n for n, _ in args.models]
+    if len(set(names)) < len(names) or "greedy" in names:
+        raise ValueError(f"--models: names must differ and not be greedy, got {' '.join(names)}")
+    work = []
+    for band in args.bands:
+        tasks = band_tasks(band, args.families, args.per_family, args.held_out)
+        work += [(band, "greedy", tasks, None)] + [(band, n, tasks, m) for n, m in args.models]
+    with ThreadPoolExecutor(args.workers) as pool:  # each thread waits on its own process
+        rows = [r for part in pool.map(lambda j: solve(j, args.time_limit), work) for r in part]
+    table = summary(rows, names, args.bands, args.families)
+    command = (
+        "python -m benchmarks.scale_models --models "
+        + " ".join(f"{n}={m}" for n, m in args.models)
+        + f" --bands {' '.join(map(str, args.bands))} --families "
+        f"{' '.join(args.families)} --per-family {args.per_family}"
+        + (" --held-out" if args.held_out else "")
+        + f" --time-limit {args.time_limit:g} --workers {args.workers} --out {args.out}"
+    )
+    notes = (
+        ("Tasks: the held-out scale suites. " if args.held_out else
+         "Tasks: the validation draws of the scale families (never trained on). ")
+        + "`solves_of_greedys`: of the tasks greedy solves, those the model solves; "
+        "`minus_greedy_modules` [`low`, `high`]: the model's mean modules minus greedy's on the "
+        "tasks both solve, 95 % percentile bootstrap over the tasks; `fewer`/`more`: tasks "
+        "where it used fewer / more modules than greedy; `over_greedy_seconds`: its total time "
+        "over greedy's. A structure counts only when the exact LP verifies it."
+    )  # fmt: skip
+    text = report_page("Learned models beside greedy per scale family and band", command,
+                       notes, table, "## Every task", "", markdown_table(rows), "",
+                       how=f"; {args.workers} processes at a time")  # fmt: skip
+    write_report(args.out, "report", table, text)
+    write_csv(rows, args.out / "rows.csv")
+    print(markdown_table(table))
+    return table
+
+
+if __name__ == "__main__":
+    from benchmarks.common import run_main
+
+    raise SystemExit(run_main(main, "scale_models"))
