@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.scale_scores import current_tier, label_summary, score, summary
+from agents.scale_scores import current_tier, report, score, summary
 from modquad_gym.core.options import int_option
 from modquad_gym.core.outputs import (
     OutputError,
@@ -172,7 +172,7 @@ def run(args: argparse.Namespace) -> list[dict]:
         demos = merge([d for d in [demos, *(part for part, _ in parts)] if d is not None])
         labelled = time.perf_counter() - t0
         ppo = load_for_training(model, args.n_max)
-        history = clone(ppo, demos, seed=args.seed + r, **{**CLONE, "epochs": args.epochs})
+        history = clone(ppo, demos, seed=args.seed + r, **recipe(args))
         model = args.claim.path(f"round-{r}/model.zip")
         model.parent.mkdir(parents=True, exist_ok=True)
         ppo.save(str(model))
@@ -188,6 +188,12 @@ def run(args: argparse.Namespace) -> list[dict]:
     write_csv(labels, args.claim.path("labels.csv"))
     args.labels = labels
     return rows
+
+
+def recipe(args: argparse.Namespace) -> dict:
+    """The cloning recipe of each round: :data:`CLONE` with the run's epochs and rate."""
+    rate = getattr(args, "learning_rate", CLONE["learning_rate"])
+    return {**CLONE, "epochs": args.epochs, "learning_rate": rate}
 
 
 def rounds(args: argparse.Namespace) -> range:
@@ -209,53 +215,13 @@ def write_config(folder: Path, args: argparse.Namespace, round_: int, states: in
         "round": round_, "rounds": args.rounds, "states": states,
         "start": shown(args.model).as_posix(), "tasks_per_round": args.tasks,
         "search_seconds": args.search_seconds,
-        "budget": args.budget, "seed": args.seed, **CLONE, "epochs": args.epochs,
+        "budget": args.budget, "seed": args.seed, **recipe(args),
         "learner": args.learner, "replay": args.replay,
         "draws": [f"{f}:{lo}-{hi}" for f, lo, hi in getattr(args, "draws", DRAWS)],
         "greedy_labels": getattr(args, "greedy", False),
         **({"start_made_by": earlier} if earlier else {}),
     }  # fmt: skip
     write_text(folder / "config.json", json.dumps(config, indent=2) + "\n")
-
-
-def report(
-    rows: list[dict], args: argparse.Namespace, seconds: float, labels: list[dict] = ()
-) -> str:
-    from modquad_gym.scoring import machine_description, markdown_table
-
-    return "\n".join([
-        "# Expert iteration at the field's sizes",
-        "",
-        f"Made by `python -m agents.expert_iteration {' '.join(args.argv)}` on "
-        f"{machine_description()} in {seconds / 60:.1f} min.",
-        "",
-        ("Round 0 is the start model. " if args.score_start else "")
-        + f"Rounds {', '.join(map(str, rounds(args)))}: {args.tasks} training tasks each, drawn "
-        f"in turn from {', '.join(f'{f} {lo}-{hi}' for f, lo, hi in args.draws)} modules; "
-        "labels: the smallest of the default search's"
-        + (", greedy's (first on ties)" if args.greedy else "")
-        + " and the guided search's answer, one expert episode each"
-        + (", the learner's own episode labelled towards the label or greedy's completion"
-           if args.learner else "")
-        + (f", {args.replay} replayed current-tier episodes" if args.replay else "")
-        + "; the policy cloned on all rounds' states. Every model is scored single pass "
-        "(`ppo`) against `greedy` on the validation draws of "
-        f"{', '.join(dict.fromkeys(f for f, _, _ in args.draws))} at "
-        f"{', '.join(map(str, args.bands))} modules ({args.per_family} per family and band), "
-        f"n_max {args.n_max} (or the band, where larger). `fewer`/`equal`/`more`: tasks where "
-        "ppo used fewer, as many or more modules than greedy, of those both solved; "
-        "`current_optimal`/`current_success`: on the current tier's 40 validation tasks (n_max 7).",
-        "",
-        markdown_table(rows),
-        "",
-        "On each round's training tasks (`labels.csv`): mean modules of the default search "
-        f"({args.search_seconds:g} s), the current policy's guided search and single pass, and "
-        "of the target (the smallest); `guided_smaller`: tasks where the guided search's answer "
-        "was the target.",
-        "",
-        markdown_table(label_summary(list(labels))),
-        "",
-    ])  # fmt: skip
 
 
 def draw_option(text: str) -> tuple[str, int, int]:
@@ -275,7 +241,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     import sys
 
     from modquad_gym.cli.common import time_limit_option
-    from modquad_gym.core.options import int_option, seed_option
+    from modquad_gym.core.options import int_option, real_option, seed_option
     from modquad_gym.policy.models import DEFAULT_MODEL, read_model
 
     count = int_option(1, 1_000_000)
@@ -295,6 +261,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument("--epochs", type=count, default=CLONE["epochs"],
                    help=f"cloning epochs per round (default {CLONE['epochs']})")  # fmt: skip
+    p.add_argument("--learning-rate", type=real_option, default=CLONE["learning_rate"],
+                   help=f"cloning learning rate (default {CLONE['learning_rate']:g}; smaller "
+                        "for a warm start that should move less)")  # fmt: skip
     p.add_argument("--n-max", type=int_option(8, 128), default=40,
                    help="module budget of the labelling environment, 8 to 128 (default 40; "
                         "a task with no structure within it gives no label)")  # fmt: skip
@@ -362,6 +331,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     args = p.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)
+    if not 0 < args.learning_rate <= 1:
+        p.error(f"--learning-rate {args.learning_rate:g}: give a rate in (0, 1]")
     if args.replay < 0:
         p.error(f"--replay {args.replay}: give a number of tasks, 0 or more")
     try:
@@ -386,7 +357,7 @@ def main(argv: list[str] | None = None) -> int:
         for name in ("model.zip", "model_actor.npz", "config.json"):  # OUT: the last round's
             shutil.copy2(args.out / f"round-{rounds(args)[-1]}" / name, claim.path(name))
         write_csv(rows, claim.path("rows.csv"))
-        text = report(rows, args, time.perf_counter() - t0, args.labels)
+        text = report(rows, args, time.perf_counter() - t0, args.labels, rounds(args))
         write_text(claim.path("report.md"), text)
     print(f"wrote {args.out / 'report.md'}")
     return 0

@@ -1,6 +1,6 @@
 """Scores of a model at the field's sizes beside greedy (:mod:`.expert_iteration`'s rounds):
 single pass on the scale families' validation draws, on the current tier's validation tasks,
-and the labels' answers per round."""
+the labels' answers per round, and the run's report page."""
 
 from __future__ import annotations
 
@@ -84,3 +84,42 @@ def label_summary(labels: list[dict]) -> list[dict]:
                     "ppo": mean(rs, "ppo"), "target": mean(rs, "target"),
                     "guided_smaller": won})  # fmt: skip
     return out
+
+
+def report(rows: list[dict], args, seconds: float, labels=(), made=()) -> str:
+    """The page of an expert-iteration run (``args``: its options; ``made``: its rounds)."""
+    from modquad_gym.scoring import machine_description, markdown_table
+
+    return "\n".join([
+        "# Expert iteration at the field's sizes",
+        "",
+        f"Made by `python -m agents.expert_iteration {' '.join(args.argv)}` on "
+        f"{machine_description()} in {seconds / 60:.1f} min.",
+        "",
+        ("Round 0 is the start model. " if args.score_start else "")
+        + f"Rounds {', '.join(map(str, made))}: {args.tasks} training tasks each, drawn "
+        f"in turn from {', '.join(f'{f} {lo}-{hi}' for f, lo, hi in args.draws)} modules; "
+        "labels: the smallest of the default search's"
+        + (", greedy's (first on ties)" if args.greedy else "")
+        + " and the guided search's answer, one expert episode each"
+        + (", the learner's own episode labelled towards the label or greedy's completion"
+           if args.learner else "")
+        + (f", {args.replay} replayed current-tier episodes" if args.replay else "")
+        + "; the policy cloned on all rounds' states. Every model is scored single pass "
+        "(`ppo`) against `greedy` on the validation draws of "
+        f"{', '.join(dict.fromkeys(f for f, _, _ in args.draws))} at "
+        f"{', '.join(map(str, args.bands))} modules ({args.per_family} per family and band), "
+        f"n_max {args.n_max} (or the band, where larger). `fewer`/`equal`/`more`: tasks where "
+        "ppo used fewer, as many or more modules than greedy, of those both solved; "
+        "`current_optimal`/`current_success`: on the current tier's 40 validation tasks (n_max 7).",
+        "",
+        markdown_table(rows),
+        "",
+        "On each round's training tasks (`labels.csv`): mean modules of the default search "
+        f"({args.search_seconds:g} s), the current policy's guided search and single pass, and "
+        "of the target (the smallest); `guided_smaller`: tasks where the guided search's answer "
+        "was the target.",
+        "",
+        markdown_table(label_summary(list(labels))),
+        "",
+    ])  # fmt: skip

@@ -14,7 +14,9 @@ goal: upper end <= 0), and its total time over greedy's.
 
 from __future__ import annotations
 
+import csv
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import numpy as np
 
@@ -41,6 +43,28 @@ def model_option(text: str) -> tuple[str, str]:
     except ValueError as exc:
         raise ValueError(f"--models {text}: {exc}") from None
     return name, path
+
+
+def read_rows(path: Path) -> list[dict]:
+    """The rows of an earlier run's rows.csv, typed; a ValueError naming the file and the
+    1-based row otherwise."""
+    try:
+        with open(path, newline="") as f:
+            raw = list(csv.DictReader(f))
+    except OSError as exc:
+        raise ValueError(f"--reuse {path}: {exc.strerror}") from None
+    rows = []
+    for i, r in enumerate(raw, start=1):
+        try:
+            rows.append({"band": int(r["band"]), "family": r["family"], "task": r["task"],
+                         "method": r["method"], "found": int(r["found"]) if r["found"] else None,
+                         "seconds": float(r["seconds"])})  # fmt: skip
+        except (KeyError, TypeError, ValueError):
+            raise ValueError(
+                f"--reuse {path}: row {i}: not a row of benchmarks.scale_models "
+                "(band, family, task, method, found, seconds)"
+            ) from None
+    return rows
 
 
 def band_tasks(band: int, families, per_family: int, held_out: bool) -> list:
@@ -111,6 +135,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
                              help="seconds each method gets per task (default 30)"),
         "--workers": dict(type=int_option(1, 64), default=2,
                           help="processes at a time (default 2)"),
+        "--reuse": dict(type=Path, default=None, metavar="CSV",
+                        help="an earlier run's rows.csv on the same tasks: its (band, method) "
+                             "rows are kept, not solved again (greedy, a model of the same "
+                             "name)"),
     }  # fmt: skip
     args = bench_args(argv, "python -m benchmarks.scale_models", __doc__.split("\n\n")[0],
                       options, seed_help=None, out="results/scale_models",
@@ -119,12 +147,18 @@ def main(argv: list[str] | None = None) -> list[dict]:
     names = [n for n, _ in args.models]
     if len(set(names)) < len(names) or "greedy" in names:
         raise ValueError(f"--models: names must differ and not be greedy, got {' '.join(names)}")
+    kept = read_rows(args.reuse) if args.reuse else []
     work = []
     for band in args.bands:
         tasks = band_tasks(band, args.families, args.per_family, args.held_out)
-        work += [(band, "greedy", tasks, None)] + [(band, n, tasks, m) for n, m in args.models]
+        for name, model in [("greedy", None), *args.models]:
+            done = [r for r in kept if r["band"] == band and r["method"] == name]
+            if sorted(r["task"] for r in done) != sorted(t.name for t in tasks):
+                work.append((band, name, tasks, model))
+    rows = [r for r in kept if (r["band"], r["method"]) not in {(b, n) for b, n, _, _ in work}
+            and r["method"] in ("greedy", *names) and r["band"] in args.bands]  # fmt: skip
     with ThreadPoolExecutor(args.workers) as pool:  # each thread waits on its own process
-        rows = [r for part in pool.map(lambda j: solve(j, args.time_limit), work) for r in part]
+        rows += [r for part in pool.map(lambda j: solve(j, args.time_limit), work) for r in part]
     table = summary(rows, names, args.bands, args.families)
     command = (
         "python -m benchmarks.scale_models --models "

@@ -77,7 +77,7 @@ def test_summary_counts_wins_against_greedy():
 
 
 def test_label_summary_means_each_answer_over_the_tasks_it_solved():
-    from agents.expert_iteration import label_summary
+    from agents.scale_scores import label_summary
 
     labels = [{"round": "1", "search": "10", "guided": "9", "ppo": "", "target": "9"},
               {"round": "1", "search": "12", "guided": "", "ppo": "14", "target": "12"},
@@ -118,3 +118,19 @@ def test_a_negative_replay_is_refused_in_one_line_before_any_work(tmp_path, caps
     assert stop.value.code == 2 and not out.exists()
     err = capsys.readouterr().err
     assert "--replay -5" in err.strip().splitlines()[-1] and "Traceback" not in err
+
+
+def test_a_runs_page_names_its_draws_rounds_and_labels():
+    import argparse
+
+    from agents.scale_scores import report
+
+    args = argparse.Namespace(argv=["--greedy"], score_start=False, tasks=4, greedy=True,
+                              draws=[("torque", 10, 24), ("planted", 16, 40)], learner=True,
+                              replay=0, bands=[16], per_family=1, n_max=40,
+                              search_seconds=4.0)  # fmt: skip
+    labels = [{"round": 3, "family": "torque", "search": 12, "greedy": 14, "guided": 13,
+               "ppo": 13, "target": 12}]  # fmt: skip
+    text = report([{"round": 3, "states": 9}], args, 60.0, labels, [3])
+    assert "Rounds 3: 4 training tasks" in text and "torque 10-24, planted 16-40" in text
+    assert "greedy's (first on ties)" in text and "| 3 | torque | 1 | 12 | 14 | 13 |" in text
