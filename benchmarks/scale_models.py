@@ -167,6 +167,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         f"{' '.join(args.families)} --per-family {args.per_family}"
         + (" --held-out" if args.held_out else "")
         + f" --time-limit {args.time_limit:g} --workers {args.workers} --out {args.out}"
+        + (f" --reuse {args.reuse}" if args.reuse else "")
     )
     notes = (
         ("Tasks: the held-out scale suites. " if args.held_out else
@@ -176,6 +177,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
         "tasks both solve, 95 % percentile bootstrap over the tasks; `fewer`/`more`: tasks "
         "where it used fewer / more modules than greedy; `over_greedy_seconds`: its total time "
         "over greedy's. A structure counts only when the exact LP verifies it."
+        + (f" The rows of (band, method) pairs in `{args.reuse}` were kept from that run "
+           "(their seconds measured under its load), the others solved here." if args.reuse
+           else "")
     )  # fmt: skip
     text = report_page("Learned models beside greedy per scale family and band", command,
                        notes, table, "## Every task", "", markdown_table(rows), "",

@@ -259,4 +259,12 @@ def test_scale_models_refuses_a_model_without_a_name_in_one_line(tmp_path, capsy
         assert run_script("scale_models", [*argv, "--out", str(tmp_path / "out")]) == 2
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and message in err, err
+    from modquad_gym.policy import SCALE_MODEL
+
+    foreign = tmp_path / "foreign.csv"
+    foreign.write_text("band,family,task,method,found,seconds\n16,torque,a,greedy,three,1.0\n")
+    argv = ["--models", f"m={SCALE_MODEL}", "--reuse", str(foreign)]
+    assert run_script("scale_models", [*argv, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "foreign.csv: row 1" in err, err
     assert not (tmp_path / "out").exists()
