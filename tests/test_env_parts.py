@@ -151,7 +151,9 @@ def test_transitions_are_functions_of_an_episode_context_and_a_state():
     ep = Episode(env.rules, Grid(5, 2), palette, evaluator, {}, {})
     arrays = evaluator.task_arrays(task)
     state = initial_state(ep, arrays, (0,))
-    np.testing.assert_array_equal(state.candidates.reshape(-1), obs["candidates"])
+    rows = obs["candidates"].reshape(state.mask.size, -1)  # the state keeps the valid rows
+    np.testing.assert_array_equal(state.candidates, rows[np.flatnonzero(state.mask)])
+    assert not rows[state.mask == 0].any()
     rng = np.random.default_rng(0)
     while not state.done:
         a = int(rng.choice(np.flatnonzero(state.mask)))

@@ -78,16 +78,16 @@ class Grid:
         return self._cells[index]
 
     def initial_occupancy(self) -> np.ndarray:
-        """float32 (n_cells,): the one-module start."""
-        occ = np.zeros(self.n_cells, dtype=np.float32)
-        occ[self.centre] = 1.0
+        """int8 (n_cells,): the one-module start."""
+        occ = np.zeros(self.n_cells, dtype=np.int8)
+        occ[self.centre] = 1
         return occ
 
     def dock(self, occupancy: np.ndarray, mask: np.ndarray, c: int) -> tuple[np.ndarray, ...]:
         """(occupancy, mask) after a module docks at cell index ``c``: new arrays."""
         G2 = self.n_cells
         occ = occupancy.copy()
-        occ[c] = 1.0
+        occ[c] = 1
         mask = mask.copy()
         mask[c::G2] = 0
         for b in self._neighbours[c]:
@@ -100,8 +100,8 @@ class Grid:
         """The state fields of the one-module start (of type ``types[0]`` with a palette)."""
         onehot = None
         if types:
-            onehot = np.zeros(self.n_actions, dtype=np.float32)
-            onehot[types[0] * self.n_cells + self.centre] = 1.0
+            onehot = np.zeros(self.n_actions, dtype=np.int8)
+            onehot[types[0] * self.n_cells + self.centre] = 1
         return {"occupancy": self.initial_occupancy(), "mask": self.initial_mask.copy(),
                 "types_onehot": onehot}  # fmt: skip
 
@@ -116,12 +116,16 @@ class Grid:
         onehot = state.types_onehot
         if onehot is not None:
             onehot = onehot.copy()
-            onehot[a] = 1.0
+            onehot[a] = 1
         return {"occupancy": occ, "mask": mask, "types_onehot": onehot}
 
     def candidates(self, ep: Episode, state: AssemblyState) -> np.ndarray | None:
-        """The ``"candidates"`` rows: the lookahead rows (``lookahead`` on), else None."""
-        return candidate_rows(ep, state) if ep.rules.lookahead else None
+        """The lookahead rows of the valid actions, in action order (``lookahead`` on), else
+        None: every other row is zero, and a state kept by a planner should not hold G * G of
+        them (the observation fills them in, :func:`~.features.observation_blocks`)."""
+        if not ep.rules.lookahead:
+            return None
+        return candidate_rows(ep, state)[np.flatnonzero(state.mask)]
 
     def valid_cells(self, state: AssemblyState) -> set[Cell]:
         """The cells where a module may dock now (any type)."""

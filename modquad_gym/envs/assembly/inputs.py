@@ -183,7 +183,7 @@ def check_restore(current: Any, state: Any, n_actions: int, n_max: int) -> None:
         and np.shape(state.occupancy) == np.shape(current.occupancy)
         and len(state.cells) <= n_max
         and np.shape(state.types_onehot) == np.shape(current.types_onehot)
-        and np.shape(state.candidates) == np.shape(current.candidates)
+        and np.shape(state.candidates)[1:] == np.shape(current.candidates)[1:]
     )
     if not same_shape:
         raise ValueError(

@@ -109,8 +109,7 @@ class AssemblyState:
         task: the task arrays.
         cells: module cells in docking order, the initial module first.
         types: palette index of each module (the mixed env; empty for one type).
-        occupancy: (G * G,), 1 where a module sits on the encoding's grid (float32; int8 in
-            the faces encoding).
+        occupancy: int8 (G * G,), 1 where a module sits on the encoding's grid.
         mask: int8, 1 for valid actions.
         structure_vec: float32 structure features against the task.
         frac: fraction of task wrenches the structure satisfies (exact oracle).
@@ -119,9 +118,11 @@ class AssemblyState:
         evaluated: structures evaluated this episode (memo hits included).
         oracle_calls: wrench-structure tests made this episode.
         terminated, truncated: how the episode ended (both False while it runs).
-        types_onehot: float32 (G * G * K,) type one-hot (the mixed env), else None.
-        candidates: float32 (actions, k) rows per action (the faces encoding; the grid's with
-            ``lookahead=True``), else None.
+        types_onehot: int8 (G * G * K,) type one-hot (the mixed env), else None.
+        candidates: float32 rows of k entries: one per action (actions, k) in the faces
+            encoding; in the grid's (with ``lookahead``) one per valid action (valid, k), in
+            action order (the others are zero), so a state a planner keeps stays small at
+            n_max 128 (G * G = 65,025 actions a type); else None.
         faces: the faces encoding's free faces, as grid cell indices in action order, else
             None.
         sites: the faces encoding's module cells as grid indices, in docking order, else None.
