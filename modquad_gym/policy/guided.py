@@ -119,7 +119,7 @@ class GuidedSolver:
                 pushes += 1
                 if diving and dive is None:  # the most likely child continues the dive
                     dive = node
-                else:
+                elif len(evaluated) < self.budget:  # else never popped: keep no state for it
                     heapq.heappush(heap, node)
         if not certified:
             proof = ""
