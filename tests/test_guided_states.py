@@ -46,7 +46,7 @@ def _dense_observation(env: ModQuadAssemblyEnv) -> dict:
         (24, None, "exact", TOP_K),
         (16, PALETTE, "exact", TOP_K),
         (7, PALETTE, True, None),
-    ],  # fmt: skip
+    ],
 )
 def test_observations_are_the_dense_ones(n_max, modules, lookahead, top_k):
     """Each step's observation equals the dense one (bit for bit, one machine), and the state
@@ -98,7 +98,7 @@ def _replayed(solver: GuidedSolver, task) -> GuidedSolver:
         (7, 7, 30, None, 32, True, (1, 5)),
         (20, 14, 30, None, 24, False, (0,)),
         (16, 10, 16, PALETTE, 16, True, (0, 1)),
-    ],  # fmt: skip
+    ],
 )
 def test_guided_answers_are_those_of_a_replay(n_max, n_modules, n_wrenches, modules, budget,
                                               dive, seeds):  # fmt: skip
