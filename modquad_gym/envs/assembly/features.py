@@ -365,9 +365,12 @@ def _candidate_rows(state: AssemblyState) -> np.ndarray:
     return rows.reshape(-1)
 
 
-def _as_float(name: str) -> Callable[[AssemblyState], np.ndarray]:
-    """A reader of the int8 field ``name`` as float32 (states keep the small type)."""
-    return lambda state: getattr(state, name).astype(np.float32)
+def _occupancy(state: AssemblyState) -> np.ndarray:
+    return state.occupancy.astype(np.float32)  # states keep int8
+
+
+def _types(state: AssemblyState) -> np.ndarray:
+    return state.types_onehot.astype(np.float32)  # states keep int8
 
 
 def observation_blocks(
@@ -378,7 +381,7 @@ def observation_blocks(
     feature."""
     n_actions = n_cells * n_types
     blocks = [
-        ObservationBlock("occupancy", n_cells, _as_float("occupancy"), 0.0, 1.0),
+        ObservationBlock("occupancy", n_cells, _occupancy, 0.0, 1.0),
         ObservationBlock("action_mask", n_actions, attrgetter("mask"), 0, 1, np.int8),
         ObservationBlock("task", features.task_size, attrgetter("task.vec")),
         ObservationBlock("structure", features.structure_size, attrgetter("structure_vec")),
@@ -387,5 +390,5 @@ def observation_blocks(
         size = n_actions * lookahead_width(lookahead)
         blocks.append(ObservationBlock("candidates", size, _candidate_rows))
     if n_types > 1:
-        blocks.append(ObservationBlock("types", n_actions, _as_float("types_onehot"), 0.0, 1.0))
+        blocks.append(ObservationBlock("types", n_actions, _types, 0.0, 1.0))
     return blocks
