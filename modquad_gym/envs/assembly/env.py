@@ -251,7 +251,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         self._blocks = self.make_blocks(probe)
         self.action_space = spaces.Discrete(self.encoding.n_actions)
         self.observation_space = spaces.Dict({b.name: b.space() for b in self._blocks})
-        self._readers = [(b.name, b.read) for b in self._blocks]
+        self._readers = [(b.name, b.value) for b in self._blocks]
         self._state: AssemblyState | None = None
         self._episode: Episode | None = None
 
@@ -345,7 +345,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         return self._state.mask.astype(bool)
 
     def _observation(self) -> dict[str, np.ndarray]:
-        return {name: read(self._state).copy() for name, read in self._readers}
+        return {name: read(self._state) for name, read in self._readers}
 
     def _info(self, invalid: bool = False, terms: dict[str, float] | None = None) -> dict:
         terms = reset_terms(self.reward, self._state) if terms is None else terms

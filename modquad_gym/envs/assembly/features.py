@@ -344,8 +344,8 @@ def _structure_against(head, h_Wn, h_Tn, per_wrench, satisfied_fraction, mean):
 # --- observation blocks ---------------------------------------------------------------------
 @dataclass(frozen=True)
 class ObservationBlock:
-    """One named entry of the observation: its size, bounds and dtype (hence its space) and how
-    it is read from an :class:`~modquad_gym.envs.assembly.types.AssemblyState`."""
+    """One named entry of the observation: its size, bounds, dtype (hence its space) and how it
+    is read from an :class:`~.types.AssemblyState` (``fresh``: a new array, else copied)."""
 
     name: str
     size: int
@@ -353,24 +353,30 @@ class ObservationBlock:
     low: float = -1.0
     high: float = 1.0
     dtype: type = np.float32
+    fresh: bool = False
 
     def space(self) -> spaces.Box:
         return spaces.Box(self.low, self.high, (self.size,), self.dtype)
+
+    def value(self, state: AssemblyState) -> np.ndarray:
+        """The entry of ``state``, the caller's own (copied once at most: megabytes at 128)."""
+        out = self.read(state)
+        return out if self.fresh else out.copy()
 
 
 def _candidate_rows(state: AssemblyState) -> np.ndarray:
     """Every action's row: the state's rows at its valid actions, zero elsewhere."""
     rows = np.zeros((state.mask.size, state.candidates.shape[1]), dtype=np.float32)
-    rows[np.flatnonzero(state.mask)] = state.candidates
+    rows[state.mask.view(bool)] = state.candidates
     return rows.reshape(-1)
 
 
 def _occupancy(state: AssemblyState) -> np.ndarray:
-    return state.occupancy.astype(np.float32)  # states keep int8
+    return state.occupancy.astype(np.float32)  # states keep int8 (as the type one-hot)
 
 
 def _types(state: AssemblyState) -> np.ndarray:
-    return state.types_onehot.astype(np.float32)  # states keep int8
+    return state.types_onehot.astype(np.float32)
 
 
 def observation_blocks(
@@ -381,14 +387,14 @@ def observation_blocks(
     feature."""
     n_actions = n_cells * n_types
     blocks = [
-        ObservationBlock("occupancy", n_cells, _occupancy, 0.0, 1.0),
+        ObservationBlock("occupancy", n_cells, _occupancy, 0.0, 1.0, fresh=True),
         ObservationBlock("action_mask", n_actions, attrgetter("mask"), 0, 1, np.int8),
         ObservationBlock("task", features.task_size, attrgetter("task.vec")),
         ObservationBlock("structure", features.structure_size, attrgetter("structure_vec")),
     ]
     if lookahead:
         size = n_actions * lookahead_width(lookahead)
-        blocks.append(ObservationBlock("candidates", size, _candidate_rows))
+        blocks.append(ObservationBlock("candidates", size, _candidate_rows, fresh=True))
     if n_types > 1:
-        blocks.append(ObservationBlock("types", n_actions, _types, 0.0, 1.0))
+        blocks.append(ObservationBlock("types", n_actions, _types, 0.0, 1.0, fresh=True))
     return blocks

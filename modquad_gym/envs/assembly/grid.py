@@ -125,7 +125,7 @@ class Grid:
         them (the observation fills them in, :func:`~.features.observation_blocks`)."""
         if not ep.rules.lookahead:
             return None
-        return candidate_rows(ep, state)[np.flatnonzero(state.mask)]
+        return candidate_rows(ep, state)[state.mask.view(bool)]  # mask: 0 or 1
 
     def valid_cells(self, state: AssemblyState) -> set[Cell]:
         """The cells where a module may dock now (any type)."""
