@@ -535,10 +535,11 @@ def main(argv: list[str] | None = None) -> None:
                          f"{' '.join(map(str, BANDS))}; --validation draws any size)")  # fmt: skip
     check_model_option(args.model, args.methods)
     args.workers = cap_workers(args.workers)
+    earlier = read_runs(args.rows) if args.rows else None  # before --force clears --out
     with claim_output_dir(args.out, OUTPUTS, args.force) as claim:  # a second run is refused
         kept = claim.path("rows.csv")
         try:
-            rows = read_runs(args.rows) if args.rows else measure(args, keep_rows(kept))
+            rows = earlier if earlier is not None else measure(args, keep_rows(kept))
         except KeyboardInterrupt:
             if kept.exists():
                 print(f"kept the finished rows in {kept}", file=sys.stderr)

@@ -124,6 +124,11 @@ def test_bench_scale_writes_its_report_and_refuses_to_overwrite(tmp_path):
     assert len(rows) == 1 + 2 * 2  # header, 2 tasks x 2 methods
     again = run_bench(*args, cwd=tmp_path)
     assert again.returncode == 2 and "--force" in again.stderr
+    # re-rendered in place from its own rows: --force must not clear them before they are read
+    again = run_bench(*args, "--rows", str(out / "rows.csv"), "--force", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr[-2000:]
+    assert len((out / "rows.csv").read_text().splitlines()) == len(rows)
+    assert "re-rendered by" in (out / "report.md").read_text()
 
 
 def test_bench_scale_refuses_bad_options_in_one_line(tmp_path):
