@@ -88,8 +88,7 @@ def label_chunk(job: tuple) -> tuple[Any, list[dict]]:
     from modquad_gym.policy.policy import Policy
     from modquad_gym.search import anytime_search, greedy_search
 
-    model, tasks, n_max, search_seconds, budget, seed, learner, *rest = job
-    with_greedy = bool(rest and rest[0])
+    model, tasks, n_max, search_seconds, budget, seed, learner, with_greedy = job
     policy = Policy(model, n_max=n_max)
     parts, rows = [], []
     for k, task in enumerate(tasks):

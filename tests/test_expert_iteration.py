@@ -49,7 +49,7 @@ def test_a_label_is_the_better_answer_and_its_episode_reaches_it():
     task = training_task(0, 1, 3)  # low force, high torque, 10 modules planted
     # the search proves its answer optimal in well under a second here and stops; 10 s leaves
     # room for a loaded machine (the label must not depend on the machine's speed)
-    alone, _ = label_chunk((None, [task], 36, 10.0, 8, [0, 1, 0], False))
+    alone, _ = label_chunk((None, [task], 36, 10.0, 8, [0, 1, 0], False, False))
     demos, rows = label_chunk((None, [task], 36, 10.0, 8, [0, 1, 0], True, True))
     (row,) = rows  # with greedy's answer among the labels
     answers = [n for n in (row["search"], row["guided"], row["greedy"]) if n is not None]
