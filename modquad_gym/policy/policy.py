@@ -21,7 +21,7 @@ from modquad_gym.core.extras import import_optional
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.features import lookahead_width
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.inference import exported, type_features
+from modquad_gym.policy.inference import Actor, exported, type_features
 from modquad_gym.policy.models import default_model, model_file, read_model
 from modquad_gym.search import SearchResult
 from modquad_gym.search.bounds import bound_levels
@@ -145,7 +145,7 @@ class Policy:
             net = self.saved.build(*spaces, types=types)
         else:
             net = self.saved.build()
-        self.actor, self._net = (None, net) if hasattr(net, "predict") else (net, None)
+        self.actor, self._net = (net, None) if isinstance(net, Actor) else (None, net)
 
     @property
     def spaces(self) -> tuple:
