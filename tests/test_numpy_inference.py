@@ -106,6 +106,77 @@ def test_a_stale_export_falls_back_to_torch(tmp_path):
     assert exported(model) is not None and Policy(model, n_max=5).actor is not None
 
 
+def edited(arrays: dict, **changes) -> dict:
+    """``arrays`` with ``changes`` (None removes a key)."""
+    out = {k: v for k, v in arrays.items() if changes.get(k, v) is not None}
+    out.update({k: np.asarray(v) for k, v in changes.items() if v is not None})
+    return out
+
+
+def corrupt_exports(arrays: dict) -> dict:
+    """Exports of DEFAULT_MODEL's hash that must not be read: cut, missing, extra or odd keys,
+    wrong dtypes and shapes, non-finite weights, sizes of no environment."""
+    nan = arrays["mix.weight"].copy()
+    nan[0, 0] = np.nan
+    return {
+        "no mix.bias": edited(arrays, **{"mix.bias": None}),
+        "an extra key": edited(arrays, surprise=np.zeros(3)),
+        "hidden of two": edited(arrays, hidden=[64, 64]),
+        "a float width": edited(arrays, **{"width.task": 55.0}),
+        "a zero width": edited(arrays, **{"width.occupancy": 0}),
+        "odd candidates": edited(arrays, **{"width.candidates": 1353}),
+        "complex weights": edited(arrays, **{"mix.weight": arrays["mix.weight"] + 1j}),
+        "integer weights": edited(arrays, **{"mix.weight": arrays["mix.weight"].astype(int)}),
+        "two outputs": edited(
+            arrays,
+            **{
+                "score_out.weight": np.zeros((2, 64), np.float32),
+                "score_out.bias": np.zeros(2, np.float32),
+            },
+        ),
+        "a bias of one": edited(arrays, **{"mix.bias": np.zeros(1, np.float32)}),
+        "a 3-d weight": edited(arrays, **{"mix.weight": arrays["mix.weight"][None]}),
+        "a NaN weight": edited(arrays, **{"mix.weight": nan}),
+        "an inf bias": edited(arrays, **{"score_out.bias": np.array([np.inf], np.float32)}),
+        "NaN types": edited(arrays, types=arrays["types"] * np.nan),
+        "two types": edited(arrays, types=np.zeros((2, 7))),
+    }
+
+
+def test_a_corrupt_export_is_never_read(tmp_path):
+    """An export cut short, empty, a folder, a dangling link, or with keys, dtypes, shapes or
+    values no :func:`export` writes (NaN weights would give NaN probabilities; a second output
+    column would be dropped silently) is not read: the policy acts with torch. A broken
+    config.json beside the model is refused in one line naming it."""
+    model = tmp_path / "model.zip"
+    shutil.copyfile(DEFAULT_MODEL, model)
+    target = export_path(model)
+    good = export_path(DEFAULT_MODEL).read_bytes()
+    with np.load(export_path(DEFAULT_MODEL)) as data:
+        arrays = {k: data[k] for k in data.files}
+    for name, changed in corrupt_exports(arrays).items():
+        with target.open("wb") as fh:
+            np.savez(fh, **changed)
+        assert exported(model) is None, name
+    for raw in (b"", good[: len(good) // 2]):
+        target.write_bytes(raw)
+        assert exported(model) is None
+    target.unlink()
+    target.symlink_to(tmp_path / "missing.npz")
+    assert exported(model) is None
+    target.unlink()
+    target.mkdir()
+    assert exported(model) is None
+    target.rmdir()
+    target.write_bytes(good)
+    assert exported(model) is not None
+    for text in ("{not json", "[1]", '{"env_kwargs": 3}'):
+        (tmp_path / "config.json").write_text(text)
+        with pytest.raises(ValueError, match=r"^\S*config.json: not a model's config") as err:
+            exported(model)
+        assert "\n" not in str(err.value)
+
+
 @pytest.mark.parametrize(
     "model", sorted(MODELS_DIR.glob("*/model.zip")), ids=lambda p: p.parent.name
 )

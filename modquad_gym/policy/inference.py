@@ -16,7 +16,6 @@ Loading NumPy weights costs no torch import (about 220 MB and a second at start)
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 import zipfile
 from dataclasses import dataclass
@@ -26,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from modquad_gym.envs.assembly.features import STRUCTURE_SCALARS, TASK_SCALARS
+from modquad_gym.policy.models import read_config
 
 TYPE_FEATURES = 7
 """Per module type: its rotors' mean wrench column (6, at f_max, torques per metre of side) and
@@ -35,6 +35,9 @@ LAYERS = ("context.0", "context.2", "embed.0", "embed.2", "mix", "score_cell", "
 """The scorer's linear layers the actor uses (the critic's are left out)."""
 SPACE_KEYS = ("occupancy", "task", "structure", "candidates", "action_mask")
 """The observation entries whose widths the export keeps (the environment they imply)."""
+EXPORT_KEYS = {f"{name}.{p}" for name in LAYERS for p in ("weight", "bias")} | {
+    f"width.{k}" for k in SPACE_KEYS} | {"types", "hidden", "model_sha256"}  # fmt: skip
+"""The arrays an export holds, no more (a file with others was not written by :func:`export`)."""
 
 
 def type_features(modules) -> list[list[float]]:
@@ -200,17 +203,42 @@ def exported(model_path: str | Path) -> ExportedModel | None:
     try:
         with np.load(target, allow_pickle=False) as data:
             arrays = {k: data[k] for k in data.files}
-        if str(arrays.pop("model_sha256")) != file_hash(path):
+        if set(arrays) != EXPORT_KEYS or str(arrays.pop("model_sha256")) != file_hash(path):
             return None
+        hidden, widths = check_export(arrays)
         types = arrays.pop("types").tolist()
-        hidden = int(arrays.pop("hidden"))
-        widths = {k: int(arrays.pop(f"width.{k}")) for k in SPACE_KEYS}
-        Actor(arrays, types)  # every layer there, of consistent shapes
-    except (KeyError, OSError, ValueError, zipfile.BadZipFile):
+        for key in ("hidden", *(f"width.{k}" for k in SPACE_KEYS)):
+            arrays.pop(key)
+    except (EOFError, OSError, TypeError, ValueError, zipfile.BadZipFile):
         return None
-    config_path = path.with_name("config.json")
-    config = json.loads(config_path.read_text()) if config_path.is_file() else {}
-    return ExportedModel(path, arrays, types, hidden, widths, config)
+    return ExportedModel(path, arrays, types, hidden, widths, read_config(path))
+
+
+def check_export(arrays: dict) -> tuple[int, dict]:
+    """(hidden, widths) of an export's ``arrays``; ValueError unless its sizes are positive
+    integers, its weights and types finite floats, and every layer of the shape the scorer of
+    those sizes has (an edited or foreign file is never read as this network's weights)."""
+    sizes = {key: arrays[key] for key in ("hidden", *(f"width.{k}" for k in SPACE_KEYS))}
+    if any(v.shape != () or v.dtype.kind not in "iu" or v <= 0 for v in sizes.values()):
+        raise ValueError("sizes must be positive integers")
+    hidden, widths = int(sizes["hidden"]), {k: int(sizes[f"width.{k}"]) for k in SPACE_KEYS}
+    k, cells, actions = widths["task"] - TASK_SCALARS, widths["occupancy"], widths["action_mask"]
+    width, n_types = divmod(widths["candidates"], actions), divmod(actions, cells)
+    side = math.isqrt(cells)
+    if (k < 1 or widths["structure"] != 2 * k + STRUCTURE_SCALARS or width[1] or n_types[1]
+            or side * side != cells or side % 2 == 0):  # fmt: skip
+        raise ValueError("observation widths of no environment")
+    inputs = {"context.0": widths["task"] + widths["structure"] + 1, "score_pool": 2 * hidden,
+              "embed.0": width[0] + 9 + 2 + TYPE_FEATURES}  # fmt: skip
+    shapes = {f"{name}.weight": (1 if name == "score_out" else hidden, inputs.get(name, hidden))
+              for name in LAYERS}  # fmt: skip
+    shapes.update({f"{name}.bias": shapes[f"{name}.weight"][:1] for name in LAYERS})
+    shapes["types"] = (n_types[0], TYPE_FEATURES)
+    for key, shape in shapes.items():
+        value = arrays[key]
+        if value.shape != shape or value.dtype.kind != "f" or not np.isfinite(value).all():
+            raise ValueError(f"{key}: not finite floats of shape {shape}")
+    return hidden, widths
 
 
 def export(model_path: str | Path) -> Path | None:

@@ -122,9 +122,22 @@ def read_model(path: str | Path | None = None) -> SavedModel:
     except LOAD_ERRORS as exc:  # no model data, zipfile/pickle/torch errors
         reason = " ".join(str(exc).split()) or type(exc).__name__
         raise ValueError(f"--model {path}: not a MaskablePPO model .zip ({reason})") from None
-    config_path = path.with_name("config.json")
-    config = json.loads(config_path.read_text()) if config_path.is_file() else {}
-    return SavedModel(path, *saved, config)
+    return SavedModel(path, *saved, read_config(path))
+
+
+def read_config(model_path: str | Path) -> dict:
+    """The config.json beside the model at ``model_path`` ({} when there is none); ValueError
+    naming the file when it is not a JSON object (with an ``env_kwargs`` object, if any)."""
+    path = Path(model_path).with_name("config.json")
+    if not path.is_file():
+        return {}
+    try:
+        config = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:  # unreadable, not UTF-8, not JSON
+        raise ValueError(f"{path}: not a model's config ({' '.join(str(exc).split())})") from None
+    if not isinstance(config, dict) or not isinstance(config.get("env_kwargs", {}), dict):
+        raise ValueError(f"{path}: not a model's config (a JSON object, env_kwargs an object)")
+    return config
 
 
 def load_model(path: str | Path | None = None):
