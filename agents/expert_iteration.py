@@ -229,7 +229,7 @@ def draw_option(text: str) -> tuple[str, int, int]:
     low, _, high = sizes.partition("-")
     if family not in ("planted", "torque", "payload"):
         raise argparse.ArgumentTypeError(f"{text}: family planted, torque or payload")
-    if not (low.isdigit() and high.isdigit() and 2 <= int(low) <= int(high) <= 128):
+    if not (low.isdecimal() and high.isdecimal() and 2 <= int(low) <= int(high) <= 128):
         raise argparse.ArgumentTypeError(f"{text}: sizes LOW-HIGH with 2 <= LOW <= HIGH <= 128")
     return family, int(low), int(high)
 
@@ -334,11 +334,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         p.error(f"--learning-rate {args.learning_rate:g}: give a rate in (0, 1]")
     if args.replay < 0:
         p.error(f"--replay {args.replay}: give a number of tasks, 0 or more")
+    if len(set(args.bands)) < len(args.bands):  # each band's draws would be scored twice
+        p.error(f"--bands {' '.join(map(str, args.bands))}: a band given twice")
     try:
         check_output_dir(args.out, output_names(args), args.force)
         read_model(args.model)
     except ValueError as exc:  # OutputError too
-        p.error(str(exc) if isinstance(exc, OutputError) else f"--model {args.model}: {exc}")
+        named = isinstance(exc, OutputError) or str(exc).startswith("--model")
+        p.error(str(exc) if named else f"--model {args.model}: {exc}")
     return args
 
 

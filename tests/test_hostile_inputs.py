@@ -427,6 +427,9 @@ def test_a_fresh_job_hands_back_parts_as_they_come():
         (["--model", "missing.zip"], "--model missing.zip"),
         (["--draws", "mixed:8-32"], "--draws"),
         (["--draws", "torque:40-20"], "--draws"),
+        (["--draws", "planted:\u00b2-5"], "sizes LOW-HIGH"),
+        (["--bands", "16", "24", "16"], "--bands 16 24 16: a band given twice"),
+        (["--model", "."], "error: --model .: a folder"),
     ],
 )
 def test_expert_iteration_refuses_bad_options_before_work(tmp_path, capsys, argv, match):
