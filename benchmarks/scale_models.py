@@ -15,6 +15,7 @@ goal: upper end <= 0), and its total time over greedy's.
 from __future__ import annotations
 
 import csv
+import math
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -24,10 +25,13 @@ from benchmarks.common import bench_args, markdown_table, report_page, write_csv
 from benchmarks.measure import fresh
 from benchmarks.scale import run_band
 from benchmarks.scale_suites import load_scale_suite
+from modquad_gym.cli.common import time_limit_option
 from modquad_gym.core.options import int_option
 from modquad_gym.scoring.stats import interval
 
 OUTPUTS = ("report.md", "report.csv", "rows.csv")
+COLUMNS = ("band", "family", "task", "method", "found", "seconds")
+"""The columns of rows.csv, in order (what ``--reuse`` reads back)."""
 ONE_TYPE = ("planted", "torque", "payload")
 
 
@@ -47,24 +51,39 @@ def model_option(text: str) -> tuple[str, str]:
 
 def read_rows(path: Path) -> list[dict]:
     """The rows of an earlier run's rows.csv, typed; a ValueError naming the file and the
-    1-based row otherwise."""
+    1-based row (after the header) otherwise."""
     try:
         with open(path, newline="") as f:
-            raw = list(csv.DictReader(f))
+            reader = csv.DictReader(f)
+            if tuple(reader.fieldnames or ()) != COLUMNS:
+                raise ValueError(f"--reuse {path}: its header is not {','.join(COLUMNS)}")
+            raw = list(reader)
     except OSError as exc:
         raise ValueError(f"--reuse {path}: {exc.strerror}") from None
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise ValueError(f"--reuse {path}: not a CSV file ({exc})") from None
     rows = []
     for i, r in enumerate(raw, start=1):
         try:
-            rows.append({"band": int(r["band"]), "family": r["family"], "task": r["task"],
-                         "method": r["method"], "found": int(r["found"]) if r["found"] else None,
-                         "seconds": float(r["seconds"])})  # fmt: skip
-        except (KeyError, TypeError, ValueError):
+            row = {"band": int(r["band"]), "family": r["family"], "task": r["task"],
+                   "method": r["method"], "found": int(r["found"]) if r["found"] else None,
+                   "seconds": float(r["seconds"])}  # fmt: skip
+        except (TypeError, ValueError):
+            row = None
+        if row is None or None in r or not plausible(row):
             raise ValueError(
-                f"--reuse {path}: row {i}: not a row of benchmarks.scale_models "
-                "(band, family, task, method, found, seconds)"
-            ) from None
+                f"--reuse {path}: row {i}: not a row of benchmarks.scale_models (band 2-128, "
+                "a one-type family, task, method, found: modules or empty, seconds >= 0)"
+            )
+        rows.append(row)
     return rows
+
+
+def plausible(row: dict) -> bool:
+    """Whether a typed row's values are ones this benchmark writes."""
+    found = row["found"]
+    return (2 <= row["band"] <= 128 and row["family"] in ONE_TYPE and (found is None or found >= 1)
+            and 0 <= row["seconds"] < math.inf)  # fmt: skip
 
 
 def band_tasks(band: int, families, per_family: int, held_out: bool) -> list:
@@ -131,8 +150,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
                              help="tasks per family and band (default 4)"),
         "--held-out": dict(action="store_true",
                            help="the held-out suites instead of the validation draws"),
-        "--time-limit": dict(type=float, default=30.0,
-                             help="seconds each method gets per task (default 30)"),
+        "--time-limit": dict(type=time_limit_option, default=30.0,
+                             help="seconds each method gets per task, in (0, 86400] "
+                                  "(default 30)"),
         "--workers": dict(type=int_option(1, 64), default=2,
                           help="processes at a time (default 2)"),
         "--reuse": dict(type=Path, default=None, metavar="CSV",
@@ -143,6 +163,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
     args = bench_args(argv, "python -m benchmarks.scale_models", __doc__.split("\n\n")[0],
                       options, seed_help=None, out="results/scale_models",
                       outputs=OUTPUTS)  # fmt: skip
+    for flag, values in (("--bands", args.bands), ("--families", args.families)):
+        if len(set(values)) < len(values):  # its tasks would be solved and counted twice
+            raise ValueError(f"{flag} {' '.join(map(str, values))}: a value given twice")
     args.models = [model_option(text) for text in args.models]
     names = [n for n, _ in args.models]
     if len(set(names)) < len(names) or "greedy" in names:

@@ -473,3 +473,38 @@ def test_train_refuses_a_run_folder_another_run_holds(tmp_path):
         with pytest.raises(OutputError, match="another run"):
             main(argv)
     assert not (run / "model.zip").exists()
+
+
+def test_scale_models_refuses_foreign_reuse_rows_and_bad_options(tmp_path, capsys):
+    """--reuse of another benchmark's rows (a superset of the columns), an empty, binary or
+    NUL-holding file, or rows with values it never writes (no module count, NaN seconds, another
+    family, an extra field) is refused naming the file and row; --time-limit outside
+    (0, 86400] and a band or family given twice are refused before any work: exit 2, one line."""
+    from benchmarks.common import run_script
+    from benchmarks.scale_models import read_rows
+
+    header = "band,family,task,method,found,seconds\n"
+    cases = {"scale.csv": ("band,family,task,method,planted,found,seconds\n", "its header"),
+             "empty.csv": ("", "its header"), "nul.csv": ("band,family\0,task\n", "its header"),
+             "zero.csv": (header + "16,torque,a,greedy,0,1.0\n", "row 1"),
+             "nan.csv": (header + "16,torque,a,greedy,3,1.0\n16,torque,b,greedy,,nan\n", "row 2"),
+             "family.csv": (header + "16,mixed,a,greedy,3,1.0\n", "row 1"),
+             "extra.csv": (header + "16,torque,a,greedy,3,1.0,x\n", "row 1")}  # fmt: skip
+    for name, (text, message) in cases.items():
+        (tmp_path / name).write_text(text)
+        with pytest.raises(ValueError, match=f"--reuse .*{name}: {message}"):
+            read_rows(tmp_path / name)
+    (tmp_path / "binary.csv").write_bytes(bytes(range(128, 256)))
+    with pytest.raises(ValueError, match="binary.csv: not a CSV file"):
+        read_rows(tmp_path / "binary.csv")
+    (tmp_path / "good.csv").write_text(header + "16,torque,a,greedy,,0.5\n")
+    assert read_rows(tmp_path / "good.csv")[0]["found"] is None
+    out = tmp_path / "out"
+    twice = [(["--bands", "16", "16"], "--bands 16 16: a value given twice"),
+             (["--families", "torque", "torque"], "--families torque torque")]  # fmt: skip
+    for argv, message in ((["--time-limit", "nan"], "--time-limit"),
+                          (["--time-limit", "-1"], "--time-limit"), *twice):  # fmt: skip
+        assert run_script("scale_models", ["--models", "m=x.zip", *argv, "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert message in err.splitlines()[-1] and "Traceback" not in err, err
+    assert not out.exists()
