@@ -22,16 +22,21 @@ line per run).
 from __future__ import annotations
 
 import json
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from benchmarks.common import bench_args, report_page, run_main, write_report
+from modquad_gym.cli.common import one_line
 from modquad_gym.scoring.fine_tuning import best_index
 from modquad_gym.scoring.stats import interval
 from modquad_gym.scoring.tiers import TIERS
 
 OUTPUTS = ("report.md", "report.csv", "curves.png")
+RUN_FILES = ("model.zip", "config.json", "evaluations.npz")
+EVALUATIONS = ("results", "optimal", "successes")
+"""The evaluations a run's ``evaluations.npz`` holds beside ``timesteps``: one row each."""
 
 
 def heldout(model: Path, tier: str) -> tuple[float, float]:
@@ -61,10 +66,41 @@ def cloned_beside(run: Path, tensorboard: Path = Path("runs")) -> Path:
     return tensorboard / name / "train" / "cloned_model.zip"
 
 
-def run_row(run: Path) -> tuple[dict, dict]:
-    """The report's row of one run and its validation curve."""
-    config = json.loads((run / "config.json").read_text())
-    data = np.load(run / "evaluations.npz")
+def read_run(run: Path) -> tuple[dict, dict]:
+    """(config, evaluations) of a ``train.py`` run folder, checked before any held-out pass; a
+    ValueError naming the run and what it lacks otherwise."""
+    missing = [name for name in RUN_FILES if not (run / name).is_file()]
+    if missing:
+        raise ValueError(f"RUN {run}: not a train.py run folder (no {', '.join(missing)})")
+    try:
+        config = json.loads((run / "config.json").read_text())
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"RUN {run}: config.json unreadable ({one_line(exc)})") from None
+    try:
+        with np.load(run / "evaluations.npz", allow_pickle=False) as npz:
+            data = {k: npz[k] for k in npz.files}
+    except (EOFError, OSError, ValueError, zipfile.BadZipFile) as exc:
+        raise ValueError(f"RUN {run}: evaluations.npz unreadable ({one_line(exc)})") from None
+    if not isinstance(config, dict) or not {"tier", "seed", "kept_model_timesteps"} <= set(config):
+        raise ValueError(f"RUN {run}: config.json has no tier, seed or kept_model_timesteps")
+    if config["tier"] not in [*TIERS]:  # any JSON value, a list too
+        raise ValueError(f"RUN {run}: config.json names tier {config['tier']!r}, not one of ours")
+    k = np.shape(data.get("timesteps"))
+    if len(k) != 1 or not k[0] or any(np.ndim(data.get(n)) != 2 or len(data[n]) != k[0]
+                                      or not np.size(data[n]) for n in EVALUATIONS):  # fmt: skip
+        raise ValueError(f"RUN {run}: evaluations.npz lacks timesteps and {', '.join(EVALUATIONS)}"
+                         " of one row per evaluation")  # fmt: skip
+    if config["kept_model_timesteps"] not in data["timesteps"].tolist():
+        raise ValueError(f"RUN {run}: config.json's kept_model_timesteps is no evaluation's step")
+    cloned = Path(config.get("cloned_model") or cloned_beside(run))
+    if not cloned.is_file():
+        raise ValueError(f"RUN {run}: its cloned start {cloned} does not exist")
+    return config, data
+
+
+def run_row(run: Path, config: dict, data: dict) -> tuple[dict, dict]:
+    """The report's row of one run (its :func:`read_run` ``config`` and ``data``) and its
+    validation curve."""
     steps = data["timesteps"]
     opt = data["optimal"].mean(axis=1)
     suc = data["successes"].mean(axis=1)
@@ -149,9 +185,12 @@ def main(argv: list[str] | None = None) -> int:
         {"runs": {"nargs": "+", "type": Path, "help": "train.py run folders"}},
         seed_help=None, out="results/rl_stage", outputs=OUTPUTS,
     )  # fmt: skip
+    if len({run.resolve() for run in args.runs}) < len(args.runs):  # the bootstrap is over runs
+        raise ValueError(f"RUN: a run given twice in {' '.join(map(str, args.runs))}")
+    read = [read_run(run) for run in args.runs]  # every run checked before any held-out pass
     rows, curves = [], []
-    for run in args.runs:
-        row, curve = run_row(run)
+    for run, (config, data) in zip(args.runs, read, strict=True):
+        row, curve = run_row(run, config, data)
         rows.append(row)
         curves.append(curve)
     args.out.mkdir(parents=True, exist_ok=True)

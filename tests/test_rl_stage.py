@@ -276,3 +276,51 @@ def test_the_rl_stage_report_measures_each_gain_over_the_cloned_start():
     low, high = (float(x) for x in curve["95 % CI"].strip("[]").split(","))
     assert -2.0 <= low < 0.0 < high <= 3.0
     assert table["held-out optimal"]["95 % CI"] == "[+0.00, +0.00]"  # nothing varies
+
+
+def test_the_rl_stage_report_refuses_a_bad_run_before_any_held_out_pass(tmp_path, monkeypatch):
+    """Every RUN is read first: a folder lacking evaluations.npz or config.json, a config
+    without its kept step or with another tier, evaluations without the optimal share, a kept
+    step no evaluation has, a missing cloned start or a run given twice is refused with one
+    line naming the run, before the first run's held-out pass starts."""
+    from benchmarks import rl_stage
+
+    def make_run(name: str, **config) -> object:
+        run = tmp_path / name
+        run.mkdir()
+        (run / "model.zip").write_bytes(b"")
+        (tmp_path / "cloned.zip").write_bytes(b"")
+        base = {"tier": "current", "seed": 0, "kept_model_timesteps": 100,
+                "cloned_model": str(tmp_path / "cloned.zip")}  # fmt: skip
+        (run / "config.json").write_text(json.dumps({**base, **config}))
+        np.savez(run / "evaluations.npz", **_evals([0.5, 0.75], [1, 1], [1, 2]))
+        return run
+
+    def started(*args):
+        raise AssertionError("a held-out pass started")
+
+    monkeypatch.setattr(rl_stage, "heldout", started)
+    good = make_run("good")
+    assert rl_stage.read_run(good)[0]["seed"] == 0
+    bad = {"no evaluations.npz": make_run("a"), "config.json unreadable": make_run("b"),
+           "has no tier, seed or kept_model_timesteps": make_run("c", kept_model_timesteps=None),
+           "names tier 'nope'": make_run("d", tier="nope"),
+           "lacks timesteps and results, optimal": make_run("e"),
+           "is no evaluation's step": make_run("f", kept_model_timesteps=150),
+           "its cloned start": make_run("g", cloned_model=str(tmp_path / "gone.zip"))}  # fmt: skip
+    (bad["no evaluations.npz"] / "evaluations.npz").unlink()
+    (bad["config.json unreadable"] / "config.json").write_text("{not json")
+    config = json.loads(
+        (bad["has no tier, seed or kept_model_timesteps"] / "config.json").read_text()
+    )
+    del config["kept_model_timesteps"]
+    (bad["has no tier, seed or kept_model_timesteps"] / "config.json").write_text(
+        json.dumps(config)
+    )
+    np.savez(bad["lacks timesteps and results, optimal"] / "evaluations.npz", timesteps=[0, 100])
+    for message, run in [*bad.items(), ("a run given twice", good)]:
+        argv = [str(good), str(run), "--out", str(tmp_path / "out")]
+        with pytest.raises(ValueError, match=message) as err:
+            rl_stage.main(argv)
+        assert "\n" not in str(err.value) and str(run) in str(err.value)
+    assert not (tmp_path / "out").exists()
