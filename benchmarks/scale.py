@@ -57,6 +57,9 @@ of at most 7 modules)."""
 BASELINES = ("greedy", "beam", "genetic", "centrosymmetric")
 LEARNED = ("ppo", "ppo-guided")
 OUTPUTS = ("report.md", "rows.csv", "summary.csv", "gap_vs_size.png")
+ROW_COLUMNS = ["band", "family", "task", "method", "planted", "lower_bound", "found", "verified",
+               "gap_to_planted_pct", "gap_to_bound", "seconds", "peak_MB", "note"]  # fmt: skip
+"""The columns of rows.csv, in order (:func:`task_row`; what ``--rows`` reads back)."""
 WARMUP_SECONDS = 5.0
 """Time limit of the untimed warm-up run that precedes each (method, palette, kind) in a fresh
 process, so that no timed run pays the one-off compilation and imports."""
@@ -406,21 +409,33 @@ def read_runs(paths: list[Path]) -> list[dict]:
 
 
 def read_rows(path: Path) -> list[dict]:
-    """The rows of an earlier run's ``rows.csv``, typed as :func:`task_row` makes them."""
+    """The rows of an earlier run's ``rows.csv``, typed as :func:`task_row` makes them; a
+    ValueError naming the file and the 1-based row (after the header) otherwise."""
     import csv
+    import math
 
     numbers = {"band": int, "planted": int, "lower_bound": int, "peak_MB": int, "seconds": float}
     rows = []
-    with open(path, newline="") as fh:
-        for raw in csv.DictReader(fh):
-            row: dict = dict(raw)
-            for key, kind in numbers.items():
-                row[key] = kind(row[key])
-            row["found"] = "none" if row["found"] == "none" else int(row["found"])
-            row["verified"] = row["verified"] == "True"
-            for key, kind in (("gap_to_planted_pct", float), ("gap_to_bound", int)):
-                row[key] = kind(row[key]) if row[key] != "" else ""
-            rows.append(row)
+    try:
+        with open(path, newline="") as fh:
+            reader = csv.DictReader(fh)
+            if reader.fieldnames != ROW_COLUMNS:
+                raise ValueError(f"--rows {path}: its header is not {','.join(ROW_COLUMNS)}")
+            for i, raw in enumerate(reader, start=1):
+                try:
+                    row: dict = {**raw, **{key: kind(raw[key]) for key, kind in numbers.items()}}
+                    row["found"] = "none" if raw["found"] == "none" else int(raw["found"])
+                    row["verified"] = {"True": True, "False": False}[raw["verified"]]
+                    for key, kind in (("gap_to_planted_pct", float), ("gap_to_bound", int)):
+                        row[key] = kind(raw[key]) if raw[key] != "" else ""
+                    ok = None not in raw and 0 <= row["seconds"] < math.inf
+                except (KeyError, TypeError, ValueError):
+                    ok = False
+                if not ok or row["found"] != "none" and row["found"] < 1:
+                    raise ValueError(f"--rows {path}: row {i}: not a row of benchmarks.scale")
+                rows.append(row)
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise ValueError(f"--rows {path}: not a CSV file ({exc})") from None
     if not rows:
         raise ValueError(f"--rows {path}: no rows")
     return rows

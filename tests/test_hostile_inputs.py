@@ -359,6 +359,32 @@ def test_scale_refuses_a_missing_model_and_a_held_out_folder(tmp_path, capsys):
     assert "another run" in capsys.readouterr().err
 
 
+def test_scale_refuses_foreign_rows_in_one_line(tmp_path, capsys):
+    """--rows of another benchmark (missing columns), a row cut short, with a word for a
+    number, NaN seconds or zero modules, or a binary file: exit 2, one line naming the file
+    and the 1-based row; nothing written."""
+    from benchmarks import scale
+
+    header = ",".join(scale.ROW_COLUMNS) + "\n"
+    good = "16,planted,t,greedy,16,15,16,True,0.0,1,0.24,197,\n"
+    cases = {"other.csv": ("band,method\n16,greedy\n", "its header"),
+             "short.csv": (header + good + "16,planted,t,greedy\n", "row 2"),
+             "word.csv": (header + good.replace(",16,True", ",x,True"), "row 1"),
+             "nan.csv": (header + good.replace("0.24", "nan"), "row 1"),
+             "zero.csv": (header + good.replace(",16,True", ",0,True"), "row 1"),
+             "binary.csv": (None, "not a CSV file")}  # fmt: skip
+    for name, (text, message) in cases.items():
+        path = tmp_path / name
+        path.write_text(text) if text else path.write_bytes(bytes(range(128, 256)))
+        out = tmp_path / f"out-{name}"
+        assert run_main(scale.main, "scale", ["--rows", str(path), "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and f"{name}: {message}" in err, err
+        assert not out.exists()
+    (tmp_path / "good.csv").write_text(header + good)
+    assert scale.read_rows(tmp_path / "good.csv")[0]["found"] == 16
+
+
 def test_scale_keeps_the_rows_of_finished_runs_when_interrupted(monkeypatch):
     from benchmarks import scale
 
