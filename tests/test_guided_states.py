@@ -78,6 +78,30 @@ def test_restore_refuses_a_state_of_another_lookahead():
     envs[1].restore(envs[1].state)
 
 
+def test_restore_refuses_an_edited_state_in_one_line():
+    """A state whose rows no longer match its valid actions (an extra valid action, a row cut),
+    or whose arrays have another dtype or shape (a bool or int64 mask, float occupancy, a short
+    structure vector, no cells), is refused with a one-line ValueError, not numpy's IndexError
+    or TypeError from the observation."""
+    env = ModQuadAssemblyEnv(n_max=5, lookahead=True)
+    env.reset(options={"task": _task(5, 0)})
+    env.step(int(np.flatnonzero(env.action_masks())[0]))
+    state = env.state
+    mask = state.mask.copy()
+    mask[np.flatnonzero(mask == 0)[0]] = 1
+    edits = {"lookahead rows for": [{"mask": mask}, {"candidates": state.candidates[:-1]}],
+             "made by another env": [{"mask": state.mask.astype(bool)},
+                                     {"mask": state.mask.astype(np.int64)},
+                                     {"occupancy": state.occupancy.astype(float)},
+                                     {"structure_vec": state.structure_vec[:3]},
+                                     {"cells": None}]}  # fmt: skip
+    for message, changes in edits.items():
+        for change in changes:
+            with pytest.raises(ValueError, match=f"^restore: .*{message}[^\n]*$"):
+                env.restore(dataclasses.replace(state, **change))
+    env.restore(state)
+
+
 def _replayed(solver: GuidedSolver, task) -> GuidedSolver:
     """``solver`` whose environment restores a state by replaying its dockings from reset."""
     env, policy = solver.policy.env, solver.policy

@@ -180,14 +180,28 @@ def check_restore(current: Any, state: Any, n_actions: int, n_max: int) -> None:
         raise ValueError("restore: the state belongs to an episode of another task")
     same_shape = (
         np.shape(state.mask) == (n_actions,)
-        and np.shape(state.occupancy) == np.shape(current.occupancy)
+        and isinstance(state.cells, tuple)
         and len(state.cells) <= n_max
-        and np.shape(state.types_onehot) == np.shape(current.types_onehot)
-        and np.shape(state.candidates)[1:] == np.shape(current.candidates)[1:]
+        and layout(state) == layout(current)
     )
     if not same_shape:
         raise ValueError(
-            f"restore: the state was made by another environment ({len(state.cells)} modules, "
-            f"{np.size(state.mask)} actions; this one: n_max {n_max}, {n_actions} actions, its "
-            "module types and lookahead)"
+            f"restore: the state was made by another environment ({len(state.cells or ())} "
+            f"modules, {np.size(state.mask)} actions; this one: n_max {n_max}, {n_actions} "
+            "actions, its module types and lookahead)"
         )
+    rows = n_actions if current.faces is not None else np.count_nonzero(state.mask)
+    if state.candidates is not None and len(state.candidates) != rows:  # an edited state
+        raise ValueError(
+            f"restore: the state has {len(state.candidates)} lookahead rows for {rows} actions"
+        )
+
+
+def layout(state: Any) -> list[tuple]:
+    """What every state of one environment shares: its arrays' dtypes and shapes (the
+    lookahead rows' width, not their count, which follows the valid actions)."""
+    arrays = (state.mask, state.occupancy, state.structure_vec, state.types_onehot)
+    rows = state.candidates
+    return [(np.asarray(a).dtype, np.shape(a)) for a in arrays] + [
+        (np.asarray(rows).dtype, np.shape(rows)[1:])
+    ]
