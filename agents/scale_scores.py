@@ -69,15 +69,18 @@ def label_summary(labels: list[dict]) -> list[dict]:
     (where run), the guided search, the single pass and the target (each over the tasks it
     solved), and how often the guided search's answer was smaller than the default search's."""
 
+    def known(r, key) -> bool:  # a module count (rows read back from labels.csv hold text)
+        return r.get(key) not in (None, "", "None")
+
     def mean(rs, key):
-        xs = [int(r[key]) for r in rs if r.get(key) not in (None, "", "None")]
+        xs = [int(r[key]) for r in rs if known(r, key)]
         return round(float(np.mean(xs)), 2) if xs else ""
 
     out = []
     groups = {(int(row["round"]), row.get("family", "")): None for row in labels}
     for r, family in sorted(groups):
         rs = [row for row in labels if int(row["round"]) == r and row.get("family", "") == family]
-        won = sum(mean([x], "guided") != "" and mean([x], "search") != ""
+        won = sum(known(x, "guided") and known(x, "search")
                   and int(x["guided"]) < int(x["search"]) for x in rs)  # fmt: skip
         out.append({"round": r, "family": family, "tasks": len(rs), "search": mean(rs, "search"),
                     "greedy": mean(rs, "greedy"), "guided": mean(rs, "guided"),
@@ -118,7 +121,7 @@ def report(rows: list[dict], args, seconds: float, labels=(), made=()) -> str:
         "On each round's training tasks (`labels.csv`): mean modules of the default search "
         f"({args.search_seconds:g} s), the current policy's guided search and single pass, and "
         "of the target (the smallest); `guided_smaller`: tasks where the guided search's answer "
-        "was the target.",
+        "was smaller than the default search's.",
         "",
         markdown_table(label_summary(list(labels))),
         "",
