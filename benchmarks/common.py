@@ -186,6 +186,38 @@ def report_page(
     return "\n".join([f"# {title}", "", made, "", notes, "", markdown_table(rows), "", *more])
 
 
+def read_rows_csv(
+    path: Path, option: str, columns, typed: Callable, what: str, empty_ok: bool = False
+) -> list[dict]:
+    """The rows of an earlier run's CSV file ``path`` (header exactly ``columns``), each made by
+    ``typed(raw)`` (None, or a KeyError/TypeError/ValueError: not a row of ``what``); otherwise a
+    one-line ValueError naming ``option``, the file and the 1-based row after the header."""
+    import csv
+
+    try:
+        with open(path, newline="") as fh:
+            reader = csv.DictReader(fh)
+            if tuple(reader.fieldnames or ()) != tuple(columns):
+                raise ValueError(f"{option} {path}: its header is not {','.join(columns)}")
+            raws = list(reader)
+    except OSError as exc:
+        raise ValueError(f"{option} {path}: {exc.strerror}") from None
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise ValueError(f"{option} {path}: not a CSV file ({exc})") from None
+    rows = []
+    for i, raw in enumerate(raws, start=1):
+        try:  # a field beyond the header goes under the key None
+            row = typed(raw) if None not in raw else None
+        except (KeyError, TypeError, ValueError):
+            row = None
+        if row is None:
+            raise ValueError(f"{option} {path}: row {i}: not a row of {what}")
+        rows.append(row)
+    if not rows and not empty_ok:
+        raise ValueError(f"{option} {path}: no rows")
+    return rows
+
+
 def write_report(out: Path, stem: str, rows: list[dict], text: str) -> None:
     """A benchmark's report: ``rows`` to ``out/STEM.csv``, ``text`` to ``out/STEM.md``."""
     write_csv(rows, out / f"{stem}.csv")

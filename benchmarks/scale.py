@@ -34,6 +34,7 @@ from benchmarks.common import (
     load_average,
     machine_description,
     markdown_table,
+    read_rows_csv,
     run_main,
     write_csv,
 )
@@ -411,34 +412,19 @@ def read_runs(paths: list[Path]) -> list[dict]:
 def read_rows(path: Path) -> list[dict]:
     """The rows of an earlier run's ``rows.csv``, typed as :func:`task_row` makes them; a
     ValueError naming the file and the 1-based row (after the header) otherwise."""
-    import csv
-    import math
+    return read_rows_csv(path, "--rows", ROW_COLUMNS, typed_row, "benchmarks.scale")
 
+
+def typed_row(raw: dict) -> dict | None:
+    """A row of rows.csv typed as :func:`task_row` writes it; None for values it never writes."""
     numbers = {"band": int, "planted": int, "lower_bound": int, "peak_MB": int, "seconds": float}
-    rows = []
-    try:
-        with open(path, newline="") as fh:
-            reader = csv.DictReader(fh)
-            if reader.fieldnames != ROW_COLUMNS:
-                raise ValueError(f"--rows {path}: its header is not {','.join(ROW_COLUMNS)}")
-            for i, raw in enumerate(reader, start=1):
-                try:
-                    row: dict = {**raw, **{key: kind(raw[key]) for key, kind in numbers.items()}}
-                    row["found"] = "none" if raw["found"] == "none" else int(raw["found"])
-                    row["verified"] = {"True": True, "False": False}[raw["verified"]]
-                    for key, kind in (("gap_to_planted_pct", float), ("gap_to_bound", int)):
-                        row[key] = kind(raw[key]) if raw[key] != "" else ""
-                    ok = None not in raw and 0 <= row["seconds"] < math.inf
-                except (KeyError, TypeError, ValueError):
-                    ok = False
-                if not ok or row["found"] != "none" and row["found"] < 1:
-                    raise ValueError(f"--rows {path}: row {i}: not a row of benchmarks.scale")
-                rows.append(row)
-    except (UnicodeDecodeError, csv.Error) as exc:
-        raise ValueError(f"--rows {path}: not a CSV file ({exc})") from None
-    if not rows:
-        raise ValueError(f"--rows {path}: no rows")
-    return rows
+    row: dict = {**raw, **{key: kind(raw[key]) for key, kind in numbers.items()}}
+    row["found"] = "none" if raw["found"] == "none" else int(raw["found"])
+    row["verified"] = {"True": True, "False": False}[raw["verified"]]
+    for key, kind in (("gap_to_planted_pct", float), ("gap_to_bound", int)):
+        row[key] = kind(raw[key]) if raw[key] != "" else ""
+    finite = 0 <= row["seconds"] < float("inf")
+    return row if finite and (row["found"] == "none" or row["found"] >= 1) else None
 
 
 def command_line(args) -> str:

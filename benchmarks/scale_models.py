@@ -14,14 +14,20 @@ goal: upper end <= 0), and its total time over greedy's.
 
 from __future__ import annotations
 
-import csv
 import math
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import bench_args, markdown_table, report_page, write_csv, write_report
+from benchmarks.common import (
+    bench_args,
+    markdown_table,
+    read_rows_csv,
+    report_page,
+    write_csv,
+    write_report,
+)
 from benchmarks.measure import fresh
 from benchmarks.scale import run_band
 from benchmarks.scale_suites import load_scale_suite
@@ -52,31 +58,17 @@ def model_option(text: str) -> tuple[str, str]:
 def read_rows(path: Path) -> list[dict]:
     """The rows of an earlier run's rows.csv, typed; a ValueError naming the file and the
     1-based row (after the header) otherwise."""
-    try:
-        with open(path, newline="") as f:
-            reader = csv.DictReader(f)
-            if tuple(reader.fieldnames or ()) != COLUMNS:
-                raise ValueError(f"--reuse {path}: its header is not {','.join(COLUMNS)}")
-            raw = list(reader)
-    except OSError as exc:
-        raise ValueError(f"--reuse {path}: {exc.strerror}") from None
-    except (UnicodeDecodeError, csv.Error) as exc:
-        raise ValueError(f"--reuse {path}: not a CSV file ({exc})") from None
-    rows = []
-    for i, r in enumerate(raw, start=1):
-        try:
-            row = {"band": int(r["band"]), "family": r["family"], "task": r["task"],
-                   "method": r["method"], "found": int(r["found"]) if r["found"] else None,
-                   "seconds": float(r["seconds"])}  # fmt: skip
-        except (TypeError, ValueError):
-            row = None
-        if row is None or None in r or not plausible(row):
-            raise ValueError(
-                f"--reuse {path}: row {i}: not a row of benchmarks.scale_models (band 2-128, "
-                "a one-type family, task, method, found: modules or empty, seconds >= 0)"
-            )
-        rows.append(row)
-    return rows
+    what = ("benchmarks.scale_models (band 2-128, a one-type family, task, method, found: "
+            "modules or empty, seconds >= 0)")  # fmt: skip
+    return read_rows_csv(path, "--reuse", COLUMNS, typed_row, what, empty_ok=True)
+
+
+def typed_row(r: dict) -> dict | None:
+    """A row of rows.csv typed; None for values this benchmark never writes."""
+    row = {"band": int(r["band"]), "family": r["family"], "task": r["task"],
+           "method": r["method"], "found": int(r["found"]) if r["found"] else None,
+           "seconds": float(r["seconds"])}  # fmt: skip
+    return row if plausible(row) else None
 
 
 def plausible(row: dict) -> bool:
