@@ -286,7 +286,8 @@ def _new_model(config: TrainConfig, venv: Any, MaskablePPO: Any) -> Any:
     policy_kwargs: dict = {"net_arch": net_arch}
     if config.architecture == "candidates":
         from modquad_gym.geometry.module import palette
-        from modquad_gym.policy.network import CandidatePolicy, type_features
+        from modquad_gym.policy.inference import type_features
+        from modquad_gym.policy.network import CandidatePolicy
 
         policy = CandidatePolicy
         modules = get_tier(config.tier).modules

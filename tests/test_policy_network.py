@@ -22,7 +22,8 @@ def size_free_model(tmp_path_factory):
     """A briefly trained CandidatePolicy on 4-module grids, saved like a training run."""
     from sb3_contrib import MaskablePPO
 
-    from modquad_gym.policy.network import CandidatePolicy, type_features
+    from modquad_gym.policy.inference import type_features
+    from modquad_gym.policy.network import CandidatePolicy
     from modquad_gym.policy.policy import make_env
 
     torch.set_num_threads(1)

@@ -35,7 +35,6 @@ from torch.nn import functional as F  # noqa: N812
 
 from modquad_gym.envs.assembly.features import STRUCTURE_SCALARS, TASK_SCALARS
 from modquad_gym.policy.inference import TYPE_FEATURES, scaled_entries
-from modquad_gym.policy.inference import type_features as type_features  # its home before
 
 CELL_EXTRAS = 9 + 2 + TYPE_FEATURES
 """Per candidate beside its lookahead row: 3 x 3 occupancy patch, offset from the centre,
@@ -150,7 +149,7 @@ class CandidatePolicy(MaskableActorCriticPolicy):
     action logits, the critic is a linear read-out of its summary.
 
     Keywords (``policy_kwargs``): ``hidden`` (width, default 64), ``types`` (the palette's
-    :func:`type_features`, default one T-module)."""
+    :func:`~.inference.type_features`, default one T-module)."""
 
     size_free = True
     """Its weights do not depend on the number of actions: rebuilt for any environment."""
