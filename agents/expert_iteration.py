@@ -239,14 +239,25 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     the start model is loaded once to check it."""
     import sys
 
-    from modquad_gym.cli.common import time_limit_option
-    from modquad_gym.core.options import int_option, real_option, seed_option
-    from modquad_gym.policy.models import DEFAULT_MODEL, read_model
-
-    count = int_option(1, 1_000_000)
     p = argparse.ArgumentParser(
         prog="python -m agents.expert_iteration", description=__doc__.split("\n\n")[0]
     )
+    _round_options(p)
+    _draw_options(p)
+    _run_options(p)
+    args = p.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)
+    _check_args(p, args)
+    return args
+
+
+def _round_options(p: argparse.ArgumentParser) -> None:
+    """What one round does: its start model, tasks, searches and cloning."""
+    from modquad_gym.cli.common import time_limit_option
+    from modquad_gym.core.options import real_option
+    from modquad_gym.policy.models import DEFAULT_MODEL
+
+    count = int_option(1, 1_000_000)
     p.add_argument(
         "--model", type=Path, default=DEFAULT_MODEL, help="start model (default: shipped)"
     )
@@ -266,6 +277,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--n-max", type=int_option(8, 128), default=40,
                    help="module budget of the labelling environment, 8 to 128 (default 40; "
                         "a task with no structure within it gives no label)")  # fmt: skip
+
+
+def _draw_options(p: argparse.ArgumentParser) -> None:
+    """Which tasks are drawn and labelled, and where the models are scored."""
     p.add_argument(
         "--draws",
         type=draw_option,
@@ -305,6 +320,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument("--per-family", type=int_option(1, 1000), default=3,
                    help="validation draws per family and band (3)")  # fmt: skip
+
+
+def _run_options(p: argparse.ArgumentParser) -> None:
+    """How the run labels (workers, the learner's states, replay), its seed and its folder."""
+    from modquad_gym.core.options import seed_option
+
     p.add_argument("--workers", type=int_option(1, 256), default=2,
                    help="labelling processes (default 2)")  # fmt: skip
     p.add_argument(
@@ -328,8 +349,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         action="store_true",
         help="replace the files an earlier run wrote into --out (nothing else there)",
     )
-    args = p.parse_args(argv)
-    args.argv = list(sys.argv[1:] if argv is None else argv)
+
+
+def _check_args(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """What argparse cannot check alone: ranges across options, ``--out`` and the start model
+    (loaded once); each failure is ``p.error``'s one line and exit 2."""
+    from modquad_gym.policy.models import read_model
+
     if not 0 < args.learning_rate <= 1:
         p.error(f"--learning-rate {args.learning_rate:g}: give a rate in (0, 1]")
     if args.replay < 0:
@@ -342,7 +368,6 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     except ValueError as exc:  # OutputError too
         named = isinstance(exc, OutputError) or str(exc).startswith("--model")
         p.error(str(exc) if named else f"--model {args.model}: {exc}")
-    return args
 
 
 def output_names(args: argparse.Namespace) -> tuple[str, ...]:

@@ -16,7 +16,7 @@ tier (:mod:`modquad_gym.scoring.tiers`) fixes the environment, the task source a
    (:mod:`.validation`); the model with the best validation optimal share is kept (the cloned
    one unless fine-tuning builds more optimal designs). The cloned policy stays beside the
    checkpoints (``cloned_model.zip``) to measure what RL added. With ``--critic-warmup N`` only
-   the critic learns for the first N steps (:class:`CriticWarmup`: the actor's parameters are
+   the critic learns for the first N steps (:mod:`.critic_warmup`: the actor's parameters are
    frozen); off in the recipe.
 """
 
@@ -31,7 +31,6 @@ from typing import Any
 
 from agents.checks import check_publishable
 from agents.config import TrainConfig
-from modquad_gym.core.extras import import_optional
 from modquad_gym.core.outputs import atomic_write, write_text
 from modquad_gym.policy.inference import export, exported
 from modquad_gym.policy.models import DEFAULT_MODEL
@@ -40,56 +39,6 @@ from modquad_gym.scoring.tiers import get_tier
 RUN_FILES = ("model.zip", "model_actor.npz", "config.json", "evaluations.npz")
 """What a training run writes into its run folder (``model_actor.npz``: the model's actor for
 inference without torch, :mod:`modquad_gym.policy.inference`)."""
-
-
-def critic_parameters(policy: Any) -> set[str]:
-    """Names of the parameters of ``policy`` (an SB3 actor-critic) that only the critic uses:
-    its value head and the critic's own layers (``critic`` in the candidates network, the
-    ``value_net`` branch of SB3's MLP extractor). Every other parameter moves the actor."""
-    return {
-        name
-        for name, _ in policy.named_parameters()
-        if name.startswith(("value_net.", "mlp_extractor.value_net.", "vf_features_extractor."))
-        or name.startswith("features_extractor.critic.")
-    }
-
-
-def _critic_warmup_class():
-    """:class:`CriticWarmup`, built on first use so importing this module needs no SB3."""
-    BaseCallback = import_optional("stable_baselines3.common.callbacks").BaseCallback
-
-    class CriticWarmup(BaseCallback):
-        """Freezes every parameter of the actor for the first ``steps`` PPO steps, so the
-        critic fits the cloned policy's returns before any policy update (the first updates
-        then follow fitted advantages instead of a critic's errors)."""
-
-        def __init__(self, steps: int) -> None:
-            super().__init__()
-            self.steps = steps
-            self.frozen: list = []
-
-        def _on_training_start(self) -> None:
-            critic = critic_parameters(self.model.policy)
-            if self.num_timesteps < self.steps:
-                self.frozen = [p for name, p in self.model.policy.named_parameters()
-                               if name not in critic and p.requires_grad]  # fmt: skip
-                for p in self.frozen:
-                    p.requires_grad_(False)
-
-        def _on_step(self) -> bool:
-            if self.frozen and self.num_timesteps >= self.steps:
-                self.thaw()
-            return True
-
-        def _on_training_end(self) -> None:
-            self.thaw()
-
-        def thaw(self) -> None:
-            for p in self.frozen:
-                p.requires_grad_(True)
-            self.frozen = []
-
-    return CriticWarmup
 
 
 def _ppo_start(config: TrainConfig, model: Any, run_logs: Path, log_dir: Path) -> tuple:
@@ -119,75 +68,25 @@ def train(config: TrainConfig) -> Path:
     """Train; save ``model.zip``, ``config.json`` and ``evaluations.npz`` in ``config.out``."""
     import torch
     from sb3_contrib import MaskablePPO
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
-
-    from agents.validation import certified_validation, optimal_eval_class
-    from modquad_gym.envs.assembly import ModQuadAssemblyEnv
-    from modquad_gym.policy.ppo import make_env
-    from modquad_gym.scoring.suites import CyclingTasks
-    from modquad_gym.tasks import make_generator
 
     if config.out is None:
         raise ValueError("--out: a run folder is needed")
     t_start = time.perf_counter()
     torch.set_num_threads(config.threads)
-    out = Path(config.out)
-    out.mkdir(parents=True, exist_ok=True)
-    name = log_name(out, Path(config.tensorboard))
-    log_dir = Path(config.tensorboard) / name / "train"  # checkpoints, evaluations
-    log_dir.mkdir(parents=True, exist_ok=True)
-
-    vec_cls = SubprocVecEnv if config.vec_env == "subproc" else DummyVecEnv
-
-    def training_envs(tasks: Any) -> Any:
-        kwargs = {**config.env_kwargs_full, "tasks": tasks}
-        venv = vec_cls([lambda: make_env(**kwargs) for _ in range(config.n_envs)])
-        venv.seed(config.seed)
-        return venv
-
-    venv = training_envs(config.source)
+    out, name, log_dir = _run_folders(config)
+    venv = _training_envs(config, config.source)
     modules = get_tier(config.tier).search_kwargs().get("modules")
-    val = certified_validation(config.n_eval, config.validation_source, config.max_modules,
-                               modules)  # fmt: skip
-    val_tasks = CyclingTasks(val, name="validation")
-    eval_env = DummyVecEnv(
-        [lambda: make_env(tasks=val_tasks, n_max=config.max_modules, **config.eval_env_kwargs)]
-    )
+    val, eval_env = _validation(config, modules)
     model = _new_model(config, venv, MaskablePPO)
-    per_env = lambda steps: max(steps // config.n_envs, 1)  # noqa: E731
     for stale in ("best_model.zip", "evaluations.npz", "cloned_model.zip"):  # an earlier run's
         (log_dir / stale).unlink(missing_ok=True)
     imitation, cloned = _ppo_start(config, model, Path(config.tensorboard) / name, log_dir)
-    tasks, focus = make_generator(config.source), None
-    if config.focus_tasks and imitation is not None:
-        tasks, focus = _focus(config, model, modules, tasks)
-        venv.close()
-        venv = training_envs(tasks)
-        model.set_env(venv)
-    if config.advantage == "group":
-        sampler = ModQuadAssemblyEnv(**{**config.env_kwargs_full, "tasks": tasks})
-        model.set_sampler(sampler, config.group_size, [config.seed, 4])
-    eval_freq = config.eval_freq or max(config.timesteps // 20, 512)
-    eval_cb = optimal_eval_class()(
-        eval_env,
-        optima={t.name: t.meta["optimum"] for t in val},
-        n_eval_episodes=len(val),
-        eval_freq=per_env(eval_freq),
-        log_path=str(log_dir),
-        best_model_save_path=str(log_dir),
-        deterministic=True,
-        verbose=0,
-        at_start=imitation is not None,
-    )
-    checkpoints = CheckpointCallback(
-        per_env(config.checkpoint_freq), str(log_dir / "checkpoints"), name_prefix="ppo"
-    )
+    venv, focus = _training_tasks(config, model, modules, venv, imitation is not None)
     warmup = config.critic_warmup if imitation is not None else 0  # a cloned actor to keep
     t0 = time.perf_counter()
     model.learn(
         total_timesteps=config.timesteps,
-        callback=CallbackList([eval_cb, checkpoints, _critic_warmup_class()(warmup)]),
+        callback=_callbacks(config, eval_env, val, log_dir, imitation is not None, warmup),
         tb_log_name=name,
         progress_bar=config.progress,
         reset_num_timesteps=config.resume is None,
@@ -212,6 +111,95 @@ def train(config: TrainConfig) -> Path:
     eval_env.close()
     print(f"trained {model.num_timesteps} steps in {wall:.0f} s; model: {out / 'model.zip'}")
     return out / "model.zip"
+
+
+def _run_folders(config: TrainConfig) -> tuple[Path, str, Path]:
+    """The run folder, the run's name under ``tensorboard`` and its log folder (checkpoints,
+    evaluations), created."""
+    out = Path(config.out)
+    out.mkdir(parents=True, exist_ok=True)
+    name = log_name(out, Path(config.tensorboard))
+    log_dir = Path(config.tensorboard) / name / "train"
+    log_dir.mkdir(parents=True, exist_ok=True)
+    return out, name, log_dir
+
+
+def _training_envs(config: TrainConfig, tasks: Any) -> Any:
+    """``n_envs`` seeded training environments drawing from ``tasks``."""
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    from modquad_gym.policy.ppo import make_env
+
+    vec_cls = SubprocVecEnv if config.vec_env == "subproc" else DummyVecEnv
+    kwargs = {**config.env_kwargs_full, "tasks": tasks}
+    venv = vec_cls([lambda: make_env(**kwargs) for _ in range(config.n_envs)])
+    venv.seed(config.seed)
+    return venv
+
+
+def _validation(config: TrainConfig, modules: Any) -> tuple[list, Any]:
+    """The certified validation tasks and the environment that cycles through them."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from agents.validation import certified_validation
+    from modquad_gym.policy.ppo import make_env
+    from modquad_gym.scoring.suites import CyclingTasks
+
+    val = certified_validation(config.n_eval, config.validation_source, config.max_modules,
+                               modules)  # fmt: skip
+    val_tasks = CyclingTasks(val, name="validation")
+    eval_env = DummyVecEnv(
+        [lambda: make_env(tasks=val_tasks, n_max=config.max_modules, **config.eval_env_kwargs)]
+    )
+    return val, eval_env
+
+
+def _training_tasks(config: TrainConfig, model: Any, modules: Any, venv: Any,
+                    after_cloning: bool) -> tuple:  # fmt: skip
+    """The training environments (new ones drawing focused tasks with ``focus_tasks`` after
+    cloning) and the focus record; a group sampler on the same tasks with ``advantage
+    group``."""
+    from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+    from modquad_gym.tasks import make_generator
+
+    tasks, focus = make_generator(config.source), None
+    if config.focus_tasks and after_cloning:
+        tasks, focus = _focus(config, model, modules, tasks)
+        venv.close()
+        venv = _training_envs(config, tasks)
+        model.set_env(venv)
+    if config.advantage == "group":
+        sampler = ModQuadAssemblyEnv(**{**config.env_kwargs_full, "tasks": tasks})
+        model.set_sampler(sampler, config.group_size, [config.seed, 4])
+    return venv, focus
+
+
+def _callbacks(config: TrainConfig, eval_env: Any, val: list, log_dir: Path,
+               after_cloning: bool, warmup: int) -> Any:  # fmt: skip
+    """Validation (from step 0 after cloning; the best model kept), checkpoints and the
+    critic's warm-up of ``warmup`` steps."""
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
+
+    from agents.critic_warmup import critic_warmup_class
+    from agents.validation import optimal_eval_class
+
+    per_env = lambda steps: max(steps // config.n_envs, 1)  # noqa: E731
+    eval_freq = config.eval_freq or max(config.timesteps // 20, 512)
+    eval_cb = optimal_eval_class()(
+        eval_env,
+        optima={t.name: t.meta["optimum"] for t in val},
+        n_eval_episodes=len(val),
+        eval_freq=per_env(eval_freq),
+        log_path=str(log_dir),
+        best_model_save_path=str(log_dir),
+        deterministic=True,
+        verbose=0,
+        at_start=after_cloning,
+    )
+    checkpoints = CheckpointCallback(
+        per_env(config.checkpoint_freq), str(log_dir / "checkpoints"), name_prefix="ppo"
+    )
+    return CallbackList([eval_cb, checkpoints, critic_warmup_class()(warmup)])
 
 
 def _focus(config: TrainConfig, model: Any, modules: Any, generator: Any) -> tuple:

@@ -623,11 +623,22 @@ def page(entries: list[Entry], tiers: list[str], image: str, results_prefix: str
     """The leaderboard in Markdown; ``image`` is the plot's path from the page (the anytime
     curves lie beside it), ``results_prefix`` the path of ``results/`` files as written in the
     text."""
-    from modquad_gym.scoring.tiers import get_tier
-
     r = results_prefix
+    text = page_intro(entries, tiers, image)
+    for t in tiers:
+        mine = [e for e in entries if e.tier == t]
+        if mine:
+            text += tier_section(t, mine, r)
+    text += scale_section(r)
+    text += how_made(r)
+    text += how_to_add(r)
+    return "\n".join(text)
+
+
+def page_intro(entries: list[Entry], tiers: list[str], image: str) -> list[str]:
+    """The page's head: what is ranked and how, the at-a-glance table and both plots."""
     curves_image = image.replace("leaderboard.png", "leaderboard_anytime.png")
-    text = [
+    return [
         "# Leaderboard",
         "",
         f"Made by `{COMMAND}` from the committed reports (every number below is read from their "
@@ -664,43 +675,58 @@ def page(entries: list[Entry], tiers: list[str], image: str, results_prefix: str
         f"![tasks answered optimally within a time budget, per tier]({curves_image})",
         "",
     ]
-    for t in tiers:
-        tier = get_tier(t)
-        mine = [e for e in entries if e.tier == t]
-        if not mine:
-            continue
-        types = f"module types {tier.modules}" if tier.modules else "one module type"
-        tasks = max(e.full for e in mine if not e.status)
-        fault = (f", `fault=\"{tier.fault}\"`: an answer counts only when it still exerts every "
-                 f"task wrench after any single {tier.fault} failure, and the optimum is the "
-                 "smallest such structure" if tier.fault else "")  # fmt: skip
-        text += [
-            f"## Tier `{t}`",
-            "",
-            f"`{tier.env_id}`, {types}, n_max {tier.n_max}{fault}; held-out suites "
-            f"{', '.join(f'`{s}`' for s in tier.suites)}: {tasks} tasks whose certified optimum "
-            f"is within n_max.{_models(tier)}",
-            "",
-            *tier_table(mine),
-            "",
-        ]
-        one = sorted({n.removeprefix("one run: ") for e in mine for n in e.notes
-                      if n.startswith("one run:")})  # fmt: skip
-        if one:
-            where = "; ".join(f"`{r}{n.removeprefix('results/')}`" for n in one)
-            text += [f"‡ The shipped model's one run ({where}): the five-seed data file holds "
-                     "no per-task seconds or oracle calls (its optimal share may differ from "
-                     "the five seeds' mean).", ""]  # fmt: skip
-        notes = sorted({n.removeprefix("modules: ") for e in mine for n in e.notes
-                        if n.startswith("modules:")})  # fmt: skip
-        if notes:
-            where = "; ".join(f"`{r}{n.removeprefix('results/')}`" for n in notes)
-            text += [f"† Mean modules of the shipped model's one run ({where}): the five-seed "
-                     "data file predates its modules column.", ""]  # fmt: skip
-        sources = dict.fromkeys(e.source for e in mine if e.source)
-        text += ["Sources: " + "; ".join(_source(s, r) for s in sources) + ".", ""]
-    text += scale_section(r)
-    text += [
+
+
+def tier_section(t: str, mine: list[Entry], r: str) -> list[str]:
+    """One tier's section: what the tier is, its ranked table, its footnotes and sources
+    (``r``: the path of ``results/`` as written in the text)."""
+    from modquad_gym.scoring.tiers import get_tier
+
+    tier = get_tier(t)
+    types = f"module types {tier.modules}" if tier.modules else "one module type"
+    tasks = max(e.full for e in mine if not e.status)
+    fault = (f", `fault=\"{tier.fault}\"`: an answer counts only when it still exerts every "
+             f"task wrench after any single {tier.fault} failure, and the optimum is the "
+             "smallest such structure" if tier.fault else "")  # fmt: skip
+    text = [
+        f"## Tier `{t}`",
+        "",
+        f"`{tier.env_id}`, {types}, n_max {tier.n_max}{fault}; held-out suites "
+        f"{', '.join(f'`{s}`' for s in tier.suites)}: {tasks} tasks whose certified optimum "
+        f"is within n_max.{_models(tier)}",
+        "",
+        *tier_table(mine),
+        "",
+        *tier_footnotes(mine, r),
+    ]
+    sources = dict.fromkeys(e.source for e in mine if e.source)
+    return text + ["Sources: " + "; ".join(_source(s, r) for s in sources) + ".", ""]
+
+
+def tier_footnotes(mine: list[Entry], r: str) -> list[str]:
+    """The ‡ and † notes of a tier whose learned rows take a column from the shipped model's
+    one run (the five-seed data files lack it)."""
+    text = []
+    one = sorted({n.removeprefix("one run: ") for e in mine for n in e.notes
+                  if n.startswith("one run:")})  # fmt: skip
+    if one:
+        where = "; ".join(f"`{r}{n.removeprefix('results/')}`" for n in one)
+        text += [f"‡ The shipped model's one run ({where}): the five-seed data file holds "
+                 "no per-task seconds or oracle calls (its optimal share may differ from "
+                 "the five seeds' mean).", ""]  # fmt: skip
+    notes = sorted({n.removeprefix("modules: ") for e in mine for n in e.notes
+                    if n.startswith("modules:")})  # fmt: skip
+    if notes:
+        where = "; ".join(f"`{r}{n.removeprefix('results/')}`" for n in notes)
+        text += [f"† Mean modules of the shipped model's one run ({where}): the five-seed "
+                 "data file predates its modules column.", ""]  # fmt: skip
+    return text
+
+
+def how_made(r: str) -> list[str]:
+    """The page's section on where each number comes from (``r``: the path of ``results/``
+    as written in the text)."""
+    return [
         "## How the numbers are made",
         "",
         f"- **The budget**: a task counts within {BUDGET:g} s when the method's answer has the "
@@ -732,9 +758,7 @@ def page(entries: list[Entry], tiers: list[str], image: str, results_prefix: str
         "- **Seconds** are wall time per task on the machine each source names (2 shared "
         "cores, no GPU): compare them within a tier, with care.",
         "",
-        *how_to_add(r),
     ]
-    return "\n".join(text)
 
 
 def how_to_add(prefix: str) -> list[str]:
@@ -827,6 +851,25 @@ def build(tiers: list[str], out: Path, docs: Path | None, records: list[dict] | 
 
 
 def main(argv: list[str] | None = None) -> int:
+    p = parser()
+    args = p.parse_args(argv)
+    check_args(p, args)
+    try:
+        records = first_runs(args)
+    except ValueError as err:
+        p.error(str(err))
+    except KeyboardInterrupt:
+        print(f"{COMMAND}: interrupted; nothing written", file=sys.stderr)
+        return 130
+    out = args.out or RESULTS
+    docs = DOCS if args.out is None else None
+    path = build(args.tiers, out, docs, records)
+    print(path.read_text())
+    return 0
+
+
+def parser() -> argparse.ArgumentParser:
+    """The command's options: what to run first, an outside agent to score, where to write."""
     from modquad_gym.core.options import int_option
 
     p = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n\n")[0])
@@ -878,7 +921,14 @@ def main(argv: list[str] | None = None) -> int:
         f"--anytime-history, results/{RESCORED} or results/{ANYTIME}); default: refuse",
     )
     p.add_argument("--no-progress", action="store_true")
-    args = p.parse_args(argv)  # fmt: skip
+    return p
+
+
+def check_args(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Options that do not go together, and every file the run would write, checked before
+    any work (``p.error``: one line, exit 2)."""
+    from modquad_gym.core.outputs import check_output_dir
+
     if args.solver and args.out is None:
         p.error("--solver needs --out: the committed leaderboard holds committed data only")
     if args.out is None and sorted(args.tiers) != sorted(TIERS):
@@ -887,8 +937,6 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--limit goes with --solver")
     if len(set(args.seeds)) != len(args.seeds):
         p.error(f"--seeds: a seed is given twice: {args.seeds}")
-    from modquad_gym.core.outputs import check_output_dir
-
     written = OUTPUTS if args.solver else OUTPUTS[:-1]
     try:
         if args.out is None:
@@ -900,25 +948,18 @@ def main(argv: list[str] | None = None) -> int:
             check_output_dir(args.out, written, args.force)
     except ValueError as err:
         p.error(str(err))
-    try:
-        if args.rescore_searches:
-            print(rescore_searches(progress=not args.no_progress))
-        if args.anytime_history:
-            print(anytime_history(progress=not args.no_progress))
-        records = None
-        if args.solver:
-            records = score_agent(args.solver, args.tiers, args.limit, args.seeds,
-                                  not args.no_progress)  # fmt: skip
-    except ValueError as err:
-        p.error(str(err))
-    except KeyboardInterrupt:
-        print(f"{COMMAND}: interrupted; nothing written", file=sys.stderr)
-        return 130
-    out = args.out or RESULTS
-    docs = DOCS if args.out is None else None
-    path = build(args.tiers, out, docs, records)
-    print(path.read_text())
-    return 0
+
+
+def first_runs(args: argparse.Namespace) -> list[dict] | None:
+    """The runs asked for before the page is built: the rescored searches, the anytime
+    history, and the outside agent's records (None without ``--solver``)."""
+    if args.rescore_searches:
+        print(rescore_searches(progress=not args.no_progress))
+    if args.anytime_history:
+        print(anytime_history(progress=not args.no_progress))
+    if not args.solver:
+        return None
+    return score_agent(args.solver, args.tiers, args.limit, args.seeds, not args.no_progress)
 
 
 if __name__ == "__main__":

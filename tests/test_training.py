@@ -146,7 +146,8 @@ def test_critic_warmup_keeps_the_actor_and_fits_the_critic(tmp_path, suite, warm
     from sb3_contrib import MaskablePPO
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from agents.training import _critic_warmup_class, _new_model, critic_parameters
+    from agents.critic_warmup import critic_parameters, critic_warmup_class
+    from agents.training import _new_model
     from modquad_gym.policy.ppo import make_env
 
     config = TrainConfig(out=tmp_path / "run", task_source=str(suite), n_max=3, seed=0,
@@ -155,7 +156,7 @@ def test_critic_warmup_keeps_the_actor_and_fits_the_critic(tmp_path, suite, warm
     venv = DummyVecEnv([lambda: make_env(**config.env_kwargs_full)])
     model = _new_model(config, venv, MaskablePPO)
     before = {n: p.detach().clone() for n, p in model.policy.named_parameters()}
-    model.learn(128, callback=_critic_warmup_class()(warmup))
+    model.learn(128, callback=critic_warmup_class()(warmup))
     critic = critic_parameters(model.policy)
     assert critic and critic < set(before)
     moved = {n for n, p in model.policy.named_parameters() if not torch.equal(p, before[n])}

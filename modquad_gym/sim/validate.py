@@ -102,20 +102,11 @@ def hover_wrench_sample(margins: np.ndarray, k: int | None, seed: int = 0) -> np
     return np.sort(np.concatenate([hardest, drawn]))
 
 
-def validate(
-    structure: Structure,
-    task: Any,
-    f_max: float | None = None,
-    out_dir: str | Path | None = None,
-    hover_seconds: float = 2.0,
-    render: bool = True,
-    include_infeasible_demo: bool = False,
-    max_hover_wrenches: int | None = None,
-    unknown_load: bool = True,
-    load_frame: str = "world",
-    load_ramp_seconds: float = 1.0,
-    kind: str | None = None,
-) -> ValidationReport:
+def validate(structure: Structure, task: Any, f_max: float | None = None,
+             out_dir: str | Path | None = None, hover_seconds: float = 2.0, render: bool = True,
+             include_infeasible_demo: bool = False, max_hover_wrenches: int | None = None,
+             unknown_load: bool = True, load_frame: str = "world", load_ramp_seconds: float = 1.0,
+             kind: str | None = None) -> ValidationReport:  # fmt: skip
     """Bench and hover ``structure`` on ``task_wrenches``; write pictures and a report.
 
     For a task of ``kind`` ``external`` the wrenches are those applied to the environment: the
@@ -162,16 +153,7 @@ def validate(
         ``unreachable_wrench_directions``, ``feasible`` (every wrench feasible per the oracle)
         and ``files``.
     """
-    if not isinstance(structure, Structure):
-        raise ValueError(
-            f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
-        )
-    task = as_task(task).with_f_max(f_max).with_kind(kind)
-    kind = task.kind
-    W = check_wrenches(task.rotor_wrenches(structure))
-    f_max = check_f_max(task.f_max)
-    if unknown_load and not load_ramp_seconds >= 0:
-        raise ValueError(f"load_ramp_seconds must be >= 0, got {load_ramp_seconds}")
+    task, W, f_max = _checked(structure, task, f_max, kind, unknown_load, load_ramp_seconds)
     A = np.array(structure.configuration_matrix())
     feas = np.asarray(feasible(A, W, f_max), dtype=bool)
     marg = margin(A, W, f_max)
@@ -183,14 +165,9 @@ def validate(
     )
     hover = run_hover(fly_sim, W_hover, config)
     report = ValidationReport(
-        **_structure_fields(structure, A, W, f_max, feas, marg, fly_sim.mass, kind),
+        **_structure_fields(structure, A, W, f_max, feas, marg, fly_sim.mass, task.kind),
         **_bench_fields(exact, pinv),
-        hover_load_frame=load_frame,
-        hover_seconds_per_wrench=hover_seconds,
-        hover_wrenches=len(W_hover),
-        hover_n_feasible=int(feas[: len(W_hover)].sum()),
-        hover=HoverSummary.of(hover),
-        hover_takeoff=next((s for s in hover.segment_metrics if s["segment"] == -1), None),
+        **_hover_fields(hover, config, feas, len(W_hover)),
     )
     blind = demo = None
     if unknown_load:
@@ -202,6 +179,34 @@ def validate(
         runs = {"hover": hover, "hover_unknown_load": blind, "hover_infeasible": demo}
         _write(Path(out_dir), report, structure, fly_sim, exact, pinv, runs, render)
     return report
+
+
+def _checked(structure: Any, task: Any, f_max: float | None, kind: str | None,
+             unknown_load: bool, load_ramp_seconds: float) -> tuple:  # fmt: skip
+    """(the task with ``f_max`` and ``kind`` applied, its rotor wrenches on ``structure``, its
+    f_max), each input checked first (ValueError naming what is wrong)."""
+    if not isinstance(structure, Structure):
+        raise ValueError(
+            f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
+        )
+    task = as_task(task).with_f_max(f_max).with_kind(kind)
+    W = check_wrenches(task.rotor_wrenches(structure))
+    f_max = check_f_max(task.f_max)
+    if unknown_load and not load_ramp_seconds >= 0:
+        raise ValueError(f"load_ramp_seconds must be >= 0, got {load_ramp_seconds}")
+    return task, W, f_max
+
+
+def _hover_fields(hover, config: HoverConfig, feas: np.ndarray, n_hovered: int) -> dict:
+    """The report's fields of the known-load hover on ``n_hovered`` wrenches."""
+    return {
+        "hover_load_frame": config.load_frame,
+        "hover_seconds_per_wrench": config.seconds_per_wrench,
+        "hover_wrenches": n_hovered,
+        "hover_n_feasible": int(feas[:n_hovered].sum()),
+        "hover": HoverSummary.of(hover),
+        "hover_takeoff": next((s for s in hover.segment_metrics if s["segment"] == -1), None),
+    }
 
 
 def _unknown_load_hover(report: ValidationReport, fly_sim, W_hover, config, ramp: float):
