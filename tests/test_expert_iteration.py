@@ -134,3 +134,34 @@ def test_a_runs_page_names_its_draws_rounds_and_labels():
     text = report([{"round": 3, "states": 9}], args, 60.0, labels, [3])
     assert "Rounds 3: 4 training tasks" in text and "torque 10-24, planted 16-40" in text
     assert "greedy's (first on ties)" in text and "| 3 | torque | 1 | 12 | 14 | 13 |" in text
+
+
+def test_the_options_keep_their_defaults_and_cross_checks(tmp_path, capsys):
+    """Every option's default, as a run without options reads them; each check across options
+    is argparse's one line and exit 2, before any work."""
+    from pathlib import Path
+
+    from agents.expert_iteration import parse_args
+    from modquad_gym.policy.models import DEFAULT_MODEL
+
+    out = tmp_path / "exit"
+    args = vars(parse_args(["--out", str(out)]))
+    assert args == {
+        "model": DEFAULT_MODEL, "rounds": 2, "tasks": 48, "search_seconds": 4.0, "budget": 64,
+        "epochs": 25, "learning_rate": 3e-4, "n_max": 40, "draws": list(DRAWS),
+        "greedy": False, "bands": [16, 24, 32], "first_round": 1, "score_start": True,
+        "per_family": 3, "workers": 2, "learner": True, "replay": 800, "seed": 0, "out": out,
+        "force": False, "argv": ["--out", str(out)],
+    }  # fmt: skip
+    assert parse_args(["--out", str(out), "--draws", "payload:16-64"]).draws == [
+        ("payload", 16, 64)
+    ]
+    for bad, says in ((["--learning-rate", "2"], "--learning-rate 2: give a rate in (0, 1]"),
+                      (["--bands", "16", "16"], "--bands 16 16: a band given twice"),
+                      (["--model", str(tmp_path / "none.zip")], "does not exist"),
+                      (["--draws", "planted:1-8"], "sizes LOW-HIGH")):  # fmt: skip
+        with pytest.raises(SystemExit) as stop:
+            parse_args(["--out", str(out), *bad])
+        last = capsys.readouterr().err.strip().splitlines()[-1]
+        assert stop.value.code == 2 and says in last, (bad, last)
+    assert not out.exists() and isinstance(args["model"], Path)

@@ -216,6 +216,21 @@ def test_an_outside_agent_joins_with_one_command(board, tmp_path, monkeypatch, c
     assert exit_.value.code == 2 and "--force" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    "argv, says",
+    [
+        (["--tiers", "current"], "--tiers needs --out: the committed leaderboard holds every tier"),
+        (["--limit", "3"], "--limit goes with --solver"),
+        (["--seeds", "1", "1", "--out", "x"], "--seeds: a seed is given twice: [1, 1]"),
+    ],
+)
+def test_options_that_do_not_go_together_are_refused_before_work(board, argv, says, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        board.main(argv)
+    assert exit_.value.code == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].endswith(f"error: {says}")
+
+
 def test_the_scale_section_is_the_five_seed_scale_reports(board, tmp_path):
     lines = board.scale_section("results/")
     rows = [line for line in lines if line.startswith("| ") and not line.startswith("| band")]

@@ -413,8 +413,21 @@ def test_validate_report_names_the_hovered_subset(tmp_path):
         unknown_load=False,
     ).to_dict()
     assert out["hover_wrenches"] == 1 and "hover_unknown_load_max_position_error_m" not in out
+    assert (out["hover_load_frame"], out["hover_seconds_per_wrench"]) == ("world", 0.3)
+    assert out["hover_n_feasible"] == 1 and out["hover_takeoff"]["segment"] == -1
     report = (tmp_path / "report.md").read_text()
     assert "first 1 of 3 wrenches" in report
     assert "0.151" in report  # the line's unreachable direction, explained
     assert out["unreachable_wrench_directions"][0]["point"][2] == pytest.approx(0.1514, abs=1e-4)
     assert set(out["files"]) == {"rotor_inputs", "bench_wrench", "hover", "report", "json"}
+
+
+def test_validate_refuses_bad_input_before_simulating():
+    s = mq.Structure([(0, 0)])
+    W = _interior_wrenches(s, 1, seed=0)
+    with pytest.raises(ValueError, match="structure must be a modquad_gym.Structure, got list"):
+        validate([(0, 0)], W)
+    with pytest.raises(ValueError, match="load_ramp_seconds must be >= 0, got -1"):
+        validate(s, W, load_ramp_seconds=-1)
+    with pytest.raises(ValueError, match="f_max"):
+        validate(s, W, f_max=-1.0)
