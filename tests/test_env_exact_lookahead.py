@@ -209,19 +209,23 @@ def reference_rows(ev, keys, task, mass) -> list[tuple[float, float]]:
         ("paper", {}),
     ],
 )
-def test_the_exact_rows_are_those_of_the_plain_reference_on_many_states(source, kwargs):
+def test_the_exact_rows_are_those_of_the_plain_reference_on_many_states(
+    source, kwargs, monkeypatch
+):
     """The capped walk started at the parent's optimal vertices and the shares read off gamma
     give the rows of the plain reference (every child decided, every gamma to its optimum by a
     cold walk): shares equal, margins within 1e-10 (a degenerate optimum measured at another
     of its vertices: the walk's gamma is exact to 1e-9, its float32 entry the same), on every
     state of random episodes."""
+    from modquad_gym.envs.assembly import lookahead
+
     env = ModQuadAssemblyEnv(tasks=source, n_max=5, lookahead="exact", **kwargs)
     checked, warm = [], []
 
-    def checking(keys, task, mass, memo, exact_memo, *warm_start):
-        got = original(keys, task, mass, memo, exact_memo, *warm_start)
-        warm.append(warm_start[1] is not None)
-        want = reference_rows(env.evaluator, keys, task, mass)
+    def checking(ev, keys, task, mass, memo, exact_memo, walks=None, lines=None):
+        got = original(ev, keys, task, mass, memo, exact_memo, walks, lines)
+        warm.append(lines is not None and lines[0].start is not None)
+        want = reference_rows(ev, keys, task, mass)
         for (share, margin_), (share_ref, margin_ref) in zip(got, want):
             assert share == share_ref
             assert abs(margin_ - margin_ref) <= 1e-10
@@ -229,16 +233,15 @@ def test_the_exact_rows_are_those_of_the_plain_reference_on_many_states(source, 
         return got
 
     rng = np.random.default_rng(7)
+    original = lookahead.exact_rows
+    monkeypatch.setattr(lookahead, "exact_rows", checking)
     for episode in range(6):
         env.reset(seed=episode)
-        original = env.evaluator.exact_rows
-        env.evaluator.exact_rows = checking
         done = False
         while not done:
             valid = np.flatnonzero(env.action_masks())
             *_, terminated, truncated, _ = env.step(int(rng.choice(valid)))
             done = terminated or truncated
-        del env.evaluator.exact_rows
     assert len(checked) > 30 and any(warm)
     margins = np.array([m for _, m in checked])
     assert (margins > -1).any() and (margins < 1).any()
@@ -302,12 +305,15 @@ def test_the_per_structure_caches_are_bounded_by_columns_not_entries(monkeypatch
         (PlantedTasks(n_modules=(10, 16)), {}, 16),
     ],
 )
-def test_warm_started_walks_leave_the_shipped_observation_as_it_was(source, kwargs, n_max):
-    """The shipped policy's observation (``"exact"`` with its shortlist) with each child's
-    walks started at its parent's optimal vertices equals the plain path's (every walk cold),
-    state by state on random episodes: masks and the flag on greedy's choice identical, every
-    entry within float32 round-off."""
-    from modquad_gym.envs.assembly import lookahead
+def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
+    source, kwargs, n_max, monkeypatch
+):
+    """The shipped policy's observation (``"exact"`` with its shortlist) with what each child
+    takes from its parent (walks started at the parent's optimal vertices, no walk where the
+    shortlist's bounds prove gamma past the clip) equals the plain path's (every walk cold,
+    every wrench walked), state by state on random episodes: masks and the flag on greedy's
+    choice identical, every entry within float32 round-off; and each shortcut was taken."""
+    from modquad_gym.envs.assembly import exact, lookahead
 
     def episodes(env) -> list:
         rng, out = np.random.default_rng(3), []
@@ -321,19 +327,26 @@ def test_warm_started_walks_leave_the_shipped_observation_as_it_was(source, kwar
                 done = terminated or truncated
         return out
 
+    taken = {"start": 0, "proved": 0}
+    walk = exact.gamma_capped_from
+
+    def counting_walk(z, W, cap, start=None, lower=None):
+        taken["start"] += start is not None
+        taken["proved"] += 0 if lower is None else int(exact.proved_above(lower, cap).sum())
+        return walk(z, W, cap, start, lower)
+
+    monkeypatch.setattr(exact, "gamma_capped_from", counting_walk)
     make = dict(tasks=source, n_max=n_max, lookahead="exact", lookahead_top_k=8, **kwargs)
-    warm = episodes(ModQuadAssemblyEnv(**make))
-    original = lookahead.warm_starts
-    try:
-        lookahead.warm_starts = lambda *args: None  # every walk from the dual-metric direction
-        plain = episodes(ModQuadAssemblyEnv(**make))
-    finally:
-        lookahead.warm_starts = original
-    assert len(warm) == len(plain) > 8
-    for got, want in zip(warm, plain):
+    fast = episodes(ModQuadAssemblyEnv(**make))
+    assert taken["start"]
+    monkeypatch.setattr(lookahead, "lineages", lambda *args: None)  # the plain path
+    plain = episodes(ModQuadAssemblyEnv(**make))
+    assert len(fast) == len(plain) > 8
+    for got, want in zip(fast, plain):
         assert got.keys() == want.keys()
         np.testing.assert_array_equal(got["action_mask"], want["action_mask"])
         rows = got["candidates"].reshape(len(got["action_mask"]), -1)
         np.testing.assert_array_equal(rows[:, -1], want["candidates"].reshape(rows.shape)[:, -1])
         for name in got:
             np.testing.assert_allclose(got[name], want[name], rtol=1e-6, atol=1e-7)
+    assert taken["proved"] or n_max < 16  # wrenches proved past the clip: larger structures

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+from modquad_gym.envs.assembly.exact import exact_rows
 from modquad_gym.envs.assembly.lookahead import (
     FLAT,
     GREEDY,
@@ -18,6 +19,7 @@ from modquad_gym.envs.assembly.lookahead import (
     child_keys,
     children,
     greedy_choice,
+    margin_bound,
     parent_directions,
     ranked,
     ratios,
@@ -78,9 +80,10 @@ def test_the_bounds_never_fall_below_the_exact_share_and_margin(source, kwargs):
             valid = np.flatnonzero(state.mask)
             rays = None if state.task.per_structure else parent_directions(ep, state)
             for _acts, cells, k, mass in children(ep, state, valid):
-                share, mean_margin = child_bounds(ep, state, cells, k, mass, rays)
+                share, gamma = child_bounds(ep, state, cells, k, mass, rays)
+                mean_margin = margin_bound(gamma)
                 keys = child_keys(ep, state, cells, k)
-                exact = env.evaluator.exact_rows(keys, state.task, mass, ep.memo, ep.exact_memo)
+                exact = exact_rows(env.evaluator, keys, state.task, mass, ep.memo, ep.exact_memo)
                 for s, m, (s_exact, m_exact) in zip(share, mean_margin, exact):
                     assert s >= s_exact and m >= m_exact - 1e-9
                     checked += 1

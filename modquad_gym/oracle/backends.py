@@ -128,14 +128,15 @@ def gamma_with(z: Zonotope, W: np.ndarray, method: str, cap: float = np.inf) -> 
 
 
 def gamma_capped_from(
-    z: Zonotope, W: np.ndarray, cap: float, start: tuple | None = None
+    z: Zonotope, W: np.ndarray, cap: float, start: tuple | None = None, lower=None
 ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """(:func:`gamma_with` by the compiled walk with ``cap`` (< ``_FAR``), each row's optimal
     vertex: (tight columns int (t, rank - 1), column bounds int8 (t, m)), -1 and 0 where the
     walk stopped elsewhere), the walk of row i started at the vertex ``start`` gives it
     (:func:`~.compiled.gamma_compiled_from`; None: every walk from the dual-metric direction).
     The same gamma up to round-off; a row proved above ``cap`` may get another proved bound
-    above it."""
+    above it: a row whose finite ``lower`` bound (t,) (the caller's proof) exceeds ``cap`` by
+    far more than round-off (:func:`proved_above`) gets that bound, no walk."""
     R, off = z.reduce(W)
     out = np.full(len(W), np.inf)
     tights = np.full((len(W), max(z.rank - 1, 1)), -1, dtype=np.int64)
@@ -144,6 +145,10 @@ def gamma_capped_from(
     box = max(float(z.box.max()), 1e-300)
     far = t > _FAR * box
     out[far] = t[far] / box
+    if lower is not None:
+        known = proved_above(lower, cap) & ~far
+        out[known] = lower[known]
+        far |= known
     near = np.flatnonzero(~off & ~far)
     if len(near):
         begin = (tights[near], signs[near]) if start is None else (start[0][near], start[1][near])
@@ -152,6 +157,12 @@ def gamma_capped_from(
         tights[near], signs[near] = T, S
     out[off] = np.inf
     return out, (tights, signs)
+
+
+def proved_above(lower: np.ndarray, cap: float) -> np.ndarray:
+    """bool (t,): where the gamma lower bounds ``lower`` are finite and above ``cap`` by a
+    relative 1e-9 (far beyond their round-off): proof that gamma > ``cap``."""
+    return np.isfinite(lower) & (lower > cap * (1.0 + 1e-9))
 
 
 def decide_with(z: Zonotope, W: np.ndarray, method: str) -> np.ndarray:

@@ -47,9 +47,7 @@ from modquad_gym.geometry.structure import (
     mixed_configuration_matrices,
 )
 from modquad_gym.oracle import WrenchOracle
-from modquad_gym.oracle.backends import gamma_capped_from
 from modquad_gym.oracle.faults import FaultTolerance, failure_sets
-from modquad_gym.oracle.tolerance import BAND, TOL, decide_from_gamma, margin_from_gamma
 
 CACHE_SIZE = 16384
 """Entries per cache before it is cleared (there are 1,067 structures of at most 7 modules)."""
@@ -63,9 +61,6 @@ CACHED_CELLS = 2**18
 128 cells takes ~8 kB: 16,384 of them took 130 MB): 16,384 keys up to 16 modules, 2,048 at 128."""
 MEMO_TASKS = 16
 """Tasks whose decisions are remembered."""
-CLIP_GAMMA = 2.0
-"""The exact lookahead's margins are clipped at ``1 - CLIP_GAMMA`` = -1: past it, gamma itself is
-not needed."""
 COMPILED_FROM = 17
 """Structures of at least this many modules build their matrix with :func:`_matrix`."""
 
@@ -289,61 +284,6 @@ class StructureEvaluator:
             h, slack = self.supports_of(missing)
             memo.update(zip(missing, self.features.candidates(h, slack, h_Tn, WD)))
         return [memo[k] for k in keys]
-
-    def exact_rows(
-        self,
-        keys: list,
-        task: TaskArrays,
-        mass: float,
-        memo: dict,
-        exact_memo: dict,
-        walks: dict | None = None,
-        starts: list | None = None,
-    ) -> list[tuple[float, float]]:
-        """(satisfied share, mean margin clipped to [-1, 1]) of the child structures ``keys``
-        (one size, one mass) against ``task``: what the greedy rule ranks children by
-        (:func:`~modquad_gym.search.baselines.greedy_search`), from the exact oracle, memoised
-        per task in ``exact_memo``.
-
-        The margins are ``1 - gamma`` by the compiled walk (as :func:`~modquad_gym.oracle.margin`,
-        without its sign repair within the LP's accuracy of the boundary: a feature, not a
-        decision), which stops as soon as it proves gamma > :data:`CLIP_GAMMA` (the margin is
-        then -1 whatever gamma is). The share is the one a step to that child would report:
-        read off gamma (the tolerance rule, on which every method agrees outside
-        :data:`~modquad_gym.oracle.tolerance.BAND`), or, with a ``fault`` or a gamma within the
-        band of the threshold, decided through :meth:`evaluate` (whose ``memo`` the step then
-        hits).
-
-        Warm starts: each walk's optimal vertex per wrench (tight columns int16 (t, rank - 1),
-        column bounds int8 (t, m)) goes to ``walks`` (key -> both), and the walks of key i
-        start at the vertices ``starts[i]`` (the parent's, renumbered to the child's columns;
-        None: cold): the same gammas up to round-off, in a fraction of the pivots."""
-        starts = dict(zip(keys, starts)) if starts is not None else {}
-        for k in dict.fromkeys(keys):
-            if k in exact_memo:
-                continue
-            own = self.task_of(task, k)
-            W = self.at_mass(own, mass)[0]
-            z = self.oracle.cached(k)  # else from its matrix: supports wait for a docking
-            if z is None:
-                z = self.oracle.zonotope(self.matrix_of(k), key=k)
-            start = starts.get(k)
-            if start is not None and start[0].shape != (len(W), max(z.rank - 1, 1)):
-                start = None  # another rank (or wrench count): no vertex to start from
-            gamma, (tights, signs) = gamma_capped_from(z, W, CLIP_GAMMA, start)
-            if walks is not None:
-                walks[k] = (tights.astype(np.int16), signs)
-            self.tests += len(W)
-            decided = memo.get(k)
-            if decided is not None:
-                n_sat = decided[0]
-            elif self.fault is None and not np.any(np.abs(gamma - (1.0 + TOL)) <= BAND):
-                n_sat = int(np.count_nonzero(decide_from_gamma(gamma)))
-            else:
-                n_sat = self.evaluate(k, own, mass, memo)[0]
-            margins = np.clip(margin_from_gamma(gamma), -1.0, 1.0)
-            exact_memo[k] = (n_sat / len(W), float(margins.mean()))
-        return [exact_memo[k] for k in keys]
 
 
 class MixedStructureEvaluator(StructureEvaluator):

@@ -98,8 +98,11 @@ class Faces:
         sites = np.append(state.sites, c)
         return {"occupancy": occ, "faces": faces, "sites": sites, "mask": self._mask(len(faces))}
 
-    def candidates(self, ep: Episode, state: AssemblyState) -> np.ndarray:
-        """The candidate rows (n_actions, k) of ``state`` (module docstring)."""
+    def candidates(
+        self, ep: Episode, state: AssemblyState, bounds: dict | None = None
+    ) -> np.ndarray:
+        """The candidate rows (n_actions, k) of ``state`` (module docstring); ``bounds``: see
+        :func:`~.lookahead.candidate_rows`."""
         geo = self._geometry(state)
         rows = np.zeros((self.n_types, self.slots, self.width(ep.rules.lookahead)), np.float32)
         rows[:, : len(geo), :FACE_FEATURES] = geo
@@ -108,7 +111,7 @@ class Faces:
                 rows[k, : len(geo), FACE_FEATURES + k] = 1.0
         rows = rows.reshape(self.n_actions, -1)
         if ep.rules.lookahead:
-            rows[:, -lookahead_width(ep.rules.lookahead) :] = candidate_rows(ep, state)
+            rows[:, -lookahead_width(ep.rules.lookahead) :] = candidate_rows(ep, state, bounds)
         return rows
 
     def _geometry(self, state: AssemblyState) -> np.ndarray:

@@ -119,13 +119,16 @@ class Grid:
             onehot[a] = 1
         return {"occupancy": occ, "mask": mask, "types_onehot": onehot}
 
-    def candidates(self, ep: Episode, state: AssemblyState) -> np.ndarray | None:
+    def candidates(
+        self, ep: Episode, state: AssemblyState, bounds: dict | None = None
+    ) -> np.ndarray | None:
         """The lookahead rows of the valid actions, in action order (``lookahead`` on), else
         None: every other row is zero, and a state kept by a planner should not hold G * G of
-        them (the observation fills them in, :func:`~.features.observation_blocks`)."""
+        them (the observation fills them in, :func:`~.features.observation_blocks`).
+        ``bounds``: see :func:`~.lookahead.candidate_rows`."""
         if not ep.rules.lookahead:
             return None
-        return candidate_rows(ep, state)[state.mask.view(bool)]  # mask: 0 or 1
+        return candidate_rows(ep, state, bounds)[state.mask.view(bool)]  # mask: 0 or 1
 
     def valid_cells(self, state: AssemblyState) -> set[Cell]:
         """The cells where a module may dock now (any type)."""

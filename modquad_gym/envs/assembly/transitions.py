@@ -65,10 +65,10 @@ def _with_candidates(ep: Episode, state: AssemblyState) -> AssemblyState:
     """``state`` with its ``"candidates"`` rows, where the encoding has them (the exact
     lookahead's oracle tests counted in ``oracle_calls``), its actions cut to the lookahead's
     shortlist with ``lookahead_top_k``."""
-    before = ep.evaluator.tests
+    before, bounds = ep.evaluator.tests, {}
     if ep.rules.top_k is not None:
-        state = shortlisted(ep, state)
-    rows = ep.actions.candidates(ep, state)
+        state, bounds = shortlisted(ep, state)
+    rows = ep.actions.candidates(ep, state, bounds)
     if rows is None:
         return state
     return state.but(candidates=rows, oracle_calls=state.oracle_calls + ep.evaluator.tests - before)
