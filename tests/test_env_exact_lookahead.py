@@ -309,11 +309,13 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
     source, kwargs, n_max, monkeypatch
 ):
     """The shipped policy's observation (``"exact"`` with its shortlist) with what each child
-    takes from its parent (walks started at the parent's optimal vertices, no walk where the
-    shortlist's bounds prove gamma past the clip) equals the plain path's (every walk cold,
-    every wrench walked), state by state on random episodes: masks and the flag on greedy's
-    choice identical, every entry within float32 round-off; and each shortcut was taken."""
-    from modquad_gym.envs.assembly import exact, lookahead
+    takes from its parent and the shortlist (walks started at the parent's optimal vertices,
+    the shortlist's supports for its support rows, no walk where its bounds prove gamma past
+    the clip) equals the plain path's (every walk cold, every support computed again, every
+    wrench walked), state by state on random episodes: masks and the flag on greedy's choice
+    identical, every entry within float32 round-off; and each shortcut was taken."""
+    from modquad_gym.envs.assembly import exact, lookahead, transitions
+    from modquad_gym.envs.assembly.evaluator import StructureEvaluator
 
     def episodes(env) -> list:
         rng, out = np.random.default_rng(3), []
@@ -327,19 +329,26 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
                 done = terminated or truncated
         return out
 
-    taken = {"start": 0, "proved": 0}
-    walk = exact.gamma_capped_from
+    taken = {"start": 0, "proved": 0, "supports": 0}
+    walk, rows = exact.gamma_capped_from, StructureEvaluator.candidate_rows
 
     def counting_walk(z, W, cap, start=None, lower=None):
         taken["start"] += start is not None
         taken["proved"] += 0 if lower is None else int(exact.proved_above(lower, cap).sum())
         return walk(z, W, cap, start, lower)
 
+    def counting_rows(ev, keys, task, mass, memo, supports=None):
+        taken["supports"] += supports is not None
+        return rows(ev, keys, task, mass, memo, supports)
+
     monkeypatch.setattr(exact, "gamma_capped_from", counting_walk)
+    monkeypatch.setattr(StructureEvaluator, "candidate_rows", counting_rows)
     make = dict(tasks=source, n_max=n_max, lookahead="exact", lookahead_top_k=8, **kwargs)
     fast = episodes(ModQuadAssemblyEnv(**make))
-    assert taken["start"]
-    monkeypatch.setattr(lookahead, "lineages", lambda *args: None)  # the plain path
+    assert taken["start"] and taken["supports"]
+    shortlist = transitions.shortlisted  # the plain path: nothing passed on
+    monkeypatch.setattr(transitions, "shortlisted", lambda ep, state: (shortlist(ep, state)[0], {}))
+    monkeypatch.setattr(lookahead, "lineages", lambda *args: None)
     plain = episodes(ModQuadAssemblyEnv(**make))
     assert len(fast) == len(plain) > 8
     for got, want in zip(fast, plain):

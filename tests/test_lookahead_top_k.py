@@ -80,8 +80,8 @@ def test_the_bounds_never_fall_below_the_exact_share_and_margin(source, kwargs):
             valid = np.flatnonzero(state.mask)
             rays = None if state.task.per_structure else parent_directions(ep, state)
             for _acts, cells, k, mass in children(ep, state, valid):
-                share, gamma = child_bounds(ep, state, cells, k, mass, rays)
-                mean_margin = margin_bound(gamma)
+                bounds = child_bounds(ep, state, cells, k, mass, rays)
+                share, mean_margin = bounds.share, margin_bound(bounds.gamma)
                 keys = child_keys(ep, state, cells, k)
                 exact = exact_rows(env.evaluator, keys, state.task, mass, ep.memo, ep.exact_memo)
                 for s, m, (s_exact, m_exact) in zip(share, mean_margin, exact):

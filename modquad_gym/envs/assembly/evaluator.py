@@ -268,11 +268,12 @@ class StructureEvaluator:
         return int(np.count_nonzero(ok)), ft.tests - before
 
     def candidate_rows(
-        self, keys: list, task: TaskArrays, mass: float, memo: dict
+        self, keys: list, task: TaskArrays, mass: float, memo: dict, supports: list | None = None
     ) -> list[np.ndarray]:
         """Lookahead rows of the child structures ``keys`` (one size, one mass) against
         ``task``, memoised per task in ``memo`` (support functions only, no oracle call); a
-        dynamic task's child against its own wrenches."""
+        dynamic task's child against its own wrenches. ``supports[i]``: key i's (h / denom,
+        slack) where known (as :meth:`supports_of` gives them, up to round-off), else None."""
         missing = [k for k in dict.fromkeys(keys) if k not in memo]
         if missing and task.per_structure:
             h, slack = self.supports_of(missing)
@@ -281,7 +282,11 @@ class StructureEvaluator:
                 memo[k] = self.features.candidates(hk[None], sk[None], own.h_Tn, own.WD)[0]
         elif missing:
             _, h_Tn, WD = self.at_mass(task, mass)
-            h, slack = self.supports_of(missing)
+            known = dict(zip(keys, supports or ()))
+            if all(known.get(k) is not None for k in missing):
+                h, slack = (np.array(field) for field in zip(*(known[k] for k in missing)))
+            else:
+                h, slack = self.supports_of(missing)
             memo.update(zip(missing, self.features.candidates(h, slack, h_Tn, WD)))
         return [memo[k] for k in keys]
 

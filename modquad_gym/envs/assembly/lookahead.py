@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from bisect import bisect_left
 from collections.abc import Iterator
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -35,6 +36,19 @@ SHARE, MARGIN, GREEDY = CANDIDATE_FEATURES, CANDIDATE_FEATURES + 1, CANDIDATE_FE
 FLAT = 1e-9
 """Widths (and offsets) below this (in units of denom) count as zero: a flat direction of a
 rank-deficient W bounds nothing but what lies off it."""
+
+
+class Bounds(NamedTuple):
+    """What the shortlist knows of L children without an oracle call."""
+
+    share: np.ndarray
+    """(L,) upper bounds on the satisfied share."""
+    gamma: np.ndarray
+    """(L, t) lower bounds on each wrench's gamma (:func:`margin_bound`: on the mean margin)."""
+    h: np.ndarray
+    """(L, K) supports on the feature directions / denom (the support rows' input)."""
+    slack: np.ndarray
+    """(L,) the support screen's slack (:meth:`~.features.AssemblyFeatures.support`)."""
 
 
 def children(ep: Episode, state: AssemblyState, acts: np.ndarray) -> Iterator[tuple]:
@@ -68,8 +82,9 @@ def child_matrices(ep: Episode, state: AssemblyState, cells: list, k: int) -> np
 
 def candidate_rows(ep: Episode, state: AssemblyState, bounds: dict | None = None) -> np.ndarray:
     """float32 (actions, width) rows of ``state`` in episode ``ep``: those of valid actions
-    filled, the others zero. ``bounds``: action -> lower bounds on its child's gammas (the
-    shortlist's, :func:`shortlisted`): a wrench proved past the clip needs no walk."""
+    filled, the others zero. ``bounds``: action -> its child's :class:`Bounds` (the
+    shortlist's, :func:`shortlisted`): its supports need no second pass, a wrench whose gamma
+    they prove past the clip no walk."""
     actions = ep.actions
     exact = ep.rules.lookahead == "exact"
     cand = np.zeros((actions.n_actions, lookahead_width(ep.rules.lookahead)), dtype=np.float32)
@@ -80,11 +95,13 @@ def candidate_rows(ep: Episode, state: AssemblyState, bounds: dict | None = None
     for acts, batch_cells, k, mass in children(ep, state, valid):
         keys = child_keys(ep, state, batch_cells, k)
         cells.update(zip(acts.tolist(), batch_cells))
+        known = [bounds.get(a) for a in acts.tolist()] if bounds else None
+        supports = None if known is None else [b and (b.h, b.slack) for b in known]
         cand[acts, :CANDIDATE_FEATURES] = ep.evaluator.candidate_rows(
-            keys, state.task, mass, ep.cand_memo
+            keys, state.task, mass, ep.cand_memo, supports
         )
         if exact:
-            lower = [bounds.get(a) for a in acts.tolist()] if bounds else None
+            lower = None if known is None else [b and b.gamma for b in known]
             lines = lineages(ep, state, batch_cells, parent, lower)
             rows = exact_rows(
                 ep.evaluator, keys, state.task, mass, ep.memo, ep.exact_memo, ep.walk_memo, lines
@@ -132,15 +149,16 @@ def greedy_choice(scores: dict, cells: dict, actions) -> int:
 def shortlisted(ep: Episode, state: AssemblyState) -> tuple[AssemblyState, dict]:
     """(``state`` with its valid actions cut to the first ``ep.rules.top_k`` of
     :func:`ranked`, the encoding's own mask kept in ``free`` (None when nothing was cut),
-    kept action -> its child's gamma bounds (t,))."""
+    kept action -> its child's :class:`Bounds` (one row))."""
     valid = np.flatnonzero(state.mask)
     if len(valid) <= ep.rules.top_k:
         return state.but(free=None), {}
-    order, gamma = ranking(ep, state, valid)
-    kept = order[: ep.rules.top_k]
+    order, bounds = ranking(ep, state, valid)
+    kept = order[: ep.rules.top_k].tolist()
     mask = np.zeros_like(state.mask)
     mask[kept] = 1
-    return state.but(mask=mask, free=state.mask), dict(zip(kept.tolist(), gamma))
+    rows = {a: Bounds(*(field[i] for field in bounds)) for i, a in enumerate(kept)}
+    return state.but(mask=mask, free=state.mask), rows
 
 
 def ranked(ep: Episode, state: AssemblyState, acts: np.ndarray) -> np.ndarray:
@@ -149,22 +167,20 @@ def ranked(ep: Episode, state: AssemblyState, acts: np.ndarray) -> np.ndarray:
     return ranking(ep, state, acts)[0]
 
 
-def ranking(ep: Episode, state: AssemblyState, acts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(:func:`ranked`, the gamma bounds (L, t) of :func:`child_bounds` in that order)."""
-    batches, order, share, gamma = [], [], [], []
+def ranking(ep: Episode, state: AssemblyState, acts: np.ndarray) -> tuple[np.ndarray, Bounds]:
+    """(:func:`ranked`, the :class:`Bounds` of :func:`child_bounds` in that order)."""
+    batches, order, parts = [], [], []
     directions = None if state.task.per_structure else parent_directions(ep, state)
     for batch, cells, k, mass in children(ep, state, acts):
-        s, g = child_bounds(ep, state, cells, k, mass, directions)
+        parts.append(child_bounds(ep, state, cells, k, mass, directions))
         batches.append(batch)
-        share.append(s)
-        gamma.append(g)
         order += [(c, ep.actions.type_of(a)) for a, c in zip(batch.tolist(), cells)]
     tie = np.empty(len(order), dtype=np.int64)
     tie[sorted(range(len(order)), key=order.__getitem__)] = np.arange(len(order))
-    gamma = np.concatenate(gamma)
-    share, margin = np.concatenate(share), np.round(margin_bound(gamma), TIE_DECIMALS)
-    best = np.lexsort((tie, -margin, -share))
-    return np.concatenate(batches)[best], gamma[best]
+    bounds = Bounds(*(np.concatenate(field) for field in zip(*parts)))
+    margin = np.round(margin_bound(bounds.gamma), TIE_DECIMALS)
+    best = np.lexsort((tie, -margin, -bounds.share))
+    return np.concatenate(batches)[best], Bounds(*(field[best] for field in bounds))
 
 
 def parent_directions(ep: Episode, state: AssemblyState) -> np.ndarray:
@@ -188,18 +204,19 @@ def parent_directions(ep: Episode, state: AssemblyState) -> np.ndarray:
     ev.tests += len(on)
     out = np.zeros((2, len(W), 6))
     out[0, on] = dirs @ z.Q.T
-    out[1] = (W - A.sum(axis=1) * (ev.features.f_max / 2.0)) @ np.linalg.pinv(A @ A.T, 1e-10, True)
+    # (A A^T)^+ = Q diag(1 / S^2) Q^T from the zonotope's SVD (S = 2 sigma: 1 / S^2 = dual / 4)
+    centred = (W - A.sum(axis=1) * (ev.features.f_max / 2.0)) @ z.Q
+    out[1] = (centred * (z.dual / 4.0)) @ z.Q.T
     return out
 
 
 def child_bounds(
     ep: Episode, state: AssemblyState, cells: list, k: int, mass: float, directions=None
-) -> tuple[np.ndarray, np.ndarray]:
-    """(share bound (L,), gamma bounds (L, t): :func:`margin_bound` bounds the mean margin) of
-    the children of ``state`` with a module of type ``k`` (of ``mass`` kg with it) at
-    ``cells`` against its task: :func:`support_bounds` on the feature directions and
-    :func:`ray_bounds` on ``directions`` (s, t, 6) per wrench (a dynamic task: each child
-    against its own wrenches, feature directions only)."""
+) -> Bounds:
+    """The :class:`Bounds` of the children of ``state`` with a module of type ``k`` (of
+    ``mass`` kg with it) at ``cells`` against its task: :func:`support_bounds` on the feature
+    directions and :func:`ray_bounds` on ``directions`` (s, t, 6) per wrench (a dynamic task:
+    each child against its own wrenches, feature directions only)."""
     ev, task = ep.evaluator, state.task
     if task.per_structure:
         keys = child_keys(ep, state, cells, k)
@@ -208,7 +225,8 @@ def child_bounds(
             support_bounds(h[i : i + 1], slack[i : i + 1], centre[i : i + 1], own.WD)
             for i, own in enumerate(ev.task_of(task, k) for k in keys)
         ]
-        return np.concatenate([s for s, _ in parts]), np.concatenate([g for _, g in parts])
+        share, gamma = (np.concatenate(field) for field in zip(*parts))
+        return Bounds(share, gamma, h, slack)
     A, f = child_matrices(ep, state, cells, k), ev.features
     rays = () if directions is None else tuple(directions)
     absolute, signed = projections(np.vstack([f.D, *rays]), A)  # every direction in one pass
@@ -221,7 +239,7 @@ def child_bounds(
         cut = slice(f.k + i * len(W), f.k + (i + 1) * len(W))
         bound = ray_ratios(absolute[:, cut], signed[:, cut], D, W, f.f_max, norms)
         gamma = np.maximum(gamma, bound)
-    return share, gamma
+    return Bounds(share, gamma, h, slack)
 
 
 def margin_bound(gamma: np.ndarray) -> np.ndarray:
