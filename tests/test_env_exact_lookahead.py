@@ -308,14 +308,17 @@ def test_the_per_structure_caches_are_bounded_by_columns_not_entries(monkeypatch
 def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
     source, kwargs, n_max, monkeypatch
 ):
-    """The shipped policy's observation (``"exact"`` with its shortlist) with what each child
-    takes from its parent and the shortlist (walks started at the parent's optimal vertices,
-    the shortlist's supports for its support rows, no walk where its bounds prove gamma past
-    the clip) equals the plain path's (every walk cold, every support computed again, every
-    wrench walked), state by state on random episodes: masks and the flag on greedy's choice
-    identical, every entry within float32 round-off; and each shortcut was taken."""
+    """The shipped policy's observation (``"exact"`` with its shortlist) with what each state
+    takes from its own exact entries and the shortlist (its children's walks started at its
+    optimal vertices, the shortlist's directions read off those vertices where they are
+    unique optima, the shortlist's supports for its support rows, no walk where its bounds
+    prove gamma past the clip) equals the plain path's (every walk from the dual-metric
+    direction, every support computed again, every wrench walked), state by state on random
+    episodes: masks and the flag on greedy's choice identical, every entry within float32
+    round-off; and each shortcut was taken."""
     from modquad_gym.envs.assembly import exact, lookahead, transitions
     from modquad_gym.envs.assembly.evaluator import StructureEvaluator
+    from modquad_gym.oracle import kernels
 
     def episodes(env) -> list:
         rng, out = np.random.default_rng(3), []
@@ -329,8 +332,9 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
                 done = terminated or truncated
         return out
 
-    taken = {"start": 0, "proved": 0, "supports": 0}
+    taken = {"start": 0, "proved": 0, "supports": 0, "read": 0}
     walk, rows = exact.gamma_capped_from, StructureEvaluator.candidate_rows
+    read = kernels.vertex_directions
 
     def counting_walk(z, W, cap, start=None, lower=None):
         taken["start"] += start is not None
@@ -341,14 +345,20 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
         taken["supports"] += supports is not None
         return rows(ev, keys, task, mass, memo, supports)
 
+    def counting_read(G, R, starts, signs, cap, dirs, found):
+        read(G, R, starts, signs, cap, dirs, found)
+        taken["read"] += int(found.sum())
+
     monkeypatch.setattr(exact, "gamma_capped_from", counting_walk)
+    monkeypatch.setattr(kernels, "vertex_directions", counting_read)
     monkeypatch.setattr(StructureEvaluator, "candidate_rows", counting_rows)
     make = dict(tasks=source, n_max=n_max, lookahead="exact", lookahead_top_k=8, **kwargs)
     fast = episodes(ModQuadAssemblyEnv(**make))
     assert taken["start"] and taken["supports"]
+    assert taken["read"] or source == "motions"  # a dynamic task ranks by supports alone
     shortlist = transitions.shortlisted  # the plain path: nothing passed on
     monkeypatch.setattr(transitions, "shortlisted", lambda ep, state: (shortlist(ep, state)[0], {}))
-    monkeypatch.setattr(lookahead, "lineages", lambda *args: None)
+    monkeypatch.setattr(lookahead, "inherited", lambda ep, state: None)
     plain = episodes(ModQuadAssemblyEnv(**make))
     assert len(fast) == len(plain) > 8
     for got, want in zip(fast, plain):

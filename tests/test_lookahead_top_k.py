@@ -9,9 +9,15 @@ import numpy as np
 import pytest
 
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+from modquad_gym.envs.assembly.bounds import (
+    FLAT,
+    margin_bound,
+    ratios,
+    ray_bounds,
+    support_bounds,
+)
 from modquad_gym.envs.assembly.exact import exact_rows
 from modquad_gym.envs.assembly.lookahead import (
-    FLAT,
     GREEDY,
     MARGIN,
     SHARE,
@@ -19,12 +25,8 @@ from modquad_gym.envs.assembly.lookahead import (
     child_keys,
     children,
     greedy_choice,
-    margin_bound,
     parent_directions,
     ranked,
-    ratios,
-    ray_bounds,
-    support_bounds,
 )
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import margin

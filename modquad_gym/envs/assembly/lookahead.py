@@ -10,7 +10,7 @@ decided, so the step that docks it finds its decision memoised; the oracle tests
 
 ``lookahead_top_k=k`` (with ``"exact"``): the exact entries for a shortlist only. Every valid
 child gets two cheap bounds from its support function on the feature directions (no oracle
-call, :func:`support_bounds`): upper bounds on its satisfied share and on its clipped mean
+call, :mod:`.bounds`): upper bounds on its satisfied share and on its clipped mean
 margin, the two numbers greedy ranks by. The k best by those bounds stay valid actions with
 their full rows (the flag on greedy's choice among them); the others leave the action set of
 this state (mask 0, rows zero), so the exact oracle decides k children a step, not all of them.
@@ -20,11 +20,16 @@ from __future__ import annotations
 
 from bisect import bisect_left
 from collections.abc import Iterator
-from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
+from modquad_gym.envs.assembly.bounds import (
+    Bounds,
+    margin_bound,
+    projections,
+    ray_ratios,
+    support_bounds,
+)
 from modquad_gym.envs.assembly.exact import CLIP_GAMMA, Lineage, exact_rows
 from modquad_gym.envs.assembly.features import CANDIDATE_FEATURES, lookahead_width
 from modquad_gym.envs.assembly.types import AssemblyState, Episode
@@ -33,22 +38,6 @@ from modquad_gym.search.baselines import TIE_DECIMALS, greedy_rank
 
 SHARE, MARGIN, GREEDY = CANDIDATE_FEATURES, CANDIDATE_FEATURES + 1, CANDIDATE_FEATURES + 2
 """Columns of the exact entries in a row."""
-FLAT = 1e-9
-"""Widths (and offsets) below this (in units of denom) count as zero: a flat direction of a
-rank-deficient W bounds nothing but what lies off it."""
-
-
-class Bounds(NamedTuple):
-    """What the shortlist knows of L children without an oracle call."""
-
-    share: np.ndarray
-    """(L,) upper bounds on the satisfied share."""
-    gamma: np.ndarray
-    """(L, t) lower bounds on each wrench's gamma (:func:`margin_bound`: on the mean margin)."""
-    h: np.ndarray
-    """(L, K) supports on the feature directions / denom (the support rows' input)."""
-    slack: np.ndarray
-    """(L,) the support screen's slack (:meth:`~.features.AssemblyFeatures.support`)."""
 
 
 def children(ep: Episode, state: AssemblyState, acts: np.ndarray) -> Iterator[tuple]:
@@ -90,7 +79,7 @@ def candidate_rows(ep: Episode, state: AssemblyState, bounds: dict | None = None
     cand = np.zeros((actions.n_actions, lookahead_width(ep.rules.lookahead)), dtype=np.float32)
     valid = np.flatnonzero(state.mask)
     cells, scores = {}, {}
-    parent = ep.walk_memo.get(ep.modules.key(state.cells, state.types)) if exact else None
+    parent = inherited(ep, state) if exact else None
     ep.walk_memo.clear()  # only this state's children: one of them is the next parent
     for acts, batch_cells, k, mass in children(ep, state, valid):
         keys = child_keys(ep, state, batch_cells, k)
@@ -183,13 +172,24 @@ def ranking(ep: Episode, state: AssemblyState, acts: np.ndarray) -> tuple[np.nda
     return np.concatenate(batches)[best], Bounds(*(field[best] for field in bounds))
 
 
+def inherited(ep: Episode, state: AssemblyState) -> tuple | None:
+    """The optimal vertices of ``state``'s own walks (tight columns, column bounds per wrench),
+    left by the step that computed its exact entries as a child, or None."""
+    return ep.walk_memo.get(ep.modules.key(state.cells, state.types))
+
+
 def parent_directions(ep: Episode, state: AssemblyState) -> np.ndarray:
     """(2, t, 6): per task wrench, two directions that nearly decide its gauge in a child of
-    ``state``'s structure: the last direction of that structure's own exact walk (a facet
-    normal where the wrench leaves its zonotope, or a direction proving it lies beyond
-    :data:`~.exact.CLIP_GAMMA`; one exact evaluation a step, where the children would
-    take one each), and the dual-metric direction ``(A A^T)^+ (w - c)`` (the normal where the
-    ray from the centre leaves the ellipsoid of the same second moment)."""
+    ``state``'s structure: the last direction of that structure's own exact walk from the
+    dual-metric direction (a facet normal where the wrench leaves its zonotope, or a direction
+    proving it lies beyond :data:`~.exact.CLIP_GAMMA`; one exact evaluation a step, where the
+    children would take one each), and the dual-metric direction ``(A A^T)^+ (w - c)`` (the
+    normal where the ray from the centre leaves the ellipsoid of the same second moment).
+
+    Where ``state``'s exact entries left a walk's optimal vertex (:func:`inherited`) that is
+    the unique optimum below the clip, its direction is that walk's end (up to round-off):
+    read off the vertex (:func:`~modquad_gym.oracle.kernels.vertex_directions`), not walked."""
+    from modquad_gym.oracle import kernels
     from modquad_gym.oracle.compiled import gamma_compiled
 
     ev = ep.evaluator
@@ -199,9 +199,16 @@ def parent_directions(ep: Episode, state: AssemblyState) -> np.ndarray:
     z = ev.oracle.zonotope(A, key=key)
     R, off = z.reduce(W)
     on = np.flatnonzero(~off)
-    dirs = np.zeros((len(on), z.rank))
-    gamma_compiled(z, R[on], CLIP_GAMMA, dirs)
-    ev.tests += len(on)
+    dirs, found = np.zeros((len(on), z.rank)), np.zeros(len(on), dtype=bool)
+    walks = inherited(ep, state)
+    if walks is not None and walks[0].shape == (len(W), max(z.rank - 1, 1)):
+        kernels.vertex_directions(z.G, R[on], walks[0][on], walks[1][on], CLIP_GAMMA, dirs, found)
+    rest = np.flatnonzero(~found)
+    if len(rest):
+        walked = np.zeros((len(rest), z.rank))
+        gamma_compiled(z, R[on[rest]], CLIP_GAMMA, walked)
+        dirs[rest] = walked
+    ev.tests += len(rest)
     out = np.zeros((2, len(W), 6))
     out[0, on] = dirs @ z.Q.T
     # (A A^T)^+ = Q diag(1 / S^2) Q^T from the zonotope's SVD (S = 2 sigma: 1 / S^2 = dual / 4)
@@ -240,96 +247,3 @@ def child_bounds(
         bound = ray_ratios(absolute[:, cut], signed[:, cut], D, W, f.f_max, norms)
         gamma = np.maximum(gamma, bound)
     return Bounds(share, gamma, h, slack)
-
-
-def margin_bound(gamma: np.ndarray) -> np.ndarray:
-    """The mean over wrenches of ``1 - gamma`` clipped to [-1, 1], per row of ``gamma``."""
-    return np.clip(1.0 - gamma, -1.0, 1.0).mean(axis=1)
-
-
-def support_bounds(
-    h_Cn: np.ndarray, slack: np.ndarray, centre: np.ndarray, WD: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """(share bound (L,), gamma bound (L, t)) of L structures with supports ``h_Cn`` (L, K),
-    slacks (L,) and centres ``centre`` (L, K) (:meth:`~.features.AssemblyFeatures.supports`)
-    against wrenches of projections ``WD`` (t, K), all divided by denom (which cancels).
-
-    gamma is a wrench's gauge about W's centre c (the oracle's: its margin is 1 - gamma). W is
-    symmetric about c, so w = c + gamma z with z in W - c gives |d . (w - c)| <= gamma
-    (h_W(d) - d . c) in every direction d: the largest ratio bounds gamma from below, hence
-    the margin from above. The share bound counts the wrenches the support test cannot
-    reject (it never rejects one the oracle accepts; see ``slack``)."""
-    share, gamma = np.empty(len(h_Cn)), np.empty((len(h_Cn), len(WD)))
-    _support_bounds(h_Cn, slack, centre, WD, FLAT, share, gamma)
-    return share, gamma
-
-
-@njit(cache=True)
-def _support_bounds(h_Cn, slack, centre, WD, flat, share, gamma):  # pragma: no cover - compiled
-    """:func:`support_bounds` in one pass, no (L, t, K) arrays: per structure and wrench the
-    largest deficit ``WD - h`` and the largest :func:`ratios` of ``|WD - c|`` to ``h - c``
-    (the same operations on the same numbers as numpy's element-wise version)."""
-    L, t, K = h_Cn.shape[0], WD.shape[0], WD.shape[1]
-    for l in range(L):
-        kept = 0
-        for i in range(t):
-            deficit = -np.inf
-            ratio = -np.inf
-            for d in range(K):
-                deficit = max(deficit, WD[i, d] - h_Cn[l, d])
-                off = abs(WD[i, d] - centre[l, d])
-                width = h_Cn[l, d] - centre[l, d]
-                if width > flat:
-                    ratio = max(ratio, off / width)
-                else:
-                    ratio = max(ratio, np.inf if off > flat else 0.0)
-            kept += deficit <= slack[l]
-            gamma[l, i] = ratio
-        share[l] = kept / t
-
-
-def ray_bounds(A: np.ndarray, D: np.ndarray, W: np.ndarray, f_max: float) -> np.ndarray:
-    """gamma bound (L, t) of the structures of configuration matrices ``A`` (L, 6, m) for the
-    wrenches ``W`` (t, 6), each in its own direction (a row of ``D``, (t, 6); zero: none),
-    by the inequality of :func:`support_bounds`."""
-    absolute, signed = projections(D, A)
-    return ray_ratios(absolute, signed, D, W, f_max, np.linalg.norm(A, axis=1).sum(axis=1))
-
-
-def ray_ratios(absolute, signed, D, W, f_max: float, norms) -> np.ndarray:
-    """:func:`ray_bounds` from the :func:`projections` of the directions ``D`` and the
-    structures' sums of column norms ``norms`` (L,) (the scale of a flat width)."""
-    half = f_max / 2.0
-    off = np.abs(np.einsum("ti,ti->t", D, W)[None] - signed * half)
-    flat = FLAT * half * np.linalg.norm(D, axis=1)[None] * norms[:, None]
-    return ratios(off, absolute * half, flat)
-
-
-@njit(cache=True, fastmath={"reassoc", "contract"})
-def projections(D, A):  # pragma: no cover - compiled
-    """(sum_k |d . a_k|, sum_k d . a_k), each (L, R), for directions D (R, 6) and the columns
-    a_k of the matrices A (L, 6, m): one pass, no (L, R, m) array (the supports, W's centre
-    and the widths about it follow). The sums over k are reordered (SIMD: 5x faster at 100
-    columns), so they differ from numpy's in the last bits: bounds, not decisions."""
-    L, m, R = A.shape[0], A.shape[2], D.shape[0]
-    absolute = np.empty((L, R))
-    signed = np.empty((L, R))
-    for l in range(L):
-        a0, a1, a2, a3, a4, a5 = A[l, 0], A[l, 1], A[l, 2], A[l, 3], A[l, 4], A[l, 5]
-        for r in range(R):
-            d0, d1, d2, d3, d4, d5 = D[r, 0], D[r, 1], D[r, 2], D[r, 3], D[r, 4], D[r, 5]
-            total, size = 0.0, 0.0
-            for k in range(m):
-                p = d0 * a0[k] + d1 * a1[k] + d2 * a2[k] + d3 * a3[k] + d4 * a4[k] + d5 * a5[k]
-                size += abs(p)
-                total += p
-            absolute[l, r] = size
-            signed[l, r] = total
-    return absolute, signed
-
-
-def ratios(off: np.ndarray, width: np.ndarray, flat) -> np.ndarray:
-    """off / width where the width exceeds ``flat``; else inf where the offset does too (off a
-    flat direction: not in W), 0 where it does not (no bound)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(width > flat, off / width, np.where(off > flat, np.inf, 0.0))
