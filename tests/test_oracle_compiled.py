@@ -245,3 +245,62 @@ def test_a_walk_from_any_vertex_gives_the_cold_walks_gamma(seed, n):
         inside = cold <= cap
         np.testing.assert_allclose(got[inside], cold[inside], rtol=1e-10, atol=1e-12)
         assert (got[~inside] > cap).all()
+
+
+def read_off(z: Zonotope, R: np.ndarray, tights, signs, cap: float):
+    """(dirs, found) of :func:`~modquad_gym.oracle.kernels.vertex_directions`."""
+    from modquad_gym.oracle import kernels
+
+    dirs, found = np.zeros((len(R), z.rank)), np.zeros(len(R), dtype=bool)
+    kernels.vertex_directions(z.G, R, tights, signs, cap, dirs, found)
+    return dirs, found
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**20), n=st.sampled_from([2, 3, 5, 9, 16, 40]))
+def test_a_unique_optimal_vertex_gives_the_cold_walks_direction(seed, n):
+    """:func:`~modquad_gym.oracle.kernels.vertex_directions`: a walk's optimal vertex, reached
+    from any start, read where it is gamma's unique optimum below the cap, gives the direction
+    the walk from the dual-metric direction ends at (within round-off); rows past or near the
+    cap, and rows without a vertex, are left to a walk."""
+    from modquad_gym.oracle.compiled import gamma_compiled_from
+
+    z = Zonotope(structure(seed, n))
+    rng = np.random.default_rng(seed)
+    R = z.reduce(wrenches_at(z, seed, (*GAUGES, 1.9, 2.0, 2.5)))[0]
+    cap = 2.0
+    cold_dirs = np.zeros((len(R), z.rank))
+    cold = gamma_compiled(z, R, cap, cold_dirs)
+    shape = (len(R), max(z.rank - 1, 1))
+    junk = rng.integers(-1, z.m, size=shape)
+    read = 0
+    for start in (np.full(shape, -1), junk, np.roll(junk, 1, axis=0)):
+        tights, signs = start.astype(np.int64), np.zeros((len(R), z.m), dtype=np.int8)
+        gamma_compiled_from(z, R, cap, tights, signs)
+        dirs, found = read_off(z, R, tights, signs, cap)
+        np.testing.assert_allclose(dirs[found], cold_dirs[found], rtol=1e-9, atol=1e-12)
+        assert not found[(cold >= cap * (1 - 1e-9)) | (tights < 0).any(axis=1)].any()
+        read += found.sum()
+    assert read
+
+
+def test_a_tie_between_optimal_vertices_is_left_to_the_walk():
+    """On the 2 x 2 square, wrenches along the axes from the hover centre leave the zonotope
+    through faces of several optimal vertices (the lattice's symmetry): no vertex is read
+    there; the one read is the cold walk's."""
+    from modquad_gym.oracle.compiled import gamma_compiled_from
+
+    A = Structure([(0, 0), (1, 0), (0, 1), (1, 1)]).configuration_matrix()
+    z = Zonotope(A)
+    centre, reach = A.sum(axis=1) / 2.0, np.abs(A).sum(axis=1) / 2.0
+    W = [centre + s * 0.5 * reach[i] * np.eye(6)[i] for i in range(6) for s in (1, -1)]
+    R = z.reduce(np.vstack([*W, centre + 0.6 * np.eye(6)[0] + 0.6 * np.eye(6)[1]]))[0]
+    cold_dirs = np.zeros((len(R), z.rank))
+    gamma_compiled(z, R, 2.0, cold_dirs)
+    tights = np.full((len(R), z.rank - 1), -1, dtype=np.int64)
+    signs = np.zeros((len(R), z.m), dtype=np.int8)
+    gamma_compiled_from(z, R, 2.0, tights, signs)
+    dirs, found = read_off(z, R, tights, signs, 2.0)
+    at_vertex = (tights >= 0).all(axis=1)
+    assert at_vertex.sum() > found.sum() >= 1  # ties declined, a unique optimum read
+    np.testing.assert_allclose(dirs[found], cold_dirs[found], rtol=1e-9, atol=1e-12)
