@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit
 
 from modquad_gym.oracle.tolerance import ACCEPT, REJECT, RESIDUAL_TOL
-from modquad_gym.oracle.walk import _basis, vertex_walk, walk_from, walk_workspace
+from modquad_gym.oracle.walk import vertex_basis, vertex_walk, walk_from, walk_workspace
 
 _HUGE = 1e100  # rows of w / f_max beyond this are left undecided (reduce() avoids overflow)
 _OFF = 1.01  # off-range margin: residuals within this factor of the rule are left undecided
@@ -248,7 +248,7 @@ def vertex_directions(G, R, starts, signs, cap, dirs, found):  # pragma: no cove
         for q in range(n - 1):
             T[q] = starts[k, q]
             usable = usable and 0 <= T[q] < m
-        if not usable or not _basis(G, R[k], T, tight, M, Minv):
+        if not usable or not vertex_basis(G, R[k], T, tight, M, Minv):
             continue
         h = 0.0
         s[:] = 0.0

@@ -254,7 +254,7 @@ def _crash(G, norms, r, y, T, reject, work):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _basis(G, r, T, tight, M, Minv):  # pragma: no cover - compiled
+def vertex_basis(G, r, T, tight, M, Minv):  # pragma: no cover - compiled
     """Rows [r; g_T] of M, the tight flags of T and Minv = M^-1; False when M is singular."""
     n, m = G.shape
     for j in range(m):
@@ -290,7 +290,7 @@ def vertex_walk(G, norms, r, y, x, accept, reject, work):  # pragma: no cover - 
     crash = _crash(G, norms, r, y, T, reject, work)
     if crash <= 0:
         return crash
-    if not _basis(G, r, T, tight, M, Minv):
+    if not vertex_basis(G, r, T, tight, M, Minv):
         return -1
     return _pivots(G, norms, r, y, x, accept, reject, work)
 
@@ -314,7 +314,7 @@ def walk_from(G, norms, r, y, x, accept, reject, work, start, signs):  # pragma:
             bound[j] = -1.0 if signs[j] < 0 else 1.0
         for k in range(n - 1):
             T[k] = start[k]
-        if _basis(G, r, T, tight, M, Minv):
+        if vertex_basis(G, r, T, tight, M, Minv):
             return _pivots(G, norms, r, y, x, accept, reject, work)
     return vertex_walk(G, norms, r, y, x, accept, reject, work)
 
