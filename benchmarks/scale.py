@@ -87,6 +87,13 @@ def run_band(
         return solve_band(method, tasks, time_limit, seed, engine if workers else None, model)
 
 
+def without_prune(method: str) -> tuple[str, bool]:
+    """(the method, whether it prunes) of a name ``METHOD`` or ``METHOD+prune`` (its answers
+    through the prune post-pass, :mod:`modquad_gym.search.prune`)."""
+    base, plus, post = method.partition("+")
+    return (base, True) if plus and post == "prune" else (method, False)
+
+
 def portfolio_workers(method: str) -> int | None:
     """N of a method named ``anytime-wN`` (the default search on N workers), else None."""
     head, _, n = method.partition("-w")
@@ -101,11 +108,13 @@ def solve_band(method: str, tasks: list, time_limit: float, seed: int, engine, m
     from modquad_gym.search import verified
     from modquad_gym.solvers import learned_options, make_solver
 
+    method, pruning = without_prune(method)
     learned = learned_options(method) is not None
     solvers: dict = {}
     out = []
     n_max = search_budget(tasks[0].meta["band"]) if tasks else 64
     name, extra = (method, {}) if engine is None else ("anytime", {"engine": engine})
+    extra.update({"prune": True} if pruning else {})
     if learned and model is not None:
         extra["model"] = model
     for task in tasks:
@@ -490,7 +499,8 @@ def main(argv: list[str] | None = None) -> None:
         "--per-family": dict(type=int_option(1, 100), default=1,
                              help="tasks per family and band (default 1)"),
         "--methods": dict(nargs="+", default=list(METHODS),
-                          help=f"solver names (default {' '.join(METHODS)})"),
+                          help=f"solver names (default {' '.join(METHODS)}); METHOD+prune: "
+                               "its answers through the prune post-pass"),
         "--time-limit": dict(type=float, default=30.0,
                              help="seconds each method gets per task (default 30)"),
         "--workers": dict(type=int_option(1, 64), default=1,
@@ -522,7 +532,7 @@ def main(argv: list[str] | None = None) -> None:
         check_time_limit(args.time_limit)
     except ValueError as exc:
         raise ValueError(f"--time-limit: {exc}") from None
-    for method in args.methods:
+    for method in (without_prune(m)[0] for m in args.methods):
         if (
             method not in KNOWN
             and learned_options(method) is None

@@ -24,7 +24,8 @@ from typing import Any
 
 from modquad_gym.core.validation import check_int, check_real
 from modquad_gym.policy.models import TOP_K
-from modquad_gym.search.problem import MAX_TIME_LIMIT, unknown_option
+from modquad_gym.search.problem import MAX_TIME_LIMIT, PRUNE, unknown_option
+from modquad_gym.search.prune import PRUNE_HELP
 
 
 # ---------------------------------------------------------------------------------- options
@@ -129,15 +130,18 @@ COMMON_HELP: dict[str, tuple[str, Callable | None]] = {
     "chunk": ("structures decided per batch", _count(1)),
     "start": ("a partial structure every answer contains (Python only)", None),
     "producers": ("the producers run beside the anytime search's own steps (Python only)", None),
+    "prune": (PRUNE_HELP, None),
 }
 """Help and check of the options several methods share."""
 
 
-def options_of(name: str, solve: Callable, own: dict[str, tuple[str, Callable | None]]):
-    """The options dataclass of a search: its keyword-only parameters with their types and
-    defaults, each with its help and check (``own``, else :data:`COMMON_HELP`)."""
+def options_of(name: str, entry: Callable, own: dict[str, tuple[str, Callable | None]]):
+    """The options dataclass of a search's entry point (:func:`~.search.problem.search_entry`):
+    its search's keyword-only parameters with their types and defaults, and ``prune`` where the
+    entry takes it, each with its help and check (``own``, else :data:`COMMON_HELP`)."""
     specs = []
-    for p in inspect.signature(solve).parameters.values():
+    parameters = list(inspect.signature(entry.solve).parameters.values())
+    for p in parameters + ([PRUNE] if entry.prunes else []):
         if p.kind is not p.KEYWORD_ONLY:
             continue
         text, check = own.get(p.name) or COMMON_HELP[p.name]
@@ -246,7 +250,7 @@ def unregister(name: str) -> None:
 def _search(name: str, help: str, own: dict | None = None, **capabilities: Any) -> Method:
     from modquad_gym.search import SEARCHES
 
-    return Method(name, help, options_of(name, SEARCHES[name].solve, own or {}),
+    return Method(name, help, options_of(name, SEARCHES[name], own or {}),
                   "modquad_gym.solvers.factory:SearchSolver", **capabilities)  # fmt: skip
 
 
@@ -256,6 +260,7 @@ _LEARNED_LIMIT = (float | None, None, "seconds after which it stops (None: none)
 _TOP_K = (int | None, TOP_K, "children decided exactly per step by a model reading the exact "
           "lookahead, the rest ranked lower by support bounds and masked out (None: all)",
           _count(1))  # fmt: skip
+_PRUNE = (bool, False, PRUNE_HELP, None)
 
 for _method in (
     _search("exhaustive", "the certified minimum (exhaustive search, up to 16 modules)",
@@ -288,14 +293,15 @@ for _method in (
     Method("ppo", "the learned agent's single pass (the shipped model unless model=)",
            options("ppo", model=_MODEL, seed=(int, 0, COMMON_HELP["seed"][0], _seed),
                    samples=(int, 0, "extra sampled rollouts besides the deterministic one",
-                            _count(0)), time_limit=_LEARNED_LIMIT, top_k=_TOP_K),
+                            _count(0)), time_limit=_LEARNED_LIMIT, top_k=_TOP_K, prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", seeded=True, fault=False, extra="train"),
     Method("ppo-guided", "best-first search ordered by the learned policy, certified at the "
            "lower bound", options("ppo-guided", model=_MODEL,
                                   budget=(int, 64, "most structures evaluated", _count(1)),
                                   branching=(int, 4, "children expanded per node", _count(1)),
                                   dive=(bool, True, "first follow the policy's own episode",
-                                        None), time_limit=_LEARNED_LIMIT, top_k=_TOP_K),
+                                        None), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
+                                  prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", fault=False, extra="train"),
 ):  # fmt: skip
     register(_method)

@@ -30,8 +30,10 @@ CASES = [
     ("anytime", dict(n_max=6, time_limit=20.0, fault="module")),
     ("greedy", dict(n_max=6, time_limit=20.0, fault="rotor")),
     ("beam", dict(n_max=6, time_limit=20.0, modules="t45,flat")),
+    ("beam", dict(n_max=6, time_limit=20.0, modules="t45,flat", prune=True)),
     ("genetic", dict(n_max=5, time_limit=20.0, seed=3)),
     ("random", dict(n_max=6, time_limit=20.0, seed=2)),
+    ("random", dict(n_max=8, time_limit=20.0, seed=2, prune=True)),  # the post-pass
     ("centrosymmetric", dict(n_max=7, time_limit=20.0)),
     ("milp", dict(n_max=5, time_limit=60.0)),
     ("anytime", dict(n_max=7, time_limit=20.0, fault="rotor2")),
@@ -39,6 +41,7 @@ CASES = [
     ("ppo", dict(n_max=7, time_limit=60.0)),
     ("ppo", dict(n_max=7, time_limit=60.0, top_k=2)),  # the shortlist, an --option in the CLI
     ("ppo-guided", dict(n_max=7, time_limit=60.0)),
+    ("ppo", dict(n_max=7, time_limit=60.0, prune=True)),
 ]
 FLAGS = {"n_max", "fault", "modules", "time_limit", "seed"}
 """Options with a flag of their own; the others go through ``--option KEY=VALUE``."""
@@ -192,7 +195,7 @@ def test_the_options_dataclasses_match_the_searches():
             p.name
             for p in inspect.signature(search.solve).parameters.values()
             if p.kind is p.KEYWORD_ONLY
-        ]
+        ] + (["prune"] if search.prunes else [])
         assert list(REGISTRY[name].options.names()) == keywords
     with pytest.raises(ValueError):
         REGISTRY["beam"].settings(beam_width=0)

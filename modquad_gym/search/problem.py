@@ -324,6 +324,8 @@ TASK_PARAMETERS = tuple(
     for p in inspect.signature(SearchProblem.build).parameters.values()
 )
 """The arguments every search's entry point takes first (those of :class:`SearchProblem`)."""
+PRUNE = inspect.Parameter("prune", inspect.Parameter.KEYWORD_ONLY, default=False, annotation=bool)
+"""The ``prune`` option of an entry that offers the post-pass (:mod:`~modquad_gym.search.prune`)."""
 
 PROBLEM_FIELDS = ("n_max", "f_max", "module", "modules", "kind", "fault", "fault_margin")
 """The keywords that describe a problem: given beside a :class:`SearchProblem`, refused."""
@@ -349,18 +351,23 @@ def as_problem(task, n_max=DEFAULT_N_MAX, f_max=None, module=None, *, modules=No
                          fault_margin=0.0 if fault_margin is None else fault_margin)  # fmt: skip
 
 
-def search_entry(name: str) -> Callable[[Callable], Callable]:
+def search_entry(name: str, prune: Callable | None = None) -> Callable[[Callable], Callable]:
     """Decorator: the public entry point of the search ``solve(problem, **options)``.
 
     The entry takes a :class:`SearchProblem`, or the task's arguments (``task, n_max=7,
     f_max=None, module=None, *, modules=None, kind=None, fault=None``) from which it builds
     one (:func:`as_problem`), and then the search's own keyword options; its signature says so.
     An option the search does not take is refused with a TypeError naming it and the options
-    it takes. ``entry.solve`` is the problem's function."""
+    it takes. ``entry.solve`` is the problem's function. Given ``prune(result, problem,
+    time_limit)`` (:func:`~.prune.pruned`), the entry also takes ``prune=True``: the answer
+    then goes through it within the search's ``time_limit``."""
 
     def wrap(solve: Callable) -> Callable:
         options = list(inspect.signature(solve).parameters.values())[1:]
+        options += [PRUNE] if prune is not None else []
         names = {p.name for p in options}
+        limit = inspect.signature(solve).parameters.get("time_limit")
+        default_limit = None if limit is None else limit.default
 
         @functools.wraps(solve)
         def entry(task, n_max=DEFAULT_N_MAX, f_max=None, module=None, *, modules=None,
@@ -370,7 +377,9 @@ def search_entry(name: str) -> Callable[[Callable], Callable]:
                 raise TypeError(unknown_option(name, unknown[0], names))
             problem = as_problem(task, n_max, f_max, module, modules=modules, kind=kind,
                                  fault=fault, fault_margin=fault_margin)  # fmt: skip
-            return solve(problem, **kwargs)
+            if not kwargs.pop("prune", False):
+                return solve(problem, **kwargs)
+            return prune(solve(problem, **kwargs), problem, kwargs.get("time_limit", default_limit))
 
         returns = inspect.signature(solve).return_annotation
         entry.__signature__ = inspect.Signature(
@@ -378,6 +387,7 @@ def search_entry(name: str) -> Callable[[Callable], Callable]:
         )
         entry.solve = solve
         entry.options = tuple(sorted(names))
+        entry.prunes = prune is not None
         return entry
 
     return wrap

@@ -10,6 +10,7 @@ from modquad_gym.methods import REGISTRY, Method, Options, method_of, refused_fa
 from modquad_gym.policy.models import default_model, shipped_model
 from modquad_gym.search import SearchResult
 from modquad_gym.search.problem import SearchProblem, as_problem
+from modquad_gym.search.prune import pruned
 from modquad_gym.solvers.outside import load_solver
 
 METHOD_HELP = {name: m.help for name, m in REGISTRY.items()}
@@ -67,7 +68,7 @@ class SearchSolver(MethodSolver):
                 from modquad_gym.policy.guided import producers_with_policy
 
                 options["producers"] = producers_with_policy()
-        return SEARCHES[self.method.name].solve(self.problem(task), **options)
+        return SEARCHES[self.method.name](self.problem(task), **options)
 
 
 class LearnedSolver(MethodSolver):
@@ -89,6 +90,7 @@ class LearnedSolver(MethodSolver):
         key = (n_max, tuple(m.digest for m in palette or ()), tier)
         if key not in self._solvers:
             options = self.settings.as_dict()
+            options.pop("prune")
             model = options.pop("model")
             if model is None and tier is not None and not palette:
                 model = shipped_model(tier)
@@ -124,7 +126,9 @@ class LearnedSolver(MethodSolver):
         tier = problem.task.policy_tier
         result = self.inner(problem.n_max, palette, tier).solve(problem.task)
         result.method = self.name
-        return result
+        if not self.settings.prune:
+            return result
+        return pruned(result, problem, self.settings.time_limit)
 
 
 def make_solver(

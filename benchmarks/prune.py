@@ -1,0 +1,212 @@
+"""What the prune post-pass is worth: each constructive method with and without it, same tasks.
+
+    python -m benchmarks.prune [--bands 16 32 64 96 128] [--families ...] [--per-family 1]
+        [--methods greedy beam ppo] [--time-limit 30] [--workers 2] [--validation] [--out DIR]
+
+Runs ``benchmarks.scale`` on its tasks (the held-out scale suites, or ``--validation`` draws)
+with every method plain and as ``METHOD+prune`` (``prune=True``: :mod:`modquad_gym.search.prune`),
+each (method, band) in a fresh process after an untimed warm-up, and reports per method what
+pruning removed and cost, and per family and band the learned single pass, pruned, against
+greedy as shipped and against greedy pruned: the mean module difference on the tasks both
+answer with a 95 % percentile-bootstrap interval over those tasks.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from benchmarks import scale
+from benchmarks.common import (
+    bench_args,
+    load_average,
+    machine_description,
+    markdown_table,
+    write_csv,
+)
+from modquad_gym.core.outputs import claim_output_dir, write_text
+from modquad_gym.core.resources import cap_workers
+from modquad_gym.scoring.stats import interval
+
+OUTPUTS = ("report.md", "rows.csv", "methods.csv", "versus.csv")
+
+
+def found(rows: list[dict], method: str) -> dict[str, int]:
+    """task -> modules of ``method``'s verified answers."""
+    return {r["task"]: int(r["found"]) for r in rows
+            if r["method"] == method and r["found"] != "none" and r["verified"]}  # fmt: skip
+
+
+def method_rows(rows: list[dict], methods) -> list[dict]:
+    """Per method: tasks answered plain and pruned, mean modules of each on the tasks both
+    answer, tasks where pruning removed modules, and total seconds pruned over plain."""
+    out = []
+    for m in methods:
+        plain, pruned = found(rows, m), found(rows, f"{m}+prune")
+        both = sorted(set(plain) & set(pruned))
+        seconds = {k: sum(r["seconds"] for r in rows if r["method"] == k)
+                   for k in (m, f"{m}+prune")}  # fmt: skip
+        out.append({
+            "method": m, "tasks": len({r["task"] for r in rows if r["method"] == m}),
+            "answered": len(plain), "answered_pruned": len(pruned),
+            "modules": _mean([plain[t] for t in both]),
+            "modules_pruned": _mean([pruned[t] for t in both]),
+            "tasks_pruned": sum(pruned[t] < plain[t] for t in both),
+            "seconds_ratio": round(seconds[f"{m}+prune"] / max(seconds[m], 1e-9), 2),
+        })  # fmt: skip
+    return out
+
+
+def versus(rows: list[dict], mine: str, rival: str, keys) -> dict:
+    """``mine`` against ``rival`` on the tasks of ``keys`` (band, family): rival's answers it
+    misses, and its mean modules minus the rival's on the tasks both answer (95 % interval)."""
+    tasks = {r["task"] for r in rows if (r["band"], r["family"]) in keys}
+    a, b = found(rows, mine), found(rows, rival)
+    both = sorted(tasks & set(a) & set(b))
+    diff = np.array([a[t] - b[t] for t in both], dtype=float)
+    point, low, high = interval([diff], np.mean) if len(diff) else (np.nan,) * 3
+    seconds = {k: sum(r["seconds"] for r in rows if r["method"] == k and r["task"] in tasks)
+               for k in (mine, rival)}  # fmt: skip
+    return {"missed": len(tasks & set(b) - set(a)), "both": len(both),
+            "difference": round(point, 2), "low": round(low, 2), "high": round(high, 2),
+            "seconds_ratio": round(seconds[mine] / max(seconds[rival], 1e-9), 2)}  # fmt: skip
+
+
+def versus_rows(rows: list[dict], mine: str, rivals) -> list[dict]:
+    """:func:`versus` per family and band, per band, and over everything, for each rival."""
+    cells = sorted({(r["band"], r["family"]) for r in rows})
+    groups = [(f"{b} {f}", [(b, f)]) for b, f in cells]
+    groups += [(f"{b} all", [c for c in cells if c[0] == b]) for b in sorted({b for b, _ in cells})]
+    groups.append(("all", cells))
+    out = []
+    for rival in rivals:
+        for name, keys in groups:
+            out.append({"method": mine, "rival": rival, "tasks": name,
+                        **versus(rows, mine, rival, keys)})  # fmt: skip
+    return out
+
+
+def _mean(values: list) -> float | str:
+    return round(float(np.mean(values)), 2) if values else ""
+
+
+def report(rows: list[dict], per_method: list[dict], against: list[dict], args) -> str:
+    """The report page: how it was made, what pruning did per method, the learned pass
+    against greedy, and the issue's goal judged on this run."""
+    cells = [v for v in against if v["tasks"] != "all" and "all" not in v["tasks"]]
+    worse = [v for v in cells if v["rival"] == "greedy" and (v["missed"] or v["high"] > 0)]
+    total = [v for v in against if v["tasks"] == "all"]
+    lines = [
+        "# The prune post-pass",
+        "",
+        f"Command: `{command_line(args)}`. Machine: {machine_description()}; load average "
+        f"{load_average()} at the end. Tasks: "
+        + ("validation draws" if args.validation else "the held-out scale suites")
+        + f", {args.per_family} per family and band; every method with the same "
+        f"{args.time_limit:g} s limit (the post-pass inside it), each (method, band) in a fresh "
+        "process after an untimed warm-up; every answer re-verified by the exact LP.",
+        "",
+        "## What pruning removed, per method",
+        "",
+        "`modules` and `modules_pruned`: mean on the tasks both answer; `tasks_pruned`: tasks "
+        "where it removed at least one module; `seconds_ratio`: total seconds with the "
+        "post-pass over without.",
+        "",
+        markdown_table(per_method),
+        "",
+        "## The learned single pass, pruned, against greedy",
+        "",
+        "`difference`: mean modules of `ppo+prune` minus the rival's on the `both` tasks both "
+        "answer, with its 95 % bootstrap interval [`low`, `high`] over them; `missed`: tasks "
+        "the rival answers and it does not; `seconds_ratio`: its total seconds over the rival's.",
+        "",
+        markdown_table(against),
+        "",
+        "## Goal (never worse than greedy, per family and band)",
+        "",
+        f"- over everything: {'; '.join(_total(v) for v in total)}",
+        f"- family and band cells where `ppo+prune` misses a task greedy answers or the "
+        f"interval's upper end is above 0: {len(worse)} of "
+        f"{len([v for v in cells if v['rival'] == 'greedy'])}"
+        + (
+            ": "
+            + ", ".join(
+                f"{v['tasks']} ({v['difference']:+g} [{v['low']:+g}, "
+                f"{v['high']:+g}], missed {v['missed']})"
+                for v in worse
+            )
+            if worse
+            else ""
+        )  # fmt: skip
+        + f": {'met' if not worse else 'NOT met'}",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _total(v: dict) -> str:
+    return (
+        f"against {v['rival']} {v['difference']:+g} modules [{v['low']:+g}, {v['high']:+g}] "
+        f"on {v['both']} tasks, {v['missed']} missed, time ratio {v['seconds_ratio']:g}"
+    )
+
+
+def command_line(args) -> str:
+    return (f"python -m benchmarks.prune --bands {' '.join(map(str, args.bands))} --families "
+            f"{' '.join(args.families)} --per-family {args.per_family} --methods "
+            f"{' '.join(args.base_methods)} --time-limit {args.time_limit:g} --workers "
+            f"{args.workers} --seed {args.seed}" + (" --validation" if args.validation else "")
+            + f" --out {args.out}")  # fmt: skip
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    options = {
+        "--bands": dict(type=scale.int_option(1, 128), nargs="+", default=[16, 32, 64, 96, 128],
+                        help="size bands (default 16 32 64 96 128)"),
+        "--families": dict(nargs="+", choices=tuple(scale.FAMILIES),
+                           default=list(scale.FAMILIES), help="task families (default all)"),
+        "--per-family": dict(type=scale.int_option(1, 100), default=1,
+                             help="tasks per family and band (default 1)"),
+        "--methods": dict(nargs="+", choices=("greedy", "beam", "random", "genetic", "ppo",
+                                              "ppo-guided"), default=["greedy", "beam", "ppo"],
+                          help="methods, each run plain and pruned (default greedy beam ppo; "
+                               "greedy and ppo are always run)"),
+        "--time-limit": dict(type=float, default=30.0,
+                             help="seconds each method gets per task (default 30)"),
+        "--workers": dict(type=scale.int_option(1, 64), default=2,
+                          help="(method, band) processes at a time (default 2)"),
+        "--validation": dict(action="store_true",
+                             help="validation draws instead of the held-out suites"),
+    }  # fmt: skip
+    args = bench_args(argv, "python -m benchmarks.prune", "Each constructive method with and "
+                      "without the prune post-pass on the scale tasks; write results/prune/.",
+                      options, seed_help="seed of the seeded methods (default 0)",
+                      out="results/prune", outputs=OUTPUTS)  # fmt: skip
+    args.base_methods = list(dict.fromkeys(["greedy", *args.methods, "ppo"]))
+    args.methods = [n for m in args.base_methods for n in (m, f"{m}+prune")]
+    args.model, args.workers = None, cap_workers(args.workers)
+    return args
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    args = parse_args(argv)
+    unknown = [b for b in args.bands if b not in scale.BANDS and not args.validation]
+    if unknown:
+        bands = " ".join(map(str, scale.BANDS))
+        raise ValueError(f"--bands {unknown[0]}: no held-out suite of that size (bands {bands}; "
+                         "--validation draws any size)")  # fmt: skip
+    with claim_output_dir(args.out, OUTPUTS, args.force) as claim:
+        rows = scale.measure(args, scale.keep_rows(claim.path("rows.csv")))
+        per_method = method_rows(rows, args.base_methods)
+        against = versus_rows(rows, "ppo+prune", ["greedy", "greedy+prune"])
+        write_csv(rows, claim.path("rows.csv"))
+        write_csv(per_method, claim.path("methods.csv"))
+        write_csv(against, claim.path("versus.csv"))
+        write_text(claim.path("report.md"), report(rows, per_method, against, args))
+    print(markdown_table(per_method))
+    return rows
+
+
+if __name__ == "__main__":
+    raise SystemExit(scale.run_main(main, "prune"))
