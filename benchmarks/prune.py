@@ -25,9 +25,9 @@ from benchmarks.common import (
     markdown_table,
     write_csv,
 )
+from benchmarks.scale_models import summary
 from modquad_gym.core.outputs import claim_output_dir, write_text
 from modquad_gym.core.resources import cap_workers
-from modquad_gym.scoring.stats import interval
 
 OUTPUTS = ("report.md", "rows.csv", "methods.csv", "versus.csv")
 
@@ -58,32 +58,21 @@ def method_rows(rows: list[dict], methods) -> list[dict]:
     return out
 
 
-def versus(rows: list[dict], mine: str, rival: str, keys) -> dict:
-    """``mine`` against ``rival`` on the tasks of ``keys`` (band, family): rival's answers it
-    misses, and its mean modules minus the rival's on the tasks both answer (95 % interval)."""
-    tasks = {r["task"] for r in rows if (r["band"], r["family"]) in keys}
-    a, b = found(rows, mine), found(rows, rival)
-    both = sorted(tasks & set(a) & set(b))
-    diff = np.array([a[t] - b[t] for t in both], dtype=float)
-    point, low, high = interval([diff], np.mean) if len(diff) else (np.nan,) * 3
-    seconds = {k: sum(r["seconds"] for r in rows if r["method"] == k and r["task"] in tasks)
-               for k in (mine, rival)}  # fmt: skip
-    return {"missed": len(tasks & set(b) - set(a)), "both": len(both),
-            "difference": round(point, 2), "low": round(low, 2), "high": round(high, 2),
-            "seconds_ratio": round(seconds[mine] / max(seconds[rival], 1e-9), 2)}  # fmt: skip
-
-
-def versus_rows(rows: list[dict], mine: str, rivals) -> list[dict]:
-    """:func:`versus` per family and band, per band, and over everything, for each rival."""
-    cells = sorted({(r["band"], r["family"]) for r in rows})
-    groups = [(f"{b} {f}", [(b, f)]) for b, f in cells]
-    groups += [(f"{b} all", [c for c in cells if c[0] == b]) for b in sorted({b for b, _ in cells})]
-    groups.append(("all", cells))
+def versus_rows(rows: list[dict], mine: str, rivals, bands, families) -> list[dict]:
+    """``mine`` against each of ``rivals`` over everything, then per band and family
+    (:func:`benchmarks.scale_models.summary` on the verified answers): rival's answers it
+    misses, its mean modules minus the rival's on the tasks both answer (95 % interval), its
+    total seconds over the rival's."""
+    answers = [{**r, "found": int(r["found"]) if r["found"] != "none" and r["verified"] else None}
+               for r in rows]  # fmt: skip
     out = []
     for rival in rivals:
-        for name, keys in groups:
-            out.append({"method": mine, "rival": rival, "tasks": name,
-                        **versus(rows, mine, rival, keys)})  # fmt: skip
+        for v in summary(answers, [mine], bands, families, rival):
+            out.append({"method": mine, "rival": rival, "band": v["band"], "family": v["family"],
+                        "missed": v["greedy_solved"] - v["solves_of_greedys"],
+                        "both": v["solves_of_greedys"], "difference": v["minus_greedy_modules"],
+                        "low": v["low"], "high": v["high"],
+                        "seconds_ratio": v["over_greedy_seconds"]})  # fmt: skip
     return out
 
 
@@ -94,9 +83,9 @@ def _mean(values: list) -> float | str:
 def report(rows: list[dict], per_method: list[dict], against: list[dict], args) -> str:
     """The report page: how it was made, what pruning did per method, the learned pass
     against greedy, and the issue's goal judged on this run."""
-    cells = [v for v in against if v["tasks"] != "all" and "all" not in v["tasks"]]
+    cells = [v for v in against if v["band"] != "all" and v["both"] + v["missed"]]
     worse = [v for v in cells if v["rival"] == "greedy" and (v["missed"] or v["high"] > 0)]
-    total = [v for v in against if v["tasks"] == "all"]
+    total = [v for v in against if v["band"] == "all"]
     lines = [
         "# The prune post-pass",
         "",
@@ -128,21 +117,17 @@ def report(rows: list[dict], per_method: list[dict], against: list[dict], args) 
         f"- over everything: {'; '.join(_total(v) for v in total)}",
         f"- family and band cells where `ppo+prune` misses a task greedy answers or the "
         f"interval's upper end is above 0: {len(worse)} of "
-        f"{len([v for v in cells if v['rival'] == 'greedy'])}"
-        + (
-            ": "
-            + ", ".join(
-                f"{v['tasks']} ({v['difference']:+g} [{v['low']:+g}, "
-                f"{v['high']:+g}], missed {v['missed']})"
-                for v in worse
-            )
-            if worse
-            else ""
-        )  # fmt: skip
+        f"{len([v for v in cells if v['rival'] == 'greedy'])}{_listed(worse)}"
         + f": {'met' if not worse else 'NOT met'}",
         "",
     ]
     return "\n".join(lines)
+
+
+def _listed(cells: list[dict]) -> str:
+    return "".join(f"{', ' if i else ': '}{v['family']}-{v['band']} ({v['difference']:+g} "
+                   f"[{v['low']:+g}, {v['high']:+g}], missed {v['missed']})"
+                   for i, v in enumerate(cells))  # fmt: skip
 
 
 def _total(v: dict) -> str:
@@ -199,7 +184,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
     with claim_output_dir(args.out, OUTPUTS, args.force) as claim:
         rows = scale.measure(args, scale.keep_rows(claim.path("rows.csv")))
         per_method = method_rows(rows, args.base_methods)
-        against = versus_rows(rows, "ppo+prune", ["greedy", "greedy+prune"])
+        against = versus_rows(
+            rows, "ppo+prune", ["greedy", "greedy+prune"], args.bands, args.families
+        )
         write_csv(rows, claim.path("rows.csv"))
         write_csv(per_method, claim.path("methods.csv"))
         write_csv(against, claim.path("versus.csv"))

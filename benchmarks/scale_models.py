@@ -98,13 +98,14 @@ def solve(job: tuple, time_limit: float) -> list[dict]:
     ]  # fmt: skip
 
 
-def versus_greedy(rows: list[dict], name: str, band="all", family="all") -> dict:
-    """Model ``name`` against greedy on the rows of ``band`` and ``family`` ("all": every)."""
+def versus_greedy(rows: list[dict], name: str, band="all", family="all", rival="greedy") -> dict:
+    """Model ``name`` against greedy (or the method ``rival``: the ``greedy`` columns are then
+    its) on the rows of ``band`` and ``family`` ("all": every)."""
 
     def here(r):
         return (band == "all" or r["band"] == band) and (family == "all" or r["family"] == family)
 
-    greedy = {r["task"]: r for r in rows if r["method"] == "greedy" and here(r)}
+    greedy = {r["task"]: r for r in rows if r["method"] == rival and here(r)}
     mine = {r["task"]: r for r in rows if r["method"] == name and here(r)}
     solved = [t for t, r in greedy.items() if r["found"] is not None]
     both = [t for t in solved if mine[t]["found"] is not None]
@@ -121,12 +122,12 @@ def versus_greedy(rows: list[dict], name: str, band="all", family="all") -> dict
             "high": round(high, 2), "over_greedy_seconds": round(seconds, 2)}  # fmt: skip
 
 
-def summary(rows: list[dict], names, bands, families) -> list[dict]:
+def summary(rows: list[dict], names, bands, families, rival="greedy") -> list[dict]:
     """:func:`versus_greedy` per model over everything, then per band and family."""
-    out = [versus_greedy(rows, n) for n in names]
+    out = [versus_greedy(rows, n, rival=rival) for n in names]
     for band in bands:
         for family in families:
-            out += [versus_greedy(rows, n, band, family) for n in names]
+            out += [versus_greedy(rows, n, band, family, rival) for n in names]
     return out
 
 

@@ -273,3 +273,43 @@ def test_scale_models_refuses_a_model_without_a_name_in_one_line(tmp_path, capsy
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "foreign.csv: row 1" in err, err
     assert not (tmp_path / "out").exists()
+
+
+def test_prune_benchmark_compares_each_method_with_and_without_the_post_pass(tmp_path, capsys):
+    """benchmarks.prune: what pruning removed per method, and ppo+prune against greedy and
+    greedy+prune per family and band (verified answers only); bad options exit 2 in one line."""
+    from benchmarks.common import run_script
+    from benchmarks.prune import method_rows, versus_rows
+    from benchmarks.scale import without_prune
+
+    assert without_prune("ppo+prune") == ("ppo", True)
+    assert without_prune("ppo-guided") == ("ppo-guided", False)
+
+    def row(task, family, method, found, verified=True, seconds=1.0):
+        return {"band": 16, "family": family, "task": task, "method": method, "found": found,
+                "verified": verified, "seconds": seconds}  # fmt: skip
+
+    rows = [row("a", "torque", "greedy", 14), row("a", "torque", "greedy+prune", 13),
+            row("a", "torque", "ppo", 15, seconds=0.2), row("a", "torque", "ppo+prune", 13,
+                                                            seconds=0.3),
+            row("b", "planted", "greedy", 20), row("b", "planted", "greedy+prune", 20),
+            row("b", "planted", "ppo", "none", False, 0.2),
+            row("b", "planted", "ppo+prune", 21, False, 0.3)]  # fmt: skip
+    greedy, ppo = method_rows(rows, ["greedy", "ppo"])
+    assert (greedy["modules"], greedy["modules_pruned"], greedy["tasks_pruned"]) == (17, 16.5, 1)
+    assert (ppo["answered"], ppo["answered_pruned"], ppo["tasks_pruned"]) == (1, 1, 1)
+    assert ppo["seconds_ratio"] == 1.5
+    against = versus_rows(rows, "ppo+prune", ["greedy", "greedy+prune"], [16],
+                          ["torque", "planted"])  # fmt: skip
+    total = {v["rival"]: v for v in against if v["band"] == "all"}
+    assert (total["greedy"]["difference"], total["greedy"]["missed"]) == (-1.0, 1)
+    assert (total["greedy+prune"]["difference"], total["greedy+prune"]["both"]) == (0.0, 1)
+    out = tmp_path / "out"
+    for argv, message in (
+        (["--methods", "anytime"], "argument --methods: invalid choice: 'anytime'"),
+        (["--bands", "20"], "--bands 20: no held-out suite of that size"),
+    ):  # argparse's usage, then its one-line error; a ValueError: the line alone
+        assert run_script("prune", [*argv, "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert message in err.splitlines()[-1], err
+    assert not (out / "report.md").exists()
