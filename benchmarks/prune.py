@@ -14,6 +14,7 @@ answer with a 95 % percentile-bootstrap interval over those tasks.
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import numpy as np
 
@@ -83,14 +84,19 @@ def _mean(values: list) -> float | str:
 def report(rows: list[dict], per_method: list[dict], against: list[dict], args) -> str:
     """The report page: how it was made, what pruning did per method, the learned pass
     against greedy, and the issue's goal judged on this run."""
-    cells = [v for v in against if v["band"] != "all" and v["both"] + v["missed"]]
-    worse = [v for v in cells if v["rival"] == "greedy" and (v["missed"] or v["high"] > 0)]
+    cells = [v for v in against if v["band"] != "all" and v["rival"] == "greedy"]
+    cells = [v for v in cells if v["both"] + v["missed"]]
+    worse = {m: [v for v in cells if v["method"] == m and (v["missed"] or v["high"] > 0)]
+             for m in ("ppo", "ppo+prune")}  # fmt: skip
     total = [v for v in against if v["band"] == "all"]
     lines = [
         "# The prune post-pass",
         "",
-        f"Command: `{command_line(args)}`. Machine: {machine_description()}; load average "
-        f"{load_average()} at the end. Tasks: "
+        f"Command: `{command_line(args)}`"
+        + (f" (this page re-rendered from its `{args.rows}`)" if args.rows else "")
+        + f". Machine: {machine_description()}; load average {load_average()} at the end"
+        + (" of the re-rendering" if args.rows else "")
+        + ". Tasks: "
         + ("validation draws" if args.validation else "the held-out scale suites")
         + f", {args.per_family} per family and band; every method with the same "
         f"{args.time_limit:g} s limit (the post-pass inside it), each (method, band) in a fresh "
@@ -104,9 +110,9 @@ def report(rows: list[dict], per_method: list[dict], against: list[dict], args) 
         "",
         markdown_table(per_method),
         "",
-        "## The learned single pass, pruned, against greedy",
+        "## The learned single pass, plain and pruned, against greedy",
         "",
-        "`difference`: mean modules of `ppo+prune` minus the rival's on the `both` tasks both "
+        "`difference`: mean modules of the method minus the rival's on the `both` tasks both "
         "answer, with its 95 % bootstrap interval [`low`, `high`] over them; `missed`: tasks "
         "the rival answers and it does not; `seconds_ratio`: its total seconds over the rival's.",
         "",
@@ -114,11 +120,14 @@ def report(rows: list[dict], per_method: list[dict], against: list[dict], args) 
         "",
         "## Goal (never worse than greedy, per family and band)",
         "",
-        f"- over everything: {'; '.join(_total(v) for v in total)}",
-        f"- family and band cells where `ppo+prune` misses a task greedy answers or the "
-        f"interval's upper end is above 0: {len(worse)} of "
-        f"{len([v for v in cells if v['rival'] == 'greedy'])}{_listed(worse)}"
-        + f": {'met' if not worse else 'NOT met'}",
+        *(f"- over everything, `{v['method']}` {_total(v)}" for v in total),
+        *(
+            f"- family and band cells where `{m}` misses a task greedy answers or the "
+            f"interval's upper end is above 0: {len(w)} of "
+            f"{len([v for v in cells if v['method'] == m])}{_listed(w)}: "
+            f"{'met' if not w else 'NOT met'}"
+            for m, w in worse.items()
+        ),
         "",
     ]
     return "\n".join(lines)
@@ -163,6 +172,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                           help="(method, band) processes at a time (default 2)"),
         "--validation": dict(action="store_true",
                              help="validation draws instead of the held-out suites"),
+        "--rows": dict(type=Path, default=None, metavar="CSV",
+                       help="re-render the report from an earlier run's rows.csv (no solving; "
+                            "give the options it used)"),
     }  # fmt: skip
     args = bench_args(argv, "python -m benchmarks.prune", "Each constructive method with and "
                       "without the prune post-pass on the scale tasks; write results/prune/.",
@@ -181,12 +193,13 @@ def main(argv: list[str] | None = None) -> list[dict]:
         bands = " ".join(map(str, scale.BANDS))
         raise ValueError(f"--bands {unknown[0]}: no held-out suite of that size (bands {bands}; "
                          "--validation draws any size)")  # fmt: skip
+    earlier = scale.read_runs([args.rows]) if args.rows else None  # before --force clears --out
     with claim_output_dir(args.out, OUTPUTS, args.force) as claim:
-        rows = scale.measure(args, scale.keep_rows(claim.path("rows.csv")))
+        rows = earlier or scale.measure(args, scale.keep_rows(claim.path("rows.csv")))
         per_method = method_rows(rows, args.base_methods)
-        against = versus_rows(
-            rows, "ppo+prune", ["greedy", "greedy+prune"], args.bands, args.families
-        )
+        rivals = ["greedy", "greedy+prune"]
+        against = [v for mine in ("ppo", "ppo+prune")
+                   for v in versus_rows(rows, mine, rivals, args.bands, args.families)]  # fmt: skip
         write_csv(rows, claim.path("rows.csv"))
         write_csv(per_method, claim.path("methods.csv"))
         write_csv(against, claim.path("versus.csv"))

@@ -159,8 +159,10 @@ def add_method(
         metavar="KEY=VALUE",
         default=None,
         help="set one of the method's own options (repeat for several), e.g. beam_width=8 for "
-        "beam, population=48 for genetic, budget=128 for ppo-guided; an option the method does "
-        "not take is refused, naming the ones it takes (the docs' method table lists them)",
+        "beam, population=48 for genetic, budget=128 for ppo-guided, prune=true for the "
+        "constructive methods (greedy, random, beam, genetic, ppo, ppo-guided: then drop the "
+        "modules the answer does not need); an option the method does not take is refused, "
+        "naming the ones it takes (the docs' method table lists them)",
     )
 
 
