@@ -369,3 +369,26 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
         for name in got:
             np.testing.assert_allclose(got[name], want[name], rtol=1e-6, atol=1e-7)
     assert taken["proved"] or n_max < 16  # wrenches proved past the clip: larger structures
+
+
+@pytest.mark.parametrize("source", ["planted", "paper", "motions"])
+def test_a_docked_child_is_decided_as_without_the_lookahead(source):
+    """A step to a child whose exact entry the lookahead holds takes its satisfied count from
+    that entry (no second decision): the same count, success and structure vector as an env
+    without the lookahead (the screened oracle) reports after the same actions."""
+    exact = ModQuadAssemblyEnv(tasks=source, n_max=8, lookahead="exact", lookahead_top_k=4)
+    plain = ModQuadAssemblyEnv(tasks=source, n_max=8)
+    rng = np.random.default_rng(5)
+    steps = 0
+    for episode in range(4):
+        (obs, _), (want, _) = exact.reset(seed=episode), plain.reset(seed=episode)
+        done = False
+        while not done:
+            action = int(rng.choice(np.flatnonzero(obs["action_mask"])))
+            obs, _, terminated, truncated, info = exact.step(action)
+            want, _, _, _, want_info = plain.step(action)
+            assert info["satisfied_fraction"] == want_info["satisfied_fraction"]
+            assert info["success"] == want_info["success"]
+            np.testing.assert_array_equal(obs["structure"], want["structure"])
+            done, steps = terminated or truncated, steps + 1
+    assert steps > 12

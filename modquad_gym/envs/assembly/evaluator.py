@@ -165,7 +165,8 @@ class StructureEvaluator:
         if hit is None:
             if len(self.capability) >= self.cache_size:
                 self.capability.clear()
-            A = self.matrix_of(key)
+            z = self.oracle.cached(key)  # the exact lookahead's, with its matrix
+            A = z.A if z is not None else self.matrix_of(key)
             rank = self.oracle.zonotope(A, key=key).rank
             hit = self.capability[key] = Capability(A, rank, len(key), self.features)
         return hit
@@ -228,19 +229,22 @@ class StructureEvaluator:
         return W, WD.max(axis=0), WD
 
     def evaluate(
-        self, key: Any, task: TaskArrays, mass: float, memo: dict
+        self, key: Any, task: TaskArrays, mass: float, memo: dict, known: int | None = None
     ) -> tuple[int, np.ndarray, int]:
         """(satisfied wrenches, structure vector, oracle tests made) of structure ``key`` against
         ``task`` (for a dynamic task: ``task_of(task, key)``); ``memo`` is the task's memo from
-        :class:`TaskMemos`."""
+        :class:`TaskMemos`. ``known``: the satisfied count the exact lookahead read off the
+        gammas by the same rule (:func:`~.exact.exact_rows`; not with a fault), no oracle call."""
         hit = memo.get(key)
         if hit is not None:
             return hit[0], hit[1], 0
         W, h_Tn, WD = self.at_mass(task, mass)
         cap = self.capability.get(key) or self.capability_of(key)
-        # a wrench beyond the exact support of the structure in a feature direction (by more
-        # than the oracle's tolerance, ``cap.slack``) is certainly infeasible: not tested
-        per_wrench, tests, n_sat = self.oracle.screened(cap.A, W, WD, cap.h_Wn, cap.slack, key)
+        if known is not None and self.fault is None:
+            per_wrench, tests, n_sat = np.maximum.reduce(WD - cap.h_Wn, axis=1), 0, known
+        else:  # a wrench beyond the exact support of the structure in a feature direction (by
+            # more than the oracle's tolerance, ``cap.slack``) is certainly infeasible: not tested
+            per_wrench, tests, n_sat = self.oracle.screened(cap.A, W, WD, cap.h_Wn, cap.slack, key)
         if self.fault is not None and n_sat:
             n_sat, extra = self.tolerated(key, cap.A, W)
             tests += extra

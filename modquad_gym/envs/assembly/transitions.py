@@ -13,8 +13,10 @@ def decided_fields(ep: Episode, state: AssemblyState, cells: tuple, types: tuple
     structure's own task arrays: those of a dynamic task change with it)."""
     key = ep.modules.key(cells, types)
     task = ep.evaluator.task_of(state.task, key)  # a dynamic task: the structure's own wrenches
-    n_sat, vec, tests = ep.evaluator.evaluate(key, task, ep.modules.mass(types), ep.memo)
     t = len(task.W)
+    entry = ep.exact_memo.get(key)  # its exact lookahead entry: the count, by the same rule
+    known = None if entry is None else round(entry[0] * t)
+    n_sat, vec, tests = ep.evaluator.evaluate(key, task, ep.modules.mass(types), ep.memo, known)
     return {
         "task": task,
         "structure_vec": vec,
