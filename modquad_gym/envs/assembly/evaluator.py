@@ -71,23 +71,6 @@ def _matrix(cells, types, cols, masses, side):  # pragma: no cover - compiled
     ``types`` (n,) with columns ``cols`` (K, 6, r) about their own centres and ``masses`` (K,):
     each module's columns plus c x d for its centre c from the (mass-weighted) centre of mass,
     as :func:`~modquad_gym.geometry.structure.configuration_matrices` computes them."""
-    A = np.empty((6, cells.shape[0] * cols.shape[2]))
-    _fill(cells, types, cols, masses, side, A)
-    return A
-
-
-@njit(cache=True)
-def _matrices(cells, types, cols, masses, side):  # pragma: no cover - compiled
-    """:func:`_matrix` of L structures of one size: cells (L, n, 2), types (L, n)."""
-    out = np.empty((cells.shape[0], 6, cells.shape[1] * cols.shape[2]))
-    for l in range(cells.shape[0]):
-        _fill(cells[l], types[l], cols, masses, side, out[l])
-    return out
-
-
-@njit(cache=True)
-def _fill(cells, types, cols, masses, side, A):  # pragma: no cover - compiled
-    """:func:`_matrix` into A."""
     n, r = cells.shape[0], cols.shape[2]
     total = cx0 = cy0 = 0.0
     for i in range(n):
@@ -97,6 +80,7 @@ def _fill(cells, types, cols, masses, side, A):  # pragma: no cover - compiled
         cy0 += w * cells[i, 1]
     cx0 /= total
     cy0 /= total
+    A = np.empty((6, n * r))
     for i in range(n):
         t = types[i]
         cx = (cells[i, 0] - cx0) * side
@@ -108,6 +92,7 @@ def _fill(cells, types, cols, masses, side, A):  # pragma: no cover - compiled
             A[3, k] = cols[t, 3, j] + cy * dz
             A[4, k] = cols[t, 4, j] - cx * dz
             A[5, k] = cols[t, 5, j] + cx * dy - cy * dx
+    return A
 
 
 class Capability:
@@ -192,9 +177,8 @@ class StructureEvaluator:
 
     def cell_matrices(self, cells: np.ndarray, types: np.ndarray) -> np.ndarray:
         """Configuration matrices (L, 6, m) of structures of grid ``cells`` (L, n, 2) and
-        palette ``types`` (L, n), in that module order, in one compiled call (those of
-        :func:`~modquad_gym.geometry.structure.configuration_matrices` up to round-off)."""
-        return _matrices(cells, types, self._cols, self._masses, self.module.side)
+        palette ``types`` (L, n), in that module order."""
+        return configuration_matrices(cells, self.module)
 
     def supports_of(self, keys: list, centres: bool = False) -> tuple[np.ndarray, ...]:
         """(h_W / denom (L, K), slack (L,)) of the structures ``keys`` (all of one size), and
@@ -329,6 +313,9 @@ class MixedStructureEvaluator(StructureEvaluator):
     def _cells_types(self, key: Any) -> tuple[np.ndarray, np.ndarray]:
         cells = np.array([c for c, _ in key], dtype=np.float64)
         return cells, np.array([self.index[id(m)] for _, m in key], dtype=np.int64)
+
+    def cell_matrices(self, cells: np.ndarray, types: np.ndarray) -> np.ndarray:
+        return mixed_configuration_matrices(cells, types, self.palette)
 
     def matrices(self, keys: list) -> np.ndarray:
         cells = np.array([[c for c, _ in k] for k in keys], dtype=float)
