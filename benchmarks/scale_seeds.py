@@ -21,7 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import bench_args, markdown_table, report_page, write_csv, write_report
+from benchmarks.common import (
+    bench_args,
+    markdown_table,
+    read_rows_csv,
+    report_page,
+    write_csv,
+    write_report,
+)
 from benchmarks.measure import fresh
 from benchmarks.scale import run_band
 from benchmarks.scale_suites import FAMILIES, load_scale_suite
@@ -134,28 +141,16 @@ COLUMNS = ("band", "family", "task", "method", "seed", "found", "seconds")
 
 
 def read_rows(path: Path) -> list[dict]:
-    """Rows of an earlier run's rows.csv, typed as :func:`solve` writes them; a ValueError
-    naming the file, the 1-based row and the column for anything else."""
-    import csv
+    """Rows of an earlier run's rows.csv, typed as :func:`solve` writes them
+    (:func:`~benchmarks.common.read_rows_csv`: a one-line ValueError naming the file and the
+    1-based row for anything else)."""
+    return read_rows_csv(path, "--rows", COLUMNS, typed_row, "benchmarks.scale_seeds")
 
-    with open(path, newline="") as f:
-        reader = csv.DictReader(f)
-        missing = [c for c in COLUMNS if c not in (reader.fieldnames or ())]
-        if missing:
-            raise ValueError(f"--rows {path}: no column {', '.join(missing)} (expected "
-                             f"{', '.join(COLUMNS)})")  # fmt: skip
-        rows = []
-        for i, r in enumerate(reader, start=1):
-            try:
-                typed = {"band": int(r["band"]), "seconds": float(r["seconds"]),
-                         "found": int(r["found"]) if r["found"] else None}  # fmt: skip
-            except ValueError:
-                raise ValueError(f"--rows {path}: row {i}: band, found and seconds must be "
-                                 f"numbers") from None  # fmt: skip
-            rows.append({c: r[c] for c in COLUMNS} | typed)
-    if not rows:
-        raise ValueError(f"--rows {path}: no rows")
-    return rows
+
+def typed_row(raw: dict) -> dict:
+    """A row of rows.csv with band, found (empty: none) and seconds as numbers."""
+    return raw | {"band": int(raw["band"]), "seconds": float(raw["seconds"]),
+                  "found": int(raw["found"]) if raw["found"] else None}  # fmt: skip
 
 
 def seed_models(folder: Path, option: str) -> dict[str, Path]:

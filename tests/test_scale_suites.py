@@ -216,8 +216,8 @@ def test_scale_seeds_refuses_foreign_rows_in_one_line(tmp_path, capsys):
     (runs / "model.zip").write_bytes(b"")
     header = "band,family,task,method,seed,found,seconds\n"
     foreign = "band,family,task,method,found\n16,planted,a,ppo,3\n"
-    cases = {"foreign.csv": (foreign, "no column seed"),
-             "bad.csv": (header + "16,planted,a,ppo,0,three,1.0\n", "row 1: band, found"),
+    cases = {"foreign.csv": (foreign, "its header is not band,family,task,method,seed"),
+             "bad.csv": (header + "16,planted,a,ppo,0,three,1.0\n", "row 1: not a row of"),
              "empty.csv": (header, "no rows")}  # fmt: skip
     for name, (text, message) in cases.items():
         (tmp_path / name).write_text(text)
