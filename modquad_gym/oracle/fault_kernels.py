@@ -25,6 +25,21 @@ first (:data:`PATHS`):
 6. alternating projections (clip into the shrunk cube, then back onto the equations); their
    last residual gives a candidate separating direction, which certifies a pair not tolerated
    (7).
+
+The certificate's arrays (:func:`~.fault_corrections.corrections`) that :func:`certify_rows`
+takes: C (k, m), the corrections of every failure one above the other (failure i owns rows
+starts[i]:starts[i + 1] of C, and ``columns`` the rotors they stand for); ``errors[i]``,
+``max |G C_i|`` (inf: never certify failure i); ``up[k]`` and ``down[k]``, the largest rise and
+fall row k of C causes off its failed rotors per unit of ``a = 1 + x_S >= 0`` (so ``max x +
+sum_k up_k a_k <= ACCEPT`` and ``sum_k down_k a_k - min x <= ACCEPT`` certify without a scan);
+``lift`` = (the single failures' corrections (m, m), and per ordered pair (i, j) the largest rise
+and fall of the correction of j once i has failed, (m, m) each) for test 2 (empty arrays skip
+it); H, the projection on the row space of G (the active set's); ``dual``, the dual metric
+(diagonal of (G G^T)^-1) that turns the projections' last residual into a candidate separating
+direction. Besides: ``tol``, the largest residual accepted, relative to 1 + |r|_inf; ``work``, the
+active set's scratch (:func:`~.active_set.workspace`); ``paths`` (7,), the pairs settled by each
+test, in :data:`PATHS` order; ``trace`` (t, F) int8, unless empty, which test settled each pair
+(for the tests' cross-checks).
 """
 
 from __future__ import annotations
@@ -130,6 +145,135 @@ def _first_correction(x, C, lo, hi, a, y):  # pragma: no cover - compiled
     return worst
 
 
+@njit(cache=True, inline="always")
+def _residual(r, G, y):  # pragma: no cover - compiled
+    """|G y - r|_inf: how far the allocation y is off the equations (measured in float64)."""
+    worst = 0.0
+    for i in range(G.shape[0]):
+        acc = -r[i]
+        for j in range(G.shape[1]):
+            acc += G[i, j] * y[j]
+        worst = max(worst, abs(acc))
+    return worst
+
+
+@njit(cache=True)
+def _row(r, G, P, x):  # pragma: no cover - compiled
+    """x = P r, the least-norm allocation of the centred reduced wrench r; returns |r|_inf, the
+    largest and smallest entry of x and its residual (zero up to round-off for r in the row
+    space): what every failure of the wrench starts from."""
+    rank, m = G.shape
+    big = 0.0
+    for i in range(rank):
+        big = max(big, abs(r[i]))
+    for j in range(m):
+        acc = 0.0
+        for i in range(rank):
+            acc += P[j, i] * r[i]
+        x[j] = acc
+    xhi = -np.inf
+    xlo = np.inf
+    for j in range(m):
+        xhi = max(xhi, x[j])
+        xlo = min(xlo, x[j])
+    return big, xhi, xlo, _residual(r, G, x)
+
+
+@njit(cache=True, inline="always")
+def _deviations(x, columns, lo, hi, up, down, a):  # pragma: no cover - compiled
+    """a[k] = 1 + x_S (k in lo:hi), the deviations the failure's correction scales; returns
+    their 1-norm and the largest rise and fall the correction can cause (test 1)."""
+    if hi - lo == 2 and x[columns[lo]] >= -1.0 and x[columns[lo + 1]] >= -1.0:
+        a0 = 1.0 + x[columns[lo]]  # a pair, both deviations >= 0: straight-line code
+        a1 = 1.0 + x[columns[lo + 1]]
+        a[lo] = a0
+        a[lo + 1] = a1
+        return a0 + a1, up[lo] * a0 + up[lo + 1] * a1, down[lo] * a0 + down[lo + 1] * a1
+    weight = 0.0
+    rise = 0.0
+    fall = 0.0
+    for k in range(lo, hi):
+        a[k] = 1.0 + x[columns[k]]
+        weight += abs(a[k])
+        if a[k] >= 0.0:
+            rise += up[k] * a[k]
+            fall += down[k] * a[k]
+        else:
+            rise -= down[k] * a[k]
+            fall -= up[k] * a[k]
+    return weight, rise, fall
+
+
+@njit(cache=True, inline="always")
+def _from_pool(
+    pool, pool_resid, found, C, columns, lo, hi, error, limit, a2, pe
+):  # pragma: no cover - compiled
+    """Test 4: the first correction from an allocation of the pool that has a failed rotor of
+    this failure off already stays in the cube (newest first: its pair is the likeliest kin)."""
+    for q in range(min(found, POOL)):
+        p = (found - 1 - q) % POOL
+        weight = 0.0
+        shared = False
+        for k in range(lo, hi):
+            a2[k] = 1.0 + pool[p, columns[k]]
+            weight += abs(a2[k])
+            shared |= a2[k] == 0.0
+        if shared and pool_resid[p] + error * weight <= limit:
+            if _first_correction(pool[p], C, lo, hi, a2, pe) <= ACCEPT:
+                return True
+    return False
+
+
+@njit(cache=True)
+def _projections(r, G, P, C, columns, lo, hi, x, a, y, e, pe, limit):  # pragma: no cover
+    """Test 6: ROUNDS of alternating projections from the first correction (clip the working
+    rotors into the shrunk cube, move back onto G y = r); True when a round ends in the cube
+    with its residual measured within ``limit``. ``e`` keeps the last move (test 7's start)."""
+    rank, m = G.shape
+    for j in range(m):
+        v = x[j]
+        for k in range(lo, hi):
+            v += C[k, j] * a[k]
+        y[j] = v
+    for _ in range(ROUNDS):
+        for j in range(m):
+            y[j] = min(max(y[j], -SHRINK), SHRINK)
+        for k in range(lo, hi):
+            y[columns[k]] = -1.0
+        for i in range(rank):
+            acc = r[i]
+            for j in range(m):
+                acc -= G[i, j] * y[j]
+            e[i] = acc
+        for j in range(m):
+            acc = 0.0
+            for i in range(rank):
+                acc += P[j, i] * e[i]
+            pe[j] = acc
+        ok = True
+        for j in range(m):
+            v = y[j] + pe[j]
+            for k in range(lo, hi):
+                v += C[k, j] * pe[columns[k]]
+            y[j] = v
+            if abs(v) > ACCEPT:
+                ok = False
+        if ok and _residual(r, G, y) <= limit:  # this round's round-off, measured
+            return True
+    return False
+
+
+@njit(cache=True)
+def _projected(r, G, P, dual, C, columns, lo, hi, x, a, y, e, pe, limit):  # pragma: no cover
+    """Tests 6 and 7, once the active set has failed (a call apart: rare, and each costs more
+    than the call): the index in PATHS of the one that settles the pair, -1 when neither does."""
+    if _projections(r, G, P, C, columns, lo, hi, x, a, y, e, pe, limit):
+        return 5
+    if ROUNDS and _separated(r, G, dual, e, columns[lo:hi], y):
+        return 6
+    return -1
+
+
 @njit(cache=True)
 def certify_rows(
     R, G, P, H, dual, C, columns, starts, errors, up, down, lift, tol, stop, work, out, paths, trace
@@ -138,86 +282,27 @@ def certify_rows(
     not (a separating direction of the failed zonotope); -1: undecided. With ``stop`` 1 it
     returns at the first pair certified not tolerated, with 2 also after the first row with
     a pair left undecided (the rows after it left unset); returns the number of rows done.
-
-    C (k, m) holds the corrections of every failure one above the other: failure i owns rows
-    starts[i]:starts[i + 1] of C, and ``columns`` the rotors they stand for. ``errors[i]`` is
-    ``max |G C_i|`` (inf: never certify failure i); ``up[k]`` and ``down[k]`` the largest rise
-    and fall row k of C causes off its failed rotors (per unit of ``a = 1 + x_S >= 0``: so
-    ``max x + sum_k up_k a_k <= ACCEPT`` and ``sum_k down_k a_k - min x <= ACCEPT`` certify
-    without a scan); ``tol`` the largest residual accepted, relative to 1 + |r|_inf; H the
-    projection on the row space of G (the active set's); ``dual`` the dual metric (diagonal of
-    (G G^T)^-1) that turns the last residual of the projections into a candidate separating
-    direction; ``work`` the active set's scratch (:func:`~.active_set.workspace`). For pairs,
-    ``lift`` = (the single failures' corrections (m, m), and per ordered pair (i, j) the
-    largest rise and fall of the correction of j once i has failed, (m, m) each) certifies
-    most pairs without a scan (module docstring); empty arrays skip it. ``paths`` (7,)
-    counts the pairs settled by each test, in :data:`PATHS` order, and ``trace`` (t, F) int8,
-    unless empty, records which settled each pair (for the tests' cross-checks)."""
-    t_rows, rank = R.shape
-    m = P.shape[0]
-    n_fail = len(starts) - 1
-    x = np.empty(m)
-    y = np.empty(m)
-    pe = np.empty(m)
-    e = np.empty(rank)
-    a = np.empty(C.shape[0])  # one entry per row of C (per failed rotor of every failure)
-    a2 = np.empty(C.shape[0])
-    pool = np.empty((POOL, m))
-    pool_resid = np.empty(POOL)
+    The arguments are described in the module docstring. The tests that most pairs reach stay
+    in this loop rather than in helpers: a call that passes arrays, even inlined, costs more
+    than they do (numba counts the references of each array at the call)."""
     single, up2, down2 = lift
-    hi1 = np.empty(len(single))
-    lo1 = np.empty(len(single))
-    for t in range(t_rows):
-        big = 0.0
-        for i in range(rank):
-            big = max(big, abs(R[t, i]))
-        for j in range(m):
-            acc = 0.0
-            for i in range(rank):
-                acc += P[j, i] * R[t, i]
-            x[j] = acc
-        xhi = -np.inf
-        xlo = np.inf
-        for j in range(m):
-            xhi = max(xhi, x[j])
-            xlo = min(xlo, x[j])
-        resid = 0.0  # |G x - r|_inf: zero for r in the row space, up to round-off
-        for i in range(rank):
-            acc = -R[t, i]
-            for j in range(m):
-                acc += G[i, j] * x[j]
-            resid = max(resid, abs(acc))
+    m, k, n = G.shape[1], C.shape[0], len(single)
+    x, y, pe, e = np.empty(m), np.empty(m), np.empty(m), np.empty(G.shape[0])
+    a, a2, hi1, lo1 = np.empty(k), np.empty(k), np.empty(n), np.empty(n)  # a: per row of C
+    pool, pool_resid = np.empty((POOL, m)), np.empty(POOL)  # allocations found for the wrench
+    for t in range(R.shape[0]):
+        big, xhi, xlo, resid = _row(R[t], G, P, x)
         limit = tol * (1.0 + big)
         found = 0  # allocations in the pool for this wrench
         lifted = False  # the single failures' corrections of this wrench not yet made
-        for f in range(n_fail):
+        for f in range(len(starts) - 1):
             out[t, f] = -1
             if errors[f] == np.inf:
                 continue
             lo, hi = starts[f], starts[f + 1]
-            if hi - lo == 2 and x[columns[lo]] >= -1.0 and x[columns[lo + 1]] >= -1.0:
-                a0 = 1.0 + x[columns[lo]]  # a pair, both deviations >= 0: straight-line code
-                a1 = 1.0 + x[columns[lo + 1]]
-                a[lo] = a0
-                a[lo + 1] = a1
-                weight = a0 + a1
-                rise = up[lo] * a0 + up[lo + 1] * a1
-                fall = down[lo] * a0 + down[lo + 1] * a1
-            else:
-                weight = 0.0
-                rise = 0.0
-                fall = 0.0
-                for k in range(lo, hi):
-                    a[k] = 1.0 + x[columns[k]]
-                    weight += abs(a[k])
-                    if a[k] >= 0.0:
-                        rise += up[k] * a[k]
-                        fall += down[k] * a[k]
-                    else:
-                        rise -= down[k] * a[k]
-                        fall -= up[k] * a[k]
+            weight, rise, fall = _deviations(x, columns, lo, hi, up, down, a)
             if resid + errors[f] * weight > limit:
-                continue  # (the last residual e is only set by the rounds below)
+                continue  # (the last residual e is only set by the projections)
             if xhi + rise <= ACCEPT and fall - xlo <= ACCEPT:
                 out[t, f] = 1
                 paths[0] += 1
@@ -225,7 +310,7 @@ def certify_rows(
                     trace[t, f] = 0
                 continue
             if hi - lo == 2 and len(single):  # a pair: through each rotor's own failure
-                if not lifted:
+                if not lifted:  # the wrench's single failures, made on first need
                     _single_failures(x, single, hi1, lo1)
                     lifted = True
                 i, j = columns[lo], columns[lo + 1]
@@ -238,98 +323,31 @@ def certify_rows(
                         trace[t, f] = 1
                     continue
             if _first_correction(x, C, lo, hi, a, y) <= ACCEPT:
-                out[t, f] = 1
-                paths[2] += 1
-                if len(trace):
-                    trace[t, f] = 2
-                continue
-            ok = False
-            for q in range(min(found, POOL)):  # from an allocation found for an earlier pair
-                p = (found - 1 - q) % POOL  # the newest first: its pair is the likeliest kin
-                weight = 0.0
-                shared = False  # a failed rotor already off in it: the likely successes
-                for k in range(lo, hi):
-                    a2[k] = 1.0 + pool[p, columns[k]]
-                    weight += abs(a2[k])
-                    shared |= a2[k] == 0.0
-                if shared and pool_resid[p] + errors[f] * weight <= limit:
-                    if _first_correction(pool[p], C, lo, hi, a2, pe) <= ACCEPT:
-                        ok = True
-                        break
-            if ok:
-                out[t, f] = 1
-                paths[3] += 1
-                if len(trace):
-                    trace[t, f] = 3
-                continue
-            worst = active_set(R[t], G, H, y, columns[lo:hi], limit, PIN, work)
-            if worst < 0.0:  # again, pinning just inside the cube
-                _first_correction(x, C, lo, hi, a, y)
-                worst = active_set(R[t], G, H, y, columns[lo:hi], limit, SHRINK, work)
-            if worst >= 0.0:
-                slot = found % POOL
-                pool[slot] = y
-                pool_resid[slot] = worst
-                found += 1
-                out[t, f] = 1
-                paths[4] += 1
-                if len(trace):
-                    trace[t, f] = 4
-                continue
-            for j in range(m):  # the projections start again from the first correction
-                v = x[j]
-                for k in range(lo, hi):
-                    v += C[k, j] * a[k]
-                y[j] = v
-            ok = False
-            for _ in range(ROUNDS):
-                # clip the working rotors into the shrunk cube, move back onto G y = r
-                for j in range(m):
-                    y[j] = min(max(y[j], -SHRINK), SHRINK)
-                for k in range(lo, hi):
-                    y[columns[k]] = -1.0
-                for i in range(rank):
-                    acc = R[t, i]
-                    for j in range(m):
-                        acc -= G[i, j] * y[j]
-                    e[i] = acc
-                for j in range(m):
-                    acc = 0.0
-                    for i in range(rank):
-                        acc += P[j, i] * e[i]
-                    pe[j] = acc
-                ok = True
-                for j in range(m):
-                    v = y[j] + pe[j]
-                    for k in range(lo, hi):
-                        v += C[k, j] * pe[columns[k]]
-                    y[j] = v
-                    if abs(v) > ACCEPT:
-                        ok = False
-                if ok:  # round-off of this round: the residual of y, measured
-                    worst = 0.0
-                    for i in range(rank):
-                        acc = -R[t, i]
-                        for j in range(m):
-                            acc += G[i, j] * y[j]
-                        worst = max(worst, abs(acc))
-                    ok = worst <= limit
-                if ok:
-                    break
-            if ok:
-                out[t, f] = 1
-                paths[5] += 1
-                if len(trace):
-                    trace[t, f] = 5
-            elif ROUNDS and _separated(R[t], G, dual, e, columns[lo:hi], y):
-                out[t, f] = 0
-                paths[6] += 1
-                if len(trace):
-                    trace[t, f] = 6
-                if stop:
-                    return t + 1
+                path = 2
+            elif _from_pool(pool, pool_resid, found, C, columns, lo, hi, errors[f], limit, a2, pe):
+                path = 3
+            else:
+                worst = active_set(R[t], G, H, y, columns[lo:hi], limit, PIN, work)
+                if worst < 0.0:  # again, pinning just inside the cube
+                    _first_correction(x, C, lo, hi, a, y)
+                    worst = active_set(R[t], G, H, y, columns[lo:hi], limit, SHRINK, work)
+                if worst >= 0.0:
+                    pool[found % POOL] = y
+                    pool_resid[found % POOL] = worst
+                    found += 1
+                    path = 4
+                else:
+                    path = _projected(R[t], G, P, dual, C, columns, lo, hi, x, a, y, e, pe, limit)
+                    if path < 0:
+                        continue
+            out[t, f] = 0 if path == 6 else 1
+            paths[path] += 1
+            if len(trace):
+                trace[t, f] = path
+            if path == 6 and stop:
+                return t + 1
         if stop == 2:  # the row is done: stop when a pair of it is left undecided
-            for f in range(n_fail):
+            for f in range(len(starts) - 1):
                 if out[t, f] != 1:
                     return t + 1
-    return t_rows
+    return R.shape[0]
