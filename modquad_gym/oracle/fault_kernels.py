@@ -224,11 +224,13 @@ def _from_pool(
     return False
 
 
-@njit(cache=True)
-def _projections(r, G, P, C, columns, lo, hi, x, a, y, e, pe, limit):  # pragma: no cover
-    """Test 6: ROUNDS of alternating projections from the first correction (clip the working
-    rotors into the shrunk cube, move back onto G y = r); True when a round ends in the cube
-    with its residual measured within ``limit``. ``e`` keeps the last move (test 7's start)."""
+@njit(cache=True, inline="always")
+def _projected(r, G, P, dual, C, columns, lo, hi, x, a, y, e, pe, limit):  # pragma: no cover
+    """Tests 6 and 7, once the active set has failed: ROUNDS of alternating projections from
+    the first correction (clip the working rotors into the shrunk cube, move back onto G y = r)
+    certify the pair when a round ends in the cube with its residual measured within
+    ``limit``; else their last move ``e`` may separate it. Returns the index in PATHS of the
+    test that settles it, -1 when neither does (inlined: measured faster than a call)."""
     rank, m = G.shape
     for j in range(m):
         v = x[j]
@@ -259,16 +261,7 @@ def _projections(r, G, P, C, columns, lo, hi, x, a, y, e, pe, limit):  # pragma:
             if abs(v) > ACCEPT:
                 ok = False
         if ok and _residual(r, G, y) <= limit:  # this round's round-off, measured
-            return True
-    return False
-
-
-@njit(cache=True)
-def _projected(r, G, P, dual, C, columns, lo, hi, x, a, y, e, pe, limit):  # pragma: no cover
-    """Tests 6 and 7, once the active set has failed (a call apart: rare, and each costs more
-    than the call): the index in PATHS of the one that settles the pair, -1 when neither does."""
-    if _projections(r, G, P, C, columns, lo, hi, x, a, y, e, pe, limit):
-        return 5
+            return 5
     if ROUNDS and _separated(r, G, dual, e, columns[lo:hi], y):
         return 6
     return -1
@@ -283,8 +276,8 @@ def certify_rows(
     returns at the first pair certified not tolerated, with 2 also after the first row with
     a pair left undecided (the rows after it left unset); returns the number of rows done.
     The arguments are described in the module docstring. The tests that most pairs reach stay
-    in this loop rather than in helpers: a call that passes arrays, even inlined, costs more
-    than they do (numba counts the references of each array at the call)."""
+    in this loop rather than in helpers: measured, a call that passes arrays (even inlined)
+    costs more than they do."""
     single, up2, down2 = lift
     m, k, n = G.shape[1], C.shape[0], len(single)
     x, y, pe, e = np.empty(m), np.empty(m), np.empty(m), np.empty(G.shape[0])
