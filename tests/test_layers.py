@@ -36,9 +36,7 @@ ALLOWED_CYCLES: set[frozenset[str]] = set()
 ALLOWED_LONG_MODULES = {
     "modquad_gym.geometry.structure": 425,  # geometry (layout; dynamics' inertia): on the board
 }
-ALLOWED_LONG_FUNCTIONS = {
-    "modquad_gym/oracle/fault_kernels.py: certify_rows",  # the compiled kernel: being split
-}
+ALLOWED_LONG_FUNCTIONS: set[str] = set()
 ALLOWED_PRIVATE = {
     "modquad_gym.sim.track_pictures -> modquad_gym.sim.pictures._plt",  # dynamics: on the board
 }
