@@ -310,12 +310,12 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
 ):
     """The shipped policy's observation (``"exact"`` with its shortlist) with what each state
     takes from its own exact entries and the shortlist (its children's walks started at its
-    optimal vertices, the shortlist's directions read off those vertices where they are
-    unique optima, the shortlist's supports for its support rows, no walk where its bounds
-    prove gamma past the clip) equals the plain path's (every walk from the dual-metric
-    direction, every support computed again, every wrench walked), state by state on random
-    episodes: masks and the flag on greedy's choice identical, every entry within float32
-    round-off; and each shortcut was taken."""
+    optimal vertices or a walked sibling's, the shortlist's directions read off those
+    vertices where they are unique optima, the shortlist's supports for its support rows, no
+    walk where its bounds prove gamma past the clip) equals the plain path's (every walk from
+    the dual-metric direction, every support computed again, every wrench walked), state by
+    state on random episodes: masks and the flag on greedy's choice identical, every entry
+    within float32 round-off; and each shortcut was taken."""
     from modquad_gym.envs.assembly import exact, lookahead, transitions
     from modquad_gym.envs.assembly.evaluator import StructureEvaluator
     from modquad_gym.oracle import kernels
@@ -332,8 +332,12 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
                 done = terminated or truncated
         return out
 
-    taken = {"start": 0, "proved": 0, "supports": 0, "read": 0}
-    walk, rows = exact.gamma_capped_from, StructureEvaluator.candidate_rows
+    taken = {"start": 0, "proved": 0, "supports": 0, "read": 0, "sibling": 0}
+    walk, rows, sibling = (
+        exact.gamma_capped_from,
+        StructureEvaluator.candidate_rows,
+        exact.from_sibling,
+    )
     read = kernels.vertex_directions
 
     def counting_walk(z, W, cap, start=None, lower=None):
@@ -349,12 +353,18 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
         read(G, R, starts, signs, cap, dirs, found)
         taken["read"] += int(found.sum())
 
+    def counting_sibling(start, line, walked, r):
+        got = sibling(start, line, walked, r)
+        taken["sibling"] += int((got[0] != start[0]).any(axis=1).sum())
+        return got
+
     monkeypatch.setattr(exact, "gamma_capped_from", counting_walk)
+    monkeypatch.setattr(exact, "from_sibling", counting_sibling)
     monkeypatch.setattr(kernels, "vertex_directions", counting_read)
     monkeypatch.setattr(StructureEvaluator, "candidate_rows", counting_rows)
     make = dict(tasks=source, n_max=n_max, lookahead="exact", lookahead_top_k=8, **kwargs)
     fast = episodes(ModQuadAssemblyEnv(**make))
-    assert taken["start"] and taken["supports"]
+    assert taken["start"] and taken["supports"] and taken["sibling"]
     assert taken["read"] or source == "motions"  # a dynamic task ranks by supports alone
     shortlist = transitions.shortlisted  # the plain path: nothing passed on
     monkeypatch.setattr(transitions, "shortlisted", lambda ep, state: (shortlist(ep, state)[0], {}))

@@ -106,20 +106,19 @@ def lineages(ep: Episode, state: AssemblyState, cells: list, walks, lower: list 
     """The :class:`~.exact.Lineage` of each child of ``state`` with a module at one of
     ``cells``: the optimal vertices of the parent's walks (``walks``: tight columns and column
     bounds per wrench, or None) renumbered to the child's columns (a key sorts its cells, so
-    the new module's columns go in at its place among them, with unknown bounds), and the
-    child's gamma bounds ``lower`` (or None)."""
+    the new module's columns go in at its place among them, with unknown bounds), the child's
+    gamma bounds ``lower`` (or None), its new cell and that module's first column."""
     r = ep.evaluator.module.n_rotors
     order = sorted(state.cells)
     tights, signs = (None, None) if walks is None else (walks[0].astype(np.int64), walks[1])
     out = []
     for i, c in enumerate(cells):
-        start = None
+        start, at = None, r * bisect_left(order, c)
         if walks is not None:
-            at = r * bisect_left(order, c)
             child = np.zeros((len(signs), signs.shape[1] + r), dtype=np.int8)
             child[:, :at], child[:, at + r :] = signs[:, :at], signs[:, at:]
             start = (tights + r * (tights >= at), child)
-        out.append(Lineage(start, None if lower is None else lower[i]))
+        out.append(Lineage(start, None if lower is None else lower[i], c, at))
     return out
 
 
