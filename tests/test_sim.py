@@ -400,6 +400,16 @@ def test_validate_writes_files_and_keys(tmp_path):
     assert "0.35 s ramp" in report
 
 
+def test_validate_counts_the_feasible_wrenches_it_hovered_on_not_the_first_ones(tmp_path):
+    s = mq.Structure([(0, 0), (1, 0)])
+    inside = _interior_wrenches(s, 1, seed=3, lo=0.3, hi=0.7)[0]
+    W = np.array([inside, 3.0 * inside])  # the second lies outside W: the smallest margin
+    out = validate(s, W, hover_seconds=0.2, render=False, max_hover_wrenches=1,
+                   unknown_load=False).to_dict()  # fmt: skip
+    assert out["feasible"] is False and out["hover_wrenches"] == 1
+    assert out["hover_n_feasible"] == 0  # it hovered on the infeasible one (the first is not)
+
+
 def test_validate_report_names_the_hovered_subset(tmp_path):
     s = mq.Structure([(0, 0), (1, 0), (2, 0)])
     W = _interior_wrenches(s, 3, seed=8, lo=0.3, hi=0.7)
@@ -416,7 +426,7 @@ def test_validate_report_names_the_hovered_subset(tmp_path):
     assert (out["hover_load_frame"], out["hover_seconds_per_wrench"]) == ("world", 0.3)
     assert out["hover_n_feasible"] == 1 and out["hover_takeoff"]["segment"] == -1
     report = (tmp_path / "report.md").read_text()
-    assert "first 1 of 3 wrenches" in report
+    assert "Hover on 1 of the 3 wrenches: the hardest half by margin" in report
     assert "0.151" in report  # the line's unreachable direction, explained
     assert out["unreachable_wrench_directions"][0]["point"][2] == pytest.approx(0.1514, abs=1e-4)
     assert set(out["files"]) == {"rotor_inputs", "bench_wrench", "hover", "report", "json"}

@@ -64,10 +64,11 @@ def _bench_lines(out: dict) -> list[str]:
 
 def _hover_table(out: dict, settle_fraction: float, blind: bool) -> list[str]:
     t, n_hover = out["n_wrenches"], out["hover_wrenches"]
-    which = f"all {t} wrenches" if n_hover == t else f"first {n_hover} of {t} wrenches"
+    which = (f"all {t} wrenches" if n_hover == t else f"{n_hover} of the {t} wrenches: the "
+             "hardest half by margin and a seeded draw")  # fmt: skip
     lines = [
         "",
-        f"## Hover on the {which} (gravity on, load d = -(w + gravity wrench), "
+        f"## Hover on {which} (gravity on, load d = -(w + gravity wrench), "
         f"fixed in the {out['hover_load_frame']} frame; LQR + bounded allocation)",
         "",
         f"Each wrench is held {out['hover_seconds_per_wrench']:g} s; errors are measured over "

@@ -159,7 +159,8 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
     marg = margin(A, W, f_max)
     exact, pinv = _bench(structure, W, f_max)
     fly_sim = build_model(structure, f_max, bench=False)
-    W_hover = W[hover_wrench_sample(marg, max_hover_wrenches)]
+    hovered = hover_wrench_sample(marg, max_hover_wrenches)
+    W_hover = W[hovered]
     config = HoverConfig(
         seconds_per_wrench=hover_seconds, load_frame=load_frame, settle_fraction=SETTLE_FRACTION
     )
@@ -167,7 +168,7 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
     report = ValidationReport(
         **_structure_fields(structure, A, W, f_max, feas, marg, fly_sim.mass, task.kind),
         **_bench_fields(exact, pinv),
-        **_hover_fields(hover, config, feas, len(W_hover)),
+        **_hover_fields(hover, config, feas[hovered]),
     )
     blind = demo = None
     if unknown_load:
@@ -197,13 +198,14 @@ def _checked(structure: Any, task: Any, f_max: float | None, kind: str | None,
     return task, W, f_max
 
 
-def _hover_fields(hover, config: HoverConfig, feas: np.ndarray, n_hovered: int) -> dict:
-    """The report's fields of the known-load hover on ``n_hovered`` wrenches."""
+def _hover_fields(hover, config: HoverConfig, feas: np.ndarray) -> dict:
+    """The report's fields of the known-load hover on the wrenches whose feasibility is
+    ``feas`` (those :func:`hover_wrench_sample` chose, in task order)."""
     return {
         "hover_load_frame": config.load_frame,
         "hover_seconds_per_wrench": config.seconds_per_wrench,
-        "hover_wrenches": n_hovered,
-        "hover_n_feasible": int(feas[:n_hovered].sum()),
+        "hover_wrenches": len(feas),
+        "hover_n_feasible": int(feas.sum()),
         "hover": HoverSummary.of(hover),
         "hover_takeoff": next((s for s in hover.segment_metrics if s["segment"] == -1), None),
     }
