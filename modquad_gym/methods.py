@@ -22,7 +22,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from modquad_gym.core.validation import check_int, check_real
+from modquad_gym.core.validation import check_flag, check_int, check_real
 from modquad_gym.policy.models import TOP_K
 from modquad_gym.search.problem import MAX_TIME_LIMIT, PRUNE, unknown_option
 from modquad_gym.search.prune import PRUNE_HELP
@@ -125,12 +125,12 @@ def _seed(value: Any, name: str) -> int:
 COMMON_HELP: dict[str, tuple[str, Callable | None]] = {
     "time_limit": ("seconds the method may take; it returns what it has by then", _seconds),
     "seed": ("seed of its random draws (0 to 2**63-1)", _seed),
-    "progress": ("show progress on stderr", None),
+    "progress": ("show progress on stderr", check_flag),
     "engine": ("an Engine whose workers share the work (Python only)", None),
     "chunk": ("structures decided per batch", _count(1)),
     "start": ("a partial structure every answer contains (Python only)", None),
     "producers": ("the producers run beside the anytime search's own steps (Python only)", None),
-    "prune": (PRUNE_HELP, None),
+    "prune": (PRUNE_HELP, check_flag),
 }
 """Help and check of the options several methods share."""
 
@@ -260,7 +260,7 @@ _LEARNED_LIMIT = (float | None, None, "seconds after which it stops (None: none)
 _TOP_K = (int | None, TOP_K, "children decided exactly per step by a model reading the exact "
           "lookahead, the rest ranked lower by support bounds and masked out (None: all)",
           _count(1))  # fmt: skip
-_PRUNE = (bool, False, PRUNE_HELP, None)
+_PRUNE = (bool, False, PRUNE_HELP, check_flag)
 
 for _method in (
     _search("exhaustive", "the certified minimum (exhaustive search, up to 16 modules)",
@@ -300,7 +300,7 @@ for _method in (
                                   budget=(int, 64, "most structures evaluated", _count(1)),
                                   branching=(int, 4, "children expanded per node", _count(1)),
                                   dive=(bool, True, "first follow the policy's own episode",
-                                        None), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
+                                        check_flag), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
                                   prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", fault=False, extra="train"),
 ):  # fmt: skip

@@ -84,3 +84,23 @@ def test_the_learned_single_pass_prunes_what_it_docked_too_many():
     assert plain.structure is not None
     _assert_pruned_from(small, plain, mq.SearchProblem(task, n_max=40))
     assert small.n_modules < plain.n_modules and small.method == "ppo"
+
+
+def test_a_flag_that_is_not_true_or_false_is_refused_at_every_door(capsys):
+    from modquad_gym.cli import main
+
+    task = load_task("example:screwdriver")
+    makers = (
+        lambda: make_solver("greedy", prune="no"),
+        lambda: mq.greedy_search(task, prune=1),
+        lambda: make_solver("ppo", prune="yes"),
+        lambda: make_solver("ppo-guided", dive="no"),
+    )
+    for make in makers:
+        with pytest.raises(ValueError, match="must be True or False"):
+            make()
+    argv = ["solve", "--task", "example:screwdriver", "--method", "greedy", "--option",
+            "prune=maybe"]  # fmt: skip
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "prune=maybe" in err, err

@@ -32,6 +32,14 @@ def _is_bool(value: object) -> bool:
     return isinstance(value, (bool, np.bool_))
 
 
+def check_flag(value: object, name: str) -> bool:
+    """``value`` as a Python bool, or a ValueError naming ``name``: only True and False (and
+    NumPy's), never a string or a number whose truth would be taken silently."""
+    if not _is_bool(value):
+        raise ValueError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
+
+
 def check_int(value: object, name: str, low: int | None = None, high: int | None = None) -> int:
     """``value`` as a Python int within [low, high], or a ValueError naming ``name``.
 

@@ -21,7 +21,7 @@ from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
-from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
+from modquad_gym.core.validation import check_f_max, check_flag, check_int, check_wrenches
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_task_scale
@@ -377,7 +377,7 @@ def search_entry(name: str, prune: Callable | None = None) -> Callable[[Callable
                 raise TypeError(unknown_option(name, unknown[0], names))
             problem = as_problem(task, n_max, f_max, module, modules=modules, kind=kind,
                                  fault=fault, fault_margin=fault_margin)  # fmt: skip
-            if not kwargs.pop("prune", False):
+            if not check_flag(kwargs.pop("prune", False), "prune"):
                 return solve(problem, **kwargs)
             return prune(solve(problem, **kwargs), problem, kwargs.get("time_limit", default_limit))
 
