@@ -266,7 +266,7 @@ for _method in (
     _search("exhaustive", "the certified minimum (exhaustive search, up to 16 modules)",
             certifies=True, timed=False),
     _search("centrosymmetric", "the paper's Algorithm 2",
-            {"block_seed": ("also grow from a 2 x 2 block (even counts)", None)}),
+            {"block_seed": ("also grow from a 2 x 2 block (even counts)", check_flag)}),
     _search("greedy", "baseline: the child satisfying most wrenches"),
     _search("random", "baseline: random dockings",
             {"restarts": ("independent random builds", _count(1))}, seeded=True),

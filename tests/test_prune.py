@@ -95,6 +95,7 @@ def test_a_flag_that_is_not_true_or_false_is_refused_at_every_door(capsys):
         lambda: mq.greedy_search(task, prune=1),
         lambda: make_solver("ppo", prune="yes"),
         lambda: make_solver("ppo-guided", dive="no"),
+        lambda: make_solver("centrosymmetric", block_seed="no"),
     )
     for make in makers:
         with pytest.raises(ValueError, match="must be True or False"):
