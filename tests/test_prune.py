@@ -105,3 +105,15 @@ def test_a_flag_that_is_not_true_or_false_is_refused_at_every_door(capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "prune=maybe" in err, err
+
+
+def test_prune_keeps_the_start_every_answer_contains():
+    task = _planted(0, 1)  # one module is enough: a 3-module start is redundant but kept
+    start = [(0, 0), (1, 0), (2, 0)]
+    assert mq.exhaustive_search(task, n_max=3).n_modules == 1
+    for given in (start, iter(start), mq.Structure(start)):  # a generator is read once
+        r = mq.greedy_search(task, n_max=5, start=given, prune=True)
+        assert set(start) <= set(r.structure.cells) and r.n_modules == 3
+    problem = mq.SearchProblem(task, n_max=5)
+    free = prune(SearchRun("test", problem), mq.Structure(start), lambda: False)
+    assert free.n_modules == 1  # nothing kept: the post-pass drops both spare modules

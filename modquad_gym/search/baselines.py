@@ -26,7 +26,7 @@ from modquad_gym.oracle.faults import DecisionInterruptedError
 from modquad_gym.search.heuristic import Deadline, heuristic_result, impossible_result
 from modquad_gym.search.partial import make_partial
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
-from modquad_gym.search.prune import pruned
+from modquad_gym.search.prune import pruned_search
 from modquad_gym.search.result import SearchResult, SearchRun
 
 TIE_DECIMALS = 9
@@ -49,7 +49,7 @@ def _typed(run: SearchRun, cells: Iterable[Cell], types: Iterable[int]) -> Struc
     return Structure.from_trusted(tuple(cells), modules=tuple(palette[t] for t in types))
 
 
-@search_entry("greedy", prune=pruned)
+@search_entry("greedy", prune=pruned_search)
 def greedy_search(
     problem: SearchProblem,
     *,
@@ -125,7 +125,7 @@ def greedy_search(
     return heuristic_result(run, None)
 
 
-@search_entry("random", prune=pruned)
+@search_entry("random", prune=pruned_search)
 def random_search(
     problem: SearchProblem,
     *,

@@ -31,7 +31,7 @@ from modquad_gym.search.heuristic import (
     impossible_result,
 )
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
-from modquad_gym.search.prune import pruned
+from modquad_gym.search.prune import pruned_search
 from modquad_gym.search.result import SearchResult, SearchRun
 
 DEFAULT_BEAM_WIDTH = 4
@@ -57,7 +57,7 @@ def children(beam: Sequence[Candidate], n_types: int) -> list[Candidate]:
     return list(out)
 
 
-@search_entry("beam", prune=pruned)
+@search_entry("beam", prune=pruned_search)
 def beam_search(
     problem: SearchProblem,
     *,

@@ -39,7 +39,7 @@ from modquad_gym.search.heuristic import (
     impossible_result,
 )
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
-from modquad_gym.search.prune import pruned
+from modquad_gym.search.prune import pruned_search
 from modquad_gym.search.result import SearchResult, SearchRun
 
 DEFAULT_POPULATION = 24
@@ -86,7 +86,7 @@ def _options(population, generations, stall, mutation_rate, crossover_rate, elit
     }
 
 
-@search_entry("genetic", prune=pruned)
+@search_entry("genetic", prune=pruned_search)
 def genetic_search(
     problem: SearchProblem,
     *,

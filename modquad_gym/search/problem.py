@@ -358,16 +358,14 @@ def search_entry(name: str, prune: Callable | None = None) -> Callable[[Callable
     f_max=None, module=None, *, modules=None, kind=None, fault=None``) from which it builds
     one (:func:`as_problem`), and then the search's own keyword options; its signature says so.
     An option the search does not take is refused with a TypeError naming it and the options
-    it takes. ``entry.solve`` is the problem's function. Given ``prune(result, problem,
-    time_limit)`` (:func:`~.prune.pruned`), the entry also takes ``prune=True``: the answer
-    then goes through it within the search's ``time_limit``."""
+    it takes. ``entry.solve`` is the problem's function. Given ``prune(solve, problem,
+    options)`` (:func:`~.prune.pruned_search`), the entry also takes ``prune=True`` and
+    answers with that instead."""
 
     def wrap(solve: Callable) -> Callable:
         options = list(inspect.signature(solve).parameters.values())[1:]
         options += [PRUNE] if prune is not None else []
         names = {p.name for p in options}
-        limit = inspect.signature(solve).parameters.get("time_limit")
-        default_limit = None if limit is None else limit.default
 
         @functools.wraps(solve)
         def entry(task, n_max=DEFAULT_N_MAX, f_max=None, module=None, *, modules=None,
@@ -379,7 +377,7 @@ def search_entry(name: str, prune: Callable | None = None) -> Callable[[Callable
                                  fault=fault, fault_margin=fault_margin)  # fmt: skip
             if not check_flag(kwargs.pop("prune", False), "prune"):
                 return solve(problem, **kwargs)
-            return prune(solve(problem, **kwargs), problem, kwargs.get("time_limit", default_limit))
+            return prune(solve, problem, kwargs)
 
         returns = inspect.signature(solve).return_annotation
         entry.__signature__ = inspect.Signature(

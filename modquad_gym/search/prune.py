@@ -11,6 +11,7 @@ default, so every method's own answer stays what it was.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import time
 from collections.abc import Callable
 
@@ -23,14 +24,17 @@ PRUNE_HELP = "then drop modules the answer does not need, one at a time (within 
 """The one-line help of the ``prune`` option, wherever a method takes it."""
 
 
-def prune(run: SearchRun, structure: Structure, passed: Callable[[], bool]) -> Structure:
+def prune(
+    run: SearchRun, structure: Structure, passed: Callable[[], bool], keep: frozenset = frozenset()
+) -> Structure:
     """``structure`` less the modules it does not need: repeatedly the first module, in cell
     order, whose removal leaves the others connected and the problem satisfied (the run's
-    exact decision, with its fault if any), until no removal does or ``passed()``. Each
-    structure tried counts as one evaluated configuration of ``run``."""
+    exact decision, with its fault if any), until no removal does or ``passed()``; the modules
+    at the cells ``keep`` (a search's ``start``) stay. Each structure tried counts as one
+    evaluated configuration of ``run``."""
     cells, types = structure.cells, structure.modules
     while len(cells) > 1 and not passed():
-        for i in removable(cells):
+        for i in (i for i in removable(cells) if cells[i] not in keep):
             smaller = Structure.from_trusted(cells[:i] + cells[i + 1 :],
                                              modules=types[:i] + types[i + 1 :])  # fmt: skip
             if run.decide(smaller)[2].all():
@@ -45,18 +49,22 @@ def prune(run: SearchRun, structure: Structure, passed: Callable[[], bool]) -> S
     return Structure.from_trusted(cells, modules=types)
 
 
-def pruned(result: SearchResult, problem: SearchProblem, time_limit: float | None) -> SearchResult:
-    """``result`` with its structure pruned (:func:`prune`) for ``problem``, within what is
-    left of ``time_limit`` seconds (None: no limit) after the method's own ``result.seconds``;
+def pruned(
+    result: SearchResult, problem: SearchProblem, time_limit: float | None, start=None
+) -> SearchResult:
+    """``result`` with its structure pruned (:func:`prune`; the modules of the search's
+    ``start``, a Structure or cells, stay) for ``problem``, within what is left of
+    ``time_limit`` seconds (None: no limit) after the method's own ``result.seconds``;
     the smaller structure verified by the exact LP as every answer is (should it fail there,
     the method's own answer stands). Counts and seconds add up; the lower bound is the
     method's, so the answer is certified when the pruned count meets it."""
     if result.structure is None or result.certified:
         return result
-    start = time.perf_counter()
-    deadline = start + (time_limit - result.seconds) if time_limit is not None else float("inf")
+    keep = frozenset(tuple(c) for c in getattr(start, "cells", start or ()))
+    began = time.perf_counter()
+    deadline = began + (time_limit - result.seconds) if time_limit is not None else float("inf")
     run = SearchRun(result.method, problem)
-    smaller = prune(run, result.structure, lambda: time.perf_counter() >= deadline)
+    smaller = prune(run, result.structure, lambda: time.perf_counter() >= deadline, keep)
     found = result.structure
     if smaller is not result.structure:
         found = run.finish(smaller, result.lower_bound).structure or result.structure
@@ -66,6 +74,16 @@ def pruned(result: SearchResult, problem: SearchProblem, time_limit: float | Non
         n_modules=found.n_modules,
         evaluated=result.evaluated + run.checker.evaluated,
         oracle_calls=result.oracle_calls + run.checker.oracle_calls,
-        seconds=result.seconds + time.perf_counter() - start,
+        seconds=result.seconds + time.perf_counter() - began,
         certified=found.n_modules == result.lower_bound,
     )
+
+
+def pruned_search(solve: Callable, problem: SearchProblem, options: dict) -> SearchResult:
+    """``solve(problem, **options)`` (a search's, :func:`~.problem.search_entry`), its answer
+    :func:`pruned` within the search's time limit, the modules of its ``start`` kept."""
+    start = options.get("start")
+    if start is not None and not isinstance(start, Structure):
+        options["start"] = start = list(start)  # read once: the search and the post-pass
+    limit = options.get("time_limit", inspect.signature(solve).parameters["time_limit"].default)
+    return pruned(solve(problem, **options), problem, limit, start)
