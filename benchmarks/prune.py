@@ -143,9 +143,13 @@ def goal_lines(against: list[dict]) -> list[str]:
 
 
 def _listed(cells: list[dict]) -> str:
-    return "".join(f"{', ' if i else ': '}{v['family']}-{v['band']} ({v['difference']:+g} "
-                   f"[{v['low']:+g}, {v['high']:+g}], missed {v['missed']})"
-                   for i, v in enumerate(cells))  # fmt: skip
+    """``: family-band (difference [low, high], missed n), ...`` of ``cells`` (no difference
+    where no task was answered by both)."""
+    def one(v: dict) -> str:
+        both = f"{v['difference']:+g} [{v['low']:+g}, {v['high']:+g}], " if v["both"] else ""
+        return f"{v['family']}-{v['band']} ({both}missed {v['missed']})"
+
+    return "".join(f"{', ' if i else ': '}{one(v)}" for i, v in enumerate(cells))
 
 
 def command_line(args) -> str:

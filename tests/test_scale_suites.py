@@ -279,7 +279,7 @@ def test_prune_benchmark_compares_each_method_with_and_without_the_post_pass(tmp
     """benchmarks.prune: what pruning removed per method, and ppo+prune against greedy and
     greedy+prune per family and band (verified answers only); bad options exit 2 in one line."""
     from benchmarks.common import run_script
-    from benchmarks.prune import method_rows, versus_rows
+    from benchmarks.prune import goal_lines, method_rows, versus_rows
     from benchmarks.scale import without_prune
 
     assert without_prune("ppo+prune") == ("ppo", True)
@@ -304,6 +304,9 @@ def test_prune_benchmark_compares_each_method_with_and_without_the_post_pass(tmp
     total = {v["rival"]: v for v in against if v["band"] == "all"}
     assert (total["greedy"]["difference"], total["greedy"]["missed"]) == (-1.0, 1)
     assert (total["greedy+prune"]["difference"], total["greedy+prune"]["both"]) == (0.0, 1)
+    (line,) = goal_lines(against)  # one plain rival: torque -1 module, planted's task missed
+    assert line.startswith("- `ppo+prune` against greedy") and line.endswith("NOT met")
+    assert "1 of 2: planted-16 (missed 1)" in line
     out = tmp_path / "out"
     for argv, message in (
         (["--methods", "anytime"], "argument --methods: invalid choice: 'anytime'"),
