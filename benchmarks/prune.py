@@ -145,6 +145,7 @@ def goal_lines(against: list[dict]) -> list[str]:
 def _listed(cells: list[dict]) -> str:
     """``: family-band (difference [low, high], missed n), ...`` of ``cells`` (no difference
     where no task was answered by both)."""
+
     def one(v: dict) -> str:
         both = f"{v['difference']:+g} [{v['low']:+g}, {v['high']:+g}], " if v["both"] else ""
         return f"{v['family']}-{v['band']} ({both}missed {v['missed']})"
