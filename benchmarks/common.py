@@ -154,6 +154,17 @@ def parse_bench_args(
     return args
 
 
+def check_model(path: str, label: str) -> None:
+    """Read the saved model at ``path`` now, so that a bad file fails before any work: a one-line
+    ValueError beginning with ``label`` (the option as given) otherwise."""
+    from modquad_gym.policy.models import read_model
+
+    try:
+        read_model(path)
+    except ValueError as exc:
+        raise ValueError(f"{label}: {exc}") from None
+
+
 def random_structure(n: int, rng: np.random.Generator) -> Structure:
     """A random connected n-module structure (:func:`modquad_gym.tasks.random_cells`: grown one
     module at a time at a uniformly chosen free cell)."""

@@ -166,23 +166,12 @@ def command_line(args) -> str:
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     options = {
-        "--bands": dict(type=scale.int_option(1, 128), nargs="+", default=[16, 32, 64, 96, 128],
-                        help="size bands (default 16 32 64 96 128)"),
-        "--families": dict(nargs="+", choices=tuple(scale.FAMILIES),
-                           default=list(scale.FAMILIES), help="task families (default all)"),
-        "--per-family": dict(type=scale.int_option(1, 100), default=1,
-                             help="tasks per family and band (default 1)"),
+        **scale.task_options(bands=(16, 32, 64, 96, 128), workers=2),
         "--methods": dict(nargs="+", choices=("greedy", "beam", "random", "genetic", "ppo",
                                               "ppo-guided"), default=["greedy", "beam", "ppo"],
                           help="methods, each run plain and pruned; the learned ones (ppo, "
                                "ppo-guided) are compared with the others (default greedy beam "
                                "ppo)"),
-        "--time-limit": dict(type=float, default=30.0,
-                             help="seconds each method gets per task (default 30)"),
-        "--workers": dict(type=scale.int_option(1, 64), default=2,
-                          help="(method, band) processes at a time (default 2)"),
-        "--validation": dict(action="store_true",
-                             help="validation draws instead of the held-out suites"),
         "--rows": dict(type=Path, default=None, metavar="CSV",
                        help="re-render the report from an earlier run's rows.csv (no solving; "
                             "give the options it used)"),
@@ -199,11 +188,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> list[dict]:
     args = parse_args(argv)
-    unknown = [b for b in args.bands if b not in scale.BANDS and not args.validation]
-    if unknown:
-        bands = " ".join(map(str, scale.BANDS))
-        raise ValueError(f"--bands {unknown[0]}: no held-out suite of that size (bands {bands}; "
-                         "--validation draws any size)")  # fmt: skip
+    scale.check_task_args(args)
     earlier = scale.read_runs([args.rows]) if args.rows else None  # before --force clears --out
     with claim_output_dir(args.out, OUTPUTS, args.force) as claim:
         rows = earlier or scale.measure(args, scale.keep_rows(claim.path("rows.csv")))

@@ -30,6 +30,7 @@ import numpy as np
 
 from benchmarks.common import (
     bench_args,
+    check_model,
     int_option,
     load_average,
     machine_description,
@@ -490,23 +491,46 @@ def report(rows: list[dict], summary_rows: list[dict], args) -> str:
     ])  # fmt: skip
 
 
-def main(argv: list[str] | None = None) -> None:
-    options = {
-        "--bands": dict(type=int_option(1, 128), nargs="+", default=list(BANDS),
-                        help=f"size bands (default {' '.join(map(str, BANDS))})"),
+def task_options(bands=BANDS, workers: int = 1) -> dict[str, dict]:
+    """The options every benchmark of the scale tasks takes (which tasks, and how they run),
+    with its default ``bands`` and ``workers``: ``bench_args`` keywords by flag."""
+    return {
+        "--bands": dict(type=int_option(1, 128), nargs="+", default=list(bands),
+                        help=f"size bands (default {' '.join(map(str, bands))})"),
         "--families": dict(nargs="+", choices=tuple(FAMILIES), default=list(FAMILIES),
                            help="task families (default all)"),
         "--per-family": dict(type=int_option(1, 100), default=1,
                              help="tasks per family and band (default 1)"),
+        "--time-limit": dict(type=float, default=30.0,
+                             help="seconds each method gets per task (default 30)"),
+        "--workers": dict(type=int_option(1, 64), default=workers,
+                          help=f"(method, band) processes at a time (default {workers})"),
+        "--validation": dict(action="store_true",
+                             help="validation draws instead of the held-out suites"),
+    }  # fmt: skip
+
+
+def check_task_args(args) -> None:
+    """The :func:`task_options` given, checked before any work (one line each, exit 2 as the
+    CLI's rule): the time limit in (0, a day], each band a held-out suite unless drawn."""
+    from modquad_gym.search.problem import check_time_limit
+
+    try:
+        check_time_limit(args.time_limit)
+    except ValueError as exc:
+        raise ValueError(f"--time-limit: {exc}") from None
+    unknown = [b for b in args.bands if b not in BANDS and not args.validation]
+    if unknown:
+        raise ValueError(f"--bands {unknown[0]}: no held-out suite of that size (bands "
+                         f"{' '.join(map(str, BANDS))}; --validation draws any size)")  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> None:
+    options = {
+        **task_options(),
         "--methods": dict(nargs="+", default=list(METHODS),
                           help=f"solver names (default {' '.join(METHODS)}); METHOD+prune: "
                                "its answers through the prune post-pass"),
-        "--time-limit": dict(type=float, default=30.0,
-                             help="seconds each method gets per task (default 30)"),
-        "--workers": dict(type=int_option(1, 64), default=1,
-                          help="(method, band) processes at a time (default 1)"),
-        "--validation": dict(action="store_true",
-                             help="validation draws instead of the held-out suites"),
         "--model": dict(default=None, metavar="ZIP",
                         help="the learned methods' model (default the shipped one)"),
         "--rows": dict(type=Path, nargs="+", default=None, metavar="CSV",
@@ -524,14 +548,10 @@ def main(argv: list[str] | None = None) -> None:
         out="results/scale",
         outputs=OUTPUTS,
     )
-    from modquad_gym.search.problem import check_time_limit
     from modquad_gym.solvers import METHODS as KNOWN
     from modquad_gym.solvers import learned_options
 
-    try:  # a ValueError: one line, exit 2 (the CLI's rule)
-        check_time_limit(args.time_limit)
-    except ValueError as exc:
-        raise ValueError(f"--time-limit: {exc}") from None
+    check_task_args(args)
     for method in (without_prune(m)[0] for m in args.methods):
         if (
             method not in KNOWN
@@ -540,10 +560,6 @@ def main(argv: list[str] | None = None) -> None:
         ):
             raise ValueError(f"--methods: unknown method {method!r}; choose from "
                              f"{', '.join(KNOWN)} or a learned variant")  # fmt: skip
-    unknown = [b for b in args.bands if b not in BANDS and not args.validation]
-    if unknown:
-        raise ValueError(f"--bands {unknown[0]}: no held-out suite of that size (bands "
-                         f"{' '.join(map(str, BANDS))}; --validation draws any size)")  # fmt: skip
     check_model_option(args.model, args.methods)
     args.workers = cap_workers(args.workers)
     earlier = read_runs(args.rows) if args.rows else None  # before --force clears --out
@@ -582,12 +598,7 @@ def check_model_option(model: str | None, methods) -> None:
         return
     if not any(learned_options(m) is not None for m in methods):
         raise ValueError(f"--model {model}: no learned method among --methods to use it")
-    from modquad_gym.policy.models import read_model
-
-    try:
-        read_model(model)
-    except ValueError as exc:
-        raise ValueError(f"--model {model}: {exc}") from None
+    check_model(model, f"--model {model}")
 
 
 if __name__ == "__main__":

@@ -22,6 +22,7 @@ import numpy as np
 
 from benchmarks.common import (
     bench_args,
+    check_model,
     markdown_table,
     read_rows_csv,
     report_page,
@@ -46,12 +47,7 @@ def model_option(text: str) -> tuple[str, str]:
     name, sep, path = text.partition("=")
     if not sep or not name or not path:
         raise ValueError(f"--models {text}: give NAME=ZIP")
-    from modquad_gym.policy.models import read_model
-
-    try:
-        read_model(path)
-    except ValueError as exc:
-        raise ValueError(f"--models {text}: {exc}") from None
+    check_model(path, f"--models {text}")
     return name, path
 
 
@@ -87,12 +83,20 @@ def band_tasks(band: int, families, per_family: int, held_out: bool) -> list:
 
 
 def solve(job: tuple, time_limit: float) -> list[dict]:
-    """One (band, method) in a fresh process: a row per task (found only when verified)."""
+    """One (band, model) job: greedy (no model) or the model's single pass, rows named ``name``."""
     band, name, tasks, model = job
-    method = "greedy" if model is None else "ppo"
-    results = fresh(run_band, method, tasks, time_limit, 0, model)
+    return answers(
+        band, "greedy" if model is None else "ppo", tasks, time_limit, model, method=name
+    )
+
+
+def answers(band: int, solver: str, tasks, time_limit: float, model, **columns) -> list[dict]:
+    """The method ``solver`` (with ``model``) on ``tasks`` of ``band`` in a fresh process: a row
+    per task (found only when verified), ``columns`` set among its fields (``method``: the row's
+    name, else ``solver``; ``seed``: the model's training seed)."""
+    results = fresh(run_band, solver, tasks, time_limit, 0, model)
     return [
-        {"band": band, "family": t.meta["family"], "task": t.name, "method": name,
+        {"band": band, "family": t.meta["family"], "task": t.name, "method": solver, **columns,
          "found": r["found"] if r["verified"] else None, "seconds": round(r["seconds"], 3)}
         for t, r in zip(tasks, results, strict=True)
     ]  # fmt: skip

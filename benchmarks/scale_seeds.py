@@ -29,8 +29,7 @@ from benchmarks.common import (
     write_csv,
     write_report,
 )
-from benchmarks.measure import fresh
-from benchmarks.scale import run_band
+from benchmarks.scale_models import answers
 from benchmarks.scale_suites import FAMILIES, load_scale_suite
 from modquad_gym.core.options import int_option
 from modquad_gym.scoring.seeds import find_runs, interval
@@ -56,13 +55,9 @@ def jobs(bands, runs: dict, mixed_runs: dict) -> list[tuple]:
 
 
 def solve(job: tuple, time_limit: float) -> list[dict]:
+    """One (band, method, seed) job in a fresh process: a row per task, with its seed."""
     band, method, seed, tasks, model = job
-    results = fresh(run_band, method, tasks, time_limit, 0, model)
-    return [
-        {"band": band, "family": t.meta["family"], "task": t.name, "method": method, "seed": seed,
-         "found": r["found"] if r["verified"] else None, "seconds": round(r["seconds"], 3)}
-        for t, r in zip(tasks, results, strict=True)
-    ]  # fmt: skip
+    return answers(band, method, tasks, time_limit, model, seed=seed)
 
 
 def seed_rows(rows: list[dict], band: int) -> list[dict]:

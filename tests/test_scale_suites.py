@@ -311,8 +311,30 @@ def test_prune_benchmark_compares_each_method_with_and_without_the_post_pass(tmp
     for argv, message in (
         (["--methods", "anytime"], "argument --methods: invalid choice: 'anytime'"),
         (["--bands", "20"], "--bands 20: no held-out suite of that size"),
+        (["--time-limit", "0"], "--time-limit: "),
     ):  # argparse's usage, then its one-line error; a ValueError: the line alone
         assert run_script("prune", [*argv, "--out", str(out)]) == 2
         err = capsys.readouterr().err.strip()
         assert message in err.splitlines()[-1], err
     assert not (out / "report.md").exists()
+
+
+def test_scale_models_and_scale_seeds_write_their_rows_in_their_columns(monkeypatch):
+    """One row builder serves both benchmarks: each row has its benchmark's columns, in order
+    (what --reuse and --rows read back), found only where verified."""
+    from types import SimpleNamespace
+
+    import benchmarks.scale_models as models
+    import benchmarks.scale_seeds as seeds
+
+    tasks = [SimpleNamespace(name=n, meta={"family": "torque"}) for n in ("a", "b")]
+    results = [{"found": 14, "verified": True, "seconds": 1.23456},
+               {"found": 9, "verified": False, "seconds": 0.5}]  # fmt: skip
+    monkeypatch.setattr(models, "fresh", lambda *args: results)
+    mine = models.solve((16, "new", tasks, "model.zip"), 30.0)
+    assert [tuple(r) for r in mine] == [models.COLUMNS] * 2
+    assert (mine[0]["method"], mine[0]["found"], mine[0]["seconds"]) == ("new", 14, 1.235)
+    assert mine[1]["found"] is None
+    theirs = seeds.solve((32, "ppo", "3", tasks, "model.zip"), 30.0)
+    assert [tuple(r) for r in theirs] == [seeds.COLUMNS] * 2
+    assert (theirs[0]["band"], theirs[0]["method"], theirs[0]["seed"]) == (32, "ppo", "3")
