@@ -703,23 +703,26 @@ def tier_section(t: str, mine: list[Entry], r: str) -> list[str]:
     return text + ["Sources: " + "; ".join(_source(s, r) for s in sources) + ".", ""]
 
 
+FOOTNOTES = (
+    ("one run: ", "‡ The shipped model's one run ({where}): the five-seed data file holds no "
+     "per-task seconds or oracle calls (its optimal share may differ from the five seeds' mean)."),
+    ("modules: ", "† Mean modules of the shipped model's one run ({where}): the five-seed data "
+     "file predates its modules column."),
+)  # fmt: skip
+"""(the prefix of an entry's note that names a file, the footnote it gives) of a tier's rows
+that take a column from the shipped model's one run."""
+
+
 def tier_footnotes(mine: list[Entry], r: str) -> list[str]:
     """The ‡ and † notes of a tier whose learned rows take a column from the shipped model's
     one run (the five-seed data files lack it)."""
     text = []
-    one = sorted({n.removeprefix("one run: ") for e in mine for n in e.notes
-                  if n.startswith("one run:")})  # fmt: skip
-    if one:
-        where = "; ".join(f"`{r}{n.removeprefix('results/')}`" for n in one)
-        text += [f"‡ The shipped model's one run ({where}): the five-seed data file holds "
-                 "no per-task seconds or oracle calls (its optimal share may differ from "
-                 "the five seeds' mean).", ""]  # fmt: skip
-    notes = sorted({n.removeprefix("modules: ") for e in mine for n in e.notes
-                    if n.startswith("modules:")})  # fmt: skip
-    if notes:
-        where = "; ".join(f"`{r}{n.removeprefix('results/')}`" for n in notes)
-        text += [f"† Mean modules of the shipped model's one run ({where}): the five-seed "
-                 "data file predates its modules column.", ""]  # fmt: skip
+    for prefix, note in FOOTNOTES:
+        paths = sorted({n.removeprefix(prefix) for e in mine for n in e.notes
+                        if n.startswith(prefix)})  # fmt: skip
+        if paths:
+            where = "; ".join(f"`{r}{p.removeprefix('results/')}`" for p in paths)
+            text += [note.format(where=where), ""]
     return text
 
 
