@@ -260,7 +260,7 @@ _LEARNED_LIMIT = (float | None, None, "seconds after which it stops (None: none)
 _TOP_K = (int | None, TOP_K, "children decided exactly per step by a model reading the exact "
           "lookahead, the rest ranked lower by support bounds and masked out (None: all)",
           _count(1))  # fmt: skip
-_PRUNE = (bool, False, PRUNE_HELP, check_flag)
+_PRUNE = (bool, False, *COMMON_HELP["prune"])
 
 for _method in (
     _search("exhaustive", "the certified minimum (exhaustive search, up to 16 modules)",
