@@ -71,7 +71,8 @@ def seed_figures(results: Path) -> list[tuple[Path, Path]]:
 
 def scale_figures(results: Path) -> list[tuple[Path, Path]]:
     """(figure, source) of every scale benchmark's gap plot."""
-    from benchmarks.scale import plot, read_rows
+    from benchmarks.scale import read_rows
+    from benchmarks.scale_report import plot
 
     done = []
     for csv_path in sorted(results.glob("scale*/rows.csv")):

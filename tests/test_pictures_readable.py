@@ -173,7 +173,7 @@ def test_seed_intervals_start_at_zero_and_show_a_zero_width_interval(tmp_path, m
 
 
 def test_scale_gap_compares_methods_on_the_same_solved_tasks(tmp_path):
-    from benchmarks.scale import common_solved, plot
+    from benchmarks.scale_report import common_solved, plot
 
     def row(band, task, method, found, gap):
         return {"band": band, "task": task, "method": method, "found": found,

@@ -140,7 +140,7 @@ def test_bench_scale_refuses_bad_options_in_one_line(tmp_path):
 
 
 def test_the_portfolio_goals_count_tasks_and_name_who_beat_it():
-    from benchmarks.scale import portfolio_goal_lines
+    from benchmarks.scale_report import portfolio_goal_lines
 
     def row(task, method, found, bound=10):
         return {"task": task, "method": method, "found": found, "lower_bound": bound}
