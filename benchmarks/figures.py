@@ -32,7 +32,7 @@ def training_run(report: str) -> Path | None:
 
 def agent_figures(results: Path) -> list[tuple[Path, Path]]:
     """(figure, source) of every agent benchmark's bars and learning curve."""
-    from benchmarks.leaderboard import read_rows
+    from benchmarks.leaderboard_entries import read_rows
     from modquad_gym.scoring.agents_figures import plot_bars, plot_learning_curve
     from modquad_gym.scoring.scores import summarise
     from modquad_gym.scoring.tiers import get_tier

@@ -1,4 +1,4 @@
-"""The leaderboard's figures (:mod:`benchmarks.leaderboard` reads the data): optimal share
+"""The leaderboard's figures (:mod:`benchmarks.leaderboard_entries` reads the data): optimal share
 against seconds per task, each label joined to its point, and the share of tasks answered
 optimally within a time budget, against the budget."""
 

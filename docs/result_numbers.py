@@ -7,7 +7,7 @@ every page and as in the leaderboard:
 * ``seeds TIER METHOD METRIC``: a learned method over the training seeds of
   ``results/seeds_TIER/seeds.csv``, as the leaderboard counts it: per seed the metric pooled over
   the tier's held-out tasks, then the mean over seeds with its 95 % percentile bootstrap interval
-  (seeds resampled; ``benchmarks.leaderboard.over_seeds``);
+  (seeds resampled; ``benchmarks.leaderboard_entries.over_seeds``);
 * ``run FOLDER METHOD METRIC``: one run of ``results/FOLDER/benchmark.csv`` (a deterministic
   search, or the shipped model), over the tier's held-out tasks;
 * ``scale FOLDER BAND solves|modules``: the learned designer's seeds at one size band of
@@ -54,7 +54,7 @@ def _format(metric: str, value: float) -> str:
 def seeds_number(tier: str, method: str, metric: str) -> str:
     """A learned method over seeds: the mean over seeds [95 % CI] and what it is."""
     sys.path.insert(0, str(ROOT))
-    from benchmarks.leaderboard import over_seeds, read_seeds
+    from benchmarks.leaderboard_entries import over_seeds, read_seeds
     from modquad_gym.scoring.tiers import get_tier
 
     records = read_seeds(RESULTS / f"seeds_{tier}" / "seeds.csv")
@@ -74,7 +74,7 @@ def seeds_number(tier: str, method: str, metric: str) -> str:
 def run_number(folder: str, method: str, metric: str) -> str:
     """One run of a benchmark report: the share or mean over the tier's held-out tasks."""
     sys.path.insert(0, str(ROOT))
-    from benchmarks.leaderboard import read_rows
+    from benchmarks.leaderboard_entries import read_rows
     from modquad_gym.scoring.scores import summarise
 
     _, n_max = _tier(folder)

@@ -1,17 +1,19 @@
-"""The leaderboard (benchmarks/leaderboard.py): generated from the committed data files, every
+"""The leaderboard (benchmarks/leaderboard*.py): generated from the committed data files, every
 method on every tier, the committed pages up to date, and an outside agent added by one
 command."""
 
 from __future__ import annotations
 
 import csv
-import importlib.util
 import re
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from benchmarks import leaderboard
+from benchmarks.leaderboard_entries import BUDGET, RESCORED, TIERS, tier_entries
+from benchmarks.leaderboard_page import page, scale_section
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results"
@@ -19,19 +21,8 @@ NUMBER = re.compile(r"-?\d+(?:\.\d+)?")
 
 
 @pytest.fixture(scope="module")
-def board():
-    path = ROOT / "benchmarks" / "leaderboard.py"
-    spec = importlib.util.spec_from_file_location("benchmarks_leaderboard", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its dataclass looks its module up
-    spec.loader.exec_module(module)
-    yield module
-    sys.modules.pop(spec.name, None)
-
-
-@pytest.fixture(scope="module")
-def entries(board):
-    return [e for t in board.TIERS for e in board.tier_entries(t)]
+def entries():
+    return [e for t in TIERS for e in tier_entries(t)]
 
 
 def _same_text(a: str, b: str) -> None:
@@ -43,11 +34,11 @@ def _same_text(a: str, b: str) -> None:
         assert abs(float(x) - float(y)) <= 1.01 * 10**-places, (x, y)
 
 
-def test_every_method_is_on_every_tier(board, entries):
+def test_every_method_is_on_every_tier(entries):
     from modquad_gym.scoring.tiers import get_tier, honours_fault
     from modquad_gym.search import SEARCHES
 
-    for name in board.TIERS:
+    for name in TIERS:
         tier = get_tier(name)
         methods = {e.method: e for e in entries if e.tier == name}
         assert set(SEARCHES) | set(tier.learned) <= set(methods), name
@@ -82,7 +73,7 @@ def test_learned_numbers_are_the_seed_reports_pooled_over_tasks(entries):
     assert entry.optimal[0] == pytest.approx(np.mean(per_seed), abs=1e-12)
 
 
-def test_search_numbers_are_the_tier_reports(board, entries):
+def test_search_numbers_are_the_tier_reports(entries):
     with open(RESULTS / "tier_large" / "benchmark.csv", newline="") as fh:
         rows = [r for r in csv.DictReader(fh) if r["method"] == "greedy"]
     (entry,) = [e for e in entries if e.tier == "large" and e.method == "greedy"]
@@ -91,7 +82,7 @@ def test_search_numbers_are_the_tier_reports(board, entries):
     assert entry.modules == pytest.approx(np.mean(solved))
     assert entry.evaluated[0] == pytest.approx(np.mean([int(r["evaluated"]) for r in rows]))
     assert entry.oracle_calls[0] == pytest.approx(np.mean([int(r["oracle_calls"]) for r in rows]))
-    within = [r["optimal"] == "1" and float(r["seconds"]) <= board.BUDGET for r in rows]
+    within = [r["optimal"] == "1" and float(r["seconds"]) <= BUDGET for r in rows]
     assert entry.budget[0] == pytest.approx(np.mean(within))
 
 
@@ -108,7 +99,7 @@ def _table(text: str, tier: str) -> dict[str, dict[str, str]]:
 
 
 @pytest.mark.parametrize("tier", ["current", "mixed", "fault"])
-def test_the_page_cells_are_the_reports(board, tier):
+def test_the_page_cells_are_the_reports(tier):
     """Each search's cells on the committed page, recomputed here from the tier report's rows
     (or the rescored searches' file) without the leaderboard's code."""
     from modquad_gym.scoring.tiers import get_tier
@@ -116,7 +107,7 @@ def test_the_page_cells_are_the_reports(board, tier):
     n_max = get_tier(tier).n_max
     table = _table((RESULTS / "leaderboard.md").read_text(), tier)
     files = []
-    for name in (f"tier_{tier}/benchmark.csv", board.RESCORED):  # the report's rows first
+    for name in (f"tier_{tier}/benchmark.csv", RESCORED):  # the report's rows first
         with open(RESULTS / name, newline="") as fh:
             files.append([r for r in csv.DictReader(fh) if r["suite"] in get_tier(tier).suites])
     ranks = []
@@ -127,7 +118,7 @@ def test_the_page_cells_are_the_reports(board, tier):
         if cells["rank"] == "-" or cells["method"].endswith("seeds)"):
             continue
         within = np.mean([r["optimal"] == "1" and float(r["seconds"]) <= 1.0 for r in mine])
-        assert cells[f"optimal within {board.BUDGET:g} s"] == f"{100 * within:.1f} %", method
+        assert cells[f"optimal within {BUDGET:g} s"] == f"{100 * within:.1f} %", method
         assert cells["tasks"] == str(len(mine))
         calls = np.mean([int(r["oracle_calls"]) for r in mine])
         assert cells["oracle calls / task"] == f"{calls:,.0f}", method
@@ -137,14 +128,14 @@ def test_the_page_cells_are_the_reports(board, tier):
     assert [w for _, w in sorted(ranks)] == sorted(w for _, w in ranks)  # ranked at the budget
 
 
-def test_the_committed_pages_are_what_the_command_makes(board, entries):
+def test_the_committed_pages_are_what_the_command_makes(entries):
     results = (RESULTS / "leaderboard.md").read_text()
     docs = (ROOT / "docs" / "leaderboard.md").read_text()
     for text in (results, docs):
         assert "Made by `python -m benchmarks.leaderboard`" in "\n".join(text.splitlines()[:3])
-    tiers = list(board.TIERS)
-    _same_text(board.page(entries, tiers, "leaderboard.png", ""), results)
-    _same_text(board.page(entries, tiers, "results/leaderboard.png", "results/"), docs)
+    tiers = list(TIERS)
+    _same_text(page(entries, tiers, "leaderboard.png", ""), results)
+    _same_text(page(entries, tiers, "results/leaderboard.png", "results/"), docs)
     with open(RESULTS / "leaderboard.csv", newline="") as fh:
         committed = list(csv.DictReader(fh))
     fresh = [e.as_csv() for e in entries]
@@ -180,7 +171,7 @@ class Line:
 '''
 
 
-def test_an_outside_agent_joins_with_one_command(board, tmp_path, monkeypatch, capsys):
+def test_an_outside_agent_joins_with_one_command(tmp_path, monkeypatch, capsys):
     """Its own name, its seeds with an interval, its task count marked partial, a failing tier
     reported beside the others, the fault tier scored; its submission merged."""
     (tmp_path / "board_agent_for_tests.py").write_text(AGENT)
@@ -188,7 +179,7 @@ def test_an_outside_agent_joins_with_one_command(board, tmp_path, monkeypatch, c
     out = tmp_path / "board"
     argv = ["--solver", "board_agent_for_tests:Line", "--tiers", "current", "large", "fault",
             "--limit", "1", "--seeds", "0", "1", "--out", str(out), "--no-progress"]  # fmt: skip
-    assert board.main(argv) == 0
+    assert leaderboard.main(argv) == 0
     text = (out / "leaderboard.md").read_text()
     current = _table(text, "current")
     assert current["line"]["tasks"] == "2 of 100 (partial)"
@@ -205,14 +196,14 @@ def test_an_outside_agent_joins_with_one_command(board, tmp_path, monkeypatch, c
     # merged: the submission in a submissions folder joins the committed board
     (tmp_path / "subs").mkdir()
     (out / "submission.csv").rename(tmp_path / "subs" / "line.csv")
-    (merged,) = [e for e in board.tier_entries("current", submissions=tmp_path / "subs")
+    (merged,) = [e for e in tier_entries("current", submissions=tmp_path / "subs")
                  if e.kind == "outside"]  # fmt: skip
     assert (merged.method, merged.tasks, merged.full, merged.seeds) == ("line", 2, 100, 2)
     with pytest.raises(SystemExit) as exit_:
-        board.main(["--solver", "board_agent_for_tests:Line"])  # the committed page stays
+        leaderboard.main(["--solver", "board_agent_for_tests:Line"])  # the committed page stays
     assert exit_.value.code == 2 and "--solver needs --out" in capsys.readouterr().err
     with pytest.raises(SystemExit) as exit_:  # its files are not replaced without --force
-        board.main([*argv[:-3], "--out", str(out)])
+        leaderboard.main([*argv[:-3], "--out", str(out)])
     assert exit_.value.code == 2 and "--force" in capsys.readouterr().err
 
 
@@ -224,15 +215,15 @@ def test_an_outside_agent_joins_with_one_command(board, tmp_path, monkeypatch, c
         (["--seeds", "1", "1", "--out", "x"], "--seeds: a seed is given twice: [1, 1]"),
     ],
 )
-def test_options_that_do_not_go_together_are_refused_before_work(board, argv, says, capsys):
+def test_options_that_do_not_go_together_are_refused_before_work(argv, says, capsys):
     with pytest.raises(SystemExit) as exit_:
-        board.main(argv)
+        leaderboard.main(argv)
     assert exit_.value.code == 2
     assert capsys.readouterr().err.strip().splitlines()[-1].endswith(f"error: {says}")
 
 
-def test_the_scale_section_is_the_five_seed_scale_reports(board, tmp_path):
-    lines = board.scale_section("results/")
+def test_the_scale_section_is_the_five_seed_scale_reports(tmp_path):
+    lines = scale_section("results/")
     rows = [line for line in lines if line.startswith("| ") and not line.startswith("| band")]
     with open(RESULTS / "scale_seeds_exit" / "report.csv", newline="") as fh:
         after = {r["band"]: r for r in csv.DictReader(fh)}
@@ -241,7 +232,7 @@ def test_the_scale_section_is_the_five_seed_scale_reports(board, tmp_path):
         band = row.split(" | ")[0].strip("| ")
         assert after[band]["ppo_solves_greedys_pct"] in row
         assert after[band]["ppo_minus_greedy_modules"] in row
-    assert board.scale_section("results/", results=tmp_path) == []  # no reports: no section
+    assert scale_section("results/", results=tmp_path) == []  # no reports: no section
 
 
 def test_labels_sit_beside_their_points_without_overlapping():

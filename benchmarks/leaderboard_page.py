@@ -1,0 +1,357 @@
+"""The leaderboard's pages in Markdown: the at-a-glance table, each tier's ranked table with its
+footnotes and sources, the scale section, how the numbers are made and how to add an agent."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+from benchmarks.leaderboard_entries import (
+    ANYTIME,
+    BUDGET,
+    COMMAND,
+    RESCORED,
+    RESULTS,
+    ROOT,
+    SUBMISSION,
+    SUBMISSIONS,
+    T3,
+    Entry,
+)
+
+
+def _pct(v: T3, interval: bool) -> str:
+    if not interval or v[1] == v[2]:
+        return f"{100 * v[0]:.1f} %"
+    return f"{100 * v[0]:.1f} % [{100 * v[1]:.1f}, {100 * v[2]:.1f}]"
+
+
+def _num(v: T3, interval: bool, fmt: str) -> str:
+    if not interval or v[1] == v[2]:
+        return format(v[0], fmt)
+    return f"{format(v[0], fmt)} [{format(v[1], fmt)}, {format(v[2], fmt)}]"
+
+
+def _label(e: Entry) -> str:
+    if e.kind == "learned" and e.seeds:
+        return f"{e.method} ({e.seeds} seeds)"
+    if e.kind == "outside":
+        runs = f", {e.seeds} seed{'s' if e.seeds != 1 else ''}" if e.seeds else ""
+        return f"**{e.method}** (outside{runs})"
+    return e.method
+
+
+def ranked(entries: list[Entry]) -> list[Entry]:
+    """Scored entries by optimal share within the budget (then success, fewer seconds), then
+    the unscored ones."""
+    scored = [e for e in entries if not e.status]
+    scored.sort(key=lambda e: (-e.budget[0], -e.optimal[0], e.seconds[0]))
+    return scored + [e for e in entries if e.status]
+
+
+def tier_table(entries: list[Entry]) -> list[str]:
+    """One tier's methods ranked at the budget; every row with its task count and seeds."""
+    head = (f"| rank | method | tasks | optimal within {BUDGET:g} s | success | optimal share | "
+            "mean modules | configs / task | oracle calls / task | seconds / task |")  # fmt: skip
+    lines = [head, "|---|---|---|---|---|---|---|---|---|---|"]
+    rank = 0
+    for e in ranked(entries):
+        if e.status:
+            lines.append(f"| - | {_label(e)} | - | {e.status} | | | | | | |")
+            continue
+        rank += 1
+        ci = e.seeds > 1
+        one = " ‡" if any(n.startswith("one run:") for n in e.notes) else ""
+        mark = " †" if any(n.startswith("modules:") for n in e.notes) else ""
+        modules = "-" if e.modules is None else f"{e.modules:.2f}{mark}"
+        tasks = f"{e.tasks}" if e.tasks >= e.full else f"{e.tasks} of {e.full} (partial)"
+        lines.append(
+            f"| {rank} | {_label(e)} | {tasks} | {_pct(e.budget, ci)}{one} | "
+            f"{_pct(e.success, ci)} | {_pct(e.optimal, ci)} | {modules} | "
+            f"{_num(e.evaluated, ci, '.1f')} | {_num(e.oracle_calls, ci, ',.0f')}{one} | "
+            f"{_num(e.seconds, ci, '.3f')} |"
+        )
+    return lines
+
+
+def glance(entries: list[Entry], tiers: list[str]) -> list[str]:
+    """Optimal share (and within the budget) of every method on every tier."""
+    methods = list(dict.fromkeys(e.method for e in entries))
+    by = {(e.tier, e.method): e for e in entries}
+    lines = ["| method | " + " | ".join(f"`{t}`" for t in tiers) + " |",
+             "|---|" + "---|" * len(tiers)]  # fmt: skip
+    for method in methods:
+        cells = []
+        for t in tiers:
+            e = by.get((t, method))
+            if e is None:
+                cells.append("-")
+            elif e.status:
+                cells.append(e.status.partition(":")[0])
+            else:
+                part = "" if e.tasks >= e.full else f", {e.tasks} of {e.full} tasks"
+                cells.append(f"{100 * e.optimal[0]:.1f} % ({100 * e.budget[0]:.1f} % within "
+                             f"{BUDGET:g} s{part})")  # fmt: skip
+        first = next(e for e in entries if e.method == method)
+        lines.append(f"| {_label(first)} | " + " | ".join(cells) + " |")
+    return lines
+
+
+SCALE_REPORTS = {"default recipe": "scale_seeds", "+ expert iteration": "scale_seeds_exit"}
+"""The five-seed scale reports (``python -m benchmarks.scale_seeds``): the default recipe's seeds,
+and the same seeds after expert iteration at 8-32 modules (the shipped ``ppo_scale``'s recipe)."""
+
+
+def scale_section(results_prefix: str, results: Path = RESULTS) -> list[str]:
+    """The learned designer at 16-64 modules beside greedy, per band, from the five-seed scale
+    reports' summaries ([] when they are not there)."""
+    files = {k: results / v / "report.csv" for k, v in SCALE_REPORTS.items()}
+    read = {k: {r["band"]: r for r in csv.DictReader(f.read_text().splitlines())}
+            for k, f in files.items() if f.is_file()}  # fmt: skip
+    if not read:
+        return []
+    columns = {"ppo_solves_greedys_pct": "greedy's tasks ppo solves, %",
+               "ppo_minus_greedy_modules": "modules above greedy",
+               "ppo_over_greedy_seconds": "time / greedy's"}  # fmt: skip
+    head = ["band"] + [f"{c} ({k})" for c in columns.values() for k in read]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for band in next(iter(read.values())):
+        cells = [read[k].get(band, {}).get(c, "-") for c in columns for k in read]
+        lines.append(f"| {band} | " + " | ".join(cells) + " |")
+    sources = "; ".join(f"`{results_prefix}{v}/report.md`" for v in SCALE_REPORTS.values())
+    return [
+        "## At the field's sizes (16-64 modules)",
+        "",
+        "Single-pass `ppo` over five training seeds on the 36 held-out scale tasks (planted, "
+        "mixed palette, heavy payload, low force with high torque; 12 per band), beside greedy "
+        "with the same 30 s limit, which solves all of them: the share of greedy's tasks it "
+        "solves, its modules above greedy's where both solve and its wall time over greedy's "
+        "(mean over seeds, 95 % bootstrap interval). Every method at 16-128 modules: "
+        f"`{results_prefix}scale/report.md`.",
+        "",
+        *lines,
+        "",
+        f"Sources: {sources}.",
+        "",
+    ]
+
+
+def page(entries: list[Entry], tiers: list[str], image: str, results_prefix: str) -> str:
+    """The leaderboard in Markdown; ``image`` is the plot's path from the page (the anytime
+    curves lie beside it), ``results_prefix`` the path of ``results/`` files as written in the
+    text."""
+    r = results_prefix
+    text = page_intro(entries, tiers, image)
+    for t in tiers:
+        mine = [e for e in entries if e.tier == t]
+        if mine:
+            text += tier_section(t, mine, r)
+    text += scale_section(r)
+    text += how_made(r)
+    text += how_to_add(r)
+    return "\n".join(text)
+
+
+def page_intro(entries: list[Entry], tiers: list[str], image: str) -> list[str]:
+    """The page's head: what is ranked and how, the at-a-glance table and both plots."""
+    curves_image = image.replace("leaderboard.png", "leaderboard_anytime.png")
+    return [
+        "# Leaderboard",
+        "",
+        f"Made by `{COMMAND}` from the committed reports (every number below is read from their "
+        "data files; none is typed by hand). Add your own agent: "
+        "[below](#add-your-own-agent).",
+        "",
+        f"Every method on the held-out suites of the {len(tiers)} benchmark tiers, against each "
+        "task's certified optimum (the exhaustive search's minimum module count), **ranked at "
+        f"a time budget of {BUDGET:g} s per task**: the share of tasks a method answers with "
+        f"the optimal module count within {BUDGET:g} s of wall time (every method gets the same "
+        "budget). Beside it: success (an answer of at most the tier's n_max modules that the "
+        "exact LP oracle verifies), the optimal share without a time limit, mean modules over "
+        "the tasks solved, configurations evaluated (structures whose feasibility was decided), "
+        "oracle calls (wrench-structure tests) and seconds per task, and the number of tasks "
+        "each row was scored on. Learned methods and outside agents with several seeds: mean "
+        "over the seeds with the 95 % bootstrap interval over seeds in brackets; searches: one "
+        "run.",
+        "",
+        "## At a glance",
+        "",
+        f"Optimal share per tier (in brackets: within {BUDGET:g} s per task, the rank's "
+        "measure); learned methods: mean over five seeds:",
+        "",
+        "<!-- --8<-- [start:glance] -->",
+        *glance(entries, tiers),
+        "<!-- --8<-- [end:glance] -->",
+        "",
+        f"![optimal share against seconds per task, per tier]({image})",
+        "",
+        f"The share of tasks answered optimally within t seconds, against t ({BUDGET:g} s "
+        "dotted): each method's one run, and the anytime search's best structure so far "
+        "(dashed), which reaches the optimum before it has proved it:",
+        "",
+        f"![tasks answered optimally within a time budget, per tier]({curves_image})",
+        "",
+    ]
+
+
+def tier_section(t: str, mine: list[Entry], r: str) -> list[str]:
+    """One tier's section: what the tier is, its ranked table, its footnotes and sources
+    (``r``: the path of ``results/`` as written in the text)."""
+    from modquad_gym.scoring.tiers import get_tier
+
+    tier = get_tier(t)
+    types = f"module types {tier.modules}" if tier.modules else "one module type"
+    tasks = max(e.full for e in mine if not e.status)
+    fault = (f", `fault=\"{tier.fault}\"`: an answer counts only when it still exerts every "
+             f"task wrench after any single {tier.fault} failure, and the optimum is the "
+             "smallest such structure" if tier.fault else "")  # fmt: skip
+    text = [
+        f"## Tier `{t}`",
+        "",
+        f"`{tier.env_id}`, {types}, n_max {tier.n_max}{fault}; held-out suites "
+        f"{', '.join(f'`{s}`' for s in tier.suites)}: {tasks} tasks whose certified optimum "
+        f"is within n_max.{_models(tier)}",
+        "",
+        *tier_table(mine),
+        "",
+        *tier_footnotes(mine, r),
+    ]
+    sources = dict.fromkeys(e.source for e in mine if e.source)
+    return text + ["Sources: " + "; ".join(_source(s, r) for s in sources) + ".", ""]
+
+
+FOOTNOTES = (
+    ("one run: ", "‡ The shipped model's one run ({where}): the five-seed data file holds no "
+     "per-task seconds or oracle calls (its optimal share may differ from the five seeds' mean)."),
+    ("modules: ", "† Mean modules of the shipped model's one run ({where}): the five-seed data "
+     "file predates its modules column."),
+)  # fmt: skip
+"""(the prefix of an entry's note that names a file, the footnote it gives) of a tier's rows
+that take a column from the shipped model's one run."""
+
+
+def tier_footnotes(mine: list[Entry], r: str) -> list[str]:
+    """The ‡ and † notes of a tier whose learned rows take a column from the shipped model's
+    one run (the five-seed data files lack it)."""
+    text = []
+    for prefix, note in FOOTNOTES:
+        paths = sorted({n.removeprefix(prefix) for e in mine for n in e.notes
+                        if n.startswith(prefix)})  # fmt: skip
+        if paths:
+            where = "; ".join(f"`{r}{p.removeprefix('results/')}`" for p in paths)
+            text += [note.format(where=where), ""]
+    return text
+
+
+def how_made(r: str) -> list[str]:
+    """The page's section on where each number comes from (``r``: the path of ``results/``
+    as written in the text)."""
+    return [
+        "## How the numbers are made",
+        "",
+        f"- **The budget**: a task counts within {BUDGET:g} s when the method's answer has the "
+        f"optimal module count and its wall time on the task was at most {BUDGET:g} s (one "
+        "run per task, without a time limit: a slower answer counts as none, as it would under "
+        "the limit). Ties are broken by the optimal share without a limit, then by fewer "
+        "seconds.",
+        "- **Learned methods** (`ppo`: one deterministic pass of the shipped policy; `ppo-k8`: "
+        "eight sampled rollouts more; `ppo-guided`: best-first search ordered by the policy, "
+        "certified at the lower bound): the five-seed reports "
+        f"`{r}seeds_<tier>/seeds.csv`, one row per (seed, method, suite). Each seed's success, "
+        "optimal share, configurations and seconds are pooled over the tier's tasks (suites "
+        "weighted by their size), then averaged over the seeds; the interval is the 95 % "
+        "percentile bootstrap over seeds (2,000 resamples, seeded). The seeds reports "
+        f"(`{r}seeds_<tier>/seeds.md`) give the interquartile mean over seeds x suites and "
+        "judge the tiers' goals. The five-seed files hold no per-task seconds or oracle calls: "
+        "those two columns (‡) are the shipped model's one run in the tier report.",
+        f"- **Searches**: the one-run tier reports `{r}tier_<tier>/benchmark.csv` (one row per "
+        f"task), and `{r}{RESCORED}` for the searches a tier report did not run "
+        f"(`{COMMAND} --rescore-searches --force`). `random` and `genetic` are seeded (seed 0).",
+        "- **The fault tier**: only the methods that guarantee an answer surviving the failure "
+        "are scored, and an answer counts only when it survives; milp refuses `fault=` and the "
+        "learned policies were trained without failures: their rows say so in place of "
+        "numbers. An outside agent is handed the problem with its fault and an evaluator that "
+        "decides survival.",
+        f"- **Anytime curves**: from the same per-task rows; the anytime search's history "
+        f"(`{r}{ANYTIME}`, `{COMMAND} --anytime-history --force`) gives when its best structure so "
+        "far first had the optimal count.",
+        "- **Seconds** are wall time per task on the machine each source names (2 shared "
+        "cores, no GPU): compare them within a tier, with care.",
+        "",
+    ]
+
+
+def how_to_add(prefix: str) -> list[str]:
+    """The page's section on adding a row: what to run, what to submit, how it is merged."""
+    return [
+        "## Add your own agent",
+        "",
+        "An agent is a class (or function) with `solve(task, evaluator)` that returns a "
+        "structure; it is told each tier's `n_max`, `tier`, `modules` and the run's `seed` "
+        "when its constructor takes them, and is counted through the evaluator it is handed: "
+        "the protocol is in [Benchmark tiers and agents]("
+        + ("" if prefix else "../docs/")
+        + "benchmarks.md#score-your-own-agent). Its row is named by its own `name` attribute.",
+        "",
+        "**From the installed wheel** (no clone), score it on one tier beside the searches:",
+        "",
+        "```bash",
+        "modquad score --tier current --solver my_agent:Agent --seed 0 --out my_scores",
+        "```",
+        "",
+        "**A leaderboard row** needs a clone of the repository (`benchmarks/` is not in the "
+        "wheel):",
+        "",
+        "```bash",
+        f"{COMMAND} --solver my_agent:Agent --out my_board",
+        "```",
+        "",
+        "scores it on every tier's held-out suites, once per seed (`--seeds`, default five "
+        "like the learned methods; once when its constructor takes no `seed`), and writes "
+        f"`my_board/leaderboard.md` with its rows ranked among the committed ones and "
+        f"`my_board/{SUBMISSION}`: one row per (tier, seed, task). `--limit N` scores the first "
+        "N tasks of each suite (the row is marked partial, with its task count); `--tiers` "
+        "some tiers; a tier where the agent fails is reported as failed and the others are "
+        "kept.",
+        "",
+        f"**To submit it**, open a pull request that adds `{SUBMISSION}` as "
+        f"`results/{SUBMISSIONS}/<your agent>.csv`; the maintainers check it and rebuild the "
+        f"page with `{COMMAND} --force`, which reads every file of `results/{SUBMISSIONS}/` "
+        "(no rerun: the rows are the submitted ones, seconds on the submitter's machine).",
+        "",
+    ]
+
+
+def _models(tier) -> str:
+    """Where the tier's learned methods come from, in a sentence (or nothing)."""
+    if tier.model_tier:
+        return (f" The learned methods are the `{tier.model_tier}` tier's models (its recipe's "
+                "five training seeds), acting here zero-shot.")  # fmt: skip
+    return ""
+
+
+def _source(source: str, prefix: str) -> str:
+    if not source.startswith("results/"):
+        return source
+    command = made_by(ROOT / source)
+    if source.endswith(RESCORED):
+        command = f"{COMMAND} --rescore-searches --force"
+    shown = f"`{prefix}{source.removeprefix('results/')}`"
+    return shown + (f" (`{command}`)" if command else "")
+
+
+def made_by(path: Path) -> str:
+    """The command a committed report names in its first lines ("Made by `...`")."""
+    md = path.with_suffix(".md")
+    if not md.is_file():
+        return ""
+    for line in md.read_text().splitlines()[:6]:
+        if "Made by `" in line:
+            return line.split("Made by `", 1)[1].split("`", 1)[0]
+    return ""
+
+
+if __name__ == "__main__":
+    from benchmarks.common import refuse_as_script
+
+    raise SystemExit(refuse_as_script("leaderboard_page"))

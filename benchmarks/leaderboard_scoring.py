@@ -1,0 +1,168 @@
+"""What the leaderboard scores itself rather than reading it committed: the searches a tier
+report did not run (``--rescore-searches``), the anytime search's history (``--anytime-history``)
+and an outside agent on every tier (``--solver``), written as its submission file."""
+
+from __future__ import annotations
+
+import inspect
+import sys
+from collections.abc import Iterable
+from pathlib import Path
+
+from benchmarks.leaderboard_entries import ANYTIME, COMMAND, RESCORED, RESULTS, TIERS, read_rows
+
+
+def rescore_searches(results: Path = RESULTS, progress: bool = True) -> Path:
+    """Run the searches that a tier report did not run on that tier's held-out suites and write
+    their per-task rows to ``results/leaderboard_searches.csv`` (on a fault tier, those that
+    honour the failure)."""
+    from modquad_gym.core.outputs import write_csv, write_text
+    from modquad_gym.scoring.agents import run_benchmark
+    from modquad_gym.scoring.tiers import get_tier, honours_fault
+    from modquad_gym.search import SEARCHES
+
+    rows = []
+    for name in TIERS:
+        tier = get_tier(name)
+        have = {r.method for r in read_rows(results / f"tier_{name}" / "benchmark.csv")}
+        missing = [m for m in SEARCHES if m not in have and (not tier.fault or honours_fault(m))]
+        if missing:
+            print(f"{name}: scoring {', '.join(missing)}", file=sys.stderr)
+            rows += run_benchmark(tier.load_suites(), missing, tier.n_max, None, 0, progress, 1,
+                                  tier.modules, tier.name, tier.fault)  # fmt: skip
+    path = results / RESCORED
+    write_csv([r.as_csv() for r in rows], path)
+    write_text(path.with_suffix(".md"), rescored_note(rows))
+    return path
+
+
+def rescored_note(rows) -> str:
+    """What ``results/leaderboard_searches.csv`` holds and how it was made (its provenance)."""
+    from modquad_gym.scoring import machine_description
+
+    suites: dict[tuple, list[str]] = {}  # the methods run -> the suites they ran on
+    for suite in dict.fromkeys(r.suite for r in rows):
+        methods = tuple(dict.fromkeys(r.method for r in rows if r.suite == suite))
+        suites.setdefault(methods, []).append(f"`{suite}`")
+    what = "; ".join(f"{', '.join(m)} on {', '.join(s)}" for m, s in suites.items())
+    return "\n".join([
+        "# Searches scored for the leaderboard",
+        "",
+        f"Made by `{COMMAND} --rescore-searches --force`. Machine: {machine_description()}.",
+        "",
+        "The searches that a one-run tier report did not run, on that tier's held-out suites, "
+        f"one row per method and task in `{RESCORED}` (as `modquad score` writes "
+        f"them): {what}.",
+        "",
+    ])  # fmt: skip
+
+
+def anytime_history(results: Path = RESULTS, progress: bool = True) -> Path:
+    """Run the anytime search on every tier's held-out tasks and write, per task, when its
+    best structure so far first had the certified optimum's module count (its history's events) to
+    ``results/leaderboard_anytime.csv``, with a note of the machine beside it."""
+    from tqdm import tqdm
+
+    from modquad_gym.core.outputs import write_csv, write_text
+    from modquad_gym.scoring import machine_description
+    from modquad_gym.scoring.tiers import get_tier
+    from modquad_gym.search import anytime_search
+
+    out = []
+    for name in TIERS:
+        tier = get_tier(name)
+        jobs = [(s, t) for s, tasks in tier.load_suites().items() for t in tasks]
+        for suite, task in tqdm(jobs, f"anytime history ({name})", disable=not progress):
+            optimum = task.meta.get("optimum")
+            r = anytime_search(task, n_max=tier.n_max, **tier.search_kwargs())
+            at = [e.seconds for e in r.history if optimum is not None and e.n_modules == optimum]
+            out.append({"tier": name, "suite": suite, "task": task.name, "optimum": optimum,
+                        "in_scope": int(optimum is not None and optimum <= tier.n_max),
+                        "n_modules": r.n_modules, "certified": int(r.certified),
+                        "seconds": f"{r.seconds:.5f}",
+                        "optimal_at": f"{min(at):.5f}" if at else "",
+                        "history": ";".join(f"{e.seconds:.5f}:{e.lower_bound}:{e.n_modules}"
+                                            for e in r.history)})  # fmt: skip
+    path = results / ANYTIME
+    write_csv(out, path)
+    write_text(path.with_suffix(".md"), "\n".join([
+        "# The anytime search's history on the tiers' held-out tasks",
+        "",
+        f"Made by `{COMMAND} --anytime-history --force`. Machine: {machine_description()}.",
+        "",
+        "Per task (one row in `leaderboard_anytime.csv`): the anytime search's answer, its wall "
+        "time, `optimal_at` (the seconds after which its best structure so far had the "
+        "certified optimum's module count) and its `history` (seconds:lower bound:best "
+        "structure's modules per event).",
+        "",
+    ]))  # fmt: skip
+    return path
+
+
+def _takes_seed(agent) -> bool:
+    """Is the outside agent made with a ``seed`` (its class's constructor takes one)?"""
+    if inspect.isfunction(agent) or inspect.ismethod(agent):
+        return False
+    try:
+        params = inspect.signature(type(agent)).parameters.values()
+    except (TypeError, ValueError):
+        return False
+    return any(p.name == "seed" or p.kind == p.VAR_KEYWORD for p in params)
+
+
+def _one_line(err: BaseException) -> str:
+    text = str(err).strip().splitlines()
+    return f"{type(err).__name__}: {text[0] if text else ''}"
+
+
+def score_agent(spec: str, tiers: Iterable[str], limit: int | None, seeds: list[int],
+                progress: bool) -> list[dict]:  # fmt: skip
+    """An outside agent on every tier's held-out suites (the first ``limit`` tasks of each),
+    once per seed of ``seeds`` (once when the agent takes no seed): the submission's records
+    (:func:`write_submission`), one per (tier, seed, task), the agent's own ``name`` as its
+    method. A tier where the agent fails is one record with the failure in ``status``; the
+    other tiers go on. An import error is a ValueError before any work."""
+    from modquad_gym.scoring.agents import run_benchmark
+    from modquad_gym.scoring.tiers import get_tier
+    from modquad_gym.solvers import load_solver
+
+    first = load_solver(spec, seed=seeds[0])  # a bad spec fails now, before any work
+    name = first.name
+    runs = seeds if _takes_seed(first.agent) else seeds[:1]
+    records: list[dict] = []
+    for tier_name in tiers:
+        tier = get_tier(tier_name)
+        status = {"tier": tier.name, "seed": "", "method": name, "status": ""}
+        try:
+            mine = []
+            for seed in runs:
+                rows = run_benchmark(tier.load_suites(limit), [spec], tier.n_max, None, seed,
+                                     progress, 1, tier.modules, tier.name,
+                                     tier.fault)  # fmt: skip
+                mine += [{"tier": tier.name, "seed": str(seed), **r.as_csv(), "method": name,
+                          "status": ""} for r in rows]  # fmt: skip
+            records += mine
+        except Exception as err:  # the agent's failure on this tier; the others go on
+            print(f"{tier.name}: {name} failed: {_one_line(err)}", file=sys.stderr)
+            records.append({**status, "status": f"failed: {_one_line(err)}"})
+    return records
+
+
+SUBMISSION_KEYS = ("tier", "seed", "method", "status", "suite", "task", "optimum", "success",
+                   "n_modules", "gap", "optimal", "evaluated", "oracle_calls", "seconds",
+                   "cells")  # fmt: skip
+
+
+def write_submission(records: list[dict], path: Path) -> Path:
+    """The submission file: one row per (tier, seed, task) as ``modquad score`` writes its rows,
+    with the tier, the seed and ``status`` (a tier not scored: one row saying why)."""
+    from modquad_gym.core.outputs import write_csv
+
+    write_csv([{k: r.get(k, "") for k in SUBMISSION_KEYS} for r in records], path)
+    return path
+
+
+if __name__ == "__main__":
+    from benchmarks.common import refuse_as_script
+
+    raise SystemExit(refuse_as_script("leaderboard_scoring"))
