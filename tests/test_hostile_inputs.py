@@ -329,7 +329,7 @@ def test_faults_oracle_only_needs_earlier_rows_and_no_fly(tmp_path, capsys):
 
 
 def test_faults_update_replaces_only_the_rows_it_makes():
-    from benchmarks.faults import merged
+    from benchmarks.faults_measure import merged
 
     def row(suite, task, design, modules):
         return {"suite": suite, "task": task, "design": design, "modules": modules}
