@@ -278,7 +278,9 @@ def test_stopping_fresh_processes_keeps_finished_work_and_leaves_no_process(sig)
 
 
 def test_helper_modules_run_as_scripts_say_so():
-    for name in ("common", "measure", "env_scale", "heterogeneous_measure", "heterogeneous_report"):
+    helpers = ("common", "measure", "env_scale", "env_measure", "env_report", "faults_measure",
+               "faults_report", "heterogeneous_measure", "heterogeneous_report")  # fmt: skip
+    for name in helpers:
         done = subprocess.run([sys.executable, "-m", f"benchmarks.{name}", "--help"], env=ENV,
                               capture_output=True, text=True, cwd=ROOT, timeout=60)  # fmt: skip
         assert done.returncode == 2 and not done.stdout, name

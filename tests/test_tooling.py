@@ -185,6 +185,7 @@ def test_readme_python_examples_run(monkeypatch):
 
 def test_bench_env_reports_the_default_config_with_resets_and_the_ppo_update(tmp_path):
     from benchmarks import env as bench_env
+    from benchmarks.env_measure import LOOKAHEADS
 
     cores = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
     try:
@@ -206,7 +207,7 @@ def test_bench_env_reports_the_default_config_with_resets_and_the_ppo_update(tmp
     )
     text = (tmp_path / "env_benchmark.md").read_text()
     assert "resets counted" in text and "(shared)" in text and "env / update" in text
-    lookaheads = len(bench_env.LOOKAHEADS)  # off, support, every child exact, the shortlist
+    lookaheads = len(LOOKAHEADS)  # off, support, every child exact, the shortlist
     assert len((tmp_path / "env_benchmark.csv").read_text().splitlines()) == 1 + 3 + lookaheads + 2
     assert "Lookahead rows" in text and "lookahead_top_k" in text
     grid, faces = rows[-2:]
