@@ -28,7 +28,6 @@ from modquad_gym.envs.assembly.inputs import (
     check_oracle_method,
     check_render_mode,
     check_render_size,
-    check_restore,
     draw_task,
     make_encoding,
     make_rules,
@@ -36,6 +35,7 @@ from modquad_gym.envs.assembly.inputs import (
     parse_action,
 )
 from modquad_gym.envs.assembly.modules import make_module_set
+from modquad_gym.envs.assembly.restore import Restorer
 from modquad_gym.envs.assembly.reward import RewardFn, make_reward, reset_terms, step_reward
 from modquad_gym.envs.assembly.spec import DEFAULT_N_MAX, ArgumentSpec
 from modquad_gym.envs.assembly.transitions import initial_state, transition
@@ -254,6 +254,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         self._readers = [(b.name, b.value) for b in self._blocks]
         self._state: AssemblyState | None = None
         self._episode: Episode | None = None
+        self._restorer = Restorer()  # the states handed out
 
     def make_blocks(self, features: AssemblyFeatures) -> list[ObservationBlock]:
         """The observation's blocks, in order; override to add a feature (append an
@@ -313,17 +314,16 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
             raise ResetNeeded(f"call reset() before {what}")
         return self._state
 
-    state = property(lambda self: self._require("asking for the state"),
+    state = property(lambda self: self._restorer.issue(self._require("asking for the state")),
                      doc="The episode's current :class:`~.types.AssemblyState`.")  # fmt: skip
 
     evaluator = property(lambda self: None if self._episode is None else self._episode.evaluator,
                          doc="The episode's evaluator (None before ``reset``).")  # fmt: skip
 
     def restore(self, state: AssemblyState) -> dict[str, np.ndarray]:
-        """Continue the episode from an earlier ``state`` of it (one ``env.state`` returned;
-        states are immutable): planners branch from stored states instead of replaying
-        actions from reset. Returns that state's observation."""
-        check_restore(self._require("restore()"), state, int(self.action_space.n), self.n_max)
+        """Continue the episode from ``state`` (one ``env.state`` returned: planners branch from
+        it) and return its observation; a state its dockings do not give: ValueError (.restore)."""
+        self._restorer.check(self._episode, self._require("restore()"), state)
         self._state = state
         return self._observation()
 
