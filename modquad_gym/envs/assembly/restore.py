@@ -13,17 +13,18 @@ recomputation may differ by round-off). Where round-off can order two equal chil
 accepted. ``oracle_calls`` counts work that depends on the memos' history: it is checked to be
 a count, not recomputed.
 
-A state the environment handed out (``env.state``) is known by a digest of all its fields
-(:class:`Restorer`): restoring it again costs that digest, not a step (a guided search restores
-one a node); an edit, in place or in a copy, changes the digest, and the state is recomputed.
+A state object the environment handed out (``env.state``) is known by identity
+(:class:`Restorer`): restoring it again costs nothing (a guided search restores one a node).
+States are immutable (frozen, read-only arrays), so an edit makes a copy, which is recomputed;
+unlocking an array to edit it in place is not looked for (some arrays are the memos' own, so
+that edits the environment itself).
 """
 
 from __future__ import annotations
 
-import hashlib
 import weakref
 from collections import ChainMap
-from dataclasses import fields, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -42,44 +43,30 @@ EXACT = ("occupancy", "free", "faces", "sites", "types_onehot")
 
 
 ISSUED = 4096
-"""Digests of handed-out states a :class:`Restorer` keeps (cleared when full)."""
+"""Handed-out states a :class:`Restorer` keeps track of (cleared when full)."""
 
 
 class Restorer:
-    """An environment's check of restored states: those it handed out pass by their digest
-    (:func:`digest`, kept with a weak reference to their task arrays), any other by
-    :func:`check_restore`."""
+    """An environment's check of restored states: the state objects it handed out pass at once
+    (weak references by identity), any other by :func:`check_restore`."""
 
     def __init__(self) -> None:
-        self.issued: dict[bytes, Any] = {}
+        self.issued: dict[int, weakref.ref] = {}
 
     def issue(self, state: AssemblyState) -> AssemblyState:
         """``state``, remembered as handed out."""
         if len(self.issued) >= ISSUED:
             self.issued.clear()
-        self.issued[digest(state)] = weakref.ref(state.task)
+        self.issued[id(state)] = weakref.ref(state)
         return state
 
     def check(self, ep: Episode, current: AssemblyState, state: Any) -> None:
         """As :func:`check_restore`; a handed-out state of the current task at once."""
         if isinstance(state, AssemblyState) and state.task.requirement is current.task.requirement:
-            known = self.issued.get(digest(state))
-            if known is not None and known() is state.task:
+            known = self.issued.get(id(state))
+            if known is not None and known() is state:
                 return
         check_restore(ep, current, state)
-
-
-def digest(state: AssemblyState) -> bytes:
-    """A digest of every field of ``state`` but its task (arrays: dtype, shape and bytes)."""
-    h = hashlib.blake2b(digest_size=16)
-    for f in fields(state):
-        value = getattr(state, f.name)
-        if isinstance(value, np.ndarray):
-            h.update(f"{f.name}:{value.dtype.str}{value.shape}".encode())
-            h.update(np.ascontiguousarray(value).data)
-        elif f.name != "task":
-            h.update(f"{f.name}:{type(value).__name__}:{value!r};".encode())
-    return h.digest()
 
 
 def check_restore(ep: Episode, current: AssemblyState, state: Any) -> None:
