@@ -5,6 +5,7 @@ missing."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import shutil
 import subprocess
@@ -14,7 +15,14 @@ import numpy as np
 import pytest
 
 from modquad_gym.geometry.module import palette
-from modquad_gym.policy.inference import export_path, exported, file_hash
+from modquad_gym.policy.inference import (
+    LAYERS,
+    arrays_hash,
+    export_path,
+    exported,
+    file_hash,
+    inference_model,
+)
 from modquad_gym.policy.models import DEFAULT_MODEL, MODELS_DIR, SCALE_MODEL
 from modquad_gym.policy.policy import Policy
 from modquad_gym.tasks import make_generator
@@ -106,6 +114,37 @@ def test_a_stale_export_falls_back_to_torch(tmp_path):
     assert exported(model) is not None and Policy(model, n_max=5).actor is not None
 
 
+def test_an_edited_and_resaved_export_is_never_acted_on(tmp_path, monkeypatch):
+    """An export whose weights were changed and saved again with the same keys, shapes and
+    dtypes (and its model.zip's hash) fails its own digest: the policy acts with torch, and
+    without torch the refusal is one line naming the file."""
+    model = tmp_path / "model.zip"
+    shutil.copyfile(DEFAULT_MODEL, model)
+    with np.load(export_path(DEFAULT_MODEL)) as data:
+        arrays = {k: data[k] for k in data.files}
+    bias = arrays["score_out.bias"] + np.float32(0.5)  # every logit shifted: the same choices
+    weight = arrays["mix.weight"].copy()
+    weight[0, 0] = -weight[0, 0]
+    types = arrays["types"].copy()
+    types[0, -1] *= 2.0
+    for change in ({}, {"score_out.bias": bias}, {"mix.weight": weight}, {"types": types}):
+        with export_path(model).open("wb") as fh:  # re-saved, unchanged or edited
+            np.savez(fh, **edited(arrays, **change))
+        assert (exported(model) is not None) == (not change)
+    if importlib.util.find_spec("torch") and importlib.util.find_spec("sb3_contrib"):
+        policy = Policy(model, n_max=5)
+        assert policy.actor is None and policy.net is not None
+    for name in ("torch", "stable_baselines3", "sb3_contrib"):
+        monkeypatch.setitem(sys.modules, name, None)
+    with pytest.raises(
+        ImportError, match=r"^\S*model_actor.npz: not the actor of model.zip"
+    ) as err:
+        inference_model(model)
+    assert "\n" not in str(err.value) and "torch is not installed" in str(err.value)
+    export_path(model).write_bytes(export_path(DEFAULT_MODEL).read_bytes())
+    assert inference_model(model).path == model  # its own export again: no torch needed
+
+
 def edited(arrays: dict, **changes) -> dict:
     """``arrays`` with ``changes`` (None removes a key)."""
     out = {k: v for k, v in arrays.items() if changes.get(k, v) is not None}
@@ -155,6 +194,7 @@ def test_a_corrupt_export_is_never_read(tmp_path):
     with np.load(export_path(DEFAULT_MODEL)) as data:
         arrays = {k: data[k] for k in data.files}
     for name, changed in corrupt_exports(arrays).items():
+        changed["actor_sha256"] = np.str_(arrays_hash(changed))  # past the digest: the checks
         with target.open("wb") as fh:
             np.savez(fh, **changed)
         assert exported(model) is None, name
@@ -181,11 +221,19 @@ def test_a_corrupt_export_is_never_read(tmp_path):
     "model", sorted(MODELS_DIR.glob("*/model.zip")), ids=lambda p: p.parent.name
 )
 def test_every_shipped_model_has_a_fresh_export(model):
-    """A shipped model retrained without re-export fails here (re-export:
+    """Each shipped export is its model.zip's (hash), unedited (its own digest) and holds the
+    zip's actor weights exactly. A shipped model retrained without re-export fails here (re-export:
     ``python -c "from modquad_gym.policy.inference import export; export('PATH')"``)."""
     data = np.load(export_path(model))
     assert str(data["model_sha256"]) == file_hash(model)
+    assert str(data["actor_sha256"]) == arrays_hash(dict(data))
     assert exported(model) is not None
+    if importlib.util.find_spec("torch") and importlib.util.find_spec("sb3_contrib"):
+        from modquad_gym.policy.models import read_model
+
+        weights = read_model(model).weights  # the zip's own: the export holds them exactly
+        for key in (f"{name}.{p}" for name in LAYERS for p in ("weight", "bias")):
+            np.testing.assert_array_equal(data[key], weights[f"pi_features_extractor.{key}"])
 
 
 def test_solve_with_ppo_runs_without_torch():

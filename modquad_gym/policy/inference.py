@@ -3,10 +3,12 @@
 :class:`~modquad_gym.policy.network.CandidateScorer` gives one logit per valid action; a solver
 needs nothing else (not the critic, not SB3's distribution). :func:`export` writes the actor's
 weights beside a saved model (``model_actor.npz`` next to ``model.zip``: one per model, since a
-training folder holds several) with the SHA-256 of the ``model.zip`` they came from;
-:func:`exported` reads them back only while that hash still matches (a model.zip replaced since
-is never answered with stale weights: the caller uses torch instead). :class:`Actor` is the
-forward pass, computed for the valid actions only.
+training folder holds several) with the SHA-256 of the ``model.zip`` they came from and that of
+its own arrays; :func:`exported` reads them back only while both still match (a model.zip
+replaced since, or arrays edited and saved again with the same shapes, are never acted on: the
+caller uses torch instead, :func:`inference_model`). :class:`Actor` is the forward pass,
+computed for the valid actions only. The digests catch stale and edited files, not forgery: a
+file whose arrays and digest are both rewritten is read as written.
 
 Float32 throughout, as the torch network computes: the weights were trained in float32, a
 float64 pass would differ from torch's by the same ~1e-6, and float32 halves the memory traffic.
@@ -36,7 +38,8 @@ LAYERS = ("context.0", "context.2", "embed.0", "embed.2", "mix", "score_cell", "
 SPACE_KEYS = ("occupancy", "task", "structure", "candidates", "action_mask")
 """The observation entries whose widths the export keeps (the environment they imply)."""
 EXPORT_KEYS = {f"{name}.{p}" for name in LAYERS for p in ("weight", "bias")} | {
-    f"width.{k}" for k in SPACE_KEYS} | {"types", "hidden", "model_sha256"}  # fmt: skip
+    f"width.{k}" for k in SPACE_KEYS} | {"types", "hidden", "model_sha256",
+                                         "actor_sha256"}  # fmt: skip
 """The arrays an export holds, no more (a file with others was not written by :func:`export`)."""
 
 
@@ -68,6 +71,17 @@ def symlog(x: np.ndarray) -> np.ndarray:
 def file_hash(path: Path) -> str:
     """The SHA-256 of the file at ``path`` (hex)."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def arrays_hash(arrays: dict) -> str:
+    """The SHA-256 (hex) of an export's arrays but its two digests: each one's name, dtype,
+    shape and bytes, in name order."""
+    h = hashlib.sha256()
+    for key in sorted(set(arrays) - {"model_sha256", "actor_sha256"}):
+        value = np.ascontiguousarray(arrays[key])
+        h.update(f"{key}:{value.dtype.str}:{value.shape};".encode())
+        h.update(value.tobytes())
+    return h.hexdigest()
 
 
 class Actor:
@@ -195,7 +209,8 @@ def export_path(model_path: str | Path) -> Path:
 
 def exported(model_path: str | Path) -> ExportedModel | None:
     """The exported actor of the model at ``model_path`` (a model.zip), or None when there is
-    none, it cannot be read, or it came from another model.zip (its SHA-256 differs)."""
+    none, it cannot be read, it came from another model.zip (its SHA-256 differs) or its arrays
+    were edited since the export (their SHA-256 differs from the recorded one)."""
     path = Path(model_path)
     target = export_path(path)
     if not path.is_file() or not target.is_file():
@@ -204,6 +219,8 @@ def exported(model_path: str | Path) -> ExportedModel | None:
         with np.load(target, allow_pickle=False) as data:
             arrays = {k: data[k] for k in data.files}
         if set(arrays) != EXPORT_KEYS or str(arrays.pop("model_sha256")) != file_hash(path):
+            return None
+        if str(arrays.pop("actor_sha256")) != arrays_hash(arrays):
             return None
         hidden, widths = check_export(arrays)
         types = arrays.pop("types").tolist()
@@ -260,9 +277,31 @@ def export(model_path: str | Path) -> Path | None:
     arrays.update(types=np.asarray(types, dtype=np.float64),
                   hidden=np.int64(saved.policy_kwargs.get("hidden", 64)),
                   model_sha256=np.str_(file_hash(saved.path)))  # fmt: skip
+    arrays["actor_sha256"] = np.str_(arrays_hash(arrays))
 
     def write(tmp: Path) -> None:
         with tmp.open("wb") as fh:
             np.savez(fh, **arrays)
 
     return atomic_write(export_path(saved.path), write)
+
+
+def inference_model(model_path: str | Path) -> Any:
+    """What a policy acts with for the model.zip at ``model_path``: its fresh export
+    (:func:`exported`), else the model read with torch (:func:`~.models.read_model`). Without
+    torch, a model whose export is stale or edited is an ImportError naming that file."""
+    from modquad_gym.policy.models import read_model
+
+    found = exported(model_path)
+    if found is not None:
+        return found
+    try:
+        return read_model(model_path)
+    except ImportError as err:
+        target = export_path(model_path)
+        if not target.exists():
+            raise
+        raise ImportError(
+            f"{target}: not the actor of {Path(model_path).name} (stale, edited or unreadable), "
+            f"and the model itself needs torch: {err}"
+        ) from None

@@ -21,7 +21,7 @@ from modquad_gym.core.extras import import_optional
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.features import lookahead_width
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.inference import Actor, exported, type_features
+from modquad_gym.policy.inference import Actor, inference_model, type_features
 from modquad_gym.policy.models import default_model, model_file, read_model
 from modquad_gym.search import SearchResult
 from modquad_gym.search.bounds import bound_levels
@@ -101,7 +101,7 @@ class Policy:
         self.saved, self.actor, self._net = None, None, None
         if model is None or isinstance(model, (str, Path)):
             path = model_file(default_model(n_max) if model is None else model)
-            self.saved = exported(path) or read_model(path)
+            self.saved = inference_model(path)
             self.model_path, config = str(self.saved.path), self.saved.config
             space = self.saved.observation_space
         else:
