@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from modquad_gym.core.validation import check_flag, check_int, check_real
-from modquad_gym.policy.models import TOP_K
+from modquad_gym.policy.models import FALLBACK, TOP_K
 from modquad_gym.search.problem import MAX_TIME_LIMIT, PRUNE, unknown_option
 from modquad_gym.search.prune import PRUNE_HELP
 
@@ -261,6 +261,10 @@ _TOP_K = (int | None, TOP_K, "children decided exactly per step by a model readi
           "lookahead, the rest ranked lower by support bounds and masked out (None: all)",
           _count(1))  # fmt: skip
 _PRUNE = (bool, False, *COMMON_HELP["prune"])
+_FALLBACK = (float | None, None, "greedy's choice wherever the policy gives its own most "
+             f"likely docking at most this probability (0: never, 1: always; None: {FALLBACK:g} "
+             "with a model that sees greedy's choice, the exact lookahead, else 0)",
+             _share)  # fmt: skip
 
 for _method in (
     _search("exhaustive", "the certified minimum (exhaustive search, up to 16 modules)",
@@ -293,7 +297,8 @@ for _method in (
     Method("ppo", "the learned agent's single pass (the shipped model unless model=)",
            options("ppo", model=_MODEL, seed=(int, 0, COMMON_HELP["seed"][0], _seed),
                    samples=(int, 0, "extra sampled rollouts besides the deterministic one",
-                            _count(0)), time_limit=_LEARNED_LIMIT, top_k=_TOP_K, prune=_PRUNE),
+                            _count(0)), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
+                   fallback=_FALLBACK, prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", seeded=True, fault=False, extra="train"),
     Method("ppo-guided", "best-first search ordered by the learned policy, certified at the "
            "lower bound", options("ppo-guided", model=_MODEL,

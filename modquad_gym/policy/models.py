@@ -25,6 +25,11 @@ TOP_K = 8
 that reads the exact lookahead (the env's ``lookahead_top_k``: the others, ranked lower by cheap
 support bounds, are masked out); their option ``top_k`` (None: every child, as in training).
 Chosen on validation draws: ``results/lookahead_top_k/``."""
+FALLBACK = 0.7
+"""The ``ppo`` single pass docks greedy's choice (the exact lookahead's flag) wherever the
+policy gives its own most likely docking at most this probability: the policy decides where it
+is sure, greedy's rule where it is not (its option ``fallback``; 0: the policy always). Chosen on
+validation draws: ``results/fallback/``."""
 
 
 def default_model(n_max: int | None = None, modules: Any = None) -> Path:

@@ -20,6 +20,7 @@ import numpy as np
 from modquad_gym.core.extras import import_optional
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.features import lookahead_width
+from modquad_gym.envs.assembly.lookahead import GREEDY
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.policy.inference import Actor, inference_model, type_features
 from modquad_gym.policy.models import default_model, model_file, read_model
@@ -211,6 +212,25 @@ class Policy:
         action, _ = self.net.predict(obs, action_masks=mask, deterministic=True)
         return int(action)
 
+    @property
+    def reads_greedy(self) -> bool:
+        """Whether its observation flags greedy's choice (a model of the exact lookahead)."""
+        return self.env_kwargs.get("lookahead") == "exact"
+
+    def decide(self, obs: dict, mask: np.ndarray, fallback: float = 0.0) -> int:
+        """The deterministic decoding's action at ``obs``: the most likely valid one, or
+        greedy's choice (its flag in the exact lookahead rows) where the most likely has a
+        probability of at most ``fallback`` (0: never; 1: always)."""
+        if not fallback:
+            return self.greedy(obs, mask)
+        probs = self.probabilities(obs, mask)
+        action = int(np.argmax(probs))
+        if probs[action] <= fallback:
+            flags = obs["candidates"].reshape(len(mask), -1)[:, GREEDY]
+            flagged = np.flatnonzero((flags == 1.0) & np.asarray(mask, dtype=bool))
+            action = int(flagged[0]) if len(flagged) else action
+        return action
+
     def reset(self, task: Any, start: int | None = None) -> tuple[dict, dict]:
         """The environment reset on ``task`` (a first module of type ``start``, several types)."""
         options = {"task": task} if start is None else {"task": task, "initial_type": start}
@@ -224,13 +244,14 @@ class Policy:
         stop_at: int | None = None,
         start: int | None = None,
         deadline: float = float("inf"),
+        fallback: float = 0.0,
     ) -> dict:
-        """One episode on ``task`` from a first module of type ``start``: the most likely action
-        at each step when ``rng`` is None, else sampled. Stops early once the structure has
-        ``stop_at - 1`` modules without success (it could no longer beat a verified structure
-        of ``stop_at`` modules) or at ``deadline`` (:func:`time.perf_counter`). Adds every
-        structure it evaluates to ``seen`` (translation-normalised). Returns the final info;
-        ``env.structure`` is its structure."""
+        """One episode on ``task`` from a first module of type ``start``: at each step
+        :meth:`decide`'s action (with ``fallback``) when ``rng`` is None, else sampled. Stops
+        early once the structure has ``stop_at - 1`` modules without success (it could no
+        longer beat a verified structure of ``stop_at`` modules) or at ``deadline``
+        (:func:`time.perf_counter`). Adds every structure it evaluates to ``seen``
+        (translation-normalised). Returns the final info; ``env.structure`` is its structure."""
         env = self.env
         seen = set() if seen is None else seen
         stop_at = env.n_max + 2 if stop_at is None else stop_at
@@ -240,7 +261,7 @@ class Policy:
         while not done and len(info["cells"]) < stop_at - 1 and time.perf_counter() < deadline:
             mask = env.action_masks()
             if rng is None:
-                action = self.greedy(obs, mask)
+                action = self.decide(obs, mask, fallback)
             else:
                 probs = self.probabilities(obs, mask)
                 action = rng.choice(len(probs), p=probs / probs.sum())

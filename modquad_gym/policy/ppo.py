@@ -19,7 +19,7 @@ import numpy as np
 
 from modquad_gym.core.validation import check_real
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.models import TOP_K
+from modquad_gym.policy.models import FALLBACK, TOP_K
 from modquad_gym.policy.policy import Policy, env_kwargs_of, make_env, search_result
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.tasks import as_task
@@ -40,6 +40,10 @@ class PPOSolver:
         time_limit: seconds after which the rollouts stop, the first one too (None: none).
         top_k: as for :class:`~.policy.Policy` (the children decided exactly per step;
             default :data:`~.models.TOP_K`), unless ``model`` is a Policy.
+        fallback: the deterministic rollout docks greedy's choice where the policy gives its
+            own at most this probability (:meth:`~.policy.Policy.decide`; 0: never). None
+            (default): :data:`~.models.FALLBACK` with a model that reads greedy's choice (the
+            exact lookahead), else 0; a value above 0 for any other model is refused.
     """
 
     def __init__(
@@ -51,6 +55,7 @@ class PPOSolver:
         config: dict | None = None,
         time_limit: float | None = None,
         top_k: int | None = TOP_K,
+        fallback: float | None = None,
     ) -> None:
         if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
             raise ValueError(f"samples must be an integer >= 0, got {samples!r}")
@@ -60,6 +65,7 @@ class PPOSolver:
         self.samples = int(samples)
         self.name = "ppo" if self.samples == 0 else f"ppo-k{self.samples}"
         self.time_limit = None if time_limit is None else check_real(time_limit, "time_limit", 0)
+        self.fallback = fallback_of(self.policy, fallback)
 
     def solve(self, task: Any) -> SearchResult:
         """The smallest verified structure over the deterministic rollout and ``samples``
@@ -83,7 +89,7 @@ class PPOSolver:
             stop_at = best.n_modules if best is not None else policy.env.n_max + 2
             if stop_at <= 1 or time.perf_counter() > deadline:
                 break
-            info = policy.rollout(task, rng, seen, stop_at, start, deadline)
+            info = policy.rollout(task, rng, seen, stop_at, start, deadline, self.fallback)
             oracle_calls += int(info["oracle_calls"])
             n = len(info["cells"])
             if not info["success"] or n > self.n_max or (best is not None and n >= best.n_modules):
@@ -102,5 +108,19 @@ class PPOSolver:
     def __repr__(self) -> str:
         return (
             f"PPOSolver(model={self.policy.model_path!r}, n_max={self.n_max}, "
-            f"samples={self.samples})"
+            f"samples={self.samples}, fallback={self.fallback})"
         )
+
+
+def fallback_of(policy: Policy, fallback: float | None) -> float:
+    """The ``fallback`` ``policy`` decodes with (see :class:`PPOSolver`): a ValueError for
+    one out of [0, 1], or above 0 with a model whose observation has no greedy choice."""
+    if fallback is None:
+        return FALLBACK if policy.reads_greedy else 0.0
+    value = check_real(fallback, "fallback", 0.0, 1.0)
+    if value > 0 and not policy.reads_greedy:
+        raise ValueError(
+            f"fallback={fallback}: the model {policy.model_path or 'given'} does not see "
+            "greedy's choice (it was trained without the exact lookahead); give fallback=0"
+        )
+    return value

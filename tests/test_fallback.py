@@ -1,0 +1,84 @@
+"""The ``ppo`` single pass's fallback to greedy's choice (option ``fallback``,
+:meth:`~modquad_gym.policy.policy.Policy.decide`): at 0 each docking is the policy's most likely,
+at 1 greedy's (with every child decided: the greedy search's own structure, the plain reference),
+in between the one the rule names; a model that never sees greedy's choice refuses a fallback,
+in Python and on the command line alike."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from modquad_gym.cli import main
+from modquad_gym.envs.assembly.lookahead import GREEDY
+from modquad_gym.policy.models import DEFAULT_MODEL, FALLBACK, MODELS_DIR
+from modquad_gym.policy.policy import Policy
+from modquad_gym.policy.ppo import PPOSolver
+from modquad_gym.scoring.suites import draw_task
+from modquad_gym.solvers import make_solver
+from modquad_gym.tasks import make_generator
+
+DYNAMIC_MODEL = MODELS_DIR / "ppo_dynamic" / "model.zip"  # trained on support rows alone
+
+
+def tasks(n: int) -> list:
+    generator = make_generator("mixed")
+    return [draw_task(generator, 9100 + i) for i in range(n)]
+
+
+def test_fallback_one_docks_what_greedy_docks():
+    ppo = make_solver("ppo", 7, fallback=1.0, top_k=None)
+    greedy = make_solver("greedy", 7)
+    for task in tasks(6):
+        mine, ref = ppo.solve(task), greedy.solve(task)
+        assert (mine.structure is None) == (ref.structure is None)
+        if ref.structure is not None:
+            assert mine.structure.key == ref.structure.key
+
+
+def test_each_docking_is_the_one_the_rule_names():
+    policy = Policy(str(DEFAULT_MODEL), n_max=7, top_k=8)
+    env, rng = policy.env, np.random.default_rng(0)
+    took = {"policy": 0, "greedy": 0}
+    for task in tasks(8):
+        obs, info = policy.reset(task)
+        done = info["success"]
+        while not done:
+            mask = env.action_masks()
+            probs = policy.probabilities(obs, mask)
+            flags = obs["candidates"].reshape(len(mask), -1)[:, GREEDY]
+            assert flags.sum() == 1 and mask[int(np.argmax(flags))]
+            own, theirs = int(np.argmax(probs)), int(np.argmax(flags))
+            assert policy.decide(obs, mask, 0.0) == policy.greedy(obs, mask) == own
+            for fallback in (0.5, 0.7, 0.9):
+                expected = theirs if probs[own] <= fallback else own
+                assert policy.decide(obs, mask, fallback) == expected
+                took["greedy" if own != theirs and probs[own] <= fallback else "policy"] += 1
+            obs, _, terminated, truncated, info = env.step(int(rng.choice(np.flatnonzero(mask))))
+            done = terminated or truncated
+    assert took["greedy"] and took["policy"]  # both branches of the rule were exercised
+
+
+def test_the_default_follows_what_the_model_sees():
+    assert make_solver("ppo", 7).inner(7, None).fallback == FALLBACK
+    assert make_solver("ppo", 7, fallback=0.0).inner(7, None).fallback == 0.0
+    assert PPOSolver(str(DYNAMIC_MODEL), n_max=7).fallback == 0.0  # no greedy choice to take
+
+
+@pytest.mark.parametrize(
+    ("model", "value", "words"),
+    [
+        (DYNAMIC_MODEL, 0.5, "fallback=0.5: the model"),
+        (DEFAULT_MODEL, 1.5, "fallback must be <= 1"),
+        (DEFAULT_MODEL, -0.1, "fallback must be >= 0"),
+    ],
+)
+def test_a_fallback_the_model_cannot_take_is_refused_by_both_doors(model, value, words, capsys):
+    with pytest.raises(ValueError, match=words):
+        make_solver("ppo", 7, model=str(model), fallback=value)
+    argv = ["solve", "--task", "example:screwdriver", "--method", "ppo", "--model", str(model),
+            "--option", f"fallback={value}", "--quiet"]  # fmt: skip
+    capsys.readouterr()
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert words in err and len(err.splitlines()) == 1
