@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from modquad_gym.core.validation import check_flag, check_int, check_real
-from modquad_gym.policy.models import FALLBACK, TOP_K
+from modquad_gym.policy.models import FALLBACK, SCALE_FROM, TOP_K
 from modquad_gym.search.problem import MAX_TIME_LIMIT, PRUNE, unknown_option
 from modquad_gym.search.prune import PRUNE_HELP
 
@@ -263,7 +263,8 @@ _TOP_K = (int | None, TOP_K, "children decided exactly per step by a model readi
 _PRUNE = (bool, False, *COMMON_HELP["prune"])
 _FALLBACK = (float | None, None, "greedy's choice wherever the policy gives its own most "
              f"likely docking at most this probability (0: never, 1: always; None: {FALLBACK:g} "
-             "with a model that sees greedy's choice, the exact lookahead, else 0)",
+             f"at budgets of {SCALE_FROM} modules and more with a model that sees greedy's "
+             "choice, the exact lookahead, else 0)",
              _share)  # fmt: skip
 
 for _method in (

@@ -11,7 +11,7 @@ import pytest
 
 from modquad_gym.cli import main
 from modquad_gym.envs.assembly.lookahead import GREEDY
-from modquad_gym.policy.models import DEFAULT_MODEL, FALLBACK, MODELS_DIR
+from modquad_gym.policy.models import DEFAULT_MODEL, FALLBACK, MODELS_DIR, SCALE_FROM
 from modquad_gym.policy.policy import Policy
 from modquad_gym.policy.ppo import PPOSolver
 from modquad_gym.scoring.suites import draw_task
@@ -59,9 +59,12 @@ def test_each_docking_is_the_one_the_rule_names():
     assert took["greedy"] and took["policy"]  # both branches of the rule were exercised
 
 
-def test_the_default_follows_what_the_model_sees():
-    assert make_solver("ppo", 7).inner(7, None).fallback == FALLBACK
-    assert make_solver("ppo", 7, fallback=0.0).inner(7, None).fallback == 0.0
+def test_the_default_follows_the_budget_and_what_the_model_sees():
+    ppo = make_solver("ppo", 7)
+    assert ppo.inner(7, None).fallback == 0.0  # small budgets: the policy alone
+    assert ppo.inner(SCALE_FROM, None).fallback == FALLBACK
+    assert make_solver("ppo", 7, fallback=0.5).inner(7, None).fallback == 0.5
+    assert make_solver("ppo", 7, fallback=0.0).inner(SCALE_FROM, None).fallback == 0.0
     assert PPOSolver(str(DYNAMIC_MODEL), n_max=7).fallback == 0.0  # no greedy choice to take
 
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from modquad_gym.core.validation import check_real
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.models import FALLBACK, TOP_K
+from modquad_gym.policy.models import FALLBACK, SCALE_FROM, TOP_K
 from modquad_gym.policy.policy import Policy, env_kwargs_of, make_env, search_result
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.tasks import as_task
@@ -42,8 +42,9 @@ class PPOSolver:
             default :data:`~.models.TOP_K`), unless ``model`` is a Policy.
         fallback: the deterministic rollout docks greedy's choice where the policy gives its
             own at most this probability (:meth:`~.policy.Policy.decide`; 0: never). None
-            (default): :data:`~.models.FALLBACK` with a model that reads greedy's choice (the
-            exact lookahead), else 0; a value above 0 for any other model is refused.
+            (default): :data:`~.models.FALLBACK` at budgets of :data:`~.models.SCALE_FROM`
+            modules and more with a model that reads greedy's choice (the exact lookahead),
+            else 0; a value above 0 for a model that does not read it is refused.
     """
 
     def __init__(
@@ -116,7 +117,7 @@ def fallback_of(policy: Policy, fallback: float | None) -> float:
     """The ``fallback`` ``policy`` decodes with (see :class:`PPOSolver`): a ValueError for
     one out of [0, 1], or above 0 with a model whose observation has no greedy choice."""
     if fallback is None:
-        return FALLBACK if policy.reads_greedy else 0.0
+        return FALLBACK if policy.reads_greedy and policy.n_max >= SCALE_FROM else 0.0
     value = check_real(fallback, "fallback", 0.0, 1.0)
     if value > 0 and not policy.reads_greedy:
         raise ValueError(
