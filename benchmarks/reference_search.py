@@ -252,3 +252,9 @@ def optimal_structures(
         if found:
             return n, found
     return None, []
+
+
+if __name__ == "__main__":
+    from benchmarks.common import refuse_as_script
+
+    raise SystemExit(refuse_as_script("reference_search"))

@@ -267,3 +267,9 @@ def command_line(args) -> str:
             "--force"
         )
     return line
+
+
+if __name__ == "__main__":
+    from benchmarks.common import refuse_as_script
+
+    raise SystemExit(refuse_as_script("scale_report"))
