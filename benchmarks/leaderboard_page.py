@@ -126,7 +126,10 @@ def scale_section(results_prefix: str, results: Path = RESULTS) -> list[str]:
         "mixed palette, heavy payload, low force with high torque; 12 per band), beside greedy "
         "with the same 30 s limit, which solves all of them: the share of greedy's tasks it "
         "solves, its modules above greedy's where both solve and its wall time over greedy's "
-        "(mean over seeds, 95 % bootstrap interval). Every method at 16-128 modules: "
+        "(mean over seeds, 95 % bootstrap interval). These seeds act with the policy alone "
+        "(`fallback=0`): they were run before the single pass took greedy's choice where the "
+        "policy is unsure, which the shipped model does from 16 modules "
+        f"(`{results_prefix}prune/16-64/report.md`). Every method at 16-128 modules: "
         f"`{results_prefix}scale/report.md`.",
         "",
         *lines,
