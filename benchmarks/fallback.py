@@ -1,19 +1,21 @@
-"""The ``ppo`` single pass's fallback to greedy's choice (its option ``fallback``): modules
-beside greedy per scale family and band, and the optimal share on small tasks, for each
+"""The learned methods' fallback to greedy's choice (their option ``fallback``): modules
+beside a rival per scale family and band, and the optimal share on small tasks, for each
 fallback and shortlist (``top_k``), on validation draws only.
 
-    python -m benchmarks.fallback [--bands 16 32 48 64] [--families planted mixed payload
-        torque] [--per-family 8] [--fallbacks 0 0.6 0.7 0.8] [--k 8 16] [--small 200]
-        [--time-limit 30] [--out results/fallback] [--force]
+    python -m benchmarks.fallback [--method ppo|ppo-guided] [--rival greedy|beam]
+        [--bands 16 32 48 64] [--families planted mixed payload torque] [--per-family 8]
+        [--fallbacks 0 0.6 0.7 0.8] [--k 8 16] [--small 200] [--time-limit 30]
+        [--out results/fallback] [--force]
 
 Tasks (never the held-out suites): the tasks of :mod:`benchmarks.lookahead_top_k` (the scale
 families' validation draws, searched with n_max ``max(64, band)``, and ``--small`` tasks of the
 ``mixed`` generator at n_max 7, each with its certified optimum). Per task, in one process
-after an untimed warm-up per family and band: the shipped model's single pass
-(``make_solver("ppo", top_k=k, fallback=f)``) for each k and f, then greedy, each structure
-verified by the exact LP; seconds are CPU seconds. Per family and band (and over all): the
-tasks each pass solves of greedy's and its mean modules minus greedy's on the tasks both solve,
-with a 95 % percentile bootstrap interval over the tasks (the issue's goal: upper end <= 0).
+after an untimed warm-up per family and band: the shipped model's single pass (or guided
+search: ``make_solver(METHOD, top_k=k, fallback=f)``) for each k and f, then the rival, each
+structure verified by the exact LP; seconds are CPU seconds. Per family and band (and over
+all): the tasks each variant solves of the rival's and its mean modules minus the rival's on
+the tasks both solve, with a 95 % percentile bootstrap interval over the tasks (the issue's
+goal: upper end <= 0; the rival's columns are named ``greedy``).
 """
 
 from __future__ import annotations
@@ -29,10 +31,11 @@ from modquad_gym.core.outputs import write_text
 OUTPUTS = ("report.md", "rows.csv")
 
 
-def variants(ks, fallbacks) -> list[tuple[str, dict]]:
-    """(name, options) of each learned pass, then greedy's."""
-    passes = [(f"ppo-top{k}-f{f:g}", {"top_k": k, "fallback": f}) for k in ks for f in fallbacks]
-    return [*passes, ("greedy", {})]
+def variants(args) -> list[tuple[str, str, dict]]:
+    """(name, method, options) of each learned variant, then the rival's."""
+    learned = [(f"{args.method}-top{k}-f{f:g}", args.method, {"top_k": k, "fallback": f})
+               for k in args.k for f in args.fallbacks]  # fmt: skip
+    return [*learned, (args.rival, args.rival, {})]
 
 
 def measure(args) -> list[dict]:
@@ -46,9 +49,8 @@ def measure(args) -> list[dict]:
     tasks = tasks_of(args.bands, args.families, args.per_family, args.small, args.seed)
     for task, n_max, learned, palette, family, band in tasks:
         task = with_optimum(task, n_max) if family == "small" else task
-        for name, options in variants(args.k, args.fallbacks):
-            method = "greedy" if name == "greedy" else "ppo"
-            modules = palette if method == "greedy" else learned
+        for name, method, options in variants(args):
+            modules = palette if name == args.rival else learned
             key = (name, n_max, tuple(m.name for m in modules or ()))
             if key not in solvers:
                 solvers[key] = make_solver(method, n_max=n_max, modules=modules,
@@ -63,7 +65,7 @@ def measure(args) -> list[dict]:
                          "found": r.n_modules if verified(r.structure, task) else None,
                          "seconds": round(seconds, 3),
                          "optimum": task.meta.get("optimum")})  # fmt: skip
-        print(rows[-len(variants(args.k, args.fallbacks)) :], flush=True)
+        print(rows[-len(variants(args)) :], flush=True)
     return rows
 
 
@@ -87,6 +89,8 @@ def main(argv: list[str] | None = None) -> int:
         "python -m benchmarks.fallback",
         __doc__.split("\n\n")[0],
         {
+            "--method": {"choices": ("ppo", "ppo-guided"), "default": "ppo"},
+            "--rival": {"choices": ("greedy", "beam"), "default": "greedy"},
             "--bands": {"type": int, "nargs": "*", "default": [16, 32, 48, 64]},
             "--families": {"nargs": "+", "choices": FAMILIES, "default": list(FAMILIES)},
             "--per-family": {"type": int, "default": 8, "help": "validation draws per family"},
@@ -100,18 +104,18 @@ def main(argv: list[str] | None = None) -> int:
         outputs=OUTPUTS,
     )  # fmt: skip
     rows = measure(args)
-    names = [name for name, _ in variants(args.k, args.fallbacks)][:-1]
+    names = [name for name, _, _ in variants(args)][:-1]
     scale = [r for r in rows if r["family"] != "small"]
-    versus = summary(scale, names, args.bands, args.families) if scale else []
+    versus = summary(scale, names, args.bands, args.families, args.rival) if scale else []
     given = sys.argv[1:] if argv is None else argv
     command = "python -m benchmarks.fallback " + " ".join(given)
     text = "\n".join([
-        "# The single pass's fallback to greedy's choice", "",
+        f"# `{args.method}`'s fallback to greedy's choice, beside {args.rival}", "",
         made_by(command.strip(), "; one process"), "", __doc__.split("\n\n", 2)[2].strip(), "",
-        "## Beside greedy, per family and band", "",
-        "`minus_greedy_modules` [`low`, `high`]: mean modules minus greedy's on the tasks both "
-        "solve; `fewer`/`more`: tasks with fewer/more modules than greedy; "
-        "`over_greedy_seconds`: CPU seconds over greedy's.", "",
+        f"## Beside {args.rival}, per family and band", "",
+        f"`minus_greedy_modules` [`low`, `high`]: mean modules minus {args.rival}'s on the tasks "
+        f"both solve; `fewer`/`more`: tasks with fewer/more modules than {args.rival}; "
+        f"`over_greedy_seconds`: CPU seconds over {args.rival}'s.", "",
         markdown_table(versus), "",
         "## Small tasks (n_max 7): success and optimal share", "",
         markdown_table(small_table(rows, names)), "",

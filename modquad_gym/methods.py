@@ -261,10 +261,10 @@ _TOP_K = (int | None, TOP_K, "children decided exactly per step by a model readi
           "lookahead, the rest ranked lower by support bounds and masked out (None: all)",
           _count(1))  # fmt: skip
 _PRUNE = (bool, False, *COMMON_HELP["prune"])
-_FALLBACK = (float | None, None, "greedy's choice wherever the policy gives its own most "
-             f"likely docking at most this probability (0: never, 1: always; None: {FALLBACK:g} "
-             f"at budgets of {SCALE_FROM} modules and more with a model that sees greedy's "
-             "choice, the exact lookahead, else 0)",
+_FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dive) wherever the "
+             "policy gives its own most likely docking at most this probability (0: never, 1: "
+             f"always; None: {FALLBACK:g} at budgets of {SCALE_FROM} modules and more with a "
+             "model that sees greedy's choice, the exact lookahead, else 0)",
              _share)  # fmt: skip
 
 for _method in (
@@ -307,7 +307,7 @@ for _method in (
                                   branching=(int, 4, "children expanded per node", _count(1)),
                                   dive=(bool, True, "first follow the policy's own episode",
                                         check_flag), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
-                                  prune=_PRUNE),
+                                  fallback=_FALLBACK, prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", fault=False, extra="train"),
 ):  # fmt: skip
     register(_method)

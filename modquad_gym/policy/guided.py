@@ -26,7 +26,7 @@ from modquad_gym.core.validation import check_int, check_real
 from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
 from modquad_gym.policy.inference import exported
 from modquad_gym.policy.models import SCALE_FROM, TOP_K, default_model
-from modquad_gym.policy.policy import Policy, search_result
+from modquad_gym.policy.policy import Policy, fallback_of, search_result
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.tasks import as_task
 
@@ -58,8 +58,10 @@ class GuidedSolver:
         dive: bool = True,
         time_limit: float | None = None,
         top_k: int | None = TOP_K,
+        fallback: float | None = None,
     ) -> None:
         self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config, top_k)
+        self.fallback = fallback_of(self.policy, fallback)
         self.n_max = self.policy.n_max
         self.dive = bool(dive)
         self.budget = check_int(budget, "budget", low=1)
@@ -108,7 +110,11 @@ class GuidedSolver:
                 continue
             state, mask = env.state, env.action_masks()
             probs = policy.probabilities(obs, mask)
-            for a in np.argsort(-probs, kind="stable")[: self.branching]:
+            order = np.argsort(-probs, kind="stable")[: self.branching]
+            if diving and self.fallback:  # the dive is the single pass's episode
+                lead = policy.decide(obs, mask, self.fallback, probs)
+                order = [lead, *(a for a in order if a != lead)][: self.branching]
+            for a in order:
                 if probs[a] <= 0.0:
                     break
                 key = child_key(s, env.grid.cell_of(a), env.grid.type_of(a), env)

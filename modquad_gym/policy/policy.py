@@ -18,12 +18,19 @@ import gymnasium as gym
 import numpy as np
 
 from modquad_gym.core.extras import import_optional
+from modquad_gym.core.validation import check_real
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.features import lookahead_width
 from modquad_gym.envs.assembly.lookahead import GREEDY
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.policy.inference import Actor, inference_model, type_features
-from modquad_gym.policy.models import default_model, model_file, read_model
+from modquad_gym.policy.models import (
+    FALLBACK,
+    SCALE_FROM,
+    default_model,
+    model_file,
+    read_model,
+)
 from modquad_gym.search import SearchResult
 from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.problem import SearchProblem
@@ -217,13 +224,14 @@ class Policy:
         """Whether its observation flags greedy's choice (a model of the exact lookahead)."""
         return self.env_kwargs.get("lookahead") == "exact"
 
-    def decide(self, obs: dict, mask: np.ndarray, fallback: float = 0.0) -> int:
+    def decide(self, obs: dict, mask: np.ndarray, fallback: float = 0.0, probs=None) -> int:
         """The deterministic decoding's action at ``obs``: the most likely valid one, or
         greedy's choice (its flag in the exact lookahead rows) where the most likely has a
-        probability of at most ``fallback`` (0: never; 1: always)."""
+        probability of at most ``fallback`` (0: never; 1: always). ``probs``: the policy's
+        :meth:`probabilities` at ``obs`` when already known."""
         if not fallback:
-            return self.greedy(obs, mask)
-        probs = self.probabilities(obs, mask)
+            return self.greedy(obs, mask) if probs is None else int(np.argmax(probs))
+        probs = self.probabilities(obs, mask) if probs is None else probs
         action = int(np.argmax(probs))
         if probs[action] <= fallback:
             flags = obs["candidates"].reshape(len(mask), -1)[:, GREEDY]
@@ -272,6 +280,20 @@ class Policy:
 
     def __repr__(self) -> str:
         return f"Policy(model={self.model_path!r}, n_max={self.n_max})"
+
+
+def fallback_of(policy: Policy, fallback: float | None) -> float:
+    """The ``fallback`` ``policy`` decodes with (see :class:`~.ppo.PPOSolver`): a ValueError for
+    one out of [0, 1], or above 0 with a model whose observation has no greedy choice."""
+    if fallback is None:
+        return FALLBACK if policy.reads_greedy and policy.n_max >= SCALE_FROM else 0.0
+    value = check_real(fallback, "fallback", 0.0, 1.0)
+    if value > 0 and not policy.reads_greedy:
+        raise ValueError(
+            f"fallback={fallback}: the model {policy.model_path or 'given'} does not see "
+            "greedy's choice (it was trained without the exact lookahead); give fallback=0"
+        )
+    return value
 
 
 def search_result(

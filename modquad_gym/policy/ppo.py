@@ -19,8 +19,8 @@ import numpy as np
 
 from modquad_gym.core.validation import check_real
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.models import FALLBACK, SCALE_FROM, TOP_K
-from modquad_gym.policy.policy import Policy, env_kwargs_of, make_env, search_result
+from modquad_gym.policy.models import TOP_K
+from modquad_gym.policy.policy import Policy, env_kwargs_of, fallback_of, make_env, search_result
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.tasks import as_task
 
@@ -111,17 +111,3 @@ class PPOSolver:
             f"PPOSolver(model={self.policy.model_path!r}, n_max={self.n_max}, "
             f"samples={self.samples}, fallback={self.fallback})"
         )
-
-
-def fallback_of(policy: Policy, fallback: float | None) -> float:
-    """The ``fallback`` ``policy`` decodes with (see :class:`PPOSolver`): a ValueError for
-    one out of [0, 1], or above 0 with a model whose observation has no greedy choice."""
-    if fallback is None:
-        return FALLBACK if policy.reads_greedy and policy.n_max >= SCALE_FROM else 0.0
-    value = check_real(fallback, "fallback", 0.0, 1.0)
-    if value > 0 and not policy.reads_greedy:
-        raise ValueError(
-            f"fallback={fallback}: the model {policy.model_path or 'given'} does not see "
-            "greedy's choice (it was trained without the exact lookahead); give fallback=0"
-        )
-    return value
