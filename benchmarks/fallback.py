@@ -107,8 +107,10 @@ def main(argv: list[str] | None = None) -> int:
     names = [name for name, _, _ in variants(args)][:-1]
     scale = [r for r in rows if r["family"] != "small"]
     versus = summary(scale, names, args.bands, args.families, args.rival) if scale else []
+    write_csv(rows, args.out / "rows.csv")
     given = sys.argv[1:] if argv is None else argv
     command = "python -m benchmarks.fallback " + " ".join(given)
+    small = small_table(rows, names)
     text = "\n".join([
         f"# `{args.method}`'s fallback to greedy's choice, beside {args.rival}", "",
         made_by(command.strip(), "; one process"), "", __doc__.split("\n\n", 2)[2].strip(), "",
@@ -116,11 +118,10 @@ def main(argv: list[str] | None = None) -> int:
         f"`minus_greedy_modules` [`low`, `high`]: mean modules minus {args.rival}'s on the tasks "
         f"both solve; `fewer`/`more`: tasks with fewer/more modules than {args.rival}; "
         f"`over_greedy_seconds`: CPU seconds over {args.rival}'s.", "",
-        markdown_table(versus), "",
-        "## Small tasks (n_max 7): success and optimal share", "",
-        markdown_table(small_table(rows, names)), "",
+        markdown_table(versus) if versus else "(no scale tasks)", "",
+        *(["## Small tasks (n_max 7): success and optimal share", "", markdown_table(small), ""]
+          if small else []),
     ])  # fmt: skip
-    write_csv(rows, args.out / "rows.csv")
     write_text(args.out / "report.md", text)
     print(text)
     return 0

@@ -1,8 +1,9 @@
-"""The ``ppo`` single pass's fallback to greedy's choice (option ``fallback``,
-:meth:`~modquad_gym.policy.policy.Policy.decide`): at 0 each docking is the policy's most likely,
-at 1 greedy's (with every child decided: the greedy search's own structure, the plain reference),
-in between the one the rule names; a model that never sees greedy's choice refuses a fallback,
-in Python and on the command line alike."""
+"""The learned methods' fallback to greedy's choice (option ``fallback``,
+:meth:`~modquad_gym.policy.policy.Policy.decide`): at 0 each docking of the single pass (and of
+the guided search's dive) is the policy's most likely, at 1 greedy's (with every child decided:
+the greedy search's own structure, the plain reference), in between the one the rule names; a
+model that never sees greedy's choice refuses a fallback, in Python and on the command line
+alike."""
 
 from __future__ import annotations
 
@@ -36,6 +37,18 @@ def test_fallback_one_docks_what_greedy_docks():
             assert mine.structure.key == ref.structure.key
 
 
+def test_the_guided_dive_with_fallback_one_is_greedys_episode():
+    greedy = make_solver("greedy", 7)
+    dive = make_solver("ppo-guided", 7, fallback=1.0, top_k=None, budget=1)  # the dive alone
+    search = make_solver("ppo-guided", 7, fallback=1.0, top_k=None)
+    for task in tasks(6):
+        ref = greedy.solve(task)
+        if ref.structure is None:
+            continue
+        assert dive.solve(task).structure.key == ref.structure.key
+        assert search.solve(task).n_modules <= ref.n_modules  # the search only improves on it
+
+
 def test_each_docking_is_the_one_the_rule_names():
     policy = Policy(str(DEFAULT_MODEL), n_max=7, top_k=8)
     env, rng = policy.env, np.random.default_rng(0)
@@ -59,12 +72,13 @@ def test_each_docking_is_the_one_the_rule_names():
     assert took["greedy"] and took["policy"]  # both branches of the rule were exercised
 
 
-def test_the_default_follows_the_budget_and_what_the_model_sees():
-    ppo = make_solver("ppo", 7)
+@pytest.mark.parametrize("method", ["ppo", "ppo-guided"])
+def test_the_default_follows_the_budget_and_what_the_model_sees(method):
+    ppo = make_solver(method, 7)
     assert ppo.inner(7, None).fallback == 0.0  # small budgets: the policy alone
     assert ppo.inner(SCALE_FROM, None).fallback == FALLBACK
-    assert make_solver("ppo", 7, fallback=0.5).inner(7, None).fallback == 0.5
-    assert make_solver("ppo", 7, fallback=0.0).inner(SCALE_FROM, None).fallback == 0.0
+    assert make_solver(method, 7, fallback=0.5).inner(7, None).fallback == 0.5
+    assert make_solver(method, 7, fallback=0.0).inner(SCALE_FROM, None).fallback == 0.0
     assert PPOSolver(str(DYNAMIC_MODEL), n_max=7).fallback == 0.0  # no greedy choice to take
 
 
@@ -76,12 +90,31 @@ def test_the_default_follows_the_budget_and_what_the_model_sees():
         (DEFAULT_MODEL, -0.1, "fallback must be >= 0"),
     ],
 )
-def test_a_fallback_the_model_cannot_take_is_refused_by_both_doors(model, value, words, capsys):
+@pytest.mark.parametrize("method", ["ppo", "ppo-guided"])
+def test_a_fallback_the_model_cannot_take_is_refused_by_both_doors(
+    method, model, value, words, capsys
+):
     with pytest.raises(ValueError, match=words):
-        make_solver("ppo", 7, model=str(model), fallback=value)
-    argv = ["solve", "--task", "example:screwdriver", "--method", "ppo", "--model", str(model),
+        make_solver(method, 7, model=str(model), fallback=value)
+    argv = ["solve", "--task", "example:screwdriver", "--method", method, "--model", str(model),
             "--option", f"fallback={value}", "--quiet"]  # fmt: skip
     capsys.readouterr()
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert words in err and len(err.splitlines()) == 1
+
+
+def test_the_benchmark_reports_each_variant_beside_its_rival(tmp_path):
+    from benchmarks import fallback
+
+    out = tmp_path / "fb"
+    argv = ["--method", "ppo-guided", "--rival", "beam", "--bands", "16", "--families", "torque",
+            "--per-family", "1", "--fallbacks", "0", "0.7", "--k", "8", "--small", "1",
+            "--out", str(out)]  # fmt: skip
+    assert fallback.main(argv) == 0
+    rows = (out / "rows.csv").read_text().splitlines()
+    methods = {line.split(",")[3] for line in rows[1:]}
+    assert methods == {"ppo-guided-top8-f0", "ppo-guided-top8-f0.7", "beam"}
+    assert len(rows) == 1 + 2 * 3  # (one small task, one torque draw) x three variants
+    report = (out / "report.md").read_text()
+    assert "| 16 | torque | ppo-guided-top8-f0.7 |" in report and "## Small tasks" in report
