@@ -20,13 +20,16 @@ goal: upper end <= 0; the rival's columns are named ``greedy``).
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 
 from benchmarks.common import bench_args, made_by, markdown_table, run_main, write_csv
 from benchmarks.lookahead_top_k import FAMILIES, tasks_of
 from benchmarks.scale_models import summary
+from modquad_gym.core.options import int_option, real_option
 from modquad_gym.core.outputs import write_text
+from modquad_gym.search.problem import check_time_limit
 
 OUTPUTS = ("report.md", "rows.csv")
 
@@ -36,6 +39,17 @@ def variants(args) -> list[tuple[str, str, dict]]:
     learned = [(f"{args.method}-top{k}-f{f:g}", args.method, {"top_k": k, "fallback": f})
                for k in args.k for f in args.fallbacks]  # fmt: skip
     return [*learned, (args.rival, args.rival, {})]
+
+
+def share_option(text: str) -> float:
+    """An argparse ``type`` for a fallback: a number in [0, 1]."""
+    value = real_option(text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {value:g}")
+    return value
+
+
+share_option.__name__ = "fallback"
 
 
 def measure(args) -> list[dict]:
@@ -91,18 +105,25 @@ def main(argv: list[str] | None = None) -> int:
         {
             "--method": {"choices": ("ppo", "ppo-guided"), "default": "ppo"},
             "--rival": {"choices": ("greedy", "beam"), "default": "greedy"},
-            "--bands": {"type": int, "nargs": "*", "default": [16, 32, 48, 64]},
+            "--bands": {"type": int_option(2, 128), "nargs": "*", "default": [16, 32, 48, 64]},
             "--families": {"nargs": "+", "choices": FAMILIES, "default": list(FAMILIES)},
-            "--per-family": {"type": int, "default": 8, "help": "validation draws per family"},
-            "--fallbacks": {"type": float, "nargs": "+", "default": [0.0, 0.6, 0.7, 0.8],
-                            "help": "values of the fallback option"},
-            "--k": {"type": int, "nargs": "+", "default": [8, 16], "help": "shortlists"},
-            "--small": {"type": int, "default": 200, "help": "mixed tasks at n_max 7"},
-            "--time-limit": {"type": float, "default": 30.0},
+            "--per-family": {"type": int_option(1, 100), "default": 8,
+                             "help": "validation draws per family"},
+            "--fallbacks": {"type": share_option, "nargs": "+", "default": [0.0, 0.6, 0.7, 0.8],
+                            "help": "values of the fallback option, each in [0, 1]"},
+            "--k": {"type": int_option(1), "nargs": "+", "default": [8, 16], "help": "shortlists"},
+            "--small": {"type": int_option(0, 10_000), "default": 200,
+                        "help": "mixed tasks at n_max 7"},
+            "--time-limit": {"type": real_option, "default": 30.0,
+                             "help": "seconds per task and method, in (0, a day]"},
         },
         out="results/fallback",
         outputs=OUTPUTS,
     )  # fmt: skip
+    try:
+        check_time_limit(args.time_limit)
+    except ValueError as exc:
+        raise ValueError(f"--time-limit: {exc}") from None
     rows = measure(args)
     names = [name for name, _, _ in variants(args)][:-1]
     scale = [r for r in rows if r["family"] != "small"]

@@ -118,3 +118,26 @@ def test_the_benchmark_reports_each_variant_beside_its_rival(tmp_path):
     assert len(rows) == 1 + 2 * 3  # (one small task, one torque draw) x three variants
     report = (out / "report.md").read_text()
     assert "| 16 | torque | ppo-guided-top8-f0.7 |" in report and "## Small tasks" in report
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["--fallbacks", "1.5"], "--fallbacks"),
+        (["--fallbacks", "nan"], "--fallbacks"),
+        (["--k", "0"], "--k"),
+        (["--per-family", "0"], "--per-family"),
+        (["--bands", "129"], "--bands"),
+        (["--time-limit", "0"], "--time-limit"),
+        (["--method", "beam"], "--method"),
+    ],
+)
+def test_the_benchmark_refuses_bad_options_before_work(tmp_path, capsys, argv, match):
+    from benchmarks import fallback
+    from benchmarks.common import run_main
+
+    out = tmp_path / "fb"
+    assert run_main(fallback.main, "fallback", [*argv, "--small", "0", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert match in err.splitlines()[-1] and "Traceback" not in err
+    assert not (out / "rows.csv").exists()
