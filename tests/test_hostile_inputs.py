@@ -215,6 +215,12 @@ def test_ray_starting_and_stopping_keeps_the_sigterm_handler(monkeypatch, kill):
         assert signal.getsignal(signal.SIGTERM) is interrupts._raise_terminated
 
 
+def _default_sigint() -> None:
+    """A job started in the background by a shell without job control inherits SIGINT ignored,
+    and Python keeps it ignored: give the child the default disposition."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 _JOBS = """
 import sys, time
 from benchmarks.common import run_command
@@ -256,7 +262,8 @@ def test_stopping_fresh_processes_keeps_finished_work_and_leaves_no_process(sig)
     at once; Ctrl-C or SIGTERM ends with one line and no traceback; even SIGKILL of the main
     process leaves no job running."""
     proc = subprocess.Popen([sys.executable, "-c", _JOBS], env=ENV, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, start_new_session=True)  # fmt: skip
+                            stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=_default_sigint)  # fmt: skip
     try:
         assert proc.stdout.readline().strip() == "finished 0"
         end = time.monotonic() + 30
