@@ -5,7 +5,7 @@ fallback and shortlist (``top_k``), on validation draws only.
     python -m benchmarks.fallback [--method ppo|ppo-guided] [--rival greedy|beam]
         [--bands 16 32 48 64] [--families planted mixed payload torque] [--per-family 8]
         [--fallbacks 0 0.6 0.7 0.8] [--k 8 16] [--small 200] [--time-limit 30]
-        [--out results/fallback] [--force]
+        [--out results/fallback] [--force] [--rows CSV]
 
 Tasks (never the held-out suites): the tasks of :mod:`benchmarks.lookahead_top_k` (the scale
 families' validation draws, searched with n_max ``max(64, band)``, and ``--small`` tasks of the
@@ -15,7 +15,8 @@ search: ``make_solver(METHOD, top_k=k, fallback=f)``) for each k and f, then the
 structure verified by the exact LP; seconds are CPU seconds. Per family and band (and over
 all): the tasks each variant solves of the rival's and its mean modules minus the rival's on
 the tasks both solve, with a 95 % percentile bootstrap interval over the tasks (the issue's
-goal: upper end <= 0; the rival's columns are named ``greedy``).
+goal: upper end <= 0; the rival's columns are named ``greedy``), drawn in ``versus.png``.
+``--rows`` re-renders the page and the figure from an earlier run's rows.csv (no solving).
 """
 
 from __future__ import annotations
@@ -23,15 +24,28 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from pathlib import Path
 
-from benchmarks.common import bench_args, made_by, markdown_table, run_main, write_csv
+import numpy as np
+
+from benchmarks.common import (
+    bench_args,
+    machine_description,
+    made_by,
+    markdown_table,
+    read_rows_csv,
+    run_main,
+    write_csv,
+)
 from benchmarks.lookahead_top_k import FAMILIES, tasks_of
-from benchmarks.scale_models import summary
+from benchmarks.scale_models import summary, versus_greedy
 from modquad_gym.core.options import int_option, real_option
-from modquad_gym.core.outputs import write_text
+from modquad_gym.core.outputs import save_figure, write_text
 from modquad_gym.search.problem import check_time_limit
 
-OUTPUTS = ("report.md", "rows.csv")
+OUTPUTS = ("report.md", "rows.csv", "versus.png")
+COLUMNS = ("band", "family", "task", "method", "found", "seconds", "optimum")
+"""The columns of rows.csv, in order (what ``--rows`` reads back)."""
 
 
 def variants(args) -> list[tuple[str, str, dict]]:
@@ -83,6 +97,58 @@ def measure(args) -> list[dict]:
     return rows
 
 
+def typed_row(raw: dict) -> dict | None:
+    """A row of rows.csv typed as :func:`measure` writes it; None for values it never writes."""
+    row = {**raw, "band": int(raw["band"]), "seconds": float(raw["seconds"])}
+    for key in ("found", "optimum"):
+        row[key] = int(raw[key]) if raw[key] != "" else None
+    known = raw["family"] in (*FAMILIES, "small") and raw["task"] and raw["method"]
+    counts = all(row[k] is None or row[k] >= 1 for k in ("found", "optimum"))
+    return row if known and counts and 2 <= row["band"] <= 128 and row["seconds"] >= 0 else None
+
+
+def read_rows(path: Path) -> list[dict]:
+    """The rows of an earlier run's rows.csv; a one-line ValueError naming the file and the
+    1-based row otherwise."""
+    what = "benchmarks.fallback (band 2-128, a family or small, task, method, found, seconds)"
+    return read_rows_csv(path, "--rows", COLUMNS, typed_row, what)
+
+
+def plot(rows: list[dict], names: list[str], rival: str, path: Path) -> None:
+    """One panel per family: each variant's mean modules minus ``rival``'s per band, with its
+    95 % bootstrap interval over the tasks (zero: level with the rival)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scale = [r for r in rows if r["family"] != "small"]
+    families = list(dict.fromkeys(r["family"] for r in scale))
+    bands = sorted({r["band"] for r in scale})
+    fig, axes = plt.subplots(1, len(families), figsize=(3.6 * len(families), 4.2), sharey=True,
+                             squeeze=False)  # fmt: skip
+    width = min(0.7 / max(len(names), 1), 0.15)
+    for ax, family in zip(axes[0], families, strict=True):
+        for k, name in enumerate(names):
+            cells = [versus_greedy(scale, name, b, family, rival) for b in bands]
+            xs = [i + (k - (len(names) - 1) / 2) * width for i in range(len(bands))]
+            mid = np.array([c["minus_greedy_modules"] for c in cells], dtype=float)
+            err = [mid - [c["low"] for c in cells], [c["high"] for c in cells] - mid]
+            ax.errorbar(xs, mid, yerr=err, fmt="o", ms=4, capsize=2, lw=1, color=f"C{k % 10}",
+                        label=name)  # fmt: skip
+        ax.axhline(0.0, color="black", lw=0.8)
+        ax.set_xticks(range(len(bands)), [str(b) for b in bands])
+        ax.set_title(family, fontsize="medium")
+        ax.set_xlabel("modules (band)")
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel(f"modules minus {rival}'s (mean, 95 % CI)")
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(names), 8), fontsize=8)
+    fig.tight_layout(rect=(0, 0.09, 1, 1))
+    save_figure(fig, path)
+    plt.close(fig)
+
+
 def small_table(rows: list[dict], names) -> list[dict]:
     """Per pass on the small tasks: success and optimal share (of the certified optimum)."""
     out = []
@@ -95,6 +161,19 @@ def small_table(rows: list[dict], names) -> list[dict]:
                                              / len(mine), 1),
                         "optimal_pct": round(100 * optimal / len(mine), 1)})  # fmt: skip
     return out
+
+
+def command_line(given: list[str], rows: Path | None) -> str:
+    """What made the page: the command given; with ``--rows``, the run's own command (its
+    options given again) and the re-rendering."""
+    run, skip = [], False
+    for word in given:
+        if skip or word in ("--rows", "--force"):
+            skip = word == "--rows"
+            continue
+        run.append(word)
+    command = " ".join(["python -m benchmarks.fallback", *run])
+    return command if rows is None else f"{command}`, re-rendered by `... --rows {rows} --force"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -116,6 +195,9 @@ def main(argv: list[str] | None = None) -> int:
                         "help": "mixed tasks at n_max 7"},
             "--time-limit": {"type": real_option, "default": 30.0,
                              "help": "seconds per task and method, in (0, a day]"},
+            "--rows": {"type": Path, "default": None, "metavar": "CSV",
+                       "help": "re-render from an earlier run's rows.csv (no solving; give "
+                               "the --method and --rival it used)"},
         },
         out="results/fallback",
         outputs=OUTPUTS,
@@ -124,22 +206,32 @@ def main(argv: list[str] | None = None) -> int:
         check_time_limit(args.time_limit)
     except ValueError as exc:
         raise ValueError(f"--time-limit: {exc}") from None
-    rows = measure(args)
-    names = [name for name, _, _ in variants(args)][:-1]
+    rows = read_rows(args.rows) if args.rows else measure(args)
+    names = [m for m in dict.fromkeys(r["method"] for r in rows) if m != args.rival]
+    if args.rows and (not names or args.rival not in {r["method"] for r in rows}):
+        raise ValueError(f"--rows {args.rows}: no rows of --rival {args.rival} and a variant")
     scale = [r for r in rows if r["family"] != "small"]
-    versus = summary(scale, names, args.bands, args.families, args.rival) if scale else []
+    bands, families = (
+        sorted({r["band"] for r in scale}),
+        list(dict.fromkeys(r["family"] for r in scale)),
+    )
+    versus = summary(scale, names, bands, families, args.rival) if scale else []
     write_csv(rows, args.out / "rows.csv")
-    given = sys.argv[1:] if argv is None else argv
-    command = "python -m benchmarks.fallback " + " ".join(given)
+    if scale:
+        plot(rows, names, args.rival, args.out / "versus.png")
+    command = command_line(sys.argv[1:] if argv is None else argv, args.rows)
     small = small_table(rows, names)
     text = "\n".join([
         f"# `{args.method}`'s fallback to greedy's choice, beside {args.rival}", "",
-        made_by(command.strip(), "; one process"), "", __doc__.split("\n\n", 2)[2].strip(), "",
+        made_by(command, "; one process") if args.rows is None else
+        f"Made by `{command}` on {machine_description()}; one process; load average not "
+        "recorded (re-rendered).", "", __doc__.split("\n\n", 2)[2].strip(), "",
         f"## Beside {args.rival}, per family and band", "",
         f"`minus_greedy_modules` [`low`, `high`]: mean modules minus {args.rival}'s on the tasks "
         f"both solve; `fewer`/`more`: tasks with fewer/more modules than {args.rival}; "
         f"`over_greedy_seconds`: CPU seconds over {args.rival}'s.", "",
-        markdown_table(versus) if versus else "(no scale tasks)", "",
+        *([markdown_table(versus), "", "![modules beside the rival](versus.png)"] if versus
+          else ["(no scale tasks)"]), "",
         *(["## Small tasks (n_max 7): success and optimal share", "", markdown_table(small), ""]
           if small else []),
     ])  # fmt: skip

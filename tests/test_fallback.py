@@ -118,6 +118,12 @@ def test_the_benchmark_reports_each_variant_beside_its_rival(tmp_path):
     assert len(rows) == 1 + 2 * 3  # (one small task, one torque draw) x three variants
     report = (out / "report.md").read_text()
     assert "| 16 | torque | ppo-guided-top8-f0.7 |" in report and "## Small tasks" in report
+    assert (out / "versus.png").stat().st_size > 0
+    again = tmp_path / "again"  # re-rendered from the rows: the same page but its first lines
+    assert fallback.main([*argv[:-1], str(again), "--rows", str(out / "rows.csv")]) == 0
+    assert (again / "rows.csv").read_text() == (out / "rows.csv").read_text()
+    redone = (again / "report.md").read_text()
+    assert redone.splitlines()[3:] == report.splitlines()[3:] and "re-rendered" in redone
 
 
 @pytest.mark.parametrize(
@@ -130,6 +136,7 @@ def test_the_benchmark_reports_each_variant_beside_its_rival(tmp_path):
         (["--bands", "129"], "--bands"),
         (["--time-limit", "0"], "--time-limit"),
         (["--method", "beam"], "--method"),
+        (["--rows", "tests/test_fallback.py"], "--rows"),
     ],
 )
 def test_the_benchmark_refuses_bad_options_before_work(tmp_path, capsys, argv, match):
