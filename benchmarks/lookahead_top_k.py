@@ -54,11 +54,10 @@ def tasks_of(bands, families, per_family: int, small: int, seed: int) -> list[tu
 def ranks_of_pass(solver, task) -> list[tuple[int, int, int]]:
     """(rank of the policy's choice, rank of greedy's, valid actions) at each state of the
     policy's single pass (every start type) with every child decided exactly."""
-    from modquad_gym.envs.assembly.lookahead import GREEDY, ranked
+    from modquad_gym.envs.assembly.lookahead import flagged, ranked
 
     policy = solver.policy
-    env, width = policy.env, policy.env.observation_space["candidates"].shape[0]
-    width //= policy.env.action_space.n
+    env = policy.env
     out = []
     for start in policy.starts:
         obs, info = policy.reset(task, start)
@@ -68,8 +67,8 @@ def ranks_of_pass(solver, task) -> list[tuple[int, int, int]]:
             action = policy.greedy(obs, mask)
             state = env.state
             order = ranked(env.unwrapped._episode, state, np.flatnonzero(state.mask)).tolist()
-            flagged = int(np.flatnonzero(obs["candidates"].reshape(-1, width)[:, GREEDY])[0])
-            out.append((order.index(action), order.index(flagged), len(order)))
+            greedys = flagged(obs["candidates"], mask)
+            out.append((order.index(action), order.index(greedys), len(order)))
             obs, _, terminated, truncated, info = env.step(action)
             done = terminated or truncated
     return out

@@ -21,7 +21,7 @@ from modquad_gym.core.extras import import_optional
 from modquad_gym.core.validation import check_real
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.features import lookahead_width
-from modquad_gym.envs.assembly.lookahead import GREEDY
+from modquad_gym.envs.assembly.lookahead import flagged
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.policy.inference import Actor, inference_model, type_features
 from modquad_gym.policy.models import (
@@ -234,9 +234,8 @@ class Policy:
         probs = self.probabilities(obs, mask) if probs is None else probs
         action = int(np.argmax(probs))
         if probs[action] <= fallback:
-            flags = obs["candidates"].reshape(len(mask), -1)[:, GREEDY]
-            flagged = np.flatnonzero((flags == 1.0) & np.asarray(mask, dtype=bool))
-            action = int(flagged[0]) if len(flagged) else action
+            greedys = flagged(obs["candidates"], mask)
+            action = action if greedys is None else greedys
         return action
 
     def reset(self, task: Any, start: int | None = None) -> tuple[dict, dict]:

@@ -134,6 +134,14 @@ def greedy_choice(scores: dict, cells: dict, actions) -> int:
     return best
 
 
+def flagged(candidates: np.ndarray, mask: np.ndarray) -> int | None:
+    """The valid action of ``mask`` that a ``"candidates"`` observation (exact lookahead) flags
+    as greedy's choice, or None when none is flagged."""
+    flags = np.asarray(candidates).reshape(len(mask), -1)[:, GREEDY]
+    found = np.flatnonzero((flags == 1.0) & np.asarray(mask, dtype=bool))
+    return int(found[0]) if len(found) else None
+
+
 def shortlisted(ep: Episode, state: AssemblyState) -> tuple[AssemblyState, dict]:
     """(``state`` with its valid actions cut to the first ``ep.rules.top_k`` of
     :func:`ranked`, the encoding's own mask kept in ``free`` (None when nothing was cut),
