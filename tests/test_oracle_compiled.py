@@ -311,3 +311,29 @@ def test_a_tie_between_optimal_vertices_is_left_to_the_walk():
     at_vertex = (tights >= 0).all(axis=1)
     assert at_vertex.sum() > found.sum() >= 1  # ties declined, a unique optimum read
     assert_same_directions(dirs[found], cold_dirs[found])
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**20), n=st.integers(2, 6), row=st.integers(1, 5))
+def test_a_replaced_basis_row_updates_the_inverse_as_a_fresh_inversion(seed, n, row):
+    """The walk's pivots update M^-1 by one rank-one step when one row of M changes
+    (:func:`~modquad_gym.oracle.basis.replace_row`): the same inverse as Gauss-Jordan up to
+    round-off, over chains of replacements (with and without the periodic fresh inversion);
+    a replacement that makes M singular (a copy of another row) is refused, as the inversion
+    refuses it."""
+    from modquad_gym.oracle.basis import REFACTOR, invert, replace_row
+
+    rng = np.random.default_rng(seed)
+    q = min(row, n - 1)
+    M = rng.standard_normal((n, n))
+    Minv = np.zeros((n, n))
+    assert invert(M, Minv, n)
+    for step in range(2 * REFACTOR + 1):
+        M[q] = rng.standard_normal(n)
+        assert replace_row(M, Minv, n, q, step)
+        np.testing.assert_allclose(Minv @ M, np.eye(n), atol=1e-9)
+        want = np.zeros((n, n))
+        assert invert(M, want, n)
+        np.testing.assert_allclose(Minv, want, rtol=1e-8, atol=1e-10 * np.abs(want).max())
+    M[q] = M[(q + 1) % n]
+    assert not replace_row(M, Minv, n, q, 0)

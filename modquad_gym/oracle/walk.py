@@ -28,46 +28,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from modquad_gym.oracle.basis import invert, replace_row
+
 MAX_PIVOTS = 64
 """Pivots per wrench before the walk gives up (-1)."""
 
 _TINY = 1e-13  # relative size below which a projected gradient or a pivot counts as zero
 _ZERO = 1e-12  # relative size of g_j . y below which column j lies on y's hyperplane
 _PERTURB = 1e-30  # the perturbed distance to a hyperplane that y lies on (anti-cycling)
-
-
-@njit(cache=True)
-def _invert(M, Minv, n):  # pragma: no cover - compiled
-    """Minv = M^-1 (n x n) by Gauss-Jordan with partial pivoting; False when M is singular to
-    working accuracy (the walk then gives up on the wrench)."""
-    A = M[:n, :n].copy()
-    scale = 0.0
-    for i in range(n):
-        for k in range(n):
-            Minv[i, k] = 1.0 if i == k else 0.0
-            scale = max(scale, abs(A[i, k]))
-    for col in range(n):
-        p = col
-        for i in range(col + 1, n):
-            if abs(A[i, col]) > abs(A[p, col]):
-                p = i
-        if abs(A[p, col]) <= _TINY * scale:
-            return False
-        if p != col:
-            for k in range(n):
-                A[p, k], A[col, k] = A[col, k], A[p, k]
-                Minv[p, k], Minv[col, k] = Minv[col, k], Minv[p, k]
-        inv = 1.0 / A[col, col]
-        for k in range(n):
-            A[col, k] *= inv
-            Minv[col, k] *= inv
-        for i in range(n):
-            if i != col and A[i, col] != 0.0:
-                f = A[i, col]
-                for k in range(n):
-                    A[i, k] -= f * A[col, k]
-                    Minv[i, k] -= f * Minv[col, k]
-    return True
 
 
 @njit(cache=True)
@@ -265,7 +233,7 @@ def vertex_basis(G, r, T, tight, M, Minv):  # pragma: no cover - compiled
         tight[T[k]] = True
         for i in range(n):
             M[k + 1, i] = G[i, T[k]]
-    return _invert(M, Minv, n)
+    return invert(M, Minv, n)
 
 
 @njit(cache=True)
@@ -325,7 +293,7 @@ def _pivots(G, norms, r, y, x, accept, reject, work):  # pragma: no cover - comp
     ``work``); its return values."""
     tight, bound, M, Minv, _, a, s, d, c, alpha, order, v, T = work
     n, m = G.shape
-    for _ in range(MAX_PIVOTS):
+    for pivots in range(MAX_PIVOTS):
         for i in range(n):
             y[i] = Minv[i, 0]  # the vertex: r . y = 1, g_T . y = 0
         h = _pass(G, norms, y, tight, bound, a, s, c)
@@ -364,7 +332,7 @@ def _pivots(G, norms, r, y, x, accept, reject, work):  # pragma: no cover - comp
         T[kq] = j
         for i in range(n):
             M[kq + 1, i] = G[i, j]
-        if not _invert(M, Minv, n):
+        if not replace_row(M, Minv, n, kq + 1, pivots):
             return -1
     return -1
 

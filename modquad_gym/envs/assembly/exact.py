@@ -20,6 +20,7 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import numpy as np
+from numba import njit
 
 from modquad_gym.envs.assembly.types import TaskArrays
 from modquad_gym.oracle.backends import gamma_capped_from, proved_above
@@ -113,13 +114,37 @@ def from_sibling(start: tuple, line: Lineage, walked: list, r: int) -> tuple:
     optimum of the nearest ``walked`` sibling (grid distance of the docked cells; the first
     among equals) where that holds none of the sibling's own ``r`` module columns: the rest
     are the parent's, renumbered to this child's columns (its own module's bounds unknown)."""
-    cell, at = line.cell, line.at
+    cell = line.cell
     near, a0, T0, S0 = min(walked, key=lambda w: abs(w[0][0] - cell[0]) + abs(w[0][1] - cell[1]))
-    ok = (T0 >= 0).all(axis=1) & ~((T0 >= a0) & (T0 < a0 + r)).any(axis=1)
-    if T0.shape != start[0].shape or not ok.any():
+    if T0.shape != start[0].shape:
         return start
-    parent = T0[ok] - r * (T0[ok] >= a0)
     tights, signs = start[0].copy(), start[1].copy()
-    tights[ok] = parent + r * (parent >= at)
-    signs[ok] = np.insert(np.delete(S0[ok], np.s_[a0 : a0 + r], axis=1), [at] * r, 0, axis=1)
+    if not _sibling_rows(T0, S0, a0, line.at, r, tights, signs):
+        return start
     return tights, signs
+
+
+@njit(cache=True)
+def _sibling_rows(T0, S0, a0, at, r, tights, signs):  # pragma: no cover - compiled
+    """Rows of (tights, signs) replaced by the sibling's vertex (T0, S0; its module's columns
+    at a0) where that holds none of its own module's columns, renumbered to the child's
+    columns (the child's module at ``at``, bounds 0); False when no row was."""
+    rows, m = signs.shape
+    any_ok = False
+    for i in range(rows):
+        ok = True
+        for q in range(T0.shape[1]):
+            ok = ok and T0[i, q] >= 0 and not a0 <= T0[i, q] < a0 + r
+        if not ok:
+            continue
+        any_ok = True
+        for q in range(T0.shape[1]):
+            parent = T0[i, q] - r * (T0[i, q] >= a0)
+            tights[i, q] = parent + r * (parent >= at)
+        for j in range(m):  # child column j <- parent column p <- sibling column
+            if at <= j < at + r:
+                signs[i, j] = 0
+            else:
+                p = j if j < at else j - r
+                signs[i, j] = S0[i, p if p < a0 else p + r]
+    return any_ok
