@@ -138,9 +138,7 @@ def gamma_capped_from(
     above it: a row whose finite ``lower`` bound (t,) (the caller's proof) exceeds ``cap`` by
     far more than round-off (:func:`proved_above`) gets that bound, no walk."""
     R, off = z.reduce(W)
-    out = np.full(len(W), np.inf)
-    tights = np.full((len(W), max(z.rank - 1, 1)), -1, dtype=np.int64)
-    signs = np.zeros((len(W), z.m), dtype=np.int8)
+    out = np.full(len(W), np.nan)  # nan: walked
     t = np.abs(R).max(axis=1) if len(W) else np.zeros(0)
     box = max(float(z.box.max()), 1e-300)
     far = t > _FAR * box
@@ -148,14 +146,14 @@ def gamma_capped_from(
     if lower is not None:
         known = proved_above(lower, cap) & ~far
         out[known] = lower[known]
-        far |= known
-    near = np.flatnonzero(~off & ~far)
-    if len(near):
-        begin = (tights[near], signs[near]) if start is None else (start[0][near], start[1][near])
-        T, S = np.ascontiguousarray(begin[0], np.int64), np.ascontiguousarray(begin[1], np.int8)
-        out[near] = gamma_compiled_from(z, R[near], cap, T, S)
-        tights[near], signs[near] = T, S
     out[off] = np.inf
+    if start is None:
+        tights = np.full((len(W), max(z.rank - 1, 1)), -1, dtype=np.int64)
+        signs = np.zeros((len(W), z.m), dtype=np.int8)
+    else:
+        tights = np.array(start[0], dtype=np.int64, order="C")
+        signs = np.array(start[1], dtype=np.int8, order="C")
+    gamma_compiled_from(z, R, cap, tights, signs, out)
     return out, (tights, signs)
 
 

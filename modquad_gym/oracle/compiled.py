@@ -85,19 +85,25 @@ def gamma_compiled(
 
 
 def gamma_compiled_from(
-    z: Zonotope, R: np.ndarray, cap: float, starts: np.ndarray, signs: np.ndarray
+    z: Zonotope,
+    R: np.ndarray,
+    cap: float,
+    starts: np.ndarray,
+    signs: np.ndarray,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """gamma as :func:`gamma_compiled` with ``cap``, each row's walk started at the vertex of
     its row of ``starts`` (int64 (t, rank - 1) tight columns; -1: no start) with the column
     bounds of its row of ``signs`` (int8 (t, m), 0: unknown): the optimal vertices of a similar
     zonotope (one module less) for the same wrenches start next to the optimum, where the crash
     to a first vertex costs as much as the pivots. Both arrays then hold each row's optimal
-    vertex (-1 and 0 where the walk stopped elsewhere)."""
+    vertex (-1 and 0 where the walk stopped elsewhere). ``out`` (t,), when given, is filled in
+    place: only its nan rows are computed, the others are the caller's (no vertex)."""
     from modquad_gym.oracle import kernels
 
     prep, _ = _prepared(z)
     R = np.ascontiguousarray(R, dtype=float)
-    out = np.empty(len(R))
+    out = np.full(len(R), np.nan) if out is None else out
     kernels.gamma_rows_from(
         z.G, z.P, prep, R, float(cap), out, np.empty((0, z.rank)), starts, signs
     )

@@ -179,6 +179,7 @@ def gamma_rows(G, P, prep, R, cap, out, dirs):  # pragma: no cover - compiled
     With rows in ``dirs`` (else shape (0, n)), each row's last direction y goes there."""
     starts = np.full((R.shape[0], max(G.shape[0] - 1, 1)), -1, dtype=np.int64)
     signs = np.zeros((R.shape[0], G.shape[1]), dtype=np.int8)
+    out[:] = np.nan
     gamma_rows_from(G, P, prep, R, cap, out, dirs, starts, signs)
 
 
@@ -188,12 +189,17 @@ def gamma_rows_from(G, P, prep, R, cap, out, dirs, starts, signs):  # pragma: no
     ``starts[k]`` (-1: from the dual-metric direction) with the column bounds ``signs[k]``
     (see :func:`~.walk.walk_from`); each row's optimal vertex replaces them: its tight columns
     and every other column's bound (-1 and 0 where the walk stopped elsewhere: a certificate
-    above ``cap``, the box, or no answer)."""
+    above ``cap``, the box, or no answer). Only rows whose ``out`` is nan on entry are walked:
+    the others keep their value (the caller's: say a bound it proved), with no vertex."""
     walk, x, y = _workspace(G)
     tight, bound, T = walk[0], walk[1], walk[12]
     _, norms, axes, dual = prep
     n, m = G.shape
     for k in range(R.shape[0]):
+        if not np.isnan(out[k]):  # known to the caller: not walked
+            starts[k, :] = -1
+            signs[k, :] = 0
+            continue
         r = R[k]
         norm = 0.0
         box = 0.0
