@@ -23,7 +23,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from modquad_gym.core.validation import check_flag, check_int, check_real
-from modquad_gym.policy.models import FALLBACK, SCALE_FROM, TOP_K
+from modquad_gym.policy.models import (
+    BUDGET_PER_MODULE,
+    FALLBACK,
+    GUIDED_BUDGET,
+    SCALE_FROM,
+    TOP_K,
+)
 from modquad_gym.search.problem import MAX_TIME_LIMIT, PRUNE, unknown_option
 from modquad_gym.search.prune import PRUNE_HELP
 
@@ -267,6 +273,10 @@ _FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dive)
              "model that sees greedy's choice, the exact lookahead, else 0)",
              _share)  # fmt: skip
 
+_BUDGET = (int | None, None, "most structures evaluated (None: "
+           f"{GUIDED_BUDGET} below {SCALE_FROM} modules, else {BUDGET_PER_MODULE} per module "
+           f"of the dive's answer, at least {GUIDED_BUDGET})", _count(1))  # fmt: skip
+
 for _method in (
     _search("exhaustive", "the certified minimum (exhaustive search, up to 16 modules)",
             certifies=True, timed=False),
@@ -303,7 +313,7 @@ for _method in (
            "modquad_gym.solvers.factory:LearnedSolver", seeded=True, fault=False, extra="train"),
     Method("ppo-guided", "best-first search ordered by the learned policy, certified at the "
            "lower bound", options("ppo-guided", model=_MODEL,
-                                  budget=(int, 64, "most structures evaluated", _count(1)),
+                                  budget=_BUDGET,
                                   branching=(int, 4, "children expanded per node", _count(1)),
                                   dive=(bool, True, "first follow the policy's own episode",
                                         check_flag), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,

@@ -10,7 +10,9 @@ module, whose structure the environment's exact oracle decides. The search stops
 certificate as soon as it finds a feasible structure whose module count equals an exact lower
 bound (the force bound and the level bounds of :mod:`modquad_gym.search.bounds`; the count
 bound of the typed search with several types); otherwise it
-returns the smallest feasible structure found within its budget of evaluated structures.
+returns the smallest feasible structure found within its budget of evaluated structures (from
+:data:`~.models.SCALE_FROM` modules, a number per module of the dive's answer, so that its time
+grows with the structure as beam's does).
 """
 
 from __future__ import annotations
@@ -25,7 +27,13 @@ import numpy as np
 from modquad_gym.core.validation import check_int, check_real
 from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
 from modquad_gym.policy.inference import exported
-from modquad_gym.policy.models import SCALE_FROM, TOP_K, default_model
+from modquad_gym.policy.models import (
+    BUDGET_PER_MODULE,
+    GUIDED_BUDGET,
+    SCALE_FROM,
+    TOP_K,
+    default_model,
+)
 from modquad_gym.policy.policy import Policy, fallback_of, search_result
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.tasks import as_task
@@ -39,7 +47,10 @@ class GuidedSolver:
             loaded MaskablePPO.
         n_max: as for :class:`~.policy.Policy`.
         config: as for :class:`~.policy.Policy`.
-        budget: most structures to evaluate per task.
+        budget: most structures to evaluate per task (None: :data:`~.models.GUIDED_BUDGET`
+            below :data:`~.models.SCALE_FROM` modules, else :data:`~.models.BUDGET_PER_MODULE`
+            per module of the dive's answer, or of n_max without a dive, at least
+            :data:`~.models.GUIDED_BUDGET`).
         branching: children queued per expanded structure (the policy's most likely dockings).
         dive: start with the policy's greedy episode (default True); False: best-first only.
         time_limit: seconds after which the search stops with what it has (None: none), in
@@ -52,7 +63,7 @@ class GuidedSolver:
         self,
         model: Any = None,
         n_max: int | None = 7,
-        budget: int = 64,
+        budget: int | None = None,
         branching: int = 4,
         config: dict | None = None,
         dive: bool = True,
@@ -64,7 +75,7 @@ class GuidedSolver:
         self.fallback = fallback_of(self.policy, fallback)
         self.n_max = self.policy.n_max
         self.dive = bool(dive)
-        self.budget = check_int(budget, "budget", low=1)
+        self.budget = None if budget is None else check_int(budget, "budget", low=1)
         self.branching = check_int(branching, "branching", low=1)
         self.time_limit = None if time_limit is None else check_real(time_limit, "time_limit", 0)
         self.name = "ppo-guided"
@@ -86,7 +97,8 @@ class GuidedSolver:
         pushes, oracle_calls = len(heap), 0
         dive = heapq.heappop(heap) if self.dive else None  # the policy's episode: an incumbent
         deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
-        while (dive or heap) and not certified and (dive or len(evaluated) < self.budget):
+        budget = self.budget_for(self.n_max)
+        while (dive or heap) and not certified and (dive or len(evaluated) < budget):
             if time.perf_counter() > deadline:
                 break
             cost, _, parent, move = dive if dive is not None else heapq.heappop(heap)
@@ -101,6 +113,8 @@ class GuidedSolver:
             s = env.structure
             n = s.n_modules
             evaluated.add(s.key)
+            if diving:  # the budget if the dive ends here
+                budget = self.budget_for(n)
             if info["success"]:
                 if (best is None or n < best.n_modules) and verified(s, task):
                     best = s
@@ -125,7 +139,7 @@ class GuidedSolver:
                 pushes += 1
                 if diving and dive is None:  # the most likely child continues the dive
                     dive = node
-                elif len(evaluated) < self.budget:  # else never popped: keep no state for it
+                elif len(evaluated) < budget:  # else never popped: keep no state for it
                     heapq.heappush(heap, node)
         if not certified:
             proof = ""
@@ -136,6 +150,15 @@ class GuidedSolver:
         n_evaluated = len(evaluated)
         return search_result(self.name, self.n_max, best, n_evaluated, oracle_calls, t0,
                              certified, proof, bound, task.kind)  # fmt: skip
+
+    def budget_for(self, n: int) -> int:
+        """Structures to evaluate when the dive's answer (or without a dive, n_max) has ``n``
+        modules: ``budget``, else the default of the class docstring."""
+        if self.budget is not None:
+            return self.budget
+        if self.n_max < SCALE_FROM:
+            return GUIDED_BUDGET
+        return max(GUIDED_BUDGET, BUDGET_PER_MODULE * n)
 
     def __repr__(self) -> str:
         return (

@@ -32,6 +32,14 @@ this probability: the policy decides where it is sure, greedy's rule where it is
 ``fallback``; 0: the policy always). Chosen on validation draws (``results/fallback/``): fewer
 modules than the policy alone at 16-64 modules, fewer optimal designs at 7 (where the policy is
 trained and greedy is weaker), so smaller budgets keep the policy alone."""
+GUIDED_BUDGET = 64
+"""Structures the ``ppo-guided`` search evaluates per task below :data:`SCALE_FROM` modules (its
+option ``budget``)."""
+BUDGET_PER_MODULE = 20
+"""From :data:`SCALE_FROM` modules, ``ppo-guided`` evaluates up to this many structures per
+module of its dive's answer (at least :data:`GUIDED_BUDGET`): its time then grows with the
+structure as beam's does. Chosen on validation draws (``results/guided_budget/``): fewer modules
+than beam in less of its time at 16-64 modules, where 64 structures gave as many."""
 
 
 def default_model(n_max: int | None = None, modules: Any = None) -> Path:

@@ -1,0 +1,39 @@
+"""``ppo-guided``'s budget: 64 structures below 16 modules; from 16, BUDGET_PER_MODULE per
+module of its dive's answer (its time grows with the structure as beam's does)."""
+
+from __future__ import annotations
+
+import pytest
+
+from modquad_gym.policy.models import BUDGET_PER_MODULE, GUIDED_BUDGET, SCALE_FROM
+from modquad_gym.scoring.scale_tasks import draw
+from modquad_gym.search import verified
+from modquad_gym.solvers import make_solver
+
+
+def test_the_default_budget_per_size_and_a_given_one_everywhere():
+    small, scale = make_solver("ppo-guided", n_max=7), make_solver("ppo-guided", n_max=64)
+    assert small.budget is None and scale.budget is None
+    assert small.budget_for(5) == GUIDED_BUDGET
+    assert scale.budget_for(2) == GUIDED_BUDGET  # never below it
+    assert scale.budget_for(30) == BUDGET_PER_MODULE * 30
+    assert SCALE_FROM <= 64
+    for n_max in (7, 64):
+        assert make_solver("ppo-guided", n_max=n_max, budget=100).budget_for(30) == 100
+
+
+@pytest.mark.parametrize("index", [0, 1])
+def test_a_scale_search_evaluates_up_to_its_dives_budget_and_never_ends_above_64s(index):
+    """On validation draws of the low-force, high-torque family at 16 modules (where the
+    search does not stop at a lower bound at once): the search evaluates more than 64
+    structures and at most the budget of its dive's answer (the single pass: the dive is that
+    episode), and ends with no more modules than with 64 (the same best-first order, cut
+    later)."""
+    task = draw("torque", 16, index, validation=True)
+    dive = make_solver("ppo", n_max=64).solve(task)
+    default = make_solver("ppo-guided", n_max=64).solve(task)
+    b64 = make_solver("ppo-guided", n_max=64, budget=GUIDED_BUDGET).solve(task)
+    assert dive.structure is not None and verified(default.structure, task)
+    assert GUIDED_BUDGET < default.evaluated <= BUDGET_PER_MODULE * dive.n_modules
+    assert b64.evaluated <= GUIDED_BUDGET
+    assert default.n_modules <= b64.n_modules <= dive.n_modules
