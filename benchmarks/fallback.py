@@ -1,17 +1,18 @@
 """The learned methods' fallback to greedy's choice (their option ``fallback``): modules
 beside a rival per scale family and band, and the optimal share on small tasks, for each
-fallback and shortlist (``top_k``), on validation draws only.
+fallback and shortlist (``top_k``) and, for ``ppo-guided``, budget, on validation draws only.
 
     python -m benchmarks.fallback [--method ppo|ppo-guided] [--rival greedy|beam]
         [--bands 16 32 48 64] [--families planted mixed payload torque] [--per-family 8]
-        [--fallbacks 0 0.6 0.7 0.8] [--k 8 16] [--small 200] [--time-limit 30]
-        [--out results/fallback] [--force] [--rows CSV]
+        [--fallbacks 0 0.6 0.7 0.8] [--k 8 16] [--budgets auto 64] [--small 200]
+        [--time-limit 30] [--out results/fallback] [--force] [--rows CSV]
 
 Tasks (never the held-out suites): the tasks of :mod:`benchmarks.lookahead_top_k` (the scale
 families' validation draws, searched with n_max ``max(64, band)``, and ``--small`` tasks of the
 ``mixed`` generator at n_max 7, each with its certified optimum). Per task, in one process
 after an untimed warm-up per family and band: the shipped model's single pass (or guided
-search: ``make_solver(METHOD, top_k=k, fallback=f)``) for each k and f, then the rival, each
+search: ``make_solver(METHOD, top_k=k, fallback=f, budget=b)``, ``auto`` the method's default
+budget) for each k, f and b, then the rival, each
 structure verified by the exact LP; seconds are CPU seconds. Per family and band (and over
 all): the tasks each variant solves of the rival's and its mean modules minus the rival's on
 the tasks both solve, with a 95 % percentile bootstrap interval over the tasks (the issue's
@@ -49,10 +50,22 @@ COLUMNS = ("band", "family", "task", "method", "found", "seconds", "optimum")
 
 
 def variants(args) -> list[tuple[str, str, dict]]:
-    """(name, method, options) of each learned variant, then the rival's."""
-    learned = [(f"{args.method}-top{k}-f{f:g}", args.method, {"top_k": k, "fallback": f})
-               for k in args.k for f in args.fallbacks]  # fmt: skip
+    """(name, method, options) of each learned variant (a given budget ends its name: -bN),
+    then the rival's."""
+    learned = [
+        (f"{args.method}-top{k}-f{f:g}" + ("" if b is None else f"-b{b}"), args.method,
+         {"top_k": k, "fallback": f, **({} if b is None else {"budget": b})})
+        for k in args.k for f in args.fallbacks for b in args.budgets
+    ]  # fmt: skip
     return [*learned, (args.rival, args.rival, {})]
+
+
+def budget_option(text: str) -> int | None:
+    """An argparse ``type`` for a guided budget: ``auto`` (the method's default) or a count."""
+    return None if text == "auto" else int_option(1)(text)
+
+
+budget_option.__name__ = "budget"
 
 
 def share_option(text: str) -> float:
@@ -191,6 +204,9 @@ def main(argv: list[str] | None = None) -> int:
             "--fallbacks": {"type": share_option, "nargs": "+", "default": [0.0, 0.6, 0.7, 0.8],
                             "help": "values of the fallback option, each in [0, 1]"},
             "--k": {"type": int_option(1), "nargs": "+", "default": [8, 16], "help": "shortlists"},
+            "--budgets": {"type": budget_option, "nargs": "+", "default": [None],
+                          "help": "ppo-guided's budgets: structures evaluated, or auto (its "
+                                  "default; the only choice for ppo)"},
             "--small": {"type": int_option(0, 10_000), "default": 200,
                         "help": "mixed tasks at n_max 7"},
             "--time-limit": {"type": real_option, "default": 30.0,
@@ -206,6 +222,8 @@ def main(argv: list[str] | None = None) -> int:
         check_time_limit(args.time_limit)
     except ValueError as exc:
         raise ValueError(f"--time-limit: {exc}") from None
+    if args.method == "ppo" and args.budgets != [None]:
+        raise ValueError("--budgets: only ppo-guided has a budget (give --method ppo-guided)")
     rows = read_rows(args.rows) if args.rows else measure(args)
     names = [m for m in dict.fromkeys(r["method"] for r in rows) if m != args.rival]
     if args.rows and (not names or args.rival not in {r["method"] for r in rows}):
@@ -222,7 +240,9 @@ def main(argv: list[str] | None = None) -> int:
     command = command_line(sys.argv[1:] if argv is None else argv, args.rows)
     small = small_table(rows, names)
     text = "\n".join([
-        f"# `{args.method}`'s fallback to greedy's choice, beside {args.rival}", "",
+        f"# `{args.method}`'s fallback to greedy's choice"
+        + ("" if args.budgets == [None] else " and budget")
+        + f", beside {args.rival}", "",
         made_by(command, "; one process") if args.rows is None else
         f"Made by `{command}` on {machine_description()}; one process; load average not "
         "recorded (re-rendered).", "", __doc__.split("\n\n", 2)[2].strip(), "",

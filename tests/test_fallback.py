@@ -109,15 +109,16 @@ def test_the_benchmark_reports_each_variant_beside_its_rival(tmp_path):
 
     out = tmp_path / "fb"
     argv = ["--method", "ppo-guided", "--rival", "beam", "--bands", "16", "--families", "torque",
-            "--per-family", "1", "--fallbacks", "0", "0.7", "--k", "8", "--small", "1",
-            "--out", str(out)]  # fmt: skip
+            "--per-family", "1", "--fallbacks", "0.7", "--k", "8", "--budgets", "auto", "8",
+            "--small", "1", "--out", str(out)]  # fmt: skip
     assert fallback.main(argv) == 0
     rows = (out / "rows.csv").read_text().splitlines()
     methods = {line.split(",")[3] for line in rows[1:]}
-    assert methods == {"ppo-guided-top8-f0", "ppo-guided-top8-f0.7", "beam"}
+    assert methods == {"ppo-guided-top8-f0.7", "ppo-guided-top8-f0.7-b8", "beam"}
     assert len(rows) == 1 + 2 * 3  # (one small task, one torque draw) x three variants
     report = (out / "report.md").read_text()
-    assert "| 16 | torque | ppo-guided-top8-f0.7 |" in report and "## Small tasks" in report
+    assert "| 16 | torque | ppo-guided-top8-f0.7-b8 |" in report and "## Small tasks" in report
+    assert report.startswith("# `ppo-guided`'s fallback to greedy's choice and budget, beside beam")
     assert (out / "versus.png").stat().st_size > 0
     again = tmp_path / "again"  # re-rendered from the rows: the same page but its first lines
     assert fallback.main([*argv[:-1], str(again), "--rows", str(out / "rows.csv")]) == 0
@@ -136,6 +137,8 @@ def test_the_benchmark_reports_each_variant_beside_its_rival(tmp_path):
         (["--bands", "129"], "--bands"),
         (["--time-limit", "0"], "--time-limit"),
         (["--method", "beam"], "--method"),
+        (["--method", "ppo-guided", "--budgets", "0"], "--budgets"),
+        (["--budgets", "64"], "--budgets"),  # ppo has no budget
         (["--rows", "tests/test_fallback.py"], "--rows"),
     ],
 )
