@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import pytest
 
+from modquad_gym.policy.guided import QUEUE_MEMORY, nbytes
 from modquad_gym.policy.models import BUDGET_PER_MODULE, GUIDED_BUDGET, SCALE_FROM
 from modquad_gym.scoring.scale_tasks import draw
 from modquad_gym.search import verified
@@ -20,6 +21,20 @@ def test_the_default_budget_per_size_and_a_given_one_everywhere():
     assert SCALE_FROM <= 64
     for n_max in (7, 64):
         assert make_solver("ppo-guided", n_max=n_max, budget=100).budget_for(30) == 100
+
+
+def test_the_default_budget_keeps_its_queued_states_within_queue_memory():
+    """As many states as fit in QUEUE_MEMORY at most (never below 64); a given budget is the
+    user's and is kept; a state's bytes are its arrays' (at n_max 64: the grid's masks)."""
+    scale = make_solver("ppo-guided", n_max=64)
+    assert scale.budget_for(30, 1) == BUDGET_PER_MODULE * 30
+    assert scale.budget_for(100, QUEUE_MEMORY // 150) == 150
+    assert scale.budget_for(30, QUEUE_MEMORY) == GUIDED_BUDGET
+    assert make_solver("ppo-guided", n_max=64, budget=999).budget_for(30, QUEUE_MEMORY) == 999
+    env = scale.policy.env
+    scale.policy.reset(draw("planted", 16, 0, validation=True), scale.policy.starts[0])
+    state = env.state
+    assert nbytes(state) >= state.mask.nbytes + state.occupancy.nbytes >= 2 * 127 * 127
 
 
 @pytest.mark.parametrize("index", [0, 1])

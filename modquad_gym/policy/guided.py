@@ -12,11 +12,12 @@ bound (the force bound and the level bounds of :mod:`modquad_gym.search.bounds`;
 bound of the typed search with several types); otherwise it
 returns the smallest feasible structure found within its budget of evaluated structures (from
 :data:`~.models.SCALE_FROM` modules, a number per module of the dive's answer, so that its time
-grows with the structure as beam's does).
+grows with the structure as beam's does, within :data:`QUEUE_MEMORY` of queued states).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import heapq
 import importlib.util
 import time
@@ -38,6 +39,10 @@ from modquad_gym.policy.policy import Policy, fallback_of, search_result
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.tasks import as_task
 
+QUEUE_MEMORY = 128 * 2**20
+"""Bytes of environment states the default budget may keep queued (an expanded structure's
+state stays while a child of it waits): at 128 modules with three types a state takes 0.67 MB."""
+
 
 class GuidedSolver:
     """Best-first search over dockings ordered by a trained policy (see the module doc).
@@ -50,7 +55,8 @@ class GuidedSolver:
         budget: most structures to evaluate per task (None: :data:`~.models.GUIDED_BUDGET`
             below :data:`~.models.SCALE_FROM` modules, else :data:`~.models.BUDGET_PER_MODULE`
             per module of the dive's answer, or of n_max without a dive, at least
-            :data:`~.models.GUIDED_BUDGET`).
+            :data:`~.models.GUIDED_BUDGET` and at most as many states as fit in
+            :data:`QUEUE_MEMORY`).
         branching: children queued per expanded structure (the policy's most likely dockings).
         dive: start with the policy's greedy episode (default True); False: best-first only.
         time_limit: seconds after which the search stops with what it has (None: none), in
@@ -97,7 +103,7 @@ class GuidedSolver:
         pushes, oracle_calls = len(heap), 0
         dive = heapq.heappop(heap) if self.dive else None  # the policy's episode: an incumbent
         deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
-        budget = self.budget_for(self.n_max)
+        budget, state_bytes = self.budget_for(self.n_max), 0
         while (dive or heap) and not certified and (dive or len(evaluated) < budget):
             if time.perf_counter() > deadline:
                 break
@@ -114,7 +120,8 @@ class GuidedSolver:
             n = s.n_modules
             evaluated.add(s.key)
             if diving:  # the budget if the dive ends here
-                budget = self.budget_for(n)
+                state_bytes = state_bytes or nbytes(env.state)
+                budget = self.budget_for(n, state_bytes)
             if info["success"]:
                 if (best is None or n < best.n_modules) and verified(s, task):
                     best = s
@@ -151,20 +158,34 @@ class GuidedSolver:
         return search_result(self.name, self.n_max, best, n_evaluated, oracle_calls, t0,
                              certified, proof, bound, task.kind)  # fmt: skip
 
-    def budget_for(self, n: int) -> int:
+    def budget_for(self, n: int, state_bytes: int = 0) -> int:
         """Structures to evaluate when the dive's answer (or without a dive, n_max) has ``n``
-        modules: ``budget``, else the default of the class docstring."""
+        modules and an environment state takes ``state_bytes`` (0: not known): ``budget``, else
+        the default of the class docstring."""
         if self.budget is not None:
             return self.budget
         if self.n_max < SCALE_FROM:
             return GUIDED_BUDGET
-        return max(GUIDED_BUDGET, BUDGET_PER_MODULE * n)
+        states = QUEUE_MEMORY // state_bytes if state_bytes else BUDGET_PER_MODULE * n
+        return max(GUIDED_BUDGET, min(BUDGET_PER_MODULE * n, states))
 
     def __repr__(self) -> str:
         return (
             f"GuidedSolver(model={self.policy.model_path!r}, n_max={self.n_max}, "
             f"budget={self.budget}, branching={self.branching}, dive={self.dive})"
         )
+
+
+def nbytes(state: Any) -> int:
+    """Bytes of the arrays an environment state holds (its task's included)."""
+    total = 0
+    for field in dataclasses.fields(state):
+        value = getattr(state, field.name)
+        if isinstance(value, np.ndarray):
+            total += value.nbytes
+        elif dataclasses.is_dataclass(value):
+            total += nbytes(value)
+    return total
 
 
 def child_key(s: Structure, cell: tuple, type_index: int, env: Any) -> Any:
