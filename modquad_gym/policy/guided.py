@@ -213,8 +213,9 @@ def producers_with_policy() -> tuple:
 
 def guided_producer(problem, time_limit: float, seed: int | None = 0) -> SearchResult | None:
     """The shipped policy's guided search on a search problem, for at most ``time_limit``
-    seconds; None where the policy does not act: a fault, a dynamic task, or one module type
-    other than the T-module."""
+    seconds, with :data:`~.models.GUIDED_BUDGET` structures at any size (an incumbent for the
+    anytime search, whose own time goes to its exact levels and local moves); None where the
+    policy does not act: a fault, a dynamic task, or one module type other than the T-module."""
     from modquad_gym.search.problem import DEFAULT_MODULE
 
     task = problem.task
@@ -223,7 +224,8 @@ def guided_producer(problem, time_limit: float, seed: int | None = 0) -> SearchR
     if not problem.typed and problem.palette[0].digest != DEFAULT_MODULE.digest:
         return None
     model = default_model(problem.n_max, list(problem.palette) if problem.typed else None)
-    solver = GuidedSolver(model=model, n_max=problem.n_max, time_limit=time_limit)
+    solver = GuidedSolver(model=model, n_max=problem.n_max, budget=GUIDED_BUDGET,
+                          time_limit=time_limit)  # fmt: skip
     if problem.typed or problem.model.uses_mass:  # self-weight through a module set
         solver.policy.use_palette(list(problem.palette))
     return solver.solve(task)
