@@ -27,6 +27,7 @@ from modquad_gym.policy.models import (
     BUDGET_PER_MODULE,
     FALLBACK,
     GUIDED_BUDGET,
+    QUEUE_MEMORY,
     SCALE_FROM,
     TOP_K,
 )
@@ -275,7 +276,8 @@ _FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dive)
 
 _BUDGET = (int | None, None, "most structures evaluated (None: "
            f"{GUIDED_BUDGET} below {SCALE_FROM} modules, else {BUDGET_PER_MODULE} per module "
-           f"of the dive's answer, at least {GUIDED_BUDGET})", _count(1))  # fmt: skip
+           f"of the dive's answer, at least {GUIDED_BUDGET}, at most what "
+           f"{QUEUE_MEMORY // 2**20} MiB of queued states hold)", _count(1))  # fmt: skip
 
 for _method in (
     _search("exhaustive", "the certified minimum (exhaustive search, up to 16 modules)",

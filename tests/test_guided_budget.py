@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from modquad_gym.policy.guided import QUEUE_MEMORY, nbytes
-from modquad_gym.policy.models import BUDGET_PER_MODULE, GUIDED_BUDGET, SCALE_FROM
+from modquad_gym.policy.guided import nbytes
+from modquad_gym.policy.models import BUDGET_PER_MODULE, GUIDED_BUDGET, QUEUE_MEMORY, SCALE_FROM
 from modquad_gym.scoring.scale_tasks import draw
 from modquad_gym.search import verified
 from modquad_gym.solvers import make_solver

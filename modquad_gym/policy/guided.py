@@ -12,7 +12,7 @@ bound (the force bound and the level bounds of :mod:`modquad_gym.search.bounds`;
 bound of the typed search with several types); otherwise it
 returns the smallest feasible structure found within its budget of evaluated structures (from
 :data:`~.models.SCALE_FROM` modules, a number per module of the dive's answer, so that its time
-grows with the structure as beam's does, within :data:`QUEUE_MEMORY` of queued states).
+grows with the structure as beam's does, within :data:`~.models.QUEUE_MEMORY` of queued states).
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ from modquad_gym.policy.inference import exported
 from modquad_gym.policy.models import (
     BUDGET_PER_MODULE,
     GUIDED_BUDGET,
+    QUEUE_MEMORY,
     SCALE_FROM,
     TOP_K,
     default_model,
@@ -38,10 +39,6 @@ from modquad_gym.policy.models import (
 from modquad_gym.policy.policy import Policy, fallback_of, search_result
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.tasks import as_task
-
-QUEUE_MEMORY = 128 * 2**20
-"""Bytes of environment states the default budget may keep queued (an expanded structure's
-state stays while a child of it waits): at 128 modules with three types a state takes 0.67 MB."""
 
 
 class GuidedSolver:
@@ -56,7 +53,7 @@ class GuidedSolver:
             below :data:`~.models.SCALE_FROM` modules, else :data:`~.models.BUDGET_PER_MODULE`
             per module of the dive's answer, or of n_max without a dive, at least
             :data:`~.models.GUIDED_BUDGET` and at most as many states as fit in
-            :data:`QUEUE_MEMORY`).
+            :data:`~.models.QUEUE_MEMORY`).
         branching: children queued per expanded structure (the policy's most likely dockings).
         dive: start with the policy's greedy episode (default True); False: best-first only.
         time_limit: seconds after which the search stops with what it has (None: none), in
