@@ -52,3 +52,16 @@ def test_a_scale_search_evaluates_up_to_its_dives_budget_and_never_ends_above_64
     assert GUIDED_BUDGET < default.evaluated <= BUDGET_PER_MODULE * dive.n_modules
     assert b64.evaluated <= GUIDED_BUDGET
     assert default.n_modules <= b64.n_modules <= dive.n_modules
+
+
+def test_without_a_dive_the_queue_memory_bounds_the_search_too(monkeypatch):
+    """``-nodive``: the budget is that of n_max, still within QUEUE_MEMORY (here made to hold
+    100 states): the search evaluates at most 100 structures."""
+    import modquad_gym.policy.guided as guided
+
+    solver = make_solver("ppo-guided-nodive", n_max=64)
+    task = draw("torque", 16, 0, validation=True)
+    solver.policy.reset(task, solver.policy.starts[0])
+    monkeypatch.setattr(guided, "QUEUE_MEMORY", 100 * nbytes(solver.policy.env.state))
+    result = solver.solve(task)
+    assert GUIDED_BUDGET < result.evaluated <= 100

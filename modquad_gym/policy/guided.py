@@ -116,8 +116,10 @@ class GuidedSolver:
             s = env.structure
             n = s.n_modules
             evaluated.add(s.key)
+            if not state_bytes:  # a state's size, known from the first structure on
+                state_bytes = nbytes(env.state)
+                budget = self.budget_for(self.n_max, state_bytes)
             if diving:  # the budget if the dive ends here
-                state_bytes = state_bytes or nbytes(env.state)
                 budget = self.budget_for(n, state_bytes)
             if info["success"]:
                 if (best is None or n < best.n_modules) and verified(s, task):
