@@ -4,15 +4,16 @@ fallback and shortlist (``top_k``) and, for ``ppo-guided``, budget, on validatio
 
     python -m benchmarks.fallback [--method ppo|ppo-guided] [--rival greedy|beam]
         [--bands 16 32 48 64] [--families planted mixed payload torque] [--per-family 8]
-        [--fallbacks 0 0.6 0.7 0.8] [--k 8 16] [--budgets auto 64] [--small 200]
+        [--fallbacks 0 0.6 0.7 0.8] [--k 8 16] [--budgets auto 64]
+        [--extra-fallbacks auto none 0,1] [--small 200]
         [--time-limit 30] [--out results/fallback] [--force] [--rows CSV]
 
 Tasks (never the held-out suites): the tasks of :mod:`benchmarks.lookahead_top_k` (the scale
 families' validation draws, searched with n_max ``max(64, band)``, and ``--small`` tasks of the
 ``mixed`` generator at n_max 7, each with its certified optimum). Per task, in one process
 after an untimed warm-up per family and band: the shipped model's single pass (or guided
-search: ``make_solver(METHOD, top_k=k, fallback=f, budget=b)``, ``auto`` the method's default
-budget) for each k, f and b, then the rival, each
+search: ``make_solver(METHOD, top_k=k, fallback=f, budget=b, extra_fallbacks=x)``, ``auto``
+the method's default) for each k, f, b and x, then the rival, each
 structure verified by the exact LP; seconds are CPU seconds. Per family and band (and over
 all): the tasks each variant solves of the rival's and its mean modules minus the rival's on
 the tasks both solve, with a 95 % percentile bootstrap interval over the tasks (the issue's
@@ -50,12 +51,15 @@ COLUMNS = ("band", "family", "task", "method", "found", "seconds", "optimum")
 
 
 def variants(args) -> list[tuple[str, str, dict]]:
-    """(name, method, options) of each learned variant (a given budget ends its name: -bN),
-    then the rival's."""
+    """(name, method, options) of each learned variant (a given budget ends its name: -bN;
+    given extra fallbacks: -xA+B, -x for none), then the rival's."""
     learned = [
-        (f"{args.method}-top{k}-f{f:g}" + ("" if b is None else f"-b{b}"), args.method,
-         {"top_k": k, "fallback": f, **({} if b is None else {"budget": b})})
+        (f"{args.method}-top{k}-f{f:g}" + ("" if b is None else f"-b{b}")
+         + ("" if x is None else "-x" + "+".join(f"{v:g}" for v in x)), args.method,
+         {"top_k": k, "fallback": f, **({} if b is None else {"budget": b}),
+          **({} if x is None else {"extra_fallbacks": x})})
         for k in args.k for f in args.fallbacks for b in args.budgets
+        for x in args.extra_fallbacks
     ]  # fmt: skip
     return [*learned, (args.rival, args.rival, {})]
 
@@ -77,6 +81,17 @@ def share_option(text: str) -> float:
 
 
 share_option.__name__ = "fallback"
+
+
+def shares_option(text: str) -> tuple[float, ...] | None:
+    """An argparse ``type`` for ``ppo``'s extra fallbacks: ``auto`` (its default), ``none`` or
+    comma-separated numbers in [0, 1]."""
+    if text in ("auto", "none"):
+        return None if text == "auto" else ()
+    return tuple(share_option(part) for part in text.split(","))
+
+
+shares_option.__name__ = "extra fallbacks"
 
 
 def measure(args) -> list[dict]:
@@ -207,6 +222,9 @@ def main(argv: list[str] | None = None) -> int:
             "--budgets": {"type": budget_option, "nargs": "+", "default": [None],
                           "help": "ppo-guided's budgets: structures evaluated, or auto (its "
                                   "default; the only choice for ppo)"},
+            "--extra-fallbacks": {"type": shares_option, "nargs": "+", "default": [None],
+                                  "help": "ppo's extra_fallbacks: auto (its default), none, or "
+                                          "comma-separated values in [0, 1]"},
             "--small": {"type": int_option(0, 10_000), "default": 200,
                         "help": "mixed tasks at n_max 7"},
             "--time-limit": {"type": real_option, "default": 30.0,
@@ -224,6 +242,8 @@ def main(argv: list[str] | None = None) -> int:
         raise ValueError(f"--time-limit: {exc}") from None
     if args.method == "ppo" and args.budgets != [None]:
         raise ValueError("--budgets: only ppo-guided has a budget (give --method ppo-guided)")
+    if args.method == "ppo-guided" and args.extra_fallbacks != [None]:
+        raise ValueError("--extra-fallbacks: only ppo takes extra fallbacks (give --method ppo)")
     rows = read_rows(args.rows) if args.rows else measure(args)
     names = [m for m in dict.fromkeys(r["method"] for r in rows) if m != args.rival]
     if args.rows and (not names or args.rival not in {r["method"] for r in rows}):

@@ -25,6 +25,7 @@ from typing import Any
 from modquad_gym.core.validation import check_flag, check_int, check_real
 from modquad_gym.policy.models import (
     BUDGET_PER_MODULE,
+    EXTRA_FALLBACKS,
     FALLBACK,
     GUIDED_BUDGET,
     QUEUE_MEMORY,
@@ -98,7 +99,11 @@ def _optional(parse: Callable[[str], Any]) -> Callable[[str], Any]:
     return lambda text: None if text.lower() == "none" else parse(text)
 
 
-_PARSERS = {"int": int, "float": float, "bool": _bool}
+def _floats(text: str) -> tuple[float, ...]:
+    return tuple(float(part) for part in text.split(",")) if text else ()
+
+
+_PARSERS = {"int": int, "float": float, "bool": _bool, "tuple[float,...]": _floats}
 
 
 def _parser(f: dataclasses.Field) -> Callable[[str], Any] | None:
@@ -123,6 +128,12 @@ def _count(low: int) -> Callable[[Any, str], int]:
 
 def _share(value: Any, name: str) -> float:
     return check_real(value, name, 0.0, 1.0)
+
+
+def _shares(value: Any, name: str) -> tuple[float, ...]:
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        value = (value,)
+    return tuple(_share(v, name) for v in value)
 
 
 def _seed(value: Any, name: str) -> int:
@@ -273,6 +284,12 @@ _FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dive)
              f"always; None: {FALLBACK:g} at budgets of {SCALE_FROM} modules and more with a "
              "model that sees greedy's choice, the exact lookahead, else 0)",
              _share)  # fmt: skip
+_EXTRA_FALLBACKS = (tuple[float, ...] | None, None, "further deterministic passes, one per "
+                    "fallback value (comma-separated), branching from the first where they dock "
+                    "elsewhere; the smallest verified structure is kept (None: "
+                    f"{','.join(f'{f:g}' for f in EXTRA_FALLBACKS) or 'none'} at budgets of "
+                    f"{SCALE_FROM} modules and more with a model that sees greedy's choice, "
+                    "else none; empty: none)", _shares)  # fmt: skip
 
 _BUDGET = (int | None, None, "most structures evaluated (None: "
            f"{GUIDED_BUDGET} below {SCALE_FROM} modules, else {BUDGET_PER_MODULE} per module "
@@ -311,7 +328,7 @@ for _method in (
            options("ppo", model=_MODEL, seed=(int, 0, COMMON_HELP["seed"][0], _seed),
                    samples=(int, 0, "extra sampled rollouts besides the deterministic one",
                             _count(0)), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
-                   fallback=_FALLBACK, prune=_PRUNE),
+                   fallback=_FALLBACK, extra_fallbacks=_EXTRA_FALLBACKS, prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", seeded=True, fault=False, extra="train"),
     Method("ppo-guided", "best-first search ordered by the learned policy, certified at the "
            "lower bound", options("ppo-guided", model=_MODEL,

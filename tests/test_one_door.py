@@ -45,6 +45,7 @@ CASES = [
     ("ppo", dict(n_max=7, time_limit=60.0, fallback=1.0, top_k=None)),  # greedy's dockings
     ("ppo-guided", dict(n_max=7, time_limit=60.0, fallback=0.5)),
     ("ppo-guided", dict(n_max=7, time_limit=60.0, budget=8)),
+    ("ppo", dict(n_max=7, time_limit=60.0, extra_fallbacks=1.0)),  # and greedy's dockings
 ]
 FLAGS = {"n_max", "fault", "modules", "time_limit", "seed"}
 """Options with a flag of their own; the others go through ``--option KEY=VALUE``."""

@@ -32,6 +32,10 @@ this probability: the policy decides where it is sure, greedy's rule where it is
 ``fallback``; 0: the policy always). Chosen on validation draws (``results/fallback/``): fewer
 modules than the policy alone at 16-64 modules, fewer optimal designs at 7 (where the policy is
 trained and greedy is weaker), so smaller budgets keep the policy alone."""
+EXTRA_FALLBACKS: tuple[float, ...] = ()
+"""At budgets of :data:`SCALE_FROM` modules and more, the ``ppo`` decoding also follows the
+deterministic episodes of these fallbacks, branching from its own where they dock elsewhere, and
+keeps the smallest verified structure (its option ``extra_fallbacks``)."""
 GUIDED_BUDGET = 64
 """Structures the ``ppo-guided`` search evaluates per task below :data:`SCALE_FROM` modules (its
 option ``budget``)."""

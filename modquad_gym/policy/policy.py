@@ -25,6 +25,7 @@ from modquad_gym.envs.assembly.lookahead import flagged
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.policy.inference import Actor, inference_model, type_features
 from modquad_gym.policy.models import (
+    EXTRA_FALLBACKS,
     FALLBACK,
     SCALE_FROM,
     default_model,
@@ -281,18 +282,36 @@ class Policy:
         return f"Policy(model={self.model_path!r}, n_max={self.n_max})"
 
 
-def fallback_of(policy: Policy, fallback: float | None) -> float:
+def fallback_of(policy: Policy, fallback: float | None, name: str = "fallback") -> float:
     """The ``fallback`` ``policy`` decodes with (see :class:`~.ppo.PPOSolver`): a ValueError for
     one out of [0, 1], or above 0 with a model whose observation has no greedy choice."""
     if fallback is None:
         return FALLBACK if policy.reads_greedy and policy.n_max >= SCALE_FROM else 0.0
-    value = check_real(fallback, "fallback", 0.0, 1.0)
+    value = check_real(fallback, name, 0.0, 1.0)
     if value > 0 and not policy.reads_greedy:
         raise ValueError(
-            f"fallback={fallback}: the model {policy.model_path or 'given'} does not see "
-            "greedy's choice (it was trained without the exact lookahead); give fallback=0"
+            f"{name}={fallback}: the model {policy.model_path or 'given'} does not see "
+            "greedy's choice (it was trained without the exact lookahead); give 0"
         )
     return value
+
+
+def extra_fallbacks_of(policy: Policy, extra: Any) -> tuple[float, ...]:
+    """The further fallbacks ``policy``'s deterministic decoding follows (see
+    :class:`~.ppo.PPOSolver`): None gives :data:`~.models.EXTRA_FALLBACKS` at budgets of
+    :data:`~.models.SCALE_FROM` modules and more with a model that sees greedy's choice, else
+    none; a number or a sequence of numbers in [0, 1] is checked as ``fallback`` is."""
+    if extra is None:
+        return EXTRA_FALLBACKS if policy.reads_greedy and policy.n_max >= SCALE_FROM else ()
+    values = (extra,) if isinstance(extra, (int, float, np.number)) else extra
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+        raise ValueError(f"extra_fallbacks must be numbers in [0, 1], got {extra!r}")
+    checked = []
+    for value in values:
+        if value is None:
+            raise ValueError(f"extra_fallbacks must be numbers in [0, 1], got {extra!r}")
+        checked.append(fallback_of(policy, value, "extra_fallbacks"))
+    return tuple(dict.fromkeys(checked))
 
 
 def search_result(

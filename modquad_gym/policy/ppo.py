@@ -1,7 +1,9 @@
 """Plain decoding of a trained policy: its greedy episode, plus sampled ones on request.
 
-:class:`PPOSolver` runs the policy's most likely action until the episode ends; with
-``samples=k`` it also runs k stochastic rollouts (seeded) and keeps the smallest verified
+:class:`PPOSolver` runs the policy's most likely action until the episode ends (greedy's choice
+where the policy is unsure, ``fallback``); with ``extra_fallbacks`` it also follows the
+deterministic episodes of other fallbacks, as one tree that shares the dockings they agree on;
+with ``samples=k`` it also runs k stochastic rollouts (seeded). It keeps the smallest verified
 structure. A model trained with several module types decodes once from each start type, since a
 structure is reachable only from a type it holds. ``evaluated`` counts the distinct structures
 (up to translation) the rollouts evaluated, as the searches count configurations; a sampled
@@ -20,7 +22,14 @@ import numpy as np
 from modquad_gym.core.validation import check_real
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.policy.models import TOP_K
-from modquad_gym.policy.policy import Policy, env_kwargs_of, fallback_of, make_env, search_result
+from modquad_gym.policy.policy import (
+    Policy,
+    env_kwargs_of,
+    extra_fallbacks_of,
+    fallback_of,
+    make_env,
+    search_result,
+)
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.tasks import as_task
 
@@ -45,6 +54,9 @@ class PPOSolver:
             (default): :data:`~.models.FALLBACK` at budgets of :data:`~.models.SCALE_FROM`
             modules and more with a model that reads greedy's choice (the exact lookahead),
             else 0; a value above 0 for a model that does not read it is refused.
+        extra_fallbacks: further deterministic rollouts, one per fallback value, branching
+            from the first where their dockings differ (:func:`~.policy.extra_fallbacks_of`;
+            None: the default there; empty: none).
     """
 
     def __init__(
@@ -57,6 +69,7 @@ class PPOSolver:
         time_limit: float | None = None,
         top_k: int | None = TOP_K,
         fallback: float | None = None,
+        extra_fallbacks: Any = None,
     ) -> None:
         if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
             raise ValueError(f"samples must be an integer >= 0, got {samples!r}")
@@ -67,12 +80,14 @@ class PPOSolver:
         self.name = "ppo" if self.samples == 0 else f"ppo-k{self.samples}"
         self.time_limit = None if time_limit is None else check_real(time_limit, "time_limit", 0)
         self.fallback = fallback_of(self.policy, fallback)
+        extra = extra_fallbacks_of(self.policy, extra_fallbacks)
+        self.fallbacks = (self.fallback, *(f for f in extra if f != self.fallback))
 
     def solve(self, task: Any) -> SearchResult:
-        """The smallest verified structure over the deterministic rollout and ``samples``
-        sampled ones (None when none verifies within ``n_max`` modules). ``evaluated`` counts
-        the distinct structures (up to translation) the rollouts evaluated; a structure met
-        again costs no oracle call (the environment memoises per task)."""
+        """The smallest verified structure over the deterministic rollouts (one per fallback)
+        and ``samples`` sampled ones (None when none verifies within ``n_max`` modules).
+        ``evaluated`` counts the distinct structures (up to translation) the rollouts evaluated;
+        a structure met again costs no oracle call (the environment memoises per task)."""
         t0 = time.perf_counter()
         task = as_task(task)
         policy = self.policy
@@ -80,24 +95,18 @@ class PPOSolver:
         best: Structure | None = None
         seen: set = set()
         oracle_calls = 0
-        runs: list[tuple[np.random.Generator | None, int | None]] = [(None, k) for k in starts]
-        runs += [
-            (np.random.default_rng([self.seed, i]), starts[i % len(starts)])
-            for i in range(self.samples)
-        ]
         deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
-        for rng, start in runs:
+        for start in starts:
+            best, calls = self.deterministic(task, start, best, seen, deadline)
+            oracle_calls += calls
+        for i in range(self.samples):
+            rng = np.random.default_rng([self.seed, i])
             stop_at = best.n_modules if best is not None else policy.env.n_max + 2
             if stop_at <= 1 or time.perf_counter() > deadline:
                 break
-            info = policy.rollout(task, rng, seen, stop_at, start, deadline, self.fallback)
+            info = policy.rollout(task, rng, seen, stop_at, starts[i % len(starts)], deadline)
             oracle_calls += int(info["oracle_calls"])
-            n = len(info["cells"])
-            if not info["success"] or n > self.n_max or (best is not None and n >= best.n_modules):
-                continue
-            s = policy.env.structure
-            if verified(s, task):
-                best = s
+            best = self.better(task, info, best)
         bound = policy.lower_bound(task)
         certified = (
             best is not None and best.n_modules == bound or best is None and bound > self.n_max
@@ -106,8 +115,61 @@ class PPOSolver:
         return search_result(self.name, self.n_max, best, len(seen), oracle_calls, t0, certified,
                              proof, bound, task.kind)  # fmt: skip
 
+    def deterministic(
+        self, task: Any, start: int | None, best: Structure | None, seen: set, deadline: float
+    ) -> tuple[Structure | None, int]:
+        """The deterministic rollouts from a first module of type ``start``, one per fallback of
+        :attr:`fallbacks`, as one tree: a branch leaves where its fallback docks elsewhere, from
+        the shared state, and stops once it can no longer beat ``best`` (the smallest verified
+        structure so far). Returns the new best and the oracle calls made."""
+        policy, env = self.policy, self.policy.env
+        calls = 0
+        branches: list[tuple[Any, tuple[float, ...], int]] = [(None, self.fallbacks, -1)]
+        while branches and time.perf_counter() <= deadline:
+            stop_at = best.n_modules if best is not None else env.n_max + 2
+            if stop_at <= 1:  # one module: nothing beats it
+                break
+            state, group, action = branches.pop()
+            if state is None:
+                obs, info = policy.reset(task, start)
+                done, base = info["success"], 0  # one module suffices: nothing to decide
+            elif state.n_modules < stop_at - 1:
+                env.restore(state)
+                obs, _, terminated, truncated, info = env.step(action)
+                done, base = terminated or truncated, state.oracle_calls
+            else:
+                continue
+            seen.add(env.structure.key)
+            while not done and len(info["cells"]) < stop_at - 1 and time.perf_counter() < deadline:
+                mask = env.action_masks()
+                if len(group) == 1:
+                    action = policy.decide(obs, mask, group[0])
+                else:  # where the fallbacks dock differently, the later ones branch off
+                    probs = policy.probabilities(obs, mask)
+                    by_action: dict[int, list[float]] = {}
+                    for f in group:
+                        by_action.setdefault(policy.decide(obs, mask, f, probs), []).append(f)
+                    (action, first), *others = by_action.items()
+                    group = tuple(first)
+                    branches += [(env.state, tuple(g), a) for a, g in reversed(others)]
+                obs, _, terminated, truncated, info = env.step(int(action))
+                seen.add(env.structure.key)
+                done = terminated or truncated
+            calls += int(info["oracle_calls"]) - base
+            best = self.better(task, info, best)
+        return best, calls
+
+    def better(self, task: Any, info: dict, best: Structure | None) -> Structure | None:
+        """The environment's structure if its episode (``info``) succeeded within ``n_max``
+        modules, beats ``best`` and verifies, else ``best``."""
+        n = len(info["cells"])
+        if not info["success"] or n > self.n_max or (best is not None and n >= best.n_modules):
+            return best
+        s = self.policy.env.structure
+        return s if verified(s, task) else best
+
     def __repr__(self) -> str:
         return (
             f"PPOSolver(model={self.policy.model_path!r}, n_max={self.n_max}, "
-            f"samples={self.samples}, fallback={self.fallback})"
+            f"samples={self.samples}, fallbacks={self.fallbacks})"
         )
