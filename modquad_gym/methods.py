@@ -26,6 +26,7 @@ from modquad_gym.core.validation import check_flag, check_int, check_real
 from modquad_gym.policy.models import (
     BUDGET_PER_MODULE,
     EXTRA_FALLBACKS,
+    EXTRA_FROM,
     FALLBACK,
     GUIDED_BUDGET,
     QUEUE_MEMORY,
@@ -287,9 +288,10 @@ _FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dive)
 _EXTRA_FALLBACKS = (tuple[float, ...] | None, None, "further deterministic passes, one per "
                     "fallback value (comma-separated), branching from the first where they dock "
                     "elsewhere; the smallest verified structure is kept (None: "
-                    f"{','.join(f'{f:g}' for f in EXTRA_FALLBACKS) or 'none'} at budgets of "
-                    f"{SCALE_FROM} modules and more with a model that sees greedy's choice, "
-                    "else none; empty: none)", _shares)  # fmt: skip
+                    f"{','.join(f'{f:g}' for f in EXTRA_FALLBACKS)} where the first ends with "
+                    f"more than {EXTRA_FROM} modules, at budgets of {SCALE_FROM} modules and "
+                    "more with a model that sees greedy's choice, else none; empty: none)",
+                    _shares)  # fmt: skip
 
 _BUDGET = (int | None, None, "most structures evaluated (None: "
            f"{GUIDED_BUDGET} below {SCALE_FROM} modules, else {BUDGET_PER_MODULE} per module "

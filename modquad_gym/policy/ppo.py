@@ -21,7 +21,7 @@ import numpy as np
 
 from modquad_gym.core.validation import check_real
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.models import TOP_K
+from modquad_gym.policy.models import EXTRA_FROM, TOP_K
 from modquad_gym.policy.policy import (
     Policy,
     env_kwargs_of,
@@ -56,7 +56,9 @@ class PPOSolver:
             else 0; a value above 0 for a model that does not read it is refused.
         extra_fallbacks: further deterministic rollouts, one per fallback value, branching
             from the first where their dockings differ (:func:`~.policy.extra_fallbacks_of`;
-            None: the default there; empty: none).
+            empty: none). None (default): :data:`~.models.EXTRA_FALLBACKS` where the first
+            ends with more than :data:`~.models.EXTRA_FROM` modules, at budgets of
+            :data:`~.models.SCALE_FROM` and more with a model that reads greedy's choice.
     """
 
     def __init__(
@@ -82,6 +84,7 @@ class PPOSolver:
         self.fallback = fallback_of(self.policy, fallback)
         extra = extra_fallbacks_of(self.policy, extra_fallbacks)
         self.fallbacks = (self.fallback, *(f for f in extra if f != self.fallback))
+        self.extra_from = EXTRA_FROM if extra_fallbacks is None else 0
 
     def solve(self, task: Any) -> SearchResult:
         """The smallest verified structure over the deterministic rollouts (one per fallback)
@@ -121,7 +124,8 @@ class PPOSolver:
         """The deterministic rollouts from a first module of type ``start``, one per fallback of
         :attr:`fallbacks`, as one tree: a branch leaves where its fallback docks elsewhere, from
         the shared state, and stops once it can no longer beat ``best`` (the smallest verified
-        structure so far). Returns the new best and the oracle calls made."""
+        structure so far); none leaves where the first episode ends with at most
+        :attr:`extra_from` modules. Returns the new best and the oracle calls made."""
         policy, env = self.policy, self.policy.env
         calls = 0
         branches: list[tuple[Any, tuple[float, ...], int]] = [(None, self.fallbacks, -1)]
@@ -157,6 +161,8 @@ class PPOSolver:
                 done = terminated or truncated
             calls += int(info["oracle_calls"]) - base
             best = self.better(task, info, best)
+            if state is None and len(info["cells"]) <= self.extra_from:
+                break  # the first episode ends small: the others would not pay for their time
         return best, calls
 
     def better(self, task: Any, info: dict, best: Structure | None) -> Structure | None:
