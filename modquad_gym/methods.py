@@ -326,7 +326,8 @@ for _method in (
     _search("milp", "the mixed-integer program solved by HiGHS, level by level from its LP "
             "relaxation's bound: certified where it finishes within the time limit (up to 128 "
             "modules)", certifies=True, fault=False),
-    Method("ppo", "the learned agent's single pass (the shipped model unless model=)",
+    Method("ppo", "the learned agent's deterministic pass, with two more sharing its start where "
+           f"it ends above {EXTRA_FROM} modules (the shipped model unless model=)",
            options("ppo", model=_MODEL, seed=(int, 0, COMMON_HELP["seed"][0], _seed),
                    samples=(int, 0, "extra sampled rollouts besides the deterministic one",
                             _count(0)), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
