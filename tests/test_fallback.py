@@ -127,6 +127,22 @@ def test_the_benchmark_reports_each_variant_beside_its_rival(tmp_path):
     assert redone.splitlines()[3:] == report.splitlines()[3:] and "re-rendered" in redone
 
 
+def test_the_benchmark_names_each_set_of_extra_passes(tmp_path):
+    from benchmarks import fallback
+
+    out = tmp_path / "fb"
+    argv = ["--bands", "--fallbacks", "0", "--k", "8", "--extra-fallbacks", "none", "1", "auto",
+            "--small", "2", "--out", str(out)]  # fmt: skip
+    assert fallback.main(argv) == 0
+    rows = [line.split(",") for line in (out / "rows.csv").read_text().splitlines()[1:]]
+    assert {r[3] for r in rows} == {"ppo-top8-f0-x", "ppo-top8-f0-x1", "ppo-top8-f0", "greedy"}
+    found = {(r[2], r[3]): int(r[4]) for r in rows}
+    for task in {r[2] for r in rows}:  # a further pass never ends above the single one
+        assert found[task, "ppo-top8-f0-x1"] <= found[task, "ppo-top8-f0-x"]
+        assert found[task, "ppo-top8-f0"] == found[task, "ppo-top8-f0-x"]  # none below 16
+    assert "| ppo-top8-f0-x1 | 2 |" in (out / "report.md").read_text()
+
+
 @pytest.mark.parametrize(
     ("argv", "match"),
     [
@@ -139,6 +155,9 @@ def test_the_benchmark_reports_each_variant_beside_its_rival(tmp_path):
         (["--method", "beam"], "--method"),
         (["--method", "ppo-guided", "--budgets", "0"], "--budgets"),
         (["--budgets", "64"], "--budgets"),  # ppo has no budget
+        (["--extra-fallbacks", "0,2"], "--extra-fallbacks"),
+        (["--extra-fallbacks", "0,,1"], "--extra-fallbacks"),
+        (["--method", "ppo-guided", "--extra-fallbacks", "0"], "--extra-fallbacks"),
         (["--rows", "tests/test_fallback.py"], "--rows"),
     ],
 )
