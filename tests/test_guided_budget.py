@@ -65,3 +65,34 @@ def test_without_a_dive_the_queue_memory_bounds_the_search_too(monkeypatch):
     monkeypatch.setattr(guided, "QUEUE_MEMORY", 100 * nbytes(solver.policy.env.state))
     result = solver.solve(task)
     assert GUIDED_BUDGET < result.evaluated <= 100
+
+
+def test_from_scale_from_it_dives_from_each_start_type_as_the_single_pass_decodes():
+    from modquad_gym.scoring.scale_tasks import task_palette
+
+    for band, i in ((16, 0), (32, 1)):
+        task = draw("mixed", band, i, validation=True)
+        palette = task_palette(task)
+        single = make_solver("ppo", 64, modules=palette, extra_fallbacks=()).solve(task)
+        dives = make_solver("ppo-guided", 64, modules=palette, budget=1).solve(task)
+        assert dives.n_modules == single.n_modules  # budget 1: the dives alone
+        assert dives.evaluated == single.evaluated  # the same episodes, one per start type
+        search = make_solver("ppo-guided", 64, modules=palette).solve(task)
+        assert search.n_modules <= single.n_modules
+
+
+def test_below_scale_from_it_dives_from_the_first_start_type_only():
+    from modquad_gym.geometry.module import palette
+    from modquad_gym.policy.policy import Policy
+    from modquad_gym.scoring.suites import draw_task
+    from modquad_gym.tasks import make_generator
+
+    types = palette("t45,t45m,flat")
+    policy = Policy(None, n_max=7, top_k=8)
+    policy.use_palette(types)
+    for seed in range(4):
+        task = draw_task(make_generator("mixed"), 9400 + seed)
+        seen: set = set()
+        policy.rollout(task, seen=seen, start=policy.starts[0])
+        dive = make_solver("ppo-guided", 7, modules=types, budget=1).solve(task)
+        assert dive.evaluated == len(seen)

@@ -4,9 +4,10 @@ A node is a docking sequence from the single module at (0, 0) (one root per star
 several module types); its priority is the sum of ``-log pi(a | s)`` along the sequence, so the
 policy's favourite structures come first, after the policy's own greedy episode (a dive
 that docks the most likely module until the episode ends: an incumbent, so the search never
-does worse than the plain policy's first start). A node keeps its parent's environment state
-(:meth:`~modquad_gym.envs.assembly.env.ModQuadAssemblyEnv.restore`): popping it docks one
-module, whose structure the environment's exact oracle decides. The search stops with a
+does worse than the plain policy's first start; from :data:`~.models.SCALE_FROM` modules one
+dive per start type, so never worse than its single pass). A node keeps its parent's
+environment state (:meth:`~modquad_gym.envs.assembly.env.ModQuadAssemblyEnv.restore`): popping
+it docks one module, whose structure the environment's exact oracle decides. The search stops with a
 certificate as soon as it finds a feasible structure whose module count equals an exact lower
 bound (the force bound and the level bounds of :mod:`modquad_gym.search.bounds`; the count
 bound of the typed search with several types); otherwise it
@@ -55,9 +56,10 @@ class GuidedSolver:
             :data:`~.models.GUIDED_BUDGET` and at most as many states as fit in
             :data:`~.models.QUEUE_MEMORY`).
         branching: children queued per expanded structure (the policy's most likely dockings).
-        dive: start with the policy's greedy episode (default True); False: best-first only.
+        dive: start with the policy's greedy episode (default True; from
+            :data:`~.models.SCALE_FROM` modules one per start type); False: best-first only.
         time_limit: seconds after which the search stops with what it has (None: none), in
-            the dive too (which otherwise finishes, whatever the budget).
+            the dives too (which otherwise finish, whatever the budget).
         top_k: as for :class:`~.policy.Policy` (the children decided exactly per step;
             default :data:`~.models.TOP_K`), unless ``model`` is a Policy.
     """
@@ -98,12 +100,18 @@ class GuidedSolver:
             (0.0, i, None, start) for i, start in enumerate(policy.starts)
         ]
         pushes, oracle_calls = len(heap), 0
-        dive = heapq.heappop(heap) if self.dive else None  # the policy's episode: an incumbent
+        # the policy's episodes, incumbents: from the first start type; from SCALE_FROM modules
+        # from each, as the single pass decodes (their roots then leave the queue)
+        dives = [] if not self.dive else heap[:] if self.n_max >= SCALE_FROM else heap[:1]
+        heap = heap[len(dives) :]
+        dive, leading = (dives.pop(0) if dives else None), True
         deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
         budget, state_bytes = self.budget_for(self.n_max), 0
-        while (dive or heap) and not certified and (dive or len(evaluated) < budget):
+        while not certified and (dive or dives or heap and len(evaluated) < budget):
             if time.perf_counter() > deadline:
                 break
+            if dive is None and dives:  # the next start type's episode
+                dive, leading = dives.pop(0), False
             cost, _, parent, move = dive if dive is not None else heapq.heappop(heap)
             diving, dive = dive is not None, None
             if parent is None:
@@ -119,7 +127,7 @@ class GuidedSolver:
             if not state_bytes:  # a state's size, known from the first structure on
                 state_bytes = nbytes(env.state)
                 budget = self.budget_for(self.n_max, state_bytes)
-            if diving:  # the budget if the dive ends here
+            if diving and leading:  # the budget if the first dive ends here
                 budget = self.budget_for(n, state_bytes)
             if info["success"]:
                 if (best is None or n < best.n_modules) and verified(s, task):
