@@ -337,7 +337,8 @@ for _method in (
            "lower bound", options("ppo-guided", model=_MODEL,
                                   budget=_BUDGET,
                                   branching=(int, 4, "children expanded per node", _count(1)),
-                                  dive=(bool, True, "first follow the policy's own episode",
+                                  dive=(bool, True, "first follow the policy's own episode "
+                                        f"(from {SCALE_FROM} modules one per start type)",
                                         check_flag), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
                                   fallback=_FALLBACK, prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", fault=False, extra="train"),
