@@ -194,7 +194,6 @@ def unscored(tier, method: str, kind: str, why: str) -> Entry:
 
 
 FAULT_REFUSED = "refused: takes no fault="
-FAULT_LEARNED = "not applicable: trained without failures; takes no fault="
 
 
 def one_run_rows(tier, results: Path = RESULTS) -> dict[str, tuple[list, Path]]:
@@ -216,7 +215,6 @@ def tier_entries(tier_name: str, results: Path = RESULTS,
     """Every committed method on one tier: the searches, the learned methods, then the outside
     agents' submissions (``submissions``, default ``results/submissions``). On a fault tier the
     methods that cannot honour the failure are listed with the reason instead of numbers."""
-    from modquad_gym.scoring.tiers import TIERS as TIER_TABLE
     from modquad_gym.scoring.tiers import get_tier, honours_fault
     from modquad_gym.search import SEARCHES
 
@@ -230,14 +228,13 @@ def tier_entries(tier_name: str, results: Path = RESULTS,
         elif m in runs:
             rows, path = runs[m]
             entries.append(over_runs(tier, m, "search", {"-": rows}, _rel(path)))
-    if tier.fault:
-        entries += [unscored(tier, m, "learned", FAULT_LEARNED)
-                    for m in TIER_TABLE["current"].learned]  # fmt: skip
-    else:
-        one = {m: over_runs(tier, m, "learned", {"-": runs[m][0]}, _rel(runs[m][1]))
-               for m in tier.learned if m in runs}  # fmt: skip
-        seeds = results / f"seeds_{tier.name}" / "seeds.csv"
+    one = {m: over_runs(tier, m, "learned", {"-": runs[m][0]}, _rel(runs[m][1]))
+           for m in tier.learned if m in runs}  # fmt: skip
+    seeds = results / f"seeds_{tier.name}" / "seeds.csv"
+    if seeds.is_file():
         entries += over_seeds(read_seeds(seeds), tier, _rel(seeds), one)
+    else:  # no five-seed report (the fault tier): the shipped model's one run
+        entries += one.values()
     folder = results / SUBMISSIONS if submissions is None else submissions
     for path in sorted(folder.glob("*.csv")) if folder.is_dir() else []:
         entries += submission_entries(path, tier, full)

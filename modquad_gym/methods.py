@@ -332,7 +332,7 @@ for _method in (
                    samples=(int, 0, "extra sampled rollouts besides the deterministic one",
                             _count(0)), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
                    fallback=_FALLBACK, extra_fallbacks=_EXTRA_FALLBACKS, prune=_PRUNE),
-           "modquad_gym.solvers.factory:LearnedSolver", seeded=True, fault=False, extra="train"),
+           "modquad_gym.solvers.factory:LearnedSolver", seeded=True, extra="train"),
     Method("ppo-guided", "best-first search ordered by the learned policy, certified at the "
            "lower bound", options("ppo-guided", model=_MODEL,
                                   budget=_BUDGET,
@@ -341,7 +341,7 @@ for _method in (
                                         f"(from {SCALE_FROM} modules one per start type)",
                                         check_flag), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
                                   fallback=_FALLBACK, prune=_PRUNE),
-           "modquad_gym.solvers.factory:LearnedSolver", fault=False, extra="train"),
+           "modquad_gym.solvers.factory:LearnedSolver", extra="train"),
 ):  # fmt: skip
     register(_method)
 

@@ -39,6 +39,7 @@ from modquad_gym.policy.models import (
 )
 from modquad_gym.policy.policy import Policy, fallback_of, search_result
 from modquad_gym.search import SearchResult, verified
+from modquad_gym.search.bounds import bound_levels
 from modquad_gym.tasks import as_task
 
 
@@ -62,6 +63,8 @@ class GuidedSolver:
             the dives too (which otherwise finish, whatever the budget).
         top_k: as for :class:`~.policy.Policy` (the children decided exactly per step;
             default :data:`~.models.TOP_K`), unless ``model`` is a Policy.
+        fault, fault_margin: design for that failure (:meth:`~.policy.Policy.use_fault`):
+            every answer is verified to survive it, and the bound that certifies is its own.
     """
 
     def __init__(
@@ -75,8 +78,11 @@ class GuidedSolver:
         time_limit: float | None = None,
         top_k: int | None = TOP_K,
         fallback: float | None = None,
+        fault: str | None = None,
+        fault_margin: float = 0.0,
     ) -> None:
         self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config, top_k)
+        self.policy.use_fault(fault, fault_margin)
         self.fallback = fallback_of(self.policy, fallback)
         self.n_max = self.policy.n_max
         self.dive = bool(dive)
@@ -90,7 +96,8 @@ class GuidedSolver:
         task = as_task(task)
         policy = self.policy
         env = policy.env
-        bound = policy.lower_bound(task)
+        problem = policy.problem(task)
+        bound = bound_levels(problem)
         best: Structure | None = None
         certified = bound > self.n_max  # every level ruled out: proven infeasible
         evaluated: set = set()
@@ -130,7 +137,7 @@ class GuidedSolver:
             if diving and leading:  # the budget if the first dive ends here
                 budget = self.budget_for(n, state_bytes)
             if info["success"]:
-                if (best is None or n < best.n_modules) and verified(s, task):
+                if (best is None or n < best.n_modules) and verified(s, problem):
                     best = s
                     certified = n <= bound
                 continue  # a larger structure containing it cannot be smaller
@@ -162,8 +169,8 @@ class GuidedSolver:
         else:
             proof = f"exact bounds rule out every level up to {self.n_max}"
         n_evaluated = len(evaluated)
-        return search_result(self.name, self.n_max, best, n_evaluated, oracle_calls, t0,
-                             certified, proof, bound, task.kind)  # fmt: skip
+        return search_result(self.name, problem, best, n_evaluated, oracle_calls, t0,
+                             certified, proof, bound)  # fmt: skip
 
     def budget_for(self, n: int, state_bytes: int = 0) -> int:
         """Structures to evaluate when the dive's answer (or without a dive, n_max) has ``n``

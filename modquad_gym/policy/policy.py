@@ -193,12 +193,29 @@ class Policy:
                 "(the mixed tier's, t45,t45m,flat: modquad_gym/data/models/ppo_mixed/model.zip)"
             )
 
-    def lower_bound(self, task: TaskRequirement) -> int:
-        """The exact lower bound on the module count of ``task`` with the policy's module types
-        and budget (:func:`~modquad_gym.search.bounds.bound_levels`: n_max + 1 when every count
-        is ruled out); it certifies an answer that reaches it."""
+    def use_fault(self, fault: str | None, fault_margin: float = 0.0) -> None:
+        """Design for ``fault`` (None: every rotor works): an episode then succeeds only when
+        every task wrench survives any failure of that kind with ``fault_margin`` to spare, and
+        the shares the policy reads count only the wrenches that survive. The observation's
+        shape is unchanged, so any model acts (zero-shot: none was trained with failures)."""
+        kwargs = {k: v for k, v in self.env_kwargs.items() if k not in ("fault", "fault_margin")}
+        if fault is not None:
+            kwargs.update(fault=fault, fault_margin=fault_margin)
+        if kwargs != self.env_kwargs:
+            self.build(kwargs)
+
+    def problem(self, task: TaskRequirement) -> SearchProblem:
+        """``task`` as the :class:`~modquad_gym.search.problem.SearchProblem` the policy designs
+        for: its module types, budget and fault (the decision every answer is verified by)."""
         palette = {"modules": self.palette} if self.typed else {"module": self.env.module}
-        return bound_levels(SearchProblem.build(task, self.n_max, **palette))
+        return SearchProblem.build(task, self.n_max, **palette, fault=self.env.fault,
+                                   fault_margin=self.env.fault_margin)  # fmt: skip
+
+    def lower_bound(self, task: TaskRequirement) -> int:
+        """The exact lower bound on the module count of ``task`` as :meth:`problem` poses it
+        (:func:`~modquad_gym.search.bounds.bound_levels`: n_max + 1 when every count is ruled
+        out); it certifies an answer that reaches it."""
+        return bound_levels(self.problem(task))
 
     def probabilities(self, obs: dict, mask: np.ndarray) -> np.ndarray:
         """The policy's action probabilities at ``obs``, zero outside ``mask`` (sb3-contrib's
@@ -316,7 +333,7 @@ def extra_fallbacks_of(policy: Policy, extra: Any) -> tuple[float, ...]:
 
 def search_result(
     name: str,
-    n_max: int,
+    problem: SearchProblem,
     best: Structure | None,
     evaluated: int,
     oracle_calls: int,
@@ -324,11 +341,11 @@ def search_result(
     certified: bool | None = False,
     proof: str = "",
     lower_bound: int | None = None,
-    kind: str = "total",
 ) -> SearchResult:
-    """The search record of a learned solver ``name`` that started at ``t0`` and kept
-    ``best`` (with the proved ``lower_bound`` on the module count, when the solver knows
-    one; ``certified`` None: derived from it) on a task of ``kind``."""
+    """The search record of a learned solver ``name`` that started at ``t0`` on ``problem``
+    (:meth:`Policy.problem`: its budget, task kind and fault) and kept ``best`` (with the
+    proved ``lower_bound`` on the module count, when the solver knows one; ``certified`` None:
+    derived from it)."""
     return SearchResult(
         structure=best,
         n_modules=best.n_modules if best is not None else None,
@@ -337,8 +354,10 @@ def search_result(
         seconds=time.perf_counter() - t0,
         certified=certified,
         method=name,
-        n_max=n_max,
+        n_max=problem.n_max,
         proof=proof,
         lower_bound=lower_bound,
-        kind=kind,
+        kind=problem.kind,
+        fault=problem.fault,
+        fault_margin=problem.fault_margin,
     )

@@ -31,6 +31,8 @@ from modquad_gym.policy.policy import (
     search_result,
 )
 from modquad_gym.search import SearchResult, verified
+from modquad_gym.search.bounds import bound_levels
+from modquad_gym.search.problem import SearchProblem
 from modquad_gym.tasks import as_task
 
 __all__ = ["PPOSolver", "env_kwargs_of", "make_env"]
@@ -59,6 +61,8 @@ class PPOSolver:
             empty: none). None (default): :data:`~.models.EXTRA_FALLBACKS` where the first
             ends with more than :data:`~.models.EXTRA_FROM` modules, at budgets of
             :data:`~.models.SCALE_FROM` and more with a model that reads greedy's choice.
+        fault, fault_margin: design for that failure (:meth:`~.policy.Policy.use_fault`):
+            every answer is verified to survive it.
     """
 
     def __init__(
@@ -72,10 +76,13 @@ class PPOSolver:
         top_k: int | None = TOP_K,
         fallback: float | None = None,
         extra_fallbacks: Any = None,
+        fault: str | None = None,
+        fault_margin: float = 0.0,
     ) -> None:
         if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
             raise ValueError(f"samples must be an integer >= 0, got {samples!r}")
         self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config, top_k)
+        self.policy.use_fault(fault, fault_margin)
         self.n_max = self.policy.n_max
         self.seed = int(seed)
         self.samples = int(samples)
@@ -94,13 +101,14 @@ class PPOSolver:
         t0 = time.perf_counter()
         task = as_task(task)
         policy = self.policy
+        problem = policy.problem(task)
         starts = policy.starts
         best: Structure | None = None
         seen: set = set()
         oracle_calls = 0
         deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
         for start in starts:
-            best, calls = self.deterministic(task, start, best, seen, deadline)
+            best, calls = self.deterministic(problem, start, best, seen, deadline)
             oracle_calls += calls
         for i in range(self.samples):
             rng = np.random.default_rng([self.seed, i])
@@ -109,20 +117,25 @@ class PPOSolver:
                 break
             info = policy.rollout(task, rng, seen, stop_at, starts[i % len(starts)], deadline)
             oracle_calls += int(info["oracle_calls"])
-            best = self.better(task, info, best)
-        bound = policy.lower_bound(task)
+            best = self.better(problem, info, best)
+        bound = bound_levels(problem)
         certified = (
             best is not None and best.n_modules == bound or best is None and bound > self.n_max
         )
         proof = "lower bound reached" if certified else ""
-        return search_result(self.name, self.n_max, best, len(seen), oracle_calls, t0, certified,
-                             proof, bound, task.kind)  # fmt: skip
+        return search_result(self.name, problem, best, len(seen), oracle_calls, t0, certified,
+                             proof, bound)  # fmt: skip
 
     def deterministic(
-        self, task: Any, start: int | None, best: Structure | None, seen: set, deadline: float
+        self,
+        problem: SearchProblem,
+        start: int | None,
+        best: Structure | None,
+        seen: set,
+        deadline: float,
     ) -> tuple[Structure | None, int]:
-        """The deterministic rollouts from a first module of type ``start``, one per fallback of
-        :attr:`fallbacks`, as one tree: a branch leaves where its fallback docks elsewhere, from
+        """The deterministic rollouts on ``problem``'s task from a first module of type
+        ``start``, one per fallback of :attr:`fallbacks`, as one tree: a branch leaves where its fallback docks elsewhere, from
         the shared state, and stops once it can no longer beat ``best`` (the smallest verified
         structure so far); none leaves where the first episode ends with at most
         :attr:`extra_from` modules. Returns the new best and the oracle calls made."""
@@ -135,7 +148,7 @@ class PPOSolver:
                 break
             state, group, action = branches.pop()
             if state is None:
-                obs, info = policy.reset(task, start)
+                obs, info = policy.reset(problem.task, start)
                 done, base = info["success"], 0  # one module suffices: nothing to decide
             elif state.n_modules < stop_at - 1:
                 env.restore(state)
@@ -160,19 +173,20 @@ class PPOSolver:
                 seen.add(env.structure.key)
                 done = terminated or truncated
             calls += int(info["oracle_calls"]) - base
-            best = self.better(task, info, best)
+            best = self.better(problem, info, best)
             if state is None and len(info["cells"]) <= self.extra_from:
                 break  # the first episode ends small: the others would not pay for their time
         return best, calls
 
-    def better(self, task: Any, info: dict, best: Structure | None) -> Structure | None:
+    def better(self, problem: SearchProblem, info: dict, best: Structure | None) -> Structure | None:
         """The environment's structure if its episode (``info``) succeeded within ``n_max``
-        modules, beats ``best`` and verifies, else ``best``."""
+        modules, beats ``best`` and verifies (``problem``'s decision: with its fault, after
+        every failure too), else ``best``."""
         n = len(info["cells"])
         if not info["success"] or n > self.n_max or (best is not None and n >= best.n_modules):
             return best
         s = self.policy.env.structure
-        return s if verified(s, task) else best
+        return s if verified(s, problem) else best
 
     def __repr__(self) -> str:
         return (

@@ -14,8 +14,8 @@
 * ``fault``: ``ModQuadAssemblyFaultTolerant-v0`` (one type, n_max 10, ``fault="rotor"``) on the
   default (``mixed``) task source: an answer counts only when it still exerts every task wrench
   after any single rotor failure; the optimum is the smallest such structure. Only the methods
-  that honour ``fault=`` are scored (:func:`honours_fault`): the learned policies were trained
-  without failures and milp refuses it.
+  that honour ``fault=`` are scored (:func:`honours_fault`: milp refuses it); the learned
+  methods act with the ``current`` tier's model, trained without failures (zero-shot).
 
 Suites are package data (``modquad_gym/data/suites``); ``python -m modquad_gym.scoring.tiers
 large`` (or ``mixed``, ``dynamic``, ``fault``) rewrites a tier's suite from its fixed seeds, each
@@ -121,7 +121,8 @@ TIERS = {
                     goals={"ppo-guided": {"success": 0.98, "optimal": 0.95},
                            "ppo": {"optimal": "greedy"}}),
     "fault": Tier("fault", "ModQuadAssemblyFaultTolerant-v0", 10, ("fault_rotor",),
-                  source="mixed", seed0=8_000_000, n_tasks=60, fault="rotor", learned=()),
+                  source="mixed", seed0=8_000_000, n_tasks=60, fault="rotor",
+                  model_tier="current"),
 }  # fmt: skip
 """The tiers by name."""
 
@@ -134,8 +135,8 @@ def get_tier(name: str) -> Tier:
 
 def honours_fault(method: str) -> bool:
     """Can ``method`` (a solver name of :func:`~modquad_gym.solvers.make_solver`) guarantee that
-    its answer survives a failure? The registered methods that take ``fault=`` can (the
-    searches but milp); the learned policies were trained without failures. An outside agent
+    its answer survives a failure? The registered methods that take ``fault=`` can (every one
+    but milp; the learned ones verify that each answer survives). An outside agent
     (``package.module:Name``) is handed the problem with its fault and an evaluator that
     decides survival, and every answer is verified to survive."""
     from modquad_gym.methods import method_of

@@ -74,8 +74,9 @@ class SearchSolver(MethodSolver):
 class LearnedSolver(MethodSolver):
     """A learned method (``ppo`` or ``ppo-guided``): the policy acts on the problem's budget
     and palette, with the shipped model of that budget and palette unless ``model`` is given
-    (:func:`~modquad_gym.policy.default_model`). It never checks failures, so it refuses a
-    problem with ``fault=``."""
+    (:func:`~modquad_gym.policy.default_model`). With a problem's ``fault=`` it designs for that
+    failure zero-shot (:meth:`~modquad_gym.policy.Policy.use_fault`) and verifies that every
+    answer survives it."""
 
     def __init__(self, method: Method, settings: Options, defaults: dict) -> None:
         super().__init__(method, settings, defaults)
@@ -83,11 +84,14 @@ class LearnedSolver(MethodSolver):
         self._solvers: dict[tuple, Any] = {}
         self.inner(self.defaults.get("n_max", 7), self.defaults.get("modules"))  # load now
 
-    def inner(self, n_max: int, palette: list | None, tier: str | None = None) -> Any:
-        """The PPO or guided solver of this budget and palette (None: one type), made once;
-        without ``model``, the shipped model of the task's tier (``tier``: a dynamic task of one
-        type acts with the model trained on motions) or of the budget and palette."""
-        key = (n_max, tuple(m.digest for m in palette or ()), tier)
+    def inner(
+        self, n_max: int, palette: list | None, tier: str | None = None, fault: tuple = (None, 0.0)
+    ) -> Any:
+        """The PPO or guided solver of this budget, palette (None: one type) and ``fault``
+        (the failure and the margin required after it), made once; without ``model``, the
+        shipped model of the task's tier (``tier``: a dynamic task of one type acts with the
+        model trained on motions) or of the budget and palette."""
+        key = (n_max, tuple(m.digest for m in palette or ()), tier, fault)
         if key not in self._solvers:
             options = self.settings.as_dict()
             options.pop("prune")
@@ -109,6 +113,7 @@ class LearnedSolver(MethodSolver):
                     "a model path, or a problem of that budget)"
                 )
             solver.policy.use_palette(palette)
+            solver.policy.use_fault(*fault)
             self._solvers[key] = solver
         return self._solvers[key]
 
@@ -124,7 +129,8 @@ class LearnedSolver(MethodSolver):
         problem = self.problem(task)
         palette = list(problem.palette) if problem.typed else None
         tier = problem.task.policy_tier
-        result = self.inner(problem.n_max, palette, tier).solve(problem.task)
+        failure = (problem.fault, problem.fault_margin)
+        result = self.inner(problem.n_max, palette, tier, failure).solve(problem.task)
         result.method = self.name
         if not self.settings.prune:
             return result
