@@ -187,7 +187,8 @@ FAULT_HELP = (
     "the answer must keep doing the task after any failure of this kind: rotor (any one rotor "
     "stops), module (any one module's rotors stop; it stays docked and its weight still "
     "counts), rotor2 (any two rotors stop) or rotor+module (a module's rotors and one rotor of "
-    "another module stop). Every search but the learned ones takes it; "
+    "another module stop). Every method but milp takes it (the learned ones zero-shot: no "
+    "model was trained with failures, each answer is verified to survive); "
     "--json adds fault and worst_fault_margin (the smallest margin over the failures and "
     "wrenches, >= 0)"
 )

@@ -1,0 +1,63 @@
+"""The learned methods with ``fault=``: trained without failures, the policy designs for the
+failure zero-shot (its environment ends an episode only once every wrench survives), and every
+answer is verified to survive it, with the margin asked for; a certified answer reaches the
+failure's own lower bound."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import modquad_gym as mq
+from modquad_gym.cli import main
+from modquad_gym.policy.policy import Policy
+from modquad_gym.tasks import load_task
+
+TASK = "example:screwdriver"  # optimum 3 modules; 4 after any single rotor failure
+
+
+def test_use_fault_keeps_the_observation_and_none_gives_back_the_intact_design():
+    policy = Policy(n_max=7)
+    spaces = policy.env.observation_space, policy.env.action_space
+    intact = mq.make_solver("ppo", n_max=7, model=policy).solve(load_task(TASK))
+    policy.use_fault("rotor")
+    assert policy.env.fault == "rotor"
+    assert (policy.env.observation_space, policy.env.action_space) == spaces
+    tolerant = mq.make_solver("ppo", n_max=7, model=policy, fault="rotor").solve(load_task(TASK))
+    assert tolerant.n_modules > intact.n_modules  # the intact optimum does not survive
+    policy.use_fault(None)
+    assert policy.env.fault is None
+    again = mq.make_solver("ppo", n_max=7, model=policy).solve(load_task(TASK))
+    assert again.structure.cells == intact.structure.cells and again.fault is None
+
+
+@pytest.mark.parametrize("method", ["ppo", "ppo-guided"])
+def test_an_answer_keeps_the_margin_asked_for_after_the_failure(method):
+    task = load_task(TASK)
+    r = mq.make_solver(method, n_max=7, fault="rotor", fault_margin=0.05).solve(task)
+    assert r.structure is not None and (r.fault, r.fault_margin) == ("rotor", 0.05)
+    worst = mq.fault_margin(r.structure, task.rotor_wrenches(r.structure), task.f_max, "rotor")
+    assert np.all(worst >= 0.05 - 1e-9)
+    exact = mq.exhaustive_search(task, n_max=7, fault="rotor", fault_margin=0.05)
+    assert r.n_modules >= exact.n_modules
+    assert r.certified == (r.n_modules == r.lower_bound) and r.lower_bound <= exact.n_modules
+
+
+def test_the_cli_designs_for_a_detection_delay_with_a_learned_method(capsys):
+    from modquad_gym.oracle.faults import margin_for_delay
+
+    task = load_task(TASK)
+    argv = ["solve", "--task", TASK, "--method", "ppo", "--fault", "rotor", "--json", "--quiet",
+            "--detection-delay", "0.03"]  # fmt: skip
+    capsys.readouterr()
+    assert main(argv) == 0
+    record = json.loads(capsys.readouterr().out)
+    asked = margin_for_delay(0.03, "rotor")
+    assert asked > 0 and record["fault"] == "rotor"
+    assert record["fault_margin"] == pytest.approx(asked)
+    python = mq.make_solver("ppo", n_max=7, fault="rotor", fault_margin=asked).solve(task)
+    assert [list(c) for c in python.structure.cells] == record["cells"]
+    worst = mq.fault_margin(python.structure, task.rotor_wrenches(python.structure), task.f_max)
+    assert np.all(worst >= asked - 1e-9)
