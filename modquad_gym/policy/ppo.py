@@ -135,10 +135,11 @@ class PPOSolver:
         deadline: float,
     ) -> tuple[Structure | None, int]:
         """The deterministic rollouts on ``problem``'s task from a first module of type
-        ``start``, one per fallback of :attr:`fallbacks`, as one tree: a branch leaves where its fallback docks elsewhere, from
-        the shared state, and stops once it can no longer beat ``best`` (the smallest verified
-        structure so far); none leaves where the first episode ends with at most
-        :attr:`extra_from` modules. Returns the new best and the oracle calls made."""
+        ``start``, one per fallback of :attr:`fallbacks`, as one tree: a branch leaves where its
+        fallback docks elsewhere, from the shared state, and stops once it can no longer beat
+        ``best`` (the smallest verified structure so far); none leaves where the first episode
+        ends with at most :attr:`extra_from` modules. Returns the new best and the oracle calls
+        made."""
         policy, env = self.policy, self.policy.env
         calls = 0
         branches: list[tuple[Any, tuple[float, ...], int]] = [(None, self.fallbacks, -1)]
@@ -178,7 +179,9 @@ class PPOSolver:
                 break  # the first episode ends small: the others would not pay for their time
         return best, calls
 
-    def better(self, problem: SearchProblem, info: dict, best: Structure | None) -> Structure | None:
+    def better(
+        self, problem: SearchProblem, info: dict, best: Structure | None
+    ) -> Structure | None:
         """The environment's structure if its episode (``info``) succeeded within ``n_max``
         modules, beats ``best`` and verifies (``problem``'s decision: with its fault, after
         every failure too), else ``best``."""
