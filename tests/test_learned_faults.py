@@ -61,3 +61,19 @@ def test_the_cli_designs_for_a_detection_delay_with_a_learned_method(capsys):
     assert [list(c) for c in python.structure.cells] == record["cells"]
     worst = mq.fault_margin(python.structure, task.rotor_wrenches(python.structure), task.f_max)
     assert np.all(worst >= asked - 1e-9)
+
+
+def test_solvers_sharing_a_policy_each_keep_their_own_fault():
+    from modquad_gym.policy.guided import GuidedSolver
+    from modquad_gym.policy.ppo import PPOSolver
+
+    task = load_task(TASK)
+    policy = Policy(n_max=7)
+    intact, tolerant = PPOSolver(policy), PPOSolver(policy, fault="rotor")
+    guided = GuidedSolver(policy, fault="module")
+    for _ in range(2):  # in turn: none sees the fault the other left in the environment
+        assert intact.solve(task).fault is None and intact.solve(task).n_modules == 3
+        assert tolerant.solve(task).fault == "rotor" and tolerant.solve(task).n_modules >= 4
+        assert guided.solve(task).fault == "module"
+    with pytest.raises(ValueError, match="applies with a fault"):
+        PPOSolver(policy, fault_margin=0.1)

@@ -82,7 +82,8 @@ class GuidedSolver:
         fault_margin: float = 0.0,
     ) -> None:
         self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config, top_k)
-        self.policy.use_fault(fault, fault_margin)
+        self.fault = (fault, fault_margin)
+        self.policy.use_fault(*self.fault)
         self.fallback = fallback_of(self.policy, fallback)
         self.n_max = self.policy.n_max
         self.dive = bool(dive)
@@ -95,6 +96,7 @@ class GuidedSolver:
         t0 = time.perf_counter()
         task = as_task(task)
         policy = self.policy
+        policy.use_fault(*self.fault)  # a Policy shared with another solver may differ
         env = policy.env
         problem = policy.problem(task)
         bound = bound_levels(problem)

@@ -23,6 +23,7 @@ from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.features import lookahead_width
 from modquad_gym.envs.assembly.lookahead import flagged
 from modquad_gym.geometry.structure import Structure
+from modquad_gym.oracle.faults import check_fault_margin
 from modquad_gym.policy.inference import Actor, inference_model, type_features
 from modquad_gym.policy.models import (
     EXTRA_FALLBACKS,
@@ -198,6 +199,7 @@ class Policy:
         every task wrench survives any failure of that kind with ``fault_margin`` to spare, and
         the shares the policy reads count only the wrenches that survive. The observation's
         shape is unchanged, so any model acts (zero-shot: none was trained with failures)."""
+        fault_margin = check_fault_margin(fault_margin, fault)  # none without a fault
         kwargs = {k: v for k, v in self.env_kwargs.items() if k not in ("fault", "fault_margin")}
         if fault is not None:
             kwargs.update(fault=fault, fault_margin=fault_margin)

@@ -82,7 +82,8 @@ class PPOSolver:
         if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
             raise ValueError(f"samples must be an integer >= 0, got {samples!r}")
         self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config, top_k)
-        self.policy.use_fault(fault, fault_margin)
+        self.fault = (fault, fault_margin)
+        self.policy.use_fault(*self.fault)
         self.n_max = self.policy.n_max
         self.seed = int(seed)
         self.samples = int(samples)
@@ -101,6 +102,7 @@ class PPOSolver:
         t0 = time.perf_counter()
         task = as_task(task)
         policy = self.policy
+        policy.use_fault(*self.fault)  # a Policy shared with another solver may differ
         problem = policy.problem(task)
         starts = policy.starts
         best: Structure | None = None

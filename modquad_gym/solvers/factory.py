@@ -102,18 +102,19 @@ class LearnedSolver(MethodSolver):
             if self.kind == "ppo-guided":
                 from modquad_gym.policy.guided import GuidedSolver
 
-                solver: Any = GuidedSolver(model=model, n_max=n_max, **options)
+                solver: Any = GuidedSolver(model=model, n_max=n_max, fault=fault[0],
+                                           fault_margin=fault[1], **options)  # fmt: skip
             else:
                 from modquad_gym.policy.ppo import PPOSolver
 
-                solver = PPOSolver(model=model, n_max=n_max, **options)
+                solver = PPOSolver(model=model, n_max=n_max, fault=fault[0],
+                                   fault_margin=fault[1], **options)  # fmt: skip
             if solver.n_max != n_max:
                 raise ValueError(
                     f"the loaded policy acts with n_max={solver.n_max}, not n_max={n_max} (give "
                     "a model path, or a problem of that budget)"
                 )
             solver.policy.use_palette(palette)
-            solver.policy.use_fault(*fault)
             self._solvers[key] = solver
         return self._solvers[key]
 
