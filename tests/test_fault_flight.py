@@ -150,9 +150,9 @@ def test_cli_validate_fault_json_pictures_and_intact_minimum(tmp_path, capsys, m
 
 def test_cli_fault_refusals_before_work(tmp_path, capsys):
     out = tmp_path / "out"
-    assert main(_argv(tmp_path, "--fault", "rotor", "--method", "ppo")) == 2
+    assert main(_argv(tmp_path, "--fault", "rotor", "--method", "milp")) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "fault='rotor'" in err and "ppo" in err
+    assert err.count("\n") == 1 and "fault='rotor'" in err and "milp" in err
     assert not out.exists()
     assert main(_argv(tmp_path, "--detection-delay", "0.1")) == 2
     err = capsys.readouterr().err

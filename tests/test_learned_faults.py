@@ -77,3 +77,17 @@ def test_solvers_sharing_a_policy_each_keep_their_own_fault():
         assert guided.solve(task).fault == "module"
     with pytest.raises(ValueError, match="applies with a fault"):
         PPOSolver(policy, fault_margin=0.1)
+
+
+def test_a_palette_answer_names_its_types_and_survives_with_them():
+    from modquad_gym.geometry.module import palette
+
+    task = load_task(TASK)
+    r = mq.make_solver("ppo", n_max=7, modules=palette("t45,t45m,flat"), fault="rotor").solve(task)
+    record = r.to_dict()
+    assert record["modules"] == [m.name for m in r.structure.modules]
+    assert len(record["modules"]) == r.n_modules and record["fault"] == "rotor"
+    W = task.rotor_wrenches(r.structure)
+    assert mq.tolerates(r.structure, W, task.f_max, fault="rotor").all()
+    with pytest.raises(ValueError, match=r"modules\[0\] must be a ModuleType, got str"):
+        mq.make_solver("ppo", modules=["t45", "flat"])  # as a search's problem refuses them

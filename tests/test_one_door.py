@@ -48,6 +48,7 @@ CASES = [
     ("ppo", dict(n_max=7, time_limit=60.0, extra_fallbacks=1.0)),  # and greedy's dockings
     ("ppo", dict(n_max=7, time_limit=60.0, fault="rotor")),  # zero-shot: designs for it
     ("ppo-guided", dict(n_max=7, time_limit=60.0, fault="module")),
+    ("ppo", dict(n_max=7, time_limit=60.0, modules="t45,t45m,flat", fault="rotor")),
 ]
 FLAGS = {"n_max", "fault", "modules", "time_limit", "seed"}
 """Options with a flag of their own; the others go through ``--option KEY=VALUE``."""

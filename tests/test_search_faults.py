@@ -130,9 +130,9 @@ def test_cli_fault_json_and_refusals(capsys):
     assert code == 0 and out["fault"] == "rotor" and out["n_modules"] == 4
     assert out["certified"] and out["worst_fault_margin"] >= 0
     code = cli.main(["solve", "--task", "examples/screwdriver.json", "--fault", "rotor",
-                     "--method", "ppo"])  # fmt: skip
+                     "--method", "milp"])  # fmt: skip
     err = capsys.readouterr().err
-    assert code == 2 and err.count("\n") == 1 and "fault='rotor'" in err and "ppo" in err
+    assert code == 2 and err.count("\n") == 1 and "fault='rotor'" in err and "milp" in err
     code = cli.main(["solve", "--task", "example:screwdriver", "--n-max", "2", "--fault",
                      "module", "--json"])  # fmt: skip
     out = json.loads(capsys.readouterr().out)

@@ -63,8 +63,9 @@ class GuidedSolver:
             the dives too (which otherwise finish, whatever the budget).
         top_k: as for :class:`~.policy.Policy` (the children decided exactly per step;
             default :data:`~.models.TOP_K`), unless ``model`` is a Policy.
-        fault, fault_margin: design for that failure (:meth:`~.policy.Policy.use_fault`):
-            every answer is verified to survive it, and the bound that certifies is its own.
+        fault: design for that failure (None: none; :meth:`~.policy.Policy.use_fault`):
+            every answer is verified to survive it and the bound that certifies is its own.
+        fault_margin: the worst margin each task wrench must keep after the failure.
     """
 
     def __init__(

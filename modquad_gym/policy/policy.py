@@ -345,7 +345,7 @@ def search_result(
     lower_bound: int | None = None,
 ) -> SearchResult:
     """The search record of a learned solver ``name`` that started at ``t0`` on ``problem``
-    (:meth:`Policy.problem`: its budget, task kind and fault) and kept ``best`` (with the
+    (:meth:`Policy.problem`: its budget, palette, task kind and fault) and kept ``best`` (with the
     proved ``lower_bound`` on the module count, when the solver knows one; ``certified`` None:
     derived from it)."""
     return SearchResult(
@@ -360,6 +360,7 @@ def search_result(
         proof=proof,
         lower_bound=lower_bound,
         kind=problem.kind,
+        palette=tuple(m.name for m in problem.palette) if problem.typed else (),
         fault=problem.fault,
         fault_margin=problem.fault_margin,
     )

@@ -61,8 +61,9 @@ class PPOSolver:
             empty: none). None (default): :data:`~.models.EXTRA_FALLBACKS` where the first
             ends with more than :data:`~.models.EXTRA_FROM` modules, at budgets of
             :data:`~.models.SCALE_FROM` and more with a model that reads greedy's choice.
-        fault, fault_margin: design for that failure (:meth:`~.policy.Policy.use_fault`):
+        fault: design for that failure (None: none; :meth:`~.policy.Policy.use_fault`):
             every answer is verified to survive it.
+        fault_margin: the worst margin each task wrench must keep after the failure.
     """
 
     def __init__(

@@ -31,7 +31,7 @@ from modquad_gym.core.extras import require
 from modquad_gym.core.options import DefaultsHelpFormatter
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv
 from modquad_gym.geometry.module import palette
-from modquad_gym.methods import method_of
+from modquad_gym.methods import REGISTRY, method_of
 from modquad_gym.scoring.agents_figures import plot_bars, plot_learning_curve, plot_structures
 from modquad_gym.scoring.agents_report import write_report
 from modquad_gym.scoring.options import (
@@ -159,11 +159,15 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
     if tier.fault:  # only the methods that guarantee survival are scored there
         default = tuple(m for m in default if honours_fault(m))
     methods = list(dict.fromkeys([*(args.methods or default), *args.solver]))
+    for m in methods:  # a bad name fails now, as itself, not in a worker after the work began
+        if ":" not in m:
+            method_of(m)
     if tier.fault and (refused := [m for m in methods if not honours_fault(m)]):
+        honoured = [m for m in REGISTRY if honours_fault(m)]
         raise ValueError(
             f"--tier {tier.name}: {', '.join(refused)} cannot guarantee an answer that survives "
-            f"a {tier.fault} failure; score the searches that take fault= "
-            f"({', '.join(m for m in SEARCH_METHODS if honours_fault(m))})"
+            f"a {tier.fault} failure; score the methods that take fault= "
+            f"({', '.join(honoured)})"
         )
     if args.samples is not None:
         methods = [m for m in methods if not m.startswith("ppo-k")]
@@ -171,9 +175,6 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
             methods.append(f"ppo-k{args.samples}")
     if any(m.startswith("ppo") for m in methods) and not args.model.is_file():
         raise ValueError(f"PPO model file {args.model} does not exist (train: python train.py)")
-    for m in methods:  # a bad name fails now, not in a worker after the work has started
-        if ":" not in m:
-            method_of(m)
     types = palette(tier.modules) if tier.modules else None
     for spec in (m for m in methods if ":" in m):  # likewise an outside agent
         load_solver(spec, n_max=args.n_max or tier.n_max, tier=tier.name, modules=types)

@@ -9,7 +9,7 @@ from typing import Any, Protocol, runtime_checkable
 from modquad_gym.methods import REGISTRY, Method, Options, method_of, refused_fault
 from modquad_gym.policy.models import default_model, shipped_model
 from modquad_gym.search import SearchResult
-from modquad_gym.search.problem import SearchProblem, as_problem
+from modquad_gym.search.problem import SearchProblem, as_problem, check_palette
 from modquad_gym.search.prune import pruned
 from modquad_gym.solvers.outside import load_solver
 
@@ -82,7 +82,14 @@ class LearnedSolver(MethodSolver):
         super().__init__(method, settings, defaults)
         self.kind = method.name
         self._solvers: dict[tuple, Any] = {}
-        self.inner(self.defaults.get("n_max", 7), self.defaults.get("modules"))  # load now
+        modules = self.defaults.get("modules")  # checked as a problem checks it: one message
+        self._default = (
+            self.defaults.get("n_max", 7),
+            None if modules is None else check_palette(None, modules),
+            None,
+            (self.defaults.get("fault"), self.defaults.get("fault_margin") or 0.0),
+        )
+        self.inner(*self._default)  # load now
 
     def inner(
         self, n_max: int, palette: list | None, tier: str | None = None, fault: tuple = (None, 0.0)
@@ -123,8 +130,7 @@ class LearnedSolver(MethodSolver):
         ``budget``, ...)."""
         if name.startswith("_") or name in ("defaults", "settings"):
             raise AttributeError(name)
-        return getattr(self.inner(self.defaults.get("n_max", 7), self.defaults.get("modules")),
-                       name)  # fmt: skip
+        return getattr(self.inner(*self._default), name)
 
     def solve(self, task: Any) -> SearchResult:
         problem = self.problem(task)
