@@ -259,6 +259,24 @@ def test_a_fault_no_certificate_covers_is_refused_before_the_search(fault, tmp_p
         certificates.check_fault(fault)
 
 
+def test_a_margin_after_the_failure_is_refused_before_the_search(tmp_path, capsys):
+    """The format proves survival, not a margin: a certificate of a margin-0 claim beside an
+    answer asked to keep one would prove less than the answer claims."""
+    from modquad_gym.cli import main
+
+    out = tmp_path / "proof.json"
+    for extra in (["--fault-margin", "0.2"], ["--detection-delay", "0.03"]):
+        argv = ["solve", "--task", "example:screwdriver", "--fault", "rotor", *extra,
+                "--certificate", str(out)]  # fmt: skip
+        assert main(argv) == 2
+        captured = capsys.readouterr()
+        assert captured.err.count("\n") == 1 and "prove survival without a margin" in captured.err
+        assert "modules" not in captured.out and not out.exists()
+    with pytest.raises(certificates.CertificateError, match="without a margin"):
+        certificates.check_fault("rotor", 0.2)
+    certificates.check_fault("rotor", 0.0)  # no margin: covered
+
+
 RESULTS = ROOT / "results" / "certificates"
 
 

@@ -224,3 +224,16 @@ def test_the_evaluator_decides_the_problem_with_its_fault():
     )
     tolerant = mq.exhaustive_search(problem).structure
     assert ev.evaluate(tolerant) and np.all(problem.decide(tolerant))
+
+
+def test_an_option_that_contradicts_the_variant_name_is_refused_alike(capsys):
+    for method, option, value in (("ppo-k8", "samples", 2), ("ppo-guided-nodive", "dive", True),
+                                  ("ppo-guided-b16", "budget", 32)):  # fmt: skip
+        with pytest.raises(ValueError) as err:
+            make_solver(method, **{option: value})
+        refusal = str(err.value)
+        assert f"method {method!r} sets {option}=" in refusal
+        argv = ["solve", "--task", TASK, "--method", method, "--option", f"{option}={value}"]
+        assert main(argv) == 2
+        assert capsys.readouterr().err.strip() == f"modquad: error: {refusal}"
+    assert make_solver("ppo-k8", samples=8).name == "ppo-k8"  # saying it again is no clash

@@ -187,7 +187,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if args.export is not None:
         check_export(args.export, len(paths), args.force)
     if args.certificate is not None:
-        check_certificate(args.certificate, len(paths), args.force, args.fault)
+        check_certificate(args.certificate, len(paths), args.force, args.fault,
+                          fault_margin_of(args) or 0.0)  # fmt: skip
     engine = Engine(args.workers, args.ray_address, local_default=1, option="--workers")
     if len(paths) == 1 or not engine.use_ray:
         return solve_here(args, paths, engine)
@@ -278,14 +279,16 @@ def export_result(args: argparse.Namespace, task, result) -> None:
         print(f"  wrote {out}")
 
 
-def check_certificate(out: str, n_tasks: int, force: bool, fault: str | None) -> None:
-    """``--certificate`` is checked before any search: one task, a fault model it covers,
-    .json(.gz), a writable file."""
+def check_certificate(
+    out: str, n_tasks: int, force: bool, fault: str | None, fault_margin: float = 0.0
+) -> None:
+    """``--certificate`` is checked before any search: one task, a fault model it covers
+    (no margin after the failure), .json(.gz), a writable file."""
     from modquad_gym.core.outputs import check_output_file
     from modquad_gym.search.certificates import CertificateError, check_fault
 
     try:
-        check_fault(fault)
+        check_fault(fault, fault_margin)
     except CertificateError as e:
         raise ValueError(f"--certificate: {e}") from None
     if n_tasks != 1:

@@ -36,10 +36,17 @@ class CertificateError(ValueError):
     """The result cannot be certified (not certified, or a level too large to prove)."""
 
 
-def check_fault(fault: str | None) -> None:
-    """Refuse a fault model the certificate format does not cover (before any search)."""
+def check_fault(fault: str | None, fault_margin: float = 0.0) -> None:
+    """Refuse a fault model the certificate format does not cover (before any search): a kind
+    other than rotor or module, or a margin required after the failure (the format proves
+    survival, not a margin, so its claim would be weaker than the answer's)."""
     if fault not in (None, "rotor", "module"):
         raise CertificateError(f"certificates cover fault rotor or module, not {fault!r}")
+    if fault_margin:
+        raise CertificateError(
+            f"certificates prove survival without a margin, not fault_margin={fault_margin:g} "
+            "(drop --fault-margin and --detection-delay to certify)"
+        )
 
 
 def make(result, problem, progress: bool = False, bounds: bool = True) -> dict:
@@ -48,7 +55,7 @@ def make(result, problem, progress: bool = False, bounds: bool = True) -> dict:
     ``bounds=False`` proves every level structure by structure (to measure what bounds save)."""
     if not result.certified:
         raise CertificateError("only a certified answer has a certificate (this one is not)")
-    check_fault(problem.fault)
+    check_fault(problem.fault, problem.fault_margin)
     T = pc.Types([type_dict(m) for m in problem.palette])
     model = problem.model
     task = tuple(np.asarray(a, float) for a in (model.base, model.per_mass, model.per_inertia))

@@ -176,6 +176,12 @@ def make_solver(
     for key, value in (("model", model), ("seed", seed), ("samples", samples)):
         if value is not None:
             given[key] = value
+    for key, value in variant.items():  # its name says what it does: an option cannot unsay it
+        if given[key] != value:
+            raise ValueError(
+                f"method {method!r} sets {key}={value!r}; {key}={given[key]!r} contradicts it "
+                f"(give method {entry.name!r} with {key}={given[key]!r})"
+            )
     settings = entry.settings(**given)
     if fault is not None and not entry.fault:
         raise ValueError(refused_fault(entry.name, fault))
