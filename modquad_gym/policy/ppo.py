@@ -118,7 +118,8 @@ class PPOSolver:
             stop_at = best.n_modules if best is not None else policy.env.n_max + 2
             if stop_at <= 1 or time.perf_counter() > deadline:
                 break
-            info = policy.rollout(task, rng, seen, stop_at, starts[i % len(starts)], deadline)
+            info = policy.rollout(problem.task, rng, seen, stop_at, starts[i % len(starts)],
+                                  deadline)  # fmt: skip
             oracle_calls += int(info["oracle_calls"])
             best = self.better(problem, info, best)
         bound = bound_levels(problem)
