@@ -235,6 +235,12 @@ class TrainConfig:
 
     def __post_init__(self) -> None:
         tier = get_tier(self.tier)
+        if tier.fault:  # its env, demonstrations and labels would ignore the failure
+            raise ValueError(
+                f"--tier {self.tier}: no recipe trains with failures yet; its learned methods "
+                f"design for the failure zero-shot with the {tier.model_tier} tier's model "
+                "(docs/learned-designer.md)"
+            )
         defaults = {
             "timesteps": DEFAULT_TIMESTEPS,
             "demo_tasks": IMITATION["demo_tasks"],
