@@ -171,8 +171,7 @@ class GuidedSolver:
             proof = "lower bound reached"
         else:
             proof = f"exact bounds rule out every level up to {self.n_max}"
-        n_evaluated = len(evaluated)
-        return search_result(self.name, problem, best, n_evaluated, oracle_calls, t0,
+        return search_result(self.name, problem, best, len(evaluated), oracle_calls, t0,
                              certified, proof, bound)  # fmt: skip
 
     def budget_for(self, n: int, state_bytes: int = 0) -> int:
