@@ -235,12 +235,6 @@ class TrainConfig:
 
     def __post_init__(self) -> None:
         tier = get_tier(self.tier)
-        if tier.fault:  # its env, demonstrations and labels would ignore the failure
-            raise ValueError(
-                f"--tier {self.tier}: no recipe trains with failures yet; its learned methods "
-                f"design for the failure zero-shot with the {tier.model_tier} tier's model "
-                "(docs/learned-designer.md)"
-            )
         defaults = {
             "timesteps": DEFAULT_TIMESTEPS,
             "demo_tasks": IMITATION["demo_tasks"],
@@ -297,9 +291,10 @@ class TrainConfig:
     def eval_env_kwargs(self) -> dict:
         """Keywords of the validation environment besides its tasks and n_max (episodes start
         with the first type, as :class:`~.ppo.PPOSolver` does first)."""
-        modules = get_tier(self.tier).modules
+        tier = get_tier(self.tier)
         lookahead = {"lookahead": LOOKAHEAD} if self.architecture == "candidates" else {}
-        return {**({"modules": modules} if modules else {}), **lookahead, **self.env_kwargs}
+        return {**({"modules": tier.modules} if tier.modules else {}), **lookahead,
+                **({"fault": tier.fault} if tier.fault else {}), **self.env_kwargs}  # fmt: skip
 
     @property
     def validation_source(self) -> str:

@@ -52,6 +52,7 @@ def completion_targets(
         return []
     palette = env.palette
     kwargs = {"modules": list(palette)} if palette is not None else {}
+    kwargs |= {"fault": env.fault} if env.fault is not None else {}
     built = env.structure
     search = exhaustive_search if by == "certified" else greedy_search
     r = search(task, n_max=n_max, start=built, **kwargs)

@@ -28,6 +28,7 @@ def missed_tasks(
     """The tasks on which ``policy``'s deterministic episode in ``env`` (an assembly env) is not
     optimal (:func:`~agents.validation.episode_optimal` against the certified search)."""
     kwargs = {"modules": list(modules)} if modules else {}
+    kwargs |= {"fault": env.fault} if getattr(env, "fault", None) is not None else {}
     missed = []
     iterator = tasks
     if progress:

@@ -104,14 +104,20 @@ thousands of optima, as on the large tier)."""
 
 
 def expert_targets(
-    task: Any, n_max: int, expert: str = "all", palette: Sequence[Any] | None = None
+    task: Any,
+    n_max: int,
+    expert: str = "all",
+    palette: Sequence[Any] | None = None,
+    fault: str | None = None,
 ) -> tuple[int | None, list[Key]]:
     """(n*, optimal structure keys) that the ``expert`` steers towards (see :data:`EXPERTS`);
-    typed keys with a ``palette`` (several module types). A callable ``expert(task, n_max,
-    palette)`` gives them itself (expert iteration: the best structure found, not certified)."""
+    typed keys with a ``palette`` (several module types); with a ``fault``, the optima among the
+    structures that survive it. A callable ``expert(task, n_max, palette)`` gives them itself
+    (expert iteration: the best structure found, not certified; no fault)."""
     if callable(expert):
         return expert(task, n_max, palette)
     kwargs = {"modules": list(palette)} if palette is not None else {}
+    kwargs |= {"fault": fault} if fault is not None else {}
     if expert == "all":
         return optimal_structures(task, n_max=n_max, **kwargs)
     if expert == "one":
@@ -147,7 +153,7 @@ def expert_episode(
     :func:`placements` gives them, first observation), or None for a task with no decision to
     learn (no structure of up to ``n_max`` modules, or one module already satisfies it)."""
     palette = getattr(env, "palette", None)
-    n_star, keys = expert_targets(task, n_max, expert, palette)
+    n_star, keys = expert_targets(task, n_max, expert, palette, getattr(env, "fault", None))
     if n_star is None or n_star == 1:
         return None
     options, start = expert_start(task, keys, palette, rng)

@@ -146,7 +146,7 @@ def _validation(config: TrainConfig, modules: Any) -> tuple[list, Any]:
     from modquad_gym.scoring.suites import CyclingTasks
 
     val = certified_validation(config.n_eval, config.validation_source, config.max_modules,
-                               modules)  # fmt: skip
+                               modules, config.eval_env_kwargs.get("fault"))  # fmt: skip
     val_tasks = CyclingTasks(val, name="validation")
     eval_env = DummyVecEnv(
         [lambda: make_env(tasks=val_tasks, n_max=config.max_modules, **config.eval_env_kwargs)]

@@ -23,12 +23,15 @@ from modquad_gym.core.extras import import_optional
 from modquad_gym.scoring.fine_tuning import best_index
 
 
-def certified_validation(n: int, source: str, n_max: int, modules: Any = None) -> list:
+def certified_validation(
+    n: int, source: str, n_max: int, modules: Any = None, fault: str | None = None
+) -> list:
     """The first ``n`` validation tasks of ``source`` with their certified optimum within
-    ``n_max`` modules in ``meta["optimum"]`` (None: no structure of up to ``n_max`` modules)."""
+    ``n_max`` modules in ``meta["optimum"]`` (None: no structure of up to ``n_max`` modules;
+    with ``fault``, among the structures that survive it)."""
     from modquad_gym.scoring.suites import validation_tasks, with_optimum
 
-    return [with_optimum(t, n_max, modules) for t in validation_tasks(n, source)]
+    return [with_optimum(t, n_max, modules, fault) for t in validation_tasks(n, source)]
 
 
 def episode_optimal(info: dict, optimum: int | None) -> bool:

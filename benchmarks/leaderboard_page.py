@@ -181,8 +181,8 @@ def page_intro(entries: list[Entry], tiers: list[str], image: str) -> list[str]:
         "## At a glance",
         "",
         f"Optimal share per tier (in brackets: within {BUDGET:g} s per task, the rank's "
-        "measure); learned methods: mean over five seeds (on the fault tier, where none was "
-        "trained with failures, the shipped model's one run):",
+        "measure); learned methods: mean over five seeds (on the fault tier, the shipped model's "
+        "one run):",
         "",
         "<!-- --8<-- [start:glance] -->",
         *glance(entries, tiers),
@@ -274,10 +274,10 @@ def how_made(r: str) -> list[str]:
         f"(`{COMMAND} --rescore-searches --force`). `random` and `genetic` are seeded (seed 0).",
         "- **The fault tier**: only the methods that guarantee an answer surviving the failure "
         "are scored, and an answer counts only when it survives; milp refuses `fault=` (its row "
-        "says so in place of numbers). The learned methods act with the `current` tier's model, "
-        "trained without failures (zero-shot: their environment ends an episode only once every "
-        "wrench survives, and each answer is verified); no five-seed report exists there, so "
-        "their rows are the shipped model's one run. An outside agent is handed the problem "
+        "says so in place of numbers). The learned methods act with the tier's model, trained "
+        "with the failure (their environment ends an episode only once every wrench survives, "
+        "and each answer is verified); no five-seed report exists there, so their rows are the "
+        "shipped model's one run. An outside agent is handed the problem "
         "with its fault and an evaluator that decides survival.",
         f"- **Anytime curves**: from the same per-task rows; the anytime search's history "
         f"(`{r}{ANYTIME}`, `{COMMAND} --anytime-history --force`) gives when its best structure so "
@@ -331,9 +331,9 @@ def how_to_add(prefix: str) -> list[str]:
 
 def _models(tier) -> str:
     """Where the tier's learned methods come from, in a sentence (or nothing)."""
-    if tier.model_tier and tier.fault:
-        return (f" The learned methods are the `{tier.model_tier}` tier's shipped model, trained "
-                "without failures, acting here zero-shot (one run).")  # fmt: skip
+    if tier.fault:
+        return (" The learned methods are the tier's shipped model, trained with the failure "
+                "(one training run).")  # fmt: skip
     if tier.model_tier:
         return (f" The learned methods are the `{tier.model_tier}` tier's models (its recipe's "
                 "five training seeds), acting here zero-shot.")  # fmt: skip

@@ -91,3 +91,17 @@ def test_a_palette_answer_names_its_types_and_survives_with_them():
     assert mq.tolerates(r.structure, W, task.f_max, fault="rotor").all()
     with pytest.raises(ValueError, match=r"modules\[0\] must be a ModuleType, got str"):
         mq.make_solver("ppo", modules=["t45", "flat"])  # as a search's problem refuses them
+
+
+def test_a_rotor_failure_on_one_type_below_16_modules_takes_the_fault_tier_model():
+    from modquad_gym.geometry.module import palette
+    from modquad_gym.policy.models import SCALE_MODEL, default_model, shipped_model
+
+    def path(**kwargs):
+        return mq.make_solver("ppo", **kwargs).policy.model_path
+
+    assert path(n_max=10, fault="rotor") == str(shipped_model("fault"))  # trained with it
+    assert path(n_max=10) == path(n_max=10, fault="module") == str(default_model(10))
+    assert path(n_max=16, fault="rotor") == str(SCALE_MODEL)  # zero-shot past its sizes
+    mixed = path(n_max=7, fault="rotor", modules=palette("t45,t45m,flat"))
+    assert mixed == str(default_model(7, palette("t45,t45m,flat")))

@@ -54,7 +54,6 @@ CASES = [
     (["--dagger-rounds", "-1"], "--dagger-rounds"),
     (["--dagger-tasks", "0"], "--dagger-tasks"),
     (["--seeds", "1", "2", "--seed-workers", "0"], "--seed-workers"),
-    (["--tier", "fault"], "no recipe trains with failures"),  # it would ignore the failure
 ]
 
 

@@ -14,6 +14,7 @@ import pytest
 
 from agents.config import TrainConfig
 from agents.training import train
+from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.policy.inference import exported
 from modquad_gym.scoring.tiers import TIERS
 from modquad_gym.tasks import PlantedTasks, save_suite
@@ -56,6 +57,28 @@ def test_a_short_run_twice_gives_the_same_parameters(tmp_path, suite):
     assert np.array_equal(ea["results"], eb["results"]) and ea["timesteps"][0] == 0
     config = json.loads((tmp_path / "a" / "config.json").read_text())
     assert config["tier"] == "current" and config["env_id"] == "ModQuadAssembly-v0"
+
+
+def test_the_fault_tier_trains_for_its_failure(tmp_path):
+    """Its environment, its expert's optima, the learner's completions and its validation
+    optima are all the failure's: none is a nominal answer."""
+    from agents.dagger import completion_targets
+    from agents.imitation import expert_targets
+    from modquad_gym.search import optimal_structures
+    from modquad_gym.tasks import load_task
+
+    config = TrainConfig(out=tmp_path, tier="fault")
+    assert config.env_kwargs_full["fault"] == "rotor" == config.eval_env_kwargs["fault"]
+    task = load_task("example:screwdriver")  # optimum 3; 4 after any rotor failure
+    assert expert_targets(task, 6, "all", None, "rotor") == optimal_structures(
+        task, n_max=6, fault="rotor"
+    )
+    assert expert_targets(task, 6, "all")[0] == 3 and expert_targets(task, 6, "all", None,
+                                                                      "rotor")[0] == 4  # fmt: skip
+    env = ModQuadAssemblyEnv(tasks=[task], n_max=6, fault="rotor")
+    env.reset(seed=0)
+    (target,) = completion_targets(env, task, 6)
+    assert len(target) == 4  # a minimum completion that survives, not the intact 3
 
 
 def test_config_takes_the_tier_defaults(tmp_path):

@@ -14,8 +14,9 @@
 * ``fault``: ``ModQuadAssemblyFaultTolerant-v0`` (one type, n_max 10, ``fault="rotor"``) on the
   default (``mixed``) task source: an answer counts only when it still exerts every task wrench
   after any single rotor failure; the optimum is the smallest such structure. Only the methods
-  that honour ``fault=`` are scored (:func:`honours_fault`: milp refuses it); the learned
-  methods act with the ``current`` tier's model, trained without failures (zero-shot).
+  that honour ``fault=`` are scored (:func:`honours_fault`: milp refuses it); its model is
+  trained with the failure (``python train.py --tier fault``: the expert's optima, the
+  learner's labels, the environment and the validation optima all survive it).
 
 Suites are package data (``modquad_gym/data/suites``); ``python -m modquad_gym.scoring.tiers
 large`` (or ``mixed``, ``dynamic``, ``fault``) rewrites a tier's suite from its fixed seeds, each
@@ -121,8 +122,7 @@ TIERS = {
                     goals={"ppo-guided": {"success": 0.98, "optimal": 0.95},
                            "ppo": {"optimal": "greedy"}}),
     "fault": Tier("fault", "ModQuadAssemblyFaultTolerant-v0", 10, ("fault_rotor",),
-                  source="mixed", seed0=8_000_000, n_tasks=60, fault="rotor",
-                  model_tier="current"),
+                  source="mixed", seed0=8_000_000, n_tasks=60, fault="rotor"),
 }  # fmt: skip
 """The tiers by name."""
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import Any, Protocol, runtime_checkable
 
 from modquad_gym.methods import REGISTRY, Method, Options, method_of, refused_fault
-from modquad_gym.policy.models import default_model, shipped_model
+from modquad_gym.policy.models import SCALE_FROM, default_model, shipped_model
 from modquad_gym.search import SearchResult
 from modquad_gym.search.problem import SearchProblem, as_problem, check_palette
 from modquad_gym.search.prune import pruned
@@ -75,8 +75,9 @@ class LearnedSolver(MethodSolver):
     """A learned method (``ppo`` or ``ppo-guided``): the policy acts on the problem's budget
     and palette, with the shipped model of that budget and palette unless ``model`` is given
     (:func:`~modquad_gym.policy.default_model`). With a problem's ``fault=`` it designs for that
-    failure zero-shot (:meth:`~modquad_gym.policy.Policy.use_fault`) and verifies that every
-    answer survives it."""
+    failure (:meth:`~modquad_gym.policy.Policy.use_fault`; one type, a rotor failure and a budget
+    below :data:`~modquad_gym.policy.models.SCALE_FROM`: with the fault tier's model, trained
+    with it; else zero-shot) and verifies that every answer survives it."""
 
     def __init__(self, method: Method, settings: Options, defaults: dict) -> None:
         super().__init__(method, settings, defaults)
@@ -97,7 +98,7 @@ class LearnedSolver(MethodSolver):
         """The PPO or guided solver of this budget, palette (None: one type) and ``fault``
         (the failure and the margin required after it), made once; without ``model``, the
         shipped model of the task's tier (``tier``: a dynamic task of one type acts with the
-        model trained on motions) or of the budget and palette."""
+        model trained on motions), of a rotor failure, or of the budget and palette."""
         key = (n_max, tuple(m.digest for m in palette or ()), tier, fault)
         if key not in self._solvers:
             options = self.settings.as_dict()
@@ -105,6 +106,8 @@ class LearnedSolver(MethodSolver):
             model = options.pop("model")
             if model is None and tier is not None and not palette:
                 model = shipped_model(tier)
+            elif model is None and fault[0] == "rotor" and not palette and n_max < SCALE_FROM:
+                model = shipped_model("fault")  # the fault tier's: trained with that failure
             model = default_model(n_max, palette) if model is None else model
             if self.kind == "ppo-guided":
                 from modquad_gym.policy.guided import GuidedSolver
