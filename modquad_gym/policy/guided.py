@@ -231,8 +231,9 @@ def guided_producer(problem, time_limit: float, seed: int | None = 0) -> SearchR
     """The shipped policy's guided search on a search problem, for at most ``time_limit``
     seconds, with :data:`~.models.GUIDED_BUDGET` structures at any size (an incumbent for the
     anytime search, whose own time goes to its exact levels and local moves); None where the
-    shipped policy is not trained for the problem: a fault (it designs for one only zero-shot,
-    as the ``ppo`` methods do), a dynamic task, or one module type other than the T-module."""
+    default model is not trained for the problem: a fault (the learned methods take it
+    themselves, with the fault tier's model), a dynamic task, or one module type other than the
+    T-module."""
     from modquad_gym.search.problem import DEFAULT_MODULE
 
     task = problem.task

@@ -34,7 +34,6 @@ from modquad_gym.policy.models import (
     read_model,
 )
 from modquad_gym.search import SearchResult
-from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.problem import SearchProblem
 from modquad_gym.tasks import TaskRequirement
 
@@ -198,7 +197,7 @@ class Policy:
         """Design for ``fault`` (None: every rotor works): an episode then succeeds only when
         every task wrench survives any failure of that kind with ``fault_margin`` to spare, and
         the shares the policy reads count only the wrenches that survive. The observation's
-        shape is unchanged, so any model acts (zero-shot: none was trained with failures)."""
+        shape is unchanged, so any model acts (zero-shot where it was trained without it)."""
         fault_margin = check_fault_margin(fault_margin, fault)  # none without a fault
         kwargs = {k: v for k, v in self.env_kwargs.items() if k not in ("fault", "fault_margin")}
         if fault is not None:
@@ -212,12 +211,6 @@ class Policy:
         palette = {"modules": self.palette} if self.typed else {"module": self.env.module}
         return SearchProblem.build(task, self.n_max, **palette, fault=self.env.fault,
                                    fault_margin=self.env.fault_margin)  # fmt: skip
-
-    def lower_bound(self, task: TaskRequirement) -> int:
-        """The exact lower bound on the module count of ``task`` as :meth:`problem` poses it
-        (:func:`~modquad_gym.search.bounds.bound_levels`: n_max + 1 when every count is ruled
-        out); it certifies an answer that reaches it."""
-        return bound_levels(self.problem(task))
 
     def probabilities(self, obs: dict, mask: np.ndarray) -> np.ndarray:
         """The policy's action probabilities at ``obs``, zero outside ``mask`` (sb3-contrib's
