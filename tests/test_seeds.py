@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import shutil
 
 import numpy as np
@@ -10,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from modquad_gym.policy import DEFAULT_MODEL
+from modquad_gym.policy.models import shipped_model
 from modquad_gym.scoring.agents import SEARCH_METHODS
 from modquad_gym.scoring.seeds import SeedScore, goal_lines, interval, iqm, main, summary
 
@@ -127,3 +129,22 @@ def test_bad_runs_folder_is_one_line(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main([str(tmp_path / "f0"), str(tmp_path / "f1")])
     assert "seed 3 in both" in capsys.readouterr().err
+
+
+def test_fault_tier_scores_designs_that_survive_the_failure(tmp_path):
+    """On the fault tier every method designs for the failure and is judged by the failure's
+    optima (the first two tasks' are 8 and 7 modules, their intact optima 6 and 4): the
+    exhaustive search is optimal on both, and milp, which cannot honour it, is left out."""
+    model = shipped_model("fault")
+    if not model.is_file():
+        pytest.skip("no fault model")
+    shutil.copytree(model.parent, tmp_path / "runs" / "seed-0")
+    out = tmp_path / "report"
+    argv = [str(tmp_path / "runs"), "--tier", "fault", "--limit", "2", "--methods", "ppo",
+            "--out", str(out), "--no-progress"]  # fmt: skip
+    assert main(argv) == 0
+    rows = {r["method"]: r for r in csv.DictReader((out / "seeds.csv").open())}
+    assert "milp" not in rows and {"ppo", "exhaustive", "greedy"} <= set(rows)
+    assert float(rows["exhaustive"]["optimal"]) == 1.0
+    assert float(rows["exhaustive"]["modules"]) == 7.5
+    assert "designs for a rotor failure" in (out / "seeds.md").read_text()

@@ -35,7 +35,7 @@ from modquad_gym.scoring import machine_description
 from modquad_gym.scoring.agents import SEARCH_METHODS, run_benchmark
 from modquad_gym.scoring.scores import Row, config_limit, share_limit
 from modquad_gym.scoring.stats import interval, iqm
-from modquad_gym.scoring.tiers import TIERS, get_tier
+from modquad_gym.scoring.tiers import TIERS, get_tier, honours_fault
 
 METRICS = {"success": "success", "optimal": "optimal share", "evaluated": "configs / task"}
 SEED_FILES = ("seeds.md", "seeds.csv", "seeds.png")
@@ -81,15 +81,19 @@ def score_runs(
 ) -> list[SeedScore]:
     """Every run's model (``runs``: seed label -> model.zip) with every learned method (default
     the tier's), and the searches once (seed label ``-``), on the tier's held-out suites, scored
-    per suite on the tasks whose certified optimum is within the tier's n_max."""
+    per suite on the tasks whose certified optimum is within the tier's n_max. On a tier with a
+    failure every method designs for it and a success survives it; the searches that cannot
+    honour it are left out (:func:`~.tiers.honours_fault`)."""
     tier = get_tier(tier_name)
     methods = tier.learned if methods is None else methods
     suites = tier.load_suites(limit)
     scores: list[SeedScore] = []
-    plan = [("-", None, list(SEARCH_METHODS))]
+    searches = [m for m in SEARCH_METHODS if tier.fault is None or honours_fault(m)]
+    plan = [("-", None, searches)]
     plan += [(label, path, list(methods)) for label, path in runs.items()]
     for label, model, ms in plan:
-        rows = run_benchmark(suites, ms, tier.n_max, model, 0, progress, 1, tier.modules)
+        rows = run_benchmark(suites, ms, tier.n_max, model, 0, progress, 1, tier.modules,
+                             tier.name, tier.fault)  # fmt: skip
         for m in ms:
             for suite in suites:
                 rs = [
@@ -297,6 +301,13 @@ def write_report(
     write_csv([vars(s) for s in scores], out / "seeds.csv")
     plot(scores, out / "seeds.png")
     tier = get_tier(tier_name)
+    failure = []
+    if tier.fault:
+        failure = [
+            "",
+            f"Every method designs for a {tier.fault} failure; a success is an "
+            "answer that survives any single one (the optima are the failure's).",
+        ]
     text = [
         f"# Learned agents over {len(runs)} training seeds: tier `{tier_name}`",
         "",
@@ -308,6 +319,7 @@ def write_report(
         "solved with the optimal module count and the mean configurations evaluated per task; "
         "IQM = 25 %-trimmed mean over the seeds x suites scores; intervals are 95 % stratified "
         "percentile bootstraps (2,000 resamples).",
+        *failure,
         "",
         *report_tables(scores, tier_name),
         "",
