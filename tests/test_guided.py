@@ -11,6 +11,7 @@ import pytest
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.geometry.module import palette
 from modquad_gym.policy import DEFAULT_MODEL
+from modquad_gym.policy.models import EXTRA_FROM
 from modquad_gym.scoring.suites import SUITES_DIR as SUITES
 from modquad_gym.search import verified
 from modquad_gym.solvers import make_solver
@@ -170,3 +171,27 @@ def test_the_dive_finishes_past_the_budget_and_every_rollout_respects_the_time_l
     every = make_solver("ppo", n_max=7, model=model, modules=mods).solve(mixed)
     assert none.structure is None and none.evaluated < every.evaluated
     assert every.structure is not None
+
+
+@pytest.mark.skipif(not DEFAULT_MODEL.is_file(), reason="no default model")
+@pytest.mark.parametrize(("n_max", "n_modules", "modules"), [(7, 6, None), (24, 18, None)])
+def test_the_dives_are_the_single_pass(n_max, n_modules, modules):
+    """With a budget of one structure the guided search answers what the ``ppo`` single pass
+    answers, having evaluated the same structures: its dives are that pass's episodes (from
+    16 modules with the extra fallbacks' branches where the first episode ends above 16
+    modules, as at n_max 24 here; several start types: test_guided_budget.py); with its
+    budget never more modules."""
+    types = palette(modules) if modules else None
+    ppo = make_solver("ppo", n_max, modules=types)
+    dive = make_solver("ppo-guided", n_max, modules=types, budget=1)
+    guided = make_solver("ppo-guided", n_max, modules=types)
+    sizes = []
+    for seed in range(3):
+        task = PlantedTasks(n_modules=n_modules, n_wrenches=16)(np.random.default_rng(seed))
+        p, d, g = ppo.solve(task), dive.solve(task), guided.solve(task)
+        assert p.structure is not None and d.structure.key == p.structure.key
+        assert d.evaluated == p.evaluated
+        assert verified(g.structure, task) and g.n_modules <= p.n_modules
+        sizes.append(p.n_modules)
+    if n_max == 24:  # the extra fallbacks' branches ran
+        assert len(ppo.fallbacks) == 3 and max(sizes) > EXTRA_FROM

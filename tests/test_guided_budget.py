@@ -68,15 +68,17 @@ def test_without_a_dive_the_queue_memory_bounds_the_search_too(monkeypatch):
 
 
 def test_from_scale_from_it_dives_from_each_start_type_as_the_single_pass_decodes():
+    """With a budget of one structure the dives are the single pass: one tree of episodes per
+    start type, with the extra fallbacks' branches."""
     from modquad_gym.scoring.scale_tasks import task_palette
 
     for band, i in ((16, 0), (32, 1)):
         task = draw("mixed", band, i, validation=True)
         palette = task_palette(task)
-        single = make_solver("ppo", 64, modules=palette, extra_fallbacks=()).solve(task)
+        single = make_solver("ppo", 64, modules=palette).solve(task)
         dives = make_solver("ppo-guided", 64, modules=palette, budget=1).solve(task)
         assert dives.n_modules == single.n_modules  # budget 1: the dives alone
-        assert dives.evaluated == single.evaluated  # the same episodes, one per start type
+        assert dives.evaluated == single.evaluated  # the same episodes and their branches
         search = make_solver("ppo-guided", 64, modules=palette).solve(task)
         assert search.n_modules <= single.n_modules
 

@@ -2,17 +2,17 @@
 
 A node is a docking sequence from the single module at (0, 0) (one root per start type with
 several module types); its priority is the sum of ``-log pi(a | s)`` along the sequence, so the
-policy's favourite structures come first, after the policy's own greedy episode (a dive
-that docks the most likely module until the episode ends: an incumbent, so the search never
-does worse than the plain policy's first start; from :data:`~.models.SCALE_FROM` modules one
-dive per start type, so never worse than its single pass). A node keeps its parent's
+policy's favourite structures come first, after the dives: the single pass's own episodes
+(:meth:`~.ppo.PPOSolver.deterministic`: from the first start type; from
+:data:`~.models.SCALE_FROM` modules from each, with the extra fallbacks' branches), whose best
+structure is the ``ppo`` answer, so the search never does worse than it. A node keeps its parent's
 environment state (:meth:`~modquad_gym.envs.assembly.env.ModQuadAssemblyEnv.restore`): popping
 it docks one module, whose structure the environment's exact oracle decides. The search stops with a
 certificate as soon as it finds a feasible structure whose module count equals an exact lower
 bound (the force bound and the level bounds of :mod:`modquad_gym.search.bounds`; the count
 bound of the typed search with several types); otherwise it
 returns the smallest feasible structure found within its budget of evaluated structures (from
-:data:`~.models.SCALE_FROM` modules, a number per module of the dive's answer, so that its time
+:data:`~.models.SCALE_FROM` modules, a number per module of the dives' answer, so that its time
 grows with the structure as beam's does, within :data:`~.models.QUEUE_MEMORY` of queued states).
 """
 
@@ -22,6 +22,7 @@ import dataclasses
 import heapq
 import importlib.util
 import time
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -38,6 +39,7 @@ from modquad_gym.policy.models import (
     default_model,
 )
 from modquad_gym.policy.policy import Policy, fallback_of, search_result
+from modquad_gym.policy.ppo import PPOSolver
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.search.bounds import bound_levels
 from modquad_gym.tasks import as_task
@@ -53,16 +55,17 @@ class GuidedSolver:
         config: as for :class:`~.policy.Policy`.
         budget: most structures to evaluate per task (None: :data:`~.models.GUIDED_BUDGET`
             below :data:`~.models.SCALE_FROM` modules, else :data:`~.models.BUDGET_PER_MODULE`
-            per module of the dive's answer, or of n_max without a dive, at least
+            per module the first start type's dives reach, or of n_max without a dive, at least
             :data:`~.models.GUIDED_BUDGET` and at most as many states as fit in
             :data:`~.models.QUEUE_MEMORY`).
         branching: children queued per expanded structure (the policy's most likely dockings).
-        dive: start with the policy's greedy episode (default True; from
-            :data:`~.models.SCALE_FROM` modules one per start type); False: best-first only.
+        dive: start with the single pass's episodes (default True; the module doc);
+            False: best-first only.
         time_limit: seconds after which the search stops with what it has (None: none), in
             the dives too (which otherwise finish, whatever the budget).
         top_k: as for :class:`~.policy.Policy` (the children decided exactly per step;
             default :data:`~.models.TOP_K`), unless ``model`` is a Policy.
+        fallback: as for :class:`~.ppo.PPOSolver`: the dives' (the single pass's) fallback.
         fault: design for that failure (None: none; :meth:`~.policy.Policy.use_fault`):
             every answer is verified to survive it and the bound that certifies is its own.
         fault_margin: the worst margin each task wrench must keep after the failure.
@@ -92,86 +95,29 @@ class GuidedSolver:
         self.branching = check_int(branching, "branching", low=1)
         self.time_limit = None if time_limit is None else check_real(time_limit, "time_limit", 0)
         self.name = "ppo-guided"
+        self.single = PPOSolver(self.policy, fallback=self.fallback, fault=fault,
+                                fault_margin=fault_margin)  # fmt: skip
 
     def solve(self, task: Any) -> SearchResult:
         t0 = time.perf_counter()
         task = as_task(task)
-        policy = self.policy
-        policy.use_fault(*self.fault)  # a Policy shared with another solver may differ
-        env = policy.env
-        problem = policy.problem(task)
+        self.policy.use_fault(*self.fault)  # a Policy shared with another solver may differ
+        problem = self.policy.problem(task)
         bound = bound_levels(problem)
-        best: Structure | None = None
-        certified = bound > self.n_max  # every level ruled out: proven infeasible
-        evaluated: set = set()
-        queued: set = set()
-        # a node: (priority, tie-break, parent state or None for a root, action or start type)
-        heap: list[tuple[float, int, Any, Any]] = [
-            (0.0, i, None, start) for i, start in enumerate(policy.starts)
-        ]
-        pushes, oracle_calls = len(heap), 0
-        # the policy's episodes, incumbents: from the first start type; from SCALE_FROM modules
-        # from each, as the single pass decodes (their roots then leave the queue)
-        dives = [] if not self.dive else heap[:] if self.n_max >= SCALE_FROM else heap[:1]
-        heap = heap[len(dives) :]
-        dive, leading = (dives.pop(0) if dives else None), True
         deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
-        budget, state_bytes = self.budget_for(self.n_max), 0
-        while not certified and (dive or dives or heap and len(evaluated) < budget):
-            if time.perf_counter() > deadline:
-                break
-            if dive is None and dives:  # the next start type's episode
-                dive, leading = dives.pop(0), False
-            cost, _, parent, move = dive if dive is not None else heapq.heappop(heap)
-            diving, dive = dive is not None, None
-            if parent is None:
-                obs, info = policy.reset(task, move)
-                oracle_calls += int(info["oracle_calls"])
-            else:
-                env.restore(parent)
-                obs, _, _, _, info = env.step(move)
-                oracle_calls += int(info["oracle_calls"]) - parent.oracle_calls
-            s = env.structure
-            n = s.n_modules
-            evaluated.add(s.key)
-            if not state_bytes:  # a state's size, known from the first structure on
-                state_bytes = nbytes(env.state)
-                budget = self.budget_for(self.n_max, state_bytes)
-            if diving and leading:  # the budget if the first dive ends here
-                budget = self.budget_for(n, state_bytes)
-            if info["success"]:
-                if (best is None or n < best.n_modules) and verified(s, problem):
-                    best = s
-                    certified = n <= bound
-                continue  # a larger structure containing it cannot be smaller
-            if n >= self.n_max or (best is not None and n + 1 >= best.n_modules):
-                continue
-            state, mask = env.state, env.action_masks()
-            probs = policy.probabilities(obs, mask)
-            order = np.argsort(-probs, kind="stable")[: self.branching]
-            if diving and self.fallback:  # the dive is the single pass's episode
-                lead = policy.decide(obs, mask, self.fallback, probs)
-                order = [lead, *(a for a in order if a != lead)][: self.branching]
-            for a in order:
-                if probs[a] <= 0.0:
-                    break
-                key = child_key(s, env.grid.cell_of(a), env.grid.type_of(a), env)
-                if key in queued:
-                    continue
-                queued.add(key)
-                node = (cost - float(np.log(probs[a])), pushes, state, int(a))
-                pushes += 1
-                if diving and dive is None:  # the most likely child continues the dive
-                    dive = node
-                elif len(evaluated) < budget:  # else never popped: keep no state for it
-                    heapq.heappush(heap, node)
+        run = Run(self, problem, bound, deadline)
+        if bound <= self.n_max:  # else every level is ruled out: proven infeasible
+            run.dive()
+            run.search()
+        best = run.best
+        certified = best is not None and best.n_modules <= bound or bound > self.n_max
         if not certified:
             proof = ""
         elif best is not None:
             proof = "lower bound reached"
         else:
             proof = f"exact bounds rule out every level up to {self.n_max}"
-        return search_result(self.name, problem, best, len(evaluated), oracle_calls, t0,
+        return search_result(self.name, problem, best, len(run.evaluated), run.oracle_calls, t0,
                              certified, proof, bound)  # fmt: skip
 
     def budget_for(self, n: int, state_bytes: int = 0) -> int:
@@ -190,6 +136,127 @@ class GuidedSolver:
             f"GuidedSolver(model={self.policy.model_path!r}, n_max={self.n_max}, "
             f"budget={self.budget}, branching={self.branching}, dive={self.dive})"
         )
+
+
+class Run:
+    """One guided search on a problem: the single pass's episodes as incumbents (:meth:`dive`),
+    then best-first over the queue their states left (:meth:`search`).
+
+    A node of the queue is (priority, tie-break, parent state or None for a root, action or
+    start type, its structure's key or None for a root): each structure is queued once."""
+
+    def __init__(self, solver: GuidedSolver, problem: Any, bound: int, deadline: float):
+        self.solver, self.policy, self.problem = solver, solver.policy, problem
+        self.bound, self.deadline = bound, deadline
+        self.best: Structure | None = None
+        self.evaluated: set = set()
+        self.queued: set = set()
+        self.costs: dict = {}  # key -> priority of the structures the dives docked
+        self.heap = [(0.0, i, None, start, None) for i, start in enumerate(self.policy.starts)]
+        self.pushes, self.oracle_calls = len(self.heap), 0
+        self.budget = solver.budget_for(solver.n_max)
+        self.state_bytes = 0
+
+    def dive(self) -> None:
+        """The single pass's deterministic episodes (:meth:`~.ppo.PPOSolver.deterministic`,
+        with its fallbacks' branches: the plain ``ppo`` answer), from the first start type;
+        from :data:`~.models.SCALE_FROM` modules from each, as the single pass decodes (their
+        roots leave the queue). Each state they dock from queues its other likely dockings;
+        the budget follows the size the first start's episodes reach."""
+        solver = self.solver
+        if not solver.dive:
+            return
+        roots = self.heap if solver.n_max >= SCALE_FROM else self.heap[:1]
+        self.heap = self.heap[len(roots) :]
+        for i, (*_, start, _) in enumerate(roots):
+            leading = [0]
+            visit = partial(self.visit, leading if i == 0 else None)
+            self.best, calls = solver.single.deterministic(
+                self.problem, start, self.best, self.evaluated, self.deadline, visit
+            )
+            self.oracle_calls += calls
+            if i == 0:
+                self.budget = solver.budget_for(leading[0] or solver.n_max, self.state_bytes)
+            if self.certified:
+                return
+
+    @property
+    def certified(self) -> bool:
+        return self.best is not None and self.best.n_modules <= self.bound
+
+    def visit(self, leading: list | None, probs: np.ndarray, action: int) -> None:
+        """At a state a dive docks ``action`` from: queue its other likely dockings (the
+        first start's dives record their largest size in ``leading``)."""
+        env = self.policy.env
+        if not self.state_bytes:  # a state's size, known from the first structure on
+            self.state_bytes = nbytes(env.state)
+        n = env.structure.n_modules
+        if leading is not None:
+            leading[0] = max(leading[0], n + 1)
+            budget = self.solver.budget_for(leading[0], self.state_bytes)
+        else:
+            budget = self.budget
+        self.expand(probs, self.costs.get(env.structure.key, 0.0), budget, action)
+
+    def expand(self, probs: np.ndarray, cost: float, budget: int, lead: int = -1) -> None:
+        """Queue the most likely dockings of the environment's state (``probs``: the policy's
+        probabilities there; ``cost``: its priority) while fewer than ``budget`` structures
+        are evaluated; ``lead`` (a dive's next docking) is not queued: the dive docks it."""
+        env, s = self.policy.env, self.policy.env.structure
+        order = np.argsort(-probs, kind="stable")[: self.solver.branching]
+        if lead >= 0:
+            key = child_key(s, env.grid.cell_of(lead), env.grid.type_of(lead), env)
+            self.queued.add(key)
+            self.costs.setdefault(key, cost + _surprise(probs[lead]))
+            order = [a for a in order if a != lead][: self.solver.branching - 1]
+        state = env.state
+        for a in order:
+            if probs[a] <= 0.0:
+                break
+            key = child_key(s, env.grid.cell_of(a), env.grid.type_of(a), env)
+            if key in self.queued:
+                continue
+            self.queued.add(key)
+            if len(self.evaluated) < budget:  # else never popped: keep no state for it
+                node = (cost + _surprise(probs[a]), self.pushes, state, int(a), key)
+                heapq.heappush(self.heap, node)
+                self.pushes += 1
+
+    def search(self) -> None:
+        """Best-first over the queue until a structure reaches the bound, the budget of
+        evaluated structures is spent, or the time is up."""
+        policy, env, solver = self.policy, self.policy.env, self.solver
+        while not self.certified and self.heap and len(self.evaluated) < self.budget:
+            if time.perf_counter() > self.deadline:
+                break
+            cost, _, parent, move, key = heapq.heappop(self.heap)
+            if key in self.evaluated:  # a dive docked it and queued its dockings
+                continue
+            if parent is None:
+                obs, info = policy.reset(self.problem.task, move)
+                self.oracle_calls += int(info["oracle_calls"])
+            else:
+                env.restore(parent)
+                obs, _, _, _, info = env.step(move)
+                self.oracle_calls += int(info["oracle_calls"]) - parent.oracle_calls
+            s = env.structure
+            n = s.n_modules
+            self.evaluated.add(s.key)
+            if not self.state_bytes:
+                self.state_bytes = nbytes(env.state)
+                self.budget = solver.budget_for(solver.n_max, self.state_bytes)
+            if info["success"]:
+                if (self.best is None or n < self.best.n_modules) and verified(s, self.problem):
+                    self.best = s
+                continue  # a larger structure containing it cannot be smaller
+            if n >= solver.n_max or (self.best is not None and n + 1 >= self.best.n_modules):
+                continue
+            self.expand(policy.probabilities(obs, env.action_masks()), cost, self.budget)
+
+
+def _surprise(p: float) -> float:
+    """-log p: a docking's share of a node's priority (inf for an impossible one)."""
+    return -float(np.log(p)) if p > 0.0 else float("inf")
 
 
 def nbytes(state: Any) -> int:

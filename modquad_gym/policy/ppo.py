@@ -15,6 +15,7 @@ never as a success.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -137,13 +138,16 @@ class PPOSolver:
         best: Structure | None,
         seen: set,
         deadline: float,
+        visit: Callable[[np.ndarray, int], None] | None = None,
     ) -> tuple[Structure | None, int]:
         """The deterministic rollouts on ``problem``'s task from a first module of type
         ``start``, one per fallback of :attr:`fallbacks`, as one tree: a branch leaves where its
         fallback docks elsewhere, from the shared state, and stops once it can no longer beat
         ``best`` (the smallest verified structure so far); none leaves where the first episode
-        ends with at most :attr:`extra_from` modules. Returns the new best and the oracle calls
-        made."""
+        ends with at most :attr:`extra_from` modules. ``visit(probs, action)``, when given, is
+        called at each state the tree docks from, before it docks ``action`` there (the
+        policy's probabilities at that state: the guided search queues the other dockings).
+        Returns the new best and the oracle calls made."""
         policy, env = self.policy, self.policy.env
         calls = 0
         branches: list[tuple[Any, tuple[float, ...], int]] = [(None, self.fallbacks, -1)]
@@ -164,16 +168,20 @@ class PPOSolver:
             seen.add(env.structure.key)
             while not done and len(info["cells"]) < stop_at - 1 and time.perf_counter() < deadline:
                 mask = env.action_masks()
-                if len(group) == 1:
-                    action = policy.decide(obs, mask, group[0])
-                else:  # where the fallbacks dock differently, the later ones branch off
+                probs = None
+                if visit is not None or len(group) > 1:
                     probs = policy.probabilities(obs, mask)
+                if len(group) == 1:
+                    action = policy.decide(obs, mask, group[0], probs)
+                else:  # where the fallbacks dock differently, the later ones branch off
                     by_action: dict[int, list[float]] = {}
                     for f in group:
                         by_action.setdefault(policy.decide(obs, mask, f, probs), []).append(f)
                     (action, first), *others = by_action.items()
                     group = tuple(first)
                     branches += [(env.state, tuple(g), a) for a, g in reversed(others)]
+                if visit is not None:
+                    visit(probs, int(action))
                 obs, _, terminated, truncated, info = env.step(int(action))
                 seen.add(env.structure.key)
                 done = terminated or truncated
