@@ -32,7 +32,8 @@ from benchmarks.common import (
 from benchmarks.scale_models import answers
 from benchmarks.scale_suites import FAMILIES, load_scale_suite
 from modquad_gym.core.options import int_option
-from modquad_gym.scoring.seeds import find_runs, interval
+from modquad_gym.scoring.seed_runs import find_runs
+from modquad_gym.scoring.seeds import interval
 
 OUTPUTS = ("report.md", "report.csv", "rows.csv")
 ONE_TYPE = tuple(f for f in FAMILIES if f != "mixed")

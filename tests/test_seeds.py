@@ -148,3 +148,83 @@ def test_fault_tier_scores_designs_that_survive_the_failure(tmp_path):
     assert float(rows["exhaustive"]["optimal"]) == 1.0
     assert float(rows["exhaustive"]["modules"]) == 7.5
     assert "designs for a rotor failure" in (out / "seeds.md").read_text()
+
+
+def _runs(tmp_path, **seeds):
+    """A folder of ``seed-S`` copies of shipped models (``seed0="fault"``) or of junk."""
+    for name, model in seeds.items():
+        run = tmp_path / "runs" / name.replace("seed", "seed-")
+        if model == "junk":
+            run.mkdir(parents=True)
+            (run / "model.zip").write_bytes(b"not a model")
+            continue
+        if not shipped_model(model).is_file():
+            pytest.skip(f"no {model} model")
+        shutil.copytree(shipped_model(model).parent, run)
+    return tmp_path / "runs"
+
+
+def _refused(capsys, argv, *words):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert exc.value.code == 2 and "Traceback" not in "\n".join(err)
+    assert all(w in err[-1] for w in words), err[-1]
+
+
+@pytest.fixture()
+def no_work(monkeypatch):
+    """Fails the test if any task is solved."""
+
+    def solve(*args, **kwargs):
+        raise AssertionError("the work started")
+
+    monkeypatch.setattr("modquad_gym.scoring.seeds.run_benchmark", solve)
+
+
+@pytest.mark.parametrize("method", ["ppox", "ppo-guided-b0", "ppo-kx", "exhaustive"])
+def test_a_bad_method_is_one_line_before_any_work(tmp_path, capsys, no_work, method):
+    runs = _runs(tmp_path, seed0="fault")
+    argv = [str(runs), "--tier", "fault", "--methods", method, "--limit", "1", "--out",
+            str(tmp_path / "o")]  # fmt: skip
+    _refused(capsys, argv, "--methods", repr(method) if method != "exhaustive" else method)
+
+
+def test_a_bad_seed_folder_is_named_before_any_work(tmp_path, capsys, no_work):
+    """A model.zip that is not a model, a model trained for another tier (its config.json) and
+    a seed folder without model.zip: each refused in one line naming the seed folder."""
+    runs = _runs(tmp_path, seed0="fault", seed1="junk")
+    argv = [str(runs), "--tier", "fault", "--methods", "ppo", "--out", str(tmp_path / "o")]
+    _refused(capsys, argv, "seed-1", "not a MaskablePPO model")
+    shutil.rmtree(runs / "seed-1")
+    shutil.copytree(shipped_model("mixed").parent, runs / "seed-1")
+    _refused(capsys, argv, "seed-1", "trained for tier 'mixed'", "--tier fault")
+    shutil.rmtree(runs / "seed-1")
+    (runs / "seed-1").mkdir()
+    _refused(capsys, argv, "seed-1", "no model.zip")
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_python_door_checks_as_the_command_line(tmp_path, capsys, monkeypatch):
+    """score_runs refuses what the command line refuses, in its words; a method given twice
+    (``ppo-k0`` is ``ppo``) is scored once under one name, through both doors."""
+    from modquad_gym.scoring.seeds import score_runs
+
+    cases = [({"methods": ["exhaustive"]}, "learned methods only"),
+             ({"methods": "greedy"}, "--methods: a list"),
+             ({"limit": 0}, "--limit: must be in 1..1000000, got 0"),
+             ({"limit": -1}, "--limit: must be in 1..1000000, got -1")]  # fmt: skip
+    for kwargs, words in cases:
+        with pytest.raises(ValueError, match=words):
+            score_runs({}, "current", **kwargs)
+    _refused(capsys, [str(tmp_path), "--limit", "0"], "--limit: must be in 1..1000000, got 0")
+    chosen = []
+    monkeypatch.setattr("modquad_gym.scoring.seeds.scored",
+                        lambda runs, tier, methods, *a: chosen.append(methods) or [])  # fmt: skip
+    monkeypatch.setattr("modquad_gym.scoring.seeds.write_report", lambda *a: tmp_path / "r.md")
+    (tmp_path / "r.md").write_text("")
+    assert score_runs({}, "current", ["ppo", "ppo-k0", "ppo", "ppo-k08"]) == []
+    runs = _runs(tmp_path, seed0="current")
+    argv = [str(runs), "--methods", "ppo", "ppo-k0", "ppo", "ppo-k08", "--out", str(tmp_path / "o")]
+    assert main(argv) == 0
+    assert chosen == [["ppo", "ppo-k8"]] * 2

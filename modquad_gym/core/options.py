@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import numbers
 import re
 
 __all__ = [
     "MAX_COUNT",
     "MAX_SEED",
     "DefaultsHelpFormatter",
+    "check_option",
     "int_option",
     "real_option",
     "seed_option",
@@ -48,6 +50,29 @@ def int_option(low: int, high: int = MAX_COUNT):
 def seed_option(text: str) -> int:
     """An argparse ``type`` for a random seed: an integer in 0..2**63-1."""
     return int_option(0, MAX_SEED)(text)
+
+
+def check_option(flag: str, value: object, kind=None, many: bool = False) -> None:
+    """A Python caller's ``value`` of the option ``flag`` checked as the command line checks it:
+    a list where ``many`` (``nargs``, ``append``), an integer where ``kind`` is
+    :func:`int_option`'s or :func:`seed_option`, in the command line's words (ValueError
+    ``FLAG: ...``). None (the default) passes."""
+    if value is None:
+        return
+    if many:
+        if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple)):
+            raise ValueError(f"{flag}: a list of values, got {value!r}")
+        for v in value:
+            check_option(flag, v, kind)
+        return
+    if kind is not seed_option and getattr(kind, "__name__", "") != "integer":
+        return
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise ValueError(f"{flag}: expected an integer, got {value!r}")
+    try:
+        kind(str(int(value)))
+    except argparse.ArgumentTypeError as exc:
+        raise ValueError(f"{flag}: {exc}") from None
 
 
 def real_option(text: str) -> float:

@@ -41,6 +41,7 @@ from modquad_gym.scoring.options import (
     REPORT_FILES,
     SEARCH_METHODS,
     add_options,
+    method_label,
 )
 from modquad_gym.scoring.scores import Row, summarise
 from modquad_gym.scoring.tiers import Tier, get_tier, honours_fault, validation_suite
@@ -102,6 +103,12 @@ def _solvers(
     return solvers
 
 
+def load_solvers(methods: list[str], n_max: int, model: Path | None, tier: Tier) -> None:
+    """Make every method's solver of ``model`` on ``tier`` now (kept for the work that follows
+    in this process): a model that does not load or cannot act there fails before any task."""
+    _solvers(tuple(methods), n_max, model, 0, tier.modules, tier.name, tier.fault)
+
+
 def _solve_chunk(config: tuple, jobs: list) -> list[Row]:
     """Rows of every method on a chunk of (suite, task) (solvers made once per process)."""
     solvers = _solvers(*config)
@@ -158,7 +165,8 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
         default = SEARCH_METHODS
     if tier.fault:  # only the methods that guarantee survival are scored there
         default = tuple(m for m in default if honours_fault(m))
-    methods = list(dict.fromkeys([*(args.methods or default), *args.solver]))
+    given = [method_label(m) if ":" not in m else m for m in args.methods or default]
+    methods = list(dict.fromkeys([*given, *args.solver]))  # each once, under one name
     for m in methods:  # a bad name fails now, as itself, not in a worker after the work began
         if ":" not in m:
             method_of(m)
@@ -196,6 +204,8 @@ def score(args: argparse.Namespace, command: str) -> int:
     tier = get_tier(args.tier or "current")
     if args.suite and args.validation:
         raise ValueError("give --validation or --suite, not both")
+    if args.validation is not None and args.limit is not None:
+        raise ValueError("give --limit or --validation N, not both (N is the number of tasks)")
     if args.suite:
         suites = {Path(path).stem: load_suite(path)[: args.limit] for path in args.suite}
     elif args.validation:
@@ -229,5 +239,16 @@ def score(args: argparse.Namespace, command: str) -> int:
     return 0
 
 
+def script(argv: list[str] | None = None) -> int:
+    """:func:`main` as ``python -m modquad_gym.scoring.agents`` runs it: a refused input or a
+    file that cannot be written is one line and exit 2, as with ``modquad score``."""
+    try:
+        return main(argv)
+    except (ValueError, OSError, ImportError) as exc:
+        message = " ".join(str(exc).split()) or type(exc).__name__
+        print(f"{COMMAND}: error: {message}", file=sys.stderr)
+        return 2
+
+
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(script())

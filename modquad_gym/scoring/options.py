@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from modquad_gym.core.options import int_option, seed_option
+from modquad_gym.core.options import check_option, int_option, seed_option
 from modquad_gym.scoring.tiers import TIERS
 from modquad_gym.search import SEARCHES
 
@@ -69,6 +69,19 @@ DESCRIPTION = (
 )
 
 
+def method_label(name: str) -> str:
+    """The label a report gives the method ``name``: ``ppo-kN`` with N written plainly, and
+    ``ppo-k0`` (no sampled rollout) as ``ppo``, so one method is scored once under one name;
+    other names as they are. ValueError for a malformed ``ppo-kN``
+    (:func:`~modquad_gym.methods.method_of`)."""
+    if not name.startswith("ppo-k"):
+        return name
+    from modquad_gym.methods import method_of
+
+    samples = method_of(name)[1]["samples"]
+    return f"ppo-k{samples}" if samples else "ppo"
+
+
 def add_options(parser: argparse.ArgumentParser) -> None:
     """The options of ``modquad score``, added to ``parser``."""
     for flag, kwargs in OPTIONS.items():
@@ -93,6 +106,11 @@ def score_options(**given: object) -> argparse.Namespace:
     unknown = sorted(set(given) - set(values))
     if unknown:
         raise ValueError(f"{COMMAND}: unknown options {unknown}; known: {sorted(values)}")
+    kinds = {**known, "seed": {"type": seed_option}}
+    for name, value in given.items():  # as the command line checks them, in its words
+        kw = kinds.get(name, {})
+        many = kw.get("nargs") == "+" or kw.get("action") == "append"
+        check_option("--" + name.replace("_", "-"), value, kw.get("type"), many)
     return argparse.Namespace(**{**values, **given})
 
 

@@ -29,13 +29,13 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.options import int_option
 from modquad_gym.core.outputs import check_output_dir, save_figure, write_csv, write_text
 from modquad_gym.scoring import machine_description
 from modquad_gym.scoring.agents import SEARCH_METHODS, run_benchmark
 from modquad_gym.scoring.scores import Row, config_limit, share_limit
+from modquad_gym.scoring.seed_runs import LIMIT, check_limit, check_runs, find_runs, learned_methods
 from modquad_gym.scoring.stats import interval, iqm
-from modquad_gym.scoring.tiers import TIERS, get_tier, honours_fault
+from modquad_gym.scoring.tiers import TIERS, Tier, get_tier, honours_fault
 
 METRICS = {"success": "success", "optimal": "optimal share", "evaluated": "configs / task"}
 SEED_FILES = ("seeds.md", "seeds.csv", "seeds.png")
@@ -83,14 +83,25 @@ def score_runs(
     the tier's), and the searches once (seed label ``-``), on the tier's held-out suites, scored
     per suite on the tasks whose certified optimum is within the tier's n_max. On a tier with a
     failure every method designs for it and a success survives it; the searches that cannot
-    honour it are left out (:func:`~.tiers.honours_fault`)."""
+    honour it are left out (:func:`~.tiers.honours_fault`). The methods, ``limit`` and every
+    run are checked first, as the command line checks them (:mod:`.seed_runs`): a ValueError
+    before any work."""
     tier = get_tier(tier_name)
-    methods = tier.learned if methods is None else methods
+    methods = learned_methods(methods, tier)
+    check_limit(limit)
+    check_runs(runs, methods, tier)
+    return scored(runs, tier, methods, limit, progress)
+
+
+def scored(
+    runs: dict[str, Path], tier: Tier, methods: list[str], limit: int | None, progress: bool
+) -> list[SeedScore]:
+    """:func:`score_runs` on inputs it has checked."""
     suites = tier.load_suites(limit)
     scores: list[SeedScore] = []
     searches = [m for m in SEARCH_METHODS if tier.fault is None or honours_fault(m)]
     plan = [("-", None, searches)]
-    plan += [(label, path, list(methods)) for label, path in runs.items()]
+    plan += [(label, path, methods) for label, path in runs.items()]
     for label, model, ms in plan:
         rows = run_benchmark(suites, ms, tier.n_max, model, 0, progress, 1, tier.modules,
                              tier.name, tier.fault)  # fmt: skip
@@ -331,23 +342,6 @@ def write_report(
     return write_text(out / "seeds.md", "\n".join(text))
 
 
-def find_runs(folders: list[Path]) -> dict[str, Path]:
-    """``seed-S/model.zip`` of every folder by seed label, in seed order; ValueError if none
-    or if two folders hold the same seed."""
-    runs: dict[str, Path] = {}
-    for folder in folders:
-        for path in sorted(Path(folder).glob("seed-*/model.zip")):
-            label = path.parent.name.removeprefix("seed-")
-            if label in runs:
-                raise ValueError(f"RUNS: seed {label} in both {runs[label].parent} and "
-                                 f"{path.parent}")  # fmt: skip
-            runs[label] = path
-    if not runs:
-        names = ", ".join(str(f) for f in folders)
-        raise ValueError(f"RUNS: no seed-*/model.zip in {names} (train: python train.py --seeds)")
-    return dict(sorted(runs.items(), key=lambda kv: (len(kv[0]), kv[0])))
-
-
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         prog="python -m modquad_gym.scoring.seeds",
@@ -364,22 +358,21 @@ def main(argv: list[str] | None = None) -> int:
         "tier also ppo-guided-b256-w8)",
     )
     p.add_argument("--out", type=Path, default=None, help="report folder (default RUNS/report)")
-    p.add_argument("--limit", type=int_option(1), default=None, help="first N tasks per suite")
+    p.add_argument("--limit", type=LIMIT, default=None, help="first N tasks per suite")
     p.add_argument("--force", action="store_true", help="replace an existing report")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
-    try:
-        if args.methods and any(not m.startswith("ppo") for m in args.methods):
-            raise ValueError(
-                f"--methods: learned methods only (ppo, ppo-kN, ppo-guided), got {args.methods}"
-            )
+    try:  # everything the work needs, before it starts (a model that does not load included)
+        tier = get_tier(args.tier)
+        methods = learned_methods(args.methods, tier)
         runs = find_runs(args.runs)
         out = args.out or args.runs[0] / "report"
         check_output_dir(out, SEED_FILES, args.force, "--out")
+        check_runs(runs, methods, tier)
     except ValueError as exc:
         p.error(str(exc))
     t0 = time.perf_counter()
-    scores = score_runs(runs, args.tier, args.methods, args.limit, not args.no_progress)
+    scores = scored(runs, tier, methods, args.limit, not args.no_progress)
     argv_text = " ".join(argv if argv is not None else sys.argv[1:])
     path = write_report(
         scores,
