@@ -16,6 +16,7 @@ from agents.checks import check_environment, check_model, check_publishable
 from agents.config import TrainConfig
 from agents.seeds import seed_out
 from agents.training import RUN_FILES, log_name, publish, report, train
+from modquad_gym.cli.given import typed_options
 from modquad_gym.core.options import int_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, claim_output_dir
 from modquad_gym.scoring.options import REPORT_FILES
@@ -126,17 +127,55 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     add_config_options(p)
     add_run_options(p)
     args = p.parse_args(argv)
+    typed = typed_options(p, argv)  # the options the user typed (by destination), in order:
+    given = {a.dest: a.option_strings[0] for a in p._actions if a.dest in typed}
     try:
-        complete(args)
+        refuse_ignored(args, given)
+        complete(args, given)
     except (OutputError, ValueError) as exc:
         p.error(str(exc))
     return args
 
 
-def complete(args: argparse.Namespace) -> None:
+PUBLISH_RUN_OPTIONS = ("publish_run", "publish", "tier", "force", "no_report", "report_dir",
+                       "progress")  # fmt: skip
+"""What ``--publish-run`` honours (it trains nothing: every other option would be dropped)."""
+
+SEEDS_DROP = {"seed": "each run takes its seed from --seeds",
+              "report_dir": "each seed's report goes to <out>/seed-S/report"}  # fmt: skip
+"""What ``--seeds`` cannot honour, and why."""
+
+
+def refuse_ignored(args: argparse.Namespace, given: dict[str, str]) -> None:
+    """A ValueError naming an option the user typed (``given``: destination -> option) that
+    this command would drop: a training option with ``--publish-run``, ``--seed`` or
+    ``--report-dir`` with ``--seeds`` (each seed is its own ``seed-S`` with its report in it),
+    ``--seed-workers`` without ``--seeds``, ``--report-dir`` with ``--no-report``."""
+    if args.publish_run is not None:
+        dropped = [flag for dest, flag in given.items() if dest not in PUBLISH_RUN_OPTIONS]
+        if dropped:
+            raise ValueError(
+                f"{', '.join(dropped)}: --publish-run trains nothing (it installs the run's "
+                "model and writes its report); with it give only --tier, --force, --no-report, "
+                "--report-dir, --no-progress"
+            )
+    if args.seeds:
+        for dest, why in SEEDS_DROP.items():
+            if dest in given:
+                raise ValueError(f"{given[dest]} with --seeds: {why}")
+    elif "seed_workers" in given:
+        raise ValueError("--seed-workers: only with --seeds (the runs it trains at a time)")
+    if "report_dir" in given and args.no_report:
+        raise ValueError("--report-dir with --no-report: no report is written")
+
+
+def complete(args: argparse.Namespace, given: dict[str, str] | None = None) -> None:
     """Fill the defaults that depend on other options and build ``args.config`` (the recipe
     every seed runs; None with ``--publish-run``); ValueError names a wrong option. Checks every
-    output folder before any work: never replace a run, the model or a report unasked."""
+    output folder before any work: never replace a run, the model or a report unasked (the
+    tier's own report that a publish rewrites aside; one in a ``--report-dir`` the user
+    typed, one of ``given``, needs ``--force``)."""
+    given = given or {}
     for name, value in QUICK.items():
         if args.quick and getattr(args, name) is None:
             setattr(args, name, value)
@@ -148,9 +187,16 @@ def complete(args: argparse.Namespace) -> None:
         raise ValueError("--publish installs one run: train the seeds, then --publish-run one")
     if args.publish_run is not None:
         config = args.publish_run / "config.json"
-        if not (args.publish_run / "model.zip").is_file() or not config.is_file():
-            raise ValueError(f"--publish-run: no model.zip and config.json in {args.publish_run}")
-        args.tier = run_tier(config)
+        missing = [n for n in ("model.zip", "config.json") if not (args.publish_run / n).is_file()]
+        if missing:
+            raise ValueError(f"--publish-run: no {' and no '.join(missing)} in {args.publish_run}")
+        tier = run_tier(config)
+        if "tier" in given and args.tier != tier:
+            raise ValueError(
+                f"--tier {args.tier}: the run {args.publish_run} was trained on tier {tier} "
+                "(its config.json); it is published as that tier's model"
+            )
+        args.tier = tier
         check_publishable(args.publish_run, tier_env_kwargs(args.tier))
         args.out = args.publish_run
     elif args.out is None:
@@ -175,7 +221,8 @@ def complete(args: argparse.Namespace) -> None:
             check_output_dir(out, RUN_FILES, args.force, "--out")
         if not args.no_report:
             report = out / "report" if args.seeds else args.report_dir
-            check_output_dir(report, REPORT_FILES, args.force or publishing, "--report-dir")
+            own = publishing and "report_dir" not in given  # the tier's report: the publish's
+            check_output_dir(report, REPORT_FILES, args.force or own, "--report-dir")
 
 
 def run_tier(config: Path) -> str:

@@ -131,3 +131,81 @@ def test_seeds_are_configs_and_the_report_is_a_function(tmp_path):
     assert command_line(**given) == f"modquad score --out {tmp_path / 'r'} --limit 3 --force"
     with pytest.raises(ValueError, match="unknown options \\['limits'\\]"):
         score_options(limits=3)
+
+
+@pytest.fixture()
+def fault_run(tmp_path):
+    """A run folder holding a copy of the fault tier's shipped model and its config."""
+    model = MODELS_DIR / "ppo_fault" / "model.zip"
+    if not model.is_file():
+        pytest.skip("no fault model")
+    run = tmp_path / "fault-run"
+    run.mkdir()
+    for name in ("model.zip", "config.json"):
+        (run / name).write_bytes((model.parent / name).read_bytes())
+    return run
+
+
+PUBLISH_DROPPED = [
+    (["--tier", "mixed"], "--tier mixed: the run"),
+    (["--quick"], "--quick: --publish-run trains nothing"),
+    (["--timesteps", "5", "--seed", "3"], "--seed, --timesteps: --publish-run trains nothing"),
+    (["--out", "elsewhere"], "--out: --publish-run"),
+    (["--seed-workers", "2"], "--seed-workers: --publish-run"),
+]
+
+
+@pytest.mark.parametrize("argv, words", PUBLISH_DROPPED, ids=[a[0] for a, _ in PUBLISH_DROPPED])
+def test_publish_run_refuses_what_it_would_drop(fault_run, capsys, argv, words):
+    """--publish-run trains nothing and publishes the tier its run records: a training option
+    or another --tier is refused in one line, not dropped."""
+    from agents.cli import parse_args
+
+    with pytest.raises(SystemExit) as exc:
+        parse_args(["--publish-run", str(fault_run), *argv])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert exc.value.code == 2 and words in err[-1], err
+
+
+def test_publish_run_replaces_a_report_in_a_typed_folder_only_with_force(fault_run, capsys):
+    """The tier's own report is the publish's to rewrite; one in a --report-dir the user typed
+    needs --force. The run's own --tier and --no-progress are accepted."""
+    pytest.importorskip("sb3_contrib")
+    from agents.cli import parse_args
+
+    mine = fault_run.parent / "mine"
+    mine.mkdir()
+    (mine / "benchmark.md").write_text("my report")
+    argv = ["--publish-run", str(fault_run), "--tier", "fault", "--no-progress", "--report-dir",
+            str(mine)]  # fmt: skip
+    with pytest.raises(SystemExit):
+        parse_args(argv)
+    assert "--force" in capsys.readouterr().err.splitlines()[-1]
+    args = parse_args([*argv, "--force"])
+    assert (args.tier, args.report_dir, args.out) == ("fault", mine, fault_run)
+    assert (mine / "benchmark.md").read_text() == "my report"  # parsing writes nothing
+
+
+def test_publish_run_names_the_missing_file(fault_run, capsys):
+    from agents.cli import parse_args
+
+    (fault_run / "config.json").unlink()
+    with pytest.raises(SystemExit):
+        parse_args(["--publish-run", str(fault_run)])
+    err = capsys.readouterr().err.splitlines()[-1]
+    assert "no config.json in" in err and "model.zip" not in err
+
+
+SEEDS_DROPPED = [
+    (["--seeds", "1", "2", "--seed", "3"], "--seed with --seeds"),
+    (["--seeds", "1", "2", "--report-dir", "r"], "--report-dir with --seeds"),
+    (["--seed-workers", "2"], "--seed-workers: only with --seeds"),
+    (["--no-report", "--report-dir", "r"], "--report-dir with --no-report"),
+]
+
+
+@pytest.mark.parametrize("argv, words", SEEDS_DROPPED, ids=[" ".join(a) for a, _ in SEEDS_DROPPED])
+def test_options_seeds_cannot_honour_are_refused(parse, capsys, argv, words):
+    with pytest.raises(SystemExit) as exc:
+        parse(*argv)
+    assert exc.value.code == 2 and words in capsys.readouterr().err.splitlines()[-1]
