@@ -172,7 +172,7 @@ class Run:
             leading = [0]
             visit = partial(self.visit, leading if i == 0 else None)
             self.best, calls = solver.single.deterministic(
-                self.problem, start, self.best, self.evaluated, self.deadline, visit
+                self.problem, start, self.best, self.evaluated, self.deadline, visit, self.bound
             )
             self.oracle_calls += calls
             if i == 0:

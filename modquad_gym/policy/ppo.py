@@ -111,8 +111,9 @@ class PPOSolver:
         seen: set = set()
         oracle_calls = 0
         deadline = t0 + self.time_limit if self.time_limit is not None else float("inf")
+        bound = bound_levels(problem)
         for start in starts:
-            best, calls = self.deterministic(problem, start, best, seen, deadline)
+            best, calls = self.deterministic(problem, start, best, seen, deadline, bound=bound)
             oracle_calls += calls
         for i in range(self.samples):
             rng = np.random.default_rng([self.seed, i])
@@ -123,7 +124,6 @@ class PPOSolver:
                                   deadline)  # fmt: skip
             oracle_calls += int(info["oracle_calls"])
             best = self.better(problem, info, best)
-        bound = bound_levels(problem)
         certified = (
             best is not None and best.n_modules == bound or best is None and bound > self.n_max
         )
@@ -139,12 +139,14 @@ class PPOSolver:
         seen: set,
         deadline: float,
         visit: Callable[[np.ndarray, int], None] | None = None,
+        bound: int = 1,
     ) -> tuple[Structure | None, int]:
         """The deterministic rollouts on ``problem``'s task from a first module of type
         ``start``, one per fallback of :attr:`fallbacks`, as one tree: a branch leaves where its
         fallback docks elsewhere, from the shared state, and stops once it can no longer beat
         ``best`` (the smallest verified structure so far); none leaves where the first episode
-        ends with at most :attr:`extra_from` modules. ``visit(probs, action)``, when given, is
+        ends with at most :attr:`extra_from` modules or once ``best`` reaches ``bound`` (a lower
+        bound on any answer's modules: nothing beats it). ``visit(probs, action)``, when given, is
         called at each state the tree docks from, before it docks ``action`` there (the
         policy's probabilities at that state: the guided search queues the other dockings).
         Returns the new best and the oracle calls made."""
@@ -156,6 +158,8 @@ class PPOSolver:
             if stop_at <= 1:  # one module: nothing beats it
                 break
             state, group, action = branches.pop()
+            if state is not None and stop_at <= bound:  # best is at the bound: no branch beats it
+                break
             if state is None:
                 obs, info = policy.reset(problem.task, start)
                 done, base = info["success"], 0  # one module suffices: nothing to decide
