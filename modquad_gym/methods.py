@@ -280,7 +280,7 @@ _TOP_K = (int | None, TOP_K, "children decided exactly per step by a model readi
           "lookahead, the rest ranked lower by support bounds and masked out (None: all)",
           _count(1))  # fmt: skip
 _PRUNE = (bool, False, *COMMON_HELP["prune"])
-_FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dive) wherever the "
+_FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dives) wherever the "
              "policy gives its own most likely docking at most this probability (0: never, 1: "
              f"always; None: {FALLBACK:g} at budgets of {SCALE_FROM} modules and more with a "
              "model that sees greedy's choice, the exact lookahead, else 0)",
@@ -295,7 +295,7 @@ _EXTRA_FALLBACKS = (tuple[float, ...] | None, None, "further deterministic passe
 
 _BUDGET = (int | None, None, "most structures evaluated (None: "
            f"{GUIDED_BUDGET} below {SCALE_FROM} modules, else {BUDGET_PER_MODULE} per module "
-           f"of the dive's answer, at least {GUIDED_BUDGET}, at most what "
+           f"of its dives' answer, at least {GUIDED_BUDGET}, at most what "
            f"{QUEUE_MEMORY // 2**20} MiB of queued states hold)", _count(1))  # fmt: skip
 
 for _method in (
@@ -337,8 +337,9 @@ for _method in (
            "lower bound", options("ppo-guided", model=_MODEL,
                                   budget=_BUDGET,
                                   branching=(int, 4, "children expanded per node", _count(1)),
-                                  dive=(bool, True, "first follow the policy's own episode "
-                                        f"(from {SCALE_FROM} modules one per start type)",
+                                  dive=(bool, True, "first follow the single pass's "
+                                        f"episodes (ppo's: from {SCALE_FROM} modules one per "
+                                        "start type, with its extra fallbacks' branches)",
                                         check_flag), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
                                   fallback=_FALLBACK, prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", extra="train"),
