@@ -233,7 +233,7 @@ def tier_entries(tier_name: str, results: Path = RESULTS,
     seeds = results / f"seeds_{tier.name}" / "seeds.csv"
     if seeds.is_file():
         entries += over_seeds(read_seeds(seeds), tier, _rel(seeds), one)
-    else:  # no five-seed report (the fault tier): the shipped model's one run
+    else:  # no five-seed report: the shipped model's one run
         entries += one.values()
     folder = results / SUBMISSIONS if submissions is None else submissions
     for path in sorted(folder.glob("*.csv")) if folder.is_dir() else []:

@@ -10,7 +10,7 @@ from pathlib import Path
 COLOURS = {"search": "#555555", "learned": "#4c72b0", "outside": "#dd8452"}
 MARKERS = {"search": "o", "learned": "s", "outside": "D"}
 KIND_NAMES = {"search": "search (one run)",
-              "learned": "learned (mean of 5 seeds, 95 % interval;\nthe fault tier: one run)",
+              "learned": "learned (mean of 5 seeds, 95 % interval)",
               "outside": "outside agent"}  # fmt: skip
 
 

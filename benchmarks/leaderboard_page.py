@@ -181,8 +181,7 @@ def page_intro(entries: list[Entry], tiers: list[str], image: str) -> list[str]:
         "## At a glance",
         "",
         f"Optimal share per tier (in brackets: within {BUDGET:g} s per task, the rank's "
-        "measure); learned methods: mean over five seeds (on the fault tier, the shipped model's "
-        "one run):",
+        "measure); learned methods: mean over five seeds:",
         "",
         "<!-- --8<-- [start:glance] -->",
         *glance(entries, tiers),
@@ -276,8 +275,8 @@ def how_made(r: str) -> list[str]:
         "are scored, and an answer counts only when it survives; milp refuses `fault=` (its row "
         "says so in place of numbers). The learned methods act with the tier's model, trained "
         "with the failure (their environment ends an episode only once every wrench survives, "
-        "and each answer is verified); no five-seed report exists there, so their rows are the "
-        "shipped model's one run. An outside agent is handed the problem "
+        "and each answer is verified), over five training seeds as on the other tiers. An "
+        "outside agent is handed the problem "
         "with its fault and an evaluator that decides survival.",
         f"- **Anytime curves**: from the same per-task rows; the anytime search's history "
         f"(`{r}{ANYTIME}`, `{COMMAND} --anytime-history --force`) gives when its best structure so "

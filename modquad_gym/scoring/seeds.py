@@ -212,13 +212,17 @@ def goal_lines(scores: list[SeedScore], tier_name: str) -> list[str]:
     """The tier's goals against the pessimistic end of each 95 % interval (IQM): the lower
     end of a share, the upper end of configurations per task."""
     goals = get_tier(tier_name).goals
-    out = [
-        "Goals, judged on the pessimistic end of the IQM's 95 % interval (the lower end of a "
-        "share, the upper end of configurations per task):",
-        "",
-        "| method | metric | goal | IQM [95 % CI] | verdict |",
-        "|---|---|---|---|---|",
-    ]
+    out = (
+        [
+            "Goals, judged on the pessimistic end of the IQM's 95 % interval (the lower end of a "
+            "share, the upper end of configurations per task):",
+            "",
+            "| method | metric | goal | IQM [95 % CI] | verdict |",
+            "|---|---|---|---|---|",
+        ]
+        if goals
+        else [f"The `{tier_name}` tier sets no goals for its learned methods."]
+    )
     searches = {}  # configurations per task of each search, pooled over the suites
     for m in SEARCH_METHODS:
         rs = [s for s in scores if s.method == m]
