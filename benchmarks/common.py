@@ -71,8 +71,7 @@ def run_command(
     expected failure (a missing optional package, a file that cannot be written: one line
     ``PROG: error: ...``), 130 when interrupted (Ctrl-C) and 143 on SIGTERM (one line each:
     the command's ``finally`` blocks stop its workers and keep what it finished)."""
-    from modquad_gym.cli.common import one_line
-    from modquad_gym.core.interrupts import exit_status, sigterm_as_interrupt, stop_line
+    from modquad_gym.core.interrupts import exit_status, one_line, sigterm_as_interrupt, stop_line
 
     try:
         with sigterm_as_interrupt():

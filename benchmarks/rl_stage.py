@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import bench_args, report_page, run_main, write_report
-from modquad_gym.cli.common import one_line
+from modquad_gym.core.interrupts import one_line
 from modquad_gym.scoring.fine_tuning import best_index
 from modquad_gym.scoring.stats import interval
 from modquad_gym.scoring.tiers import TIERS

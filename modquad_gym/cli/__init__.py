@@ -25,7 +25,6 @@ import sys
 
 from modquad_gym.cli.bench import add_bench
 from modquad_gym.cli.check import add_check
-from modquad_gym.cli.common import one_line
 from modquad_gym.cli.export import add_export
 from modquad_gym.cli.optima import add_optima
 from modquad_gym.cli.score import ARGV, add_score
@@ -33,7 +32,7 @@ from modquad_gym.cli.show import add_show
 from modquad_gym.cli.solve import add_solve
 from modquad_gym.cli.task import add_task
 from modquad_gym.cli.validate import add_validate
-from modquad_gym.core.interrupts import exit_status, sigterm_as_interrupt, stop_line
+from modquad_gym.core.interrupts import exit_status, one_line, sigterm_as_interrupt, stop_line
 
 COMMANDS = (
     add_solve, add_optima, add_task, add_show, add_export, add_validate, add_score, add_check,

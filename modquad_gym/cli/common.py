@@ -8,7 +8,6 @@ import argparse
 import sys
 from collections.abc import Callable
 
-from modquad_gym.core.extras import EXTRA_OF, missing_extra_message
 from modquad_gym.core.options import int_option, real_option, seed_option
 from modquad_gym.methods import REGISTRY
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT
@@ -298,15 +297,6 @@ def print_help(parser: argparse.ArgumentParser) -> Command:
         return 0
 
     return show
-
-
-def one_line(exc: BaseException) -> str:
-    """An expected failure as one line naming the file or option."""
-    if isinstance(exc, OSError) and exc.filename and exc.strerror:
-        return f"{exc.filename}: {exc.strerror}"
-    if isinstance(exc, ModuleNotFoundError) and (exc.name or "").split(".")[0] in EXTRA_OF:
-        return missing_extra_message(exc.name)
-    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 def report_error(message: str) -> None:

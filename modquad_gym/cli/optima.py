@@ -12,10 +12,10 @@ from modquad_gym.cli.common import (
     add_n_max,
     add_workers,
     batch_status,
-    one_line,
     report_error,
 )
 from modquad_gym.cli.given import refuse_ignored
+from modquad_gym.core.interrupts import one_line
 
 SUITES_DIR = Path(__file__).resolve().parents[1] / "data" / "suites"
 """The suites shipped with the package (``--suite NAME``)."""

@@ -22,11 +22,11 @@ from modquad_gym.cli.common import (
     batch_status,
     check_fault_method,
     fault_margin_of,
-    one_line,
     palette,
     palette_of,
     report_error,
 )
+from modquad_gym.core.interrupts import one_line
 from modquad_gym.methods import method_of
 from modquad_gym.oracle.faults import DELAY_SLOPES
 from modquad_gym.solvers import make_solver

@@ -1,5 +1,6 @@
-"""Ctrl-C and SIGTERM end a command the same way: one line on stderr and exit 130 (Ctrl-C) or
-143 (SIGTERM), never a traceback or a native crash dump.
+"""How a command ends: Ctrl-C and SIGTERM the same way, one line on stderr and exit 130 (Ctrl-C)
+or 143 (SIGTERM), never a traceback or a native crash dump; an expected failure as one line
+(:func:`one_line`) with exit 2.
 
 SIGTERM is raised in the main thread as :class:`Terminated`, a ``KeyboardInterrupt``, so the
 cleanup written for Ctrl-C (``finally`` blocks: worker processes stopped, Ray shut down, the rows
@@ -14,11 +15,14 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+from modquad_gym.core.extras import EXTRA_OF, missing_extra_message
+
 __all__ = [
     "Terminated",
     "deferred_signals",
     "exit_status",
     "keep_sigterm",
+    "one_line",
     "sigterm_as_interrupt",
     "stop_line",
 ]
@@ -113,3 +117,12 @@ def _was_terminated(exc: KeyboardInterrupt) -> bool:
 def stop_line(prog: str, exc: KeyboardInterrupt) -> str:
     """The one line an interrupted command prints."""
     return f"{prog}: {'terminated' if _was_terminated(exc) else 'interrupted'}"
+
+
+def one_line(exc: BaseException) -> str:
+    """An expected failure as one line naming the file or option."""
+    if isinstance(exc, OSError) and exc.filename and exc.strerror:
+        return f"{exc.filename}: {exc.strerror}"
+    if isinstance(exc, ModuleNotFoundError) and (exc.name or "").split(".")[0] in EXTRA_OF:
+        return missing_extra_message(exc.name)
+    return " ".join(str(exc).split()) or type(exc).__name__

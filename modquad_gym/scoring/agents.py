@@ -28,6 +28,7 @@ from functools import lru_cache, partial
 from pathlib import Path
 
 from modquad_gym.core.extras import require
+from modquad_gym.core.interrupts import one_line
 from modquad_gym.core.options import DefaultsHelpFormatter
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv
 from modquad_gym.geometry.module import palette
@@ -245,8 +246,7 @@ def script(argv: list[str] | None = None) -> int:
     try:
         return main(argv)
     except (ValueError, OSError, ImportError) as exc:
-        message = " ".join(str(exc).split()) or type(exc).__name__
-        print(f"{COMMAND}: error: {message}", file=sys.stderr)
+        print(f"{COMMAND}: error: {one_line(exc)}", file=sys.stderr)
         return 2
 
 
