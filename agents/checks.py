@@ -13,6 +13,7 @@ from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
+from modquad_gym.core.interrupts import one_line
 from modquad_gym.core.resources import usable_cpus
 from modquad_gym.core.validation import check_int, check_real
 
@@ -98,11 +99,7 @@ def check_environment(config: Any) -> None:
     try:
         ModQuadAssemblyEnv(**config.env_kwargs_full).close()
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"--env-kwargs {config.env_kwargs}: {_one_line(exc)}") from None
-
-
-def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split()) or type(exc).__name__
+        raise ValueError(f"--env-kwargs {config.env_kwargs}: {one_line(exc)}") from None
 
 
 def check_model(path: Path, env_kwargs: dict, what: str, tier_kwargs: dict | None = None) -> None:

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from modquad_gym.core.interrupts import run_command
 from modquad_gym.core.options import int_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv, write_text
 from modquad_gym.geometry.structure import Structure
@@ -59,32 +60,8 @@ def run_main(
     main: Callable[[list[str] | None], object], name: str, argv: list[str] | None = None
 ) -> int:
     """``python -m benchmarks.NAME`` (``main``) with the options ``argv`` (default the command
-    line's), run as :func:`run_command` runs a command."""
+    line's), run as :func:`~modquad_gym.core.interrupts.run_command` runs a command."""
     return run_command(main, f"python -m benchmarks.{name}", argv)
-
-
-def run_command(
-    main: Callable[[list[str] | None], object], prog: str, argv: list[str] | None = None
-) -> int:
-    """``main(argv)`` run as the ``modquad`` command runs its commands: 0 when it finishes (or
-    the status it returns), 2 for a refused option (argparse's usage and error line) or an
-    expected failure (a missing optional package, a file that cannot be written: one line
-    ``PROG: error: ...``), 130 when interrupted (Ctrl-C) and 143 on SIGTERM (one line each:
-    the command's ``finally`` blocks stop its workers and keep what it finished)."""
-    from modquad_gym.core.interrupts import exit_status, one_line, sigterm_as_interrupt, stop_line
-
-    try:
-        with sigterm_as_interrupt():
-            code = main(argv)
-    except SystemExit as exc:  # argparse: --help (0) or a refused option (2)
-        return exc.code if isinstance(exc.code, int) else 0 if exc.code is None else 2
-    except KeyboardInterrupt as exc:
-        print(stop_line(prog, exc), file=sys.stderr)
-        return exit_status(exc)
-    except (ValueError, OSError, ImportError, MemoryError, OverflowError) as exc:
-        print(f"{prog}: error: {one_line(exc)}", file=sys.stderr)
-        return 2
-    return code if isinstance(code, int) else 0  # some return their rows
 
 
 def refuse_as_script(name: str) -> int:

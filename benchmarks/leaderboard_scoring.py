@@ -10,6 +10,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from benchmarks.leaderboard_entries import ANYTIME, COMMAND, RESCORED, RESULTS, TIERS, read_rows
+from modquad_gym.core.interrupts import one_line
 
 
 def rescore_searches(results: Path = RESULTS, progress: bool = True) -> Path:
@@ -110,11 +111,6 @@ def _takes_seed(agent) -> bool:
     return any(p.name == "seed" or p.kind == p.VAR_KEYWORD for p in params)
 
 
-def _one_line(err: BaseException) -> str:
-    text = str(err).strip().splitlines()
-    return f"{type(err).__name__}: {text[0] if text else ''}"
-
-
 def score_agent(spec: str, tiers: Iterable[str], limit: int | None, seeds: list[int],
                 progress: bool) -> list[dict]:  # fmt: skip
     """An outside agent on every tier's held-out suites (the first ``limit`` tasks of each),
@@ -143,8 +139,9 @@ def score_agent(spec: str, tiers: Iterable[str], limit: int | None, seeds: list[
                           "status": ""} for r in rows]  # fmt: skip
             records += mine
         except Exception as err:  # the agent's failure on this tier; the others go on
-            print(f"{tier.name}: {name} failed: {_one_line(err)}", file=sys.stderr)
-            records.append({**status, "status": f"failed: {_one_line(err)}"})
+            failure = f"failed: {type(err).__name__}: {one_line(err)}"
+            print(f"{tier.name}: {name} {failure}", file=sys.stderr)
+            records.append({**status, "status": failure})
     return records
 
 

@@ -132,6 +132,19 @@ def test_raising_task_is_reported_by_label(local_ray):
     assert out[1] == Failed("b", "invalid literal for int() with base 10: 'x'")
 
 
+def test_an_unexpected_failure_is_named_by_its_type_in_one_line():
+    """The serial path reports as Ray's: an expected failure by its message, another (a bug in
+    the item's code) with its type, a message of several lines on one."""
+
+    def item(kind):
+        raise {"value": ValueError("bad\nrow 3"), "zero": ZeroDivisionError("x / 0"),
+               "bare": RuntimeError()}[kind]  # fmt: skip
+
+    out = map_tasks(item, ["value", "zero", "bare"], workers=1, labels=list("abc"), catch=True)
+    assert out == [Failed("a", "bad row 3"), Failed("b", "ZeroDivisionError: x / 0"),
+                   Failed("c", "RuntimeError")]  # fmt: skip
+
+
 def test_killed_worker_is_retried_with_identical_results(local_ray, tmp_path):
     """The first attempt at item 5 kills its own worker process (SIGKILL); Ray resubmits it."""
     marker = tmp_path / "killed"

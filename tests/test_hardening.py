@@ -328,6 +328,30 @@ def test_broken_pipe_is_one_line_exit_2():
     assert "broken pipe" in proc.stderr
 
 
+@pytest.mark.parametrize("lines", [1, 5000])
+def test_the_scripts_stop_on_a_broken_pipe_in_one_line(lines):
+    """The scripts' door (:func:`~modquad_gym.core.interrupts.run_command`, as ``python -m
+    modquad_gym.scoring.seeds`` printing its report runs it) as the CLI's: a reader gone
+    before the output ends (`| true`) is one line and exit 2, whether the output breaks the
+    pipe while it is written or waits in the buffer until exit."""
+    script = (
+        "import sys; from modquad_gym.core.interrupts import run_command; "
+        f"sys.exit(run_command(lambda argv: print('row\\n' * {lines}), 'prog'))"
+    )
+    proc = subprocess.run(
+        f'{sys.executable} -c "{script}" | true; echo rc=${{PIPESTATUS[0]}} >&2',
+        shell=True,
+        executable="/bin/bash",
+        capture_output=True,
+        text=True,
+        env=ENV,
+        timeout=120,
+    )
+    assert "rc=2" in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr and "Exception ignored" not in proc.stderr
+    assert proc.stderr.count("prog: error: output closed before the end (broken pipe)") == 1
+
+
 def test_interrupt_exits_130_in_process(capsys, monkeypatch):
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt

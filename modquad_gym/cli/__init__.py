@@ -20,7 +20,6 @@ A new command is a module with those two functions, added to :data:`COMMANDS`.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
 from modquad_gym.cli.bench import add_bench
@@ -32,7 +31,7 @@ from modquad_gym.cli.show import add_show
 from modquad_gym.cli.solve import add_solve
 from modquad_gym.cli.task import add_task
 from modquad_gym.cli.validate import add_validate
-from modquad_gym.core.interrupts import exit_status, one_line, sigterm_as_interrupt, stop_line
+from modquad_gym.core.interrupts import run_command
 
 COMMANDS = (
     add_solve, add_optima, add_task, add_show, add_export, add_validate, add_score, add_check,
@@ -76,8 +75,7 @@ def main(argv: list[str] | None = None) -> int:
     if setting is not None:
         print(f"modquad: error: {setting}", file=sys.stderr)
         return 2
-    with sigterm_as_interrupt():  # SIGTERM: one line and exit 143, as Ctrl-C
-        return _run(argv)
+    return run_command(_run, "modquad", argv)
 
 
 def _run(argv: list[str] | None) -> int:
@@ -86,23 +84,11 @@ def _run(argv: list[str] | None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
-    try:
-        from modquad_gym.cli import given
+    from modquad_gym.cli import given
 
-        typed = sys.argv[1:] if argv is None else list(argv)
-        setattr(args, ARGV, typed)
-        setattr(args, given.TYPED, given.typed_options(parser, typed))
-        given.refuse_ignored_method_options(args)  # before any file is read
-        given.refuse_ignored_csv_header(args)
-        return args.func(args)
-    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (Terminated)
-        print(stop_line("modquad", exc), file=sys.stderr)
-        return exit_status(exc)
-    except BrokenPipeError:
-        # the reader closed our output (e.g. `| head -1`): stop writing, say so once
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        print("modquad: error: output closed before the end (broken pipe)", file=sys.stderr)
-        return 2
-    except (ValueError, OSError, ImportError, MemoryError, OverflowError) as exc:
-        print(f"modquad: error: {one_line(exc)}", file=sys.stderr)
-        return 2
+    typed = sys.argv[1:] if argv is None else list(argv)
+    setattr(args, ARGV, typed)
+    setattr(args, given.TYPED, given.typed_options(parser, typed))
+    given.refuse_ignored_method_options(args)  # before any file is read
+    given.refuse_ignored_csv_header(args)
+    return args.func(args)

@@ -31,7 +31,7 @@ from itertools import chain, islice
 from typing import Any
 
 from modquad_gym.core.extras import import_optional, missing_extra_message
-from modquad_gym.core.interrupts import keep_sigterm
+from modquad_gym.core.interrupts import failure_line, keep_sigterm
 from modquad_gym.core.notes import note
 from modquad_gym.core.resources import cap_workers, usable_cpus
 from modquad_gym.core.validation import check_int
@@ -60,15 +60,6 @@ def ray_installed() -> bool:
     return importlib.util.find_spec("ray") is not None
 
 
-def _one_line(exc: BaseException) -> str:
-    """The error as one line: the message of an expected failure (ValueError, OSError: they
-    name their file or option), the type and message of anything else."""
-    text = " ".join(str(exc).split())
-    if text and isinstance(exc, (ValueError, OSError)):
-        return text
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
-
-
 def run_item(fn: Callable, item: Any, label: str, catch: bool) -> Any:
     """Run one item (in this process or in a Ray worker): the same code on both paths."""
     if not catch:
@@ -76,7 +67,7 @@ def run_item(fn: Callable, item: Any, label: str, catch: bool) -> Any:
     try:
         return fn(item)
     except Exception as exc:  # reported per item, the batch goes on
-        return Failed(label, _one_line(exc))
+        return Failed(label, failure_line(exc))
 
 
 class Engine:
@@ -166,7 +157,7 @@ class Engine:
                     ray.init(address=self.address, **options)
                 except (ConnectionError, RuntimeError, TimeoutError) as exc:
                     raise ConnectionError(
-                        f"Ray cluster {self.address}: {_one_line(exc)}{_token_hint()}"
+                        f"Ray cluster {self.address}: {failure_line(exc)}{_token_hint()}"
                     ) from None
             else:
                 # "local": a new embedded Ray even when RAY_ADDRESS names a cluster elsewhere
@@ -355,7 +346,7 @@ def ray_error_line(exc: BaseException) -> str:
     line: its cause when Ray knows it, else its first line without terminal colours."""
     cause = getattr(exc, "cause", None)
     if isinstance(cause, BaseException):
-        return _one_line(cause)
+        return failure_line(cause)
     first = re.sub(r"\x1b\[[0-9;]*m", "", str(exc)).strip().splitlines()
     return f"{type(exc).__name__}: {first[0] if first else ''}".strip()
 

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 from modquad_gym.core.extras import EXTRA_OF, missing_extra_message
@@ -21,8 +22,10 @@ __all__ = [
     "Terminated",
     "deferred_signals",
     "exit_status",
+    "failure_line",
     "keep_sigterm",
     "one_line",
+    "run_command",
     "sigterm_as_interrupt",
     "stop_line",
 ]
@@ -126,3 +129,39 @@ def one_line(exc: BaseException) -> str:
     if isinstance(exc, ModuleNotFoundError) and (exc.name or "").split(".")[0] in EXTRA_OF:
         return missing_extra_message(exc.name)
     return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def failure_line(exc: BaseException) -> str:
+    """A failure that may be unexpected (a worker's, an outside agent's) as one line: an expected
+    one (ValueError, OSError: they name their file or option) as :func:`one_line`, anything else
+    with its type in front."""
+    if isinstance(exc, (ValueError, OSError)):
+        return one_line(exc)
+    text = one_line(exc)
+    return text if text == type(exc).__name__ else f"{type(exc).__name__}: {text}"
+
+
+def run_command(main: Callable[[list[str] | None], object], prog: str, argv=None) -> int:
+    """``main(argv)`` run as a command: 0 when it finishes (or the status it returns), 2 for a
+    refused option (argparse's usage and error line), an expected failure (a missing optional
+    package, a file that cannot be read or written: one line ``PROG: error: ...``) or a reader
+    that closed the output (``| head``), 130 when interrupted (Ctrl-C) and 143 on SIGTERM (one
+    line each: the command's ``finally`` blocks stop its workers and keep what it finished)."""
+    try:
+        with sigterm_as_interrupt():
+            try:
+                code = main(argv)
+            except SystemExit as exc:  # argparse: --help (0) or a refused option (2)
+                code = exc.code if isinstance(exc.code, int) else 0 if exc.code is None else 2
+            sys.stdout.flush()  # a reader gone before the end is found here, not at exit
+    except KeyboardInterrupt as exc:
+        print(stop_line(prog, exc), file=sys.stderr)
+        return exit_status(exc)
+    except BrokenPipeError:  # stop writing (no second error at exit), say so once
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        print(f"{prog}: error: output closed before the end (broken pipe)", file=sys.stderr)
+        return 2
+    except (ValueError, OSError, ImportError, MemoryError, OverflowError) as exc:
+        print(f"{prog}: error: {one_line(exc)}", file=sys.stderr)
+        return 2
+    return code if isinstance(code, int) else 0  # some return their rows

@@ -44,12 +44,16 @@ def int_option(low: int, high: int = MAX_COUNT):
         return value
 
     parse.__name__ = "integer"  # argparse names the type in its messages
+    parse.is_integer = True  # what check_option checks a Python caller's value against
     return parse
 
 
 def seed_option(text: str) -> int:
     """An argparse ``type`` for a random seed: an integer in 0..2**63-1."""
     return int_option(0, MAX_SEED)(text)
+
+
+seed_option.is_integer = True
 
 
 def check_option(flag: str, value: object, kind=None, many: bool = False) -> None:
@@ -65,7 +69,7 @@ def check_option(flag: str, value: object, kind=None, many: bool = False) -> Non
         for v in value:
             check_option(flag, v, kind)
         return
-    if kind is not seed_option and getattr(kind, "__name__", "") != "integer":
+    if not getattr(kind, "is_integer", False):
         return
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise ValueError(f"{flag}: expected an integer, got {value!r}")

@@ -28,7 +28,7 @@ from functools import lru_cache, partial
 from pathlib import Path
 
 from modquad_gym.core.extras import require
-from modquad_gym.core.interrupts import one_line
+from modquad_gym.core.interrupts import run_command
 from modquad_gym.core.options import DefaultsHelpFormatter
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv
 from modquad_gym.geometry.module import palette
@@ -243,11 +243,7 @@ def score(args: argparse.Namespace, command: str) -> int:
 def script(argv: list[str] | None = None) -> int:
     """:func:`main` as ``python -m modquad_gym.scoring.agents`` runs it: a refused input or a
     file that cannot be written is one line and exit 2, as with ``modquad score``."""
-    try:
-        return main(argv)
-    except (ValueError, OSError, ImportError) as exc:
-        print(f"{COMMAND}: error: {one_line(exc)}", file=sys.stderr)
-        return 2
+    return run_command(main, COMMAND, argv)
 
 
 if __name__ == "__main__":

@@ -189,4 +189,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from modquad_gym.core.interrupts import run_command
+
+    raise SystemExit(run_command(main, "python -m modquad_gym.scoring.tiers"))
