@@ -40,7 +40,8 @@ def test_score_options_are_checked_as_the_command_line_checks_them(tmp_path, cap
         with pytest.raises(ValueError, match=words):
             score_options(**given)
         if argv is not None:
-            assert cli_main(["score", *argv, "--out", str(tmp_path / "s")]) == 2
+            with pytest.raises(SystemExit):
+                cli_main(["score", *argv, "--out", str(tmp_path / "s")])
             assert f"argument {words}" in capsys.readouterr().err
     assert score_options(limit=2, methods=["greedy"]).limit == 2
 

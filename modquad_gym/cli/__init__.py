@@ -75,18 +75,19 @@ def main(argv: list[str] | None = None) -> int:
     if setting is not None:
         print(f"modquad: error: {setting}", file=sys.stderr)
         return 2
-    return run_command(_run, "modquad", argv)
-
-
-def _run(argv: list[str] | None) -> int:
     parser = build_parser(sys.argv[1:] if argv is None else list(argv))
-    args = parser.parse_args(argv)
+    args = parser.parse_args(argv)  # argparse's own exit: --help (0), a refused option (2)
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
+    typed = sys.argv[1:] if argv is None else list(argv)
+    return run_command(lambda _: _run(parser, args, typed), "modquad")
+
+
+def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, typed: list[str]) -> int:
+    """The command ``args`` names, after the refusals that need its typed options."""
     from modquad_gym.cli import given
 
-    typed = sys.argv[1:] if argv is None else list(argv)
     setattr(args, ARGV, typed)
     setattr(args, given.TYPED, given.typed_options(parser, typed))
     given.refuse_ignored_method_options(args)  # before any file is read
