@@ -34,6 +34,7 @@ from benchmarks.common import (
     write_report,
 )
 from benchmarks.measure import fresh, measured
+from modquad_gym.cli.common import time_limit_option
 
 GOALS = {"gap_64_pct": 5.0, "seconds": 60.0, "memory_MB": 2048.0}
 
@@ -184,10 +185,11 @@ def report(rows: list[dict], args: argparse.Namespace) -> str:
 
 def main(argv: list[str] | None = None) -> None:
     options = {
-        "--sizes": dict(type=int_option(1, 64), nargs="*", default=[16, 24, 32, 48, 64],
+        "--sizes": dict(type=int_option(1, 64), nargs="+", default=[16, 24, 32, 48, 64],
                         help="planted sizes (default 16 24 32 48 64)"),
-        "--tasks": dict(type=int_option(0, 100), default=3, help="tasks per size (default 3)"),
-        "--time-limit": dict(type=float, default=60.0, help="anytime seconds (default 60)"),
+        "--tasks": dict(type=int_option(1, 100), default=3, help="tasks per size (default 3)"),
+        "--time-limit": dict(type=time_limit_option, default=60.0,
+                             help="anytime seconds (default 60)"),
         "--reach": dict(action="store_true", help="also the exact reach to 16 modules"),
         "--workers": dict(type=int_option(1, 64), default=2,
                           help="workers of the exhaustive search (default 2)"),

@@ -16,6 +16,7 @@ memory per certificate, seconds per level). Writes hashes.csv, certificates.csv,
 
 from __future__ import annotations
 
+import argparse
 import gzip
 import hashlib
 import json
@@ -26,7 +27,14 @@ import time
 from pathlib import Path
 
 import modquad_gym as mq
-from benchmarks.common import bench_args, made_by, markdown_table, write_csv, write_text
+from benchmarks.common import (
+    bench_args,
+    int_option,
+    made_by,
+    markdown_table,
+    write_csv,
+    write_text,
+)
 from modquad_gym import proofcheck
 from modquad_gym.geometry.module import palette
 from modquad_gym.scoring.tiers import get_tier
@@ -172,12 +180,16 @@ def summary(rows: list[dict]) -> list[str]:
 def main(argv: list[str] | None = None) -> int:
     args = bench_args(
         argv, "python -m benchmarks.certificates", __doc__,
-        {"--fault-tasks": {"type": int, "default": 10, "help": "tasks per fault suite"},
-         "--limit": {"type": int, "default": None, "help": "first tasks of each tier suite"},
+        {"--fault-tasks": {"type": int_option(0), "default": 10,
+                           "help": "tasks per fault suite (default 10)"},
+         "--limit": {"type": int_option(1), "default": None,
+                     "help": "first tasks of each tier suite (default all)"},
          "--enumerated": {"action": "store_true", "help": "also the 10/12-module checks"},
-         "--scale": {"type": int, "default": 0, "help": "also the first N tasks of each scale "
-                     "suite of 16-64 modules, the default search (20 s), where certified"}},
+         "--scale": {"type": int_option(0), "default": 0, "help": "also the first N tasks of "
+                     "each scale suite of 16-64 modules, the default search (20 s), where "
+                     "certified (default 0)"}},
         seed_help=None, out="results/certificates", outputs=("hashes.csv", "report.md"),
+        formatter_class=argparse.RawDescriptionHelpFormatter,  # the docstring's own lines
     )  # fmt: skip
     rows, uncertified = [], []
     for job in jobs(args.fault_tasks, args.limit, args.scale):

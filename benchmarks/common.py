@@ -102,7 +102,7 @@ def bench_args(
         parser.add_argument(flag, **kwargs)
     if seed_help is not None:
         parser.add_argument("--seed", type=seed_option, default=0, help=seed_help)
-    parser.add_argument("--out", type=Path, default=Path(out), help=out_help)
+    parser.add_argument("--out", type=Path, default=Path(out), help=f"{out_help} (default {out})")
     if force or outputs:
         add_force(parser)
     return parse_bench_args(parser, argv, outputs)

@@ -140,8 +140,9 @@ def parser() -> argparse.ArgumentParser:
         "--seeds",
         nargs="+",
         type=int_option(0),
-        default=[0, 1, 2, 3, 4],
-        help="with --solver: the seeds it is run with (one run when it takes no seed)",
+        default=None,
+        help="with --solver: the seeds it is run with (default 0 1 2 3 4; one run when it "
+        "takes no seed)",
     )
     p.add_argument(
         "--tiers", nargs="+", choices=TIERS, default=list(TIERS), help="tiers to show (default all)"
@@ -166,7 +167,7 @@ def parser() -> argparse.ArgumentParser:
         "results/leaderboard.*, docs/leaderboard.md and, with --rescore-searches or "
         f"--anytime-history, results/{RESCORED} or results/{ANYTIME}); default: refuse",
     )
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
     return p
 
 
@@ -179,8 +180,10 @@ def check_args(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
         p.error("--solver needs --out: the committed leaderboard holds committed data only")
     if args.out is None and sorted(args.tiers) != sorted(TIERS):
         p.error("--tiers needs --out: the committed leaderboard holds every tier")
-    if args.limit is not None and not args.solver:
-        p.error("--limit goes with --solver")
+    for flag, value in (("--limit", args.limit), ("--seeds", args.seeds)):
+        if value is not None and not args.solver:
+            p.error(f"{flag} goes with --solver")
+    args.seeds = args.seeds or [0, 1, 2, 3, 4]
     if len(set(args.seeds)) != len(args.seeds):
         p.error(f"--seeds: a seed is given twice: {args.seeds}")
     written = OUTPUTS if args.solver else OUTPUTS[:-1]

@@ -127,6 +127,12 @@ def report(rows: list[dict], per_method: list[dict], against: list[dict], args) 
             "",
             *goal_lines(against),
         ]
+    else:
+        lines += [
+            "",
+            "No comparison (no `versus.csv`): `--methods` names no learned method "
+            f"({', '.join(LEARNED)}) beside another method to compare it with.",
+        ]
     return "\n".join([*lines, ""])
 
 
@@ -201,7 +207,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
                                         args.bands, args.families)]  # fmt: skip
         write_csv(rows, claim.path("rows.csv"))
         write_csv(per_method, claim.path("methods.csv"))
-        write_csv(against, claim.path("versus.csv"))
+        if against:  # a learned method and a rival were run
+            write_csv(against, claim.path("versus.csv"))
         write_text(claim.path("report.md"), report(rows, per_method, against, args))
     print(markdown_table(per_method))
     return rows

@@ -44,6 +44,7 @@ from benchmarks.scale_suites import (
     search_budget,
     task_palette,
 )
+from modquad_gym.cli.common import time_limit_option
 from modquad_gym.core.outputs import claim_output_dir, write_text
 from modquad_gym.core.resources import cap_workers
 
@@ -240,7 +241,7 @@ def task_options(bands=BANDS, workers: int = 1) -> dict[str, dict]:
                            help="task families (default all)"),
         "--per-family": dict(type=int_option(1, 100), default=1,
                              help="tasks per family and band (default 1)"),
-        "--time-limit": dict(type=float, default=30.0,
+        "--time-limit": dict(type=time_limit_option, default=30.0,
                              help="seconds each method gets per task (default 30)"),
         "--workers": dict(type=int_option(1, 64), default=workers,
                           help=f"(method, band) processes at a time (default {workers})"),
@@ -250,14 +251,9 @@ def task_options(bands=BANDS, workers: int = 1) -> dict[str, dict]:
 
 
 def check_task_args(args) -> None:
-    """The :func:`task_options` given, checked before any work (one line each, exit 2 as the
-    CLI's rule): the time limit in (0, a day], each band a held-out suite unless drawn."""
-    from modquad_gym.search.problem import check_time_limit
-
-    try:
-        check_time_limit(args.time_limit)
-    except ValueError as exc:
-        raise ValueError(f"--time-limit: {exc}") from None
+    """The :func:`task_options` given, checked before any work (one line, exit 2 as the CLI's
+    rule; the time limit is argparse's, :func:`~modquad_gym.cli.common.time_limit_option`): each
+    band a held-out suite unless drawn."""
     unknown = [b for b in args.bands if b not in BANDS and not args.validation]
     if unknown:
         raise ValueError(f"--bands {unknown[0]}: no held-out suite of that size (bands "

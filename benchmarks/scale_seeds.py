@@ -31,6 +31,7 @@ from benchmarks.common import (
 )
 from benchmarks.scale_models import answers
 from benchmarks.scale_suites import FAMILIES, load_scale_suite
+from modquad_gym.cli.common import time_limit_option
 from modquad_gym.core.options import int_option
 from modquad_gym.scoring.seed_runs import find_runs
 from modquad_gym.scoring.seeds import interval
@@ -167,7 +168,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         "--mixed-runs": dict(type=Path, default=Path("runs/mixed-exact-seeds"),
                              help="folder of seed-S/model.zip, mixed-palette models "
                                   "(python train.py --tier mixed --seeds ...)"),
-        "--time-limit": dict(type=float, default=30.0,
+        "--time-limit": dict(type=time_limit_option, default=30.0,
                              help="seconds each method gets per task (default 30)"),
         "--workers": dict(type=int_option(1, 64), default=2,
                           help="processes at a time (default 2)"),

@@ -217,7 +217,11 @@ def test_an_outside_agent_joins_with_one_command(tmp_path, monkeypatch, capsys):
     [
         (["--tiers", "current"], "--tiers needs --out: the committed leaderboard holds every tier"),
         (["--limit", "3"], "--limit goes with --solver"),
-        (["--seeds", "1", "1", "--out", "x"], "--seeds: a seed is given twice: [1, 1]"),
+        (["--seeds", "7", "--out", "x"], "--seeds goes with --solver"),
+        (
+            ["--seeds", "1", "1", "--solver", "m:S", "--out", "x"],
+            "--seeds: a seed is given twice: [1, 1]",
+        ),
     ],
 )
 def test_options_that_do_not_go_together_are_refused_before_work(argv, says, capsys):

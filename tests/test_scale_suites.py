@@ -319,6 +319,23 @@ def test_prune_benchmark_compares_each_method_with_and_without_the_post_pass(tmp
     assert not (out / "report.md").exists()
 
 
+def test_prune_without_a_learned_method_reports_what_pruning_removed(tmp_path, capsys):
+    """`--methods greedy` (no learned method to compare): the page says so and no versus.csv
+    is written, where the run used to end in a traceback after all its solving."""
+    from benchmarks.common import run_script
+
+    earlier = Path(__file__).parents[1] / "results" / "prune" / "16-64" / "rows.csv"
+    lines = earlier.read_text().splitlines()
+    rows = tmp_path / "rows.csv"
+    rows.write_text("\n".join([lines[0], *(x for x in lines if ",greedy" in x)]) + "\n")
+    out = tmp_path / "out"
+    argv = ["--rows", str(rows), "--methods", "greedy", "--bands", "16", "32", "64",
+            "--per-family", "3", "--out", str(out)]  # fmt: skip
+    assert run_script("prune", argv) == 0, capsys.readouterr().err
+    assert "No comparison (no `versus.csv`)" in (out / "report.md").read_text()
+    assert (out / "methods.csv").exists() and not (out / "versus.csv").exists()
+
+
 def test_scale_models_and_scale_seeds_write_their_rows_in_their_columns(monkeypatch):
     """One row builder serves both benchmarks: each row has its benchmark's columns, in order
     (what --reuse and --rows read back), found only where verified."""

@@ -364,7 +364,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", type=Path, default=None, help="report folder (default RUNS/report)")
     p.add_argument("--limit", type=LIMIT, default=None, help="first N tasks per suite")
     p.add_argument("--force", action="store_true", help="replace an existing report")
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
     args = p.parse_args(argv)
     try:  # everything the work needs, before it starts (a model that does not load included)
         tier = get_tier(args.tier)
