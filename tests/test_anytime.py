@@ -158,3 +158,25 @@ def test_the_time_left_goes_to_the_fields_heuristics(monkeypatch):
     assert r.history[-1].source in ("beam", "genetic", "greedy")  # who found it
     alone = anytime_search(task, n_max=24, time_limit=6, producers=())
     assert alone.n_modules > r.n_modules and r.evaluated > alone.evaluated
+
+
+@pytest.mark.parametrize(
+    "script, argv, says",
+    [
+        ("anytime", ["--tasks", "0"], "argument --tasks: must be in 1..100, got 0"),
+        ("anytime", ["--sizes"], "argument --sizes: expected at least one argument"),
+        ("anytime", ["--time-limit", "nan"], "argument --time-limit: expected a finite number"),
+        ("scale_seeds", ["--time-limit", "0"], "argument --time-limit: must lie in (0, 86,400]"),
+        ("certificates", ["--fault-tasks", "-1"], "argument --fault-tasks: must be in 0.."),
+    ],
+)
+def test_benchmark_options_that_mean_no_work_are_refused_before_it(
+    script, argv, says, tmp_path, capsys
+):
+    """An empty workload (it used to end in a traceback after the run) or a time limit that is
+    not one: argparse's one line naming the option, exit 2, nothing written."""
+    from benchmarks.common import run_script
+
+    assert run_script(script, [*argv, "--out", str(tmp_path / "out")]) == 2
+    assert says in capsys.readouterr().err.strip().splitlines()[-1]
+    assert not (tmp_path / "out").exists()
