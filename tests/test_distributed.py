@@ -23,7 +23,7 @@ import modquad_gym.search.exhaustive as exhaustive
 from modquad_gym.cli import main
 from modquad_gym.core.distributed import Engine, Failed, map_tasks
 from modquad_gym.geometry.polyominoes import PolyominoStream
-from modquad_gym.scoring.optima import read_dataset
+from modquad_gym.scoring.optima import lock_path, read_dataset
 from modquad_gym.search import exhaustive_search
 from modquad_gym.tasks import PlantedTasks, save_suite, task_files
 
@@ -312,6 +312,8 @@ def test_a_refused_cluster_join_names_token_authentication(task_dir, tmp_path, m
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and f"Ray cluster {address}: Failed to connect" in err
         assert "RAY_AUTH_MODE=token" in err and "RAY_AUTH_TOKEN" in err
+        out = tmp_path / "o.jsonl"  # refused before anything was made
+        assert not out.exists() and not lock_path(out).exists()
         monkeypatch.setenv("RAY_AUTH_MODE", "token")  # sent a token: the hint would mislead
         assert main(args) == 2
         err = capsys.readouterr().err

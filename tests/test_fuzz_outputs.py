@@ -116,7 +116,9 @@ def _build_model(config) -> None:
 
 
 # ------------------------------------------------------------------ outputs: nothing is lost
-RECORD = json.dumps({key: 0 for key in KEYS}).encode()
+OTHER = {"task": "other.json", "name": "other", "digest": "0" * 16, "optimum": None}
+RECORD = json.dumps({**dict.fromkeys(KEYS, 0), **OTHER, "n_max": 2, "structures": []}).encode()
+"""A record of another task (a valid one: records are checked key by key when read)."""
 CONTENTS = st.one_of(
     st.binary(max_size=200),
     st.sampled_from(

@@ -27,11 +27,13 @@ def add_optima(sub) -> None:
         "optima",
         cmd_optima,
         help="certified optima of many tasks as a JSON-lines dataset (resumable)",
-        description="For each task, the certified minimum module count and every optimal "
-        "structure, one JSON object per line appended to --out as tasks finish: task, name, "
-        "digest, n_max, optimum, structures (lists of [x, y] cells), count, evaluated, "
-        "oracle_calls, seconds. Rerunning into the same file skips the tasks it holds and "
-        "recomputes an unfinished last line, so an interrupted run loses nothing it wrote. "
+        description="For each task (static ones: a dynamic task is refused), the certified "
+        "minimum module count and every optimal structure, one JSON object per line appended to "
+        "--out as tasks finish: task, name, digest, n_max, optimum, structures (lists of [x, y] "
+        "cells), count, evaluated, oracle_calls, seconds. Rerunning into the same file skips the "
+        "tasks it holds (a task file matched by its resolved path) and recomputes an unfinished "
+        "last line, so an interrupted run loses nothing it wrote; a line that is not such a "
+        "record is refused with its line number. "
         "Spread over Ray workers (RAY_ADDRESS=HOST:PORT modquad optima ... runs on a cluster).",
     )
     src = p.add_mutually_exclusive_group(required=True)
@@ -75,24 +77,33 @@ def suite_path(name: str) -> Path:
 
 def sources(args: argparse.Namespace) -> list:
     """(label, task) for each task of ``--suite`` or ``--task``; a task file that cannot be
-    read is a (label, Failed) entry, reported with the others' results."""
+    read is a (label, Failed) entry, reported with the others' results. A dynamic task is
+    refused at once (optima takes static tasks), naming its file or suite."""
     from modquad_gym.core.distributed import Failed
-    from modquad_gym.tasks import load_suite, task_files
+    from modquad_gym.scoring.optima import static_sources
+    from modquad_gym.tasks import TaskRequirement, load_suite, task_files
 
     if args.suite:
         path = suite_path(args.suite)
-        return [(f"{path.name}#{i}", t) for i, t in enumerate(load_suite(path), 1)]
+        tasks = load_suite(path)
+        for i, task in enumerate(tasks, 1):
+            if not isinstance(task, TaskRequirement):
+                raise ValueError(
+                    f"optima takes static tasks: {path} task {i} ({task.name}) is a dynamic task"
+                )
+        return [(f"{path.name}#{i}", t) for i, t in enumerate(tasks, 1)]
     out = []
     for p in task_files(args.task, what="--task"):
         try:
             out.append((str(p), common.load_task(p, args.csv_header)))
         except (ValueError, OSError) as exc:
             out.append((str(p), Failed(str(p), one_line(exc))))
+    static_sources(out)  # a dynamic task, or a file given twice by two paths: refused now
     return out
 
 
 def cmd_optima(args: argparse.Namespace) -> int:
-    from modquad_gym.core.distributed import Engine
+    from modquad_gym.core.distributed import Engine, Failed
     from modquad_gym.core.outputs import check_output_file
     from modquad_gym.core.validation import check_int
     from modquad_gym.scoring.optima import build_dataset
@@ -103,6 +114,12 @@ def cmd_optima(args: argparse.Namespace) -> int:
     n_max = check_int(args.n_max, "--n-max", low=1, high=EXACT_MODULES)
     out = check_output_file(args.out, force=True, what="--out")  # resumed, or new
     tasks = sources(args)
+    if all(isinstance(task, Failed) for _, task in tasks):  # nothing to do: nothing created
+        if len(tasks) == 1:
+            raise ValueError(tasks[0][1].error)
+        for _, failure in tasks:
+            report_error(failure.error)
+        return batch_status(tasks, len(tasks))
     with Engine(args.workers, args.ray_address, option="--workers") as engine:
         run = build_dataset(tasks, out, n_max, engine, progress=not args.quiet, fresh=args.force)
     for failure in run.failed:
