@@ -22,6 +22,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from modquad_gym.core.options import text_parser, text_words
 from modquad_gym.core.validation import check_flag, check_int, check_real
 from modquad_gym.policy.models import (
     BUDGET_PER_MODULE,
@@ -68,52 +69,40 @@ class Options:
 
     @classmethod
     def parse(cls, method: str, text: str) -> tuple[str, Any]:
-        """``KEY=VALUE`` of ``--option`` as (name, typed value); a TypeError names an unknown
-        key, a ValueError a value of the wrong type."""
+        """``KEY=VALUE`` of ``--option`` as (name, typed and checked value); a TypeError names
+        an unknown key, a ValueError (``--option TEXT: ...``) text without ``=``, a value of
+        the wrong type or out of the option's range."""
         key, sep, value = text.partition("=")
         key = key.strip().replace("-", "_")
         by_name = {f.name: f for f in dataclasses.fields(cls)}
-        if not sep or key not in by_name or _parser(by_name[key]) is None:
+        if not sep:
+            raise ValueError(
+                f"--option {text}: expected KEY=VALUE, e.g. {key or 'KEY'}=VALUE (method "
+                f"{method!r} takes: {', '.join(sorted(cls.settable())) or 'no options'})"
+            )
+        if key not in by_name or _parser(by_name[key]) is None:
             raise TypeError(unknown_option(method, key or text, cls.names()))
+        f = by_name[key]
         try:
-            return key, _parser(by_name[key])(value.strip())
+            parsed = _parser(f)(value.strip())
         except ValueError:
             raise ValueError(
-                f"--option {text}: {key} takes {by_name[key].type}, got {value!r}"
+                f"--option {text}: {key} takes {text_words(f.type)}, got {value!r}"
             ) from None
+        check = f.metadata.get("check")
+        try:  # the range the options dataclass checks, said now with the option
+            return key, parsed if check is None or parsed is None else check(parsed, key)
+        except ValueError as exc:
+            raise ValueError(f"--option {text}: {exc}") from None
 
     def as_dict(self) -> dict[str, Any]:
         """The fields as keywords (objects kept as they are, not copied)."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
 
-def _bool(text: str) -> bool:
-    low = text.lower()
-    if low in ("1", "true", "yes", "on"):
-        return True
-    if low in ("0", "false", "no", "off"):
-        return False
-    raise ValueError(text)
-
-
-def _optional(parse: Callable[[str], Any]) -> Callable[[str], Any]:
-    return lambda text: None if text.lower() == "none" else parse(text)
-
-
-def _floats(text: str) -> tuple[float, ...]:
-    return tuple(float(part) for part in text.split(",")) if text else ()
-
-
-_PARSERS = {"int": int, "float": float, "bool": _bool, "tuple[float,...]": _floats}
-
-
 def _parser(f: dataclasses.Field) -> Callable[[str], Any] | None:
     """How a command line writes the field, from its type (None: Python only)."""
-    kind = f.type.__name__ if isinstance(f.type, type) else str(f.type).replace(" ", "")
-    if kind in _PARSERS:
-        return _PARSERS[kind]
-    base = kind.removesuffix("|None")
-    return _optional(_PARSERS[base]) if base in _PARSERS and base != kind else None
+    return text_parser(f.type)
 
 
 def _seconds(value: Any, name: str) -> float:

@@ -6,9 +6,18 @@ import argparse
 from pathlib import Path
 
 from modquad_gym.cli import common  # commands call common.load_task (tests replace it)
-from modquad_gym.cli.common import add_command, add_csv_header, add_force, add_method, palette
+from modquad_gym.cli.common import (
+    add_command,
+    add_csv_header,
+    add_force,
+    add_method,
+    f_max_option,
+    palette,
+)
 from modquad_gym.cli.given import SEARCH_OPTIONS, refuse_ignored
-from modquad_gym.core.options import real_option
+
+XML_FORMATS = ("mjcf", "urdf")
+"""The formats written as XML: an ``--out`` ending in .xml takes either."""
 
 
 def add_export(sub) -> None:
@@ -38,16 +47,16 @@ def add_export(sub) -> None:
         default=None,
         help="output format (default: from --out's suffix: "
         + ", ".join(f"{s} = {f}" for f, s in SUFFIXES.items())
-        + ")",
+        + "); a suffix of another format is refused (.xml also takes urdf)",
     )
     p.add_argument("--out", required=True, help="output file")
     p.add_argument(
         "--f-max",
-        type=real_option,
+        type=f_max_option,
         default=None,
-        help="each rotor's largest thrust in N, written to the model (default: the task's "
-        "f_max, else 1, the searches' normalised unit, which leaves T-modules of 0.3 kg short "
-        "of their weight)",
+        help="each rotor's largest thrust in N, up to 1e300, written to the model (default: the "
+        "task's f_max, else 1, the searches' normalised unit, which leaves T-modules of 0.3 kg "
+        "short of their weight)",
     )
     add_csv_header(p)
     add_force(p)
@@ -66,6 +75,40 @@ def found_structure(args: argparse.Namespace, task):
     return result.structure
 
 
+def export_format(out: str, fmt: str | None) -> str:
+    """``--format``, else the format ``--out``'s suffix names; a ValueError naming both when
+    they disagree (JSON in b.xml), or when neither says."""
+    from modquad_gym.sim.export import FORMATS, SUFFIXES
+
+    suffix = Path(out).suffix.lower()
+    named = {s: f for f, s in SUFFIXES.items()}.get(suffix)
+    if fmt is None:
+        if named is None:
+            raise ValueError(
+                f"--out {out}: its suffix names no format; end it in "
+                f"{', '.join(SUFFIXES.values())} or give --format ({', '.join(FORMATS)})"
+            )
+        return named
+    if named is not None and named != fmt and not (suffix == ".xml" and fmt in XML_FORMATS):
+        raise ValueError(
+            f"--format {fmt}: --out {out} ends in {suffix}, the suffix of {named}; end --out "
+            f"in {SUFFIXES[fmt]} or give --format {named}"
+        )
+    return fmt
+
+
+def check_exportable(structure) -> None:
+    """A ValueError when ``structure`` has more modules than the searches design
+    (:data:`~modquad_gym.search.problem.MAX_MODULES`, the package's structure-size limit)."""
+    from modquad_gym.search.problem import MAX_MODULES
+
+    if structure.n_modules > MAX_MODULES:
+        raise ValueError(
+            f"a structure of {structure.n_modules:,} modules is larger than export takes: at "
+            f"most {MAX_MODULES} modules, the searches' limit"
+        )
+
+
 def cmd_export(args: argparse.Namespace) -> int:
     from modquad_gym.cli.show import structure_from_cells
     from modquad_gym.core.outputs import check_output_file
@@ -78,15 +121,16 @@ def cmd_export(args: argparse.Namespace) -> int:
         refuse_ignored(args, how, "applies with --task (a search finds the structure), not "
                        "with --cells (which gives it)")  # fmt: skip
     check_output_file(args.out, force=args.force, what="--out")  # before any search
+    fmt = export_format(args.out, args.format)
     f_max = args.f_max
     if args.cells:
-        structure = structure_from_cells(args.cells, palette(args))
+        structure = structure_from_cells(args.cells, palette(args), check_exportable)
     else:
         task = common.load_task(args.task, args.csv_header)
         structure = found_structure(args, task)
         f_max = task.f_max if f_max is None else f_max
     f_max = 1.0 if f_max is None else f_max
-    out = save_structure(structure, Path(args.out), args.format, f_max, force=args.force)
+    out = save_structure(structure, Path(args.out), fmt, f_max, force=args.force)
     print(f"wrote {out}: {structure.n_modules} modules, cells {list(structure.cells)}")
     print(lift_statement(structure, f_max))  # save_structure warned if it cannot lift itself
     return 0

@@ -55,11 +55,13 @@ def refuse_ignored(args: argparse.Namespace, dests: Iterable[str], reason: str) 
     for dest in dests:
         if typed(args, dest):
             value = getattr(args, dest)
+            if isinstance(value, (list, tuple)):  # a repeated option: its values as typed
+                value = " ".join(map(str, value))
             shown = "" if isinstance(value, bool) else f" {value}"  # a flag has no value
             raise ValueError(f"{option_name(dest)}{shown}: {reason}")
 
 
-SEARCH_OPTIONS = ("method", "n_max", "time_limit", "model", "seed")
+SEARCH_OPTIONS = ("method", "n_max", "time_limit", "model", "seed", "option")
 """The options that say how a structure is searched for (meaningless beside ``--cells``)."""
 
 

@@ -58,7 +58,8 @@ def add_show(sub) -> None:
         default="row",
         help="with --task, how the PNG arranges its three views: row (side by side, for a "
         "screen) or grid (the top view above the two projections, about 8 inches wide: "
-        "readable on a narrow page such as the documentation)",
+        "readable on a narrow page such as the documentation); refused where there is no such "
+        "PNG (no --task, or --html without --out)",
     )
     add_csv_header(p)
     add_force(p)
@@ -75,8 +76,9 @@ def parse_cells(text: str) -> list:
     return cells
 
 
-def structure_from_cells(text: str, modules):
-    """The structure of ``--cells`` with ``--modules``: one type for all cells or one per cell."""
+def structure_from_cells(text: str, modules, check=None):
+    """The structure of ``--cells`` with ``--modules``: one type for all cells or one per cell,
+    refused by ``check(structure)`` (a ValueError; default: too large to draw)."""
     from modquad_gym.geometry.structure import Structure
 
     cells = parse_cells(text)
@@ -88,11 +90,11 @@ def structure_from_cells(text: str, modules):
     typed = {} if modules is None else {"modules": modules}
     if modules is not None and len(modules) == 1:
         typed = {"module": modules[0]}
-    from modquad_gym.viz.drawing import check_drawable
-
+    if check is None:
+        from modquad_gym.viz.drawing import check_drawable as check
     try:
         structure = Structure(cells, **typed)
-        check_drawable(structure)
+        check(structure)
     except ValueError as exc:  # not connected, overlapping, too large to draw ...
         raise ValueError(f"--cells: {exc}") from None
     return structure
@@ -113,8 +115,15 @@ def cmd_show(args: argparse.Namespace) -> int:
     if not args.task:
         refuse_ignored(args, ["csv_header"], "applies to a --task file")
     out = args.out if args.out is not None or args.html is not None else "structure.png"
+    if not args.task or out is None:  # the picture of --layout's three views is not drawn
+        why = (
+            "--html alone writes no PNG" if args.task else "without --task it is the top view only"
+        )
+        refuse_ignored(args, ["layout"], f"applies with --task to the PNG ({why})")
     if out is not None:
         out = Path(out)
+        if out.name in ("", ".", ".."):  # Path("") is Path("."): no name to add ".png" to
+            raise ValueError(f"--out: {args.out!r} is not a file name (e.g. structure.png)")
         if out.suffix.lower() != ".png":
             out = out.with_name(out.name + ".png")
     # both checked before any work or write (--out X --html X would write X, then refuse)

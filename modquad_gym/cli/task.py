@@ -5,13 +5,17 @@ from __future__ import annotations
 
 import argparse
 
-from modquad_gym.cli.common import add_command, add_force, print_help
+from modquad_gym.cli.common import add_command, add_force, f_max_option, print_help
+from modquad_gym.cli.given import refuse_ignored
 from modquad_gym.cli.task_motion import add_motion
-from modquad_gym.core.options import int_option, real_option, seed_option
+from modquad_gym.core.options import int_option, seed_option
 from modquad_gym.tasks import TASK_KINDS, PaperTasks, PlantedTasks, ScrewdriverTask
 
 GENERATE = {"paper": PaperTasks, "planted": PlantedTasks, "screwdriver": ScrewdriverTask}
 """The generators ``task generate --kind`` names (each takes ``f_max`` and ``kind``)."""
+
+UNSEEDED = ("screwdriver",)
+"""The kinds that draw nothing at random: ``--seed`` typed with them is refused."""
 
 EXTERNAL_F_MAX = 2.0
 """Default rotor thrust limit (N) of generated ``external`` tasks: with 0.3 kg modules a flat
@@ -50,14 +54,14 @@ def add_generate(tsub) -> None:
         help="paper: 80 random wrenches as in Sec. VI; planted: wrenches inside a hidden "
         "random structure (a .json file keeps its cells in meta.planted_cells, hidden, for "
         "benchmarks; the task's name is neutral: planted-seedS); "
-        "screwdriver: the two wrenches of Fig. 1 (the seed is ignored)",
+        "screwdriver: the two wrenches of Fig. 1 (fixed: it takes no --seed)",
     )
     g.add_argument(
         "--seed",
         type=seed_option,
         default=0,
         help="seed of the random generator (0 to 2**63-1): the same seed writes the same task "
-        "(default %(default)s)",
+        "(default %(default)s); paper and planted only (screwdriver draws nothing at random)",
     )
     g.add_argument(
         "--task-kind",
@@ -69,7 +73,7 @@ def add_generate(tsub) -> None:
     )
     g.add_argument(
         "--f-max",
-        type=real_option,
+        type=f_max_option,
         default=None,
         help=f"rotor thrust limit written to the task (default 1, or {EXTERNAL_F_MAX:g} N for "
         "--task-kind external)",
@@ -94,6 +98,8 @@ def cmd_task_generate(args: argparse.Namespace) -> int:
     from modquad_gym.core.validation import check_f_max
     from modquad_gym.oracle import check_task_scale
 
+    if args.kind in UNSEEDED:
+        refuse_ignored(args, ["seed"], f"--kind {args.kind} draws nothing at random")
     out = check_output_file(args.out, force=args.force, what="--out")
     f_max = 1.0 if args.f_max is None else check_f_max(args.f_max)
     if args.task_kind == "external" and args.f_max is None:
@@ -112,9 +118,10 @@ def cmd_task_generate(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise ValueError(f"--f-max {f_max:g}: {exc}") from None
     task.save(out)
+    seed = "" if args.kind in UNSEEDED else f", seed {args.seed}"
     print(
         f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, kind {task.kind}, "
-        f"f_max {task.f_max:g}, seed {args.seed})"
+        f"f_max {task.f_max:g}{seed})"
     )
     return 0
 

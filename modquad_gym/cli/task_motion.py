@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import re
 
-from modquad_gym.cli.common import add_command, add_force
+from modquad_gym.cli.common import add_command, add_force, f_max_option
 from modquad_gym.core.options import real_option
 
 PARAMETERS = {
@@ -30,6 +30,8 @@ OPTION_HELP = {
 
 
 def add_motion(tsub) -> None:
+    from modquad_gym.dynamics.motions import MIN_PHASE_INTERVALS
+
     m = add_command(
         tsub,
         "motion",
@@ -61,15 +63,26 @@ def add_motion(tsub) -> None:
         help="payload position from the structure's COM, metres (default 0,0,0); needs "
         "--payload-mass",
     )
-    m.add_argument("--f-max", type=real_option, default=2.0, help="rotor limit, N (default 2)")
-    m.add_argument("--rate", type=real_option, default=100.0, help="samples/s (default 100)")
+    m.add_argument(
+        "--f-max", type=f_max_option, default=2.0, help="rotor limit, N, up to 1e300 (default 2)"
+    )
+    m.add_argument(
+        "--rate",
+        type=real_option,
+        default=100.0,
+        help="samples/s (default 100); a move or a speed ramp must span at least "
+        f"{MIN_PHASE_INTERVALS} sample intervals",
+    )
     m.add_argument("--name", default=None, help="task name (default: the kind)")
     m.add_argument("--out", required=True, help="output .json file")
     add_force(m)
 
 
 OPTION_OF = {
-    **{name: "--" + name.replace("_", "-") for name in (*OPTION_HELP, "rate", "f_max", "name")},
+    **{
+        name: "--" + name.replace("_", "-")
+        for name in (*OPTION_HELP, "heading", "rate", "f_max", "name")
+    },
     "push_force": "--force-n",
     "force": "--force-n",
     "exerted": "--force-n",
@@ -77,6 +90,9 @@ OPTION_OF = {
     "payload.offset": "--payload-offset",
 }
 """The option of each name the motions' errors start with (``rate: ...``, ``f_max must ...``)."""
+
+NAMED_IN_ADVICE = ("rate", "max_acceleration", "distance")
+"""Parameters a motion's error also names in its advice (``raise rate``): said as options."""
 
 
 def option_message(exc: ValueError, kind: str) -> str:
@@ -92,7 +108,12 @@ def option_message(exc: ValueError, kind: str) -> str:
         )
     match = re.match(r"([a-z_.]+)(:| must)", text)
     if match and match[1] in OPTION_OF:
-        return OPTION_OF[match[1]] + text[len(match[1]) :]
+        rest = re.sub(
+            r"\b(" + "|".join(NAMED_IN_ADVICE) + r")\b",
+            lambda m: OPTION_OF[m[1]],
+            text[len(match[1]) :],
+        )
+        return OPTION_OF[match[1]] + rest
     return text
 
 

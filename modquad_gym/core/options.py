@@ -11,6 +11,8 @@ import argparse
 import math
 import numbers
 import re
+from collections.abc import Callable
+from typing import Any
 
 __all__ = [
     "MAX_COUNT",
@@ -20,6 +22,8 @@ __all__ = [
     "int_option",
     "real_option",
     "seed_option",
+    "text_parser",
+    "text_words",
 ]
 
 MAX_COUNT = 1_000_000
@@ -91,6 +95,59 @@ def real_option(text: str) -> float:
 
 
 real_option.__name__ = "number"
+
+
+def _bool(text: str) -> bool:
+    low = text.lower()
+    if low in ("1", "true", "yes", "on"):
+        return True
+    if low in ("0", "false", "no", "off"):
+        return False
+    raise ValueError(text)
+
+
+def _floats(text: str) -> tuple[float, ...]:
+    return tuple(float(part) for part in text.split(",")) if text else ()
+
+
+_PARSERS = {"int": int, "float": float, "bool": _bool, "tuple[float,...]": _floats}
+"""How a command line writes a value of each type (``--option KEY=VALUE``)."""
+
+_WORDS = {
+    "int": "an integer",
+    "float": "a number",
+    "bool": "a boolean (true/false)",
+    "tuple[float,...]": "comma-separated numbers",
+}
+"""What an error says each type of :data:`_PARSERS` takes."""
+
+
+def _kind(annotation: object) -> str:
+    if isinstance(annotation, type):
+        return annotation.__name__
+    return str(annotation).replace(" ", "")
+
+
+def text_parser(annotation: object) -> Callable[[str], Any] | None:
+    """The function reading a value of type ``annotation`` (``int``, ``float``, ``bool``,
+    ``tuple[float, ...]``, each optionally ``| None``, then written ``none``) from a command
+    line's text (a ValueError for text it cannot read); None for other types (Python only)."""
+    kind = _kind(annotation)
+    base = kind.removesuffix("|None")
+    if base not in _PARSERS:
+        return None
+    parse = _PARSERS[base]
+    if base == kind:
+        return parse
+    return lambda text: None if text.lower() == "none" else parse(text)
+
+
+def text_words(annotation: object) -> str:
+    """What a command line writes for a value of type ``annotation``, in words: ``a boolean
+    (true/false)``, ``an integer or none``."""
+    kind = _kind(annotation)
+    base = kind.removesuffix("|None")
+    return _WORDS.get(base, base) + (" or none" if base != kind else "")
 
 
 class DefaultsHelpFormatter(argparse.HelpFormatter):

@@ -253,9 +253,15 @@ def atomic_write(path: str | os.PathLike, write: Callable[[Path], None]) -> Path
     """Call ``write(tmp)`` to fill a temporary file beside ``path``, then move it into place
     in one step. ``path``'s folder is created if needed; the temporary file never survives."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    # a short temporary name: a legal name of 250 bytes plus a suffix would be too long
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name[:32]}.", suffix=".tmp", dir=path.parent)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        # a short temporary name: a legal name of 250 bytes plus a suffix would be too long
+        fd, tmp_name = tempfile.mkstemp(
+            prefix=f".{path.name[:32]}.", suffix=".tmp", dir=path.parent
+        )
+    except OSError as exc:  # a folder that takes no new file (/proc): named by the output
+        reason = f"cannot create a file in {path.parent} ({exc.strerror or exc})"
+        raise OSError(exc.errno, reason, str(path)) from exc
     os.close(fd)
     tmp = Path(tmp_name)
     try:

@@ -30,6 +30,11 @@ lift 5.66 N against its 2.94 N weight (thrust-to-weight 1.9)."""
 DEFAULT_RATE = 100.0
 """Samples per second."""
 
+MIN_PHASE_INTERVALS = 4
+"""Fewest sample intervals a phase of changing acceleration (a line's move, a ramp) spans: its
+samples then show at least 85 % of its peak acceleration wherever they fall (2 intervals can
+all fall where it is 0: a 2 m move of 0.011 s at 100 samples/s peaked at 2e-9 m/s^2)."""
+
 
 def sample_count(duration: float, rate: float) -> int:
     """How many samples a motion of ``duration`` seconds at ``rate`` Hz has (at least 2), or a
@@ -45,6 +50,18 @@ def sample_count(duration: float, rate: float) -> int:
             f"than the {MAX_SAMPLES:,} a trajectory holds; lower the rate or shorten the motion"
         )
     return n
+
+
+def check_phase(what: str, seconds: float, rate: float) -> None:
+    """A ValueError ``WHAT lasts ...`` (the caller names the parameter to blame) when a phase
+    of ``seconds`` is shorter than :data:`MIN_PHASE_INTERVALS` sample intervals at ``rate``
+    Hz."""
+    if seconds * rate < MIN_PHASE_INTERVALS:
+        raise ValueError(
+            f"{what} lasts {seconds:.2g} s, shorter than {MIN_PHASE_INTERVALS} sample intervals at "
+            f"rate {rate:g} samples/s ({MIN_PHASE_INTERVALS / rate:.2g} s): too short for its "
+            "samples to show its acceleration"
+        )
 
 
 def _count(n: float) -> str:
@@ -96,6 +113,10 @@ def _moved(path: Callable, cruise: float, total: float, ramp: float, hold: float
     """(t, time law, (p, v, a)) of a move along ``path`` (:func:`_along`, :func:`_time_law`),
     sampled at ``rate`` Hz with ``hold`` seconds of hover before and after."""
     end = _time_law(np.zeros(1), cruise, total, ramp)[3]
+    try:
+        check_phase("speeding up (the ramp)", ramp, rate)
+    except ValueError as exc:
+        raise ValueError(f"rate: {exc}; raise rate") from None
     t = _times(end + 2 * hold, rate)
     law = _time_law(t - hold, cruise, total, ramp)
     return t, law, _along(path, law)
@@ -167,6 +188,13 @@ def line(
     d = d / np.linalg.norm(d)
     D = c["distance"]
     T = math.sqrt(10.0 / math.sqrt(3.0) * D / c["max_acceleration"])
+    try:
+        move = f"the move of distance {D:g} m at {c['max_acceleration']:g} m/s^2"
+        check_phase(move, T, c["rate"])
+    except ValueError as exc:
+        raise ValueError(
+            f"max_acceleration: {exc}; raise rate, lower max_acceleration or lengthen distance"
+        ) from None
     t = _times(T + 2 * hold, c["rate"])
     u = np.clip((t - hold) / T, 0.0, 1.0)
     s = D * (10 * u**3 - 15 * u**4 + 6 * u**5)

@@ -246,14 +246,21 @@ def check_scale(task: DynamicTask) -> None:
     :data:`~modquad_gym.oracle.scale.MAX_TASK_VALUE`, in newtons or in units of f_max (the
     static tasks' bound, :func:`~modquad_gym.oracle.scale.check_task_scale`). Checked when the
     task is made, so that a task file's error names the file."""
-    from modquad_gym.oracle.scale import MAX_TASK_VALUE
+    from modquad_gym.oracle.scale import MAX_TASK_VALUE, check_f_max_range
 
-    if not 1e-300 <= task.f_max <= 1e300:
-        raise ValueError(f"f_max: {task.f_max:g} N is outside 1e-300..1e300 (check the units)")
+    try:  # the one range of every f_max
+        check_f_max_range(task.f_max)
+    except ValueError:
+        raise ValueError(
+            f"f_max: {task.f_max:g} N is outside 1e-300..1e300 (check the units)"
+        ) from None
     model = task.wrench_model
     parts = (
         ("exerted", task.exerted if task.exerted is not None else np.zeros((1, 6))),
-        ("payload.mass", model.base),  # the payload's part, once the exerted part passed
+        # the payload's part, once the exerted part passed: its force grows with the mass, its
+        # torque with the offset too (a huge torque beside a sane force is the offset's)
+        ("payload.mass", model.base[:, :3]),
+        ("payload.offset", model.base[:, 3:]),
         ("trajectory (its accelerations)", model.per_mass),
         ("trajectory (its angular velocities and accelerations)", model.per_inertia),
     )

@@ -133,8 +133,9 @@ def lift_statement(structure: Structure, f_max: float = 1.0) -> str:
     command line."""
     ratio = thrust_to_weight(structure, f_max)
     need = hover_f_max(structure)
+    shown = f"{ratio:.3f}" if ratio < 1e6 else f"{ratio:.3g}"  # not 300 digits at f_max 1e300
     head = (
-        f"thrust-to-weight {ratio:.3f} at f_max {f_max:g} N per rotor "
+        f"thrust-to-weight {shown} at f_max {f_max:g} N per rotor "
         f"({structure.n_modules} modules, {structure.mass:g} kg)"
     )
     if ratio >= 1.0:
