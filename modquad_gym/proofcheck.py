@@ -35,19 +35,24 @@ Why "valid" is sound:
   plus a margin, for every type t.
 
 Tolerances: :data:`THRUST_TOL`, :data:`RESIDUAL_TOL`, :data:`SEPARATION_TOL`, :data:`BOUND_TOL`.
+The file is read, and every field checked for its JSON type and shape before any proof, by the
+checker's second file, ``proofcheck_format.py``.
 Command line: ``python -m modquad_gym.proofcheck FILE`` or ``modquad check FILE``.
 """
 
 from __future__ import annotations
 
-import gzip
-import json
 import sys
 from functools import cache
 
 import numpy as np
 
-FORMAT, VERSION = "modquad-certificate", 1
+try:  # the format is the checker's second file (numpy and the standard library only)
+    from . import proofcheck_format as fmt
+except ImportError:  # run as a file, python proofcheck.py: the file beside it
+    import proofcheck_format as fmt
+
+FORMAT, VERSION, CertificateFormatError = fmt.FORMAT, fmt.VERSION, fmt.CertificateFormatError
 THRUST_TOL = 1e-6  # thrusts of the answer may leave [0, f_max] by this fraction of f_max
 RESIDUAL_TOL = 1e-9  # |A u - w|_inf allowed, relative to f_max + |w|_inf
 SEPARATION_TOL = 1e-11  # relative margin of a separating direction (module docstring)
@@ -58,22 +63,20 @@ BLOCK = 16384  # structures checked at once
 STEPS = np.array([[1, 0], [-1, 0], [0, 1], [0, -1]])
 
 
-class CertificateFormatError(ValueError):
-    """The file is not a certificate of this format (a malformed field, named)."""
-
-
 class ProofError(Exception):
     """The certificate is well formed but a proof fails (the message names it)."""
 
 
-def load(path: str) -> dict:
-    """The certificate in ``path`` (JSON, gzip-compressed when the name ends in ``.gz``)."""
-    opener = gzip.open if str(path).endswith(".gz") else open
+load = fmt.load
+
+
+def check_file(path: str, report=None) -> str:
+    """:func:`check` of the certificate in ``path``; a format error names the file."""
+    cert = load(path)
     try:
-        with opener(path, "rt", encoding="utf-8") as fh:
-            return json.load(fh)
-    except (OSError, EOFError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise CertificateFormatError(f"{path}: cannot read a JSON certificate ({e})") from None
+        return check(cert, report)
+    except CertificateFormatError as e:
+        raise CertificateFormatError(f"{path}: {e}") from None
 
 
 # --- structures -----------------------------------------------------------------------------
@@ -132,23 +135,14 @@ class Types:
     """The module types of a certificate as arrays, indexed by type."""
 
     def __init__(self, types: list) -> None:
-        def field(k, shape):
-            a = np.array([_floats(t.get(k), f"types[{i}].{k}") for i, t in enumerate(types)])
-            if a.shape[1:] != shape or not np.all(np.isfinite(a)):
-                raise CertificateFormatError(f"types: every {k}: finite, of shape {shape}")
-            return a
-
-        if not isinstance(types, list) or not types or not all(isinstance(t, dict) for t in types):
-            raise CertificateFormatError("types: must be a non-empty list of module types")
-        r = len(types[0].get("spins") or [])
-        self.pos, self.dirs = field("positions", (r, 3)), field("directions", (r, 3))
-        norms = np.linalg.norm(self.dirs, axis=2, keepdims=True)
-        self.dirs = self.dirs / np.where(norms > 0, norms, np.nan)  # zero: refused below
-        self.spins, J = field("spins", (r,)), field("inertia", (3, 3))
-        self.side, self.c_tau, self.mass = (field(k, ()) for k in ("side", "c_tau", "mass"))
-        if r == 0 or np.any(self.mass <= 0) or np.any(self.side != self.side[0]) or not norms.all():
+        a = fmt.module_types(types)  # finite numbers of their shapes, r rotors each
+        norms = np.linalg.norm(a["directions"], axis=2, keepdims=True)
+        if np.any(a["mass"] <= 0) or np.any(a["side"] != a["side"][0]) or not norms.all():
             raise CertificateFormatError("types: need rotors of non-zero directions, positive "
                                          "masses, one common side")  # fmt: skip
+        self.pos, self.dirs, self.spins = a["positions"], a["directions"] / norms, a["spins"]
+        self.side, self.c_tau, self.mass, J = a["side"], a["c_tau"], a["mass"], a["inertia"]
+        r = self.spins.shape[1]
         self.J = np.stack([J[:, 0, 0], J[:, 1, 1], J[:, 2, 2], J[:, 0, 1], J[:, 0, 2],
                            J[:, 1, 2]], axis=1)  # fmt: skip
         self.n, self.rotors, self.l = len(types), r, float(self.side[0])
@@ -167,23 +161,6 @@ class Types:
         own = self.J[types].sum(axis=1)
         sums = [np.einsum("ln,ln->l", m, v) for v in (y * y, x * x, x * x + y * y, -x * y)]
         return a, M, own + np.stack(sums + [0 * M, 0 * M], axis=1)
-
-
-def _floats(value, what: str) -> np.ndarray:
-    try:
-        return np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise CertificateFormatError(f"{what}: must be numbers") from None
-
-
-def _ints(value, what: str, shape_len: int | None = None) -> np.ndarray:
-    a = np.array(value if value is not None else [], dtype=object)
-    if a.dtype == object and a.size and not all(type(v) is int for v in a.ravel()):
-        raise CertificateFormatError(f"{what}: must be integers")
-    a = a.astype(np.int64)
-    if shape_len is not None and a.shape != (shape_len,):
-        raise ProofError(f"{what}: has {len(a)} entries, there are {shape_len} structures")
-    return a
 
 
 def separation(a, w, d, f_max: float, off=None) -> np.ndarray:
@@ -227,22 +204,6 @@ def bound_margin(T: Types, task, f_max: float, fault, n: int, d: np.ndarray, i: 
 
 
 # --- the checks ------------------------------------------------------------------------------
-def _task(cert: dict):
-    task = cert.get("task")
-    if not isinstance(task, dict):
-        raise CertificateFormatError("task: missing")
-    base = _floats(task.get("base"), "task.base")
-    if base.ndim != 2 or base.shape[1] != 6 or not len(base) or not np.all(np.isfinite(base)):
-        raise CertificateFormatError("task.base: must be a non-empty list of 6-vectors")
-    t = len(base)
-    pm, pi = task.get("per_mass"), task.get("per_inertia")
-    pm = np.zeros((t, 6)) if pm is None else _floats(pm, "task.per_mass")
-    pi = np.zeros((t, 6, 6)) if pi is None else _floats(pi, "task.per_inertia")
-    if pm.shape != (t, 6) or pi.shape != (t, 6, 6) or not np.isfinite(pm.sum() + pi.sum()):
-        raise CertificateFormatError("task.per_mass, per_inertia: finite, (t, 6) and (t, 6, 6)")
-    return base, pm, pi
-
-
 def wrenches(task, i, M, j) -> np.ndarray:
     """(L, 6) task wrenches i (L,) of structures of masses M (L,) and inertia vectors j."""
     base, pm, pi = task
@@ -261,12 +222,9 @@ def _connected(cells: np.ndarray) -> bool:
     return len(seen) == len(cellset) == len(cells)
 
 
-def check_answer(cert, T: Types, task, f_max: float, fault, minimum: int) -> None:
-    answer = cert.get("answer")
-    if not isinstance(answer, dict):
-        raise CertificateFormatError("answer: missing")
-    cells = _ints(answer.get("cells"), "answer.cells").reshape(-1, 2)
-    types = _ints(answer.get("types"), "answer.types")
+def check_answer(answer, T: Types, task, f_max: float, fault, minimum: int) -> None:
+    """Verify the answer's thrusts; ``answer``: (cells, types, allocations) arrays."""
+    cells, types, U = answer
     if len(cells) != minimum or types.shape != (minimum,) or not _connected(cells):
         raise ProofError(f"answer: needs {minimum} distinct connected cells, one type each")
     if types.min() < 0 or types.max() >= T.n:
@@ -278,7 +236,6 @@ def check_answer(cert, T: Types, task, f_max: float, fault, minimum: int) -> Non
     failures = np.arange(m if fault == "rotor" else minimum)
     fails = [np.zeros(m, bool)] if fault is None else list(
         failed_columns(fault, failures, minimum, T.rotors))  # fmt: skip
-    U = _floats(answer.get("allocations"), "answer.allocations")
     if not np.all(np.isfinite(U)):
         raise ProofError("answer.allocations: a thrust is not a finite number")
     if U.shape != (len(fails), len(W), m):
@@ -303,21 +260,20 @@ def check_answer(cert, T: Types, task, f_max: float, fault, minimum: int) -> Non
 def check_level(entry, n, T: Types, task, f_max, fault, D) -> str:
     """Verify the proof of level n; returns how it was proved."""
     if "bound" in entry:
-        b = entry["bound"]
-        p, i = int(b.get("direction", -1)), int(b.get("wrench", -1))
+        p, i = entry["bound"]
         if not (0 <= p < len(D) and 0 <= i < len(task[0])):
             raise ProofError(f"level {n}: bound: direction or wrench index out of range")
         if not bound_margin(T, task, f_max, fault, n, D[p], i) > 0:  # NaN fails too
             raise ProofError(f"level {n}: bound: direction {p} does not exceed the level's support")
         return "bound"
     total = count(n, T.n)
-    P = _ints(entry.get("direction"), f"level {n}: direction", total)
-    I = _ints(entry.get("wrench"), f"level {n}: wrench", total)  # noqa: E741
-    F = (
-        -np.ones(total, np.int64)
-        if fault is None
-        else _ints(entry.get("failure"), f"level {n}: failure", total)
-    )
+    for name, a in entry.items():
+        if len(a) != total:
+            raise ProofError(
+                f"level {n}: {name}: has {len(a)} entries, there are {total} structures"
+            )
+    P, I = entry["direction"], entry["wrench"]  # noqa: E741
+    F = entry["failure"] if fault else -np.ones(total, np.int64)
     if P.min() < 0 or P.max() >= len(D) or I.min() < 0 or I.max() >= len(task[0]):
         raise ProofError(f"level {n}: a direction or wrench index out of range")
     if F.max() >= (n * T.rotors if fault == "rotor" else n) or F.min() < -1:
@@ -342,25 +298,11 @@ def check(cert: dict, report=None) -> str:
     """Verify a certificate (a dict): a one-line summary if valid; raises :class:`ProofError`
     naming the first thing that fails, :class:`CertificateFormatError` for a malformed one.
     ``report(n, how)`` is called after each level."""
-    if not isinstance(cert, dict) or cert.get("format") != FORMAT or cert.get("version") != VERSION:
-        raise CertificateFormatError(f"not a {FORMAT} of version {VERSION}")
-    fault = cert.get("fault")
-    if fault not in (None, "rotor", "module"):
-        raise CertificateFormatError(f"fault: unknown {fault!r} (null, 'rotor' or 'module')")
-    f_max = float(_floats(cert.get("f_max"), "f_max"))
-    if not 0 < f_max < np.inf:
-        raise CertificateFormatError("f_max: must be positive")
-    T, task = Types(cert.get("types")), _task(cert)
-    D = _floats(cert.get("directions", []), "directions").reshape(-1, 6)
-    if not np.all(np.isfinite(D)):
-        raise CertificateFormatError("directions: must be finite numbers")
-    minimum, n_max = cert.get("minimum"), cert.get("n_max")
-    top = minimum - 1 if minimum is not None else n_max
-    if type(top) is not int or top < 0:
-        raise CertificateFormatError("minimum / n_max: must be integers")
+    c = fmt.parse(cert)  # every field checked for its type and shape first
+    T, task, f_max, fault = Types(cert["types"]), c["task"], c["f_max"], c["fault"]
+    minimum, top, levels, D = c["minimum"], c["top"], c["levels"], c["directions"]
     if minimum is not None:
-        check_answer(cert, T, task, f_max, fault, minimum)
-    levels = {e.get("n"): e for e in cert.get("levels", []) if isinstance(e, dict)}
+        check_answer(c["answer"], T, task, f_max, fault, minimum)
     if set(levels) - set(range(1, top + 1)):
         raise ProofError(f"levels: proofs of levels outside 1..{top}")
     for n in range(1, top + 1):
@@ -371,7 +313,7 @@ def check(cert: dict, report=None) -> str:
             report(n, how)
     tolerant = f", tolerating any single {fault} failure" if fault else ""
     if minimum is None:
-        return f"valid: no structure of up to {n_max} modules satisfies the task{tolerant}"
+        return f"valid: no structure of up to {top} modules satisfies the task{tolerant}"
     return (f"valid: the minimum is {minimum} modules: the answer satisfies the task's "
             f"{len(task[0])} wrenches{tolerant}; no structure of fewer modules does")  # fmt: skip
 
@@ -384,7 +326,7 @@ def main(argv: list[str] | None = None) -> int:
         print("usage: python -m modquad_gym.proofcheck CERTIFICATE.json[.gz]", file=sys.stderr)
         return 2
     try:
-        print(check(load(args[0])))
+        print(check_file(args[0]))
         return 0
     except CertificateFormatError as e:
         print(f"error: {e}", file=sys.stderr)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import ast
 import copy
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -17,6 +18,7 @@ import pytest
 
 import modquad_gym as mq
 from modquad_gym import proofcheck as pc
+from modquad_gym import proofcheck_format as pcf
 from modquad_gym.geometry.module import STOCK_TYPES, palette
 from modquad_gym.geometry.polyominoes import A001168, PolyominoStream
 from modquad_gym.search import certificates
@@ -42,25 +44,38 @@ def paper():
 
 
 def test_the_checker_imports_only_numpy_and_the_standard_library(paper, tmp_path):
-    tree = ast.parse((ROOT / "modquad_gym" / "proofcheck.py").read_text())
-    names = {a.name.split(".")[0] for node in ast.walk(tree) if isinstance(node, ast.Import)
-             for a in node.names}  # fmt: skip
-    names |= {node.module.split(".")[0] for node in ast.walk(tree)
-              if isinstance(node, ast.ImportFrom)}  # fmt: skip
-    assert names == {"__future__", "gzip", "json", "sys", "functools", "numpy"}
+    """Its two files (the checker and its format) import numpy, the standard library and each
+    other; copied alone into a folder, they check a certificate without the package."""
+    imported = {}
+    for name in ("proofcheck", "proofcheck_format"):
+        tree = ast.parse((ROOT / "modquad_gym" / f"{name}.py").read_text())
+        imported[name] = {a.name.split(".")[0] for node in ast.walk(tree)
+                          if isinstance(node, ast.Import) for a in node.names}  # fmt: skip
+        imported[name] |= {node.module.split(".")[0] if node.module else a.name
+                           for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
+                           for a in node.names}  # fmt: skip
+    assert imported == {
+        "proofcheck": {"__future__", "sys", "functools", "numpy", "proofcheck_format"},
+        "proofcheck_format": {"__future__", "gzip", "json", "math", "zlib", "numpy"},
+    }
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    for name in ("proofcheck.py", "proofcheck_format.py"):
+        shutil.copy(ROOT / "modquad_gym" / name, alone / name)
     path = tmp_path / "c.json"
     path.write_text(json.dumps(paper[0]))
-    source = str(ROOT / "modquad_gym" / "proofcheck.py")
     code = (
-        "import importlib.util, sys\n"
-        f"spec = importlib.util.spec_from_file_location('pc', {source!r})\n"
-        "m = importlib.util.module_from_spec(spec); spec.loader.exec_module(m)\n"
+        f"import sys; sys.path.insert(0, {str(alone)!r})\n"
+        "import proofcheck as m\n"
         f"print(m.check(m.load({str(path)!r})))\n"
         "print(sorted(k for k in sys.modules if k.startswith('modquad')))\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    run = dict(capture_output=True, text=True, check=True, cwd=tmp_path)
+    out = subprocess.run([sys.executable, "-c", code], **run)
     assert out.stdout.startswith("valid: the minimum is 5 modules")
     assert out.stdout.splitlines()[-1] == "[]"
+    out = subprocess.run([sys.executable, str(alone / "proofcheck.py"), str(path)], **run)
+    assert out.stdout.startswith("valid: the minimum is 5 modules")
 
 
 def test_the_checker_enumerates_every_structure_once():
@@ -218,8 +233,12 @@ def test_a_bound_changed_or_a_failure_swapped_is_rejected():
     with pytest.raises(pc.ProofError, match=f"level {bounded['n']}: bound"):
         pc.check(c)
     c = copy.deepcopy(cert)
-    c["fault"] = None  # an intact task: one allocation, not one per failure
-    with pytest.raises(pc.ProofError, match="answer.allocations"):
+    c["fault"] = None  # without a fault, a level has no failures
+    with pytest.raises(pc.CertificateFormatError, match=r"levels\[\d+\]: unknown key 'failure'"):
+        pc.check(c)
+    for e in c["levels"]:
+        e.pop("failure", None)
+    with pytest.raises(pc.ProofError, match="answer.allocations"):  # one, not one per failure
         pc.check(c)
 
 
@@ -362,6 +381,6 @@ def test_not_a_number_never_passes(paper):
         pc.check(c)
     bounded = next(e for e in c["levels"] if "bound" in e)
     T = pc.Types(paper[0]["types"])
-    task = pc._task(paper[0])
+    task = pcf.task_model(paper[0]["task"])
     d = np.array(paper[0]["directions"][bounded["bound"]["direction"]])
     assert not pc.bound_margin(T, task, np.nan, None, bounded["n"], d, 0) > 0

@@ -18,11 +18,12 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "modquad_gym"
 
 LAYERS = (
-    "proofcheck", "core", "geometry", "oracle", "dynamics", "tasks", "search", "viz", "envs",
-    "policy", "methods", "solvers", "sim", "scoring", "cli",
+    "proofcheck_format", "proofcheck", "core", "geometry", "oracle", "dynamics", "tasks",
+    "search", "viz", "envs", "policy", "methods", "solvers", "sim", "scoring", "cli",
 )  # fmt: skip
 """Bottom to top: a module may import its own layer and those below it (the certificate
-checker, ``proofcheck``, imports no other module of the package)."""
+checker, ``proofcheck``, imports no other module of the package but its format,
+``proofcheck_format``, which imports none)."""
 ROOT_LAYER = "envs"
 """``modquad_gym/__init__.py`` (the public names) imports up to the envs (it registers them)."""
 

@@ -17,13 +17,15 @@ def add_check(sub) -> None:
         cmd_check,
         help="verify a certificate of a minimum structure (written by solve --certificate)",
         description="Verify a certificate written by `modquad solve --certificate FILE` with "
-        "the independent checker modquad_gym/proofcheck.py (numpy only, no other part of "
-        "the package): it rebuilds every configuration matrix from the rotor data in the "
-        "file, checks the answer's thrusts for every task wrench, enumerates every smaller "
-        "structure itself and checks each one's separating direction (or the bound that covers "
-        "its level). Prints 'valid: ...' (exit 0) or 'invalid: ' and the first thing that "
-        "fails (exit 1); a file that is not a certificate exits 2. The format and the "
-        "checker's argument: docs/certificates.md.",
+        "the independent checker modquad_gym/proofcheck.py and its format, "
+        "proofcheck_format.py (numpy only, no other part of the package): it reads every field "
+        "strictly (an unknown key or a value of the wrong type is refused), rebuilds every "
+        "configuration matrix from the rotor data in the file, checks the answer's thrusts for "
+        "every task wrench, enumerates every smaller structure itself and checks each one's "
+        "separating direction (or the bound that covers its level). Prints 'valid: ...' (exit "
+        "0) or 'invalid: ' and the first thing that fails (exit 1); a file that is not a "
+        "certificate exits 2, with one line naming the field. The format and the checker's "
+        "argument: docs/certificates.md.",
     )
     p.add_argument("file", metavar="FILE", help="the certificate (.json, or .json.gz)")
     p.add_argument(
@@ -36,7 +38,6 @@ def add_check(sub) -> None:
 def cmd_check(args: argparse.Namespace) -> int:
     from modquad_gym import proofcheck
 
-    cert = proofcheck.load(args.file)  # CertificateFormatError is a ValueError: exit 2
     start = [time.perf_counter()]
 
     def report(n: int, how: str) -> None:
@@ -45,11 +46,9 @@ def cmd_check(args: argparse.Namespace) -> int:
             print(f"level {n}: {how} ({now - start[0]:.2f} s)", file=sys.stderr)
         start[0] = now
 
-    try:
-        print(proofcheck.check(cert, report))
+    try:  # a file that is not a certificate: CertificateFormatError (a ValueError), exit 2
+        print(proofcheck.check_file(args.file, report))
     except proofcheck.ProofError as exc:
         print(f"invalid: {exc}")
         return 1
-    except (TypeError, KeyError, IndexError, AttributeError) as exc:
-        raise ValueError(f"{args.file}: not a well-formed certificate ({exc})") from None
     return 0
