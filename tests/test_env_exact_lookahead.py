@@ -303,6 +303,7 @@ def test_the_per_structure_caches_are_bounded_by_columns_not_entries(monkeypatch
         ("planted-mixed-external", {"modules": "t45,t45m,flat"}, 6),
         ("motions", {}, 6),
         (PlantedTasks(n_modules=(10, 16)), {}, 16),
+        (PlantedTasks(n_modules=(16, 24)), {}, 24),
     ],
 )
 def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
@@ -313,12 +314,14 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
     optimal vertices or a walked sibling's, the shortlist's directions read off those
     vertices where they are unique optima, the shortlist's supports for its support rows, no
     walk where its bounds prove gamma past the clip) equals the plain path's (every walk from
-    the dual-metric direction, every support computed again, every wrench walked), state by
-    state on random episodes: masks and the flag on greedy's choice identical, every entry
-    within float32 round-off; and each shortcut was taken."""
+    the dual-metric direction, every support computed again, every wrench walked, every
+    child's zonotope from the SVD), state by state on random episodes: masks and the flag on
+    greedy's choice identical, every entry within float32 round-off; and each shortcut was
+    taken (the whitened zonotopes from 16 modules)."""
     from modquad_gym.envs.assembly import exact, lookahead, transitions
     from modquad_gym.envs.assembly.evaluator import StructureEvaluator
-    from modquad_gym.oracle import kernels
+    from modquad_gym.oracle import WrenchOracle, kernels
+    from modquad_gym.oracle.whitened import WhitenedZonotope
 
     def episodes(env) -> list:
         rng, out = np.random.default_rng(3), []
@@ -332,13 +335,18 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
                 done = terminated or truncated
         return out
 
-    taken = {"start": 0, "proved": 0, "supports": 0, "read": 0, "sibling": 0}
+    taken = {"start": 0, "proved": 0, "supports": 0, "read": 0, "sibling": 0, "whitened": 0}
     walk, rows, sibling = (
         exact.gamma_capped_from,
         StructureEvaluator.candidate_rows,
         exact.from_sibling,
     )
-    read = kernels.vertex_directions
+    read, prepared = kernels.vertex_directions, WrenchOracle.gamma_zonotope
+
+    def counting_zonotope(oracle, A, key):
+        z = prepared(oracle, A, key)
+        taken["whitened"] += isinstance(z, WhitenedZonotope)
+        return z
 
     def counting_walk(z, W, cap, start=None, lower=None):
         taken["start"] += start is not None
@@ -362,6 +370,7 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
     monkeypatch.setattr(exact, "from_sibling", counting_sibling)
     monkeypatch.setattr(kernels, "vertex_directions", counting_read)
     monkeypatch.setattr(StructureEvaluator, "candidate_rows", counting_rows)
+    monkeypatch.setattr(WrenchOracle, "gamma_zonotope", counting_zonotope)
     make = dict(tasks=source, n_max=n_max, lookahead="exact", lookahead_top_k=8, **kwargs)
     fast = episodes(ModQuadAssemblyEnv(**make))
     assert taken["start"] and taken["supports"] and taken["sibling"]
@@ -369,6 +378,7 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
     shortlist = transitions.shortlisted  # the plain path: nothing passed on
     monkeypatch.setattr(transitions, "shortlisted", lambda ep, state: (shortlist(ep, state)[0], {}))
     monkeypatch.setattr(lookahead, "inherited", lambda ep, state: None)
+    monkeypatch.setattr(WrenchOracle, "gamma_zonotope", WrenchOracle.zonotope)
     plain = episodes(ModQuadAssemblyEnv(**make))
     assert len(fast) == len(plain) > 8
     for got, want in zip(fast, plain):
@@ -379,6 +389,7 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
         for name in got:
             np.testing.assert_allclose(got[name], want[name], rtol=1e-6, atol=1e-7)
     assert taken["proved"] or n_max < 16  # wrenches proved past the clip: larger structures
+    assert taken["whitened"] or n_max <= 16  # children of 17 modules and more
 
 
 @pytest.mark.parametrize("source", ["planted", "paper", "motions"])

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from collections import OrderedDict
 from collections.abc import Hashable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -15,6 +16,9 @@ from modquad_gym.oracle.lp import GammaLP
 from modquad_gym.oracle.scale import row_norms
 from modquad_gym.oracle.tolerance import TOL
 from modquad_gym.oracle.zonotope import Zonotope
+
+if TYPE_CHECKING:
+    from modquad_gym.oracle.whitened import WhitenedZonotope
 
 
 class WrenchOracle:
@@ -40,24 +44,41 @@ class WrenchOracle:
         self.fallback = 0
 
     def zonotope(self, A: np.ndarray, key: Hashable | None = None) -> Zonotope:
-        """The prepared zonotope of A, cached under ``key`` (e.g. a structure's key)."""
+        """The prepared zonotope of A, cached under ``key`` (e.g. a structure's key; one
+        cached for gammas only, :meth:`gamma_zonotope`, is replaced by the full one)."""
         if key is None:
             return Zonotope(A, self.f_max)
         z = self._cache.get(key)
-        if z is None:
-            z = Zonotope(A, self.f_max)
-            self._cache[key] = z
-            if len(self._cache) > self.cache_size:
-                self._cache.popitem(last=False)
-        else:
-            self._cache.move_to_end(key)
+        if type(z) is not Zonotope:
+            return self._keep(key, Zonotope(A, self.f_max))
+        self._cache.move_to_end(key)
         return z
 
-    def cached(self, key: Hashable) -> Zonotope | None:
-        """The zonotope cached under ``key``, or None (no matrix needed to ask)."""
+    def gamma_zonotope(self, A: np.ndarray, key: Hashable) -> Zonotope | WhitenedZonotope:
+        """A zonotope of the finite float matrix A that gammas can be walked on, cached under
+        ``key``: the cached one, else the :class:`~.whitened.WhitenedZonotope` (no SVD: the
+        exact lookahead's children) or, where A is rank-deficient or ill-conditioned, the full
+        :class:`Zonotope`."""
+        from modquad_gym.oracle.whitened import whitened  # numba: loaded on first use
+
+        z = self.cached(key)
+        if z is None:
+            z = self._keep(key, whitened(A, self.f_max) or Zonotope(A, self.f_max))
+        return z
+
+    def cached(self, key: Hashable) -> Zonotope | WhitenedZonotope | None:
+        """The zonotope cached under ``key`` (for gammas only where :meth:`gamma_zonotope`
+        cached it), or None (no matrix needed to ask)."""
         z = self._cache.get(key)
         if z is not None:
             self._cache.move_to_end(key)
+        return z
+
+    def _keep(self, key: Hashable, z):
+        self._cache[key] = z
+        self._cache.move_to_end(key)
+        if len(self._cache) > self.cache_size:
+            self._cache.popitem(last=False)
         return z
 
     def feasible(self, A: np.ndarray, W: np.ndarray, key: Hashable | None = None) -> np.ndarray:

@@ -83,8 +83,8 @@ def exact_rows(
         W = ev.at_mass(own, mass)[0]
         line = lines.get(k) or Lineage()
         z = ev.oracle.cached(k)  # else from its matrix: supports wait for a docking
-        if z is None:
-            z = ev.oracle.zonotope(ev.matrix_of(k), key=k)
+        if z is None:  # prepared for its gammas alone (no SVD) where it can be
+            z = ev.oracle.gamma_zonotope(ev.matrix_of(k), key=k)
         start = line.start
         if start is not None and start[0].shape != (len(W), max(z.rank - 1, 1)):
             start = None  # another rank (or wrench count): no vertex to start from
