@@ -4,11 +4,14 @@ never exceeds it, the window, the inertia terms, the CLI, and what it refuses.""
 from __future__ import annotations
 
 import json
+import os
+import time
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from scipy.optimize import Bounds
 
 import modquad_gym as mq
 import modquad_gym.dynamics as dy
@@ -16,11 +19,11 @@ from modquad_gym.cli import main
 from modquad_gym.geometry.cells import free_neighbours, structure_levels
 from modquad_gym.geometry.inertia import to_vector
 from modquad_gym.geometry.module import palette
-from modquad_gym.search import SEARCHES, SearchProblem, bound_levels, exhaustive_search
+from modquad_gym.search import SEARCHES, SearchProblem, bound_levels, exhaustive_search, milp_worker
 from modquad_gym.search import milp_program as milp_module
 from modquad_gym.search.milp import milp_lower_bound, milp_search
 from modquad_gym.search.milp_program import inertia_terms, window
-from modquad_gym.tasks import PlantedTasks, TaskRequirement
+from modquad_gym.tasks import PlantedTasks, TaskRequirement, make_generator
 
 SCREWDRIVER = TaskRequirement.load("examples/screwdriver.json")
 T = palette("t45,t45m,flat")
@@ -169,6 +172,43 @@ def test_a_time_limit_returns_the_proved_bound():
     assert r.lower_bound >= bound_levels(SearchProblem.build(task, 30))
     if r.structure is None:
         assert not r.certified
+
+
+class Call:
+    """Unpickled in the milp worker, it calls ``fn(*args)`` there: a stuck HiGHS (a sleep) or a
+    crash (an exit), made to order."""
+
+    def __init__(self, fn, *args):
+        self.fn, self.args = fn, args
+
+    def __reduce__(self):
+        return self.fn, self.args
+
+
+def test_the_worker_answers_is_killed_at_the_deadline_and_reports_a_crash():
+    tiny = dict(c=np.array([1.0]), bounds=Bounds([1.0], [2.0]))
+    status, x, _ = milp_worker.solve(tiny, 30)  # starts the worker
+    assert status == 0 and list(x) == [1.0]
+    t0 = time.perf_counter()
+    assert milp_worker.solve({"c": Call(time.sleep, 60)}, 0.5) is None  # killed, not waited for
+    assert time.perf_counter() - t0 < 0.5 + milp_worker.GRACE + 3.0
+    assert milp_worker.solve(tiny, 30)[0] == 0  # a new worker
+    with pytest.raises(milp_worker.WorkerError, match="ended with code 3"):
+        milp_worker.solve({"c": Call(os._exit, 3)}, 30)
+    assert milp_worker.solve(tiny, 30)[0] == 0
+
+
+def test_a_short_time_limit_holds_where_highs_overruns_its_own():
+    """HiGHS spent 22 s of a 0.87 s limit in its presolve on this task's level-52 program (1 M
+    nonzeros), on a first call and on a second: the worker is killed at the deadline."""
+    big = make_generator("planted-16-64")(np.random.default_rng(0))
+    solver = mq.make_solver("milp", n_max=64, time_limit=1)
+    for _ in range(2):
+        t0 = time.perf_counter()
+        r = solver.solve(big)
+        assert time.perf_counter() - t0 < 10.0
+        assert r.structure is None and not r.certified
+        assert r.lower_bound >= bound_levels(SearchProblem.build(big, 64))
 
 
 # --------------------------------------------------------------------------- interfaces

@@ -96,8 +96,11 @@ def milp_search(problem: SearchProblem, *, time_limit: float = DEFAULT_TIME_LIMI
     """The smallest structure for ``task`` by the mixed-integer program (module docstring),
     level by level from the proved lower bound (the exact bounds, then the LP relaxation):
     certified when it finishes within ``time_limit`` seconds, else no structure and the first
-    level it did not refute as the proved bound. Up to :data:`MAX_MODULES` modules; the task's
-    arguments as for :func:`~.exhaustive.exhaustive_search`; ``fault=`` is refused."""
+    level it did not refute as the proved bound. The limit holds even where HiGHS overruns its
+    own: a program of more than :data:`~.milp_program.IN_PROCESS_NONZEROS` nonzeros is solved in
+    a worker process killed :data:`~.milp_worker.GRACE` (0.5) s past the deadline (its first
+    start, about 0.5-1 s, counts against the limit). Up to :data:`MAX_MODULES` modules; the
+    task's arguments as for :func:`~.exhaustive.exhaustive_search`; ``fault=`` is refused."""
     check_supported(problem)
     run = SearchRun("milp", problem)
     deadline = Deadline(run, time_limit)

@@ -11,13 +11,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.optimize import Bounds, LinearConstraint, milp
+from scipy.optimize import Bounds, LinearConstraint, OptimizeResult, milp
 
 from modquad_gym.geometry.cells import is_connected
 from modquad_gym.geometry.inertia import to_vector
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle.tolerance import RESIDUAL_TOL, TOL
+from modquad_gym.search import milp_worker
 from modquad_gym.search.bounds import counts_left
 from modquad_gym.search.problem import SearchProblem
 
@@ -35,8 +36,17 @@ all, 10 directions 59 s, 24: 59 s, 48: 50 s (a loaded 2-core machine)."""
 
 MAX_NONZEROS = 2_500_000
 """A level whose program would exceed this many constraint nonzeros is not attempted: the
-search stops there with the bound it proved. Up to 2.1 M (96 modules) HiGHS kept its time
-limit within 1.6 GB; a 4.9 M program (a 128-module planted task) ran 13 min past a 30 s one."""
+search stops there with the bound it proved. It bounds memory and building time (the time
+limit itself is kept by :mod:`.milp_worker`): up to 2.1 M (96 modules) HiGHS took at most
+1.6 GB; a 4.9 M program (a 128-module planted task) ran 13 min past a 30 s limit in this
+process, before the worker."""
+
+IN_PROCESS_NONZEROS = 50_000
+"""Programs with at most this many constraint nonzeros are solved in this process (no worker to
+start or feed; their answers and times as before), larger ones in the worker of
+:mod:`.milp_worker`, killed at the deadline. HiGHS overran a 1 s limit by at most 0.06 s below
+100 k nonzeros (one type, three types, a dynamic task with inertia; its whole presolve took
+0.6 s at 71 k), by 0.3 s at 155 k, 2.3 s at 385 k and 19 s at 860 k (a loaded 2-core machine)."""
 
 INFEASIBLE = 2
 """scipy.optimize.milp's status of an infeasible program."""
@@ -323,11 +333,22 @@ class LevelProgram:
         cons = LinearConstraint(M, np.array(lb), np.array(ub))
         return np.zeros(n_var), cons, integrality, Bounds(low, high)
 
-    def solve(self, relax: bool, seconds: float):
-        """HiGHS's result (scipy's OptimizeResult) within ``seconds``."""
+    def solve(self, relax: bool, seconds: float) -> OptimizeResult:
+        """HiGHS's result (scipy's OptimizeResult) within ``seconds``, building included: a
+        program of more than :data:`IN_PROCESS_NONZEROS` nonzeros in the worker of
+        :mod:`.milp_worker`, killed ``GRACE`` seconds past the limit (status 1, no ``x``)."""
+        t0 = time.perf_counter()
         c, cons, integrality, bounds = self.build(relax)
-        options = {"time_limit": max(seconds, 1e-3), "presolve": True}
-        return milp(c, constraints=cons, integrality=integrality, bounds=bounds, options=options)
+        left = seconds - (time.perf_counter() - t0)
+        options = {"time_limit": max(left, 1e-3), "presolve": True}
+        kwargs = dict(c=c, constraints=cons, integrality=integrality, bounds=bounds)
+        if cons.A.nnz <= IN_PROCESS_NONZEROS:
+            return milp(**kwargs, options=options)
+        reply = milp_worker.solve({**kwargs, "options": options}, left) if left > 0 else None
+        if reply is None:
+            return OptimizeResult(status=1, x=None, message="time limit reached (worker killed)")
+        status, x, message = reply
+        return OptimizeResult(status=status, x=x, message=message)
 
     def occupied(self, x: np.ndarray) -> tuple[np.ndarray, list[int]]:
         """(occupied cell indices, the type index of each) of a solution."""
