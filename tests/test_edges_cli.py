@@ -427,7 +427,7 @@ COMPLEX_ENTRIES = {
     "feasible(A)": (lambda: mq.feasible(A.astype(complex), W), "A"),
     "margin": (lambda: mq.margin(A, C), "wrenches"),
     "lambda_ratio": (lambda: mq.lambda_ratio(A, C), "wrenches"),
-    "allocate": (lambda: mq.allocate(A, C), "wrenches"),
+    "allocate": (lambda: mq.allocate(A, C), "w: wrenches"),  # its argument is w
     "Zonotope": (lambda: mq.Zonotope(A.astype(complex)), "A"),
     "TaskRequirement": (lambda: mq.TaskRequirement(C), "wrenches"),
     "TaskRequirement(list)": (lambda: mq.TaskRequirement([list(C[0])]), "wrenches"),

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from modquad_gym.core.validation import check_f_max, check_wrenches
+from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
 from modquad_gym.oracle.backends import BACKENDS, check_method, decide_with, margin_with
 from modquad_gym.oracle.lp import GammaLP
 from modquad_gym.oracle.scale import row_norms
@@ -28,7 +28,14 @@ class WrenchOracle:
         f_max: maximum thrust per rotor (N, normalised to 1 in the paper).
         method: one of :data:`~modquad_gym.oracle.METHODS` (see :mod:`modquad_gym.oracle`);
             ``"auto"`` is the default.
-        cache_size: how many prepared zonotopes to keep (least recently used are dropped).
+        cache_size: how many prepared zonotopes to keep (least recently used are dropped), an
+            integer >= 0.
+
+    A ``key`` (e.g. a structure's key) is the caller's promise that it names one matrix: the
+    zonotope cached under it is answered without comparing the matrices. A matrix of another
+    shape under a cached key is refused (ValueError naming ``key``: a cheap check that catches
+    a key reused for another structure); one of the same shape is not compared. Pass
+    ``key=None`` for a matrix that is not to be cached.
 
     ``calls`` counts the wrench-structure tests made (one per wrench per structure);
     ``fallback`` the wrenches of :meth:`screened` that no compiled certificate decided (the exact
@@ -38,7 +45,7 @@ class WrenchOracle:
     def __init__(self, f_max: float = 1.0, method: str = "auto", cache_size: int = 4096) -> None:
         self.f_max = check_f_max(f_max)
         self.method = check_method(method)
-        self.cache_size = int(cache_size)
+        self.cache_size = check_int(cache_size, "cache_size", low=0)
         self._cache: OrderedDict[Hashable, Zonotope] = OrderedDict()
         self.calls = 0
         self.fallback = 0
@@ -49,6 +56,8 @@ class WrenchOracle:
         if key is None:
             return Zonotope(A, self.f_max)
         z = self._cache.get(key)
+        if z is not None:
+            _same_shape(A, z, key)
         if type(z) is not Zonotope:
             return self._keep(key, Zonotope(A, self.f_max))
         self._cache.move_to_end(key)
@@ -63,7 +72,8 @@ class WrenchOracle:
 
         z = self.cached(key)
         if z is None:
-            z = self._keep(key, whitened(A, self.f_max) or Zonotope(A, self.f_max))
+            return self._keep(key, whitened(A, self.f_max) or Zonotope(A, self.f_max))
+        _same_shape(A, z, key)
         return z
 
     def cached(self, key: Hashable) -> Zonotope | WhitenedZonotope | None:
@@ -132,6 +142,16 @@ class WrenchOracle:
         return per_wrench, tested, satisfied
 
 
+def _same_shape(A: np.ndarray, z, key: Hashable) -> None:
+    """A ValueError naming ``key`` when A is not of the shape of the matrix cached under it."""
+    shape = A.shape if isinstance(A, np.ndarray) else np.shape(np.asarray(A, dtype=object))
+    if shape != z.A.shape:
+        raise ValueError(
+            f"key {key!r}: A has shape {shape}, but the zonotope cached under this key is "
+            f"of a {z.A.shape} matrix; a key names one matrix (use another key, or key=None)"
+        )
+
+
 def feasible(A: np.ndarray, W: np.ndarray, f_max: float = 1.0, method: str = "auto") -> np.ndarray:
     """bool (t,): is each wrench (row of W, shape (t, 6)) in W = {A u : 0 <= u <= f_max}?
 
@@ -197,11 +217,22 @@ def lambda_ratio(
 
 
 def allocate(A: np.ndarray, w: np.ndarray, f_max: float = 1.0) -> tuple[np.ndarray, float]:
-    """The most centred exact allocation for one wrench: (u, gamma) with A u = w and every rotor
-    within gamma * f_max / 2 of half thrust. When gamma > 1 the wrench is infeasible and u is
-    the least-squares allocation clipped to [0, f_max] (what the rotors can do)."""
+    """The most centred exact allocation for one wrench ``w`` (6 numbers: shape (6,) or
+    (1, 6); anything else is a ValueError naming ``w``, call it once per wrench): (u, gamma)
+    with A u = w and every rotor within gamma * f_max / 2 of half thrust. When gamma > 1 the
+    wrench is infeasible and u is the least-squares allocation clipped to [0, f_max] (what the
+    rotors can do)."""
     z = Zonotope(A, f_max)
-    w = check_wrenches(w)[0]
+    try:
+        W = check_wrenches(w)
+    except ValueError as exc:
+        raise ValueError(f"w: {exc}") from None
+    if len(W) != 1:
+        raise ValueError(
+            f"w must be one wrench of 6 numbers (shape (6,) or (1, 6)), got shape {W.shape}; "
+            "call allocate once per wrench"
+        )
+    w = W[0]
     R, off = z.reduce(w[None])
     if off[0]:
         u = np.clip(np.linalg.lstsq(z.A, w, rcond=None)[0], 0.0, z.f_max)
