@@ -52,7 +52,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from modquad_gym.core.validation import refuse_complex
+from modquad_gym.core.validation import check_real, refuse_complex
 
 DEFAULT_SIDE = 0.4
 """Module side length l in metres (paper Sec. VI)."""
@@ -131,18 +131,9 @@ class ModuleType:
         norms = np.linalg.norm(dirs, axis=1)
         if not np.all(np.isfinite(pos)) or not np.all(np.isfinite(dirs)) or np.any(norms < 1e-12):
             raise ValueError("positions and directions must be finite, directions non-zero")
-        if not (self.side > 0 and math.isfinite(self.side)):
-            raise ValueError(f"side must be a positive length in metres, got {self.side}")
-        if (
-            isinstance(self.mass, bool)
-            or not isinstance(self.mass, (int, float, np.integer, np.floating))
-            or not (self.mass > 0 and math.isfinite(self.mass))
-        ):
-            raise ValueError(f"mass must be a positive mass in kg, got {self.mass!r}")
-        object.__setattr__(self, "mass", float(self.mass))
-        if not (isinstance(self.height, (int, float)) and 0 <= self.height < math.inf):
-            raise ValueError(f"height must be a length >= 0 in metres, got {self.height!r}")
-        box = box_inertia(self.mass, self.side, self.side, float(self.height))
+        for what, value in _scalars(self.side, self.c_tau, self.name, self.mass, self.height):
+            object.__setattr__(self, what, value)
+        box = box_inertia(self.mass, self.side, self.side, self.height)
         given = self.inertia is not None
         J = check_inertia(self.inertia) if given else box
         object.__setattr__(self, "_box_inertia", not given or bool(np.allclose(J, box, 0, 1e-15)))
@@ -196,6 +187,7 @@ class ModuleType:
         ``height`` and ``inertia`` as in the class docstring.
         """
         refuse_complex(tilts, "tilts")
+        side = check_real(side, "side", positive=True)  # before it places the rotors
         tilts = np.asarray(tilts, dtype=float)
         if tilts.shape != (4,) or not np.all(np.isfinite(tilts)):
             raise ValueError(f"tilts must be 4 finite angles in radians, got {tilts!r}")
@@ -213,6 +205,20 @@ class ModuleType:
             f"ModuleType(name={self.name!r}, rotors={self.n_rotors}, side={self.side:g} m, "
             f"c_tau={self.c_tau:g} m, mass={self.mass:g} kg)"
         )
+
+
+def _scalars(side: object, c_tau: object, name: object, mass: object, height: object) -> tuple:
+    """((field, value), ...) of a module type's scalar fields, checked (one ValueError naming
+    the field: a real number, never a boolean or a string) and made Python floats."""
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"name must be a non-empty string, got {name!r}")
+    return (
+        ("side", check_real(side, "side", positive=True)),
+        ("c_tau", check_real(c_tau, "c_tau", low=0.0)),
+        ("name", name),
+        ("mass", check_real(mass, "mass", positive=True)),
+        ("height", check_real(height, "height", low=0.0)),
+    )
 
 
 def box_inertia(mass: float, x: float, y: float, z: float) -> np.ndarray:
