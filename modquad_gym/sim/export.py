@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -116,7 +117,7 @@ def thrust_to_weight(structure: Structure, f_max: float = 1.0) -> float:
     from modquad_gym.geometry.module import GRAVITY
     from modquad_gym.oracle import lambda_ratio
 
-    f_max = check_f_max(f_max)
+    structure, f_max = check_structure(structure), check_f_max(f_max)
     hover = [[0.0, 0.0, structure.mass * GRAVITY, 0.0, 0.0, 0.0]]
     return float(lambda_ratio(structure.configuration_matrix(), hover, f_max)[0])
 
@@ -150,7 +151,7 @@ def structure_dict(structure: Structure, f_max: float = 1.0) -> dict:
     from modquad_gym.core.validation import check_f_max
 
     f_max = check_f_max(f_max)
-    s = structure
+    s = check_structure(structure)
     rotors = zip(s.rotor_positions, s.rotor_directions, s.rotor_spins, s.rotor_c_tau,
                  strict=True)  # fmt: skip
     return {
@@ -225,8 +226,11 @@ keep the visuals (MuJoCo drops them by default) and keep ``base_link`` a body of
 
 def urdf_text(structure: Structure, name: str | None = None, f_max: float = 1.0) -> str:
     """The URDF of ``structure`` (see the module docstring); a comment states its
-    thrust-to-weight ratio at ``f_max`` N per rotor (:func:`lift_statement`)."""
-    s = structure
+    thrust-to-weight ratio at ``f_max`` N per rotor (:func:`lift_statement`). ``name`` (the
+    robot's name; default ``modquad_N``) is a non-empty line of printable text."""
+    s = check_structure(structure)
+    if name is not None and not (isinstance(name, str) and name.strip() and name.isprintable()):
+        raise ValueError(f"name must be None or a non-empty line of printable text, got {name!r}")
     robot = ET.Element("robot", name=name or f"modquad_{s.n_modules}")
     ET.SubElement(ET.SubElement(robot, "mujoco"), "compiler", **MUJOCO_URDF_COMPILER)
     base = ET.SubElement(robot, "link", name="base_link")
@@ -290,6 +294,7 @@ def mjcf_text(structure: Structure, f_max: float = 1.0) -> str:
 
 def export_text(structure: Structure, fmt: str, f_max: float = 1.0) -> str:
     """``structure`` in the format ``fmt`` (one of :data:`FORMATS`) as text."""
+    check_structure(structure)
     if fmt == "mjcf":
         return mjcf_text(structure, f_max)
     if fmt == "urdf":
@@ -309,7 +314,11 @@ def save_structure(
     ``f_max`` N per rotor gets a warning on the ``modquad_gym`` logger
     (:mod:`modquad_gym.core.notes`). Returns the path written."""
     from modquad_gym.core.outputs import check_output_file, write_text
+    from modquad_gym.core.validation import check_flag
 
+    force = check_flag(force, "force")
+    if not isinstance(path, (str, os.PathLike)) or not str(path).strip():
+        raise ValueError(f"path must be a file path (a str or a PathLike), got {path!r}")
     path = Path(path)
     if fmt is None:
         by_suffix = {suffix: name for name, suffix in SUFFIXES.items()}
@@ -330,6 +339,16 @@ def save_structure(
             __name__,
         )
     return path
+
+
+def check_structure(structure: object) -> Structure:
+    """``structure`` itself when it is a :class:`~modquad_gym.geometry.structure.Structure`,
+    else a ValueError naming its type (what every writer takes)."""
+    if not isinstance(structure, Structure):
+        raise ValueError(
+            f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
+        )
+    return structure
 
 
 def _rotor_matrices(structure: Structure) -> list[np.ndarray]:
