@@ -30,13 +30,16 @@ Command = Callable[[argparse.Namespace], int]
 
 
 def load_task(path, csv_header: str = "auto"):
-    """The task in the file ``path`` (``--csv-header`` says how a CSV's first row reads): a
-    TaskRequirement, or a DynamicTask for a JSON file with a trajectory. A static task's scale is
-    checked as the searches will (an error names the file and the 1-based row)."""
+    """The task in the file ``path`` (``--csv-header`` says how a CSV's first row reads; the
+    other files of a --task that holds a CSV file are read without it): a TaskRequirement, or a
+    DynamicTask for a JSON file with a trajectory. A static task's scale is checked as the
+    searches will (an error names the file and the 1-based row)."""
     from modquad_gym.oracle import check_task_scale
     from modquad_gym.tasks import TaskFileError, TaskRequirement
     from modquad_gym.tasks import load_task as load
 
+    if not str(path).lower().endswith(".csv"):  # refused where no file is (given.py)
+        csv_header = "auto"
     task = load(path, csv_header=csv_header)
     if isinstance(task, TaskRequirement):
         try:
@@ -49,8 +52,8 @@ def load_task(path, csv_header: str = "auto"):
 def check_task(task, path=None, modules=None) -> None:
     """Checks before any work. A dynamic task (its wrenches depend on the structure) is
     refused when no structure of the module types ``modules`` (default the T-module) can lift
-    its payload. A static task of more wrenches than a search takes: TaskFileError naming the
-    file ``path``. Every method takes both kinds of task."""
+    its payload (a TaskFileError naming the file ``path``). A static task of more wrenches than
+    a search takes: TaskFileError naming the file. Every method takes both kinds of task."""
     from modquad_gym.search.problem import check_search_size
     from modquad_gym.tasks import TaskFileError
 
@@ -58,7 +61,12 @@ def check_task(task, path=None, modules=None) -> None:
         from modquad_gym.dynamics import check_liftable
         from modquad_gym.geometry.structure import Structure
 
-        check_liftable(task, modules or [Structure([(0, 0)]).module])
+        try:
+            check_liftable(task, modules or [Structure([(0, 0)]).module])
+        except ValueError as exc:
+            if path is None:
+                raise
+            raise TaskFileError(f"{path}: {exc}") from None
     wrenches = getattr(task, "wrenches", None)
     if wrenches is not None and path is not None:
         try:

@@ -26,6 +26,7 @@ from modquad_gym.core.validation import check_f_max
 from modquad_gym.tasks.files import (
     MAX_WRENCHES,
     TaskFileError,
+    close_key,
     decode_text,
     parse_json,
     read_bytes,
@@ -40,11 +41,16 @@ column numbers 0..5 or 1..6, as spreadsheets and pandas write them, is refused a
 ``no`` (every row is a wrench)."""
 
 CSV_COMMENT_KEYS = ("name", "f_max", "kind", "meta")
-"""The fields ``# key: value`` comments set. Other comments are free text, except a key that is
-one of these misspelt (``# fmax: 2``, ``# Kind: external``), which is refused."""
+"""The fields ``# key: value`` comments set. Other comments are free text, except near misses,
+which are refused (never read as free text, so the field would silently keep its default): a
+key that is one of these misspelt (``# fmax: 2``, ``# Kind: external``), and a comment that
+starts with one of these keys without the ``:`` (``# f_max = 2``, ``#f_max=2``, ``# f_max 2``,
+``# fmax = 2``; so free text must not start with the word ``name``, ``kind``, ``meta`` or
+``f_max``)."""
 
 _DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.I)
 _COMMENT = re.compile(r"#\s*([A-Za-z][\w-]*)\s*:(.*)", re.S)
+_NEAR_MISS = re.compile(r"#\s*([A-Za-z][\w-]*)(\s*=|\s|$)(.*)", re.S)
 _LINE = re.compile(r"([^\r\n]*)(?:\r\n|\r|\n|\Z)")
 _NUMERIC_LINE = re.compile(rb"^[ \t]*[-+.0-9]", re.M)
 _COLUMN_NUMBERS = ([0.0, 1.0, 2.0, 3.0, 4.0, 5.0], [1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
@@ -60,6 +66,7 @@ def _comment(text: str, fields: dict[str, Any], seen: dict[str, int], where: str
     """Read one ``#`` line into ``fields`` (module docstring)."""
     match = _COMMENT.fullmatch(text.strip())
     if match is None:
+        _near_miss(text.strip(), where, lineno)
         return
     key, value = match.group(1), match.group(2).strip()
     if key not in CSV_COMMENT_KEYS:
@@ -90,6 +97,23 @@ def _comment(text: str, fields: dict[str, Any], seen: dict[str, int], where: str
             fields["meta"] = meta
     except ValueError as exc:
         raise TaskFileError(f"{at}: {exc}") from None
+
+
+def _near_miss(text: str, where: str, lineno: int) -> None:
+    """A TaskFileError for a comment that reads as setting a field without the ``:``
+    (:data:`CSV_COMMENT_KEYS`): the field would otherwise silently keep its default."""
+    match = _NEAR_MISS.fullmatch(text)
+    if match is None:
+        return
+    key, separator = match.group(1), match.group(2).strip()
+    field = key if key in CSV_COMMENT_KEYS else None
+    if separator == "=" and field is None:
+        field = close_key(key, CSV_COMMENT_KEYS)
+    if field is not None:
+        raise TaskFileError(
+            f"{where}: line {lineno}: comment {text[:60]!r} does not set {field}: write "
+            f"'# {field}: VALUE' (the key, then ':'; free text must not start with a field name)"
+        )
 
 
 def _name_value(value: str, at: str) -> str:
@@ -132,12 +156,26 @@ def _check_separator(line: str, cells: list[str], where: str) -> None:
                 )
 
 
+def check_csv_header(header: object, path: Path) -> str:
+    """``header`` (one of :data:`CSV_HEADER_MODES`) for reading the task file ``path``, or a
+    ValueError naming ``csv_header``: an unknown mode, or a mode other than ``auto`` for a file
+    that is not a CSV file (it has no first row to read either way: the option would be
+    dropped)."""
+    if not isinstance(header, str) or header not in CSV_HEADER_MODES:
+        raise ValueError(f"csv_header must be one of {', '.join(CSV_HEADER_MODES)}, got {header!r}")
+    if header != "auto" and Path(path).suffix.lower() != ".csv":
+        raise ValueError(
+            f"csv_header={header!r} says how a CSV file's first row reads; {path} is not a "
+            "CSV file (leave csv_header at 'auto')"
+        )
+    return header
+
+
 def read_csv(path: Path, header: str = "auto") -> tuple[np.ndarray, dict[str, Any]]:
     """The wrenches of a CSV task file and the fields its comments set (``name``, ``f_max``,
     ``kind``, ``meta``); a bad file is a TaskFileError naming the file, the 1-based row and the
     line. Rows are parsed as a stream, refused past :data:`MAX_WRENCHES`."""
-    if header not in CSV_HEADER_MODES:
-        raise ValueError(f"csv_header must be one of {', '.join(CSV_HEADER_MODES)}, got {header!r}")
+    check_csv_header(header, path)
     data = read_bytes(path)
     rows_at_most = len(_NUMERIC_LINE.findall(data))  # C speed: refuse before parsing
     if rows_at_most > MAX_WRENCHES + 1:  # (+ 1: a header of column numbers)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import difflib
 import json
+import math
 import os
 import stat
 from collections.abc import Sequence
@@ -52,11 +53,16 @@ class TaskFileError(ValueError):
     """A task or suite file that cannot be read; the message names the file (and row)."""
 
 
-def unknown_key_message(key: str, known: Sequence[str]) -> str:
-    """``unknown key 'fmax' (did you mean 'f_max'?)``: the close match, when there is one."""
+def close_key(key: str, known: Sequence[str]) -> str | None:
+    """The key of ``known`` that ``key`` misspells (``fmax``, ``F-Max``: ``f_max``), or None."""
     folded = {k.replace("_", "").replace("-", "").lower(): k for k in known}
     guess = folded.get(key.replace("_", "").replace("-", "").replace(" ", "").lower())
-    guess = guess or next(iter(difflib.get_close_matches(key, known, n=1, cutoff=0.75)), None)
+    return guess or next(iter(difflib.get_close_matches(key, known, n=1, cutoff=0.75)), None)
+
+
+def unknown_key_message(key: str, known: Sequence[str]) -> str:
+    """``unknown key 'fmax' (did you mean 'f_max'?)``: the close match, when there is one."""
+    guess = close_key(key, known)
     return f"unknown key {key!r}" + (f" (did you mean {guess!r}?)" if guess else "")
 
 
@@ -111,17 +117,40 @@ def task_files(specs: Sequence[PathLike], what: str = "--task") -> list[Path]:
     return list(out)
 
 
-def jsonable(obj: Any) -> Any:
-    """Numpy scalars/arrays and tuples turned into plain JSON types."""
+def check_path(path: object, what: str = "path") -> None:
+    """A ValueError naming ``what`` unless ``path`` is a file path: a non-empty str or a
+    PathLike (pathlib would raise its own TypeError, naming nothing)."""
+    if not isinstance(path, (str, os.PathLike)) or not str(path).strip():
+        raise ValueError(f"{what} must be a file path (a str or a PathLike), got {path!r}")
+
+
+def jsonable(obj: Any, what: str = "meta") -> Any:
+    """``obj`` as plain JSON data (NumPy scalars and arrays, tuples: numbers and lists; keys:
+    strings), or a ValueError naming ``what`` and where in it a value lies that JSON cannot
+    hold: a NaN or an infinity (``json`` would write the invalid ``NaN``), or an object."""
+    return _jsonable(obj, what, ())
+
+
+def _jsonable(obj: Any, what: str, at: tuple) -> Any:
     if isinstance(obj, dict):
-        return {str(k): jsonable(v) for k, v in obj.items()}
+        return {str(k): _jsonable(v, what, (*at, k)) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [jsonable(v) for v in obj]
+        return [_jsonable(v, what, (*at, i)) for i, v in enumerate(obj)]
     if isinstance(obj, np.ndarray):
-        return jsonable(obj.tolist())
+        return _jsonable(obj.tolist(), what, at)
     if isinstance(obj, np.generic):
-        return obj.item()
-    return obj
+        obj = obj.item()
+    if obj is None or isinstance(obj, (bool, int, str)):
+        return obj
+    where = what + "".join(f"[{k!r}]" for k in at)
+    if isinstance(obj, float):
+        if math.isfinite(obj):
+            return obj
+        raise ValueError(f"{where} is {obj}: JSON has no NaN or infinity (write it as a string)")
+    raise ValueError(
+        f"{where} is of type {type(obj).__name__}, which JSON cannot hold (numbers, strings, "
+        "booleans, None, lists and dicts)"
+    )
 
 
 def task_json(d: dict[str, Any], indent: str = "") -> str:

@@ -10,8 +10,9 @@ from typing import Any
 
 from modquad_gym.core.validation import check_wrenches
 from modquad_gym.dynamics import DynamicTask
+from modquad_gym.tasks.csvfile import check_csv_header
 from modquad_gym.tasks.examples import resolve_task_path
-from modquad_gym.tasks.files import PathLike, TaskFileError, read_json
+from modquad_gym.tasks.files import PathLike, TaskFileError, check_path, read_json
 from modquad_gym.tasks.requirement import TaskRequirement
 
 
@@ -51,7 +52,9 @@ def load_task(path: PathLike, csv_header: str = "auto") -> TaskRequirement | Dyn
     :class:`DynamicTask` for a JSON object with a ``"trajectory"`` key, else a
     :class:`TaskRequirement` (:meth:`TaskRequirement.load`). Errors are TaskFileErrors naming
     the file and the field (``trajectory.t: ...``, ``payload.mass: ...``)."""
+    check_path(path)
     p = resolve_task_path(path)
+    check_csv_header(csv_header, p)
     if p.suffix.lower() != ".json" or not p.is_file():
         return TaskRequirement.load(p, csv_header=csv_header)
     data = read_json(p)

@@ -14,12 +14,13 @@ import numpy as np
 from modquad_gym.core.outputs import atomic_write, write_text
 from modquad_gym.core.validation import check_f_max
 from modquad_gym.dynamics.wrenches import LinearWrenches
-from modquad_gym.tasks.csvfile import csv_text, read_csv
+from modquad_gym.tasks.csvfile import check_csv_header, csv_text, read_csv
 from modquad_gym.tasks.examples import resolve_task_path
 from modquad_gym.tasks.files import (
     SUFFIXES,
     PathLike,
     TaskFileError,
+    check_path,
     jsonable,
     read_json,
     read_npy,
@@ -204,14 +205,17 @@ class TaskRequirement:
     @classmethod
     def load(cls, path: PathLike, csv_header: str = "auto") -> TaskRequirement:
         """Read a ``.json``, ``.csv`` or ``.npy`` task file (formats in the module docstring;
-        ``csv_header`` as in :data:`CSV_HEADER_MODES`); ``example:NAME`` reads a shipped
-        example (:mod:`modquad_gym.tasks.examples`).
+        ``csv_header`` as in :data:`CSV_HEADER_MODES`, only ``"auto"`` for a file that is not a
+        CSV file); ``example:NAME`` reads a shipped example (:mod:`modquad_gym.tasks.examples`).
 
         Raises:
+            ValueError: naming ``path`` or ``csv_header`` when it is not one.
             FileNotFoundError: naming the path, when there is no such file.
             TaskFileError: naming the file (and 1-based row) for anything wrong in it.
         """
+        check_path(path)
         path = resolve_task_path(path)  # "example:NAME" names a shipped example
+        check_csv_header(csv_header, path)
         suffix = path.suffix.lower()
         if suffix not in SUFFIXES:
             raise TaskFileError(
@@ -239,7 +243,9 @@ class TaskRequirement:
         needs f_max == 1 and kind ``total``, since the format cannot hold them; the name read
         back is the file's stem, meta is not kept). :meth:`load` reads a ``.json`` or ``.csv``
         back identically (name, f_max, kind, meta and the exact floats: shortest round-trip
-        repr)."""
+        repr). ``meta`` must be JSON data: a ValueError names what in it is not (a NaN, an
+        object), before the file is touched."""
+        check_path(path)
         path = Path(path)
         suffix = path.suffix.lower()
         if suffix not in SUFFIXES:
