@@ -31,8 +31,10 @@ from modquad_gym.envs.assembly.inputs import (
     draw_task,
     make_encoding,
     make_rules,
+    make_viewer,
     one_task,
     parse_action,
+    reset_options,
 )
 from modquad_gym.envs.assembly.modules import make_module_set
 from modquad_gym.envs.assembly.restore import Restorer
@@ -125,7 +127,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     ## Starting State
     One module at cell (0, 0) and a task drawn from the task source with ``self.np_random``
     (seeded by ``reset(seed=...)``), or the task given as ``reset(options={"task": task})``
-    (a :class:`~modquad_gym.tasks.TaskRequirement`, a DynamicTask or a (t, 6) wrench array).
+    (a TaskRequirement, a DynamicTask, a (t, 6) wrench array, a file or ``"example:NAME"``).
 
     ## Episode End
     * Termination (success): every task wrench is satisfied. If one module already satisfies the
@@ -164,7 +166,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     * ``reward_weights``: a :class:`~.reward.RewardWeights` or a dict of some of ``w_sat``,
       ``w_module``, ``w_success``, ``w_invalid`` (the default reward).
     * ``reward``: any :class:`~.reward.RewardFn` (default :class:`~.reward.WeightedReward`).
-    * ``viewer``: an :class:`~.viewer.AssemblyViewer` (default one of ``render_size``).
+    * ``viewer``: an :class:`~.viewer.AssemblyViewer` whose grid holds the env's (default one).
     * ``invalid_action``: ``"penalise"`` (default) or ``"terminate"``.
     * ``max_steps``: the step limit for truncation (default 4 * n_max, at most 4 * 64).
     * ``render_mode``: None, ``"rgb_array"`` (the structure picture, (H, W, 3) uint8),
@@ -239,11 +241,9 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         self.fault_margin = check_fault_margin(fault_margin, self.fault)
         self.reward: RewardFn = make_reward(reward, reward_weights)
         self.render_mode = render_mode
+        radius = self.n_max if self.actions == "faces" else self.n_max - 1  # faces reach n_max
         size = check_render_size(render_size)
-        if viewer is None:
-            radius = self.n_max if self.actions == "faces" else self.n_max - 1  # faces reach n_max
-            viewer = AssemblyViewer(radius, self.n_max, size, self.palette)
-        self.viewer = viewer
+        self.viewer = make_viewer(viewer, radius, self.n_max, size, self.palette)
 
         self.evaluators: dict[float, StructureEvaluator] = {}  # per f_max, across episodes
         self._memos = TaskMemos()
@@ -358,7 +358,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict]:
         super().reset(seed=seed)
-        options = dict(options or {})
+        options = reset_options(options)
         types = self.module_set.start(options, self.np_random)  # before the task: a random
         unknown = sorted(set(options) - {"task"})  # initial type follows the seed
         if unknown:

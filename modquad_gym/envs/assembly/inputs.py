@@ -14,6 +14,7 @@ import numpy as np
 from modquad_gym.core.validation import check_int, check_real
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.envs.assembly.types import Rules
+from modquad_gym.envs.assembly.viewer import AssemblyViewer
 from modquad_gym.oracle import METHODS as ORACLE_METHODS
 from modquad_gym.tasks import TaskRequirement, as_task
 
@@ -34,21 +35,74 @@ def one_task(task: Any, tasks: Any, default_tasks: Any) -> Any:
             f"and tasks={tasks!r} (an id such as ModQuadAssemblyPaper-v0 sets tasks= itself: "
             "make ModQuadAssembly-v0 with task=)"
         )
+    single_task(task, "task=")
+    return task
+
+
+def single_task(task: Any, what: str, named: bool = False) -> TaskRequirement | DynamicTask:
+    """The one task that ``task`` is or names (a TaskRequirement, a DynamicTask, a task file
+    or ``"example:NAME"``), read once; a ValueError naming ``what`` for a family of random
+    tasks, a suite or anything else (what ``task=`` and ``reset(options={"task": ...})``
+    take); with ``named``, a file's errors too (``what: FILE: ...``)."""
     from modquad_gym.tasks import NAMED_GENERATORS, FixedTasks, make_generator
 
     if isinstance(task, str) and task in NAMED_GENERATORS:
         raise ValueError(
-            f"task={task!r} names a family of random tasks: pass it as tasks={task!r} "
-            "(task= takes one task: a task file, 'example:NAME' or a TaskRequirement)"
+            f"{what.rstrip('=')}={task!r} names a family of random tasks: pass it as "
+            f"tasks={task!r} "
+            f"({what} takes one task: a task file, 'example:NAME' or a TaskRequirement)"
         )
     if isinstance(task, (TaskRequirement, DynamicTask, str)) or hasattr(task, "__fspath__"):
-        gen = make_generator(task)
+        try:
+            gen = make_generator(task)
+        except ValueError as exc:
+            if not named:
+                raise
+            raise ValueError(f"{what}: {exc}") from None
         if isinstance(gen, FixedTasks) and len(gen.tasks) == 1:
-            return task
+            return gen.tasks[0]
     raise ValueError(
-        f"task= takes one task (a task file, 'example:NAME', a TaskRequirement or a "
+        f"{what} takes one task (a task file, 'example:NAME', a TaskRequirement or a "
         f"DynamicTask), got {task!r}; for a suite, a list or a generator use tasks="
     )
+
+
+def reset_options(options: Any) -> dict:
+    """``reset(options=...)`` as a new dict: a dict or None (Gymnasium's convention), else a
+    ValueError naming ``options``."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise ValueError(f"options must be a dict or None, got {options!r:.60}")
+    return dict(options)
+
+
+def make_viewer(
+    viewer: Any, radius: int, n_max: int, size: tuple[int, int], palette: Any
+) -> AssemblyViewer:
+    """The env's viewer: a new one of ``size``, or ``viewer`` itself when it is an
+    :class:`~.viewer.AssemblyViewer` whose grid reaches ``radius`` (render() draws with it); a
+    ValueError naming ``viewer`` otherwise, or when ``size`` (not the default) differs from
+    the viewer's frames."""
+    if viewer is None:
+        return AssemblyViewer(radius, n_max, size, palette)
+    if not isinstance(viewer, AssemblyViewer):
+        raise ValueError(f"viewer must be an AssemblyViewer or None, got {viewer!r:.60}")
+    if viewer.radius < radius:
+        raise ValueError(
+            f"viewer: its grid reaches {viewer.radius} cells from the centre, this env's "
+            f"{radius} (make it with AssemblyViewer(radius={radius}, ...))"
+        )
+    if tuple(size) not in (DEFAULT_RENDER_SIZE, tuple(viewer.size)):
+        raise ValueError(
+            f"render_size {tuple(size)} and the viewer's frames {tuple(viewer.size)} differ; "
+            "give one of them"
+        )
+    return viewer
+
+
+DEFAULT_RENDER_SIZE = (256, 256)
+"""(height, width) of ``rgb_array`` frames unless ``render_size`` says otherwise."""
 
 
 def make_rules(
@@ -151,7 +205,9 @@ def draw_task(
     ``rng``; tasks of kind ``external`` only when the env decides ``self_weight``; a
     :class:`~modquad_gym.dynamics.DynamicTask` always (each structure's own mass and inertia
     decide it, :mod:`.dynamic`)."""
-    if given is not None:
+    if isinstance(given, str) or hasattr(given, "__fspath__"):
+        task = single_task(given, "options['task']", named=True)
+    elif given is not None:
         task = as_task(given, "options['task']")
     else:
         name = str(getattr(generator, "name", type(generator).__name__))
