@@ -127,6 +127,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         structure = structure_from_cells(args.cells, palette(args), check_exportable)
     else:
         task = common.load_task(args.task, args.csv_header)
+        common.check_task(task, args.task, palette(args))  # errors name the file
         structure = found_structure(args, task)
         f_max = task.f_max if f_max is None else f_max
     f_max = 1.0 if f_max is None else f_max

@@ -144,6 +144,38 @@ def float_array(value: object, name: str, expected: str | None = None) -> np.nda
     raise ValueError(f"{name} must be {expected}")
 
 
+_BOOLS = (bool, np.bool_)
+
+
+def refuse_bools(value: object, name: str, unit: str = "sample") -> None:
+    """A ValueError naming ``name`` and the 1-based ``unit`` when ``value`` (an array, or a list
+    or tuple of numbers or of rows of numbers, as JSON gives them) holds a boolean: NumPy would
+    read ``true`` as 1 (``trajectory.t: sample 2 is true, not a number``)."""
+    kind = getattr(getattr(value, "dtype", None), "kind", None)
+    if kind == "b":
+        raise ValueError(f"{name} holds booleans, not numbers")
+    if kind not in (None, "O"):
+        return
+    rows = value.tolist() if kind == "O" else value  # type: ignore[union-attr]
+    if type(rows) in _BOOLS:
+        raise ValueError(f"{name} is {str(bool(rows)).lower()}, not a number")
+    if not isinstance(rows, (list, tuple)):
+        return
+    nested = (list, tuple)
+    found = any(
+        type(v) in _BOOLS or (isinstance(v, nested) and any(type(x) in _BOOLS for x in v))
+        for v in rows
+    )
+    if not found:
+        return
+    for i, v in enumerate(rows, 1):
+        cells = v if isinstance(v, nested) else [v]
+        flag = next((x for x in cells if type(x) in _BOOLS), None)
+        if flag is not None:
+            verb = "holds" if isinstance(v, nested) else "is"
+            raise ValueError(f"{name}: {unit} {i} {verb} {str(bool(flag)).lower()}, not a number")
+
+
 def _float_array(value: object, name: str) -> np.ndarray:
     try:
         arr = np.asarray(value)

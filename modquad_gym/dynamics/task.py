@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.validation import check_f_max, float_array
+from modquad_gym.core.validation import check_f_max, float_array, refuse_bools
 from modquad_gym.dynamics.trajectory import Trajectory
 from modquad_gym.dynamics.wrenches import LinearWrenches, Payload
 from modquad_gym.geometry.module import ModuleType
@@ -47,6 +47,7 @@ MAX_LIFT_MODULES = 128
 
 
 def _exerted(value: object, k: int) -> np.ndarray:
+    refuse_bools(value, "exerted")
     arr = float_array(value, "exerted", "a list of [fx, fy, fz, tx, ty, tz] rows")
     if arr.shape != (k, 6):
         raise ValueError(

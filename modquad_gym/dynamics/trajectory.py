@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.validation import float_array
+from modquad_gym.core.validation import float_array, refuse_bools
 from modquad_gym.dynamics import quaternions as quat
 
 MAX_SAMPLES = 100_000
@@ -51,6 +51,7 @@ FIELDS = (
 
 def _array(value: object, field: str, k: int | None, width: int) -> np.ndarray:
     """A float (k, width) copy of ``value``; errors name the field and the 1-based sample."""
+    refuse_bools(value, field)
     arr = float_array(value, field, "an array of numbers")
     shape = (k if k is not None else "k", width)
     if arr.ndim != 2 or arr.shape[1] != width or (k is not None and arr.shape[0] != k):
@@ -65,6 +66,7 @@ def _array(value: object, field: str, k: int | None, width: int) -> np.ndarray:
 def check_times(t: object) -> np.ndarray:
     """The sample times as a float (k,) array, k in [2, MAX_SAMPLES], finite and strictly
     increasing; else a ValueError naming ``t`` and the first bad sample (1-based)."""
+    refuse_bools(t, "t")
     arr = float_array(t, "t", "a list of sample times in seconds")
     if arr.ndim != 1:
         raise ValueError(f"t must be a flat list of times, got shape {arr.shape}")
