@@ -17,7 +17,7 @@ from agents.config import TrainConfig
 from agents.seeds import seed_out
 from agents.training import RUN_FILES, log_name, publish, report, train
 from modquad_gym.cli.given import typed_options
-from modquad_gym.core.options import int_option, seed_option
+from modquad_gym.core.options import int_option, path_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, claim_output_dir
 from modquad_gym.scoring.options import REPORT_FILES
 from modquad_gym.scoring.tiers import TIERS
@@ -66,7 +66,7 @@ def add_config_options(p: argparse.ArgumentParser) -> None:
                            **meta)  # fmt: skip
 
 
-OPTION_TYPES = {"int": INTEGER, "str": str, "Path": Path, "dict": json.loads}
+OPTION_TYPES = {"int": INTEGER, "str": str, "Path": path_option, "dict": json.loads}
 """The option type of each field type."""
 
 
@@ -85,7 +85,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--publish-run",
-        type=Path,
+        type=path_option,
         default=None,
         metavar="RUN",
         help="install the model of an earlier run folder (e.g. one seed of --seeds) "
@@ -111,7 +111,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--no-report", action="store_true", help="skip the benchmark report")
     g.add_argument(
         "--report-dir",
-        type=Path,
+        type=path_option,
         default=None,
         help="where the report goes (default <out>/report, results with --publish)",
     )

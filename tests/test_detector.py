@@ -60,9 +60,27 @@ def test_validate_designs_for_the_delay_and_flies_with_the_detector(tmp_path, ca
     assert record["fault_worst_margin"] >= margin_for_delay(0.05) - 1e-6
     assert 0.0 < record["fault_detected_after_s"] <= 0.03 and record["fault_within_5cm"]
     assert record["without_margin"]["n_modules"] <= record["n_modules"]
+    # the delay flown is the detector's, not --detection-delay's: the record and report say so
+    assert record["fault_detection_delay_s"] is None and record["fault_margin_delay_s"] == 0.05
+    assert record["without_margin"]["fault_detection_delay_s"] is None
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "0.05 s later" not in report and "the delay flown is the detector's" in report
+    assert f"| {record['fault_detected_after_s']:.3g} s (detector) |" in report
     bad = ["validate", "--task", "example:screwdriver", "--out", str(tmp_path / "o2"), "--detect"]
     assert main(bad) == 2
     assert "--detect" in capsys.readouterr().err
+
+
+def test_a_delay_beside_the_detector_is_refused_not_reported(screwdriver):
+    """The detector decides when the controller knows: a detection_delay_s beside it would be
+    reported as flown while it was not."""
+    task, s = screwdriver
+    with pytest.raises(ValueError, match="detection_delay_s = 0.04: not flown with a detector"):
+        ff.fly_with_failure(s, task, "rotor", detector=DetectorConfig(), detection_delay_s=0.04)
+    flown = ff.fly_with_failure(s, task, "rotor", seconds=1.0, detection_delay_s=0.04)
+    assert flown.summary()["fault_detection_delay_s"] == 0.04 and "fault_detected_after_s" not in (
+        flown.summary()
+    )
 
 
 def test_the_detector_flies_a_trajectory_with_a_payload():

@@ -9,6 +9,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: headless
 import json  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+import pytest  # noqa: E402
+
 from modquad_gym.cli import main  # noqa: E402
 
 
@@ -50,3 +52,55 @@ def test_validate_cli_known_load_only_and_bad_hover_time(tmp_path, capsys):
     assert "--hover-seconds" in capsys.readouterr().err
     assert main([*argv, "--load-ramp-seconds", "-1"]) == 2
     assert "--load-ramp-seconds" in capsys.readouterr().err
+
+
+def _written(folder: Path) -> set[str]:
+    """The files a run left in ``folder`` (the lock and manifest files start with a dot)."""
+    return {p.name for p in folder.iterdir() if not p.name.startswith(".")}
+
+
+def _static_task(tmp_path: Path) -> Path:
+    task = tmp_path / "task.json"
+    task.write_text(json.dumps({"f_max": 1.0, "wrenches": [[0.8, 0.0, 3.0, 0.0, 0.1, 0.0]]}))
+    return task
+
+
+def _dynamic_task(tmp_path: Path) -> Path:
+    from modquad_gym import dynamics as dy
+
+    task = tmp_path / "motion.json"
+    task.write_text(json.dumps(dy.hover(0.4, rate=20.0).to_dict()))
+    return task
+
+
+@pytest.mark.parametrize(
+    "make_task, options",
+    [
+        (_static_task, ["--infeasible-demo"]),  # both hovers, the demo and the render
+        (_dynamic_task, ["--fault", "rotor", "--known-load-only"]),  # the flights' files
+    ],
+    ids=["static", "dynamic-fault"],
+)
+def test_every_file_validate_writes_is_refused_without_force(
+    tmp_path, capsys, monkeypatch, make_task, options
+):
+    """Each file one run wrote into --out, found there beforehand, is refused by name (exit 2,
+    the user's file untouched, nothing else written) unless --force; the list the command
+    checks is the simulation's own, so it cannot leave a file out."""
+    from modquad_gym.sim import fault_flight
+
+    monkeypatch.setattr(fault_flight, "FAULT_HOVER_SECONDS", 0.4)
+    base = ["validate", "--task", str(make_task(tmp_path)), "--method", "exhaustive", "--n-max",
+            "4", "--max-hover-wrenches", "1", "--hover-seconds", "0.2", *options]  # fmt: skip
+    assert main([*base, "--out", str(tmp_path / "first")]) == 0
+    written = _written(tmp_path / "first")
+    assert {"report.md", "validation.json", "structure.png", "hover.png"} <= written
+    capsys.readouterr()
+    for name in sorted(written):
+        out = tmp_path / f"user-{name}"
+        out.mkdir()
+        (out / name).write_text("USERDATA")
+        assert main([*base, "--out", str(out)]) == 2, name
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and name in err and "--force" in err, err
+        assert (out / name).read_text() == "USERDATA" and _written(out) == {name}

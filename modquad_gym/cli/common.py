@@ -206,12 +206,15 @@ method_option.__name__ = "method"
 FAULT_KINDS = ("rotor", "module", "rotor2", "rotor+module")
 """The choices of ``--fault`` (:data:`modquad_gym.oracle.faults.FAULTS`, without importing it)."""
 
+NO_FAULT = ", ".join(name for name, m in REGISTRY.items() if not m.fault)
+"""The methods that cannot honour ``--fault`` (the registry's word), for the help texts."""
+
 FAULT_HELP = (
     "the answer must keep doing the task after any failure of this kind: rotor (any one rotor "
     "stops), module (any one module's rotors stop; it stays docked and its weight still "
     "counts), rotor2 (any two rotors stop) or rotor+module (a module's rotors and one rotor of "
-    "another module stop). Every method but milp takes it (the learned ones zero-shot: no "
-    "model was trained with failures, each answer is verified to survive); "
+    f"another module stop). Every method but {NO_FAULT} takes it (the learned ones zero-shot: "
+    "no model was trained with failures, each answer is verified to survive); "
     "--json adds fault and worst_fault_margin (the smallest margin over the failures and "
     "wrenches, >= 0)"
 )

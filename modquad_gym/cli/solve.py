@@ -189,7 +189,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if args.certificate is not None:
         check_certificate(args.certificate, len(paths), args.force, args.fault,
                           fault_margin_of(args) or 0.0)  # fmt: skip
-    engine = Engine(args.workers, args.ray_address, local_default=1, option="--workers")
+    # one task of a method without workers (greedy, ...) needs no Ray: RAY_ADDRESS unchecked
+    spreads = len(paths) > 1 or "engine" in method_of(args.method)[0].options.names()
+    engine = Engine(args.workers, args.ray_address, local_default=1, option="--workers",
+                    check_address=spreads or args.ray_address is not None)  # fmt: skip
     if len(paths) == 1 or not engine.use_ray:
         return solve_here(args, paths, engine)
     # a batch: tasks spread over the workers, each search in one process

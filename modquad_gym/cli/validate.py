@@ -12,7 +12,7 @@ from modquad_gym.cli import common, solve  # common.load_task, solve.solver (tes
 from modquad_gym.cli import validate_fault as fault  # --fault: flights through a failure
 from modquad_gym.cli.common import add_command, add_csv_header, add_force, add_method
 from modquad_gym.cli.given import refuse_ignored
-from modquad_gym.core.options import int_option, real_option
+from modquad_gym.core.options import int_option, path_option, real_option
 
 DEFAULT_HOVER_WRENCHES = 20
 MAX_HOVER_SECONDS = 60.0
@@ -25,10 +25,6 @@ SECONDS_PER_SIMULATED_SECOND = 0.25
 """Wall seconds per simulated hover second on the reference machine (2 cores), for the
 estimate ``validate`` prints before it starts."""
 
-OUTPUT_NAMES = ("report.md", "validation.json", "hover.png", "bench_wrench.png", "rotor_inputs.png")
-"""The files ``validate`` writes into ``--out`` (refused up front when they exist)."""
-TRACK_NAMES = ("track_path.png", "track_inputs.png", "track.gif")
-"""What a dynamic task's flight adds to ``--out``."""
 MAX_PRINTED_CELLS = 8
 """Cells the console summary lists (all of them are in ``validation.json``)."""
 SECONDS_PER_FLOWN_SECOND = 1.5
@@ -51,7 +47,9 @@ def add_validate(sub) -> None:
         "--task", required=True, metavar="FILE", help="task file (.json, .csv, .npy) to solve"
     )
     add_method(p)
-    p.add_argument("--out", default="validation", help="output folder (default %(default)s)")
+    p.add_argument(
+        "--out", type=path_option, default="validation", help="output folder (default %(default)s)"
+    )
     p.add_argument(
         "--json",
         action="store_true",
@@ -133,7 +131,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
                    f"applies to a static task; {args.task} is a dynamic one (flown along its "
                    "trajectory)")  # fmt: skip
     common.check_task(task, args.task, common.palette(args))
-    names = OUTPUT_NAMES + (TRACK_NAMES if dynamic else ()) + fault.fault_output_names(args)
+    names = output_names(args, dynamic)
     check_output_dir(args.out, names, force=args.force)
     n_hover = task.n_wrenches if k is None else min(k, task.n_wrenches)
     flights = 1 if args.known_load_only else 2
@@ -159,6 +157,19 @@ def cmd_validate(args: argparse.Namespace) -> int:
     )
     with claim_output_dir(args.out, names, force=args.force):  # a second run is refused
         return solve_and_fly(args, task, k, ramp, n_hover)
+
+
+def output_names(args: argparse.Namespace, dynamic: bool) -> tuple[str, ...]:
+    """Every file ``validate`` with these options writes into ``--out`` (refused up front when
+    one exists, unless ``--force``), as the simulation names them: the bench, hovers and
+    render of :func:`modquad_gym.sim.validate.output_names`, a dynamic task's flight
+    (:data:`~modquad_gym.sim.validate_track.TRACK_FILES`) and the flights through a failure."""
+    from modquad_gym.sim.validate import output_names as validation_names
+    from modquad_gym.sim.validate_track import TRACK_FILES
+
+    demo = args.infeasible_demo and not dynamic  # refused for a dynamic task anyway
+    names = validation_names(unknown_load=not args.known_load_only, include_infeasible_demo=demo)
+    return names + (TRACK_FILES if dynamic else ()) + fault.fault_output_names(args)
 
 
 def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float, n_hover: int):

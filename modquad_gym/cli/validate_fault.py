@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 
 from modquad_gym.cli.common import (
+    NO_FAULT,
     add_detection_delay,
     add_fault,
     check_fault_method,
@@ -34,8 +35,8 @@ FAULT_HELP = (
     "hardest task wrench (or through the trajectory of a dynamic task), and the same kind of "
     "failure on the intact minimum of the task for comparison; --json adds "
     "fault_max_position_error_m, fault_saturated_fraction, the failed rotors and "
-    "intact_minimum; pictures fault_flight*.png. Not with the learned "
-    "methods"
+    "intact_minimum; pictures fault_flight*.png. Every method but "
+    f"{NO_FAULT} takes it (the learned ones zero-shot, each answer verified to survive)"
 )
 
 
@@ -47,8 +48,10 @@ def add_fault_options(p: argparse.ArgumentParser) -> None:
         p,
         "with --fault: design for a controller that learns of the failure this many "
         "seconds late (the required --fault-margin derived from it, as `modquad solve "
-        "--detection-delay`; 0 to 0.05) and fly with that delay; the design without the margin "
-        "is flown beside it (JSON key without_margin). Without it the flights use "
+        "--detection-delay`; 0 to 0.05; JSON key fault_margin_delay_s) and fly with that delay "
+        "(with --detect the detector decides in flight when the controller learns of it, and "
+        "the delay sets only the design's margin); the design without the margin is flown "
+        "beside it (JSON key without_margin). Without it the flights use "
         f"{DEFAULT_DETECTION_DELAY:g} s and the design has no margin",
     )
 
@@ -60,14 +63,16 @@ def add_detect_option(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="with --fault: the controller is not told of the failure; a "
         "detector on its noisy velocity and body rate decides when and which rotors failed "
-        "(modquad_gym.sim.detector) and the allocator switches on its decision; --json adds "
-        "fault_detected_after_s and fault_detected_rotors",
+        "(modquad_gym.sim.detector) and the allocator switches on its decision, whenever that "
+        "comes (a --detection-delay sets only the design's margin); --json adds "
+        "fault_detected_after_s (the delay flown; fault_detection_delay_s is null) and "
+        "fault_detected_rotors",
     )
 
 
 def check_fault_options(args: argparse.Namespace) -> None:
-    """``--fault`` with a learned method, ``--detection-delay`` out of range or without
-    ``--fault``: one line, before any work."""
+    """``--fault`` with a method that cannot honour it (:data:`~.common.NO_FAULT`),
+    ``--detection-delay`` out of range or without ``--fault``: one line, before any work."""
     from modquad_gym.cli.given import refuse_ignored
     from modquad_gym.core.validation import check_real
 
@@ -139,10 +144,10 @@ def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -
     intact = solver(intact_args)(task)
     delay = DEFAULT_DETECTION_DELAY if args.detection_delay is None else args.detection_delay
     detector = None
-    if getattr(args, "detect", False):
-        from modquad_gym.sim.detector import DetectorConfig
+    if getattr(args, "detect", False):  # the detector decides in flight; the delay, if given,
+        from modquad_gym.sim.detector import DetectorConfig  # set only the design's margin
 
-        detector = DetectorConfig()
+        detector, delay = DetectorConfig(), None
     record = validate_with_failure(structure, task, args.fault, intact=intact.structure,
                                    out_dir=args.out, detection_delay_s=delay, detector=detector,
                                    seconds=fault_flight.FAULT_HOVER_SECONDS)  # fmt: skip
@@ -150,6 +155,7 @@ def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -
         record["intact_minimum"]["certified"] = bool(intact.certified)
     margin = fault_margin_of(args)
     record["fault_margin_required"] = margin or 0.0
+    record["fault_margin_delay_s"] = args.detection_delay  # what the margin is for (or None)
     if margin:  # the design without the margin, through its own worst failure, same delay
         from modquad_gym.sim.validate_fault import intact_record
 

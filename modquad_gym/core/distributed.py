@@ -80,6 +80,9 @@ class Engine:
             reads ``RAY_ADDRESS``.
         local_default: workers when none are given and no cluster is.
         option: how the caller names ``workers`` in its one-line notes (``--workers``).
+        check_address: check now that the cluster address answers (False where the work may
+            need no Ray, such as one task of a method that runs in one process: an unreachable
+            ``RAY_ADDRESS`` then does not block it; the check comes when Ray is first started).
 
     On this machine the workers are capped to its usable CPUs (a note says so); a cluster
     address must answer before anything starts (one line, at once, when nothing listens).
@@ -96,6 +99,7 @@ class Engine:
         *,
         local_default: int | None = None,
         option: str = "workers",
+        check_address: bool = True,
     ) -> None:
         self.address = address or os.environ.get(ADDRESS_VARIABLE) or None
         if workers is not None:
@@ -123,8 +127,10 @@ class Engine:
                 "(pip install 'modquad_gym[distributed]' to use several workers)",
                 __name__,
             )
-        if self.use_ray and self.address:
+        self._unchecked = bool(self.use_ray and self.address)
+        if self._unchecked and check_address:
             check_reachable(self.address)
+            self._unchecked = False
         self._started = False
         self._depth = 0
 
@@ -153,6 +159,9 @@ class Engine:
         options = {"include_dashboard": False, "log_to_driver": False, "logging_level": "ERROR"}
         with keep_sigterm():  # SIGTERM stays one line, not Ray's native crash dump
             if self.address:
+                if self._unchecked:  # not checked up front: before Ray's minute of retries
+                    check_reachable(self.address)
+                    self._unchecked = False
                 try:
                     ray.init(address=self.address, **options)
                 except (ConnectionError, RuntimeError, TimeoutError) as exc:

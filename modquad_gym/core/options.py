@@ -12,6 +12,7 @@ import math
 import numbers
 import re
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 __all__ = [
@@ -20,6 +21,7 @@ __all__ = [
     "DefaultsHelpFormatter",
     "check_option",
     "int_option",
+    "path_option",
     "real_option",
     "seed_option",
     "text_parser",
@@ -63,7 +65,8 @@ seed_option.is_integer = True
 def check_option(flag: str, value: object, kind=None, many: bool = False) -> None:
     """A Python caller's ``value`` of the option ``flag`` checked as the command line checks it:
     a list where ``many`` (``nargs``, ``append``), an integer where ``kind`` is
-    :func:`int_option`'s or :func:`seed_option`, in the command line's words (ValueError
+    :func:`int_option`'s or :func:`seed_option`, a path that is not empty where it is
+    :func:`path_option`, in the command line's words (ValueError
     ``FLAG: ...``). None (the default) passes."""
     if value is None:
         return
@@ -73,6 +76,10 @@ def check_option(flag: str, value: object, kind=None, many: bool = False) -> Non
         for v in value:
             check_option(flag, v, kind)
         return
+    if getattr(kind, "is_path", False):
+        if isinstance(value, str) and not value:
+            raise ValueError(f"{flag}: {EMPTY_PATH}")
+        return
     if not getattr(kind, "is_integer", False):
         return
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
@@ -81,6 +88,21 @@ def check_option(flag: str, value: object, kind=None, many: bool = False) -> Non
         kind(str(int(value)))
     except argparse.ArgumentTypeError as exc:
         raise ValueError(f"{flag}: {exc}") from None
+
+
+def path_option(text: str) -> Path:
+    """An argparse ``type`` for a file or folder path: an empty one is refused (``Path("")`` is
+    the working folder, which the user did not name)."""
+    if not text:
+        raise argparse.ArgumentTypeError(EMPTY_PATH)
+    return Path(text)
+
+
+path_option.__name__ = "path"
+path_option.is_path = True  # what check_option checks a Python caller's value against
+
+EMPTY_PATH = "an empty path (give a file or folder name; . is the working folder)"
+"""What an empty path option is told (:func:`path_option`, :func:`check_option`)."""
 
 
 def real_option(text: str) -> float:

@@ -21,6 +21,8 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from modquad_gym.core.options import EMPTY_PATH
+
 __all__ = [
     "LOCK_NAME",
     "MANIFEST_NAME",
@@ -108,12 +110,20 @@ def check_name_length(path: str | os.PathLike, what: str = "output") -> None:
             )
 
 
+def _not_empty(path: str | os.PathLike, what: str) -> str | os.PathLike:
+    """``path``, unless it is an empty string: ``Path("")`` is the working folder, which the
+    user did not name (``--out ''``)."""
+    if isinstance(path, str) and not path:
+        raise OutputError(f"{what}: {EMPTY_PATH}")
+    return path
+
+
 def check_output_file(path: str | os.PathLike, force: bool = False, what: str = "output") -> Path:
     """The destination file as a Path, after checking it can be written: its folder exists or
     can be created and is writable, it is not a device, pipe or socket, and it does not exist
     yet (unless ``force``).
     Call it before long work starts."""
-    path = Path(path)
+    path = Path(_not_empty(path, what))
     check_name_length(path, what)
     if path.is_dir():
         raise OutputError(f"{what}: {path} is a folder, expected a file name")
@@ -155,8 +165,9 @@ def check_output_dir(
     path: str | os.PathLike, names: tuple[str, ...] = (), force: bool = False, what: str = "--out"
 ) -> Path:
     """The destination folder as a Path, after checking it is (or can become) a writable folder
-    in which none of ``names`` exists yet (unless ``force``)."""
-    folder = Path(path)
+    in which none of ``names`` exists yet (unless ``force``); an empty path (which would be
+    the working folder) is refused."""
+    folder = Path(_not_empty(path, what))
     check_name_length(folder, what)
     _check_writable_dir(folder, what)
     for name in names:

@@ -124,7 +124,11 @@ class SavedModel:
 
 def model_file(path: str | Path | None = None) -> Path:
     """``path`` (default :data:`DEFAULT_MODEL`) as a Path; ValueError when it is a folder or
-    does not exist."""
+    does not exist, or when it is empty (``Path("")`` would be the working folder)."""
+    if isinstance(path, str) and not path:
+        from modquad_gym.core.options import EMPTY_PATH
+
+        raise ValueError(f"--model: {EMPTY_PATH}")
     path = Path(path) if path is not None else DEFAULT_MODEL
     if path.is_dir():
         raise ValueError(f"--model {path}: a folder; give the model .zip file in it")

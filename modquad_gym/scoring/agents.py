@@ -41,10 +41,12 @@ from modquad_gym.scoring.options import (
     DESCRIPTION,
     REPORT_FILES,
     SEARCH_METHODS,
+    SEEDED,
     add_options,
     method_label,
 )
 from modquad_gym.scoring.scores import Row, summarise
+from modquad_gym.scoring.suites import SUITES_DIR, check_optima
 from modquad_gym.scoring.tiers import Tier, get_tier, honours_fault, validation_suite
 from modquad_gym.search import verified
 from modquad_gym.solvers import Solver, admissible, load_solver, make_solver
@@ -156,11 +158,16 @@ def parse_args(argv: list[str] | None, prog: str = COMMAND) -> argparse.Namespac
 def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
     """The methods to score: ``--methods`` (default: the searches and the tier's learned
     methods; with ``--solver``, the searches alone beside the outside agents), the ``--solver``
-    agents, and ``--samples`` in place of ``ppo-kN``."""
-    if args.model is None:
-        args.model = tier.model
+    agents, and ``--samples`` in place of ``ppo-kN``. Each is checked here, before any work: a
+    method name, an outside agent (loaded once), the model of a learned method."""
+    types = palette(tier.modules) if tier.modules else None
+    agents = {}  # `--solver pkg` without `:Name`: load_solver says how to write it
+    for spec in args.solver:
+        agents[spec] = load_solver(spec, n_max=args.n_max or tier.n_max, tier=tier.name,
+                                   modules=types)  # fmt: skip
+    model = tier.model if args.model is None else args.model
     default = DEFAULT_METHODS if tier.name == "current" else SEARCH_METHODS
-    if tier.name != "current" and args.model.is_file():
+    if tier.name != "current" and model.is_file():
         default = (*SEARCH_METHODS, *tier.learned)
     if args.solver:  # the report is about the outside agent: the searches are its reference
         default = SEARCH_METHODS
@@ -178,16 +185,76 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
             f"a {tier.fault} failure; score the methods that take fault= "
             f"({', '.join(honoured)})"
         )
-    if args.samples is not None:
-        methods = [m for m in methods if not m.startswith("ppo-k")]
-        if args.samples > 0:
-            methods.append(f"ppo-k{args.samples}")
-    if any(m.startswith("ppo") for m in methods) and not args.model.is_file():
-        raise ValueError(f"PPO model file {args.model} does not exist (train: python train.py)")
-    types = palette(tier.modules) if tier.modules else None
-    for spec in (m for m in methods if ":" in m):  # likewise an outside agent
-        load_solver(spec, n_max=args.n_max or tier.n_max, tier=tier.name, modules=types)
+    methods = with_samples(methods, args.samples, "--methods" if args.methods else "")
+    for spec in (m for m in methods if ":" in m and m not in agents):  # --methods pkg:Name
+        agents[spec] = load_solver(spec, n_max=args.n_max or tier.n_max, tier=tier.name,
+                                   modules=types)  # fmt: skip
+    check_used_options(args, methods, model, agents)
+    args.model = model
     return methods
+
+
+def with_samples(methods: list[str], samples: int | None, given: str) -> list[str]:
+    """``methods`` with ``--samples N`` in place of their ``ppo-kN`` (0: without them); refused
+    when they have none to replace (``given``: the option that named them, "" for the
+    default)."""
+    if samples is None:
+        return methods
+    kept = [m for m in methods if not m.startswith("ppo-k")]
+    if len(kept) == len(methods):
+        where = f"{given} has" if given else "the methods scored by default have"
+        hint = f"; add ppo-k{samples} to --methods" if samples else ""
+        raise ValueError(f"--samples {samples}: replaces the ppo-kN of --methods, and {where} "
+                         f"none{hint}")  # fmt: skip
+    return kept + ([f"ppo-k{samples}"] if samples else [])
+
+
+LEARNED = "ppo, ppo-kN, ppo-guided"
+"""The learned methods, which alone use ``--model`` and ``--train-dir``."""
+
+
+def check_used_options(args: argparse.Namespace, methods: list[str], model: Path,
+                       agents: dict) -> None:  # fmt: skip
+    """``--model`` and ``--train-dir`` are used by the learned methods alone, and ``--seed`` by
+    the methods that draw at random (``agents``: the outside ones, loaded): refused when nothing
+    scored uses them. The ``model`` of a learned method that is not a file, or a
+    ``--train-dir`` that is not a training run's folder, is refused too (before any work, not
+    by a report that leaves its learning curve out)."""
+    from modquad_gym.policy.models import model_file
+
+    learned = any(m.startswith("ppo") for m in methods)
+    for option, value in (("--model", args.model), ("--train-dir", args.train_dir)):
+        if value is not None and not learned:
+            raise ValueError(f"{option} {value}: not used: no learned method ({LEARNED}) is scored")
+    if learned:
+        model_file(model)
+    if args.train_dir is not None:
+        check_train_dir(args.train_dir)
+    if args.seed is not None and not any(takes_seed(m, agents) for m in methods):
+        raise ValueError(
+            f"--seed {args.seed}: no method scored takes a seed (none draws at random); the "
+            f"ones that do: {SEEDED}"
+        )
+
+
+def takes_seed(method: str, agents: dict) -> bool:
+    """Is ``method`` told the run's seed: a registered method that takes ``seed``, or an
+    outside agent (loaded in ``agents``) whose constructor does?"""
+    if ":" in method:
+        return agents[method].takes_seed
+    return "seed" in method_of(method)[0].options.names()
+
+
+def check_train_dir(folder: Path) -> None:
+    """``--train-dir``: a training run's folder (its ``config.json`` or ``evaluations.npz``)."""
+    if not folder.is_dir():
+        what = "not a folder" if folder.exists() else "does not exist"
+        raise ValueError(f"--train-dir {folder}: {what} (a training run's folder)")
+    if not any((folder / name).is_file() for name in ("config.json", "evaluations.npz")):
+        raise ValueError(
+            f"--train-dir {folder}: no config.json or evaluations.npz in it (a training run's "
+            "folder, as train.py writes it)"
+        )
 
 
 def main(argv: list[str] | None = None, prog: str = COMMAND) -> int:
@@ -197,9 +264,28 @@ def main(argv: list[str] | None = None, prog: str = COMMAND) -> int:
     return score(parse_args(argv, prog), " ".join([COMMAND, *argv]))
 
 
+def read_suites(args: argparse.Namespace, tier: Tier) -> dict[str, list]:
+    """The suites of ``--suite`` (or the tier's held-out ones), first ``--limit`` tasks of
+    each, their optima checked (:func:`~.suites.check_optima`); {} for ``--validation``,
+    whose tasks are drawn and certified after every other check."""
+    if args.suite:
+        where = {Path(path).stem: str(path) for path in args.suite}
+        suites = {Path(path).stem: load_suite(path)[: args.limit] for path in args.suite}
+    elif args.validation:
+        return {}
+    else:
+        where = {name: str(SUITES_DIR / f"{name}.json") for name in tier.suites}
+        suites = tier.load_suites(args.limit)
+    types = palette(tier.modules) if tier.modules else None
+    for name, tasks in suites.items():
+        check_optima(tasks, where[name], types, tier.fault)
+    return suites
+
+
 def score(args: argparse.Namespace, command: str) -> int:
     """Score the methods of ``args`` (:func:`add_options`) and write the report, which records
-    ``command`` (the command line that reproduces it)."""
+    ``command`` (the command line that reproduces it). Every option, suite and agent is checked
+    before any work."""
     if args.tier is not None and args.suite:
         raise ValueError("give --tier or --suite, not both")
     tier = get_tier(args.tier or "current")
@@ -207,20 +293,18 @@ def score(args: argparse.Namespace, command: str) -> int:
         raise ValueError("give --validation or --suite, not both")
     if args.validation is not None and args.limit is not None:
         raise ValueError("give --limit or --validation N, not both (N is the number of tasks)")
-    if args.suite:
-        suites = {Path(path).stem: load_suite(path)[: args.limit] for path in args.suite}
-    elif args.validation:
-        suites = {"validation": validation_suite(tier, args.validation, not args.no_progress)}
-    else:
-        suites = tier.load_suites(args.limit)
+    suites = read_suites(args, tier)
     n_max = args.n_max if args.n_max is not None else tier.n_max
     methods = chosen_methods(args, tier)
     train_dir = args.train_dir or args.model.parent
     check_output_dir(args.out, REPORT_FILES, args.force)
     require("matplotlib")  # the report's figures ([viz] extra): said before the work, not after
+    if args.validation:  # drawn and certified now: the first work
+        suites = {"validation": validation_suite(tier, args.validation, not args.no_progress)}
 
     t0 = time.perf_counter()
-    rows = run_benchmark(suites, methods, n_max, args.model, args.seed, not args.no_progress,
+    seed = 0 if args.seed is None else args.seed
+    rows = run_benchmark(suites, methods, n_max, args.model, seed, not args.no_progress,
                          args.workers, tier.modules, tier.name, tier.fault)  # fmt: skip
     wall = time.perf_counter() - t0
     write_csv([r.as_csv() for r in rows], args.out / "benchmark.csv")

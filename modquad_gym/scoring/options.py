@@ -6,12 +6,19 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from modquad_gym.core.options import check_option, int_option, seed_option
+from modquad_gym.core.options import check_option, int_option, path_option, seed_option
+from modquad_gym.methods import REGISTRY
 from modquad_gym.scoring.tiers import TIERS
 from modquad_gym.search import SEARCHES
 
 SEARCH_METHODS = tuple(SEARCHES)
 DEFAULT_METHODS = (*SEARCH_METHODS, "ppo", "ppo-k2", "ppo-k8")
+
+SEEDED = ", ".join(
+    [*(n for n, m in REGISTRY.items() if "seed" in m.options.names()), "ppo-kN",
+     "an outside agent whose constructor takes seed"]
+)  # fmt: skip
+"""The methods ``--seed`` applies to (those of the registry that take ``seed``), in words."""
 
 REPORT_FILES = (
     "benchmark.md",
@@ -24,13 +31,16 @@ REPORT_FILES = (
 
 
 OPTIONS = {
-    "--suite": dict(type=Path, action="append", default=None,
+    "--suite": dict(type=path_option, action="append", default=None,
                     help="suite JSON (repeatable; default the held-out suites in "
                     "modquad_gym/data/suites)"),
-    "--model": dict(type=Path, default=None, help="PPO model .zip (default: the tier's "
-                    "shipped model, modquad_gym/data/models/ppo_default or ppo_<tier>)"),
-    "--train-dir": dict(type=Path, default=None, help="training output with config.json and "
-                        "evaluations.npz (default: the model's folder)"),
+    "--model": dict(type=path_option, default=None, help="PPO model .zip of the learned "
+                    "methods (default: the tier's shipped model, modquad_gym/data/models/"
+                    "ppo_default or ppo_<tier>); refused when no learned method is scored"),
+    "--train-dir": dict(type=path_option, default=None, help="training run folder with "
+                        "config.json and evaluations.npz, for the report's learning curve and "
+                        "model line (default: the model's folder); refused when no learned "
+                        "method is scored"),
     "--tier": dict(default=None, help="score on a benchmark tier's held-out suites and budget: "
                    f"{', '.join(TIERS)} (default: current, or the --suite files)"),
     "--methods": dict(nargs="+", default=None,
@@ -45,7 +55,8 @@ OPTIONS = {
                      "n_max, and counted through the evaluator it is handed (docs: "
                      "benchmarks.md); without --methods it is scored beside the searches"),
     "--samples": dict(type=int_option(0, 1000), default=None,
-                      help="replace ppo-kN in --methods by ppo-k<samples> (0 drops it)"),
+                      help="replace every ppo-kN of --methods (or of the default methods) by "
+                      "ppo-k<samples> (0 drops them); refused when there is none to replace"),
     "--n-max": dict(type=int_option(1, 16), default=None,
                     help="module budget (default: the tier's)"),
     "--limit": dict(type=int_option(1), default=None, help="first N tasks of each suite only"),
@@ -86,9 +97,10 @@ def add_options(parser: argparse.ArgumentParser) -> None:
     """The options of ``modquad score``, added to ``parser``."""
     for flag, kwargs in OPTIONS.items():
         parser.add_argument(flag, **kwargs)
-    parser.add_argument("--seed", type=seed_option, default=0,
-                        help="solver seed (sampled PPO rollouts, random search)")  # fmt: skip
-    parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
+    parser.add_argument("--seed", type=seed_option, default=None,
+                        help=f"solver seed of the methods that draw at random ({SEEDED}); "
+                        "refused when none of them is scored (default 0)")  # fmt: skip
+    parser.add_argument("--out", type=path_option, default=Path("results"), help="report folder")
     parser.add_argument(
         "--force", action="store_true", help="replace existing reports (default: refuse)"
     )
@@ -102,11 +114,11 @@ def score_options(**given: object) -> argparse.Namespace:
     values = {name: list(kw["default"]) if isinstance(kw.get("default"), list)
               else kw.get("default", kw.get("action") != "store_true" and None)
               for name, kw in known.items()}  # fmt: skip
-    values.update(seed=0, out=Path("results"), force=False)
+    values.update(seed=None, out=Path("results"), force=False)
     unknown = sorted(set(given) - set(values))
     if unknown:
         raise ValueError(f"{COMMAND}: unknown options {unknown}; known: {sorted(values)}")
-    kinds = {**known, "seed": {"type": seed_option}}
+    kinds = {**known, "seed": {"type": seed_option}, "out": {"type": path_option}}
     for name, value in given.items():  # as the command line checks them, in its words
         kw = kinds.get(name, {})
         many = kw.get("nargs") == "+" or kw.get("action") == "append"

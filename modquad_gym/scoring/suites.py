@@ -98,6 +98,35 @@ def optimum_counts(tasks: Sequence[TaskRequirement]) -> dict:
     return {k: optima.count(k) for k in sorted(set(optima), key=lambda v: (v is None, v or 0))}
 
 
+def check_optima(tasks: Sequence, where: str, modules=None, fault: str | None = None) -> None:
+    """ValueError naming ``where`` (the suite), the 1-based task and its ``meta.optimum`` when
+    that is not a module count (a positive integer, or null: no structure up to its n_max) or
+    when the exact bounds (:func:`~modquad_gym.search.bounds.bound_levels`, for the module
+    types ``modules`` and the ``fault`` scored) prove that no structure of that many modules
+    exists: every method would be scored against it, so it is checked before any work."""
+    from numbers import Integral
+
+    from modquad_gym.search.bounds import bound_levels
+    from modquad_gym.search.problem import SearchProblem
+
+    for i, task in enumerate(tasks, 1):
+        claim = task.meta.get("optimum")
+        label = f"{where}: task {i} ({task.name!r}): meta.optimum"
+        if claim is None:
+            continue
+        if isinstance(claim, bool) or not isinstance(claim, Integral) or claim < 1:
+            raise ValueError(
+                f"{label} = {claim!r} is not a module count (a positive integer, or null where "
+                "no structure of up to its n_max modules does the task)"
+            )
+        if bound_levels(SearchProblem(task, int(claim), modules=modules, fault=fault)) > claim:
+            raise ValueError(
+                f"{label} = {claim} is below the proved lower bound: no structure of {claim} "
+                f"module{'s' if claim > 1 else ''} or fewer can do this task (modquad solve "
+                "--method exhaustive certifies its optimum)"
+            )
+
+
 class CyclingTasks:
     """A task generator that returns the given tasks in order, round and round (ignores the
     rng): an evaluation over ``len(tasks)`` episodes sees every task exactly once."""

@@ -23,6 +23,10 @@ import numpy as np
 from modquad_gym.core.validation import check_real
 from modquad_gym.sim.hover.linearization import Plant
 
+DETECTION_DELAY_S = 0.02
+"""Seconds between the failure and the controller knowing it (default; 10 control steps at
+500 Hz): meanwhile it allocates on the intact A and misses the failed rotors' share."""
+
 
 @dataclass(frozen=True)
 class Failure:
@@ -66,3 +70,19 @@ class Failure:
         if not keep.any():
             return None
         return Plant.build(plant.A[:, keep], plant.f_max, plant.mass, plant.J)
+
+
+def flown_delay(detection_delay_s: float | None, detector) -> float:
+    """The delay the controller is told of the failure after: ``detection_delay_s`` (default
+    :data:`DETECTION_DELAY_S`), or 0 with a ``detector``, whose decision is the switch (the
+    :class:`~modquad_gym.sim.failure.Failure`'s delay is then unused). A delay given beside a
+    detector is a ValueError: it would be reported but not flown."""
+    if detector is None:
+        delay = DETECTION_DELAY_S if detection_delay_s is None else detection_delay_s
+        return check_real(delay, "detection_delay_s", low=0.0)
+    if detection_delay_s is not None:
+        raise ValueError(
+            f"detection_delay_s = {detection_delay_s!r}: not flown with a detector, which decides "
+            "when the controller learns of the failure; give one or the other"
+        )
+    return 0.0

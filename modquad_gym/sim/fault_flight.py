@@ -46,16 +46,12 @@ from modquad_gym.oracle.failures import module_failures  # noqa: E402
 from modquad_gym.oracle.faults import FaultTolerance, check_fault, failure_sets  # noqa: E402
 from modquad_gym.search.checker import LP_ROTORS  # noqa: E402
 from modquad_gym.sim.detector import make_detector  # noqa: E402
-from modquad_gym.sim.failure import Failure  # noqa: E402
+from modquad_gym.sim.failure import DETECTION_DELAY_S, Failure, flown_delay  # noqa: E402, F401
 from modquad_gym.sim.report import finite_or_none  # noqa: E402
 from modquad_gym.sim.track import TrackConfig, TrackResult  # noqa: E402
 
 FAULT_HOVER_SECONDS = 4.0
 """Simulated seconds of the hover through a failure (static tasks); the failure is at half."""
-
-DETECTION_DELAY_S = 0.02
-"""Seconds between the failure and the controller knowing it (default; 10 control steps at
-500 Hz): meanwhile it allocates on the intact A and misses the failed rotors' share."""
 
 LEAD_S = 0.5
 """Dynamic task: the failure strikes halfway through the trajectory, or this many seconds before
@@ -200,7 +196,8 @@ class FaultFlight:
         smallest margin over the task after the failure flown, the worst one),
         ``fault_failed_rotors`` (columns of A), ``fault_failed_module`` (index in the cells),
         ``fault_failed_cell``, ``fault_failed_rotor_in_module`` (rotor failures),
-        ``fault_time_s``, ``fault_detection_delay_s``, ``fault_seconds`` (flight length),
+        ``fault_time_s``, ``fault_detection_delay_s`` (the delay flown; None with a detector,
+        whose ``fault_detected_after_s`` says when it decided), ``fault_seconds`` (flight length),
         ``fault_hardest_row`` (the task row, wrench or trajectory sample, of that margin; the
         wrench a hover holds), ``fault_max_position_error_m`` and ``fault_saturated_fraction``
         (from the failure on), ``fault_max_attitude_error_rad``,
@@ -214,7 +211,7 @@ class FaultFlight:
             "fault_failed_rotors": list(self.failure.columns),
             **self.failed_part(),
             "fault_time_s": self.failure.time_s,
-            "fault_detection_delay_s": self.failure.detection_delay_s,
+            "fault_detection_delay_s": None if self.detection() else self.failure.detection_delay_s,
             "fault_seconds": float(self.run.t[-1]) if len(self.run.t) else 0.0,
             "fault_hardest_row": self.worst.row,
             "fault_max_position_error_m": finite_or_none(self.max_position_error_m),
@@ -347,7 +344,7 @@ def fly_with_failure(
     fault: str = "rotor",
     *,
     seconds: float = FAULT_HOVER_SECONDS,
-    detection_delay_s: float = DETECTION_DELAY_S,
+    detection_delay_s: float | None = None,
     f_max: float | None = None,
     track_config: TrackConfig | None = None,
     detector=None,
@@ -361,14 +358,16 @@ def fly_with_failure(
             ``f_max``) or a (t, 6) array of total rotor wrenches.
         fault: ``"rotor"`` or ``"module"``.
         seconds: static task: how long the hover lasts (the failure strikes at half).
-        detection_delay_s: seconds before the controller knows (:mod:`~modquad_gym.sim.failure`).
+        detection_delay_s: seconds before the controller knows (:mod:`~modquad_gym.sim.failure`;
+            default :data:`DETECTION_DELAY_S`). Not with a ``detector``, which decides that.
         f_max: the thrust limit for an array task (a task object carries its own).
         track_config: dynamic task: how to fly the trajectory.
         detector: a :class:`~modquad_gym.sim.detector.DetectorConfig` (or a
             (config, :class:`~modquad_gym.sim.detector.SensorNoise`) pair): the controller is
-            not told of the failure, the detector decides when and which rotors
-            (``detection_delay_s`` is then unused); the summary adds ``fault_detected_after_s``
-            and ``fault_detected_rotors``.
+            not told of the failure, the detector decides when and which rotors (a
+            ``detection_delay_s`` beside it is refused: it would not be flown); the summary's
+            ``fault_detection_delay_s`` is then None and it adds ``fault_detected_after_s`` (the
+            delay flown) and ``fault_detected_rotors``.
 
     Returns:
         A :class:`FaultFlight`; ``summary()`` is its record (``fault_max_position_error_m``,
@@ -379,7 +378,7 @@ def fly_with_failure(
     if not isinstance(structure, Structure):
         raise ValueError(f"structure must be a Structure, got {type(structure).__name__}")
     fault = check_fault(fault)
-    detection_delay_s = check_real(detection_delay_s, "detection_delay_s", low=0.0)
+    detection_delay_s = flown_delay(detection_delay_s, detector)
     W, fm = _rotor_wrenches(structure, task, f_max)
     worst = worst_failure(structure, W, fm, fault)
     name = getattr(task, "name", "") or ""

@@ -276,25 +276,44 @@ _TITLES = {
     "hover_unknown_load": "hover, load unknown",
     "hover_infeasible": "infeasible wrench",
 }
+"""The hovers' pictures (``NAME.png``) and their titles."""
+
+BENCH_FILES = ("rotor_inputs.png", "bench_wrench.png")
+RENDER_FILE = "structure.png"
+REPORT_FILES = ("report.md", "validation.json")
+
+
+def output_names(
+    unknown_load: bool = True, include_infeasible_demo: bool = False, render: bool = True
+) -> tuple[str, ...]:
+    """The files :func:`validate` writes into ``out_dir`` with these options (what ``modquad
+    validate`` refuses to replace without ``--force``, before any work); :func:`_write` writes
+    exactly these."""
+    hovers = {"hover": True, "hover_unknown_load": unknown_load,
+              "hover_infeasible": include_infeasible_demo}  # fmt: skip
+    return (
+        *REPORT_FILES,
+        *BENCH_FILES,
+        *(f"{name}.png" for name, flown in hovers.items() if flown),
+        *((RENDER_FILE,) if render else ()),
+    )
 
 
 def _write(d: Path, report, structure, fly_sim, exact, pinv, runs: dict, render: bool) -> None:
     """Pictures, ``report.md`` and ``validation.json`` into ``d`` (paths in ``report.files``)."""
     d.mkdir(parents=True, exist_ok=True)
     files = report.files
-    plot_rotor_inputs([exact, pinv], d / "rotor_inputs.png")
-    files["rotor_inputs"] = str(d / "rotor_inputs.png")
-    plot_bench_wrench([exact, pinv], d / "bench_wrench.png")
-    files["bench_wrench"] = str(d / "bench_wrench.png")
+    for name, plot in zip(BENCH_FILES, (plot_rotor_inputs, plot_bench_wrench)):
+        plot([exact, pinv], d / name)
+        files[name.removesuffix(".png")] = str(d / name)
     for name, run in runs.items():
         if run is not None:
             plot_hover(run, d / f"{name}.png", title=_TITLES[name])
             files[name] = str(d / f"{name}.png")
     if render:
-        report.render_backend = render_structure(fly_sim, d / "structure.png")
-        files["structure"] = str(d / "structure.png")
-    files["report"] = str(d / "report.md")
-    files["json"] = str(d / "validation.json")
+        report.render_backend = render_structure(fly_sim, d / RENDER_FILE)
+        files["structure"] = str(d / RENDER_FILE)
+    files["report"], files["json"] = (str(d / name) for name in REPORT_FILES)
     text = markdown(
         report,
         structure.to_text(),
@@ -303,5 +322,5 @@ def _write(d: Path, report, structure, fly_sim, exact, pinv, runs: dict, render:
         SETTLE_FRACTION,
         INFEASIBLE_SCALE,
     )
-    write_text(d / "report.md", text)
-    write_text(d / "validation.json", json.dumps(report.to_dict(), indent=2) + "\n")
+    write_text(d / REPORT_FILES[0], text)
+    write_text(d / REPORT_FILES[1], json.dumps(report.to_dict(), indent=2) + "\n")

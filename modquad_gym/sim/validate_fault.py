@@ -78,7 +78,7 @@ def fault_markdown(record: dict, n_modules: int | str = "") -> str:
         return (
             f"| {name} | {n_modules} "
             f"| {'yes' if tolerates else 'no'} | {_fmt(margin_)} | {part} "
-            f"| {r['fault_time_s']:.3g} s | {err_text} "
+            f"| {r['fault_time_s']:.3g} s | {_told(r)} | {err_text} "
             f"| {100 * r['fault_saturated_fraction']:.3g} % "
             f"| {r.get('fault_diverged') or 'no'} |"
         )
@@ -89,14 +89,12 @@ def fault_markdown(record: dict, n_modules: int | str = "") -> str:
         f"The {record['fault']} failure that leaves the smallest margin over the task's rotor "
         f"wrenches strikes during the {record['fault_flight']} (its thrust forced to 0; halfway, "
         "or for a trajectory half a second before the moment it hurts most if that comes "
-        "earlier); "
-        f"{record['fault_detection_delay_s']:g} s later the allocator and the gains drop its "
-        "columns. Errors and saturation (some working rotor at 0 or f_max) are measured from "
-        "the failure on; a tolerant structure should stay within 5 cm.",
+        f"earlier); {_switch_words(record)} Errors and saturation (some working rotor at 0 or "
+        "f_max) are measured from the failure on; a tolerant structure should stay within 5 cm.",
         "",
-        "| structure | modules | tolerates | worst margin | failed | at | max position error "
-        "after | saturated after | diverged |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| structure | modules | tolerates | worst margin | failed | at | controller told after "
+        "| max position error after | saturated after | diverged |",
+        "|---|---|---|---|---|---|---|---|---|---|",
         row("found", record, n_modules, record["fault_tolerates"]),
     ]
     intact = record.get("intact_minimum")
@@ -106,6 +104,30 @@ def fault_markdown(record: dict, n_modules: int | str = "") -> str:
     for path in (record.get("fault_files") or {}).values():
         lines.append(f"![{Path(path).stem}]({Path(path).name})")
     return "\n".join(lines) + "\n"
+
+
+def _switch_words(record: dict) -> str:
+    """When the controller learned of the failure in these flights: after the fixed delay, or
+    when the detector decided (a ``--detection-delay`` then set only the design's margin)."""
+    delay = record.get("fault_detection_delay_s")
+    if delay is not None:
+        return f"{delay:g} s later the allocator and the gains drop its columns."
+    words = ("the controller is not told: a detector on its noisy velocity and body rate decides "
+             "when and which rotors failed (column *controller told after*), and the allocator "
+             "and the gains then drop the columns it named.")  # fmt: skip
+    designed = record.get("fault_margin_delay_s")
+    if designed is not None:
+        words += (f" The design keeps the margin for a {designed:g} s detection delay "
+                  "(--detection-delay); the delay flown is the detector's.")  # fmt: skip
+    return words
+
+
+def _told(r: dict) -> str:
+    """How long after the failure the controller of the flight ``r`` switched."""
+    if r.get("fault_detection_delay_s") is not None:
+        return f"{r['fault_detection_delay_s']:g} s"
+    after = r.get("fault_detected_after_s")
+    return "never (detector)" if after is None else f"{after:.3g} s (detector)"
 
 
 def _fmt(x) -> str:

@@ -12,9 +12,15 @@ from typing import Any
 
 import numpy as np
 
+from modquad_gym.core.interrupts import failure_line
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.search import SearchResult
 from modquad_gym.search.problem import SearchProblem
+
+AGENT_ERRORS = (Exception, SystemExit)
+"""What an outside agent's own code may raise while it is imported, made or asked to solve:
+reported as one line naming it (``sys.exit`` in an agent must not end the benchmark silently);
+Ctrl-C and SIGTERM still stop the command."""
 
 
 class Evaluator:
@@ -154,8 +160,10 @@ class ExternalSolver:
         tier: str | None = None,
         modules=None,
         fault: str | None = None,
+        takes_seed: bool = False,
     ) -> None:
         self.agent = agent
+        self.takes_seed = takes_seed  # its constructor was told the run's seed
         self.name = name
         self.n_max = n_max
         self.tier = tier
@@ -185,7 +193,7 @@ class ExternalSolver:
                 answer = fn(given, evaluator=evaluator)
             else:
                 answer = fn(given)
-        except Exception as exc:  # the agent's own failure, named in one line
+        except AGENT_ERRORS as exc:  # the agent's own failure (sys.exit too), in one line
             raise ValueError(
                 f"solver {self.name!r} failed on task {getattr(task, 'name', task)!r}: "
                 f"{type(exc).__name__}: {exc}"
@@ -255,6 +263,10 @@ def load_solver(
         module = importlib.import_module(module_name)
     except ImportError as err:
         raise ValueError(f"--solver {spec!r}: cannot import {module_name!r}: {err}") from None
+    except AGENT_ERRORS as err:  # its own code failed while it was imported
+        raise ValueError(
+            f"--solver {spec!r}: importing {module_name} failed: {failure_line(err)}"
+        ) from None
     try:
         obj = getattr(module, attr)
     except AttributeError:
@@ -262,8 +274,16 @@ def load_solver(
     if isinstance(obj, type):
         told = {"n_max": n_max, "tier": tier, "modules": list(modules) if modules else None,
                 "seed": seed}  # fmt: skip
-        obj = obj(**{k: v for k, v in told.items() if _takes(obj, k)})
+        given = {k: v for k, v in told.items() if _takes(obj, k)}
+        try:
+            obj = obj(**given)
+        except AGENT_ERRORS as err:  # its constructor failed, or wants what nobody passes
+            raise ValueError(
+                f"--solver {spec!r}: making {attr}({', '.join(given)}) failed: {failure_line(err)}"
+            ) from None
     if not (hasattr(obj, "solve") or callable(obj)):
         raise ValueError(f"--solver {spec!r}: {attr} has no solve(task) and is not callable")
     name = str(getattr(obj, "name", attr))
-    return ExternalSolver(obj, name=name, n_max=n_max, tier=tier, modules=modules, fault=fault)
+    takes_seed = isinstance(getattr(module, attr), type) and _takes(getattr(module, attr), "seed")
+    return ExternalSolver(obj, name=name, n_max=n_max, tier=tier, modules=modules, fault=fault,
+                          takes_seed=takes_seed)  # fmt: skip
