@@ -9,6 +9,7 @@ environments, collects demonstrations or replaces a shipped model.
 from __future__ import annotations
 
 import numbers
+from collections.abc import Iterable
 from dataclasses import fields
 from pathlib import Path
 from typing import Any
@@ -37,8 +38,13 @@ HYPERPARAMETER_RANGES: dict[str, tuple[type, float, float, bool]] = {
     "max_grad_norm": (float, 0.0, 1e6, False),
     "target_kl": (float, 0.0, 10.0, False),
     "kl_coef": (float, 0.0, 1e3, True),
+    "hidden": (int, 1, 4096, True),
 }
-"""(type, low, high, low included) per MaskablePPO hyperparameter; ``net_arch`` is a list."""
+"""(type, low, high, low included) per MaskablePPO hyperparameter; ``net_arch`` is a list
+(:func:`check_hyperparameters`), ``hidden`` the ``candidates`` network's width."""
+
+OFF_WHEN_NONE = ("target_kl",)
+"""Hyperparameters whose None (JSON null, the recipe's default) means off."""
 
 
 def option(name: str) -> str:
@@ -60,9 +66,12 @@ def check_numbers(config: Any) -> None:
 
 
 def check_hyperparameters(hp: dict) -> None:
-    """Every value of ``hp`` (``--hyperparameters``) of the right type and range."""
+    """Every value of ``hp`` (``--hyperparameters``) of the right type and range (None where it
+    means off)."""
     for key, value in hp.items():
         where = f"--hyperparameters: {key}"
+        if value is None and key in OFF_WHEN_NONE:
+            continue
         if key == "net_arch":
             ok = isinstance(value, list) and 1 <= len(value) <= 16
             if not ok or not all(_is_int(v) and 1 <= v <= 4096 for v in value):
@@ -70,6 +79,8 @@ def check_hyperparameters(hp: dict) -> None:
                     f"{where} must be a list of 1 to 16 layer widths in 1..4096, got {value!r}"
                 )
             continue
+        if key not in HYPERPARAMETER_RANGES:
+            raise ValueError(f"--hyperparameters: unknown key {key!r}")
         kind, low, high, closed = HYPERPARAMETER_RANGES[key]
         if kind is int:
             check_int(value, where, low=int(low), high=int(high))
@@ -100,6 +111,23 @@ def check_environment(config: Any) -> None:
         ModQuadAssemblyEnv(**config.env_kwargs_full).close()
     except (TypeError, ValueError) as exc:
         raise ValueError(f"--env-kwargs {config.env_kwargs}: {one_line(exc)}") from None
+
+
+TIER_KEYS = ("module", "modules", "initial_type", "fault")
+"""Environment keywords a tier sets (its module types and the failure its answers survive):
+not ``--env-kwargs`` keys, or a run would train another tier under this one's name."""
+
+
+def check_tier_keys(env_kwargs: dict, tier: str) -> None:
+    """``--env-kwargs`` sets nothing that ``--task-source``, ``--n-max`` or ``--tier`` says."""
+    if {"tasks", "task", "n_max"} & set(env_kwargs):
+        raise ValueError("--env-kwargs: give tasks and n_max with --task-source and --n-max")
+    for key in TIER_KEYS:
+        if key in env_kwargs:
+            raise ValueError(
+                f"--env-kwargs {key}={env_kwargs[key]!r}: the module types and the failure are "
+                f"the tier's (here --tier {tier}); choose another with --tier"
+            )
 
 
 def check_model(path: Path, env_kwargs: dict, what: str, tier_kwargs: dict | None = None) -> None:
@@ -148,3 +176,74 @@ def check_publishable(run: Path, tier_kwargs: dict) -> None:
     except (OSError, ValueError, AttributeError, TypeError) as exc:
         raise ValueError(f"--publish-run {run}: its config.json is not a run's ({exc})") from None
     check_model(Path(run) / "model.zip", env_kwargs, "--publish-run", tier_kwargs)
+
+
+NOTHING = object()
+"""Stands for "no value": every value of a field dropped this way is unused."""
+
+CLONING = {"bc_epochs": 0, "demo_tasks": NOTHING, "expert": NOTHING, "dagger_rounds": 0,
+           "dagger_tasks": NOTHING, "workers": NOTHING}  # fmt: skip
+"""The fields of behaviour cloning (and DAgger), each with the value that asks for nothing
+(NOTHING: none does)."""
+AFTER_CLONING = {"critic_warmup": 0, "focus_tasks": 0, "focus_percent": NOTHING}
+"""The fields that act on a cloned policy (the critic's warm-up, the tasks it misses)."""
+
+
+def unused_fields(config: Any) -> dict[str, tuple[Any, str]]:
+    """The fields of ``config`` (a TrainConfig, or train.py's parsed options) that its run
+    would not use: {field: (the one value that agrees with the run, or NOTHING; the option
+    that drops it, with why)}; ``hyperparameters`` keys: :func:`unused_hyperparameters`."""
+    rules = [
+        (config.resume is not None, "--resume (it continues the saved model as it is: no "
+         "cloning, no critic warm-up, no focus tasks)", {**CLONING, **AFTER_CLONING}),
+        (config.init_from is not None, "--init-from (PPO starts from that model's policy: no "
+         "demonstrations, no cloning)", CLONING),
+        (config.bc_epochs == 0, "--bc-epochs 0 (PPO alone from scratch: no demonstrations, "
+         "no cloned policy)", {**CLONING, **AFTER_CLONING}),
+        (config.focus_tasks == 0, "--focus-tasks 0 (no tasks to focus on)",
+         {"focus_percent": NOTHING}),
+        (config.dagger_rounds == 0, "--dagger-rounds 0 (no DAgger round)",
+         {"dagger_tasks": NOTHING}),
+        (config.advantage != "group", f"--advantage {config.advantage} (only --advantage "
+         "group samples groups)", {"group_size": NOTHING}),
+    ]  # fmt: skip
+    unused: dict[str, tuple[Any, str]] = {}
+    for applies, why, dropped in rules:
+        for name, agrees in dropped.items() if applies else ():
+            unused.setdefault(name, (agrees, why))
+    return unused
+
+
+def unused_hyperparameters(config: Any) -> dict[str, tuple[Any, str]]:
+    """The ``--hyperparameters`` keys a run of ``config`` would not use, as
+    :func:`unused_fields` gives them: every key with ``--resume`` (the saved model keeps its
+    own), the other architecture's size, ``kl_coef`` without a cloned policy to pull
+    towards."""
+    if config.resume is not None:
+        why = "--resume (the saved model keeps its own hyperparameters)"
+        return {key: (NOTHING, why) for key in config.hyperparameters}
+    other = "net_arch" if config.architecture == "candidates" else "hidden"
+    unused = {other: (NOTHING, f"--architecture {config.architecture} (net_arch sizes the "
+                               "mlp network, hidden the candidates one)")}  # fmt: skip
+    if config.init_from is None and config.bc_epochs == 0:
+        unused["kl_coef"] = (0, "--bc-epochs 0 (no cloned policy to pull towards)")
+    return unused
+
+
+def check_used(config: Any, given: Iterable[str]) -> None:
+    """A ValueError naming the first field of ``given`` (the options the user set) that the run
+    of ``config`` would drop, and the option that drops it; a field set to the one value that
+    agrees with the run (``--dagger-rounds 0`` with ``--bc-epochs 0``) passes. Both doors call
+    it: :class:`~agents.config.TrainConfig` with the fields set away from their defaults,
+    ``train.py`` also with the options typed."""
+    unused = unused_fields(config)
+    for name in given:
+        agrees, why = unused.get(name, (None, ""))
+        value = getattr(config, name)
+        if why and (agrees is NOTHING or value != agrees):
+            raise ValueError(f"{option(name)} {value}: not used with {why}")
+    unused = unused_hyperparameters(config)
+    for key, value in config.hyperparameters.items():
+        agrees, why = unused.get(key, (None, ""))
+        if why and (agrees is NOTHING or value != agrees):
+            raise ValueError(f"--hyperparameters: {key} is not used with {why}")

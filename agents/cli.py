@@ -12,7 +12,13 @@ from contextlib import ExitStack
 from dataclasses import MISSING, fields
 from pathlib import Path
 
-from agents.checks import check_environment, check_model, check_publishable
+from agents.checks import (
+    check_environment,
+    check_model,
+    check_publishable,
+    check_used,
+    unused_fields,
+)
 from agents.config import TrainConfig
 from agents.seeds import seed_out
 from agents.training import RUN_FILES, log_name, publish, report, train
@@ -21,6 +27,7 @@ from modquad_gym.core.options import int_option, path_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, claim_output_dir
 from modquad_gym.scoring.options import REPORT_FILES
 from modquad_gym.scoring.tiers import TIERS
+from modquad_gym.tasks.files import parse_json
 
 ROOT = Path(__file__).resolve().parents[1]
 INTEGER = int_option(-(2**63), 2**63)
@@ -66,7 +73,20 @@ def add_config_options(p: argparse.ArgumentParser) -> None:
                            **meta)  # fmt: skip
 
 
-OPTION_TYPES = {"int": INTEGER, "str": str, "Path": path_option, "dict": json.loads}
+def json_object(text: str) -> dict:
+    """A JSON object option (``--env-kwargs``, ``--hyperparameters``): valid JSON, an object,
+    no key twice (``json`` would keep the last silently, as task files refuse)."""
+    try:
+        value = parse_json(text, "")
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix(": ")) from None
+    if not isinstance(value, dict):
+        shown = text.strip() if len(text.strip()) <= 40 else text.strip()[:37] + "..."
+        raise argparse.ArgumentTypeError(f"must be a JSON object {{...}}, got {shown}")
+    return value
+
+
+OPTION_TYPES = {"int": INTEGER, "str": str, "Path": path_option, "dict": json_object}
 """The option type of each field type."""
 
 
@@ -122,7 +142,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         prog="python train.py",
         description="Train MaskablePPO (behaviour cloning on certified expert episodes, then "
         "PPO) on a benchmark tier, save the model with its config, then write its benchmark "
-        "report. With --seeds, one run per seed on Ray.",
+        "report. With --seeds, one run per seed on Ray. An option the run would not use "
+        "(--critic-warmup with --bc-epochs 0, --group-size without --advantage group, ...) is "
+        "refused, naming the option that drops it.",
     )
     add_config_options(p)
     add_run_options(p)
@@ -150,7 +172,9 @@ def refuse_ignored(args: argparse.Namespace, given: dict[str, str]) -> None:
     """A ValueError naming an option the user typed (``given``: destination -> option) that
     this command would drop: a training option with ``--publish-run``, ``--seed`` or
     ``--report-dir`` with ``--seeds`` (each seed is its own ``seed-S`` with its report in it),
-    ``--seed-workers`` without ``--seeds``, ``--report-dir`` with ``--no-report``."""
+    ``--seed-workers`` without ``--seeds``, ``--report-dir`` with ``--no-report``, a recipe
+    option the run would not use (:func:`~agents.checks.check_used`: ``--critic-warmup`` with
+    ``--bc-epochs 0``, ``--group-size`` without ``--advantage group``, ...)."""
     if args.publish_run is not None:
         dropped = [flag for dest, flag in given.items() if dest not in PUBLISH_RUN_OPTIONS]
         if dropped:
@@ -167,6 +191,8 @@ def refuse_ignored(args: argparse.Namespace, given: dict[str, str]) -> None:
         raise ValueError("--seed-workers: only with --seeds (the runs it trains at a time)")
     if "report_dir" in given and args.no_report:
         raise ValueError("--report-dir with --no-report: no report is written")
+    if args.publish_run is None:  # a recipe option the run would not use (typed: any value)
+        check_used(args, [f.name for f in fields(TrainConfig) if f.name in given])
 
 
 def complete(args: argparse.Namespace, given: dict[str, str] | None = None) -> None:
@@ -176,8 +202,8 @@ def complete(args: argparse.Namespace, given: dict[str, str] | None = None) -> N
     tier's own report that a publish rewrites aside; one in a ``--report-dir`` the user
     typed, one of ``given``, needs ``--force``)."""
     given = given or {}
-    for name, value in QUICK.items():
-        if args.quick and getattr(args, name) is None:
+    for name, value in QUICK.items():  # not where the run would not use it (no cloning)
+        if args.quick and getattr(args, name) is None and name not in unused_fields(args):
             setattr(args, name, value)
     if args.seed_workers is not None and args.seed_workers < 1:
         raise ValueError(f"--seed-workers must be >= 1, got {args.seed_workers}")

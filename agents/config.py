@@ -19,6 +19,8 @@ from agents.checks import (
     MAX_STEPS,
     check_hyperparameters,
     check_numbers,
+    check_tier_keys,
+    check_used,
 )
 from agents.imitation import EXPERTS
 from modquad_gym.core.options import MAX_SEED, seed_option
@@ -88,7 +90,10 @@ class TrainConfig:
     """One training run. Fields left None take the tier's value (``task_source``, ``n_max`` and
     the tier's ``recipe``), then the recipe's; ``eval_freq`` defaults to ``timesteps / 20``.
     Every field is a ``train.py`` option (``--n-envs`` for ``n_envs``; ``--no-progress`` for
-    ``progress``)."""
+    ``progress``). A field set away from its default that the run would not use
+    (:func:`~agents.checks.check_used`: ``critic_warmup`` with ``bc_epochs=0``, ...) and an
+    ``env_kwargs`` key the tier or another field sets are refused (ValueError), as
+    ``train.py`` refuses them."""
 
     out: Path = option(
         None,
@@ -169,7 +174,10 @@ class TrainConfig:
         2, "processes that collect the expert demonstrations", "imitation", limits=(1, 1024)
     )
     resume: Path | None = option(
-        None, "continue PPO from this model .zip (no behaviour cloning)", "run"
+        None,
+        "continue PPO from this model .zip with its own hyperparameters (no behaviour cloning, "
+        "critic warm-up or focus tasks: those options are refused with it)",
+        "run",
     )
     init_from: Path | None = option(
         None,
@@ -225,27 +233,27 @@ class TrainConfig:
     threads: int = option(1, "torch threads", limits=(1, 1024))
     progress: bool = option(True, "no progress bars", "run")
     env_kwargs: dict = option(
-        {}, 'extra env keywords as JSON, e.g. \'{"reward_weights": {"w_module": 0.2}}\''
+        {},
+        'extra env keywords as a JSON object, e.g. \'{"reward_weights": {"w_module": 0.2}}\'; '
+        "not tasks or n_max (--task-source, --n-max), nor the tier's module, modules, "
+        "initial_type or fault (--tier)",
     )
     hyperparameters: dict = option(
         {},
-        "MaskablePPO hyperparameters overriding the recipe, as JSON, e.g. "
-        f"'{{\"ent_coef\": 0.02}}'; known: {', '.join(HYPERPARAMETERS)}",
+        "MaskablePPO hyperparameters overriding the recipe, as a JSON object, e.g. "
+        f"'{{\"ent_coef\": 0.02}}'; known: {', '.join(HYPERPARAMETERS)} (target_kl null: off; "
+        "net_arch sizes --architecture mlp, hidden candidates; none with --resume)",
     )
 
     def __post_init__(self) -> None:
-        tier = get_tier(self.tier)
-        defaults = {
-            "timesteps": DEFAULT_TIMESTEPS,
-            "demo_tasks": IMITATION["demo_tasks"],
-            "expert": "all",
-            **tier.recipe,
-        }
-        for name, value in defaults.items():
+        for name in ("env_kwargs", "hyperparameters"):
+            value = getattr(self, name)
+            if not isinstance(value, dict) or not all(isinstance(k, str) for k in value):
+                raise TypeError(f"--{name.replace('_', '-')} must be a JSON object (a dict with "
+                                f"string keys), got {value!r}")  # fmt: skip
+        for name, value in self._filled().items():
             if getattr(self, name) is None:
                 object.__setattr__(self, name, value)
-        if self.dagger_tasks is None:
-            object.__setattr__(self, "dagger_tasks", max(1, self.demo_tasks // 10))
         if self.expert not in EXPERTS:
             raise ValueError(f"expert must be one of {EXPERTS}, got {self.expert!r}")
         if self.architecture not in ARCHITECTURES:
@@ -268,8 +276,24 @@ class TrainConfig:
             raise ValueError("--init-from starts a new PPO run: not with --resume")
         if self.resume is not None and self.advantage != "gae":
             raise ValueError("--advantage group: not with --resume (a new run's option)")
-        if {"tasks", "n_max"} & set(self.env_kwargs):
-            raise ValueError("--env-kwargs: give tasks and n_max with --task-source and --n-max")
+        check_tier_keys(self.env_kwargs, self.tier)  # tasks, n_max, modules, fault: not here
+        check_used(self, self.asked())
+
+    def _filled(self) -> dict[str, Any]:
+        """What the fields left None take: the tier's recipe, then the recipe's defaults (the
+        DAgger tasks a tenth of the demonstration tasks)."""
+        filled = {"timesteps": DEFAULT_TIMESTEPS, "demo_tasks": IMITATION["demo_tasks"],
+                  "expert": "all", **get_tier(self.tier).recipe}  # fmt: skip
+        demo_tasks = filled["demo_tasks"] if self.demo_tasks is None else self.demo_tasks
+        tenth = max(1, demo_tasks // 10) if isinstance(demo_tasks, int) else None  # else refused
+        return {**filled, "dagger_tasks": tenth}
+
+    def asked(self) -> list[str]:
+        """The fields set away from what this config takes unasked (each field's default, or
+        what a field left None takes: :meth:`_filled`): what the caller asked for."""
+        unasked = {f.name: f.default_factory() if f.default is MISSING else f.default
+                   for f in fields(self)} | self._filled()  # fmt: skip
+        return [f.name for f in fields(self) if not _same(getattr(self, f.name), unasked[f.name])]
 
     @property
     def source(self) -> str:
@@ -307,12 +331,12 @@ class TrainConfig:
 
     def command(self) -> str:
         """The ``python train.py`` command line that runs this config (what ``config.json``
-        records): the tier, the seed, the run folder and every field away from its default."""
-        parts = ["train.py"]
+        records): the tier, the seed, the run folder and every field the caller asked for
+        (:meth:`asked`; what the tier's recipe fills is left to it)."""
+        parts, asked = ["train.py"], self.asked()
         for f in fields(self):
             value = getattr(self, f.name)
-            default = f.default_factory() if f.default is MISSING else f.default
-            if f.name not in ("tier", "seed", "out") and _same(value, default):
+            if f.name not in ("tier", "seed", "out", *asked):
                 continue
             flag = "--" + f.name.replace("_", "-")
             if f.type == "bool":

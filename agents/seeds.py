@@ -10,6 +10,7 @@ import dataclasses
 import os
 from pathlib import Path
 
+from agents.checks import unused_fields
 from agents.config import TrainConfig
 from agents.training import report, train
 
@@ -20,9 +21,11 @@ def seed_out(out: Path, seed: int) -> Path:
 
 
 def seed_config(config: TrainConfig, seed: int) -> TrainConfig:
-    """``config`` for one seed: its own run folder, one demonstration process, no progress."""
+    """``config`` for one seed: its own run folder, one demonstration process (where it
+    collects demonstrations), no progress."""
+    workers = config.workers if "workers" in unused_fields(config) else 1
     return dataclasses.replace(
-        config, seed=seed, out=seed_out(config.out, seed), workers=1, progress=False
+        config, seed=seed, out=seed_out(config.out, seed), workers=workers, progress=False
     )
 
 

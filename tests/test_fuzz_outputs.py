@@ -108,7 +108,8 @@ def _build_model(config) -> None:
     from agents.training import _new_model
     from modquad_gym.policy.ppo import make_env
 
-    venv = DummyVecEnv([lambda: make_env(tasks="planted", n_max=3)])
+    kwargs = config.eval_env_kwargs  # the network's observation (candidates: lookahead rows)
+    venv = DummyVecEnv([lambda: make_env(tasks="planted", n_max=3, **kwargs)])
     try:
         _new_model(config, venv, MaskablePPO)
     finally:

@@ -92,8 +92,9 @@ def test_ppo_from_a_saved_cloned_policy_focuses_and_keeps_the_best_optimal_share
 
     suite = save_suite(tiny_tasks, tmp_path / "tiny.json")
     common = dict(task_source=str(suite), n_max=3, timesteps=512, eval_freq=256, n_eval=4,
-                  tensorboard=tmp_path / "tb", progress=False, workers=1)  # fmt: skip
-    train(TrainConfig(out=tmp_path / "a", demo_tasks=6, bc_epochs=2, dagger_rounds=0, **common))
+                  tensorboard=tmp_path / "tb", progress=False)  # fmt: skip
+    train(TrainConfig(out=tmp_path / "a", demo_tasks=6, bc_epochs=2, dagger_rounds=0, workers=1,
+                      **common))  # fmt: skip
     cloned = tmp_path / "tb" / f"{tmp_path.name}-a" / "train" / "cloned_model.zip"
     assert cloned.is_file()
     train(TrainConfig(out=tmp_path / "b", init_from=cloned, focus_tasks=6, **common))
