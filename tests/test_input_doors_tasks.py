@@ -54,7 +54,11 @@ def test_a_comment_that_misses_the_colon_is_refused(tmp_path, comment, field):
     assert f"does not set {field}: write '# {field}: VALUE'" in message
 
 
-@pytest.mark.parametrize("comment", ["# note: f_max = 2", "# Kind regards", "#", "# name."])
+@pytest.mark.parametrize(
+    "comment",
+    ["# note: f_max = 2", "# Kind regards", "#", "# name.", "# name of the bench",
+     "# kind of heavy", "# meta data below", "# f_max was measured"],
+)  # fmt: skip
 def test_free_text_comments_are_still_free(tmp_path, comment):
     path = tmp_path / "c.csv"
     path.write_text(f"{comment}\n# f_max: 2\n0,0,3,0,0,0\n")

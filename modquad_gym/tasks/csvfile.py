@@ -32,7 +32,7 @@ from modquad_gym.tasks.files import (
     read_bytes,
     unknown_key_message,
 )
-from modquad_gym.tasks.wrenches import COLUMNS, check_kind
+from modquad_gym.tasks.wrenches import COLUMNS, TASK_KINDS, check_kind
 
 CSV_HEADER_MODES = ("auto", "yes", "no")
 """How a CSV's first row is read: ``auto`` (a row of names is a header; a row that reads as the
@@ -44,9 +44,9 @@ CSV_COMMENT_KEYS = ("name", "f_max", "kind", "meta")
 """The fields ``# key: value`` comments set. Other comments are free text, except near misses,
 which are refused (never read as free text, so the field would silently keep its default): a
 key that is one of these misspelt (``# fmax: 2``, ``# Kind: external``), and a comment that
-starts with one of these keys without the ``:`` (``# f_max = 2``, ``#f_max=2``, ``# f_max 2``,
-``# fmax = 2``; so free text must not start with the word ``name``, ``kind``, ``meta`` or
-``f_max``)."""
+sets one of these keys without the ``:``: with ``=`` (``# f_max = 2``, ``#f_max=2``, ``# fmax =
+2``), or followed by a value of its kind (``# f_max 2``, ``# kind external``, ``# meta {...}``).
+Free text that merely starts with such a word (``# name of the bench``) stays free text."""
 
 _DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.I)
 _COMMENT = re.compile(r"#\s*([A-Za-z][\w-]*)\s*:(.*)", re.S)
@@ -105,14 +105,18 @@ def _near_miss(text: str, where: str, lineno: int) -> None:
     match = _NEAR_MISS.fullmatch(text)
     if match is None:
         return
-    key, separator = match.group(1), match.group(2).strip()
-    field = key if key in CSV_COMMENT_KEYS else None
-    if separator == "=" and field is None:
-        field = close_key(key, CSV_COMMENT_KEYS)
+    key, separator, rest = match.group(1), match.group(2).strip(), match.group(3).strip()
+    if separator == "=":
+        field = key if key in CSV_COMMENT_KEYS else close_key(key, CSV_COMMENT_KEYS)
+    else:  # a key, then a value of its kind: a number, a task kind, a JSON object
+        first = rest.split()[0] if rest else ""
+        values = {"f_max": _to_float(first) is not None, "kind": first in TASK_KINDS,
+                  "meta": rest.startswith("{")}  # fmt: skip
+        field = key if values.get(key) else None
     if field is not None:
         raise TaskFileError(
             f"{where}: line {lineno}: comment {text[:60]!r} does not set {field}: write "
-            f"'# {field}: VALUE' (the key, then ':'; free text must not start with a field name)"
+            f"'# {field}: VALUE' (the key, then ':')"
         )
 
 
