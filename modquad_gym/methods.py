@@ -20,10 +20,11 @@ import importlib
 import inspect
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from modquad_gym.core.options import text_parser, text_words
-from modquad_gym.core.validation import check_flag, check_int, check_real
+from modquad_gym.core.validation import check_flag
 from modquad_gym.policy.models import (
     BUDGET_PER_MODULE,
     EXTRA_FALLBACKS,
@@ -34,8 +35,15 @@ from modquad_gym.policy.models import (
     SCALE_FROM,
     TOP_K,
 )
-from modquad_gym.search.problem import MAX_TIME_LIMIT, PRUNE, unknown_option
-from modquad_gym.search.prune import PRUNE_HELP
+from modquad_gym.search.options import (
+    COMMON_OPTIONS,
+    check_seed,
+    check_time_limit,
+    count,
+    share,
+    shares,
+)
+from modquad_gym.search.problem import PRUNE, unknown_option
 
 
 # ---------------------------------------------------------------------------------- options
@@ -70,18 +78,21 @@ class Options:
     @classmethod
     def parse(cls, method: str, text: str) -> tuple[str, Any]:
         """``KEY=VALUE`` of ``--option`` as (name, typed and checked value); a TypeError names
-        an unknown key, a ValueError (``--option TEXT: ...``) text without ``=``, a value of
-        the wrong type or out of the option's range."""
+        an unknown key, a ValueError (``--option TEXT: ...``) a Python-only key or one with a
+        flag of its own that ``--option`` cannot write (:func:`python_only`), text without
+        ``=``, a value of the wrong type or out of the option's range."""
         key, sep, value = text.partition("=")
         key = key.strip().replace("-", "_")
         by_name = {f.name: f for f in dataclasses.fields(cls)}
-        if not sep:
+        if key and key not in by_name:
+            raise TypeError(unknown_option(method, key, cls.names()))
+        if key in by_name and _parser(by_name[key]) is None:
+            raise ValueError(f"--option {text}: {python_only(method, key)}")
+        if not sep or not key:
             raise ValueError(
                 f"--option {text}: expected KEY=VALUE, e.g. {key or 'KEY'}=VALUE (method "
                 f"{method!r} takes: {', '.join(sorted(cls.settable())) or 'no options'})"
             )
-        if key not in by_name or _parser(by_name[key]) is None:
-            raise TypeError(unknown_option(method, key or text, cls.names()))
         f = by_name[key]
         try:
             parsed = _parser(f)(value.strip())
@@ -100,59 +111,42 @@ class Options:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
 
+OWN_FLAGS = {"model": "--model", "time_limit": "--time-limit", "seed": "--seed"}
+"""The method options a command line gives with a flag of its own (``--option`` may too, where
+it can write the value; never both)."""
+
+
+def python_only(method: str, key: str) -> str:
+    """Why ``--option KEY`` cannot set a Python-only option of ``method``: its flag, or the
+    Python door."""
+    if key in OWN_FLAGS:
+        return f"give {key} of method {method!r} with {OWN_FLAGS[key]}"
+    return (
+        f"{key} of method {method!r} is an object a command line cannot write: Python only "
+        f"(make_solver({method!r}, {key}=...))"
+    )
+
+
 def _parser(f: dataclasses.Field) -> Callable[[str], Any] | None:
     """How a command line writes the field, from its type (None: Python only)."""
     return text_parser(f.type)
 
 
-def _seconds(value: Any, name: str) -> float:
-    seconds = check_real(value, name, 0.0)
-    if not 0.0 < seconds <= MAX_TIME_LIMIT:
-        raise ValueError(f"{name} must lie in (0, {MAX_TIME_LIMIT:,.0f}] seconds, got {value!r}")
-    return seconds
+COMMON_HELP = COMMON_OPTIONS
+"""Help and check of the options several methods share (:mod:`modquad_gym.search.options`)."""
 
 
-def _count(low: int) -> Callable[[Any, str], int]:
-    return lambda value, name: check_int(value, name, low=low)
-
-
-def _share(value: Any, name: str) -> float:
-    return check_real(value, name, 0.0, 1.0)
-
-
-def _shares(value: Any, name: str) -> tuple[float, ...]:
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
-        value = (value,)
-    return tuple(_share(v, name) for v in value)
-
-
-def _seed(value: Any, name: str) -> int:
-    return check_int(value, name, low=0, high=2**63 - 1)
-
-
-COMMON_HELP: dict[str, tuple[str, Callable | None]] = {
-    "time_limit": ("seconds the method may take; it returns what it has by then", _seconds),
-    "seed": ("seed of its random draws (0 to 2**63-1)", _seed),
-    "progress": ("show progress on stderr", check_flag),
-    "engine": ("an Engine whose workers share the work (Python only)", None),
-    "chunk": ("structures decided per batch", _count(1)),
-    "start": ("a partial structure every answer contains (Python only)", None),
-    "producers": ("the producers run beside the anytime search's own steps (Python only)", None),
-    "prune": (PRUNE_HELP, check_flag),
-}
-"""Help and check of the options several methods share."""
-
-
-def options_of(name: str, entry: Callable, own: dict[str, tuple[str, Callable | None]]):
+def options_of(name: str, entry: Callable):
     """The options dataclass of a search's entry point (:func:`~.search.problem.search_entry`):
     its search's keyword-only parameters with their types and defaults, and ``prune`` where the
-    entry takes it, each with its help and check (``own``, else :data:`COMMON_HELP`)."""
+    entry takes it, each with the help and check the entry checks it with
+    (``entry.option_specs``): one check per option, whichever door it comes through."""
     specs = []
     parameters = list(inspect.signature(entry.solve).parameters.values())
     for p in parameters + ([PRUNE] if entry.prunes else []):
         if p.kind is not p.KEYWORD_ONLY:
             continue
-        text, check = own.get(p.name) or COMMON_HELP[p.name]
+        text, check = entry.option_specs[p.name]
         meta = {"help": text, "check": check}
         specs.append((p.name, p.annotation, field(default=p.default, metadata=meta)))
     title = "".join(part.title() for part in name.replace("-", "_").split("_"))
@@ -255,77 +249,80 @@ def unregister(name: str) -> None:
 
 
 # ------------------------------------------------------------------------------- the built-in
-def _search(name: str, help: str, own: dict | None = None, **capabilities: Any) -> Method:
+def _search(name: str, help: str, **capabilities: Any) -> Method:
     from modquad_gym.search import SEARCHES
 
-    return Method(name, help, options_of(name, SEARCHES[name], own or {}),
+    return Method(name, help, options_of(name, SEARCHES[name]),
                   "modquad_gym.solvers.factory:SearchSolver", **capabilities)  # fmt: skip
 
 
+def check_model(value: Any, name: str) -> Any:
+    """A learned method's ``model``: a path (str or Path) of a PPO .zip, a loaded
+    :class:`~modquad_gym.policy.Policy`, or a loaded SB3 model or policy network; else a
+    ValueError naming ``name`` (the file itself is read when the solver is made)."""
+    from modquad_gym.policy.policy import Policy
+
+    net = getattr(value, "policy", value)
+    if isinstance(value, (str, Path, Policy)) or hasattr(net, "observation_space"):
+        return value
+    raise ValueError(
+        f"{name} must be the path of a PPO model .zip or a loaded model (Policy, MaskablePPO), "
+        f"got {value!r}"
+    )
+
+
 _MODEL = (object, None, "a PPO .zip or a loaded Policy (default: the shipped model of the "
-          "budget and palette)", None)  # fmt: skip
-_LEARNED_LIMIT = (float | None, None, "seconds after which it stops (None: none)", _seconds)
+          "budget and palette)", check_model)  # fmt: skip
+_LEARNED_LIMIT = (float | None, None, "seconds after which it stops (None: none)", check_time_limit)
 _TOP_K = (int | None, TOP_K, "children decided exactly per step by a model reading the exact "
           "lookahead, the rest ranked lower by support bounds and masked out (None: all)",
-          _count(1))  # fmt: skip
+          count(1))  # fmt: skip
 _PRUNE = (bool, False, *COMMON_HELP["prune"])
 _FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dives) wherever the "
              "policy gives its own most likely docking at most this probability (0: never, 1: "
              f"always; None: {FALLBACK:g} at budgets of {SCALE_FROM} modules and more with a "
              "model that sees greedy's choice, the exact lookahead, else 0)",
-             _share)  # fmt: skip
+             share)  # fmt: skip
 _EXTRA_FALLBACKS = (tuple[float, ...] | None, None, "further deterministic passes, one per "
                     "fallback value (comma-separated), branching from the first where they dock "
                     "elsewhere; the smallest verified structure is kept (None: "
                     f"{','.join(f'{f:g}' for f in EXTRA_FALLBACKS)} where the first ends with "
                     f"more than {EXTRA_FROM} modules, at budgets of {SCALE_FROM} modules and "
                     "more with a model that sees greedy's choice, else none; empty: none)",
-                    _shares)  # fmt: skip
+                    shares)  # fmt: skip
 
 _BUDGET = (int | None, None, "most structures evaluated (None: "
            f"{GUIDED_BUDGET} below {SCALE_FROM} modules, else {BUDGET_PER_MODULE} per module "
            f"of its dives' answer, at least {GUIDED_BUDGET}, at most what "
-           f"{QUEUE_MEMORY // 2**20} MiB of queued states hold)", _count(1))  # fmt: skip
+           f"{QUEUE_MEMORY // 2**20} MiB of queued states hold)", count(1))  # fmt: skip
 
 for _method in (
     _search("exhaustive", "the certified minimum (exhaustive search, up to 16 modules)",
             certifies=True, timed=False),
-    _search("centrosymmetric", "the paper's Algorithm 2",
-            {"block_seed": ("also grow from a 2 x 2 block (even counts)", check_flag)}),
+    _search("centrosymmetric", "the paper's Algorithm 2"),
     _search("greedy", "baseline: the child satisfying most wrenches"),
-    _search("random", "baseline: random dockings",
-            {"restarts": ("independent random builds", _count(1))}, seeded=True),
+    _search("random", "baseline: random dockings", seeded=True),
     _search("anytime", "the default: the exhaustive search's answer where it finishes within "
             "the time limit, else the best structure found by local moves with its proved lower "
             "bound (up to 128 modules)", certifies=True, seeded=True),
     _search("beam", "heuristic: beam search over growing structures (up to 128 modules)",
-            {"beam_width": ("structures kept per level", _count(1))}, seeded=True),
+            seeded=True),
     _search("genetic", "heuristic: genetic algorithm over structures, after Su et al. 2024 (up "
-            "to 128 modules)", {
-                "population": ("chromosomes per generation", _count(2)),
-                "generations": ("most generations", _count(1)),
-                "stall": ("generations without improvement before it stops", _count(1)),
-                "mutation_rate": ("probability of a mutation", _share),
-                "crossover_rate": ("probability of a crossover", _share),
-                "elite": ("best chromosomes kept unchanged", _count(0)),
-                "tournament": ("chromosomes per selection tournament", _count(1)),
-                "penalty": ("fitness per unsatisfied wrench (None: the module budget + 1)",
-                            None),
-            }, seeded=True),
+            "to 128 modules)", seeded=True),
     _search("milp", "the mixed-integer program solved by HiGHS, level by level from its LP "
             "relaxation's bound: certified where it finishes within the time limit (up to 128 "
             "modules)", certifies=True, fault=False),
     Method("ppo", "the learned agent's deterministic pass, with two more sharing its start where "
            f"it ends above {EXTRA_FROM} modules (the shipped model unless model=)",
-           options("ppo", model=_MODEL, seed=(int, 0, COMMON_HELP["seed"][0], _seed),
+           options("ppo", model=_MODEL, seed=(int, 0, COMMON_HELP["seed"][0], check_seed),
                    samples=(int, 0, "extra sampled rollouts besides the deterministic one",
-                            _count(0)), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
+                            count(0)), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
                    fallback=_FALLBACK, extra_fallbacks=_EXTRA_FALLBACKS, prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", seeded=True, extra="train"),
     Method("ppo-guided", "best-first search ordered by the learned policy, certified at the "
            "lower bound", options("ppo-guided", model=_MODEL,
                                   budget=_BUDGET,
-                                  branching=(int, 4, "children expanded per node", _count(1)),
+                                  branching=(int, 4, "children expanded per node", count(1)),
                                   dive=(bool, True, "first follow the single pass's "
                                         f"episodes (ppo's: from {SCALE_FROM} modules one per "
                                         "start type, with its extra fallbacks' branches)",
@@ -356,14 +353,17 @@ def _guided_variant(name: str) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for part in name[len("ppo-guided") :].split("-")[1:]:
         if part == "nodive":
-            out["dive"] = False
+            key, value = "dive", False
         elif part[:1] in ("b", "w") and part[1:].isdigit() and int(part[1:]) > 0:
-            out["budget" if part[0] == "b" else "branching"] = int(part[1:])
+            key, value = ("budget" if part[0] == "b" else "branching"), int(part[1:])
         else:
             raise ValueError(
                 f"bad method {name!r}: write ppo-guided with -bN (budget), -wN (branching) or "
                 "-nodive, N a positive integer"
             )
+        if key in out:  # which one was meant cannot be told
+            raise ValueError(f"bad method {name!r}: it gives the {key} twice; give it once")
+        out[key] = value
     return out
 
 

@@ -340,7 +340,7 @@ def _search(run: SearchRun, time_limit: float, seed, chunk: int, engine, produce
     run.checker.deadline, run.verify_deadline = deadline, run.t0 + time_limit
     share = run.t0 + EXACT_SHARE * (time_limit - reserve)
     exact, incumbents = ExactLevels(run, lower, chunk), Incumbents(run, seed, deadline)
-    parallel = engine is not None and engine.use_ray and bool(producers)
+    parallel = engine is not None and getattr(engine, "use_ray", False) and bool(producers)
     try:  # a fault decision cut by the deadline proves and refutes nothing: stop with the best
         found = exact.advance(min(share, run.t0 + QUICK_SECONDS) if parallel else share)
         if found is None and exact.n <= problem.n_max:

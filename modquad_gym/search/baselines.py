@@ -24,6 +24,7 @@ from modquad_gym.geometry.structure import Cell, Structure, free_neighbours
 from modquad_gym.oracle import margin
 from modquad_gym.oracle.faults import DecisionInterruptedError
 from modquad_gym.search.heuristic import Deadline, heuristic_result, impossible_result
+from modquad_gym.search.options import count
 from modquad_gym.search.partial import make_partial
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
 from modquad_gym.search.prune import pruned_search
@@ -125,7 +126,9 @@ def greedy_search(
     return heuristic_result(run, None)
 
 
-@search_entry("random", prune=pruned_search)
+@search_entry(
+    "random", prune=pruned_search, options={"restarts": ("independent random builds", count(1))}
+)
 def random_search(
     problem: SearchProblem,
     *,
@@ -145,7 +148,7 @@ def random_search(
     K = len(problem.palette)
     best: Structure | None = None
     with suppress(DecisionInterruptedError):  # a cut fault decision proves nothing
-        for _ in range(max(1, int(restarts))):
+        for _ in range(restarts):
             if deadline.passed():
                 break
             cells: list[Cell] = [(0, 0)]

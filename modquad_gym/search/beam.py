@@ -30,6 +30,7 @@ from modquad_gym.search.heuristic import (
     heuristic_result,
     impossible_result,
 )
+from modquad_gym.search.options import count
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
 from modquad_gym.search.prune import pruned_search
 from modquad_gym.search.result import SearchResult, SearchRun
@@ -57,7 +58,11 @@ def children(beam: Sequence[Candidate], n_types: int) -> list[Candidate]:
     return list(out)
 
 
-@search_entry("beam", prune=pruned_search)
+@search_entry(
+    "beam",
+    prune=pruned_search,
+    options={"beam_width": ("structures kept per level", count(1, MAX_BEAM_WIDTH))},
+)
 def beam_search(
     problem: SearchProblem,
     *,

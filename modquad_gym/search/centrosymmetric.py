@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
 
+from modquad_gym.core.validation import check_flag
 from modquad_gym.geometry.structure import (
     Cell,
     Key,
@@ -42,7 +43,10 @@ def key_bytes(n: int, typed: bool) -> int:
     return 120 + n * (8 + 56 + (64 if typed else 0))
 
 
-@search_entry("centrosymmetric")
+@search_entry(
+    "centrosymmetric",
+    options={"block_seed": ("also grow from a 2 x 2 block (even counts)", check_flag)},
+)
 def centrosymmetric_search(
     problem: SearchProblem,
     *,

@@ -38,6 +38,7 @@ from modquad_gym.geometry.structure import Key, Structure, normalise, normalise_
 from modquad_gym.search.bounds import NO_SIZE, force_lower_bound, level_excluded
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.search.levels import LevelAnswer, level_progress, level_size
+from modquad_gym.search.options import count
 from modquad_gym.search.partial import Partial, make_partial
 from modquad_gym.search.problem import EXACT_MODULES, SearchProblem, search_entry
 from modquad_gym.search.result import KeptKeys, Optima, SearchResult, SearchRun
@@ -318,7 +319,7 @@ def exhaustive_search(
     return run.finish(structure, answer.n, answer.skipped, answer.proof)
 
 
-@search_entry("exhaustive")
+@search_entry("exhaustive", options={"max_keys": ("most structures kept (None: all)", count(1))})
 def optimal_level(
     problem: SearchProblem,
     *,

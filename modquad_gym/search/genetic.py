@@ -38,6 +38,7 @@ from modquad_gym.search.heuristic import (
     heuristic_result,
     impossible_result,
 )
+from modquad_gym.search.options import count, non_negative, share
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
 from modquad_gym.search.prune import pruned_search
 from modquad_gym.search.result import SearchResult, SearchRun
@@ -86,7 +87,20 @@ def _options(population, generations, stall, mutation_rate, crossover_rate, elit
     }
 
 
-@search_entry("genetic", prune=pruned_search)
+@search_entry(
+    "genetic",
+    prune=pruned_search,
+    options={
+        "population": ("chromosomes per generation", count(2, MAX_POPULATION)),
+        "generations": ("most generations", count(1, MAX_GENERATIONS)),
+        "stall": ("generations without improvement before it stops", count(1, MAX_GENERATIONS)),
+        "mutation_rate": ("probability of a mutation", share),
+        "crossover_rate": ("probability of a crossover", share),
+        "elite": ("best chromosomes kept unchanged", count(0)),
+        "tournament": ("chromosomes per selection tournament", count(1)),
+        "penalty": ("fitness per unsatisfied wrench (None: the module budget)", non_negative),
+    },
+)
 def genetic_search(
     problem: SearchProblem,
     *,

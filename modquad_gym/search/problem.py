@@ -21,12 +21,18 @@ from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
-from modquad_gym.core.validation import check_f_max, check_flag, check_int, check_wrenches
+from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_task_scale
 from modquad_gym.oracle.faults import check_fault, check_fault_margin, failure_sets
 from modquad_gym.search.checker import TaskChecker
+from modquad_gym.search.options import (  # noqa: F401 (the time limit's names, kept here)
+    MAX_TIME_LIMIT,
+    check_time_limit,
+    checked_options,
+    option_specs,
+)
 from modquad_gym.tasks import as_task
 
 DEFAULT_MODULE = Structure([(0, 0)]).module
@@ -40,9 +46,6 @@ EXACT_MODULES = 16
 
 DEFAULT_TIME_LIMIT = 60.0
 """Seconds a search takes at most by default (``modquad solve --time-limit``)."""
-
-MAX_TIME_LIMIT = 86_400.0
-"""The longest time limit accepted: one day."""
 
 FAULT_BLOCK = 8
 """With a fault, the exact levels stop for the clock every this many structures (a structure
@@ -296,19 +299,6 @@ def check_search_size(W: np.ndarray) -> None:
         )
 
 
-def check_time_limit(seconds: object) -> float:
-    """``seconds`` as a float in (0, :data:`MAX_TIME_LIMIT`], else a one-line ValueError."""
-    try:
-        value = float(seconds)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"time_limit must be a number of seconds, got {seconds!r}") from None
-    if not 0.0 < value <= MAX_TIME_LIMIT:
-        raise ValueError(
-            f"time_limit must lie in (0, {MAX_TIME_LIMIT:,.0f}] seconds, got {seconds!r}"
-        )
-    return value
-
-
 class _Default(int):
     """The default budget, 7, told apart from a 7 the caller gave (a keyword given beside a
     problem is refused; the default is not)."""
@@ -351,7 +341,9 @@ def as_problem(task, n_max=DEFAULT_N_MAX, f_max=None, module=None, *, modules=No
                          fault_margin=0.0 if fault_margin is None else fault_margin)  # fmt: skip
 
 
-def search_entry(name: str, prune: Callable | None = None) -> Callable[[Callable], Callable]:
+def search_entry(
+    name: str, prune: Callable | None = None, options: dict | None = None
+) -> Callable[[Callable], Callable]:
     """Decorator: the public entry point of the search ``solve(problem, **options)``.
 
     The entry takes a :class:`SearchProblem`, or the task's arguments (``task, n_max=7,
@@ -360,12 +352,16 @@ def search_entry(name: str, prune: Callable | None = None) -> Callable[[Callable
     An option the search does not take is refused with a TypeError naming it and the options
     it takes. ``entry.solve`` is the problem's function. Given ``prune(solve, problem,
     options)`` (:func:`~.prune.pruned_search`), the entry also takes ``prune=True`` and
-    answers with that instead."""
+    answers with that instead. Every option given is checked first, by the search's own check
+    (``options``: ``{name: (help, check)}``) or the common one (:mod:`.options`);
+    ``entry.option_specs`` holds them (the methods' options dataclasses read them)."""
+    own = options
 
     def wrap(solve: Callable) -> Callable:
         options = list(inspect.signature(solve).parameters.values())[1:]
         options += [PRUNE] if prune is not None else []
         names = {p.name for p in options}
+        specs = option_specs(name, [p.name for p in options], own)
 
         @functools.wraps(solve)
         def entry(task, n_max=DEFAULT_N_MAX, f_max=None, module=None, *, modules=None,
@@ -373,9 +369,10 @@ def search_entry(name: str, prune: Callable | None = None) -> Callable[[Callable
             unknown = sorted(set(kwargs) - names)
             if unknown:
                 raise TypeError(unknown_option(name, unknown[0], names))
+            kwargs = checked_options(specs, kwargs)
             problem = as_problem(task, n_max, f_max, module, modules=modules, kind=kind,
                                  fault=fault, fault_margin=fault_margin)  # fmt: skip
-            if not check_flag(kwargs.pop("prune", False), "prune"):
+            if not kwargs.pop("prune", False):
                 return solve(problem, **kwargs)
             return prune(solve, problem, kwargs)
 
@@ -386,6 +383,7 @@ def search_entry(name: str, prune: Callable | None = None) -> Callable[[Callable
         entry.solve = solve
         entry.options = tuple(sorted(names))
         entry.prunes = prune is not None
+        entry.option_specs = specs
         return entry
 
     return wrap

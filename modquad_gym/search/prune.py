@@ -17,11 +17,9 @@ from collections.abc import Callable
 
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.search.moves import removable
+from modquad_gym.search.options import PRUNE_HELP  # noqa: F401 (its help, kept here)
 from modquad_gym.search.problem import SearchProblem
 from modquad_gym.search.result import SearchResult, SearchRun
-
-PRUNE_HELP = "then drop modules the answer does not need, one at a time (within the time limit)"
-"""The one-line help of the ``prune`` option, wherever a method takes it."""
 
 
 def prune(

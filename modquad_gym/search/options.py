@@ -1,0 +1,127 @@
+"""The one check of each search option, shared by every door.
+
+A search's entry point (:func:`~.problem.search_entry`) checks every keyword option it is given
+with the check named here (the search's own, else :data:`COMMON_OPTIONS`); the options
+dataclasses of :mod:`modquad_gym.methods`, which :func:`~modquad_gym.solvers.make_solver` and
+``modquad solve --option`` read, take the same checks from the entry point. So
+``random_search(..., restarts=0)``, ``make_solver("random", restarts=0)`` and ``--option
+restarts=0`` are refused with the same words. A check is ``check(value, name) -> value``
+(the value as the search uses it) or a ValueError naming ``name`` and the value; None passes
+unchecked (every option's "not set").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from modquad_gym.core.options import MAX_SEED
+from modquad_gym.core.validation import check_flag, check_int, check_real
+
+Check = Callable[[Any, str], Any]
+"""``check(value, name) -> value``: the value as the search uses it, or a ValueError."""
+
+MAX_TIME_LIMIT = 86_400.0
+"""The longest time limit accepted: one day."""
+
+PRUNE_HELP = "then drop modules the answer does not need, one at a time (within the time limit)"
+"""The one-line help of the ``prune`` option, wherever a method takes it."""
+
+
+def check_time_limit(seconds: object, name: str = "time_limit") -> float:
+    """``seconds`` as a float in (0, :data:`MAX_TIME_LIMIT`], else a one-line ValueError naming
+    ``name`` (a string or a bool is not a number of seconds)."""
+    value = check_real(seconds, name)
+    if not 0.0 < value <= MAX_TIME_LIMIT:
+        raise ValueError(f"{name} must lie in (0, {MAX_TIME_LIMIT:,.0f}] seconds, got {seconds!r}")
+    return value
+
+
+def count(low: int, high: int | None = None) -> Check:
+    """The check of an integer count in [low, high]."""
+    return lambda value, name: check_int(value, name, low=low, high=high)
+
+
+def share(value: Any, name: str) -> float:
+    """The check of a probability or fraction in [0, 1]."""
+    return check_real(value, name, 0.0, 1.0)
+
+
+def shares(value: Any, name: str) -> tuple[float, ...]:
+    """The check of one share or a sequence of them (a tuple)."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        value = (value,)
+    return tuple(share(v, name) for v in value)
+
+
+def check_seed(value: Any, name: str) -> int:
+    """The check of a random seed: an integer in 0..2**63-1, as ``--seed`` takes."""
+    return check_int(value, name, low=0, high=MAX_SEED)
+
+
+def check_engine(value: Any, name: str) -> Any:
+    """An engine that splits work (``first(fn, items, accept)``, as
+    :class:`~modquad_gym.core.distributed.Engine` has), else a ValueError."""
+    if not callable(getattr(value, "first", None)):
+        raise ValueError(
+            f"{name} must be an Engine (modquad_gym.core.distributed.Engine), got {value!r}"
+        )
+    return value
+
+
+def check_producers(value: Any, name: str) -> tuple:
+    """A sequence of producers (search entries or callables, :mod:`.portfolio`) as a tuple,
+    else a ValueError naming the first that is not one."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise ValueError(
+            f"{name} must be a sequence of producers (search functions or callables), got {value!r}"
+        )
+    out = tuple(value)
+    for i, producer in enumerate(out):
+        if not callable(producer):
+            raise ValueError(f"{name}[{i}] must be a search function or callable, got {producer!r}")
+    return out
+
+
+def non_negative(value: Any, name: str) -> float:
+    """The check of a finite real number >= 0."""
+    return check_real(value, name, low=0.0)
+
+
+COMMON_OPTIONS: dict[str, tuple[str, Check | None]] = {
+    "time_limit": ("seconds the method may take; it returns what it has by then", check_time_limit),
+    "seed": ("seed of its random draws (0 to 2**63-1)", check_seed),
+    "progress": ("show progress on stderr", check_flag),
+    "engine": ("an Engine whose workers share the work (Python only)", check_engine),
+    "chunk": ("structures decided per batch", count(1)),
+    "start": ("a partial structure every answer contains (Python only)", None),
+    "producers": (
+        "the producers run beside the anytime search's own steps (Python only)",
+        check_producers,
+    ),  # fmt: skip
+    "prune": (PRUNE_HELP, check_flag),
+}
+"""Help and check of the options several searches share (``start`` is checked against the
+problem's module types by the search: :func:`~.partial.make_partial`)."""
+
+
+def option_specs(
+    search: str, names: list[str], own: dict[str, tuple[str, Check | None]] | None
+) -> dict[str, tuple[str, Check | None]]:
+    """The (help, check) of each option ``names`` of ``search``: its ``own``, else the
+    common one (a name in neither: a programming error, said at import)."""
+    own = own or {}
+    missing = [n for n in names if n not in own and n not in COMMON_OPTIONS]
+    if missing:
+        raise KeyError(f"search {search!r}: option {missing[0]!r} has no help and check")
+    return {n: own.get(n) or COMMON_OPTIONS[n] for n in names}
+
+
+def checked_options(specs: dict[str, tuple[str, Check | None]], values: dict) -> dict:
+    """``values`` with each option checked by its spec (None passes: the option's default)."""
+    out = dict(values)
+    for key, value in values.items():
+        check = specs[key][1]
+        if check is not None and value is not None:
+            out[key] = check(value, key)
+    return out
