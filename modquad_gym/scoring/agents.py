@@ -50,6 +50,7 @@ from modquad_gym.scoring.suites import SUITES_DIR, check_optima
 from modquad_gym.scoring.tiers import Tier, get_tier, honours_fault, validation_suite
 from modquad_gym.search import verified
 from modquad_gym.solvers import Solver, admissible, load_solver, make_solver
+from modquad_gym.solvers.factory import model_named
 from modquad_gym.tasks import TaskRequirement, load_suite
 
 
@@ -100,9 +101,10 @@ def _solvers(
     types = palette(modules) if modules else None
     solvers = {}
     for m in methods:
-        takes = ("seed",) if ":" in m else method_of(m)[0].options.names()
-        given = {k: v for k, v in (("model", model), ("seed", seed)) if k in takes}
-        solvers[m] = make_solver(m, n_max, modules=types, tier=tier, fault=fault, **given)
+        takes = ("seed", "tier") if ":" in m else method_of(m)[0].options.names()
+        given = {k: v for k, v in (("model", model), ("seed", seed), ("tier", tier)) if k in takes}
+        with model_named("--model"):  # the command line's name of a model file that is not one
+            solvers[m] = make_solver(m, n_max, modules=types, fault=fault, **given)
     return solvers
 
 

@@ -4,14 +4,18 @@ a model that has no fresh NumPy actor (:mod:`modquad_gym.policy.inference`)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any, Protocol, runtime_checkable
 
 from modquad_gym.methods import REGISTRY, Method, Options, method_of, refused_fault
 from modquad_gym.policy.models import SCALE_FROM, default_model, shipped_model
 from modquad_gym.search import SearchResult
-from modquad_gym.search.problem import SearchProblem, as_problem, check_palette
+from modquad_gym.search.options import check_seed
+from modquad_gym.search.problem import DEFAULT_N_MAX, MAX_MODULES, SearchProblem, check_palette
 from modquad_gym.search.prune import pruned
 from modquad_gym.solvers.outside import load_solver
+from modquad_gym.solvers.problems import problem_for, problem_settings
 
 METHOD_HELP = {name: m.help for name, m in REGISTRY.items()}
 """The built-in methods' one-line help (read from :data:`~modquad_gym.methods.REGISTRY`, which
@@ -35,18 +39,19 @@ class MethodSolver:
     """A registered method with its checked options: ``solve(problem)`` honours every field of
     the problem or refuses it (:meth:`~modquad_gym.methods.Method.check`). A task that is not a
     problem becomes one with the ``n_max``, ``modules`` and ``fault`` given to
-    :func:`make_solver`."""
+    :func:`make_solver`; a problem that says otherwise than one of them is refused
+    (:func:`~modquad_gym.solvers.problems.problem_for`)."""
 
     def __init__(self, method: Method, settings: Options, defaults: dict) -> None:
         self.method = method
         self.name = method.name
         self.settings = settings
         self.defaults = defaults
-        self.n_max = defaults.get("n_max", 7)
+        self.n_max = defaults.get("n_max", DEFAULT_N_MAX)
 
     def problem(self, task: Any) -> SearchProblem:
         """The problem the method acts on (checked against what it can honour)."""
-        problem = task if isinstance(task, SearchProblem) else as_problem(task, **self.defaults)
+        problem = problem_for(task, self.defaults)
         self.method.check(problem)
         return problem
 
@@ -101,32 +106,42 @@ class LearnedSolver(MethodSolver):
         model trained on motions), of a rotor failure, or of the budget and palette."""
         key = (n_max, tuple(m.digest for m in palette or ()), tier, fault)
         if key not in self._solvers:
-            options = self.settings.as_dict()
-            options.pop("prune")
-            model = options.pop("model")
-            if model is None and tier is not None and not palette:
-                model = shipped_model(tier)
-            elif model is None and fault[0] == "rotor" and not palette and n_max < SCALE_FROM:
-                model = shipped_model("fault")  # the fault tier's: trained with that failure
-            model = default_model(n_max, palette) if model is None else model
-            if self.kind == "ppo-guided":
-                from modquad_gym.policy.guided import GuidedSolver
-
-                solver: Any = GuidedSolver(model=model, n_max=n_max, fault=fault[0],
-                                           fault_margin=fault[1], **options)  # fmt: skip
-            else:
-                from modquad_gym.policy.ppo import PPOSolver
-
-                solver = PPOSolver(model=model, n_max=n_max, fault=fault[0],
-                                   fault_margin=fault[1], **options)  # fmt: skip
-            if solver.n_max != n_max:
+            if n_max > MAX_MODULES:  # the environment's grid (the searches' limit)
                 raise ValueError(
-                    f"the loaded policy acts with n_max={solver.n_max}, not n_max={n_max} (give "
-                    "a model path, or a problem of that budget)"
+                    f"n_max={n_max} is beyond what the {self.kind} method can act on: at most "
+                    f"{MAX_MODULES} modules (see `modquad solve --help`)"
                 )
-            solver.policy.use_palette(palette)
-            self._solvers[key] = solver
+            with model_named("model"):
+                self._solvers[key] = self._made(n_max, palette, tier, fault)
         return self._solvers[key]
+
+    def _made(self, n_max: int, palette: list | None, tier: str | None, fault: tuple) -> Any:
+        """A new PPO or guided solver (see :meth:`inner`)."""
+        options = self.settings.as_dict()
+        options.pop("prune")
+        model = options.pop("model")
+        if model is None and tier is not None and not palette:
+            model = shipped_model(tier)
+        elif model is None and fault[0] == "rotor" and not palette and n_max < SCALE_FROM:
+            model = shipped_model("fault")  # the fault tier's: trained with that failure
+        model = default_model(n_max, palette) if model is None else model
+        if self.kind == "ppo-guided":
+            from modquad_gym.policy.guided import GuidedSolver
+
+            solver: Any = GuidedSolver(model=model, n_max=n_max, fault=fault[0],
+                                       fault_margin=fault[1], **options)  # fmt: skip
+        else:
+            from modquad_gym.policy.ppo import PPOSolver
+
+            solver = PPOSolver(model=model, n_max=n_max, fault=fault[0],
+                               fault_margin=fault[1], **options)  # fmt: skip
+        if solver.n_max != n_max:
+            raise ValueError(
+                f"the loaded policy acts with n_max={solver.n_max}, not n_max={n_max} (give "
+                "a model path, or a problem of that budget)"
+            )
+        solver.policy.use_palette(palette)
+        return solver
 
     def __getattr__(self, name: str) -> Any:
         """The default budget's PPO or guided solver answers the rest (``policy``, ``dive``,
@@ -149,7 +164,7 @@ class LearnedSolver(MethodSolver):
 
 def make_solver(
     method: str,
-    n_max: int = 7,
+    n_max: int = DEFAULT_N_MAX,
     model: Any = None,
     seed: int | None = None,
     samples: int | None = None,
@@ -164,39 +179,105 @@ def make_solver(
     is a registered name, a variant of a learned one (``ppo-kN``: N sampled rollouts besides
     the deterministic one; ``ppo-guided[-bN][-wN][-nodive]``: budget N, branching N, no dive)
     or ``package.module:Name`` (an outside agent, :func:`load_solver`, told ``n_max``,
-    ``tier`` and ``modules``).
+    ``tier``, ``modules``, ``fault`` and ``seed``; ``tier`` is for outside agents only).
 
-    ``n_max``, ``modules`` (a palette), ``fault`` and ``fault_margin`` (the worst margin
-    required after the failure) make the :class:`SearchProblem` of a task
-    handed to ``solve``; a problem handed to ``solve`` is used as it is. ``model``, ``seed``,
-    ``samples``, ``guided`` (a dict of guided-search options) and ``options`` are the method's
-    options: one it does not take is refused (TypeError naming it and the ones it takes), and
-    so is a ``fault`` it cannot honour (ValueError), in Python as on the command line."""
+    ``n_max`` (default 7), ``modules`` (a palette), ``fault`` and ``fault_margin`` (the worst
+    margin required after the failure), checked here, make the :class:`SearchProblem` of a
+    task handed to ``solve``; a problem handed to ``solve`` is used as it is, and refused
+    where it says otherwise than one of them that was given (ValueError naming both).
+    ``model``, ``seed``, ``samples``, ``guided`` (a dict of ppo-guided's options) and
+    ``options`` are the method's options, each given once: one it does not take is refused
+    (TypeError naming it and the ones it takes), and so is a ``fault`` it cannot honour
+    (ValueError), in Python as on the command line."""
+    if not isinstance(method, str):
+        raise TypeError(f"method must be a method name (str), got {method!r}")
+    named = {"model": model, "seed": seed, "samples": samples}
     if ":" in method:
-        return load_solver(method, n_max=n_max, tier=tier, modules=modules, fault=fault, seed=seed)
+        return _outside(method, n_max, modules, fault, fault_margin, tier, named, guided, options)
     entry, variant = method_of(method)
-    given = {**variant, **(guided or {}), **options}
-    for key, value in (("model", model), ("seed", seed), ("samples", samples)):
-        if value is not None:
-            given[key] = value
-    for key, value in variant.items():  # its name says what it does: an option cannot unsay it
-        if given[key] != value:
-            raise ValueError(
-                f"method {method!r} sets {key}={value!r}; {key}={given[key]!r} contradicts it "
-                f"(give method {entry.name!r} with {key}={given[key]!r})"
-            )
-    settings = entry.settings(**given)
+    if tier is not None:
+        raise TypeError(
+            f"tier={tier!r}: method {method!r} does not take it (tier tells an outside agent, "
+            "package.module:Name, its benchmark tier); give the tier's n_max, modules and fault"
+        )
+    settings = entry.settings(**_method_options(method, entry.name, variant, named, guided,
+                                                options))  # fmt: skip
     if fault is not None and not entry.fault:
         raise ValueError(refused_fault(entry.name, fault))
-    defaults = {"n_max": n_max, "modules": list(modules) if modules else None, "fault": fault}
-    if fault_margin is not None:
-        from modquad_gym.oracle.faults import check_fault_margin
-
-        defaults["fault_margin"] = check_fault_margin(fault_margin, fault)
+    defaults = problem_settings(n_max, modules, fault, fault_margin)
     solver = entry.solver(settings, defaults)
     samples = getattr(settings, "samples", 0)
     solver.name = f"ppo-k{samples}" if method == "ppo" and samples else method  # a variant's
     return solver
+
+
+def _method_options(method: str, name: str, variant: dict, named: dict, guided: Any,
+                    options: dict) -> dict:  # fmt: skip
+    """The options of ``method`` given through its variant's name, ``guided``, ``options`` and
+    the named keywords (``model``, ``seed``, ``samples``): one given twice is refused, and so
+    is one that contradicts what the variant's name sets."""
+    if guided is not None and name != "ppo-guided":
+        raise TypeError(f"guided= gives ppo-guided's options; method {method!r} takes its "
+                        "options as keywords")  # fmt: skip
+    if guided is not None and not isinstance(guided, dict):
+        raise TypeError(f"guided must be a dict of ppo-guided's options, got {guided!r}")
+    sources = [(f"guided={{{k!r}: {v!r}}}", k, v) for k, v in (guided or {}).items()]
+    named = {k: v for k, v in named.items() if v is not None}  # None: not given
+    sources += [(f"{k}={v!r}", k, v) for k, v in {**options, **named}.items()]
+    given: dict = {}
+    said: dict = {}
+    for text, key, value in sources:
+        if key in given:
+            raise ValueError(f"{key} is given twice ({said[key]} and {text}); give it once")
+        given[key], said[key] = value, text
+    for key, value in variant.items():  # its name says what it does: an option cannot unsay it
+        if key in given and given[key] != value:
+            raise ValueError(
+                f"method {method!r} sets {key}={value!r}; {key}={given[key]!r} contradicts it "
+                f"(give method {name!r} with {key}={given[key]!r})"
+            )
+        given[key] = value
+    return given
+
+
+def _outside(method: str, n_max: Any, modules: Any, fault: Any, fault_margin: Any, tier: Any,
+             named: dict, guided: Any, options: dict) -> Solver:  # fmt: skip
+    """The outside agent ``method`` (``package.module:Name``), told the checked budget,
+    module types, fault, tier and seed; the options of a registered method are refused (it
+    would never see them)."""
+    extra = {k: v for k, v in named.items() if v is not None and k != "seed"}
+    extra.update(options, **({} if guided is None else {"guided": guided}))
+    extra.update({} if fault_margin is None else {"fault_margin": fault_margin})
+    if extra:
+        key = next(iter(extra))
+        raise TypeError(
+            f"{key}={extra[key]!r}: {method!r} is an outside agent, told only n_max, modules, "
+            "fault, tier and seed"
+        )
+    settings = problem_settings(n_max, modules, fault)
+    return load_solver(method, n_max=settings["n_max"], tier=tier, modules=settings["modules"],
+                       fault=settings["fault"], seed=checked_seed(named["seed"]))  # fmt: skip
+
+
+def checked_seed(seed: Any) -> int | None:
+    """``seed`` checked as every seed is (:func:`~modquad_gym.search.options.check_seed`)."""
+    return None if seed is None else check_seed(seed, "seed")
+
+
+@contextmanager
+def model_named(name: str) -> Iterator[None]:
+    """A ValueError about the model file (the policy names it ``--model PATH: ...``, as the
+    command line's flag) raised inside the block names it ``name`` instead: ``model`` for the
+    Python door, ``--model`` for the command line's (which makes its solvers here too)."""
+    try:
+        yield
+    except ValueError as exc:
+        text = str(exc)
+        for said in ("--model ", "model "):
+            if text.startswith(said):
+                text = name + " " + text.removeprefix(said)
+                raise ValueError(text.replace(f"give {said}", f"give {name} ")) from exc
+        raise
 
 
 def learned_options(method: str) -> tuple[str, dict] | None:

@@ -16,6 +16,7 @@ from modquad_gym.core.interrupts import failure_line
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.search import SearchResult
 from modquad_gym.search.problem import SearchProblem
+from modquad_gym.solvers.problems import problem_for
 
 AGENT_ERRORS = (Exception, SystemExit)
 """What an outside agent's own code may raise while it is imported, made or asked to solve:
@@ -171,11 +172,12 @@ class ExternalSolver:
         self.fault = fault
 
     def problem(self, task: Any) -> SearchProblem:
-        """The problem handed to the agent: ``task``'s own when it is one, else ``task`` with
-        this solver's budget, types and fault; never with the task's ``meta``."""
-        if not isinstance(task, SearchProblem):
-            task = SearchProblem(task, self.n_max, modules=self.modules, fault=self.fault)
-        return task.without_meta()
+        """The problem handed to the agent: ``task``'s own when it is one (refused where it
+        says otherwise than the budget, types or fault this solver was given,
+        :func:`~modquad_gym.solvers.problems.problem_for`), else ``task`` with them; never with
+        the task's ``meta``."""
+        settings = {"n_max": self.n_max, "modules": self.modules, "fault": self.fault}
+        return problem_for(task, settings).without_meta()
 
     def evaluator(self, task: Any) -> Evaluator:
         """A fresh counted evaluator for ``task`` with this solver's budget and types."""
