@@ -185,7 +185,9 @@ def add_method(
         "beam, population=48 for genetic, budget=128 for ppo-guided, prune=true for the "
         "constructive methods (greedy, random, beam, genetic, ppo, ppo-guided: then drop the "
         "modules the answer does not need); an option the method does not take is refused, "
-        "naming the ones it takes (the docs' method table lists them)",
+        "naming the ones it takes (the docs' method table lists them), and so is one given "
+        "twice or beside the flag that gives it (--seed, --time-limit); model is --model, and "
+        "objects (start, engine, producers) are given in Python (make_solver)",
     )
 
 

@@ -81,6 +81,21 @@ def refuse_ignored_method_options(args: argparse.Namespace) -> None:
             refuse_ignored(args, [dest], f"method {method!r} does not take it (it takes: {listed})")
 
 
+def refuse_learned_budget(args: argparse.Namespace) -> None:
+    """``--n-max`` beyond the grid a learned method acts on (the searches' limit, 128 modules),
+    refused before any file is read, naming the option."""
+    from modquad_gym.methods import method_of
+    from modquad_gym.search.problem import MAX_MODULES
+
+    method, n_max = getattr(args, "method", None), getattr(args, "n_max", None)
+    if method is None or not isinstance(n_max, int) or n_max <= MAX_MODULES:
+        return
+    if method_of(method)[0].extra == "train":
+        raise ValueError(
+            f"--n-max {n_max}: method {method!r} acts on at most {MAX_MODULES} modules"
+        )
+
+
 def refuse_ignored_csv_header(args: argparse.Namespace) -> None:
     """``--csv-header`` when no task file of ``--task`` is a CSV file (it says how a CSV file's
     first row reads; JSON and .npy files have none): refused before any file is read. A

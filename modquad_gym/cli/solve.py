@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from modquad_gym.cli import common  # commands call common.load_task (tests replace it)
+from modquad_gym.cli import common, given  # commands call common.load_task (tests replace it)
 from modquad_gym.cli.common import (
     add_command,
     add_csv_header,
@@ -27,9 +27,10 @@ from modquad_gym.cli.common import (
     report_error,
 )
 from modquad_gym.core.interrupts import one_line
-from modquad_gym.methods import method_of
+from modquad_gym.methods import OWN_FLAGS, method_of
 from modquad_gym.oracle.faults import DELAY_SLOPES
 from modquad_gym.solvers import make_solver
+from modquad_gym.solvers.factory import model_named
 
 
 def add_solve(sub) -> None:
@@ -82,8 +83,9 @@ def add_solve(sub) -> None:
         "is reported and the others go on, exit code 2 at the end); a single task's exhaustive "
         "search splits its levels of 100,000 structures or more (11 modules and up), its "
         "default search runs the portfolio's producers (beam, genetic, greedy, the policy) on "
-        "N-1 workers beside its own steps. Only the default search's answer may depend on the "
-        "number of workers (it depends on timing)",
+        "N-1 workers beside its own steps; with one task the other methods run in this process "
+        "and --workers above 1 (or --ray-address) is refused. Only the default search's answer "
+        "may depend on the number of workers (it depends on timing)",
     )
     add_csv_header(p)
     p.add_argument(
@@ -99,8 +101,9 @@ def add_solve(sub) -> None:
         metavar="FILE",
         default=None,
         help="also write a certificate of the certified answer (one task only) to FILE (.json, "
-        "or .json.gz compressed): a proof that `modquad check FILE` verifies without trusting "
-        "the search (docs/certificates.md); an answer that is not certified is refused",
+        "or .json.gz compressed; not the --export file): a proof that `modquad check FILE` "
+        "verifies without trusting the search (docs/certificates.md); an answer that is not "
+        "certified is refused",
     )
     add_force(p)
 
@@ -123,7 +126,8 @@ class SolveSpec:
         """The spec of the parsed arguments: ``--time-limit``, ``--seed``, ``--model`` go to the
         method where it takes them (a typed one it does not take was refused before,
         :func:`~modquad_gym.cli.given.refuse_ignored_method_options`), ``--option KEY=VALUE``
-        sets any other of its options; ``progress`` where it shows progress."""
+        sets any other of its options, each once (one given twice, or beside the flag that
+        gives it, is refused); ``progress`` where it shows progress."""
         entry, _ = method_of(args.method)
         takes = entry.options.names()
         options: dict[str, Any] = {}
@@ -133,12 +137,19 @@ class SolveSpec:
                            ("progress", progress)):  # fmt: skip
             if key in takes and value is not None:
                 options[key] = value
+        said: dict[str, str] = {}
         for text in getattr(args, "option", None) or ():
             try:
                 key, value = entry.options.parse(args.method, text)
             except TypeError as exc:  # an unknown key: the same words as make_solver's
                 raise ValueError(f"--option {text}: {exc}") from None
-            options[key] = value
+            if key in said:
+                raise ValueError(f"--option {text}: {key} is given twice (--option {said[key]} "
+                                 "too); give it once")  # fmt: skip
+            if key in OWN_FLAGS and given.typed(args, key):
+                raise ValueError(f"--option {text}: {key} is given twice ({OWN_FLAGS[key]} "
+                                 f"{getattr(args, key)} too); give it once")  # fmt: skip
+            options[key], said[key] = value, text
         return cls(args.method, args.n_max, tuple(sorted(options.items())),
                    getattr(args, "modules", None), getattr(args, "fault", None),
                    fault_margin_of(args))  # fmt: skip
@@ -150,9 +161,10 @@ class SolveSpec:
         options = dict(self.options)
         if engine is not None and "engine" in entry.options.names():
             options["engine"] = engine
-        return make_solver(self.method, self.n_max, modules=palette_of(self.modules),
-                           fault=self.fault, fault_margin=self.fault_margin,
-                           **options)  # fmt: skip
+        with model_named("--model"):  # the command line's name of a model file that is not one
+            return make_solver(self.method, self.n_max, modules=palette_of(self.modules),
+                               fault=self.fault, fault_margin=self.fault_margin,
+                               **options)  # fmt: skip
 
 
 @functools.lru_cache(maxsize=4)
@@ -184,6 +196,12 @@ def cmd_solve(args: argparse.Namespace) -> int:
     check_fault_method(args)
     spec = SolveSpec.of(args)  # a bad --option too
     paths = task_files(args.task)
+    check_outputs_differ(args)
+    if len(paths) == 1 and "engine" not in method_of(args.method)[0].options.names():
+        dests = ["workers"] if (args.workers or 1) > 1 else []
+        given.refuse_ignored(args, [*dests, "ray_address"], f"method {args.method!r} solves one "
+                             "task in this process: workers share several --task files, or one "
+                             "task's exhaustive or anytime search")  # fmt: skip
     if args.export is not None:
         check_export(args.export, len(paths), args.force)
     if args.certificate is not None:
@@ -255,6 +273,18 @@ def solve_path(args: argparse.Namespace, path: Path, engine, single: bool) -> li
     if args.certificate is not None:
         write_certificate(args, task, result)
     return []
+
+
+def check_outputs_differ(args: argparse.Namespace) -> None:
+    """``--certificate`` and ``--export`` naming one file: refused before any search (the
+    second would replace the first)."""
+    if args.export is None or args.certificate is None:
+        return
+    if Path(args.export).resolve() == Path(args.certificate).resolve():
+        raise ValueError(
+            f"--certificate {args.certificate} and --export {args.export} name the same file; "
+            "give two files"
+        )
 
 
 def check_export(out: str, n_tasks: int, force: bool) -> None:
