@@ -231,8 +231,10 @@ def test_an_unreachable_ray_address_does_not_block_work_without_ray(tmp_path, ca
     # a method that spreads its work over Ray is still refused at once, as is an explicit address
     assert main([*solve, "--method", "exhaustive"]) == 2
     assert "nothing answers there" in capsys.readouterr().err
-    argv = ["solve", "--task", str(task), "--method", "greedy", "--ray-address", "127.0.0.1:1"]
-    assert main([*argv, "--workers", "2"]) == 2
+    argv = ["solve", "--task", str(task), "--task", str(task.with_name("other.json")),
+            "--method", "greedy", "--ray-address", "127.0.0.1:1"]  # fmt: skip
+    task.with_name("other.json").write_text(json.dumps(TASK))
+    assert main([*argv, "--workers", "2"]) == 2  # two tasks: the workers would share them
     assert "nothing answers there" in capsys.readouterr().err
     engine = Engine(2, check_address=False)  # unchecked until Ray is first needed
     if engine.use_ray:
