@@ -159,3 +159,16 @@ def test_a_two_rotor_failure_is_flown():
     assert len(f.failure.columns) == 2 and f.worst.tolerates
     assert f.max_position_error_m < 0.05
     assert list(itertools.islice(f.failure.columns, 2)) == list(f.worst.columns)
+
+
+@pytest.mark.parametrize("value", ["0.1", True, None])
+def test_a_margin_that_is_not_a_number_is_refused_by_every_door(value):
+    """A string or a bool is no margin (``float()`` used to take "0.1" and True as 0.1 and 1)."""
+    from modquad_gym import make_solver
+    from modquad_gym.oracle.failures import check_fault_margin
+
+    with pytest.raises(ValueError, match="fault_margin must be a number in"):
+        check_fault_margin(value)
+    if value is not None:  # None: the margin not given, for the doors
+        with pytest.raises(ValueError, match="fault_margin must be a number in"):
+            make_solver("greedy", fault="rotor", fault_margin=value)

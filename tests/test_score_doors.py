@@ -182,10 +182,19 @@ def test_the_shipped_suites_pass_the_optimum_check():
             "--methods, and --methods has none; add ppo-k3 to --methods",
         ),
         (["--methods", "ppo", "--model", "{tmp}"], "--model {tmp}: a folder"),
+        (["--methods", "ppo", "--train-dir", "{run}"], "{run}/config.json: not a model's config"),
     ],
 )
 def test_options_no_scored_method_uses_are_refused(tmp_path, score, argv, words):
-    fill = {"tmp": str(tmp_path), "suite": str(tmp_path / "suite.json")}
+    """Options no scored method uses, and a --train-dir whose config.json is not one, are
+    refused before the work (such a config.json was found only when the report was written)."""
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "config.json").write_text("{not json")
+    fill = {
+        "tmp": str(tmp_path),
+        "suite": str(tmp_path / "suite.json"),
+        "run": str(tmp_path / "run"),
+    }
     assert words.format(**fill) in score(*(a.format(**fill) for a in argv))
 
 

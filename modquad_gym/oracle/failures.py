@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import numbers
 
 import numpy as np
 
@@ -23,10 +24,9 @@ def check_fault_margin(value: object, fault: object = "rotor") -> float:
     """``value`` as a float in [0, 1) (the worst margin required after a failure, in the units
     of :func:`~.faults.fault_margin`), else a one-line ValueError; a positive margin needs a
     ``fault``."""
-    try:
-        mu = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"fault_margin must be a number in [0, 1), got {value!r}") from None
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):  # "0.1", True: no margin
+        raise ValueError(f"fault_margin must be a number in [0, 1), got {value!r}")
+    mu = float(value)
     if not 0.0 <= mu < 1.0:
         raise ValueError(f"fault_margin must lie in [0, 1), got {value!r}")
     if mu > 0.0 and fault is None:

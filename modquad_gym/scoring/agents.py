@@ -33,6 +33,7 @@ from modquad_gym.core.options import DefaultsHelpFormatter
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv
 from modquad_gym.geometry.module import palette
 from modquad_gym.methods import REGISTRY, method_of
+from modquad_gym.policy.models import read_config
 from modquad_gym.scoring.agents_figures import plot_bars, plot_learning_curve, plot_structures
 from modquad_gym.scoring.agents_report import write_report
 from modquad_gym.scoring.options import (
@@ -257,6 +258,7 @@ def check_train_dir(folder: Path) -> None:
             f"--train-dir {folder}: no config.json or evaluations.npz in it (a training run's "
             "folder, as train.py writes it)"
         )
+    read_config(folder / "model.zip")  # a config.json that is not one: now, not at the report
 
 
 def main(argv: list[str] | None = None, prog: str = COMMAND) -> int:

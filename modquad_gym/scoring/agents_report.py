@@ -4,12 +4,12 @@ when it was not scored); its figures are drawn by :mod:`.agents_figures`."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from modquad_gym.core.outputs import write_text
+from modquad_gym.policy.models import read_config
 from modquad_gym.scoring import machine_description
 from modquad_gym.scoring.fine_tuning import fine_tuning_words
 from modquad_gym.scoring.scores import Row, config_limit, share_limit, summarise
@@ -42,11 +42,9 @@ def write_report(
     """Write ``out/benchmark.md`` from the rows of one run and return its path."""
     has_ppo = any(s["method"].startswith("ppo") for s in summary)
     methods = [s["method"] for s in summary]
-    config_path = train_dir / "config.json"
-    cfg: dict = {}
+    cfg = read_config(train_dir / "model.zip") if has_ppo else {}  # {} without a config.json
     lines = _header(suites, n_max, wall, tier, command)
-    if has_ppo and config_path.is_file():
-        cfg = json.loads(config_path.read_text())
+    if cfg:
         lines += [_model_line(cfg, model), ""]
     lines += _summary_table(summary)
     lines += _outside(summary, n_max, tier)
