@@ -132,10 +132,6 @@ def _parser(f: dataclasses.Field) -> Callable[[str], Any] | None:
     return text_parser(f.type)
 
 
-COMMON_HELP = COMMON_OPTIONS
-"""Help and check of the options several methods share (:mod:`modquad_gym.search.options`)."""
-
-
 def options_of(name: str, entry: Callable):
     """The options dataclass of a search's entry point (:func:`~.search.problem.search_entry`):
     its search's keyword-only parameters with their types and defaults, and ``prune`` where the
@@ -277,7 +273,7 @@ _LEARNED_LIMIT = (float | None, None, "seconds after which it stops (None: none)
 _TOP_K = (int | None, TOP_K, "children decided exactly per step by a model reading the exact "
           "lookahead, the rest ranked lower by support bounds and masked out (None: all)",
           count(1))  # fmt: skip
-_PRUNE = (bool, False, *COMMON_HELP["prune"])
+_PRUNE = (bool, False, *COMMON_OPTIONS["prune"])
 _FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dives) wherever the "
              "policy gives its own most likely docking at most this probability (0: never, 1: "
              f"always; None: {FALLBACK:g} at budgets of {SCALE_FROM} modules and more with a "
@@ -314,7 +310,7 @@ for _method in (
             "modules)", certifies=True, fault=False),
     Method("ppo", "the learned agent's deterministic pass, with two more sharing its start where "
            f"it ends above {EXTRA_FROM} modules (the shipped model unless model=)",
-           options("ppo", model=_MODEL, seed=(int, 0, COMMON_HELP["seed"][0], check_seed),
+           options("ppo", model=_MODEL, seed=(int, 0, COMMON_OPTIONS["seed"][0], check_seed),
                    samples=(int, 0, "extra sampled rollouts besides the deterministic one",
                             count(0)), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
                    fallback=_FALLBACK, extra_fallbacks=_EXTRA_FALLBACKS, prune=_PRUNE),

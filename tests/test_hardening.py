@@ -311,11 +311,10 @@ def test_read_only_output_folder_is_refused_before_work(tmp_path, capsys, monkey
         folder.chmod(0o755)
 
 
-def test_broken_pipe_is_one_line_exit_2():
-    """`solve --json | head -0`: the reader is gone before the first line."""
+def piped_stderr(pipeline: str) -> str:
+    """The stderr of the bash ``pipeline``, ending in ``rc=N``: its first command's exit code."""
     proc = subprocess.run(
-        f"{sys.executable} -m modquad_gym.cli solve --task {SCREWDRIVER} --task {SCREWDRIVER} "
-        "--json --quiet | head -c 0; echo rc=${PIPESTATUS[0]} >&2",
+        f"{pipeline}; echo rc=${{PIPESTATUS[0]}} >&2",
         shell=True,
         executable="/bin/bash",
         capture_output=True,
@@ -323,9 +322,18 @@ def test_broken_pipe_is_one_line_exit_2():
         env=ENV,
         timeout=120,
     )
-    assert "rc=2" in proc.stderr, proc.stderr
-    assert "Traceback" not in proc.stderr
-    assert "broken pipe" in proc.stderr
+    return proc.stderr
+
+
+def test_broken_pipe_is_one_line_exit_2():
+    """`solve --json | head -0`: the reader is gone before the first line."""
+    err = piped_stderr(
+        f"{sys.executable} -m modquad_gym.cli solve --task {SCREWDRIVER} --task {SCREWDRIVER} "
+        "--json --quiet | head -c 0"
+    )
+    assert "rc=2" in err, err
+    assert "Traceback" not in err
+    assert "broken pipe" in err
 
 
 @pytest.mark.parametrize("lines", [1, 5000])
@@ -338,18 +346,10 @@ def test_the_scripts_stop_on_a_broken_pipe_in_one_line(lines):
         "import sys; from modquad_gym.core.interrupts import run_command; "
         f"sys.exit(run_command(lambda argv: print('row\\n' * {lines}), 'prog'))"
     )
-    proc = subprocess.run(
-        f'{sys.executable} -c "{script}" | true; echo rc=${{PIPESTATUS[0]}} >&2',
-        shell=True,
-        executable="/bin/bash",
-        capture_output=True,
-        text=True,
-        env=ENV,
-        timeout=120,
-    )
-    assert "rc=2" in proc.stderr, proc.stderr
-    assert "Traceback" not in proc.stderr and "Exception ignored" not in proc.stderr
-    assert proc.stderr.count("prog: error: output closed before the end (broken pipe)") == 1
+    err = piped_stderr(f'{sys.executable} -c "{script}" | true')
+    assert "rc=2" in err, err
+    assert "Traceback" not in err and "Exception ignored" not in err
+    assert err.count("prog: error: output closed before the end (broken pipe)") == 1
 
 
 def test_interrupt_exits_130_in_process(capsys, monkeypatch):

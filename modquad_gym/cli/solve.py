@@ -197,7 +197,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     spec = SolveSpec.of(args)  # a bad --option too
     paths = task_files(args.task)
     check_outputs_differ(args)
-    if len(paths) == 1 and "engine" not in method_of(args.method)[0].options.names():
+    shares = "engine" in method_of(args.method)[0].options.names()  # its search splits work
+    if len(paths) == 1 and not shares:
         dests = ["workers"] if (args.workers or 1) > 1 else []
         given.refuse_ignored(args, [*dests, "ray_address"], f"method {args.method!r} solves one "
                              "task in this process: workers share several --task files, or one "
@@ -208,7 +209,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         check_certificate(args.certificate, len(paths), args.force, args.fault,
                           fault_margin_of(args) or 0.0)  # fmt: skip
     # one task of a method without workers (greedy, ...) needs no Ray: RAY_ADDRESS unchecked
-    spreads = len(paths) > 1 or "engine" in method_of(args.method)[0].options.names()
+    spreads = len(paths) > 1 or shares
     engine = Engine(args.workers, args.ray_address, local_default=1, option="--workers",
                     check_address=spreads or args.ray_address is not None)  # fmt: skip
     if len(paths) == 1 or not engine.use_ray:

@@ -135,10 +135,10 @@ def failure_line(exc: BaseException) -> str:
     """A failure that may be unexpected (a worker's, an outside agent's) as one line: an expected
     one (ValueError, OSError: they name their file or option) as :func:`one_line`, anything else
     with its type in front."""
-    if isinstance(exc, (ValueError, OSError)):
-        return one_line(exc)
     text = one_line(exc)
-    return text if text == type(exc).__name__ else f"{type(exc).__name__}: {text}"
+    if isinstance(exc, (ValueError, OSError)) or text == type(exc).__name__:
+        return text
+    return f"{type(exc).__name__}: {text}"
 
 
 def run_command(main: Callable[[list[str] | None], object], prog: str, argv=None) -> int:

@@ -255,13 +255,9 @@ def _outside(method: str, n_max: Any, modules: Any, fault: Any, fault_margin: An
             "fault, tier and seed"
         )
     settings = problem_settings(n_max, modules, fault)
+    seed = None if named["seed"] is None else check_seed(named["seed"], "seed")
     return load_solver(method, n_max=settings["n_max"], tier=tier, modules=settings["modules"],
-                       fault=settings["fault"], seed=checked_seed(named["seed"]))  # fmt: skip
-
-
-def checked_seed(seed: Any) -> int | None:
-    """``seed`` checked as every seed is (:func:`~modquad_gym.search.options.check_seed`)."""
-    return None if seed is None else check_seed(seed, "seed")
+                       fault=settings["fault"], seed=seed)  # fmt: skip
 
 
 @contextmanager
