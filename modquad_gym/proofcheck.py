@@ -5,7 +5,9 @@ satisfies a task and that no structure with fewer modules does. This module veri
 without any other part of modquad_gym: it rebuilds every configuration matrix from the rotor
 data in the certificate, enumerates every smaller structure itself and checks each proof.
 
-Why "valid" is sound:
+Why "valid" is sound (every test below in units of f_max: the task's wrenches and the answer's
+thrusts divided by f_max, f_max = 1, each direction divided by its largest entry, so that no
+tolerance underflows; a test that overflows is NaN or inf and fails):
 
 * The answer: for each task wrench w (and, with a fault, after each single failure, the failed
   columns forced to zero) the certificate gives thrusts u with ``|A u - w|_inf <=``
@@ -49,8 +51,15 @@ import numpy as np
 
 try:  # the format is the checker's second file (numpy and the standard library only)
     from . import proofcheck_format as fmt
-except ImportError:  # run as a file, python proofcheck.py: the file beside it
-    import proofcheck_format as fmt
+except ImportError:  # run as a file, python proofcheck.py: the file beside it (even with -I)
+    import importlib.util
+    from pathlib import Path
+
+    _spec = importlib.util.spec_from_file_location(
+        "proofcheck_format", Path(__file__).with_name("proofcheck_format.py")
+    )
+    fmt = importlib.util.module_from_spec(_spec)
+    _spec.loader.exec_module(fmt)
 
 FORMAT, VERSION, CertificateFormatError = fmt.FORMAT, fmt.VERSION, fmt.CertificateFormatError
 THRUST_TOL = 1e-6  # thrusts of the answer may leave [0, f_max] by this fraction of f_max
@@ -135,12 +144,10 @@ class Types:
     """The module types of a certificate as arrays, indexed by type."""
 
     def __init__(self, types: list) -> None:
-        a = fmt.module_types(types)  # finite numbers of their shapes, r rotors each
-        norms = np.linalg.norm(a["directions"], axis=2, keepdims=True)
-        if np.any(a["mass"] <= 0) or np.any(a["side"] != a["side"][0]) or not norms.all():
-            raise CertificateFormatError("types: need rotors of non-zero directions, positive "
-                                         "masses, one common side")  # fmt: skip
-        self.pos, self.dirs, self.spins = a["positions"], a["directions"] / norms, a["spins"]
+        a = fmt.module_types(types)  # checked: shapes, signs, one side, symmetric inertia
+        dirs = scaled(a["directions"])
+        self.pos, self.spins = a["positions"], a["spins"]
+        self.dirs = dirs / np.linalg.norm(dirs, axis=2, keepdims=True)
         self.side, self.c_tau, self.mass, J = a["side"], a["c_tau"], a["mass"], a["inertia"]
         r = self.spins.shape[1]
         self.J = np.stack([J[:, 0, 0], J[:, 1, 1], J[:, 2, 2], J[:, 0, 1], J[:, 0, 2],
@@ -161,6 +168,14 @@ class Types:
         own = self.J[types].sum(axis=1)
         sums = [np.einsum("ln,ln->l", m, v) for v in (y * y, x * x, x * x + y * y, -x * y)]
         return a, M, own + np.stack(sums + [0 * M, 0 * M], axis=1)
+
+
+def scaled(v: np.ndarray) -> np.ndarray:
+    """``v`` (..., k) with each row divided by its largest magnitude (a zero row stays zero):
+    the same directions, none so small or so large that squaring it under- or overflows (a
+    tolerance proportional to a norm that underflows to 0 would vanish)."""
+    largest = np.abs(v).max(axis=-1, keepdims=True)
+    return np.divide(v, largest, out=np.zeros_like(v), where=largest > 0)
 
 
 def separation(a, w, d, f_max: float, off=None) -> np.ndarray:
@@ -229,6 +244,7 @@ def check_answer(answer, T: Types, task, f_max: float, fault, minimum: int) -> N
         raise ProofError(f"answer: needs {minimum} distinct connected cells, one type each")
     if types.min() < 0 or types.max() >= T.n:
         raise ProofError("answer.types: a type index outside the types")
+    cells = cells - cells.min(axis=0)  # connected: each coordinate now below minimum
     a, M, j = T.columns(cells[None].astype(float), types[None])
     A, t = a[0].T, len(task[0])
     m = A.shape[1]
@@ -250,7 +266,7 @@ def check_answer(answer, T: Types, task, f_max: float, fault, minimum: int) -> N
         if len(low):
             raise ProofError(f"{where}: wrench {low[0]}: a thrust outside [0, f_max]")
         resid = np.abs(u @ A.T - W).max(axis=1)
-        bad = np.flatnonzero(resid > RESIDUAL_TOL * (f_max + np.abs(W).max(axis=1)))
+        bad = np.flatnonzero(~(resid <= RESIDUAL_TOL * (f_max + np.abs(W).max(axis=1))))
         if len(bad):
             raise ProofError(
                 f"{where}: wrench {bad[0]}: A u differs from the wrench by {resid[bad[0]]:.3g}"
@@ -299,23 +315,41 @@ def check(cert: dict, report=None) -> str:
     naming the first thing that fails, :class:`CertificateFormatError` for a malformed one.
     ``report(n, how)`` is called after each level."""
     c = fmt.parse(cert)  # every field checked for its type and shape first
-    T, task, f_max, fault = Types(cert["types"]), c["task"], c["f_max"], c["fault"]
-    minimum, top, levels, D = c["minimum"], c["top"], c["levels"], c["directions"]
+    with np.errstate(all="ignore"):  # what overflows is refused: every test fails on inf or NaN
+        return _checked(c, Types(cert["types"]), report, cert["task"]["name"])
+
+
+def _checked(c: dict, T: Types, report, name: str | None) -> str:
+    """:func:`check` of the parsed certificate ``c``, in units of its f_max (wrenches and
+    thrusts divided by it, f_max 1: no tolerance underflows however small f_max is) with its
+    directions :func:`scaled`."""
+    f_max, fault, minimum, top, levels = c["f_max"], c["fault"], c["minimum"], c["top"], c["levels"]
+    task = tuple(x / f_max for x in c["task"])
+    if not all(np.isfinite(x).all() for x in task):
+        raise CertificateFormatError(f"task: its wrench model over f_max ({f_max!r}) overflows")
+    D = scaled(c["directions"])
     if minimum is not None:
-        check_answer(c["answer"], T, task, f_max, fault, minimum)
+        cells, types, U = c["answer"]
+        check_answer((cells, types, U / f_max), T, task, 1.0, fault, minimum)
     if set(levels) - set(range(1, top + 1)):
         raise ProofError(f"levels: proofs of levels outside 1..{top}")
     for n in range(1, top + 1):
         if n not in levels:
             raise ProofError(f"level {n}: no proof")
-        how = check_level(levels[n], n, T, task, f_max, fault, D)
+        how = check_level(levels[n], n, T, task, 1.0, fault, D)
         if report is not None:
             report(n, how)
     tolerant = f", tolerating any single {fault} failure" if fault else ""
+    what = "the task" if name is None else f"the task {name!r}"
     if minimum is None:
-        return f"valid: no structure of up to {top} modules satisfies the task{tolerant}"
-    return (f"valid: the minimum is {minimum} modules: the answer satisfies the task's "
-            f"{len(task[0])} wrenches{tolerant}; no structure of fewer modules does")  # fmt: skip
+        return f"valid: no structure of up to {_count(top, 'module')} satisfies {what}{tolerant}"
+    return (f"valid: the minimum is {_count(minimum, 'module')}: the answer satisfies "
+            f"{what} ({_count(len(task[0]), 'wrench')}){tolerant}; no structure of fewer "
+            "modules does")  # fmt: skip
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}es" if noun.endswith("h") else f"{n} {noun}s"
 
 
 def main(argv: list[str] | None = None) -> int:

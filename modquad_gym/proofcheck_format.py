@@ -20,6 +20,9 @@ FORMAT, VERSION = "modquad-certificate", 1
 TYPE_SHAPES = {"side": (), "c_tau": (), "mass": (), "inertia": (3, 3), "positions": ("r", 3),
                "directions": ("r", 3), "spins": ("r",)}  # fmt: skip
 """The numbers of a module type and their shapes (r: its rotors)."""
+TASK_KINDS = ("total", "external", "dynamic")
+"""What a task's wrenches are: the rotors' total (base alone), the external wrench (the
+structure's weight added: per_mass too) or the Newton-Euler wrench of a motion (every term)."""
 
 
 class CertificateFormatError(ValueError):
@@ -121,20 +124,51 @@ def module_types(types) -> dict:
                 f"types[{i}]: positions, directions, spins: one row per rotor, as many rotors "
                 f"as types[0] ({r}), at least one"
             )
+        _physical(rows[i], rows[0]["side"], f"types[{i}]")
     return {k: np.stack([a[k] for a in rows]) for k in TYPE_SHAPES}
+
+
+def _physical(t: dict, side: float, what: str) -> None:
+    """A module type's numbers say one physical thing: a positive mass and side (the first
+    type's), spins of +-1, non-zero thrust directions, a symmetric inertia matrix that is
+    positive semi-definite (the checker reads its upper triangle)."""
+    J = t["inertia"]
+    wrong = [
+        (not t["mass"] > 0, "mass", "must be positive", t["mass"]),
+        (not t["side"] > 0, "side", "must be positive", t["side"]),
+        (t["side"] != side, "side", f"must be the first type's ({side!r})", t["side"]),
+        (not np.all(np.abs(t["spins"]) == 1), "spins", "must each be 1 or -1", t["spins"]),
+        (not np.all(np.abs(t["directions"]).max(1) > 0), "directions", "rows must be non-zero",
+         t["directions"]),
+        (np.any(J != J.T), "inertia", "must be symmetric", J),
+        (np.linalg.eigvalsh(J).min() < -1e-12 * np.abs(J).max(), "inertia",
+         "must be positive semi-definite", J),
+    ]  # fmt: skip
+    for bad, field, rule, value in wrong:
+        if bad:
+            shown = json.dumps(np.asarray(value).tolist())[:60]
+            raise CertificateFormatError(f"{what}.{field}: {rule}, not {shown}")
 
 
 def task_model(task) -> tuple:
     """(base (t, 6), per_mass (t, 6), per_inertia (t, 6, 6)) of the task; null: zeros."""
     fields(task, "task", "name kind base per_mass per_inertia")
     _text(task["name"], "task.name")
-    _text(task["kind"], "task.kind")
+    if task["kind"] not in TASK_KINDS:
+        kinds = ", ".join(map(json.dumps, TASK_KINDS))
+        raise CertificateFormatError(f"task.kind: must be {kinds}, not {_shown(task['kind'])}")
     base = array(task["base"], "task.base", ("t", 6))
     if not len(base):
         raise CertificateFormatError("task.base: must hold at least one wrench")
     t, pm, pi = len(base), task["per_mass"], task["per_inertia"]
     pm = np.zeros((t, 6)) if pm is None else array(pm, "task.per_mass", (t, 6))
     pi = np.zeros((t, 6, 6)) if pi is None else array(pi, "task.per_inertia", (t, 6, 6))
+    for field, terms, needless in (("per_mass", pm, "total"), ("per_inertia", pi, "external")):
+        if np.any(terms) and TASK_KINDS.index(task["kind"]) <= TASK_KINDS.index(needless):
+            raise CertificateFormatError(
+                f"task.{field}: must be null or zero for a {task['kind']} task (its kind has "
+                "no such term)"
+            )
     return base, pm, pi
 
 

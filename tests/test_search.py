@@ -210,3 +210,11 @@ def test_low_force_benchmark_tasks_skip_no_level():
     assert mq.feasible(hidden.configuration_matrix(), W).all()
     assert force_lower_bound(W, hidden.module) == 1
     assert (W[:, 2] > 0).all() and (W[:, 2] <= 2.5 + 1e-9).all()
+
+
+def test_levels_all_ruled_out_by_bounds_are_the_proof():
+    """No level searched (every one excluded by the level bounds): the result says so, as the
+    force bound's does, and ``modquad optima`` records it (it recorded no proof)."""
+    result = exhaustive_search(np.array([[0, 0, 2.5, 3.0, 0, 0]]), n_max=5)
+    assert result.structure is None and result.evaluated == 0 and result.certified
+    assert result.proof == "level bounds: no structure of 1 to 5 modules reaches the task"

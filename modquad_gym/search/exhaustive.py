@@ -261,7 +261,10 @@ def _search_levels(
                 bar.close()
         if found:
             return LevelAnswer(n, found, skipped, levels.proof)
-    return LevelAnswer(None, [], skipped, levels.proof)
+    proof = levels.proof
+    if not proof and len(skipped) == p.n_max:  # no level searched: bounds ruled out every one
+        proof = f"level bounds: no structure of 1 to {p.n_max} modules reaches the task"
+    return LevelAnswer(None, [], skipped, proof)
 
 
 def _exhaustive(

@@ -1,0 +1,183 @@
+"""Certificates forged to prove something false are refused (the proofs review): a separating
+direction so small that its tolerance underflowed, answer cells so far out that their float
+positions are hundreds of cells apart, an f_max so small that the answer's residual tolerance
+underflowed. The checker works in units of f_max with its directions scaled, so the verdict
+does not depend on the units a certificate is written in; a module type must be physical."""
+
+from __future__ import annotations
+
+import copy
+import json
+import warnings
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog
+from test_certificate_inputs import doors
+
+import modquad_gym as mq
+from modquad_gym import proofcheck as pc
+from modquad_gym.search import certificates
+from modquad_gym.search.problem import SearchProblem
+
+
+def certify(wrenches: list, n_max: int = 5) -> dict:
+    problem = SearchProblem.build(np.array(wrenches), n_max=n_max)
+    return certificates.make(mq.exhaustive_search.solve(problem), problem, bounds=False)
+
+
+@pytest.fixture(scope="module")
+def docs_example() -> dict:
+    """docs/certificates.md's task: the minimum is 2 modules."""
+    cert = certify([[0, 0, 5.0, 0, 0, 0], [0.4, 0, 4.0, 0, 0, 0.05]])
+    assert pc.check(copy.deepcopy(cert)).startswith("valid: the minimum is 2 modules")
+    return cert
+
+
+def with_answer(cert: dict, cells: list, f_max: float | None = None) -> dict:
+    """``cert`` claiming the structure of one-type ``cells`` (floats as the checker used to
+    place them), with thrusts in [0, f_max] that reach each wrench there (an LP)."""
+    c = copy.deepcopy(cert)
+    c.pop("n_max", None)
+    f_max = c["f_max"] if f_max is None else f_max
+    T, task = pc.Types(c["types"]), pc.fmt.task_model(c["task"])
+    a, M, j = T.columns(np.array([cells], dtype=float), np.zeros((1, len(cells)), int))
+    t = len(task[0])
+    W = pc.wrenches(task, np.arange(t), np.repeat(M, t), np.repeat(j, t, axis=0))
+    U = []
+    for w in W:
+        lp = linprog(np.zeros(a.shape[1]), A_eq=a[0].T, b_eq=w, bounds=(0, f_max))
+        assert lp.status == 0, lp.message  # the forgery works where the structure is misplaced
+        U.append(lp.x.tolist())
+    c["minimum"] = len(cells)
+    c["answer"] = {"cells": cells, "types": [0] * len(cells), "allocations": [U]}
+    c["levels"] = [e for e in c["levels"] if e["n"] < len(cells)]
+    return c
+
+
+@pytest.mark.parametrize("size", [1e-323, 1e-170])
+def test_a_tiny_direction_proves_nothing(docs_example, size):
+    """Level 2 'proved' by one tiny direction for every structure: the tolerance
+    1e-11 |d| scale was 0 (|d| underflowed), and round-off decided the test."""
+    forged = with_answer(docs_example, [[0, 0], [1, 0], [2, 0]])
+    forged["directions"].append([0.0, 0.0, size, 0.0, 0.0, 0.0])
+    total = pc.count(2, 1)
+    k = len(forged["directions"]) - 1
+    forged["levels"].append({"n": 2, "direction": [k] * total, "wrench": [0] * total})
+    with pytest.raises(pc.ProofError, match="level 2: structure 0 .* does not separate"):
+        pc.check(forged)
+
+
+def test_answer_cells_are_placed_as_integers():
+    """A 2-module answer at cells beyond 2^53 was placed from float coordinates hundreds of
+    cells apart: its lever arms reached a torque that no 5 modules reach."""
+    torque = certify([[0, 0, 2.5, 3.0, 0, 0]])
+    assert torque["minimum"] is None and torque["n_max"] == 5
+    far = -(2**60 + 128)
+    forged = with_answer(torque, [[0, far], [0, far - 1]])
+    with pytest.raises(pc.ProofError, match="answer: allocation: wrench 0: A u differs"):
+        pc.check(forged)
+
+
+def test_a_translated_answer_is_the_same_answer(docs_example):
+    moved = copy.deepcopy(docs_example)
+    moved["answer"]["cells"] = [[x + 2**62, y - 2**62] for x, y in moved["answer"]["cells"]]
+    assert pc.check(moved) == pc.check(copy.deepcopy(docs_example))
+
+
+def test_a_tiny_f_max_proves_nothing(docs_example):
+    """f_max = 5e-324: thrusts rounded to whole multiples of it and a residual tolerance of 0
+    let two modules 'reach' 8 f_max upwards (they reach 5.66 f_max)."""
+    f = 5e-324
+    forged = with_answer(docs_example, [[0, 0], [1, 0]])
+    forged["f_max"] = f
+    forged["task"] = {"name": "tiny", "kind": "total", "base": [[0, 0, 8 * f, 0, 0, 0]],
+                      "per_mass": None, "per_inertia": None}  # fmt: skip
+    forged["answer"]["allocations"] = [[[f] * 8]]
+    forged["directions"] = [[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]]
+    forged["levels"] = [{"n": 1, "direction": [0], "wrench": [0]}]
+    with pytest.raises(pc.ProofError, match="wrench 0: A u differs from the wrench"):
+        pc.check(forged)
+
+
+@pytest.mark.parametrize("unit", [1e-200, 1e-3, 1e150])
+def test_the_units_change_no_verdict(docs_example, unit):
+    """The same certificate in other units of force (f_max, wrenches, thrusts) and with its
+    directions scaled is the same proof."""
+    c = copy.deepcopy(docs_example)
+    c["f_max"] *= unit
+    c["task"]["base"] = (np.array(c["task"]["base"]) * unit).tolist()
+    c["task"]["per_mass"] = (np.array(c["task"]["per_mass"]) * unit).tolist()
+    c["answer"]["allocations"] = (np.array(c["answer"]["allocations"]) * unit).tolist()
+    c["directions"] = (np.array(c["directions"]) * unit).tolist()
+    assert pc.check(c) == pc.check(copy.deepcopy(docs_example))
+
+
+def test_huge_directions_are_directions(docs_example, tmp_path, capsys):
+    """A direction of 1e300 is scaled like any other (it once overflowed into numpy's warning
+    before a verdict of 'does not separate'): the proof is the same, in one line."""
+    c = copy.deepcopy(docs_example)
+    c["directions"] = (np.array(c["directions"]) * 1e300).tolist()
+    path = tmp_path / "huge.json"
+    path.write_text(json.dumps(c))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a RuntimeWarning fails the test
+        verdicts = doors(path, capsys)
+    for code, out, err in verdicts:
+        assert (code, out, err) == (0, pc.check(copy.deepcopy(docs_example)) + "\n", "")
+
+
+def test_an_overflowing_task_is_refused_in_one_line(docs_example):
+    c = copy.deepcopy(docs_example)
+    c["f_max"] = 1e-308  # 5 N over it is beyond the largest double
+    with pytest.raises(pc.CertificateFormatError, match=r"task: its wrench model over f_max"):
+        pc.check(c)
+
+
+def type_changed(field: str, value) -> dict:
+    return {"types": {0: {field: value}}}
+
+
+@pytest.mark.parametrize(
+    "field, value, words",
+    [
+        ("mass", -1.0, "types[0].mass: must be positive, not -1.0"),
+        ("side", 0.0, "types[0].side: must be positive"),
+        ("spins", [7.0, -7.0, 7.0, -7.0], "types[0].spins: must each be 1 or -1"),
+        (
+            "inertia",
+            [[1.0, 0.5, 0], [0, 1.0, 0], [0, 0, 1.0]],
+            "types[0].inertia: must be symmetric",
+        ),
+        ("inertia", [[-1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]], "positive semi-definite"),
+    ],
+)
+def test_a_type_that_is_no_module_is_refused(docs_example, field, value, words):
+    c = copy.deepcopy(docs_example)
+    c["types"][0][field] = value
+    with pytest.raises(
+        pc.CertificateFormatError, match=words.replace("[", r"\[").replace(".", r"\.")
+    ):
+        pc.check(c)
+
+
+def test_a_second_type_of_another_side_is_refused(docs_example):
+    c = copy.deepcopy(docs_example)
+    c["types"].append(dict(c["types"][0], side=c["types"][0]["side"] * 2))
+    with pytest.raises(pc.CertificateFormatError, match=r"types\[1\]\.side: must be the first"):
+        pc.check(c)
+
+
+@pytest.mark.parametrize(
+    "kind, terms, words",
+    [
+        ("banana", {}, 'task.kind: must be "total", "external", "dynamic", not "banana"'),
+        ("total", {"per_mass": [[0, 0, -9.81, 0, 0, 0]] * 2}, "task.per_mass: must be null"),
+        ("external", {"per_inertia": [np.eye(6).tolist()] * 2}, "task.per_inertia: must be null"),
+    ],
+)
+def test_a_task_is_what_its_kind_says(docs_example, kind, terms, words):
+    c = copy.deepcopy(docs_example)
+    c["task"].update(kind=kind, **terms)
+    with pytest.raises(pc.CertificateFormatError, match=words):
+        pc.check(c)
