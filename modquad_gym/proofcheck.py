@@ -10,16 +10,18 @@ thrusts divided by f_max, f_max = 1, each direction divided by its largest entry
 tolerance underflows; a test that overflows is NaN or inf and fails):
 
 * The answer: for each task wrench w (and, with a fault, after each single failure, the failed
-  columns forced to zero) the certificate gives thrusts u with ``|A u - w|_inf <=``
-  :data:`RESIDUAL_TOL` ``(f_max + |w|_inf)`` and ``-TOL f_max <= u <= (1 + TOL) f_max``
-  (:data:`THRUST_TOL`): the answer works, up to that tolerance.
+  columns forced to zero) the certificate gives thrusts u with ``-TOL f_max <= u <= (1 + TOL)
+  f_max`` (:data:`THRUST_TOL`) and each component of A u - w within :func:`residual_allowed`:
+  the answer works, up to that tolerance.
 * A smaller structure with columns a_k can exert exactly the zonotope Z = {A u : 0 <= u <= f_max},
   whose support in a direction d is h(d) = f_max sum_k max(0, d . a_k). If d . w > h(d), no u in
   the box reaches w: the structure fails the task (with a failure, the failed columns are left
   out of the sum: the structure fails after that failure, so it does not tolerate it). The test
-  demands d . w - h(d) > :data:`SEPARATION_TOL` |d| (|w| + f_max sum_k |a_k|); the round-off of
-  computing both sides in floating point is below (4 n + 6) 2^-53 times that scale, under
-  1e-13 of it up to 128 modules, so a passing test cannot be a rounding artefact.
+  demands d . w - h(d) > :data:`SEPARATION_TOL` |d| (|s| + f_max sum_k |a_k|), s the sum of
+  the magnitudes of w's terms (:func:`wrenches`); the round-off of computing w and both sides
+  is a small multiple of 2^-53 times that scale, under 1e-13 of it up to 128 modules, so a
+  passing test cannot be a rounding artefact (nor can a level bound's: its tolerance scales
+  with the magnitudes of its products' factors).
 * Structures are enumerated here, not read: fixed polyominoes grow cell by cell from the one
   cell (every connected n-cell set keeps a connected (n-1)-cell subset: drop a leaf of a
   spanning tree; so growing every (n-1)-polyomino by every free neighbour reaches every
@@ -64,6 +66,7 @@ except ImportError:  # run as a file, python proofcheck.py: the file beside it (
 FORMAT, VERSION, CertificateFormatError = fmt.FORMAT, fmt.VERSION, fmt.CertificateFormatError
 THRUST_TOL = 1e-6  # thrusts of the answer may leave [0, f_max] by this fraction of f_max
 RESIDUAL_TOL = 1e-9  # |A u - w|_inf allowed, relative to f_max + |w|_inf
+ROUND_OFF = 1e-12  # relative round-off of a wrench or of A u (2^-53 times the terms, with room)
 SEPARATION_TOL = 1e-11  # relative margin of a separating direction (module docstring)
 BOUND_TOL = 1e-9  # relative margin of a level bound
 MAX_ENUMERATED = 14  # shape keys fit in 63 bits up to 14 cells
@@ -178,12 +181,15 @@ def scaled(v: np.ndarray) -> np.ndarray:
     return np.divide(v, largest, out=np.zeros_like(v), where=largest > 0)
 
 
-def separation(a, w, d, f_max: float, off=None) -> np.ndarray:
+def separation(a, w, d, f_max: float, off=None, size=None) -> np.ndarray:
     """(L,) d . w - h(d) - the tolerance: > 0 where d separates w from the structure's
-    zonotope (columns ``a`` (L, m, 6), without the columns where ``off`` (L, m) is True)."""
+    zonotope (columns ``a`` (L, m, 6), without the columns where ``off`` (L, m) is True);
+    ``size``: the magnitudes of w's terms (:func:`wrenches`), which the tolerance scales with
+    (default w itself)."""
     da = np.einsum("lkq,lq->lk", a, d)
     plus = np.maximum(da, 0.0) if off is None else np.where(off, 0.0, np.maximum(da, 0.0))
-    scale = np.linalg.norm(w, axis=1) + f_max * np.linalg.norm(a, axis=2).sum(axis=1)
+    w_size = np.linalg.norm(w if size is None else size, axis=1)
+    scale = w_size + f_max * np.linalg.norm(a, axis=2).sum(axis=1)
     tol = SEPARATION_TOL * np.linalg.norm(d, axis=1) * scale
     return np.einsum("lq,lq->l", d, w) - f_max * plus.sum(axis=1) - tol
 
@@ -206,23 +212,29 @@ def bound_margin(T: Types, task, f_max: float, fault, n: int, d: np.ndarray, i: 
     p = T.pos[:, None] + corners[None, :, None, :]  # (K, 4, r, 3)
     dirs = T.dirs[:, None]
     tau = np.cross(p, dirs) + (T.spins * T.c_tau[:, None])[:, None, :, None] * dirs
-    da = np.concatenate([np.broadcast_to(dirs, tau.shape), tau], axis=3) @ d  # (K, 4, r)
-    H = f_max * np.maximum(da, 0.0).sum(axis=2).max(axis=1)  # (K,)
+    a = np.concatenate([np.broadcast_to(dirs, tau.shape), tau], axis=3)  # (K, 4, r, 6)
+    H = f_max * np.maximum(a @ d, 0.0).sum(axis=2).max(axis=1)  # (K,)
     loss = 0.0
     if fault is not None and not np.any(d[3:]):
         force = np.maximum(T.dirs @ d[:3], 0.0)  # (K, r): placement-free
         loss = f_max * float((force.max(axis=1) if fault == "rotor" else force.sum(axis=1)).min())
-    inertia = np.abs(d @ per_inertia[i]) @ (np.abs(T.J) + T.mass[:, None] * R * R).T  # (K,)
+    J = (np.abs(T.J) + T.mass[:, None] * R * R).T  # (6, K): |j_c| per module, at most
+    inertia = np.abs(d @ per_inertia[i]) @ J  # (K,)
     value = d @ base[i] + n * T.mass * (d @ per_mass[i]) - n * inertia
-    scale = 1.0 + abs(d @ base[i]) + n * (T.mass * abs(d @ per_mass[i]) + inertia + H)
+    ad = np.abs(d)  # the tolerance scales with the terms' magnitudes (products that cancel)
+    supports = f_max * (np.abs(a) @ ad).sum(axis=2).max(axis=1)  # (K,)
+    terms = T.mass * (ad @ np.abs(per_mass[i])) + (ad @ np.abs(per_inertia[i])) @ J + supports
+    scale = 1.0 + ad @ np.abs(base[i]) + n * terms
     return float((value - n * H + loss - BOUND_TOL * scale).min())
 
 
 # --- the checks ------------------------------------------------------------------------------
-def wrenches(task, i, M, j) -> np.ndarray:
-    """(L, 6) task wrenches i (L,) of structures of masses M (L,) and inertia vectors j."""
-    base, pm, pi = task
-    return base[i] + M[:, None] * pm[i] + np.einsum("lqc,lc->lq", pi[i], j)
+def wrenches(task, i, M, j, size: bool = False) -> np.ndarray:
+    """(L, 6) task wrenches i (L,) of structures of masses M (L,) and inertia vectors j; with
+    ``size``, the sums of their terms' magnitudes instead: what bounds their round-off (terms
+    that cancel leave a small wrench with a large error)."""
+    base, pm, pi = (np.abs(x) for x in task) if size else task
+    return base[i] + M[:, None] * pm[i] + np.einsum("lqc,lc->lq", pi[i], np.abs(j) if size else j)
 
 
 def _connected(cells: np.ndarray) -> bool:
@@ -248,7 +260,8 @@ def check_answer(answer, T: Types, task, f_max: float, fault, minimum: int) -> N
     a, M, j = T.columns(cells[None].astype(float), types[None])
     A, t = a[0].T, len(task[0])
     m = A.shape[1]
-    W = wrenches(task, np.arange(t), np.repeat(M, t), np.repeat(j, t, axis=0))
+    W, size = (wrenches(task, np.arange(t), np.repeat(M, t), np.repeat(j, t, axis=0), size)
+               for size in (False, True))  # fmt: skip
     failures = np.arange(m if fault == "rotor" else minimum)
     fails = [np.zeros(m, bool)] if fault is None else list(
         failed_columns(fault, failures, minimum, T.rotors))  # fmt: skip
@@ -265,12 +278,23 @@ def check_answer(answer, T: Types, task, f_max: float, fault, minimum: int) -> N
         low = np.flatnonzero(((u < -THRUST_TOL * f_max) | (u > (1 + THRUST_TOL) * f_max)).any(1))
         if len(low):
             raise ProofError(f"{where}: wrench {low[0]}: a thrust outside [0, f_max]")
-        resid = np.abs(u @ A.T - W).max(axis=1)
-        bad = np.flatnonzero(~(resid <= RESIDUAL_TOL * (f_max + np.abs(W).max(axis=1))))
+        resid, allowed = np.abs(u @ A.T - W), residual_allowed(A[:, ~off], W, size, f_max)
+        bad = np.flatnonzero(~(resid <= allowed).all(axis=1))  # NaN fails too
         if len(bad):
-            raise ProofError(
-                f"{where}: wrench {bad[0]}: A u differs from the wrench by {resid[bad[0]]:.3g}"
-            )
+            k = bad[0]
+            q = int(np.argmax(np.nan_to_num(resid[k] - allowed[k], nan=np.inf)))
+            raise ProofError(f"{where}: wrench {k}: component {q} of A u differs from the "
+                             f"wrench by {resid[k, q]:.3g}, {allowed[k, q]:.3g} allowed (less "
+                             "where the wrench's terms round off)")  # fmt: skip
+
+
+def residual_allowed(A, W, size, f_max: float) -> np.ndarray:
+    """(t, 6) how far each component of A u may miss the wrenches W (t, 6): RESIDUAL_TOL of
+    its own scale (f_max times the row's column magnitudes, plus the wrench component: one large
+    torque buys no error in a force), less the round-off of W (``size``: its terms'
+    magnitudes) and of A u, which the claim must not lean on."""
+    rows = f_max * np.abs(A).sum(axis=1)  # (6,)
+    return RESIDUAL_TOL * (rows + np.abs(W)) - ROUND_OFF * (rows + size)
 
 
 def check_level(entry, n, T: Types, task, f_max, fault, D) -> str:
@@ -298,7 +322,8 @@ def check_level(entry, n, T: Types, task, f_max, fault, D) -> str:
         sl = slice(s, s + len(cells))
         a, M, j = T.columns(cells.astype(float), types)
         off = failed_columns(fault, F[sl], n, T.rotors) if fault else None
-        ok = separation(a, wrenches(task, I[sl], M, j), D[P[sl]], f_max, off) > 0
+        w, size = (wrenches(task, I[sl], M, j, size) for size in (False, True))
+        ok = separation(a, w, D[P[sl]], f_max, off, size) > 0
         if not ok.all():
             k = int(np.argmin(ok))
             after = f" after failure {F[s + k]}" if fault else ""

@@ -169,6 +169,12 @@ def task_model(task) -> tuple:
                 f"task.{field}: must be null or zero for a {task['kind']} task (its kind has "
                 "no such term)"
             )
+    g = pm[0, 2]
+    if task["kind"] == "external" and not (g > 0 and np.all(pm == [0, 0, g, 0, 0, 0])):
+        raise CertificateFormatError(
+            "task.per_mass: an external task's is the weight, one (0, 0, g, 0, 0, 0) with g > 0 "
+            f"for every wrench, not {json.dumps(pm[0].tolist())[:60]}"
+        )
     return base, pm, pi
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import copy
 import json
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -75,7 +76,9 @@ def test_answer_cells_are_placed_as_integers():
     assert torque["minimum"] is None and torque["n_max"] == 5
     far = -(2**60 + 128)
     forged = with_answer(torque, [[0, far], [0, far - 1]])
-    with pytest.raises(pc.ProofError, match="answer: allocation: wrench 0: A u differs"):
+    with pytest.raises(
+        pc.ProofError, match="answer: allocation: wrench 0: component 3 of A u differs"
+    ):
         pc.check(forged)
 
 
@@ -96,7 +99,7 @@ def test_a_tiny_f_max_proves_nothing(docs_example):
     forged["answer"]["allocations"] = [[[f] * 8]]
     forged["directions"] = [[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]]
     forged["levels"] = [{"n": 1, "direction": [0], "wrench": [0]}]
-    with pytest.raises(pc.ProofError, match="wrench 0: A u differs from the wrench"):
+    with pytest.raises(pc.ProofError, match="wrench 0: component 2 of A u differs from the wrench"):
         pc.check(forged)
 
 
@@ -180,4 +183,43 @@ def test_a_task_is_what_its_kind_says(docs_example, kind, terms, words):
     c = copy.deepcopy(docs_example)
     c["task"].update(kind=kind, **terms)
     with pytest.raises(pc.CertificateFormatError, match=words):
+        pc.check(c)
+
+
+FORGED = Path(__file__).parent / "data" / "forged_certificates"
+
+
+@pytest.mark.parametrize(
+    "name, words",
+    [
+        # a hover one module exerts, as base + M per_mass with terms of 2^62 that cancel: the
+        # round-off of d . base (25) passed a bound whose tolerance scaled with the result
+        ("bound_cancel", "level 1: bound: direction 0 does not exceed the level's support"),
+        # M = 0.3 + 0.3 + 0.3 rounds, times a per_mass of 2^52: the computed wrench moved by
+        # 0.25 f_max and level 3 was 'proved' where a straight line reaches the exact wrench
+        ("separation_cancel", "level 3: structure 0 .* does not separate wrench 0"),
+        # the same round-off let the answer meet the computed wrench, not the task's
+        ("answer_cancel", "wrench 0: component 0 of A u differs from the wrench"),
+        # c_tau 1e10: a reachable yaw torque of 1.4e10 bought 14 f_max of error in the lift
+        # (one tolerance for all six components): one module 'lifted' 15 f_max
+        ("torque_buys_lift", "wrench 0: component 2 of A u differs from the wrench by 13.6"),
+    ],
+)
+def test_round_off_of_the_task_model_proves_nothing(name, words):
+    """Forgeries of the second proofs review (``tests/data/forged_certificates``): the
+    tolerances scale with the magnitudes of the task model's terms, not the computed wrench,
+    and each component of A u has its own."""
+    with pytest.raises(pc.ProofError, match=words):
+        pc.check(pc.load(str(FORGED / f"{name}.json")))
+
+
+def test_an_external_task_adds_the_weight(docs_example):
+    c = copy.deepcopy(docs_example)
+    weight = 9.81 * sum(c["types"][k]["mass"] for k in c["answer"]["types"])
+    c["task"]["kind"] = "external"
+    c["task"]["base"] = [[x, y, z - weight, *rest] for x, y, z, *rest in c["task"]["base"]]
+    c["task"]["per_mass"] = [[0, 0, 9.81, 0, 0, 0], [0, 0, 9.81, 0, 0, 0]]
+    assert pc.check(copy.deepcopy(c)).startswith("valid")  # any g > 0, one for every wrench
+    c["task"]["per_mass"][1] = [1.0, 0, 9.81, 0, 0, 0]
+    with pytest.raises(pc.CertificateFormatError, match="task.per_mass: an external task's"):
         pc.check(c)

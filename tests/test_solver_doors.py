@@ -52,7 +52,7 @@ def test_a_problem_that_contradicts_the_solver_is_refused(made, problem, words):
 def test_a_problem_that_agrees_with_the_solver_or_a_solver_without_settings_is_used():
     problem = mq.SearchProblem(TASK, n_max=5, fault="rotor")
     for made in (dict(), dict(n_max=5), dict(n_max=5, fault="rotor")):
-        r = mq.make_solver("greedy", time_limit=5, **made).solve(problem)
+        r = mq.make_solver("greedy", time_limit=60, **made).solve(problem)
         assert r.n_max == 5 and r.fault == "rotor"
         assert mq.tolerates(r.structure, TASK.wrenches, fault="rotor").all()
 

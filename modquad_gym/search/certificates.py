@@ -24,16 +24,13 @@ from pathlib import Path
 import numpy as np
 
 from modquad_gym import proofcheck as pc
+from modquad_gym.search.certificate_answer import CertificateError, answer
 
 MAX_STRUCTURES = 2_000_000
 """Most structures of a level proved one by one (level 13 of one type: 1.9 million)."""
 
 STRICT = 4.0
 """A direction is used only where it separates with this many times the checker's tolerance."""
-
-
-class CertificateError(ValueError):
-    """The result cannot be certified (not certified, or a level too large to prove)."""
 
 
 def check_fault(fault: str | None, fault_margin: float = 0.0) -> None:
@@ -63,7 +60,7 @@ def make(result, problem, progress: bool = False, bounds: bool = True) -> dict:
         cert["minimum"], cert["n_max"], top = None, int(result.n_max), int(result.n_max)
     else:
         cert["minimum"] = top = result.n_modules
-        cert["answer"] = _answer(result.structure, problem, T, task, f_max, fault)
+        cert["answer"] = answer(result.structure, problem, T, task, f_max, fault)
         top -= 1
     prover = _Prover(T, task, f_max, fault, problem, bounds)
     # top down: the bound of a level usually covers the smaller ones too
@@ -108,78 +105,6 @@ def type_dict(m) -> dict:
     return {"name": m.name, "side": m.side, "c_tau": m.c_tau, "mass": m.mass,
             "inertia": np.asarray(m.inertia).tolist(), "positions": m.positions.tolist(),
             "directions": m.directions.tolist(), "spins": m.spins.tolist()}  # fmt: skip
-
-
-def _type_indices(structure, palette) -> np.ndarray:
-    ids = {id(m): k for k, m in enumerate(palette)}
-    digests = {m.digest: k for k, m in enumerate(palette)}
-    return np.array([ids.get(id(m), digests.get(m.digest, -1)) for m in structure.modules])
-
-
-def _answer(structure, problem, T, task, f_max, fault) -> dict:
-    """The answer's cells, types and thrusts for every wrench (after every failure)."""
-    cells = np.asarray(structure.cells, dtype=np.int64)
-    types = _type_indices(structure, problem.palette)
-    if types.min() < 0:
-        raise CertificateError("the answer has a module type outside the problem's palette")
-    a, M, j = T.columns(cells[None].astype(float), types[None])
-    A, t = a[0].T, len(task[0])
-    W = pc.wrenches(task, np.arange(t), np.repeat(M, t), np.repeat(j, t, axis=0))
-    m, n = A.shape[1], len(cells)
-    fails = (
-        [np.zeros(m, bool)]
-        if fault is None
-        else list(pc.failed_columns(fault, np.arange(m if fault == "rotor" else n), n, T.rotors))
-    )
-    allocations = [_allocate(A, W, f_max, ~off) for off in fails]
-    return {"cells": cells.tolist(), "types": types.tolist(), "allocations": allocations}
-
-
-def _allocate(A, W, f_max, keep) -> list:
-    """(t, m) thrusts reaching each wrench with the columns ``keep`` (the others zero): the
-    least-norm correction of half thrust where it stays within [0, f_max], else the most
-    centred allocation of the oracle's LP, corrected onto A u = w by least squares."""
-    from modquad_gym.oracle import Zonotope
-
-    B = A[:, keep]
-    pinv = np.linalg.pinv(B)
-    half = np.full(B.shape[1], f_max / 2.0)
-    U = np.zeros((len(W), A.shape[1]))
-    U[:, keep] = half + (W - B @ half) @ pinv.T
-    inside = (U[:, keep] >= 0).all(axis=1) & (U[:, keep] <= f_max).all(axis=1)
-    resid = np.abs(U @ A.T - W).max(axis=1) <= 1e-3 * pc.RESIDUAL_TOL * (f_max + np.abs(W).max(1))
-    rest = np.flatnonzero(~(inside & resid))
-    if len(rest):
-        z = Zonotope(B, f_max)
-        R, off = z.reduce(W[rest])
-        if off.any():
-            raise CertificateError(f"the answer cannot exert wrench {rest[np.argmax(off)]}")
-        for i, r in zip(rest, R):
-            u = (1.0 + _centred(z, r)) * (f_max / 2.0)
-            U[i, keep] = u - pinv @ (B @ u - W[i])
-    return U.tolist()
-
-
-def _centred(z, r: np.ndarray) -> np.ndarray:
-    """The most centred allocation x (G x = r, |x|_inf = gamma) of one centred reduced wrench:
-    the DAQP LP of the oracle (:mod:`modquad_gym.oracle.daqp_lp`), HiGHS when DAQP fails."""
-    import daqp
-
-    from modquad_gym.oracle.lp import GammaLP, ray_cost, ray_matrix
-
-    nr = float(np.linalg.norm(r))
-    if nr <= 1e-14 * max(z.scale, 1.0):
-        return np.zeros(z.m)
-    m = z.m
-    x, _, flag, _ = daqp.solve(
-        np.zeros((m + 1, m + 1)), ray_cost(m), ray_matrix(z.G, r / nr),
-        np.concatenate([np.ones(m), [1e30], np.zeros(z.rank)]),
-        np.concatenate([-np.ones(m), [0.0], np.zeros(z.rank)]),
-        np.array([0] * (m + 1) + [5] * z.rank, dtype=np.int32),
-    )  # fmt: skip
-    if flag == 1 and x[-1] > 0:
-        return x[:m] * (nr / x[-1])
-    return GammaLP.build(z.G).solve(r).x[:-1]
 
 
 class _Prover:
@@ -260,19 +185,22 @@ class _Prover:
         T, task, f_max = self.T, self.task, self.f_max
         a, M, j = T.columns(cells.astype(float), types)
         t = len(task[0])
-        W = task[0][None] + M[:, None, None] * task[1][None] + np.einsum("tqc,lc->ltq", task[2], j)
+        W, S = (
+            x[0][None] + M[:, None, None] * x[1][None] + np.einsum("tqc,lc->ltq", x[2], jx)
+            for x, jx in ((task, j), ([np.abs(y) for y in task], np.abs(j)))
+        )  # the wrenches (L, t, 6) and their terms' magnitudes (pc.wrenches' size)
         alive = np.ones(len(cells), bool)
         for p in np.argsort(-np.array(self.uses, dtype=float), kind="stable"):
             if not alive.any():
                 break
-            self._try(int(p), a, W, alive, P, I)
+            self._try(int(p), a, (W, S), alive, P, I)
         while alive.any():
             k = int(np.argmax(alive))
             A = a[k].T
             found = _separate(A, W[k], f_max)
             if found is not None:
                 p = self._add(found[0])
-                self._try(p, a, W, alive, P, I)
+                self._try(p, a, (W, S), alive, P, I)
                 if alive[k]:  # the LP's direction fails the strict test
                     raise CertificateError(
                         f"the separating direction of the structure {cells[k].tolist()} is "
@@ -284,37 +212,41 @@ class _Prover:
                     f"the structure {cells[k].tolist()} (types {types[k].tolist()}) of "
                     f"{len(cells[k])} modules satisfies the task: the answer is not a minimum"
                 )
-            P[k], I[k], F[k] = self._failure(a[k], W[k], cells[k], types[k])
+            P[k], I[k], F[k] = self._failure(a[k], (W[k], S[k]), cells[k], types[k])
             alive[k] = False
         del t
 
-    def _try(self, p: int, a, W, alive, P, I) -> None:
-        """Assign direction p to the alive structures it separates (strictly)."""
+    def _try(self, p: int, a, wrenches, alive, P, I) -> None:
+        """Assign direction p to the alive structures it separates (strictly); ``wrenches``:
+        (their task wrenches, those wrenches' term magnitudes)."""
+        W, S = wrenches
         d = self.pool[p]
         idx = np.flatnonzero(alive)
         values = W[idx] @ d  # (L, t)
         i = values.argmax(axis=1)
-        w = W[idx, i]
-        margin = pc.separation(a[idx], w, np.broadcast_to(d, w.shape), self.f_max)
-        tol = _tolerance(a[idx], w, d, self.f_max)
+        w, size = W[idx, i], S[idx, i]
+        margin = pc.separation(a[idx], w, np.broadcast_to(d, w.shape), self.f_max, size=size)
+        tol = _tolerance(a[idx], size, d, self.f_max)
         hit = margin > (STRICT - 1.0) * tol
         P[idx[hit]], I[idx[hit]] = p, i[hit]
         alive[idx[hit]] = False
         self.uses[p] += int(hit.sum())
 
-    def _failure(self, a, W, cells, types):
-        """(direction, wrench, failure) after which one intact-feasible structure fails."""
+    def _failure(self, a, wrenches, cells, types):
+        """(direction, wrench, failure) after which one intact-feasible structure fails
+        (``wrenches``: its task wrenches and their term magnitudes)."""
+        W = wrenches[0]
         n, r = len(cells), self.T.rotors
         failures = np.arange(n * r if self.fault == "rotor" else n)
         offs = pc.failed_columns(self.fault, failures, n, r)
-        got = self._pool_failure(a, W, offs)
+        got = self._pool_failure(a, wrenches, offs)
         if got is not None:
             return got[0], got[1], int(failures[got[2]])
         for f, off in zip(failures, offs):
             found = _separate(a[~off].T, W, self.f_max)
             if found is not None:
                 p = self._add(found[0])
-                got = self._pool_failure(a, W, off[None], [p])
+                got = self._pool_failure(a, wrenches, off[None], [p])
                 if got is not None:
                     return p, got[1], int(f)
         raise CertificateError(
@@ -322,10 +254,11 @@ class _Prover:
             f"{self.fault} failure: the answer is not a minimum"
         )
 
-    def _pool_failure(self, a, W, offs, among=None):
+    def _pool_failure(self, a, wrenches, offs, among=None):
         """(direction, wrench, index into ``offs``) of a pool direction (or one of ``among``)
         that separates a task wrench from the structure (columns ``a``) after a failure (rows
         of ``offs``: the failed columns), strictly; None when none does."""
+        W, S = wrenches
         idx = np.arange(len(self.pool)) if among is None else np.array(among)
         if not len(idx):
             return None
@@ -334,8 +267,7 @@ class _Prover:
         h = self.f_max * (plus.sum(axis=1)[:, None] - plus @ offs.T)  # (P, F)
         values = D @ W.T  # (P, t)
         best = values.argmax(axis=1)
-        w = W[best]  # (P, 6)
-        scale = np.linalg.norm(w, axis=1) + self.f_max * np.linalg.norm(a, axis=1).sum()
+        scale = np.linalg.norm(S[best], axis=1) + self.f_max * np.linalg.norm(a, axis=1).sum()
         tol = pc.SEPARATION_TOL * np.linalg.norm(D, axis=1) * scale
         margin = values.max(axis=1)[:, None] - h - STRICT * tol[:, None]  # (P, F)
         p, f = np.unravel_index(int(np.argmax(margin)), margin.shape)
@@ -367,8 +299,9 @@ def bound_margins(T, task, f_max, fault, n, D) -> np.ndarray:
     return (value - n * H[:, None, :] + loss[:, None, None]).min(axis=2)
 
 
-def _tolerance(a, w, d, f_max) -> np.ndarray:
-    scale = np.linalg.norm(w, axis=1) + f_max * np.linalg.norm(a, axis=2).sum(axis=1)
+def _tolerance(a, size, d, f_max) -> np.ndarray:
+    """The checker's separation tolerance (``size``: the wrenches' term magnitudes)."""
+    scale = np.linalg.norm(size, axis=1) + f_max * np.linalg.norm(a, axis=2).sum(axis=1)
     return pc.SEPARATION_TOL * np.linalg.norm(d) * scale
 
 
