@@ -20,6 +20,10 @@ FORMAT, VERSION = "modquad-certificate", 1
 TYPE_SHAPES = {"side": (), "c_tau": (), "mass": (), "inertia": (3, 3), "positions": ("r", 3),
                "directions": ("r", 3), "spins": ("r",)}  # fmt: skip
 """The numbers of a module type and their shapes (r: its rotors)."""
+MAX_LENGTH = 10.0
+"""Most metres of a module's side, rotor positions and drag ratio: the checker's tolerances
+cover the round-off of torque arms up to there (a rotor at 100 km along its own thrust axis has
+a torque arm of round-off alone; a module is well under a metre)."""
 TASK_KINDS = ("total", "external", "dynamic")
 """What a task's wrenches are: the rotors' total (base alone), the external wrench (the
 structure's weight added: per_mass too) or the Newton-Euler wrench of a motion (every term)."""
@@ -130,12 +134,17 @@ def module_types(types) -> dict:
 
 def _physical(t: dict, side: float, what: str) -> None:
     """A module type's numbers say one physical thing: a positive mass and side (the first
-    type's), spins of +-1, non-zero thrust directions, a symmetric inertia matrix that is
-    positive semi-definite (the checker reads its upper triangle)."""
-    J = t["inertia"]
+    type's), lengths of at most :data:`MAX_LENGTH`, spins of +-1, non-zero thrust directions,
+    a symmetric inertia matrix that is positive semi-definite (the checker reads its upper
+    triangle)."""
+    J, most = t["inertia"], f"must be at most {MAX_LENGTH:g} m"
     wrong = [
         (not t["mass"] > 0, "mass", "must be positive", t["mass"]),
         (not t["side"] > 0, "side", "must be positive", t["side"]),
+        (not t["side"] <= MAX_LENGTH, "side", most, t["side"]),
+        (not abs(t["c_tau"]) <= MAX_LENGTH, "c_tau", f"{most} in magnitude", t["c_tau"]),
+        (not np.all(np.abs(t["positions"]) <= MAX_LENGTH), "positions", f"{most} in each axis",
+         t["positions"]),
         (t["side"] != side, "side", f"must be the first type's ({side!r})", t["side"]),
         (not np.all(np.abs(t["spins"]) == 1), "spins", "must each be 1 or -1", t["spins"]),
         (not np.all(np.abs(t["directions"]).max(1) > 0), "directions", "rows must be non-zero",

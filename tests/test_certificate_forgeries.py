@@ -147,6 +147,9 @@ def type_changed(field: str, value) -> dict:
         ("mass", -1.0, "types[0].mass: must be positive, not -1.0"),
         ("side", 0.0, "types[0].side: must be positive"),
         ("spins", [7.0, -7.0, 7.0, -7.0], "types[0].spins: must each be 1 or -1"),
+        ("side", 11.0, "types[0].side: must be at most 10 m"),
+        ("c_tau", -1e10, "types[0].c_tau: must be at most 10 m in magnitude"),
+        ("positions", [[0, 0, 1e5]] * 4, "types[0].positions: must be at most 10 m in each axis"),
         (
             "inertia",
             [[1.0, 0.5, 0], [0, 1.0, 0], [0, 0, 1.0]],
@@ -201,16 +204,25 @@ FORGED = Path(__file__).parent / "data" / "forged_certificates"
         # the same round-off let the answer meet the computed wrench, not the task's
         ("answer_cancel", "wrench 0: component 0 of A u differs from the wrench"),
         # c_tau 1e10: a reachable yaw torque of 1.4e10 bought 14 f_max of error in the lift
-        # (one tolerance for all six components): one module 'lifted' 15 f_max
-        ("torque_buys_lift", "wrench 0: component 2 of A u differs from the wrench by 13.6"),
+        # (one tolerance for all six components): one module 'lifted' 15 f_max; such a drag
+        # ratio is no module's now, and each component has its own tolerance (next test)
+        ("torque_buys_lift", r"types\[0\]\.c_tau: must be at most 10 m in magnitude"),
     ],
 )
 def test_round_off_of_the_task_model_proves_nothing(name, words):
     """Forgeries of the second proofs review (``tests/data/forged_certificates``): the
-    tolerances scale with the magnitudes of the task model's terms, not the computed wrench,
-    and each component of A u has its own."""
-    with pytest.raises(pc.ProofError, match=words):
+    tolerances scale with the magnitudes of the task model's terms, not the computed wrench."""
+    with pytest.raises((pc.ProofError, pc.CertificateFormatError), match=words):
         pc.check(pc.load(str(FORGED / f"{name}.json")))
+
+
+def test_each_component_of_the_answer_has_its_own_tolerance():
+    """A large yaw torque widens the yaw component's allowed residual, not the lift's."""
+    A = np.array([[0.0, 0, 1, 1], [0, 0, 0, 0], [1, 1, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0],
+                  [10, -10, 0, 0]])  # fmt: skip
+    W = np.array([[0, 0, 2.0, 0, 0, 0], [0, 0, 2.0, 0, 0, 1e6]])
+    allowed = pc.residual_allowed(A, W, np.abs(W), 1.0)
+    assert allowed[0, 2] == allowed[1, 2] < 1e-8 and allowed[1, 5] > 1e-4
 
 
 def test_an_external_task_adds_the_weight(docs_example):
