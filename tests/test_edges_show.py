@@ -1,5 +1,5 @@
 """Pictures at every size (issue 34): ``modquad show`` searches like ``modquad solve``
-(``--method``, ``--n-max`` to 64, ``--time-limit``); at 16-64 modules the figure stays readable
+(``--method``, ``--n-max`` to 128, ``--time-limit``); at 16-64 modules the figure stays readable
 (short title, task points drawn over a translucent feasible set, legend beside the top view);
 the flight's error plot is scaled to the data with the goal as a reference; MuJoCo renders have
 a sky and a floor; ``modquad validate`` prints a short summary, not the raw record."""
@@ -43,7 +43,7 @@ def test_show_takes_the_search_options_of_solve():
         assert show[dest].type is solve[dest].type, dest  # the same parsers, not copies
 
 
-def test_show_with_greedy_and_n_max_64_writes_the_picture(tmp_path, capsys):
+def test_show_with_greedy_and_n_max_128_writes_the_picture(tmp_path, capsys):
     png = tmp_path / "greedy.png"
     argv = [
         "show",
@@ -52,12 +52,12 @@ def test_show_with_greedy_and_n_max_64_writes_the_picture(tmp_path, capsys):
         "--method",
         "greedy",
         "--n-max",
-        "64",
+        "128",
         "--time-limit",
         "600",
         "--out",
         str(png),
-    ]  # fmt: skip  (cold numba: compile first)
+    ]  # fmt: skip  (cold numba: compile first; 128: the searches' limit, no lower one of show's)
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "method greedy" in out and "11 modules" in out and png.stat().st_size > 10_000
@@ -72,12 +72,12 @@ def test_show_draws_a_62_module_answer(tmp_path, capsys):
     assert png.stat().st_size > 10_000
 
 
-def test_show_refuses_n_max_beyond_64_before_any_work(tmp_path, capsys):
+def test_show_refuses_n_max_beyond_the_searches_before_any_work(tmp_path, capsys):
     png = tmp_path / "no.png"
-    argv = ["show", "--task", _task(tmp_path, 30.0), "--n-max", "65", "--out", str(png)]
+    argv = ["show", "--task", _task(tmp_path, 30.0), "--n-max", "129", "--out", str(png)]
     assert main(argv) == 2
     err = capsys.readouterr().err
-    assert "--n-max" in err and "64" in err and not png.exists()
+    assert "n_max=129" in err and "128" in err and not png.exists()
 
 
 # ------------------------------------------------------------------------- figure at scale

@@ -527,5 +527,5 @@ def test_api_rejects_hostile_arguments():
         mq.TModule(eta=100)
     with pytest.raises(ValueError, match="no wrenches"):
         mq.exhaustive_search(np.zeros((0, 6)), n_max=2)
-    with pytest.raises(ValueError, match="cell #0"):
+    with pytest.raises(ValueError, match="cell #1 "):  # 1-based, as task-file rows
         mq.Structure([(math.inf, 0)])

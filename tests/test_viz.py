@@ -82,7 +82,7 @@ def test_projection_labels_say_what_and_which_units():
     normalised = PaperTasks(n_wrenches=5)(np.random.default_rng(0))
     ax = draw_projection(s, "force", task=normalised)
     assert ax.get_title() == "feasible forces: projection of the 6-D set"
-    assert ax.get_xlabel() == "$f_x$ [f_max]"
+    assert ax.get_xlabel() == r"$f_x$ [$f_\mathrm{max}$]"  # f_max with a subscript
     legend = {t.get_text() for t in ax.get_legend().get_texts()}
     feasible, infeasible = "task wrench, feasible (6-D)", "task wrench, infeasible (6-D)"
     assert feasible in legend and legend <= {feasible, infeasible}

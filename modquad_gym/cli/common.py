@@ -75,21 +75,23 @@ def check_task(task, path=None, modules=None) -> None:
             raise TaskFileError(f"{path}: {exc}") from None
 
 
-def palette_of(text: str | None):
-    """``--modules`` text as a list of module types, or None when not given."""
+def palette_of(text: str | None, repeats: bool = False):
+    """``--modules`` text as a list of module types (a type twice only with ``repeats``), or
+    None when not given."""
     if text is None:
         return None
     from modquad_gym.geometry.module import palette
 
     try:
-        return palette(text)
+        return palette(text, repeats=repeats)
     except ValueError as exc:  # "modules: ..." -> "--modules: ..."
         raise ValueError(f"--{exc}") from None
 
 
 def palette(args: argparse.Namespace):
-    """``--modules`` as a list of module types, or None when not given."""
-    return palette_of(getattr(args, "modules", None))
+    """``--modules`` as a list of module types, or None when not given: the palette a search
+    mixes (each type once), or beside ``--cells`` one type per cell (types repeat)."""
+    return palette_of(getattr(args, "modules", None), repeats=bool(getattr(args, "cells", None)))
 
 
 def add_command(sub, name: str, func: Command, help: str, description: str):
@@ -326,6 +328,16 @@ def print_help(parser: argparse.ArgumentParser) -> Command:
         return 0
 
     return show
+
+
+def no_structure(args: argparse.Namespace, outcome: str) -> ValueError:
+    """The error of a command that writes a file of the structure ``--method`` finds for
+    ``--task`` (export, show) when it finds none: the file asked for is not written, so the
+    run fails (exit 2) where ``modquad solve``, whose answer is the printed outcome, succeeds."""
+    return ValueError(
+        f"--task: {args.method} found no structure of up to {args.n_max} modules for "
+        f"{args.task}; {outcome}"
+    )
 
 
 def report_error(message: str) -> None:

@@ -12,6 +12,7 @@ from modquad_gym.cli.common import (
     add_force,
     add_method,
     f_max_option,
+    no_structure,
     palette,
 )
 from modquad_gym.cli.given import SEARCH_OPTIONS, refuse_ignored
@@ -68,10 +69,7 @@ def found_structure(args: argparse.Namespace, task):
 
     result = solver(args, task)(task)
     if result.structure is None:
-        raise ValueError(
-            f"--task: {args.method} found no structure of up to {args.n_max} modules for "
-            f"{args.task}; nothing to export"
-        )
+        raise no_structure(args, "nothing to export")
     return result.structure
 
 

@@ -9,12 +9,15 @@ import json
 from pathlib import Path
 
 from modquad_gym.cli import common, solve  # common.load_task, solve.solver (tests replace them)
-from modquad_gym.cli.common import add_command, add_csv_header, add_force, add_method, palette
+from modquad_gym.cli.common import (
+    add_command,
+    add_csv_header,
+    add_force,
+    add_method,
+    no_structure,
+    palette,
+)
 from modquad_gym.cli.given import SEARCH_OPTIONS, refuse_ignored
-
-MAX_SHOWN_MODULES = 64
-"""Largest ``--n-max`` for a search: the picture's force and torque projections are computed
-for structures of up to 64 modules (:data:`modquad_gym.viz.zonotope.MAX_PROJECTED_ROTORS`)."""
 
 
 def add_show(sub) -> None:
@@ -24,7 +27,7 @@ def add_show(sub) -> None:
         cmd_show,
         help="draw a structure (top view, feasible forces and torques; PNG or HTML)",
         description="Draw a structure given by --cells, or the answer of a search for --task "
-        "(--method, --n-max up to 64, --time-limit as in `modquad solve`): a PNG (top view; "
+        "(--method, --n-max up to 128, --time-limit as in `modquad solve`): a PNG (top view; "
         "with --task also the feasible forces and torques, projections of the 6-D feasible "
         "set, with the task's wrenches coloured by 6-D feasibility) and/or, "
         "with --html, one self-contained interactive page (3-D structure with thrust "
@@ -104,11 +107,6 @@ def cmd_show(args: argparse.Namespace) -> int:
     from modquad_gym.core.extras import require
     from modquad_gym.core.outputs import check_outputs
 
-    if args.task and not args.cells and args.n_max > MAX_SHOWN_MODULES:
-        raise ValueError(
-            f"--n-max: show draws structures of up to {MAX_SHOWN_MODULES} modules (the "
-            f"feasible forces and torques), got {args.n_max}; `modquad solve` goes further"
-        )
     if args.cells:  # --cells gives the structure: nothing is searched for
         refuse_ignored(args, SEARCH_OPTIONS, "applies to a search for --task, not with --cells "
                        "(which gives the structure)")  # fmt: skip
@@ -130,8 +128,8 @@ def cmd_show(args: argparse.Namespace) -> int:
     out = check_outputs({"--out": out, "--html": args.html}, force=args.force).get("--out")
     require(*(["matplotlib"] if out is not None else []), *(["plotly"] if args.html else []))
     task, structure = shown(args)  # the search runs only when the pictures can be drawn
-    if structure is None:
-        return 0
+    if structure is None:  # as export: the file asked for is not written, so not a success
+        raise no_structure(args, "nothing to draw, no file written")
     if out is not None:
         from modquad_gym.viz.drawing import save_structure_figure
 

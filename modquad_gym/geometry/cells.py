@@ -26,8 +26,8 @@ MAX_COORDINATE = 1_000_000
 
 
 def as_cell(raw: object, index: int) -> Cell:
-    """Cell #``index`` as an (x, y) pair of ints; ValueError naming it when it is not a pair
-    of integral numbers within +-MAX_COORDINATE."""
+    """Cell #``index`` (1-based, as the rows of a task file) as an (x, y) pair of ints;
+    ValueError naming it when it is not a pair of integral numbers within +-MAX_COORDINATE."""
     try:
         x, y = raw  # type: ignore[misc]
     except (TypeError, ValueError):

@@ -285,10 +285,11 @@ STOCK_TYPES: dict[str, ModuleType] = _stock()
 same rotor data as ``TModule()`` (a different object: types compare by identity)."""
 
 
-def palette(spec: str | Iterable[str | ModuleType]) -> list[ModuleType]:
+def palette(spec: str | Iterable[str | ModuleType], repeats: bool = False) -> list[ModuleType]:
     """Module types from a comma-separated list of stock names (``"t45,t45m,flat"``) or a list
     of names and :class:`ModuleType` objects. Raises ValueError naming an unknown name, an empty
-    or repeated entry."""
+    entry, or a repeated one unless ``repeats`` (a type per cell of a given structure, not a
+    palette to choose from)."""
     if not isinstance(spec, (str, Iterable)):
         raise ValueError(
             f"modules must be comma-separated type names or a list of them, got {spec!r}"
@@ -308,6 +309,6 @@ def palette(spec: str | Iterable[str | ModuleType]) -> list[ModuleType]:
             known = ", ".join(STOCK_TYPES)
             raise ValueError(f"modules: unknown module type {name!r}; known: {known}")
         out.append(STOCK_TYPES[name])
-    if len({id(m) for m in out}) != len(out):
+    if not repeats and len({id(m) for m in out}) != len(out):
         raise ValueError(f"modules: a type is listed twice in {[m.name for m in out]}")
     return out

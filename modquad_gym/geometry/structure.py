@@ -108,7 +108,7 @@ class Structure:
         raw = list(cells)
         if not raw:
             raise ValueError("a structure needs at least one cell, got none")
-        parsed = tuple(as_cell(c, i) for i, c in enumerate(raw))
+        parsed = tuple(as_cell(c, i) for i, c in enumerate(raw, start=1))  # "cell #1": the first
         if len(set(parsed)) != len(parsed):
             dupes = sorted({c for c in parsed if parsed.count(c) > 1})
             raise ValueError(f"duplicate cells {dupes}: one module per cell")

@@ -1,5 +1,6 @@
 """Pictures: a structure from above, its feasible forces and torques (projections of the 6-D
-feasible set, :mod:`modquad_gym.viz.zonotope`), rotor inputs, and a fast RGB render.
+feasible set, drawn by :mod:`modquad_gym.viz.projections` and re-exported here), rotor inputs,
+the figure file of them all, and a fast RGB render.
 
 Matplotlib is imported inside the functions (``import modquad_gym`` stays light) and figures are
 made with ``matplotlib.figure.Figure`` on an Agg canvas, never through pyplot, so nothing here
@@ -25,6 +26,17 @@ import numpy as np
 from modquad_gym.core.outputs import save_figure
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_f_max
+from modquad_gym.viz.projections import (
+    CORNER_CLEARANCE,
+    HULL_COLOUR,
+    MAX_MARKED_VERTICES,
+    VERTEX_COLOUR,
+    draw_projection,
+    draw_torque_projection,
+    force_zonotope_vertices,
+    new_axes,
+    torque_zonotope_vertices,
+)
 from modquad_gym.viz.raster import (
     ARROW_COLOUR,
     FIRST_COLOUR,
@@ -37,16 +49,6 @@ from modquad_gym.viz.raster import (
     type_colour,
 )
 from modquad_gym.viz.titles import TITLE_WIDTH, figure_title, short_name
-from modquad_gym.viz.zonotope import (
-    FEASIBLE_COLOUR,
-    INFEASIBLE_COLOUR,
-    SPACES,
-    drawn_vertices,
-    hull_faces,
-    projection_vertices,
-    task_wrenches,
-    units,
-)
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
@@ -55,11 +57,15 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = [
     "ARROW_COLOUR",
+    "CORNER_CLEARANCE",
     "FIRST_COLOUR",
+    "HULL_COLOUR",
+    "MAX_MARKED_VERTICES",
     "MODULE_COLOUR",
     "SPIN_COLOURS",
     "STOCK_FILLS",
     "TYPE_COLOURS",
+    "VERTEX_COLOUR",
     "draw_projection",
     "draw_rotor_inputs",
     "draw_structure",
@@ -75,13 +81,21 @@ __all__ = [
 ]
 
 
-def _new_axes(projection: str | None = None, figsize: tuple[float, float] = (5.0, 5.0)) -> Axes:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+# --------------------------------------------------------------------------------------------
+# how large a figure can be
+# --------------------------------------------------------------------------------------------
+MAX_DRAWN_MODULES = 256
+"""Most modules a top view draws (a larger one is unreadable and slow to draw); the projections
+beside a task are sampled past :data:`~.zonotope.EXACT_DRAWN_ROTORS` and take any size."""
 
-    fig = Figure(figsize=figsize, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig.add_subplot(1, 1, 1, projection=projection)
+
+def check_drawable(structure: Structure) -> None:
+    """Refuse before drawing a structure too large for a figure."""
+    if structure.n_modules > MAX_DRAWN_MODULES:
+        raise ValueError(
+            f"a structure of {structure.n_modules:,} modules is too large to draw: the top view "
+            f"draws at most {MAX_DRAWN_MODULES} modules"
+        )
 
 
 # --------------------------------------------------------------------------------------------
@@ -96,10 +110,10 @@ def draw_structure(
     """Top view of ``structure`` in {S} (metres): module squares, rotors coloured by spin,
     horizontal thrust arrows, the COM, and the first module highlighted. Returns the axes."""
     from matplotlib.lines import Line2D
-    from matplotlib.patches import Circle, FancyArrow, Rectangle
+    from matplotlib.patches import Circle, Rectangle
 
     s = check_structure(structure)
-    ax = ax if ax is not None else _new_axes()
+    ax = ax if ax is not None else new_axes()
     side = s.side
     mixed = s.is_mixed
     for i, ((cx, cy, _), t) in enumerate(zip(s.module_centres, s.type_indices)):
@@ -121,14 +135,9 @@ def draw_structure(
     for p, d, spin in zip(s.rotor_positions, s.rotor_directions, spins, strict=True):
         colour = SPIN_COLOURS[1 if spin > 0 else -1]
         ax.add_patch(Circle(p[:2], radius, facecolor=colour, edgecolor="k", lw=0.6, zorder=3))
-        h = d[:2] * (0.4 * side)
-        if np.linalg.norm(h) > 1e-9:  # under the rotor disc: its spin colour stays visible
-            ax.add_patch(
-                FancyArrow(
-                    p[0], p[1], h[0], h[1], width=side / 90, head_width=side / 20,
-                    length_includes_head=True, color=ARROW_COLOUR, lw=0, zorder=2,
-                )
-            )  # fmt: skip
+        h = d[:2]
+        if np.linalg.norm(h) > 1e-9:
+            ax.add_patch(_thrust_arrow(p[:2], h, radius, side))
     ax.plot([0.0], [0.0], marker="+", color="k", markersize=14, mew=2.5, zorder=4)
     xs, ys = s.module_centres[:, 0], s.module_centres[:, 1]
     pad = side * 0.75
@@ -168,114 +177,18 @@ def draw_structure(
     return ax
 
 
-# --------------------------------------------------------------------------------------------
-# torque-space projection of the feasible wrenches (paper Fig. 3b)
-# --------------------------------------------------------------------------------------------
+def _thrust_arrow(p: np.ndarray, h: np.ndarray, radius: float, side: float):
+    """The arrow of a rotor's horizontal thrust ``h`` (the thrust direction's x, y): from the
+    edge of the rotor's disc (its spin colour stays whole) outward, as long as 0.25 module
+    sides times ``|h|`` and wide enough to read where a module is 40 pixels across."""
+    from matplotlib.patches import FancyArrow
 
-HULL_COLOUR, VERTEX_COLOUR = "#4c72b0", "#2b4570"
-"""The feasible set's projection (translucent) and its vertices."""
-
-MAX_MARKED_VERTICES = 300
-"""Most vertices a projection marks with dots (more merge into a dark blob over the hull)."""
-
-MAX_DRAWN_MODULES = 256
-"""Most modules a top view draws (a larger one is unreadable and slow to draw); the torque
-projection beside a task has its own limit (:data:`~.zonotope.MAX_PROJECTED_ROTORS`)."""
-
-
-def check_drawable(structure: Structure) -> None:
-    """Refuse before drawing a structure too large for a figure."""
-    if structure.n_modules > MAX_DRAWN_MODULES:
-        raise ValueError(
-            f"a structure of {structure.n_modules:,} modules is too large to draw: the top view "
-            f"draws at most {MAX_DRAWN_MODULES} modules"
-        )
-
-
-def torque_zonotope_vertices(A: np.ndarray, f_max: float = 1.0) -> np.ndarray:
-    """Vertices (k, 3) of the projection of W = {A u : 0 <= u <= f_max} onto torque space
-    (:func:`modquad_gym.viz.zonotope.projection_vertices`)."""
-    return projection_vertices(A, "torque", f_max)
-
-
-def force_zonotope_vertices(A: np.ndarray, f_max: float = 1.0) -> np.ndarray:
-    """Vertices (k, 3) of the projection of W onto force space."""
-    return projection_vertices(A, "force", f_max)
-
-
-def draw_projection(
-    structure: Structure,
-    space: str = "torque",
-    f_max: float = 1.0,
-    ax: Axes | None = None,
-    task=None,
-) -> Axes:
-    """The feasible wrenches projected onto force (``space="force"``) or torque space as a
-    translucent convex hull (paper Fig. 3b) on a 3-d axes. ``task`` (a TaskRequirement, or
-    (t, 6) wrenches), if given, is scattered by the same coordinates on top of the hull (dark
-    outlines), green where the whole 6-D wrench is feasible and red where not (so a red point
-    may lie inside the projection). Past :data:`~.zonotope.EXACT_DRAWN_ROTORS` rotors the hull
-    is that of sampled vertices (:func:`~.zonotope.drawn_vertices`). Axis units follow
-    :func:`modquad_gym.viz.zonotope.units`. Returns the axes."""
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
-    s = check_structure(structure)
-    first, names = SPACES[space]
-    f_max = check_f_max(getattr(task, "f_max", f_max))
-    V, exact = drawn_vertices(s.configuration_matrix(), space, f_max)
-    ax = ax if ax is not None else _new_axes(projection="3d")
-    ax.computed_zorder = False  # draw order by zorder: the task's points over the hull
-    ax.set_box_aspect(None, zoom=0.78)  # the axis labels inside the axes, not over a neighbour
-    faces = hull_faces(V)
-    if faces is not None:
-        ax.add_collection3d(Poly3DCollection(
-            [V[f] for f in faces], facecolor=HULL_COLOUR, edgecolor="none", linewidths=0.0,
-            alpha=0.2, zorder=1,
-        ))  # fmt: skip
-    if faces is None or (exact and len(V) <= MAX_MARKED_VERTICES):
-        ax.scatter(V[:, 0], V[:, 1], V[:, 2], s=2, color=VERTEX_COLOUR, alpha=0.5,
-                   depthshade=False, zorder=2)  # fmt: skip
-    pts = [V]
-    if task is not None:
-        W, ok, _ = task_wrenches(s, task)
-        kinds = ((ok, FEASIBLE_COLOUR, "task wrench, feasible (6-D)"),
-                 (~ok, INFEASIBLE_COLOUR, "task wrench, infeasible (6-D)"))  # fmt: skip
-        for mask, colour, label in kinds:
-            if mask.any():
-                P = W[mask, first : first + 3]
-                ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=22, color=colour, label=label,
-                           edgecolors="k", linewidths=0.5, depthshade=False, zorder=5)  # fmt: skip
-        ax.legend(loc="upper left", fontsize="x-small")
-        pts.append(W[:, first : first + 3])
-    allp = np.vstack(pts)
-    lo, hi = allp.min(axis=0), allp.max(axis=0)
-    pad = 0.05 * max(float((hi - lo).max()), 1e-6)
-    ax.set_xlim(lo[0] - pad, hi[0] + pad)
-    ax.set_ylim(lo[1] - pad, hi[1] + pad)
-    ax.set_zlim(lo[2] - pad, hi[2] + pad)
-    from matplotlib.ticker import MaxNLocator
-
-    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):  # few, short tick labels: the labels stay inside
-        axis.set_major_locator(MaxNLocator(4, steps=[1, 2, 2.5, 5, 10]))
-        axis.labelpad = 7  # the axis title clear of its tick labels
-    ax.tick_params(labelsize="small", pad=1)
-    unit = units(task, f_max)[0 if space == "force" else 1]
-    symbol = "f" if space == "force" else r"\tau"
-    ax.set_xlabel(rf"${symbol}_x$ [{unit}]")
-    ax.set_ylabel(rf"${symbol}_y$ [{unit}]")
-    ax.set_zlabel(rf"${symbol}_z$ [{unit}]")
-    ax.set_title(f"feasible {space}s: projection of the 6-D set", fontsize="medium")
-    return ax
-
-
-def draw_torque_projection(
-    structure: Structure,
-    f_max: float = 1.0,
-    ax: Axes | None = None,
-    wrenches: np.ndarray | None = None,
-) -> Axes:
-    """:func:`draw_projection` onto torque space (``wrenches`` (t, 6) scattered if given)."""
-    return draw_projection(structure, "torque", f_max, ax, wrenches)
+    start = p + radius * h / np.linalg.norm(h)
+    v = 0.25 * side * h
+    return FancyArrow(
+        start[0], start[1], v[0], v[1], width=side / 30, head_width=side / 9,
+        head_length=side / 12, length_includes_head=True, color=ARROW_COLOUR, lw=0, zorder=2,
+    )  # fmt: skip
 
 
 # --------------------------------------------------------------------------------------------
@@ -292,7 +205,7 @@ def draw_rotor_inputs(U: np.ndarray, f_max: float = 1.0, ax: Axes | None = None)
     if U.ndim != 2 or U.size == 0:
         raise ValueError(f"U must have shape (t, m) with t, m >= 1, got {np.shape(U)}")
     f_max = check_f_max(f_max)
-    ax = ax if ax is not None else _new_axes(figsize=(7.0, 3.5))
+    ax = ax if ax is not None else new_axes(figsize=(7.0, 3.5))
     idx = np.arange(1, U.shape[0] + 1)
     for k in range(U.shape[1]):
         ax.plot(idx, U[:, k], lw=1.0, marker="." if U.shape[0] < 3 else None)
@@ -332,8 +245,38 @@ def top_view_inches(structure: Structure) -> tuple[float, float]:
 
 LAYOUTS = ("row", "grid")
 """How a figure with a task arranges its three views: ``row`` side by side (a wide figure for a
-screen), ``grid`` the top view above the two projections (about 8 inches wide: readable where a
-page shows it 700 pixels wide, as the documentation does)."""
+screen; beside a top view at least two projections tall, the projections stacked in a column
+that fills its height), ``grid`` the top view above the two projections (about 8 inches wide:
+readable where a page shows it 700 pixels wide, as the documentation does)."""
+
+PROJECTION_INCHES = (4.6, 6.0)
+"""Least and most side of a projection's axes in the row layout, in inches: they grow with the
+top view's height, so a large structure's projections are not small beside it."""
+
+
+def _figure_with_task(w: float, h: float, layout: str):
+    """The figure (of the sizes of :func:`save_structure_figure`) and the grid cells of its top
+    view, force and torque projections for a top view of ``w`` x ``h`` inches."""
+    from matplotlib.figure import Figure
+
+    legend, label = 2.0, 0.8  # inches: the legend beside the top view, the axis labels
+    top_w, top_h = w + legend + label, h + label
+    if layout == "grid":
+        projection = 4.0  # two side by side: 8 inches, 960 px at 120 dpi
+        fig = Figure(figsize=(max(top_w, 2 * projection), top_h + projection + 1.0),
+                     layout="constrained")  # fmt: skip
+        grid = fig.add_gridspec(2, 2, height_ratios=[top_h, projection])
+        return fig, (grid[0, :], grid[1, 0], grid[1, 1])
+    least, most = PROJECTION_INCHES
+    if top_h >= 2 * least:  # a tall top view: the projections one above the other beside it
+        side = min(top_h / 2, most)
+        fig = Figure(figsize=(top_w + side, max(top_h, 2 * side) + 0.6), layout="constrained")
+        grid = fig.add_gridspec(2, 2, width_ratios=[top_w, side])
+        return fig, (grid[:, 0], grid[0, 1], grid[1, 1])
+    side = min(max(top_h, least), most)
+    fig = Figure(figsize=(top_w + 2 * side, max(top_h, side) + 0.6), layout="constrained")
+    grid = fig.add_gridspec(1, 3, width_ratios=[top_w, side, side])
+    return fig, (grid[0], grid[1], grid[2])
 
 
 def save_structure_figure(
@@ -344,9 +287,10 @@ def save_structure_figure(
     layout: str = "row",
 ) -> str:
     """Save a PNG with the top view (sized with the structure: :func:`top_view_inches`) and, if
-    ``task`` (a TaskRequirement or (t, 6) wrenches) is given, the force and torque projections
-    of the feasible set with the task's wrenches beside it (6-D feasibility of the rotor
-    wrenches: an ``external`` task's plus the structure's weight), arranged as ``layout``
+    ``task`` (a TaskRequirement, a DynamicTask or (t, 6) wrenches) is given, the force and
+    torque projections of the feasible set with the task's wrenches beside it (6-D
+    feasibility of the rotor wrenches: an ``external`` task's plus the structure's weight, a
+    dynamic task's for the structure's mass and inertia), arranged as ``layout``
     (:data:`LAYOUTS`). Returns the path."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -356,24 +300,13 @@ def save_structure_figure(
     s = check_structure(structure)
     check_drawable(s)
     w, h = top_view_inches(s)
-    legend, label, projection = 2.0, 0.8, 4.6  # inches: the legend beside, the axis labels
     if task is None:
-        fig = Figure(figsize=(w + legend + label, h + label), layout="constrained")
+        fig = Figure(figsize=(w + 2.8, h + 0.8), layout="constrained")  # legend, axis labels
         FigureCanvasAgg(fig)
         draw_structure(s, ax=fig.add_subplot(1, 1, 1))
         save_figure(fig, os.fspath(path), dpi=dpi)
         return os.fspath(path)
-    if layout == "row":
-        height = max(h + label, projection) + 0.6  # the title above
-        fig = Figure(figsize=(w + legend + label + 2 * projection, height), layout="constrained")
-        grid = fig.add_gridspec(1, 3, width_ratios=[w + legend + label, projection, projection])
-        cells = grid[0], grid[1], grid[2]
-    else:
-        projection = 4.0  # two side by side: 8 inches, 960 px at 120 dpi
-        width = max(w + legend + label, 2 * projection)
-        fig = Figure(figsize=(width, h + label + projection + 1.0), layout="constrained")
-        grid = fig.add_gridspec(2, 2, height_ratios=[h + label, projection])
-        cells = grid[0, :], grid[1, 0], grid[1, 1]
+    fig, cells = _figure_with_task(w, h, layout)
     FigureCanvasAgg(fig)
     top = draw_structure(s, ax=fig.add_subplot(cells[0]))
     top.set_anchor("N")  # a wide structure's top view under its title, x label in the figure
@@ -381,7 +314,7 @@ def save_structure_figure(
         ax = fig.add_subplot(cells[1 + i], projection="3d")
         draw_projection(s, space, ax=ax, task=task)
         ax.set_anchor("N")
-    width = TITLE_WIDTH if layout == "row" else int(TITLE_WIDTH * fig.get_figwidth() / 15)
+    width = min(TITLE_WIDTH, int(TITLE_WIDTH * fig.get_figwidth() / 15))
     fig.suptitle(figure_title(getattr(task, "name", None), width))
     save_figure(fig, os.fspath(path), dpi=dpi)
     return os.fspath(path)

@@ -31,6 +31,7 @@ from modquad_gym.viz.zonotope import (
     SPACES,
     drawn_vertices,
     hull_faces,
+    marked_up,
     task_wrenches,
     units,
 )
@@ -144,7 +145,7 @@ def structure_figure(structure: Structure, task=None, f_max: float = 1.0):
 
     s = check_structure(structure)
     f_max = float(getattr(task, "f_max", f_max))
-    force_unit, torque_unit = units(task, f_max)
+    force_unit, torque_unit = (marked_up(u, "html") for u in units(task, f_max))
     fig = make_subplots(
         rows=1, cols=3, specs=[[{"type": "scene"}] * 3], horizontal_spacing=0.02,
         subplot_titles=(
@@ -158,7 +159,8 @@ def structure_figure(structure: Structure, task=None, f_max: float = 1.0):
     for col, space in ((2, "force"), (3, "torque")):
         for trace in projection_traces(s, space, task, f_max):
             fig.add_trace(trace, row=1, col=col)
-    axes = {"force": ("f_x", "f_y", "f_z"), "torque": ("τ_x", "τ_y", "τ_z")}
+    axes = {space: tuple(f"{'f' if space == 'force' else 'τ'}<sub>{a}</sub>" for a in "xyz")
+            for space in ("force", "torque")}  # fmt: skip
     fig.update_layout(
         scene=_structure_scene(s),
         scene2=_projection_scene(axes["force"], force_unit),
@@ -176,9 +178,26 @@ x and y ticks together): far enough that the axis titles stay inside a third of 
 
 
 def _projection_scene(names: tuple[str, str, str], unit: str) -> dict:
-    """Axes of a projection view: titled with units, seen from :data:`PROJECTION_EYE`."""
-    titles = {f"{a}axis_title": f"{n} [{unit}]" for a, n in zip("xyz", names)}
-    return {**titles, "aspectmode": "cube", "camera": {"eye": PROJECTION_EYE}}
+    """Axes of a projection view: titled with units, at most :data:`PROJECTION_TICKS` ticks
+    each (plotly's own choice of nine ran into each other), seen from :data:`PROJECTION_EYE`."""
+    axes = {f"{a}axis": {"title": f"{n} [{unit}]", "nticks": PROJECTION_TICKS}
+            for a, n in zip("xyz", names)}  # fmt: skip
+    return {**axes, "aspectmode": "cube", "camera": {"eye": PROJECTION_EYE}}
+
+
+PROJECTION_TICKS = 6
+"""Most ticks on an axis of a projection view."""
+
+
+TICKS_PER_VIEW = 7
+"""Most ticks along the longest axis of the structure view; a shorter axis gets fewer, in
+proportion to its drawn length (plotly's 3-D axes choose ticks by range, not length, and a
+10 m x 3.6 m structure's y labels ran into each other)."""
+
+
+def _ticks(ratio: float) -> int:
+    """Most ticks of a structure-view axis drawn ``ratio`` times the longest one's length."""
+    return max(2, round(TICKS_PER_VIEW * float(ratio)))
 
 
 def _structure_scene(s: Structure) -> dict:
@@ -186,11 +205,15 @@ def _structure_scene(s: Structure) -> dict:
     lo = s.module_centres.min(axis=0) - s.side
     hi = s.module_centres.max(axis=0) + s.side
     lo[2], hi[2] = -s.side, s.side
-    span = hi - lo
+    ratio = (hi - lo) / (hi - lo).max()
+    axes = {
+        f"{a}axis": {"range": [lo[i], hi[i]], "title": f"{a} [m]", "nticks": _ticks(ratio[i])}
+        for i, a in enumerate("xyz")
+    }
     return {
         "aspectmode": "manual",
-        "aspectratio": dict(zip("xyz", span / span.max())),
-        **{f"{a}axis": {"range": [lo[i], hi[i]], "title": f"{a} [m]"} for i, a in enumerate("xyz")},
+        "aspectratio": dict(zip("xyz", ratio)),
+        **axes,
         "camera": {"eye": {"x": 1.1, "y": -1.6, "z": 1.1}},  # the axis titles inside the view
     }
 
@@ -207,8 +230,14 @@ def structure_page(structure: Structure, task=None, f_max: float = 1.0) -> str:
         "torque space. A task wrench is green when the structure can exert the whole 6-D wrench "
         "and red when not, so a red point may lie inside both projections."
     )
-    if task is not None and getattr(task, "kind", "total") == "external":
+    kind = getattr(task, "kind", "total") if task is not None else "total"
+    if kind == "external":
         note += " The task is external: the points are its wrenches plus the structure's weight."
+    elif kind == "dynamic":
+        note += (
+            " The task is dynamic: the points are the wrenches along its trajectory for this "
+            "structure's mass and inertia."
+        )
     body = _plot_html(fig, config={"displaylogo": False, "responsive": True})
     cells = html.escape(", ".join(f"({x}, {y})" for x, y in s.cells))
     types = html.escape(", ".join(m.name for m in s.modules))
@@ -231,9 +260,25 @@ _LOADER = """<div id="figure" style="height: {height}px; width: 100%"></div>
   plotly.text = await new Response(stream).text();
   document.head.appendChild(plotly);
   const fig = JSON.parse(document.getElementById("figure-data").textContent);
-  Plotly.newPlot("figure", fig.data, fig.layout, {config});
+  const box = document.getElementById("figure");
+  const fit = () => {{  // the box's height from its width; the views fill the box
+    const height = Math.min({height}, Math.max({least}, {per_width} * box.clientWidth + {margins}));
+    box.style.height = Math.round(height) + "px";
+  }};
+  fit();
+  delete fig.layout.height;
+  await Plotly.newPlot(box, fig.data, fig.layout, {config});
+  window.addEventListener("resize", () => {{ fit(); Plotly.Plots.resize(box); }});
 }})();
 </script>"""
+
+HEIGHT_PER_WIDTH = 0.31
+"""Height of the views' row per pixel of the page's width: a 3-D view fills its height, so one
+taller than its third of the width is cut at the sides (the z axis titles at 1400 px, whole
+views at 1000 px); the page sets its height from its width, at load and on resizing."""
+
+LEAST_HEIGHT = 320
+"""Least height in pixels of the views (a narrow window scrolls rather than shrink them more)."""
 
 
 @lru_cache(maxsize=1)
@@ -247,12 +292,15 @@ def _packed_plotlyjs() -> str:
 def _plot_html(fig, config: dict) -> str:
     """The figure and plotly.js in one block of HTML: plotly.js travels gzipped and the
     browser unpacks it (``DecompressionStream``, in every current browser), so the page stays
-    self-contained at less than half the size of plotly's own inline copy."""
+    self-contained at less than half the size of plotly's own inline copy. The views' height
+    follows the page's width (:data:`HEIGHT_PER_WIDTH`), at most the figure's own."""
     figure = fig.to_json().replace("</", "<\\/")  # nothing in the data closes the <script>
     height = fig.layout.height or 620
+    margins = fig.layout.margin.t + fig.layout.margin.b
     return _LOADER.format(
-        height=height, figure=figure, packed=_packed_plotlyjs(), config=json.dumps(config)
-    )
+        height=height, least=LEAST_HEIGHT, per_width=HEIGHT_PER_WIDTH, margins=margins,
+        figure=figure, packed=_packed_plotlyjs(), config=json.dumps(config),
+    )  # fmt: skip
 
 
 def structure_summary(structure: Structure) -> str:
