@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import bench_args, report_page, run_main, write_csv
+from modquad_gym.cli.common import N_MAX_OPTION
+from modquad_gym.core.options import real_option
 from modquad_gym.core.outputs import write_text
 
 OUTPUTS = ("report.md", "dynamics.csv", "modules_vs_speed.png")
@@ -198,7 +200,7 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    speeds = dict(type=float, nargs="*")
+    speeds = dict(type=real_option, nargs="*")
     options = {
         "--circle-speeds": dict(**speeds, default=[1.0, 1.5, 1.75, 2.0, 2.1, 2.2],
                                 help="circle cruise speeds, m/s (default 1 1.5 1.75 2 2.1 2.2)"),
@@ -206,7 +208,7 @@ def main(argv: list[str] | None = None) -> None:
                                help="figure-eight peak speeds, m/s (default 1 1.5 2 2.5)"),
         "--push-forces": dict(**speeds, default=[1.0, 2.0, 4.0, 6.0, 8.0],
                               help="push contact forces, N (default 1 2 4 6 8)"),
-        "--n-max": dict(type=int, default=8, help="module budget (default 8)"),
+        "--n-max": dict(type=N_MAX_OPTION, default=8, help="module budget (default 8)"),
     }  # fmt: skip
     args = bench_args(
         argv,

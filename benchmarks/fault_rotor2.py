@@ -26,6 +26,8 @@ import numpy as np
 
 import modquad_gym as mq
 from benchmarks.common import bench_args, made_by, markdown_table, run_main, write_csv, write_text
+from modquad_gym.cli.common import N_MAX_OPTION, time_limit_option
+from modquad_gym.core.options import int_option
 from modquad_gym.oracle import Zonotope
 from modquad_gym.oracle.fault_kernels import PATHS
 from modquad_gym.oracle.faults import FaultTolerance, failure_sets
@@ -135,12 +137,14 @@ def report(rows: list[dict], speed: list[dict], command: str, repeats: int) -> s
 
 def main(argv: list[str] | None = None) -> int:
     args = bench_args(argv, "python -m benchmarks.fault_rotor2", __doc__.split("\n\n")[0], {
-        "--per-suite": {"type": int, "default": 10, "help": "tasks per suite (default 10)"},
-        "--n-max": {"type": int, "default": 12, "help": "module budget (default 12)"},
-        "--time-limit": {"type": float, "default": 30.0, "help": "seconds per search (30)"},
+        "--per-suite": {"type": int_option(1), "default": 10, "help": "tasks per suite (10)"},
+        "--n-max": {"type": N_MAX_OPTION, "default": 12, "help": "module budget (default 12)"},
+        "--time-limit": {"type": time_limit_option, "default": 30.0,
+                         "help": "seconds per search (30)"},
         "--suites": {"nargs": "+", "choices": SUITES, "default": list(SUITES),
                      "help": "suites to run (the others' rows in --out are kept)"},
-        "--repeats": {"type": int, "default": 15, "help": "timings per decision (best of)"},
+        "--repeats": {"type": int_option(1), "default": 15,
+                      "help": "timings per decision (best of)"},
         "--oracle-only": {"action": "store_true", "help": "only the rate; keep minima.csv"},
     }, seed_help=None, out="results/faults/rotor2",
         outputs=("report.md", "minima.csv", "oracle.csv"))  # fmt: skip

@@ -41,6 +41,8 @@ from benchmarks.faults_measure import (
     write_csv,
 )
 from benchmarks.faults_report import plot, report
+from modquad_gym.cli.common import N_MAX_OPTION, time_limit_option
+from modquad_gym.core.options import int_option, real_option
 from modquad_gym.core.outputs import OutputError, check_output_dir
 
 OUTPUTS = ("report.md", "faults.csv", "oracle.csv", "price.png")
@@ -52,28 +54,30 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--suites", nargs="+", choices=SUITES, default=list(SUITES),
                         help="suites (default all four)")  # fmt: skip
-    parser.add_argument("--per-suite", type=int, default=10, help="tasks per suite (default 10)")
+    parser.add_argument("--per-suite", type=int_option(1), default=10,
+                        help="tasks per suite (default 10)")  # fmt: skip
     parser.add_argument(
         "--skip",
-        type=int,
+        type=int_option(0),
         default=0,
         help="leave out the first SKIP of them (a run that continues another)",
     )
     parser.add_argument("--designs", nargs="+", choices=list(DESIGNS), default=list(DESIGNS),
                         help="designs (default all)")  # fmt: skip
-    parser.add_argument("--n-max", type=int, default=12, help="module budget (default 12)")
-    parser.add_argument("--time-limit", type=float, default=10.0,
+    parser.add_argument("--n-max", type=N_MAX_OPTION, default=12,
+                        help="module budget (default 12)")  # fmt: skip
+    parser.add_argument("--time-limit", type=time_limit_option, default=10.0,
                         help="seconds per search (default 10)")  # fmt: skip
     parser.add_argument(
         "--rotor2-time-limit",
-        type=float,
+        type=time_limit_option,
         default=30.0,
         help="seconds per two-rotor search (default 30: the issue's goal)",
     )
     parser.add_argument("--fly", action="store_true", help="fly the fault designs in MuJoCo")
     parser.add_argument(
         "--intact-seconds",
-        type=float,
+        type=real_option,
         default=60.0,
         help="seconds of the intact hover with the detector (default 60)",
     )
@@ -88,17 +92,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("results/faults"))
     add_force(parser)
     args = parser.parse_args(argv)
-    limits = (args.time_limit, args.rotor2_time_limit)
-    if (
-        not 0 <= args.skip < args.per_suite
-        or args.n_max < 1
-        or not all(0 < t <= 3600 for t in limits)
-    ):
-        parser.error(
-            "--n-max must be >= 1, --skip in [0, --per-suite), the time limits in (0, 3600]"
-        )
+    if args.skip >= args.per_suite:
+        parser.error(f"--skip must be below --per-suite ({args.per_suite}), got {args.skip}")
     if not 0 < args.intact_seconds <= 3600:
-        parser.error("--intact-seconds must lie in (0, 3600]")
+        parser.error(f"--intact-seconds must lie in (0, 3600], got {args.intact_seconds:g}")
     if args.oracle_only and args.fly:
         parser.error("--oracle-only rewrites the report from the rows in --out without "
                      "searching or flying; leave out --fly")  # fmt: skip

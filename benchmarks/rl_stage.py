@@ -76,6 +76,8 @@ def read_run(run: Path) -> tuple[dict, dict]:
         config = json.loads((run / "config.json").read_text())
     except (OSError, ValueError) as exc:
         raise ValueError(f"RUN {run}: config.json unreadable ({one_line(exc)})") from None
+    if not zipfile.is_zipfile(run / "evaluations.npz"):  # np.load would ask to unpickle it
+        raise ValueError(f"RUN {run}: evaluations.npz is not an .npz archive (train.py's)")
     try:
         with np.load(run / "evaluations.npz", allow_pickle=False) as npz:
             data = {k: npz[k] for k in npz.files}

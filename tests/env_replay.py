@@ -16,7 +16,7 @@ import gymnasium as gym
 import numpy as np
 
 import modquad_gym  # noqa: F401  (registers the environments)
-from modquad_gym.tasks import PaperTasks, PlantedTasks, TaskRequirement
+from modquad_gym.tasks import PaperTasks, PlantedTasks, TaskRequirement, make_generator
 
 DATA = Path(__file__).parent / "data" / "env_replay.npz"
 STEPS = 120
@@ -38,7 +38,9 @@ CONFIGS: dict[str, dict] = {
     "planted_terminate": {"tasks": "planted", "invalid_action": "terminate"},
     "screwdriver_lookahead": {"tasks": "screwdriver", "lookahead": True, "n_max": 6},
     "weights_fmax": {"reward_weights": {"w_module": 0.3}, "f_max": 3.0, "tasks": "paper"},
-    "mixed_modules": {"modules": "t45,t45m,flat", "n_max": 5},
+    # the source itself, not the name "mixed": at n_max 5 the name caps its planted sizes (2-6)
+    # at 5, and the recording was made before that cap (its sources' draws at their own sizes)
+    "mixed_modules": {"modules": "t45,t45m,flat", "n_max": 5, "tasks": make_generator("mixed")},
     "fixed_list": {"tasks": _FIXED, "lookahead": True},
     "external_modules": {"modules": "t45,flat", "tasks": _external, "n_max": 5},
     "mixed_modules_lookahead": {"modules": "t45,flat", "lookahead": True, "initial_type": "random"},

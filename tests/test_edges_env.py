@@ -193,3 +193,118 @@ def test_reward_threshold_is_the_return_every_success_reaches():
         if info["success"]:
             returns.append(total)
     assert len(returns) >= 5 and min(returns) >= env.spec.reward_threshold - 1e-12
+
+
+# --- planted sizes follow n_max ---------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("env_id", "n_max"),
+    [
+        ("ModQuadAssemblyPlanted-v0", 3),
+        ("ModQuadAssemblyLarge-v0", 8),
+        ("ModQuadAssemblyScale-v0", 7),
+        ("ModQuadAssemblyMixed-v1", 2),
+        ("ModQuadAssembly-v0", 3),
+    ],
+)
+def test_planted_tasks_have_a_solution_within_a_smaller_n_max(env_id, n_max):
+    from modquad_gym.oracle import feasible
+    from modquad_gym.tasks.generators import planted_structure
+
+    env = gym.make(env_id, n_max=n_max).unwrapped
+    sizes = set()
+    for seed in range(6):
+        env.reset(seed=seed)
+        bound = env.task.meta.get("optimum_upper_bound")
+        if bound is None:  # a paper task of the mixed source
+            continue
+        sizes.add(bound)
+        hidden = planted_structure(env.task) if env.n_types == 1 else None
+        if hidden is not None:  # the hidden structure solves it, within n_max
+            A, W = hidden.configuration_matrix(), env.task.wrenches
+            assert feasible(A, W, f_max=env.task.f_max).all()
+    assert sizes and max(sizes) <= n_max, sizes
+
+
+def test_default_ids_draw_the_same_episodes_as_before_the_cap():
+    """At their registered n_max the ids' named sources are left as they are: the first
+    episodes equal those of an env given the uncapped source itself."""
+    from modquad_gym.envs import ENV_IDS
+    from modquad_gym.tasks import NAMED_GENERATORS
+
+    for env_id, kwargs in ENV_IDS.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # Mixed-v0 is deprecated
+            env = gym.make(env_id).unwrapped
+        uncapped = NAMED_GENERATORS[kwargs.get("tasks", "mixed")]()
+        assert env.generator == uncapped, env_id
+        rest = {k: v for k, v in kwargs.items() if k != "tasks"}
+        before = type(env)(tasks=uncapped, **rest)
+        for seed in range(2):
+            rng = np.random.default_rng(seed)
+            (a, _), (b, _) = env.reset(seed=seed), before.reset(seed=seed)
+            for _ in range(4):
+                assert all(np.array_equal(a[k], b[k]) for k in a), (env_id, seed)
+                act = int(rng.choice(np.flatnonzero(env.action_masks())))
+                a, ra, done, _, _ = env.step(act)
+                b, rb, _, _, _ = before.step(act)
+                assert ra == rb, (env_id, seed)
+                if done:
+                    break
+
+
+# --- reset options ---------------------------------------------------------------------------
+def test_unknown_reset_options_name_every_known_one():
+    env = gym.make("ModQuadAssembly-v0", modules="t45,flat").unwrapped
+    with pytest.raises(ValueError, match=r"\['foo'\]; known: \['task', 'initial_type'\]"):
+        env.reset(seed=0, options={"foo": 1})
+    assert env.reset(seed=0, options={"initial_type": 1})[1]["modules"] == ["flat"]
+    with pytest.raises(ValueError, match=r"\['initial_type'\]; known: \['task'\]$"):
+        gym.make("ModQuadAssembly-v0").reset(seed=0, options={"initial_type": 0})
+
+
+@pytest.mark.parametrize(
+    "options",
+    [{"foo": 1}, {"initial_type": 5}, {"task": "paper"}, {"task": np.zeros((2, 5))}],
+)
+def test_a_failed_reset_leaves_the_env_as_it_was(options):
+    env = gym.make("ModQuadAssembly-v0", modules="t45,flat").unwrapped
+    same = gym.make("ModQuadAssembly-v0", modules="t45,flat").unwrapped
+    for e in (env, same):
+        e.reset(seed=0)
+        e.step(e.action_of((1, 0)))
+    with pytest.raises(ValueError):
+        env.reset(seed=5, options=options)
+    # the old episode goes on, and the generator was not reseeded
+    assert env.np_random.bit_generator.state == same.np_random.bit_generator.state
+    a, b = env.step(env.action_of((2, 0))), same.step(same.action_of((2, 0)))
+    assert a[4]["cells"] == b[4]["cells"] == [[0, 0], [1, 0], [2, 0]]
+    assert all(np.array_equal(a[0][k], b[0][k]) for k in a[0])
+
+
+def test_a_task_source_that_fails_ends_the_episode():
+    from gymnasium.error import ResetNeeded
+
+    draws = iter([np.array([[0.0, 0.0, 2.0, 0.0, 0.0, 0.0]]), "junk"])
+    env = gym.make("ModQuadAssembly-v0", tasks=lambda rng: next(draws)).unwrapped
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="returned str"):
+        env.reset(seed=1)
+    with pytest.raises(ResetNeeded, match="call reset"):
+        env.step(0)
+
+
+# --- NearestValidAction on the faces encoding, max_steps' documented limit --------------------
+def test_nearest_valid_action_refuses_the_faces_encoding_in_one_line():
+    with pytest.raises(ValueError, match="NearestValidAction needs .*actions='grid', got "
+                       "actions='faces'"):  # fmt: skip
+        NearestValidAction(gym.make("ModQuadAssemblyScale-v0"))
+
+
+def test_max_steps_limit_is_the_documented_one():
+    from modquad_gym.envs import ModQuadAssemblyEnv
+    from modquad_gym.envs.assembly.env import MAX_STEPS_LIMIT
+
+    assert f"n_max - 1 to {MAX_STEPS_LIMIT}" in " ".join(ModQuadAssemblyEnv.__doc__.split())
+    assert gym.make("ModQuadAssembly-v0", max_steps=MAX_STEPS_LIMIT).spec.max_episode_steps == 512
+    with pytest.raises(ValueError, match="max_steps must be <= 512"):
+        gym.make("ModQuadAssembly-v0", max_steps=MAX_STEPS_LIMIT + 1)

@@ -316,6 +316,28 @@ def test_milp_refuses_bad_options_before_work(tmp_path, capsys, argv, match):
     assert not (tmp_path / "m").exists()
 
 
+@pytest.mark.parametrize(
+    "script, argv, match",
+    [
+        ("faults", ["--n-max", "0"], "argument --n-max: must be in 1.."),
+        ("faults", ["--time-limit", "nan"], "argument --time-limit: expected a finite number"),
+        ("faults", ["--rotor2-time-limit", "-1"], "argument --rotor2-time-limit: must lie in"),
+        ("faults", ["--intact-seconds", "0"], "--intact-seconds must lie in (0, 3600], got 0"),
+        ("faults", ["--skip", "3", "--per-suite", "3"], "--skip must be below --per-suite (3)"),
+        ("fault_rotor2", ["--n-max", "0"], "argument --n-max: must be in 1.."),
+        ("fault_rotor2", ["--time-limit", "nan"], "argument --time-limit: expected a finite"),
+        ("dynamics", ["--n-max", "0"], "argument --n-max: must be in 1.."),
+        ("dynamics", ["--push-forces", "nan"], "argument --push-forces: expected a finite"),
+    ],
+)
+def test_fault_and_dynamics_benchmarks_name_the_bad_option(tmp_path, capsys, script, argv, match):
+    import importlib
+
+    main = importlib.import_module(f"benchmarks.{script}").main
+    _exits_2(capsys, main, [*argv, "--out", str(tmp_path / "o")], match)
+    assert not (tmp_path / "o").exists()
+
+
 def test_reports_are_replaced_only_with_force(tmp_path, capsys):
     from benchmarks import faults, leaderboard, milp, scale_suites, startup
 

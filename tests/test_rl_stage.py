@@ -308,7 +308,9 @@ def test_the_rl_stage_report_refuses_a_bad_run_before_any_held_out_pass(tmp_path
            "names tier 'nope'": make_run("d", tier="nope"),
            "lacks timesteps and results, optimal": make_run("e"),
            "is no evaluation's step": make_run("f", kept_model_timesteps=150),
-           "its cloned start": make_run("g", cloned_model=str(tmp_path / "gone.zip"))}  # fmt: skip
+           "its cloned start": make_run("g", cloned_model=str(tmp_path / "gone.zip")),
+           "evaluations.npz is not an .npz archive": make_run("h")}  # fmt: skip
+    (bad["evaluations.npz is not an .npz archive"] / "evaluations.npz").write_text("garbage")
     (bad["no evaluations.npz"] / "evaluations.npz").unlink()
     (bad["config.json unreadable"] / "config.json").write_text("{not json")
     config = json.loads(

@@ -459,3 +459,23 @@ def test_random_cells_grow_as_the_plain_rule_does(seed, n):
         free = free_neighbours(plain)
         plain.append(free[int(rng.integers(len(free)))])
     assert random_cells(np.random.default_rng(seed), n) == plain
+
+
+def test_named_sources_plant_within_n_max_and_fit_ones_are_left_as_they_are():
+    from modquad_gym.tasks import PlantedMixedTasks
+    from modquad_gym.tasks.specs import sizes_within
+
+    scale = make_generator("planted-16-64", n_max=20)
+    assert scale.n_modules == (16, 20) and scale.name == "planted-16-64"
+    assert make_generator("planted-16-64", n_max=7).n_modules == (7, 7)
+    mixed = make_generator(["mixed", "planted-mixed-external"], n_max=2)
+    inner = [g for m in mixed.generators for g in getattr(m, "generators", (m,))]
+    counts = [g.n_modules for g in inner if hasattr(g, "n_modules")]
+    assert counts == [(2, 2), (2, 2)]
+    rng = np.random.default_rng(0)
+    assert all(mixed(rng).meta.get("optimum_upper_bound", 2) <= 2 for _ in range(8))
+    # sizes that fit: the very same generator (the same draws), named or not
+    for gen in (PlantedTasks(), MixedTasks((PlantedTasks(), PaperTasks())), PlantedMixedTasks()):
+        assert sizes_within(gen, 7) is gen
+    assert make_generator("planted", n_max=7) == make_generator("planted")
+    assert sizes_within(PlantedTasks(n_modules=9), 7).n_modules == (7, 7)

@@ -8,7 +8,8 @@ soon as it is imported (so importing the package loads neither Gymnasium nor num
   of its constructor accepted by ``gym.make``.
 * ``ModQuadAssemblyPaper-v0``: the same with ``tasks="paper"`` (the paper's random tasks).
 * ``ModQuadAssemblyPlanted-v0``: the same with ``tasks="planted"`` (tasks planted from a
-  random structure, so a solution within n_max is known to exist).
+  random structure, so a solution within n_max is known to exist; ``gym.make(id, n_max=N)``
+  caps every id's planted sizes at N: :func:`~modquad_gym.tasks.make_generator`).
 * ``ModQuadAssemblyMixed-v1``: the same with ``modules="t45,t45m,flat"``: three module types,
   (cell, type) actions (:class:`~modquad_gym.envs.assembly.modules.Palette`), and
   ``tasks="planted-mixed-external"``: the mixed tier's tasks (self-weight tasks planted in

@@ -48,11 +48,19 @@ class NearestValidAction(gym.Wrapper, gym.utils.RecordConstructorArgs):
     ``info["requested_action"]`` and ``info["applied_action"]`` say what was asked and done.
     When no action is valid (the episode is over, or one module already satisfies the task),
     the action passes through unchanged and the environment ends the episode as documented.
+    It wraps the grid encoding only (``actions="grid"``: a cell per action); another env, or
+    ``actions="faces"`` (``ModQuadAssemblyScale-v0``), is a ValueError.
     """
 
     def __init__(self, env: gym.Env) -> None:
         gym.utils.RecordConstructorArgs.__init__(self)
         gym.Wrapper.__init__(self, env)
+        actions = getattr(env.unwrapped, "actions", None)
+        if actions != "grid":  # the faces encoding has no fixed cell per action
+            raise ValueError(
+                f"NearestValidAction needs an assembly env with actions='grid', got "
+                f"actions={actions!r} ({env.unwrapped})"
+            )
         grid = env.unwrapped.grid
         index = np.arange(grid.n_actions)
         y, x = np.divmod(index % grid.n_cells, grid.side)

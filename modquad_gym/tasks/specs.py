@@ -4,6 +4,7 @@ generator."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Callable
 from typing import Any
@@ -45,7 +46,7 @@ GENERATORS = tuple(NAMED_GENERATORS)
 """Names understood by :func:`make_generator`."""
 
 
-def make_generator(spec: Any) -> TaskGenerator:
+def make_generator(spec: Any, n_max: int | None = None) -> TaskGenerator:
     """A task generator from a spec:
 
     * ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"`` (planted and paper, equal odds);
@@ -68,6 +69,10 @@ def make_generator(spec: Any) -> TaskGenerator:
       over tasks); if any element is a random generator, a :class:`MixedTasks` (uniform over
       elements).
 
+    With ``n_max`` (the environment's), a named source draws its planted sizes within n_max
+    (``sizes_within``), so a planted task always has a solution within n_max; a source
+    whose sizes already fit (every registered id's at its default n_max) is left as it is.
+
     Raises ValueError naming the spec (TaskFileError for a bad file).
     """
     if isinstance(spec, (TaskRequirement, DynamicTask)):
@@ -75,7 +80,7 @@ def make_generator(spec: Any) -> TaskGenerator:
     if isinstance(spec, (list, tuple)):
         if not spec:
             raise ValueError("an empty list is not a task spec")
-        gens = [make_generator(s) for s in spec]
+        gens = [make_generator(s, n_max) for s in spec]
         if all(isinstance(g, FixedTasks) for g in gens):
             pooled = tuple(t for g in gens for t in g.tasks)  # type: ignore[attr-defined]
             return FixedTasks(pooled, name="+".join(g.name for g in gens))
@@ -83,7 +88,8 @@ def make_generator(spec: Any) -> TaskGenerator:
     if isinstance(spec, (str, os.PathLike)):
         key = os.fspath(spec)
         if key in NAMED_GENERATORS:
-            return NAMED_GENERATORS[key]()
+            gen = NAMED_GENERATORS[key]()
+            return gen if n_max is None else sizes_within(gen, n_max)
         path = resolve_task_path(key)  # example:NAME -> the shipped file (else ValueError)
         if path.is_file():
             if path.suffix.lower() == ".json" and "tasks" in json_keys(path):
@@ -107,6 +113,23 @@ def make_generator(spec: Any) -> TaskGenerator:
         f"({', '.join(GENERATORS)}), a task file, a TaskRequirement, a DynamicTask, a "
         f"generator (any callable gen(rng) -> TaskRequirement) or a list"
     )
+
+
+def sizes_within(gen: TaskGenerator, n_max: int) -> TaskGenerator:
+    """``gen`` with its planted sizes drawn within [min(lo, n_max), min(hi, n_max)] (a
+    :class:`PlantedTasks` or :class:`PlantedMixedTasks`, also inside a :class:`MixedTasks`), so
+    the hidden structure, a solution, has at most n_max modules; ``gen`` itself when its sizes
+    already fit (the same draws, the same tasks)."""
+    if isinstance(gen, MixedTasks):
+        parts = tuple(sizes_within(g, n_max) for g in gen.generators)
+        same = all(a is b for a, b in zip(parts, gen.generators))
+        return gen if same else dataclasses.replace(gen, generators=parts)
+    if isinstance(gen, (PlantedTasks, PlantedMixedTasks)):
+        count = gen.n_modules
+        lo, hi = (count, count) if isinstance(count, (int, np.integer)) else count
+        if hi > n_max:
+            return dataclasses.replace(gen, n_modules=(min(lo, n_max), n_max))
+    return gen
 
 
 class CallableTasks:

@@ -148,7 +148,8 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
       wrenches, :mod:`.dynamic`), a list of them, or a generator: any callable ``gen(rng) ->
       TaskRequirement`` (or DynamicTask, or (t, 6) wrench array), called with
       ``self.np_random`` at each reset (another result: ValueError); see
-      :func:`modquad_gym.tasks.make_generator`.
+      :func:`modquad_gym.tasks.make_generator`. A named source plants its tasks in at most
+      n_max modules (``ModQuadAssemblyScale-v0`` at n_max=20: 16-20): a solution exists.
     * ``task``: one task instead of ``tasks`` (a task file, ``"example:NAME"``, a
       TaskRequirement or a DynamicTask); a family of tasks or a suite is refused with a
       ValueError that names ``tasks=``.
@@ -168,7 +169,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     * ``reward``: any :class:`~.reward.RewardFn` (default :class:`~.reward.WeightedReward`).
     * ``viewer``: an :class:`~.viewer.AssemblyViewer` whose grid holds the env's (default one).
     * ``invalid_action``: ``"penalise"`` (default) or ``"terminate"``.
-    * ``max_steps``: the step limit for truncation (default 4 * n_max, at most 4 * 64).
+    * ``max_steps``: the step limit for truncation (default 4 * n_max; n_max - 1 to 512 = 4 * 128).
     * ``render_mode``: None, ``"rgb_array"`` (the structure picture, (H, W, 3) uint8),
       ``"human"`` (that picture in a pygame window; the ``viz`` extra) or ``"ansi"`` (a text
       grid). ``gymnasium.wrappers.RecordVideo`` works on ``"rgb_array"`` (needs moviepy).
@@ -234,7 +235,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         check_render_mode(render_mode, self.metadata)
         self.f_max = None if f_max is None else check_f_max(f_max)
         self.task_source = tasks
-        self.generator: Callable[[np.random.Generator], Any] = make_generator(tasks)
+        self.generator: Callable[[np.random.Generator], Any] = make_generator(tasks, self.n_max)
         self.n_directions = check_int(n_directions, "n_directions", 12, MAX_N_DIRECTIONS)
         self.oracle_method = check_oracle_method(oracle_method)
         self.fault = None if fault is None else check_fault(fault)
@@ -357,19 +358,19 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict]:
+        """Gymnasium's reset. Bad ``options`` raise ValueError before the env reseeds, leaving it
+        as it was; a task source that fails to draw ends the episode (``step`` asks for reset)."""
+        options = reset_options(options, self.module_set, self.f_max)  # with its task checked
         super().reset(seed=seed)
-        options = reset_options(options)
-        types = self.module_set.start(options, self.np_random)  # before the task: a random
-        unknown = sorted(set(options) - {"task"})  # initial type follows the seed
-        if unknown:
-            raise ValueError(f"unknown reset options {unknown}; known: ['task']")
-        self_weight = self.module_set.self_weight
-        task = draw_task(self.generator, self.np_random, options.get("task"), self_weight)
+        self._state = self._episode = None
+        types = self.module_set.start(options, self.np_random)  # before the task (the seed)
+        task = options["task"]  # a given task, else one drawn
+        if task is None:
+            task = draw_task(self.generator, self.np_random, self.module_set)
         f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
         evaluator = self._evaluator(f_max)
         memos = self._memos.of(task, f_max)
-        parts = (self.rules, self.encoding, self.module_set, evaluator, *memos)
-        self._episode = Episode(*parts)
+        self._episode = Episode(self.rules, self.encoding, self.module_set, evaluator, *memos)
         arrays = evaluator.task_arrays(task, self.module_set.key(((0, 0),), types))
         self._state = initial_state(self._episode, arrays, types)
         return self._observation(), self._info()

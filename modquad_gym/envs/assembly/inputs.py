@@ -67,14 +67,22 @@ def single_task(task: Any, what: str, named: bool = False) -> TaskRequirement | 
     )
 
 
-def reset_options(options: Any) -> dict:
-    """``reset(options=...)`` as a new dict: a dict or None (Gymnasium's convention), else a
-    ValueError naming ``options``."""
+def reset_options(options: Any, module_set: Any, f_max: float | None) -> dict:
+    """``reset(options=...)`` checked, as a new dict: a dict or None (Gymnasium's convention) of
+    the known keys (``task``, and the module set's: a palette's ``initial_type``), else a
+    ValueError naming the option; ``"task"`` is the given task, checked (:func:`given_task`),
+    or None."""
     if options is None:
-        return {}
+        options = {}
     if not isinstance(options, dict):
         raise ValueError(f"options must be a dict or None, got {options!r:.60}")
-    return dict(options)
+    known = ["task", *module_set.reset_options]
+    unknown = sorted(set(options) - set(known), key=repr)
+    if unknown:
+        raise ValueError(f"unknown reset options {unknown}; known: {known}")
+    options = module_set.check_options(dict(options))
+    options["task"] = given_task(options.get("task"), module_set, f_max)
+    return options
 
 
 def make_viewer(
@@ -195,23 +203,34 @@ def parse_action(action: Any, n: int) -> int | None:
     return a if 0 <= a < n else None
 
 
-def draw_task(
-    generator: Callable[[np.random.Generator], Any],
-    rng: np.random.Generator,
-    given: Any,
-    self_weight: bool,
-) -> TaskRequirement | DynamicTask:
-    """The episode's task: ``given`` (the reset option) or one drawn from ``generator`` with
-    ``rng``; tasks of kind ``external`` only when the env decides ``self_weight``; a
-    :class:`~modquad_gym.dynamics.DynamicTask` always (each structure's own mass and inertia
-    decide it, :mod:`.dynamic`)."""
+def given_task(given: Any, module_set: Any, f_max: float | None) -> Any:
+    """The task of ``reset(options={"task": given})`` (None when not given), checked as
+    :func:`draw_task` checks a drawn one; its f_max in range when the env has none of its own."""
+    if given is None:
+        return None
     if isinstance(given, str) or hasattr(given, "__fspath__"):
         task = single_task(given, "options['task']", named=True)
-    elif given is not None:
-        task = as_task(given, "options['task']")
     else:
-        name = str(getattr(generator, "name", type(generator).__name__))
-        task = as_task(generator(rng), f"task generator {name!r} returned a bad task", name)
+        task = as_task(given, "options['task']")
+    if f_max is None:
+        check_f_max(task.f_max)
+    return check_self_weight(task, module_set.self_weight)
+
+
+def draw_task(
+    generator: Callable[[np.random.Generator], Any], rng: np.random.Generator, module_set: Any
+) -> TaskRequirement | DynamicTask:
+    """The episode's task drawn from ``generator`` with ``rng``; tasks of kind ``external``
+    only when the module set decides self-weight (:func:`check_self_weight`)."""
+    name = str(getattr(generator, "name", type(generator).__name__))
+    task = as_task(generator(rng), f"task generator {name!r} returned a bad task", name)
+    return check_self_weight(task, module_set.self_weight)
+
+
+def check_self_weight(task: Any, self_weight: bool) -> TaskRequirement | DynamicTask:
+    """``task``, when the env can decide it: a task of kind ``external`` only when the env
+    decides ``self_weight``; a :class:`~modquad_gym.dynamics.DynamicTask` always (each
+    structure's own mass and inertia decide it, :mod:`.dynamic`)."""
     shared_weight = task.wrench_model.uses_mass and not task.per_structure
     if shared_weight and not self_weight:  # the palette's masses add the weight
         raise ValueError(

@@ -42,6 +42,7 @@ class OneType:
     n_types = 1
     palette = None
     self_weight = False
+    reset_options: tuple[str, ...] = ()  # the reset options of the module set: none
 
     def __init__(self, module: ModuleType | None = None) -> None:
         if module is not None and not isinstance(module, ModuleType):
@@ -68,6 +69,10 @@ class OneType:
     ) -> StructureEvaluator:
         """A new evaluator for structures of these types."""
         return StructureEvaluator(self.module, n_max, f_max, n_directions, method)
+
+    def check_options(self, options: dict) -> dict:
+        """The reset ``options`` (no key of its own to check)."""
+        return options
 
     def start(self, options: dict, rng: np.random.Generator) -> tuple[int, ...]:
         """The first module's types field: () for one type."""
@@ -98,6 +103,7 @@ class Palette:
     """
 
     self_weight = True
+    reset_options = ("initial_type",)  # reset(options={"initial_type": k}): one episode's start
 
     def __init__(self, modules: Any = None, initial_type: Any = 0) -> None:
         types = palette(modules if modules is not None else ["t45"])
@@ -137,13 +143,20 @@ class Palette:
         """A new evaluator for typed structures of this palette."""
         return MixedStructureEvaluator(self.palette, n_max, f_max, n_directions, method)
 
+    def check_options(self, options: dict) -> dict:
+        """The reset ``options`` with ``initial_type`` checked (a type index, or None: the
+        env's); ValueError naming it otherwise."""
+        if options.get("initial_type") is not None:
+            options["initial_type"] = self.check_type(
+                options["initial_type"], "options['initial_type']"
+            )
+        return options
+
     def start(self, options: dict, rng: np.random.Generator) -> tuple[int, ...]:
-        """The first module's type, as a one-element types field; pops ``initial_type`` from
-        the reset ``options`` (drawn with ``rng`` when ``"random"``)."""
-        start = options.pop("initial_type", None)
-        if start is not None:
-            start = self.check_type(start, "options['initial_type']")
-        else:
+        """The first module's type, as a one-element types field: the checked reset option
+        ``initial_type`` or the env's (drawn with ``rng`` when ``"random"``)."""
+        start = options.get("initial_type")
+        if start is None:
             start = self.initial_type
         if start == "random":
             start = int(rng.integers(self.n_types))
