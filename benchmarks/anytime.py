@@ -171,8 +171,10 @@ def report(rows: list[dict], args: argparse.Namespace) -> str:
         "structure of fewer modules can exert the task's forces). `lower_bound`: what the "
         "search proved (lift, level bounds, levels refuted exactly). `gap_to_planted_pct`: "
         "(found - planted) / planted; negative: smaller than the hidden structure. "
-        "`refute every level to 16`: a low-force task no structure of up to 14 modules "
-        "satisfies; `planted 16`: a low-force task planted in a hidden 16-module structure. "
+        "`refute every level to 16`: a low-force task built so that no structure of up to 14 "
+        "modules satisfies it; the exhaustive search refutes every level to 16 (then its "
+        "`lower_bound` is 17); `planted 16`: a low-force task planted in a hidden 16-module "
+        "structure. "
         "`peak_MB`: the process and its descendants (Ray workers), sampled.",
         rows,
         "Goals of the issue:",

@@ -98,7 +98,8 @@ def run(n_seeds: int, out: Path) -> list[dict]:
         "level; ours skips levels below the exact force bound, so it evaluates fewer "
         "configurations for the same certified answer. Compare the paper's numbers with "
         "`exhaustive_evaluated_paper`.",
-        "* **c_tau and the rotor layout** are not given in the paper; ours are in the README.",
+        "* **c_tau and the rotor layout** are not given in the paper; ours are in "
+        "docs/design-notes.md (Rotor layout and c_tau).",
         "* **Rotor inputs (Fig. 7).** The paper commands u* = clip(A^+ w, 0, 1). The pseudo-"
         "inverse allocation is not the feasibility test: it can leave [0, 1] for feasible "
         "wrenches (then clipping changes the wrench). The exact allocation (the most centred u "

@@ -140,3 +140,60 @@ def test_install_names_the_wheel_not_an_index():
     text = (ROOT / "docs" / "index.md").read_text() + (ROOT / "README.md").read_text()
     assert not re.search(r"pip install '?modquad_gym", text)
     assert "python -m build --wheel" in text
+
+
+# ------------------------------------------------------------------- numbers from the reports
+def _row(report: str, first: str, second: str, column: str = "") -> dict[str, str]:
+    """The row of a markdown table in ``results/report`` whose first two cells are given (in a
+    table with ``column``, when given)."""
+    lines = (ROOT / "results" / report).read_text().splitlines()
+    for i, line in enumerate(lines):
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        if cells[:2] == [first, second]:
+            header = next(lines[j] for j in range(i, -1, -1) if lines[j + 1].startswith("|---"))
+            row = dict(zip([c.strip() for c in header.strip("|").split("|")], cells))
+            if column in row or not column:
+                return row
+    raise AssertionError(f"results/{report}: no row {first} | {second}")
+
+
+def _page(name: str) -> str:
+    return " ".join((ROOT / "docs" / name).read_text().split())
+
+
+def test_pages_quote_what_the_reports_and_the_code_say():
+    """Numbers and pointers in prose that no marker fills, each against its source."""
+    from modquad_gym.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if a.__class__.__name__ == "_SubParsersAction")
+    method = next(a for a in sub.choices["export"]._actions if a.dest == "method").default
+    assert f"(default `{method}`" in _page("export.md")
+    for path in (ROOT / "benchmarks" / "paper.py", ROOT / "results" / "paper_reproduction.md"):
+        text = re.sub(r'"\s*\n\s*"', "", path.read_text())  # the code's literals joined
+        where = re.search(r"ours are in (\S+)", text)[1]  # c_tau and the rotor layout
+        assert "c_tau = " in (ROOT / where).read_text(), (path, where)
+    results = _page("results.md")
+    anytime = _row("anytime.md", "planted 16", "anytime")
+    assert f"certified (optimum {anytime['found']}) in {anytime['seconds']} s" in results
+    exhaustive = _row("anytime.md", "planted 16", "exhaustive, 2 workers")
+    assert f"takes {float(exhaustive['seconds']):.1f} s" in results
+    refuted = _row("anytime.md", "refute every level to 16", "exhaustive, 2 workers")
+    assert f"(then its `lower_bound` is {refuted['lower_bound']})" in _page("../results/anytime.md")
+    pruned = _row("prune/extra_fallbacks/report.md", "ppo", "36")
+    plain = f"{pruned['modules']} -> {pruned['modules_pruned']} modules"
+    assert f"{plain}, in {pruned['seconds_ratio']} of the plain run's seconds" in _page("search.md")
+    designs = [("rotor_20ms", "22"), ("rotor_50ms", "22"), ("module_20ms", "22"),
+               ("module_50ms", "11")]  # fmt: skip
+    median = "ms median, max"
+    medians = [float(_row("faults/report.md", *d, median)[median].split(",")[0]) for d in designs]
+    faults = _page("faults.md")
+    assert f"medians {min(medians)} to {max(medians)} ms per design" in faults
+    goals = {
+        "faults/report.md": r"at most 6 modules: 40 of 40 \(slowest ([\d.]+) s\)",
+        "faults/rotor2/report.md": r"40 of 40; slowest ([\d.]+) s",
+    }
+    for report, goal in goals.items():
+        slowest = re.search(goal, (ROOT / "results" / report).read_text())[1]
+        assert f"slowest {slowest} s" in faults, report
+    scaling = (ROOT / "results" / "search_scaling.md").read_text()
+    assert "- peak memory of any streaming run:" in scaling

@@ -3,12 +3,12 @@ a time limit and a memory check instead of a module limit.
 
 Each level grows every structure of the previous level by a module and its centrosymmetric
 partner. Levels grow about 3.8 times per two modules (64,716 structures at 19 modules, 249,283
-at 21, about 3.7 million at 25) and each is held in memory, so before and while a level is built
-its size is checked against :data:`MEMORY_BUDGET` (:data:`GROWTH` times the previous level,
-each structure :func:`key_bytes`): a level that would not fit is refused with a one-line
-ValueError naming ``n_max``. At the time limit the search returns no structure (it returns the
-first feasible one it meets, so none was found yet) with the proved lower bound. Where it
-finishes, its answers are those of the paper's algorithm, unchanged.
+at 21, counted; about 3.7 million at 25 predicted) and each is held in memory, so before and
+while a level is built its size is checked against :data:`MEMORY_BUDGET` (:data:`GROWTH` times
+the previous level, each structure :func:`key_bytes`): a level that would not fit is refused
+with a one-line ValueError naming ``n_max``. At the time limit the search returns no structure
+(it returns the first feasible one it meets, so none was found yet) with the proved lower
+bound. Where it finishes, its answers are those of the paper's algorithm, unchanged.
 """
 
 from __future__ import annotations
