@@ -61,6 +61,11 @@ CHILD = (
 
 
 SCALE_SUITES = ("scale_16", "scale_24", "scale_32", "scale_48", "scale_64")
+FAULT_TASKS = 10
+"""``--fault-tasks``'s default: the first tasks of each fault suite."""
+OUTPUTS = ("hashes.csv", "report.md", "certificates.csv", "files")
+"""What the run writes into ``--out`` (``files/``: the certificates), refused without
+``--force`` when there."""
 
 
 def jobs(fault_tasks: int, limit: int | None, scale: int):
@@ -177,18 +182,30 @@ def summary(rows: list[dict]) -> list[str]:
     return lines
 
 
+def command_line(args: argparse.Namespace) -> str:
+    """The command that makes this page: every option that changes what it covers."""
+    return (
+        "python -m benchmarks.certificates"
+        + (f" --limit {args.limit}" if args.limit is not None else "")
+        + (f" --fault-tasks {args.fault_tasks}" if args.fault_tasks != FAULT_TASKS else "")
+        + (" --enumerated" if args.enumerated else "")
+        + (f" --scale {args.scale}" if args.scale else "")
+        + f" --out {args.out} --force"
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     args = bench_args(
         argv, "python -m benchmarks.certificates", __doc__,
-        {"--fault-tasks": {"type": int_option(0), "default": 10,
-                           "help": "tasks per fault suite (default 10)"},
+        {"--fault-tasks": {"type": int_option(0), "default": FAULT_TASKS,
+                           "help": f"tasks per fault suite (default {FAULT_TASKS})"},
          "--limit": {"type": int_option(1), "default": None,
                      "help": "first tasks of each tier suite (default all)"},
          "--enumerated": {"action": "store_true", "help": "also the 10/12-module checks"},
          "--scale": {"type": int_option(0), "default": 0, "help": "also the first N tasks of "
                      "each scale suite of 16-64 modules, the default search (20 s), where "
                      "certified (default 0)"}},
-        seed_help=None, out="results/certificates", outputs=("hashes.csv", "report.md"),
+        seed_help=None, out="results/certificates", outputs=OUTPUTS,
         formatter_class=argparse.RawDescriptionHelpFormatter,  # the docstring's own lines
     )  # fmt: skip
     rows, uncertified = [], []
@@ -205,10 +222,8 @@ def main(argv: list[str] | None = None) -> int:
     keys = ("tier", "suite", "task", "fault", "minimum", "levels", "bytes", "sha256", "file")
     write_csv([{k: r[k] for k in keys} for r in rows], args.out / "hashes.csv")
     write_csv(rows, args.out / "certificates.csv")
-    command = "python -m benchmarks.certificates" + (" --enumerated" if args.enumerated else "")
-    command += f" --scale {args.scale}" if args.scale else ""
     lines = ["# Certificates of the held-out suites' certified optima", "",
-             made_by(f"{command} --out {args.out} --force", "; one process"), "",
+             made_by(command_line(args), "; one process"), "",
              "Each certificate is made after the certified exhaustive search from its answer "
              "(make / search: its cost as a share of the search's time), written gzip-compressed "
              "to files/ (sha256 in hashes.csv; `modquad check FILE` verifies one) and checked "

@@ -22,6 +22,7 @@ from modquad_gym.scoring import machine_description, markdown_table
 __all__ = [
     "add_force",
     "bench_args",
+    "check_task_rows",
     "int_option",
     "load_average",
     "machine_description",
@@ -174,23 +175,32 @@ def report_page(
 
 
 def read_rows_csv(
-    path: Path, option: str, columns, typed: Callable, what: str, empty_ok: bool = False
+    path: Path,
+    option: str,
+    columns,
+    typed: Callable,
+    what: str,
+    empty_ok: bool = False,
+    older: tuple = (),
 ) -> list[dict]:
-    """The rows of an earlier run's CSV file ``path`` (header exactly ``columns``), each made by
-    ``typed(raw)`` (None, or a KeyError/TypeError/ValueError: not a row of ``what``); otherwise a
-    one-line ValueError naming ``option``, the file and the 1-based row after the header."""
+    """The rows of an earlier run's CSV file ``path`` (header exactly ``columns``, or one of the
+    ``older`` headers its earlier versions wrote), each made by ``typed(raw)`` (None, or a
+    KeyError/TypeError/ValueError: not a row of ``what``); otherwise a one-line ValueError naming
+    ``option`` (none when empty: the file alone), the file and the 1-based row after the
+    header."""
     import csv
 
+    where = f"{option} {path}" if option else str(path)
     try:
         with open(path, newline="") as fh:
             reader = csv.DictReader(fh)
-            if tuple(reader.fieldnames or ()) != tuple(columns):
-                raise ValueError(f"{option} {path}: its header is not {','.join(columns)}")
+            if tuple(reader.fieldnames or ()) not in {tuple(c) for c in (columns, *older)}:
+                raise ValueError(f"{where}: its header is not {','.join(columns)}")
             raws = list(reader)
     except OSError as exc:
-        raise ValueError(f"{option} {path}: {exc.strerror}") from None
+        raise ValueError(f"{where}: {exc.strerror}") from None
     except (UnicodeDecodeError, csv.Error) as exc:
-        raise ValueError(f"{option} {path}: not a CSV file ({exc})") from None
+        raise ValueError(f"{where}: not a CSV file ({exc})") from None
     rows = []
     for i, raw in enumerate(raws, start=1):
         try:  # a field beyond the header goes under the key None
@@ -198,11 +208,30 @@ def read_rows_csv(
         except (KeyError, TypeError, ValueError):
             row = None
         if row is None:
-            raise ValueError(f"{option} {path}: row {i}: not a row of {what}")
+            raise ValueError(f"{where}: row {i}: not a row of {what}")
         rows.append(row)
     if not rows and not empty_ok:
-        raise ValueError(f"{option} {path}: no rows")
+        raise ValueError(f"{where}: no rows")
     return rows
+
+
+def check_task_rows(rows: list[dict], methods, where: str, name: Callable | None = None) -> None:
+    """Rows read back from an earlier run: one row per task and method (``name(row)``, default
+    its ``method``), and every task with a row of each of ``methods`` (what the reports compare
+    task by task). A one-line ValueError beginning with ``where`` (the option and file) naming
+    the task otherwise."""
+    name = name or (lambda r: r["method"])
+    seen: dict[tuple, dict] = {}
+    for r in rows:
+        key = (r["task"], name(r))
+        if key in seen:
+            raise ValueError(f"{where}: task {r['task']} has two {name(r)} rows")
+        seen[key] = r
+    for task in dict.fromkeys(r["task"] for r in rows):
+        have = next(name(r) for r in rows if r["task"] == task)
+        for method in methods:
+            if (task, method) not in seen:
+                raise ValueError(f"{where}: task {task} has a {have} row and no {method} row")
 
 
 def write_report(out: Path, stem: str, rows: list[dict], text: str) -> None:

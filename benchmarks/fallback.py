@@ -24,6 +24,7 @@ goal: upper end <= 0; the rival's columns are named ``greedy``), drawn in ``vers
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -32,6 +33,7 @@ import numpy as np
 
 from benchmarks.common import (
     bench_args,
+    check_task_rows,
     machine_description,
     made_by,
     markdown_table,
@@ -132,13 +134,17 @@ def typed_row(raw: dict) -> dict | None:
         row[key] = int(raw[key]) if raw[key] != "" else None
     known = raw["family"] in (*FAMILIES, "small") and raw["task"] and raw["method"]
     counts = all(row[k] is None or row[k] >= 1 for k in ("found", "optimum"))
-    return row if known and counts and 2 <= row["band"] <= 128 and row["seconds"] >= 0 else None
+    # a verified answer below the certified optimum cannot be
+    possible = row["found"] is None or row["optimum"] is None or row["found"] >= row["optimum"]
+    sizes = 2 <= row["band"] <= 128 and 0 <= row["seconds"] < math.inf
+    return row if known and counts and possible and sizes else None
 
 
 def read_rows(path: Path) -> list[dict]:
     """The rows of an earlier run's rows.csv; a one-line ValueError naming the file and the
     1-based row otherwise."""
-    what = "benchmarks.fallback (band 2-128, a family or small, task, method, found, seconds)"
+    what = ("benchmarks.fallback (band 2-128, a family or small, task, method, found: at least "
+            "the optimum, seconds)")  # fmt: skip
     return read_rows_csv(path, "--rows", COLUMNS, typed_row, what)
 
 
@@ -249,6 +255,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.rows and (not names or args.rival not in {r["method"] for r in rows}):
         raise ValueError(f"--rows {args.rows}: no rows of --rival {args.rival} and a variant")
     scale = [r for r in rows if r["family"] != "small"]
+    if args.rows:  # one row per scale task and method, each task with a row of each (the
+        # small tasks are counted, not compared task by task: their names repeat)
+        check_task_rows(scale, [*names, args.rival], f"--rows {args.rows}")
     bands, families = (
         sorted({r["band"] for r in scale}),
         list(dict.fromkeys(r["family"] for r in scale)),

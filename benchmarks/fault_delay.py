@@ -2,7 +2,7 @@
 margin after the failure, flown in MuJoCo through their worst failure with the controller told
 of it D seconds late.
 
-    python -m benchmarks.fault_delay --tasks 4 --out results/fault_delay
+    python -m benchmarks.fault_delay --tasks 4 --out results/fault_delay --force
 
 For ``--tasks`` tasks drawn from each task source of ``--sources`` (the paper-like, planted and
 random-motion generators by default) with the calibration's own seeds ``CALIBRATION_SEED0 + i``
@@ -16,20 +16,33 @@ trajectory) at every delay of ``--delays``. The rule
 on its own: at each delay, the largest worst margin among the structures that left 5 cm, and a
 line through the origin above every one of them (the rule takes 1.25 times its slope, rounded
 up). ``--skip`` and ``--update`` add new tasks to an earlier run's flights.csv (each row names
-its command). Writes flights.csv, report.md and margin_rule.png into ``--out``.
+its command). Writes flights.csv, report.md and margin_rule.png into ``--out`` (an existing one
+is replaced only with ``--force``; ``--update`` replaces the flights.csv it adds to).
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
+import shlex
 import sys
 from pathlib import Path
 
 import numpy as np
 
 import modquad_gym as mq
-from modquad_gym.scoring import machine_description
+from benchmarks.common import (
+    bench_args,
+    int_option,
+    machine_description,
+    read_rows_csv,
+    run_main,
+    write_csv,
+    write_text,
+)
+from modquad_gym.cli.common import time_limit_option
+from modquad_gym.core.options import real_option
+from modquad_gym.core.outputs import check_output_dir, save_figure
+from modquad_gym.oracle.failures import check_fault_margin
 from modquad_gym.scoring.suites import draw_task
 from modquad_gym.tasks import GENERATORS, make_generator
 
@@ -82,32 +95,49 @@ def fly(rows: list[dict], delays) -> list[dict]:
     return out
 
 
-def fit(flights: list[dict], delays, fault: str) -> tuple[dict, float]:
+def fit(flights: list[dict], delays, fault: str) -> tuple[dict, float | None]:
     """Per delay the largest worst margin of a ``fault`` flight beyond 5 cm (0 when none), and
-    the smallest slope c with c * D above every one of them."""
+    the smallest slope c with c * D above every one of them (None: no ``fault`` flight)."""
     needed = {}
     for d in delays:
         lost = [r["worst_fault_margin"] for r in flights
                 if r["fault"] == fault and r["delay_s"] == d and not r["within_5cm"]]  # fmt: skip
         needed[d] = max(lost, default=0.0)
-    return needed, max(needed[d] / d for d in delays if d > 0)
+    if not any(r["fault"] == fault for r in flights):
+        return needed, None
+    return needed, max((needed[d] / d for d in delays if d > 0), default=0.0)
+
+
+COLUMNS = ("task", "fault", "required_margin", "modules", "certified", "worst_fault_margin",
+           "delay_s", "max_error_cm", "within_5cm", "command")  # fmt: skip
+"""The columns of flights.csv, in order (what ``--update`` reads back)."""
+OUTPUTS = ("report.md", "flights.csv", "margin_rule.png")
+MAX_DELAY = 1.0
+"""Longest delay flown (s): the hover fails at half its 4 s, so the delay lies within it."""
 
 
 def read_flights(path: Path) -> list[dict]:
-    """The rows of an earlier flights.csv, numbers and booleans restored."""
-    if not path.is_file():
-        return []
-    with path.open(newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    for r in rows:
-        for k in ("required_margin", "worst_fault_margin", "delay_s", "max_error_cm"):
-            r[k] = float(r[k])
-        r["modules"] = int(r["modules"])
-        r["certified"], r["within_5cm"] = r["certified"] == "True", r["within_5cm"] == "True"
-    return rows
+    """The rows of an earlier flights.csv, numbers and booleans restored; a one-line ValueError
+    naming the file and the 1-based row for anything :func:`fly` never writes."""
+    return read_rows_csv(path, "--update", COLUMNS, typed_flight, "benchmarks.fault_delay")
+
+
+def typed_flight(raw: dict) -> dict | None:
+    """A row of flights.csv typed as :func:`fly` writes it; None for values it never writes."""
+    flags = {"True": True, "False": False}
+    row = {**raw, "modules": int(raw["modules"]), "certified": flags[raw["certified"]],
+           "within_5cm": flags[raw["within_5cm"]]}  # fmt: skip
+    for key in ("required_margin", "worst_fault_margin", "delay_s", "max_error_cm"):
+        row[key] = real_option(raw[key])
+    ranges = (0 <= row["required_margin"] < 1 and 0 <= row["delay_s"] <= MAX_DELAY
+              and row["max_error_cm"] >= 0 and row["modules"] >= 1)  # fmt: skip
+    return row if ranges and row["fault"] in FAULTS and row["task"] else None
 
 
 def plot(path: Path, flights: list[dict], slopes: dict, delays) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, len(FAULTS), figsize=(10, 4), sharey=True)
@@ -118,67 +148,115 @@ def plot(path: Path, flights: list[dict], slopes: dict, delays) -> None:
             if pts:
                 x, y = np.array(pts).T
                 ax.scatter(1000 * x, y, marker=mark, label=label, alpha=0.6)
-        d = np.linspace(0, max(delays), 20)
-        ax.plot(1000 * d, slopes[fault] * d, "k--", label=f"fit: mu = {slopes[fault]:.2f} D")
-        ax.set_title(f"{fault} failure")
+        if slopes[fault] is not None:
+            d = np.linspace(0, max(delays), 20)
+            ax.plot(1000 * d, slopes[fault] * d, "k--", label=f"fit: mu = {slopes[fault]:.2f} D")
+        ax.set_title(f"{fault} failure" + ("" if slopes[fault] is not None else " (no flights)"))
         ax.set_xlabel("detection delay D (ms)")
-        ax.legend(fontsize=8)
+        if ax.get_legend_handles_labels()[0]:  # a fault with no flight has nothing to name
+            ax.legend(fontsize=8)
     axes[0].set_ylabel("worst fault margin of the design")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path)
     plt.close(fig)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--tasks", type=int, default=4, help="tasks per source (default 4)")
-    ap.add_argument("--skip", type=int, default=0,
-                    help="leave out the first SKIP tasks of each source (new tasks for a run "
-                    "that adds to an earlier one)")  # fmt: skip
-    ap.add_argument("--sources", nargs="+", default=list(SOURCES), choices=list(GENERATORS),
-                    help="task generators (default: paper planted motions)")  # fmt: skip
-    ap.add_argument("--margins", type=float, nargs="+", default=[0.0, 0.02, 0.05, 0.1, 0.15])
-    ap.add_argument("--delays", type=float, nargs="+", default=[0.01, 0.02, 0.03, 0.05])
-    ap.add_argument("--n-max", type=int, default=12)
-    ap.add_argument("--time-limit", type=float, default=10.0)
-    ap.add_argument(
-        "--update",
-        action="store_true",
-        help="keep the flights of flights.csv in --out (other tasks) and fit on all",
-    )
-    ap.add_argument("--out", default="results/fault_delay")
-    args = ap.parse_args(argv)
-    if not 0 <= args.skip < args.tasks:
-        ap.error("--skip must lie in [0, --tasks)")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    command = "python -m benchmarks.fault_delay " + " ".join(argv or sys.argv[1:])
+def margin_option(text: str) -> float:
+    """An argparse ``type`` for a required fault margin: a number in [0, 1)."""
+    try:
+        return check_fault_margin(real_option(text))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("fault_margin ")) from None
+
+
+margin_option.__name__ = "margin"
+
+
+def delay_option(text: str) -> float:
+    """An argparse ``type`` for a detection delay flown: seconds in [0, :data:`MAX_DELAY`]."""
+    value = real_option(text)
+    if not 0.0 <= value <= MAX_DELAY:
+        raise argparse.ArgumentTypeError(f"must lie in [0, {MAX_DELAY:g}] s, got {value:g}")
+    return value
+
+
+delay_option.__name__ = "delay"
+
+
+def parse_args(argv: list[str] | None) -> tuple[argparse.Namespace, list[dict]]:
+    """The options, checked before any work (one line, exit 2), and the earlier flights that
+    ``--update`` keeps."""
+    options = {
+        "--tasks": dict(type=int_option(1, 1000), default=4, help="tasks per source (default 4)"),
+        "--skip": dict(type=int_option(0, 999), default=0,
+                       help="leave out the first SKIP tasks of each source (new tasks for a run "
+                            "that adds to an earlier one)"),
+        "--sources": dict(nargs="+", default=list(SOURCES), choices=list(GENERATORS),
+                          help="task generators (default: paper planted motions)"),
+        "--margins": dict(type=margin_option, nargs="+", default=[0.0, 0.02, 0.05, 0.1, 0.15],
+                          help="required fault margins, each in [0, 1)"),
+        "--delays": dict(type=delay_option, nargs="+", default=[0.01, 0.02, 0.03, 0.05],
+                         help=f"detection delays flown (s), each in [0, {MAX_DELAY:g}], one at "
+                              "least above 0 (the rule is fitted on them)"),
+        "--n-max": dict(type=int_option(1, 128), default=12, help="module budget (default 12)"),
+        "--time-limit": dict(type=time_limit_option, default=10.0,
+                             help="seconds per search (default 10)"),
+        "--update": dict(action="store_true",
+                         help="keep the flights of flights.csv in --out (other tasks) and fit on "
+                              "all (it replaces that file; the report and figure need --force)"),
+    }  # fmt: skip
+    args = bench_args(argv, "python -m benchmarks.fault_delay", __doc__.split("\n\n")[0],
+                      options, seed_help=None, out="results/fault_delay", force=True)  # fmt: skip
+    if args.skip >= args.tasks:
+        raise ValueError(f"--skip {args.skip}: must be below --tasks {args.tasks}")
+    if not any(d > 0 for d in args.delays):
+        raise ValueError("--delays: give one delay above 0 at least (the rule is fitted on them)")
+    old = []
+    if args.update:
+        if not (args.out / "flights.csv").is_file():
+            raise ValueError(f"--update: no flights.csv in {args.out} to add to (run once "
+                             "without it)")  # fmt: skip
+        old = read_flights(args.out / "flights.csv")
+    check_output_dir(args.out, OUTPUTS[::2] if args.update else OUTPUTS, args.force)
+    return args, old
+
+
+def main(argv: list[str] | None = None) -> int:
+    args, old = parse_args(argv)
+    command = shlex.join(["python", "-m", "benchmarks.fault_delay",
+                          *(sys.argv[1:] if argv is None else argv)])  # fmt: skip
     tasks = [
         draw_task(make_generator(src), CALIBRATION_SEED0 + 1000 * k + i, f"{src}-cal-{i}")
         for k, src in enumerate(args.sources)
         for i in range(args.skip, args.tasks)
     ]
     new = fly(designs(tasks, args.margins, args.n_max, args.time_limit), args.delays)
-    for r in new:
-        r["command"] = command
     names = {t.name for t in tasks}
-    old = read_flights(out / "flights.csv") if args.update else []
-    flights = [r for r in old if r["task"] not in names] + new
-    with open(out / "flights.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(new[0]))
-        w.writeheader()
-        w.writerows({**r, "command": r.get("command") or command} for r in flights)
+    flights = [r for r in old if r["task"] not in names] + [{**r, "command": command} for r in new]
+    if not flights:
+        raise ValueError(f"no structure of up to --n-max {args.n_max} modules for any task, "
+                         "fault and margin: nothing flown, nothing written")  # fmt: skip
+    write_csv(flights, args.out / "flights.csv")
     delays = sorted({r["delay_s"] for r in flights})
     fits = {fault: fit(flights, delays, fault) for fault in FAULTS}
-    plot(out / "margin_rule.png", flights, {f: fits[f][1] for f in FAULTS}, delays)
-    commands = list(dict.fromkeys(r.get("command") or command for r in flights))
+    plot(args.out / "margin_rule.png", flights, {f: fits[f][1] for f in FAULTS}, delays)
+    text = report(flights, fits, delays, args.sources)
+    write_text(args.out / "report.md", text)
+    print(text)
+    return 0
+
+
+def report(flights: list[dict], fits: dict, delays: list[float], sources) -> str:
+    """The report page: the commands, the flights per fault and delay, the fit and the rule (a
+    fault with no flight, where no design was found within n_max, says so)."""
+    commands = list(dict.fromkeys(r["command"] for r in flights))
     lines = [
         "# The fault margin a detection delay needs",
         "",
         f"Made by {', then '.join(f'`{c}`' for c in commands)} on {machine_description()}.",
         "",
         f"{len({r['task'] for r in flights})} tasks drawn from the sources "
-        f"{', '.join(args.sources)} with the calibration's own seeds ({CALIBRATION_SEED0:,} + "
+        f"{', '.join(sources)} with the calibration's own seeds ({CALIBRATION_SEED0:,} + "
         "1000 k + i, disjoint from every suite), faults rotor and module, designs for required "
         f"margins {sorted({r['required_margin'] for r in flights})} ({len(flights)} flights of "
         f"{len({(r['task'], r['fault'], r['required_margin']) for r in flights})} designs), each "
@@ -191,22 +269,22 @@ def main(argv=None) -> int:
     for fault in FAULTS:
         for dl in delays:
             rs = [r for r in flights if r["delay_s"] == dl and r["fault"] == fault]
-            lines.append(
-                f"| {fault} | {1000 * dl:g} ms | {len(rs)} | {sum(r['within_5cm'] for r in rs)} | "
-                f"{fits[fault][0][dl]:.4f} | {max(r['max_error_cm'] for r in rs):.2f} |"
-            )
+            worst = f"{max(r['max_error_cm'] for r in rs):.2f}" if rs else "-"
+            needed = f"{fits[fault][0][dl]:.4f}" if rs else "-"
+            lines.append(f"| {fault} | {1000 * dl:g} ms | {len(rs)} | "
+                         f"{sum(r['within_5cm'] for r in rs)} | {needed} | {worst} |")  # fmt: skip
     lines += ["", "Fit through the origin above every threshold, and the rule "
               f"(modquad_gym.oracle.fault_delay.DELAY_SLOPES: {SAFETY:g} times the fit, rounded "
               f"up to 0.05), for D up to {max(delays):g} s (the delays flown):", ""]  # fmt: skip
     for fault in FAULTS:
         slope = fits[fault][1]
+        if slope is None:
+            lines.append(f"- {fault}: no flights (no design within n_max), no fit")
+            continue
         rule = np.ceil(SAFETY * slope / 0.05) * 0.05
         lines.append(f"- {fault}: fit mu = {slope:.3f} D, rule mu = {rule:.2f} D")
-    lines += ["", "![rule](margin_rule.png)", ""]
-    (out / "report.md").write_text("\n".join(lines))
-    print("\n".join(lines))
-    return 0
+    return "\n".join([*lines, "", "![rule](margin_rule.png)", ""])
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_main(main, "fault_delay"))

@@ -4,7 +4,9 @@ Each figure is drawn by the plotting function of the command that made it, from 
 own data in ``results/``: the agent benchmarks' ``benchmark_bars.png`` from ``benchmark.csv``
 and ``learning_curve.png`` from the training run's ``evaluations.npz`` named in
 ``benchmark.md``; ``seeds.png`` from ``seeds.csv``; the scale benchmarks' ``gap_vs_size.png``
-from ``rows.csv``. Writes ``results/figures.md`` listing every figure and its source.
+from ``rows.csv``. Writes ``results/figures.md`` listing every figure and its source. Every
+source is read and checked before any figure is drawn; an existing figure or figures.md is
+replaced only with ``--force``.
 
     python -m benchmarks.figures --force
 """
@@ -12,12 +14,17 @@ from ``rows.csv``. Writes ``results/figures.md`` listing every figure and its so
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import re
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
+from benchmarks.common import read_rows_csv, run_main
 from modquad_gym.core.outputs import write_text
 
-COMMAND = "python -m benchmarks.figures --force"
+Figure = tuple[Path, Path, Callable[[], object]]
+"""A figure to draw: (its file, the data it is drawn from, what draws it)."""
 
 
 def training_run(report: str) -> Path | None:
@@ -30,56 +37,60 @@ def training_run(report: str) -> Path | None:
     return Path(found.group(1)).parent if found else None
 
 
-def agent_figures(results: Path) -> list[tuple[Path, Path]]:
-    """(figure, source) of every agent benchmark's bars and learning curve."""
-    from benchmarks.leaderboard_entries import read_rows
+def agent_figures(results: Path) -> list[Figure]:
+    """Every agent benchmark's bars and learning curve (the curve where its training run is at
+    hand), their data read and checked now."""
+    from benchmarks.leaderboard_entries import BENCHMARK_COLUMNS, record_row
     from modquad_gym.scoring.agents_figures import plot_bars, plot_learning_curve
     from modquad_gym.scoring.scores import summarise
     from modquad_gym.scoring.tiers import get_tier
 
-    done = []
+    done: list[Figure] = []
     for csv_path in sorted(results.rglob("benchmark.csv")):
         folder = csv_path.parent
-        report = (folder / "benchmark.md").read_text()
-        bars = folder / "benchmark_bars.png"
+        bars, curve = folder / "benchmark_bars.png", folder / "learning_curve.png"
+        if not (bars.is_file() or curve.is_file()):
+            continue
+        report = (folder / "benchmark.md").read_text(encoding="utf-8")  # names its tier, run
         if bars.is_file():
             tier = re.search(r"tier `([^`]+)`", report)
             n_max = get_tier(tier.group(1)).n_max if tier else 7
-            rows = read_rows(csv_path)
-            plot_bars(summarise(rows, list(dict.fromkeys(r.method for r in rows)), n_max), bars)
-            done.append((bars, csv_path))
-        curve = folder / "learning_curve.png"
+            what = "modquad score's benchmark.csv"
+            rows = read_rows_csv(csv_path, "", BENCHMARK_COLUMNS, record_row, what)
+            table = summarise(rows, list(dict.fromkeys(r.method for r in rows)), n_max)
+            done.append((bars, csv_path, partial(plot_bars, table, bars)))
         train_dir = training_run(report)
-        if curve.is_file() and train_dir is not None:
-            evals = train_dir / "evaluations.npz"
-            if plot_learning_curve(evals, curve):  # None when the run is not at hand
-                done.append((curve, evals))
+        evals = None if train_dir is None else train_dir / "evaluations.npz"
+        if curve.is_file() and evals is not None and evals.is_file():  # the run is at hand
+            done.append((curve, evals, partial(plot_learning_curve, evals, curve)))
     return done
 
 
-def seed_figures(results: Path) -> list[tuple[Path, Path]]:
-    """(figure, source) of every seeds report's interval plot."""
-    from modquad_gym.scoring.seeds import plot, read_scores
+def seed_figures(results: Path) -> list[Figure]:
+    """Every seeds report's interval plot, its ``seeds.csv`` read and checked now."""
+    from modquad_gym.scoring.seeds import SeedScore, plot
 
-    done = []
+    columns = [f.name for f in dataclasses.fields(SeedScore)]
+    what = "a seeds.csv of python -m modquad_gym.scoring.seeds"
+    done: list[Figure] = []
     for csv_path in sorted(results.glob("seeds_*/seeds.csv")):
         png = csv_path.with_name("seeds.png")
-        plot(read_scores(csv_path), png)
-        done.append((png, csv_path))
+        scores = read_rows_csv(csv_path, "", columns, SeedScore.from_record, what,
+                               older=(columns[:-1],))  # fmt: skip
+        done.append((png, csv_path, partial(plot, scores, png)))
     return done
 
 
-def scale_figures(results: Path) -> list[tuple[Path, Path]]:
-    """(figure, source) of every scale benchmark's gap plot."""
+def scale_figures(results: Path) -> list[Figure]:
+    """Every scale benchmark's gap plot, its ``rows.csv`` read and checked now."""
     from benchmarks.scale import read_rows
     from benchmarks.scale_report import plot
 
-    done = []
+    done: list[Figure] = []
     for csv_path in sorted(results.glob("scale*/rows.csv")):
         png = csv_path.with_name("gap_vs_size.png")
         if png.is_file():
-            plot(read_rows(csv_path), png)
-            done.append((png, csv_path))
+            done.append((png, csv_path, partial(plot, read_rows(csv_path, ""), png)))
     return done
 
 
@@ -94,25 +105,39 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not args.results.is_dir():
         parser.error(f"--results: no folder {args.results}")
-    if not args.force:
-        parser.error("the figures exist and would be replaced: give --force")
-    done = agent_figures(args.results) + seed_figures(args.results) + scale_figures(args.results)
+    figures = agent_figures(args.results) + seed_figures(args.results)
+    figures += scale_figures(args.results)
+    if not figures:
+        parser.error(
+            f"--results {args.results}: no figure to draw (no benchmark.csv with its "
+            "figures, seeds_*/seeds.csv or scale*/rows.csv with its gap_vs_size.png)"
+        )
+    listing = args.results / "figures.md"
+    there = [png for png, _, _ in figures if png.exists()] + [listing] * listing.exists()
+    if there and not args.force:
+        more = f" (and {len(there) - 1} more)" if len(there) > 1 else ""
+        parser.error(f"{there[0]}{more} would be replaced: give --force")
+    for _, _, draw in figures:
+        draw()
+    command = "python -m benchmarks.figures" + (
+        f" --results {args.results}" if args.results != Path("results") else ""
+    )
     lines = [
         "# Figures re-drawn from their reports",
         "",
-        f"Made by `{COMMAND}`: each figure drawn by its benchmark's plotting function from the "
-        "data below (no benchmark re-run).",
+        f"Made by `{command} --force`: each figure drawn by its benchmark's plotting function "
+        "from the data below (no benchmark re-run).",
         "",
         "| figure | drawn from |",
         "|---|---|",
-        *(f"| `{png.as_posix()}` | `{src.as_posix()}` |" for png, src in done),
+        *(f"| `{png.as_posix()}` | `{src.as_posix()}` |" for png, src, _ in figures),
         "",
     ]
-    write_text(args.results / "figures.md", "\n".join(lines))
-    for png, src in done:
+    write_text(listing, "\n".join(lines))
+    for png, src, _ in figures:
         print(f"wrote {png} (from {src})")
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_main(main, "figures"))

@@ -18,7 +18,8 @@ against t; both drawn by :mod:`benchmarks.leaderboard_figures`) and the document
   ``python -m benchmarks.leaderboard --rescore-searches --force`` fills by running just those
   searches on the tier's held-out suites (seconds, not hours: no training, no learned method);
 * the anytime search's history (when its best structure so far first had the optimal count) from
-  ``results/leaderboard_anytime.csv`` (``--anytime-history`` runs it again);
+  ``results/leaderboard_anytime.csv`` (``--anytime-history`` runs it again; with ``--out``,
+  into that folder, as ``--rescore-searches`` does, so the committed data stay);
 * outside agents' submissions, ``results/submissions/*.csv`` (the ``submission.csv`` that
   ``--solver`` writes), over their seeds like the learned methods.
 
@@ -67,25 +68,30 @@ OUTPUTS = ("leaderboard.md", "leaderboard.csv", "leaderboard.png", "leaderboard_
 
 
 def build(tiers: list[str], out: Path, docs: Path | None, records: list[dict] | None = None,
-          results: Path = RESULTS) -> Path:  # fmt: skip
+          results: Path = RESULTS, data: dict[str, Path] | None = None) -> Path:  # fmt: skip
     """Write the leaderboard of the committed entries into ``out`` (and the documentation page
     into ``docs``); ``records`` (an outside agent scored now) are written as ``out``'s
-    submission file and ranked beside them."""
+    submission file and ranked beside them. ``data``: the files of :data:`RESCORED` or
+    :data:`ANYTIME` this run wrote elsewhere (into ``--out``) by name, read instead of
+    ``results``' ones."""
     from modquad_gym.core.outputs import write_csv, write_text
     from modquad_gym.scoring.tiers import get_tier
 
-    entries = [e for t in tiers for e in tier_entries(t, results)]
+    def where(name: str) -> Path:
+        return (data or {}).get(name, results / name)
+
+    entries = [e for t in tiers for e in tier_entries(t, results, rescored=where(RESCORED))]
     if records:
         path = write_submission(records, out / SUBMISSION)
         for t in tiers:
             full = max((e.full for e in entries if e.tier == t and not e.status), default=0)
             entries += submission_entries(path, get_tier(t), full)
     write_csv([e.as_csv() for e in entries], out / "leaderboard.csv")
-    history = read_anytime(results / ANYTIME)
+    history = read_anytime(where(ANYTIME))
     series = {}
     for t in tiers:
         tier = get_tier(t)
-        by = {m: rows for m, (rows, _) in one_run_rows(tier, results).items()}
+        by = {m: rows for m, (rows, _) in one_run_rows(tier, results, where(RESCORED)).items()}
         series[t] = curves(tier, by, history.get(t, []))
     plot(entries, tiers, out / "leaderboard.png")
     plot_curves(series, BUDGET, out / "leaderboard_anytime.png")
@@ -109,7 +115,9 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     out = args.out or RESULTS
     docs = DOCS if args.out is None else None
-    path = build(args.tiers, out, docs, records)
+    ran = {RESCORED: args.rescore_searches, ANYTIME: args.anytime_history}
+    data = {name: out / name for name, done in ran.items() if done}  # this run's data
+    path = build(args.tiers, out, docs, records, data=data)
     print(path.read_text())
     return 0
 
@@ -122,12 +130,14 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--rescore-searches",
         action="store_true",
-        help=f"first run the searches the tier reports lack into results/{RESCORED}",
+        help=f"first run the searches the tier reports lack into {RESCORED} in --out "
+        "(default results/), and rank them from there",
     )
     p.add_argument(
         "--anytime-history",
         action="store_true",
-        help=f"first run the anytime search on every tier's tasks into results/{ANYTIME}",
+        help=f"first run the anytime search on every tier's tasks into {ANYTIME} in --out "
+        "(default results/), and draw it from there",
     )
     p.add_argument(
         "--solver",
@@ -164,8 +174,8 @@ def parser() -> argparse.ArgumentParser:
         "--force",
         action="store_true",
         help="replace the leaderboard's files in --out (without --out: the committed pages "
-        "results/leaderboard.*, docs/leaderboard.md and, with --rescore-searches or "
-        f"--anytime-history, results/{RESCORED} or results/{ANYTIME}); default: refuse",
+        "results/leaderboard.*, docs/leaderboard.md) and, with --rescore-searches or "
+        f"--anytime-history, {RESCORED} or {ANYTIME} there; default: refuse",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     return p
@@ -187,14 +197,14 @@ def check_args(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     if len(set(args.seeds)) != len(args.seeds):
         p.error(f"--seeds: a seed is given twice: {args.seeds}")
     written = OUTPUTS if args.solver else OUTPUTS[:-1]
+    data = (RESCORED,) * args.rescore_searches + (ANYTIME,) * args.anytime_history
+    data += tuple(Path(n).with_suffix(".md").name for n in data)  # each with its note
     try:
         if args.out is None:
-            check_output_dir(RESULTS, written, args.force)
+            check_output_dir(RESULTS, written + data, args.force)
             check_output_dir(DOCS, ("leaderboard.md",), args.force)
-            data = (RESCORED,) * args.rescore_searches + (ANYTIME,) * args.anytime_history
-            check_output_dir(RESULTS, data, args.force)
-        else:
-            check_output_dir(args.out, written, args.force)
+        else:  # the runs' data go to --out too: the committed data stay
+            check_output_dir(args.out, written + data, args.force)
     except ValueError as err:
         p.error(str(err))
 
@@ -202,10 +212,11 @@ def check_args(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
 def first_runs(args: argparse.Namespace) -> list[dict] | None:
     """The runs asked for before the page is built: the rescored searches, the anytime
     history, and the outside agent's records (None without ``--solver``)."""
+    into = args.out or RESULTS  # the committed data are replaced only without --out
     if args.rescore_searches:
-        print(rescore_searches(progress=not args.no_progress))
+        print(rescore_searches(progress=not args.no_progress, into=into))
     if args.anytime_history:
-        print(anytime_history(progress=not args.no_progress))
+        print(anytime_history(into, progress=not args.no_progress))
     if not args.solver:
         return None
     return score_agent(args.solver, args.tiers, args.limit, args.seeds, not args.no_progress)

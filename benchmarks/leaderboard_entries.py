@@ -74,14 +74,19 @@ def _g(v: float) -> str:
 
 
 # --- reading the committed data ---------------------------------------------------------------
+BENCHMARK_COLUMNS = ("suite", "task", "optimum", "method", "success", "n_modules", "gap",
+                     "optimal", "evaluated", "oracle_calls", "seconds", "cells")  # fmt: skip
+"""The columns of a benchmark CSV of ``modquad score`` (``benchmark.csv``), in order."""
+
+
 def read_rows(path: Path):
     """The per-task rows (:class:`~modquad_gym.scoring.scores.Row`) of a benchmark CSV (rows
     with a ``status``, a submission's unscored tiers, are left out)."""
     with open(path, newline="") as fh:
-        return [_row(r) for r in csv.DictReader(fh) if not r.get("status")]
+        return [record_row(r) for r in csv.DictReader(fh) if not r.get("status")]
 
 
-def _row(r: dict):
+def record_row(r: dict):
     """The :class:`~modquad_gym.scoring.scores.Row` of one record of a benchmark or submission
     CSV."""
     from modquad_gym.scoring.scores import Row
@@ -196,12 +201,15 @@ def unscored(tier, method: str, kind: str, why: str) -> Entry:
 FAULT_REFUSED = "refused: takes no fault="
 
 
-def one_run_rows(tier, results: Path = RESULTS) -> dict[str, tuple[list, Path]]:
+def one_run_rows(
+    tier, results: Path = RESULTS, rescored: Path | None = None
+) -> dict[str, tuple[list, Path]]:
     """Per method, its per-task rows of one run on ``tier`` and their file: the tier report's,
-    else (a search it did not run) the rescored searches' file."""
+    else (a search it did not run) the rescored searches' file (``rescored``, default
+    ``results``' :data:`RESCORED`)."""
     report = results / f"tier_{tier.name}" / "benchmark.csv"
     out: dict[str, tuple[list, Path]] = {}
-    for path in (report, results / RESCORED):
+    for path in (report, results / RESCORED if rescored is None else rescored):
         if not path.is_file():
             continue
         for r in read_rows(path):
@@ -210,16 +218,17 @@ def one_run_rows(tier, results: Path = RESULTS) -> dict[str, tuple[list, Path]]:
     return out
 
 
-def tier_entries(tier_name: str, results: Path = RESULTS,
-                 submissions: Path | None = None) -> list[Entry]:  # fmt: skip
+def tier_entries(tier_name: str, results: Path = RESULTS, submissions: Path | None = None,
+                 rescored: Path | None = None) -> list[Entry]:  # fmt: skip
     """Every committed method on one tier: the searches, the learned methods, then the outside
     agents' submissions (``submissions``, default ``results/submissions``). On a fault tier the
-    methods that cannot honour the failure are listed with the reason instead of numbers."""
+    methods that cannot honour the failure are listed with the reason instead of numbers.
+    ``rescored``: the rescored searches' file (:func:`one_run_rows`)."""
     from modquad_gym.scoring.tiers import get_tier, honours_fault
     from modquad_gym.search import SEARCHES
 
     tier = get_tier(tier_name)
-    runs = one_run_rows(tier, results)
+    runs = one_run_rows(tier, results, rescored)
     full = len({r.task for r in in_scope(runs["exhaustive"][0], tier.n_max)})
     entries = []
     for m in SEARCHES:
@@ -255,7 +264,7 @@ def submission_entries(path: Path, tier, full: int) -> list[Entry]:
             continue
         rows = {s: [] for s in dict.fromkeys(r["seed"] for r in mine)}
         for r in mine:
-            rows[r["seed"]].append(_row(r))
+            rows[r["seed"]].append(record_row(r))
         out.append(over_runs(tier, method, "outside", rows, _rel(path), full))
     return out
 

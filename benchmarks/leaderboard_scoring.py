@@ -13,10 +13,12 @@ from benchmarks.leaderboard_entries import ANYTIME, COMMAND, RESCORED, RESULTS, 
 from modquad_gym.core.interrupts import one_line
 
 
-def rescore_searches(results: Path = RESULTS, progress: bool = True) -> Path:
-    """Run the searches that a tier report did not run on that tier's held-out suites and write
-    their per-task rows to ``results/leaderboard_searches.csv`` (on a fault tier, those that
-    honour the failure)."""
+def rescore_searches(
+    results: Path = RESULTS, progress: bool = True, into: Path | None = None
+) -> Path:
+    """Run the searches that a tier report of ``results`` did not run on that tier's held-out
+    suites and write their per-task rows to ``leaderboard_searches.csv`` in ``into`` (default
+    ``results``; on a fault tier, those that honour the failure)."""
     from modquad_gym.core.outputs import write_csv, write_text
     from modquad_gym.scoring.agents import run_benchmark
     from modquad_gym.scoring.tiers import get_tier, honours_fault
@@ -31,7 +33,7 @@ def rescore_searches(results: Path = RESULTS, progress: bool = True) -> Path:
             print(f"{name}: scoring {', '.join(missing)}", file=sys.stderr)
             rows += run_benchmark(tier.load_suites(), missing, tier.n_max, None, 0, progress, 1,
                                   tier.modules, tier.name, tier.fault)  # fmt: skip
-    path = results / RESCORED
+    path = (results if into is None else into) / RESCORED
     write_csv([r.as_csv() for r in rows], path)
     write_text(path.with_suffix(".md"), rescored_note(rows))
     return path
@@ -61,7 +63,7 @@ def rescored_note(rows) -> str:
 def anytime_history(results: Path = RESULTS, progress: bool = True) -> Path:
     """Run the anytime search on every tier's held-out tasks and write, per task, when its
     best structure so far first had the certified optimum's module count (its history's events) to
-    ``results/leaderboard_anytime.csv``, with a note of the machine beside it."""
+    ``leaderboard_anytime.csv`` in ``results``, with a note of the machine beside it."""
     from tqdm import tqdm
 
     from modquad_gym.core.outputs import write_csv, write_text

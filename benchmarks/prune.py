@@ -22,6 +22,7 @@ import numpy as np
 from benchmarks import scale
 from benchmarks.common import (
     bench_args,
+    check_task_rows,
     load_average,
     machine_description,
     markdown_table,
@@ -196,6 +197,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     args = parse_args(argv)
     scale.check_task_args(args)
     earlier = scale.read_runs([args.rows]) if args.rows else None  # before --force clears --out
+    if earlier is not None:  # every task of the run with a row of each method, plain and pruned
+        check_task_rows(earlier, args.methods, f"--rows {args.rows}")
     with claim_output_dir(args.out, OUTPUTS, args.force) as claim:
         rows = earlier or scale.measure(args, scale.keep_rows(claim.path("rows.csv")))
         per_method = method_rows(rows, args.base_methods)

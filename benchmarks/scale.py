@@ -29,6 +29,7 @@ from pathlib import Path
 from benchmarks.common import (
     bench_args,
     check_model,
+    check_task_rows,
     int_option,
     read_rows_csv,
     run_main,
@@ -86,6 +87,16 @@ def without_prune(method: str) -> tuple[str, bool]:
     through the prune post-pass, :mod:`modquad_gym.search.prune`)."""
     base, plus, post = method.partition("+")
     return (base, True) if plus and post == "prune" else (method, False)
+
+
+def known_method(name: str) -> bool:
+    """Whether ``name`` is a method this benchmark runs: a solver, a learned variant or
+    ``anytime-wN``, each also as ``METHOD+prune``."""
+    from modquad_gym.solvers import METHODS as KNOWN
+    from modquad_gym.solvers import learned_options
+
+    method = without_prune(name)[0]
+    return method in KNOWN or learned_options(method) is not None or bool(portfolio_workers(method))
 
 
 def portfolio_workers(method: str) -> int | None:
@@ -202,7 +213,9 @@ def read_runs(paths: list[Path]) -> list[dict]:
     the largest any of them proved."""
     merged: dict[tuple, dict] = {}
     for path in paths:
-        merged.update({(r["task"], r["method"]): r for r in read_rows(path)})
+        rows = read_rows(path)
+        check_task_rows(rows, (), f"--rows {path}")  # one row per (task, method) in a run
+        merged.update({(r["task"], r["method"]): r for r in rows})
     bound: dict[str, int] = {}
     for r in merged.values():
         bound[r["task"]] = max(bound.get(r["task"], 0), r["lower_bound"])
@@ -210,25 +223,41 @@ def read_runs(paths: list[Path]) -> list[dict]:
     for r in rows:
         r["lower_bound"] = bound[r["task"]]
         r["gap_to_bound"] = r["found"] - r["lower_bound"] if r["found"] != "none" else ""
+        if r["verified"] and r["gap_to_bound"] < 0:  # a proved bound above a verified answer
+            raise ValueError(f"--rows: task {r['task']}: {r['method']}'s verified {r['found']} "
+                             f"modules lie below the bound {r['lower_bound']} another row "
+                             "proved")  # fmt: skip
     return rows
 
 
-def read_rows(path: Path) -> list[dict]:
+def read_rows(path: Path, option: str = "--rows") -> list[dict]:
     """The rows of an earlier run's ``rows.csv``, typed as :func:`task_row` makes them; a
-    ValueError naming the file and the 1-based row (after the header) otherwise."""
-    return read_rows_csv(path, "--rows", ROW_COLUMNS, typed_row, "benchmarks.scale")
+    ValueError naming ``option`` (none: the file alone), the file and the 1-based row (after
+    the header) otherwise."""
+    return read_rows_csv(path, option, ROW_COLUMNS, typed_row, "benchmarks.scale")
 
 
 def typed_row(raw: dict) -> dict | None:
-    """A row of rows.csv typed as :func:`task_row` writes it; None for values it never writes."""
+    """A row of rows.csv typed as :func:`task_row` writes it; None for values it never writes:
+    a band outside 1..128, an unknown family or method, a count below 1, negative memory or
+    seconds, a verified answer below its certified bound or a verified row with no answer,
+    gaps that are not the answer's."""
     numbers = {"band": int, "planted": int, "lower_bound": int, "peak_MB": int, "seconds": float}
     row: dict = {**raw, **{key: kind(raw[key]) for key, kind in numbers.items()}}
-    row["found"] = "none" if raw["found"] == "none" else int(raw["found"])
+    found = row["found"] = "none" if raw["found"] == "none" else int(raw["found"])
     row["verified"] = {"True": True, "False": False}[raw["verified"]]
     for key, kind in (("gap_to_planted_pct", float), ("gap_to_bound", int)):
         row[key] = kind(raw[key]) if raw[key] != "" else ""
-    finite = 0 <= row["seconds"] < float("inf")
-    return row if finite and (row["found"] == "none" or row["found"] >= 1) else None
+    known = 1 <= row["band"] <= 128 and row["family"] in FAMILIES and known_method(row["method"])
+    counts = min(row["planted"], row["lower_bound"], 1 if found == "none" else found) >= 1
+    measured = 0 <= row["seconds"] < float("inf") and row["peak_MB"] >= 0
+    answer = found != "none" and (found >= row["lower_bound"] or not row["verified"])
+    gaps = (row["gap_to_bound"], row["gap_to_planted_pct"]) == (
+        (found - row["lower_bound"], round(100.0 * (found - row["planted"]) / row["planted"], 1))
+        if found != "none" else ("", "")
+    )  # fmt: skip
+    fits = answer or (found == "none" and not row["verified"])
+    return row if known and counts and measured and fits and gaps else None
 
 
 def task_options(bands=BANDS, workers: int = 1) -> dict[str, dict]:
@@ -284,17 +313,12 @@ def main(argv: list[str] | None = None) -> None:
         outputs=OUTPUTS,
     )
     from modquad_gym.solvers import METHODS as KNOWN
-    from modquad_gym.solvers import learned_options
 
     check_task_args(args)
-    for method in (without_prune(m)[0] for m in args.methods):
-        if (
-            method not in KNOWN
-            and learned_options(method) is None
-            and not portfolio_workers(method)
-        ):
-            raise ValueError(f"--methods: unknown method {method!r}; choose from "
-                             f"{', '.join(KNOWN)} or a learned variant")  # fmt: skip
+    for method in args.methods:
+        if not known_method(method):
+            raise ValueError(f"--methods: unknown method {without_prune(method)[0]!r}; choose "
+                             f"from {', '.join(KNOWN)} or a learned variant")  # fmt: skip
     check_model_option(args.model, args.methods)
     args.workers = cap_workers(args.workers)
     earlier = read_runs(args.rows) if args.rows else None  # before --force clears --out

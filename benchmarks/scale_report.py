@@ -61,7 +61,10 @@ def versus(rows: list[dict], method: str, rival: str) -> dict:
 
 
 def goal_lines(rows: list[dict], methods, time_limit: float) -> list[str]:
-    """The issues' goals, judged on this run (each line says met or NOT met)."""
+    """The issues' goals, judged on this run (each line says met or NOT met), for the
+    ``methods`` that have rows (a method that did not run is judged on nothing)."""
+    ran = {r["method"] for r in rows}
+    methods = [m for m in methods if m in ran]
     lines = []
     checks = ((64, "anytime", "anytime_gap_pct"), (64, "beam", "heuristic_gap_pct"),
               (64, "genetic", "heuristic_gap_pct"),

@@ -23,6 +23,7 @@ import numpy as np
 
 from benchmarks.common import (
     bench_args,
+    check_task_rows,
     markdown_table,
     read_rows_csv,
     report_page,
@@ -63,8 +64,9 @@ def solve(job: tuple, time_limit: float) -> list[dict]:
 
 
 def seed_rows(rows: list[dict], band: int) -> list[dict]:
-    """Per seed in ``band``: the share of greedy's solved tasks ``ppo`` solves, its mean modules
-    above greedy's where both solve, and its total wall time over greedy's."""
+    """Per seed in ``band``: the share of greedy's solved tasks ``ppo`` solves (one the seed did
+    not run, e.g. with no mixed-palette model, counts as missed), its mean modules above
+    greedy's where both solve, and its total wall time over greedy's on the tasks it ran."""
     greedy = {r["task"]: r for r in rows if r["band"] == band and r["method"] == "greedy"}
     solved = [t for t, r in greedy.items() if r["found"] is not None]
     seeds = sorted({r["seed"] for r in rows if r["method"] == "ppo"}, key=lambda s: (len(s), s))
@@ -72,7 +74,7 @@ def seed_rows(rows: list[dict], band: int) -> list[dict]:
     for seed in seeds:
         mine = {r["task"]: r for r in rows
                 if r["band"] == band and r["method"] == "ppo" and r["seed"] == seed}  # fmt: skip
-        both = [t for t in solved if mine[t]["found"] is not None]
+        both = [t for t in solved if t in mine and mine[t]["found"] is not None]
         extra = np.mean([mine[t]["found"] - greedy[t]["found"] for t in both]) if both else np.nan
         ratio = sum(r["seconds"] for r in mine.values()) / max(
             1e-9, sum(greedy[t]["seconds"] for t in mine)
@@ -144,10 +146,33 @@ def read_rows(path: Path) -> list[dict]:
     return read_rows_csv(path, "--rows", COLUMNS, typed_row, "benchmarks.scale_seeds")
 
 
-def typed_row(raw: dict) -> dict:
-    """A row of rows.csv with band, found (empty: none) and seconds as numbers."""
-    return raw | {"band": int(raw["band"]), "seconds": float(raw["seconds"]),
-                  "found": int(raw["found"]) if raw["found"] else None}  # fmt: skip
+def typed_row(raw: dict) -> dict | None:
+    """A row of rows.csv with band, found (empty: none) and seconds as numbers; None for values
+    :func:`solve` never writes (a band outside 16..128, an unknown family, a method other than
+    greedy (no seed) or ppo (its seed), fewer than 1 module, seconds not in [0, inf))."""
+    row = raw | {"band": int(raw["band"]), "seconds": float(raw["seconds"]),
+                 "found": int(raw["found"]) if raw["found"] else None}  # fmt: skip
+    method = {"greedy": raw["seed"] == "", "ppo": raw["seed"] != ""}.get(raw["method"], False)
+    known = 16 <= row["band"] <= 128 and raw["family"] in FAMILIES and raw["task"] and method
+    counts = (row["found"] is None or row["found"] >= 1) and 0 <= row["seconds"] < np.inf
+    return row if known and counts else None
+
+
+def read_runs_rows(path: Path, bands) -> list[dict]:
+    """:func:`read_rows` of ``--rows``, each row of ``bands`` and each task with one greedy row
+    and at most one per ppo seed (what the report compares); a one-line ValueError otherwise."""
+    rows = read_rows(path)
+    for i, r in enumerate(rows, start=1):
+        if r["band"] not in bands:
+            raise ValueError(f"--rows {path}: row {i}: band {r['band']} is not among --bands "
+                             f"{' '.join(map(str, bands))}")  # fmt: skip
+    check_task_rows(rows, ["greedy"], f"--rows {path}", run_name)
+    return rows
+
+
+def run_name(row: dict) -> str:
+    """``greedy`` or ``ppo seed S``: one run of a task."""
+    return f"{row['method']} seed {row['seed']}" if row["seed"] else row["method"]
 
 
 def seed_models(folder: Path, option: str) -> dict[str, Path]:
@@ -179,13 +204,13 @@ def main(argv: list[str] | None = None) -> list[dict]:
     args = bench_args(argv, "python -m benchmarks.scale_seeds", __doc__.split("\n\n")[0],
                       options, seed_help=None, out="results/scale_seeds",
                       outputs=OUTPUTS)  # fmt: skip
-    runs, mixed_runs = (
-        seed_models(args.runs, "--runs"),
-        seed_models(args.mixed_runs, "--mixed-runs"),
-    )
-    if args.rows is not None:
-        rows = read_rows(args.rows)
+    if args.rows is not None:  # the seeds are the rows' (no model is read)
+        rows = read_runs_rows(args.rows, args.bands)
+        seeds = sorted({r["seed"] for r in rows if r["seed"]}, key=lambda s: (len(s), s))
     else:
+        runs = seed_models(args.runs, "--runs")
+        mixed_runs = seed_models(args.mixed_runs, "--mixed-runs")
+        seeds = list(runs)
         work = jobs(args.bands, runs, mixed_runs)
         with ThreadPoolExecutor(args.workers) as pool:  # each thread waits on its own process
             rows = [r for part in pool.map(lambda j: solve(j, args.time_limit), work) for r in part]
@@ -195,7 +220,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
                f"{args.time_limit:g} --workers {args.workers} --out {args.out}"
                + (f" --rows {args.rows}" if args.rows else ""))  # fmt: skip
     notes = (
-        f"Seeds: {', '.join(runs)} (`{args.runs}`; mixed palette `{args.mixed_runs}`). "
+        f"Seeds: {', '.join(seeds)} (`{args.runs}`; mixed palette `{args.mixed_runs}`). "
         "`ppo_solves_greedys_pct`: of the tasks greedy solves, the share `ppo` solves (mean "
         "over seeds, 95 % bootstrap interval); `ppo_every_seed_all`: seeds that solve all of "
         "them; `ppo_minus_greedy_modules`: mean modules above greedy's on the tasks both solve; "

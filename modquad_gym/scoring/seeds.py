@@ -57,6 +57,14 @@ class SeedScore:
     """Mean module count over the solved tasks (None when none was solved)."""
 
     @classmethod
+    def from_record(cls, r: dict) -> SeedScore:
+        """The score of one record of a ``seeds.csv`` (:func:`write_report`; older files have no
+        ``modules``), to re-draw its figure."""
+        return cls(r["seed"], r["method"], r["suite"], int(r["tasks"]), float(r["success"]),
+                   float(r["optimal"]), float(r["evaluated"]), float(r["seconds"]),
+                   float(r["modules"]) if r.get("modules") else None)  # fmt: skip
+
+    @classmethod
     def of(cls, seed: str, method: str, suite: str, rows: list[Row]) -> SeedScore:
         solved = [r.n_modules for r in rows if r.success]
         return cls(
@@ -294,19 +302,6 @@ def plot(scores: list[SeedScore], path: Path) -> Path:
                  fontsize="medium")  # fmt: skip
     fig.tight_layout()
     return save_figure(fig, path)
-
-
-def read_scores(path: Path) -> list[SeedScore]:
-    """The per-seed scores of a ``seeds.csv`` (:func:`write_report`), to re-draw its figure."""
-    import csv
-
-    with open(path, newline="") as fh:
-        return [
-            SeedScore(r["seed"], r["method"], r["suite"], int(r["tasks"]), float(r["success"]),
-                      float(r["optimal"]), float(r["evaluated"]), float(r["seconds"]),
-                      float(r["modules"]) if r.get("modules") else None)
-            for r in csv.DictReader(fh)
-        ]  # fmt: skip
 
 
 def write_report(

@@ -1,0 +1,238 @@
+"""What the benchmark scripts write and refuse: certificates (its command, its files), fault_delay
+(options checked before work, --force, a fault with no flight), figures (one-line errors, a
+garbage source refused, --force only when something would be replaced) and the leaderboard (its
+runs' data written into --out, the glance table's one-run shares marked)."""
+
+from __future__ import annotations
+
+import csv
+import shutil
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+
+from benchmarks.common import run_script
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "results"
+
+
+def _refused(capsys, script: str, argv: list[str], *says: str) -> str:
+    """Exit 2 and one error line (after argparse's usage, for an option it refuses) holding
+    each of ``says``; that line is returned."""
+    assert run_script(script, argv) == 2
+    err = capsys.readouterr().err.strip()
+    *usage, line = err.splitlines()
+    assert not usage or usage[0].startswith("usage:"), err
+    assert line.startswith(f"python -m benchmarks.{script}: error: "), err
+    for part in says:
+        assert part in line, err
+    return line
+
+
+# --- certificates -----------------------------------------------------------------------------
+@pytest.fixture
+def one_certificate(monkeypatch):
+    """benchmarks.certificates with one job and a made-up row (no search)."""
+    from benchmarks import certificates
+
+    row = {"tier": "large", "suite": "large_planted", "task": "t", "fault": "", "minimum": 9,
+           "certified": True, "levels": "bound", "directions": 1, "bytes": 10, "sha256": "0",
+           "search_s": 1.0, "default_s": None, "make_s": 0.1, "check_s": 0.01, "valid": True,
+           "file": "files/large_planted/t.json.gz"}  # fmt: skip
+    monkeypatch.setattr(certificates, "jobs", lambda *args: [("large",)])
+    monkeypatch.setattr(certificates, "certify", lambda *args: row)
+
+
+def test_certificates_name_the_command_that_covers_the_page(one_certificate, tmp_path):
+    out = tmp_path / "ce"
+    assert (
+        run_script("certificates", ["--limit", "1", "--fault-tasks", "0", "--out", str(out)]) == 0
+    )
+    made = (out / "report.md").read_text().splitlines()[2]
+    assert made.startswith(
+        f"Made by `python -m benchmarks.certificates --limit 1 --fault-tasks 0 --out {out} --force`"
+    )
+
+
+@pytest.mark.parametrize("name", ["certificates.csv", "files"])
+def test_certificates_replace_their_table_and_files_only_with_force(
+    name, one_certificate, tmp_path, capsys
+):
+    out = tmp_path / "ce"
+    out.mkdir()
+    (out / "files").mkdir() if name == "files" else (out / name).write_text("mine\n")
+    argv = ["--limit", "1", "--out", str(out)]
+    _refused(capsys, "certificates", argv, f"already holds {name}", "--force")
+    assert not (out / "report.md").exists()
+    if name != "files":
+        assert (out / name).read_text() == "mine\n"
+    assert run_script("certificates", [*argv, "--force"]) == 0
+
+
+# --- fault_delay ------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "argv, says",
+    [
+        (["--n-max", "-1"], "argument --n-max: must be in 1..128"),
+        (["--margins", "nan"], "argument --margins: expected a finite number"),
+        (["--margins", "2"], "argument --margins: must lie in [0, 1), got 2.0"),
+        (["--time-limit", "-1"], "argument --time-limit: must lie in (0, 86,400]"),
+        (["--delays", "-1"], "argument --delays: must lie in [0, 1] s, got -1"),
+        (["--delays", "0"], "--delays: give one delay above 0"),
+        (["--tasks", "0"], "argument --tasks: must be in 1..1000, got 0"),
+        (["--tasks", "2", "--skip", "2"], "--skip 2: must be below --tasks 2"),
+        (["--update"], "--update: no flights.csv in"),
+    ],
+)
+def test_fault_delay_checks_its_options_before_any_work(argv, says, tmp_path, capsys):
+    out = tmp_path / "fd"
+    _refused(capsys, "fault_delay", [*argv, "--out", str(out)], says)
+    assert not out.exists()
+
+
+@pytest.fixture
+def rotor_flights_only(monkeypatch):
+    """benchmarks.fault_delay with made-up designs and flights: rotor ones only (no module
+    design within n_max), no search, no MuJoCo."""
+    from benchmarks import fault_delay
+
+    def designs(tasks, margins, n_max, time_limit):
+        return [{"task": t.name, "fault": "rotor", "required_margin": margins[0], "modules": 6,
+                 "certified": True, "worst_fault_margin": 0.1} for t in tasks]  # fmt: skip
+
+    def fly(rows, delays):
+        return [{**r, "delay_s": d, "max_error_cm": 6.0 * d / 0.05, "within_5cm": d < 0.04}
+                for r in rows for d in delays]  # fmt: skip
+
+    monkeypatch.setattr(fault_delay, "designs", designs)
+    monkeypatch.setattr(fault_delay, "fly", fly)
+
+
+def test_fault_delay_reports_a_fault_with_no_flight_and_keeps_a_report_without_force(
+    rotor_flights_only, tmp_path, capsys
+):
+    out = tmp_path / "fd"
+    argv = ["--tasks", "1", "--sources", "paper", "--delays", "0.01", "0.05", "--out", str(out)]
+    assert run_script("fault_delay", argv) == 0
+    report = (out / "report.md").read_text()
+    assert "| module | 10 ms | 0 | 0 | - | - |" in report
+    assert "- module: no flights (no design within n_max), no fit" in report
+    assert "- rotor: fit mu = 2.000 D" in report
+    (out / "report.md").write_text("MY PRECIOUS REPORT\n")
+    _refused(capsys, "fault_delay", argv, "already holds report.md", "--force")
+    assert (out / "report.md").read_text() == "MY PRECIOUS REPORT\n"
+    # --update replaces the flights.csv it adds to; the report and figure still need --force
+    more = ["--tasks", "2", "--skip", "1", "--sources", "paper", "--update", "--out", str(out)]
+    _refused(capsys, "fault_delay", more, "already holds report.md, margin_rule.png")
+    assert run_script("fault_delay", [*more, "--force"]) == 0
+    with open(out / "flights.csv", newline="") as fh:
+        assert {r["task"] for r in csv.DictReader(fh)} == {"paper-cal-0", "paper-cal-1"}
+    (out / "flights.csv").write_text("task,fault\npaper-cal-0,rotor\n")  # not its flights
+    _refused(capsys, "fault_delay", [*more, "--force"], "flights.csv: its header is not")
+
+
+# --- figures ----------------------------------------------------------------------------------
+def test_figures_refuse_missing_or_garbage_sources_in_one_line(tmp_path, capsys):
+    res = tmp_path / "res"
+    (res / "agentA").mkdir(parents=True)
+    (res / "agentA" / "benchmark.csv").write_text("garbage,header\n")
+    (res / "agentA" / "benchmark_bars.png").write_bytes(b"")
+    argv = ["--results", str(res), "--force"]
+    _refused(capsys, "figures", argv, "agentA/benchmark.md: No such file or directory")
+    (res / "agentA" / "benchmark.md").write_text("# a report\n")
+    _refused(capsys, "figures", argv, "agentA/benchmark.csv: its header is not suite,task")
+    shutil.rmtree(res / "agentA")
+    (res / "scale_y").mkdir()
+    (res / "scale_y" / "gap_vs_size.png").write_bytes(b"")
+    (res / "scale_y" / "rows.csv").write_text(
+        (RESULTS / "scale" / "rows.csv").read_text().replace(",True,", ",Maybe,", 1)
+    )
+    err = _refused(capsys, "figures", argv, "scale_y/rows.csv: row 1: not a row")
+    assert "--rows" not in err  # figures has no such option
+    shutil.rmtree(res / "scale_y")
+    (res / "seeds_x").mkdir()
+    (res / "seeds_x" / "seeds.csv").write_text("bad\n")
+    _refused(capsys, "figures", argv, "seeds_x/seeds.csv: its header is not seed,method")
+    assert not (res / "figures.md").exists() and not (res / "seeds_x" / "seeds.png").exists()
+
+
+def test_figures_ask_for_force_only_when_something_would_be_replaced(tmp_path, capsys):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    err = _refused(capsys, "figures", ["--results", str(empty)], "no figure to draw")
+    assert "--force" not in err
+    res = tmp_path / "res"
+    (res / "seeds_x").mkdir(parents=True)
+    shutil.copy(RESULTS / "seeds_current" / "seeds.csv", res / "seeds_x" / "seeds.csv")
+    assert run_script("figures", ["--results", str(res)]) == 0  # nothing there yet
+    listing = (res / "figures.md").read_text()
+    assert f"Made by `python -m benchmarks.figures --results {res} --force`" in listing
+    assert (res / "seeds_x" / "seeds.png").is_file()
+    _refused(capsys, "figures", ["--results", str(res)], "would be replaced: give --force")
+    assert run_script("figures", ["--results", str(res), "--force"]) == 0
+
+
+# --- leaderboard ------------------------------------------------------------------------------
+def _unchanged(*names: str):
+    return {n: (RESULTS / n).read_bytes() for n in names}
+
+
+def test_the_leaderboard_runs_its_rescored_searches_into_out(tmp_path, monkeypatch):
+    """--rescore-searches --out DIR: the rows go to DIR (the page there cites them), the
+    committed ones stay; an existing one there needs --force."""
+    from benchmarks import leaderboard
+    from benchmarks.leaderboard_entries import RESCORED, read_rows
+    from modquad_gym.scoring import agents
+
+    committed = read_rows(RESULTS / RESCORED)
+
+    def run_benchmark(suites, methods, *args):  # the committed rows, no search
+        return [r for r in committed if r.suite in suites and r.method in methods]
+
+    monkeypatch.setattr(agents, "run_benchmark", run_benchmark)
+    before = _unchanged(RESCORED, "leaderboard_searches.md")
+    out = tmp_path / "board"
+    argv = ["--rescore-searches", "--out", str(out), "--no-progress"]
+    assert leaderboard.main(argv) == 0
+    assert _unchanged(*before) == before
+    assert 0 < len(read_rows(out / RESCORED)) <= len(committed)
+    assert f"`{out / RESCORED}`" in (out / "leaderboard.md").read_text()  # its source
+    (out / "leaderboard.md").unlink()
+    with pytest.raises(SystemExit):  # its own earlier rows are refused without --force
+        leaderboard.main(argv)
+
+
+def test_the_leaderboard_runs_its_anytime_history_into_out(tmp_path, monkeypatch):
+    from benchmarks import leaderboard
+    from benchmarks.leaderboard_entries import ANYTIME
+    from modquad_gym import search
+
+    def anytime_search(task, n_max, **options):  # no search: the optimum at once
+        n = task.meta.get("optimum") or 1
+        event = SimpleNamespace(seconds=0.001, lower_bound=n, n_modules=n)
+        return SimpleNamespace(n_modules=n, certified=True, seconds=0.001, history=[event])
+
+    monkeypatch.setattr(search, "anytime_search", anytime_search)
+    before = _unchanged(ANYTIME, "leaderboard_anytime.md")
+    out = tmp_path / "board"
+    assert leaderboard.main(["--anytime-history", "--out", str(out), "--no-progress"]) == 0
+    assert _unchanged(*before) == before
+    written = (out / ANYTIME).read_text().splitlines()
+    assert len(written) == len(before[ANYTIME].decode().splitlines())
+    assert all(",0.00100," in line for line in written[1:] if ",1,1," in line)
+
+
+def test_the_glance_table_marks_the_shares_of_one_run():
+    """A learned method's share within the budget is the shipped model's one run beside its
+    five seeds' optimal share: marked ‡ and explained; a search's is its own run."""
+    from benchmarks.leaderboard_entries import TIERS, tier_entries
+    from benchmarks.leaderboard_page import glance
+
+    lines = glance([e for t in TIERS for e in tier_entries(t)], list(TIERS))
+    ppo = next(line for line in lines if line.startswith("| ppo (5 seeds) |"))
+    assert ppo.count("‡ within 1 s") == len(TIERS)
+    greedy = next(line for line in lines if line.startswith("| greedy |"))
+    assert "‡" not in greedy
+    assert lines[-1].startswith("‡ The shipped model's one run (the tier report), not the five")
