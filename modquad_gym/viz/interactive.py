@@ -218,6 +218,14 @@ def _structure_scene(s: Structure) -> dict:
     }
 
 
+KIND_NOTES = {
+    "external": " The task is external: the points are its wrenches plus the structure's weight.",
+    "dynamic": " The task is dynamic: the points are the wrenches along its trajectory for this "
+    "structure's mass and inertia.",
+}
+"""What the page adds about the points of a task of each kind (a total task: nothing)."""
+
+
 def structure_page(structure: Structure, task=None, f_max: float = 1.0) -> str:
     """The self-contained HTML page of :func:`structure_figure` with a short explanation."""
     s = check_structure(structure)
@@ -230,14 +238,7 @@ def structure_page(structure: Structure, task=None, f_max: float = 1.0) -> str:
         "torque space. A task wrench is green when the structure can exert the whole 6-D wrench "
         "and red when not, so a red point may lie inside both projections."
     )
-    kind = getattr(task, "kind", "total") if task is not None else "total"
-    if kind == "external":
-        note += " The task is external: the points are its wrenches plus the structure's weight."
-    elif kind == "dynamic":
-        note += (
-            " The task is dynamic: the points are the wrenches along its trajectory for this "
-            "structure's mass and inertia."
-        )
+    note += KIND_NOTES.get(getattr(task, "kind", "total"), "")
     body = _plot_html(fig, config={"displaylogo": False, "responsive": True})
     cells = html.escape(", ".join(f"({x}, {y})" for x, y in s.cells))
     types = html.escape(", ".join(m.name for m in s.modules))
