@@ -48,7 +48,7 @@ SCALE_TIME = 20.0
 FAULT_SUITES = ("heldout_paper", "heldout_planted", "dynamic_motions")
 CHILD = (
     "import json, os, sys, time\n"
-    "sys.path.insert(0, os.path.dirname(sys.argv[1]))  # the checker's two files alone\n"
+    "sys.path.insert(0, os.path.dirname(sys.argv[1]))  # the checker's three files alone\n"
     "import proofcheck as pc\n"
     "levels = []; t = [time.perf_counter()]\n"
     "def report(n, how):\n"

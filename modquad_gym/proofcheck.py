@@ -9,70 +9,69 @@ Why "valid" is sound (every test below in units of f_max: the task's wrenches an
 thrusts divided by f_max, f_max = 1, each direction divided by its largest entry, so that no
 tolerance underflows; a test that overflows is NaN or inf and fails):
 
+* "Reaches": thrusts within T = :data:`THRUST_TOL` of [0, f_max] (the package oracle's rule,
+  gamma <= 1 + 1e-6, with 1e-9 of room), for the answer and for the proofs alike, so two valid
+  certificates of one task never contradict each other.
 * The answer: for each task wrench w (and, with a fault, after each single failure, the failed
-  columns forced to zero) the certificate gives thrusts u with ``-TOL f_max <= u <= (1 + TOL)
-  f_max`` (:data:`THRUST_TOL`) and each component of A u - w within :func:`residual_allowed`:
-  the answer works, up to that tolerance.
-* A smaller structure with columns a_k can exert exactly the zonotope Z = {A u : 0 <= u <= f_max},
-  whose support in a direction d is h(d) = f_max sum_k max(0, d . a_k). If d . w > h(d), no u in
-  the box reaches w: the structure fails the task (with a failure, the failed columns are left
-  out of the sum: the structure fails after that failure, so it does not tolerate it). The test
-  demands d . w - h(d) > :data:`SEPARATION_TOL` |d| (|s| + f_max sum_k |a_k|), s the sum of
-  the magnitudes of w's terms (:func:`wrenches`); the round-off of computing w and both sides
-  is a small multiple of 2^-53 times that scale, under 1e-13 of it up to 128 modules, so a
-  passing test cannot be a rounding artefact (nor can a level bound's: its tolerance scales
-  with the magnitudes of its products' factors).
-* Structures are enumerated here, not read: fixed polyominoes grow cell by cell from the one
-  cell (every connected n-cell set keeps a connected (n-1)-cell subset: drop a leaf of a
-  spanning tree; so growing every (n-1)-polyomino by every free neighbour reaches every
-  n-polyomino), deduplicated up to translation by a key; every assignment of the module types
-  to the cells is taken. A level proved structure by structure must give one proof per
-  enumerated structure, in this enumeration's order.
+  columns forced to zero) the certificate gives thrusts u with ``-T f_max <= u <= (1 + T)
+  f_max`` and each component of A u - w within :func:`residual_allowed`.
+* A smaller structure with columns a_k reaches exactly the zonotope of such thrusts, whose
+  support in a direction d is h(d) = f_max sum_k (max(0, d . a_k) + T |d . a_k|). If
+  d . w > h(d), no thrusts reach w: the structure fails the task (with a failure, the failed
+  columns are left out of the sum: it fails after that failure, so it does not tolerate it).
+  The test demands d . w - h(d) > :data:`SEPARATION_TOL` |d| (|s| + f_max sum_k |a_k|), s the
+  sum of the magnitudes of w's terms (:func:`wrenches`): more than the answer's residual
+  allowance and the round-off of computing w and both sides (a small multiple of 2^-53 times
+  that scale), so a passing test cannot be a rounding artefact (nor can a level bound's: its
+  tolerance scales with the magnitudes of its products' factors).
+* Structures are enumerated by the checker's third file, ``proofcheck_shapes.py``, not read;
+  a level proved structure by structure must give one proof per enumerated structure, in its
+  order.
 * A bound covers a whole level n without enumeration: a module centre lies within L1 distance
   R = (n - 1) side of the centre of mass (a convex combination of the centres, all within n - 1
-  grid steps), so a module of type t adds at most H_t = f_max max_{|v|_1 <= R} sum_k max(0,
-  d . a_k(v)) to the support, a convex function of v whose maximum is at one of the four
-  vertices (+-R, 0), (0, +-R). The task value d . w_i(M, j) is affine in the structure's mass M
-  and inertia vector j; each module adds at most |J_t| + m_t R^2 to each |j_c|. Both sides are
-  affine in the module counts, so the bound holds for every mix of types when it holds for n
-  modules of each type alone: d . w_i >= n H_t - (the least single-failure loss, with a fault)
-  plus a margin, for every type t.
+  grid steps), so a module of type t adds at most H_t = f_max max_{|v|_1 <= R} sum_k
+  (max(0, d . a_k(v)) + T |d . a_k(v)|) to the support, a convex function of v whose maximum
+  is at one of the four vertices (+-R, 0), (0, +-R). The task value d . w_i(M, j) is affine in
+  the structure's mass M and inertia vector j; each module adds at most |J_t| + m_t R^2 to each
+  |j_c|. Both sides are affine in the module counts, so the bound holds for every mix of types
+  when it holds for n modules of each type alone: d . w_i >= n H_t - (the least single-failure
+  loss, with a fault) plus a margin, for every type t.
 
 Tolerances: :data:`THRUST_TOL`, :data:`RESIDUAL_TOL`, :data:`SEPARATION_TOL`, :data:`BOUND_TOL`.
 The file is read, and every field checked for its JSON type and shape before any proof, by the
-checker's second file, ``proofcheck_format.py``.
+checker's second file, ``proofcheck_format.py``; the work is bounded by the file's size (levels
+listed, rotors per type, bytes of JSON: :mod:`proofcheck_format`), in memory by blocks.
 Command line: ``python -m modquad_gym.proofcheck FILE`` or ``modquad check FILE``.
 """
 
 from __future__ import annotations
 
 import sys
-from functools import cache
 
 import numpy as np
 
-try:  # the format is the checker's second file (numpy and the standard library only)
+try:  # the checker's two other files: its format and its shapes (numpy, the standard library)
     from . import proofcheck_format as fmt
-except ImportError:  # run as a file, python proofcheck.py: the file beside it (even with -I)
+    from . import proofcheck_shapes as shapes
+except ImportError:  # run as a file, python proofcheck.py: the files beside it (even with -I)
     import importlib.util
     from pathlib import Path
 
-    _spec = importlib.util.spec_from_file_location(
-        "proofcheck_format", Path(__file__).with_name("proofcheck_format.py")
-    )
-    fmt = importlib.util.module_from_spec(_spec)
-    _spec.loader.exec_module(fmt)
+    def _beside(name: str):
+        spec = importlib.util.spec_from_file_location(name, Path(__file__).with_name(name + ".py"))
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+
+    fmt, shapes = _beside("proofcheck_format"), _beside("proofcheck_shapes")
 
 FORMAT, VERSION, CertificateFormatError = fmt.FORMAT, fmt.VERSION, fmt.CertificateFormatError
-THRUST_TOL = 1e-6  # thrusts of the answer may leave [0, f_max] by this fraction of f_max
-RESIDUAL_TOL = 1e-9  # |A u - w|_inf allowed, relative to f_max + |w|_inf
-ROUND_OFF = 1e-12  # relative round-off of a wrench or of A u (2^-53 times the terms, with room)
-SEPARATION_TOL = 1e-11  # relative margin of a separating direction (module docstring)
+MAX_ENUMERATED, count, structures = shapes.MAX_ENUMERATED, shapes.count, shapes.structures
+THRUST_TOL = 5.01e-7  # thrusts may leave [0, f_max] by this fraction of f_max: the oracle's rule
+RESIDUAL_TOL = 1e-11  # |A u - w| allowed per component, relative to its scale (residual_allowed)
+SEPARATION_TOL = 2e-11  # relative margin of a separating direction: above RESIDUAL_TOL
+EPS = 2.0**-52  # twice the unit round-off: the round-off of a sum of k terms is below k EPS
 BOUND_TOL = 1e-9  # relative margin of a level bound
-MAX_ENUMERATED = 14  # shape keys fit in 63 bits up to 14 cells
-KEY_SHIFT = 56  # key = width << KEY_SHIFT | sum of 2^(x + y width) over the cells
-BLOCK = 16384  # structures checked at once
-STEPS = np.array([[1, 0], [-1, 0], [0, 1], [0, -1]])
 
 
 class ProofError(Exception):
@@ -91,57 +90,6 @@ def check_file(path: str, report=None) -> str:
         raise CertificateFormatError(f"{path}: {e}") from None
 
 
-# --- structures -----------------------------------------------------------------------------
-def keys_of(cells: np.ndarray) -> np.ndarray:
-    """int64 keys (L,) of cell sets (L, n, 2), equal exactly for translates."""
-    c = cells - cells.min(axis=1, keepdims=True)
-    width = c[:, :, 0].max(axis=1) + 1
-    bits = np.left_shift(np.int64(1), c[:, :, 0] + c[:, :, 1] * width[:, None])
-    return np.bitwise_or.reduce(bits, axis=1) | (width << KEY_SHIFT)
-
-
-def cells_of(keys: np.ndarray, n: int) -> np.ndarray:
-    """(L, n, 2) cells of keys, translated to x, y >= 0, in order of x + y width."""
-    width = (keys >> KEY_SHIFT)[:, None]
-    bits = (keys[:, None] >> np.arange(KEY_SHIFT)) & 1
-    index = np.nonzero(bits)[1].reshape(len(keys), n)
-    return np.stack([index % width, index // width], axis=2)
-
-
-@cache
-def shape_keys(n: int) -> np.ndarray:
-    """Sorted keys of every fixed polyomino of n cells (module docstring)."""
-    if not 1 <= n <= MAX_ENUMERATED:
-        raise ProofError(f"level {n}: only levels of 1 to {MAX_ENUMERATED} modules are enumerated")
-    if n == 1:
-        return np.array([(1 << KEY_SHIFT) | 1], dtype=np.int64)
-    found, parents = [], shape_keys(n - 1)
-    for s in range(0, len(parents), 4096):
-        cells = cells_of(parents[s : s + 4096], n - 1)  # (L, m, 2)
-        grown = (cells[:, :, None, :] + STEPS).reshape(len(cells), -1, 2)  # (L, 4m, 2)
-        free = ~(grown[:, :, None, :] == cells[:, None, :, :]).all(axis=3).any(axis=2)
-        rows, new = np.nonzero(free)
-        found.append(np.unique(keys_of(np.concatenate([cells[rows], grown[rows, new, None]], 1))))
-    return np.unique(np.concatenate(found))
-
-
-def count(n: int, n_types: int) -> int:
-    """Structures of n modules of ``n_types`` types up to translation."""
-    return len(shape_keys(n)) * n_types**n
-
-
-def structures(n: int, n_types: int, block: int = BLOCK):
-    """(start, cells (B, n, 2), types (B, n)) in blocks, in canonical order: shapes by key,
-    then type assignments (a type index per cell, cells in key order) in lexicographic order."""
-    keys = shape_keys(n)
-    per = n_types**n
-    assign = np.stack(np.unravel_index(np.arange(per), (n_types,) * n), axis=1)
-    step = max(1, block // per)
-    for s in range(0, len(keys), step):
-        cells = cells_of(keys[s : s + step], n)
-        yield (s * per, np.repeat(cells, per, axis=0), np.tile(assign, (len(cells), 1)))
-
-
 # --- the physics ----------------------------------------------------------------------------
 class Types:
     """The module types of a certificate as arrays, indexed by type."""
@@ -157,9 +105,11 @@ class Types:
                            J[:, 1, 2]], axis=1)  # fmt: skip
         self.n, self.rotors, self.l = len(types), r, float(self.side[0])
 
-    def columns(self, cells: np.ndarray, types: np.ndarray):
-        """(columns (L, n r, 6), masses (L,), inertia vectors (L, 6)) of structures: column k
-        is [d_k ; p_k x d_k + spin_k c_tau d_k], p_k from the centre of mass."""
+    def columns(self, cells: np.ndarray, types: np.ndarray, sizes: bool = False):
+        """(columns (L, n r, 6), masses (L,), inertia vectors j (L, 6)) of structures: column k
+        is [d_k ; p_k x d_k + spin_k c_tau d_k], p_k from the centre of mass; with ``sizes``,
+        also the sums of the magnitudes of j's terms (L, 6), which bound its round-off (terms of
+        opposite signs cancel)."""
         m = self.mass[types]
         M = m.sum(axis=1)
         c = (cells - np.einsum("ln,lni->li", m, cells)[:, None, :] / M[:, None, None]) * self.l
@@ -168,9 +118,12 @@ class Types:
         tau = np.cross(p, d) + (self.spins * self.c_tau[:, None])[types][..., None] * d
         a = np.concatenate([d, tau], axis=3).reshape(len(cells), -1, 6)
         x, y = c[..., 0], c[..., 1]
-        own = self.J[types].sum(axis=1)
-        sums = [np.einsum("ln,ln->l", m, v) for v in (y * y, x * x, x * x + y * y, -x * y)]
-        return a, M, own + np.stack(sums + [0 * M, 0 * M], axis=1)
+        own, parts = self.J[types], (y * y, x * x, x * x + y * y, -x * y, 0 * x, 0 * x)
+        j = own.sum(axis=1) + np.stack([np.einsum("ln,ln->l", m, v) for v in parts], axis=1)
+        if not sizes:
+            return a, M, j
+        size = np.stack([np.einsum("ln,ln->l", m, np.abs(v)) for v in parts], axis=1)
+        return a, M, j, np.abs(own).sum(axis=1) + size
 
 
 def scaled(v: np.ndarray) -> np.ndarray:
@@ -183,15 +136,23 @@ def scaled(v: np.ndarray) -> np.ndarray:
 
 def separation(a, w, d, f_max: float, off=None, size=None) -> np.ndarray:
     """(L,) d . w - h(d) - the tolerance: > 0 where d separates w from the structure's
-    zonotope (columns ``a`` (L, m, 6), without the columns where ``off`` (L, m) is True);
-    ``size``: the magnitudes of w's terms (:func:`wrenches`), which the tolerance scales with
-    (default w itself)."""
-    da = np.einsum("lkq,lq->lk", a, d)
-    plus = np.maximum(da, 0.0) if off is None else np.where(off, 0.0, np.maximum(da, 0.0))
+    zonotope with thrusts within THRUST_TOL of the box (:func:`support_terms`; columns ``a``
+    (L, m, 6), without the columns where ``off`` (L, m) is True); ``size``: the magnitudes of
+    w's terms (:func:`wrenches`), which the tolerance scales with (default w itself)."""
+    plus = support_terms(np.einsum("lkq,lq->lk", a, d))
+    plus = plus if off is None else np.where(off, 0.0, plus)
     w_size = np.linalg.norm(w if size is None else size, axis=1)
     scale = w_size + f_max * np.linalg.norm(a, axis=2).sum(axis=1)
     tol = SEPARATION_TOL * np.linalg.norm(d, axis=1) * scale
     return np.einsum("lq,lq->l", d, w) - f_max * plus.sum(axis=1) - tol
+
+
+def support_terms(da: np.ndarray) -> np.ndarray:
+    """Each column's share max(0, d . a_k) + THRUST_TOL |d . a_k| of the support in direction d
+    (per f_max) of the zonotope whose thrusts may leave [0, f_max] by the answer's tolerance:
+    a proof that no thrusts reach w holds for the answer's thrusts too (certificates of one
+    task never contradict)."""
+    return np.maximum(da, 0.0) + THRUST_TOL * np.abs(da)
 
 
 def failed_columns(fault, failure: np.ndarray, n: int, rotors: int) -> np.ndarray:
@@ -213,7 +174,7 @@ def bound_margin(T: Types, task, f_max: float, fault, n: int, d: np.ndarray, i: 
     dirs = T.dirs[:, None]
     tau = np.cross(p, dirs) + (T.spins * T.c_tau[:, None])[:, None, :, None] * dirs
     a = np.concatenate([np.broadcast_to(dirs, tau.shape), tau], axis=3)  # (K, 4, r, 6)
-    H = f_max * np.maximum(a @ d, 0.0).sum(axis=2).max(axis=1)  # (K,)
+    H = f_max * support_terms(a @ d).sum(axis=2).max(axis=1)  # (K,): convex in the placement
     loss = 0.0
     if fault is not None and not np.any(d[3:]):
         force = np.maximum(T.dirs @ d[:3], 0.0)  # (K, r): placement-free
@@ -231,45 +192,47 @@ def bound_margin(T: Types, task, f_max: float, fault, n: int, d: np.ndarray, i: 
 # --- the checks ------------------------------------------------------------------------------
 def wrenches(task, i, M, j, size: bool = False) -> np.ndarray:
     """(L, 6) task wrenches i (L,) of structures of masses M (L,) and inertia vectors j; with
-    ``size``, the sums of their terms' magnitudes instead: what bounds their round-off (terms
-    that cancel leave a small wrench with a large error)."""
+    ``size`` (j then the magnitudes of its terms, :meth:`Types.columns`), the sums of the
+    wrenches' terms' magnitudes instead: what bounds their round-off (terms that cancel leave
+    a small wrench with a large error)."""
     base, pm, pi = (np.abs(x) for x in task) if size else task
-    return base[i] + M[:, None] * pm[i] + np.einsum("lqc,lc->lq", pi[i], np.abs(j) if size else j)
+    return base[i] + M[:, None] * pm[i] + np.einsum("lqc,lc->lq", pi[i], j)
 
 
 def _connected(cells: np.ndarray) -> bool:
-    seen, todo = {tuple(cells[0])}, [tuple(cells[0])]
+    """Distinct cells, each reached from the first through neighbours (linear in the cells)."""
     cellset = set(map(tuple, cells.tolist()))
+    seen, todo = {tuple(cells[0].tolist())}, [tuple(cells[0].tolist())]
     while todo:
         x, y = todo.pop()
-        for dx, dy in STEPS.tolist():
-            if (x + dx, y + dy) in cellset - seen:
-                seen.add((x + dx, y + dy))
-                todo.append((x + dx, y + dy))
+        for near in ((x + 1, y), (x - 1, y), (x, y + 1), (x, y - 1)):
+            if near in cellset and near not in seen:
+                seen.add(near)
+                todo.append(near)
     return len(seen) == len(cellset) == len(cells)
 
 
 def check_answer(answer, T: Types, task, f_max: float, fault, minimum: int) -> None:
     """Verify the answer's thrusts; ``answer``: (cells, types, allocations) arrays."""
     cells, types, U = answer
+    t, m = len(task[0]), minimum * T.rotors
+    shape = (1 if fault is None else m if fault == "rotor" else minimum, t, m)
+    if U.shape != shape:  # first: the cheapest test
+        raise ProofError(f"answer.allocations: shape {U.shape}, needs {shape} (failures, "
+                         "wrenches, rotors)")  # fmt: skip
     if len(cells) != minimum or types.shape != (minimum,) or not _connected(cells):
         raise ProofError(f"answer: needs {minimum} distinct connected cells, one type each")
     if types.min() < 0 or types.max() >= T.n:
         raise ProofError("answer.types: a type index outside the types")
     cells = cells - cells.min(axis=0)  # connected: each coordinate now below minimum
-    a, M, j = T.columns(cells[None].astype(float), types[None])
-    A, t = a[0].T, len(task[0])
-    m = A.shape[1]
-    W, size = (wrenches(task, np.arange(t), np.repeat(M, t), np.repeat(j, t, axis=0), size)
-               for size in (False, True))  # fmt: skip
-    failures = np.arange(m if fault == "rotor" else minimum)
+    a, M, j, j_size = T.columns(cells[None].astype(float), types[None], sizes=True)
+    A, idx = a[0].T, np.arange(t)
+    W, size = (wrenches(task, idx, np.repeat(M, t), np.repeat(x, t, axis=0), b)
+               for x, b in ((j, False), (j_size, True)))  # fmt: skip
     fails = [np.zeros(m, bool)] if fault is None else list(
-        failed_columns(fault, failures, minimum, T.rotors))  # fmt: skip
+        failed_columns(fault, np.arange(shape[0]), minimum, T.rotors))  # fmt: skip
     if not np.all(np.isfinite(U)):
         raise ProofError("answer.allocations: a thrust is not a finite number")
-    if U.shape != (len(fails), len(W), m):
-        raise ProofError(f"answer.allocations: shape {U.shape}, needs {(len(fails), len(W), m)} "
-                      "(failures, wrenches, rotors)")  # fmt: skip
     for f, off in enumerate(fails):
         u = U[f]
         where = f"answer: allocation of failure {f}" if fault else "answer: allocation"
@@ -292,9 +255,9 @@ def residual_allowed(A, W, size, f_max: float) -> np.ndarray:
     """(t, 6) how far each component of A u may miss the wrenches W (t, 6): RESIDUAL_TOL of
     its own scale (f_max times the row's column magnitudes, plus the wrench component: one large
     torque buys no error in a force), less the round-off of W (``size``: its terms'
-    magnitudes) and of A u, which the claim must not lean on."""
+    magnitudes: a few terms) and of A u (a sum of m terms), which the claim must not lean on."""
     rows = f_max * np.abs(A).sum(axis=1)  # (6,)
-    return RESIDUAL_TOL * (rows + np.abs(W)) - ROUND_OFF * (rows + size)
+    return RESIDUAL_TOL * (rows + np.abs(W)) - EPS * (A.shape[1] + 8) * (rows + size)
 
 
 def check_level(entry, n, T: Types, task, f_max, fault, D) -> str:
@@ -306,7 +269,9 @@ def check_level(entry, n, T: Types, task, f_max, fault, D) -> str:
         if not bound_margin(T, task, f_max, fault, n, D[p], i) > 0:  # NaN fails too
             raise ProofError(f"level {n}: bound: direction {p} does not exceed the level's support")
         return "bound"
-    total = count(n, T.n)
+    if n > MAX_ENUMERATED:
+        raise ProofError(f"level {n}: only levels of 1 to {MAX_ENUMERATED} modules are enumerated")
+    total = count(n, T.n)  # read off a table: the entries are compared before any enumeration
     for name, a in entry.items():
         if len(a) != total:
             raise ProofError(
@@ -318,11 +283,11 @@ def check_level(entry, n, T: Types, task, f_max, fault, D) -> str:
         raise ProofError(f"level {n}: a direction or wrench index out of range")
     if F.max() >= (n * T.rotors if fault == "rotor" else n) or F.min() < -1:
         raise ProofError(f"level {n}: a failure index out of range")
-    for s, cells, types in structures(n, T.n):
+    for s, cells, types in structures(n, T.n, T.rotors):
         sl = slice(s, s + len(cells))
-        a, M, j = T.columns(cells.astype(float), types)
+        a, M, j, j_size = T.columns(cells.astype(float), types, sizes=True)
         off = failed_columns(fault, F[sl], n, T.rotors) if fault else None
-        w, size = (wrenches(task, I[sl], M, j, size) for size in (False, True))
+        w, size = (wrenches(task, I[sl], M, x, b) for x, b in ((j, False), (j_size, True)))
         ok = separation(a, w, D[P[sl]], f_max, off, size) > 0
         if not ok.all():
             k = int(np.argmin(ok))
@@ -356,7 +321,7 @@ def _checked(c: dict, T: Types, report, name: str | None) -> str:
     if minimum is not None:
         cells, types, U = c["answer"]
         check_answer((cells, types, U / f_max), T, task, 1.0, fault, minimum)
-    if set(levels) - set(range(1, top + 1)):
+    if any(not 1 <= n <= top for n in levels):  # no set of 1..top: top may be huge
         raise ProofError(f"levels: proofs of levels outside 1..{top}")
     for n in range(1, top + 1):
         if n not in levels:

@@ -1,6 +1,6 @@
 """The certificate format of :mod:`modquad_gym.proofcheck` (``docs/certificates.md``): a file read
 and every field checked for its JSON type and shape before any proof (numpy and the standard
-library only; the checker's second file: copy both).
+library only; the checker's second file: copy all three).
 
 Nothing is converted: ``true`` is no number, ``1.0`` no index, ``"1"`` no number; an unknown or
 missing key is refused. A :class:`CertificateFormatError` names the first malformed field
@@ -20,6 +20,13 @@ FORMAT, VERSION = "modquad-certificate", 1
 TYPE_SHAPES = {"side": (), "c_tau": (), "mass": (), "inertia": (3, 3), "positions": ("r", 3),
                "directions": ("r", 3), "spins": ("r",)}  # fmt: skip
 """The numbers of a module type and their shapes (r: its rotors)."""
+MAX_ROTORS = 16
+"""Most rotors of a module type (a quad- to octorotor module, with room): the checker's work
+and memory grow with them."""
+MAX_TEXT = 64 << 20
+"""Most bytes of JSON a certificate holds (one of 15 modules of one type, proved structure by
+structure, takes about 40 MiB: 0.76 MiB up to 11); a small gzip file must not inflate into
+all memory (reading takes about 17 times the JSON's bytes)."""
 MAX_LENGTH = 10.0
 """Most metres of a module's side, rotor positions and drag ratio: the checker's tolerances
 cover the round-off of torque arms up to there (a rotor at 100 km along its own thrust axis has
@@ -34,11 +41,17 @@ class CertificateFormatError(ValueError):
 
 
 def load(path: str) -> dict:
-    """The certificate in ``path`` (JSON, gzip-compressed when the name ends in ``.gz``)."""
+    """The certificate in ``path`` (JSON, gzip-compressed when the name ends in ``.gz``), read
+    only up to :data:`MAX_TEXT` bytes of JSON (a file that inflates beyond is refused)."""
     opener = gzip.open if str(path).endswith(".gz") else open
     try:
-        with opener(path, "rt", encoding="utf-8") as fh:
-            return json.load(fh, object_pairs_hook=_unique_keys)
+        with opener(path, "rb") as fh:
+            text = fh.read(MAX_TEXT + 1)
+        if len(text) > MAX_TEXT:
+            raise CertificateFormatError(f"{path}: more than {MAX_TEXT >> 20} MiB of JSON")
+        return json.loads(text.decode("utf-8"), object_pairs_hook=_unique_keys)
+    except CertificateFormatError:
+        raise
     except RecursionError:
         raise CertificateFormatError(f"{path}: JSON nested too deeply") from None
     except (OSError, EOFError, ValueError, zlib.error) as e:  # ValueError: not UTF-8 or JSON
@@ -123,10 +136,11 @@ def module_types(types) -> dict:
         _text(t["name"], f"types[{i}].name")
         rows.append({k: array(t[k], f"types[{i}].{k}", s) for k, s in TYPE_SHAPES.items()})
         r = len(rows[0]["spins"])
-        if not r or any(len(rows[i][k]) != r for k in ("positions", "directions", "spins")):
+        same = all(len(rows[i][k]) == r for k in ("positions", "directions", "spins"))
+        if not 1 <= r <= MAX_ROTORS or not same:
             raise CertificateFormatError(
                 f"types[{i}]: positions, directions, spins: one row per rotor, as many rotors "
-                f"as types[0] ({r}), at least one"
+                f"as types[0] ({r}), 1 to {MAX_ROTORS}"
             )
         _physical(rows[i], rows[0]["side"], f"types[{i}]")
     return {k: np.stack([a[k] for a in rows]) for k in TYPE_SHAPES}
@@ -244,10 +258,10 @@ def parse(cert) -> dict:
     if (minimum is None) != ("n_max" in c) or (minimum is None) == ("answer" in c):
         raise CertificateFormatError("minimum: a number with an answer, or null with n_max")
     top = int(array(c["n_max"], "n_max", integer=True)) if minimum is None else minimum - 1
+    if top < 1 and minimum is None:  # n_max 0 would prove nothing
+        raise CertificateFormatError(f"n_max: must be at least 1, not {top}")
     if top < 0:
-        raise CertificateFormatError(
-            "n_max: must be at least 0" if minimum is None else "minimum: must be at least 1"
-        )
+        raise CertificateFormatError("minimum: must be at least 1")
     if "producer" in c:
         _text(fields(c["producer"], "producer", "method")["method"], "producer.method")
     module_types(c["types"])  # Types (the checker's) builds them again, checked here first

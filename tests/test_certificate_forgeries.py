@@ -7,6 +7,7 @@ does not depend on the units a certificate is written in; a module type must be 
 from __future__ import annotations
 
 import copy
+import gzip
 import json
 import warnings
 from pathlib import Path
@@ -18,6 +19,8 @@ from test_certificate_inputs import doors
 
 import modquad_gym as mq
 from modquad_gym import proofcheck as pc
+from modquad_gym import proofcheck_format as pcf
+from modquad_gym import proofcheck_shapes as pcs
 from modquad_gym.search import certificates
 from modquad_gym.search.problem import SearchProblem
 
@@ -207,6 +210,11 @@ FORGED = Path(__file__).parent / "data" / "forged_certificates"
         # (one tolerance for all six components): one module 'lifted' 15 f_max; such a drag
         # ratio is no module's now, and each component has its own tolerance (next test)
         ("torque_buys_lift", r"types\[0\]\.c_tau: must be at most 10 m in magnitude"),
+        # (third review) Jxz of +-0.1 summed over six modules is 2.8e-17, not 0: times a
+        # per_inertia of 2.16e17 the computed wrench was a hover where the exact one pushes down
+        ("inertia_cancel", "wrench 0: component 2 of A u differs from the wrench"),
+        # every thrust at -1e-6 f_max (the old tolerance, twice the oracle's) pushed down
+        ("negative_thrust", "wrench 0: a thrust outside"),
     ],
 )
 def test_round_off_of_the_task_model_proves_nothing(name, words):
@@ -222,7 +230,7 @@ def test_each_component_of_the_answer_has_its_own_tolerance():
                   [10, -10, 0, 0]])  # fmt: skip
     W = np.array([[0, 0, 2.0, 0, 0, 0], [0, 0, 2.0, 0, 0, 1e6]])
     allowed = pc.residual_allowed(A, W, np.abs(W), 1.0)
-    assert allowed[0, 2] == allowed[1, 2] < 1e-8 and allowed[1, 5] > 1e-4
+    assert allowed[0, 2] == allowed[1, 2] < 1e-10 and allowed[1, 5] > 1e-6
 
 
 def test_an_external_task_adds_the_weight(docs_example):
@@ -235,3 +243,60 @@ def test_an_external_task_adds_the_weight(docs_example):
     c["task"]["per_mass"][1] = [1.0, 0, 9.81, 0, 0, 0]
     with pytest.raises(pc.CertificateFormatError, match="task.per_mass: an external task's"):
         pc.check(c)
+
+
+def impossible(levels: int) -> dict:
+    """A true certificate that no structure of up to ``levels`` T-modules pushes down (f_z =
+    -1 f_max), each level by a bound."""
+    from modquad_gym.geometry.module import TModule
+
+    return {"format": pc.FORMAT, "version": pc.VERSION, "f_max": 1.0, "fault": None,
+            "types": [certificates.type_dict(TModule())], "n_max": levels, "minimum": None,
+            "task": {"name": "down", "kind": "total", "base": [[0, 0, -1.0, 0, 0, 0]],
+                     "per_mass": None, "per_inertia": None},
+            "directions": [[0, 0, -1.0, 0, 0, 0]],
+            "levels": [{"n": n, "bound": {"direction": 0, "wrench": 0}}
+                       for n in range(1, levels + 1)]}  # fmt: skip
+
+
+def test_the_checker_does_only_the_work_the_file_pays_for():
+    """(third review) A 1 kB file made the checker build a set of every level up to n_max
+    (2^63: all memory), or enumerate the 7.2 million shapes of 14 cells before it compared
+    a level's entry count; the count is read off OEIS A001168 now."""
+    assert pc.check(impossible(13)).startswith("valid: no structure of up to 13 modules")
+    huge = impossible(3) | {"n_max": 2**63 - 1}
+    with pytest.raises(pc.ProofError, match="level 4: no proof"):
+        pc.check(huge)
+    empty = impossible(13) | {"n_max": 14}
+    empty["levels"].append({"n": 14, "direction": [], "wrench": []})
+    pcs.shape_keys.cache_clear()
+    with pytest.raises(
+        pc.ProofError, match="level 14: direction: has 0 entries, there are 7204874"
+    ):
+        pc.check(empty)
+    assert pcs.shape_keys.cache_info().currsize == 0  # nothing enumerated
+
+
+def test_work_is_bounded_by_rotors_and_bytes(tmp_path, monkeypatch):
+    """A type of 256 rotors asked for 960 MiB per block; blocks are sized in rotor columns, a
+    type has at most 16 rotors, and a small gzip file may not inflate without bound."""
+    for n in (6, 10):
+        for _, cells, _ in pcs.structures(n, 1, 16):
+            assert len(cells) * n * 16 <= pcs.BLOCK_COLUMNS
+    many = impossible(2)
+    t = many["types"][0]
+    for key in ("positions", "directions"):
+        t[key] = t[key] * 5  # 20 rotors
+    t["spins"] = t["spins"] * 5
+    with pytest.raises(pc.CertificateFormatError, match=r"types\[0\]: .* 1 to 16"):
+        pc.check(many)
+    path = tmp_path / "c.json.gz"
+    path.write_bytes(gzip.compress(json.dumps(impossible(2)).encode()))
+    monkeypatch.setattr(pcf, "MAX_TEXT", 100)
+    with pytest.raises(pc.CertificateFormatError, match="more than 0 MiB of JSON"):
+        pc.load(str(path))
+
+
+def test_a_certificate_that_proves_nothing_is_refused():
+    with pytest.raises(pc.CertificateFormatError, match="n_max: must be at least 1, not 0"):
+        pc.check(impossible(0))

@@ -19,6 +19,7 @@ import pytest
 import modquad_gym as mq
 from modquad_gym import proofcheck as pc
 from modquad_gym import proofcheck_format as pcf
+from modquad_gym import proofcheck_shapes as pcs
 from modquad_gym.geometry.module import STOCK_TYPES, palette
 from modquad_gym.geometry.polyominoes import A001168, PolyominoStream
 from modquad_gym.search import certificates
@@ -44,10 +45,12 @@ def paper():
 
 
 def test_the_checker_imports_only_numpy_and_the_standard_library(paper, tmp_path):
-    """Its two files (the checker and its format) import numpy, the standard library and each
-    other; copied alone into a folder, they check a certificate without the package."""
+    """Its three files (the checker, its format and its shapes) import numpy, the standard
+    library and each other; copied alone into a folder, they check a certificate without the
+    package."""
+    files = ("proofcheck", "proofcheck_format", "proofcheck_shapes")
     imported = {}
-    for name in ("proofcheck", "proofcheck_format"):
+    for name in files:
         tree = ast.parse((ROOT / "modquad_gym" / f"{name}.py").read_text())
         imported[name] = {a.name.split(".")[0] for node in ast.walk(tree)
                           if isinstance(node, ast.Import) for a in node.names}  # fmt: skip
@@ -55,21 +58,15 @@ def test_the_checker_imports_only_numpy_and_the_standard_library(paper, tmp_path
                            for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
                            for a in node.names}  # fmt: skip
     assert imported == {
-        "proofcheck": {
-            "__future__",
-            "sys",
-            "functools",
-            "numpy",
-            "proofcheck_format",
-            "importlib",
-            "pathlib",
-        },
+        "proofcheck": {"__future__", "sys", "numpy", "proofcheck_format", "proofcheck_shapes",
+                       "importlib", "pathlib"},
         "proofcheck_format": {"__future__", "gzip", "json", "math", "zlib", "numpy"},
-    }
+        "proofcheck_shapes": {"__future__", "functools", "numpy"},
+    }  # fmt: skip
     alone = tmp_path / "alone"
     alone.mkdir()
-    for name in ("proofcheck.py", "proofcheck_format.py"):
-        shutil.copy(ROOT / "modquad_gym" / name, alone / name)
+    for name in files:
+        shutil.copy(ROOT / "modquad_gym" / f"{name}.py", alone / f"{name}.py")
     path = tmp_path / "c.json"
     path.write_text(json.dumps(paper[0]))
     code = (
@@ -90,13 +87,13 @@ def test_the_checker_imports_only_numpy_and_the_standard_library(paper, tmp_path
 
 def test_the_checker_enumerates_every_structure_once():
     for n in range(1, 9):
-        assert len(pc.shape_keys(n)) == A001168[n - 1]
+        assert len(pcs.shape_keys(n)) == A001168[n - 1]
     for n in range(1, 7):  # the same sets as the package's Redelmeier enumeration
-        ours = set(pc.shape_keys(n).tolist())
+        ours = set(pcs.shape_keys(n).tolist())
         theirs = np.concatenate(list(PolyominoStream(n, 4096))).astype(np.int64)
-        assert set(pc.keys_of(theirs).tolist()) == ours
-    cells = pc.cells_of(pc.shape_keys(5), 5)
-    assert np.array_equal(pc.keys_of(cells), pc.shape_keys(5))
+        assert set(pcs.keys_of(theirs).tolist()) == ours
+    cells = pcs.cells_of(pcs.shape_keys(5), 5)
+    assert np.array_equal(pcs.keys_of(cells), pcs.shape_keys(5))
 
 
 def test_the_checker_physics_is_the_package_physics():
@@ -106,7 +103,7 @@ def test_the_checker_physics_is_the_package_physics():
     heavy = mq.ModuleType.from_tilts((0.3, -0.2, 0.1, 0.5), mass=0.9, name="heavy")
     T2 = pc.Types([certificates.type_dict(m) for m in (STOCK_TYPES["t30"], heavy)])
     for Tk, pal in ((T, types), (T2, [STOCK_TYPES["t30"], heavy])):
-        cells = pc.cells_of(pc.shape_keys(6), 6)[rng.choice(216, 8, replace=False)]
+        cells = pcs.cells_of(pcs.shape_keys(6), 6)[rng.choice(216, 8, replace=False)]
         kinds = rng.integers(0, len(pal), (8, 6))
         a, M, j = Tk.columns(cells.astype(float), kinds)
         for k in range(8):
@@ -124,7 +121,7 @@ def test_separations_agree_with_the_oracle_on_random_structures():
     rng = np.random.default_rng(1)
     T = pc.Types([certificates.type_dict(mq.TModule())])
     for n in (1, 2, 4, 6):  # 1 and 2 modules and lines: rank-deficient matrices
-        cells = pc.cells_of(pc.shape_keys(n), n)
+        cells = pcs.cells_of(pcs.shape_keys(n), n)
         for k in rng.choice(len(cells), min(len(cells), 4), replace=False):
             a, _, _ = T.columns(cells[k : k + 1].astype(float), np.zeros((1, n), int))
             A = a[0].T
@@ -151,9 +148,9 @@ def test_a_level_bound_never_undercuts_a_structure_of_its_level():
     for n in (2, 3, 5):
         for d in rng.normal(size=(6, 6)):
             worst = -np.inf
-            for _, cells, types in pc.structures(n, 2):
+            for _, cells, types in pc.structures(n, 2, T.rotors):
                 a, _, _ = T.columns(cells.astype(float), types)
-                worst = max(worst, float(np.maximum(a @ d, 0).sum(axis=1).max()))
+                worst = max(worst, float(pc.support_terms(a @ d).sum(axis=1).max()))
             task = (d[None] * worst / (d @ d), zero, np.zeros((1, 6, 6)))  # d . w = worst
             assert pc.bound_margin(T, task, 1.0, None, n, d, 0) <= 0
             task = (d[None] * (worst + 1e-3) / (d @ d), zero, np.zeros((1, 6, 6)))

@@ -18,12 +18,13 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "modquad_gym"
 
 LAYERS = (
-    "proofcheck_format", "proofcheck", "core", "geometry", "oracle", "dynamics", "tasks",
-    "search", "viz", "envs", "policy", "methods", "solvers", "sim", "scoring", "cli",
+    "proofcheck_format", "proofcheck_shapes", "proofcheck", "core", "geometry", "oracle",
+    "dynamics", "tasks", "search", "viz", "envs", "policy", "methods", "solvers", "sim",
+    "scoring", "cli",
 )  # fmt: skip
 """Bottom to top: a module may import its own layer and those below it (the certificate
 checker, ``proofcheck``, imports no other module of the package but its format,
-``proofcheck_format``, which imports none)."""
+``proofcheck_format``, and its shapes, ``proofcheck_shapes``, which import none)."""
 ROOT_LAYER = "envs"
 """``modquad_gym/__init__.py`` (the public names) imports up to the envs (it registers them)."""
 

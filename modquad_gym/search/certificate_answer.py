@@ -19,10 +19,10 @@ def answer(structure, problem, T, task, f_max, fault) -> dict:
     types = _type_indices(structure, problem.palette)
     if types.min() < 0:
         raise CertificateError("the answer has a module type outside the problem's palette")
-    a, M, j = T.columns(cells[None].astype(float), types[None])
+    a, M, j, j_size = T.columns(cells[None].astype(float), types[None], sizes=True)
     A, t = a[0].T, len(task[0])
-    W, size = (pc.wrenches(task, np.arange(t), np.repeat(M, t), np.repeat(j, t, axis=0), size)
-               for size in (False, True))  # fmt: skip
+    W, size = (pc.wrenches(task, np.arange(t), np.repeat(M, t), np.repeat(x, t, axis=0), b)
+               for x, b in ((j, False), (j_size, True)))  # fmt: skip
     m, n = A.shape[1], len(cells)
     fails = (
         [np.zeros(m, bool)]

@@ -132,7 +132,7 @@ class _Prover:
             )
         P, I, F = (np.full(total, -1, np.int64) for _ in range(3))
         bar = _bar(progress, n, total)
-        for s, cells, types in pc.structures(n, self.T.n):
+        for s, cells, types in pc.structures(n, self.T.n, self.T.rotors):
             self._block(cells, types, P[s : s + len(cells)], I[s : s + len(cells)],
                         F[s : s + len(cells)])  # fmt: skip
             if bar is not None:
@@ -183,11 +183,10 @@ class _Prover:
     # -- structure by structure --------------------------------------------------------------
     def _block(self, cells, types, P, I, F) -> None:
         T, task, f_max = self.T, self.task, self.f_max
-        a, M, j = T.columns(cells.astype(float), types)
-        t = len(task[0])
+        a, M, j, j_size = T.columns(cells.astype(float), types, sizes=True)
         W, S = (
             x[0][None] + M[:, None, None] * x[1][None] + np.einsum("tqc,lc->ltq", x[2], jx)
-            for x, jx in ((task, j), ([np.abs(y) for y in task], np.abs(j)))
+            for x, jx in ((task, j), ([np.abs(y) for y in task], j_size))
         )  # the wrenches (L, t, 6) and their terms' magnitudes (pc.wrenches' size)
         alive = np.ones(len(cells), bool)
         for p in np.argsort(-np.array(self.uses, dtype=float), kind="stable"):
@@ -214,7 +213,6 @@ class _Prover:
                 )
             P[k], I[k], F[k] = self._failure(a[k], (W[k], S[k]), cells[k], types[k])
             alive[k] = False
-        del t
 
     def _try(self, p: int, a, wrenches, alive, P, I) -> None:
         """Assign direction p to the alive structures it separates (strictly); ``wrenches``:
@@ -263,7 +261,7 @@ class _Prover:
         if not len(idx):
             return None
         D = np.array(self.pool)[idx]  # (P, 6)
-        plus = np.maximum(D @ a.T, 0.0)  # (P, m)
+        plus = pc.support_terms(D @ a.T)  # (P, m)
         h = self.f_max * (plus.sum(axis=1)[:, None] - plus @ offs.T)  # (P, F)
         values = D @ W.T  # (P, t)
         best = values.argmax(axis=1)
@@ -287,7 +285,7 @@ def bound_margins(T, task, f_max, fault, n, D) -> np.ndarray:
     dirs = np.broadcast_to(T.dirs[:, None], p.shape)
     tau = np.cross(p, dirs) + (T.spins * T.c_tau[:, None])[:, None, :, None] * dirs
     da = np.concatenate([dirs, tau], axis=3) @ D.T  # (K, 4, r, P)
-    H = f_max * np.maximum(da, 0.0).sum(axis=2).max(axis=1).T  # (P, K)
+    H = f_max * pc.support_terms(da).sum(axis=2).max(axis=1).T  # (P, K)
     loss = np.zeros(len(D))
     if fault is not None:
         force = np.maximum(np.einsum("krq,pq->pkr", T.dirs, D[:, :3]), 0.0)
