@@ -10,13 +10,14 @@ thrusts divided by f_max, f_max = 1, each direction divided by its largest entry
 tolerance underflows; a test that overflows is NaN or inf and fails):
 
 * "Reaches": thrusts within T = :data:`THRUST_TOL` of [0, f_max] (the package oracle's rule,
-  gamma <= 1 + 1e-6, with 1e-9 of room), for the answer and for the proofs alike, so two valid
-  certificates of one task never contradict each other.
+  gamma <= 1 + 1e-6); the proofs exclude a slightly wider band (:data:`PROOF_BAND`) and more
+  than the answer's residual, so two valid certificates of one task never contradict.
 * The answer: for each task wrench w (and, with a fault, after each single failure, the failed
   columns forced to zero) the certificate gives thrusts u with ``-T f_max <= u <= (1 + T)
   f_max`` and each component of A u - w within :func:`residual_allowed`.
 * A smaller structure with columns a_k reaches exactly the zonotope of such thrusts, whose
-  support in a direction d is h(d) = f_max sum_k (max(0, d . a_k) + T |d . a_k|). If
+  support in a direction d is at most h(d) = f_max sum_k (max(0, d . a_k) + B |d . a_k|),
+  B = :data:`PROOF_BAND` >= T. If
   d . w > h(d), no thrusts reach w: the structure fails the task (with a failure, the failed
   columns are left out of the sum: it fails after that failure, so it does not tolerate it).
   The test demands d . w - h(d) > :data:`SEPARATION_TOL` |d| (|s| + f_max sum_k |a_k|), s the
@@ -30,7 +31,7 @@ tolerance underflows; a test that overflows is NaN or inf and fails):
 * A bound covers a whole level n without enumeration: a module centre lies within L1 distance
   R = (n - 1) side of the centre of mass (a convex combination of the centres, all within n - 1
   grid steps), so a module of type t adds at most H_t = f_max max_{|v|_1 <= R} sum_k
-  (max(0, d . a_k(v)) + T |d . a_k(v)|) to the support, a convex function of v whose maximum
+  (max(0, d . a_k(v)) + B |d . a_k(v)|) to the support, a convex function of v whose maximum
   is at one of the four vertices (+-R, 0), (0, +-R). The task value d . w_i(M, j) is affine in
   the structure's mass M and inertia vector j; each module adds at most |J_t| + m_t R^2 to each
   |j_c|. Both sides are affine in the module counts, so the bound holds for every mix of types
@@ -67,9 +68,10 @@ except ImportError:  # run as a file, python proofcheck.py: the files beside it 
 
 FORMAT, VERSION, CertificateFormatError = fmt.FORMAT, fmt.VERSION, fmt.CertificateFormatError
 MAX_ENUMERATED, count, structures = shapes.MAX_ENUMERATED, shapes.count, shapes.structures
-THRUST_TOL = 5.01e-7  # thrusts may leave [0, f_max] by this fraction of f_max: the oracle's rule
+THRUST_TOL = 5e-7  # the answer's thrusts may leave [0, f_max] by this fraction: the oracle's rule
+PROOF_BAND = 5.01e-7  # the band the proofs exclude: THRUST_TOL with room for the oracle's LP
 RESIDUAL_TOL = 1e-11  # |A u - w| allowed per component, relative to its scale (residual_allowed)
-SEPARATION_TOL = 2e-11  # relative margin of a separating direction: above RESIDUAL_TOL
+SEPARATION_TOL = 5e-11  # relative margin of a separating direction: above the residual's
 EPS = 2.0**-52  # twice the unit round-off: the round-off of a sum of k terms is below k EPS
 BOUND_TOL = 1e-9  # relative margin of a level bound
 
@@ -148,11 +150,11 @@ def separation(a, w, d, f_max: float, off=None, size=None) -> np.ndarray:
 
 
 def support_terms(da: np.ndarray) -> np.ndarray:
-    """Each column's share max(0, d . a_k) + THRUST_TOL |d . a_k| of the support in direction d
-    (per f_max) of the zonotope whose thrusts may leave [0, f_max] by the answer's tolerance:
-    a proof that no thrusts reach w holds for the answer's thrusts too (certificates of one
-    task never contradict)."""
-    return np.maximum(da, 0.0) + THRUST_TOL * np.abs(da)
+    """Each column's share max(0, d . a_k) + PROOF_BAND |d . a_k| of the support in direction d
+    (per f_max) of the zonotope whose thrusts may leave [0, f_max] by a little more than the
+    answer's band: a proof that no thrusts reach w holds for the answer's thrusts too
+    (certificates of one task never contradict)."""
+    return np.maximum(da, 0.0) + PROOF_BAND * np.abs(da)
 
 
 def failed_columns(fault, failure: np.ndarray, n: int, rotors: int) -> np.ndarray:
@@ -253,11 +255,12 @@ def check_answer(answer, T: Types, task, f_max: float, fault, minimum: int) -> N
 
 def residual_allowed(A, W, size, f_max: float) -> np.ndarray:
     """(t, 6) how far each component of A u may miss the wrenches W (t, 6): RESIDUAL_TOL of
-    its own scale (f_max times the row's column magnitudes, plus the wrench component: one large
-    torque buys no error in a force), less the round-off of W (``size``: its terms'
+    its own scale (f_max times the row's column magnitudes, plus the wrench component, plus
+    f_max: one large torque buys no error in a force, and a row no rotor reaches keeps a
+    floor), less the round-off of W (``size``: its terms'
     magnitudes: a few terms) and of A u (a sum of m terms), which the claim must not lean on."""
     rows = f_max * np.abs(A).sum(axis=1)  # (6,)
-    return RESIDUAL_TOL * (rows + np.abs(W)) - EPS * (A.shape[1] + 8) * (rows + size)
+    return RESIDUAL_TOL * (rows + np.abs(W) + f_max) - EPS * (A.shape[1] + 8) * (rows + size)
 
 
 def check_level(entry, n, T: Types, task, f_max, fault, D) -> str:

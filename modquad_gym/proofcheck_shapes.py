@@ -69,12 +69,12 @@ def count(n: int, n_types: int) -> int:
 
 def structures(n: int, n_types: int, rotors: int):
     """(start, cells (B, n, 2), types (B, n)) in blocks of at most :data:`BLOCK_COLUMNS`
-    rotors (at least one shape's assignments), in canonical order: shapes by key, then type
-    assignments (a type index per cell, cells in key order) in lexicographic order."""
+    rotors (at least one structure), in canonical order: shapes by key, then type assignments
+    (a type index per cell, cells in key order) in lexicographic order."""
     keys = shape_keys(n)
-    per = n_types**n
-    assign = np.stack(np.unravel_index(np.arange(per), (n_types,) * n), axis=1)
-    step = max(1, BLOCK_COLUMNS // (per * n * rotors))
-    for s in range(0, len(keys), step):
-        cells = cells_of(keys[s : s + step], n)
-        yield (s * per, np.repeat(cells, per, axis=0), np.tile(assign, (len(cells), 1)))
+    per, total = n_types**n, count(n, n_types)
+    block = max(1, BLOCK_COLUMNS // (n * rotors))
+    for start in range(0, total, block):
+        shape, assign = np.divmod(np.arange(start, min(start + block, total)), per)
+        types = np.stack(np.unravel_index(assign, (n_types,) * n), axis=1)
+        yield start, cells_of(keys[shape], n), types

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import copy
 import gzip
+import itertools
 import json
 import warnings
 from pathlib import Path
@@ -215,6 +216,9 @@ FORGED = Path(__file__).parent / "data" / "forged_certificates"
         ("inertia_cancel", "wrench 0: component 2 of A u differs from the wrench"),
         # every thrust at -1e-6 f_max (the old tolerance, twice the oracle's) pushed down
         ("negative_thrust", "wrench 0: a thrust outside"),
+        # (fourth review) one flat module at thrust 1 + 5.005e-7: within the checker's old
+        # band, beyond the oracle's (5e-7), which certifies 2 modules
+        ("beyond_the_band", "wrench 0: a thrust outside"),
     ],
 )
 def test_round_off_of_the_task_model_proves_nothing(name, words):
@@ -280,8 +284,8 @@ def test_the_checker_does_only_the_work_the_file_pays_for():
 def test_work_is_bounded_by_rotors_and_bytes(tmp_path, monkeypatch):
     """A type of 256 rotors asked for 960 MiB per block; blocks are sized in rotor columns, a
     type has at most 16 rotors, and a small gzip file may not inflate without bound."""
-    for n in (6, 10):
-        for _, cells, _ in pcs.structures(n, 1, 16):
+    for n, types in ((6, 1), (10, 1), (3, 100)):  # 100 types: 10^6 assignments of a shape
+        for _, cells, _ in itertools.islice(pcs.structures(n, types, 16), 50):
             assert len(cells) * n * 16 <= pcs.BLOCK_COLUMNS
     many = impossible(2)
     t = many["types"][0]
@@ -300,3 +304,18 @@ def test_work_is_bounded_by_rotors_and_bytes(tmp_path, monkeypatch):
 def test_a_certificate_that_proves_nothing_is_refused():
     with pytest.raises(pc.CertificateFormatError, match="n_max: must be at least 1, not 0"):
         pc.check(impossible(0))
+
+
+def test_what_the_oracle_accepts_off_range_is_no_certificate():
+    """(fourth review) A force of 1e-10 along x, which no flat module exerts, is feasible by
+    the oracle's off-range rule: the bounds once 'proved' that no number of modules does it;
+    now the search answers one module, and the writer says in one line why that answer has no
+    certificate (its residual is beyond the checker's 1e-11)."""
+    from modquad_gym.geometry.module import palette
+
+    problem = mq.SearchProblem(np.array([[1e-10, 0, 1.0, 0, 0, 0]]), n_max=4,
+                               modules=palette("flat"))  # fmt: skip
+    result = mq.exhaustive_search(problem)
+    assert result.n_modules == 1 and result.certified
+    with pytest.raises(certificates.CertificateError, match="off-range tolerance .* no certif"):
+        certificates.make(result, problem)

@@ -91,7 +91,7 @@ def force_lower_bound(
     normals += [np.eye(3)[k] for k in range(3)]  # harmless extra directions for degenerate types
     N = np.array(normals + [-n for n in normals])
     h1 = np.maximum(N @ dirs.T, 0.0).sum(axis=1) * f_max  # support of one module's force set
-    proj = W[:, :3] @ N.T  # (t, k)
+    proj = W[:, :3] @ N.T - off_range_allowance(W, f_max)[:, None]  # (t, k)
     if fault == "rotor":
         proj = proj + np.maximum(N @ dirs.T, 0.0).max(axis=1) * f_max
     elif fault == "rotor2":
@@ -104,9 +104,7 @@ def force_lower_bound(
         proj = proj + h1 + np.maximum(N @ dirs.T, 0.0).max(axis=1) * f_max
         if (alone <= h1 * (1 + TOL)).all():  # one module may do: bound it as a module failure
             proj = alone
-    need = np.where(
-        h1 > 1e-12, proj / np.where(h1 > 1e-12, h1, 1.0), np.where(proj > 1e-12, np.inf, 0)
-    )
+    need = np.where(h1 > 1e-12, proj / np.where(h1 > 1e-12, h1, 1.0), np.where(proj > 0, np.inf, 0))
     worst = float(need.max())
     if not math.isfinite(worst) or worst > NO_SIZE:
         return NO_SIZE
@@ -271,7 +269,16 @@ def level_excluded(
     """True when some task wrench (rotor wrench: for ``external`` tasks pass W plus the
     weight of n modules) lies beyond every n-module structure in a level direction (after
     each structure's worst failure of kind ``fault``)."""
-    return values_excluded((level_directions() @ W.T).max(axis=1), f_max, module, n, fault)
+    values = (level_directions() @ W.T - off_range_allowance(W, f_max)).max(axis=1)
+    return values_excluded(values, f_max, module, n, fault)
+
+
+def off_range_allowance(W: np.ndarray, f_max: float) -> np.ndarray:
+    """(t,) how far each wrench may lie off a structure's reach along a unit direction and
+    still be feasible by the oracle's off-range rule (``RESIDUAL_TOL (f_max + |w|)``): what a
+    bound must grant before it excludes (a force of 1e-10 along x is feasible for a flat
+    module, whose force support there is 0)."""
+    return RESIDUAL_TOL * (f_max + np.linalg.norm(W, axis=1))
 
 
 def values_excluded(

@@ -57,6 +57,16 @@ def _allocate(A, W, size, f_max, keep) -> list:
         for i, r in zip(rest, R):
             u = (1.0 + _centred(z, r)) * (f_max / 2.0)
             U[i, keep] = u - pinv @ (B @ u - W[i])
+    band = pc.THRUST_TOL * f_max
+    outside = (U[:, keep] < -band).any(axis=1) | (U[:, keep] > f_max + band).any(axis=1)
+    missed = ~(np.abs(U @ A.T - W) <= pc.residual_allowed(B, W, size, f_max)).all(axis=1)
+    if (outside | missed).any():  # the oracle accepted it within its tolerances
+        k = int(np.argmax(outside | missed))
+        band_why = "thrusts beyond the oracle's band (its round-off decided it): too close"
+        range_why = ("a residual within the oracle's off-range tolerance (1e-9 of f_max + |w|), "
+                     "beyond a certificate's (1e-11 of each component's scale)")  # fmt: skip
+        why = band_why if outside[k] else range_why
+        raise CertificateError(f"the answer reaches wrench {k} only with {why}: no certificate")
     return U.tolist()
 
 

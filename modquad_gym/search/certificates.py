@@ -240,16 +240,21 @@ class _Prover:
         got = self._pool_failure(a, wrenches, offs)
         if got is not None:
             return got[0], got[1], int(failures[got[2]])
+        separated = False  # some failure's LP found a direction, too weak for the strict test
         for f, off in zip(failures, offs):
             found = _separate(a[~off].T, W, self.f_max)
             if found is not None:
+                separated = True
                 p = self._add(found[0])
                 got = self._pool_failure(a, wrenches, off[None], [p])
                 if got is not None:
                     return p, got[1], int(f)
+        what = f"the structure {cells.tolist()} (types {types.tolist()})"
+        if separated:
+            raise CertificateError(f"the separating directions of {what} after its failures "
+                                   "are too close to its boundary to certify")  # fmt: skip
         raise CertificateError(
-            f"the structure {cells.tolist()} (types {types.tolist()}) tolerates every single "
-            f"{self.fault} failure: the answer is not a minimum"
+            f"{what} tolerates every single {self.fault} failure: the answer is not a minimum"
         )
 
     def _pool_failure(self, a, wrenches, offs, among=None):

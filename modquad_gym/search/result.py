@@ -334,9 +334,11 @@ class SearchRun:
                                    deadline=confirmed and self.verify_deadline or None)  # fmt: skip
                 except DecisionInterruptedError:  # the checker's exact decision of it stands
                     ok = feasible(A, W, p.f_max, method="daqp")
-            if not ok.all():
-                raise RuntimeError(  # pragma: no cover - an oracle bug, never a silent success
-                    f"{self.method} search found {structure!r} but the exact LP rejects it"
+            if not ok.all():  # never a silent success
+                raise ValueError(
+                    f"{self.method} search found {structure!r} but the exact LP rejects it: a "
+                    "task wrench lies within the oracle's agreement band of its threshold, where "
+                    "its decisions depend on round-off (modquad_gym.oracle.tolerance)"
                 )
         return SearchResult(
             structure=structure,
