@@ -128,5 +128,5 @@ def test_the_final_check_past_the_limit_keeps_only_what_the_checker_decided():
     assert run.finish(answer, 1).structure is answer  # decided to the end, not confirmed
     assert run.checker.check(answer) and run.checker.key(answer) in run.checker.confirmed
     assert run.finish(answer, 1).structure is answer  # confirmed: stands once cut
-    with pytest.raises(RuntimeError, match="rejects"):
+    with pytest.raises(ValueError, match="rejects it: the oracle's methods disagree"):
         run.finish(smaller, 1)

@@ -71,8 +71,10 @@ def force_lower_bound(
     W: np.ndarray, module: ModuleType, f_max: float = 1.0, fault: str | None = None
 ) -> int:
     """Smallest n such that every task force lies in n * Z_F, with Z_F the force zonotope of
-    one module {sum_j u_j d_j : 0 <= u_j <= f_max}. Exact: no structure of fewer modules can
-    exert the task's forces, whatever its shape. :data:`NO_SIZE` if no n works.
+    one module {sum_j u_j d_j} with thrusts u_j in the oracle's band [-TOL/2, 1 + TOL/2] f_max,
+    up to the oracle's off-range allowance (:func:`off_range_allowance`). Exact: no structure of
+    fewer modules can exert the task's forces by the oracle's rule, whatever its shape.
+    :data:`NO_SIZE` if no n works.
 
     With a ``fault`` the forces must stay within reach after any single failure: after a
     module fails, n - 1 modules' force set (so n >= the intact bound + 1); after a rotor fails,
@@ -90,25 +92,28 @@ def force_lower_bound(
     normals = [n / np.linalg.norm(n) for n in normals if np.linalg.norm(n) > 1e-12]
     normals += [np.eye(3)[k] for k in range(3)]  # harmless extra directions for degenerate types
     N = np.array(normals + [-n for n in normals])
-    h1 = np.maximum(N @ dirs.T, 0.0).sum(axis=1) * f_max  # support of one module's force set
+    ND = N @ dirs.T  # (k, r)
+    h1 = np.maximum(ND, 0.0).sum(axis=1) * f_max  # support of one module's force set
+    wide = h1 + 0.5 * TOL * f_max * np.abs(ND).sum(axis=1)  # ... with the oracle's thrust band
     proj = W[:, :3] @ N.T - off_range_allowance(W, f_max)[:, None]  # (t, k)
     if fault == "rotor":
-        proj = proj + np.maximum(N @ dirs.T, 0.0).max(axis=1) * f_max
+        proj = proj + np.maximum(ND, 0.0).max(axis=1) * f_max
     elif fault == "rotor2":
-        top = -np.sort(-np.maximum(N @ dirs.T, 0.0), axis=1)
+        top = -np.sort(-np.maximum(ND, 0.0), axis=1)
         proj = proj + top[:, :2].sum(axis=1) * f_max
     elif fault == "module":
         proj = proj + h1
     elif fault == "rotor+module":  # a module, then the strongest rotor of another
         alone = proj + h1  # a single module has only itself to lose
-        proj = proj + h1 + np.maximum(N @ dirs.T, 0.0).max(axis=1) * f_max
-        if (alone <= h1 * (1 + TOL)).all():  # one module may do: bound it as a module failure
+        proj = proj + h1 + np.maximum(ND, 0.0).max(axis=1) * f_max
+        if (alone <= wide).all():  # one module may do: bound it as a module failure
             proj = alone
-    need = np.where(h1 > 1e-12, proj / np.where(h1 > 1e-12, h1, 1.0), np.where(proj > 0, np.inf, 0))
+    some = h1 > 1e-12 * f_max  # a direction one module's forces reach at all
+    need = np.where(some, proj / np.where(some, wide, 1.0), np.where(proj > 0, np.inf, 0))
     worst = float(need.max())
     if not math.isfinite(worst) or worst > NO_SIZE:
         return NO_SIZE
-    return max(1, math.ceil(worst - TOL))
+    return max(1, math.ceil(worst - 1e-9))  # n modules reach n * wide: the oracle's rule
 
 
 def force_normals(palette: list[ModuleType]) -> np.ndarray:
@@ -168,8 +173,10 @@ def counts_possible(
         need = force_needs(model, N, counts @ np.array([m.mass for m in palette]))
     else:
         need = np.broadcast_to((model.base[:, :3] @ N.T).max(axis=0), cap.shape).copy()
-    scale = 1.0 + float(np.abs(model.base).max()) + (float(np.max(need)) if need.size else 0.0)
-    slack = RESIDUAL_TOL * scale + SUPPORT_SLACK
+    heaviest = float((counts @ np.array([m.mass for m in palette])).max()) if len(counts) else 0.0
+    norms = [float(np.linalg.norm(x, axis=1).max()) for x in (model.base, model.per_mass)]
+    # the oracle's off-range allowance, RESIDUAL_TOL (f_max + |w|), |w| bounded for every count
+    slack = RESIDUAL_TOL * (f_max + norms[0] + heaviest * norms[1]) + SUPPORT_SLACK
     return ~np.any(need > cap + slack, axis=1)
 
 
@@ -274,10 +281,9 @@ def level_excluded(
 
 
 def off_range_allowance(W: np.ndarray, f_max: float) -> np.ndarray:
-    """(t,) how far each wrench may lie off a structure's reach along a unit direction and
-    still be feasible by the oracle's off-range rule (``RESIDUAL_TOL (f_max + |w|)``): what a
-    bound must grant before it excludes (a force of 1e-10 along x is feasible for a flat
-    module, whose force support there is 0)."""
+    """(t,) how far each wrench may lie off a structure's reach along a unit direction and stay
+    feasible by the oracle's off-range rule (``RESIDUAL_TOL (f_max + |w|)``): what a bound
+    grants before it excludes (1e-10 along x is feasible for a flat module)."""
     return RESIDUAL_TOL * (f_max + np.linalg.norm(W, axis=1))
 
 
@@ -318,6 +324,8 @@ def counts_left(problem: SearchProblem, n: int) -> tuple[np.ndarray, np.ndarray]
         if ok[i] and int(c.max()) == n:  # one type alone: the level bounds apply
             m = p.palette[int(np.argmax(c))]
             values = DynamicValues(p.model, [m]).values(level_directions(), n * m.mass, n)
+            W = p.model.base + n * m.mass * p.model.per_mass  # (its inertia terms aside)
+            values = values - off_range_allowance(W, p.f_max).max()  # the oracle's grant
             ok[i] = not values_excluded(values, p.f_max, m, n, p.fault)
     return counts, ok
 

@@ -336,9 +336,9 @@ class SearchRun:
                     ok = feasible(A, W, p.f_max, method="daqp")
             if not ok.all():  # never a silent success
                 raise ValueError(
-                    f"{self.method} search found {structure!r} but the exact LP rejects it: a "
-                    "task wrench lies within the oracle's agreement band of its threshold, where "
-                    "its decisions depend on round-off (modquad_gym.oracle.tolerance)"
+                    f"{self.method} search found {structure!r} but the exact LP rejects it: the "
+                    "oracle's methods disagree on it (within the agreement band of the threshold, "
+                    "where decisions depend on round-off: modquad_gym.oracle.tolerance)"
                 )
         return SearchResult(
             structure=structure,
