@@ -9,11 +9,14 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import modquad_gym as mq
+from modquad_gym import proofcheck_shapes as pcs
 from modquad_gym.geometry.module import STOCK_TYPES, ModuleType
 from modquad_gym.oracle import TOL, feasible
-from modquad_gym.search import SEARCHES, SearchProblem, force_lower_bound
+from modquad_gym.search import SEARCHES, SearchProblem, bound_levels, force_lower_bound
 
 FLAT0 = ModuleType.from_tilts((0, 0, 0, 0), name="flat0", c_tau=0.0)  # no yaw at all
 FLAT0_HEAVY = ModuleType.from_tilts((0, 0, 0, 0), name="flat0h", c_tau=0.0, mass=0.5)
@@ -69,3 +72,53 @@ def test_a_task_scaled_with_f_max_has_the_same_answer(f_max):
     plain = mq.exhaustive_search(W, n_max=5)
     scaled = mq.exhaustive_search(W * f_max, n_max=5, f_max=f_max)
     assert (scaled.n_modules, scaled.lower_bound) == (plain.n_modules, plain.lower_bound) == (3, 3)
+
+
+def smallest_by_the_oracle(problem: SearchProblem, n_max: int) -> int:
+    """The least module count of a structure the oracle accepts (every structure of up to
+    ``n_max`` modules of the problem's palette), n_max + 1 when none."""
+    palette = list(problem.palette)
+    rotors = palette[0].n_rotors
+    for n in range(1, n_max + 1):
+        for _, cells, types in pcs.structures(n, len(palette), rotors):
+            for c, t in zip(cells.tolist(), types.tolist()):
+                s = mq.Structure([tuple(x) for x in c], modules=[palette[k] for k in t])
+                if problem.decide(s).all():
+                    return n
+    return n_max + 1
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    names=st.sampled_from([("t45",), ("flat",), ("t45", "flat"), ("t45", "t45m", "flat")]),
+    size=st.integers(1, 3),
+    seed=st.integers(0, 2**16),
+    stretch=st.sampled_from([1 - 1e-7, 1.0, 1 + 3e-7, 1 + 2e-6]),
+    off=st.sampled_from([0.0, 1e-11, 5e-10, 1e-8]),
+    f_max=st.sampled_from([1e-6, 1.0, 1e4]),
+    kind=st.sampled_from(["total", "external"]),
+    fault=st.sampled_from([None, None, "rotor", "module"]),
+)
+def test_no_bound_exceeds_the_oracles_smallest_structure(names, size, seed, stretch, off, f_max,
+                                                         kind, fault):  # fmt: skip
+    """The exact bounds every search starts from (force, count, level; one type and palettes)
+    never exceed the least size of a structure the oracle accepts, for wrenches a random
+    structure exerts at its thrust box's edge, stretched across the tolerance band, pushed off
+    its range by up to 1e-8, at any f_max, with or without a failure to survive."""
+    rng = np.random.default_rng(seed)
+    palette = [STOCK_TYPES[n] for n in names]
+    cells = [(0, 0)]
+    while len(cells) < size:  # a random connected shape
+        x, y = cells[rng.integers(len(cells))]
+        step = [(x + 1, y), (x - 1, y), (x, y + 1), (x, y - 1)][rng.integers(4)]
+        cells += [step] if step not in cells else []
+    hidden = mq.Structure(
+        cells, modules=[palette[k] for k in rng.integers(len(palette), size=size)]
+    )
+    A = hidden.configuration_matrix()
+    u = np.where(rng.random((2, A.shape[1])) < 0.5, 1.0, rng.random((2, A.shape[1])))
+    W = f_max * (u @ A.T) * stretch + off * f_max * rng.normal(size=(2, 6))
+    if kind == "external":  # the same rotor wrenches: the weight of the hidden structure out
+        W[:, 2] -= 9.81 * hidden.mass
+    problem = SearchProblem(W, n_max=3, f_max=f_max, modules=palette, kind=kind, fault=fault)
+    assert bound_levels(problem) <= smallest_by_the_oracle(problem, 3)
