@@ -257,8 +257,8 @@ def residual_allowed(A, W, size, f_max: float) -> np.ndarray:
     """(t, 6) how far each component of A u may miss the wrenches W (t, 6): RESIDUAL_TOL of
     its own scale (f_max times the row's column magnitudes, plus the wrench component, plus
     f_max: one large torque buys no error in a force, and a row no rotor reaches keeps a
-    floor), less the round-off of W (``size``: its terms'
-    magnitudes: a few terms) and of A u (a sum of m terms), which the claim must not lean on."""
+    floor), less the round-off of W (``size``: its terms' magnitudes) and of A u (a sum of m
+    terms), which the claim must not lean on."""
     rows = f_max * np.abs(A).sum(axis=1)  # (6,)
     return RESIDUAL_TOL * (rows + np.abs(W) + f_max) - EPS * (A.shape[1] + 8) * (rows + size)
 
