@@ -184,10 +184,12 @@ class _Prover:
     def _block(self, cells, types, P, I, F) -> None:
         T, task, f_max = self.T, self.task, self.f_max
         a, M, j, j_size = T.columns(cells.astype(float), types, sizes=True)
+        L, t = len(cells), len(task[0])
+        i, of = np.tile(np.arange(t), L), np.repeat(np.arange(L), t)  # every (structure, wrench)
         W, S = (
-            x[0][None] + M[:, None, None] * x[1][None] + np.einsum("tqc,lc->ltq", x[2], jx)
-            for x, jx in ((task, j), ([np.abs(y) for y in task], j_size))
-        )  # the wrenches (L, t, 6) and their terms' magnitudes (pc.wrenches' size)
+            pc.wrenches(task, i, M[of], x[of], b).reshape(L, t, 6)
+            for x, b in ((j, False), (j_size, True))
+        )  # the wrenches and their terms' sizes
         alive = np.ones(len(cells), bool)
         for p in np.argsort(-np.array(self.uses, dtype=float), kind="stable"):
             if not alive.any():
