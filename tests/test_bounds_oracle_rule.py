@@ -1,7 +1,8 @@
 """The searches' bounds grant what the oracle's tolerance rule grants (a fifth review: each case
 was certified wrong before): the off-range allowance ``RESIDUAL_TOL (f_max + |w|)`` in the force,
-count and level bounds, the thrust band ``[-TOL/2, 1 + TOL/2] f_max`` in the force bound, and
-f_max's scale everywhere. Each answer is checked against the oracle on a concrete structure."""
+count and level bounds and the cached directions' test, the thrust band ``[-TOL/2, 1 + TOL/2]
+f_max`` in the force bound, and f_max's scale everywhere. Each answer is checked against the
+oracle on a concrete structure."""
 
 from __future__ import annotations
 
@@ -14,9 +15,15 @@ from hypothesis import strategies as st
 
 import modquad_gym as mq
 from modquad_gym import proofcheck_shapes as pcs
+from modquad_gym.dynamics import LinearWrenches
+from modquad_gym.geometry.inertia import inertia_vectors
 from modquad_gym.geometry.module import STOCK_TYPES, ModuleType
+from modquad_gym.geometry.polyominoes import level_chunks
 from modquad_gym.oracle import TOL, feasible
+from modquad_gym.oracle.tolerance import RESIDUAL_TOL
 from modquad_gym.search import SEARCHES, SearchProblem, bound_levels, force_lower_bound
+from modquad_gym.search.checker import TaskChecker
+from modquad_gym.search.dynamic import DynamicValues
 
 FLAT0 = ModuleType.from_tilts((0, 0, 0, 0), name="flat0", c_tau=0.0)  # no yaw at all
 FLAT0_HEAVY = ModuleType.from_tilts((0, 0, 0, 0), name="flat0h", c_tau=0.0, mass=0.5)
@@ -122,3 +129,63 @@ def test_no_bound_exceeds_the_oracles_smallest_structure(names, size, seed, stre
         W[:, 2] -= 9.81 * hidden.mass
     problem = SearchProblem(W, n_max=3, f_max=f_max, modules=palette, kind=kind, fault=fault)
     assert bound_levels(problem) <= smallest_by_the_oracle(problem, 3)
+
+
+def flat_model(kind: str, f_max: float, x_off: float):
+    """A one-wrench model a FLAT0 module meets with its rotors at 3/4 f_max, plus a force
+    ``x_off`` along x that no flat module exerts (its support along x is 0): of kind total (no
+    weight), external (its weight) or dynamic (its weight and an inertia term in roll: the
+    searches group its structures by mass)."""
+    per_mass = np.zeros((1, 6))
+    per_inertia = np.zeros((1, 6, 6))
+    base = np.array([[x_off, 0, 3 * f_max, 0, 0, 0]])
+    if kind != "total":
+        per_mass[0, 2] = 9.81
+        base[0, 2] -= 9.81 * FLAT0.mass
+    if kind == "dynamic":
+        per_inertia[0, 3, 0] = 1e-3  # a roll torque per unit Jxx, which flat modules exert
+    return LinearWrenches(base, per_mass, per_inertia)
+
+
+@pytest.mark.parametrize("kind", ["total", "external", "dynamic"])
+@pytest.mark.parametrize("f_max", [1.0, 1e3])
+def test_a_cached_direction_grants_the_off_range_allowance(kind, f_max):
+    """A separating direction the searches learnt along x does not rule out a flat module
+    whose only x force is within the oracle's off-range grant (the cache test granted an
+    absolute 1e-12, the oracle 1e-9 (f_max + |w|))."""
+    one = mq.Structure([(0, 0)], modules=[FLAT0])
+    size = np.linalg.norm(flat_model(kind, f_max, 0.0).at(one.mass, one.inertia), axis=1)[0]
+    model = flat_model(kind, f_max, 0.8 * RESIDUAL_TOL * (f_max + size))
+    W = model.at(one.mass, one.inertia if model.uses_inertia else None)
+    assert feasible(one.configuration_matrix(), W, f_max).all()  # the oracle's verdict
+    checker = TaskChecker(model, f_max, FLAT0)
+    checker.adopt(np.eye(6)[[0, 2]])  # learnt directions: +x, +z
+    assert checker.alive(np.zeros((1, 1, 2), dtype=np.int32))[0]
+    assert checker.check(one)
+    far = TaskChecker(flat_model(kind, f_max, 3 * RESIDUAL_TOL * (f_max + size)), f_max, FLAT0)
+    far.adopt(np.eye(6)[[0]])
+    assert not far.alive(np.zeros((1, 1, 2), dtype=np.int32))[0]  # beyond the grant: ruled out
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(1, 4), f_max=st.sampled_from([1e-3, 1.0, 1e3]))
+def test_the_grant_covers_every_structures_wrench(seed, n, f_max):
+    """The cache's and the typed level bounds' off-range grant (one number per mass and module
+    count) is at least the oracle's ``RESIDUAL_TOL (f_max + |w(S)|)`` for every wrench of every
+    n-module structure S of that mass, its inertia terms included (they were left out)."""
+    rng = np.random.default_rng(seed)
+    k = 3
+    per_inertia = np.zeros((k, 6, 6))
+    per_inertia[:, 3:, :] = rng.normal(size=(k, 3, 6)) * 10.0 ** rng.uniform(-2, 3)
+    per_mass = np.zeros((k, 6))
+    per_mass[:, :3] = rng.normal(size=(k, 3)) * 10
+    model = LinearWrenches(rng.normal(size=(k, 6)) * f_max, per_mass, per_inertia)
+    palette = [FLAT0, FLAT0_HEAVY]
+    values = DynamicValues(model, palette)
+    for cells in level_chunks(n):
+        types = rng.integers(0, 2, size=cells.shape[:2])
+        masses, inertias = inertia_vectors(cells, types, palette)
+        for mass, j in zip(masses, inertias):
+            sizes = np.linalg.norm(model.at(mass, j), axis=1)
+            grant = values.allowance(f_max, float(mass), n)
+            assert grant >= RESIDUAL_TOL * (f_max + sizes.max()) * (1 - 1e-12)

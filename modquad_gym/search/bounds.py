@@ -323,9 +323,9 @@ def counts_left(problem: SearchProblem, n: int) -> tuple[np.ndarray, np.ndarray]
     for i, c in enumerate(counts):
         if ok[i] and int(c.max()) == n:  # one type alone: the level bounds apply
             m = p.palette[int(np.argmax(c))]
-            values = DynamicValues(p.model, [m]).values(level_directions(), n * m.mass, n)
-            W = p.model.base + n * m.mass * p.model.per_mass  # (its inertia terms aside)
-            values = values - off_range_allowance(W, p.f_max).max()  # the oracle's grant
+            alone = DynamicValues(p.model, [m])
+            values = alone.values(level_directions(), n * m.mass, n)
+            values = values - alone.allowance(p.f_max, n * m.mass, n)  # the oracle's grant
             ok[i] = not values_excluded(values, p.f_max, m, n, p.fault)
     return counts, ok
 

@@ -7,8 +7,9 @@ an ``external`` one, c = g; a level motion), whose values are exact for every st
 cached per direction; :class:`DynamicValues` otherwise. Both give ``wrenches(mass, inertia)``
 (one structure's own), ``values(D, mass, n)`` (the task's value per direction, a lower bound
 for the second), ``order_wrenches(module)`` (what orders the wrenches hardest first),
-``set_pool(pool)`` and ``reject(...)`` (the cached directions' test, in compiled code), and
-``inertial``.
+``set_pool(pool)``, ``reject(...)`` (the cached directions' test, in compiled code),
+``allowance(f_max, mass, n)`` (the oracle's off-range grant ``RESIDUAL_TOL (f_max + |w|)`` for
+the largest wrench of such structures: a separation must exceed it) and ``inertial``.
 
 A dynamic task (:class:`~modquad_gym.dynamics.DynamicTask`) asks the rotors of a structure S of
 mass M and inertia vector j for ``w_i(S) = base_i + M s_i + P_i j`` at each trajectory sample i
@@ -36,6 +37,7 @@ import numpy as np
 from modquad_gym.dynamics import LinearWrenches
 from modquad_gym.geometry.inertia import to_vector
 from modquad_gym.geometry.module import ModuleType
+from modquad_gym.oracle.tolerance import RESIDUAL_TOL
 
 CHUNK = 64
 """Directions handled together by :meth:`DynamicValues.values` (bounds the memory)."""
@@ -101,6 +103,7 @@ class UniformLiftValues:
         self.palette = list(palette)
         self.lift_per_kg = lift
         self.lift = np.array([m.mass for m in self.palette]) * (lift or 0.0)  # per type
+        self.heaviest = max(m.mass for m in self.palette)  # kg, the heaviest type
         self.weights = _weights(self.palette)
         self._values = np.zeros(0)  # max_i d . w_i over the task, per pool direction
 
@@ -123,6 +126,13 @@ class UniformLiftValues:
         """(k, 6) the wrenches of one structure (its mass; the inertia is not used)."""
         return self.model.at(mass)
 
+    def allowance(self, f_max: float, mass: float, n: int) -> float:
+        """The oracle's off-range grant ``RESIDUAL_TOL (f_max + |w|)`` along a unit direction,
+        for the largest wrench of any structure of at most ``mass`` kg: what a separation must
+        exceed before it rules a structure out."""
+        size = np.linalg.norm(self.model.base, axis=1).max(initial=0.0)
+        return RESIDUAL_TOL * (f_max + size + abs(self.lift_per_kg) * mass)
+
     def reject(self, cells, types, pool, terms, dz, f_max: float, half_tol: float, alive, lose=0):
         """Clear ``alive`` for the structures (cells (L, n, 2), types (L, n)) that one of the
         first ``len(pool)`` cached directions (their support ``terms``) separates from the
@@ -132,7 +142,8 @@ class UniformLiftValues:
 
         b, alpha, beta = terms
         side = float(self.palette[0].side)
-        values = self._values[: len(pool)]
+        n = cells.shape[1]
+        values = self._values[: len(pool)] - self.allowance(f_max, n * self.heaviest, n)
         supports.reject(cells, types, self.weights, side, b, alpha, beta, values, f_max,
                         half_tol, alive, self.lift, dz, lose)  # fmt: skip
 
@@ -167,7 +178,8 @@ class DynamicValues:
         zero = np.zeros(len(self.palette))
         for mass in np.unique(masses):
             idx = np.flatnonzero(masses == mass)
-            values = self.values(pool, float(mass), cells.shape[1])
+            n = cells.shape[1]
+            values = self.values(pool, float(mass), n) - self.allowance(f_max, float(mass), n)
             sub = alive[idx]
             group = np.ascontiguousarray(cells[idx]), np.ascontiguousarray(types[idx])
             supports.reject(*group, self.weights, side, b, alpha, beta, values, f_max,
@@ -191,6 +203,19 @@ class DynamicValues:
             Q = np.einsum("pr,krc->pkc", d[:, 3:], m.per_inertia[:, 3:, :])  # (p, k, 6)
             out[start : start + CHUNK] = (d @ W.T - np.abs(Q) @ rad).max(axis=1)
         return out
+
+    def allowance(self, f_max: float, mass: float, n: int) -> float:
+        """The oracle's off-range grant ``RESIDUAL_TOL (f_max + |w|)`` along a unit direction,
+        for the largest wrench of any n-module structure of ``mass`` kg (its inertia anywhere
+        in :func:`inertia_box`): what a separation must exceed before it rules one out."""
+        m = self.model
+        W = m.base + mass * m.per_mass
+        size = np.linalg.norm(W, axis=1)
+        if self.inertial:
+            lo, hi = inertia_box(self.palette, n, mass)
+            size = np.linalg.norm(W + m.per_inertia @ ((lo + hi) / 2), axis=1)
+            size = size + np.linalg.norm(m.per_inertia, axis=1) @ ((hi - lo) / 2)
+        return RESIDUAL_TOL * (f_max + size.max(initial=0.0))
 
     def wrenches(self, mass: float, inertia: np.ndarray | None) -> np.ndarray:
         """(k, 6) the exact wrenches of one structure (``inertia`` (3, 3) or (6,); ignored when

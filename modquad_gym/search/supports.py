@@ -137,11 +137,12 @@ def reject(
     cells, types, masses, side, b, alpha, beta, values, f_max, half_tol, alive, lift, dz, lose=0
 ):
     """Clear ``alive[l]`` for every structure l that some direction p separates from a task
-    wrench: values[p] (the task's max_i d_p . w_i) plus the weight term (sum of ``lift`` over
-    the structure's modules) * dz[p] above its widened support (after the worst failure of
-    kind ``lose``, :data:`LOSSES`: then the structure does not tolerate that failure). The
-    direction that rejected the previous structure is tried first (neighbours in the canonical
-    order are alike), then the others in order; the outcome does not depend on the order."""
+    wrench: values[p] (the task's max_i d_p . w_i, less the oracle's off-range grant) plus
+    the weight term (sum of ``lift`` over the structure's modules) * dz[p] above its widened
+    support (after the worst failure of kind ``lose``, :data:`LOSSES`: then the structure does
+    not tolerate that failure). The direction that rejected the previous structure is tried
+    first (neighbours in the canonical order are alike), then the others in order; the outcome
+    does not depend on the order."""
     L, n, _ = cells.shape
     P = b.shape[0]
     cx = np.empty(n)
