@@ -15,7 +15,8 @@ from hypothesis import strategies as st
 
 import modquad_gym as mq
 from modquad_gym import proofcheck_shapes as pcs
-from modquad_gym.dynamics import LinearWrenches
+from modquad_gym.dynamics import DynamicTask, LinearWrenches
+from modquad_gym.dynamics.trajectory import Trajectory
 from modquad_gym.geometry.inertia import inertia_vectors
 from modquad_gym.geometry.module import STOCK_TYPES, ModuleType
 from modquad_gym.geometry.polyominoes import level_chunks
@@ -23,7 +24,7 @@ from modquad_gym.oracle import TOL, feasible
 from modquad_gym.oracle.tolerance import RESIDUAL_TOL
 from modquad_gym.search import SEARCHES, SearchProblem, bound_levels, force_lower_bound
 from modquad_gym.search.checker import TaskChecker
-from modquad_gym.search.dynamic import DynamicValues
+from modquad_gym.search.dynamic import off_range_grant
 
 FLAT0 = ModuleType.from_tilts((0, 0, 0, 0), name="flat0", c_tau=0.0)  # no yaw at all
 FLAT0_HEAVY = ModuleType.from_tilts((0, 0, 0, 0), name="flat0h", c_tau=0.0, mass=0.5)
@@ -181,11 +182,62 @@ def test_the_grant_covers_every_structures_wrench(seed, n, f_max):
     per_mass[:, :3] = rng.normal(size=(k, 3)) * 10
     model = LinearWrenches(rng.normal(size=(k, 6)) * f_max, per_mass, per_inertia)
     palette = [FLAT0, FLAT0_HEAVY]
-    values = DynamicValues(model, palette)
     for cells in level_chunks(n):
         types = rng.integers(0, 2, size=cells.shape[:2])
         masses, inertias = inertia_vectors(cells, types, palette)
         for mass, j in zip(masses, inertias):
             sizes = np.linalg.norm(model.at(mass, j), axis=1)
-            grant = values.allowance(f_max, float(mass), n)
+            grant = off_range_grant(model, palette, f_max, n, float(mass))
             assert grant >= RESIDUAL_TOL * (f_max + sizes.max()) * (1 - 1e-12)
+
+
+@pytest.mark.parametrize("axis", [0, 5])  # x: the count bound's direction; yaw: a level's
+def test_the_bounds_grant_counts_a_dynamic_tasks_inertia_terms(axis):
+    """A roll acceleration whose torque (Jxx times 5 rad/s^2, about 2 N m) makes |w| larger
+    than its base and weight, and a force along x or a yaw off a FLAT0 module's reach by
+    between the grant without and with that torque: the oracle accepts one module, and the
+    count and level bounds granted only the smaller (all three searches certified 2)."""
+    big = ModuleType.from_tilts((0, 0, 0, 0), name="flat0big", c_tau=0.0, side=4.0)
+    spin = np.zeros((2, 3))
+    spin[:, 0] = 5.0
+    motion = Trajectory(np.array([0.0, 1.0]), np.zeros((2, 3)), angular_velocity=np.zeros((2, 3)),
+                        angular_acceleration=spin)  # fmt: skip
+    one = mq.Structure([(0, 0)], modules=[big])
+    w = DynamicTask(motion, f_max=2.0).rotor_wrenches(one)[0]
+    without = RESIDUAL_TOL * (2.0 + np.linalg.norm(w - np.array([0, 0, 0, w[3], 0, 0])))
+    exerted = np.zeros((2, 6))
+    exerted[:, axis] = (without + RESIDUAL_TOL * (2.0 + np.linalg.norm(w))) / 2
+    problem = SearchProblem(DynamicTask(motion, exerted=exerted, f_max=2.0), n_max=2, module=big)
+    one_module_suffices(problem, big)
+
+
+@pytest.mark.parametrize("scale", [1.0, 5e-14])
+def test_a_dynamic_task_scaled_down_keeps_its_samples(scale):
+    """A hover whose last sample asks 8 N more lift, every force and mass scaled by ``scale``:
+    the same certified 3 modules at both scales (the samples were merged by rounding to 12
+    decimals, so the scaled task lost its hard sample and three searches certified 1)."""
+    t = STOCK_TYPES["t45"]
+    module = ModuleType(t.positions, t.directions, t.spins, side=t.side, c_tau=t.c_tau,
+                        name="t", mass=0.3 * scale)  # fmt: skip
+    exerted = np.zeros((3, 6))
+    exerted[2, 2] = 8.0 * scale
+    hover = Trajectory(np.array([0.0, 1.0, 2.0]), np.zeros((3, 3)))
+    task = DynamicTask(hover, exerted=exerted, f_max=2.0 * scale)
+    problem = SearchProblem(task, n_max=4, module=module)
+    for name in ("exhaustive", "anytime", "milp"):
+        r = SEARCHES[name](problem)
+        assert (r.n_modules, r.lower_bound, r.certified) == (3, 3, True), name
+        W = task.rotor_wrenches(r.structure)
+        assert feasible(r.structure.configuration_matrix(), W, task.f_max).all()
+
+
+def test_types_that_weigh_differently_stay_two_at_any_scale():
+    """Masses of 3e-14 and 1e-14 kg (a palette scaled down) are two types, not copies (the
+    digest rounded the mass to 12 decimals: both were 0, and the lighter was dropped)."""
+    heavy, light = (ModuleType.from_tilts((0, 0, 0, 0), name=n, mass=m) for n, m in
+                    (("heavy", 3e-14), ("light", 1e-14)))  # fmt: skip
+    assert heavy.digest != light.digest
+    problem = SearchProblem(np.array([[0, 0, 1.0, 0, 0, 0]]), modules=[heavy, light])
+    assert [m.name for m in problem.palette] == ["heavy", "light"]
+    copy = ModuleType.from_tilts((0, 0, 0, 0), name="again", mass=3e-14)
+    assert copy.digest == heavy.digest  # copies of one type are still one

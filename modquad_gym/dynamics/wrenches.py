@@ -213,10 +213,12 @@ class LinearWrenches:
 
     def compact(self) -> LinearWrenches:
         """The same wrench model with repeated samples (e.g. the hover holds) kept once: every
-        search decision is a max or an all() over the samples, which repeats do not change."""
+        search decision is a max or an all() over the samples, which repeats do not change.
+        Only equal samples are repeats: samples that differ, by however little, may decide
+        differently (a rounding to fixed decimals merged whole samples of a task scaled down)."""
         k = len(self.base)
-        rows = np.hstack([self.base, self.per_mass, self.per_inertia.reshape(k, -1)])
-        _, first = np.unique(np.round(rows, 12), axis=0, return_index=True)
+        rows = np.hstack([self.base, self.per_mass, self.per_inertia.reshape(k, -1)]) + 0.0
+        _, first = np.unique(rows, axis=0, return_index=True)
         keep = np.sort(first)
         if len(keep) == k:
             return self

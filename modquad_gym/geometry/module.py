@@ -159,15 +159,18 @@ class ModuleType:
 
     @property
     def digest(self) -> str:
-        """A short hash of the rotor data, side, drag ratio, mass and a given (non-box) inertia
-        (rounded to 12 decimals): equal for copies of one type, different for types that act or
+        """A short hash of the rotor data, side, drag ratio, mass and a given (non-box) inertia,
+        each to 12 digits of its own scale (positions the side's, so that a type scaled down
+        keeps its distinctions): equal for copies of one type, different for types that act or
         weigh differently."""
         h = hashlib.sha256()
-        for a in (self.positions, self.directions, self.spins):
-            h.update(np.ascontiguousarray(np.round(a, 12) + 0.0, dtype=float).tobytes())
-        h.update(np.round([self.side, self.c_tau, self.mass], 12).tobytes())
-        if not self._box_inertia:  # the default box inertia follows from side and mass
-            h.update(np.ascontiguousarray(np.round(self.inertia, 12) + 0.0).tobytes())
+        parts = (self.positions / self.side, self.directions, self.spins, self.side, self.c_tau,
+                 self.mass, *([] if self._box_inertia else [self.inertia]))  # fmt: skip
+        for a in parts:  # the default box inertia follows from side and mass
+            a = np.asarray(a, dtype=float)
+            scale = float(np.abs(a).max(initial=0.0)) or 1.0
+            h.update(np.ascontiguousarray(np.round(a / scale, 12) + 0.0).tobytes())
+            h.update(np.array([float(f"{scale:.12g}")]).tobytes())
         return h.hexdigest()[:16]
 
     @classmethod

@@ -53,7 +53,7 @@ from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.polyominoes import A001168, PolyominoStream
 from modquad_gym.oracle import RESIDUAL_TOL, TOL
 from modquad_gym.oracle.tolerance import SUPPORT_SLACK
-from modquad_gym.search.dynamic import DynamicValues, force_needs
+from modquad_gym.search.dynamic import DynamicValues, force_needs, off_range_grant
 
 if TYPE_CHECKING:
     from modquad_gym.dynamics import LinearWrenches
@@ -174,9 +174,8 @@ def counts_possible(
     else:
         need = np.broadcast_to((model.base[:, :3] @ N.T).max(axis=0), cap.shape).copy()
     heaviest = float((counts @ np.array([m.mass for m in palette])).max()) if len(counts) else 0.0
-    norms = [float(np.linalg.norm(x, axis=1).max()) for x in (model.base, model.per_mass)]
-    # the oracle's off-range allowance, RESIDUAL_TOL (f_max + |w|), |w| bounded for every count
-    slack = RESIDUAL_TOL * (f_max + norms[0] + heaviest * norms[1]) + SUPPORT_SLACK
+    most = int(counts.sum(axis=1).max()) if len(counts) else 0  # modules, for the inertia terms
+    slack = off_range_grant(model, palette, f_max, most, heaviest) + SUPPORT_SLACK
     return ~np.any(need > cap + slack, axis=1)
 
 
@@ -323,9 +322,8 @@ def counts_left(problem: SearchProblem, n: int) -> tuple[np.ndarray, np.ndarray]
     for i, c in enumerate(counts):
         if ok[i] and int(c.max()) == n:  # one type alone: the level bounds apply
             m = p.palette[int(np.argmax(c))]
-            alone = DynamicValues(p.model, [m])
-            values = alone.values(level_directions(), n * m.mass, n)
-            values = values - alone.allowance(p.f_max, n * m.mass, n)  # the oracle's grant
+            values = DynamicValues(p.model, [m]).values(level_directions(), n * m.mass, n)
+            values = values - off_range_grant(p.model, [m], p.f_max, n, n * m.mass)
             ok[i] = not values_excluded(values, p.f_max, m, n, p.fault)
     return counts, ok
 

@@ -7,9 +7,9 @@ an ``external`` one, c = g; a level motion), whose values are exact for every st
 cached per direction; :class:`DynamicValues` otherwise. Both give ``wrenches(mass, inertia)``
 (one structure's own), ``values(D, mass, n)`` (the task's value per direction, a lower bound
 for the second), ``order_wrenches(module)`` (what orders the wrenches hardest first),
-``set_pool(pool)``, ``reject(...)`` (the cached directions' test, in compiled code),
-``allowance(f_max, mass, n)`` (the oracle's off-range grant ``RESIDUAL_TOL (f_max + |w|)`` for
-the largest wrench of such structures: a separation must exceed it) and ``inertial``.
+``set_pool(pool)``, ``reject(...)`` (the cached directions' test, in compiled code) and
+``inertial``. Every separation must exceed the oracle's off-range grant ``RESIDUAL_TOL (f_max +
+|w|)`` (:func:`off_range_grant`: |w| bounded over the structures a test covers).
 
 A dynamic task (:class:`~modquad_gym.dynamics.DynamicTask`) asks the rotors of a structure S of
 mass M and inertia vector j for ``w_i(S) = base_i + M s_i + P_i j`` at each trajectory sample i
@@ -43,12 +43,6 @@ CHUNK = 64
 """Directions handled together by :meth:`DynamicValues.values` (bounds the memory)."""
 
 
-def compact(model: LinearWrenches) -> LinearWrenches:
-    """The same wrench model with repeated samples kept once
-    (:meth:`~modquad_gym.dynamics.LinearWrenches.compact`)."""
-    return model.compact()
-
-
 def inertia_box(palette: Sequence[ModuleType], n: int, mass: float) -> tuple[np.ndarray, ...]:
     """(lo (6,), hi (6,)): bounds on the inertia vector (Jxx, Jyy, Jzz, Jxy, Jxz, Jyz) of every
     structure of ``n`` modules of ``palette`` types weighing ``mass`` kg. Own inertias: n times
@@ -61,6 +55,23 @@ def inertia_box(palette: Sequence[ModuleType], n: int, mass: float) -> tuple[np.
     lo = n * own.min(axis=0) + np.array([0.0, 0.0, 0.0, -s, 0.0, 0.0])
     hi = n * own.max(axis=0) + np.array([s, s, 2 * s, s, 0.0, 0.0])
     return lo, hi
+
+
+def off_range_grant(
+    model: LinearWrenches, palette: Sequence[ModuleType], f_max: float, n: int, mass: float
+) -> float:
+    """How far a task wrench may lie off a structure's reach along a unit direction and stay
+    feasible by the oracle's rule, ``RESIDUAL_TOL (f_max + |w|)``, for every structure of at
+    most ``n`` modules of ``palette`` types and at most ``mass`` kg: |w_i(S)| <= |base_i| +
+    M |s_i| + |P_i j|, each inertia component |j_c| at most n times the types' largest plus
+    the parallel-axis sums' bound of :func:`inertia_box`."""
+    size = np.linalg.norm(model.base, axis=1) + mass * np.linalg.norm(model.per_mass, axis=1)
+    if model.uses_inertia and n >= 1:
+        own = np.abs(to_vector(np.stack([m.inertia for m in palette]))).max(axis=0)
+        s = mass * ((n - 1) * palette[0].side) ** 2 / 4
+        J = n * own + s * np.array([1.0, 1.0, 2.0, 1.0, 0.0, 0.0])
+        size = size + np.linalg.norm(model.per_inertia, axis=1) @ J
+    return RESIDUAL_TOL * (f_max + float(size.max(initial=0.0)))
 
 
 def force_needs(model: LinearWrenches, N: np.ndarray, masses: np.ndarray) -> np.ndarray:
@@ -126,13 +137,6 @@ class UniformLiftValues:
         """(k, 6) the wrenches of one structure (its mass; the inertia is not used)."""
         return self.model.at(mass)
 
-    def allowance(self, f_max: float, mass: float, n: int) -> float:
-        """The oracle's off-range grant ``RESIDUAL_TOL (f_max + |w|)`` along a unit direction,
-        for the largest wrench of any structure of at most ``mass`` kg: what a separation must
-        exceed before it rules a structure out."""
-        size = np.linalg.norm(self.model.base, axis=1).max(initial=0.0)
-        return RESIDUAL_TOL * (f_max + size + abs(self.lift_per_kg) * mass)
-
     def reject(self, cells, types, pool, terms, dz, f_max: float, half_tol: float, alive, lose=0):
         """Clear ``alive`` for the structures (cells (L, n, 2), types (L, n)) that one of the
         first ``len(pool)`` cached directions (their support ``terms``) separates from the
@@ -143,7 +147,8 @@ class UniformLiftValues:
         b, alpha, beta = terms
         side = float(self.palette[0].side)
         n = cells.shape[1]
-        values = self._values[: len(pool)] - self.allowance(f_max, n * self.heaviest, n)
+        grant = off_range_grant(self.model, self.palette, f_max, n, n * self.heaviest)
+        values = self._values[: len(pool)] - grant
         supports.reject(cells, types, self.weights, side, b, alpha, beta, values, f_max,
                         half_tol, alive, self.lift, dz, lose)  # fmt: skip
 
@@ -153,7 +158,7 @@ class DynamicValues:
     a given mass (module docstring), for a dynamic task's wrench model and palette."""
 
     def __init__(self, model: LinearWrenches, palette: Sequence[ModuleType]) -> None:
-        self.model = compact(model)
+        self.model = model.compact()
         self.palette = list(palette)
         self.inertial = self.model.uses_inertia
         self.weights = _weights(self.palette)
@@ -179,7 +184,8 @@ class DynamicValues:
         for mass in np.unique(masses):
             idx = np.flatnonzero(masses == mass)
             n = cells.shape[1]
-            values = self.values(pool, float(mass), n) - self.allowance(f_max, float(mass), n)
+            grant = off_range_grant(self.model, self.palette, f_max, n, float(mass))
+            values = self.values(pool, float(mass), n) - grant
             sub = alive[idx]
             group = np.ascontiguousarray(cells[idx]), np.ascontiguousarray(types[idx])
             supports.reject(*group, self.weights, side, b, alpha, beta, values, f_max,
@@ -203,19 +209,6 @@ class DynamicValues:
             Q = np.einsum("pr,krc->pkc", d[:, 3:], m.per_inertia[:, 3:, :])  # (p, k, 6)
             out[start : start + CHUNK] = (d @ W.T - np.abs(Q) @ rad).max(axis=1)
         return out
-
-    def allowance(self, f_max: float, mass: float, n: int) -> float:
-        """The oracle's off-range grant ``RESIDUAL_TOL (f_max + |w|)`` along a unit direction,
-        for the largest wrench of any n-module structure of ``mass`` kg (its inertia anywhere
-        in :func:`inertia_box`): what a separation must exceed before it rules one out."""
-        m = self.model
-        W = m.base + mass * m.per_mass
-        size = np.linalg.norm(W, axis=1)
-        if self.inertial:
-            lo, hi = inertia_box(self.palette, n, mass)
-            size = np.linalg.norm(W + m.per_inertia @ ((lo + hi) / 2), axis=1)
-            size = size + np.linalg.norm(m.per_inertia, axis=1) @ ((hi - lo) / 2)
-        return RESIDUAL_TOL * (f_max + size.max(initial=0.0))
 
     def wrenches(self, mass: float, inertia: np.ndarray | None) -> np.ndarray:
         """(k, 6) the exact wrenches of one structure (``inertia`` (3, 3) or (6,); ignored when
