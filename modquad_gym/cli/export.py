@@ -17,12 +17,9 @@ from modquad_gym.cli.common import (
 )
 from modquad_gym.cli.given import SEARCH_OPTIONS, refuse_ignored
 
-XML_FORMATS = ("mjcf", "urdf")
-"""The formats written as XML: an ``--out`` ending in .xml takes either."""
-
 
 def add_export(sub) -> None:
-    from modquad_gym.sim.export import FORMATS, SUFFIXES
+    from modquad_gym.sim.export_formats import FORMATS, SUFFIXES
 
     p = add_command(
         sub,
@@ -73,28 +70,6 @@ def found_structure(args: argparse.Namespace, task):
     return result.structure
 
 
-def export_format(out: str, fmt: str | None) -> str:
-    """``--format``, else the format ``--out``'s suffix names; a ValueError naming both when
-    they disagree (JSON in b.xml), or when neither says."""
-    from modquad_gym.sim.export import FORMATS, SUFFIXES
-
-    suffix = Path(out).suffix.lower()
-    named = {s: f for f, s in SUFFIXES.items()}.get(suffix)
-    if fmt is None:
-        if named is None:
-            raise ValueError(
-                f"--out {out}: its suffix names no format; end it in "
-                f"{', '.join(SUFFIXES.values())} or give --format ({', '.join(FORMATS)})"
-            )
-        return named
-    if named is not None and named != fmt and not (suffix == ".xml" and fmt in XML_FORMATS):
-        raise ValueError(
-            f"--format {fmt}: --out {out} ends in {suffix}, the suffix of {named}; end --out "
-            f"in {SUFFIXES[fmt]} or give --format {named}"
-        )
-    return fmt
-
-
 def check_exportable(structure) -> None:
     """A ValueError when ``structure`` has more modules than the searches design
     (:data:`~modquad_gym.search.problem.MAX_MODULES`, the package's structure-size limit)."""
@@ -111,6 +86,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     from modquad_gym.cli.show import structure_from_cells
     from modquad_gym.core.outputs import check_output_file
     from modquad_gym.sim.export import lift_statement, save_structure
+    from modquad_gym.sim.export_formats import export_format
 
     if bool(args.cells) == bool(args.task):
         raise ValueError("give either --cells (e.g. '[[0,0],[1,0]]') or --task")
@@ -119,7 +95,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         refuse_ignored(args, how, "applies with --task (a search finds the structure), not "
                        "with --cells (which gives it)")  # fmt: skip
     check_output_file(args.out, force=args.force, what="--out")  # before any search
-    fmt = export_format(args.out, args.format)
+    fmt = export_format(args.out, args.format, names=("--out", "--format"))  # save_structure's rule
     f_max = args.f_max
     if args.cells:
         structure = structure_from_cells(args.cells, palette(args), check_exportable)

@@ -121,9 +121,11 @@ def _not_empty(path: str | os.PathLike, what: str) -> str | os.PathLike:
 def check_output_file(path: str | os.PathLike, force: bool = False, what: str = "output") -> Path:
     """The destination file as a Path, after checking it can be written: its folder exists or
     can be created and is writable, it is not a device, pipe or socket, and it does not exist
-    yet (unless ``force``).
+    yet (unless ``force``). ``what`` names the path in errors: an option (``--out``), whose
+    advice is ``--force``, or a Python argument (``path``), whose advice is ``force=True``.
     Call it before long work starts."""
     path = Path(_not_empty(path, what))
+    force_hint = "--force" if what.startswith("--") or what == "output" else "force=True"
     check_name_length(path, what)
     if path.is_dir():
         raise OutputError(f"{what}: {path} is a folder, expected a file name")
@@ -131,10 +133,10 @@ def check_output_file(path: str | os.PathLike, force: bool = False, what: str = 
     if _dangling(path) and not force:  # a link the user made is theirs: replaced only on demand
         raise OutputError(
             f"{what}: {path} is a symbolic link (to {os.readlink(path)}, which does not exist); "
-            "use --force to replace it"
+            f"use {force_hint} to replace it"
         )
     if path.exists() and not force:
-        raise OutputError(f"{what}: {path} exists (use --force to replace it)")
+        raise OutputError(f"{what}: {path} exists (use {force_hint} to replace it)")
     _check_writable_dir(path.parent if str(path.parent) else Path("."), what)
     return path
 

@@ -52,12 +52,12 @@ import numpy as np
 
 from modquad_gym.geometry.inertia import inertia_about_com
 from modquad_gym.geometry.structure import Structure
-
-FORMATS = ("mjcf", "urdf", "json")
-"""The export formats."""
-
-SUFFIXES = {"mjcf": ".xml", "urdf": ".urdf", "json": ".json"}
-"""The usual file suffix of each format."""
+from modquad_gym.oracle.scale import check_f_max_range
+from modquad_gym.sim.export_formats import (  # noqa: F401 (FORMATS, SUFFIXES: kept here too)
+    FORMATS,
+    SUFFIXES,
+    export_format,
+)
 
 MODULE_THICKNESS = 0.05
 """Height of a module's box in the URDF visuals, metres (as in the MuJoCo model)."""
@@ -112,12 +112,12 @@ def thrust_to_weight(structure: Structure, f_max: float = 1.0) -> float:
     :func:`~modquad_gym.oracle.lambda_ratio` of the hover wrench ``[0, 0, m g, 0, 0, 0]``.
     >= 1 exactly when it can hover with no external load, by the oracle's rule (the plain LP's
     value within its tolerance, 1e-6 relative); for T-modules the rotors' summed vertical
-    thrust over the weight, 4 n f_max cos(eta) / (m g)."""
-    from modquad_gym.core.validation import check_f_max
+    thrust over the weight, 4 n f_max cos(eta) / (m g). ``f_max`` in 1e-300..1e300, as every
+    task's (:func:`~modquad_gym.oracle.scale.check_f_max_range`)."""
     from modquad_gym.geometry.module import GRAVITY
     from modquad_gym.oracle import lambda_ratio
 
-    structure, f_max = check_structure(structure), check_f_max(f_max)
+    structure, f_max = check_structure(structure), check_f_max_range(f_max)
     hover = [[0.0, 0.0, structure.mass * GRAVITY, 0.0, 0.0, 0.0]]
     return float(lambda_ratio(structure.configuration_matrix(), hover, f_max)[0])
 
@@ -148,9 +148,7 @@ def structure_dict(structure: Structure, f_max: float = 1.0) -> dict:
     """The structure as plain JSON data: frame and units, cells and module types, mass and
     inertia (about the COM, {S} axes), rotor poses, and the configuration matrix A (6 x 4n,
     column k = rotor k: the wrench [f; tau] about the COM per unit thrust)."""
-    from modquad_gym.core.validation import check_f_max
-
-    f_max = check_f_max(f_max)
+    f_max = check_f_max_range(f_max)
     s = check_structure(structure)
     rotors = zip(s.rotor_positions, s.rotor_directions, s.rotor_spins, s.rotor_c_tau,
                  strict=True)  # fmt: skip
@@ -293,14 +291,14 @@ def mjcf_text(structure: Structure, f_max: float = 1.0) -> str:
 
 
 def export_text(structure: Structure, fmt: str, f_max: float = 1.0) -> str:
-    """``structure`` in the format ``fmt`` (one of :data:`FORMATS`) as text."""
+    """``structure`` in the format ``fmt`` (one of :data:`FORMATS`) as text; ``f_max`` in
+    1e-300..1e300 N (:func:`~modquad_gym.oracle.scale.check_f_max_range`)."""
     check_structure(structure)
+    f_max = check_f_max_range(f_max)
     if fmt == "mjcf":
         return mjcf_text(structure, f_max)
     if fmt == "urdf":
-        from modquad_gym.core.validation import check_f_max
-
-        return urdf_text(structure, f_max=check_f_max(f_max))
+        return urdf_text(structure, f_max=f_max)
     if fmt == "json":
         return json.dumps(structure_dict(structure, f_max), indent=1) + "\n"
     raise ValueError(f"format: unknown {fmt!r}; use one of {', '.join(FORMATS)}")
@@ -310,9 +308,11 @@ def save_structure(
     structure: Structure, path, fmt: str | None = None, f_max: float = 1.0, force: bool = False
 ) -> Path:
     """Write ``structure`` to ``path`` in ``fmt`` (default: from the suffix, ``.xml`` = MJCF);
-    an existing file is replaced only with ``force``. A robot that cannot lift itself at
-    ``f_max`` N per rotor gets a warning on the ``modquad_gym`` logger
-    (:mod:`modquad_gym.core.notes`). Returns the path written."""
+    an existing file is replaced only with ``force``. The same rules as ``modquad export``: a
+    ``fmt`` that contradicts the suffix (JSON in b.xml) is refused
+    (:func:`~modquad_gym.sim.export_formats.export_format`), and so is an ``f_max`` outside
+    1e-300..1e300 N. A robot that cannot lift itself at ``f_max`` N per rotor gets a warning on
+    the ``modquad_gym`` logger (:mod:`modquad_gym.core.notes`). Returns the path written."""
     from modquad_gym.core.outputs import check_output_file, write_text
     from modquad_gym.core.validation import check_flag
 
@@ -320,13 +320,9 @@ def save_structure(
     if not isinstance(path, (str, os.PathLike)) or not str(path).strip():
         raise ValueError(f"path must be a file path (a str or a PathLike), got {path!r}")
     path = Path(path)
-    if fmt is None:
-        by_suffix = {suffix: name for name, suffix in SUFFIXES.items()}
-        fmt = by_suffix.get(path.suffix.lower())
-        if fmt is None:
-            raise ValueError(f"{path}: say the format (one of {', '.join(FORMATS)})")
+    fmt = export_format(path, fmt)
     text = export_text(structure, fmt, f_max)  # before touching the file: errors leave it alone
-    path = check_output_file(path, force=force, what="--out")
+    path = check_output_file(path, force=force, what="path")
     write_text(path, text)
     ratio = thrust_to_weight(structure, f_max)
     if ratio < 1.0:

@@ -1,0 +1,48 @@
+"""The task commands (``modquad task``, ``export``, ``bench``) and their Python doors answer
+alike: the same input is refused by both with one line naming what is wrong, a generator
+refuses at construction what the command line refuses, and no door replaces a file unasked."""
+
+from __future__ import annotations
+
+import pytest
+from test_hardening import assert_one_line_error, assert_rejected, run_main
+
+import modquad_gym as mq
+from modquad_gym.sim import export as ex
+
+PAIR = mq.Structure([(0, 0), (1, 0)])
+
+
+# ------------------------------------------------ save_structure refuses what export refuses
+@pytest.mark.parametrize(
+    "name, fmt, named", [("b.xml", "json", "mjcf"), ("c.json", "urdf", "json")]
+)
+def test_save_structure_refuses_a_format_against_the_suffix(tmp_path, capsys, name, fmt, named):
+    path = tmp_path / name
+    with pytest.raises(ValueError, match=rf"^fmt='{fmt}': path .*{name} ends in .*'{named}'"):
+        ex.save_structure(PAIR, path, fmt)
+    code, _, err = run_main(capsys, "export", "--cells", "[[0,0],[1,0]]", "--out", str(path),
+                            "--format", fmt)  # fmt: skip
+    assert_one_line_error(code, err, f"--format {fmt}", name, f"--format {named}")
+    assert not path.exists()
+
+
+def test_save_structure_takes_urdf_in_xml_and_says_a_suffix_naming_no_format(tmp_path):
+    assert "<robot" in ex.save_structure(PAIR, tmp_path / "r.xml", "urdf").read_text()
+    with pytest.raises(ValueError, match=r"^path .*r\.txt: its suffix names no format.* fmt "):
+        ex.save_structure(PAIR, tmp_path / "r.txt")
+    with pytest.raises(ValueError, match=r"^fmt must be one of mjcf, urdf, json, got 'yaml'"):
+        ex.save_structure(PAIR, tmp_path / "r.json", "yaml")
+
+
+@pytest.mark.parametrize("f_max", [1e301, 1e-310])
+def test_save_structure_refuses_the_f_max_export_refuses(tmp_path, capsys, f_max):
+    path = tmp_path / "x.json"
+    with pytest.raises(ValueError, match=r"^f_max = .* is outside 1e-300\.\.1e300"):
+        ex.save_structure(PAIR, path, f_max=f_max)
+    with pytest.raises(ValueError, match=r"^f_max = .* is outside"):
+        ex.thrust_to_weight(PAIR, f_max)
+    code, _, err = run_main(capsys, "export", "--cells", "[[0,0]]", "--out", str(path),
+                            "--f-max", repr(f_max))  # fmt: skip
+    assert_rejected(code, err, "--f-max", "outside 1e-300..1e300")
+    assert not path.exists()
