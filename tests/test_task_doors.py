@@ -9,6 +9,7 @@ from test_hardening import assert_one_line_error, assert_rejected, run_main
 
 import modquad_gym as mq
 from modquad_gym.sim import export as ex
+from modquad_gym.tasks import load_task
 
 PAIR = mq.Structure([(0, 0), (1, 0)])
 
@@ -46,3 +47,27 @@ def test_save_structure_refuses_the_f_max_export_refuses(tmp_path, capsys, f_max
                             "--f-max", repr(f_max))  # fmt: skip
     assert_rejected(code, err, "--f-max", "outside 1e-300..1e300")
     assert not path.exists()
+
+
+# ------------------------------------------------------------ a CSV comment key with a space
+@pytest.mark.parametrize(
+    "comment, field",
+    [("# f max: 2", "f_max"), ("# F Max: 2", "f_max"), ("# f max = 2", "f_max"),
+     ("# na me: x", "name")],
+)  # fmt: skip
+def test_a_csv_comment_key_with_a_space_is_a_near_miss(tmp_path, comment, field):
+    path = tmp_path / "cm.csv"
+    path.write_text(f"{comment}\n0,0,3,0,0,0\n")
+    with pytest.raises(ValueError, match=rf"^{path}: line 1: comment .*{field}"):
+        load_task(path)
+
+
+@pytest.mark.parametrize(
+    "comment", ["# measured on the bench: yes", "# my name: Bob", "# x = 3", "# kind : external"]
+)
+def test_free_text_with_spaced_words_stays_free_text(tmp_path, comment):
+    path = tmp_path / "ft.csv"
+    path.write_text(f"{comment}\n0,0,3,0,0,0\n")
+    task = load_task(path)
+    assert task.f_max == 1.0 and task.name == "ft"
+    assert task.kind == ("external" if "kind" in comment else "total")

@@ -32,9 +32,10 @@ Task files (:mod:`.files`):
     ``# meta: {...}`` (one line of JSON), each at most once, set those fields (a name in double
     quotes is a JSON string: how :meth:`TaskRequirement.save` writes a name with a newline).
     A near miss is refused, naming the line, never read as free text: a misspelt key
-    (``# fmax: 2``) or a key without its ``:`` (``# f_max = 2``, ``#f_max=2``, ``# f_max 2``),
-    so free text must not start with one of these keys. ``csv_header`` applies to CSV files
-    only (another mode than ``auto`` for a ``.json`` or ``.npy`` file is refused).
+    (``# fmax: 2``, ``# f max: 2``) or a key without its ``:`` (``# f_max = 2``, ``#f_max=2``,
+    ``# f_max 2``), so free text must not start with one of these keys. ``csv_header``
+    applies to CSV files only (another mode than ``auto`` for a ``.json`` or ``.npy`` file is
+    refused).
 ``.npy``
     A float array of shape (t, 6) (``f_max`` = 1, kind ``total``, name = file stem).
 

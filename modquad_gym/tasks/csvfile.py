@@ -43,14 +43,16 @@ column numbers 0..5 or 1..6, as spreadsheets and pandas write them, is refused a
 CSV_COMMENT_KEYS = ("name", "f_max", "kind", "meta")
 """The fields ``# key: value`` comments set. Other comments are free text, except near misses,
 which are refused (never read as free text, so the field would silently keep its default): a
-key that is one of these misspelt (``# fmax: 2``, ``# Kind: external``), and a comment that
+key that is one of these misspelt (``# fmax: 2``, ``# Kind: external``, ``# f max: 2``: a key's
+spaces count as misspellings of ``_``), and a comment that
 sets one of these keys without the ``:``: with ``=`` (``# f_max = 2``, ``#f_max=2``, ``# fmax =
 2``), or followed by a value of its kind (``# f_max 2``, ``# kind external``, ``# meta {...}``).
 Free text that merely starts with such a word (``# name of the bench``) stays free text."""
 
 _DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.I)
-_COMMENT = re.compile(r"#\s*([A-Za-z][\w-]*)\s*:(.*)", re.S)
+_COMMENT = re.compile(r"#\s*([A-Za-z][\w -]*?)\s*:(.*)", re.S)
 _NEAR_MISS = re.compile(r"#\s*([A-Za-z][\w-]*)(\s*=|\s|$)(.*)", re.S)
+_SPACED_SET = re.compile(r"#\s*([A-Za-z][\w -]*?)\s*=(.*)", re.S)
 _LINE = re.compile(r"([^\r\n]*)(?:\r\n|\r|\n|\Z)")
 _NUMERIC_LINE = re.compile(rb"^[ \t]*[-+.0-9]", re.M)
 _COLUMN_NUMBERS = ([0.0, 1.0, 2.0, 3.0, 4.0, 5.0], [1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
@@ -102,10 +104,13 @@ def _comment(text: str, fields: dict[str, Any], seen: dict[str, int], where: str
 def _near_miss(text: str, where: str, lineno: int) -> None:
     """A TaskFileError for a comment that reads as setting a field without the ``:``
     (:data:`CSV_COMMENT_KEYS`): the field would otherwise silently keep its default."""
-    match = _NEAR_MISS.fullmatch(text)
+    match = _SPACED_SET.fullmatch(text) or _NEAR_MISS.fullmatch(text)
     if match is None:
         return
-    key, separator, rest = match.group(1), match.group(2).strip(), match.group(3).strip()
+    if match.re is _SPACED_SET:  # "# f max = 2": a key (spaces and all), then "="
+        key, separator, rest = match.group(1), "=", match.group(2).strip()
+    else:
+        key, separator, rest = match.group(1), match.group(2).strip(), match.group(3).strip()
     if separator == "=":
         field = key if key in CSV_COMMENT_KEYS else close_key(key, CSV_COMMENT_KEYS)
     else:  # a key, then a value of its kind: a number, a task kind, a JSON object
