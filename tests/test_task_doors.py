@@ -4,10 +4,14 @@ refuses at construction what the command line refuses, and no door replaces a fi
 
 from __future__ import annotations
 
+import json
+
 import pytest
-from test_hardening import assert_one_line_error, assert_rejected, run_main
+from test_edges_cli import assert_one_line_error, run_main
+from test_hardening import assert_rejected
 
 import modquad_gym as mq
+from modquad_gym import dynamics as dy
 from modquad_gym.sim import export as ex
 from modquad_gym.tasks import load_task
 
@@ -71,3 +75,53 @@ def test_free_text_with_spaced_words_stays_free_text(tmp_path, comment):
     task = load_task(path)
     assert task.f_max == 1.0 and task.name == "ft"
     assert task.kind == ("external" if "kind" in comment else "total")
+
+
+# ------------------------------------------------------- errors name the option that caused them
+@pytest.mark.parametrize(
+    "kind, option, value, lengths",
+    [
+        ("circle", "--radius", "1e6", "--radius, --speed, --laps"),
+        ("hover", "--duration", "1e9", "--duration"),
+        ("push", "--speed", "1e-12", "--distance, --speed"),
+        ("line", "--max-acceleration", "1e-9", "--distance, --max-acceleration"),
+    ],
+)
+def test_a_long_motion_names_the_typed_option_that_made_it_long(
+    tmp_path, capsys, kind, option, value, lengths
+):
+    out = tmp_path / "r.json"
+    code, _, err = run_main(capsys, "task", "motion", "--kind", kind, option, value,
+                            "--out", str(out))  # fmt: skip
+    line = assert_one_line_error(code, err, f"{lengths}) or lower --rate", "100,000")
+    assert line.startswith(f"modquad: error: {option} {float(value):g}: the motion lasts"), line
+    assert not out.exists()
+
+
+def test_a_long_motion_names_every_typed_cause(tmp_path, capsys):
+    argv = ["task", "motion", "--kind", "circle", "--laps", "1e5", "--rate", "1000"]
+    code, _, err = run_main(capsys, *argv, "--out", str(tmp_path / "c.json"))
+    line = assert_one_line_error(code, err)
+    assert line.startswith("modquad: error: --laps 100000, --rate 1000: the motion lasts"), line
+
+
+def test_a_long_motion_in_python_names_its_length_parameters():
+    with pytest.raises(ValueError, match=r"^radius, speed, laps, ramp, hold, rate: the motion"):
+        dy.circle(radius=1e6)
+    with pytest.raises(ValueError, match=r"^duration, rate: the motion lasts 1e\+09 s"):
+        dy.hover(1e9)
+
+
+def test_a_tiny_f_max_is_named_as_the_cause(tmp_path, capsys):
+    out = tmp_path / "q.json"
+    argv = ["task", "motion", "--kind", "hover", "--f-max", "1e-300", "--out", str(out)]
+    code, _, err = run_main(capsys, *argv)
+    assert_one_line_error(code, err, "--f-max: 1e-300 N is too small", "9.81 N")
+    assert not out.exists()
+    data = dy.hover(1.0, rate=20.0).to_dict()
+    path = tmp_path / "fmax_tiny.json"
+    path.write_text(json.dumps({**data, "f_max": 1e-300}))
+    with pytest.raises(ValueError, match=rf"^{path}: f_max: 1e-300 N is too small"):
+        load_task(path)
+    code, _, err = run_main(capsys, "export", "--task", str(path), "--out", str(out))
+    assert_one_line_error(code, err, str(path), "f_max: 1e-300 N is too small")

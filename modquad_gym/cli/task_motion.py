@@ -7,6 +7,8 @@ import re
 
 from modquad_gym.cli.common import add_command, add_force, f_max_option
 from modquad_gym.core.options import real_option
+from modquad_gym.dynamics.motions import LongMotionError
+from modquad_gym.dynamics.trajectory import MAX_SAMPLES
 
 PARAMETERS = {
     "hover": ("duration",),
@@ -153,8 +155,26 @@ def motion_task(args: argparse.Namespace):
         common = dict(f_max=args.f_max, payload=payload_of(args), rate=args.rate,
                       name=args.name or args.kind)  # fmt: skip
         return dy.MOTIONS[args.kind](**given, **common)
+    except LongMotionError as exc:
+        raise ValueError(long_motion_message(exc, args)) from None
     except ValueError as exc:
         raise ValueError(option_message(exc, args.kind)) from None
+
+
+def long_motion_message(exc: LongMotionError, args: argparse.Namespace) -> str:
+    """A motion too long to sample, blamed on the typed options among those that set its
+    length and ``--rate`` (all of them when none is known to be typed), with their values."""
+    from modquad_gym.cli.given import typed
+
+    causes = [*(p for p in exc.lengths if p in PARAMETERS[args.kind]), "rate"]
+    blamed = [p for p in causes if typed(args, p)] or causes
+    shown = ", ".join(f"{OPTION_OF[p]} {getattr(args, p):g}" for p in blamed)
+    options = ", ".join(OPTION_OF[p] for p in causes if p != "rate")
+    return (
+        f"{shown}: the motion lasts {exc.duration:.6g} s, {exc.samples} samples at --rate "
+        f"{exc.rate:g} samples/s, more than the {MAX_SAMPLES:,} a trajectory holds; shorten it "
+        f"({options}) or lower --rate"
+    )
 
 
 def cmd_task_motion(args: argparse.Namespace) -> int:

@@ -36,19 +36,32 @@ samples then show at least 85 % of its peak acceleration wherever they fall (2 i
 all fall where it is 0: a 2 m move of 0.011 s at 100 samples/s peaked at 2e-9 m/s^2)."""
 
 
-def sample_count(duration: float, rate: float) -> int:
+class LongMotionError(ValueError):
+    """A motion of more samples than a trajectory holds (:data:`MAX_SAMPLES`): ``lengths`` are
+    the parameters that set how long it lasts, ``duration`` (s) and ``rate`` (samples/s) the
+    numbers, ``samples`` their count as text. Its message names the lengths and ``rate``; the
+    command line names, of these, the options that were typed."""
+
+    def __init__(self, lengths: tuple[str, ...], duration: float, rate: float, samples: str):
+        self.lengths, self.duration, self.rate, self.samples = lengths, duration, rate, samples
+        super().__init__(
+            f"{', '.join((*lengths, 'rate'))}: the motion lasts {duration:.6g} s, {samples} "
+            f"samples at rate {rate:g} samples/s, more than the {MAX_SAMPLES:,} a trajectory "
+            f"holds; shorten it (its length is set by {', '.join(lengths)}) or lower the rate"
+        )
+
+
+def sample_count(duration: float, rate: float, lengths: tuple[str, ...] = ("duration",)) -> int:
     """How many samples a motion of ``duration`` seconds at ``rate`` Hz has (at least 2), or a
-    ValueError naming ``rate`` when that is more than a trajectory holds
+    :class:`LongMotionError` naming ``lengths`` (the parameters that set the duration) and ``rate``
+    when that is more than a trajectory holds
     (:data:`~modquad_gym.dynamics.trajectory.MAX_SAMPLES`): checked from the two numbers,
     before any sample is built."""
     with np.errstate(over="ignore"):
         span = float(np.float64(duration) * np.float64(rate))
     n = max(2, int(math.ceil(span - 1e-9)) + 1) if span < MAX_SAMPLES else math.inf
     if n > MAX_SAMPLES:
-        raise ValueError(
-            f"rate: {rate:g} samples/s over {duration:.6g} s is {_count(span + 1)} samples, more "
-            f"than the {MAX_SAMPLES:,} a trajectory holds; lower the rate or shorten the motion"
-        )
+        raise LongMotionError(tuple(lengths), duration, rate, _count(span + 1))
     return n
 
 
@@ -68,8 +81,8 @@ def _count(n: float) -> str:
     return f"{n:,.0f}" if n < 1e15 else f"{n:.3g}"
 
 
-def _times(duration: float, rate: float) -> np.ndarray:
-    return np.linspace(0.0, duration, sample_count(duration, rate))
+def _times(duration: float, rate: float, lengths: tuple[str, ...]) -> np.ndarray:
+    return np.linspace(0.0, duration, sample_count(duration, rate, lengths))
 
 
 def _time_law(t: np.ndarray, cruise: float, total: float, ramp: float) -> tuple:
@@ -109,15 +122,17 @@ def _along(path: Callable, law: tuple) -> tuple:
     return p, v, a
 
 
-def _moved(path: Callable, cruise: float, total: float, ramp: float, hold: float, rate: float):
+def _moved(path: Callable, cruise: float, total: float, ramp: float, hold: float, rate: float,
+           lengths: tuple[str, ...]):  # fmt: skip
     """(t, time law, (p, v, a)) of a move along ``path`` (:func:`_along`, :func:`_time_law`),
-    sampled at ``rate`` Hz with ``hold`` seconds of hover before and after."""
+    sampled at ``rate`` Hz with ``hold`` seconds of hover before and after (``lengths``: the
+    parameters that set how long it lasts, named when it is too long to sample)."""
     end = _time_law(np.zeros(1), cruise, total, ramp)[3]
     try:
         check_phase("speeding up (the ramp)", ramp, rate)
     except ValueError as exc:
         raise ValueError(f"rate: {exc}; raise rate") from None
-    t = _times(end + 2 * hold, rate)
+    t = _times(end + 2 * hold, rate, lengths)
     law = _time_law(t - hold, cruise, total, ramp)
     return t, law, _along(path, law)
 
@@ -159,7 +174,7 @@ def hover(
     """Hover in place for ``duration`` seconds (with a payload: ``payload`` a :class:`Payload`,
     a mass in kg, or (mass, offset))."""
     c = _checked(duration=duration, rate=rate)
-    t = _times(c["duration"], c["rate"])
+    t = _times(c["duration"], c["rate"], ("duration",))
     zero = np.zeros((len(t), 3))
     meta = {"motion": "hover", "duration": c["duration"]}
     return _task(t, zero, zero, zero, name, meta, f_max, payload)
@@ -195,7 +210,7 @@ def line(
         raise ValueError(
             f"max_acceleration: {exc}; raise rate, lower max_acceleration or lengthen distance"
         ) from None
-    t = _times(T + 2 * hold, c["rate"])
+    t = _times(T + 2 * hold, c["rate"], ("distance", "max_acceleration", "hold"))
     u = np.clip((t - hold) / T, 0.0, 1.0)
     s = D * (10 * u**3 - 15 * u**4 + 6 * u**5)
     ds = D * (30 * u**2 - 60 * u**3 + 30 * u**4) / T
@@ -237,7 +252,8 @@ def circle(
         return (R * np.c_[cs - 1, sn, z], R * np.c_[-sn, cs, z], R * np.c_[-cs, -sn, z])
 
     total = 2 * math.pi * c["laps"]
-    t, law, (p, v, a) = _moved(path, c["speed"] / R, total, c["ramp"], hold, c["rate"])
+    lengths = ("radius", "speed", "laps", "ramp", "hold")
+    t, law, (p, v, a) = _moved(path, c["speed"] / R, total, c["ramp"], hold, c["rate"], lengths)
     meta = {
         "motion": "circle",
         "radius": R,
@@ -279,7 +295,8 @@ def figure_eight(
 
     cruise = c["speed"] / (A * math.sqrt(2.0))
     total = 2 * math.pi * c["laps"]
-    t, _, (p, v, a) = _moved(path, cruise, total, c["ramp"], hold, c["rate"])
+    lengths = ("size", "speed", "laps", "ramp", "hold")
+    t, _, (p, v, a) = _moved(path, cruise, total, c["ramp"], hold, c["rate"], lengths)
     meta = {"motion": "figure-eight", "size": A, "speed": c["speed"], "laps": c["laps"]}
     return _task(t, p, v, a, name, meta, f_max, payload)
 
@@ -311,7 +328,8 @@ def push(
     def path(s):
         return s[:, None] * d, np.ones_like(s)[:, None] * d, np.zeros((len(s), 3))
 
-    t, law, (p, v, a) = _moved(path, c["speed"], c["distance"], c["ramp"], hold, c["rate"])
+    lengths = ("distance", "speed", "ramp", "hold")
+    t, law, (p, v, a) = _moved(path, c["speed"], c["distance"], c["ramp"], hold, c["rate"], lengths)
     exerted = np.zeros((len(t), 6))
     exerted[:, :3] = (c["force"] * law[1] / c["speed"])[:, None] * d  # level: {S} axes = world
     meta = {"motion": "push", "distance": c["distance"], "speed": c["speed"], "force": c["force"]}

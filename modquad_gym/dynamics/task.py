@@ -245,8 +245,9 @@ def check_scale(task: DynamicTask) -> None:
     outside 1e-300..1e300, or a part of the rotor wrenches (the motion's per kilogram and per
     unit of inertia, what the payload and the exerted wrenches add) not finite or beyond
     :data:`~modquad_gym.oracle.scale.MAX_TASK_VALUE`, in newtons or in units of f_max (the
-    static tasks' bound, :func:`~modquad_gym.oracle.scale.check_task_scale`). Checked when the
-    task is made, so that a task file's error names the file."""
+    static tasks' bound, :func:`~modquad_gym.oracle.scale.check_task_scale`); a part within the
+    bound in newtons and beyond it only in units of f_max names ``f_max`` (too small for the
+    task). Checked when the task is made, so that a task file's error names the file."""
     from modquad_gym.oracle.scale import MAX_TASK_VALUE, check_f_max_range
 
     try:  # the one range of every f_max
@@ -267,16 +268,23 @@ def check_scale(task: DynamicTask) -> None:
     )
     for field, values in parts:
         with np.errstate(over="ignore", invalid="ignore"):
-            size = np.abs(values).reshape(len(values), -1).max(axis=1, initial=0.0)
-            size = np.maximum(size, size / task.f_max)
+            newtons = np.abs(values).reshape(len(values), -1).max(axis=1, initial=0.0)
+            size = np.maximum(newtons, newtons / task.f_max)
         bad = ~(size <= MAX_TASK_VALUE)
-        if bad.any():
-            i = int(np.argmax(bad))
+        if not bad.any():
+            continue
+        i = int(np.argmax(bad))
+        if newtons[i] <= MAX_TASK_VALUE:  # a sane wrench, large only in units of a tiny f_max
             raise ValueError(
-                f"{field}: the rotor wrench at sample {i + 1} is {size[i]:.3g} (newtons, or "
-                f"units of f_max = {task.f_max:g} N), beyond {MAX_TASK_VALUE:g}: far beyond "
-                "what any structure can exert (check the units)"
+                f"f_max: {task.f_max:g} N is too small for this task: at sample {i + 1} the "
+                f"rotor wrench from {field} is {newtons[i]:.3g} N, {size[i]:.3g} units of "
+                f"f_max, beyond {MAX_TASK_VALUE:g} (check the units)"
             )
+        raise ValueError(
+            f"{field}: the rotor wrench at sample {i + 1} is {size[i]:.3g} (newtons, or "
+            f"units of f_max = {task.f_max:g} N), beyond {MAX_TASK_VALUE:g}: far beyond "
+            "what any structure can exert (check the units)"
+        )
 
 
 def lift_capacity(
