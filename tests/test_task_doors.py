@@ -125,3 +125,20 @@ def test_a_tiny_f_max_is_named_as_the_cause(tmp_path, capsys):
         load_task(path)
     code, _, err = run_main(capsys, "export", "--task", str(path), "--out", str(out))
     assert_one_line_error(code, err, str(path), "f_max: 1e-300 N is too small")
+
+
+# ------------------------------------------------------- no option ignored or replaced unsaid
+@pytest.mark.parametrize("name", [["screwdriver"], []])
+def test_task_example_force_without_out_is_refused(tmp_path, capsys, monkeypatch, name):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run_main(capsys, "task", "example", *name, "--force")
+    assert_one_line_error(code, err, "--force", "--out")
+    assert out == "" and list(tmp_path.iterdir()) == []
+
+
+def test_task_motion_keeps_an_empty_name_as_python_does(tmp_path, capsys):
+    out = tmp_path / "q12.json"
+    code, _, err = run_main(capsys, "task", "motion", "--kind", "hover", "--name", "",
+                            "--out", str(out))  # fmt: skip
+    assert code == 0, err
+    assert load_task(out).name == "" == dy.hover(name="").name

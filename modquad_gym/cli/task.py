@@ -154,6 +154,9 @@ def cmd_task_example(args: argparse.Namespace) -> int:
     from modquad_gym.core.outputs import atomic_write, check_output_file
     from modquad_gym.tasks import TaskRequirement, example_names, example_path, load_suite
 
+    if args.force and args.out is None:  # nothing is written: it would be ignored
+        copy = f"to copy {args.name}" if args.name is not None else "and NAME to copy an example"
+        raise ValueError(f"--force replaces an existing --out; give --out {copy}")
     if args.name is None:
         if args.out is not None:  # it would be ignored: the list is printed, nothing written
             raise ValueError(f"--out {args.out}: name the example to copy (NAME), e.g. screwdriver")

@@ -153,7 +153,7 @@ def motion_task(args: argparse.Namespace):
         given["force"] = given.pop("push_force")
     try:
         common = dict(f_max=args.f_max, payload=payload_of(args), rate=args.rate,
-                      name=args.name or args.kind)  # fmt: skip
+                      name=args.kind if args.name is None else args.name)  # fmt: skip
         return dy.MOTIONS[args.kind](**given, **common)
     except LongMotionError as exc:
         raise ValueError(long_motion_message(exc, args)) from None
