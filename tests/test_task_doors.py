@@ -142,3 +142,13 @@ def test_task_motion_keeps_an_empty_name_as_python_does(tmp_path, capsys):
                             "--out", str(out))  # fmt: skip
     assert code == 0, err
     assert load_task(out).name == "" == dy.hover(name="").name
+
+
+def test_export_task_folder_says_it_takes_one_file(tmp_path, capsys):
+    folder = tmp_path / "bad"
+    folder.mkdir()
+    (folder / "a.json").write_text('{"wrenches": [[0, 0, 3, 0, 0, 0]]}')
+    out = tmp_path / "d.json"
+    code, _, err = run_main(capsys, "export", "--task", str(folder), "--out", str(out))
+    assert_one_line_error(code, err, f"--task {folder} is a folder", "one task file")
+    assert not out.exists()

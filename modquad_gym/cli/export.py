@@ -100,6 +100,11 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.cells:
         structure = structure_from_cells(args.cells, palette(args), check_exportable)
     else:
+        if Path(args.task).is_dir():  # solve --task reads a folder; export writes one structure
+            raise ValueError(
+                f"--task {args.task} is a folder; export takes one task file (it writes one "
+                "structure): name a file in it"
+            )
         task = common.load_task(args.task, args.csv_header)
         common.check_task(task, args.task, palette(args))  # errors name the file
         structure = found_structure(args, task)
