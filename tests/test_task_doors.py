@@ -152,3 +152,15 @@ def test_export_task_folder_says_it_takes_one_file(tmp_path, capsys):
     code, _, err = run_main(capsys, "export", "--task", str(folder), "--out", str(out))
     assert_one_line_error(code, err, f"--task {folder} is a folder", "one task file")
     assert not out.exists()
+
+
+# ------------------------------------------------------------------------- help and usage
+def test_task_help_names_the_help_of_every_action(capsys):
+    code, out, _ = run_main(capsys, "task", "--help")
+    assert code == 0 and "`modquad task ACTION --help`" in " ".join(out.split())
+
+
+def test_bench_without_arguments_requires_only_agents(capsys):
+    code, _, err = run_main(capsys, "bench")
+    last = err.strip().splitlines()[-1]
+    assert code == 2 and last.endswith("the following arguments are required: agents"), err

@@ -27,12 +27,13 @@ def add_bench(sub) -> None:
         "`python -m benchmarks.NAME` (docs: results.md).",
     )
     p.add_argument("what", metavar="agents", help="agents: the former name of modquad score")
-    p.add_argument(
+    rest = p.add_argument(
         "rest",
         nargs=argparse.REMAINDER,
         metavar="OPTIONS",
-        help="options of modquad score (see `modquad score --help`)",
+        help="options of modquad score (see `modquad score --help`; without any, its defaults)",
     )
+    rest.required = False  # argparse marks a REMAINDER required, yet takes none
 
 
 def cmd_bench(args: argparse.Namespace) -> int:

@@ -27,8 +27,8 @@ def add_task(sub) -> None:
     p = sub.add_parser(
         "task",
         help="task files (generate, motion, example)",
-        description="Work with task files. `modquad task generate --help` explains the "
-        "options of each action.",
+        description="Work with task files. `modquad task ACTION --help` explains the "
+        "options of an action (e.g. `modquad task generate --help`).",
     )
     p.set_defaults(func=print_help(p))
     actions = p.add_subparsers(dest="task_command", metavar="ACTION")
