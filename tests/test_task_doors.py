@@ -5,6 +5,7 @@ refuses at construction what the command line refuses, and no door replaces a fi
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 from test_edges_cli import assert_one_line_error, run_main
@@ -12,8 +13,17 @@ from test_hardening import assert_rejected
 
 import modquad_gym as mq
 from modquad_gym import dynamics as dy
+from modquad_gym.dynamics.random_motions import MotionTasks
 from modquad_gym.sim import export as ex
-from modquad_gym.tasks import load_task
+from modquad_gym.tasks import (
+    FixedTasks,
+    MixedTasks,
+    PaperTasks,
+    PlantedMixedTasks,
+    PlantedTasks,
+    ScrewdriverTask,
+    load_task,
+)
 
 PAIR = mq.Structure([(0, 0), (1, 0)])
 
@@ -164,3 +174,39 @@ def test_bench_without_arguments_requires_only_agents(capsys):
     code, _, err = run_main(capsys, "bench")
     last = err.strip().splitlines()[-1]
     assert code == 2 and last.endswith("the following arguments are required: agents"), err
+
+
+# ------------------------------------------------- the generators name a bad argument (types)
+GENERATOR_ARGUMENTS = [
+    (lambda: PaperTasks(scale="a"), "scale must be a real number, got 'a'"),
+    (lambda: PaperTasks(n_wrenches=2.5), "n_wrenches must be an int or an inclusive"),
+    (lambda: PaperTasks(n_wrenches=(2, "x")), "n_wrenches must be an integer, got 'x'"),
+    (lambda: PaperTasks(name=5), "name must be a string, got 5"),
+    (lambda: PlantedTasks(boundary_fraction="x"), "boundary_fraction must be a real number"),
+    (lambda: PlantedTasks(slack=None), "slack must be a real number, got None"),
+    (lambda: PlantedTasks(module="t45"), "module must be a ModuleType or None, got 't45'"),
+    (lambda: ScrewdriverTask(push="a"), "push must be a real number, got 'a'"),
+    (lambda: ScrewdriverTask(lift=None), "lift must be a real number, got None"),
+    (lambda: PlantedMixedTasks(n_wrenches=2.5), "n_wrenches must be an integer, got 2.5"),
+    (lambda: PlantedMixedTasks(modules="zz"), "modules: unknown module type 'zz'"),
+    (lambda: MixedTasks((ScrewdriverTask(),), name=3), "name must be a string, got 3"),
+    (lambda: MotionTasks(name=None), "name must be a string, got None"),
+]
+
+
+@pytest.mark.parametrize("make, words", GENERATOR_ARGUMENTS)
+def test_a_generator_names_a_bad_argument(make, words):
+    with pytest.raises(ValueError, match=f"^{re.escape(words)}"):
+        make()
+
+
+@pytest.mark.parametrize(
+    "generator",
+    [PaperTasks(), PlantedTasks(), ScrewdriverTask(), PlantedMixedTasks(), MotionTasks(),
+     FixedTasks((ScrewdriverTask().task(),)), MixedTasks((ScrewdriverTask(),))],
+    ids=lambda g: type(g).__name__,
+)  # fmt: skip
+@pytest.mark.parametrize("rng", [None, 3])
+def test_a_generator_call_names_rng(generator, rng):
+    with pytest.raises(ValueError, match=rf"^rng must be a numpy.random.Generator .*got {rng}"):
+        generator(rng)

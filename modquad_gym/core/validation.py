@@ -16,6 +16,8 @@ import numpy as np
 
 __all__ = [
     "check_f_max",
+    "check_name",
+    "check_rng",
     "float_array",
     "check_int",
     "check_matrix",
@@ -38,6 +40,25 @@ def check_flag(value: object, name: str) -> bool:
     if not _is_bool(value):
         raise ValueError(f"{name} must be True or False, got {value!r}")
     return bool(value)
+
+
+def check_rng(value: object, name: str = "rng") -> np.random.Generator:
+    """``value`` when it is a ``numpy.random.Generator`` (``np.random.default_rng(seed)``), else
+    a ValueError naming ``name``: what every seeded draw takes, never a seed or None in its
+    place (which would fail later, naming an attribute)."""
+    if not isinstance(value, np.random.Generator):
+        raise ValueError(
+            f"{name} must be a numpy.random.Generator (np.random.default_rng(seed)), got "
+            f"{value!r:.60}"
+        )
+    return value
+
+
+def check_name(value: object, name: str = "name") -> str:
+    """``value`` when it is a string, else a ValueError naming ``name``."""
+    if not isinstance(value, str):
+        raise ValueError(f"{name} must be a string, got {value!r:.60}")
+    return value
 
 
 def check_int(value: object, name: str, low: int | None = None, high: int | None = None) -> int:

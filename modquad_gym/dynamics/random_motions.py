@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from modquad_gym.core.validation import check_real
+from modquad_gym.core.validation import check_name, check_real, check_rng
 from modquad_gym.dynamics.motions import DEFAULT_F_MAX, MOTIONS
 from modquad_gym.dynamics.task import DynamicTask
 from modquad_gym.dynamics.wrenches import Payload
@@ -71,9 +71,10 @@ class MotionTasks:
         check_real(self.payload_share, "payload_share", low=0.0, high=1.0)
         check_real(self.rate, "rate", positive=True)
         check_real(self.f_max, "f_max", positive=True)
+        check_name(self.name)
 
     def __call__(self, rng: np.random.Generator) -> DynamicTask:
-        motion = self.motions[int(rng.integers(len(self.motions)))]
+        motion = self.motions[int(check_rng(rng).integers(len(self.motions)))]
 
         def u(key: str) -> float:
             return float(rng.uniform(*RANGES[key]))

@@ -12,7 +12,13 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from modquad_gym.core.validation import check_f_max
+from modquad_gym.core.validation import (
+    check_f_max,
+    check_int,
+    check_name,
+    check_real,
+    check_rng,
+)
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.geometry.module import GRAVITY, ModuleType, palette
 from modquad_gym.geometry.structure import Cell, Structure, free_neighbours
@@ -33,12 +39,17 @@ class TaskGenerator(Protocol):
 Count = int | tuple[int, int]
 
 
-def _check_count(value: Count, what: str, low: int = 1) -> None:
-    lo, hi = (value, value) if isinstance(value, (int, np.integer)) else tuple(value)
-    if not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in (lo, hi)):
+def _check_count(value: object, what: str, low: int = 1, high: int | None = None) -> None:
+    """A ValueError naming ``what`` unless ``value`` is an int, or an inclusive (lo, hi) pair of
+    ints, within [low, high] (:func:`~modquad_gym.core.validation.check_int`)."""
+    if isinstance(value, (tuple, list)) and len(value) == 2:
+        lo, hi = (check_int(v, what, low, high) for v in value)
+        if lo > hi:
+            raise ValueError(f"{what} must satisfy {low} <= lo <= hi, got {value!r}")
+    elif isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        check_int(value, what, low, high)
+    else:
         raise ValueError(f"{what} must be an int or an inclusive (lo, hi) pair, got {value!r}")
-    if not low <= lo <= hi:
-        raise ValueError(f"{what} must satisfy {low} <= lo <= hi, got {value!r}")
 
 
 def _draw_count(rng: np.random.Generator, value: Count) -> int:
@@ -46,6 +57,12 @@ def _draw_count(rng: np.random.Generator, value: Count) -> int:
         return int(value)
     lo, hi = value
     return int(rng.integers(lo, hi + 1))
+
+
+def _check_module(module: object) -> None:
+    """A ValueError unless ``module`` is a ModuleType or None (the default T-module)."""
+    if module is not None and not isinstance(module, ModuleType):
+        raise ValueError(f"module must be a ModuleType or None, got {module!r:.60}")
 
 
 FZ_READINGS = ("abs", "shift", "literal")
@@ -92,21 +109,19 @@ class PaperTasks:
 
     def __post_init__(self) -> None:
         _check_count(self.n_wrenches, "n_wrenches")
-        if not (self.scale > 0 and math.isfinite(self.scale)):
-            raise ValueError(f"scale must be positive and finite, got {self.scale!r}")
-        if not (self.fz_gain > 0 and math.isfinite(self.fz_gain)):
-            raise ValueError(f"fz_gain must be positive and finite, got {self.fz_gain!r}")
-        if not (self.fz_offset >= 0 and math.isfinite(self.fz_offset)):
-            raise ValueError(f"fz_offset must be >= 0 and finite, got {self.fz_offset!r}")
-        if self.fz_reading not in FZ_READINGS:
+        check_real(self.scale, "scale", positive=True)
+        check_real(self.fz_gain, "fz_gain", positive=True)
+        check_real(self.fz_offset, "fz_offset", low=0.0)
+        if not isinstance(self.fz_reading, str) or self.fz_reading not in FZ_READINGS:
             raise ValueError(
                 f"fz_reading must be one of {', '.join(FZ_READINGS)}, got {self.fz_reading!r}"
             )
         check_f_max(self.f_max)
+        check_name(self.name)
         check_kind(self.kind)
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement:
-        t = _draw_count(rng, self.n_wrenches)
+        t = _draw_count(check_rng(rng), self.n_wrenches)
         W = rng.uniform(-self.scale, self.scale, size=(t, 6))
         u = W[:, 2]
         if self.fz_reading == "abs":
@@ -173,19 +188,17 @@ class PlantedTasks:
     def __post_init__(self) -> None:
         _check_count(self.n_modules, "n_modules")
         _check_count(self.n_wrenches, "n_wrenches")
-        for what, v in (
-            ("boundary_fraction", self.boundary_fraction),
-            ("p_extreme", self.p_extreme),
-        ):
-            if not 0.0 <= v <= 1.0:
-                raise ValueError(f"{what} must lie in [0, 1], got {v!r}")
-        if not 0.0 <= self.slack < 0.5:
+        check_real(self.boundary_fraction, "boundary_fraction", low=0.0, high=1.0)
+        check_real(self.p_extreme, "p_extreme", low=0.0, high=1.0)
+        if not 0.0 <= check_real(self.slack, "slack") < 0.5:
             raise ValueError(f"slack must lie in [0, 0.5), got {self.slack!r}")
+        _check_module(self.module)
         check_f_max(self.f_max)
+        check_name(self.name)
         check_kind(self.kind)
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement:
-        n = _draw_count(rng, self.n_modules)
+        n = _draw_count(check_rng(rng), self.n_modules)
         t = _draw_count(rng, self.n_wrenches)
         cells = random_cells(rng, n)
         hidden = Structure(cells, module=self.module)
@@ -247,12 +260,11 @@ class ScrewdriverTask:
 
     def __post_init__(self) -> None:
         for what in ("push", "torque", "lift", "align", "press"):
-            v = getattr(self, what)
-            if not math.isfinite(v):
-                raise ValueError(f"{what} must be finite, got {v!r}")
+            check_real(getattr(self, what), what)
         if self.lift <= 0 or self.lift + self.press <= 0:
             raise ValueError(f"lift must be positive (rotors push up), got {self.lift!r}")
         check_f_max(self.f_max)
+        check_name(self.name)
         check_kind(self.kind)
 
     def task(self) -> TaskRequirement:
@@ -267,6 +279,7 @@ class ScrewdriverTask:
         )
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement:
+        check_rng(rng)  # drawn from nothing, but the same door as every generator
         return self.task()
 
 
@@ -287,8 +300,10 @@ class FixedTasks:
             raise ValueError(
                 "FixedTasks needs a non-empty sequence of tasks (TaskRequirement, DynamicTask)"
             )
+        check_name(self.name)
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement | DynamicTask:
+        check_rng(rng)
         if len(self.tasks) == 1:
             return self.tasks[0]
         return self.tasks[int(rng.integers(len(self.tasks)))]
@@ -314,8 +329,10 @@ class MixedTasks:
             if not all(x >= 0 and math.isfinite(x) for x in w) or sum(w) <= 0:
                 raise ValueError(f"weights must be >= 0, finite and not all zero, got {w}")
             object.__setattr__(self, "weights", w)
+        check_name(self.name)
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement:
+        check_rng(rng)
         if self.weights is None:
             k = int(rng.integers(len(self.generators)))
         else:
@@ -342,10 +359,14 @@ class PlantedMixedTasks:
 
     def __post_init__(self) -> None:
         _check_count(self.n_modules, "n_modules")
+        check_int(self.n_wrenches, "n_wrenches", low=1)
+        palette(self.modules)  # a ValueError naming modules
         check_kind(self.kind)
         check_f_max(self.f_max)
+        check_name(self.name)
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement:
+        check_rng(rng)
         types = palette(self.modules)
         lo, hi = (
             (self.n_modules, self.n_modules) if isinstance(self.n_modules, int) else self.n_modules
