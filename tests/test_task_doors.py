@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import re
 
+import numpy as np
 import pytest
 from test_edges_cli import assert_one_line_error, run_main
 from test_hardening import assert_rejected
@@ -14,8 +15,10 @@ from test_hardening import assert_rejected
 import modquad_gym as mq
 from modquad_gym import dynamics as dy
 from modquad_gym.dynamics.random_motions import MotionTasks
+from modquad_gym.geometry.cells import MAX_MODULES
 from modquad_gym.sim import export as ex
 from modquad_gym.tasks import (
+    MAX_WRENCHES,
     FixedTasks,
     MixedTasks,
     PaperTasks,
@@ -210,3 +213,48 @@ def test_a_generator_names_a_bad_argument(make, words):
 def test_a_generator_call_names_rng(generator, rng):
     with pytest.raises(ValueError, match=rf"^rng must be a numpy.random.Generator .*got {rng}"):
         generator(rng)
+
+
+# ---------------------------------------- the generators refuse the sizes the command line does
+@pytest.mark.parametrize(
+    "make, words",
+    [
+        (lambda: PlantedTasks(n_modules=MAX_MODULES + 1), f"n_modules must be <= {MAX_MODULES}"),
+        (lambda: PlantedTasks(n_modules=(2, 10**6)), f"n_modules must be <= {MAX_MODULES}"),
+        (lambda: PlantedMixedTasks(n_modules=200), f"n_modules must be <= {MAX_MODULES}"),
+        (lambda: PaperTasks(n_wrenches=10**9), f"n_wrenches must be <= {MAX_WRENCHES}"),
+        (lambda: PlantedTasks(n_wrenches=(1, 10**7)), f"n_wrenches must be <= {MAX_WRENCHES}"),
+        (lambda: PlantedMixedTasks(n_wrenches=10**7), f"n_wrenches must be <= {MAX_WRENCHES}"),
+        (lambda: PaperTasks(fz_gain=1e308, fz_offset=1e308), "scale, fz_gain, fz_offset: "),
+        (lambda: ScrewdriverTask(torque=1e200), "push, torque, lift, align, press: "),
+        (lambda: PaperTasks(f_max=1e-300), "f_max = 1e-300 is too small for wrenches up to 9"),
+        (lambda: ScrewdriverTask(f_max=1e301), "f_max = 1e+301 is outside 1e-300..1e300"),
+        (lambda: PlantedTasks(f_max=1e301), "f_max = 1e+301 is outside 1e-300..1e300"),
+    ],
+)
+def test_a_generator_refuses_at_construction_what_the_searches_refuse(make, words):
+    with pytest.raises(ValueError, match=f"^{re.escape(words)}"):
+        make()
+
+
+def test_a_planted_draw_beyond_the_searches_scale_names_f_max():
+    with pytest.raises(ValueError, match=r"^f_max = 1e\+300: wrench row \d+ .* beyond 1e\+100"):
+        PlantedTasks(f_max=1e300)(np.random.default_rng(0))
+
+
+def test_the_module_limit_is_the_searches_and_the_commands(capsys, tmp_path):
+    from modquad_gym.search.problem import MAX_MODULES as SEARCHES
+
+    assert MAX_MODULES == SEARCHES
+    argv = ["task", "generate", "--kind", "planted", "--n-modules", str(MAX_MODULES + 1)]
+    code, _, err = run_main(capsys, *argv, "--out", str(tmp_path / "p.json"))
+    assert code == 2 and f"must be in 1..{MAX_MODULES}, got {MAX_MODULES + 1}" in err, err
+
+
+@pytest.mark.parametrize("kind", ["paper", "screwdriver"])
+def test_task_generate_names_a_tiny_f_max_as_too_small(tmp_path, capsys, kind):
+    out = tmp_path / "g.json"
+    argv = ["task", "generate", "--kind", kind, "--f-max", "1e-300", "--out", str(out)]
+    code, _, err = run_main(capsys, *argv)
+    assert_one_line_error(code, err, "--f-max 1e-300 is too small for wrenches up to")
+    assert not out.exists()

@@ -9,6 +9,7 @@ from modquad_gym.cli.common import add_command, add_force, f_max_option, print_h
 from modquad_gym.cli.given import refuse_ignored
 from modquad_gym.cli.task_motion import add_motion
 from modquad_gym.core.options import int_option, seed_option
+from modquad_gym.geometry.cells import MAX_MODULES
 from modquad_gym.tasks import TASK_KINDS, PaperTasks, PlantedTasks, ScrewdriverTask
 
 GENERATE = {"paper": PaperTasks, "planted": PlantedTasks, "screwdriver": ScrewdriverTask}
@@ -80,10 +81,11 @@ def add_generate(tsub) -> None:
     )
     g.add_argument(
         "--n-modules",
-        type=int_option(1, 128),
+        type=int_option(1, MAX_MODULES),
         default=None,
         metavar="N",
-        help="planted: the hidden structure's module count, 1 to 128 (default: 2 to 6 at random)",
+        help=f"planted: the hidden structure's module count, 1 to {MAX_MODULES} (the searches' "
+        "limit; default: 2 to 6 at random)",
     )
     g.add_argument("--out", required=True, help="output file; format from suffix .json/.csv/.npy")
     add_force(g)
@@ -109,14 +111,15 @@ def cmd_task_generate(args: argparse.Namespace) -> int:
         if args.kind != "planted":
             raise ValueError("--n-modules applies to --kind planted only")
         size = {"n_modules": args.n_modules}
-    generator = GENERATE[args.kind](f_max=f_max, kind=args.task_kind, **size)
-    task = generator(np.random.default_rng(args.seed))
+    try:  # a file `solve` would refuse is not written (the generators check their scale)
+        generator = GENERATE[args.kind](f_max=f_max, kind=args.task_kind, **size)
+        task = generator(np.random.default_rng(args.seed))
+        check_task_scale(task.wrenches, task.f_max)
+    except ValueError as exc:  # the other options are checked by argparse
+        text = str(exc).removeprefix(f"f_max = {f_max:g}")  # "f_max = 1e-300 is too small..."
+        raise ValueError(f"--f-max {f_max:g}{'' if text != str(exc) else ': '}{text}") from None
     if args.kind != "screwdriver":  # a neutral name: the seed, never the answer
         task = dataclasses.replace(task, name=f"{task.name}-seed{args.seed}")
-    try:  # a file `solve` would refuse is not written
-        check_task_scale(task.wrenches, task.f_max)
-    except ValueError as exc:
-        raise ValueError(f"--f-max {f_max:g}: {exc}") from None
     task.save(out)
     seed = "" if args.kind in UNSEEDED else f", seed {args.seed}"
     print(

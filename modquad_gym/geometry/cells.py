@@ -24,6 +24,12 @@ NEIGHBOURS: tuple[Cell, ...] = ((1, 0), (-1, 0), (0, 1), (0, -1))
 MAX_COORDINATE = 1_000_000
 """Largest |x| or |y| of a grid cell (cells are stored as 32-bit integers in the hot loops)."""
 
+MAX_MODULES = 128
+"""The searches' module limit (structures of up to 512 rotors): beyond the field's largest
+designs (Li & Koeppl 2026: up to 90 modules). Defined here, below the tasks, so that the task
+generators and the command line refuse the sizes the searches do
+(:data:`modquad_gym.search.problem.MAX_MODULES` is this number)."""
+
 
 def as_cell(raw: object, index: int) -> Cell:
     """Cell #``index`` (1-based, as the rows of a task file) as an (x, y) pair of ints;
@@ -97,6 +103,23 @@ def free_neighbours(cells: Iterable[Cell]) -> list[Cell]:
     """Empty cells 4-adjacent to ``cells`` (where a module can dock), sorted."""
     cells = set(cells)
     return sorted({(x + dx, y + dy) for x, y in cells for dx, dy in NEIGHBOURS} - cells)
+
+
+def random_cells(rng: np.random.Generator, n: int) -> list[Cell]:
+    """A random connected structure of ``n`` modules grown from (0, 0): each new module docks at
+    a uniformly chosen free neighbour. Cells in growth order (the first is the initial module)."""
+    if n < 1:
+        raise ValueError(f"a structure needs n >= 1 modules, got {n}")
+    cells: list[Cell] = [(0, 0)]
+    taken, frontier = {(0, 0)}, set(free_neighbours(cells))  # kept as cells grow
+    while len(cells) < n:
+        free = sorted(frontier)  # = free_neighbours(cells), without rebuilding it
+        cell = free[int(rng.integers(len(free)))]
+        cells.append(cell)
+        taken.add(cell)
+        frontier.discard(cell)
+        frontier.update(c for c in free_neighbours([cell]) if c not in taken)
+    return cells
 
 
 def structure_levels(n_max: int) -> Iterator[list[Key]]:

@@ -51,13 +51,40 @@ def check_task_scale(W: np.ndarray, f_max: float) -> np.ndarray:
     W, f_max = check_wrenches(W), check_f_max_range(f_max)
     if not len(W):
         return W
-    with np.errstate(over="ignore", under="ignore"):
-        size = np.maximum(np.abs(W), np.abs(W) / f_max).max(axis=1)
-    if not size.max() <= MAX_TASK_VALUE:
-        row = int(np.argmax(~(size <= MAX_TASK_VALUE)))
+    within = within_scale(np.abs(W).max(axis=1), f_max)
+    if not within.all():
+        row = int(np.argmax(~within))
         raise ValueError(
             f"wrench row {row + 1} {W[row].tolist()} with f_max = {f_max:g} is beyond "
             f"{MAX_TASK_VALUE:g} (newtons, and times f_max): far beyond what any structure can "
             "exert (check the units)"
         )
     return W
+
+
+def within_scale(size: np.ndarray, f_max: float) -> np.ndarray:
+    """True where a wrench whose largest |component| is ``size`` is within the searches' scale
+    at ``f_max``: ``size`` and ``size / f_max`` at most :data:`MAX_TASK_VALUE` (the rule of
+    :func:`check_task_scale`; False for inf and nan)."""
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        size = np.abs(np.asarray(size, dtype=float))
+        return np.maximum(size, size / f_max) <= MAX_TASK_VALUE
+
+
+def check_scale_bound(size: float, f_max: object, what: str) -> None:
+    """A ValueError when ``f_max`` is outside :data:`F_MAX_RANGE` or wrenches whose components
+    reach ``size`` would be refused by :func:`check_task_scale`: the same rule, for a task
+    generator's parameters before anything is drawn. The error names ``what`` (the parameters
+    that set ``size``) when ``size`` itself is too large, else ``f_max`` (too small for it)."""
+    f_max = check_f_max_range(f_max)
+    if within_scale(np.array([size]), f_max)[0]:
+        return
+    if not within_scale(np.array([size]), 1.0)[0]:
+        raise ValueError(
+            f"{what}: wrenches up to {size:.3g} are beyond {MAX_TASK_VALUE:g}: far beyond what "
+            "any structure can exert (check the units)"
+        )
+    raise ValueError(
+        f"f_max = {f_max:g} is too small for wrenches up to {size:.3g}: {size / f_max:.3g} "
+        f"units of f_max, beyond {MAX_TASK_VALUE:g} (check the units)"
+    )

@@ -22,6 +22,7 @@ from collections.abc import Callable, Iterable, Sequence
 import numpy as np
 
 from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
+from modquad_gym.geometry.cells import MAX_MODULES  # noqa: F401 (the searches' limit, named here)
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_task_scale
@@ -37,9 +38,6 @@ from modquad_gym.tasks import as_task
 
 DEFAULT_MODULE = Structure([(0, 0)]).module
 
-MAX_MODULES = 128
-"""The searches' module limit (structures of up to 512 rotors): beyond the field's largest
-designs (Li & Koeppl 2026: up to 90 modules)."""
 
 EXACT_MODULES = 16
 """The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8."""

@@ -2,7 +2,14 @@
 ``__call__(rng) -> TaskRequirement``): :class:`PaperTasks` (paper Sec. VI, errata 2),
 :class:`PlantedTasks` (wrenches inside a hidden structure's zonotope, so the optimum is bounded),
 :class:`PlantedMixedTasks` (the same in a mixed structure), :class:`ScrewdriverTask` (paper
-Fig. 1), :class:`FixedTasks` and :class:`MixedTasks`."""
+Fig. 1), :class:`FixedTasks` and :class:`MixedTasks`.
+
+A generator checks its arguments when it is made (a ValueError naming the argument), against
+the limits ``modquad task generate`` and the searches apply: at most
+:data:`~modquad_gym.geometry.cells.MAX_MODULES` modules and
+:data:`~modquad_gym.tasks.wrenches.MAX_WRENCHES` wrenches, an f_max in 1e-300..1e300 and
+wrenches the searches take (:func:`~modquad_gym.oracle.scale.check_scale_bound`); a planted
+task's scale is known once drawn, and checked then. A call takes a ``numpy.random.Generator``."""
 
 from __future__ import annotations
 
@@ -12,18 +19,14 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from modquad_gym.core.validation import (
-    check_f_max,
-    check_int,
-    check_name,
-    check_real,
-    check_rng,
-)
+from modquad_gym.core.validation import check_int, check_name, check_real, check_rng
 from modquad_gym.dynamics import DynamicTask
+from modquad_gym.geometry.cells import MAX_MODULES, random_cells
 from modquad_gym.geometry.module import GRAVITY, ModuleType, palette
-from modquad_gym.geometry.structure import Cell, Structure, free_neighbours
+from modquad_gym.geometry.structure import Structure
+from modquad_gym.oracle.scale import check_f_max_range, check_scale_bound, check_task_scale
 from modquad_gym.tasks.requirement import TaskRequirement
-from modquad_gym.tasks.wrenches import check_kind
+from modquad_gym.tasks.wrenches import MAX_WRENCHES, check_kind
 
 
 @runtime_checkable
@@ -57,6 +60,15 @@ def _draw_count(rng: np.random.Generator, value: Count) -> int:
         return int(value)
     lo, hi = value
     return int(rng.integers(lo, hi + 1))
+
+
+def _in_scale(W: np.ndarray, f_max: float) -> np.ndarray:
+    """W, or a ValueError naming f_max when the searches would refuse the drawn wrenches
+    (:func:`~modquad_gym.oracle.scale.check_task_scale`, the rule ``task generate`` applies)."""
+    try:
+        return check_task_scale(W, f_max)
+    except ValueError as exc:
+        raise ValueError(f"f_max = {f_max:g}: {exc}") from None
 
 
 def _check_module(module: object) -> None:
@@ -108,15 +120,16 @@ class PaperTasks:
     kind: str = "total"
 
     def __post_init__(self) -> None:
-        _check_count(self.n_wrenches, "n_wrenches")
-        check_real(self.scale, "scale", positive=True)
-        check_real(self.fz_gain, "fz_gain", positive=True)
-        check_real(self.fz_offset, "fz_offset", low=0.0)
+        _check_count(self.n_wrenches, "n_wrenches", high=MAX_WRENCHES)
+        scale = check_real(self.scale, "scale", positive=True)
+        gain = check_real(self.fz_gain, "fz_gain", positive=True)
+        offset = check_real(self.fz_offset, "fz_offset", low=0.0)
         if not isinstance(self.fz_reading, str) or self.fz_reading not in FZ_READINGS:
             raise ValueError(
                 f"fz_reading must be one of {', '.join(FZ_READINGS)}, got {self.fz_reading!r}"
             )
-        check_f_max(self.f_max)
+        largest = max(scale, offset + gain * scale * (2 if self.fz_reading == "shift" else 1))
+        check_scale_bound(largest, self.f_max, "scale, fz_gain, fz_offset")
         check_name(self.name)
         check_kind(self.kind)
 
@@ -134,23 +147,6 @@ class PaperTasks:
         return TaskRequirement(
             W, name=f"{self.name}-{self.fz_reading}", f_max=self.f_max, meta=meta, kind=self.kind
         )
-
-
-def random_cells(rng: np.random.Generator, n: int) -> list[Cell]:
-    """A random connected structure of ``n`` modules grown from (0, 0): each new module docks at
-    a uniformly chosen free neighbour. Cells in growth order (the first is the initial module)."""
-    if n < 1:
-        raise ValueError(f"a structure needs n >= 1 modules, got {n}")
-    cells: list[Cell] = [(0, 0)]
-    taken, frontier = {(0, 0)}, set(free_neighbours(cells))  # kept as cells grow
-    while len(cells) < n:
-        free = sorted(frontier)  # = free_neighbours(cells), without rebuilding it
-        cell = free[int(rng.integers(len(free)))]
-        cells.append(cell)
-        taken.add(cell)
-        frontier.discard(cell)
-        frontier.update(c for c in free_neighbours([cell]) if c not in taken)
-    return cells
 
 
 @dataclass(frozen=True)
@@ -186,14 +182,14 @@ class PlantedTasks:
     kind: str = "total"
 
     def __post_init__(self) -> None:
-        _check_count(self.n_modules, "n_modules")
-        _check_count(self.n_wrenches, "n_wrenches")
+        _check_count(self.n_modules, "n_modules", high=MAX_MODULES)
+        _check_count(self.n_wrenches, "n_wrenches", high=MAX_WRENCHES)
         check_real(self.boundary_fraction, "boundary_fraction", low=0.0, high=1.0)
         check_real(self.p_extreme, "p_extreme", low=0.0, high=1.0)
         if not 0.0 <= check_real(self.slack, "slack") < 0.5:
             raise ValueError(f"slack must lie in [0, 0.5), got {self.slack!r}")
         _check_module(self.module)
-        check_f_max(self.f_max)
+        check_f_max_range(self.f_max)
         check_name(self.name)
         check_kind(self.kind)
 
@@ -221,6 +217,7 @@ class PlantedTasks:
             "optimum_upper_bound": n,
             "n_boundary": int(boundary.sum()),
         }
+        W = _in_scale(W, self.f_max)
         return TaskRequirement(W, name=self.name, f_max=self.f_max, meta=meta, kind=self.kind)
 
 
@@ -263,7 +260,9 @@ class ScrewdriverTask:
             check_real(getattr(self, what), what)
         if self.lift <= 0 or self.lift + self.press <= 0:
             raise ValueError(f"lift must be positive (rotors push up), got {self.lift!r}")
-        check_f_max(self.f_max)
+        values = (self.push, self.torque, self.lift, self.align, self.lift + self.press)
+        largest = max(abs(float(v)) for v in values)
+        check_scale_bound(largest, self.f_max, "push, torque, lift, align, press")
         check_name(self.name)
         check_kind(self.kind)
 
@@ -358,11 +357,11 @@ class PlantedMixedTasks:
     name: str = "planted-mixed"
 
     def __post_init__(self) -> None:
-        _check_count(self.n_modules, "n_modules")
-        check_int(self.n_wrenches, "n_wrenches", low=1)
+        _check_count(self.n_modules, "n_modules", high=MAX_MODULES)
+        check_int(self.n_wrenches, "n_wrenches", low=1, high=MAX_WRENCHES)
         palette(self.modules)  # a ValueError naming modules
         check_kind(self.kind)
-        check_f_max(self.f_max)
+        check_f_max_range(self.f_max)
         check_name(self.name)
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement:
@@ -386,4 +385,5 @@ class PlantedMixedTasks:
             "hidden_modules": [m.name for m in hidden.modules],
             "optimum_upper_bound": n,
         }
+        W = _in_scale(W, self.f_max)
         return TaskRequirement(W, name=self.name, f_max=self.f_max, kind=self.kind, meta=meta)
