@@ -48,10 +48,11 @@ def main() -> None:
             meta={**planted.meta, "planted_name": planted.name},
         )
     )
-    screwdriver.save(HERE / "screwdriver.json")
-    paper.save(HERE / "paper_seed0.json")
-    paper.save(HERE / "paper_seed0.csv")
-    planted.save(HERE / "planted_seed1.json")
+    # the script rewrites its own files: force
+    screwdriver.save(HERE / "screwdriver.json", force=True)
+    paper.save(HERE / "paper_seed0.json", force=True)
+    paper.save(HERE / "paper_seed0.csv", force=True)
+    planted.save(HERE / "planted_seed1.json", force=True)
     save_suite([screwdriver, paper, planted], HERE / "suite_small.json", name="suite_small")
     for task in (screwdriver, paper, planted):
         print(

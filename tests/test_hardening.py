@@ -213,7 +213,7 @@ def test_concurrent_saves_never_leave_a_mixed_file(tmp_path):
 
     def write(task):
         for _ in range(15):
-            task.save(path)
+            task.save(path, force=True)
 
     def read():
         while not stop.is_set():

@@ -258,3 +258,38 @@ def test_task_generate_names_a_tiny_f_max_as_too_small(tmp_path, capsys, kind):
     code, _, err = run_main(capsys, *argv)
     assert_one_line_error(code, err, "--f-max 1e-300 is too small for wrenches up to")
     assert not out.exists()
+
+
+# ------------------------------------------------------------ no save replaces a file unasked
+SAVERS = {
+    "TaskRequirement.save": lambda path, **kw: ScrewdriverTask().task().save(path, **kw),
+    "DynamicTask.save": lambda path, **kw: dy.hover(1.0, rate=20.0).save(path, **kw),
+    "save_structure": lambda path, **kw: ex.save_structure(PAIR, path, **kw),
+}
+
+
+@pytest.mark.parametrize("save", SAVERS.values(), ids=SAVERS.keys())
+def test_a_save_replaces_an_existing_file_only_with_force(tmp_path, save):
+    path = tmp_path / "keep.json"
+    path.write_text("precious\n")
+    with pytest.raises(ValueError, match=r"^path: .*keep\.json exists \(use force=True"):
+        save(path)
+    assert path.read_text() == "precious\n"
+    with pytest.raises(ValueError, match="^force must be True or False, got 'yes'"):
+        save(path, force="yes")
+    assert save(path, force=True) == path and path.read_text() != "precious\n"
+
+
+@pytest.mark.parametrize("save", SAVERS.values(), ids=SAVERS.keys())
+@pytest.mark.parametrize("bad", [None, 5])
+def test_a_save_names_a_path_that_is_not_one(save, bad):
+    with pytest.raises(ValueError, match=rf"^path must be a file path .*got {bad}"):
+        save(bad)
+
+
+@pytest.mark.parametrize("save", SAVERS.values(), ids=SAVERS.keys())
+def test_a_save_into_a_folder_names_it(tmp_path, save):
+    folder = tmp_path / "d.json"
+    folder.mkdir()
+    with pytest.raises(ValueError, match=r"^path: .*d\.json is a folder, expected a file name"):
+        save(folder, force=True)

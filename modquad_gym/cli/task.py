@@ -120,7 +120,7 @@ def cmd_task_generate(args: argparse.Namespace) -> int:
         raise ValueError(f"--f-max {f_max:g}{'' if text != str(exc) else ': '}{text}") from None
     if args.kind != "screwdriver":  # a neutral name: the seed, never the answer
         task = dataclasses.replace(task, name=f"{task.name}-seed{args.seed}")
-    task.save(out)
+    task.save(out, force=args.force)  # --out checked before the work
     seed = "" if args.kind in UNSEEDED else f", seed {args.seed}"
     print(
         f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, kind {task.kind}, "

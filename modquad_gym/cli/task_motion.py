@@ -191,7 +191,7 @@ def cmd_task_motion(args: argparse.Namespace) -> int:
         lift = check_liftable(task, [STOCK_TYPES["t45"]])
     except ValueError as exc:
         raise ValueError(option_message(exc, args.kind)) from None
-    task.save(out)
+    task.save(out, force=args.force)  # --out checked before the work
     print(
         f"wrote {out}: {task.n_wrenches} samples over {task.trajectory.duration:.3g} s "
         f"({args.kind}, f_max {task.f_max:g} N; at least {lift} T-module(s) by the lift bound)"

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 import warnings
 
 import numpy as np
@@ -17,6 +18,7 @@ import numpy as np
 __all__ = [
     "check_f_max",
     "check_name",
+    "check_path",
     "check_rng",
     "float_array",
     "check_int",
@@ -52,6 +54,13 @@ def check_rng(value: object, name: str = "rng") -> np.random.Generator:
             f"{value!r:.60}"
         )
     return value
+
+
+def check_path(path: object, what: str = "path") -> None:
+    """A ValueError naming ``what`` unless ``path`` is a file path: a non-empty str or a
+    PathLike (pathlib would raise its own TypeError, naming nothing)."""
+    if not isinstance(path, (str, os.PathLike)) or not str(path).strip():
+        raise ValueError(f"{what} must be a file path (a str or a PathLike), got {path!r}")
 
 
 def check_name(value: object, name: str = "name") -> str:

@@ -209,18 +209,23 @@ class DynamicTask:
         meta = data.get("meta", {})
         return cls(trajectory, payload, exerted, f_max, name, meta)
 
-    def save(self, path) -> Any:
+    def save(self, path, force: bool = False) -> Any:
         """Write the task as JSON (every derivative written: reading it back recomputes
-        nothing)."""
+        nothing). An existing file is replaced only with ``force=True`` (as every saver of the
+        package); a folder, a device or an unwritable place is refused. Returns the path."""
         import json
         from pathlib import Path
 
-        from modquad_gym.core.outputs import write_text
+        from modquad_gym.core.outputs import check_output_file, write_text
+        from modquad_gym.core.validation import check_flag, check_path
 
-        path = Path(path)
-        if path.suffix.lower() != ".json":
+        check_path(path)
+        force = check_flag(force, "force")
+        if Path(path).suffix.lower() != ".json":
             raise ValueError(f"{path}: a dynamic task is saved as .json")
-        write_text(path, json.dumps(self.to_dict()) + "\n")
+        text = json.dumps(self.to_dict()) + "\n"
+        path = check_output_file(path, force=force, what="path")
+        write_text(path, text)
         return path
 
     def __repr__(self) -> str:

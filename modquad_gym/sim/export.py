@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -314,11 +313,10 @@ def save_structure(
     1e-300..1e300 N. A robot that cannot lift itself at ``f_max`` N per rotor gets a warning on
     the ``modquad_gym`` logger (:mod:`modquad_gym.core.notes`). Returns the path written."""
     from modquad_gym.core.outputs import check_output_file, write_text
-    from modquad_gym.core.validation import check_flag
+    from modquad_gym.core.validation import check_flag, check_path
 
     force = check_flag(force, "force")
-    if not isinstance(path, (str, os.PathLike)) or not str(path).strip():
-        raise ValueError(f"path must be a file path (a str or a PathLike), got {path!r}")
+    check_path(path)
     path = Path(path)
     fmt = export_format(path, fmt)
     text = export_text(structure, fmt, f_max)  # before touching the file: errors leave it alone

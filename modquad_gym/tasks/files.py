@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from modquad_gym.core.validation import check_path  # noqa: F401 (the tasks' check, named here)
 from modquad_gym.tasks.wrenches import MAX_WRENCHES
 
 SUFFIXES = (".json", ".csv", ".npy")
@@ -115,13 +116,6 @@ def task_files(specs: Sequence[PathLike], what: str = "--task") -> list[Path]:
             found = [path]
         out.update(dict.fromkeys(found))
     return list(out)
-
-
-def check_path(path: object, what: str = "path") -> None:
-    """A ValueError naming ``what`` unless ``path`` is a file path: a non-empty str or a
-    PathLike (pathlib would raise its own TypeError, naming nothing)."""
-    if not isinstance(path, (str, os.PathLike)) or not str(path).strip():
-        raise ValueError(f"{what} must be a file path (a str or a PathLike), got {path!r}")
 
 
 def jsonable(obj: Any, what: str = "meta") -> Any:

@@ -11,8 +11,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from modquad_gym.core.outputs import atomic_write, write_text
-from modquad_gym.core.validation import check_f_max
+from modquad_gym.core.outputs import atomic_write, check_output_file, write_text
+from modquad_gym.core.validation import check_f_max, check_flag
 from modquad_gym.dynamics.wrenches import LinearWrenches
 from modquad_gym.tasks.csvfile import check_csv_header, csv_text, read_csv
 from modquad_gym.tasks.examples import resolve_task_path
@@ -237,32 +237,39 @@ class TaskRequirement:
         except ValueError as exc:
             raise TaskFileError(f"{path}: {exc}") from None
 
-    def save(self, path: PathLike) -> Path:
+    def save(self, path: PathLike, force: bool = False) -> Path:
         """Write the task as ``.json`` (name, f_max, kind, wrenches, meta), ``.csv`` (header and
         ``# name`` / ``# f_max`` / ``# kind`` / ``# meta`` comments) or ``.npy`` (wrenches only;
         needs f_max == 1 and kind ``total``, since the format cannot hold them; the name read
         back is the file's stem, meta is not kept). :meth:`load` reads a ``.json`` or ``.csv``
         back identically (name, f_max, kind, meta and the exact floats: shortest round-trip
-        repr). ``meta`` must be JSON data: a ValueError names what in it is not (a NaN, an
-        object), before the file is touched."""
+        repr). An existing file is replaced only with ``force=True`` (as
+        :func:`~modquad_gym.sim.export.save_structure`); a folder, a device or an unwritable
+        place is refused. ``meta`` must be JSON data: a ValueError names what in it is not (a
+        NaN, an object). Every error comes before the file is touched. Returns the path."""
         check_path(path)
+        force = check_flag(force, "force")
         path = Path(path)
         suffix = path.suffix.lower()
         if suffix not in SUFFIXES:
             raise ValueError(
                 f"{path}: unknown task file type {path.suffix!r}; use one of {', '.join(SUFFIXES)}"
             )
+        text = ""  # .npy: written from the array
         if suffix == ".json":
-            write_text(path, task_json(self.to_dict()) + "\n")
+            text = task_json(self.to_dict()) + "\n"
         elif suffix == ".csv":
             meta = jsonable(self.meta)
-            write_text(path, csv_text(self.wrenches, self.name, self.f_max, self.kind, meta))
-        else:
-            if self.f_max != 1.0 or self.kind != "total":
-                what = f"f_max={self.f_max:g}" if self.f_max != 1.0 else f"kind={self.kind}"
-                raise ValueError(f"{path}: .npy holds only the wrenches, not {what}; save as .json")
+            text = csv_text(self.wrenches, self.name, self.f_max, self.kind, meta)
+        elif self.f_max != 1.0 or self.kind != "total":
+            what = f"f_max={self.f_max:g}" if self.f_max != 1.0 else f"kind={self.kind}"
+            raise ValueError(f"{path}: .npy holds only the wrenches, not {what}; save as .json")
+        path = check_output_file(path, force=force, what="path")
+        if suffix == ".npy":
             data = np.asarray(self.wrenches, dtype=float)
             atomic_write(path, lambda tmp: _save_npy(tmp, data))
+        else:
+            write_text(path, text)
         return path
 
 
