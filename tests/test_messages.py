@@ -78,7 +78,7 @@ def test_generate_refuses_an_f_max_that_solve_would_refuse(tmp_path, capsys):
     out = tmp_path / "tiny.json"
     code, _, err = run_main(capsys, "task", "generate", "--kind", "paper", "--f-max", "1e-300",
                             "--out", str(out))  # fmt: skip
-    assert_rejected(code, err, "--f-max", "wrench row 1")
+    assert_rejected(code, err, "--f-max 1e-300 is too small", "units of f_max")
     assert not out.exists()
 
 
