@@ -252,19 +252,24 @@ def tier_entries(tier_name: str, results: Path = RESULTS, submissions: Path | No
 
 def submission_entries(path: Path, tier, full: int) -> list[Entry]:
     """The outside agents of a submission file
-    (:func:`benchmarks.leaderboard_scoring.write_submission`) on ``tier``."""
+    (:func:`benchmarks.leaderboard_scoring.write_submission`) on ``tier``, each row verified
+    again against the tier's own task (:func:`benchmarks.leaderboard_checks.verified_rows`)."""
+    from benchmarks.leaderboard_checks import refuse_taken, verified_rows
+
     with open(path, newline="") as fh:
-        records = [r for r in csv.DictReader(fh) if r["tier"] == tier.name]
+        numbered = [(n, r) for n, r in enumerate(csv.DictReader(fh), start=1)
+                    if r["tier"] == tier.name]  # fmt: skip
     out = []
-    for method in dict.fromkeys(r["method"] for r in records):
-        mine = [r for r in records if r["method"] == method]
-        status = next((r["status"] for r in mine if r["status"]), "")
+    for method in dict.fromkeys(r["method"] for _, r in numbered):
+        refuse_taken(method, str(path))
+        mine = [(n, r) for n, r in numbered if r["method"] == method]
+        status = next((r["status"] for _, r in mine if r["status"]), "")
         if status:
             out.append(unscored(tier, method, "outside", status))
             continue
-        rows = {s: [] for s in dict.fromkeys(r["seed"] for r in mine)}
-        for r in mine:
-            rows[r["seed"]].append(record_row(r))
+        rows = {s: [] for s in dict.fromkeys(r["seed"] for _, r in mine)}
+        for (_, r), row in zip(mine, verified_rows(path, tier, mine)):
+            rows[r["seed"]].append(row)
         out.append(over_runs(tier, method, "outside", rows, _rel(path), full))
     return out
 

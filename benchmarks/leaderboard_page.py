@@ -334,9 +334,13 @@ def how_to_add(prefix: str) -> list[str]:
         "kept.",
         "",
         f"**To submit it**, open a pull request that adds `{SUBMISSION}` as "
-        f"`results/{SUBMISSIONS}/<your agent>.csv`; the maintainers check it and rebuild the "
-        f"page with `{COMMAND} --force`, which reads every file of `results/{SUBMISSIONS}/` "
-        "(no rerun: the rows are the submitted ones, seconds on the submitter's machine).",
+        f"`results/{SUBMISSIONS}/<your agent>.csv`; the maintainers rebuild the page with "
+        f"`{COMMAND} --force`, which reads every file of `results/{SUBMISSIONS}/` without a "
+        "rerun: it verifies each row's cells again with the exact oracle against the tier's own "
+        "task and takes the optimum from the suite (a row whose success or module count "
+        "disagrees with its cells stops it, naming the file and the row); counts and seconds "
+        "are the submitted ones (seconds on the submitter's machine). An agent named like a "
+        "committed method is refused.",
         "",
     ]
 

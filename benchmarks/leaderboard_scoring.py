@@ -4,11 +4,11 @@ and an outside agent on every tier (``--solver``), written as its submission fil
 
 from __future__ import annotations
 
-import inspect
 import sys
 from collections.abc import Iterable
 from pathlib import Path
 
+from benchmarks.leaderboard_checks import refuse_taken
 from benchmarks.leaderboard_entries import ANYTIME, COMMAND, RESCORED, RESULTS, TIERS, read_rows
 from modquad_gym.core.interrupts import one_line
 
@@ -102,49 +102,59 @@ def anytime_history(results: Path = RESULTS, progress: bool = True) -> Path:
     return path
 
 
-def _takes_seed(agent) -> bool:
-    """Is the outside agent made with a ``seed`` (its class's constructor takes one)?"""
-    if inspect.isfunction(agent) or inspect.ismethod(agent):
-        return False
-    try:
-        params = inspect.signature(type(agent)).parameters.values()
-    except (TypeError, ValueError):
-        return False
-    return any(p.name == "seed" or p.kind == p.VAR_KEYWORD for p in params)
-
-
 def score_agent(spec: str, tiers: Iterable[str], limit: int | None, seeds: list[int],
                 progress: bool) -> list[dict]:  # fmt: skip
     """An outside agent on every tier's held-out suites (the first ``limit`` tasks of each),
     once per seed of ``seeds`` (once when the agent takes no seed): the submission's records
     (:func:`write_submission`), one per (tier, seed, task), the agent's own ``name`` as its
-    method. A tier where the agent fails is one record with the failure in ``status``; the
-    other tiers go on. An import error is a ValueError before any work."""
+    method. Its constructor runs once per (tier, seed), told that tier's budget, types, fault
+    and the seed. A tier where the agent fails is one record with the failure in ``status``;
+    the other tiers go on. An import error, or a ``name`` that a committed method has, is a
+    ValueError before any work."""
     from modquad_gym.scoring.agents import run_benchmark
-    from modquad_gym.scoring.tiers import get_tier
-    from modquad_gym.solvers import load_solver
 
-    first = load_solver(spec, seed=seeds[0])  # a bad spec fails now, before any work
+    tiers = list(tiers)
+    first = _made(spec, tiers[0], seeds[0])  # a bad spec fails now, before any work
     name = first.name
-    runs = seeds if _takes_seed(first.agent) else seeds[:1]
+    refuse_taken(name, spec)
+    runs = seeds if first.takes_seed else seeds[:1]
     records: list[dict] = []
     for tier_name in tiers:
-        tier = get_tier(tier_name)
-        status = {"tier": tier.name, "seed": "", "method": name, "status": ""}
+        status = {"tier": tier_name, "seed": "", "method": name, "status": ""}
         try:
             mine = []
             for seed in runs:
+                tier, solver = _tier(tier_name), first
+                if (tier_name, seed) != (tiers[0], seeds[0]):
+                    solver = _made(spec, tier_name, seed)
                 rows = run_benchmark(tier.load_suites(limit), [spec], tier.n_max, None, seed,
-                                     progress, 1, tier.modules, tier.name,
-                                     tier.fault)  # fmt: skip
+                                     progress, 1, tier.modules, tier.name, tier.fault,
+                                     made={spec: solver})  # fmt: skip
                 mine += [{"tier": tier.name, "seed": str(seed), **r.as_csv(), "method": name,
                           "status": ""} for r in rows]  # fmt: skip
             records += mine
         except Exception as err:  # the agent's failure on this tier; the others go on
             failure = f"failed: {type(err).__name__}: {one_line(err)}"
-            print(f"{tier.name}: {name} {failure}", file=sys.stderr)
+            print(f"{tier_name}: {name} {failure}", file=sys.stderr)
             records.append({**status, "status": failure})
     return records
+
+
+def _tier(name: str):
+    from modquad_gym.scoring.tiers import get_tier
+
+    return get_tier(name)
+
+
+def _made(spec: str, tier_name: str, seed: int):
+    """The outside agent ``spec`` made for one tier (its budget, types and fault) and seed."""
+    from modquad_gym.geometry.module import palette
+    from modquad_gym.solvers import load_solver
+
+    tier = _tier(tier_name)
+    types = palette(tier.modules) if tier.modules else None
+    return load_solver(spec, n_max=tier.n_max, tier=tier.name, modules=types, fault=tier.fault,
+                       seed=seed)  # fmt: skip
 
 
 SUBMISSION_KEYS = ("tier", "seed", "method", "status", "suite", "task", "optimum", "success",

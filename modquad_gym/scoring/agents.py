@@ -50,7 +50,9 @@ from modquad_gym.scoring.scores import Row, summarise
 from modquad_gym.scoring.suites import SUITES_DIR, check_optima
 from modquad_gym.scoring.tiers import Tier, get_tier, honours_fault, validation_suite
 from modquad_gym.search import verified
+from modquad_gym.search.problem import DEFAULT_MODULE
 from modquad_gym.solvers import Solver, admissible, load_solver, make_solver
+from modquad_gym.solvers.answers import NotAllowedError, rebuilt
 from modquad_gym.solvers.factory import model_named
 from modquad_gym.tasks import TaskRequirement, load_suite
 
@@ -66,6 +68,7 @@ def run_benchmark(
     modules: str | None = None,
     tier: str | None = None,
     fault: str | None = None,
+    made: dict[str, Solver] | None = None,
 ) -> list[Row]:
     """Every method on every task; a success is an answer of at most ``n_max`` modules of the
     allowed types that the exact oracle verifies. ``workers`` > 1 spreads chunks of tasks over
@@ -76,7 +79,9 @@ def run_benchmark(
     which count their configurations through an evaluator). ``fault`` (``"rotor"``,
     ``"module"``): every search is asked for an answer that survives any single failure of that
     kind, and a success is one that does (:func:`~modquad_gym.oracle.faults.tolerates`); a
-    method that cannot honour it is a ValueError (:func:`~.tiers.honours_fault`)."""
+    method that cannot honour it is a ValueError (:func:`~.tiers.honours_fault`). ``made``:
+    solvers already made, by method (the outside agents :func:`chosen_methods` loaded), used
+    as they are with one worker (each Ray worker makes its own)."""
     from modquad_gym.core.distributed import map_tasks
 
     jobs = [(name, task) for name, tasks in suites.items() for task in tasks]
@@ -84,7 +89,14 @@ def run_benchmark(
     chunks = [jobs[i : i + size] for i in range(0, len(jobs), size)]
     if fault is not None and (refused := [m for m in methods if not honours_fault(m)]):
         raise ValueError(f"fault={fault!r}: {', '.join(refused)} cannot honour it")
-    solve = partial(_solve_chunk, (tuple(methods), n_max, model, seed, modules, tier, fault))
+    config = (tuple(methods), n_max, model, seed, modules, tier, fault)
+    if workers == 1:  # in this process: the solvers made here and those given, in order
+        made = made or {}
+        rest = _solvers(tuple(m for m in methods if m not in made), *config[1:])
+        solve = partial(_rows, {m: made[m] if m in made else rest[m] for m in methods},
+                        (n_max, modules, fault))  # fmt: skip
+    else:
+        solve = partial(_solve_chunk, config)
     parts = map_tasks(solve, chunks, workers=workers, progress=progress, desc="benchmark")
     return [row for part in parts for row in part]
 
@@ -117,22 +129,67 @@ def load_solvers(methods: list[str], n_max: int, model: Path | None, tier: Tier)
 
 def _solve_chunk(config: tuple, jobs: list) -> list[Row]:
     """Rows of every method on a chunk of (suite, task) (solvers made once per process)."""
-    solvers = _solvers(*config)
-    n_max, modules, fault = config[1], config[4], config[6]
-    types = palette(modules) if modules else None
+    return _rows(_solvers(*config), (config[1], config[4], config[6]), jobs)
+
+
+def _rows(solvers: dict[str, Solver], config: tuple, jobs: list) -> list[Row]:
+    """Rows of every solver on a chunk of (suite, task); ``config``: (n_max, modules, fault).
+    Each answer is rebuilt from its integer cells on the tier's own types
+    (:func:`~modquad_gym.solvers.answers.rebuilt`) before the budget check, the verification
+    against the scorer's task and the count; an answer verified below the suite's certified
+    optimum is a ValueError (the verification was subverted or the optimum is wrong)."""
+    n_max, modules, fault = config
+    types = palette(modules) if modules else [DEFAULT_MODULE]
     rows: list[Row] = []
     for suite, task in jobs:
         optimum = task.meta.get("optimum")
         for method, solver in solvers.items():
             r = solver.solve(task)
-            ok = admissible(r.structure, n_max, types) and verified(r.structure, task)
-            ok = ok and (fault is None or survives(r.structure, task, fault))
+            answer = _plain(r.structure, types, method, task.name)
+            ok = judged(answer, task, n_max, types, fault)
+            if ok and _certified(task.meta, fault) and answer.n_modules < optimum:
+                raise ValueError(
+                    f"{method}: task {task.name!r}: an answer of {answer.n_modules} modules "
+                    f"verified below the suite's certified optimum {optimum}: the verification "
+                    "was subverted or the optimum is wrong"
+                )
             rows.append(
-                Row(suite, task.name, optimum, method, ok, r.n_modules if ok else None,
+                Row(suite, task.name, optimum, method, ok, answer.n_modules if ok else None,
                     int(r.evaluated), int(r.oracle_calls), float(r.seconds),
-                    [list(c) for c in r.structure.cells] if ok else None)
+                    answer_cells(answer, types if modules else None) if ok else None)
             )  # fmt: skip
     return rows
+
+
+def _certified(meta: dict, fault: str | None) -> bool:
+    """Is the task's ``optimum`` certified for this run's ``fault`` (None: intact)?"""
+    return meta.get("optimum") is not None and meta.get("optimum_fault") == fault
+
+
+def _plain(structure, types: list, method: str, task: str):
+    """``structure`` rebuilt on ``types`` (None stays None, and so does one off the types)."""
+    try:
+        return None if structure is None else rebuilt(structure, types)
+    except NotAllowedError:
+        return None
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"{method}: task {task!r}: its answer is not a structure: {err}") from None
+
+
+def answer_cells(structure, types: list | None) -> list[list[int]]:
+    """The cells a row records: [x, y] each, and on a tier of several types (``types``, its
+    palette) the index of each module's type, [x, y, k]."""
+    if types is None:
+        return [list(c) for c in structure.cells]
+    index = {id(m): k for k, m in enumerate(types)}
+    return [[x, y, index[id(m)]] for (x, y), m in zip(structure.cells, structure.modules)]
+
+
+def judged(answer, task, n_max: int, types: list, fault: str | None) -> bool:
+    """Is ``answer`` (a plain structure on ``types``, or None) a success on ``task``: at most
+    ``n_max`` modules of ``types``, verified by the exact oracle, surviving ``fault``?"""
+    ok = admissible(answer, n_max, types) and verified(answer, task)
+    return ok and (fault is None or survives(answer, task, fault))
 
 
 def survives(structure, task, fault: str) -> bool:
@@ -162,12 +219,14 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
     """The methods to score: ``--methods`` (default: the searches and the tier's learned
     methods; with ``--solver``, the searches alone beside the outside agents), the ``--solver``
     agents, and ``--samples`` in place of ``ppo-kN``. Each is checked here, before any work: a
-    method name, an outside agent (loaded once), the model of a learned method."""
+    method name, an outside agent (made once, with the run's seed: kept in ``args.agents`` for
+    the scoring), the model of a learned method."""
     types = palette(tier.modules) if tier.modules else None
+    told = dict(n_max=args.n_max or tier.n_max, tier=tier.name, modules=types, fault=tier.fault,
+                seed=0 if args.seed is None else args.seed)  # fmt: skip
     agents = {}  # `--solver pkg` without `:Name`: load_solver says how to write it
     for spec in args.solver:
-        agents[spec] = load_solver(spec, n_max=args.n_max or tier.n_max, tier=tier.name,
-                                   modules=types)  # fmt: skip
+        agents[spec] = load_solver(spec, **told)
     model = tier.model if args.model is None else args.model
     default = DEFAULT_METHODS if tier.name == "current" else SEARCH_METHODS
     if tier.name != "current" and model.is_file():
@@ -190,10 +249,9 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
         )
     methods = with_samples(methods, args.samples, "--methods" if args.methods else "")
     for spec in (m for m in methods if ":" in m and m not in agents):  # --methods pkg:Name
-        agents[spec] = load_solver(spec, n_max=args.n_max or tier.n_max, tier=tier.name,
-                                   modules=types)  # fmt: skip
+        agents[spec] = load_solver(spec, **told)
     check_used_options(args, methods, model, agents)
-    args.model = model
+    args.model, args.agents = model, agents
     return methods
 
 
@@ -309,7 +367,8 @@ def score(args: argparse.Namespace, command: str) -> int:
     t0 = time.perf_counter()
     seed = 0 if args.seed is None else args.seed
     rows = run_benchmark(suites, methods, n_max, args.model, seed, not args.no_progress,
-                         args.workers, tier.modules, tier.name, tier.fault)  # fmt: skip
+                         args.workers, tier.modules, tier.name, tier.fault,
+                         made=args.agents)  # fmt: skip
     wall = time.perf_counter() - t0
     write_csv([r.as_csv() for r in rows], args.out / "benchmark.csv")
     summary = summarise(rows, methods, n_max)

@@ -161,7 +161,7 @@ def plot_structures(rows: list[Row], path: Path, n_tasks: int = 4) -> Path | Non
                 ax.set_title(f"{short(m)}: - (opt {r.optimum if r else '-'})\n{key[1]}")
                 ax.set_axis_off()
                 continue
-            s = Structure([tuple(c) for c in r.cells])
+            s = Structure([tuple(c[:2]) for c in r.cells])  # the shape (types: not drawn)
             draw_structure(s, ax=ax, title=f"{short(m)}: {r.n_modules} (opt {r.optimum})\n{key[1]}")
             if ax.get_legend() is not None:
                 ax.get_legend().remove()

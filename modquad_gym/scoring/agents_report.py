@@ -164,12 +164,14 @@ def _outside(summary: list[dict], n_max: int, tier: str) -> list[str]:
         text = [
             f"## Outside agent `{name}`",
             "",
-            f"Told n_max = {n_max} and tier `{tier}` (constructor keywords it takes, and the "
-            "evaluator's attributes); given each task without its meta (no optimum, no planted "
-            "cells). Its configurations and oracle calls are counted by the benchmark: those it "
-            "decided through the evaluator handed to `solve(task, evaluator)`, its answer "
-            "included, or its own report where that is larger. A success is an answer of at "
-            f"most {n_max} modules of the tier's types that the exact LP oracle verifies.",
+            f"Told n_max = {n_max} and tier `{tier}`; given a copy of each task named "
+            "`task-<k>`, without its meta (no optimum, no planted cells). Honour-based: it runs "
+            "in the scorer's process, whose call stack and installed suite files hold the "
+            "answers. Its configurations and oracle calls are those it decided through the "
+            "evaluator, its answer included, or its own report where larger: a lower bound "
+            "(what it decides by other means is not counted). A success is an answer of at most "
+            f"{n_max} modules of the tier's types, rebuilt from its cells, that the exact LP "
+            "oracle verifies.",
             "",
             f"Success {_fmt(s['success_rate'], True)}, optimal module count on "
             f"{_fmt(s['optimal_share'], True)} of {s['tasks']} tasks (mean gap "

@@ -12,7 +12,8 @@ import numpy as np
 
 @dataclass
 class Row:
-    """One method on one task."""
+    """One method on one task; ``cells`` the answer's [x, y] each ([x, y, k] on a tier of several
+    module types, k the index of the cell's type in the tier's palette), None without one."""
 
     suite: str
     task: str
@@ -41,7 +42,7 @@ class Row:
             "method": self.method, "success": int(self.success), "n_modules": self.n_modules,
             "gap": self.gap, "optimal": int(self.optimal), "evaluated": self.evaluated,
             "oracle_calls": self.oracle_calls, "seconds": f"{self.seconds:.5f}",
-            "cells": ";".join(f"{x},{y}" for x, y in self.cells) if self.cells else "",
+            "cells": ";".join(",".join(map(str, c)) for c in self.cells) if self.cells else "",
         }  # fmt: skip
 
 

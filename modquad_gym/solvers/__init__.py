@@ -8,7 +8,9 @@ the command line, the benchmark and the tests treat all methods alike.
 * :mod:`.factory`: :func:`make_solver`, the one factory, reading
   :data:`modquad_gym.methods.REGISTRY`, and the solvers of the searches and learned methods;
 * :mod:`.outside`: someone else's agent (``package.module:Name``), the problem it is handed and
-  the counted :class:`Evaluator` it decides structures with.
+  the counted :class:`Evaluator` it decides structures with;
+* :mod:`.answers`: an agent's answer rebuilt as plain data (integer cells, the tier's own
+  types) and the deep copy of each task it is handed.
 """
 
 from modquad_gym.solvers.factory import (

@@ -16,7 +16,18 @@ from modquad_gym.core.interrupts import failure_line
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.search import SearchResult
 from modquad_gym.search.problem import SearchProblem
+from modquad_gym.solvers.answers import (
+    NotAllowedError,
+    admissible,
+    conform,
+    decided_before,
+    handed,
+    rebuilt,
+    reported_count,
+)
 from modquad_gym.solvers.problems import problem_for
+
+__all__ = ["Evaluator", "ExternalSolver", "admissible", "conform", "load_solver"]
 
 AGENT_ERRORS = (Exception, SystemExit)
 """What an outside agent's own code may raise while it is imported, made or asked to solve:
@@ -29,8 +40,8 @@ class Evaluator:
 
     ``modquad score --solver pkg:Agent`` makes one per task and passes it to the agent's
     ``solve(problem, evaluator)``; every configuration the agent decides through it is counted,
-    so outside agents are charged like the searches and the learned methods (which count the
-    structures they decide themselves). It holds the problem without the task's ``meta`` (a
+    so outside agents are charged for what they ask through it (a lower bound: an agent may
+    decide structures by other means). It holds the problem without the task's ``meta`` (a
     held-out task's optimum and planted cells), and nothing else of the task.
 
     Args:
@@ -45,6 +56,8 @@ class Evaluator:
         evaluated: distinct configurations decided (a structure asked again is answered from
             memory and not counted again; structures are the same up to translation).
         oracle_calls: wrench-structure tests made (one per task wrench of each new structure).
+
+    Both counts are read from what it decided (read-only attributes).
     """
 
     def __init__(
@@ -57,9 +70,17 @@ class Evaluator:
         self.tier = tier
         self.modules = list(problem.palette)
         self.f_max = problem.f_max
-        self.evaluated = 0
-        self.oracle_calls = 0
         self._decided: dict[Any, np.ndarray] = {}
+
+    @property
+    def evaluated(self) -> int:
+        """Distinct configurations decided."""
+        return len(self._decided)
+
+    @property
+    def oracle_calls(self) -> int:
+        """Wrench-structure tests made (one per task wrench of each structure decided)."""
+        return sum(len(d) for d in self._decided.values())
 
     @property
     def task(self) -> Any:
@@ -77,11 +98,8 @@ class Evaluator:
         of the problem's ``fault``)? The problem's exact decision
         (:meth:`SearchProblem.decide`); counted on the first ask of each structure."""
         s = self.structure(structure)
-        if s not in self._decided:
-            decided = np.asarray(self.problem.decide(s), dtype=bool)
-            self.evaluated += 1
-            self.oracle_calls += len(decided)  # one test per rotor wrench of this structure
-            self._decided[s] = decided
+        if s not in self._decided:  # one test per rotor wrench of this structure
+            self._decided[s] = np.asarray(self.problem.decide(s), dtype=bool)
         return self._decided[s].copy()
 
     def evaluate(self, structure: Any) -> bool:
@@ -91,32 +109,6 @@ class Evaluator:
     def seen(self, structure: Any) -> bool:
         """Has ``structure`` been decided through this evaluator?"""
         return self.structure(structure) in self._decided
-
-
-def conform(structure: Any, n_max: int, modules: list) -> Structure:
-    """``structure`` (a Structure, or a list of (x, y) cells of ``modules[0]``) rebuilt on the
-    allowed ``modules`` (each module mapped to the allowed type holding the same data); a
-    ValueError names a structure beyond ``n_max`` modules or a type not allowed."""
-    if not isinstance(structure, Structure):
-        structure = Structure([tuple(c) for c in structure], module=modules[0])
-    if structure.n_modules > n_max:
-        raise ValueError(f"{structure.n_modules} modules exceed this tier's n_max = {n_max}")
-    types = []
-    for module in structure.modules:
-        same = [m for m in modules if m is module or _same_type(m, module)]
-        if not same:
-            names = ", ".join(m.name for m in modules)
-            raise ValueError(f"module type {module.name!r} is not allowed here (types: {names})")
-        types.append(same[0])
-    return Structure(structure.cells, modules=types)
-
-
-def _same_type(a: Any, b: Any) -> bool:
-    """Do two module types hold the same rotor data, mass and inertia?"""
-    return all(
-        np.allclose(getattr(a, k), getattr(b, k), rtol=0, atol=1e-12)
-        for k in ("positions", "directions", "spins", "c_tau", "side", "mass", "inertia")
-    )
 
 
 def _takes(fn: Any, name: str) -> bool:
@@ -141,16 +133,19 @@ def _second_required(fn: Any) -> bool:
 class ExternalSolver:
     """Someone else's agent behind the :class:`Solver` interface, scored like every method.
 
-    Per task the agent gets the :class:`SearchProblem` (the task without its ``meta``, the
-    tier's ``n_max``, module types and ``fault``) and, when its ``solve`` (or the function
-    itself) takes a second argument or one named ``evaluator``, an :class:`Evaluator`: the
-    problem's exact decision, which counts every configuration decided. It may return a
-    :class:`SearchResult`, a :class:`~modquad_gym.geometry.Structure`, a list of (x, y) cells
-    or None (no answer). ``evaluated`` and ``oracle_calls`` are the evaluator's counts (an
-    answer never decided counts as one more), or the agent's own report (a SearchResult's, or
-    its attributes) where that is larger. Seconds are timed here.
-    The benchmark verifies every answer with the problem's decision and counts one beyond n_max
-    or off the tier's module types as a failure.
+    Per task the agent gets the :class:`SearchProblem` (a deep copy of the task without its
+    ``meta``, named ``task-<k>`` for the k-th task this solver is handed; the tier's ``n_max``,
+    module types and ``fault``) and, when its ``solve`` (or the function itself) takes a second
+    argument or one named ``evaluator``, an :class:`Evaluator`: the problem's exact decision,
+    which counts every configuration decided. It may return a :class:`SearchResult`, a
+    :class:`~modquad_gym.geometry.Structure`, a list of (x, y) cells or None (no answer). The
+    answer is rebuilt from its integer cells on the tier's own module types
+    (:func:`~modquad_gym.solvers.answers.rebuilt`: none of its methods is called); one of a
+    type off the tier's is no answer. ``evaluated`` and ``oracle_calls`` are the evaluator's
+    counts (an answer not decided through it counts as one more configuration, and its wrench
+    tests when within n_max), or the agent's own report (a SearchResult's, or its attributes)
+    where that is larger. Seconds are timed here. The benchmark verifies every answer with its
+    own copy of the task and counts one beyond n_max as a failure.
     """
 
     def __init__(
@@ -170,75 +165,87 @@ class ExternalSolver:
         self.tier = tier
         self.modules = list(modules) if modules else None
         self.fault = fault
+        self._handed = 0  # tasks handed out so far: the next is named task-<this + 1>
 
-    def problem(self, task: Any) -> SearchProblem:
-        """The problem handed to the agent: ``task``'s own when it is one (refused where it
-        says otherwise than the budget, types or fault this solver was given,
-        :func:`~modquad_gym.solvers.problems.problem_for`), else ``task`` with them; never with
-        the task's ``meta``."""
+    def _own(self, task: Any) -> SearchProblem:
+        """The scorer's problem of ``task`` (never handed out): ``task``'s own when it is one
+        (refused where it says otherwise than the budget, types or fault this solver was given,
+        :func:`~modquad_gym.solvers.problems.problem_for`), else ``task`` with them."""
         settings = {"n_max": self.n_max, "modules": self.modules, "fault": self.fault}
-        return problem_for(task, settings).without_meta()
+        return problem_for(task, settings)
+
+    def problem(self, task: Any, name: str = "task") -> SearchProblem:
+        """The problem handed to the agent: a deep copy of the problem of ``task``, named
+        ``name``, without the task's ``meta`` (:func:`~modquad_gym.solvers.answers.handed`)."""
+        return handed(self._own(task), name)
 
     def evaluator(self, task: Any) -> Evaluator:
         """A fresh counted evaluator for ``task`` with this solver's budget and types."""
         return Evaluator(self.problem(task), tier=self.tier)
 
     def solve(self, task: Any) -> SearchResult:
-        fn = self.agent.solve if hasattr(self.agent, "solve") else self.agent
-        given = self.problem(task)
+        own = self._own(task)
+        self._handed += 1
+        given = handed(own, f"task-{self._handed}")
         evaluator = Evaluator(given, tier=self.tier)
+        decided = evaluator._decided  # counted from here, not from attributes it may set
         t0 = time.perf_counter()
+        answer, structure = self._ask(given, evaluator, getattr(task, "name", task))
+        seconds = time.perf_counter() - t0
+        plain, extra = self._answer(answer, structure, own, decided)
+        source = answer if isinstance(answer, SearchResult) else self.agent
+        counts = (len(decided) + extra[0], sum(len(d) for d in decided.values()) + extra[1])
+        return SearchResult(
+            structure=plain,
+            n_modules=plain.n_modules if plain is not None else None,
+            evaluated=max(counts[0], reported_count(source, "evaluated", self.name)),
+            oracle_calls=max(counts[1], reported_count(source, "oracle_calls", self.name)),
+            seconds=seconds,
+            certified=False,
+            method=self.name,
+            n_max=own.n_max,
+            fault=own.fault,
+        )
+
+    def _ask(self, given: SearchProblem, evaluator: Evaluator, task: Any) -> tuple[Any, Any]:
+        """(the agent's answer to ``given``, the structure it holds); the agent's own failure
+        is a ValueError naming it and ``task`` (the scorer's name of the task)."""
         try:
+            fn = self.agent.solve if hasattr(self.agent, "solve") else self.agent
             if _second_required(fn):
                 answer = fn(given, evaluator)
             elif _takes(fn, "evaluator"):
                 answer = fn(given, evaluator=evaluator)
             else:
                 answer = fn(given)
+            structure = answer.structure if isinstance(answer, SearchResult) else answer
         except AGENT_ERRORS as exc:  # the agent's own failure (sys.exit too), in one line
             raise ValueError(
-                f"solver {self.name!r} failed on task {getattr(task, 'name', task)!r}: "
-                f"{type(exc).__name__}: {exc}"
+                f"solver {self.name!r} failed on task {task!r}: {type(exc).__name__}: {exc}"
             ) from exc
-        seconds = time.perf_counter() - t0
-        structure = answer.structure if isinstance(answer, SearchResult) else answer
-        if structure is not None and not isinstance(structure, Structure):
-            try:
-                structure = Structure([tuple(c) for c in structure])
-            except (TypeError, ValueError) as err:
-                raise ValueError(
-                    f"solver {self.name!r} returned {type(answer).__name__}, not a SearchResult, "
-                    f"Structure, list of (x, y) cells or None: {err}"
-                ) from None
-        if structure is not None:
-            try:
-                evaluator.feasible(structure)  # its answer counts, once, as every method's does
-            except ValueError:
-                pass  # beyond n_max or off the types: the benchmark counts it a failure
-        source = answer if isinstance(answer, SearchResult) else self.agent
-        return SearchResult(
-            structure=structure,
-            n_modules=structure.n_modules if structure is not None else None,
-            evaluated=max(evaluator.evaluated, int(getattr(source, "evaluated", 0) or 0)),
-            oracle_calls=max(evaluator.oracle_calls, int(getattr(source, "oracle_calls", 0) or 0)),
-            seconds=seconds,
-            certified=False,
-            method=self.name,
-            n_max=given.n_max,
-            fault=given.fault,
-        )
+        return answer, structure
 
-
-def admissible(structure: Structure | None, n_max: int, modules=None) -> bool:
-    """Is ``structure`` within the budget (at most ``n_max`` modules) and made of the allowed
-    module types (``modules``; default one type, ``TModule()``)? None is not."""
-    if structure is None:
-        return False
-    try:
-        conform(structure, n_max, list(modules) if modules else [Structure([(0, 0)]).module])
-    except ValueError:
-        return False
-    return True
+    def _answer(self, answer: Any, structure: Any, own: SearchProblem,
+                decided: dict) -> tuple[Structure | None, tuple[int, int]]:  # fmt: skip
+        """(the answer rebuilt on ``own``'s types, or None; the (configurations, oracle calls)
+        it adds to what the evaluator ``decided``: none when decided there, else one
+        configuration and, within n_max, one test per wrench)."""
+        if structure is None:
+            return None, (0, 0)
+        try:
+            plain = rebuilt(structure, list(own.palette))
+        except NotAllowedError:  # off the tier's types: no answer, one configuration
+            return None, (1, 0)
+        except (TypeError, ValueError) as err:
+            raise ValueError(
+                f"solver {self.name!r} returned {type(answer).__name__}, not a SearchResult, "
+                f"Structure, list of (x, y) cells or None: {err}"
+            ) from None
+        if decided_before(plain, list(decided)):
+            return plain, (0, 0)
+        if plain.n_modules > own.n_max:  # never decided: one configuration, no test
+            return plain, (1, 0)
+        return plain, (1, len(own.rotor_wrenches(plain)))
 
 
 def load_solver(
