@@ -172,3 +172,38 @@ def test_a_margin_that_is_not_a_number_is_refused_by_every_door(value):
     if value is not None:  # None: the margin not given, for the doors
         with pytest.raises(ValueError, match="fault_margin must be a number in"):
             make_solver("greedy", fault="rotor", fault_margin=value)
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (("0.02",), "detection delay must be a number of seconds, got '0.02'"),
+        ((False,), "detection delay must be a number of seconds, got False"),
+        ((True,), "detection delay must be a number of seconds, got True"),
+        (
+            (0.02, ["rotor"]),
+            "fault must be one of 'rotor', 'module', 'rotor2', 'rotor+module', got ['rotor']",
+        ),
+    ],
+)
+def test_margin_for_delay_refuses_what_the_fault_door_refuses(args, match):
+    """A string or a bool is no delay (fly_with_failure and check_fault_margin refuse them);
+    a fault that is no kind's name is named, not an unhashable-type TypeError."""
+    import re
+
+    with pytest.raises(ValueError, match=re.escape(match)):
+        margin_for_delay(*args)
+
+
+@pytest.mark.parametrize("command", ["solve", "validate"])
+@pytest.mark.parametrize("delay", ["2", "0.06", "-0.01"])
+def test_the_detection_delay_has_one_range_and_its_option_named(command, delay, tmp_path,
+                                                                 capsys):  # fmt: skip
+    out = ["--out", str(tmp_path / "v")] if command == "validate" else []
+    argv = [command, "--task", "example:screwdriver", "--fault", "rotor", *out]
+    assert main([*argv, "--detection-delay", delay]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].endswith(
+        f"--detection-delay must lie in [0, 0.05] s (the rule's calibrated range), got {delay}"
+    ), err
+    assert not (tmp_path / "v").exists()

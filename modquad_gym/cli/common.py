@@ -251,6 +251,7 @@ def fault_margin_of(args: argparse.Namespace) -> float | None:
     :func:`~modquad_gym.oracle.faults.margin_for_delay` derives from a ``--detection-delay``
     given for the design (None: no margin asked). ValueError for both, or either without
     ``--fault``."""
+    from modquad_gym.oracle.fault_delay import check_delay
     from modquad_gym.oracle.faults import check_fault_margin, margin_for_delay
 
     margin = getattr(args, "fault_margin", None)
@@ -269,7 +270,7 @@ def fault_margin_of(args: argparse.Namespace) -> float | None:
             return check_fault_margin(margin, args.fault)
         except ValueError as exc:
             raise ValueError(f"--fault-margin {margin:g}: {exc}") from None
-    return margin_for_delay(delay, args.fault)
+    return margin_for_delay(check_delay(delay, "--detection-delay"), args.fault)
 
 
 def check_fault_method(args: argparse.Namespace) -> None:

@@ -25,8 +25,6 @@ DEFAULT_DETECTION_DELAY = 0.02
 """= :data:`modquad_gym.sim.fault_flight.DETECTION_DELAY_S` (here: the parser imports no
 simulation)."""
 
-MAX_DETECTION_DELAY = 1.0
-
 FAULT_HELP = (
     "search for a structure that survives any failure of this kind (rotor: any one rotor "
     "stops; module: any one module's rotors stop; rotor2: any two rotors; rotor+module: a "
@@ -74,14 +72,11 @@ def check_fault_options(args: argparse.Namespace) -> None:
     """``--fault`` with a method that cannot honour it (:data:`~.common.NO_FAULT`),
     ``--detection-delay`` out of range or without ``--fault``: one line, before any work."""
     from modquad_gym.cli.given import refuse_ignored
-    from modquad_gym.core.validation import check_real
 
     check_fault_method(args)
     if args.fault is None:
         refuse_ignored(args, ["detection_delay", "fault_margin", "detect"],
                        "it applies with --fault")  # fmt: skip
-    if args.detection_delay is not None:
-        check_real(args.detection_delay, "--detection-delay", 0.0, MAX_DETECTION_DELAY)
     fault_margin_of(args)  # the margin's range, the delay's calibrated range
 
 
