@@ -128,11 +128,25 @@ def report(rows: list[dict], speed: list[dict], command: str, repeats: int) -> s
         "the (wrench, pair) cases each test of the certificate settled (lp_pairs: left to an "
         "LP on the failed matrix).", "",
         markdown_table(speed), "",
-        f"Goal (issue 47): at least 5 % of a plain decision's rate at 1,000 wrenches: "
-        f"{100 * k['ratio']:.1f} % by wall time, {100 * k['ratio_cpu']:.1f} % by CPU time "
-        f"(best of {repeats} each).", "",
+        rate_goal(k, repeats), "",
     ]  # fmt: skip
     return "\n".join(lines)
+
+
+RATE_GOAL = 0.05
+"""Issue 47: two-rotor tolerance decided at least this fraction of a plain decision's rate."""
+
+
+def rate_goal(k: dict, repeats: int) -> str:
+    """The rate goal's line for the 1,000-wrench row ``k`` of oracle.csv: each ratio to the
+    digits oracle.csv keeps (0.0496 is 4.96 %, never rounded up to the goal), and whether it
+    is met."""
+    hows = {"ratio": "wall time", "ratio_cpu": "CPU time"}
+    met = [how for key, how in hows.items() if float(k[key]) >= RATE_GOAL]
+    verdict = {2: "met", 0: "not met"}.get(len(met), f"met by {''.join(met)} only")
+    told = ", ".join(f"{100 * float(k[key]):.2f} % by {how}" for key, how in hows.items())
+    return (f"Goal (issue 47): at least {100 * RATE_GOAL:g} % of a plain decision's rate at 1,000 "
+            f"wrenches: {told} (best of {repeats} each); {verdict}.")  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:
