@@ -262,3 +262,65 @@ def test_the_rotor2_rate_goal_is_not_rounded_up_to_met():
     made_up = {**k, "ratio": 0.04996, "ratio_cpu": 0.0501}  # 5.00 % by wall time, still short
     line = report(rows, [made_up], "cmd", 30).splitlines()[-1]
     assert line.endswith("; met by CPU time only."), line
+
+
+# --- fault_detector ---------------------------------------------------------------------------
+def test_fault_detector_refuses_a_faults_file_without_detector_flights(tmp_path, capsys):
+    bad = tmp_path / "faults.csv"
+    bad.write_text("suite,task,design\nheldout_paper,paper-2000000,rotor\n")
+    line = _refused(capsys, "fault_detector", ["--faults", str(bad), "--out", str(tmp_path / "o")],
+                    f"--faults {bad}: no detector columns")  # fmt: skip
+    assert "error_cm_detector" in line and not (tmp_path / "o" / "report.md").exists()
+    _refused(capsys, "fault_detector", ["--faults", str(tmp_path / "none.csv"),
+                                        "--out", str(tmp_path / "o")], "none.csv")  # fmt: skip
+
+
+def test_fault_detector_reports_revisions_and_what_changed():
+    """The page counts each group, with the same structures unrevised in brackets, and lists
+    the flights the revision changed apart from those that differ from faults.csv without
+    one."""
+    from benchmarks.fault_detector import report
+
+    base = {"suite": "heldout_paper", "task": "paper-2000001", "fault": "rotor2", "modules": 6,
+            "worst_fault_margin": 0.0, "same_design": True, "command": "cmd"}  # fmt: skip
+    rows = [
+        {**base, "design": "rotor2", "error_cm": 2.4, "detected_ms": 18.0, "isolated": True,
+         "decisions": "18ms:1+14 42ms:1+5", "error_cm_unrevised": 81.6,
+         "isolated_unrevised": False, "error_cm_before": 81.6, "detected_ms_before": 18.0,
+         "isolated_before": False},
+        {**base, "design": "rotor_20ms", "fault": "rotor", "error_cm": 0.1, "detected_ms": 14.0,
+         "isolated": True, "decisions": "14ms:3", "error_cm_unrevised": 0.1,
+         "isolated_unrevised": True, "error_cm_before": 0.3, "detected_ms_before": 20.0,
+         "isolated_before": True},
+    ]  # fmt: skip
+    page = report(rows)
+    assert "| two rotors (rotor2) | 1 | 1 | 1 | 1 (0) | 1 (0) | 2.4 (81.6) |" in page
+    assert "| with a margin for a delay | 1 | 1 | 0 | 1 (1) | 1 (1) | 0.1 (0.1) |" in page
+    assert "## Flights the revision changed (1 of 2)" in page and "18ms:1+14 42ms:1+5" in page
+    assert "## Flights without a revision that differ from faults.csv (1)" in page
+
+
+def test_fault_detector_flies_a_revised_design_again_unrevised(monkeypatch):
+    """Where the detector revised its first decision the same structure is flown again with the
+    first decision standing; the unrevised columns are that flight's, not a copy."""
+    from benchmarks import fault_detector, faults_measure
+    from modquad_gym.sim import fault_flight
+
+    def design(task, name, n_max, limit):
+        return {"fault": "rotor", "modules": 6, "worst_fault_margin": 0.1, "_structure": "s"}
+
+    def fly(structure, task, fault, detector):
+        made = [[0.02, [1]], [0.04, [3]]] if detector.revise else [[0.02, [1]]]
+        record = {"fault_detected_rotors": made[-1][1], "fault_detector_decisions": made}
+        error = 0.01 if detector.revise else 0.2
+        worst = SimpleNamespace(columns=[3])
+        return SimpleNamespace(max_position_error_m=error, summary=lambda: record, worst=worst)
+
+    monkeypatch.setattr(faults_measure, "design", design)
+    monkeypatch.setattr(fault_flight, "fly_with_failure", fly)
+    row = {"suite": "heldout_paper", "task": "t", "design": "rotor_20ms", "n_max": "12",
+           "modules": "6", "worst_fault_margin": "0.1", "error_cm_detector": "20.0",
+           "detected_ms": "20.0", "isolated": "False", "command": "x"}  # fmt: skip
+    out = fault_detector.fly(row, {"heldout_paper": {"t": None}}, "cmd")
+    assert out["decisions"] == "20ms:1 40ms:3" and out["isolated"] and out["error_cm"] == 1.0
+    assert out["error_cm_unrevised"] == 20.0 and not out["isolated_unrevised"]

@@ -1,6 +1,8 @@
 """The failure detector in the flight (issue 47): a momentum observer on noisy velocity and body
 rate decides when and which rotors failed; the allocator switches on its decision."""
 
+import re
+
 import pytest
 
 import modquad_gym as mq
@@ -96,3 +98,123 @@ def test_the_detector_flies_a_trajectory_with_a_payload():
     record = f.summary()
     assert 0.0 < record["fault_detected_after_s"] <= 0.03
     assert record["fault_detected_rotors"] == list(f.worst.columns) and f.within_goal
+
+
+def _fly_a_rotor_failure(A, failed: int, decide_first: int, steps: int = 200, revise=True):
+    """A rigid body (level, unit inertia, no gravity, noiseless sensors) whose rotor ``failed``
+    stops at step 10 while the controller commands every rotor it believes working at half
+    thrust; the detector's decisions (time, set) in order."""
+    import numpy as np
+
+    from modquad_gym.oracle.faults import failure_sets
+    from modquad_gym.sim.detector import FailureDetector
+
+    m, dt, mass = A.shape[1], 0.002, 2.0
+    watch = FailureDetector(A, mass, np.eye(3), 1.0, failure_sets(m, "rotor"), dt,
+                            DetectorConfig(revise=revise), SensorNoise(0.0, 0.0))  # fmt: skip
+    v, omega, believed, decisions = np.zeros(3), np.zeros(3), None, []
+    for k in range(steps):
+        u = np.full(m, 0.5)
+        if believed is not None:
+            u[believed] = 0.0
+        actual = u.copy()
+        if k >= 10:
+            actual[failed] = 0.0
+        hit = watch.update(k * dt, np.eye(3), v, omega, u, np.zeros(6), np.zeros(3))
+        if hit is not None:
+            believed = list(hit[1])
+            decisions.append((k, believed))
+        wrench = A @ actual
+        v, omega = v + wrench[:3] / mass * dt, omega + wrench[3:] * dt
+    assert decisions[0][1] == [decide_first]  # the case the test is about
+    return watch, decisions
+
+
+def test_a_wrong_isolation_is_revised_when_the_residual_does_not_fall():
+    """Two rotors with the same column of A: the first decision names the lower one (a tie),
+    the dead one still gets its command and the residual stays; the detector then names the
+    dead one, and once it is dropped the residual falls and nothing more is decided."""
+    import numpy as np
+
+    A0 = mq.Structure([(0, 0), (1, 0)]).configuration_matrix()
+    A = np.hstack([A0, A0[:, :1]])  # rotor 8 acts as rotor 0
+    watch, decisions = _fly_a_rotor_failure(A, failed=8, decide_first=0)
+    assert [d[1] for d in decisions] == [[0], [8]]
+    assert watch.detected[0] == decisions[0][0] * 0.002  # when it first decided
+    assert list(watch.detected[1]) == [8]  # what it names in the end
+    _, decisions = _fly_a_rotor_failure(A, failed=8, decide_first=0, revise=False)
+    assert [d[1] for d in decisions] == [[0]]  # the first decision stands
+
+
+def test_a_right_isolation_is_kept():
+    watch, decisions = _fly_a_rotor_failure(
+        mq.Structure([(0, 0), (1, 0)]).configuration_matrix(), failed=5, decide_first=5
+    )
+    assert len(decisions) == 1 and list(watch.detected[1]) == [5]
+
+
+def test_the_certified_50_ms_design_of_motions_9500001_stays_within_5_cm_with_the_detector():
+    """Review 18's case: the detector first names rotor 1 where rotor 29 failed (their missing
+    wrenches point almost the same way); it must not keep the working rotor out and the dead
+    one in."""
+    from modquad_gym.scoring.suites import draw_task
+    from modquad_gym.tasks import make_generator
+
+    task = draw_task(make_generator("motions"), 9_500_001, "motions-9500001")
+    cells = [(0, 1), (0, 2), (0, 3), (0, 4), (1, 0), (1, 1), (1, -1), (0, -1), (1, 4)]
+    s = mq.Structure(cells)  # anytime_search's answer for margin_for_delay(0.05), certified
+    W = task.rotor_wrenches(s)
+    assert mq.fault_margin(s, W, task.f_max, fault="rotor").min() >= margin_for_delay(0.05)
+    f = ff.fly_with_failure(s, task, "rotor", detector=DetectorConfig())
+    record = f.summary()
+    assert record["fault_detected_rotors"] == list(f.worst.columns)
+    assert f.within_goal and record["fault_saturated_fraction"] < 0.1
+    from modquad_gym.sim.validate_fault import fault_markdown  # the report says when it revised
+
+    told = "".join(f"; revised at {t:.3g} s" for t, _ in record["fault_detector_decisions"][1:])
+    page = fault_markdown(record)
+    assert f"| {record['fault_detected_after_s']:.3g} s (detector{told}) |" in page
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"persistence": 0}, "DetectorConfig.persistence must be >= 1, got 0"),
+        ({"persistence": 2.5}, "DetectorConfig.persistence must be an integer, got 2.5"),
+        ({"persistence": True}, "DetectorConfig.persistence must be an integer, got True"),
+        ({"bandwidth": -1.0}, "DetectorConfig.bandwidth must be positive, got -1"),
+        ({"bandwidth": float("inf")}, "DetectorConfig.bandwidth must be finite, got inf"),
+        ({"threshold": float("nan")}, "DetectorConfig.threshold must be finite, got nan"),
+        ({"threshold": "0.1"}, "DetectorConfig.threshold must be a real number, got '0.1'"),
+        ({"z": 0}, "DetectorConfig.z must be positive, got 0"),
+        ({"revise": 1}, "DetectorConfig.revise must be True or False, got 1"),
+    ],
+)
+def test_a_detector_config_out_of_its_domain_is_refused(kwargs, match):
+    with pytest.raises(ValueError, match=re.escape(match)):
+        DetectorConfig(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"velocity": -0.001}, "SensorNoise.velocity must be >= 0, got -0.001"),
+        ({"rate": float("nan")}, "SensorNoise.rate must be finite, got nan"),
+        ({"seed": -1}, "SensorNoise.seed must be >= 0, got -1"),
+        ({"seed": 1.5}, "SensorNoise.seed must be an integer, got 1.5"),
+    ],
+)
+def test_sensor_noise_out_of_its_domain_is_refused(kwargs, match):
+    with pytest.raises(ValueError, match=re.escape(match)):
+        SensorNoise(**kwargs)
+
+
+def test_a_bandwidth_past_the_control_rate_or_a_detector_of_another_type_is_refused(
+    screwdriver,
+):
+    task, s = screwdriver
+    with pytest.raises(ValueError, match=re.escape("at most 1 / control period = 500 /s")):
+        ff.fly_with_failure(s, task, "rotor", seconds=0.1, detector=DetectorConfig(bandwidth=600))
+    for bad in ("yes", (DetectorConfig(),), (DetectorConfig(), None)):
+        with pytest.raises(ValueError, match="detector must be a DetectorConfig or a"):
+            ff.fly_with_failure(s, task, "rotor", seconds=0.1, detector=bad)

@@ -63,8 +63,9 @@ def add_detect_option(p: argparse.ArgumentParser) -> None:
         "detector on its noisy velocity and body rate decides when and which rotors failed "
         "(modquad_gym.sim.detector) and the allocator switches on its decision, whenever that "
         "comes (a --detection-delay sets only the design's margin); --json adds "
-        "fault_detected_after_s (the delay flown; fault_detection_delay_s is null) and "
-        "fault_detected_rotors",
+        "fault_detected_after_s (the delay flown; fault_detection_delay_s is null), "
+        "fault_detected_rotors (named last: a wrong isolation is revised when the residual "
+        "stays) and fault_detector_decisions",
     )
 
 

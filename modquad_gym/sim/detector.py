@@ -17,6 +17,13 @@ residual is noisier) for ``persistence`` control steps in a row, and names the f
 whose missing wrench -A_S u_S points most nearly along the residual (u the commanded thrusts;
 the direction, since the filtered residual is still rising). The allocator then switches to A
 without S (:class:`~modquad_gym.sim.failure.Failure`).
+
+Two sets' missing wrenches can point almost the same way (noise then decides), so a decision is
+checked: the observer restarts on the switch and the same test runs again. A right decision
+leaves noise (the commands now match what the rotors give); a wrong one leaves the missing
+thrust of the dead rotors still commanded, and the detector names the set not yet named that
+best explains the residuals of all its decisions (:meth:`FailureDetector._isolate`), and the
+allocator switches again.
 """
 
 from __future__ import annotations
@@ -25,27 +32,49 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from modquad_gym.core.validation import check_flag, check_int, check_real
+
 
 @dataclass(frozen=True)
 class SensorNoise:
     """Standard deviations of the measured velocity (m/s) and body rate (rad/s) per control
-    step, and the seed of their noise."""
+    step (finite, >= 0; 0: exact), and the seed of their noise (an integer >= 0). Anything
+    else is a ValueError naming the field."""
 
     velocity: float = 0.001
     rate: float = 0.002
     seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("velocity", "rate"):
+            value = check_real(getattr(self, name), f"SensorNoise.{name}", low=0.0)
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "seed", check_int(self.seed, "SensorNoise.seed", low=0))
 
 
 @dataclass(frozen=True)
 class DetectorConfig:
     """The observer's bandwidth (1/s); the residual must exceed ``threshold`` (a fraction of
     one rotor's full thrust, or of its torque at the longest arm) and ``z`` times its own noise
-    (in some component) for ``persistence`` control steps in a row."""
+    (in some component) for ``persistence`` control steps in a row; with ``revise`` a decision
+    the residual does not confirm is revised (:meth:`FailureDetector.update`; False: the first
+    decision stands). Bandwidth, threshold and z are finite and > 0 (the bandwidth also at most
+    one per control period, :class:`FailureDetector`), persistence an integer >= 1, revise a
+    bool; anything else is a ValueError naming the field."""
 
     bandwidth: float = 60.0
     threshold: float = 0.1
     z: float = 4.0
     persistence: int = 6
+    revise: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("bandwidth", "threshold", "z"):
+            value = check_real(getattr(self, name), f"DetectorConfig.{name}", positive=True)
+            object.__setattr__(self, name, value)
+        persistence = check_int(self.persistence, "DetectorConfig.persistence", low=1)
+        object.__setattr__(self, "persistence", persistence)
+        object.__setattr__(self, "revise", check_flag(self.revise, "DetectorConfig.revise"))
 
 
 class FailureDetector:
@@ -73,6 +102,11 @@ class FailureDetector:
         self.candidates = [np.asarray(S, dtype=int) for S in candidates]
         self.config = config or DetectorConfig()
         self.noise = noise or SensorNoise()
+        if self.config.bandwidth * self.dt > 1.0:  # past it the discrete residual overshoots
+            raise ValueError(
+                f"DetectorConfig.bandwidth must be at most 1 / control period = "
+                f"{1.0 / self.dt:g} /s, got {self.config.bandwidth:g}"
+            )
         self.rng = np.random.default_rng(self.noise.seed)
         self.scale = np.array([f_max] * 3 + [f_max * _arm(self.A)] * 3)  # one rotor's
         # the residual's noise per component: K times the momentum's measurement noise
@@ -83,7 +117,8 @@ class FailureDetector:
         self._integral = np.zeros(6)
         self._p0: np.ndarray | None = None
         self._over = 0
-        self.detected: tuple[float, np.ndarray] | None = None  # (time, failure set)
+        self.decisions: list[tuple[float, np.ndarray]] = []  # (time, failure set) in order
+        self._evidence: list[tuple[np.ndarray, np.ndarray]] = []  # (residual, u) per decision
         self.peak = 0.0  # the largest scaled residual seen before a detection
 
     def sense(self, v: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -93,10 +128,17 @@ class FailureDetector:
 
     def update(self, t, R, v, omega, u, load_world, gravity) -> tuple[float, np.ndarray] | None:
         """One control step: true state (R body-to-world, v, omega), commanded thrusts u, the
-        load (6,) applied in the world frame and the gravity vector; returns the detection
-        (time, failure set) once made."""
-        if self.detected is not None:
-            return self.detected
+        load (6,) applied in the world frame and the gravity vector; returns a decision (time,
+        failure set) at the step it is made, else None.
+
+        After a decision the observer restarts (its residual from then on is what the commands
+        on the rotors still believed working do not explain) and the same test runs again: a
+        right decision leaves only noise, a wrong one leaves the dead rotors' missing thrust,
+        and the detector names the set that best explains all its evidence (never one it
+        already named, :meth:`_isolate`). Without ``config.revise`` it stops at its first
+        decision."""
+        if self.decisions and not self.config.revise:
+            return None
         v_m, w_m = self.sense(v, omega)
         v_com = v_m + R @ np.cross(w_m, self.com)
         p = np.concatenate([self.mass * v_com, self.J @ w_m])
@@ -115,23 +157,48 @@ class FailureDetector:
         over = size > self.config.threshold and z > self.config.z
         self._over = self._over + 1 if over else 0
         if self._over < self.config.persistence:
-            self.peak = max(self.peak, size)
+            if not self.decisions:
+                self.peak = max(self.peak, size)
             return None
-        self.detected = (t, self._isolate(body, u))
-        return self.detected
+        S = self._isolate(body, u)
+        self._p0, self._integral, self._over = None, np.zeros(6), 0  # restart the observer
+        if S is None:  # every set it may name is already named: nothing to revise to
+            return None
+        self.decisions.append((t, S))
+        return self.decisions[-1]
 
-    def _isolate(self, residual: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """The failure set whose missing wrench d_S = -A_S u_S best explains the residual up to
-        a positive factor (the observer's filter has not reached the full step yet): the least
-        angle between the scaled residual and the scaled d_S."""
-        r = residual / self.scale
-        best, score = self.candidates[0], -np.inf
+    @property
+    def detected(self) -> tuple[float, np.ndarray] | None:
+        """The first decision's time and the failure set named last (None: no decision)."""
+        if not self.decisions:
+            return None
+        return self.decisions[0][0], self.decisions[-1][1]
+
+    def _isolate(self, residual: np.ndarray, u: np.ndarray) -> np.ndarray | None:
+        """The failure set whose missing wrench best explains the residual of every decision
+        so far, among the sets not yet named (None when there is none).
+
+        At each decision i the scaled residual r_i should be a positive multiple of the scaled
+        missing wrench d_i(S) = -A_S u_i[S] (the filter has not reached the full step; u_i the
+        commands then, 0 on the rotors believed failed): the least-squares fit of r_i by such a
+        multiple leaves ||r_i||^2 (1 - cos_i^2), cos_i the cosine between them. The score is
+        the sum over the decisions of ||r_i||^2 cos_i |cos_i| (a cosine below 0 counts against,
+        a set predicting no missing wrench scores 0): at the first decision the least angle,
+        after a revision also the evidence of the earlier ones."""
+        self._evidence.append((residual / self.scale, np.array(u, dtype=float)))
+        named = {tuple(S) for _, S in self.decisions}
+        best, score = None, -np.inf
         for S in self.candidates:
-            d = -(self.A[:, S] @ u[S]) / self.scale
-            norm = float(np.linalg.norm(d))
-            cos = float(r @ d) / (norm * float(np.linalg.norm(r))) if norm > 0 else -np.inf
-            if cos > score:
-                best, score = S, cos
+            if tuple(S) in named:
+                continue
+            total = 0.0
+            for r, ui in self._evidence:
+                d = -(self.A[:, S] @ ui[S]) / self.scale
+                norm = float(np.linalg.norm(d))
+                cos = float(r @ d) / (norm * float(np.linalg.norm(r))) if norm > 0 else 0.0
+                total += float(r @ r) * cos * abs(cos)
+            if best is None or total > score:
+                best, score = S, total
         return best
 
 
@@ -149,9 +216,14 @@ def make_detector(detector, plant, kind: str, dt: float, com=None) -> FailureDet
         return None
     from modquad_gym.oracle.faults import FAULTS, failure_sets
 
-    config, noise = detector if isinstance(detector, tuple) else (detector, None)
+    pair = detector if isinstance(detector, tuple) else (detector, SensorNoise())
+    if len(pair) != 2 or not (
+        isinstance(pair[0], DetectorConfig) and isinstance(pair[1], SensorNoise)
+    ):
+        raise ValueError(
+            "detector must be a DetectorConfig or a (DetectorConfig, SensorNoise) pair, "
+            f"got {detector!r}"
+        )
     m = plant.A.shape[1]
     sets = failure_sets(m, kind if kind in FAULTS else "rotor")
-    return FailureDetector(plant.A, plant.mass, plant.J, plant.f_max, sets, dt,
-                           config if isinstance(config, DetectorConfig) else None,
-                           noise if isinstance(noise, SensorNoise) else None, com)  # fmt: skip
+    return FailureDetector(plant.A, plant.mass, plant.J, plant.f_max, sets, dt, *pair, com)

@@ -224,15 +224,16 @@ class FaultFlight:
         }
 
     def detection(self) -> dict:
-        """With a detector: how long after the failure it decided (None: never) and the rotors
-        it named."""
-        if getattr(self.run, "detector", None) is None:
+        """With a detector: how long after the failure it first decided (None: never), the
+        rotors it named last, and each decision [seconds after the failure, rotors] in order
+        (more than one where it revised a wrong isolation)."""
+        watch = getattr(self.run, "detector", None)
+        if watch is None:
             return {}
-        hit = self.run.detection
-        if hit is None:
-            return {"fault_detected_after_s": None, "fault_detected_rotors": None}
-        return {"fault_detected_after_s": float(hit[0] - self.failure.time_s),
-                "fault_detected_rotors": [int(c) for c in hit[1]]}  # fmt: skip
+        made = [[float(t - self.failure.time_s), [int(c) for c in S]] for t, S in watch.decisions]
+        return {"fault_detected_after_s": made[0][0] if made else None,
+                "fault_detected_rotors": made[-1][1] if made else None,
+                "fault_detector_decisions": made}  # fmt: skip
 
 
 def hover_with_failure(
@@ -253,8 +254,8 @@ def hover_with_failure(
     state read before the step as in :func:`~modquad_gym.sim.track.fly_trajectory`. With a
     ``detector`` (:class:`~modquad_gym.sim.detector.DetectorConfig`, or a (config, noise)
     pair) the controller is not told of the failure: it switches when the
-    :class:`~modquad_gym.sim.detector.FailureDetector` decides, to the rotors it names
-    (``run.detection``: (time, columns) or None)."""
+    :class:`~modquad_gym.sim.detector.FailureDetector` decides, to the rotors it names, again
+    at each revision (``run.detection``: (first time, columns named last) or None)."""
     from modquad_gym.sim.hover import HoverConfig, HoverController, Plant, rotation_angle
     from modquad_gym.sim.hover.recorder import drift_reason
     from modquad_gym.sim.hover.run import Flight
@@ -286,7 +287,7 @@ def hover_with_failure(
         u = np.zeros(m)
         if ctrl is not None:  # the intact controller, or the reduced one once it knows
             u[believed.working(m) if known else slice(None)], _ = ctrl.command(w, state)
-        if watch is not None and not known:
+        if watch is not None:  # a first decision, or a revised one
             load = np.array(flight.data.xfrc_applied[flight.body])
             hit = watch.update(t[k], state[0], state[3], state[4], u, load, flight.gravity)
             if hit is not None:
@@ -367,7 +368,7 @@ def fly_with_failure(
             not told of the failure, the detector decides when and which rotors (a
             ``detection_delay_s`` beside it is refused: it would not be flown); the summary's
             ``fault_detection_delay_s`` is then None and it adds ``fault_detected_after_s`` (the
-            delay flown) and ``fault_detected_rotors``.
+            delay flown), ``fault_detected_rotors`` and ``fault_detector_decisions``.
 
     Returns:
         A :class:`FaultFlight`; ``summary()`` is its record (``fault_max_position_error_m``,

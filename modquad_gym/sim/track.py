@@ -215,7 +215,8 @@ def fly_trajectory(
     their thrust 0 from ``failure.time_s``; from ``failure.detected_s`` the controller
     allocates without them); ``saturated`` then counts only the rotors still working. With a
     ``detector`` (:func:`~modquad_gym.sim.detector.make_detector`) the controller is not told:
-    it switches when the detector decides, to the rotors it names (``run.detection``)."""
+    it switches when the detector decides, to the rotors it names, and again when it revises
+    that (``run.detection``: the first decision's time and the rotors named last)."""
     import mujoco
 
     from modquad_gym.sim.detector import make_detector
@@ -259,13 +260,13 @@ def fly_trajectory(
         data.ctrl[:] = u
         data.xfrc_applied[b, :3] = -R @ exerted[k, :3]
         data.xfrc_applied[b, 3:] = -R @ exerted[k, 3:]
-        if watch is not None and not known:
+        if watch is not None:  # a first decision, or a revised one
             v, omega, load = (np.array(data.qvel[:3]), np.array(data.qvel[3:6]),
                               np.array(data.xfrc_applied[b]))  # fmt: skip
             hit = watch.update(times[k], R, v, omega, u_cmd, load, model.opt.gravity)
             if hit is not None:
                 named = Failure(tuple(hit[1]), failure.time_s, 0.0, failure.kind)
-                control, known = _failed_control(named, plant, cfg, dt, ff), True
+                control = _failed_control(named, plant, cfg, dt, ff)
         flown[k], att[k], inputs[k] = data.xpos[b], rotation_angle(Rd.T @ R), u
         attitude[k] = data.xquat[b]
         saturated[k] = _at_limit(u[working], task.f_max)

@@ -127,7 +127,12 @@ def _told(r: dict) -> str:
     if r.get("fault_detection_delay_s") is not None:
         return f"{r['fault_detection_delay_s']:g} s"
     after = r.get("fault_detected_after_s")
-    return "never (detector)" if after is None else f"{after:.3g} s (detector)"
+    if after is None:
+        return "never (detector)"
+    revised = "".join(
+        f"; revised at {t:.3g} s" for t, _ in (r.get("fault_detector_decisions") or [])[1:]
+    )
+    return f"{after:.3g} s (detector{revised})"
 
 
 def _fmt(x) -> str:
