@@ -12,6 +12,7 @@ import numpy as np
 
 from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
 from modquad_gym.oracle.backends import BACKENDS, check_method, decide_with, margin_with
+from modquad_gym.oracle.highs_lp import condition_error
 from modquad_gym.oracle.lp import GammaLP
 from modquad_gym.oracle.scale import row_norms
 from modquad_gym.oracle.tolerance import TOL
@@ -187,7 +188,8 @@ def lambda_ratio(
     ``[-TOL f_max / 2, (1 + TOL / 2) f_max]`` (the zonotope scaled by 1 + TOL about its centre),
     so lambda_ratio >= 1 exactly when ``feasible`` (its sign is taken from ``feasible`` for the
     wrenches where the two LPs' round-off disagree: within BAND of the threshold).
-    inf for w = 0; 0 when no positive multiple of w is feasible (e.g. off range(A)).
+    inf for w = 0 (and for every wrench in the range of an all-zero A: within the off-range
+    rule of w = 0); 0 when no positive multiple of w is feasible (e.g. off range(A)).
     """
     ray = BACKENDS[method].ray if method in BACKENDS else None
     if ray is None:
@@ -201,7 +203,7 @@ def lambda_ratio(
     _, off = z.reduce(W)
     out[off] = 0.0
     live = np.flatnonzero(~off & (norms > 0))
-    if len(live):
+    if len(live) and z.rank:
         # directions in range(A) coordinates, each scaled to max |d_i| = 1 (the ratio
         # lambda / |d| does not depend on the length of d, and the LP sees numbers of order one)
         D = W[live] @ z.Q
@@ -221,7 +223,8 @@ def allocate(A: np.ndarray, w: np.ndarray, f_max: float = 1.0) -> tuple[np.ndarr
     (1, 6); anything else is a ValueError naming ``w``, call it once per wrench): (u, gamma)
     with A u = w and every rotor within gamma * f_max / 2 of half thrust. When gamma > 1 the
     wrench is infeasible and u is the least-squares allocation clipped to [0, f_max] (what the
-    rotors can do)."""
+    rotors can do). A ValueError naming A's condition number where HiGHS finds no optimum (a
+    numerical failure: the LP is always feasible and bounded)."""
     z = Zonotope(A, f_max)
     try:
         W = check_wrenches(w)
@@ -237,7 +240,11 @@ def allocate(A: np.ndarray, w: np.ndarray, f_max: float = 1.0) -> tuple[np.ndarr
     if off[0]:
         u = np.clip(np.linalg.lstsq(z.A, w, rcond=None)[0], 0.0, z.f_max)
         return u, math.inf
+    if not z.rank:  # an all-zero A: w is (within the off-range rule) its only wrench, 0
+        return np.full(z.m, z.f_max / 2.0), 0.0
     res = GammaLP.build(z.G).solve(R[0])
+    if res.status != 0:  # always feasible and bounded: a numerical failure (ill-conditioned A)
+        raise ValueError(condition_error(z, f"HiGHS: {res.message}"))
     x, gamma = res.x[: z.m], float(res.fun)
     u = (1.0 + x) * (z.f_max / 2.0)
     return np.clip(u, 0.0, z.f_max), gamma

@@ -95,7 +95,10 @@ def _gamma_rows(z: Zonotope, R: np.ndarray, backend: Backend, cap: float = np.in
     zonotope (beyond ``_FAR`` times its bounding box: huge torques, say) is solved as
     ``t * gamma(r / t)`` with t = max |r_i|, and the LPs only ever see numbers of order one.
     With a finite ``cap`` (< ``_FAR``), the compiled walk, which stops at a proof of gamma >
-    cap and returns that proved lower bound; a far row's is t / max(box) > _FAR (its box)."""
+    cap and returns that proved lower bound; a far row's is t / max(box) > _FAR (its box).
+    A rank-0 A (all zero): every row in its range is the centre, gamma 0."""
+    if not z.rank:
+        return np.zeros(len(R))
     t = np.abs(R).max(axis=1)
     box = max(float(z.box.max()), 1e-300)
     far = t > _FAR * box
@@ -139,8 +142,8 @@ def gamma_capped_from(
     far more than round-off (:func:`proved_above`) gets that bound, no walk."""
     R, off = z.reduce(W)
     out = np.full(len(W), np.nan)  # nan: walked
-    t = np.abs(R).max(axis=1) if len(W) else np.zeros(0)
-    box = max(float(z.box.max()), 1e-300)
+    t = np.abs(R).max(axis=1, initial=0.0) if len(W) else np.zeros(0)
+    box = max(float(z.box.max(initial=0.0)), 1e-300)
     far = t > _FAR * box
     out[far] = t[far] / box
     if lower is not None:

@@ -23,10 +23,37 @@ def gamma_highs(z: Zonotope, R: np.ndarray) -> np.ndarray:
     out = np.empty(len(R))
     for i, r in enumerate(R):
         res = lp.solve(r)
-        if res.status != 0:  # pragma: no cover - the LP is always feasible and bounded
-            raise RuntimeError(f"HiGHS failed on wrench {i}: {res.message}")
-        out[i] = z.gamma_of_allocation(res.x[: z.m], r)
+        if res.status == 0:
+            out[i] = z.gamma_of_allocation(res.x[: z.m], r)
+        else:  # always feasible and bounded: a numerical failure (ill-conditioned A)
+            out[i] = _walked(z, r, res.message)
     return out
+
+
+def _walked(z: Zonotope, r: np.ndarray, why: str) -> float:
+    """gamma of r by the compiled walk (:mod:`.kernels`), where HiGHS reported no optimum;
+    a ValueError naming A's condition number where the walk gives up too."""
+    from modquad_gym.oracle import kernels  # numba: compiled on first use, cached on disk
+
+    prep = z.kernel[0] if z.kernel is not None else kernels.prepare(z.G, z.P)
+    out = np.full(1, np.nan)
+    R = np.ascontiguousarray(r[None], dtype=float)
+    kernels.gamma_rows(z.G, z.P, prep, R, np.inf, out, np.empty((0, z.rank)))
+    if np.isnan(out[0]):
+        raise ValueError(condition_error(z, f"HiGHS: {why}; the compiled walk gave up too"))
+    return float(out[0])
+
+
+def condition_error(z: Zonotope, why: str) -> str:
+    """A one-line message for an LP that failed on z's matrix: why, and A's condition number
+    (that of the reduced generators G: the ratio of A's largest and smallest kept singular
+    values), against the oracle's accuracy domain."""
+    S = np.linalg.svd(z.G, compute_uv=False)
+    cond = S[0] / S[-1] if len(S) and S[-1] > 0 else np.inf
+    return (
+        f"A: the oracle's LP failed on this matrix ({why}); its condition number is {cond:.3g} "
+        "(the oracle is accurate to condition numbers of about 1e6: modquad_gym.oracle.tolerance)"
+    )
 
 
 def ray_highs(z: Zonotope, D: np.ndarray, lo: float, hi: float) -> np.ndarray:

@@ -1,0 +1,84 @@
+"""The oracle on numerically hard but valid inputs: the all-zero matrix, an LP that fails
+(HiGHS reports no optimum), an ill-conditioned matrix."""
+
+import numpy as np
+import pytest
+
+from modquad_gym.oracle import (
+    METHODS,
+    Zonotope,
+    allocate,
+    feasible,
+    gamma_with,
+    kernels,
+    lambda_ratio,
+    margin,
+)
+from modquad_gym.oracle.lp import GammaLP
+
+
+def conditioned(cond: float) -> tuple[np.ndarray, np.ndarray]:
+    """(A, w): a full-rank 6 x 8 matrix with singular values (1, 1, 1, 1, 1, 1 / cond) and a
+    wrench A u with every rotor u_j in [0.25, 0.75] (feasible, gamma about 0.37) that leans on
+    the weak direction."""
+    rng = np.random.default_rng(6)
+    U, _ = np.linalg.qr(rng.normal(size=(6, 6)))
+    V, _ = np.linalg.qr(rng.normal(size=(8, 6)))
+    A = (U * np.array([1, 1, 1, 1, 1, 1 / cond])) @ V.T
+    u = 0.5 + 0.25 * V[:, 5] / np.abs(V[:, 5]).max()
+    return A, A @ u
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_all_zero_matrix_reaches_only_the_zero_wrench(method):
+    """Rank 0: the zero wrench (within the off-range rule) is the centre, margin 1; any other
+    is off range, margin -inf; no numpy error from an empty reduction."""
+    A = np.zeros((6, 4))
+    W = np.array([[0.0] * 6, [1e-10, 0, 0, 0, 0, 0], [1.0, 0, 0, 0, 0, 0]])
+    assert feasible(A, W, method=method).tolist() == [True, True, False]
+    assert margin(A, W, method=method).tolist() == [1.0, 1.0, -np.inf]
+    if method == "scipy":
+        assert lambda_ratio(A, W, method=method).tolist() == [np.inf, np.inf, 0.0]
+        u, gamma = allocate(A, W[0])
+        assert gamma == 0.0 and np.allclose(u, 0.5)
+
+
+def _failed(self, r):
+    """What HiGHS returns when it reports no optimum (status 2: infeasible)."""
+    return type("Result", (), {"status": 2, "message": "forced failure", "x": None})()
+
+
+def test_highs_failure_falls_back_to_the_walk(monkeypatch):
+    """The gamma LP is always feasible and bounded, so a HiGHS failure is numerical: the
+    scipy method then takes the compiled walk's gamma; allocate, which needs HiGHS's
+    allocation, raises a one-line ValueError naming the matrix's condition number."""
+    A, w = conditioned(10.0)
+    want = gamma_with(Zonotope(A), w[None], "compiled")
+    monkeypatch.setattr(GammaLP, "solve", _failed)
+    got = gamma_with(Zonotope(A), w[None], "scipy")
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+    with pytest.raises(ValueError, match=r"^A: .*forced failure.*condition number is 10\b") as e:
+        allocate(A, w)
+    assert "\n" not in str(e.value)
+
+
+def test_highs_and_walk_failing_is_a_value_error(monkeypatch):
+    """Where the walk gives up too (nan), a one-line ValueError naming the condition number,
+    not a RuntimeError traceback."""
+    A, w = conditioned(10.0)
+    monkeypatch.setattr(GammaLP, "solve", _failed)
+    monkeypatch.setattr(kernels, "gamma_rows", lambda G, P, prep, R, cap, out, dirs: None)
+    with pytest.raises(ValueError, match=r"^A: .*gave up.*condition number is 10\b") as e:
+        margin(A, w, method="scipy")
+    assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_ill_conditioned_matrix_has_an_answer(method):
+    """Condition 5e8 (full rank by the rank rule): HiGHS used to report 'infeasible' on the
+    gamma LP (a RuntimeError); every method now answers, feasible, and the gammas agree with
+    the compiled walk's."""
+    A, w = conditioned(5e8)
+    walk = gamma_with(Zonotope(A), w[None], "compiled")[0]
+    assert feasible(A, w, method=method).tolist() == [True]
+    np.testing.assert_allclose(1.0 - margin(A, w, method=method), walk, atol=1e-6)
