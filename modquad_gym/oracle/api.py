@@ -242,7 +242,7 @@ def allocate(A: np.ndarray, w: np.ndarray, f_max: float = 1.0) -> tuple[np.ndarr
         return u, math.inf
     if not z.rank:  # an all-zero A: w is (within the off-range rule) its only wrench, 0
         return np.full(z.m, z.f_max / 2.0), 0.0
-    res = GammaLP.build(z.G).solve(R[0])
+    res = GammaLP.build(z.V).solve(R[0] / z.sigma)  # equilibrated rows, as highs_lp
     if res.status != 0:  # always feasible and bounded: a numerical failure (ill-conditioned A)
         raise ValueError(condition_error(z, f"HiGHS: {res.message}"))
     x, gamma = res.x[: z.m], float(res.fun)

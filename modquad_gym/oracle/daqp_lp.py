@@ -1,8 +1,11 @@
 """The ``"daqp"`` method: one dense active-set LP per wrench (DAQP).
 
-The ray LP of :mod:`modquad_gym.oracle.lp` with B = G and the cube [-1, 1]:
-``max lambda s.t. G x = lambda r_hat, |x| <= 1, lambda >= 0``; gamma = |r| / lambda, re-evaluated
-from the returned allocation (an upper bound, within 1e-9 of HiGHS: measured <= 4e-10). HiGHS
+The ray LP of :mod:`modquad_gym.oracle.lp` on the equilibrated rows ``V x = rho``: ``G x = r``
+with row i divided by its singular value (``G = sigma V``, ``rho = r / sigma``, V with orthogonal
+rows of equal norm), so that DAQP's absolute tolerances mean the same at every scale and
+condition of A; and the cube [-1, 1]: ``max lambda s.t. V x = lambda rho_hat, |x| <= 1,
+lambda >= 0``; gamma = |rho| / lambda, re-evaluated from the returned allocation (an upper
+bound; its accuracy: :mod:`~modquad_gym.oracle.tolerance`). HiGHS
 (:mod:`modquad_gym.oracle.highs_lp`) when DAQP does not report an optimum. The LP's duals give a
 separating direction, which the certified method and the searches reuse.
 """
@@ -38,7 +41,7 @@ def _daqp_constants(m: int, r: int) -> dict[str, np.ndarray]:
 def _daqp_arrays(z: Zonotope) -> dict[str, np.ndarray]:
     """The DAQP work arrays of z (built once; the last column of A is set per wrench)."""
     if z.lp is None:
-        z.lp = dict(_daqp_constants(z.m, z.rank), A=ray_matrix(z.G, np.zeros(z.rank)))
+        z.lp = dict(_daqp_constants(z.m, z.rank), A=ray_matrix(z.V, np.zeros(z.rank)))
     return z.lp
 
 
@@ -47,16 +50,17 @@ def gamma_and_direction(z: Zonotope, r: np.ndarray) -> tuple[float, np.ndarray |
     returned allocation, d the dual direction (about a facet normal, or None)."""
     import daqp
 
-    nr = float(np.linalg.norm(r))
-    if nr <= 1e-14 * z.scale:
+    if float(np.linalg.norm(r)) <= 1e-14 * z.scale:
         return 0.0, None
+    rho = r / z.sigma  # the equilibrated right-hand side: V x = rho
+    nr = float(np.linalg.norm(rho))
     a = _daqp_arrays(z)
-    a["A"][:, -1] = -r / nr
+    a["A"][:, -1] = -rho / nr
     x, _, flag, info = daqp.solve(a["H"], a["f"], a["A"], a["bu"], a["bl"], a["sense"])
     lam = float(x[-1]) if flag == 1 else 0.0
     if lam <= 0.0:
         return float(gamma_highs(z, r[None])[0]), None
-    d = -np.asarray(info["lam"][z.m + 1 :], dtype=float)
+    d = -np.asarray(info["lam"][z.m + 1 :], dtype=float) / z.sigma  # duals of G x = r
     return z.gamma_of_allocation(x[: z.m] * (nr / lam), r), d
 
 

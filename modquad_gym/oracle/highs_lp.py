@@ -1,8 +1,10 @@
 """The ``"scipy"`` method: HiGHS through ``scipy.optimize.linprog``, the plain reference.
 
 gamma is the gamma LP of :mod:`modquad_gym.oracle.lp` (``min s s.t. G x = r, |x_i| <= s``) with
-tightened tolerances, re-evaluated from the allocation. Decisions come from its gamma by the
-tolerance rule (not from HiGHS's own tolerance).
+tightened tolerances, on the equilibrated rows ``V x = r / sigma`` (as :mod:`.daqp_lp`: HiGHS's
+absolute feasibility tolerance then means the same at every scale and condition of A),
+re-evaluated from the allocation. Decisions come from its gamma by the tolerance rule (not from
+HiGHS's own tolerance).
 """
 
 from __future__ import annotations
@@ -19,10 +21,10 @@ if TYPE_CHECKING:
 
 def gamma_highs(z: Zonotope, R: np.ndarray) -> np.ndarray:
     """Exact gamma for each row of R (centred reduced wrenches in range(A)) by HiGHS."""
-    lp = GammaLP.build(z.G)
+    lp = GammaLP.build(z.V)
     out = np.empty(len(R))
     for i, r in enumerate(R):
-        res = lp.solve(r)
+        res = lp.solve(r / z.sigma)
         if res.status == 0:
             out[i] = z.gamma_of_allocation(res.x[: z.m], r)
         else:  # always feasible and bounded: a numerical failure (ill-conditioned A)

@@ -29,17 +29,20 @@ and a small structure recurs (its full zonotope is soon wanted anyway)."""
 
 class WhitenedZonotope:
     """The fields of a :class:`~modquad_gym.oracle.zonotope.Zonotope` that its gammas need
-    (``reduce``, ``G``, ``P``, ``c``, ``box``, ``rank``, ``m``, the ``kernel`` and ``lp`` slots
+    (``reduce``, ``G``, ``P``, ``c``, ``box``, ``rank``, ``m``, ``V`` and ``sigma`` (here G and
+    ones), the ``kernel`` and ``lp`` slots
     and :meth:`gamma_of_allocation`), in the whitened coordinates ``L^-1 w / f_max``: for
     :func:`~modquad_gym.oracle.backends.gamma_capped_from` and the DAQP fallback, not for
     decisions, directions or margins of the API (which need the orthonormal basis)."""
 
     rank = 6
     scale = 0.5  # the singular values of G (all equal: G G^T = I / 4)
+    sigma = np.ones(6)  # G's rows are already of equal norms: the LPs take them as they are
 
     def __init__(self, A: np.ndarray, f_max: float, Linv, G, P, c, box) -> None:
         self.A, self.f_max, self.m = A, f_max, A.shape[1]
         self.Linv, self.G, self.P, self.c, self.box = Linv, G, P, c, box
+        self.V = G  # the LPs' equilibrated rows V x = r / sigma (daqp_lp, highs_lp)
         self.kernel: tuple | None = None
         self.lp: dict[str, np.ndarray] | None = None
 
