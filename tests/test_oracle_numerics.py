@@ -9,6 +9,7 @@ from modquad_gym.oracle import (
     BAND,
     METHODS,
     TOL,
+    WrenchOracle,
     Zonotope,
     allocate,
     feasible,
@@ -131,3 +132,28 @@ def test_stock_lattice_known_gammas_are_decided_right(method):
     A = Structure(LATTICE).configuration_matrix()
     W, s = known_gammas(A, np.random.default_rng(3), 100)
     assert np.array_equal(feasible(A, W, method=method), s <= 1.0 + TOL)
+
+
+@pytest.mark.parametrize("s", [1e-12, 2.0**-40, 1e-6, 1e12])
+@pytest.mark.parametrize("cells", [[(0, 0), (0, 1), (1, 0), (1, 1)], [(0, 0), (0, 1), (0, 2)]])
+def test_scaled_matrix_is_the_same_wrench_set(cells, s):
+    """(A s, f_max / s) has the wrench set of (A, f_max): the same rank, decisions, margins and
+    lambda ratios for every method (2 x 2: rank 6; a line: rank 5, wrenches in its range, as
+    the off-range rule is relative to f_max). The rank rule had a floor of 1 on A's scale
+    (A4 * 1e-12 was rank 0 and every small wrench feasible), and the LPs and the walk had
+    thresholds calibrated for A of order one (A4 * 1e-6 misjudged 6 of 50 wrenches)."""
+    A = Structure(cells).configuration_matrix()
+    rng = np.random.default_rng(len(cells))
+    W = rng.uniform(-0.4, 1.4, size=(40, A.shape[1])) @ A.T
+    W = np.vstack([W, 2.0 * A.sum(axis=1), np.zeros(6)])  # gamma 3; the zero wrench
+    assert Zonotope(A * s, 1.0 / s).rank == Zonotope(A).rank
+    for method in METHODS:
+        assert np.array_equal(feasible(A * s, W, 1.0 / s, method), feasible(A, W, 1.0, method))
+        np.testing.assert_allclose(
+            margin(A * s, W, 1.0 / s, method), margin(A, W, 1.0, method), atol=1e-8
+        )
+    np.testing.assert_allclose(lambda_ratio(A * s, W, 1.0 / s), lambda_ratio(A, W), rtol=1e-9)
+    screen = (np.zeros((len(W), 1)), np.zeros(1), 0.0)  # nothing screened out
+    got = WrenchOracle(1.0 / s).screened(A * s, W, *screen)
+    assert got[1:] == WrenchOracle().screened(A, W, *screen)[1:]
+    assert got[2] == np.count_nonzero(feasible(A, W))

@@ -29,16 +29,23 @@ DIRECTIONS = 16
 """Directions remembered per zonotope (where earlier wrenches were decided; tried first)."""
 
 
-def _prepared(z: Zonotope) -> tuple[tuple, tuple]:
+def _prepared(z: Zonotope) -> tuple[tuple, tuple, tuple]:
     """(the kernels' per-zonotope arrays, the remembered directions: (DIRECTIONS, rank), their
-    supports, how many were added) of z, built once."""
+    supports, how many were added; the generators walked: (G k, P / k, k) of
+    :func:`~.kernels.walk_view`) of z, built once."""
     prepared = z.kernel
     if prepared is None:
         from modquad_gym.oracle import kernels  # numba: compiled on first use, cached on disk
 
         memory = (np.zeros((DIRECTIONS, z.rank)), np.ones(DIRECTIONS), np.zeros(1, np.int64))
-        prepared = z.kernel = (kernels.prepare(z.G, z.P), memory)
+        view = kernels.walk_view(z)
+        prepared = z.kernel = (kernels.prepare(view[0], view[1]), memory, view)
     return prepared
+
+
+def _rows(R: np.ndarray, k: float) -> np.ndarray:
+    """The rows R in the walked coordinates (R k), contiguous float64."""
+    return np.ascontiguousarray(R if k == 1.0 else R * k, dtype=float)
 
 
 def verdicts(z: Zonotope, R: np.ndarray) -> np.ndarray:
@@ -46,9 +53,9 @@ def verdicts(z: Zonotope, R: np.ndarray) -> np.ndarray:
     (each by a certificate), -1 undecided."""
     from modquad_gym.oracle import kernels
 
-    prep, memory = _prepared(z)
+    prep, memory, (G, P, k) = _prepared(z)
     out = np.empty(len(R), dtype=np.int8)
-    kernels.decide_rows(z.G, z.P, prep, np.ascontiguousarray(R, dtype=float), memory, out)
+    kernels.decide_rows(G, P, prep, _rows(R, k), memory, out)
     return out
 
 
@@ -73,11 +80,12 @@ def gamma_compiled(
     optimum, a separating direction past ``cap``)."""
     from modquad_gym.oracle import kernels
 
-    prep, _ = _prepared(z)
-    R = np.ascontiguousarray(R, dtype=float)
+    prep, _, (G, P, k) = _prepared(z)
     out = np.empty(len(R))
     dirs = np.empty((0, z.rank)) if dirs is None else dirs
-    kernels.gamma_rows(z.G, z.P, prep, R, float(cap), out, dirs)
+    kernels.gamma_rows(G, P, prep, _rows(R, k), float(cap), out, dirs)
+    if k != 1.0 and len(dirs):
+        dirs *= k  # y / k in the walked coordinates
     rest = np.flatnonzero(np.isnan(out))
     if len(rest):
         out[rest] = gamma_daqp(z, R[rest])
@@ -101,11 +109,10 @@ def gamma_compiled_from(
     place: only its nan rows are computed, the others are the caller's (no vertex)."""
     from modquad_gym.oracle import kernels
 
-    prep, _ = _prepared(z)
-    R = np.ascontiguousarray(R, dtype=float)
+    prep, _, (G, P, k) = _prepared(z)
     out = np.full(len(R), np.nan) if out is None else out
     kernels.gamma_rows_from(
-        z.G, z.P, prep, R, float(cap), out, np.empty((0, z.rank)), starts, signs
+        G, P, prep, _rows(R, k), float(cap), out, np.empty((0, z.rank)), starts, signs
     )
     rest = np.flatnonzero(np.isnan(out))
     if len(rest):
@@ -122,10 +129,16 @@ def screen_compiled(
     rule, huge, or no certificate: the caller settles those by an LP)."""
     from modquad_gym.oracle import kernels
 
-    prep, memory = _prepared(z)
+    prep, memory, (G, P, k) = _prepared(z)
+    f_max = z.f_max / k  # the walked coordinates: w / f_max, and the rule's f_max, times k
+    if not 0.0 < f_max < np.inf:  # out of the float range: the screen alone, the LP decides
+        per_wrench = np.max(WD - h, axis=1, initial=-np.inf)
+        verdict = np.where(per_wrench <= slack, -1, -2).astype(np.int8)
+        tested = int(np.count_nonzero(verdict == -1))
+        return per_wrench, verdict, np.array([tested, 0, tested])
     per_wrench = np.empty(len(W))
     verdict = np.empty(len(W), dtype=np.int8)
     counts = np.zeros(3, dtype=np.int64)
-    kernels.decide_screened(W, WD, h, slack, z.f_max, z.Q, z.c, z.G, z.P, prep, memory,
+    kernels.decide_screened(W, WD, h, slack, f_max, k, z.Q, z.c * k, G, P, prep, memory,
                             per_wrench, verdict, counts)  # fmt: skip
     return per_wrench, verdict, counts

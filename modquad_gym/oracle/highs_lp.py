@@ -37,10 +37,10 @@ def _walked(z: Zonotope, r: np.ndarray, why: str) -> float:
     a ValueError naming A's condition number where the walk gives up too."""
     from modquad_gym.oracle import kernels  # numba: compiled on first use, cached on disk
 
-    prep = z.kernel[0] if z.kernel is not None else kernels.prepare(z.G, z.P)
+    G, P, k = kernels.walk_view(z)
     out = np.full(1, np.nan)
-    R = np.ascontiguousarray(r[None], dtype=float)
-    kernels.gamma_rows(z.G, z.P, prep, R, np.inf, out, np.empty((0, z.rank)))
+    R = np.ascontiguousarray(r[None] * k, dtype=float)
+    kernels.gamma_rows(G, P, kernels.prepare(G, P), R, np.inf, out, np.empty((0, z.rank)))
     if np.isnan(out[0]):
         raise ValueError(condition_error(z, f"HiGHS: {why}; the compiled walk gave up too"))
     return float(out[0])
@@ -61,11 +61,14 @@ def condition_error(z: Zonotope, why: str) -> str:
 def ray_highs(z: Zonotope, D: np.ndarray, lo: float, hi: float) -> np.ndarray:
     """The paper's LP from the origin per row d of D (range(A) coordinates, units of f_max):
     max lambda s.t. B u = lambda d_hat, lo <= u <= hi with B = Q^T A (HiGHS); 0 where even
-    lambda = 0 has no such u."""
-    B = z.G * 2.0
+    lambda = 0 has no such u. Solved on the equilibrated rows ``2 V u = lambda d_hat / sigma``
+    (as :func:`gamma_highs`): the ray LP's lambda along ``e = (d_hat / sigma) / |d_hat / sigma|``
+    is lambda |d_hat / sigma|."""
+    B = z.V * 2.0
     zero = np.zeros(B.shape[0])
     out = np.empty(len(D))
     for i, d in enumerate(D):
-        lam = ray_lp(B, zero, d, lo, hi, HIGHS_OPTIONS)
-        out[i] = 0.0 if lam is None else lam
+        e = d / np.linalg.norm(d) / z.sigma
+        lam = ray_lp(B, zero, e, lo, hi, HIGHS_OPTIONS)
+        out[i] = 0.0 if lam is None else lam / np.linalg.norm(e)
     return out

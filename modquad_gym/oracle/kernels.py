@@ -20,6 +20,8 @@ LP (:mod:`.compiled`). :func:`gamma_rows` runs the walk to the optimum for margi
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -28,6 +30,25 @@ from modquad_gym.oracle.walk import vertex_basis, vertex_walk, walk_from, walk_w
 
 _HUGE = 1e100  # rows of w / f_max beyond this are left undecided (reduce() avoids overflow)
 _OFF = 1.01  # off-range margin: residuals within this factor of the rule are left undecided
+
+WALKED_AS_IS = (0.5, 2.0**64)
+"""Largest singular values of G that the kernels walk as they are: the walk's thresholds are
+calibrated for G of order one (every physical A has one of at least 1/2: unit thrust
+directions); a zonotope outside is walked in coordinates scaled by a power of two
+(:func:`walk_view`)."""
+
+
+def walk_view(z) -> tuple[np.ndarray, np.ndarray, float]:
+    """(G k, P / k, k): the generators and pseudo-inverse the kernels walk for zonotope z, k a
+    power of two (scaling is exact) that brings G's largest singular value ``z.scale`` into
+    [1/2, 1) when it lies outside :data:`WALKED_AS_IS`, else 1 (z's own arrays). The kernels
+    then take the rows ``R k`` (gamma and every decision are the same in these coordinates;
+    a direction y becomes y / k)."""
+    low, high = WALKED_AS_IS
+    if not z.scale or low <= z.scale < high:
+        return z.G, z.P, 1.0
+    k = math.ldexp(1.0, max(-1000, min(1000, -math.frexp(z.scale)[1])))
+    return np.ascontiguousarray(z.G * k), np.ascontiguousarray(z.P / k), k
 
 
 @njit(cache=True)
@@ -280,11 +301,12 @@ def vertex_directions(G, R, starts, signs, cap, dirs, found):  # pragma: no cove
 
 
 @njit(cache=True)
-def _reduce_row(w, f_max, Q, c, r):  # pragma: no cover - compiled
+def _reduce_row(w, f_max, one, Q, c, r):  # pragma: no cover - compiled
     """Centred reduced coordinates r = (w / f_max) Q - c of one wrench (as
     :meth:`~modquad_gym.oracle.Zonotope.reduce`); returns 1 (in range(A)), 0 (certainly off
     range: residual beyond the oracle's RESIDUAL_TOL rule by a factor) or -1 (near that rule,
-    or too large for these coordinates: the oracle decides)."""
+    or too large for these coordinates: the oracle decides). ``one`` is the rule's f_max in
+    these units (1; k in the coordinates of :func:`walk_view`, where f_max is divided by k)."""
     n = Q.shape[1]
     norm2 = 0.0
     for j in range(6):
@@ -304,7 +326,7 @@ def _reduce_row(w, f_max, Q, c, r):  # pragma: no cover - compiled
             for i in range(n):
                 e -= r[i] * Q[j, i]
             resid2 += e * e
-        bound = RESIDUAL_TOL * (1.0 + np.sqrt(norm2))
+        bound = RESIDUAL_TOL * (one + np.sqrt(norm2))
         if np.sqrt(resid2) > _OFF * bound:
             return 0
         if not np.sqrt(resid2) < bound / _OFF:
@@ -315,7 +337,7 @@ def _reduce_row(w, f_max, Q, c, r):  # pragma: no cover - compiled
 
 
 @njit(cache=True)  # pragma: no cover - compiled
-def decide_screened(W, WD, h, slack, f_max, Q, c, G, P, prep, memory, per_wrench, out, counts):
+def decide_screened(W, WD, h, slack, f_max, one, Q, c, G, P, prep, memory, per_wrench, out, counts):
     """A structure against wrenches W (t, 6) after a support screen: per_wrench (t,) =
     max_d (WD - h) (see :meth:`~modquad_gym.oracle.WrenchOracle.screened`), and the verdict of
     each row into out: -2 where the screen rejects it (not tested), else 0 off range(A), else
@@ -334,7 +356,7 @@ def decide_screened(W, WD, h, slack, f_max, Q, c, G, P, prep, memory, per_wrench
         if not worst <= slack:
             out[k] = -2
             continue
-        verdict = _reduce_row(W[k], f_max, Q, c, r)
+        verdict = _reduce_row(W[k], f_max, one, Q, c, r)
         if verdict == 1:
             verdict = _decide_row(G, P, prep, r, memory, work)
         out[k] = verdict

@@ -6,6 +6,12 @@ line of modules r = 5) and ``Q^T w / f_max = c + G x`` for some x in the cube [-
 ``c = Q^T A 1 / 2`` is the hover-at-half-thrust centre and ``G = Q^T A / 2`` (reduced coordinates
 are in units of f_max). The methods (:mod:`modquad_gym.oracle.backends`) work on ``r = Q^T w /
 f_max - c`` as :meth:`Zonotope.reduce` returns it.
+
+The rank r counts A's singular values above ``1e-9`` times the largest (relative to A's own
+scale, so that (s A, f_max / s), the same wrench set, has the same zonotope; all zero: rank 0,
+only w = 0 reachable). A direction cut this way carries at most ``1e-9 |A|`` per unit thrust,
+which the off-range rule (relative to f_max + |w|, not to |A|) need not forgive: see
+:mod:`~modquad_gym.oracle.tolerance` for what that and A's condition number mean for accuracy.
 """
 
 from __future__ import annotations
@@ -41,7 +47,7 @@ class Zonotope:
         self.A = A
         self.m = A.shape[1]
         U, S, Vt = np.linalg.svd(A, full_matrices=False)
-        self.rank = r = int(np.count_nonzero(S > _RANK_TOL * max(S[0], 1.0)))
+        self.rank = r = int(np.count_nonzero(S > _RANK_TOL * S[0]))  # scale-free; A = 0: 0
         self.Q = U[:, :r]  # (6, r) orthonormal basis of range(A)
         self.V = V = Vt[:r]  # (r, m) orthonormal rows
         # Reduced coordinates are in units of f_max (the task is normalised at the entry,
