@@ -19,9 +19,17 @@ import numpy as np
 
 from modquad_gym.oracle.highs_lp import gamma_highs
 from modquad_gym.oracle.lp import ray_cost, ray_matrix
+from modquad_gym.oracle.tolerance import TOL
 
 if TYPE_CHECKING:
     from modquad_gym.oracle.zonotope import Zonotope
+
+
+RECHECK = TOL
+"""DAQP gammas in ``(1 + TOL, 1 + TOL + RECHECK]`` are recomputed by HiGHS: DAQP's are upper
+bounds (re-evaluated from its allocation) but its proximal iterations leave them up to 1.3e-7
+high on the stock 64-module lattice (:mod:`~modquad_gym.oracle.tolerance`), which must not
+reject a feasible wrench."""
 
 
 @functools.cache
@@ -65,5 +73,10 @@ def gamma_and_direction(z: Zonotope, r: np.ndarray) -> tuple[float, np.ndarray |
 
 
 def gamma_daqp(z: Zonotope, R: np.ndarray) -> np.ndarray:
-    """Exact gamma for each row of R (centred reduced wrenches in range(A)) by DAQP."""
-    return np.array([gamma_and_direction(z, r)[0] for r in R], dtype=float)
+    """Exact gamma for each row of R (centred reduced wrenches in range(A)) by DAQP; the
+    smaller of DAQP's and HiGHS's (both upper bounds) just above the threshold (RECHECK)."""
+    out = np.array([gamma_and_direction(z, r)[0] for r in R], dtype=float)
+    near = np.flatnonzero((out > 1.0 + TOL) & (out <= 1.0 + TOL + RECHECK))
+    if len(near):
+        out[near] = np.minimum(out[near], gamma_highs(z, R[near]))
+    return out
