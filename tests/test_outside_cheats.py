@@ -65,16 +65,9 @@ AGENTS = textwrap.dedent("""
 
 
 @pytest.fixture(scope="module")
-def agents(tmp_path_factory):
+def agents(importable):
     """The agents above as an importable module."""
-    import sys
-
-    folder = tmp_path_factory.mktemp("cheats")
-    (folder / f"{MODULE}.py").write_text(AGENTS)
-    sys.path.insert(0, str(folder))
-    yield __import__(MODULE)
-    sys.path.remove(str(folder))
-    sys.modules.pop(MODULE, None)
+    return importable(MODULE, AGENTS)
 
 
 def _suite() -> dict[str, list]:

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import csv
 import re
-import sys
 import textwrap
 from pathlib import Path
 
@@ -44,13 +43,8 @@ AGENTS = textwrap.dedent("""
 
 
 @pytest.fixture(scope="module")
-def agents(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("seeded")
-    (folder / f"{MODULE}.py").write_text(AGENTS)
-    sys.path.insert(0, str(folder))
-    yield __import__(MODULE)
-    sys.path.remove(str(folder))
-    sys.modules.pop(MODULE, None)
+def agents(importable):
+    return importable(MODULE, AGENTS)
 
 
 @pytest.fixture(scope="module")

@@ -30,8 +30,8 @@ and a small structure recurs (its full zonotope is soon wanted anyway)."""
 class WhitenedZonotope:
     """The fields of a :class:`~modquad_gym.oracle.zonotope.Zonotope` that its gammas need
     (``reduce``, ``G``, ``P``, ``c``, ``box``, ``rank``, ``m``, ``V`` and ``sigma`` (here G and
-    ones), the ``kernel`` and ``lp`` slots
-    and :meth:`gamma_of_allocation`), in the whitened coordinates ``L^-1 w / f_max``: for
+    ones), the ``kernel`` and ``lp`` slots and :meth:`gamma_of_allocation`), in the whitened
+    coordinates ``L^-1 w / f_max``: for
     :func:`~modquad_gym.oracle.backends.gamma_capped_from` and the DAQP fallback, not for
     decisions, directions or margins of the API (which need the orthonormal basis)."""
 

@@ -51,7 +51,7 @@ from modquad_gym.scoring.suites import SUITES_DIR, check_optima
 from modquad_gym.scoring.tiers import Tier, get_tier, honours_fault, validation_suite
 from modquad_gym.search import verified
 from modquad_gym.search.problem import DEFAULT_MODULE
-from modquad_gym.solvers import Solver, admissible, load_solver, make_solver
+from modquad_gym.solvers import Solver, load_solver, make_solver
 from modquad_gym.solvers.answers import NotAllowedError, rebuilt
 from modquad_gym.solvers.factory import model_named
 from modquad_gym.tasks import TaskRequirement, load_suite
@@ -186,9 +186,10 @@ def answer_cells(structure, types: list | None) -> list[list[int]]:
 
 
 def judged(answer, task, n_max: int, types: list, fault: str | None) -> bool:
-    """Is ``answer`` (a plain structure on ``types``, or None) a success on ``task``: at most
-    ``n_max`` modules of ``types``, verified by the exact oracle, surviving ``fault``?"""
-    ok = admissible(answer, n_max, types) and verified(answer, task)
+    """Is ``answer`` (a plain structure on ``types``, as :func:`_plain` or the leaderboard's
+    checks build it, or None) a success on ``task``: at most ``n_max`` modules, verified by the
+    exact oracle, surviving ``fault``?"""
+    ok = answer is not None and answer.n_modules <= n_max and verified(answer, task)
     return ok and (fault is None or survives(answer, task, fault))
 
 
