@@ -145,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
         p.error(str(exc))
     for band in args.bands:
         tasks = build_band(band, args.per_family, args.time_limit)
-        path = save_suite(tasks, suite_path(band, args.out), name=f"scale_{band}")
+        path = save_suite(tasks, suite_path(band, args.out), name=f"scale_{band}", force=args.force)
         print(f"{path}: {len(tasks)} tasks")
     return 0
 

@@ -53,7 +53,9 @@ def main() -> None:
     paper.save(HERE / "paper_seed0.json", force=True)
     paper.save(HERE / "paper_seed0.csv", force=True)
     planted.save(HERE / "planted_seed1.json", force=True)
-    save_suite([screwdriver, paper, planted], HERE / "suite_small.json", name="suite_small")
+    save_suite(
+        [screwdriver, paper, planted], HERE / "suite_small.json", name="suite_small", force=True
+    )
     for task in (screwdriver, paper, planted):
         print(
             f"{task.name}: {task.n_wrenches} wrenches, optimum {task.meta['optimum']} modules, "

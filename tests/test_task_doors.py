@@ -26,6 +26,7 @@ from modquad_gym.tasks import (
     PlantedTasks,
     ScrewdriverTask,
     load_task,
+    save_suite,
 )
 
 PAIR = mq.Structure([(0, 0), (1, 0)])
@@ -265,6 +266,7 @@ SAVERS = {
     "TaskRequirement.save": lambda path, **kw: ScrewdriverTask().task().save(path, **kw),
     "DynamicTask.save": lambda path, **kw: dy.hover(1.0, rate=20.0).save(path, **kw),
     "save_structure": lambda path, **kw: ex.save_structure(PAIR, path, **kw),
+    "save_suite": lambda path, **kw: save_suite([ScrewdriverTask().task()], path, **kw),
 }
 
 
@@ -293,3 +295,28 @@ def test_a_save_into_a_folder_names_it(tmp_path, save):
     folder.mkdir()
     with pytest.raises(ValueError, match=r"^path: .*d\.json is a folder, expected a file name"):
         save(folder, force=True)
+
+
+@pytest.mark.parametrize("module", ["suites", "tiers"])
+def test_the_suite_writers_refuse_an_existing_suite_before_any_search(
+    tmp_path, monkeypatch, capsys, module
+):
+    from modquad_gym.core.interrupts import run_command
+    from modquad_gym.scoring import suites, tiers
+
+    def no_search(*args, **kwargs):
+        raise AssertionError("the certified searches ran before the output was checked")
+
+    monkeypatch.setattr(suites, "build_suite", no_search)
+    monkeypatch.setattr(tiers, "build_tier_suite", no_search)
+    monkeypatch.setattr(tiers, "SUITES_DIR", tmp_path)
+    main, argv, name = {
+        "suites": (suites.main, ["--out", str(tmp_path)], "heldout_paper.json"),
+        "tiers": (tiers.main, ["large"], f"{tiers.TIERS['large'].suites[0]}.json"),
+    }[module]
+    (tmp_path / name).write_text("precious\n")
+    prog = f"python -m modquad_gym.scoring.{module}"
+    assert run_command(main, prog, argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert re.fullmatch(rf"{re.escape(prog)}: error: .*{re.escape(name)}.*--force.*", err), err
+    assert (tmp_path / name).read_text() == "precious\n"

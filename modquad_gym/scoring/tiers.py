@@ -30,6 +30,7 @@ import argparse
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from modquad_gym.core.outputs import check_output_file
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.geometry.module import palette
 from modquad_gym.policy.models import shipped_model
@@ -180,10 +181,13 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("tier", choices=[t for t in TIERS if TIERS[t].source])
     p.add_argument("--n", type=int, default=None, help="tasks (default: the tier's size)")
+    p.add_argument("--force", action="store_true", help="replace the shipped suite file")
     args = p.parse_args(argv)
     tier = TIERS[args.tier]
+    out = SUITES_DIR / f"{tier.suites[0]}.json"
+    check_output_file(out, force=args.force, what="output")  # before the certified searches
     tasks = build_tier_suite(tier, args.n)
-    path = save_suite(tasks, SUITES_DIR / f"{tier.suites[0]}.json")
+    path = save_suite(tasks, out, force=args.force)
     print(f"{path}: {len(tasks)} tasks, optimum counts {optimum_counts(tasks)}")
     return 0
 

@@ -7,7 +7,8 @@ import json
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
-from modquad_gym.core.outputs import write_text
+from modquad_gym.core.outputs import check_output_file, write_text
+from modquad_gym.core.validation import check_flag
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.tasks.examples import resolve_task_path
 from modquad_gym.tasks.files import (
@@ -59,13 +60,18 @@ def load_suite(path: PathLike) -> list[TaskRequirement | DynamicTask]:
 
 
 def save_suite(
-    tasks: Sequence[TaskRequirement | DynamicTask], path: PathLike, name: str | None = None
+    tasks: Sequence[TaskRequirement | DynamicTask],
+    path: PathLike,
+    name: str | None = None,
+    force: bool = False,
 ) -> Path:
     """Write ``tasks`` (a list or another iterable of tasks, not one task) as a suite JSON
     file, ``path`` a ``.json`` file (see :func:`load_suite`); ``name`` (a string) defaults to
-    the stem. A ValueError names the argument that is wrong (or what in a task's ``meta`` JSON
-    cannot hold) before the file is touched."""
+    the stem. An existing file is replaced only with ``force=True`` (as
+    :meth:`TaskRequirement.save`). A ValueError names the argument that is wrong (or what in a
+    task's ``meta`` JSON cannot hold) before the file is touched."""
     check_path(path)
+    force = check_flag(force, "force")
     path = Path(path)
     if path.suffix.lower() != ".json":
         raise ValueError(f"path: a suite is a .json file, got {str(path)!r}")
@@ -84,6 +90,7 @@ def save_suite(
             )
     if name is not None and not isinstance(name, str):
         raise ValueError(f"name must be a string or None, got {name!r}")
+    path = check_output_file(path, force=force, what="path")
     body = ",\n".join("    " + task_json(t.to_dict(), indent="    ") for t in tasks)
     head = json.dumps(name if name is not None else path.stem)
     write_text(path, f'{{\n  "name": {head},\n  "tasks": [\n{body}\n  ]\n}}\n')
