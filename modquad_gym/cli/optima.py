@@ -29,11 +29,14 @@ def add_optima(sub) -> None:
         help="certified optima of many tasks as a JSON-lines dataset (resumable)",
         description="For each task (static ones: a dynamic task is refused), the certified "
         "minimum module count and every optimal structure, one JSON object per line appended to "
-        "--out as tasks finish: task, name, digest, n_max, optimum, structures (lists of [x, y] "
-        "cells), count, evaluated, oracle_calls, seconds. Rerunning into the same file skips the "
-        "tasks it holds (a task file matched by its resolved path) and recomputes an unfinished "
-        "last line, so an interrupted run loses nothing it wrote; a line that is not such a "
-        "record is refused with its line number. "
+        "--out as tasks finish: task, path (a task file's, relative to the dataset's folder), "
+        "name, digest, n_max, optimum, structures (lists of [x, y] cells), count, evaluated, "
+        "oracle_calls, seconds. Rerunning into the same file, from any folder, skips the tasks "
+        "it holds (a task file matched by its resolved path) and recomputes an unfinished last "
+        "line, so an interrupted run loses nothing it wrote; a line that is not such a record, "
+        "or a second record of one task, is refused with its line number, and so is another "
+        "--n-max than the file's (one dataset, one n_max). One run writes a file at a time, "
+        "whatever path or link names it. "
         "Spread over Ray workers (RAY_ADDRESS=HOST:PORT modquad optima ... runs on a cluster).",
     )
     src = p.add_mutually_exclusive_group(required=True)
@@ -59,8 +62,9 @@ def add_optima(sub) -> None:
     p.add_argument(
         "--force",
         action="store_true",
-        help="empty --out and start over (a file that is not an optima dataset is otherwise "
-        "refused; a run that another process is writing is refused even so)",
+        help="empty --out and start over (a file that is not an optima dataset, or holds "
+        "another n_max, is otherwise refused; a file that another run is writing, by any path "
+        "or link, is refused even so)",
     )
 
 

@@ -15,6 +15,10 @@ KEYS = ("task", "name", "digest", "n_max", "optimum", "structures", "count", "ev
         "oracle_calls", "seconds")  # fmt: skip
 """Keys every record has (``proof`` too when it applies)."""
 
+OPTIONAL = ("path", "proof")
+"""Keys a record has when they apply: ``path`` (the task file, resolved, relative to the
+dataset's folder) and ``proof``."""
+
 
 MAX_STRUCTURES = 10_000
 """Most structures a record lists (in canonical order); ``count`` counts them all. A level
@@ -35,21 +39,24 @@ def check_record(record: object) -> dict:
     EXACT_MODULES), ``optimum`` (1 to n_max, or null), ``count`` (0 exactly when optimum is
     null), ``evaluated`` and ``oracle_calls`` (>= 0), ``seconds`` (finite, >= 0),
     ``structures`` (each ``optimum`` distinct [x, y] cells of non-negative integers; ``count``
-    of them, or the first MAX_STRUCTURES) and, when present, ``proof`` (a non-empty string)."""
+    of them, or the first MAX_STRUCTURES) and, when present, ``path`` and ``proof`` (non-empty
+    strings)."""
     if not isinstance(record, dict):
         raise ValueError(f"a record is a JSON object, got {_shown(record)}")
     for key in record:
-        if key not in (*KEYS, "proof"):
+        if key not in (*KEYS, *OPTIONAL):
             raise ValueError(f"{_shown(key)}: unknown key (a record's keys: "
-                             f"{', '.join(KEYS)}, proof)")  # fmt: skip
+                             f"{', '.join((*KEYS, *OPTIONAL))})")  # fmt: skip
     for key in KEYS:
         if key not in record:
             raise ValueError(f"{key}: missing")
-    for key in ("task", "name", "digest", *(("proof",) if "proof" in record else ())):
+    for key in ("task", "name", "digest", *(k for k in OPTIONAL if k in record)):
         if not isinstance(record[key], str):
             raise ValueError(f"{key} must be a string, got {_shown(record[key])}")
-    if not record["task"] or "\0" in record["task"]:
-        raise ValueError(f"task must name a task file or SUITE#i, got {_shown(record['task'])}")
+    for key in ("task", "path"):
+        if key in record and (not record[key] or "\0" in record[key]):
+            what = "a task file or SUITE#i" if key == "task" else "a task file"
+            raise ValueError(f"{key} must name {what}, got {_shown(record[key])}")
     if not DIGEST.fullmatch(record["digest"]):
         raise ValueError(f"digest must be 16 hex digits, got {_shown(record['digest'])}")
     if record.get("proof") == "":
