@@ -7,7 +7,8 @@
   n-module structure S of its support h_S(d) is task-independent. A task wrench with
   d . w > h_n(d) (widened by the oracle's tolerance) rules out the whole level n. h_n is
   computed once per (module type, n) by one pass over the level and cached on disk
-  (``$MODQUAD_CACHE`` or the user's cache folder, e.g. ``~/.cache/modquad_gym``); the default
+  (``$MODQUAD_CACHE`` or the user's cache folder, e.g. ``~/.cache/modquad_gym``; a file is
+  used only when its format and checksum match, :mod:`.bounds_cache`); the default
   T-module's bounds up to 14 modules ship with the package (regenerate:
   ``python -m benchmarks.level_bounds``). An upper bound of the widened support is used (max
   of each sum taken separately), so the test stays exact.
@@ -48,11 +49,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from modquad_gym.core.outputs import atomic_write
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.polyominoes import A001168, PolyominoStream
 from modquad_gym.oracle import RESIDUAL_TOL, TOL
 from modquad_gym.oracle.tolerance import SUPPORT_SLACK
+from modquad_gym.search.bounds_cache import read_cached, usable, write_cached
 from modquad_gym.search.dynamic import DynamicValues, force_needs, off_range_grant
 
 if TYPE_CHECKING:
@@ -236,9 +237,10 @@ def _shipped(digest: str, n: int) -> np.ndarray | None:
             return None
         with ref.open("rb") as fh, np.load(fh) as data:
             key = f"n{n}"
-            return data[key] if key in data.files else None
+            found = data[key] if key in data.files else None
     except (OSError, ValueError):
         return None
+    return found if usable(found, len(level_directions())) else None
 
 
 @lru_cache(maxsize=256)
@@ -247,16 +249,13 @@ def _bounds(digest: str, module: ModuleType, n: int, fault: str | None) -> np.nd
     if shipped is not None:
         return shipped
     kind = "" if fault is None else f"_{fault}"
-    path = _cache_dir() / f"level_bounds_{digest}{kind}_n{n}.npy"
-    try:
-        return np.load(path)
-    except (OSError, ValueError):
-        pass
-    if n > COMPUTE_ON_DEMAND_UP_TO:
-        return None
+    path = _cache_dir() / f"level_bounds_{digest}{kind}_n{n}.npz"
+    cached = read_cached(path, len(level_directions()))
+    if cached is not None or n > COMPUTE_ON_DEMAND_UP_TO:
+        return cached
     out = compute_level_bounds(module, n, fault)
     try:
-        atomic_write(path, lambda tmp: np.save(tmp.open("wb"), out))
+        write_cached(path, out)
     except OSError:
         pass  # a read-only home: the bound still holds for this process
     return out
