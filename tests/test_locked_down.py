@@ -46,6 +46,50 @@ def test_unwritable_places_move_the_caches_to_a_private_folder(tmp_path):
     assert len(notes) == 1 and "not writable" in notes[0], run.stderr
 
 
+PRIVATE_NOT_OURS = {
+    "writable by others": "os.chmod(pre, 0o777)\n",
+    "another owner": "",  # this process's uid seen as one more: the folder is another's
+    "a link": "pre.rmdir(); os.symlink(tempfile.mkdtemp(), pre)\n",
+}
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="no private folder on Windows")
+@pytest.mark.parametrize("how", sorted(PRIVATE_NOT_OURS))
+def test_a_private_folder_that_is_not_ours_is_not_adopted(tmp_path, how):
+    """The predictable folder in TMPDIR was adopted whatever its owner and mode (the reviewer's
+    was uid 65534, mode 777): another user who made it first could feed numba's pickled
+    cache index to this process. Now a fresh mkdtemp folder serves the run, and the note says
+    why; it is removed at exit."""
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    uid = "real = os.getuid(); os.getuid = lambda: real + 1\n" if how == "another owner" else ""
+    code = (
+        "import os, sys, tempfile; from pathlib import Path\n"
+        "import modquad_gym.core.caches as c\n"
+        f"b = Path({str(blocker)!r})\n"
+        "c.default_places = lambda: {'NUMBA_CACHE_DIR': [lambda: b / 'n'], "
+        "'MPLCONFIGDIR': [lambda: b / 'm']}\n"
+        "for v in ('NUMBA_CACHE_DIR', 'MPLCONFIGDIR'): os.environ.pop(v, None)\n"
+        f"{uid}pre = c.private_folder('NUMBA_CACHE_DIR'); pre.mkdir(mode=0o700)\n"
+        f"{PRIVATE_NOT_OURS[how]}"
+        "chosen = Path(c.configure()['NUMBA_CACHE_DIR']); info = os.lstat(chosen)\n"
+        "print(chosen != pre, chosen.parent == pre.parent, info.st_uid == os.geteuid(), "
+        "oct(info.st_mode & 0o777))\n"
+        "print(chosen)\n"
+    )
+    env = {**os.environ, "TMPDIR": str(tmp_path), "PYTHONPATH": str(ROOT)}
+    env.pop("NUMBA_CACHE_DIR", None)
+    run = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert run.returncode == 0, run.stderr
+    checks, chosen = run.stdout.splitlines()
+    assert checks.split() == ["True", "True", "True", "0o700"], run.stdout
+    notes = [line for line in run.stderr.splitlines() if "modquad_gym: note" in line]
+    assert len(notes) == 1 and "is not used" in notes[0], run.stderr
+    assert not Path(chosen).exists()  # removed at exit
+
+
 def test_the_places_checked_are_the_libraries_own(tmp_path, monkeypatch):
     """numba's user cache folder (its own AppDirs) and matplotlib's config folder (its own
     rule) are the ones configure() checks; the bounds' disk cache is platformdirs' user cache

@@ -10,11 +10,19 @@ variable (``NUMBA_CACHE_DIR``, ``MPLCONFIGDIR``) is not set, points the library 
 folder in the temporary directory, saying so in one line the first time. It imports neither
 library. Before that it checks the numba settings that would stop numba's import with a
 traceback, or that numba would ignore (:data:`NUMBA_SETTINGS`).
+
+The private folder has a predictable name (:func:`private_folder`), so another local user could
+make it first; numba's cache index files are pickles, which would then run their code in this
+process. A folder there is adopted only when it is a real folder (no link) owned by this user
+and writable by nobody else (:func:`private`); otherwise a fresh ``tempfile.mkdtemp`` folder
+serves this run, and the note says why.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+import stat
 import sys
 import tempfile
 from collections.abc import Callable
@@ -71,26 +79,64 @@ def private_folder(variable: str) -> Path:
     return Path(tempfile.gettempdir()) / f"modquad_gym-{variable.lower()}-{uid}"
 
 
+def private(folder: Path) -> str | None:
+    """None when ``folder`` is this user's own: a folder (not a link) owned by this uid, not
+    writable by its group or others; else what is wrong with it, in words."""
+    try:
+        info = os.lstat(folder)
+    except OSError as exc:
+        return exc.strerror or type(exc).__name__
+    if not stat.S_ISDIR(info.st_mode):
+        return "not a folder"
+    if info.st_uid != os.getuid():
+        return f"owned by uid {info.st_uid}"
+    if info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return f"writable by others (mode {stat.S_IMODE(info.st_mode):o})"
+    return None
+
+
+def _private_place(variable: str) -> tuple[Path | None, str]:
+    """The folder for ``variable`` (None when none can be made) and the words the note adds:
+    :func:`private_folder` when it is this user's own, else a fresh ``mkdtemp`` folder, removed
+    when the process ends (no later run would find it)."""
+    folder = private_folder(variable)
+    with contextlib.suppress(OSError):
+        folder.mkdir(mode=0o700)
+    wrong = private(folder)
+    if wrong is None:
+        return folder, ""
+    try:
+        fresh = tempfile.mkdtemp(prefix=f"modquad_gym-{variable.lower()}-")
+    except OSError:
+        return None, ""  # nothing writable at all: the library says so itself
+    import atexit
+    import shutil
+
+    atexit.register(shutil.rmtree, fresh, ignore_errors=True)
+    return Path(fresh), f" ({folder} is not used: {wrong})"
+
+
 def configure() -> dict[str, str]:
     """Set each variable whose library could not write otherwise; {variable: folder} set."""
     if sys.platform == "win32":
         return {}
     chosen: dict[str, str] = {}
     fresh = False
+    why = []
     for variable, places in default_places().items():
         if os.environ.get(variable) or any(_writable(place()) for place in places):
             continue
-        folder = private_folder(variable)
-        fresh = fresh or not folder.exists()
-        try:
-            folder.mkdir(mode=0o700, exist_ok=True)
-        except OSError:
-            continue  # nothing writable at all: the library says so itself
+        existed = private_folder(variable).exists()
+        folder, wrong = _private_place(variable)
+        if folder is None:
+            continue
+        fresh = fresh or not existed or bool(wrong)
+        why.append(wrong)
         os.environ[variable] = chosen[variable] = str(folder)
     if "NUMBA_CACHE_DIR" in chosen and "numba" in sys.modules:  # imported before us
         sys.modules["numba"].core.config.reload_config()
     if chosen and fresh:
-        where = ", ".join(f"{k}={v}" for k, v in chosen.items())
+        where = ", ".join(f"{k}={v}{w}" for (k, v), w in zip(chosen.items(), why, strict=True))
         from modquad_gym.core.notes import note  # logging only when there is a note
 
         note(
