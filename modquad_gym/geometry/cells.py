@@ -99,6 +99,44 @@ def is_connected(cells: Iterable[Cell]) -> bool:
     return len(seen) == len(cells)
 
 
+def parts(cells: Iterable[Cell]) -> list[list[Cell]]:
+    """The face-connected parts of ``cells``, each in the order of ``cells``; the parts in the
+    order of their first cells (the first cell's part first)."""
+    cells = list(cells)
+    taken, label = set(cells), {}
+    out: list[list[Cell]] = []
+    for c in cells:
+        if c in label:
+            continue
+        label[c], stack = len(out), [c]
+        while stack:
+            x, y = stack.pop()
+            for dx, dy in NEIGHBOURS:
+                nb = (x + dx, y + dy)
+                if nb in taken and nb not in label:
+                    label[nb] = len(out)
+                    stack.append(nb)
+        out.append([])
+    for c in cells:
+        out[label[c]].append(c)
+    return out
+
+
+def check_connected(cells: tuple[Cell, ...]) -> None:
+    """A ValueError unless ``cells`` are face-connected, naming the first cell (1-based, in the
+    order given) not connected to cell #1 and the sizes of the parts (short for any count)."""
+    if is_connected(cells):
+        return
+    split = parts(cells)
+    first = cells.index(split[1][0])
+    sizes = ", ".join(str(len(p)) for p in split[:5]) + (", ..." if len(split) > 5 else "")
+    raise ValueError(
+        f"cells are not face-connected (modules dock side by side): cell #{first + 1} "
+        f"{cells[first]} is not connected to cell #1 {cells[0]}; {len(split)} parts ({sizes} "
+        "cells)"
+    )
+
+
 def free_neighbours(cells: Iterable[Cell]) -> list[Cell]:
     """Empty cells 4-adjacent to ``cells`` (where a module can dock), sorted."""
     cells = set(cells)

@@ -1,9 +1,10 @@
 """Module types: the rotor data of one docking module (paper Def. 1 and Def. 5).
 
-A module type is plain data: where its four rotors sit in the module frame {M}, which way each
-pushes, and which way each spins. `ModuleType.from_tilts` builds any type whose rotors are tilted
-about their own arms (heterogeneous H-ModQuad types are just other tilt vectors); `TModule` is the
-paper's T-module, eta_1 = eta_3 = -eta_2 = -eta_4 = eta.
+A module type is plain data: where its rotors sit in the module frame {M} (any number of them:
+four in the stock types), which way each pushes, and which way each spins.
+`ModuleType.from_tilts` builds any quadrotor type whose rotors are tilted about their own arms
+(heterogeneous H-ModQuad types are just other tilt vectors); `TModule` is the paper's T-module,
+eta_1 = eta_3 = -eta_2 = -eta_4 = eta.
 
 Rotor layout (our choice; the paper's figure is not in the source text): rotors sit at the centres
 of the four quadrants of the square module of side ``side``, counter-clockwise from the front-left,
@@ -53,6 +54,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from modquad_gym.core.validation import check_real, refuse_complex
+from modquad_gym.proofcheck_format import MAX_LENGTH
 
 DEFAULT_SIDE = 0.4
 """Module side length l in metres (paper Sec. VI)."""
@@ -87,18 +89,27 @@ class ModuleType:
     """Rotor data of one module type, in the module frame {M} (origin at the module centre).
 
     Attributes:
-        positions: (4, 3) rotor positions p_j in metres.
-        directions: (4, 3) unit thrust directions R_j e3.
-        spins: (4,) spin signs (+1 or -1) multiplying the drag torque c_tau * f * d.
-        side: module side length l in metres (modules dock on a grid of pitch ``side``).
-        c_tau: drag-to-thrust ratio in metres.
+        positions: (r, 3) rotor positions p_j in metres (r >= 1 rotors; the stock types have
+            4), each coordinate within +-:data:`MAX_LENGTH` of the module centre.
+        directions: (r, 3) thrust directions R_j e3 (non-zero; stored normalised).
+        spins: (r,) spin signs, each +1 or -1, multiplying the drag torque c_tau * f * d.
+        side: module side length l in metres, in (0, :data:`MAX_LENGTH`] (modules dock on a
+            grid of pitch ``side``).
+        c_tau: drag-to-thrust ratio in metres, in [0, :data:`MAX_LENGTH`].
         name: a label for reports (the stock types use their short command-line names).
         mass: mass in kg, its centre of mass at the module centre (default :data:`DEFAULT_MASS`).
-        height: height in metres of the uniform box whose inertia the module has by default.
+        height: height in metres, in [0, :data:`MAX_LENGTH`], of the uniform box whose inertia
+            the module has by default.
         inertia: (3, 3) inertia tensor in kg m^2 about the module centre, module axes; default
             (None) the uniform box of side x side x ``height`` (module docstring). A given one
             must be symmetric with principal moments that are >= 0 and obey the triangle
-            inequality (a real body's).
+            inequality (a real body's). The MuJoCo model and the MJCF and URDF exports further
+            need every principal moment positive (:mod:`modquad_gym.sim.inertial`); the
+            searches do not use the inertia.
+
+    Each argument is checked when the type is made: a wrong one is a ValueError naming it (its
+    expected shape for the arrays). :data:`MAX_LENGTH` (10 m) is the certificate checker's
+    limit on a type's lengths (:mod:`modquad_gym.proofcheck_format`).
 
     Types compare by identity (two equal-looking types are two types); :attr:`digest` names the
     rotor data, side, drag ratio and mass (and a given non-box inertia), so that copies can be
@@ -119,21 +130,15 @@ class ModuleType:
     def __post_init__(self) -> None:
         for what in ("positions", "directions", "spins", "inertia"):
             refuse_complex(getattr(self, what), what)
-        pos = np.array(self.positions, dtype=float)
-        dirs = np.array(self.directions, dtype=float)
-        spins = np.array(self.spins, dtype=float)
-        if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] == 0:
-            raise ValueError(f"positions must have shape (r, 3), got {pos.shape}")
-        if dirs.shape != pos.shape:
-            raise ValueError(f"directions must have shape {pos.shape}, got {dirs.shape}")
-        if spins.shape != (pos.shape[0],):
-            raise ValueError(f"spins must have shape ({pos.shape[0]},), got {spins.shape}")
+        pos, dirs, spins = _rotor_arrays(self.positions, self.directions, self.spins)
         norms = np.linalg.norm(dirs, axis=1)
-        if not np.all(np.isfinite(pos)) or not np.all(np.isfinite(dirs)) or np.any(norms < 1e-12):
-            raise ValueError("positions and directions must be finite, directions non-zero")
         for what, value in _scalars(self.side, self.c_tau, self.name, self.mass, self.height):
             object.__setattr__(self, what, value)
-        box = box_inertia(self.mass, self.side, self.side, self.height)
+        with np.errstate(over="ignore"):
+            box = box_inertia(self.mass, self.side, self.side, self.height)
+        if not np.all(np.isfinite(box)):
+            raise ValueError(f"mass {self.mass:g} kg is too large: the inertia of a module of "
+                             f"side {self.side:g} m overflows")  # fmt: skip
         given = self.inertia is not None
         J = check_inertia(self.inertia) if given else box
         object.__setattr__(self, "_box_inertia", not given or bool(np.allclose(J, box, 0, 1e-15)))
@@ -190,7 +195,7 @@ class ModuleType:
         ``height`` and ``inertia`` as in the class docstring.
         """
         refuse_complex(tilts, "tilts")
-        side = check_real(side, "side", positive=True)  # before it places the rotors
+        side = check_real(side, "side", high=MAX_LENGTH, positive=True)  # before the rotors
         tilts = np.asarray(tilts, dtype=float)
         if tilts.shape != (4,) or not np.all(np.isfinite(tilts)):
             raise ValueError(f"tilts must be 4 finite angles in radians, got {tilts!r}")
@@ -216,12 +221,58 @@ def _scalars(side: object, c_tau: object, name: object, mass: object, height: ob
     if not isinstance(name, str) or not name:
         raise ValueError(f"name must be a non-empty string, got {name!r}")
     return (
-        ("side", check_real(side, "side", positive=True)),
-        ("c_tau", check_real(c_tau, "c_tau", low=0.0)),
+        ("side", check_real(side, "side", high=MAX_LENGTH, positive=True)),
+        ("c_tau", check_real(c_tau, "c_tau", 0.0, MAX_LENGTH)),
         ("name", name),
         ("mass", check_real(mass, "mass", positive=True)),
-        ("height", check_real(height, "height", low=0.0)),
+        ("height", check_real(height, "height", 0.0, MAX_LENGTH)),
     )
+
+
+def _numbers(value: object, what: str, shape: str) -> np.ndarray:
+    """``value`` as a float array (a copy), or a ValueError naming ``what`` and the ``shape``
+    expected when it is not an array of real numbers (text, booleans, ragged rows)."""
+    expected = f"{what} must be a {shape} array of numbers"
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError, OverflowError):  # ragged rows
+        raise ValueError(f"{expected}, got {value!r:.80}") from None
+    if raw.dtype.kind not in "iuf":
+        raise ValueError(f"{expected}, got {value!r:.80}")
+    return raw.astype(float)
+
+
+def _rotor_arrays(positions: object, directions: object, spins: object) -> tuple:
+    """(positions (r, 3), directions (r, 3), spins (r,)) as float arrays, checked: shapes,
+    finite positions within +-MAX_LENGTH m, non-zero finite directions, spins of +-1 (each a
+    ValueError naming the field)."""
+    pos = _numbers(positions, "positions", "(r, 3)")
+    if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] == 0:
+        raise ValueError(
+            f"positions must be a (r, 3) array of numbers, r >= 1, got shape {pos.shape}"
+        )
+    r = pos.shape[0]
+    dirs = _numbers(directions, "directions", f"({r}, 3)")
+    if dirs.shape != pos.shape:
+        raise ValueError(
+            f"directions must be a ({r}, 3) array of numbers (a row per rotor of positions), "
+            f"got shape {dirs.shape}"
+        )
+    spins = _numbers(spins, "spins", f"({r},)")
+    if spins.shape != (r,):
+        raise ValueError(
+            f"spins must be a ({r},) array of numbers (one per rotor), got shape {spins.shape}"
+        )
+    if not np.all(np.abs(pos) <= MAX_LENGTH):  # NaN fails too
+        raise ValueError(
+            f"positions must be finite, each coordinate within +-{MAX_LENGTH:g} m of the module "
+            f"centre, got {pos.tolist()!r:.80}"
+        )
+    if not np.all(np.isfinite(dirs)) or np.any(np.linalg.norm(dirs, axis=1) < 1e-12):
+        raise ValueError(f"directions must be finite and non-zero, got {dirs.tolist()!r:.80}")
+    if not np.all(np.abs(spins) == 1):
+        raise ValueError(f"spins must each be +1 or -1, got {spins.tolist()!r:.80}")
+    return pos, dirs, spins
 
 
 def box_inertia(mass: float, x: float, y: float, z: float) -> np.ndarray:
@@ -233,10 +284,7 @@ def check_inertia(J: object, what: str = "inertia") -> np.ndarray:
     """A float (3, 3) copy of ``J`` if it is a physical inertia tensor (symmetric, principal
     moments >= 0 obeying the triangle inequality), else a ValueError naming ``what``."""
     refuse_complex(J, what)
-    try:
-        arr = np.array(J, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what} must be a (3, 3) array of numbers in kg m^2") from None
+    arr = _numbers(J, what, "(3, 3)")
     if arr.shape != (3, 3) or not np.all(np.isfinite(arr)):
         raise ValueError(f"{what} must be a finite (3, 3) array in kg m^2, got shape {arr.shape}")
     scale = float(np.abs(arr).max())

@@ -25,6 +25,7 @@ from modquad_gym.geometry.cells import (
     Cell,
     Key,
     as_cell,
+    check_connected,
     free_neighbours,
     is_connected,
     normalise,
@@ -112,10 +113,7 @@ class Structure:
         if len(set(parsed)) != len(parsed):
             dupes = sorted({c for c in parsed if parsed.count(c) > 1})
             raise ValueError(f"duplicate cells {dupes}: one module per cell")
-        if not is_connected(parsed):
-            raise ValueError(
-                f"cells {list(parsed)} are not face-connected: modules dock side by side"
-            )
+        check_connected(parsed)
         if module is not None and not isinstance(module, ModuleType):
             raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
         mods = None
