@@ -94,6 +94,21 @@ def palette(args: argparse.Namespace):
     return palette_of(getattr(args, "modules", None), repeats=bool(getattr(args, "cells", None)))
 
 
+def check_simulable_types(args: argparse.Namespace) -> None:
+    """A ValueError (``--modules: module type ...``) when a type of ``--modules`` has an inertia
+    MuJoCo cannot compile (:func:`~modquad_gym.sim.inertial.check_simulable`): for the
+    commands that simulate or export a model, before any search."""
+    types = palette(args)
+    if not types:
+        return
+    from modquad_gym.sim.inertial import check_simulable
+
+    try:
+        check_simulable(types)
+    except ValueError as exc:
+        raise ValueError(f"--modules: {exc}") from None
+
+
 def add_command(sub, name: str, func: Command, help: str, description: str):
     """A subcommand parser of ``sub`` that runs ``func(args)``."""
     parser = sub.add_parser(name, help=help, description=description)

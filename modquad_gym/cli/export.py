@@ -96,6 +96,8 @@ def cmd_export(args: argparse.Namespace) -> int:
                        "with --cells (which gives it)")  # fmt: skip
     check_output_file(args.out, force=args.force, what="--out")  # before any search
     fmt = export_format(args.out, args.format, names=("--out", "--format"))  # save_structure's rule
+    if fmt != "json":
+        common.check_simulable_types(args)  # before any search
     f_max = args.f_max
     if args.cells:
         structure = structure_from_cells(args.cells, palette(args), check_exportable)

@@ -131,6 +131,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
                    f"applies to a static task; {args.task} is a dynamic one (flown along its "
                    "trajectory)")  # fmt: skip
     common.check_task(task, args.task, common.palette(args))
+    common.check_simulable_types(args)
     names = output_names(args, dynamic)
     check_output_dir(args.out, names, force=args.force)
     n_hover = task.n_wrenches if k is None else min(k, task.n_wrenches)

@@ -22,15 +22,25 @@ SI units, :mod:`modquad_gym.geometry.structure`):
 * ``urdf``: link ``base_link`` at {S} with a box (visual and collision) per module; per rotor a
   link ``rotor{k}`` (the propeller: a disc, visual and collision) on a ``continuous`` joint
   ``rotor{k}_joint`` whose origin is the rotor frame and whose axis is the propeller's turning
-  direction (``0 0 -s_k`` in the rotor frame). Each propeller carries
-  :data:`ROTOR_MASS_FRACTION` of its module's mass as a solid disc (radius
-  :data:`ROTOR_RADIUS_FRACTION` of the module side, :data:`ROTOR_THICKNESS` thick) and
-  ``base_link`` the rest, its inertial placed so that the whole robot has exactly the
-  structure's mass, COM (the origin of {S}) and inertia about the COM. (Simulators refuse a
-  moving link without mass, e.g. MuJoCo's "mass and inertia of moving bodies must be larger
-  than mjMINVAL".) The root link floats in PyBullet (``useFixedBase=False``, its default) and
-  Drake (a body not welded to the world); MuJoCo's URDF import attaches the root link to the
-  world without a joint, so :func:`urdf_spec` loads the file and adds a free joint. A
+  direction (``0 0 -s_k`` in the rotor frame; the disc's radius is
+  :data:`ROTOR_RADIUS_FRACTION` of the module side, :data:`ROTOR_THICKNESS` thick). Each
+  propeller carries a share f of its module: f of the module's mass, centred on the rotor, and
+  f of the module's own inertia (a scaled copy of the module's, the one shape that fits every
+  module type, flat ones included); f is :data:`ROTOR_MASS_FRACTION` (1 %), halved while what
+  the module keeps would have less than half its room left in some direction
+  (:func:`~modquad_gym.sim.inertial.rotor_share`: a module whose inertia is small for its
+  rotors' arms gets light propellers). ``base_link`` carries the rest, its inertial placed so
+  that the whole robot has exactly the structure's mass, COM (the origin of {S}) and inertia
+  about the COM, and so that every link is a physical body (positive principal moments obeying
+  the triangle inequality). A flat module type (height 0) lies on the triangle boundary, where
+  MuJoCo's check depends on round-off: it is thickened by at most 1e-7 of its largest moment
+  (:func:`~modquad_gym.sim.inertial.thickened`). Simulators refuse a moving link without mass
+  (MuJoCo: "mass and inertia of moving bodies must be larger than mjMINVAL"); a module type
+  whose inertia MuJoCo cannot compile is refused before writing
+  (:func:`~modquad_gym.sim.inertial.check_simulable`). The root link floats in PyBullet
+  (``useFixedBase=False``, its default) and Drake (a body not welded to the world); MuJoCo's
+  URDF import attaches the root link to the world without a joint, so :func:`urdf_spec` loads
+  the file and adds a free joint. A
   ``<mujoco><compiler .../></mujoco>`` element (MuJoCo's URDF extension, ignored by other
   readers) keeps the visuals and the base as a body. URDF has no thrust: the JSON (or the
   MJCF) holds ``f_max``, ``c_tau`` and the configuration matrix. The URDF is written with
@@ -49,7 +59,6 @@ from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.geometry.inertia import inertia_about_com
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle.scale import check_f_max_range
 from modquad_gym.sim.export_formats import (  # noqa: F401 (FORMATS, SUFFIXES: kept here too)
@@ -57,13 +66,15 @@ from modquad_gym.sim.export_formats import (  # noqa: F401 (FORMATS, SUFFIXES: k
     SUFFIXES,
     export_format,
 )
+from modquad_gym.sim.inertial import (  # noqa: F401 (base_inertial, ROTOR_MASS_FRACTION: here too)
+    ROTOR_MASS_FRACTION,
+    base_inertial,
+    check_simulable,
+    propeller_inertials,
+)
 
 MODULE_THICKNESS = 0.05
 """Height of a module's box in the URDF visuals, metres (as in the MuJoCo model)."""
-
-ROTOR_MASS_FRACTION = 0.01
-"""Share of its module's mass that each URDF propeller link carries (3 g of a 0.3 kg module: a
-small propeller); ``base_link`` carries the rest."""
 
 ROTOR_RADIUS_FRACTION = 0.14
 """A URDF propeller's radius as a fraction of its module's side (the MuJoCo model's rotor discs)."""
@@ -145,11 +156,13 @@ def lift_statement(structure: Structure, f_max: float = 1.0) -> str:
 
 def structure_dict(structure: Structure, f_max: float = 1.0) -> dict:
     """The structure as plain JSON data: frame and units, cells and module types, mass and
-    inertia (about the COM, {S} axes), rotor poses, and the configuration matrix A (6 x 4n,
+    inertia (about the COM, {S} axes), rotor poses (each with the index of its module: types
+    may have any number of rotors), and the configuration matrix A (6 x R for R rotors,
     column k = rotor k: the wrench [f; tau] about the COM per unit thrust)."""
     f_max = check_f_max_range(f_max)
     s = check_structure(structure)
-    rotors = zip(s.rotor_positions, s.rotor_directions, s.rotor_spins, s.rotor_c_tau,
+    owner = np.repeat(np.arange(s.n_modules), [m.n_rotors for m in s.modules])
+    rotors = zip(owner, s.rotor_positions, s.rotor_directions, s.rotor_spins, s.rotor_c_tau,
                  strict=True)  # fmt: skip
     return {
         "format": "modquad_gym.structure",
@@ -175,45 +188,25 @@ def structure_dict(structure: Structure, f_max: float = 1.0) -> dict:
         ],
         "rotors": [
             {
-                "module": k // 4,
+                "module": int(i),
                 "position": p.tolist(),
                 "direction": d.tolist(),
                 "quaternion": rotor_quaternion(d).tolist(),
                 "spin": int(spin),
                 "c_tau": float(c_tau),
             }
-            for k, (p, d, spin, c_tau) in enumerate(rotors)
+            for i, p, d, spin, c_tau in rotors
         ],
         "configuration_matrix": s.configuration_matrix().tolist(),
     }
 
 
 def rotor_links(structure: Structure) -> list[tuple[float, np.ndarray]]:
-    """(mass, inertia (3, 3) about its centre in the rotor frame) of each URDF propeller link:
-    a solid disc of :data:`ROTOR_MASS_FRACTION` of its module's mass (module docstring)."""
-    out = []
-    for m in structure.modules:
-        mass = ROTOR_MASS_FRACTION * m.mass
-        r, h = ROTOR_RADIUS_FRACTION * m.side, ROTOR_THICKNESS
-        across = mass * (3 * r * r + h * h) / 12  # about a diameter
-        out += [(mass, np.diag([across, across, mass * r * r / 2]))] * 4
-    return out
-
-
-def base_inertial(structure: Structure) -> tuple[float, np.ndarray, np.ndarray]:
-    """(mass, COM (3,) in {S}, inertia (3, 3) about that COM) of the URDF's ``base_link``: the
-    structure less its propeller links, so that base and propellers together have exactly the
-    structure's mass, COM (the origin) and inertia about the COM."""
-    s = structure
-    rotors = rotor_links(s)
-    P = np.asarray(s.rotor_positions, dtype=float)
-    masses = np.array([m for m, _ in rotors])
-    own = [R @ J @ R.T for (_, J), R in zip(rotors, _rotor_matrices(s), strict=True)]
-    mass = s.mass - masses.sum()
-    com = -(masses @ P) / mass  # the whole robot's COM stays at the origin
-    J = np.asarray(s.inertia, dtype=float) - inertia_about_com(P, masses, own)
-    J -= mass * (np.eye(3) * (com @ com) - np.outer(com, com))  # about the base's own COM
-    return mass, com, (J + J.T) / 2
+    """(mass, inertia (3, 3) about its centre in the rotor frame) of each URDF propeller link,
+    one per rotor: a share of its module's mass and inertia (module docstring)."""
+    masses, own = propeller_inertials(structure)
+    frames = _rotor_matrices(structure)
+    return [(float(mass), R.T @ J @ R) for mass, J, R in zip(masses, own, frames, strict=True)]
 
 
 MUJOCO_URDF_COMPILER = {"discardvisual": "false", "fusestatic": "false", "strippath": "false"}
@@ -226,6 +219,7 @@ def urdf_text(structure: Structure, name: str | None = None, f_max: float = 1.0)
     thrust-to-weight ratio at ``f_max`` N per rotor (:func:`lift_statement`). ``name`` (the
     robot's name; default ``modquad_N``) is a non-empty line of printable text."""
     s = check_structure(structure)
+    check_simulable(s)
     if name is not None and not (isinstance(name, str) and name.strip() and name.isprintable()):
         raise ValueError(f"name must be None or a non-empty line of printable text, got {name!r}")
     robot = ET.Element("robot", name=name or f"modquad_{s.n_modules}")
@@ -238,7 +232,7 @@ def urdf_text(structure: Structure, name: str | None = None, f_max: float = 1.0)
         _shape(base, "visual", f"module{i}_{m.name}", centre, box)
         _shape(base, "collision", f"module{i}_collision", centre, box)
     rotors = zip(s.rotor_positions, s.rotor_directions, s.rotor_spins, rotor_links(s),
-                 [m for m in s.modules for _ in range(4)], strict=True)  # fmt: skip
+                 [m for m in s.modules for _ in range(m.n_rotors)], strict=True)  # fmt: skip
     for k, (p, d, spin, (mass, J), m) in enumerate(rotors):
         link = ET.SubElement(robot, "link", name=f"rotor{k}")
         _inertial(link, mass, np.zeros(3), J)
@@ -280,13 +274,13 @@ def mjcf_text(structure: Structure, f_max: float = 1.0) -> str:
     """The MJCF of ``structure``'s MuJoCo model (:func:`modquad_gym.sim.model.model_spec`) with
     its thrust-to-weight ratio: a comment and the custom numerics ``thrust_to_weight`` and
     ``hover_f_max`` (N; ``model.numeric("thrust_to_weight").data`` once loaded)."""
-    from modquad_gym.sim.model import model_spec
+    from modquad_gym.sim.model import model_spec, spec_xml
 
     spec = model_spec(structure, f_max)
     spec.add_numeric(name="thrust_to_weight", data=[thrust_to_weight(structure, f_max)])
     spec.add_numeric(name="hover_f_max", data=[min(hover_f_max(structure), 1e300)])
     comment = f"<!-- modquad_gym structure: {lift_statement(structure, f_max)} -->\n"
-    return comment + spec.to_xml()
+    return comment + spec_xml(spec)
 
 
 def export_text(structure: Structure, fmt: str, f_max: float = 1.0) -> str:
@@ -294,6 +288,8 @@ def export_text(structure: Structure, fmt: str, f_max: float = 1.0) -> str:
     1e-300..1e300 N (:func:`~modquad_gym.oracle.scale.check_f_max_range`)."""
     check_structure(structure)
     f_max = check_f_max_range(f_max)
+    if fmt in ("mjcf", "urdf"):
+        check_simulable(structure)
     if fmt == "mjcf":
         return mjcf_text(structure, f_max)
     if fmt == "urdf":
@@ -336,11 +332,17 @@ def save_structure(
 
 
 def check_structure(structure: object) -> Structure:
-    """``structure`` itself when it is a :class:`~modquad_gym.geometry.structure.Structure`,
-    else a ValueError naming its type (what every writer takes)."""
+    """``structure`` itself when it is a :class:`~modquad_gym.geometry.structure.Structure`
+    whose mass and inertia are finite, else a ValueError naming its type or the overflow (what
+    every writer takes: JSON has no NaN)."""
     if not isinstance(structure, Structure):
         raise ValueError(
             f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
+        )
+    if not (math.isfinite(structure.mass) and np.all(np.isfinite(structure.inertia))):
+        raise ValueError(
+            f"structure: its mass and inertia overflow ({structure.mass:g} kg over "
+            f"{structure.n_modules} modules): module masses too large to write"
         )
     return structure
 

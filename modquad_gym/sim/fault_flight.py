@@ -47,6 +47,7 @@ from modquad_gym.oracle.faults import FaultTolerance, check_fault, failure_sets 
 from modquad_gym.search.checker import LP_ROTORS  # noqa: E402
 from modquad_gym.sim.detector import make_detector  # noqa: E402
 from modquad_gym.sim.failure import DETECTION_DELAY_S, Failure, flown_delay  # noqa: E402, F401
+from modquad_gym.sim.inertial import check_simulable  # noqa: E402
 from modquad_gym.sim.report import finite_or_none  # noqa: E402
 from modquad_gym.sim.track import TrackConfig, TrackResult  # noqa: E402
 
@@ -378,6 +379,7 @@ def fly_with_failure(
 
     if not isinstance(structure, Structure):
         raise ValueError(f"structure must be a Structure, got {type(structure).__name__}")
+    check_simulable(structure)  # before the worst failure's search
     fault = check_fault(fault)
     detection_delay_s = flown_delay(detection_delay_s, detector)
     W, fm = _rotor_wrenches(structure, task, f_max)

@@ -7,7 +7,10 @@ spec by about 1e-6 relative, e.g. in the rotor site quaternions). It has:
 
 * Body ``structure`` with a free joint. Its frame is the structure frame {S}: origin at the COM of
   the module centres, axes parallel to the modules', z up. It starts at ``(0, 0, HOME_HEIGHT)``.
-* The body's mass and inertia are given explicitly (an inertial at the origin):
+* The body's mass and inertia are given explicitly (an inertial at the origin, the inertia as
+  principal axes ``iquat`` and moments: :func:`~modquad_gym.sim.inertial.principal_axes`, so
+  that a flat body keeps MuJoCo's A + B >= C; a module type whose inertia MuJoCo cannot compile
+  is refused first, :func:`~modquad_gym.sim.inertial.check_simulable`):
   :attr:`Structure.mass` and :attr:`Structure.inertia` (each module its type's ``mass``, default
   0.3 kg, and ``inertia``, default a uniform box of side x side x 0.05 m, with parallel-axis
   terms; ``module_mass`` overrides every module's mass and scales its inertia alike). {S} sits at
@@ -43,6 +46,7 @@ from modquad_gym.geometry.inertia import inertia_about_com
 from modquad_gym.geometry.module import DEFAULT_HEIGHT, GRAVITY
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_f_max
+from modquad_gym.sim.inertial import check_simulable, principal_axes, six_digit_moments
 from modquad_gym.viz.raster import type_colour
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -134,6 +138,7 @@ def model_spec(
             f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
         )
     f_max = check_f_max(f_max)
+    check_simulable(structure)
     masses = _masses(structure, module_mass)
     if module_mass is not None and np.ptp(structure.masses) > 0:
         raise ValueError(
@@ -163,7 +168,21 @@ def model_xml(
     payload: Payload | None = None,
 ) -> str:
     """The MJCF text of a structure's model (:func:`model_spec` written out by MuJoCo)."""
-    return model_spec(structure, f_max, module_mass, bench, payload).to_xml()
+    return spec_xml(model_spec(structure, f_max, module_mass, bench, payload))
+
+
+def spec_xml(spec) -> str:
+    """MuJoCo's MJCF text of a :func:`model_spec` spec. MuJoCo's writer keeps 6 significant
+    digits, which can tip a flat body's principal moments (C = A + B) over A + B >= C: body
+    ``structure``'s moments are written rounded to 6 digits with the largest rounded down
+    where needed (:func:`~modquad_gym.sim.inertial.six_digit_moments`), so the text loads."""
+    body = spec.body("structure")
+    exact = np.array(body.inertia)
+    body.inertia = six_digit_moments(exact)
+    try:
+        return spec.to_xml()
+    finally:
+        body.inertia = exact
 
 
 def _set_scene(spec, structure: Structure) -> None:
@@ -218,7 +237,8 @@ def _set_inertial(body, structure: Structure, masses: np.ndarray) -> None:
     body.explicitinertial = True
     body.mass = float(masses.sum())
     body.ipos = [0.0, 0.0, 0.0]
-    body.fullinertia = [J[0, 0], J[1, 1], J[2, 2], J[0, 1], J[0, 2], J[1, 2]]
+    quat, moments = principal_axes(J)  # a flat body keeps A + B >= C (sim.inertial)
+    body.iquat, body.inertia = quat, moments
 
 
 def _add_modules(body, structure: Structure) -> None:
@@ -324,7 +344,7 @@ def build_model(
 
     spec = model_spec(structure, f_max, module_mass, bench, payload)
     model = spec.compile()
-    xml = spec.to_xml()
+    xml = spec_xml(spec)
     body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "structure")
     mass = float(model.body_mass[body])
     A = np.array(structure.configuration_matrix())

@@ -55,6 +55,7 @@ from modquad_gym.core.validation import check_f_max, check_int, check_wrenches  
 from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.oracle import feasible, lambda_ratio, margin  # noqa: E402
 from modquad_gym.sim.hover import HoverConfig, run_hover, unreachable_wrench_directions, wrench_axis  # noqa: E402
+from modquad_gym.sim.inertial import check_simulable  # noqa: E402
 from modquad_gym.sim.model import build_model  # noqa: E402
 from modquad_gym.sim.pictures import (  # noqa: E402
     plot_bench_wrench,
@@ -190,6 +191,7 @@ def _checked(structure: Any, task: Any, f_max: float | None, kind: str | None,
         raise ValueError(
             f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
         )
+    check_simulable(structure)  # a module type MuJoCo cannot compile, before any work
     task = as_task(task).with_f_max(f_max).with_kind(kind)
     W = check_wrenches(task.rotor_wrenches(structure))
     f_max = check_f_max(task.f_max)
