@@ -335,8 +335,8 @@ def test_dynamic_task_files_refuse_booleans(tmp_path, capsys, change, words):
     "change, words",
     [
         ({"payload": {"mass": 1e6}}, "payload.mass: 1e+06 kg is more than"),
-        ({"trajectory": {"t": [0, 1e-9, 2e-9, 3e-9],
-                         "position": [[0, 0, 0], [0, 0, 0], [0, 0, 1], [0, 0, 1]]}},
+        ({"trajectory": {"t": [0, 1e-3, 2e-3, 3e-3],  # 1e6 m/s^2 up (4 samples of a parabola)
+                         "position": [[0, 0, 0], [0, 0, 0.5], [0, 0, 2], [0, 0, 4.5]]}},
          "f_max: 2 N per rotor cannot fly"),
     ],
 )  # fmt: skip

@@ -119,6 +119,27 @@ def test_a_long_motion_names_every_typed_cause(tmp_path, capsys):
     assert line.startswith("modquad: error: --laps 100000, --rate 1000: the motion lasts"), line
 
 
+@pytest.mark.parametrize(
+    "argv, start, advice",
+    [
+        (["--kind", "line", "--max-acceleration", "1000"], "--max-acceleration 1000:",
+         "slow the motion (--max-acceleration) or raise --f-max"),
+        (["--kind", "circle", "--speed", "4.4", "--radius", "0.5", "--laps", "3"],
+         "--speed 4.4, --radius 0.5:", "(--speed, --radius)"),
+        (["--kind", "hover", "--f-max", "1"], "--f-max 1:", "raise --f-max"),
+    ],
+)  # fmt: skip
+def test_an_unflyable_motion_names_the_typed_option_that_made_it(tmp_path, capsys, argv, start,
+                                                                   advice):  # fmt: skip
+    """A motion whose modules cannot carry their own weight blames what was typed (it blamed
+    --f-max, at its default, for --max-acceleration 1000)."""
+    out = tmp_path / "u.json"
+    code, _, err = run_main(capsys, "task", "motion", *argv, "--out", str(out))
+    line = assert_one_line_error(code, err, "cannot carry its own weight", advice)
+    assert line.startswith(f"modquad: error: {start} a module of type t45"), line
+    assert not out.exists()
+
+
 def test_a_long_motion_in_python_names_its_length_parameters():
     with pytest.raises(ValueError, match=r"^radius, speed, laps, ramp, hold, rate: the motion"):
         dy.circle(radius=1e6)

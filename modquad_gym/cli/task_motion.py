@@ -52,8 +52,9 @@ def add_motion(tsub) -> None:
         "--heading",
         choices=("fixed", "tangent"),
         default=None,
-        help="circle: keep the heading (fixed, default) or turn with the path (tangent: the "
-        "structure's inertia enters the wrenches)",
+        help="circle: keep the heading (fixed, default) or turn with the path (tangent: body +y "
+        "along the velocity, +x away from the centre; the structure's inertia enters the "
+        "wrenches)",
     )
     m.add_argument(
         "--payload-mass", type=real_option, default=None, help="kg (default 0: no payload)"
@@ -177,6 +178,36 @@ def long_motion_message(exc: LongMotionError, args: argparse.Namespace) -> str:
     )
 
 
+ACCELERATION_OPTIONS = {
+    "hover": (),
+    "line": ("max_acceleration",),
+    "circle": ("speed", "radius"),
+    "figure-eight": ("speed", "size"),
+    "push": ("speed",),
+}
+"""The options that set how hard each kind accelerates (with --f-max, whether a module flies
+it)."""
+
+
+def unflyable_message(args: argparse.Namespace) -> str:
+    """A motion whose modules cannot carry their own weight, blamed on the typed options among
+    those that set its accelerations and ``--f-max`` (all of them when none is typed)."""
+    from modquad_gym.cli.given import typed
+
+    causes = [*ACCELERATION_OPTIONS[args.kind], "f_max"]
+    blamed = [p for p in causes if typed(args, p)] or causes
+    shown = ", ".join(
+        OPTION_OF[p] + ("" if getattr(args, p) is None else f" {getattr(args, p):g}")
+        for p in blamed
+    )
+    motion = ", ".join(OPTION_OF[p] for p in causes if p != "f_max")
+    return (
+        f"{shown}: a module of type t45 cannot carry its own weight along this --kind "
+        f"{args.kind} motion at {args.f_max:g} N per rotor; "
+        + (f"slow the motion ({motion}) or raise --f-max" if motion else "raise --f-max")
+    )
+
+
 def cmd_task_motion(args: argparse.Namespace) -> int:
     from modquad_gym.core.outputs import check_output_file
     from modquad_gym.geometry.module import STOCK_TYPES
@@ -190,6 +221,8 @@ def cmd_task_motion(args: argparse.Namespace) -> int:
     try:  # a task no structure flies: refused
         lift = check_liftable(task, [STOCK_TYPES["t45"]])
     except ValueError as exc:
+        if str(exc).startswith("f_max:"):
+            raise ValueError(unflyable_message(args)) from None
         raise ValueError(option_message(exc, args.kind)) from None
     task.save(out, force=args.force)  # --out checked before the work
     print(

@@ -260,7 +260,8 @@ def summary_lines(r: dict) -> list[str]:
         f"task: {r.get('n_wrenches')} wrenches ({r.get('task_kind')}), {r.get('n_feasible')} "
         f"feasible, smallest margin {_number(r.get('min_margin'), '.3g')}"
         if r.get("task_kind") != "dynamic"
-        else f"task: dynamic, {r.get('n_wrenches')} of its rotor wrenches sampled for the bench "
+        else f"task: dynamic, {r.get('n_wrenches')} of its {r.get('trajectory_samples')} rotor "
+        "wrenches (one per trajectory sample) sampled for the bench "
         f"and hovers ({r.get('n_feasible')} feasible), smallest margin along the trajectory "
         f"{_number(r.get('min_margin_trajectory'), '.3g')}",
         "bench: largest relative error, measured vs commanded wrench, "

@@ -145,8 +145,8 @@ def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -
 
         detector, delay = DetectorConfig(), None
     record = validate_with_failure(structure, task, args.fault, intact=intact.structure,
-                                   out_dir=args.out, detection_delay_s=delay, detector=detector,
-                                   seconds=fault_flight.FAULT_HOVER_SECONDS)  # fmt: skip
+                                   out_dir=args.out, detection_delay_s=delay,
+                                   detector=detector)  # fmt: skip
     if record["intact_minimum"] is not None:  # the search's word on it being the minimum
         record["intact_minimum"]["certified"] = bool(intact.certified)
     margin = fault_margin_of(args)
@@ -158,8 +158,8 @@ def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -
         bare = solver(argparse.Namespace(**{**vars(args), **plain}))(task).structure
         if bare is not None:
             flight = fault_flight.fly_with_failure(
-                bare, task, args.fault, detection_delay_s=delay, detector=detector,
-                seconds=fault_flight.FAULT_HOVER_SECONDS)  # fmt: skip
+                bare, task, args.fault, detection_delay_s=delay, detector=detector
+            )
             record["without_margin"] = intact_record(flight)
     return add_to_report(args.out, report, record)
 

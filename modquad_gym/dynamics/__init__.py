@@ -2,6 +2,8 @@
 structure's own mass and inertia (its wrenches depend on the structure being designed).
 
 * :mod:`.trajectory`: :class:`Trajectory`, sampled poses and derivatives (given or by splines);
+  :mod:`.samples` reads its samples, :mod:`.splines` fits them, estimates the derivatives' error
+  and checks given derivatives against them;
 * :mod:`.wrenches`: :func:`required_wrenches` (Newton-Euler), :class:`Payload`, and
   :class:`LinearWrenches`, the rotor wrenches as a linear function of mass and inertia;
 * :mod:`.task`: :class:`DynamicTask` (trajectory, payload, exerted wrenches, f_max; JSON files)

@@ -19,6 +19,7 @@ import numpy as np
 
 from modquad_gym.core.validation import check_real
 from modquad_gym.dynamics import quaternions as quat
+from modquad_gym.dynamics.splines import DerivativeMismatchError
 from modquad_gym.dynamics.task import DynamicTask
 from modquad_gym.dynamics.trajectory import MAX_SAMPLES, Trajectory
 from modquad_gym.dynamics.wrenches import Payload
@@ -151,12 +152,56 @@ def _task(
     omega=None,
     alpha=None,
 ) -> DynamicTask:
-    traj = Trajectory(t, p, quaternion, v, a, omega, alpha)
-    if payload is not None and not isinstance(payload, Payload):
-        payload = Payload(*payload) if isinstance(payload, (tuple, list)) else Payload(payload)
-    if payload is not None:
+    payload = as_payload(payload)
+    try:
+        traj = Trajectory(t, p, quaternion, v, a, omega, alpha)
+    except DerivativeMismatchError as exc:  # exact derivatives: the samples are too sparse
+        raise ValueError(
+            f"rate: samples every {exc.step:.3g} s are too sparse to show this motion (at "
+            f"sample {exc.sample} its {exc.field} is {_row(exc.given)}, the spline through the "
+            f"samples gives {_row(exc.implied)}); raise rate"
+        ) from None
+    if payload is not None and payload.mass > 0:
         meta = {**meta, "payload_kg": payload.mass}
     return DynamicTask(traj, payload, exerted, f_max, name, meta)
+
+
+def _row(x: np.ndarray) -> str:
+    return "[" + ", ".join(f"{v + 0.0:.3g}" for v in x) + "]"
+
+
+def as_payload(payload: object) -> Payload | None:
+    """``payload`` of a motion (None, a :class:`Payload`, a mass in kg, or (mass,) or (mass,
+    offset)) as a Payload or None; else a ValueError naming ``payload``."""
+    if payload is None or isinstance(payload, Payload):
+        return payload
+    if isinstance(payload, (tuple, list)):
+        if not 1 <= len(payload) <= 2:
+            raise ValueError(
+                f"payload must be a Payload, a mass in kg or (mass, offset), got {len(payload)} "
+                f"entries: {payload!r:.60}"
+            )
+        return Payload(*payload)
+    return Payload(payload)
+
+
+def _direction(direction: object, what: str, horizontal: bool = False) -> np.ndarray:
+    """``direction`` as a unit (3,) vector, or a ValueError naming ``direction``."""
+    from modquad_gym.core.validation import float_array, refuse_bools
+
+    refuse_bools(direction, "direction", "entry")
+    try:
+        d = float_array(direction, "direction")
+    except (TypeError, ValueError, OverflowError):
+        d = np.full(1, np.nan)
+    with np.errstate(all="ignore"):
+        big = np.abs(d).max() if d.shape == (3,) else np.nan
+        norm = np.linalg.norm(d)
+        if not 0 < norm < np.inf:  # 1e200 or 1e-300 per entry: a direction all the same
+            d, norm = d / big, np.linalg.norm(d / big)
+    if d.shape != (3,) or not (np.isfinite(d).all() and 0 < norm < np.inf) or (horizontal and d[2]):
+        raise ValueError(f"direction must be {what}, got {direction!r:.60}")
+    return d / norm
 
 
 def _checked(**values: float) -> dict:
@@ -197,10 +242,7 @@ def line(
     ``10 / sqrt(3) D / T^2``."""
     c = _checked(distance=distance, max_acceleration=max_acceleration, rate=rate)
     hold = check_real(hold, "hold", low=0.0)
-    d = np.asarray(direction, dtype=float)
-    if d.shape != (3,) or not np.linalg.norm(d) > 0:
-        raise ValueError(f"direction must be a non-zero [x, y, z], got {direction!r}")
-    d = d / np.linalg.norm(d)
+    d = _direction(direction, "a finite non-zero [x, y, z]")
     D = c["distance"]
     T = math.sqrt(10.0 / math.sqrt(3.0) * D / c["max_acceleration"])
     try:
@@ -240,7 +282,10 @@ def circle(
     """``laps`` turns of a horizontal circle of ``radius`` m at cruise ``speed`` m/s
     (centripetal acceleration speed^2 / radius), counter-clockwise from the origin. ``heading``
     ``"fixed"`` keeps the attitude level and the heading constant; ``"tangent"`` turns the
-    body about z with the path (yaw rate speed / radius: the inertia enters the wrenches)."""
+    body about z with the path (yaw rate speed / radius: the inertia enters the wrenches): the
+    yaw is the path's angle phi (the point at angle phi from the centre), so the body's +y axis
+    points along the velocity and its +x axis away from the centre, and the centripetal
+    acceleration is along body -x (the structure's nose, +x, is not along the velocity)."""
     c = _checked(radius=radius, speed=speed, laps=laps, ramp=ramp, rate=rate)
     hold = check_real(hold, "hold", low=0.0)
     if heading not in ("fixed", "tangent"):
@@ -320,10 +365,7 @@ def push(
     smoothstep of the speed fraction), as exerted wrenches in {S}."""
     c = _checked(distance=distance, speed=speed, force=force, ramp=ramp, rate=rate)
     hold = check_real(hold, "hold", low=0.0)
-    d = np.asarray(direction, dtype=float)
-    if d.shape != (3,) or abs(d[2]) > 0 or not np.linalg.norm(d) > 0:
-        raise ValueError(f"direction must be a horizontal non-zero [x, y, 0], got {direction!r}")
-    d = d / np.linalg.norm(d)
+    d = _direction(direction, "a finite horizontal non-zero [x, y, 0]", horizontal=True)
 
     def path(s):
         return s[:, None] * d, np.ones_like(s)[:, None] * d, np.zeros((len(s), 3))

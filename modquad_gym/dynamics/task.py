@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from modquad_gym.core.validation import check_f_max, float_array, refuse_bools
+from modquad_gym.dynamics.samples import row_problem
 from modquad_gym.dynamics.trajectory import Trajectory
 from modquad_gym.dynamics.wrenches import LinearWrenches, Payload
 from modquad_gym.geometry.module import ModuleType
@@ -46,12 +47,26 @@ MAX_LIFT_MODULES = 128
 (:func:`check_liftable`)."""
 
 
+def is_dynamic_data(data: object) -> bool:
+    """Whether the JSON object ``data`` is a dynamic task's: it has a ``trajectory``, or says
+    ``"kind": "dynamic"`` (then :meth:`DynamicTask.from_dict` names a missing trajectory)."""
+    return isinstance(data, dict) and ("trajectory" in data or data.get("kind") == KIND)
+
+
 def _exerted(value: object, k: int) -> np.ndarray:
     refuse_bools(value, "exerted")
-    arr = float_array(value, "exerted", "a list of [fx, fy, fz, tx, ty, tz] rows")
+    what = "a list of [fx, fy, fz, tx, ty, tz] rows"
+    try:
+        arr = float_array(value, "exerted", what)
+    except ValueError:
+        problem = row_problem(value, "exerted", 6)
+        if problem is None:
+            raise
+        raise ValueError(problem) from None
     if arr.shape != (k, 6):
         raise ValueError(
-            f"exerted must have shape ({k}, 6), one wrench per sample, got {arr.shape}"
+            row_problem(value, "exerted", 6)
+            or f"exerted must have shape ({k}, 6), one wrench per sample, got {arr.shape}"
         )
     bad = ~np.isfinite(arr)
     if bad.any():
@@ -138,7 +153,7 @@ class DynamicTask:
         """The same task with another thrust limit (None or the same: this task)."""
         if f_max is None or check_f_max(f_max) == self.f_max:
             return self
-        return DynamicTask(self.trajectory, self.payload, self.exerted, f_max, self.name)
+        return DynamicTask(self.trajectory, self.payload, self.exerted, f_max, self.name, self.meta)
 
     def check_liftable(self, modules: Sequence[ModuleType]) -> int:
         """:func:`check_liftable` of this task."""

@@ -10,13 +10,22 @@ splines (the samples are taken as exact), or, with ``smoothing`` (a regularisati
 scipy's :func:`~scipy.interpolate.make_smoothing_spline`), cubic smoothing splines for noisy
 samples. Velocity comes from the position spline (acceleration from the velocity's if that is
 given, else from the position's second derivative); body rates from the quaternion spline,
-``omega = 2 Im(q* dq/dt)`` and ``alpha = 2 Im(q* d2q/dt2)``.
+``omega = 2 Im(q* dq/dt)`` and ``alpha = 2 Im(q* d2q/dt2)``; the angular acceleration from the
+spline of the body rates when those are given (with or without quaternions).
 
-Sampling too coarse for the derivatives is refused: the spline is fitted again on every other
-sample, and where the two fits' second derivatives differ by more than ``accuracy`` (m/s^2 for
-the acceleration, rad/s^2 for the angular acceleration) the trajectory is a ValueError naming
-the field. For a quintic spline the half-sampled fit's error is about 2^4 = 16 times the full
-fit's, so the difference overestimates the full fit's error: the test is conservative.
+Sampling too coarse for the derivatives is refused: where the spline's derivative changes by
+more than ``accuracy`` (m/s^2 for the acceleration, rad/s^2 for the angular acceleration) when
+the spline is fitted again on every other sample (or, with few samples, with a fit of lower
+order), the trajectory is a ValueError naming the field (:mod:`.splines`). With 2 samples the
+motion between them is taken as uniform (no acceleration): there is nothing to estimate.
+
+Given derivatives are checked against the splines of the samples (velocity and acceleration
+against the positions', body rates and angular acceleration against the quaternions'): one
+that differs by more than ``accuracy`` plus :data:`~.splines.AGREEMENT` times the spline's
+estimated error is refused, naming the field and the sample. This is a check of order of
+magnitude (a unit slip: times in milliseconds), not of accuracy: within it, given derivatives
+are used as they are. Without quaternions, given body rates are taken as they are (the level
+default attitude does not imply them).
 """
 
 from __future__ import annotations
@@ -25,17 +34,18 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.validation import float_array, refuse_bools
 from modquad_gym.dynamics import quaternions as quat
-
-MAX_SAMPLES = 100_000
-"""Most samples in one trajectory (100 s at 1 kHz); more is refused before any work."""
+from modquad_gym.dynamics.samples import (  # noqa: F401 (MAX_SAMPLES, UNIT_TOL: read here too)
+    MAX_SAMPLES,
+    UNIT_TOL,
+    check_quaternions,
+    check_times,
+    sample_array,
+)
+from modquad_gym.dynamics.splines import check_coarse, check_given, estimated_error, spline
 
 DEFAULT_ACCURACY = 0.05
 """Default accuracy of spline-derived accelerations: 0.05 m/s^2 (0.5 % of g) and 0.05 rad/s^2."""
-
-UNIT_TOL = 1e-6
-"""How far a quaternion's norm may be from 1 (it is then normalised)."""
 
 FIELDS = (
     "t",
@@ -49,113 +59,6 @@ FIELDS = (
 """The fields of a trajectory, in order (the keys of its JSON object)."""
 
 
-def _array(value: object, field: str, k: int | None, width: int) -> np.ndarray:
-    """A float (k, width) copy of ``value``; errors name the field and the 1-based sample."""
-    refuse_bools(value, field)
-    arr = float_array(value, field, "an array of numbers")
-    shape = (k if k is not None else "k", width)
-    if arr.ndim != 2 or arr.shape[1] != width or (k is not None and arr.shape[0] != k):
-        raise ValueError(f"{field} must have shape {shape} (one row per sample), got {arr.shape}")
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        row, col = np.argwhere(bad)[0]
-        raise ValueError(f"{field}: sample {row + 1} holds {arr[row, col]} (must be finite)")
-    return arr
-
-
-def check_times(t: object) -> np.ndarray:
-    """The sample times as a float (k,) array, k in [2, MAX_SAMPLES], finite and strictly
-    increasing; else a ValueError naming ``t`` and the first bad sample (1-based)."""
-    refuse_bools(t, "t")
-    arr = float_array(t, "t", "a list of sample times in seconds")
-    if arr.ndim != 1:
-        raise ValueError(f"t must be a flat list of times, got shape {arr.shape}")
-    if arr.size > MAX_SAMPLES:
-        raise ValueError(f"t: {arr.size:,} samples, more than the {MAX_SAMPLES:,} allowed")
-    if arr.size < 2:
-        raise ValueError(f"t: a trajectory needs at least 2 samples, got {arr.size}")
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise ValueError(f"t: sample {i + 1} is {arr[i]} (times must be finite)")
-    step = np.diff(arr)
-    if np.any(step <= 0):
-        i = int(np.argmax(step <= 0))
-        raise ValueError(
-            f"t: not increasing at sample {i + 2} (t = {arr[i + 1]:g} s after {arr[i]:g} s)"
-        )
-    return arr
-
-
-def check_quaternions(q: object, k: int) -> np.ndarray:
-    """Unit (w, x, y, z) rows (normalised, signs made continuous); else a ValueError naming
-    ``quaternion`` and the first sample whose norm is not 1 within :data:`UNIT_TOL`."""
-    arr = _array(q, "quaternion", k, 4)
-    norms = np.linalg.norm(arr, axis=1)
-    bad = np.abs(norms - 1.0) > UNIT_TOL
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise ValueError(
-            f"quaternion: sample {i + 1} has norm {norms[i]:.9g}, not 1 (unit quaternions "
-            "w, x, y, z, world <- body)"
-        )
-    return quat.continuous(arr / norms[:, None])
-
-
-def _spline(t: np.ndarray, y: np.ndarray, smoothing: float | None):
-    """A spline through (t, y) (quintic, or lower for few samples), or a smoothing spline."""
-    from scipy.interpolate import make_interp_spline, make_smoothing_spline
-
-    if smoothing is not None and len(t) >= 5:
-        return _Stacked(
-            [make_smoothing_spline(t, y[:, j], lam=smoothing) for j in range(y.shape[1])]
-        )
-    return make_interp_spline(t, y, k=min(5, len(t) - 1))
-
-
-class _Stacked:
-    """Column splines evaluated together, like one vector-valued BSpline."""
-
-    def __init__(self, parts: list) -> None:
-        self.parts = parts
-
-    def __call__(self, x: np.ndarray, nu: int = 0) -> np.ndarray:
-        return np.stack([p(x, nu) for p in self.parts], axis=-1)
-
-
-def _second_derivative_check(
-    t: np.ndarray,
-    y: np.ndarray,
-    full: np.ndarray,
-    order: int,
-    accuracy: float,
-    field: str,
-    unit: str,
-    smoothing: float | None,
-) -> float:
-    """Compare ``full`` (the ``order``-th derivative of the full fit at t) with the fit on every
-    other sample; ValueError naming ``field`` if they differ by more than ``accuracy``."""
-    keep = np.arange(0, len(t), 2)
-    if keep[-1] != len(t) - 1:
-        keep = np.r_[keep, len(t) - 1]
-    if len(keep) >= 7:
-        half = _spline(t[keep], y[keep], smoothing)(t, order)
-    elif len(t) >= 4:  # too few samples to halve: compare with a cubic through all of them
-        from scipy.interpolate import make_interp_spline
-
-        half = make_interp_spline(t, y, k=3)(t, order)
-    else:  # 2 or 3 samples: the line or parabola through them is all there is to know
-        return 0.0
-    err = float(np.abs(half - full).max())
-    if err > accuracy:
-        raise ValueError(
-            f"{field}: sampling too coarse for the requested accuracy ({accuracy:g} {unit}): "
-            f"spline estimates change by {err:.3g} {unit} when every other sample is dropped; "
-            f"sample more densely (now every {np.median(np.diff(t)):.3g} s) or give {field}"
-        )
-    return err
-
-
 class Trajectory:
     """A sampled motion of the structure frame {S} and its derivatives (module docstring).
 
@@ -163,20 +66,27 @@ class Trajectory:
         t: (k,) sample times in seconds, strictly increasing, 2 <= k <= :data:`MAX_SAMPLES`.
         position: (k, 3) positions of the {S} origin in the world, metres.
         quaternion: (k, 4) unit quaternions (w, x, y, z), world <- body; default level.
-        velocity: (k, 3) world frame; computed by splines when not given.
-        acceleration: (k, 3) world frame; computed by splines when not given.
+        velocity: (k, 3) world frame; computed by splines when not given, else checked
+            against them (module docstring).
+        acceleration: (k, 3) world frame; likewise.
         angular_velocity: (k, 3) body frame; from the quaternions' spline when not given (zero
-            for a level trajectory).
-        angular_acceleration: (k, 3) body frame; likewise.
+            without quaternions); given with quaternions, checked against it; given without,
+            taken as is.
+        angular_acceleration: (k, 3) body frame; from the quaternions' spline, or from the
+            given ``angular_velocity``'s (zero without either); given with quaternions,
+            checked against their spline; given without, taken as is.
         accuracy: largest accepted estimated error of a spline-derived acceleration (m/s^2)
-            or angular acceleration (rad/s^2).
+            or angular acceleration (rad/s^2); with :data:`~.splines.AGREEMENT`, how far a
+            given derivative may be from the spline's (in its own unit).
         smoothing: None (interpolating quintic splines) or the ``lam`` of cubic smoothing
             splines for noisy samples.
 
     Raises:
-        ValueError: one line naming the field and the 1-based sample: wrong shape, NaN or
-            infinity, times not increasing, a quaternion of norm other than 1, too many
-            samples, sampling too coarse for ``accuracy``.
+        ValueError: one line naming the field and the 1-based sample: wrong shape or row
+            length, NaN or infinity, times not increasing, a quaternion of norm other than 1,
+            too many samples, sampling too coarse for ``accuracy``, a given derivative that
+            disagrees with the samples
+            (:class:`~.splines.DerivativeMismatchError`, both values named).
     """
 
     def __init__(
@@ -199,7 +109,7 @@ class Trajectory:
             smoothing = check_real(smoothing, "smoothing", low=0.0)
         self.t = check_times(t)
         k = len(self.t)
-        self.position = _array(position, "position", k, 3)
+        self.position = sample_array(position, "position", k, 3)
         given = {"t", "position"}
         checked = {}
         for name, value in (
@@ -209,7 +119,7 @@ class Trajectory:
             ("angular_acceleration", angular_acceleration),
         ):
             if value is not None:
-                checked[name] = _array(value, name, k, 3)
+                checked[name] = sample_array(value, name, k, 3)
                 given.add(name)
         if quaternion is None:
             self.quaternion = np.tile(quat.IDENTITY, (k, 1))
@@ -217,66 +127,75 @@ class Trajectory:
             self.quaternion = check_quaternions(quaternion, k)
             given.add("quaternion")
         self.given = tuple(f for f in FIELDS if f in given)
+        self.accuracy, self.smoothing = accuracy, smoothing
         self.derivative_error = {}
         with np.errstate(all="ignore"):  # a non-finite derivative is refused below, by name
-            self._linear(checked, accuracy, smoothing)
-            self._angular(checked, accuracy, smoothing, quaternion is not None)
+            self._linear(checked)
+            self._angular(checked, quaternion is not None)
         self._check_derived()
         for name in FIELDS[1:]:
             getattr(self, name).setflags(write=False)
         self.t.setflags(write=False)
 
-    def _linear(self, given: dict, accuracy: float, smoothing: float | None) -> None:
-        t, p = self.t, self.position
-        spline = _spline(t, p, smoothing) if "velocity" not in given else None
-        self.velocity = given["velocity"] if "velocity" in given else spline(t, 1)
+    def _linear(self, given: dict) -> None:
+        """Velocity and acceleration: given ones checked against the position spline's,
+        missing ones derived (module docstring)."""
+        t, p, acc, sm = self.t, self.position, self.accuracy, self.smoothing
+        fit = spline(t, p, sm)
+        v, a = fit(t, 1), fit(t, 2)
+        for name, implied, order, unit in (
+            ("velocity", v, 1, "m/s"),
+            ("acceleration", a, 2, "m/s^2"),
+        ):
+            if name in given:
+                err = estimated_error(t, p, implied, order, sm)
+                check_given(t, given[name], implied, err, acc, name, unit, "positions")
+        self.velocity = given.get("velocity", v)
         if "acceleration" in given:
             self.acceleration = given["acceleration"]
         elif "velocity" in given:
-            self.acceleration = _spline(t, self.velocity, smoothing)(t, 1)
-            self.derivative_error["acceleration"] = _second_derivative_check(
-                t, self.velocity, self.acceleration, 1, accuracy, "acceleration", "m/s^2", smoothing
+            self.acceleration = spline(t, self.velocity, sm)(t, 1)
+            self.derivative_error["acceleration"] = check_coarse(
+                t, self.velocity, self.acceleration, 1, acc, "acceleration", "m/s^2", sm
             )
         else:
-            self.acceleration = spline(t, 2)
-            self.derivative_error["acceleration"] = _second_derivative_check(
-                t, p, self.acceleration, 2, accuracy, "acceleration", "m/s^2", smoothing
+            self.acceleration = a
+            self.derivative_error["acceleration"] = check_coarse(
+                t, p, a, 2, acc, "acceleration", "m/s^2", sm
             )
 
-    def _angular(self, given: dict, accuracy: float, smoothing: float | None, turns: bool) -> None:
-        t, q = self.t, self.quaternion
-        if not turns:  # level throughout: no rates unless given
-            zero = np.zeros((len(t), 3))
-            self.angular_velocity = given.get("angular_velocity", zero)
-            self.angular_acceleration = given.get("angular_acceleration", zero.copy())
-            return
-        qc = quat.conjugate(q)
-        if "angular_velocity" in given:
-            self.angular_velocity = given["angular_velocity"]
-        else:
-            qs = _spline(t, q, smoothing)
-            self.angular_velocity = 2.0 * quat.multiply(qc, qs(t, 1))[:, 1:]
+    def _angular(self, given: dict, turns: bool) -> None:
+        """Body rates and angular acceleration: with quaternions, given ones checked against
+        the quaternion spline's and missing ones derived from it; given rates (with or without
+        quaternions) give the angular acceleration by their own spline; else zero."""
+        t, q, acc, sm = self.t, self.quaternion, self.accuracy, self.smoothing
+        zero = np.zeros((len(t), 3))
+        if turns:
+            qc, fit = quat.conjugate(q), spline(t, q, sm)
+            w, al = (2.0 * quat.multiply(qc, fit(t, nu))[:, 1:] for nu in (1, 2))
+            for name, implied, order, unit in (
+                ("angular_velocity", w, 1, "rad/s"),
+                ("angular_acceleration", al, 2, "rad/s^2"),
+            ):
+                if name in given:
+                    err = estimated_error(t, q, fit(t, order), order, sm)
+                    err = None if err is None else 2.0 * err  # omega, alpha: 2 Im(q* q')
+                    check_given(t, given[name], implied, err, acc, name, unit, "quaternions")
+        self.angular_velocity = given.get("angular_velocity", w if turns else zero)
         if "angular_acceleration" in given:
             self.angular_acceleration = given["angular_acceleration"]
             return
+        field, unit = "angular_acceleration", "rad/s^2"
         if "angular_velocity" in given:
             w = self.angular_velocity
-            self.angular_acceleration = _spline(t, w, smoothing)(t, 1)
-            err = _second_derivative_check(
-                t,
-                w,
-                self.angular_acceleration,
-                1,
-                accuracy,
-                "angular_acceleration",
-                "rad/s^2",
-                smoothing,
-            )
-        else:
-            self.angular_acceleration = 2.0 * quat.multiply(qc, qs(t, 2))[:, 1:]
-            err = _second_derivative_check(
-                t, q, qs(t, 2), 2, accuracy / 2.0, "angular_acceleration", "rad/s^2", smoothing
-            )
+            self.angular_acceleration = spline(t, w, sm)(t, 1)
+            err = check_coarse(t, w, self.angular_acceleration, 1, acc, field, unit, sm)
+        elif turns:
+            self.angular_acceleration = al
+            err = check_coarse(t, q, fit(t, 2), 2, acc, field, unit, sm, scale=2.0)
+        else:  # level throughout, no rates given
+            self.angular_acceleration = zero.copy()
+            return
         self.derivative_error["angular_acceleration"] = err
 
     def _check_derived(self) -> None:
@@ -340,6 +259,22 @@ class Trajectory:
         )
         return out
 
+    @classmethod
+    def resampled(cls, fields: dict[str, np.ndarray]) -> Trajectory:
+        """A trajectory holding ``fields`` (each of :data:`FIELDS`, as :meth:`at` returns them,
+        ``t`` increasing) as they are: nothing derived, nothing checked. For a resampling of a
+        trajectory already checked (a controller's reference at its own rate), whose cubic
+        interpolations of each field need not agree with the splines of the positions."""
+        self = cls.__new__(cls)
+        for f in FIELDS:
+            setattr(self, f, np.array(fields[f], dtype=float))
+        self.quaternion = check_quaternions(self.quaternion, len(self.t))  # as __init__ does
+        for f in FIELDS:
+            getattr(self, f).setflags(write=False)
+        self.given, self.derivative_error = FIELDS, {}
+        self.accuracy, self.smoothing = DEFAULT_ACCURACY, None
+        return self
+
     def shifted(self, offset: object) -> Trajectory:
         """The same motion translated by ``offset`` (3,) metres (derivatives unchanged)."""
         d = np.asarray(offset, dtype=float).reshape(3)
@@ -351,6 +286,8 @@ class Trajectory:
             self.acceleration,
             self.angular_velocity,
             self.angular_acceleration,
+            accuracy=self.accuracy,
+            smoothing=self.smoothing,
         )
 
     # --- dicts ------------------------------------------------------------------------------

@@ -58,6 +58,11 @@ class Payload:
         if r.shape != (3,) or not np.all(np.isfinite(r)):
             raise ValueError(f"payload.offset must be 3 finite numbers (m), got {self.offset!r}")
         object.__setattr__(self, "offset", tuple(float(v) for v in r))
+        if self.mass == 0 and np.any(r != 0):  # it would be dropped, its offset with it
+            raise ValueError(
+                f"payload.offset {list(self.offset)} places a payload, but payload.mass is 0 kg: "
+                "give a mass above 0, or no payload"
+            )
 
     @classmethod
     def from_dict(cls, data: object) -> Payload:

@@ -24,9 +24,8 @@ structure tolerates every failure of that kind (:func:`modquad_gym.oracle.faults
 A certified tolerant structure should keep within :data:`GOAL_M` after the failure; a structure
 that does not tolerate it saturates (the task wrench leaves its feasible set) and drifts.
 
-:func:`modquad_gym.sim.validate_fault.validate_with_failure` does this for a structure and, for
-comparison, for the intact (non-tolerant) minimum of the same task, and writes the pictures
-(:mod:`modquad_gym.sim.fault_pictures`); ``modquad validate --fault rotor|module`` calls it.
+:func:`modquad_gym.sim.validate_fault.validate_with_failure` (``modquad validate --fault``) does
+this for a structure and the intact minimum, with pictures (:mod:`.fault_pictures`).
 """
 
 from __future__ import annotations
@@ -180,13 +179,10 @@ class FaultFlight:
         starts = np.cumsum([0] + [m.n_rotors for m in self.structure.modules])
         first = self.failure.columns[0]
         module = int(np.searchsorted(starts, first, side="right") - 1)
-        return {
-            "fault_failed_module": module,
-            "fault_failed_cell": list(self.structure.cells[module]),
-            "fault_failed_rotor_in_module": (
-                int(first - starts[module]) if "module" not in self.fault else None
-            ),
-        }
+        rotor = int(first - starts[module]) if "module" not in self.fault else None
+        cell = list(self.structure.cells[module])
+        return {"fault_failed_module": module, "fault_failed_cell": cell,
+                "fault_failed_rotor_in_module": rotor}  # fmt: skip
 
     def summary(self) -> dict:
         """The ``fault_*`` keys of a validation record (JSON-ready; None for a number that is
@@ -332,12 +328,15 @@ def _at_limit(u: np.ndarray, f_max: float) -> bool:
     return bool(np.any((u <= tol) | (u >= f_max - tol)))
 
 
-def _rotor_wrenches(structure: Structure, task, f_max: float | None) -> tuple[np.ndarray, float]:
-    """(rotor wrenches of ``structure`` for ``task``, f_max): a task object (its own f_max) or a
-    (t, 6) array of total wrenches (``f_max``, default 1)."""
-    if hasattr(task, "rotor_wrenches"):
-        return np.asarray(task.rotor_wrenches(structure), dtype=float), float(task.f_max)
-    return check_wrenches(task), check_f_max(1.0 if f_max is None else f_max)
+def _rotor_wrenches(structure: Structure, task, f_max, seconds) -> tuple[np.ndarray, float]:
+    """(rotor wrenches, f_max) of a task object (its own f_max; options that do not apply
+    refused) or of a (t, 6) array of total wrenches (``f_max``, default 1)."""
+    from modquad_gym.sim.failure import refuse_unflown
+
+    if not hasattr(task, "rotor_wrenches"):
+        return check_wrenches(task), check_f_max(1.0 if f_max is None else f_max)
+    refuse_unflown(task, f_max, seconds)
+    return np.asarray(task.rotor_wrenches(structure), dtype=float), float(task.f_max)
 
 
 def fly_with_failure(
@@ -345,7 +344,7 @@ def fly_with_failure(
     task,
     fault: str = "rotor",
     *,
-    seconds: float = FAULT_HOVER_SECONDS,
+    seconds: float | None = None,
     detection_delay_s: float | None = None,
     f_max: float | None = None,
     track_config: TrackConfig | None = None,
@@ -359,10 +358,12 @@ def fly_with_failure(
             :class:`~modquad_gym.dynamics.DynamicTask`, anything with ``rotor_wrenches`` and
             ``f_max``) or a (t, 6) array of total rotor wrenches.
         fault: ``"rotor"`` or ``"module"``.
-        seconds: static task: how long the hover lasts (the failure strikes at half).
+        seconds: static task or array: how long the hover lasts (the failure strikes at
+            half; default :data:`FAULT_HOVER_SECONDS`). Refused with a dynamic task.
         detection_delay_s: seconds before the controller knows (:mod:`~modquad_gym.sim.failure`;
             default :data:`DETECTION_DELAY_S`). Not with a ``detector``, which decides that.
-        f_max: the thrust limit for an array task (a task object carries its own).
+        f_max: the thrust limit of an array task (default 1); refused with a task object,
+            which carries its own (``task.with_f_max``).
         track_config: dynamic task: how to fly the trajectory.
         detector: a :class:`~modquad_gym.sim.detector.DetectorConfig` (or a
             (config, :class:`~modquad_gym.sim.detector.SensorNoise`) pair): the controller is
@@ -382,7 +383,7 @@ def fly_with_failure(
     check_simulable(structure)  # before the worst failure's search
     fault = check_fault(fault)
     detection_delay_s = flown_delay(detection_delay_s, detector)
-    W, fm = _rotor_wrenches(structure, task, f_max)
+    W, fm = _rotor_wrenches(structure, task, f_max, seconds)
     worst = worst_failure(structure, W, fm, fault)
     name = getattr(task, "name", "") or ""
     if isinstance(task, DynamicTask):
@@ -394,6 +395,7 @@ def fly_with_failure(
         failure = Failure(tuple(worst.columns), at, detection_delay_s, fault)
         run = fly_trajectory(structure, task, track_config, failure=failure, detector=detector)
         return FaultFlight(structure, "trajectory", fault, failure, worst, run, name)
+    seconds = FAULT_HOVER_SECONDS if seconds is None else seconds  # read at the call
     seconds = check_real(seconds, "seconds", positive=True)
     failure = Failure(tuple(worst.columns), seconds / 2.0, detection_delay_s, fault)
     run = hover_with_failure(structure, W[worst.row], failure, seconds, fm, detector=detector)

@@ -132,9 +132,7 @@ def reference(task: DynamicTask, times: np.ndarray, structure: Structure) -> tup
     traj = task.trajectory
     ref = traj.at(traj.t[0] + times)
     ref["position"] = ref["position"] - traj.position[0] + np.array([0.0, 0.0, HOME_HEIGHT])
-    sampled = Trajectory(times, ref["position"], ref["quaternion"], ref["velocity"],
-                         ref["acceleration"], ref["angular_velocity"],
-                         ref["angular_acceleration"])  # fmt: skip
+    sampled = Trajectory.resampled({**ref, "t": times})
     exerted = np.zeros((len(times), 6))
     if task.exerted is not None:
         from scipy.interpolate import make_interp_spline

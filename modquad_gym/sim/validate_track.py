@@ -68,6 +68,7 @@ def validate_trajectory(
     payload = task.payload.mass if task.payload is not None else 0.0
     record["mass_with_payload_kg"] = structure.mass + payload
     record["min_margin_trajectory"] = finite_or_none(margin(A, W, task.f_max).min())
+    record["trajectory_samples"] = task.n_wrenches
     record = json_ready(record | flight.summary())
     if out_dir is not None:
         _write(Path(out_dir), record, structure, task, flight, render)
@@ -90,8 +91,30 @@ def _write(d: Path, record: dict, structure, task, flight: TrackResult, render: 
         record["animation_backend"] = animate_track(sim, flight, d / "track.gif")
         files["track_animation"] = str(d / "track.gif")
     text = (d / "report.md").read_text() if (d / "report.md").exists() else ""
-    write_text(d / "report.md", text + "\n" + track_markdown(record, task))
+    lines = [dynamic_task_line(record) if x.startswith("Task: ") else x for x in text.split("\n")]
+    write_text(d / "report.md", "\n".join(lines) + "\n" + track_markdown(record, task))
     write_text(d / "validation.json", json.dumps(record, indent=2) + "\n")
+
+
+def dynamic_task_line(record: dict) -> str:
+    """The headline of ``report.md`` for a dynamic task: its rotor wrenches benched and hovered
+    are a sample of those along the trajectory (one per sample)."""
+    k, n = record["n_wrenches"], record["trajectory_samples"]
+    which = (
+        f"all {n} of its rotor wrenches"
+        if k == n
+        else f"{k} of its {n} rotor wrenches (the hardest half by margin, the rest evenly spaced)"
+    )
+    return (
+        f"Task: dynamic, one rotor wrench per trajectory sample; {which} benched and hovered, "
+        f"{record['n_feasible']} of them feasible per the oracle (smallest margin "
+        f"{_margin(record['min_margin'])}; along the whole trajectory "
+        f"{_margin(record['min_margin_trajectory'])})."
+    )
+
+
+def _margin(x: float | None) -> str:
+    return "n/a" if x is None else f"{x:.3g}"
 
 
 def track_markdown(record: dict, task: DynamicTask) -> str:

@@ -10,6 +10,7 @@ from typing import Any
 
 from modquad_gym.core.validation import check_wrenches
 from modquad_gym.dynamics import DynamicTask
+from modquad_gym.dynamics.task import is_dynamic_data
 from modquad_gym.tasks.csvfile import check_csv_header
 from modquad_gym.tasks.examples import resolve_task_path
 from modquad_gym.tasks.files import PathLike, TaskFileError, check_path, read_json
@@ -49,16 +50,17 @@ def as_task(
 
 def load_task(path: PathLike, csv_header: str = "auto") -> TaskRequirement | DynamicTask:
     """The task in ``path`` (``example:NAME``: a shipped example), read once: a
-    :class:`DynamicTask` for a JSON object with a ``"trajectory"`` key, else a
-    :class:`TaskRequirement` (:meth:`TaskRequirement.load`). Errors are TaskFileErrors naming
-    the file and the field (``trajectory.t: ...``, ``payload.mass: ...``)."""
+    :class:`DynamicTask` for a JSON object with a ``"trajectory"`` key or ``"kind":
+    "dynamic"``, else a :class:`TaskRequirement` (:meth:`TaskRequirement.load`). Errors are
+    TaskFileErrors naming the file and the field (``trajectory.t: ...``, ``payload.mass:
+    ...``)."""
     check_path(path)
     p = resolve_task_path(path)
     check_csv_header(csv_header, p)
     if p.suffix.lower() != ".json" or not p.is_file():
         return TaskRequirement.load(p, csv_header=csv_header)
     data = read_json(p)
-    is_motion = isinstance(data, dict) and "trajectory" in data
+    is_motion = is_dynamic_data(data)
     try:
         if is_motion:
             return DynamicTask.from_dict(data, default_name=p.stem)

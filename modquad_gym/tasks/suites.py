@@ -1,5 +1,6 @@
 """Suites: several tasks in one JSON file ``{"name": ..., "tasks": [task dicts...]}``; a task
-dict with a ``"trajectory"`` is a dynamic task (:class:`~modquad_gym.dynamics.DynamicTask`)."""
+dict with a ``"trajectory"`` (or ``"kind": "dynamic"``) is a dynamic task
+(:class:`~modquad_gym.dynamics.DynamicTask`)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from pathlib import Path
 from modquad_gym.core.outputs import check_output_file, write_text
 from modquad_gym.core.validation import check_flag
 from modquad_gym.dynamics import DynamicTask
+from modquad_gym.dynamics.task import is_dynamic_data
 from modquad_gym.tasks.examples import resolve_task_path
 from modquad_gym.tasks.files import (
     SUITE_KEYS,
@@ -51,7 +53,7 @@ def load_suite(path: PathLike) -> list[TaskRequirement | DynamicTask]:
     tasks = []
     for i, item in enumerate(data["tasks"], 1):
         try:
-            dynamic = isinstance(item, dict) and "trajectory" in item
+            dynamic = is_dynamic_data(item)
             kind = DynamicTask if dynamic else TaskRequirement
             tasks.append(kind.from_dict(item, default_name=f"{path.stem}-{i}"))
         except ValueError as exc:
