@@ -16,16 +16,13 @@ detection delay the allocator and the gains work on A without them):
   moment the failure hurts most (the sample with the smallest margin after it) when that moment
   comes earlier.
 
-Reported (:meth:`FaultFlight.summary`): over the control steps from the failure on, the largest
-distance between the flown and desired COM (``fault_max_position_error_m``) and the share of
-steps in which some rotor that still works sits at 0 or f_max (``fault_saturated_fraction``);
-which rotors failed (their module and cell) and when; the failure's margin and whether the
-structure tolerates every failure of that kind (:func:`modquad_gym.oracle.faults.tolerates`).
-A certified tolerant structure should keep within :data:`GOAL_M` after the failure; a structure
-that does not tolerate it saturates (the task wrench leaves its feasible set) and drifts.
-
-:func:`modquad_gym.sim.validate_fault.validate_with_failure` (``modquad validate --fault``) does
-this for a structure and the intact minimum, with pictures (:mod:`.fault_pictures`).
+Reported (:meth:`FaultFlight.summary`): from the failure on, the largest distance between the
+flown and desired COM (``fault_max_position_error_m``), the share of steps with a working rotor
+at 0 or f_max (``fault_saturated_fraction``); which rotors failed (module, cell) and when; the
+failure's margin and whether every such failure is tolerated (``oracle.faults.tolerates``).
+A certified tolerant structure should keep within :data:`GOAL_M` after the failure; one that does
+not saturates and drifts. ``modquad validate --fault`` (:mod:`.validate_fault`) flies it and the
+intact minimum, with pictures.
 """
 
 from __future__ import annotations
