@@ -14,8 +14,10 @@ from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from modquad_gym.core.interrupts import one_line
-from modquad_gym.core.resources import usable_cpus
+from modquad_gym.core.resources import check_memory, usable_cpus
 from modquad_gym.core.validation import check_int, check_real
 
 MAX_N_ENVS = 256
@@ -97,7 +99,9 @@ def _is_int(value: object) -> bool:
 
 def check_environment(config: Any) -> None:
     """The training environment of ``config`` can be built: the task source (``--task-source``),
-    ``--n-max`` and the extra keywords (``--env-kwargs``), each named when it is wrong."""
+    ``--n-max`` and the extra keywords (``--env-kwargs``), each named when it is wrong; and
+    PPO's rollout buffer of its observations fits in memory (``n_steps`` of
+    ``--hyperparameters`` with ``--n-envs``, :func:`rollout_bytes`)."""
     from modquad_gym.envs.assembly import ModQuadAssemblyEnv
     from modquad_gym.envs.assembly.env import N_MAX_LIMIT
     from modquad_gym.tasks import make_generator
@@ -108,9 +112,29 @@ def check_environment(config: Any) -> None:
         raise ValueError(f"--task-source {config.source!r}: {exc}") from None
     check_int(config.max_modules, "--n-max", low=2, high=N_MAX_LIMIT)
     try:
-        ModQuadAssemblyEnv(**config.env_kwargs_full).close()
+        env = ModQuadAssemblyEnv(**config.env_kwargs_full)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"--env-kwargs {config.env_kwargs}: {one_line(exc)}") from None
+    try:
+        if config.resume is None:  # a resumed model keeps its own n_steps
+            n_steps = config.ppo_hyperparameters()["n_steps"]
+            check_memory(rollout_bytes(env, n_steps, config.n_envs),
+                         f"--hyperparameters n_steps {n_steps} with --n-envs {config.n_envs} "
+                         "(PPO's rollout buffer)")  # fmt: skip
+    finally:
+        env.close()
+
+
+def rollout_bytes(env: Any, n_steps: int, n_envs: int) -> int:
+    """Bytes of MaskablePPO's rollout buffer for ``env``'s spaces (SB3's ``DictRolloutBuffer``
+    with its action masks): ``n_steps`` x ``n_envs`` rows of every observation array, the
+    action, its mask (float32) and six float32 scalars (reward, return, value, log-probability,
+    advantage, episode start), plus one copy of its largest array, which ``get`` flattens into
+    a new one before it drops the old."""
+    arrays = [int(np.prod(s.shape)) * s.dtype.itemsize
+              for s in env.observation_space.spaces.values()]  # fmt: skip
+    arrays += [int(env.action_space.n) * 4, env.action_space.dtype.itemsize, *[4] * 6]
+    return n_steps * n_envs * (sum(arrays) + max(arrays))
 
 
 TIER_KEYS = ("module", "modules", "initial_type", "fault")
@@ -130,12 +154,12 @@ def check_tier_keys(env_kwargs: dict, tier: str) -> None:
             )
 
 
-def check_model(path: Path, env_kwargs: dict, what: str, tier_kwargs: dict | None = None) -> None:
+def check_model(path: Path, env_kwargs: dict, what: str, tier_kwargs: dict | None = None) -> Any:
     """The file ``path`` is a saved MaskablePPO model whose observation and action spaces are
     those of the environment ``env_kwargs`` describes (a model of another tier or n_max is
     refused) and, given ``tier_kwargs``, whose actions are those of the tier's environment (its
     n_max and module types), else a ValueError naming ``what`` (``--resume``,
-    ``--publish-run``)."""
+    ``--publish-run``). Returns its policy network."""
     from modquad_gym.envs.assembly import ModQuadAssemblyEnv
     from modquad_gym.policy.models import load_model
 
@@ -163,19 +187,43 @@ def check_model(path: Path, env_kwargs: dict, what: str, tier_kwargs: dict | Non
                     )
         finally:
             env.close()
+    return model
 
 
-def check_publishable(run: Path, tier_kwargs: dict) -> None:
-    """A run folder whose model may become a tier's shipped model: its config is readable, its
-    model loads and plays its own environment and the tier's actions (``--publish-run``)."""
-    import json
+def check_network(path: Path, config: Any) -> None:
+    """The model at ``path`` (``--init-from``, already :func:`check_model`-ed) has the network a
+    new run of ``config`` builds (:meth:`~agents.config.TrainConfig.policy`): the same
+    architecture, width and weights' shapes, so PPO can start from its weights; else a
+    ValueError naming ``--init-from`` and what differs."""
+    from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+    from modquad_gym.policy.models import read_model
 
+    saved, where = read_model(path), f"--init-from {path}"
+    policy, kwargs = config.policy()
+    theirs = "candidates" if saved.size_free else "mlp"
+    if theirs != config.architecture:
+        raise ValueError(f"{where}: its network is --architecture {theirs}, this run's "
+                         f"--architecture {config.architecture}")  # fmt: skip
+    width = "hidden" if saved.size_free else "net_arch"
+    default = {"hidden": 64, "net_arch": None}[width]  # what each class takes when not given
+    if saved.policy_kwargs.get(width, default) != kwargs[width]:
+        raise ValueError(f"{where}: its network's {width} is {saved.policy_kwargs.get(width)}, "
+                         f"this run's {kwargs[width]} (--hyperparameters {width})")  # fmt: skip
+    if policy == "MultiInputPolicy":
+        from sb3_contrib.common.maskable.policies import MaskableMultiInputActorCriticPolicy
+
+        policy = MaskableMultiInputActorCriticPolicy
+    env = ModQuadAssemblyEnv(**config.env_kwargs_full)
     try:
-        config = json.loads((Path(run) / "config.json").read_text())
-        env_kwargs = dict(config.get("env_kwargs", {}))
-    except (OSError, ValueError, AttributeError, TypeError) as exc:
-        raise ValueError(f"--publish-run {run}: its config.json is not a run's ({exc})") from None
-    check_model(Path(run) / "model.zip", env_kwargs, "--publish-run", tier_kwargs)
+        ours = policy(env.observation_space, env.action_space, lambda _: 0.0, **kwargs)
+    finally:
+        env.close()
+    shapes = {k: tuple(v.shape) for k, v in ours.state_dict().items()}
+    for key in sorted(set(shapes) | set(saved.weights)):
+        mine, its = shapes.get(key), saved.weights.get(key)
+        its = None if its is None else tuple(its.shape)
+        if mine != its:
+            raise ValueError(f"{where}: its network's {key} has shape {its}, this run's {mine}")
 
 
 NOTHING = object()

@@ -6,22 +6,16 @@ See ``train.py --help`` and the module docstring of ``train.py`` for the options
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from contextlib import ExitStack
 from dataclasses import MISSING, fields
 from pathlib import Path
 
-from agents.checks import (
-    check_environment,
-    check_model,
-    check_publishable,
-    check_used,
-    unused_fields,
-)
+from agents.checks import check_used, unused_fields
 from agents.config import TrainConfig
-from agents.seeds import seed_out
-from agents.training import RUN_FILES, log_name, publish, report, train
+from agents.publishing import check_publishable, publish, refuse_grid_model, run_tier
+from agents.seeds import SEEDS_DROP, seed_out
+from agents.training import RUN_FILES, check_start, log_name, report, train
 from modquad_gym.cli.given import typed_options
 from modquad_gym.core.options import int_option, path_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, claim_output_dir
@@ -163,15 +157,11 @@ PUBLISH_RUN_OPTIONS = ("publish_run", "publish", "tier", "force", "no_report", "
                        "progress")  # fmt: skip
 """What ``--publish-run`` honours (it trains nothing: every other option would be dropped)."""
 
-SEEDS_DROP = {"seed": "each run takes its seed from --seeds",
-              "report_dir": "each seed's report goes to <out>/seed-S/report"}  # fmt: skip
-"""What ``--seeds`` cannot honour, and why."""
-
 
 def refuse_ignored(args: argparse.Namespace, given: dict[str, str]) -> None:
     """A ValueError naming an option the user typed (``given``: destination -> option) that
-    this command would drop: a training option with ``--publish-run``, ``--seed`` or
-    ``--report-dir`` with ``--seeds`` (each seed is its own ``seed-S`` with its report in it),
+    this command would drop: a training option with ``--publish-run``, ``--seed``,
+    ``--report-dir`` or ``--workers`` with ``--seeds`` (:data:`~agents.seeds.SEEDS_DROP`),
     ``--seed-workers`` without ``--seeds``, ``--report-dir`` with ``--no-report``, a recipe
     option the run would not use (:func:`~agents.checks.check_used`: ``--critic-warmup`` with
     ``--bc-epochs 0``, ``--group-size`` without ``--advantage group``, ...)."""
@@ -223,7 +213,7 @@ def complete(args: argparse.Namespace, given: dict[str, str] | None = None) -> N
                 "(its config.json); it is published as that tier's model"
             )
         args.tier = tier
-        check_publishable(args.publish_run, tier_env_kwargs(args.tier))
+        check_publishable(args.publish_run, args.tier)
         args.out = args.publish_run
     elif args.out is None:
         prefix = "ppo-" if args.tier == "current" else f"{args.tier}-"
@@ -235,11 +225,9 @@ def complete(args: argparse.Namespace, given: dict[str, str] | None = None) -> N
     args.config = None
     if args.publish_run is None:
         args.config = TrainConfig(**{f.name: getattr(args, f.name) for f in fields(TrainConfig)})
-        check_environment(args.config)
-        for option in ("resume", "init_from"):
-            if getattr(args, option) is not None:
-                where = "--" + option.replace("_", "-")
-                check_model(getattr(args, option), args.config.env_kwargs_full, where)
+        if args.publish and args.architecture == "mlp":
+            refuse_grid_model(args.tier, "--publish")
+        check_start(args.config)  # the environment, memory, a --resume or --init-from model
         check_output_dir(args.tensorboard, what="--tensorboard")
     runs = [seed_out(args.out, s) for s in args.seeds] if args.seeds else [args.out]
     for out in runs:
@@ -249,22 +237,6 @@ def complete(args: argparse.Namespace, given: dict[str, str] | None = None) -> N
             report = out / "report" if args.seeds else args.report_dir
             own = publishing and "report_dir" not in given  # the tier's report: the publish's
             check_output_dir(report, REPORT_FILES, args.force or own, "--report-dir")
-
-
-def run_tier(config: Path) -> str:
-    """The tier a run folder's ``config.json`` names (``--publish-run``)."""
-    try:
-        tier = json.loads(config.read_text()).get("tier", "current")
-    except (OSError, ValueError, AttributeError) as exc:
-        raise ValueError(f"--publish-run: {config} is not a run's config ({exc})") from None
-    if tier not in TIERS:
-        raise ValueError(f"--publish-run: {config} names an unknown tier {tier!r}")
-    return tier
-
-
-def tier_env_kwargs(tier: str) -> dict:
-    """The environment a tier's shipped model plays (its recipe's training environment)."""
-    return TrainConfig(out=Path("."), tier=tier).env_kwargs_full
 
 
 def run_folders(args: argparse.Namespace) -> list[Path]:

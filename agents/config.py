@@ -70,6 +70,9 @@ LOOKAHEAD = "exact"
 child's exact share, margin and greedy's choice, :mod:`modquad_gym.envs.assembly.lookahead`);
 ``--env-kwargs '{"lookahead": true}'`` trains on the support rows alone, as models before it."""
 DEFAULT_TIMESTEPS = 20_000
+EVAL_FREQ_FLOOR = 512
+"""Fewest steps between two validation passes when ``eval_freq`` is left to the run (a pass
+plays every validation task: more often would cost more than the PPO steps between)."""
 VEC_ENVS = ("dummy", "subproc")
 
 
@@ -88,7 +91,8 @@ def option(default: Any, help: str, group: str = "recipe", **argparse: Any) -> A
 @dataclass(frozen=True)
 class TrainConfig:
     """One training run. Fields left None take the tier's value (``task_source``, ``n_max`` and
-    the tier's ``recipe``), then the recipe's; ``eval_freq`` defaults to ``timesteps / 20``.
+    the tier's ``recipe``), then the recipe's; ``eval_freq`` defaults to ``timesteps / 20``, at
+    least :data:`EVAL_FREQ_FLOOR` (:meth:`eval_every`).
     Every field is a ``train.py`` option (``--n-envs`` for ``n_envs``; ``--no-progress`` for
     ``progress``). A field set away from its default that the run would not use
     (:func:`~agents.checks.check_used`: ``critic_warmup`` with ``bc_epochs=0``, ...) and an
@@ -214,7 +218,8 @@ class TrainConfig:
     )
     eval_freq: int | None = option(
         None,
-        "evaluate every this many total steps (default timesteps / 20)",
+        f"evaluate every this many total steps (default timesteps / 20, at least "
+        f"{EVAL_FREQ_FLOOR})",
         limits=(1, MAX_STEPS),
     )
     n_eval: int = option(
@@ -278,6 +283,11 @@ class TrainConfig:
             raise ValueError("--advantage group: not with --resume (a new run's option)")
         check_tier_keys(self.env_kwargs, self.tier)  # tasks, n_max, modules, fault: not here
         check_used(self, self.asked())
+        if self.critic_warmup and self.critic_warmup >= self.timesteps:
+            raise ValueError(
+                f"--critic-warmup {self.critic_warmup}: not below --timesteps {self.timesteps} "
+                "(the cloned actor would stay frozen for the whole PPO stage)"
+            )
 
     def _filled(self) -> dict[str, Any]:
         """What the fields left None take: the tier's recipe, then the recipe's defaults (the
@@ -328,6 +338,24 @@ class TrainConfig:
 
     def ppo_hyperparameters(self) -> dict:
         return {**HYPERPARAMETERS, **self.hyperparameters}
+
+    def eval_every(self) -> int:
+        """Total steps between validation passes: ``eval_freq``, else ``timesteps / 20`` and at
+        least :data:`EVAL_FREQ_FLOOR`."""
+        return self.eval_freq or max(self.timesteps // 20, EVAL_FREQ_FLOOR)
+
+    def policy(self) -> tuple[Any, dict]:
+        """The policy (a class, or SB3's name ``MultiInputPolicy``) and its keywords that a new
+        run of this config builds (``--architecture`` and its width in ``--hyperparameters``)."""
+        hp = self.ppo_hyperparameters()
+        if self.architecture == "mlp":
+            return "MultiInputPolicy", {"net_arch": hp["net_arch"]}
+        from modquad_gym.geometry.module import palette
+        from modquad_gym.policy.inference import type_features
+        from modquad_gym.policy.network import CandidatePolicy
+
+        types = type_features(palette(get_tier(self.tier).modules or "t45"))
+        return CandidatePolicy, {"hidden": hp["hidden"], "types": types}
 
     def command(self) -> str:
         """The ``python train.py`` command line that runs this config (what ``config.json``

@@ -14,6 +14,12 @@ from agents.checks import unused_fields
 from agents.config import TrainConfig
 from agents.training import report, train
 
+SEEDS_DROP = {"seed": "each run takes its seed from --seeds",
+              "report_dir": "each seed's report goes to <out>/seed-S/report",
+              "workers": "each seed collects its demonstrations in one process (the seeds "
+                         "run in parallel: --seed-workers)"}  # fmt: skip
+"""What ``--seeds`` cannot honour, and why."""
+
 
 def seed_out(out: Path, seed: int) -> Path:
     """The run folder of ``seed`` under the seeds' folder ``out``."""
@@ -22,7 +28,10 @@ def seed_out(out: Path, seed: int) -> Path:
 
 def seed_config(config: TrainConfig, seed: int) -> TrainConfig:
     """``config`` for one seed: its own run folder, one demonstration process (where it
-    collects demonstrations), no progress."""
+    collects demonstrations), no progress; a ValueError for a ``workers`` asked for
+    (:data:`SEEDS_DROP`)."""
+    if "workers" in config.asked() and "workers" not in unused_fields(config):
+        raise ValueError(f"--workers {config.workers} with --seeds: {SEEDS_DROP['workers']}")
     workers = config.workers if "workers" in unused_fields(config) else 1
     return dataclasses.replace(
         config, seed=seed, out=seed_out(config.out, seed), workers=workers, progress=False

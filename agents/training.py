@@ -23,17 +23,17 @@ tier (:mod:`modquad_gym.scoring.tiers`) fixes the environment, the task source a
 from __future__ import annotations
 
 import json
+import os
 import platform
 import shutil
 import time
 from pathlib import Path
 from typing import Any
 
-from agents.checks import check_publishable
+from agents.checks import check_environment, check_model, check_network
 from agents.config import TrainConfig
 from modquad_gym.core.outputs import atomic_write, write_text
-from modquad_gym.policy.inference import export, exported
-from modquad_gym.policy.models import DEFAULT_MODEL
+from modquad_gym.policy.inference import export
 from modquad_gym.scoring.tiers import get_tier
 
 RUN_FILES = ("model.zip", "model_actor.npz", "config.json", "evaluations.npz")
@@ -65,12 +65,16 @@ def _ppo_start(config: TrainConfig, model: Any, run_logs: Path, log_dir: Path) -
 
 
 def train(config: TrainConfig) -> Path:
-    """Train; save ``model.zip``, ``config.json`` and ``evaluations.npz`` in ``config.out``."""
+    """Train; save ``model.zip``, ``config.json`` and ``evaluations.npz`` in ``config.out``.
+    ``config.json`` records the log folder (``log_dir``: checkpoints, ``best_model.zip``) and
+    the cloned start (``cloned_model``) relative to the run folder (:func:`beside`), and
+    ``steps_per_second`` over the steps trained (whole rollouts: at least those asked)."""
     import torch
     from sb3_contrib import MaskablePPO
 
     if config.out is None:
         raise ValueError("--out: a run folder is needed")
+    check_start(config)
     t_start = time.perf_counter()
     torch.set_num_threads(config.threads)
     out, name, log_dir = _run_folders(config)
@@ -78,6 +82,7 @@ def train(config: TrainConfig) -> Path:
     modules = get_tier(config.tier).search_kwargs().get("modules")
     val, eval_env = _validation(config, modules)
     model = _new_model(config, venv, MaskablePPO)
+    steps_before = int(model.num_timesteps)  # a resumed model's count goes on from its own
     for stale in ("best_model.zip", "evaluations.npz", "cloned_model.zip"):  # an earlier run's
         (log_dir / stale).unlink(missing_ok=True)
     imitation, cloned = _ppo_start(config, model, Path(config.tensorboard) / name, log_dir)
@@ -92,6 +97,7 @@ def train(config: TrainConfig) -> Path:
         reset_num_timesteps=config.resume is None,
     )
     wall = time.perf_counter() - t0
+    trained = int(model.num_timesteps) - steps_before  # whole rollouts: often above asked
     model.save(log_dir / "final_model.zip")
 
     kept = keep_best(log_dir, out, int(model.num_timesteps), cloned)
@@ -100,17 +106,37 @@ def train(config: TrainConfig) -> Path:
         **kept,
         "imitation": imitation,
         "critic_warmup_steps": warmup,
-        "cloned_model": cloned,
+        "log_dir": beside(log_dir, out),
+        "cloned_model": beside(Path(cloned), out) if cloned else None,
         "focus": focus,
         "wall_seconds": round(time.perf_counter() - t_start, 1),
         "ppo_seconds": round(wall, 1),
-        "steps_per_second": round(config.timesteps / wall, 1),
+        "steps_per_second": round(trained / wall, 1),
     }
     write_text(out / "config.json", json.dumps(record, indent=2) + "\n")
     venv.close()
     eval_env.close()
     print(f"trained {model.num_timesteps} steps in {wall:.0f} s; model: {out / 'model.zip'}")
     return out / "model.zip"
+
+
+def check_start(config: TrainConfig) -> None:
+    """What ``train.py`` checks before any work, for a caller of :func:`train`: the environment
+    and the rollout buffer's memory, a ``resume`` or ``init_from`` model of this environment
+    (``init_from``: of this run's network too); ValueError naming the option."""
+    check_environment(config)
+    for option in ("resume", "init_from"):
+        if getattr(config, option) is not None:
+            where = "--" + option.replace("_", "-")
+            check_model(getattr(config, option), config.env_kwargs_full, where)
+    if config.init_from is not None:
+        check_network(config.init_from, config)
+
+
+def beside(path: Path, out: Path) -> str:
+    """``path`` relative to the run folder ``out`` (how ``config.json`` records the log folder
+    and the cloned start: found from the run folder from any working folder)."""
+    return Path(os.path.relpath(Path(path).resolve(), Path(out).resolve())).as_posix()
 
 
 def _run_folders(config: TrainConfig) -> tuple[Path, str, Path]:
@@ -184,12 +210,11 @@ def _callbacks(config: TrainConfig, eval_env: Any, val: list, log_dir: Path,
     from agents.validation import optimal_eval_class
 
     per_env = lambda steps: max(steps // config.n_envs, 1)  # noqa: E731
-    eval_freq = config.eval_freq or max(config.timesteps // 20, 512)
     eval_cb = optimal_eval_class()(
         eval_env,
         optima={t.name: t.meta["optimum"] for t in val},
         n_eval_episodes=len(val),
-        eval_freq=per_env(eval_freq),
+        eval_freq=per_env(config.eval_every()),
         log_path=str(log_dir),
         best_model_save_path=str(log_dir),
         deterministic=True,
@@ -269,18 +294,8 @@ def _new_model(config: TrainConfig, venv: Any, MaskablePPO: Any) -> Any:
             config.resume, env=venv, device="cpu", tensorboard_log=str(config.tensorboard)
         )
     hp = config.ppo_hyperparameters()
-    net_arch, hidden = hp.pop("net_arch"), hp.pop("hidden")
-    policy: Any = "MultiInputPolicy"
-    policy_kwargs: dict = {"net_arch": net_arch}
-    if config.architecture == "candidates":
-        from modquad_gym.geometry.module import palette
-        from modquad_gym.policy.inference import type_features
-        from modquad_gym.policy.network import CandidatePolicy
-
-        policy = CandidatePolicy
-        modules = get_tier(config.tier).modules
-        types = palette(modules or "t45")
-        policy_kwargs = {"hidden": hidden, "types": type_features(types)}
+    del hp["net_arch"], hp["hidden"]  # the network's: config.policy()
+    policy, policy_kwargs = config.policy()
     from agents.group_ppo import group_ppo_class
 
     return group_ppo_class()(
@@ -362,20 +377,3 @@ def shown(path: Path) -> Path:
     """``path`` relative to the working folder when it lies inside it (as reports print it)."""
     path, here = Path(path).resolve(), Path.cwd().resolve()
     return path.relative_to(here) if path.is_relative_to(here) else path
-
-
-def publish(run: Path, model: Path = DEFAULT_MODEL) -> Path:
-    """Install a run's model, config and learning curve as a shipped model (``model``: the
-    model.zip path to write; default the package's default model). The run's model is checked
-    first (a saved MaskablePPO of the run's own environment): nothing is replaced otherwise."""
-    tier = json.loads((Path(run) / "config.json").read_text()).get("tier", "current")
-    check_publishable(run, TrainConfig(out=Path(run), tier=tier).env_kwargs_full)
-    target = Path(model).parent
-    target.mkdir(parents=True, exist_ok=True)
-    for name in RUN_FILES:
-        if (run / name).is_file():
-            atomic_write(target / name, lambda tmp, n=name: shutil.copyfile(run / n, tmp))
-    if exported(model) is None:  # a run from before the export, or its export stale
-        export(model)
-    print(f"published {run} as the shipped model {model}")
-    return Path(model)

@@ -9,8 +9,9 @@ run's ``model.zip``: its best validation checkpoint, or the cloned start when th
 not significantly better) and its step, the best checkpoint's share, the final evaluation,
 whether the curve rose (its last quarter's mean optimal share above step 0's); and, never used
 in training or selection, a single deterministic pass of the cloned start, of the kept model
-and of the best checkpoint (``best_model.zip`` in the run's log folder) on the tier's held-out
-suites (optimal share and success against the certified optima). Over
+and of the best checkpoint (``best_model.zip`` in the run's log folder, :func:`checkpoints`;
+a run whose best checkpoint is not its kept model and cannot be found is refused) on the tier's
+held-out suites (optimal share and success against the certified optima). Over
 the runs: the mean of each gain over the cloned start (:data:`GAINS`) with its 95 % percentile
 bootstrap interval over runs (:func:`modquad_gym.scoring.stats.interval`). The kept and best
 checkpoints' validation gains are >= 0 by construction (step 0 is a candidate of the choice);
@@ -59,11 +60,31 @@ def heldout(model: Path, tier: str) -> tuple[float, float]:
 
 
 def cloned_beside(run: Path, tensorboard: Path = Path("runs")) -> Path:
-    """The cloned start a run saved among its checkpoints, for runs whose config predates the
-    ``cloned_model`` entry (``train.py``'s log folder: ``<parent>-<run>`` under ``runs/``)."""
+    """The cloned start a run saved among its checkpoints, for a config that names neither its
+    log folder nor its cloned start (``train.py``'s log folder: ``<parent>-<run>`` under
+    ``runs/`` of the working folder)."""
     run = run.resolve()
     name = run.name if run.parent == tensorboard.resolve() else f"{run.parent.name}-{run.name}"
     return tensorboard / name / "train" / "cloned_model.zip"
+
+
+def checkpoints(run: Path, config: dict) -> tuple[Path, Path]:
+    """(cloned start, best checkpoint) of a run, found from what its config.json records: its
+    ``log_dir`` (checkpoints, ``best_model.zip``) and ``cloned_model``, both relative to the run
+    folder, so from any working folder. A config without ``log_dir`` records its cloned start
+    as the path it was given (absolute, or relative to the folder it trained in); its best
+    checkpoint lies beside it, or for a run started ``--init-from`` another run's cloned start
+    in its own log folder under ``runs/`` (:func:`cloned_beside`)."""
+    recorded = config.get("cloned_model")
+    if "log_dir" in config:
+        if not isinstance(config["log_dir"], str) or not isinstance(recorded, str | None):
+            raise ValueError(f"RUN {run}: config.json's log_dir or cloned_model is not a path")
+        logs = run / config["log_dir"]
+        return (run / recorded if recorded else logs / "cloned_model.zip"), logs / "best_model.zip"
+    cloned = Path(recorded or cloned_beside(run))
+    started = isinstance(config.get("imitation"), dict) and "init_from" in config["imitation"]
+    logs = cloned_beside(run).parent if started else cloned.parent
+    return cloned, logs / "best_model.zip"
 
 
 def read_run(run: Path) -> tuple[dict, dict]:
@@ -94,9 +115,13 @@ def read_run(run: Path) -> tuple[dict, dict]:
                          " of one row per evaluation")  # fmt: skip
     if config["kept_model_timesteps"] not in data["timesteps"].tolist():
         raise ValueError(f"RUN {run}: config.json's kept_model_timesteps is no evaluation's step")
-    cloned = Path(config.get("cloned_model") or cloned_beside(run))
+    cloned, best = checkpoints(run, config)
     if not cloned.is_file():
         raise ValueError(f"RUN {run}: its cloned start {cloned} does not exist")
+    kept = data["timesteps"].tolist().index(config["kept_model_timesteps"])
+    if best_index(data) != kept and not best.is_file():  # never the kept model's scores for it
+        raise ValueError(f"RUN {run}: its best checkpoint {best} does not exist (the best "
+                         "validation step is not the kept model's)")  # fmt: skip
     return config, data
 
 
@@ -108,12 +133,10 @@ def run_row(run: Path, config: dict, data: dict) -> tuple[dict, dict]:
     suc = data["successes"].mean(axis=1)
     kept = int(np.flatnonzero(steps == config["kept_model_timesteps"])[0])
     tail = opt[-max(1, len(opt) // 4) :].mean()
-    cloned = Path(config.get("cloned_model") or cloned_beside(run))
+    cloned, best = checkpoints(run, config)
     h_clone = heldout(cloned, config["tier"])
     h_kept = heldout(run / "model.zip", config["tier"])
-    best = cloned_beside(run).parent / "best_model.zip"  # the best checkpoint, when not kept
-    same = best_index(data) == kept or not best.is_file()
-    h_best = h_kept if same else heldout(best, config["tier"])
+    h_best = h_kept if best_index(data) == kept else heldout(best, config["tier"])
     row = {
         "run": str(run),
         "seed": config["seed"],

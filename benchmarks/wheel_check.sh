@@ -318,7 +318,7 @@ for c in 'modquad solve --task example:planted_seed1 --method ppo' \
 done
 skip docs/learned-designer.md 'python -m agents.expert_iteration --rounds 2 --out runs/exit' \
   'two rounds of expert iteration at 8-32 modules take 14-30 min of training (the page says so)'
-skip docs/learned-designer.md 'cp runs/exit/model.zip runs/exit/config.json modquad_gym/data/models/ppo_scale/' \
+skip docs/learned-designer.md 'cp runs/exit/model.zip runs/exit/model_actor.npz runs/exit/config.json modquad_gym/data/models/ppo_scale/' \
   'replaces the shipped scale model on purpose, after the command above'
 
 # docs/index.md: the clone's environment and the site (the README's commands, above)

@@ -30,3 +30,35 @@ def importable(tmp_path_factory):
     sys.path.remove(str(folder))
     for name in names:
         sys.modules.pop(name, None)
+
+
+@pytest.fixture(scope="module")
+def untrained_run(tmp_path_factory):
+    """``untrained_run(name, **fields)``: a run folder holding the ``model.zip`` of a new,
+    untrained MaskablePPO of the :class:`~agents.config.TrainConfig` ``fields`` and a
+    ``config.json`` naming its tier, environment and architecture (a network to publish or
+    start from, without training); nothing else."""
+    import json
+
+    pytest.importorskip("sb3_contrib")
+    folder = tmp_path_factory.mktemp("untrained")
+
+    def make(name: str, **fields):
+        from sb3_contrib import MaskablePPO
+        from stable_baselines3.common.vec_env import DummyVecEnv
+
+        from agents.config import TrainConfig
+        from agents.training import _new_model
+        from modquad_gym.policy.ppo import make_env
+
+        config = TrainConfig(out=folder / name, tensorboard=folder / "tb", **fields)
+        venv = DummyVecEnv([lambda: make_env(**config.env_kwargs_full)])
+        config.out.mkdir()
+        _new_model(config, venv, MaskablePPO).save(config.out / "model.zip")
+        venv.close()
+        record = {"tier": config.tier, "env_kwargs": config.env_kwargs_full,
+                  "architecture": config.architecture}  # fmt: skip
+        (config.out / "config.json").write_text(json.dumps(record))
+        return config.out
+
+    return make

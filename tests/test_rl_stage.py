@@ -4,6 +4,7 @@ on (those the cloned policy misses), and a PPO run started from a saved cloned p
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -100,6 +101,11 @@ def test_ppo_from_a_saved_cloned_policy_focuses_and_keeps_the_best_optimal_share
     train(TrainConfig(out=tmp_path / "b", init_from=cloned, focus_tasks=6, **common))
     config = json.loads((tmp_path / "b" / "config.json").read_text())
     assert config["imitation"] == {"init_from": str(cloned)}
+    first = json.loads((tmp_path / "a" / "config.json").read_text())  # paths from the run folder
+    assert (tmp_path / "a" / first["cloned_model"]).resolve() == cloned.resolve()
+    assert (tmp_path / "a" / first["log_dir"]).resolve() == cloned.parent.resolve()
+    assert (tmp_path / "b" / config["cloned_model"]).resolve() == cloned.resolve()
+    assert (tmp_path / "b" / config["log_dir"] / "evaluations.npz").is_file()
     assert config["focus"]["tasks"] == 6 and 0 <= config["focus"]["missed"] <= 6
     evals = np.load(tmp_path / "b" / "evaluations.npz")
     assert evals["timesteps"][0] == 0 and evals["optimal"].shape == evals["results"].shape
@@ -327,3 +333,47 @@ def test_the_rl_stage_report_refuses_a_bad_run_before_any_held_out_pass(tmp_path
             rl_stage.main(argv)
         assert "\n" not in str(err.value) and str(run) in str(err.value)
     assert not (tmp_path / "out").exists()
+
+
+def test_the_rl_stage_plays_the_best_checkpoint_the_run_records_from_any_folder(
+    tmp_path, monkeypatch
+):
+    """A run's config.json records its log folder and cloned start relative to the run folder:
+    rl_stage plays that best_model.zip from any working folder (logs outside ./runs too); an
+    older config's best checkpoint lies beside its cloned start; a best checkpoint that is not
+    the kept model and cannot be found is refused in one line naming the run and the file,
+    never scored with the kept model's numbers."""
+    from benchmarks import rl_stage
+
+    played = []
+
+    def heldout(model, tier):
+        played.append(Path(model).resolve())
+        return 0.5, 1.0
+
+    monkeypatch.setattr(rl_stage, "heldout", heldout)
+    logs = tmp_path / "elsewhere" / "tb" / "x-run" / "train"
+    logs.mkdir(parents=True)
+    for name in ("cloned_model.zip", "best_model.zip"):
+        (logs / name).write_bytes(b"")
+    run = tmp_path / "runs" / "run"
+    run.mkdir(parents=True)
+    (run / "model.zip").write_bytes(b"")
+    np.savez(run / "evaluations.npz", **_evals([0.5, 0.75, 0.5], [1, 1, 1], [1, 2, 1]))
+    base = {"tier": "current", "seed": 0, "kept_model_timesteps": 0}  # best: step 100
+    (run / "config.json").write_text(json.dumps({**base, "log_dir": "../../elsewhere/tb/x-run/"
+                                                 "train", "cloned_model": "../../elsewhere/tb/"
+                                                 "x-run/train/cloned_model.zip"}))  # fmt: skip
+    monkeypatch.chdir(tmp_path / "elsewhere")  # no runs/ here
+    rl_stage.main([str(run), "--out", str(tmp_path / "out")])
+    assert played == [logs / "cloned_model.zip", run / "model.zip", logs / "best_model.zip"]
+    older = {**base, "cloned_model": str(logs / "cloned_model.zip")}  # absolute, no log_dir
+    (run / "config.json").write_text(json.dumps(older))
+    played.clear()
+    rl_stage.main([str(run), "--out", str(tmp_path / "out2")])
+    assert played[-1] == logs / "best_model.zip"
+    (logs / "best_model.zip").unlink()
+    with pytest.raises(ValueError, match="best checkpoint") as err:
+        rl_stage.main([str(run), "--out", str(tmp_path / "out3")])
+    assert str(run) in str(err.value) and str(logs / "best_model.zip") in str(err.value)
+    assert "\n" not in str(err.value) and not (tmp_path / "out3").exists()

@@ -199,6 +199,7 @@ def test_publish_run_names_the_missing_file(fault_run, capsys):
 SEEDS_DROPPED = [
     (["--seeds", "1", "2", "--seed", "3"], "--seed with --seeds"),
     (["--seeds", "1", "2", "--report-dir", "r"], "--report-dir with --seeds"),
+    (["--seeds", "1", "2", "--workers", "4"], "--workers with --seeds"),
     (["--seed-workers", "2"], "--seed-workers: only with --seeds"),
     (["--no-report", "--report-dir", "r"], "--report-dir with --no-report"),
 ]
@@ -209,3 +210,110 @@ def test_options_seeds_cannot_honour_are_refused(parse, capsys, argv, words):
     with pytest.raises(SystemExit) as exc:
         parse(*argv)
     assert exc.value.code == 2 and words in capsys.readouterr().err.splitlines()[-1]
+
+
+def test_a_seeds_config_with_its_own_workers_is_refused(tmp_path):
+    """Each seed collects its demonstrations in one process: a config that asks for more is
+    refused, not run with one (the recorded command said --workers 1)."""
+    from agents.config import TrainConfig
+    from agents.seeds import seed_config
+
+    with pytest.raises(ValueError, match="--workers 4 with --seeds"):
+        seed_config(TrainConfig(out=tmp_path / "seeds", workers=4), 0)
+    unused = TrainConfig(out=tmp_path / "seeds", bc_epochs=0, dagger_rounds=0)
+    assert seed_config(unused, 0).workers == unused.workers  # no demonstrations: nothing asked
+
+
+def test_a_critic_warmup_as_long_as_the_run_is_refused(parse, capsys, tmp_path):
+    """The actor would never train: --critic-warmup must stay below --timesteps."""
+    from agents.config import TrainConfig
+
+    for warmup, timesteps in ((512, 512), (100_000, 512)):
+        with pytest.raises(SystemExit) as exc:
+            parse("--critic-warmup", str(warmup), "--timesteps", str(timesteps))
+        last = capsys.readouterr().err.strip().splitlines()[-1]
+        assert exc.value.code == 2 and f"--critic-warmup {warmup}" in last
+        assert f"--timesteps {timesteps}" in last
+    assert parse("--critic-warmup", "511", "--timesteps", "512").config.critic_warmup == 511
+    with pytest.raises(ValueError, match="--critic-warmup"):
+        TrainConfig(out=tmp_path, critic_warmup=30_000)  # the recipe's 20,000 steps
+
+
+def test_a_rollout_buffer_beyond_memory_is_refused_before_the_run_folder(
+    parse, capsys, tmp_path, monkeypatch
+):
+    """n_steps x n_envs rows of the observations must fit in the memory available: refused in
+    one line naming --hyperparameters n_steps, before the run folder exists."""
+    room = 2**30
+    monkeypatch.setattr("modquad_gym.core.resources.available_memory", lambda: room)
+    with pytest.raises(SystemExit) as exc:
+        parse("--hyperparameters", '{"n_steps": 1000000}')
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert exc.value.code == 2 and "--hyperparameters n_steps 1000000" in last, last
+    assert "1.0 GiB are available" in last and not (tmp_path / "run").exists()
+    assert parse("--hyperparameters", '{"n_steps": 256}').config  # the recipe's fits
+
+
+def test_the_rollout_estimate_is_the_buffer_sb3_allocates(untrained_run):
+    """:func:`rollout_bytes` counts every array of MaskablePPO's rollout buffer: its estimate
+    less the one flattened copy is the buffer's size, for both networks."""
+    from sb3_contrib import MaskablePPO
+
+    from agents.checks import rollout_bytes
+
+    for architecture in ("candidates", "mlp"):
+        run = untrained_run(f"buffer-{architecture}", architecture=architecture,
+                            hyperparameters={"n_steps": 16, "batch_size": 16})  # fmt: skip
+        model = MaskablePPO.load(run / "model.zip", device="cpu")  # its spaces, one env
+        buffer = model.rollout_buffer
+        scalars = ("rewards", "returns", "episode_starts", "values", "log_probs", "advantages")
+        arrays = [*buffer.observations.values(), buffer.actions, buffer.action_masks,
+                  *(getattr(buffer, k) for k in scalars)]  # fmt: skip
+        total, largest = sum(a.nbytes for a in arrays), max(a.nbytes for a in arrays)
+        assert total + largest == rollout_bytes(model, 16, 1)
+
+
+def test_help_states_the_evaluation_frequency_the_run_uses(tmp_path):
+    """--eval-freq's default in --help is the one the run takes: timesteps / 20 with its
+    floor (a 1,024-step run evaluates every 512 steps, not every 51)."""
+    import argparse
+    import re
+
+    from agents.cli import add_config_options
+    from agents.config import TrainConfig
+
+    parser = argparse.ArgumentParser()
+    add_config_options(parser)
+    (action,) = [a for a in parser._actions if a.dest == "eval_freq"]
+    floor = int(re.search(r"timesteps / 20, at least (\d+)", action.help).group(1))
+    for timesteps in (1_024, 20 * floor, 200_000):
+        config = TrainConfig(out=tmp_path, timesteps=timesteps)
+        assert config.eval_every() == max(timesteps // 20, floor)
+    assert TrainConfig(out=tmp_path, timesteps=1_024, eval_freq=100).eval_every() == 100
+
+
+def test_init_from_a_network_of_another_width_is_refused_in_one_line(
+    parse, capsys, tmp_path, untrained_run
+):
+    """PPO starts from the model's weights: a model of another hidden width (or net_arch) is
+    refused while parsing, naming --init-from and both widths, before any folder is made; the
+    Python door raises the same."""
+    from agents.config import TrainConfig
+    from agents.training import train
+
+    start = untrained_run("wide")  # hidden 64, the recipe's
+    with pytest.raises(SystemExit) as exc:
+        parse("--init-from", str(start / "model.zip"), "--hyperparameters", '{"hidden": 32}',
+              "--tensorboard", str(tmp_path / "tb"))  # fmt: skip
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert exc.value.code == 2 and "--init-from" in last and "Traceback" not in last
+    assert "hidden is 64, this run's 32" in last, last
+    with pytest.raises(ValueError, match="--init-from .*hidden is 64, this run's 32"):
+        train(TrainConfig(out=tmp_path / "run", init_from=start / "model.zip",
+                          tensorboard=tmp_path / "tb", hyperparameters={"hidden": 32}))  # fmt: skip
+    assert not (tmp_path / "run").exists() and not (tmp_path / "tb").exists()
+    mlp = untrained_run("mlp-start", architecture="mlp")
+    with pytest.raises(SystemExit):
+        parse("--init-from", str(mlp / "model.zip"), "--architecture", "mlp", "--hyperparameters",
+              '{"net_arch": [64]}', "--tensorboard", str(tmp_path / "tb"))  # fmt: skip
+    assert "net_arch is [256, 256], this run's [64]" in capsys.readouterr().err

@@ -209,3 +209,19 @@ def test_the_report_says_what_fine_tuning_did_from_the_learning_curve(tmp_path):
     assert "raised the validation return from the cloned policy's 1.6000 at step 0" in rose
     assert "to 1.6400 at step 2000" in rose and "ended at 1.6300 at step 3000" in rose
     assert "(0.8 modules over the 2 validation tasks)" in rose
+
+
+def test_config_records_the_rate_of_the_steps_trained(tmp_path, suite):
+    """SB3 trains whole rollouts (here 2 envs x 64 steps for 64 asked): steps_per_second
+    divides the steps trained, not the steps asked, by PPO's time."""
+    config = TrainConfig(
+        out=tmp_path / "run", task_source=str(suite), n_max=3, timesteps=64, bc_epochs=0,
+        dagger_rounds=0, n_eval=1, tensorboard=tmp_path / "tb", progress=False,
+        hyperparameters={"n_steps": 64, "batch_size": 32},
+    )  # fmt: skip
+    train(config)
+    record = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert (record["timesteps_requested"], record["timesteps"]) == (64, 128)
+    rate = record["timesteps"] / record["ppo_seconds"]  # ppo_seconds is rounded to 0.1 s
+    assert record["steps_per_second"] == pytest.approx(rate, rel=0.1 / record["ppo_seconds"])
+    assert record["steps_per_second"] > 1.5 * 64 / record["ppo_seconds"]
