@@ -35,8 +35,9 @@ from typing import Any
 
 import numpy as np
 
+from agents.exit_checks import MAX_REPLAY, REPLAY_N_MAX, check_start
 from agents.scale_scores import current_tier, report, score, summary
-from modquad_gym.core.options import int_option
+from modquad_gym.core.options import int_option, path_option
 from modquad_gym.core.outputs import (
     OutputError,
     check_output_dir,
@@ -57,9 +58,9 @@ from entry ``i % len``: an entry given twice is drawn twice as often)."""
 BANDS = (16, 24, 32)
 """Validation bands the rounds are scored on."""
 CLONE = {"epochs": 25, "batch_size": 64, "learning_rate": 3e-4}
+INTEGER = int_option(-(2**63), 2**63)
 OUTPUTS = ("model.zip", "model_actor.npz", "config.json", "rows.csv", "report.md", "labels.csv")
 """The files of ``--out`` besides the rounds' folders ``round-R``."""
-INTEGER = int_option(-(2**63), 2**63)
 
 
 def training_task(seed: int, round_: int, i: int, draws=DRAWS):
@@ -127,7 +128,8 @@ def replay_demos(model: str, n_max: int, n_tasks: int, seed: int):
 
     generate, rng = make_generator("mixed"), np.random.default_rng([EXIT_SEED0, seed, 0])
     tasks = [generate(rng) for _ in range(n_tasks)]
-    return collect(Policy(model, n_max=n_max).env, tasks, 7, seed=[EXIT_SEED0, seed, 1])
+    env = Policy(model, n_max=n_max).env
+    return collect(env, tasks, REPLAY_N_MAX, seed=[EXIT_SEED0, seed, 1])
 
 
 def load_for_training(model: Path, n_max: int):
@@ -259,7 +261,7 @@ def _round_options(p: argparse.ArgumentParser) -> None:
 
     count = int_option(1, 1_000_000)
     p.add_argument(
-        "--model", type=Path, default=DEFAULT_MODEL, help="start model (default: shipped)"
+        "--model", type=path_option, default=DEFAULT_MODEL, help="start model (default: shipped)"
     )
     p.add_argument("--rounds", type=int_option(1, 1000), default=2,
                    help="expert-iteration rounds, 1 to 1000 (default 2)")  # fmt: skip
@@ -339,11 +341,11 @@ def _run_options(p: argparse.ArgumentParser) -> None:
         "--replay",
         type=INTEGER,
         default=800,
-        help="certified demonstrations of this "
-        "many current-tier training tasks cloned beside the scale states (default 800)",
+        help="certified demonstrations of this many current-tier training tasks cloned beside "
+        f"the scale states, 0 to {MAX_REPLAY:,} and what memory holds (default 800)",
     )
     p.add_argument("--seed", type=seed_option, default=0, help="seed, 0 to 2**63-1 (default 0)")
-    p.add_argument("--out", type=Path, default=Path("runs/exit"))
+    p.add_argument("--out", type=path_option, default=Path("runs/exit"))
     p.add_argument(
         "--force",
         action="store_true",
@@ -352,21 +354,20 @@ def _run_options(p: argparse.ArgumentParser) -> None:
 
 
 def _check_args(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
-    """What argparse cannot check alone: ranges across options, ``--out`` and the start model
-    (loaded once); each failure is ``p.error``'s one line and exit 2."""
-    from modquad_gym.policy.models import read_model
-
+    """What argparse cannot check alone: ranges across options, ``--out``, the start model
+    (loaded once, at ``--n-max``) and the replay's memory; each failure is ``p.error``'s one
+    line and exit 2."""
     if not 0 < args.learning_rate <= 1:
         p.error(f"--learning-rate {args.learning_rate:g}: give a rate in (0, 1]")
-    if args.replay < 0:
-        p.error(f"--replay {args.replay}: give a number of tasks, 0 or more")
+    if not 0 <= args.replay <= MAX_REPLAY:
+        p.error(f"--replay {args.replay}: give a number of tasks, 0 to {MAX_REPLAY:,}")
     if len(set(args.bands)) < len(args.bands):  # each band's draws would be scored twice
         p.error(f"--bands {' '.join(map(str, args.bands))}: a band given twice")
     try:
         check_output_dir(args.out, output_names(args), args.force)
-        read_model(args.model)
-    except ValueError as exc:  # OutputError too
-        named = isinstance(exc, OutputError) or str(exc).startswith("--model")
+        check_start(args.model, args.n_max, args.replay)
+    except ValueError as exc:  # OutputError and ResourceError too
+        named = isinstance(exc, OutputError) or str(exc).startswith(("--model", "--replay"))
         p.error(str(exc) if named else f"--model {args.model}: {exc}")
 
 

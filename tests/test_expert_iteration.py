@@ -165,3 +165,36 @@ def test_the_options_keep_their_defaults_and_cross_checks(tmp_path, capsys):
         last = capsys.readouterr().err.strip().splitlines()[-1]
         assert stop.value.code == 2 and says in last, (bad, last)
     assert not out.exists() and isinstance(args["model"], Path)
+
+
+def test_empty_paths_an_unbounded_replay_and_a_grid_start_are_refused_before_work(
+    tmp_path, capsys, monkeypatch, untrained_run
+):
+    """--out '' and --model '' (the working folder, unnamed), a --replay beyond 10,000,000 or
+    beyond what memory holds (its states at --n-max), and a start model that cannot act at
+    --n-max (a grid MLP of n_max 7) each stop in one line naming the option, exit 2, before
+    --out exists."""
+    from agents.exit_checks import replay_bytes
+    from agents.expert_iteration import main
+    from modquad_gym.policy.policy import Policy
+
+    out = tmp_path / "exit"
+    monkeypatch.chdir(tmp_path)
+    room = 4 * 2**30
+    monkeypatch.setattr("modquad_gym.core.resources.available_memory", lambda: room)
+    env = Policy(n_max=40).env  # the default start model's labelling environment
+    fits = int(0.8 * room / replay_bytes(env, 1))
+    grid = untrained_run("grid", architecture="mlp") / "model.zip"
+    for argv, says in ((["--out", ""], "argument --out: an empty path"),
+                       (["--model", ""], "argument --model: an empty path"),
+                       (["--replay", "99999999999"], "--replay 99999999999: give a number"),
+                       (["--replay", str(fits + 1)], f"--replay {fits + 1} (its demonstrations"),
+                       (["--model", str(grid)], f"--model {grid}: n_max=40 exceeds")):  # fmt: skip
+        with pytest.raises(SystemExit) as stop:
+            main([*(["--out", str(out)] if "--out" not in argv else []), *argv])
+        last = capsys.readouterr().err.strip().splitlines()[-1]
+        assert stop.value.code == 2 and says in last, (argv, last)
+    assert list(tmp_path.iterdir()) == []  # nothing made, here (the working folder) either
+    from agents.expert_iteration import parse_args
+
+    assert parse_args(["--out", str(out), "--replay", str(fits)]).replay == fits
