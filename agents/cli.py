@@ -19,6 +19,7 @@ from agents.training import RUN_FILES, check_start, log_name, report, train
 from modquad_gym.cli.given import typed_options
 from modquad_gym.core.options import int_option, path_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, claim_output_dir
+from modquad_gym.policy.models import UNTRUSTED, check_trusted
 from modquad_gym.scoring.options import REPORT_FILES
 from modquad_gym.scoring.tiers import TIERS
 from modquad_gym.tasks.files import parse_json
@@ -121,6 +122,12 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         help="with --seeds: runs at a time (default: one per seed, at most the local "
         "cores; every CPU of the cluster with RAY_ADDRESS)",
     )
+    g.add_argument(
+        "--trust-model",
+        action="store_true",
+        help=f"with --resume: continue a model .zip that is not shipped, which unpickles it "
+        f"({UNTRUSTED}): only for a file you trust",
+    )
     g.add_argument("--quick", action="store_true", help="a short smoke run (a few thousand steps)")
     g.add_argument("--no-report", action="store_true", help="skip the benchmark report")
     g.add_argument(
@@ -181,6 +188,9 @@ def refuse_ignored(args: argparse.Namespace, given: dict[str, str]) -> None:
         raise ValueError("--seed-workers: only with --seeds (the runs it trains at a time)")
     if "report_dir" in given and args.no_report:
         raise ValueError("--report-dir with --no-report: no report is written")
+    if "trust_model" in given and args.resume is None:
+        raise ValueError("--trust-model: only with --resume (the one option that unpickles a "
+                         "model file; --init-from reads its weights alone)")  # fmt: skip
     if args.publish_run is None:  # a recipe option the run would not use (typed: any value)
         check_used(args, [f.name for f in fields(TrainConfig) if f.name in given])
 
@@ -228,6 +238,8 @@ def complete(args: argparse.Namespace, given: dict[str, str] | None = None) -> N
         if args.publish and args.architecture == "mlp":
             refuse_grid_model(args.tier, "--publish")
         check_start(args.config)  # the environment, memory, a --resume or --init-from model
+        if args.resume is not None:  # MaskablePPO.load: the whole file, its pickles too
+            check_trusted(args.resume, args.trust_model, "--resume", "continuing training")
         check_output_dir(args.tensorboard, what="--tensorboard")
     runs = [seed_out(args.out, s) for s in args.seeds] if args.seeds else [args.out]
     for out in runs:

@@ -46,6 +46,7 @@ from modquad_gym.core.outputs import (
     write_text,
 )
 from modquad_gym.policy.inference import export
+from modquad_gym.policy.models import UNTRUSTED
 
 EXIT_SEED0 = 7_000_000
 """Training draws of the expert iteration (held-out scale tasks use 5,000,000 + ..., validation
@@ -322,6 +323,8 @@ def _draw_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--per-family", type=int_option(1, 1000), default=3,
                    help="validation draws per family and band (3)")  # fmt: skip
+    p.add_argument("--trust-model", action="store_true", help="train a --model that is not "
+                   f"shipped, which unpickles it ({UNTRUSTED}): only a file you trust")  # fmt: skip
 
 
 def _run_options(p: argparse.ArgumentParser) -> None:
@@ -355,8 +358,10 @@ def _run_options(p: argparse.ArgumentParser) -> None:
 
 def _check_args(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     """What argparse cannot check alone: ranges across options, ``--out``, the start model
-    (loaded once, at ``--n-max``) and the replay's memory; each failure is ``p.error``'s one
-    line and exit 2."""
+    (loaded once, at ``--n-max``, and trusted) and the replay's memory; each failure is
+    ``p.error``'s one line and exit 2."""
+    from modquad_gym.policy.models import check_trusted
+
     if not 0 < args.learning_rate <= 1:
         p.error(f"--learning-rate {args.learning_rate:g}: give a rate in (0, 1]")
     if not 0 <= args.replay <= MAX_REPLAY:
@@ -366,6 +371,7 @@ def _check_args(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     try:
         check_output_dir(args.out, output_names(args), args.force)
         check_start(args.model, args.n_max, args.replay)
+        check_trusted(args.model, args.trust_model, "--model", "training it further")
     except ValueError as exc:  # OutputError and ResourceError too
         named = isinstance(exc, OutputError) or str(exc).startswith(("--model", "--replay"))
         p.error(str(exc) if named else f"--model {args.model}: {exc}")

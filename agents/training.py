@@ -45,11 +45,10 @@ def _ppo_start(config: TrainConfig, model: Any, run_logs: Path, log_dir: Path) -
     """Give ``model`` the policy PPO starts from: a saved one (``init_from``) or the cloned one
     (behaviour cloning, saved as ``cloned_model.zip`` to measure what RL adds), anchored for a
     ``kl_coef`` term. (imitation record, the start's path), both None for PPO from scratch."""
-    if config.init_from is not None:
-        from sb3_contrib import MaskablePPO
+    if config.init_from is not None:  # its weights alone: read without unpickling the file
+        from modquad_gym.policy.models import read_model
 
-        start = MaskablePPO.load(config.init_from, device="cpu")
-        model.policy.load_state_dict(start.policy.state_dict())
+        model.policy.load_state_dict(read_model(config.init_from).weights)
         imitation, cloned = {"init_from": str(config.init_from)}, str(config.init_from)
     elif config.resume is None and config.bc_epochs > 0:
         from agents.pretraining import pretrain

@@ -20,30 +20,22 @@ import importlib
 import inspect
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 from modquad_gym.core.options import text_parser, text_words
-from modquad_gym.core.validation import check_flag
 from modquad_gym.policy.models import (
     BUDGET_PER_MODULE,
     EXTRA_FALLBACKS,
     EXTRA_FROM,
     FALLBACK,
     GUIDED_BUDGET,
+    LEARNED_CHECKS,
     QUEUE_MEMORY,
     SCALE_FROM,
     TOP_K,
 )
-from modquad_gym.search.options import (
-    COMMON_OPTIONS,
-    check_seed,
-    check_time_limit,
-    count,
-    share,
-    shares,
-)
-from modquad_gym.search.problem import PRUNE, unknown_option
+from modquad_gym.search.options import COMMON_OPTIONS
+from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, PRUNE, unknown_option
 
 
 # ---------------------------------------------------------------------------------- options
@@ -111,7 +103,12 @@ class Options:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
 
-OWN_FLAGS = {"model": "--model", "time_limit": "--time-limit", "seed": "--seed"}
+OWN_FLAGS = {
+    "model": "--model",
+    "time_limit": "--time-limit",
+    "seed": "--seed",
+    "trust_model": "--trust-model",
+}
 """The method options a command line gives with a flag of its own (``--option`` may too, where
 it can write the value; never both)."""
 
@@ -252,45 +249,35 @@ def _search(name: str, help: str, **capabilities: Any) -> Method:
                   "modquad_gym.solvers.factory:SearchSolver", **capabilities)  # fmt: skip
 
 
-def check_model(value: Any, name: str) -> Any:
-    """A learned method's ``model``: a path (str or Path) of a PPO .zip, a loaded
-    :class:`~modquad_gym.policy.Policy`, or a loaded SB3 model or policy network; else a
-    ValueError naming ``name`` (the file itself is read when the solver is made)."""
-    from modquad_gym.policy.policy import Policy
-
-    net = getattr(value, "policy", value)
-    if isinstance(value, (str, Path, Policy)) or hasattr(net, "observation_space"):
-        return value
-    raise ValueError(
-        f"{name} must be the path of a PPO model .zip or a loaded model (Policy, MaskablePPO), "
-        f"got {value!r}"
-    )
-
-
 _MODEL = (object, None, "a PPO .zip or a loaded Policy (default: the shipped model of the "
-          "budget and palette)", check_model)  # fmt: skip
-_LEARNED_LIMIT = (float | None, None, "seconds after which it stops (None: none)", check_time_limit)
+          "budget and palette)", LEARNED_CHECKS["model"])  # fmt: skip
+_TRUST = (bool, False, "load a model .zip that only unpickling reads (a model .zip holds "
+          "pickled Python objects that run code when loaded: only a file you trust)",
+          LEARNED_CHECKS["trust_model"])  # fmt: skip
+_LEARNED_LIMIT = (float | None, DEFAULT_TIME_LIMIT, "seconds after which it stops (None: none)",
+                  LEARNED_CHECKS["time_limit"])  # fmt: skip
 _TOP_K = (int | None, TOP_K, "children decided exactly per step by a model reading the exact "
           "lookahead, the rest ranked lower by support bounds and masked out (None: all)",
-          count(1))  # fmt: skip
+          LEARNED_CHECKS["top_k"])  # fmt: skip
 _PRUNE = (bool, False, *COMMON_OPTIONS["prune"])
 _FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dives) wherever the "
              "policy gives its own most likely docking at most this probability (0: never, 1: "
              f"always; None: {FALLBACK:g} at budgets of {SCALE_FROM} modules and more with a "
              "model that sees greedy's choice, the exact lookahead, else 0)",
-             share)  # fmt: skip
+             LEARNED_CHECKS["fallback"])  # fmt: skip
 _EXTRA_FALLBACKS = (tuple[float, ...] | None, None, "further deterministic passes, one per "
                     "fallback value (comma-separated), branching from the first where they dock "
                     "elsewhere; the smallest verified structure is kept (None: "
                     f"{','.join(f'{f:g}' for f in EXTRA_FALLBACKS)} where the first ends with "
                     f"more than {EXTRA_FROM} modules, at budgets of {SCALE_FROM} modules and "
                     "more with a model that sees greedy's choice, else none; empty: none)",
-                    shares)  # fmt: skip
+                    LEARNED_CHECKS["extra_fallbacks"])  # fmt: skip
 
 _BUDGET = (int | None, None, "most structures evaluated (None: "
            f"{GUIDED_BUDGET} below {SCALE_FROM} modules, else {BUDGET_PER_MODULE} per module "
            f"of its dives' answer, at least {GUIDED_BUDGET}, at most what "
-           f"{QUEUE_MEMORY // 2**20} MiB of queued states hold)", count(1))  # fmt: skip
+           f"{QUEUE_MEMORY // 2**20} MiB of queued states hold)",
+           LEARNED_CHECKS["budget"])  # fmt: skip
 
 for _method in (
     _search("exhaustive", "the certified minimum (exhaustive search, up to 16 modules)",
@@ -310,19 +297,22 @@ for _method in (
             "modules)", certifies=True, fault=False),
     Method("ppo", "the learned agent's deterministic pass, with two more sharing its start where "
            f"it ends above {EXTRA_FROM} modules (the shipped model unless model=)",
-           options("ppo", model=_MODEL, seed=(int, 0, COMMON_OPTIONS["seed"][0], check_seed),
+           options("ppo", model=_MODEL, trust_model=_TRUST,
+                   seed=(int, 0, COMMON_OPTIONS["seed"][0], LEARNED_CHECKS["seed"]),
                    samples=(int, 0, "extra sampled rollouts besides the deterministic one",
-                            count(0)), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
+                            LEARNED_CHECKS["samples"]), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
                    fallback=_FALLBACK, extra_fallbacks=_EXTRA_FALLBACKS, prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", seeded=True, extra="train"),
     Method("ppo-guided", "best-first search ordered by the learned policy, certified at the "
-           "lower bound", options("ppo-guided", model=_MODEL,
+           "lower bound", options("ppo-guided", model=_MODEL, trust_model=_TRUST,
                                   budget=_BUDGET,
-                                  branching=(int, 4, "children expanded per node", count(1)),
+                                  branching=(int, 4, "children expanded per node",
+                                             LEARNED_CHECKS["branching"]),
                                   dive=(bool, True, "first follow the single pass's "
                                         f"episodes (ppo's: from {SCALE_FROM} modules one per "
                                         "start type, with its extra fallbacks' branches)",
-                                        check_flag), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
+                                        LEARNED_CHECKS["dive"]), time_limit=_LEARNED_LIMIT,
+                                  top_k=_TOP_K,
                                   fallback=_FALLBACK, prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", extra="train"),
 ):  # fmt: skip

@@ -151,7 +151,7 @@ def test_the_options_keep_their_defaults_and_cross_checks(tmp_path, capsys):
         "epochs": 25, "learning_rate": 3e-4, "n_max": 40, "draws": list(DRAWS),
         "greedy": False, "bands": [16, 24, 32], "first_round": 1, "score_start": True,
         "per_family": 3, "workers": 2, "learner": True, "replay": 800, "seed": 0, "out": out,
-        "force": False, "argv": ["--out", str(out)],
+        "force": False, "trust_model": False, "argv": ["--out", str(out)],
     }  # fmt: skip
     assert parse_args(["--out", str(out), "--draws", "payload:16-64"]).draws == [
         ("payload", 16, 64)

@@ -10,6 +10,7 @@ from collections.abc import Callable
 
 from modquad_gym.core.options import int_option, real_option, seed_option
 from modquad_gym.methods import REGISTRY
+from modquad_gym.policy.models import UNTRUSTED
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT
 from modquad_gym.tasks import CSV_HEADER_MODES
 
@@ -184,7 +185,16 @@ def add_method(
         "the package, modquad_gym/data/models/ppo_default/model.zip, and for one module type "
         "from --n-max 16 on ppo_scale, trained further on tasks of 8-32 modules; for a "
         "dynamic task of one "
-        "module type the one trained on motions, modquad_gym/data/models/ppo_dynamic)",
+        "module type the one trained on motions, modquad_gym/data/models/ppo_dynamic). A "
+        "model is read without unpickling (its NumPy actor, model_actor.npz, or the weights "
+        "and spaces of a policy the package knows); one that only unpickling reads is "
+        f"refused unless --trust-model is given: {UNTRUSTED}",
+    )
+    p.add_argument(
+        "--trust-model",
+        action="store_true",
+        help="load a --model .zip that only unpickling reads (a policy class or keywords the "
+        f"package does not know): {UNTRUSTED}, so give it only for a file you trust",
     )
     p.add_argument(
         "--seed",
@@ -232,8 +242,10 @@ FAULT_HELP = (
     "the answer must keep doing the task after any failure of this kind: rotor (any one rotor "
     "stops), module (any one module's rotors stop; it stays docked and its weight still "
     "counts), rotor2 (any two rotors stop) or rotor+module (a module's rotors and one rotor of "
-    f"another module stop). Every method but {NO_FAULT} takes it (the learned ones zero-shot: "
-    "no model was trained with failures, each answer is verified to survive); "
+    f"another module stop). Every method but {NO_FAULT} takes it (the learned ones, for a "
+    "rotor failure of T-modules alone below --n-max 16, with the model trained with it, "
+    "modquad_gym/data/models/ppo_fault, otherwise zero-shot; each answer is verified to "
+    "survive); "
     "--json adds fault and worst_fault_margin (the smallest margin over the failures and "
     "wrenches, >= 0)"
 )

@@ -61,12 +61,13 @@ def refuse_ignored(args: argparse.Namespace, dests: Iterable[str], reason: str) 
             raise ValueError(f"{option_name(dest)}{shown}: {reason}")
 
 
-SEARCH_OPTIONS = ("method", "n_max", "time_limit", "model", "seed", "option")
+SEARCH_OPTIONS = ("method", "n_max", "time_limit", "model", "trust_model", "seed", "option")
 """The options that say how a structure is searched for (meaningless beside ``--cells``)."""
 
 
 def refuse_ignored_method_options(args: argparse.Namespace) -> None:
-    """``--seed``, ``--time-limit`` or ``--model`` typed for a method that does not take it
+    """``--seed``, ``--time-limit``, ``--model`` or ``--trust-model`` typed for a method that
+    does not take it
     (its registered options, :mod:`modquad_gym.methods`): refused before the search starts."""
     from modquad_gym.methods import method_of
 
@@ -76,7 +77,7 @@ def refuse_ignored_method_options(args: argparse.Namespace) -> None:
     entry, _ = method_of(method)
     takes = entry.options.names()
     listed = ", ".join(takes) or "no options"
-    for dest in ("seed", "time_limit", "model"):
+    for dest in ("seed", "time_limit", "model", "trust_model"):
         if dest not in takes:
             refuse_ignored(args, [dest], f"method {method!r} does not take it (it takes: {listed})")
 

@@ -134,6 +134,7 @@ class SolveSpec:
         for key, value in (("time_limit", getattr(args, "time_limit", None)),
                            ("seed", getattr(args, "seed", None)),
                            ("model", getattr(args, "model", None)),
+                           ("trust_model", getattr(args, "trust_model", None) or None),
                            ("progress", progress)):  # fmt: skip
             if key in takes and value is not None:
                 options[key] = value

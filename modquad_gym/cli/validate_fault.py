@@ -34,7 +34,9 @@ FAULT_HELP = (
     "failure on the intact minimum of the task for comparison; --json adds "
     "fault_max_position_error_m, fault_saturated_fraction, the failed rotors and "
     "intact_minimum; pictures fault_flight*.png. Every method but "
-    f"{NO_FAULT} takes it (the learned ones zero-shot, each answer verified to survive)"
+    f"{NO_FAULT} takes it (the learned ones, for a rotor failure of T-modules alone below "
+    "--n-max 16, with the model trained with it, ppo_fault, otherwise zero-shot; each answer "
+    "verified to survive)"
 )
 
 

@@ -27,18 +27,19 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.validation import check_int, check_real
 from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
 from modquad_gym.policy.inference import exported
 from modquad_gym.policy.models import (
     BUDGET_PER_MODULE,
     GUIDED_BUDGET,
+    LEARNED_CHECKS,
     QUEUE_MEMORY,
     SCALE_FROM,
     TOP_K,
+    check_learned,
     default_model,
 )
-from modquad_gym.policy.policy import Policy, fallback_of, search_result
+from modquad_gym.policy.policy import Policy, acting_palette, fallback_of, search_result
 from modquad_gym.policy.ppo import PPOSolver
 from modquad_gym.search import SearchResult, verified
 from modquad_gym.search.bounds import bound_levels
@@ -61,14 +62,19 @@ class GuidedSolver:
         branching: children queued per expanded structure (the policy's most likely dockings).
         dive: start with the single pass's episodes (default True; the module doc);
             False: best-first only.
-        time_limit: seconds after which the search stops with what it has (None: none), in
-            the dives too (which otherwise finish, whatever the budget).
+        time_limit: seconds after which the search stops with what it has (None: none; 60 s by
+            :func:`~modquad_gym.solvers.make_solver` and the command line), in the dives too
+            (which otherwise finish, whatever the budget).
         top_k: as for :class:`~.policy.Policy` (the children decided exactly per step;
             default :data:`~.models.TOP_K`), unless ``model`` is a Policy.
         fallback: as for :class:`~.ppo.PPOSolver`: the dives' (the single pass's) fallback.
         fault: design for that failure (None: none; :meth:`~.policy.Policy.use_fault`):
             every answer is verified to survive it and the bound that certifies is its own.
         fault_margin: the worst margin each task wrench must keep after the failure.
+        trust_model: as for :class:`~.ppo.PPOSolver` (only for a model file you trust).
+
+    Each option is checked by the check :func:`~modquad_gym.solvers.make_solver` uses
+    (:data:`~.models.LEARNED_CHECKS`), with the same words.
     """
 
     def __init__(
@@ -84,16 +90,19 @@ class GuidedSolver:
         fallback: float | None = None,
         fault: str | None = None,
         fault_margin: float = 0.0,
+        trust_model: bool = False,
     ) -> None:
-        self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config, top_k)
+        self.dive = LEARNED_CHECKS["dive"](dive, "dive")
+        self.budget = check_learned("budget", budget)
+        self.branching = LEARNED_CHECKS["branching"](branching, "branching")
+        self.time_limit = check_learned("time_limit", time_limit)
+        if not isinstance(model, Policy):
+            model = Policy(check_learned("model", model), n_max, config, top_k, trust_model)
+        self.policy = model
         self.fault = (fault, fault_margin)
         self.policy.use_fault(*self.fault)
         self.fallback = fallback_of(self.policy, fallback)
         self.n_max = self.policy.n_max
-        self.dive = bool(dive)
-        self.budget = None if budget is None else check_int(budget, "budget", low=1)
-        self.branching = check_int(branching, "branching", low=1)
-        self.time_limit = None if time_limit is None else check_real(time_limit, "time_limit", 0)
         self.name = "ppo-guided"
         self.single = PPOSolver(self.policy, fallback=self.fallback, fault=fault,
                                 fault_margin=fault_margin)  # fmt: skip
@@ -308,9 +317,10 @@ def guided_producer(problem, time_limit: float, seed: int | None = 0) -> SearchR
         return None
     if not problem.typed and problem.palette[0].digest != DEFAULT_MODULE.digest:
         return None
-    model = default_model(problem.n_max, list(problem.palette) if problem.typed else None)
+    palette = acting_palette(problem)  # self-weight through a module set, one type too
+    model = default_model(problem.n_max, palette)
     solver = GuidedSolver(model=model, n_max=problem.n_max, budget=GUIDED_BUDGET,
                           time_limit=time_limit)  # fmt: skip
-    if problem.typed or problem.model.uses_mass:  # self-weight through a module set
-        solver.policy.use_palette(list(problem.palette))
+    if palette is not None:
+        solver.policy.use_palette(palette)
     return solver.solve(task)

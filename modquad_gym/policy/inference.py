@@ -258,14 +258,14 @@ def check_export(arrays: dict) -> tuple[int, dict]:
     return hidden, widths
 
 
-def export(model_path: str | Path) -> Path | None:
+def export(model_path: str | Path, trust: bool = False) -> Path | None:
     """Write the actor of the size-free model at ``model_path`` beside it (:func:`export_path`)
     and return its path; None for a model of another policy class (it acts with torch). Reads
-    the model with torch (:func:`~.models.read_model`)."""
+    the model with torch (:func:`~.models.read_model`, unpickled only when ``trust``)."""
     from modquad_gym.core.outputs import atomic_write
     from modquad_gym.policy.models import read_model
 
-    saved = read_model(model_path)
+    saved = read_model(model_path, trust)
     if not saved.size_free:
         return None
     prefix = "pi_features_extractor."  # the actor's (the features extractor when shared)
@@ -286,17 +286,18 @@ def export(model_path: str | Path) -> Path | None:
     return atomic_write(export_path(saved.path), write)
 
 
-def inference_model(model_path: str | Path) -> Any:
+def inference_model(model_path: str | Path, trust: bool = False) -> Any:
     """What a policy acts with for the model.zip at ``model_path``: its fresh export
-    (:func:`exported`), else the model read with torch (:func:`~.models.read_model`). Without
-    torch, a model whose export is stale or edited is an ImportError naming that file."""
+    (:func:`exported`), else the model read with torch (:func:`~.models.read_model`, unpickled
+    only when ``trust``). Without torch, a model whose export is stale or edited is an
+    ImportError naming that file."""
     from modquad_gym.policy.models import read_model
 
     found = exported(model_path)
     if found is not None:
         return found
     try:
-        return read_model(model_path)
+        return read_model(model_path, trust)
     except ImportError as err:
         target = export_path(model_path)
         if not target.exists():

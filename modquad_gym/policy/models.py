@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 import json
+import pickle
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from modquad_gym.core.extras import import_optional
+from modquad_gym.core.validation import check_flag
+from modquad_gym.search.options import check_seed, check_time_limit, count, share, shares
 
 MODELS_DIR = Path(__file__).resolve().parents[1] / "data" / "models"
 """Where the shipped models lie: one folder per model (``model.zip`` and ``config.json``)."""
@@ -58,13 +62,52 @@ QUEUE_MEMORY = 128 * 2**20
 state stays while a child of it waits): at 128 modules with three types a state takes 0.67 MB."""
 
 
+def check_model(value: Any, name: str) -> Any:
+    """A learned method's ``model``: a path (str or Path) of a PPO .zip, a loaded
+    :class:`~modquad_gym.policy.Policy`, or a loaded SB3 model or policy network; else a
+    ValueError naming ``name`` (the file itself is read when the solver is made). A Policy and
+    a network both have an ``observation_space``."""
+    net = getattr(value, "policy", value)
+    if isinstance(value, (str, Path)) or hasattr(net, "observation_space"):
+        return value
+    raise ValueError(
+        f"{name} must be the path of a PPO model .zip or a loaded model (Policy, MaskablePPO), "
+        f"got {value!r}"
+    )
+
+
+LEARNED_CHECKS = {
+    "model": check_model, "seed": check_seed, "samples": count(0),
+    "time_limit": check_time_limit, "top_k": count(1), "fallback": share,
+    "extra_fallbacks": shares, "budget": count(1), "branching": count(1), "dive": check_flag,
+    "trust_model": check_flag,
+}  # fmt: skip
+"""The one check of each option of the learned methods (``check(value, name) -> value``):
+:func:`~modquad_gym.solvers.make_solver`'s options (:mod:`modquad_gym.methods`) and the
+solver classes (:class:`~.ppo.PPOSolver`, :class:`~.guided.GuidedSolver`) call the same."""
+
+
+def check_learned(name: str, value: Any) -> Any:
+    """``value`` of the learned methods' option ``name`` checked (None passes: its default)."""
+    return value if value is None else LEARNED_CHECKS[name](value, name)
+
+
+def one_default_type(modules: Any) -> bool:
+    """Whether ``modules`` (None or a list of module types) is the default T-module alone, as
+    no palette is: what the one-type models were trained with."""
+    from modquad_gym.search.problem import DEFAULT_MODULE
+
+    return not modules or len(modules) == 1 and modules[0].digest == DEFAULT_MODULE.digest
+
+
 def default_model(n_max: int | None = None, modules: Any = None) -> Path:
     """The model a learned method uses without ``--model`` (one pair, the same network): with
-    one module type and a budget of at least :data:`SCALE_FROM` modules :data:`SCALE_MODEL`,
-    which has seen the long lever arms of large one-type structures, else
+    one module type, the T-module (no palette, or ``modules`` naming it alone:
+    :func:`one_default_type`), and a budget of at least :data:`SCALE_FROM` modules
+    :data:`SCALE_MODEL`, which has seen the long lever arms of large one-type structures, else
     :data:`DEFAULT_MODEL`, the better one on small tasks (``results/expert_iteration``) and
-    the one with a palette of ``modules``."""
-    if n_max is not None and n_max >= SCALE_FROM and not modules:
+    the one with any other palette of ``modules``."""
+    if n_max is not None and n_max >= SCALE_FROM and one_default_type(modules):
         return globals()["SCALE_MODEL"]
     return globals()["DEFAULT_MODEL"]  # looked up per call: tests redirect it
 
@@ -76,8 +119,29 @@ def shipped_model(name: str) -> Path:
     return default if name == "current" else MODELS_DIR / f"ppo_{name}" / default.name
 
 
-LOAD_ERRORS = (AssertionError, EOFError, KeyError, OSError, RuntimeError, TypeError, ValueError)
-"""What reading a file that is not a saved model raises (SB3, zipfile, pickle, torch)."""
+LOAD_ERRORS = (AssertionError, EOFError, KeyError, OSError, RecursionError, RuntimeError,
+               TypeError, ValueError, pickle.UnpicklingError, zipfile.BadZipFile)  # fmt: skip
+"""What reading a file that is not a saved model raises (zipfile, JSON, torch's weights-only
+reader)."""
+UNTRUSTED = "a model .zip holds pickled Python objects that run code when loaded"
+"""Why a model file is unpickled only when the user trusts it (``--trust-model``)."""
+
+
+def check_trusted(path: str | Path, trust: bool, what: str, why: str) -> None:
+    """ValueError naming ``what`` and ``path`` unless the model file may be unpickled (``why``
+    says what would): ``trust`` given (``--trust-model``), or a model shipped with the package,
+    which is as trusted as its code."""
+    if trust or Path(path).resolve().is_relative_to(MODELS_DIR):
+        return
+    raise ValueError(f"{what} {path}: {why} unpickles it, and {UNTRUSTED}; give --trust-model "
+                     "if you trust this file")  # fmt: skip
+
+
+def reason_of(exc: BaseException) -> str:
+    """Why a file is not a model, in one short line: the error's first sentence (torch's run
+    on for a paragraph), at most 200 characters."""
+    text = " ".join(str(exc).split()).split(". ")[0] or type(exc).__name__
+    return text if len(text) <= 200 else text[:199] + "…"
 
 
 class NoOptimizer:
@@ -116,7 +180,7 @@ class SavedModel:
             policy = self.policy_class(*spaces, lambda _: 0.0, **kwargs)
             policy.load_state_dict(self.weights)
         except LOAD_ERRORS as exc:  # a state dict of another network
-            reason = " ".join(str(exc).split()) or type(exc).__name__
+            reason = reason_of(exc)
             raise ValueError(f"--model {self.path}: cannot rebuild its policy ({reason})") from None
         policy.set_training_mode(False)
         return policy
@@ -126,9 +190,7 @@ def model_file(path: str | Path | None = None) -> Path:
     """``path`` (default :data:`DEFAULT_MODEL`) as a Path; ValueError when it is a folder or
     does not exist, or when it is empty (``Path("")`` would be the working folder)."""
     if isinstance(path, str) and not path:
-        from modquad_gym.core.options import EMPTY_PATH
-
-        raise ValueError(f"--model: {EMPTY_PATH}")
+        raise ValueError("--model: an empty path; give the model .zip file")
     path = Path(path) if path is not None else DEFAULT_MODEL
     if path.is_dir():
         raise ValueError(f"--model {path}: a folder; give the model .zip file in it")
@@ -138,26 +200,64 @@ def model_file(path: str | Path | None = None) -> Path:
     return path
 
 
-def read_model(path: str | Path | None = None) -> SavedModel:
-    """The saved MaskablePPO at ``path`` (default :data:`DEFAULT_MODEL`), without the PPO
-    algorithm and its optimizer, which inference does not need.
+def read_model(path: str | Path | None = None, trust: bool = False) -> SavedModel:
+    """The saved MaskablePPO at ``path`` (default :data:`DEFAULT_MODEL`) for inference, read
+    without unpickling (:mod:`.model_zip`); a model that only unpickling reads is loaded so
+    when ``trust`` is True (the user trusts the file: ``--trust-model``), else refused.
 
-    Raises ValueError when the file does not exist or is not a saved MaskablePPO model. Sets torch
-    to one thread."""
+    Raises ValueError naming the file when it does not exist, is not a saved MaskablePPO of
+    the assembly environment, or needs ``trust``. Sets torch to one thread."""
+    from modquad_gym.policy import model_zip
+
     torch = import_optional("torch")
     import_optional("sb3_contrib")  # the policy classes a saved model names
-    load_from_zip_file = import_optional("stable_baselines3.common.save_util").load_from_zip_file
-
     torch.set_num_threads(1)
     path = model_file(path)
+    try:
+        saved = model_zip.read_safely(path)
+    except model_zip.NeedsUnpicklingError as need:
+        if not trust:
+            raise ValueError(
+                f"--model {path}: its {need.what} can only be read by unpickling it, and "
+                f"{UNTRUSTED}; give --trust-model if you trust this file"
+            ) from None
+        saved = read_unpickled(path)
+    except model_zip.NotAssemblyModelError as exc:
+        raise ValueError(
+            f"--model {path}: not a model of the assembly environment ({exc})"
+        ) from None
+    except LOAD_ERRORS as exc:  # no model data, zipfile/JSON/torch errors
+        raise ValueError(
+            f"--model {path}: not a MaskablePPO model .zip ({reason_of(exc)})"
+        ) from None
+    return SavedModel(path, *saved, read_config(path))
+
+
+def read_unpickled(path: Path) -> tuple:
+    """What :func:`read_model` reads, by SB3's loader, which unpickles the file's ``data``
+    (the caller trusts it); checked to be a masked policy of the assembly environment."""
+    from sb3_contrib.common.maskable.policies import MaskableActorCriticPolicy
+
+    from modquad_gym.policy.model_zip import OBSERVATION_KEYS
+
+    load_from_zip_file = import_optional("stable_baselines3.common.save_util").load_from_zip_file
     try:
         data, params, _ = load_from_zip_file(path, device="cpu", print_system_info=False)
         spaces = data["observation_space"], data["action_space"]
         saved = (data["policy_class"], dict(data["policy_kwargs"]), *spaces, params["policy"])
-    except LOAD_ERRORS as exc:  # no model data, zipfile/pickle/torch errors
-        reason = " ".join(str(exc).split()) or type(exc).__name__
-        raise ValueError(f"--model {path}: not a MaskablePPO model .zip ({reason})") from None
-    return SavedModel(path, *saved, read_config(path))
+    except Exception as exc:  # noqa: BLE001 - unpickling a broken file raises anything
+        raise ValueError(
+            f"--model {path}: not a MaskablePPO model .zip ({reason_of(exc)})"
+        ) from None
+    keys = getattr(spaces[0], "spaces", {})
+    if not all(k in keys for k in OBSERVATION_KEYS):
+        raise ValueError(f"--model {path}: not a model of the assembly environment (its "
+                         f"observation space is {spaces[0]})")  # fmt: skip
+    if not (isinstance(saved[0], type) and issubclass(saved[0], MaskableActorCriticPolicy)):
+        name = getattr(saved[0], "__name__", saved[0])
+        raise ValueError(f"--model {path}: not a MaskablePPO model .zip (its policy {name} is "
+                         "not a masked one)")  # fmt: skip
+    return saved
 
 
 def read_config(model_path: str | Path) -> dict:
@@ -175,8 +275,8 @@ def read_config(model_path: str | Path) -> dict:
     return config
 
 
-def load_model(path: str | Path | None = None):
+def load_model(path: str | Path | None = None, trust: bool = False):
     """(policy network, config dict) of the saved model at ``path`` (see :func:`read_model`),
     for the spaces it was trained with."""
-    saved = read_model(path)
+    saved = read_model(path, trust)
     return saved.build(), saved.config

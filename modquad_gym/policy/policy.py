@@ -9,7 +9,6 @@ torch and SB3 load only for a model without one (or a loaded MaskablePPO).
 
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 from typing import Any
@@ -18,17 +17,19 @@ import gymnasium as gym
 import numpy as np
 
 from modquad_gym.core.extras import import_optional
-from modquad_gym.core.validation import check_real
+from modquad_gym.core.validation import check_int
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
-from modquad_gym.envs.assembly.features import lookahead_width
 from modquad_gym.envs.assembly.lookahead import flagged
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle.faults import check_fault_margin
 from modquad_gym.policy.inference import Actor, inference_model, type_features
+from modquad_gym.policy.model_config import ENV_KWARG_KEYS, env_kwargs_of, lookahead_of
 from modquad_gym.policy.models import (
     EXTRA_FALLBACKS,
     FALLBACK,
+    LEARNED_CHECKS,
     SCALE_FROM,
+    check_learned,
     default_model,
     model_file,
     read_model,
@@ -37,11 +38,18 @@ from modquad_gym.search import SearchResult
 from modquad_gym.search.problem import SearchProblem
 from modquad_gym.tasks import TaskRequirement
 
-ENV_KWARG_KEYS = (
-    "n_max", "n_directions", "reward_weights", "invalid_action", "oracle_method", "lookahead",
-    "modules", "lookahead_top_k",
-)  # fmt: skip
-"""Environment keywords a model's config.json may fix (the task source is given per task)."""
+__all__ = ["ENV_KWARG_KEYS", "Policy", "acting_palette", "env_kwargs_of", "lookahead_of",
+           "make_env"]  # fmt: skip
+
+
+def acting_palette(problem: SearchProblem) -> list | None:
+    """The module types a policy acts with on ``problem``: its palette where it has one or
+    where its task's wrenches carry the structure's own weight (kind ``external``: only a
+    module set decides self-weight, one type too), else None (one type; a dynamic task's
+    wrenches follow each structure's own mass)."""
+    task = problem.task
+    weight = problem.model.uses_mass and not getattr(task, "per_structure", False)
+    return list(problem.palette) if problem.typed or weight else None
 
 
 def make_env(tasks: Any = "mixed", n_max: int = 7, **env_kwargs: Any) -> gym.Env:
@@ -52,29 +60,6 @@ def make_env(tasks: Any = "mixed", n_max: int = 7, **env_kwargs: Any) -> gym.Env
 
     env = ModQuadAssemblyEnv(tasks=tasks, n_max=n_max, **env_kwargs)
     return Monitor(env, info_keywords=("is_success",))
-
-
-def env_kwargs_of(model, config: dict) -> dict:
-    """The environment keywords ``model`` (a MaskablePPO, its policy network or its observation
-    space) was trained with (from its config, else inferred from the observation space)."""
-    space = getattr(model, "observation_space", model)
-    kwargs = {k: v for k, v in config.get("env_kwargs", {}).items() if k in ENV_KWARG_KEYS}
-    if "n_max" not in kwargs:
-        side = math.isqrt(space["occupancy"].shape[0])  # G * G cells
-        kwargs["n_max"] = (side + 1) // 2
-    if "n_directions" not in kwargs:
-        kwargs["n_directions"] = int(space["task"].shape[0]) - 7
-    if "lookahead" not in kwargs:
-        kwargs["lookahead"] = lookahead_of(space)
-    return kwargs
-
-
-def lookahead_of(space) -> bool | str:
-    """The env's ``lookahead`` that made the observation ``space`` (by its rows' width)."""
-    if "candidates" not in space.spaces:
-        return False
-    width = int(space["candidates"].shape[0]) // int(space["action_mask"].shape[0])
-    return "exact" if width == lookahead_width("exact") else True
 
 
 class Policy:
@@ -90,6 +75,8 @@ class Policy:
         top_k: with a model that reads the exact lookahead, the children decided exactly per
             step (the env's ``lookahead_top_k``); None (default): all, as in training. The
             learned solvers pass :data:`~.models.TOP_K`.
+        trust_model: read a model .zip that only unpickling reads (True only for a file the
+            user trusts: unpickling runs code from it; :func:`~.models.read_model`).
 
     Attributes:
         actor (the NumPy actor of a saved model's fresh export, :mod:`.inference`; None: the
@@ -106,21 +93,24 @@ class Policy:
         n_max: int | None = 7,
         config: dict | None = None,
         top_k: int | None = None,
+        trust_model: bool = False,
     ) -> None:
         self.saved, self.actor, self._net = None, None, None
+        self.trust = check_learned("trust_model", trust_model)
+        top_k = check_learned("top_k", top_k)
+        n_max = None if n_max is None else check_int(n_max, "n_max", low=1)
+        where = "config"
         if model is None or isinstance(model, (str, Path)):
             path = model_file(default_model(n_max) if model is None else model)
-            self.saved = inference_model(path)
+            self.saved = inference_model(path, self.trust)
             self.model_path, config = str(self.saved.path), self.saved.config
-            space = self.saved.observation_space
+            space, where = self.saved.observation_space, str(path.with_name("config.json"))
         else:
             self._net, self.model_path = getattr(model, "policy", model), None
             space = self._net.observation_space
-        kwargs = env_kwargs_of(space, config or {})
+        kwargs = env_kwargs_of(space, config or {}, where, self.size_free)
         trained = int(kwargs["n_max"])
         n_max = trained if n_max is None else n_max
-        if isinstance(n_max, bool) or not isinstance(n_max, (int, np.integer)) or n_max < 1:
-            raise ValueError(f"n_max must be a positive integer, got {n_max!r}")
         if n_max > trained and not self.size_free:
             raise ValueError(
                 f"n_max={n_max} exceeds the n_max={trained} the PPO model was trained with "
@@ -157,6 +147,11 @@ class Policy:
         self.actor, self._net = (net, None) if isinstance(net, Actor) else (None, net)
 
     @property
+    def observation_space(self) -> Any:
+        """The observation space of the environment it acts in."""
+        return self.env.observation_space
+
+    @property
     def spaces(self) -> tuple:
         """(observation space, action space) of the environment, and the palette's types."""
         env = self.env
@@ -168,7 +163,7 @@ class Policy:
         acts: training code that asks for it gets it)."""
         if self._net is None:
             *spaces, types = self.spaces
-            self._net = read_model(self.model_path).build(*spaces, types=types)
+            self._net = read_model(self.model_path, self.trust).build(*spaces, types=types)
         return self._net
 
     def use_palette(self, modules: list | None) -> None:
@@ -188,9 +183,9 @@ class Policy:
             given = ",".join(m.name for m in modules) if modules else "one type"
             raise ValueError(
                 f"--model {self.model_path or 'given'}: trained with the module types "
-                f"{','.join(m.name for m in self.palette)}, not {given}: give --model of one "
-                "trained with them "
-                "(the mixed tier's, t45,t45m,flat: modquad_gym/data/models/ppo_mixed/model.zip)"
+                f"{','.join(m.name for m in self.palette)}, not {given} (its action grid is "
+                "of those types): give --model of one trained with them, or of a size-free "
+                "model, which acts with any module types (as every shipped model does)"
             )
 
     def use_fault(self, fault: str | None, fault_margin: float = 0.0) -> None:
@@ -207,10 +202,22 @@ class Policy:
 
     def problem(self, task: TaskRequirement) -> SearchProblem:
         """``task`` as the :class:`~modquad_gym.search.problem.SearchProblem` the policy designs
-        for: its module types, budget and fault (the decision every answer is verified by)."""
+        for: its module types, budget and fault (the decision every answer is verified by).
+        ValueError for a task that carries the structure's weight when it acts without a
+        module set (:func:`acting_palette`), naming what does."""
         palette = {"modules": self.palette} if self.typed else {"module": self.env.module}
-        return SearchProblem.build(task, self.n_max, **palette, fault=self.env.fault,
-                                   fault_margin=self.env.fault_margin)  # fmt: skip
+        problem = SearchProblem.build(task, self.n_max, **palette, fault=self.env.fault,
+                                      fault_margin=self.env.fault_margin)  # fmt: skip
+        if not self.typed and acting_palette(problem) is not None:
+            said = (f"task {problem.task.name!r} is of kind {problem.kind!r}: its wrenches carry "
+                    "the structure's weight, which only a module set decides")  # fmt: skip
+            if self.size_free:
+                raise ValueError(f"{said}: act with policy.use_palette([module]), as "
+                                 "make_solver does")  # fmt: skip
+            raise ValueError(f"{said}, and the model {self.model_path or 'given'} (one grid, "
+                             "one type) acts without one; give a size-free model, as every "
+                             "shipped one is")  # fmt: skip
+        return problem
 
     def probabilities(self, obs: dict, mask: np.ndarray) -> np.ndarray:
         """The policy's action probabilities at ``obs``, zero outside ``mask`` (sb3-contrib's
@@ -296,10 +303,11 @@ class Policy:
 
 def fallback_of(policy: Policy, fallback: float | None, name: str = "fallback") -> float:
     """The ``fallback`` ``policy`` decodes with (see :class:`~.ppo.PPOSolver`): a ValueError for
-    one out of [0, 1], or above 0 with a model whose observation has no greedy choice."""
+    one out of [0, 1] (the option's check), or above 0 with a model whose observation has no
+    greedy choice."""
     if fallback is None:
         return FALLBACK if policy.reads_greedy and policy.n_max >= SCALE_FROM else 0.0
-    value = check_real(fallback, name, 0.0, 1.0)
+    value = LEARNED_CHECKS["fallback"](fallback, name)
     if value > 0 and not policy.reads_greedy:
         raise ValueError(
             f"{name}={fallback}: the model {policy.model_path or 'given'} does not see "
@@ -312,18 +320,12 @@ def extra_fallbacks_of(policy: Policy, extra: Any) -> tuple[float, ...]:
     """The further fallbacks ``policy``'s deterministic decoding follows (see
     :class:`~.ppo.PPOSolver`): None gives :data:`~.models.EXTRA_FALLBACKS` at budgets of
     :data:`~.models.SCALE_FROM` modules and more with a model that sees greedy's choice, else
-    none; a number or a sequence of numbers in [0, 1] is checked as ``fallback`` is."""
+    none; a number or a sequence of numbers in [0, 1] (the option's check,
+    :data:`~.models.LEARNED_CHECKS`), each above 0 only with a model that sees greedy's choice."""
     if extra is None:
         return EXTRA_FALLBACKS if policy.reads_greedy and policy.n_max >= SCALE_FROM else ()
-    values = (extra,) if isinstance(extra, (int, float, np.number)) else extra
-    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
-        raise ValueError(f"extra_fallbacks must be numbers in [0, 1], got {extra!r}")
-    checked = []
-    for value in values:
-        if value is None:
-            raise ValueError(f"extra_fallbacks must be numbers in [0, 1], got {extra!r}")
-        checked.append(fallback_of(policy, value, "extra_fallbacks"))
-    return tuple(dict.fromkeys(checked))
+    values = check_learned("extra_fallbacks", extra)
+    return tuple(dict.fromkeys(fallback_of(policy, v, "extra_fallbacks") for v in values))
 
 
 def search_result(

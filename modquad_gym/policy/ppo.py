@@ -20,9 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.validation import check_real
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.models import EXTRA_FROM, TOP_K
+from modquad_gym.policy.models import EXTRA_FROM, LEARNED_CHECKS, TOP_K, check_learned
 from modquad_gym.policy.policy import (
     Policy,
     env_kwargs_of,
@@ -49,7 +48,9 @@ class PPOSolver:
         seed: seeds the sampled rollouts.
         samples: extra stochastic rollouts per task (0: deterministic decoding only).
         config: the model's config when ``model`` is a loaded model.
-        time_limit: seconds after which the rollouts stop, the first one too (None: none).
+        time_limit: seconds after which the rollouts stop, the first one too (None: none;
+            :func:`~modquad_gym.solvers.make_solver` and the command line give 60 s unless
+            told otherwise).
         top_k: as for :class:`~.policy.Policy` (the children decided exactly per step;
             default :data:`~.models.TOP_K`), unless ``model`` is a Policy.
         fallback: the deterministic rollout docks greedy's choice where the policy gives its
@@ -65,6 +66,12 @@ class PPOSolver:
         fault: design for that failure (None: none; :meth:`~.policy.Policy.use_fault`):
             every answer is verified to survive it.
         fault_margin: the worst margin each task wrench must keep after the failure.
+        trust_model: load a model .zip that only unpickling reads (its policy class or
+            keywords are none the package knows); a model .zip holds pickled Python objects
+            that run code when loaded, so give True only for a file you trust.
+
+    Each option is checked by the check :func:`~modquad_gym.solvers.make_solver` uses
+    (:data:`~.models.LEARNED_CHECKS`), with the same words.
     """
 
     def __init__(
@@ -80,17 +87,18 @@ class PPOSolver:
         extra_fallbacks: Any = None,
         fault: str | None = None,
         fault_margin: float = 0.0,
+        trust_model: bool = False,
     ) -> None:
-        if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
-            raise ValueError(f"samples must be an integer >= 0, got {samples!r}")
-        self.policy = model if isinstance(model, Policy) else Policy(model, n_max, config, top_k)
+        self.seed = LEARNED_CHECKS["seed"](seed, "seed")
+        self.samples = LEARNED_CHECKS["samples"](samples, "samples")
+        self.time_limit = check_learned("time_limit", time_limit)
+        if not isinstance(model, Policy):
+            model = Policy(check_learned("model", model), n_max, config, top_k, trust_model)
+        self.policy = model
         self.fault = (fault, fault_margin)
         self.policy.use_fault(*self.fault)
         self.n_max = self.policy.n_max
-        self.seed = int(seed)
-        self.samples = int(samples)
         self.name = "ppo" if self.samples == 0 else f"ppo-k{self.samples}"
-        self.time_limit = None if time_limit is None else check_real(time_limit, "time_limit", 0)
         self.fallback = fallback_of(self.policy, fallback)
         extra = extra_fallbacks_of(self.policy, extra_fallbacks)
         self.fallbacks = (self.fallback, *(f for f in extra if f != self.fallback))

@@ -33,7 +33,6 @@ from modquad_gym.core.options import DefaultsHelpFormatter
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv
 from modquad_gym.geometry.module import palette
 from modquad_gym.methods import REGISTRY, method_of
-from modquad_gym.policy.models import read_config
 from modquad_gym.scoring.agents_figures import plot_bars, plot_learning_curve, plot_structures
 from modquad_gym.scoring.agents_report import write_report
 from modquad_gym.scoring.options import (
@@ -44,6 +43,7 @@ from modquad_gym.scoring.options import (
     SEARCH_METHODS,
     SEEDED,
     add_options,
+    check_train_dir,
     method_label,
 )
 from modquad_gym.scoring.scores import Row, summarise
@@ -69,6 +69,7 @@ def run_benchmark(
     tier: str | None = None,
     fault: str | None = None,
     made: dict[str, Solver] | None = None,
+    trust_model: bool = False,
 ) -> list[Row]:
     """Every method on every task; a success is an answer of at most ``n_max`` modules of the
     allowed types that the exact oracle verifies. ``workers`` > 1 spreads chunks of tasks over
@@ -81,7 +82,8 @@ def run_benchmark(
     kind, and a success is one that does (:func:`~modquad_gym.oracle.faults.tolerates`); a
     method that cannot honour it is a ValueError (:func:`~.tiers.honours_fault`). ``made``:
     solvers already made, by method (the outside agents :func:`chosen_methods` loaded), used
-    as they are with one worker (each Ray worker makes its own)."""
+    as they are with one worker (each Ray worker makes its own). ``trust_model``: the learned
+    methods may unpickle ``model`` (``--trust-model``)."""
     from modquad_gym.core.distributed import map_tasks
 
     jobs = [(name, task) for name, tasks in suites.items() for task in tasks]
@@ -89,7 +91,7 @@ def run_benchmark(
     chunks = [jobs[i : i + size] for i in range(0, len(jobs), size)]
     if fault is not None and (refused := [m for m in methods if not honours_fault(m)]):
         raise ValueError(f"fault={fault!r}: {', '.join(refused)} cannot honour it")
-    config = (tuple(methods), n_max, model, seed, modules, tier, fault)
+    config = (tuple(methods), n_max, model, seed, modules, tier, fault, trust_model)
     if workers == 1:  # in this process: the solvers made here and those given, in order
         made = made or {}
         rest = _solvers(tuple(m for m in methods if m not in made), *config[1:])
@@ -110,12 +112,14 @@ def _solvers(
     modules: str | None,
     tier=None,
     fault: str | None = None,
+    trust: bool = False,
 ) -> dict[str, Solver]:
     types = palette(modules) if modules else None
     solvers = {}
+    options = (("model", model), ("seed", seed), ("tier", tier), ("trust_model", trust or None))
     for m in methods:
         takes = ("seed", "tier") if ":" in m else method_of(m)[0].options.names()
-        given = {k: v for k, v in (("model", model), ("seed", seed), ("tier", tier)) if k in takes}
+        given = {k: v for k, v in options if k in takes and v is not None}
         with model_named("--model"):  # the command line's name of a model file that is not one
             solvers[m] = make_solver(m, n_max, modules=types, fault=fault, **given)
     return solvers
@@ -277,17 +281,19 @@ LEARNED = "ppo, ppo-kN, ppo-guided"
 
 def check_used_options(args: argparse.Namespace, methods: list[str], model: Path,
                        agents: dict) -> None:  # fmt: skip
-    """``--model`` and ``--train-dir`` are used by the learned methods alone, and ``--seed`` by
-    the methods that draw at random (``agents``: the outside ones, loaded): refused when nothing
-    scored uses them. The ``model`` of a learned method that is not a file, or a
-    ``--train-dir`` that is not a training run's folder, is refused too (before any work, not
-    by a report that leaves its learning curve out)."""
+    """``--model``, ``--trust-model`` and ``--train-dir`` are used by the learned methods alone,
+    and ``--seed`` by the methods that draw at random (``agents``: the outside ones, loaded):
+    refused when nothing scored uses them. The ``model`` of a learned method that is not a
+    file, or a ``--train-dir`` that is not a training run's folder, is refused too (before any
+    work, not by a report that leaves its learning curve out)."""
     from modquad_gym.policy.models import model_file
 
     learned = any(m.startswith("ppo") for m in methods)
-    for option, value in (("--model", args.model), ("--train-dir", args.train_dir)):
+    for option, value in (("--model", args.model), ("--train-dir", args.train_dir),
+                          ("--trust-model", "" if args.trust_model else None)):  # fmt: skip
         if value is not None and not learned:
-            raise ValueError(f"{option} {value}: not used: no learned method ({LEARNED}) is scored")
+            said = f"{option} {value}".strip()
+            raise ValueError(f"{said}: not used: no learned method ({LEARNED}) is scored")
     if learned:
         model_file(model)
     if args.train_dir is not None:
@@ -305,19 +311,6 @@ def takes_seed(method: str, agents: dict) -> bool:
     if ":" in method:
         return agents[method].takes_seed
     return "seed" in method_of(method)[0].options.names()
-
-
-def check_train_dir(folder: Path) -> None:
-    """``--train-dir``: a training run's folder (its ``config.json`` or ``evaluations.npz``)."""
-    if not folder.is_dir():
-        what = "not a folder" if folder.exists() else "does not exist"
-        raise ValueError(f"--train-dir {folder}: {what} (a training run's folder)")
-    if not any((folder / name).is_file() for name in ("config.json", "evaluations.npz")):
-        raise ValueError(
-            f"--train-dir {folder}: no config.json or evaluations.npz in it (a training run's "
-            "folder, as train.py writes it)"
-        )
-    read_config(folder / "model.zip")  # a config.json that is not one: now, not at the report
 
 
 def main(argv: list[str] | None = None, prog: str = COMMAND) -> int:
@@ -368,8 +361,8 @@ def score(args: argparse.Namespace, command: str) -> int:
     t0 = time.perf_counter()
     seed = 0 if args.seed is None else args.seed
     rows = run_benchmark(suites, methods, n_max, args.model, seed, not args.no_progress,
-                         args.workers, tier.modules, tier.name, tier.fault,
-                         made=args.agents)  # fmt: skip
+                         args.workers, tier.modules, tier.name, tier.fault, made=args.agents,
+                         trust_model=args.trust_model)  # fmt: skip
     wall = time.perf_counter() - t0
     write_csv([r.as_csv() for r in rows], args.out / "benchmark.csv")
     summary = summarise(rows, methods, n_max)

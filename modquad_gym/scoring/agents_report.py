@@ -12,6 +12,7 @@ from modquad_gym.core.outputs import write_text
 from modquad_gym.policy.models import read_config
 from modquad_gym.scoring import machine_description
 from modquad_gym.scoring.fine_tuning import fine_tuning_words
+from modquad_gym.scoring.report_model import model_line
 from modquad_gym.scoring.scores import Row, config_limit, share_limit, summarise
 from modquad_gym.scoring.tiers import TIERS, get_tier
 from modquad_gym.search import SEARCHES
@@ -45,7 +46,7 @@ def write_report(
     cfg = read_config(train_dir / "model.zip") if has_ppo else {}  # {} without a config.json
     lines = _header(suites, n_max, wall, tier, command)
     if cfg:
-        lines += [_model_line(cfg, model), ""]
+        lines += [model_line(cfg, model), ""]
     lines += _summary_table(summary)
     lines += _outside(summary, n_max, tier)
     lines += _per_suite(rows, suites, methods, n_max)
@@ -102,33 +103,6 @@ def _survives(tier: str) -> str:
         return ""
     return (f" among the structures that still exert every task wrench after any single {fault} "
             "failure (a success must survive it too)")  # fmt: skip
-
-
-def _model_line(cfg: dict, model: Path) -> str:
-    """How the PPO model was trained, from its training run's ``config.json``."""
-    imitation = cfg.get("imitation")
-    cloned = (
-        f"behaviour cloning on {imitation['expert_episodes']} expert episodes "
-        f"({imitation['states']} states, {imitation['epochs']} epochs; demonstrations "
-        f"{imitation['collect_seconds']} s, cloning {imitation['clone_seconds']} s), then "
-        if imitation
-        else ""
-    )
-    if rounds := (imitation or {}).get("dagger"):
-        cloned += (f"{len(rounds)} rounds of the expert in the loop (DAgger: "
-                   f"{sum(r['states'] for r in rounds)} learner states labelled by the certified "
-                   f"search; {imitation['dagger_seconds']} s), then ")  # fmt: skip
-    return (
-        f"PPO model: `{_rel(model)}` ({cfg.get('policy', 'MultiInputPolicy')}): {cloned}"
-        f"MaskablePPO, {cfg.get('timesteps')} training "
-        f"steps in {cfg.get('ppo_seconds', cfg.get('wall_seconds'))} s "
-        f"({cfg.get('steps_per_second')} steps/s, {cfg.get('n_envs')} envs, torch threads "
-        f"{cfg.get('torch_threads')}); training wall time {cfg.get('wall_seconds')} s in all; "
-        f"task source `{cfg['env_kwargs'].get('tasks')}`, kept: {cfg.get('kept_model')} "
-        f"(step {cfg.get('kept_model_timesteps')}). `ppo` decodes deterministically; "
-        "`ppo-kN` adds N seeded sampled rollouts and keeps the smallest verified structure "
-        "(configurations evaluated count the distinct structures over all rollouts)."
-    )
 
 
 def _summary_table(summary: list[dict]) -> list[str]:
@@ -341,14 +315,6 @@ def _shortfall(
             "(ppo-kN) trade configurations evaluated for quality."
         )
     return text
-
-
-def _rel(path: Path) -> str:
-    """``path`` relative to the working folder where it lies below it (shorter in reports)."""
-    try:
-        return str(Path(path).resolve().relative_to(Path.cwd()))
-    except ValueError:
-        return str(path)
 
 
 def _share_goal(by: dict, metric: str, goal: float | str) -> tuple[float | None, str]:

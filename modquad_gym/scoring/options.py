@@ -36,7 +36,12 @@ OPTIONS = {
                     "modquad_gym/data/suites)"),
     "--model": dict(type=path_option, default=None, help="PPO model .zip of the learned "
                     "methods (default: the tier's shipped model, modquad_gym/data/models/"
-                    "ppo_default or ppo_<tier>); refused when no learned method is scored"),
+                    "ppo_default or ppo_<tier>), read without unpickling (see --trust-model); "
+                    "refused when no learned method is scored"),
+    "--trust-model": dict(action="store_true", help="let the learned methods load a --model "
+                          "that only unpickling reads (a policy class or keywords the package "
+                          "does not know): a model .zip holds pickled Python objects that run "
+                          "code when loaded, so give it only for a file you trust"),
     "--train-dir": dict(type=path_option, default=None, help="training run folder with "
                         "config.json and evaluations.npz, for the report's learning curve and "
                         "model line (default: the model's folder); refused when no learned "
@@ -137,3 +142,18 @@ def command_line(**given: object) -> str:
             items = value if isinstance(value, (list, tuple)) else [value]
             parts += [flag, *map(str, items)]
     return " ".join(parts)
+
+
+def check_train_dir(folder: Path) -> None:
+    """``--train-dir``: a training run's folder (its ``config.json`` or ``evaluations.npz``)."""
+    if not folder.is_dir():
+        what = "not a folder" if folder.exists() else "does not exist"
+        raise ValueError(f"--train-dir {folder}: {what} (a training run's folder)")
+    if not any((folder / name).is_file() for name in ("config.json", "evaluations.npz")):
+        raise ValueError(
+            f"--train-dir {folder}: no config.json or evaluations.npz in it (a training run's "
+            "folder, as train.py writes it)"
+        )
+    from modquad_gym.policy.models import read_config
+
+    read_config(folder / "model.zip")  # a config.json that is not one: now, not at the report

@@ -8,8 +8,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any, Protocol, runtime_checkable
 
+from modquad_gym.geometry.structure import Structure
 from modquad_gym.methods import REGISTRY, Method, Options, method_of, refused_fault
-from modquad_gym.policy.models import SCALE_FROM, default_model, shipped_model
+from modquad_gym.policy.models import SCALE_FROM, default_model, one_default_type, shipped_model
 from modquad_gym.search import SearchResult
 from modquad_gym.search.options import check_seed
 from modquad_gym.search.problem import DEFAULT_N_MAX, MAX_MODULES, SearchProblem, check_palette
@@ -79,10 +80,13 @@ class SearchSolver(MethodSolver):
 class LearnedSolver(MethodSolver):
     """A learned method (``ppo`` or ``ppo-guided``): the policy acts on the problem's budget
     and palette, with the shipped model of that budget and palette unless ``model`` is given
-    (:func:`~modquad_gym.policy.default_model`). With a problem's ``fault=`` it designs for that
-    failure (:meth:`~modquad_gym.policy.Policy.use_fault`; one type, a rotor failure and a budget
-    below :data:`~modquad_gym.policy.models.SCALE_FROM`: with the fault tier's model, trained
-    with it; else zero-shot) and verifies that every answer survives it."""
+    (:func:`~modquad_gym.policy.default_model`; the T-module named alone is one type, as no
+    palette is). A task whose wrenches carry the structure's weight is acted on with its one
+    type's module set (:func:`~modquad_gym.policy.policy.acting_palette`, as the anytime
+    search's policy producer does). With a problem's ``fault=`` it designs for that failure
+    (:meth:`~modquad_gym.policy.Policy.use_fault`; one type, a rotor failure and a budget below
+    :data:`~modquad_gym.policy.models.SCALE_FROM`: with the fault tier's model, trained with it;
+    else zero-shot) and verifies that every answer survives it."""
 
     def __init__(self, method: Method, settings: Options, defaults: dict) -> None:
         super().__init__(method, settings, defaults)
@@ -120,9 +124,10 @@ class LearnedSolver(MethodSolver):
         options = self.settings.as_dict()
         options.pop("prune")
         model = options.pop("model")
-        if model is None and tier is not None and not palette:
+        one_type = one_default_type(palette)  # the T-module alone, named or not: one model
+        if model is None and tier is not None and one_type:
             model = shipped_model(tier)
-        elif model is None and fault[0] == "rotor" and not palette and n_max < SCALE_FROM:
+        elif model is None and fault[0] == "rotor" and one_type and n_max < SCALE_FROM:
             model = shipped_model("fault")  # the fault tier's: trained with that failure
         model = default_model(n_max, palette) if model is None else model
         if self.kind == "ppo-guided":
@@ -151,12 +156,18 @@ class LearnedSolver(MethodSolver):
         return getattr(self.inner(*self._default), name)
 
     def solve(self, task: Any) -> SearchResult:
+        from modquad_gym.policy.policy import acting_palette
+
         problem = self.problem(task)
-        palette = list(problem.palette) if problem.typed else None
+        palette = acting_palette(problem)  # a self-weight task: its one type's module set
         tier = problem.task.policy_tier
         failure = (problem.fault, problem.fault_margin)
         result = self.inner(problem.n_max, palette, tier, failure).solve(problem.task)
         result.method = self.name
+        if palette is not None and not problem.typed:  # one type, acted on as a module set
+            result.palette = ()
+            if result.structure is not None:
+                result.structure = Structure(result.structure.cells, module=palette[0])
         if not self.settings.prune:
             return result
         return pruned(result, problem, self.settings.time_limit)
@@ -263,16 +274,22 @@ def _outside(method: str, n_max: Any, modules: Any, fault: Any, fault_margin: An
 @contextmanager
 def model_named(name: str) -> Iterator[None]:
     """A ValueError about the model file (the policy names it ``--model PATH: ...``, as the
-    command line's flag) raised inside the block names it ``name`` instead: ``model`` for the
-    Python door, ``--model`` for the command line's (which makes its solvers here too)."""
+    command line's flag, and its advice ``--trust-model``) raised inside the block names them as
+    the door does: ``model`` and ``trust_model=True`` for the Python door, ``--model`` and
+    ``--trust-model`` for the command line's (which makes its solvers here too)."""
     try:
         yield
     except ValueError as exc:
         text = str(exc)
-        for said in ("--model ", "model "):
+        for said in ("--model ", "--model:", "model ", "model:"):
             if text.startswith(said):
-                text = name + " " + text.removeprefix(said)
-                raise ValueError(text.replace(f"give {said}", f"give {name} ")) from exc
+                text = name + said.removeprefix("--").removeprefix("model") + text[len(said) :]
+                trust = "--trust-model" if name.startswith("--") else "trust_model=True"
+                for other in ("--trust-model", "trust_model=True"):
+                    text = text.replace(f"give {other}", f"give {trust}")
+                for other in ("--model ", "model "):
+                    text = text.replace(f"give {other}", f"give {name} ")
+                raise ValueError(text) from exc
         raise
 
 
