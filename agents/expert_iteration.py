@@ -4,24 +4,21 @@ default search or its own guided search finds, round after round (ExIt; issue 36
     python -m agents.expert_iteration [--rounds 2] [--tasks 48] [--out runs/exit]
 
 Where the certified search cannot go, the labels come from search: in round r, ``tasks`` fresh
-training tasks of the one-type scale families (``--draws``: ``planted``, ``torque`` (low force
-and high torque) or ``payload``, :mod:`benchmarks.scale_suites`, each with its planted sizes;
-default 8-32 modules of planted and torque), drawn from ``default_rng([EXIT_SEED0, seed, r,
-i])`` (never a held-out or validation seed), are solved by the default search
-(``--search-seconds``), by the current policy's guided search and, with ``--greedy``, by greedy;
-the smallest verified structure is the target, one expert episode towards it (:mod:`.imitation`,
-an environment of n_max ``--n-max`` with the policy's exact lookahead) gives labelled states,
-the learner's own episode gives more (``--learner``, DAgger: towards the target while its
+training tasks of the one-type scale families (``--draws``: ``planted``, ``torque`` (low force,
+high torque) or ``payload``, :mod:`benchmarks.scale_suites`; default 8-32 modules of planted and
+torque), drawn from ``default_rng([EXIT_SEED0, seed, r, i])`` (never a held-out or validation
+seed), are solved by the default search (``--search-seconds``), the current policy's guided
+search and, with ``--greedy``, greedy; the smallest verified structure is the target. An expert
+episode towards it (:mod:`.imitation`, n_max ``--n-max``, the exact lookahead) gives labelled
+states, the learner's own episode more (``--learner``, DAgger: towards the target while its
 structure fits in it, else towards greedy's completion of what it built), ``--replay`` certified
 episodes of the current tier's training tasks keep the small tasks in view, and the policy is
-cloned on every round's states so far. As the policy improves, so does its guided search, and so
-do the targets. A run can continue another from its model (``--model OUT/model.zip
---first-round R``: fresh draws; the states of the earlier run are not kept, its model is). The
-model of each round is saved in ``OUT/round-R/`` (size-free: ``modquad solve --method ppo
---model OUT/round-R/model.zip`` acts at any n_max) and scored on validation draws of the same
-families (``--bands``), single pass, beside greedy, and on the current tier's validation tasks;
-``OUT/report.md`` and ``OUT/rows.csv`` hold the scores, ``OUT/labels.csv`` every label, and
-``OUT/model.zip`` is the last round's model.
+cloned on every round's states so far; as it improves, so do its guided search and the targets.
+A run continues another from its model (``--model OUT/model.zip --first-round R``: fresh draws,
+its model kept, not its states). Each round's model is saved in ``OUT/round-R/`` (size-free: it
+acts at any n_max) and scored single pass beside greedy on validation draws of the same families
+(``--bands``) and on the current tier's validation tasks: ``OUT/report.md``, ``OUT/rows.csv``;
+``OUT/labels.csv`` every label; ``OUT/model.zip`` the last.
 """
 
 from __future__ import annotations
