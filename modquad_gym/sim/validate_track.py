@@ -23,7 +23,6 @@ from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import margin
 from modquad_gym.sim.report import finite_or_none
 from modquad_gym.sim.track import TrackConfig, TrackResult, fly_trajectory
-from modquad_gym.sim.validate import validate
 
 TRACK_FILES = ("track_path.png", "track_inputs.png", "track.gif")
 """The pictures of the flight."""
@@ -54,6 +53,8 @@ def validate_trajectory(
     """Bench, hover and fly ``structure`` on the dynamic ``task`` (module docstring); the JSON
     record of :func:`.validate.validate` (``task_kind`` ``"dynamic"``) plus the ``track_*``
     keys, ``mass_with_payload_kg`` and the pictures in ``files``."""
+    from modquad_gym.sim.validate import validate  # read at the call: the module's own function
+
     task = as_dynamic(task)  # a ValueError naming the type of anything else
     W = task.rotor_wrenches(structure)
     A = np.array(structure.configuration_matrix())
