@@ -84,6 +84,7 @@ def check_exportable(structure) -> None:
 
 def cmd_export(args: argparse.Namespace) -> int:
     from modquad_gym.cli.show import structure_from_cells
+    from modquad_gym.core.extras import require
     from modquad_gym.core.outputs import check_output_file
     from modquad_gym.sim.export import lift_statement, save_structure
     from modquad_gym.sim.export_formats import export_format
@@ -96,6 +97,8 @@ def cmd_export(args: argparse.Namespace) -> int:
                        "with --cells (which gives it)")  # fmt: skip
     check_output_file(args.out, force=args.force, what="--out")  # before any search
     fmt = export_format(args.out, args.format, names=("--out", "--format"))  # save_structure's rule
+    if fmt == "mjcf":
+        require("mujoco")  # the [sim] extra writes MJCF: said before any search, not after
     if fmt != "json":
         common.check_simulable_types(args)  # before any search
     f_max = args.f_max

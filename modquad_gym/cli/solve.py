@@ -290,7 +290,9 @@ def check_outputs_differ(args: argparse.Namespace) -> None:
 
 
 def check_export(out: str, n_tasks: int, force: bool) -> None:
-    """``--export`` is checked before any search: one task, a known suffix, a writable file."""
+    """``--export`` is checked before any search: one task, a known suffix, its extra (MJCF
+    needs MuJoCo), a writable file."""
+    from modquad_gym.core.extras import require
     from modquad_gym.core.outputs import check_output_file
     from modquad_gym.sim.export import SUFFIXES
 
@@ -300,6 +302,8 @@ def check_export(out: str, n_tasks: int, force: bool) -> None:
         raise ValueError(
             f"--export: {out} must end in {', '.join(SUFFIXES.values())} (MJCF, URDF, JSON)"
         )
+    if Path(out).suffix.lower() == SUFFIXES["mjcf"]:
+        require("mujoco")  # the [sim] extra, before the search rather than after it
     check_output_file(out, force=force, what="--export")
 
 

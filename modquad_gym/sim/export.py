@@ -59,6 +59,7 @@ from pathlib import Path
 
 import numpy as np
 
+from modquad_gym.core.extras import import_optional
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle.scale import check_f_max_range
 from modquad_gym.sim.export_formats import (  # noqa: F401 (FORMATS, SUFFIXES: kept here too)
@@ -258,7 +259,7 @@ def urdf_spec(source):
     """A ``mujoco.MjSpec`` of an exported URDF (a path, or the URDF text) that floats: MuJoCo's
     URDF import attaches the root link to the world without a joint, so a free joint ``root``
     is added to ``base_link``. ``urdf_spec(path).compile()`` is the floating robot."""
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     text = Path(source).read_text() if is_path(source) else str(source)
     spec = mujoco.MjSpec.from_string(text)

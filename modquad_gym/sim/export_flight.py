@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from modquad_gym.core.extras import import_optional
 from modquad_gym.sim.hover.config import HoverConfig
 from modquad_gym.sim.hover.rotations import rotation_angle, rotation_vector
 
@@ -63,7 +64,7 @@ class FileRobot:
 def robot_of(model, where: str = "the model") -> FileRobot:
     """The robot of an exported model: body ``structure`` with a free joint, its COM at the
     body origin, one site actuator per rotor with ctrlrange [0, f_max]; ValueError otherwise."""
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "structure")
     free = mujoco.mjtJoint.mjJNT_FREE
@@ -99,7 +100,7 @@ def fly_mjcf(source, seconds: float = 1.0, config: HoverConfig | None = None) ->
     """Fly an exported MJCF (a path, or the MJCF text) for ``seconds`` under gravity alone with
     the package's hover controller (module docstring); ``config`` sets the controller's gains,
     rate and start offset (default :class:`~modquad_gym.sim.hover.HoverConfig`)."""
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     from modquad_gym.core.validation import check_real
     from modquad_gym.oracle import lambda_ratio

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from modquad_gym.core.extras import import_optional
 from modquad_gym.core.outputs import save_figure
 from modquad_gym.sim.fault_flight import GOAL_M, FaultFlight
 from modquad_gym.sim.pictures import MAX_LINES, inputs_panel
@@ -31,7 +32,7 @@ def plot_fault_flight(flight: FaultFlight, path: str | Path, label: str = "") ->
 
 def fault_flight_figure(flight: FaultFlight, label: str = ""):
     """The figure of the module docstring (a ``matplotlib.figure.Figure``, no pyplot)."""
-    from matplotlib.figure import Figure
+    Figure = import_optional("matplotlib.figure").Figure
 
     run, failure = flight.run, flight.failure
     fig = Figure(figsize=(13, 7.5))

@@ -42,6 +42,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from modquad_gym.core.extras import import_optional
 from modquad_gym.geometry.inertia import inertia_about_com
 from modquad_gym.geometry.module import DEFAULT_HEIGHT, GRAVITY
 from modquad_gym.geometry.structure import Structure
@@ -99,7 +100,7 @@ class SimModel:
 
     def new_data(self):
         """A fresh ``mujoco.MjData`` at qpos0 (COM at (0, 0, HOME_HEIGHT), level), forwarded."""
-        import mujoco
+        mujoco = import_optional("mujoco")
 
         data = mujoco.MjData(self.model)
         mujoco.mj_forward(self.model, data)
@@ -131,7 +132,7 @@ def model_spec(
     differing type masses it would move the COM away from {S}, so it is refused for such a mixed
     structure. ``payload`` (a :class:`~modquad_gym.dynamics.Payload`) adds a point mass welded at
     its offset from the COM (body ``payload``, drawn as a small sphere)."""
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     if not isinstance(structure, Structure):
         raise ValueError(
@@ -187,7 +188,7 @@ def spec_xml(spec) -> str:
 
 def _set_scene(spec, structure: Structure) -> None:
     """Options (flying, no contacts, tight solver tolerances), statistic, light and floor."""
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     spec.compiler.degree = False
     spec.compiler.autolimits = True
@@ -243,7 +244,7 @@ def _set_inertial(body, structure: Structure, masses: np.ndarray) -> None:
 
 def _add_modules(body, structure: Structure) -> None:
     """One massless box geom per module, coloured by type (one type: the first module green)."""
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     half = structure.side / 2.0 * 0.97
     for i, (c, t) in enumerate(zip(structure.module_centres, structure.type_indices)):
@@ -261,7 +262,7 @@ def _add_modules(body, structure: Structure) -> None:
 def _add_rotors(spec, body, structure: Structure, f_max: float) -> None:
     """Per rotor: a massless visual disc, a site whose z-axis is the thrust direction, and one
     ``general`` actuator on the site (thrust along z plus the spin-signed drag torque)."""
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     radius = _ROTOR_RADIUS_FRACTION * structure.side
     lift = MODULE_THICKNESS / 2 + 0.8 * radius  # discs clear the box at 45 degree tilt
@@ -288,7 +289,7 @@ def _add_rotors(spec, body, structure: Structure, f_max: float) -> None:
 
 def _add_payload(body, payload) -> None:
     """A point mass welded to the structure at its offset from the COM, drawn as a sphere."""
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     child = body.add_body(name="payload", pos=np.asarray(payload.offset, dtype=float))
     child.explicitinertial = True
@@ -302,7 +303,7 @@ def _add_payload(body, payload) -> None:
 def _add_load_cell(spec, body) -> None:
     """The bench's load cell: a child body at the COM (no joint), its force and torque sensors,
     and the weld that bolts it to the world (the wall)."""
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     cell = body.add_body(name="load_cell", pos=[0.0, 0.0, 0.0])
     cell.add_geom(
@@ -340,7 +341,7 @@ def build_model(
         bench: add the load cell and the wall weld of the wrench bench.
         payload: a :class:`~modquad_gym.dynamics.Payload` welded to the structure, or None.
     """
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     spec = model_spec(structure, f_max, module_mass, bench, payload)
     model = spec.compile()

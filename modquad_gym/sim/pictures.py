@@ -11,6 +11,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from modquad_gym.core.extras import import_optional
 from modquad_gym.core.outputs import save_figure  # noqa: E402
 from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.sim.hover import HoverResult  # noqa: E402
@@ -26,7 +27,7 @@ structure) are drawn as a heat map, rotor x time, which stays readable."""
 
 
 def _plt():
-    import matplotlib
+    matplotlib = import_optional("matplotlib")
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -62,7 +63,7 @@ def render_structure(
 
 
 def _render_mujoco(sim: SimModel, path: Path, width: int, height: int) -> None:
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     data = sim.new_data()
     renderer = mujoco.Renderer(sim.model, height, width)

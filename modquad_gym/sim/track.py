@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from modquad_gym.core.extras import import_optional
 from modquad_gym.core.validation import check_real
 from modquad_gym.dynamics import DynamicTask, Trajectory, as_dynamic
 from modquad_gym.dynamics import quaternions as quat
@@ -215,7 +216,7 @@ def fly_trajectory(
     ``detector`` (:func:`~modquad_gym.sim.detector.make_detector`) the controller is not told:
     it switches when the detector decides, to the rotors it names, and again when it revises
     that (``run.detection``: the first decision's time and the rotors named last)."""
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     from modquad_gym.sim.detector import make_detector
 

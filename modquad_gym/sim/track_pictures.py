@@ -16,6 +16,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from modquad_gym.core.extras import import_optional
 from modquad_gym.core.outputs import save_figure  # noqa: E402
 from modquad_gym.dynamics import quaternions as quat  # noqa: E402
 from modquad_gym.sim.model import SimModel  # noqa: E402
@@ -153,7 +154,7 @@ def animate_track(sim: SimModel, res: TrackResult, path: str | Path, width: int 
 
 
 def _mujoco_frames(sim: SimModel, res: TrackResult, frames, width: int, height: int) -> list:
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     data = mujoco.MjData(sim.model)
     renderer = mujoco.Renderer(sim.model, height, width)

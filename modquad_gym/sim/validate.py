@@ -50,6 +50,7 @@ from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from modquad_gym.core.extras import require  # noqa: E402
 from modquad_gym.core.outputs import write_text  # noqa: E402
 from modquad_gym.core.validation import check_f_max, check_int, check_wrenches  # noqa: E402
 from modquad_gym.geometry.structure import Structure  # noqa: E402
@@ -154,6 +155,7 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
         ``unreachable_wrench_directions``, ``feasible`` (every wrench feasible per the oracle)
         and ``files``.
     """
+    require("mujoco", *(["matplotlib"] if out_dir is not None else []))  # named, before any work
     task, W, f_max = _checked(structure, task, f_max, kind, unknown_load, load_ramp_seconds)
     A = np.array(structure.configuration_matrix())
     feas = np.asarray(feasible(A, W, f_max), dtype=bool)

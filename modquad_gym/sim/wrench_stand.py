@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from modquad_gym.core.extras import import_optional
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import TOL, allocate, check_f_max, check_wrenches, feasible
 from modquad_gym.sim.model import SimModel, build_model
@@ -105,7 +106,7 @@ def allocate_inputs(A: np.ndarray, W: np.ndarray, f_max: float, allocation: str)
 
 def settle(sim: SimModel, data, max_steps: int = 20000, rtol: float = 1e-13) -> int:
     """Step until the load-cell reading stops changing (relative ``rtol``); return the steps."""
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     prev = np.array(data.sensordata)
     steps = 0
@@ -122,7 +123,7 @@ def settle(sim: SimModel, data, max_steps: int = 20000, rtol: float = 1e-13) -> 
 
 def read_load_cell(sim: SimModel, data) -> np.ndarray:
     """The rotors' wrench in {S} from the load cell: reading minus the structure's weight."""
-    import mujoco
+    mujoco = import_optional("mujoco")
 
     site = mujoco.mj_name2id(sim.model, mujoco.mjtObj.mjOBJ_SITE, "load_cell")
     R = np.array(data.site_xmat[site]).reshape(3, 3)

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from modquad_gym.core.extras import import_optional
 from modquad_gym.core.outputs import save_figure
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_f_max
@@ -109,7 +110,7 @@ def draw_structure(
 ) -> Axes:
     """Top view of ``structure`` in {S} (metres): module squares, rotors coloured by spin,
     horizontal thrust arrows, the COM, and the first module highlighted. Returns the axes."""
-    from matplotlib.lines import Line2D
+    Line2D = import_optional("matplotlib.lines").Line2D
     from matplotlib.patches import Circle, Rectangle
 
     s = check_structure(structure)
@@ -257,7 +258,7 @@ top view's height, so a large structure's projections are not small beside it.""
 def _figure_with_task(w: float, h: float, layout: str):
     """The figure (of the sizes of :func:`save_structure_figure`) and the grid cells of its top
     view, force and torque projections for a top view of ``w`` x ``h`` inches."""
-    from matplotlib.figure import Figure
+    Figure = import_optional("matplotlib.figure").Figure
 
     legend, label = 2.0, 0.8  # inches: the legend beside the top view, the axis labels
     top_w, top_h = w + legend + label, h + label
@@ -292,7 +293,7 @@ def save_structure_figure(
     feasibility of the rotor wrenches: an ``external`` task's plus the structure's weight, a
     dynamic task's for the structure's mass and inertia), arranged as ``layout``
     (:data:`LAYOUTS`). Returns the path."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    FigureCanvasAgg = import_optional("matplotlib.backends.backend_agg").FigureCanvasAgg
     from matplotlib.figure import Figure
 
     if layout not in LAYOUTS:

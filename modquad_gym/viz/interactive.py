@@ -22,6 +22,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from modquad_gym.core.extras import import_optional
 from modquad_gym.core.outputs import check_output_file, write_text
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.viz.raster import SPIN_COLOURS, check_structure, type_colour
@@ -55,7 +56,7 @@ def _rounded(a) -> list:
 
 def structure_traces(structure: Structure) -> list:
     """Plotly traces of the structure in {S}: module boxes, rotors, thrust-direction cones."""
-    import plotly.graph_objects as go
+    go = import_optional("plotly.graph_objects")
 
     s = check_structure(structure)
     traces = []
@@ -100,7 +101,7 @@ def structure_traces(structure: Structure) -> list:
 def projection_traces(structure: Structure, space: str, task=None, f_max: float = 1.0) -> list:
     """Plotly traces of the feasible set's projection onto ``space`` ("force" or "torque") and
     of the task's wrenches there, coloured by their 6-D feasibility."""
-    import plotly.graph_objects as go
+    go = import_optional("plotly.graph_objects")
 
     s = check_structure(structure)
     first, names = SPACES[space]
@@ -141,7 +142,7 @@ def projection_traces(structure: Structure, space: str, task=None, f_max: float 
 
 def structure_figure(structure: Structure, task=None, f_max: float = 1.0):
     """A plotly figure: the structure, and its feasible forces and torques with the task."""
-    from plotly.subplots import make_subplots
+    make_subplots = import_optional("plotly.subplots").make_subplots
 
     s = check_structure(structure)
     f_max = float(getattr(task, "f_max", f_max))
@@ -285,7 +286,7 @@ LEAST_HEIGHT = 320
 @lru_cache(maxsize=1)
 def _packed_plotlyjs() -> str:
     """plotly.js, gzipped and base64-encoded: 1.96 MB instead of 4.8 MB in the page."""
-    from plotly.offline import get_plotlyjs
+    get_plotlyjs = import_optional("plotly.offline").get_plotlyjs
 
     return base64.b64encode(gzip.compress(get_plotlyjs().encode(), 9, mtime=0)).decode()
 

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from modquad_gym.core.extras import import_optional
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_f_max
 from modquad_gym.viz.raster import check_structure
@@ -34,7 +35,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 def new_axes(projection: str | None = None, figsize: tuple[float, float] = (5.0, 5.0)) -> Axes:
     """One axes on a new constrained-layout figure with an Agg canvas (no pyplot)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    FigureCanvasAgg = import_optional("matplotlib.backends.backend_agg").FigureCanvasAgg
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=figsize, layout="constrained")

@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 
+from modquad_gym.core.extras import import_optional
 from modquad_gym.core.validation import check_wrenches
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import TOL, feasible
@@ -33,7 +34,7 @@ class Flight:
     """The MuJoCo side of a hover: reset, apply the load, read the state, step."""
 
     def __init__(self, sim: SimModel, cfg: HoverConfig) -> None:
-        import mujoco
+        mujoco = import_optional("mujoco")
 
         self._mj = mujoco
         self.sim = sim
