@@ -313,7 +313,9 @@ check repo docs/heterogeneous.md 'python -m benchmarks.heterogeneous --force' \
   'python -m benchmarks.heterogeneous --force --tasks 2 --mujoco 1'
 for c in 'modquad solve --task example:planted_seed1 --method ppo' \
          'modquad solve --task example:planted_seed1 --method ppo-guided' \
-         'modquad solve --task example:paper_seed0 --method ppo --modules t45,t45m,flat'; do
+         'modquad solve --task example:paper_seed0 --method ppo --modules t45,t45m,flat' \
+         'modquad solve --task example:planted_seed1 --method ppo --n-max 64 --option extra_fallbacks=' \
+         'modquad solve --task example:screwdriver --method ppo --fault rotor'; do
   check wheel docs/learned-designer.md "$c"
 done
 skip docs/learned-designer.md 'python -m agents.expert_iteration --rounds 2 --out runs/exit' \
@@ -351,6 +353,23 @@ done
 check core docs/index.md 'modquad solve --task example:planted_seed1 --method ppo'
 check core docs/index.md 'modquad solve --task example:planted_seed1 --method ppo --model model.zip' \
   'cp "$(python -c "from modquad_gym.policy.models import DEFAULT_MODEL as m; print(m)")" model.zip && modquad solve --task example:planted_seed1 --method ppo --model model.zip 2> err; rc=$?; cat err; [ $rc = 2 ] && [ $(wc -l < err) = 1 ] && grep -q "modquad_gym.train" err'
+# what needs an extra refuses before any work: exit 2, one line naming the extra, nothing
+# printed or written (refuses.sh EXTRA COMMAND...)
+cat > "$WORK/refuses.sh" <<'SH'
+extra=$1; shift
+tmp=$(mktemp -d); before=$(ls -A)
+"$@" > "$tmp/out" 2> "$tmp/err"; rc=$?
+cat "$tmp/err"
+[ "$rc" = 2 ] && [ "$(wc -l < "$tmp/err")" = 1 ] && grep -q "modquad_gym\[$extra\]" "$tmp/err" \
+  && [ ! -s "$tmp/out" ] && [ "$(ls -A)" = "$before" ]
+SH
+for c in 'sim modquad validate --task example:screwdriver --out validation/' \
+         'sim modquad export --task example:screwdriver --format mjcf --out screwdriver.xml' \
+         'sim modquad solve --task example:paper_seed0 --export paper_seed0.xml' \
+         'viz modquad show --task example:screwdriver --out structure.png' \
+         'viz modquad show --task example:screwdriver --html structure.html'; do
+  check core extras "${c#* }" "bash \"\$WORK/refuses.sh\" $c"
+done
 
 # --- 4: the python blocks, a page at a time, with the wheel ---------------------------------
 cat > "$WORK/run_blocks.py" <<'PY'
