@@ -256,7 +256,7 @@ def main(argv: list[str] | None = None) -> int:
         raise ValueError(f"--rows {args.rows}: no rows of --rival {args.rival} and a variant")
     scale = [r for r in rows if r["family"] != "small"]
     if args.rows:  # one row per scale task and method, each task with a row of each (the
-        # small tasks are counted, not compared task by task: their names repeat)
+        # small tasks are counted, not compared task by task: committed rows repeat names)
         check_task_rows(scale, [*names, args.rival], f"--rows {args.rows}")
     bands, families = (
         sorted({r["band"] for r in scale}),

@@ -32,15 +32,20 @@ FAMILIES = ("planted", "mixed", "payload", "torque")
 
 
 def tasks_of(bands, families, per_family: int, small: int, seed: int) -> list[tuple]:
-    """(task, n_max, palette for the learned pass, palette for greedy, family, band)."""
+    """(task, n_max, palette for the learned pass, palette for greedy, family, band). A small
+    task is named ``small-SEED-I-GENERATOR`` after its draw, so that rows pair task by task
+    (the generator's own name repeats: it names only which of two generators drew it)."""
     from modquad_gym.geometry.module import TModule
     from modquad_gym.scoring.scale_tasks import draw, task_palette
+    from modquad_gym.scoring.suites import relabelled
     from modquad_gym.tasks import make_generator
 
     out = []
     mixed = make_generator("mixed")
     for i in range(small):
-        out.append((mixed(np.random.default_rng([seed, i])), 7, None, None, "small", 7))
+        task = mixed(np.random.default_rng([seed, i]))
+        task = relabelled(task, f"small-{seed}-{i}-{task.name}", task.meta)
+        out.append((task, 7, None, None, "small", 7))
     for band in bands:
         for family in families:
             for i in range(per_family):

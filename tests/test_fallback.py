@@ -136,11 +136,31 @@ def test_the_benchmark_names_each_set_of_extra_passes(tmp_path):
     assert fallback.main(argv) == 0
     rows = [line.split(",") for line in (out / "rows.csv").read_text().splitlines()[1:]]
     assert {r[3] for r in rows} == {"ppo-top8-f0-x", "ppo-top8-f0-x1", "ppo-top8-f0", "greedy"}
+    assert len({(r[2], r[3]) for r in rows}) == len(rows) == 2 * 4  # each small task its name
     found = {(r[2], r[3]): int(r[4]) for r in rows}
     for task in {r[2] for r in rows}:  # a further pass never ends above the single one
         assert found[task, "ppo-top8-f0-x1"] <= found[task, "ppo-top8-f0-x"]
         assert found[task, "ppo-top8-f0"] == found[task, "ppo-top8-f0-x"]  # none below 16
     assert "| ppo-top8-f0-x1 | 2 |" in (out / "report.md").read_text()
+
+
+def test_each_small_task_has_its_own_name_and_is_the_generators_draw():
+    """The benchmarks' rows pair small tasks by name (benchmarks.fallback, lookahead_top_k):
+    each is named after its draw, and is still exactly what the generator draws."""
+    import numpy as np
+
+    from benchmarks.lookahead_top_k import tasks_of
+    from modquad_gym.tasks import make_generator
+
+    tasks = tasks_of([], [], 1, 40, 3)
+    names = [t[0].name for t in tasks]
+    assert len(set(names)) == len(names) == 40 and names[7].startswith("small-3-7-")
+    mixed = make_generator("mixed")
+    for i, (task, n_max, *_, family, band) in enumerate(tasks):
+        drawn = mixed(np.random.default_rng([3, i]))
+        assert np.array_equal(task.wrenches, drawn.wrenches) and task.f_max == drawn.f_max
+        assert task.kind == drawn.kind and task.name.endswith(drawn.name)
+        assert (n_max, family, band) == (7, "small", 7)
 
 
 @pytest.mark.parametrize(
