@@ -227,7 +227,7 @@ def tier_section(t: str, mine: list[Entry], r: str) -> list[str]:
         "",
         f"`{tier.env_id}`, {types}, n_max {tier.n_max}{fault}; held-out suites "
         f"{', '.join(f'`{s}`' for s in tier.suites)}: {tasks} tasks whose certified optimum "
-        f"is within n_max.{_models(tier)}",
+        f"is within n_max.{_models(tier, mine)}",
         "",
         *tier_table(mine),
         "",
@@ -345,15 +345,21 @@ def how_to_add(prefix: str) -> list[str]:
     ]
 
 
-def _models(tier) -> str:
-    """Where the tier's learned methods come from, in a sentence (or nothing)."""
-    if tier.fault:
-        return (" The learned methods are the tier's shipped model, trained with the failure "
-                "(one training run).")  # fmt: skip
-    if tier.model_tier:
+def _models(tier, mine: list[Entry]) -> str:
+    """Where the tier's learned methods come from, in a sentence (or nothing), with the
+    number of training runs their rows average (read from the rows, so the two agree)."""
+    counts = sorted({e.seeds for e in mine if e.kind == "learned" and not e.status})
+    words = " or ".join(COUNTS[n] if n < len(COUNTS) else str(n) for n in counts)
+    runs = "one training run" if counts == [1] else f"{words} training seeds"
+    if tier.fault and counts:
+        return f" The learned methods are trained with the failure (the tier's recipe, {runs})."
+    if tier.model_tier and counts:
         return (f" The learned methods are the `{tier.model_tier}` tier's models (its recipe's "
-                "five training seeds), acting here zero-shot.")  # fmt: skip
+                f"{runs}), acting here zero-shot.")  # fmt: skip
     return ""
+
+
+COUNTS = ("no", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten")
 
 
 def _source(source: str, prefix: str) -> str:

@@ -66,6 +66,23 @@ def test_the_fault_tier_scores_what_honours_the_failure_and_lists_the_rest(entri
     assert fault["ppo-k8"].success[0] == fault["ppo-guided"].success[0] == 1.0
 
 
+def test_each_tiers_prose_counts_the_training_runs_its_rows_average(entries):
+    """The sentence above a tier's table says how many training runs its learned rows average,
+    read from those rows: the fault tier's rows are five seeds, so its prose says five."""
+    from benchmarks.leaderboard_entries import Entry
+    from benchmarks.leaderboard_page import tier_section
+    from modquad_gym.scoring.tiers import get_tier
+
+    for t in TIERS:
+        mine = [e for e in entries if e.tier == t]
+        prose = tier_section(t, mine, "")[2]
+        if get_tier(t).fault or get_tier(t).model_tier:
+            assert {e.seeds for e in mine if e.kind == "learned"} == {5}
+            assert "five training seeds" in prose and "one training run" not in prose, t
+    one = [Entry(tier="fault", method="ppo", kind="learned", tasks=60, seeds=1, full=60)]
+    assert "(the tier's recipe, one training run)" in tier_section("fault", one, "")[2]
+
+
 def test_learned_numbers_are_the_seed_reports_pooled_over_tasks(entries):
     """Recomputed here from seeds.csv: each seed's optimal share over the tier's 100 tasks."""
     with open(RESULTS / "seeds_current" / "seeds.csv", newline="") as fh:
