@@ -197,3 +197,51 @@ def test_pages_quote_what_the_reports_and_the_code_say():
         assert f"slowest {slowest} s" in faults, report
     scaling = (ROOT / "results" / "search_scaling.md").read_text()
     assert "- peak memory of any streaming run:" in scaling
+
+
+def _csv(report: str) -> list[dict[str, str]]:
+    import csv
+
+    with open(ROOT / "results" / report, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_the_learned_designer_quotes_its_reports_and_the_shipped_configs():
+    """The learned designer's prose numbers that no marker fills, each against the committed
+    file it names (a folder re-run since must not leave the page quoting the old run)."""
+    import json
+
+    page = _page("learned-designer.md")
+    env = {(r["n_max"], r["lookahead"], r["top_k"]): float(r["cpu_steps_per_s"])
+           for r in _csv("env_lookahead/env_benchmark.csv")}  # fmt: skip
+    rate = [f"{env[n, look, '']:,.0f}" for n in ("7", "64") for look in ("'exact'", "False")]
+    assert (f"{rate[0]} steps per CPU second against {rate[1]} without lookahead at n_max 7, "
+            f"and {rate[2]} against {rate[3]} at n_max 64") in page  # fmt: skip
+    goal = (ROOT / "results" / "scale" / "shortlist" / "report.md").read_text()
+    said = (r"ppo-guided` .*?vs beam: ([\d.]+) vs ([\d.]+) modules .*?solved (\d+) vs (\d+) "
+            r"of \d+, ([\d.]+) vs ([\d.]+) s")  # fmt: skip
+    mods, rival, solved, beam_solved, secs, beam_secs = re.search(said, goal).groups()
+    assert solved == beam_solved
+    assert (f"answers {solved} of 20 tasks, as beam does, with {mods} against {rival} modules, "
+            f"in {secs} against {beam_secs} mean seconds") in page  # fmt: skip
+    runs = [r for name in ("gae", "focus", "group") for r in _csv(f"rl_stage/{name}/report.csv")]
+    for column, words in (("best", "best checkpoints"), ("final", "final evaluations")):
+        shares = [round(100 * float(r[f"val optimal, {column}"])) for r in runs]
+        assert f"{words} {min(shares)}-{max(shares)} %" in page
+    ppo = [r for r in _csv("seeds_current/seeds.csv") if r["method"] == "ppo"]
+    per_seed = [sum(float(r["optimal"]) * int(r["tasks"]) for r in ppo if r["seed"] == s)
+                / sum(int(r["tasks"]) for r in ppo if r["seed"] == s) for s in "01234"]  # fmt: skip
+    assert f"{100 * min(per_seed):.0f}-{100 * max(per_seed):.0f} % per seed" in page
+    raw = (ROOT / "docs" / "learned-designer.md").read_text()
+    rule = " ".join(raw.split("**Which rule kept each shipped model**")[1].split("\n\n")[0].split())
+    for config in sorted((ROOT / "modquad_gym" / "data" / "models").glob("*/config.json")):
+        c, name = json.loads(config.read_text()), config.parent.name
+        assert f"`{name}`" in rule, name
+        if "expert_iteration" in c:  # kept by its round, from the model it started at
+            ei = c["expert_iteration"]
+            assert f"round {ei['round']} of {ei['rounds']}" in rule, name
+            assert f"`{Path(ei['start']).parent.name}`" in rule, name
+            continue
+        assert f'"{c["kept_model"]}"' in rule, name
+        assert f"{c['validation']['n_tasks']} validation tasks" in rule, name
+        assert f"{c.get('best_checkpoint_timesteps', c['kept_model_timesteps']):,}" in rule, name
