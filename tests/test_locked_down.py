@@ -16,9 +16,10 @@ ROOT = Path(__file__).resolve().parents[1]
 SCREWDRIVER = ROOT / "examples" / "screwdriver.json"
 
 
-def test_unwritable_places_move_the_caches_to_a_private_folder(tmp_path):
-    """configure() with numba's and matplotlib's places below a regular file (never writable,
-    not even for root): both variables point into TMPDIR, the note is one line, once."""
+def _configure_run(tmp_path: Path, body: str) -> subprocess.CompletedProcess:
+    """A fresh interpreter with TMPDIR at ``tmp_path`` whose numba and matplotlib places lie
+    below a regular file (never writable, not even for root), the two variables unset, then
+    ``body``."""
     blocker = tmp_path / "a-file"
     blocker.write_text("")
     code = (
@@ -28,19 +29,28 @@ def test_unwritable_places_move_the_caches_to_a_private_folder(tmp_path):
         "c.default_places = lambda: {'NUMBA_CACHE_DIR': [lambda: b / 'n'], "
         "'MPLCONFIGDIR': [lambda: b / 'm']}\n"
         "for v in ('NUMBA_CACHE_DIR', 'MPLCONFIGDIR'): os.environ.pop(v, None)\n"
-        "first = c.configure()\n"
-        "for v in ('NUMBA_CACHE_DIR', 'MPLCONFIGDIR'): os.environ.pop(v, None)\n"
-        "second = c.configure()\n"
-        "print(sorted(first) == sorted(second) == ['MPLCONFIGDIR', 'NUMBA_CACHE_DIR'])\n"
-        "print(all(Path(p).is_dir() and p.startswith(tempfile.gettempdir()) "
-        "for p in first.values()))\n"
-    )
+    ) + body
     env = {**os.environ, "TMPDIR": str(tmp_path), "PYTHONPATH": str(ROOT)}
     env.pop("NUMBA_CACHE_DIR", None)
     run = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
     )
     assert run.returncode == 0, run.stderr
+    return run
+
+
+def test_unwritable_places_move_the_caches_to_a_private_folder(tmp_path):
+    """configure() with numba's and matplotlib's places below a regular file: both variables
+    point into TMPDIR, the note is one line, once."""
+    run = _configure_run(
+        tmp_path,
+        "first = c.configure()\n"
+        "for v in ('NUMBA_CACHE_DIR', 'MPLCONFIGDIR'): os.environ.pop(v, None)\n"
+        "second = c.configure()\n"
+        "print(sorted(first) == sorted(second) == ['MPLCONFIGDIR', 'NUMBA_CACHE_DIR'])\n"
+        "print(all(Path(p).is_dir() and p.startswith(tempfile.gettempdir()) "
+        "for p in first.values()))\n",
+    )
     assert run.stdout.split() == ["True", "True"]
     notes = [line for line in run.stderr.splitlines() if "modquad_gym: note" in line]
     assert len(notes) == 1 and "not writable" in notes[0], run.stderr
@@ -60,29 +70,16 @@ def test_a_private_folder_that_is_not_ours_is_not_adopted(tmp_path, how):
     was uid 65534, mode 777): another user who made it first could feed numba's pickled
     cache index to this process. Now a fresh mkdtemp folder serves the run, and the note says
     why; it is removed at exit."""
-    blocker = tmp_path / "a-file"
-    blocker.write_text("")
     uid = "real = os.getuid(); os.getuid = lambda: real + 1\n" if how == "another owner" else ""
-    code = (
-        "import os, sys, tempfile; from pathlib import Path\n"
-        "import modquad_gym.core.caches as c\n"
-        f"b = Path({str(blocker)!r})\n"
-        "c.default_places = lambda: {'NUMBA_CACHE_DIR': [lambda: b / 'n'], "
-        "'MPLCONFIGDIR': [lambda: b / 'm']}\n"
-        "for v in ('NUMBA_CACHE_DIR', 'MPLCONFIGDIR'): os.environ.pop(v, None)\n"
+    run = _configure_run(
+        tmp_path,
         f"{uid}pre = c.private_folder('NUMBA_CACHE_DIR'); pre.mkdir(mode=0o700)\n"
         f"{PRIVATE_NOT_OURS[how]}"
         "chosen = Path(c.configure()['NUMBA_CACHE_DIR']); info = os.lstat(chosen)\n"
         "print(chosen != pre, chosen.parent == pre.parent, info.st_uid == os.geteuid(), "
         "oct(info.st_mode & 0o777))\n"
-        "print(chosen)\n"
+        "print(chosen)\n",
     )
-    env = {**os.environ, "TMPDIR": str(tmp_path), "PYTHONPATH": str(ROOT)}
-    env.pop("NUMBA_CACHE_DIR", None)
-    run = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
-    )
-    assert run.returncode == 0, run.stderr
     checks, chosen = run.stdout.splitlines()
     assert checks.split() == ["True", "True", "True", "0o700"], run.stdout
     notes = [line for line in run.stderr.splitlines() if "modquad_gym: note" in line]
