@@ -10,7 +10,8 @@ by the oracle's tolerance rule on the matrix A_{-S} (:mod:`~modquad_gym.oracle.t
 **fault margin** is the worst margin over the failures, so it is >= 0 exactly when the wrench is
 tolerated. A required margin ``fault_margin=mu`` (thrust to spare while the controller does not
 yet know of the failure) asks the fault margin to be >= mu: decided, once the plain tolerance
-holds, on each A_{-S} with its thrust range shrunk about its centre by the factor 1 - mu.
+holds, on each A_{-S} with its thrust range shrunk about its centre by the factor 1 - mu; for
+``rotor2`` and ``rotor+module`` also after each smaller failure they contain (``nested``).
 
 Fast and exact (:class:`FaultTolerance`). Z_S is a subset of the intact zonotope, so a wrench
 the intact structure cannot exert is tolerated by no failure (one compiled decision rejects
@@ -343,17 +344,17 @@ def _zero_rows(W: np.ndarray, f_max: float) -> np.ndarray:
     return norms <= RESIDUAL_TOL
 
 
-def _matrix_and_failures(structure, fault: str) -> tuple[np.ndarray, list[np.ndarray]]:
-    """(A, failure sets) of a Structure (module faults take its own rotor counts) or of a
-    (6, 4n) matrix whose columns come four per module."""
+def _matrix_and_failures(structure, fault: str, nested: bool) -> tuple[np.ndarray, list]:
+    """(A, :func:`failure_sets`) of a Structure (its own rotor counts) or a (6, 4n) matrix."""
     fault = check_fault(fault)
     if hasattr(structure, "configuration_matrix"):
         A = structure.configuration_matrix()
         if fault not in ("module", "rotor+module"):
-            return A, failure_sets(A.shape[1], fault)
-        return A, module_failures(np.cumsum([0] + [m.n_rotors for m in structure.modules]), fault)
+            return A, failure_sets(A.shape[1], fault, nested=nested)
+        starts = np.cumsum([0] + [m.n_rotors for m in structure.modules])
+        return A, module_failures(starts, fault, nested=nested)
     A = np.asarray(structure)
-    return A, failure_sets(A.shape[1] if A.ndim == 2 else 0, fault)
+    return A, failure_sets(A.shape[1] if A.ndim == 2 else 0, fault, nested=nested)
 
 
 def tolerates(
@@ -373,14 +374,15 @@ def tolerates(
     rotor stops (its column leaves A); ``"module"``: any one module's rotors stop (its columns
     leave A; its mass stays, so pass the rotor wrenches of the whole structure); ``"rotor2"``:
     any two rotors stop. With ``fault_margin=mu`` each wrench must also keep a margin of at
-    least mu after every failure (:func:`fault_margin` >= mu): thrust to spare for the
-    transient before the controller knows. Exact by the oracle's tolerance rule on each failed
-    matrix (module docstring). Past ``deadline`` (:func:`time.perf_counter` seconds) it raises
-    :class:`DecisionInterruptedError` rather than answer."""
-    A, failures = _matrix_and_failures(structure, fault)
+    least mu after every failure, and for ``rotor2`` / ``rotor+module`` after each smaller
+    failure they contain (:func:`fault_margin` >= mu): thrust to spare for the transient
+    before the controller knows, failure after failure. Exact by the oracle's tolerance rule
+    on each failed matrix (module docstring). Past ``deadline`` (:func:`time.perf_counter`
+    seconds) it raises :class:`DecisionInterruptedError` rather than answer."""
+    mu = check_fault_margin(fault_margin, check_fault(fault))
+    A, failures = _matrix_and_failures(structure, fault, nested=mu > 0.0)  # 0: monotone
     W = check_wrenches(W)
     z = Zonotope(A, check_f_max(f_max))
-    mu = check_fault_margin(fault_margin, fault)
     tolerance = FaultTolerance(A, z.f_max, failures, z, mu, deadline)
     return tolerance.decide(W, check_method(method))
 
@@ -389,10 +391,10 @@ def fault_margin(
     structure, W: np.ndarray, f_max: float = 1.0, fault: str = "rotor", method: str = "auto"
 ) -> np.ndarray:
     """float (t,): the worst margin (:func:`~modquad_gym.oracle.margin`) of each wrench over
-    every failure of kind ``fault``; >= 0 exactly when :func:`tolerates` is True (and >= mu,
-    up to the oracle's tolerance band, exactly when ``tolerates(..., fault_margin=mu)`` is).
-    A failure that leaves no rotor gives -inf (0 for the zero wrench)."""
-    A, failures = _matrix_and_failures(structure, fault)
+    every failure of kind ``fault`` and each smaller one it contains (``nested``); >= 0 exactly
+    when :func:`tolerates` is True (>= mu, up to the oracle's tolerance band, exactly when
+    ``tolerates(..., fault_margin=mu)`` is). No rotor left: -inf (0 for the zero wrench)."""
+    A, failures = _matrix_and_failures(structure, fault, nested=True)
     W = check_wrenches(W)
     z = Zonotope(A, check_f_max(f_max))
     return FaultTolerance(A, z.f_max, failures, z).margin(W, check_method(method))

@@ -264,9 +264,9 @@ class TaskChecker:
 
     def tolerance(self, A: np.ndarray, z: Zonotope | None = None) -> FaultTolerance:
         """The fault tolerance of a structure's matrix A (columns by module) for this task's
-        ``fault`` and ``fault_margin``."""
+        ``fault`` and ``fault_margin`` (a margin also after the smaller failures: ``nested``)."""
         rotors = self.module.n_rotors
-        failures = failure_sets(A.shape[1], self.fault, rotors)
+        failures = failure_sets(A.shape[1], self.fault, rotors, nested=self.fault_margin > 0.0)
         return FaultTolerance(A, self.f_max, failures, z, self.fault_margin, self.deadline)
 
     def decide(self, z: Zonotope, W: np.ndarray) -> np.ndarray:

@@ -262,7 +262,8 @@ class StructureEvaluator:
         if ft is None:
             if len(self.tolerance) >= self.cache_size:
                 self.tolerance.clear()
-            failures = failure_sets(A.shape[1], self.fault, self.module.n_rotors)
+            rotors, nested = self.module.n_rotors, self.fault_margin > 0.0  # margin: nested
+            failures = failure_sets(A.shape[1], self.fault, rotors, nested=nested)
             zonotope = self.oracle.zonotope(A, key=key)
             ft = self.tolerance[key] = FaultTolerance(
                 A, zonotope.f_max, failures, zonotope, self.fault_margin
