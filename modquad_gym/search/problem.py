@@ -26,7 +26,7 @@ from modquad_gym.geometry.cells import MAX_MODULES  # noqa: F401 (the searches' 
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_task_scale
-from modquad_gym.oracle.faults import check_fault, check_fault_margin, failure_sets
+from modquad_gym.oracle.faults import check_fault, check_fault_margin
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.search.options import (  # noqa: F401 (the time limit's names, kept here)
     MAX_TIME_LIMIT,
@@ -186,14 +186,6 @@ class SearchProblem:
         paper's tasks): only the shapes are searched, the paper's search unchanged."""
         m = self.model
         return len(self.palette) == 1 and not m.uses_mass and not m.uses_inertia
-
-    def failures(self, n_modules: int) -> list[np.ndarray]:
-        """The column sets of the single failures of an ``n_modules`` structure (empty without
-        a fault)."""
-        if self.fault is None:
-            return []
-        rotors = self.palette[0].n_rotors
-        return failure_sets(n_modules * rotors, self.fault, rotors)
 
     def rotor_wrenches(self, structure: Structure | float) -> np.ndarray:
         """What the rotors of ``structure`` must produce for the task. A mass in kg does for
