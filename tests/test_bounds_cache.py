@@ -1,8 +1,8 @@
-"""The level bounds' disk cache (hostile review of the caches, finding 4): a cached file was
-used as it was. One whose numbers were scaled by 0.1 turned the reviewer's certified minimum
-of 5 modules into a "certified minimum" of 6; one of another shape stopped the search with a
-numpy error naming no file, one of strings with a traceback. A file is now used only when its
-format, shape, type and checksum match; anything else is recomputed and rewritten."""
+"""The level bounds' disk cache: a cached file used as it was, with numbers scaled by 0.1,
+would turn a certified minimum of 5 modules into a "certified minimum" of 6; one of another
+shape would stop the search with a numpy error naming no file, one of strings with a traceback.
+So a file is used only when its format, shape, type and checksum match; anything else is
+recomputed and rewritten."""
 
 from __future__ import annotations
 
@@ -59,8 +59,8 @@ def scaled(path, factor: float) -> None:
 
 
 def test_scaled_cached_bounds_are_recomputed_and_the_certificate_stays(cache):
-    """The reviewer's case: the cached bounds of level 5 scaled by 0.1 made the exhaustive
-    search skip level 5 and certify 6 modules; the checksum now finds the change."""
+    """The cached bounds of level 5 scaled by 0.1 would make the exhaustive search skip
+    level 5 and certify 6 modules: the checksum finds the change."""
     task = PaperTasks()(np.random.default_rng(1))
     first = mq.exhaustive_search(task, n_max=6, fault="rotor")
     assert first.certified and first.n_modules == 5

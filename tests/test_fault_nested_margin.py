@@ -52,7 +52,7 @@ def brute_sets(m, fault, per=4):
     return both, modules + rotors
 
 
-def test_the_reviewers_four_vertical_rotors():
+def test_four_vertical_rotors_keep_the_margin_after_one_failure():
     A = np.zeros((6, 4))
     A[2] = 1.0  # four identical vertical rotors, given as a matrix
     W = np.array([[0, 0, 1.0, 0, 0, 0]])
@@ -68,7 +68,7 @@ def test_the_reviewers_four_vertical_rotors():
 def random_matrix(rng, modules, vertical=False):
     """A (6, 4 modules) matrix of thrust directions near vertical at random points, or of
     vertical rotors of random strength on the COM (where a smaller failure can leave less
-    margin than a combined one: the reviewer's case, generalised)."""
+    margin than a combined one)."""
     m = 4 * modules
     if vertical:
         A = np.zeros((6, m))

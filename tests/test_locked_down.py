@@ -66,10 +66,9 @@ PRIVATE_NOT_OURS = {
 @pytest.mark.skipif(sys.platform == "win32", reason="no private folder on Windows")
 @pytest.mark.parametrize("how", sorted(PRIVATE_NOT_OURS))
 def test_a_private_folder_that_is_not_ours_is_not_adopted(tmp_path, how):
-    """The predictable folder in TMPDIR was adopted whatever its owner and mode (the reviewer's
-    was uid 65534, mode 777): another user who made it first could feed numba's pickled
-    cache index to this process. Now a fresh mkdtemp folder serves the run, and the note says
-    why; it is removed at exit."""
+    """The predictable folder in TMPDIR, when another user made it first or others may write
+    it, could feed numba's pickled cache index to this process: a fresh mkdtemp folder serves
+    the run instead, the note says why, and it is removed at exit."""
     uid = "real = os.getuid(); os.getuid = lambda: real + 1\n" if how == "another owner" else ""
     run = _configure_run(
         tmp_path,

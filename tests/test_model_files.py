@@ -103,7 +103,7 @@ def mlp_models(tmp_path_factory):
 
 
 def test_an_extra_pickle_in_a_model_never_runs(tmp_path, capsys):
-    """The reviewer's reproduction: the shipped model.zip with one more ``:serialized:`` entry
+    """The shipped model.zip with one more ``:serialized:`` entry
     whose pickle writes a file. The model acts, by either door, and the file is never made."""
     mark = tmp_path / "pwned.txt"
     evil = rewritten(DEFAULT_MODEL, tmp_path / "evil" / "model.zip",

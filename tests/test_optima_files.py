@@ -152,7 +152,7 @@ def test_a_complete_last_record_without_newline_is_kept(tmp_path, capsys, tasks)
 
 
 @pytest.mark.parametrize("content", [
-    '{"task": "buy milk", "due": "friday"}',  # the reviewer's: JSON, complete, not a record
+    '{"task": "buy milk", "due": "friday"}',  # JSON, complete, not a record
     '{"task": "buy milk"}\n{"task": "call mum"}',
     '{"task": "x", "name": "y"}\n',
 ])  # fmt: skip
