@@ -17,7 +17,12 @@ from typing import Any
 from modquad_gym.core.validation import check_int
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
 from modquad_gym.envs.assembly.features import MAX_N_DIRECTIONS, lookahead_width
-from modquad_gym.envs.assembly.inputs import INVALID_ACTION_MODES, check_oracle_method
+from modquad_gym.envs.assembly.inputs import (
+    check_invalid_action,
+    check_lookahead,
+    check_oracle_method,
+    check_top_k,
+)
 from modquad_gym.envs.assembly.modules import Palette
 from modquad_gym.envs.assembly.reward import make_reward
 
@@ -75,9 +80,10 @@ def env_kwargs_of(model, config: dict, where: str = "config", size_free: bool = 
             f"{where}: the model's saved spaces hold {shape['n_types']} module types but no "
             "env_kwargs.modules names them (its config.json beside it must)"
         )
-    if kwargs.get("lookahead_top_k") is not None and kwargs["lookahead"] != "exact":
-        raise ValueError(f"{where}: env_kwargs.lookahead_top_k shortlists the exact lookahead, "
-                         "which the model does not read")  # fmt: skip
+    try:  # the env's own rule: a shortlist of the exact lookahead only
+        check_top_k(kwargs.get("lookahead_top_k"), kwargs["lookahead"])
+    except ValueError as exc:
+        raise ValueError(f"{where}: env_kwargs.{exc}") from None
     return kwargs
 
 
@@ -89,14 +95,14 @@ def checked(key: str, value: Any, shape: dict, where: str) -> Any:
             value = check_int(value, name, low=1)
         elif key == "n_directions":
             value = check_int(value, name, 12, MAX_N_DIRECTIONS)
-        elif key == "lookahead" and value not in (False, True, "exact"):
-            raise ValueError(f"{name} must be false, true or 'exact', got {value!r}")
-        elif key == "lookahead_top_k" and value is not None:
-            value = check_int(value, name, low=1)
+        elif key == "lookahead":
+            value = check_lookahead(value)
+        elif key == "lookahead_top_k":
+            value = check_top_k(value, "exact")  # against the lookahead: env_kwargs_of
         elif key == "oracle_method":
             check_oracle_method(value)
-        elif key == "invalid_action" and value not in INVALID_ACTION_MODES:
-            raise ValueError(f"{name} must be one of {INVALID_ACTION_MODES}, got {value!r}")
+        elif key == "invalid_action":
+            check_invalid_action(value)
         elif key == "reward_weights":
             make_reward(None, value)
         elif key == "modules" and value is not None:

@@ -120,25 +120,41 @@ def make_rules(
     """The episode :class:`~.types.Rules`; ValueError naming a bad argument. ``max_steps``
     None means 4 * n_max; it lies in [n_max - 1, 4 * n_max_limit]. ``top_k`` (the exact
     lookahead's shortlist) is None or an integer >= 1, with ``lookahead="exact"`` only."""
-    if invalid_action not in INVALID_ACTION_MODES:
-        raise ValueError(
-            f"invalid_action must be one of {INVALID_ACTION_MODES}, got {invalid_action!r}"
-        )
-    if lookahead != "exact" and not isinstance(lookahead, (bool, np.bool_)):
-        raise ValueError(f"lookahead must be False, True or 'exact', got {lookahead!r}")
+    invalid_action = check_invalid_action(invalid_action)
+    lookahead = check_lookahead(lookahead)
     n_max = check_int(n_max, "n_max", 2, n_max_limit)
     if max_steps is None:
         max_steps = 4 * n_max
     max_steps = check_int(max_steps, "max_steps", n_max - 1, 4 * n_max_limit)
-    if top_k is not None:
-        top_k = check_int(top_k, "lookahead_top_k", 1)
-        if lookahead != "exact":
-            raise ValueError(
-                f"lookahead_top_k={top_k} shortlists the exact lookahead: it needs "
-                f"lookahead='exact', got lookahead={lookahead!r}"
-            )
-    lookahead = lookahead if lookahead == "exact" else bool(lookahead)
-    return Rules(n_max, max_steps, invalid_action, lookahead, top_k)
+    return Rules(n_max, max_steps, invalid_action, lookahead, check_top_k(top_k, lookahead))
+
+
+def check_invalid_action(value: Any) -> str:
+    """``invalid_action``: one of :data:`INVALID_ACTION_MODES`; else a ValueError naming it."""
+    if value not in INVALID_ACTION_MODES:
+        raise ValueError(f"invalid_action must be one of {INVALID_ACTION_MODES}, got {value!r}")
+    return value
+
+
+def check_lookahead(value: Any) -> bool | str:
+    """``lookahead``: False, True or ``"exact"``; else a ValueError naming it."""
+    if value != "exact" and not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"lookahead must be False, True or 'exact', got {value!r}")
+    return value if value == "exact" else bool(value)
+
+
+def check_top_k(top_k: Any, lookahead: Any) -> int | None:
+    """``lookahead_top_k`` (the exact lookahead's shortlist): None, or an integer >= 1 with
+    ``lookahead="exact"`` only; else a ValueError naming it."""
+    if top_k is None:
+        return None
+    top_k = check_int(top_k, "lookahead_top_k", 1)
+    if lookahead != "exact":
+        raise ValueError(
+            f"lookahead_top_k={top_k} shortlists the exact lookahead: it needs "
+            f"lookahead='exact', got lookahead={lookahead!r}"
+        )
+    return top_k
 
 
 def make_encoding(actions: Any, encodings: dict) -> Any:
