@@ -101,9 +101,9 @@ def environment_page(env_id: str) -> str:
             ("class", f"`{cls.__module__}.{cls.__qualname__}`"),
             ("registered keywords", f"`{spec.kwargs}`" if spec.kwargs else "none"),
             (
-                "max_episode_steps",
-                f"`{env.spec.max_episode_steps}` (the env's own limit, "
-                "4 * n_max: it follows `n_max`; registered without a `TimeLimit`)",
+                "max_steps",
+                f"`{base.max_steps}` (the env's own step limit, 4 * n_max: it follows `n_max`; "
+                "registered without a `TimeLimit`: `env.spec.max_episode_steps` is None)",
             ),
             (
                 "reward_threshold",

@@ -83,7 +83,7 @@ IMPOSSIBLE = np.array([[0.0, 0.0, 1e3, 0.0, 0.0, 0.0]])
 @pytest.mark.parametrize("env_id", ["ModQuadAssembly-v0", "ModQuadAssemblyScale-v0"])
 def test_valid_actions_reach_n_max_modules_for_any_n_max(env_id):
     env = gym.make(env_id, n_max=40, tasks=lambda rng: IMPOSSIBLE)
-    assert env.spec.max_episode_steps == env.unwrapped.max_steps == 160
+    assert env.spec.max_episode_steps is None and env.unwrapped.max_steps == 160
     env.reset(seed=0)
     steps, done = 0, False
     while not done:
@@ -95,7 +95,7 @@ def test_valid_actions_reach_n_max_modules_for_any_n_max(env_id):
 
 def test_invalid_actions_truncate_at_the_envs_own_limit():
     env = gym.make("ModQuadAssemblyPlanted-v0", n_max=3)
-    assert env.spec.max_episode_steps == env.unwrapped.max_steps == 12
+    assert env.spec.max_episode_steps is None and env.unwrapped.max_steps == 12
     env.reset(seed=0)
     ends = [env.step(junk)[2:4] for junk in [-1, 2.5, None, "x"] * 3]  # never raises
     assert ends == [(False, False)] * 11 + [(False, True)]  # truncated, not terminated
@@ -305,6 +305,6 @@ def test_max_steps_limit_is_the_documented_one():
     from modquad_gym.envs.assembly.env import MAX_STEPS_LIMIT
 
     assert f"n_max - 1 to {MAX_STEPS_LIMIT}" in " ".join(ModQuadAssemblyEnv.__doc__.split())
-    assert gym.make("ModQuadAssembly-v0", max_steps=MAX_STEPS_LIMIT).spec.max_episode_steps == 512
+    assert gym.make("ModQuadAssembly-v0", max_steps=MAX_STEPS_LIMIT).unwrapped.max_steps == 512
     with pytest.raises(ValueError, match="max_steps must be <= 512"):
         gym.make("ModQuadAssembly-v0", max_steps=MAX_STEPS_LIMIT + 1)

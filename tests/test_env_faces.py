@@ -135,7 +135,7 @@ def test_faces_lookahead_rows_are_the_grids():
 
 def test_scale_id_at_n_max_64_limits_and_checkers():
     env = gym.make("ModQuadAssemblyScale-v0")
-    assert env.spec.max_episode_steps == env.unwrapped.max_steps == 4 * 64
+    assert env.spec.max_episode_steps is None and env.unwrapped.max_steps == 4 * 64
     assert env.action_space.n == 130 and env.observation_space["candidates"].shape == (130 * 11,)
     obs, info = env.reset(seed=0)
     rng = np.random.default_rng(0)
@@ -157,10 +157,20 @@ def test_scale_id_at_n_max_64_limits_and_checkers():
     assert [str(w.message) for w in caught] == []
 
 
-def test_every_id_limits_episodes_at_the_envs_own_limit():
+def test_every_id_limits_episodes_at_the_envs_own_limit_without_a_time_limit():
     for env_id in ENV_IDS:
         env = gym.make(env_id)
-        assert env.spec.max_episode_steps == env.unwrapped.max_steps, env_id
+        assert env.spec.max_episode_steps is None, env_id
+        assert env.unwrapped.max_steps == 4 * env.unwrapped.n_max, env_id
+        assert not any(isinstance(w, gym.wrappers.TimeLimit) for w in _wrappers(env)), env_id
+
+
+def _wrappers(env: gym.Env) -> list[gym.Env]:
+    """``env`` and every env it wraps, outermost first."""
+    chain = [env]
+    while isinstance(chain[-1], gym.Wrapper):
+        chain.append(chain[-1].env)
+    return chain
 
 
 def test_compiled_matrices_equal_the_structures():

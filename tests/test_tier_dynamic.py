@@ -113,7 +113,7 @@ def test_shipped_dynamic_optima_fly_their_own_tasks():
 
 def test_dynamic_tier_env_is_registered_with_its_limits():
     env = gym.make("ModQuadAssemblyDynamic-v0")
-    assert env.unwrapped.n_max == 7 and env.spec.max_episode_steps == 28
+    assert env.unwrapped.n_max == 7 and env.unwrapped.max_steps == 28
     _, info = env.reset(seed=5)
     assert info["task_name"] == "motions"
     env.close()

@@ -32,11 +32,15 @@ soon as it is imported (so importing the package loads neither Gymnasium nor num
   size.
 
 No id registers a ``max_episode_steps`` (Gymnasium's ``TimeLimit``): the env truncates itself at
-its own ``max_steps`` (4 * n_max), so the limit follows ``gym.make(id, n_max=N)``, and
-``env.spec.max_episode_steps`` reports it. ``reward_threshold`` is the least return of a
-successful episode without invalid actions (:func:`~.assembly.reward.success_threshold`: 0.4
-at n_max 7), where success beats every failure (not at n_max 12 or 64: None there);
-``env.spec`` gives the value for the arguments the env was made with.
+its own ``max_steps`` (4 * n_max; ``env.unwrapped.max_steps``), so the limit follows
+``gym.make(id, n_max=N)``, and ``env.spec.max_episode_steps`` stays None (so
+``gym.make(env.spec, n_max=N)`` adds no ``TimeLimit`` either). ``gym.make(id,
+max_episode_steps=M)`` adds Gymnasium's ``TimeLimit``, which can only shorten episodes (the env
+still truncates at ``max_steps``; ``max_steps=M`` sets the env's own limit).
+``reward_threshold`` is the least return of a successful episode without invalid actions
+(:func:`~.assembly.reward.success_threshold`: 0.4 at n_max 7), where success beats every
+failure (not at n_max 12 or 64: None there); ``env.spec`` gives the value for the arguments the
+env was made with.
 """
 
 from __future__ import annotations
@@ -83,7 +87,7 @@ def register_envs() -> None:
 
 def episode_limit(kwargs: dict) -> int:
     """The env's own step limit for these arguments (its default ``max_steps``, 4 * n_max):
-    ``env.spec.max_episode_steps`` of ``gym.make(id, **kwargs)``."""
+    ``env.unwrapped.max_steps`` of ``gym.make(id, **kwargs)``."""
     return kwargs.get("max_steps") or 4 * kwargs.get("n_max", DEFAULT_N_MAX)
 
 

@@ -46,8 +46,10 @@ class NearestValidAction(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     Spaces are those of the wrapped environment (the observation keeps ``"action_mask"``).
     ``info["requested_action"]`` and ``info["applied_action"]`` say what was asked and done.
-    When no action is valid (the episode is over, or one module already satisfies the task),
-    the action passes through unchanged and the environment ends the episode as documented.
+    The assembly env's mask is never all zero, so the applied action is always a valid one:
+    where one module already satisfies the task, it is one of the start's neighbours and that
+    step ends the episode (any action does); after the episode is over the env raises
+    ``ResetNeeded``. Only an all-zero mask (no assembly env gives one) passes an action through.
     It wraps the grid encoding only (``actions="grid"``: a cell per action); another env, or
     ``actions="faces"`` (``ModQuadAssemblyScale-v0``), is a ValueError.
     """

@@ -40,7 +40,7 @@ from modquad_gym.envs.assembly.modules import make_module_set
 from modquad_gym.envs.assembly.restore import Restorer
 from modquad_gym.envs.assembly.reward import RewardFn, make_reward, reset_terms, step_reward
 from modquad_gym.envs.assembly.spec import DEFAULT_N_MAX, ArgumentSpec
-from modquad_gym.envs.assembly.transitions import initial_state, transition
+from modquad_gym.envs.assembly.transitions import initial_state, satisfied, transition
 from modquad_gym.envs.assembly.types import AssemblyState, Episode
 from modquad_gym.envs.assembly.viewer import RENDER_FPS, AssemblyViewer
 from modquad_gym.geometry.module import ModuleType
@@ -137,19 +137,18 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
       action with ``invalid_action="terminate"``.
     * Truncation: the env itself truncates (``truncated`` True, ``terminated`` False) the step
       that reaches ``max_steps`` steps (default 4 * n_max) without termination: only invalid
-      actions get there (valid ones terminate within n_max - 1 steps). The ids register no
-      ``TimeLimit``, so the limit follows ``gym.make(id, n_max=N)`` (N modules reachable), and
-      ``env.spec.max_episode_steps`` reports it (:mod:`.spec`).
+      actions get there (valid ones terminate within n_max - 1 steps). No id registers a
+      ``TimeLimit`` (``env.spec.max_episode_steps`` is None): the limit follows ``gym.make(id,
+      n_max=N)``; one from ``max_episode_steps=`` can only shorten episodes (:mod:`.spec`).
 
     ## Arguments
-    * ``tasks``: task source: ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"``
-      (default), a task file path, a shipped example (``"example:screwdriver"``), a
-      TaskRequirement, a DynamicTask (a motion: each structure decided on its own rotor
-      wrenches, :mod:`.dynamic`), a list of them, or a generator: any callable ``gen(rng) ->
-      TaskRequirement`` (or DynamicTask, or (t, 6) wrench array), called with
-      ``self.np_random`` at each reset (another result: ValueError); see
-      :func:`modquad_gym.tasks.make_generator`. A named source plants its tasks in at most
-      n_max modules (``ModQuadAssemblyScale-v0`` at n_max=20: 16-20): a solution exists.
+    * ``tasks``: task source: ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"`` (default),
+      a task file path, a shipped example (``"example:screwdriver"``), a TaskRequirement, a
+      DynamicTask (a motion: each structure decided on its own rotor wrenches, :mod:`.dynamic`), a
+      list of them, or a generator: any callable ``gen(rng) -> TaskRequirement`` (or DynamicTask, or
+      (t, 6) wrench array), called with ``self.np_random`` at each reset (another result:
+      ValueError); see :func:`modquad_gym.tasks.make_generator`. A named source plants its tasks in
+      at most n_max modules (``ModQuadAssemblyScale-v0`` at n_max=20: 16-20): a solution exists.
     * ``task``: one task instead of ``tasks`` (a task file, ``"example:NAME"``, a
       TaskRequirement or a DynamicTask); a family of tasks or a suite is refused with a
       ValueError that names ``tasks=``.
@@ -162,7 +161,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
       one-hot, K > 1 types), tasks of kind ``external`` are decided with the structure's weight
       and ``info`` adds ``modules`` and ``mass_kg`` (see :mod:`.modules`). Default: one type.
     * ``initial_type``: with a palette, the first module's type index (default 0) or
-      ``"random"`` (drawn at each reset); ``reset(options={"initial_type": k})`` for one episode.
+      ``"random"`` (drawn at each reset); ``reset(options={"initial_type": ...})`` for one episode.
     * ``f_max``: maximum thrust per rotor, 1e-9 to 1e12; None (default) uses each task's own.
     * ``reward_weights``: a :class:`~.reward.RewardWeights` or a dict of some of ``w_sat``,
       ``w_module``, ``w_success``, ``w_invalid`` (the default reward).
@@ -170,8 +169,9 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     * ``viewer``: an :class:`~.viewer.AssemblyViewer` whose grid holds the env's (default one).
     * ``invalid_action``: ``"penalise"`` (default) or ``"terminate"``.
     * ``max_steps``: the step limit for truncation (default 4 * n_max; n_max - 1 to 512 = 4 * 128).
-    * ``render_mode``: None, ``"rgb_array"`` (the structure picture, (H, W, 3) uint8),
-      ``"human"`` (that picture in a pygame window; the ``viz`` extra) or ``"ansi"`` (a text
+    * ``render_mode``: None, ``"rgb_array"`` (the structure picture, (H, W, 3) uint8; its strip
+      shows each task wrench satisfied or not, as the env decides), ``"human"`` (that picture in
+      a pygame window at each ``reset`` and ``step``; the ``viz`` extra) or ``"ansi"`` (a text
       grid). ``gymnasium.wrappers.RecordVideo`` works on ``"rgb_array"`` (needs moviepy).
     * ``actions``: the action encoding, ``"grid"`` (default) or ``"faces"`` (above).
     * ``n_directions``: K, the support directions of the features (default 48, 12..4096).
@@ -274,7 +274,6 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     side = property(lambda self: 2 * self.n_max - 1, doc="G = 2 n_max - 1, cells a side.")
     actions = property(lambda self: self.encoding.name, doc="The action encoding's name.")
     render_size = property(lambda self: self.viewer.size, doc="(height, width) of frames.")
-
     weights = property(lambda self: getattr(self.reward, "weights", None), doc="Reward weights.")
     initial_type = property(lambda self: getattr(self.module_set, "initial_type", None))
 
@@ -302,13 +301,11 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     # --- state ----------------------------------------------------------------------------
     def _evaluator(self, f_max: float) -> StructureEvaluator:
         """The evaluator of ``f_max`` (kept across episodes: its caches make steps fast)."""
-        ev = self.evaluators.get(f_max)
-        if ev is None:
-            ev = self.evaluators[f_max] = self.module_set.evaluator(
-                self.n_max, f_max, self.n_directions, self.oracle_method
-            )
+        if f_max not in self.evaluators:
+            ev = self.module_set.evaluator(self.n_max, f_max, self.n_directions, self.oracle_method)
             ev.fault, ev.fault_margin = self.fault, self.fault_margin
-        return ev
+            self.evaluators[f_max] = ev
+        return self.evaluators[f_max]
 
     def _require(self, what: str) -> AssemblyState:
         if self._state is None:
@@ -341,9 +338,8 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
 
     def action_masks(self) -> np.ndarray:
         """bool: the valid actions now; before ``reset``, those of the initial state."""
-        if self._state is None:
-            return self.encoding.initial_mask.astype(bool)
-        return self._state.mask.astype(bool)
+        mask = self.encoding.initial_mask if self._state is None else self._state.mask
+        return mask.astype(bool)
 
     def _observation(self) -> dict[str, np.ndarray]:
         return {name: read(self._state) for name, read in self._readers}
@@ -373,6 +369,8 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         self._episode = Episode(self.rules, self.encoding, self.module_set, evaluator, *memos)
         arrays = evaluator.task_arrays(task, self.module_set.key(((0, 0),), types))
         self._state = initial_state(self._episode, arrays, types)
+        if self.render_mode == "human":  # Gymnasium's convention: human mode draws itself
+            self.render()
         return self._observation(), self._info()
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict]:
@@ -384,16 +382,18 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         self._state = nxt = transition(self._episode, state, a, valid)
         reward, terms = step_reward(self.reward, state, a, nxt, valid)
         info = self._info(not valid, terms)
+        if self.render_mode == "human":
+            self.render()
         return self._observation(), reward, nxt.terminated, nxt.truncated, info
 
     def render(self) -> np.ndarray | str | None:
         if self.render_mode is None:
             gym.logger.warn("render() called with render_mode=None; pass render_mode to the env")
             return None
-        state, s = self._require("render()"), self.structure
-        W, f_max = self.evaluator.at_mass(state.task, s.mass)[0], self.evaluator.oracle.f_max
+        state = self._require("render()")
+        status = None if self.render_mode == "ansi" else satisfied(self._episode, state)
         valid = self.encoding.valid_cells(state)
-        return self.viewer.render(self.render_mode, state, s, W, f_max, self.oracle_method, valid)
+        return self.viewer.render(self.render_mode, state, self.structure, status, valid)
 
     def close(self) -> None:
         self.viewer.close()

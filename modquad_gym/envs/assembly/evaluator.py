@@ -46,7 +46,7 @@ from modquad_gym.geometry.structure import (
     configuration_matrices,
     mixed_configuration_matrices,
 )
-from modquad_gym.oracle import WrenchOracle
+from modquad_gym.oracle import WrenchOracle, feasible
 from modquad_gym.oracle.faults import FaultTolerance, failure_sets
 
 CACHE_SIZE = 16384
@@ -258,6 +258,14 @@ class StructureEvaluator:
     def tolerated(self, key: Any, A: np.ndarray, W: np.ndarray) -> tuple[int, int]:
         """(wrenches the structure ``key`` still exerts after any single ``fault``, LPs on
         failed matrices this took)."""
+        ft = self.fault_tolerance(key, A)
+        before = ft.tests
+        ok = ft.decide(W, self.oracle.method)
+        return int(np.count_nonzero(ok)), ft.tests - before
+
+    def fault_tolerance(self, key: Any, A: np.ndarray) -> FaultTolerance:
+        """The :class:`~modquad_gym.oracle.faults.FaultTolerance` of the structure ``key``
+        (matrix A) against the ``fault``, cached."""
         ft = self.tolerance.get(key)
         if ft is None:
             if len(self.tolerance) >= self.cache_size:
@@ -268,9 +276,18 @@ class StructureEvaluator:
             ft = self.tolerance[key] = FaultTolerance(
                 A, zonotope.f_max, failures, zonotope, self.fault_margin
             )
-        before = ft.tests
-        ok = ft.decide(W, self.oracle.method)
-        return int(np.count_nonzero(ok)), ft.tests - before
+        return ft
+
+    def satisfied(self, key: Any, task: TaskArrays, mass: float) -> np.ndarray:
+        """bool (t,): the wrenches of ``task`` that the structure ``key`` (of ``mass`` kg)
+        satisfies, by the rule :meth:`evaluate` counts: with a ``fault``, those it still exerts
+        after every failure. For pictures: no test counter or memo changes."""
+        W = self.at_mass(task, mass)[0]
+        A = self.capability_of(key).A
+        ok = np.asarray(feasible(A, W, self.oracle.f_max, self.oracle.method), dtype=bool)
+        if self.fault is not None and ok.any():  # as evaluate: intact first, then tolerance
+            ok = np.asarray(self.fault_tolerance(key, A).decide(W, self.oracle.method), bool)
+        return ok
 
     def candidate_rows(
         self, keys: list, task: TaskArrays, mass: float, memo: dict, supports: list | None = None

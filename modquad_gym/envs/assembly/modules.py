@@ -12,8 +12,8 @@ of its types are keyed, weighed, decided and named, and which type the first mod
   current structure's mass M, so heavier structures must lift more; ``info`` adds ``modules``
   (each module's type name, in ``cells`` order) and ``mass_kg``. The first module's type is
   ``initial_type`` (default 0; ``"random"`` draws it with the env's generator at each reset;
-  ``reset(options={"initial_type": k})`` for one episode). A structure is reachable from a start
-  exactly when it holds a module of the start's type.
+  ``reset(options={"initial_type": k})``, k an index or ``"random"``, for one episode). A
+  structure is reachable from a start exactly when it holds a module of the start's type.
 """
 
 from __future__ import annotations
@@ -144,11 +144,11 @@ class Palette:
         return MixedStructureEvaluator(self.palette, n_max, f_max, n_directions, method)
 
     def check_options(self, options: dict) -> dict:
-        """The reset ``options`` with ``initial_type`` checked (a type index, or None: the
-        env's); ValueError naming it otherwise."""
+        """The reset ``options`` with ``initial_type`` checked (a type index, ``"random"`` as
+        the constructor takes it, or None: the env's); ValueError naming it otherwise."""
         if options.get("initial_type") is not None:
             options["initial_type"] = self.check_type(
-                options["initial_type"], "options['initial_type']"
+                options["initial_type"], "options['initial_type']", allow_random=True
             )
         return options
 

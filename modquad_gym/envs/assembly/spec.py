@@ -1,9 +1,10 @@
 """The environment's Gymnasium spec made true for its arguments (a mixin of the env class).
 
 ``gym.make`` copies an id's registration into ``env.spec``; the registration cannot know the
-keywords of one ``gym.make`` call. The ids register no ``max_episode_steps`` (the env truncates
-itself at its own ``max_steps``, so the limit follows ``n_max``), and :class:`ArgumentSpec`
-fills ``env.spec`` in with the env's own step limit and success threshold.
+keywords of one ``gym.make`` call. :class:`ArgumentSpec` fills in the env's own success
+threshold. The step limit stays out of the spec: the ids register no ``max_episode_steps``
+(the env truncates itself at its own ``max_steps``, which follows ``n_max``), and a spec that
+carried it would make ``gym.make(env.spec, n_max=N)`` add a ``TimeLimit`` at the old limit.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ ENTRY_POINT = "modquad_gym.envs.assembly:ModQuadAssemblyEnv"
 
 
 class ArgumentSpec:
-    """``spec`` and ``reward_threshold`` for an env with ``max_steps``, ``n_max`` and ``reward``."""
+    """``spec`` and ``reward_threshold`` for an env with ``n_max`` and ``reward``."""
 
     @property
     def reward_threshold(self) -> float | None:
@@ -35,16 +36,15 @@ class ArgumentSpec:
 
     @property
     def spec(self) -> EnvSpec | None:
-        """Gymnasium's spec (set by ``gym.make``), true for this env's arguments: its
-        ``max_episode_steps`` is the env's own step limit and, for an id of
-        :data:`ENTRY_POINT` (every registered one), its ``reward_threshold`` is the env's own
-        (``gym.make(id, n_max=N)`` changes both)."""
+        """Gymnasium's spec (set by ``gym.make``), true for this env's arguments: for an id of
+        :data:`ENTRY_POINT` (every registered one) its ``reward_threshold`` is the env's own
+        (``gym.make(id, n_max=N)`` changes it). ``max_episode_steps`` is left as made (None
+        unless ``gym.make(..., max_episode_steps=M)`` added a ``TimeLimit``); the env's own
+        limit is ``max_steps``."""
         return self.__dict__.get("_spec")
 
     @spec.setter
     def spec(self, spec: EnvSpec | None) -> None:
-        if spec is not None and spec.max_episode_steps is None:
-            spec = dataclasses.replace(spec, max_episode_steps=self.max_steps)
         if spec is not None and spec.entry_point == ENTRY_POINT:
             spec = dataclasses.replace(spec, reward_threshold=self.reward_threshold)
         self.__dict__["_spec"] = spec

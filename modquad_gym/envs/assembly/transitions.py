@@ -4,6 +4,8 @@ state (Jumanji keeps these beside ``step``)."""
 
 from __future__ import annotations
 
+import numpy as np
+
 from modquad_gym.envs.assembly.lookahead import shortlisted
 from modquad_gym.envs.assembly.types import AssemblyState, Episode, TaskArrays
 
@@ -25,6 +27,13 @@ def decided_fields(ep: Episode, state: AssemblyState, cells: tuple, types: tuple
         "evaluated": state.evaluated + 1,
         "oracle_calls": state.oracle_calls + tests,
     }
+
+
+def satisfied(ep: Episode, state: AssemblyState) -> np.ndarray:
+    """bool (t,): the task wrenches the state's structure satisfies, by the decision that
+    ``state.frac`` counts (``fault`` and ``fault_margin`` included): what pictures show."""
+    key = ep.modules.key(state.cells, state.types)
+    return ep.evaluator.satisfied(key, state.task, ep.modules.mass(state.types))
 
 
 def initial_state(ep: Episode, task: TaskArrays, types: tuple[int, ...]) -> AssemblyState:

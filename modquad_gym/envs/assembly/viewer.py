@@ -45,27 +45,26 @@ class AssemblyViewer:
         mode: str,
         state: AssemblyState,
         structure: Structure,
-        W: np.ndarray,
-        f_max: float,
-        method: str,
+        status: np.ndarray | None,
         valid: set[Cell] = frozenset(),
     ) -> np.ndarray | str | None:
         """What ``env.render()`` returns in ``mode`` (``"human"`` shows the frame, None);
-        ``valid``: the cells where a module may dock (the text grid marks them)."""
+        ``status``: each task wrench satisfied or not, by the env's decision (the frame's strip;
+        not read for ``"ansi"``); ``valid``: the cells where a module may dock (the text grid
+        marks them)."""
         if mode == "ansi":
             return self.ansi(state, valid)
-        frame = self.frame(structure, W, f_max, method)
+        frame = self.frame(structure, status)
         if mode == "rgb_array":
             return frame
         self.show(frame)
         return None
 
-    def frame(self, structure: Structure, W: np.ndarray, f_max: float, method: str) -> np.ndarray:
-        """The structure picture with each wrench's status (feasible or not), (H, W, 3) uint8."""
-        from modquad_gym.oracle import feasible
+    def frame(self, structure: Structure, status: np.ndarray | None) -> np.ndarray:
+        """The structure picture with a strip of each wrench's ``status`` (green: satisfied),
+        (H, W, 3) uint8."""
         from modquad_gym.viz.raster import structure_image
 
-        status = feasible(structure.configuration_matrix(), W, f_max, method)
         return structure_image(structure, size=self.size, wrench_status=status)
 
     def show(self, frame: np.ndarray) -> None:
