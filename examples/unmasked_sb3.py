@@ -4,30 +4,35 @@ Each algorithm trains for ``--steps`` on ``ModQuadAssembly-v0`` (planted tasks) 
 :class:`modquad_gym.envs.wrappers.NearestValidAction`, then plays the held-out planted suite
 deterministically (the tasks' certified optima are known). Beside them: uniformly random actions
 through the wrapper, and plain PPO *without* the wrapper for the same steps (the failure mode the
-wrapper removes). Writes ``OUT/report.md`` and ``OUT/report.csv``::
+wrapper removes). Writes ``OUT/report.md`` and ``OUT/report.csv``, refused before any training
+when ``--out`` cannot take them or already holds them (unless ``--force``)::
 
-    python examples/unmasked_sb3.py --steps 30000 --out results/unmasked
+    python examples/unmasked_sb3.py --steps 20000 --out results/unmasked --force
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
+import contextlib
 import shlex
 import sys
 import time
-from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 
 import modquad_gym  # noqa: F401 - registers the environments
+from modquad_gym.core.interrupts import run_command
+from modquad_gym.core.options import int_option, path_option, seed_option
+from modquad_gym.core.outputs import claim_output_dir, write_csv, write_text
 from modquad_gym.envs.wrappers import NearestValidAction
 from modquad_gym.scoring.suites import SUITES_DIR
 from modquad_gym.tasks import load_suite
 
 ALGOS = ("ppo", "a2c", "dqn")
 SUITE = "heldout_planted"
+PROG = "python examples/unmasked_sb3.py"
+OUTPUTS = ("report.md", "report.csv")
 
 
 def make_env(wrapped: bool = True) -> gym.Env:
@@ -76,35 +81,57 @@ def greedy(model):
     return lambda obs, env: int(model.predict(obs, deterministic=True)[0])
 
 
-def main(argv: list[str] | None = None) -> list[dict]:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def parse_args(argv: list[str] | None, n_suite: int) -> argparse.Namespace:
+    """The options, every number checked as the command line reads it (argparse's error, exit
+    2, before any work)."""
+    parser = argparse.ArgumentParser(prog=PROG, description=__doc__.splitlines()[0])
     parser.add_argument("--algos", nargs="+", choices=ALGOS, default=list(ALGOS))
-    parser.add_argument("--steps", type=int, default=30_000, help="training steps per algorithm")
-    parser.add_argument("--tasks", type=int, default=60, help="held-out tasks played")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", type=Path, default=None, help="report folder (default: print)")
-    args = parser.parse_args(argv)
-    tasks = load_suite(SUITES_DIR / f"{SUITE}.json")[: args.tasks]
-    rng = np.random.default_rng(args.seed)
-    runs = [("random actions + wrapper", "none", lambda o, e: int(rng.integers(e.action_space.n)),
-             True)]  # fmt: skip
-    for algo in args.algos:
-        t0 = time.perf_counter()
-        model = train(algo, args.steps, args.seed)
-        spent = f"{time.perf_counter() - t0:.0f} s"
-        runs.append((f"{algo.upper()} + wrapper", spent, greedy(model), True))
-    if "ppo" in args.algos:
-        t0 = time.perf_counter()
-        plain = train("ppo", args.steps, args.seed, wrapped=False)
-        runs.append(("PPO, no wrapper", f"{time.perf_counter() - t0:.0f} s", greedy(plain), False))
-    table = [{"agent": name, "training": spent, **play(policy, tasks, wrapped, args.seed)}
-             for name, spent, policy, wrapped in runs]  # fmt: skip
-    report(table, args, argv if argv is not None else sys.argv[1:])
+    parser.add_argument("--steps", type=int_option(1), default=20_000,
+                        help="training steps per algorithm (default %(default)s)")  # fmt: skip
+    parser.add_argument("--tasks", type=int_option(1, n_suite), default=n_suite,
+                        help=f"held-out tasks played, 1..{n_suite} (default all)")  # fmt: skip
+    parser.add_argument("--seed", type=seed_option, default=0)
+    parser.add_argument("--out", type=path_option, default=None,
+                        help="report folder (default: print the report only)")  # fmt: skip
+    parser.add_argument("--force", action="store_true",
+                        help="replace the reports in --out (default: refuse)")  # fmt: skip
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    suite = load_suite(SUITES_DIR / f"{SUITE}.json")
+    args = parse_args(argv, len(suite))
+    tasks = suite[: args.tasks]
+    with contextlib.ExitStack() as stack:  # --out claimed before training: refused at once
+        claim = None
+        if args.out is not None:
+            claim = stack.enter_context(claim_output_dir(args.out, OUTPUTS, args.force))
+        rng = np.random.default_rng(args.seed)
+        runs = [("random actions + wrapper", "none",
+                 lambda o, e: int(rng.integers(e.action_space.n)), True)]  # fmt: skip
+        for algo in args.algos:
+            t0 = time.perf_counter()
+            model = train(algo, args.steps, args.seed)
+            spent = f"{time.perf_counter() - t0:.0f} s"
+            runs.append((f"{algo.upper()} + wrapper", spent, greedy(model), True))
+        if "ppo" in args.algos:
+            t0 = time.perf_counter()
+            plain = train("ppo", args.steps, args.seed, wrapped=False)
+            runs.append(("PPO, no wrapper", f"{time.perf_counter() - t0:.0f} s", greedy(plain),
+                         False))  # fmt: skip
+        table = [{"agent": name, "training": spent, **play(policy, tasks, wrapped, args.seed)}
+                 for name, spent, policy, wrapped in runs]  # fmt: skip
+        text = report(table, args, argv if argv is not None else sys.argv[1:])
+        print(text)
+        if claim is not None:
+            write_text(claim.path("report.md"), text)
+            write_csv(table, claim.path("report.csv"))
     return table
 
 
-def report(table: list[dict], args, argv: list[str]) -> None:
-    command = "python examples/unmasked_sb3.py " + shlex.join(argv)
+def report(table: list[dict], args, argv: list[str]) -> str:
+    """The report's Markdown: the command, what was played, and the table."""
+    command = f"{PROG} " + shlex.join(argv)
     keys = list(table[0])
     lines = [
         f"Made by `{command}`.",
@@ -122,16 +149,8 @@ def report(table: list[dict], args, argv: list[str]) -> None:
     for row in table:
         cells = [f"{v:.3g}" if isinstance(v, float) else str(v) for v in row.values()]
         lines.append("| " + " | ".join(cells) + " |")
-    text = "\n".join(lines) + "\n"
-    print(text)
-    if args.out is not None:
-        args.out.mkdir(parents=True, exist_ok=True)
-        (args.out / "report.md").write_text(text)
-        with open(args.out / "report.csv", "w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=keys)
-            writer.writeheader()
-            writer.writerows(table)
+    return "\n".join(lines) + "\n"
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_command(main, PROG))
