@@ -242,7 +242,9 @@ def parse(cert) -> dict:
     answer (:func:`answer`, or None), directions (P, 6), levels (:func:`levels`)."""
     if type(cert) is not dict or cert.get("format") != FORMAT:
         raise CertificateFormatError(f'not a {FORMAT}: a JSON object whose "format" is "{FORMAT}"')
-    version = cert.get("version")
+    if "version" not in cert:  # checked before the other keys: another version has others
+        raise CertificateFormatError("certificate: the key 'version' is missing")
+    version = cert["version"]
     if type(version) is not int or version != VERSION:
         raise CertificateFormatError(f"version: must be {VERSION}, not {_shown(version)}")
     keys = "format version f_max fault types task minimum directions levels"

@@ -145,6 +145,7 @@ def _other_rotors(cert):
 MALFORMED = {  # name: (change, the message after the file name)
     "version true": (_set(["version"], True), "version: must be 1, not true"),
     "version 1.0": (_set(["version"], 1.0), "version: must be 1, not 1.0"),
+    "no version": (lambda c: c.pop("version"), "certificate: the key 'version' is missing"),
     "f_max a string": (_set(["f_max"], "1"), 'f_max: must be a finite number, not "1"'),
     "f_max true": (_set(["f_max"], True), "f_max: must be a finite number, not true"),
     "f_max infinite": (_set(["f_max"], float("inf")), "f_max: must be a finite number, not Inf"),
