@@ -296,14 +296,15 @@ for c in 'modquad solve --task example:screwdriver --fault rotor' \
   check wheel docs/faults.md "$c"
 done
 # docs/certificates.md: a certificate written, checked by the command and by the checker alone
-# (in cli/: the page's python block writes its own proof.json.gz in the page's folder)
+# (as the page says, its three files copied into a folder of their own)
 P=docs/certificates.md
-check wheel $P 'modquad solve --task task.json --method exhaustive --certificate proof.json.gz' \
-  'mkdir -p cli && cd cli && modquad task generate --kind planted --n-modules 2 --seed 1 --out task.json && modquad solve --task task.json --method exhaustive --certificate proof.json.gz'
-check wheel $P 'modquad check proof.json.gz' 'cd cli && modquad check proof.json.gz'
-check wheel $P 'modquad check proof.json.gz --levels' 'cd cli && modquad check proof.json.gz --levels'
-check wheel $P 'python modquad_gym/proofcheck.py proof.json.gz' \
-  'cd cli && python "$(python -c "import modquad_gym.proofcheck as m; print(m.__file__)")" proof.json.gz'
+for c in 'modquad task example screwdriver --out task.json' \
+         'modquad solve --task task.json --method exhaustive --certificate task_proof.json.gz' \
+         'modquad check task_proof.json.gz' 'modquad check task_proof.json.gz --levels'; do
+  check wheel $P "$c"
+done
+check wheel $P 'python modquad_gym/proofcheck.py task_proof.json.gz' \
+  'mkdir -p alone && cp "$(python -c "import modquad_gym; print(modquad_gym.__path__[0])")"/proofcheck*.py alone/ && cd alone && python proofcheck.py ../task_proof.json.gz'
 for c in 'modquad solve --task example:paper_seed0 --modules t45,t45m,flat --json' \
          'modquad task generate --kind planted --task-kind external --seed 2 --out ext.json' \
          "modquad show --cells '[[0,0],[1,0],[0,1]]' --modules t45,flat,t45m --out mixed.png"; do

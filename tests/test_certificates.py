@@ -271,6 +271,21 @@ def test_modquad_check_exit_codes(paper, tmp_path, capsys):
     assert "not a modquad-certificate" in capsys.readouterr().err
 
 
+def test_modquad_check_levels_prints_each_level_on_stdout(paper, tmp_path, capsys):
+    """``--levels`` asks for the levels' lines: on stdout with the verdict (``> levels.txt``
+    keeps them), one per level proved, before it; stderr stays for errors."""
+    from modquad_gym.cli import main
+
+    path = tmp_path / "c.json"
+    path.write_text(json.dumps(paper[0]))
+    assert main(["check", str(path), "--levels"]) == 0
+    out, err = capsys.readouterr()
+    lines = out.splitlines()
+    proved = [e["n"] for e in paper[0]["levels"]]
+    assert [int(line.split(":")[0].removeprefix("level ")) for line in lines[:-1]] == proved
+    assert lines[-1].startswith("valid") and err == ""
+
+
 @pytest.mark.parametrize("fault", ["rotor2", "rotor+module"])
 def test_a_fault_no_certificate_covers_is_refused_before_the_search(fault, tmp_path, capsys):
     """Both doors say the same words: the CLI refuses before any search (no answer printed,
