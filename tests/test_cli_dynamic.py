@@ -4,6 +4,7 @@ field, before any work."""
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -67,7 +68,9 @@ def test_validate_flies_a_dynamic_task(tmp_path, capsys, monkeypatch):
     path = dy.line(0.5, 1.0, rate=20).save(tmp_path / "line.json")
     argv = ["validate", "--task", str(path), "--method", "exhaustive", "--json"]
     assert main([*argv, "--max-hover-wrenches", "3", "--out", str(tmp_path / "v")]) == 0
-    record = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    said = capsys.readouterr()
+    record = json.loads(said.out.strip().splitlines()[-1])
+    assert re.search(r": about \d+ simulated s \(~\d+ s here\)", said.err), said.err  # rounded
     assert record["track_max_position_error_m"] == 0.001 and record["method"] == "exhaustive"
     assert isinstance(seen["task"], dy.DynamicTask) and seen["max_bench_wrenches"] == 3
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import json
+import re
 
 import numpy as np
 import pytest
@@ -306,3 +307,18 @@ def test_fly_mjcf_refuses_a_model_that_is_not_an_export(tmp_path):
         fly_mjcf(other)
     with pytest.raises(ValueError, match="seconds"):
         fly_mjcf(other, seconds=0)
+
+
+def test_the_hover_warning_names_the_docs_page_by_its_title(tmp_path, capsys):
+    """A wheel install has no docs/ folder: the warning names the page and section by the
+    titles the documentation site shows, and both exist in docs/export.md."""
+    from pathlib import Path
+
+    from modquad_gym.sim.export import save_structure
+
+    save_structure(mq.Structure([(0, 0)]), tmp_path / "one.json")
+    said = capsys.readouterr().err
+    page = (Path(__file__).resolve().parents[1] / "docs" / "export.md").read_text()
+    title, section = re.search(r'page "([^"]+)", section "([^"]+)"', said).groups()
+    assert page.startswith(f"# {title}\n") and f"\n## {section}\n" in page
+    assert "docs/" not in said and said.count("\n") == 1

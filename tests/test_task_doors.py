@@ -34,15 +34,18 @@ PAIR = mq.Structure([(0, 0), (1, 0)])
 
 # ------------------------------------------------ save_structure refuses what export refuses
 @pytest.mark.parametrize(
-    "name, fmt, named", [("b.xml", "json", "mjcf"), ("c.json", "urdf", "json")]
+    "name, fmt, takes", [("b.xml", "json", ("mjcf", "urdf")), ("c.json", "urdf", ("json",))]
 )
-def test_save_structure_refuses_a_format_against_the_suffix(tmp_path, capsys, name, fmt, named):
+def test_save_structure_refuses_a_format_against_the_suffix(tmp_path, capsys, name, fmt, takes):
+    """Both doors refuse the pair and offer every format the suffix takes (.xml: MJCF and
+    URDF, both XML)."""
     path = tmp_path / name
-    with pytest.raises(ValueError, match=rf"^fmt='{fmt}': path .*{name} ends in .*'{named}'"):
+    with pytest.raises(ValueError, match=rf"^fmt='{fmt}': path .*{name} ends in ") as info:
         ex.save_structure(PAIR, path, fmt)
+    assert all(f"fmt={f!r}" in str(info.value) for f in takes), str(info.value)
     code, _, err = run_main(capsys, "export", "--cells", "[[0,0],[1,0]]", "--out", str(path),
                             "--format", fmt)  # fmt: skip
-    assert_one_line_error(code, err, f"--format {fmt}", name, f"--format {named}")
+    assert_one_line_error(code, err, f"--format {fmt}", name, *(f"--format {f}" for f in takes))
     assert not path.exists()
 
 

@@ -152,7 +152,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         )
     print(
         f"validate: bench on {n_hover if dynamic else task.n_wrenches} wrenches, hover under "
-        f"{n_hover}{', fly the trajectory' if dynamic else ''}: about {simulated:g} simulated s "
+        f"{n_hover}{', fly the trajectory' if dynamic else ''}: about {simulated:,.0f} simulated s "
         f"(~{estimate:.0f} s here){fault.search_seconds_text(args)}",
         file=sys.stderr,
     )

@@ -326,7 +326,8 @@ def save_structure(
         note(
             f"warning: this robot cannot hover on its own rotors ({path}: thrust-to-weight "
             f"{ratio:.3f} at f_max {f_max:g} N); it hovers from "
-            f"f_max {hover_f_max(structure):.3g} N (docs/export.md, 'Exports that fly')",
+            f"f_max {hover_f_max(structure):.3g} N (the documentation's page \"Export a "
+            'structure", section "Exports that fly")',  # by title: a wheel has no docs/
             __name__,
         )
     return path

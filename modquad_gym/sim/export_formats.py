@@ -42,9 +42,11 @@ def export_format(
         return named
     if not isinstance(fmt, str) or fmt not in FORMATS:
         raise ValueError(f"{fmt_name} must be one of {', '.join(FORMATS)}, got {fmt!r}")
-    if named is not None and named != fmt and not (suffix == ".xml" and fmt in XML_FORMATS):
+    takes = XML_FORMATS if suffix == ".xml" else (named,)  # every format the suffix takes
+    if named is not None and fmt not in takes:
         raise ValueError(
-            f"{said(fmt)}: {path_name} {path} ends in {suffix}, the suffix of {named}; end "
-            f"{path_name} in {SUFFIXES[fmt]} or give {said(named)}"
+            f"{said(fmt)}: {path_name} {path} ends in {suffix}, the suffix of "
+            f"{' and '.join(takes)}; end {path_name} in {SUFFIXES[fmt]} or give "
+            f"{' or '.join(said(f) for f in takes)}"
         )
     return fmt
