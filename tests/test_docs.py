@@ -14,8 +14,11 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 PAGES = sorted(p.relative_to(DOCS).as_posix() for p in DOCS.rglob("*.md"))
-TUTORIALS = [page for page in PAGES if re.search(r"^```python$", (DOCS / page).read_text(), re.M)]
-"""Pages with ``python`` code blocks: they run (a schematic snippet is fenced ``py`` instead)."""
+TUTORIALS = [
+    f"docs/{page}" for page in PAGES if re.search(r"^```python$", (DOCS / page).read_text(), re.M)
+] + ["README.md"]
+"""Pages with ``python`` code blocks, by path from the repository's root: they run (a schematic
+snippet is fenced ``py`` instead)."""
 
 
 @pytest.fixture(scope="module")
@@ -57,13 +60,14 @@ def test_generated_pages_hold_every_environment_and_command(site):
 
 @pytest.mark.parametrize("page", TUTORIALS)
 def test_docs_python_blocks_run(page, tmp_path, monkeypatch, capsys):
-    """A page's ``python`` blocks run in order in one namespace, as a reader would run them,
-    in an empty folder (no repository files at hand)."""
+    """A page's ``python`` blocks (the README's too) run in order in one namespace, as a reader
+    would run them, in an empty folder (no repository files at hand)."""
     monkeypatch.chdir(tmp_path)
     namespace = {"__name__": "__docs__"}
-    blocks = re.findall(r"^```python\n(.*?)^```", (DOCS / page).read_text(), re.S | re.M)
+    blocks = re.findall(r"^```python\n(.*?)^```", (ROOT / page).read_text(), re.S | re.M)
+    assert blocks, page
     for i, block in enumerate(blocks):
-        exec(compile(block, f"docs/{page} python block {i + 1}", "exec"), namespace)
+        exec(compile(block, f"{page} python block {i + 1}", "exec"), namespace)
 
 
 def test_docs_name_only_commands_that_exist():
