@@ -122,6 +122,9 @@ def cmd_show(args: argparse.Namespace) -> int:
         out = Path(out)
         if out.name in ("", ".", ".."):  # Path("") is Path("."): no name to add ".png" to
             raise ValueError(f"--out: {args.out!r} is not a file name (e.g. structure.png)")
+        if out.exists() and not out.is_file():  # /dev/null, a folder: no picture beside it
+            raise ValueError(f"--out: {out} exists and is not a regular file (a folder, device, "
+                             "pipe or socket); give the picture's file name")  # fmt: skip
         if out.suffix.lower() != ".png":
             out = out.with_name(out.name + ".png")
     # both checked before any work or write (--out X --html X would write X, then refuse)
@@ -133,7 +136,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     if out is not None:
         from modquad_gym.viz.drawing import save_structure_figure
 
-        save_structure_figure(structure, out, task=task, layout=args.layout)
+        save_structure_figure(structure, out, task=task, layout=args.layout, force=args.force)
         print(f"wrote {out}")
     if args.html is not None:
         from modquad_gym.viz.interactive import save_structure_page

@@ -18,7 +18,7 @@ import os
 import stat
 import tempfile
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 
 from modquad_gym.core.options import EMPTY_PATH
@@ -62,16 +62,29 @@ def _refuse_dangling_folder(folder: Path, what: str) -> None:
             return
 
 
+def _writable(folder: Path) -> bool:
+    """Whether a file can be created (and removed) in ``folder``: tried, not asked of
+    ``os.access``, which says yes to root where nothing can be created (/proc, /sys)."""
+    try:
+        fd, name = tempfile.mkstemp(prefix=".modquad-probe.", dir=folder)
+    except OSError:
+        return False
+    os.close(fd)
+    with suppress(OSError):
+        os.unlink(name)
+    return True
+
+
 def _check_writable_dir(folder: Path, what: str) -> None:
     _refuse_dangling_folder(folder, what)
     if not folder.exists():
         parent = next((p for p in folder.parents if p.exists()), None)
-        if parent is None or not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        if parent is None or not parent.is_dir() or not _writable(parent):
             raise OutputError(f"{what}: cannot create folder {folder} (parent not writable)")
         return
     if not folder.is_dir():
         raise OutputError(f"{what}: {folder} exists and is not a folder")
-    if not os.access(folder, os.W_OK | os.X_OK):
+    if not _writable(folder):
         raise OutputError(f"{what}: folder {folder} is not writable")
 
 
@@ -118,6 +131,12 @@ def _not_empty(path: str | os.PathLike, what: str) -> str | os.PathLike:
     return path
 
 
+def _force_hint(what: str) -> str:
+    """How the caller asks to replace: ``--force`` for an option (``--out``, or ``output`` of a
+    command), ``force=True`` for a Python argument (``path``, ``out_dir``)."""
+    return "--force" if what.startswith("--") or what == "output" else "force=True"
+
+
 def check_output_file(path: str | os.PathLike, force: bool = False, what: str = "output") -> Path:
     """The destination file as a Path, after checking it can be written: its folder exists or
     can be created and is writable, it is not a device, pipe or socket, and it does not exist
@@ -125,7 +144,7 @@ def check_output_file(path: str | os.PathLike, force: bool = False, what: str = 
     advice is ``--force``, or a Python argument (``path``), whose advice is ``force=True``.
     Call it before long work starts."""
     path = Path(_not_empty(path, what))
-    force_hint = "--force" if what.startswith("--") or what == "output" else "force=True"
+    force_hint = _force_hint(what)
     check_name_length(path, what)
     if path.is_dir():
         raise OutputError(f"{what}: {path} is a folder, expected a file name")
@@ -168,7 +187,8 @@ def check_output_dir(
 ) -> Path:
     """The destination folder as a Path, after checking it is (or can become) a writable folder
     in which none of ``names`` exists yet (unless ``force``); an empty path (which would be
-    the working folder) is refused."""
+    the working folder) is refused. ``what`` names the folder in errors, as
+    :func:`check_output_file`'s."""
     folder = Path(_not_empty(path, what))
     check_name_length(folder, what)
     _check_writable_dir(folder, what)
@@ -178,7 +198,8 @@ def check_output_dir(
         taken = [n for n in names if os.path.lexists(folder / n)]
         if taken:
             raise OutputError(
-                f"{what}: {folder} already holds {', '.join(taken)} (use --force to replace)"
+                f"{what}: {folder} already holds {', '.join(taken)} (use {_force_hint(what)} "
+                "to replace)"
             )
     return folder
 
@@ -207,21 +228,38 @@ class ClaimedDir:
         return self.folder / name
 
 
-def _remove_recorded(folder: Path) -> None:
+def _recorded_entry(folder: Path, name: str) -> Path | None:
+    """``folder / name`` where it is an entry to remove: a file, or a symbolic link (the link
+    itself, never its target), reached through real folders inside ``folder`` only (no
+    absolute name, no ``..``, no link on the way); None otherwise (a folder, nothing)."""
+    parts = Path(name).parts
+    if not parts or Path(name).is_absolute() or ".." in parts:
+        return None
+    path = folder
+    for part in parts[:-1]:
+        path = path / part
+        if path.is_symlink() or not path.is_dir():
+            return None
+    path = path / parts[-1]
+    return path if path.is_symlink() or path.is_file() else None
+
+
+def _remove_recorded(folder: Path, keep: tuple = ()) -> None:
     """Remove the files an earlier run recorded in ``folder``'s manifest (and the folders they
-    leave empty); nothing else."""
+    leave empty); nothing else, and none of ``keep`` (files this run reads, such as a model it
+    continues)."""
     try:
         recorded = json.loads((folder / MANIFEST_NAME).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return
-    root = folder.resolve()
+    kept = {f(p) for p in keep for f in (os.path.abspath, os.path.realpath)}
     for name in recorded if isinstance(recorded, list) else ():
-        path = (folder / str(name)).resolve()
-        if root not in path.parents or not path.is_file():
-            continue  # never outside the folder, never a folder
+        path = _recorded_entry(folder, str(name))
+        if path is None or {os.path.abspath(path), os.path.realpath(path)} & kept:
+            continue
         path.unlink()
         for parent in path.parents:
-            if parent == root:
+            if parent == folder:
                 break
             try:
                 parent.rmdir()  # only when empty
@@ -232,14 +270,18 @@ def _remove_recorded(folder: Path) -> None:
 
 @contextmanager
 def claim_output_dir(
-    path: str | os.PathLike, names: tuple[str, ...] = (), force: bool = False, what: str = "--out"
+    path: str | os.PathLike,
+    names: tuple[str, ...] = (),
+    force: bool = False,
+    what: str = "--out",
+    keep: tuple = (),
 ) -> Iterator[ClaimedDir]:
     """Hold the output folder ``path`` for one run: check it as :func:`check_output_dir`, create
     it, and lock it (``LOCK_NAME``, the ``filelock`` package, removed at the end) so that a
     second run into it is refused at once (an OutputError) instead of mixing or replacing files;
     the check is repeated under the lock. With ``force``, the files an earlier run recorded in
-    the folder's manifest are removed first, and only those: whatever else the folder holds is
-    the user's."""
+    the folder's manifest are removed first, and only those (never one of ``keep``, the files
+    this run reads): whatever else the folder holds is the user's."""
     from filelock import FileLock, Timeout
 
     folder = check_output_dir(path, names, force, what)
@@ -255,7 +297,7 @@ def claim_output_dir(
     try:
         check_output_dir(folder, names, force, what)  # a run that finished while we checked
         if force:
-            _remove_recorded(folder)
+            _remove_recorded(folder, keep)
         yield ClaimedDir(folder)
     finally:  # the lock file goes (a run that opened it meanwhile re-checks the names)
         (folder / LOCK_NAME).unlink(missing_ok=True)
@@ -320,9 +362,14 @@ def save_figure(fig, path: str | os.PathLike, dpi: int = 120) -> Path:
 
 
 def write_csv(rows: list[dict], path: str | os.PathLike) -> None:
-    """Write dict rows (same keys) as CSV atomically, creating the folder."""
+    """Write dict rows as CSV atomically, creating the folder: the columns are every row's
+    keys in the order first seen (a row without one leaves it empty). No rows: a ValueError
+    naming ``path`` (a CSV file needs its header, which rows give)."""
+    if not rows:
+        raise ValueError(f"{path}: no rows to write")
+    keys = list(dict.fromkeys(k for row in rows for k in row))
     buffer = io.StringIO(newline="")
-    writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
+    writer = csv.DictWriter(buffer, fieldnames=keys)
     writer.writeheader()
     writer.writerows(rows)
     write_text(path, buffer.getvalue())

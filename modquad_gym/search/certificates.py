@@ -80,13 +80,14 @@ def make(result, problem, progress: bool = False, bounds: bool = True) -> dict:
 
 def write(result, problem, path: str | Path, force: bool = False, **options) -> Path:
     """Write the certificate of ``result`` to ``path`` (gzip-compressed JSON when it ends in
-    ``.gz``); an existing file is kept unless ``force`` (FileExistsError). ``options`` go to
-    :func:`make`."""
-    from modquad_gym.core.outputs import atomic_write
+    ``.gz``). ``path`` is checked before the proof is made, as every saver checks its file
+    (:func:`~modquad_gym.core.outputs.check_output_file`): an existing file or link is kept
+    unless ``force``, a folder or a parent that cannot take the file is refused (OutputError).
+    ``options`` go to :func:`make`."""
+    from modquad_gym.core.outputs import atomic_write, check_output_file
+    from modquad_gym.core.validation import check_flag
 
-    path = Path(path)
-    if path.exists() and not force:
-        raise FileExistsError(f"{path} exists (pass --force to overwrite it)")
+    path = check_output_file(path, force=check_flag(force, "force"), what="path")
     text = json.dumps(make(result, problem, **options), separators=(",", ":"))
 
     def fill(tmp: Path) -> None:  # gzip without a name or time: the same bytes every time

@@ -24,7 +24,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from modquad_gym.core.extras import import_optional
-from modquad_gym.core.outputs import save_figure
+from modquad_gym.core.outputs import check_output_file, save_figure
+from modquad_gym.core.validation import check_flag
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_f_max
 from modquad_gym.viz.projections import (
@@ -286,13 +287,15 @@ def save_structure_figure(
     task: TaskRequirement | np.ndarray | None = None,
     dpi: int = 120,
     layout: str = "row",
+    force: bool = False,
 ) -> str:
     """Save a PNG with the top view (sized with the structure: :func:`top_view_inches`) and, if
     ``task`` (a TaskRequirement, a DynamicTask or (t, 6) wrenches) is given, the force and
     torque projections of the feasible set with the task's wrenches beside it (6-D
     feasibility of the rotor wrenches: an ``external`` task's plus the structure's weight, a
     dynamic task's for the structure's mass and inertia), arranged as ``layout``
-    (:data:`LAYOUTS`). Returns the path."""
+    (:data:`LAYOUTS`). An existing file is replaced only with ``force`` (OutputError, as
+    ``save_structure_page``). Returns the path."""
     FigureCanvasAgg = import_optional("matplotlib.backends.backend_agg").FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -300,6 +303,7 @@ def save_structure_figure(
         raise ValueError(f"layout must be one of {LAYOUTS}, got {layout!r}")
     s = check_structure(structure)
     check_drawable(s)
+    check_output_file(path, force=check_flag(force, "force"), what="path")  # before drawing
     w, h = top_view_inches(s)
     if task is None:
         fig = Figure(figsize=(w + 2.8, h + 0.8), layout="constrained")  # legend, axis labels

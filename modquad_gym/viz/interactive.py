@@ -326,6 +326,6 @@ def save_structure_page(
 ) -> str:
     """Write :func:`structure_page` to ``path`` (an existing file only with ``force``)."""
     text = structure_page(structure, task)
-    path = check_output_file(path, force=force, what="--html")
+    path = check_output_file(path, force=force, what="path")
     write_text(path, text)
     return os.fspath(path)
