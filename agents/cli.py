@@ -14,8 +14,9 @@ from pathlib import Path
 from agents.checks import check_used, unused_fields
 from agents.config import TrainConfig
 from agents.publishing import check_publishable, publish, refuse_grid_model, run_tier
+from agents.run_folders import held_folders, kept, record
 from agents.seeds import SEEDS_DROP, seed_out
-from agents.training import RUN_FILES, check_start, log_name, report, train
+from agents.training import check_start, report, train
 from modquad_gym.cli.given import typed_options
 from modquad_gym.core.options import int_option, path_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, claim_output_dir
@@ -242,9 +243,9 @@ def complete(args: argparse.Namespace, given: dict[str, str] | None = None) -> N
             check_trusted(args.resume, args.trust_model, "--resume", "continuing training")
         check_output_dir(args.tensorboard, what="--tensorboard")
     runs = [seed_out(args.out, s) for s in args.seeds] if args.seeds else [args.out]
+    for held in held_folders(args, run_folders(args)):  # run and log folders (run_folders.py)
+        check_output_dir(held.folder, held.names, held.force, held.what)
     for out in runs:
-        if args.publish_run is None:
-            check_output_dir(out, RUN_FILES, args.force, "--out")
         if not args.no_report:
             report = out / "report" if args.seeds else args.report_dir
             own = publishing and "report_dir" not in given  # the tier's report: the publish's
@@ -261,15 +262,18 @@ def run_folders(args: argparse.Namespace) -> list[Path]:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    runs = run_folders(args)
-    logs = {(Path(args.tensorboard) / log_name(out, Path(args.tensorboard))).resolve()
-            for out in runs} - {out.resolve() for out in runs}  # fmt: skip
-    with ExitStack() as held:  # a second run into one of these folders is refused at once
-        for out in runs:
-            held.enter_context(claim_output_dir(out, RUN_FILES, args.force, "--out"))
-        for log in sorted(logs):  # its checkpoints and evaluations, when not in the run folder
-            held.enter_context(claim_output_dir(log, what="--tensorboard"))
-        return run(args)
+    folders = held_folders(args, run_folders(args))  # each run's folder and its log folder
+    with ExitStack() as stack:  # a second run into one of these folders is refused at once
+        claims = [(stack.enter_context(claim_output_dir(h.folder, h.names, h.force, h.what,
+                                                        keep=kept(args))), h)
+                  for h in folders]  # fmt: skip
+        for claim, held in claims:  # recorded at once: an interrupted run's files are known too
+            record(claim, held, walk=False)
+        try:
+            return run(args)
+        finally:  # what training wrote in its folders (checkpoints, logs): --force removes it
+            for claim, held in claims:
+                record(claim, held)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -39,6 +39,9 @@ from modquad_gym.scoring.tiers import get_tier
 RUN_FILES = ("model.zip", "model_actor.npz", "config.json", "evaluations.npz")
 """What a training run writes into its run folder (``model_actor.npz``: the model's actor for
 inference without torch, :mod:`modquad_gym.policy.inference`)."""
+LOG_FILES = ("train", "bc")
+"""What a training run writes into its log folder (``tensorboard/<log_name>``): ``train/``
+(checkpoints, evaluations, the best, final and cloned models) and ``bc/`` (cloning scalars)."""
 
 
 def _ppo_start(config: TrainConfig, model: Any, run_logs: Path, log_dir: Path) -> tuple:

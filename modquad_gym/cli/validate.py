@@ -156,7 +156,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
         f"(~{estimate:.0f} s here){fault.search_seconds_text(args)}",
         file=sys.stderr,
     )
-    with claim_output_dir(args.out, names, force=args.force):  # a second run is refused
+    with claim_output_dir(args.out, names, force=args.force) as claim:  # a second run: refused
+        for name in names:  # in the folder's manifest at once: a later --force removes them
+            claim.path(name)
         return solve_and_fly(args, task, k, ramp, n_hover)
 
 
@@ -202,7 +204,8 @@ def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float, n_
 
         report = validate_trajectory(result.structure, task, out_dir=args.out,
                                      max_bench_wrenches=n_hover, hover_seconds=args.hover_seconds,
-                                     unknown_load=not args.known_load_only)  # fmt: skip
+                                     unknown_load=not args.known_load_only,
+                                     force=args.force)  # fmt: skip
         return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
     report = validate(
         result.structure,
@@ -213,6 +216,7 @@ def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float, n_
         hover_seconds=args.hover_seconds,
         unknown_load=not args.known_load_only,
         load_ramp_seconds=ramp,
+        force=args.force,
     ).to_dict()
     return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
 

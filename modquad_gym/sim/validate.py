@@ -51,8 +51,8 @@ from typing import Any  # noqa: E402
 import numpy as np  # noqa: E402
 
 from modquad_gym.core.extras import require  # noqa: E402
-from modquad_gym.core.outputs import write_text  # noqa: E402
-from modquad_gym.core.validation import check_f_max, check_int, check_wrenches  # noqa: E402
+from modquad_gym.core.outputs import check_output_dir, write_text  # noqa: E402
+from modquad_gym.core.validation import check_f_max, check_flag, check_int, check_wrenches  # noqa: E402
 from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.oracle import feasible, lambda_ratio, margin  # noqa: E402
 from modquad_gym.sim.hover import HoverConfig, run_hover, unreachable_wrench_directions, wrench_axis  # noqa: E402
@@ -108,7 +108,7 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
              out_dir: str | Path | None = None, hover_seconds: float = 2.0, render: bool = True,
              include_infeasible_demo: bool = False, max_hover_wrenches: int | None = None,
              unknown_load: bool = True, load_frame: str = "world", load_ramp_seconds: float = 1.0,
-             kind: str | None = None) -> ValidationReport:  # fmt: skip
+             kind: str | None = None, force: bool = False) -> ValidationReport:  # fmt: skip
     """Bench and hover ``structure`` on ``task_wrenches``; write pictures and a report.
 
     For a task of ``kind`` ``external`` the wrenches are those applied to the environment: the
@@ -124,8 +124,8 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
             problem, or (t, 6) wrenches in {S}); its rotor wrenches are what the structure's
             rotors must produce, its ``f_max`` and kind apply unless given here.
         f_max: rotor thrust limit in N (default the task's).
-        out_dir: where to write the pictures, ``report.md`` and ``validation.json`` (created);
-            None writes nothing.
+        out_dir: where to write the pictures, ``report.md`` and ``validation.json`` (None:
+            nowhere); checked first (:func:`check_out_dir`): files replaced only with ``force``.
         hover_seconds: simulated seconds per task wrench in the hover.
         render: write ``structure.png`` (MuJoCo render, matplotlib fallback).
         include_infeasible_demo: also hover on the task wrench with the least margin, scaled to
@@ -157,6 +157,7 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
     """
     require("mujoco", *(["matplotlib"] if out_dir is not None else []))  # named, before any work
     task, W, f_max = _checked(structure, task, f_max, kind, unknown_load, load_ramp_seconds)
+    out_dir = check_out_dir(out_dir, force, unknown_load, include_infeasible_demo, render)
     A = np.array(structure.configuration_matrix())
     feas = np.asarray(feasible(A, W, f_max), dtype=bool)
     marg = margin(A, W, f_max)
@@ -181,7 +182,7 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
         demo = _infeasible_demo(report, fly_sim, A, W, int(np.argmin(marg)), f_max, config)
     if out_dir is not None:
         runs = {"hover": hover, "hover_unknown_load": blind, "hover_infeasible": demo}
-        _write(Path(out_dir), report, structure, fly_sim, exact, pinv, runs, render)
+        _write(out_dir, report, structure, fly_sim, exact, pinv, runs, render)
     return report
 
 
@@ -301,6 +302,19 @@ def output_names(
         *(f"{name}.png" for name, flown in hovers.items() if flown),
         *((RENDER_FILE,) if render else ()),
     )
+
+
+def check_out_dir(out_dir: str | Path | None, force: bool, unknown_load: bool = True,
+                  include_infeasible_demo: bool = False, render: bool = True,
+                  extra: tuple[str, ...] = ()) -> Path | None:  # fmt: skip
+    """``out_dir`` as a Path (None stays None), checked before any simulation as
+    :func:`~modquad_gym.core.outputs.check_output_dir` checks a folder: a file there of a name
+    the call writes (:func:`output_names` with these options, and ``extra``) is an OutputError
+    unless ``force``, and so is an ``out_dir`` that is a file or takes no file."""
+    if out_dir is None:
+        return None
+    names = output_names(unknown_load, include_infeasible_demo, render) + tuple(extra)
+    return check_output_dir(out_dir, names, check_flag(force, "force"), "out_dir")
 
 
 def _write(d: Path, report, structure, fly_sim, exact, pinv, runs: dict, render: bool) -> None:

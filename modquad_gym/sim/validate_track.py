@@ -49,19 +49,24 @@ def validate_trajectory(
     unknown_load: bool = True,
     render: bool = True,
     config: TrackConfig | None = None,
+    force: bool = False,
 ) -> dict:
     """Bench, hover and fly ``structure`` on the dynamic ``task`` (module docstring); the JSON
     record of :func:`.validate.validate` (``task_kind`` ``"dynamic"``) plus the ``track_*``
-    keys, ``mass_with_payload_kg`` and the pictures in ``files``."""
-    from modquad_gym.sim.validate import validate  # read at the call: the module's own function
+    keys, ``mass_with_payload_kg`` and the pictures in ``files``. ``out_dir`` is checked as
+    :func:`.validate.validate` checks it (with the flight's pictures), before any simulation;
+    ``force`` replaces the files this call writes there."""
+    from modquad_gym.sim.validate import check_out_dir, validate  # the module's, at the call
 
     task = as_dynamic(task)  # a ValueError naming the type of anything else
+    pictures = TRACK_FILES if render else TRACK_FILES[:2]  # the animation is a render
+    out_dir = check_out_dir(out_dir, force, unknown_load, render=render, extra=pictures)
     W = task.rotor_wrenches(structure)
     A = np.array(structure.configuration_matrix())
     rows = bench_sample(W, A, task.f_max, max_bench_wrenches)
     report = validate(structure, W[rows], f_max=task.f_max, out_dir=out_dir,
                       hover_seconds=hover_seconds, render=render, unknown_load=unknown_load,
-                      max_hover_wrenches=len(rows))  # fmt: skip
+                      max_hover_wrenches=len(rows), force=force)  # fmt: skip
     flight = fly_trajectory(structure, task, config)
     record = report.to_dict()
     record["task_kind"] = "dynamic"
