@@ -174,6 +174,18 @@ def report_page(
     return "\n".join([f"# {title}", "", made, "", notes, "", markdown_table(rows), "", *more])
 
 
+def csv_header(path: Path) -> tuple[str, ...]:
+    """The header of the CSV file ``path`` as it stands (for a file whose columns grew over its
+    versions); () where it cannot be read (:func:`read_rows_csv` names the file and why)."""
+    import csv
+
+    try:
+        with open(path, newline="") as fh:
+            return tuple(next(csv.reader([fh.readline()]), ()))
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return ()
+
+
 def read_rows_csv(
     path: Path,
     option: str,

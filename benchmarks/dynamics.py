@@ -27,7 +27,7 @@ import numpy as np
 from benchmarks.common import bench_args, report_page, run_main, write_csv
 from modquad_gym.cli.common import N_MAX_OPTION
 from modquad_gym.core.options import real_option
-from modquad_gym.core.outputs import write_text
+from modquad_gym.core.outputs import save_figure, write_text
 
 OUTPUTS = ("report.md", "dynamics.csv", "modules_vs_speed.png")
 RATE = 50.0
@@ -139,7 +139,7 @@ def plot(rows: list[dict], path: Path) -> None:
         ax.grid(alpha=0.3)
     axes[0][0].legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
 
 

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from benchmarks.common import (
     bench_args,
+    csv_header,
     load_average,
     machine_description,
     markdown_table,
@@ -47,20 +48,11 @@ FLAGS = ("same_design", "isolated", "isolated_unrevised", "isolated_before")
 
 def committed(path: Path, suites, designs) -> list[dict]:
     """The rows of faults.csv ``path`` with a detector flight, of ``suites`` and ``designs``."""
-    rows = read_rows_csv(path, "--faults", _header(path), lambda raw: raw, "benchmarks.faults")
+    rows = read_rows_csv(path, "--faults", csv_header(path), lambda raw: raw, "benchmarks.faults")
     if not set(BEFORE) <= set(rows[0]):
         raise ValueError(f"--faults {path}: no detector columns ({', '.join(BEFORE)})")
     chosen = [r for r in rows if r["suite"] in suites and r["design"] in designs]
     return [r for r in chosen if r["error_cm_detector"]]
-
-
-def _header(path: Path) -> tuple[str, ...]:
-    """The header of ``path`` as it stands (faults.csv's columns grew over its versions)."""
-    try:
-        with open(path, newline="") as fh:
-            return tuple(fh.readline().strip().split(","))
-    except OSError:
-        return ()  # read_rows_csv names the file and why
 
 
 def fly(row: dict, tasks: dict, command: str) -> dict:

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import fcntl
+import os
 import shlex
 import sys
 from pathlib import Path
@@ -38,17 +39,17 @@ from benchmarks.faults_measure import (
     oracle_speed,
     price,
     read_rows,
-    write_csv,
 )
 from benchmarks.faults_report import plot, report
 from modquad_gym.cli.common import N_MAX_OPTION, time_limit_option
 from modquad_gym.core.options import int_option, real_option
-from modquad_gym.core.outputs import OutputError, check_output_dir
+from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv
 
 OUTPUTS = ("report.md", "faults.csv", "oracle.csv", "price.png")
 
 
-def main(argv: list[str] | None = None) -> int:
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    """The options, checked before any work (argparse's error, exit 2)."""
     parser = argparse.ArgumentParser(
         prog="python -m benchmarks.faults", description=__doc__.split("\n\n")[0]
     )
@@ -106,19 +107,30 @@ def main(argv: list[str] | None = None) -> int:
         check_output_dir(args.out, OUTPUTS, args.force)
     except OutputError as exc:
         parser.error(str(exc))
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    reread = "--oracle-only" if args.oracle_only else "--update" if args.update else None
+    earlier = args.out / "faults.csv"
+    if reread:  # a damaged file is refused in one line before the searches, not after them
+        read_rows(earlier, reread)
     args.out.mkdir(parents=True, exist_ok=True)
     command = shlex.join(["python", "-m", "benchmarks.faults", *(argv or sys.argv[1:])])
     new = [] if args.oracle_only else price(args, command)
     speed = oracle_speed()
-    with open(args.out / "faults.csv", "a+") as lock:  # runs in parallel merge one at a time
+    lock = os.open(args.out, os.O_RDONLY)  # runs in parallel merge one at a time (the folder
+    try:  # is locked: faults.csv itself is replaced, atomically, by each run)
         fcntl.flock(lock, fcntl.LOCK_EX)
-        keep = args.update or args.oracle_only
-        rows = merged(read_rows(args.out / "faults.csv") if keep else [], new)
+        rows = merged(read_rows(earlier, reread) if reread else [], new)
         explain_missing(rows)
-        write_csv(args.out / "faults.csv", rows)
-        write_csv(args.out / "oracle.csv", speed)
+        write_csv(rows, earlier)
+        write_csv(speed, args.out / "oracle.csv")
         plot(args.out / "price.png", rows)
         report(args.out, rows, speed, args)
+    finally:
+        os.close(lock)
     print(f"wrote {args.out}/report.md", file=sys.stderr)
     return 0
 

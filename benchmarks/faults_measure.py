@@ -9,7 +9,6 @@ experiment; the report page and picture are :mod:`.faults_report`.
 
 from __future__ import annotations
 
-import csv
 import sys
 import time
 from pathlib import Path
@@ -163,8 +162,28 @@ def oracle_speed(sizes=(10, 100, 1000, 10000), repeats: int = 5) -> list[dict]:
     return rows
 
 
-def read_rows(path: Path) -> list[dict]:
-    """The rows of an earlier csv, numbers and booleans restored."""
+COLUMNS = ("suite", "task", "design", "fault", "delay_ms", "required_margin", "modules",
+           "lower_bound", "certified", "status", "n_max", "seconds", "worst_fault_margin",
+           "command")  # fmt: skip
+"""The columns every faults.csv has (a ``--fly`` run adds its flights' after them)."""
+
+
+def read_rows(path: Path, option: str) -> list[dict]:
+    """The rows of an earlier faults.csv, numbers and booleans restored; a damaged file (a
+    header without :data:`COLUMNS`, a row cut short, an unknown suite or design) is a one-line
+    ValueError naming ``option``, the file and the 1-based row
+    (:func:`~benchmarks.common.read_rows_csv`)."""
+    from benchmarks.common import csv_header, read_rows_csv
+
+    header = csv_header(path)
+    missing = [c for c in COLUMNS if c not in header]
+    if header and missing:
+        raise ValueError(f"{option} {path}: its header has no {', '.join(missing)}")
+    return read_rows_csv(path, option, header or COLUMNS, _typed, "benchmarks.faults")
+
+
+def _typed(raw: dict) -> dict | None:
+    """One row of faults.csv with its values restored; None where it is no such row."""
 
     def value(text: str):
         if text in ("True", "False"):
@@ -176,20 +195,10 @@ def read_rows(path: Path) -> list[dict]:
                 pass
         return None if text == "" else text
 
-    if not path.is_file():
-        return []
-    with path.open(newline="") as fh:
-        return [{k: value(v) for k, v in row.items()} for row in csv.DictReader(fh)]
-
-
-def write_csv(path: Path, rows: list[dict]) -> None:
-    keys: list[str] = []
-    for row in rows:
-        keys += [k for k in row if k not in keys]
-    with path.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
+    if None in raw.values():  # fewer fields than the header: a row cut short
+        return None
+    row = {k: value(v) for k, v in raw.items()}
+    return row if row["suite"] in SUITES and row["design"] in DESIGNS else None
 
 
 def merged(old: list[dict], new: list[dict]) -> list[dict]:

@@ -10,6 +10,7 @@ import numpy as np
 
 from benchmarks.common import load_average
 from benchmarks.faults_measure import DESIGNS, FLOWN, SUITES
+from modquad_gym.core.outputs import save_figure, write_text
 from modquad_gym.scoring import machine_description
 
 GOAL_CM = 5.0
@@ -63,7 +64,7 @@ def plot(path: Path, rows: list[dict]) -> None:
             title_fontsize=7,
         )
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
 
 
@@ -139,7 +140,7 @@ def report(out: Path, rows: list[dict], speed: list[dict], args) -> None:
         ]
         lines.append(f"| {suite} | {task} | " + " | ".join(cells) + " |")
     lines += ["", "Data: faults.csv (one row per task and design, its flights), oracle.csv.", ""]
-    (out / "report.md").write_text("\n".join(lines))
+    write_text(out / "report.md", "\n".join(lines))
 
 
 def why_none(row: dict) -> str:

@@ -214,7 +214,10 @@ def first_runs(args: argparse.Namespace) -> list[dict] | None:
     history, and the outside agent's records (None without ``--solver``)."""
     into = args.out or RESULTS  # the committed data are replaced only without --out
     if args.rescore_searches:
-        print(rescore_searches(progress=not args.no_progress, into=into))
+        path = rescore_searches(progress=not args.no_progress, into=into)
+        args.rescore_searches = path is not None  # the page reads the file written, if any
+        if path is not None:
+            print(path)
     if args.anytime_history:
         print(anytime_history(into, progress=not args.no_progress))
     if not args.solver:

@@ -15,10 +15,11 @@ from modquad_gym.core.interrupts import one_line
 
 def rescore_searches(
     results: Path = RESULTS, progress: bool = True, into: Path | None = None
-) -> Path:
+) -> Path | None:
     """Run the searches that a tier report of ``results`` did not run on that tier's held-out
     suites and write their per-task rows to ``leaderboard_searches.csv`` in ``into`` (default
-    ``results``; on a fault tier, those that honour the failure)."""
+    ``results``; on a fault tier, those that honour the failure); its path. None, with a line
+    saying so, when every report ran every search: nothing to run, nothing written."""
     from modquad_gym.core.outputs import write_csv, write_text
     from modquad_gym.scoring.agents import run_benchmark
     from modquad_gym.scoring.tiers import get_tier, honours_fault
@@ -33,6 +34,10 @@ def rescore_searches(
             print(f"{name}: scoring {', '.join(missing)}", file=sys.stderr)
             rows += run_benchmark(tier.load_suites(), missing, tier.n_max, None, 0, progress, 1,
                                   tier.modules, tier.name, tier.fault)  # fmt: skip
+    if not rows:
+        print("every tier report ran every search: nothing to rescore, nothing written",
+              file=sys.stderr)  # fmt: skip
+        return None
     path = (results if into is None else into) / RESCORED
     write_csv([r.as_csv() for r in rows], path)
     write_text(path.with_suffix(".md"), rescored_note(rows))

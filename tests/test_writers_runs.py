@@ -1,6 +1,7 @@
 """The commands that fill folders (train.py's run and log folders, ``modquad validate`` and
-the Python ``validate``): another run's files are refused before any work unless ``--force``,
-which removes what the earlier run recorded."""
+the Python ``validate``, the fault benchmark, the leaderboard's rescoring): another run's files
+are refused before any work unless ``--force``, which removes what the earlier run recorded,
+earlier rows that cannot be read are named by file and row, and a write is whole or absent."""
 
 from __future__ import annotations
 
@@ -173,3 +174,59 @@ def test_validate_records_its_files_and_force_removes_an_earlier_runs(tmp_path, 
     assert main([*argv, "--force"]) == 0
     assert not (out / "hover_infeasible.png").exists() and (out / "report.md").is_file()
     assert (out / "my_notes.md").read_text() == "keep me"
+
+
+# ------------------------------------------------------------------- the fault benchmark
+FAULTS_CSV = ROOT / "results" / "faults" / "faults.csv"
+
+
+@pytest.mark.parametrize("option", ["--oracle-only", "--update"])
+def test_faults_names_the_file_and_row_of_a_cut_faults_csv(tmp_path, capsys, monkeypatch, option):
+    """Before any search or timing: one line naming the option, the file and the row."""
+    from benchmarks import faults
+    from benchmarks.common import run_main
+
+    monkeypatch.setattr(faults, "oracle_speed", _boom)
+    monkeypatch.setattr(faults, "price", _boom)
+    text = FAULTS_CSV.read_text()
+    cut = text[: text.index("\n", 1500) - 20]  # a file cut in the middle of a row
+    (tmp_path / "faults.csv").write_text(cut)
+    argv = [option, "--force", "--out", str(tmp_path), "--suites", "heldout_paper"]
+    assert run_main(faults.main, "faults", argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert f"{tmp_path / 'faults.csv'}: row {cut.count(chr(10))}:" in err and option in err
+    assert (tmp_path / "faults.csv").read_text() == cut
+
+
+def test_faults_csv_is_replaced_whole_or_not_at_all(tmp_path, monkeypatch):
+    """A write that fails half-way (the disk fills) leaves the earlier faults.csv as it was."""
+    from benchmarks import faults
+    from benchmarks.common import run_main
+
+    class Full:
+        def __str__(self):
+            raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(faults, "oracle_speed", lambda: [])
+    monkeypatch.setattr(faults, "explain_missing", lambda rows: rows.append({"suite": Full()}))
+    (tmp_path / "faults.csv").write_bytes(FAULTS_CSV.read_bytes())
+    argv = ["--oracle-only", "--force", "--out", str(tmp_path)]
+    assert run_main(faults.main, "faults", argv) == 2
+    assert (tmp_path / "faults.csv").read_bytes() == FAULTS_CSV.read_bytes()
+
+
+# ------------------------------------------------------------------------ the leaderboard
+def test_rescoring_with_nothing_to_rescore_says_so_and_writes_nothing(tmp_path, capsys):
+    from benchmarks.leaderboard_entries import TIERS
+    from benchmarks.leaderboard_scoring import rescore_searches
+    from modquad_gym.search import SEARCHES
+
+    header = "suite,task,optimum,method,success,n_modules,gap,optimal,evaluated,oracle_calls,"
+    for tier in TIERS:  # every tier report already ran every search
+        rows = [f"{header}seconds,cells", *(f's,t,5,{m},1,5,0,1,1,1,0.1,"0,0"' for m in SEARCHES)]
+        write_text(tmp_path / "results" / f"tier_{tier}" / "benchmark.csv", "\n".join(rows) + "\n")
+    into = tmp_path / "into"
+    assert rescore_searches(tmp_path / "results", progress=False, into=into) is None
+    assert "nothing to rescore" in capsys.readouterr().err
+    assert not into.exists()
