@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -34,6 +35,7 @@ import numpy as np
 
 from agents.exit_checks import MAX_REPLAY, REPLAY_N_MAX, check_start
 from agents.scale_scores import current_tier, report, score, summary
+from benchmarks.common import Distinct
 from modquad_gym.core.options import int_option, path_option
 from modquad_gym.core.outputs import (
     OutputError,
@@ -237,8 +239,6 @@ def draw_option(text: str) -> tuple[str, int, int]:
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """The options, each checked before any work (argparse's usage and one error line, exit 2);
     the start model is loaded once to check it."""
-    import sys
-
     p = argparse.ArgumentParser(
         prog="python -m agents.expert_iteration", description=__doc__.split("\n\n")[0]
     )
@@ -302,6 +302,7 @@ def _draw_options(p: argparse.ArgumentParser) -> None:
         "--bands",
         type=int_option(2, 128),
         nargs="+",
+        action=Distinct,  # each band's draws would be scored twice
         default=list(BANDS),
         help="validation bands each model is scored on (default 16 24 32)",
     )
@@ -363,8 +364,6 @@ def _check_args(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
         p.error(f"--learning-rate {args.learning_rate:g}: give a rate in (0, 1]")
     if not 0 <= args.replay <= MAX_REPLAY:
         p.error(f"--replay {args.replay}: give a number of tasks, 0 to {MAX_REPLAY:,}")
-    if len(set(args.bands)) < len(args.bands):  # each band's draws would be scored twice
-        p.error(f"--bands {' '.join(map(str, args.bands))}: a band given twice")
     try:
         check_output_dir(args.out, output_names(args), args.force)
         check_start(args.model, args.n_max, args.replay)

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import (
+    Distinct,
     bench_args,
     int_option,
     report_page,
@@ -187,7 +188,8 @@ def report(rows: list[dict], args: argparse.Namespace) -> str:
 
 def main(argv: list[str] | None = None) -> None:
     options = {
-        "--sizes": dict(type=int_option(1, 64), nargs="+", default=[16, 24, 32, 48, 64],
+        "--sizes": dict(type=int_option(1, 64), nargs="+", action=Distinct,
+                        default=[16, 24, 32, 48, 64],
                         help="planted sizes (default 16 24 32 48 64)"),
         "--tasks": dict(type=int_option(1, 100), default=3, help="tasks per size (default 3)"),
         "--time-limit": dict(type=time_limit_option, default=60.0,

@@ -1,6 +1,6 @@
-"""What the measurement scripts share: their option parsing and running, the machine line, a random
-structure, a markdown table, a report's page and its writing, and the list of the scripts
-(:func:`scripts`)."""
+"""What the measurement scripts share: their option parsing (list options whose values each count
+once) and running, the machine line, a random structure, a markdown table, a report's page and
+its writing, and the list of the scripts (:func:`scripts`)."""
 
 from __future__ import annotations
 
@@ -20,6 +20,7 @@ from modquad_gym.geometry.structure import Structure
 from modquad_gym.scoring import machine_description, markdown_table
 
 __all__ = [
+    "Distinct",
     "add_force",
     "bench_args",
     "check_task_rows",
@@ -31,12 +32,14 @@ __all__ = [
     "parse_bench_args",
     "random_structure",
     "refuse_as_script",
+    "repeats",
     "report_page",
     "run_command",
     "run_main",
     "run_script",
     "scripts",
     "seed_option",
+    "shown",
     "write_csv",
     "write_report",
     "write_text",
@@ -79,6 +82,49 @@ def refuse_as_script(name: str) -> int:
 def run_script(name: str, argv: list[str] | None = None) -> int:
     """:func:`run_main` of the script ``benchmarks.NAME`` (imported here)."""
     return run_main(importlib.import_module(f"benchmarks.{name}").main, name, argv)
+
+
+def repeats(values, key: Callable | None = None) -> list:
+    """The values of ``values`` given more than once (compared by ``key(value)``, default the
+    value), each once, in the order of their second appearance."""
+    seen, twice = set(), {}
+    for value in values:
+        k = value if key is None else key(value)
+        if k in seen:
+            twice.setdefault(k, value)
+        seen.add(k)
+    return list(twice.values())
+
+
+def shown(value) -> str:
+    """An option's value as a command line writes it: a number in its shortest form, a tuple
+    comma-separated (``none`` when empty), None as ``auto`` (the options whose default is the
+    method's own)."""
+    if value is None:
+        return "auto"
+    if isinstance(value, float):
+        return f"{value:g}"
+    if isinstance(value, tuple):
+        return ",".join(map(shown, value)) or "none"
+    return str(value)
+
+
+class Distinct(argparse.Action):
+    """``action=Distinct`` for a list option whose values each count once (a band, method or
+    seed given twice would be run twice and counted twice in the report's totals): a repeat is
+    argparse's one-line error naming the option and the value, exit 2 before any work. ``key``
+    (an ``add_argument`` keyword) compares values by ``key(value)``, e.g. folders by their
+    resolved path."""
+
+    def __init__(self, *args, key: Callable | None = None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.key = key
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        twice = repeats(values, self.key)
+        if twice:
+            raise argparse.ArgumentError(self, f"{shown(twice[0])} is given twice")
+        setattr(namespace, self.dest, values)
 
 
 def bench_args(

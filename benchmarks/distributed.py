@@ -27,6 +27,7 @@ import time
 import numpy as np
 
 from benchmarks.common import (
+    Distinct,
     bench_args,
     int_option,
     report_page,
@@ -227,7 +228,7 @@ def main(argv: list[str] | None = None) -> None:
     options = {
         "--tasks": dict(type=int_option(2), default=1000, help="batch size (default 1000)"),
         "--n-max": dict(type=int_option(1, 16), default=7, help="batch n_max (default 7)"),
-        "--search-n-max": dict(type=int_option(11, 16), nargs="+", default=[13],
+        "--search-n-max": dict(type=int_option(11, 16), nargs="+", action=Distinct, default=[13],
                                help="n_max of the searches, one search each (default 13)"),
     }  # fmt: skip
     args = bench_args(

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import bench_args, report_page, run_main, write_csv
+from benchmarks.common import Distinct, bench_args, report_page, run_main, write_csv
 from modquad_gym.cli.common import N_MAX_OPTION
 from modquad_gym.core.options import real_option
 from modquad_gym.core.outputs import save_figure, write_text
@@ -200,7 +200,7 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    speeds = dict(type=real_option, nargs="*")
+    speeds = dict(type=real_option, nargs="*", action=Distinct)
     options = {
         "--circle-speeds": dict(**speeds, default=[1.0, 1.5, 1.75, 2.0, 2.1, 2.2],
                                 help="circle cruise speeds, m/s (default 1 1.5 1.75 2 2.1 2.2)"),

@@ -33,7 +33,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from benchmarks.common import add_force, machine_description, parse_bench_args, run_main, write_csv
+from benchmarks.common import (
+    Distinct,
+    add_force,
+    machine_description,
+    parse_bench_args,
+    run_main,
+    write_csv,
+)
 from benchmarks.env_measure import (
     FAMILIES,
     PPO_RECIPE,
@@ -61,7 +68,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--seed", type=seed_option, default=0)
     parser.add_argument("--n-max", type=int_option(2, 16), default=7)
     parser.add_argument(
-        "--sizes", type=int_option(1, 100_000), nargs="*", default=list(SIZES),
+        "--sizes", type=int_option(1, 100_000), nargs="*", action=Distinct, default=list(SIZES),
         help="task sizes t to measure",
     )  # fmt: skip
     parser.add_argument(
@@ -69,7 +76,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         help="timed steps of the default configuration, resets counted (0: skip that row)",
     )  # fmt: skip
     parser.add_argument(
-        "--scale", type=int_option(2, 128), nargs="*", default=[16, 32, 64, 128],
+        "--scale", type=int_option(2, 128), nargs="*", action=Distinct, default=[16, 32, 64, 128],
         help="n_max values of the encodings table (grid vs faces; none: skip it)",
     )  # fmt: skip
     parser.add_argument(
@@ -83,7 +90,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         help="timed steps per lookahead row (off, support, exact; 0: skip that table)",
     )  # fmt: skip
     parser.add_argument(
-        "--lookahead-n-max", type=int_option(2, 128), nargs="+", default=[7],
+        "--lookahead-n-max", type=int_option(2, 128), nargs="+", action=Distinct, default=[7],
         help="n_max values of the lookahead table (timed steps: --lookahead-steps at 7, a "
         "tenth of them beyond)",
     )  # fmt: skip

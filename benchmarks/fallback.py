@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import (
+    Distinct,
     bench_args,
     check_task_rows,
     machine_description,
@@ -210,7 +211,8 @@ def command_line(given: list[str], rows: Path | None) -> str:
     return command if rows is None else f"{command}`, re-rendered by `... --rows {rows} --force"
 
 
-def main(argv: list[str] | None = None) -> int:
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    """The options, checked before any work or model load (one line, exit 2)."""
     args = bench_args(
         argv,
         "python -m benchmarks.fallback",
@@ -218,17 +220,23 @@ def main(argv: list[str] | None = None) -> int:
         {
             "--method": {"choices": ("ppo", "ppo-guided"), "default": "ppo"},
             "--rival": {"choices": ("greedy", "beam"), "default": "greedy"},
-            "--bands": {"type": int_option(2, 128), "nargs": "*", "default": [16, 32, 48, 64]},
-            "--families": {"nargs": "+", "choices": FAMILIES, "default": list(FAMILIES)},
+            "--bands": {"type": int_option(2, 128), "nargs": "*", "action": Distinct,
+                        "default": [16, 32, 48, 64]},
+            "--families": {"nargs": "+", "action": Distinct, "choices": FAMILIES,
+                           "default": list(FAMILIES)},
             "--per-family": {"type": int_option(1, 100), "default": 8,
                              "help": "validation draws per family"},
-            "--fallbacks": {"type": share_option, "nargs": "+", "default": [0.0, 0.6, 0.7, 0.8],
+            "--fallbacks": {"type": share_option, "nargs": "+", "action": Distinct,
+                            "default": [0.0, 0.6, 0.7, 0.8],
                             "help": "values of the fallback option, each in [0, 1]"},
-            "--k": {"type": int_option(1), "nargs": "+", "default": [8, 16], "help": "shortlists"},
-            "--budgets": {"type": budget_option, "nargs": "+", "default": [None],
+            "--k": {"type": int_option(1), "nargs": "+", "action": Distinct, "default": [8, 16],
+                    "help": "shortlists"},
+            "--budgets": {"type": budget_option, "nargs": "+", "action": Distinct,
+                          "default": [None],
                           "help": "ppo-guided's budgets: structures evaluated, or auto (its "
                                   "default; the only choice for ppo)"},
-            "--extra-fallbacks": {"type": shares_option, "nargs": "+", "default": [None],
+            "--extra-fallbacks": {"type": shares_option, "nargs": "+", "action": Distinct,
+                                  "default": [None],
                                   "help": "ppo's extra_fallbacks: auto (its default), none, or "
                                           "comma-separated values in [0, 1]"},
             "--small": {"type": int_option(0, 10_000), "default": 200,
@@ -250,6 +258,11 @@ def main(argv: list[str] | None = None) -> int:
         raise ValueError("--budgets: only ppo-guided has a budget (give --method ppo-guided)")
     if args.method == "ppo-guided" and args.extra_fallbacks != [None]:
         raise ValueError("--extra-fallbacks: only ppo takes extra fallbacks (give --method ppo)")
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
     rows = read_rows(args.rows) if args.rows else measure(args)
     names = [m for m in dict.fromkeys(r["method"] for r in rows) if m != args.rival]
     if args.rows and (not names or args.rival not in {r["method"] for r in rows}):

@@ -31,6 +31,7 @@ import numpy as np
 
 import modquad_gym as mq
 from benchmarks.common import (
+    Distinct,
     bench_args,
     int_option,
     machine_description,
@@ -191,11 +192,14 @@ def parse_args(argv: list[str] | None) -> tuple[argparse.Namespace, list[dict]]:
         "--skip": dict(type=int_option(0, 999), default=0,
                        help="leave out the first SKIP tasks of each source (new tasks for a run "
                             "that adds to an earlier one)"),
-        "--sources": dict(nargs="+", default=list(SOURCES), choices=list(GENERATORS),
+        "--sources": dict(nargs="+", action=Distinct, default=list(SOURCES),
+                          choices=list(GENERATORS),
                           help="task generators (default: paper planted motions)"),
-        "--margins": dict(type=margin_option, nargs="+", default=[0.0, 0.02, 0.05, 0.1, 0.15],
+        "--margins": dict(type=margin_option, nargs="+", action=Distinct,
+                          default=[0.0, 0.02, 0.05, 0.1, 0.15],
                           help="required fault margins, each in [0, 1)"),
-        "--delays": dict(type=delay_option, nargs="+", default=[0.01, 0.02, 0.03, 0.05],
+        "--delays": dict(type=delay_option, nargs="+", action=Distinct,
+                         default=[0.01, 0.02, 0.03, 0.05],
                          help=f"detection delays flown (s), each in [0, {MAX_DELAY:g}], one at "
                               "least above 0 (the rule is fitted on them)"),
         "--n-max": dict(type=int_option(1, 128), default=12, help="module budget (default 12)"),

@@ -24,6 +24,7 @@ import sys
 from pathlib import Path
 
 from benchmarks.common import (
+    Distinct,
     bench_args,
     csv_header,
     load_average,
@@ -178,9 +179,10 @@ def main(argv: list[str] | None = None) -> int:
         "--faults": {"type": Path, "default": Path("results/faults/faults.csv"),
                      "help": "the faults.csv whose designs are flown (default "
                              "results/faults/faults.csv)"},
-        "--suites": {"nargs": "+", "choices": SUITES, "default": list(SUITES),
+        "--suites": {"nargs": "+", "action": Distinct, "choices": SUITES, "default": list(SUITES),
                      "help": "suites (default all four)"},
-        "--designs": {"nargs": "+", "choices": [d for d in DESIGNS if DESIGNS[d][0]],
+        "--designs": {"nargs": "+", "action": Distinct,
+                      "choices": [d for d in DESIGNS if DESIGNS[d][0]],
                       "default": [d for d in DESIGNS if DESIGNS[d][0]],
                       "help": "fault designs (default all)"},
         "--update": {"action": "store_true",

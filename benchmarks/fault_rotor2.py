@@ -25,7 +25,15 @@ from pathlib import Path
 import numpy as np
 
 import modquad_gym as mq
-from benchmarks.common import bench_args, made_by, markdown_table, run_main, write_csv, write_text
+from benchmarks.common import (
+    Distinct,
+    bench_args,
+    made_by,
+    markdown_table,
+    run_main,
+    write_csv,
+    write_text,
+)
 from modquad_gym.cli.common import N_MAX_OPTION, time_limit_option
 from modquad_gym.core.options import int_option
 from modquad_gym.oracle import Zonotope
@@ -155,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
         "--n-max": {"type": N_MAX_OPTION, "default": 12, "help": "module budget (default 12)"},
         "--time-limit": {"type": time_limit_option, "default": 30.0,
                          "help": "seconds per search (30)"},
-        "--suites": {"nargs": "+", "choices": SUITES, "default": list(SUITES),
+        "--suites": {"nargs": "+", "action": Distinct, "choices": SUITES, "default": list(SUITES),
                      "help": "suites to run (the others' rows in --out are kept)"},
         "--repeats": {"type": int_option(1), "default": 15,
                       "help": "timings per decision (best of)"},

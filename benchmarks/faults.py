@@ -30,7 +30,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from benchmarks.common import add_force, run_main
+from benchmarks.common import Distinct, add_force, run_main
 from benchmarks.faults_measure import (
     DESIGNS,
     SUITES,
@@ -53,8 +53,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         prog="python -m benchmarks.faults", description=__doc__.split("\n\n")[0]
     )
-    parser.add_argument("--suites", nargs="+", choices=SUITES, default=list(SUITES),
-                        help="suites (default all four)")  # fmt: skip
+    parser.add_argument("--suites", nargs="+", action=Distinct, choices=SUITES,
+                        default=list(SUITES), help="suites (default all four)")  # fmt: skip
     parser.add_argument("--per-suite", type=int_option(1), default=10,
                         help="tasks per suite (default 10)")  # fmt: skip
     parser.add_argument(
@@ -63,8 +63,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         default=0,
         help="leave out the first SKIP of them (a run that continues another)",
     )
-    parser.add_argument("--designs", nargs="+", choices=list(DESIGNS), default=list(DESIGNS),
-                        help="designs (default all)")  # fmt: skip
+    parser.add_argument("--designs", nargs="+", action=Distinct, choices=list(DESIGNS),
+                        default=list(DESIGNS), help="designs (default all)")  # fmt: skip
     parser.add_argument("--n-max", type=N_MAX_OPTION, default=12,
                         help="module budget (default 12)")  # fmt: skip
     parser.add_argument("--time-limit", type=time_limit_option, default=10.0,

@@ -38,6 +38,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from benchmarks.common import Distinct
 from benchmarks.leaderboard_entries import (
     ANYTIME,
     BUDGET,
@@ -149,13 +150,19 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--seeds",
         nargs="+",
+        action=Distinct,
         type=int_option(0),
         default=None,
         help="with --solver: the seeds it is run with (default 0 1 2 3 4; one run when it "
         "takes no seed)",
     )
     p.add_argument(
-        "--tiers", nargs="+", choices=TIERS, default=list(TIERS), help="tiers to show (default all)"
+        "--tiers",
+        nargs="+",
+        action=Distinct,
+        choices=TIERS,
+        default=list(TIERS),
+        help="tiers to show (default all)",
     )
     p.add_argument(
         "--limit",
@@ -194,8 +201,6 @@ def check_args(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
         if value is not None and not args.solver:
             p.error(f"{flag} goes with --solver")
     args.seeds = args.seeds or [0, 1, 2, 3, 4]
-    if len(set(args.seeds)) != len(args.seeds):
-        p.error(f"--seeds: a seed is given twice: {args.seeds}")
     written = OUTPUTS if args.solver else OUTPUTS[:-1]
     data = (RESCORED,) * args.rescore_searches + (ANYTIME,) * args.anytime_history
     data += tuple(Path(n).with_suffix(".md").name for n in data)  # each with its note

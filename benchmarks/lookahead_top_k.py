@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 
-from benchmarks.common import bench_args, made_by, markdown_table, run_main, write_csv
+from benchmarks.common import Distinct, bench_args, made_by, markdown_table, run_main, write_csv
 from modquad_gym.core.outputs import write_text
 
 OUTPUTS = ("report.md", "rows.csv", "ranks.csv")
@@ -161,10 +161,21 @@ def main(argv: list[str] | None = None) -> int:
         "python -m benchmarks.lookahead_top_k",
         __doc__.split("\n\n")[0],
         {
-            "--bands": {"type": int, "nargs": "*", "default": [16, 32, 64]},
-            "--families": {"nargs": "+", "choices": FAMILIES, "default": list(FAMILIES)},
+            "--bands": {"type": int, "nargs": "*", "action": Distinct, "default": [16, 32, 64]},
+            "--families": {
+                "nargs": "+",
+                "action": Distinct,
+                "choices": FAMILIES,
+                "default": list(FAMILIES),
+            },
             "--per-family": {"type": int, "default": 2, "help": "validation draws per family"},
-            "--k": {"type": int, "nargs": "+", "default": [4, 8, 16], "help": "shortlists"},
+            "--k": {
+                "type": int,
+                "nargs": "+",
+                "action": Distinct,
+                "default": [4, 8, 16],
+                "help": "shortlists",
+            },
             "--small": {"type": int, "default": 24, "help": "mixed tasks at n_max 7"},
             "--time-limit": {"type": float, "default": 60.0},
         },

@@ -45,6 +45,7 @@ from benchmarks.common import (
     machine_description,
     markdown_table,
     random_structure,
+    repeats,
     run_main,
     write_csv,
 )
@@ -74,13 +75,16 @@ HREP_MEMORY_LIMIT_MB = 256.0
 
 def sizes_option(text: str) -> tuple[int, ...]:
     """``--modules``: comma-separated structure sizes, each from 7 (the goals of issue 3 are
-    at m = 28) to 64."""
+    at m = 28) to 64, each once (a size given twice would be timed and counted twice)."""
     try:
         sizes = tuple(int(v) for v in text.split(","))
     except ValueError:
         sizes = ()
     if not sizes or any(not 7 <= n <= 64 for n in sizes):
         raise argparse.ArgumentTypeError(f"expected sizes from 7 to 64 like 7,16,64, got {text}")
+    twice = repeats(sizes)
+    if twice:
+        raise argparse.ArgumentTypeError(f"{twice[0]} is given twice in {text}")
     return sizes
 
 

@@ -26,6 +26,7 @@ from fractions import Fraction
 import numpy as np
 
 from benchmarks.common import (
+    Distinct,
     bench_args,
     int_option,
     markdown_table,
@@ -224,6 +225,7 @@ def main(argv: list[str] | None = None) -> int:
             "--seeds": {
                 "type": seed_option,
                 "nargs": "+",
+                "action": Distinct,
                 "default": [0, 1, 2, 3],
                 "help": "random seeds, each its own wrenches (default 0 1 2 3)",
             },

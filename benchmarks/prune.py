@@ -21,6 +21,7 @@ import numpy as np
 
 from benchmarks import scale
 from benchmarks.common import (
+    Distinct,
     bench_args,
     check_task_rows,
     load_average,
@@ -174,8 +175,9 @@ def command_line(args) -> str:
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     options = {
         **scale.task_options(bands=(16, 32, 64, 96, 128), workers=2),
-        "--methods": dict(nargs="+", choices=("greedy", "beam", "random", "genetic", "ppo",
-                                              "ppo-guided"), default=["greedy", "beam", "ppo"],
+        "--methods": dict(nargs="+", action=Distinct,
+                          choices=("greedy", "beam", "random", "genetic", "ppo", "ppo-guided"),
+                          default=["greedy", "beam", "ppo"],
                           help="methods, each run plain and pruned; the learned ones (ppo, "
                                "ppo-guided) are compared with the others (default greedy beam "
                                "ppo)"),

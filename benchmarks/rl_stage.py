@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import bench_args, report_page, run_main, write_report
+from benchmarks.common import Distinct, bench_args, report_page, run_main, write_report
 from modquad_gym.core.interrupts import one_line
 from modquad_gym.scoring.fine_tuning import best_index
 from modquad_gym.scoring.stats import interval
@@ -207,11 +207,10 @@ def plot(curves: list[dict], path: Path) -> None:
 def main(argv: list[str] | None = None) -> int:
     args = bench_args(
         argv, "python -m benchmarks.rl_stage", __doc__.split("\n\n")[0],
-        {"runs": {"nargs": "+", "type": Path, "help": "train.py run folders"}},
+        {"runs": {"nargs": "+", "type": Path, "action": Distinct, "key": Path.resolve,
+                  "metavar": "RUN", "help": "train.py run folders"}},
         seed_help=None, out="results/rl_stage", outputs=OUTPUTS,
     )  # fmt: skip
-    if len({run.resolve() for run in args.runs}) < len(args.runs):  # the bootstrap is over runs
-        raise ValueError(f"RUN: a run given twice in {' '.join(map(str, args.runs))}")
     read = [read_run(run) for run in args.runs]  # every run checked before any held-out pass
     rows, curves = [], []
     for run, (config, data) in zip(args.runs, read, strict=True):

@@ -27,6 +27,7 @@ import sys
 from pathlib import Path
 
 from benchmarks.common import (
+    Distinct,
     bench_args,
     check_model,
     check_task_rows,
@@ -264,10 +265,10 @@ def task_options(bands=BANDS, workers: int = 1) -> dict[str, dict]:
     """The options every benchmark of the scale tasks takes (which tasks, and how they run),
     with its default ``bands`` and ``workers``: ``bench_args`` keywords by flag."""
     return {
-        "--bands": dict(type=int_option(1, 128), nargs="+", default=list(bands),
+        "--bands": dict(type=int_option(1, 128), nargs="+", action=Distinct, default=list(bands),
                         help=f"size bands (default {' '.join(map(str, bands))})"),
-        "--families": dict(nargs="+", choices=tuple(FAMILIES), default=list(FAMILIES),
-                           help="task families (default all)"),
+        "--families": dict(nargs="+", action=Distinct, choices=tuple(FAMILIES),
+                           default=list(FAMILIES), help="task families (default all)"),
         "--per-family": dict(type=int_option(1, 100), default=1,
                              help="tasks per family and band (default 1)"),
         "--time-limit": dict(type=time_limit_option, default=30.0,
@@ -292,7 +293,7 @@ def check_task_args(args) -> None:
 def main(argv: list[str] | None = None) -> None:
     options = {
         **task_options(),
-        "--methods": dict(nargs="+", default=list(METHODS),
+        "--methods": dict(nargs="+", action=Distinct, default=list(METHODS),
                           help=f"solver names (default {' '.join(METHODS)}); METHOD+prune: "
                                "its answers through the prune post-pass"),
         "--model": dict(default=None, metavar="ZIP",

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import (
+    Distinct,
     bench_args,
     check_model,
     markdown_table,
@@ -139,9 +140,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
     options = {
         "--models": dict(nargs="+", required=True, metavar="NAME=ZIP",
                          help="the one-type models to compare, each named"),
-        "--bands": dict(type=int_option(2, 128), nargs="+", default=[16, 32, 48, 64],
-                        help="size bands (default 16 32 48 64)"),
-        "--families": dict(nargs="+", choices=ONE_TYPE, default=list(ONE_TYPE),
+        "--bands": dict(type=int_option(2, 128), nargs="+", action=Distinct,
+                        default=[16, 32, 48, 64], help="size bands (default 16 32 48 64)"),
+        "--families": dict(nargs="+", action=Distinct, choices=ONE_TYPE, default=list(ONE_TYPE),
                            help="one-type scale families (default all three)"),
         "--per-family": dict(type=int_option(1, 100), default=4,
                              help="tasks per family and band (default 4)"),
@@ -160,9 +161,6 @@ def main(argv: list[str] | None = None) -> list[dict]:
     args = bench_args(argv, "python -m benchmarks.scale_models", __doc__.split("\n\n")[0],
                       options, seed_help=None, out="results/scale_models",
                       outputs=OUTPUTS)  # fmt: skip
-    for flag, values in (("--bands", args.bands), ("--families", args.families)):
-        if len(set(values)) < len(values):  # its tasks would be solved and counted twice
-            raise ValueError(f"{flag} {' '.join(map(str, values))}: a value given twice")
     args.models = [model_option(text) for text in args.models]
     names = [n for n, _ in args.models]
     if len(set(names)) < len(names) or "greedy" in names:

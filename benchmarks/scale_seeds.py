@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import (
+    Distinct,
     bench_args,
     check_task_rows,
     markdown_table,
@@ -185,7 +186,7 @@ def seed_models(folder: Path, option: str) -> dict[str, Path]:
 
 def main(argv: list[str] | None = None) -> list[dict]:
     options = {
-        "--bands": dict(type=int_option(16, 128), nargs="+", default=[16, 32, 64],
+        "--bands": dict(type=int_option(16, 128), nargs="+", action=Distinct, default=[16, 32, 64],
                         help="size bands of the held-out scale suites (default 16 32 64)"),
         "--runs": dict(type=Path, default=Path("runs/exact-seeds"),
                        help="folder of seed-S/model.zip, one-type models (python train.py "

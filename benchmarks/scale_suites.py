@@ -34,9 +34,9 @@ import argparse
 import time
 from pathlib import Path
 
-from benchmarks.common import add_force, run_main
+from benchmarks.common import Distinct, add_force, run_main
 from modquad_gym.core.options import int_option, real_option
-from modquad_gym.core.outputs import OutputError, check_output_dir
+from modquad_gym.core.outputs import OutputError, check_output_dir, check_output_file
 from modquad_gym.scoring.scale_tasks import (  # noqa: F401 - the suites' families, re-exported
     BANDS,
     FAMILIES,
@@ -119,7 +119,9 @@ def main(argv: list[str] | None = None) -> int:
         "size and the bounds the default search proves. The shipped suites are replaced only "
         f"when asked: --out {SUITES_DIR.relative_to(SUITES_DIR.parents[2])} --force.",
     )
-    p.add_argument("--bands", type=int_option(1, 128), nargs="+", default=list(BANDS))
+    p.add_argument(
+        "--bands", type=int_option(1, 128), nargs="+", action=Distinct, default=list(BANDS)
+    )
     p.add_argument("--per-family", type=int_option(1, 100), default=3)
     p.add_argument(
         "--time-limit",
@@ -143,9 +145,13 @@ def main(argv: list[str] | None = None) -> int:
                          args.force)  # fmt: skip
     except OutputError as exc:
         p.error(str(exc))
-    for band in args.bands:
+    for band in args.bands:  # each once (argparse refuses a band given twice)
         tasks = build_band(band, args.per_family, args.time_limit)
-        path = save_suite(tasks, suite_path(band, args.out), name=f"scale_{band}", force=args.force)
+        try:  # again after the work, in the command's words: a file that appeared meanwhile
+            path = check_output_file(suite_path(band, args.out), args.force, what="--out")
+        except OutputError as exc:
+            p.error(str(exc))
+        save_suite(tasks, path, name=f"scale_{band}", force=True)
         print(f"{path}: {len(tasks)} tasks")
     return 0
 

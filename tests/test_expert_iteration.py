@@ -157,7 +157,7 @@ def test_the_options_keep_their_defaults_and_cross_checks(tmp_path, capsys):
         ("payload", 16, 64)
     ]
     for bad, says in ((["--learning-rate", "2"], "--learning-rate 2: give a rate in (0, 1]"),
-                      (["--bands", "16", "16"], "--bands 16 16: a band given twice"),
+                      (["--bands", "16", "16"], "argument --bands: 16 is given twice"),
                       (["--model", str(tmp_path / "none.zip")], "does not exist"),
                       (["--draws", "planted:1-8"], "sizes LOW-HIGH")):  # fmt: skip
         with pytest.raises(SystemExit) as stop:

@@ -492,7 +492,7 @@ def test_a_fresh_job_hands_back_parts_as_they_come():
         (["--draws", "mixed:8-32"], "--draws"),
         (["--draws", "torque:40-20"], "--draws"),
         (["--draws", "planted:\u00b2-5"], "sizes LOW-HIGH"),
-        (["--bands", "16", "24", "16"], "--bands 16 24 16: a band given twice"),
+        (["--bands", "16", "24", "16"], "argument --bands: 16 is given twice"),
         (["--model", "."], "error: --model .: a folder"),
     ],
 )
@@ -564,8 +564,8 @@ def test_scale_models_refuses_foreign_reuse_rows_and_bad_options(tmp_path, capsy
     (tmp_path / "good.csv").write_text(header + "16,torque,a,greedy,,0.5\n")
     assert read_rows(tmp_path / "good.csv")[0]["found"] is None
     out = tmp_path / "out"
-    twice = [(["--bands", "16", "16"], "--bands 16 16: a value given twice"),
-             (["--families", "torque", "torque"], "--families torque torque")]  # fmt: skip
+    twice = [(["--bands", "16", "16"], "argument --bands: 16 is given twice"),
+             (["--families", "torque", "torque"], "--families: torque is given twice")]  # fmt: skip
     for argv, message in ((["--time-limit", "nan"], "--time-limit"),
                           (["--time-limit", "-1"], "--time-limit"), *twice):  # fmt: skip
         assert run_script("scale_models", ["--models", "m=x.zip", *argv, "--out", str(out)]) == 2

@@ -237,7 +237,7 @@ def test_an_outside_agent_joins_with_one_command(tmp_path, monkeypatch, capsys):
         (["--seeds", "7", "--out", "x"], "--seeds goes with --solver"),
         (
             ["--seeds", "1", "1", "--solver", "m:S", "--out", "x"],
-            "--seeds: a seed is given twice: [1, 1]",
+            "argument --seeds: 1 is given twice",
         ),
     ],
 )

@@ -285,7 +285,9 @@ def test_the_rl_stage_report_measures_each_gain_over_the_cloned_start():
     assert table["held-out optimal"]["95 % CI"] == "[+0.00, +0.00]"  # nothing varies
 
 
-def test_the_rl_stage_report_refuses_a_bad_run_before_any_held_out_pass(tmp_path, monkeypatch):
+def test_the_rl_stage_report_refuses_a_bad_run_before_any_held_out_pass(
+    tmp_path, monkeypatch, capsys
+):
     """Every RUN is read first: a folder lacking evaluations.npz or config.json, a config
     without its kept step or with another tier, evaluations without the optimal share, a kept
     step no evaluation has, a missing cloned start or a run given twice is refused with one
@@ -327,11 +329,17 @@ def test_the_rl_stage_report_refuses_a_bad_run_before_any_held_out_pass(tmp_path
         json.dumps(config)
     )
     np.savez(bad["lacks timesteps and results, optimal"] / "evaluations.npz", timesteps=[0, 100])
-    for message, run in [*bad.items(), ("a run given twice", good)]:
+    for message, run in bad.items():
         argv = [str(good), str(run), "--out", str(tmp_path / "out")]
         with pytest.raises(ValueError, match=message) as err:
             rl_stage.main(argv)
         assert "\n" not in str(err.value) and str(run) in str(err.value)
+    again = tmp_path / "x" / ".." / "good"  # the same folder, spelt otherwise
+    (tmp_path / "x").mkdir()
+    with pytest.raises(SystemExit) as stop:  # argparse's refusal: one line, exit 2
+        rl_stage.main([str(good), str(again), "--out", str(tmp_path / "out")])
+    assert stop.value.code == 2
+    assert f"argument RUN: {again} is given twice" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
 
 

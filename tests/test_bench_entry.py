@@ -1,0 +1,133 @@
+"""The benchmark scripts' entry points: options checked when the command line is read (a value
+given twice, a count out of range, nothing to run), before any work. The parser tests catch each
+script's parser at its ``parse_args`` call, so they never start a search, whatever the script
+does after it."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+
+import numpy as np
+import pytest
+
+from benchmarks.common import run_script
+
+
+class _ParserCaughtError(Exception):
+    """Raised in place of ``parse_args``: the parser is built, no work has started."""
+
+
+def parser_of(monkeypatch, name: str, argv=()) -> argparse.ArgumentParser:
+    """The parser ``benchmarks.NAME``'s ``main`` builds, caught at its ``parse_args``."""
+    caught = {}
+
+    def catch(self, args=None, namespace=None):
+        caught["parser"] = self
+        raise _ParserCaughtError
+
+    main = importlib.import_module(f"benchmarks.{name}").main
+    with monkeypatch.context() as m:
+        m.setattr(argparse.ArgumentParser, "parse_args", catch)
+        with pytest.raises(_ParserCaughtError):
+            main(list(argv))
+    return caught["parser"]
+
+
+def refused(capsys, parser: argparse.ArgumentParser, argv: list[str]) -> str:
+    """``parser`` refuses ``argv``: exit 2 and one error line, which is returned."""
+    with pytest.raises(SystemExit) as stop:
+        parser.parse_args(argv)
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    return err.strip().splitlines()[-1]
+
+
+TWICE = [
+    ("anytime", ["--sizes", "16", "24", "16"], "--sizes: 16"),
+    ("distributed", ["--search-n-max", "13", "13"], "--search-n-max: 13"),
+    ("dynamics", ["--circle-speeds", "1", "1.0"], "--circle-speeds: 1"),
+    ("dynamics", ["--eight-speeds", "2", "2"], "--eight-speeds: 2"),
+    ("dynamics", ["--push-forces", "4", "4"], "--push-forces: 4"),
+    ("env", ["--sizes", "1", "1"], "--sizes: 1"),
+    ("env", ["--scale", "16", "16"], "--scale: 16"),
+    ("env", ["--lookahead-n-max", "7", "7"], "--lookahead-n-max: 7"),
+    ("fallback", ["--bands", "16", "16"], "--bands: 16"),
+    ("fallback", ["--families", "mixed", "mixed"], "--families: mixed"),
+    ("fallback", ["--fallbacks", "0.6", "0.60"], "--fallbacks: 0.6"),
+    ("fallback", ["--k", "8", "8"], "--k: 8"),
+    ("fallback", ["--budgets", "auto", "auto"], "--budgets: auto"),
+    ("fallback", ["--extra-fallbacks", "none", "none"], "--extra-fallbacks: none"),
+    ("fault_delay", ["--sources", "paper", "paper"], "--sources: paper"),
+    ("fault_delay", ["--margins", "0", "0"], "--margins: 0"),
+    ("fault_delay", ["--delays", "0.01", "0.010"], "--delays: 0.01"),
+    ("fault_detector", ["--suites", "fault_rotor", "fault_rotor"], "--suites: fault_rotor"),
+    ("fault_detector", ["--designs", "rotor", "rotor"], "--designs: rotor"),
+    ("fault_rotor2", ["--suites", "fault_rotor", "fault_rotor"], "--suites: fault_rotor"),
+    ("faults", ["--suites", "fault_rotor", "fault_rotor"], "--suites: fault_rotor"),
+    ("faults", ["--designs", "intact", "intact"], "--designs: intact"),
+    ("leaderboard", ["--tiers", "current", "current"], "--tiers: current"),
+    ("leaderboard", ["--seeds", "1", "1"], "--seeds: 1"),
+    ("lookahead_top_k", ["--bands", "16", "16"], "--bands: 16"),
+    ("lookahead_top_k", ["--families", "planted", "planted"], "--families: planted"),
+    ("lookahead_top_k", ["--k", "4", "4"], "--k: 4"),
+    ("oracle", ["--modules", "7,16,7"], "--modules: 7 is given twice in 7,16,7"),
+    ("oracle_accuracy", ["--seeds", "0", "0"], "--seeds: 0"),
+    ("prune", ["--bands", "16", "16"], "--bands: 16"),
+    ("prune", ["--methods", "greedy", "greedy"], "--methods: greedy"),
+    ("scale", ["--bands", "16", "16"], "--bands: 16"),
+    ("scale", ["--families", "planted", "planted"], "--families: planted"),
+    ("scale", ["--methods", "greedy", "greedy"], "--methods: greedy"),
+    ("scale_models", ["--models", "m=x.zip", "--bands", "16", "16"], "--bands: 16"),
+    ("scale_seeds", ["--bands", "16", "16"], "--bands: 16"),
+    ("scale_suites", ["--bands", "16", "16"], "--bands: 16"),
+]
+
+
+@pytest.mark.parametrize("name, argv, says", TWICE, ids=[f"{n}{a[0]}" for n, a, _ in TWICE])
+def test_a_value_given_twice_is_refused_naming_the_option_and_the_value(
+    monkeypatch, capsys, tmp_path, name, argv, says
+):
+    """A list option's value given twice would be run twice and counted twice in the report's
+    totals (two rows of one task, "tasks 2" for one): argparse refuses it in one line naming
+    the option and the value, exit 2."""
+    parser = parser_of(monkeypatch, name)
+    last = refused(capsys, parser, [*argv, "--out", str(tmp_path / "out")])
+    assert last.endswith(f"error: argument {says}" + ("" if "given" in says else " is given twice"))
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_run_folder_given_twice_is_refused_however_spelt(monkeypatch, capsys, tmp_path):
+    """rl_stage's runs are compared by their resolved folder."""
+    (tmp_path / "run").mkdir()
+    (tmp_path / "x").mkdir()
+    again = tmp_path / "x" / ".." / "run"
+    parser = parser_of(monkeypatch, "rl_stage")
+    last = refused(capsys, parser, [str(tmp_path / "run"), str(again)])
+    assert last.endswith(f"error: argument RUN: {again} is given twice")
+
+
+def test_scale_suites_names_its_options_when_a_suite_file_appears_during_the_run(
+    monkeypatch, capsys, tmp_path
+):
+    """A suite file that appears in --out while the bounds are searched (another run) is refused
+    in the command's words (--out, --force), not the Python API's (path, force=True); with
+    --force it is replaced."""
+    from benchmarks import scale_suites
+    from modquad_gym.tasks import TaskRequirement
+
+    out = tmp_path / "suites"
+
+    def build_band(band, per_family, time_limit, validation=False):
+        out.mkdir(exist_ok=True)
+        (out / f"scale_{band}.json").write_text("another run's")
+        return [TaskRequirement(np.array([[0, 0, 1.0, 0, 0, 0]]), name=f"t{band}")]
+
+    monkeypatch.setattr(scale_suites, "build_band", build_band)
+    assert run_script("scale_suites", ["--bands", "16", "--out", str(out)]) == 2
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert f"error: --out: {out / 'scale_16.json'} exists (use --force to replace it)" in last
+    assert (out / "scale_16.json").read_text() == "another run's"
+    assert run_script("scale_suites", ["--bands", "16", "--out", str(out), "--force"]) == 0
+    assert '"name": "scale_16"' in (out / "scale_16.json").read_text()
