@@ -38,19 +38,39 @@ TRACK_GOAL_M = 0.05
 """The issue's goal: feasible tasks tracked within 5 cm (max) without saturating."""
 
 
+def positive_option(text: str) -> float:
+    """An argparse ``type`` for a speed or force: a finite number above 0."""
+    value = real_option(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {value:g}")
+    return value
+
+
+positive_option.__name__ = "number"
+
+
 def motions(args: argparse.Namespace) -> list:
-    """(motion, parameter name, value, task) of the benchmark, in order."""
+    """(motion, parameter name, value, task) of the benchmark, in order, all built before any
+    search: a motion that cannot be built (too fast for its ramp, too long) is a ValueError
+    naming the option and the value."""
     from modquad_gym import dynamics as dy
 
-    out = []
-    for v in args.circle_speeds:
-        out.append(("circle r=1 m", "speed_m_s", v, dy.circle(1.0, v, rate=RATE)))
     payload = dy.Payload(*PAYLOAD)
-    for v in args.eight_speeds:
-        task = dy.figure_eight(1.0, v, payload=payload, rate=RATE)
-        out.append((f"figure-eight + {PAYLOAD[0]:g} kg", "speed_m_s", v, task))
-    for f in args.push_forces:
-        out.append(("push 0.5 m/s", "force_N", f, dy.push(1.0, 0.5, f, rate=RATE)))
+    plan = (
+        ("--circle-speeds", args.circle_speeds, "circle r=1 m", "speed_m_s",
+         lambda v: dy.circle(1.0, v, rate=RATE)),
+        ("--eight-speeds", args.eight_speeds, f"figure-eight + {PAYLOAD[0]:g} kg", "speed_m_s",
+         lambda v: dy.figure_eight(1.0, v, payload=payload, rate=RATE)),
+        ("--push-forces", args.push_forces, "push 0.5 m/s", "force_N",
+         lambda f: dy.push(1.0, 0.5, f, rate=RATE)),
+    )  # fmt: skip
+    out = []
+    for flag, values, motion, name, make in plan:
+        for v in values:
+            try:
+                out.append((motion, name, v, make(v)))
+            except ValueError as exc:
+                raise ValueError(f"{flag} {v:g}: {exc}") from None
     return out
 
 
@@ -200,7 +220,7 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    speeds = dict(type=real_option, nargs="*", action=Distinct)
+    speeds = dict(type=positive_option, nargs="*", action=Distinct)
     options = {
         "--circle-speeds": dict(**speeds, default=[1.0, 1.5, 1.75, 2.0, 2.1, 2.2],
                                 help="circle cruise speeds, m/s (default 1 1.5 1.75 2 2.1 2.2)"),
@@ -221,6 +241,8 @@ def main(argv: list[str] | None = None) -> None:
         out="results/dynamics",
         outputs=OUTPUTS,
     )
+    if not (args.circle_speeds or args.eight_speeds or args.push_forces):
+        raise ValueError("nothing to run: give --circle-speeds, --eight-speeds or --push-forces")
     t0 = time.perf_counter()
     cache: dict = {}
     rows = []

@@ -25,6 +25,8 @@ import time
 import numpy as np
 
 from benchmarks.common import Distinct, bench_args, made_by, markdown_table, run_main, write_csv
+from modquad_gym.cli.common import time_limit_option
+from modquad_gym.core.options import int_option
 from modquad_gym.core.outputs import write_text
 
 OUTPUTS = ("report.md", "rows.csv", "ranks.csv")
@@ -155,33 +157,37 @@ def summary(rows: list[dict], ranks: list[dict], ks) -> tuple[list[dict], list[d
     return recall, passes
 
 
-def main(argv: list[str] | None = None) -> int:
+def parse_args(argv: list[str] | None):
+    """The options, each checked while the command line is read (one line, exit 2), and a plan
+    with tasks to run, before any model load or search."""
     args = bench_args(
         argv,
         "python -m benchmarks.lookahead_top_k",
         __doc__.split("\n\n")[0],
         {
-            "--bands": {"type": int, "nargs": "*", "action": Distinct, "default": [16, 32, 64]},
-            "--families": {
-                "nargs": "+",
-                "action": Distinct,
-                "choices": FAMILIES,
-                "default": list(FAMILIES),
-            },
-            "--per-family": {"type": int, "default": 2, "help": "validation draws per family"},
-            "--k": {
-                "type": int,
-                "nargs": "+",
-                "action": Distinct,
-                "default": [4, 8, 16],
-                "help": "shortlists",
-            },
-            "--small": {"type": int, "default": 24, "help": "mixed tasks at n_max 7"},
-            "--time-limit": {"type": float, "default": 60.0},
+            "--bands": {"type": int_option(2, 128), "nargs": "*", "action": Distinct,
+                        "default": [16, 32, 64], "help": "size bands (none: only --small)"},
+            "--families": {"nargs": "+", "action": Distinct, "choices": FAMILIES,
+                           "default": list(FAMILIES), "help": "scale families"},
+            "--per-family": {"type": int_option(0, 100), "default": 2,
+                             "help": "validation draws per family and band"},
+            "--k": {"type": int_option(1), "nargs": "+", "action": Distinct,
+                    "default": [4, 8, 16], "help": "shortlists"},
+            "--small": {"type": int_option(0, 10_000), "default": 24,
+                        "help": "mixed tasks at n_max 7"},
+            "--time-limit": {"type": time_limit_option, "default": 60.0,
+                             "help": "seconds each method gets per task, in (0, 86400]"},
         },
         out="results/lookahead_top_k",
         outputs=OUTPUTS,
-    )
+    )  # fmt: skip
+    if not (args.bands and args.per_family) and not args.small:
+        raise ValueError("nothing to run: give --bands with --per-family > 0, or --small > 0")
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
     rows, ranks = measure(args)
     recall, passes = summary(rows, ranks, args.k)
     given = sys.argv[1:] if argv is None else argv

@@ -131,3 +131,53 @@ def test_scale_suites_names_its_options_when_a_suite_file_appears_during_the_run
     assert (out / "scale_16.json").read_text() == "another run's"
     assert run_script("scale_suites", ["--bands", "16", "--out", str(out), "--force"]) == 0
     assert '"name": "scale_16"' in (out / "scale_16.json").read_text()
+
+
+OUT_OF_RANGE = [
+    ("lookahead_top_k", ["--per-family", "-1"], "--per-family: must be in 0..100, got -1"),
+    ("lookahead_top_k", ["--small", "-1"], "--small: must be in 0..10000, got -1"),
+    ("lookahead_top_k", ["--bands", "-1"], "--bands: must be in 2..128, got -1"),
+    ("lookahead_top_k", ["--k", "0"], "--k: must be in 1..1000000, got 0"),
+    ("lookahead_top_k", ["--time-limit", "nan"], "--time-limit: expected a finite number"),
+    ("dynamics", ["--circle-speeds", "-1"], "--circle-speeds: must be > 0, got -1"),
+    ("dynamics", ["--eight-speeds", "1", "0"], "--eight-speeds: must be > 0, got 0"),
+    ("dynamics", ["--push-forces", "0"], "--push-forces: must be > 0, got 0"),
+]
+
+
+@pytest.mark.parametrize(
+    "name, argv, says", OUT_OF_RANGE, ids=[" ".join(a) for _, a, _ in OUT_OF_RANGE]
+)
+def test_counts_and_speeds_out_of_range_are_refused_naming_the_option(
+    monkeypatch, capsys, tmp_path, name, argv, says
+):
+    """lookahead_top_k's counts, bands, shortlists and time limit, and dynamics' speeds and
+    forces, are checked as the other benchmarks check theirs: the option, the range, the value
+    (a negative --per-family ran with no scale task; the others failed after the model load or
+    in the library's words: "top_k must be >= 1", "speed must be positive")."""
+    parser = parser_of(monkeypatch, name)
+    last = refused(capsys, parser, [*argv, "--out", str(tmp_path / "out")])
+    assert f"error: argument {says}" in last
+
+
+@pytest.mark.parametrize(
+    "name, argv, says",
+    [
+        ("lookahead_top_k", ["--bands", "--small", "0"], "nothing to run: give --bands"),
+        ("lookahead_top_k", ["--per-family", "0", "--small", "0"], "nothing to run"),
+        ("dynamics", ["--circle-speeds", "--eight-speeds", "--push-forces"],
+         "nothing to run: give --circle-speeds, --eight-speeds or --push-forces"),
+        ("dynamics", ["--circle-speeds", "--eight-speeds", "1e6", "--push-forces"],
+         "--eight-speeds 1e+06: ramp: "),
+    ],
+)  # fmt: skip
+def test_nothing_to_run_or_a_motion_that_cannot_be_built_is_one_line(
+    capsys, tmp_path, name, argv, says
+):
+    """An empty plan (it gave a traceback: an empty table) and a motion the library refuses are
+    one line naming the options, exit 2, before any search, with nothing written."""
+    out = tmp_path / "out"
+    assert run_script(name, [*argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert says in err.strip().splitlines()[-1] and "Traceback" not in err, err
+    assert not out.exists()
