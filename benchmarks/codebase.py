@@ -21,6 +21,7 @@ from pathlib import Path
 
 from benchmarks.common import (
     add_force,
+    command_as_run,
     markdown_table,
     parse_bench_args,
     report_page,
@@ -170,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
         "",
         ", ".join(f"`{f.removeprefix('modquad_gym/')}`" for f in crossed),
     ]
-    command = "python -m benchmarks.codebase --out results/codebase --force"
+    command = command_as_run("codebase", argv)
     text = report_page("The shape of the code", command, notes, counts, *more)
     write_report(args.out, "codebase", counts, text)
     print(text)

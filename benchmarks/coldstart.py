@@ -35,6 +35,7 @@ from pathlib import Path
 
 from benchmarks.common import (
     bench_args,
+    command_as_run,
     load_average,
     machine_description,
     markdown_table,
@@ -196,7 +197,7 @@ def main(argv: list[str] | None = None) -> int:
     load = load_average(", ")
     text = (
         "# Cold start\n\nCommand: "
-        f"`python -m benchmarks.coldstart {' '.join(argv or sys.argv[1:])}`"
+        f"`{command_as_run('coldstart', argv)}`"
         f"\n\nMachine: {machine_description()}; load average {load} (a shared machine: "
         "compare rows of one run).\n\n"
         + markdown_table(rows)

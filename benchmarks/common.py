@@ -1,12 +1,13 @@
 """What the measurement scripts share: their option parsing (list options whose values each count
-once) and running, the machine line, a random structure, a markdown table, a report's page and
-its writing, and the list of the scripts (:func:`scripts`)."""
+once) and running, the command as run, the machine line, a random structure, a markdown table, a
+report's page and its writing, and the list of the scripts (:func:`scripts`)."""
 
 from __future__ import annotations
 
 import argparse
 import importlib
 import os
+import shlex
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -23,6 +24,7 @@ __all__ = [
     "Distinct",
     "add_force",
     "bench_args",
+    "command_as_run",
     "check_task_rows",
     "int_option",
     "load_average",
@@ -82,6 +84,14 @@ def refuse_as_script(name: str) -> int:
 def run_script(name: str, argv: list[str] | None = None) -> int:
     """:func:`run_main` of the script ``benchmarks.NAME`` (imported here)."""
     return run_main(importlib.import_module(f"benchmarks.{name}").main, name, argv)
+
+
+def command_as_run(name: str, argv: list[str] | None = None) -> str:
+    """``python -m benchmarks.NAME`` with the options ``argv`` (default the command line's) as
+    given, quoted for a shell: the command a report names, which makes it again."""
+    return shlex.join(
+        ["python", "-m", f"benchmarks.{name}", *(sys.argv[1:] if argv is None else argv)]
+    )
 
 
 def repeats(values, key: Callable | None = None) -> list:

@@ -23,7 +23,6 @@ is replaced only with ``--force``; ``--update`` replaces the flights.csv it adds
 from __future__ import annotations
 
 import argparse
-import shlex
 import sys
 from pathlib import Path
 
@@ -33,6 +32,7 @@ import modquad_gym as mq
 from benchmarks.common import (
     Distinct,
     bench_args,
+    command_as_run,
     int_option,
     machine_description,
     read_rows_csv,
@@ -227,8 +227,7 @@ def parse_args(argv: list[str] | None) -> tuple[argparse.Namespace, list[dict]]:
 
 def main(argv: list[str] | None = None) -> int:
     args, old = parse_args(argv)
-    command = shlex.join(["python", "-m", "benchmarks.fault_delay",
-                          *(sys.argv[1:] if argv is None else argv)])  # fmt: skip
+    command = command_as_run("fault_delay", argv)
     tasks = [
         draw_task(make_generator(src), CALIBRATION_SEED0 + 1000 * k + i, f"{src}-cal-{i}")
         for k, src in enumerate(args.sources)

@@ -19,13 +19,13 @@ oracle timing. ``--update --force`` keeps the rows of other (suite, design) pair
 from __future__ import annotations
 
 import re
-import shlex
 import sys
 from pathlib import Path
 
 from benchmarks.common import (
     Distinct,
     bench_args,
+    command_as_run,
     csv_header,
     load_average,
     machine_description,
@@ -196,7 +196,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         print(f"python -m benchmarks.fault_detector: error: {exc}", file=sys.stderr)
         return 2
-    command = shlex.join(["python", "-m", "benchmarks.fault_detector", *(argv or sys.argv[1:])])
+    command = command_as_run("fault_detector", argv)
     tasks: dict = {}
     new = []
     for row in rows:

@@ -28,6 +28,7 @@ import modquad_gym as mq
 from benchmarks.common import (
     Distinct,
     bench_args,
+    command_as_run,
     made_by,
     markdown_table,
     run_main,
@@ -177,10 +178,10 @@ def main(argv: list[str] | None = None) -> int:
                                              args.time_limit)  # fmt: skip
     rows = sorted(kept + new, key=lambda r: (SUITES.index(r["suite"]), r["task"]))
     speed = oracle_speed(args.repeats)
-    command = "python -m benchmarks.fault_rotor2 " + " ".join(argv or sys.argv[1:])
+    command = command_as_run("fault_rotor2", argv)
     write_csv(rows, args.out / "minima.csv")
     write_csv(speed, args.out / "oracle.csv")
-    write_text(args.out / "report.md", report(rows, speed, command.strip(), args.repeats))
+    write_text(args.out / "report.md", report(rows, speed, command, args.repeats))
     print(f"wrote {args.out}/report.md", file=sys.stderr)
     return 0
 

@@ -26,11 +26,10 @@ from __future__ import annotations
 import argparse
 import fcntl
 import os
-import shlex
 import sys
 from pathlib import Path
 
-from benchmarks.common import Distinct, add_force, run_main
+from benchmarks.common import Distinct, add_force, command_as_run, run_main
 from benchmarks.faults_measure import (
     DESIGNS,
     SUITES,
@@ -117,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
     if reread:  # a damaged file is refused in one line before the searches, not after them
         read_rows(earlier, reread)
     args.out.mkdir(parents=True, exist_ok=True)
-    command = shlex.join(["python", "-m", "benchmarks.faults", *(argv or sys.argv[1:])])
+    command = command_as_run("faults", argv)
     new = [] if args.oracle_only else price(args, command)
     speed = oracle_speed()
     lock = os.open(args.out, os.O_RDONLY)  # runs in parallel merge one at a time (the folder

@@ -26,7 +26,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.common import bench_args, int_option, markdown_table, run_main, write_report
+from benchmarks.common import (
+    bench_args,
+    command_as_run,
+    int_option,
+    markdown_table,
+    run_main,
+    write_report,
+)
 from benchmarks.heterogeneous_measure import (
     EXTERNAL_F_MAX,
     GOALS,
@@ -79,6 +86,7 @@ def main(argv: list[str] | None = None) -> None:
         options,
         outputs=("heterogeneous.md", "heterogeneous.csv", "heterogeneous.png"),
     )
+    args.command = command_as_run("heterogeneous", argv)  # what the report says made it
     exhaustive_search(np.array([[0, 0, 1.0, 0, 0, 0]]), n_max=2, modules=palette("t45,flat"))
     sets = task_sets(args.tasks, args.seed)
     rows = compare(sets, args.n_max)

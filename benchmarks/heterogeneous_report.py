@@ -75,15 +75,11 @@ def _columns(rows: list[dict], keys: tuple[str, ...]) -> str:
 
 
 def report(args, rows, summ, worst, sim, captions) -> str:
-    """The text of ``heterogeneous.md``."""
-    command = (
-        f"python -m benchmarks.heterogeneous --tasks {args.tasks} --seed {args.seed} "
-        f"--n-max {args.n_max}"
-    )
+    """The text of ``heterogeneous.md`` (``args.command``: the command as run)."""
     lines = [
         "# Heterogeneous modules: mixing types, self-weight, search cost",
         "",
-        made_by(command, "; one process") + " Per-task rows: `heterogeneous.csv`.",
+        made_by(args.command, "; one process") + " Per-task rows: `heterogeneous.csv`.",
         "",
         "Module types (`modquad_gym.geometry.module.STOCK_TYPES`, 0.3 kg each): `t45` the paper's "
         "T-module (eta = pi/4), `t45m` its mirrored tilts, `flat` an untilted quadrotor. "

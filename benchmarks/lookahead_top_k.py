@@ -19,12 +19,19 @@ greedy. Modules and CPU seconds per pass (each structure verified by the exact L
 
 from __future__ import annotations
 
-import sys
 import time
 
 import numpy as np
 
-from benchmarks.common import Distinct, bench_args, made_by, markdown_table, run_main, write_csv
+from benchmarks.common import (
+    Distinct,
+    bench_args,
+    command_as_run,
+    made_by,
+    markdown_table,
+    run_main,
+    write_csv,
+)
 from modquad_gym.cli.common import time_limit_option
 from modquad_gym.core.options import int_option
 from modquad_gym.core.outputs import write_text
@@ -190,11 +197,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     rows, ranks = measure(args)
     recall, passes = summary(rows, ranks, args.k)
-    given = sys.argv[1:] if argv is None else argv
-    command = "python -m benchmarks.lookahead_top_k " + " ".join(given)
+    command = command_as_run("lookahead_top_k", argv)
     text = "\n".join([
         "# The exact lookahead's shortlist (lookahead_top_k)", "",
-        made_by(command.strip(), "; one process"), "", __doc__.split("\n\n", 2)[2].strip(), "",
+        made_by(command, "; one process"), "", __doc__.split("\n\n", 2)[2].strip(), "",
         "## Recall: the share of states whose choice lies in the top k by support bounds", "",
         markdown_table(recall), "",
         "## Single pass beside greedy (modules on the tasks both solve; CPU seconds summed)", "",

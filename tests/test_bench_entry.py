@@ -181,3 +181,53 @@ def test_nothing_to_run_or_a_motion_that_cannot_be_built_is_one_line(
     err = capsys.readouterr().err
     assert says in err.strip().splitlines()[-1] and "Traceback" not in err, err
     assert not out.exists()
+
+
+class _MadeByError(Exception):
+    """Stops heterogeneous's report at its "Made by" line."""
+
+
+def test_heterogeneous_names_the_command_as_run(monkeypatch, tmp_path):
+    """The report's "Made by" is the command as run, --mujoco included: it named --tasks, --seed
+    and --n-max only, so `--mujoco 0`'s report (no MuJoCo section) named a command that adds
+    one. The measurements are replaced by stubs: only the command line is checked."""
+    from benchmarks import heterogeneous, heterogeneous_report
+
+    for name in ("exhaustive_search", "task_sets", "compare", "summary", "worst_case", "figure"):
+        monkeypatch.setattr(heterogeneous, name, lambda *a, **k: [])
+    monkeypatch.setattr(heterogeneous, "mujoco_rows", lambda *a: pytest.fail("MuJoCo ran"))
+    said = []
+
+    def made_by(command, *rest):
+        said.append(command)
+        raise _MadeByError
+
+    monkeypatch.setattr(heterogeneous_report, "made_by", made_by)
+    argv = ["--mujoco", "0", "--tasks", "2", "--out", str(tmp_path / "h")]
+    with pytest.raises(_MadeByError):
+        heterogeneous.main(argv)
+    assert said == ["python -m benchmarks.heterogeneous " + " ".join(argv)]
+
+
+def test_codebase_names_its_own_out(monkeypatch, tmp_path):
+    """codebase's report named `--out results/codebase --force` whatever it was given."""
+    from benchmarks import codebase
+
+    total = {"folder": "total", "files": 1, "lines": 1, "docstrings": 0, "blank": 0, "code": 1}
+    monkeypatch.setattr(codebase, "line_counts", lambda: [total])
+    monkeypatch.setattr(codebase, "kind_branches", lambda: [])
+    monkeypatch.setattr(codebase, "solve_path_files", lambda: [])
+    out = tmp_path / "my report"
+    assert codebase.main(["--out", str(out)]) == 0
+    text = (out / "codebase.md").read_text()
+    assert f"Made by `python -m benchmarks.codebase --out '{out}'` on " in text
+
+
+def test_the_command_as_run_is_the_argv_given_quoted(monkeypatch):
+    """A Python caller's argv (even an empty one) is the command, not the test runner's."""
+    from benchmarks.common import command_as_run
+
+    monkeypatch.setattr("sys.argv", ["pytest", "-k", "x"])
+    assert command_as_run("faults", []) == "python -m benchmarks.faults"
+    assert command_as_run("faults") == "python -m benchmarks.faults -k x"
+    assert command_as_run("scale", ["--out", "a b"]) == "python -m benchmarks.scale --out 'a b'"

@@ -38,6 +38,8 @@ def test_validate_cli_json(tmp_path, capsys):
     assert saved["files"] == files
     assert saved["bench_max_error"] == record["bench_max_error"]
     assert "all 1 wrenches" in (out_dir / "report.md").read_text()
+    made_by = (out_dir / "report.md").read_text().splitlines()[2]  # under the title
+    assert made_by == f"Made by `modquad {' '.join(argv)}`."
 
 
 def test_validate_cli_known_load_only_and_bad_hover_time(tmp_path, capsys):

@@ -224,6 +224,7 @@ def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float, n_
 def show(args: argparse.Namespace, report: dict) -> int:
     """Print the validation record: one JSON object with ``--json``, else a short summary
     (:func:`summary_lines`; every number is in ``validation.json`` and ``report.md``)."""
+    name_command(args, report)
     if args.json:  # JSON: a number with no finite value (unlimited headroom) is null
         from modquad_gym.core.outputs import json_ready
 
@@ -231,6 +232,21 @@ def show(args: argparse.Namespace, report: dict) -> int:
     else:
         print("\n".join(summary_lines(report) + fault.fault_lines(report)))
     return 0
+
+
+def name_command(args: argparse.Namespace, report: dict) -> None:
+    """``report.md`` names the command that made it, as run, under its title (as every report
+    under results/ does)."""
+    import shlex
+    from pathlib import Path
+
+    from modquad_gym.cli.score import ARGV
+    from modquad_gym.core.outputs import write_text
+
+    typed, path = getattr(args, ARGV, None), (report.get("files") or {}).get("report")
+    if typed is not None and path is not None:
+        title, _, rest = Path(path).read_text().partition("\n")
+        write_text(path, f"{title}\n\nMade by `{shlex.join(['modquad', *typed])}`.\n{rest}")
 
 
 def _length(metres) -> str:
