@@ -179,12 +179,13 @@ def main(argv: list[str] | None = None) -> int:
         if getattr(args, name) < 1:
             parser.error(f"--{name} must be at least 1, got {getattr(args, name)}")
     from modquad_gym.dynamics.random_motions import MotionTasks
+    from modquad_gym.scoring.suites import SUITES_DIR
     from modquad_gym.tasks import load_suite
 
+    suite = load_suite(SUITES_DIR / "dynamic_motions.json")  # the package's, from any folder
     worst, resolved, built, sparse, fewest = grid()
     draws = max(excess(MotionTasks()(np.random.default_rng(s)).trajectory.to_dict())
                 for s in range(args.draws))  # fmt: skip
-    suite = load_suite("modquad_gym/data/suites/dynamic_motions.json")
     held = max(excess(task.trajectory.to_dict()) for task in suite)
     print(f"refused above {AGREEMENT:g} x the estimate (beyond accuracy {DEFAULT_ACCURACY:g})")
     refused = f"{sparse} refused as too sparse ({fewest:.3g} samples per turn or more)"

@@ -258,6 +258,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         raise ValueError("--budgets: only ppo-guided has a budget (give --method ppo-guided)")
     if args.method == "ppo-guided" and args.extra_fallbacks != [None]:
         raise ValueError("--extra-fallbacks: only ppo takes extra fallbacks (give --method ppo)")
+    if args.rows is None and not (args.bands or args.small):
+        raise ValueError("nothing to run: give --bands or --small > 0 (or --rows)")
     return args
 
 

@@ -171,6 +171,9 @@ def main(argv: list[str] | None = None) -> int:
         "--oracle-only": {"action": "store_true", "help": "only the rate; keep minima.csv"},
     }, seed_help=None, out="results/faults/rotor2",
         outputs=("report.md", "minima.csv", "oracle.csv"))  # fmt: skip
+    if args.oracle_only and not (args.out / "minima.csv").is_file():
+        raise ValueError(f"--oracle-only: no minima.csv in {args.out} to keep rows from (run "
+                         "once without it)")  # fmt: skip
     args.out.mkdir(parents=True, exist_ok=True)
     kept = [r for r in read_rows(args.out / "minima.csv")
             if args.oracle_only or r["suite"] not in args.suites]  # fmt: skip

@@ -231,3 +231,48 @@ def test_the_command_as_run_is_the_argv_given_quoted(monkeypatch):
     assert command_as_run("faults", []) == "python -m benchmarks.faults"
     assert command_as_run("faults") == "python -m benchmarks.faults -k x"
     assert command_as_run("scale", ["--out", "a b"]) == "python -m benchmarks.scale --out 'a b'"
+
+
+def test_fault_rotor2_oracle_only_needs_its_minima_before_any_work(monkeypatch, capsys, tmp_path):
+    """--oracle-only keeps minima.csv: without one it is refused at once naming the option (it
+    timed the oracle first, then said "minima.csv: no rows to write" and left an empty folder)."""
+    from benchmarks import fault_rotor2
+
+    monkeypatch.setattr(fault_rotor2, "oracle_speed", lambda *a: pytest.fail("the timing ran"))
+    for out in (tmp_path / "new", tmp_path):  # a folder to be made, and an existing one
+        assert run_script("fault_rotor2", ["--oracle-only", "--out", str(out)]) == 2
+        last = capsys.readouterr().err.strip().splitlines()[-1]
+        assert f"error: --oracle-only: no minima.csv in {out}" in last
+    assert not (tmp_path / "new").exists() and not list(tmp_path.iterdir())
+
+
+def test_fallback_with_nothing_to_run_is_refused_before_the_model_loads(
+    monkeypatch, capsys, tmp_path
+):
+    """--bands with no value and --small 0: one line naming the options (the model was loaded,
+    then "rows.csv: no rows to write")."""
+    from benchmarks import fallback
+
+    monkeypatch.setattr(fallback, "measure", lambda *a: pytest.fail("the measurement started"))
+    out = tmp_path / "fb"
+    assert run_script("fallback", ["--bands", "--small", "0", "--out", str(out)]) == 2
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "error: nothing to run: give --bands or --small > 0" in last
+    assert not out.exists()
+
+
+def test_derivative_agreement_reads_the_shipped_suite_from_any_folder(
+    monkeypatch, capsys, tmp_path
+):
+    """The dynamic suite is the package's file, read before the grid's work: from another
+    working folder it failed after the grid ("suite file not found: modquad_gym/data/...").
+    The populations are stubbed: only where the suite is read from is checked."""
+    from benchmarks import derivative_agreement as da
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(da, "grid", lambda: (0.0, 0.0, 0, 0, 0.0))
+    monkeypatch.setattr(da, "wide", lambda n: (0.0, 0, 0.0, 0.0))
+    monkeypatch.setattr(da, "milliseconds", lambda: 0.0)
+    monkeypatch.setattr(da, "excess", lambda data: 0.0)
+    assert da.main(["--draws", "1", "--wide", "1"]) == 0
+    assert "suite: 60 tasks" in capsys.readouterr().out
