@@ -267,7 +267,7 @@ def _round_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--search-seconds", type=time_limit_option, default=4.0, metavar="SECONDS",
                    help="default search per task, in (0, 86400] (default 4)")  # fmt: skip
     p.add_argument(
-        "--budget", type=count, default=64, help="guided search's structures per task (64)"
+        "--budget", type=count, default=64, help="guided search's structures per task (default 64)"
     )
     p.add_argument("--epochs", type=count, default=CLONE["epochs"],
                    help=f"cloning epochs per round (default {CLONE['epochs']})")  # fmt: skip
@@ -320,7 +320,7 @@ def _draw_options(p: argparse.ArgumentParser) -> None:
         help="score the start model too, as round 0 (default on)",
     )
     p.add_argument("--per-family", type=int_option(1, 1000), default=3,
-                   help="validation draws per family and band (3)")  # fmt: skip
+                   help="validation draws per family and band (default 3)")  # fmt: skip
     p.add_argument("--trust-model", action="store_true", help="train a --model that is not "
                    f"shipped, which unpickles it ({UNTRUSTED}): only a file you trust")  # fmt: skip
 
@@ -346,7 +346,8 @@ def _run_options(p: argparse.ArgumentParser) -> None:
         f"the scale states, 0 to {MAX_REPLAY:,} and what memory holds (default 800)",
     )
     p.add_argument("--seed", type=seed_option, default=0, help="seed, 0 to 2**63-1 (default 0)")
-    p.add_argument("--out", type=path_option, default=Path("runs/exit"))
+    p.add_argument("--out", type=path_option, default=Path("runs/exit"),
+                   help="run folder (default runs/exit)")  # fmt: skip
     p.add_argument(
         "--force",
         action="store_true",

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import modquad_gym as mq
 from benchmarks.common import (
+    RawHelpFormatter,
     bench_args,
     int_option,
     made_by,
@@ -206,7 +207,7 @@ def main(argv: list[str] | None = None) -> int:
                      "each scale suite of 16-64 modules, the default search (20 s), where "
                      "certified (default 0)"}},
         seed_help=None, out="results/certificates", outputs=OUTPUTS,
-        formatter_class=argparse.RawDescriptionHelpFormatter,  # the docstring's own lines
+        formatter_class=RawHelpFormatter,  # the docstring's own lines
     )  # fmt: skip
     rows, uncertified = [], []
     for job in jobs(args.fault_tasks, args.limit, args.scale):

@@ -20,6 +20,7 @@ from collections import Counter
 from pathlib import Path
 
 from benchmarks.common import (
+    HelpFormatter,
     add_force,
     command_as_run,
     markdown_table,
@@ -143,6 +144,7 @@ def main(argv: list[str] | None = None) -> int:
         prog="python -m benchmarks.codebase",
         description="Lines of Python in the wheel and the branches on a task's kind outside "
         "the task model, against the consolidation's goals.",
+        formatter_class=HelpFormatter,
     )
     p.add_argument("--out", type=Path, default=Path("results/codebase"), help="report folder")
     add_force(p)

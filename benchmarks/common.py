@@ -1,6 +1,7 @@
 """What the measurement scripts share: their option parsing (list options whose values each count
-once) and running, the command as run, the machine line, a random structure, a markdown table, a
-report's page and its writing, and the list of the scripts (:func:`scripts`)."""
+once, help that states the defaults) and running, the command as run, the machine line, a random
+structure, a markdown table, a report's page and its writing, and the list of the scripts
+(:func:`scripts`)."""
 
 from __future__ import annotations
 
@@ -15,13 +16,15 @@ from pathlib import Path
 import numpy as np
 
 from modquad_gym.core.interrupts import run_command
-from modquad_gym.core.options import int_option, seed_option
+from modquad_gym.core.options import DefaultsHelpFormatter, int_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv, write_text
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.scoring import machine_description, markdown_table
 
 __all__ = [
     "Distinct",
+    "HelpFormatter",
+    "RawHelpFormatter",
     "add_force",
     "bench_args",
     "command_as_run",
@@ -137,6 +140,27 @@ class Distinct(argparse.Action):
         setattr(namespace, self.dest, values)
 
 
+class HelpFormatter(DefaultsHelpFormatter):
+    """The benchmarks' ``--help``: each option's default stated once, as their own help texts
+    state it, ``(default 16 32 64)`` (a list space-separated, as it is typed)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = super()._get_help_string(action)
+        tail = " (default: %(default)s)"
+        if not text.endswith(tail):
+            return text
+        default = action.default
+        if default == "":
+            return text.removesuffix(tail)
+        many = isinstance(default, (list, tuple)) and action.nargs not in (None, "?")
+        value = " ".join(map(shown, default)) if many else shown(default)
+        return f"{text.removesuffix(tail)} (default {value.replace('%', '%%')})".lstrip()
+
+
+class RawHelpFormatter(argparse.RawDescriptionHelpFormatter, HelpFormatter):
+    """:class:`HelpFormatter` keeping the description's own lines."""
+
+
 def bench_args(
     argv: list[str] | None,
     prog: str,
@@ -153,7 +177,9 @@ def bench_args(
     """The parsed options of one benchmark: ``options`` maps each flag to its
     ``add_argument`` keywords; every benchmark also takes ``--seed`` (unless ``seed_help`` is
     None), ``--out`` (default ``out``) and, with ``force`` or ``outputs`` (the files it writes
-    into ``--out``, refused when they exist), ``--force``."""
+    into ``--out``, refused when they exist), ``--force``; ``--help`` states every default
+    (:class:`HelpFormatter`)."""
+    parser_kwargs.setdefault("formatter_class", HelpFormatter)
     parser = argparse.ArgumentParser(prog=prog, description=description, **parser_kwargs)
     for flag, kwargs in options.items():
         parser.add_argument(flag, **kwargs)

@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from benchmarks.common import run_main
+from benchmarks.common import HelpFormatter, run_main
 from modquad_gym import dynamics as dy
 from modquad_gym.dynamics import quaternions as quat
 from modquad_gym.dynamics.splines import AGREEMENT, estimated_error, spline
@@ -170,7 +170,9 @@ def milliseconds() -> float:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.derivative_agreement", description=__doc__.split("\n\n")[0]
+        prog="python -m benchmarks.derivative_agreement",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=HelpFormatter,
     )
     parser.add_argument("--draws", type=int, default=400, help="MotionTasks draws (default 400)")
     parser.add_argument("--wide", type=int, default=1000, help="wide-range motions (default 1000)")

@@ -35,6 +35,7 @@ from pathlib import Path
 
 from benchmarks.common import (
     Distinct,
+    HelpFormatter,
     add_force,
     machine_description,
     parse_bench_args,
@@ -59,21 +60,26 @@ from modquad_gym.core.outputs import write_text
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.env", description=__doc__.split("\n\n")[0]
+        prog="python -m benchmarks.env",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=HelpFormatter,
     )
     parser.add_argument("--steps", type=int_option(1), default=5000, help="timed steps per row")
     parser.add_argument(
         "--warmup", type=int_option(0), default=5000, help="untimed warm-up steps per row"
     )
-    parser.add_argument("--seed", type=seed_option, default=0)
-    parser.add_argument("--n-max", type=int_option(2, 16), default=7)
+    parser.add_argument("--seed", type=seed_option, default=0, help="task seed")
+    parser.add_argument(
+        "--n-max", type=int_option(2, 16), default=7, help="n_max of the env in the task-size rows"
+    )
     parser.add_argument(
         "--sizes", type=int_option(1, 100_000), nargs="*", action=Distinct, default=list(SIZES),
         help="task sizes t to measure",
     )  # fmt: skip
     parser.add_argument(
         "--default-steps", type=int_option(0), default=20000,
-        help="timed steps of the default configuration, resets counted (0: skip that row)",
+        help="timed steps of the default configuration, resets counted (0: skip that row; "
+        "default 20000)",
     )  # fmt: skip
     parser.add_argument(
         "--scale", type=int_option(2, 128), nargs="*", action=Distinct, default=[16, 32, 64, 128],

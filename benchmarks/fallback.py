@@ -4,8 +4,8 @@ fallback and shortlist (``top_k``) and, for ``ppo-guided``, budget, on validatio
 
     python -m benchmarks.fallback [--method ppo|ppo-guided] [--rival greedy|beam]
         [--bands 16 32 48 64] [--families planted mixed payload torque] [--per-family 8]
-        [--fallbacks 0 0.6 0.7 0.8] [--k 8 16] [--budgets auto 64]
-        [--extra-fallbacks auto none 0,1] [--small 200]
+        [--fallbacks 0 0.6 0.7 0.8] [--k 8 16] [--budgets auto|N ...]
+        [--extra-fallbacks auto|none|F,F ...] [--small 200]
         [--time-limit 30] [--out results/fallback] [--force] [--rows CSV]
 
 Tasks (never the held-out suites): the tasks of :mod:`benchmarks.lookahead_top_k` (the scale
@@ -218,12 +218,14 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "python -m benchmarks.fallback",
         __doc__.split("\n\n")[0],
         {
-            "--method": {"choices": ("ppo", "ppo-guided"), "default": "ppo"},
-            "--rival": {"choices": ("greedy", "beam"), "default": "greedy"},
+            "--method": {"choices": ("ppo", "ppo-guided"), "default": "ppo",
+                         "help": "the learned method whose fallback is varied"},
+            "--rival": {"choices": ("greedy", "beam"), "default": "greedy",
+                        "help": "the method it is compared with"},
             "--bands": {"type": int_option(2, 128), "nargs": "*", "action": Distinct,
-                        "default": [16, 32, 48, 64]},
+                        "default": [16, 32, 48, 64], "help": "size bands (none: only --small)"},
             "--families": {"nargs": "+", "action": Distinct, "choices": FAMILIES,
-                           "default": list(FAMILIES)},
+                           "default": list(FAMILIES), "help": "scale families"},
             "--per-family": {"type": int_option(1, 100), "default": 8,
                              "help": "validation draws per family"},
             "--fallbacks": {"type": share_option, "nargs": "+", "action": Distinct,

@@ -160,10 +160,11 @@ def rate_goal(k: dict, repeats: int) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = bench_args(argv, "python -m benchmarks.fault_rotor2", __doc__.split("\n\n")[0], {
-        "--per-suite": {"type": int_option(1), "default": 10, "help": "tasks per suite (10)"},
+        "--per-suite": {"type": int_option(1), "default": 10,
+                        "help": "tasks per suite (default 10)"},
         "--n-max": {"type": N_MAX_OPTION, "default": 12, "help": "module budget (default 12)"},
         "--time-limit": {"type": time_limit_option, "default": 30.0,
-                         "help": "seconds per search (30)"},
+                         "help": "seconds per search (default 30)"},
         "--suites": {"nargs": "+", "action": Distinct, "choices": SUITES, "default": list(SUITES),
                      "help": "suites to run (the others' rows in --out are kept)"},
         "--repeats": {"type": int_option(1), "default": 15,

@@ -29,7 +29,7 @@ import os
 import sys
 from pathlib import Path
 
-from benchmarks.common import Distinct, add_force, command_as_run, run_main
+from benchmarks.common import Distinct, HelpFormatter, add_force, command_as_run, run_main
 from benchmarks.faults_measure import (
     DESIGNS,
     SUITES,
@@ -50,7 +50,9 @@ OUTPUTS = ("report.md", "faults.csv", "oracle.csv", "price.png")
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     """The options, checked before any work (argparse's error, exit 2)."""
     parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.faults", description=__doc__.split("\n\n")[0]
+        prog="python -m benchmarks.faults",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=HelpFormatter,
     )
     parser.add_argument("--suites", nargs="+", action=Distinct, choices=SUITES,
                         default=list(SUITES), help="suites (default all four)")  # fmt: skip
@@ -60,7 +62,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "--skip",
         type=int_option(0),
         default=0,
-        help="leave out the first SKIP of them (a run that continues another)",
+        help="leave out the first SKIP of them (a run that continues another; default 0)",
     )
     parser.add_argument("--designs", nargs="+", action=Distinct, choices=list(DESIGNS),
                         default=list(DESIGNS), help="designs (default all)")  # fmt: skip
@@ -89,7 +91,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--oracle-only", action="store_true",
                         help="measure only the oracle's speed again and rewrite the report from "
                         "the faults.csv already in --out")  # fmt: skip
-    parser.add_argument("--out", type=Path, default=Path("results/faults"))
+    parser.add_argument("--out", type=Path, default=Path("results/faults"), help="report folder")
     add_force(parser)
     args = parser.parse_args(argv)
     if args.skip >= args.per_suite:

@@ -20,7 +20,7 @@ from collections.abc import Callable
 from functools import partial
 from pathlib import Path
 
-from benchmarks.common import read_rows_csv, run_main
+from benchmarks.common import HelpFormatter, read_rows_csv, run_main
 from modquad_gym.core.outputs import write_text
 
 Figure = tuple[Path, Path, Callable[[], object]]
@@ -99,6 +99,7 @@ def main(argv: list[str] | None = None) -> int:
         prog="python -m benchmarks.figures",
         description="Re-draw the committed figures of results/ from their reports' data (no "
         "benchmark is re-run) and list them in results/figures.md.",
+        formatter_class=HelpFormatter,
     )
     parser.add_argument("--results", type=Path, default=Path("results"), help="the results folder")
     parser.add_argument("--force", action="store_true", help="replace the existing figures")

@@ -75,7 +75,8 @@ def main(argv: list[str] | None = None) -> None:
     options = {
         "--tasks": dict(type=int_option(1, 1000), default=12, help="tasks per set (default 12)"),
         "--n-max": dict(type=int_option(2, 8), default=7, help="module budget (default 7)"),
-        "--mujoco": dict(type=int_option(0, 1000), default=3, help="external optima validated (3)"),
+        "--mujoco": dict(type=int_option(0, 1000), default=3,
+                         help="external optima validated in MuJoCo (default 3)"),
     }  # fmt: skip
     args = bench_args(
         argv,

@@ -38,7 +38,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from benchmarks.common import Distinct
+from benchmarks.common import Distinct, HelpFormatter
 from benchmarks.leaderboard_entries import (
     ANYTIME,
     BUDGET,
@@ -127,7 +127,9 @@ def parser() -> argparse.ArgumentParser:
     """The command's options: what to run first, an outside agent to score, where to write."""
     from modquad_gym.core.options import int_option
 
-    p = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(
+        prog=COMMAND, description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter
+    )
     p.add_argument(
         "--rescore-searches",
         action="store_true",

@@ -34,7 +34,7 @@ import argparse
 import time
 from pathlib import Path
 
-from benchmarks.common import Distinct, add_force, run_main
+from benchmarks.common import Distinct, HelpFormatter, add_force, run_main
 from modquad_gym.core.options import int_option, real_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, check_output_file
 from modquad_gym.scoring.scale_tasks import (  # noqa: F401 - the suites' families, re-exported
@@ -115,19 +115,20 @@ def build_band(band: int, per_family: int, time_limit: float, validation: bool =
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         prog="python -m benchmarks.scale_suites",
+        formatter_class=HelpFormatter,
         description="Write the held-out scale suites (scale_N.json): fixed seeds, the planted "
         "size and the bounds the default search proves. The shipped suites are replaced only "
         f"when asked: --out {SUITES_DIR.relative_to(SUITES_DIR.parents[2])} --force.",
     )
-    p.add_argument(
-        "--bands", type=int_option(1, 128), nargs="+", action=Distinct, default=list(BANDS)
-    )
-    p.add_argument("--per-family", type=int_option(1, 100), default=3)
+    p.add_argument("--bands", type=int_option(1, 128), nargs="+", action=Distinct,
+                   default=list(BANDS), help="size bands, one suite file each")  # fmt: skip
+    p.add_argument("--per-family", type=int_option(1, 100), default=3,
+                   help="tasks per family and band")  # fmt: skip
     p.add_argument(
         "--time-limit",
         type=real_option,
         default=10.0,
-        help="seconds of the default search per task for the bounds (default 10)",
+        help="seconds of the default search per task for the bounds, in (0, 3600] (default 10)",
     )
     p.add_argument(
         "--out",

@@ -1,7 +1,7 @@
 """Search speed: the certified exhaustive search against a plain reference on the same
 enumeration (one scipy/HiGHS LP per wrench, stopping at a structure's first infeasible wrench).
 
-    python -m benchmarks.search [--tasks 5] [--seed 0] [--reference-structures 300]
+    python -m benchmarks.search [--tasks 4] [--seed 0] [--reference-structures 300]
 
 Writes ``results/search_benchmark.md`` and ``.csv``. Four workloads:
 * ``optimum 8``: planted tasks whose certified optimum is 8 modules, searched with n_max = 8.

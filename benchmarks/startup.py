@@ -11,14 +11,13 @@ libraries each process imported. Goals (issue 33): ``import modquad_gym`` <= 0.1
 
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import subprocess
 import sys
 import time
 
-from benchmarks.common import bench_args, int_option, run_main, write_text
+from benchmarks.common import RawHelpFormatter, bench_args, int_option, run_main, write_text
 from modquad_gym.scoring import machine_description
 
 HEAVY = ("numba", "torch", "ray", "mujoco", "scipy", "matplotlib", "gymnasium")
@@ -69,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
                               help="timed runs per case, 1 to 1000 (default 15)")}  # fmt: skip
     args = bench_args(argv, "python -m benchmarks.startup", __doc__, options, seed_help=None,
                       out="results/startup", outputs=("report.md",),
-                      formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+                      formatter_class=RawHelpFormatter)  # fmt: skip
     rows = []
     load0 = os.getloadavg()[0]
     for name, cmd in CASES.items():
