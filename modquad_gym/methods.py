@@ -34,7 +34,7 @@ from modquad_gym.policy.models import (
     SCALE_FROM,
     TOP_K,
 )
-from modquad_gym.search.options import COMMON_OPTIONS
+from modquad_gym.search.options import COMMON_OPTIONS, takes_none
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, PRUNE, unknown_option
 
 
@@ -44,10 +44,12 @@ class Options:
     """Base of every method's options: frozen, typed, each field checked when made."""
 
     def __post_init__(self) -> None:
+        """Each field checked; None passes only where the option takes it (its type or default
+        says so: :func:`~modquad_gym.search.options.takes_none`), else its check refuses it."""
         for f in dataclasses.fields(self):
             check = f.metadata.get("check")
             value = getattr(self, f.name)
-            if check is not None and value is not None:
+            if check is not None and not (value is None and takes_none(f.type, f.default)):
                 object.__setattr__(self, f.name, check(value, f.name))
 
     @classmethod

@@ -34,8 +34,6 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
-
 from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.cells import packed_key
 from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream
@@ -44,6 +42,7 @@ from modquad_gym.oracle.faults import DecisionInterruptedError
 from modquad_gym.search.bounds import allowed_counts, bound_levels, bound_proof, level_excluded
 from modquad_gym.search.levels import level_size
 from modquad_gym.search.moves import compact_shapes, relocations, removable
+from modquad_gym.search.options import seeded_rng
 from modquad_gym.search.portfolio import HEURISTICS, Producers, run_in_turn
 from modquad_gym.search.problem import (
     DEFAULT_TIME_LIMIT,
@@ -145,7 +144,7 @@ class Incumbents:
     def __init__(self, run: SearchRun, seed: int | None, deadline: float) -> None:
         self.run = run
         self.problem = run.problem
-        self.rng = np.random.default_rng(seed)
+        self.rng = seeded_rng(seed)
         self.deadline = deadline
         self.best: tuple | None = None
         self.bound = 1  # the proved lower bound, kept up to date by the search

@@ -19,12 +19,11 @@ from contextlib import suppress
 
 import numpy as np
 
-from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.structure import Cell, Structure, free_neighbours
 from modquad_gym.oracle import margin
 from modquad_gym.oracle.faults import DecisionInterruptedError
 from modquad_gym.search.heuristic import Deadline, heuristic_result, impossible_result
-from modquad_gym.search.options import count
+from modquad_gym.search.options import count, seeded_rng
 from modquad_gym.search.partial import make_partial
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
 from modquad_gym.search.prune import pruned_search
@@ -144,7 +143,7 @@ def random_search(
     deadline = Deadline(run, time_limit, interrupt=True)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
         return done
-    rng = np.random.default_rng(None if seed is None else check_int(seed, "seed", low=0))
+    rng = seeded_rng(seed)
     K = len(problem.palette)
     best: Structure | None = None
     with suppress(DecisionInterruptedError):  # a cut fault decision proves nothing

@@ -16,8 +16,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from contextlib import suppress
 
-import numpy as np
-
 from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.cells import free_neighbours
 from modquad_gym.oracle.faults import DecisionInterruptedError
@@ -30,7 +28,7 @@ from modquad_gym.search.heuristic import (
     heuristic_result,
     impossible_result,
 )
-from modquad_gym.search.options import count
+from modquad_gym.search.options import count, seeded_rng
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
 from modquad_gym.search.prune import pruned_search
 from modquad_gym.search.result import SearchResult, SearchRun
@@ -77,7 +75,7 @@ def beam_search(
     run = SearchRun("beam", problem)
     deadline = Deadline(run, time_limit, interrupt=True)
     width = check_int(beam_width, "beam_width", low=1, high=MAX_BEAM_WIDTH)
-    rng = np.random.default_rng(None if seed is None else check_int(seed, "seed", low=0))
+    rng = seeded_rng(seed)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
         return done
     if bound_levels(problem) > problem.n_max:  # the exact bounds rule out every level

@@ -38,7 +38,7 @@ from modquad_gym.search.heuristic import (
     heuristic_result,
     impossible_result,
 )
-from modquad_gym.search.options import count, non_negative, share
+from modquad_gym.search.options import count, non_negative, seeded_rng, share
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
 from modquad_gym.search.prune import pruned_search
 from modquad_gym.search.result import SearchResult, SearchRun
@@ -123,7 +123,7 @@ def genetic_search(
     deadline = Deadline(run, time_limit, interrupt=True)
     opt = _options(population, generations, stall, mutation_rate, crossover_rate, elite,
                    tournament, penalty)  # fmt: skip
-    rng = np.random.default_rng(None if seed is None else check_int(seed, "seed", low=0))
+    rng = seeded_rng(seed)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
         return done
     lower = bound_levels(problem)

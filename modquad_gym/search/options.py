@@ -6,14 +6,19 @@ dataclasses of :mod:`modquad_gym.methods`, which :func:`~modquad_gym.solvers.mak
 ``modquad solve --option`` read, take the same checks from the entry point. So
 ``random_search(..., restarts=0)``, ``make_solver("random", restarts=0)`` and ``--option
 restarts=0`` are refused with the same words. A check is ``check(value, name) -> value``
-(the value as the search uses it) or a ValueError naming ``name`` and the value; None passes
-unchecked (every option's "not set").
+(the value as the search uses it) or a ValueError naming ``name`` and the value. None is "not
+set" for an option whose type admits it (``int | None``) or whose default is None: the entry
+point then uses the default (``seed=None`` is seed :data:`DEFAULT_SEED` in every door, never fresh
+entropy); for any other option None is checked, and refused, like any value of the wrong type.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from typing import Any
+
+import numpy as np
 
 from modquad_gym.core.options import MAX_SEED
 from modquad_gym.core.validation import check_flag, check_int, check_real
@@ -57,6 +62,23 @@ def shares(value: Any, name: str) -> tuple[float, ...]:
 def check_seed(value: Any, name: str) -> int:
     """The check of a random seed: an integer in 0..2**63-1, as ``--seed`` takes."""
     return check_int(value, name, low=0, high=MAX_SEED)
+
+
+DEFAULT_SEED = 0
+"""The seed of a search that draws at random when none is given (None included)."""
+
+
+def seeded_rng(seed: Any) -> np.random.Generator:
+    """The random generator of a search's ``seed``: None is :data:`DEFAULT_SEED`, so a call
+    without a seed gives the same answer every time and in every door (make_solver's, the
+    command line's)."""
+    return np.random.default_rng(DEFAULT_SEED if seed is None else check_seed(seed, "seed"))
+
+
+def takes_none(annotation: Any, default: Any) -> bool:
+    """Whether None is "not set" for an option of this type and default: its type admits None
+    (``int | None``) or its default is None. Any other option refuses None by its check."""
+    return default is None or re.search(r"\bNone\b", str(annotation)) is not None
 
 
 def check_engine(value: Any, name: str) -> Any:
@@ -117,11 +139,17 @@ def option_specs(
     return {n: own.get(n) or COMMON_OPTIONS[n] for n in names}
 
 
-def checked_options(specs: dict[str, tuple[str, Check | None]], values: dict) -> dict:
-    """``values`` with each option checked by its spec (None passes: the option's default)."""
+def checked_options(
+    specs: dict[str, tuple[str, Check | None]], values: dict, defaults: dict[str, tuple]
+) -> dict:
+    """``values`` with each option checked by its spec; ``defaults`` holds each option's
+    (annotation, default): None for an option that takes it (:func:`takes_none`) becomes the
+    default, for any other it is checked (and refused) as any value."""
     out = dict(values)
     for key, value in values.items():
         check = specs[key][1]
-        if check is not None and value is not None:
+        if value is None and takes_none(*defaults[key]):
+            out[key] = defaults[key][1]
+        elif check is not None:
             out[key] = check(value, key)
     return out

@@ -344,7 +344,9 @@ def search_entry(
     options)`` (:func:`~.prune.pruned_search`), the entry also takes ``prune=True`` and
     answers with that instead. Every option given is checked first, by the search's own check
     (``options``: ``{name: (help, check)}``) or the common one (:mod:`.options`);
-    ``entry.option_specs`` holds them (the methods' options dataclasses read them)."""
+    ``entry.option_specs`` holds them (the methods' options dataclasses read them). None is the
+    default of an option that takes it (``seed=None``: seed 0), else refused by its check
+    (:func:`~.options.checked_options`)."""
     own = options
 
     def wrap(solve: Callable) -> Callable:
@@ -352,6 +354,7 @@ def search_entry(
         options += [PRUNE] if prune is not None else []
         names = {p.name for p in options}
         specs = option_specs(name, [p.name for p in options], own)
+        defaults = {p.name: (p.annotation, p.default) for p in options}
 
         @functools.wraps(solve)
         def entry(task, n_max=DEFAULT_N_MAX, f_max=None, module=None, *, modules=None,
@@ -359,7 +362,7 @@ def search_entry(
             unknown = sorted(set(kwargs) - names)
             if unknown:
                 raise TypeError(unknown_option(name, unknown[0], names))
-            kwargs = checked_options(specs, kwargs)
+            kwargs = checked_options(specs, kwargs, defaults)
             problem = as_problem(task, n_max, f_max, module, modules=modules, kind=kind,
                                  fault=fault, fault_margin=fault_margin)  # fmt: skip
             if not kwargs.pop("prune", False):
