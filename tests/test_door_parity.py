@@ -4,6 +4,7 @@ same inputs in the same words (each door spelling the option its own way)."""
 from __future__ import annotations
 
 import pytest
+from test_hardening import assert_one_line_error, run_main
 
 import modquad_gym as mq
 from modquad_gym.tasks import load_task
@@ -47,3 +48,38 @@ def test_restarts_none_is_refused_naming_it(door):
             mq.random_search(task, restarts=None)
         else:
             mq.make_solver("random", restarts=None).solve(task)
+
+
+# ------------------------------------------------------------------------- chunk's upper bound
+def _chunk_calls(task):
+    return {
+        "anytime": lambda chunk: mq.anytime_search(task, chunk=chunk, time_limit=5),
+        "exhaustive": lambda chunk: mq.make_solver("exhaustive", chunk=chunk),
+        "optima": lambda chunk: mq.optimal_structures(task, chunk=chunk),
+    }
+
+
+@pytest.mark.parametrize("door", ["anytime", "exhaustive", "optima"])
+def test_a_chunk_beyond_its_bound_is_refused_naming_it(door):
+    """chunk=10**12 was a MemoryError naming neither the option nor its value."""
+    from modquad_gym.search.options import MAX_CHUNK
+
+    call = _chunk_calls(load_task("example:screwdriver"))[door]
+    with pytest.raises(ValueError, match=rf"^chunk must be <= {MAX_CHUNK}, got {10**12}$"):
+        call(10**12)
+
+
+def test_a_chunk_the_memory_cannot_hold_is_refused(monkeypatch):
+    from modquad_gym.search.options import CHUNK_BYTES
+
+    monkeypatch.setattr("modquad_gym.core.resources.available_memory", lambda: 2**20)
+    call = _chunk_calls(load_task("example:screwdriver"))["anytime"]
+    assert 2**16 * CHUNK_BYTES > 2**20
+    with pytest.raises(ValueError, match=r"^chunk=65536 needs about .* of memory"):
+        call(2**16)
+
+
+def test_the_command_line_refuses_a_chunk_beyond_its_bound(capsys):
+    argv = ["solve", "--task", "example:screwdriver", "--method", "anytime", "--json"]
+    code, _, err = run_main(capsys, *argv, "--option", f"chunk={10**12}")
+    assert_one_line_error(code, err, f"--option chunk={10**12}: chunk must be <= ")

@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import time
 
-from modquad_gym.core.validation import check_int
 from modquad_gym.geometry.cells import packed_key
 from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream
 from modquad_gym.geometry.structure import Structure, normalise
@@ -42,7 +41,7 @@ from modquad_gym.oracle.faults import DecisionInterruptedError
 from modquad_gym.search.bounds import allowed_counts, bound_levels, bound_proof, level_excluded
 from modquad_gym.search.levels import level_size
 from modquad_gym.search.moves import compact_shapes, relocations, removable
-from modquad_gym.search.options import seeded_rng
+from modquad_gym.search.options import check_chunk, seeded_rng
 from modquad_gym.search.portfolio import HEURISTICS, Producers, run_in_turn
 from modquad_gym.search.problem import (
     DEFAULT_TIME_LIMIT,
@@ -319,7 +318,7 @@ def anytime_search(
     producers in parallel; ``producers`` replaces :data:`~.portfolio.HEURISTICS`
     (:mod:`.portfolio`)."""
     time_limit = check_time_limit(time_limit)
-    chunk = check_int(chunk, "chunk", low=1)
+    chunk = check_chunk(chunk)
     producers = HEURISTICS if producers is None else tuple(producers)
     run = SearchRun("anytime", problem)
     with progress_line(run, progress):

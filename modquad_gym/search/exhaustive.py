@@ -38,7 +38,7 @@ from modquad_gym.geometry.structure import Key, Structure, normalise, normalise_
 from modquad_gym.search.bounds import NO_SIZE, force_lower_bound, level_excluded
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.search.levels import LevelAnswer, level_progress, level_size
-from modquad_gym.search.options import count
+from modquad_gym.search.options import check_chunk, count
 from modquad_gym.search.partial import Partial, make_partial
 from modquad_gym.search.problem import EXACT_MODULES, SearchProblem, search_entry
 from modquad_gym.search.result import KeptKeys, Optima, SearchResult, SearchRun
@@ -310,7 +310,7 @@ def exhaustive_search(
     to them.
     """
     run = SearchRun("exhaustive", problem)
-    chunk = check_int(chunk, "chunk", low=1)
+    chunk = check_chunk(chunk)
     part = None if start is None else make_partial(start, problem.palette, problem.typed)
     answer = _exhaustive(run, chunk, engine, progress, True, part)
     if answer.n is None:
@@ -336,7 +336,7 @@ def optimal_level(
     first structures (``count`` still counts them all), bounding memory on huge levels."""
     run = SearchRun("exhaustive", problem)
     keep = None if max_keys is None else check_int(max_keys, "max_keys", low=1)
-    answer = _exhaustive(run, check_int(chunk, "chunk", low=1), None, False, False, None, keep)
+    answer = _exhaustive(run, check_chunk(chunk), None, False, False, None, keep)
     keys, typed = KeptKeys(keep), not run.problem.shape_only  # typed: external task
     for found in answer.found:
         keys.add(typed_structure(run.problem, found).key if typed else found)
@@ -365,7 +365,7 @@ def optimal_structures(
     (:func:`~modquad_gym.geometry.structure.normalise_typed`; one-type structures of such a
     search too)."""
     run = SearchRun("exhaustive", problem)
-    answer = _exhaustive(run, check_int(chunk, "chunk", low=1), None, False, False, None)
+    answer = _exhaustive(run, check_chunk(chunk), None, False, False, None)
     if problem.shape_only:
         return answer.n, answer.found
     structures = (typed_structure(problem, f) for f in answer.found)

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from modquad_gym.core.options import MAX_SEED
+from modquad_gym.core.resources import GIB, check_memory
 from modquad_gym.core.validation import check_flag, check_int, check_real
 
 Check = Callable[[Any, str], Any]
@@ -40,6 +41,25 @@ def check_time_limit(seconds: object, name: str = "time_limit") -> float:
     if not 0.0 < value <= MAX_TIME_LIMIT:
         raise ValueError(f"{name} must lie in (0, {MAX_TIME_LIMIT:,.0f}] seconds, got {seconds!r}")
     return value
+
+
+CHUNK_BYTES = 512
+"""Bytes one structure of a ``chunk`` takes at most while its batch is decided: 252 B at 14
+modules (tracemalloc's peak over a chunk of 262,144 drawn and decided by the checker; about 18 B
+per module), so 512 B covers the 16 modules of the exhaustive levels with room."""
+
+MAX_CHUNK = 2**20
+"""The largest ``chunk`` (64 times the default): at most :data:`CHUNK_BYTES` x 2**20 = 0.5 GiB
+per batch."""
+
+
+def check_chunk(value: Any, name: str = "chunk") -> int:
+    """The check of ``chunk``: an integer in 1..:data:`MAX_CHUNK` whose batch fits the memory
+    available here (:func:`~modquad_gym.core.resources.check_memory`), else a one-line
+    ValueError naming ``name`` and the value, before anything is allocated."""
+    chunk = check_int(value, name, low=1, high=MAX_CHUNK)
+    check_memory(chunk * CHUNK_BYTES, f"{name}={chunk}")
+    return chunk
 
 
 def count(low: int, high: int | None = None) -> Check:
@@ -115,7 +135,11 @@ COMMON_OPTIONS: dict[str, tuple[str, Check | None]] = {
     "seed": ("seed of its random draws (0 to 2**63-1)", check_seed),
     "progress": ("show progress on stderr", check_flag),
     "engine": ("an Engine whose workers share the work (Python only)", check_engine),
-    "chunk": ("structures decided per batch", count(1)),
+    "chunk": (
+        f"structures decided per batch, 1 to {MAX_CHUNK:,} (about {CHUNK_BYTES} B each: "
+        f"{MAX_CHUNK * CHUNK_BYTES / GIB:g} GiB at most, refused beyond the memory available)",
+        check_chunk,
+    ),
     "start": ("a partial structure every answer contains (Python only)", None),
     "producers": (
         "the producers run beside the anytime search's own steps (Python only)",
