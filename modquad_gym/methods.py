@@ -20,7 +20,7 @@ import importlib
 import inspect
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 from modquad_gym.core.options import text_parser, text_words
 from modquad_gym.policy.models import (
@@ -34,8 +34,14 @@ from modquad_gym.policy.models import (
     SCALE_FROM,
     TOP_K,
 )
-from modquad_gym.search.options import COMMON_OPTIONS, takes_none
-from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, PRUNE, unknown_option
+from modquad_gym.search.options import COMMON_OPTIONS, Relation, broken_relation, takes_none
+from modquad_gym.search.problem import (
+    DEFAULT_TIME_LIMIT,
+    EXACT_MODULES,
+    MAX_MODULES,
+    PRUNE,
+    unknown_option,
+)
 
 
 # ---------------------------------------------------------------------------------- options
@@ -43,14 +49,21 @@ from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, PRUNE, unknown_option
 class Options:
     """Base of every method's options: frozen, typed, each field checked when made."""
 
+    relations: ClassVar[tuple[Relation, ...]] = ()
+    """Checks of two options together (:func:`~modquad_gym.search.options.broken_relation`)."""
+
     def __post_init__(self) -> None:
         """Each field checked; None passes only where the option takes it (its type or default
-        says so: :func:`~modquad_gym.search.options.takes_none`), else its check refuses it."""
+        says so: :func:`~modquad_gym.search.options.takes_none`), else its check refuses it;
+        then the options together (:attr:`relations`)."""
         for f in dataclasses.fields(self):
             check = f.metadata.get("check")
             value = getattr(self, f.name)
             if check is not None and not (value is None and takes_none(f.type, f.default)):
                 object.__setattr__(self, f.name, check(value, f.name))
+        broken = broken_relation(self.relations, self.as_dict())
+        if broken is not None:
+            raise ValueError(broken[2])
 
     @classmethod
     def names(cls) -> tuple[str, ...]:
@@ -70,6 +83,14 @@ class Options:
         return tuple(f.name for f in dataclasses.fields(cls) if _parser(f) is not None)
 
     @classmethod
+    def spelled(cls) -> tuple[str, ...]:
+        """The options as a command line spells them: a flag of its own (``--seed``), else
+        ``--option KEY=...``; the Python-only ones left out."""
+        names = cls.names()
+        flags = [OWN_FLAGS[n] for n in names if n in OWN_FLAGS]
+        return (*flags, *(f"--option {n}=..." for n in cls.settable() if n not in OWN_FLAGS))
+
+    @classmethod
     def parse(cls, method: str, text: str) -> tuple[str, Any]:
         """``KEY=VALUE`` of ``--option`` as (name, typed and checked value); a TypeError names
         an unknown key, a ValueError (``--option TEXT: ...``) a Python-only key or one with a
@@ -79,7 +100,7 @@ class Options:
         key = key.strip().replace("-", "_")
         by_name = {f.name: f for f in dataclasses.fields(cls)}
         if key and key not in by_name:
-            raise TypeError(unknown_option(method, key, cls.names()))
+            raise TypeError(unknown_option(method, key, cls.spelled()))
         if key in by_name and _parser(by_name[key]) is None:
             raise ValueError(f"--option {text}: {python_only(method, key)}")
         if not sep or not key:
@@ -145,7 +166,8 @@ def options_of(name: str, entry: Callable):
         meta = {"help": text, "check": check}
         specs.append((p.name, p.annotation, field(default=p.default, metadata=meta)))
     title = "".join(part.title() for part in name.replace("-", "_").split("_"))
-    return dataclasses.make_dataclass(f"{title}Options", specs, bases=(Options,), frozen=True)
+    return dataclasses.make_dataclass(f"{title}Options", specs, bases=(Options,), frozen=True,
+                                      namespace={"relations": entry.relations})  # fmt: skip
 
 
 def options(name: str, **fields: tuple[Any, str, str, Callable | None]):
@@ -178,6 +200,7 @@ class Method:
         palette: it designs over several module types (``modules=``).
         extra: the package extra it needs (``train`` for torch and SB3; a learned method needs
             it only for a model without its NumPy actor), or None.
+        max_modules: the largest ``n_max`` it takes (refused beyond, when the solver is made).
     """
 
     name: str
@@ -190,6 +213,7 @@ class Method:
     fault: bool = True
     palette: bool = True
     extra: str | None = None
+    max_modules: int = MAX_MODULES
 
     def solver(self, settings: Options, defaults: dict) -> Any:
         """A solver of this method with these checked options and problem defaults."""
@@ -283,7 +307,7 @@ _BUDGET = (int | None, None, "most structures evaluated (None: "
 
 for _method in (
     _search("exhaustive", "the certified minimum (exhaustive search, up to 16 modules)",
-            certifies=True, timed=False),
+            certifies=True, timed=False, max_modules=EXACT_MODULES),
     _search("centrosymmetric", "the paper's Algorithm 2"),
     _search("greedy", "baseline: the child satisfying most wrenches"),
     _search("random", "baseline: random dockings", seeded=True),

@@ -3,6 +3,8 @@ same inputs in the same words (each door spelling the option its own way)."""
 
 from __future__ import annotations
 
+import re
+
 import pytest
 from test_hardening import assert_one_line_error, run_main
 
@@ -83,3 +85,49 @@ def test_the_command_line_refuses_a_chunk_beyond_its_bound(capsys):
     argv = ["solve", "--task", "example:screwdriver", "--method", "anytime", "--json"]
     code, _, err = run_main(capsys, *argv, "--option", f"chunk={10**12}")
     assert_one_line_error(code, err, f"--option chunk={10**12}: chunk must be <= ")
+
+
+# --------------------------------------------------- errors name the option as the door spells it
+@pytest.mark.parametrize("method, n_max, most", [("exhaustive", 17, 16), ("anytime", 129, 128)])
+def test_an_n_max_beyond_reach_is_refused_when_the_solver_is_made(capsys, method, n_max, most):
+    """Python made the solver and failed in solve; the CLI said n_max=17 (Python's spelling)."""
+    with pytest.raises(ValueError, match=rf"^n_max={n_max} is beyond what the {method} method"):
+        mq.make_solver(method, n_max=n_max)
+    argv = ["solve", "--task", "example:screwdriver", "--method", method, "--n-max", str(n_max)]
+    code, _, err = run_main(capsys, *argv)
+    assert_one_line_error(code, err, f"--n-max {n_max}: method '{method}'", f"at most {most}")
+
+
+@pytest.mark.parametrize(
+    "given, said, words",
+    [
+        (["elite=30"], "elite=30", "elite must be <= 23 (population 24 - 1), got 30"),
+        (["tournament=100"], "tournament=100", "tournament must be <= 24 (population 24)"),
+        (["population=2"], "population=2", "elite must be <= 1 (population 2 - 1), got 2"),
+        (["population=10", "elite=12"], "elite=12", "elite must be <= 9"),
+    ],
+)
+def test_genetic_options_checked_together_name_the_option(capsys, given, said, words):
+    """They said 'elite must be <= 23, got 30' without the --option prefix, at solve time."""
+    options = [word for text in given for word in ("--option", text)]
+    argv = ["solve", "--task", "example:screwdriver", "--method", "genetic", *options]
+    code, _, err = run_main(capsys, *argv)
+    assert_one_line_error(code, err, f"--option {said}: {words}")
+    python = dict(text.split("=") for text in given)
+    with pytest.raises(ValueError, match=re.escape(words)):
+        mq.make_solver("genetic", **{k: int(v) for k, v in python.items()})
+
+
+@pytest.mark.parametrize(
+    "argv, shown, hidden",
+    [
+        (["--method", "exhaustive", "--time-limit", "5"], "--time-limit 5:", ["5.0", "engine"]),
+        (["--method", "exhaustive", "--option", "foo=1"], "--option chunk=", ["engine", "start"]),
+        (["--method", "greedy", "--seed", "3"], "--time-limit", ["start"]),
+    ],
+)
+def test_a_refused_option_lists_what_the_command_line_can_spell(capsys, argv, shown, hidden):
+    code, _, err = run_main(capsys, "solve", "--task", "example:screwdriver", *argv)
+    assert_one_line_error(code, err, shown)
+    for word in hidden:
+        assert word not in err, err

@@ -77,7 +77,7 @@ def test_show_refuses_n_max_beyond_the_searches_before_any_work(tmp_path, capsys
     argv = ["show", "--task", _task(tmp_path, 30.0), "--n-max", "129", "--out", str(png)]
     assert main(argv) == 2
     err = capsys.readouterr().err
-    assert "n_max=129" in err and "128" in err and not png.exists()
+    assert "--n-max 129" in err and "128" in err and not png.exists()
 
 
 # ------------------------------------------------------------------------- figure at scale

@@ -91,6 +91,6 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, typed: list[
     setattr(args, ARGV, typed)
     setattr(args, given.TYPED, given.typed_options(parser, typed))
     given.refuse_ignored_method_options(args)  # before any file is read
-    given.refuse_learned_budget(args)
+    given.refuse_budget(args)
     given.refuse_ignored_csv_header(args)
     return args.func(args)

@@ -57,6 +57,8 @@ def refuse_ignored(args: argparse.Namespace, dests: Iterable[str], reason: str) 
             value = getattr(args, dest)
             if isinstance(value, (list, tuple)):  # a repeated option: its values as typed
                 value = " ".join(map(str, value))
+            if isinstance(value, float):  # --time-limit 5, not 5.0
+                value = f"{value:g}"
             shown = "" if isinstance(value, bool) else f" {value}"  # a flag has no value
             raise ValueError(f"{option_name(dest)}{shown}: {reason}")
 
@@ -76,25 +78,39 @@ def refuse_ignored_method_options(args: argparse.Namespace) -> None:
         return
     entry, _ = method_of(method)
     takes = entry.options.names()
-    listed = ", ".join(takes) or "no options"
+    listed = ", ".join(entry.options.spelled()) or "no options"  # as this door spells them
     for dest in ("seed", "time_limit", "model", "trust_model"):
         if dest not in takes:
             refuse_ignored(args, [dest], f"method {method!r} does not take it (it takes: {listed})")
 
 
-def refuse_learned_budget(args: argparse.Namespace) -> None:
-    """``--n-max`` beyond the grid a learned method acts on (the searches' limit, 128 modules),
-    refused before any file is read, naming the option."""
+def refuse_budget(args: argparse.Namespace) -> None:
+    """``--n-max`` beyond the method's reach (16 modules for exhaustive, else 128), refused
+    before any file is read, naming the option (make_solver's check, in this door's words)."""
     from modquad_gym.methods import method_of
-    from modquad_gym.search.problem import MAX_MODULES
+    from modquad_gym.solvers.factory import beyond_reach
 
     method, n_max = getattr(args, "method", None), getattr(args, "n_max", None)
-    if method is None or not isinstance(n_max, int) or n_max <= MAX_MODULES:
+    if method is None or not isinstance(n_max, int):
         return
-    if method_of(method)[0].extra == "train":
-        raise ValueError(
-            f"--n-max {n_max}: method {method!r} acts on at most {MAX_MODULES} modules"
-        )
+    refusal = beyond_reach(method_of(method)[0], n_max, "--n-max")
+    if refusal is not None:
+        raise ValueError(refusal)
+
+
+def refuse_broken_relation(options, values: dict, said: dict[str, str]) -> None:
+    """The method's options a command line gave (``values``, each checked alone; ``said``: each
+    one's ``--option`` text) checked together (``options.relations``), a ValueError naming the
+    ``--option`` of one that breaks a relation (``--option elite=30: elite must be <= 23 ...``)."""
+    import dataclasses
+
+    from modquad_gym.search.options import broken_relation
+
+    defaults = {f.name: f.default for f in dataclasses.fields(options)}
+    broken = broken_relation(options.relations, defaults | values)
+    if broken is not None:
+        name, bound, message = broken
+        raise ValueError(f"--option {said.get(name) or said[bound]}: {message}")
 
 
 def refuse_ignored_csv_header(args: argparse.Namespace) -> None:

@@ -96,10 +96,11 @@ def _options(population, generations, stall, mutation_rate, crossover_rate, elit
         "stall": ("generations without improvement before it stops", count(1, MAX_GENERATIONS)),
         "mutation_rate": ("probability of a mutation", share),
         "crossover_rate": ("probability of a crossover", share),
-        "elite": ("best chromosomes kept unchanged", count(0)),
-        "tournament": ("chromosomes per selection tournament", count(1)),
+        "elite": ("best chromosomes kept unchanged (at most population - 1)", count(0)),
+        "tournament": ("chromosomes per selection tournament (at most population)", count(1)),
         "penalty": ("fitness per unsatisfied wrench (None: the module budget)", non_negative),
     },
+    relations=(("elite", "population", -1), ("tournament", "population", 0)),
 )
 def genetic_search(
     problem: SearchProblem,

@@ -151,6 +151,23 @@ COMMON_OPTIONS: dict[str, tuple[str, Check | None]] = {
 problem's module types by the search: :func:`~.partial.make_partial`)."""
 
 
+Relation = tuple[str, str, int]
+"""``(option, bound, offset)``: ``option`` may be at most ``bound`` + ``offset`` (genetic's
+``("elite", "population", -1)``): a check of two options together."""
+
+
+def broken_relation(relations: tuple[Relation, ...], values: dict) -> tuple[str, str, str] | None:
+    """(option, the option bounding it, the one-line message) of the first of ``relations``
+    that ``values`` (every option, given or default) break; None when they hold."""
+    for name, bound, offset in relations:
+        high = values[bound] + offset
+        if values[name] > high:
+            sign = f" {'+' if offset > 0 else '-'} {abs(offset)}" if offset else ""
+            said = f"{bound} {values[bound]}{sign}"
+            return name, bound, f"{name} must be <= {high} ({said}), got {values[name]}"
+    return None
+
+
 def option_specs(
     search: str, names: list[str], own: dict[str, tuple[str, Check | None]] | None
 ) -> dict[str, tuple[str, Check | None]]:

@@ -30,6 +30,8 @@ from modquad_gym.oracle.faults import check_fault, check_fault_margin
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.search.options import (  # noqa: F401 (the time limit's names, kept here)
     MAX_TIME_LIMIT,
+    Relation,
+    broken_relation,
     check_time_limit,
     checked_options,
     option_specs,
@@ -332,7 +334,10 @@ def as_problem(task, n_max=DEFAULT_N_MAX, f_max=None, module=None, *, modules=No
 
 
 def search_entry(
-    name: str, prune: Callable | None = None, options: dict | None = None
+    name: str,
+    prune: Callable | None = None,
+    options: dict | None = None,
+    relations: tuple[Relation, ...] = (),
 ) -> Callable[[Callable], Callable]:
     """Decorator: the public entry point of the search ``solve(problem, **options)``.
 
@@ -346,7 +351,8 @@ def search_entry(
     (``options``: ``{name: (help, check)}``) or the common one (:mod:`.options`);
     ``entry.option_specs`` holds them (the methods' options dataclasses read them). None is the
     default of an option that takes it (``seed=None``: seed 0), else refused by its check
-    (:func:`~.options.checked_options`)."""
+    (:func:`~.options.checked_options`); then ``relations`` checks options against each other
+    (:func:`~.options.broken_relation`: ``entry.relations``)."""
     own = options
 
     def wrap(solve: Callable) -> Callable:
@@ -363,6 +369,9 @@ def search_entry(
             if unknown:
                 raise TypeError(unknown_option(name, unknown[0], names))
             kwargs = checked_options(specs, kwargs, defaults)
+            broken = broken_relation(relations, {k: d for k, (_, d) in defaults.items()} | kwargs)
+            if broken is not None:
+                raise ValueError(broken[2])
             problem = as_problem(task, n_max, f_max, module, modules=modules, kind=kind,
                                  fault=fault, fault_margin=fault_margin)  # fmt: skip
             if not kwargs.pop("prune", False):
@@ -377,6 +386,7 @@ def search_entry(
         entry.options = tuple(sorted(names))
         entry.prunes = prune is not None
         entry.option_specs = specs
+        entry.relations = relations
         return entry
 
     return wrap

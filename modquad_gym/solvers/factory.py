@@ -216,10 +216,26 @@ def make_solver(
     if fault is not None and not entry.fault:
         raise ValueError(refused_fault(entry.name, fault))
     defaults = problem_settings(n_max, modules, fault, fault_margin)
+    if (refusal := beyond_reach(entry, defaults["n_max"])) is not None:
+        raise ValueError(refusal)
     solver = entry.solver(settings, defaults)
     samples = getattr(settings, "samples", 0)
     solver.name = f"ppo-k{samples}" if method == "ppo" and samples else method  # a variant's
     return solver
+
+
+def beyond_reach(method: Method, n_max: int, flag: str | None = None) -> str | None:
+    """Why ``n_max`` is beyond ``method``'s reach (its ``max_modules``: 16 for exhaustive, else
+    128), in Python's words (``n_max=17 is beyond ...``) or, given ``flag``, the command line's
+    (``--n-max 17: ...``); None within reach. :func:`make_solver` refuses it when the solver is
+    made, the command line before any file is read."""
+    if n_max <= method.max_modules:
+        return None
+    verb, most = ("act on" if method.extra == "train" else "search"), method.max_modules
+    if flag is not None:
+        return f"{flag} {n_max}: method {method.name!r} can {verb} at most {most} modules"
+    return (f"n_max={n_max} is beyond what the {method.name} method can {verb}: at most {most} "
+            "modules (see `modquad solve --help`)")  # fmt: skip
 
 
 def _method_options(method: str, name: str, variant: dict, named: dict, guided: Any,
