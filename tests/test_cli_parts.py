@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import importlib.util
 
-import numpy as np
 import pytest
 from test_fuzz_outputs import MOVED
 
 from benchmarks.common import scripts
 from modquad_gym.cli import build_parser
-from modquad_gym.cli.task import GENERATE
+from modquad_gym.tasks import GENERATE_KINDS, generated_task
 
 
 def _subparser(*names):
@@ -35,7 +34,7 @@ def test_every_benchmark_is_a_script_with_main(name):
 @pytest.mark.parametrize("kind", ["total", "external"])
 def test_every_generate_kind_builds_its_task(kind):
     (action,) = [a for a in _subparser("task", "generate")._actions if a.dest == "kind"]
-    assert tuple(action.choices) == tuple(GENERATE) == ("paper", "planted", "screwdriver")
-    for name, cls in GENERATE.items():
-        task = cls(f_max=1.5, kind=kind)(np.random.default_rng(0))
+    assert tuple(action.choices) == GENERATE_KINDS == ("paper", "planted", "screwdriver")
+    for name in GENERATE_KINDS:
+        task = generated_task(name, 0, kind, f_max=1.5)
         assert (task.kind, task.f_max) == (kind, 1.5), name

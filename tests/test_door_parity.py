@@ -131,3 +131,33 @@ def test_a_refused_option_lists_what_the_command_line_can_spell(capsys, argv, sh
     assert_one_line_error(code, err, shown)
     for word in hidden:
         assert word not in err, err
+
+
+# ------------------------------------------------- task generate: the generators Python names
+@pytest.mark.parametrize(
+    "kind, spec, seeded",
+    [
+        ("paper", "paper", True),
+        ("paper", "paper-external", True),
+        ("planted", "planted-external", True),
+        ("screwdriver", "screwdriver-external", False),
+    ],
+)
+def test_task_generate_writes_the_named_generators_task(tmp_path, capsys, kind, spec, seeded):
+    """The CLI gave external tasks f_max 2 N and the paper defaults (80 wrenches), the Python
+    classes f_max 1 N, and make_generator('paper-external') 40 wrenches: three answers."""
+    import numpy as np
+
+    from modquad_gym.tasks import generated_task, make_generator
+
+    task_kind = "external" if spec.endswith("external") else "total"
+    out = tmp_path / "cli.json"
+    argv = ["task", "generate", "--kind", kind, "--task-kind", task_kind, "--out", str(out)]
+    assert run_main(capsys, *argv, *(["--seed", "3"] if seeded else []))[0] == 0
+    python = generated_task(kind, 3, task_kind)
+    python.save(tmp_path / "python.json")
+    assert out.read_bytes() == (tmp_path / "python.json").read_bytes()
+    drawn = make_generator(spec)(np.random.default_rng(3))
+    np.testing.assert_array_equal(load_task(out).wrenches, drawn.wrenches)
+    assert (python.f_max, python.kind, python.meta) == (drawn.f_max, drawn.kind, drawn.meta)
+    assert python.f_max == (2.0 if task_kind == "external" else 1.0)

@@ -10,17 +10,11 @@ from modquad_gym.cli.given import refuse_ignored
 from modquad_gym.cli.task_motion import add_motion
 from modquad_gym.core.options import int_option, seed_option
 from modquad_gym.geometry.cells import MAX_MODULES
-from modquad_gym.tasks import TASK_KINDS, PaperTasks, PlantedTasks, ScrewdriverTask
-
-GENERATE = {"paper": PaperTasks, "planted": PlantedTasks, "screwdriver": ScrewdriverTask}
-"""The generators ``task generate --kind`` names (each takes ``f_max`` and ``kind``)."""
+from modquad_gym.tasks import GENERATE_KINDS, TASK_KINDS
+from modquad_gym.tasks.generators import EXTERNAL_F_MAX
 
 UNSEEDED = ("screwdriver",)
 """The kinds that draw nothing at random: ``--seed`` typed with them is refused."""
-
-EXTERNAL_F_MAX = 2.0
-"""Default rotor thrust limit (N) of generated ``external`` tasks: with 0.3 kg modules a flat
-module lifts 8 N against its 2.94 N weight, a T-module 5.66 N."""
 
 
 def add_task(sub) -> None:
@@ -50,9 +44,13 @@ def add_generate(tsub) -> None:
     )
     g.add_argument(
         "--kind",
-        choices=tuple(GENERATE),
+        choices=GENERATE_KINDS,
         required=True,
-        help="paper: 80 random wrenches as in Sec. VI; planted: wrenches inside a hidden "
+        help="the named task generator drawn from, as in Python (make_generator(KIND), or "
+        "KIND-external with --task-kind external; the file is "
+        "modquad_gym.tasks.generated_task(KIND, SEED, ...) saved): "
+        "paper: 80 random wrenches as in Sec. VI (paper-external: 40, f_z in [1, 5]); planted: "
+        "wrenches inside a hidden "
         "random structure (a .json file keeps its cells in meta.planted_cells, hidden, for "
         "benchmarks; the task's name is neutral: planted-seedS); "
         "screwdriver: the two wrenches of Fig. 1 (fixed: it takes no --seed)",
@@ -77,7 +75,8 @@ def add_generate(tsub) -> None:
         type=f_max_option,
         default=None,
         help=f"rotor thrust limit written to the task (default 1, or {EXTERNAL_F_MAX:g} N for "
-        "--task-kind external)",
+        "--task-kind external, the named external generators' f_max: a 0.3 kg T-module lifts "
+        "at most 2.83 N at 1 N per rotor, less than its weight)",
     )
     g.add_argument(
         "--n-modules",
@@ -92,34 +91,25 @@ def add_generate(tsub) -> None:
 
 
 def cmd_task_generate(args: argparse.Namespace) -> int:
-    import dataclasses
-
-    import numpy as np
-
     from modquad_gym.core.outputs import check_output_file
     from modquad_gym.core.validation import check_f_max
     from modquad_gym.oracle import check_task_scale
+    from modquad_gym.tasks import generated_task
 
     if args.kind in UNSEEDED:
         refuse_ignored(args, ["seed"], f"--kind {args.kind} draws nothing at random")
     out = check_output_file(args.out, force=args.force, what="--out")
-    f_max = 1.0 if args.f_max is None else check_f_max(args.f_max)
-    if args.task_kind == "external" and args.f_max is None:
-        f_max = EXTERNAL_F_MAX
-    size = {}
-    if args.n_modules is not None:
-        if args.kind != "planted":
-            raise ValueError("--n-modules applies to --kind planted only")
-        size = {"n_modules": args.n_modules}
+    f_max = None if args.f_max is None else check_f_max(args.f_max)
+    if args.n_modules is not None and args.kind != "planted":
+        raise ValueError("--n-modules applies to --kind planted only")
     try:  # a file `solve` would refuse is not written (the generators check their scale)
-        generator = GENERATE[args.kind](f_max=f_max, kind=args.task_kind, **size)
-        task = generator(np.random.default_rng(args.seed))
+        task = generated_task(args.kind, args.seed, args.task_kind, f_max, args.n_modules)
         check_task_scale(task.wrenches, task.f_max)
     except ValueError as exc:  # the other options are checked by argparse
+        if f_max is None:  # the named generator's own f_max: no option to blame
+            raise
         text = str(exc).removeprefix(f"f_max = {f_max:g}")  # "f_max = 1e-300 is too small..."
         raise ValueError(f"--f-max {f_max:g}{'' if text != str(exc) else ': '}{text}") from None
-    if args.kind != "screwdriver":  # a neutral name: the seed, never the answer
-        task = dataclasses.replace(task, name=f"{task.name}-seed{args.seed}")
     task.save(out, force=args.force)  # --out checked before the work
     seed = "" if args.kind in UNSEEDED else f", seed {args.seed}"
     print(

@@ -90,7 +90,13 @@ from modquad_gym.tasks.generators import (
 )
 from modquad_gym.tasks.loading import as_task, is_dynamic, load_task
 from modquad_gym.tasks.requirement import TaskRequirement
-from modquad_gym.tasks.specs import GENERATORS, NAMED_GENERATORS, make_generator
+from modquad_gym.tasks.specs import (
+    GENERATE_KINDS,
+    GENERATORS,
+    NAMED_GENERATORS,
+    generated_task,
+    make_generator,
+)
 from modquad_gym.tasks.suites import load_suite, save_suite
 from modquad_gym.tasks.wrenches import COLUMNS, MAX_WRENCHES, TASK_KINDS, check_kind, rotor_wrenches
 
@@ -102,6 +108,7 @@ __all__ = [
     "CSV_COMMENT_KEYS",
     "CSV_HEADER_MODES",
     "FZ_READINGS",
+    "GENERATE_KINDS",
     "GENERATORS",
     "MAX_FILE_BYTES",
     "MAX_WRENCHES",
@@ -123,6 +130,7 @@ __all__ = [
     "TaskRequirement",
     "check_kind",
     "is_dynamic",
+    "generated_task",
     "load_task",
     "load_suite",
     "make_generator",

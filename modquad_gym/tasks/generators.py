@@ -80,6 +80,14 @@ def _check_module(module: object) -> None:
 FZ_READINGS = ("abs", "shift", "literal")
 
 
+EXTERNAL_F_MAX = 2.0
+"""Rotor thrust limit (N) of the named ``external`` generators (``paper-external``,
+``planted-external``, ...; ``modquad task generate --task-kind external``): a task in SI units
+the modules must also lift themselves in, and with 0.3 kg modules a flat module lifts 8 N
+against its 2.94 N weight, a T-module 5.66 N (at the classes' default of 1 N a T-module, 2.83
+N, cannot lift itself)."""
+
+
 @dataclass(frozen=True)
 class PaperTasks:
     """Random tasks as in the paper's Sec. VI, with errata 2 resolved.
@@ -107,7 +115,8 @@ class PaperTasks:
     modules (the paper reports 4). ``PaperTasks(fz_offset=0, fz_gain=30)`` is the literal paper.
 
     ``kind="external"`` labels the same wrenches as external (the rotors add the structure's
-    weight; SI units, so choose ``f_max`` in newtons, e.g. 2.0).
+    weight; SI units, so choose ``f_max`` in newtons: the named ``paper-external`` has
+    :data:`EXTERNAL_F_MAX`).
     """
 
     n_wrenches: Count = 80

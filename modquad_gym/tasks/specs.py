@@ -16,6 +16,7 @@ from modquad_gym.dynamics.random_motions import MotionTasks
 from modquad_gym.tasks.examples import resolve_task_path
 from modquad_gym.tasks.files import SUFFIXES, json_keys
 from modquad_gym.tasks.generators import (
+    EXTERNAL_F_MAX,
     FixedTasks,
     MixedTasks,
     PaperTasks,
@@ -35,9 +36,13 @@ NAMED_GENERATORS: dict[str, Callable[[], TaskGenerator]] = {
     "mixed": lambda: MixedTasks((PlantedTasks(), PaperTasks())),
     "planted-large": lambda: PlantedTasks(n_modules=(6, 12), name="planted-large"),
     "planted-16-64": lambda: PlantedTasks(n_modules=(16, 64), name="planted-16-64"),
-    "paper-external": lambda: PaperTasks(n_wrenches=40, kind="external", f_max=2.0,
+    "paper-external": lambda: PaperTasks(n_wrenches=40, kind="external", f_max=EXTERNAL_F_MAX,
                                          fz_offset=1.0, fz_gain=8.0, name="paper-external"),
-    "planted-mixed-external": lambda: PlantedMixedTasks(kind="external", f_max=2.0,
+    "planted-external": lambda: PlantedTasks(kind="external", f_max=EXTERNAL_F_MAX,
+                                             name="planted-external"),
+    "screwdriver-external": lambda: ScrewdriverTask(kind="external", f_max=EXTERNAL_F_MAX,
+                                                    name="screwdriver-external"),
+    "planted-mixed-external": lambda: PlantedMixedTasks(kind="external", f_max=EXTERNAL_F_MAX,
                                                         name="planted-mixed-external"),
     "motions": MotionTasks,
 }  # fmt: skip
@@ -52,7 +57,10 @@ def make_generator(spec: Any, n_max: int | None = None) -> TaskGenerator:
     * ``"paper"``, ``"planted"``, ``"screwdriver"``, ``"mixed"`` (planted and paper, equal odds);
       ``"planted-large"`` (planted in 6-12 modules: the large tier), ``"planted-16-64"`` (the
       scale id's), ``"paper-external"``
-      (paper-like wrenches on the environment, kind ``external``, f_max 2 N) and
+      (paper-like wrenches on the environment, kind ``external``, f_max
+      :data:`~.generators.EXTERNAL_F_MAX` = 2 N: 40 wrenches, f_z in [1, 5]),
+      ``"planted-external"`` and ``"screwdriver-external"`` (the same generators as
+      ``planted`` and ``screwdriver``, kind ``external``, f_max 2 N) and
       ``"planted-mixed-external"`` (:class:`PlantedMixedTasks`, external, f_max 2 N: the mixed
       tier); ``"motions"`` (:class:`~modquad_gym.dynamics.random_motions.MotionTasks`: random
       dynamic tasks, the dynamic tier);
@@ -113,6 +121,34 @@ def make_generator(spec: Any, n_max: int | None = None) -> TaskGenerator:
         f"({', '.join(GENERATORS)}), a task file, a TaskRequirement, a DynamicTask, a "
         f"generator (any callable gen(rng) -> TaskRequirement) or a list"
     )
+
+
+GENERATE_KINDS = ("paper", "planted", "screwdriver")
+"""The generators ``modquad task generate --kind`` names (with ``--task-kind external``, their
+``-external`` spec)."""
+
+
+def generated_task(kind: str, seed: int = 0, task_kind: str = "total", f_max: float | None = None,
+                   n_modules: int | None = None) -> TaskRequirement:  # fmt: skip
+    """The task ``modquad task generate --kind KIND --seed SEED --task-kind TASK_KIND`` writes
+    (the same file content from either door): the named generator ``KIND`` (``KIND-external``
+    for an external task: :data:`NAMED_GENERATORS`, as the tiers and environments use them),
+    with ``f_max`` and ``n_modules`` (planted only) replaced where given, drawn from
+    ``default_rng(seed)`` and named ``NAME-seedSEED`` (the screwdriver, drawn from nothing,
+    keeps its name). ValueError naming what is wrong."""
+    if kind not in GENERATE_KINDS:
+        raise ValueError(f"kind must be one of {', '.join(GENERATE_KINDS)}, got {kind!r}")
+    if task_kind not in ("total", "external"):
+        raise ValueError(f"task_kind must be total or external, got {task_kind!r}")
+    gen = make_generator(kind if task_kind == "total" else f"{kind}-external")
+    if n_modules is not None and not isinstance(gen, PlantedTasks):
+        raise ValueError("n_modules applies to planted tasks only")
+    given = {"f_max": f_max, "n_modules": n_modules}
+    gen = dataclasses.replace(gen, **{k: v for k, v in given.items() if v is not None})
+    task = gen(np.random.default_rng(seed))
+    if isinstance(gen, ScrewdriverTask):
+        return task
+    return dataclasses.replace(task, name=f"{task.name}-seed{seed}")
 
 
 def sizes_within(gen: TaskGenerator, n_max: int) -> TaskGenerator:
