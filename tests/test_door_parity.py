@@ -161,3 +161,45 @@ def test_task_generate_writes_the_named_generators_task(tmp_path, capsys, kind, 
     np.testing.assert_array_equal(load_task(out).wrenches, drawn.wrenches)
     assert (python.f_max, python.kind, python.meta) == (drawn.f_max, drawn.kind, drawn.meta)
     assert python.f_max == (2.0 if task_kind == "external" else 1.0)
+
+
+# ------------------------------------------------------------ suites on the command line
+def test_optima_reads_an_example_suite_as_score_does(tmp_path, capsys):
+    """`optima --suite example:suite_small` said "no suite 'example:suite_small'"."""
+    import json
+
+    from modquad_gym.tasks import load_suite
+
+    out = tmp_path / "o.jsonl"
+    argv = ["optima", "--suite", "example:suite_small", "--out", str(out), "--workers", "1"]
+    code, _, err = run_main(capsys, *argv, "--quiet")
+    assert code == 0, err
+    records = [json.loads(line) for line in out.read_text().splitlines()]
+    tasks = load_suite("example:suite_small")
+    assert [r["name"] for r in records] == [t.name for t in tasks]
+    for record, task in zip(records, tasks):
+        n, keys = mq.optimal_structures(task, n_max=7)
+        assert record["optimum"] == n and record["structures"] == [list(map(list, k)) for k in keys]
+
+
+def test_optima_with_modules_gives_optimal_structures_typed_answer(tmp_path, capsys):
+    import json
+
+    from modquad_gym.geometry.module import palette
+
+    out = tmp_path / "o.jsonl"
+    argv = ["optima", "--task", "example:screwdriver", "--out", str(out), "--workers", "1"]
+    code, _, err = run_main(capsys, *argv, "--quiet", "--modules", "t45,flat")
+    assert code == 0, err
+    (record,) = [json.loads(line) for line in out.read_text().splitlines()]
+    n, keys = mq.optimal_structures(load_task("example:screwdriver"), modules=palette("t45,flat"))
+    python = sorted(([list(c) for c, _ in k], [m.name for _, m in k]) for k in keys)
+    assert record["palette"] == ["t45", "flat"] and record["optimum"] == n
+    assert sorted(zip(record["structures"], record["modules"])) == python
+    code, _, err = run_main(capsys, *argv, "--quiet")  # one dataset, one palette
+    assert_one_line_error(code, err, "--out", "another palette")
+
+
+def test_solving_a_suite_file_points_to_the_commands_that_read_suites(capsys):
+    code, _, err = run_main(capsys, "solve", "--task", "example:suite_small")
+    assert_one_line_error(code, err, "modquad score --suite", "modquad optima --suite")

@@ -9,9 +9,11 @@ from modquad_gym.cli import common  # commands call common.load_task (tests repl
 from modquad_gym.cli.common import (
     add_command,
     add_csv_header,
+    add_modules,
     add_n_max,
     add_workers,
     batch_status,
+    palette_of,
     report_error,
 )
 from modquad_gym.cli.given import refuse_ignored
@@ -43,7 +45,9 @@ def add_optima(sub) -> None:
     src.add_argument(
         "--suite",
         metavar="NAME|FILE",
-        help="a shipped suite (heldout_planted, heldout_paper) or a suite JSON file",
+        help="a shipped suite (heldout_planted, heldout_paper), a suite JSON file, or "
+        "example:NAME, a suite shipped as an example (e.g. example:suite_small), as for "
+        "`modquad score --suite`",
     )
     src.add_argument(
         "--task",
@@ -56,6 +60,13 @@ def add_optima(sub) -> None:
     )
     p.add_argument("--out", required=True, metavar="FILE.jsonl", help="the dataset file")
     add_n_max(p, "largest module count searched (default %(default)s, at most 16)")
+    add_modules(
+        p,
+        "comma-separated module types every structure mixes, one per cell, as for `modquad "
+        "solve` (e.g. t45,t45m,flat): each record adds palette and modules (each structure's "
+        "type names, in its cells' order), and a dataset holds one palette (default: the "
+        "paper's T-module alone, no such keys)",
+    )
     add_workers(p, "every local core, or every CPU of the cluster")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_csv_header(p)
@@ -69,7 +80,15 @@ def add_optima(sub) -> None:
 
 
 def suite_path(name: str) -> Path:
-    """``--suite``: a suite file, or the name of a shipped suite."""
+    """``--suite``: a suite file, ``example:NAME`` (a shipped example, as
+    :func:`~modquad_gym.tasks.load_suite` reads it), or the name of a shipped suite."""
+    from modquad_gym.tasks.examples import PREFIX, example_path
+
+    if name.startswith(PREFIX):
+        try:
+            return example_path(name)
+        except ValueError as exc:
+            raise ValueError(f"--suite {name}: {exc}") from None
     path = Path(name)
     if not path.suffix and not path.exists():
         path = SUITES_DIR / f"{name}.json"
@@ -116,6 +135,7 @@ def cmd_optima(args: argparse.Namespace) -> int:
     if args.suite:
         refuse_ignored(args, ["csv_header"], "applies to --task files, not to --suite")
     n_max = check_int(args.n_max, "--n-max", low=1, high=EXACT_MODULES)
+    palette = palette_of(args.modules)  # a bad --modules: refused before any work
     out = check_output_file(args.out, force=True, what="--out")  # resumed, or new
     tasks = sources(args)
     if all(isinstance(task, Failed) for _, task in tasks):  # nothing to do: nothing created
@@ -125,7 +145,8 @@ def cmd_optima(args: argparse.Namespace) -> int:
             report_error(failure.error)
         return batch_status(tasks, len(tasks))
     with Engine(args.workers, args.ray_address, option="--workers") as engine:
-        run = build_dataset(tasks, out, n_max, engine, progress=not args.quiet, fresh=args.force)
+        run = build_dataset(tasks, out, n_max, engine, progress=not args.quiet, fresh=args.force,
+                            modules=palette)  # fmt: skip
     for failure in run.failed:
         report_error(failure.error)
     dropped = ", an unfinished last line dropped" if run.dropped_bytes else ""

@@ -10,10 +10,13 @@ had written. Keys of a record:
 ``name``        the task's name
 ``digest``      16 hex digits of SHA-256 over f_max and the wrenches (float64): the task's identity
 ``n_max``       the module budget searched (one for the whole file)
+``palette``     with module types (``modquad optima --modules``): their names, one palette for
+                the whole file; absent for the T-module alone
 ``optimum``     the certified minimum module count, or null when no structure of up to n_max works
 ``structures``  every optimal structure as a list of [x, y] cells (up to translation), in
                 canonical order (:mod:`modquad_gym.geometry.polyominoes`); the first
                 :data:`MAX_STRUCTURES` when there are more
+``modules``     with ``palette``: each listed structure's module type names, in its cells' order
 ``count``       how many optimal structures there are
 ``evaluated``, ``oracle_calls``, ``seconds``   the work it took
 ``proof``       how infeasibility was proven without a search, when it was
@@ -66,7 +69,7 @@ from modquad_gym.scoring.optima_file import (
 )
 from modquad_gym.scoring.optima_records import KEYS, MAX_STRUCTURES, check_record
 from modquad_gym.search import optimal_level
-from modquad_gym.search.problem import EXACT_MODULES
+from modquad_gym.search.problem import EXACT_MODULES, check_palette
 from modquad_gym.tasks import TaskRequirement
 
 __all__ = [
@@ -82,17 +85,22 @@ def task_digest(task: TaskRequirement) -> str:
     return h.hexdigest()[:16]
 
 
-def optimum_record(n_max: int, source: tuple[str, TaskRequirement]) -> dict:
-    """The record of one task (the unit of work of a dataset)."""
+def optimum_record(n_max: int, source: tuple[str, TaskRequirement], modules=None) -> dict:
+    """The record of one task (the unit of work of a dataset); ``modules``, a palette, makes
+    its structures typed (``palette`` and ``modules`` keys)."""
     task_id, task = source
-    optima = optimal_level(task, n_max=n_max, max_keys=MAX_STRUCTURES)
+    typed = {} if modules is None else {"modules": list(modules)}
+    optima = optimal_level(task, n_max=n_max, max_keys=MAX_STRUCTURES, **typed)
+    cells = [[p[0] if typed else p for p in key] for key in optima.keys]
     record = {
         "task": task_id,
         "name": task.name,
         "digest": task_digest(task),
         "n_max": n_max,
+        **({"palette": [m.name for m in modules]} if typed else {}),
         "optimum": optima.n_modules,
-        "structures": [[list(cell) for cell in key] for key in optima.keys],
+        "structures": [[list(cell) for cell in key] for key in cells],
+        **({"modules": [[m.name for _, m in key] for key in optima.keys]} if typed else {}),
         "count": optima.count,
         "evaluated": optima.evaluated,
         "oracle_calls": optima.oracle_calls,
@@ -122,6 +130,7 @@ def build_dataset(
     *,
     progress: bool = False,
     fresh: bool = False,
+    modules=None,
 ) -> DatasetRun:
     """Append the record of every task of ``sources`` ((task id, task or the Failed of its
     loading)) that ``out`` does not hold yet, computing them on ``engine``. ``fresh`` (the
@@ -131,8 +140,10 @@ def build_dataset(
     written), a dynamic task, a task given twice (also as another path to the same file), an
     ``out`` that is not a dataset, holds another n_max or a task with other wrenches is a
     ValueError; Ray starts (or joins its cluster) when it is needed, and when no task could be
-    loaded neither ``out`` nor its lock is made."""
+    loaded neither ``out`` nor its lock is made. ``modules`` (a palette, as for the searches)
+    types the structures; a file holds one palette (another one is refused as n_max is)."""
     n_max = check_int(n_max, "n_max", low=1, high=EXACT_MODULES)
+    palette = None if modules is None else check_palette(None, modules)
     if not isinstance(engine, Engine):
         raise ValueError(f"engine must be an Engine (core.distributed), got {engine!r:.60}")
     progress, fresh = check_flag(progress, "progress"), check_flag(fresh, "fresh")
@@ -143,7 +154,7 @@ def build_dataset(
         return run  # nothing to compute: nothing is created
     todo = tasks
     if not fresh and out.exists():  # refused here, before the lock file is made
-        todo = _pending(tasks, read_dataset(out)[0], n_max, out)
+        todo = _pending(tasks, read_dataset(out)[0], (n_max, palette), out)
     with engine:
         if engine.use_ray and len(todo) > 1:  # a cluster that refuses the join: nothing made
             engine.cluster_cpus()  # (Ray starts, or joins its cluster, for the whole block)
@@ -151,7 +162,7 @@ def build_dataset(
         out.parent.mkdir(parents=True, exist_ok=True)
         with writer_lock(out), open(out, "a+b") as fh:
             try:
-                _append_missing(run, tasks, out, fh, n_max, engine, progress, fresh)
+                _append_missing(run, tasks, out, fh, (n_max, palette), engine, progress, fresh)
             except BaseException:
                 if created and os.fstat(fh.fileno()).st_size == 0:  # nothing written: none left
                     with contextlib.suppress(OSError):
@@ -166,9 +177,10 @@ def build_dataset(
     return run
 
 
-def _append_missing(run, tasks, out: Path, fh, n_max, engine, progress, fresh) -> None:
+def _append_missing(run, tasks, out: Path, fh, budget, engine, progress, fresh) -> None:
     """Under the lock of ``out`` (open as ``fh``): read what it holds and append the records
-    of the tasks it lacks, each with its task file's ``path``."""
+    of the tasks it lacks (``budget``: n_max and palette), each with its task file's
+    ``path``."""
     if fresh:
         fh.truncate(0)
     done, end = read_dataset(out, fh)
@@ -178,7 +190,7 @@ def _append_missing(run, tasks, out: Path, fh, n_max, engine, progress, fresh) -
         fh.seek(end - 1)
         if fh.read(1) != b"\n":
             fh.write(b"\n")  # a complete last record without its newline: kept, ended
-    todo = _pending(tasks, done, n_max, out)
+    todo = _pending(tasks, done, budget, out)
     run.skipped = len(tasks) - len(todo)
     base = dataset_folder(out)
     paths = {task_id: stored_path(task_id, base) for task_id, _ in todo}
@@ -198,7 +210,7 @@ def _append_missing(run, tasks, out: Path, fh, n_max, engine, progress, fresh) -
         run.written += 1
 
     engine.map(
-        partial(optimum_record, n_max),
+        partial(optimum_record, budget[0], modules=budget[1]),
         todo,
         labels=[task_id for task_id, _ in todo],
         catch=True,
@@ -235,9 +247,12 @@ def static_sources(sources: Sequence[tuple[str, object]]) -> list[tuple[str, Tas
     return tasks
 
 
-def _pending(tasks, records: list[dict], n_max: int, out: Path) -> list:
+def _pending(tasks, records: list[dict], budget: tuple, out: Path) -> list:
     """The (task id, task) of ``tasks`` that ``records`` lack; a ValueError when a record of one
-    of them has other wrenches or another n_max, or any record another n_max."""
+    of them has other wrenches or another n_max or palette (``budget``), or any record another
+    n_max or palette."""
+    n_max, palette = budget
+    names = None if palette is None else [m.name for m in palette]
     base = dataset_folder(out)
     done = {record_key(record, base): record for record in records}  # one each: read_dataset
     todo = []
@@ -251,17 +266,20 @@ def _pending(tasks, records: list[dict], n_max: int, out: Path) -> list:
             other.append(f"other wrenches (digest {record['digest']}) than the task's ({digest})")
         if record["n_max"] != n_max:
             other.append(f"another n_max ({record['n_max']}) than this run's ({n_max})")
+        if record.get("palette") != names:
+            other.append(f"another palette ({record.get('palette')}) than this run's ({names})")
         if other:
             given = f" (given as {task_id!r})" if record["task"] != task_id else ""
             raise ValueError(
                 f"--out: {out} holds task {record['task']!r}{given} with {' and '.join(other)}; "
                 "write to a new file or give --force to start over"
             )
-    mixed = next((record for record in records if record["n_max"] != n_max), None)
-    if mixed is not None:
-        raise ValueError(
-            f"--out: {out} holds records of n_max {mixed['n_max']} (task {mixed['task']!r}), "
-            f"this run's n_max is {n_max}: a dataset has one n_max; write to a new file or "
-            "give --force to start over"
-        )
+    for key, value in (("n_max", n_max), ("palette", names)):
+        mixed = next((record for record in records if record.get(key) != value), None)
+        if mixed is not None:
+            raise ValueError(
+                f"--out: {out} holds records of {key} {mixed.get(key)} (task {mixed['task']!r}), "
+                f"this run's {key} is {value}: a dataset has one {key}; write to a new file or "
+                "give --force to start over"
+            )
     return todo

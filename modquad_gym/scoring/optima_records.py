@@ -15,9 +15,9 @@ KEYS = ("task", "name", "digest", "n_max", "optimum", "structures", "count", "ev
         "oracle_calls", "seconds")  # fmt: skip
 """Keys every record has (``proof`` too when it applies)."""
 
-OPTIONAL = ("path", "proof")
+OPTIONAL = ("path", "proof", "palette", "modules")
 """Keys a record has when they apply: ``path`` (the task file, resolved, relative to the
-dataset's folder) and ``proof``."""
+dataset's folder), ``proof``, and with module types ``palette`` and ``modules``."""
 
 
 MAX_STRUCTURES = 10_000
@@ -40,7 +40,7 @@ def check_record(record: object) -> dict:
     null), ``evaluated`` and ``oracle_calls`` (>= 0), ``seconds`` (finite, >= 0),
     ``structures`` (each ``optimum`` distinct [x, y] cells of non-negative integers; ``count``
     of them, or the first MAX_STRUCTURES) and, when present, ``path`` and ``proof`` (non-empty
-    strings)."""
+    strings), ``palette`` and ``modules`` (:func:`_check_types`)."""
     if not isinstance(record, dict):
         raise ValueError(f"a record is a JSON object, got {_shown(record)}")
     for key in record:
@@ -50,7 +50,9 @@ def check_record(record: object) -> dict:
     for key in KEYS:
         if key not in record:
             raise ValueError(f"{key}: missing")
-    for key in ("task", "name", "digest", *(k for k in OPTIONAL if k in record)):
+    for key in ("task", "name", "digest", "path", "proof"):
+        if key not in record:
+            continue
         if not isinstance(record[key], str):
             raise ValueError(f"{key} must be a string, got {_shown(record[key])}")
     for key in ("task", "path"):
@@ -72,7 +74,29 @@ def check_record(record: object) -> dict:
     if not _is_number(seconds) or not math.isfinite(seconds) or seconds < 0:
         raise ValueError(f"seconds must be a finite number >= 0, got {_shown(seconds)}")
     _check_structures(record["structures"], optimum or 0, count)
+    _check_types(record)
     return record
+
+
+def _check_types(record: dict) -> None:
+    """``palette`` (type names) and ``modules`` (each listed structure's type names, one per
+    cell, from the palette): both or neither."""
+    if ("palette" in record) != ("modules" in record):
+        raise ValueError("palette and modules: give both (a palette's record) or neither")
+    if "palette" not in record:
+        return
+    palette, modules = record["palette"], record["modules"]
+    if not (
+        isinstance(palette, list) and palette and all(isinstance(n, str) and n for n in palette)
+    ):
+        raise ValueError(f"palette must be a list of type names, got {_shown(palette)}")
+    sizes = [len(cells) for cells in record["structures"]]
+    if not (isinstance(modules, list) and [len(m) if isinstance(m, list) else -1 for m in modules]
+            == sizes and all(n in palette for m in modules for n in m)):  # fmt: skip
+        raise ValueError(
+            "modules must list each structure's type names (one per cell, from the palette), "
+            f"got {_shown(modules)}"
+        )
 
 
 def _check_structures(structures: object, optimum: int, count: int) -> None:

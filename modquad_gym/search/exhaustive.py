@@ -329,17 +329,20 @@ def optimal_level(
     chunk: int = DEFAULT_CHUNK,
     max_keys: int | None = None,
 ) -> Optima:
-    """Every minimum-module structure of ``task`` (one module type) with the work it took
-    (:class:`Optima`). Certified like :func:`exhaustive_search`, which stops at the first
-    feasible structure; this one decides the whole minimal level (in this process: batches of
-    tasks are what :mod:`modquad_gym.core.distributed` spreads). ``max_keys`` keeps only the
-    first structures (``count`` still counts them all), bounding memory on huge levels."""
+    """Every minimum-module structure of ``task`` with the work it took (:class:`Optima`).
+    Certified like :func:`exhaustive_search`, which stops at the first feasible structure; this
+    one decides the whole minimal level (in this process: batches of tasks are what
+    :mod:`modquad_gym.core.distributed` spreads). ``max_keys`` keeps only the first structures
+    (``count`` still counts them all), bounding memory on huge levels. With ``modules`` the
+    keys are typed, ``((x, y), type)`` pairs, as :func:`optimal_structures` gives them."""
     run = SearchRun("exhaustive", problem)
     keep = None if max_keys is None else check_int(max_keys, "max_keys", low=1)
     answer = _exhaustive(run, check_chunk(chunk), None, False, False, None, keep)
     keys, typed = KeptKeys(keep), not run.problem.shape_only  # typed: external task
     for found in answer.found:
-        keys.add(typed_structure(run.problem, found).key if typed else found)
+        s = typed_structure(run.problem, found) if typed else None
+        keys.add(found if s is None else normalise_typed(s.cells, s.modules) if run.problem.typed
+                 else s.key)  # fmt: skip
     return Optima(
         n_modules=answer.n,
         keys=list(keys),

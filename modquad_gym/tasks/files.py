@@ -74,7 +74,9 @@ def task_format(data: object) -> str:
         raise ValueError(f"a task must be a JSON object with a 'wrenches' list, got {data!r:.80}")
     marks = [mark for mark in TASK_KEYS if mark in data]
     if not marks:
-        hint = " (this looks like a suite: use load_suite)" if "tasks" in data else ""
+        hint = (" (this looks like a suite: read it with load_suite, or on the command line "
+                "with `modquad score --suite FILE` or `modquad optima --suite FILE`)"
+                if "tasks" in data else "")  # fmt: skip
         raise ValueError(f"no 'wrenches' key{hint}; keys present: {sorted(data)}")
     if len(marks) > 1:
         raise ValueError(f"a task holds one of {', '.join(map(repr, marks))}, not several")
