@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 
 import pytest
-from test_hardening import assert_one_line_error, run_main
+from test_hardening import assert_one_line_error, assert_rejected, run_main
 
 import modquad_gym as mq
 from modquad_gym.tasks import load_task
@@ -203,3 +203,52 @@ def test_optima_with_modules_gives_optimal_structures_typed_answer(tmp_path, cap
 def test_solving_a_suite_file_points_to_the_commands_that_read_suites(capsys):
     code, _, err = run_main(capsys, "solve", "--task", "example:suite_small")
     assert_one_line_error(code, err, "modquad score --suite", "modquad optima --suite")
+
+
+# --------------------------------------------------------------- validate: one set of checks
+def _line():
+    return mq.Structure([(0, 0), (0, 1), (1, 0)]), [[0.0, 0.0, 2.0, 0.0, 0.0, 0.0]]
+
+
+@pytest.mark.parametrize(
+    "options, words, cli_words",
+    [
+        ({"hover_seconds": 61}, "hover_seconds must be <= 60, got 61",
+         "--hover-seconds must be <= 60, got 61"),
+        ({"hover_seconds": 0}, "hover_seconds must be >= 0.05, got 0",
+         "--hover-seconds must be >= 0.05, got 0"),
+        ({"hover_seconds": 2, "load_ramp_seconds": 5},
+         "load_ramp_seconds must be <= hover_seconds (2), got 5",
+         "--load-ramp-seconds must be <= --hover-seconds (2), got 5"),
+        ({"max_hover_wrenches": 0}, "max_hover_wrenches must be >= 1, got 0",
+         "--max-hover-wrenches"),  # argparse's own words
+    ],
+)  # fmt: skip
+def test_validate_refuses_what_the_command_line_refuses(tmp_path, capsys, options, words,
+                                                       cli_words):  # fmt: skip
+    """Python ran hover_seconds=61, shortened a ramp of 5 s quietly, and named hover_seconds=0
+    seconds_per_wrench."""
+    pytest.importorskip("mujoco")
+    from modquad_gym.sim.validate import validate
+
+    structure, wrenches = _line()
+    with pytest.raises(ValueError, match="^" + re.escape(words) + "$"):
+        validate(structure, wrenches, render=False, **options)
+    argv = ["validate", "--task", "example:screwdriver", "--out", str(tmp_path / "v")]
+    flags = [x for k, v in options.items() for x in ("--" + k.replace("_", "-"), str(v))]
+    code, _, err = run_main(capsys, *argv, *flags)
+    assert_rejected(code, err, cli_words)
+    assert not (tmp_path / "v").exists()
+
+
+def test_validate_hovers_under_as_many_wrenches_in_both_doors():
+    """Python hovered under every wrench by default, the command line under 20."""
+    import inspect
+
+    from modquad_gym.cli import build_parser
+    from modquad_gym.sim.validate import validate
+
+    parser = build_parser(["validate"])
+    args = parser.parse_args(["validate", "--task", "t.json"])
+    python = inspect.signature(validate).parameters["max_hover_wrenches"].default
+    assert python == args.max_hover_wrenches == 20

@@ -14,11 +14,6 @@ from modquad_gym.cli.common import add_command, add_csv_header, add_force, add_m
 from modquad_gym.cli.given import refuse_ignored
 from modquad_gym.core.options import int_option, path_option, real_option
 
-DEFAULT_HOVER_WRENCHES = 20
-MAX_HOVER_SECONDS = 60.0
-DEFAULT_LOAD_RAMP = 1.0
-"""Seconds of the unknown-load ramp when ``--load-ramp-seconds`` is not given (the simulation
-shortens it for segments shorter than the ramp)."""
 MAX_ESTIMATED_SECONDS = 3600.0
 """Longest estimated run ``validate`` starts without ``--allow-long``."""
 SECONDS_PER_SIMULATED_SECOND = 0.25
@@ -34,6 +29,8 @@ SECONDS_PER_PICTURE = 2.0
 
 
 def add_validate(sub) -> None:
+    from modquad_gym.sim import hover_options as hover  # Python's defaults (sim: only when built)
+
     p = add_command(
         sub,
         "validate",
@@ -64,7 +61,7 @@ def add_validate(sub) -> None:
     p.add_argument(
         "--max-hover-wrenches",
         type=int_option(1, 2**63 - 1),
-        default=DEFAULT_HOVER_WRENCHES,
+        default=hover.DEFAULT_HOVER_WRENCHES,
         help="hover under at most this many task wrenches: the half nearest the boundary "
         "(smallest margin) and a seeded sample of the rest; each is held for --hover-seconds "
         "simulated seconds after a take-off of the same length (default %(default)s)",
@@ -77,16 +74,16 @@ def add_validate(sub) -> None:
     p.add_argument(
         "--hover-seconds",
         type=real_option,
-        default=2.0,
-        help="simulated seconds per hover segment (default %(default)s), at most "
-        f"{MAX_HOVER_SECONDS:g}",
+        default=hover.DEFAULT_HOVER_SECONDS,
+        help="simulated seconds per hover segment (default %(default)s), "
+        f"{hover.MIN_HOVER_SECONDS:g} to {hover.MAX_HOVER_SECONDS:g}",
     )
     p.add_argument(
         "--load-ramp-seconds",
         type=real_option,
         default=None,
         help="unknown-load hover: seconds over which the load moves from one task wrench to the "
-        f"next, at most --hover-seconds (0: a step; default {DEFAULT_LOAD_RAMP:g}, shortened "
+        f"next, at most --hover-seconds (0: a step; default {hover.DEFAULT_LOAD_RAMP:g}, shortened "
         "for short segments)",
     )
     p.add_argument(
@@ -112,14 +109,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
     require("mujoco", "matplotlib")  # the [sim] extra, before any work or output
 
     from modquad_gym.core.outputs import check_output_dir, claim_output_dir
-    from modquad_gym.core.validation import check_int, check_real
+    from modquad_gym.sim.hover_options import CLI_NAMES, checked_hover  # Python's checks
 
     fault.check_fault_options(args)
-    check_real(args.hover_seconds, "--hover-seconds", 0.05, MAX_HOVER_SECONDS)
-    ramp = DEFAULT_LOAD_RAMP
-    if args.load_ramp_seconds is not None:  # only a value the user gave is checked against theirs
-        ramp = check_real(args.load_ramp_seconds, "--load-ramp-seconds", 0.0, args.hover_seconds)
-    k = None if args.all_wrenches else check_int(args.max_hover_wrenches, "--max-hover-wrenches", 1)
+    most = None if args.all_wrenches else args.max_hover_wrenches
+    _, _, k = checked_hover(args.hover_seconds, args.load_ramp_seconds, most, CLI_NAMES)
     if args.all_wrenches:
         refuse_ignored(args, ["max_hover_wrenches"], "--all-wrenches hovers under every wrench")
     if args.known_load_only:
@@ -159,7 +153,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     with claim_output_dir(args.out, names, force=args.force) as claim:  # a second run: refused
         for name in names:  # in the folder's manifest at once: a later --force removes them
             claim.path(name)
-        return solve_and_fly(args, task, k, ramp, n_hover)
+        return solve_and_fly(args, task, k, args.load_ramp_seconds, n_hover)
 
 
 def output_names(args: argparse.Namespace, dynamic: bool) -> tuple[str, ...]:
@@ -175,7 +169,8 @@ def output_names(args: argparse.Namespace, dynamic: bool) -> tuple[str, ...]:
     return names + (TRACK_FILES if dynamic else ()) + fault.fault_output_names(args)
 
 
-def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float, n_hover: int):
+def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float | None,
+                  n_hover: int):  # fmt: skip
     """The work of :func:`cmd_validate` once its options and ``--out`` are checked: solve, then
     bench, hover and (a dynamic task) fly the answer, writing into ``--out``."""
     from modquad_gym.sim.validate import validate

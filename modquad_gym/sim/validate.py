@@ -56,6 +56,7 @@ from modquad_gym.core.validation import check_f_max, check_flag, check_int, chec
 from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.oracle import feasible, lambda_ratio, margin  # noqa: E402
 from modquad_gym.sim.hover import HoverConfig, run_hover, unreachable_wrench_directions, wrench_axis  # noqa: E402
+from modquad_gym.sim.hover_options import DEFAULT_HOVER_WRENCHES, checked_hover  # noqa: E402
 from modquad_gym.sim.inertial import check_simulable  # noqa: E402
 from modquad_gym.sim.model import build_model  # noqa: E402
 from modquad_gym.sim.pictures import (  # noqa: E402
@@ -106,8 +107,9 @@ def hover_wrench_sample(margins: np.ndarray, k: int | None, seed: int = 0) -> np
 
 def validate(structure: Structure, task: Any, f_max: float | None = None,
              out_dir: str | Path | None = None, hover_seconds: float = 2.0, render: bool = True,
-             include_infeasible_demo: bool = False, max_hover_wrenches: int | None = None,
-             unknown_load: bool = True, load_frame: str = "world", load_ramp_seconds: float = 1.0,
+             include_infeasible_demo: bool = False,
+             max_hover_wrenches: int | None = DEFAULT_HOVER_WRENCHES, unknown_load: bool = True,
+             load_frame: str = "world", load_ramp_seconds: float | None = None,
              kind: str | None = None, force: bool = False) -> ValidationReport:  # fmt: skip
     """Bench and hover ``structure`` on ``task_wrenches``; write pictures and a report.
 
@@ -126,21 +128,21 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
         f_max: rotor thrust limit in N (default the task's).
         out_dir: where to write the pictures, ``report.md`` and ``validation.json`` (None:
             nowhere); checked first (:func:`check_out_dir`): files replaced only with ``force``.
-        hover_seconds: simulated seconds per task wrench in the hover.
+        hover_seconds: simulated seconds per task wrench in the hover, 0.05 to 60.
         render: write ``structure.png`` (MuJoCo render, matplotlib fallback).
         include_infeasible_demo: also hover on the task wrench with the least margin, scaled to
             ``INFEASIBLE_SCALE`` times its feasibility boundary, to show saturation and drift.
         max_hover_wrenches: hover on at most this many task wrenches, chosen by
             :func:`hover_wrench_sample` (the hardest by margin, then a seeded sample, in task
-            order); None: all.
+            order; default 20, as ``modquad validate``); None: all.
         unknown_load: also fly the hover with the load unknown to the controller.
         load_frame: ``"world"`` or ``"body"``: how the hover's load moves when the body tilts.
         kind: the task kind, ``"total"`` or ``"external"`` (default the task's).
         load_ramp_seconds: unknown-load hover: seconds over which the load goes from one task
-            wrench to the next (default 1; 0: a step). The settled part of a segment (its last
-            30 %) must come after the ramp, so the ramp is shortened to ``0.7 hover_seconds``
-            when the segments are shorter than ``load_ramp_seconds / 0.7``; the ramp used is
-            returned as ``hover_unknown_load_ramp_seconds``.
+            wrench to the next, at most ``hover_seconds`` (None: 1; 0: a step). The settled part
+            of a segment (its last 30 %) must come after the ramp, so the ramp is shortened to
+            ``0.7 hover_seconds`` when the segments are shorter than ``load_ramp_seconds /
+            0.7``; the ramp used is returned as ``hover_unknown_load_ramp_seconds``.
 
     Returns:
         A :class:`~modquad_gym.sim.report.ValidationReport`; its ``to_dict()`` is the JSON
@@ -156,14 +158,15 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
         and ``files``.
     """
     require("mujoco", *(["matplotlib"] if out_dir is not None else []))  # named, before any work
-    task, W, f_max = _checked(structure, task, f_max, kind, unknown_load, load_ramp_seconds)
+    hover_seconds, ramp, most = checked_hover(hover_seconds, load_ramp_seconds, max_hover_wrenches)
+    task, W, f_max = _checked(structure, task, f_max, kind, unknown_load, ramp)
     out_dir = check_out_dir(out_dir, force, unknown_load, include_infeasible_demo, render)
     A = np.array(structure.configuration_matrix())
     feas = np.asarray(feasible(A, W, f_max), dtype=bool)
     marg = margin(A, W, f_max)
     exact, pinv = _bench(structure, W, f_max)
     fly_sim = build_model(structure, f_max, bench=False)
-    hovered = hover_wrench_sample(marg, max_hover_wrenches)
+    hovered = hover_wrench_sample(marg, most)
     W_hover = W[hovered]
     config = HoverConfig(
         seconds_per_wrench=hover_seconds, load_frame=load_frame, settle_fraction=SETTLE_FRACTION
@@ -174,10 +177,8 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
         **_bench_fields(exact, pinv),
         **_hover_fields(hover, config, feas[hovered]),
     )
-    blind = demo = None
-    if unknown_load:
-        ramp = min(float(load_ramp_seconds), (1.0 - SETTLE_FRACTION) * hover_seconds)
-        blind = _unknown_load_hover(report, fly_sim, W_hover, config, ramp)
+    blind = _unknown_load_hover(report, fly_sim, W_hover, config, ramp) if unknown_load else None
+    demo = None
     if include_infeasible_demo:
         demo = _infeasible_demo(report, fly_sim, A, W, int(np.argmin(marg)), f_max, config)
     if out_dir is not None:
@@ -218,7 +219,9 @@ def _hover_fields(hover, config: HoverConfig, feas: np.ndarray) -> dict:
 
 def _unknown_load_hover(report: ValidationReport, fly_sim, W_hover, config, ramp: float):
     """Fly the hover with the load unknown to the controller (the load ramping over ``ramp``
-    seconds); its summary goes into ``report``."""
+    seconds, shortened to the part of a segment before its settled part); its summary goes into
+    ``report``."""
+    ramp = min(float(ramp), (1.0 - SETTLE_FRACTION) * config.seconds_per_wrench)
     blind = run_hover(fly_sim, W_hover, replace(config, known_load=False, load_ramp_seconds=ramp))
     report.unknown_load = HoverSummary.of(blind)
     report.unknown_load_ramp_seconds = ramp
