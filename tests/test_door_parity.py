@@ -252,3 +252,57 @@ def test_validate_hovers_under_as_many_wrenches_in_both_doors():
     args = parser.parse_args(["validate", "--task", "t.json"])
     python = inspect.signature(validate).parameters["max_hover_wrenches"].default
     assert python == args.max_hover_wrenches == 20
+
+
+# ------------------------------------------------------------------------------------- help
+def test_seed_help_names_the_methods_that_take_it():
+    from modquad_gym.cli import build_parser
+    from modquad_gym.methods import REGISTRY
+
+    parser = build_parser(["solve"])
+    solve = parser._subparsers._group_actions[0].choices["solve"]
+    (seed,) = [a for a in solve._actions if a.dest == "seed"]
+    takes = [n for n, m in REGISTRY.items() if "seed" in m.options.names()]
+    assert {"random", "anytime", "beam", "genetic"} <= set(takes)
+    for name in takes:
+        assert name in seed.help, (name, seed.help)
+    assert "refused for the other methods" in seed.help
+
+
+def test_quiet_with_progress_is_a_contradiction(capsys):
+    """--option progress=true printed progress despite --quiet."""
+    argv = ["solve", "--task", "example:screwdriver", "--method", "anytime", "--quiet"]
+    code, _, err = run_main(capsys, *argv, "--option", "progress=true")
+    assert_one_line_error(code, err, "--option progress=true: contradicts --quiet")
+
+
+@pytest.mark.parametrize("method", ["greedy", "anytime"])
+def test_export_and_show_design_for_a_fault_as_python_does(tmp_path, capsys, method):
+    """show and export searched 'as modquad solve' but had no --fault."""
+    pytest.importorskip("matplotlib")
+    from modquad_gym.sim.export import save_structure
+
+    task = load_task("example:screwdriver")
+    python = mq.make_solver(method, fault="rotor", fault_margin=0.05, time_limit=20).solve(task)
+    assert python.structure is not None and python.fault == "rotor"
+    save_structure(python.structure, tmp_path / "python.json", f_max=task.f_max)
+    search = ["--task", "example:screwdriver", "--method", method, "--fault", "rotor",
+              "--fault-margin", "0.05", "--time-limit", "20"]  # fmt: skip
+    code, out, err = run_main(capsys, "export", *search, "--out", str(tmp_path / "cli.json"))
+    assert code == 0, err
+    assert (tmp_path / "cli.json").read_bytes() == (tmp_path / "python.json").read_bytes()
+    code, out, err = run_main(capsys, "show", *search, "--out", str(tmp_path / "s.png"))
+    assert code == 0, err
+    assert f"cells {list(python.structure.cells)}" in out and "survives any rotor failure" in out
+
+
+@pytest.mark.parametrize("command", ["export", "show"])
+def test_export_and_show_refuse_a_fault_as_solve_does(tmp_path, capsys, command):
+    out = tmp_path / ("x.json" if command == "export" else "x.png")
+    argv = [command, "--task", "example:screwdriver", "--method", "milp", "--fault", "rotor"]
+    code, _, err = run_main(capsys, *argv, "--out", str(out))
+    assert_one_line_error(code, err, "method 'milp' cannot honour fault='rotor'")
+    argv = [command, "--cells", "[[0,0]]", "--fault", "rotor", "--out", str(out)]
+    code, _, err = run_main(capsys, *argv)
+    assert_one_line_error(code, err, "--fault rotor", "--cells")
+    assert not out.exists()

@@ -196,11 +196,14 @@ def add_method(
         help="load a --model .zip that only unpickling reads (a policy class or keywords the "
         f"package does not know): {UNTRUSTED}, so give it only for a file you trust",
     )
+    seeded = [name for name, m in REGISTRY.items() if "seed" in m.options.names()]
     p.add_argument(
         "--seed",
         type=seed_option,
         default=0,
-        help="seed for the random search and PPO sampling, 0 to 2**63-1 (default %(default)s)",
+        help=f"seed of the random draws of {', '.join(seeded)} (ppo: its sampled rollouts), 0 "
+        "to 2**63-1 (default %(default)s); refused for the other methods, which draw nothing at "
+        "random",
     )
     add_modules(p, modules_help)
     p.add_argument(

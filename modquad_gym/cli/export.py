@@ -7,11 +7,15 @@ from pathlib import Path
 
 from modquad_gym.cli import common  # commands call common.load_task (tests replace it)
 from modquad_gym.cli.common import (
+    FAULT_HELP,
     add_command,
     add_csv_header,
+    add_fault,
     add_force,
     add_method,
+    check_fault_method,
     f_max_option,
+    fault_margin_of,
     no_structure,
     palette,
 )
@@ -27,7 +31,8 @@ def add_export(sub) -> None:
         cmd_export,
         help="write a structure as MJCF, URDF or JSON",
         description="Write a structure for other tools: the one given by --cells, or the one "
-        "--method finds for --task. mjcf: MuJoCo model (one free body, one actuator per rotor, "
+        "--method finds for --task (as `modquad solve` finds it, with --modules and --fault). "
+        "mjcf: MuJoCo model (one free body, one actuator per rotor, "
         "ctrl = thrust in [0, f_max]); urdf: base_link with mass and inertia, one link and "
         "continuous joint per rotor (its frame's z-axis is the thrust direction), collision "
         "boxes and discs; json: rotor poses, directions, spins, c_tau, masses, inertia and the "
@@ -39,6 +44,7 @@ def add_export(sub) -> None:
     p.add_argument("--cells", help="JSON list of [x, y] cells, e.g. '[[0,0],[1,0],[0,1]]'")
     p.add_argument("--task", help="task file: export the structure --method finds for it")
     add_method(p)
+    add_fault(p, FAULT_HELP.partition("; --json")[0])  # solve's: the search designs for it
     p.add_argument(
         "--format",
         choices=FORMATS,
@@ -95,6 +101,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         how = [*SEARCH_OPTIONS, "csv_header"]
         refuse_ignored(args, how, "applies with --task (a search finds the structure), not "
                        "with --cells (which gives it)")  # fmt: skip
+    check_fault_method(args)  # --fault that the method cannot honour, a bad --fault-margin:
+    fault_margin_of(args)  # refused before any work, as by solve
     check_output_file(args.out, force=args.force, what="--out")  # before any search
     fmt = export_format(args.out, args.format, names=("--out", "--format"))  # save_structure's rule
     if fmt == "mjcf":

@@ -63,7 +63,8 @@ def refuse_ignored(args: argparse.Namespace, dests: Iterable[str], reason: str) 
             raise ValueError(f"{option_name(dest)}{shown}: {reason}")
 
 
-SEARCH_OPTIONS = ("method", "n_max", "time_limit", "model", "trust_model", "seed", "option")
+SEARCH_OPTIONS = ("method", "n_max", "time_limit", "model", "trust_model", "seed", "option",
+                  "fault", "fault_margin")  # fmt: skip
 """The options that say how a structure is searched for (meaningless beside ``--cells``)."""
 
 
@@ -98,14 +99,18 @@ def refuse_budget(args: argparse.Namespace) -> None:
         raise ValueError(refusal)
 
 
-def refuse_broken_relation(options, values: dict, said: dict[str, str]) -> None:
+def refuse_conflicting_options(args, options, values: dict, said: dict[str, str]) -> None:
     """The method's options a command line gave (``values``, each checked alone; ``said``: each
-    one's ``--option`` text) checked together (``options.relations``), a ValueError naming the
-    ``--option`` of one that breaks a relation (``--option elite=30: elite must be <= 23 ...``)."""
+    one's ``--option`` text) checked together (``options.relations``) and against the flags, a
+    ValueError naming the ``--option`` of one that breaks a relation (``--option elite=30:
+    elite must be <= 23 ...``) or contradicts a flag (``progress=true`` with ``--quiet``)."""
     import dataclasses
 
     from modquad_gym.search.options import broken_relation
 
+    if values.get("progress") and getattr(args, "quiet", False):
+        raise ValueError(f"--option {said['progress']}: contradicts --quiet (no progress on "
+                         "stderr); give one or the other")  # fmt: skip
     defaults = {f.name: f.default for f in dataclasses.fields(options)}
     broken = broken_relation(options.relations, defaults | values)
     if broken is not None:

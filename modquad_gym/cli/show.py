@@ -10,10 +10,14 @@ from pathlib import Path
 
 from modquad_gym.cli import common, solve  # common.load_task, solve.solver (tests replace them)
 from modquad_gym.cli.common import (
+    FAULT_HELP,
     add_command,
     add_csv_header,
+    add_fault,
     add_force,
     add_method,
+    check_fault_method,
+    fault_margin_of,
     no_structure,
     palette,
 )
@@ -27,7 +31,8 @@ def add_show(sub) -> None:
         cmd_show,
         help="draw a structure (top view, feasible forces and torques; PNG or HTML)",
         description="Draw a structure given by --cells, or the answer of a search for --task "
-        "(--method, --n-max up to 128, --time-limit as in `modquad solve`): a PNG (top view; "
+        "(--method, --n-max up to 128, --time-limit, --modules, --fault as in `modquad solve`): "
+        "a PNG (top view; "
         "with --task also the feasible forces and torques, projections of the 6-D feasible "
         "set, with the task's wrenches coloured by 6-D feasibility) and/or, "
         "with --html, one self-contained interactive page (3-D structure with thrust "
@@ -43,6 +48,7 @@ def add_show(sub) -> None:
         modules_help="comma-separated module types: with --task the palette the search mixes; "
         "with --cells one type for every cell or one per cell, in order (e.g. t45,flat,t45m)",
     )
+    add_fault(p, FAULT_HELP.partition("; --json")[0])  # solve's: the search designs for it
     p.add_argument(
         "--out",
         default=None,
@@ -112,6 +118,8 @@ def cmd_show(args: argparse.Namespace) -> int:
                        "(which gives the structure)")  # fmt: skip
     if not args.task:
         refuse_ignored(args, ["csv_header"], "applies to a --task file")
+    check_fault_method(args)  # --fault that the method cannot honour, a bad --fault-margin:
+    fault_margin_of(args)  # refused before any work, as by solve
     out = args.out if args.out is not None or args.html is not None else "structure.png"
     if not args.task or out is None:  # the picture of --layout's three views is not drawn
         why = (

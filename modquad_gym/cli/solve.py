@@ -151,7 +151,7 @@ class SolveSpec:
                 raise ValueError(f"--option {text}: {key} is given twice ({OWN_FLAGS[key]} "
                                  f"{getattr(args, key)} too); give it once")  # fmt: skip
             options[key], said[key] = value, text
-        given.refuse_broken_relation(entry.options, options, said)
+        given.refuse_conflicting_options(args, entry.options, options, said)
         return cls(args.method, args.n_max, tuple(sorted(options.items())),
                    getattr(args, "modules", None), getattr(args, "fault", None),
                    fault_margin_of(args))  # fmt: skip
