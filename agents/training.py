@@ -43,6 +43,10 @@ LOG_FILES = ("train", "bc")
 """What a training run writes into its log folder (``tensorboard/<log_name>``): ``train/``
 (checkpoints, evaluations, the best, final and cloned models) and ``bc/`` (cloning scalars)."""
 
+REPLACED = ("best_model.zip", "evaluations.npz", "cloned_model.zip", "final_model.zip")
+"""Files of the log folder's ``train/`` a run removes at its start (the first three: an earlier
+run's) or writes over, so a ``--resume`` or ``--init-from`` model cannot be one of them."""
+
 
 def _ppo_start(config: TrainConfig, model: Any, run_logs: Path, log_dir: Path) -> tuple:
     """Give ``model`` the policy PPO starts from: a saved one (``init_from``) or the cloned one
@@ -85,7 +89,7 @@ def train(config: TrainConfig) -> Path:
     val, eval_env = _validation(config, modules)
     model = _new_model(config, venv, MaskablePPO)
     steps_before = int(model.num_timesteps)  # a resumed model's count goes on from its own
-    for stale in ("best_model.zip", "evaluations.npz", "cloned_model.zip"):  # an earlier run's
+    for stale in REPLACED[:3]:  # an earlier run's
         (log_dir / stale).unlink(missing_ok=True)
     imitation, cloned = _ppo_start(config, model, Path(config.tensorboard) / name, log_dir)
     venv, focus = _training_tasks(config, model, modules, venv, imitation is not None)
@@ -127,9 +131,17 @@ def check_start(config: TrainConfig) -> None:
     and the rollout buffer's memory, a ``resume`` or ``init_from`` model of this environment
     (``init_from``: of this run's network too); ValueError naming the option."""
     check_environment(config)
+    replaced = {}
+    if config.out is not None:
+        log_dir = Path(config.tensorboard) / log_name(Path(config.out), Path(config.tensorboard))
+        replaced = {(log_dir / "train" / n).resolve(): n for n in REPLACED}
     for option in ("resume", "init_from"):
         if getattr(config, option) is not None:
             where = "--" + option.replace("_", "-")
+            name = replaced.get(Path(getattr(config, option)).resolve())
+            if name is not None:
+                raise ValueError(f"{where}: {getattr(config, option)} is the {name} this run "
+                                 "replaces in its log folder; copy it elsewhere first")  # fmt: skip
             check_model(getattr(config, option), config.env_kwargs_full, where)
     if config.init_from is not None:
         check_network(config.init_from, config)

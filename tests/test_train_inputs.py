@@ -260,3 +260,19 @@ def test_a_seed_keeps_the_workers_it_does_not_use(tmp_path):
     assert seed_config(TrainConfig(out=tmp_path), 1).workers == 1
     assert seed_config(TrainConfig(out=tmp_path, bc_epochs=0), 1).workers == 2
     assert seed_config(TrainConfig(out=tmp_path, tier="large", bc_epochs=0), 1).demo_tasks == 800
+
+
+@pytest.mark.parametrize("option", ["--resume", "--init-from"])
+@pytest.mark.parametrize("name", ["best_model.zip", "final_model.zip", "cloned_model.zip"])
+def test_a_start_model_the_run_would_replace_is_refused_and_kept(
+    parse, capsys, tmp_path, option, name
+):
+    """A run removes its log folder's best and cloned models at its start and writes its final
+    one there: starting from one of them would delete or overwrite the model it reads."""
+    model = tmp_path / "tb" / f"{tmp_path.name}-run" / "train" / name
+    model.parent.mkdir(parents=True)
+    model.write_bytes(b"a model the user keeps")
+    trust = ["--trust-model"] if option == "--resume" else []
+    line = refused(parse, capsys, [option, str(model), *trust])
+    assert f"{option}: {model} is the {name} this run replaces" in line, line
+    assert model.read_bytes() == b"a model the user keeps"
