@@ -43,6 +43,7 @@ from modquad_gym.scoring.options import (
     SEARCH_METHODS,
     SEEDED,
     add_options,
+    check_evaluations,
     check_train_dir,
     method_label,
 )
@@ -298,6 +299,8 @@ def check_used_options(args: argparse.Namespace, methods: list[str], model: Path
         model_file(model)
     if args.train_dir is not None:
         check_train_dir(args.train_dir)
+    elif learned:  # the report reads the evaluations beside the model
+        check_evaluations(model_file(model).parent)
     if args.seed is not None and not any(takes_seed(m, agents) for m in methods):
         raise ValueError(
             f"--seed {args.seed}: no method scored takes a seed (none draws at random); the "

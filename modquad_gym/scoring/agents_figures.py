@@ -4,9 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from modquad_gym.core.outputs import save_figure
+from modquad_gym.scoring.fine_tuning import read_evaluations
 from modquad_gym.scoring.scores import Row
 
 
@@ -79,7 +78,7 @@ def plot_learning_curve(evals: Path, path: Path) -> Path | None:
         return None
     from matplotlib.ticker import FuncFormatter
 
-    data = np.load(evals)
+    data = read_evaluations(evals)
     steps = data["timesteps"]
     thousands = FuncFormatter(lambda x, _: f"{x / 1000:g}k")
     fig = _new_figure(10, 3.8)

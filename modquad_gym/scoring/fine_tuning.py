@@ -3,10 +3,77 @@ claims a rise the numbers do not show)."""
 
 from __future__ import annotations
 
+import os
+import stat
+import zipfile
+import zlib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+MAX_EVALUATIONS_BYTES = 64 << 20
+"""Most bytes of an ``evaluations.npz`` and of each array in it (a run's are a few kB)."""
+
+
+def read_evaluations(path: Path) -> dict[str, np.ndarray]:
+    """The arrays of a training run's ``evaluations.npz`` that the report reads, checked:
+    ``timesteps`` (k,), ``results`` (k, n) and, when recorded, ``successes`` and ``optimal``
+    (k, n; empty: not recorded), every one finite, k, n >= 1. Nothing is unpickled. A
+    ValueError names ``path`` and the key: a bad file is refused before any scoring, not by
+    the report after it."""
+    info = os.stat(path)
+    if not stat.S_ISREG(info.st_mode):
+        raise ValueError(f"{path}: not a regular file")
+    if info.st_size > MAX_EVALUATIONS_BYTES:
+        limit = MAX_EVALUATIONS_BYTES
+        raise ValueError(f"{path}: {info.st_size:,} bytes, more than the {limit:,} read")
+    if not zipfile.is_zipfile(path):
+        raise ValueError(f"{path}: not a NumPy .npz archive (as train.py writes it)")
+    out: dict[str, np.ndarray] = {}
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            keys = sorted(data.files)
+            for key in ("timesteps", "results", "successes", "optimal"):
+                if key in keys:
+                    out[key] = _member(data, key, path)
+    except (OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        raise ValueError(f"{path}: not a readable .npz archive ({exc})") from None
+    for key in ("timesteps", "results"):
+        if key not in out:
+            raise ValueError(f"{path}: no {key!r} array (keys: {', '.join(keys) or 'none'})")
+    steps, results = out["timesteps"], out["results"]
+    if steps.ndim != 1 or not len(steps):
+        raise ValueError(f"{path}: 'timesteps' must have shape (k,), k >= 1, got {steps.shape}")
+    if results.ndim != 2 or results.shape[0] != len(steps) or not results.shape[1]:
+        raise ValueError(
+            f"{path}: 'results' must have shape (k, n) = ({len(steps)}, n), n >= 1 (one row "
+            f"per evaluation in 'timesteps'), got {results.shape}"
+        )
+    for key, arr in out.items():
+        if key in ("successes", "optimal") and arr.size and arr.shape != results.shape:
+            raise ValueError(
+                f"{path}: {key!r} must have the shape of 'results', {results.shape}, got "
+                f"{arr.shape}"
+            )
+        if not np.isfinite(arr).all():
+            raise ValueError(f"{path}: {key!r} holds a value that is not finite")
+    return out
+
+
+def _member(data: Any, key: str, path: Path) -> np.ndarray:
+    """The array ``key`` of the open archive ``data``: numbers (booleans for flags), read only
+    within :data:`MAX_EVALUATIONS_BYTES`."""
+    if data.zip.getinfo(key + ".npy").file_size > MAX_EVALUATIONS_BYTES:
+        raise ValueError(f"{path}: {key!r} is larger than {MAX_EVALUATIONS_BYTES >> 20} MiB")
+    try:
+        arr = data[key]
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        raise ValueError(f"{path}: {key!r} is not a readable array ({exc})") from None
+    flags = key in ("successes", "optimal")
+    if arr.dtype.kind not in ("biuf" if flags else "iuf"):
+        raise ValueError(f"{path}: {key!r} must hold numbers, got dtype {arr.dtype}")
+    return arr.astype(float) if arr.dtype.kind != "b" else arr
 
 
 def fine_tuning_words(evals: Path, w_module: float = 0.1) -> str:
@@ -16,7 +83,7 @@ def fine_tuning_words(evals: Path, w_module: float = 0.1) -> str:
     else in validation return, where a change below half of one module on one validation task
     (``w_module / n``, the reward's module cost) is reported as no rise: it is a partial share
     on a failed task, not a design."""
-    data = np.load(evals)
+    data = read_evaluations(evals)
     steps, ret = data["timesteps"], data["results"].mean(axis=1)
     has_success = "successes" in data and data["successes"].size
     success = data["successes"].mean(axis=1) if has_success else None

@@ -145,7 +145,9 @@ def command_line(**given: object) -> str:
 
 
 def check_train_dir(folder: Path) -> None:
-    """``--train-dir``: a training run's folder (its ``config.json`` or ``evaluations.npz``)."""
+    """``--train-dir``: a training run's folder (its ``config.json`` or ``evaluations.npz``),
+    whose ``config.json`` and ``evaluations.npz`` (:func:`check_evaluations`) are read now, not
+    by the report after the scoring."""
     if not folder.is_dir():
         what = "not a folder" if folder.exists() else "does not exist"
         raise ValueError(f"--train-dir {folder}: {what} (a training run's folder)")
@@ -157,3 +159,15 @@ def check_train_dir(folder: Path) -> None:
     from modquad_gym.policy.models import read_config
 
     read_config(folder / "model.zip")  # a config.json that is not one: now, not at the report
+    check_evaluations(folder)
+
+
+def check_evaluations(folder: Path) -> None:
+    """A ValueError naming ``folder/evaluations.npz`` and the key when the learning curve the
+    report draws from it cannot be read (:func:`~.fine_tuning.read_evaluations`); nothing when
+    the folder has none (the report leaves the curve out)."""
+    from modquad_gym.scoring.fine_tuning import read_evaluations
+
+    evals = folder / "evaluations.npz"
+    if evals.exists():
+        read_evaluations(evals)
