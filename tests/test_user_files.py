@@ -4,6 +4,7 @@ from Python), a certificate, an exported model read back, and the size of what i
 
 from __future__ import annotations
 
+import json
 import shutil
 
 import numpy as np
@@ -11,6 +12,7 @@ import pytest
 from test_hardening import assert_one_line_error, run_main
 
 import modquad_gym as mq
+from modquad_gym.tasks import TaskFileError, TaskRequirement, as_task, load_task
 
 SHIPPED_RUN = mq.__path__[0] + "/data/models/ppo_default"
 
@@ -77,3 +79,108 @@ def test_the_shipped_evaluations_read():
         k, n = data["results"].shape
         assert data["timesteps"].shape == (k,) and k >= 1 and n >= 1
         assert fine_tuning_words(path).startswith("PPO fine-tuning")
+
+
+# ------------------------------------------------------ numbers: one rule for every array
+RISING = {"t": [0, 0.5, 1.0], "position": [[0, 0, 0], [0, 0, 0.01], [0, 0, 0.02]]}
+
+
+def _dynamic(**change):
+    data = {"name": "dyn", "f_max": 2.0, "trajectory": json.loads(json.dumps(RISING))}
+    for key, value in change.items():
+        if key in ("t", "position", "quaternion", "velocity", "angular_velocity"):
+            data["trajectory"][key] = value
+        else:
+            data[key] = value
+    return data
+
+
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        ({"t": [0, " 1_0 ", 20]}, "trajectory.t: sample 2 is ' 1_0 ', not a number"),
+        ({"t": ["0", "0x1", "1"]}, "trajectory.t: sample 1 is '0', not a number"),
+        ({"position": [[0, 0, 0], [" 0", "0", "1 "], [0, 0, 0]]},
+         "trajectory.position: sample 2 holds ' 0', not a number (column 1)"),
+        ({"quaternion": [[1, 0, 0, 0], [1, 0, 0, 0], ["1", 0, 0, 0]]},
+         "trajectory.quaternion: sample 3 holds '1', not a number (column 1)"),
+        ({"velocity": [[0, 0, 0], [0, 0, None], [0, 0, 0]]},
+         "trajectory.velocity: sample 2 holds None, not a number (column 3)"),
+        ({"exerted": [[0] * 6, [0] * 6, [0, 0, "1", 0, 0, 0]]},
+         "exerted: sample 3 holds '1', not a number (column 3)"),
+        ({"payload": {"mass": 0.1, "offset": ["0", "0", "0.1"]}},
+         "payload.offset: entry 1 is '0', not a number"),
+    ],
+)  # fmt: skip
+def test_dynamic_task_files_refuse_strings_as_numbers(tmp_path, capsys, change, words):
+    path = tmp_path / "d.json"
+    path.write_text(json.dumps(_dynamic(**change)))
+    with pytest.raises(TaskFileError) as info:
+        load_task(path)
+    assert str(info.value) == f"{path}: {words}"
+    code, _, err = run_main(capsys, "solve", "--task", str(path), "--method", "greedy",
+                            "--n-max", "2", "--quiet")  # fmt: skip
+    assert_one_line_error(code, err, str(path), words)
+
+
+W_ROW = [0, 0, 1, 0, 0, 0]
+
+
+@pytest.mark.parametrize(
+    "wrenches, words",
+    [
+        ([[0, 0, True, 0, 0, 0]], "wrenches: row 1 holds true, not a number (column 3, fz)"),
+        ([W_ROW, ["0", "0", "1e0", "0", "0", " 1_0 "]],
+         "wrenches: row 2 holds '0', not a number (column 1, fx)"),
+        ([W_ROW, [0, 0, 1, 0, 0, np.str_("1")]],
+         "wrenches: row 2 holds '1', not a number (column 6, tz)"),
+        ([0, 0, 1, 0, False, 0], "wrenches: row 1 holds false, not a number (column 5, ty)"),
+        (np.ones((1, 6), bool), "wrenches must hold real numbers, got dtype bool"),
+        (np.array([W_ROW], dtype=object), "wrenches must hold real numbers, got dtype object"),
+        (np.array([["0"] * 6]), "wrenches must hold real numbers, got dtype <U1"),
+    ],
+)  # fmt: skip
+def test_the_python_doors_refuse_what_the_files_refuse(tmp_path, wrenches, words):
+    """TaskRequirement(...), as_task(...) and the file reader name the same row and column."""
+    rows = np.atleast_2d(np.asarray(wrenches, dtype=object)).tolist()
+    for call in (
+        lambda: TaskRequirement(wrenches),
+        lambda: as_task(wrenches),
+        lambda: mq.feasible(mq.Structure([(0, 0)]).configuration_matrix(), wrenches),
+    ):
+        with pytest.raises(ValueError) as info:
+            call()
+        assert str(info.value) == words
+    if isinstance(wrenches, list) and isinstance(wrenches[0], list):  # as a file holds them
+        path = tmp_path / "t.json"
+        path.write_text(json.dumps({"wrenches": rows}))
+        with pytest.raises(TaskFileError, match="^" + str(path) + ": wrenches: row"):
+            TaskRequirement.load(path)
+
+
+@pytest.mark.parametrize(
+    "fields, words",
+    [
+        (dict(t=["0", "1"]), "t: sample 1 is '0', not a number"),
+        (dict(t=np.array(["0", "1"])), "t must hold real numbers, got dtype <U1"),
+        (dict(t=[0, True]), "t: sample 2 is true, not a number"),
+        (dict(position=[[0, 0, 0], [0, "1", 0]]), "position: sample 2 holds '1'"),
+        (dict(position=np.zeros((2, 3), dtype=object)),
+         "position must hold real numbers, got dtype object"),
+        (dict(velocity=[[0, 0, 0], [0, 0, b"0"]]), "velocity: sample 2 holds b'0'"),
+    ],
+)  # fmt: skip
+def test_a_trajectory_refuses_strings_and_booleans(fields, words):
+    given = {"t": [0.0, 1.0], "position": np.zeros((2, 3)), **fields}
+    with pytest.raises(ValueError) as info:
+        mq.Trajectory(**given)
+    assert str(info.value).startswith(words), info.value
+
+
+def test_numbers_of_every_kind_still_read():
+    """NumPy scalars, ints and arrays of any real dtype pass the rule unchanged."""
+    rows = [[np.float32(0.5), np.int64(0), 1, 0.0, np.float16(0), 0]]
+    assert TaskRequirement(rows).wrenches.tolist() == [[0.5, 0, 1, 0, 0, 0]]
+    assert as_task(np.ones((2, 6), np.int8)).wrenches.dtype == float
+    traj = mq.Trajectory([np.float64(0), 1], [np.zeros(3), np.ones(3, np.float32)])
+    assert traj.position[1].tolist() == [1.0, 1.0, 1.0]

@@ -26,6 +26,7 @@ __all__ = [
     "check_real",
     "check_wrenches",
     "refuse_complex",
+    "refuse_non_numbers",
 ]
 
 
@@ -175,35 +176,70 @@ def float_array(value: object, name: str, expected: str | None = None) -> np.nda
 
 
 _BOOLS = (bool, np.bool_)
+_PLAIN = frozenset((int, float))
+_NESTED = (list, tuple)
+_NOT_NUMBERS = "bOUSV"
+"""The dtype kinds of arrays that hold no numbers: booleans, objects, strings, raw bytes."""
+
+WRENCH_COLUMNS = ("fx", "fy", "fz", "tx", "ty", "tz")
+"""The columns of a wrench, in order."""
 
 
-def refuse_bools(value: object, name: str, unit: str = "sample") -> None:
-    """A ValueError naming ``name`` and the 1-based ``unit`` when ``value`` (an array, or a list
-    or tuple of numbers or of rows of numbers, as JSON gives them) holds a boolean: NumPy would
-    read ``true`` as 1 (``trajectory.t: sample 2 is true, not a number``)."""
-    kind = getattr(getattr(value, "dtype", None), "kind", None)
-    if kind == "b":
-        raise ValueError(f"{name} holds booleans, not numbers")
-    if kind not in (None, "O"):
+def _not_number(x: object) -> bool:
+    """True for a value that is not a real number where one is expected: a bool, a string,
+    None, a list... Complex numbers are not flagged (:func:`float_array` refuses them, saying
+    so), nor arrays (their shape and dtype are checked as the conversion's)."""
+    if type(x) in _PLAIN:
+        return False
+    if isinstance(x, (*_BOOLS, str, bytes)):
+        return True
+    return not isinstance(x, (numbers.Number, np.ndarray))
+
+
+def _shown_value(x: object) -> str:
+    """A value as a message shows it: booleans as JSON writes them, the rest by repr."""
+    if isinstance(x, _BOOLS):
+        return str(bool(x)).lower()
+    return f"{str(x)!r:.40}" if isinstance(x, str) else f"{x!r:.40}"  # np.str_ as a str
+
+
+def refuse_non_numbers(
+    value: object, name: str, unit: str = "sample", columns: tuple[str, ...] | None = None
+) -> None:
+    """The one rule for numbers in every array the package takes (wrenches, trajectories,
+    payloads): a ValueError naming ``name`` when ``value`` holds something that is not a real
+    number, which NumPy would convert silently (``true`` as 1, ``" 1_0 "`` as 10). ``value`` is
+    an array (refused when of booleans, objects or strings), or a list or tuple of numbers or of
+    rows of numbers, as JSON gives them (with ``columns``, a flat list is one row): the message
+    names the 1-based ``unit`` and, in a row, its column (``t: sample 2 is '0.5', not a
+    number``; ``wrenches: row 1 holds true, not a number (column 3, fz)`` with ``columns``).
+    Anything else passes (the caller's conversion judges it)."""
+    dtype = getattr(value, "dtype", None)
+    if dtype is not None:
+        if dtype.kind in _NOT_NUMBERS:
+            raise ValueError(f"{name} must hold real numbers, got dtype {dtype}")
         return
-    rows = value.tolist() if kind == "O" else value  # type: ignore[union-attr]
-    if type(rows) in _BOOLS:
-        raise ValueError(f"{name} is {str(bool(rows)).lower()}, not a number")
-    if not isinstance(rows, (list, tuple)):
+    if not isinstance(value, _NESTED):  # a string here is no array: the shape check names it
+        if isinstance(value, _BOOLS):
+            raise ValueError(f"{name} is {_shown_value(value)}, not a number")
         return
-    nested = (list, tuple)
-    found = any(
-        type(v) in _BOOLS or (isinstance(v, nested) and any(type(x) in _BOOLS for x in v))
-        for v in rows
-    )
-    if not found:
-        return
-    for i, v in enumerate(rows, 1):
-        cells = v if isinstance(v, nested) else [v]
-        flag = next((x for x in cells if type(x) in _BOOLS), None)
-        if flag is not None:
-            verb = "holds" if isinstance(v, nested) else "is"
-            raise ValueError(f"{name}: {unit} {i} {verb} {str(bool(flag)).lower()}, not a number")
+    if columns and not any(isinstance(v, (*_NESTED, np.ndarray)) for v in value):
+        value = [value]  # one row given flat
+    for i, v in enumerate(value, 1):
+        if type(v) in _PLAIN:
+            continue
+        if isinstance(v, np.ndarray):
+            if v.dtype.kind in _NOT_NUMBERS:
+                raise ValueError(f"{name}: {unit} {i} holds dtype {v.dtype}, not numbers")
+        elif isinstance(v, _NESTED):
+            for j, x in enumerate(v):
+                if type(x) not in _PLAIN and _not_number(x):
+                    col = f"{j + 1}, {columns[j]}" if columns and j < len(columns) else j + 1
+                    raise ValueError(
+                        f"{name}: {unit} {i} holds {_shown_value(x)}, not a number (column {col})"
+                    )
+        elif _not_number(v):  # (a list or tuple was a row, above)
+            raise ValueError(f"{name}: {unit} {i} is {_shown_value(v)}, not a number")
 
 
 def _float_array(value: object, name: str) -> np.ndarray:
@@ -219,7 +255,9 @@ def _float_array(value: object, name: str) -> np.ndarray:
 
 def check_wrenches(W: object, *, allow_empty: bool = True) -> np.ndarray:
     """W as a float (t, 6) array (a single 6-vector is promoted), or a ValueError naming the
-    shape or the first non-finite row (1-based)."""
+    shape, the first entry that is not a number (:func:`refuse_non_numbers`) or the first
+    non-finite row (1-based)."""
+    refuse_non_numbers(W, "wrenches", "row", WRENCH_COLUMNS)
     arr = _float_array(W, "wrenches")
     if arr.ndim == 1:
         arr = arr[None, :]

@@ -187,9 +187,9 @@ def as_payload(payload: object) -> Payload | None:
 
 def _direction(direction: object, what: str, horizontal: bool = False) -> np.ndarray:
     """``direction`` as a unit (3,) vector, or a ValueError naming ``direction``."""
-    from modquad_gym.core.validation import float_array, refuse_bools
+    from modquad_gym.core.validation import float_array, refuse_non_numbers
 
-    refuse_bools(direction, "direction", "entry")
+    refuse_non_numbers(direction, "direction", "entry")
     try:
         d = float_array(direction, "direction")
     except (TypeError, ValueError, OverflowError):

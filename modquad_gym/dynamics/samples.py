@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from modquad_gym.core.validation import float_array, refuse_bools
+from modquad_gym.core.validation import float_array, refuse_non_numbers
 from modquad_gym.dynamics import quaternions as quat
 
 MAX_SAMPLES = 100_000
@@ -37,7 +37,7 @@ def row_problem(value: object, field: str, width: int) -> str | None:
 
 def sample_array(value: object, field: str, k: int | None, width: int) -> np.ndarray:
     """A float (k, width) copy of ``value``; errors name the field and the 1-based sample."""
-    refuse_bools(value, field)
+    refuse_non_numbers(value, field)
     try:
         arr = float_array(value, field, "an array of numbers")
     except ValueError:
@@ -61,7 +61,7 @@ def sample_array(value: object, field: str, k: int | None, width: int) -> np.nda
 def check_times(t: object) -> np.ndarray:
     """The sample times as a float (k,) array, k in [2, MAX_SAMPLES], finite and strictly
     increasing; else a ValueError naming ``t`` and the first bad sample (1-based)."""
-    refuse_bools(t, "t")
+    refuse_non_numbers(t, "t")
     arr = float_array(t, "t", "a list of sample times in seconds")
     if arr.ndim != 1:
         raise ValueError(f"t must be a flat list of times, got shape {arr.shape}")

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.validation import check_f_max, float_array, refuse_bools
+from modquad_gym.core.validation import check_f_max, float_array, refuse_non_numbers
 from modquad_gym.dynamics.samples import row_problem
 from modquad_gym.dynamics.trajectory import Trajectory
 from modquad_gym.dynamics.wrenches import LinearWrenches, Payload
@@ -54,7 +54,7 @@ def is_dynamic_data(data: object) -> bool:
 
 
 def _exerted(value: object, k: int) -> np.ndarray:
-    refuse_bools(value, "exerted")
+    refuse_non_numbers(value, "exerted")
     what = "a list of [fx, fy, fz, tx, ty, tz] rows"
     try:
         arr = float_array(value, "exerted", what)

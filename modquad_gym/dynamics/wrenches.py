@@ -50,10 +50,10 @@ class Payload:
     offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
-        from modquad_gym.core.validation import check_real, float_array, refuse_bools
+        from modquad_gym.core.validation import check_real, float_array, refuse_non_numbers
 
         object.__setattr__(self, "mass", check_real(self.mass, "payload.mass", low=0.0))
-        refuse_bools(self.offset, "payload.offset", "entry")
+        refuse_non_numbers(self.offset, "payload.offset", "entry")
         r = float_array(self.offset, "payload.offset", f"[x, y, z] in metres, got {self.offset!r}")
         if r.shape != (3,) or not np.all(np.isfinite(r)):
             raise ValueError(f"payload.offset must be 3 finite numbers (m), got {self.offset!r}")

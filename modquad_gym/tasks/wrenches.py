@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from modquad_gym.core.validation import WRENCH_COLUMNS, refuse_non_numbers
 from modquad_gym.geometry.module import GRAVITY
 
-COLUMNS = ("fx", "fy", "fz", "tx", "ty", "tz")
+COLUMNS = WRENCH_COLUMNS
 """Wrench components, in order (the CSV header written by :meth:`TaskRequirement.save`)."""
 
 MAX_WRENCHES = 1_000_000
@@ -19,17 +20,14 @@ TASK_KINDS = ("total", "external")
 to the environment, to which the rotors add the structure's weight."""
 
 
-def _is_number(v: object) -> bool:
-    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(
-        v, (bool, np.bool_)
-    )
-
-
 def check_wrench_array(wrenches: object) -> np.ndarray:
-    """A float (t, 6) copy of ``wrenches``; errors name the shape or the 1-based row (complex
-    numbers are refused, not cut to their real parts)."""
+    """A float (t, 6) copy of ``wrenches``; errors name the shape, or the 1-based row and the
+    column of an entry that is not a number (a string or a boolean: the rule of every array,
+    :func:`~modquad_gym.core.validation.refuse_non_numbers`) or not finite (complex numbers
+    are refused, not cut to their real parts)."""
     from modquad_gym.core.validation import check_wrenches, float_array
 
+    refuse_non_numbers(wrenches, "wrenches", "row", COLUMNS)
     try:
         arr = float_array(wrenches, "wrenches")
     except (TypeError, ValueError, OverflowError) as exc:
@@ -51,7 +49,8 @@ def check_wrench_array(wrenches: object) -> np.ndarray:
 
 
 def rows_to_array(rows: object) -> np.ndarray:
-    """Parse a JSON-like list of 6-number rows, naming the first bad row (1-based)."""
+    """Parse a JSON-like list of 6-number rows, naming the first bad row (1-based) and, for an
+    entry that is not a number, its column (:func:`check_wrench_array`)."""
     if not isinstance(rows, (list, tuple)):
         raise ValueError(
             f'"wrenches" must be a list of [fx, fy, fz, tx, ty, tz] rows, got {rows!r}'
@@ -65,9 +64,6 @@ def rows_to_array(rows: object) -> np.ndarray:
             raise ValueError(
                 f"row {i}: expected 6 columns (fx, fy, fz, tx, ty, tz), got {len(row)}"
             )
-        for j, v in enumerate(row):
-            if not _is_number(v):
-                raise ValueError(f"row {i}: {COLUMNS[j]} = {v!r} is not a number")
     return check_wrench_array(rows)
 
 
