@@ -12,6 +12,8 @@ from __future__ import annotations
 import gzip
 import json
 import math
+import os
+import stat
 import zlib
 
 import numpy as np
@@ -41,21 +43,36 @@ class CertificateFormatError(ValueError):
 
 
 def load(path: str) -> dict:
-    """The certificate in ``path`` (JSON, gzip-compressed when the name ends in ``.gz``), read
-    only up to :data:`MAX_TEXT` bytes of JSON (a file that inflates beyond is refused)."""
-    opener = gzip.open if str(path).endswith(".gz") else open
+    """The certificate in ``path`` (UTF-8 JSON, a byte-order mark allowed; gzip-compressed when
+    the name ends in ``.gz``), read only up to :data:`MAX_TEXT` bytes of JSON (a file that
+    inflates beyond is refused). A path that is not a regular file (a pipe, a device, a
+    folder) is refused before anything is read: opened without blocking, then checked."""
     try:
-        with opener(path, "rb") as fh:
+        with _regular_file(path) as raw:
+            fh = gzip.GzipFile(fileobj=raw, mode="rb") if str(path).endswith(".gz") else raw
             text = fh.read(MAX_TEXT + 1)
         if len(text) > MAX_TEXT:
             raise CertificateFormatError(f"{path}: more than {MAX_TEXT >> 20} MiB of JSON")
-        return json.loads(text.decode("utf-8"), object_pairs_hook=_unique_keys)
+        return json.loads(text.decode("utf-8-sig"), object_pairs_hook=_unique_keys)
     except CertificateFormatError:
         raise
     except RecursionError:
         raise CertificateFormatError(f"{path}: JSON nested too deeply") from None
     except (OSError, EOFError, ValueError, zlib.error) as e:  # ValueError: not UTF-8 or JSON
         raise CertificateFormatError(f"{path}: cannot read a JSON certificate ({e})") from None
+
+
+def _regular_file(path: str):
+    """``path`` open for reading in binary, or a CertificateFormatError when it is not a
+    regular file (a pipe would block the read forever, a device never end)."""
+    nonblocking = getattr(os, "O_NONBLOCK", 0)  # a pipe opens at once (POSIX)
+    fd = os.open(path, os.O_RDONLY | nonblocking)
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise CertificateFormatError(f"{path}: not a regular file")
+    if nonblocking:
+        os.set_blocking(fd, True)
+    return os.fdopen(fd, "rb")
 
 
 def _unique_keys(pairs: list) -> dict:

@@ -60,7 +60,8 @@ def test_the_checker_imports_only_numpy_and_the_standard_library(paper, tmp_path
     assert imported == {
         "proofcheck": {"__future__", "sys", "numpy", "proofcheck_format", "proofcheck_shapes",
                        "importlib", "pathlib"},
-        "proofcheck_format": {"__future__", "gzip", "json", "math", "zlib", "numpy"},
+        "proofcheck_format": {"__future__", "gzip", "json", "math", "os", "stat", "zlib",
+                              "numpy"},
         "proofcheck_shapes": {"__future__", "functools", "numpy"},
     }  # fmt: skip
     alone = tmp_path / "alone"

@@ -5,7 +5,10 @@ from Python), a certificate, an exported model read back, and the size of what i
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -184,3 +187,66 @@ def test_numbers_of_every_kind_still_read():
     assert as_task(np.ones((2, 6), np.int8)).wrenches.dtype == float
     traj = mq.Trajectory([np.float64(0), 1], [np.zeros(3), np.ones(3, np.float32)])
     assert traj.position[1].tolist() == [1.0, 1.0, 1.0]
+
+
+# ---------------------------------------------------------------- modquad check: a certificate
+@pytest.fixture(scope="module")
+def certificate(tmp_path_factory):
+    """The text of the screwdriver's certificate, as ``modquad solve --certificate`` writes it."""
+    from modquad_gym.cli import main
+
+    path = tmp_path_factory.mktemp("cert") / "c.json"
+    argv = ["solve", "--task", "example:screwdriver", "--method", "exhaustive", "--quiet"]
+    assert main([*argv, "--certificate", str(path)]) == 0
+    return path.read_text()
+
+
+def _feed(fifo, text: str, seconds: float = 10.0) -> threading.Thread:
+    """A thread that writes ``text`` into ``fifo`` once a reader opens it (within ``seconds``):
+    a reader that opens the pipe gets a certificate instead of blocking this test forever."""
+
+    def run():
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            try:
+                fd = os.open(fifo, os.O_WRONLY | os.O_NONBLOCK)
+            except OSError:  # no reader yet
+                time.sleep(0.01)
+                continue
+            try:
+                os.set_blocking(fd, True)
+                os.write(fd, text.encode())
+            except OSError:  # the reader went away: it refused the pipe
+                pass
+            finally:
+                os.close(fd)
+            return
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    return thread
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
+def test_check_refuses_what_is_not_a_regular_file_before_reading(tmp_path, capsys, certificate):
+    from modquad_gym.cli import main
+
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    feeder = _feed(fifo, certificate)
+    for path in (fifo, tmp_path, "/dev/zero"):
+        start = time.perf_counter()
+        code = main(["check", str(path)])
+        _, err = capsys.readouterr()
+        assert_one_line_error(code, err, f"{path}: not a regular file")
+        assert time.perf_counter() - start < 1.0  # /dev/zero: no 64 MiB read first
+    feeder.join()
+
+
+def test_check_reads_a_byte_order_mark_as_the_task_readers_do(tmp_path, capsys, certificate):
+    from modquad_gym.cli import main
+
+    path = tmp_path / "bom.json"
+    path.write_bytes(b"\xef\xbb\xbf" + certificate.encode())
+    assert main(["check", str(path)]) == 0
+    assert capsys.readouterr().out.startswith("valid: the minimum is")
