@@ -250,3 +250,42 @@ def test_check_reads_a_byte_order_mark_as_the_task_readers_do(tmp_path, capsys, 
     path.write_bytes(b"\xef\xbb\xbf" + certificate.encode())
     assert main(["check", str(path)]) == 0
     assert capsys.readouterr().out.startswith("valid: the minimum is")
+
+
+# ---------------------------------------------------------------- an export read back
+def _unreadable_exports(tmp_path):
+    """(path, words) of files the export readers must refuse, naming them."""
+    pytest.importorskip("mujoco")
+    folder = tmp_path / "adir.xml"
+    folder.mkdir()
+    garbage = tmp_path / "garbage.xml"
+    garbage.write_bytes(b"<\xae\xff" * 50)
+    cut = tmp_path / "cut.xml"
+    cut.write_text('<mujoco model="m">\n  <worldbody>\n    <body name="structure">\n')
+    large = tmp_path / "large.xml"
+    with large.open("wb") as fh:
+        fh.truncate((16 << 20) + 1)
+    cases = [(folder, "not a regular file"), (garbage, "not UTF-8 text"),
+             (cut, "XML parse error"), (large, "bytes, more than the"),
+             (tmp_path / "none.xml", "cannot read")]  # fmt: skip
+    if hasattr(os, "mkfifo"):
+        os.mkfifo(tmp_path / "fifo.xml")
+        cases.append((tmp_path / "fifo.xml", "not a regular file"))
+    return cases
+
+
+@pytest.mark.parametrize("reader", ["urdf_spec", "fly_mjcf"])
+def test_the_export_readers_name_the_file_they_refuse(tmp_path, reader):
+    from modquad_gym.sim.export import urdf_spec
+    from modquad_gym.sim.export_flight import fly_mjcf
+
+    read = {"urdf_spec": urdf_spec, "fly_mjcf": fly_mjcf}[reader]
+    for path, words in _unreadable_exports(tmp_path):
+        for given in (path, str(path)):
+            with pytest.raises(ValueError) as info:
+                read(given)
+            message = str(info.value)
+            assert message.startswith(f"{path}: ") and words in message, message
+            assert "\n" not in message
+    with pytest.raises(ValueError, match="^source must be a file path"):
+        read("")  # not the working folder

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import stat
 import warnings
 
 import numpy as np
@@ -25,6 +26,7 @@ __all__ = [
     "check_matrix",
     "check_real",
     "check_wrenches",
+    "read_regular_file",
     "refuse_complex",
     "refuse_non_numbers",
 ]
@@ -62,6 +64,31 @@ def check_path(path: object, what: str = "path") -> None:
     PathLike (pathlib would raise its own TypeError, naming nothing)."""
     if not isinstance(path, (str, os.PathLike)) or not str(path).strip():
         raise ValueError(f"{what} must be a file path (a str or a PathLike), got {path!r}")
+
+
+def read_regular_file(path: object, limit: int, error: type[ValueError] = ValueError) -> bytes:
+    """The bytes of the regular file ``path``, at most ``limit`` of them; anything else (a
+    folder, a pipe, a device such as /dev/zero, a larger file) is refused by ``error`` naming
+    the path before it is read. The file is opened without blocking (a pipe's open would wait
+    for a writer), then checked. OSError (no such file, no permission) passes to the caller."""
+    nonblocking = getattr(os, "O_NONBLOCK", 0)  # POSIX
+    fd = os.open(path, os.O_RDONLY | nonblocking)  # type: ignore[arg-type]
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise error(f"{path}: not a regular file")
+        if info.st_size > limit:
+            raise error(f"{path}: {info.st_size:,} bytes, more than the {limit:,} read")
+        if nonblocking:
+            os.set_blocking(fd, True)
+    except BaseException:
+        os.close(fd)
+        raise
+    with os.fdopen(fd, "rb") as fh:
+        data = fh.read(limit + 1)
+    if len(data) > limit:  # it grew while we read it
+        raise error(f"{path}: more than the {limit:,} bytes read")
+    return data
 
 
 def check_name(value: object, name: str = "name") -> str:

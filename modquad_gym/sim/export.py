@@ -62,10 +62,13 @@ import numpy as np
 from modquad_gym.core.extras import import_optional
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle.scale import check_f_max_range
-from modquad_gym.sim.export_formats import (  # noqa: F401 (FORMATS, SUFFIXES: kept here too)
+from modquad_gym.sim.export_formats import (  # noqa: F401 (FORMATS, SUFFIXES, is_path: here too)
     FORMATS,
     SUFFIXES,
     export_format,
+    is_path,
+    parse_export,
+    read_export,
 )
 from modquad_gym.sim.inertial import (  # noqa: F401 (base_inertial, ROTOR_MASS_FRACTION: here too)
     ROTOR_MASS_FRACTION,
@@ -261,11 +264,11 @@ def urdf_spec(source):
     is added to ``base_link``. ``urdf_spec(path).compile()`` is the floating robot."""
     mujoco = import_optional("mujoco")
 
-    text = Path(source).read_text() if is_path(source) else str(source)
-    spec = mujoco.MjSpec.from_string(text)
+    text, where = read_export(source, "URDF")
+    spec = parse_export(mujoco.MjSpec.from_string, text, where)
     base = spec.body("base_link")
     if base is None:
-        raise ValueError(f"{_name(source)}: no link 'base_link' (not a modquad_gym URDF export)")
+        raise ValueError(f"{where}: no link 'base_link' (not a modquad_gym URDF export)")
     if not any(j.type == mujoco.mjtJoint.mjJNT_FREE for j in base.joints):
         base.add_freejoint(name="root")
     return spec
@@ -372,17 +375,6 @@ def _shape(link: ET.Element, kind: str, name: str, at: np.ndarray, shape: tuple)
     element = ET.SubElement(link, kind, name=name)
     ET.SubElement(element, "origin", xyz=_vec(at), rpy="0 0 0")
     ET.SubElement(ET.SubElement(element, "geometry"), shape[0], **shape[1])
-
-
-def is_path(source) -> bool:
-    """A path (not the text of a file): a PathLike, or a one-line string not starting with <."""
-    if isinstance(source, Path) or hasattr(source, "__fspath__"):
-        return True
-    return isinstance(source, str) and "\n" not in source and not source.lstrip().startswith("<")
-
-
-def _name(source) -> str:
-    return str(source) if is_path(source) else "the URDF text"
 
 
 def _num(x: float) -> str:

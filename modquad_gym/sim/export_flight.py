@@ -16,7 +16,6 @@ reference; one that cannot sinks.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -104,14 +103,13 @@ def fly_mjcf(source, seconds: float = 1.0, config: HoverConfig | None = None) ->
 
     from modquad_gym.core.validation import check_real
     from modquad_gym.oracle import lambda_ratio
-    from modquad_gym.sim.export import is_path
+    from modquad_gym.sim.export_formats import parse_export, read_export
     from modquad_gym.sim.hover.controller import HoverController
     from modquad_gym.sim.hover.linearization import Plant
 
     seconds = check_real(seconds, "seconds", positive=True)
-    where = str(source) if is_path(source) else "the MJCF text"
-    text = Path(source).read_text() if is_path(source) else str(source)
-    robot = robot_of(mujoco.MjModel.from_xml_string(text), where)
+    text, where = read_export(source, "MJCF")
+    robot = robot_of(parse_export(mujoco.MjModel.from_xml_string, text, where), where)
     model = robot.model
     cfg = HoverConfig.make(config, known_load=True)
     substeps, dt = cfg.control_steps(model.opt.timestep)

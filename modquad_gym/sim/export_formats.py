@@ -1,12 +1,19 @@
 """The export formats, their file suffixes, and the one rule that picks a format from a file's
 suffix and a requested format: ``modquad export`` (``--out``, ``--format``) and
 :func:`~modquad_gym.sim.export.save_structure` (``path``, ``fmt``) both call
-:func:`export_format`, so the two doors accept and refuse the same pairs."""
+:func:`export_format`, so the two doors accept and refuse the same pairs. Reading an export
+back (:func:`read_export`) is checked here too."""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
+
+from modquad_gym.core.validation import check_path, read_regular_file
+
+MAX_EXPORT_BYTES = 16 << 20
+"""Most bytes of an export read back (a 16 x 8 block of 128 modules: 561,337 bytes as URDF,
+196,888 as MJCF, by ``export_text``)."""
 
 FORMATS = ("mjcf", "urdf", "json")
 """The export formats."""
@@ -50,3 +57,40 @@ def export_format(
             f"{' or '.join(said(f) for f in takes)}"
         )
     return fmt
+
+
+def is_path(source) -> bool:
+    """A path (not the text of a file): a PathLike, or a one-line string not starting with <."""
+    if isinstance(source, Path) or hasattr(source, "__fspath__"):
+        return True
+    return isinstance(source, str) and "\n" not in source and not source.lstrip().startswith("<")
+
+
+def read_export(source: object, fmt: str) -> tuple[str, str]:
+    """(text, where) of an export read back: ``source`` is a path (a regular file of at most
+    :data:`MAX_EXPORT_BYTES` of UTF-8, ``where`` its name) or the text itself (``where``: "the
+    MJCF text" for ``fmt`` "MJCF"). A ValueError names the file for anything else: an empty
+    path, a folder, a pipe, a device, a file too large, not UTF-8, not there."""
+    if not is_path(source):
+        if not isinstance(source, str):
+            raise ValueError(f"source must be a path or the {fmt} text, got {source!r:.60}")
+        return source, f"the {fmt} text"
+    check_path(source, "source")
+    where = os.fspath(source)
+    try:
+        data = read_regular_file(source, MAX_EXPORT_BYTES)
+    except OSError as exc:
+        raise ValueError(f"{where}: cannot read the {fmt} file ({exc.strerror})") from None
+    try:
+        return data.decode("utf-8-sig"), where
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{where}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+
+
+def parse_export(parse, text: str, where: str):
+    """``parse(text)`` (MuJoCo's reader of ``where``), its ValueError as one line naming
+    ``where`` (MuJoCo's XML errors name only a line number)."""
+    try:
+        return parse(text)
+    except ValueError as exc:
+        raise ValueError(f"{where}: {' '.join(str(exc).split())}") from None

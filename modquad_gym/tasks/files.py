@@ -15,14 +15,16 @@ import difflib
 import json
 import math
 import os
-import stat
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.validation import check_path  # noqa: F401 (the tasks' check, named here)
+from modquad_gym.core.validation import (
+    check_path,  # noqa: F401 (the tasks' check, named here)
+    read_regular_file,
+)
 from modquad_gym.tasks.wrenches import MAX_WRENCHES
 
 SUFFIXES = (".json", ".csv", ".npy")
@@ -164,17 +166,9 @@ def task_json(d: dict[str, Any], indent: str = "") -> str:
 
 def read_bytes(path: Path, limit: int = MAX_FILE_BYTES) -> bytes:
     """The bytes of a regular file of at most ``limit`` bytes; anything else (a folder, a
-    device such as /dev/zero, a pipe, a larger file) is refused before it is read."""
-    with open(path, "rb") as fh:
-        info = os.fstat(fh.fileno())
-        if not stat.S_ISREG(info.st_mode):
-            raise TaskFileError(f"{path}: not a regular file")
-        if info.st_size > limit:
-            raise TaskFileError(f"{path}: {info.st_size:,} bytes, more than the {limit:,} read")
-        data = fh.read(limit + 1)
-    if len(data) > limit:  # it grew while we read it
-        raise TaskFileError(f"{path}: more than the {limit:,} bytes read")
-    return data
+    device such as /dev/zero, a pipe, a larger file) is a TaskFileError before it is read
+    (:func:`~modquad_gym.core.validation.read_regular_file`)."""
+    return read_regular_file(path, limit, TaskFileError)
 
 
 def read_text(path: Path) -> str:
