@@ -27,10 +27,10 @@ def test_csv_rows_are_refused_past_the_limit_without_parsing_the_rest(tmp_path, 
 
 
 def test_json_arrays_are_counted_before_parsing(tmp_path, monkeypatch):
-    monkeypatch.setattr("modquad_gym.tasks.files.MAX_JSON_ARRAYS", 50)
+    monkeypatch.setattr("modquad_gym.tasks.files.MAX_JSON_CONTAINERS", 50)
     path = tmp_path / "big.json"
     path.write_text('{"wrenches": [' + ", ".join(["[0, 0, 1, 0, 0, 0]"] * 60) + "]}")
-    with pytest.raises(TaskFileError, match="61 JSON arrays, more than the 50"):
+    with pytest.raises(TaskFileError, match="62 JSON arrays and objects, more than the 50"):
         TaskRequirement.load(path)
 
 

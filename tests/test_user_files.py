@@ -289,3 +289,27 @@ def test_the_export_readers_name_the_file_they_refuse(tmp_path, reader):
             assert "\n" not in message
     with pytest.raises(ValueError, match="^source must be a file path"):
         read("")  # not the working folder
+
+
+# -------------------------------------------------------- what a JSON file may cost to parse
+@pytest.mark.parametrize(
+    "filler, words",
+    [
+        ("{}", "1,200,005 JSON arrays and objects, more than the 1,100,000 read"),
+        ("[]", "1,200,005 JSON arrays and objects, more than the 1,100,000 read"),
+        ("0", "8,100,006 commas between JSON values, more than the 8,000,000 read"),
+    ],
+)
+def test_a_json_file_is_bounded_in_containers_and_values_before_parsing(tmp_path, filler, words):
+    """An empty object costs 64 bytes parsed for 3 bytes of text: 33 million of them in `meta`
+    (a 99 MB file) took 2.5 GB. Arrays and objects are counted together, values by their
+    commas, before parsing."""
+    n = 8_100_001 if filler == "0" else 1_200_000
+    path = tmp_path / "big.json"
+    path.write_text('{"wrenches": [[0, 0, 1, 0, 0, 0]], "meta": {"x": [' + ",".join([filler] * n))
+    with path.open("a") as fh:
+        fh.write("]}}")
+    with pytest.raises(TaskFileError) as info:
+        load_task(path)
+    assert str(info.value).startswith(f"{path}: {words}"), info.value
+    assert "refused before parsing" in str(info.value)

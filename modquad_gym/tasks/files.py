@@ -47,9 +47,18 @@ free-form extras go into ``"meta"``. A new format adds its row here."""
 SUITE_KEYS = ("name", "tasks")
 """The keys a suite JSON object may hold."""
 
-MAX_JSON_ARRAYS = MAX_WRENCHES + 100_000
-"""Most JSON arrays (``[``) a task or suite file may hold: every wrench is one, so a file
-beyond this is refused before it is parsed (parsing builds a Python list per array)."""
+MAX_JSON_CONTAINERS = MAX_WRENCHES + 100_000
+"""Most JSON arrays and objects (``[`` and ``{``, counted in the text, strings included) a task or
+suite file may hold: every wrench is an array, so a file beyond this is refused before it is
+parsed. Parsing builds a Python list or dict per container (56 to 64 bytes for an empty one out
+of 2 bytes of text); with :data:`MAX_JSON_VALUES` this bounds what parsing a file of
+:data:`MAX_FILE_BYTES` can cost."""
+
+MAX_JSON_VALUES = 8 * MAX_WRENCHES
+"""Most commas (separators of JSON values, counted in the text, strings included) a task or suite
+file may hold: a wrench row of six numbers takes six, a trajectory sample at most 33, so a task
+of :data:`MAX_WRENCHES` wrenches fits. Refused before parsing: a float costs 32 bytes parsed (4
+bytes of text), a short string 58, and a file of 25 million values would take 1.5 GB."""
 
 
 class TaskFileError(ValueError):
@@ -221,16 +230,25 @@ def parse_json(text: str, where: str) -> Any:
 
 
 def read_json(path: Path) -> Any:
-    """A JSON file's data; a bad file (not JSON, a key given twice, more arrays than
-    :data:`MAX_JSON_ARRAYS`) is a TaskFileError naming the file, and the line where it applies."""
+    """A JSON file's data; a bad file (not JSON, a key given twice, more arrays and objects
+    than :data:`MAX_JSON_CONTAINERS` or more values than :data:`MAX_JSON_VALUES`) is a
+    TaskFileError naming the file, and the line where it applies."""
     text = read_text(path)
     if not text.strip():
         raise TaskFileError(f"{path}: the file is empty")
-    arrays = text.count("[")
-    if arrays > MAX_JSON_ARRAYS:
+    containers = text.count("[") + text.count("{")
+    if containers > MAX_JSON_CONTAINERS:
         raise TaskFileError(
-            f"{path}: {arrays:,} JSON arrays, more than the {MAX_JSON_ARRAYS:,} read (a task "
-            f"holds at most {MAX_WRENCHES:,} wrenches); refused before parsing"
+            f"{path}: {containers:,} JSON arrays and objects, more than the "
+            f"{MAX_JSON_CONTAINERS:,} read (a task holds at most {MAX_WRENCHES:,} wrenches); "
+            "refused before parsing"
+        )
+    values = text.count(",")
+    if values > MAX_JSON_VALUES:
+        raise TaskFileError(
+            f"{path}: {values:,} commas between JSON values, more than the {MAX_JSON_VALUES:,} "
+            f"read (a task holds at most {MAX_WRENCHES:,} wrenches of 6 numbers); refused "
+            "before parsing"
         )
     return parse_json(text, str(path))
 
