@@ -22,7 +22,7 @@ SHIPPED_RUN = mq.__path__[0] + "/data/models/ppo_default"
 
 # --------------------------------------------------------- a training run's evaluations.npz
 def _no_work(*args, **kwargs):
-    raise AssertionError("the scoring started")
+    raise AssertionError("the work started, before the refusal")
 
 
 BAD_EVALUATIONS = {
@@ -313,3 +313,55 @@ def test_a_json_file_is_bounded_in_containers_and_values_before_parsing(tmp_path
         load_task(path)
     assert str(info.value).startswith(f"{path}: {words}"), info.value
     assert "refused before parsing" in str(info.value)
+
+
+# ------------------------------------------------- a task larger than a search takes: refused early
+def test_a_csv_beyond_the_task_limit_is_refused_before_parsing(tmp_path, monkeypatch):
+    """The count of lines of numbers left room for a header of column numbers, so a file of
+    limit + 1 wrenches was parsed whole; only a first row read as a header gets that room."""
+    monkeypatch.setattr("modquad_gym.tasks.csvfile.MAX_WRENCHES", 100)
+    monkeypatch.setattr("modquad_gym.tasks.csvfile._row", _no_work)  # no row may be parsed
+    rows = "0,0,1,0,0,0\n" * 101
+    for header, head in (("auto", "# f_max: 1\n"), ("yes", "fx,fy,fz,tx,ty,tz\n"),
+                         ("no", ""), ("auto", "\ufeff"), ("auto", "")):  # fmt: skip
+        path = tmp_path / "big.csv"
+        path.write_text(head + rows.replace("\n", "\r" if header == "no" else "\n"))
+        with pytest.raises(TaskFileError, match="more than the 100 wrenches .*before parsing"):
+            TaskRequirement.load(path, csv_header=header)
+    monkeypatch.undo()
+    monkeypatch.setattr("modquad_gym.tasks.csvfile.MAX_WRENCHES", 100)
+    path.write_text("0,1,2,3,4,5\n" + "0,0,1,0,0,0\n" * 100)  # a header of column numbers
+    assert len(TaskRequirement.load(path, csv_header="yes")) == 100
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".npy"])
+def test_solve_refuses_more_wrenches_than_a_search_takes_before_parsing(
+    tmp_path, capsys, monkeypatch, suffix
+):
+    from modquad_gym.search.problem import MAX_SEARCH_WRENCHES as MOST
+
+    path = tmp_path / f"big{suffix}"
+    TaskRequirement(np.tile([0.0, 0, 1, 0, 0, 0], (MOST + 1, 1))).save(path)
+    reader = "read_csv" if suffix == ".csv" else "read_npy"
+    monkeypatch.setattr(f"modquad_gym.tasks.requirement.{reader}", _no_work)
+    code, _, err = run_main(capsys, "solve", "--task", str(path), "--method", "greedy",
+                            "--n-max", "2")  # fmt: skip
+    count = "more than 10,000" if suffix == ".csv" else "10,001"
+    assert_one_line_error(code, err, f"{path}: the task has {count} wrenches", "convex hull")
+
+
+def test_a_dynamic_task_too_long_to_search_is_told_to_sample_it_more_coarsely(tmp_path, capsys):
+    k = 10_001
+    t = np.linspace(0.0, 100.0, k)
+    z = 1e-3 * np.sin(0.5 * t)  # every sample's acceleration its own
+    task = mq.DynamicTask(mq.Trajectory(t, np.c_[0 * t, 0 * t, z]), f_max=2.0, name="long")
+    words = "the task's trajectory has 10,001 distinct samples; a search takes at most 10,000"
+    with pytest.raises(ValueError) as info:
+        mq.SearchProblem(task, n_max=2)
+    message = str(info.value)
+    assert message.startswith(words) and "trajectory.t" in message and "hull" not in message
+    path = tmp_path / "long.json"
+    task.save(path)
+    code, _, err = run_main(capsys, "solve", "--task", str(path), "--method", "greedy",
+                            "--n-max", "2")  # fmt: skip
+    assert_one_line_error(code, err, f"{path}: {words}", "sample the trajectory more coarsely")

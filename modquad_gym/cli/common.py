@@ -34,13 +34,22 @@ def load_task(path, csv_header: str = "auto"):
     """The task in the file ``path`` (``--csv-header`` says how a CSV's first row reads; the
     other files of a --task that holds a CSV file are read without it): a TaskRequirement, or a
     DynamicTask for a JSON file with a trajectory. A static task's scale is checked as the
-    searches will (an error names the file and the 1-based row)."""
+    searches will (an error names the file and the 1-based row); a CSV or .npy file of more
+    wrenches than a search takes is refused before it is parsed."""
     from modquad_gym.oracle import check_task_scale
+    from modquad_gym.search.problem import MAX_SEARCH_WRENCHES as MOST
+    from modquad_gym.search.problem import search_size_message
     from modquad_gym.tasks import TaskFileError, TaskRequirement
     from modquad_gym.tasks import load_task as load
+    from modquad_gym.tasks.loading import wrenches_at_most
 
     if not str(path).lower().endswith(".csv"):  # refused where no file is (given.py)
         csv_header = "auto"
+    n = wrenches_at_most(path, csv_header, MOST)  # more than a search takes: before parsing
+    if n is not None and n > MOST:
+        csv = str(path).lower().endswith(".csv")  # counted only up to MOST + 1
+        count = f"more than {MOST:,}" if csv else f"{n:,}"
+        raise TaskFileError(f"{path}: {search_size_message(count)}")
     task = load(path, csv_header=csv_header)
     if isinstance(task, TaskRequirement):
         try:
@@ -53,8 +62,9 @@ def load_task(path, csv_header: str = "auto"):
 def check_task(task, path=None, modules=None) -> None:
     """Checks before any work. A dynamic task (its wrenches depend on the structure) is
     refused when no structure of the module types ``modules`` (default the T-module) can lift
-    its payload (a TaskFileError naming the file ``path``). A static task of more wrenches than
-    a search takes: TaskFileError naming the file. Every method takes both kinds of task."""
+    its payload (a TaskFileError naming the file ``path``). A task of more wrenches than a
+    search takes (a dynamic one: more distinct samples): TaskFileError naming the file. Every
+    method takes both kinds of task."""
     from modquad_gym.search.problem import check_search_size
     from modquad_gym.tasks import TaskFileError
 
@@ -68,10 +78,9 @@ def check_task(task, path=None, modules=None) -> None:
             if path is None:
                 raise
             raise TaskFileError(f"{path}: {exc}") from None
-    wrenches = getattr(task, "wrenches", None)
-    if wrenches is not None and path is not None:
+    if path is not None:
         try:
-            check_search_size(wrenches)
+            check_search_size(task.decision_model.base, dynamic=task.per_structure)
         except ValueError as exc:
             raise TaskFileError(f"{path}: {exc}") from None
 

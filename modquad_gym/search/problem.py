@@ -114,7 +114,7 @@ class SearchProblem:
         fault_margin = check_fault_margin(fault_margin, fault)
         task = as_task(task).with_f_max(f_max).with_kind(kind)
         model = task.decision_model
-        check_search_size(model.base)
+        check_search_size(model.base, dynamic=task.per_structure)
         check_task_scale(model.base, task.f_max)  # absurd values: one clear error first
         check_task_scale(model.per_mass, task.f_max)
         n_max = check_int(n_max, "n_max", low=1)
@@ -281,14 +281,27 @@ def check_palette(
     return palette
 
 
-def check_search_size(W: np.ndarray) -> None:
-    """ValueError when the task holds more than :data:`MAX_SEARCH_WRENCHES` wrenches."""
+def check_search_size(W: np.ndarray, dynamic: bool = False) -> None:
+    """ValueError when the task holds more than :data:`MAX_SEARCH_WRENCHES` wrenches (for a
+    ``dynamic`` task: distinct trajectory samples, :func:`search_size_message`)."""
     if len(W) > MAX_SEARCH_WRENCHES:
-        raise ValueError(
-            f"the task has {len(W):,} wrenches; a search takes at most {MAX_SEARCH_WRENCHES:,} "
-            "(it decides each for every structure it evaluates): keep the extreme ones, e.g. "
-            "the vertices of their convex hull"
-        )
+        raise ValueError(search_size_message(f"{len(W):,}", dynamic))
+
+
+def search_size_message(count: str, dynamic: bool = False) -> str:
+    """Why a task of ``count`` wrenches (``"1,000,000"``, ``"more than 10,000"``) is refused, and
+    what to do: keep a static task's extreme wrenches; sample a dynamic task's trajectory more
+    coarsely (its wrenches are its samples, none of which may be dropped)."""
+    has, advice = (
+        (f"'s trajectory has {count} distinct samples", "sample the trajectory more coarsely "
+         "(fewer times in trajectory.t; modquad task motion --rate)") if dynamic
+        else (f" has {count} wrenches", "keep the extreme ones, e.g. the vertices of their "
+              "convex hull")
+    )  # fmt: skip
+    return (
+        f"the task{has}; a search takes at most {MAX_SEARCH_WRENCHES:,} (it decides each for "
+        f"every structure it evaluates): {advice}"
+    )
 
 
 class _Default(int):

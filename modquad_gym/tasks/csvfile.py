@@ -13,6 +13,7 @@ string, ``meta`` as one line of JSON.
 from __future__ import annotations
 
 import csv
+import itertools
 import json
 import math
 import re
@@ -54,7 +55,12 @@ _COMMENT = re.compile(r"#\s*([A-Za-z][\w -]*?)\s*:(.*)", re.S)
 _NEAR_MISS = re.compile(r"#\s*([A-Za-z][\w-]*)(\s*=|\s|$)(.*)", re.S)
 _SPACED_SET = re.compile(r"#\s*([A-Za-z][\w -]*?)\s*=(.*)", re.S)
 _LINE = re.compile(r"([^\r\n]*)(?:\r\n|\r|\n|\Z)")
-_NUMERIC_LINE = re.compile(rb"^[ \t]*[-+.0-9]", re.M)
+_NUMBER_START = rb'[ \t]*"?[ \t]*[-+.0-9]'  # a line that starts as a number (maybe quoted)
+_NUMERIC_LINE = re.compile(rb"(?:^|(?<=\r))" + _NUMBER_START, re.M)  # ends: \n, \r\n, \r
+_NUMERIC_BOM_LINE = re.compile(rb"\xef\xbb\xbf" + _NUMBER_START)
+_NUMERIC_FIRST_ROW = re.compile(  # blank lines, empty rows and comments, then a number; each
+    rb"(?:\xef\xbb\xbf)?(?:[ \t,]*(?:#[^\r\n]*)?(?:\r?\n|\r(?!\n)))*" + _NUMBER_START
+)  # line end reads one way only (\r\n is never \r then \n): no exponential backtracking
 _COLUMN_NUMBERS = ([0.0, 1.0, 2.0, 3.0, 4.0, 5.0], [1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
 _CHUNK = 1 << 16
 
@@ -186,11 +192,10 @@ def read_csv(path: Path, header: str = "auto") -> tuple[np.ndarray, dict[str, An
     line. Rows are parsed as a stream, refused past :data:`MAX_WRENCHES`."""
     check_csv_header(header, path)
     data = read_bytes(path)
-    rows_at_most = len(_NUMERIC_LINE.findall(data))  # C speed: refuse before parsing
-    if rows_at_most > MAX_WRENCHES + 1:  # (+ 1: a header of column numbers)
+    if csv_rows_at_most(data, header, MAX_WRENCHES) > MAX_WRENCHES:
         raise TaskFileError(
-            f"{path}: {rows_at_most:,} lines of numbers, more than the {MAX_WRENCHES:,} "
-            "wrenches a task holds; refused before parsing"
+            f"{path}: more than the {MAX_WRENCHES:,} wrenches a task holds (lines of numbers); "
+            "refused before parsing"
         )
     text = decode_text(data, path)
     del data
@@ -236,6 +241,18 @@ def read_csv(path: Path, header: str = "auto") -> tuple[np.ndarray, dict[str, An
         raise TaskFileError(f"{path}: no wrenches (the file is empty or has only a header)")
     W = np.concatenate([*chunks, np.array(rows).reshape(-1, 6)])
     return (W if order is None else W[:, order]), fields
+
+
+def csv_rows_at_most(data: bytes, header: str, most: int) -> int:
+    """How many wrench rows the CSV file's bytes ``data`` hold at most, counted up to
+    ``most + 1`` (enough to refuse a file beyond ``most`` at C speed, before parsing): the
+    lines that start as a number (after blanks), less a first row that ``header`` ``yes`` reads
+    as column numbers. Every other line is a comment, blank, a header of names or an error."""
+    header_row = header == "yes" and _NUMERIC_FIRST_ROW.match(data) is not None
+    stop = most + 1 + header_row
+    n = bool(_NUMERIC_BOM_LINE.match(data))
+    n += sum(1 for _ in itertools.islice(_NUMERIC_LINE.finditer(data), stop - n))
+    return n - header_row
 
 
 def _lines(text: str) -> Iterator[str]:

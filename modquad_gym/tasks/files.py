@@ -253,9 +253,9 @@ def read_json(path: Path) -> Any:
     return parse_json(text, str(path))
 
 
-def read_npy(path: Path) -> np.ndarray:
-    """The (t, 6) array of an ``.npy`` task file; its header (format, dtype, shape) is checked
-    before the data is read, and a bad file is a TaskFileError naming it."""
+def npy_rows(path: Path) -> int:
+    """The wrench count of the ``.npy`` task file ``path``, read from its header (format, dtype
+    and shape checked, the data not read); a bad file is a TaskFileError naming it."""
     from numpy.lib import format as npy
 
     with open(path, "rb") as fh:
@@ -275,9 +275,16 @@ def read_npy(path: Path) -> np.ndarray:
         raise TaskFileError(f"{path}: expected a numeric array of shape (t, 6), got {dtype}")
     if len(shape) != 2 or shape[1] != 6 or shape[0] == 0:
         raise TaskFileError(f"{path}: expected an array of shape (t, 6) with t >= 1, got {shape}")
-    if shape[0] > MAX_WRENCHES:
+    return shape[0]
+
+
+def read_npy(path: Path) -> np.ndarray:
+    """The (t, 6) array of an ``.npy`` task file; its header (format, dtype, shape) is checked
+    before the data is read (:func:`npy_rows`), and a bad file is a TaskFileError naming it."""
+    rows = npy_rows(path)
+    if rows > MAX_WRENCHES:
         raise TaskFileError(
-            f"{path}: {shape[0]:,} wrenches, more than the {MAX_WRENCHES:,} a task holds"
+            f"{path}: {rows:,} wrenches, more than the {MAX_WRENCHES:,} a task holds"
         )
     try:
         return np.load(path, allow_pickle=False)

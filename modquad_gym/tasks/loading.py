@@ -11,10 +11,18 @@ from typing import Any
 from modquad_gym.core.validation import check_wrenches
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.dynamics.task import is_dynamic_data
-from modquad_gym.tasks.csvfile import check_csv_header
+from modquad_gym.tasks.csvfile import check_csv_header, csv_rows_at_most
 from modquad_gym.tasks.examples import resolve_task_path
-from modquad_gym.tasks.files import PathLike, TaskFileError, check_path, read_json
+from modquad_gym.tasks.files import (
+    PathLike,
+    TaskFileError,
+    check_path,
+    npy_rows,
+    read_bytes,
+    read_json,
+)
 from modquad_gym.tasks.requirement import TaskRequirement
+from modquad_gym.tasks.wrenches import MAX_WRENCHES
 
 
 def is_dynamic(task: object) -> bool:
@@ -69,3 +77,24 @@ def load_task(path: PathLike, csv_header: str = "auto") -> TaskRequirement | Dyn
         raise
     except ValueError as exc:
         raise TaskFileError(f"{p}: {exc}") from None
+
+
+def wrenches_at_most(
+    path: PathLike, csv_header: str = "auto", most: int = MAX_WRENCHES
+) -> int | None:
+    """How many wrenches the task file ``path`` holds, where that is known before it is parsed:
+    an ``.npy`` file's from its header (:func:`~.files.npy_rows`), a CSV file's from its lines
+    of numbers, counted up to ``most + 1`` (:func:`~.csvfile.csv_rows_at_most`). None for a
+    JSON file (parsed first, within its bounds) or a file neither can read (its loader names
+    what is wrong)."""
+    try:
+        p = resolve_task_path(path)
+        if not p.is_file():
+            return None
+        if p.suffix.lower() == ".npy":
+            return npy_rows(p)
+        if p.suffix.lower() == ".csv":
+            return csv_rows_at_most(read_bytes(p), csv_header, most)
+    except (ValueError, OSError):
+        return None
+    return None
