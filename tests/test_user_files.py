@@ -15,7 +15,7 @@ import pytest
 from test_hardening import assert_one_line_error, run_main
 
 import modquad_gym as mq
-from modquad_gym.tasks import TaskFileError, TaskRequirement, as_task, load_task
+from modquad_gym.tasks import TaskFileError, TaskRequirement, as_task, load_suite, load_task
 
 SHIPPED_RUN = mq.__path__[0] + "/data/models/ppo_default"
 
@@ -365,3 +365,30 @@ def test_a_dynamic_task_too_long_to_search_is_told_to_sample_it_more_coarsely(tm
     code, _, err = run_main(capsys, "solve", "--task", str(path), "--method", "greedy",
                             "--n-max", "2")  # fmt: skip
     assert_one_line_error(code, err, f"{path}: {words}", "sample the trajectory more coarsely")
+
+
+# ------------------------------------------------ meta: read only what can be written back
+@pytest.mark.parametrize(
+    "name, text, words",
+    [
+        ("s.json", '{"wrenches": [[0, 0, 1, 0, 0, 0]], "meta": {"a": NaN}}',
+         "meta['a'] is nan: JSON has no NaN or infinity"),
+        ("s.csv", '# meta: {"a": {"b": [1, Infinity]}}\n0,0,1,0,0,0\n',
+         "line 1: meta['a']['b'][1] is inf: JSON has no NaN or infinity"),
+        ("d.json", json.dumps(_dynamic()).replace('"name"', '"meta": {"x": -Infinity}, "name"'),
+         "meta['x'] is -inf: JSON has no NaN or infinity"),
+    ],
+)  # fmt: skip
+def test_meta_that_cannot_be_written_back_is_refused_on_read(tmp_path, capsys, name, text, words):
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(TaskFileError) as info:
+        load_task(path)
+    assert str(info.value).startswith(f"{path}: {words}"), info.value
+    suite = tmp_path / "suite.json"
+    if name.endswith(".json"):  # a suite's task is read by the same rule
+        suite.write_text('{"tasks": [' + text + "]}")
+        with pytest.raises(TaskFileError, match=r"task 1: meta\["):
+            load_suite(suite)
+    code, _, err = run_main(capsys, "solve", "--task", str(path), "--method", "greedy")
+    assert_one_line_error(code, err, f"{path}: ", words)

@@ -221,7 +221,9 @@ class DynamicTask:
         except ValueError as exc:
             raise ValueError(f"f_max: {exc}") from None
         name = data.get("name", default_name)
-        meta = data.get("meta", {})
+        from modquad_gym.tasks.files import check_meta
+
+        meta = check_meta(data.get("meta", {}))
         return cls(trajectory, payload, exerted, f_max, name, meta)
 
     def save(self, path, force: bool = False) -> Any:

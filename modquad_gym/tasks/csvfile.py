@@ -27,6 +27,7 @@ from modquad_gym.core.validation import check_f_max
 from modquad_gym.tasks.files import (
     MAX_WRENCHES,
     TaskFileError,
+    check_meta,
     close_key,
     decode_text,
     parse_json,
@@ -102,7 +103,7 @@ def _comment(text: str, fields: dict[str, Any], seen: dict[str, int], where: str
             meta = parse_json(value, "meta comment")
             if not isinstance(meta, dict):
                 raise ValueError(f"the meta comment must be a JSON object, got {value:.60}")
-            fields["meta"] = meta
+            fields["meta"] = check_meta(meta)
     except ValueError as exc:
         raise TaskFileError(f"{at}: {exc}") from None
 

@@ -138,6 +138,19 @@ def jsonable(obj: Any, what: str = "meta") -> Any:
     return _jsonable(obj, what, ())
 
 
+def check_meta(meta: object, what: str = "'meta'") -> dict:
+    """``meta`` as read from a task file: a JSON object that JSON can hold, so that the task can
+    be written back (Python's ``json`` reads ``NaN`` and ``Infinity``, which no writer
+    writes); a ValueError names ``what``, or the entry (``meta['a'] is nan: ...``)."""
+    if not isinstance(meta, dict):
+        raise ValueError(f"{what} must be an object, got {meta!r:.60}")
+    try:
+        jsonable(meta)
+    except RecursionError:
+        raise ValueError(f"{what} is nested too deeply") from None
+    return meta
+
+
 def _jsonable(obj: Any, what: str, at: tuple) -> Any:
     if isinstance(obj, dict):
         return {str(k): _jsonable(v, what, (*at, k)) for k, v in obj.items()}

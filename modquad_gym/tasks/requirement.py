@@ -20,6 +20,7 @@ from modquad_gym.tasks.files import (
     SUFFIXES,
     PathLike,
     TaskFileError,
+    check_meta,
     check_path,
     jsonable,
     read_json,
@@ -196,9 +197,7 @@ class TaskRequirement:
             raise ValueError(f"'name' must be a string, got {name!r}")
         f_max = check_f_max(data.get("f_max", 1.0))
         kind = check_kind(data.get("kind", "total"), "'kind'")
-        meta = data.get("meta", {})
-        if not isinstance(meta, dict):
-            raise ValueError(f"'meta' must be an object, got {meta!r}")
+        meta = check_meta(data.get("meta", {}))
         return cls(wrenches, name=name, f_max=f_max, meta=meta, kind=kind)
 
     # --- files ----------------------------------------------------------------------------
