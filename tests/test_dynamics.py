@@ -346,7 +346,10 @@ def test_dynamic_task_file_round_trip(tmp_path):
             {"trajectory": {"t": [0, 1], "position": [[0, 0, 0]] * 2}, "exerted": [[0] * 6]},
             r"exerted must have shape \(2, 6\)",
         ),
-        ({"trajectory": {"t": [0, 1], "position": [[0, 0, 0]] * 2}, "f_max": -2}, r"f_max: "),
+        (
+            {"trajectory": {"t": [0, 1], "position": [[0, 0, 0]] * 2}, "f_max": -2},
+            r": f_max must be positive, got -2$",
+        ),
     ],
 )
 def test_bad_dynamic_task_files(tmp_path, data, message):

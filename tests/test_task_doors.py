@@ -174,12 +174,15 @@ def test_task_example_force_without_out_is_refused(tmp_path, capsys, monkeypatch
     assert out == "" and list(tmp_path.iterdir()) == []
 
 
-def test_task_motion_keeps_an_empty_name_as_python_does(tmp_path, capsys):
+def test_task_motion_refuses_an_empty_name_as_python_does(tmp_path, capsys):
+    """A task's name is never empty (a file's task without one takes the file's name)."""
     out = tmp_path / "q12.json"
     code, _, err = run_main(capsys, "task", "motion", "--kind", "hover", "--name", "",
                             "--out", str(out))  # fmt: skip
-    assert code == 0, err
-    assert load_task(out).name == "" == dy.hover(name="").name
+    assert code == 2 and err.strip() == "modquad: error: --name must be a non-empty string, got ''"
+    assert not out.exists()
+    with pytest.raises(ValueError, match="^name must be a non-empty string"):
+        dy.hover(name="")
 
 
 def test_export_task_folder_says_it_takes_one_file(tmp_path, capsys):

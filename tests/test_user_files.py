@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import threading
 import time
@@ -392,3 +393,76 @@ def test_meta_that_cannot_be_written_back_is_refused_on_read(tmp_path, capsys, n
             load_suite(suite)
     code, _, err = run_main(capsys, "solve", "--task", str(path), "--method", "greedy")
     assert_one_line_error(code, err, f"{path}: ", words)
+
+
+# -------------------------------------------------- small acceptances: refused as their peers are
+def test_an_npy_file_holds_one_array_and_nothing_after_it(tmp_path, capsys):
+    path = tmp_path / "extra.npy"
+    np.save(path, np.array([[0, 0, 1, 0, 0, 0]]))
+    whole = path.read_bytes()
+    path.write_bytes(whole + b"garbage" * 100)  # np.load reads the array and ignores the rest
+    words = "748 bytes of data where its header describes a 1 x 6 array of 48 (bytes after it)"
+    with pytest.raises(TaskFileError, match=f"^{path}: {re.escape(words)}"):
+        TaskRequirement.load(path)
+    code, _, err = run_main(capsys, "solve", "--task", str(path), "--method", "greedy")
+    assert_one_line_error(code, err, f"{path}: {words}")
+    path.write_bytes(whole)
+    assert TaskRequirement.load(path).wrenches.tolist() == [[0, 0, 1, 0, 0, 0]]
+
+
+@pytest.mark.parametrize("digit", ["\u0661", "\uff11", "\u00b9", "\u0967"])
+def test_csv_numbers_are_ascii_decimals(tmp_path, digit):
+    """\\d matched any Unicode digit and float() read it: '0,0,\u0661,0,0,0' was a wrench."""
+    path = tmp_path / "u.csv"
+    path.write_text(f"0,0,{digit},0,0,0\n", encoding="utf-8")
+    with pytest.raises(TaskFileError, match=f"fz = '{digit}' is not a number"):
+        TaskRequirement.load(path)
+
+
+@pytest.mark.parametrize("key", ["meta", "payload", "exerted"])
+def test_null_is_refused_in_a_dynamic_task_as_in_a_static_one(tmp_path, key):
+    words = {
+        "meta": "'meta' must be an object, got None",
+        "payload": "payload must be an object with 'mass' (kg), got None",
+        "exerted": "exerted must be a list of [fx, fy, fz, tx, ty, tz] rows, got None",
+    }
+    path = tmp_path / "d.json"
+    path.write_text(json.dumps(_dynamic(**{key: None})))
+    with pytest.raises(TaskFileError, match=f"^{re.escape(f'{path}: {words[key]}')}$"):
+        load_task(path)
+    static = tmp_path / "s.json"
+    static.write_text(json.dumps({"wrenches": [W_ROW], "meta": None}))
+    with pytest.raises(TaskFileError, match="'meta' must be an object, got None"):
+        load_task(static)
+
+
+@pytest.mark.parametrize(
+    "name, text",
+    [
+        ("s.json", '{"wrenches": [[0, 0, 1, 0, 0, 0]], "name": ""}'),
+        ("d.json", json.dumps({**_dynamic(), "name": ""})),
+        ("s.csv", '# name: ""\n0,0,1,0,0,0\n'),
+    ],
+)
+def test_an_empty_task_name_is_refused(tmp_path, capsys, name, text):
+    """A missing name takes the file's; an empty one was kept and printed as task ''."""
+    path = tmp_path / name
+    path.write_text(text)
+    code, out, err = run_main(capsys, "solve", "--task", str(path), "--method", "greedy")
+    assert_one_line_error(code, err, str(path), "name")
+    assert "without a name" in err or "must be a non-empty string" in err
+    path.write_text(text.replace('"name": "", ', "").replace(', "name": ""', ""))
+    if not name.endswith(".csv"):
+        assert load_task(path).name == path.stem
+    for make in (lambda: TaskRequirement([W_ROW], name=""),
+                 lambda: mq.DynamicTask(mq.Trajectory(**RISING), name="")):  # fmt: skip
+        with pytest.raises(ValueError, match="^name must be a non-empty string, got ''"):
+            make()
+
+
+def test_a_dynamic_f_max_error_names_the_key_once(tmp_path):
+    path = tmp_path / "d.json"
+    path.write_text(json.dumps({**_dynamic(), "f_max": -0.0}))
+    with pytest.raises(TaskFileError) as info:
+        load_task(path)
+    assert str(info.value) == f"{path}: f_max must be positive, got -0"

@@ -21,6 +21,7 @@ __all__ = [
     "check_name",
     "check_path",
     "check_rng",
+    "check_task_name",
     "float_array",
     "check_int",
     "check_matrix",
@@ -95,6 +96,15 @@ def check_name(value: object, name: str = "name") -> str:
     """``value`` when it is a string, else a ValueError naming ``name``."""
     if not isinstance(value, str):
         raise ValueError(f"{name} must be a string, got {value!r:.60}")
+    return value
+
+
+def check_task_name(value: object, name: str = "name") -> str:
+    """A task's name: a non-empty string (a file's task without one takes the file's name;
+    an empty one would print as ``task ''``), else a ValueError naming ``name``."""
+    if not isinstance(value, str) or not value:
+        hint = " (leave it out for the file's name)" if name.startswith("'") else ""
+        raise ValueError(f"{name} must be a non-empty string{hint}, got {value!r:.60}")
     return value
 
 

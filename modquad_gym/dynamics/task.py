@@ -29,7 +29,12 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.validation import check_f_max, float_array, refuse_non_numbers
+from modquad_gym.core.validation import (
+    check_f_max,
+    check_task_name,
+    float_array,
+    refuse_non_numbers,
+)
 from modquad_gym.dynamics.samples import row_problem
 from modquad_gym.dynamics.trajectory import Trajectory
 from modquad_gym.dynamics.wrenches import LinearWrenches, Payload
@@ -111,8 +116,7 @@ class DynamicTask:
             raise ValueError(f"trajectory must be a Trajectory, got {type(trajectory).__name__}")
         if payload is not None and not isinstance(payload, Payload):
             raise ValueError(f"payload must be a Payload or None, got {type(payload).__name__}")
-        if not isinstance(name, str):
-            raise ValueError(f"name must be a string, got {name!r}")
+        check_task_name(name)
         if meta is not None and not isinstance(meta, dict):
             raise ValueError(f"meta must be an object, got {meta!r}")
         self.trajectory = trajectory
@@ -212,15 +216,16 @@ class DynamicTask:
                 f"kind must be {KIND!r} for a task with a trajectory, got {data['kind']!r}"
             )
         trajectory = Trajectory.from_dict(data["trajectory"])
-        payload = Payload.from_dict(data["payload"]) if data.get("payload") is not None else None
+        payload = Payload.from_dict(data["payload"]) if "payload" in data else None
         exerted = data.get("exerted")
-        if exerted is not None:
+        if "exerted" in data:  # null included, as for a static task's keys: leave a key out
+            if exerted is None:
+                raise ValueError(
+                    "exerted must be a list of [fx, fy, fz, tx, ty, tz] rows, got None"
+                )
             exerted = _exerted(exerted, trajectory.n_samples)
-        try:
-            f_max = check_f_max(data.get("f_max", 1.0))
-        except ValueError as exc:
-            raise ValueError(f"f_max: {exc}") from None
-        name = data.get("name", default_name)
+        f_max = check_f_max(data.get("f_max", 1.0))
+        name = check_task_name(data.get("name", default_name), "'name'")
         from modquad_gym.tasks.files import check_meta
 
         meta = check_meta(data.get("meta", {}))

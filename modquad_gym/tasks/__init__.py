@@ -19,10 +19,12 @@ Task files (:mod:`.files`):
 
 ``.json``
     ``{"wrenches": [[fx, fy, fz, tx, ty, tz], ...], "f_max": 1.0, "name": "..."}``; only
-    ``wrenches`` is required (``name`` defaults to the file stem, ``f_max`` to 1, ``kind`` to
-    ``"total"``, so every file written before kinds existed means what it meant). An optional
-    ``meta`` object carries extra information (e.g. a planted structure, a known optimum). Any
-    other key, and a key given twice, is refused (:data:`TASK_KEYS` lists the known ones).
+    ``wrenches`` is required (``name`` defaults to the file stem and is never empty, ``f_max``
+    to 1, ``kind`` to ``"total"``, so every file written before kinds existed means what it
+    meant). An optional ``meta`` object carries extra information (e.g. a planted structure, a
+    known optimum); it must be JSON that can be written back (no ``NaN``, no ``Infinity``).
+    Any other key, ``null`` for a key, and a key given twice are refused (:data:`TASK_KEYS`
+    lists the known ones). Every number is a JSON number: ``"1"`` and ``true`` are refused.
 ``.csv``
     Six comma-separated columns, one wrench per line. An optional first line is a header naming
     the columns ``fx, fy, fz, tx, ty, tz`` (in any order: the names are honoured); a first line
@@ -37,7 +39,8 @@ Task files (:mod:`.files`):
     applies to CSV files only (another mode than ``auto`` for a ``.json`` or ``.npy`` file is
     refused).
 ``.npy``
-    A float array of shape (t, 6) (``f_max`` = 1, kind ``total``, name = file stem).
+    A numeric array of shape (t, 6) and nothing after it (``f_max`` = 1, kind ``total``, name =
+    file stem).
 
 A bad file raises :class:`TaskFileError` (a ValueError) naming the file and, where it applies,
 the 1-based data row (header, blank and comment lines are not counted; the line number is given

@@ -51,7 +51,9 @@ sets one of these keys without the ``:``: with ``=`` (``# f_max = 2``, ``#f_max=
 2``), or followed by a value of its kind (``# f_max 2``, ``# kind external``, ``# meta {...}``).
 Free text that merely starts with such a word (``# name of the bench``) stays free text."""
 
-_DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.I)
+_DECIMAL = re.compile(  # ASCII digits only: \d would read any Unicode digit, float() too
+    r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?|[+-]?(nan|inf|infinity)", re.I
+)
 _COMMENT = re.compile(r"#\s*([A-Za-z][\w -]*?)\s*:(.*)", re.S)
 _NEAR_MISS = re.compile(r"#\s*([A-Za-z][\w-]*)(\s*=|\s|$)(.*)", re.S)
 _SPACED_SET = re.compile(r"#\s*([A-Za-z][\w -]*?)\s*=(.*)", re.S)
@@ -140,6 +142,8 @@ def _name_value(value: str, at: str) -> str:
     name = parse_json(value, "name comment")
     if not isinstance(name, str):
         raise ValueError(f"the name comment {value!r} is not a JSON string")
+    if not name:
+        raise ValueError("'# name: \"\"' without a name")
     return name
 
 

@@ -269,6 +269,12 @@ def read_json(path: Path) -> Any:
 def npy_rows(path: Path) -> int:
     """The wrench count of the ``.npy`` task file ``path``, read from its header (format, dtype
     and shape checked, the data not read); a bad file is a TaskFileError naming it."""
+    return _npy_header(path)[0]
+
+
+def _npy_header(path: Path) -> tuple[int, int, int]:
+    """(rows, bytes of data in the file, bytes its header's array takes) of an .npy task file,
+    its format, dtype and shape checked."""
     from numpy.lib import format as npy
 
     with open(path, "rb") as fh:
@@ -284,20 +290,28 @@ def npy_rows(path: Path) -> int:
             shape, _, dtype = read_header(fh, max_header_size=10_000)
         except (ValueError, OSError, EOFError) as exc:
             raise TaskFileError(f"{path}: not a readable .npy array: {exc}") from None
+        data_bytes = os.fstat(fh.fileno()).st_size - fh.tell()
     if dtype.kind not in "iuf" or dtype.hasobject:
         raise TaskFileError(f"{path}: expected a numeric array of shape (t, 6), got {dtype}")
     if len(shape) != 2 or shape[1] != 6 or shape[0] == 0:
         raise TaskFileError(f"{path}: expected an array of shape (t, 6) with t >= 1, got {shape}")
-    return shape[0]
+    return shape[0], data_bytes, shape[0] * 6 * dtype.itemsize
 
 
 def read_npy(path: Path) -> np.ndarray:
-    """The (t, 6) array of an ``.npy`` task file; its header (format, dtype, shape) is checked
-    before the data is read (:func:`npy_rows`), and a bad file is a TaskFileError naming it."""
-    rows = npy_rows(path)
+    """The (t, 6) array of an ``.npy`` task file; its header (format, dtype, shape, and that the
+    file holds that array and nothing after it: ``np.load`` ignores what follows) is checked
+    before the data is read, and a bad file is a TaskFileError naming it."""
+    rows, data_bytes, expected = _npy_header(path)
     if rows > MAX_WRENCHES:
         raise TaskFileError(
             f"{path}: {rows:,} wrenches, more than the {MAX_WRENCHES:,} a task holds"
+        )
+    if data_bytes != expected:
+        raise TaskFileError(
+            f"{path}: {data_bytes:,} bytes of data where its header describes a {rows} x 6 "
+            f"array of {expected:,} ({'bytes after it' if data_bytes > expected else 'cut short'}"
+            "): not one .npy array"
         )
     try:
         return np.load(path, allow_pickle=False)

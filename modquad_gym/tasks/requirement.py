@@ -12,7 +12,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from modquad_gym.core.outputs import atomic_write, check_output_file, write_text
-from modquad_gym.core.validation import check_f_max, check_flag
+from modquad_gym.core.validation import check_f_max, check_flag, check_task_name
 from modquad_gym.dynamics.wrenches import LinearWrenches
 from modquad_gym.tasks.csvfile import check_csv_header, csv_text, read_csv
 from modquad_gym.tasks.examples import resolve_task_path
@@ -78,8 +78,7 @@ class TaskRequirement:
         arr.setflags(write=False)
         object.__setattr__(self, "wrenches", arr)
         object.__setattr__(self, "f_max", check_f_max(self.f_max))
-        if not isinstance(self.name, str):
-            raise ValueError(f"name must be a string, got {self.name!r}")
+        check_task_name(self.name)
         if not isinstance(self.meta, dict):
             raise ValueError(f"meta must be a dict, got {type(self.meta).__name__}")
         object.__setattr__(self, "meta", dict(self.meta))
@@ -192,9 +191,7 @@ class TaskRequirement:
         if task_format(data) != "wrenches":
             raise ValueError("a task with a trajectory is dynamic: read it with tasks.load_task")
         wrenches = rows_to_array(data["wrenches"])
-        name = data.get("name", default_name)
-        if not isinstance(name, str):
-            raise ValueError(f"'name' must be a string, got {name!r}")
+        name = check_task_name(data.get("name", default_name), "'name'")
         f_max = check_f_max(data.get("f_max", 1.0))
         kind = check_kind(data.get("kind", "total"), "'kind'")
         meta = check_meta(data.get("meta", {}))
