@@ -42,13 +42,13 @@ def load_task(path, csv_header: str = "auto"):
     from modquad_gym.tasks import TaskFileError, TaskRequirement
     from modquad_gym.tasks import load_task as load
     from modquad_gym.tasks.loading import wrenches_at_most
+    from modquad_gym.tasks.wrenches import MAX_WRENCHES
 
     if not str(path).lower().endswith(".csv"):  # refused where no file is (given.py)
         csv_header = "auto"
-    n = wrenches_at_most(path, csv_header, MOST)  # more than a search takes: before parsing
+    n = wrenches_at_most(path, csv_header)  # more than a search takes: before parsing
     if n is not None and n > MOST:
-        csv = str(path).lower().endswith(".csv")  # counted only up to MOST + 1
-        count = f"more than {MOST:,}" if csv else f"{n:,}"
+        count = f"more than {MAX_WRENCHES:,}" if n > MAX_WRENCHES else f"{n:,}"
         raise TaskFileError(f"{path}: {search_size_message(count)}")
     task = load(path, csv_header=csv_header)
     if isinstance(task, TaskRequirement):
