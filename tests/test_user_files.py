@@ -341,7 +341,7 @@ def test_a_csv_beyond_the_task_limit_is_refused_before_parsing(tmp_path, monkeyp
 def test_solve_refuses_more_wrenches_than_a_search_takes_before_parsing(
     tmp_path, capsys, monkeypatch, suffix
 ):
-    from modquad_gym.search.problem import MAX_SEARCH_WRENCHES as MOST
+    from modquad_gym.search.size import MAX_SEARCH_WRENCHES as MOST
 
     path = tmp_path / f"big{suffix}"
     TaskRequirement(np.tile([0.0, 0, 1, 0, 0, 0], (MOST + 1, 1))).save(path)

@@ -37,8 +37,8 @@ def load_task(path, csv_header: str = "auto"):
     searches will (an error names the file and the 1-based row); a CSV or .npy file of more
     wrenches than a search takes is refused before it is parsed."""
     from modquad_gym.oracle import check_task_scale
-    from modquad_gym.search.problem import MAX_SEARCH_WRENCHES as MOST
-    from modquad_gym.search.problem import search_size_message
+    from modquad_gym.search.size import MAX_SEARCH_WRENCHES as MOST
+    from modquad_gym.search.size import search_size_message
     from modquad_gym.tasks import TaskFileError, TaskRequirement
     from modquad_gym.tasks import load_task as load
     from modquad_gym.tasks.loading import wrenches_at_most
@@ -65,7 +65,7 @@ def check_task(task, path=None, modules=None) -> None:
     its payload (a TaskFileError naming the file ``path``). A task of more wrenches than a
     search takes (a dynamic one: more distinct samples): TaskFileError naming the file. Every
     method takes both kinds of task."""
-    from modquad_gym.search.problem import check_search_size
+    from modquad_gym.search.size import check_search_size
     from modquad_gym.tasks import TaskFileError
 
     if getattr(task, "kind", None) == "dynamic":
