@@ -89,8 +89,9 @@ def test_a_palette_answer_names_its_types_and_survives_with_them():
     assert len(record["modules"]) == r.n_modules and record["fault"] == "rotor"
     W = task.rotor_wrenches(r.structure)
     assert mq.tolerates(r.structure, W, task.f_max, fault="rotor").all()
-    with pytest.raises(ValueError, match=r"modules\[0\] must be a ModuleType, got str"):
-        mq.make_solver("ppo", modules=["t45", "flat"])  # as a search's problem refuses them
+    named = mq.make_solver("ppo", n_max=7, modules="t45,t45m,flat", fault="rotor").solve(task)
+    assert named.structure.cells == r.structure.cells  # names read as --modules reads them
+    assert [m.name for m in named.structure.modules] == record["modules"]
 
 
 def test_a_rotor_failure_on_one_type_below_16_modules_takes_the_fault_tier_model():

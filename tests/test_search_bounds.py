@@ -51,7 +51,7 @@ def task_of(seed):
 
 # --------------------------------------------------------------------------- the problem value
 def test_problem_is_built_once_and_validated():
-    p = SearchProblem.build([[0, 0, 2.0, 0, 0, 0]], n_max=5, modules=T + T[:1])
+    p = SearchProblem.build([[0, 0, 2.0, 0, 0, 0]], n_max=5, modules=T)
     assert p.palette == tuple(T) and p.typed and p.kind == "total" and p.n_max == 5
     assert not p.shape_only and p.with_n_max(9).n_max == 9
     one = SearchProblem.build(mq.TaskRequirement([[0, 0, 2.0, 0, 0, 0]], f_max=2.0))
@@ -63,7 +63,9 @@ def test_problem_is_built_once_and_validated():
         (dict(f_max=-1.0), "f_max"),
         (dict(kind="inside"), "kind"),
         (dict(module=T[0], modules=T), "not both"),
-        (dict(modules="t45"), "list of ModuleType"),
+        (dict(modules=T + T[:1]), "is listed twice"),  # as --modules refuses a repeat
+        (dict(modules="t45,bogus"), "unknown module type 'bogus'"),
+        (dict(modules=5), "list of ModuleType"),
     ]:
         with pytest.raises(ValueError, match=match):
             SearchProblem.build([[0, 0, 2.0, 0, 0, 0]], **bad)

@@ -63,7 +63,8 @@ def test_a_problem_that_agrees_with_the_solver_or_a_solver_without_settings_is_u
         (dict(n_max=-1), ValueError, "n_max must be >= 1, got -1"),
         (dict(n_max="5"), ValueError, "n_max must be an integer, got '5'"),
         (dict(fault="bogus"), ValueError, "fault must be one of"),
-        (dict(modules="t45"), ValueError, "modules must be a list of ModuleType"),
+        (dict(modules=5), ValueError, "modules must be a list of ModuleType"),
+        (dict(modules="t45,t45"), ValueError, "modules: a type is listed twice"),
         (dict(tier="bogus"), TypeError, "tier='bogus': method 'greedy' does not take it"),
     ],
 )

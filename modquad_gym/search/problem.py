@@ -24,6 +24,7 @@ import numpy as np
 from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
 from modquad_gym.geometry.cells import MAX_MODULES  # noqa: F401 (the searches' limit, named here)
 from modquad_gym.geometry.module import ModuleType
+from modquad_gym.geometry.module import palette as read_palette
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_task_scale
 from modquad_gym.oracle.faults import check_fault, check_fault_margin
@@ -247,24 +248,33 @@ class SearchProblem:
 def check_palette(
     module: ModuleType | None, modules: Sequence[ModuleType] | None
 ) -> list[ModuleType]:
-    """The module types of a search: ``[module]`` (default the T-module) or ``modules``
-    without repeats (types with one :attr:`~ModuleType.digest` are one type; the first is
-    kept). ValueError for both or neither being usable, or types of different sides."""
+    """The module types of a search: ``[module]`` (default the T-module) or ``modules``, a list
+    of ModuleType or what :func:`~modquad_gym.geometry.module.palette` reads (``"t45,flat"``,
+    as ``--modules`` and the environments take). ValueError for both or neither being usable,
+    a type given twice (one :attr:`~ModuleType.digest`: the same rotors, whatever its name, as
+    ``--modules t45,t45`` is refused), or types of different sides or rotor counts."""
     if modules is None:
         if module is not None and not isinstance(module, ModuleType):
             raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
         return [module if module is not None else DEFAULT_MODULE]
     if module is not None:
         raise ValueError("give module= (one type) or modules= (a palette), not both")
-    if isinstance(modules, (str, ModuleType)) or not isinstance(modules, Iterable):
+    if isinstance(modules, ModuleType) or not isinstance(modules, Iterable):
         raise ValueError(
             "modules must be a list of ModuleType (see modquad_gym.geometry.module.palette)"
         )
+    modules = list(modules) if not isinstance(modules, str) else read_palette(modules)
+    if any(isinstance(m, str) for m in modules):
+        modules = read_palette(modules)
     out: dict[str, ModuleType] = {}
     for i, m in enumerate(modules):
         if not isinstance(m, ModuleType):
             raise ValueError(f"modules[{i}] must be a ModuleType, got {type(m).__name__}")
-        out.setdefault(m.digest, m)
+        if m.digest in out:
+            first = out[m.digest].name
+            same = "" if m.name == first else f" (as {m.name}: the same rotors)"
+            raise ValueError(f"modules: {first} is listed twice{same}")
+        out[m.digest] = m
     if not out:
         raise ValueError("modules: give at least one module type")
     palette = list(out.values())
