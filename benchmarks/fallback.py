@@ -43,7 +43,7 @@ from benchmarks.common import (
     write_csv,
 )
 from benchmarks.lookahead_top_k import FAMILIES, tasks_of
-from benchmarks.scale_models import summary, versus_greedy
+from benchmarks.scale_models import shown, summary, versus_greedy
 from modquad_gym.core.options import int_option, real_option
 from modquad_gym.core.outputs import save_figure, write_text
 from modquad_gym.search.problem import check_time_limit
@@ -296,7 +296,7 @@ def main(argv: list[str] | None = None) -> int:
         f"`minus_greedy_modules` [`low`, `high`]: mean modules minus {args.rival}'s on the tasks "
         f"both solve; `fewer`/`more`: tasks with fewer/more modules than {args.rival}; "
         f"`over_greedy_seconds`: CPU seconds over {args.rival}'s.", "",
-        *([markdown_table(versus), "", "![modules beside the rival](versus.png)"] if versus
+        *([markdown_table(shown(versus)), "", "![modules beside the rival](versus.png)"] if versus
           else ["(no scale tasks)"]), "",
         *(["## Small tasks (n_max 7): success and optimal share", "", markdown_table(small), ""]
           if small else []),

@@ -120,8 +120,7 @@ def over_runs(tier, method: str, kind: str, runs: dict[str, list], source: str,
               full: int = 0) -> Entry:  # fmt: skip
     """The entry of ``method`` from its per-task rows of one or more seeded runs (seed ->
     rows): per seed each metric over the tier's tasks, then the mean over seeds with its 95 %
-    percentile bootstrap interval (:func:`modquad_gym.scoring.seeds.interval`; the point for
-    one run)."""
+    percentile bootstrap interval (:func:`_intervals`; the point for one run)."""
     per_seed = {k: [] for k in METRICS}
     modules = []
     tasks = 0
@@ -141,10 +140,20 @@ def over_runs(tier, method: str, kind: str, runs: dict[str, list], source: str,
 
 def _intervals(per_seed: dict[str, list[float]]) -> dict[str, T3]:
     """Each metric's mean over seeds (its list of per-seed values) with its 95 % percentile
-    bootstrap interval (:func:`modquad_gym.scoring.seeds.interval`; the point for one run)."""
-    from modquad_gym.scoring.seeds import interval
+    bootstrap interval (:func:`modquad_gym.scoring.stats.interval`). One run has no interval:
+    low = high = the point, as :class:`Entry` keeps it (the page prints the point alone, the
+    row labelled one run); a metric not scored in some run is NaN."""
+    from modquad_gym.scoring.stats import interval, no_interval
 
-    return {k: interval([np.array(v)], lambda x: float(np.mean(x))) for k, v in per_seed.items()}
+    out = {}
+    for k, v in per_seed.items():
+        values = np.array(v, dtype=float)
+        if not values.size or np.isnan(values).any():
+            out[k] = NA
+            continue
+        t = interval([values], lambda x: float(np.mean(x)))
+        out[k] = (t[0], t[0], t[0]) if no_interval(t) else t
+    return out
 
 
 def read_seeds(path: Path) -> list[dict]:
@@ -155,7 +164,7 @@ def read_seeds(path: Path) -> list[dict]:
 def over_seeds(records: list[dict], tier, source: str, one_run: dict[str, Entry]) -> list[Entry]:
     """The learned methods of a five-seed report: per seed, each metric pooled over the tier's
     tasks (suites weighted by their task counts); the mean over seeds with its 95 % percentile
-    bootstrap interval (:func:`modquad_gym.scoring.seeds.interval`, seeds resampled). What the
+    bootstrap interval (:func:`_intervals`, seeds resampled). What the
     report does not hold (per-task seconds, so the optimal share within the budget; oracle
     calls; mean modules in older reports) comes from ``one_run`` (method -> the shipped
     model's entry in the tier report), with a note."""

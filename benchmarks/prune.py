@@ -29,7 +29,7 @@ from benchmarks.common import (
     markdown_table,
     write_csv,
 )
-from benchmarks.scale_models import summary, versus_greedy
+from benchmarks.scale_models import shown, summary, versus_greedy
 from modquad_gym.core.outputs import claim_output_dir, write_text
 from modquad_gym.core.resources import cap_workers
 
@@ -123,7 +123,7 @@ def report(rows: list[dict], per_method: list[dict], against: list[dict], args) 
             "bootstrap interval [`low`, `high`] over them; `missed`: tasks the rival answers "
             "and it does not; `seconds_ratio`: its total seconds over the rival's.",
             "",
-            markdown_table([v for v in against if v["family"] == "all"]),
+            markdown_table(shown([v for v in against if v["family"] == "all"], "both")),
             "",
             "## Goal (never worse than the rival, per family and band)",
             "",
@@ -140,17 +140,23 @@ def report(rows: list[dict], per_method: list[dict], against: list[dict], args) 
 
 def goal_lines(against: list[dict]) -> list[str]:
     """Per learned method and plain rival: the family and band cells where it misses a task
-    the rival answers or its interval's upper end is above 0 (met: none)."""
+    the rival answers or its interval's upper end is above 0 (met: none); a cell of one task
+    both answer has no interval and is judged on that task's difference."""
     cells = [v for v in against if v["family"] != "all" and "+" not in v["rival"]]
     cells = [v for v in cells if v["both"] + v["missed"]]
     out = []
     for pair in dict.fromkeys((v["method"], v["rival"]) for v in cells):
         mine = [v for v in cells if (v["method"], v["rival"]) == pair]
-        worse = [v for v in mine if v["missed"] or v["high"] > 0]
+        worse = [v for v in mine if v["missed"] or _upper(v) > 0]
         out.append(f"- `{pair[0]}` against {pair[1]}: cells where it misses a task {pair[1]} "
                    f"answers or the interval's upper end is above 0: {len(worse)} of "
                    f"{len(mine)}{_listed(worse)}: {'met' if not worse else 'NOT met'}")  # fmt: skip
     return out
+
+
+def _upper(v: dict) -> float:
+    """The cell's interval's upper end; its one difference where one task has none."""
+    return v["difference"] if v["both"] == 1 else v["high"]
 
 
 def _listed(cells: list[dict]) -> str:
@@ -158,7 +164,8 @@ def _listed(cells: list[dict]) -> str:
     where no task was answered by both)."""
 
     def one(v: dict) -> str:
-        both = f"{v['difference']:+g} [{v['low']:+g}, {v['high']:+g}], " if v["both"] else ""
+        bounds = "n/a (1 task)" if v["both"] == 1 else f"[{v['low']:+g}, {v['high']:+g}]"
+        both = f"{v['difference']:+g} {bounds}, " if v["both"] else ""
         return f"{v['family']}-{v['band']} ({both}missed {v['missed']})"
 
     return "".join(f"{', ' if i else ': '}{one(v)}" for i, v in enumerate(cells))

@@ -178,13 +178,14 @@ curve's level without picking its luckiest evaluation."""
 
 def gains(rows: list[dict]) -> list[dict]:
     """Mean gain over the cloned start (:data:`GAINS`) over the runs with its 95 % bootstrap
-    interval."""
+    interval (``n/a (1 run)``: one run has none)."""
     out = []
     for what, (column, cloned) in GAINS.items():
         g = np.array([r[column] - r[cloned] for r in rows])
         point, low, high = interval([g], np.mean)
+        ci = "n/a (1 run)" if len(g) < 2 else f"[{100 * low:+.2f}, {100 * high:+.2f}]"
         out.append({"gain (over cloned)": what, "runs": len(g), "mean": f"{100 * point:+.2f} pt",
-                    "95 % CI": f"[{100 * low:+.2f}, {100 * high:+.2f}]",
+                    "95 % CI": ci,
                     "per run": " ".join(f"{100 * x:+.1f}" for x in g)})  # fmt: skip
     return out
 

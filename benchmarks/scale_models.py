@@ -127,6 +127,12 @@ def versus_greedy(rows: list[dict], name: str, band="all", family="all", rival="
             "high": round(high, 2), "over_greedy_seconds": round(seconds, 2)}  # fmt: skip
 
 
+def shown(table: list[dict], count: str = "solves_of_greedys") -> list[dict]:
+    """``table`` for a page: where the difference is over one task (``count`` 1), which has no
+    interval (NaN bounds), the bounds read ``n/a (1 task)``."""
+    return [{**r, "low": "n/a (1 task)", "high": "n/a"} if r[count] == 1 else r for r in table]
+
+
 def summary(rows: list[dict], names, bands, families, rival="greedy") -> list[dict]:
     """:func:`versus_greedy` per model over everything, then per band and family."""
     out = [versus_greedy(rows, n, rival=rival) for n in names]
@@ -200,7 +206,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
            else "")
     )  # fmt: skip
     text = report_page("Learned models beside greedy per scale family and band", command,
-                       notes, table, "## Every task", "", markdown_table(rows), "",
+                       notes, shown(table), "## Every task", "", markdown_table(rows), "",
                        how=f"; {args.workers} processes at a time")  # fmt: skip
     write_report(args.out, "report", table, text)
     write_csv(rows, args.out / "rows.csv")

@@ -36,7 +36,7 @@ from benchmarks.scale_suites import FAMILIES, load_scale_suite
 from modquad_gym.cli.common import time_limit_option
 from modquad_gym.core.options import int_option
 from modquad_gym.scoring.seed_runs import find_runs
-from modquad_gym.scoring.seeds import interval
+from modquad_gym.scoring.stats import interval
 
 OUTPUTS = ("report.md", "report.csv", "rows.csv")
 ONE_TYPE = tuple(f for f in FAMILIES if f != "mixed")
@@ -94,27 +94,32 @@ def per_seed_table(rows: list[dict], bands) -> list[dict]:
 
 
 def band_summary(rows: list[dict], band: int) -> dict:
-    """The band's greedy line and ppo's per-seed scores with their bootstrap intervals."""
+    """The band's greedy line and ppo's per-seed scores with their bootstrap intervals
+    (:func:`seed_mean`)."""
     greedy = [r for r in rows if r["band"] == band and r["method"] == "greedy"]
     per_seed = seed_rows(rows, band)
     share = [r["ppo_solves_greedys_pct"] for r in per_seed]
     extra = [r["ppo_minus_greedy_modules"] for r in per_seed]
     ratio = [r["ppo_over_greedy_seconds"] for r in per_seed]
-
-    def ci(values, fmt):
-        v = np.asarray(values, dtype=float)
-        v = v[~np.isnan(v)]
-        if not len(v):
-            return "-"
-        point, low, high = interval([v], np.mean)
-        return f"{point:{fmt}} [{low:{fmt}}, {high:{fmt}}]"
-
     return {"band": band, "tasks": len(greedy),
             "greedy_solved": sum(r["found"] is not None for r in greedy),
-            "seeds": len(per_seed), "ppo_solves_greedys_pct": ci(share, ".1f"),
+            "seeds": len(per_seed), "ppo_solves_greedys_pct": seed_mean(share, ".1f"),
             "ppo_every_seed_all": sum(s == 100.0 for s in share),
-            "ppo_minus_greedy_modules": ci(extra, "+.2f"),
-            "ppo_over_greedy_seconds": ci(ratio, ".2f")}  # fmt: skip
+            "ppo_minus_greedy_modules": seed_mean(extra, "+.2f"),
+            "ppo_over_greedy_seconds": seed_mean(ratio, ".2f")}  # fmt: skip
+
+
+def seed_mean(values, fmt: str) -> str:
+    """``mean [low, high]`` of the per-seed ``values`` with its 95 % bootstrap interval; a
+    seed without a value (NaN: ppo solved none of greedy's tasks, no difference) is left out
+    and counted (``(4 of 5 seeds)``); ``n/a (1 seed)`` where one is left; ``-`` for none."""
+    v = np.asarray(values, dtype=float)
+    kept = v[~np.isnan(v)]
+    if not len(kept):
+        return "-"
+    point, low, high = interval([kept], np.mean)
+    text = f"{point:{fmt}} " + ("n/a (1 seed)" if len(kept) < 2 else f"[{low:{fmt}}, {high:{fmt}}]")
+    return text if len(kept) == len(v) else f"{text} ({len(kept)} of {len(v)} seeds)"
 
 
 def family_rows(rows: list[dict]) -> list[dict]:
@@ -224,7 +229,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
         f"Seeds: {', '.join(seeds)} (`{args.runs}`; mixed palette `{args.mixed_runs}`). "
         "`ppo_solves_greedys_pct`: of the tasks greedy solves, the share `ppo` solves (mean "
         "over seeds, 95 % bootstrap interval); `ppo_every_seed_all`: seeds that solve all of "
-        "them; `ppo_minus_greedy_modules`: mean modules above greedy's on the tasks both solve; "
+        "them; `ppo_minus_greedy_modules`: mean modules above greedy's on the tasks both solve "
+        "(a seed that solves none of greedy's tasks has no difference: the cell then says over "
+        "how many seeds it is); "
         "`ppo_over_greedy_seconds`: `ppo`'s total wall time over greedy's on the same tasks. "
         "A structure counts only when the exact LP verifies it."
         + (" Re-rendered from the rows the same command wrote without `--rows`." if args.rows

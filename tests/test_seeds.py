@@ -138,7 +138,8 @@ def test_fault_tier_scores_designs_that_survive_the_failure(tmp_path):
     model = shipped_model("fault")
     if not model.is_file():
         pytest.skip("no fault model")
-    shutil.copytree(model.parent, tmp_path / "runs" / "seed-0")
+    for seed in (0, 1):  # a report over seeds takes two at least
+        shutil.copytree(model.parent, tmp_path / "runs" / f"seed-{seed}")
     out = tmp_path / "report"
     argv = [str(tmp_path / "runs"), "--tier", "fault", "--limit", "2", "--methods", "ppo",
             "--out", str(out), "--no-progress"]  # fmt: skip
@@ -225,8 +226,29 @@ def test_the_python_door_checks_as_the_command_line(tmp_path, capsys, monkeypatc
                         lambda runs, tier, methods, *a: chosen.append(methods) or [])  # fmt: skip
     monkeypatch.setattr("modquad_gym.scoring.seeds.write_report", lambda *a: tmp_path / "r.md")
     (tmp_path / "r.md").write_text("")
-    assert score_runs({}, "current", ["ppo", "ppo-k0", "ppo", "ppo-k08"]) == []
-    runs = _runs(tmp_path, seed0="current")
+    runs = _runs(tmp_path, seed0="current", seed1="current")
+    models = {p.name.removeprefix("seed-"): p / "model.zip" for p in sorted(runs.iterdir())}
+    assert score_runs(models, "current", ["ppo", "ppo-k0", "ppo", "ppo-k08"]) == []
     argv = [str(runs), "--methods", "ppo", "ppo-k0", "ppo", "ppo-k08", "--out", str(tmp_path / "o")]
     assert main(argv) == 0
     assert chosen == [["ppo", "ppo-k8"]] * 2
+
+
+def test_one_seed_is_refused_naming_runs_before_any_work(tmp_path, capsys, no_work):
+    """One seed has no interval: the command refuses it (it printed a zero-width "95 % CI" and
+    judged the tier's goals on it), as does the Python door."""
+    from modquad_gym.scoring.seeds import score_runs
+
+    runs = _runs(tmp_path, seed0="current")
+    argv = [str(runs), "--methods", "ppo", "--out", str(tmp_path / "o")]
+    _refused(capsys, argv, "RUNS: 1 seed", "seed-0", "at least 2")
+    assert not (tmp_path / "o").exists()
+    with pytest.raises(ValueError, match="RUNS: 1 seed"):
+        score_runs({"0": runs / "seed-0" / "model.zip"}, "current", ["ppo"])
+
+
+def test_one_seed_in_python_gets_no_interval_and_no_verdict():
+    scores = [_score(0, "ppo", "p", 0.99, 0.95)]
+    lines = "\n".join(goal_lines(scores, "current"))
+    assert "| ppo | optimal | 90 % | 95.0 % n/a (1 seed) | no verdict (no interval) |" in lines
+    assert "[95.0 %, 95.0 %]" not in lines and "| met |" not in lines

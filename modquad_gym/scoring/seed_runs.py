@@ -17,10 +17,25 @@ from modquad_gym.scoring.agents import load_solvers
 from modquad_gym.scoring.options import method_label
 from modquad_gym.scoring.tiers import Tier
 
+MIN_SEEDS = 2
+"""The fewest seeds a report over seeds takes: one seed has no interval (:mod:`.stats`)."""
+
+
+def check_seed_count(runs: dict[str, Path]) -> None:
+    """ValueError naming RUNS when ``runs`` holds fewer than :data:`MIN_SEEDS` seeds."""
+    if len(runs) < MIN_SEEDS:
+        held = ", ".join(str(p.parent) for p in runs.values()) or "none"
+        count = f"{len(runs)} seed{'' if len(runs) == 1 else 's'}"
+        raise ValueError(
+            f"RUNS: {count} ({held}); a result over seeds needs at least {MIN_SEEDS} "
+            "(train more: python train.py --seeds 0 1 2 3 4)"
+        )
+
 
 def find_runs(folders: list[Path]) -> dict[str, Path]:
     """``seed-S/model.zip`` of every folder by seed label, in seed order; ValueError if none,
-    if a seed folder holds no model.zip or if two folders hold the same seed."""
+    if a seed folder holds no model.zip, if two folders hold the same seed or if there are
+    fewer than :data:`MIN_SEEDS` seeds."""
     runs: dict[str, Path] = {}
     for folder in folders:
         for run in sorted(p for p in Path(folder).glob("seed-*") if p.is_dir()):
@@ -34,6 +49,7 @@ def find_runs(folders: list[Path]) -> dict[str, Path]:
     if not runs:
         names = ", ".join(str(f) for f in folders)
         raise ValueError(f"RUNS: no seed-*/model.zip in {names} (train: python train.py --seeds)")
+    check_seed_count(runs)
     return dict(sorted(runs.items(), key=lambda kv: (len(kv[0]), kv[0])))
 
 
@@ -69,7 +85,9 @@ def check_limit(limit: int | None) -> None:
 def check_runs(runs: dict[str, Path], methods: list[str], tier: Tier) -> None:
     """Every run was trained for ``tier`` (or the tier whose model it uses), as its config.json
     records (a run without one, or without a tier, is taken as it is), and its model makes every
-    method's solver on the tier; else a ValueError naming the seed folder."""
+    method's solver on the tier; else a ValueError naming the seed folder (or RUNS: fewer than
+    :data:`MIN_SEEDS` runs)."""
+    check_seed_count(runs)
     wanted = {tier.name, tier.model_tier or tier.name}
     for path in runs.values():
         folder = path.parent

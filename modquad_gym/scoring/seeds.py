@@ -34,7 +34,7 @@ from modquad_gym.scoring import machine_description
 from modquad_gym.scoring.agents import SEARCH_METHODS, run_benchmark
 from modquad_gym.scoring.scores import Row, config_limit, share_limit
 from modquad_gym.scoring.seed_runs import LIMIT, check_limit, check_runs, find_runs, learned_methods
-from modquad_gym.scoring.stats import interval, iqm
+from modquad_gym.scoring.stats import interval, iqm, no_interval
 from modquad_gym.scoring.tiers import TIERS, Tier, get_tier, honours_fault
 
 METRICS = {"success": "success", "optimal": "optimal share", "evaluated": "configs / task"}
@@ -142,6 +142,8 @@ def summary(scores: list[SeedScore], metric: str, method: str, suite: str | None
 
 def _ci(v: tuple[float, float, float], pct: bool) -> str:
     f = (lambda x: f"{100 * x:.1f} %") if pct else (lambda x: f"{x:.1f}")
+    if no_interval(v):  # one seed
+        return f"{f(v[0])} n/a (1 seed)"
     return f"{f(v[0])} [{f(v[1])}, {f(v[2])}]"
 
 
@@ -201,6 +203,7 @@ def _configs_goal(scores: list[SeedScore], method: str, goal: Any, searches: dic
     if limit is None:
         return f"| {method} | configs / task | - | {_ci(v, False)} | {words} |"
     verdict = "met" if v[2] <= limit else f"NOT met (upper end {v[2]:.1f})"
+    verdict = "no verdict (no interval)" if no_interval(v) else verdict
     return f"| {method} | configs / task | {words} | {_ci(v, False)} | {verdict} |"
 
 
@@ -251,6 +254,7 @@ def goal_lines(scores: list[SeedScore], tier_name: str) -> list[str]:
                 continue
             verdict = "met" if v[1] >= goal else f"NOT met (lower end {100 * (goal - v[1]):.1f} "
             verdict += "" if v[1] >= goal else "points short)"
+            verdict = "no verdict (no interval)" if no_interval(v) else verdict
             out.append(f"| {method} | {metric} | {words} | {_ci(v, True)} | {verdict} |")
     exhaustive = [s for s in scores if s.method == "exhaustive"]
     guided_methods = dict.fromkeys(s.method for s in scores if s.method.startswith("ppo-guided"))

@@ -1,8 +1,16 @@
 """The statistics of the reports over seeds, as rliable defines them (Agarwal et al. 2021): the
-interquartile mean and its stratified percentile-bootstrap interval."""
+interquartile mean and its stratified percentile-bootstrap interval.
+
+An interval needs at least two values in every stratum: with one there is nothing to resample,
+and :func:`interval` gives the point with NaN bounds, which the reports print as ``n/a (1
+seed)`` (or run, or task) and judge no goal on. With two the percentile interval is the range
+of the two values, far below its nominal 95 % coverage (``python -m
+benchmarks.interval_coverage`` measures it).
+"""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -14,6 +22,22 @@ def iqm(scores: np.ndarray) -> float:
     return float(stats.trim_mean(np.ravel(scores), 0.25))
 
 
+def checked_columns(columns: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """``columns`` as float arrays; ValueError naming the 1-based column (and value) for no
+    column, an empty column or a value that is NaN or infinite."""
+    cols = [np.ravel(np.asarray(c, dtype=float)) for c in columns]
+    if not cols:
+        raise ValueError("columns: no column of scores")
+    for i, c in enumerate(cols, start=1):
+        if not c.size:
+            raise ValueError(f"columns: column {i} of {len(cols)} holds no value")
+        bad = np.flatnonzero(~np.isfinite(c))
+        if bad.size:
+            raise ValueError(f"columns: column {i} of {len(cols)}: value {bad[0] + 1} is "
+                             f"{c[bad[0]]} (every score must be a finite number)")  # fmt: skip
+    return cols
+
+
 def interval(
     columns: Sequence[np.ndarray],
     aggregate: Callable[[np.ndarray], float],
@@ -21,10 +45,13 @@ def interval(
     seed: int = 0,
 ) -> tuple[float, float, float]:
     """(point, low, high): ``aggregate`` of the pooled columns (one column of per-seed scores
-    per suite) with its 95 % percentile bootstrap interval, each column resampled on its own
-    (stratified by suite)."""
-    cols = [np.asarray(c, dtype=float) for c in columns]
+    per stratum) with its 95 % percentile bootstrap interval, each column resampled on its own
+    (stratified). A column of one value: (point, NaN, NaN), no interval (:func:`no_interval`).
+    Bad input (:func:`checked_columns`): a ValueError naming the column."""
+    cols = checked_columns(columns)
     point = aggregate(np.concatenate(cols))
+    if any(c.size < 2 for c in cols):  # nothing to resample: no interval
+        return point, math.nan, math.nan
     if all(np.ptp(c) == 0 for c in cols):  # nothing varies: the interval is the point
         return point, point, point
     res = stats.bootstrap(
@@ -38,3 +65,8 @@ def interval(
         random_state=np.random.default_rng(seed),
     )
     return point, float(res.confidence_interval.low), float(res.confidence_interval.high)
+
+
+def no_interval(v: tuple[float, float, float]) -> bool:
+    """Whether an :func:`interval` has no bounds (a stratum of one value)."""
+    return math.isnan(v[1]) or math.isnan(v[2])
