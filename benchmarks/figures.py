@@ -68,7 +68,8 @@ def agent_figures(results: Path) -> list[Figure]:
 
 def seed_figures(results: Path) -> list[Figure]:
     """Every seeds report's interval plot, its ``seeds.csv`` read and checked now."""
-    from modquad_gym.scoring.seeds import SeedScore, plot
+    from modquad_gym.scoring.seed_scores import SeedScore
+    from modquad_gym.scoring.seeds_report import plot
 
     columns = [f.name for f in dataclasses.fields(SeedScore)]
     what = "a seeds.csv of python -m modquad_gym.scoring.seeds"

@@ -153,12 +153,13 @@ def test_learning_curve_keeps_the_full_success_axis(tmp_path):
 
 
 def test_seed_intervals_start_at_zero_and_show_a_zero_width_interval(tmp_path, monkeypatch):
-    from modquad_gym.scoring import seeds
+    from modquad_gym.scoring import seeds_report as seeds
+    from modquad_gym.scoring.seed_scores import SeedScore
 
     figures = []
     monkeypatch.setattr(seeds, "save_figure", lambda fig, path: figures.append(fig) or path)
     scores = [
-        seeds.SeedScore(str(k), m, "suite", 10, 1.0 if m == "ppo-guided" else 0.98 + 0.005 * k,
+        SeedScore(str(k), m, "suite", 10, 1.0 if m == "ppo-guided" else 0.98 + 0.005 * k,
                         0.9, 5.0 + k, 0.1)
         for k in range(5) for m in ("ppo", "ppo-guided")
     ]  # fmt: skip

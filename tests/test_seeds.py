@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,7 +15,10 @@ from hypothesis import strategies as st
 from modquad_gym.policy import DEFAULT_MODEL
 from modquad_gym.policy.models import shipped_model
 from modquad_gym.scoring.agents import SEARCH_METHODS
-from modquad_gym.scoring.seeds import SeedScore, goal_lines, interval, iqm, main, summary
+from modquad_gym.scoring.seed_scores import SeedScore, summary
+from modquad_gym.scoring.seeds import main
+from modquad_gym.scoring.seeds_report import goal_lines
+from modquad_gym.scoring.stats import interval, iqm
 
 
 def test_iqm_is_the_mean_of_the_middle_half():
@@ -247,8 +252,87 @@ def test_one_seed_is_refused_naming_runs_before_any_work(tmp_path, capsys, no_wo
         score_runs({"0": runs / "seed-0" / "model.zip"}, "current", ["ppo"])
 
 
+def _two_suites(tasks_a=40, tasks_b=60):
+    """Five seeds of ppo on two suites of unequal size, the searches once."""
+    scores = []
+    for s in range(5):
+        scores += [
+            SeedScore(str(s), "ppo", "a", tasks_a, 1.0, 0.95 + 0.01 * s, 20.0 + s, 0.2),
+            SeedScore(str(s), "ppo", "b", tasks_b, 0.9, 0.70 + 0.02 * s, 5.0, 0.05),
+        ]
+    scores += [
+        SeedScore("-", "exhaustive", "a", tasks_a, 1.0, 1.0, 30.0, 0.02),
+        SeedScore("-", "exhaustive", "b", tasks_b, 1.0, 1.0, 10.0, 0.01),
+    ]
+    return scores
+
+
+def test_the_seeds_report_and_the_leaderboard_give_one_figure_for_the_same_seeds():
+    """Each seed's score is pooled over the tier's tasks (suites weighted by their task counts)
+    before the statistics over seeds, as the leaderboard counts it: the seeds report's mean is
+    the leaderboard's, interval included (it pooled the seeds x suites scores unweighted)."""
+    from benchmarks.leaderboard_entries import over_seeds
+    from modquad_gym.scoring.tiers import get_tier
+
+    scores = _two_suites()
+    records = [{k: str(v) for k, v in vars(s).items() if v is not None} for s in scores]
+    board = {e.method: e for e in over_seeds(records, get_tier("current"), "", {})}["ppo"]
+    for metric in ("success", "optimal", "evaluated"):
+        mine = summary(scores, metric, "ppo")
+        assert mine["mean"] == pytest.approx(getattr(board, metric)), metric
+    pooled = [(40 * (0.95 + 0.01 * s) + 60 * (0.70 + 0.02 * s)) / 100 for s in range(5)]
+    assert summary(scores, "optimal", "ppo")["mean"][0] == pytest.approx(np.mean(pooled))
+    assert summary(scores, "optimal", "ppo")["iqm"][0] == pytest.approx(iqm(np.array(pooled)))
+
+
+def test_the_guided_sentence_divides_like_by_like():
+    """configurations and seconds per task over the same tasks on both sides (the report
+    divided a seeds x suites IQM by a task-weighted mean)."""
+    scores = [dataclasses.replace(s, method="ppo-guided") if s.method == "ppo" else s
+              for s in _two_suites()]  # fmt: skip
+    line = goal_lines(scores, "mixed")[-1]
+    configs = iqm(np.array([(40 * (20.0 + s) + 60 * 5.0) / 100 for s in range(5)]))
+    seconds = (40 * 0.2 + 60 * 0.05) / 100
+    assert f"{configs:.1f} [" in line
+    assert f"{100 * configs / 18.0:.1f} % of the exhaustive search's 18.0" in line
+    assert f"in {100 * seconds / 0.014:.0f} % of its time ({seconds:.3f} s vs 0.014 s" in line
+
+
 def test_one_seed_in_python_gets_no_interval_and_no_verdict():
     scores = [_score(0, "ppo", "p", 0.99, 0.95)]
     lines = "\n".join(goal_lines(scores, "current"))
     assert "| ppo | optimal | 90 % | 95.0 % n/a (1 seed) | no verdict (no interval) |" in lines
     assert "[95.0 %, 95.0 %]" not in lines and "| met |" not in lines
+
+
+def test_a_committed_report_re_renders_from_its_seeds_csv(tmp_path, capsys):
+    """``python -m benchmarks.seeds_rerender``: the tables as the scorer now writes them, from
+    seeds.csv alone; the scoring run's command, machine and runs kept; --force asked for; a
+    folder that is not a seeds report refused in one line."""
+    from benchmarks.seeds_rerender import main as rerender
+    from modquad_gym.scoring.seeds_report import report_tables
+
+    src = Path(__file__).resolve().parents[1] / "results" / "seeds_current"
+    folder = tmp_path / "seeds_current"
+    folder.mkdir()
+    for name in ("seeds.csv", "seeds.md"):
+        shutil.copy(src / name, folder / name)
+    old = (folder / "seeds.md").read_text()
+    with pytest.raises(SystemExit) as exc:
+        rerender([str(folder)])
+    assert exc.value.code == 2 and "--force" in capsys.readouterr().err
+    assert rerender([str(folder), "--force"]) == 0
+    text = (folder / "seeds.md").read_text()
+    rows = list(csv.DictReader((folder / "seeds.csv").open()))
+    tables = report_tables([SeedScore.from_record(r) for r in rows], "current")
+    assert "\n".join(tables) in text
+    made = old.splitlines()[2].split(" Re-rendered from")[0]
+    assert text.splitlines()[2].startswith(made) and "seeds_rerender" in text.splitlines()[2]
+    assert "`runs/exact-seeds/seed-4`" in text and (folder / "seeds.png").stat().st_size > 1000
+    assert rerender([str(folder), "--force"]) == 0  # again: one re-rendering sentence
+    assert (folder / "seeds.md").read_text() == text
+    (folder / "seeds.md").write_text("# something else\n")
+    with pytest.raises(SystemExit) as exc:
+        rerender([str(folder), "--force"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert exc.value.code == 2 and "not a seeds report" in err[-1] and str(folder) in err[-1]
