@@ -108,3 +108,12 @@ def test_a_difference_over_one_task_shows_no_interval_but_is_still_judged():
             "both": 1, "difference": 1.0, "low": v["low"], "high": v["high"]}  # fmt: skip
     assert _listed([cell]) == ": planted-16 (+1 n/a (1 task), missed 0)"
     assert goal_lines([cell])[0].endswith("NOT met")  # one task worse is worse
+
+
+def test_the_coverage_of_two_seeds_is_about_half():
+    """The simulation behind docs/benchmarks.md's warning: with 2 seeds the interval is the
+    range of the two values, which holds the true mean half the time."""
+    from benchmarks.interval_coverage import coverage
+
+    row = coverage(2, 200, _mean, np.random.default_rng(1))
+    assert 35 <= row["coverage_pct"] <= 65 and row["trials"] == 200
