@@ -278,9 +278,10 @@ def how_made(r: str) -> list[str]:
         "optimal share, configurations and seconds are pooled over the tier's tasks (suites "
         "weighted by their size), then averaged over the seeds; the interval is the 95 % "
         "percentile bootstrap over seeds (2,000 resamples, seeded). The seeds reports "
-        f"(`{r}seeds_<tier>/seeds.md`) give the interquartile mean over seeds x suites and "
-        "judge the tiers' goals. The five-seed files hold no per-task seconds or oracle calls: "
-        "those two columns (‡) are the shipped model's one run in the tier report.",
+        f"(`{r}seeds_<tier>/seeds.md`) give the same mean, the interquartile mean of the same "
+        "per-seed scores, and judge the tiers' goals. The five-seed files hold no per-task "
+        "seconds or oracle calls: those two columns (‡) are the shipped model's one run in the "
+        "tier report.",
         f"- **Searches**: the one-run tier reports `{r}tier_<tier>/benchmark.csv` (one row per "
         f"task), and `{r}{RESCORED}` for the searches a tier report did not run "
         f"(`{COMMAND} --rescore-searches --force`). `random` and `genetic` are seeded (seed 0).",
