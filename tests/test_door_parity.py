@@ -294,6 +294,7 @@ def test_export_and_show_design_for_a_fault_as_python_does(tmp_path, capsys, met
     code, out, err = run_main(capsys, "show", *search, "--out", str(tmp_path / "s.png"))
     assert code == 0, err
     assert f"cells {list(python.structure.cells)}" in out and "survives any rotor failure" in out
+    assert "green where the intact structure exerts a wrench" in out  # what the picture shows
 
 
 @pytest.mark.parametrize("command", ["export", "show"])

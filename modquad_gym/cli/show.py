@@ -146,6 +146,10 @@ def cmd_show(args: argparse.Namespace) -> int:
 
         save_structure_figure(structure, out, task=task, layout=args.layout, force=args.force)
         print(f"wrote {out}")
+        if task is not None and args.fault:  # the sets drawn are the intact structure's
+            print(f"{out}: green where the intact structure exerts a wrench; it was designed to "
+                  f"exert each after any {args.fault} failure (modquad validate --fault flies "
+                  "one)")  # fmt: skip
     if args.html is not None:
         from modquad_gym.viz.interactive import save_structure_page
 
