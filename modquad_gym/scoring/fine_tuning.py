@@ -3,14 +3,15 @@ claims a rise the numbers do not show)."""
 
 from __future__ import annotations
 
-import os
-import stat
+import io
 import zipfile
 import zlib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from modquad_gym.core.validation import read_regular_file
 
 MAX_EVALUATIONS_BYTES = 64 << 20
 """Most bytes of an ``evaluations.npz`` and of each array in it (a run's are a few kB)."""
@@ -22,17 +23,12 @@ def read_evaluations(path: Path) -> dict[str, np.ndarray]:
     (k, n; empty: not recorded), every one finite, k, n >= 1. Nothing is unpickled. A
     ValueError names ``path`` and the key: a bad file is refused before any scoring, not by
     the report after it."""
-    info = os.stat(path)
-    if not stat.S_ISREG(info.st_mode):
-        raise ValueError(f"{path}: not a regular file")
-    if info.st_size > MAX_EVALUATIONS_BYTES:
-        limit = MAX_EVALUATIONS_BYTES
-        raise ValueError(f"{path}: {info.st_size:,} bytes, more than the {limit:,} read")
-    if not zipfile.is_zipfile(path):
+    raw = io.BytesIO(read_regular_file(path, MAX_EVALUATIONS_BYTES))
+    if not zipfile.is_zipfile(raw):
         raise ValueError(f"{path}: not a NumPy .npz archive (as train.py writes it)")
     out: dict[str, np.ndarray] = {}
     try:
-        with np.load(path, allow_pickle=False) as data:
+        with np.load(raw, allow_pickle=False) as data:
             keys = sorted(data.files)
             for key in ("timesteps", "results", "successes", "optimal"):
                 if key in keys:
