@@ -23,20 +23,19 @@ line per run).
 from __future__ import annotations
 
 import json
-import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from benchmarks.common import Distinct, bench_args, report_page, run_main, write_report
 from modquad_gym.core.interrupts import one_line
-from modquad_gym.scoring.fine_tuning import best_index
+from modquad_gym.scoring.fine_tuning import best_index, read_evaluations
 from modquad_gym.scoring.stats import interval
 from modquad_gym.scoring.tiers import TIERS
 
 OUTPUTS = ("report.md", "report.csv", "curves.png")
 RUN_FILES = ("model.zip", "config.json", "evaluations.npz")
-EVALUATIONS = ("results", "optimal", "successes")
+RECORDED = ("optimal", "successes")
 """The evaluations a run's ``evaluations.npz`` holds beside ``timesteps``: one row each."""
 
 
@@ -97,22 +96,15 @@ def read_run(run: Path) -> tuple[dict, dict]:
         config = json.loads((run / "config.json").read_text())
     except (OSError, ValueError) as exc:
         raise ValueError(f"RUN {run}: config.json unreadable ({one_line(exc)})") from None
-    if not zipfile.is_zipfile(run / "evaluations.npz"):  # np.load would ask to unpickle it
-        raise ValueError(f"RUN {run}: evaluations.npz is not an .npz archive (train.py's)")
-    try:
-        with np.load(run / "evaluations.npz", allow_pickle=False) as npz:
-            data = {k: npz[k] for k in npz.files}
-    except (EOFError, OSError, ValueError, zipfile.BadZipFile) as exc:
-        raise ValueError(f"RUN {run}: evaluations.npz unreadable ({one_line(exc)})") from None
     if not isinstance(config, dict) or not {"tier", "seed", "kept_model_timesteps"} <= set(config):
         raise ValueError(f"RUN {run}: config.json has no tier, seed or kept_model_timesteps")
     if config["tier"] not in [*TIERS]:  # any JSON value, a list too
         raise ValueError(f"RUN {run}: config.json names tier {config['tier']!r}, not one of ours")
-    k = np.shape(data.get("timesteps"))
-    if len(k) != 1 or not k[0] or any(np.ndim(data.get(n)) != 2 or len(data[n]) != k[0]
-                                      or not np.size(data[n]) for n in EVALUATIONS):  # fmt: skip
-        raise ValueError(f"RUN {run}: evaluations.npz lacks timesteps and {', '.join(EVALUATIONS)}"
-                         " of one row per evaluation")  # fmt: skip
+    data = read_evaluations(run / "evaluations.npz")  # its errors name the run's file
+    unrecorded = [name for name in RECORDED if name not in data or not data[name].size]
+    if unrecorded:
+        raise ValueError(f"RUN {run}: evaluations.npz records no {' or '.join(unrecorded)} "
+                         "(train.py records both)")  # fmt: skip
     if config["kept_model_timesteps"] not in data["timesteps"].tolist():
         raise ValueError(f"RUN {run}: config.json's kept_model_timesteps is no evaluation's step")
     cloned, best = checkpoints(run, config)

@@ -289,7 +289,8 @@ def test_the_rl_stage_report_refuses_a_bad_run_before_any_held_out_pass(
     tmp_path, monkeypatch, capsys
 ):
     """Every RUN is read first: a folder lacking evaluations.npz or config.json, a config
-    without its kept step or with another tier, evaluations without the optimal share, a kept
+    without its kept step or with another tier, evaluations that are no archive or lack the
+    results or the optimal share (read by ``read_evaluations``, as ``score --train-dir``), a kept
     step no evaluation has, a missing cloned start or a run given twice is refused with one
     line naming the run, before the first run's held-out pass starts."""
     from benchmarks import rl_stage
@@ -314,11 +315,12 @@ def test_the_rl_stage_report_refuses_a_bad_run_before_any_held_out_pass(
     bad = {"no evaluations.npz": make_run("a"), "config.json unreadable": make_run("b"),
            "has no tier, seed or kept_model_timesteps": make_run("c", kept_model_timesteps=None),
            "names tier 'nope'": make_run("d", tier="nope"),
-           "lacks timesteps and results, optimal": make_run("e"),
+           "evaluations.npz: no 'results' array": make_run("e"),
+           "records no optimal or successes": make_run("i"),
            "is no evaluation's step": make_run("f", kept_model_timesteps=150),
            "its cloned start": make_run("g", cloned_model=str(tmp_path / "gone.zip")),
-           "evaluations.npz is not an .npz archive": make_run("h")}  # fmt: skip
-    (bad["evaluations.npz is not an .npz archive"] / "evaluations.npz").write_text("garbage")
+           "evaluations.npz: not a NumPy .npz archive": make_run("h")}  # fmt: skip
+    (bad["evaluations.npz: not a NumPy .npz archive"] / "evaluations.npz").write_text("garbage")
     (bad["no evaluations.npz"] / "evaluations.npz").unlink()
     (bad["config.json unreadable"] / "config.json").write_text("{not json")
     config = json.loads(
@@ -328,7 +330,9 @@ def test_the_rl_stage_report_refuses_a_bad_run_before_any_held_out_pass(
     (bad["has no tier, seed or kept_model_timesteps"] / "config.json").write_text(
         json.dumps(config)
     )
-    np.savez(bad["lacks timesteps and results, optimal"] / "evaluations.npz", timesteps=[0, 100])
+    np.savez(bad["evaluations.npz: no 'results' array"] / "evaluations.npz", timesteps=[0, 100])
+    np.savez(bad["records no optimal or successes"] / "evaluations.npz", timesteps=[0, 100],
+             results=[[1.0], [1.5]])  # fmt: skip
     for message, run in bad.items():
         argv = [str(good), str(run), "--out", str(tmp_path / "out")]
         with pytest.raises(ValueError, match=message) as err:
