@@ -170,12 +170,15 @@ curve's level without picking its luckiest evaluation."""
 
 def gains(rows: list[dict]) -> list[dict]:
     """Mean gain over the cloned start (:data:`GAINS`) over the runs with its 95 % bootstrap
-    interval (``n/a (1 run)``: one run has none)."""
+    interval; none from one or two runs (``n/a (1 run)``, ``n/a (2 runs)``): two runs'
+    percentile bootstrap is their range, which holds the true mean about half the time
+    (``results/interval_coverage.md``). The runs' own gains are printed beside it."""
     out = []
     for what, (column, cloned) in GAINS.items():
         g = np.array([r[column] - r[cloned] for r in rows])
         point, low, high = interval([g], np.mean)
-        ci = "n/a (1 run)" if len(g) < 2 else f"[{100 * low:+.2f}, {100 * high:+.2f}]"
+        few = f"n/a ({len(g)} run{'s' * (len(g) > 1)})"
+        ci = few if len(g) < 3 else f"[{100 * low:+.2f}, {100 * high:+.2f}]"
         out.append({"gain (over cloned)": what, "runs": len(g), "mean": f"{100 * point:+.2f} pt",
                     "95 % CI": ci,
                     "per run": " ".join(f"{100 * x:+.1f}" for x in g)})  # fmt: skip

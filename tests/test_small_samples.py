@@ -57,6 +57,17 @@ def test_the_rl_stage_gains_of_one_run_print_no_interval():
     assert all(g["95 % CI"] == "n/a (1 run)" for g in table.values())
 
 
+def test_the_rl_stage_gains_of_two_runs_print_their_range_not_an_interval():
+    """Two runs' percentile bootstrap is their range (about half coverage): no 95 % CI."""
+    from benchmarks.rl_stage import GAINS, gains
+
+    cols = {c for pair in GAINS.values() for c in pair}
+    rows = [{c: 0.9 for c in cols} | {"held-out optimal, kept": k} for k in (0.87, 0.91)]
+    table = {g["gain (over cloned)"]: g for g in gains(rows)}
+    assert table["held-out optimal"]["95 % CI"] == "n/a (2 runs)"
+    assert table["held-out optimal"]["per run"] == "-3.0 +1.0"
+
+
 def _scale_rows(found_by_seed: dict[str, list[int | None]]) -> list[dict]:
     """Rows of :mod:`benchmarks.scale_seeds` for band 16: greedy solves three tasks with 10
     modules; each seed's answers (None: not solved)."""
