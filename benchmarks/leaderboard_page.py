@@ -273,7 +273,7 @@ def how_made(r: str) -> list[str]:
         "seconds.",
         "- **Learned methods** (`ppo`: one deterministic pass of the shipped policy; `ppo-k8`: "
         "eight sampled rollouts more; `ppo-guided`: best-first search ordered by the policy, "
-        "certified at the lower bound): the five-seed reports "
+        "certified where its answer meets the lower bound): the five-seed reports "
         f"`{r}seeds_<tier>/seeds.csv`, one row per (seed, method, suite). Each seed's success, "
         "optimal share, configurations and seconds are pooled over the tier's tasks (suites "
         "weighted by their size), then averaged over the seeds; the interval is the 95 % "

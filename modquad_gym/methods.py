@@ -329,8 +329,9 @@ for _method in (
                             LEARNED_CHECKS["samples"]), time_limit=_LEARNED_LIMIT, top_k=_TOP_K,
                    fallback=_FALLBACK, extra_fallbacks=_EXTRA_FALLBACKS, prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", seeded=True, extra="train"),
-    Method("ppo-guided", "best-first search ordered by the learned policy, certified at the "
-           "lower bound", options("ppo-guided", model=_MODEL, trust_model=_TRUST,
+    Method("ppo-guided", "best-first search ordered by the learned policy, certified where "
+           "its answer meets the lower bound",
+           options("ppo-guided", model=_MODEL, trust_model=_TRUST,
                                   budget=_BUDGET,
                                   branching=(int, 4, "children expanded per node",
                                              LEARNED_CHECKS["branching"]),
