@@ -338,14 +338,14 @@ def _rotor_wrenches(structure: Structure, task, f_max, seconds) -> tuple[np.ndar
 
 def fly_with_failure(
     structure: Structure,
-    task,
+    task: object,
     fault: str = "rotor",
     *,
     seconds: float | None = None,
     detection_delay_s: float | None = None,
     f_max: float | None = None,
     track_config: TrackConfig | None = None,
-    detector=None,
+    detector: object = None,
 ) -> FaultFlight:
     """Fly ``structure`` on ``task`` through its worst single failure of kind ``fault``.
 
