@@ -17,18 +17,23 @@ from __future__ import annotations
 import copy
 import functools
 import inspect
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
 from modquad_gym.geometry.cells import MAX_MODULES  # noqa: F401 (the searches' limit, named here)
 from modquad_gym.geometry.module import ModuleType
-from modquad_gym.geometry.module import palette as read_palette
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_task_scale
 from modquad_gym.oracle.faults import check_fault, check_fault_margin
 from modquad_gym.search.checker import TaskChecker
+from modquad_gym.search.fields import (  # noqa: F401 (the palette's names, kept here)
+    DEFAULT_MODULE,
+    MAX_TYPES,
+    check_palette,
+    says,
+)
 from modquad_gym.search.options import (  # noqa: F401 (the time limit's names, kept here)
     MAX_TIME_LIMIT,
     Relation,
@@ -40,9 +45,6 @@ from modquad_gym.search.options import (  # noqa: F401 (the time limit's names, 
 from modquad_gym.search.size import MAX_SEARCH_WRENCHES, check_search_size  # noqa: F401
 from modquad_gym.tasks import as_task
 
-DEFAULT_MODULE = Structure([(0, 0)]).module
-
-
 EXACT_MODULES = 16
 """The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8."""
 
@@ -53,9 +55,6 @@ FAULT_BLOCK = 8
 """With a fault, the exact levels stop for the clock every this many structures (a structure
 that passes the intact task is decided failure by failure: up to a tenth of a second for a
 dynamic task of hundreds of samples)."""
-
-MAX_TYPES = 127
-"""Most module types in one palette (type indices are int8)."""
 
 
 class SearchProblem:
@@ -245,51 +244,9 @@ class SearchProblem:
         return self.replace(fault=fault)
 
 
-def check_palette(
-    module: ModuleType | None, modules: Sequence[ModuleType] | None
-) -> list[ModuleType]:
-    """The module types of a search: ``[module]`` (default the T-module) or ``modules``, a list
-    of ModuleType or what :func:`~modquad_gym.geometry.module.palette` reads (``"t45,flat"``,
-    as ``--modules`` and the environments take). ValueError for both or neither being usable,
-    a type given twice (one :attr:`~ModuleType.digest`: the same rotors, whatever its name, as
-    ``--modules t45,t45`` is refused), or types of different sides or rotor counts."""
-    if modules is None:
-        if module is not None and not isinstance(module, ModuleType):
-            raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
-        return [module if module is not None else DEFAULT_MODULE]
-    if module is not None:
-        raise ValueError("give module= (one type) or modules= (a palette), not both")
-    if isinstance(modules, ModuleType) or not isinstance(modules, Iterable):
-        raise ValueError(
-            "modules must be a list of ModuleType (see modquad_gym.geometry.module.palette)"
-        )
-    modules = list(modules) if not isinstance(modules, str) else read_palette(modules)
-    if any(isinstance(m, str) for m in modules):
-        modules = read_palette(modules)
-    out: dict[str, ModuleType] = {}
-    for i, m in enumerate(modules):
-        if not isinstance(m, ModuleType):
-            raise ValueError(f"modules[{i}] must be a ModuleType, got {type(m).__name__}")
-        if m.digest in out:
-            first = out[m.digest].name
-            same = "" if m.name == first else f" (as {m.name}: the same rotors)"
-            raise ValueError(f"modules: {first} is listed twice{same}")
-        out[m.digest] = m
-    if not out:
-        raise ValueError("modules: give at least one module type")
-    palette = list(out.values())
-    if len(palette) > MAX_TYPES:
-        raise ValueError(f"modules: at most {MAX_TYPES} types, got {len(palette)}")
-    if len({m.side for m in palette}) > 1:
-        raise ValueError("modules: every type must have the same side (one docking grid)")
-    if len({m.n_rotors for m in palette}) > 1:
-        raise ValueError("modules: every type must have the same number of rotors")
-    return palette
-
-
 class _Default(int):
-    """The default budget, 7, told apart from a 7 the caller gave (a keyword given beside a
-    problem is refused; the default is not)."""
+    """The default budget, 7, told apart from a 7 the caller gave (a 7 given beside a problem
+    of another budget is refused; the default is not)."""
 
     def __repr__(self) -> str:
         return "7"
@@ -306,17 +263,20 @@ PRUNE = inspect.Parameter("prune", inspect.Parameter.KEYWORD_ONLY, default=False
 """The ``prune`` option of an entry that offers the post-pass (:mod:`~modquad_gym.search.prune`)."""
 
 PROBLEM_FIELDS = ("n_max", "f_max", "module", "modules", "kind", "fault", "fault_margin")
-"""The keywords that describe a problem: given beside a :class:`SearchProblem`, refused."""
+"""The keywords that describe a problem: given beside a :class:`SearchProblem`, refused where
+they say otherwise than it (:func:`~modquad_gym.search.fields.says`)."""
 
 
 def as_problem(task, n_max=DEFAULT_N_MAX, f_max=None, module=None, *, modules=None, kind=None,
                fault=None, fault_margin=None) -> SearchProblem:  # fmt: skip
     """``task`` itself when it is a :class:`SearchProblem` (then a keyword that would change it
-    is refused: a ValueError names it), else the problem of these arguments."""
+    is refused, a ValueError naming it; one equal to what the problem says is taken), else the
+    problem of these arguments."""
     given = dict(n_max=n_max, f_max=f_max, module=module, modules=modules, kind=kind,
                  fault=fault, fault_margin=fault_margin)  # fmt: skip
     if isinstance(task, SearchProblem):
-        extra = [k for k, v in given.items() if v is not None and v is not DEFAULT_N_MAX]
+        extra = [k for k, v in given.items()
+                 if v is not None and v is not DEFAULT_N_MAX and not says(task, k, v)]  # fmt: skip
         if extra:
             raise ValueError(
                 f"{extra[0]}={given[extra[0]]!r} given beside a SearchProblem: the problem "

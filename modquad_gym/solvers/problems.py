@@ -4,8 +4,8 @@
 :class:`~modquad_gym.search.SearchProblem` checks them), and :func:`problem_for` makes the
 problem of each task handed to ``solve``: a task becomes a problem with them; a problem is
 used as it is, but one that says otherwise than a setting given to ``make_solver`` is refused,
-as the search functions refuse ``n_max=`` beside a problem, instead of one of the two being
-silently dropped.
+as the search functions refuse ``n_max=`` beside a problem of another budget (both judge by
+:func:`~modquad_gym.search.fields.says`), instead of one of the two being silently dropped.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from typing import Any
 
 from modquad_gym.core.validation import check_int
 from modquad_gym.oracle.failures import check_fault, check_fault_margin
+from modquad_gym.search.fields import says
 from modquad_gym.search.problem import DEFAULT_N_MAX, SearchProblem, as_problem, check_palette
 
 
@@ -40,19 +41,17 @@ def disagreement(problem: SearchProblem, settings: dict) -> tuple[str, str] | No
     """(the setting given, what the problem says) for the first setting given (not None, not
     the default budget) that ``problem`` contradicts; None when it contradicts none."""
     n_max = settings.get("n_max", DEFAULT_N_MAX)
-    if n_max is not DEFAULT_N_MAX and n_max != problem.n_max:
+    if n_max is not DEFAULT_N_MAX and not says(problem, "n_max", n_max):
         return f"n_max={n_max}", f"n_max={problem.n_max}"
     modules = settings.get("modules")
-    if modules is not None:
-        theirs = [m.digest for m in problem.palette] if problem.typed else None
-        if theirs != [m.digest for m in modules]:
-            said = _names(problem.palette) if problem.typed else "None (one type)"
-            return f"modules={_names(modules)}", f"modules={said}"
+    if modules is not None and not says(problem, "modules", modules):
+        said = _names(problem.palette) if problem.typed else "None (one type)"
+        return f"modules={_names(modules)}", f"modules={said}"
     fault = settings.get("fault")
-    if fault is not None and fault != problem.fault:
+    if fault is not None and not says(problem, "fault", fault):
         return f"fault={fault!r}", f"fault={problem.fault!r}"
     margin = settings.get("fault_margin")
-    if margin is not None and margin != problem.fault_margin:
+    if margin is not None and not says(problem, "fault_margin", margin):
         return f"fault_margin={margin:g}", f"fault_margin={problem.fault_margin:g}"
     return None
 
