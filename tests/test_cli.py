@@ -127,3 +127,30 @@ def test_validate_help_states_the_hover_time():
     text = " ".join(proc.stdout.split())
     assert f"simulated seconds per hover segment (default {seconds})" in text
     assert "0.25" not in text
+
+
+def test_solve_on_an_infeasible_task_exits_2_only_for_the_export_it_cannot_write(tmp_path, capsys):
+    """docs/cli.md: ``solve`` exits 0 on an infeasible task and ``--certificate`` writes its
+    proof; ``--export`` has no structure to write: it prints the result, writes neither file
+    and exits 2, as ``modquad export`` does (``solve --help`` says so)."""
+    task = tmp_path / "big.json"
+    TaskRequirement(np.array([[0, 0, 30.0, 0, 0, 0]]), "big").save(task)  # none up to 3
+    solve = ["solve", "--task", str(task), "--n-max", "3", "--quiet"]
+    certificate, export = tmp_path / "proof.json", tmp_path / "x.json"
+    assert main([*solve, "--certificate", str(certificate)]) == 0
+    assert "infeasible" in capsys.readouterr().out
+    assert main(["check", str(certificate)]) == 0
+    certificate.unlink()
+    assert main([*solve, "--export", str(export)]) == 2
+    out, err = capsys.readouterr()
+    assert "infeasible" in out
+    assert err.strip().splitlines()[-1] == (
+        "modquad: error: --export: no structure found for 'big'; nothing written"
+    )
+    assert main([*solve, "--export", str(export), "--certificate", str(certificate)]) == 2
+    assert not export.exists() and not certificate.exists()
+    capsys.readouterr()
+    assert main(["export", "--task", str(task), "--n-max", "3", "--out", str(export)]) == 2
+    assert "nothing to export" in capsys.readouterr().err and not export.exists()
+    helps = " ".join(run_cli("solve", "--help").stdout.split())
+    assert "it writes nothing, nor the --certificate, and exits 2" in helps

@@ -41,7 +41,8 @@ def add_solve(sub) -> None:
         help="find a structure for each task file",
         description="Find a structure for each task and print it as a grid "
         "(@ marks the first module), with the module count, configurations "
-        "evaluated and seconds. An infeasible task is reported with exit code 0.",
+        "evaluated and seconds. An infeasible task is reported with exit code 0 (2 with "
+        "--export, which then has no structure to write).",
     )
     p.add_argument(
         "--task",
@@ -94,7 +95,8 @@ def add_solve(sub) -> None:
         default=None,
         help="also write the structure found (one task only) to FILE, in the format of its "
         "suffix: .xml = MJCF, .urdf = URDF, .json = rotor poses, mass, inertia and the "
-        "configuration matrix (see `modquad export --help`)",
+        "configuration matrix (see `modquad export --help`); where no structure is found (an "
+        "infeasible task) it writes nothing, nor the --certificate, and exits 2, as export does",
     )
     p.add_argument(
         "--certificate",
