@@ -13,7 +13,8 @@ One module per command, each with ``add_COMMAND(sub)`` (its parser) beside its h
 ``cmd_COMMAND(args)``: :mod:`.solve`, :mod:`.optima`, :mod:`.task`, :mod:`.show`,
 :mod:`.export`, :mod:`.validate`, :mod:`.score`, :mod:`.check` (and :mod:`.bench`, the deprecated
 name of score); the
-options they share are in :mod:`.common`.
+options they share are in :mod:`.common` (``--quiet`` of the commands that search in
+:mod:`.quiet`).
 A new command is a module with those two functions, added to :data:`COMMANDS`.
 """
 

@@ -20,6 +20,7 @@ from modquad_gym.cli.common import (
     palette,
 )
 from modquad_gym.cli.given import SEARCH_OPTIONS, refuse_ignored
+from modquad_gym.cli.quiet import add_quiet
 
 
 def add_export(sub) -> None:
@@ -62,6 +63,7 @@ def add_export(sub) -> None:
         "task's f_max, else 1, the searches' normalised unit, which leaves T-modules of 0.3 kg "
         "short of their weight)",
     )
+    add_quiet(p)
     add_csv_header(p)
     add_force(p)
 

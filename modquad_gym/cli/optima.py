@@ -68,7 +68,13 @@ def add_optima(sub) -> None:
         "paper's T-module alone, no such keys)",
     )
     add_workers(p, "every local core, or every CPU of the cluster")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress on stderr (a bar over the tasks; with --workers 1, or a single task, "
+        "also the exhaustive search's bar per level, as `modquad solve --method exhaustive` "
+        "shows it, for the task being searched)",
+    )
     add_csv_header(p)
     p.add_argument(
         "--force",

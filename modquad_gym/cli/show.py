@@ -22,6 +22,7 @@ from modquad_gym.cli.common import (
     palette,
 )
 from modquad_gym.cli.given import SEARCH_OPTIONS, refuse_ignored
+from modquad_gym.cli.quiet import add_quiet
 
 
 def add_show(sub) -> None:
@@ -70,6 +71,7 @@ def add_show(sub) -> None:
         "readable on a narrow page such as the documentation); refused where there is no such "
         "PNG (no --task, or --html without --out)",
     )
+    add_quiet(p)
     add_csv_header(p)
     add_force(p)
 

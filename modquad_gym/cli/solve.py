@@ -26,6 +26,7 @@ from modquad_gym.cli.common import (
     palette_of,
     report_error,
 )
+from modquad_gym.cli.quiet import add_quiet, shows_progress
 from modquad_gym.core.interrupts import one_line
 from modquad_gym.methods import OWN_FLAGS, method_of
 from modquad_gym.oracle.faults import DELAY_SLOPES
@@ -71,12 +72,7 @@ def add_solve(sub) -> None:
         "--modules; for the default search, history: how the bound and the structure found "
         "improved, a list of {seconds, lower_bound, n_modules, source})",
     )
-    p.add_argument(
-        "--quiet",
-        action="store_true",
-        help="no progress on stderr (the exhaustive search shows a bar per level, the default "
-        "search a line with the structure found and the proved bound)",
-    )
+    add_quiet(p)
     add_workers(
         p,
         "1, or every CPU of the cluster given by --ray-address / RAY_ADDRESS. Several tasks are "
@@ -181,8 +177,7 @@ def cached_solver(spec: SolveSpec, engine=None):
 def solver(args: argparse.Namespace, task=None, engine=None):
     """The ``solve`` function of ``args`` (``engine``'s workers share the levels of one
     search)."""
-    progress = not (getattr(args, "json", False) or getattr(args, "quiet", False))
-    return cached_solver(SolveSpec.of(args, progress), engine)
+    return cached_solver(SolveSpec.of(args, shows_progress(args)), engine)
 
 
 def solve_file(spec: SolveSpec, csv_header: str, path: Path):
@@ -241,7 +236,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
             paths,
             labels=[str(p) for p in paths],
             catch=True,
-            progress=not (args.json or args.quiet),
+            progress=shows_progress(args),
             desc="tasks",
             on_result=show_in_order,
         )

@@ -12,6 +12,7 @@ from modquad_gym.cli import common, solve  # common.load_task, solve.solver (tes
 from modquad_gym.cli import validate_fault as fault  # --fault: flights through a failure
 from modquad_gym.cli.common import add_command, add_csv_header, add_force, add_method
 from modquad_gym.cli.given import refuse_ignored
+from modquad_gym.cli.quiet import add_quiet
 from modquad_gym.core.options import int_option, path_option, real_option
 
 MAX_ESTIMATED_SECONDS = 3600.0
@@ -98,6 +99,7 @@ def add_validate(sub) -> None:
         help=f"run even when the time estimate exceeds {MAX_ESTIMATED_SECONDS:,.0f} s "
         "(default: refuse before any simulation)",
     )
+    add_quiet(p, ", the hover a bar over its simulated seconds")
     add_csv_header(p)
     add_force(p)
     fault.add_fault_options(p)
@@ -200,7 +202,7 @@ def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float | N
         report = validate_trajectory(result.structure, task, out_dir=args.out,
                                      max_bench_wrenches=n_hover, hover_seconds=args.hover_seconds,
                                      unknown_load=not args.known_load_only,
-                                     force=args.force)  # fmt: skip
+                                     force=args.force, progress=not args.quiet)  # fmt: skip
         return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
     report = validate(
         result.structure,
@@ -212,6 +214,7 @@ def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float | N
         unknown_load=not args.known_load_only,
         load_ramp_seconds=ramp,
         force=args.force,
+        progress=not args.quiet,
     ).to_dict()
     return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
 

@@ -85,12 +85,15 @@ def task_digest(task: TaskRequirement) -> str:
     return h.hexdigest()[:16]
 
 
-def optimum_record(n_max: int, source: tuple[str, TaskRequirement], modules=None) -> dict:
+def optimum_record(
+    n_max: int, source: tuple[str, TaskRequirement], modules=None, progress: bool = False
+) -> dict:
     """The record of one task (the unit of work of a dataset); ``modules``, a palette, makes
-    its structures typed (``palette`` and ``modules`` keys)."""
+    its structures typed (``palette`` and ``modules`` keys); ``progress`` shows the search's
+    bar per level on stderr."""
     task_id, task = source
     typed = {} if modules is None else {"modules": list(modules)}
-    optima = optimal_level(task, n_max=n_max, max_keys=MAX_STRUCTURES, **typed)
+    optima = optimal_level(task, n_max=n_max, max_keys=MAX_STRUCTURES, progress=progress, **typed)
     cells = [[p[0] if typed else p for p in key] for key in optima.keys]
     record = {
         "task": task_id,
@@ -141,7 +144,9 @@ def build_dataset(
     ``out`` that is not a dataset, holds another n_max or a task with other wrenches is a
     ValueError; Ray starts (or joins its cluster) when it is needed, and when no task could be
     loaded neither ``out`` nor its lock is made. ``modules`` (a palette, as for the searches)
-    types the structures; a file holds one palette (another one is refused as n_max is)."""
+    types the structures; a file holds one palette (another one is refused as n_max is).
+    ``progress`` shows a bar over the tasks on stderr and, for a task searched in this process
+    (a serial ``engine``, or a single task), its search's bar per level."""
     n_max = check_int(n_max, "n_max", low=1, high=EXACT_MODULES)
     palette = None if modules is None else check_palette(None, modules)
     if not isinstance(engine, Engine):
@@ -209,8 +214,9 @@ def _append_missing(run, tasks, out: Path, fh, budget, engine, progress, fresh) 
             raise named_os_error(exc, out) from exc
         run.written += 1
 
+    here = not engine.use_ray or len(todo) == 1  # as Engine.map runs them: shown from here
     engine.map(
-        partial(optimum_record, budget[0], modules=budget[1]),
+        partial(optimum_record, budget[0], modules=budget[1], progress=progress and here),
         todo,
         labels=[task_id for task_id, _ in todo],
         catch=True,

@@ -150,10 +150,13 @@ class TaskChecker:
         return alive
 
     # --- deciding ---------------------------------------------------------------------------
-    def first_feasible(self, cells: np.ndarray, types: np.ndarray | None = None) -> int | None:
+    def first_feasible(
+        self, cells: np.ndarray, types: np.ndarray | None = None, seen=None
+    ) -> int | None:
         """Index of the first structure of ``cells`` (L, n, 2) (with palette indices ``types``
         (L, n), default all the first type) that satisfies the task, or None. Every structure
-        up to it counts as evaluated."""
+        up to it counts as evaluated. ``seen(k)``, when given, is told after each structure
+        the oracle decides that the first k are decided (a progress bar moves)."""
         types = self._types(cells, types)
         alive = self.alive(cells, types)
         survivors = np.flatnonzero(alive)
@@ -165,6 +168,8 @@ class TaskChecker:
             if self.check_matrix(A, mass, self._inertia(cells[i], types[i])):
                 self._count_rejected(i - int(alive[:i].sum()))
                 return i
+            if seen is not None:
+                seen(i + 1)
             if self.learned != learned and i + 1 < len(cells):  # one new direction
                 alive[i + 1 :] &= self.alive(cells[i + 1 :], types[i + 1 :], newest_only=True)
                 survivors = i + 1 + np.flatnonzero(alive[i + 1 :])

@@ -37,7 +37,7 @@ from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream, lev
 from modquad_gym.geometry.structure import Key, Structure, normalise, normalise_typed
 from modquad_gym.search.bounds import NO_SIZE, force_lower_bound, level_excluded
 from modquad_gym.search.checker import TaskChecker
-from modquad_gym.search.levels import LevelAnswer, level_progress, level_size
+from modquad_gym.search.levels import ChunkBar, LevelAnswer, level_progress, level_size
 from modquad_gym.search.options import check_chunk, count
 from modquad_gym.search.partial import Partial, make_partial
 from modquad_gym.search.problem import EXACT_MODULES, SearchProblem, search_entry
@@ -197,14 +197,15 @@ def _scan(
         return
     for cells in PolyominoStream(n, chunk):
         rest = cells if part is None else cells[part.mask(cells)]
+        moves = ChunkBar(progress, len(cells))
         while len(rest):
-            i = run.checker.first_feasible(rest)
+            i = run.checker.first_feasible(rest, seen=moves.seen)
             if i is None:
                 break
             yield _key(rest[i])
             rest = rest[i + 1 :]
-        if progress is not None:
-            progress.update(len(cells))
+            moves.start += i + 1
+        moves.close()
 
 
 @dataclass
@@ -328,16 +329,18 @@ def optimal_level(
     *,
     chunk: int = DEFAULT_CHUNK,
     max_keys: int | None = None,
+    progress: bool = False,
 ) -> Optima:
     """Every minimum-module structure of ``task`` with the work it took (:class:`Optima`).
     Certified like :func:`exhaustive_search`, which stops at the first feasible structure; this
     one decides the whole minimal level (in this process: batches of tasks are what
     :mod:`modquad_gym.core.distributed` spreads). ``max_keys`` keeps only the first structures
     (``count`` still counts them all), bounding memory on huge levels. With ``modules`` the
-    keys are typed, ``((x, y), type)`` pairs, as :func:`optimal_structures` gives them."""
+    keys are typed, ``((x, y), type)`` pairs, as :func:`optimal_structures` gives them.
+    ``progress`` shows a bar per level on stderr, as :func:`exhaustive_search` does."""
     run = SearchRun("exhaustive", problem)
     keep = None if max_keys is None else check_int(max_keys, "max_keys", low=1)
-    answer = _exhaustive(run, check_chunk(chunk), None, False, False, None, keep)
+    answer = _exhaustive(run, check_chunk(chunk), None, progress, False, None, keep)
     keys, typed = KeptKeys(keep), not run.problem.shape_only  # typed: external task
     for found in answer.found:
         s = typed_structure(run.problem, found) if typed else None

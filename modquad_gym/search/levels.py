@@ -36,11 +36,36 @@ def level_size(n: int) -> int | None:
     return A001168[n - 1] if n <= len(A001168) else None
 
 
+BAR_DELAY = 0.5
+"""Seconds a level's bar waits before it is drawn: a level decided sooner shows none."""
+
+
 def level_progress(enabled: bool, n: int):
     """A tqdm bar over level n's structures on stderr, or None when not ``enabled``."""
     if not enabled:
         return None
     from tqdm.auto import tqdm
 
-    # shown only when a level takes more than half a second
-    return tqdm(total=level_size(n), desc=f"level {n}", unit=" structures", leave=False, delay=0.5)
+    return tqdm(total=level_size(n), desc=f"level {n}", unit=" structures", leave=False,
+                delay=BAR_DELAY)  # fmt: skip
+
+
+class ChunkBar:
+    """Moves a level's ``bar`` (None: nothing) while one chunk of ``size`` structures is
+    decided, structure by structure, not only at its end (a chunk of slow structures can take
+    a minute); :meth:`close` brings it to the chunk's end."""
+
+    def __init__(self, bar, size: int) -> None:
+        self.bar, self.size = bar, size
+        self.start = 0  # where the slice being decided starts in the chunk
+        self.shown = 0  # structures of the chunk counted on the bar
+
+    def seen(self, k: int) -> None:
+        """The first ``k`` structures of the slice from :attr:`start` are decided."""
+        if self.bar is not None and self.start + k > self.shown:
+            self.bar.update(self.start + k - self.shown)
+            self.shown = self.start + k
+
+    def close(self) -> None:
+        self.start = 0
+        self.seen(self.size)

@@ -128,6 +128,7 @@ def level_pairs(run: SearchRun, n: int, assign: np.ndarray, part: Partial | None
     for shapes in PolyominoStream(n, max(per_block, 1024)):
         for start in range(0, len(shapes), per_block):
             block = shapes[start : start + per_block]
+            decided = len(block)  # shapes the bar moves by after this block
             if part is not None:
                 block = block[part.mask(block)]
             cells = np.repeat(block, len(assign), axis=0)
@@ -143,9 +144,9 @@ def level_pairs(run: SearchRun, n: int, assign: np.ndarray, part: Partial | None
                 j = rest + i
                 yield tuple(map(tuple, cells[j].tolist())), tuple(types[j])
                 rest = j + 1
+            if bar is not None:  # per block, not per stream chunk: blocks of slow pairs
+                bar.update(decided)
             yield None
-        if bar is not None:
-            bar.update(len(shapes))
 
 
 def typed_structure(problem: SearchProblem, pair) -> Structure:

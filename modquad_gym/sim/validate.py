@@ -44,7 +44,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is first imported: he
 
 import json  # noqa: E402
 import math  # noqa: E402
-from dataclasses import replace  # noqa: E402
+from dataclasses import dataclass, replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
@@ -56,6 +56,7 @@ from modquad_gym.core.validation import check_f_max, check_flag, check_int, chec
 from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.oracle import feasible, lambda_ratio, margin  # noqa: E402
 from modquad_gym.sim.hover import HoverConfig, run_hover, unreachable_wrench_directions, wrench_axis  # noqa: E402
+from modquad_gym.sim.hover.run import hover_bar  # noqa: E402
 from modquad_gym.sim.hover_options import DEFAULT_HOVER_WRENCHES, checked_hover  # noqa: E402
 from modquad_gym.sim.inertial import check_simulable  # noqa: E402
 from modquad_gym.sim.model import build_model  # noqa: E402
@@ -110,7 +111,8 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
              include_infeasible_demo: bool = False,
              max_hover_wrenches: int | None = DEFAULT_HOVER_WRENCHES, unknown_load: bool = True,
              load_frame: str = "world", load_ramp_seconds: float | None = None,
-             kind: str | None = None, force: bool = False) -> ValidationReport:  # fmt: skip
+             kind: str | None = None, force: bool = False,
+             progress: bool = False) -> ValidationReport:  # fmt: skip
     """Bench and hover ``structure`` on ``task_wrenches``; write pictures and a report.
 
     For a task of ``kind`` ``external`` the wrenches are those applied to the environment: the
@@ -143,6 +145,8 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
             of a segment (its last 30 %) must come after the ramp, so the ramp is shortened to
             ``0.7 hover_seconds`` when the segments are shorter than ``load_ramp_seconds /
             0.7``; the ramp used is returned as ``hover_unknown_load_ramp_seconds``.
+        progress: show a bar over the hovers' simulated seconds on stderr (``modquad
+            validate`` does, unless ``--quiet``).
 
     Returns:
         A :class:`~modquad_gym.sim.report.ValidationReport`; its ``to_dict()`` is the JSON
@@ -159,6 +163,7 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
     """
     require("mujoco", *(["matplotlib"] if out_dir is not None else []))  # named, before any work
     hover_seconds, ramp, most = checked_hover(hover_seconds, load_ramp_seconds, max_hover_wrenches)
+    progress = check_flag(progress, "progress")
     task, W, f_max = _checked(structure, task, f_max, kind, unknown_load, ramp)
     out_dir = check_out_dir(out_dir, force, unknown_load, include_infeasible_demo, render)
     A = np.array(structure.configuration_matrix())
@@ -166,25 +171,53 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
     marg = margin(A, W, f_max)
     exact, pinv = _bench(structure, W, f_max)
     fly_sim = build_model(structure, f_max, bench=False)
-    hovered = hover_wrench_sample(marg, most)
-    W_hover = W[hovered]
+    fields = {**_structure_fields(structure, A, W, f_max, feas, marg, fly_sim.mass, task.kind),
+              **_bench_fields(exact, pinv)}  # fmt: skip
     config = HoverConfig(
         seconds_per_wrench=hover_seconds, load_frame=load_frame, settle_fraction=SETTLE_FRACTION
     )
-    hover = run_hover(fly_sim, W_hover, config)
-    report = ValidationReport(
-        **_structure_fields(structure, A, W, f_max, feas, marg, fly_sim.mass, task.kind),
-        **_bench_fields(exact, pinv),
-        **_hover_fields(hover, config, feas[hovered]),
-    )
-    blind = _unknown_load_hover(report, fly_sim, W_hover, config, ramp) if unknown_load else None
-    demo = None
-    if include_infeasible_demo:
-        demo = _infeasible_demo(report, fly_sim, A, W, int(np.argmin(marg)), f_max, config)
+    flights = Flights(hover_wrench_sample(marg, most), ramp if unknown_load else None,
+                      int(np.argmin(marg)) if include_infeasible_demo else None)  # fmt: skip
+    report, runs = _fly(fields, fly_sim, (A, W, f_max, feas), config, flights, progress)
     if out_dir is not None:
-        runs = {"hover": hover, "hover_unknown_load": blind, "hover_infeasible": demo}
         _write(out_dir, report, structure, fly_sim, exact, pinv, runs, render)
     return report
+
+
+@dataclass(frozen=True)
+class Flights:
+    """The hovers :func:`validate` flies: under the task rows ``hovered`` with the load known,
+    again with it unknown (ramped over ``ramp`` seconds; None: not flown), and the infeasible
+    demo on row ``demo_row`` scaled out of the set (None: not flown)."""
+
+    hovered: np.ndarray
+    ramp: float | None
+    demo_row: int | None
+
+    def segments(self) -> list[int]:
+        """Task segments of each flight (each flown after its take-off)."""
+        k = len(self.hovered)
+        return [k] + [k] * (self.ramp is not None) + [1] * (self.demo_row is not None)
+
+
+def _fly(fields: dict, fly_sim, arrays: tuple, config: HoverConfig, flights: Flights,
+         progress: bool) -> tuple[ValidationReport, dict]:  # fmt: skip
+    """Fly ``flights`` (``arrays``: the task's A, rotor wrenches, f_max, feasibility), with a
+    bar over their simulated seconds on stderr when ``progress``: (the report, ``fields`` and
+    the hovers' summaries, {picture name: the flight's HoverResult or None})."""
+    A, W, f_max, feas = arrays
+    hovered, ramp = flights.hovered, flights.ramp
+    W_hover = W[hovered]
+    with hover_bar(progress, config, flights.segments()) as moved:
+        hover = run_hover(fly_sim, W_hover, config, on_segment=moved)
+        report = ValidationReport(**fields, **_hover_fields(hover, config, feas[hovered]))
+        blind = None
+        if ramp is not None:
+            blind = _unknown_load_hover(report, fly_sim, W_hover, config, ramp, moved)
+        demo = None
+        if flights.demo_row is not None:
+            demo = _infeasible_demo(report, fly_sim, A, W, flights.demo_row, f_max, config, moved)
+    return report, {"hover": hover, "hover_unknown_load": blind, "hover_infeasible": demo}
 
 
 def _checked(structure: Any, task: Any, f_max: float | None, kind: str | None,
@@ -217,12 +250,14 @@ def _hover_fields(hover, config: HoverConfig, feas: np.ndarray) -> dict:
     }
 
 
-def _unknown_load_hover(report: ValidationReport, fly_sim, W_hover, config, ramp: float):
+def _unknown_load_hover(report: ValidationReport, fly_sim, W_hover, config, ramp: float,
+                        moved=None):  # fmt: skip
     """Fly the hover with the load unknown to the controller (the load ramping over ``ramp``
     seconds, shortened to the part of a segment before its settled part); its summary goes into
-    ``report``."""
+    ``report``; ``moved``: :func:`run_hover`'s ``on_segment``."""
     ramp = min(float(ramp), (1.0 - SETTLE_FRACTION) * config.seconds_per_wrench)
-    blind = run_hover(fly_sim, W_hover, replace(config, known_load=False, load_ramp_seconds=ramp))
+    blind = run_hover(fly_sim, W_hover, replace(config, known_load=False, load_ramp_seconds=ramp),
+                      on_segment=moved)  # fmt: skip
     report.unknown_load = HoverSummary.of(blind)
     report.unknown_load_ramp_seconds = ramp
     report.unknown_load_segments = [
@@ -231,10 +266,12 @@ def _unknown_load_hover(report: ValidationReport, fly_sim, W_hover, config, ramp
     return blind
 
 
-def _infeasible_demo(report: ValidationReport, fly_sim, A, W, index: int, f_max: float, config):
-    """Hover on task wrench ``index`` scaled out of the feasible set; into ``report``."""
+def _infeasible_demo(report: ValidationReport, fly_sim, A, W, index: int, f_max: float, config,
+                     moved=None):  # fmt: skip
+    """Hover on task wrench ``index`` scaled out of the feasible set; into ``report``
+    (``moved``: :func:`run_hover`'s ``on_segment``)."""
     w_bad = infeasible_wrench(A, W[index], f_max, INFEASIBLE_SCALE)
-    demo = run_hover(fly_sim, w_bad[None], config)
+    demo = run_hover(fly_sim, w_bad[None], config, on_segment=moved)
     report.infeasible_demo = InfeasibleDemo.of(demo, w_bad, index)
     return demo
 

@@ -50,12 +50,14 @@ def validate_trajectory(
     render: bool = True,
     config: TrackConfig | None = None,
     force: bool = False,
+    progress: bool = False,
 ) -> dict:
     """Bench, hover and fly ``structure`` on the dynamic ``task`` (module docstring); the JSON
     record of :func:`.validate.validate` (``task_kind`` ``"dynamic"``) plus the ``track_*``
     keys, ``mass_with_payload_kg`` and the pictures in ``files``. ``out_dir`` is checked as
     :func:`.validate.validate` checks it (with the flight's pictures), before any simulation;
-    ``force`` replaces the files this call writes there."""
+    ``force`` replaces the files this call writes there; ``progress`` shows the hovers' bar
+    on stderr, as :func:`.validate.validate` does."""
     from modquad_gym.sim.validate import check_out_dir, validate  # the module's, at the call
 
     task = as_dynamic(task)  # a ValueError naming the type of anything else
@@ -66,7 +68,7 @@ def validate_trajectory(
     rows = bench_sample(W, A, task.f_max, max_bench_wrenches)
     report = validate(structure, W[rows], f_max=task.f_max, out_dir=out_dir,
                       hover_seconds=hover_seconds, render=render, unknown_load=unknown_load,
-                      max_hover_wrenches=len(rows), force=force)  # fmt: skip
+                      max_hover_wrenches=len(rows), force=force, progress=progress)  # fmt: skip
     flight = fly_trajectory(structure, task, config)
     record = report.to_dict()
     record["task_kind"] = "dynamic"

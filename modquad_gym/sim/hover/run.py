@@ -12,7 +12,9 @@ segment's numbers. The parts: :mod:`.load` (the external load and its ramps), :m
 
 from __future__ import annotations
 
+import contextlib
 import math
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
@@ -87,6 +89,8 @@ def run_hover(
     structure: Structure | SimModel,
     wrenches: np.ndarray,
     config: HoverConfig | None = None,
+    *,
+    on_segment: Callable[[float], object] | None = None,
     **changes: object,
 ) -> HoverResult:
     """Fly the structure and hold its pose against each task wrench's load.
@@ -95,6 +99,8 @@ def run_hover(
         structure: a structure, or a flight model from ``build_model(..., bench=False)``.
         wrenches: (t, 6) task wrenches in {S} (the total the rotors must produce).
         config: how to fly (default :class:`HoverConfig`).
+        on_segment: called after each segment (the take-off too) with its planned simulated
+            seconds, e.g. a progress bar's ``update``.
         **changes: fields of ``config`` to replace, e.g. ``known_load=False``.
     """
     cfg = HoverConfig.make(config, **changes)
@@ -112,6 +118,8 @@ def run_hover(
     w_prev = plant.trim
     for segment in segments:
         w_prev = _fly_segment(flight, ctrl, rec, segment, w_prev)
+        if on_segment is not None:
+            on_segment(segment[2] * flight.ctrl_dt)
     return rec.result(W, cfg, sim.f_max, feasible(plant.A, W, sim.f_max))
 
 
@@ -170,3 +178,24 @@ def _fly_segment(
     flight.reset(perturb=False)
     ctrl.restart(w_next, rec.k * dt)
     return w_next
+
+
+@contextlib.contextmanager
+def hover_bar(progress: bool, config: HoverConfig, segments: list[int]) -> Iterator:
+    """A tqdm bar on stderr over the simulated seconds of flights of ``segments`` task
+    segments each (and a take-off each), as :func:`run_hover`'s ``on_segment``; None (no
+    bar) without ``progress``. The bar is closed at the end."""
+    if not progress:
+        yield None
+        return
+    from tqdm.auto import tqdm
+
+    n_ctrl, n_takeoff, _ = config.segment_steps()
+    total = sum(n_takeoff + k * n_ctrl for k in segments) / config.control_hz
+    bar = tqdm(total=total, desc="hover", leave=False,
+               bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} simulated s "
+               "[{elapsed}<{remaining}]")  # fmt: skip
+    try:
+        yield bar.update
+    finally:
+        bar.close()
