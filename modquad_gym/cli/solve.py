@@ -27,6 +27,14 @@ from modquad_gym.cli.common import (
     report_error,
 )
 from modquad_gym.cli.quiet import add_quiet, shows_progress
+from modquad_gym.cli.solve_outputs import (
+    check_certificate,
+    check_certificate_levels,
+    check_export,
+    check_outputs_differ,
+    export_result,
+    write_certificate,
+)
 from modquad_gym.core.interrupts import one_line
 from modquad_gym.methods import OWN_FLAGS, method_of
 from modquad_gym.oracle.faults import DELAY_SLOPES
@@ -101,7 +109,9 @@ def add_solve(sub) -> None:
         help="also write a certificate of the certified answer (one task only) to FILE (.json, "
         "or .json.gz compressed; not the --export file): a proof that `modquad check FILE` "
         "verifies without trusting the search (docs/certificates.md); an answer that is not "
-        "certified is refused",
+        "certified is refused, as is one whose certificate would prove a level of more than "
+        "2,000,000 structures that no level bound covers (at once, before the search, when "
+        "every answer's would; else a note names the first such level)",
     )
     add_force(p)
 
@@ -266,6 +276,8 @@ def solve_path(args: argparse.Namespace, path: Path, engine, single: bool) -> li
             raise
         report_error(one_line(exc))
         return [exc]
+    if args.certificate is not None:
+        check_certificate_levels(args, task)  # before the search
     result = solver(args, task, engine)(task)
     print_result(args, path, task, result)
     if args.export is not None:
@@ -273,84 +285,6 @@ def solve_path(args: argparse.Namespace, path: Path, engine, single: bool) -> li
     if args.certificate is not None:
         write_certificate(args, task, result)
     return []
-
-
-def check_outputs_differ(args: argparse.Namespace) -> None:
-    """``--certificate`` and ``--export`` naming one file: refused before any search (the
-    second would replace the first)."""
-    if args.export is None or args.certificate is None:
-        return
-    if Path(args.export).resolve() == Path(args.certificate).resolve():
-        raise ValueError(
-            f"--certificate {args.certificate} and --export {args.export} name the same file; "
-            "give two files"
-        )
-
-
-def check_export(out: str, n_tasks: int, force: bool) -> None:
-    """``--export`` is checked before any search: one task, a known suffix, its extra (MJCF
-    needs MuJoCo), a writable file."""
-    from modquad_gym.core.extras import require
-    from modquad_gym.core.outputs import check_output_file
-    from modquad_gym.sim.export import SUFFIXES
-
-    if n_tasks != 1:
-        raise ValueError(f"--export: give one task, not {n_tasks} (it writes one structure)")
-    if Path(out).suffix.lower() not in SUFFIXES.values():
-        raise ValueError(
-            f"--export: {out} must end in {', '.join(SUFFIXES.values())} (MJCF, URDF, JSON)"
-        )
-    if Path(out).suffix.lower() == SUFFIXES["mjcf"]:
-        require("mujoco")  # the [sim] extra, before the search rather than after it
-    check_output_file(out, force=force, what="--export")
-
-
-def export_result(args: argparse.Namespace, task, result) -> None:
-    """Write the structure found to ``--export`` (the task's f_max in the model)."""
-    from modquad_gym.sim.export import save_structure
-
-    if result.structure is None:
-        raise ValueError(f"--export: no structure found for {task.name!r}; nothing written")
-    out = save_structure(result.structure, args.export, f_max=task.f_max, force=args.force)
-    if not args.json:
-        print(f"  wrote {out}")
-
-
-def check_certificate(
-    out: str, n_tasks: int, force: bool, fault: str | None, fault_margin: float = 0.0
-) -> None:
-    """``--certificate`` is checked before any search: one task, a fault model it covers
-    (no margin after the failure), .json(.gz), a writable file."""
-    from modquad_gym.core.outputs import check_output_file
-    from modquad_gym.search.certificates import CertificateError, check_fault
-
-    try:
-        check_fault(fault, fault_margin)
-    except CertificateError as e:
-        raise ValueError(f"--certificate: {e}") from None
-    if n_tasks != 1:
-        raise ValueError(f"--certificate: give one task, not {n_tasks} (it proves one answer)")
-    if not out.endswith((".json", ".json.gz")):
-        raise ValueError(f"--certificate: {out} must end in .json or .json.gz")
-    check_output_file(out, force=force, what="--certificate")
-
-
-def write_certificate(args: argparse.Namespace, task, result) -> None:
-    """Write the certificate of a certified answer to ``--certificate``
-    (:mod:`modquad_gym.search.certificates`)."""
-    from modquad_gym.search.certificates import write
-    from modquad_gym.search.problem import SearchProblem
-
-    if not result.certified:
-        raise ValueError(
-            f"--certificate: the answer for {task.name!r} is not certified (proved bound "
-            f"{result.lower_bound}, {result.n_modules} modules); nothing written: give a longer "
-            "--time-limit or --method exhaustive"
-        )
-    problem = SearchProblem.build(task, args.n_max, modules=palette(args), fault=args.fault)
-    out = write(result, problem, args.certificate, force=args.force)
-    if not args.json:
-        print(f"  wrote {out}")
 
 
 def print_result(args: argparse.Namespace, path, task, result) -> None:

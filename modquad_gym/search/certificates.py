@@ -47,10 +47,8 @@ def make(result, problem, progress: bool = False, bounds: bool = True) -> dict:
     if not result.certified:
         raise CertificateError("only a certified answer has a certificate (this one is not)")
     check_fault(problem.fault, problem.fault_margin)
-    T = pc.Types([type_dict(m) for m in problem.palette])
+    T, task, f_max, fault = _parts(problem)
     model = problem.model
-    task = tuple(np.asarray(a, float) for a in (model.base, model.per_mass, model.per_inertia))
-    f_max, fault = float(problem.f_max), problem.fault
     cert: dict = {"format": pc.FORMAT, "version": pc.VERSION, "f_max": f_max, "fault": fault}
     cert["types"] = [type_dict(m) for m in problem.palette]
     cert["task"] = {"name": getattr(problem.task, "name", None), "kind": problem.kind,
@@ -76,6 +74,60 @@ def make(result, problem, progress: bool = False, bounds: bool = True) -> dict:
     cert["directions"] = np.array(prover.pool)[used].reshape(-1, 6).tolist()
     cert["producer"] = {"method": result.method}
     return cert
+
+
+def check_levels(problem) -> int | None:
+    """Before the search: refuse (CertificateError, the words :func:`make` would use after it)
+    when a level below the search's proved bound (:func:`~.bounds.bound_levels`) cannot be
+    proved (:func:`unprovable_levels`): every certified answer has at least that many modules,
+    so its certificate proves that level. Else the smallest level from the bound up to n_max
+    that cannot be proved, or None: the certificate of an answer above it, or of no structure
+    up to n_max, will be refused; one of an answer at or below it will not, so whether it is
+    refused depends on the answer, and nothing is refused here."""
+    from modquad_gym.search.bounds import bound_levels
+
+    check_fault(problem.fault, problem.fault_margin)
+    levels = unprovable_levels(problem, range(1, problem.n_max + 1))
+    lower = bound_levels(problem)
+    below = [n for n in levels if n < lower]
+    if below:  # the highest: the certificate proves its levels top down
+        raise CertificateError(_too_large(below[-1]))
+    return levels[0] if levels else None
+
+
+def unprovable_levels(problem, levels) -> list[int]:
+    """The levels of ``levels`` a certificate of ``problem`` cannot prove, whatever its answer:
+    more structures than :data:`MAX_STRUCTURES` (or modules than the checker enumerates) and no
+    level bound covering them. Known before any search: at such a level the bound's candidate
+    directions are the fixed ones (force normals, level directions), since every level above it
+    is larger still, so none was proved one structure at a time (which finds the other
+    directions); a pair whose margin before the checker's tolerance is not positive fails with
+    it too."""
+    T, task, f_max, fault = _parts(problem)
+    D = _Prover(T, task, f_max, fault, problem)._candidates()
+    out = []
+    for n in levels:
+        if n <= pc.MAX_ENUMERATED and pc.count(n, T.n) <= MAX_STRUCTURES:
+            continue
+        if bound_margins(T, task, f_max, fault, n, D).max() <= 0:
+            out.append(n)
+    return out
+
+
+def _too_large(n: int) -> str:
+    return (
+        f"level {n}: no level bound covers it and it holds too many structures to prove one "
+        f"by one (at most {MAX_STRUCTURES:,})"
+    )
+
+
+def _parts(problem):
+    """(module types, task model arrays, f_max, fault) of ``problem``, as the checker reads
+    them."""
+    T = pc.Types([type_dict(m) for m in problem.palette])
+    model = problem.model
+    task = tuple(np.asarray(a, float) for a in (model.base, model.per_mass, model.per_inertia))
+    return T, task, float(problem.f_max), problem.fault
 
 
 def write(result, problem, path: str | Path, force: bool = False, **options) -> Path:
@@ -127,10 +179,7 @@ class _Prover:
             return {"n": n, "bound": {"direction": bound[0], "wrench": bound[1]}}
         total = pc.count(n, self.T.n) if n <= pc.MAX_ENUMERATED else None
         if total is None or total > MAX_STRUCTURES:
-            raise CertificateError(
-                f"level {n}: no level bound covers it and it holds too many structures to "
-                f"prove one by one (at most {MAX_STRUCTURES:,})"
-            )
+            raise CertificateError(_too_large(n))
         P, I, F = (np.full(total, -1, np.int64) for _ in range(3))
         bar = _bar(progress, n, total)
         for s, cells, types in pc.structures(n, self.T.n, self.T.rotors):
