@@ -208,9 +208,9 @@ def test_ray_starting_and_stopping_keeps_the_sigterm_handler(monkeypatch, kill):
         with engine:
             if kill:  # Ray's handler ran during init: still one Terminated, not sys.exit(15)
                 with pytest.raises(Terminated):
-                    engine._start()
+                    engine.start()
             else:
-                engine._start()
+                engine.start()
             assert signal.getsignal(signal.SIGTERM) is interrupts._raise_terminated
         assert signal.getsignal(signal.SIGTERM) is interrupts._raise_terminated
 

@@ -128,3 +128,31 @@ def test_the_policy_joins_the_producers_when_its_extra_is_installed():
     r = guided_producer(SearchProblem.build(task, n_max=6), time_limit=10)
     assert verified(r.structure, task)
     assert guided_producer(SearchProblem.build(task, n_max=6, fault="rotor"), 10) is None
+
+
+def test_rays_start_is_not_the_searchs_time(local_ray, monkeypatch):
+    """Ray's start (made 2 s slow here) stops the search's clock: the search still gets its
+    whole time limit of work, returns the one-process answer within that limit, and says how
+    long the start took. A lift only 20 modules exert, beyond the exact levels' reach: they
+    decide nothing, so the search starts Ray; the first compact shape meets the bound."""
+    one = Structure([(0, 0)])
+    lift = 19.5 * np.clip(one.configuration_matrix()[2], 0, None).sum()
+    task = TaskRequirement([[0, 0, lift, 0, 0, 0]])
+    here = anytime_search(task, n_max=24, time_limit=1.5)
+    assert here.certified and here.n_modules == 20
+    start, started = Engine.start, []
+
+    def slow_start(engine):  # idempotent as Ray's: slow only the first time
+        if not started:
+            time.sleep(2.0)
+            started.append(engine)
+        start(engine)
+
+    monkeypatch.setattr(Engine, "start", slow_start)
+    t0 = time.perf_counter()
+    r = anytime_search(task, n_max=24, time_limit=1.5, engine=Engine(2))
+    wall = time.perf_counter() - t0
+    assert r.structure.cells == here.structure.cells and r.certified
+    assert r.seconds <= 1.5 + 0.5 and 2.0 <= r.ray_start_seconds < wall
+    assert "Ray's start took 2." in r.message and "not counted in the time limit" in r.message
+    assert r.to_dict()["ray_start_seconds"] == round(r.ray_start_seconds, 3)

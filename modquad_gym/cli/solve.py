@@ -78,7 +78,8 @@ def add_solve(sub) -> None:
         "no structure of fewer modules works), evaluated, oracle_calls, feasible, certified "
         "(n_modules == lower_bound), seconds (and modules, the type of each cell, with "
         "--modules; for the default search, history: how the bound and the structure found "
-        "improved, a list of {seconds, lower_bound, n_modules, source})",
+        "improved, a list of {seconds, lower_bound, n_modules, source}, and with --workers "
+        "ray_start_seconds, Ray's start, not counted in seconds)",
     )
     add_quiet(p)
     add_workers(
@@ -88,7 +89,9 @@ def add_solve(sub) -> None:
         "is reported and the others go on, exit code 2 at the end); a single task's exhaustive "
         "search splits its levels of 100,000 structures or more (11 modules and up), its "
         "default search runs the portfolio's producers (beam, genetic, greedy, the policy) on "
-        "N-1 workers beside its own steps; with one task the other methods run in this process "
+        "N-1 workers beside its own steps (Ray's start, seconds on a small machine, is not "
+        "counted in --time-limit nor in the seconds printed, and Ray stops after the answer is "
+        "printed); with one task the other methods run in this process "
         "and --workers above 1 (or --ray-address) is refused. Only the default search's answer "
         "may depend on the number of workers (it depends on timing)",
     )

@@ -150,9 +150,11 @@ class Engine:
                 import_optional("ray").shutdown()
             self._started = False
 
-    def _start(self) -> None:
-        """Start (or join) Ray at the first batch that needs it; it stays up until the
-        outermost ``with`` block ends."""
+    def start(self) -> None:
+        """Start (or join) Ray now; nothing when it runs already (idempotent). The batches call
+        it at the first one that needs Ray; a caller that must not count Ray's start as its
+        own work (the anytime search's clock) calls it first. Ray stays up until the outermost
+        ``with`` block ends."""
         ray = import_optional("ray")
         if ray.is_initialized():
             return
@@ -178,7 +180,7 @@ class Engine:
         if not self.use_ray:
             return 1
         with self:
-            self._start()
+            self.start()
             return int(import_optional("ray").cluster_resources().get("CPU", 1))
 
     # --- running -----------------------------------------------------------------------------
@@ -259,7 +261,7 @@ class Engine:
                 yield i, run_item(fn, item, _label(labels, i), catch)
             return
         with self:
-            self._start()
+            self.start()
             yield from self._run_ray(fn, items, labels, catch, max_retries)
 
     def _run_ray(self, fn, items, labels, catch, max_retries):

@@ -34,7 +34,7 @@ class Flight:
 
     def __init__(self, engine: Engine, fn: Callable, items: Sequence[Any], in_flight: int) -> None:
         self.engine = engine.__enter__()
-        engine._start()
+        engine.start()
         ray = import_optional("ray")
         self._remote = ray.remote(num_cpus=1, max_retries=DEFAULT_RETRIES, retry_exceptions=False)(
             run_item

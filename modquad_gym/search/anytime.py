@@ -3,9 +3,9 @@ limit the way a MIP solver does, with an incumbent and a proved lower bound.
 
 1. **Bounds** (instant, :func:`.bounds.bound_levels`): the force, count and level bounds
    (docs/search.md) rule out whole levels.
-2. **Exact levels** (:class:`ExactLevels`): the levels from the bound upward are decided
-   exactly, in the exhaustive search's canonical order, as long as they fit (up to 16 modules;
-   for several types up to :data:`~.typed.MAX_PAIRS` pairs a level) and for at most
+2. **Exact levels** (:class:`~.exact_levels.ExactLevels`): the levels from the bound upward are
+   decided exactly, in the exhaustive search's canonical order, as long as they fit (up to 16
+   modules; for several types up to :data:`~.typed.MAX_PAIRS` pairs a level) and for at most
    :data:`EXACT_SHARE` of the time at first. A level decided to its end with no feasible
    structure is refuted: the bound rises past it. A feasible structure found there is the
    exhaustive search's answer (the first in canonical order of the minimal level): certified.
@@ -19,7 +19,10 @@ limit the way a MIP solver does, with an incumbent and a proved lower bound.
    caller adds it) produce incumbents too: in this process with the time the local moves leave,
    or, with an ``engine`` of Ray workers, beside steps 2-4 after a first :data:`QUICK_SECONDS` of
    exact levels (a task those decide at once never starts Ray), each stopping once an incumbent
-   meets the bound.
+   meets the bound. The clock stops while Ray starts: like the import, Ray's start (seconds on
+   a small machine) is not the search's time, and the result's ``ray_start_seconds`` says how
+   long it took; Ray stops after the result is built (hold the engine in a ``with`` block to
+   keep it up across searches).
 
 It stops at the time limit, or as soon as the bound meets the incumbent; when that happens at a
 level the exact scan can decide, the level is scanned for its first feasible structure so that
@@ -35,18 +38,16 @@ from __future__ import annotations
 import time
 
 from modquad_gym.geometry.cells import packed_key
-from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream
-from modquad_gym.geometry.structure import Structure, normalise
+from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK
+from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle.faults import DecisionInterruptedError
-from modquad_gym.search.bounds import allowed_counts, bound_levels, bound_proof, level_excluded
-from modquad_gym.search.levels import level_size
+from modquad_gym.search.bounds import bound_levels, bound_proof
+from modquad_gym.search.exact_levels import ExactLevels
 from modquad_gym.search.moves import compact_shapes, relocations, removable
 from modquad_gym.search.options import check_chunk, seeded_rng
 from modquad_gym.search.portfolio import HEURISTICS, Producers, run_in_turn
 from modquad_gym.search.problem import (
     DEFAULT_TIME_LIMIT,
-    EXACT_MODULES,
-    FAULT_BLOCK,
     MAX_MODULES,
     SearchProblem,
     check_time_limit,
@@ -54,7 +55,6 @@ from modquad_gym.search.problem import (
 )
 from modquad_gym.search.progress import progress_line
 from modquad_gym.search.result import SearchResult, SearchRun
-from modquad_gym.search.typed import MAX_PAIRS, assignments, level_pairs, typed_structure
 
 EXACT_SHARE = 0.5
 """Share of the time limit the exact levels get before an incumbent is built."""
@@ -64,75 +64,6 @@ QUICK_SECONDS = 1.0
 
 REPAIR_MOVES = 48
 """Moves tried per step of the repair search before it settles for a sideways move."""
-
-
-class ExactLevels:
-    """The exact scan of levels ``first``, ``first + 1``, ... in the exhaustive search's order,
-    resumable at any chunk: :meth:`advance` works until a deadline."""
-
-    def __init__(self, run: SearchRun, first: int, chunk: int = DEFAULT_CHUNK) -> None:
-        self.run, self.problem, self.chunk, self._steps = run, run.problem, chunk, None
-        self.n = first  # every level below is refuted
-
-    def fits(self, n: int) -> bool:
-        """Can level n be decided exactly (its size within the exhaustive search's reach)?"""
-        p = self.problem
-        if n > min(p.n_max, EXACT_MODULES):
-            return False
-        if p.shape_only:
-            return True
-        size = level_size(n)  # None past the tabulated counts: far beyond MAX_PAIRS
-        return size is not None and size * len(p.palette) ** n <= MAX_PAIRS
-
-    def advance(
-        self, deadline: float, stop_at: int | None = None, settled=lambda _n: False
-    ) -> Structure | None:
-        """Decide levels until a feasible structure is found (returned: the first of the
-        minimal level), the deadline passes, level ``stop_at`` is reached, ``settled(bound)``
-        (an incumbent meets the bound) or no level fits."""
-        while self.fits(self.n) and (stop_at is None or self.n < stop_at):
-            if time.perf_counter() >= deadline or settled(self.n):
-                return None
-            if self._steps is None:
-                self._steps = self._level(self.n)
-            for found in self._steps:
-                if found is not None:
-                    return found
-                if time.perf_counter() >= deadline or settled(self.n):
-                    return None
-            self.n += 1
-            self._steps = None
-            self.run.improve("exact", lower_bound=self.n)
-        return None
-
-    def first_of(self, n: int, deadline: float) -> Structure | None:
-        """The first feasible structure of level n (every level below refuted), or None when
-        the deadline passes first."""
-        self.n, self._steps = n, None
-        return self.advance(deadline, stop_at=n + 1)
-
-    def _level(self, n: int):
-        """Generator over level n: None after each chunk, then the first feasible structure."""
-        p, run = self.problem, self.run
-        if p.shape_only:
-            if level_excluded(p.wrenches, p.f_max, p.module, n, p.fault):
-                return
-            chunk = self.chunk if p.fault is None else min(self.chunk, FAULT_BLOCK)
-            for cells in PolyominoStream(n, chunk):
-                i = run.checker.first_feasible(cells)
-                if i is not None:
-                    yield Structure.from_trusted(normalise(map(tuple, cells[i].tolist())), p.module)
-                    return
-                yield None
-            return
-        allowed, _ = allowed_counts(p, n)
-        if not allowed.any():
-            return
-        for pair in level_pairs(run, n, assignments(n, allowed)):
-            if pair is not None:
-                yield typed_structure(p, pair)
-                return
-            yield None
 
 
 class Incumbents:
@@ -344,15 +275,38 @@ def _search(run: SearchRun, time_limit: float, seed, chunk: int, engine, produce
         if found is None and exact.n <= problem.n_max:
             if not parallel:
                 return _steps(run, exact, incumbents, share, deadline, producers, seed)
-            with Producers(run, engine, producers, incumbents.offer, deadline, seed) as workers:
-                incumbents.producers = workers
-                return _steps(run, exact, incumbents, share, deadline, producers, seed)
+            with engine:  # up until the result is built: Ray's stop is not the search's time
+                deadline, share = _pause_for_ray(run, engine, incumbents, deadline, share)
+                with Producers(run, engine, producers, incumbents.offer, deadline, seed) as w:
+                    incumbents.producers = w
+                    try:
+                        return _steps(run, exact, incumbents, share, deadline, producers, seed)
+                    except DecisionInterruptedError:
+                        return _best(run, exact, incumbents)
     except DecisionInterruptedError:
         return _best(run, exact, incumbents)
     if found is not None:
         run.improve("exact", found.n_modules, found.n_modules)
         return run.finish(found, found.n_modules)
     return run.finish(None, exact.n)  # every level refuted
+
+
+def _pause_for_ray(
+    run: SearchRun, engine, incumbents: Incumbents, deadline: float, share: float
+) -> tuple[float, float]:
+    """Start ``engine``'s Ray with the search's clock stopped: like its import, Ray's start is
+    not the search's time, so the clock's start and every deadline the search holds move past
+    it (the producers' deadline is taken from the moved one; the result says how long it
+    took); the moved (deadline, share)."""
+    before = time.perf_counter()
+    engine.start()
+    took = time.perf_counter() - before
+    run.ray_start_seconds += took
+    run.t0 += took
+    run.checker.deadline += took
+    run.verify_deadline += took
+    incumbents.deadline += took
+    return deadline + took, share + took
 
 
 def _steps(run, exact, incumbents, share, deadline, producers, seed) -> SearchResult:

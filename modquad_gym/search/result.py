@@ -94,6 +94,8 @@ class SearchResult:
         fault_margin: the worst margin it keeps after that failure, at least (0: none asked).
         history: how the bound and the incumbent improved over time (:class:`Improvement`,
             in order; the anytime search fills it, the others leave it empty).
+        ray_start_seconds: how long the search waited for Ray's start (the anytime search's
+            producers on workers), not counted in ``seconds`` or the time limit (0: none).
     """
 
     structure: Structure | None
@@ -113,6 +115,7 @@ class SearchResult:
     fault: str | None = None
     fault_margin: float = 0.0
     history: tuple[Improvement, ...] = ()
+    ray_start_seconds: float = 0.0
 
     def __post_init__(self) -> None:
         if self.lower_bound is None:
@@ -148,7 +151,15 @@ class SearchResult:
 
     @property
     def message(self) -> str:
-        """One line that says what :attr:`status` means for this result."""
+        """One line that says what :attr:`status` means for this result (and the seconds of
+        Ray's start left out of its time)."""
+        line = self._meaning()
+        if self.ray_start_seconds:
+            took = f"{self.ray_start_seconds:.1f} s"
+            line += f"; Ray's start took {took}, not counted in the time limit or the seconds"
+        return line
+
+    def _meaning(self) -> str:
         status, fault = self.status, f" surviving any {self.fault} failure" if self.fault else ""
         if self.fault_margin:
             fault += f" with a margin of {self.fault_margin:g}"
@@ -201,6 +212,8 @@ class SearchResult:
             out["proof"] = self.proof
         if self.history:
             out["history"] = [event.to_dict() for event in self.history]
+        if self.ray_start_seconds:
+            out["ray_start_seconds"] = round(self.ray_start_seconds, 3)
         return out
 
 
@@ -263,6 +276,7 @@ class SearchRun:
         self.history: list[Improvement] = []
         self.listener: Callable[[Improvement], None] | None = None
         self.verify_deadline: float | None = None  # see finish
+        self.ray_start_seconds = 0.0  # left out of the clock (t0 moved past it)
 
     def improve(
         self, source: str, lower_bound: int | None = None, n_modules: int | None = None
@@ -358,6 +372,7 @@ class SearchRun:
             fault=p.fault,
             fault_margin=p.fault_margin,
             history=tuple(self.history),
+            ray_start_seconds=self.ray_start_seconds,
         )
 
 
