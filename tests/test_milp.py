@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 import time
 
 import numpy as np
@@ -23,7 +24,7 @@ from modquad_gym.search import SEARCHES, SearchProblem, bound_levels, exhaustive
 from modquad_gym.search import milp_program as milp_module
 from modquad_gym.search.milp import milp_lower_bound, milp_search
 from modquad_gym.search.milp_program import inertia_terms, window
-from modquad_gym.tasks import PlantedTasks, TaskRequirement, make_generator
+from modquad_gym.tasks import PlantedTasks, TaskRequirement, generated_task, make_generator
 
 SCREWDRIVER = TaskRequirement.load("examples/screwdriver.json")
 T = palette("t45,t45m,flat")
@@ -209,6 +210,35 @@ def test_a_short_time_limit_holds_where_highs_overruns_its_own():
         assert time.perf_counter() - t0 < 10.0
         assert r.structure is None and not r.certified
         assert r.lower_bound >= bound_levels(SearchProblem.build(big, 64))
+
+
+class SlowImport:
+    """A finder that makes the import of one module slow (scipy's first import in a fresh
+    process) and leaves finding it to the usual finders."""
+
+    def __init__(self, name: str, seconds: float) -> None:
+        self.name, self.seconds = name, seconds
+
+    def find_spec(self, name, path=None, target=None):
+        if name == self.name:
+            time.sleep(self.seconds)
+        return None
+
+
+def test_the_programs_first_import_counts_against_the_limit(monkeypatch):
+    """The relaxation bound imports the program's module (scipy.optimize) on first use: 0.2-0.4 s
+    of a fresh process, which is the limit's own time, not time on top of it."""
+    import modquad_gym.search as search_package
+
+    name = "modquad_gym.search.milp_program"
+    monkeypatch.delitem(sys.modules, name)
+    monkeypatch.delattr(search_package, "milp_program")
+    monkeypatch.setattr(sys, "meta_path", [SlowImport(name, 1.0), *sys.meta_path])
+    problem = SearchProblem.build(generated_task("planted", 1, "total", None, 48), 64)
+    start = bound_levels(problem)
+    t0 = time.perf_counter()
+    assert milp_lower_bound(problem, start=start, time_limit=0.8) == start  # nothing decided
+    assert time.perf_counter() - t0 < 1.0 + 0.4  # the import took the whole limit
 
 
 # --------------------------------------------------------------------------- interfaces

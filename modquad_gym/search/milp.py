@@ -77,11 +77,11 @@ def milp_lower_bound(
     (docs/search.md); ``start`` must itself be a proved bound (default 1). A count whose
     relaxation is undecided within ``time_limit`` seconds (or too large to build) ends the
     scan there. Count vectors the exact count and level bounds exclude are skipped."""
+    t0 = time.perf_counter()  # scipy's first import counts against the limit
     from modquad_gym.search import milp_program as program  # scipy: on first use
 
     check_supported(problem)
     n_max = problem.n_max if n_max is None else n_max
-    t0 = time.perf_counter()
     n = start
     while n <= n_max:
         left = time_limit - (time.perf_counter() - t0)
@@ -99,8 +99,9 @@ def milp_search(problem: SearchProblem, *, time_limit: float = DEFAULT_TIME_LIMI
     level it did not refute as the proved bound. The limit holds even where HiGHS overruns its
     own: a program of more than :data:`~.milp_program.IN_PROCESS_NONZEROS` nonzeros is solved in
     a worker process killed :data:`~.milp_worker.GRACE` (0.5) s past the deadline (its first
-    start, about 0.5-1 s, counts against the limit). Up to :data:`MAX_MODULES` modules; the
-    task's arguments as for :func:`~.exhaustive.exhaustive_search`; ``fault=`` is refused."""
+    start, about 0.5-1 s, and scipy's first import count against the limit). Up to
+    :data:`MAX_MODULES` modules; the task's arguments as for
+    :func:`~.exhaustive.exhaustive_search`; ``fault=`` is refused."""
     check_supported(problem)
     run = SearchRun("milp", problem)
     deadline = Deadline(run, time_limit)
