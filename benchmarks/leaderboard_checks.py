@@ -1,26 +1,99 @@
-"""What the leaderboard checks in an outside agent's submission before it ranks it: every row's
-cells verified again by the exact oracle against the tier's own task, the optimum taken from
-the suite, and a name that no committed method has."""
+"""What the leaderboard checks in an outside agent's submission before it ranks it: a file with
+the columns it reads and known tiers, one row per (seed, suite, task) and the same tasks in every
+seed, every row's cells verified again by the exact oracle against the tier's own task, the
+optimum taken from the suite, and a name that no committed method has."""
 
 from __future__ import annotations
 
+import csv
 import math
+import unicodedata
 from pathlib import Path
+
+SUBMISSION_COLUMNS = ("tier", "seed", "method", "status", "suite", "task", "success",
+                      "n_modules", "evaluated", "oracle_calls", "seconds", "cells")  # fmt: skip
+"""The columns of a submission file that the leaderboard reads (its optimum, gap and optimal
+come from the suite)."""
 
 
 def refuse_taken(name: str, where: str) -> None:
-    """A ValueError when an outside agent's ``name`` is a committed method's (a registered
-    method or a variant of one): its rows would be read as that method's."""
+    """A ValueError when an outside agent's ``name`` could be read as a committed method's (a
+    registered method or a variant of one): the same once NFKC-normalised, case-folded and
+    stripped, or followed by a parenthesis (``greedy (2 seeds)``); and a name that holds an
+    invisible character (a control, format or separator character other than the space)."""
     from modquad_gym.methods import method_of
 
+    name = str(name)
+    plain = unicodedata.normalize("NFKC", unicodedata.normalize("NFKC", name).casefold())
+    hidden = [c for c in plain if unicodedata.category(c)[0] in "CZ" and c != " "]
+    if hidden or not plain.strip():
+        what = f"holds an invisible character U+{ord(hidden[0]):04X}" if hidden else "is empty"
+        raise ValueError(f"{where}: the agent's name {name!r} {what}; give the agent a "
+                         "visible `name` attribute")  # fmt: skip
+    for candidate in (plain.strip(), plain.partition("(")[0].strip()):
+        try:
+            method_of(candidate)
+        except ValueError:
+            continue
+        read = f" (read as {candidate!r})" if candidate != name else ""
+        raise ValueError(
+            f"{where}: the agent's name {name!r} is a committed method's{read}; give the agent "
+            "another `name` attribute"
+        )
+
+
+def submission_records(path: Path) -> list[tuple[int, dict]]:
+    """Each (1-based row, record) of a submission file. A file without a column of
+    :data:`SUBMISSION_COLUMNS` (or not a CSV file at all), or a row whose tier is not a
+    benchmark tier, is a ValueError naming ``path`` (and the row)."""
+    from modquad_gym.scoring.tiers import TIERS
+
     try:
-        method_of(name)
-    except ValueError:
-        return
-    raise ValueError(
-        f"{where}: the agent's name {name!r} is a committed method's; give the agent another "
-        "`name` attribute"
-    )
+        with open(path, newline="", encoding="utf-8") as fh:
+            reader = csv.DictReader(fh)
+            have = reader.fieldnames or []
+            missing = [c for c in SUBMISSION_COLUMNS if c not in have]
+            if missing:
+                raise ValueError(f"{path}: not a submission file: no column "
+                                 f"{', '.join(missing)}")  # fmt: skip
+            numbered = list(enumerate(reader, start=1))
+    except (UnicodeDecodeError, csv.Error) as err:
+        raise ValueError(f"{path}: not a submission file (a CSV file in UTF-8): {err}") from None
+    for n, r in numbered:
+        if r["tier"] not in TIERS:
+            raise ValueError(f"{path}: row {n} (line {n + 1}): tier {r['tier']!r} is not a "
+                             f"benchmark tier; write one of {', '.join(TIERS)}")  # fmt: skip
+    return numbered
+
+
+def one_row_per_task(path: Path, tier: str, method: str, numbered: list[tuple[int, dict]]):
+    """A ValueError naming ``path`` unless ``method``'s scored rows on ``tier`` (1-based row,
+    record) hold one row per (seed, suite, task), and every seed the same tasks: a task
+    repeated, or a seed holding only the tasks it did well on, would count twice or not at
+    all."""
+    first: dict[tuple, int] = {}
+    tasks: dict[str, set] = {}
+    for n, r in numbered:
+        key = (r["seed"], r["suite"], r["task"])
+        if key in first:
+            raise ValueError(
+                f"{path}: row {n} (line {n + 1}) repeats row {first[key]}: seed {r['seed']!r}, "
+                f"task {r['task']!r} of suite {r['suite']!r}; a submission holds one row per "
+                "(seed, suite, task)"
+            )
+        first[key] = n
+        tasks.setdefault(r["seed"], set()).add((r["suite"], r["task"]))
+    seeds = list(tasks)
+    for seed in seeds[1:]:
+        a, b = tasks[seeds[0]], tasks[seed]
+        if a != b:
+            suite, task = min(a ^ b, key=str)
+            only = seeds[0] if (suite, task) in a else seed
+            raise ValueError(
+                f"{path}: seeds {seeds[0]!r} and {seed!r} of {method!r} on tier {tier} cover "
+                f"different tasks ({len(a)} and {len(b)}; task {task!r} of suite {suite!r} "
+                f"only in seed {only!r}); every seed covers the same tasks"
+            )
 
 
 def verified_rows(path: Path, tier, numbered: list[tuple[int, dict]]) -> list:

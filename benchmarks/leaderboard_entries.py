@@ -126,7 +126,7 @@ def over_runs(tier, method: str, kind: str, runs: dict[str, list], source: str,
     tasks = 0
     for rows in runs.values():
         rows = in_scope([r for r in rows if r.method == method], tier.n_max)
-        tasks = len(rows)
+        tasks = len({(r.suite, r.task) for r in rows})  # tasks, not rows
         for k, v in task_metrics(rows).items():
             per_seed[k].append(v)
         solved = [r.n_modules for r in rows if r.success]
@@ -261,13 +261,18 @@ def tier_entries(tier_name: str, results: Path = RESULTS, submissions: Path | No
 
 def submission_entries(path: Path, tier, full: int) -> list[Entry]:
     """The outside agents of a submission file
-    (:func:`benchmarks.leaderboard_scoring.write_submission`) on ``tier``, each row verified
-    again against the tier's own task (:func:`benchmarks.leaderboard_checks.verified_rows`)."""
-    from benchmarks.leaderboard_checks import refuse_taken, verified_rows
+    (:func:`benchmarks.leaderboard_scoring.write_submission`) on ``tier``: the file, each
+    agent's name and its rows checked (:mod:`benchmarks.leaderboard_checks`: one row per
+    (seed, suite, task), the same tasks in every seed, each row verified again against the
+    tier's own task), a ValueError naming the file and the row otherwise."""
+    from benchmarks.leaderboard_checks import (
+        one_row_per_task,
+        refuse_taken,
+        submission_records,
+        verified_rows,
+    )
 
-    with open(path, newline="") as fh:
-        numbered = [(n, r) for n, r in enumerate(csv.DictReader(fh), start=1)
-                    if r["tier"] == tier.name]  # fmt: skip
+    numbered = [(n, r) for n, r in submission_records(path) if r["tier"] == tier.name]
     out = []
     for method in dict.fromkeys(r["method"] for _, r in numbered):
         refuse_taken(method, str(path))
@@ -276,6 +281,7 @@ def submission_entries(path: Path, tier, full: int) -> list[Entry]:
         if status:
             out.append(unscored(tier, method, "outside", status))
             continue
+        one_row_per_task(path, tier.name, method, mine)
         rows = {s: [] for s in dict.fromkeys(r["seed"] for _, r in mine)}
         for (_, r), row in zip(mine, verified_rows(path, tier, mine)):
             rows[r["seed"]].append(row)

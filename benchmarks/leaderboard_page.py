@@ -7,17 +7,15 @@ import csv
 from pathlib import Path
 
 from benchmarks.leaderboard_entries import (
-    ANYTIME,
     BUDGET,
     COMMAND,
     RESCORED,
     RESULTS,
     ROOT,
-    SUBMISSION,
-    SUBMISSIONS,
     T3,
     Entry,
 )
+from benchmarks.leaderboard_text import how_made, how_to_add
 
 
 def _pct(v: T3, interval: bool) -> str:
@@ -65,11 +63,12 @@ def tier_table(entries: list[Entry]) -> list[str]:
         mark = " †" if any(n.startswith("modules:") for n in e.notes) else ""
         modules = "-" if e.modules is None else f"{e.modules:.2f}{mark}"
         tasks = f"{e.tasks}" if e.tasks >= e.full else f"{e.tasks} of {e.full} (partial)"
+        own = _own(e)
         lines.append(
-            f"| {rank} | {_label(e)} | {tasks} | {_pct(e.budget, ci)}{one} | "
+            f"| {rank} | {_label(e)} | {tasks} | {_pct(e.budget, ci)}{one}{own} | "
             f"{_pct(e.success, ci)} | {_pct(e.optimal, ci)} | {modules} | "
             f"{_num(e.evaluated, ci, '.1f')} | {_num(e.oracle_calls, ci, ',.0f')}{one} | "
-            f"{_num(e.seconds, ci, '.3f')} |"
+            f"{_num(e.seconds, ci, '.3f')}{own} |"
         )
     return lines
 
@@ -78,6 +77,21 @@ def _one_run(e: Entry) -> str:
     """`` ‡`` where an entry's share within the budget is the shipped model's one run (the
     five-seed data hold no per-task seconds), else ``""``."""
     return " ‡" if any(n.startswith("one run:") for n in e.notes) else ""
+
+
+def _own(e: Entry) -> str:
+    """`` §`` on an outside agent's time-based numbers (submitted, not measured here)."""
+    return " §" if e.kind == "outside" else ""
+
+
+SELF_REPORTED = (
+    "§ Self-reported: an outside agent's seconds per task, and with them its share within "
+    f"{BUDGET:g} s (the rank's measure), are the submitted ones, timed on the submitter's "
+    "machine and not measured again here, nor are its configurations and oracle calls; only "
+    "its cells are verified again. The other rows are measured by the commands that made "
+    "their sources. Identical or hand-picked seeds cannot be detected."
+)
+"""The note under a table that holds an outside agent's row."""
 
 
 def glance(entries: list[Entry], tiers: list[str]) -> list[str]:
@@ -100,7 +114,7 @@ def glance(entries: list[Entry], tiers: list[str]) -> list[str]:
                 part = "" if e.tasks >= e.full else f", {e.tasks} of {e.full} tasks"
                 part += ", one run" if e.kind == "learned" and e.seeds == 1 else ""
                 cells.append(f"{100 * e.optimal[0]:.1f} % ({100 * e.budget[0]:.1f} %"
-                             f"{_one_run(e)} within {BUDGET:g} s{part})")  # fmt: skip
+                             f"{_one_run(e)}{_own(e)} within {BUDGET:g} s{part})")  # fmt: skip
         first = next(e for e in entries if e.method == method)
         lines.append(f"| {_label(first)} | " + " | ".join(cells) + " |")
     if any(_one_run(e) for e in entries if e.tier in tiers):
@@ -108,6 +122,8 @@ def glance(entries: list[Entry], tiers: list[str]) -> list[str]:
                   "five-seed data hold no per-task seconds, so the share within "
                   f"{BUDGET:g} s (the rank's measure) can differ from the five seeds' optimal "
                   "share beside it, and even exceed it."]  # fmt: skip
+    if any(_own(e) for e in entries if e.tier in tiers and not e.status):
+        lines += ["", SELF_REPORTED]
     return lines
 
 
@@ -232,6 +248,7 @@ def tier_section(t: str, mine: list[Entry], r: str) -> list[str]:
         *tier_table(mine),
         "",
         *tier_footnotes(mine, r),
+        *([SELF_REPORTED, ""] if any(_own(e) for e in mine if not e.status) else []),
     ]
     sources = dict.fromkeys(e.source for e in mine if e.source)
     return text + ["Sources: " + "; ".join(_source(s, r) for s in sources) + ".", ""]
@@ -258,92 +275,6 @@ def tier_footnotes(mine: list[Entry], r: str) -> list[str]:
             where = "; ".join(f"`{r}{p.removeprefix('results/')}`" for p in paths)
             text += [note.format(where=where), ""]
     return text
-
-
-def how_made(r: str) -> list[str]:
-    """The page's section on where each number comes from (``r``: the path of ``results/``
-    as written in the text)."""
-    return [
-        "## How the numbers are made",
-        "",
-        f"- **The budget**: a task counts within {BUDGET:g} s when the method's answer has the "
-        f"optimal module count and its wall time on the task was at most {BUDGET:g} s (one "
-        "run per task, without a time limit: a slower answer counts as none, as it would under "
-        "the limit). Ties are broken by the optimal share without a limit, then by fewer "
-        "seconds.",
-        "- **Learned methods** (`ppo`: one deterministic pass of the shipped policy; `ppo-k8`: "
-        "eight sampled rollouts more; `ppo-guided`: best-first search ordered by the policy, "
-        "certified where its answer meets the lower bound): the five-seed reports "
-        f"`{r}seeds_<tier>/seeds.csv`, one row per (seed, method, suite). Each seed's success, "
-        "optimal share, configurations and seconds are pooled over the tier's tasks (suites "
-        "weighted by their size), then averaged over the seeds; the interval is the 95 % "
-        "percentile bootstrap over seeds (2,000 resamples, seeded). The seeds reports "
-        f"(`{r}seeds_<tier>/seeds.md`) give the same mean, the interquartile mean of the same "
-        "per-seed scores, and judge the tiers' goals. The five-seed files hold no per-task "
-        "seconds or oracle calls: those two columns (‡) are the shipped model's one run in the "
-        "tier report.",
-        f"- **Searches**: the one-run tier reports `{r}tier_<tier>/benchmark.csv` (one row per "
-        f"task), and `{r}{RESCORED}` for the searches a tier report did not run "
-        f"(`{COMMAND} --rescore-searches --force`). `random` and `genetic` are seeded (seed 0).",
-        "- **The fault tier**: only the methods that guarantee an answer surviving the failure "
-        "are scored, and an answer counts only when it survives; milp refuses `fault=` (its row "
-        "says so in place of numbers). The learned methods act with the tier's model, trained "
-        "with the failure (their environment ends an episode only once every wrench survives, "
-        "and each answer is verified), over five training seeds as on the other tiers. An "
-        "outside agent is handed the problem "
-        "with its fault and an evaluator that decides survival.",
-        f"- **Anytime curves**: from the same per-task rows; the anytime search's history "
-        f"(`{r}{ANYTIME}`, `{COMMAND} --anytime-history --force`) gives when its best structure so "
-        "far first had the optimal count.",
-        "- **Seconds** are wall time per task on the machine each source names (2 shared "
-        "cores, no GPU): compare them within a tier, with care.",
-        "",
-    ]
-
-
-def how_to_add(prefix: str) -> list[str]:
-    """The page's section on adding a row: what to run, what to submit, how it is merged."""
-    return [
-        "## Add your own agent",
-        "",
-        "An agent is a class (or function) with `solve(task, evaluator)` that returns a "
-        "structure; it is told each tier's `n_max`, `tier`, `modules` and the run's `seed` "
-        "when its constructor takes them, and is counted through the evaluator it is handed: "
-        "the protocol is in [Benchmark tiers and agents]("
-        + ("" if prefix else "../docs/")
-        + "benchmarks.md#score-your-own-agent). Its row is named by its own `name` attribute.",
-        "",
-        "**From the installed wheel** (no clone), score it on one tier beside the searches:",
-        "",
-        "```bash",
-        "modquad score --tier current --solver my_agent:Agent --seed 0 --out my_scores",
-        "```",
-        "",
-        "**A leaderboard row** needs a clone of the repository (`benchmarks/` is not in the "
-        "wheel):",
-        "",
-        "```bash",
-        f"{COMMAND} --solver my_agent:Agent --out my_board",
-        "```",
-        "",
-        "scores it on every tier's held-out suites, once per seed (`--seeds`, default five "
-        "like the learned methods; once when its constructor takes no `seed`), and writes "
-        f"`my_board/leaderboard.md` with its rows ranked among the committed ones and "
-        f"`my_board/{SUBMISSION}`: one row per (tier, seed, task). `--limit N` scores the first "
-        "N tasks of each suite (the row is marked partial, with its task count); `--tiers` "
-        "some tiers; a tier where the agent fails is reported as failed and the others are "
-        "kept.",
-        "",
-        f"**To submit it**, open a pull request that adds `{SUBMISSION}` as "
-        f"`results/{SUBMISSIONS}/<your agent>.csv`; the maintainers rebuild the page with "
-        f"`{COMMAND} --force`, which reads every file of `results/{SUBMISSIONS}/` without a "
-        "rerun: it verifies each row's cells again with the exact oracle against the tier's own "
-        "task and takes the optimum from the suite (a row whose success or module count "
-        "disagrees with its cells stops it, naming the file and the row); counts and seconds "
-        "are the submitted ones (seconds on the submitter's machine). An agent named like a "
-        "committed method is refused.",
-        "",
-    ]
 
 
 def _models(tier, mine: list[Entry]) -> str:

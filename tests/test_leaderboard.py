@@ -292,3 +292,23 @@ def test_labels_sit_beside_their_points_without_overlapping():
     for i, b in enumerate(boxes):
         assert frame.x0 <= b.x0 and b.x1 <= frame.x1 and frame.y0 <= b.y0 and b.y1 <= frame.y1
         assert not any(b.overlaps(c) for c in boxes[i + 1 :])
+
+
+def test_the_docs_name_every_committed_mixed_row_file_without_the_type_index():
+    """Every committed per-task file whose mixed-tier cells are `x,y` (no type index, so not
+    verifiable again on the palette) is named where docs/benchmarks.md says they predate it."""
+    from modquad_gym.scoring.tiers import get_tier
+
+    suites = set(get_tier("mixed").suites)
+    old = set()
+    for path in sorted(RESULTS.rglob("*.csv")):
+        with open(path, newline="") as fh:
+            reader = csv.DictReader(fh)
+            if {"suite", "cells"} <= set(reader.fieldnames or ()):
+                cells = [c for r in reader if r["suite"] in suites and r["cells"]
+                         for c in r["cells"].split(";")]  # fmt: skip
+                if any(c.count(",") == 1 for c in cells):
+                    old.add(path.relative_to(ROOT).as_posix())
+    text = " ".join((ROOT / "docs" / "benchmarks.md").read_text().split())
+    said = text.split("committed per-task rows predate the index", 1)[1].split(". ", 1)[0]
+    assert old and all(f"`{p}`" in said for p in old), (old, said)
