@@ -18,7 +18,7 @@ import numpy as np
 
 from modquad_gym.core.interrupts import one_line
 from modquad_gym.core.resources import check_memory, usable_cpus
-from modquad_gym.core.validation import check_int, check_real
+from modquad_gym.core.validation import NOT_REGULAR, check_int, check_real
 
 MAX_N_ENVS = 256
 """Most training environments (each holds its own task and caches)."""
@@ -166,6 +166,8 @@ def check_model(path: Path, env_kwargs: dict, what: str, tier_kwargs: dict | Non
     path = Path(path)
     if path.is_dir():
         raise ValueError(f"{what} {path}: a folder; give the model .zip file in it")
+    if path.exists() and not path.is_file():
+        raise ValueError(f"{what} {path}: {NOT_REGULAR}")
     if not path.is_file():
         raise ValueError(f"{what} {path}: no such model file")
     try:

@@ -18,7 +18,7 @@ from agents.run_folders import held_folders, kept, record
 from agents.seeds import SEEDS_DROP, seed_out
 from agents.training import check_start, report, train
 from modquad_gym.cli.given import typed_options
-from modquad_gym.core.options import int_option, path_option, seed_option
+from modquad_gym.core.options import int_option, nonempty_option, path_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, claim_output_dir
 from modquad_gym.policy.models import UNTRUSTED, check_trusted
 from modquad_gym.scoring.options import REPORT_FILES
@@ -82,7 +82,7 @@ def json_object(text: str) -> dict:
     return value
 
 
-OPTION_TYPES = {"int": INTEGER, "str": str, "Path": path_option, "dict": json_object}
+OPTION_TYPES = {"int": INTEGER, "str": nonempty_option, "Path": path_option, "dict": json_object}
 """The option type of each field type."""
 
 

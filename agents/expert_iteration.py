@@ -228,7 +228,7 @@ def write_config(folder: Path, args: argparse.Namespace, round_: int, states: in
 def draw_option(text: str) -> tuple[str, int, int]:
     """``FAMILY:LOW-HIGH`` -> (family, low, high); argparse reports a ValueError's message."""
     family, _, sizes = text.partition(":")
-    low, _, high = sizes.partition("-")
+    low, _, high = (sizes if sizes.isascii() else "").partition("-")  # ASCII digits only
     if family not in ("planted", "torque", "payload"):
         raise argparse.ArgumentTypeError(f"{text}: family planted, torque or payload")
     if not (low.isdecimal() and high.isdecimal() and 2 <= int(low) <= int(high) <= 128):

@@ -29,6 +29,7 @@ from benchmarks.common import (
     run_main,
     write_report,
 )
+from modquad_gym.core.options import path_option
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "modquad_gym"
@@ -146,7 +147,9 @@ def main(argv: list[str] | None = None) -> int:
         "the task model, against the consolidation's goals.",
         formatter_class=HelpFormatter,
     )
-    p.add_argument("--out", type=Path, default=Path("results/codebase"), help="report folder")
+    p.add_argument(
+        "--out", type=path_option, default=Path("results/codebase"), help="report folder"
+    )
     add_force(p)
     args = parse_bench_args(p, argv, ("codebase.md", "codebase.csv"))
     counts = line_counts()

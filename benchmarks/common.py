@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import io
 import os
 import shlex
 import sys
@@ -16,8 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from modquad_gym.core.interrupts import run_command
-from modquad_gym.core.options import DefaultsHelpFormatter, int_option, seed_option
+from modquad_gym.core.options import DefaultsHelpFormatter, int_option, path_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv, write_text
+from modquad_gym.core.validation import read_regular_file
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.scoring import machine_description, markdown_table
 
@@ -36,6 +38,7 @@ __all__ = [
     "markdown_table",
     "parse_bench_args",
     "random_structure",
+    "read_input_text",
     "refuse_as_script",
     "repeats",
     "report_page",
@@ -185,7 +188,9 @@ def bench_args(
         parser.add_argument(flag, **kwargs)
     if seed_help is not None:
         parser.add_argument("--seed", type=seed_option, default=0, help=seed_help)
-    parser.add_argument("--out", type=Path, default=Path(out), help=f"{out_help} (default {out})")
+    parser.add_argument(
+        "--out", type=path_option, default=Path(out), help=f"{out_help} (default {out})"
+    )
     if force or outputs:
         add_force(parser)
     return parse_bench_args(parser, argv, outputs)
@@ -256,15 +261,35 @@ def report_page(
     return "\n".join([f"# {title}", "", made, "", notes, "", markdown_table(rows), "", *more])
 
 
+MAX_INPUT_BYTES = 256 * 2**20
+"""Largest file a benchmark reads back (an earlier run's rows, a report): far above any."""
+
+
+def read_input_text(path: Path, option: str = "", what: str = "UTF-8 text") -> str:
+    """The text of the file ``path`` that ``option`` names (an earlier run's CSV, a report),
+    read as the package reads its files (:func:`~modquad_gym.core.validation.read_regular_file`):
+    a folder, pipe or device is refused at once (a pipe would block the read forever), as is a
+    missing file or one that is not UTF-8 (``not WHAT``); a one-line ValueError beginning with
+    ``option`` (none when empty) and the path."""
+    where = f"{option} {path}" if option else str(path)
+    try:
+        return read_regular_file(path, MAX_INPUT_BYTES).decode("utf-8-sig")
+    except ValueError as exc:  # "PATH: not a regular file", "PATH: N bytes, more than ..."
+        if isinstance(exc, UnicodeDecodeError):
+            raise ValueError(f"{where}: not {what} ({exc.reason} at byte {exc.start})") from None
+        raise ValueError(f"{option} {exc}".lstrip()) from None
+    except OSError as exc:
+        raise ValueError(f"{where}: {exc.strerror or exc}") from None
+
+
 def csv_header(path: Path) -> tuple[str, ...]:
     """The header of the CSV file ``path`` as it stands (for a file whose columns grew over its
     versions); () where it cannot be read (:func:`read_rows_csv` names the file and why)."""
     import csv
 
     try:
-        with open(path, newline="") as fh:
-            return tuple(next(csv.reader([fh.readline()]), ()))
-    except (OSError, UnicodeDecodeError, csv.Error):
+        return tuple(next(csv.reader(read_input_text(path).splitlines()[:1]), ()))
+    except (ValueError, csv.Error):
         return ()
 
 
@@ -285,15 +310,13 @@ def read_rows_csv(
     import csv
 
     where = f"{option} {path}" if option else str(path)
+    text = read_input_text(path, option, "a CSV file")
     try:
-        with open(path, newline="") as fh:
-            reader = csv.DictReader(fh)
-            if tuple(reader.fieldnames or ()) not in {tuple(c) for c in (columns, *older)}:
-                raise ValueError(f"{where}: its header is not {','.join(columns)}")
-            raws = list(reader)
-    except OSError as exc:
-        raise ValueError(f"{where}: {exc.strerror}") from None
-    except (UnicodeDecodeError, csv.Error) as exc:
+        reader = csv.DictReader(io.StringIO(text, newline=""))
+        if tuple(reader.fieldnames or ()) not in {tuple(c) for c in (columns, *older)}:
+            raise ValueError(f"{where}: its header is not {','.join(columns)}")
+        raws = list(reader)
+    except csv.Error as exc:
         raise ValueError(f"{where}: not a CSV file ({exc})") from None
     rows = []
     for i, raw in enumerate(raws, start=1):

@@ -35,6 +35,7 @@ import numpy as np
 
 from benchmarks.common import HelpFormatter, run_main
 from modquad_gym import dynamics as dy
+from modquad_gym.core.options import int_option
 from modquad_gym.dynamics import quaternions as quat
 from modquad_gym.dynamics.splines import AGREEMENT, estimated_error, spline
 from modquad_gym.dynamics.trajectory import DEFAULT_ACCURACY
@@ -174,12 +175,11 @@ def main(argv: list[str] | None = None) -> int:
         description=__doc__.split("\n\n")[0],
         formatter_class=HelpFormatter,
     )
-    parser.add_argument("--draws", type=int, default=400, help="MotionTasks draws (default 400)")
-    parser.add_argument("--wide", type=int, default=1000, help="wide-range motions (default 1000)")
+    parser.add_argument("--draws", type=int_option(1), default=400,
+                        help="MotionTasks draws (default 400)")  # fmt: skip
+    parser.add_argument("--wide", type=int_option(1), default=1000,
+                        help="wide-range motions (default 1000)")  # fmt: skip
     args = parser.parse_args(argv)
-    for name in ("draws", "wide"):
-        if getattr(args, name) < 1:
-            parser.error(f"--{name} must be at least 1, got {getattr(args, name)}")
     from modquad_gym.dynamics.random_motions import MotionTasks
     from modquad_gym.scoring.suites import SUITES_DIR
     from modquad_gym.tasks import load_suite

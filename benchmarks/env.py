@@ -54,7 +54,7 @@ from benchmarks.env_measure import (
 )
 from benchmarks.env_report import load_average, report, verdict
 from benchmarks.env_scale import ENCODINGS, measure_encoding
-from modquad_gym.core.options import int_option, seed_option
+from modquad_gym.core.options import int_option, path_option, seed_option
 from modquad_gym.core.outputs import write_text
 
 
@@ -102,7 +102,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     )  # fmt: skip
     parser.add_argument("--no-ppo", action="store_true", help="skip the PPO update timing")
     parser.add_argument("--machine-note", default="", help="said after the machine line")
-    parser.add_argument("--out", type=Path, default=Path("results"), help="report folder")
+    parser.add_argument("--out", type=path_option, default=Path("results"), help="report folder")
     add_force(parser)
     args = parse_bench_args(parser, argv, ("env_benchmark.md", "env_benchmark.csv"))
     if not (args.default_steps or args.sizes or args.scale or args.lookahead_steps):

@@ -44,7 +44,7 @@ from benchmarks.common import (
 )
 from benchmarks.lookahead_top_k import FAMILIES, tasks_of
 from benchmarks.scale_models import shown, summary, versus_greedy
-from modquad_gym.core.options import int_option, real_option
+from modquad_gym.core.options import int_option, path_option, real_option
 from modquad_gym.core.outputs import save_figure, write_text
 from modquad_gym.search.problem import check_time_limit
 
@@ -245,7 +245,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                         "help": "mixed tasks at n_max 7"},
             "--time-limit": {"type": real_option, "default": 30.0,
                              "help": "seconds per task and method, in (0, a day]"},
-            "--rows": {"type": Path, "default": None, "metavar": "CSV",
+            "--rows": {"type": path_option, "default": None, "metavar": "CSV",
                        "help": "re-render from an earlier run's rows.csv (no solving; give "
                                "the --method and --rival it used)"},
         },

@@ -36,6 +36,7 @@ from benchmarks.common import (
     write_text,
 )
 from benchmarks.faults_measure import DESIGNS, SUITES, SUITES_DIR
+from modquad_gym.core.options import path_option
 
 COLUMNS = ("suite", "task", "design", "fault", "modules", "worst_fault_margin", "same_design",
            "error_cm", "detected_ms", "isolated", "decisions", "error_cm_unrevised",
@@ -176,7 +177,7 @@ def report(rows: list[dict]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = bench_args(argv, "python -m benchmarks.fault_detector", __doc__.split("\n\n")[0], {
-        "--faults": {"type": Path, "default": Path("results/faults/faults.csv"),
+        "--faults": {"type": path_option, "default": Path("results/faults/faults.csv"),
                      "help": "the faults.csv whose designs are flown (default "
                              "results/faults/faults.csv)"},
         "--suites": {"nargs": "+", "action": Distinct, "choices": SUITES, "default": list(SUITES),

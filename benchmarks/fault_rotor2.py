@@ -18,6 +18,8 @@ certificate settled each (wrench, pair). Writes report.md, minima.csv and oracle
 from __future__ import annotations
 
 import csv
+import io
+import os
 import sys
 import time
 from pathlib import Path
@@ -31,6 +33,7 @@ from benchmarks.common import (
     command_as_run,
     made_by,
     markdown_table,
+    read_input_text,
     run_main,
     write_csv,
     write_text,
@@ -109,10 +112,10 @@ def _timed(fn) -> tuple[float, float]:
 
 
 def read_rows(path: Path) -> list[dict]:
-    if not path.is_file():
+    """The rows of an earlier run's minima.csv (none where there is no such file)."""
+    if not os.path.lexists(path):
         return []
-    with path.open(newline="") as fh:
-        return list(csv.DictReader(fh))
+    return list(csv.DictReader(io.StringIO(read_input_text(path, "--out"), newline="")))
 
 
 def report(rows: list[dict], speed: list[dict], command: str, repeats: int) -> str:

@@ -41,7 +41,7 @@ from benchmarks.faults_measure import (
 )
 from benchmarks.faults_report import plot, report
 from modquad_gym.cli.common import N_MAX_OPTION, time_limit_option
-from modquad_gym.core.options import int_option, real_option
+from modquad_gym.core.options import int_option, path_option, real_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv
 
 OUTPUTS = ("report.md", "faults.csv", "oracle.csv", "price.png")
@@ -91,7 +91,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--oracle-only", action="store_true",
                         help="measure only the oracle's speed again and rewrite the report from "
                         "the faults.csv already in --out")  # fmt: skip
-    parser.add_argument("--out", type=Path, default=Path("results/faults"), help="report folder")
+    parser.add_argument(
+        "--out", type=path_option, default=Path("results/faults"), help="report folder"
+    )
     add_force(parser)
     args = parser.parse_args(argv)
     if args.skip >= args.per_suite:

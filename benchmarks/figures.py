@@ -20,7 +20,8 @@ from collections.abc import Callable
 from functools import partial
 from pathlib import Path
 
-from benchmarks.common import HelpFormatter, read_rows_csv, run_main
+from benchmarks.common import HelpFormatter, read_input_text, read_rows_csv, run_main
+from modquad_gym.core.options import path_option
 from modquad_gym.core.outputs import write_text
 
 Figure = tuple[Path, Path, Callable[[], object]]
@@ -51,7 +52,7 @@ def agent_figures(results: Path) -> list[Figure]:
         bars, curve = folder / "benchmark_bars.png", folder / "learning_curve.png"
         if not (bars.is_file() or curve.is_file()):
             continue
-        report = (folder / "benchmark.md").read_text(encoding="utf-8")  # names its tier, run
+        report = read_input_text(folder / "benchmark.md")  # names its tier, run
         if bars.is_file():
             tier = re.search(r"tier `([^`]+)`", report)
             n_max = get_tier(tier.group(1)).n_max if tier else 7
@@ -102,7 +103,9 @@ def main(argv: list[str] | None = None) -> int:
         "benchmark is re-run) and list them in results/figures.md.",
         formatter_class=HelpFormatter,
     )
-    parser.add_argument("--results", type=Path, default=Path("results"), help="the results folder")
+    parser.add_argument(
+        "--results", type=path_option, default=Path("results"), help="the results folder"
+    )
     parser.add_argument("--force", action="store_true", help="replace the existing figures")
     args = parser.parse_args(argv)
     if not args.results.is_dir():

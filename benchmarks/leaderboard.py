@@ -62,6 +62,7 @@ from benchmarks.leaderboard_scoring import (
     score_agent,
     write_submission,
 )
+from modquad_gym.core.options import nonempty_option, path_option
 
 DOCS = ROOT / "docs"
 OUTPUTS = ("leaderboard.md", "leaderboard.csv", "leaderboard.png", "leaderboard_anytime.png",
@@ -144,6 +145,7 @@ def parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--solver",
+        type=nonempty_option,
         metavar="PKG.MOD:NAME",
         default=None,
         help="also score this outside agent on every tier (needs --out; a clone of the "
@@ -174,7 +176,7 @@ def parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--out",
-        type=Path,
+        type=path_option,
         default=None,
         help="folder for the leaderboard (default: results/ and docs/leaderboard.md; "
         "required with --solver, so the committed page stays the committed data's)",

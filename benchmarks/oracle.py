@@ -52,6 +52,7 @@ from benchmarks.common import (
 from benchmarks.reference_oracle import register
 from benchmarks.reference_oracle.hrep import zonotope_hrep
 from modquad_gym.core.extras import missing_extra_message
+from modquad_gym.core.options import parse_integer
 from modquad_gym.core.outputs import write_text
 from modquad_gym.oracle import BAND, TOL, Zonotope, decide_with, margin_with
 from modquad_gym.oracle.daqp_lp import gamma_daqp
@@ -77,7 +78,7 @@ def sizes_option(text: str) -> tuple[int, ...]:
     """``--modules``: comma-separated structure sizes, each from 7 (the goals of issue 3 are
     at m = 28) to 64, each once (a size given twice would be timed and counted twice)."""
     try:
-        sizes = tuple(int(v) for v in text.split(","))
+        sizes = tuple(parse_integer(v) for v in text.split(","))
     except ValueError:
         sizes = ()
     if not sizes or any(not 7 <= n <= 64 for n in sizes):
@@ -263,6 +264,22 @@ def _small_goals(auto: list[dict], builds: dict, peak_mb: float, facets_40: int)
     ]
 
 
+GOAL_SIZES = {7: "issue 3, m = 28", 64: "issue 26, m = 256"}
+"""The sizes (modules) the goals are measured at, and which goals."""
+
+
+def goals_text(goals: list[dict], sizes: tuple[int, ...]) -> str:
+    """The goals' table, then a line naming the goals ``sizes`` (``--modules``) left
+    unmeasured and the size each needs (every size list gives a report)."""
+    lacking = [
+        f"{what} (give {n} in --modules)" for n, what in GOAL_SIZES.items() if n not in sizes
+    ]
+    lines = [markdown_table(goals)] if goals else []
+    if lacking:
+        lines.append(f"Not measured in this run: the goals of {' and '.join(lacking)}.")
+    return "\n\n".join(lines)
+
+
 def _load_average() -> str:
     try:
         return load_average(", ")
@@ -295,7 +312,7 @@ def write_report(
         "",
         "## Goals (issues 3 and 26)",
         "",
-        markdown_table(goals),
+        goals_text(goals, sizes),
         "",
         "## Measurements",
         "",
@@ -344,7 +361,7 @@ def main(argv: list[str] | None = None) -> None:
     rows, goals = run(
         args.structures, args.wrenches, args.seed, args.out, args.repeats, args.modules
     )
-    print(markdown_table(goals))
+    print(goals_text(goals, args.modules))
     print()
     print(markdown_table(rows))
 

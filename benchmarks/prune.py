@@ -15,7 +15,6 @@ those tasks.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
@@ -30,6 +29,7 @@ from benchmarks.common import (
     write_csv,
 )
 from benchmarks.scale_models import shown, summary, versus_greedy
+from modquad_gym.core.options import path_option
 from modquad_gym.core.outputs import claim_output_dir, write_text
 from modquad_gym.core.resources import cap_workers
 
@@ -188,7 +188,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                           help="methods, each run plain and pruned; the learned ones (ppo, "
                                "ppo-guided) are compared with the others (default greedy beam "
                                "ppo)"),
-        "--rows": dict(type=Path, default=None, metavar="CSV",
+        "--rows": dict(type=path_option, default=None, metavar="CSV",
                        help="re-render the report from an earlier run's rows.csv (no solving; "
                             "give the options it used)"),
     }  # fmt: skip

@@ -27,8 +27,16 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import Distinct, bench_args, report_page, run_main, write_report
+from benchmarks.common import (
+    Distinct,
+    bench_args,
+    read_input_text,
+    report_page,
+    run_main,
+    write_report,
+)
 from modquad_gym.core.interrupts import one_line
+from modquad_gym.core.options import path_option
 from modquad_gym.scoring.fine_tuning import best_index, read_evaluations
 from modquad_gym.scoring.stats import interval
 from modquad_gym.scoring.tiers import TIERS
@@ -93,7 +101,7 @@ def read_run(run: Path) -> tuple[dict, dict]:
     if missing:
         raise ValueError(f"RUN {run}: not a train.py run folder (no {', '.join(missing)})")
     try:
-        config = json.loads((run / "config.json").read_text())
+        config = json.loads(read_input_text(run / "config.json"))
     except (OSError, ValueError) as exc:
         raise ValueError(f"RUN {run}: config.json unreadable ({one_line(exc)})") from None
     if not isinstance(config, dict) or not {"tier", "seed", "kept_model_timesteps"} <= set(config):
@@ -203,7 +211,7 @@ def plot(curves: list[dict], path: Path) -> None:
 def main(argv: list[str] | None = None) -> int:
     args = bench_args(
         argv, "python -m benchmarks.rl_stage", __doc__.split("\n\n")[0],
-        {"runs": {"nargs": "+", "type": Path, "action": Distinct, "key": Path.resolve,
+        {"runs": {"nargs": "+", "type": path_option, "action": Distinct, "key": Path.resolve,
                   "metavar": "RUN", "help": "train.py run folders"}},
         seed_help=None, out="results/rl_stage", outputs=OUTPUTS,
     )  # fmt: skip

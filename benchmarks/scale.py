@@ -47,6 +47,7 @@ from benchmarks.scale_suites import (
     task_palette,
 )
 from modquad_gym.cli.common import time_limit_option
+from modquad_gym.core.options import nonempty_option, path_option
 from modquad_gym.core.outputs import claim_output_dir, write_text
 from modquad_gym.core.resources import cap_workers
 
@@ -103,7 +104,7 @@ def known_method(name: str) -> bool:
 def portfolio_workers(method: str) -> int | None:
     """N of a method named ``anytime-wN`` (the default search on N workers), else None."""
     head, _, n = method.partition("-w")
-    return int(n) if head == "anytime" and n.isdigit() and int(n) > 0 else None
+    return int(n) if head == "anytime" and n.isascii() and n.isdigit() and int(n) > 0 else None
 
 
 def solve_band(method: str, tasks: list, time_limit: float, seed: int, engine, model=None):
@@ -296,9 +297,9 @@ def main(argv: list[str] | None = None) -> None:
         "--methods": dict(nargs="+", action=Distinct, default=list(METHODS),
                           help=f"solver names (default {' '.join(METHODS)}); METHOD+prune: "
                                "its answers through the prune post-pass"),
-        "--model": dict(default=None, metavar="ZIP",
+        "--model": dict(type=nonempty_option, default=None, metavar="ZIP",
                         help="the learned methods' model (default the shipped one)"),
-        "--rows": dict(type=Path, nargs="+", default=None, metavar="CSV",
+        "--rows": dict(type=path_option, nargs="+", default=None, metavar="CSV",
                        help="re-render the report from earlier runs' rows.csv (no solving; "
                             "give the options they used; several runs are merged, a later "
                             "file's (task, method) rows replacing an earlier one's)"),

@@ -34,7 +34,7 @@ from benchmarks.measure import fresh
 from benchmarks.scale import run_band
 from benchmarks.scale_suites import load_scale_suite
 from modquad_gym.cli.common import time_limit_option
-from modquad_gym.core.options import int_option
+from modquad_gym.core.options import int_option, path_option
 from modquad_gym.scoring.stats import interval
 
 OUTPUTS = ("report.md", "report.csv", "rows.csv")
@@ -159,7 +159,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
                                   "(default 30)"),
         "--workers": dict(type=int_option(1, 64), default=2,
                           help="processes at a time (default 2)"),
-        "--reuse": dict(type=Path, default=None, metavar="CSV",
+        "--reuse": dict(type=path_option, default=None, metavar="CSV",
                         help="an earlier run's rows.csv on the same tasks: its (band, method) "
                              "rows are kept, not solved again (greedy, a model of the same "
                              "name)"),

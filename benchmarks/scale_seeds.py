@@ -34,7 +34,7 @@ from benchmarks.common import (
 from benchmarks.scale_models import answers
 from benchmarks.scale_suites import FAMILIES, load_scale_suite
 from modquad_gym.cli.common import time_limit_option
-from modquad_gym.core.options import int_option
+from modquad_gym.core.options import int_option, path_option
 from modquad_gym.scoring.seed_runs import find_runs
 from modquad_gym.scoring.stats import interval
 
@@ -193,17 +193,17 @@ def main(argv: list[str] | None = None) -> list[dict]:
     options = {
         "--bands": dict(type=int_option(16, 128), nargs="+", action=Distinct, default=[16, 32, 64],
                         help="size bands of the held-out scale suites (default 16 32 64)"),
-        "--runs": dict(type=Path, default=Path("runs/exact-seeds"),
+        "--runs": dict(type=path_option, default=Path("runs/exact-seeds"),
                        help="folder of seed-S/model.zip, one-type models (python train.py "
                             "--seeds 0 1 2 3 4 --out FOLDER)"),
-        "--mixed-runs": dict(type=Path, default=Path("runs/mixed-exact-seeds"),
+        "--mixed-runs": dict(type=path_option, default=Path("runs/mixed-exact-seeds"),
                              help="folder of seed-S/model.zip, mixed-palette models "
                                   "(python train.py --tier mixed --seeds ...)"),
         "--time-limit": dict(type=time_limit_option, default=30.0,
                              help="seconds each method gets per task (default 30)"),
         "--workers": dict(type=int_option(1, 64), default=2,
                           help="processes at a time (default 2)"),
-        "--rows": dict(type=Path, default=None, metavar="CSV",
+        "--rows": dict(type=path_option, default=None, metavar="CSV",
                        help="re-render the report from an earlier run's rows.csv (no solving; "
                             "give the options it used)"),
     }  # fmt: skip

@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 
 from benchmarks.common import Distinct, HelpFormatter, add_force, run_main
-from modquad_gym.core.options import int_option, real_option
+from modquad_gym.core.options import int_option, path_option, real_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, check_output_file
 from modquad_gym.scoring.scale_tasks import (  # noqa: F401 - the suites' families, re-exported
     BANDS,
@@ -132,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument(
         "--out",
-        type=Path,
+        type=path_option,
         default=Path("results/scale_suites"),
         help="folder of the suite files (default %(default)s; the shipped ones are in "
         f"{SUITES_DIR.relative_to(SUITES_DIR.parents[2])})",

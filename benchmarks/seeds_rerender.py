@@ -14,7 +14,8 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from benchmarks.common import Distinct, HelpFormatter, read_rows_csv, run_main
+from benchmarks.common import Distinct, HelpFormatter, read_input_text, read_rows_csv, run_main
+from modquad_gym.core.options import path_option
 from modquad_gym.core.outputs import write_text
 
 
@@ -29,10 +30,7 @@ def read_folder(folder: Path) -> tuple[list, str]:
                            older=(columns[:-1],))  # fmt: skip
     if not any(s.seed != "-" for s in scores):
         raise ValueError(f"FOLDER {folder / 'seeds.csv'}: no learned method's seed")
-    try:
-        return scores, (folder / "seeds.md").read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"FOLDER {folder / 'seeds.md'}: cannot be read ({exc})") from None
+    return scores, read_input_text(folder / "seeds.md", "FOLDER")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -48,7 +46,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "folders",
         nargs="+",
-        type=Path,
+        type=path_option,
         action=Distinct,
         key=Path.resolve,
         metavar="FOLDER",

@@ -354,7 +354,7 @@ def method_of(name: str) -> tuple[Method, dict[str, Any]]:
         return REGISTRY[name], {}
     if name.startswith("ppo-k") and "ppo" in REGISTRY:
         k = name[len("ppo-k") :]
-        if not k.isdigit():
+        if not _digits(k):
             raise ValueError(f"bad method {name!r}; write ppo-kN with N an integer")
         return REGISTRY["ppo"], {"samples": int(k)}
     if name.startswith("ppo-guided-") and "ppo-guided" in REGISTRY:
@@ -362,12 +362,18 @@ def method_of(name: str) -> tuple[Method, dict[str, Any]]:
     raise ValueError(f"unknown method {name!r}; choose one of {', '.join(REGISTRY)}")
 
 
+def _digits(text: str) -> bool:
+    """Whether ``text`` is a count in ASCII digits (``str.isdigit`` also takes ``²`` and
+    ``١٢``, which ``int`` then refuses or reads: the command line's numbers are ASCII)."""
+    return text.isascii() and text.isdigit()
+
+
 def _guided_variant(name: str) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for part in name[len("ppo-guided") :].split("-")[1:]:
         if part == "nodive":
             key, value = "dive", False
-        elif part[:1] in ("b", "w") and part[1:].isdigit() and int(part[1:]) > 0:
+        elif part[:1] in ("b", "w") and _digits(part[1:]) and int(part[1:]) > 0:
             key, value = ("budget" if part[0] == "b" else "branching"), int(part[1:])
         else:
             raise ValueError(

@@ -47,6 +47,8 @@ def load(path: str) -> dict:
     the name ends in ``.gz``), read only up to :data:`MAX_TEXT` bytes of JSON (a file that
     inflates beyond is refused). A path that is not a regular file (a pipe, a device, a
     folder) is refused before anything is read: opened without blocking, then checked."""
+    if isinstance(path, str) and not path:  # open("") would say "No such file or directory: ''"
+        raise CertificateFormatError("an empty path: give the certificate file")
     try:
         with _regular_file(path) as raw:
             fh = gzip.GzipFile(fileobj=raw, mode="rb") if str(path).endswith(".gz") else raw

@@ -7,6 +7,7 @@ import argparse
 import time
 
 from modquad_gym.cli.common import add_command
+from modquad_gym.core.options import path_option
 
 
 def add_check(sub) -> None:
@@ -26,7 +27,9 @@ def add_check(sub) -> None:
         "certificate exits 2, with one line naming the field. The format and the checker's "
         "argument: docs/certificates.md.",
     )
-    p.add_argument("file", metavar="FILE", help="the certificate (.json, or .json.gz)")
+    p.add_argument(
+        "file", metavar="FILE", type=path_option, help="the certificate (.json, or .json.gz)"
+    )
     p.add_argument(
         "--levels",
         action="store_true",

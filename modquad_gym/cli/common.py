@@ -8,7 +8,7 @@ import argparse
 import sys
 from collections.abc import Callable
 
-from modquad_gym.core.options import int_option, real_option, seed_option
+from modquad_gym.core.options import int_option, nonempty_option, real_option, seed_option
 from modquad_gym.methods import REGISTRY
 from modquad_gym.policy.models import UNTRUSTED
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT
@@ -344,6 +344,7 @@ def add_workers(p: argparse.ArgumentParser, default: str) -> None:
     )
     p.add_argument(
         "--ray-address",
+        type=nonempty_option,
         default=None,
         metavar="ADDRESS",
         help="join this Ray cluster (HOST:PORT of `ray start --head`, or auto) instead of an "

@@ -21,6 +21,7 @@ from modquad_gym.cli.common import (
 )
 from modquad_gym.cli.given import SEARCH_OPTIONS, refuse_ignored
 from modquad_gym.cli.quiet import add_quiet
+from modquad_gym.core.options import nonempty_option
 
 
 def add_export(sub) -> None:
@@ -42,7 +43,11 @@ def add_export(sub) -> None:
         "robot cannot lift itself: a default T-module (0.3 kg) needs --f-max 1.04 N to hover, "
         "about 2.1 N for a thrust-to-weight ratio of 2 (room to steer).",
     )
-    p.add_argument("--cells", help="JSON list of [x, y] cells, e.g. '[[0,0],[1,0],[0,1]]'")
+    p.add_argument(
+        "--cells",
+        type=nonempty_option,
+        help="JSON list of [x, y] cells, e.g. '[[0,0],[1,0],[0,1]]'",
+    )
     p.add_argument("--task", help="task file: export the structure --method finds for it")
     add_method(p)
     add_fault(p, FAULT_HELP.partition("; --json")[0])  # solve's: the search designs for it

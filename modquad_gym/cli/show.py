@@ -23,6 +23,7 @@ from modquad_gym.cli.common import (
 )
 from modquad_gym.cli.given import SEARCH_OPTIONS, refuse_ignored
 from modquad_gym.cli.quiet import add_quiet
+from modquad_gym.core.options import nonempty_option
 
 
 def add_show(sub) -> None:
@@ -39,7 +40,11 @@ def add_show(sub) -> None:
         "with --html, one self-contained interactive page (3-D structure with thrust "
         "directions, the same projections to turn and zoom; no network needed).",
     )
-    p.add_argument("--cells", help="JSON list of [x, y] cells, e.g. '[[0,0],[1,0],[0,1]]'")
+    p.add_argument(
+        "--cells",
+        type=nonempty_option,
+        help="JSON list of [x, y] cells, e.g. '[[0,0],[1,0],[0,1]]'",
+    )
     p.add_argument(
         "--task",
         help="task file: solve it with --method (as `modquad solve`) unless --cells is given",

@@ -6,7 +6,7 @@ import argparse
 import re
 
 from modquad_gym.cli.common import add_command, add_force, f_max_option
-from modquad_gym.core.options import real_option
+from modquad_gym.core.options import nonempty_option, parse_real, real_option
 from modquad_gym.dynamics.motions import LongMotionError
 from modquad_gym.dynamics.trajectory import MAX_SAMPLES
 
@@ -20,7 +20,7 @@ PARAMETERS = {
 """The motion options each ``--kind`` takes (the others are refused)."""
 
 OPTION_HELP = {
-    "duration": "hover: seconds (default 2)",
+    "duration": "hover: seconds, at least one sample interval (1 / --rate) (default 2)",
     "distance": "line, push: metres along x (default 2)",
     "max_acceleration": "line: peak acceleration, m/s^2 (default 2)",
     "radius": "circle: metres (default 1)",
@@ -61,6 +61,7 @@ def add_motion(tsub) -> None:
     )
     m.add_argument(
         "--payload-offset",
+        type=nonempty_option,
         default=None,
         metavar="X,Y,Z",
         help="payload position from the structure's COM, metres (default 0,0,0); needs "
@@ -98,16 +99,27 @@ NAMED_IN_ADVICE = ("rate", "max_acceleration", "distance")
 """Parameters a motion's error also names in its advice (``raise rate``): said as options."""
 
 
-def option_message(exc: ValueError, kind: str) -> str:
+PATH_OPTIONS = {"circle": ("radius", "laps"), "figure-eight": ("size", "laps")}
+"""The options that set how long each kind's path is (push: ``distance``)."""
+
+
+def option_message(exc: ValueError, args: argparse.Namespace) -> str:
     """A motion's error as the command line says it: the option in place of the keyword. The
-    ramp, which the command line does not set, is named by what makes the path too short."""
-    text = str(exc)
+    ramp, which the command line does not set, is named by what makes the path too short for
+    its speed: the typed options among ``--speed`` and the path's (all when none is typed)."""
+    from modquad_gym.cli.given import typed
+
+    text, kind = str(exc), args.kind
     if text.startswith("ramp:"):
-        path = {"circle": "--radius or --laps", "figure-eight": "--size or --laps"}
+        causes = ["speed", *PATH_OPTIONS.get(kind, ("distance",))]
+        blamed = [p for p in causes if typed(args, p)] or causes
+        shown = ", ".join(f"{OPTION_OF[p]} {getattr(args, p):g}" if getattr(args, p) is not None
+                          else OPTION_OF[p] for p in blamed)  # fmt: skip
+        path = " or ".join(OPTION_OF[p] for p in causes[1:])
         return (
-            f"--speed: too fast for this --kind {kind} path: speeding up and slowing down take "
+            f"{shown}: too fast for this --kind {kind} path: speeding up and slowing down take "
             f"1 s each, longer than the whole path at this speed; lower --speed or lengthen the "
-            f"path ({path.get(kind, '--distance')})"
+            f"path ({path})"
         )
     match = re.match(r"([a-z_.]+)(:| must)", text)
     if match and match[1] in OPTION_OF:
@@ -134,7 +146,7 @@ def payload_of(args: argparse.Namespace):
     if not mass:
         return None
     try:
-        offset = tuple(float(v) for v in (args.payload_offset or "0,0,0").split(","))
+        offset = tuple(parse_real(v) for v in (args.payload_offset or "0,0,0").split(","))
     except ValueError:
         raise ValueError(
             f"--payload-offset must be X,Y,Z in metres, got {args.payload_offset!r}"
@@ -159,7 +171,7 @@ def motion_task(args: argparse.Namespace):
     except LongMotionError as exc:
         raise ValueError(long_motion_message(exc, args)) from None
     except ValueError as exc:
-        raise ValueError(option_message(exc, args.kind)) from None
+        raise ValueError(option_message(exc, args)) from None
 
 
 def long_motion_message(exc: LongMotionError, args: argparse.Namespace) -> str:
@@ -223,7 +235,7 @@ def cmd_task_motion(args: argparse.Namespace) -> int:
     except ValueError as exc:
         if str(exc).startswith("f_max:"):
             raise ValueError(unflyable_message(args)) from None
-        raise ValueError(option_message(exc, args.kind)) from None
+        raise ValueError(option_message(exc, args)) from None
     task.save(out, force=args.force)  # --out checked before the work
     print(
         f"wrote {out}: {task.n_wrenches} samples over {task.trajectory.duration:.3g} s "

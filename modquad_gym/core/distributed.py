@@ -321,7 +321,7 @@ def check_reachable(address: str) -> None:
     if address in ("auto", "local"):
         return
     host, sep, port = address.removeprefix("ray://").rpartition(":")
-    if not sep or not host or not port.isdigit():
+    if not sep or not host or not (port.isascii() and port.isdigit()):
         raise ValueError(
             f"Ray address {address!r} (--ray-address / {ADDRESS_VARIABLE}): expected HOST:PORT, "
             "ray://HOST:PORT or auto"

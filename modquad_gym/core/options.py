@@ -1,8 +1,10 @@
 """Command-line option types shared by ``modquad`` and the benchmarks: a bad number is an
 argparse error (exit 2, naming the option) while the command line is parsed, before any work.
 
-Numbers are strict: Python's digit separators (``1_0``), hexadecimal and non-finite values are
-not numbers here, as in task files.
+Numbers are strict, one rule for every text door (:func:`parse_integer`, :func:`parse_real`;
+task files read theirs by the same patterns): ASCII decimal digits only, so Python's digit
+separators (``1_0``), other scripts' digits (``١٢``, ``²``), hexadecimal and non-finite values are
+not numbers here.
 """
 
 from __future__ import annotations
@@ -21,6 +23,9 @@ __all__ = [
     "DefaultsHelpFormatter",
     "check_option",
     "int_option",
+    "nonempty_option",
+    "parse_integer",
+    "parse_real",
     "path_option",
     "real_option",
     "seed_option",
@@ -34,17 +39,49 @@ MAX_COUNT = 1_000_000
 MAX_SEED = 2**63 - 1
 """Largest random seed (NumPy takes any non-negative integer; this keeps seeds printable)."""
 
-_INT = re.compile(r"[+-]?\d+")
-_REAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+INTEGER_PATTERN = r"[+-]?[0-9]+"
+"""An integer as text: ASCII digits (``\\d`` and ``int()`` would read any script's digits)."""
+
+DECIMAL_PATTERN = r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
+"""A real number as text: plain decimal notation in ASCII digits (``float()`` would also read
+``1_0``, ``١٢`` and ``inf``)."""
+
+NUMBER_PATTERN = DECIMAL_PATTERN + r"|[+-]?(?:nan|inf|infinity)"
+"""A decimal or a non-finite word (case aside): what a task file's cell or an ``--option``
+value may be, read so that the value's own check refuses nan and inf by name."""
+
+_INT = re.compile(INTEGER_PATTERN)
+_REAL = re.compile(DECIMAL_PATTERN)
+_NUMBER = re.compile(NUMBER_PATTERN, re.I)
+
+
+def parse_integer(text: str) -> int:
+    """``text`` (surrounding blanks aside) as an int by the one rule (module docstring), else a
+    ValueError ``expected an integer, got '...'``."""
+    if not isinstance(text, str) or not _INT.fullmatch(text.strip()):
+        raise ValueError(f"expected an integer, got {text!r:.60}")
+    return int(text)
+
+
+def parse_real(text: str) -> float:
+    """``text`` (surrounding blanks aside) as a finite float by the one rule (module
+    docstring), else a ValueError ``expected a finite number, got '...'``."""
+    if not isinstance(text, str) or not _REAL.fullmatch(text.strip()):
+        raise ValueError(f"expected a finite number, got {text!r:.60}")
+    value = float(text)
+    if not math.isfinite(value):  # 1e999
+        raise ValueError(f"expected a finite number, got {text!r:.60}")
+    return value
 
 
 def int_option(low: int, high: int = MAX_COUNT):
     """An argparse ``type`` for an integer within [low, high]."""
 
     def parse(text: str) -> int:
-        if not _INT.fullmatch(text.strip()):
-            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}")
-        value = int(text)
+        try:
+            value = parse_integer(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
         if not low <= value <= high:
             raise argparse.ArgumentTypeError(f"must be in {low}..{high}, got {value}")
         return value
@@ -66,8 +103,8 @@ def check_option(flag: str, value: object, kind=None, many: bool = False) -> Non
     """A Python caller's ``value`` of the option ``flag`` checked as the command line checks it:
     a list where ``many`` (``nargs``, ``append``), an integer where ``kind`` is
     :func:`int_option`'s or :func:`seed_option`, a path that is not empty where it is
-    :func:`path_option`, in the command line's words (ValueError
-    ``FLAG: ...``). None (the default) passes."""
+    :func:`path_option`, text that is not empty where it is :func:`nonempty_option`, in the
+    command line's words (ValueError ``FLAG: ...``). None (the default) passes."""
     if value is None:
         return
     if many:
@@ -79,6 +116,10 @@ def check_option(flag: str, value: object, kind=None, many: bool = False) -> Non
     if getattr(kind, "is_path", False):
         if isinstance(value, str) and not value:
             raise ValueError(f"{flag}: {EMPTY_PATH}")
+        return
+    if getattr(kind, "is_text", False):
+        if isinstance(value, str) and not value.strip():
+            raise ValueError(f"{flag}: {EMPTY_VALUE.format(value=value)}")
         return
     if not getattr(kind, "is_integer", False):
         return
@@ -105,15 +146,28 @@ EMPTY_PATH = "an empty path (give a file or folder name; . is the working folder
 """What an empty path option is told (:func:`path_option`, :func:`check_option`)."""
 
 
+def nonempty_option(text: str) -> str:
+    """An argparse ``type`` for a text option (a name, an address, JSON): an empty value is
+    refused, not taken for the option left out (``--tier ''`` is not the default tier)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(EMPTY_VALUE.format(value=text))
+    return text
+
+
+nonempty_option.__name__ = "text"
+nonempty_option.is_text = True  # what check_option checks a Python caller's value against
+
+EMPTY_VALUE = "an empty value ({value!r}): give one, or leave the option out for its default"
+"""What an empty text option is told (:func:`nonempty_option`, :func:`check_option`)."""
+
+
 def real_option(text: str) -> float:
     """An argparse ``type`` for a finite real number (range checks stay with the command, which
     names the bounds)."""
-    if not _REAL.fullmatch(text.strip()):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
-    value = float(text)
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
-    return value
+    try:
+        return parse_real(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 real_option.__name__ = "number"
@@ -128,11 +182,19 @@ def _bool(text: str) -> bool:
     raise ValueError(text)
 
 
+def _float(text: str) -> float:
+    """An ``--option`` number (:data:`NUMBER_PATTERN`: nan is read, for the option's check to
+    refuse it by name), else a ValueError."""
+    if not _NUMBER.fullmatch(text.strip()):
+        raise ValueError(f"expected a number, got {text!r:.60}")
+    return float(text)
+
+
 def _floats(text: str) -> tuple[float, ...]:
-    return tuple(float(part) for part in text.split(",")) if text else ()
+    return tuple(_float(part) for part in text.split(",")) if text else ()
 
 
-_PARSERS = {"int": int, "float": float, "bool": _bool, "tuple[float,...]": _floats}
+_PARSERS = {"int": parse_integer, "float": _float, "bool": _bool, "tuple[float,...]": _floats}
 """How a command line writes a value of each type (``--option KEY=VALUE``)."""
 
 _WORDS = {

@@ -22,6 +22,7 @@ from contextlib import contextmanager, suppress
 from pathlib import Path
 
 from modquad_gym.core.options import EMPTY_PATH
+from modquad_gym.core.validation import NOT_REGULAR
 
 __all__ = [
     "LOCK_NAME",
@@ -96,7 +97,7 @@ def _refuse_special(path: Path, what: str) -> None:
     except OSError:
         return  # nothing there (or unreachable: the folder check says so)
     if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
-        raise OutputError(f"{what}: {path} is not a regular file (a device, pipe or socket)")
+        raise OutputError(f"{what}: {path} is {NOT_REGULAR}")
 
 
 def _name_max(folder: Path) -> int:
@@ -124,10 +125,13 @@ def check_name_length(path: str | os.PathLike, what: str = "output") -> None:
 
 
 def _not_empty(path: str | os.PathLike, what: str) -> str | os.PathLike:
-    """``path``, unless it is an empty string: ``Path("")`` is the working folder, which the
-    user did not name (``--out ''``)."""
+    """``path``, unless it is an empty string (``Path("")`` is the working folder, which the
+    user did not name: ``--out ''``) or no path at all (``out_dir=3.5``: pathlib's TypeError
+    would name nothing)."""
     if isinstance(path, str) and not path:
         raise OutputError(f"{what}: {EMPTY_PATH}")
+    if not isinstance(path, (str, os.PathLike)):
+        raise OutputError(f"{what} must be a path (a str or a PathLike), got {path!r:.60}")
     return path
 
 

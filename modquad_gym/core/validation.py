@@ -17,6 +17,7 @@ import warnings
 import numpy as np
 
 __all__ = [
+    "NOT_REGULAR",
     "check_f_max",
     "check_name",
     "check_path",
@@ -65,6 +66,10 @@ def check_path(path: object, what: str = "path") -> None:
     PathLike (pathlib would raise its own TypeError, naming nothing)."""
     if not isinstance(path, (str, os.PathLike)) or not str(path).strip():
         raise ValueError(f"{what} must be a file path (a str or a PathLike), got {path!r}")
+
+
+NOT_REGULAR = "not a regular file (a device, pipe or socket)"
+"""What a path that exists but is neither a file nor a folder is told (inputs and outputs)."""
 
 
 def read_regular_file(path: object, limit: int, error: type[ValueError] = ValueError) -> bytes:

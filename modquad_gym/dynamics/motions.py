@@ -217,8 +217,14 @@ def hover(
     name: str = "hover",
 ) -> DynamicTask:
     """Hover in place for ``duration`` seconds (with a payload: ``payload`` a :class:`Payload`,
-    a mass in kg, or (mass, offset))."""
+    a mass in kg, or (mass, offset)). ``duration`` spans at least one sample interval
+    (``1 / rate``: two samples that far apart); shorter is a ValueError naming it."""
     c = _checked(duration=duration, rate=rate)
+    if c["duration"] * c["rate"] < 1:  # 2 samples 1e-320 s apart: no motion to speak of
+        raise ValueError(
+            f"duration: {c['duration']:g} s is shorter than one sample interval at rate "
+            f"{c['rate']:g} samples/s ({1 / c['rate']:.3g} s); lengthen it or raise rate"
+        )
     t = _times(c["duration"], c["rate"], ("duration",))
     zero = np.zeros((len(t), 3))
     meta = {"motion": "hover", "duration": c["duration"]}

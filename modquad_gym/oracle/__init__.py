@@ -47,7 +47,7 @@ from modquad_gym.oracle.backends import (
     margin_with,
 )
 from modquad_gym.oracle.lp import ray_lp
-from modquad_gym.oracle.scale import MAX_TASK_VALUE, check_task_scale
+from modquad_gym.oracle.scale import MAX_TASK_VALUE, check_f_max_range, check_task_scale
 from modquad_gym.oracle.tolerance import (
     BAND,
     RESIDUAL_TOL,
@@ -69,6 +69,7 @@ __all__ = [
     "Zonotope",
     "allocate",
     "check_f_max",
+    "check_f_max_range",
     "check_matrix",
     "check_method",
     "check_task_scale",

@@ -14,8 +14,9 @@ FAULTS = ("rotor", "module", "rotor2", "rotor+module")
 
 
 def check_fault(fault: object) -> str:
-    """``fault`` when it names a kind of failure, else a ValueError listing them."""
-    if fault not in FAULTS:
+    """``fault`` when it names a kind of failure, else a ValueError listing them (an array is
+    no name: ``in`` would ask for its truth value)."""
+    if not isinstance(fault, str) or fault not in FAULTS:
         raise ValueError(f"fault must be one of {', '.join(map(repr, FAULTS))}, got {fault!r}")
     return str(fault)
 

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from modquad_gym.core.extras import import_optional
-from modquad_gym.core.validation import check_flag
+from modquad_gym.core.validation import NOT_REGULAR, check_flag
 from modquad_gym.search.options import check_seed, check_time_limit, count, share, shares
 
 MODELS_DIR = Path(__file__).resolve().parents[1] / "data" / "models"
@@ -187,13 +187,16 @@ class SavedModel:
 
 
 def model_file(path: str | Path | None = None) -> Path:
-    """``path`` (default :data:`DEFAULT_MODEL`) as a Path; ValueError when it is a folder or
-    does not exist, or when it is empty (``Path("")`` would be the working folder)."""
+    """``path`` (default :data:`DEFAULT_MODEL`) as a Path; ValueError when it is a folder, not a
+    regular file (a device or pipe) or does not exist, or when it is empty (``Path("")`` would
+    be the working folder)."""
     if isinstance(path, str) and not path:
         raise ValueError("--model: an empty path; give the model .zip file")
     path = Path(path) if path is not None else DEFAULT_MODEL
     if path.is_dir():
         raise ValueError(f"--model {path}: a folder; give the model .zip file in it")
+    if path.exists() and not path.is_file():
+        raise ValueError(f"--model {path}: {NOT_REGULAR}")
     if not path.is_file():
         hint = " (train it with `python train.py`)" if path == DEFAULT_MODEL else ""
         raise ValueError(f"PPO model file {path} does not exist{hint}")

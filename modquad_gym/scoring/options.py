@@ -6,7 +6,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from modquad_gym.core.options import check_option, int_option, path_option, seed_option
+from modquad_gym.core.options import (
+    check_option,
+    int_option,
+    nonempty_option,
+    path_option,
+    seed_option,
+)
 from modquad_gym.methods import REGISTRY
 from modquad_gym.scoring.tiers import TIERS
 from modquad_gym.search import SEARCHES
@@ -46,15 +52,16 @@ OPTIONS = {
                         "config.json and evaluations.npz, for the report's learning curve and "
                         "model line (default: the model's folder); refused when no learned "
                         "method is scored"),
-    "--tier": dict(default=None, help="score on a benchmark tier's held-out suites and budget: "
-                   f"{', '.join(TIERS)} (default: current, or the --suite files)"),
-    "--methods": dict(nargs="+", default=None,
+    "--tier": dict(type=nonempty_option, default=None, help="score on a benchmark tier's "
+                   f"held-out suites and budget: {', '.join(TIERS)} (default: current, or the "
+                   "--suite files)"),
+    "--methods": dict(type=nonempty_option, nargs="+", default=None,
                       help="search names, ppo, ppo-kN, ppo-guided (settings as suffixes: "
                       "-bN budget, -wN branching, -nodive, e.g. ppo-guided-b256-w8), or "
                       "package.module:Name of an "
                       f"outside agent (default: {' '.join(DEFAULT_METHODS)}; on other tiers "
                       "the searches, and the tier's learned methods when it ships a model)"),
-    "--solver": dict(action="append", default=[], metavar="PKG.MOD:NAME",
+    "--solver": dict(type=nonempty_option, action="append", default=[], metavar="PKG.MOD:NAME",
                      help="score an outside agent (repeatable): a Solver instance or class, or a "
                      "function task -> structure, imported from PKG.MOD; it is told the tier's "
                      "n_max, and counted through the evaluator it is handed (docs: "

@@ -292,15 +292,15 @@ def export_text(structure: Structure, fmt: str, f_max: float = 1.0) -> str:
     1e-300..1e300 N (:func:`~modquad_gym.oracle.scale.check_f_max_range`)."""
     check_structure(structure)
     f_max = check_f_max_range(f_max)
+    if not isinstance(fmt, str) or fmt not in FORMATS:  # an array's `in` would ask its truth
+        raise ValueError(f"format: unknown {fmt!r}; use one of {', '.join(FORMATS)}")
     if fmt in ("mjcf", "urdf"):
         check_simulable(structure)
     if fmt == "mjcf":
         return mjcf_text(structure, f_max)
     if fmt == "urdf":
         return urdf_text(structure, f_max=f_max)
-    if fmt == "json":
-        return json.dumps(structure_dict(structure, f_max), indent=1) + "\n"
-    raise ValueError(f"format: unknown {fmt!r}; use one of {', '.join(FORMATS)}")
+    return json.dumps(structure_dict(structure, f_max), indent=1) + "\n"
 
 
 def save_structure(

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from modquad_gym.core.options import NUMBER_PATTERN
 from modquad_gym.core.validation import check_f_max
 from modquad_gym.tasks.files import (
     MAX_WRENCHES,
@@ -51,9 +52,7 @@ sets one of these keys without the ``:``: with ``=`` (``# f_max = 2``, ``#f_max=
 2``), or followed by a value of its kind (``# f_max 2``, ``# kind external``, ``# meta {...}``).
 Free text that merely starts with such a word (``# name of the bench``) stays free text."""
 
-_DECIMAL = re.compile(  # ASCII digits only: \d would read any Unicode digit, float() too
-    r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?|[+-]?(nan|inf|infinity)", re.I
-)
+_DECIMAL = re.compile(NUMBER_PATTERN, re.I)  # the --option rule: nan/inf refused naming the row
 _COMMENT = re.compile(r"#\s*([A-Za-z][\w -]*?)\s*:(.*)", re.S)
 _NEAR_MISS = re.compile(r"#\s*([A-Za-z][\w-]*)(\s*=|\s|$)(.*)", re.S)
 _SPACED_SET = re.compile(r"#\s*([A-Za-z][\w -]*?)\s*=(.*)", re.S)

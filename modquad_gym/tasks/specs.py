@@ -7,10 +7,13 @@ from __future__ import annotations
 import dataclasses
 import os
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from modquad_gym.core.options import MAX_SEED
+from modquad_gym.core.validation import check_int
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.dynamics.random_motions import MotionTasks
 from modquad_gym.tasks.examples import resolve_task_path
@@ -99,13 +102,13 @@ def make_generator(spec: Any, n_max: int | None = None) -> TaskGenerator:
             gen = NAMED_GENERATORS[key]()
             return gen if n_max is None else sizes_within(gen, n_max)
         path = resolve_task_path(key)  # example:NAME -> the shipped file (else ValueError)
-        if path.is_file():
+        if _is_file(path):
             if path.suffix.lower() == ".json" and "tasks" in json_keys(path):
                 return FixedTasks(tuple(load_suite(path)), name=path.stem)
             return FixedTasks((load_task(path),), name=path.stem)
         raise ValueError(
-            f"unknown task spec {key!r}: not one of {', '.join(GENERATORS)} and not an existing "
-            f"task file ({', '.join(SUFFIXES)})"
+            f"unknown task spec {key!r:.80}: not one of {', '.join(GENERATORS)} and not an "
+            f"existing task file ({', '.join(SUFFIXES)})"
         )
     if isinstance(spec, type):  # before the protocol check: a class has name and __call__
         raise ValueError(
@@ -123,6 +126,15 @@ def make_generator(spec: Any, n_max: int | None = None) -> TaskGenerator:
     )
 
 
+def _is_file(path: os.PathLike) -> bool:
+    """Whether ``path`` is a file; False where the system cannot even look (a name longer than
+    it takes: OSError), so such a spec is refused as an unknown one, naming it."""
+    try:
+        return Path(path).is_file()
+    except OSError:
+        return False
+
+
 GENERATE_KINDS = ("paper", "planted", "screwdriver")
 """The generators ``modquad task generate --kind`` names (with ``--task-kind external``, their
 ``-external`` spec)."""
@@ -136,10 +148,11 @@ def generated_task(kind: str, seed: int = 0, task_kind: str = "total", f_max: fl
     with ``f_max`` and ``n_modules`` (planted only) replaced where given, drawn from
     ``default_rng(seed)`` and named ``NAME-seedSEED`` (the screwdriver, drawn from nothing,
     keeps its name). ValueError naming what is wrong."""
-    if kind not in GENERATE_KINDS:
+    if not isinstance(kind, str) or kind not in GENERATE_KINDS:
         raise ValueError(f"kind must be one of {', '.join(GENERATE_KINDS)}, got {kind!r}")
-    if task_kind not in ("total", "external"):
+    if not isinstance(task_kind, str) or task_kind not in ("total", "external"):
         raise ValueError(f"task_kind must be total or external, got {task_kind!r}")
+    seed = check_int(seed, "seed", 0, MAX_SEED)  # the command line's --seed: no [] or True
     gen = make_generator(kind if task_kind == "total" else f"{kind}-external")
     if n_modules is not None and not isinstance(gen, PlantedTasks):
         raise ValueError("n_modules applies to planted tasks only")

@@ -35,6 +35,7 @@ from modquad_gym.envs.assembly.inputs import (
     one_task,
     parse_action,
     reset_options,
+    task_source,
 )
 from modquad_gym.envs.assembly.modules import make_module_set
 from modquad_gym.envs.assembly.restore import Restorer
@@ -46,7 +47,6 @@ from modquad_gym.envs.assembly.viewer import RENDER_FPS, AssemblyViewer
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Cell, Structure
 from modquad_gym.oracle.faults import check_fault, check_fault_margin
-from modquad_gym.tasks import make_generator
 
 N_MAX_LIMIT = 128  # the searches' limit (grid encoding: 255^2 actions; faces: 258)
 DEFAULT_TASKS = "mixed"  # the default task source
@@ -235,7 +235,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         check_render_mode(render_mode, self.metadata)
         self.f_max = None if f_max is None else check_f_max(f_max)
         self.task_source = tasks
-        self.generator: Callable[[np.random.Generator], Any] = make_generator(tasks, self.n_max)
+        self.generator: Callable[[np.random.Generator], Any] = task_source(tasks, self.n_max)
         self.n_directions = check_int(n_directions, "n_directions", 12, MAX_N_DIRECTIONS)
         self.oracle_method = check_oracle_method(oracle_method)
         self.fault = None if fault is None else check_fault(fault)

@@ -35,8 +35,19 @@ def one_task(task: Any, tasks: Any, default_tasks: Any) -> Any:
             f"and tasks={tasks!r} (an id such as ModQuadAssemblyPaper-v0 sets tasks= itself: "
             "make ModQuadAssembly-v0 with task=)"
         )
-    single_task(task, "task=")
+    single_task(task, "task=", named=True)
     return task
+
+
+def task_source(tasks: Any, n_max: int) -> Any:
+    """The task generator of ``tasks=`` (:func:`~modquad_gym.tasks.make_generator`); its
+    ValueError names ``tasks`` (the constructor takes many arguments)."""
+    from modquad_gym.tasks import make_generator
+
+    try:
+        return make_generator(tasks, n_max)
+    except ValueError as exc:
+        raise ValueError(f"tasks: {exc}") from None
 
 
 def single_task(task: Any, what: str, named: bool = False) -> TaskRequirement | DynamicTask:
@@ -58,7 +69,7 @@ def single_task(task: Any, what: str, named: bool = False) -> TaskRequirement | 
         except ValueError as exc:
             if not named:
                 raise
-            raise ValueError(f"{what}: {exc}") from None
+            raise ValueError(f"{what.rstrip('=')}: {exc}") from None
         if isinstance(gen, FixedTasks) and len(gen.tasks) == 1:
             return gen.tasks[0]
     raise ValueError(
@@ -131,16 +142,17 @@ def make_rules(
 
 def check_invalid_action(value: Any) -> str:
     """``invalid_action``: one of :data:`INVALID_ACTION_MODES`; else a ValueError naming it."""
-    if value not in INVALID_ACTION_MODES:
+    if not isinstance(value, str) or value not in INVALID_ACTION_MODES:
         raise ValueError(f"invalid_action must be one of {INVALID_ACTION_MODES}, got {value!r}")
     return value
 
 
 def check_lookahead(value: Any) -> bool | str:
     """``lookahead``: False, True or ``"exact"``; else a ValueError naming it."""
-    if value != "exact" and not isinstance(value, (bool, np.bool_)):
+    exact = isinstance(value, str) and value == "exact"
+    if not exact and not isinstance(value, (bool, np.bool_)):
         raise ValueError(f"lookahead must be False, True or 'exact', got {value!r}")
-    return value if value == "exact" else bool(value)
+    return "exact" if exact else bool(value)
 
 
 def check_top_k(top_k: Any, lookahead: Any) -> int | None:
@@ -166,7 +178,9 @@ def make_encoding(actions: Any, encodings: dict) -> Any:
 
 def check_render_mode(render_mode: Any, metadata: dict) -> None:
     """ValueError for a render mode the env does not have."""
-    if render_mode is not None and render_mode not in metadata["render_modes"]:
+    if render_mode is not None and (
+        not isinstance(render_mode, str) or render_mode not in metadata["render_modes"]
+    ):
         raise ValueError(
             f"render_mode must be None or one of {metadata['render_modes']}, got {render_mode!r}"
         )
@@ -192,7 +206,7 @@ def check_render_size(size: object) -> tuple[int, int]:
 
 
 def check_oracle_method(method: object) -> str:
-    if method not in ORACLE_METHODS:
+    if not isinstance(method, str) or method not in ORACLE_METHODS:
         raise ValueError(
             f"oracle_method must be one of {', '.join(ORACLE_METHODS)}, got {method!r}"
         )
