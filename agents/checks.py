@@ -137,6 +137,28 @@ def rollout_bytes(env: Any, n_steps: int, n_envs: int) -> int:
     return n_steps * n_envs * (sum(arrays) + max(arrays))
 
 
+def check_training_seed(seed: int, n_envs: int, option: str = "--seed") -> None:
+    """The training environments' seeds, ``seed + i`` for env ``i < n_envs`` (SB3's
+    ``VecEnv.seed``: each env's first task is drawn from ``default_rng(seed + i)``), stay out of
+    the validation and held-out seeds (:mod:`modquad_gym.tasks.reserved`), else a ValueError
+    naming ``option``. The recipe's other task draws use seed sequences ``[seed, k]``, never a
+    reserved integer."""
+    from modquad_gym.tasks.reserved import RESERVED_SEEDS, VALIDATION_SEEDS, reserved_met, span
+
+    seeds = range(seed, seed + n_envs)
+    met = reserved_met(seeds)
+    if not met:
+        return
+    ranges = " and ".join(f"{what} ({span(RESERVED_SEEDS[what])})" for what in met)
+    raise ValueError(
+        f"{option} {seed}: the training environments would reset with seed"
+        f"{'s' if n_envs > 1 else ''} {span(seeds)} (seed + env index, --n-envs {n_envs}), "
+        f"among those reserved for the benchmark's {ranges} tasks; never train on them "
+        f"(docs/leaderboard.md): choose a seed below {VALIDATION_SEEDS.start - n_envs + 1:,} "
+        f"or from {RESERVED_SEEDS['held-out'].stop:,}"
+    )
+
+
 TIER_KEYS = ("module", "modules", "initial_type", "fault")
 """Environment keywords a tier sets (its module types and the failure its answers survive):
 not ``--env-kwargs`` keys, or a run would train another tier under this one's name."""

@@ -11,7 +11,7 @@ from contextlib import ExitStack
 from dataclasses import MISSING, fields
 from pathlib import Path
 
-from agents.checks import check_used, unused_fields
+from agents.checks import check_training_seed, check_used, unused_fields
 from agents.config import TrainConfig
 from agents.publishing import check_publishable, publish, refuse_grid_model, run_tier
 from agents.run_folders import held_folders, kept, record
@@ -236,6 +236,8 @@ def complete(args: argparse.Namespace, given: dict[str, str] | None = None) -> N
     args.config = None
     if args.publish_run is None:
         args.config = TrainConfig(**{f.name: getattr(args, f.name) for f in fields(TrainConfig)})
+        for seed in args.seeds or []:  # --seed is checked with the recipe (TrainConfig)
+            check_training_seed(seed, args.config.n_envs, "--seeds")
         if args.publish and args.architecture == "mlp":
             refuse_grid_model(args.tier, "--publish")
         check_start(args.config)  # the environment, memory, a --resume or --init-from model

@@ -20,6 +20,7 @@ from agents.checks import (
     check_hyperparameters,
     check_numbers,
     check_tier_keys,
+    check_training_seed,
     check_used,
 )
 from agents.imitation import EXPERTS
@@ -271,6 +272,7 @@ class TrainConfig:
                 f"--hyperparameters: unknown keys {unknown}; known: {sorted(HYPERPARAMETERS)}"
             )
         check_numbers(self)  # every number in range, named by its train.py option
+        check_training_seed(self.seed, self.n_envs)  # no validation or held-out task
         check_hyperparameters(self.hyperparameters)
         hp = self.ppo_hyperparameters()
         if hp["kl_coef"] and not hp["ent_coef"]:

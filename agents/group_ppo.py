@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from agents.anchored_ppo import anchored_ppo_class
+from modquad_gym.tasks.reserved import reserved_draws
 
 
 def group_advantages(returns: np.ndarray) -> np.ndarray:
@@ -54,7 +55,8 @@ def group_ppo_class():
             """Sample groups of ``group_size`` episodes in ``env`` (an assembly env whose task
             generator gives the training tasks), tasks drawn with ``default_rng(seed)``."""
             rng = np.random.default_rng(seed)
-            env.reset(seed=int(rng.integers(2**31)))  # seeds the env's own draws (start types)
+            with reserved_draws():  # a random number: its tasks come from rng, not this seed
+                env.reset(seed=int(rng.integers(2**31)))  # seeds the env's own draws (start types)
             self.sampler = (env, int(group_size), rng)
             self.normalize_advantage = False  # the groups scale their own
 

@@ -16,6 +16,7 @@ from benchmarks.leaderboard_entries import (
     Entry,
 )
 from benchmarks.leaderboard_text import how_made, how_to_add
+from modquad_gym import __version__
 
 
 def _pct(v: T3, interval: bool) -> str:
@@ -191,8 +192,8 @@ def page_intro(entries: list[Entry], tiers: list[str], image: str) -> list[str]:
     return [
         "# Leaderboard",
         "",
-        f"Made by `{COMMAND}` from the committed reports (every number below is read from their "
-        "data files; none is typed by hand). Add your own agent: "
+        f"Made by `{COMMAND}` with modquad_gym {__version__} from the committed reports (every "
+        "number below is read from their data files; none is typed by hand). Add your own agent: "
         "[below](#add-your-own-agent).",
         "",
         f"Every method on the held-out suites of the {len(tiers)} benchmark tiers, against each "

@@ -11,6 +11,7 @@ from benchmarks.leaderboard_entries import (
     SUBMISSION,
     SUBMISSIONS,
 )
+from modquad_gym.tasks.reserved import HELDOUT_SEEDS, VALIDATION_SEEDS, span
 
 
 def how_made(r: str) -> list[str]:
@@ -65,6 +66,14 @@ def how_to_add(prefix: str) -> list[str]:
         "the protocol is in [Benchmark tiers and agents]("
         + ("" if prefix else "../docs/")
         + "benchmarks.md#score-your-own-agent). Its row is named by its own `name` attribute.",
+        "",
+        "**Reserved seeds.** The validation and held-out tasks are drawn with fixed seeds, and an "
+        "environment reset with one draws the same task, its planted answer in `task.meta`: never "
+        f"reset an environment, draw a task or train with a seed in {span(VALIDATION_SEEDS)} "
+        f"(validation) or {span(HELDOUT_SEEDS)} (every tier's held-out suite), a vector "
+        f"environment's seed + i included ([reserved seeds]({'' if prefix else '../docs/'}"
+        "getting-started/agents.md#seeds-reserved-for-the-benchmark)). `reset` warns on one and "
+        "`python train.py` refuses one; nothing in a score or a submission can detect it.",
         "",
         "**From the installed wheel** (no clone), score it on one tier beside the searches:",
         "",

@@ -8,6 +8,9 @@ training never uses, so suites are reproducible and disjoint from training:
 * validation (MaskableEvalCallback while training): seeds ``VALIDATION_SEED0 + i``;
 * held-out planted suite: seeds ``PLANTED_SEED0 + i``; held-out paper suite: ``PAPER_SEED0 + i``.
 
+Both ranges are reserved (:mod:`modquad_gym.tasks.reserved`: validation 500,000-999,999, held-out
+1,000,000-8,999,999, every tier's suite included): an environment reset with such a seed warns.
+
 The tasks are continuous random draws, so a collision with a training task has probability
 zero; :func:`check_disjoint` also checks every suite task against the task files shipped in
 ``examples/`` and ``modquad_gym/data`` and against the first tasks drawn by the training
@@ -39,9 +42,10 @@ from modquad_gym.tasks import (
     make_generator,
     save_suite,
 )
+from modquad_gym.tasks.reserved import HELDOUT_SEEDS, VALIDATION_SEEDS
 
-VALIDATION_SEED0 = 500_000
-PLANTED_SEED0 = 1_000_000
+VALIDATION_SEED0 = VALIDATION_SEEDS.start  # 500,000 (modquad_gym.tasks.reserved)
+PLANTED_SEED0 = HELDOUT_SEEDS.start  # 1,000,000
 PAPER_SEED0 = 2_000_000
 SUITES_DIR = Path(__file__).resolve().parents[1] / "data" / "suites"
 HELDOUT = {"heldout_planted": 60, "heldout_paper": 40}
@@ -148,6 +152,8 @@ class CyclingTasks:
 def validation_tasks(n: int = 40, source: str = "mixed") -> list[TaskRequirement]:
     """Validation tasks for training (seeds ``VALIDATION_SEED0 + i``), never in a held-out
     suite; ``source`` as in :func:`modquad_gym.tasks.make_generator` (a generator name)."""
+    if n > len(VALIDATION_SEEDS):
+        raise ValueError(f"n: at most {len(VALIDATION_SEEDS):,} validation tasks, got {n}")
     gen = make_generator(source)
     return [draw_task(gen, VALIDATION_SEED0 + i, name=f"val-{i}") for i in range(n)]
 

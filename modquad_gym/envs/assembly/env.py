@@ -47,6 +47,7 @@ from modquad_gym.envs.assembly.viewer import RENDER_FPS, AssemblyViewer
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Cell, Structure
 from modquad_gym.oracle.faults import check_fault, check_fault_margin
+from modquad_gym.tasks.reserved import warn_reserved
 
 N_MAX_LIMIT = 128  # the searches' limit (grid encoding: 255^2 actions; faces: 258)
 DEFAULT_TASKS = "mixed"  # the default task source
@@ -190,7 +191,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     [x, y], initial module first), ``evaluated`` (structures the oracle evaluated this episode:
     the initial one plus one per docking), ``oracle_calls`` (wrench tests this episode),
     ``action_mask``, ``task_name``, ``n_wrenches``, ``invalid_action`` and ``reward_terms``.
-    No answer in ``info``: task names are neutral (``"planted"``); ``task.meta`` is for benchmarks.
+    No answer in ``info`` (``task_name`` names the generator); ``task.meta`` is for benchmarks.
 
     Changes between versions are listed in the repository's ``CHANGELOG.md``.
     """
@@ -314,7 +315,6 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
 
     state = property(lambda self: self._restorer.issue(self._require("asking for the state")),
                      doc="The episode's current :class:`~.types.AssemblyState`.")  # fmt: skip
-
     evaluator = property(lambda self: None if self._episode is None else self._episode.evaluator,
                          doc="The episode's evaluator (None before ``reset``).")  # fmt: skip
 
@@ -346,9 +346,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
 
     def _info(self, invalid: bool = False, terms: dict[str, float] | None = None) -> dict:
         terms = reset_terms(self.reward, self._state) if terms is None else terms
-        info = self._state.info(invalid, terms)
-        info.update(self.module_set.info(self._state.types))
-        return info
+        return {**self._state.info(invalid, terms), **self.module_set.info(self._state.types)}
 
     # --- Gymnasium API --------------------------------------------------------------------
     def reset(
@@ -357,6 +355,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         """Gymnasium's reset. Bad ``options`` raise ValueError before the env reseeds, leaving it
         as it was; a task source that fails to draw ends the episode (``step`` asks for reset)."""
         options = reset_options(options, self.module_set, self.f_max)  # with its task checked
+        warn_reserved(self, seed)  # a validation or held-out seed: once per env (tasks.reserved)
         super().reset(seed=seed)
         self._state = self._episode = None
         types = self.module_set.start(options, self.np_random)  # before the task (the seed)
