@@ -1,6 +1,7 @@
 """Review 21 (honesty): the seeds of the benchmark's own tasks are reserved (an environment warns,
-``train.py`` refuses them, the docs say so), and the environment page says which ids keep the
-planted answer in ``task.meta``."""
+``train.py`` refuses them, the docs say so), ``modquad score`` re-verifies every success in a
+fresh process, its report records the seed, the versions and each method's setup seconds, and
+the environment page says which ids keep the planted answer in ``task.meta``."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+import modquad_gym
 from modquad_gym.envs import ENV_IDS
 from modquad_gym.scoring import agents as benchmark
 from modquad_gym.scoring.suites import PLANTED_SEED0, SUITES_DIR, VALIDATION_SEED0
@@ -113,6 +115,130 @@ def test_the_docs_name_the_reserved_ranges_for_outside_researchers():
         part = text.split("## Add your own agent")[-1]
         assert all(r in part for r in ranges), page
         assert "never reset an environment, draw a task or train" in part, page
+
+
+PATCHER = '''
+class Agent:
+    """A line of n_max modules, and the scorer's in-process checks told to say yes."""
+    name = "patcher"
+    def __init__(self, n_max):
+        import importlib
+        A = importlib.import_module("modquad_gym.scoring.agents")
+        A.verified = A.judged = lambda *args: True
+        try:
+            importlib.import_module("modquad_gym.scoring.verdicts").verified = lambda *a: True
+        except ImportError:
+            pass
+        self.n = n_max
+    def solve(self, task):
+        return [(i, 0) for i in range(self.n)]
+'''
+
+PRECOMPUTE = '''
+import time
+
+class Agent:
+    """Works for 0.3 s in its constructor, then answers with one evaluator call."""
+    name = "precompute"
+    def __init__(self, n_max):
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < 0.3:
+            pass
+        self.n = n_max
+    def solve(self, task, evaluator):
+        for n in range(1, self.n + 1):
+            if evaluator.evaluate([(i, 0) for i in range(n)]):
+                return [(i, 0) for i in range(n)]
+        return None
+'''
+
+
+def test_a_success_a_fresh_process_refuses_stops_the_run(importable, tmp_path, monkeypatch,
+                                                          capsys):  # fmt: skip
+    import importlib
+
+    patched = ((benchmark, "judged"), (benchmark, "verified"),
+               ("modquad_gym.scoring.verdicts", "verified"))  # fmt: skip
+    for module, name in patched:  # what the agent replaces, restored afterwards
+        try:
+            module = importlib.import_module(module) if isinstance(module, str) else module
+            monkeypatch.setattr(module, name, getattr(module, name))
+        except (ImportError, AttributeError):
+            pass
+    importable("honest_patcher_for_tests", PATCHER)
+    out = tmp_path / "scores"
+    spec = "honest_patcher_for_tests:Agent"
+    argv = ["--tier", "current", "--solver", spec, "--methods", spec, "--limit", "2", "--out",
+            str(out), "--no-progress"]  # fmt: skip
+    assert benchmark.script(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(
+        "modquad score: error: the agent's process verified an answer the exact oracle refuses: "
+    ), err
+    assert "honest_patcher_for_tests:Agent on task 'paper-2000000'" in err[0]
+    assert "do not exert every task wrench" in err[0] and not out.exists()
+
+
+def test_the_recheck_redraws_validation_tasks_and_finds_each_row_by_its_place():
+    """Validation tasks are drawn again from their seeds; two tasks of one name are told apart
+    by their place; a success whose cells fail its task is refused, naming method and task."""
+    from dataclasses import replace
+
+    from modquad_gym.scoring.recheck import recheck, suite_sources
+    from modquad_gym.scoring.tiers import get_tier, validation_suite
+
+    tier = get_tier("current")
+    suites = {"validation": validation_suite(tier, 2, progress=False)}
+    rows = benchmark.run_benchmark(suites, ["greedy", "exhaustive"], 7, progress=False)
+    sources = suite_sources(None, tier, 2)
+    assert recheck(rows, 2, sources, 7, None, None)[0] == sum(r.success for r in rows) == 4
+    swapped = [replace(r, task="val-1") if r.task == "val-0" else r for r in rows]
+    with pytest.raises(ValueError, match=r"greedy on task 'val-1' of validation: the suite has "
+                       r"no task 'val-1' at place 1"):  # fmt: skip
+        recheck(swapped, 2, sources, 7, None, None)
+    lied = [replace(r, cells=[[0, 0]], n_modules=1) if r.method == "exhaustive" else r
+            for r in rows]  # fmt: skip
+    refused = (
+        r"^the agent's process verified an answer the exact oracle refuses: exhaustive "
+        r"on task 'val-0' of validation: its 1 module at \[\[0, 0\]\] do not exert"
+    )
+    with pytest.raises(ValueError, match=refused):
+        recheck(lied, 2, sources, 7, None, None)
+
+
+def test_the_report_records_seed_versions_setup_seconds_and_the_recheck(importable, tmp_path):
+    import numpy
+    import scipy
+
+    importable("honest_precompute_for_tests", PRECOMPUTE)
+    out = tmp_path / "scores"
+    spec = "honest_precompute_for_tests:Agent"
+    argv = ["--tier", "current", "--solver", spec, "--methods", "greedy", "random", spec,
+            "--limit", "2", "--out", str(out), "--no-progress"]  # fmt: skip
+    assert benchmark.script(argv) == 0
+    text = (out / "benchmark.md").read_text()
+    assert "- Seed: 0 (the default: `--seed` not given)" in text
+    versions = re.search(r"- Versions: (.*)\.\n", text).group(1)
+    for name, version in (("modquad_gym", modquad_gym.__version__), ("numpy", numpy.__version__),
+                          ("scipy", scipy.__version__)):  # fmt: skip
+        assert f"{name} {version}" in versions
+    assert "gymnasium " in versions and "daqp " in versions
+    rows = int(re.search(r"fresh process .*?: (\d+) success rows", text).group(1))
+    assert rows == sum(r["success"] == "1" for r in _csv(out / "benchmark.csv"))
+    setup = dict(re.findall(r"^\| (\S+) \| (\d+\.\d+) \|$", text, re.M))
+    assert set(setup) == {"greedy", "random", spec} and float(setup[spec]) >= 0.3
+    per_task = [float(r["seconds"]) for r in _csv(out / "benchmark.csv") if r["method"] == spec]
+    assert max(per_task) < 0.3  # the constructor's time is setup, not the tasks'
+    argv[argv.index("--out") + 1] = str(tmp_path / "seeded")
+    assert benchmark.script([*argv, "--seed", "3"]) == 0
+    assert "- Seed: 3 (given by `--seed`)" in (tmp_path / "seeded" / "benchmark.md").read_text()
+
+
+def _csv(path: Path) -> list[dict]:
+    import csv
+
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
 
 
 def _ids_after(marker: str, text: str) -> set[str]:

@@ -6,7 +6,9 @@ carries its optimum from the exhaustive search) and writes to ``--out`` (default
 
 * ``benchmark.md``: the machine, the summary per method (success rate, mean modules, share
   solved with the optimal module count, mean gap to the optimum, configurations evaluated and
-  oracle calls per task, wall time), the goals beside what was reached, the figures;
+  oracle calls per task, wall time), the run record (the seed, the versions, each method's
+  setup seconds, the re-verification: :mod:`.provenance`), the goals beside what was reached,
+  the figures;
 * ``benchmark.csv``: one row per (method, task);
 * ``benchmark_bars.png``, ``learning_curve.png`` (from the training run's ``evaluations.npz``,
   when a learned method is scored), ``structures.png`` (the outside agents and learned methods
@@ -16,7 +18,8 @@ carries its optimum from the exhaustive search) and writes to ``--out`` (default
 ``--methods`` says otherwise): it is told the tier's n_max, name and module types and counted
 through the :class:`~modquad_gym.solvers.Evaluator` it is handed (docs/benchmarks.md, "Score
 your own agent"). Every reported success is an answer of at most n_max modules of the allowed
-types, re-verified here by the exact DAQP LP oracle.
+types, re-verified here by the exact DAQP LP oracle, and again in a fresh process that never
+imports an outside agent (:mod:`.recheck`) before anything is written.
 """
 
 from __future__ import annotations
@@ -47,13 +50,20 @@ from modquad_gym.scoring.options import (
     check_train_dir,
     method_label,
 )
+from modquad_gym.scoring.provenance import run_record
+from modquad_gym.scoring.recheck import recheck, suite_sources
 from modquad_gym.scoring.scores import Row, summarise
 from modquad_gym.scoring.suites import SUITES_DIR, check_optima
 from modquad_gym.scoring.tiers import Tier, get_tier, honours_fault, validation_suite
-from modquad_gym.search import verified
+from modquad_gym.scoring.verdicts import (  # survives: a public name here too
+    answer_cells,
+    certified,
+    judged,
+    plain_answer,
+    survives,  # noqa: F401
+)
 from modquad_gym.search.problem import DEFAULT_MODULE
 from modquad_gym.solvers import Solver, load_solver, make_solver
-from modquad_gym.solvers.answers import NotAllowedError, rebuilt
 from modquad_gym.solvers.factory import model_named
 from modquad_gym.tasks import TaskRequirement, load_suite
 
@@ -71,6 +81,7 @@ def run_benchmark(
     fault: str | None = None,
     made: dict[str, Solver] | None = None,
     trust_model: bool = False,
+    setup: dict[str, float] | None = None,
 ) -> list[Row]:
     """Every method on every task; a success is an answer of at most ``n_max`` modules of the
     allowed types that the exact oracle verifies. ``workers`` > 1 spreads chunks of tasks over
@@ -84,7 +95,8 @@ def run_benchmark(
     method that cannot honour it is a ValueError (:func:`~.tiers.honours_fault`). ``made``:
     solvers already made, by method (the outside agents :func:`chosen_methods` loaded), used
     as they are with one worker (each Ray worker makes its own). ``trust_model``: the learned
-    methods may unpickle ``model`` (``--trust-model``)."""
+    methods may unpickle ``model`` (``--trust-model``). ``setup``: filled with the seconds each
+    solver made here took to make (none with several workers)."""
     from modquad_gym.core.distributed import map_tasks
 
     jobs = [(name, task) for name, tasks in suites.items() for task in tasks]
@@ -95,7 +107,9 @@ def run_benchmark(
     config = (tuple(methods), n_max, model, seed, modules, tier, fault, trust_model)
     if workers == 1:  # in this process: the solvers made here and those given, in order
         made = made or {}
-        rest = _solvers(tuple(m for m in methods if m not in made), *config[1:])
+        rest, seconds = _made(tuple(m for m in methods if m not in made), *config[1:])
+        setup = {} if setup is None else setup
+        setup.update(seconds)
         solve = partial(_rows, {m: made[m] if m in made else rest[m] for m in methods},
                         (n_max, modules, fault))  # fmt: skip
     else:
@@ -104,8 +118,12 @@ def run_benchmark(
     return [row for part in parts for row in part]
 
 
+def _solvers(*config) -> dict[str, Solver]:
+    return _made(*config)[0]
+
+
 @lru_cache(maxsize=2)
-def _solvers(
+def _made(
     methods: tuple,
     n_max: int,
     model: Path | None,
@@ -114,16 +132,19 @@ def _solvers(
     tier=None,
     fault: str | None = None,
     trust: bool = False,
-) -> dict[str, Solver]:
+) -> tuple[dict[str, Solver], dict[str, float]]:
+    """The solvers of ``methods`` and the seconds each took to make."""
     types = palette(modules) if modules else None
-    solvers = {}
+    solvers, seconds = {}, {}
     options = (("model", model), ("seed", seed), ("tier", tier), ("trust_model", trust or None))
     for m in methods:
         takes = ("seed", "tier") if ":" in m else method_of(m)[0].options.names()
         given = {k: v for k, v in options if k in takes and v is not None}
+        t0 = time.perf_counter()
         with model_named("--model"):  # the command line's name of a model file that is not one
             solvers[m] = make_solver(m, n_max, modules=types, fault=fault, **given)
-    return solvers
+        seconds[m] = time.perf_counter() - t0
+    return solvers, seconds
 
 
 def load_solvers(methods: list[str], n_max: int, model: Path | None, tier: Tier) -> None:
@@ -150,9 +171,9 @@ def _rows(solvers: dict[str, Solver], config: tuple, jobs: list) -> list[Row]:
         optimum = task.meta.get("optimum")
         for method, solver in solvers.items():
             r = solver.solve(task)
-            answer = _plain(r.structure, types, method, task.name)
+            answer = plain_answer(r.structure, types, method, task.name)
             ok = judged(answer, task, n_max, types, fault)
-            if ok and _certified(task.meta, fault) and answer.n_modules < optimum:
+            if ok and certified(task.meta, fault) and answer.n_modules < optimum:
                 raise ValueError(
                     f"{method}: task {task.name!r}: an answer of {answer.n_modules} modules "
                     f"verified below the suite's certified optimum {optimum}: the verification "
@@ -164,46 +185,6 @@ def _rows(solvers: dict[str, Solver], config: tuple, jobs: list) -> list[Row]:
                     answer_cells(answer, types if modules else None) if ok else None)
             )  # fmt: skip
     return rows
-
-
-def _certified(meta: dict, fault: str | None) -> bool:
-    """Is the task's ``optimum`` certified for this run's ``fault`` (None: intact)?"""
-    return meta.get("optimum") is not None and meta.get("optimum_fault") == fault
-
-
-def _plain(structure, types: list, method: str, task: str):
-    """``structure`` rebuilt on ``types`` (None stays None, and so does one off the types)."""
-    try:
-        return None if structure is None else rebuilt(structure, types)
-    except NotAllowedError:
-        return None
-    except (TypeError, ValueError) as err:
-        raise ValueError(f"{method}: task {task!r}: its answer is not a structure: {err}") from None
-
-
-def answer_cells(structure, types: list | None) -> list[list[int]]:
-    """The cells a row records: [x, y] each, and on a tier of several types (``types``, its
-    palette) the index of each module's type, [x, y, k]."""
-    if types is None:
-        return [list(c) for c in structure.cells]
-    index = {id(m): k for k, m in enumerate(types)}
-    return [[x, y, index[id(m)]] for (x, y), m in zip(structure.cells, structure.modules)]
-
-
-def judged(answer, task, n_max: int, types: list, fault: str | None) -> bool:
-    """Is ``answer`` (a plain structure on ``types``, as :func:`_plain` or the leaderboard's
-    checks build it, or None) a success on ``task``: at most ``n_max`` modules, verified by the
-    exact oracle, surviving ``fault``?"""
-    ok = answer is not None and answer.n_modules <= n_max and verified(answer, task)
-    return ok and (fault is None or survives(answer, task, fault))
-
-
-def survives(structure, task, fault: str) -> bool:
-    """Does ``structure`` still exert every wrench of ``task`` after any single ``fault``?"""
-    from modquad_gym.oracle.faults import tolerates
-
-    W = task.rotor_wrenches(structure)
-    return bool(tolerates(structure, W, task.f_max, fault).all())
 
 
 def parse_args(argv: list[str] | None, prog: str = COMMAND) -> argparse.Namespace:
@@ -226,13 +207,14 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
     methods; with ``--solver``, the searches alone beside the outside agents), the ``--solver``
     agents, and ``--samples`` in place of ``ppo-kN``. Each is checked here, before any work: a
     method name, an outside agent (made once, with the run's seed: kept in ``args.agents`` for
-    the scoring), the model of a learned method."""
+    the scoring, its import and construction timed in ``args.setup``), the model of a learned
+    method."""
     types = palette(tier.modules) if tier.modules else None
     told = dict(n_max=args.n_max or tier.n_max, tier=tier.name, modules=types, fault=tier.fault,
                 seed=0 if args.seed is None else args.seed)  # fmt: skip
-    agents = {}  # `--solver pkg` without `:Name`: load_solver says how to write it
+    agents, args.setup = {}, {}  # `--solver pkg` without `:Name`: load_solver says how
     for spec in args.solver:
-        agents[spec] = load_solver(spec, **told)
+        agents[spec] = _timed(args.setup, spec, load_solver, told)
     model = tier.model if args.model is None else args.model
     default = DEFAULT_METHODS if tier.name == "current" else SEARCH_METHODS
     if tier.name != "current" and model.is_file():
@@ -255,10 +237,18 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
         )
     methods = with_samples(methods, args.samples, "--methods" if args.methods else "")
     for spec in (m for m in methods if ":" in m and m not in agents):  # --methods pkg:Name
-        agents[spec] = load_solver(spec, **told)
+        agents[spec] = _timed(args.setup, spec, load_solver, told)
     check_used_options(args, methods, model, agents)
     args.model, args.agents = model, agents
     return methods
+
+
+def _timed(seconds: dict, spec: str, make, told: dict):
+    """``make(spec, **told)``, its seconds kept in ``seconds[spec]``."""
+    t0 = time.perf_counter()
+    out = make(spec, **told)
+    seconds[spec] = time.perf_counter() - t0
+    return out
 
 
 def with_samples(methods: list[str], samples: int | None, given: str) -> list[str]:
@@ -365,8 +355,11 @@ def score(args: argparse.Namespace, command: str) -> int:
     seed = 0 if args.seed is None else args.seed
     rows = run_benchmark(suites, methods, n_max, args.model, seed, not args.no_progress,
                          args.workers, tier.modules, tier.name, tier.fault, made=args.agents,
-                         trust_model=args.trust_model)  # fmt: skip
+                         trust_model=args.trust_model, setup=args.setup)  # fmt: skip
     wall = time.perf_counter() - t0
+    sources = suite_sources(args.suite, tier, args.validation)
+    checked = recheck(rows, len(methods), sources, n_max, tier.modules, tier.fault)  # unwritten
+    record = run_record(seed, args.seed is not None, args.setup, methods, checked)
     write_csv([r.as_csv() for r in rows], args.out / "benchmark.csv")
     summary = summarise(rows, methods, n_max)
     has_ppo = any(m.startswith("ppo") for m in methods)
@@ -379,7 +372,7 @@ def score(args: argparse.Namespace, command: str) -> int:
         "structures": plot_structures(rows, args.out / "structures.png"),
     }
     path = write_report(rows, summary, args.out, suites, args.model, train_dir, n_max,
-                        figures, wall, tier.name, command)  # fmt: skip
+                        figures, wall, tier.name, command, record)  # fmt: skip
     print(path.read_text())
     return 0
 

@@ -39,8 +39,11 @@ def write_report(
     wall: float,
     tier: str = "current",
     command: str = "modquad score",
+    record: list[str] | None = None,
 ) -> Path:
-    """Write ``out/benchmark.md`` from the rows of one run and return its path."""
+    """Write ``out/benchmark.md`` from the rows of one run and return its path; ``record``: the
+    lines of its run record (seed, versions, setup seconds, re-verification; :mod:`.provenance`),
+    after the summary."""
     has_ppo = any(s["method"].startswith("ppo") for s in summary)
     methods = [s["method"] for s in summary]
     cfg = read_config(train_dir / "model.zip") if has_ppo else {}  # {} without a config.json
@@ -48,6 +51,7 @@ def write_report(
     if cfg:
         lines += [model_line(cfg, model), ""]
     lines += _summary_table(summary)
+    lines += record or []
     lines += _outside(summary, n_max, tier)
     lines += _per_suite(rows, suites, methods, n_max)
     lines += _by_optimum(rows, methods, n_max)
@@ -145,7 +149,8 @@ def _outside(summary: list[dict], n_max: int, tier: str) -> list[str]:
             "evaluator, its answer included, or its own report where larger: a lower bound "
             "(what it decides by other means is not counted). A success is an answer of at most "
             f"{n_max} modules of the tier's types, rebuilt from its cells, that the exact LP "
-            "oracle verifies.",
+            "oracle verifies, here and again in a fresh process that never imports the agent "
+            "(the run record); its seconds are timed in the scorer's process.",
             "",
             f"Success {_fmt(s['success_rate'], True)}, optimal module count on "
             f"{_fmt(s['optimal_share'], True)} of {s['tasks']} tasks (mean gap "

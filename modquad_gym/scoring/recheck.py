@@ -1,0 +1,107 @@
+"""Every success of a ``modquad score`` run verified again in a fresh process.
+
+An outside agent runs in the scorer's process (docs/benchmarks.md, protocol item 2), so it can
+replace the scorer's own check (``judged`` of :mod:`.agents`, ``verified`` of :mod:`.verdicts`)
+and have any answer counted. :func:`recheck` therefore hands every success row, its cells and
+the suite it comes from to a new interpreter (``multiprocessing``'s ``spawn`` context: it
+imports modquad_gym and never the agent's module), which reads each task again from its suite
+file (or draws the validation task again from its seed), rebuilds the structure from the row's
+cells on the tier's module types and decides it with the exact oracle, the ``fault`` included.
+One disagreement stops the run before anything is written. What the fresh process cannot see
+stays honour-based: the seconds, configurations and oracle calls measured in the agent's
+process.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import time
+from pathlib import Path
+
+from modquad_gym.scoring.scores import Row
+
+Source = tuple
+"""Where a suite's tasks come from: ``("file", path)`` or ``("validation", n, task source)``."""
+
+REFUSED = "the agent's process verified an answer the exact oracle refuses"
+"""The start of the line that stops a run whose rows a fresh process does not confirm."""
+
+
+def suite_sources(paths: list | None, tier, validation: int | None) -> dict[str, Source]:
+    """Where each scored suite comes from: the ``--suite`` ``paths`` (by file stem), the
+    tier's validation draws (``validation`` tasks), or the tier's held-out suite files."""
+    from modquad_gym.scoring.suites import SUITES_DIR
+
+    if paths:
+        return {Path(p).stem: ("file", str(p)) for p in paths}
+    if validation:
+        return {"validation": ("validation", int(validation), tier.source or "mixed")}
+    return {name: ("file", str(SUITES_DIR / f"{name}.json")) for name in tier.suites}
+
+
+def recheck(rows: list[Row], per_task: int, sources: dict[str, Source], n_max: int,
+            modules: str | None, fault: str | None) -> tuple[int, float]:  # fmt: skip
+    """Verify every success of ``rows`` in a fresh process (module docstring): (rows checked,
+    seconds, the process's start included); ValueError naming the first method and task whose
+    answer it refuses. ``rows`` are in :func:`~.agents.run_benchmark`'s order, ``per_task``
+    (the methods) rows per task, task by task through each suite: a row's task is found by its
+    place in its suite (names repeat within a suite), and its name checked."""
+    t0 = time.perf_counter()
+    seen: dict[str, int] = {}
+    wins = []
+    for r in rows:
+        place = seen.get(r.suite, 0)
+        seen[r.suite] = place + 1
+        if r.success:
+            wins.append((r.suite, place // per_task, r.task, r.method, r.n_modules, r.cells))
+    if not wins:
+        return 0, 0.0
+    context = multiprocessing.get_context("spawn")
+    with context.Pool(1) as pool:
+        verdicts = pool.apply(verdicts_of, (wins, sources, n_max, modules, fault))
+    for (suite, _, task, method, *_), why in zip(wins, verdicts):
+        if why:
+            raise ValueError(
+                f"{REFUSED}: {method} on task {task!r} of {suite}: {why} (re-checked in a "
+                "fresh process; nothing written)"
+            )
+    return len(wins), time.perf_counter() - t0
+
+
+def verdicts_of(wins: list[tuple], sources: dict[str, Source], n_max: int,
+                modules: str | None, fault: str | None) -> list[str]:  # fmt: skip
+    """In the fresh process: for each (suite, task index, task name, method, modules, cells), ""
+    when the cells are a success on the suite's own task, else why not."""
+    from modquad_gym.geometry.module import palette
+    from modquad_gym.scoring.verdicts import judged, structure_of
+    from modquad_gym.search.problem import DEFAULT_MODULE
+
+    types, typed = (palette(modules), True) if modules else ([DEFAULT_MODULE], False)
+    tasks = {name: _tasks(source) for name, source in sources.items()}
+    out = []
+    for suite, index, name, _, size, cells in wins:
+        task = tasks[suite][index] if index < len(tasks.get(suite, ())) else None
+        if task is None or task.name != name:
+            out.append(f"the suite has no task {name!r} at place {index + 1}")
+            continue
+        answer = structure_of(cells, types, typed)
+        if answer is None or answer.n_modules != size:
+            out.append(f"its cells {cells} are not the {size}-module answer it reports")
+        elif not judged(answer, task, n_max, types, fault):
+            after = "" if fault is None else f", or not after every single {fault} failure"
+            count = f"{size} module{'s' if size != 1 else ''}"
+            out.append(f"its {count} at {cells} do not exert every task wrench{after}")
+        else:
+            out.append("")
+    return out
+
+
+def _tasks(source: Source) -> list:
+    """The tasks of one suite ``source``, read or drawn again here."""
+    if source[0] == "validation":
+        from modquad_gym.scoring.suites import validation_tasks
+
+        return validation_tasks(source[1], source[2])
+    from modquad_gym.tasks import load_suite
+
+    return load_suite(source[1])
