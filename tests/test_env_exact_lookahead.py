@@ -8,13 +8,19 @@ import numpy as np
 import pytest
 
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
+from modquad_gym.envs.assembly.exact import CLIP_GAMMA
 from modquad_gym.envs.assembly.features import CANDIDATE_FEATURES, lookahead_width
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import margin
+from modquad_gym.oracle.kernels import GAP
 from modquad_gym.policy.policy import lookahead_of
 from modquad_gym.search.baselines import greedy_search
 from modquad_gym.tasks import PlantedTasks, make_generator
 
+ACCURACY = CLIP_GAMMA * GAP
+"""The exact margins' documented accuracy: a walked gamma is taken only where its two bounds
+(the allocation's above, the direction's below) agree to the relative gap GAP, and the margins
+clip gamma at CLIP_GAMMA."""
 WIDTH = lookahead_width("exact")
 SHARE, MARGIN, GREEDY = CANDIDATE_FEATURES, CANDIDATE_FEATURES + 1, CANDIDATE_FEATURES + 2
 
@@ -214,9 +220,9 @@ def test_the_exact_rows_are_those_of_the_plain_reference_on_many_states(
 ):
     """The capped walk started at the parent's optimal vertices and the shares read off gamma
     give the rows of the plain reference (every child decided, every gamma to its optimum by a
-    cold walk): shares equal, margins within 1e-10 (a degenerate optimum measured at another
-    of its vertices: the walk's gamma is exact to 1e-9, its float32 entry the same), on every
-    state of random episodes."""
+    cold walk): shares equal, margins within ACCURACY (each walk's gamma is certified to it;
+    a degenerate optimum may be measured at another of its vertices), on every state of
+    random episodes."""
     from modquad_gym.envs.assembly import lookahead
 
     env = ModQuadAssemblyEnv(tasks=source, n_max=5, lookahead="exact", **kwargs)
@@ -228,7 +234,7 @@ def test_the_exact_rows_are_those_of_the_plain_reference_on_many_states(
         want = reference_rows(ev, keys, task, mass)
         for (share, margin_), (share_ref, margin_ref) in zip(got, want):
             assert share == share_ref
-            assert abs(margin_ - margin_ref) <= 1e-10
+            assert abs(margin_ - margin_ref) <= ACCURACY
         checked.extend(got)
         return got
 
@@ -320,7 +326,7 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
     taken (the whitened zonotopes from 16 modules)."""
     from modquad_gym.envs.assembly import exact, lookahead, transitions
     from modquad_gym.envs.assembly.evaluator import StructureEvaluator
-    from modquad_gym.oracle import WrenchOracle, kernels
+    from modquad_gym.oracle import WrenchOracle, vertices
     from modquad_gym.oracle.whitened import WhitenedZonotope
 
     def episodes(env) -> list:
@@ -341,7 +347,7 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
         StructureEvaluator.candidate_rows,
         exact.from_sibling,
     )
-    read, prepared = kernels.vertex_directions, WrenchOracle.gamma_zonotope
+    read, prepared = vertices.vertex_directions, WrenchOracle.gamma_zonotope
 
     def counting_zonotope(oracle, A, key):
         z = prepared(oracle, A, key)
@@ -368,7 +374,7 @@ def test_what_a_parent_passes_on_leaves_the_shipped_observation_as_it_was(
 
     monkeypatch.setattr(exact, "gamma_capped_from", counting_walk)
     monkeypatch.setattr(exact, "from_sibling", counting_sibling)
-    monkeypatch.setattr(kernels, "vertex_directions", counting_read)
+    monkeypatch.setattr(vertices, "vertex_directions", counting_read)
     monkeypatch.setattr(StructureEvaluator, "candidate_rows", counting_rows)
     monkeypatch.setattr(WrenchOracle, "gamma_zonotope", counting_zonotope)
     make = dict(tasks=source, n_max=n_max, lookahead="exact", lookahead_top_k=8, **kwargs)

@@ -255,18 +255,18 @@ def assert_same_directions(got: np.ndarray, want: np.ndarray) -> None:
 
 
 def read_off(z: Zonotope, R: np.ndarray, tights, signs, cap: float):
-    """(dirs, found) of :func:`~modquad_gym.oracle.kernels.vertex_directions`."""
-    from modquad_gym.oracle import kernels
+    """(dirs, found) of :func:`~modquad_gym.oracle.vertices.vertex_directions`."""
+    from modquad_gym.oracle import vertices
 
     dirs, found = np.zeros((len(R), z.rank)), np.zeros(len(R), dtype=bool)
-    kernels.vertex_directions(z.G, R, tights, signs, cap, dirs, found)
+    vertices.vertex_directions(z.G, R, tights, signs, cap, dirs, found)
     return dirs, found
 
 
 @settings(max_examples=15, deadline=None)
 @given(seed=st.integers(0, 2**20), n=st.sampled_from([2, 3, 5, 9, 16, 40]))
 def test_a_unique_optimal_vertex_gives_the_cold_walks_direction(seed, n):
-    """:func:`~modquad_gym.oracle.kernels.vertex_directions`: a walk's optimal vertex, reached
+    """:func:`~modquad_gym.oracle.vertices.vertex_directions`: a walk's optimal vertex, reached
     from any start, read where it is gamma's unique optimum below the cap, gives the direction
     the walk from the dual-metric direction ends at (within round-off); rows past or near the
     cap, and rows without a vertex, are left to a walk."""

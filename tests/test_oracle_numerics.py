@@ -186,8 +186,9 @@ def test_daqp_gammas_just_above_the_threshold_are_rechecked(monkeypatch):
 def test_stock_lattice_gammas_have_the_documented_accuracy():
     """The accuracy modquad_gym.oracle.tolerance states for stock structures, on the 64-module
     lattice's known-gamma wrenches (with 2x headroom for other CPUs' round-off): HiGHS within
-    5e-11, the compiled walk within 2e-14 where it reaches the optimum, DAQP an upper bound
-    (never low by more than 3e-15) up to 1.3e-7 high."""
+    5e-11, the compiled walk within 2e-13 where it reaches the optimum (on all but at most 1 of
+    1200 wrenches: here 2 of 500), DAQP an upper bound (never low by more than 3e-15) up to
+    1.3e-7 high."""
     from benchmarks.oracle_accuracy import walk_gammas
 
     A = Structure(LATTICE).configuration_matrix()
@@ -195,6 +196,7 @@ def test_stock_lattice_gammas_have_the_documented_accuracy():
     z = Zonotope(A)
     assert np.abs(gamma_with(z, W, "scipy") - s).max() <= 1e-10
     walk = walk_gammas(z, W)
-    assert np.abs(walk - s)[np.isfinite(walk)].max() <= 4e-14
+    assert np.abs(walk - s)[np.isfinite(walk)].max() <= 4e-13
+    assert np.count_nonzero(np.isnan(walk)) <= 2
     daqp = gamma_with(z, W, "daqp") - s
     assert -6e-15 <= daqp.min() and daqp.max() <= 2.6e-7

@@ -7,7 +7,7 @@ allocation in the cube or a separating direction, both checked in float64 by the
 separated earlier wrenches are remembered per zonotope (its ``kernel`` field) and tried first
 on later ones. The few wrenches no certificate decides (within GUARD of the threshold, or a
 walk stopped by its pivot limit) get the exact DAQP gamma (:mod:`.daqp_lp`). Margins come from
-the same walk run to the optimum (:func:`gamma_compiled`).
+the same walk run to the optimum (:func:`gamma_compiled`), where its bounds certify its gamma.
 
 :func:`screen_compiled` fuses a caller's support screen with the decisions, for
 :meth:`~modquad_gym.oracle.WrenchOracle.screened` (the environment decides every step this way).
@@ -73,9 +73,10 @@ def gamma_compiled(
     z: Zonotope, R: np.ndarray, cap: float = np.inf, dirs: np.ndarray | None = None
 ) -> np.ndarray:
     """Exact gamma per row of R (centred reduced wrenches in range(A)): the walk to the optimum
-    (:func:`~modquad_gym.oracle.kernels.gamma_rows`), the DAQP gamma where it gives up. A row
-    whose gamma is certified above ``cap`` gets a certified lower bound (> cap) instead: the
-    walk stops as soon as it proves that (a clipped margin needs no more). ``dirs`` (t, rank),
+    (:func:`~modquad_gym.oracle.kernels.gamma_rows`), the DAQP gamma where it gives up or its
+    two bounds disagree (:data:`~modquad_gym.oracle.kernels.GAP`). A row whose gamma is
+    certified above ``cap`` gets a certified lower bound (> cap) instead: the walk stops as
+    soon as it proves that (a clipped margin needs no more). ``dirs`` (t, rank),
     when given, receives each row's last direction of the walk (a facet normal at the
     optimum, a separating direction past ``cap``)."""
     from modquad_gym.oracle import kernels

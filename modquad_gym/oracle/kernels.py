@@ -15,7 +15,8 @@ ACCEPT and REJECT are the tolerance rule's (:mod:`~modquad_gym.oracle.tolerance`
 evaluated here in float64 from x or y alone, so they are exact whatever the walk did. A
 wrench that no certificate decides (within GUARD of the threshold, within 1 % of the off-range
 rule, too large, or a walk stopped by its pivot limit) is marked undecided (-1) for the exact
-LP (:mod:`.compiled`). :func:`gamma_rows` runs the walk to the optimum for margins.
+LP (:mod:`.compiled`). :func:`gamma_rows` runs the walk to the optimum for margins, its gamma
+taken only where the allocation's and the direction's bounds agree (:data:`GAP`).
 """
 
 from __future__ import annotations
@@ -26,10 +27,16 @@ import numpy as np
 from numba import njit
 
 from modquad_gym.oracle.tolerance import ACCEPT, REJECT, RESIDUAL_TOL
-from modquad_gym.oracle.walk import vertex_basis, vertex_walk, walk_from, walk_workspace
+from modquad_gym.oracle.walk import vertex_walk, walk_from, walk_workspace
 
 _HUGE = 1e100  # rows of w / f_max beyond this are left undecided (reduce() avoids overflow)
 _OFF = 1.01  # off-range margin: residuals within this factor of the rule are left undecided
+
+GAP = 1e-9
+"""Largest relative gap between the two bounds on gamma that a walk's optimum leaves (its
+corrected allocation's |x|_inf above, r . y / h(y) below) for its gamma to be taken: the walk's
+documented accuracy. At a true optimum the gap is round-off (below 1e-12 on the stock
+structures); a wider one means the walk's basis lost accuracy, and the exact LP decides."""
 
 WALKED_AS_IS = (0.5, 2.0**64)
 """Largest singular values of G that the kernels walk as they are: the walk's thresholds are
@@ -205,13 +212,53 @@ def gamma_rows(G, P, prep, R, cap, out, dirs):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _lower_bound(G, r, y):  # pragma: no cover - compiled
+    """r . y / h(y), h the zonotope's full support sum_j |g_j . y| (every column, the walk's
+    tight ones too): a lower bound on gamma(r) from any direction y (weak duality); nan where
+    h(y) = 0."""
+    ry = 0.0
+    for i in range(len(r)):
+        ry += r[i] * y[i]
+    support = _l1_support(y, G)
+    return ry / support if support > 0.0 else np.nan
+
+
+@njit(cache=True)
+def _certified_walk(G, P, norms, dual, r, y, x, cap, walk, start, sign):  # pragma: no cover
+    """(gamma, status) of one row by :func:`~.walk.walk_from` (y: the dual-metric direction),
+    read only from what the walk's x and y prove: at the optimum (status 2) the corrected
+    allocation's |x|_inf (>= gamma) where the lower bound of y (<= gamma,
+    :func:`_lower_bound`) agrees with it within :data:`GAP`; past ``cap`` (status 0) that lower
+    bound where it exceeds ``cap``. Otherwise the walk is repeated once from y when it started
+    at a given vertex (from y = r * dual, as the caller set it), and nan (status -1) when that
+    fails too: the caller's exact LP decides."""
+    status = walk_from(G, norms, r, y, x, 0.0, cap, walk, start, sign)
+    for attempt in range(2):
+        if status == 2:
+            upper = _corrected_max(G, P, r, x)
+            if abs(upper - _lower_bound(G, r, y)) <= GAP * upper:
+                return upper, 2
+        elif status == 0:
+            lower = _lower_bound(G, r, y)
+            if lower > cap:
+                return lower, 0
+        if attempt == 1 or start.min() < 0:
+            break
+        for i in range(len(r)):  # a walk that started at a given vertex: once more from y
+            y[i] = r[i] * dual[i]
+        status = vertex_walk(G, norms, r, y, x, 0.0, cap, walk)
+    return np.nan, -1
+
+
+@njit(cache=True)
 def gamma_rows_from(G, P, prep, R, cap, out, dirs, starts, signs):  # pragma: no cover
     """:func:`gamma_rows` with row k's walk started at the vertex of the tight columns
     ``starts[k]`` (-1: from the dual-metric direction) with the column bounds ``signs[k]``
     (see :func:`~.walk.walk_from`); each row's optimal vertex replaces them: its tight columns
     and every other column's bound (-1 and 0 where the walk stopped elsewhere: a certificate
     above ``cap``, the box, or no answer). Only rows whose ``out`` is nan on entry are walked:
-    the others keep their value (the caller's: say a bound it proved), with no vertex."""
+    the others keep their value (the caller's: say a bound it proved), with no vertex. Every
+    walked gamma is certified by both of its bounds (:func:`_certified_walk`), else nan."""
     walk, x, y = _workspace(G)
     tight, bound, T = walk[0], walk[1], walk[12]
     _, norms, axes, dual = prep
@@ -234,70 +281,15 @@ def gamma_rows_from(G, P, prep, R, cap, out, dirs, starts, signs):  # pragma: no
         elif box > cap:  # beyond the box scaled by cap: y = +-e_i proves gamma >= box
             out[k] = box
         else:
-            status = walk_from(G, norms, r, y, x, 0.0, cap, walk, starts[k], signs[k])
-            if status == 0:  # y proves gamma >= r . y / h(y) > cap
-                ry = 0.0
-                for i in range(n):
-                    ry += r[i] * y[i]
-                out[k] = ry / _l1_support(y, G)
-            elif status == 2:
-                out[k] = _corrected_max(G, P, r, x)
-            else:
-                out[k] = np.nan
+            out[k], status = _certified_walk(
+                G, P, norms, dual, r, y, x, cap, walk, starts[k], signs[k]
+            )
         if dirs.shape[0]:
             dirs[k] = y
         for q in range(starts.shape[1]):
             starts[k, q] = T[q] if status == 2 and q < n - 1 else -1
         for j in range(m):
             signs[k, j] = 0 if status != 2 or tight[j] else (1 if bound[j] > 0 else -1)
-
-
-@njit(cache=True)
-def vertex_directions(G, R, starts, signs, cap, dirs, found):  # pragma: no cover - compiled
-    """Per row k of R (centred reduced wrenches): where its stored vertex (tight columns
-    ``starts[k]`` and the other columns' bounds ``signs[k]``, as :func:`gamma_rows_from`
-    leaves them: say a walk's on this zonotope in an earlier call) is gamma's unique optimum
-    below ``cap``, its direction y goes to ``dirs[k]`` and ``found[k]`` is True: the
-    direction every walk to the optimum ends at (:func:`gamma_rows`' from the dual-metric
-    direction too, up to round-off), for one pass over G. Unique: every edge of the vertex
-    raises h strictly (|v|_inf < 1 - 1e-9 in :func:`~.walk.vertex_walk`'s terms, so no
-    other vertex ties); below cap: gamma = 1 / h(y) < (1 - 1e-9) cap, so no walk stops
-    earlier at a proof past cap. False elsewhere (no vertex, a singular basis, a tie, near
-    cap: such rows need a walk)."""
-    n, m = G.shape
-    M, Minv = np.zeros((n, n)), np.zeros((n, n))
-    tight = np.zeros(m, dtype=np.bool_)
-    T = np.zeros(max(n - 1, 1), dtype=np.int64)
-    s = np.zeros(n)
-    for k in range(R.shape[0]):
-        found[k] = False
-        usable = n > 1
-        for q in range(n - 1):
-            T[q] = starts[k, q]
-            usable = usable and 0 <= T[q] < m
-        if not usable or not vertex_basis(G, R[k], T, tight, M, Minv):
-            continue
-        h = 0.0
-        s[:] = 0.0
-        for j in range(m):
-            if tight[j]:
-                continue
-            acc = 0.0
-            for i in range(n):
-                acc += G[i, j] * Minv[i, 0]
-            h += abs(acc)
-            usable = usable and signs[k, j] != 0
-            for i in range(n):
-                s[i] += signs[k, j] * G[i, j]
-        worst = 0.0
-        for q in range(n - 1):
-            acc = 0.0
-            for i in range(n):
-                acc += s[i] * Minv[i, q + 1]
-            worst = max(worst, abs(acc))
-        if usable and worst < 1.0 - 1e-9 and 1.0 < (1.0 - 1e-9) * cap * h:  # r . y = 1
-            dirs[k] = Minv[:, 0]
-            found[k] = True
 
 
 @njit(cache=True)

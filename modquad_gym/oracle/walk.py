@@ -15,12 +15,14 @@ edge that releases the k-th tight column):
 * ``y`` is a separating direction when ``r . y > REJECT h(y)`` (gamma > 1 + TOL);
 * ``x_j = b_j / h(y)`` off T and ``x_k = -v_k / h(y)`` on T solve G x = r, with
   ``|x|_inf = max(1, |v|_inf) / h(y)``: an allocation, which accepts when at most ACCEPT;
-* ``|v|_inf <= 1`` is optimality: both bounds meet at gamma = 1 / h(y).
+* ``|v|_inf <= 1`` is optimality (to round-off, 1e-13): both bounds meet at gamma = 1 / h(y).
 
 The walk starts from a direction (the caller's: the dual-metric direction of the minimum-norm
 allocation), reaching a first vertex by exact line searches along the projected gradient of h.
 Its answers are *candidates*: :mod:`.kernels` checks each one in float64, so round-off or the
-pivot limit here can only leave a wrench to the exact LP, never change a decision.
+pivot limit here can only leave a wrench to the exact LP, never change a decision (nor a gamma:
+one is taken only where the bounds of x and y agree, :data:`~.kernels.GAP`). A column along the
+edge to working accuracy never enters the tight set (its basis would be singular).
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ MAX_PIVOTS = 64
 
 _TINY = 1e-13  # relative size below which a projected gradient or a pivot counts as zero
 _ZERO = 1e-12  # relative size of g_j . y below which column j lies on y's hyperplane
+_PIVOT = 1e-9  # relative size of g_j . d below which column j cannot enter along d
 _PERTURB = 1e-30  # the perturbed distance to a hyperplane that y lies on (anti-cycling)
 
 
@@ -90,16 +93,21 @@ def _pass(G, norms, y, tight, bound, a, s, b):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _line_search(G, tight, bound, a, d, slope, c, alpha, order):  # pragma: no cover
+def _line_search(G, norms, tight, bound, a, d, slope, c, alpha, order):  # pragma: no cover
     """The long-step ratio test along d from a slope < 0 of h: the column whose breakpoint turns
     the slope >= 0 (it enters the tight set) and the step; the bounds of the columns passed on
-    the way are flipped. (-1, 0) when the slope never turns (round-off)."""
+    the way are flipped. (-1, 0) when the slope never turns (round-off). A column with
+    |g_j . d| within _PIVOT of |g_j|_1 |d|_inf lies along d to working accuracy: it never
+    enters (its basis would be singular to working accuracy, its inverse noise)."""
     m = G.shape[1]
+    dmax = 0.0
+    for i in range(len(d)):
+        dmax = max(dmax, abs(d[i]))
     _along(G, d, c)
     k = 0
     for j in range(m):
         acc = c[j]
-        if tight[j] or acc == 0.0:
+        if tight[j] or abs(acc) <= _PIVOT * norms[j] * dmax:
             continue
         if a[j] == 0.0:  # leaves its bound at once; ties broken by a fixed perturbation
             ahead = (acc > 0.0) != (bound[j] > 0.0)
@@ -193,19 +201,21 @@ def _crash(G, norms, r, y, T, reject, work):  # pragma: no cover - compiled
         for i in range(n):
             d[i] = -s[i]
         slope = -_project_off(basis, k + 1, d, n)
-        trial = 0
-        while slope >= -_TINY and trial < n:  # flat: walk to the nearest hyperplane instead
-            for i in range(n):
-                d[i] = 1.0 if i == trial else 0.0
-            trial += 1
-            slope = -1e-300 if _project_off(basis, k + 1, d, n) > _TINY else 0.0
+        if slope >= -_TINY:  # flat: to the nearest hyperplane along the first axis left free
+            slope = 0.0
+            for trial in range(n):
+                for i in range(n):
+                    d[i] = 1.0 if i == trial else 0.0
+                if _project_off(basis, k + 1, d, n) > _TINY:
+                    slope = -1e-300
+                    break
         if slope == 0.0:
             return -1
-        j, step = _line_search(G, tight, bound, a, d, slope, c, alpha, order)
+        j, step = _line_search(G, norms, tight, bound, a, d, slope, c, alpha, order)
         if j < 0 and slope == -1e-300:
             for i in range(n):
                 d[i] = -d[i]
-            j, step = _line_search(G, tight, bound, a, d, slope, c, alpha, order)
+            j, step = _line_search(G, norms, tight, bound, a, d, slope, c, alpha, order)
         if j < 0:
             return -1
         for i in range(n):
@@ -302,7 +312,8 @@ def _pivots(G, norms, r, y, x, accept, reject, work):  # pragma: no cover - comp
             ry += r[i] * y[i]
         if ry > reject * h:
             return 0
-        # the leaving column: out of bounds, the most per length of its edge (steepest edge)
+        # the leaving column: out of bounds beyond round-off (_TINY), the most per length of its
+        # edge (steepest edge)
         worst, kq, best = 1.0, -1, 0.0
         for k in range(n - 1):
             acc, norm2 = 0.0, 0.0
@@ -311,7 +322,7 @@ def _pivots(G, norms, r, y, x, accept, reject, work):  # pragma: no cover - comp
                 norm2 += Minv[i, k + 1] ** 2
             v[k] = acc
             worst = max(worst, abs(acc))
-            if abs(acc) > 1.0 and (abs(acc) - 1.0) ** 2 > best * norm2:
+            if abs(acc) > 1.0 + _TINY and (abs(acc) - 1.0) ** 2 > best * norm2:
                 kq, best = k, (abs(acc) - 1.0) ** 2 / norm2
         if worst < accept * h or kq < 0:  # the allocation of this vertex: |x| = worst / h
             for j in range(m):
@@ -323,7 +334,7 @@ def _pivots(G, norms, r, y, x, accept, reject, work):  # pragma: no cover - comp
         for i in range(n):
             d[i] = sign * Minv[i, kq + 1]
         # the released column adds 1 to the slope and leaves at the bound it moves towards
-        j, _ = _line_search(G, tight, bound, a, d, 1.0 - abs(v[kq]), c, alpha, order)
+        j, _ = _line_search(G, norms, tight, bound, a, d, 1.0 - abs(v[kq]), c, alpha, order)
         if j < 0:
             return -1
         tight[T[kq]] = False

@@ -195,8 +195,8 @@ def parent_directions(ep: Episode, state: AssemblyState) -> np.ndarray:
 
     Where ``state``'s exact entries left a walk's optimal vertex (:func:`inherited`) that is
     the unique optimum below the clip, its direction is that walk's end (up to round-off):
-    read off the vertex (:func:`~modquad_gym.oracle.kernels.vertex_directions`), not walked."""
-    from modquad_gym.oracle import kernels
+    read off the vertex (:func:`~modquad_gym.oracle.vertices.vertex_directions`), not walked."""
+    from modquad_gym.oracle import vertices
     from modquad_gym.oracle.compiled import gamma_compiled
 
     ev = ep.evaluator
@@ -209,7 +209,7 @@ def parent_directions(ep: Episode, state: AssemblyState) -> np.ndarray:
     dirs, found = np.zeros((len(on), z.rank)), np.zeros(len(on), dtype=bool)
     walks = inherited(ep, state)
     if walks is not None and walks[0].shape == (len(W), max(z.rank - 1, 1)):
-        kernels.vertex_directions(z.G, R[on], walks[0][on], walks[1][on], CLIP_GAMMA, dirs, found)
+        vertices.vertex_directions(z.G, R[on], walks[0][on], walks[1][on], CLIP_GAMMA, dirs, found)
     rest = np.flatnonzero(~found)
     if len(rest):
         walked = np.zeros((len(rest), z.rank))
