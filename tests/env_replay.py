@@ -1,7 +1,9 @@
 """Seeded episodes of the assembly environment, recorded to ``tests/data/env_replay.npz``.
 
 The replay test (``test_env_replay.py``) plays the same episodes with the current code and
-compares observations, rewards, end flags and selected info entries exactly with the recording.
+compares observations, rewards, end flags and selected info entries with the recording: discrete
+entries exactly, floating-point ones within the tolerances it states (bit for bit only between
+two runs on one machine).
 Re-record only for a deliberate behaviour change, said in ``CHANGELOG.md`` (a change of the
 episodes themselves needs a new version id): ``PYTHONPATH=$PWD python tests/env_replay.py``.
 Last re-recorded when terminal masks stopped being all zero: every other entry of every event
