@@ -201,3 +201,32 @@ def test_optima_level_bars_only_for_a_search_in_this_process(
     sources = [(f"t{i}", generated_task("planted", i, n_modules=2)) for i in range(n_tasks)]
     build_dataset(sources, tmp_path / "o.jsonl", 3, engine, progress=progress)
     assert asked["progress"] is shown and asked["bar"] is progress
+
+
+def test_the_hover_bar_never_passes_its_total(monkeypatch):
+    """Segments' seconds summed in floats may pass the total by round-off: the bar stops at
+    it (past it by less than half a unit, tqdm warns "clamping frac to range [0, 1]")."""
+    import tqdm.auto
+
+    from modquad_gym.sim.hover import HoverConfig
+    from modquad_gym.sim.hover.run import hover_bar
+
+    bars = []
+
+    class Bar:
+        def __init__(self, total, **kwargs):
+            self.total, self.n = total, 0.0
+            bars.append(self)
+
+        def update(self, k):
+            self.n += k
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr(tqdm.auto, "tqdm", Bar)
+    config = HoverConfig(seconds_per_wrench=0.1, takeoff_seconds=0.1)
+    with hover_bar(True, config, [3]) as moved:
+        for _ in range(4):  # the take-off and three segments, each a little long
+            moved(0.1 * (1 + 1e-12))
+    assert bars[0].n == pytest.approx(bars[0].total) and bars[0].n <= bars[0].total

@@ -195,7 +195,7 @@ def hover_bar(progress: bool, config: HoverConfig, segments: list[int]) -> Itera
     bar = tqdm(total=total, desc="hover", leave=False,
                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} simulated s "
                "[{elapsed}<{remaining}]")  # fmt: skip
-    try:
-        yield bar.update
+    try:  # never past the total: the segments' seconds, summed, may pass it by round-off
+        yield lambda seconds: bar.update(min(seconds, bar.total - bar.n))
     finally:
         bar.close()
