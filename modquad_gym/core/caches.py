@@ -16,6 +16,10 @@ make it first; numba's cache index files are pickles, which would then run their
 process. A folder there is adopted only when it is a real folder (no link) owned by this user
 and writable by nobody else (:func:`private`); otherwise a fresh ``tempfile.mkdtemp`` folder
 serves this run, and the note says why.
+
+numba checks a cached kernel against its own source file only, not against the compiled
+functions and constants of other files linked into it; so, last, the import deletes this
+package's cached kernels wherever those sources changed (:mod:`.kernel_caches`).
 """
 
 from __future__ import annotations
@@ -28,7 +32,11 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
+from modquad_gym.core.kernel_caches import numba_user_folder, refresh
+
 PACKAGE = Path(__file__).resolve().parents[1]
+SOURCES = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+"""The package folder as numba names its sources' folders (not resolved: their ``__file__``)."""
 
 
 def _writable(folder: Path) -> bool:
@@ -39,15 +47,6 @@ def _writable(folder: Path) -> bool:
     except OSError:
         return False
     return True
-
-
-def numba_user_folder() -> Path:
-    """numba's user-wide cache folder: its ``AppDirs(appname="numba", appauthor=False)``, the
-    rule platformdirs keeps (``$XDG_CACHE_HOME/numba`` or ``~/.cache/numba`` on Linux,
-    ``~/Library/Caches/numba`` on macOS)."""
-    import platformdirs  # only when the package folder is not writable (rare): 5 ms
-
-    return Path(platformdirs.user_cache_dir("numba", appauthor=False))
 
 
 def matplotlib_folder() -> Path:
@@ -207,3 +206,5 @@ def check_settings() -> None:
 check_settings()
 CHOSEN = configure()
 """The variables set at import (empty when the libraries' own places serve)."""
+with contextlib.suppress(OSError):  # never stop the import: at worst numba's own rule holds
+    refresh(SOURCES)
