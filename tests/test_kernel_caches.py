@@ -251,3 +251,89 @@ def test_a_callee_change_reaches_the_cached_caller(tmp_path):
     assert run_copy(tiny, code, tmp_path) == "1"
     (tiny / "pkg" / "consts.py").write_text("K = 7\n")
     assert run_copy(tiny, code, tmp_path) == "7"
+
+
+def test_the_stamp_is_as_readable_as_any_file_the_user_makes(tmp_path):
+    """Another user of a shared install reads the stamp (0600 made them purge each other's
+    kernels at every import): its mode is 0666 less the umask."""
+    root = fake_package(tmp_path)
+    old = os.umask(0o022)
+    try:
+        run_refresh(root)
+    finally:
+        os.umask(old)
+    assert (root / "__pycache__" / kc.STAMP).stat().st_mode & 0o777 == 0o644
+
+
+def test_a_stamp_path_that_is_no_file_leaves_its_folder_alone(tmp_path):
+    """A FIFO at the stamp path: the import does not wait on it (a process with a time
+    limit), deletes nothing there and leaves the FIFO; a directory likewise, at every run."""
+    root = fake_package(tmp_path)
+    cache = root / "__pycache__"
+    stale = touch(cache, f"a.f-6.{PY}.nbi")[0]
+    os.mkfifo(cache / kc.STAMP)
+    code = (
+        f"from modquad_gym.core.kernel_caches import refresh\nprint(refresh({str(root)!r}, {{}}))"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(SOURCES).parent)}
+    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         timeout=60)  # fmt: skip
+    assert (run.returncode, run.stdout.strip()) == (0, "[]"), run.stderr
+    assert stale.exists() and (cache / kc.STAMP).is_fifo()
+    (cache / kc.STAMP).unlink()
+    (cache / kc.STAMP).mkdir()
+    assert run_refresh(root) == set() and run_refresh(root) == set() and stale.exists()
+
+
+def test_a_stamp_over_the_size_bound_is_not_one(tmp_path):
+    """A stamp padded past MAX_STAMP (its header still valid) is not read: the folder is
+    purged and a stamp of a few hundred bytes written."""
+    root = fake_package(tmp_path)
+    run_refresh(root)
+    cache = root / "__pycache__"
+    stale = touch(cache, f"a.f-6.{PY}.nbi")[0]
+    with open(cache / kc.STAMP, "ab") as stamp:
+        stamp.truncate(kc.MAX_STAMP + 1)
+    assert kc.read_stamp(str(cache)) == {}
+    assert run_refresh(root) == {stale.name}
+    assert (cache / kc.STAMP).stat().st_size < 1000
+
+
+def linked_package(tmp_path: Path) -> tuple[Path, Path]:
+    """pkg/ whose only kernel lives in sub/, a link to a folder outside it (with a link back
+    to pkg inside: a loop)."""
+    root = tmp_path / "pkg"
+    root.mkdir()
+    (root / "__init__.py").write_text("")
+    (root / "consts.py").write_text("K = 1\n")
+    real = tmp_path / "real_sub"
+    real.mkdir()
+    (real / "__init__.py").write_text("")
+    (real / "k.py").write_text(CALLER + "    return K\n")
+    (real / "back").symlink_to(root)
+    (root / "sub").symlink_to(real)
+    return root, real
+
+
+def test_a_linked_source_folder_is_digested_and_purged(tmp_path):
+    """Python imports pkg.sub through its link and numba caches beside it: its kernel is in the
+    digest, and a change of the constant it reads deletes its cache files there."""
+    root, real = linked_package(tmp_path)
+    assert kc.scan(str(root))[0] == {".": ["__init__", "consts"], "sub": ["__init__", "k"]}
+    run_refresh(root)
+    stale = touch(real / "__pycache__", f"k.f-6.{PY}.nbi")[0]
+    assert run_refresh(root) == set()
+    (root / "consts.py").write_text("K = 2\n")
+    assert run_refresh(root) == {stale.name} and not stale.exists()
+
+
+def test_no_cache_folder_is_made_where_numba_caches_nothing(tmp_path):
+    """With NUMBA_CACHE_DIR only the kernel folder's subfolder is made (not the package
+    root's), and an import where nothing changed stays on the fast path with it."""
+    root, _ = linked_package(tmp_path)
+    chosen = tmp_path / "numba-cache"
+    environ = {"NUMBA_CACHE_DIR": str(chosen)}
+    run_refresh(root, environ)
+    assert [p.name.rpartition("_")[0] for p in chosen.iterdir()] == ["sub"]
+    assert not (root / "__pycache__").exists()
+    assert kc._fresh(str(root), kc.scan(str(root))[0], kc.scan(str(root))[1], environ)[0]

@@ -13,13 +13,19 @@ from where it is defined or re-exported there (``tests/test_kernel_caches.py`` c
 Each folder numba caches this package's modules in (:func:`location`: ``NUMBA_CACHE_DIR`` when
 set, else the ``__pycache__`` beside the sources when writable, else numba's user folder) holds
 a stamp, :data:`STAMP`, with that digest. Where the stamp's digest differs (or there is no
-stamp), the ``*.nbi``/``*.nbc`` files numba names after this package's modules there are
-deleted (nothing else, and no link) and the stamp is written anew, atomically: the next call of
-a kernel compiles it again. A stamp also keeps the sizes and times of every ``.py`` file, so an
-import where none changed reads no source (about a millisecond); a changed time with the same
-contents deletes nothing. Two processes importing at once both stay correct (a file already
-deleted is skipped). A cache folder that is a link is left alone; a process that kept running
-old code across a change can still write old kernels after the purge (restart it).
+stamp), the ``*.nbi``/``*.nbc`` files numba names after this package's modules there are deleted
+(nothing else, and no link) and the stamp is written anew, atomically, readable as any file the
+user makes (the umask's mode), so the users of a shared install agree: the next call of a kernel
+compiles it again. Only folders numba caches kernels in get a stamp (none is created for the
+rest); the first stamp found, folder by folder, names the others. A stamp also keeps the sizes
+and times of every ``.py`` file, so an import where none changed reads no source (about a
+millisecond); a changed time with the same contents deletes nothing. Two processes importing at
+once both stay correct (a file already deleted is skipped). A cache folder that is a link is
+left alone; a process that kept running old code across a change can still write old kernels
+after the purge (restart it). A source folder that is a link is followed (Python imports through
+it, numba caches beside it). A folder whose stamp path is not a regular file (a directory, a
+FIFO, a link) is left alone: no stamp can be kept there, so it is never purged; a stamp over
+:data:`MAX_STAMP` bytes is not one.
 """
 
 from __future__ import annotations
@@ -27,7 +33,7 @@ from __future__ import annotations
 import contextlib
 import os
 import re
-import tempfile
+import stat
 import zlib
 from pathlib import Path
 
@@ -38,6 +44,9 @@ CACHE_FILE = r"([A-Za-z_]\w*)\.\S+-\d+\.py\d+[a-z]*(?:\.nbi|\.\d+\.nbc)"
 """numba's names for the cache files of module M: ``M.<qualname>-<line>.py<XY><abiflags>.nbi``
 (the index) and ``...<n>.nbc`` (the data); group 1 is the module's file name."""
 
+MAX_STAMP = 64 * 1024
+"""The largest stamp read (a real one is a few hundred bytes)."""
+
 
 def scan(root: str) -> tuple[dict[str, list[str]], str]:
     """({folder relative to root ("." for root, "/"-separated): its modules' names}, a
@@ -45,14 +54,18 @@ def scan(root: str) -> tuple[dict[str, list[str]], str]:
     folders: dict[str, list[str]] = {}
     stats = []
     pending = ["."]
+    seen = {os.path.realpath(root)}  # a linked folder is followed once (no loop)
     while pending:
         rel = pending.pop()
         stems = []
         with os.scandir(os.path.join(root, rel)) as entries:
             for entry in entries:
-                if entry.is_dir(follow_symlinks=False):
+                if entry.is_dir():
+                    real = os.path.realpath(entry.path)
                     if entry.name != "__pycache__" and not entry.name.startswith("."):
-                        pending.append(entry.name if rel == "." else f"{rel}/{entry.name}")
+                        if real not in seen:
+                            seen.add(real)
+                            pending.append(entry.name if rel == "." else f"{rel}/{entry.name}")
                 elif entry.name.endswith(".py"):
                     info = entry.stat()
                     stems.append(entry.name[:-3])
@@ -124,13 +137,32 @@ def location(folder: str, environ=os.environ) -> str:
     return os.path.join(chosen, sub)
 
 
-def read_stamp(place: str) -> dict[str, str]:
-    """The stamp in cache folder ``place`` ({} when there is none or it is not one)."""
+def blocked(place: str) -> bool:
+    """Whether the stamp path in ``place`` is something other than a regular file (no stamp
+    can be written there)."""
     try:
-        with open(os.path.join(place, STAMP), encoding="utf-8") as file:
-            lines = file.read().splitlines()
+        return not stat.S_ISREG(os.lstat(os.path.join(place, STAMP)).st_mode)
+    except OSError:
+        return False
+
+
+def read_stamp(place: str) -> dict[str, str]:
+    """The stamp in cache folder ``place`` ({} when there is none or it is not one: only a
+    regular file of at most :data:`MAX_STAMP` bytes is read, never waiting on a FIFO)."""
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOFOLLOW", 0)
+    try:
+        handle = os.open(os.path.join(place, STAMP), flags)
+    except OSError:
+        return {}
+    try:
+        info = os.fstat(handle)
+        if not stat.S_ISREG(info.st_mode) or info.st_size > MAX_STAMP:
+            return {}
+        lines = os.read(handle, MAX_STAMP + 1).decode("utf-8").splitlines()
     except (OSError, UnicodeDecodeError):
         return {}
+    finally:
+        os.close(handle)
     fields = dict(line.partition(" ")[::2] for line in lines[1:])
     return fields if lines[:1] == ["modquad_gym compiled sources"] else {}
 
@@ -139,9 +171,10 @@ def write_stamp(place: str, fields: dict[str, str]) -> None:
     """Write the stamp in ``place`` atomically (a temporary file renamed over it); nothing when
     the folder cannot be written."""
     text = "".join(f"{key} {value}\n" for key, value in fields.items())
+    temporary = os.path.join(place, f".{STAMP}.{os.getpid()}.{os.urandom(6).hex()}")
     try:
         os.makedirs(place, exist_ok=True)
-        handle, temporary = tempfile.mkstemp(prefix=f".{STAMP}.", dir=place)
+        handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # the umask's
     except OSError:
         return
     try:
@@ -179,14 +212,24 @@ def _folder(root: str, rel: str) -> str:
     return root if rel == "." else os.path.join(root, *rel.split("/"))
 
 
-def _fresh(root: str, stats: str, environ) -> tuple[bool, dict[str, str]]:
-    """(whether every stamp the last refresh wrote still holds ``stats``, the root's stamp)."""
-    anchor = read_stamp(location(root, environ))
+def _left_alone(place: str) -> bool:
+    """Whether cache folder ``place`` is not ours to change: a link, or its stamp path blocked."""
+    return os.path.islink(place) or blocked(place)
+
+
+def _fresh(root: str, folders: dict, stats: str, environ) -> tuple[bool, dict[str, str]]:
+    """(whether every stamp the last refresh wrote still holds ``stats``, the first stamp
+    found in the folders of ``folders``, in order: it names the others)."""
+    anchor: dict[str, str] = {}
+    for rel in sorted(folders):
+        place = location(_folder(root, rel), environ)
+        if not _left_alone(place) and (anchor := read_stamp(place)):
+            break
     if anchor.get("stats") != stats:
         return False, anchor
     for rel in anchor.get("folders", "").split():
         place = location(_folder(root, rel), environ)
-        if os.path.islink(place) or read_stamp(place).get("stats") != stats:
+        if not _left_alone(place) and read_stamp(place).get("stats") != stats:
             return False, anchor
     return True, anchor
 
@@ -195,7 +238,7 @@ def refresh(root: str, environ=os.environ) -> list[str]:
     """Delete the cache files of the package at ``root`` compiled from other sources than its
     present ones (the module's docstring); the paths deleted."""
     folders, stats = scan(root)
-    fresh, anchor = _fresh(root, stats, environ)
+    fresh, anchor = _fresh(root, folders, stats, environ)
     if fresh:
         return []
     import hashlib  # only after a change (2 ms)
@@ -211,11 +254,11 @@ def refresh(root: str, environ=os.environ) -> list[str]:
         if rel not in folders:
             continue
         place = location(_folder(root, rel), environ)
-        if os.path.islink(place):
+        if _left_alone(place):
             continue
         if read_stamp(place).get("sources") != fields["sources"]:
             removed += purge(place, folders[rel])
-        if rel in cached or rel == ".":
+        if rel in cached:
             write_stamp(place, fields)
         else:
             with contextlib.suppress(OSError):

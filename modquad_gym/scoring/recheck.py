@@ -3,8 +3,9 @@
 An outside agent runs in the scorer's process (docs/benchmarks.md, protocol item 2), so it can
 replace the scorer's own check (``judged`` of :mod:`.agents`, ``verified`` of :mod:`.verdicts`)
 and have any answer counted. :func:`recheck` therefore hands every success row, its cells and
-the suite it comes from to a new interpreter (``multiprocessing``'s ``spawn`` context: it
-imports modquad_gym and never the agent's module), which reads each task again from its suite
+the suite it comes from to a new interpreter (``python -m modquad_gym.scoring.recheck_child``,
+the rows as JSON on its input, run from the package's own folder: it imports modquad_gym and
+never the agent's module nor the caller's ``__main__``), which reads each task again from its suite
 file (or draws the validation task again from its seed), rebuilds the structure from the row's
 cells on the tier's module types and decides it with the exact oracle, the ``fault`` included.
 One disagreement stops the run before anything is written. What the fresh process cannot see
@@ -14,7 +15,10 @@ process.
 
 from __future__ import annotations
 
-import multiprocessing
+import json
+import os
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -56,9 +60,7 @@ def recheck(rows: list[Row], per_task: int, sources: dict[str, Source], n_max: i
             wins.append((r.suite, place // per_task, r.task, r.method, r.n_modules, r.cells))
     if not wins:
         return 0, 0.0
-    context = multiprocessing.get_context("spawn")
-    with context.Pool(1) as pool:
-        verdicts = pool.apply(verdicts_of, (wins, sources, n_max, modules, fault))
+    verdicts = _in_fresh_process(wins, sources, n_max, modules, fault)
     for (suite, _, task, method, *_), why in zip(wins, verdicts):
         if why:
             raise ValueError(
@@ -66,6 +68,33 @@ def recheck(rows: list[Row], per_task: int, sources: dict[str, Source], n_max: i
                 "fresh process; nothing written)"
             )
     return len(wins), time.perf_counter() - t0
+
+
+def _in_fresh_process(wins, sources, n_max, modules, fault) -> list[str]:
+    """:func:`verdicts_of` in a new interpreter started in the folder holding this package
+    (so it imports this modquad_gym, and nothing of the caller's folder); ValueError when it
+    fails."""
+    absolute = {
+        k: (v[0], os.path.abspath(v[1])) if v[0] == "file" else v for k, v in sources.items()
+    }
+    given = dict(wins=wins, sources=absolute, n_max=n_max, modules=modules, fault=fault)
+    text = json.dumps(given, default=lambda o: o.tolist())  # numpy numbers as Python's
+    home = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    run = subprocess.run(
+        [sys.executable, "-m", "modquad_gym.scoring.recheck_child"], input=text, cwd=home,
+        capture_output=True, text=True,
+    )  # fmt: skip
+    try:
+        verdicts = json.loads(run.stdout.strip().splitlines()[-1]) if run.returncode == 0 else None
+    except (IndexError, ValueError):
+        verdicts = None
+    if not isinstance(verdicts, list) or len(verdicts) != len(wins):
+        why = (run.stderr.strip().splitlines() or [f"exit code {run.returncode}"])[-1]
+        raise ValueError(
+            f"{REFUSED}: the fresh process that re-checks the answers failed: {why} "
+            "(nothing written)"
+        )
+    return verdicts
 
 
 def verdicts_of(wins: list[tuple], sources: dict[str, Source], n_max: int,

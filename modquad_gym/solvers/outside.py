@@ -264,6 +264,11 @@ def load_solver(
     module_name, sep, attr = spec.partition(":")
     if not sep or not module_name or not attr:
         raise ValueError(f"--solver {spec!r}: write it as package.module:Name")
+    if "/" in module_name or "\\" in module_name or module_name.endswith(".py"):  # not run
+        raise ValueError(
+            f"--solver {spec!r}: a file path is not accepted; give module:Name, the module "
+            "importable from the current folder (myagent:Agent for ./myagent.py)"
+        )
     if module_name.split(".")[0] in sys.stdlib_module_names:  # os:system is not an agent
         raise ValueError(f"--solver {spec!r}: {module_name} is a standard-library module")
     if "" not in sys.path and str(Path.cwd()) not in sys.path:
