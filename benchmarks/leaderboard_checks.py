@@ -150,29 +150,25 @@ def _one_type() -> list:
 def _answer(text: str, types: list | None, where: str):
     """The structure a row's ``cells`` write (``x,y`` each, ``x,y,k`` with the index k of its
     type in the tier's palette), None for none; ValueError naming ``where`` otherwise."""
-    from modquad_gym.geometry.structure import Structure
+    from modquad_gym.core.options import parse_integer
+    from modquad_gym.scoring.verdicts import structure_from
 
     if not text:
         return None
-    width = 2 if types is None else 3
     try:
-        cells = [[int(v) for v in c.split(",")] for c in text.split(";")]
-        if any(len(c) != width for c in cells):
-            raise ValueError(f"each cell is {'x,y' if types is None else 'x,y,type index'}")
-        if types is None:
-            return Structure([tuple(c) for c in cells], module=_one_type()[0])
-        if any(not 0 <= c[2] < len(types) for c in cells):
-            raise ValueError(f"a type index is not one of the {len(types)} types")
-        return Structure([(x, y) for x, y, _ in cells], modules=[types[k] for *_, k in cells])
+        cells = [[parse_integer(v) for v in c.split(",")] for c in text.split(";")]
+        return structure_from(cells, types or _one_type(), typed=types is not None)
     except ValueError as err:
         raise ValueError(f"{where}: cells {text!r}: {err}") from None
 
 
 def _number(r: dict, key: str, where: str, whole: bool) -> float:
     """Column ``key`` of record ``r``: a finite number >= 0 (a whole one for a count)."""
+    from modquad_gym.core.options import parse_real
+
     try:
-        v = float(r[key])
-    except (TypeError, ValueError):
+        v = parse_real(r[key])
+    except ValueError:
         v = math.nan
     if not (math.isfinite(v) and v >= 0 and (v.is_integer() or not whole)):
         what = "a count" if whole else "seconds"

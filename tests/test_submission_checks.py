@@ -174,3 +174,24 @@ def test_an_outside_agents_time_is_marked_self_reported(tmp_path):
     assert "not measured again here" in section
     committed = (ROOT / "docs" / "leaderboard.md").read_text()
     assert "they are not measured again" in committed and "identical seeds" in committed
+
+
+@pytest.mark.parametrize(
+    "column, value, says",
+    [
+        ("cells", "{digits}", r"cells '.*': expected an integer, got '\u0660'"),
+        ("cells", "0,0,0", "cells '0,0,0': each cell is x,y$"),
+        ("cells", "0_0,0", "cells '0_0,0': expected an integer, got '0_0'"),
+        ("evaluated", "\u0661\u0662", r"evaluated '\u0661\u0662' is not a count"),
+        ("seconds", "1_0", "seconds '1_0' is not seconds"),
+        ("seconds", "nan", "seconds 'nan' is not seconds"),
+    ],
+)
+def test_a_submitted_number_follows_the_one_number_rule(column, value, says, tmp_path):
+    rows = _as(_report("exhaustive")[:3], 0)
+    if value == "{digits}":  # the first cell's x in another script's digits
+        value = "\u0660" + rows[0]["cells"][1:] if rows[0]["cells"][0] == "0" else None
+        assert value is not None, rows[0]["cells"]
+    path = _write(tmp_path / "digits.csv", [dict(rows[0], **{column: value})] + rows[1:])
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: row 1 \(line 2\): {says}"):
+        _entries(path)

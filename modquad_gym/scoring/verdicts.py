@@ -9,7 +9,15 @@ from __future__ import annotations
 from modquad_gym.search import verified
 from modquad_gym.solvers.answers import NotAllowedError, rebuilt
 
-__all__ = ["answer_cells", "certified", "judged", "plain_answer", "structure_of", "survives"]
+__all__ = [
+    "answer_cells",
+    "certified",
+    "judged",
+    "plain_answer",
+    "structure_from",
+    "structure_of",
+    "survives",
+]
 
 
 def certified(meta: dict, fault: str | None) -> bool:
@@ -56,11 +64,29 @@ def structure_of(cells: list | None, types: list, typed: bool):
     """The structure a row's ``cells`` describe on ``types`` (``[x, y]`` each, of the first
     type; ``[x, y, k]`` when ``typed``, k the index of its type), or None when they describe
     none."""
+    try:
+        return structure_from(cells, types, typed)
+    except ValueError:
+        return None
+
+
+def structure_from(cells: list, types: list, typed: bool):
+    """:func:`structure_of`'s structure, or a ValueError that says what is wrong with
+    ``cells`` (the leaderboard's checks name the row)."""
     from modquad_gym.geometry.structure import Structure
 
+    width = 3 if typed else 2
+    if not isinstance(cells, list) or not cells:
+        raise ValueError("no cells")
+    if any(not isinstance(c, list | tuple) or len(c) != width for c in cells):
+        raise ValueError(f"each cell is {'x,y,type index' if typed else 'x,y'}")
+    if any(type(v) is not int for c in cells for v in c):
+        raise ValueError("each coordinate and type index is an integer")
+    if typed and any(not 0 <= c[2] < len(types) for c in cells):
+        raise ValueError(f"a type index is not one of the {len(types)} types")
     try:
         if typed:
             return Structure([(x, y) for x, y, _ in cells], modules=[types[k] for *_, k in cells])
         return Structure([(x, y) for x, y in cells], module=types[0])
-    except (TypeError, ValueError, IndexError):
-        return None
+    except (TypeError, ValueError) as err:
+        raise ValueError(str(err)) from None
