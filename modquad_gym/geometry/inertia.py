@@ -8,8 +8,8 @@ COM (the origin of {S}), by the parallel-axis theorem,
     J = sum_i [ J_i + m_i (|c_i|^2 I - c_i c_i^T) ].
 
 Module centres lie in the plane z = 0, so the sums reduce to those of x^2, y^2 and x y.
-Inertia vectors ``(Jxx, Jyy, Jzz, Jxy, Jxz, Jyz)`` (:data:`INERTIA_COMPONENTS`) are what the
-searches carry: a task's wrenches are linear in them (:mod:`modquad_gym.dynamics`).
+Inertia vectors ``(Jxx, Jyy, Jzz, Jxy, Jxz, Jyz)``, in this order, are what the searches
+carry: a task's wrenches are linear in them (:mod:`modquad_gym.dynamics`).
 """
 
 from __future__ import annotations
@@ -19,9 +19,6 @@ from collections.abc import Sequence
 import numpy as np
 
 from modquad_gym.geometry.module import ModuleType
-
-INERTIA_COMPONENTS = ("Jxx", "Jyy", "Jzz", "Jxy", "Jxz", "Jyz")
-"""The order of an inertia vector's six entries."""
 
 _IDX = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
@@ -39,7 +36,7 @@ def inertia_about_com(
 
 
 def to_vector(J: np.ndarray) -> np.ndarray:
-    """(..., 6) inertia vectors of (..., 3, 3) tensors (:data:`INERTIA_COMPONENTS`)."""
+    """(..., 6) inertia vectors of (..., 3, 3) tensors (the order above)."""
     J = np.asarray(J, dtype=float)
     return np.stack([J[..., i, j] for i, j in _IDX], axis=-1)
 

@@ -291,10 +291,6 @@ class Structure:
         """Rank of A = number of actuated degrees of freedom (ADOF)."""
         return int(np.linalg.matrix_rank(self._A, tol=1e-9))
 
-    @property
-    def actuated_dof(self) -> int:
-        return self.rank
-
     def is_torque_balanced(self, atol: float = 1e-9) -> bool:
         """True when equal thrust on every rotor gives zero torque (A . 1 has no torque)."""
         return bool(np.all(np.abs(self._A[3:].sum(axis=1)) <= atol))

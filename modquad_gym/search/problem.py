@@ -239,10 +239,6 @@ class SearchProblem:
             return min(0.1 * time_limit, 2.0)
         return min(0.25 * time_limit, 10.0)
 
-    def with_fault(self, fault: str | None) -> SearchProblem:
-        """The same problem with another single failure to survive (None: none)."""
-        return self.replace(fault=fault)
-
 
 class _Default(int):
     """The default budget, 7, told apart from a 7 the caller gave (a 7 given beside a problem
