@@ -33,6 +33,9 @@ MAX_LENGTH = 10.0
 """Most metres of a module's side, rotor positions and drag ratio: the checker's tolerances
 cover the round-off of torque arms up to there (a rotor at 100 km along its own thrust axis has
 a torque arm of round-off alone; a module is well under a metre)."""
+UNIT_TOL = 1e-12
+"""How far a thrust direction's length may be from 1: the writer's are unit to round-off, and
+the columns' formula takes them as unit (a direction of length 0.5 is refused, not rescaled)."""
 TASK_KINDS = ("total", "external", "dynamic")
 """What a task's wrenches are: the rotors' total (base alone), the external wrench (the
 structure's weight added: per_mass too) or the Newton-Euler wrench of a motion (every term)."""
@@ -167,7 +170,7 @@ def module_types(types) -> dict:
 
 def _physical(t: dict, side: float, what: str) -> None:
     """A module type's numbers say one physical thing: a positive mass and side (the first
-    type's), lengths of at most :data:`MAX_LENGTH`, spins of +-1, non-zero thrust directions,
+    type's), lengths of at most :data:`MAX_LENGTH`, spins of +-1, unit thrust directions,
     a symmetric inertia matrix that is positive semi-definite (the checker reads its upper
     triangle)."""
     J, most = t["inertia"], f"must be at most {MAX_LENGTH:g} m"
@@ -180,8 +183,6 @@ def _physical(t: dict, side: float, what: str) -> None:
          t["positions"]),
         (t["side"] != side, "side", f"must be the first type's ({side!r})", t["side"]),
         (not np.all(np.abs(t["spins"]) == 1), "spins", "must each be 1 or -1", t["spins"]),
-        (not np.all(np.abs(t["directions"]).max(1) > 0), "directions", "rows must be non-zero",
-         t["directions"]),
         (np.any(J != J.T), "inertia", "must be symmetric", J),
         (np.linalg.eigvalsh(J).min() < -1e-12 * np.abs(J).max(), "inertia",
          "must be positive semi-definite", J),
@@ -190,6 +191,15 @@ def _physical(t: dict, side: float, what: str) -> None:
         if bad:
             shown = json.dumps(np.asarray(value).tolist())[:60]
             raise CertificateFormatError(f"{what}.{field}: {rule}, not {shown}")
+    with np.errstate(over="ignore"):  # a huge entry: an infinite length, refused
+        length = np.linalg.norm(t["directions"], axis=1)
+    off = np.flatnonzero(~(np.abs(length - 1.0) <= UNIT_TOL))  # NaN refused too
+    if len(off):
+        k = int(off[0])
+        raise CertificateFormatError(
+            f"{what}.directions[{k}]: rotor {k + 1}'s thrust direction must be a unit vector "
+            f"(length within {UNIT_TOL:g} of 1), not of length {length[k]:.17g}"
+        )
 
 
 def task_model(task) -> tuple:

@@ -22,6 +22,7 @@ from modquad_gym import proofcheck_format as pcf
 from modquad_gym import proofcheck_shapes as pcs
 from modquad_gym.geometry.module import STOCK_TYPES, palette
 from modquad_gym.geometry.polyominoes import A001168, PolyominoStream
+from modquad_gym.search import certificate_directions as separations
 from modquad_gym.search import certificates
 from modquad_gym.search.problem import SearchProblem
 from modquad_gym.tasks import load_suite
@@ -129,7 +130,7 @@ def test_separations_agree_with_the_oracle_on_random_structures():
             W = (A @ rng.uniform(-0.3, 1.3, (A.shape[1], 12))).T  # near the boundary, both sides
             ok = mq.feasible(A, W)
             for i in range(len(W)):
-                found = certificates._separate(A, W[i : i + 1], 1.0)
+                found = next(separations.candidates(A, W[i : i + 1], 1.0), None)
                 assert (found is None) == bool(ok[i])
                 if found is not None:
                     d = found[0][None]
@@ -402,9 +403,8 @@ def test_not_a_number_never_passes(paper):
         pc.check(c)
     c = copy.deepcopy(paper[0])
     c["types"][0]["directions"][0] = [0.0, 0.0, 0.0]
-    with pytest.raises(
-        pc.CertificateFormatError, match=r"types\[0\]\.directions: rows must be non-zero"
-    ):
+    unit = r"types\[0\]\.directions\[0\]: rotor 1's thrust direction must be a unit vector"
+    with pytest.raises(pc.CertificateFormatError, match=unit):
         pc.check(c)
     bounded = next(e for e in c["levels"] if "bound" in e)
     T = pc.Types(paper[0]["types"])

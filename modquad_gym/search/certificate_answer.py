@@ -55,7 +55,7 @@ def _allocate(A, W, size, f_max, keep) -> list:
         if off.any():
             raise CertificateError(f"the answer cannot exert wrench {rest[np.argmax(off)]}")
         for i, r in zip(rest, R):
-            u = (1.0 + _centred(z, r)) * (f_max / 2.0)
+            u = (1.0 + centred_allocation(z, r)) * (f_max / 2.0)
             U[i, keep] = u - pinv @ (B @ u - W[i])
     band = pc.THRUST_TOL * f_max
     outside = (U[:, keep] < -band).any(axis=1) | (U[:, keep] > f_max + band).any(axis=1)
@@ -70,7 +70,7 @@ def _allocate(A, W, size, f_max, keep) -> list:
     return U.tolist()
 
 
-def _centred(z, r: np.ndarray) -> np.ndarray:
+def centred_allocation(z, r: np.ndarray) -> np.ndarray:
     """The most centred allocation x (G x = r, |x|_inf = gamma) of one centred reduced wrench:
     the DAQP LP of the oracle (:mod:`modquad_gym.oracle.daqp_lp`), HiGHS when DAQP fails."""
     import daqp

@@ -10,9 +10,10 @@ search, the failure. Format: ``docs/certificates.md``.
 It is made after the search, from the problem and the answer alone (whichever search found it):
 the structures of each smaller level are taken in the checker's canonical order and each is
 separated by a direction already known, the ones left by the oracle's LP duals
-(:meth:`~modquad_gym.oracle.Zonotope.separating_direction`), which then serve the rest; every
-test is the checker's own formula (:func:`~modquad_gym.proofcheck.separation`), so a certificate
-made here passes the checker unless the answer is wrong.
+(:meth:`~modquad_gym.oracle.Zonotope.separating_direction`) or, where a dual is too weak for the
+strict test, by the wrench's own directions (:mod:`.certificate_directions`), which then serve
+the rest; every test is the checker's own formula (:func:`~modquad_gym.proofcheck.separation`),
+so a certificate made here passes the checker unless the answer is wrong.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from modquad_gym import proofcheck as pc
+from modquad_gym.search import certificate_directions as separations
 from modquad_gym.search.certificate_answer import CertificateError, answer
 
 MAX_STRUCTURES = 2_000_000
@@ -247,24 +249,24 @@ class _Prover:
             self._try(int(p), a, (W, S), alive, P, I)
         while alive.any():
             k = int(np.argmax(alive))
-            A = a[k].T
-            found = _separate(A, W[k], f_max)
-            if found is not None:
-                p = self._add(found[0])
+            worst: tuple = ()  # (excess, wrench) of the clearest miss tried
+            for d, wrench, excess in separations.candidates(a[k].T, W[k], f_max):
+                worst = max(worst, (excess, wrench))
+                p = self._add(d)
                 self._try(p, a, (W, S), alive, P, I)
-                if alive[k]:  # the LP's direction fails the strict test
+                if not alive[k]:
+                    break
+            else:  # no direction tried separates it intact: with a fault, one after a failure
+                what = f"the structure {cells[k].tolist()} (types {types[k].tolist()})"
+                if self.fault is None and worst:
+                    raise CertificateError(separations.too_close(what, *worst[::-1], STRICT))
+                if self.fault is None:
                     raise CertificateError(
-                        f"the separating direction of the structure {cells[k].tolist()} is "
-                        "too close to its boundary to certify"
+                        f"{what} of {len(cells[k])} modules satisfies the task: the answer is "
+                        "not a minimum"
                     )
-                continue
-            if self.fault is None:
-                raise CertificateError(
-                    f"the structure {cells[k].tolist()} (types {types[k].tolist()}) of "
-                    f"{len(cells[k])} modules satisfies the task: the answer is not a minimum"
-                )
-            P[k], I[k], F[k] = self._failure(a[k], (W[k], S[k]), cells[k], types[k])
-            alive[k] = False
+                P[k], I[k], F[k] = self._failure(a[k], (W[k], S[k]), cells[k], types[k])
+                alive[k] = False
 
     def _try(self, p: int, a, wrenches, alive, P, I) -> None:
         """Assign direction p to the alive structures it separates (strictly); ``wrenches``:
@@ -276,7 +278,7 @@ class _Prover:
         i = values.argmax(axis=1)
         w, size = W[idx, i], S[idx, i]
         margin = pc.separation(a[idx], w, np.broadcast_to(d, w.shape), self.f_max, size=size)
-        tol = _tolerance(a[idx], size, d, self.f_max)
+        tol = separations.tolerance(a[idx], size, d, self.f_max)
         hit = margin > (STRICT - 1.0) * tol
         P[idx[hit]], I[idx[hit]] = p, i[hit]
         alive[idx[hit]] = False
@@ -292,19 +294,24 @@ class _Prover:
         got = self._pool_failure(a, wrenches, offs)
         if got is not None:
             return got[0], got[1], int(failures[got[2]])
-        separated = False  # some failure's LP found a direction, too weak for the strict test
-        for f, off in zip(failures, offs):
-            found = _separate(a[~off].T, W, self.f_max)
-            if found is not None:
-                separated = True
-                p = self._add(found[0])
-                got = self._pool_failure(a, wrenches, off[None], [p])
-                if got is not None:
-                    return p, got[1], int(f)
+        # each failure's LP dual first, then the other candidates of each
+        tries = [separations.candidates(a[~off].T, W, self.f_max) for off in offs]
+        worst: tuple = ()  # (excess, wrench, failure) of the clearest miss tried
+        for rest in (False, True):
+            for f, (off, found) in enumerate(zip(offs, tries)):
+                for d, i, excess in found:
+                    worst = max(worst, (excess, i, f))
+                    p = self._add(d)
+                    got = self._pool_failure(a, wrenches, off[None], [p])
+                    if got is not None:
+                        return p, got[1], int(failures[f])
+                    if not rest:
+                        break
         what = f"the structure {cells.tolist()} (types {types.tolist()})"
-        if separated:
-            raise CertificateError(f"the separating directions of {what} after its failures "
-                                   "are too close to its boundary to certify")  # fmt: skip
+        if worst:
+            f = worst[2]
+            what = f"{what}, after {self.fault} {f + 1} (1-based) fails,"
+            raise CertificateError(separations.too_close(what, worst[1], worst[0], STRICT))
         raise CertificateError(
             f"{what} tolerates every single {self.fault} failure: the answer is not a minimum"
         )
@@ -352,31 +359,6 @@ def bound_margins(T, task, f_max, fault, n, D) -> np.ndarray:
     inertia = dP @ (np.abs(T.J) + T.mass[:, None] * R * R).T  # (P, t, K)
     value = (D @ base.T)[:, :, None] + n * T.mass * (D @ per_mass.T)[:, :, None] - n * inertia
     return (value - n * H[:, None, :] + loss[:, None, None]).min(axis=2)
-
-
-def _tolerance(a, size, d, f_max) -> np.ndarray:
-    """The checker's separation tolerance (``size``: the wrenches' term magnitudes)."""
-    scale = np.linalg.norm(size, axis=1) + f_max * np.linalg.norm(a, axis=2).sum(axis=1)
-    return pc.SEPARATION_TOL * np.linalg.norm(d) * scale
-
-
-def _separate(A: np.ndarray, W: np.ndarray, f_max: float):
-    """(direction in wrench space, wrench index) separating the hardest wrench of W from the
-    zonotope of A, or None when A satisfies every wrench (the oracle's decision)."""
-    from modquad_gym.oracle import TOL, Zonotope
-    from modquad_gym.oracle.backends import decide_with
-
-    z = Zonotope(A, f_max)
-    R, off = z.reduce(W)
-    if off.any():
-        i = int(np.argmax(off))
-        return W[i] - z.Q @ (z.Q.T @ W[i]), i
-    bad = np.flatnonzero(~decide_with(z, W, "auto"))  # the oracle's exact decisions
-    for i in bad[np.argsort(-np.linalg.norm(W[bad], axis=1), kind="stable")]:  # hardest first
-        gamma, d = z.separating_direction(R[i])
-        if gamma > 1.0 + TOL and np.any(d):
-            return z.Q @ d, int(i)
-    return None
 
 
 def _bar(progress: bool, n: int, total: int):
