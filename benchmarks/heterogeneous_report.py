@@ -25,7 +25,7 @@ def figure(rows: list[dict], sets: dict, n_max: int, path: Path, k: int = 4) -> 
         return r["saved"] if isinstance(r["saved"], int) else n_max + 1 - int(r["n_mixed"])
 
     chosen = sorted((r for r in rows if r["n_mixed"] != "none"), key=lambda r: -gain(r))[:k]
-    fig = Figure(figsize=(9.0, 4.2 * max(len(chosen), 1)), layout="constrained")
+    fig = Figure(figsize=(12.5, 4.2 * max(len(chosen), 1)), layout="constrained")
     FigureCanvasAgg(fig)
     captions = []
     if not chosen:  # a figure of height 0 cannot be saved: say why it is empty

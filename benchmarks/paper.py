@@ -117,18 +117,18 @@ def _figures(seed, task, ex, cs, out: Path) -> list[str]:
 
     from modquad_gym.viz.drawing import draw_rotor_inputs, draw_structure
 
-    fig = Figure(figsize=(10, 5), layout="constrained")
+    fig = Figure(figsize=(12, 5), layout="constrained")
     FigureCanvasAgg(fig)
     draw_structure(
         ex.structure,
         ax=fig.add_subplot(1, 2, 1),
-        title=f"exhaustive: {ex.n_modules} modules, {ex.evaluated} evaluated "
+        title=f"exhaustive: {ex.n_modules} modules\n{ex.evaluated} evaluated "
         f"({paper_style_evaluated(ex)} paper-style)",
     )
     draw_structure(
         cs.structure,
         ax=fig.add_subplot(1, 2, 2),
-        title=f"centrosymmetric: {cs.n_modules} modules, {cs.evaluated} evaluated",
+        title=f"centrosymmetric: {cs.n_modules} modules\n{cs.evaluated} evaluated",
     )
     save_figure(fig, out / "paper_structures.png", dpi=110)
 
