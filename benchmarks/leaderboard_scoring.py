@@ -155,11 +155,13 @@ def _made(spec: str, tier_name: str, seed: int):
     """The outside agent ``spec`` made for one tier (its budget, types and fault) and seed."""
     from modquad_gym.geometry.module import palette
     from modquad_gym.solvers import load_solver
+    from modquad_gym.solvers.outside import solver_named
 
     tier = _tier(tier_name)
     types = palette(tier.modules) if tier.modules else None
-    return load_solver(spec, n_max=tier.n_max, tier=tier.name, modules=types, fault=tier.fault,
-                       seed=seed)  # fmt: skip
+    with solver_named("--solver"):  # the command line's option, in its errors
+        return load_solver(spec, n_max=tier.n_max, tier=tier.name, modules=types,
+                           fault=tier.fault, seed=seed)  # fmt: skip
 
 
 SUBMISSION_KEYS = ("tier", "seed", "method", "status", "suite", "task", "optimum", "success",

@@ -54,7 +54,8 @@ from benchmarks.reference_oracle.hrep import zonotope_hrep
 from modquad_gym.core.extras import missing_extra_message
 from modquad_gym.core.options import parse_integer
 from modquad_gym.core.outputs import write_text
-from modquad_gym.oracle import BAND, TOL, Zonotope, decide_with, margin_with
+from modquad_gym.oracle import BAND, TOL, Zonotope
+from modquad_gym.oracle.backends import decide_with, margin_with  # unchecked: the kernels
 from modquad_gym.oracle.daqp_lp import gamma_daqp
 
 register()  # the reference methods it times beside the product's

@@ -556,7 +556,7 @@ def _dynamic_variants() -> dict[str, tuple[dict, str]]:
         ),
         "huge f_max": ({"f_max": 1e301}, "f_max"),
         "huge payload": ({"payload": {"mass": 1e300}}, "payload.mass"),
-        "huge payload and f_max": ({"payload": {"mass": 1e200}, "f_max": 1e200}, "payload.mass"),
+        "huge payload and f_max": ({"payload": {"mass": 1e200}, "f_max": 1e12}, "payload.mass"),
         "huge exerted": ({"exerted": [[1e200, 0, 0, 0, 0, 0]] * len(zeros)}, "exerted"),
         "huge exerted beside a payload": (
             {"exerted": [[1e200, 0, 0, 0, 0, 0]] * len(zeros), "payload": {"mass": 0.1}},
@@ -624,7 +624,7 @@ def test_dynamic_task_api_refuses_what_overflows():
         warnings.simplefilter("error")
         with pytest.raises(ValueError, match=r"^payload\.mass: .* beyond 1e\+100"):
             dy.hover(payload=1e300)
-        with pytest.raises(ValueError, match=r"^f_max: "):
+        with pytest.raises(ValueError, match=r"^f_max = 1e\+301 is outside 1e-300\.\.1e12 "):
             dy.hover(f_max=1e301)
         with pytest.raises(ValueError, match=r"^acceleration: not finite at sample"):
             mq.Trajectory([0.0, 1e-300, 2e-300], [[0, 0, 0], [1e-3, 0, 0], [0, 0, 0]])

@@ -191,14 +191,18 @@ def test_the_mjcf_page_says_what_the_file_holds():
     assert "explicit `<inertial>` holds the structure's mass" in mjcf
 
 
-def test_a_structure_whose_inertia_overflows_is_refused_rather_than_written_as_nan():
-    """Lengths are capped at 10 m, but module masses near 1e307 kg still overflow a structure's
-    inertia: the JSON would hold NaN (not JSON); every writer names the overflow instead."""
+def test_the_heaviest_widest_modules_write_finite_numbers():
+    """Module masses near 1e307 kg overflowed a structure's inertia (the JSON would hold NaN);
+    masses are now at most MAX_MASS, where the longest line of the widest modules stays
+    finite in every writer."""
+    from modquad_gym.geometry.cells import MAX_MODULES
+    from modquad_gym.geometry.module import MAX_MASS
     from modquad_gym.proofcheck_format import MAX_LENGTH
 
-    s = mq.Structure([(0, 0), (1, 0)], module=mq.TModule(side=MAX_LENGTH, mass=1e307))
-    with np.errstate(over="ignore", invalid="ignore"):
-        assert not np.all(np.isfinite(s.inertia))
-        for fmt in ("json", "urdf", "mjcf"):
-            with pytest.raises(ValueError, match=r"^structure: its mass and inertia overflow"):
-                export_text(s, fmt)
+    with pytest.raises(ValueError, match=r"^mass must be <= 1e\+12, got 1e\+307$"):
+        mq.TModule(side=MAX_LENGTH, mass=1e307)
+    module = mq.TModule(side=MAX_LENGTH, mass=MAX_MASS)
+    s = mq.Structure([(i, 0) for i in range(MAX_MODULES)], module=module)
+    assert np.isfinite(s.mass) and np.all(np.isfinite(s.inertia))
+    data = json.loads(export_text(s, "json"))
+    assert np.all(np.isfinite(data["inertia"]))

@@ -436,9 +436,9 @@ def test_f_max_argument(f_max, which):
         fn()
     except ValueError as exc:
         assert "f_max" in str(exc)
-        # refused by name: invalid, or absurd for a search (beyond 1e300, or so small that the
-        # task's 3 N is more than 1e100 f_max)
-        assert not _valid_f_max(f_max) or f_max * 1e100 < 3 or f_max > 1e300
+        # refused by name: invalid, beyond every door's 1e-300..1e12, or absurd for a search
+        # (so small that the task's 3 N is more than 1e100 f_max)
+        assert not _valid_f_max(f_max) or f_max * 1e100 < 3 or f_max > 1e12
         return
     assert _valid_f_max(f_max)
 
@@ -568,8 +568,11 @@ def test_huge_wrenches_are_decided_without_overflow(name, exponent, signs, metho
         ratio = mq.lambda_ratio(A, w)
     assert not ok.any()
     assert m[0] < -1e10 and ratio[0] < 1
-    # the same wrench in units of a huge f_max is an ordinary one, decided as the small one
+    # a huge f_max is refused by name (every door's range ends at 1e12 N); in units of the
+    # largest, the same direction is an ordinary wrench, decided as the small one
     small = w / 10.0**exponent
+    with pytest.raises(ValueError, match=r"^f_max = .* is outside 1e-300\.\.1e12 "):
+        mq.feasible(A, w, f_max=10.0**exponent, method=method)
     np.testing.assert_array_equal(
-        mq.feasible(A, w, f_max=10.0**exponent, method=method), mq.feasible(A, small)
+        mq.feasible(A, small * 1e12, f_max=1e12, method=method), mq.feasible(A, small)
     )

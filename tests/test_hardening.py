@@ -422,7 +422,8 @@ def test_scaled_task_gives_the_same_answer(tmp_path, capsys, scale):
 
 def test_huge_torques_and_f_max(tmp_path, capsys):
     """Torques of 1e50 are a plain infeasible answer; 1e200 and beyond a clear error (they used
-    to be `RuntimeError: HiGHS failed`); f_max 1e300 makes a small task trivially feasible."""
+    to be `RuntimeError: HiGHS failed`); f_max 1e12 (the largest) makes a small task trivially
+    feasible, and 1e300 is refused by name."""
     big = write(tmp_path / "big.json", '{"wrenches": [[0, 0, 3, 1e50, 0, 0]]}')
     code, out, err = run_main(capsys, "solve", "--task", str(big), "--json", "--quiet")
     assert code == 0, err
@@ -430,10 +431,13 @@ def test_huge_torques_and_f_max(tmp_path, capsys):
     absurd = write(tmp_path / "absurd.json", '{"wrenches": [[0, 0, 3, 1e200, 0, 0]]}')
     code, _, err = run_main(capsys, "solve", "--task", str(absurd), "--quiet")
     assert_one_line_error(code, err, "wrench row 1", "f_max")
-    strong = write(tmp_path / "strong.json", '{"wrenches": [[0, 0, 3, 0, 0, 0]], "f_max": 1e300}')
+    strong = write(tmp_path / "strong.json", '{"wrenches": [[0, 0, 3, 0, 0, 0]], "f_max": 1e12}')
     code, out, err = run_main(capsys, "solve", "--task", str(strong), "--json", "--quiet")
     assert code == 0, err
     assert json.loads(out)["n_modules"] == 1
+    absurd = write(tmp_path / "strong.json", '{"wrenches": [[0, 0, 3, 0, 0, 0]], "f_max": 1e300}')
+    code, _, err = run_main(capsys, "solve", "--task", str(absurd), "--quiet")
+    assert_one_line_error(code, err, "f_max = 1e+300 is outside 1e-300..1e12")
     A = mq.Structure([(0, 0), (1, 0), (0, 1)]).configuration_matrix()
     with np.errstate(all="raise"):  # no overflow anywhere on the way
         assert not mq.feasible(A, [[0, 0, 3, 1e200, 0, 0]]).any()

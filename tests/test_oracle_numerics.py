@@ -137,7 +137,7 @@ def test_stock_lattice_known_gammas_are_decided_right(method):
     assert np.array_equal(feasible(A, W, method=method), s <= 1.0 + TOL)
 
 
-@pytest.mark.parametrize("s", [1e-12, 2.0**-40, 1e-6, 1e12])
+@pytest.mark.parametrize("s", [1e-12, 2.0**-39, 1e-6, 1e12])  # f_max = 1 / s <= 1e12
 @pytest.mark.parametrize("cells", [[(0, 0), (0, 1), (1, 0), (1, 1)], [(0, 0), (0, 1), (0, 2)]])
 def test_scaled_matrix_is_the_same_wrench_set(cells, s):
     """(A s, f_max / s) has the wrench set of (A, f_max): the same rank, decisions, margins and

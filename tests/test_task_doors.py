@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import re
 
-import numpy as np
 import pytest
 from test_edges_cli import assert_one_line_error, run_main
 from test_hardening import assert_rejected
@@ -57,16 +56,16 @@ def test_save_structure_takes_urdf_in_xml_and_says_a_suffix_naming_no_format(tmp
         ex.save_structure(PAIR, tmp_path / "r.json", "yaml")
 
 
-@pytest.mark.parametrize("f_max", [1e301, 1e-310])
+@pytest.mark.parametrize("f_max", [1e13, 1e-310])
 def test_save_structure_refuses_the_f_max_export_refuses(tmp_path, capsys, f_max):
     path = tmp_path / "x.json"
-    with pytest.raises(ValueError, match=r"^f_max = .* is outside 1e-300\.\.1e300"):
+    with pytest.raises(ValueError, match=r"^f_max = .* is outside 1e-300\.\.1e12 "):
         ex.save_structure(PAIR, path, f_max=f_max)
     with pytest.raises(ValueError, match=r"^f_max = .* is outside"):
         ex.thrust_to_weight(PAIR, f_max)
     code, _, err = run_main(capsys, "export", "--cells", "[[0,0]]", "--out", str(path),
                             "--f-max", repr(f_max))  # fmt: skip
-    assert_rejected(code, err, "--f-max", "outside 1e-300..1e300")
+    assert_rejected(code, err, "--f-max", "outside 1e-300..1e12")
     assert not path.exists()
 
 
@@ -256,18 +255,14 @@ def test_a_generator_call_names_rng(generator, rng):
         (lambda: PaperTasks(fz_gain=1e308, fz_offset=1e308), "scale, fz_gain, fz_offset: "),
         (lambda: ScrewdriverTask(torque=1e200), "push, torque, lift, align, press: "),
         (lambda: PaperTasks(f_max=1e-300), "f_max = 1e-300 is too small for wrenches up to 9"),
-        (lambda: ScrewdriverTask(f_max=1e301), "f_max = 1e+301 is outside 1e-300..1e300"),
-        (lambda: PlantedTasks(f_max=1e301), "f_max = 1e+301 is outside 1e-300..1e300"),
+        (lambda: ScrewdriverTask(f_max=1e13), "f_max = 1e+13 is outside 1e-300..1e12"),
+        (lambda: PlantedTasks(f_max=1e13), "f_max = 1e+13 is outside 1e-300..1e12"),
+        (lambda: PlantedTasks(f_max=1e300), "f_max = 1e+300 is outside 1e-300..1e12"),
     ],
 )
 def test_a_generator_refuses_at_construction_what_the_searches_refuse(make, words):
     with pytest.raises(ValueError, match=f"^{re.escape(words)}"):
         make()
-
-
-def test_a_planted_draw_beyond_the_searches_scale_names_f_max():
-    with pytest.raises(ValueError, match=r"^f_max = 1e\+300: wrench row \d+ .* beyond 1e\+100"):
-        PlantedTasks(f_max=1e300)(np.random.default_rng(0))
 
 
 def test_the_module_limit_is_the_searches_and_the_commands(capsys, tmp_path):

@@ -145,12 +145,12 @@ time_limit_option.__name__ = "seconds"
 
 def f_max_option(text: str) -> float:
     """An argparse ``type`` for ``--f-max`` (every command's): a rotor thrust limit in N, in
-    1e-300..1e300, the range every task's f_max is checked against
-    (:func:`~modquad_gym.oracle.scale.check_f_max_range`)."""
-    from modquad_gym.oracle.scale import check_f_max_range
+    1e-300..1e12, the range every task's f_max is checked against
+    (:func:`~modquad_gym.core.validation.check_f_max`)."""
+    from modquad_gym.core.validation import check_f_max
 
     try:
-        return check_f_max_range(real_option(text))
+        return check_f_max(real_option(text))
     except ValueError as exc:  # "f_max = 1e+301 is outside ..." -> "1e+301 is outside ..."
         text = str(exc).removeprefix("f_max = ").removeprefix("f_max ")
         raise argparse.ArgumentTypeError(text) from None

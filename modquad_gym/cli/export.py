@@ -64,7 +64,7 @@ def add_export(sub) -> None:
         "--f-max",
         type=f_max_option,
         default=None,
-        help="each rotor's largest thrust in N, up to 1e300, written to the model (default: the "
+        help="each rotor's largest thrust in N, up to 1e12, written to the model (default: the "
         "task's f_max, else 1, the searches' normalised unit, which leaves T-modules of 0.3 kg "
         "short of their weight)",
     )

@@ -68,7 +68,7 @@ def add_motion(tsub) -> None:
         "--payload-mass",
     )
     m.add_argument(
-        "--f-max", type=f_max_option, default=2.0, help="rotor limit, N, up to 1e300 (default 2)"
+        "--f-max", type=f_max_option, default=2.0, help="rotor limit, N, up to 1e12 (default 2)"
     )
     m.add_argument(
         "--rate",

@@ -17,6 +17,8 @@ import warnings
 import numpy as np
 
 __all__ = [
+    "F_MAX_RANGE",
+    "F_MAX_TEXT",
     "NOT_REGULAR",
     "check_f_max",
     "check_name",
@@ -158,9 +160,25 @@ def _shown(v: float) -> str:
     return short if float(short) == v else repr(v)
 
 
+F_MAX_RANGE = (1e-300, 1e12)
+"""The rotor thrust limits (N) every door takes (:func:`check_f_max`): below, dividing wrenches
+by f_max leaves the floating-point range; 1e12 N per rotor is far beyond any rotor, and the
+environment's float32 features of wrenches over f_max stay finite up to it."""
+
+
 def check_f_max(f_max: object) -> float:
-    """The per-rotor thrust limit: a positive, finite real number."""
-    return check_real(f_max, "f_max", positive=True)
+    """The per-rotor thrust limit as a float: a real number in :data:`F_MAX_RANGE`, else a
+    ValueError (``f_max must be positive, got 0``, ``f_max = 1e+30 is outside 1e-300..1e12
+    (check the units)``): the one check of every f_max, each door's and each task's."""
+    value = check_real(f_max, "f_max", positive=True)
+    low, high = F_MAX_RANGE
+    if not low <= value <= high:
+        raise ValueError(f"f_max = {_shown(value)} is outside {F_MAX_TEXT} (check the units)")
+    return value
+
+
+F_MAX_TEXT = f"{F_MAX_RANGE[0]:g}..{F_MAX_RANGE[1]:g}".replace("e+", "e")
+""":data:`F_MAX_RANGE` as messages and help write it: ``1e-300..1e12``."""
 
 
 def _ragged_row(value: object) -> str:

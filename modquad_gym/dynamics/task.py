@@ -268,21 +268,16 @@ def as_dynamic(task: object) -> DynamicTask:
 
 
 def check_scale(task: DynamicTask) -> None:
-    """A ValueError naming the field whose numbers are beyond what a search handles: ``f_max``
-    outside 1e-300..1e300, or a part of the rotor wrenches (the motion's per kilogram and per
-    unit of inertia, what the payload and the exerted wrenches add) not finite or beyond
+    """A ValueError naming the field whose numbers are beyond what a search handles (``f_max``
+    is checked when the task is made, :func:`~modquad_gym.core.validation.check_f_max`): a
+    part of the rotor wrenches (the motion's per kilogram and per unit of inertia, what the
+    payload and the exerted wrenches add) not finite or beyond
     :data:`~modquad_gym.oracle.scale.MAX_TASK_VALUE`, in newtons or in units of f_max (the
     static tasks' bound, :func:`~modquad_gym.oracle.scale.check_task_scale`); a part within the
     bound in newtons and beyond it only in units of f_max names ``f_max`` (too small for the
     task). Checked when the task is made, so that a task file's error names the file."""
-    from modquad_gym.oracle.scale import MAX_TASK_VALUE, check_f_max_range
+    from modquad_gym.oracle.scale import MAX_TASK_VALUE
 
-    try:  # the one range of every f_max
-        check_f_max_range(task.f_max)
-    except ValueError:
-        raise ValueError(
-            f"f_max: {task.f_max:g} N is outside 1e-300..1e300 (check the units)"
-        ) from None
     model = task.wrench_model
     parts = (
         ("exerted", task.exerted if task.exerted is not None else np.zeros((1, 6))),

@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from modquad_gym.core.validation import check_int
+
 if TYPE_CHECKING:
     from modquad_gym.geometry.module import ModuleType
 
@@ -29,6 +31,10 @@ MAX_MODULES = 128
 designs (Li & Koeppl 2026: up to 90 modules). Defined here, below the tasks, so that the task
 generators and the command line refuse the sizes the searches do
 (:data:`modquad_gym.search.problem.MAX_MODULES` is this number)."""
+
+EXACT_MODULES = 16
+"""The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8 (the
+limit of :func:`structure_levels` too; :data:`modquad_gym.search.problem.EXACT_MODULES`)."""
 
 
 def as_cell(raw: object, index: int) -> Cell:
@@ -164,7 +170,12 @@ def structure_levels(n_max: int) -> Iterator[list[Key]]:
     """Yield, for n = 1..n_max, every connected structure of n modules up to translation (the
     fixed polyominoes: 1, 2, 6, 19, 63, 216, 760, 2725, 9910, 36446, ...) as keys, in the
     canonical order of :mod:`.polyominoes`. Each level is a list: for small n only;
-    the searches stream levels in chunks instead."""
+    the searches stream levels in chunks instead. ``n_max`` is checked at the call, as the
+    exhaustive search checks it (an integer in 1..:data:`EXACT_MODULES`, else a ValueError)."""
+    return _levels(check_int(n_max, "n_max", 1, EXACT_MODULES))
+
+
+def _levels(n_max: int) -> Iterator[list[Key]]:
     from modquad_gym.geometry.polyominoes import PolyominoStream  # numba: imported on first use
 
     for n in range(1, n_max + 1):

@@ -36,18 +36,18 @@ The LPs themselves are built in one place, :mod:`~modquad_gym.oracle.lp` (used b
 """
 
 from modquad_gym.core.validation import check_f_max, check_matrix, check_wrenches
-from modquad_gym.oracle.api import WrenchOracle, allocate, feasible, lambda_ratio, margin
-from modquad_gym.oracle.backends import (
-    BACKENDS,
-    METHODS,
-    Backend,
-    check_method,
+from modquad_gym.oracle.api import (
+    WrenchOracle,
+    allocate,
     decide_with,
-    gamma_with,
+    feasible,
+    lambda_ratio,
+    margin,
     margin_with,
 )
+from modquad_gym.oracle.backends import BACKENDS, METHODS, Backend, check_method, gamma_with
 from modquad_gym.oracle.lp import ray_lp
-from modquad_gym.oracle.scale import MAX_TASK_VALUE, check_f_max_range, check_task_scale
+from modquad_gym.oracle.scale import MAX_TASK_VALUE, check_task_scale
 from modquad_gym.oracle.tolerance import (
     BAND,
     RESIDUAL_TOL,
@@ -69,7 +69,6 @@ __all__ = [
     "Zonotope",
     "allocate",
     "check_f_max",
-    "check_f_max_range",
     "check_matrix",
     "check_method",
     "check_task_scale",

@@ -11,7 +11,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
-from modquad_gym.oracle.backends import BACKENDS, check_method, decide_with, margin_with
+from modquad_gym.oracle import backends
+from modquad_gym.oracle.backends import BACKENDS, check_method
 from modquad_gym.oracle.highs_lp import condition_error
 from modquad_gym.oracle.lp import GammaLP
 from modquad_gym.oracle.scale import row_norms
@@ -96,13 +97,13 @@ class WrenchOracle:
         W = check_wrenches(W)
         z = self.zonotope(A, key)
         self.calls += len(W)
-        return decide_with(z, W, self.method)
+        return backends.decide_with(z, W, self.method)
 
     def margin(self, A: np.ndarray, W: np.ndarray, key: Hashable | None = None) -> np.ndarray:
         W = check_wrenches(W)
         z = self.zonotope(A, key)
         self.calls += len(W)
-        return margin_with(z, W, self.method)
+        return backends.margin_with(z, W, self.method)
 
     def screened(
         self,
@@ -132,14 +133,15 @@ class WrenchOracle:
                 return per_wrench, 0, 0
             W_open = W if n_open == len(open_) else W[open_]
             self.calls += n_open
-            return per_wrench, n_open, int(np.count_nonzero(decide_with(z, W_open, self.method)))
+            ok = backends.decide_with(z, W_open, self.method)
+            return per_wrench, n_open, int(np.count_nonzero(ok))
         per_wrench, verdict, counts = screen(z, W, WD, h, slack)
         tested, satisfied = int(counts[0]), int(counts[1])
         self.calls += tested
         if counts[2]:
             rest = np.flatnonzero(verdict == -1)
             self.fallback += len(rest)
-            satisfied += int(np.count_nonzero(decide_with(z, W[rest], "daqp")))
+            satisfied += int(np.count_nonzero(backends.decide_with(z, W[rest], "daqp")))
         return per_wrench, tested, satisfied
 
 
@@ -161,7 +163,7 @@ def feasible(A: np.ndarray, W: np.ndarray, f_max: float = 1.0, method: str = "au
     malformed A or W, non-finite values or f_max <= 0.
     """
     W = check_wrenches(W)
-    return decide_with(Zonotope(A, f_max), W, check_method(method))
+    return backends.decide_with(Zonotope(A, f_max), W, check_method(method))
 
 
 def margin(A: np.ndarray, W: np.ndarray, f_max: float = 1.0, method: str = "auto") -> np.ndarray:
@@ -174,7 +176,27 @@ def margin(A: np.ndarray, W: np.ndarray, f_max: float = 1.0, method: str = "auto
     float range. The same for (s W, s f_max) at any scale s.
     """
     W = check_wrenches(W)
-    return margin_with(Zonotope(A, f_max), W, check_method(method))
+    return backends.margin_with(Zonotope(A, f_max), W, check_method(method))
+
+
+def decide_with(z: Zonotope, W: np.ndarray, method: str = "auto") -> np.ndarray:
+    """bool (t,): is each wrench (row of W, (t, 6)) in the zonotope ``z``, decided by
+    ``method`` (one of :data:`~modquad_gym.oracle.METHODS`) and the tolerance rule? For many
+    decisions on one prepared :class:`Zonotope`; ``z``, W and ``method`` are checked as
+    :func:`feasible` checks them (ValueError naming what is wrong)."""
+    return backends.decide_with(*_checked(z, W, method))
+
+
+def margin_with(z: Zonotope, W: np.ndarray, method: str = "auto") -> np.ndarray:
+    """float (t,): ``1 - gamma`` per wrench (row of W) in the zonotope ``z`` by ``method``, as
+    :func:`margin` gives it; arguments checked as by :func:`decide_with`."""
+    return backends.margin_with(*_checked(z, W, method))
+
+
+def _checked(z: object, W: object, method: object) -> tuple[Zonotope, np.ndarray, str]:
+    if not isinstance(z, Zonotope):
+        raise ValueError(f"z must be a Zonotope (Zonotope(A, f_max)), got {type(z).__name__}")
+    return z, check_wrenches(W), check_method(method)
 
 
 def lambda_ratio(
@@ -212,7 +234,7 @@ def lambda_ratio(
         # lambda* is in units of f_max: the ratio is lambda* / (|w| / f_max)
         with np.errstate(over="ignore", divide="ignore"):
             out[live] = lams / (row_norms(W[live] @ z.Q) / z.f_max)
-    ok = decide_with(z, W, "auto")
+    ok = backends.decide_with(z, W, "auto")
     out[ok & (out < 1.0)] = 1.0
     out[~ok & (out >= 1.0)] = np.nextafter(1.0, 0.0)
     return out

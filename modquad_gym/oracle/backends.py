@@ -83,7 +83,7 @@ METHODS = tuple(BACKENDS)
 
 def check_method(method: str) -> str:
     """``method`` when it names a backend, else a ValueError listing them."""
-    if method not in BACKENDS:
+    if not isinstance(method, str) or method not in BACKENDS:
         raise ValueError(f"unknown method {method!r}; choose one of {', '.join(BACKENDS)}")
     return method
 

@@ -13,9 +13,12 @@ FAULTS = ("rotor", "module", "rotor2", "rotor+module")
 (``"rotor+module"``: a module lost, then a rotor elsewhere; a single module: the module)."""
 
 
-def check_fault(fault: object) -> str:
-    """``fault`` when it names a kind of failure, else a ValueError listing them (an array is
-    no name: ``in`` would ask for its truth value)."""
+def check_fault(fault: object, *, optional: bool = False) -> str | None:
+    """``fault`` when it names a kind of failure (or is None, with ``optional``: no failure),
+    else a ValueError listing them (an array is no name: ``in`` would ask for its truth
+    value)."""
+    if optional and fault is None:
+        return None
     if not isinstance(fault, str) or fault not in FAULTS:
         raise ValueError(f"fault must be one of {', '.join(map(repr, FAULTS))}, got {fault!r}")
     return str(fault)

@@ -41,7 +41,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from modquad_gym.core.validation import check_f_max, check_wrenches
+from modquad_gym.core.validation import check_f_max, check_real, check_wrenches
 from modquad_gym.oracle.backends import check_method, decide_with, margin_with
 from modquad_gym.oracle.failures import (  # noqa: F401 - re-exported
     FAULTS,
@@ -93,7 +93,7 @@ class FaultTolerance:
         fault_margin: float = 0.0,
         deadline: float | None = None,
     ) -> None:
-        self.deadline = deadline
+        self.deadline = None if deadline is None else check_real(deadline, "deadline")
         self.intact = zonotope if zonotope is not None else Zonotope(A, f_max)
         self.failures = [np.asarray(S, dtype=np.intp) for S in failures]
         self.fault_margin = check_fault_margin(fault_margin)

@@ -18,10 +18,6 @@ MAX_TASK_VALUE = 1e100
 :func:`check_task_scale` accepts: far beyond anything a structure can exert, and small enough
 that no step of a search overflows."""
 
-F_MAX_RANGE = (1e-300, 1e300)
-"""The rotor thrust limits (N) a task may have (:func:`check_f_max_range`): beyond, dividing
-wrenches by f_max or multiplying by it leaves the floating-point range."""
-
 
 def row_norms(X: np.ndarray) -> np.ndarray:
     """Euclidean norm of each row of X, without overflow for any finite entries."""
@@ -31,24 +27,13 @@ def row_norms(X: np.ndarray) -> np.ndarray:
     return t * np.sqrt(np.einsum("ij,ij->i", Y, Y))
 
 
-def check_f_max_range(f_max: object) -> float:
-    """``f_max`` as a float when it is a positive real number in :data:`F_MAX_RANGE`, else a
-    ValueError (``f_max must be positive, got 0``, ``f_max = 1e+301 is outside ...``): the one
-    check of every task's f_max, static or dynamic, and of every ``--f-max``."""
-    f_max = check_f_max(f_max)
-    low, high = F_MAX_RANGE
-    if not low <= f_max <= high:
-        raise ValueError(f"f_max = {f_max:g} is outside 1e-300..1e300 (check the units)")
-    return f_max
-
-
 def check_task_scale(W: np.ndarray, f_max: float) -> np.ndarray:
-    """W (checked, (t, 6)) when f_max lies in [1e-300, 1e300] and every |w_i| and every
+    """W (checked, (t, 6)) when f_max passes :func:`check_f_max` and every |w_i| and every
     |w_i| / f_max is at most :data:`MAX_TASK_VALUE`, else a ValueError naming the value and its
     1-based row. The searches call it: they test one task against many structures and
     multiply and square its numbers on the way, where the oracle itself takes any finite value
     (:meth:`~modquad_gym.oracle.Zonotope.reduce`)."""
-    W, f_max = check_wrenches(W), check_f_max_range(f_max)
+    W, f_max = check_wrenches(W), check_f_max(f_max)
     if not len(W):
         return W
     within = within_scale(np.abs(W).max(axis=1), f_max)
@@ -72,11 +57,11 @@ def within_scale(size: np.ndarray, f_max: float) -> np.ndarray:
 
 
 def check_scale_bound(size: float, f_max: object, what: str) -> None:
-    """A ValueError when ``f_max`` is outside :data:`F_MAX_RANGE` or wrenches whose components
+    """A ValueError when ``f_max`` fails :func:`check_f_max` or wrenches whose components
     reach ``size`` would be refused by :func:`check_task_scale`: the same rule, for a task
     generator's parameters before anything is drawn. The error names ``what`` (the parameters
     that set ``size``) when ``size`` itself is too large, else ``f_max`` (too small for it)."""
-    f_max = check_f_max_range(f_max)
+    f_max = check_f_max(f_max)
     if within_scale(np.array([size]), f_max)[0]:
         return
     if not within_scale(np.array([size]), 1.0)[0]:

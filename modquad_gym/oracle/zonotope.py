@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from modquad_gym.core.validation import check_f_max, check_matrix
+from modquad_gym.core.validation import check_f_max, check_matrix, check_wrenches
 from modquad_gym.oracle.backends import decide_with
 from modquad_gym.oracle.daqp_lp import gamma_and_direction
 from modquad_gym.oracle.scale import row_norms
@@ -103,9 +103,10 @@ class Zonotope:
         return float(np.abs(x).max())
 
     def decide_certified(self, W: np.ndarray) -> np.ndarray:
-        """Exact decisions (t,) for wrenches W by certificates, with the DAQP LP for the
-        undecided rest (the ``"auto"`` method, :mod:`modquad_gym.oracle.compiled`)."""
-        return decide_with(self, W, "auto")
+        """Exact decisions (t,) for wrenches W (t, 6) by certificates, with the DAQP LP for the
+        undecided rest (the ``"auto"`` method, :mod:`modquad_gym.oracle.compiled`). W is
+        checked as :func:`~modquad_gym.oracle.feasible` checks it (a NaN row is a ValueError)."""
+        return decide_with(self, check_wrenches(W), "auto")
 
     def separating_direction(self, r: np.ndarray) -> tuple[float, np.ndarray]:
         """(gamma, d) for one centred reduced wrench r: its exact gamma and a unit direction d

@@ -76,8 +76,12 @@ def check_model(value: Any, name: str) -> Any:
     )
 
 
+MAX_SAMPLES = 1000
+"""The most sampled rollouts of ``ppo`` (``samples``, ``ppo-kN``, ``modquad score --samples``):
+the documented runs take 8."""
+
 LEARNED_CHECKS = {
-    "model": check_model, "seed": check_seed, "samples": count(0),
+    "model": check_model, "seed": check_seed, "samples": count(0, MAX_SAMPLES),
     "time_limit": check_time_limit, "top_k": count(1), "fallback": share,
     "extra_fallbacks": shares, "budget": count(1), "branching": count(1), "dive": check_flag,
     "trust_model": check_flag,

@@ -46,7 +46,9 @@ class PPOSolver:
             loaded MaskablePPO.
         n_max: the module budget; at most the n_max the model was trained with.
         seed: seeds the sampled rollouts.
-        samples: extra stochastic rollouts per task (0: deterministic decoding only).
+        samples: extra stochastic rollouts per task (0: deterministic decoding only; at most
+            :data:`~.models.MAX_SAMPLES`); they stop once an answer meets the proved lower
+            bound (:func:`~modquad_gym.search.bounds.bound_levels`: none can be smaller).
         config: the model's config when ``model`` is a loaded model.
         time_limit: seconds after which the rollouts stop, the first one too (None: none;
             :func:`~modquad_gym.solvers.make_solver` and the command line give 60 s unless
@@ -126,7 +128,7 @@ class PPOSolver:
         for i in range(self.samples):
             rng = np.random.default_rng([self.seed, i])
             stop_at = best.n_modules if best is not None else policy.env.n_max + 2
-            if stop_at <= 1 or time.perf_counter() > deadline:
+            if stop_at <= bound or time.perf_counter() > deadline:  # at the bound: none smaller
                 break
             info = policy.rollout(problem.task, rng, seen, stop_at, starts[i % len(starts)],
                                   deadline)  # fmt: skip

@@ -65,6 +65,7 @@ from modquad_gym.scoring.verdicts import (  # survives: a public name here too
 from modquad_gym.search.problem import DEFAULT_MODULE
 from modquad_gym.solvers import Solver, load_solver, make_solver
 from modquad_gym.solvers.factory import model_named
+from modquad_gym.solvers.outside import solver_named
 from modquad_gym.tasks import TaskRequirement, load_suite
 
 
@@ -214,7 +215,8 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
                 seed=0 if args.seed is None else args.seed)  # fmt: skip
     agents, args.setup = {}, {}  # `--solver pkg` without `:Name`: load_solver says how
     for spec in args.solver:
-        agents[spec] = _timed(args.setup, spec, load_solver, told)
+        with solver_named("--solver"):
+            agents[spec] = _timed(args.setup, spec, load_solver, told)
     model = tier.model if args.model is None else args.model
     default = DEFAULT_METHODS if tier.name == "current" else SEARCH_METHODS
     if tier.name != "current" and model.is_file():
@@ -237,7 +239,8 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
         )
     methods = with_samples(methods, args.samples, "--methods" if args.methods else "")
     for spec in (m for m in methods if ":" in m and m not in agents):  # --methods pkg:Name
-        agents[spec] = _timed(args.setup, spec, load_solver, told)
+        with solver_named("--methods"):
+            agents[spec] = _timed(args.setup, spec, load_solver, told)
     check_used_options(args, methods, model, agents)
     args.model, args.agents = model, agents
     return methods

@@ -14,6 +14,7 @@ from modquad_gym.core.options import (
     seed_option,
 )
 from modquad_gym.methods import REGISTRY
+from modquad_gym.policy.models import MAX_SAMPLES
 from modquad_gym.scoring.tiers import TIERS
 from modquad_gym.search import SEARCHES
 
@@ -66,7 +67,7 @@ OPTIONS = {
                      "function task -> structure, imported from PKG.MOD; it is told the tier's "
                      "n_max, and counted through the evaluator it is handed (docs: "
                      "benchmarks.md); without --methods it is scored beside the searches"),
-    "--samples": dict(type=int_option(0, 1000), default=None,
+    "--samples": dict(type=int_option(0, MAX_SAMPLES), default=None,
                       help="replace every ppo-kN of --methods (or of the default methods) by "
                       "ppo-k<samples> (0 drops them); refused when there is none to replace"),
     "--n-max": dict(type=int_option(1, 16), default=None,

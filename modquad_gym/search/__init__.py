@@ -36,9 +36,10 @@ from modquad_gym.search.exhaustive import (
     scan_chunks,
 )
 from modquad_gym.search.genetic import genetic_search
+from modquad_gym.search.levels import Optima
 from modquad_gym.search.milp import milp_search
 from modquad_gym.search.problem import SearchProblem
-from modquad_gym.search.result import Optima, SearchResult, Status, verified
+from modquad_gym.search.result import SearchResult, Status, verified
 
 SEARCHES = {
     "exhaustive": exhaustive_search,

@@ -22,6 +22,7 @@ import numpy as np
 from modquad_gym.geometry.structure import Cell, Structure, free_neighbours
 from modquad_gym.oracle import margin
 from modquad_gym.oracle.faults import DecisionInterruptedError
+from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.heuristic import Deadline, heuristic_result, impossible_result
 from modquad_gym.search.options import count, seeded_rng
 from modquad_gym.search.partial import make_partial
@@ -66,8 +67,8 @@ def greedy_search(
     With ``modules`` the first module is the best-scoring type and every child is a (cell,
     type) pair (ties by cell order, then palette order). At ``time_limit`` seconds it stops
     with no structure (and the proved lower bound). ``start`` (a Structure of the searched
-    types, or connected cells) is extended instead of one module: greedy's completion of a
-    partial structure, as expert iteration labels a learner's states by it."""
+    types, or connected cells, at most ``n_max``) is extended instead of one module: greedy's
+    completion of a partial structure, as expert iteration labels a learner's states by it."""
     run = SearchRun("greedy", problem)
     deadline = Deadline(run, time_limit, interrupt=True)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
@@ -76,7 +77,7 @@ def greedy_search(
     if start is not None:
         if not isinstance(start, Structure) and isinstance(start, Iterable):
             start = list(start)  # read once: checking would use up a generator
-        make_partial(start, palette, problem.typed)  # ValueError naming what is wrong
+        make_partial(start, palette, problem.typed, problem.n_max)  # ValueError naming it
         if not isinstance(start, Structure):
             start = Structure([tuple(c) for c in start], problem.module)
 
@@ -125,8 +126,18 @@ def greedy_search(
     return heuristic_result(run, None)
 
 
+MAX_RESTARTS = 10**6
+"""The most ``restarts`` of the random search, capped as the other searches' counts are (the
+genetic search's ``population``: 10,000); the documented runs use a handful."""
+
+RESTARTS = count(1, MAX_RESTARTS)
+"""The check of ``restarts``."""
+
+
 @search_entry(
-    "random", prune=pruned_search, options={"restarts": ("independent random builds", count(1))}
+    "random",
+    prune=pruned_search,
+    options={"restarts": (f"independent random builds, 1 to {MAX_RESTARTS:,}", RESTARTS)},
 )
 def random_search(
     problem: SearchProblem,
@@ -136,19 +147,20 @@ def random_search(
     time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> SearchResult:
     """Baseline: attach modules at uniformly random free cells until the task is satisfied or
-    ``n_max`` is reached, ``restarts`` times (or until ``time_limit`` seconds); returns the
-    smallest feasible structure seen. With several ``modules`` each module's type is drawn
-    uniformly too."""
+    ``n_max`` is reached, ``restarts`` times (at most :data:`MAX_RESTARTS`), until
+    ``time_limit`` seconds or until a structure meets the proved lower bound
+    (:func:`.bounds.bound_levels`: none can be smaller); returns the smallest feasible
+    structure seen. With several ``modules`` each module's type is drawn uniformly too."""
     run = SearchRun("random", problem)
     deadline = Deadline(run, time_limit, interrupt=True)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
         return done
     rng = seeded_rng(seed)
-    K = len(problem.palette)
+    K, lower = len(problem.palette), bound_levels(problem)
     best: Structure | None = None
     with suppress(DecisionInterruptedError):  # a cut fault decision proves nothing
         for _ in range(restarts):
-            if deadline.passed():
+            if deadline.passed() or best is not None and best.n_modules <= lower:
                 break
             cells: list[Cell] = [(0, 0)]
             types: list[int] = [int(rng.integers(K))] if K > 1 else [0]

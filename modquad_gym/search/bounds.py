@@ -3,15 +3,14 @@
 * Force bound: the force part of W does not depend on where modules sit, so for n modules of
   one type it is exactly n times the force zonotope Z_F of one module. A task force outside
   n * Z_F rules out every structure of n modules.
-* Level bounds: for a fixed set of directions d in wrench space, h_n(d) = max over every
-  n-module structure S of its support h_S(d) is task-independent. A task wrench with
-  d . w > h_n(d) (widened by the oracle's tolerance) rules out the whole level n. h_n is
-  computed once per (module type, n) by one pass over the level and cached on disk
-  (``$MODQUAD_CACHE`` or the user's cache folder, e.g. ``~/.cache/modquad_gym``; a file is
-  used only when its format and checksum match, :mod:`.bounds_cache`); the default
-  T-module's bounds up to 14 modules ship with the package (regenerate:
-  ``python -m benchmarks.level_bounds``). An upper bound of the widened support is used (max
-  of each sum taken separately), so the test stays exact.
+* Level bounds: for a fixed set of directions d in wrench space, h_n(d) = max over every n-module
+  structure S of its support h_S(d) is task-independent. A task wrench with d . w > h_n(d) (widened
+  by the oracle's tolerance) rules out the whole level n. h_n is computed once per (module type, n)
+  by one pass over the level and cached on disk (``$MODQUAD_CACHE`` or the user's cache folder,
+  e.g. ``~/.cache/modquad_gym``; a file is used only when its format and checksum match,
+  :mod:`.bounds_cache`); the default T-module's bounds up to 14 modules ship with the package
+  (regenerate: ``python -m benchmarks.level_bounds``). An upper bound of the widened support is
+  used (max of each sum taken separately), so the test stays exact.
 * Count bounds (mixed types, and tasks of kind ``external``): the force part of a structure with
   c_t modules of type t is the Minkowski sum of c_t copies of each type's force zonotope,
   whatever the shape, and its weight M g = sum_t c_t m_t g is fixed by the counts too. So a
@@ -49,9 +48,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from modquad_gym.geometry.module import ModuleType
+from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
+from modquad_gym.geometry.module import ModuleType, check_module
 from modquad_gym.geometry.polyominoes import A001168, PolyominoStream
 from modquad_gym.oracle import RESIDUAL_TOL, TOL
+from modquad_gym.oracle.failures import check_fault
 from modquad_gym.oracle.tolerance import SUPPORT_SLACK
 from modquad_gym.search.bounds_cache import read_cached, usable, write_cached
 from modquad_gym.search.dynamic import DynamicValues, force_needs, off_range_grant
@@ -75,7 +76,7 @@ def force_lower_bound(
     one module {sum_j u_j d_j} with thrusts u_j in the oracle's band [-TOL/2, 1 + TOL/2] f_max,
     up to the oracle's off-range allowance (:func:`off_range_allowance`). Exact: no structure of
     fewer modules can exert the task's forces by the oracle's rule, whatever its shape.
-    :data:`NO_SIZE` if no n works.
+    :data:`NO_SIZE` if no n works. A bad argument is a ValueError naming it.
 
     With a ``fault`` the forces must stay within reach after any single failure: after a
     module fails, n - 1 modules' force set (so n >= the intact bound + 1); after a rotor fails,
@@ -84,9 +85,10 @@ def force_lower_bound(
     ``N . d_j`` (any rotor may fail, so a tolerant structure survives losing that one); after
     two rotors fail (``"rotor2"``), less the two largest of one module (a pair that may fail);
     after a module and a rotor of another (``"rotor+module"``), n - 1 modules' less that rotor's
-    (for n >= 2; n = 1 is bounded as a module failure).
-    A required fault margin only shrinks what is feasible: these bounds stay valid for it."""
-    dirs = module.directions
+    (for n >= 2; n = 1 is bounded as a module failure). A required fault margin only shrinks
+    what is feasible: these bounds stay valid for it."""
+    W, f_max, fault = check_wrenches(W), check_f_max(f_max), check_fault(fault, optional=True)
+    dirs = check_module(module).directions
     normals = [
         np.cross(dirs[i], dirs[j]) for i in range(len(dirs)) for j in range(i + 1, len(dirs))
     ]
@@ -264,8 +266,9 @@ def _bounds(digest: str, module: ModuleType, n: int, fault: str | None) -> np.nd
 def level_bounds(module: ModuleType, n: int, fault: str | None = None) -> np.ndarray | None:
     """The cached (2, P) level bounds of ``n`` modules of ``module`` (after the worst failure
     of kind ``fault``), or None when they are neither shipped, cached nor cheap enough to
-    compute now."""
-    return _bounds(module_digest(module), module, n, fault)
+    compute now. ValueError naming a bad argument."""
+    n, module = check_int(n, "n", low=1), check_module(module)
+    return _bounds(module_digest(module), module, n, check_fault(fault, optional=True))
 
 
 def level_excluded(

@@ -40,7 +40,8 @@ from modquad_gym.geometry.structure import (
     configuration_matrices,
     mixed_configuration_matrices,
 )
-from modquad_gym.oracle import TOL, Zonotope, decide_with
+from modquad_gym.oracle import TOL, Zonotope
+from modquad_gym.oracle.backends import decide_with
 from modquad_gym.oracle.faults import FaultTolerance, failure_sets
 from modquad_gym.search.dynamic import wrench_values
 

@@ -16,7 +16,7 @@ Several module types (``modules=[...]``) or a task of kind ``external``: every (
 assignment) pair is visited level by level, by :mod:`.typed` (re-exported here).
 
 ``start=``: only the structures containing a given partial structure are searched
-(:mod:`.partial`); the result is certified among them.
+(:mod:`.partial`); the answer is the minimum among them, its lower bound the task's.
 """
 
 from __future__ import annotations
@@ -35,13 +35,20 @@ from modquad_gym.dynamics import LinearWrenches
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream, level_chunks
 from modquad_gym.geometry.structure import Key, Structure, normalise, normalise_typed
-from modquad_gym.search.bounds import NO_SIZE, force_lower_bound, level_excluded
+from modquad_gym.search.bounds import NO_SIZE, bound_levels, force_lower_bound, level_excluded
 from modquad_gym.search.checker import TaskChecker
-from modquad_gym.search.levels import ChunkBar, LevelAnswer, level_progress, level_size
+from modquad_gym.search.levels import (
+    ChunkBar,
+    KeptKeys,
+    LevelAnswer,
+    Optima,
+    level_progress,
+    level_size,
+)
 from modquad_gym.search.options import check_chunk, count
 from modquad_gym.search.partial import Partial, make_partial
 from modquad_gym.search.problem import EXACT_MODULES, SearchProblem, search_entry
-from modquad_gym.search.result import KeptKeys, Optima, SearchResult, SearchRun
+from modquad_gym.search.result import SearchResult, SearchRun
 from modquad_gym.search.typed import (
     MAX_PAIRS,
     PAIRS_PER_BLOCK,
@@ -219,21 +226,18 @@ class Levels:
 
 
 def _levels_to_search(run: SearchRun, part: Partial | None) -> Levels:
-    """The levels left by the force bound (and by the size of ``part``)."""
+    """The levels left by the force bound (the first at least the size of ``part``: smaller
+    levels hold no structure containing it, they are not searched, nor ruled out)."""
     p = run.problem
     n_lb = force_lower_bound(p.wrenches, p.module, p.f_max, p.fault)
     if n_lb == NO_SIZE:
         return Levels(NO_SIZE, [], "force bound: no number of modules can exert the task's forces")
     run.check_budget(EXACT_MODULES, n_lb)
-    if part is not None:
-        n_lb = max(n_lb, part.size)
     skipped = list(range(1, min(n_lb, p.n_max + 1)))
+    first = n_lb if part is None else max(n_lb, part.size)  # part.size <= n_max: checked
     if n_lb > p.n_max:
-        proof = f"force bound: the task's forces need at least {n_lb} modules"
-        if part is not None and part.size > p.n_max:
-            proof = f"start: the partial structure already has {part.size} modules"
-        return Levels(n_lb, skipped, proof)
-    return Levels(n_lb, skipped, "")
+        return Levels(n_lb, skipped, f"force bound: the task's forces need at least {n_lb} modules")
+    return Levels(first, skipped, "")
 
 
 def _search_levels(
@@ -305,22 +309,32 @@ def exhaustive_search(
     overrides the task's kind (``external``: the rotors also carry the structure's weight).
     The typed search runs in this process (``engine`` applies to one-type ``total`` tasks).
 
-    ``start`` (a Structure, or connected (x, y) cells): only structures containing it up to
-    translation are searched (its module types too when it is a Structure of a search over
-    several types); the result is the certified minimum among them and ``lower_bound`` refers
-    to them.
+    ``start`` (a Structure, or connected (x, y) cells, at most ``n_max`` of them): only
+    structures containing it up to translation are searched (its module types too when it is
+    a Structure of a search over several types). The structure returned is the minimum among
+    them (``scope`` says so, and the message); ``lower_bound`` stays what is proved for the
+    task, by the exact bounds (:func:`~.bounds.bound_levels`), so ``certified`` (status
+    ``optimal``) only when the answer meets it, and ``infeasible`` only when the bounds rule
+    out every level.
     """
     run = SearchRun("exhaustive", problem)
     chunk = check_chunk(chunk)
-    part = None if start is None else make_partial(start, problem.palette, problem.typed)
+    part = None
+    if start is not None:
+        part = make_partial(start, problem.palette, problem.typed, problem.n_max)
     answer = _exhaustive(run, chunk, engine, progress, True, part)
+    bound = problem.n_max + 1 if answer.n is None else answer.n
+    scope = "" if part is None else "containing start"
+    if part is not None:  # proved for the structures containing start only: the task's bound
+        bound = bound_levels(problem)
+    proof = answer.proof if bound > problem.n_max else ""
     if answer.n is None:
-        return run.finish(None, problem.n_max + 1, answer.skipped, answer.proof)
+        return run.finish(None, bound, answer.skipped, proof, scope)
     if problem.shape_only:
         structure = Structure.from_trusted(answer.found[0], problem.module)
     else:
         structure = typed_structure(problem, answer.found[0])
-    return run.finish(structure, answer.n, answer.skipped, answer.proof)
+    return run.finish(structure, bound, answer.skipped, proof, scope)
 
 
 @search_entry("exhaustive", options={"max_keys": ("most structures kept (None: all)", count(1))})

@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 
 from modquad_gym.core.validation import check_f_max, check_int
-from modquad_gym.geometry.module import ModuleType
+from modquad_gym.geometry.module import ModuleType, check_module
 from modquad_gym.geometry.module import palette as read_palette
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle.failures import check_fault, check_fault_margin
@@ -27,9 +27,7 @@ def check_palette(
     a type given twice (one :attr:`~ModuleType.digest`: the same rotors, whatever its name, as
     ``--modules t45,t45`` is refused), or types of different sides or rotor counts."""
     if modules is None:
-        if module is not None and not isinstance(module, ModuleType):
-            raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
-        return [module if module is not None else DEFAULT_MODULE]
+        return [DEFAULT_MODULE if module is None else check_module(module)]
     if module is not None:
         raise ValueError("give module= (one type) or modules= (a palette), not both")
     if isinstance(modules, ModuleType) or not isinstance(modules, Iterable):
@@ -41,9 +39,7 @@ def check_palette(
         modules = read_palette(modules)
     out: dict[str, ModuleType] = {}
     for i, m in enumerate(modules):
-        if not isinstance(m, ModuleType):
-            raise ValueError(f"modules[{i}] must be a ModuleType, got {type(m).__name__}")
-        if m.digest in out:
+        if check_module(m, f"modules[{i}]").digest in out:
             first = out[m.digest].name
             same = "" if m.name == first else f" (as {m.name}: the same rotors)"
             raise ValueError(f"modules: {first} is listed twice{same}")

@@ -1,5 +1,5 @@
-"""Levels of the exhaustive searches: how many structures level n holds, its progress bar and
-the answer of a level-by-level search.
+"""Levels of the exhaustive searches: how many structures level n holds, its progress bar, the
+answer of a level-by-level search and the whole minimal level (:class:`Optima`).
 
 Shared by the one-type search (:mod:`.exhaustive`) and the typed one (:mod:`.typed`).
 """
@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from modquad_gym.geometry.polyominoes import A001168
+from modquad_gym.geometry.structure import Key
 
 
 @dataclass
@@ -69,3 +70,44 @@ class ChunkBar:
     def close(self) -> None:
         self.start = 0
         self.seen(self.size)
+
+
+@dataclass
+class Optima:
+    """Every minimum-module structure of a task (:func:`~.exhaustive.optimal_level`).
+
+    Attributes:
+        n_modules: the certified minimum, or None when no structure up to n_max works.
+        keys: every feasible structure of ``n_modules`` modules (cells up to translation), in
+            canonical order (the first ``max_keys`` of them when that is given).
+        evaluated, oracle_calls, seconds: the work it took, as in :class:`~.result.SearchResult`.
+        proof: how infeasibility was proven without searching, when it was ("" otherwise).
+        count: how many feasible structures the level holds (``len(keys)`` unless capped).
+    """
+
+    n_modules: int | None
+    keys: list[Key]
+    evaluated: int
+    oracle_calls: int
+    seconds: float
+    proof: str = ""
+    count: int = -1
+
+    def __post_init__(self) -> None:
+        if self.count < 0:
+            self.count = len(self.keys)
+
+
+class KeptKeys(list):
+    """The first ``limit`` keys added (all when None) and how many were added (``total``):
+    memory stays bounded when a level holds millions of feasible structures."""
+
+    def __init__(self, limit: int | None = None) -> None:
+        super().__init__()
+        self.limit = limit
+        self.total = 0
+
+    def add(self, key: Key) -> None:
+        self.total += 1
+        if self.limit is None or len(self) < self.limit:
+            self.append(key)

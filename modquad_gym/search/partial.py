@@ -50,11 +50,12 @@ class Partial:
         return out
 
 
-def make_partial(start, palette: tuple[ModuleType, ...], typed: bool) -> Partial:
+def make_partial(start, palette: tuple[ModuleType, ...], typed: bool, n_max: int) -> Partial:
     """The :class:`Partial` of ``start``: a :class:`~modquad_gym.geometry.structure.Structure`
     (its module types must be palette types; they are required of the completion in a search
-    over several types or with ``modules=``) or a list of connected (x, y) cells (any types).
-    ValueError names what is wrong."""
+    over several types or with ``modules=``) or a list of connected (x, y) cells (any types),
+    of at most ``n_max`` modules (every structure containing it has more). ValueError names
+    what is wrong."""
     if isinstance(start, Structure):
         s = start
         fixed = typed or len(palette) > 1
@@ -64,6 +65,8 @@ def make_partial(start, palette: tuple[ModuleType, ...], typed: bool) -> Partial
         except (TypeError, ValueError) as err:
             raise ValueError(f"start: {err}") from None
         fixed = False
+    if s.n_modules > n_max:
+        raise ValueError(f"start has {s.n_modules} cells, more than n_max={n_max}")
     index = {m.digest: k for k, m in enumerate(palette)}
     missing = [m.name for m in s.modules if m.digest not in index]
     if missing:

@@ -22,7 +22,10 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from modquad_gym.core.validation import check_f_max, check_int, check_wrenches
-from modquad_gym.geometry.cells import MAX_MODULES  # noqa: F401 (the searches' limit, named here)
+from modquad_gym.geometry.cells import (  # noqa: F401 (the searches' limits, named here)
+    EXACT_MODULES,
+    MAX_MODULES,
+)
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import check_task_scale
@@ -44,9 +47,6 @@ from modquad_gym.search.options import (  # noqa: F401 (the time limit's names, 
 )
 from modquad_gym.search.size import MAX_SEARCH_WRENCHES, check_search_size  # noqa: F401
 from modquad_gym.tasks import as_task
-
-EXACT_MODULES = 16
-"""The exhaustive search's module limit: level 16 holds 1.0e8 structures, level 17 4.0e8."""
 
 DEFAULT_TIME_LIMIT = 60.0
 """Seconds a search takes at most by default (``modquad solve --time-limit``)."""

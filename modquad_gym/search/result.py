@@ -18,10 +18,11 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
-from modquad_gym.geometry.structure import Key, Structure
+from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import Zonotope, feasible
 from modquad_gym.oracle.faults import DecisionInterruptedError, tolerates
 from modquad_gym.search.checker import LP_ROTORS
+from modquad_gym.tasks import as_task
 from modquad_gym.tasks.wrenches import kind_entry
 
 if TYPE_CHECKING:
@@ -96,6 +97,10 @@ class SearchResult:
             in order; the anytime search fills it, the others leave it empty).
         ray_start_seconds: how long the search waited for Ray's start (the anytime search's
             producers on workers), not counted in ``seconds`` or the time limit (0: none).
+        scope: which structures an exact search searched when not all of them (``"containing
+            start"``, :func:`~.exhaustive.exhaustive_search`'s ``start``): its structure is the
+            proved minimum among them, or none of them satisfies the task; ``lower_bound``
+            (and so ``certified`` and :attr:`status`) stays what is proved for the task.
     """
 
     structure: Structure | None
@@ -116,6 +121,7 @@ class SearchResult:
     fault_margin: float = 0.0
     history: tuple[Improvement, ...] = ()
     ray_start_seconds: float = 0.0
+    scope: str = ""
 
     def __post_init__(self) -> None:
         if self.lower_bound is None:
@@ -165,13 +171,19 @@ class SearchResult:
             fault += f" with a margin of {self.fault_margin:g}"
         if status is Status.OPTIMAL:
             return f"{self.n_modules} modules{fault} (certified minimum)"
+        among = f", the minimum among structures {self.scope}" if self.scope else ""
         if status is Status.FEASIBLE:
             return (
-                f"{self.n_modules} modules{fault}; proved: at least {self.lower_bound} (a smaller "
-                "structure may exist)"
+                f"{self.n_modules} modules{fault}{among}; proved: at least {self.lower_bound} (a "
+                "smaller structure may exist)"
             )
         if status is Status.INFEASIBLE:
             return f"no structure of up to {self.n_max} modules{fault} satisfies the task (proved)"
+        if self.scope:
+            return (
+                f"no structure {self.scope} of up to {self.n_max} modules{fault} satisfies the "
+                f"task (proved among them; for the task, proved: at least {self.lower_bound})"
+            )
         return (
             f"{self.method} found no structure of up to {self.n_max} modules{fault} (not a proof: "
             f"one may still exist; proved: at least {self.lower_bound})"
@@ -214,48 +226,9 @@ class SearchResult:
             out["history"] = [event.to_dict() for event in self.history]
         if self.ray_start_seconds:
             out["ray_start_seconds"] = round(self.ray_start_seconds, 3)
+        if self.scope:
+            out["scope"] = self.scope
         return out
-
-
-@dataclass
-class Optima:
-    """Every minimum-module structure of a task (:func:`~.exhaustive.optimal_level`).
-
-    Attributes:
-        n_modules: the certified minimum, or None when no structure up to n_max works.
-        keys: every feasible structure of ``n_modules`` modules (cells up to translation), in
-            canonical order (the first ``max_keys`` of them when that is given).
-        evaluated, oracle_calls, seconds: the work it took, as in :class:`SearchResult`.
-        proof: how infeasibility was proven without searching, when it was ("" otherwise).
-        count: how many feasible structures the level holds (``len(keys)`` unless capped).
-    """
-
-    n_modules: int | None
-    keys: list[Key]
-    evaluated: int
-    oracle_calls: int
-    seconds: float
-    proof: str = ""
-    count: int = -1
-
-    def __post_init__(self) -> None:
-        if self.count < 0:
-            self.count = len(self.keys)
-
-
-class KeptKeys(list):
-    """The first ``limit`` keys added (all when None) and how many were added (``total``):
-    memory stays bounded when a level holds millions of feasible structures."""
-
-    def __init__(self, limit: int | None = None) -> None:
-        super().__init__()
-        self.limit = limit
-        self.total = 0
-
-    def add(self, key: Key) -> None:
-        self.total += 1
-        if self.limit is None or len(self) < self.limit:
-            self.append(key)
 
 
 class SearchRun:
@@ -330,9 +303,10 @@ class SearchRun:
         lower_bound: int,
         skipped: list[int] | tuple[int, ...] = (),
         proof: str = "",
+        scope: str = "",
     ) -> SearchResult:
         """The result: ``structure`` (verified here by the exact LP) and ``lower_bound``, the
-        proved bound on the module count (:class:`SearchResult`)."""
+        proved bound on the module count (:class:`SearchResult`; ``scope`` as there)."""
         p = self.problem
         if structure is not None:
             W = p.rotor_wrenches(structure)
@@ -373,17 +347,23 @@ class SearchRun:
             fault_margin=p.fault_margin,
             history=tuple(self.history),
             ray_start_seconds=self.ray_start_seconds,
+            scope=scope,
         )
 
 
 def verified(structure: Structure | None, task: Any) -> bool:
     """Does ``structure`` exert every wrench of ``task`` (a TaskRequirement, its own weight
-    added for external tasks; or a DynamicTask, its own mass and inertia)? Decided by the
-    exact DAQP LP oracle. For a :class:`~.problem.SearchProblem`, its own decision
-    (:meth:`~.problem.SearchProblem.decide`: with ``fault``, after every failure too)."""
+    added for external tasks; a DynamicTask, its own mass and inertia; or what
+    :func:`~modquad_gym.tasks.as_task` takes, a (t, 6) wrench array)? Decided by the exact DAQP
+    LP oracle. For a :class:`~.problem.SearchProblem`, its own decision
+    (:meth:`~.problem.SearchProblem.decide`: with ``fault``, after every failure too). A
+    ``structure`` that is neither a Structure nor None is a ValueError, so is a bad ``task``."""
     if structure is None:
         return False
+    if not isinstance(structure, Structure):
+        raise ValueError(f"structure must be a Structure or None, got {type(structure).__name__}")
     if hasattr(task, "decide"):
         return bool(task.decide(structure).all())
+    task = as_task(task, "task")
     W = task.rotor_wrenches(structure)
     return bool(feasible(structure.configuration_matrix(), W, task.f_max, method="daqp").all())

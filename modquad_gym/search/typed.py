@@ -93,8 +93,10 @@ def search_typed(
     for n in range(1, p.n_max + 1):
         allowed, skipped = allowed_counts(p, n)
         run.skipped += skipped
-        if not allowed.any() or (part is not None and n < part.size):
+        if not allowed.any():
             skipped_levels.append(n)
+            continue
+        if part is not None and n < part.size:  # no structure containing it: not ruled out
             continue
         found = _search_level(run, n, assignments(n, allowed), progress, first_only, part)
         if found:

@@ -60,8 +60,8 @@ from pathlib import Path
 import numpy as np
 
 from modquad_gym.core.extras import import_optional
+from modquad_gym.core.validation import check_f_max, float_array, refuse_non_numbers
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.oracle.scale import check_f_max_range
 from modquad_gym.sim.export_formats import (  # noqa: F401 (FORMATS, SUFFIXES, is_path: here too)
     FORMATS,
     SUFFIXES,
@@ -89,8 +89,15 @@ ROTOR_THICKNESS = 0.01
 
 def rotor_quaternion(direction) -> np.ndarray:
     """(w, x, y, z), w >= 0: the smallest rotation that turns e3 onto the unit ``direction``
-    (scipy's ``Rotation.align_vectors`` of one pair; straight down: half a turn about x)."""
-    d = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+    (scipy's ``Rotation.align_vectors`` of one pair; straight down: half a turn about x).
+    ``direction``: 3 finite numbers, not all zero (else a ValueError naming it)."""
+    refuse_non_numbers(direction, "direction", "entry")
+    d = float_array(direction, "direction", f"3 numbers, got {direction!r:.60}")
+    big = float(np.abs(d).max()) if d.shape == (3,) else math.nan
+    if not 0.0 < big < math.inf:  # nan: not 3 finite numbers
+        raise ValueError(f"direction must be 3 finite numbers, not all zero, got {direction!r:.60}")
+    d = d / big  # entries of order one: no overflow in the norm
+    d = d / np.linalg.norm(d)
     if d[2] < -1.0 + 1e-12:  # antiparallel: every half turn about a horizontal axis is smallest
         return np.array([0.0, 1.0, 0.0, 0.0])
     from scipy.spatial.transform import Rotation
@@ -126,12 +133,12 @@ def thrust_to_weight(structure: Structure, f_max: float = 1.0) -> float:
     :func:`~modquad_gym.oracle.lambda_ratio` of the hover wrench ``[0, 0, m g, 0, 0, 0]``.
     >= 1 exactly when it can hover with no external load, by the oracle's rule (the plain LP's
     value within its tolerance, 1e-6 relative); for T-modules the rotors' summed vertical
-    thrust over the weight, 4 n f_max cos(eta) / (m g). ``f_max`` in 1e-300..1e300, as every
-    task's (:func:`~modquad_gym.oracle.scale.check_f_max_range`)."""
+    thrust over the weight, 4 n f_max cos(eta) / (m g). ``f_max`` in 1e-300..1e12, as every
+    task's (:func:`~modquad_gym.core.validation.check_f_max`)."""
     from modquad_gym.geometry.module import GRAVITY
     from modquad_gym.oracle import lambda_ratio
 
-    structure, f_max = check_structure(structure), check_f_max_range(f_max)
+    structure, f_max = check_structure(structure), check_f_max(f_max)
     hover = [[0.0, 0.0, structure.mass * GRAVITY, 0.0, 0.0, 0.0]]
     return float(lambda_ratio(structure.configuration_matrix(), hover, f_max)[0])
 
@@ -148,7 +155,7 @@ def lift_statement(structure: Structure, f_max: float = 1.0) -> str:
     command line."""
     ratio = thrust_to_weight(structure, f_max)
     need = hover_f_max(structure)
-    shown = f"{ratio:.3f}" if ratio < 1e6 else f"{ratio:.3g}"  # not 300 digits at f_max 1e300
+    shown = f"{ratio:.3f}" if ratio < 1e6 else f"{ratio:.3g}"  # not 12 digits at f_max 1e12
     head = (
         f"thrust-to-weight {shown} at f_max {f_max:g} N per rotor "
         f"({structure.n_modules} modules, {structure.mass:g} kg)"
@@ -163,7 +170,7 @@ def structure_dict(structure: Structure, f_max: float = 1.0) -> dict:
     inertia (about the COM, {S} axes), rotor poses (each with the index of its module: types
     may have any number of rotors), and the configuration matrix A (6 x R for R rotors,
     column k = rotor k: the wrench [f; tau] about the COM per unit thrust)."""
-    f_max = check_f_max_range(f_max)
+    f_max = check_f_max(f_max)
     s = check_structure(structure)
     owner = np.repeat(np.arange(s.n_modules), [m.n_rotors for m in s.modules])
     rotors = zip(owner, s.rotor_positions, s.rotor_directions, s.rotor_spins, s.rotor_c_tau,
@@ -289,9 +296,9 @@ def mjcf_text(structure: Structure, f_max: float = 1.0) -> str:
 
 def export_text(structure: Structure, fmt: str, f_max: float = 1.0) -> str:
     """``structure`` in the format ``fmt`` (one of :data:`FORMATS`) as text; ``f_max`` in
-    1e-300..1e300 N (:func:`~modquad_gym.oracle.scale.check_f_max_range`)."""
+    1e-300..1e12 N (:func:`~modquad_gym.core.validation.check_f_max`)."""
     check_structure(structure)
-    f_max = check_f_max_range(f_max)
+    f_max = check_f_max(f_max)
     if not isinstance(fmt, str) or fmt not in FORMATS:  # an array's `in` would ask its truth
         raise ValueError(f"format: unknown {fmt!r}; use one of {', '.join(FORMATS)}")
     if fmt in ("mjcf", "urdf"):
@@ -310,7 +317,7 @@ def save_structure(
     an existing file is replaced only with ``force``. The same rules as ``modquad export``: a
     ``fmt`` that contradicts the suffix (JSON in b.xml) is refused
     (:func:`~modquad_gym.sim.export_formats.export_format`), and so is an ``f_max`` outside
-    1e-300..1e300 N. A robot that cannot lift itself at ``f_max`` N per rotor gets a warning on
+    1e-300..1e12 N. A robot that cannot lift itself at ``f_max`` N per rotor gets a warning on
     the ``modquad_gym`` logger (:mod:`modquad_gym.core.notes`). Returns the path written."""
     from modquad_gym.core.outputs import check_output_file, write_text
     from modquad_gym.core.validation import check_flag, check_path
@@ -337,17 +344,12 @@ def save_structure(
 
 
 def check_structure(structure: object) -> Structure:
-    """``structure`` itself when it is a :class:`~modquad_gym.geometry.structure.Structure`
-    whose mass and inertia are finite, else a ValueError naming its type or the overflow (what
-    every writer takes: JSON has no NaN)."""
+    """``structure`` itself when it is a :class:`~modquad_gym.geometry.structure.Structure`,
+    else a ValueError naming its type (what every writer takes; its mass and inertia are
+    finite: module masses are at most :data:`~modquad_gym.geometry.module.MAX_MASS`)."""
     if not isinstance(structure, Structure):
         raise ValueError(
             f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
-        )
-    if not (math.isfinite(structure.mass) and np.all(np.isfinite(structure.inertia))):
-        raise ValueError(
-            f"structure: its mass and inertia overflow ({structure.mass:g} kg over "
-            f"{structure.n_modules} modules): module masses too large to write"
         )
     return structure
 

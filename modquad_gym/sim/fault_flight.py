@@ -37,7 +37,7 @@ import numpy as np  # noqa: E402
 
 from modquad_gym.core.validation import check_real, check_wrenches  # noqa: E402
 from modquad_gym.geometry.structure import Structure  # noqa: E402
-from modquad_gym.oracle import TOL, check_f_max_range, check_task_scale, margin  # noqa: E402
+from modquad_gym.oracle import TOL, check_f_max, check_task_scale, margin  # noqa: E402
 from modquad_gym.oracle.failures import module_failures  # noqa: E402
 from modquad_gym.oracle.faults import FaultTolerance, check_fault, failure_sets  # noqa: E402
 from modquad_gym.search.checker import LP_ROTORS  # noqa: E402
@@ -94,7 +94,7 @@ def worst_failure(structure: Structure, W: np.ndarray, f_max: float, fault: str)
     """The failure of kind ``fault`` that leaves the smallest margin over the rotor wrenches W
     (rows of a (t, 6) array), and the wrench nearest the boundary after it."""
     W = check_wrenches(W)
-    f_max = check_f_max_range(f_max)
+    f_max = check_f_max(f_max)
     A = np.array(structure.configuration_matrix())
     sets = failure_columns(structure, fault)
     tol = FaultTolerance(A, f_max, sets)
@@ -257,7 +257,7 @@ def hover_with_failure(
 
     seconds = check_real(seconds, "seconds", positive=True)
     w = check_wrenches(np.asarray(w, dtype=float)[None])[0]
-    cfg = HoverConfig.make(config, f_max=check_f_max_range(f_max), takeoff_seconds=0.0,
+    cfg = HoverConfig.make(config, f_max=check_f_max(f_max), takeoff_seconds=0.0,
                            known_load=True, load_frame="world")  # fmt: skip
     sim = build_model(structure, cfg.f_max, bench=False)
     flight = Flight(sim, cfg)
@@ -333,7 +333,7 @@ def _rotor_wrenches(structure: Structure, task, f_max, seconds) -> tuple[np.ndar
     if hasattr(task, "rotor_wrenches"):
         refuse_unflown(task, f_max, seconds)
         task, f_max = task.rotor_wrenches(structure), task.f_max
-    f_max = check_f_max_range(1.0 if f_max is None else f_max)
+    f_max = check_f_max(1.0 if f_max is None else f_max)
     return check_task_scale(task, f_max), f_max  # the searches' scale, as validate's
 
 

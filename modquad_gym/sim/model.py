@@ -43,10 +43,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from modquad_gym.core.extras import import_optional
+from modquad_gym.core.validation import check_f_max
 from modquad_gym.geometry.inertia import inertia_about_com
 from modquad_gym.geometry.module import DEFAULT_HEIGHT, GRAVITY
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.oracle.scale import check_f_max_range
 from modquad_gym.sim.inertial import check_simulable, principal_axes, six_digit_moments
 from modquad_gym.viz.raster import type_colour
 
@@ -138,7 +138,7 @@ def model_spec(
         raise ValueError(
             f"structure must be a modquad_gym.Structure, got {type(structure).__name__}"
         )
-    f_max = check_f_max_range(f_max)
+    f_max = check_f_max(f_max)
     check_simulable(structure)
     masses = _masses(structure, module_mass)
     if module_mass is not None and np.ptp(structure.masses) > 0:
@@ -349,7 +349,7 @@ def build_model(
     body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "structure")
     mass = float(model.body_mass[body])
     A = np.array(structure.configuration_matrix())
-    return SimModel(model, structure, A, check_f_max_range(f_max), mass, body, bench, xml)
+    return SimModel(model, structure, A, check_f_max(f_max), mass, body, bench, xml)
 
 
 def body_rotation(sim: SimModel, data) -> np.ndarray:

@@ -52,10 +52,14 @@ import numpy as np  # noqa: E402
 
 from modquad_gym.core.extras import require  # noqa: E402
 from modquad_gym.core.outputs import check_output_dir, write_text  # noqa: E402
-from modquad_gym.core.validation import check_flag, check_int  # noqa: E402
+from modquad_gym.core.validation import (  # noqa: E402
+    check_f_max,  # noqa: E402
+    check_flag,
+    check_int,
+)
 from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.oracle import feasible, lambda_ratio, margin  # noqa: E402
-from modquad_gym.oracle.scale import check_f_max_range, check_task_scale  # noqa: E402
+from modquad_gym.oracle.scale import check_task_scale  # noqa: E402
 from modquad_gym.sim.hover import HoverConfig, run_hover, unreachable_wrench_directions, wrench_axis  # noqa: E402
 from modquad_gym.sim.hover.run import hover_bar  # noqa: E402
 from modquad_gym.sim.hover_options import DEFAULT_HOVER_WRENCHES, checked_hover  # noqa: E402
@@ -231,7 +235,7 @@ def _checked(structure: Any, task: Any, f_max: float | None, kind: str | None,
         )
     check_simulable(structure)  # a module type MuJoCo cannot compile, before any work
     task = as_task(task).with_f_max(f_max).with_kind(kind)
-    f_max = check_f_max_range(task.f_max)
+    f_max = check_f_max(task.f_max)
     W = check_task_scale(task.rotor_wrenches(structure), f_max)  # the searches' and export's
     if unknown_load and not load_ramp_seconds >= 0:
         raise ValueError(f"load_ramp_seconds must be >= 0, got {load_ramp_seconds}")

@@ -31,9 +31,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from modquad_gym.core.extras import import_optional
+from modquad_gym.core.validation import check_f_max
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import TOL, allocate, check_wrenches, feasible
-from modquad_gym.oracle.scale import check_f_max_range
 from modquad_gym.sim.model import SimModel, build_model
 
 ALLOCATIONS = ("exact", "pinv_clip")
@@ -155,7 +155,7 @@ def run_bench(
         if not sim.bench:
             raise ValueError("run_bench needs a model built with bench=True (load cell and weld)")
     else:
-        sim = build_model(structure, check_f_max_range(f_max), bench=True)
+        sim = build_model(structure, check_f_max(f_max), bench=True)
     U = allocate_inputs(sim.A, W, sim.f_max, allocation)
     data = sim.new_data()
     measured = np.empty_like(W)

@@ -7,6 +7,8 @@ import importlib
 import inspect
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -248,6 +250,18 @@ class ExternalSolver:
         return plain, (1, len(own.rotor_wrenches(plain)))
 
 
+@contextmanager
+def solver_named(flag: str) -> Iterator[None]:
+    """A ValueError of :func:`load_solver` raised inside the block (``solver 'SPEC': ...``)
+    names the command line's option ``flag`` instead (``--solver 'SPEC': ...``)."""
+    try:
+        yield
+    except ValueError as exc:
+        if not str(exc).startswith("solver "):
+            raise
+        raise ValueError(flag + str(exc).removeprefix("solver")) from exc
+
+
 def load_solver(
     spec: str,
     n_max: int = 7,
@@ -260,31 +274,35 @@ def load_solver(
     ``task -> answer`` (see :class:`ExternalSolver`). A class is made with the keywords among
     ``n_max``, ``tier``, ``modules`` (the module types allowed, default one type) and ``seed``
     that its constructor takes, so the agent is told the tier's budget and the run's seed. The
-    module is looked up in the working folder first, as ``python -m`` does."""
+    module is looked up in the working folder first, as ``python -m`` does. A spec that cannot
+    be made is a ValueError ``solver 'SPEC': ...`` (the command line names its option instead:
+    :func:`solver_named`)."""
+    if not isinstance(spec, str):
+        raise ValueError(f"spec must be package.module:Name (a str), got {spec!r:.60}")
     module_name, sep, attr = spec.partition(":")
     if not sep or not module_name or not attr:
-        raise ValueError(f"--solver {spec!r}: write it as package.module:Name")
+        raise ValueError(f"solver {spec!r}: write it as package.module:Name")
     if "/" in module_name or "\\" in module_name or module_name.endswith(".py"):  # not run
         raise ValueError(
-            f"--solver {spec!r}: a file path is not accepted; give module:Name, the module "
+            f"solver {spec!r}: a file path is not accepted; give module:Name, the module "
             "importable from the current folder (myagent:Agent for ./myagent.py)"
         )
     if module_name.split(".")[0] in sys.stdlib_module_names:  # os:system is not an agent
-        raise ValueError(f"--solver {spec!r}: {module_name} is a standard-library module")
+        raise ValueError(f"solver {spec!r}: {module_name} is a standard-library module")
     if "" not in sys.path and str(Path.cwd()) not in sys.path:
         sys.path.insert(0, str(Path.cwd()))  # like python -m: modules of the working folder
     try:
         module = importlib.import_module(module_name)
     except ImportError as err:
-        raise ValueError(f"--solver {spec!r}: cannot import {module_name!r}: {err}") from None
+        raise ValueError(f"solver {spec!r}: cannot import {module_name!r}: {err}") from None
     except AGENT_ERRORS as err:  # its own code failed while it was imported
         raise ValueError(
-            f"--solver {spec!r}: importing {module_name} failed: {failure_line(err)}"
+            f"solver {spec!r}: importing {module_name} failed: {failure_line(err)}"
         ) from None
     try:
         obj = getattr(module, attr)
     except AttributeError:
-        raise ValueError(f"--solver {spec!r}: {module_name} has no {attr!r}") from None
+        raise ValueError(f"solver {spec!r}: {module_name} has no {attr!r}") from None
     if isinstance(obj, type):
         told = {"n_max": n_max, "tier": tier, "modules": list(modules) if modules else None,
                 "seed": seed}  # fmt: skip
@@ -293,10 +311,10 @@ def load_solver(
             obj = obj(**given)
         except AGENT_ERRORS as err:  # its constructor failed, or wants what nobody passes
             raise ValueError(
-                f"--solver {spec!r}: making {attr}({', '.join(given)}) failed: {failure_line(err)}"
+                f"solver {spec!r}: making {attr}({', '.join(given)}) failed: {failure_line(err)}"
             ) from None
     if not (hasattr(obj, "solve") or callable(obj)):
-        raise ValueError(f"--solver {spec!r}: {attr} has no solve(task) and is not callable")
+        raise ValueError(f"solver {spec!r}: {attr} has no solve(task) and is not callable")
     name = str(getattr(obj, "name", attr))
     takes_seed = isinstance(getattr(module, attr), type) and _takes(getattr(module, attr), "seed")
     return ExternalSolver(obj, name=name, n_max=n_max, tier=tier, modules=modules, fault=fault,

@@ -7,7 +7,7 @@ Fig. 1), :class:`FixedTasks` and :class:`MixedTasks`.
 A generator checks its arguments when it is made (a ValueError naming the argument), against
 the limits ``modquad task generate`` and the searches apply: at most
 :data:`~modquad_gym.geometry.cells.MAX_MODULES` modules and
-:data:`~modquad_gym.tasks.wrenches.MAX_WRENCHES` wrenches, an f_max in 1e-300..1e300 and
+:data:`~modquad_gym.tasks.wrenches.MAX_WRENCHES` wrenches, an f_max in 1e-300..1e12 and
 wrenches the searches take (:func:`~modquad_gym.oracle.scale.check_scale_bound`); a planted
 task's scale is known once drawn, and checked then. A call takes a ``numpy.random.Generator``."""
 
@@ -19,12 +19,12 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from modquad_gym.core.validation import check_int, check_name, check_real, check_rng
+from modquad_gym.core.validation import check_f_max, check_int, check_name, check_real, check_rng
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.geometry.cells import MAX_MODULES, random_cells
-from modquad_gym.geometry.module import GRAVITY, ModuleType, palette
+from modquad_gym.geometry.module import GRAVITY, ModuleType, check_module, palette
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.oracle.scale import check_f_max_range, check_scale_bound, check_task_scale
+from modquad_gym.oracle.scale import check_scale_bound, check_task_scale
 from modquad_gym.tasks.requirement import TaskRequirement
 from modquad_gym.tasks.wrenches import MAX_WRENCHES, check_kind
 
@@ -69,12 +69,6 @@ def _in_scale(W: np.ndarray, f_max: float) -> np.ndarray:
         return check_task_scale(W, f_max)
     except ValueError as exc:
         raise ValueError(f"f_max = {f_max:g}: {exc}") from None
-
-
-def _check_module(module: object) -> None:
-    """A ValueError unless ``module`` is a ModuleType or None (the default T-module)."""
-    if module is not None and not isinstance(module, ModuleType):
-        raise ValueError(f"module must be a ModuleType or None, got {module!r:.60}")
 
 
 FZ_READINGS = ("abs", "shift", "literal")
@@ -197,8 +191,8 @@ class PlantedTasks:
         check_real(self.p_extreme, "p_extreme", low=0.0, high=1.0)
         if not 0.0 <= check_real(self.slack, "slack") < 0.5:
             raise ValueError(f"slack must lie in [0, 0.5), got {self.slack!r}")
-        _check_module(self.module)
-        check_f_max_range(self.f_max)
+        check_module(self.module, optional=True)
+        check_f_max(self.f_max)
         check_name(self.name)
         check_kind(self.kind)
 
@@ -370,7 +364,7 @@ class PlantedMixedTasks:
         check_int(self.n_wrenches, "n_wrenches", low=1, high=MAX_WRENCHES)
         palette(self.modules)  # a ValueError naming modules
         check_kind(self.kind)
-        check_f_max_range(self.f_max)
+        check_f_max(self.f_max)
         check_name(self.name)
 
     def __call__(self, rng: np.random.Generator) -> TaskRequirement:

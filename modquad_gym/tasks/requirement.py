@@ -12,9 +12,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from modquad_gym.core.outputs import atomic_write, check_output_file, write_text
-from modquad_gym.core.validation import check_flag, check_task_name
+from modquad_gym.core.validation import check_f_max, check_flag, check_task_name
 from modquad_gym.dynamics.wrenches import LinearWrenches
-from modquad_gym.oracle.scale import check_f_max_range
 from modquad_gym.tasks.csvfile import check_csv_header, csv_text, read_csv
 from modquad_gym.tasks.examples import resolve_task_path
 from modquad_gym.tasks.files import (
@@ -78,7 +77,7 @@ class TaskRequirement:
         arr = check_wrench_array(self.wrenches)
         arr.setflags(write=False)
         object.__setattr__(self, "wrenches", arr)
-        object.__setattr__(self, "f_max", check_f_max_range(self.f_max))
+        object.__setattr__(self, "f_max", check_f_max(self.f_max))
         check_task_name(self.name)
         if not isinstance(self.meta, dict):
             raise ValueError(f"meta must be a dict, got {type(self.meta).__name__}")
@@ -154,7 +153,7 @@ class TaskRequirement:
 
     def with_f_max(self, f_max: float | None) -> TaskRequirement:
         """The same task with another thrust limit (None: this task)."""
-        return self if f_max is None else dataclasses.replace(self, f_max=check_f_max_range(f_max))
+        return self if f_max is None else dataclasses.replace(self, f_max=check_f_max(f_max))
 
     def check_liftable(self, modules: Any) -> int:
         """The fewest modules the task needs by its weight alone (the interface of
@@ -193,7 +192,7 @@ class TaskRequirement:
             raise ValueError("a task with a trajectory is dynamic: read it with tasks.load_task")
         wrenches = rows_to_array(data["wrenches"])
         name = check_task_name(data.get("name", default_name), "'name'")
-        f_max = check_f_max_range(data.get("f_max", 1.0))
+        f_max = check_f_max(data.get("f_max", 1.0))
         kind = check_kind(data.get("kind", "total"), "'kind'")
         meta = check_meta(data.get("meta", {}))
         return cls(wrenches, name=name, f_max=f_max, meta=meta, kind=kind)

@@ -16,6 +16,7 @@ from modquad_gym.core.options import MAX_SEED
 from modquad_gym.core.validation import check_int
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.dynamics.random_motions import MotionTasks
+from modquad_gym.geometry.cells import MAX_MODULES
 from modquad_gym.tasks.examples import resolve_task_path
 from modquad_gym.tasks.files import SUFFIXES, json_keys
 from modquad_gym.tasks.generators import (
@@ -80,12 +81,15 @@ def make_generator(spec: Any, n_max: int | None = None) -> TaskGenerator:
       over tasks); if any element is a random generator, a :class:`MixedTasks` (uniform over
       elements).
 
-    With ``n_max`` (the environment's), a named source draws its planted sizes within n_max
-    (``sizes_within``), so a planted task always has a solution within n_max; a source
-    whose sizes already fit (every registered id's at its default n_max) is left as it is.
+    With ``n_max`` (the environment's; an integer in 1..:data:`MAX_MODULES`), a named source
+    draws its planted sizes within n_max (``sizes_within``), so a planted task always has a
+    solution within n_max; a source whose sizes already fit (every registered id's at its
+    default n_max) is left as it is.
 
-    Raises ValueError naming the spec (TaskFileError for a bad file).
+    Raises ValueError naming the spec or ``n_max`` (TaskFileError for a bad file).
     """
+    if n_max is not None:
+        n_max = check_int(n_max, "n_max", 1, MAX_MODULES)
     if isinstance(spec, (TaskRequirement, DynamicTask)):
         return FixedTasks((spec,), name=spec.name)
     if isinstance(spec, (list, tuple)):

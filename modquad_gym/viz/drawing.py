@@ -25,9 +25,8 @@ import numpy as np
 
 from modquad_gym.core.extras import import_optional
 from modquad_gym.core.outputs import check_output_file, save_figure
-from modquad_gym.core.validation import check_flag
+from modquad_gym.core.validation import check_f_max, check_flag
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.oracle.scale import check_f_max_range
 from modquad_gym.viz.projections import (
     CORNER_CLEARANCE,
     HULL_COLOUR,
@@ -206,7 +205,7 @@ def draw_rotor_inputs(U: np.ndarray, f_max: float = 1.0, ax: Axes | None = None)
         U = U[None, :]
     if U.ndim != 2 or U.size == 0:
         raise ValueError(f"U must have shape (t, m) with t, m >= 1, got {np.shape(U)}")
-    f_max = check_f_max_range(f_max)
+    f_max = check_f_max(f_max)
     ax = ax if ax is not None else new_axes(figsize=(7.0, 3.5))
     idx = np.arange(1, U.shape[0] + 1)
     for k in range(U.shape[1]):

@@ -14,8 +14,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from modquad_gym.core.extras import import_optional
+from modquad_gym.core.validation import check_f_max
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.oracle.scale import check_f_max_range
 from modquad_gym.viz.raster import check_structure
 from modquad_gym.viz.zonotope import (
     FEASIBLE_COLOUR,
@@ -79,7 +79,7 @@ def draw_projection(
 
     s = check_structure(structure)
     first, names = SPACES[space]
-    f_max = check_f_max_range(getattr(task, "f_max", f_max))
+    f_max = check_f_max(getattr(task, "f_max", f_max))
     V, exact = drawn_vertices(s.configuration_matrix(), space, f_max)
     ax = ax if ax is not None else new_axes(projection="3d")
     ax.computed_zorder = False  # draw order by zorder: the task's points over the hull

@@ -14,8 +14,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from modquad_gym.core.validation import check_f_max
 from modquad_gym.oracle import feasible
-from modquad_gym.oracle.scale import check_f_max_range
 
 SPACES = {"force": (0, ("f_x", "f_y", "f_z")), "torque": (3, ("tau_x", "tau_y", "tau_z"))}
 """The two projections: first row of A and the coordinate names."""
@@ -45,7 +45,7 @@ def projection_vertices(A: np.ndarray, space: str, f_max: float = 1.0) -> np.nda
     """
     if space not in SPACES:
         raise ValueError(f"space must be one of {tuple(SPACES)}, got {space!r}")
-    f_max = check_f_max_range(f_max)
+    f_max = check_f_max(f_max)
     A = np.asarray(A, dtype=float)
     if A.ndim != 2 or A.shape[0] != 6:
         raise ValueError(f"A must be a 6 x m configuration matrix, got shape {np.shape(A)}")
@@ -105,7 +105,7 @@ def drawn_vertices(A: np.ndarray, space: str, f_max: float = 1.0) -> tuple[np.nd
     A = np.asarray(A, dtype=float)
     if A.ndim != 2 or A.shape[0] != 6 or A.shape[1] <= EXACT_DRAWN_ROTORS:
         return projection_vertices(A, space, f_max), True
-    f_max = check_f_max_range(f_max)
+    f_max = check_f_max(f_max)
     first = SPACES[space][0]
     G = A[first : first + 3] * f_max
     P = (_fibonacci_sphere(DRAWN_DIRECTIONS) @ G > 0).astype(float) @ G.T

@@ -24,7 +24,7 @@ from modquad_gym.envs.assembly.features import (
 )
 from modquad_gym.envs.assembly.grid import Grid
 from modquad_gym.envs.assembly.inputs import (
-    check_f_max,
+    check_env_f_max,
     check_oracle_method,
     check_render_mode,
     check_render_size,
@@ -234,7 +234,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
                                 lookahead_top_k)  # fmt: skip
         self.encoding: Grid | Faces = make_encoding(actions, ENCODINGS)(self.n_max, self.n_types)
         check_render_mode(render_mode, self.metadata)
-        self.f_max = None if f_max is None else check_f_max(f_max)
+        self.f_max = None if f_max is None else check_env_f_max(f_max)
         self.task_source = tasks
         self.generator: Callable[[np.random.Generator], Any] = task_source(tasks, self.n_max)
         self.n_directions = check_int(n_directions, "n_directions", 12, MAX_N_DIRECTIONS)
@@ -362,7 +362,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         task = options["task"]  # a given task, else one drawn
         if task is None:
             task = draw_task(self.generator, self.np_random, self.module_set)
-        f_max = self.f_max if self.f_max is not None else check_f_max(task.f_max)
+        f_max = self.f_max if self.f_max is not None else check_env_f_max(task.f_max)
         evaluator = self._evaluator(f_max)
         memos = self._memos.of(task, f_max)
         self._episode = Episode(self.rules, self.encoding, self.module_set, evaluator, *memos)

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.validation import check_int, check_real
+from modquad_gym.core.validation import check_f_max, check_int, check_real
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.envs.assembly.types import Rules
 from modquad_gym.envs.assembly.viewer import AssemblyViewer
@@ -186,14 +186,16 @@ def check_render_mode(render_mode: Any, metadata: dict) -> None:
         )
 
 
-F_MAX_RANGE = (1e-9, 1e12)
-"""Thrust limits the environment takes: its float32 features are ratios of wrenches to f_max,
-which far outside this range overflow (the oracle itself takes any positive finite f_max)."""
+MIN_F_MAX = 1e-9
+"""The smallest thrust limit the environment takes (every door's range,
+:data:`~modquad_gym.core.validation.F_MAX_RANGE`, starts at 1e-300): its float32 features are
+ratios of wrenches to f_max, which below it overflow."""
 
 
-def check_f_max(f_max: object) -> float:
-    """The env's f_max: a real number in :data:`F_MAX_RANGE`."""
-    return check_real(f_max, "f_max", *F_MAX_RANGE, positive=True)
+def check_env_f_max(f_max: object) -> float:
+    """The env's f_max: the one check of every f_max (up to 1e12 N,
+    :func:`~modquad_gym.core.validation.check_f_max`), and at least :data:`MIN_F_MAX`."""
+    return check_real(check_f_max(f_max), "f_max", low=MIN_F_MAX)
 
 
 def check_render_size(size: object) -> tuple[int, int]:
@@ -243,7 +245,7 @@ def given_task(given: Any, module_set: Any, f_max: float | None) -> Any:
     else:
         task = as_task(given, "options['task']")
     if f_max is None:
-        check_f_max(task.f_max)
+        check_env_f_max(task.f_max)
     return check_self_weight(task, module_set.self_weight)
 
 

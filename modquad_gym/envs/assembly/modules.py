@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from modquad_gym.envs.assembly.evaluator import MixedStructureEvaluator, StructureEvaluator
-from modquad_gym.geometry.module import ModuleType, palette
+from modquad_gym.geometry.module import ModuleType, check_module, palette
 from modquad_gym.geometry.structure import Cell, Structure, normalise_typed
 
 __all__ = ["OneType", "Palette", "make_module_set"]
@@ -45,8 +45,7 @@ class OneType:
     reset_options: tuple[str, ...] = ()  # the reset options of the module set: none
 
     def __init__(self, module: ModuleType | None = None) -> None:
-        if module is not None and not isinstance(module, ModuleType):
-            raise ValueError(f"module must be a ModuleType, got {type(module).__name__}")
+        module = check_module(module, optional=True)
         self.module = module if module is not None else Structure([(0, 0)]).module
 
     def key(self, cells: tuple[Cell, ...], types: tuple[int, ...]) -> Any:

@@ -9,8 +9,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
-from modquad_gym.core.validation import check_real
-from modquad_gym.oracle.scale import check_f_max_range
+from modquad_gym.core.validation import check_f_max, check_real
 
 LOAD_FRAMES = ("world", "body")
 """How the external load moves when the structure tilts (:mod:`.load`)."""
@@ -92,7 +91,7 @@ class HoverConfig:
     load_ramp_profile: str = "cosine"
 
     def __post_init__(self) -> None:
-        check_f_max_range(self.f_max)
+        check_f_max(self.f_max)
         for name in ("seconds_per_wrench", "control_hz", "recover_limit_m"):
             check_real(getattr(self, name), name, positive=True)
         for name in ("drift_limit_m", "drift_limit_rad"):
