@@ -12,6 +12,8 @@ import os
 import shlex
 import sys
 from collections.abc import Callable
+from contextlib import ExitStack
+from contextvars import ContextVar
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +33,7 @@ __all__ = [
     "bench_args",
     "command_as_run",
     "check_task_rows",
+    "hold_out",
     "int_option",
     "load_average",
     "machine_description",
@@ -68,12 +71,36 @@ def scripts() -> dict[str, str]:
     return out
 
 
+_RUN: ContextVar[ExitStack | None] = ContextVar("benchmark_run", default=None)
+"""What the running script holds until it ends (:func:`run_main`): its ``--out`` folder."""
+
+
 def run_main(
     main: Callable[[list[str] | None], object], name: str, argv: list[str] | None = None
 ) -> int:
     """``python -m benchmarks.NAME`` (``main``) with the options ``argv`` (default the command
-    line's), run as :func:`~modquad_gym.core.interrupts.run_command` runs a command."""
-    return run_command(main, f"python -m benchmarks.{name}", argv)
+    line's), run as :func:`~modquad_gym.core.interrupts.run_command` runs a command; the
+    folders it holds (:func:`hold_out`) are let go when it ends."""
+    with ExitStack() as held:
+        run = _RUN.set(held)
+        try:
+            return run_command(main, f"python -m benchmarks.{name}", argv)
+        finally:
+            _RUN.reset(run)
+
+
+def hold_out(folder: Path, names: tuple[str, ...] = (), force: bool = False,
+             what: str = "--out") -> Path:  # fmt: skip
+    """``folder`` checked as :func:`~modquad_gym.core.outputs.check_output_dir` checks it (none
+    of ``names`` there unless ``force``) and, in a script :func:`run_main` runs, held until the
+    script ends (:func:`~modquad_gym.core.outputs.hold_output_dir`): a second run into it is
+    refused at once, not left to replace this run's files. An OutputError otherwise."""
+    from modquad_gym.core.outputs import hold_output_dir
+
+    held = _RUN.get()
+    if held is None:  # main() called directly (a test, a notebook): checked only
+        return check_output_dir(folder, names, force, what)
+    return held.enter_context(hold_output_dir(folder, names, force, what))
 
 
 def refuse_as_script(name: str) -> int:
@@ -175,13 +202,15 @@ def bench_args(
     out_help: str = "report folder",
     force: bool = False,
     outputs: tuple[str, ...] = (),
+    hold: bool = True,
     **parser_kwargs,
 ) -> argparse.Namespace:
     """The parsed options of one benchmark: ``options`` maps each flag to its
     ``add_argument`` keywords; every benchmark also takes ``--seed`` (unless ``seed_help`` is
-    None), ``--out`` (default ``out``) and, with ``force`` or ``outputs`` (the files it writes
-    into ``--out``, refused when they exist), ``--force``; ``--help`` states every default
-    (:class:`HelpFormatter`)."""
+    None), ``--out`` (default ``out``; held for the run, :func:`hold_out`, unless ``hold`` is
+    False: a script that claims it itself) and, with ``force`` or ``outputs`` (the files it
+    writes into ``--out``, refused when they exist), ``--force``; ``--help`` states every
+    default (:class:`HelpFormatter`)."""
     parser_kwargs.setdefault("formatter_class", HelpFormatter)
     parser = argparse.ArgumentParser(prog=prog, description=description, **parser_kwargs)
     for flag, kwargs in options.items():
@@ -193,7 +222,7 @@ def bench_args(
     )
     if force or outputs:
         add_force(parser)
-    return parse_bench_args(parser, argv, outputs)
+    return parse_bench_args(parser, argv, outputs, hold)
 
 
 def add_force(parser: argparse.ArgumentParser) -> None:
@@ -203,16 +232,21 @@ def add_force(parser: argparse.ArgumentParser) -> None:
 
 
 def parse_bench_args(
-    parser: argparse.ArgumentParser, argv: list[str] | None, outputs: tuple[str, ...] = ()
+    parser: argparse.ArgumentParser,
+    argv: list[str] | None,
+    outputs: tuple[str, ...] = (),
+    hold: bool = True,
 ):
     """Parse ``argv``; when the benchmark has ``--out``, check that it is (or can become) a
-    writable folder holding none of ``outputs`` (unless ``--force``) before any work starts (an
-    argparse error otherwise)."""
+    writable folder holding none of ``outputs`` (unless ``--force``) and that no other run
+    holds it, and hold it for this run (:func:`hold_out`; only checked without ``hold``),
+    before any work starts (an argparse error otherwise)."""
     args = parser.parse_args(argv)
     out = getattr(args, "out", None)
     if out is not None:
+        force = getattr(args, "force", False)
         try:
-            check_output_dir(out, outputs, force=getattr(args, "force", False))
+            hold_out(out, outputs, force) if hold else check_output_dir(out, outputs, force)
         except OutputError as exc:
             parser.error(str(exc))
     return args

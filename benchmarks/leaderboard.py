@@ -38,7 +38,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from benchmarks.common import Distinct, HelpFormatter
+from benchmarks.common import Distinct, HelpFormatter, hold_out
 from benchmarks.leaderboard_entries import (
     ANYTIME,
     BUDGET,
@@ -194,9 +194,7 @@ def parser() -> argparse.ArgumentParser:
 
 def check_args(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     """Options that do not go together, and every file the run would write, checked before
-    any work (``p.error``: one line, exit 2)."""
-    from modquad_gym.core.outputs import check_output_dir
-
+    any work (``p.error``: one line, exit 2); the folders are held until the run ends."""
     if args.solver and args.out is None:
         p.error("--solver needs --out: the committed leaderboard holds committed data only")
     if args.out is None and sorted(args.tiers) != sorted(TIERS):
@@ -208,12 +206,12 @@ def check_args(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     written = OUTPUTS if args.solver else OUTPUTS[:-1]
     data = (RESCORED,) * args.rescore_searches + (ANYTIME,) * args.anytime_history
     data += tuple(Path(n).with_suffix(".md").name for n in data)  # each with its note
-    try:
+    try:  # held until the run ends: a second run into them is refused at once
         if args.out is None:
-            check_output_dir(RESULTS, written + data, args.force)
-            check_output_dir(DOCS, ("leaderboard.md",), args.force)
+            hold_out(RESULTS, written + data, args.force)
+            hold_out(DOCS, ("leaderboard.md",), args.force)
         else:  # the runs' data go to --out too: the committed data stay
-            check_output_dir(args.out, written + data, args.force)
+            hold_out(args.out, written + data, args.force)
     except ValueError as err:
         p.error(str(err))
 

@@ -34,9 +34,9 @@ import argparse
 import time
 from pathlib import Path
 
-from benchmarks.common import Distinct, HelpFormatter, add_force, run_main
+from benchmarks.common import Distinct, HelpFormatter, add_force, hold_out, run_main
 from modquad_gym.core.options import int_option, path_option, real_option
-from modquad_gym.core.outputs import OutputError, check_output_dir, check_output_file
+from modquad_gym.core.outputs import OutputError, check_output_file
 from modquad_gym.scoring.scale_tasks import (  # noqa: F401 - the suites' families, re-exported
     BANDS,
     FAMILIES,
@@ -141,9 +141,9 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if not 0 < args.time_limit <= 3600:
         p.error(f"--time-limit must lie in (0, 3600] seconds, got {args.time_limit:g}")
-    try:  # before any work: never replace a suite (the shipped ones least) unasked
-        check_output_dir(args.out, tuple(suite_path(b, Path()).name for b in args.bands),
-                         args.force)  # fmt: skip
+    try:  # before any work: never replace a suite (the shipped ones least) unasked; held
+        hold_out(args.out, tuple(suite_path(b, Path()).name for b in args.bands),
+                 args.force)  # fmt: skip
     except OutputError as exc:
         p.error(str(exc))
     for band in args.bands:  # each once (argparse refuses a band given twice)

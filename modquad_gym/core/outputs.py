@@ -4,8 +4,9 @@ what the user saved unless asked.
 Every command that writes goes through here, so two runs into one place never leave a mixed or
 half-written file (each write goes to a temporary file in the same folder, then ``os.replace``),
 and an existing file is replaced only with ``force=True``. A command that fills a folder claims it
-(:func:`claim_output_dir`): a second run into the same folder is refused while the first runs,
-and ``force`` removes only the files an earlier run of the command recorded there.
+(:func:`claim_output_dir`, or :func:`hold_output_dir` for a folder it shares with others): a
+second run into the same folder is refused while the first runs, and ``force`` removes only the
+files an earlier run of the command recorded there.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ __all__ = [
     "check_name_length",
     "check_output_dir",
     "claim_output_dir",
+    "hold_output_dir",
     "json_ready",
     "check_output_file",
     "check_outputs",
@@ -273,22 +275,20 @@ def _remove_recorded(folder: Path, keep: tuple = ()) -> None:
 
 
 @contextmanager
-def claim_output_dir(
-    path: str | os.PathLike,
-    names: tuple[str, ...] = (),
-    force: bool = False,
-    what: str = "--out",
-    keep: tuple = (),
-) -> Iterator[ClaimedDir]:
+def hold_output_dir(
+    path: str | os.PathLike, names: tuple[str, ...] = (), force: bool = False, what: str = "--out"
+) -> Iterator[Path]:
     """Hold the output folder ``path`` for one run: check it as :func:`check_output_dir`, create
     it, and lock it (``LOCK_NAME``, the ``filelock`` package, removed at the end) so that a
-    second run into it is refused at once (an OutputError) instead of mixing or replacing files;
-    the check is repeated under the lock. With ``force``, the files an earlier run recorded in
-    the folder's manifest are removed first, and only those (never one of ``keep``, the files
-    this run reads): whatever else the folder holds is the user's."""
+    second run into it is refused at once (an OutputError naming ``what`` and the folder)
+    instead of mixing or replacing files; the check is repeated under the lock. Nothing is
+    recorded or removed: for a folder whose other files are the user's or other commands'
+    (``results``); :func:`claim_output_dir` adds the manifest. The folders it created go again
+    if the run left them empty (a refused option, an interruption). Yields the folder."""
     from filelock import FileLock, Timeout
 
     folder = check_output_dir(path, names, force, what)
+    made = [p for p in (folder, *folder.parents) if not os.path.lexists(p)]  # deepest first
     folder.mkdir(parents=True, exist_ok=True)
     lock = FileLock(folder / LOCK_NAME)
     try:
@@ -300,12 +300,31 @@ def claim_output_dir(
         ) from None
     try:
         check_output_dir(folder, names, force, what)  # a run that finished while we checked
-        if force:
-            _remove_recorded(folder, keep)
-        yield ClaimedDir(folder)
+        yield folder
     finally:  # the lock file goes (a run that opened it meanwhile re-checks the names)
         (folder / LOCK_NAME).unlink(missing_ok=True)
         lock.release()
+        with suppress(OSError):  # each only while empty: the first that is not stops it
+            for made_here in made:
+                made_here.rmdir()
+
+
+@contextmanager
+def claim_output_dir(
+    path: str | os.PathLike,
+    names: tuple[str, ...] = (),
+    force: bool = False,
+    what: str = "--out",
+    keep: tuple = (),
+) -> Iterator[ClaimedDir]:
+    """Hold the output folder ``path`` for one run as :func:`hold_output_dir` does, and record
+    what the run writes there in the folder's manifest (:class:`ClaimedDir`). With ``force``,
+    the files an earlier run recorded there are removed first, and only those (never one of
+    ``keep``, the files this run reads): whatever else the folder holds is the user's."""
+    with hold_output_dir(path, names, force, what) as folder:
+        if force:
+            _remove_recorded(folder, keep)
+        yield ClaimedDir(folder)
 
 
 def atomic_write(path: str | os.PathLike, write: Callable[[Path], None]) -> Path:

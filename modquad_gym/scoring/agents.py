@@ -33,7 +33,7 @@ from pathlib import Path
 from modquad_gym.core.extras import require
 from modquad_gym.core.interrupts import run_command
 from modquad_gym.core.options import DefaultsHelpFormatter
-from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv
+from modquad_gym.core.outputs import OutputError, check_output_dir, hold_output_dir, write_csv
 from modquad_gym.geometry.module import palette
 from modquad_gym.methods import REGISTRY, method_of
 from modquad_gym.scoring.agents_figures import plot_bars, plot_learning_curve, plot_structures
@@ -349,33 +349,33 @@ def score(args: argparse.Namespace, command: str) -> int:
     n_max = args.n_max if args.n_max is not None else tier.n_max
     methods = chosen_methods(args, tier)
     train_dir = args.train_dir or args.model.parent
-    check_output_dir(args.out, REPORT_FILES, args.force)
     require("matplotlib")  # the report's figures ([viz] extra): said before the work, not after
-    if args.validation:  # drawn and certified now: the first work
-        suites = {"validation": validation_suite(tier, args.validation, not args.no_progress)}
-
-    t0 = time.perf_counter()
-    seed = 0 if args.seed is None else args.seed
-    rows = run_benchmark(suites, methods, n_max, args.model, seed, not args.no_progress,
-                         args.workers, tier.modules, tier.name, tier.fault, made=args.agents,
-                         trust_model=args.trust_model, setup=args.setup)  # fmt: skip
-    wall = time.perf_counter() - t0
-    sources = suite_sources(args.suite, tier, args.validation)
-    checked = recheck(rows, len(methods), sources, n_max, tier.modules, tier.fault)  # unwritten
-    record = run_record(seed, args.seed is not None, args.setup, methods, checked)
-    write_csv([r.as_csv() for r in rows], args.out / "benchmark.csv")
-    summary = summarise(rows, methods, n_max)
-    has_ppo = any(m.startswith("ppo") for m in methods)
-    evals = train_dir / "evaluations.npz"
-    figures = {
-        "summary bars": plot_bars(summary, args.out / "benchmark_bars.png") if summary else None,
-        "learning curve": plot_learning_curve(evals, args.out / "learning_curve.png")
-        if has_ppo
-        else None,
-        "structures": plot_structures(rows, args.out / "structures.png"),
-    }
-    path = write_report(rows, summary, args.out, suites, args.model, train_dir, n_max,
-                        figures, wall, tier.name, command, record)  # fmt: skip
+    with hold_output_dir(args.out, REPORT_FILES, args.force):  # a second run: refused at once
+        if args.validation:  # drawn and certified now: the first work
+            suites = {"validation": validation_suite(tier, args.validation, not args.no_progress)}
+        t0 = time.perf_counter()
+        seed = 0 if args.seed is None else args.seed
+        rows = run_benchmark(suites, methods, n_max, args.model, seed, not args.no_progress,
+                             args.workers, tier.modules, tier.name, tier.fault, made=args.agents,
+                             trust_model=args.trust_model, setup=args.setup)  # fmt: skip
+        wall = time.perf_counter() - t0
+        sources = suite_sources(args.suite, tier, args.validation)
+        checked = recheck(rows, len(methods), sources, n_max, tier.modules, tier.fault)
+        record = run_record(seed, args.seed is not None, args.setup, methods, checked)
+        write_csv([r.as_csv() for r in rows], args.out / "benchmark.csv")
+        summary = summarise(rows, methods, n_max)
+        has_ppo = any(m.startswith("ppo") for m in methods)
+        evals = train_dir / "evaluations.npz"
+        out = args.out
+        figures = {
+            "summary bars": plot_bars(summary, out / "benchmark_bars.png") if summary else None,
+            "learning curve": plot_learning_curve(evals, out / "learning_curve.png")
+            if has_ppo
+            else None,
+            "structures": plot_structures(rows, out / "structures.png"),
+        }
+        path = write_report(rows, summary, out, suites, args.model, train_dir, n_max,
+                            figures, wall, tier.name, command, record)  # fmt: skip
     print(path.read_text())
     return 0
 

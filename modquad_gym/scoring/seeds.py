@@ -24,7 +24,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from modquad_gym.core.outputs import check_output_dir
+from modquad_gym.core.outputs import check_output_dir, hold_output_dir
 from modquad_gym.scoring.agents import SEARCH_METHODS, run_benchmark
 from modquad_gym.scoring.seed_runs import LIMIT, check_limit, check_runs, find_runs, learned_methods
 from modquad_gym.scoring.seed_scores import SeedScore
@@ -111,17 +111,12 @@ def main(argv: list[str] | None = None) -> int:
         check_runs(runs, methods, tier)
     except ValueError as exc:
         p.error(str(exc))
-    t0 = time.perf_counter()
-    scores = scored(runs, tier, methods, args.limit, not args.no_progress)
     argv_text = " ".join(argv if argv is not None else sys.argv[1:])
-    path = write_report(
-        scores,
-        args.tier,
-        out,
-        runs,
-        f"python -m modquad_gym.scoring.seeds {argv_text}",
-        time.perf_counter() - t0,
-    )
+    command = f"python -m modquad_gym.scoring.seeds {argv_text}"
+    with hold_output_dir(out, SEED_FILES, args.force, "--out"):  # a second run: refused at once
+        t0 = time.perf_counter()
+        scores = scored(runs, tier, methods, args.limit, not args.no_progress)
+        path = write_report(scores, args.tier, out, runs, command, time.perf_counter() - t0)
     print(path.read_text())
     return 0
 

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.core.outputs import check_output_dir
+from modquad_gym.core.outputs import hold_output_dir
 from modquad_gym.search import exhaustive_search
 from modquad_gym.tasks import (
     PaperTasks,
@@ -203,13 +203,12 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     kinds = (("planted", args.n_planted), ("paper", args.n_paper))
     names = tuple(f"heldout_{kind}.json" for kind, _ in kinds)
-    check_output_dir(args.out, names, args.force)  # before the certified searches
-    args.out.mkdir(parents=True, exist_ok=True)
-    for kind, n in kinds:
-        suite = build_suite(kind, n, n_max=args.n_max)
-        check_disjoint(suite)
-        path = save_suite(suite, args.out / f"heldout_{kind}.json", force=args.force)
-        print(f"{path}: {n} tasks, optimum counts {optimum_counts(suite)}")
+    with hold_output_dir(args.out, names, args.force):  # before the certified searches
+        for kind, n in kinds:
+            suite = build_suite(kind, n, n_max=args.n_max)
+            check_disjoint(suite)
+            path = save_suite(suite, args.out / f"heldout_{kind}.json", force=args.force)
+            print(f"{path}: {n} tasks, optimum counts {optimum_counts(suite)}")
     return 0
 
 

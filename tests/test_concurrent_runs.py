@@ -1,0 +1,118 @@
+"""Runs at once and what they leave behind: a second run into an output folder another run holds
+is refused at once (``modquad score``, the seeds and suites scripts, the benchmarks), a training
+run's TensorBoard events stay in the log folder it claims, learning without TensorBoard leaves no
+``SB3-*`` folder, a file that appears during ``solve --export`` is refused in the command's
+words, and an embedded Ray's session folder goes with it."""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+
+import pytest
+from test_hardening import assert_rejected, run_bench, run_main
+
+from modquad_gym.core.interrupts import run_command
+from modquad_gym.core.outputs import LOCK_NAME, claim_output_dir
+
+
+def _no_work(*args, **kwargs):
+    raise AssertionError("the work started although another run holds the folder")
+
+
+def _refused_once(code: int, err: str, folder: Path) -> None:
+    """Exit 2, one line (no usage) naming the folder and the run that holds it."""
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1, err
+    assert str(folder) in lines[0] and "being written by another run" in lines[0], err
+
+
+# ----------------------------------------------------------------- one run at a time per folder
+def test_score_refuses_an_out_folder_another_run_holds_before_any_work(tmp_path, capsys,
+                                                                       monkeypatch):  # fmt: skip
+    """A second ``modquad score --out R`` while a run holds R: exit 2 and one line naming R;
+    nothing is scored or written (it used to score, replace the first run's report and exit
+    0). Once the holder is gone the same command runs."""
+    from modquad_gym.scoring import agents
+
+    out = tmp_path / "R"
+    argv = ["score", "--methods", "greedy", "--limit", "1", "--no-progress", "--out", str(out)]
+    with monkeypatch.context() as m, claim_output_dir(out):  # as another run's score holds it
+        m.setattr(agents, "run_benchmark", _no_work)
+        code, _, err = run_main(capsys, *argv)
+        assert sorted(p.name for p in out.iterdir()) == [LOCK_NAME]
+    _refused_once(code, err, out)
+    code, printed, _ = run_main(capsys, *argv)
+    assert code == 0 and "greedy" in (out / "benchmark.csv").read_text()
+    assert not (out / LOCK_NAME).exists()  # let go at the end
+
+
+def test_the_seeds_report_refuses_a_folder_another_run_holds(tmp_path, capsys, monkeypatch):
+    from modquad_gym.scoring import seeds
+
+    monkeypatch.setattr(seeds, "find_runs", lambda folders: {"seed-0": tmp_path / "m.zip"})
+    monkeypatch.setattr(seeds, "check_runs", lambda *args: None)
+    monkeypatch.setattr(seeds, "scored", _no_work)
+    out = tmp_path / "report"
+    with claim_output_dir(out):
+        code = run_command(seeds.main, "seeds", [str(tmp_path), "--out", str(out)])
+    _refused_once(code, capsys.readouterr().err.removeprefix("seeds: error: "), out)
+
+
+def test_the_suites_script_refuses_a_folder_another_run_holds(tmp_path, capsys, monkeypatch):
+    from modquad_gym.scoring import suites
+
+    monkeypatch.setattr(suites, "build_suite", _no_work)
+    with claim_output_dir(tmp_path):
+        code = run_command(suites.main, "suites", ["--out", str(tmp_path)])
+    _refused_once(code, capsys.readouterr().err, tmp_path)
+
+
+def test_a_benchmark_holds_its_out_folder_until_it_ends(tmp_path, capsys, monkeypatch):
+    """``python -m benchmarks.codebase --out D`` while another run holds D: refused at once
+    (argparse's usage and error line, exit 2), nothing written; alone it runs, holding D while
+    it writes and letting go at the end."""
+    from benchmarks import codebase
+
+    with claim_output_dir(tmp_path):
+        code, _, err = run_bench(capsys, "codebase", "--out", str(tmp_path))
+    assert_rejected(code, err, "--out", str(tmp_path), "being written by another run")
+    assert not (tmp_path / "codebase.md").exists()
+    held, real = [], codebase.write_report
+
+    def write_report(*args, **kwargs):
+        held.append((tmp_path / LOCK_NAME).exists())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(codebase, "write_report", write_report)
+    assert run_bench(capsys, "codebase", "--out", str(tmp_path))[0] == 0
+    assert held == [True] and (tmp_path / "codebase.md").is_file()
+    assert not (tmp_path / LOCK_NAME).exists()
+
+
+@pytest.mark.parametrize("script", ["scale_suites", "leaderboard"])
+def test_benchmarks_that_check_their_own_folders_hold_them(tmp_path, capsys, monkeypatch,
+                                                           script):  # fmt: skip
+    module = importlib.import_module(f"benchmarks.{script}")
+    monkeypatch.setattr(module, "build_band" if script == "scale_suites" else "build", _no_work)
+    argv = {"scale_suites": ["--bands", "16"], "leaderboard": ["--tiers", "current"]}[script]
+    with claim_output_dir(tmp_path):
+        code, _, err = run_bench(capsys, script, *argv, "--out", str(tmp_path))
+    assert_rejected(code, err, str(tmp_path), "being written by another run")
+
+
+def test_a_held_folder_goes_again_when_the_run_left_it_empty(tmp_path):
+    """The folders a run created to hold its output go when it wrote nothing there (a refused
+    option after the hold, an interruption); a folder that was there, or that has files, stays."""
+    from modquad_gym.core.outputs import hold_output_dir
+
+    with hold_output_dir(tmp_path / "a" / "b") as folder:
+        assert (folder / LOCK_NAME).is_file()
+    assert list(tmp_path.iterdir()) == []
+    with hold_output_dir(tmp_path / "a" / "b") as folder:
+        (folder / "x.md").write_text("x")
+    assert [p.name for p in (tmp_path / "a" / "b").iterdir()] == ["x.md"]
+    (tmp_path / "c").mkdir()
+    with hold_output_dir(tmp_path / "c"):
+        pass
+    assert (tmp_path / "c").is_dir()
