@@ -39,9 +39,11 @@ from modquad_gym.scoring.tiers import get_tier
 RUN_FILES = ("model.zip", "model_actor.npz", "config.json", "evaluations.npz")
 """What a training run writes into its run folder (``model_actor.npz``: the model's actor for
 inference without torch, :mod:`modquad_gym.policy.inference`)."""
-LOG_FILES = ("train", "bc")
+LOG_FILES = ("train", "bc", "ppo")
 """What a training run writes into its log folder (``tensorboard/<log_name>``): ``train/``
-(checkpoints, evaluations, the best, final and cloned models) and ``bc/`` (cloning scalars)."""
+(checkpoints, evaluations, the best, final and cloned models), ``bc/`` (cloning scalars) and
+``ppo/`` (PPO's TensorBoard events: one folder a run's ``--force`` clears and a ``--resume`` of
+it goes on in, where SB3's own naming would add ``<log_name>_1``, ``_2``, ... beside it)."""
 
 REPLACED = ("best_model.zip", "evaluations.npz", "cloned_model.zip", "final_model.zip")
 """Files of the log folder's ``train/`` a run removes at its start (the first three: an earlier
@@ -77,6 +79,7 @@ def train(config: TrainConfig) -> Path:
     ``steps_per_second`` over the steps trained (whole rollouts: at least those asked)."""
     import torch
     from sb3_contrib import MaskablePPO
+    from stable_baselines3.common.logger import configure
 
     if config.out is None:
         raise ValueError("--out: a run folder is needed")
@@ -94,11 +97,11 @@ def train(config: TrainConfig) -> Path:
     imitation, cloned = _ppo_start(config, model, Path(config.tensorboard) / name, log_dir)
     venv, focus = _training_tasks(config, model, modules, venv, imitation is not None)
     warmup = config.critic_warmup if imitation is not None else 0  # a cloned actor to keep
+    model.set_logger(configure(str(Path(config.tensorboard) / name / "ppo"), ["tensorboard"]))
     t0 = time.perf_counter()
     model.learn(
         total_timesteps=config.timesteps,
         callback=_callbacks(config, eval_env, val, log_dir, imitation is not None, warmup),
-        tb_log_name=name,
         progress_bar=config.progress,
         reset_num_timesteps=config.resume is None,
     )
@@ -304,9 +307,7 @@ def log_name(out: Path, tensorboard: Path) -> str:
 def _new_model(config: TrainConfig, venv: Any, MaskablePPO: Any) -> Any:
     """A fresh seeded MaskablePPO with the recipe's hyperparameters, or the ``resume`` model."""
     if config.resume is not None:
-        return MaskablePPO.load(
-            config.resume, env=venv, device="cpu", tensorboard_log=str(config.tensorboard)
-        )
+        return MaskablePPO.load(config.resume, env=venv, device="cpu")
     hp = config.ppo_hyperparameters()
     del hp["net_arch"], hp["hidden"]  # the network's: config.policy()
     policy, policy_kwargs = config.policy()
@@ -319,7 +320,6 @@ def _new_model(config: TrainConfig, venv: Any, MaskablePPO: Any) -> Any:
         seed=config.seed,
         device="cpu",
         verbose=0,
-        tensorboard_log=str(config.tensorboard),
         **hp,
     )
 

@@ -7,6 +7,7 @@ words, and an embedded Ray's session folder goes with it."""
 from __future__ import annotations
 
 import importlib
+import json
 from pathlib import Path
 
 import pytest
@@ -116,3 +117,35 @@ def test_a_held_folder_goes_again_when_the_run_left_it_empty(tmp_path):
     with hold_output_dir(tmp_path / "c"):
         pass
     assert (tmp_path / "c").is_dir()
+
+
+# ------------------------------------------------------------------ train.py's TensorBoard events
+def test_ppo_events_stay_in_the_claimed_log_folder_and_force_replaces_them(tmp_path):
+    """PPO's TensorBoard events go to ``<log folder>/ppo``, recorded in its manifest: nothing
+    lies beside the log folder (SB3's naming used to add ``<name>_1``, ``_2``, ... there, held by
+    no run and removed by no ``--force``), and a ``--force`` rerun replaces them."""
+    pytest.importorskip("sb3_contrib")
+    pytest.importorskip("tensorboard")
+    from test_agents import TINY_N_MAX, _tiny_tasks
+
+    from agents.cli import main as train
+    from modquad_gym.core.outputs import MANIFEST_NAME
+    from modquad_gym.tasks import save_suite
+
+    suite = save_suite(_tiny_tasks(), tmp_path / "tiny.json")
+    tb, out = tmp_path / "tb", tmp_path / "runs" / "a"
+    argv = ["--task-source", str(suite), "--n-max", str(TINY_N_MAX), "--out", str(out),
+            "--tensorboard", str(tb), "--timesteps", "256", "--bc-epochs", "0", "--n-eval", "2",
+            "--no-report", "--no-progress"]  # fmt: skip
+    log = tb / "runs-a"
+
+    def events() -> list[str]:
+        assert [p.name for p in tb.iterdir()] == [log.name]  # no sibling folder
+        return [p.name for p in (log / "ppo").glob("events.out.tfevents.*")]
+
+    assert train(argv) == 0
+    (first,) = events()
+    assert f"ppo/{first}" in json.loads((log / MANIFEST_NAME).read_text())
+    assert train([*argv, "--force"]) == 0
+    (second,) = events()  # the earlier run's curves are gone, not shown beside the new ones
+    assert second != first and f"ppo/{second}" in json.loads((log / MANIFEST_NAME).read_text())
