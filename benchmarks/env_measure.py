@@ -111,6 +111,7 @@ def ppo_update_seconds(seed: int) -> tuple[float, float]:
     the default env, timed with a callback around SB3's own ``learn``."""
     sb3 = import_optional("sb3_contrib")
     callbacks = import_optional("stable_baselines3.common.callbacks")
+    logger = import_optional("stable_baselines3.common.logger")
 
     class Clock(callbacks.BaseCallback):
         def _on_rollout_start(self) -> None:
@@ -128,6 +129,7 @@ def ppo_update_seconds(seed: int) -> tuple[float, float]:
         "MultiInputPolicy", gym.make(DEFAULT_ID), policy_kwargs=policy_kwargs, seed=seed,
         device="cpu", verbose=0, **hp,
     )  # fmt: skip
+    model.set_logger(logger.Logger(folder=None, output_formats=[]))  # no tmp/SB3-<date> folder
     clock = Clock()
     model.learn(total_timesteps=hp["n_steps"], callback=clock)
     return time.perf_counter() - clock.t1, clock.t1 - clock.t0

@@ -44,11 +44,13 @@ def train(algo: str, steps: int, seed: int, wrapped: bool = True):
     """An SB3 model of ``algo`` trained for ``steps`` (default hyperparameters, Dict policy)."""
     import torch
     from stable_baselines3 import A2C, DQN, PPO
+    from stable_baselines3.common.logger import Logger
 
     torch.set_num_threads(1)
     cls = {"ppo": PPO, "a2c": A2C, "dqn": DQN}[algo]
     extra = {"learning_starts": 1000, "exploration_fraction": 0.3} if algo == "dqn" else {}
     model = cls("MultiInputPolicy", make_env(wrapped), seed=seed, device="cpu", verbose=0, **extra)
+    model.set_logger(Logger(folder=None, output_formats=[]))  # logs nothing: no tmp/SB3-* folder
     return model.learn(total_timesteps=steps)
 
 

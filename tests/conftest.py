@@ -1,5 +1,5 @@
-"""Shared test set-up: one torch thread (DESIGN.md pitfall), headless rendering; a module
-written for a test to import (:func:`importable`)."""
+"""Shared test set-up: one torch thread (DESIGN.md pitfall), headless rendering, SB3's logs in
+pytest's temporary folder; a module written for a test to import (:func:`importable`)."""
 
 import importlib
 import os
@@ -10,6 +10,16 @@ import pytest
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+@pytest.fixture(autouse=True, scope="session")
+def sb3_logs(tmp_path_factory):
+    """SB3's ``learn`` without a logger of the caller's makes a new ``SB3-<date>`` folder in the
+    system's temporary folder at each call, unless ``SB3_LOGDIR`` names one: the tests' all go
+    to one folder of pytest's, which pytest clears."""
+    with pytest.MonkeyPatch.context() as m:
+        m.setenv("SB3_LOGDIR", str(tmp_path_factory.mktemp("sb3")))
+        yield
 
 
 @pytest.fixture(scope="module")

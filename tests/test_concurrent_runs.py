@@ -149,3 +149,20 @@ def test_ppo_events_stay_in_the_claimed_log_folder_and_force_replaces_them(tmp_p
     assert train([*argv, "--force"]) == 0
     (second,) = events()  # the earlier run's curves are gone, not shown beside the new ones
     assert second != first and f"ppo/{second}" in json.loads((log / MANIFEST_NAME).read_text())
+
+
+# ------------------------------------------------------------------ SB3 without TensorBoard
+def test_the_ppo_update_benchmark_leaves_no_sb3_folder(tmp_path, monkeypatch):
+    """``learn`` without a logger of ours made an empty ``SB3-<date>`` folder in the temporary
+    folder at every call (``python -m benchmarks.env``; 352 of them in /tmp): now none."""
+    pytest.importorskip("sb3_contrib")
+    import tempfile
+
+    from benchmarks.env_measure import ppo_update_seconds
+
+    monkeypatch.delenv("SB3_LOGDIR", raising=False)  # as outside the tests
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    update, rollout = ppo_update_seconds(0)
+    assert update > 0 and rollout > 0
+    assert list((tmp_path / "tmp").glob("SB3-*")) == []  # (torch puts its own cache there)
