@@ -166,3 +166,33 @@ def test_the_ppo_update_benchmark_leaves_no_sb3_folder(tmp_path, monkeypatch):
     update, rollout = ppo_update_seconds(0)
     assert update > 0 and rollout > 0
     assert list((tmp_path / "tmp").glob("SB3-*")) == []  # (torch puts its own cache there)
+
+
+# ------------------------------------------------------------------ a file that appears meanwhile
+@pytest.mark.parametrize(
+    "command, option, step",
+    [("solve", "--export", "modquad_gym.cli.solve.print_result"),
+     ("export", "--out", "modquad_gym.cli.export.found_structure")],
+)  # fmt: skip
+def test_an_export_file_that_appears_during_the_search_is_refused_in_the_commands_words(
+    tmp_path, capsys, monkeypatch, command, option, step
+):
+    """Another program writes the file while the search runs: it is kept, and the refusal names
+    the option and ``--force`` (it said ``path: ... (use force=True ...)``, the Python
+    function's words)."""
+    module, name = step.rsplit(".", 1)
+    real = getattr(importlib.import_module(module), name)
+    out = tmp_path / "s.json"
+
+    def meanwhile(*args, **kwargs):
+        found = real(*args, **kwargs)
+        out.write_text('{"mine": 1}')
+        return found
+
+    monkeypatch.setattr(step, meanwhile)
+    argv = [command, "--task", "example:screwdriver", option, str(out), "--quiet"]
+    code, _, err = run_main(capsys, *argv)
+    assert code == 2 and err.strip().splitlines() == [
+        f"modquad: error: {option}: {out} exists (use --force to replace it)"
+    ], err
+    assert out.read_text() == '{"mine": 1}'

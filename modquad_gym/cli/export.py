@@ -130,7 +130,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         structure = found_structure(args, task)
         f_max = task.f_max if f_max is None else f_max
     f_max = 1.0 if f_max is None else f_max
-    out = save_structure(structure, Path(args.out), fmt, f_max, force=args.force)
+    out = save_structure(structure, Path(args.out), fmt, f_max, force=args.force, what="--out")
     print(f"wrote {out}: {structure.n_modules} modules, cells {list(structure.cells)}")
     print(lift_statement(structure, f_max))  # save_structure warned if it cannot lift itself
     return 0

@@ -46,7 +46,9 @@ def export_result(args: argparse.Namespace, task, result) -> None:
 
     if result.structure is None:
         raise ValueError(f"--export: no structure found for {task.name!r}; nothing written")
-    out = save_structure(result.structure, args.export, f_max=task.f_max, force=args.force)
+    out = save_structure(  # a file that appeared during the search: refused in these words
+        result.structure, args.export, f_max=task.f_max, force=args.force, what="--export"
+    )
     if not args.json:
         print(f"  wrote {out}")
 

@@ -311,14 +311,23 @@ def export_text(structure: Structure, fmt: str, f_max: float = 1.0) -> str:
 
 
 def save_structure(
-    structure: Structure, path, fmt: str | None = None, f_max: float = 1.0, force: bool = False
+    structure: Structure,
+    path,
+    fmt: str | None = None,
+    f_max: float = 1.0,
+    force: bool = False,
+    *,
+    what: str = "path",
 ) -> Path:
     """Write ``structure`` to ``path`` in ``fmt`` (default: from the suffix, ``.xml`` = MJCF);
     an existing file is replaced only with ``force``. The same rules as ``modquad export``: a
     ``fmt`` that contradicts the suffix (JSON in b.xml) is refused
     (:func:`~modquad_gym.sim.export_formats.export_format`), and so is an ``f_max`` outside
     1e-300..1e12 N. A robot that cannot lift itself at ``f_max`` N per rotor gets a warning on
-    the ``modquad_gym`` logger (:mod:`modquad_gym.core.notes`). Returns the path written."""
+    the ``modquad_gym`` logger (:mod:`modquad_gym.core.notes`). ``what`` names ``path`` in the
+    refusal of an existing file: an option of a command (``--export``), whose advice is then
+    ``--force``, as :func:`~modquad_gym.core.outputs.check_output_file` words it. Returns the
+    path written."""
     from modquad_gym.core.outputs import check_output_file, write_text
     from modquad_gym.core.validation import check_flag, check_path
 
@@ -327,7 +336,7 @@ def save_structure(
     path = Path(path)
     fmt = export_format(path, fmt)
     text = export_text(structure, fmt, f_max)  # before touching the file: errors leave it alone
-    path = check_output_file(path, force=force, what="path")
+    path = check_output_file(path, force=force, what=what)
     write_text(path, text)
     ratio = thrust_to_weight(structure, f_max)
     if ratio < 1.0:
