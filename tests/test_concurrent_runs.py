@@ -196,3 +196,54 @@ def test_an_export_file_that_appears_during_the_search_is_refused_in_the_command
         f"modquad: error: {option}: {out} exists (use --force to replace it)"
     ], err
     assert out.read_text() == '{"mine": 1}'
+
+
+# ------------------------------------------------------------------ an embedded Ray's session
+def test_an_embedded_ray_leaves_no_session_folder(monkeypatch):
+    """``--workers N`` starts a Ray of its own: its ``session_<date>_<pid>`` folder (logs,
+    sockets; ~200 KB) is removed once Ray has shut down (180 of them had piled up in /tmp/ray)."""
+    ray = pytest.importorskip("ray")
+    from modquad_gym.core.distributed import Engine
+
+    sessions, real = [], ray.init
+
+    def init(*args, **kwargs):
+        context = real(*args, **kwargs)
+        sessions.append(Path(context.address_info["session_dir"]))
+        return context
+
+    monkeypatch.setattr(ray, "init", init)
+    with Engine(2) as engine:
+        assert engine.map(abs, [-1, -2, -3]) == [1, 2, 3]
+        (session,) = sessions
+        assert session.is_dir()
+    assert not session.exists()
+    latest = session.parent / "session_latest"
+    assert not (latest.is_symlink() and Path(latest.readlink()) == session)
+
+
+def test_a_ray_that_cannot_wait_for_its_processes_keeps_its_folder(tmp_path):
+    """Where ``ray.shutdown`` cannot wait for Ray's processes (older Ray), one of them could
+    still write into the folder: it is left as Ray leaves it; so is a folder Ray did not name."""
+    from modquad_gym.core.ray_session import shutdown
+
+    calls = []
+
+    class OldRay:
+        @staticmethod
+        def shutdown(_exiting_interpreter: bool = False):
+            calls.append("shutdown")
+
+    class NewRay:
+        @staticmethod
+        def shutdown(*, wait_for_processes: bool = False, _exiting_interpreter: bool = False):
+            calls.append(wait_for_processes)
+
+    session = tmp_path / "session_2026-01-01_00-00-00_000000_1"
+    (session / "logs").mkdir(parents=True)
+    shutdown(OldRay, session)
+    shutdown(NewRay, tmp_path)  # not a session folder
+    shutdown(NewRay, None)  # a cluster the user connected to
+    assert calls == ["shutdown", False, False] and session.is_dir() and tmp_path.is_dir()
+    shutdown(NewRay, session)
+    assert calls[-1] is True and not session.exists()

@@ -46,15 +46,12 @@ def local_ray():
     """One embedded Ray (2 CPUs) for the module: every Engine below joins it. Functions of this
     test module travel by value (Ray's workers cannot import it)."""
     ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])
-    ray.init(
-        address="local",
-        num_cpus=2,
-        include_dashboard=False,
-        log_to_driver=False,
-        logging_level="ERROR",
-    )
+    from modquad_gym.core.ray_session import shutdown, start_local
+
+    options = {"include_dashboard": False, "log_to_driver": False, "logging_level": "ERROR"}
+    session = start_local(ray, 2, options)
     yield
-    ray.shutdown()
+    shutdown(ray, session)  # its session folder too
 
 
 @pytest.fixture

@@ -74,10 +74,12 @@ def test_a_callers_producer_feeds_the_incumbent_in_this_process(monkeypatch):
 def local_ray():
     """One embedded Ray (2 CPUs) for the tests below; this module's functions travel by value."""
     ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])
-    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
-             logging_level="ERROR")  # fmt: skip
+    from modquad_gym.core.ray_session import shutdown, start_local
+
+    options = {"include_dashboard": False, "log_to_driver": False, "logging_level": "ERROR"}
+    session = start_local(ray, 2, options)
     yield
-    ray.shutdown()
+    shutdown(ray, session)  # its session folder too
 
 
 def slow_square(x):

@@ -9,8 +9,8 @@ This module alone imports Ray (lazily, so ``import modquad_gym`` stays light). A
   node needs modquad_gym installed, and ``workers`` then caps the tasks in flight (default:
   every CPU of the cluster);
 * otherwise an embedded Ray on this machine, ``ray.init(num_cpus=workers)``, shut down when the
-  engine closes (a Ray already running in this process, e.g. the user's own ``ray.init``, is
-  used as it is and left running).
+  engine closes, its session folder removed (:mod:`.ray_session`; a Ray already running in this
+  process, e.g. the user's own ``ray.init``, is used as it is and left running).
 
 Results come back in the order of the items whatever the order of completion, so a batch gives
 the same answers for any number of workers. Faults are Ray's business: a task whose worker dies
@@ -33,6 +33,7 @@ from typing import Any
 from modquad_gym.core.extras import import_optional, missing_extra_message
 from modquad_gym.core.interrupts import failure_line, keep_sigterm
 from modquad_gym.core.notes import note
+from modquad_gym.core.ray_session import shutdown, start_local
 from modquad_gym.core.resources import cap_workers, usable_cpus
 from modquad_gym.core.validation import check_int
 
@@ -131,7 +132,7 @@ class Engine:
         if self._unchecked and check_address:
             check_reachable(self.address)
             self._unchecked = False
-        self._started = False
+        self._started, self._session = False, None  # _session: the folder of a Ray started here
         self._depth = 0
 
     def __repr__(self) -> str:
@@ -147,8 +148,8 @@ class Engine:
         self._depth -= 1
         if self._depth == 0 and self._started:
             with keep_sigterm():  # ray.shutdown resets SIGTERM to the default: killed silently
-                import_optional("ray").shutdown()
-            self._started = False
+                shutdown(import_optional("ray"), self._session)  # and its session folder
+            self._started, self._session = False, None
 
     def start(self) -> None:
         """Start (or join) Ray now; nothing when it runs already (idempotent). The batches call
@@ -170,9 +171,8 @@ class Engine:
                     raise ConnectionError(
                         f"Ray cluster {self.address}: {failure_line(exc)}{_token_hint()}"
                     ) from None
-            else:
-                # "local": a new embedded Ray even when RAY_ADDRESS names a cluster elsewhere
-                ray.init(address="local", num_cpus=self.workers, **options)
+            else:  # a new embedded Ray even when RAY_ADDRESS names a cluster elsewhere
+                self._session = start_local(ray, self.workers, options)
         self._started = True
 
     def cluster_cpus(self) -> int:
