@@ -23,6 +23,7 @@ from modquad_gym.geometry.polyominoes import level_chunks
 from modquad_gym.oracle import TOL, feasible
 from modquad_gym.oracle.tolerance import RESIDUAL_TOL
 from modquad_gym.search import SEARCHES, SearchProblem, bound_levels, force_lower_bound
+from modquad_gym.search.beyond import bound_beyond
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.search.dynamic import off_range_grant
 
@@ -109,7 +110,8 @@ def smallest_by_the_oracle(problem: SearchProblem, n_max: int) -> int:
 )
 def test_no_bound_exceeds_the_oracles_smallest_structure(names, size, seed, stretch, off, f_max,
                                                          kind, fault):  # fmt: skip
-    """The exact bounds every search starts from (force, count, level; one type and palettes)
+    """The exact bounds every search starts from (force, count, level; one type and palettes),
+    and those an infeasible answer proves past a smaller n_max (modquad_gym.search.beyond),
     never exceed the least size of a structure the oracle accepts, for wrenches a random
     structure exerts at its thrust box's edge, stretched across the tolerance band, pushed off
     its range by up to 1e-8, at any f_max, with or without a failure to survive."""
@@ -129,7 +131,11 @@ def test_no_bound_exceeds_the_oracles_smallest_structure(names, size, seed, stre
     if kind == "external":  # the same rotor wrenches: the weight of the hidden structure out
         W[:, 2] -= 9.81 * hidden.mass
     problem = SearchProblem(W, n_max=3, f_max=f_max, modules=palette, kind=kind, fault=fault)
-    assert bound_levels(problem) <= smallest_by_the_oracle(problem, 3)
+    smallest = smallest_by_the_oracle(problem, 3)
+    assert bound_levels(problem) <= smallest
+    for n_max in range(1, smallest if smallest <= 3 else 1):  # levels to n_max ruled out
+        below = SearchProblem(W, n_max=n_max, f_max=f_max, modules=palette, kind=kind, fault=fault)
+        assert bound_beyond(below, n_max + 1) <= smallest
 
 
 def flat_model(kind: str, f_max: float, x_off: float):

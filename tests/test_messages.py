@@ -36,7 +36,8 @@ def test_a_failed_heuristic_does_not_claim_that_nothing_exists(capsys, method):
 
 def test_a_certified_search_says_that_nothing_exists(capsys):
     out = _printed(capsys, certified=True, method="exhaustive")
-    assert "infeasible: no structure of up to 7 modules satisfies the task (proved)" in out
+    said = "no structure of up to 7 modules satisfies the task (proved: it needs at least 8; try"
+    assert f"infeasible: {said} --n-max 8 or more)" in out
 
 
 def test_scale_errors_name_the_file_and_a_one_based_row(tmp_path, capsys):

@@ -372,13 +372,18 @@ def print_help(parser: argparse.ArgumentParser) -> Command:
     return show
 
 
-def no_structure(args: argparse.Namespace, outcome: str) -> ValueError:
+N_MAX_STEP = "try --n-max {n} or more"  # an infeasible answer's next step (SearchResult.describe)
+
+
+def no_structure(args: argparse.Namespace, outcome: str, result=None) -> ValueError:
     """The error of a command that writes a file of the structure ``--method`` finds for
-    ``--task`` (export, show) when it finds none: the file asked for is not written, so the
-    run fails (exit 2) where ``modquad solve``, whose answer is the printed outcome, succeeds."""
+    ``--task`` (export, show) when it finds none, with what ``result`` proved: the file asked
+    for is not written, so the run fails (exit 2) where ``modquad solve`` succeeds."""
+    infeasible = result is not None and result.status == "infeasible"
+    proved = f" ({result.proved_note(N_MAX_STEP)})" if infeasible else ""
     return ValueError(
         f"--task: {args.method} found no structure of up to {args.n_max} modules for "
-        f"{args.task}; {outcome}"
+        f"{args.task}{proved}; {outcome}"
     )
 
 

@@ -79,7 +79,7 @@ def found_structure(args: argparse.Namespace, task):
 
     result = solver(args, task)(task)
     if result.structure is None:
-        raise no_structure(args, "nothing to export")
+        raise no_structure(args, "nothing to export", result)
     return result.structure
 
 

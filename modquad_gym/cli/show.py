@@ -145,9 +145,9 @@ def cmd_show(args: argparse.Namespace) -> int:
     # both checked before any work or write (--out X --html X would write X, then refuse)
     out = check_outputs({"--out": out, "--html": args.html}, force=args.force).get("--out")
     require(*(["matplotlib"] if out is not None else []), *(["plotly"] if args.html else []))
-    task, structure = shown(args)  # the search runs only when the pictures can be drawn
+    task, structure, result = shown(args)  # the search runs only when pictures can be drawn
     if structure is None:  # as export: the file asked for is not written, so not a success
-        raise no_structure(args, "nothing to draw, no file written")
+        raise no_structure(args, "nothing to draw, no file written", result)
     if out is not None:
         from modquad_gym.viz.drawing import save_structure_figure
 
@@ -165,20 +165,21 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def shown(args: argparse.Namespace):
-    """(task or None, structure to draw or None when the search finds none)."""
+    """(task or None, structure to draw or None when the search finds none, the search's
+    result or None when none ran)."""
     modules = palette(args)
     if not args.task:
         if not args.cells:
             raise ValueError("give --cells (e.g. '[[0,0],[1,0]]') or --task")
         structure = structure_from_cells(args.cells, modules)
         print(structure)
-        return None, structure
+        return None, structure, None
     task = common.load_task(args.task, args.csv_header)
     if args.cells:
         structure = structure_from_cells(args.cells, modules)
         print(structure)
-        return task, structure
+        return task, structure, None
     common.check_task(task, args.task, modules)
     result = solve.solver(args, task)(task)
     solve.print_result(args, args.task, task, result)  # as `modquad solve` prints it
-    return task, result.structure
+    return task, result.structure, result

@@ -79,7 +79,8 @@ def add_solve(sub) -> None:
         "(n_modules == lower_bound), seconds (and modules, the type of each cell, with "
         "--modules; for the default search, history: how the bound and the structure found "
         "improved, a list of {seconds, lower_bound, n_modules, source}, and with --workers "
-        "ray_start_seconds, Ray's start, not counted in seconds)",
+        "ray_start_seconds, Ray's start, not counted in seconds; compile_seconds: kernels "
+        "compiled during the search, once on a cold cache, not counted in seconds)",
     )
     add_quiet(p)
     add_workers(
@@ -299,7 +300,7 @@ def print_result(args: argparse.Namespace, path, task, result) -> None:
         print(json.dumps(record), flush=True)
         return
     print(f"task {task.name!r} ({path}): {task.describe()}, method {args.method}")
-    print(f"  {result.status}: {result.message}")
+    print(f"  {result.status}: {result.describe(common.N_MAX_STEP)}")
     if result.structure is not None:
         print(f"  cells {list(result.structure.cells)}")
         if result.fault is not None:

@@ -194,7 +194,8 @@ def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float | N
         if dynamic:
             record["track_max_position_error_m"] = None
         record |= fault.no_structure_keys(args)
-        print(json.dumps(record) if args.json else f"no structure found for {args.task}")
+        said = f"{result.status}: {result.describe(common.N_MAX_STEP)}"  # as solve says it
+        print(json.dumps(record) if args.json else f"no structure found for {args.task}; {said}")
         return 0
     if dynamic:
         from modquad_gym.sim.validate_track import validate_trajectory
@@ -203,6 +204,7 @@ def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float | N
                                      max_bench_wrenches=n_hover, hover_seconds=args.hover_seconds,
                                      unknown_load=not args.known_load_only,
                                      force=args.force, progress=not args.quiet)  # fmt: skip
+        report = with_lift(report, result.structure, task.f_max)
         return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
     report = validate(
         result.structure,
@@ -216,7 +218,21 @@ def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float | N
         force=args.force,
         progress=not args.quiet,
     ).to_dict()
+    report = with_lift(report, result.structure, task.f_max)
     return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
+
+
+def with_lift(report: dict, structure, f_max: float) -> dict:
+    """``report`` with the structure's thrust-to-weight ratio at the task's ``f_max`` and the
+    line ``modquad export`` prints on it (:func:`~modquad_gym.sim.export.lift_statement`); below
+    1, why the hovers fly all the same: their external load holds it up."""
+    from modquad_gym.sim.export import lift_statement, thrust_to_weight
+
+    ratio, line = thrust_to_weight(structure, f_max), lift_statement(structure, f_max)
+    if ratio < 1.0:
+        line += ("; the hovers here apply its weight as part of their external load "
+                 "d = -(w + gravity wrench), as export warns")  # fmt: skip
+    return {**report, "thrust_to_weight": ratio, "lift": line}
 
 
 def show(args: argparse.Namespace, report: dict) -> int:
@@ -275,6 +291,7 @@ def summary_lines(r: dict) -> list[str]:
     lines = [
         f"structure: {r.get('n_modules')} modules, {_number(r.get('mass_kg'), '.3g')} kg"
         f"{types}; cells {cells}",
+        *([f"lift: {r['lift']}"] if r.get("lift") else []),
         f"task: {r.get('n_wrenches')} wrenches ({r.get('task_kind')}), {r.get('n_feasible')} "
         f"feasible, smallest margin {_number(r.get('min_margin'), '.3g')}"
         if r.get("task_kind") != "dynamic"

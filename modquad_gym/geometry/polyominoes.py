@@ -91,7 +91,7 @@ def _advance(n, width, untried, n_untried, pos, path, xy, added, n_added, reache
 @cache
 def _compiled():
     """:func:`_advance` compiled by numba (cached on disk, like every kernel)."""
-    from numba import njit
+    from modquad_gym.core.jit import njit
 
     return njit(cache=True)(_advance)
 

@@ -16,8 +16,8 @@ fail (a pinned rotor would have to come free), never accept wrongly.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from modquad_gym.core.jit import njit
 from modquad_gym.oracle.tolerance import ACCEPT
 
 STEPS = 4

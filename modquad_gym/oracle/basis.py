@@ -8,7 +8,8 @@ Sherman-Morrison update costs O(n^2) against the inversion's O(n^3).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from modquad_gym.core.jit import njit
 
 REFACTOR = 8
 """Replacements between fresh inversions (rank-one updates in between)."""

@@ -45,8 +45,8 @@ test, in :data:`PATHS` order; ``trace`` (t, F) int8, unless empty, which test se
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from modquad_gym.core.jit import njit
 from modquad_gym.oracle.active_set import active_set
 from modquad_gym.oracle.tolerance import ACCEPT, GUARD, REJECT
 

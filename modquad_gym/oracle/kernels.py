@@ -24,8 +24,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from modquad_gym.core.jit import njit
 from modquad_gym.oracle.tolerance import ACCEPT, REJECT, RESIDUAL_TOL
 from modquad_gym.oracle.walk import vertex_walk, walk_from, walk_workspace
 

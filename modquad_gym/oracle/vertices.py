@@ -9,8 +9,8 @@ the direction every walk to that optimum ends at, for one pass over G.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from modquad_gym.core.jit import njit
 from modquad_gym.oracle.walk import vertex_basis
 
 _SIGN = 1e-12  # relative size of g_j . y within which a stored bound's sign is not checked

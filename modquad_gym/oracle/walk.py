@@ -28,8 +28,8 @@ edge to working accuracy never enters the tight set (its basis would be singular
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from modquad_gym.core.jit import njit
 from modquad_gym.oracle.basis import invert, replace_row
 
 MAX_PIVOTS = 64

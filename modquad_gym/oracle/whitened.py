@@ -17,7 +17,8 @@ the gammas equal the SVD zonotope's up to round-off (``tests/test_oracle_compile
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from modquad_gym.core.jit import njit
 
 MAX_CONDITION = 1e5
 """Largest ``|L|_F |L^-1|_F`` (about A's condition number) prepared by Cholesky."""

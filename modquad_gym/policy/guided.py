@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from modquad_gym.core.compile_clock import compile_seconds
 from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
 from modquad_gym.policy.inference import exported
 from modquad_gym.policy.models import (
@@ -108,7 +109,7 @@ class GuidedSolver:
                                 fault_margin=fault_margin)  # fmt: skip
 
     def solve(self, task: Any) -> SearchResult:
-        t0 = time.perf_counter()
+        t0, compiled = time.perf_counter(), compile_seconds()  # see search_result
         task = as_task(task)
         self.policy.use_fault(*self.fault)  # a Policy shared with another solver may differ
         problem = self.policy.problem(task)
@@ -127,7 +128,7 @@ class GuidedSolver:
         else:
             proof = f"exact bounds rule out every level up to {self.n_max}"
         return search_result(self.name, problem, best, len(run.evaluated), run.oracle_calls, t0,
-                             certified, proof, bound)  # fmt: skip
+                             certified, proof, bound, compiled=compiled)  # fmt: skip
 
     def budget_for(self, n: int, state_bytes: int = 0) -> int:
         """Structures to evaluate when the dive's answer (or without a dive, n_max) has ``n``

@@ -16,6 +16,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from modquad_gym.core.compile_clock import compile_seconds
 from modquad_gym.core.extras import import_optional
 from modquad_gym.core.validation import check_int
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
@@ -35,6 +36,7 @@ from modquad_gym.policy.models import (
     read_model,
 )
 from modquad_gym.search import SearchResult
+from modquad_gym.search.beyond import bound_beyond
 from modquad_gym.search.problem import SearchProblem
 from modquad_gym.tasks import TaskRequirement
 
@@ -338,17 +340,24 @@ def search_result(
     certified: bool | None = False,
     proof: str = "",
     lower_bound: int | None = None,
+    compiled: float | None = None,
 ) -> SearchResult:
     """The search record of a learned solver ``name`` that started at ``t0`` on ``problem``
     (:meth:`Policy.problem`: its budget, palette, task kind and fault) and kept ``best`` (with the
     proved ``lower_bound`` on the module count, when the solver knows one; ``certified`` None:
-    derived from it)."""
+    derived from it; without a structure, raised by the exact bounds past n_max: it is the
+    strongest bound proved, :mod:`~modquad_gym.search.beyond`). ``compiled``: the compile
+    clock's reading at ``t0`` (:func:`~modquad_gym.core.compile_clock.compile_seconds`): the
+    kernels compiled since are left out of the seconds."""
+    compiling = 0.0 if compiled is None else compile_seconds() - compiled
+    if best is None and lower_bound is not None:
+        lower_bound = bound_beyond(problem, lower_bound)
     return SearchResult(
         structure=best,
         n_modules=best.n_modules if best is not None else None,
         evaluated=evaluated,
         oracle_calls=oracle_calls,
-        seconds=time.perf_counter() - t0,
+        seconds=time.perf_counter() - t0 - compiling,
         certified=certified,
         method=name,
         n_max=problem.n_max,
@@ -358,4 +367,5 @@ def search_result(
         palette=tuple(m.name for m in problem.palette) if problem.typed else (),
         fault=problem.fault,
         fault_margin=problem.fault_margin,
+        compile_seconds=compiling,
     )

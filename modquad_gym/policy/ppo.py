@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from modquad_gym.core.compile_clock import compile_seconds
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.policy.models import EXTRA_FROM, LEARNED_CHECKS, TOP_K, check_learned
 from modquad_gym.policy.policy import (
@@ -111,7 +112,7 @@ class PPOSolver:
         and ``samples`` sampled ones (None when none verifies within ``n_max`` modules).
         ``evaluated`` counts the distinct structures (up to translation) the rollouts evaluated;
         a structure met again costs no oracle call (the environment memoises per task)."""
-        t0 = time.perf_counter()
+        t0, compiled = time.perf_counter(), compile_seconds()  # see search_result
         task = as_task(task)
         policy = self.policy
         policy.use_fault(*self.fault)  # a Policy shared with another solver may differ
@@ -139,7 +140,7 @@ class PPOSolver:
         )
         proof = "lower bound reached" if certified else ""
         return search_result(self.name, problem, best, len(seen), oracle_calls, t0, certified,
-                             proof, bound)  # fmt: skip
+                             proof, bound, compiled=compiled)  # fmt: skip
 
     def deterministic(
         self,

@@ -276,6 +276,7 @@ def _exhaustive(
     run: SearchRun, chunk: int, engine, progress: bool, first_only: bool, part, keep=None
 ) -> LevelAnswer:
     """The minimal level of ``run``'s problem: the one-type search or the typed one."""
+    run.reach = EXACT_MODULES  # the typed search too: what an infeasible answer may advise
     if run.problem.shape_only:
         return _search_levels(run, chunk, engine, progress, first_only, part, keep)
     return search_typed(run, progress, first_only, part)

@@ -82,7 +82,7 @@ def make_partial(start, palette: tuple[ModuleType, ...], typed: bool, n_max: int
 @cache
 def _compiled_contains():
     """:func:`contains` compiled by numba (on first use: a search with no ``start`` needs none)."""
-    from numba import njit
+    from modquad_gym.core.jit import njit
 
     return njit(cache=True)(contains)
 

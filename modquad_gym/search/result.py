@@ -11,17 +11,20 @@ by the certified oracle). ``certified`` follows from it: the answer is proved.
 
 from __future__ import annotations
 
-import enum
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from modquad_gym.core.compile_clock import compile_seconds
+from modquad_gym.geometry.cells import MAX_MODULES
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import Zonotope, feasible
 from modquad_gym.oracle.faults import DecisionInterruptedError, tolerates
+from modquad_gym.search.beyond import bound_beyond
 from modquad_gym.search.checker import LP_ROTORS
+from modquad_gym.search.status import Improvement, Status  # noqa: F401 (named here too)
 from modquad_gym.tasks import as_task
 from modquad_gym.tasks.wrenches import kind_entry
 
@@ -29,38 +32,6 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     from modquad_gym.search.problem import SearchProblem
-
-
-class Improvement(NamedTuple):
-    """One event of a search's history: ``seconds`` after it started, the proved bound and the
-    incumbent's module count (None before the first structure) became these, by ``source``
-    (the anytime search: ``bounds``, ``exact``, ``compact``, ``moves``, ``beam``, ``genetic``)."""
-
-    seconds: float
-    lower_bound: int
-    n_modules: int | None
-    source: str
-
-    def to_dict(self) -> dict:
-        return {**self._asdict(), "seconds": round(self.seconds, 3)}
-
-
-class Status(str, enum.Enum):
-    """What a result proves, for a program to branch on (a string enum: ``status == "optimal"``
-    holds; JSON writes its value)."""
-
-    OPTIMAL = "optimal"
-    """A structure was found and proved minimal (``n_modules == lower_bound``)."""
-    FEASIBLE = "feasible"
-    """A structure was found; a smaller one may exist (``lower_bound < n_modules``)."""
-    INFEASIBLE = "infeasible"
-    """Proved: no structure of at most ``n_max`` modules satisfies the task."""
-    NO_ANSWER = "no answer"
-    """No structure found and none ruled out for every size up to ``n_max`` (a heuristic, or a
-    time limit reached)."""
-
-    def __str__(self) -> str:
-        return self.value
 
 
 @dataclass
@@ -72,9 +43,9 @@ class SearchResult:
         n_modules: its module count, or None.
         evaluated: configurations evaluated (feasibility against the whole task decided).
         oracle_calls: wrench-structure membership tests made.
-        seconds: wall time.
+        seconds: wall time, less the kernels' compilation (``compile_seconds``).
         certified: the answer is proved: ``n_modules == lower_bound`` (a minimum), or no
-            structure was found and ``lower_bound == n_max + 1`` (none of up to ``n_max``
+            structure was found and ``lower_bound > n_max`` (none of up to ``n_max``
             modules exists). Derived from ``lower_bound`` when built with None; a True that
             the bound does not support is refused (ValueError).
         method: the search's name.
@@ -86,8 +57,9 @@ class SearchResult:
         kind: the task kind searched (``total``, ``external`` or ``dynamic``).
         skipped: (shape, type assignment) pairs ruled out by exact bounds without being
             evaluated (force and count bounds, level bounds), in the levels visited.
-        lower_bound: proved: no structure of fewer modules satisfies the task (1 <=
-            lower_bound <= n_max + 1; how each search proves it: module docstring). None at
+        lower_bound: proved: no structure of fewer modules satisfies the task (at least 1;
+            above n_max when none of up to n_max modules does, the strongest bound proved:
+            :mod:`.beyond`; how each search proves it: module docstring). None at
             construction means what ``certified`` says: ``n_modules`` (or ``n_max + 1``) when
             certified, else the trivial bound 1.
         fault: the failure the structure survives (``"rotor"``, ``"module"``, ``"rotor2"``,
@@ -101,6 +73,9 @@ class SearchResult:
             start"``, :func:`~.exhaustive.exhaustive_search`'s ``start``): its structure is the
             proved minimum among them, or none of them satisfies the task; ``lower_bound``
             (and so ``certified`` and :attr:`status`) stays what is proved for the task.
+        reach: the largest n_max its method takes (:attr:`message` suggests no more).
+        compile_seconds: how long numba compiled kernels during the search (once, on a cold
+            cache; :mod:`~modquad_gym.core.compile_clock`), not counted in ``seconds``.
     """
 
     structure: Structure | None
@@ -122,6 +97,8 @@ class SearchResult:
     history: tuple[Improvement, ...] = ()
     ray_start_seconds: float = 0.0
     scope: str = ""
+    reach: int = MAX_MODULES
+    compile_seconds: float = 0.0
 
     def __post_init__(self) -> None:
         if self.lower_bound is None:
@@ -158,14 +135,32 @@ class SearchResult:
     @property
     def message(self) -> str:
         """One line that says what :attr:`status` means for this result (and the seconds of
-        Ray's start left out of its time)."""
-        line = self._meaning()
+        Ray's start and of compiling kernels left out of its time)."""
+        return self.describe()
+
+    def describe(self, next_step: str = "raise n_max to at least {n}") -> str:
+        """:attr:`message`, with ``next_step`` (``{n}``: the proved bound) the advice of an
+        infeasible answer (the command line names its option there)."""
+        line = self._meaning(next_step)
         if self.ray_start_seconds:
             took = f"{self.ray_start_seconds:.1f} s"
             line += f"; Ray's start took {took}, not counted in the time limit or the seconds"
+        if self.compile_seconds:
+            line += (f"; compiling kernels once (cached for later runs) took "
+                     f"{self.compile_seconds:.1f} s, not counted in the seconds")  # fmt: skip
         return line
 
-    def _meaning(self) -> str:
+    def proved_note(self, next_step: str = "raise n_max to at least {n}") -> str:
+        """What an infeasible answer proved, in words: the bound, and ``next_step`` when the
+        bound is within the method's reach."""
+        n = self.lower_bound
+        if self.proof.endswith("no number of modules can exert the task's forces"):
+            return "proved: no number of modules can exert the task's forces"
+        if n > self.reach:
+            return f"proved: it needs at least {n}; {self.method} takes at most {self.reach}"
+        return f"proved: it needs at least {n}; {next_step.format(n=n)}"
+
+    def _meaning(self, next_step: str) -> str:
         status, fault = self.status, f" surviving any {self.fault} failure" if self.fault else ""
         if self.fault_margin:
             fault += f" with a margin of {self.fault_margin:g}"
@@ -178,7 +173,8 @@ class SearchResult:
                 "smaller structure may exist)"
             )
         if status is Status.INFEASIBLE:
-            return f"no structure of up to {self.n_max} modules{fault} satisfies the task (proved)"
+            return (f"no structure of up to {self.n_max} modules{fault} satisfies the task "
+                    f"({self.proved_note(next_step)})")  # fmt: skip
         if self.scope:
             return (
                 f"no structure {self.scope} of up to {self.n_max} modules{fault} satisfies the "
@@ -228,6 +224,8 @@ class SearchResult:
             out["ray_start_seconds"] = round(self.ray_start_seconds, 3)
         if self.scope:
             out["scope"] = self.scope
+        if self.compile_seconds:
+            out["compile_seconds"] = round(self.compile_seconds, 3)
         return out
 
 
@@ -241,7 +239,7 @@ class SearchRun:
     event as it happens."""
 
     def __init__(self, method: str, problem: SearchProblem) -> None:
-        self.t0 = time.perf_counter()
+        self.t0, self.compiled = time.perf_counter(), compile_seconds()  # see finish
         self.method = method
         self.problem = problem
         self.skipped = 0
@@ -250,6 +248,7 @@ class SearchRun:
         self.listener: Callable[[Improvement], None] | None = None
         self.verify_deadline: float | None = None  # see finish
         self.ray_start_seconds = 0.0  # left out of the clock (t0 moved past it)
+        self.reach = MAX_MODULES  # the method's largest n_max: check_budget sets it
 
     def improve(
         self, source: str, lower_bound: int | None = None, n_modules: int | None = None
@@ -290,7 +289,7 @@ class SearchRun:
     def check_budget(self, limit: int, first_level: int) -> None:
         """Refuse before any work an n_max beyond ``limit``, this method's reach in bounded
         time (unless no level up to n_max is left to search)."""
-        n_max = self.problem.n_max
+        n_max, self.reach = self.problem.n_max, limit
         if n_max > limit and first_level <= n_max:
             raise ValueError(
                 f"n_max={n_max} is beyond what the {self.method} search can finish: "
@@ -306,8 +305,13 @@ class SearchRun:
         scope: str = "",
     ) -> SearchResult:
         """The result: ``structure`` (verified here by the exact LP) and ``lower_bound``, the
-        proved bound on the module count (:class:`SearchResult`; ``scope`` as there)."""
+        proved bound on the module count (:class:`SearchResult`; ``scope`` as there; without a
+        structure, raised by the exact bounds past n_max: :mod:`.beyond`)."""
         p = self.problem
+        if structure is None and (raised := bound_beyond(p, lower_bound)) > lower_bound:
+            lower_bound = raised
+            if self.history:  # the progress shown ends at the bound reported
+                self.improve("bounds", lower_bound=raised)
         if structure is not None:
             W = p.rotor_wrenches(structure)
             if p.fault is None:
@@ -328,12 +332,13 @@ class SearchRun:
                     "oracle's methods disagree on it (within the agreement band of the threshold, "
                     "where decisions depend on round-off: modquad_gym.oracle.tolerance)"
                 )
+        compiling = compile_seconds() - self.compiled  # once, on a cold cache: not the search's
         return SearchResult(
             structure=structure,
             n_modules=structure.n_modules if structure is not None else None,
             evaluated=self.checker.evaluated,
             oracle_calls=self.checker.oracle_calls,
-            seconds=time.perf_counter() - self.t0,
+            seconds=time.perf_counter() - self.t0 - compiling,
             certified=None,
             method=self.method,
             n_max=p.n_max,
@@ -348,6 +353,8 @@ class SearchRun:
             history=tuple(self.history),
             ray_start_seconds=self.ray_start_seconds,
             scope=scope,
+            reach=self.reach,
+            compile_seconds=compiling,
         )
 
 

@@ -27,8 +27,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numba import njit
 
+from modquad_gym.core.jit import njit
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.oracle.tolerance import SUPPORT_SLACK as SLACK
 

@@ -220,5 +220,15 @@ def markdown(
     pics = ("structure", "rotor_inputs", "bench_wrench", "hover", "hover_unknown_load")
     pics += ("hover_infeasible",)
     lines += ["", "## Pictures", ""]
-    lines += [f"![{k}]({k}.png)" for k in pics if k in out["files"]]
+    for k in (k for k in pics if k in out["files"]):
+        lines += [f"![{k}]({k}.png)", *([STRUCTURE_CAPTION, ""] if k == "structure" else [])]
     return "\n".join(lines) + "\n"
+
+
+STRUCTURE_CAPTION = (
+    "*structure.png: the first module (the first of the cells) green and the others grey, or "
+    "with several module types each type's colour; each rotor a disc across its thrust axis (an "
+    "arrow along it where matplotlib draws the picture), red for spin +1 and blue for spin -1 "
+    "(the sign of its drag torque).*"
+)
+"""The legend of the structure's picture (the colours of :mod:`modquad_gym.sim.model`)."""

@@ -13,7 +13,8 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+
+from modquad_gym.core.jit import njit
 
 FLAT = 1e-9
 """Widths (and offsets) below this (in units of denom) count as zero: a flat direction of a

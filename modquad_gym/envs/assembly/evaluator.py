@@ -34,8 +34,8 @@ from itertools import chain
 from typing import Any
 
 import numpy as np
-from numba import njit
 
+from modquad_gym.core.jit import njit
 from modquad_gym.envs.assembly.dynamic import own_arrays, start_arrays
 from modquad_gym.envs.assembly.features import AssemblyFeatures
 from modquad_gym.envs.assembly.types import TaskArrays

@@ -20,8 +20,8 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
 
+from modquad_gym.core.jit import njit
 from modquad_gym.envs.assembly.types import TaskArrays
 from modquad_gym.oracle.backends import gamma_capped_from, proved_above
 from modquad_gym.oracle.tolerance import BAND, TOL, decide_from_gamma, margin_from_gamma

@@ -28,8 +28,8 @@ from __future__ import annotations
 from operator import attrgetter
 
 import numpy as np
-from numba import njit
 
+from modquad_gym.core.jit import njit
 from modquad_gym.envs.assembly.features import (
     AssemblyFeatures,
     ObservationBlock,

@@ -68,8 +68,8 @@ from operator import attrgetter
 
 import numpy as np
 from gymnasium import spaces
-from numba import njit
 
+from modquad_gym.core.jit import njit
 from modquad_gym.envs.assembly.types import AssemblyState
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Structure
