@@ -205,3 +205,25 @@ def test_outside_agents_are_not_judged_on_the_learned_methods_goals():
     lines = _goals(rows, {"ppo": {"configs": "centrosymmetric"}})
     assert any(line.startswith("| ppo |") for line in lines)
     assert not any("pkg:Agent" in line for line in lines)
+
+
+def test_the_agent_is_compared_with_the_best_other_search_by_optimal_count_then_seconds():
+    """milp counts only the structures its program hands the oracle (one per task, usually):
+    the best other search is ranked by optimal count, then seconds, and milp's count is
+    marked in the tables, with a note saying what it counts."""
+    from modquad_gym.scoring.agents_report import _outside, _summary_table
+
+    def summary(method, evaluated, seconds):
+        return {"method": method, "tasks": 10, "success_rate": 1.0, "mean_modules": 4.4,
+                "optimal_share": 1.0, "mean_gap": 0.0, "mean_evaluated": evaluated,
+                "mean_oracle_calls": 100.0, "mean_seconds": seconds}  # fmt: skip
+
+    rows = [summary("milp", 1.0, 1.2129), summary("beam", 18.8, 0.0108),
+            summary("pkg:Agent", 3.0, 0.001)]  # fmt: skip
+    text = "\n".join(_outside(rows, 7, "current"))
+    assert "best other search here (by optimal count, then seconds), beam," in text
+    assert "0.0108 s and 18.8 configurations per task" in text
+    table = "\n".join(_summary_table(rows))
+    assert "| 1.0\\* |" in table and "| 18.8 |" in table
+    assert "\\* milp: its configurations count only the structures" in table
+    assert "\\*" not in "\n".join(_summary_table(rows[1:]))

@@ -46,6 +46,13 @@ class Row:
         }  # fmt: skip
 
 
+ANSWERS_ONLY = frozenset({"milp"})
+"""Methods whose configurations evaluated count only the structures they hand the exact oracle
+(milp: each answer of its mixed-integer program, usually one; the program's own work is not
+a configuration): the agent report marks their count, and ranks the best other search by
+seconds, not configurations."""
+
+
 def summarise(rows: list[Row], methods: list[str], n_max: int) -> list[dict]:
     """Per method, over the tasks whose optimum is <= n_max (the goals' scope)."""
     out = []
