@@ -141,6 +141,22 @@ def add_example(tsub) -> None:
     add_force(e)
 
 
+def same_as(name: str, task) -> str:
+    """`` (the same task as STEM, in another format)`` when the example ``name`` (``STEM.csv``)
+    holds the wrenches of the example STEM; else ""."""
+    import numpy as np
+
+    from modquad_gym.tasks import TaskRequirement, example_names, example_path
+
+    stem, dot, suffix = name.rpartition(".")
+    if not dot or stem not in example_names():
+        return ""
+    other = TaskRequirement.load(example_path(stem))
+    if not np.array_equal(other.wrenches, task.wrenches) or other.f_max != task.f_max:
+        return ""
+    return f" (the task {stem} as {suffix.upper()})"
+
+
 def cmd_task_example(args: argparse.Namespace) -> int:
     import shutil
 
@@ -155,7 +171,8 @@ def cmd_task_example(args: argparse.Namespace) -> int:
             raise ValueError(f"--out {args.out}: name the example to copy (NAME), e.g. screwdriver")
         for name in example_names():
             try:
-                what = f"{TaskRequirement.load(example_path(name)).n_wrenches} wrenches"
+                task = TaskRequirement.load(example_path(name))
+                what = f"{task.n_wrenches} wrenches{same_as(name, task)}"
             except ValueError:  # a suite file (load_suite reads it)
                 what = f"a suite of {len(load_suite(example_path(name)))} tasks"
             print(f"{name:18s} {what}")

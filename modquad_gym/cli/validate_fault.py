@@ -176,11 +176,10 @@ def fault_lines(r: dict) -> list[str]:
     """The console lines of the flights through a failure (none without them)."""
     if r.get("fault_flight") is None:
         return []
+    from modquad_gym.sim.fault_pictures import failed_part_words
 
     def line(name: str, x: dict, tolerates: bool) -> str:
-        part = f"module {x['fault_failed_module']} {tuple(x['fault_failed_cell'])}"
-        if x.get("fault_failed_rotor_in_module") is not None:
-            part = f"rotor {x['fault_failed_rotor_in_module']} of {part}"
+        part = failed_part_words(x)  # numbered from 1, as rows and cells are
         return (
             f"{name}: {'tolerates' if tolerates else 'does not tolerate'} any {r['fault']} "
             f"failure; {part} stopped at {x['fault_time_s']:.3g} s: position error after it up "

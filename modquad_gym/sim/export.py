@@ -76,6 +76,7 @@ from modquad_gym.sim.inertial import (  # noqa: F401 (base_inertial, ROTOR_MASS_
     check_simulable,
     propeller_inertials,
 )
+from modquad_gym.tasks.files import STRUCTURE_FORMAT
 
 MODULE_THICKNESS = 0.05
 """Height of a module's box in the URDF visuals, metres (as in the MuJoCo model)."""
@@ -176,7 +177,7 @@ def structure_dict(structure: Structure, f_max: float = 1.0) -> dict:
     rotors = zip(owner, s.rotor_positions, s.rotor_directions, s.rotor_spins, s.rotor_c_tau,
                  strict=True)  # fmt: skip
     return {
-        "format": "modquad_gym.structure",
+        "format": STRUCTURE_FORMAT,
         "version": 1,
         "frame": "{S}: origin at the centre of mass, axes parallel to the modules', z up",
         "units": {"length": "m", "mass": "kg", "inertia": "kg m^2", "thrust": "N"},

@@ -64,11 +64,19 @@ def fault_flight_figure(flight: FaultFlight, label: str = ""):
     return fig
 
 
+def failed_part_words(part: dict) -> str:
+    """The failed part of a record (:meth:`~.fault_flight.FaultFlight.failed_part`'s keys) in
+    words, numbered from 1 as the command line numbers rows and cells: ``rotor 2 of module 2
+    at cell (0, 1)`` (the record's indices are 0-based: module 1 is ``cells[1]``)."""
+    what = f"module {part['fault_failed_module'] + 1} at cell {tuple(part['fault_failed_cell'])}"
+    if part.get("fault_failed_rotor_in_module") is not None:
+        what = f"rotor {part['fault_failed_rotor_in_module'] + 1} of {what}"
+    return what
+
+
 def _title(flight: FaultFlight, label: str) -> str:
     s, part = flight.structure, flight.failed_part()
-    what = f"module {part['fault_failed_module']} at cell {tuple(part['fault_failed_cell'])}"
-    if part["fault_failed_rotor_in_module"] is not None:
-        what = f"rotor {part['fault_failed_rotor_in_module']} of {what}"
+    what = failed_part_words(part)
     tolerant = "tolerates" if flight.worst.tolerates else "does NOT tolerate"
     head = f"{label}: " if label else ""
     task = f" - task {flight.task_name}" if flight.task_name else ""

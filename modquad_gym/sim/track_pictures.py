@@ -64,8 +64,8 @@ def plot_track_path(res: TrackResult, path: str | Path, title: str = "") -> None
 
 
 def track_path_figure(res: TrackResult, title: str = ""):
-    """The COM's path in 3D, desired (dashed) and flown, with start and end marked, and the
-    position error over time (:func:`error_panel`: scaled to the data, the goal a reference);
+    """The COM's path in 3D, desired (dashed) and flown, with start (a ring) and end marked, and
+    the position error over time (:func:`error_panel`: scaled to the data, the goal a reference);
     a pyplot figure (close it)."""
     plt = _plt()
     fig = plt.figure(figsize=(10, 4.8))
@@ -73,8 +73,16 @@ def track_path_figure(res: TrackResult, title: str = ""):
     d, f = res.desired, res.flown
     ax.plot(*d.T, "--", color="0.45", lw=1.5, label="desired")
     ax.plot(*f.T, color="tab:blue", lw=1.2, label="flown")
-    ax.scatter(*d[0], color="tab:green", s=25, label="start")
-    ax.scatter(*d[-1], color="tab:red", s=25, label="end")
+    ax.scatter(*d[-1], color="tab:red", s=25, label="end", depthshade=False)
+    ax.scatter(
+        *d[0],
+        facecolors="none",
+        edgecolors="tab:green",
+        s=90,
+        linewidths=1.8,
+        label="start",
+        depthshade=False,
+    )  # a ring over the end: a closed path shows both
     span = max(float(np.ptp(d, axis=0).max()), 0.2)
     centre = (d.max(axis=0) + d.min(axis=0)) / 2
     for axis, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):

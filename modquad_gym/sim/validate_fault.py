@@ -12,7 +12,7 @@ from pathlib import Path
 
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.sim.fault_flight import FaultFlight, fly_with_failure
-from modquad_gym.sim.fault_pictures import plot_fault_flight
+from modquad_gym.sim.fault_pictures import failed_part_words, plot_fault_flight
 
 FAULT_FILES = ("fault_flight.png", "fault_flight_intact_minimum.png")
 """The pictures :func:`validate_with_failure` writes (the second with an intact minimum)."""
@@ -71,9 +71,7 @@ def fault_markdown(record: dict, n_modules: int | str = "") -> str:
     def row(name: str, r: dict, n_modules, tolerates) -> str:
         err = r.get("fault_max_position_error_m")
         err_text = "n/a" if err is None else f"{100 * err:.3g} cm"
-        part = f"module {r['fault_failed_module']} at {r['fault_failed_cell']}"
-        if r.get("fault_failed_rotor_in_module") is not None:
-            part = f"rotor {r['fault_failed_rotor_in_module']} of {part}"
+        part = failed_part_words(r)
         margin_ = r.get("fault_worst_margin", r.get("worst_fault_margin"))
         return (
             f"| {name} | {n_modules} "

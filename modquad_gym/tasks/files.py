@@ -78,6 +78,11 @@ def unknown_key_message(key: str, known: Sequence[str]) -> str:
     return f"unknown key {key!r}" + (f" (did you mean {guess!r}?)" if guess else "")
 
 
+STRUCTURE_FORMAT = "modquad_gym.structure"
+"""The ``format`` of a structure export's JSON (:func:`modquad_gym.sim.export.structure_dict`),
+named in the refusal of one read as a task."""
+
+
 def task_format(data: object) -> str:
     """The key of :data:`TASK_KEYS` that marks the task object ``data``, after checking it holds
     no other keys; a ValueError names the unknown or missing key and lists the known ones."""
@@ -88,6 +93,10 @@ def task_format(data: object) -> str:
         hint = (" (this looks like a suite: read it with load_suite, or on the command line "
                 "with `modquad score --suite FILE` or `modquad optima --suite FILE`)"
                 if "tasks" in data else "")  # fmt: skip
+        if data.get("format") == STRUCTURE_FORMAT:
+            raise ValueError("this looks like a structure export (written by `modquad export`), "
+                             "not a task: a task file holds 'wrenches'; give the task file the "
+                             "structure was designed for")  # fmt: skip
         raise ValueError(f"no 'wrenches' key{hint}; keys present: {sorted(data)}")
     if len(marks) > 1:
         raise ValueError(f"a task holds one of {', '.join(map(repr, marks))}, not several")
