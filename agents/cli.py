@@ -14,7 +14,7 @@ from pathlib import Path
 from agents.checks import check_training_seed, check_used, unused_fields
 from agents.config import TrainConfig
 from agents.publishing import check_publishable, publish, refuse_grid_model, run_tier
-from agents.run_folders import held_folders, kept, record
+from agents.run_folders import cleared, held_folders, kept, record
 from agents.seeds import SEEDS_DROP, seed_out
 from agents.training import check_start, report, train
 from modquad_gym.cli.given import typed_options
@@ -267,7 +267,7 @@ def main(argv: list[str] | None = None) -> int:
     folders = held_folders(args, run_folders(args))  # each run's folder and its log folder
     with ExitStack() as stack:  # a second run into one of these folders is refused at once
         claims = [(stack.enter_context(claim_output_dir(h.folder, h.names, h.force, h.what,
-                                                        keep=kept(args))), h)
+                                                        keep=kept(args), clear=cleared(h))), h)
                   for h in folders]  # fmt: skip
         for claim, held in claims:  # recorded at once: an interrupted run's files are known too
             record(claim, held, walk=False)

@@ -8,8 +8,9 @@ The log folder is named after the run folder's last two names, so two run folder
 unless ``--force``, and so is one in the run folder. A ``--resume`` that continues its own run
 (the model lies in that log folder, or its run folder's ``config.json`` records it as
 ``log_dir``) goes on in it. What a run writes is recorded in each folder's manifest
-(:class:`~modquad_gym.core.outputs.ClaimedDir`), so that a later ``--force`` removes it; a model
-the run reads (``--resume``, ``--init-from``) is never removed.
+(:class:`~modquad_gym.core.outputs.ClaimedDir`), so that a later ``--force`` removes it, with
+all of a replaced log folder's ``train/``, ``bc/`` and ``ppo/`` (a killed run recorded no files
+there); a model the run reads (``--resume``, ``--init-from``) is never removed.
 """
 
 from __future__ import annotations
@@ -79,6 +80,13 @@ def held_folders(args: argparse.Namespace, runs: list[Path]) -> list[Held]:
 def kept(args: argparse.Namespace) -> tuple[Path, ...]:
     """The models this run reads, which ``--force`` never removes."""
     return tuple(Path(p) for p in (args.resume, args.init_from) if p is not None)
+
+
+def cleared(held: Held) -> tuple[str, ...]:
+    """The folders of ``held`` that its ``--force`` empties whole (every file, recorded or not:
+    a run killed by SIGKILL never recorded its PPO events): those refused without it, so never
+    the ``ppo/`` a ``--resume`` of the folder's own run goes on in."""
+    return tuple(name for name in held.folders if name in held.names)
 
 
 def record(claim: ClaimedDir, held: Held, walk: bool = True) -> None:

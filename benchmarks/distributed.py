@@ -14,9 +14,11 @@ embedded Ray with 1 CPU and with 2 CPUs, every answer compared with the serial o
   up to that many modules satisfies, so every level is decided to its end (levels of at least
   100,000 structures are split into Ray tasks of 262,144 structures).
 
-Wall times include everything a user waits for: starting Ray, its worker processes importing
-the package, the work and the shutdown; ``startup_s`` is the part until a no-op task has
-returned on every CPU. The report ends with the commands that run the same on a cluster.
+Wall times include everything a user waits for until the answers are in: starting Ray, its
+worker processes importing the package, the work (not the shutdown after it, which waits for
+Ray's processes to exit so that its session folder can be removed); ``startup_s`` is the part
+until a no-op task has returned on every CPU. The report ends with the commands that run the same
+on a cluster.
 """
 
 from __future__ import annotations
@@ -44,35 +46,44 @@ def _noop(i: int) -> int:
     return i
 
 
-def _start_ray(cpus: int) -> float:
-    """Start an embedded Ray with ``cpus`` CPUs and one worker process per CPU; seconds taken."""
+def _start_ray(cpus: int):
+    """Start an embedded Ray with ``cpus`` CPUs and one worker process per CPU: (seconds taken,
+    its session folder)."""
     import ray
 
-    t0 = time.perf_counter()
-    ray.init(address="local", num_cpus=cpus, include_dashboard=False, log_to_driver=False,
-             logging_level="ERROR")  # fmt: skip
     from modquad_gym.core.distributed import map_tasks
+    from modquad_gym.core.ray_session import start_local
 
+    t0 = time.perf_counter()
+    options = {"include_dashboard": False, "log_to_driver": False, "logging_level": "ERROR"}
+    session = start_local(ray, cpus, options)
     map_tasks(_noop, range(max(cpus, 2)), workers=max(cpus, 2))  # on the Ray just started
-    return time.perf_counter() - t0
+    return time.perf_counter() - t0, session
 
 
 def _timed(cpus: int, work) -> tuple[float, float, object]:
     """(wall seconds, start-up seconds, result) of ``work(workers)`` serially (cpus = 0) or on
-    an embedded Ray with ``cpus`` CPUs (started and shut down inside the timing)."""
+    an embedded Ray with ``cpus`` CPUs, started inside the timing and shut down after it (the
+    shutdown waits for Ray's processes to exit, then removes its session folder unless Ray
+    reported an error)."""
     t0 = time.perf_counter()
-    startup = 0.0
-    if cpus:
-        import ray
-
-        startup = _start_ray(cpus)
-        try:
-            result = work(max(cpus, 2))  # > 1 worker: the Ray path, on the Ray just started
-        finally:
-            ray.shutdown()
-    else:
+    if not cpus:
         result = work(1)
-    return time.perf_counter() - t0, startup, result
+        return time.perf_counter() - t0, 0.0, result
+    import ray
+
+    from modquad_gym.core.ray_session import shutdown
+
+    startup, session = _start_ray(cpus)
+    failed = False
+    try:
+        result = work(max(cpus, 2))  # > 1 worker: the Ray path, on the Ray just started
+        return time.perf_counter() - t0, startup, result
+    except ray.exceptions.RayError:
+        failed = True  # Ray's message points to its logs: the session folder stays
+        raise
+    finally:
+        shutdown(ray, session, failed)
 
 
 def batch_tasks(n: int, seed: int) -> list:
@@ -191,7 +202,8 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
         "Each workload runs three ways: the serial path of "
         "`modquad_gym.core.distributed` (no Ray), "
         "an embedded Ray with 1 CPU, and one with 2 CPUs. `wall_s` is what a user waits for "
-        "(Ray's start, its workers importing the package, the work, the shutdown); `startup_s` "
+        "until the answers are in (Ray's start, its workers importing the package, the work; "
+        "not the shutdown after it); `startup_s` "
         "is `ray.init` until a no-op task has returned on every CPU; `work_s` = wall - "
         "start-up. `same_answers`: every record (optimum, all optimal structures, evaluated "
         "counts) or the search's answer equals the serial run's. The batch is the unit of work "

@@ -11,7 +11,7 @@ import json
 from pathlib import Path
 
 import pytest
-from test_hardening import assert_rejected, run_bench, run_main
+from test_hardening import another_run_holds, assert_rejected, run_bench, run_main
 
 from modquad_gym.core.interrupts import run_command
 from modquad_gym.core.outputs import LOCK_NAME, claim_output_dir
@@ -38,7 +38,7 @@ def test_score_refuses_an_out_folder_another_run_holds_before_any_work(tmp_path,
 
     out = tmp_path / "R"
     argv = ["score", "--methods", "greedy", "--limit", "1", "--no-progress", "--out", str(out)]
-    with monkeypatch.context() as m, claim_output_dir(out):  # as another run's score holds it
+    with monkeypatch.context() as m, another_run_holds(out):  # as another run's score holds it
         m.setattr(agents, "run_benchmark", _no_work)
         code, _, err = run_main(capsys, *argv)
         assert sorted(p.name for p in out.iterdir()) == [LOCK_NAME]
@@ -55,7 +55,7 @@ def test_the_seeds_report_refuses_a_folder_another_run_holds(tmp_path, capsys, m
     monkeypatch.setattr(seeds, "check_runs", lambda *args: None)
     monkeypatch.setattr(seeds, "scored", _no_work)
     out = tmp_path / "report"
-    with claim_output_dir(out):
+    with another_run_holds(out):
         code = run_command(seeds.main, "seeds", [str(tmp_path), "--out", str(out)])
     _refused_once(code, capsys.readouterr().err.removeprefix("seeds: error: "), out)
 
@@ -64,7 +64,7 @@ def test_the_suites_script_refuses_a_folder_another_run_holds(tmp_path, capsys, 
     from modquad_gym.scoring import suites
 
     monkeypatch.setattr(suites, "build_suite", _no_work)
-    with claim_output_dir(tmp_path):
+    with another_run_holds(tmp_path):
         code = run_command(suites.main, "suites", ["--out", str(tmp_path)])
     _refused_once(code, capsys.readouterr().err, tmp_path)
 
@@ -75,7 +75,7 @@ def test_a_benchmark_holds_its_out_folder_until_it_ends(tmp_path, capsys, monkey
     it writes and letting go at the end."""
     from benchmarks import codebase
 
-    with claim_output_dir(tmp_path):
+    with another_run_holds(tmp_path):
         code, _, err = run_bench(capsys, "codebase", "--out", str(tmp_path))
     assert_rejected(code, err, "--out", str(tmp_path), "being written by another run")
     assert not (tmp_path / "codebase.md").exists()
@@ -97,7 +97,7 @@ def test_benchmarks_that_check_their_own_folders_hold_them(tmp_path, capsys, mon
     module = importlib.import_module(f"benchmarks.{script}")
     monkeypatch.setattr(module, "build_band" if script == "scale_suites" else "build", _no_work)
     argv = {"scale_suites": ["--bands", "16"], "leaderboard": ["--tiers", "current"]}[script]
-    with claim_output_dir(tmp_path):
+    with another_run_holds(tmp_path):
         code, _, err = run_bench(capsys, script, *argv, "--out", str(tmp_path))
     assert_rejected(code, err, str(tmp_path), "being written by another run")
 
@@ -117,6 +117,72 @@ def test_a_held_folder_goes_again_when_the_run_left_it_empty(tmp_path):
     with hold_output_dir(tmp_path / "c"):
         pass
     assert (tmp_path / "c").is_dir()
+
+
+def test_a_second_hold_of_a_folder_this_process_holds_is_granted(tmp_path):
+    """A hold of a folder the same process already holds (``train.py --report-dir`` equal to its
+    ``--out``: the report's hold inside the run's claim; or another thread) is granted, not
+    refused as "another run"; the lock stays until the last hold ends, and another process is
+    refused meanwhile."""
+    import os
+    import subprocess
+    import sys
+    import threading
+
+    from modquad_gym.core.outputs import hold_output_dir
+
+    folder = tmp_path / "n1"
+    probe = ("import sys; from modquad_gym.core.outputs import hold_output_dir\n"
+             "try:\n    with hold_output_dir(sys.argv[1]): print('held')\n"
+             "except ValueError as e: print(e)")  # fmt: skip
+
+    def other_process() -> str:
+        return subprocess.run([sys.executable, "-c", probe, str(folder)], capture_output=True,
+                              text=True, check=True).stdout  # fmt: skip
+
+    granted = []
+
+    def in_a_thread() -> None:
+        with hold_output_dir(os.path.relpath(folder)) as held:  # another spelling of it
+            granted.append(held)
+
+    with claim_output_dir(folder, ("a.csv",)) as claim:
+        with hold_output_dir(folder, ("b.csv",)) as inner:
+            granted.append(inner)
+            thread = threading.Thread(target=in_a_thread)
+            thread.start()
+            thread.join()
+        assert len(granted) == 2 and (folder / LOCK_NAME).is_file()  # the outer hold goes on
+        assert "being written by another run" in other_process()
+        claim.path("a.csv").write_text("a")
+    assert not (folder / LOCK_NAME).exists() and other_process().strip() == "held"
+
+
+def test_a_nested_claim_keeps_the_records_of_the_claim_around_it(tmp_path):
+    """A claim inside a claim of the same folder (one process) adds to the same manifest and
+    removes nothing of the outer run's, even with force."""
+    from modquad_gym.core.outputs import MANIFEST_NAME
+
+    with claim_output_dir(tmp_path, force=True) as outer:
+        outer.path("a.csv").write_text("a")
+        with claim_output_dir(tmp_path, ("b.csv",), force=True) as inner:
+            inner.path("b.csv").write_text("b")
+        outer.path("c.csv").write_text("c")
+    assert (tmp_path / "a.csv").is_file()
+    assert json.loads((tmp_path / MANIFEST_NAME).read_text()) == ["a.csv", "b.csv", "c.csv"]
+
+
+def test_holding_a_path_through_dot_dot_leaves_no_folder_behind(tmp_path, monkeypatch):
+    """``x/../y`` is the folder ``y``: ``x`` is neither created nor left behind."""
+    from modquad_gym.core.outputs import hold_output_dir
+
+    monkeypatch.chdir(tmp_path)
+    with hold_output_dir("x/../y", ("a.csv",)):
+        pass
+    assert list(tmp_path.iterdir()) == []
+    with hold_output_dir("x/../y", ("a.csv",)) as folder:
+        (folder / "a.csv").write_text("a")
+    assert [p.name for p in tmp_path.iterdir()] == ["y"] and (tmp_path / "y" / "a.csv").is_file()
 
 
 # ------------------------------------------------------------------ train.py's TensorBoard events
@@ -149,6 +215,72 @@ def test_ppo_events_stay_in_the_claimed_log_folder_and_force_replaces_them(tmp_p
     assert train([*argv, "--force"]) == 0
     (second,) = events()  # the earlier run's curves are gone, not shown beside the new ones
     assert second != first and f"ppo/{second}" in json.loads((log / MANIFEST_NAME).read_text())
+
+
+def _tiny_train_argv(tmp_path) -> list[str]:
+    from test_agents import TINY_N_MAX, _tiny_tasks
+
+    from modquad_gym.tasks import save_suite
+
+    suite = save_suite(_tiny_tasks(), tmp_path / "tiny.json")
+    return ["--task-source", str(suite), "--n-max", str(TINY_N_MAX), "--out",
+            str(tmp_path / "runs" / "a"), "--tensorboard", str(tmp_path / "tb"), "--timesteps",
+            "256", "--bc-epochs", "0", "--n-eval", "2", "--no-progress"]  # fmt: skip
+
+
+@pytest.mark.parametrize("where", ["out", "log"])
+def test_a_report_into_the_runs_own_folder_is_written(tmp_path, monkeypatch, capsys, where):
+    """``train.py --report-dir`` equal to its ``--out`` or its log folder: the report is written
+    there after training (the report's hold of the folder the run holds was refused as "another
+    run", exit 2 after the whole training); a second run without ``--force`` is refused before
+    any work, naming ``--report-dir``."""
+    pytest.importorskip("sb3_contrib")
+    from agents import cli
+    from modquad_gym.scoring import agents
+
+    out, log = tmp_path / "runs" / "a", tmp_path / "tb" / "runs-a"
+    report = out if where == "out" else log
+    monkeypatch.setattr(cli, "train", lambda config: config.out / "model.zip")  # no training
+
+    def greedy_only(args, tier):  # the report of a search: no model to load
+        args.agents, args.setup = {}, {}
+        return ["greedy"]
+
+    monkeypatch.setattr(agents, "chosen_methods", greedy_only)
+    argv = [*_tiny_train_argv(tmp_path), "--quick", "--report-dir", str(report)]
+    assert cli.main(argv) == 0
+    assert "greedy" in (report / "benchmark.csv").read_text()
+    assert (report / "benchmark.md").is_file()
+    assert not (report / LOCK_NAME).exists()
+    monkeypatch.setattr(cli, "train", _no_work)
+    capsys.readouterr()
+    code = run_command(cli.main, "python train.py", argv)
+    err = capsys.readouterr().err
+    assert code == 2 and "--report-dir" in err and "already holds" in err, err
+
+
+def test_force_clears_the_log_folders_of_a_killed_run(tmp_path, monkeypatch):
+    """A run killed by SIGKILL never recorded its PPO events (the manifest is completed when the
+    run ends): ``--force`` still replaces the log folder's ``ppo/``, ``bc/`` and ``train/``, so
+    TensorBoard shows one run, not two mixed in one curve; the user's other files stay."""
+    from agents import cli
+
+    log = tmp_path / "tb" / "runs-a"
+    leftovers = [log / "ppo" / "events.out.tfevents.1.host.1.0", log / "bc" / "events.x",
+                 log / "train" / "checkpoints" / "ppo_256_steps.zip"]  # fmt: skip
+    for path in [*leftovers, log / "notes.txt"]:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text("killed run")
+    seen = []
+
+    def run(args):
+        seen.append(sorted(p.relative_to(log).as_posix() for p in log.rglob("*")))
+        return 0
+
+    monkeypatch.setattr(cli, "run", run)
+    assert cli.main([*_tiny_train_argv(tmp_path), "--force", "--no-report"]) == 0
+    assert seen == [[".modquad.lock", "notes.txt"]], seen
+    assert (log / "notes.txt").read_text() == "killed run"
 
 
 # ------------------------------------------------------------------ SB3 without TensorBoard
@@ -247,3 +379,70 @@ def test_a_ray_that_cannot_wait_for_its_processes_keeps_its_folder(tmp_path):
     assert calls == ["shutdown", False, False] and session.is_dir() and tmp_path.is_dir()
     shutdown(NewRay, session)
     assert calls[-1] is True and not session.exists()
+
+
+def _session_of_each_init(monkeypatch) -> list[Path]:
+    """The session folder of every ``ray.init`` from now on."""
+    import ray
+
+    sessions, real = [], ray.init
+
+    def init(*args, **kwargs):
+        context = real(*args, **kwargs)
+        sessions.append(Path(context.address_info["session_dir"]))
+        return context
+
+    monkeypatch.setattr(ray, "init", init)
+    return sessions
+
+
+def test_an_embedded_ray_keeps_its_session_folder_when_a_worker_died(monkeypatch, capsys):
+    """A worker that died: Ray's error says to read its logs, so the session folder (which holds
+    them) stays, and a note names where; a clean run's goes (above)."""
+    import os
+    import shutil
+
+    pytest.importorskip("ray")
+    from modquad_gym.core.distributed import Failed, map_tasks
+
+    def die_on_one(x: int) -> int:  # a closure: shipped to the workers by value
+        if x == 1:
+            os._exit(3)
+        return x
+
+    sessions = _session_of_each_init(monkeypatch)
+    results = map_tasks(die_on_one, [0, 1], workers=2, catch=True, max_retries=0)
+    (session,) = sessions
+    try:
+        assert results[0] == 0 and isinstance(results[1], Failed), results
+        assert (session / "logs").is_dir() and list((session / "logs").glob("*worker*"))
+        err = capsys.readouterr().err
+        assert str(session / "logs") in err, err
+    finally:
+        shutil.rmtree(session, ignore_errors=True)
+
+
+def test_the_distributed_benchmark_removes_its_ray_sessions_outside_its_timing(monkeypatch):
+    """``benchmarks.distributed`` starts its Rays itself: each one's session folder goes too, and
+    the wait for Ray's processes to exit (which that needs) is not counted in ``wall_s``."""
+    ray = pytest.importorskip("ray")
+    import functools
+    import time
+
+    from benchmarks.distributed import _timed
+
+    sessions = _session_of_each_init(monkeypatch)
+    stops, real = [], ray.shutdown
+
+    @functools.wraps(real)
+    def shutdown(*args, **kwargs):
+        stops.append(time.perf_counter())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(ray, "shutdown", shutdown)
+    t0 = time.perf_counter()
+    wall, startup, result = _timed(1, lambda workers: workers)
+    assert result == 2 and 0 < startup <= wall
+    (session,) = sessions
+    assert not session.exists()
+    assert stops and t0 + wall <= stops[0]  # the timing ended before the shutdown began

@@ -11,6 +11,7 @@ import subprocess
 import sys
 import time
 import zipfile
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +34,20 @@ def run_main(capsys, *argv: str) -> tuple[int, str, str]:
         code = exc.code
     out, err = capsys.readouterr()
     return code, out, err
+
+
+@contextmanager
+def another_run_holds(folder: Path):
+    """``folder`` held as another process's run holds it: its lock file taken on a descriptor of
+    its own (``flock`` refuses a second descriptor, even in one process), which this process's
+    holds of the folder do not share (a second hold of one process is granted)."""
+    from filelock import FileLock
+
+    from modquad_gym.core.outputs import LOCK_NAME
+
+    folder.mkdir(parents=True, exist_ok=True)
+    with FileLock(folder / LOCK_NAME, timeout=0):
+        yield folder
 
 
 def run_bench(capsys, name: str, *argv: str) -> tuple[int, str, str]:

@@ -17,6 +17,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
+from test_hardening import another_run_holds
 
 import modquad_gym as mq
 from benchmarks.common import run_command, run_main
@@ -69,10 +70,11 @@ def test_a_claimed_folder_refuses_a_second_run_and_force_removes_only_recorded_f
     with claim_output_dir(out, ("report.md",)) as claim:
         write_text(claim.path("report.md"), "first")
         write_text(claim.path("round-3/model.zip"), "old round")
-        with pytest.raises(OutputError, match="another run"):
-            with claim_output_dir(out, ("report.md",), force=True):
-                pass
     assert not (out / LOCK_NAME).exists()  # the lock goes with the run
+    with another_run_holds(out), pytest.raises(OutputError, match="another run"):
+        with claim_output_dir(out, ("report.md",), force=True):
+            pass
+    assert (out / "round-3" / "model.zip").read_text() == "old round"  # nothing removed
     (out / "notes.txt").write_text("the user's")
     with pytest.raises(OutputError, match="already holds report.md"):
         with claim_output_dir(out, ("report.md",)):
@@ -113,7 +115,7 @@ def test_validate_json_of_a_dynamic_task_is_strict_json(tmp_path, capsys, monkey
 def test_validate_refuses_an_out_folder_another_run_holds(tmp_path, capsys):
     from modquad_gym.cli import main
 
-    with claim_output_dir(tmp_path / "v"):
+    with another_run_holds(tmp_path / "v"):
         argv = ["validate", "--task", "example:screwdriver", "--out", str(tmp_path / "v")]
         assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -391,7 +393,7 @@ def test_scale_refuses_a_missing_model_and_a_held_out_folder(tmp_path, capsys):
     argv = [*base, "--methods", "greedy", "--model", str(tmp_path / "missing.zip")]
     assert run_main(scale.main, "scale", [*argv, "--out", str(tmp_path / "a")]) == 2
     assert "no learned method" in capsys.readouterr().err
-    with claim_output_dir(tmp_path / "b"):
+    with another_run_holds(tmp_path / "b"):
         argv = [*base, "--methods", "greedy", "--out", str(tmp_path / "b")]
         assert run_main(scale.main, "scale", argv) == 2
     assert "another run" in capsys.readouterr().err
@@ -533,7 +535,7 @@ def test_train_refuses_a_run_folder_another_run_holds(tmp_path):
     run = tmp_path / "run"
     argv = ["--quick", "--no-report", "--no-progress", "--out", str(run), "--tensorboard",
             str(tmp_path / "tb")]  # fmt: skip
-    with claim_output_dir(run):
+    with another_run_holds(run):
         with pytest.raises(OutputError, match="another run"):
             main(argv)
     assert not (run / "model.zip").exists()

@@ -9,8 +9,8 @@ This module alone imports Ray (lazily, so ``import modquad_gym`` stays light). A
   node needs modquad_gym installed, and ``workers`` then caps the tasks in flight (default:
   every CPU of the cluster);
 * otherwise an embedded Ray on this machine, ``ray.init(num_cpus=workers)``, shut down when the
-  engine closes, its session folder removed (:mod:`.ray_session`; a Ray already running in this
-  process, e.g. the user's own ``ray.init``, is used as it is and left running).
+  engine closes, its session folder removed unless Ray reported an error (:mod:`.ray_session`; a
+  Ray already running in this process, the user's own ``ray.init``, is used and left running).
 
 Results come back in the order of the items whatever the order of completion, so a batch gives
 the same answers for any number of workers. Faults are Ray's business: a task whose worker dies
@@ -133,6 +133,7 @@ class Engine:
             check_reachable(self.address)
             self._unchecked = False
         self._started, self._session = False, None  # _session: the folder of a Ray started here
+        self._failed = False  # Ray reported an error: its session folder (the logs) stays
         self._depth = 0
 
     def __repr__(self) -> str:
@@ -148,8 +149,8 @@ class Engine:
         self._depth -= 1
         if self._depth == 0 and self._started:
             with keep_sigterm():  # ray.shutdown resets SIGTERM to the default: killed silently
-                shutdown(import_optional("ray"), self._session)  # and its session folder
-            self._started, self._session = False, None
+                shutdown(import_optional("ray"), self._session, self._failed)  # and its folder
+            self._started, self._session, self._failed = False, None, False
 
     def start(self) -> None:
         """Start (or join) Ray now; nothing when it runs already (idempotent). The batches call
@@ -299,6 +300,7 @@ class Engine:
                     try:
                         result = ray.get(ref)
                     except ray.exceptions.RayError as exc:
+                        self._failed = True  # a worker died, ...: Ray's message names its logs
                         if not catch:
                             raise
                         result = Failed(_label(labels, i), ray_error_line(exc))

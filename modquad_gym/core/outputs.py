@@ -5,23 +5,30 @@ Every command that writes goes through here, so two runs into one place never le
 half-written file (each write goes to a temporary file in the same folder, then ``os.replace``),
 and an existing file is replaced only with ``force=True``. A command that fills a folder claims it
 (:func:`claim_output_dir`, or :func:`hold_output_dir` for a folder it shares with others): a
-second run into the same folder is refused while the first runs, and ``force`` removes only the
-files an earlier run of the command recorded there.
+second run into the same folder is refused while the first runs (one process may hold a folder
+twice: it is one run), and ``force`` removes only the files an earlier run of the command
+recorded there, and what lies in the folders it fills alone (:mod:`.manifests`).
 """
 
 from __future__ import annotations
 
-import csv
-import io
-import json
-import math
 import os
 import stat
 import tempfile
-from collections.abc import Callable, Iterator
+import threading
+from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from pathlib import Path
 
+from modquad_gym.core.atomic_files import (
+    atomic_write,
+    json_ready,
+    named_os_error,
+    save_figure,
+    write_csv,
+    write_text,
+)
+from modquad_gym.core.manifests import MANIFEST_NAME, ClaimedDir, clear_folders, remove_recorded
 from modquad_gym.core.options import EMPTY_PATH
 from modquad_gym.core.validation import NOT_REGULAR
 
@@ -40,6 +47,7 @@ __all__ = [
     "check_outputs",
     "named_os_error",
     "save_figure",
+    "write_csv",
     "write_text",
 ]
 
@@ -212,66 +220,53 @@ def check_output_dir(
 
 LOCK_NAME = ".modquad.lock"
 """The lock file a running command holds in the folder it fills (:func:`claim_output_dir`)."""
-MANIFEST_NAME = ".modquad-files.json"
-"""The files a command wrote into its folder, relative to it: what a later ``--force`` removes."""
 
 
-class ClaimedDir:
-    """An output folder a command holds (:func:`claim_output_dir`): ``claim.path(name)`` is the
-    path of a file it writes there, recorded in the folder's manifest."""
+class _Hold:
+    """This process's hold of one folder: the holds open on it, its lock, its claim."""
 
-    def __init__(self, folder: Path) -> None:
-        self.folder = folder
-        self.written: list[str] = []
-
-    def path(self, name: str | os.PathLike) -> Path:
-        """``folder / name``, recorded as written by this command (the manifest is updated at
-        once, so an interrupted run's files are known too)."""
-        key = Path(name).as_posix()
-        if key not in self.written:
-            self.written.append(key)
-            write_text(self.folder / MANIFEST_NAME, json.dumps(self.written, indent=1) + "\n")
-        return self.folder / name
+    def __init__(self, key: str, lock) -> None:
+        self.key, self.lock, self.count, self.claim = key, lock, 1, None
 
 
-def _recorded_entry(folder: Path, name: str) -> Path | None:
-    """``folder / name`` where it is an entry to remove: a file, or a symbolic link (the link
-    itself, never its target), reached through real folders inside ``folder`` only (no
-    absolute name, no ``..``, no link on the way); None otherwise (a folder, nothing)."""
-    parts = Path(name).parts
-    if not parts or Path(name).is_absolute() or ".." in parts:
-        return None
-    path = folder
-    for part in parts[:-1]:
-        path = path / part
-        if path.is_symlink() or not path.is_dir():
-            return None
-    path = path / parts[-1]
-    return path if path.is_symlink() or path.is_file() else None
+_HOLDS: dict[str, _Hold] = {}
+"""The folders this process holds, by real path: a second hold of one is granted, not refused as
+another run's (``train.py --report-dir`` equal to its ``--out``: the report's hold inside the
+run's); the lock goes when the last hold ends."""
+_HOLDS_GUARD = threading.Lock()
 
 
-def _remove_recorded(folder: Path, keep: tuple = ()) -> None:
-    """Remove the files an earlier run recorded in ``folder``'s manifest (and the folders they
-    leave empty); nothing else, and none of ``keep`` (files this run reads, such as a model it
-    continues)."""
-    try:
-        recorded = json.loads((folder / MANIFEST_NAME).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return
-    kept = {f(p) for p in keep for f in (os.path.abspath, os.path.realpath)}
-    for name in recorded if isinstance(recorded, list) else ():
-        path = _recorded_entry(folder, str(name))
-        if path is None or {os.path.abspath(path), os.path.realpath(path)} & kept:
-            continue
-        path.unlink()
-        for parent in path.parents:
-            if parent == folder:
-                break
-            try:
-                parent.rmdir()  # only when empty
-            except OSError:
-                break
-    (folder / MANIFEST_NAME).unlink(missing_ok=True)
+def _take(folder: Path, what: str) -> _Hold:
+    """This process's hold of ``folder``: the one open already, counted once more, or a new
+    one whose lock is taken at once (an OutputError when another process holds it)."""
+    from filelock import FileLock, Timeout
+
+    key = os.path.realpath(folder)
+    with _HOLDS_GUARD:
+        if key in _HOLDS:
+            _HOLDS[key].count += 1
+            return _HOLDS[key]
+        lock = FileLock(folder / LOCK_NAME, thread_local=False)  # any thread may end it last
+        try:
+            lock.acquire(timeout=0)
+        except Timeout:
+            raise OutputError(
+                f"{what}: {folder} is being written by another run (it holds "
+                f"{folder / LOCK_NAME}); wait for it or choose another folder"
+            ) from None
+        _HOLDS[key] = _Hold(key, lock)
+        return _HOLDS[key]
+
+
+def _let_go(held: _Hold) -> None:
+    """End one hold; the last one removes the lock file and releases the lock (a run that
+    opened the file meanwhile re-checks the names)."""
+    with _HOLDS_GUARD:
+        held.count -= 1
+        if held.count == 0:
+            del _HOLDS[held.key]
+            Path(held.lock.lock_file).unlink(missing_ok=True)
+            held.lock.release()
 
 
 @contextmanager
@@ -281,29 +276,22 @@ def hold_output_dir(
     """Hold the output folder ``path`` for one run: check it as :func:`check_output_dir`, create
     it, and lock it (``LOCK_NAME``, the ``filelock`` package, removed at the end) so that a
     second run into it is refused at once (an OutputError naming ``what`` and the folder)
-    instead of mixing or replacing files; the check is repeated under the lock. Nothing is
-    recorded or removed: for a folder whose other files are the user's or other commands'
-    (``results``); :func:`claim_output_dir` adds the manifest. The folders it created go again
-    if the run left them empty (a refused option, an interruption). Yields the folder."""
-    from filelock import FileLock, Timeout
-
+    instead of mixing or replacing files; the check is repeated under the lock. A folder this
+    process holds already is held once more (one process is one run). Nothing is recorded or
+    removed: for a folder whose other files are the user's or other commands' (``results``);
+    :func:`claim_output_dir` adds the manifest. The folders it created go again if the run
+    left them empty (a refused option, an interruption). Yields the folder."""
     folder = check_output_dir(path, names, force, what)
+    if ".." in folder.parts:  # x/../y is y: x is neither created nor left behind
+        folder = Path(os.path.realpath(folder))
     made = [p for p in (folder, *folder.parents) if not os.path.lexists(p)]  # deepest first
     folder.mkdir(parents=True, exist_ok=True)
-    lock = FileLock(folder / LOCK_NAME)
-    try:
-        lock.acquire(timeout=0)
-    except Timeout:
-        raise OutputError(
-            f"{what}: {folder} is being written by another run (it holds "
-            f"{folder / LOCK_NAME}); wait for it or choose another folder"
-        ) from None
+    held = _take(folder, what)
     try:
         check_output_dir(folder, names, force, what)  # a run that finished while we checked
         yield folder
-    finally:  # the lock file goes (a run that opened it meanwhile re-checks the names)
-        (folder / LOCK_NAME).unlink(missing_ok=True)
-        lock.release()
+    finally:
+        _let_go(held)
         with suppress(OSError):  # each only while empty: the first that is not stops it
             for made_here in made:
                 made_here.rmdir()
@@ -316,83 +304,20 @@ def claim_output_dir(
     force: bool = False,
     what: str = "--out",
     keep: tuple = (),
+    clear: tuple[str, ...] = (),
 ) -> Iterator[ClaimedDir]:
     """Hold the output folder ``path`` for one run as :func:`hold_output_dir` does, and record
     what the run writes there in the folder's manifest (:class:`ClaimedDir`). With ``force``,
-    the files an earlier run recorded there are removed first, and only those (never one of
-    ``keep``, the files this run reads): whatever else the folder holds is the user's."""
+    the files an earlier run recorded there are removed first, and everything in ``clear``
+    (folders the run fills alone, such as ``ppo/``), but never one of ``keep`` (the files this
+    run reads): whatever else the folder holds is the user's. A claim inside a claim of the
+    same folder (one process) shares its manifest and removes nothing."""
     with hold_output_dir(path, names, force, what) as folder:
-        if force:
-            _remove_recorded(folder, keep)
-        yield ClaimedDir(folder)
-
-
-def atomic_write(path: str | os.PathLike, write: Callable[[Path], None]) -> Path:
-    """Call ``write(tmp)`` to fill a temporary file beside ``path``, then move it into place
-    in one step. ``path``'s folder is created if needed; the temporary file never survives."""
-    path = Path(path)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        # a short temporary name: a legal name of 250 bytes plus a suffix would be too long
-        fd, tmp_name = tempfile.mkstemp(
-            prefix=f".{path.name[:32]}.", suffix=".tmp", dir=path.parent
-        )
-    except OSError as exc:  # a folder that takes no new file (/proc): named by the output
-        reason = f"cannot create a file in {path.parent} ({exc.strerror or exc})"
-        raise OSError(exc.errno, reason, str(path)) from exc
-    os.close(fd)
-    tmp = Path(tmp_name)
-    try:
-        write(tmp)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except OSError as exc:  # name the output, not the temporary file (or nothing)
-        raise named_os_error(exc, path) from exc
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
-
-
-def named_os_error(exc: OSError, path: Path) -> OSError:
-    """``exc`` (no space left, quota, I/O error, ...) as an OSError of the same kind whose
-    file is ``path``: what the user asked for, which the one-line error then names."""
-    reason = exc.strerror or " ".join(str(exc).split()) or type(exc).__name__
-    return OSError(exc.errno, reason, str(path))  # the subclass of its errno
-
-
-def json_ready(value):
-    """``value`` (dicts, lists and tuples of numbers, strings, ...) with every non-finite float
-    replaced by None, so that ``json.dumps`` writes JSON (which has no Infinity or NaN)."""
-    if isinstance(value, dict):
-        return {k: json_ready(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_ready(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
-def write_text(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` atomically."""
-    return atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
-
-
-def save_figure(fig, path: str | os.PathLike, dpi: int = 120) -> Path:
-    """Save a matplotlib figure atomically, in the format of ``path``'s suffix (PNG if none)."""
-    path = Path(path)
-    fmt = path.suffix[1:].lower() or "png"
-    return atomic_write(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=dpi))
-
-
-def write_csv(rows: list[dict], path: str | os.PathLike) -> None:
-    """Write dict rows as CSV atomically, creating the folder: the columns are every row's
-    keys in the order first seen (a row without one leaves it empty). No rows: a ValueError
-    naming ``path`` (a CSV file needs its header, which rows give)."""
-    if not rows:
-        raise ValueError(f"{path}: no rows to write")
-    keys = list(dict.fromkeys(k for row in rows for k in row))
-    buffer = io.StringIO(newline="")
-    writer = csv.DictWriter(buffer, fieldnames=keys)
-    writer.writeheader()
-    writer.writerows(rows)
-    write_text(path, buffer.getvalue())
+        with _HOLDS_GUARD:
+            held = _HOLDS[os.path.realpath(folder)]
+            if held.claim is None:
+                if force:
+                    remove_recorded(folder, keep)
+                    clear_folders(folder, clear, keep)
+                held.claim = ClaimedDir(folder)
+        yield held.claim
