@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import modquad_gym as mq
+from modquad_gym.core import compile_clock
 from modquad_gym.oracle import faults
 from modquad_gym.oracle.faults import DecisionInterruptedError, FaultTolerance, failure_sets
 from modquad_gym.search.result import Status
@@ -75,7 +76,7 @@ def test_an_interrupted_decision_answers_nothing(monkeypatch, fault, stop_early)
     outcomes = set()
     for budget in range(40):
         clock = SimpleNamespace(perf_counter=iter(range(10**6)).__next__)  # one tick a look
-        monkeypatch.setattr(faults, "time", clock)
+        monkeypatch.setattr(compile_clock, "time", clock)  # the clock deadlines run on
         try:
             got = FaultTolerance(A, 1.0, failures, deadline=budget).decide(
                 W, "auto", stop_early=stop_early
@@ -124,7 +125,7 @@ def test_the_final_check_past_the_limit_keeps_only_what_the_checker_decided():
     answer = mq.anytime_search(problem, time_limit=30.0).structure
     smaller = mq.Structure(answer.cells[:-1])  # one module fewer: not tolerant
     run = SearchRun("anytime", problem)
-    run.verify_deadline = time.perf_counter() - 1.0  # every re-verification past its limit
+    run.verify_deadline = compile_clock.now() - 1.0  # every re-verification past its limit
     assert run.finish(answer, 1).structure is answer  # decided to the end, not confirmed
     assert run.checker.check(answer) and run.checker.key(answer) in run.checker.confirmed
     assert run.finish(answer, 1).structure is answer  # confirmed: stands once cut

@@ -183,9 +183,9 @@ def add_method(
         type=time_limit_option,
         default=DEFAULT_TIME_LIMIT,
         metavar="SECONDS",
-        help="seconds a search may take, in (0, 86400] (default %(default)s): the anytime "
-        "search stops earlier when its lower bound meets the structure found (on Ray workers, "
-        "`solve --workers N`, its clock stops while Ray starts: Ray's start is not counted); "
+        help="seconds a search may take, in (0, 86400] (default %(default)s; neither compiling "
+        "kernels, once after an install, nor Ray's start, `solve --workers N`, is counted): the "
+        "anytime search stops earlier when its lower bound meets the structure found; "
         "centrosymmetric, beam, genetic, greedy and random return what they have found by then",
     )
     p.add_argument(

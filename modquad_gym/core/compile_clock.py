@@ -2,10 +2,13 @@
 
 numba compiles a kernel on its first call when its on-disk cache is cold (a fresh install, or
 after the package's compiled sources changed: :mod:`.kernel_caches`): tens of seconds once,
-then milliseconds to load from the cache. That is not the search's work, so a search's
-``seconds`` leaves it out and its result says how long it took. :mod:`.jit`, the package's
-``njit``, winds the clock before any kernel compiles; this module imports no numba, so a
-search that compiles nothing never loads it.
+then milliseconds to load from the cache. That is not the search's work: a search's
+``seconds`` leaves it out (its result says how long it took), and so does every deadline a
+search holds, so that a cold cache changes no answer. A deadline is a time on the search
+clock, :func:`now` (``time.perf_counter()`` less the compilation so far): a deadline set
+``budget`` seconds ahead passes once the wall time since, less the compilation since, exceeds
+the budget. :mod:`.jit`, the package's ``njit``, winds the clock before any kernel compiles;
+this module imports no numba, so a search that compiles nothing never loads it.
 """
 
 from __future__ import annotations
@@ -34,3 +37,21 @@ def ended() -> None:
     _clock["depth"] -= 1
     if _clock["depth"] == 0:
         _clock["seconds"] += time.perf_counter() - _clock["since"]
+
+
+def now() -> float:
+    """The search clock: :func:`time.perf_counter` less :func:`compile_seconds` (it stands
+    still while a kernel compiles). Every search's deadlines and ``seconds`` run on it."""
+    return time.perf_counter() - compile_seconds()
+
+
+def from_perf_counter(t: float) -> float:
+    """The :func:`time.perf_counter` time ``t`` (a caller's deadline) on the search clock: the
+    compilation from now on moves it later."""
+    return t - compile_seconds()
+
+
+def to_perf_counter(at: float) -> float:
+    """The :func:`time.perf_counter` time at which the search clock reaches ``at`` if nothing
+    compiles meanwhile (for a door that takes a ``perf_counter`` deadline)."""
+    return at + compile_seconds()

@@ -28,19 +28,19 @@ that pins the rotors the correction took out of the cube (:mod:`.fault_kernels`)
 per failure). A failure that lowers the rank (I - H_SS singular: a single module, a line) is
 always decided on A_{-S}.
 
-A decision may carry a ``deadline`` (:func:`time.perf_counter` seconds): the certificate then
-runs a chunk of about :data:`CHUNK_PAIRS` pairs at a time and the per-failure decisions one
-failure at a time, and past the deadline the decision raises :class:`DecisionInterruptedError`
-instead of answering, so an unfinished decision is never taken as a proof nor as a refutation.
+A decision may carry a ``deadline`` (:func:`time.perf_counter` seconds, moved later by the
+kernels compiled during it): the certificate then runs a chunk of about :data:`CHUNK_PAIRS`
+pairs at a time and the per-failure decisions one failure at a time, and past the deadline it
+raises :class:`DecisionInterruptedError`, so it is never taken as a proof nor a refutation.
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 
 import numpy as np
 
+from modquad_gym.core.compile_clock import from_perf_counter, now
 from modquad_gym.core.validation import check_f_max, check_real, check_wrenches
 from modquad_gym.oracle.backends import check_method, decide_with, margin_with
 from modquad_gym.oracle.failures import (  # noqa: F401 - re-exported
@@ -76,8 +76,7 @@ class FaultTolerance:
         zonotope: the intact zonotope of A when the caller has it already.
         fault_margin: the worst margin a wrench must keep after each failure (0: feasible
             after it; :func:`check_fault_margin`).
-        deadline: :func:`time.perf_counter` time past which a decision raises
-            :class:`DecisionInterruptedError` (None: none).
+        deadline: :func:`time.perf_counter` time a decision stops at (module docstring).
 
     ``tests`` counts the (wrench, failure) pairs decided by the oracle on A_{-S}; ``certified``
     those the shared allocation certificate settled, and ``paths`` how many each of its tests
@@ -94,6 +93,7 @@ class FaultTolerance:
         deadline: float | None = None,
     ) -> None:
         self.deadline = None if deadline is None else check_real(deadline, "deadline")
+        self._due = None if deadline is None else from_perf_counter(self.deadline)  # search clock
         self.intact = zonotope if zonotope is not None else Zonotope(A, f_max)
         self.failures = [np.asarray(S, dtype=np.intp) for S in failures]
         self.fault_margin = check_fault_margin(fault_margin)
@@ -108,7 +108,7 @@ class FaultTolerance:
 
     def _on_time(self) -> None:
         """Raise :class:`DecisionInterruptedError` once the deadline has passed."""
-        if self.deadline is not None and time.perf_counter() >= self.deadline:
+        if self._due is not None and now() >= self._due:
             raise DecisionInterruptedError("the fault decision reached its deadline")
 
     # --- the failed structures ----------------------------------------------------------
@@ -378,7 +378,7 @@ def tolerates(
     failure they contain (:func:`fault_margin` >= mu): thrust to spare for the transient
     before the controller knows, failure after failure. Exact by the oracle's tolerance rule
     on each failed matrix (module docstring). Past ``deadline`` (:func:`time.perf_counter`
-    seconds) it raises :class:`DecisionInterruptedError` rather than answer."""
+    seconds, plus the compilation during the call) it raises :class:`DecisionInterruptedError`."""
     mu = check_fault_margin(fault_margin, check_fault(fault))
     A, failures = _matrix_and_failures(structure, fault, nested=mu > 0.0)  # 0: monotone
     W = check_wrenches(W)

@@ -21,13 +21,12 @@ from __future__ import annotations
 import dataclasses
 import heapq
 import importlib.util
-import time
 from functools import partial
 from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.compile_clock import compile_seconds
+from modquad_gym.core.compile_clock import compile_seconds, now
 from modquad_gym.geometry.structure import Structure, normalise, normalise_typed
 from modquad_gym.policy.inference import exported
 from modquad_gym.policy.models import (
@@ -109,7 +108,7 @@ class GuidedSolver:
                                 fault_margin=fault_margin)  # fmt: skip
 
     def solve(self, task: Any) -> SearchResult:
-        t0, compiled = time.perf_counter(), compile_seconds()  # see search_result
+        t0, compiled = now(), compile_seconds()  # see search_result
         task = as_task(task)
         self.policy.use_fault(*self.fault)  # a Policy shared with another solver may differ
         problem = self.policy.problem(task)
@@ -237,7 +236,7 @@ class Run:
         evaluated structures is spent, or the time is up."""
         policy, env, solver = self.policy, self.policy.env, self.solver
         while not self.certified and self.heap and len(self.evaluated) < self.budget:
-            if time.perf_counter() > self.deadline:
+            if now() > self.deadline:
                 break
             cost, _, parent, move, key = heapq.heappop(self.heap)
             if key in self.evaluated:  # a dive docked it and queued its dockings

@@ -9,14 +9,13 @@ torch and SB3 load only for a model without one (or a loaded MaskablePPO).
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from modquad_gym.core.compile_clock import compile_seconds
+from modquad_gym.core.compile_clock import compile_seconds, now
 from modquad_gym.core.extras import import_optional
 from modquad_gym.core.validation import check_int
 from modquad_gym.envs.assembly import ModQuadAssemblyEnv
@@ -278,16 +277,17 @@ class Policy:
         """One episode on ``task`` from a first module of type ``start``: at each step
         :meth:`decide`'s action (with ``fallback``) when ``rng`` is None, else sampled. Stops
         early once the structure has ``stop_at - 1`` modules without success (it could no
-        longer beat a verified structure of ``stop_at`` modules) or at ``deadline``
-        (:func:`time.perf_counter`). Adds every structure it evaluates to ``seen``
-        (translation-normalised). Returns the final info; ``env.structure`` is its structure."""
+        longer beat a verified structure of ``stop_at`` modules) or at ``deadline`` (a time on
+        the search clock, :func:`~modquad_gym.core.compile_clock.now`). Adds every structure
+        it evaluates to ``seen`` (translation-normalised). Returns the final info;
+        ``env.structure`` is its structure."""
         env = self.env
         seen = set() if seen is None else seen
         stop_at = env.n_max + 2 if stop_at is None else stop_at
         obs, info = self.reset(task, start)
         seen.add(env.structure.key)
         done = info["success"]  # one module suffices: nothing to decide
-        while not done and len(info["cells"]) < stop_at - 1 and time.perf_counter() < deadline:
+        while not done and len(info["cells"]) < stop_at - 1 and now() < deadline:
             mask = env.action_masks()
             if rng is None:
                 action = self.decide(obs, mask, fallback)
@@ -342,7 +342,8 @@ def search_result(
     lower_bound: int | None = None,
     compiled: float | None = None,
 ) -> SearchResult:
-    """The search record of a learned solver ``name`` that started at ``t0`` on ``problem``
+    """The search record of a learned solver ``name`` that started at ``t0`` (on the search
+    clock, :func:`~modquad_gym.core.compile_clock.now`) on ``problem``
     (:meth:`Policy.problem`: its budget, palette, task kind and fault) and kept ``best`` (with the
     proved ``lower_bound`` on the module count, when the solver knows one; ``certified`` None:
     derived from it; without a structure, raised by the exact bounds past n_max: it is the
@@ -357,7 +358,7 @@ def search_result(
         n_modules=best.n_modules if best is not None else None,
         evaluated=evaluated,
         oracle_calls=oracle_calls,
-        seconds=time.perf_counter() - t0 - compiling,
+        seconds=now() - t0,
         certified=certified,
         method=name,
         n_max=problem.n_max,

@@ -14,13 +14,12 @@ never as a success.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from modquad_gym.core.compile_clock import compile_seconds
+from modquad_gym.core.compile_clock import compile_seconds, now
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.policy.models import EXTRA_FROM, LEARNED_CHECKS, TOP_K, check_learned
 from modquad_gym.policy.policy import (
@@ -112,7 +111,7 @@ class PPOSolver:
         and ``samples`` sampled ones (None when none verifies within ``n_max`` modules).
         ``evaluated`` counts the distinct structures (up to translation) the rollouts evaluated;
         a structure met again costs no oracle call (the environment memoises per task)."""
-        t0, compiled = time.perf_counter(), compile_seconds()  # see search_result
+        t0, compiled = now(), compile_seconds()  # see search_result
         task = as_task(task)
         policy = self.policy
         policy.use_fault(*self.fault)  # a Policy shared with another solver may differ
@@ -129,7 +128,7 @@ class PPOSolver:
         for i in range(self.samples):
             rng = np.random.default_rng([self.seed, i])
             stop_at = best.n_modules if best is not None else policy.env.n_max + 2
-            if stop_at <= bound or time.perf_counter() > deadline:  # at the bound: none smaller
+            if stop_at <= bound or now() > deadline:  # at the bound: none smaller
                 break
             info = policy.rollout(problem.task, rng, seen, stop_at, starts[i % len(starts)],
                                   deadline)  # fmt: skip
@@ -164,7 +163,7 @@ class PPOSolver:
         policy, env = self.policy, self.policy.env
         calls = 0
         branches: list[tuple[Any, tuple[float, ...], int]] = [(None, self.fallbacks, -1)]
-        while branches and time.perf_counter() <= deadline:
+        while branches and now() <= deadline:
             stop_at = best.n_modules if best is not None else env.n_max + 2
             if stop_at <= 1:  # one module: nothing beats it
                 break
@@ -181,7 +180,7 @@ class PPOSolver:
             else:
                 continue
             seen.add(env.structure.key)
-            while not done and len(info["cells"]) < stop_at - 1 and time.perf_counter() < deadline:
+            while not done and len(info["cells"]) < stop_at - 1 and now() < deadline:
                 mask = env.action_masks()
                 probs = None
                 if visit is not None or len(group) > 1:

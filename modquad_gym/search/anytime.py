@@ -22,7 +22,9 @@ limit the way a MIP solver does, with an incumbent and a proved lower bound.
    meets the bound. The clock stops while Ray starts: like the import, Ray's start (seconds on
    a small machine) is not the search's time, and the result's ``ray_start_seconds`` says how
    long it took; Ray stops after the result is built (hold the engine in a ``with`` block to
-   keep it up across searches).
+   keep it up across searches). The clock stops too while kernels compile (once, on a cold
+   cache): every deadline is a time on the search clock
+   (:func:`~modquad_gym.core.compile_clock.now`).
 
 It stops at the time limit, or as soon as the bound meets the incumbent; when that happens at a
 level the exact scan can decide, the level is scanned for its first feasible structure so that
@@ -35,8 +37,7 @@ the bound and each smaller incumbent is an event of the result's ``history``
 
 from __future__ import annotations
 
-import time
-
+from modquad_gym.core.compile_clock import now
 from modquad_gym.geometry.cells import packed_key
 from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK
 from modquad_gym.geometry.structure import Structure
@@ -92,7 +93,7 @@ class Incumbents:
         return self.best is not None and len(self.best[0]) <= self.bound
 
     def out_of_time(self) -> bool:
-        return time.perf_counter() >= self.deadline or self.settled()
+        return now() >= self.deadline or self.settled()
 
     def _take(self, cand, source: str) -> None:
         """``cand`` becomes the incumbent (an event of the run's history) when it is smaller."""
@@ -299,9 +300,9 @@ def _pause_for_ray(
     not the search's time, so the clock's start and every deadline the search holds move past
     it (the producers' deadline is taken from the moved one; the result says how long it
     took); the moved (deadline, share)."""
-    before = time.perf_counter()
+    before = now()
     engine.start()
-    took = time.perf_counter() - before
+    took = now() - before
     run.ray_start_seconds += took
     run.t0 += took
     run.checker.deadline += took
@@ -316,7 +317,7 @@ def _steps(run, exact, incumbents, share, deadline, producers, seed) -> SearchRe
     if incumbents.producers is not None:  # the exact levels' share, beside the producers
         found = exact.advance(share, settled=incumbents.settled)
     if found is None and exact.n <= run.problem.n_max and not incumbents.settled(exact.n):
-        half = (time.perf_counter() + deadline) / 2  # with a fault: half the time left at most
+        half = (now() + deadline) / 2  # with a fault: half the time left at most
         incumbents.deadline = half if run.problem.fault else deadline
         if incumbents.first(exact.n):
             incumbents.improve(exact.n)

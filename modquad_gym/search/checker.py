@@ -21,9 +21,10 @@ when it still does after any failure of that kind, with ``fault_margin`` to spar
 (:mod:`modquad_gym.oracle.faults`). A tolerant
 structure is feasible, so the intact decisions and the cached directions still rule structures
 out exactly; a structure that passes them is then decided failure by failure. A ``deadline``
-(:func:`time.perf_counter` seconds, set by a search with a time limit) interrupts such a
-decision: it raises :class:`~modquad_gym.oracle.faults.DecisionInterruptedError` rather than
-answer. Structures it decides tolerant are kept in ``confirmed`` (cells, palette indices).
+(a time on the search clock, :func:`~modquad_gym.core.compile_clock.now`, set by a search with
+a time limit) interrupts such a decision: it raises
+:class:`~modquad_gym.oracle.faults.DecisionInterruptedError` rather than answer. Structures it
+decides tolerant are kept in ``confirmed`` (cells, palette indices).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from modquad_gym.core.compile_clock import to_perf_counter
 from modquad_gym.dynamics import LinearWrenches
 from modquad_gym.geometry.inertia import inertia_vectors
 from modquad_gym.geometry.module import ModuleType
@@ -243,7 +245,7 @@ class TaskChecker:
             if part is not None:  # what a larger failure leaves lies in what each of its parts
                 # leaves: single rotors or modules (fewer) rule out most structures first
                 sets = failure_sets(A.shape[1], part, self.module.n_rotors)
-                single = FaultTolerance(A, self.f_max, sets, z, deadline=self.deadline)
+                single = FaultTolerance(A, self.f_max, sets, z, deadline=self._cut())
                 ok = single.decide(W, self.method(z), stop_early=True)
                 self.oracle_calls += single.tests
                 if not ok:
@@ -273,7 +275,12 @@ class TaskChecker:
         ``fault`` and ``fault_margin`` (a margin also after the smaller failures: ``nested``)."""
         rotors = self.module.n_rotors
         failures = failure_sets(A.shape[1], self.fault, rotors, nested=self.fault_margin > 0.0)
-        return FaultTolerance(A, self.f_max, failures, z, self.fault_margin, self.deadline)
+        return FaultTolerance(A, self.f_max, failures, z, self.fault_margin, self._cut())
+
+    def _cut(self) -> float | None:
+        """:attr:`deadline` as the :func:`time.perf_counter` time a fault decision takes (it
+        moves that later by what compiles during the decision)."""
+        return None if self.deadline is None else to_perf_counter(self.deadline)
 
     def decide(self, z: Zonotope, W: np.ndarray) -> np.ndarray:
         """Exact decisions (t,) of wrenches W for the zonotope z, counted as ``len(W)`` oracle

@@ -4,8 +4,7 @@ stop at a deadline and go on later from where it stopped."""
 
 from __future__ import annotations
 
-import time
-
+from modquad_gym.core.compile_clock import now
 from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream
 from modquad_gym.geometry.structure import Structure, normalise
 from modquad_gym.search.bounds import allowed_counts, level_excluded
@@ -17,7 +16,8 @@ from modquad_gym.search.typed import MAX_PAIRS, assignments, level_pairs, typed_
 
 class ExactLevels:
     """The exact scan of levels ``first``, ``first + 1``, ... in the exhaustive search's order,
-    resumable at any chunk: :meth:`advance` works until a deadline."""
+    resumable at any chunk: :meth:`advance` works until a deadline (a time on the search clock,
+    :func:`~modquad_gym.core.compile_clock.now`)."""
 
     def __init__(self, run: SearchRun, first: int, chunk: int = DEFAULT_CHUNK) -> None:
         self.run, self.problem, self.chunk, self._steps = run, run.problem, chunk, None
@@ -40,14 +40,14 @@ class ExactLevels:
         minimal level), the deadline passes, level ``stop_at`` is reached, ``settled(bound)``
         (an incumbent meets the bound) or no level fits."""
         while self.fits(self.n) and (stop_at is None or self.n < stop_at):
-            if time.perf_counter() >= deadline or settled(self.n):
+            if now() >= deadline or settled(self.n):
                 return None
             if self._steps is None:
                 self._steps = self._level(self.n)
             for found in self._steps:
                 if found is not None:
                     return found
-                if time.perf_counter() >= deadline or settled(self.n):
+                if now() >= deadline or settled(self.n):
                     return None
             self.n += 1
             self._steps = None

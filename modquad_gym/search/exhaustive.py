@@ -21,7 +21,6 @@ assignment) pair is visited level by level, by :mod:`.typed` (re-exported here).
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import partial
@@ -30,6 +29,7 @@ from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
+from modquad_gym.core.compile_clock import now
 from modquad_gym.core.validation import check_int
 from modquad_gym.dynamics import LinearWrenches
 from modquad_gym.geometry.module import ModuleType
@@ -367,7 +367,7 @@ def optimal_level(
         count=getattr(answer.found, "total", keys.total),
         evaluated=run.checker.evaluated,
         oracle_calls=run.checker.oracle_calls,
-        seconds=time.perf_counter() - run.t0,
+        seconds=now() - run.t0,
         proof=answer.proof,
     )
 

@@ -13,11 +13,11 @@ encoding of the beam and the genetic search, for one type (every index 0) and pa
 
 from __future__ import annotations
 
-import time
 from collections.abc import Iterable
 
 import numpy as np
 
+from modquad_gym.core.compile_clock import now
 from modquad_gym.geometry.cells import Cell, normalise_typed, packed_key
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.search.bounds import (
@@ -65,7 +65,9 @@ class Deadline:
     """``time_limit`` seconds (checked: (0, one day]) from the run's start, less a reserve
     (:meth:`~.problem.SearchProblem.verify_reserve`) for the final verification by the exact
     LP. With ``interrupt`` the run's fault decisions stop there too (a search that asks it
-    catches :class:`~modquad_gym.oracle.faults.DecisionInterruptedError`)."""
+    catches :class:`~modquad_gym.oracle.faults.DecisionInterruptedError`). ``at`` is a time on
+    the search clock (:func:`~modquad_gym.core.compile_clock.now`), which stands still while
+    kernels compile: a cold cache changes no answer."""
 
     def __init__(self, run: SearchRun, time_limit: object, interrupt: bool = False) -> None:
         self.time_limit = check_time_limit(time_limit)
@@ -75,7 +77,7 @@ class Deadline:
             run.checker.deadline, run.verify_deadline = self.at, run.t0 + self.time_limit
 
     def passed(self) -> bool:
-        return time.perf_counter() >= self.at
+        return now() >= self.at
 
 
 def candidate(cells: Iterable[Cell], types: Iterable[int]) -> Candidate:

@@ -40,8 +40,7 @@ needs a copy of every thrust per failure).
 
 from __future__ import annotations
 
-import time
-
+from modquad_gym.core.compile_clock import now
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.heuristic import Deadline, impossible_result
@@ -77,14 +76,14 @@ def milp_lower_bound(
     (docs/search.md); ``start`` must itself be a proved bound (default 1). A count whose
     relaxation is undecided within ``time_limit`` seconds (or too large to build) ends the
     scan there. Count vectors the exact count and level bounds exclude are skipped."""
-    t0 = time.perf_counter()  # scipy's first import counts against the limit
+    t0 = now()  # scipy's first import counts against the limit
     from modquad_gym.search import milp_program as program  # scipy: on first use
 
     check_supported(problem)
     n_max = problem.n_max if n_max is None else n_max
     n = start
     while n <= n_max:
-        left = time_limit - (time.perf_counter() - t0)
+        left = time_limit - (now() - t0)
         if left <= 0 or program.relaxation_feasible(problem, n, left) is not False:
             return n
         n += 1
@@ -110,7 +109,7 @@ def milp_search(problem: SearchProblem, *, time_limit: float = DEFAULT_TIME_LIMI
     lower = bound_levels(problem)
     if lower > problem.n_max:
         return run.finish(None, lower, proof=f"exact bounds rule out every level up to {lower - 1}")
-    left = deadline.at - time.perf_counter()
+    left = deadline.at - now()
     lower = milp_lower_bound(problem, start=lower, time_limit=left)
     if lower > problem.n_max:
         proof = f"LP relaxation rules out every level up to {problem.n_max}"
@@ -136,7 +135,7 @@ def decide_level(run: SearchRun, n: int, deadline: Deadline) -> Structure | bool
         demand = program.Demand.of(problem, group.mass)
         prog = program.LevelProgram(problem, n, group, demand, rows=demand.extreme_rows())
         for _ in range(MAX_ROUNDS):
-            left = deadline.at - time.perf_counter()
+            left = deadline.at - now()
             if left <= 0 or prog.nonzeros(len(prog.rows)) > program.MAX_NONZEROS:
                 return None
             res = prog.solve(relax=False, seconds=left)

@@ -6,13 +6,13 @@ is built."""
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import Bounds, LinearConstraint, OptimizeResult, milp
 
+from modquad_gym.core.compile_clock import now
 from modquad_gym.geometry.cells import is_connected
 from modquad_gym.geometry.inertia import to_vector
 from modquad_gym.geometry.module import ModuleType
@@ -337,9 +337,9 @@ class LevelProgram:
         """HiGHS's result (scipy's OptimizeResult) within ``seconds``, building included: a
         program of more than :data:`IN_PROCESS_NONZEROS` nonzeros in the worker of
         :mod:`.milp_worker`, killed ``GRACE`` seconds past the limit (status 1, no ``x``)."""
-        t0 = time.perf_counter()
+        t0 = now()
         c, cons, integrality, bounds = self.build(relax)
-        left = seconds - (time.perf_counter() - t0)
+        left = seconds - (now() - t0)
         options = {"time_limit": max(left, 1e-3), "presolve": True}
         kwargs = dict(c=c, constraints=cons, integrality=integrality, bounds=bounds)
         if cons.A.nnz <= IN_PROCESS_NONZEROS:
@@ -370,11 +370,11 @@ class LevelProgram:
 def relaxation_feasible(problem: SearchProblem, n: int, seconds: float) -> bool | None:
     """Is the LP relaxation of level n feasible for some mass group (True), infeasible for
     every one (False: no structure of n modules works), or undecided in ``seconds`` (None)?"""
-    t0 = time.perf_counter()
+    t0 = now()
     for group in level_groups(problem, n):
         demand = Demand.of(problem, group.mass)
         prog = LevelProgram(problem, n, group, demand, rows=list(range(len(demand.fixed))))
-        left = seconds - (time.perf_counter() - t0)
+        left = seconds - (now() - t0)
         if left <= 0 or prog.nonzeros(len(prog.rows)) > MAX_NONZEROS:
             return None
         res = prog.solve(relax=True, seconds=left)

@@ -9,7 +9,8 @@ engine that has Ray workers (``modquad solve --workers N``) they run as Ray task
 start, beside the exact levels and the local moves, ``N - 1`` at a time (this process is the
 N-th), and each result is offered to the incumbent as soon as it arrives (:class:`Producers`).
 Either way the smallest verified structure is the answer and the bound is the proved one; with
-workers the answer depends on timing, as any anytime answer does.
+workers the answer depends on timing, as any anytime answer does (a worker's own kernel
+compilation, on a cold cache, stops its producer's clock but not this process's wait).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from modquad_gym.core.compile_clock import now
 from modquad_gym.core.flight import launch
 from modquad_gym.core.notes import note
 from modquad_gym.search.baselines import greedy_search
@@ -72,12 +74,12 @@ def run_in_turn(
     deadline: float,
     seed: int | None,
 ) -> None:
-    """Each producer in this process with the time left before ``deadline``
-    (:func:`time.perf_counter`), until ``settled()`` (the incumbent meets the bound); each
-    structure found is offered as ``offer(structure, method)``; their work is counted as the
-    run's."""
+    """Each producer in this process with the time left before ``deadline`` (on the search
+    clock, :func:`~modquad_gym.core.compile_clock.now`), until ``settled()`` (the incumbent
+    meets the bound); each structure found is offered as ``offer(structure, method)``; their
+    work is counted as the run's."""
     for producer in producers:
-        left = deadline - time.perf_counter()
+        left = deadline - now()
         if left < MIN_SECONDS or settled():
             return
         r = run_producer(producer, run.problem, left, seed)
@@ -102,7 +104,7 @@ class Producers:
     ) -> None:
         self.run = run
         self.offer = offer
-        wall = time.time() + (deadline - time.perf_counter())
+        wall = time.time() + (deadline - now())
         items = [(p, run.problem, wall, seed) for p in producers]
         slots = max(1, int(engine.workers or engine.cluster_cpus()) - 1)
         self.flight = launch(engine, produce, items, in_flight=slots)
@@ -111,10 +113,10 @@ class Producers:
     def poll(self, timeout: float = 0.0) -> None:
         """Offer what the producers finished (waiting up to ``timeout`` seconds for one); at
         most every :data:`POLL_SECONDS` when ``timeout`` is 0."""
-        now = time.perf_counter()
-        if timeout <= 0 and now < self._next_poll:
+        polled = time.perf_counter()
+        if timeout <= 0 and polled < self._next_poll:
             return
-        self._next_poll = now + POLL_SECONDS
+        self._next_poll = polled + POLL_SECONDS
         for _, out in self.flight.ready(timeout):
             if out is None:
                 continue
@@ -128,10 +130,10 @@ class Producers:
 
     def wait(self, settled: Callable[[], bool], deadline: float) -> None:
         """Offer results as they come until every producer finished, ``settled()`` or
-        ``deadline`` (:func:`time.perf_counter`)."""
+        ``deadline`` (on the search clock)."""
         self.poll(timeout=1e-3)
         while not self.flight.done and not settled():
-            left = deadline - time.perf_counter()
+            left = deadline - now()
             if left <= 0:
                 return
             self.poll(timeout=min(left, 1.0))

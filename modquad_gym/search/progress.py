@@ -17,6 +17,7 @@ import time
 from collections.abc import Iterator
 from typing import TextIO
 
+from modquad_gym.core.compile_clock import now
 from modquad_gym.search.result import Improvement, SearchRun
 
 REDRAW_SECONDS = 0.5
@@ -77,9 +78,9 @@ class ProgressLine:
             event = self.last
             if event is None or (only_new and event is self._shown):
                 return
-            self._drawn_at = now = time.perf_counter()
+            self._drawn_at = time.perf_counter()
             self._shown = event
-            seconds = now - self.run.t0 if self.tty else event.seconds  # a log: when it happened
+            seconds = now() - self.run.t0 if self.tty else event.seconds  # a log: when it happened
             line = describe(self.run.method, event, seconds, self.found_by)
             if self.tty:
                 if self._bar is None:

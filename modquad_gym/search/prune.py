@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-import time
 from collections.abc import Callable
 
+from modquad_gym.core.compile_clock import compile_seconds, now
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.search.moves import removable
 from modquad_gym.search.options import PRUNE_HELP  # noqa: F401 (its help, kept here)
@@ -59,10 +59,9 @@ def pruned(
     if result.structure is None or result.certified:
         return result
     keep = frozenset(tuple(c) for c in getattr(start, "cells", start or ()))
-    began = time.perf_counter()
-    deadline = began + (time_limit - result.seconds) if time_limit is not None else float("inf")
-    run = SearchRun(result.method, problem)
-    smaller = prune(run, result.structure, lambda: time.perf_counter() >= deadline, keep)
+    run = SearchRun(result.method, problem)  # its clock leaves out compilation, as the method's
+    deadline = run.t0 + time_limit - result.seconds if time_limit is not None else float("inf")
+    smaller = prune(run, result.structure, lambda: now() >= deadline, keep)
     found = result.structure
     if smaller is not result.structure:
         found = run.finish(smaller, result.lower_bound).structure or result.structure
@@ -72,7 +71,8 @@ def pruned(
         n_modules=found.n_modules,
         evaluated=result.evaluated + run.checker.evaluated,
         oracle_calls=result.oracle_calls + run.checker.oracle_calls,
-        seconds=result.seconds + time.perf_counter() - began,
+        seconds=result.seconds + now() - run.t0,
+        compile_seconds=result.compile_seconds + compile_seconds() - run.compiled,
         certified=found.n_modules == result.lower_bound,
     )
 

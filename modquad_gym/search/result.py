@@ -11,13 +11,12 @@ by the certified oracle). ``certified`` follows from it: the answer is proved.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from modquad_gym.core.compile_clock import compile_seconds
+from modquad_gym.core.compile_clock import compile_seconds, now, to_perf_counter
 from modquad_gym.geometry.cells import MAX_MODULES
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import Zonotope, feasible
@@ -75,7 +74,8 @@ class SearchResult:
             (and so ``certified`` and :attr:`status`) stays what is proved for the task.
         reach: the largest n_max its method takes (:attr:`message` suggests no more).
         compile_seconds: how long numba compiled kernels during the search (once, on a cold
-            cache; :mod:`~modquad_gym.core.compile_clock`), not counted in ``seconds``.
+            cache; :mod:`~modquad_gym.core.compile_clock`), not counted in ``seconds`` or the
+            time limit (0: none).
     """
 
     structure: Structure | None
@@ -147,7 +147,8 @@ class SearchResult:
             line += f"; Ray's start took {took}, not counted in the time limit or the seconds"
         if self.compile_seconds:
             line += (f"; compiling kernels once (cached for later runs) took "
-                     f"{self.compile_seconds:.1f} s, not counted in the seconds")  # fmt: skip
+                     f"{self.compile_seconds:.1f} s, not counted in the time limit or the "
+                     "seconds")  # fmt: skip
         return line
 
     def proved_note(self, next_step: str = "raise n_max to at least {n}") -> str:
@@ -236,10 +237,11 @@ class SearchRun:
     tolerant (:attr:`~.checker.TaskChecker.confirmed`) is re-verified until
     ``verify_deadline`` at most (a search's time limit), then stands on that decision. A
     search that reports its progress calls :meth:`improve`; ``listener`` (when set) sees each
-    event as it happens."""
+    event as it happens. ``t0`` and every deadline are times on the search clock
+    (:func:`~modquad_gym.core.compile_clock.now`: kernel compilation is not the search's time)."""
 
     def __init__(self, method: str, problem: SearchProblem) -> None:
-        self.t0, self.compiled = time.perf_counter(), compile_seconds()  # see finish
+        self.t0, self.compiled = now(), compile_seconds()  # see finish
         self.method = method
         self.problem = problem
         self.skipped = 0
@@ -263,7 +265,7 @@ class SearchRun:
             n = n_modules
         if self.history and (bound, n) == (last.lower_bound, last.n_modules):
             return
-        event = Improvement(time.perf_counter() - self.t0, bound, n, source)
+        event = Improvement(now() - self.t0, bound, n, source)
         self.history.append(event)
         if self.listener is not None:
             self.listener(event)
@@ -320,10 +322,12 @@ class SearchRun:
                 A = structure.configuration_matrix()
                 method = "daqp" if A.shape[1] <= LP_ROTORS else "auto"
                 confirmed = self.checker.key(structure) in self.checker.confirmed
+                cut = None
+                if confirmed and self.verify_deadline is not None:
+                    cut = to_perf_counter(self.verify_deadline)
                 try:
                     ok = tolerates(structure, W, p.f_max, fault=p.fault, method=method,
-                                   fault_margin=p.fault_margin,
-                                   deadline=confirmed and self.verify_deadline or None)  # fmt: skip
+                                   fault_margin=p.fault_margin, deadline=cut)  # fmt: skip
                 except DecisionInterruptedError:  # the checker's exact decision of it stands
                     ok = feasible(A, W, p.f_max, method="daqp")
             if not ok.all():  # never a silent success
@@ -338,7 +342,7 @@ class SearchRun:
             n_modules=structure.n_modules if structure is not None else None,
             evaluated=self.checker.evaluated,
             oracle_calls=self.checker.oracle_calls,
-            seconds=time.perf_counter() - self.t0 - compiling,
+            seconds=now() - self.t0,
             certified=None,
             method=self.method,
             n_max=p.n_max,
