@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import pickle
 import zipfile
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -213,12 +215,11 @@ def read_model(path: str | Path | None = None, trust: bool = False) -> SavedMode
     when ``trust`` is True (the user trusts the file: ``--trust-model``), else refused.
 
     Raises ValueError naming the file when it does not exist, is not a saved MaskablePPO of
-    the assembly environment, or needs ``trust``. Sets torch to one thread."""
+    the assembly environment, or needs ``trust``."""
     from modquad_gym.policy import model_zip
 
-    torch = import_optional("torch")
+    import_optional("torch")  # a missing extra: said before the file is read
     import_optional("sb3_contrib")  # the policy classes a saved model names
-    torch.set_num_threads(1)
     path = model_file(path)
     try:
         saved = model_zip.read_safely(path)
@@ -238,6 +239,21 @@ def read_model(path: str | Path | None = None, trust: bool = False) -> SavedMode
             f"--model {path}: not a MaskablePPO model .zip ({reason_of(exc)})"
         ) from None
     return SavedModel(path, *saved, read_config(path))
+
+
+@contextlib.contextmanager
+def one_torch_thread() -> Iterator[None]:
+    """torch on one thread while the package's own torch network acts (one observation at a
+    time: a second thread costs more than it gives), the caller's thread count restored after
+    (docs/learned-designer.md)."""
+    import torch
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
 
 
 def read_unpickled(path: Path) -> tuple:

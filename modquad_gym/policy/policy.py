@@ -32,6 +32,7 @@ from modquad_gym.policy.models import (
     check_learned,
     default_model,
     model_file,
+    one_torch_thread,
     read_model,
 )
 from modquad_gym.search import SearchResult
@@ -228,7 +229,7 @@ class Policy:
         import torch
 
         obs_t, _ = self.net.obs_to_tensor(obs)
-        with torch.no_grad():
+        with torch.no_grad(), one_torch_thread():
             dist = self.net.get_distribution(obs_t, action_masks=np.asarray(mask)[None])
             probs = dist.distribution.probs[0].double().numpy()
         return np.where(mask, probs, 0.0)
@@ -237,7 +238,9 @@ class Policy:
         """The most likely valid action at ``obs``."""
         if self.actor is not None:
             return self.actor.greedy(obs, mask)
-        action, _ = self.net.predict(obs, action_masks=mask, deterministic=True)
+        net = self.net
+        with one_torch_thread():
+            action, _ = net.predict(obs, action_masks=mask, deterministic=True)
         return int(action)
 
     @property
