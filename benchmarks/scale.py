@@ -111,9 +111,9 @@ def solve_band(method: str, tasks: list, time_limit: float, seed: int, engine, m
     """:func:`run_band` in this process (``engine``: the ``anytime-wN`` search's; ``model``:
     the learned methods' model, default the shipped one)."""
     from modquad_gym.geometry.module import TModule
-    from modquad_gym.methods import method_of
     from modquad_gym.search import verified
     from modquad_gym.solvers import learned_options, make_solver
+    from modquad_gym.solvers.factory import draws_at_random
 
     method, pruning = without_prune(method)
     learned = learned_options(method) is not None
@@ -131,7 +131,7 @@ def solve_band(method: str, tasks: list, time_limit: float, seed: int, engine, m
         key = (task.meta.get("palette"), task.kind)
         try:
             if key not in solvers:
-                seeded = {"seed": seed} if "seed" in method_of(name)[0].options.names() else {}
+                seeded = {"seed": seed} if draws_at_random(name) else {}  # not ppo's one pass
                 options = dict(n_max=n_max, modules=modules, **seeded, **extra)
                 warm = make_solver(name, time_limit=min(WARMUP_SECONDS, time_limit), **options)
                 warm.solve(task)  # untimed: imports, compilation, caches (the process is new)

@@ -153,3 +153,39 @@ def test_the_learned_methods_default_time_limit_is_the_command_lines(method):
     cli = SolveSpec.of(args).solver()
     python = make_solver(method)
     assert cli.time_limit == python.time_limit == args.time_limit == DEFAULT_TIME_LIMIT
+
+
+# --- a seed where nothing is drawn ---------------------------------------------------------
+
+
+def test_plain_ppo_refuses_a_seed_it_would_not_use(capsys):
+    """ppo without samples draws nothing at random: a seed other than the default is refused
+    at each door in the words of a method that takes none; with samples it seeds them."""
+    expected = "method 'ppo' does not take it without samples: it then draws nothing at random"
+    with pytest.raises(ValueError, match=f"^seed=1: {expected}"):
+        make_solver("ppo", seed=1)
+    with pytest.raises(ValueError, match=f"^seed=2: {expected}"):
+        from modquad_gym.policy.ppo import PPOSolver
+
+        PPOSolver(seed=2)
+    assert make_solver("ppo", seed=1, samples=2).seed == 1
+    assert make_solver("ppo", seed=0).name == "ppo"
+    for argv, said in ((["--seed", "1"], "--seed 1"), (["--option", "seed=2"], "--option seed=2")):
+        code = main(["solve", "--task", "example:planted_seed1", "--method", "ppo", *argv])
+        assert code == 2
+        assert capsys.readouterr().err.strip() == f"modquad: error: {said}: {expected} (its " \
+            "sampled rollouts do: ppo-kN)"  # fmt: skip
+    for argv in (["--method", "ppo-k2", "--seed", "1"],
+                 ["--method", "ppo", "--option", "samples=2", "--seed", "1"]):  # fmt: skip
+        assert solve_json(capsys, "example:planted_seed1", *argv)["n_modules"] is not None
+
+
+def test_scoring_tells_the_seed_only_to_the_methods_that_draw():
+    """``modquad score --seed`` reaches ppo-kN's rollouts, not ppo's single pass (which would
+    refuse it); a run of plain ppo alone takes no seed."""
+    from modquad_gym.scoring.agents import _solvers, takes_seed
+
+    solvers = _solvers(("ppo", "ppo-k2", "beam"), 7, None, 3, None)
+    assert solvers["ppo-k2"].seed == 3 and solvers["beam"].settings.seed == 3
+    assert solvers["ppo"].seed == 0
+    assert not takes_seed("ppo", {}) and takes_seed("ppo-k2", {}) and takes_seed("beam", {})

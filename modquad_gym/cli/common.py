@@ -211,9 +211,9 @@ def add_method(
         "--seed",
         type=seed_option,
         default=0,
-        help=f"seed of the random draws of {', '.join(seeded)} (ppo: its sampled rollouts), 0 "
-        "to 2**63-1 (default %(default)s); refused for the other methods, which draw nothing at "
-        "random",
+        help=f"seed of the random draws of {', '.join(seeded)} (ppo: its sampled rollouts, "
+        "ppo-kN), 0 to 2**63-1 (default %(default)s); refused for the other methods and ppo "
+        "without samples, which draw nothing at random",
     )
     add_modules(p, modules_help)
     p.add_argument(

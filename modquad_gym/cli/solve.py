@@ -38,6 +38,7 @@ from modquad_gym.cli.solve_outputs import (
 from modquad_gym.core.interrupts import one_line
 from modquad_gym.methods import OWN_FLAGS, method_of
 from modquad_gym.oracle.faults import DELAY_SLOPES
+from modquad_gym.policy.models import unused_seed
 from modquad_gym.solvers import make_solver
 from modquad_gym.solvers.factory import model_named
 
@@ -140,7 +141,7 @@ class SolveSpec:
         :func:`~modquad_gym.cli.given.refuse_ignored_method_options`), ``--option KEY=VALUE``
         sets any other of its options, each once (one given twice, or beside the flag that
         gives it, is refused); ``progress`` where it shows progress."""
-        entry, _ = method_of(args.method)
+        entry, variant = method_of(args.method)
         takes = entry.options.names()
         options: dict[str, Any] = {}
         for key, value in (("time_limit", getattr(args, "time_limit", None)),
@@ -164,6 +165,11 @@ class SolveSpec:
                                  f"{getattr(args, key)} too); give it once")  # fmt: skip
             options[key], said[key] = value, text
         given.refuse_conflicting_options(args, entry.options, options, said)
+        samples = {**options, **variant}.get("samples", 0)  # ppo's: else it draws nothing
+        unused = unused_seed(args.method, options.get("seed", 0), samples)
+        if "samples" in takes and unused is not None:
+            seed = f"--option {said['seed']}" if "seed" in said else f"--seed {options['seed']}"
+            raise ValueError(f"{seed}: {unused}")
         return cls(args.method, args.n_max, tuple(sorted(options.items())),
                    getattr(args, "modules", None), getattr(args, "fault", None),
                    fault_margin_of(args))  # fmt: skip

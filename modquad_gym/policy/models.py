@@ -98,6 +98,16 @@ def check_learned(name: str, value: Any) -> Any:
     return value if value is None else LEARNED_CHECKS[name](value, name)
 
 
+def unused_seed(method: str, seed: int, samples: int) -> str | None:
+    """Why a ``seed`` other than the default 0 is refused for ``method`` (ppo) with ``samples``
+    0: its passes are then deterministic, it draws nothing at random (the words after the
+    option's name, as for a method that takes no seed); None where the seed is used."""
+    if seed == 0 or samples:
+        return None
+    return (f"method {method!r} does not take it without samples: it then draws nothing at "
+            "random (its sampled rollouts do: ppo-kN)")  # fmt: skip
+
+
 def one_default_type(modules: Any) -> bool:
     """Whether ``modules`` (None or a list of module types) is the default T-module alone, as
     no palette is: what the one-type models were trained with."""

@@ -21,7 +21,7 @@ import numpy as np
 
 from modquad_gym.core.compile_clock import compile_seconds, now
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.models import EXTRA_FROM, LEARNED_CHECKS, TOP_K, check_learned
+from modquad_gym.policy.models import EXTRA_FROM, LEARNED_CHECKS, TOP_K, check_learned, unused_seed
 from modquad_gym.policy.policy import (
     Policy,
     env_kwargs_of,
@@ -45,7 +45,7 @@ class PPOSolver:
         model: a :class:`~.policy.Policy`, a model .zip path (default the shipped model) or a
             loaded MaskablePPO.
         n_max: the module budget; at most the n_max the model was trained with.
-        seed: seeds the sampled rollouts.
+        seed: seeds the sampled rollouts (refused other than 0 without them: nothing is drawn).
         samples: extra stochastic rollouts per task (0: deterministic decoding only; at most
             :data:`~.models.MAX_SAMPLES`); they stop once an answer meets the proved lower
             bound (:func:`~modquad_gym.search.bounds.bound_levels`: none can be smaller).
@@ -93,6 +93,8 @@ class PPOSolver:
     ) -> None:
         self.seed = LEARNED_CHECKS["seed"](seed, "seed")
         self.samples = LEARNED_CHECKS["samples"](samples, "samples")
+        if (unused := unused_seed("ppo", self.seed, self.samples)) is not None:
+            raise ValueError(f"seed={self.seed}: {unused}")
         self.time_limit = check_learned("time_limit", time_limit)
         if not isinstance(model, Policy):
             model = Policy(check_learned("model", model), n_max, config, top_k, trust_model)

@@ -64,7 +64,7 @@ from modquad_gym.scoring.verdicts import (  # survives: a public name here too
 )
 from modquad_gym.search.problem import DEFAULT_MODULE
 from modquad_gym.solvers import Solver, load_solver, make_solver
-from modquad_gym.solvers.factory import model_named
+from modquad_gym.solvers.factory import draws_at_random, model_named
 from modquad_gym.solvers.outside import solver_named
 from modquad_gym.tasks import TaskRequirement, load_suite
 
@@ -140,6 +140,8 @@ def _made(
     options = (("model", model), ("seed", seed), ("tier", tier), ("trust_model", trust or None))
     for m in methods:
         takes = ("seed", "tier") if ":" in m else method_of(m)[0].options.names()
+        if ":" not in m and not draws_at_random(m):  # ppo without samples: it draws nothing
+            takes = tuple(k for k in takes if k != "seed")
         given = {k: v for k, v in options if k in takes and v is not None}
         t0 = time.perf_counter()
         with model_named("--model"):  # the command line's name of a model file that is not one
@@ -306,7 +308,7 @@ def takes_seed(method: str, agents: dict) -> bool:
     outside agent (loaded in ``agents``) whose constructor does?"""
     if ":" in method:
         return agents[method].takes_seed
-    return "seed" in method_of(method)[0].options.names()
+    return draws_at_random(method)
 
 
 def main(argv: list[str] | None = None, prog: str = COMMAND) -> int:

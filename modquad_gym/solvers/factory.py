@@ -224,6 +224,14 @@ def make_solver(
     return solver
 
 
+def draws_at_random(method: str) -> bool:
+    """Whether the registered ``method`` (or a variant: ``ppo-kN``) draws at random, so that a
+    seed is its option: one that takes ``seed``, ppo only with sampled rollouts."""
+    entry, variant = method_of(method)
+    names = entry.options.names()
+    return "seed" in names and ("samples" not in names or variant.get("samples", 0) > 0)
+
+
 def beyond_reach(method: Method, n_max: int, flag: str | None = None) -> str | None:
     """Why ``n_max`` is beyond ``method``'s reach (its ``max_modules``: 16 for exhaustive, else
     128), in Python's words (``n_max=17 is beyond ...``) or, given ``flag``, the command line's
