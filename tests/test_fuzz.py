@@ -23,9 +23,12 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import modquad_gym as mq
+from benchmarks.reference_oracle import register
 from modquad_gym import cli
 from modquad_gym.oracle import BAND, TOL
 from modquad_gym.tasks import TaskRequirement
+
+register()  # "hrep", a cross-check method of the oracle's table, which these properties ask
 
 ROOT = Path(__file__).resolve().parents[1]
 SCREWDRIVER = str(ROOT / "examples" / "screwdriver.json")
