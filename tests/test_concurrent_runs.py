@@ -446,3 +446,46 @@ def test_the_distributed_benchmark_removes_its_ray_sessions_outside_its_timing(m
     (session,) = sessions
     assert not session.exists()
     assert stops and t0 + wall <= stops[0]  # the timing ended before the shutdown began
+
+
+@pytest.mark.parametrize(
+    "argv, option, step, name",
+    [(["task", "generate", "--kind", "paper", "--seed", "4"], "--out",
+      "modquad_gym.tasks.generated_task", "t.json"),
+     (["task", "motion", "--kind", "hover"], "--out", "modquad_gym.cli.task_motion.motion_task",
+      "m.json"),
+     (["solve", "--task", "example:screwdriver", "--quiet"], "--certificate",
+      "modquad_gym.cli.solve.print_result", "c.json"),
+     (["solve", "--task", "example:screwdriver", "--quiet"], "--certificate",
+      "modquad_gym.search.certificates.make", "c.json"),  # while the proof is made
+     (["show", "--task", "example:screwdriver", "--quiet"], "--out", "modquad_gym.cli.show.shown",
+      "p.png"),
+     (["show", "--task", "example:screwdriver", "--quiet"], "--out",
+      "modquad_gym.viz.drawing.draw_structure", "p.png"),  # while the picture is drawn
+     (["show", "--task", "example:screwdriver", "--quiet"], "--html",
+      "modquad_gym.cli.show.shown", "p.html")],
+)  # fmt: skip
+def test_an_output_file_that_appears_during_the_work_is_refused_in_the_commands_words(
+    tmp_path, capsys, monkeypatch, argv, option, step, name
+):
+    """``task --out``, ``solve --certificate``, ``show --out/--html``: a file another program
+    writes while the command works (its search, the proof, the drawing) is kept, and the
+    refusal names the option and ``--force`` (it said ``path: ... (use force=True ...)``; a
+    certificate or a picture made meanwhile replaced it)."""
+    pytest.importorskip({"--out": "matplotlib", "--html": "plotly"}[option] if "show" in argv
+                        else "json")  # fmt: skip
+    module, attr = step.rsplit(".", 1)
+    real = getattr(importlib.import_module(module), attr)
+    out = tmp_path / name
+
+    def meanwhile(*args, **kwargs):
+        found = real(*args, **kwargs)
+        out.write_text('{"mine": 1}')
+        return found
+
+    monkeypatch.setattr(step, meanwhile)
+    code, _, err = run_main(capsys, *argv, option, str(out))
+    assert code == 2 and err.strip().splitlines() == [
+        f"modquad: error: {option}: {out} exists (use --force to replace it)"
+    ], err
+    assert out.read_text() == '{"mine": 1}'

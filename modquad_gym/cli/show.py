@@ -151,7 +151,8 @@ def cmd_show(args: argparse.Namespace) -> int:
     if out is not None:
         from modquad_gym.viz.drawing import save_structure_figure
 
-        save_structure_figure(structure, out, task=task, layout=args.layout, force=args.force)
+        save_structure_figure(structure, out, task=task, layout=args.layout, force=args.force,
+                              what="--out")  # fmt: skip
         print(f"wrote {out}")
         if task is not None and args.fault:  # the sets drawn are the intact structure's
             print(f"{out}: green where the intact structure exerts a wrench; it was designed to "
@@ -160,7 +161,8 @@ def cmd_show(args: argparse.Namespace) -> int:
     if args.html is not None:
         from modquad_gym.viz.interactive import save_structure_page
 
-        print(f"wrote {save_structure_page(structure, args.html, task=task, force=args.force)}")
+        page = save_structure_page(structure, args.html, task, args.force, what="--html")
+        print(f"wrote {page}")
     return 0
 
 

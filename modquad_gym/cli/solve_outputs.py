@@ -107,6 +107,6 @@ def write_certificate(args: argparse.Namespace, task, result) -> None:
             "--time-limit or --method exhaustive"
         )
     problem = SearchProblem.build(task, args.n_max, modules=palette(args), fault=args.fault)
-    out = write(result, problem, args.certificate, force=args.force)
+    out = write(result, problem, args.certificate, force=args.force, what="--certificate")
     if not args.json:
         print(f"  wrote {out}")

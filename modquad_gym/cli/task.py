@@ -110,7 +110,7 @@ def cmd_task_generate(args: argparse.Namespace) -> int:
             raise
         text = str(exc).removeprefix(f"f_max = {f_max:g}")  # "f_max = 1e-300 is too small..."
         raise ValueError(f"--f-max {f_max:g}{'' if text != str(exc) else ': '}{text}") from None
-    task.save(out, force=args.force)  # --out checked before the work
+    task.save(out, force=args.force, what="--out")  # checked before the work, and now again
     seed = "" if args.kind in UNSEEDED else f", seed {args.seed}"
     print(
         f"wrote {out}: {task.n_wrenches} wrenches ({args.kind}, kind {task.kind}, "

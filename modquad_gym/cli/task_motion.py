@@ -236,7 +236,7 @@ def cmd_task_motion(args: argparse.Namespace) -> int:
         if str(exc).startswith("f_max:"):
             raise ValueError(unflyable_message(args)) from None
         raise ValueError(option_message(exc, args)) from None
-    task.save(out, force=args.force)  # --out checked before the work
+    task.save(out, force=args.force, what="--out")  # checked before the work, and now again
     print(
         f"wrote {out}: {task.n_wrenches} samples over {task.trajectory.duration:.3g} s "
         f"({args.kind}, f_max {task.f_max:g} N; at least {lift} T-module(s) by the lift bound)"

@@ -231,10 +231,11 @@ class DynamicTask:
         meta = check_meta(data.get("meta", {}))
         return cls(trajectory, payload, exerted, f_max, name, meta)
 
-    def save(self, path, force: bool = False) -> Any:
+    def save(self, path, force: bool = False, *, what: str = "path") -> Any:
         """Write the task as JSON (every derivative written: reading it back recomputes
         nothing). An existing file is replaced only with ``force=True`` (as every saver of the
-        package); a folder, a device or an unwritable place is refused. Returns the path."""
+        package; ``what`` as for :meth:`~modquad_gym.tasks.TaskRequirement.save`); a folder, a
+        device or an unwritable place is refused. Returns the path."""
         import json
         from pathlib import Path
 
@@ -246,7 +247,7 @@ class DynamicTask:
         if Path(path).suffix.lower() != ".json":
             raise ValueError(f"{path}: a dynamic task is saved as .json")
         text = json.dumps(self.to_dict()) + "\n"
-        path = check_output_file(path, force=force, what="path")
+        path = check_output_file(path, force=force, what=what)
         write_text(path, text)
         return path
 

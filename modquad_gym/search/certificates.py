@@ -132,17 +132,23 @@ def _parts(problem):
     return T, task, float(problem.f_max), problem.fault
 
 
-def write(result, problem, path: str | Path, force: bool = False, **options) -> Path:
+def write(
+    result, problem, path: str | Path, force: bool = False, *, what: str = "path", **options
+) -> Path:
     """Write the certificate of ``result`` to ``path`` (gzip-compressed JSON when it ends in
-    ``.gz``). ``path`` is checked before the proof is made, as every saver checks its file
-    (:func:`~modquad_gym.core.outputs.check_output_file`): an existing file or link is kept
-    unless ``force``, a folder or a parent that cannot take the file is refused (OutputError).
-    ``options`` go to :func:`make`."""
+    ``.gz``). ``path`` is checked before the proof is made and again once it is made, as every
+    saver checks its file (:func:`~modquad_gym.core.outputs.check_output_file`): an existing
+    file or link (one that appeared meanwhile too) is kept unless ``force``, a folder or a
+    parent that cannot take the file is refused (OutputError; ``what`` names ``path`` there: a
+    command's option, ``--certificate``, gets the advice ``--force``). ``options`` go to
+    :func:`make`."""
     from modquad_gym.core.outputs import atomic_write, check_output_file
     from modquad_gym.core.validation import check_flag
 
-    path = check_output_file(path, force=check_flag(force, "force"), what="path")
+    force = check_flag(force, "force")
+    path = check_output_file(path, force=force, what=what)
     text = json.dumps(make(result, problem, **options), separators=(",", ":"))
+    path = check_output_file(path, force=force, what=what)  # the proof may take a while
 
     def fill(tmp: Path) -> None:  # gzip without a name or time: the same bytes every time
         gz = path.name.endswith(".gz")

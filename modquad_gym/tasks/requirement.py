@@ -233,7 +233,7 @@ class TaskRequirement:
         except ValueError as exc:
             raise TaskFileError(f"{path}: {exc}") from None
 
-    def save(self, path: PathLike, force: bool = False) -> Path:
+    def save(self, path: PathLike, force: bool = False, *, what: str = "path") -> Path:
         """Write the task as ``.json`` (name, f_max, kind, wrenches, meta), ``.csv`` (header and
         ``# name`` / ``# f_max`` / ``# kind`` / ``# meta`` comments) or ``.npy`` (wrenches only;
         needs f_max == 1 and kind ``total``, since the format cannot hold them; the name read
@@ -242,7 +242,9 @@ class TaskRequirement:
         repr). An existing file is replaced only with ``force=True`` (as
         :func:`~modquad_gym.sim.export.save_structure`); a folder, a device or an unwritable
         place is refused. ``meta`` must be JSON data: a ValueError names what in it is not (a
-        NaN, an object). Every error comes before the file is touched. Returns the path."""
+        NaN, an object). Every error comes before the file is touched. ``what`` names ``path``
+        in the refusal of an existing file: a command's option (``--out``) gets the advice
+        ``--force`` (:func:`~modquad_gym.core.outputs.check_output_file`). Returns the path."""
         check_path(path)
         force = check_flag(force, "force")
         path = Path(path)
@@ -260,7 +262,7 @@ class TaskRequirement:
         elif self.f_max != 1.0 or self.kind != "total":
             what = f"f_max={self.f_max:g}" if self.f_max != 1.0 else f"kind={self.kind}"
             raise ValueError(f"{path}: .npy holds only the wrenches, not {what}; save as .json")
-        path = check_output_file(path, force=force, what="path")
+        path = check_output_file(path, force=force, what=what)
         if suffix == ".npy":
             data = np.asarray(self.wrenches, dtype=float)
             atomic_write(path, lambda tmp: _save_npy(tmp, data))

@@ -287,6 +287,8 @@ def save_structure_figure(
     dpi: int = 120,
     layout: str = "row",
     force: bool = False,
+    *,
+    what: str = "path",
 ) -> str:
     """Save a PNG with the top view (sized with the structure: :func:`top_view_inches`) and, if
     ``task`` (a TaskRequirement, a DynamicTask or (t, 6) wrenches) is given, the force and
@@ -294,7 +296,8 @@ def save_structure_figure(
     feasibility of the rotor wrenches: an ``external`` task's plus the structure's weight, a
     dynamic task's for the structure's mass and inertia), arranged as ``layout``
     (:data:`LAYOUTS`). An existing file is replaced only with ``force`` (OutputError, as
-    ``save_structure_page``). Returns the path."""
+    ``save_structure_page``; checked before drawing and again before writing, ``what`` naming
+    ``path``: a command's option gets the advice ``--force``). Returns the path."""
     FigureCanvasAgg = import_optional("matplotlib.backends.backend_agg").FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -302,13 +305,14 @@ def save_structure_figure(
         raise ValueError(f"layout must be one of {LAYOUTS}, got {layout!r}")
     s = check_structure(structure)
     check_drawable(s)
-    check_output_file(path, force=check_flag(force, "force"), what="path")  # before drawing
+    force = check_flag(force, "force")
+    check_output_file(path, force=force, what=what)  # before drawing
     w, h = top_view_inches(s)
     if task is None:
         fig = Figure(figsize=(w + 2.8, h + 0.8), layout="constrained")  # legend, axis labels
         FigureCanvasAgg(fig)
         draw_structure(s, ax=fig.add_subplot(1, 1, 1))
-        save_figure(fig, os.fspath(path), dpi=dpi)
+        save_figure(fig, os.fspath(check_output_file(path, force=force, what=what)), dpi=dpi)
         return os.fspath(path)
     fig, cells = _figure_with_task(w, h, layout)
     FigureCanvasAgg(fig)
@@ -320,5 +324,5 @@ def save_structure_figure(
         ax.set_anchor("N")
     width = min(TITLE_WIDTH, int(TITLE_WIDTH * fig.get_figwidth() / 15))
     fig.suptitle(figure_title(getattr(task, "name", None), width))
-    save_figure(fig, os.fspath(path), dpi=dpi)
+    save_figure(fig, os.fspath(check_output_file(path, force=force, what=what)), dpi=dpi)
     return os.fspath(path)

@@ -322,10 +322,12 @@ def structure_summary(structure: Structure) -> str:
 
 
 def save_structure_page(
-    structure: Structure, path: str | os.PathLike, task=None, force: bool = False
-) -> str:
-    """Write :func:`structure_page` to ``path`` (an existing file only with ``force``)."""
+    structure: Structure, path: str | os.PathLike, task=None, force: bool = False, *,
+    what: str = "path",
+) -> str:  # fmt: skip
+    """Write :func:`structure_page` to ``path`` (an existing file only with ``force``; ``what``
+    names ``path`` in that refusal: a command's option gets the advice ``--force``)."""
     text = structure_page(structure, task)
-    path = check_output_file(path, force=force, what="path")
+    path = check_output_file(path, force=force, what=what)
     write_text(path, text)
     return os.fspath(path)
