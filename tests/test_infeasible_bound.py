@@ -14,6 +14,7 @@ import modquad_gym as mq
 from modquad_gym.geometry.module import palette
 from modquad_gym.policy.models import DEFAULT_MODEL
 from modquad_gym.search import SEARCHES, force_lower_bound
+from modquad_gym.search.beyond import bound_beyond
 from modquad_gym.solvers import make_solver
 
 
@@ -87,3 +88,50 @@ def test_a_palette_gets_the_count_bound_and_a_force_nothing_exerts_says_so():
     far = SEARCHES["anytime"]([[0, 0, 400.0, 0, 0, 0]], n_max=7)
     assert far.lower_bound > 128 and "raise n_max" not in far.message
     assert far.message.endswith(f"needs at least {far.lower_bound}; anytime takes at most 128)")
+
+
+def heavy_problem(names: str = "t45,t45m,t30,t30m,flat", lift: float = 150.0) -> mq.SearchProblem:
+    """An external task that five stock types (by default) cannot lift in 4 modules: the count
+    bound's scan past n_max 4 runs through its whole work cap (review 22: a second at every
+    time limit)."""
+    task = mq.TaskRequirement(np.array([[0, 0, lift, 0, 0, 0]]), f_max=2.0, kind="external")
+    return mq.SearchProblem(task, n_max=4, modules=palette(names))
+
+
+@pytest.mark.parametrize("name", sorted(set(SEARCHES) - {"exhaustive"}))  # it has no limit
+def test_an_infeasible_answer_keeps_the_time_limit(name):
+    """The count bound's scan past n_max stops at the search's time limit (it took 1-1.9 s at a
+    0.05 s limit), with the bound it proved by then: at least n_max + 1, at most the scan's."""
+    problem = heavy_problem()
+    r = SEARCHES[name](problem, time_limit=0.05)
+    assert r.status == "infeasible" and r.seconds < 0.05 + 0.25, r.seconds
+    assert problem.n_max + 1 <= r.lower_bound <= bound_beyond(problem, problem.n_max + 1)
+
+
+@pytest.mark.skipif(not DEFAULT_MODEL.is_file(), reason="no shipped model")
+def test_a_learned_answer_keeps_the_time_limit():
+    problem = heavy_problem()
+    solver = make_solver("ppo-guided", n_max=4, modules=problem.palette, time_limit=0.05)
+    r = solver.solve(problem)
+    assert r.status == "infeasible" and r.seconds < 0.05 + 0.25, r.seconds
+    assert problem.n_max + 1 <= r.lower_bound <= bound_beyond(problem, problem.n_max + 1)
+
+
+def test_the_scan_stops_when_its_time_is_up():
+    problem = heavy_problem()
+    n = problem.n_max + 1
+    assert bound_beyond(problem, n, seconds=0.0) == n  # no time: the search's own bound
+    assert bound_beyond(problem, n, seconds=None) > n  # the work cap alone proves more
+
+
+def test_every_search_proves_the_same_bound():
+    """One scan with one budget per answer: the anytime search scanned twice (from the bound,
+    then again from where the first scan stopped) and proved more than the others."""
+    problem = heavy_problem("t45,t45m,flat", lift=1e4)  # the scan stops at its work cap
+    scan = bound_beyond(problem, problem.n_max + 1)
+    assert scan > problem.n_max + 1
+    for name, search in SEARCHES.items():
+        r = search(problem)
+        assert (r.status, r.lower_bound) == ("infeasible", scan), name
+        if r.history:  # the progress shown ends at the bound reported
+            assert r.history[-1].lower_bound == scan, name

@@ -127,7 +127,8 @@ class GuidedSolver:
         else:
             proof = f"exact bounds rule out every level up to {self.n_max}"
         return search_result(self.name, problem, best, len(run.evaluated), run.oracle_calls, t0,
-                             certified, proof, bound, compiled=compiled)  # fmt: skip
+                             certified, proof, bound, compiled=compiled,
+                             time_limit=self.time_limit)  # fmt: skip
 
     def budget_for(self, n: int, state_bytes: int = 0) -> int:
         """Structures to evaluate when the dive's answer (or without a dive, n_max) has ``n``

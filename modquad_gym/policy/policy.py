@@ -344,18 +344,21 @@ def search_result(
     proof: str = "",
     lower_bound: int | None = None,
     compiled: float | None = None,
+    time_limit: float | None = None,
 ) -> SearchResult:
     """The search record of a learned solver ``name`` that started at ``t0`` (on the search
     clock, :func:`~modquad_gym.core.compile_clock.now`) on ``problem``
     (:meth:`Policy.problem`: its budget, palette, task kind and fault) and kept ``best`` (with the
     proved ``lower_bound`` on the module count, when the solver knows one; ``certified`` None:
     derived from it; without a structure, raised by the exact bounds past n_max: it is the
-    strongest bound proved, :mod:`~modquad_gym.search.beyond`). ``compiled``: the compile
-    clock's reading at ``t0`` (:func:`~modquad_gym.core.compile_clock.compile_seconds`): the
-    kernels compiled since are left out of the seconds."""
+    strongest bound proved, :mod:`~modquad_gym.search.beyond`, within what is left of the
+    solver's ``time_limit``). ``compiled``: the compile clock's reading at ``t0``
+    (:func:`~modquad_gym.core.compile_clock.compile_seconds`): the kernels compiled since are
+    left out of the seconds."""
     compiling = 0.0 if compiled is None else compile_seconds() - compiled
     if best is None and lower_bound is not None:
-        lower_bound = bound_beyond(problem, lower_bound)
+        left = None if time_limit is None else t0 + time_limit - time.perf_counter()
+        lower_bound = bound_beyond(problem, lower_bound, left)
     return SearchResult(
         structure=best,
         n_modules=best.n_modules if best is not None else None,

@@ -141,7 +141,8 @@ class PPOSolver:
         )
         proof = "lower bound reached" if certified else ""
         return search_result(self.name, problem, best, len(seen), oracle_calls, t0, certified,
-                             proof, bound, compiled=compiled)  # fmt: skip
+                             proof, bound, compiled=compiled,
+                             time_limit=self.time_limit)  # fmt: skip
 
     def deterministic(
         self,

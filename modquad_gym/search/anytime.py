@@ -42,7 +42,6 @@ from modquad_gym.geometry.cells import packed_key
 from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle.faults import DecisionInterruptedError
-from modquad_gym.search.beyond import bound_beyond
 from modquad_gym.search.bounds import bound_levels, bound_proof
 from modquad_gym.search.exact_levels import ExactLevels
 from modquad_gym.search.moves import compact_shapes, relocations, removable
@@ -260,8 +259,8 @@ def anytime_search(
 
 def _search(run: SearchRun, time_limit: float, seed, chunk: int, engine, producers) -> SearchResult:
     """The steps of :func:`anytime_search` (module docstring)."""
-    problem = run.problem
-    lower = bound_beyond(problem, bound_levels(problem))  # past n_max: the strongest proved
+    problem, run.time_limit = run.problem, time_limit  # finish raises a bound past n_max
+    lower = bound_levels(problem)
     run.check_budget(MAX_MODULES, lower)  # refused before any work or output
     run.improve("bounds", lower_bound=lower)
     if lower > problem.n_max:

@@ -73,6 +73,7 @@ class Deadline:
         self.time_limit = check_time_limit(time_limit)
         reserve = run.problem.verify_reserve(self.time_limit)
         self.at = run.t0 + self.time_limit - reserve
+        run.time_limit = self.time_limit  # the bound of an infeasible answer keeps it too
         if interrupt:
             run.checker.deadline, run.verify_deadline = self.at, run.t0 + self.time_limit
 

@@ -249,6 +249,7 @@ class SearchRun:
         self.history: list[Improvement] = []
         self.listener: Callable[[Improvement], None] | None = None
         self.verify_deadline: float | None = None  # see finish
+        self.time_limit: float | None = None  # a search's, from t0: finish's bound keeps it
         self.ray_start_seconds = 0.0  # left out of the clock (t0 moved past it)
         self.reach = MAX_MODULES  # the method's largest n_max: check_budget sets it
 
@@ -308,9 +309,11 @@ class SearchRun:
     ) -> SearchResult:
         """The result: ``structure`` (verified here by the exact LP) and ``lower_bound``, the
         proved bound on the module count (:class:`SearchResult`; ``scope`` as there; without a
-        structure, raised by the exact bounds past n_max: :mod:`.beyond`)."""
+        structure, raised by the exact bounds past n_max within the :attr:`time_limit` left:
+        :mod:`.beyond`)."""
         p = self.problem
-        if structure is None and (raised := bound_beyond(p, lower_bound)) > lower_bound:
+        left = None if self.time_limit is None else self.t0 + self.time_limit - time.perf_counter()
+        if structure is None and (raised := bound_beyond(p, lower_bound, left)) > lower_bound:
             lower_bound = raised
             if self.history:  # the progress shown ends at the bound reported
                 self.improve("bounds", lower_bound=raised)
