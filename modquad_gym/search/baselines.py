@@ -182,4 +182,4 @@ def random_search(
                     types.append(int(rng.integers(K)))
     if best is not None:
         best = Structure(best.cells, modules=best.modules)
-    return heuristic_result(run, best)
+    return heuristic_result(run, best, lower)

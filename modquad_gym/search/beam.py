@@ -78,8 +78,9 @@ def beam_search(
     rng = seeded_rng(seed)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
         return done
-    if bound_levels(problem) > problem.n_max:  # the exact bounds rule out every level
-        return heuristic_result(run, None)
+    lower = bound_levels(problem)
+    if lower > problem.n_max:  # the exact bounds rule out every level
+        return heuristic_result(run, None, lower)
     scores = Scores(run)
     K = len(problem.palette)
     with suppress(DecisionInterruptedError):  # a cut fault decision proves nothing
@@ -88,13 +89,13 @@ def beam_search(
             ranked = []
             for i, cand in zip(rng.permutation(len(level)), level, strict=True):
                 if deadline.passed():
-                    return heuristic_result(run, None)
+                    return heuristic_result(run, None, lower)
                 missed, share, tie = scores.score(cand)
                 if missed == 0:
-                    return heuristic_result(run, scores.structure(cand))
+                    return heuristic_result(run, scores.structure(cand), lower)
                 ranked.append((-share, -tie, int(i), cand))
             if n == problem.n_max:
                 break
             ranked.sort(key=lambda r: r[:3])
             level = children([r[3] for r in ranked[:width]], K)
-    return heuristic_result(run, None)
+    return heuristic_result(run, None, lower)

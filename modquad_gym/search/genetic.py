@@ -129,14 +129,14 @@ def genetic_search(
         return done
     lower = bound_levels(problem)
     if lower > problem.n_max:  # the exact bounds rule out every level
-        return heuristic_result(run, None)
+        return heuristic_result(run, None, lower)
     scores = Scores(run)
     fitness = Fitness(scores, problem.n_max if opt["penalty"] is None else opt["penalty"])
     K, n_max = len(problem.palette), problem.n_max
     with suppress(DecisionInterruptedError):  # a cut fault decision scores nothing
         _evolve(fitness, rng, opt, K, lower, n_max, deadline)
     best = fitness.best
-    return heuristic_result(run, None if best is None else scores.structure(best))
+    return heuristic_result(run, None if best is None else scores.structure(best), lower)
 
 
 def _evolve(fitness, rng, opt, K, lower, n_max, deadline) -> None:

@@ -52,9 +52,12 @@ def impossible_result(run: SearchRun, limit: int) -> SearchResult | None:
     return None
 
 
-def heuristic_result(run: SearchRun, structure: Structure | None) -> SearchResult:
-    """The result of a heuristic with the lower bound the exact bounds prove."""
-    bound = bound_levels(run.problem)
+def heuristic_result(
+    run: SearchRun, structure: Structure | None, bound: int | None = None
+) -> SearchResult:
+    """The result of a heuristic with the lower bound the exact bounds prove
+    (:func:`.bounds.bound_levels`; ``bound``: the search's own call of it, not made twice)."""
+    bound = bound_levels(run.problem) if bound is None else bound
     proof = ""
     if structure is None and bound > run.problem.n_max:
         proof = f"exact bounds rule out every level up to {run.problem.n_max}"
