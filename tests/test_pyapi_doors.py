@@ -37,6 +37,48 @@ def test_a_start_larger_than_n_max_is_refused(door):
             mq.greedy_search(task, n_max=3, start=start)
 
 
+BAD_STARTS = [
+    ([(i, 0) for i in range(4)], r"^start has 4 cells, more than n_max=2$"),
+    ([(0, 0), (5, 5)], r"^start: cells are not face-connected .*cell #2 \(5, 5\)"),
+    ("junk", r"^start: cell #1 \('j',\) is not a pair \(x, y\)$"),
+]
+
+
+@pytest.mark.parametrize(("start", "words"), BAD_STARTS)
+@pytest.mark.parametrize("search", ["exhaustive", "greedy"])
+def test_a_bad_start_is_refused_before_the_bounds_answer(search, start, words):
+    """Five modules at the fewest: greedy's bounds answered 'infeasible' at n_max 2 and never
+    looked at start (review 22), where the exhaustive search refused it."""
+    heavy = np.tile([0.0, 0.0, 12.0, 0.0, 0.0, 0.0], (2, 1))
+    assert bound_levels(SearchProblem(heavy, n_max=2)) > 2
+    with pytest.raises(ValueError, match=words):
+        getattr(mq, f"{search}_search")(heavy, n_max=2, start=start)
+
+
+@pytest.mark.parametrize(("start", "words"), BAD_STARTS)
+@pytest.mark.parametrize("method", ["exhaustive", "greedy"])
+def test_make_solver_refuses_a_bad_start_when_made(method, start, words):
+    """As its other options: refused by make_solver, not at the first solve."""
+    with pytest.raises(ValueError, match=words):
+        mq.make_solver(method, n_max=2, start=start)
+
+
+def test_make_solver_checks_start_against_what_it_is_given():
+    """Without n_max, the budget is the problem's: a 9-cell start is refused at solve, in the
+    same words, for a task (n_max 7), and taken for a problem of n_max 10; with modules, a
+    Structure of another type is refused when the solver is made."""
+    start = [(i, 0) for i in range(9)]
+    solver = mq.make_solver("greedy", start=start)
+    with pytest.raises(ValueError, match=r"^start has 9 cells, more than n_max=7$"):
+        solver.solve(LIGHT)
+    assert solver.solve(SearchProblem(LIGHT, n_max=10)).n_modules == 9
+    other = mq.Structure([(0, 0)], module=mq.TModule(eta=0.3))
+    words = r"^start: module type '.*' is not among the searched types$"
+    with pytest.raises(ValueError, match=words):
+        mq.make_solver("exhaustive", n_max=3, modules=[mq.TModule(), mq.TModule(eta=0.5)],
+                       start=other)  # fmt: skip
+
+
 def test_the_minimum_containing_start_is_not_the_tasks_certified_minimum():
     """It said 'optimal', '2 modules (certified minimum)' and lower_bound 2 where 1 suffices."""
     task = mq.TaskRequirement(LIGHT)

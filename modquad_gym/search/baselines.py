@@ -25,7 +25,7 @@ from modquad_gym.oracle.faults import DecisionInterruptedError
 from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.heuristic import Deadline, heuristic_result, impossible_result
 from modquad_gym.search.options import count, seeded_rng
-from modquad_gym.search.partial import make_partial
+from modquad_gym.search.partial import check_start, make_partial
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT, MAX_MODULES, SearchProblem, search_entry
 from modquad_gym.search.prune import pruned_search
 from modquad_gym.search.result import SearchResult, SearchRun
@@ -70,16 +70,15 @@ def greedy_search(
     types, or connected cells, at most ``n_max``) is extended instead of one module: greedy's
     completion of a partial structure, as expert iteration labels a learner's states by it."""
     run = SearchRun("greedy", problem)
+    f, palette = problem.f_max, problem.palette
+    if start is not None:  # refused first, as by the exhaustive search, whatever the bounds say
+        start = check_start(start)  # read once: checking would use up a generator
+        make_partial(start, palette, problem.typed, problem.n_max)  # ValueError naming it
+        if not isinstance(start, Structure):
+            start = Structure(start, problem.module)
     deadline = Deadline(run, time_limit, interrupt=True)
     if (done := impossible_result(run, MAX_MODULES)) is not None:
         return done
-    f, palette = problem.f_max, problem.palette
-    if start is not None:
-        if not isinstance(start, Structure) and isinstance(start, Iterable):
-            start = list(start)  # read once: checking would use up a generator
-        make_partial(start, palette, problem.typed, problem.n_max)  # ValueError naming it
-        if not isinstance(start, Structure):
-            start = Structure([tuple(c) for c in start], problem.module)
 
     def score(s: Structure) -> tuple[bool, tuple[float, float]]:
         z, W, ok = run.decide(s)

@@ -23,6 +23,7 @@ import numpy as np
 from modquad_gym.core.options import MAX_SEED
 from modquad_gym.core.resources import GIB, check_memory
 from modquad_gym.core.validation import check_flag, check_int, check_real
+from modquad_gym.search.partial import check_start
 
 Check = Callable[[Any, str], Any]
 """``check(value, name) -> value``: the value as the search uses it, or a ValueError."""
@@ -140,15 +141,16 @@ COMMON_OPTIONS: dict[str, tuple[str, Check | None]] = {
         f"{MAX_CHUNK * CHUNK_BYTES / GIB:g} GiB at most, refused beyond the memory available)",
         check_chunk,
     ),
-    "start": ("a partial structure every answer contains (Python only)", None),
+    "start": ("a partial structure every answer contains (Python only)", check_start),
     "producers": (
         "the producers run beside the anytime search's own steps (Python only)",
         check_producers,
     ),  # fmt: skip
     "prune": (PRUNE_HELP, check_flag),
 }
-"""Help and check of the options several searches share (``start`` is checked against the
-problem's module types by the search: :func:`~.partial.make_partial`)."""
+"""Help and check of the options several searches share (``start``'s size and module types
+are checked against the problem's by the search, :func:`~.partial.make_partial`, and by
+:func:`~modquad_gym.solvers.make_solver` against the ``n_max`` and ``modules`` it is given)."""
 
 
 Relation = tuple[str, str, int]

@@ -50,23 +50,37 @@ class Partial:
         return out
 
 
+def check_start(value, name: str = "start") -> Structure | tuple[tuple[int, int], ...]:
+    """The check of the ``start`` option in every door (:mod:`.options`): a Structure as it is,
+    else connected (x, y) cells, read once (a generator too) and returned as a tuple;
+    ValueError naming ``name``. Its size against n_max and its module types against the
+    searched ones follow when those are known (:func:`check_size`, :func:`make_partial`)."""
+    if isinstance(value, Structure):
+        return value
+    try:
+        return Structure([tuple(c) for c in value]).cells
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"{name}: {err}") from None
+
+
+def check_size(start: Structure | tuple, n_max: int) -> None:
+    """ValueError when ``start`` (checked: :func:`check_start`) has more than ``n_max`` cells:
+    every structure containing it has more."""
+    n = start.n_modules if isinstance(start, Structure) else len(start)
+    if n > n_max:
+        raise ValueError(f"start has {n} cells, more than n_max={n_max}")
+
+
 def make_partial(start, palette: tuple[ModuleType, ...], typed: bool, n_max: int) -> Partial:
     """The :class:`Partial` of ``start``: a :class:`~modquad_gym.geometry.structure.Structure`
     (its module types must be palette types; they are required of the completion in a search
     over several types or with ``modules=``) or a list of connected (x, y) cells (any types),
     of at most ``n_max`` modules (every structure containing it has more). ValueError names
     what is wrong."""
-    if isinstance(start, Structure):
-        s = start
-        fixed = typed or len(palette) > 1
-    else:
-        try:
-            s = Structure([tuple(c) for c in start], module=palette[0])
-        except (TypeError, ValueError) as err:
-            raise ValueError(f"start: {err}") from None
-        fixed = False
-    if s.n_modules > n_max:
-        raise ValueError(f"start has {s.n_modules} cells, more than n_max={n_max}")
+    start = check_start(start)
+    fixed = isinstance(start, Structure) and (typed or len(palette) > 1)
+    s = start if isinstance(start, Structure) else Structure.from_trusted(start, palette[0])
+    check_size(s, n_max)
     index = {m.digest: k for k, m in enumerate(palette)}
     missing = [m.name for m in s.modules if m.digest not in index]
     if missing:

@@ -16,7 +16,7 @@ from modquad_gym.search.options import check_seed
 from modquad_gym.search.problem import DEFAULT_N_MAX, MAX_MODULES, SearchProblem, check_palette
 from modquad_gym.search.prune import pruned
 from modquad_gym.solvers.outside import load_solver
-from modquad_gym.solvers.problems import problem_for, problem_settings
+from modquad_gym.solvers.problems import problem_for, problem_settings, refuse_start
 
 METHOD_HELP = {name: m.help for name, m in REGISTRY.items()}
 """The built-in methods' one-line help (read from :data:`~modquad_gym.methods.REGISTRY`, which
@@ -218,6 +218,8 @@ def make_solver(
     defaults = problem_settings(n_max, modules, fault, fault_margin)
     if (refusal := beyond_reach(entry, defaults["n_max"])) is not None:
         raise ValueError(refusal)
+    if getattr(settings, "start", None) is not None:  # what the settings given fix, now
+        refuse_start(settings.start, defaults)
     solver = entry.solver(settings, defaults)
     samples = getattr(settings, "samples", 0)
     solver.name = f"ppo-k{samples}" if method == "ppo" and samples else method  # a variant's

@@ -13,8 +13,10 @@ from __future__ import annotations
 from typing import Any
 
 from modquad_gym.core.validation import check_int
+from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle.failures import check_fault, check_fault_margin
 from modquad_gym.search.fields import says
+from modquad_gym.search.partial import check_size, make_partial
 from modquad_gym.search.problem import DEFAULT_N_MAX, SearchProblem, as_problem, check_palette
 
 
@@ -31,6 +33,20 @@ def problem_settings(n_max: Any = DEFAULT_N_MAX, modules: Any = None, fault: Any
     if fault_margin is not None:
         out["fault_margin"] = check_fault_margin(fault_margin, out["fault"])
     return out
+
+
+def refuse_start(start: Any, settings: dict) -> None:
+    """A search's ``start`` (well-formed: its option's check) against the settings given to
+    :func:`~modquad_gym.solvers.make_solver`: more cells than the ``n_max`` given, or a module
+    type outside the ``modules`` given, is refused when the solver is made, in the search's
+    words (:func:`~modquad_gym.search.partial.make_partial`); against a setting not given, when
+    a problem is solved (a SearchProblem handed to ``solve`` may say any)."""
+    n_max = settings.get("n_max", DEFAULT_N_MAX)
+    if n_max is not DEFAULT_N_MAX:
+        check_size(start, n_max)
+    if settings.get("modules") is not None:  # a typed problem: the types must be among them
+        size = start.n_modules if isinstance(start, Structure) else len(start)
+        make_partial(start, tuple(settings["modules"]), True, size)
 
 
 def _names(types) -> str:
