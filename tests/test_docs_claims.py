@@ -54,3 +54,17 @@ def test_the_pages_describe_the_guided_search_in_its_registry_words():
                 rest = text[m.start() : m.start() + 200]
                 assert GUIDED_WORDS in rest, (page.relative_to(ROOT).as_posix(), clause)
     assert said >= 4  # README, results, agents, leaderboard pages
+
+
+def test_the_exhaustive_search_says_what_its_answers_are():
+    """Its docstring said ``certified`` is always True and an infeasible answer's bound is
+    n_max + 1: with ``start`` an answer may be uncertified, and past n_max the exact bounds may
+    prove more (review 22)."""
+    doc = " ".join(mq.exhaustive_search.__doc__.split())
+    assert "always True" not in doc and "n_max + 1)" not in doc
+    far = mq.exhaustive_search([[0.0, 0.0, 9.0, 0.0, 0.0, 0.0]], n_max=1)
+    assert far.certified and far.lower_bound > 2
+    assert "n_max + 1, or more where the exact bounds prove more" in doc
+    part = mq.exhaustive_search([[0.0, 0.0, 2.0, 0.0, 0.0, 0.0]], n_max=3, start=[(0, 0), (1, 0)])
+    assert part.structure is not None and not part.certified
+    assert "Without ``start`` it is certified" in doc and "with ``start``, as below" in doc

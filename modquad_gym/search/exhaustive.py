@@ -294,15 +294,15 @@ def exhaustive_search(
     """Certified minimum-module structure for ``task`` (a (t, 6) wrench array or a
     TaskRequirement), searching every connected structure of up to ``n_max`` modules.
 
-    ``certified`` is always True: either the structure is minimal (``lower_bound`` =
-    ``n_modules``: every smaller level was refuted, by exact bounds or structure by structure),
-    or no structure of up to ``n_max`` modules can satisfy the task (``lower_bound`` = n_max +
-    1). With an ``engine`` (e.g. ``modquad_gym.core.distributed.Engine(workers)``, used inside
-    its ``with`` block so Ray starts once) levels of at least :data:`PARALLEL_FROM` structures
-    are split into ranges decided in parallel. The answer does not depend on the engine or
-    ``chunk``; ``evaluated`` depends on ``chunk`` and on whether levels are split (each range
-    learns its own separating directions), not on the number of workers. ``progress`` shows a
-    bar per level on stderr.
+    Without ``start`` it is certified: the structure is minimal (``lower_bound`` = ``n_modules``:
+    every smaller level refuted, by exact bounds or structure by structure), or none of up to
+    ``n_max`` modules satisfies the task (``lower_bound`` > n_max: n_max + 1, or more where the
+    exact bounds prove more, :mod:`.beyond`); with ``start``, as below. With an ``engine``
+    (``modquad_gym.core.distributed.Engine(workers)``, used inside its ``with`` block so Ray
+    starts once) levels of at least :data:`PARALLEL_FROM` structures are split into ranges
+    decided in parallel. The answer does not depend on the engine or ``chunk``; ``evaluated``
+    depends on ``chunk`` and on whether levels are split (each range learns its own separating
+    directions), not on the number of workers. ``progress`` shows a bar per level on stderr.
 
     ``modules=[mA, mB, ...]`` searches every shape with every assignment of those types (one
     per cell; the module docstring gives the order and the pruning); the result's
