@@ -4,6 +4,8 @@ naming the field), and a disconnected-cells error that names the detached part."
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -67,6 +69,29 @@ def test_positions_beyond_the_checkers_limit_are_refused():
 def test_a_huge_mass_is_refused_before_its_inertia_could_overflow():
     text = refused(lambda: ModuleType(P, D, S, side=MAX_LENGTH, mass=1e308))
     assert text == "mass must be <= 1e+12, got 1e+308"
+
+
+@pytest.mark.parametrize("row", [[1e300, 1e300, 1e300], [1e200, 0.0, 0.0]])
+def test_a_direction_whose_length_overflows_is_refused_naming_type_and_rotor(row):
+    """Normalised, it became a zero rotor (columns of zeros) with only numpy's overflow warning
+    (review 22); a shorter vector along it is accepted."""
+    dirs = D.copy()
+    dirs[2] = row
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no RuntimeWarning on the way
+        text = refused(lambda: ModuleType(P, dirs, S, name="big"))
+    assert text.startswith("directions[2] (rotor 3 of module type 'big') has a length that ")
+    assert "overflows" in text
+    dirs[2] = shorter = np.asarray(row) * 1e-150
+    assert np.allclose(ModuleType(P, dirs, S).directions[2], shorter / np.linalg.norm(shorter))
+
+
+@pytest.mark.parametrize("row", [[0.0, 0.0, 0.0], [float("nan"), 0.0, 1.0], [float("inf"), 0, 0]])
+def test_a_zero_or_non_finite_direction_names_type_and_rotor(row):
+    dirs = D.copy()
+    dirs[1] = row
+    text = refused(lambda: ModuleType(P, dirs, S))
+    assert text.startswith("directions[1] (rotor 2 of module type 'module') must be finite and")
 
 
 @pytest.mark.parametrize(

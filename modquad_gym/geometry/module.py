@@ -96,7 +96,8 @@ class ModuleType:
     Attributes:
         positions: (r, 3) rotor positions p_j in metres (r >= 1 rotors; the stock types have
             4), each coordinate within +-:data:`MAX_LENGTH` of the module centre.
-        directions: (r, 3) thrust directions R_j e3 (non-zero; stored normalised).
+        directions: (r, 3) thrust directions R_j e3 (non-zero, of a length within the float
+            range; stored normalised).
         spins: (r,) spin signs, each +1 or -1, multiplying the drag torque c_tau * f * d.
         side: module side length l in metres, in (0, :data:`MAX_LENGTH`] (modules dock on a
             grid of pitch ``side``).
@@ -136,9 +137,10 @@ class ModuleType:
     def __post_init__(self) -> None:
         for what in ("positions", "directions", "spins", "inertia"):
             refuse_complex(getattr(self, what), what)
-        pos, dirs, spins = _rotor_arrays(self.positions, self.directions, self.spins)
+        scalars = _scalars(self.side, self.c_tau, self.name, self.mass, self.height)
+        pos, dirs, spins = _rotor_arrays(self.positions, self.directions, self.spins, self.name)
         norms = np.linalg.norm(dirs, axis=1)
-        for what, value in _scalars(self.side, self.c_tau, self.name, self.mass, self.height):
+        for what, value in scalars:
             object.__setattr__(self, what, value)
         box = box_inertia(self.mass, self.side, self.side, self.height)
         given = self.inertia is not None
@@ -244,10 +246,11 @@ def _numbers(value: object, what: str, shape: str) -> np.ndarray:
     return raw.astype(float)
 
 
-def _rotor_arrays(positions: object, directions: object, spins: object) -> tuple:
+def _rotor_arrays(positions: object, directions: object, spins: object, name: str) -> tuple:
     """(positions (r, 3), directions (r, 3), spins (r,)) as float arrays, checked: shapes,
-    finite positions within +-MAX_LENGTH m, non-zero finite directions, spins of +-1 (each a
-    ValueError naming the field)."""
+    finite positions within +-MAX_LENGTH m, non-zero finite directions whose length is a finite
+    float (else normalising one would make it zero), spins of +-1 (each a ValueError naming the
+    field; a direction's, the module type ``name`` and the rotor too)."""
     pos = _numbers(positions, "positions", "(r, 3)")
     if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] == 0:
         raise ValueError(
@@ -270,8 +273,17 @@ def _rotor_arrays(positions: object, directions: object, spins: object) -> tuple
             f"positions must be finite, each coordinate within +-{MAX_LENGTH:g} m of the module "
             f"centre, got {pos.tolist()!r:.80}"
         )
-    if not np.all(np.isfinite(dirs)) or np.any(np.linalg.norm(dirs, axis=1) < 1e-12):
-        raise ValueError(f"directions must be finite and non-zero, got {dirs.tolist()!r:.80}")
+    with np.errstate(over="ignore"):  # a length that overflows: inf, refused here
+        norms = np.linalg.norm(dirs, axis=1)
+    bad = ~((norms >= 1e-12) & (norms < np.inf))  # NaN fails too
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        why = "must be finite and non-zero"
+        if np.isfinite(dirs[i]).all() and norms[i] == np.inf:
+            why = "has a length that overflows a float (scale it down)"
+        raise ValueError(
+            f"directions[{i}] (rotor {i + 1} of module type {name!r}) {why}, got {dirs[i].tolist()}"
+        )
     if not np.all(np.abs(spins) == 1):
         raise ValueError(f"spins must each be +1 or -1, got {spins.tolist()!r:.80}")
     return pos, dirs, spins
