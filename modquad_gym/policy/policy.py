@@ -357,7 +357,7 @@ def search_result(
     left out of the seconds."""
     compiling = 0.0 if compiled is None else compile_seconds() - compiled
     if best is None and lower_bound is not None:
-        left = None if time_limit is None else t0 + time_limit - time.perf_counter()
+        left = None if time_limit is None else t0 + time_limit - now()
         lower_bound = bound_beyond(problem, lower_bound, left)
     return SearchResult(
         structure=best,

@@ -13,12 +13,12 @@ left, so that an infeasible answer keeps its search's time limit.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from modquad_gym.core.compile_clock import now
 from modquad_gym.geometry.cells import MAX_MODULES
 from modquad_gym.search.bounds import (
     NO_SIZE,
@@ -54,7 +54,7 @@ def bound_beyond(problem: SearchProblem, lower_bound: int, seconds: float | None
     if p.shape_only:
         n = force_lower_bound(p.wrenches, p.module, p.f_max, p.fault)
         return lower_bound if n == NO_SIZE else max(lower_bound, n)
-    ends = None if seconds is None else time.perf_counter() + seconds
+    ends = None if seconds is None else now() + seconds
     n, k, left = lower_bound, len(p.palette), EXTRA_COUNT_VECTORS
     while n <= MAX_MODULES and (left := left - n_count_vectors(n, k)) >= 0:
         if not _ruled_out(p, n, ends):
@@ -65,10 +65,11 @@ def bound_beyond(problem: SearchProblem, lower_bound: int, seconds: float | None
 
 def _ruled_out(problem: SearchProblem, n: int, ends: float | None) -> bool:
     """Does the count bound rule out every count vector of ``n`` modules before ``ends``
-    (:func:`time.perf_counter`; None: no end)? A level left undecided is not ruled out."""
+    (on the search clock, :func:`~modquad_gym.core.compile_clock.now`; None: no end)? A level
+    left undecided is not ruled out."""
     p = problem
     for counts in _blocks(n, len(p.palette)):
-        if ends is not None and time.perf_counter() >= ends:
+        if ends is not None and now() >= ends:
             return False
         if counts_possible(p.model, list(p.palette), counts, p.f_max, p.fault).any():
             return False

@@ -312,7 +312,7 @@ class SearchRun:
         structure, raised by the exact bounds past n_max within the :attr:`time_limit` left:
         :mod:`.beyond`)."""
         p = self.problem
-        left = None if self.time_limit is None else self.t0 + self.time_limit - time.perf_counter()
+        left = None if self.time_limit is None else self.t0 + self.time_limit - now()
         if structure is None and (raised := bound_beyond(p, lower_bound, left)) > lower_bound:
             lower_bound = raised
             if self.history:  # the progress shown ends at the bound reported
