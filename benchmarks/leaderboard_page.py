@@ -122,7 +122,9 @@ def glance(entries: list[Entry], tiers: list[str]) -> list[str]:
         lines += ["", "‡ The shipped model's one run (the tier report), not the five seeds: the "
                   "five-seed data hold no per-task seconds, so the share within "
                   f"{BUDGET:g} s (the rank's measure) can differ from the five seeds' optimal "
-                  "share beside it, and even exceed it."]  # fmt: skip
+                  "share beside it, and even exceed it. The one run is today's code; the five "
+                  "seeds were scored earlier, some before the learned solvers' exact lookahead "
+                  "became a shortlist of 8 children (each seeds report says when)."]  # fmt: skip
     if any(_own(e) for e in entries if e.tier in tiers and not e.status):
         lines += ["", SELF_REPORTED]
     return lines
@@ -257,7 +259,8 @@ def tier_section(t: str, mine: list[Entry], r: str) -> list[str]:
 
 FOOTNOTES = (
     ("one run: ", "‡ The shipped model's one run ({where}): the five-seed data file holds no "
-     "per-task seconds or oracle calls (its optimal share may differ from the five seeds' mean)."),
+     "per-task seconds or oracle calls (its optimal share may differ from the five seeds' mean; "
+     "the one run is today's code, the seeds report says when the five seeds were scored)."),
     ("modules: ", "† Mean modules of the shipped model's one run ({where}): the five-seed data "
      "file predates its modules column."),
 )  # fmt: skip
