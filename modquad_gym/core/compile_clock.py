@@ -1,4 +1,4 @@
-"""Seconds this process has spent compiling kernels: what a search's ``seconds`` leaves out.
+"""Seconds this thread has spent compiling the package's kernels, which no search counts.
 
 numba compiles a kernel on its first call when its on-disk cache is cold (a fresh install, or
 after the package's compiled sources changed: :mod:`.kernel_caches`): tens of seconds once,
@@ -13,30 +13,41 @@ this module imports no numba, so a search that compiles nothing never loads it.
 
 from __future__ import annotations
 
+import threading
 import time
 
-_clock = {"seconds": 0.0, "depth": 0, "since": 0.0}
+_local = threading.local()  # each thread's clock: a search runs in one thread
+
+
+def _clock() -> dict:
+    if not hasattr(_local, "clock"):
+        _local.clock = {"seconds": 0.0, "depth": 0, "since": 0.0}
+    return _local.clock
 
 
 def compile_seconds() -> float:
-    """Seconds this process has spent compiling kernels so far (a nested compilation, a kernel
-    compiling the kernels it calls, counts once; one in progress up to now)."""
-    running = time.perf_counter() - _clock["since"] if _clock["depth"] else 0.0
-    return _clock["seconds"] + running
+    """Seconds this thread has spent compiling the package's kernels so far (a nested
+    compilation, a kernel compiling the kernels it calls, counts once; one in progress up to
+    now). Another thread's compilation, or a user's own numba code, is not counted."""
+    clock = _clock()
+    running = time.perf_counter() - clock["since"] if clock["depth"] else 0.0
+    return clock["seconds"] + running
 
 
 def started() -> None:
     """A compilation started (numba's ``numba:compile`` event, sent on a cache miss only)."""
-    if _clock["depth"] == 0:
-        _clock["since"] = time.perf_counter()
-    _clock["depth"] += 1
+    clock = _clock()
+    if clock["depth"] == 0:
+        clock["since"] = time.perf_counter()
+    clock["depth"] += 1
 
 
 def ended() -> None:
     """A compilation ended."""
-    _clock["depth"] -= 1
-    if _clock["depth"] == 0:
-        _clock["seconds"] += time.perf_counter() - _clock["since"]
+    clock = _clock()
+    clock["depth"] -= 1
+    if clock["depth"] == 0:
+        clock["seconds"] += time.perf_counter() - clock["since"]
 
 
 def now() -> float:

@@ -16,13 +16,23 @@ __all__ = ["njit"]
 
 
 class _Clock(event.Listener):
-    """Tells :mod:`.compile_clock` when numba starts and ends a compilation."""
+    """Tells :mod:`.compile_clock` when numba starts and ends compiling one of this package's
+    kernels (a user's or an outside agent's own numba code is their time, not ours)."""
 
     def on_start(self, event) -> None:
-        compile_clock.started()
+        if _ours(event):
+            compile_clock.started()
 
     def on_end(self, event) -> None:
-        compile_clock.ended()
+        if _ours(event):
+            compile_clock.ended()
+
+
+def _ours(event) -> bool:
+    """Is the dispatcher ``event`` compiles one of this package's kernels?"""
+    dispatcher = (event.data or {}).get("dispatcher")
+    module = getattr(getattr(dispatcher, "py_func", None), "__module__", None) or ""
+    return module.startswith("modquad_gym.")
 
 
 event.register("numba:compile", _Clock())
