@@ -73,7 +73,9 @@ __all__ = [
 
 def main(argv: list[str] | None = None) -> None:
     options = {
-        "--tasks": dict(type=int_option(1, 1000), default=12, help="tasks per set (default 12)"),
+        "--tasks": dict(type=int_option(1, 1000), default=12,
+                        help="tasks per set (default 12); the draws depend on it: task #i of "
+                        "a smaller run is another task than #i of a larger one"),
         "--n-max": dict(type=int_option(2, 8), default=7, help="module budget (default 7)"),
         "--mujoco": dict(type=int_option(0, 1000), default=3,
                          help="external optima validated in MuJoCo (default 3)"),
