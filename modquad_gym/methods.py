@@ -30,6 +30,7 @@ from modquad_gym.policy.models import (
     FALLBACK,
     GUIDED_BUDGET,
     LEARNED_CHECKS,
+    MODEL_TOP_K,
     QUEUE_MEMORY,
     SCALE_FROM,
     TOP_K,
@@ -282,8 +283,9 @@ _TRUST = (bool, False, "load a model .zip that only unpickling reads (a model .z
           LEARNED_CHECKS["trust_model"])  # fmt: skip
 _LEARNED_LIMIT = (float | None, DEFAULT_TIME_LIMIT, "seconds after which it stops (None: none)",
                   LEARNED_CHECKS["time_limit"])  # fmt: skip
-_TOP_K = (int | None, TOP_K, "children decided exactly per step by a model reading the exact "
-          "lookahead, the rest ranked lower by support bounds and masked out (None: all)",
+_TOP_K = (int | None, MODEL_TOP_K, "children decided exactly per step by a model reading the "
+          "exact lookahead, the rest (ranked lower by support bounds) masked out (None: all; "
+          f"default 'model': its config.json's top_k, else {TOP_K})",
           LEARNED_CHECKS["top_k"])  # fmt: skip
 _PRUNE = (bool, False, *COMMON_OPTIONS["prune"])
 _FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dives) wherever the "
@@ -331,16 +333,14 @@ for _method in (
            "modquad_gym.solvers.factory:LearnedSolver", seeded=True, extra="train"),
     Method("ppo-guided", "best-first search ordered by the learned policy, certified where "
            "its answer meets the lower bound",
-           options("ppo-guided", model=_MODEL, trust_model=_TRUST,
-                                  budget=_BUDGET,
+           options("ppo-guided", model=_MODEL, trust_model=_TRUST, budget=_BUDGET,
                                   branching=(int, 4, "children expanded per node",
                                              LEARNED_CHECKS["branching"]),
                                   dive=(bool, True, "first follow the single pass's "
                                         f"episodes (ppo's: from {SCALE_FROM} modules one per "
                                         "start type, with its extra fallbacks' branches)",
                                         LEARNED_CHECKS["dive"]), time_limit=_LEARNED_LIMIT,
-                                  top_k=_TOP_K,
-                                  fallback=_FALLBACK, prune=_PRUNE),
+                                  top_k=_TOP_K, fallback=_FALLBACK, prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", extra="train"),
 ):  # fmt: skip
     register(_method)

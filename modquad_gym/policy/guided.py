@@ -33,9 +33,9 @@ from modquad_gym.policy.models import (
     BUDGET_PER_MODULE,
     GUIDED_BUDGET,
     LEARNED_CHECKS,
+    MODEL_TOP_K,
     QUEUE_MEMORY,
     SCALE_FROM,
-    TOP_K,
     check_learned,
     default_model,
 )
@@ -66,7 +66,8 @@ class GuidedSolver:
             :func:`~modquad_gym.solvers.make_solver` and the command line), in the dives too
             (which otherwise finish, whatever the budget).
         top_k: as for :class:`~.policy.Policy` (the children decided exactly per step;
-            default :data:`~.models.TOP_K`), unless ``model`` is a Policy.
+            default the model's own, :data:`~.models.MODEL_TOP_K`), unless ``model`` is a
+            Policy.
         fallback: as for :class:`~.ppo.PPOSolver`: the dives' (the single pass's) fallback.
         fault: design for that failure (None: none; :meth:`~.policy.Policy.use_fault`):
             every answer is verified to survive it and the bound that certifies is its own.
@@ -86,7 +87,7 @@ class GuidedSolver:
         config: dict | None = None,
         dive: bool = True,
         time_limit: float | None = None,
-        top_k: int | None = TOP_K,
+        top_k: int | str | None = MODEL_TOP_K,
         fallback: float | None = None,
         fault: str | None = None,
         fault_margin: float = 0.0,

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from modquad_gym.core.extras import import_optional
-from modquad_gym.core.validation import NOT_REGULAR, check_flag
+from modquad_gym.core.validation import NOT_REGULAR, check_flag, check_int
 from modquad_gym.search.options import check_seed, check_time_limit, count, share, shares
 
 MODELS_DIR = Path(__file__).resolve().parents[1] / "data" / "models"
@@ -30,7 +30,10 @@ TOP_K = 8
 """Children the learned solvers (``ppo``, ``ppo-guided``) decide exactly per step with a model
 that reads the exact lookahead (the env's ``lookahead_top_k``: the others, ranked lower by cheap
 support bounds, are masked out); their option ``top_k`` (None: every child, as in training).
-Chosen on validation draws: ``results/lookahead_top_k/``."""
+Chosen on validation draws: ``results/lookahead_top_k/``. A model's config.json may set its own
+(:func:`model_top_k`)."""
+MODEL_TOP_K = "model"
+"""The learned solvers' default ``top_k``: the model's own (:func:`model_top_k`)."""
 FALLBACK = 0.7
 """At budgets of :data:`SCALE_FROM` modules and more, the ``ppo`` single pass docks greedy's
 choice (the exact lookahead's flag) wherever the policy gives its own most likely docking at most
@@ -64,6 +67,25 @@ QUEUE_MEMORY = 128 * 2**20
 state stays while a child of it waits): at 128 modules with three types a state takes 0.67 MB."""
 
 
+def check_top_k(value: Any, name: str) -> Any:
+    """A learned solver's ``top_k``: an integer >= 1, or :data:`MODEL_TOP_K` (the model's own)."""
+    if isinstance(value, str) and value == MODEL_TOP_K:
+        return value
+    return check_int(value, name, low=1)
+
+
+def model_top_k(config: dict, where: str = "config") -> int | None:
+    """The shortlist the learned solvers use by default with the model of ``config``: its
+    ``top_k`` (an integer >= 1, or None: every child) where it has one, else :data:`TOP_K`.
+    A model's own is chosen on its tier's validation tasks: the mixed tier's three module types
+    give many more children per state than one type (``results/lookahead_top_k_mixed/``).
+    ValueError naming ``where`` (``<folder>/config.json``) for another value."""
+    if "top_k" not in config:
+        return TOP_K
+    value = config["top_k"]
+    return None if value is None else check_int(value, f"{where}: top_k", low=1)
+
+
 def check_model(value: Any, name: str) -> Any:
     """A learned method's ``model``: a path (str or Path) of a PPO .zip, a loaded
     :class:`~modquad_gym.policy.Policy`, or a loaded SB3 model or policy network; else a
@@ -84,7 +106,7 @@ the documented runs take 8."""
 
 LEARNED_CHECKS = {
     "model": check_model, "seed": check_seed, "samples": count(0, MAX_SAMPLES),
-    "time_limit": check_time_limit, "top_k": count(1), "fallback": share,
+    "time_limit": check_time_limit, "top_k": check_top_k, "fallback": share,
     "extra_fallbacks": shares, "budget": count(1), "branching": count(1), "dive": check_flag,
     "trust_model": check_flag,
 }  # fmt: skip

@@ -28,10 +28,12 @@ from modquad_gym.policy.models import (
     EXTRA_FALLBACKS,
     FALLBACK,
     LEARNED_CHECKS,
+    MODEL_TOP_K,
     SCALE_FROM,
     check_learned,
     default_model,
     model_file,
+    model_top_k,
     one_torch_thread,
     read_model,
 )
@@ -75,8 +77,9 @@ class Policy:
             None: the trained one.
         config: the model's config when ``model`` is a loaded model.
         top_k: with a model that reads the exact lookahead, the children decided exactly per
-            step (the env's ``lookahead_top_k``); None (default): all, as in training. The
-            learned solvers pass :data:`~.models.TOP_K`.
+            step (the env's ``lookahead_top_k``); None (default): all, as in training;
+            :data:`~.models.MODEL_TOP_K` (the learned solvers' default): the model's own
+            (:func:`~.models.model_top_k`: its config's ``top_k``, else :data:`~.models.TOP_K`).
         trust_model: read a model .zip that only unpickling reads (True only for a file the
             user trusts: unpickling runs code from it; :func:`~.models.read_model`).
 
@@ -122,6 +125,8 @@ class Policy:
         if self.size_free:  # the environment of the budget asked for (at least 2 modules)
             kwargs["n_max"] = max(self.n_max, 2)
         kwargs.pop("lookahead_top_k", None)
+        if top_k == MODEL_TOP_K:
+            top_k = model_top_k(config or {}, where)
         if kwargs.get("lookahead") == "exact" and top_k is not None:
             kwargs["lookahead_top_k"] = top_k
         self.build(kwargs)

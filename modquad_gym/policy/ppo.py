@@ -21,7 +21,13 @@ import numpy as np
 
 from modquad_gym.core.compile_clock import compile_seconds, now
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.policy.models import EXTRA_FROM, LEARNED_CHECKS, TOP_K, check_learned, unused_seed
+from modquad_gym.policy.models import (
+    EXTRA_FROM,
+    LEARNED_CHECKS,
+    MODEL_TOP_K,
+    check_learned,
+    unused_seed,
+)
 from modquad_gym.policy.policy import (
     Policy,
     env_kwargs_of,
@@ -54,7 +60,8 @@ class PPOSolver:
             :func:`~modquad_gym.solvers.make_solver` and the command line give 60 s unless
             told otherwise).
         top_k: as for :class:`~.policy.Policy` (the children decided exactly per step;
-            default :data:`~.models.TOP_K`), unless ``model`` is a Policy.
+            default the model's own, :data:`~.models.MODEL_TOP_K`), unless ``model`` is a
+            Policy.
         fallback: the deterministic rollout docks greedy's choice where the policy gives its
             own at most this probability (:meth:`~.policy.Policy.decide`; 0: never). None
             (default): :data:`~.models.FALLBACK` at budgets of :data:`~.models.SCALE_FROM`
@@ -84,7 +91,7 @@ class PPOSolver:
         samples: int = 0,
         config: dict | None = None,
         time_limit: float | None = None,
-        top_k: int | None = TOP_K,
+        top_k: int | str | None = MODEL_TOP_K,
         fallback: float | None = None,
         extra_fallbacks: Any = None,
         fault: str | None = None,
