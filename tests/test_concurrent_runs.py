@@ -334,17 +334,10 @@ def test_an_export_file_that_appears_during_the_search_is_refused_in_the_command
 def test_an_embedded_ray_leaves_no_session_folder(monkeypatch):
     """``--workers N`` starts a Ray of its own: its ``session_<date>_<pid>`` folder (logs,
     sockets; ~200 KB) is removed once Ray has shut down (180 of them had piled up in /tmp/ray)."""
-    ray = pytest.importorskip("ray")
+    pytest.importorskip("ray")
     from modquad_gym.core.distributed import Engine
 
-    sessions, real = [], ray.init
-
-    def init(*args, **kwargs):
-        context = real(*args, **kwargs)
-        sessions.append(Path(context.address_info["session_dir"]))
-        return context
-
-    monkeypatch.setattr(ray, "init", init)
+    sessions = _session_of_each_init(monkeypatch)
     with Engine(2) as engine:
         assert engine.map(abs, [-1, -2, -3]) == [1, 2, 3]
         (session,) = sessions

@@ -230,14 +230,14 @@ def test_export_takes_structures_up_to_the_searches_limit(tmp_path, capsys):
 def test_f_max_is_checked_alike_everywhere(tmp_path, capsys, argv, value):
     out = tmp_path / "x.json"
     code, _, err = run_main(capsys, *argv, f"--f-max={value}", "--out", str(out))
-    words = "outside 1e-300..1e300" if value.startswith("1e") else "must be positive"
+    words = "outside 1e-300..1e12" if value.startswith("1e") else "must be positive"
     assert_rejected(code, err, "--f-max", words)
     assert not out.exists()
 
 
 def test_export_at_the_largest_f_max_says_a_short_ratio(tmp_path, capsys):
     out = tmp_path / "x.json"
-    argv = ["export", "--cells", "[[0,0]]", "--f-max", "1e300", "--out", str(out)]
+    argv = ["export", "--cells", "[[0,0]]", "--f-max", "1e12", "--out", str(out)]
     code, said, err = run_main(capsys, *argv)
     assert code == 0, err
-    assert "thrust-to-weight 9.61e+299" in said and max(map(len, said.splitlines())) < 200
+    assert "thrust-to-weight 9.61e+11" in said and max(map(len, said.splitlines())) < 200

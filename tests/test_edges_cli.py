@@ -32,7 +32,7 @@ import modquad_gym as mq
 from benchmarks.common import run_script
 from modquad_gym import cli
 from modquad_gym import dynamics as dy
-from modquad_gym.core import outputs
+from modquad_gym.core import atomic_files, outputs
 
 ROOT = Path(__file__).resolve().parents[1]
 SCREWDRIVER = str(ROOT / "examples" / "screwdriver.json")
@@ -653,7 +653,7 @@ DISK_WRITERS = {
 @pytest.mark.parametrize("name", sorted(DISK_WRITERS))
 def test_a_full_disk_names_the_output(tmp_path, capsys, monkeypatch, name):
     """'No space left on device' without a file name before: now the output it was writing."""
-    _full_disk(outputs, monkeypatch, "replace")
+    _full_disk(atomic_files, monkeypatch, "replace")
     argv = _argv(DISK_WRITERS[name], tmp_path / "out")
     target = next(a for a in argv if a.startswith(str(tmp_path)))
     code, _, err = run_main(capsys, *argv)
