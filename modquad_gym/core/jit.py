@@ -1,8 +1,8 @@
 """The package's kernel decorator: numba's ``njit``, with the compile clock running.
 
-Every kernel module imports ``njit`` from here, so that :mod:`.compile_clock` hears of every
-compilation numba makes in this process (its ``numba:compile`` event, on a cache miss only)
-before the first kernel compiles.
+Every kernel module imports ``njit`` from here, so that the listener below is registered before
+the first kernel compiles: it tells :mod:`.compile_clock` of each compilation of one of this
+package's kernels (numba's ``numba:compile`` event, on a cache miss only).
 """
 
 from __future__ import annotations
