@@ -143,10 +143,15 @@ def separation(a, w, d, f_max: float, off=None, size=None) -> np.ndarray:
     w's terms (:func:`wrenches`), which the tolerance scales with (default w itself)."""
     plus = support_terms(np.einsum("lkq,lq->lk", a, d))
     plus = plus if off is None else np.where(off, 0.0, plus)
-    w_size = np.linalg.norm(w if size is None else size, axis=1)
-    scale = w_size + f_max * np.linalg.norm(a, axis=2).sum(axis=1)
-    tol = SEPARATION_TOL * np.linalg.norm(d, axis=1) * scale
+    tol = separation_tolerance(a, w if size is None else size, d, f_max)
     return np.einsum("lq,lq->l", d, w) - f_max * plus.sum(axis=1) - tol
+
+
+def separation_tolerance(a, size, d, f_max: float) -> np.ndarray:
+    """SEPARATION_TOL |d| (|s| + f_max sum_k |a_k|): columns ``a`` (..., m, 6), wrench term
+    magnitudes ``size`` (..., 6), directions ``d`` (..., 6), broadcast together."""
+    scale = np.linalg.norm(size, axis=-1) + f_max * np.linalg.norm(a, axis=-1).sum(axis=-1)
+    return SEPARATION_TOL * np.linalg.norm(d, axis=-1) * scale
 
 
 def support_terms(da: np.ndarray) -> np.ndarray:

@@ -90,12 +90,6 @@ def own_directions(w: np.ndarray, centred: np.ndarray, Q: np.ndarray) -> list[np
     return out
 
 
-def tolerance(a, size, d, f_max) -> np.ndarray:
-    """The checker's separation tolerance (``size``: the wrenches' term magnitudes)."""
-    scale = np.linalg.norm(size, axis=1) + f_max * np.linalg.norm(a, axis=2).sum(axis=1)
-    return pc.SEPARATION_TOL * np.linalg.norm(d) * scale
-
-
 def too_close(what: str, wrench: int, excess: float, strict: float) -> str:
     """Why no direction tried separates ``what`` (a structure, maybe after a failure) from
     the task's ``wrench`` (0-based, named 1-based), which it reaches only with thrusts

@@ -284,7 +284,7 @@ class _Prover:
         i = values.argmax(axis=1)
         w, size = W[idx, i], S[idx, i]
         margin = pc.separation(a[idx], w, np.broadcast_to(d, w.shape), self.f_max, size=size)
-        tol = separations.tolerance(a[idx], size, d, self.f_max)
+        tol = pc.separation_tolerance(a[idx], size, d, self.f_max)
         hit = margin > (STRICT - 1.0) * tol
         P[idx[hit]], I[idx[hit]] = p, i[hit]
         alive[idx[hit]] = False
@@ -335,8 +335,7 @@ class _Prover:
         h = self.f_max * (plus.sum(axis=1)[:, None] - plus @ offs.T)  # (P, F)
         values = D @ W.T  # (P, t)
         best = values.argmax(axis=1)
-        scale = np.linalg.norm(S[best], axis=1) + self.f_max * np.linalg.norm(a, axis=1).sum()
-        tol = pc.SEPARATION_TOL * np.linalg.norm(D, axis=1) * scale
+        tol = pc.separation_tolerance(a, S[best], D, self.f_max)
         margin = values.max(axis=1)[:, None] - h - STRICT * tol[:, None]  # (P, F)
         p, f = np.unravel_index(int(np.argmax(margin)), margin.shape)
         if margin[p, f] <= 0:
