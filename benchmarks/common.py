@@ -202,15 +202,14 @@ def bench_args(
     out_help: str = "report folder",
     force: bool = False,
     outputs: tuple[str, ...] = (),
-    hold: bool = True,
     **parser_kwargs,
 ) -> argparse.Namespace:
     """The parsed options of one benchmark: ``options`` maps each flag to its
     ``add_argument`` keywords; every benchmark also takes ``--seed`` (unless ``seed_help`` is
-    None), ``--out`` (default ``out``; held for the run, :func:`hold_out`, unless ``hold`` is
-    False: a script that claims it itself) and, with ``force`` or ``outputs`` (the files it
-    writes into ``--out``, refused when they exist), ``--force``; ``--help`` states every
-    default (:class:`HelpFormatter`)."""
+    None), ``--out`` (default ``out``; held for the run, :func:`hold_out`; a script may also
+    claim it inside that hold, :func:`~modquad_gym.core.outputs.claim_output_dir`) and, with
+    ``force`` or ``outputs`` (the files it writes into ``--out``, refused when they exist),
+    ``--force``; ``--help`` states every default (:class:`HelpFormatter`)."""
     parser_kwargs.setdefault("formatter_class", HelpFormatter)
     parser = argparse.ArgumentParser(prog=prog, description=description, **parser_kwargs)
     for flag, kwargs in options.items():
@@ -222,7 +221,7 @@ def bench_args(
     )
     if force or outputs:
         add_force(parser)
-    return parse_bench_args(parser, argv, outputs, hold)
+    return parse_bench_args(parser, argv, outputs)
 
 
 def add_force(parser: argparse.ArgumentParser) -> None:
@@ -235,18 +234,17 @@ def parse_bench_args(
     parser: argparse.ArgumentParser,
     argv: list[str] | None,
     outputs: tuple[str, ...] = (),
-    hold: bool = True,
 ):
     """Parse ``argv``; when the benchmark has ``--out``, check that it is (or can become) a
     writable folder holding none of ``outputs`` (unless ``--force``) and that no other run
-    holds it, and hold it for this run (:func:`hold_out`; only checked without ``hold``),
-    before any work starts (an argparse error otherwise)."""
+    holds it, and hold it for this run (:func:`hold_out`), before any work starts (an
+    argparse error otherwise)."""
     args = parser.parse_args(argv)
     out = getattr(args, "out", None)
     if out is not None:
         force = getattr(args, "force", False)
         try:
-            hold_out(out, outputs, force) if hold else check_output_dir(out, outputs, force)
+            hold_out(out, outputs, force)
         except OutputError as exc:
             parser.error(str(exc))
     return args

@@ -195,7 +195,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     args = bench_args(argv, "python -m benchmarks.prune", "Each constructive method with and "
                       "without the prune post-pass on the scale tasks; write results/prune/.",
                       options, seed_help="seed of the seeded methods (default 0)",
-                      out="results/prune", outputs=OUTPUTS, hold=False)  # fmt: skip
+                      out="results/prune", outputs=OUTPUTS)  # fmt: skip
     args.base_methods = list(dict.fromkeys(args.methods))
     args.methods = [n for m in args.base_methods for n in (m, f"{m}+prune")]
     args.model, args.workers = None, cap_workers(args.workers)

@@ -313,7 +313,6 @@ def main(argv: list[str] | None = None) -> None:
         seed_help="seed of the seeded methods (default 0)",
         out="results/scale",
         outputs=OUTPUTS,
-        hold=False,  # main claims --out (claim_output_dir): its rows are recorded
     )
     from modquad_gym.solvers import METHODS as KNOWN
 
