@@ -77,6 +77,20 @@ def test_the_seed_reaches_the_one_constructor_call_of_every_door(agents, suite, 
     assert agents.MADE == [3, 3, 5]
 
 
+def test_a_worker_offers_the_seed_to_an_outside_agent_and_asks_the_loaded_one(agents):
+    """The solvers a worker makes (``_made``: the agents not made beforehand) tell an outside
+    agent the run's seed; ``--seed``'s check asks the loaded agent whether its constructor took
+    it, and a registered method whether it draws at random: the one question, ``takes_seed``."""
+    from modquad_gym.scoring.agents import _solvers, takes_seed
+
+    spec = f"{MODULE}:Seeded"
+    agents.MADE.clear()
+    solvers = _solvers(("random", spec), 3, None, 11, None)
+    assert agents.MADE == [11] and solvers["random"].settings.seed == 11
+    assert takes_seed(spec, {spec: solvers[spec]}) and takes_seed(spec)
+    assert not takes_seed("greedy") and takes_seed("random")
+
+
 def test_the_leaderboard_makes_the_agent_once_per_tier_and_seed(agents, monkeypatch):
     from benchmarks import leaderboard_scoring
     from modquad_gym.scoring import agents as benchmark

@@ -139,9 +139,8 @@ def _made(
     solvers, seconds = {}, {}
     options = (("model", model), ("seed", seed), ("tier", tier), ("trust_model", trust or None))
     for m in methods:
-        takes = ("seed", "tier") if ":" in m else method_of(m)[0].options.names()
-        if ":" not in m and not draws_at_random(m):  # ppo without samples: it draws nothing
-            takes = tuple(k for k in takes if k != "seed")
+        takes = {"tier"} if ":" in m else set(method_of(m)[0].options.names())
+        takes = takes | {"seed"} if takes_seed(m) else takes - {"seed"}  # not ppo's one pass
         given = {k: v for k, v in options if k in takes and v is not None}
         t0 = time.perf_counter()
         with model_named("--model"):  # the command line's name of a model file that is not one
@@ -303,12 +302,16 @@ def check_used_options(args: argparse.Namespace, methods: list[str], model: Path
         )
 
 
-def takes_seed(method: str, agents: dict) -> bool:
-    """Is ``method`` told the run's seed: a registered method that takes ``seed``, or an
-    outside agent (loaded in ``agents``) whose constructor does?"""
-    if ":" in method:
-        return agents[method].takes_seed
-    return draws_at_random(method)
+def takes_seed(method: str, agents: dict | None = None) -> bool:
+    """Is ``method`` told the run's seed: a registered method that draws at random
+    (:func:`~modquad_gym.solvers.factory.draws_at_random`: ppo only with sampled rollouts), or
+    an outside agent whose constructor takes ``seed`` (``agents``: the outside agents loaded;
+    None before they are, when every outside agent is offered the seed, which
+    :func:`~modquad_gym.solvers.outside.load_solver` passes only to a constructor that takes
+    it). :func:`_made` and ``--seed``'s check both ask here."""
+    if ":" not in method:
+        return draws_at_random(method)
+    return agents is None or agents[method].takes_seed
 
 
 def main(argv: list[str] | None = None, prog: str = COMMAND) -> int:
