@@ -106,3 +106,24 @@ def test_every_file_validate_writes_is_refused_without_force(
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and name in err and "--force" in err, err
         assert (out / name).read_text() == "USERDATA" and _written(out) == {name}
+
+
+def test_report_md_is_written_once_with_the_command_that_made_it(tmp_path, capsys, monkeypatch):
+    """``report.md`` is written once, whole: the "Made by" line under its title comes with it,
+    not from a second pass that reads and rewrites the file."""
+    from modquad_gym.core import atomic_files
+
+    writes: list[Path] = []
+    real = atomic_files.atomic_write
+
+    def counted(path, write):
+        writes.append(Path(path))
+        return real(path, write)
+
+    monkeypatch.setattr(atomic_files, "atomic_write", counted)
+    out = tmp_path / "out"
+    argv = ["validate", "--task", str(_static_task(tmp_path)), "--method", "exhaustive",
+            "--max-hover-wrenches", "1", "--hover-seconds", "0.2", "--out", str(out)]  # fmt: skip
+    assert main(argv) == 0
+    assert writes.count(out / "report.md") == 1, writes
+    assert (out / "report.md").read_text().splitlines()[2] == f"Made by `modquad {' '.join(argv)}`."

@@ -110,8 +110,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
     require("mujoco", "matplotlib")  # the [sim] extra, before any work or output
 
-    from modquad_gym.core.outputs import check_output_dir, claim_output_dir
+    from modquad_gym.core.outputs import check_output_dir
     from modquad_gym.sim.hover_options import CLI_NAMES, checked_hover  # Python's checks
+    from modquad_gym.sim.validate import hold_out_dir  # Python's hold
 
     fault.check_fault_options(args)
     most = None if args.all_wrenches else args.max_hover_wrenches
@@ -152,9 +153,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         f"(~{estimate:.0f} s here){fault.search_seconds_text(args)}",
         file=sys.stderr,
     )
-    with claim_output_dir(args.out, names, force=args.force) as claim:  # a second run: refused
-        for name in names:  # in the folder's manifest at once: a later --force removes them
-            claim.path(name)
+    with hold_out_dir(args.out, names, args.force, "--out"):  # a second run: refused at once
         return solve_and_fly(args, task, k, args.load_ramp_seconds, n_hover)
 
 
@@ -202,8 +201,8 @@ def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float | N
 
         report = validate_trajectory(result.structure, task, out_dir=args.out,
                                      max_bench_wrenches=n_hover, hover_seconds=args.hover_seconds,
-                                     unknown_load=not args.known_load_only,
-                                     force=args.force, progress=not args.quiet)  # fmt: skip
+                                     unknown_load=not args.known_load_only, force=args.force,
+                                     progress=not args.quiet, command=made_by(args))  # fmt: skip
         report = with_lift(report, result.structure, task.f_max)
         return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
     report = validate(
@@ -217,6 +216,7 @@ def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float | N
         load_ramp_seconds=ramp,
         force=args.force,
         progress=not args.quiet,
+        command=made_by(args),
     ).to_dict()
     report = with_lift(report, result.structure, task.f_max)
     return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
@@ -238,7 +238,6 @@ def with_lift(report: dict, structure, f_max: float) -> dict:
 def show(args: argparse.Namespace, report: dict) -> int:
     """Print the validation record: one JSON object with ``--json``, else a short summary
     (:func:`summary_lines`; every number is in ``validation.json`` and ``report.md``)."""
-    name_command(args, report)
     if args.json:  # JSON: a number with no finite value (unlimited headroom) is null
         from modquad_gym.core.outputs import json_ready
 
@@ -248,19 +247,15 @@ def show(args: argparse.Namespace, report: dict) -> int:
     return 0
 
 
-def name_command(args: argparse.Namespace, report: dict) -> None:
-    """``report.md`` names the command that made it, as run, under its title (as every report
-    under results/ does)."""
+def made_by(args: argparse.Namespace) -> str | None:
+    """The command as run (None where it was not typed), which ``report.md`` names under its
+    title (as every report under results/ does)."""
     import shlex
-    from pathlib import Path
 
     from modquad_gym.cli.score import ARGV
-    from modquad_gym.core.outputs import write_text
 
-    typed, path = getattr(args, ARGV, None), (report.get("files") or {}).get("report")
-    if typed is not None and path is not None:
-        title, _, rest = Path(path).read_text().partition("\n")
-        write_text(path, f"{title}\n\nMade by `{shlex.join(['modquad', *typed])}`.\n{rest}")
+    typed = getattr(args, ARGV, None)
+    return None if typed is None else shlex.join(["modquad", *typed])
 
 
 def _length(metres) -> str:

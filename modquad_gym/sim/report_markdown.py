@@ -209,10 +209,14 @@ def markdown(
     blind: HoverResult | None,
     settle_fraction: float,
     infeasible_scale: float,
+    command: str | None = None,
 ) -> str:
-    """``report.md``: the structure, the bench, both hovers, segments, demo and pictures."""
+    """``report.md``: the structure, the bench, both hovers, segments, demo and pictures; under
+    the title the ``command`` that made it (none for None), as every report under results/."""
     out = report.to_dict()
     lines = _structure_lines(structure_text, out) + _bench_lines(out)
+    if command is not None:
+        lines[1:1] = ["", f"Made by `{command}`."]
     lines += _hover_table(out, settle_fraction, blind is not None)
     lines += _hover_text(out, blind is not None)
     lines += _segment_table(hover, blind)

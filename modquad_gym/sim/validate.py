@@ -44,6 +44,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is first imported: he
 
 import json  # noqa: E402
 import math  # noqa: E402
+from collections.abc import Iterator  # noqa: E402
+from contextlib import contextmanager  # noqa: E402
 from dataclasses import dataclass, replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
@@ -51,7 +53,7 @@ from typing import Any  # noqa: E402
 import numpy as np  # noqa: E402
 
 from modquad_gym.core.extras import require  # noqa: E402
-from modquad_gym.core.outputs import check_output_dir, write_text  # noqa: E402
+from modquad_gym.core.outputs import claim_output_dir, write_text  # noqa: E402
 from modquad_gym.core.validation import (  # noqa: E402
     check_f_max,  # noqa: E402
     check_flag,
@@ -116,8 +118,8 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
              include_infeasible_demo: bool = False,
              max_hover_wrenches: int | None = DEFAULT_HOVER_WRENCHES, unknown_load: bool = True,
              load_frame: str = "world", load_ramp_seconds: float | None = None,
-             kind: str | None = None, force: bool = False,
-             progress: bool = False) -> ValidationReport:  # fmt: skip
+             kind: str | None = None, force: bool = False, progress: bool = False,
+             command: str | None = None) -> ValidationReport:  # fmt: skip
     """Bench and hover ``structure`` on ``task_wrenches``; write pictures and a report.
 
     For a task of ``kind`` ``external`` the wrenches are those applied to the environment: the
@@ -134,7 +136,8 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
             rotors must produce, its ``f_max`` and kind apply unless given here.
         f_max: rotor thrust limit in N (default the task's).
         out_dir: where to write the pictures, ``report.md`` and ``validation.json`` (None:
-            nowhere); checked first (:func:`check_out_dir`): files replaced only with ``force``.
+            nowhere); held for the call, before any simulation, as ``modquad validate --out``
+            is (:func:`hold_out_dir`: files replaced only with ``force``; no second process).
         hover_seconds: simulated seconds per task wrench in the hover, 0.05 to 60.
         render: write ``structure.png`` (MuJoCo render, matplotlib fallback).
         include_infeasible_demo: also hover on the task wrench with the least margin, scaled to
@@ -152,6 +155,8 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
             0.7``; the ramp used is returned as ``hover_unknown_load_ramp_seconds``.
         progress: show a bar over the hovers' simulated seconds on stderr (``modquad
             validate`` does, unless ``--quiet``).
+        command: the command that made the validation, named under ``report.md``'s title
+            (``Made by `command`.``; ``modquad validate`` gives its own); None: no such line.
 
     Returns:
         A :class:`~modquad_gym.sim.report.ValidationReport`; its ``to_dict()`` is the JSON
@@ -170,22 +175,23 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
     hover_seconds, ramp, most = checked_hover(hover_seconds, load_ramp_seconds, max_hover_wrenches)
     progress = check_flag(progress, "progress")
     task, W, f_max = _checked(structure, task, f_max, kind, unknown_load, ramp)
-    out_dir = check_out_dir(out_dir, force, unknown_load, include_infeasible_demo, render)
-    A = np.array(structure.configuration_matrix())
-    feas = np.asarray(feasible(A, W, f_max), dtype=bool)
-    marg = margin(A, W, f_max)
-    exact, pinv = _bench(structure, W, f_max)
-    fly_sim = build_model(structure, f_max, bench=False)
-    fields = {**_structure_fields(structure, A, W, f_max, feas, marg, fly_sim.mass, task.kind),
-              **_bench_fields(exact, pinv)}  # fmt: skip
-    config = HoverConfig(
-        seconds_per_wrench=hover_seconds, load_frame=load_frame, settle_fraction=SETTLE_FRACTION
-    )
-    flights = Flights(hover_wrench_sample(marg, most), ramp if unknown_load else None,
-                      int(np.argmin(marg)) if include_infeasible_demo else None)  # fmt: skip
-    report, runs = _fly(fields, fly_sim, (A, W, f_max, feas), config, flights, progress)
-    if out_dir is not None:
-        _write(out_dir, report, structure, fly_sim, exact, pinv, runs, render)
+    names = output_names(unknown_load, include_infeasible_demo, render)
+    with hold_out_dir(out_dir, names, force) as out_dir:  # before any simulation
+        A = np.array(structure.configuration_matrix())
+        feas = np.asarray(feasible(A, W, f_max), dtype=bool)
+        marg = margin(A, W, f_max)
+        exact, pinv = _bench(structure, W, f_max)
+        fly_sim = build_model(structure, f_max, bench=False)
+        fields = {**_structure_fields(structure, A, W, f_max, feas, marg, fly_sim.mass,
+                                      task.kind), **_bench_fields(exact, pinv)}  # fmt: skip
+        config = HoverConfig(seconds_per_wrench=hover_seconds, load_frame=load_frame,
+                             settle_fraction=SETTLE_FRACTION)  # fmt: skip
+        flights = Flights(hover_wrench_sample(marg, most), ramp if unknown_load else None,
+                          int(np.argmin(marg)) if include_infeasible_demo else None)  # fmt: skip
+        report, runs = _fly(fields, fly_sim, (A, W, f_max, feas), config, flights, progress)
+        if out_dir is not None:
+            text = (structure.to_text(), command)
+            _write(out_dir, report, text, (fly_sim, exact, pinv), runs, render)
     return report
 
 
@@ -349,22 +355,30 @@ def output_names(
     )
 
 
-def check_out_dir(out_dir: str | Path | None, force: bool, unknown_load: bool = True,
-                  include_infeasible_demo: bool = False, render: bool = True,
-                  extra: tuple[str, ...] = ()) -> Path | None:  # fmt: skip
-    """``out_dir`` as a Path (None stays None), checked before any simulation as
-    :func:`~modquad_gym.core.outputs.check_output_dir` checks a folder: a file there of a name
-    the call writes (:func:`output_names` with these options, and ``extra``) is an OutputError
-    unless ``force``, and so is an ``out_dir`` that is a file or takes no file."""
+@contextmanager
+def hold_out_dir(out_dir: str | Path | None, names: tuple[str, ...], force: bool,
+                 what: str = "out_dir") -> Iterator[Path | None]:  # fmt: skip
+    """Hold ``out_dir`` for one validation, as both doors (:func:`validate` and ``modquad
+    validate --out``, ``what`` naming it) hold it, before any simulation: a file there of one of
+    ``names`` (what the run writes) is an OutputError unless ``force``, and so is a folder that
+    is a file or takes no file, or that another process is writing (its lock held:
+    :func:`~modquad_gym.core.outputs.claim_output_dir`; a hold this process has is granted
+    again). ``names`` go into the folder's manifest at once, so that a later ``force`` removes
+    them. Yields the folder (None for None: nothing held)."""
     if out_dir is None:
-        return None
-    names = output_names(unknown_load, include_infeasible_demo, render) + tuple(extra)
-    return check_output_dir(out_dir, names, check_flag(force, "force"), "out_dir")
+        yield None
+        return
+    with claim_output_dir(out_dir, names, check_flag(force, "force"), what) as claim:
+        for name in names:
+            claim.path(name)
+        yield claim.folder
 
 
-def _write(d: Path, report, structure, fly_sim, exact, pinv, runs: dict, render: bool) -> None:
-    """Pictures, ``report.md`` and ``validation.json`` into ``d`` (paths in ``report.files``)."""
-    d.mkdir(parents=True, exist_ok=True)
+def _write(d: Path, report, text: tuple, sims: tuple, runs: dict, render: bool) -> None:
+    """Pictures, ``report.md`` (``text``: the structure's drawing and the command that made it,
+    or None) and ``validation.json`` into ``d`` (paths in ``report.files``); ``sims``: the hover's
+    model and the bench's two results. Each file written once."""
+    fly_sim, exact, pinv = sims
     files = report.files
     for name, plot in zip(BENCH_FILES, (plot_rotor_inputs, plot_bench_wrench)):
         plot([exact, pinv], d / name)
@@ -377,13 +391,8 @@ def _write(d: Path, report, structure, fly_sim, exact, pinv, runs: dict, render:
         report.render_backend = render_structure(fly_sim, d / RENDER_FILE)
         files["structure"] = str(d / RENDER_FILE)
     files["report"], files["json"] = (str(d / name) for name in REPORT_FILES)
-    text = markdown(
-        report,
-        structure.to_text(),
-        runs["hover"],
-        runs["hover_unknown_load"],
-        SETTLE_FRACTION,
-        INFEASIBLE_SCALE,
-    )
-    write_text(d / REPORT_FILES[0], text)
+    drawing, command = text
+    page = markdown(report, drawing, runs["hover"], runs["hover_unknown_load"], SETTLE_FRACTION,
+                    INFEASIBLE_SCALE, command)  # fmt: skip
+    write_text(d / REPORT_FILES[0], page)
     write_text(d / REPORT_FILES[1], json.dumps(report.to_dict(), indent=2) + "\n")

@@ -12,6 +12,7 @@ a section of ``report.md``.
 
 from __future__ import annotations
 
+import importlib
 import json
 from pathlib import Path
 
@@ -51,35 +52,39 @@ def validate_trajectory(
     config: TrackConfig | None = None,
     force: bool = False,
     progress: bool = False,
+    command: str | None = None,
 ) -> dict:
     """Bench, hover and fly ``structure`` on the dynamic ``task`` (module docstring); the JSON
     record of :func:`.validate.validate` (``task_kind`` ``"dynamic"``) plus the ``track_*``
-    keys, ``mass_with_payload_kg`` and the pictures in ``files``. ``out_dir`` is checked as
-    :func:`.validate.validate` checks it (with the flight's pictures), before any simulation;
-    ``force`` replaces the files this call writes there; ``progress`` shows the hovers' bar
-    on stderr, as :func:`.validate.validate` does."""
-    from modquad_gym.sim.validate import check_out_dir, validate  # the module's, at the call
+    keys, ``mass_with_payload_kg`` and the pictures in ``files``. ``out_dir`` is held for the
+    whole call as :func:`.validate.validate` holds it (with the flight's pictures), before any
+    simulation; ``force`` replaces the files this call writes there; ``progress`` shows the
+    hovers' bar on stderr and ``command`` names the command in ``report.md``, as
+    :func:`.validate.validate`'s do."""
+    door = importlib.import_module("modquad_gym.sim.validate")  # its functions, at the call
 
     task = as_dynamic(task)  # a ValueError naming the type of anything else
     pictures = TRACK_FILES if render else TRACK_FILES[:2]  # the animation is a render
-    out_dir = check_out_dir(out_dir, force, unknown_load, render=render, extra=pictures)
-    W = task.rotor_wrenches(structure)
-    A = np.array(structure.configuration_matrix())
-    rows = bench_sample(W, A, task.f_max, max_bench_wrenches)
-    report = validate(structure, W[rows], f_max=task.f_max, out_dir=out_dir,
-                      hover_seconds=hover_seconds, render=render, unknown_load=unknown_load,
-                      max_hover_wrenches=len(rows), force=force, progress=progress)  # fmt: skip
-    flight = fly_trajectory(structure, task, config)
-    record = report.to_dict()
-    record["task_kind"] = "dynamic"
-    record["bench_rows"] = [int(i) for i in rows]
-    payload = task.payload.mass if task.payload is not None else 0.0
-    record["mass_with_payload_kg"] = structure.mass + payload
-    record["min_margin_trajectory"] = finite_or_none(margin(A, W, task.f_max).min())
-    record["trajectory_samples"] = task.n_wrenches
-    record = json_ready(record | flight.summary())
-    if out_dir is not None:
-        _write(Path(out_dir), record, structure, task, flight, render)
+    names = door.output_names(unknown_load, render=render) + pictures
+    with door.hold_out_dir(out_dir, names, force) as out_dir:  # before any simulation
+        W = task.rotor_wrenches(structure)
+        A = np.array(structure.configuration_matrix())
+        rows = bench_sample(W, A, task.f_max, max_bench_wrenches)
+        report = door.validate(structure, W[rows], f_max=task.f_max, out_dir=out_dir,
+                               hover_seconds=hover_seconds, render=render,
+                               unknown_load=unknown_load, max_hover_wrenches=len(rows),
+                               force=force, progress=progress, command=command)  # fmt: skip
+        flight = fly_trajectory(structure, task, config)
+        record = report.to_dict()
+        record["task_kind"] = "dynamic"
+        record["bench_rows"] = [int(i) for i in rows]
+        payload = task.payload.mass if task.payload is not None else 0.0
+        record["mass_with_payload_kg"] = structure.mass + payload
+        record["min_margin_trajectory"] = finite_or_none(margin(A, W, task.f_max).min())
+        record["trajectory_samples"] = task.n_wrenches
+        record = json_ready(record | flight.summary())
+        if out_dir is not None:
+            _write(out_dir, record, structure, task, flight, render)
     return record
 
 
