@@ -168,6 +168,26 @@ def test_whole_number_floats_and_one_element_arrays_are_that_action():
         assert got[-1]["cells"] == [[0, 0], [1, 0]] and not got[-1]["invalid_action"]
 
 
+def test_a_masked_element_holds_no_action_and_an_unmasked_array_is_its_value():
+    """A ``numpy.ma`` array with a masked element is an invalid action (np.asarray would drop
+    the mask and dock at the hidden value); a masked array with nothing masked is its value."""
+    right = small_env().action_of((1, 0))  # valid at reset: the hidden value would dock
+    masked = (np.ma.array([right], mask=[True]), np.ma.array(right, mask=True))
+    masked += (np.ma.array([[right]], mask=[[True]]), np.ma.array([right], mask=[True])[0])
+    for a in masked:
+        env = small_env()
+        env.reset(seed=2)
+        obs, r, term, trunc, info = env.step(a)
+        assert info["invalid_action"] and not term and info["cells"] == [[0, 0]]
+        assert r == pytest.approx(-env.weights.w_invalid) and obs["occupancy"].sum() == 1
+    env, ref = small_env(), small_env()
+    env.reset(seed=2)
+    ref.reset(seed=2)
+    got = env.step(np.ma.array([right], mask=[False]))
+    assert_same(got, ref.step(right))
+    assert got[-1]["cells"] == [[0, 0], [1, 0]] and not got[-1]["invalid_action"]
+
+
 def test_terminate_mode_ends_the_episode_on_an_invalid_action():
     env = small_env(invalid_action="terminate")
     env.reset(seed=0)

@@ -217,10 +217,13 @@ def check_oracle_method(method: object) -> str:
 
 def parse_action(action: Any, n: int) -> int | None:
     """The integer action in [0, n), or None for anything else (an invalid action): never
-    raises. A whole-number float counts as that integer; a boolean never does."""
+    raises. A whole-number float counts as that integer; a boolean never does, nor a masked
+    array with a masked element (that element holds no value)."""
     if type(action) is int or isinstance(action, np.integer):  # the fast, common case
         return int(action) if 0 <= action < n else None
     if isinstance(action, (bool, np.bool_)):
+        return None
+    if isinstance(action, np.ma.MaskedArray) and np.ma.is_masked(action):
         return None
     try:
         arr = np.asarray(action)
