@@ -248,14 +248,18 @@ def _ids_after(marker: str, text: str) -> set[str]:
 
 
 def test_the_environment_page_lists_the_ids_that_give_the_answer_away():
-    """The ids whose tasks keep a planted structure in ``meta``, and those whose ``task_name``
-    tells planted from random tasks, found by drawing each id's own tasks."""
+    """The ids whose tasks keep a planted structure in ``meta`` (with a fault it is the intact
+    answer, ``intact_*``: not listed), and those whose ``task_name`` tells planted from random
+    tasks, found by drawing each id's own tasks."""
+    from modquad_gym.tasks.planted_meta import fault_meta
+
     planted, telling = set(), set()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)  # Mixed-v0 is superseded
         for env_id in ENV_IDS:
             env = gym.make(env_id).unwrapped
-            tasks = [env.generator(np.random.default_rng(s)) for s in range(12)]
+            drawn = [env.generator(np.random.default_rng(s)) for s in range(12)]
+            tasks = [fault_meta(t, env.fault) for t in drawn]  # as reset holds them
             if any({"planted_cells", "hidden_cells"} & set(t.meta) for t in tasks):
                 planted.add(env_id)
             if len({t.name for t in tasks}) > 1:

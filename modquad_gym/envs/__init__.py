@@ -24,7 +24,9 @@ soon as it is imported (so importing the package loads neither Gymnasium nor num
   benchmark tier.
 * ``ModQuadAssemblyFaultTolerant-v0``: the same with ``fault="rotor"`` and ``n_max=10``: success
   means the structure still exerts every task wrench after any single rotor failure (default
-  tasks, whose rotor-tolerant minimum is usually the intact one or one or two modules more).
+  tasks: a paper-like task's rotor-tolerant minimum is often the intact one, a planted task's
+  more than its planted count). No tolerant structure is planted: with a fault, ``task.meta``
+  names the planted answer ``intact_*`` (:mod:`~modquad_gym.tasks.planted_meta`).
 * ``ModQuadAssemblyScale-v0``: designs at the field's sizes: ``n_max=64``, tasks planted in
   16-64 modules, and the free-faces action encoding (``actions="faces"``,
   :mod:`~modquad_gym.envs.assembly.faces`): one action per free face of the structure (at most

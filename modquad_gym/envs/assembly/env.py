@@ -47,6 +47,7 @@ from modquad_gym.envs.assembly.viewer import RENDER_FPS, AssemblyViewer
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.structure import Cell, Structure
 from modquad_gym.oracle.faults import check_fault, check_fault_margin
+from modquad_gym.tasks.planted_meta import fault_meta
 from modquad_gym.tasks.reserved import warn_reserved
 
 N_MAX_LIMIT = 128  # the searches' limit (grid encoding: 255^2 actions; faces: 258)
@@ -149,7 +150,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
       list of them, or a generator: any callable ``gen(rng) -> TaskRequirement`` (or DynamicTask, or
       (t, 6) wrench array), called with ``self.np_random`` at each reset (another result:
       ValueError); see :func:`modquad_gym.tasks.make_generator`. A named source plants its tasks in
-      at most n_max modules (``ModQuadAssemblyScale-v0`` at n_max=20: 16-20): a solution exists.
+      at most n_max modules (``ModQuadAssemblyScale-v0`` at n_max=20: 16-20): one exists, intact.
     * ``task``: one task instead of ``tasks`` (a task file, ``"example:NAME"``, a
       TaskRequirement or a DynamicTask); a family of tasks or a suite is refused with a
       ValueError that names ``tasks=``.
@@ -178,7 +179,7 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
     * ``n_directions``: K, the support directions of the features (default 48, 12..4096).
     * ``oracle_method``: the oracle's method (default ``"auto"``, exact and certified).
     * ``fault``: None (default), ``"rotor"``, ``"module"``, ``"rotor2"`` or ``"rotor+module"``:
-      a wrench counts only when it survives ANY failure of that kind: success is tolerance.
+      a wrench counts only if it survives ANY such failure (a planted answer: ``intact_*`` keys).
     * ``fault_margin``: with ``fault``, the worst margin a wrench must keep after the failure
       (default 0; :func:`~modquad_gym.oracle.faults.fault_margin`), in [0, 1).
     * ``render_size``: (height, width) of ``rgb_array`` frames, 16..4096 each, default (256, 256).
@@ -359,12 +360,12 @@ class ModQuadAssemblyEnv(ArgumentSpec, gym.Env[dict[str, np.ndarray], np.int64])
         super().reset(seed=seed)
         self._state = self._episode = None
         types = self.module_set.start(options, self.np_random)  # before the task (the seed)
-        task = options["task"]  # a given task, else one drawn
-        if task is None:
+        if (task := options["task"]) is None:  # a given task, else one drawn
             task = draw_task(self.generator, self.np_random, self.module_set)
         f_max = self.f_max if self.f_max is not None else check_env_f_max(task.f_max)
         evaluator = self._evaluator(f_max)
-        memos = self._memos.of(task, f_max)
+        memos = self._memos.of(task, f_max)  # by the source's task: its memos outlive the copy
+        task = fault_meta(task, self.fault)  # with a fault, the planted count bounds nothing
         self._episode = Episode(self.rules, self.encoding, self.module_set, evaluator, *memos)
         arrays = evaluator.task_arrays(task, self.module_set.key(((0, 0),), types))
         self._state = initial_state(self._episode, arrays, types)
