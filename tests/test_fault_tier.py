@@ -82,6 +82,7 @@ def test_the_shipped_suite_is_reproduced_from_its_seeds():
     for shipped, rebuilt in zip(_tasks(2), build_tier_suite(TIER, 2, progress=False), strict=True):
         np.testing.assert_allclose(rebuilt.wrenches, shipped.wrenches, rtol=1e-12, atol=1e-12)
         assert rebuilt.meta["optimum"] == shipped.meta["optimum"]
+        assert set(rebuilt.meta) == set(shipped.meta)  # the same keys (intact_* when planted)
 
 
 def test_the_learned_methods_design_for_the_failure_and_every_answer_survives():
@@ -106,3 +107,27 @@ def test_the_learned_methods_design_for_the_failure_and_every_answer_survives():
         assert r.certified == (r.n_modules == r.lower_bound)
         intact = mq.make_solver("ppo", n_max=TIER.n_max).solve(task)
         assert intact.fault is None and intact.lower_bound <= r.lower_bound
+
+
+def test_the_suites_planted_tasks_name_their_planted_count_intact_not_a_bound():
+    """A planted task's hidden structure answers it intact: under the tier's fault its count is
+    below the certified tolerant optimum, so the suite keeps it as ``intact_*`` only."""
+    tasks = TIER.load_suites()[TIER.suites[0]]
+    planted = [t.meta for t in tasks if "intact_planted_cells" in t.meta]
+    named = [{"optimum_upper_bound", "planted_cells"} & set(t.meta) for t in tasks]
+    assert planted and not any(named)
+    for m in planted:
+        assert m["intact_optimum_upper_bound"] == len(m["intact_planted_cells"])
+    assert any(m["intact_optimum_upper_bound"] < m["optimum"] for m in planted)
+
+
+def test_certifying_with_a_fault_renames_the_planted_answer_and_keeps_the_task():
+    from modquad_gym.scoring.suites import with_optimum
+
+    task = mq.tasks.PlantedTasks(n_modules=2, n_wrenches=8)(np.random.default_rng(3))
+    tolerant, intact = with_optimum(task, 4, fault="rotor"), with_optimum(task, 4)
+    assert intact.meta["optimum_upper_bound"] == 2 and "intact_planted_cells" not in intact.meta
+    assert "optimum_upper_bound" not in tolerant.meta and "planted_cells" not in tolerant.meta
+    assert tolerant.meta["intact_planted_cells"] == task.meta["planted_cells"]
+    assert np.array_equal(tolerant.wrenches, task.wrenches) and tolerant.name == task.name
+    assert tolerant.meta["optimum"] is None or tolerant.meta["optimum"] >= intact.meta["optimum"]

@@ -42,6 +42,7 @@ from modquad_gym.tasks import (
     make_generator,
     save_suite,
 )
+from modquad_gym.tasks.planted_meta import fault_meta
 from modquad_gym.tasks.reserved import HELDOUT_SEEDS, VALIDATION_SEEDS
 
 VALIDATION_SEED0 = VALIDATION_SEEDS.start  # 500,000 (modquad_gym.tasks.reserved)
@@ -66,10 +67,11 @@ def relabelled(task, name: str, meta: dict):
 def with_optimum(task, n_max: int = 7, modules=None, fault: str | None = None):
     """``task`` (static or dynamic) with its certified optimum in ``meta`` (exhaustive search up
     to ``n_max``, over the ``modules`` palette if given; with a ``fault``, the smallest structure
-    that survives any single failure of that kind, and ``optimum_fault``): ``optimum`` (None
-    beyond n_max),
-    ``optimum_n_max``, ``optimum_cells``, ``optimum_modules`` (with a palette), and the search's
-    ``exhaustive_evaluated`` and ``exhaustive_seconds``."""
+    that survives any single failure of that kind, and ``optimum_fault``; a planted answer's
+    keys then read ``intact_*``, :func:`~modquad_gym.tasks.planted_meta.fault_meta`):
+    ``optimum`` (None beyond n_max), ``optimum_n_max``, ``optimum_cells``, ``optimum_modules``
+    (with a palette), and the search's ``exhaustive_evaluated`` and ``exhaustive_seconds``."""
+    task = fault_meta(task, fault)  # the planted count bounds no tolerant optimum
     t0 = time.perf_counter()
     options = {"modules": modules} if modules else {}
     r = exhaustive_search(task, n_max=n_max, **options, **({"fault": fault} if fault else {}))
