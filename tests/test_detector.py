@@ -22,7 +22,9 @@ def screwdriver():
 
 def test_the_detector_names_the_failed_rotor_within_30_ms(screwdriver):
     task, s = screwdriver
-    f = ff.fly_with_failure(s, task, "rotor", seconds=3.0, detector=DetectorConfig())
+    f = ff.fly_with_failure(
+        s, task, "rotor", failure="worst", seconds=3.0, detector=DetectorConfig()
+    )
     record = f.summary()
     assert 0.0 < record["fault_detected_after_s"] <= 0.03
     assert record["fault_detected_rotors"] == list(f.worst.columns)
@@ -44,7 +46,7 @@ def test_no_false_alarm_in_an_intact_hover_with_sensor_noise(screwdriver):
 def test_without_noise_the_residual_is_the_missing_thrust(screwdriver):
     task, s = screwdriver
     noiseless = (DetectorConfig(), SensorNoise(0.0, 0.0))
-    f = ff.fly_with_failure(s, task, "rotor", seconds=3.0, detector=noiseless)
+    f = ff.fly_with_failure(s, task, "rotor", failure="worst", seconds=3.0, detector=noiseless)
     assert f.summary()["fault_detected_rotors"] == list(f.worst.columns)
 
 
@@ -55,7 +57,8 @@ def test_validate_designs_for_the_delay_and_flies_with_the_detector(tmp_path, ca
 
     argv = ["validate", "--task", "example:screwdriver", "--out", str(tmp_path / "out"),
             "--max-hover-wrenches", "1", "--hover-seconds", "0.5", "--known-load-only",
-            "--fault", "rotor", "--detection-delay", "0.05", "--detect", "--json"]  # fmt: skip
+            "--fault", "rotor", "--detection-delay", "0.05", "--detect", "--json",
+            "--failure", "worst"]  # fmt: skip
     assert main(argv) == 0
     record = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert record["fault_margin_required"] == pytest.approx(margin_for_delay(0.05))
@@ -78,8 +81,12 @@ def test_a_delay_beside_the_detector_is_refused_not_reported(screwdriver):
     reported as flown while it was not."""
     task, s = screwdriver
     with pytest.raises(ValueError, match="detection_delay_s = 0.04: not flown with a detector"):
-        ff.fly_with_failure(s, task, "rotor", detector=DetectorConfig(), detection_delay_s=0.04)
-    flown = ff.fly_with_failure(s, task, "rotor", seconds=1.0, detection_delay_s=0.04)
+        ff.fly_with_failure(
+            s, task, "rotor", failure="worst", detector=DetectorConfig(), detection_delay_s=0.04
+        )
+    flown = ff.fly_with_failure(
+        s, task, "rotor", failure="worst", seconds=1.1, detection_delay_s=0.04
+    )
     assert flown.summary()["fault_detection_delay_s"] == 0.04 and "fault_detected_after_s" not in (
         flown.summary()
     )
@@ -94,7 +101,7 @@ def test_the_detector_flies_a_trajectory_with_a_payload():
     task = load_suite(suite)[1]  # carries a payload off the structure's centre
     assert task.payload is not None
     s = mq.anytime_search(task, n_max=8, time_limit=10, fault="rotor").structure
-    f = ff.fly_with_failure(s, task, "rotor", detector=DetectorConfig())
+    f = ff.fly_with_failure(s, task, "rotor", failure="worst", detector=DetectorConfig())
     record = f.summary()
     assert 0.0 < record["fault_detected_after_s"] <= 0.03
     assert record["fault_detected_rotors"] == list(f.worst.columns) and f.within_goal
@@ -165,7 +172,7 @@ def test_the_certified_50_ms_design_of_motions_9500001_stays_within_5_cm_with_th
     s = mq.Structure(cells)  # anytime_search's answer for margin_for_delay(0.05), certified
     W = task.rotor_wrenches(s)
     assert mq.fault_margin(s, W, task.f_max, fault="rotor").min() >= margin_for_delay(0.05)
-    f = ff.fly_with_failure(s, task, "rotor", detector=DetectorConfig())
+    f = ff.fly_with_failure(s, task, "rotor", failure="worst", detector=DetectorConfig())
     record = f.summary()
     assert record["fault_detected_rotors"] == list(f.worst.columns)
     assert f.within_goal and record["fault_saturated_fraction"] < 0.1
@@ -176,7 +183,9 @@ def test_the_certified_50_ms_design_of_motions_9500001_stays_within_5_cm_with_th
     assert f"| {record['fault_detected_after_s']:.3g} s (detector{told}) |" in page
     # kept at its first (wrong) decision, it asks the dead rotor for thrust and leaves a
     # working one out: saturated nearly throughout, it leaves 5 cm (docs/faults.md)
-    kept = ff.fly_with_failure(s, task, "rotor", detector=DetectorConfig(revise=False))
+    kept = ff.fly_with_failure(
+        s, task, "rotor", failure="worst", detector=DetectorConfig(revise=False)
+    )
     first = kept.summary()
     assert len(first["fault_detector_decisions"]) == 1
     assert first["fault_detected_rotors"] != list(kept.worst.columns)
@@ -221,7 +230,9 @@ def test_a_bandwidth_past_the_control_rate_or_a_detector_of_another_type_is_refu
 ):
     task, s = screwdriver
     with pytest.raises(ValueError, match=re.escape("at most 1 / control period = 500 /s")):
-        ff.fly_with_failure(s, task, "rotor", seconds=0.1, detector=DetectorConfig(bandwidth=600))
+        ff.fly_with_failure(
+            s, task, "rotor", failure="worst", seconds=1.1, detector=DetectorConfig(bandwidth=600)
+        )
     for bad in ("yes", (DetectorConfig(),), (DetectorConfig(), None)):
         with pytest.raises(ValueError, match="detector must be a DetectorConfig or a"):
-            ff.fly_with_failure(s, task, "rotor", seconds=0.1, detector=bad)
+            ff.fly_with_failure(s, task, "rotor", failure="worst", seconds=1.1, detector=bad)

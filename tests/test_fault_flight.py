@@ -27,7 +27,9 @@ from modquad_gym.sim.fault_flight import (  # noqa: E402
 SCREWDRIVER = mq.TaskRequirement.load("examples/screwdriver.json")
 INTACT = mq.Structure([(0, 0), (0, 1), (1, 0)])  # its certified minimum
 ROTOR_TOLERANT = mq.Structure([(0, 0), (0, 1), (1, 0), (2, 0)])  # certified, fault="rotor"
-SHORT = 1.0  # seconds of hover: the failure at 0.5 s
+SHORT = 1.1  # seconds of hover after the failure (the least: 20 ms and two 0.5 s windows)
+PLANTED = mq.TaskRequirement.load("examples/planted_seed1.json")
+LINE6 = mq.Structure([(i, 0) for i in range(6)])  # its certified rotor-tolerant minimum
 
 
 def test_the_structures_are_the_certified_answers():
@@ -56,11 +58,13 @@ def test_worst_failure_is_the_smallest_margin_over_every_single_failure():
 
 
 def test_tolerant_structure_holds_its_hover_within_5_cm_after_the_failure():
-    flight = fly_with_failure(ROTOR_TOLERANT, SCREWDRIVER, "rotor", seconds=SHORT)
+    flight = fly_with_failure(ROTOR_TOLERANT, SCREWDRIVER, "rotor", seconds=SHORT,
+                              failure="worst")  # fmt: skip
     r = flight.summary()
     assert r["fault_tolerates"] is True and r["fault_worst_margin"] > 0
-    assert r["fault_time_s"] == pytest.approx(SHORT / 2)
-    assert r["fault_diverged"] is None and r["fault_seconds"] == pytest.approx(SHORT, abs=0.01)
+    assert r["fault_time_s"] == pytest.approx(fault_flight.FAULT_BEFORE_S)
+    assert r["fault_diverged"] is None and r["fault_settled"] is True
+    assert r["fault_seconds"] == pytest.approx(fault_flight.FAULT_BEFORE_S + SHORT, abs=0.01)
     assert r["fault_max_position_error_m"] <= GOAL_M and r["fault_within_5cm"]
     assert r["fault_saturated_fraction"] == 0.0
     # the rotor really stopped, and carried thrust before
@@ -75,7 +79,7 @@ def test_tolerant_structure_holds_its_hover_within_5_cm_after_the_failure():
 
 
 def test_intact_minimum_saturates_or_drifts_under_its_worst_rotor_failure():
-    flight = fly_with_failure(INTACT, SCREWDRIVER, "rotor", seconds=SHORT)
+    flight = fly_with_failure(INTACT, SCREWDRIVER, "rotor", seconds=SHORT, failure="worst")
     r = flight.summary()
     assert r["fault_tolerates"] is False and r["fault_worst_margin"] < 0
     assert r["fault_saturated_fraction"] > 0.5 or r["fault_max_position_error_m"] > GOAL_M
@@ -86,7 +90,7 @@ def test_intact_minimum_saturates_or_drifts_under_its_worst_rotor_failure():
 def test_tolerant_structure_keeps_its_trajectory_through_the_failure():
     task = dy.circle(speed=1.0, laps=0.25)
     tolerant = mq.Structure([(0, 0), (1, 0), (1, 1)])  # certified rotor-tolerant minimum
-    flight = fly_with_failure(tolerant, task, "rotor")
+    flight = fly_with_failure(tolerant, task, "rotor", failure="worst")
     r = flight.summary()
     assert r["fault_flight"] == "trajectory" and r["fault_tolerates"] is True
     # the failure comes before the moment it hurts most (or halfway)
@@ -117,15 +121,16 @@ def _argv(tmp_path, *extra):
             *extra]  # fmt: skip
 
 
-def test_cli_validate_fault_json_pictures_and_intact_minimum(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(fault_flight, "FAULT_HOVER_SECONDS", SHORT)
-    assert main(_argv(tmp_path, "--fault", "rotor", "--json")) == 0
+def test_cli_validate_fault_json_pictures_and_intact_minimum(tmp_path, capsys):
+    fast = ("--fault-seconds", str(SHORT), "--failure", "worst")
+    assert main(_argv(tmp_path, "--fault", "rotor", "--json", *fast)) == 0
     record = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert record["n_modules"] == 4 and record["fault"] == "rotor"
     assert record["fault_tolerates"] is True
     assert record["fault_max_position_error_m"] <= GOAL_M
     assert record["fault_saturated_fraction"] == 0.0
-    assert record["fault_time_s"] == pytest.approx(SHORT / 2)
+    assert record["fault_time_s"] == pytest.approx(fault_flight.FAULT_BEFORE_S)
+    assert record["fault_failure"] == "worst" and record["fault_failures_flown"] == 1
     intact = record["intact_minimum"]
     assert intact["n_modules"] == 3 and intact["tolerates"] is False and intact["certified"]
     assert intact["cells"] == [list(c) for c in INTACT.cells]
@@ -141,10 +146,11 @@ def test_cli_validate_fault_json_pictures_and_intact_minimum(tmp_path, capsys, m
     # the console summary names both flights
     text = "\n".join(fault_lines(record))
     assert "fault flight: tolerates any rotor failure" in text
+    assert "the smallest-margin rotor failure only" in text
     assert "intact minimum (3 modules): does not tolerate" in text
     assert fault_lines({"fault": "rotor"}) == []
     # the pictures are refused without --force, before any work
-    assert main(_argv(tmp_path, "--fault", "rotor")) == 2
+    assert main(_argv(tmp_path, "--fault", "rotor", *fast)) == 2
     assert "fault_flight.png" in capsys.readouterr().err
 
 
@@ -167,7 +173,9 @@ def test_cli_fault_refusals_before_work(tmp_path, capsys):
     assert "--fault" in err and "invalid choice" in err and "propeller" in err
 
 
-def test_cli_default_delay_is_the_simulations():
-    from modquad_gym.cli.validate_fault import DEFAULT_DETECTION_DELAY
+def test_cli_defaults_are_the_simulations():
+    from modquad_gym.cli import validate_fault as cli
 
-    assert DEFAULT_DETECTION_DELAY == fault_flight.DETECTION_DELAY_S
+    assert cli.DEFAULT_DETECTION_DELAY == fault_flight.DETECTION_DELAY_S
+    assert cli.DEFAULT_FAULT_SECONDS == fault_flight.FAULT_SECONDS
+    assert cli.MAX_FAULT_SECONDS == fault_flight.MAX_FAULT_SECONDS

@@ -91,7 +91,8 @@ def test_every_file_validate_writes_is_refused_without_force(
     checks is the simulation's own, so it cannot leave a file out."""
     from modquad_gym.sim import fault_flight
 
-    monkeypatch.setattr(fault_flight, "FAULT_HOVER_SECONDS", 0.4)
+    monkeypatch.setattr(fault_flight, "FAULT_BEFORE_S", 0.2)
+    monkeypatch.setattr(fault_flight, "FAULT_SECONDS", 1.02)
     base = ["validate", "--task", str(make_task(tmp_path)), "--method", "exhaustive", "--n-max",
             "4", "--max-hover-wrenches", "1", "--hover-seconds", "0.2", *options]  # fmt: skip
     assert main([*base, "--out", str(tmp_path / "first")]) == 0

@@ -12,6 +12,7 @@ validation: the flights, pictures, report section and JSON keys), :func:`no_stru
 from __future__ import annotations
 
 import argparse
+import sys
 
 from modquad_gym.cli.common import (
     NO_FAULT,
@@ -20,10 +21,35 @@ from modquad_gym.cli.common import (
     check_fault_method,
     fault_margin_of,
 )
+from modquad_gym.core.options import real_option
+
+
+def failure_option(text: str) -> str | int:
+    """An argparse ``type`` for ``--failure``: ``all``, ``worst`` or a number from 1."""
+    if text in ("all", "worst"):
+        return text
+    if text.isdigit() and int(text) >= 1:
+        return int(text)
+    raise argparse.ArgumentTypeError(f"expected all, worst or a number from 1, got {text!r}")
+
 
 DEFAULT_DETECTION_DELAY = 0.02
 """= :data:`modquad_gym.sim.fault_flight.DETECTION_DELAY_S` (here: the parser imports no
 simulation)."""
+
+DEFAULT_FAULT_SECONDS = 3.0
+"""= :data:`modquad_gym.sim.fault_flight.FAULT_SECONDS` (``--fault-seconds``' default)."""
+
+MAX_FAULT_SECONDS = 60.0
+"""= :data:`modquad_gym.sim.fault_flight.MAX_FAULT_SECONDS`."""
+
+SECONDS_PER_FAULT_FLIGHT_SECOND = 0.05
+"""Wall seconds per simulated second and module of a flight through a failure (2 cores;
+measured: 24 flights of a 6-module line, 4 simulated s each, 25 s; a saturated flight is slower,
+up to 0.12), for the estimate said before many failures are flown."""
+
+SAY_ESTIMATE_S = 10.0
+"""The flights through the failures are announced on stderr when estimated longer than this."""
 
 FAULT_HELP = (
     "search for a structure that survives any failure of this kind (rotor: any one rotor "
@@ -44,6 +70,22 @@ def add_fault_options(p: argparse.ArgumentParser) -> None:
     """``--fault``, ``--fault-margin``, ``--detection-delay`` and ``--detect``."""
     add_fault(p, FAULT_HELP)
     add_detect_option(p)
+    p.add_argument(
+        "--fault-seconds", type=real_option, default=None, metavar="SECONDS",
+        help="with --fault, a static task: simulated seconds each hover flies after the failure "
+        f"(default {DEFAULT_FAULT_SECONDS:g}, at most {MAX_FAULT_SECONDS:g}, at least the "
+        "detection delay plus 1 s: the settling test compares the last two 0.5 s windows; "
+        "Python: fly_with_failure(seconds=))",
+    )  # fmt: skip
+    p.add_argument(
+        "--failure", type=failure_option, default="all", metavar="{all,worst,K}",
+        help="with --fault: which failures the found structure flies: all (default: every one; "
+        "the verdict and the error reported are the worst over them, the failure that gave it "
+        "named), worst (the smallest-margin failure only) or K (rotor K, 1..4n, for --fault "
+        "rotor; module K, 1..n, for --fault module; numbered as the console prints them; the "
+        "intact minimum then flies its smallest-margin failure only). Python: "
+        "fly_with_failure(failure=)",
+    )  # fmt: skip
     add_detection_delay(
         p,
         "with --fault: design for a controller that learns of the failure this many "
@@ -78,9 +120,35 @@ def check_fault_options(args: argparse.Namespace) -> None:
 
     check_fault_method(args)
     if args.fault is None:
-        refuse_ignored(args, ["detection_delay", "fault_margin", "detect"],
-                       "it applies with --fault")  # fmt: skip
+        refuse_ignored(args, ["detection_delay", "fault_margin", "detect", "fault_seconds",
+                              "failure"], "it applies with --fault")  # fmt: skip
     fault_margin_of(args)  # the margin's range, the delay's calibrated range
+    if isinstance(getattr(args, "failure", None), int) and args.fault not in ("rotor", "module"):
+        raise ValueError(f"--failure {args.failure}: a numbered failure applies to --fault "
+                         f"rotor or module, not {args.fault}; give all or worst")  # fmt: skip
+    if getattr(args, "fault_seconds", None) is not None:
+        delay = 0.0 if getattr(args, "detect", False) else flown_delay(args)
+        least = delay + 1.0
+        if not least <= args.fault_seconds <= MAX_FAULT_SECONDS:
+            raise ValueError(
+                f"--fault-seconds {args.fault_seconds:g}: must lie in [{least:g}, "
+                f"{MAX_FAULT_SECONDS:g}] s (the detection delay {delay:g} s, then two 0.5 s "
+                "windows of the settling test)"
+            )
+
+
+def flown_delay(args: argparse.Namespace) -> float:
+    """The detection delay the flights fly without ``--detect``."""
+    return DEFAULT_DETECTION_DELAY if args.detection_delay is None else args.detection_delay
+
+
+def check_fault_task(args: argparse.Namespace, task, name: str) -> None:
+    """``--fault-seconds`` with a dynamic task (flown along its trajectory): refused."""
+    if args.fault is not None and getattr(task, "kind", None) == "dynamic":
+        from modquad_gym.cli.given import refuse_ignored
+
+        refuse_ignored(args, ["fault_seconds"], f"applies to a static task; {name} is a dynamic "
+                       "one (flown through the failure along its trajectory)")  # fmt: skip
 
 
 def fault_output_names(args: argparse.Namespace) -> tuple[str, ...]:
@@ -102,12 +170,15 @@ def designs(args: argparse.Namespace) -> int:
 
 
 def fault_seconds(args: argparse.Namespace, task) -> float:
-    """Simulated seconds of the flights through a failure, one per design (:func:`designs`)."""
+    """Simulated seconds of the flights through a failure, one failure per design
+    (:func:`designs`; :func:`fly_fault` says its own estimate once it knows how many failures
+    it flies)."""
     if args.fault is None:
         return 0.0
     from modquad_gym.sim import fault_flight
 
-    return designs(args) * task.flight_seconds(fault_flight.FAULT_HOVER_SECONDS)
+    after = getattr(args, "fault_seconds", None) or fault_flight.FAULT_SECONDS
+    return designs(args) * task.flight_seconds(fault_flight.FAULT_BEFORE_S + after)
 
 
 def search_seconds_text(args: argparse.Namespace) -> str:
@@ -140,30 +211,54 @@ def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -
     plain = {"fault_margin": None, "detection_delay": None}
     intact_args = argparse.Namespace(**{**vars(args), **plain, "fault": None})
     intact = solver(intact_args)(task)
-    delay = DEFAULT_DETECTION_DELAY if args.detection_delay is None else args.detection_delay
-    detector = None
+    delay, detector = flown_delay(args), None
     if getattr(args, "detect", False):  # the detector decides in flight; the delay, if given,
         from modquad_gym.sim.detector import DetectorConfig  # set only the design's margin
 
         detector, delay = DetectorConfig(), None
+    margin = fault_margin_of(args)
+    bare = solver(argparse.Namespace(**{**vars(args), **plain}))(task).structure if margin else None
+    flown = dict(detection_delay_s=delay, detector=detector, progress=not args.quiet,
+                 seconds=args.fault_seconds if not _dynamic(task) else None)  # fmt: skip
+    say_estimate(args, task, [structure, intact.structure, bare])
     record = validate_with_failure(structure, task, args.fault, intact=intact.structure,
-                                   out_dir=args.out, detection_delay_s=delay,
-                                   detector=detector)  # fmt: skip
+                                   out_dir=args.out, failure=args.failure, **flown)  # fmt: skip
     if record["intact_minimum"] is not None:  # the search's word on it being the minimum
         record["intact_minimum"]["certified"] = bool(intact.certified)
-    margin = fault_margin_of(args)
     record["fault_margin_required"] = margin or 0.0
     record["fault_margin_delay_s"] = args.detection_delay  # what the margin is for (or None)
-    if margin:  # the design without the margin, through its own worst failure, same delay
-        from modquad_gym.sim.validate_fault import intact_record
+    if bare is not None:  # the design without the margin, through its own failures, same delay
+        from modquad_gym.sim.validate_fault import intact_record, others_choice
 
-        bare = solver(argparse.Namespace(**{**vars(args), **plain}))(task).structure
-        if bare is not None:
-            flight = fault_flight.fly_with_failure(
-                bare, task, args.fault, detection_delay_s=delay, detector=detector
-            )
-            record["without_margin"] = intact_record(flight)
+        theirs = others_choice(args.failure)
+        flight = fault_flight.fly_with_failure(bare, task, args.fault, failure=theirs, **flown)
+        record["without_margin"] = intact_record(flight)
     return add_to_report(args.out, report, record)
+
+
+def _dynamic(task) -> bool:
+    return getattr(task, "kind", None) == "dynamic"
+
+
+def say_estimate(args: argparse.Namespace, task, structures: list) -> None:
+    """On stderr, how many failures the designs fly and about how long that takes (measured
+    :data:`SECONDS_PER_FAULT_FLIGHT_SECOND` per module), when more than :data:`SAY_ESTIMATE_S`
+    (a bar follows unless ``--quiet``)."""
+    from modquad_gym.sim import fault_flight
+    from modquad_gym.sim.validate_fault import others_choice
+
+    seconds = fault_flight.FAULT_BEFORE_S + (args.fault_seconds or fault_flight.FAULT_SECONDS)
+    seconds = task.flight_seconds(seconds)
+    count, wall = 0, 0.0
+    for i, s in enumerate(x for x in structures if x is not None):
+        choice = args.failure if i == 0 else others_choice(args.failure)
+        n = len(fault_flight.failure_columns(s, args.fault)) if choice == "all" else 1
+        count += n
+        wall += n * seconds * s.n_modules * SECONDS_PER_FAULT_FLIGHT_SECOND
+    if wall > SAY_ESTIMATE_S:
+        print(f"validate --fault: {count} flights through a {args.fault} failure (--failure "
+              f"{args.failure}), {seconds:g} simulated s each: about {wall:.0f} s here",
+              file=sys.stderr)  # fmt: skip
 
 
 def _cm(metres) -> str:
@@ -177,15 +272,19 @@ def fault_lines(r: dict) -> list[str]:
     if r.get("fault_flight") is None:
         return []
     from modquad_gym.sim.fault_pictures import failed_part_words
+    from modquad_gym.sim.validate_fault import flown_words, verdict_words
 
     def line(name: str, x: dict, tolerates: bool) -> str:
         part = failed_part_words(x)  # numbered from 1, as rows and cells are
+        x = {"fault": r["fault"], **x}
         return (
             f"{name}: {'tolerates' if tolerates else 'does not tolerate'} any {r['fault']} "
-            f"failure; {part} stopped at {x['fault_time_s']:.3g} s: position error after it up "
+            f"failure; flew {flown_words(x)}; "
+            + ("the worst in flight: " if x.get("fault_failure") == "all" else "")
+            + f"{part} stopped at {x['fault_time_s']:.3g} s: position error after it up "
             f"to {_cm(x['fault_max_position_error_m'])}, a working rotor at a limit in "
-            f"{100 * x['fault_saturated_fraction']:.3g} % of steps"
-            + (f" ({x['fault_diverged']})" if x.get("fault_diverged") else "")
+            f"{100 * x['fault_saturated_fraction']:.3g} % of steps; "
+            f"{verdict_words(x).replace('no: ', 'does not hold: ')}"
         )
 
     lines = [line("fault flight", r, r["fault_tolerates"])]

@@ -1,28 +1,29 @@
-"""Fly a structure through its worst single failure (a rotor, or a module's rotors, stop).
+"""Fly a structure through its single failures (a rotor, or a module's rotors, stop).
 
-:func:`fly_with_failure` picks the failure of kind ``fault`` that leaves the smallest margin over
-the task's rotor wrenches (:func:`worst_failure`, the oracle's
-:meth:`~modquad_gym.oracle.faults.FaultTolerance.worst_failure`) and flies it in MuJoCo
-(:mod:`modquad_gym.sim.failure`: the failed rotors' thrust is 0 from the failure on; after a
-detection delay the allocator and the gains work on A without them):
+:func:`fly_with_failure` flies, in MuJoCo, every failure of kind ``fault`` (default), the one
+that leaves the smallest margin over the task's rotor wrenches only (:func:`worst_failure`, the
+oracle's :meth:`~modquad_gym.oracle.faults.FaultTolerance.worst_failure`), or one numbered
+failure (:mod:`modquad_gym.sim.failure`: the failed rotors' thrust is 0 from the failure on;
+after a detection delay the allocator and the gains work on A without them):
 
 * a **static task** (wrenches): the structure starts at rest at home, level, holding the task
   wrench with the smallest margin under that failure (the hover's load convention,
   :mod:`modquad_gym.sim.hover.load`: the external load is ``-(w + gravity wrench)``, so the
-  rotors must produce w, with the load known to the controller), for ``seconds``; the failure
-  strikes halfway (:func:`hover_with_failure`);
+  rotors must produce w, with the load known to the controller) for :data:`FAULT_BEFORE_S`, then
+  the failure strikes and it flies ``seconds`` more (:func:`~.fault_hover.hover_with_failure`);
 * a **dynamic task**: the flight along its trajectory (:func:`modquad_gym.sim.track.fly_trajectory`)
   with the failure halfway through the trajectory's duration, or :data:`LEAD_S` before the
   moment the failure hurts most (the sample with the smallest margin after it) when that moment
   comes earlier.
 
-Reported (:meth:`FaultFlight.summary`): from the failure on, the largest distance between the
-flown and desired COM (``fault_max_position_error_m``), the share of steps with a working rotor
-at 0 or f_max (``fault_saturated_fraction``); which rotors failed (module, cell) and when; the
-failure's margin and whether every such failure is tolerated (``oracle.faults.tolerates``).
-A certified tolerant structure should keep within :data:`GOAL_M` after the failure; one that does
-not saturates and drifts. ``modquad validate --fault`` (:mod:`.validate_fault`) flies it and the
-intact minimum, with pictures.
+Reported (:meth:`~.fault_record.FaultFlight.summary`), for the flight that did worst: from the
+failure on, the largest distance between the flown and desired COM
+(``fault_max_position_error_m``), the share of steps with a working rotor at 0 or f_max
+(``fault_saturated_fraction``); which rotors failed (module, cell) and when; the failure's margin
+and whether every such failure is tolerated (``oracle.faults.tolerates``); the verdict
+``fault_within_5cm``: never stopped, within :data:`GOAL_M` and settled at the end
+(:mod:`~modquad_gym.sim.fault_verdict`). ``modquad validate --fault`` (:mod:`.validate_fault`)
+flies it and the intact minimum, with pictures.
 """
 
 from __future__ import annotations
@@ -30,8 +31,6 @@ from __future__ import annotations
 import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is first imported: headless rendering
-
-from dataclasses import dataclass  # noqa: E402
 
 import numpy as np  # noqa: E402
 
@@ -41,22 +40,34 @@ from modquad_gym.oracle import TOL, check_f_max, check_task_scale, margin  # noq
 from modquad_gym.oracle.failures import module_failures  # noqa: E402
 from modquad_gym.oracle.faults import FaultTolerance, check_fault, failure_sets  # noqa: E402
 from modquad_gym.search.checker import LP_ROTORS  # noqa: E402
-from modquad_gym.sim.detector import make_detector  # noqa: E402
 from modquad_gym.sim.failure import DETECTION_DELAY_S, Failure, flown_delay  # noqa: E402, F401
+from modquad_gym.sim.fault_hover import hover_with_failure  # noqa: E402, F401
+from modquad_gym.sim.fault_record import FaultFlight, WorstFailure  # noqa: E402, F401
+from modquad_gym.sim.fault_verdict import GOAL_M, SETTLE_WINDOW_S  # noqa: E402, F401
 from modquad_gym.sim.inertial import check_simulable  # noqa: E402
-from modquad_gym.sim.report import finite_or_none  # noqa: E402
-from modquad_gym.sim.track import TrackConfig, TrackResult  # noqa: E402
+from modquad_gym.sim.track import TrackConfig  # noqa: E402
 
-FAULT_HOVER_SECONDS = 4.0
-"""Simulated seconds of the hover through a failure (static tasks); the failure is at half."""
+FAULT_SECONDS = 3.0
+"""Simulated seconds a hover flies after the failure (static tasks; ``seconds`` of
+:func:`fly_with_failure`, ``--fault-seconds``): long enough for the settling test
+(:mod:`~modquad_gym.sim.fault_verdict`) to see a recovered flight settle (measured: the recovered
+ones left saturation within 1 s of the failure) and a diverging one still saturated and drifting
+(measured: saturated through every window from 0.5 s on, falling 3.2 to 5.4 s after it)."""
+
+FAULT_BEFORE_S = 1.0
+"""Simulated seconds the hover holds its wrench before the failure (it starts at rest there)."""
+
+MAX_FAULT_SECONDS = 60.0
+"""Longest flight after the failure ``seconds`` takes."""
+
+FAILURE_CHOICES = ("all", "worst")
+"""Which failures :func:`fly_with_failure` flies, besides one numbered failure: every one, or
+the smallest-margin one only."""
 
 LEAD_S = 0.5
 """Dynamic task: the failure strikes halfway through the trajectory, or this many seconds before
 the moment it hurts most (its sample of smallest margin) when that moment comes earlier, so that
 the flight after the failure always passes it."""
-
-GOAL_M = 0.05
-"""The position error a tolerant structure should keep within after the failure (5 cm)."""
 
 
 def failure_columns(structure: Structure, fault: str) -> list[np.ndarray]:
@@ -68,26 +79,6 @@ def failure_columns(structure: Structure, fault: str) -> list[np.ndarray]:
     if fault not in ("module", "rotor+module"):  # each rotor, or each pair of rotors
         return failure_sets(int(starts[-1]), fault)
     return module_failures(starts, fault)
-
-
-@dataclass(frozen=True)
-class WorstFailure:
-    """The failure that leaves the smallest margin over a task's rotor wrenches.
-
-    Attributes:
-        index: its index among :func:`failure_columns`.
-        columns: the rotors it stops.
-        margin: the smallest margin over the wrenches after it (< 0: some wrench is lost),
-            signed as :func:`~modquad_gym.oracle.faults.fault_margin` signs it.
-        row: the wrench with that margin.
-        tolerates: the structure keeps every wrench after every failure of that kind.
-    """
-
-    index: int
-    columns: np.ndarray
-    margin: float
-    row: int
-    tolerates: bool
 
 
 def worst_failure(structure: Structure, W: np.ndarray, f_max: float, fault: str) -> WorstFailure:
@@ -114,217 +105,6 @@ def worst_failure(structure: Structure, W: np.ndarray, f_max: float, fault: str)
     return WorstFailure(i, sets[i], float(worst), row, tolerates)
 
 
-@dataclass
-class FaultFlight:
-    """A flight through a failure and the failure it went through.
-
-    Attributes:
-        structure: the structure flown.
-        flight: ``"hover"`` (static task) or ``"trajectory"`` (dynamic task).
-        fault: ``"rotor"`` or ``"module"``.
-        failure: what stopped and when (:class:`~modquad_gym.sim.failure.Failure`).
-        worst: why this failure (:class:`WorstFailure`).
-        run: the time series (:class:`~modquad_gym.sim.track.TrackResult`; for a hover the
-            desired position is home throughout and ``wrench_ff`` the held wrench).
-        task_name: for titles.
-    """
-
-    structure: Structure
-    flight: str
-    fault: str
-    failure: Failure
-    worst: WorstFailure
-    run: TrackResult
-    task_name: str = ""
-
-    @property
-    def after(self) -> np.ndarray:
-        """bool (N,): the control steps from the failure on."""
-        return self.run.t >= self.failure.time_s - 1e-9
-
-    @property
-    def max_position_error_m(self) -> float:
-        """Largest distance between flown and desired COM from the failure on (m; up to the
-        drift limit where the flight was stopped)."""
-        e = self.run.position_error[self.after]
-        return float(e.max(initial=0.0))
-
-    @property
-    def before_max_position_error_m(self) -> float:
-        """Largest position error before the failure (m)."""
-        return float(self.run.position_error[~self.after].max(initial=0.0))
-
-    @property
-    def max_attitude_error_rad(self) -> float:
-        return float(self.run.attitude_error[self.after].max(initial=0.0))
-
-    @property
-    def saturated_fraction(self) -> float:
-        """Share of the control steps from the failure on in which some working rotor is at 0
-        or f_max."""
-        sat = self.run.saturated[self.after]
-        return float(sat.mean()) if len(sat) else 0.0
-
-    @property
-    def within_goal(self) -> bool:
-        """Flown to the end and within :data:`GOAL_M` after the failure."""
-        return self.run.diverged is None and self.max_position_error_m <= GOAL_M
-
-    def failed_part(self) -> dict:
-        """The failed module (index in the cells and its cell; a rotor+module failure's module)
-        and, for a rotor failure, which of the module's rotors (0-based)."""
-        starts = np.cumsum([0] + [m.n_rotors for m in self.structure.modules])
-        first = self.failure.columns[0]
-        module = int(np.searchsorted(starts, first, side="right") - 1)
-        rotor = int(first - starts[module]) if "module" not in self.fault else None
-        cell = list(self.structure.cells[module])
-        return {"fault_failed_module": module, "fault_failed_cell": cell,
-                "fault_failed_rotor_in_module": rotor}  # fmt: skip
-
-    def summary(self) -> dict:
-        """The ``fault_*`` keys of a validation record (JSON-ready; None for a number that is
-        not finite, e.g. a margin of -inf: a wrench off the span of the working rotors):
-
-        ``fault`` (kind), ``fault_flight`` (``"hover"`` or ``"trajectory"``), ``fault_tolerates``
-        (every wrench feasible after every failure of that kind), ``fault_worst_margin`` (the
-        smallest margin over the task after the failure flown, the worst one),
-        ``fault_failed_rotors`` (columns of A), ``fault_failed_module`` (index in the cells),
-        ``fault_failed_cell``, ``fault_failed_rotor_in_module`` (rotor failures),
-        ``fault_time_s``, ``fault_detection_delay_s`` (the delay flown; None with a detector,
-        whose ``fault_detected_after_s`` says when it decided), ``fault_seconds`` (flight length),
-        ``fault_hardest_row`` (the task row, wrench or trajectory sample, of that margin; the
-        wrench a hover holds), ``fault_max_position_error_m`` and ``fault_saturated_fraction``
-        (from the failure on), ``fault_max_attitude_error_rad``,
-        ``fault_before_max_position_error_m``, ``fault_diverged`` (why the flight was stopped,
-        or None) and ``fault_within_5cm``."""
-        return {
-            "fault": self.fault,
-            "fault_flight": self.flight,
-            "fault_tolerates": self.worst.tolerates,
-            "fault_worst_margin": finite_or_none(self.worst.margin),
-            "fault_failed_rotors": list(self.failure.columns),
-            **self.failed_part(),
-            "fault_time_s": self.failure.time_s,
-            "fault_detection_delay_s": None if self.detection() else self.failure.detection_delay_s,
-            "fault_seconds": float(self.run.t[-1]) if len(self.run.t) else 0.0,
-            "fault_hardest_row": self.worst.row,
-            "fault_max_position_error_m": finite_or_none(self.max_position_error_m),
-            "fault_saturated_fraction": self.saturated_fraction,
-            "fault_max_attitude_error_rad": finite_or_none(self.max_attitude_error_rad),
-            "fault_before_max_position_error_m": finite_or_none(self.before_max_position_error_m),
-            "fault_diverged": self.run.diverged,
-            "fault_within_5cm": self.within_goal,
-            **self.detection(),
-        }
-
-    def detection(self) -> dict:
-        """With a detector: how long after the failure it first decided (None: never), the
-        rotors it named last, and each decision [seconds after the failure, rotors] in order
-        (more than one where it revised a wrong isolation)."""
-        watch = getattr(self.run, "detector", None)
-        if watch is None:
-            return {}
-        made = [[float(t - self.failure.time_s), [int(c) for c in S]] for t, S in watch.decisions]
-        return {"fault_detected_after_s": made[0][0] if made else None,
-                "fault_detected_rotors": made[-1][1] if made else None,
-                "fault_detector_decisions": made}  # fmt: skip
-
-
-def hover_with_failure(
-    structure: Structure,
-    w: np.ndarray,
-    failure: Failure,
-    seconds: float = FAULT_HOVER_SECONDS,
-    f_max: float = 1.0,
-    config=None,
-    detector=None,
-) -> TrackResult:
-    """Hold the rotor wrench ``w`` (6,) at home for ``seconds`` through ``failure``.
-
-    Starts at rest, level, at home; the world-fixed load ``-(w + gravity wrench)`` acts
-    throughout, the load known to the controller (:class:`~modquad_gym.sim.hover.HoverController`
-    with a :class:`~modquad_gym.sim.hover.HoverConfig`, ``config`` or the defaults). Stopped
-    early past the hover's drift limits (``diverged`` says why). Arrays per control step, the
-    state read before the step as in :func:`~modquad_gym.sim.track.fly_trajectory`. With a
-    ``detector`` (:class:`~modquad_gym.sim.detector.DetectorConfig`, or a (config, noise)
-    pair) the controller is not told of the failure: it switches when the
-    :class:`~modquad_gym.sim.detector.FailureDetector` decides, to the rotors it names, again
-    at each revision (``run.detection``: (first time, columns named last) or None)."""
-    from modquad_gym.sim.hover import HoverConfig, HoverController, Plant, rotation_angle
-    from modquad_gym.sim.hover.recorder import drift_reason
-    from modquad_gym.sim.hover.run import Flight
-    from modquad_gym.sim.model import build_model
-
-    seconds = check_real(seconds, "seconds", positive=True)
-    w = check_wrenches(np.asarray(w, dtype=float)[None])[0]
-    cfg = HoverConfig.make(config, f_max=check_f_max(f_max), takeoff_seconds=0.0,
-                           known_load=True, load_frame="world")  # fmt: skip
-    sim = build_model(structure, cfg.f_max, bench=False)
-    flight = Flight(sim, cfg)
-    flight.reset(perturb=False)
-    plant = Plant.of(sim)
-    ctrl = HoverController(plant, cfg, flight.ctrl_dt)
-    ctrl.begin_segment(w)
-    flight.apply_load(w)
-    m, dt = sim.n_rotors, flight.ctrl_dt
-    N = max(1, round(seconds / dt))
-    t = np.arange(N) * dt
-    flown, att, quat_ = np.zeros((N, 3)), np.zeros(N), np.zeros((N, 4))
-    inputs, saturated = np.zeros((N, m)), np.zeros(N, dtype=bool)
-    working, known, diverged = np.ones(m, dtype=bool), False, None
-    watch = make_detector(detector, plant, failure.kind, dt)
-    believed = failure
-    for k in range(N):
-        if watch is None and not known and t[k] >= failure.detected_s - 1e-9:
-            ctrl, known = _failed_controller(failure, plant, cfg, dt, w), True
-        state = flight.state()
-        u = np.zeros(m)
-        if ctrl is not None:  # the intact controller, or the reduced one once it knows
-            u[believed.working(m) if known else slice(None)], _ = ctrl.command(w, state)
-        if watch is not None:  # a first decision, or a revised one
-            load = np.array(flight.data.xfrc_applied[flight.body])
-            hit = watch.update(t[k], state[0], state[3], state[4], u, load, flight.gravity)
-            if hit is not None:
-                believed = Failure(tuple(hit[1]), failure.time_s, 0.0, failure.kind)
-                ctrl, known = _failed_controller(believed, plant, cfg, dt, w), True
-        if t[k] >= failure.time_s - 1e-9:
-            working = failure.working(m)
-            u[~working] = 0.0  # the failed rotors give no thrust, whatever is commanded
-        flown[k] = flight.data.xpos[flight.body]
-        quat_[k] = flight.data.xquat[flight.body]
-        att[k] = rotation_angle(state[0])
-        inputs[k], saturated[k] = u, _at_limit(u[working], cfg.f_max)
-        diverged = drift_reason(float(np.linalg.norm(state[1])), att[k], cfg)
-        if diverged:
-            diverged = f"{diverged} at t = {t[k]:.3g} s"
-            break
-        flight.step(u)
-    n = k + 1
-    desired = np.tile(flight.p_ref, (n, 1))
-    run = TrackResult(t[:n], desired, flown[:n], quat_[:n], att[:n], inputs[:n],
-                      saturated[:n], np.tile(w, (n, 1)), cfg.f_max, diverged)  # fmt: skip
-    run.detection = None if watch is None else watch.detected
-    run.detector = watch
-    return run
-
-
-def _failed_controller(failure: Failure, plant, cfg, dt: float, w: np.ndarray):
-    """The hover controller once the failure is known (None when no rotor is left)."""
-    from modquad_gym.sim.hover import HoverController
-
-    reduced = failure.plant(plant)
-    if reduced is None:
-        return None
-    ctrl = HoverController(reduced, cfg, dt)
-    ctrl.begin_segment(w)
-    return ctrl
-
-
-def _at_limit(u: np.ndarray, f_max: float) -> bool:
-    tol = TOL * f_max
-    return bool(np.any((u <= tol) | (u >= f_max - tol)))
-
-
 def _rotor_wrenches(structure: Structure, task, f_max, seconds) -> tuple[np.ndarray, float]:
     """(rotor wrenches, f_max) of a task object (its own f_max; options that do not apply
     refused) or of a (t, 6) array of total wrenches (``f_max``, default 1)."""
@@ -337,6 +117,63 @@ def _rotor_wrenches(structure: Structure, task, f_max, seconds) -> tuple[np.ndar
     return check_task_scale(task, f_max), f_max  # the searches' scale, as validate's
 
 
+def failure_cases(structure: Structure, W: np.ndarray, f_max: float, fault: str) -> list:
+    """Every failure of kind ``fault`` (:func:`failure_columns`' order) as a
+    :class:`WorstFailure`: its margin over the rotor wrenches W and the wrench of that margin
+    (the one a hover holds), and whether the structure tolerates every such failure."""
+    W = check_wrenches(W)
+    f_max = check_f_max(f_max)
+    A = np.array(structure.configuration_matrix())
+    sets = failure_columns(structure, fault)
+    tol = FaultTolerance(A, f_max, sets)
+    method = "daqp" if A.shape[1] <= LP_ROTORS else "compiled"  # as the searches decide
+    tolerates = bool(tol.decide(W, method).all())
+    cases = []
+    for i, S in enumerate(sets):
+        keep = np.ones(A.shape[1], dtype=bool)
+        keep[S] = False
+        if keep.any():
+            m = margin(A[:, keep], W, f_max, method)
+            row, low = int(np.argmin(m)), float(np.min(m))
+        else:  # a one-module structure without its module: nothing is left
+            row, low = int(np.argmax(np.linalg.norm(W, axis=1))), float("-inf")
+        cases.append(WorstFailure(i, S, low, row, tolerates))
+    return cases
+
+
+def check_failure_choice(failure: object, fault: str, n_failures: int) -> str | int:
+    """``failure`` checked: ``"all"``, ``"worst"`` or a number K from 1 (a rotor's number,
+    1..4n, for rotor failures; a module's, 1..n, for module failures; the numbering of the
+    console and the pictures). A ValueError naming ``failure`` otherwise."""
+    if isinstance(failure, str) and failure in FAILURE_CHOICES:
+        return failure
+    what = {"rotor": "rotor", "module": "module"}.get(fault)
+    if isinstance(failure, (int, np.integer)) and not isinstance(failure, bool) and what:
+        if 1 <= int(failure) <= n_failures:
+            return int(failure)
+        raise ValueError(f"failure = {failure!r}: a {what} number must lie in 1..{n_failures} "
+                         f"(the structure has {n_failures} {what}s, numbered from 1)")  # fmt: skip
+    numbered = f" or a {what} number 1..{n_failures}" if what else ""
+    raise ValueError(f"failure = {failure!r}: must be 'all', 'worst'{numbered} "
+                     f"(fault={fault!r})")  # fmt: skip
+
+
+def check_fault_seconds(seconds: float | None, delay: float) -> float:
+    """``seconds`` of flight after the failure (default :data:`FAULT_SECONDS`), checked: within
+    :data:`MAX_FAULT_SECONDS`, and long enough for the detection ``delay`` and two windows of the
+    settling test after it (a shorter flight would judge a failure it has not flown)."""
+    seconds = FAULT_SECONDS if seconds is None else seconds  # read at the call
+    seconds = check_real(seconds, "seconds", high=MAX_FAULT_SECONDS, positive=True)
+    least = delay + 2 * SETTLE_WINDOW_S
+    if seconds < least - 1e-9:
+        raise ValueError(
+            f"seconds = {seconds!r}: the flight after the failure must last at least {least:g} s "
+            f"(the detection delay {delay:g} s, then two {SETTLE_WINDOW_S:g} s windows of the "
+            "settling test)"
+        )
+    return seconds
+
+
 def fly_with_failure(
     structure: Structure,
     task: object,
@@ -347,17 +184,21 @@ def fly_with_failure(
     f_max: float | None = None,
     track_config: TrackConfig | None = None,
     detector: object = None,
+    failure: str | int = "all",
+    progress: bool = False,
 ) -> FaultFlight:
-    """Fly ``structure`` on ``task`` through its worst single failure of kind ``fault``.
+    """Fly ``structure`` on ``task`` through its single failures of kind ``fault``.
 
     Args:
         structure: the structure to fly.
         task: a task (:class:`~modquad_gym.tasks.TaskRequirement`, a
             :class:`~modquad_gym.dynamics.DynamicTask`, anything with ``rotor_wrenches`` and
             ``f_max``) or a (t, 6) array of total rotor wrenches.
-        fault: ``"rotor"`` or ``"module"``.
-        seconds: static task or array: how long the hover lasts (the failure strikes at
-            half; default :data:`FAULT_HOVER_SECONDS`). Refused with a dynamic task.
+        fault: ``"rotor"`` or ``"module"`` (or ``"rotor2"``, ``"rotor+module"``).
+        seconds: static task or array: how long the hover flies after the failure (default
+            :data:`FAULT_SECONDS`, at most :data:`MAX_FAULT_SECONDS`, at least the detection
+            delay and two settling windows; it holds :data:`FAULT_BEFORE_S` before). Refused
+            with a dynamic task, flown along its trajectory.
         detection_delay_s: seconds before the controller knows (:mod:`~modquad_gym.sim.failure`;
             default :data:`DETECTION_DELAY_S`). Not with a ``detector``, which decides that.
         f_max: the thrust limit of an array task (default 1); refused with a task object,
@@ -369,32 +210,63 @@ def fly_with_failure(
             ``detection_delay_s`` beside it is refused: it would not be flown); the summary's
             ``fault_detection_delay_s`` is then None and it adds ``fault_detected_after_s`` (the
             delay flown), ``fault_detected_rotors`` and ``fault_detector_decisions``.
+        failure: which failures to fly: ``"all"`` (default: every one, each under its own
+            hardest wrench; the flight returned is the one that did worst, failing the verdict
+            first, then by largest error), ``"worst"`` (the smallest-margin failure only) or a
+            number from 1 (a rotor, 1..4n, or a module, 1..n).
+        progress: a bar on stderr over the failures flown.
 
     Returns:
         A :class:`FaultFlight`; ``summary()`` is its record (``fault_max_position_error_m``,
-        ``fault_saturated_fraction``, ``fault_failed_rotors``, ``fault_time_s``, ...).
+        ``fault_within_5cm``, ``fault_failed_rotors``, ``fault_each``, ...).
     """
-    from modquad_gym.dynamics import DynamicTask
-
     if not isinstance(structure, Structure):
         raise ValueError(f"structure must be a Structure, got {type(structure).__name__}")
     check_simulable(structure)  # before the worst failure's search
     fault = check_fault(fault)
     detection_delay_s = flown_delay(detection_delay_s, detector)
+    choice = check_failure_choice(failure, fault, len(failure_columns(structure, fault)))
     W, fm = _rotor_wrenches(structure, task, f_max, seconds)
-    worst = worst_failure(structure, W, fm, fault)
+    dynamic = getattr(task, "kind", None) == "dynamic"
+    if not dynamic:
+        seconds = check_fault_seconds(seconds, detection_delay_s)
+    if choice == "worst":
+        cases = [worst_failure(structure, W, fm, fault)]
+    else:
+        cases = failure_cases(structure, W, fm, fault)
+        cases = cases if choice == "all" else [cases[choice - 1]]
+    flights = []
+    for case in _bar(cases, progress):
+        flights.append(_fly_one(structure, task, fault, case, W, fm, seconds, detection_delay_s,
+                                track_config, detector))  # fmt: skip
+        flights[-1].choice = choice
+    flown = min(flights, key=lambda f: (f.within_goal, -f.max_position_error_m))
+    flown.each = [f.brief() for f in flights]
+    return flown
+
+
+def _fly_one(structure, task, fault, case, W, fm, seconds, delay, track_config, detector):
+    """One flight through the failure ``case`` (:class:`WorstFailure`)."""
     name = getattr(task, "name", "") or ""
-    if isinstance(task, DynamicTask):
+    if getattr(task, "kind", None) == "dynamic":
         from modquad_gym.sim.track import fly_trajectory
 
         traj = task.trajectory
-        hardest = float(traj.t[worst.row] - traj.t[0])
+        hardest = float(traj.t[case.row] - traj.t[0])
         at = min(traj.duration / 2.0, max(0.0, hardest - LEAD_S))
-        failure = Failure(tuple(worst.columns), at, detection_delay_s, fault)
+        failure = Failure(tuple(case.columns), at, delay, fault)
         run = fly_trajectory(structure, task, track_config, failure=failure, detector=detector)
-        return FaultFlight(structure, "trajectory", fault, failure, worst, run, name)
-    seconds = FAULT_HOVER_SECONDS if seconds is None else seconds  # read at the call
-    seconds = check_real(seconds, "seconds", positive=True)
-    failure = Failure(tuple(worst.columns), seconds / 2.0, detection_delay_s, fault)
-    run = hover_with_failure(structure, W[worst.row], failure, seconds, fm, detector=detector)
-    return FaultFlight(structure, "hover", fault, failure, worst, run, name)
+        return FaultFlight(structure, "trajectory", fault, failure, case, run, name)
+    failure = Failure(tuple(case.columns), FAULT_BEFORE_S, delay, fault)
+    run = hover_with_failure(structure, W[case.row], failure, FAULT_BEFORE_S + seconds, fm,
+                             detector=detector)  # fmt: skip
+    return FaultFlight(structure, "hover", fault, failure, case, run, name)
+
+
+def _bar(cases: list, progress: bool):
+    """``cases``, with a tqdm bar on stderr over them when ``progress`` and more than one."""
+    if not progress or len(cases) < 2:
+        return cases
+    from tqdm.auto import tqdm
+
+    return tqdm(cases, desc="fault flights", unit="failure", leave=False)

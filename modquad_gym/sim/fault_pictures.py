@@ -53,29 +53,39 @@ def fault_flight_figure(flight: FaultFlight, label: str = ""):
     if run.inputs.shape[1] > MAX_LINES:  # the heat map's colour bar: the same room above
         fig.colorbar(ax_u.collections[0], ax=ax_err, pad=0.01).ax.set_visible(False)
     ax_u.set_xlabel("time [s]")
+    known = _detected(flight)
     for ax in (ax_err, ax_u):
         ax.axvline(failure.time_s, color=FAILURE, lw=1.5, ls="-", zorder=5)
-        if failure.detection_delay_s > 0:
-            ax.axvspan(failure.time_s, failure.detected_s, color=FAILURE, alpha=0.12, lw=0)
+        if known is not None:
+            ax.axvspan(failure.time_s, known, color=FAILURE, alpha=0.12, lw=0)
+            ax.axvline(known, color="0.2", lw=1.2, ls=":", zorder=5)
+    if known is not None:
+        ax_err.text(known, 0.85, " known", color="0.2", fontsize=9, va="top", ha="left",
+                    transform=ax_err.get_xaxis_transform())  # fmt: skip
     ax_err.text(failure.time_s, 0.97, f" {flight.fault} fails", color=FAILURE, fontsize=9,
                 va="top", ha="left", transform=ax_err.get_xaxis_transform())  # fmt: skip
     fig.suptitle(_title(flight, label), fontsize=11)
-    fig.tight_layout()
+    fig.tight_layout(w_pad=4.0)  # room for the 3-D panel's z label beside the error axis
     return fig
 
 
 def failed_part_words(part: dict) -> str:
-    """The failed part of a record (:meth:`~.fault_flight.FaultFlight.failed_part`'s keys) in
-    words, numbered from 1 as the command line numbers rows and cells: ``rotor 2 of module 2
-    at cell (0, 1)`` (the record's indices are 0-based: module 1 is ``cells[1]``)."""
+    """The failed part of a record (:meth:`~.fault_record.FaultFlight.failed_part`'s keys and
+    ``fault_failed_rotors``) in words, numbered from 1 as the command line numbers rows, cells
+    and ``--failure K``: ``rotor 6 (rotor 2 of module 2 at cell (0, 1))`` (the record's indices
+    are 0-based: module 1 is ``cells[1]``, rotor 6 is column 5)."""
     what = f"module {part['fault_failed_module'] + 1} at cell {tuple(part['fault_failed_cell'])}"
     if part.get("fault_failed_rotor_in_module") is not None:
         what = f"rotor {part['fault_failed_rotor_in_module'] + 1} of {what}"
+        rotors = part.get("fault_failed_rotors") or []
+        if len(rotors) == 1:  # its number among all the rotors (--failure K)
+            what = f"rotor {rotors[0] + 1} ({what})"
     return what
 
 
 def _title(flight: FaultFlight, label: str) -> str:
-    s, part = flight.structure, flight.failed_part()
+    s = flight.structure
+    part = {**flight.failed_part(), "fault_failed_rotors": list(flight.failure.columns)}
     what = failed_part_words(part)
     tolerant = "tolerates" if flight.worst.tolerates else "does NOT tolerate"
     head = f"{label}: " if label else ""
@@ -84,10 +94,28 @@ def _title(flight: FaultFlight, label: str) -> str:
     left = f"{margin:.3g}" if np.isfinite(margin) else "-inf: off the working rotors' span"
     return (
         f"{head}{s.n_modules} modules, {tolerant} any single {flight.fault} failure{task}\n"
-        f"{flight.flight}: the worst failure ({what}, margin after it "
+        f"{flight.flight}: {_which(flight)} ({what}, margin after it "
         f"{left}) at t = {flight.failure.time_s:.3g} s, "
         + (f"known {delay:g} s later" if delay > 0 else "known at once")
     )
+
+
+def _which(flight: FaultFlight) -> str:
+    """Which failure the picture shows, among those flown."""
+    if flight.choice == "all":
+        return f"the failure that did worst in flight of all {len(flight.each)} flown"
+    if flight.choice == "worst":
+        return "the smallest-margin failure only"
+    return f"failure {flight.choice} (asked for)"
+
+
+def _detected(flight: FaultFlight) -> float | None:
+    """When the controller learned of the failure: the fixed delay's end, or the detector's
+    first decision (None: never, or at once)."""
+    detection = getattr(flight.run, "detection", None)
+    if getattr(flight.run, "detector", None) is not None:
+        return None if detection is None else float(detection[0])
+    return flight.failure.detected_s if flight.failure.detection_delay_s > 0 else None
 
 
 def _cm(metres: float) -> str:
@@ -149,7 +177,7 @@ def _mark_failed(ax, run, columns) -> None:
     if run.inputs.shape[1] > MAX_LINES:  # a red frame round each run of failed rows
         runs = np.split(np.array(cols), np.flatnonzero(np.diff(cols) != 1) + 1)
         for i, rows in enumerate(runs):
-            label = f"failed rotor(s) {_list(cols)}" if i == 0 else None
+            label = _failed_label(cols) if i == 0 else None
             ax.axhspan(rows[0] - 0.5, rows[-1] + 0.5, facecolor="none", edgecolor=FAILURE,
                        lw=1.0, label=label)  # fmt: skip
             ax.plot([0.0], [(rows[0] + rows[-1]) / 2], ">", color=FAILURE, ms=7, clip_on=False,
@@ -158,9 +186,14 @@ def _mark_failed(ax, run, columns) -> None:
         return
     for i, c in enumerate(cols):
         ax.plot(run.t, run.inputs[:, c], color=FAILURE, lw=2.2, ls="--",
-                label=f"failed rotor(s) {_list(cols)}" if i == 0 else None)  # fmt: skip
+                label=_failed_label(cols) if i == 0 else None)  # fmt: skip
     ax.legend(loc="upper right", fontsize=8)
 
 
+def _failed_label(cols: list[int]) -> str:
+    return f"failed rotor(s) {_list(cols)} (numbered from 1)"
+
+
 def _list(cols: list[int]) -> str:
-    return ", ".join(map(str, cols[:4])) + (", ..." if len(cols) > 4 else "")
+    """The failed columns numbered from 1, as the titles and the console number rotors."""
+    return ", ".join(str(c + 1) for c in cols[:4]) + (", ..." if len(cols) > 4 else "")

@@ -1,0 +1,128 @@
+"""The verdict of a flight through a failure (review 23): within 5 cm means it recovered, not
+that it had not crashed yet; every failure flown by default, the worst in flight reported."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import modquad_gym as mq
+from modquad_gym.sim.fault_verdict import SETTLE_WINDOW_S, settling
+
+PLANTED = mq.TaskRequirement.load("examples/planted_seed1.json")
+LINE6 = mq.Structure([(i, 0) for i in range(6)])  # its certified rotor-tolerant minimum
+SCREWDRIVER = mq.TaskRequirement.load("examples/screwdriver.json")
+ROTOR_TOLERANT = mq.Structure([(0, 0), (0, 1), (1, 0), (2, 0)])  # certified, fault="rotor"
+
+
+def _series(error_of_t, saturated_of_t, end=3.0, dt=0.002):
+    t = np.arange(0.0, end, dt)
+    return t, error_of_t(t), saturated_of_t(t)
+
+
+def test_settling_needs_a_falling_error_and_a_rotor_off_its_limits():
+    t, e, sat = _series(lambda t: 0.01 * np.exp(-t), lambda t: t < 0.5)
+    ok = settling(t, e, sat, 0.0)
+    assert ok.settled and not ok.growing and ok.saturated_last == 0.0
+    t, e, sat = _series(lambda t: 0.001 * np.exp(t), lambda t: t < 0.5)  # rising, under 5 cm
+    rising = settling(t, e, sat, 0.0)
+    assert not rising.settled and rising.growing and "error rising" in rising.words()
+    t, e, sat = _series(lambda t: 0.01 + 0 * t, lambda t: t >= 0)  # flat but pinned at a limit
+    pinned = settling(t, e, sat, 0.0)
+    assert not pinned.settled and "at a limit through the last" in pinned.words()
+    assert pinned.before_m == pytest.approx(0.01) and pinned.last_m == pytest.approx(0.01)
+    t, e, sat = _series(lambda t: 1e-6 * (1 + t), lambda t: t < 0)  # creeping under 0.1 mm
+    assert settling(t, e, sat, 0.0).settled
+    short = settling(*_series(lambda t: t, lambda t: t < 0, end=SETTLE_WINDOW_S), 0.0)
+    assert short.before_m is None and short.settled  # saturation alone judges it
+
+
+def test_a_flight_still_saturated_and_drifting_at_its_end_does_not_hold():
+    """planted_seed1's 6-module line, rotor 2 (column 1: the smallest margin), 20 ms late: within
+    0.6 cm 2 s after the failure, crashing 4.3 s after it; the verdict says not settled."""
+    from modquad_gym.sim.fault_flight import fly_with_failure
+
+    f = fly_with_failure(LINE6, PLANTED, "rotor", failure="worst")
+    r = f.summary()
+    assert r["fault_failed_rotors"] == [1] and r["fault_tolerates"] is True
+    assert r["fault_diverged"] is None and r["fault_max_position_error_m"] <= 0.05
+    assert r["fault_settled"] is False and r["fault_within_5cm"] is False
+    assert r["fault_why_not"].startswith("not settled")
+    assert r["fault_last_window_saturated_fraction"] == 1.0
+    assert r["fault_last_window_error_m"] > r["fault_window_before_error_m"]
+    assert r["fault_failure"] == "worst" and r["fault_failures_flown"] == 1
+
+
+def test_every_failure_is_flown_and_the_worst_in_flight_reported():
+    """The screwdriver's rotor-tolerant design: the smallest-margin failure (rotor 6) is not the
+    one that drifts most (rotor 1); flying all reports rotor 1 and its error."""
+    from modquad_gym.sim.fault_flight import fly_with_failure
+
+    worst = fly_with_failure(ROTOR_TOLERANT, SCREWDRIVER, "rotor", seconds=1.1, failure="worst")
+    every = fly_with_failure(ROTOR_TOLERANT, SCREWDRIVER, "rotor", seconds=1.1)
+    r = every.summary()
+    assert r["fault_failure"] == "all" and r["fault_failures_flown"] == 16
+    errors = [e["max_position_error_m"] for e in r["fault_each"]]
+    assert [e["rotors"] for e in r["fault_each"]] == [[k] for k in range(16)]
+    assert r["fault_max_position_error_m"] == max(errors)
+    assert r["fault_failed_rotors"] == r["fault_each"][int(np.argmax(errors))]["rotors"]
+    assert r["fault_failed_rotors"] != list(worst.failure.columns)
+    assert r["fault_max_position_error_m"] > worst.max_position_error_m
+    one = fly_with_failure(ROTOR_TOLERANT, SCREWDRIVER, "rotor", seconds=1.1,
+                           failure=r["fault_failed_rotors"][0] + 1)  # fmt: skip
+    assert one.max_position_error_m == pytest.approx(r["fault_max_position_error_m"])
+    assert one.summary()["fault_failure"] == r["fault_failed_rotors"][0] + 1
+
+
+def test_bad_seconds_and_failure_choices_are_refused_naming_them():
+    from modquad_gym.sim.fault_flight import fly_with_failure
+
+    for seconds, words in ((0.001, "at least 1.02 s"), (61.0, "seconds"), (0.0, "seconds")):
+        with pytest.raises(ValueError, match=words):
+            fly_with_failure(ROTOR_TOLERANT, SCREWDRIVER, "rotor", seconds=seconds)
+    for choice, words in ((0, "1..16"), (17, "1..16"), ("best", "'all', 'worst'"),
+                          (True, "failure = True")):  # fmt: skip
+        with pytest.raises(ValueError, match=words):
+            fly_with_failure(ROTOR_TOLERANT, SCREWDRIVER, "rotor", failure=choice)
+    with pytest.raises(ValueError, match="module number must lie in 1..4"):
+        fly_with_failure(ROTOR_TOLERANT, SCREWDRIVER, "module", failure=5)
+    with pytest.raises(ValueError, match="failure = 3"):
+        fly_with_failure(ROTOR_TOLERANT, SCREWDRIVER, "rotor2", failure=3)
+
+
+def _argv(tmp_path, *extra):
+    return ["validate", "--task", "examples/screwdriver.json", "--out", str(tmp_path / "out"),
+            "--max-hover-wrenches", "1", "--hover-seconds", "0.5", "--known-load-only",
+            *extra]  # fmt: skip
+
+
+def test_cli_fault_seconds_and_failure_refusals(tmp_path, capsys):
+    from modquad_gym.cli import main
+
+    for extra, words in ((["--fault", "rotor", "--fault-seconds", "0.5"], "[1.02, 60]"),
+                         (["--fault", "rotor", "--fault-seconds", "61"], "--fault-seconds 61"),
+                         (["--fault-seconds", "2"], "--fault-seconds"),
+                         (["--failure", "worst"], "--failure"),
+                         (["--fault", "rotor2", "--failure", "3"], "--failure 3")):  # fmt: skip
+        assert main(_argv(tmp_path, *extra)) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and words in err, (extra, err)
+    with pytest.raises(SystemExit) as exc:
+        main(_argv(tmp_path, "--fault", "rotor", "--failure", "0"))
+    assert exc.value.code == 2 and "--failure" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+def test_cli_numbered_failure_is_the_one_flown(tmp_path, capsys):
+    from modquad_gym.cli import main
+
+    argv = _argv(tmp_path, "--fault", "rotor", "--failure", "6", "--fault-seconds", "1.1",
+                 "--json")  # fmt: skip
+    assert main(argv) == 0
+    record = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert record["fault_failed_rotors"] == [5] and record["fault_failure"] == 6
+    assert record["intact_minimum"]["fault_failure"] == "worst"
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "(--failure 6)" in report and "| holds |" in report
