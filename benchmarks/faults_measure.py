@@ -99,9 +99,9 @@ def fly(task, structure, fault: str, intact_seconds: float) -> dict:
 
     out = {}
     for delay in (0.02, 0.05):
-        f = ff.fly_with_failure(structure, task, fault, detection_delay_s=delay)
+        f = ff.fly_with_failure(structure, task, fault, detection_delay_s=delay, failure="worst")
         out[f"error_cm_{1000 * delay:.0f}ms"] = round(100 * f.max_position_error_m, 3)
-    f = ff.fly_with_failure(structure, task, fault, detector=DetectorConfig())
+    f = ff.fly_with_failure(structure, task, fault, detector=DetectorConfig(), failure="worst")
     after = f.summary()["fault_detected_after_s"]
     out["error_cm_detector"] = round(100 * f.max_position_error_m, 3)
     out["detected_ms"] = None if after is None else round(1000 * after, 1)

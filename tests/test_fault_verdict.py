@@ -126,3 +126,28 @@ def test_cli_numbered_failure_is_the_one_flown(tmp_path, capsys):
     assert record["intact_minimum"]["fault_failure"] == "worst"
     report = (tmp_path / "out" / "report.md").read_text()
     assert "(--failure 6)" in report and "| holds |" in report
+
+
+def test_failure_fields_are_checked_naming_them():
+    from modquad_gym import dynamics as dy
+    from modquad_gym.sim.failure import Failure, flown_delay
+    from modquad_gym.sim.fault_flight import hover_with_failure
+    from modquad_gym.sim.track import fly_trajectory
+
+    for columns, words in (((-1,), "columns: each must be an int"), ((1.7,), "got 1.7"),
+                           ((1, 1), "a rotor given twice"), ((True,), "got True"),
+                           ((), "columns is empty"),
+                           (3, "columns must be a sequence")):  # fmt: skip
+        with pytest.raises(ValueError, match=words):
+            Failure(columns, 1.0, 0.0)
+    with pytest.raises(ValueError, match="kind must be one of"):
+        Failure((1,), 1.0, 0.0, "banana")
+    assert str(Failure((1,), 1.0, -0.0).detection_delay_s) == "0.0"
+    assert str(flown_delay(-0.0, None)) == "0.0"
+    with pytest.raises(
+        ValueError, match=r"rotor 99 is not one of the structure's 16 rotors \(0..15\)"
+    ):
+        hover_with_failure(ROTOR_TOLERANT, SCREWDRIVER.wrenches[0], Failure((99,), 0.5), 1.0)
+    tolerant = mq.Structure([(0, 0), (1, 0), (1, 1)])
+    with pytest.raises(ValueError, match=r"rotor 12 is not one of the structure's 12 rotors"):
+        fly_trajectory(tolerant, dy.circle(speed=1.0, laps=0.25), failure=Failure((12,), 0.5))

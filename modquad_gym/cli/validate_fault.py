@@ -55,7 +55,7 @@ FAULT_HELP = (
     "search for a structure that survives any failure of this kind (rotor: any one rotor "
     "stops; module: any one module's rotors stop; rotor2: any two rotors; rotor+module: a "
     "module's rotors and one rotor of another module), then also fly it "
-    "through the failure that leaves the smallest margin, halfway through a hover under the "
+    "through its failures (--failure), 1 s into a hover under each failure's "
     "hardest task wrench (or through the trajectory of a dynamic task), and the same kind of "
     "failure on the intact minimum of the task for comparison; --json adds "
     "fault_max_position_error_m, fault_saturated_fraction, the failed rotors and "

@@ -28,6 +28,10 @@ DETECTION_DELAY_S = 0.02
 500 Hz): meanwhile it allocates on the intact A and misses the failed rotors' share."""
 
 
+FAILURE_KINDS = ("rotor", "module", "rotor2", "rotor+module")
+"""What can fail (:data:`modquad_gym.oracle.faults` kinds; ``Failure.kind``, for the reports)."""
+
+
 @dataclass(frozen=True)
 class Failure:
     """Rotors ``columns`` stop at ``time_s`` seconds; the controller knows from ``detected_s``.
@@ -37,7 +41,11 @@ class Failure:
             order).
         time_s: when they stop, seconds from the start of the flight.
         detection_delay_s: how long the controller keeps allocating on the intact A (>= 0).
-        kind: ``"rotor"`` or ``"module"`` (what failed; for the reports).
+        kind: one of :data:`FAILURE_KINDS` (what failed; for the reports).
+
+    Every field is checked (a one-line ValueError naming it): columns distinct ints from 0
+    (each below the structure's rotor count, checked where it is flown), times finite and
+    >= 0 (a delay of -0 is 0).
     """
 
     columns: tuple[int, ...]
@@ -46,11 +54,31 @@ class Failure:
     kind: str = "rotor"
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "columns", tuple(int(c) for c in self.columns))
-        if not self.columns:
-            raise ValueError("a failure stops at least one rotor")
+        cols = tuple(self.columns) if isinstance(self.columns, (tuple, list, np.ndarray)) else None
+        if cols is None:
+            raise ValueError(f"columns must be a sequence of rotor indices, got {self.columns!r}")
+        if not cols:
+            raise ValueError("a failure stops at least one rotor (columns is empty)")
+        for c in cols:
+            if isinstance(c, (bool, np.bool_)) or not isinstance(c, (int, np.integer)) or c < 0:
+                raise ValueError(f"columns: each must be an int rotor index from 0 (a column of "
+                                 f"A), got {c!r} in {cols!r}")  # fmt: skip
+        if len(set(cols)) != len(cols):
+            raise ValueError(f"columns: a rotor given twice in {cols!r}")
+        object.__setattr__(self, "columns", tuple(int(c) for c in cols))
         check_real(self.time_s, "time_s", low=0.0)
-        check_real(self.detection_delay_s, "detection_delay_s", low=0.0)
+        delay = check_real(self.detection_delay_s, "detection_delay_s", low=0.0) + 0.0  # no -0
+        object.__setattr__(self, "detection_delay_s", delay)
+        if self.kind not in FAILURE_KINDS:
+            raise ValueError(f"kind must be one of {', '.join(FAILURE_KINDS)}, got {self.kind!r}")
+
+    def check_rotors(self, n_rotors: int) -> None:
+        """A ValueError naming ``columns`` when one is not a rotor of an ``n_rotors``-rotor
+        structure (0..n_rotors-1)."""
+        bad = [c for c in self.columns if c >= n_rotors]
+        if bad:
+            raise ValueError(f"columns: rotor {bad[0]} is not one of the structure's {n_rotors} "
+                             f"rotors (0..{n_rotors - 1})")  # fmt: skip
 
     @property
     def detected_s(self) -> float:
@@ -79,7 +107,7 @@ def flown_delay(detection_delay_s: float | None, detector) -> float:
     detector is a ValueError: it would be reported but not flown."""
     if detector is None:
         delay = DETECTION_DELAY_S if detection_delay_s is None else detection_delay_s
-        return check_real(delay, "detection_delay_s", low=0.0)
+        return check_real(delay, "detection_delay_s", low=0.0) + 0.0  # -0 flown and shown as 0
     if detection_delay_s is not None:
         raise ValueError(
             f"detection_delay_s = {detection_delay_s!r}: not flown with a detector, which decides "

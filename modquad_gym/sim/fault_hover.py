@@ -44,6 +44,9 @@ def hover_with_failure(
     from modquad_gym.sim.model import build_model
 
     seconds = check_real(seconds, "seconds", positive=True)
+    if not isinstance(failure, Failure):
+        raise ValueError(f"failure must be a Failure, got {type(failure).__name__}")
+    failure.check_rotors(structure.configuration_matrix().shape[1])
     w = check_wrenches(np.asarray(w, dtype=float)[None])[0]
     cfg = HoverConfig.make(config, f_max=check_f_max(f_max), takeoff_seconds=0.0,
                            known_load=True, load_frame="world")  # fmt: skip

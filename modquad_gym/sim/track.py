@@ -221,6 +221,7 @@ def fly_trajectory(
     from modquad_gym.sim.detector import make_detector
 
     task = as_dynamic(task)  # a ValueError naming the type of anything else
+    _check_failure(failure, structure)
     cfg = config or TrackConfig()
     sim = build_model(structure, task.f_max, payload=task.payload)
     model, data = sim.model, mujoco.MjData(sim.model)
@@ -279,6 +280,14 @@ def fly_trajectory(
     run.detector = watch
     run.detection = None if watch is None else watch.detected
     return run
+
+
+def _check_failure(failure, structure: Structure) -> None:
+    """A ValueError unless ``failure`` is None or a :class:`Failure` of ``structure``'s rotors."""
+    if failure is not None:
+        if not isinstance(failure, Failure):
+            raise ValueError(f"failure must be a Failure, got {type(failure).__name__}")
+        failure.check_rotors(structure.configuration_matrix().shape[1])
 
 
 def _failed_control(failure: Failure, plant: Plant, cfg: TrackConfig, dt: float, ff):
