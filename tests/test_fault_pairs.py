@@ -222,6 +222,6 @@ def test_rotor_and_module_through_the_searches_the_env_and_the_flight():
                    n_max=6)  # fmt: skip
     env.reset(seed=0)
     env.step(int(np.flatnonzero(env.unwrapped.action_masks())[0]))
-    f = fly_with_failure(both.structure, task, "rotor+module", seconds=1.0)
+    f = fly_with_failure(both.structure, task, "rotor+module", seconds=1.1, failure="worst")
     assert len(f.failure.columns) == 5 and f.worst.tolerates
     assert f.max_position_error_m < 0.05
