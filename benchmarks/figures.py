@@ -1,12 +1,15 @@
 """Re-draw the committed figures from the committed reports, without re-running a benchmark.
 
 Each figure is drawn by the plotting function of the command that made it, from that command's
-own data in ``results/``: the agent benchmarks' ``benchmark_bars.png`` from ``benchmark.csv``
-and ``learning_curve.png`` from the training run's ``evaluations.npz`` named in
+own data in ``results/``: the agent benchmarks' ``benchmark_bars.png`` and ``structures.png``
+(each answer drawn from its cells and, on a tier of several module types, their types) from
+``benchmark.csv`` and ``learning_curve.png`` from the training run's ``evaluations.npz`` named in
 ``benchmark.md``; ``seeds.png`` from ``seeds.csv``; the scale benchmarks' ``gap_vs_size.png``
-from ``rows.csv``. Writes ``results/figures.md`` listing every figure and its source. Every
-source is read and checked before any figure is drawn; an existing figure or figures.md is
-replaced only with ``--force``.
+from ``rows.csv``; ``heterogeneous.png`` from ``heterogeneous.csv`` (its tasks drawn again from
+the seed and count its report names, the one-type optima beside the mixed ones searched again:
+a few exhaustive searches of at most ``--n-max`` modules). Writes ``results/figures.md`` listing
+every figure and its source. Every source is read and checked before any figure is drawn; an
+existing figure or figures.md is replaced only with ``--force``.
 
     python -m benchmarks.figures --force
 """
@@ -39,10 +42,10 @@ def training_run(report: str) -> Path | None:
 
 
 def agent_figures(results: Path) -> list[Figure]:
-    """Every agent benchmark's bars and learning curve (the curve where its training run is at
-    hand), their data read and checked now."""
-    from benchmarks.leaderboard_entries import BENCHMARK_COLUMNS, record_row
-    from modquad_gym.scoring.agents_figures import plot_bars, plot_learning_curve
+    """Every agent benchmark's bars, structures and learning curve (the curve where its
+    training run is at hand), their data read and checked now."""
+    from modquad_gym.geometry.module import palette
+    from modquad_gym.scoring.agents_figures import plot_bars, plot_learning_curve, plot_structures
     from modquad_gym.scoring.scores import summarise
     from modquad_gym.scoring.tiers import get_tier
 
@@ -50,21 +53,36 @@ def agent_figures(results: Path) -> list[Figure]:
     for csv_path in sorted(results.rglob("benchmark.csv")):
         folder = csv_path.parent
         bars, curve = folder / "benchmark_bars.png", folder / "learning_curve.png"
-        if not (bars.is_file() or curve.is_file()):
+        structures = folder / "structures.png"
+        if not (bars.is_file() or curve.is_file() or structures.is_file()):
             continue
         report = read_input_text(folder / "benchmark.md")  # names its tier, run
+        found = re.search(r"tier `([^`]+)`", report)
+        tier = get_tier(found.group(1)) if found else get_tier("current")
+        rows = benchmark_rows(csv_path)
         if bars.is_file():
-            tier = re.search(r"tier `([^`]+)`", report)
-            n_max = get_tier(tier.group(1)).n_max if tier else 7
-            what = "modquad score's benchmark.csv"
-            rows = read_rows_csv(csv_path, "", BENCHMARK_COLUMNS, record_row, what)
-            table = summarise(rows, list(dict.fromkeys(r.method for r in rows)), n_max)
+            table = summarise(rows, list(dict.fromkeys(r.method for r in rows)), tier.n_max)
             done.append((bars, csv_path, partial(plot_bars, table, bars)))
+        if structures.is_file():
+            types = palette(tier.modules) if tier.modules else None
+            done.append((structures, csv_path,
+                         partial(plot_structures, rows, structures, modules=types)))  # fmt: skip
         train_dir = training_run(report)
         evals = None if train_dir is None else train_dir / "evaluations.npz"
         if curve.is_file() and evals is not None and evals.is_file():  # the run is at hand
             done.append((curve, evals, partial(plot_learning_curve, evals, curve)))
     return done
+
+
+def benchmark_rows(csv_path: Path) -> list:
+    """The rows of ``modquad score``'s ``benchmark.csv``, each with its answer's cells."""
+    from benchmarks.leaderboard_entries import BENCHMARK_COLUMNS, record_row
+    from modquad_gym.scoring.agents_figures import cells_from_csv
+
+    def typed(raw: dict):
+        return dataclasses.replace(record_row(raw), cells=cells_from_csv(raw["cells"]))
+
+    return read_rows_csv(csv_path, "", BENCHMARK_COLUMNS, typed, "modquad score's benchmark.csv")
 
 
 def seed_figures(results: Path) -> list[Figure]:
@@ -96,6 +114,31 @@ def scale_figures(results: Path) -> list[Figure]:
     return done
 
 
+def heterogeneous_figures(results: Path) -> list[Figure]:
+    """The heterogeneous benchmark's examples, its ``heterogeneous.csv`` read and checked now and
+    its task sets drawn again from the ``--tasks``, ``--seed`` and ``--n-max`` of the command
+    its report names."""
+    from benchmarks.heterogeneous_measure import task_sets
+    from benchmarks.heterogeneous_report import figure
+
+    csv_path, png = results / "heterogeneous.csv", results / "heterogeneous.png"
+    if not (csv_path.is_file() and png.is_file()):
+        return []
+    made = re.search(r"Made by `([^`]+)`", read_input_text(results / "heterogeneous.md"))
+    options = dict(re.findall(r"--(tasks|seed|n-max) (\d+)", made.group(1) if made else ""))
+    n_tasks, seed = int(options.get("tasks", 12)), int(options.get("seed", 0))
+    n_max = int(options.get("n-max", 7))
+
+    def typed(raw: dict) -> dict:
+        saved = raw["saved"]
+        return {**raw, "task": int(raw["task"]), "saved": int(saved) if saved.isdigit() else saved}
+
+    columns = read_input_text(csv_path).splitlines()[0].split(",")  # the rows' own header
+    rows = read_rows_csv(csv_path, "", columns, typed, "a heterogeneous.csv")
+    draw = partial(lambda: figure(rows, task_sets(n_tasks, seed), n_max, png))
+    return [(png, csv_path, draw)]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m benchmarks.figures",
@@ -111,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
     if not args.results.is_dir():
         parser.error(f"--results: no folder {args.results}")
     figures = agent_figures(args.results) + seed_figures(args.results)
-    figures += scale_figures(args.results)
+    figures += scale_figures(args.results) + heterogeneous_figures(args.results)
     if not figures:
         parser.error(
             f"--results {args.results}: no figure to draw (no benchmark.csv with its "

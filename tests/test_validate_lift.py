@@ -37,4 +37,4 @@ def test_the_command_prints_it_and_the_report_explains_the_picture(tmp_path, cap
     assert f"lift: {lift_statement(SCREWDRIVER, 1.0)}; the hovers here apply" in printed
     report = (out / "report.md").read_text()
     assert "![structure](structure.png)\n*structure.png: the first module" in report
-    assert "red for spin +1 and blue for spin -1" in report
+    assert "blue for spin +1 and orange for spin -1" in report

@@ -85,7 +85,7 @@ def test_projection_labels_say_what_and_which_units():
     assert ax.get_xlabel() == r"$f_x$ [$f_\mathrm{max}$]"  # f_max with a subscript
     legend = {t.get_text() for t in ax.get_legend().get_texts()}
     feasible, infeasible = "task wrench, feasible (6-D)", "task wrench, infeasible (6-D)"
-    assert feasible in legend and legend <= {feasible, infeasible}
+    assert feasible in legend and legend <= {feasible, infeasible, "vertex of the projection"}
     external = TaskRequirement([[0, 0, 2.0, 0, 0, 0.05]], kind="external", f_max=2.0)
     ax = draw_projection(s, "torque", task=external)
     assert ax.get_zlabel() == r"$\tau_z$ [N m]"

@@ -272,6 +272,11 @@ def _share(fraction) -> str:
     return "n/a" if fraction is None else f"{100 * fraction:.3g} %"
 
 
+def _row(index) -> object:
+    """A 0-based task-row index of the record as the words number rows: from 1."""
+    return index + 1 if isinstance(index, int) else index
+
+
 def _number(x, spec: str = ".2g") -> str:
     return "n/a" if x is None else format(x, spec)
 
@@ -321,7 +326,7 @@ def summary_lines(r: dict) -> list[str]:
     demo = r.get("infeasible_demo")
     if isinstance(demo, dict):
         lines.append(
-            f"infeasible demo (task row {demo.get('from_task_row')} scaled out of the set): "
+            f"infeasible demo (task row {_row(demo.get('from_task_row'))} scaled out of the set): "
             f"saturated {_share(demo.get('saturated_fraction'))} of steps, position error up to "
             f"{_length(demo.get('max_position_error_m'))}"
             f"{', diverged' if demo.get('diverged') else ''}"

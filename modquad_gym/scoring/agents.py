@@ -377,7 +377,11 @@ def score(args: argparse.Namespace, command: str) -> int:
             "learning curve": plot_learning_curve(evals, out / "learning_curve.png")
             if has_ppo
             else None,
-            "structures": plot_structures(rows, out / "structures.png"),
+            "structures": plot_structures(
+                rows,
+                out / "structures.png",
+                modules=palette(tier.modules) if tier.modules else None,
+            ),
         }
         path = write_report(rows, summary, out, suites, args.model, train_dir, n_max,
                             figures, wall, tier.name, command, record)  # fmt: skip

@@ -117,13 +117,39 @@ def plot_learning_curve(evals: Path, path: Path) -> Path | None:
     return path
 
 
-def plot_structures(rows: list[Row], path: Path, n_tasks: int = 4) -> Path | None:
+def row_structure(row: Row, modules=None):
+    """The structure of ``row``'s answer: its cells, each of its type when the cells carry a
+    type index ([x, y, k], k into ``modules``: the tier's palette of module types)."""
+    from modquad_gym.geometry.structure import Structure
+
+    cells = [tuple(c[:2]) for c in row.cells]
+    if modules is None or not all(len(c) == 3 for c in row.cells):
+        return Structure(cells)
+    try:
+        return Structure(cells, modules=[modules[int(c[2])] for c in row.cells])
+    except IndexError:
+        raise ValueError(f"{row.task}, {row.method}: a cell's type index is beyond the tier's "
+                         f"{len(modules)} module types") from None  # fmt: skip
+
+
+def cells_from_csv(text: str) -> list | None:
+    """The cells of a ``benchmark.csv`` row (``x,y`` or ``x,y,k`` joined by ``;``, as
+    :meth:`Row.as_csv` writes them); None when empty (no answer)."""
+    if not text:
+        return None
+    return [[int(v) for v in cell.split(",")] for cell in text.split(";")]
+
+
+def plot_structures(rows: list[Row], path: Path, n_tasks: int = 4, modules=None) -> Path | None:
     """A few tasks, one row each: every outside agent and learned method scored (``ppo`` and
     its variants, at most three of them) beside the exhaustive and centrosymmetric searches.
     Tasks where every method answered come first; a method without an answer on a task says
-    so in its panel."""
-    from modquad_gym.geometry.structure import Structure
-    from modquad_gym.viz.drawing import draw_structure
+    so in its panel. ``modules``: the tier's palette; with several types each module is drawn
+    as its type (its fill and thrust arrows) on every panel, or, where the rows' cells carry no
+    type (a CSV of an older run), each answer's shape without thrust arrows, as the legend's
+    title says. One legend under the panels explains the colours (spins, thrust arrows, COM,
+    first module, the types)."""
+    from modquad_gym.viz.drawing import draw_structure, legend_handles
 
     scored = list(dict.fromkeys(r.method for r in rows))
     outside = [m for m in scored if ":" in m]
@@ -132,25 +158,17 @@ def plot_structures(rows: list[Row], path: Path, n_tasks: int = 4) -> Path | Non
     if not methods:
         return None
     by = {(r.suite, r.task, r.method): r for r in rows}
-    tasks = list(dict.fromkeys((r.suite, r.task) for r in rows))
-
-    def answered(t, ms) -> bool:
-        return all(by[(*t, m)].success for m in ms if (*t, m) in by)
-
-    # prefer tasks where all methods succeeded, spread over the suites; then any task the
-    # reference (the exhaustive search, else the first method) answered
-    reference = ["exhaustive"] if "exhaustive" in methods else methods[:1]
-    picked = []
-    for good in (
-        [t for t in tasks if answered(t, methods)],
-        [t for t in tasks if answered(t, reference)],
-    ):
-        for suite in dict.fromkeys(s for s, _ in good):
-            picked += [t for t in good if t[0] == suite and t not in picked][: max(1, n_tasks // 2)]
-    picked = picked[:n_tasks]
+    picked = _picked_tasks(rows, methods, by, n_tasks)
     if not picked:
         return None
-    fig = _new_figure(3.2 * len(methods), 3.2 * len(picked))
+    mixed = modules is not None and len(modules) > 1
+    answers = [r for r in rows if r.success and r.cells]
+    typed = mixed and all(len(c) == 3 for r in answers for c in r.cells)
+    note = None
+    if mixed and not typed:
+        note = (f"module types ({', '.join(m.name for m in modules)}) not recorded in these "
+                "rows: shapes only, without thrust arrows")  # fmt: skip
+    fig = _new_figure(3.2 * len(methods), 3.2 * len(picked) + 0.6)
     for i, key in enumerate(picked):
         for j, m in enumerate(methods):
             ax = fig.add_subplot(len(picked), len(methods), i * len(methods) + j + 1)
@@ -160,9 +178,31 @@ def plot_structures(rows: list[Row], path: Path, n_tasks: int = 4) -> Path | Non
                 ax.set_title(f"{short(m)}: - (opt {r.optimum if r else '-'})\n{key[1]}")
                 ax.set_axis_off()
                 continue
-            s = Structure([tuple(c[:2]) for c in r.cells])  # the shape (types: not drawn)
-            draw_structure(s, ax=ax, title=f"{short(m)}: {r.n_modules} (opt {r.optimum})\n{key[1]}")
-            if ax.get_legend() is not None:
-                ax.get_legend().remove()
+            title = f"{short(m)}: {r.n_modules} (opt {r.optimum})\n{key[1]}"
+            draw_structure(row_structure(r, modules if typed else None), ax=ax, title=title,
+                           types=typed, legend=False, arrows=note is None)  # fmt: skip
+    handles = legend_handles(list(modules) if typed else None, arrows=note is None)
+    fig.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 8),
+               fontsize="small", frameon=False, title=note, title_fontsize="small")  # fmt: skip
     save_figure(fig, path, dpi=90)
     return path
+
+
+def _picked_tasks(rows: list[Row], methods: list[str], by: dict, n_tasks: int) -> list:
+    """The (suite, task) pairs of :func:`plot_structures`: tasks where all methods succeeded,
+    spread over the suites; then any task the reference (the exhaustive search, else the first
+    method) answered."""
+    tasks = list(dict.fromkeys((r.suite, r.task) for r in rows))
+
+    def answered(t, ms) -> bool:
+        return all(by[(*t, m)].success for m in ms if (*t, m) in by)
+
+    reference = ["exhaustive"] if "exhaustive" in methods else methods[:1]
+    picked = []
+    for good in (
+        [t for t in tasks if answered(t, methods)],
+        [t for t in tasks if answered(t, reference)],
+    ):
+        for suite in dict.fromkeys(s for s, _ in good):
+            picked += [t for t in good if t[0] == suite and t not in picked][: max(1, n_tasks // 2)]
+    return picked[:n_tasks]

@@ -18,8 +18,8 @@ spec by about 1e-6 relative, e.g. in the rotor site quaternions). It has:
   mixed structures too. So the simulated body is exactly the one the dynamic tasks' wrenches are
   computed for (:mod:`modquad_gym.dynamics`). One box geom per module (side x side x
   ``MODULE_THICKNESS``, drawn 3 % smaller so that neighbours show apart) and the rotor discs
-  are massless visuals; modules are coloured by type (the first module of a one-type structure
-  green).
+  are massless visuals, coloured as in every picture (:mod:`modquad_gym.viz.raster`): rotors by
+  spin (+1 blue, -1 orange), modules by type (the first module of a one-type structure green).
 * One site ``rotor{k}`` per rotor at p_k, oriented so that its z-axis is the thrust direction d_k.
 * One ``general`` actuator per rotor on its site: ``gear = (0, 0, 1, 0, 0, s_k c_tau)`` (thrust
   along the site z-axis plus the spin-signed drag torque about it), ``gainprm = 1``, no bias, no
@@ -48,7 +48,7 @@ from modquad_gym.geometry.inertia import inertia_about_com
 from modquad_gym.geometry.module import DEFAULT_HEIGHT, GRAVITY
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.sim.inertial import check_simulable, principal_axes, six_digit_moments
-from modquad_gym.viz.raster import type_colour
+from modquad_gym.viz.raster import SPIN_COLOURS, module_fill, rgba
 
 if TYPE_CHECKING:  # pragma: no cover
     from modquad_gym.dynamics import Payload
@@ -66,8 +66,7 @@ LOAD_CELL_MASS = 0.01
 """Mass of the load cell's plate (bench only), kg."""
 
 _ROTOR_RADIUS_FRACTION = 0.14  # rotor disc radius as a fraction of the module side
-_ROTOR_COLOURS = {1.0: [0.85, 0.2, 0.2, 0.9], -1.0: [0.2, 0.35, 0.85, 0.9]}
-_MODULE_COLOURS = ([0.3, 0.7, 0.35, 1.0], [0.55, 0.55, 0.6, 1.0])  # first (initial) module green
+_ROTOR_COLOURS = {float(k): rgba(c, 0.9) for k, c in SPIN_COLOURS.items()}  # the pictures'
 
 
 @dataclass(frozen=True)
@@ -243,19 +242,15 @@ def _set_inertial(body, structure: Structure, masses: np.ndarray) -> None:
 
 
 def _add_modules(body, structure: Structure) -> None:
-    """One massless box geom per module, coloured by type (one type: the first module green)."""
+    """One massless box geom per module, filled as in the pictures (:func:`module_fill`: by
+    type, or with one type the first module green)."""
     mujoco = import_optional("mujoco")
 
     half = structure.side / 2.0 * 0.97
-    for i, (c, t) in enumerate(zip(structure.module_centres, structure.type_indices)):
-        if structure.is_mixed:  # the fills of the pictures (modquad_gym.viz.raster.type_colour)
-            fill = type_colour(structure.modules[i], t)
-            rgba = [float(f"{int(fill[k : k + 2], 16) / 255:.3g}") for k in (1, 3, 5)] + [1.0]
-        else:
-            rgba = _MODULE_COLOURS[0] if i == 0 else _MODULE_COLOURS[1]
+    for i, c in enumerate(structure.module_centres):
         body.add_geom(
             name=f"module{i}", type=mujoco.mjtGeom.mjGEOM_BOX, pos=c,
-            size=[half, half, MODULE_THICKNESS / 2], mass=0.0, rgba=rgba,
+            size=[half, half, MODULE_THICKNESS / 2], mass=0.0, rgba=rgba(module_fill(structure, i)),
         )  # fmt: skip
 
 
@@ -270,12 +265,12 @@ def _add_rotors(spec, body, structure: Structure, f_max: float) -> None:
                  structure.rotor_c_tau, strict=True)  # fmt: skip
     zaxis = mujoco.mjtOrientation.mjORIENTATION_ZAXIS
     for k, (p, d, s, c_tau) in enumerate(rotors):
-        rgba = _ROTOR_COLOURS[1.0 if s > 0 else -1.0]
+        colour = _ROTOR_COLOURS[1.0 if s > 0 else -1.0]
         site = body.add_site(name=f"rotor{k}", pos=p, size=[0.005, 0.005, 0.005])
         site.alt.type, site.alt.zaxis = zaxis, d
         disc = body.add_geom(
             name=f"disc{k}", type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=p + [0.0, 0.0, lift],
-            size=[radius, 0.004, 0.0], mass=0.0, rgba=rgba, group=1,
+            size=[radius, 0.004, 0.0], mass=0.0, rgba=colour, group=1,
         )  # fmt: skip
         disc.alt.type, disc.alt.zaxis = zaxis, d
         spec.add_actuator(

@@ -17,6 +17,7 @@ from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.sim.hover import HoverResult  # noqa: E402
 from modquad_gym.sim.model import HOME_HEIGHT, SimModel, build_model  # noqa: E402
 from modquad_gym.sim.wrench_stand import BenchResult  # noqa: E402
+from modquad_gym.viz.raster import SPIN_COLOURS, module_fill  # noqa: E402
 
 BENCH_HOLD_S = 0.5
 """Seconds each wrench is held in the rotor-input plot (the paper commands one every 500 ms)."""
@@ -24,6 +25,15 @@ BENCH_HOLD_S = 0.5
 MAX_LINES = 32
 """Most rotors drawn one line each in a rotor-input panel; more (e.g. 256 rotors of a 64-module
 structure) are drawn as a heat map, rotor x time, which stays readable."""
+
+
+OUTSIDE = {
+    "loc": "upper left",
+    "bbox_to_anchor": (1.005, 1.0),
+    "borderaxespad": 0.0,
+    "fontsize": "small",
+}
+"""Legend placement of the time-series panels: beside the axes, never over a saturated line."""
 
 
 def _plt():
@@ -81,25 +91,29 @@ def _render_mujoco(sim: SimModel, path: Path, width: int, height: int) -> None:
 
 
 def _render_matplotlib(structure: Structure, path: Path) -> None:
+    """The structure in 3-D: module outlines filled as in every picture (:func:`module_fill`),
+    each rotor's thrust axis coloured by spin (:data:`SPIN_COLOURS`, as ``modquad show``)."""
+    from matplotlib.lines import Line2D
+
     plt = _plt()
     fig = plt.figure(figsize=(6, 5))
     ax = fig.add_subplot(projection="3d")
     half = structure.side / 2
-    mixed = structure.is_mixed
-    for i, (c, t) in enumerate(zip(structure.module_centres, structure.type_indices)):
+    for i, c in enumerate(structure.module_centres):
         xs = c[0] + np.array([-half, half, half, -half, -half])
         ys = c[1] + np.array([-half, -half, half, half, -half])
-        colour = f"C{int(t)}" if mixed else "tab:green" if i == 0 else "0.4"
-        ax.plot(xs, ys, np.zeros(5), color=colour)
+        ax.plot(xs, ys, np.zeros(5), color=module_fill(structure, i), lw=2.5 if i == 0 else 1.5)
     spins = structure.rotor_spins
     p, d = structure.rotor_positions, structure.rotor_directions
     for pk, dk, sk in zip(p, d, spins, strict=True):
-        colour = "tab:red" if sk > 0 else "tab:blue"
+        colour = SPIN_COLOURS[1 if sk > 0 else -1]
         ax.quiver(*pk, *dk, length=0.12, color=colour, arrow_length_ratio=0.3)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
-    ax.set_title(f"{structure.n_modules} modules (thrust axes; red/blue = spin)")
+    ax.set_title(f"{structure.n_modules} modules: thrust axes by spin")
+    ax.legend(handles=[Line2D([], [], color=SPIN_COLOURS[k], label=f"spin {k:+d}")
+                       for k in (1, -1)], loc="upper left", fontsize="small")  # fmt: skip
     lim = np.abs(p).max() + half
     ax.set_xlim(-lim, lim)
     ax.set_ylim(-lim, lim)
@@ -128,7 +142,7 @@ def inputs_panel(fig, ax, t: np.ndarray, u: np.ndarray, f_max: float, step: bool
     ax.axhline(0.0, ls=":", color="0.5", lw=1.0)
     ax.set_ylim(-0.05 * f_max, 1.1 * f_max)
     ax.set_ylabel("rotor input [N]")
-    ax.legend(loc="upper right")
+    ax.legend(**OUTSIDE)
 
 
 def plot_rotor_inputs(results: list[BenchResult], path: str | Path) -> None:
@@ -210,7 +224,7 @@ def plot_hover(res: HoverResult, path: str | Path, title: str = "hover") -> None
     axes[0].semilogy(res.time, np.maximum(res.position_error, floor), lw=1)
     axes[0].axhline(0.01, ls="--", color="tab:red", lw=1, label="1 cm")
     axes[0].set_ylabel("position error [m]")
-    axes[0].legend(loc="upper right")
+    axes[0].legend(**OUTSIDE)
     axes[1].semilogy(res.time, np.maximum(res.attitude_error, floor), lw=1, color="tab:purple")
     axes[1].set_ylabel("attitude error [rad]")
     inputs_panel(fig, axes[2], res.time, res.u, res.f_max)
@@ -220,8 +234,9 @@ def plot_hover(res: HoverResult, path: str | Path, title: str = "hover") -> None
         for t in starts:
             ax.axvline(t, color="0.85", lw=0.8, zorder=0)
     axes[0].set_title(
-        f"{title}: saturated {100 * res.saturated_fraction:.1f}% of control steps, "
-        f"{int(res.diverged.sum())} segment(s) diverged"
+        f"{title}: saturated {100 * res.saturated_fraction:.1f}% of control steps (task "
+        f"segments, take-off excluded), {int(res.diverged.sum())} segment(s) diverged",
+        fontsize="medium",
     )
     fig.tight_layout()
     save_figure(fig, path, dpi=120)

@@ -151,6 +151,8 @@ def _hover_text(out: dict, blind: bool) -> list[str]:
 
 
 def _segment_table(hover: HoverResult, blind: HoverResult | None, rows: int = 41) -> list[str]:
+    """One row per segment: take-off, then the task segments numbered from 1 (the hovered task
+    wrenches in task order)."""
     blind_seg = {s["segment"]: s for s in (blind.segment_metrics if blind is not None else [])}
     head = "| segment | gamma | known: pos. err [m] | att. err [rad] | saturated | diverged |"
     rule = "|---|---|---|---|---|---|"
@@ -160,7 +162,7 @@ def _segment_table(hover: HoverResult, blind: HoverResult | None, rows: int = 41
     lines = [head, rule]
     for s in hover.segment_metrics[:rows]:
         row = (
-            f"| {'take-off' if s['segment'] < 0 else s['segment']} | {_f(s['gamma'])} | "
+            f"| {'take-off' if s['segment'] < 0 else s['segment'] + 1} | {_f(s['gamma'])} | "
             f"{s['max_position_error_m']:.2e} | "
             f"{s['max_attitude_error_rad']:.2e} | {100 * s['saturated_fraction']:.1f} % | "
             f"{s['stop_reason'] or 'no'} |"
@@ -194,7 +196,7 @@ def _demo_lines(demo: dict | None, scale: float) -> list[str]:
         "",
         "## Infeasible demo",
         "",
-        f"Task row {demo['from_task_row']} scaled to {scale:g} x its feasibility "
+        f"Task row {demo['from_task_row'] + 1} scaled to {scale:g} x its feasibility "
         f"boundary (gamma {_f(demo['gamma'])}), load known: saturated "
         f"{100 * demo['saturated_fraction']:.1f} % of control steps; position error up to "
         f"{demo['max_position_error_m']:.3g} m and attitude error up to "
@@ -232,7 +234,8 @@ def markdown(
 STRUCTURE_CAPTION = (
     "*structure.png: the first module (the first of the cells) green and the others grey, or "
     "with several module types each type's colour; each rotor a disc across its thrust axis (an "
-    "arrow along it where matplotlib draws the picture), red for spin +1 and blue for spin -1 "
-    "(the sign of its drag torque).*"
+    "arrow along it where matplotlib draws the picture), blue for spin +1 and orange for spin -1 "
+    "(the sign of its drag torque), as in `modquad show`.*"
 )
-"""The legend of the structure's picture (the colours of :mod:`modquad_gym.sim.model`)."""
+"""The legend of the structure's picture (the colours of :mod:`modquad_gym.sim.model`, those of
+every picture: :data:`modquad_gym.viz.raster.SPIN_COLOURS`)."""

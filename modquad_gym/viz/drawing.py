@@ -41,11 +41,13 @@ from modquad_gym.viz.projections import (
 from modquad_gym.viz.raster import (
     ARROW_COLOUR,
     FIRST_COLOUR,
+    FIRST_OUTLINE,
     MODULE_COLOUR,
     SPIN_COLOURS,
     STOCK_FILLS,
     TYPE_COLOURS,
     check_structure,
+    module_fill,
     structure_image,
     type_colour,
 )
@@ -67,9 +69,11 @@ __all__ = [
     "STOCK_FILLS",
     "TYPE_COLOURS",
     "VERTEX_COLOUR",
+    "module_fill",
     "draw_projection",
     "draw_rotor_inputs",
     "draw_structure",
+    "legend_handles",
     "force_zonotope_vertices",
     "draw_torque_projection",
     "figure_title",
@@ -107,19 +111,27 @@ def draw_structure(
     ax: Axes | None = None,
     title: str | None = None,
     highlight_first: bool = True,
+    *,
+    types: bool | None = None,
+    legend: bool = True,
+    arrows: bool = True,
 ) -> Axes:
     """Top view of ``structure`` in {S} (metres): module squares, rotors coloured by spin,
-    horizontal thrust arrows, the COM, and the first module highlighted. Returns the axes."""
-    Line2D = import_optional("matplotlib.lines").Line2D
+        horizontal thrust arrows, the COM, and the first module highlighted. Modules are filled by
+        type when ``types`` (default: when the structure mixes types; a figure of several
+        structures of a mixed palette asks for it on every panel, :func:`legend_handles` naming
+        the palette once). ``legend``: the legend beside the axes. ``arrows``: the thrust arrows
+    (off where the module types are not known, e.g. a shape read from cells alone: the arrows
+    would show a type's tilts). Returns the axes."""
     from matplotlib.patches import Circle, Rectangle
 
     s = check_structure(structure)
     ax = ax if ax is not None else new_axes()
     side = s.side
-    mixed = s.is_mixed
-    for i, ((cx, cy, _), t) in enumerate(zip(s.module_centres, s.type_indices)):
+    typed = s.is_mixed if types is None else bool(types)
+    for i, (cx, cy, _) in enumerate(s.module_centres):
         first = highlight_first and i == 0
-        fill = type_colour(s.modules[i], t) if mixed else FIRST_COLOUR if first else MODULE_COLOUR
+        fill = module_fill(s, i, typed) if typed or highlight_first else MODULE_COLOUR
         ax.add_patch(
             Rectangle(
                 (cx - side / 2, cy - side / 2),
@@ -127,7 +139,7 @@ def draw_structure(
                 side,
                 facecolor=fill,
                 edgecolor="#3a3a3a",
-                linewidth=(2.5 if mixed else 1.5) if first else 1.0,
+                linewidth=(FIRST_OUTLINE if typed else 1.5) if first else 1.0,
                 zorder=1,
             )
         )
@@ -137,7 +149,7 @@ def draw_structure(
         colour = SPIN_COLOURS[1 if spin > 0 else -1]
         ax.add_patch(Circle(p[:2], radius, facecolor=colour, edgecolor="k", lw=0.6, zorder=3))
         h = d[:2]
-        if np.linalg.norm(h) > 1e-9:
+        if arrows and np.linalg.norm(h) > 1e-9:
             ax.add_patch(_thrust_arrow(p[:2], h, radius, side))
     ax.plot([0.0], [0.0], marker="+", color="k", markersize=14, mew=2.5, zorder=4)
     xs, ys = s.module_centres[:, 0], s.module_centres[:, 1]
@@ -147,35 +159,49 @@ def draw_structure(
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    handles = [
-        Line2D([], [], marker="o", ls="", color=SPIN_COLOURS[1], label="rotor, spin +1"),
-        Line2D([], [], marker="o", ls="", color=SPIN_COLOURS[-1], label="rotor, spin -1"),
-        Line2D(
-            [],
-            [],
-            marker=r"$\rightarrow$",
-            ls="",
-            color=ARROW_COLOUR,
-            markersize=10,
-            label="thrust, horizontal part",
-        ),
-        Line2D([], [], marker="+", ls="", color="k", mew=2, label="COM"),
-    ]
-    from matplotlib.patches import Patch
-
-    if highlight_first and not mixed:
-        handles.append(Patch(facecolor=FIRST_COLOUR, edgecolor="#3a3a3a", label="first module"))
-    if mixed:
-        handles += [
-            Patch(facecolor=type_colour(m, k), edgecolor="#3a3a3a", label=f"module {m.name}")
-            for k, m in enumerate(s.palette)
-        ]
-    # beside the top view, never over a module (a large structure fills its axes)
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
-              fontsize="x-small", framealpha=0.8)  # fmt: skip
+    if legend:  # beside the top view, never over a module (a large structure fills its axes)
+        handles = legend_handles(s.palette if typed else None, highlight_first, arrows)
+        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0),
+                  borderaxespad=0.0, fontsize="x-small", framealpha=0.8)  # fmt: skip
     n = s.n_modules
     ax.set_title(title if title is not None else f"{n} module{'s' if n > 1 else ''}")
     return ax
+
+
+def legend_handles(palette=None, highlight_first: bool = True, arrows: bool = True) -> list:
+    """The legend of :func:`draw_structure`: the rotors' spins, the thrust arrows (with
+    ``arrows``), the COM, the first module, and with ``palette`` (module types, drawn filled by
+    type) one entry per type. A figure of several top views draws it once (``legend=False`` on
+    each)."""
+    Line2D = import_optional("matplotlib.lines").Line2D
+    from matplotlib.patches import Patch
+
+    handles = [
+        Line2D([], [], marker="o", ls="", color=SPIN_COLOURS[1], label="rotor, spin +1"),
+        Line2D([], [], marker="o", ls="", color=SPIN_COLOURS[-1], label="rotor, spin -1"),
+        *[
+            Line2D(
+                [],
+                [],
+                marker=r"$\rightarrow$",
+                ls="",
+                color=ARROW_COLOUR,
+                markersize=10,
+                label="thrust, horizontal part",
+            )
+        ]
+        * arrows,  # fmt: skip
+        Line2D([], [], marker="+", ls="", color="k", mew=2, label="COM"),
+    ]
+    if highlight_first and palette is None:
+        handles.append(Patch(facecolor=FIRST_COLOUR, edgecolor="#3a3a3a", label="first module"))
+    if highlight_first and palette is not None:
+        handles.append(Patch(facecolor="white", edgecolor="#3a3a3a", linewidth=FIRST_OUTLINE,
+                             label="first module (thick outline)"))  # fmt: skip
+    for k, m in enumerate(palette or ()):
+        handles.append(Patch(facecolor=type_colour(m, k), edgecolor="#3a3a3a",
+                             label=f"module {m.name}"))  # fmt: skip
+    return handles
 
 
 def _thrust_arrow(p: np.ndarray, h: np.ndarray, radius: float, side: float):
@@ -213,7 +239,7 @@ def draw_rotor_inputs(U: np.ndarray, f_max: float = 1.0, ax: Axes | None = None)
     ax.axhline(f_max, ls=":", color="k", lw=1.5, label=r"$f_{max}$")
     ax.axhline(0.0, ls="-", color="0.6", lw=0.8)
     ax.set_xlabel("wrench index")
-    ax.set_ylabel("rotor thrust")
+    ax.set_ylabel(f"rotor thrust [N] (f_max = {f_max:g} N)")
     ax.set_ylim(min(0.0, float(U.min())) - 0.05 * f_max, max(f_max, float(U.max())) + 0.1 * f_max)
     ax.set_title(f"rotor inputs ({U.shape[1]} rotors)")
     ax.legend(loc="lower right", fontsize="x-small")
@@ -256,28 +282,33 @@ top view's height, so a large structure's projections are not small beside it.""
 
 
 def _figure_with_task(w: float, h: float, layout: str):
-    """The figure (of the sizes of :func:`save_structure_figure`) and the grid cells of its top
-    view, force and torque projections for a top view of ``w`` x ``h`` inches."""
+    """The figure (of the sizes of :func:`save_structure_figure`) and, for its top view, force
+    and torque projections, each (the figure or subfigure to add it to, its grid cell), for a
+    top view of ``w`` x ``h`` inches. The grid layout draws the top view and the projections
+    in two subfigures, each laid out on its own: in one grid, the projections' margins widened
+    the top view's cell, and a 16-module-wide top view lost its y label and legend at the
+    figure's edges."""
     Figure = import_optional("matplotlib.figure").Figure
 
     legend, label = 2.0, 0.8  # inches: the legend beside the top view, the axis labels
     top_w, top_h = w + legend + label, h + label
     if layout == "grid":
         projection = 4.0  # two side by side: 8 inches, 960 px at 120 dpi
-        fig = Figure(figsize=(max(top_w, 2 * projection), top_h + projection + 1.0),
+        fig = Figure(figsize=(max(top_w + 0.2, 2 * projection), top_h + projection + 1.0),
                      layout="constrained")  # fmt: skip
-        grid = fig.add_gridspec(2, 2, height_ratios=[top_h, projection])
-        return fig, (grid[0, :], grid[1, 0], grid[1, 1])
+        upper, lower = fig.subfigures(2, 1, height_ratios=[top_h, projection])
+        below = lower.add_gridspec(1, 2)
+        return fig, ((upper, upper.add_gridspec(1, 1)[0]), (lower, below[0]), (lower, below[1]))
     least, most = PROJECTION_INCHES
     if top_h >= 2 * least:  # a tall top view: the projections one above the other beside it
         side = min(top_h / 2, most)
         fig = Figure(figsize=(top_w + side, max(top_h, 2 * side) + 0.6), layout="constrained")
         grid = fig.add_gridspec(2, 2, width_ratios=[top_w, side])
-        return fig, (grid[:, 0], grid[0, 1], grid[1, 1])
+        return fig, ((fig, grid[:, 0]), (fig, grid[0, 1]), (fig, grid[1, 1]))
     side = min(max(top_h, least), most)
     fig = Figure(figsize=(top_w + 2 * side, max(top_h, side) + 0.6), layout="constrained")
     grid = fig.add_gridspec(1, 3, width_ratios=[top_w, side, side])
-    return fig, (grid[0], grid[1], grid[2])
+    return fig, tuple((fig, cell) for cell in grid)
 
 
 def save_structure_figure(
@@ -316,10 +347,11 @@ def save_structure_figure(
         return os.fspath(path)
     fig, cells = _figure_with_task(w, h, layout)
     FigureCanvasAgg(fig)
-    top = draw_structure(s, ax=fig.add_subplot(cells[0]))
+    (parent, cell), *projections = cells
+    top = draw_structure(s, ax=parent.add_subplot(cell))
     top.set_anchor("N")  # a wide structure's top view under its title, x label in the figure
-    for i, space in enumerate(("force", "torque")):
-        ax = fig.add_subplot(cells[1 + i], projection="3d")
+    for space, (parent, cell) in zip(("force", "torque"), projections, strict=True):
+        ax = parent.add_subplot(cell, projection="3d")
         draw_projection(s, space, ax=ax, task=task)
         ax.set_anchor("N")
     width = min(TITLE_WIDTH, int(TITLE_WIDTH * fig.get_figwidth() / 15))

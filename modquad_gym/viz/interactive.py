@@ -1,7 +1,8 @@
 """An interactive page of a structure: one self-contained HTML file (plotly, its JavaScript inline,
 nothing fetched from the network) with three 3-D views to turn and zoom:
 
-* the structure: module boxes (coloured by type), rotors (coloured by spin) and cones along the
+* the structure: module boxes (filled as in the top view: the first module green, or by type
+  with the first module outlined), rotors (coloured by spin) and cones along the
   rotors' thrust directions, in {S} (metres, origin at the COM);
 * the feasible forces and the feasible torques: the projections of the 6-D feasible set onto
   force and torque space (:mod:`modquad_gym.viz.zonotope`), with the task's wrenches, green where
@@ -25,7 +26,7 @@ import numpy as np
 from modquad_gym.core.extras import import_optional
 from modquad_gym.core.outputs import check_output_file, write_text
 from modquad_gym.geometry.structure import Structure
-from modquad_gym.viz.raster import SPIN_COLOURS, check_structure, type_colour
+from modquad_gym.viz.raster import FIRST_COLOUR, SPIN_COLOURS, check_structure, module_fill
 from modquad_gym.viz.zonotope import (
     FEASIBLE_COLOUR,
     INFEASIBLE_COLOUR,
@@ -55,29 +56,23 @@ def _rounded(a) -> list:
 
 
 def structure_traces(structure: Structure) -> list:
-    """Plotly traces of the structure in {S}: module boxes, rotors, thrust-direction cones."""
+    """Plotly traces of the structure in {S}: module boxes (filled as in the top view,
+    :func:`~modquad_gym.viz.raster.module_fill`: the first module green, or with several types
+    each type's fill and the first module outlined), rotors, thrust-direction cones. Hover text
+    numbers modules and rotors from 1, as the command line's words do."""
     go = import_optional("plotly.graph_objects")
 
     s = check_structure(structure)
-    traces = []
-    half = np.array([s.side / 2 * 0.97, s.side / 2 * 0.97, _THICKNESS / 2])
-    for t, m in enumerate(s.palette):  # one mesh per module type: one box geometry repeated
-        idx = np.flatnonzero(np.asarray(s.type_indices) == t)
-        V = (s.module_centres[idx, None, :] + _BOX * half).reshape(-1, 3)
-        F = (_BOX_TRIANGLES[None] + len(_BOX) * np.arange(len(idx))[:, None, None]).reshape(-1, 3)
-        text = [f"module {i}, cell {tuple(s.cells[i])}" for i in idx for _ in _BOX]
-        traces.append(go.Mesh3d(
-            x=_rounded(V[:, 0]), y=_rounded(V[:, 1]), z=_rounded(V[:, 2]), i=F[:, 0], j=F[:, 1],
-            k=F[:, 2], color=type_colour(m, t), opacity=0.55, flatshading=True, text=text,
-            hoverinfo="text", name=f"module {m.name}", showlegend=s.is_mixed,
-        ))  # fmt: skip
+    traces = _module_traces(go, s)
     P, D = s.rotor_positions, s.rotor_directions
+    owner = np.repeat(np.arange(s.n_modules), [m.n_rotors for m in s.modules])
     lift = _THICKNESS / 2
     for spin in (1.0, -1.0):
         k = np.flatnonzero(s.rotor_spins == spin)
         if not len(k):
             continue
-        text = [f"rotor {j}: spin {spin:+.0f}, thrust {np.round(D[j], 2).tolist()}" for j in k]
+        text = [f"rotor {j + 1} (module {owner[j] + 1}): spin {spin:+.0f}, thrust "
+                f"{np.round(D[j], 2).tolist()}" for j in k]  # fmt: skip
         traces.append(go.Scatter3d(
             x=_rounded(P[k, 0]), y=_rounded(P[k, 1]), z=_rounded(P[k, 2] + lift),
             mode="markers", text=text, hoverinfo="text",
@@ -95,6 +90,36 @@ def structure_traces(structure: Structure) -> list:
         x=[0.0], y=[0.0], z=[0.0], mode="markers", marker={"size": 5, "color": "black",
         "symbol": "cross"}, name="COM (origin of {S})",
     ))  # fmt: skip
+    return traces
+
+
+def _module_traces(go, s: Structure) -> list:
+    """One box mesh per fill (one box geometry repeated), named in the legend, and with
+    several types the first module's outline."""
+    traces = []
+    half = np.array([s.side / 2 * 0.97, s.side / 2 * 0.97, _THICKNESS / 2])
+    fills = [module_fill(s, i) for i in range(s.n_modules)]
+    for fill in dict.fromkeys(fills):
+        idx = np.flatnonzero(np.asarray(fills) == fill)
+        V = (s.module_centres[idx, None, :] + _BOX * half).reshape(-1, 3)
+        F = (_BOX_TRIANGLES[None] + len(_BOX) * np.arange(len(idx))[:, None, None]).reshape(-1, 3)
+        text = [f"module {i + 1} ({s.modules[i].name}), cell {tuple(s.cells[i])}"
+                for i in idx for _ in _BOX]  # fmt: skip
+        name = f"module {s.modules[idx[0]].name}" if s.is_mixed else (
+            "first module" if fill == FIRST_COLOUR else "module")  # fmt: skip
+        traces.append(go.Mesh3d(
+            x=_rounded(V[:, 0]), y=_rounded(V[:, 1]), z=_rounded(V[:, 2]), i=F[:, 0], j=F[:, 1],
+            k=F[:, 2], color=fill, opacity=0.55, flatshading=True, text=text,
+            hoverinfo="text", name=name, showlegend=s.is_mixed or s.n_modules > 1,
+        ))  # fmt: skip
+    if s.is_mixed:  # the top view's thick outline of the first module
+        c = s.module_centres[0]
+        ring = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [-1, -1]]) * half[:2] + c[:2]
+        traces.append(go.Scatter3d(
+            x=_rounded(ring[:, 0]), y=_rounded(ring[:, 1]), z=[c[2] + half[2]] * len(ring),
+            mode="lines", line={"color": "#3a3a3a", "width": 8}, hoverinfo="skip",
+            name="first module (thick outline)",
+        ))  # fmt: skip
     return traces
 
 

@@ -92,7 +92,7 @@ def draw_projection(
         ))  # fmt: skip
     if faces is None or (exact and len(V) <= MAX_MARKED_VERTICES):
         ax.scatter(V[:, 0], V[:, 1], V[:, 2], s=2, color=VERTEX_COLOUR, alpha=0.5,
-                   depthshade=False, zorder=2)  # fmt: skip
+                   depthshade=False, zorder=2, label="vertex of the projection")  # fmt: skip
     pts = [V]
     if task is not None:
         W, ok, _ = task_wrenches(s, task)
@@ -103,8 +103,9 @@ def draw_projection(
                 P = W[mask, first : first + 3]
                 ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=22, color=colour, label=label,
                            edgecolors="k", linewidths=0.5, depthshade=False, zorder=5)  # fmt: skip
-        ax.legend(loc="upper left", fontsize="x-small")
         pts.append(W[:, first : first + 3])
+    if ax.get_legend_handles_labels()[0]:  # the task's points, the marked vertices
+        ax.legend(loc="upper left", fontsize="x-small", markerscale=1.5)
     _limits_and_ticks(ax, np.vstack(pts))
     unit = marked_up(units(task, f_max)[0 if space == "force" else 1], "mathtext")
     symbol = "f" if space == "force" else r"\tau"

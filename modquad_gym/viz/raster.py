@@ -3,10 +3,10 @@
 Deterministic and fast (about 10-15 ms for 5-7 modules at 256 x 256): Gymnasium's
 ``render_mode="rgb_array"`` uses it. The colours are the pictures' palette, shared with the
 matplotlib drawings of :mod:`modquad_gym.viz.drawing` (which re-exports everything public
-here): rotors
-with spin +1 blue, spin -1 orange; the first (initial) module green, as in the paper's Fig. 5;
-thrust arrows dark red; the COM a black cross. In a mixed structure modules are filled by type
-(:func:`type_colour`: a fixed fill per stock type).
+here), the interactive page and the MuJoCo model: rotors with spin +1 blue, spin -1 orange
+(:data:`SPIN_COLOURS`, the one spin convention); the first (initial) module green, as in the
+paper's Fig. 5; thrust arrows dark red; the COM a black cross. In a mixed structure modules are
+filled by type (:func:`type_colour`: a fixed fill per stock type).
 """
 
 from __future__ import annotations
@@ -20,6 +20,8 @@ import numpy as np
 from modquad_gym.geometry.structure import Structure
 
 SPIN_COLOURS = {1: "#1f77b4", -1: "#ff7f0e"}
+"""Rotor colour by spin, in every picture (top views, the page, MuJoCo's render and its
+matplotlib fallback): spin +1 blue, spin -1 orange."""
 FIRST_COLOUR = "#b7e4b0"
 MODULE_COLOUR = "#dcdcdc"
 ARROW_COLOUR = "#a01010"
@@ -41,6 +43,26 @@ def type_colour(module, index: int = 0) -> str:
     return TYPE_COLOURS[(len(STOCK_FILLS) + int(index)) % len(TYPE_COLOURS)]
 
 
+def module_fill(structure: Structure, i: int, types: bool | None = None) -> str:
+    """The fill (hex) of module ``i`` in every picture of a structure (top views, the page, the
+    MuJoCo model): by type (:func:`type_colour`) when ``types`` (default: when the structure
+    mixes types; a figure of a mixed tier asks for it on every panel), else the first module
+    :data:`FIRST_COLOUR` and the others :data:`MODULE_COLOUR`. With types the first module is
+    marked by a thick outline instead (:data:`FIRST_OUTLINE`)."""
+    if structure.is_mixed if types is None else types:
+        return type_colour(structure.modules[i], int(structure.type_indices[i]))
+    return FIRST_COLOUR if i == 0 else MODULE_COLOUR
+
+
+FIRST_OUTLINE = 2.5
+"""Outline width (points) of the first module where modules are filled by type."""
+
+
+def rgba(colour: str, alpha: float = 1.0) -> list[float]:
+    """A hex colour as [r, g, b, a] floats in [0, 1] (MuJoCo's rgba)."""
+    return [round(c / 255, 3) for c in _hex_rgb(colour)] + [float(alpha)]
+
+
 def check_structure(structure: Any) -> Structure:
     """``structure`` itself when it is a Structure; ValueError naming its type otherwise."""
     if not isinstance(structure, Structure):
@@ -48,14 +70,16 @@ def check_structure(structure: Any) -> Structure:
     return structure
 
 
+def _hex_rgb(colour: str) -> tuple[int, int, int]:
+    return tuple(int(colour[k : k + 2], 16) for k in (1, 3, 5))  # type: ignore[return-value]
+
+
 _RGB = {
     "white": (255, 255, 255),
-    "module": (220, 220, 220),
-    "first": (183, 228, 176),
     "edge": (58, 58, 58),
-    "spin+": (31, 119, 180),
-    "spin-": (255, 127, 14),
-    "arrow": (160, 16, 16),
+    "spin+": _hex_rgb(SPIN_COLOURS[1]),
+    "spin-": _hex_rgb(SPIN_COLOURS[-1]),
+    "arrow": _hex_rgb(ARROW_COLOUR),
     "com": (0, 0, 0),
     "ok": (44, 160, 44),
     "bad": (214, 39, 40),
@@ -67,10 +91,6 @@ _MIN_EXTENT_MODULES = 5.0
 ARROW_MIN_SIDE_PX = 32.0
 """Least module side in pixels at which thrust arrows are drawn: below it they would cover the
 rotors' spin colours (a large structure shows its modules and rotors only)."""
-
-
-def _hex_rgb(colour: str) -> tuple[int, int, int]:
-    return tuple(int(colour[k : k + 2], 16) for k in (1, 3, 5))  # type: ignore[return-value]
 
 
 @lru_cache(maxsize=16)
@@ -175,16 +195,13 @@ class _Canvas:
         img, side = self.img, s.side
         half_px = 0.5 * side * self.scale
         edge = self.edge(side)
-        for i, (c, t) in enumerate(zip(s.module_centres[:, :2], s.type_indices)):
+        for i, c in enumerate(s.module_centres[:, :2]):
             px, py = self.to_px(c)
             sl = self.box(px, py, half_px)
             d = np.maximum(np.abs(self.X[sl] - px), np.abs(self.Y[sl] - py))
             img[sl][d <= half_px] = _RGB["edge"]
-            if s.is_mixed:
-                inner = half_px - (2.5 * edge if i == 0 else edge)
-                img[sl][d <= inner] = _hex_rgb(type_colour(s.modules[i], t))
-            else:
-                img[sl][d <= half_px - edge] = _RGB["first" if i == 0 else "module"]
+            inner = half_px - (2.5 * edge if s.is_mixed and i == 0 else edge)
+            img[sl][d <= inner] = _hex_rgb(module_fill(s, i))
 
     def rotors(self, s: Structure) -> None:
         """Rotor discs with an outline, coloured by spin."""
