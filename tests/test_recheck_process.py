@@ -70,3 +70,37 @@ def test_a_solver_file_path_is_refused_in_one_line_before_it_runs(given, tmp_pat
         "./myagent.py)"
     ]
     assert not marks.exists() and "fileagent" not in sys.modules
+
+
+def test_score_of_a_shipped_example_suite_is_re_checked(tmp_path, capsys):
+    """``--suite example:NAME`` (review 23, F7): the fresh process reads the shipped file the
+    scorer read, so the run finishes and its report counts the re-checked rows."""
+    from modquad_gym.cli import main
+
+    out = tmp_path / "scores"
+    argv = ["score", "--suite", "example:suite_small", "--methods", "greedy", "--no-progress",
+            "--out", str(out)]  # fmt: skip
+    assert main(argv) == 0, capsys.readouterr().err
+    text = (out / "benchmark.md").read_text()
+    assert "Re-verified in a fresh process" in text and "example:suite_small" in text
+
+
+def test_a_re_check_process_that_fails_is_reported_as_that_not_as_a_refusal(tmp_path, capsys):
+    """A re-check that gives no verdicts (here: its suite file went away) is its own one-line
+    error with the process's last error line, exit code 2; no answer was refused."""
+    from modquad_gym.scoring.recheck import recheck, suite_sources
+    from modquad_gym.scoring.tiers import get_tier
+    from modquad_gym.tasks import load_suite
+
+    suite = tmp_path / "mine.json"
+    suite.write_bytes((Path(agents.__file__).parents[1] / "data" / "examples" /
+                       "suite_small.json").read_bytes())  # fmt: skip
+    rows = agents.run_benchmark({"mine": load_suite(suite)}, ["greedy"], 7, progress=False)
+    sources = suite_sources([str(suite)], get_tier("current"), None)
+    suite.unlink()
+    with pytest.raises(ValueError) as refused:
+        recheck(rows, 1, sources, 7, None, None)
+    line = str(refused.value)
+    assert line.startswith("the fresh process that re-checks the answers failed to run: "
+                           "FileNotFoundError: suite file not found: "), line  # fmt: skip
+    assert str(suite) in line and "refuses" not in line and "\n" not in line

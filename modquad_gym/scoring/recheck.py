@@ -30,14 +30,19 @@ Source = tuple
 REFUSED = "the agent's process verified an answer the exact oracle refuses"
 """The start of the line that stops a run whose rows a fresh process does not confirm."""
 
+FAILED = "the fresh process that re-checks the answers failed to run"
+"""The start of the line that stops a run whose re-check process gave no verdicts (its own
+error, not a refusal of any answer)."""
+
 
 def suite_sources(paths: list | None, tier, validation: int | None) -> dict[str, Source]:
     """Where each scored suite comes from: the ``--suite`` ``paths`` (by file stem), the
     tier's validation draws (``validation`` tasks), or the tier's held-out suite files."""
     from modquad_gym.scoring.suites import SUITES_DIR
+    from modquad_gym.tasks.examples import resolve_task_path
 
-    if paths:
-        return {Path(p).stem: ("file", str(p)) for p in paths}
+    if paths:  # example:NAME resolved here: the fresh process reads the shipped file itself
+        return {Path(p).stem: ("file", str(resolve_task_path(p))) for p in paths}
     if validation:
         return {"validation": ("validation", int(validation), tier.source or "mixed")}
     return {name: ("file", str(SUITES_DIR / f"{name}.json")) for name in tier.suites}
@@ -73,7 +78,7 @@ def recheck(rows: list[Row], per_task: int, sources: dict[str, Source], n_max: i
 def _in_fresh_process(wins, sources, n_max, modules, fault) -> list[str]:
     """:func:`verdicts_of` in a new interpreter started in the folder holding this package
     (so it imports this modquad_gym, and nothing of the caller's folder); ValueError when it
-    fails."""
+    fails (:data:`FAILED` and its last error line: no answer was judged)."""
     absolute = {
         k: (v[0], os.path.abspath(v[1])) if v[0] == "file" else v for k, v in sources.items()
     }
@@ -90,10 +95,7 @@ def _in_fresh_process(wins, sources, n_max, modules, fault) -> list[str]:
         verdicts = None
     if not isinstance(verdicts, list) or len(verdicts) != len(wins):
         why = (run.stderr.strip().splitlines() or [f"exit code {run.returncode}"])[-1]
-        raise ValueError(
-            f"{REFUSED}: the fresh process that re-checks the answers failed: {why} "
-            "(nothing written)"
-        )
+        raise ValueError(f"{FAILED}: {why} (nothing written)")
     return verdicts
 
 
