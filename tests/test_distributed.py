@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import modquad_gym.search.exhaustive as exhaustive
+import modquad_gym.search.split as split
 from modquad_gym.cli import main
 from modquad_gym.core.distributed import Engine, Failed, map_tasks
 from modquad_gym.geometry.polyominoes import PolyominoStream
@@ -176,7 +177,7 @@ def test_ranges_resume_the_enumeration_where_they_start():
     structures in canonical order, like the stream read in one go."""
     whole = np.concatenate(list(PolyominoStream(9, 97)))
     parts = []
-    for count, state in exhaustive._ranges(9, 97):
+    for count, state in split.ranges(9, 97):
         stream = PolyominoStream(9, 97)
         stream.restore(state)
         parts.extend(islice(stream, count))
@@ -189,7 +190,7 @@ def test_split_search_equals_serial(local_ray, monkeypatch):
     """Levels split into Ray tasks (threshold lowered so level 8 splits into 15 ranges of 2
     chunks of 97 structures) give the serial answer, for any number of workers."""
     monkeypatch.setattr(exhaustive, "PARALLEL_FROM", 1000)
-    monkeypatch.setattr(exhaustive, "CHUNKS_PER_RANGE", 2)
+    monkeypatch.setattr(split, "CHUNKS_PER_RANGE", 2)
     for seed in (1, 2):
         W = planted_wrenches(8, 12, seed)
         serial = exhaustive_search(W, n_max=8, chunk=97)

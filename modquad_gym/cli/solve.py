@@ -79,9 +79,10 @@ def add_solve(sub) -> None:
         "no structure of fewer modules works), evaluated, oracle_calls, feasible, certified "
         "(n_modules == lower_bound), seconds (and modules, the type of each cell, with "
         "--modules; for the default search, history: how the bound and the structure found "
-        "improved, a list of {seconds, lower_bound, n_modules, source}, and with --workers "
-        "ray_start_seconds, Ray's start, not counted in seconds; compile_seconds: kernels "
-        "compiled during the search, once on a cold cache, not counted in seconds)",
+        "improved, a list of {seconds, lower_bound, n_modules, source}); ray_start_seconds, "
+        "where one task's search started Ray (--workers): Ray's start, not counted in seconds; "
+        "compile_seconds: kernels compiled during the search, once on a cold cache, not counted "
+        "in seconds",
     )
     add_quiet(p)
     add_workers(
@@ -89,13 +90,15 @@ def add_solve(sub) -> None:
         "1, or every CPU of the cluster given by --ray-address / RAY_ADDRESS. Several tasks are "
         "spread over the workers (each search in one process; a task file that cannot be read "
         "is reported and the others go on, exit code 2 at the end); a single task's exhaustive "
-        "search splits its levels of 100,000 structures or more (11 modules and up), its "
-        "default search runs the portfolio's producers (beam, genetic, greedy, the policy) on "
-        "N-1 workers beside its own steps (Ray's start, seconds on a small machine, is not "
-        "counted in --time-limit nor in the seconds printed, and Ray stops after the answer is "
-        "printed); with one task the other methods run in this process "
-        "and --workers above 1 (or --ray-address) is refused. Only the default search's answer "
-        "may depend on the number of workers (it depends on timing)",
+        "search splits its levels of more than 262,144 structures (12 modules and up) into "
+        "ranges decided on the workers, its default search runs the portfolio's producers "
+        "(beam, genetic, greedy, the policy) on N-1 workers beside its own steps (Ray's start, "
+        "seconds on a small machine, is not counted in --time-limit nor in the seconds printed, "
+        "and Ray stops after the answer is printed); with one task the other methods, and the "
+        "exhaustive search over several --modules types or of a task whose rotor wrenches "
+        "depend on the structure, run in this process and --workers above 1 (or --ray-address) "
+        "is refused. Only the default search's answer may depend on the number of workers (it "
+        "depends on timing)",
     )
     add_csv_header(p)
     p.add_argument(
@@ -286,6 +289,8 @@ def solve_path(args: argparse.Namespace, path: Path, engine, single: bool) -> li
             raise
         report_error(one_line(exc))
         return [exc]
+    if single and args.method == "exhaustive":
+        engine = split_engine(args, task, engine)
     if args.certificate is not None:
         check_certificate_levels(args, task)  # before the search
     result = solver(args, task, engine)(task)
@@ -295,6 +300,23 @@ def solve_path(args: argparse.Namespace, path: Path, engine, single: bool) -> li
     if args.certificate is not None:
         write_certificate(args, task, result)
     return []
+
+
+def split_engine(args: argparse.Namespace, task, engine):
+    """``engine`` where one task's exhaustive search splits its levels over workers; else None,
+    and ``--workers`` above 1 or ``--ray-address`` refused, as for a method that takes no
+    workers (the search over several module types, or of a task whose rotor wrenches depend
+    on the structure, runs in this process: :func:`~modquad_gym.search.split.unsplit_reason`)."""
+    from modquad_gym.search.problem import SearchProblem
+    from modquad_gym.search.split import unsplit_reason
+
+    why = unsplit_reason(SearchProblem(task, args.n_max, modules=palette(args)))
+    if why is None:
+        return engine
+    dests = ["workers"] if (args.workers or 1) > 1 else []
+    given.refuse_ignored(args, [*dests, "ray_address"], f"{why}: workers share several --task "
+                         "files, or the levels of one task's one-type search")  # fmt: skip
+    return None
 
 
 def print_result(args: argparse.Namespace, path, task, result) -> None:

@@ -21,11 +21,10 @@ assignment) pair is visited level by level, by :mod:`.typed` (re-exported here).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass
-from functools import partial
-from itertools import islice
-from typing import Any, NamedTuple, Protocol
+from typing import NamedTuple
 
 import numpy as np
 
@@ -34,7 +33,7 @@ from modquad_gym.core.validation import check_int
 from modquad_gym.dynamics import LinearWrenches
 from modquad_gym.geometry.module import ModuleType
 from modquad_gym.geometry.polyominoes import DEFAULT_CHUNK, PolyominoStream, level_chunks
-from modquad_gym.geometry.structure import Key, Structure, normalise, normalise_typed
+from modquad_gym.geometry.structure import Key, Structure, normalise_typed
 from modquad_gym.search.bounds import NO_SIZE, bound_levels, force_lower_bound, level_excluded
 from modquad_gym.search.checker import TaskChecker
 from modquad_gym.search.levels import (
@@ -49,6 +48,14 @@ from modquad_gym.search.options import check_chunk, count
 from modquad_gym.search.partial import Partial, make_partial
 from modquad_gym.search.problem import EXACT_MODULES, SearchProblem, search_entry
 from modquad_gym.search.result import SearchResult, SearchRun
+from modquad_gym.search.split import (
+    OrderedEngine,
+    check_engine,
+    first_key,
+    key_of,
+    scan_parallel,
+    seeded_checker,
+)
 from modquad_gym.search.typed import (
     MAX_PAIRS,
     PAIRS_PER_BLOCK,
@@ -59,26 +66,8 @@ from modquad_gym.search.typed import (
 )
 
 PARALLEL_FROM = 100_000
-"""Levels with at least this many structures are split into ranges (with an engine)."""
-
-CHUNKS_PER_RANGE = 16
-"""Chunks per range of a split level (262,144 structures with the default chunk): each range
-starts a fresh cache of separating directions, so fewer, longer ranges waste less."""
-
-
-class OrderedEngine(Protocol):
-    """What a search needs to split a level: ``first(fn, items, accept, on_result=)`` returns
-    the results of items 0..k in item order, k the first item whose result is accepted (every
-    item when none is), as :meth:`modquad_gym.core.distributed.Engine.first` does."""
-
-    def first(
-        self,
-        fn: Callable[[Any], Any],
-        items: Iterable[Any],
-        accept: Callable[[Any], bool],
-        *,
-        on_result: Callable[[int, Any], None] | None = None,
-    ) -> list[Any]: ...
+"""Levels with at least this many structures are split into ranges (with an engine,
+:mod:`.split`)."""
 
 
 class ChunkScan(NamedTuple):
@@ -87,21 +76,6 @@ class ChunkScan(NamedTuple):
     key: Key | None
     evaluated: int
     oracle_calls: int
-
-
-@dataclass
-class RangeScan:
-    """One range of a split level, decided alone (one engine task)."""
-
-    key: Key | None  # the first feasible structure of the range, or None
-    evaluated: int
-    oracle_calls: int
-    pool: np.ndarray  # the separating directions known at the end
-    seen: int  # structures of the range decided or passed
-
-
-def _key(cells: np.ndarray) -> Key:
-    return normalise(tuple(map(tuple, cells.tolist())))
 
 
 def scan_chunks(
@@ -116,79 +90,9 @@ def scan_chunks(
 ) -> ChunkScan:
     """Decide chunks [start, stop) of level n: the key of the first feasible structure or None,
     structures evaluated, oracle calls. ``pool`` seeds the separating directions."""
-    checker = _seeded_checker(TaskChecker(LinearWrenches.of_static(W), f_max, module), pool)
-    key, _ = _first_key(checker, level_chunks(n, chunk, start, stop), None)
+    checker = seeded_checker(TaskChecker(LinearWrenches.of_static(W), f_max, module), pool)
+    key, _ = first_key(checker, level_chunks(n, chunk, start, stop), None)
     return ChunkScan(key, checker.evaluated, checker.oracle_calls)
-
-
-def _seeded_checker(checker: TaskChecker, pool: np.ndarray | None) -> TaskChecker:
-    if pool is not None and len(pool):
-        checker.adopt(pool)
-    return checker
-
-
-def _first_key(checker: TaskChecker, chunks, part: Partial | None) -> tuple[Key | None, int]:
-    """(key of the first feasible structure of ``chunks`` (containing ``part``), structures
-    in the chunks read)."""
-    seen = 0
-    for cells in chunks:
-        seen += len(cells)
-        kept = cells if part is None else cells[part.mask(cells)]
-        i = checker.first_feasible(kept)
-        if i is not None:
-            return _key(kept[i]), seen
-    return None, seen
-
-
-def _ranges(n: int, chunk: int) -> Iterator[tuple[int, tuple]]:
-    """Ranges of CHUNKS_PER_RANGE chunks of level n in canonical order, each as (chunks, the
-    enumeration's state at its start). Lazy: one pass over the level, read only as far ahead
-    as the tasks in flight need (enumerating is several times faster than deciding)."""
-    total = level_size(n) or sum(len(c) for c in PolyominoStream(n, chunk))
-    n_chunks = -(-total // chunk)
-    stream = PolyominoStream(n, chunk)
-    for start in range(0, n_chunks, CHUNKS_PER_RANGE):
-        count = min(CHUNKS_PER_RANGE, n_chunks - start)
-        yield count, stream.snapshot()
-        stream.skip(count)
-
-
-def _scan_range(
-    problem: SearchProblem, n: int, chunk: int, pool, part: Partial | None, job
-) -> RangeScan:
-    """One range (an engine task), decided with a fresh checker seeded with ``pool``."""
-    count, state = job
-    stream = PolyominoStream(n, chunk)
-    stream.restore(state)
-    checker = _seeded_checker(problem.checker(), pool)
-    key, seen = _first_key(checker, islice(stream, count), part)
-    return RangeScan(key, checker.evaluated, checker.oracle_calls, checker.pool, seen)
-
-
-def _scan_parallel(
-    run: SearchRun, n: int, chunk: int, engine: OrderedEngine, progress, part
-) -> Key | None:
-    """The first feasible structure of level n: ranges of chunks as tasks on ``engine``, each
-    seeded with the separating directions known before the level; ranges after the first
-    answer are cancelled, the work of ranges up to it is counted. With no answer, the
-    directions the ranges learnt are kept for the next level."""
-
-    def advance(_i: int, result: RangeScan) -> None:
-        if progress is not None:
-            progress.update(result.seen)
-
-    pool = run.checker.pool.copy()
-    scan = partial(_scan_range, run.problem, n, chunk, pool, part)
-    results: list[RangeScan] = engine.first(
-        scan, _ranges(n, chunk), lambda r: r.key is not None, on_result=advance
-    )
-    for r in results:
-        run.checker.evaluated += r.evaluated
-        run.checker.oracle_calls += r.oracle_calls
-    key = results[-1].key
-    if key is None:  # newest first: the last ranges' directions, then the earlier ones
-        run.checker.adopt(np.vstack([r.pool for r in reversed(results)]))
-    return key
 
 
 def _scan(
@@ -198,7 +102,7 @@ def _scan(
     (lazily); only the first one when the level is split across ``engine``'s workers."""
     size = level_size(n)
     if engine is not None and size is not None and size >= PARALLEL_FROM:
-        key = _scan_parallel(run, n, chunk, engine, progress, part)
+        key = scan_parallel(run, n, chunk, engine, progress, part)
         if key is not None:
             yield key
         return
@@ -209,7 +113,7 @@ def _scan(
             i = run.checker.first_feasible(rest, seen=moves.seen)
             if i is None:
                 break
-            yield _key(rest[i])
+            yield key_of(rest[i])
             rest = rest[i + 1 :]
             moves.start += i + 1
         moves.close()
@@ -298,17 +202,20 @@ def exhaustive_search(
     every smaller level refuted, by exact bounds or structure by structure), or none of up to
     ``n_max`` modules satisfies the task (``lower_bound`` > n_max: n_max + 1, or more where the
     exact bounds prove more, :mod:`.beyond`); with ``start``, as below. With an ``engine``
-    (``modquad_gym.core.distributed.Engine(workers)``, used inside its ``with`` block so Ray
-    starts once) levels of at least :data:`PARALLEL_FROM` structures are split into ranges
-    decided in parallel. The answer does not depend on the engine or ``chunk``; ``evaluated``
-    depends on ``chunk`` and on whether levels are split (each range learns its own separating
-    directions), not on the number of workers. ``progress`` shows a bar per level on stderr.
+    (``modquad_gym.core.distributed.Engine(workers)``; its Ray starts once, at the first split
+    level, and stops after the result unless the caller's ``with`` block holds it) levels of at
+    least :data:`PARALLEL_FROM` structures are split into ranges decided in parallel. The
+    answer does not depend on the engine or ``chunk``; ``evaluated`` depends on ``chunk`` and on
+    whether levels are split (each range learns its own separating directions), not on the
+    number of workers. ``progress`` shows a bar per level on stderr.
 
     ``modules=[mA, mB, ...]`` searches every shape with every assignment of those types (one
     per cell; the module docstring gives the order and the pruning); the result's
     ``structure.modules`` lists each cell's type in ``structure.cells`` order. ``kind``
     overrides the task's kind (``external``: the rotors also carry the structure's weight).
-    The typed search runs in this process (``engine`` applies to one-type ``total`` tasks).
+    The typed search runs in this process: an ``engine`` of several workers is refused for it
+    (ValueError; :func:`~.split.check_engine`). Ray's start is not counted in ``seconds``
+    (``ray_start_seconds`` says how long it took).
 
     ``start`` (a Structure, or connected (x, y) cells, at most ``n_max`` of them): only
     structures containing it up to translation are searched (its module types too when it is
@@ -318,12 +225,19 @@ def exhaustive_search(
     ``optimal``) only when the answer meets it, and ``infeasible`` only when the bounds rule
     out every level.
     """
+    check_engine(problem, engine)
     run = SearchRun("exhaustive", problem)
     chunk = check_chunk(chunk)
     part = None
     if start is not None:
         part = make_partial(start, problem.palette, problem.typed, problem.n_max)
-    answer = _exhaustive(run, chunk, engine, progress, True, part)
+    with engine if hasattr(engine, "__enter__") else nullcontext():  # Ray starts once
+        return _exhaustive_result(run, _exhaustive(run, chunk, engine, progress, True, part), part)
+
+
+def _exhaustive_result(run: SearchRun, answer: LevelAnswer, part: Partial | None) -> SearchResult:
+    """:func:`exhaustive_search`'s result of the minimal level ``answer``."""
+    problem = run.problem
     bound = problem.n_max + 1 if answer.n is None else answer.n
     scope = "" if part is None else "containing start"
     if part is not None:  # proved for the structures containing start only: the task's bound

@@ -67,7 +67,8 @@ class SearchResult:
         history: how the bound and the incumbent improved over time (:class:`Improvement`,
             in order; the anytime search fills it, the others leave it empty).
         ray_start_seconds: how long the search waited for Ray's start (the anytime search's
-            producers on workers), not counted in ``seconds`` or the time limit (0: none).
+            producers on workers, the exhaustive search's split levels), not counted in
+            ``seconds`` or the time limit (0: none).
         scope: which structures an exact search searched when not all of them (``"containing
             start"``, :func:`~.exhaustive.exhaustive_search`'s ``start``): its structure is the
             proved minimum among them, or none of them satisfies the task; ``lower_bound``
