@@ -251,9 +251,10 @@ def main(argv: list[str] | None = None) -> None:
         options,
         outputs=("distributed.md", "distributed.csv"),
     )
-    from modquad_gym.core.extras import import_optional
+    from modquad_gym.core.distributed import ray_problem
 
-    import_optional("ray")
+    if ray_problem() is not None:  # not installed, or its import fails: said in one line
+        raise ImportError(ray_problem())
     t0 = time.perf_counter()
     rows = run_batch(batch_tasks(args.tasks, args.seed), args.n_max)
     for n in args.search_n_max:

@@ -3,13 +3,15 @@
 This module alone imports Ray (lazily, so ``import modquad_gym`` stays light). An
 :class:`Engine` runs a function over items either in this process or as Ray tasks:
 
-* serial: ``workers=1``, a batch of one item, or Ray not installed (a one-line note on stderr
-  when more workers were asked for; an explicit cluster address without Ray is an error);
+* serial: ``workers=1``, a batch of one item, or Ray not installed or failing to import (a
+  one-line note on stderr when more workers were asked for, naming the import's failure; an
+  explicit cluster address without Ray is an error, ``ray could not be imported: <reason>``
+  for a broken install; the import is tried when the engine is made);
 * a cluster: ``address=`` (the CLI's ``--ray-address``) or the ``RAY_ADDRESS`` variable; every
   node needs modquad_gym installed, and ``workers`` then caps the tasks in flight (default:
   every CPU of the cluster);
 * otherwise an embedded Ray on this machine, ``ray.init(num_cpus=workers)``, shut down when the
-  engine closes, its session folder removed unless Ray reported an error (:mod:`.ray_session`; a
+  engine closes, its session folder removed unless a task failed in Ray (:mod:`.ray_session`; a
   Ray already running in this process, the user's own ``ray.init``, is used and left running).
 
 Results come back in the order of the items whatever the order of completion, so a batch gives
@@ -24,20 +26,24 @@ from __future__ import annotations
 import importlib.util
 import os
 import re
-import socket
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from itertools import chain, islice
 from typing import Any
 
 from modquad_gym.core.extras import import_optional, missing_extra_message
-from modquad_gym.core.interrupts import failure_line, keep_sigterm
+from modquad_gym.core.interrupts import failure_line, keep_sigterm, one_line
 from modquad_gym.core.notes import note
+from modquad_gym.core.ray_address import (
+    ADDRESS_VARIABLE,
+    check_reachable,
+    given_address,
+    token_hint,
+)
 from modquad_gym.core.ray_session import shutdown, start_local
 from modquad_gym.core.resources import cap_workers, usable_cpus
 from modquad_gym.core.validation import check_int
 
-ADDRESS_VARIABLE = "RAY_ADDRESS"
 DEFAULT_RETRIES = 3
 """Resubmissions of a task whose worker process died (Ray's ``max_retries``)."""
 
@@ -59,6 +65,19 @@ class Failed:
 
 def ray_installed() -> bool:
     return importlib.util.find_spec("ray") is not None
+
+
+def ray_problem() -> str | None:
+    """Why Ray cannot run here, as one line (not installed; installed but its import fails,
+    ``ray could not be imported: <reason>``), or None: an engine asking for workers imports it."""
+    if not ray_installed():
+        return missing_extra_message("ray")
+    try:
+        import_optional("ray")
+    except Exception as exc:  # a broken install (a shared library, a dependency): said as such
+        reason = one_line(exc) if isinstance(exc, ImportError) else failure_line(exc)
+        return f"ray could not be imported: {reason}"
+    return None
 
 
 def run_item(fn: Callable, item: Any, label: str, catch: bool) -> Any:
@@ -102,7 +121,7 @@ class Engine:
         option: str = "workers",
         check_address: bool = True,
     ) -> None:
-        self.address = address or os.environ.get(ADDRESS_VARIABLE) or None
+        self.address = given_address(address) or os.environ.get(ADDRESS_VARIABLE) or None
         if workers is not None:
             workers = check_int(workers, option, low=1)
             if address and workers == 1:  # given here, not by RAY_ADDRESS: it would be ignored
@@ -116,24 +135,25 @@ class Engine:
         elif not self.address:
             workers = local_default or usable_cpus()
         self.workers = workers
-        self.use_ray = workers != 1 and ray_installed()
-        if workers != 1 and not self.use_ray:
+        why = ray_problem() if workers != 1 else None
+        self.use_ray = workers != 1 and why is None
+        if why is not None:
             if self.address:
-                raise ImportError(
-                    f"a Ray cluster was asked for ({self.address}) but "
-                    + missing_extra_message("ray")
+                raise ImportError(f"a Ray cluster was asked for ({self.address}) but {why}")
+            if ray_installed():  # installed but broken: the reason, then the same fallback
+                note(f"modquad: note: {why}; running serially", __name__)
+            else:
+                note(
+                    "modquad: note: Ray is not installed, running serially "
+                    "(pip install 'modquad_gym[distributed]' to use several workers)",
+                    __name__,
                 )
-            note(
-                "modquad: note: Ray is not installed, running serially "
-                "(pip install 'modquad_gym[distributed]' to use several workers)",
-                __name__,
-            )
         self._unchecked = bool(self.use_ray and self.address)
         if self._unchecked and check_address:
             check_reachable(self.address)
             self._unchecked = False
         self._started, self._session = False, None  # _session: the folder of a Ray started here
-        self._failed = False  # Ray reported an error: its session folder (the logs) stays
+        self._failed = False  # a task failed in Ray: its session folder (the logs) stays
         self._depth = 0
 
     def __repr__(self) -> str:
@@ -170,9 +190,10 @@ class Engine:
                     ray.init(address=self.address, **options)
                 except (ConnectionError, RuntimeError, TimeoutError) as exc:
                     raise ConnectionError(
-                        f"Ray cluster {self.address}: {failure_line(exc)}{_token_hint()}"
+                        f"Ray cluster {self.address}: {failure_line(exc)}{token_hint()}"
                     ) from None
             else:  # a new embedded Ray even when RAY_ADDRESS names a cluster elsewhere
+                self._started = True  # an interrupt from here on: the block's end shuts down
                 self._session = start_local(ray, self.workers, options)
         self._started = True
 
@@ -310,44 +331,6 @@ class Engine:
             # process (a RAY_CHECK in TaskManager::CompletePendingTask, Ray 2.60)
             for ref in pending:
                 ray.cancel(ref, force=True)
-
-
-CONNECT_SECONDS = 5.0
-"""How long a cluster address has to accept a connection before the run is refused."""
-
-
-def check_reachable(address: str) -> None:
-    """A cluster address (``HOST:PORT``, ``ray://HOST:PORT``; ``auto`` is left to Ray) must
-    accept a TCP connection within :data:`CONNECT_SECONDS`, else one ValueError line, at once
-    (Ray itself retries for a minute and logs many lines)."""
-    if address in ("auto", "local"):
-        return
-    host, sep, port = address.removeprefix("ray://").rpartition(":")
-    if not sep or not host or not (port.isascii() and port.isdigit()):
-        raise ValueError(
-            f"Ray address {address!r} (--ray-address / {ADDRESS_VARIABLE}): expected HOST:PORT, "
-            "ray://HOST:PORT or auto"
-        )
-    try:
-        socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_SECONDS).close()
-    except (OSError, ValueError, OverflowError) as exc:
-        reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
-        raise ValueError(
-            f"Ray address {address} (--ray-address / {ADDRESS_VARIABLE}): nothing answers there "
-            f"({reason}); start the cluster with `ray start --head` or check the address"
-        ) from None
-
-
-def _token_hint() -> str:
-    """Joining a cluster failed and this driver sent no token: Ray >= 2.59 starts a head with
-    token authentication wherever a token exists, and sends a token to an explicit address only
-    with RAY_AUTH_MODE=token (so this module does not send it unasked either)."""
-    if os.environ.get("RAY_AUTH_MODE", "").lower() == "token":
-        return ""
-    return (
-        "; if the cluster uses token authentication (Ray >= 2.59 turns it on by default), set "
-        "RAY_AUTH_MODE=token and the cluster's RAY_AUTH_TOKEN (or RAY_AUTH_TOKEN_PATH) here too"
-    )
 
 
 def _label(labels: Sequence[str] | None, i: int) -> str:
