@@ -11,8 +11,8 @@ embedded Ray with 1 CPU and with 2 CPUs, every answer compared with the serial o
   the unit of work of ``modquad optima``) of ``--tasks`` training-like tasks (the ``mixed`` task
   source of ``train.py``: planted tasks of 2-6 modules and paper-like tasks);
 * for each ``--search-n-max``, one certified exhaustive search on a task that no structure of
-  up to that many modules satisfies, so every level is decided to its end (levels of at least
-  100,000 structures are split into Ray tasks of 262,144 structures).
+  up to that many modules satisfies, so every level is decided to its end (levels of more than
+  262,144 structures, 12 modules and up, are split into Ray tasks of 262,144 structures).
 
 Wall times include everything a user waits for until the answers are in: starting Ray, its
 worker processes importing the package, the work (not the shutdown after it, which waits for
@@ -210,10 +210,11 @@ def report(rows: list[dict], args: argparse.Namespace, seconds: float) -> str:
         "of `modquad optima` on training-like tasks (`mixed`: planted tasks of 2-6 modules and "
         "paper-like tasks); each search is a task no structure of up to n_max modules "
         "satisfies, so every structure of every level not ruled out by the exact bounds is "
-        "decided (`evaluated`); on Ray, levels of 100,000 structures or more are split into "
-        "tasks of 262,144 structures, each starting from the separating directions known "
-        "before the level (the serial search carries them from one structure to the next, so "
-        "a split level costs more CPU time in all; less so the larger the level).",
+        "decided (`evaluated`); on Ray, levels of more than 262,144 structures (12 modules and "
+        "up) are split into tasks of 262,144 structures, each starting from the separating "
+        "directions known before the level (the serial search carries them from one structure "
+        "to the next, so a split level costs more CPU time in all; less so the larger the "
+        "level); smaller levels are decided in the driver, as serially.",
         rows,
         f"- Batch of {args.tasks} tasks, 2 CPUs vs serial: {line(batch)}.",
         *[f"- {name}, 2 CPUs vs serial: {line(rs)}." for name, rs in searches.items()],
