@@ -289,7 +289,8 @@ def solve_path(args: argparse.Namespace, path: Path, engine, single: bool) -> li
             raise
         report_error(one_line(exc))
         return [exc]
-    if single and args.method == "exhaustive":
+    asked = engine is not None or (args.workers or 1) > 1 or args.ray_address is not None
+    if single and args.method == "exhaustive" and asked:
         engine = split_engine(args, task, engine)
     if args.certificate is not None:
         check_certificate_levels(args, task)  # before the search
