@@ -151,3 +151,28 @@ def test_failure_fields_are_checked_naming_them():
     tolerant = mq.Structure([(0, 0), (1, 0), (1, 1)])
     with pytest.raises(ValueError, match=r"rotor 12 is not one of the structure's 12 rotors"):
         fly_trajectory(tolerant, dy.circle(speed=1.0, laps=0.25), failure=Failure((12,), 0.5))
+
+
+def test_a_rotor_pinned_while_the_error_is_not_growing_is_said_so_with_the_remedy():
+    """Judged not settled only for a rotor at a limit through the last window, the error not
+    growing: the words say so and point to a longer flight (review 23 F1)."""
+    t, e, sat = _series(lambda t: 0.01 + 0 * t, lambda t: t >= 0)  # flat, pinned at a limit
+    pinned = settling(t, e, sat, 1.0)
+    assert pinned.pinned_only and "(error not growing)" in pinned.words()
+    assert pinned.words().startswith("not settled within 2 s: a working rotor still at a limit")
+    t, e, sat = _series(lambda t: 0.001 * np.exp(t), lambda t: t >= 0)  # rising and pinned
+    rising = settling(t, e, sat, 0.0)
+    assert not rising.pinned_only and "not growing" not in rising.words()
+    assert "still" not in rising.words()
+
+
+def test_a_slow_recovery_cut_short_names_the_longer_flight_as_the_remedy():
+    """planted_seed1's line, rotor 2 failing, 8 ms late: saturated to 5 s after the failure, then
+    settling (the review's 6 and 12 s flights hold); flown 3 s it is not settled, and says why."""
+    from modquad_gym.sim.fault_flight import fly_with_failure
+
+    r = fly_with_failure(LINE6, PLANTED, "rotor", failure=2, detection_delay_s=0.008,
+                         seconds=3.0).summary()  # fmt: skip
+    assert r["fault_within_5cm"] is False and r["fault_last_window_saturated_fraction"] == 1.0
+    assert r["fault_why_not"].startswith("not settled within 3 s: a working rotor still at a")
+    assert "(error not growing); a longer --fault-seconds" in r["fault_why_not"]

@@ -115,7 +115,12 @@ class FaultFlight:
             return f"stopped: {self.run.diverged}"
         if self.max_position_error_m > GOAL_M:
             return f"beyond {100 * GOAL_M:g} cm"
-        return self.settling.words()
+        settle = self.settling
+        if not settle.pinned_only:
+            return settle.words()
+        if self.flight == "hover":
+            return settle.words() + "; a longer --fault-seconds (seconds=) may show it recover"
+        return settle.words() + "; the trajectory ends there, so whether it recovers is not flown"
 
     def brief(self) -> dict:
         """The short record of this flight in ``fault_each``: the failed rotors (columns of A),

@@ -8,8 +8,8 @@ and calls it **settled** when
 
 * the largest error of the last window is not above the window before's by more than
   :data:`SETTLE_GROWTH` of it plus :data:`SETTLE_FLOOR_M` (the error is not growing), and
-* some working rotor is off its limits (0 or f_max) in at least one step of the last window
-  (the controller has authority left to correct).
+* the last window has at least one step in which no working rotor is at a limit (0 or
+  f_max): the controller has authority left to correct.
 
 Too short a flight after the failure for two windows is judged on the saturation alone.
 """
@@ -43,12 +43,14 @@ class Settling:
         last_m: largest position error over the last window (m).
         before_m: over the window before it (m; None when the flight is too short for two).
         saturated_last: share of the last window's steps with a working rotor at a limit.
+        after_s: seconds flown from the failure to the end (None: not known).
     """
 
     settled: bool
     last_m: float
     before_m: float | None
     saturated_last: float
+    after_s: float | None = None
 
     @property
     def growing(self) -> bool:
@@ -56,6 +58,13 @@ class Settling:
         if self.before_m is None:
             return False
         return self.last_m > (1.0 + SETTLE_GROWTH) * self.before_m + SETTLE_FLOOR_M
+
+    @property
+    def pinned_only(self) -> bool:
+        """Not settled only because a working rotor sat at a limit through the last window,
+        the error not growing: a slow recovery may still be under way (a longer flight after the
+        failure tells)."""
+        return not self.settled and not self.growing and self.saturated_last >= 1.0
 
     def words(self) -> str:
         """Why not settled, in words (empty when settled)."""
@@ -66,8 +75,12 @@ class Settling:
             why.append(f"error rising {100 * self.before_m:.3g} -> {100 * self.last_m:.3g} cm "
                        f"over the last two {SETTLE_WINDOW_S:g} s windows")  # fmt: skip
         if self.saturated_last >= 1.0:
-            why.append(f"a working rotor at a limit through the last {SETTLE_WINDOW_S:g} s")
-        return "not settled: " + "; ".join(why)
+            why.append(f"a working rotor {'still ' if self.pinned_only else ''}at a limit "
+                       f"through the last {SETTLE_WINDOW_S:g} s")  # fmt: skip
+        if self.pinned_only:
+            why[-1] += " (error not growing)"
+        within = f" within {self.after_s:.3g} s" if self.after_s is not None else ""
+        return f"not settled{within}: " + "; ".join(why)
 
 
 def settling(t: np.ndarray, error: np.ndarray, saturated: np.ndarray, start: float) -> Settling:
@@ -86,4 +99,4 @@ def settling(t: np.ndarray, error: np.ndarray, saturated: np.ndarray, start: flo
     sat = float(np.mean(saturated[last]))
     probe = Settling(True, last_m, before_m, sat)
     ok = np.isfinite(last_m) and not probe.growing and sat < 1.0
-    return Settling(bool(ok), last_m, before_m, sat)
+    return Settling(bool(ok), last_m, before_m, sat, float(end - start))

@@ -99,7 +99,9 @@ def fault_markdown(record: dict, n_modules: int | str = "") -> str:
         "working rotor at 0 or f_max) are measured from the failure on; the row is the flight "
         "that did worst. It holds when never stopped, within 5 cm and settled at the end (the "
         "largest error of the last 0.5 s not above the 0.5 s before, by more than 10 % plus "
-        "0.1 mm, and no working rotor at a limit through the last 0.5 s).",
+        "0.1 mm, and at least one step of the last 0.5 s with no working rotor at a limit; a "
+        "flight judged not settled only for a rotor still at a limit, its error not growing, "
+        "may be a slow recovery that a longer --fault-seconds shows).",
         "",
         "| structure | modules | tolerates | worst margin | failed | at | controller told after "
         "| max position error after | saturated after | diverged | holds |",
