@@ -4,16 +4,16 @@
 
 For each row of ``--faults`` (results/faults/faults.csv) that has a detector flight, of the suites
 ``--suites`` and the designs ``--designs``: the design's search again
-(:func:`benchmarks.faults_measure.design`, the row's n_max and its run's time limit) and its
-flight through the worst failure with the detector told nothing (default sensor noise), as
-``python -m benchmarks.faults --fly`` flies it. Where the detector revised its first decision
-the same structure is flown again with ``DetectorConfig(revise=False)`` (the first decision
-stands, as the detector of faults.csv's runs did): the ``*_unrevised`` columns. The
-``*_before`` columns are faults.csv's own; faults.csv keeps no cells, so a time-limited search
-may have found another structure of the same size and worst margin (``same_design`` compares
-only those). Cheaper than that benchmark: no flights at fixed delays, no intact hovers, no
-oracle timing. ``--update --force`` keeps the rows of other (suite, design) pairs already in
-``--out`` (each row names its command). Writes flights.csv and report.md into ``--out``.
+(:func:`benchmarks.faults_measure.design`, the row's n_max and its run's time limit) and its flight
+through its smallest-margin failure (``failure="worst"``) with the detector told nothing (default
+sensor noise), as ``python -m benchmarks.faults --fly`` flies it. Where the detector revised its
+first decision the same structure is flown again with ``DetectorConfig(revise=False)`` (the first
+decision stands, as the detector of faults.csv's runs did): the ``*_unrevised`` columns. The
+``*_before`` columns are faults.csv's own; faults.csv keeps no cells, so a time-limited search may
+have found another structure of the same size and worst margin (``same_design`` compares only
+those). Cheaper than that benchmark: no flights at fixed delays, no intact hovers, no oracle
+timing. ``--update --force`` keeps the rows of other (suite, design) pairs already in ``--out``
+(each row names its command). Writes flights.csv and report.md into ``--out``.
 """
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ def fly(row: dict, tasks: dict, command: str) -> dict:
         return out
     flown = {}
     for revise in (True, False):
-        f = fly_with_failure(structure, task, found["fault"],
+        f = fly_with_failure(structure, task, found["fault"], failure="worst",
                              detector=DetectorConfig(revise=revise))  # fmt: skip
         record = f.summary()
         flown[revise] = (round(100 * f.max_position_error_m, 3),

@@ -302,14 +302,16 @@ def test_fault_detector_reports_revisions_and_what_changed():
 
 def test_fault_detector_flies_a_revised_design_again_unrevised(monkeypatch):
     """Where the detector revised its first decision the same structure is flown again with the
-    first decision standing; the unrevised columns are that flight's, not a copy."""
+    first decision standing; the unrevised columns are that flight's, not a copy. Each flight is
+    of the smallest-margin failure (failure="worst"), as the committed report's."""
     from benchmarks import fault_detector, faults_measure
     from modquad_gym.sim import fault_flight
 
     def design(task, name, n_max, limit):
         return {"fault": "rotor", "modules": 6, "worst_fault_margin": 0.1, "_structure": "s"}
 
-    def fly(structure, task, fault, detector):
+    def fly(structure, task, fault, detector, failure):
+        assert failure == "worst"  # the smallest-margin failure, as faults.csv's *_before flew
         made = [[0.02, [1]], [0.04, [3]]] if detector.revise else [[0.02, [1]]]
         record = {"fault_detected_rotors": made[-1][1], "fault_detector_decisions": made}
         error = 0.01 if detector.revise else 0.2
