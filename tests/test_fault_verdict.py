@@ -74,6 +74,21 @@ def test_every_failure_is_flown_and_the_worst_in_flight_reported():
                            failure=r["fault_failed_rotors"][0] + 1)  # fmt: skip
     assert one.max_position_error_m == pytest.approx(r["fault_max_position_error_m"])
     assert one.summary()["fault_failure"] == r["fault_failed_rotors"][0] + 1
+    # the worst margin stays the smallest over the failures (review 23 F3), whichever is flown
+    smallest = min(e["margin"] for e in r["fault_each"])
+    flown = r["fault_each"][int(np.argmax(errors))]["margin"]
+    assert r["fault_worst_margin"] == pytest.approx(smallest) and flown > smallest + 0.05
+    assert r["fault_worst_margin"] == pytest.approx(worst.summary()["fault_worst_margin"])
+    assert r["fault_flown_margin"] == pytest.approx(flown)
+    assert one.summary()["fault_worst_margin"] == pytest.approx(smallest)
+    assert one.summary()["fault_flown_margin"] == pytest.approx(flown)
+    from modquad_gym.sim.validate_fault import fault_markdown, intact_record
+
+    assert intact_record(every)["worst_fault_margin"] == pytest.approx(smallest)
+    assert intact_record(every)["fault_flown_margin"] == pytest.approx(flown)
+    page = fault_markdown({**r, "intact_minimum": None, "fault_files": {}}, 4)
+    assert "| worst margin | failed | its margin |" in page
+    assert f"| yes | {smallest:.3g} | rotor " in page and f"| {flown:.3g} | 1 s |" in page
 
 
 def test_bad_seconds_and_failure_choices_are_refused_naming_them():

@@ -234,17 +234,31 @@ def fly_with_failure(
         seconds = check_fault_seconds(seconds, detection_delay_s)
     if choice == "worst":
         cases = [worst_failure(structure, W, fm, fault)]
+        smallest = cases[0].margin
     else:
         cases = failure_cases(structure, W, fm, fault)
+        smallest = _smallest_margin(cases)
         cases = cases if choice == "all" else [cases[choice - 1]]
     flights = []
     for case in _bar(cases, progress):
         flights.append(_fly_one(structure, task, fault, case, W, fm, seconds, detection_delay_s,
                                 track_config, detector))  # fmt: skip
-        flights[-1].choice = choice
+        flights[-1].choice, flights[-1].smallest_margin = choice, smallest
     flown = min(flights, key=lambda f: (f.within_goal, -f.max_position_error_m))
     flown.each = [f.brief() for f in flights]
     return flown
+
+
+def _smallest_margin(cases: list) -> float:
+    """The smallest margin over every failure (:func:`failure_cases`), with
+    :func:`worst_failure`'s round-off rule: 0 where every failure is tolerated, below -TOL where
+    one is not (``solve --json``'s ``worst_fault_margin``)."""
+    low = min(c.margin for c in cases)
+    if cases[0].tolerates and low < 0:
+        return 0.0
+    if not cases[0].tolerates and low >= 0:
+        return float(np.nextafter(-TOL, -np.inf))
+    return low
 
 
 def _fly_one(structure, task, fault, case, W, fm, seconds, delay, track_config, detector):

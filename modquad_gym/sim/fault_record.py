@@ -57,6 +57,8 @@ class FaultFlight:
         choice: which failures were flown: ``"all"``, ``"worst"`` (the smallest-margin one
             only) or a 1-based number (a rotor, or a module for module failures).
         each: one short record per failure flown (:meth:`brief`), in the failures' order.
+        smallest_margin: the smallest margin over every failure of the kind (None: this
+            failure's ``worst.margin``, as for the smallest-margin failure flown alone).
     """
 
     structure: Structure
@@ -68,6 +70,7 @@ class FaultFlight:
     task_name: str = ""
     choice: str | int = "worst"
     each: list = field(default_factory=list)
+    smallest_margin: float | None = None
 
     @property
     def after(self) -> np.ndarray:
@@ -150,7 +153,9 @@ class FaultFlight:
         (every wrench feasible after every failure of that kind), ``fault_failure`` (which
         failures were flown: ``"all"``, ``"worst"`` or the 1-based number asked for),
         ``fault_failures_flown``, ``fault_worst_margin`` (the smallest margin over the task
-        after the failure reported), ``fault_failed_rotors`` (columns of A, 0-based),
+        and every failure of the kind, as ``solve --json``'s ``worst_fault_margin``),
+        ``fault_flown_margin`` (the margin after the failure reported),
+        ``fault_failed_rotors`` (columns of A, 0-based),
         ``fault_failed_module`` (index in the cells, 0-based), ``fault_failed_cell``,
         ``fault_failed_rotor_in_module`` (rotor failures, 0-based), ``fault_time_s``,
         ``fault_detection_delay_s`` (the delay flown; None with a detector, whose
@@ -170,7 +175,10 @@ class FaultFlight:
             "fault_tolerates": self.worst.tolerates,
             "fault_failure": self.choice,
             "fault_failures_flown": max(1, len(self.each)),
-            "fault_worst_margin": finite_or_none(self.worst.margin),
+            "fault_worst_margin": finite_or_none(
+                self.worst.margin if self.smallest_margin is None else self.smallest_margin
+            ),
+            "fault_flown_margin": finite_or_none(self.worst.margin),
             "fault_failed_rotors": list(self.failure.columns),
             **self.failed_part(),
             "fault_time_s": self.failure.time_s,

@@ -81,9 +81,10 @@ def fault_markdown(record: dict, n_modules: int | str = "") -> str:
         err_text = "n/a" if err is None else f"{100 * err:.3g} cm"
         part = failed_part_words(r)
         margin_ = r.get("fault_worst_margin", r.get("worst_fault_margin"))
+        flown = r.get("fault_flown_margin", margin_)
         return (
             f"| {name} | {n_modules} "
-            f"| {'yes' if tolerates else 'no'} | {_fmt(margin_)} | {part} "
+            f"| {'yes' if tolerates else 'no'} | {_fmt(margin_)} | {part} | {_fmt(flown)} "
             f"| {r['fault_time_s']:.3g} s | {_told(r)} | {err_text} "
             f"| {100 * r['fault_saturated_fraction']:.3g} % "
             f"| {r.get('fault_diverged') or 'no'} | {verdict_words(r)} |"
@@ -97,15 +98,18 @@ def fault_markdown(record: dict, n_modules: int | str = "") -> str:
         "second before the moment it hurts most if that comes earlier), each failure under "
         f"its own hardest task wrench; {_switch_words(record)} Errors and saturation (some "
         "working rotor at 0 or f_max) are measured from the failure on; the row is the flight "
-        "that did worst. It holds when never stopped, within 5 cm and settled at the end (the "
+        "that did worst. *worst margin* is the smallest margin over every failure of the kind "
+        "(as `modquad solve --json`'s worst_fault_margin), *its margin* that of the failure "
+        "flown in the row. It holds when never stopped, within 5 cm and settled at the end (the "
         "largest error of the last 0.5 s not above the 0.5 s before, by more than 10 % plus "
         "0.1 mm, and at least one step of the last 0.5 s with no working rotor at a limit; a "
         "flight judged not settled only for a rotor still at a limit, its error not growing, "
         "may be a slow recovery that a longer --fault-seconds shows).",
         "",
-        "| structure | modules | tolerates | worst margin | failed | at | controller told after "
-        "| max position error after | saturated after | diverged | holds |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| structure | modules | tolerates | worst margin | failed | its margin | at "
+        "| controller told after | max position error after | saturated after | diverged "
+        "| holds |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
         row("found", record, n_modules, record["fault_tolerates"]),
     ]
     intact = record.get("intact_minimum")
