@@ -107,7 +107,7 @@ def test_validate_estimate_counts_every_design():
 
     task = mq.TaskRequirement.load(mq.tasks.example_path("screwdriver"))
     plain = argparse.Namespace(fault="rotor", fault_margin=None, detection_delay=None,
-                               time_limit=10.0)  # fmt: skip
+                               time_limit=10.0, failure="all")  # fmt: skip
     delayed = argparse.Namespace(**{**vars(plain), "detection_delay": 0.05})
     assert search_seconds_text(plain) == ", plus two searches of at most 10 s each"
     assert search_seconds_text(delayed) == ", plus three searches of at most 10 s each"

@@ -139,14 +139,16 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if dynamic:
         simulated += task.trajectory.duration
         estimate += task.trajectory.duration * SECONDS_PER_FLOWN_SECOND
-    simulated += fault.fault_seconds(args, task)
-    estimate += fault.fault_seconds(args, task) * SECONDS_PER_FLOWN_SECOND
-    estimate += SECONDS_PER_PICTURE * sum(name.endswith(".png") for name in names)
+    least = fault.least_modules(args, task) if args.fault else 1  # the structure's size unknown
+    simulated += fault.fault_seconds(args, task, least)
+    flights = fault.fault_wall_seconds(args, task, least)
+    estimate += flights + SECONDS_PER_PICTURE * sum(name.endswith(".png") for name in names)
     if estimate > MAX_ESTIMATED_SECONDS and not args.allow_long:
         raise ValueError(
-            f"{args.task}: hovering under {n_hover:,} wrenches takes about {estimate:,.0f} s, "
-            f"more than {MAX_ESTIMATED_SECONDS:,.0f} s; hover under fewer "
-            "(--max-hover-wrenches N) or give --allow-long"
+            f"{args.task}: hovering under {n_hover:,} wrenches"
+            + fault.flights_words(args, least, flights)
+            + f" takes about {estimate:,.0f} s, more than {MAX_ESTIMATED_SECONDS:,.0f} s; hover "
+            f"under fewer (--max-hover-wrenches N){fault.fewer_words(args)} or give --allow-long"
         )
     print(
         f"validate: bench on {n_hover if dynamic else task.n_wrenches} wrenches, hover under "
@@ -179,6 +181,8 @@ def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float | N
 
     dynamic = getattr(task, "kind", None) == "dynamic"
     result = solve.solver(args, task)(task)
+    if result.structure is not None:  # its failures counted, --failure K in range: before work
+        fault.check_found(args, task, result.structure, MAX_ESTIMATED_SECONDS)
 
     def intact_solver(intact_args: argparse.Namespace):  # --fault: the intact minimum's search
         return solve.solver(intact_args, task)

@@ -116,6 +116,7 @@ def add_detect_option(p: argparse.ArgumentParser) -> None:
 def check_fault_options(args: argparse.Namespace) -> None:
     """``--fault`` with a method that cannot honour it (:data:`~.common.NO_FAULT`),
     ``--detection-delay`` out of range or without ``--fault``: one line, before any work."""
+    from modquad_gym.cli.common import palette
     from modquad_gym.cli.given import refuse_ignored
 
     check_fault_method(args)
@@ -126,6 +127,12 @@ def check_fault_options(args: argparse.Namespace) -> None:
     if isinstance(getattr(args, "failure", None), int) and args.fault not in ("rotor", "module"):
         raise ValueError(f"--failure {args.failure}: a numbered failure applies to --fault "
                          f"rotor or module, not {args.fault}; give all or worst")  # fmt: skip
+    rotors = max((m.n_rotors for m in palette(args) or []), default=4)
+    most = failures_at(args.fault, args.n_max, rotors) if hasattr(args, "n_max") else None
+    if isinstance(getattr(args, "failure", None), int) and most and args.failure > most:
+        raise ValueError(f"--failure {args.failure}: a structure of at most --n-max "
+                         f"{args.n_max} modules has at most {most} {args.fault}s, numbered "
+                         f"1..{most}")  # fmt: skip
     if getattr(args, "fault_seconds", None) is not None:
         delay = 0.0 if getattr(args, "detect", False) else flown_delay(args)
         least = delay + 1.0
@@ -169,16 +176,104 @@ def designs(args: argparse.Namespace) -> int:
     return 3 if fault_margin_of(args) else 2
 
 
-def fault_seconds(args: argparse.Namespace, task) -> float:
-    """Simulated seconds of the flights through a failure, one failure per design
-    (:func:`designs`; :func:`fly_fault` says its own estimate once it knows how many failures
-    it flies)."""
+def failures_at(fault: str, n: int, rotors: int = 4) -> int:
+    """How many failures of kind ``fault`` a structure of ``n`` modules of ``rotors`` rotors has
+    (:func:`modquad_gym.oracle.failures.failure_sets`' count): each rotor, each module, each pair
+    of rotors, or each module with each rotor of another."""
+    r = n * rotors
+    return {"rotor": r, "module": n, "rotor2": r * (r - 1) // 2,
+            "rotor+module": n * (r - rotors) if n > 1 else 1}[fault]  # fmt: skip
+
+
+def least_modules(args: argparse.Namespace, task) -> int:
+    """The fewest modules a structure tolerating ``--fault`` can have by the task's forces alone
+    (:func:`~modquad_gym.search.bounds.force_lower_bound`, over ``--modules``' types, the task's
+    wrenches without the structure's own weight and dynamics), within ``--n-max``: the size the
+    up-front estimate assumes, before the search finds the structure (1 where not bounded)."""
+    from modquad_gym.cli.common import palette
+    from modquad_gym.geometry.module import TModule
+    from modquad_gym.search.bounds import force_lower_bound
+
+    try:
+        W = task.static_wrenches() if _dynamic(task) else task.rotor_wrenches(0.0)
+        types = palette(args) or [TModule()]
+        least = min(force_lower_bound(W, m, task.f_max, args.fault) for m in types)
+    except (ValueError, AttributeError):  # an unusual task: no bound, not an error here
+        least = 1
+    return max(1, min(least, getattr(args, "n_max", least) or least))
+
+
+def fault_flights(args: argparse.Namespace, n: int) -> int:
+    """How many flights through a failure ``validate --fault`` flies when the found structure
+    has ``n`` modules (the intact minimum and the design without the margin assumed no larger):
+    every failure (``--failure all``) or one, per design (:func:`designs`)."""
+    if args.fault is None:
+        return 0
+    from modquad_gym.sim.validate_fault import others_choice
+
+    each = failures_at(args.fault, n)
+    found = each if args.failure == "all" else 1
+    theirs = each if others_choice(args.failure) == "all" else 1
+    return found + (designs(args) - 1) * theirs
+
+
+def fault_seconds(args: argparse.Namespace, task, n: int = 1) -> float:
+    """Simulated seconds of the flights through a failure at ``n`` modules
+    (:func:`fault_flights`)."""
     if args.fault is None:
         return 0.0
+    return fault_flights(args, n) * _flight_seconds(args, task)
+
+
+def fault_wall_seconds(args: argparse.Namespace, task, n: int = 1) -> float:
+    """About how long here the flights through a failure take at ``n`` modules
+    (:data:`SECONDS_PER_FAULT_FLIGHT_SECOND` per simulated second and module)."""
+    return fault_seconds(args, task, n) * n * SECONDS_PER_FAULT_FLIGHT_SECOND
+
+
+def flights_words(args: argparse.Namespace, n: int, wall: float) -> str:
+    """What the refusal of a long run says of the flights through a failure (empty without
+    ``--fault``)."""
+    if args.fault is None:
+        return ""
+    return (f" and flying {fault_flights(args, n):,} flights through a {args.fault} failure "
+            f"(--failure {args.failure}, at {n} modules; about {wall:,.0f} s of it)")  # fmt: skip
+
+
+def fewer_words(args: argparse.Namespace) -> str:
+    """The refusal's advice on the flights (empty unless every failure is flown)."""
+    return ", fly one failure (--failure worst)" if args.failure == "all" and args.fault else ""
+
+
+def check_found(args: argparse.Namespace, task, structure, limit: float) -> None:
+    """Once the search has found ``structure``, before the bench and the hovers: ``--failure K``
+    within its failures, and the flights through its failures (the intact minimum and the design
+    without the margin assumed no larger) within ``limit`` s unless ``--allow-long``. A
+    ValueError naming the option otherwise."""
+    if args.fault is None:
+        return
+    from modquad_gym.sim import fault_flight
+
+    count = len(fault_flight.failure_columns(structure, args.fault))
+    if isinstance(args.failure, int) and args.failure > count:
+        raise ValueError(f"--failure {args.failure}: the structure found has {count} "
+                         f"{args.fault}s, numbered 1..{count}")  # fmt: skip
+    wall = fault_wall_seconds(args, task, structure.n_modules)
+    if wall > limit and not getattr(args, "allow_long", False):
+        raise ValueError(
+            f"{args.task}: the structure found has {structure.n_modules} modules; flying "
+            f"{fault_flights(args, structure.n_modules):,} flights through a {args.fault} "
+            f"failure (--failure {args.failure}) takes about {wall:,.0f} s, more than "
+            f"{limit:,.0f} s;{fewer_words(args).lstrip(',')} or give --allow-long"
+        )
+
+
+def _flight_seconds(args: argparse.Namespace, task) -> float:
+    """Simulated seconds of one flight through a failure (the hover before it included)."""
     from modquad_gym.sim import fault_flight
 
     after = getattr(args, "fault_seconds", None) or fault_flight.FAULT_SECONDS
-    return designs(args) * task.flight_seconds(fault_flight.FAULT_BEFORE_S + after)
+    return task.flight_seconds(fault_flight.FAULT_BEFORE_S + after)
 
 
 def search_seconds_text(args: argparse.Namespace) -> str:
