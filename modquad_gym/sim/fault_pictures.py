@@ -75,12 +75,29 @@ def failed_part_words(part: dict) -> str:
     and ``--failure K``: ``rotor 6 (rotor 2 of module 2 at cell (0, 1))`` (the record's indices
     are 0-based: module 1 is ``cells[1]``, rotor 6 is column 5)."""
     what = f"module {part['fault_failed_module'] + 1} at cell {tuple(part['fault_failed_cell'])}"
+    parts, rotors = part.get("fault_failed_parts"), part.get("fault_failed_rotors") or []
+    if parts and part.get("fault_failed_rotor_in_module") is None:  # a module and a rotor
+        return f"{what} and rotor {rotors[-1] + 1} ({_rotor_words(parts[-1])})"
+    if parts:  # a pair of rotors
+        return (f"rotors {' and '.join(str(c + 1) for c in rotors)} "
+                f"({' and '.join(_rotor_words(p) for p in parts)})")  # fmt: skip
     if part.get("fault_failed_rotor_in_module") is not None:
         what = f"rotor {part['fault_failed_rotor_in_module'] + 1} of {what}"
         rotors = part.get("fault_failed_rotors") or []
         if len(rotors) == 1:  # its number among all the rotors (--failure K)
             what = f"rotor {rotors[0] + 1} ({what})"
     return what
+
+
+def _rotor_words(where: dict) -> str:
+    """One failed rotor of a ``fault_failed_parts`` entry, numbered from 1."""
+    return (f"rotor {where['rotor_in_module'] + 1} of module {where['module'] + 1} at cell "
+            f"{tuple(where['cell'])}")  # fmt: skip
+
+
+KIND_WORDS = {"rotor": "single rotor", "module": "single module", "rotor2": "two-rotor",
+              "rotor+module": "module-and-rotor"}  # fmt: skip
+"""The kind of failure in a title: "any <words> failure"."""
 
 
 def _title(flight: FaultFlight, label: str) -> str:
@@ -93,7 +110,8 @@ def _title(flight: FaultFlight, label: str) -> str:
     margin, delay = flight.worst.margin, flight.failure.detection_delay_s
     left = f"{margin:.3g}" if np.isfinite(margin) else "-inf: off the working rotors' span"
     return (
-        f"{head}{s.n_modules} modules, {tolerant} any single {flight.fault} failure{task}\n"
+        f"{head}{s.n_modules} modules, {tolerant} any {KIND_WORDS[flight.fault]} "
+        f"failure{task}\n"
         f"{flight.flight}: {_which(flight)} ({what}, margin after it "
         f"{left}) at t = {flight.failure.time_s:.3g} s, "
         + (f"known {delay:g} s later" if delay > 0 else "known at once")

@@ -136,39 +136,51 @@ class FaultFlight:
 
     def failed_part(self) -> dict:
         """The failed module (index in the cells and its cell; a rotor+module failure's module)
-        and, for a rotor failure, which of the module's rotors (0-based)."""
+        and, for a rotor failure, which of the module's rotors (0-based; a pair's first); for a
+        pair of rotors or a module and a rotor, ``fault_failed_parts``: each failed rotor's
+        module, cell and rotor in it."""
         starts = np.cumsum([0] + [m.n_rotors for m in self.structure.modules])
-        first = self.failure.columns[0]
-        module = int(np.searchsorted(starts, first, side="right") - 1)
-        rotor = int(first - starts[module]) if "module" not in self.fault else None
-        cell = list(self.structure.cells[module])
-        return {"fault_failed_module": module, "fault_failed_cell": cell,
+
+        def where(column) -> dict:
+            module = int(np.searchsorted(starts, column, side="right") - 1)
+            return {"module": module, "cell": list(self.structure.cells[module]),
+                    "rotor_in_module": int(column - starts[module])}  # fmt: skip
+
+        first = where(self.failure.columns[0])
+        rotor = first["rotor_in_module"] if "module" not in self.fault else None
+        part = {"fault_failed_module": first["module"], "fault_failed_cell": first["cell"],
                 "fault_failed_rotor_in_module": rotor}  # fmt: skip
+        if self.fault in ("rotor2", "rotor+module"):
+            part["fault_failed_parts"] = [where(c) for c in self.failure.columns]
+        return part
 
     def summary(self) -> dict:
-        """The ``fault_*`` keys of a validation record (JSON-ready; None for a number that is
-        not finite, e.g. a margin of -inf: a wrench off the span of the working rotors):
+        """The ``fault_*`` keys of a validation record (JSON-ready; None for a number that is not
+        finite, e.g. a margin of -inf: a wrench off the span of the working rotors):
 
         ``fault`` (kind), ``fault_flight`` (``"hover"`` or ``"trajectory"``), ``fault_tolerates``
-        (every wrench feasible after every failure of that kind), ``fault_failure`` (which
-        failures were flown: ``"all"``, ``"worst"`` or the 1-based number asked for),
-        ``fault_failures_flown``, ``fault_worst_margin`` (the smallest margin over the task
-        and every failure of the kind, as ``solve --json``'s ``worst_fault_margin``),
-        ``fault_flown_margin`` (the margin after the failure reported),
-        ``fault_failed_rotors`` (columns of A, 0-based),
-        ``fault_failed_module`` (index in the cells, 0-based), ``fault_failed_cell``,
-        ``fault_failed_rotor_in_module`` (rotor failures, 0-based), ``fault_time_s``,
-        ``fault_detection_delay_s`` (the delay flown; None with a detector, whose
-        ``fault_detected_after_s`` says when it decided), ``fault_seconds`` (flight length),
-        ``fault_hardest_row`` (the task row, wrench or trajectory sample, of that margin; the
-        wrench a hover holds), ``fault_max_position_error_m`` and ``fault_saturated_fraction``
-        (from the failure on), ``fault_max_attitude_error_rad``,
-        ``fault_before_max_position_error_m``, ``fault_diverged`` (why the flight was stopped,
-        or None), the settling test (``fault_settled``, ``fault_last_window_error_m``,
-        ``fault_window_before_error_m``, ``fault_last_window_saturated_fraction``),
-        ``fault_within_5cm`` (never stopped, within 5 cm and settled), ``fault_why_not`` (why
-        not, or None) and ``fault_each`` (:meth:`brief` of every failure flown)."""
+        (every wrench feasible after every failure of that kind), ``fault_failure`` (which failures
+        were flown: ``"all"``, ``"worst"`` or the 1-based number asked for),
+        ``fault_failures_flown``, ``fault_worst_margin`` (the smallest margin over the task and
+        every failure of the kind, as ``solve --json``'s ``worst_fault_margin``),
+        ``fault_flown_margin`` (the margin after the failure reported), ``fault_failed_rotors``
+        (columns of A, 0-based), ``fault_failed_module`` (index in the cells, 0-based),
+        ``fault_failed_cell``, ``fault_failed_rotor_in_module`` (rotor failures, 0-based; a pair's
+        first), ``fault_failed_parts`` (rotor2 and rotor+module: each failed rotor's module, cell
+        and rotor in it), ``fault_time_s``, ``fault_detection_delay_s`` (the delay flown; None with
+        a detector, whose ``fault_detected_after_s`` says when it decided), ``fault_seconds``
+        (flown after the failure: ``--fault-seconds``), ``fault_total_seconds`` (the whole flight,
+        the hover before the failure included), ``fault_hardest_row`` (the task row, wrench or
+        trajectory sample, of that margin; the wrench a hover holds),
+        ``fault_max_position_error_m`` and ``fault_saturated_fraction`` (from the failure on),
+        ``fault_max_attitude_error_rad``, ``fault_before_max_position_error_m``, ``fault_diverged``
+        (why the flight was stopped, or None), the settling test (``fault_settled``,
+        ``fault_last_window_error_m``, ``fault_window_before_error_m``,
+        ``fault_last_window_saturated_fraction``), ``fault_within_5cm`` (never stopped, within 5 cm
+        and settled), ``fault_why_not`` (why not, or None) and ``fault_each`` (:meth:`brief` of
+        every failure flown)."""
         settle = self.settling
+        end = float(self.run.t[-1]) if len(self.run.t) else 0.0
         return {
             "fault": self.fault,
             "fault_flight": self.flight,
@@ -183,7 +195,8 @@ class FaultFlight:
             **self.failed_part(),
             "fault_time_s": self.failure.time_s,
             "fault_detection_delay_s": None if self.detection() else self.failure.detection_delay_s,
-            "fault_seconds": float(self.run.t[-1]) if len(self.run.t) else 0.0,
+            "fault_seconds": max(0.0, end - self.failure.time_s),
+            "fault_total_seconds": end,
             "fault_hardest_row": self.worst.row,
             "fault_max_position_error_m": finite_or_none(self.max_position_error_m),
             "fault_saturated_fraction": self.saturated_fraction,
