@@ -20,6 +20,7 @@ from modquad_gym.cli.common import (
     add_fault,
     check_fault_method,
     fault_margin_of,
+    palette,
 )
 from modquad_gym.core.options import real_option
 
@@ -116,7 +117,6 @@ def add_detect_option(p: argparse.ArgumentParser) -> None:
 def check_fault_options(args: argparse.Namespace) -> None:
     """``--fault`` with a method that cannot honour it (:data:`~.common.NO_FAULT`),
     ``--detection-delay`` out of range or without ``--fault``: one line, before any work."""
-    from modquad_gym.cli.common import palette
     from modquad_gym.cli.given import refuse_ignored
 
     check_fault_method(args)
@@ -127,12 +127,8 @@ def check_fault_options(args: argparse.Namespace) -> None:
     if isinstance(getattr(args, "failure", None), int) and args.fault not in ("rotor", "module"):
         raise ValueError(f"--failure {args.failure}: a numbered failure applies to --fault "
                          f"rotor or module, not {args.fault}; give all or worst")  # fmt: skip
-    rotors = max((m.n_rotors for m in palette(args) or []), default=4)
-    most = failures_at(args.fault, args.n_max, rotors) if hasattr(args, "n_max") else None
-    if isinstance(getattr(args, "failure", None), int) and most and args.failure > most:
-        raise ValueError(f"--failure {args.failure}: a structure of at most --n-max "
-                         f"{args.n_max} modules has at most {most} {args.fault}s, numbered "
-                         f"1..{most}")  # fmt: skip
+    if isinstance(getattr(args, "failure", None), int) and hasattr(args, "n_max"):
+        _check_failure_number(args)
     if getattr(args, "fault_seconds", None) is not None:
         delay = 0.0 if getattr(args, "detect", False) else flown_delay(args)
         least = delay + 1.0
@@ -142,6 +138,16 @@ def check_fault_options(args: argparse.Namespace) -> None:
                 f"{MAX_FAULT_SECONDS:g}] s (the detection delay {delay:g} s, then two 0.5 s "
                 "windows of the settling test)"
             )
+
+
+def _check_failure_number(args: argparse.Namespace) -> None:
+    """``--failure K`` (rotor or module faults) within what ``--n-max`` modules have."""
+    rotors = max((m.n_rotors for m in palette(args) or []), default=4)
+    most = failures_at(args.fault, args.n_max, rotors)
+    if args.failure > most:
+        raise ValueError(f"--failure {args.failure}: a structure of at most --n-max "
+                         f"{args.n_max} modules has at most {most} {args.fault}s, numbered "
+                         f"1..{most}")  # fmt: skip
 
 
 def flown_delay(args: argparse.Namespace) -> float:
@@ -190,7 +196,6 @@ def least_modules(args: argparse.Namespace, task) -> int:
     (:func:`~modquad_gym.search.bounds.force_lower_bound`, over ``--modules``' types, the task's
     wrenches without the structure's own weight and dynamics), within ``--n-max``: the size the
     up-front estimate assumes, before the search finds the structure (1 where not bounded)."""
-    from modquad_gym.cli.common import palette
     from modquad_gym.geometry.module import TModule
     from modquad_gym.search.bounds import force_lower_bound
 
@@ -218,8 +223,7 @@ def fault_flights(args: argparse.Namespace, n: int) -> int:
 
 
 def fault_seconds(args: argparse.Namespace, task, n: int = 1) -> float:
-    """Simulated seconds of the flights through a failure at ``n`` modules
-    (:func:`fault_flights`)."""
+    """Simulated seconds of the flights (:func:`fault_flights`) at ``n`` modules."""
     if args.fault is None:
         return 0.0
     return fault_flights(args, n) * _flight_seconds(args, task)
