@@ -19,7 +19,7 @@ import numpy as np
 
 from benchmarks.common import bench_args, report_page, run_main, write_report
 from modquad_gym.core.options import int_option
-from modquad_gym.scoring.stats import interval, iqm
+from modquad_gym.scoring.stats import interval, iqm, mean
 
 SIZES = (2, 3, 5, 10)
 OUTPUTS = ("interval_coverage.md", "interval_coverage.csv")
@@ -49,7 +49,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     args = bench_args(argv, "python -m benchmarks.interval_coverage", __doc__.split("\n\n")[0],
                       options, out="results", outputs=OUTPUTS)  # fmt: skip
     rng = np.random.default_rng(args.seed)
-    rows = [{"aggregate": "mean", **coverage(n, args.trials, lambda x: float(np.mean(x)), rng)}
+    rows = [{"aggregate": "mean", **coverage(n, args.trials, mean, rng)}
             for n in SIZES]  # fmt: skip
     if args.iqm_trials:
         rows.append({"aggregate": "IQM", **coverage(5, args.iqm_trials, iqm, rng)})

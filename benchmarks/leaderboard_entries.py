@@ -143,7 +143,7 @@ def _intervals(per_seed: dict[str, list[float]]) -> dict[str, T3]:
     bootstrap interval (:func:`modquad_gym.scoring.stats.interval`). One run has no interval:
     low = high = the point, as :class:`Entry` keeps it (the page prints the point alone, the
     row labelled one run); a metric not scored in some run is NaN."""
-    from modquad_gym.scoring.stats import interval, no_interval
+    from modquad_gym.scoring.stats import interval, mean, no_interval
 
     out = {}
     for k, v in per_seed.items():
@@ -151,7 +151,7 @@ def _intervals(per_seed: dict[str, list[float]]) -> dict[str, T3]:
         if not values.size or np.isnan(values).any():
             out[k] = NA
             continue
-        t = interval([values], lambda x: float(np.mean(x)))
+        t = interval([values], mean)
         out[k] = (t[0], t[0], t[0]) if no_interval(t) else t
     return out
 

@@ -51,14 +51,23 @@ def _format(metric: str, value: float) -> str:
     return f"{100 * value:.1f} %" if metric in ("optimal", "success") else f"{value:.1f}"
 
 
-def seeds_number(tier: str, method: str, metric: str) -> str:
-    """A learned method over seeds: the mean over seeds [95 % CI] and what it is."""
+@cache
+def _seeds_entries(tier: str, stamp: tuple[int, int]) -> dict:
+    """The learned methods' leaderboard entries of ``results/seeds_TIER/seeds.csv`` by method,
+    computed once per version of the file (``stamp``: its size and mtime): the pages quote
+    each tier's file many times, and each computation bootstraps every metric's interval."""
     sys.path.insert(0, str(ROOT))
     from benchmarks.leaderboard_entries import over_seeds, read_seeds
     from modquad_gym.scoring.tiers import get_tier
 
     records = read_seeds(RESULTS / f"seeds_{tier}" / "seeds.csv")
-    entries = {e.method: e for e in over_seeds(records, get_tier(tier), "", {})}
+    return {e.method: e for e in over_seeds(records, get_tier(tier), "", {})}
+
+
+def seeds_number(tier: str, method: str, metric: str) -> str:
+    """A learned method over seeds: the mean over seeds [95 % CI] and what it is."""
+    found = (RESULTS / f"seeds_{tier}" / "seeds.csv").stat()
+    entries = _seeds_entries(tier, (found.st_size, found.st_mtime_ns))
     if method not in entries:
         raise ValueError(f"seeds_{tier}: no method {method!r} (has {', '.join(entries)})")
     e = entries[method]

@@ -172,14 +172,20 @@ def test_ppo_sampling_and_budget(tiny_model):
     assert PPOSolver(model=tiny_model, n_max=1).solve(task).structure is None
 
 
-def test_cli_solve_ppo_json_round_trip(tiny_model, tmp_path):
+def test_cli_solve_ppo_json_round_trip(tiny_model, tmp_path, capsys):
+    """The command's JSON line, read back; in this process (a fresh one imports torch for
+    seconds; other tests start ``python -m modquad_gym.cli`` itself)."""
+    from modquad_gym.cli import main
+
     task = _tiny_tasks()[0]
     path = task.save(tmp_path / "task.json")
-    cmd = [sys.executable, "-m", "modquad_gym.cli", "solve", "--task", str(path), "--method",
-           "ppo", "--model", str(tiny_model), "--n-max", str(TINY_N_MAX), "--json"]  # fmt: skip
-    out = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=120)
-    assert out.returncode == 0, out.stderr
-    record = json.loads(out.stdout.strip().splitlines()[-1])
+    argv = ["solve", "--task", str(path), "--method", "ppo", "--model", str(tiny_model),
+            "--n-max", str(TINY_N_MAX), "--json"]  # fmt: skip
+    capsys.readouterr()
+    code = main(argv)
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    record = json.loads(out.out.strip().splitlines()[-1])
     assert {"cells", "n_modules", "evaluated", "feasible", "seconds"} <= set(record)
     assert record["feasible"] is True and record["n_modules"] == len(record["cells"])
     assert _ok(record["cells"], task)

@@ -21,11 +21,17 @@ def _subparser(*names):
     return parser
 
 
+@pytest.fixture(scope="module")
+def known_scripts() -> dict[str, str]:
+    """:func:`scripts` once for the module: it parses every benchmark's source."""
+    return scripts()
+
+
 @pytest.mark.parametrize("name", list(MOVED))
-def test_every_benchmark_is_a_script_with_main(name):
+def test_every_benchmark_is_a_script_with_main(name, known_scripts):
     """The measurement scripts left the package (issue 33): each is ``benchmarks.NAME`` with a
     ``main`` and a docstring saying what it measures."""
-    assert name in scripts() and scripts()[name], name
+    assert name in known_scripts and known_scripts[name], name
     assert importlib.util.find_spec("modquad_gym.bench") is None  # no laboratory in the wheel
     (action,) = [a for a in _subparser("bench")._actions if a.dest == "what"]
     assert action.choices is None  # `modquad bench agents` alone is left, deprecated

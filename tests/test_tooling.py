@@ -145,7 +145,10 @@ def test_core_install_solves_and_names_the_missing_extra(installed_wheel, tmp_pa
         f"raise SystemExit(main(['solve', '--task', {str(task)!r}, '--method', 'ppo', "
         "'--model', 'model.zip']))"
     )
-    out = _python_S(code, installed_wheel, Path(sysconfig.get_paths()["purelib"]), cwd=tmp_path)
+    # numba's kernels as Python, as above: compiling them for the wheel's path cost 30 s of this
+    # test, and numba is no extra (the source tree's tests run them compiled)
+    out = _python_S(code, installed_wheel, Path(sysconfig.get_paths()["purelib"]), cwd=tmp_path,
+                    NUMBA_DISABLE_JIT="1")  # fmt: skip
     assert out.returncode == 2, out.stderr
     assert out.stdout.count("3 modules (certified minimum)") == 2  # the search, then ppo
     assert "pip install 'modquad_gym[train]'" in out.stderr

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from modquad_gym.scoring.scores import Row
-from modquad_gym.scoring.stats import interval, iqm, no_interval
+from modquad_gym.scoring.stats import interval, iqm, mean, no_interval
 
 
 @dataclass
@@ -77,7 +77,7 @@ def summary(scores: list[SeedScore], metric: str, method: str, suite: str | None
     return {
         "seeds": len(values),
         "iqm": interval([values], iqm),
-        "mean": interval([values], lambda x: float(np.mean(x))),
+        "mean": interval([values], mean),
     }
 
 

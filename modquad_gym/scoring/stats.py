@@ -22,6 +22,28 @@ def iqm(scores: np.ndarray) -> float:
     return float(stats.trim_mean(np.ravel(scores), 0.25))
 
 
+def mean(scores: np.ndarray) -> float:
+    """The mean, as a float (:func:`interval` bootstraps it in one pass)."""
+    return float(np.mean(scores))
+
+
+def _iqm_rows(a: np.ndarray) -> np.ndarray:
+    """:func:`iqm` of each row of ``a`` (finite floats): scipy's steps (a partition, the mean
+    of the middle) on each row, without its checks at each of a bootstrap's 2,000 calls."""
+    low = int(0.25 * a.shape[-1])
+    high = a.shape[-1] - low
+    return np.mean(np.partition(a, (low, high - 1), axis=-1)[..., low:high], axis=-1)
+
+
+def _mean_rows(a: np.ndarray) -> np.ndarray:
+    return np.mean(a, axis=-1)
+
+
+ROWS = {iqm: _iqm_rows, mean: _mean_rows, np.mean: _mean_rows}
+"""Aggregates :func:`interval` computes for every resample at once (each row as the aggregate
+computes it alone, so the same floats); any other is called once per resample."""
+
+
 def checked_columns(columns: Sequence[np.ndarray]) -> list[np.ndarray]:
     """``columns`` as float arrays; ValueError naming the 1-based column (and value) for no
     column, an empty column or a value that is NaN or infinite."""
@@ -54,11 +76,16 @@ def interval(
         return point, math.nan, math.nan
     if all(np.ptp(c) == 0 for c in cols):  # nothing varies: the interval is the point
         return point, point, point
+    rows = ROWS.get(aggregate)
+    if rows is None:
+        statistic = lambda *cs: aggregate(np.concatenate(cs))  # noqa: E731
+    else:  # the same resamples as for one call each, so the same interval, 10 times faster
+        statistic = lambda *cs, axis=-1: rows(np.concatenate(cs, axis=-1))  # noqa: E731
     res = stats.bootstrap(
         cols,
-        lambda *cs: aggregate(np.concatenate(cs)),
+        statistic,
         n_resamples=reps,
-        vectorized=False,
+        vectorized=rows is not None,
         paired=False,
         confidence_level=0.95,
         method="percentile",
