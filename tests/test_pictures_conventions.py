@@ -137,3 +137,35 @@ def test_grid_layout_keeps_a_wide_top_view_inside_the_figure(monkeypatch, tmp_pa
     fig.canvas.draw()
     box = fig.axes[0].get_tightbbox(fig.canvas.get_renderer())  # the top view with its legend
     assert box.x0 >= -0.5 and box.x1 <= fig.bbox.width + 0.5, (box, fig.bbox.width)
+
+
+def test_mujoco_render_keeps_the_first_module_apart_from_the_others():
+    """The first module is told from the others in MuJoCo's render itself (its lighting washed
+    the pale picture fills to white), by the mean colour of each module's rendered pixels."""
+    mujoco = pytest.importorskip("mujoco")
+    from modquad_gym.sim.model import build_model
+
+    sim = build_model(Structure([(0, 0), (1, 0), (0, 1), (1, 1)]))
+    data = sim.new_data()
+    mujoco.mj_forward(sim.model, data)
+    try:
+        renderer = mujoco.Renderer(sim.model, 240, 320)
+    except Exception as exc:  # no GL context on this machine
+        pytest.skip(f"no offscreen GL: {exc}")
+    cam = mujoco.MjvCamera()
+    cam.lookat[:], cam.distance, cam.azimuth, cam.elevation = [0, 0, 1], 2.0, 135.0, -35.0
+    renderer.update_scene(data, camera=cam)
+    img = renderer.render().astype(float)
+    renderer.enable_segmentation_rendering()
+    renderer.update_scene(data, camera=cam)
+    seg = renderer.render()
+    renderer.close()
+    means = []
+    for i in range(4):
+        gid = mujoco.mj_name2id(sim.model, mujoco.mjtObj.mjOBJ_GEOM, f"module{i}")
+        mask = (seg[..., 0] == gid) & (seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM))
+        assert mask.sum() > 500, (i, mask.sum())
+        means.append(img[mask].mean(axis=0))
+    others = np.mean(means[1:], axis=0)
+    assert np.abs(means[0] - others).max() > 30, (means[0], others)
+    assert means[0][1] > means[0][0] + 30, means[0]  # green: its green channel above its red

@@ -235,7 +235,8 @@ STRUCTURE_CAPTION = (
     "*structure.png: the first module (the first of the cells) green and the others grey, or "
     "with several module types each type's colour; each rotor a disc across its thrust axis (an "
     "arrow along it where matplotlib draws the picture), blue for spin +1 and orange for spin -1 "
-    "(the sign of its drag torque), as in `modquad show`.*"
+    "(the sign of its drag torque), the colours of `modquad show` (the module fills deepened "
+    "so that MuJoCo's lighting keeps them apart).*"
 )
 """The legend of the structure's picture (the colours of :mod:`modquad_gym.sim.model`, those of
 every picture: :data:`modquad_gym.viz.raster.SPIN_COLOURS`)."""
