@@ -191,8 +191,15 @@ class RawHelpFormatter(argparse.RawDescriptionHelpFormatter, HelpFormatter):
     """:class:`HelpFormatter` keeping the description's own lines."""
 
 
-def bench_args(
-    argv: list[str] | None,
+def bench_args(argv: list[str] | None, prog: str, description: str, options: dict[str, dict],
+               *, outputs: tuple[str, ...] = (), **kwargs) -> argparse.Namespace:  # fmt: skip
+    """The options of one benchmark, its :func:`bench_parser` (with ``--force`` when it names
+    ``outputs``, the files it writes into ``--out``) read by :func:`parse_bench_args`."""
+    kwargs["force"] = kwargs.get("force", False) or bool(outputs)
+    return parse_bench_args(bench_parser(prog, description, options, **kwargs), argv, outputs)
+
+
+def bench_parser(
     prog: str,
     description: str,
     options: dict[str, dict],
@@ -201,14 +208,12 @@ def bench_args(
     out: str = "results",
     out_help: str = "report folder",
     force: bool = False,
-    outputs: tuple[str, ...] = (),
     **parser_kwargs,
-) -> argparse.Namespace:
-    """The parsed options of one benchmark: ``options`` maps each flag to its
-    ``add_argument`` keywords; every benchmark also takes ``--seed`` (unless ``seed_help`` is
-    None), ``--out`` (default ``out``; held for the run, :func:`hold_out`; a script may also
-    claim it inside that hold, :func:`~modquad_gym.core.outputs.claim_output_dir`) and, with
-    ``force`` or ``outputs`` (the files it writes into ``--out``, refused when they exist),
+) -> argparse.ArgumentParser:
+    """The parser of one benchmark: ``options`` maps each flag to its ``add_argument``
+    keywords; every benchmark also takes ``--seed`` (unless ``seed_help`` is None), ``--out``
+    (default ``out``; held for the run, :func:`hold_out`; a script may also claim it inside
+    that hold, :func:`~modquad_gym.core.outputs.claim_output_dir`) and, with ``force``,
     ``--force``; ``--help`` states every default (:class:`HelpFormatter`)."""
     parser_kwargs.setdefault("formatter_class", HelpFormatter)
     parser = argparse.ArgumentParser(prog=prog, description=description, **parser_kwargs)
@@ -219,9 +224,9 @@ def bench_args(
     parser.add_argument(
         "--out", type=path_option, default=Path(out), help=f"{out_help} (default {out})"
     )
-    if force or outputs:
+    if force:
         add_force(parser)
-    return parse_bench_args(parser, argv, outputs)
+    return parser
 
 
 def add_force(parser: argparse.ArgumentParser) -> None:

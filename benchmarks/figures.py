@@ -6,10 +6,11 @@ own data in ``results/``: the agent benchmarks' ``benchmark_bars.png`` and ``str
 ``benchmark.csv`` and ``learning_curve.png`` from the training run's ``evaluations.npz`` named in
 ``benchmark.md``; ``seeds.png`` from ``seeds.csv``; the scale benchmarks' ``gap_vs_size.png``
 from ``rows.csv``; ``heterogeneous.png`` from ``heterogeneous.csv`` (its tasks drawn again from
-the seed and count its report names, the one-type optima beside the mixed ones searched again:
-a few exhaustive searches of at most ``--n-max`` modules). Writes ``results/figures.md`` listing
-every figure and its source. Every source is read and checked before any figure is drawn; an
-existing figure or figures.md is replaced only with ``--force``.
+the options of its report's Made-by line, read by that script's own parser; the one-type optima
+beside the mixed ones searched again: a few exhaustive searches of at most ``--n-max`` modules).
+Writes ``results/figures.md`` listing every figure and its source. Every source is read and
+checked before any figure is drawn; an existing figure or figures.md is replaced only with
+``--force``.
 
     python -m benchmarks.figures --force
 """
@@ -19,6 +20,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import re
+import shlex
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
@@ -124,10 +126,8 @@ def heterogeneous_figures(results: Path) -> list[Figure]:
     csv_path, png = results / "heterogeneous.csv", results / "heterogeneous.png"
     if not (csv_path.is_file() and png.is_file()):
         return []
-    made = re.search(r"Made by `([^`]+)`", read_input_text(results / "heterogeneous.md"))
-    options = dict(re.findall(r"--(tasks|seed|n-max) (\d+)", made.group(1) if made else ""))
-    n_tasks, seed = int(options.get("tasks", 12)), int(options.get("seed", 0))
-    n_max = int(options.get("n-max", 7))
+    made = made_by_options(results / "heterogeneous.md")
+    n_tasks, seed, n_max = made.tasks, made.seed, made.n_max
 
     def typed(raw: dict) -> dict:
         saved = raw["saved"]
@@ -137,6 +137,31 @@ def heterogeneous_figures(results: Path) -> list[Figure]:
     rows = read_rows_csv(csv_path, "", columns, typed, "a heterogeneous.csv")
     draw = partial(lambda: figure(rows, task_sets(n_tasks, seed), n_max, png))
     return [(png, csv_path, draw)]
+
+
+def made_by_options(report: Path) -> argparse.Namespace:
+    """The options of the ``python -m benchmarks.heterogeneous`` command that ``report``'s
+    Made-by line names, read by that script's own parser (every form it takes, ``--tasks=25``
+    as ``--tasks 25``): a one-line ValueError naming the report and what is wrong when the line
+    is missing or the script would not take it, never the defaults in its place."""
+    from benchmarks.heterogeneous import parser
+
+    made = re.search(r"Made by `([^`]+)`", read_input_text(report))
+    prefix = ["python", "-m", "benchmarks.heterogeneous"]
+    try:
+        words = shlex.split(made.group(1)) if made else []
+    except ValueError as exc:
+        raise ValueError(f"{report}: its Made-by line cannot be split into words ({exc})") from None
+    if words[:3] != prefix:
+        raise ValueError(f"{report}: no Made-by line `{shlex.join(prefix)} ...` to read the "
+                         "tasks from")  # fmt: skip
+    script = parser()
+
+    def refuse(message: str):
+        raise ValueError(f"{report}: its Made-by line: {message}")
+
+    script.error = refuse  # type: ignore[method-assign]
+    return script.parse_args(words[3:])
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -24,13 +24,16 @@ This module is the entry point (``main``); the measurements are in
 
 from __future__ import annotations
 
+import argparse
+
 import numpy as np
 
 from benchmarks.common import (
-    bench_args,
+    bench_parser,
     command_as_run,
     int_option,
     markdown_table,
+    parse_bench_args,
     run_main,
     write_report,
 )
@@ -71,7 +74,12 @@ __all__ = [
 ]
 
 
-def main(argv: list[str] | None = None) -> None:
+OUTPUTS = ("heterogeneous.md", "heterogeneous.csv", "heterogeneous.png")
+
+
+def parser() -> argparse.ArgumentParser:
+    """The script's options (also how :mod:`benchmarks.figures` reads its report's Made-by
+    line back)."""
     options = {
         "--tasks": dict(type=int_option(1, 1000), default=12,
                         help="tasks per set (default 12); the draws depend on it: task #i of "
@@ -80,15 +88,18 @@ def main(argv: list[str] | None = None) -> None:
         "--mujoco": dict(type=int_option(0, 1000), default=3,
                          help="external optima validated in MuJoCo (default 3)"),
     }  # fmt: skip
-    args = bench_args(
-        argv,
+    return bench_parser(
         "python -m benchmarks.heterogeneous",
         "Certified minima with a palette of module types against each type alone (total and "
         "external tasks), search cost, worst case, MuJoCo; writes "
         "results/heterogeneous.{md,csv,png}.",
         options,
-        outputs=("heterogeneous.md", "heterogeneous.csv", "heterogeneous.png"),
+        force=True,
     )
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = parse_bench_args(parser(), argv, OUTPUTS)
     args.command = command_as_run("heterogeneous", argv)  # what the report says made it
     exhaustive_search(np.array([[0, 0, 1.0, 0, 0, 0]]), n_max=2, modules=palette("t45,flat"))
     sets = task_sets(args.tasks, args.seed)

@@ -174,6 +174,39 @@ def test_figures_ask_for_force_only_when_something_would_be_replaced(tmp_path, c
     assert run_script("figures", ["--results", str(res), "--force"]) == 0
 
 
+def test_figures_draw_heterogeneous_from_the_options_its_report_names(tmp_path, capsys,
+                                                                     monkeypatch):  # fmt: skip
+    """The tasks of heterogeneous.png are drawn from the Made-by line as the benchmark's own
+    parser reads it (``--tasks=25`` is 25 tasks, not the default 12); a line it would not take
+    is refused naming the report and the option, with no figure drawn."""
+    from benchmarks import heterogeneous_measure, heterogeneous_report
+
+    drawn = []
+    monkeypatch.setattr(heterogeneous_measure, "task_sets", lambda n, seed: (n, seed))
+
+    def figure(rows, sets, n_max, png):
+        drawn.append((len(rows), sets, n_max))
+
+    monkeypatch.setattr(heterogeneous_report, "figure", figure)
+    res = tmp_path / "res"
+    res.mkdir()
+    for name in ("heterogeneous.csv", "heterogeneous.png"):
+        shutil.copy(RESULTS / name, res / name)
+    made = (RESULTS / "heterogeneous.md").read_text()
+    assert "--tasks 25 --seed 0 --n-max 7`" in made  # the committed run's options
+    rows = len((RESULTS / "heterogeneous.csv").read_text().splitlines()) - 1
+    (res / "heterogeneous.md").write_text(made.replace("--tasks 25 ", "--tasks=25 ", 1))
+    assert run_script("figures", ["--results", str(res), "--force"]) == 0
+    assert drawn == [(rows, (25, 0), 7)]
+    (res / "heterogeneous.md").write_text(made.replace("--tasks 25 ", "--tasks 25x ", 1))
+    _refused(capsys, "figures", ["--results", str(res), "--force"],
+             f"{res / 'heterogeneous.md'}: its Made-by line: argument --tasks")  # fmt: skip
+    (res / "heterogeneous.md").write_text(made.replace("Made by `", "Made `", 1))
+    _refused(capsys, "figures", ["--results", str(res), "--force"],
+             f"{res / 'heterogeneous.md'}: no Made-by line")  # fmt: skip
+    assert len(drawn) == 1
+
+
 # --- leaderboard ------------------------------------------------------------------------------
 def _unchanged(*names: str):
     return {n: (RESULTS / n).read_bytes() for n in names}
