@@ -49,3 +49,21 @@ def test_pair_failures_name_every_failed_rotor_in_words_and_title():
             m = r["fault_failed_module"]
             assert f"module {m + 1} at cell {tuple(s.cells[m])} and rotor {cols[-1] + 1} (" in words
             assert "any module-and-rotor failure" in _title(flight, "")
+
+
+def test_a_one_module_structure_loses_the_module_alone_under_rotor_and_module():
+    """A one-module structure's rotor+module failure is the module alone (its own rotors,
+    nothing else is left to fail): the words name the module, no extra rotor."""
+    import numpy as np
+
+    import modquad_gym as mq
+    from modquad_gym.sim.fault_flight import fly_with_failure
+    from modquad_gym.sim.fault_pictures import failed_part_words
+
+    s = mq.Structure([(0, 0)])
+    r = fly_with_failure(s, np.array([[0, 0, 0.5, 0, 0, 0]]), "rotor+module", seconds=1.1,
+                         failure="worst").summary()  # fmt: skip
+    assert r["fault_failed_rotors"] == list(range(s.modules[0].n_rotors))  # the module alone
+    assert failed_part_words(r) == "module 1 at cell (0, 0)"
+    assert "module 1 at cell (0, 0) stopped" in "\n".join(fault_lines(r))
+    assert "and rotor" not in "\n".join(fault_lines(r)) + fault_markdown(r, 1)

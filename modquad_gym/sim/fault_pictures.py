@@ -76,7 +76,9 @@ def failed_part_words(part: dict) -> str:
     are 0-based: module 1 is ``cells[1]``, rotor 6 is column 5)."""
     what = f"module {part['fault_failed_module'] + 1} at cell {tuple(part['fault_failed_cell'])}"
     parts, rotors = part.get("fault_failed_parts"), part.get("fault_failed_rotors") or []
-    if parts and part.get("fault_failed_rotor_in_module") is None:  # a module and a rotor
+    if parts and part.get("fault_failed_rotor_in_module") is None:  # a module (and a rotor)
+        if parts[-1]["module"] == part["fault_failed_module"]:  # one module: it alone fails
+            return what
         return f"{what} and rotor {rotors[-1] + 1} ({_rotor_words(parts[-1])})"
     if parts:  # a pair of rotors
         return (f"rotors {' and '.join(str(c + 1) for c in rotors)} "
