@@ -68,3 +68,18 @@ def test_the_exhaustive_search_says_what_its_answers_are():
     part = mq.exhaustive_search([[0.0, 0.0, 2.0, 0.0, 0.0, 0.0]], n_max=3, start=[(0, 0), (1, 0)])
     assert part.structure is not None and not part.certified
     assert "Without ``start`` it is certified" in doc and "with ``start``, as below" in doc
+
+
+def test_faults_page_says_which_failures_the_intact_minimum_flies():
+    """docs/faults.md describes the intact minimum's flights as ``others_choice`` chooses them:
+    its own failures (every one under ``all``, its smallest-margin one under ``worst`` or a
+    number), never "the same failure" as the found structure's."""
+    from modquad_gym.sim.validate_fault import others_choice
+
+    page = _flat((ROOT / "docs" / "faults.md").read_text())
+    assert "same failure is flown on the intact minimum" not in page
+    said = re.search(r"The intact minimum of the task[^.]*\.", page)
+    assert said, "faults.md: no sentence on the intact minimum's flights"
+    assert others_choice("all") == "all" and "every one under `--failure all`" in said.group(0)
+    assert others_choice("worst") == others_choice(3) == "worst"
+    assert "smallest-margin one under `--failure worst` or `--failure K`" in said.group(0)
