@@ -77,3 +77,25 @@ def test_both_doors_write_the_same_files_for_the_same_options(tmp_path, capsys):
         assert (cli / name).read_text() == (py / name).read_text(), name
     mine = (py / "validation.json").read_text().replace(str(py), str(cli))
     assert json.loads(mine) == json.loads((cli / "validation.json").read_text())
+
+
+def test_the_fault_step_keeps_a_users_picture_without_force(tmp_path, monkeypatch):
+    """``validate_with_failure(out_dir=)`` holds its folder as ``--out`` does: an existing
+    ``fault_flight.png`` is refused before any flight without ``force`` (the user's file kept),
+    and replaced with it."""
+    from modquad_gym.sim import validate_fault
+    from modquad_gym.sim.validate_fault import validate_with_failure
+
+    s = mq.Structure([(0, 0), (0, 1), (1, 0), (1, 1)])
+    task = np.array(WRENCHES)
+    picture = tmp_path / "fault_flight.png"
+    picture.write_text("USERDATA")
+    with monkeypatch.context() as patched:
+        patched.setattr(validate_fault, "fly_with_failure", _boom)
+        with pytest.raises(OutputError, match="fault_flight.png"):
+            validate_with_failure(s, task, "rotor", out_dir=tmp_path, failure="worst", seconds=1.1)
+    assert picture.read_text() == "USERDATA"
+    record = validate_with_failure(s, task, "rotor", out_dir=tmp_path, force=True,
+                                   failure="worst", seconds=1.1)  # fmt: skip
+    assert record["fault_files"] == {"fault_flight": str(picture)}
+    assert picture.read_bytes().startswith(b"\x89PNG")

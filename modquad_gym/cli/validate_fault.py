@@ -321,7 +321,8 @@ def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -
                  seconds=args.fault_seconds if not _dynamic(task) else None)  # fmt: skip
     say_estimate(args, task, [structure, intact.structure, bare])
     record = validate_with_failure(structure, task, args.fault, intact=intact.structure,
-                                   out_dir=args.out, failure=args.failure, **flown)  # fmt: skip
+                                   out_dir=args.out, force=args.force, failure=args.failure,
+                                   **flown)  # fmt: skip
     if record["intact_minimum"] is not None:  # the search's word on it being the minimum
         record["intact_minimum"]["certified"] = bool(intact.certified)
     record["fault_margin_required"] = margin or 0.0

@@ -46,29 +46,35 @@ def validate_with_failure(
     fault: str,
     intact: Structure | None = None,
     out_dir: str | Path | None = None,
+    force: bool = False,
     **options,
 ) -> dict:
     """Fly ``structure`` through its failures (:func:`fly_with_failure`, ``options`` passed on:
     every one by default) and, when given, the intact minimum ``intact`` through its own failures
     of the same kind (:func:`others_choice`); with ``out_dir`` the pictures ``fault_flight.png`` and
-    ``fault_flight_intact_minimum.png`` (:func:`~modquad_gym.sim.fault_pictures.plot_fault_flight`).
+    ``fault_flight_intact_minimum.png`` (:func:`~modquad_gym.sim.fault_pictures.plot_fault_flight`),
+    the folder held before any flight as ``validate(out_dir=)`` holds it
+    (:func:`~modquad_gym.sim.validate.hold_out_dir`: an existing picture replaced only with
+    ``force``; within ``modquad validate``'s own hold of the folder, held again).
 
     Returns the ``fault_*`` keys of ``structure``'s flight, ``intact_minimum``
     (:func:`intact_record`, or None without ``intact``) and ``fault_files`` (picture paths)."""
-    flight = fly_with_failure(structure, task, fault, **options)
-    record = flight.summary()
-    theirs = {**options, "failure": others_choice(options.get("failure", "all"))}
-    other = fly_with_failure(intact, task, fault, **theirs) if intact is not None else None
-    record["intact_minimum"] = intact_record(other) if other is not None else None
-    record["fault_files"] = {}
-    if out_dir is not None:
-        d = Path(out_dir)
-        d.mkdir(parents=True, exist_ok=True)
-        plot_fault_flight(flight, d / FAULT_FILES[0], label="found structure")
-        record["fault_files"]["fault_flight"] = str(d / FAULT_FILES[0])
-        if other is not None:
-            plot_fault_flight(other, d / FAULT_FILES[1], label="intact minimum")
-            record["fault_files"]["fault_flight_intact_minimum"] = str(d / FAULT_FILES[1])
+    from modquad_gym.sim.validate import hold_out_dir
+
+    names = FAULT_FILES if intact is not None else FAULT_FILES[:1]
+    with hold_out_dir(out_dir, names, force) as d:
+        flight = fly_with_failure(structure, task, fault, **options)
+        record = flight.summary()
+        theirs = {**options, "failure": others_choice(options.get("failure", "all"))}
+        other = fly_with_failure(intact, task, fault, **theirs) if intact is not None else None
+        record["intact_minimum"] = intact_record(other) if other is not None else None
+        record["fault_files"] = {}
+        if d is not None:
+            plot_fault_flight(flight, d / FAULT_FILES[0], label="found structure")
+            record["fault_files"]["fault_flight"] = str(d / FAULT_FILES[0])
+            if other is not None:
+                plot_fault_flight(other, d / FAULT_FILES[1], label="intact minimum")
+                record["fault_files"]["fault_flight_intact_minimum"] = str(d / FAULT_FILES[1])
     return record
 
 
