@@ -207,3 +207,20 @@ def test_the_detection_delay_has_one_range_and_its_option_named(command, delay, 
         f"--detection-delay must lie in [0, 0.05] s (the rule's calibrated range), got {delay}"
     ), err
     assert not (tmp_path / "v").exists()
+
+
+@pytest.mark.parametrize("fault", ["rotor", "module", "rotor2", "rotor+module"])
+def test_the_smallest_margin_failure_is_the_same_for_the_flight_and_its_cases(fault):
+    """``worst_failure`` and the smallest-margin one of ``failure_cases`` (one shared set-up of
+    the failures and the margin method) name the same failure, margin, wrench and verdict."""
+    from modquad_gym.sim.fault_flight import failure_cases, worst_failure
+
+    task = mq.TaskRequirement.load("examples/screwdriver.json")
+    s = mq.Structure([(0, 0), (0, 1), (1, 0), (1, 1), (2, 0)])
+    W = task.rotor_wrenches(s)
+    worst = worst_failure(s, W, task.f_max, fault)
+    cases = failure_cases(s, W, task.f_max, fault)
+    low = min(cases, key=lambda c: c.margin)
+    assert (low.index, low.row, low.tolerates) == (worst.index, worst.row, worst.tolerates)
+    assert list(low.columns) == list(worst.columns)
+    assert abs(low.margin - worst.margin) < 1e-6

@@ -83,15 +83,21 @@ def failure_columns(structure: Structure, fault: str) -> list[np.ndarray]:
     return module_failures(starts, fault)
 
 
+def _failure_problem(structure: Structure, W, f_max, fault: str) -> tuple:
+    """(W, f_max) checked, A, the failures' column sets, their :class:`FaultTolerance` and the
+    margin method (an LP up to :data:`LP_ROTORS` rotors, else compiled, as the searches decide):
+    what :func:`worst_failure` and :func:`failure_cases` both ask."""
+    W, f_max = check_wrenches(W), check_f_max(f_max)
+    A = np.array(structure.configuration_matrix())
+    sets = failure_columns(structure, fault)
+    method = "daqp" if A.shape[1] <= LP_ROTORS else "compiled"
+    return W, f_max, A, sets, FaultTolerance(A, f_max, sets), method
+
+
 def worst_failure(structure: Structure, W: np.ndarray, f_max: float, fault: str) -> WorstFailure:
     """The failure of kind ``fault`` that leaves the smallest margin over the rotor wrenches W
     (rows of a (t, 6) array), and the wrench nearest the boundary after it."""
-    W = check_wrenches(W)
-    f_max = check_f_max(f_max)
-    A = np.array(structure.configuration_matrix())
-    sets = failure_columns(structure, fault)
-    tol = FaultTolerance(A, f_max, sets)
-    method = "daqp" if A.shape[1] <= LP_ROTORS else "compiled"  # as the searches decide
+    W, f_max, A, sets, tol, method = _failure_problem(structure, W, f_max, fault)
     i, worst = tol.worst_failure(W, method)
     tolerates = bool(tol.decide(W, method).all())
     keep = np.ones(A.shape[1], dtype=bool)
@@ -123,12 +129,7 @@ def failure_cases(structure: Structure, W: np.ndarray, f_max: float, fault: str)
     """Every failure of kind ``fault`` (:func:`failure_columns`' order) as a
     :class:`WorstFailure`: its margin over the rotor wrenches W and the wrench of that margin
     (the one a hover holds), and whether the structure tolerates every such failure."""
-    W = check_wrenches(W)
-    f_max = check_f_max(f_max)
-    A = np.array(structure.configuration_matrix())
-    sets = failure_columns(structure, fault)
-    tol = FaultTolerance(A, f_max, sets)
-    method = "daqp" if A.shape[1] <= LP_ROTORS else "compiled"  # as the searches decide
+    W, f_max, A, sets, tol, method = _failure_problem(structure, W, f_max, fault)
     tolerates = bool(tol.decide(W, method).all())
     cases = []
     for i, S in enumerate(sets):
