@@ -1,6 +1,6 @@
 """Calibrate the fault margin a detection delay needs: structures designed with a required
-margin after the failure, flown in MuJoCo through their worst failure with the controller told
-of it D seconds late.
+margin after the failure, flown in MuJoCo through their smallest-margin failure with the
+controller told of it D seconds late.
 
     python -m benchmarks.fault_delay --tasks 4 --out results/fault_delay --force
 
@@ -9,20 +9,26 @@ random-motion generators by default) with the calibration's own seeds ``CALIBRAT
 (a range no suite, validation set or training stream uses: no held-out task is seen) and each
 fault (rotor, module): the default search's minimum structure for every required margin of
 ``--margins`` (certified where its exact levels finish within ``--time-limit``); every distinct
-structure is flown through its worst failure (:func:`modquad_gym.sim.fault_flight.fly_with_failure`,
-a hover under the wrench that failure leaves with the smallest margin, or a dynamic task's
-trajectory) at every delay of ``--delays``. The rule
+structure is flown through its smallest-margin failure only
+(:func:`modquad_gym.sim.fault_flight.fly_with_failure` with ``failure="worst"``: a hover under the
+wrench that failure leaves with the smallest margin, or a dynamic task's trajectory) at every
+delay of ``--delays``, and judged by the flight's verdict (within 5 cm from the failure on, never
+stopped, and settled at its end: :mod:`modquad_gym.sim.fault_verdict`). The rule
 :func:`modquad_gym.oracle.fault_delay.margin_for_delay` is read off the flights, for each fault
-on its own: at each delay, the largest worst margin among the structures that left 5 cm, and a
-line through the origin above every one of them (the rule takes 1.25 times its slope, rounded
-up). ``--skip`` and ``--update`` add new tasks to an earlier run's flights.csv (each row names
-its command). Writes flights.csv, report.md and margin_rule.png into ``--out`` (an existing one
-is replaced only with ``--force``; ``--update`` replaces the flights.csv it adds to).
+on its own: at each delay, the largest worst margin among the structures that did not hold, and
+a line through the origin above every one of them (the rule takes 1.25 times its slope, rounded
+up). A design that does not hold even with the failure known at once (the delay 0, flown by
+default) is left out of the fit, since what fails it is not the delay (the report gives the fit
+with it too). ``--skip`` and ``--update`` add new tasks to an earlier run's flights.csv (each
+row names its command). Writes flights.csv, report.md and margin_rule.png into ``--out`` (an
+existing one is replaced only with ``--force``; ``--update`` replaces the flights.csv it adds
+to).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -34,6 +40,7 @@ from benchmarks.common import (
     bench_args,
     command_as_run,
     int_option,
+    load_average,
     machine_description,
     read_rows_csv,
     run_main,
@@ -73,15 +80,17 @@ def designs(tasks, margins, n_max: int, time_limit: float) -> list[dict]:
                 worst = float(mq.fault_margin(r.structure, W, task.f_max, fault=fault).min())
                 rows.append({"task": task.name, "fault": fault, "required_margin": mu,
                              "modules": r.n_modules, "certified": r.certified,
-                             "worst_fault_margin": round(worst, 5), "_task": task,
-                             "_structure": r.structure})  # fmt: skip
+                             "worst_fault_margin": round(worst, 5),
+                             "cells": json.dumps([list(c) for c in r.structure.cells]),
+                             "_task": task, "_structure": r.structure})  # fmt: skip
                 print(f"{task.name} {fault} mu={mu}: {r.n_modules} modules, worst margin "
                       f"{worst:.4f}", file=sys.stderr)  # fmt: skip
     return rows
 
 
 def fly(rows: list[dict], delays) -> list[dict]:
-    """Each design flown at each delay: the largest position error after the failure."""
+    """Each design flown at each delay through its smallest-margin failure: the largest position
+    error after the failure, the verdict and, where it did not hold, why."""
     from modquad_gym.sim.fault_flight import fly_with_failure
 
     out = []
@@ -92,17 +101,30 @@ def fly(rows: list[dict], delays) -> list[dict]:
             err = f.max_position_error_m
             out.append({**{k: v for k, v in row.items() if not k.startswith("_")},
                         "delay_s": delay, "max_error_cm": round(100 * err, 3),
-                        "within_5cm": bool(f.within_goal)})  # fmt: skip
+                        "within_5cm": bool(f.within_goal),
+                        "why_not": f.verdict_words()})  # fmt: skip
     return out
 
 
-def fit(flights: list[dict], delays, fault: str) -> tuple[dict, float | None]:
-    """Per delay the largest worst margin of a ``fault`` flight beyond 5 cm (0 when none), and
-    the smallest slope c with c * D above every one of them (None: no ``fault`` flight)."""
+def not_the_delays(flights: list[dict], fault: str) -> set:
+    """The ``fault`` designs (task, required margin) whose flight with the failure known at once
+    (D = 0, where flown) did not hold: what fails them is not the delay, so their flights say
+    nothing of the margin a delay needs."""
+    return {(r["task"], r["required_margin"]) for r in flights
+            if r["fault"] == fault and r["delay_s"] == 0 and not r["within_5cm"]}  # fmt: skip
+
+
+def fit(flights: list[dict], delays, fault: str, control: bool = True) -> tuple[dict, float | None]:
+    """Per delay the largest worst margin of a ``fault`` flight that did not hold (0 when
+    none), and the smallest slope c with c * D above every one of them (None: no ``fault``
+    flight). With ``control``, the designs that did not hold at D = 0 are left out
+    (:func:`not_the_delays`)."""
+    void = not_the_delays(flights, fault) if control else set()
     needed = {}
     for d in delays:
         lost = [r["worst_fault_margin"] for r in flights
-                if r["fault"] == fault and r["delay_s"] == d and not r["within_5cm"]]  # fmt: skip
+                if r["fault"] == fault and r["delay_s"] == d and not r["within_5cm"]
+                and (r["task"], r["required_margin"]) not in void]  # fmt: skip
         needed[d] = max(lost, default=0.0)
     if not any(r["fault"] == fault for r in flights):
         return needed, None
@@ -110,8 +132,10 @@ def fit(flights: list[dict], delays, fault: str) -> tuple[dict, float | None]:
 
 
 COLUMNS = ("task", "fault", "required_margin", "modules", "certified", "worst_fault_margin",
-           "delay_s", "max_error_cm", "within_5cm", "command")  # fmt: skip
+           "cells", "delay_s", "max_error_cm", "within_5cm", "why_not", "command")  # fmt: skip
 """The columns of flights.csv, in order (what ``--update`` reads back)."""
+OLDER_COLUMNS = tuple(c for c in COLUMNS if c not in ("cells", "why_not"))
+"""The columns of a flights.csv written before the cells and the verdict's reason were kept."""
 OUTPUTS = ("report.md", "flights.csv", "margin_rule.png")
 MAX_DELAY = 1.0
 """Longest delay flown (s): the hover flies 3 s after the failure, so the delay lies within it."""
@@ -120,13 +144,15 @@ MAX_DELAY = 1.0
 def read_flights(path: Path) -> list[dict]:
     """The rows of an earlier flights.csv, numbers and booleans restored; a one-line ValueError
     naming the file and the 1-based row for anything :func:`fly` never writes."""
-    return read_rows_csv(path, "--update", COLUMNS, typed_flight, "benchmarks.fault_delay")
+    return read_rows_csv(path, "--update", COLUMNS, typed_flight, "benchmarks.fault_delay",
+                         older=(OLDER_COLUMNS,))  # fmt: skip
 
 
 def typed_flight(raw: dict) -> dict | None:
     """A row of flights.csv typed as :func:`fly` writes it; None for values it never writes."""
     flags = {"True": True, "False": False}
-    row = {**raw, "modules": int(raw["modules"]), "certified": flags[raw["certified"]],
+    row = {**{c: raw.get(c, "") for c in COLUMNS}, "modules": int(raw["modules"]),
+           "certified": flags[raw["certified"]],
            "within_5cm": flags[raw["within_5cm"]]}  # fmt: skip
     for key in ("required_margin", "worst_fault_margin", "delay_s", "max_error_cm"):
         row[key] = real_option(raw[key])
@@ -199,9 +225,11 @@ def parse_args(argv: list[str] | None) -> tuple[argparse.Namespace, list[dict]]:
                           default=[0.0, 0.02, 0.05, 0.1, 0.15],
                           help="required fault margins, each in [0, 1)"),
         "--delays": dict(type=delay_option, nargs="+", action=Distinct,
-                         default=[0.01, 0.02, 0.03, 0.05],
+                         default=[0.0, 0.01, 0.02, 0.03, 0.05],
                          help=f"detection delays flown (s), each in [0, {MAX_DELAY:g}], one at "
-                              "least above 0 (the rule is fitted on them)"),
+                              "least above 0 (the rule is fitted on them); 0 flies the control: "
+                              "a design that fails with the failure known at once is left out "
+                              "of the fit (default 0 0.01 0.02 0.03 0.05)"),
         "--n-max": dict(type=int_option(1, 128), default=12, help="module budget (default 12)"),
         "--time-limit": dict(type=time_limit_option, default=10.0,
                              help="seconds per search (default 10)"),
@@ -235,7 +263,9 @@ def main(argv: list[str] | None = None) -> int:
     ]
     new = fly(designs(tasks, args.margins, args.n_max, args.time_limit), args.delays)
     names = {t.name for t in tasks}
-    flights = [r for r in old if r["task"] not in names] + [{**r, "command": command} for r in new]
+    made = [{**r, "command": command} for r in new]
+    flights = [{c: r.get(c, "") for c in COLUMNS}
+               for r in [*(r for r in old if r["task"] not in names), *made]]  # fmt: skip
     if not flights:
         raise ValueError(f"no structure of up to --n-max {args.n_max} modules for any task, "
                          "fault and margin: nothing flown, nothing written")  # fmt: skip
@@ -249,33 +279,104 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def verdict_words() -> str:
+    """How each flight was flown and judged, in words, from the constants the flights used."""
+    from modquad_gym.sim import fault_verdict as v
+    from modquad_gym.sim.fault_flight import FAULT_BEFORE_S, FAULT_SECONDS
+
+    return (
+        "Each design flies its smallest-margin failure only (`fly_with_failure(..., "
+        'failure="worst")`; `modquad validate` flies every failure by default): a hover holds '
+        f"{FAULT_BEFORE_S:g} s, the failure strikes and it flies {FAULT_SECONDS:g} s more; a "
+        "trajectory flies to its end. *Within 5 cm* is the flight's verdict "
+        "(`modquad_gym.sim.fault_verdict`): never stopped, within "
+        f"{100 * v.GOAL_M:g} cm from the failure on, and settled at its end (the last "
+        f"{v.SETTLE_WINDOW_S:g} s window's largest error not above the window before's by more "
+        f"than {100 * v.SETTLE_GROWTH:g} % + {1000 * v.SETTLE_FLOOR_M:g} mm, and a working rotor "
+        "off its limits in the last window). *Not settled* counts the flights within 5 cm that "
+        "the settling test alone failed (flights.csv, column why_not)."
+    )
+
+
+def control_lines(flights: list[dict], delays) -> list[str]:
+    """The designs left out of the fit (they fail with the failure known at once) and the fit
+    with them, per fault; nothing when no delay 0 was flown."""
+    if 0 not in delays:
+        return ["No flight with the failure known at once (delay 0): every flight is fitted."]
+    lines = []
+    for fault in FAULTS:
+        void = sorted(not_the_delays(flights, fault))
+        designs = {(r["task"], r["required_margin"]) for r in flights if r["fault"] == fault}
+        with_them = fit(flights, delays, fault, control=False)[1]
+        why = {(r["task"], r["required_margin"]): r["why_not"] for r in flights
+               if r["fault"] == fault and r["delay_s"] == 0}  # fmt: skip
+        named = "; ".join(f"{t} margin {m:g} ({why[t, m] or 'beyond 5 cm'})" for t, m in void)
+        lines.append(f"- {fault}: {len(void)} of {len(designs)} designs do not hold with the "
+                     f"failure known at once, left out of the fit" + (f": {named}" if void else "")
+                     + ("" if with_them is None else f"; with them the fit would be "
+                        f"{with_them:.3f} D"))  # fmt: skip
+    return [
+        "A design that does not hold even with the failure known at once (delay 0) fails "
+        "for another reason than the delay (a flight that never settles, or saturates, "
+        "whatever the delay), so its flights are left out of the fit:",
+        "",
+        *lines,
+    ]
+
+
+def binding(flights: list[dict], delays, fault: str) -> str:
+    """The flight that sets ``fault``'s fit (the largest margin per second of delay beyond
+    5 cm) and the fit without it: whether one flight alone sets the rule."""
+    void = not_the_delays(flights, fault)
+    lost = [r for r in flights if r["fault"] == fault and not r["within_5cm"] and r["delay_s"] > 0
+            and (r["task"], r["required_margin"]) not in void]  # fmt: skip
+    if not lost:
+        return ""
+    top = max(lost, key=lambda r: r["worst_fault_margin"] / r["delay_s"])
+    rest = fit([r for r in flights if r is not top], delays, fault)[1] or 0.0
+    why = f", {top['why_not']}" if top.get("why_not") else ""
+    return (f"; set by {top['task']} (margin {top['worst_fault_margin']:.4g}, {top['modules']} "
+            f"modules) at {1000 * top['delay_s']:g} ms ({top['max_error_cm']:.2f} cm{why}); "
+            f"without that flight the fit would be {rest:.3f} D")  # fmt: skip
+
+
 def report(flights: list[dict], fits: dict, delays: list[float], sources) -> str:
-    """The report page: the commands, the flights per fault and delay, the fit and the rule (a
-    fault with no flight, where no design was found within n_max, says so)."""
+    """The report page: the commands, how the flights were judged, the flights per fault and
+    delay, the fit, the flight that sets it, and the rule (a fault with no flight, where no
+    design was found within n_max, says so)."""
     commands = list(dict.fromkeys(r["command"] for r in flights))
     lines = [
         "# The fault margin a detection delay needs",
         "",
-        f"Made by {', then '.join(f'`{c}`' for c in commands)} on {machine_description()}.",
+        f"Made by {', then '.join(f'`{c}`' for c in commands)} on {machine_description()} "
+        f"(shared with other work: the searches' time limits bought less search; load average "
+        f"when this page was written {load_average()}).",
         "",
         f"{len({r['task'] for r in flights})} tasks drawn from the sources "
         f"{', '.join(sources)} with the calibration's own seeds ({CALIBRATION_SEED0:,} + "
         "1000 k + i, disjoint from every suite), faults rotor and module, designs for required "
         f"margins {sorted({r['required_margin'] for r in flights})} ({len(flights)} flights of "
         f"{len({(r['task'], r['fault'], r['required_margin']) for r in flights})} designs), each "
-        f"flown through its worst failure at delays {[f'{1000 * d:g} ms' for d in delays]}.",
+        f"flown through its smallest-margin failure at delays "
+        f"{[f'{1000 * d:g} ms' for d in delays]}.",
         "",
-        "| fault | delay | flights | within 5 cm | largest worst margin beyond 5 cm | "
-        "largest error (cm) |",
-        "|---|---|---|---|---|---|",
+        verdict_words(),
+        "",
+        "| fault | delay | flights | within 5 cm | not settled | largest worst margin fitted "
+        "(not held) | largest error (cm) |",
+        "|---|---|---|---|---|---|---|",
     ]
     for fault in FAULTS:
         for dl in delays:
             rs = [r for r in flights if r["delay_s"] == dl and r["fault"] == fault]
             worst = f"{max(r['max_error_cm'] for r in rs):.2f}" if rs else "-"
             needed = f"{fits[fault][0][dl]:.4f}" if rs else "-"
+            unsettled = sum(str(r.get("why_not", "")).startswith("not settled") for r in rs)
+            unsettled = unsettled if rs else "-"
             lines.append(f"| {fault} | {1000 * dl:g} ms | {len(rs)} | "
-                         f"{sum(r['within_5cm'] for r in rs)} | {needed} | {worst} |")  # fmt: skip
+                         f"{sum(r['within_5cm'] for r in rs)} | {unsettled} | {needed} | "
+                         f"{worst} |")  # fmt: skip
+    lines += ["", *control_lines(flights, delays)]
     lines += ["", "Fit through the origin above every threshold, and the rule "
               f"(modquad_gym.oracle.fault_delay.DELAY_SLOPES: {SAFETY:g} times the fit, rounded "
               f"up to 0.05), for D up to {max(delays):g} s (the delays flown):", ""]  # fmt: skip
@@ -284,8 +385,9 @@ def report(flights: list[dict], fits: dict, delays: list[float], sources) -> str
         if slope is None:
             lines.append(f"- {fault}: no flights (no design within n_max), no fit")
             continue
-        rule = np.ceil(SAFETY * slope / 0.05) * 0.05
-        lines.append(f"- {fault}: fit mu = {slope:.3f} D, rule mu = {rule:.2f} D")
+        rule = np.ceil(round(SAFETY * slope / 0.05, 9)) * 0.05
+        lines.append(f"- {fault}: fit mu = {slope:.3f} D, rule mu = {rule:.2f} D"
+                     f"{binding(flights, delays, fault)}")  # fmt: skip
     return "\n".join([*lines, "", "![rule](margin_rule.png)", ""])
 
 

@@ -9,6 +9,7 @@ experiment; the report page and picture are :mod:`.faults_report`.
 
 from __future__ import annotations
 
+import json
 import sys
 import time
 from pathlib import Path
@@ -41,6 +42,7 @@ def design(task, name: str, n_max: int, time_limit: float) -> dict:
            "lower_bound": r.lower_bound, "certified": r.certified, "status": r.status.value,
            "n_max": n_max,
            "seconds": round(time.perf_counter() - t0, 2), "worst_fault_margin": None,
+           "cells": None if r.structure is None else cells_text(r.structure),
            "_structure": r.structure}  # fmt: skip
     if r.structure is not None and fault:
         W = task.rotor_wrenches(r.structure)
@@ -51,6 +53,12 @@ def design(task, name: str, n_max: int, time_limit: float) -> dict:
         assert worst >= (mu or 0.0) - 1e-6, f"{task.name} {name}: margin {worst} below {mu}"
         row["worst_fault_margin"] = round(worst, 5)
     return row
+
+
+def cells_text(structure) -> str:
+    """A structure's cells as faults.csv keeps them (JSON, ``[[0, 0], [1, 0]]``): a row's design
+    can be flown again without its time-limited search."""
+    return json.dumps([list(c) for c in structure.cells])
 
 
 def forces_rule_out(task, fault: str, mu: float, n_max: int) -> bool:
@@ -91,8 +99,10 @@ def explain_missing(rows: list[dict]) -> None:
 
 
 def fly(task, structure, fault: str, intact_seconds: float) -> dict:
-    """Flights of one design through its worst failure (20 ms, 50 ms, the detector) and its
-    intact hover with the detector on."""
+    """Flights of one design through its smallest-margin failure (20 ms, 50 ms, the detector):
+    the largest error after the failure and the flight's verdict (``within_5cm_*``: within 5 cm,
+    never stopped and settled at its end, :mod:`modquad_gym.sim.fault_verdict`; ``why_not_*``:
+    why not, empty when it held), and its intact hover with the detector on."""
     from modquad_gym.sim import fault_flight as ff
     from modquad_gym.sim.detector import DetectorConfig
     from modquad_gym.sim.failure import Failure
@@ -101,9 +111,13 @@ def fly(task, structure, fault: str, intact_seconds: float) -> dict:
     for delay in (0.02, 0.05):
         f = ff.fly_with_failure(structure, task, fault, detection_delay_s=delay, failure="worst")
         out[f"error_cm_{1000 * delay:.0f}ms"] = round(100 * f.max_position_error_m, 3)
+        out[f"within_5cm_{1000 * delay:.0f}ms"] = bool(f.within_goal)
+        out[f"why_not_{1000 * delay:.0f}ms"] = f.verdict_words()
     f = ff.fly_with_failure(structure, task, fault, detector=DetectorConfig(), failure="worst")
     after = f.summary()["fault_detected_after_s"]
     out["error_cm_detector"] = round(100 * f.max_position_error_m, 3)
+    out["within_5cm_detector"] = bool(f.within_goal)
+    out["why_not_detector"] = f.verdict_words()
     out["detected_ms"] = None if after is None else round(1000 * after, 1)
     out["isolated"] = f.summary()["fault_detected_rotors"] == [int(c) for c in f.worst.columns]
     w = np.asarray(task.rotor_wrenches(structure))[f.worst.row]

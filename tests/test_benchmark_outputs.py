@@ -113,13 +113,19 @@ def rotor_flights_only(monkeypatch):
 def test_fault_delay_reports_a_fault_with_no_flight_and_keeps_a_report_without_force(
     rotor_flights_only, tmp_path, capsys
 ):
+    from benchmarks import fault_delay
+
     out = tmp_path / "fd"
     argv = ["--tasks", "1", "--sources", "paper", "--delays", "0.01", "0.05", "--out", str(out)]
     assert run_script("fault_delay", argv) == 0
     report = (out / "report.md").read_text()
-    assert "| module | 10 ms | 0 | 0 | - | - |" in report
+    assert "| module | 10 ms | 0 | 0 | - | - | - |" in report
     assert "- module: no flights (no design within n_max), no fit" in report
     assert "- rotor: fit mu = 2.000 D" in report
+    # the page says how the flights were judged and flown, and which flight sets the fit
+    assert "settled at its end" in report and "smallest-margin failure only" in report
+    assert "set by paper-cal-0 (margin 0.1, 6 modules) at 50 ms" in report
+    assert "without that flight the fit would be 0.000 D" in report
     (out / "report.md").write_text("MY PRECIOUS REPORT\n")
     _refused(capsys, "fault_delay", argv, "already holds report.md", "--force")
     assert (out / "report.md").read_text() == "MY PRECIOUS REPORT\n"
@@ -128,7 +134,14 @@ def test_fault_delay_reports_a_fault_with_no_flight_and_keeps_a_report_without_f
     _refused(capsys, "fault_delay", more, "already holds report.md, margin_rule.png")
     assert run_script("fault_delay", [*more, "--force"]) == 0
     with open(out / "flights.csv", newline="") as fh:
-        assert {r["task"] for r in csv.DictReader(fh)} == {"paper-cal-0", "paper-cal-1"}
+        reader = csv.DictReader(fh)
+        assert tuple(reader.fieldnames) == fault_delay.COLUMNS  # cells and why_not kept
+        assert {r["task"] for r in reader} == {"paper-cal-0", "paper-cal-1"}
+    # a flights.csv written before the cells and the verdict's reason were kept is still read
+    older = ",".join(fault_delay.OLDER_COLUMNS)
+    row = "paper-cal-0,rotor,0.0,6,True,0.1,0.02,1.0,True,python -m benchmarks.fault_delay"
+    (out / "flights.csv").write_text(f"{older}\n{row}\n")
+    assert run_script("fault_delay", [*more, "--force"]) == 0
     (out / "flights.csv").write_text("task,fault\npaper-cal-0,rotor\n")  # not its flights
     _refused(capsys, "fault_delay", [*more, "--force"], "flights.csv: its header is not")
 
