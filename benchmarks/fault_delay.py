@@ -325,8 +325,9 @@ def control_lines(flights: list[dict], delays) -> list[str]:
 
 
 def binding(flights: list[dict], delays, fault: str) -> str:
-    """The flight that sets ``fault``'s fit (the largest margin per second of delay beyond
-    5 cm) and the fit without it: whether one flight alone sets the rule."""
+    """The flight that sets ``fault``'s fit (the largest margin per second of delay of a flight
+    that did not hold) and the fit without it, and without its task: whether one flight, or one
+    task, alone sets the rule."""
     void = not_the_delays(flights, fault)
     lost = [r for r in flights if r["fault"] == fault and not r["within_5cm"] and r["delay_s"] > 0
             and (r["task"], r["required_margin"]) not in void]  # fmt: skip
@@ -334,10 +335,12 @@ def binding(flights: list[dict], delays, fault: str) -> str:
         return ""
     top = max(lost, key=lambda r: r["worst_fault_margin"] / r["delay_s"])
     rest = fit([r for r in flights if r is not top], delays, fault)[1] or 0.0
+    task = fit([r for r in flights if r["task"] != top["task"]], delays, fault)[1] or 0.0
     why = f", {top['why_not']}" if top.get("why_not") else ""
     return (f"; set by {top['task']} (margin {top['worst_fault_margin']:.4g}, {top['modules']} "
             f"modules) at {1000 * top['delay_s']:g} ms ({top['max_error_cm']:.2f} cm{why}); "
-            f"without that flight the fit would be {rest:.3f} D")  # fmt: skip
+            f"without that flight the fit would be {rest:.3f} D, without that task's flights "
+            f"{task:.3f} D")  # fmt: skip
 
 
 def report(flights: list[dict], fits: dict, delays: list[float], sources) -> str:

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 import modquad_gym as mq
 from benchmarks import faults_measure, faults_report
 
@@ -65,6 +67,28 @@ def test_fault_delay_leaves_out_designs_that_fail_with_the_failure_known_at_once
     assert "- rotor: 1 of 2 designs do not hold with the failure known at once" in text
     assert "wavy margin 0 (not settled: error rising)" in text
     assert "with them the fit would be 9.000 D" in text
-    assert "set by steady (margin 0.01, 6 modules) at 50 ms" in fault_delay.binding(
-        flights, delays, "rotor"
+    named = fault_delay.binding(flights, delays, "rotor")
+    assert "set by steady (margin 0.01, 6 modules) at 50 ms" in named
+    assert (
+        "without that flight the fit would be 0.000 D, without that task's flights 0.000 D" in named
     )
+
+
+def test_the_rule_is_the_one_its_report_fits():
+    """DELAY_SLOPES is 1.25 times the fit of results/fault_delay, rounded up to 0.05; module
+    failures' slope also stands for two rotors and a module with a rotor."""
+    import math
+    import re
+    from pathlib import Path
+
+    from modquad_gym.oracle.fault_delay import DELAY_SLOPES
+
+    page = (Path(__file__).resolve().parents[1] / "results/fault_delay/report.md").read_text()
+    for fault in ("rotor", "module"):
+        found = re.search(rf"- {fault}: fit mu = ([\d.]+) D, rule mu = ([\d.]+) D", page)
+        fitted, rule = map(float, found.groups())
+        assert DELAY_SLOPES[fault] == rule
+        assert DELAY_SLOPES[fault] == pytest.approx(
+            math.ceil(round(1.25 * fitted / 0.05, 6)) * 0.05
+        )
+    assert DELAY_SLOPES["rotor2"] == DELAY_SLOPES["rotor+module"] == DELAY_SLOPES["module"]
