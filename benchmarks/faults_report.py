@@ -68,6 +68,13 @@ def plot(path: Path, rows: list[dict]) -> None:
     plt.close(fig)
 
 
+def made(rows: list[dict], command: str) -> str:
+    """How many rows of faults.csv ``command`` made, and of which designs."""
+    mine = [r for r in rows if r["command"] == command]
+    names = [n for n in DESIGNS if any(r["design"] == n for r in mine)]
+    return f"{len(mine)} rows: {', '.join(names)}"
+
+
 def fmean(xs) -> str:
     xs = [x for x in xs if x is not None]
     return f"{np.mean(xs):.2f}" if xs else "-"
@@ -86,7 +93,7 @@ def report(out: Path, rows: list[dict], speed: list[dict], args) -> None:
     lines = ["# The price of fault tolerance, and the margin a detection delay needs", "",
              f"Made on {machine_description()} by runs of one command, each making some rows "
              "of faults.csv (each row names its run; a later run replaces the rows it makes):",
-             "", *[f"- `{c}`" for c in commands], "",
+             "", *[f"- `{c}` ({made(rows, c)})" for c in commands], "",
              "The runs shared the two cores with other work and with each other (up to five at a "
              "time): a search's wall-clock limit bought less search than on an idle machine "
              "(more answers uncertified, a few margin designs not found). Load average when "
@@ -198,9 +205,10 @@ def flights_section(rows: list[dict]) -> list[str]:
              "cm* is the flight's verdict (modquad_gym.sim.fault_verdict: never stopped, within "
              "5 cm from the failure on, settled at its end; faults.csv columns within_5cm_20ms, "
              "within_5cm_50ms, within_5cm_detector) for the rows that keep it "
-             f"({new} of {len(flown)} flown rows, column *verdict kept*); the other "
-             f"{len(flown) - new}, made by earlier runs that kept only the error, are counted by "
-             "their error within 5 cm (then flown 2 s after the failure, no settling test).", "",
+             f"({new} of {len(flown)} flown rows, column *verdict kept*)"
+             + (f"; the other {len(flown) - new}, made by earlier runs that kept only the error, "
+                "are counted by their error within 5 cm (then flown 2 s after the failure, no "
+                "settling test)." if new < len(flown) else "."), "",
              "| design | structures | verdict kept | 20 ms | 50 ms | detector | largest error "
              "(cm) at 20 ms, 50 ms, detector |", "|---|---|---|---|---|---|---|"]  # fmt: skip
     for n in DESIGNS:
@@ -235,12 +243,13 @@ def flights_section(rows: list[dict]) -> list[str]:
     if quiet:
         harmless = [r for r in quiet if held(r, "detector")]
         lost = [r for r in quiet if not held(r, "detector")]
-        lines += ["", f"Never detected: {len(quiet)} flights. {len(harmless)} of them stayed "
-                  "within 5 cm (mostly rotors commanded near zero thrust when they failed: their "
-                  "loss leaves almost no residual, and almost no harm); "
-                  + (f"{len(lost)} drifted beyond it: " + ", ".join(
-                      f"{r['task']} {r['design']} ({r['error_cm_detector']:.1f} cm)" for r in lost)
-                     if lost else "none drifted beyond it") + "."]  # fmt: skip
+        lines += ["", f"Never detected: {len(quiet)} flights. {len(harmless)} of them held "
+                  "(mostly rotors commanded near zero thrust when they failed: their loss leaves "
+                  "almost no residual, and almost no harm); "
+                  + (f"{len(lost)} did not hold: " + ", ".join(
+                      f"{r['task']} {r['design']} ({r['error_cm_detector']:.1f} cm"
+                      + (", not settled" if r["error_cm_detector"] <= GOAL_CM else "") + ")"
+                      for r in lost) if lost else "none failed to hold") + "."]  # fmt: skip
     return lines + [""]
 
 
