@@ -35,6 +35,13 @@ def test_the_report_counts_by_the_verdict_and_names_the_older_rows():
     assert "(2 of 3 flown rows, column *verdict kept*); the other 1" in page
     assert "new rotor_20ms at detector (0.5 cm, not settled)" in page
     assert "new rotor_20ms at 20ms (0.5 cm, not settled)" in page
+    # never detected and within 5 cm but not settled: it did not hold, it did not drift away
+    rows[1]["detected_ms"] = None
+    page = "\n".join(faults_report.flights_section(rows))
+    assert "1 did not hold: new rotor (1.0 cm, not settled)" in page
+    for r, command in zip(rows, ("old run", "new run", "new run")):
+        r["command"] = command
+    assert faults_report.made(rows, "new run") == "2 rows: rotor, rotor_20ms"
 
 
 def test_a_design_keeps_its_cells_and_its_flights_their_verdict():
