@@ -17,7 +17,7 @@ import numpy as np
 from modquad_gym.core.extras import import_optional
 from modquad_gym.core.outputs import save_figure
 from modquad_gym.sim.fault_flight import GOAL_M, FaultFlight
-from modquad_gym.sim.pictures import MAX_LINES, inputs_panel
+from modquad_gym.sim.pictures import MAX_LINES, OUTSIDE, inputs_panel
 
 BEFORE, AFTER, FAILURE = "tab:blue", "tab:orange", "tab:red"
 
@@ -171,7 +171,7 @@ def _path_panel(ax, flight: FaultFlight) -> None:
     ax.set_ylabel(f"y [{unit}]")
     ax.set_zlabel(f"z [{unit}]")
     ax.set_title("COM path" + (" about home" if hover else ""), fontsize=10)
-    ax.legend(loc="upper left", fontsize=8)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, 0.0), ncols=2, fontsize=8)  # under the box
 
 
 def _error_panel(ax, t: np.ndarray, error_cm: np.ndarray, goal_cm: float) -> None:
@@ -187,7 +187,7 @@ def _error_panel(ax, t: np.ndarray, error_cm: np.ndarray, goal_cm: float) -> Non
         ax.plot([], [], ls="--", color=FAILURE, lw=1,
                 label=f"goal {goal_cm:g} cm (above this scale)")  # fmt: skip
     ax.set_ylim(0.0, 1.15 * top)
-    ax.legend(loc="upper left", fontsize=8)
+    ax.legend(loc="best", fontsize=8)  # off the curve and the failure's lines and their words
 
 
 def _mark_failed(ax, run, columns) -> None:
@@ -202,12 +202,12 @@ def _mark_failed(ax, run, columns) -> None:
                        lw=1.0, label=label)  # fmt: skip
             ax.plot([0.0], [(rows[0] + rows[-1]) / 2], ">", color=FAILURE, ms=7, clip_on=False,
                     transform=ax.get_yaxis_transform())  # fmt: skip
-        ax.legend(loc="upper right", fontsize=8)
+        ax.legend(**OUTSIDE)  # beside the data, as inputs_panel's
         return
     for i, c in enumerate(cols):
         ax.plot(run.t, run.inputs[:, c], color=FAILURE, lw=2.2, ls="--",
                 label=_failed_label(cols) if i == 0 else None)  # fmt: skip
-    ax.legend(loc="upper right", fontsize=8)
+    ax.legend(**OUTSIDE)  # beside the data, as inputs_panel's
 
 
 def _failed_label(cols: list[int]) -> str:
