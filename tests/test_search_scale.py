@@ -171,8 +171,12 @@ from modquad_gym.tasks import PlantedTasks
 
 task = PlantedTasks(n_modules=(128, 128), n_wrenches=(8, 8))(np.random.default_rng(3))
 r = mq.anytime_search(task, n_max=128, time_limit=60)
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-peak = peak // 1024 if sys.platform == "darwin" else peak  # bytes there, else KB
+try:  # Linux: this program's own high-water mark (ru_maxrss keeps the forking parent's size)
+    with open("/proc/self/status") as fh:
+        peak = next(int(line.split()[1]) for line in fh if line.startswith("VmHWM:"))
+except (OSError, StopIteration):
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    peak = peak // 1024 if sys.platform == "darwin" else peak  # bytes there, else KB
 print(json.dumps({"cells": None if r.structure is None else [list(c) for c in r.structure.cells],
                   "n_modules": r.n_modules, "lower_bound": r.lower_bound, "peak_kb": peak}))
 """
