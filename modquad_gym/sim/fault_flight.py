@@ -106,11 +106,7 @@ def worst_failure(structure: Structure, W: np.ndarray, f_max: float, fault: str)
         row = int(np.argmin(margin(A[:, keep], W, f_max, method)))
     else:  # a one-module structure without its module: nothing is left
         row = int(np.argmax(np.linalg.norm(W, axis=1)))
-    if tolerates and worst < 0:  # the LP's round-off against the exact decision
-        worst = 0.0
-    elif not tolerates and worst >= 0:
-        worst = float(np.nextafter(-TOL, -np.inf))
-    return WorstFailure(i, sets[i], float(worst), row, tolerates)
+    return WorstFailure(i, sets[i], _signed(float(worst), tolerates), row, tolerates)
 
 
 def _rotor_wrenches(structure: Structure, task, f_max, seconds) -> tuple[np.ndarray, float]:
@@ -251,15 +247,20 @@ def fly_with_failure(
 
 
 def _smallest_margin(cases: list) -> float:
-    """The smallest margin over every failure (:func:`failure_cases`), with
-    :func:`worst_failure`'s round-off rule: 0 where every failure is tolerated, below -TOL where
-    one is not (``solve --json``'s ``worst_fault_margin``)."""
-    low = min(c.margin for c in cases)
-    if cases[0].tolerates and low < 0:
+    """The smallest margin over every failure (:func:`failure_cases`), signed as
+    :func:`worst_failure`'s (:func:`_signed`; ``solve --json``'s ``worst_fault_margin``)."""
+    return _signed(min(c.margin for c in cases), cases[0].tolerates)
+
+
+def _signed(margin: float, tolerates: bool) -> float:
+    """``margin`` with the sign of the exact decision (the LP's round-off against it): 0 where
+    every failure is tolerated and the margin came out below 0, just below -TOL where one is
+    not and it came out at 0 or above."""
+    if tolerates and margin < 0:
         return 0.0
-    if not cases[0].tolerates and low >= 0:
+    if not tolerates and margin >= 0:
         return float(np.nextafter(-TOL, -np.inf))
-    return low
+    return margin
 
 
 def _fly_one(structure, task, fault, case, W, fm, seconds, delay, track_config, detector):
