@@ -34,7 +34,7 @@ from benchmarks.common import (
     run_main,
     write_report,
 )
-from benchmarks.measure import fresh, measured
+from benchmarks.measure import fresh, measured, warm_search
 from modquad_gym.cli.common import time_limit_option
 
 GOALS = {"gap_64_pct": 5.0, "seconds": 60.0, "memory_MB": 2048.0}
@@ -43,7 +43,7 @@ GOALS = {"gap_64_pct": 5.0, "seconds": 60.0, "memory_MB": 2048.0}
 def _warm() -> None:
     from modquad_gym.search import anytime_search, exhaustive_search
 
-    exhaustive_search(np.array([[0, 0, 1.0, 0, 0, 0]]), n_max=1)  # imports and JIT warm-up
+    warm_search(exhaustive_search)
     anytime_search(np.array([[0, 0, 1.0, 0, 0, 0]]), n_max=2, time_limit=5)
 
 

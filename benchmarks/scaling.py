@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import multiprocessing as mp
-import resource
 import time
 from pathlib import Path
 
@@ -30,6 +29,7 @@ from benchmarks.common import (
     run_main,
     write_report,
 )
+from benchmarks.measure import own_peak_mb, warm_search
 from modquad_gym.geometry.polyominoes import A001168
 
 GOALS = {"refute 12": 3.0, "refute 14": 60.0, "planted 12": 5.0, "memory_MB": 2048.0}
@@ -41,12 +41,11 @@ def _timed(impl: str, W: np.ndarray, n_max: int) -> tuple[float, int | None, int
         from benchmarks.reference_search import exhaustive_search
     else:
         from modquad_gym.search import exhaustive_search
-    exhaustive_search(np.array([[0, 0, 1.0, 0, 0, 0]]), n_max=1)  # imports and JIT warm-up
+    warm_search(exhaustive_search)
     t0 = time.perf_counter()
     r = exhaustive_search(W, n_max=n_max)
     seconds = time.perf_counter() - t0
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    return seconds, r.n_modules, r.evaluated, peak
+    return seconds, r.n_modules, r.evaluated, own_peak_mb()
 
 
 def measure(impl: str, W: np.ndarray, n_max: int) -> tuple[float, int | None, int, float]:

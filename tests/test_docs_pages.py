@@ -199,7 +199,9 @@ def test_pages_quote_what_the_reports_and_the_code_say():
         slowest = re.search(goal, (ROOT / "results" / report).read_text())[1]
         assert f"slowest {slowest} s" in faults, report
     scaling = (ROOT / "results" / "search_scaling.md").read_text()
-    assert "- peak memory of any streaming run:" in scaling
+    peak = re.search(r"- peak memory of any streaming run: (\d+) MB", scaling)[1]
+    level_14 = float(re.search(r"n_max = 14, refuting task: ([\d.]+) s", scaling)[1])
+    assert f"in {level_14:.1f} s at {peak} MB" in _page("results.md")
 
 
 def _csv(report: str) -> list[dict[str, str]]:
