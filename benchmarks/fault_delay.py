@@ -5,24 +5,23 @@ controller told of it D seconds late.
     python -m benchmarks.fault_delay --tasks 4 --out results/fault_delay --force
 
 For ``--tasks`` tasks drawn from each task source of ``--sources`` (the paper-like, planted and
-random-motion generators by default) with the calibration's own seeds ``CALIBRATION_SEED0 + i``
-(a range no suite, validation set or training stream uses: no held-out task is seen) and each
-fault (rotor, module): the default search's minimum structure for every required margin of
-``--margins`` (certified where its exact levels finish within ``--time-limit``); every distinct
-structure is flown through its smallest-margin failure only
+random-motion generators by default) with the calibration's own seeds ``CALIBRATION_SEED0 + i`` (a
+range no suite, validation set or training stream uses: no held-out task is seen) and each fault
+(rotor, module): the default search's minimum structure for every required margin of ``--margins``
+(certified where its exact levels finish within ``--time-limit``); every distinct structure is
+flown through its smallest-margin failure only
 (:func:`modquad_gym.sim.fault_flight.fly_with_failure` with ``failure="worst"``: a hover under the
-wrench that failure leaves with the smallest margin, or a dynamic task's trajectory) at every
-delay of ``--delays``, and judged by the flight's verdict (within 5 cm from the failure on, never
-stopped, and settled at its end: :mod:`modquad_gym.sim.fault_verdict`). The rule
-:func:`modquad_gym.oracle.fault_delay.margin_for_delay` is read off the flights, for each fault
-on its own: at each delay, the largest worst margin among the structures that did not hold, and
-a line through the origin above every one of them (the rule takes 1.25 times its slope, rounded
+wrench that failure leaves with the smallest margin, or a dynamic task's trajectory, then a hold at
+its last point) at every delay of ``--delays``, and judged by the flight's verdict (within 5 cm
+from the failure on, never stopped, settled at its end: :mod:`~modquad_gym.sim.fault_verdict`). The
+rule :func:`modquad_gym.oracle.fault_delay.margin_for_delay` is read off the flights, for each
+fault on its own: at each delay, the largest worst margin among the structures that did not hold,
+and a line through the origin above every one of them (the rule takes 1.25 times its slope, rounded
 up). A design that does not hold even with the failure known at once (the delay 0, flown by
 default) is left out of the fit, since what fails it is not the delay (the report gives the fit
-with it too). ``--skip`` and ``--update`` add new tasks to an earlier run's flights.csv (each
-row names its command). Writes flights.csv, report.md and margin_rule.png into ``--out`` (an
-existing one is replaced only with ``--force``; ``--update`` replaces the flights.csv it adds
-to).
+with it too). ``--skip`` and ``--update`` add new tasks to an earlier run's flights.csv (each row
+names its command). Writes flights.csv, report.md and margin_rule.png into ``--out`` (an existing
+one is replaced only with ``--force``; ``--update`` replaces the flights.csv it adds to).
 """
 
 from __future__ import annotations
@@ -288,8 +287,10 @@ def verdict_words() -> str:
         "Each design flies its smallest-margin failure only (`fly_with_failure(..., "
         'failure="worst")`; `modquad validate` flies every failure by default): a hover holds '
         f"{FAULT_BEFORE_S:g} s, the failure strikes and it flies {FAULT_SECONDS:g} s more; a "
-        "trajectory flies to its end. *Within 5 cm* is the flight's verdict "
-        "(`modquad_gym.sim.fault_verdict`): never stopped, within "
+        "trajectory flies to its end, then holds its last point (at rest) until "
+        f"{FAULT_SECONDS:g} s after the failure and at least {2 * v.SETTLE_WINDOW_S:g} s after "
+        "the end, so that the settling windows judge the hold. *Within 5 cm* is the flight's "
+        "verdict (`modquad_gym.sim.fault_verdict`): never stopped, within "
         f"{100 * v.GOAL_M:g} cm from the failure on, and settled at its end (the last "
         f"{v.SETTLE_WINDOW_S:g} s window's largest error not above the window before's by more "
         f"than {100 * v.SETTLE_GROWTH:g} % + {1000 * v.SETTLE_FLOOR_M:g} mm, and a working rotor "

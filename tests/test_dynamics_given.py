@@ -212,7 +212,6 @@ def test_a_zero_payload_with_an_offset_is_refused_in_a_file(tmp_path):
     "option, match",
     [
         ({"f_max": 50.0}, r"^f_max = 50\.0: applies to a wrench array only"),
-        ({"seconds": 99}, r"^seconds = 99: applies to a hover only"),
     ],
 )
 def test_a_flight_through_a_failure_refuses_what_a_dynamic_task_ignores(option, match):

@@ -128,7 +128,6 @@ def cmd_validate(args: argparse.Namespace) -> int:
                    f"applies to a static task; {args.task} is a dynamic one (flown along its "
                    "trajectory)")  # fmt: skip
     common.check_task(task, args.task, common.palette(args))
-    fault.check_fault_task(args, task, args.task)
     common.check_simulable_types(args)
     names = output_names(args, dynamic)
     check_output_dir(args.out, names, force=args.force)

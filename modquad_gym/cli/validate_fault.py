@@ -57,7 +57,8 @@ FAULT_HELP = (
     "stops; module: any one module's rotors stop; rotor2: any two rotors; rotor+module: a "
     "module's rotors and one rotor of another module), then also fly it "
     "through its failures (--failure), 1 s into a hover under each failure's "
-    "hardest task wrench (or through the trajectory of a dynamic task), and the same kind of "
+    "hardest task wrench (or along the trajectory of a dynamic task, then holding its last "
+    "point), and the same kind of "
     "failure on the intact minimum of the task for comparison; --json adds "
     "fault_max_position_error_m, fault_saturated_fraction, the failed rotors and "
     "intact_minimum; pictures fault_flight*.png. Every method but "
@@ -73,10 +74,11 @@ def add_fault_options(p: argparse.ArgumentParser) -> None:
     add_detect_option(p)
     p.add_argument(
         "--fault-seconds", type=real_option, default=None, metavar="SECONDS",
-        help="with --fault, a static task: simulated seconds each hover flies after the failure "
+        help="with --fault: simulated seconds each flight goes on after the failure "
         f"(default {DEFAULT_FAULT_SECONDS:g}, at most {MAX_FAULT_SECONDS:g}, at least the "
-        "detection delay plus 1 s: the settling test compares the last two 0.5 s windows; "
-        "Python: fly_with_failure(seconds=))",
+        "detection delay plus 1 s: the settling test compares the last two 0.5 s windows); a "
+        "dynamic task flies its trajectory to the end, then holds its last point until then "
+        "and at least 1 s after the end. Python: fly_with_failure(seconds=)",
     )  # fmt: skip
     p.add_argument(
         "--failure", type=failure_option, default="all", metavar="{all,worst,K}",
@@ -153,15 +155,6 @@ def _check_failure_number(args: argparse.Namespace) -> None:
 def flown_delay(args: argparse.Namespace) -> float:
     """The detection delay the flights fly without ``--detect``."""
     return DEFAULT_DETECTION_DELAY if args.detection_delay is None else args.detection_delay
-
-
-def check_fault_task(args: argparse.Namespace, task, name: str) -> None:
-    """``--fault-seconds`` with a dynamic task (flown along its trajectory): refused."""
-    if args.fault is not None and getattr(task, "kind", None) == "dynamic":
-        from modquad_gym.cli.given import refuse_ignored
-
-        refuse_ignored(args, ["fault_seconds"], f"applies to a static task; {name} is a dynamic "
-                       "one (flown through the failure along its trajectory)")  # fmt: skip
 
 
 def fault_output_names(args: argparse.Namespace) -> tuple[str, ...]:
@@ -273,11 +266,13 @@ def check_found(args: argparse.Namespace, task, structure, limit: float) -> None
 
 
 def _flight_seconds(args: argparse.Namespace, task) -> float:
-    """Simulated seconds of one flight through a failure (the hover before it included)."""
+    """Simulated seconds of one flight through a failure (the hover before it included; a
+    trajectory's hold after its end included, the failure assumed at its latest:
+    :func:`~modquad_gym.sim.fault_flight.flight_seconds`)."""
     from modquad_gym.sim import fault_flight
 
     after = getattr(args, "fault_seconds", None) or fault_flight.FAULT_SECONDS
-    return task.flight_seconds(fault_flight.FAULT_BEFORE_S + after)
+    return fault_flight.flight_seconds(task, after)
 
 
 def search_seconds_text(args: argparse.Namespace) -> str:
@@ -318,7 +313,7 @@ def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -
     margin = fault_margin_of(args)
     bare = solver(argparse.Namespace(**{**vars(args), **plain}))(task).structure if margin else None
     flown = dict(detection_delay_s=delay, detector=detector, progress=not args.quiet,
-                 seconds=args.fault_seconds if not _dynamic(task) else None)  # fmt: skip
+                 seconds=args.fault_seconds)  # fmt: skip
     say_estimate(args, task, [structure, intact.structure, bare])
     record = validate_with_failure(structure, task, args.fault, intact=intact.structure,
                                    out_dir=args.out, force=args.force, failure=args.failure,
@@ -347,8 +342,7 @@ def say_estimate(args: argparse.Namespace, task, structures: list) -> None:
     from modquad_gym.sim import fault_flight
     from modquad_gym.sim.validate_fault import others_choice
 
-    seconds = fault_flight.FAULT_BEFORE_S + (args.fault_seconds or fault_flight.FAULT_SECONDS)
-    seconds = task.flight_seconds(seconds)
+    seconds = _flight_seconds(args, task)
     count, wall = 0, 0.0
     for i, s in enumerate(x for x in structures if x is not None):
         choice = args.failure if i == 0 else others_choice(args.failure)

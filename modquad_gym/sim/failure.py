@@ -116,18 +116,12 @@ def flown_delay(detection_delay_s: float | None, detector) -> float:
     return 0.0
 
 
-def refuse_unflown(task, f_max: float | None, seconds: float | None) -> None:
-    """A ValueError naming ``f_max`` given beside a task object (it carries its own) or
-    ``seconds`` beside a dynamic task (flown for its trajectory's duration): options of a
-    flight through a failure that would be ignored."""
+def refuse_unflown(task, f_max: float | None) -> None:
+    """A ValueError naming ``f_max`` given beside a task object (it carries its own): an
+    option of a flight through a failure that would be ignored."""
     what = type(task).__name__
     if f_max is not None:
         raise ValueError(
             f"f_max = {f_max!r}: applies to a wrench array only; a {what} has its own f_max "
             "(task.with_f_max)"
-        )
-    if seconds is not None and getattr(task, "kind", None) == "dynamic":
-        raise ValueError(
-            f"seconds = {seconds!r}: applies to a hover only; a {what} flies its trajectory "
-            "for its duration"
         )

@@ -14,7 +14,9 @@ after a detection delay the allocator and the gains work on A without them):
 * a **dynamic task**: the flight along its trajectory (:func:`modquad_gym.sim.track.fly_trajectory`)
   with the failure halfway through the trajectory's duration, or :data:`LEAD_S` before the
   moment the failure hurts most (the sample with the smallest margin after it) when that moment
-  comes earlier.
+  comes earlier; after the trajectory's end it holds its last point (at rest there, the payload
+  held) until ``seconds`` after the failure and at least two settling windows after the end
+  (:func:`hold_seconds`), so that the verdict judges a flight at rest with time to recover.
 
 Reported (:meth:`~.fault_record.FaultFlight.summary`), for the flight that did worst: from the
 failure on, the largest distance between the flown and desired COM
@@ -48,8 +50,9 @@ from modquad_gym.sim.inertial import check_simulable  # noqa: E402
 from modquad_gym.sim.track import TrackConfig  # noqa: E402
 
 FAULT_SECONDS = 3.0
-"""Simulated seconds a hover flies after the failure (static tasks; ``seconds`` of
-:func:`fly_with_failure`, ``--fault-seconds``): long enough for the settling test
+"""Simulated seconds a flight goes on after the failure (``seconds`` of :func:`fly_with_failure`,
+``--fault-seconds``; a trajectory at least to its end and a hold after it, :func:`hold_seconds`):
+long enough for the settling test
 (:mod:`~modquad_gym.sim.fault_verdict`) to see most recovered flights settle (measured: most
 left saturation within 1 s of the failure, the slowest seen 5.5 s after it, which 3 s judges "not
 settled") and a diverging one still saturated and drifting (measured: saturated through every
@@ -109,13 +112,13 @@ def worst_failure(structure: Structure, W: np.ndarray, f_max: float, fault: str)
     return WorstFailure(i, sets[i], _signed(float(worst), tolerates), row, tolerates)
 
 
-def _rotor_wrenches(structure: Structure, task, f_max, seconds) -> tuple[np.ndarray, float]:
-    """(rotor wrenches, f_max) of a task object (its own f_max; options that do not apply
+def _rotor_wrenches(structure: Structure, task, f_max) -> tuple[np.ndarray, float]:
+    """(rotor wrenches, f_max) of a task object (its own f_max; an ``f_max`` beside it
     refused) or of a (t, 6) array of total wrenches (``f_max``, default 1)."""
     from modquad_gym.sim.failure import refuse_unflown
 
     if hasattr(task, "rotor_wrenches"):
-        refuse_unflown(task, f_max, seconds)
+        refuse_unflown(task, f_max)
         task, f_max = task.rotor_wrenches(structure), task.f_max
     f_max = check_f_max(1.0 if f_max is None else f_max)
     return check_task_scale(task, f_max), f_max  # the searches' scale, as validate's
@@ -173,6 +176,24 @@ def check_fault_seconds(seconds: float | None, delay: float) -> float:
     return seconds
 
 
+def hold_seconds(duration: float, at: float, seconds: float) -> float:
+    """How long a trajectory flight through a failure at ``at`` s holds the trajectory's last
+    point after its end (``duration`` s): until ``seconds`` after the failure, and at least two
+    settling windows, so that the verdict's windows lie in the hold (the trajectory's own
+    tracking error, changing along it, is not judged as a recovery)."""
+    return max(at + seconds - duration, 2 * SETTLE_WINDOW_S)
+
+
+def flight_seconds(task, seconds: float) -> float:
+    """Simulated seconds of one flight through a failure with ``seconds`` after it: a hover's
+    :data:`FAULT_BEFORE_S` and ``seconds``; a trajectory's duration and its hold
+    (:func:`hold_seconds`) with the failure at its latest, halfway: an upper bound."""
+    if getattr(task, "kind", None) != "dynamic":
+        return FAULT_BEFORE_S + seconds
+    duration = float(task.trajectory.duration)
+    return duration + hold_seconds(duration, duration / 2.0, seconds)
+
+
 def fly_with_failure(
     structure: Structure,
     task: object,
@@ -194,10 +215,12 @@ def fly_with_failure(
             :class:`~modquad_gym.dynamics.DynamicTask`, anything with ``rotor_wrenches`` and
             ``f_max``) or a (t, 6) array of total rotor wrenches.
         fault: ``"rotor"`` or ``"module"`` (or ``"rotor2"``, ``"rotor+module"``).
-        seconds: static task or array: how long the hover flies after the failure (default
+        seconds: how long the flight goes on after the failure (default
             :data:`FAULT_SECONDS`, at most :data:`MAX_FAULT_SECONDS`, at least the detection
-            delay and two settling windows; it holds :data:`FAULT_BEFORE_S` before). Refused
-            with a dynamic task, flown along its trajectory.
+            delay and two settling windows): a hover (static task or array) holds
+            :data:`FAULT_BEFORE_S` before; a trajectory flies to its end, then holds its last
+            point until ``seconds`` after the failure and at least 1 s (two settling windows)
+            after its end (:func:`hold_seconds`).
         detection_delay_s: seconds before the controller knows (:mod:`~modquad_gym.sim.failure`;
             default :data:`DETECTION_DELAY_S`). Not with a ``detector``, which decides that.
         f_max: the thrust limit of an array task (default 1); refused with a task object,
@@ -225,10 +248,8 @@ def fly_with_failure(
     fault = check_fault(fault)
     detection_delay_s = flown_delay(detection_delay_s, detector)
     choice = check_failure_choice(failure, fault, len(failure_columns(structure, fault)))
-    W, fm = _rotor_wrenches(structure, task, f_max, seconds)
-    dynamic = getattr(task, "kind", None) == "dynamic"
-    if not dynamic:
-        seconds = check_fault_seconds(seconds, detection_delay_s)
+    W, fm = _rotor_wrenches(structure, task, f_max)
+    seconds = check_fault_seconds(seconds, detection_delay_s)
     if choice == "worst":
         cases = [worst_failure(structure, W, fm, fault)]
         smallest = cases[0].margin
@@ -273,7 +294,8 @@ def _fly_one(structure, task, fault, case, W, fm, seconds, delay, track_config, 
         hardest = float(traj.t[case.row] - traj.t[0])
         at = min(traj.duration / 2.0, max(0.0, hardest - LEAD_S))
         failure = Failure(tuple(case.columns), at, delay, fault)
-        run = fly_trajectory(structure, task, track_config, failure=failure, detector=detector)
+        run = fly_trajectory(structure, task, track_config, failure=failure, detector=detector,
+                             hold_s=hold_seconds(traj.duration, at, seconds))  # fmt: skip
         return FaultFlight(structure, "trajectory", fault, failure, case, run, name)
     failure = Failure(tuple(case.columns), FAULT_BEFORE_S, delay, fault)
     run = hover_with_failure(structure, W[case.row], failure, FAULT_BEFORE_S + seconds, fm,

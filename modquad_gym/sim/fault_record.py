@@ -121,9 +121,7 @@ class FaultFlight:
         settle = self.settling
         if not settle.pinned_only:
             return settle.words()
-        if self.flight == "hover":
-            return settle.words() + "; a longer --fault-seconds (seconds=) may show it recover"
-        return settle.words() + "; the trajectory ends there, so whether it recovers is not flown"
+        return settle.words() + "; a longer --fault-seconds (seconds=) may show it recover"
 
     def brief(self) -> dict:
         """The short record of this flight in ``fault_each``: the failed rotors (columns of A),
@@ -169,7 +167,8 @@ class FaultFlight:
         first), ``fault_failed_parts`` (rotor2 and rotor+module: each failed rotor's module, cell
         and rotor in it), ``fault_time_s``, ``fault_detection_delay_s`` (the delay flown; None with
         a detector, whose ``fault_detected_after_s`` says when it decided), ``fault_seconds``
-        (flown after the failure: ``--fault-seconds``), ``fault_total_seconds`` (the whole flight,
+        (flown after the failure: ``--fault-seconds``; a trajectory's, to its end and its hold
+        after it), ``fault_total_seconds`` (the whole flight,
         the hover before the failure included), ``fault_hardest_row`` (the task row, wrench or
         trajectory sample, of that margin; the wrench a hover holds),
         ``fault_max_position_error_m`` and ``fault_saturated_fraction`` (from the failure on),

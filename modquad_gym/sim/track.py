@@ -129,16 +129,26 @@ class TrackResult:
 
 def reference(task: DynamicTask, times: np.ndarray, structure: Structure) -> tuple:
     """(ref dict of :meth:`Trajectory.at` shifted to start at home, feed-forward (N, 6),
-    exerted (N, 6)) at the control times."""
+    exerted (N, 6)) at the control times. A time past the trajectory's end is the hold
+    (:func:`fly_trajectory`'s ``hold_s``): at its last position and attitude, every rate and
+    acceleration 0, no exerted wrench, so the feed-forward holds the structure and its payload
+    still there."""
     traj = task.trajectory
     ref = traj.at(traj.t[0] + times)
     ref["position"] = ref["position"] - traj.position[0] + np.array([0.0, 0.0, HOME_HEIGHT])
+    held = times > traj.duration + 1e-9
+    if held.any():
+        ref["position"][held] = traj.position[-1] - traj.position[0] + [0.0, 0.0, HOME_HEIGHT]
+        ref["quaternion"][held] = traj.quaternion[-1] / np.linalg.norm(traj.quaternion[-1])
+        for name in ("velocity", "acceleration", "angular_velocity", "angular_acceleration"):
+            ref[name][held] = 0.0
     sampled = Trajectory.resampled({**ref, "t": times})
     exerted = np.zeros((len(times), 6))
     if task.exerted is not None:
         from scipy.interpolate import make_interp_spline
 
         exerted = make_interp_spline(traj.t, task.exerted, k=1)(traj.t[0] + times)
+        exerted[held] = 0.0
     ff = rigid_body_wrenches(sampled, structure.mass, structure.inertia, task.payload) + exerted
     return ref, ff, exerted
 
@@ -207,8 +217,10 @@ def fly_trajectory(
     config: TrackConfig | None = None,
     failure: Failure | None = None,
     detector=None,
+    hold_s: float = 0.0,
 ) -> TrackResult:
-    """Fly ``structure`` along ``task``'s trajectory in MuJoCo (module docstring).
+    """Fly ``structure`` along ``task``'s trajectory in MuJoCo (module docstring), then hold its
+    last point ``hold_s`` seconds (:func:`reference`; default 0: none; the arrays cover it).
 
     ``failure``: rotors that stop during the flight (:class:`~modquad_gym.sim.failure.Failure`:
     their thrust 0 from ``failure.time_s``; from ``failure.detected_s`` the controller
@@ -222,19 +234,18 @@ def fly_trajectory(
 
     task = as_dynamic(task)  # a ValueError naming the type of anything else
     _check_failure(failure, structure)
+    hold_s = check_real(hold_s, "hold_s", low=0.0)
     cfg = config or TrackConfig()
     sim = build_model(structure, task.f_max, payload=task.payload)
     model, data = sim.model, mujoco.MjData(sim.model)
     substeps = max(1, round(1.0 / (cfg.control_hz * model.opt.timestep)))
     dt = substeps * model.opt.timestep
-    times = np.arange(0.0, task.trajectory.duration + 1e-9, dt)
+    times = _control_times(task.trajectory.duration, hold_s, dt)
     ref, ff, exerted = reference(task, times, structure)
     plant = _plant(sim, task)
     control = _Control(plant, np.ones(sim.n_rotors, dtype=bool), cfg, dt, ff)
     working, known = control.keep, False
-    data.qpos[:3], data.qpos[3:7] = ref["position"][0], ref["quaternion"][0]
-    data.qvel[:3], data.qvel[3:6] = ref["velocity"][0], ref["angular_velocity"][0]
-    mujoco.mj_forward(model, data)
+    _start(mujoco, model, data, ref)
     N, m = len(times), sim.n_rotors
     flown, att, inputs = np.zeros((N, 3)), np.zeros(N), np.zeros((N, m))
     attitude = np.zeros((N, 4))
@@ -280,6 +291,22 @@ def fly_trajectory(
     run.detector = watch
     run.detection = None if watch is None else watch.detected
     return run
+
+
+def _start(mujoco, model, data, ref: dict) -> None:
+    """The simulation's state at the reference's first point (its position, attitude, rates)."""
+    data.qpos[:3], data.qpos[3:7] = ref["position"][0], ref["quaternion"][0]
+    data.qvel[:3], data.qvel[3:6] = ref["velocity"][0], ref["angular_velocity"][0]
+    mujoco.mj_forward(model, data)
+
+
+def _control_times(duration: float, hold_s: float, dt: float) -> np.ndarray:
+    """The control times: every step of ``dt`` up to the trajectory's end, then whole steps
+    covering ``hold_s`` (the hold lasts at least ``hold_s``, less than a step more)."""
+    times = np.arange(0.0, duration + 1e-9, dt)
+    if hold_s > 0:
+        times = np.arange(len(times) + math.ceil(hold_s / dt - 1e-9)) * dt
+    return times
 
 
 def _check_failure(failure, structure: Structure) -> None:
