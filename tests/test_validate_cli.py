@@ -112,7 +112,7 @@ def test_every_file_validate_writes_is_refused_without_force(
 def test_report_md_is_written_once_with_the_command_that_made_it(tmp_path, capsys, monkeypatch):
     """A static task's ``report.md`` without ``--fault`` is written once, whole: the "Made by"
     line under its title comes with it, not from a second pass that reads and rewrites the file
-    (a dynamic task's flight and a ``--fault`` section are added by such a pass)."""
+    (a dynamic task's and ``--fault``'s pages too: test_validate_page.py)."""
     from modquad_gym.core import atomic_files
 
     writes: list[Path] = []

@@ -175,10 +175,14 @@ def output_names(args: argparse.Namespace, dynamic: bool) -> tuple[str, ...]:
 def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float | None,
                   n_hover: int):  # fmt: skip
     """The work of :func:`cmd_validate` once its options and ``--out`` are checked: solve, then
-    bench, hover and (a dynamic task) fly the answer, writing into ``--out``."""
+    bench, hover and (a dynamic task) fly the answer, writing into ``--out``; with ``--fault``
+    the flights through a failure follow, and ``report.md`` and ``validation.json`` are written
+    once, after them (a :class:`~modquad_gym.sim.validation_files.ReportPage` kept till then)."""
     from modquad_gym.sim.validate import validate
+    from modquad_gym.sim.validation_files import ReportPage
 
     dynamic = getattr(task, "kind", None) == "dynamic"
+    page = ReportPage() if args.fault is not None else None  # written by fault.fly_fault
     result = solve.solver(args, task)(task)
     if result.structure is not None:  # its failures counted, --failure K in range: before work
         fault.check_found(args, task, result.structure, MAX_ESTIMATED_SECONDS)
@@ -206,9 +210,11 @@ def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float | N
         report = validate_trajectory(result.structure, task, out_dir=args.out,
                                      max_bench_wrenches=n_hover, hover_seconds=args.hover_seconds,
                                      unknown_load=not args.known_load_only, force=args.force,
-                                     progress=not args.quiet, command=made_by(args))  # fmt: skip
+                                     progress=not args.quiet, command=made_by(args),
+                                     page=page)  # fmt: skip
         report = with_lift(report, result.structure, task.f_max)
-        return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
+        return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver,
+                                          page))  # fmt: skip
     report = validate(
         result.structure,
         task,
@@ -221,9 +227,10 @@ def solve_and_fly(args: argparse.Namespace, task, k: int | None, ramp: float | N
         force=args.force,
         progress=not args.quiet,
         command=made_by(args),
+        page=page,
     ).to_dict()
     report = with_lift(report, result.structure, task.f_max)
-    return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver))
+    return show(args, fault.fly_fault(args, task, result.structure, report, intact_solver, page))
 
 
 def with_lift(report: dict, structure, f_max: float) -> dict:

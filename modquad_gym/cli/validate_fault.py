@@ -292,9 +292,9 @@ def no_structure_keys(args: argparse.Namespace) -> dict:
             "fault_saturated_fraction": None}  # fmt: skip
 
 
-def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -> dict:
-    """``report`` with the flights through a failure merged in (``report.md`` and
-    ``validation.json`` in ``--out`` updated); ``solver(args_without_fault)`` gives the
+def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver, page) -> dict:
+    """``report`` with the flights through a failure merged in (``page``, the validation's
+    report.md, then written once with it); ``solver(args_without_fault)`` gives the
     solve function of the intact search (the same method without ``--fault``; whether it
     certified its answer minimal is ``intact_minimum["certified"]``)."""
     if args.fault is None:
@@ -328,7 +328,7 @@ def fly_fault(args: argparse.Namespace, task, structure, report: dict, solver) -
         theirs = others_choice(args.failure)
         flight = fault_flight.fly_with_failure(bare, task, args.fault, failure=theirs, **flown)
         record["without_margin"] = intact_record(flight)
-    return add_to_report(args.out, report, record)
+    return add_to_report(page, report, record)
 
 
 def _dynamic(task) -> bool:

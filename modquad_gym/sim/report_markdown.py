@@ -11,8 +11,21 @@ def _f(x: float | None, fmt: str = ".3g") -> str:
     return "n/a" if x is None else format(x, fmt)
 
 
-def _structure_lines(text: str, out: dict) -> list[str]:
-    t = out["n_wrenches"]
+def _task_line(out: dict) -> str:
+    """The headline of a static task: its wrenches, their kind, how many are feasible."""
+    return (
+        f"Task: {out['n_wrenches']} wrenches of kind {out['task_kind']}, {out['n_feasible']} "
+        f"feasible per the oracle (smallest margin {_f(out['min_margin'])})"
+        + (
+            "; the rotors produce each wrench plus the structure's weight, which is what the "
+            "bench commands and the hover's rotors hold (its external load is -w)."
+            if out["task_kind"] == "external"
+            else "."
+        )
+    )
+
+
+def _structure_lines(text: str, out: dict, task_line: str | None = None) -> list[str]:
     lines = [
         f"# MuJoCo validation: {out['n_modules']} modules",
         "",
@@ -22,14 +35,7 @@ def _structure_lines(text: str, out: dict) -> list[str]:
         "",
         f"cells {out['cells']}, rank(A) = {out['rank']}, f_max = {out['f_max']:g} N, "
         f"module mass {out['module_mass_kg']:g} kg (mean), total {out['mass_kg']:g} kg.",
-        f"Task: {t} wrenches of kind {out['task_kind']}, {out['n_feasible']} feasible per the "
-        f"oracle (smallest margin {_f(out['min_margin'])})"
-        + (
-            "; the rotors produce each wrench plus the structure's weight, which is what the "
-            "bench commands and the hover's rotors hold (its external load is -w)."
-            if out["task_kind"] == "external"
-            else "."
-        ),
+        _task_line(out) if task_line is None else task_line,
     ]
     for u in out["unreachable_wrench_directions"]:
         n = ", ".join(f"{x:.4f}" for x in u["n"])
@@ -212,11 +218,14 @@ def markdown(
     settle_fraction: float,
     infeasible_scale: float,
     command: str | None = None,
+    task_line: str | None = None,
 ) -> str:
     """``report.md``: the structure, the bench, both hovers, segments, demo and pictures; under
-    the title the ``command`` that made it (none for None), as every report under results/."""
+    the title the ``command`` that made it (none for None), as every report under results/;
+    ``task_line`` in place of the task's headline (a dynamic task's: its rotor wrenches are a
+    sample along the trajectory), None: the static task's."""
     out = report.to_dict()
-    lines = _structure_lines(structure_text, out) + _bench_lines(out)
+    lines = _structure_lines(structure_text, out, task_line) + _bench_lines(out)
     if command is not None:
         lines[1:1] = ["", f"Made by `{command}`."]
     lines += _hover_table(out, settle_fraction, blind is not None)

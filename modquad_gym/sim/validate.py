@@ -42,18 +42,15 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is first imported: headless rendering
 
-import json  # noqa: E402
 import math  # noqa: E402
-from collections.abc import Iterator  # noqa: E402
-from contextlib import contextmanager  # noqa: E402
 from dataclasses import dataclass, replace  # noqa: E402
+from functools import partial  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 
 from modquad_gym.core.extras import require  # noqa: E402
-from modquad_gym.core.outputs import claim_output_dir, write_text  # noqa: E402
 from modquad_gym.core.validation import (  # noqa: E402
     check_f_max,  # noqa: E402
     check_flag,
@@ -81,6 +78,7 @@ from modquad_gym.sim.report import (  # noqa: E402
     finite_or_none,
 )
 from modquad_gym.sim.report_markdown import markdown  # noqa: E402
+from modquad_gym.sim.validation_files import REPORT_FILES, ReportPage, hold_out_dir  # noqa: E402
 from modquad_gym.sim.wrench_stand import BenchResult, run_bench  # noqa: E402
 from modquad_gym.tasks import as_task  # noqa: E402
 
@@ -119,7 +117,8 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
              max_hover_wrenches: int | None = DEFAULT_HOVER_WRENCHES, unknown_load: bool = True,
              load_frame: str = "world", load_ramp_seconds: float | None = None,
              kind: str | None = None, force: bool = False, progress: bool = False,
-             command: str | None = None) -> ValidationReport:  # fmt: skip
+             command: str | None = None,
+             page: ReportPage | None = None) -> ValidationReport:  # fmt: skip
     """Bench and hover ``structure`` on ``task_wrenches``; write pictures and a report.
 
     For a task of ``kind`` ``external`` the wrenches are those applied to the environment: the
@@ -157,6 +156,9 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
             validate`` does, unless ``--quiet``).
         command: the command that made the validation, named under ``report.md``'s title
             (``Made by `command`.``; ``modquad validate`` gives its own); None: no such line.
+        page: with ``out_dir``, a :class:`~modquad_gym.sim.validation_files.ReportPage` that
+            takes ``report.md``'s parts, for a caller that adds its sections and then writes it
+            and ``validation.json``, each once; None: both written here.
 
     Returns:
         A :class:`~modquad_gym.sim.report.ValidationReport`; its ``to_dict()`` is the JSON
@@ -175,24 +177,32 @@ def validate(structure: Structure, task: Any, f_max: float | None = None,
     hover_seconds, ramp, most = checked_hover(hover_seconds, load_ramp_seconds, max_hover_wrenches)
     progress = check_flag(progress, "progress")
     task, W, f_max = _checked(structure, task, f_max, kind, unknown_load, ramp)
+    given = ReportPage.checked(page, out_dir)
     names = output_names(unknown_load, include_infeasible_demo, render)
     with hold_out_dir(out_dir, names, force) as out_dir:  # before any simulation
-        A = np.array(structure.configuration_matrix())
-        feas = np.asarray(feasible(A, W, f_max), dtype=bool)
-        marg = margin(A, W, f_max)
-        exact, pinv = _bench(structure, W, f_max)
-        fly_sim = build_model(structure, f_max, bench=False)
-        fields = {**_structure_fields(structure, A, W, f_max, feas, marg, fly_sim.mass,
-                                      task.kind), **_bench_fields(exact, pinv)}  # fmt: skip
+        A, feas, marg, sims, fields = _measure(structure, W, f_max, task.kind)
         config = HoverConfig(seconds_per_wrench=hover_seconds, load_frame=load_frame,
                              settle_fraction=SETTLE_FRACTION)  # fmt: skip
         flights = Flights(hover_wrench_sample(marg, most), ramp if unknown_load else None,
                           int(np.argmin(marg)) if include_infeasible_demo else None)  # fmt: skip
-        report, runs = _fly(fields, fly_sim, (A, W, f_max, feas), config, flights, progress)
+        report, runs = _fly(fields, sims[0], (A, W, f_max, feas), config, flights, progress)
         if out_dir is not None:
             text = (structure.to_text(), command)
-            _write(out_dir, report, text, (fly_sim, exact, pinv), runs, render)
+            _write(out_dir, report, text, sims, runs, (render, force, given))
     return report
+
+
+def _measure(structure: Structure, W: np.ndarray, f_max: float, kind: str) -> tuple:
+    """(A, the rows' feasibility and margins, (the hover's model, the bench's runs with the
+    exact allocation and with pinv + clip), the report's structure, task and bench fields)."""
+    A = np.array(structure.configuration_matrix())
+    feas = np.asarray(feasible(A, W, f_max), dtype=bool)
+    marg = margin(A, W, f_max)
+    exact, pinv = _bench(structure, W, f_max)
+    fly_sim = build_model(structure, f_max, bench=False)
+    fields = {**_structure_fields(structure, A, W, f_max, feas, marg, fly_sim.mass, kind),
+              **_bench_fields(exact, pinv)}  # fmt: skip
+    return A, feas, marg, (fly_sim, exact, pinv), fields
 
 
 @dataclass(frozen=True)
@@ -336,15 +346,14 @@ _TITLES = {
 
 BENCH_FILES = ("rotor_inputs.png", "bench_wrench.png")
 RENDER_FILE = "structure.png"
-REPORT_FILES = ("report.md", "validation.json")
 
 
 def output_names(
     unknown_load: bool = True, include_infeasible_demo: bool = False, render: bool = True
 ) -> tuple[str, ...]:
     """The files :func:`validate` writes into ``out_dir`` with these options (what ``modquad
-    validate`` refuses to replace without ``--force``, before any work); :func:`_write` writes
-    exactly these."""
+    validate`` refuses to replace without ``--force``, before any work): exactly the pictures
+    :func:`_write` writes and the two files of :class:`ReportPage`."""
     hovers = {"hover": True, "hover_unknown_load": unknown_load,
               "hover_infeasible": include_infeasible_demo}  # fmt: skip
     return (
@@ -355,29 +364,13 @@ def output_names(
     )
 
 
-@contextmanager
-def hold_out_dir(out_dir: str | Path | None, names: tuple[str, ...], force: bool,
-                 what: str = "out_dir") -> Iterator[Path | None]:  # fmt: skip
-    """Hold ``out_dir`` for one validation, as both doors (:func:`validate` and ``modquad
-    validate --out``, ``what`` naming it) hold it, before any simulation: a file there of one of
-    ``names`` (what the run writes) is an OutputError unless ``force``, and so is a folder that
-    is a file or takes no file, or that another process is writing (its lock held:
-    :func:`~modquad_gym.core.outputs.claim_output_dir`; a hold this process has is granted
-    again). ``names`` go into the folder's manifest at once, so that a later ``force`` removes
-    them. Yields the folder (None for None: nothing held)."""
-    if out_dir is None:
-        yield None
-        return
-    with claim_output_dir(out_dir, names, check_flag(force, "force"), what) as claim:
-        for name in names:
-            claim.path(name)
-        yield claim.folder
-
-
-def _write(d: Path, report, text: tuple, sims: tuple, runs: dict, render: bool) -> None:
-    """Pictures, ``report.md`` (``text``: the structure's drawing and the command that made it,
-    or None) and ``validation.json`` into ``d`` (paths in ``report.files``); ``sims``: the hover's
-    model and the bench's two results. Each file written once."""
+def _write(d: Path, report, text: tuple, sims: tuple, runs: dict, options: tuple) -> None:
+    """The pictures into ``d`` (paths in ``report.files``, with those of ``report.md`` and
+    ``validation.json``); ``sims``: the hover's model and the bench's two results. The page
+    (:func:`markdown`; ``text``: the structure's drawing and the command that made it, or None)
+    goes into the caller's :class:`ReportPage` (``options``: render, force, that page), or,
+    without one, is written here with ``validation.json``."""
+    render, force, given = options
     fly_sim, exact, pinv = sims
     files = report.files
     for name, plot in zip(BENCH_FILES, (plot_rotor_inputs, plot_bench_wrench)):
@@ -392,7 +385,8 @@ def _write(d: Path, report, text: tuple, sims: tuple, runs: dict, render: bool) 
         files["structure"] = str(d / RENDER_FILE)
     files["report"], files["json"] = (str(d / name) for name in REPORT_FILES)
     drawing, command = text
-    page = markdown(report, drawing, runs["hover"], runs["hover_unknown_load"], SETTLE_FRACTION,
-                    INFEASIBLE_SCALE, command)  # fmt: skip
-    write_text(d / REPORT_FILES[0], page)
-    write_text(d / REPORT_FILES[1], json.dumps(report.to_dict(), indent=2) + "\n")
+    compose = partial(markdown, report, drawing, runs["hover"], runs["hover_unknown_load"],
+                      SETTLE_FRACTION, INFEASIBLE_SCALE, command)  # fmt: skip
+    page = (ReportPage() if given is None else given).begin(d, force, compose)
+    if given is None:
+        page.write(report.to_dict())

@@ -1,18 +1,18 @@
 """A validation through a failure: a structure and the intact minimum of its task flown through
 their worst single failure (:func:`modquad_gym.sim.fault_flight.fly_with_failure`), the pictures
-(:mod:`modquad_gym.sim.fault_pictures`), a section of ``report.md`` and the JSON keys
-(``modquad validate --fault rotor|module``).
+(:mod:`modquad_gym.sim.fault_pictures`), a section of the validation's ``report.md`` and the
+JSON keys (``modquad validate --fault rotor|module``).
 """
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.sim.fault_flight import FaultFlight, fly_with_failure
 from modquad_gym.sim.fault_pictures import failed_part_words, plot_fault_flight
+from modquad_gym.sim.validation_files import ReportPage, hold_out_dir
 
 FAULT_FILES = ("fault_flight.png", "fault_flight_intact_minimum.png")
 """The pictures :func:`validate_with_failure` writes (the second with an intact minimum)."""
@@ -54,13 +54,11 @@ def validate_with_failure(
     of the same kind (:func:`others_choice`); with ``out_dir`` the pictures ``fault_flight.png`` and
     ``fault_flight_intact_minimum.png`` (:func:`~modquad_gym.sim.fault_pictures.plot_fault_flight`),
     the folder held before any flight as ``validate(out_dir=)`` holds it
-    (:func:`~modquad_gym.sim.validate.hold_out_dir`: an existing picture replaced only with
+    (:func:`~modquad_gym.sim.validation_files.hold_out_dir`: an existing picture replaced only with
     ``force``; within ``modquad validate``'s own hold of the folder, held again).
 
     Returns the ``fault_*`` keys of ``structure``'s flight, ``intact_minimum``
     (:func:`intact_record`, or None without ``intact``) and ``fault_files`` (picture paths)."""
-    from modquad_gym.sim.validate import hold_out_dir
-
     names = FAULT_FILES if intact is not None else FAULT_FILES[:1]
     with hold_out_dir(out_dir, names, force) as d:
         flight = fly_with_failure(structure, task, fault, **options)
@@ -176,16 +174,15 @@ def _fmt(x) -> str:
     return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.3g}"
 
 
-def add_to_report(out_dir: str | Path, report: dict, record: dict) -> dict:
+def add_to_report(page: ReportPage, report: dict, record: dict) -> dict:
     """``report`` (a validation record) with the fault ``record`` merged in (pictures into
-    ``files``), ``report.md`` extended by :func:`fault_markdown` and ``validation.json``
-    rewritten; returns the merged record."""
-    from modquad_gym.core.outputs import json_ready, write_text
+    ``files``); :func:`fault_markdown` goes into the validation's ``page`` (the one it was
+    flown with: ``validate(page=...)``), which is then written, ``report.md`` and
+    ``validation.json`` (the merged record) each once. Returns the merged record."""
+    from modquad_gym.core.outputs import json_ready
 
     merged = json_ready({**report, **{k: v for k, v in record.items() if k != "fault_files"}})
     merged["files"] = {**(report.get("files") or {}), **record.get("fault_files", {})}
-    d = Path(out_dir)
-    text = (d / "report.md").read_text() if (d / "report.md").exists() else ""
-    write_text(d / "report.md", text + "\n" + fault_markdown(record, report.get("n_modules", "")))
-    write_text(d / "validation.json", json.dumps(merged, indent=2) + "\n")
+    page.sections.append(fault_markdown(record, report.get("n_modules", "")))
+    page.write(merged)
     return merged

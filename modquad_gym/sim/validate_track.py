@@ -7,23 +7,24 @@ them, the half with the smallest margins (nearest the boundary) and the rest eve
 time. The flight adds the ``track_*`` keys to the record (:meth:`TrackResult.summary`) and, with
 ``out_dir``, the pictures ``track_path.png`` (3D path desired vs flown, position error),
 ``track_inputs.png`` (rotor inputs over time, paper Fig. 8) and ``track.gif`` (an animation), and
-a section of ``report.md``.
+to ``report.md`` its task headline and a section, composed with the validation's page and written
+once (:class:`~modquad_gym.sim.validation_files.ReportPage`).
 """
 
 from __future__ import annotations
 
 import importlib
-import json
 from pathlib import Path
 
 import numpy as np
 
-from modquad_gym.core.outputs import json_ready, write_text
+from modquad_gym.core.outputs import json_ready
 from modquad_gym.dynamics import DynamicTask, as_dynamic
 from modquad_gym.geometry.structure import Structure
 from modquad_gym.oracle import margin
 from modquad_gym.sim.report import finite_or_none
 from modquad_gym.sim.track import TrackConfig, TrackResult, fly_trajectory
+from modquad_gym.sim.validation_files import ReportPage
 
 TRACK_FILES = ("track_path.png", "track_inputs.png", "track.gif")
 """The pictures of the flight."""
@@ -53,6 +54,7 @@ def validate_trajectory(
     force: bool = False,
     progress: bool = False,
     command: str | None = None,
+    page: ReportPage | None = None,
 ) -> dict:
     """Bench, hover and fly ``structure`` on the dynamic ``task`` (module docstring); the JSON
     record of :func:`.validate.validate` (``task_kind`` ``"dynamic"``) plus the ``track_*``
@@ -60,20 +62,25 @@ def validate_trajectory(
     whole call as :func:`.validate.validate` holds it (with the flight's pictures), before any
     simulation; ``force`` replaces the files this call writes there; ``progress`` shows the
     hovers' bar on stderr and ``command`` names the command in ``report.md``, as
-    :func:`.validate.validate`'s do."""
+    :func:`.validate.validate`'s do; ``page`` (with ``out_dir``) takes ``report.md``'s parts,
+    the flight's headline and section added, for the caller to write once with its record, as
+    :func:`.validate.validate`'s ``page`` does (None: written here)."""
     door = importlib.import_module("modquad_gym.sim.validate")  # its functions, at the call
 
     task = as_dynamic(task)  # a ValueError naming the type of anything else
+    given = ReportPage.checked(page, out_dir)
     pictures = TRACK_FILES if render else TRACK_FILES[:2]  # the animation is a render
     names = door.output_names(unknown_load, render=render) + pictures
     with door.hold_out_dir(out_dir, names, force) as out_dir:  # before any simulation
+        page = ReportPage() if given is None and out_dir is not None else given
         W = task.rotor_wrenches(structure)
         A = np.array(structure.configuration_matrix())
         rows = bench_sample(W, A, task.f_max, max_bench_wrenches)
         report = door.validate(structure, W[rows], f_max=task.f_max, out_dir=out_dir,
                                hover_seconds=hover_seconds, render=render,
                                unknown_load=unknown_load, max_hover_wrenches=len(rows),
-                               force=force, progress=progress, command=command)  # fmt: skip
+                               force=force, progress=progress, command=command,
+                               page=page)  # fmt: skip
         flight = fly_trajectory(structure, task, config)
         record = report.to_dict()
         record["task_kind"] = "dynamic"
@@ -84,11 +91,16 @@ def validate_trajectory(
         record["trajectory_samples"] = task.n_wrenches
         record = json_ready(record | flight.summary())
         if out_dir is not None:
-            _write(out_dir, record, structure, task, flight, render)
+            _write(out_dir, record, structure, task, flight, render, page)
+            if given is None:
+                page.write(record)
     return record
 
 
-def _write(d: Path, record: dict, structure, task, flight: TrackResult, render: bool) -> None:
+def _write(d: Path, record: dict, structure, task, flight: TrackResult, render: bool,
+           page: ReportPage) -> None:  # fmt: skip
+    """The flight's pictures into ``d`` (paths in ``record["files"]``), its headline and
+    section into ``page``."""
     from modquad_gym.sim.model import build_model
     from modquad_gym.sim.track_pictures import animate_track, plot_track_inputs, plot_track_path
 
@@ -103,10 +115,8 @@ def _write(d: Path, record: dict, structure, task, flight: TrackResult, render: 
         sim = build_model(structure, task.f_max, payload=task.payload)
         record["animation_backend"] = animate_track(sim, flight, d / "track.gif")
         files["track_animation"] = str(d / "track.gif")
-    text = (d / "report.md").read_text() if (d / "report.md").exists() else ""
-    lines = [dynamic_task_line(record) if x.startswith("Task: ") else x for x in text.split("\n")]
-    write_text(d / "report.md", "\n".join(lines) + "\n" + track_markdown(record, task))
-    write_text(d / "validation.json", json.dumps(record, indent=2) + "\n")
+    page.task_line = dynamic_task_line(record)
+    page.sections.append(track_markdown(record, task))
 
 
 def dynamic_task_line(record: dict) -> str:
