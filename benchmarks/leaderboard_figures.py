@@ -29,20 +29,51 @@ def _panels(n: int):
     return fig, axes[:n], axes[n]
 
 
+CROSSING = 5
+"""What a leader line crossing one placed before costs a label's place: more than an overlap
+(1), less than leaving the axes (10)."""
+
+
+def _crosses(a: tuple, b: tuple) -> bool:
+    """Whether the segments ``a`` and ``b`` ((x, y) ends, display coordinates) cross: each
+    one's ends strictly on both sides of the other's line."""
+
+    def side(p, q, r) -> float:
+        return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+
+    (p, q), (r, t) = a, b
+    return side(p, q, r) * side(p, q, t) < 0 and side(r, t, p) * side(r, t, q) < 0
+
+
+def _passes_over(line: tuple, dot, reach: float = 8.0) -> bool:
+    """Whether the segment ``line`` passes within ``reach`` pixels of ``dot`` (not its ends)."""
+    (x0, y0), (x1, y1) = line
+    dx, dy = x1 - x0, y1 - y0
+    length2 = dx * dx + dy * dy
+    if length2 == 0:
+        return False
+    u = ((dot[0] - x0) * dx + (dot[1] - y0) * dy) / length2
+    if not 0.0 < u < 1.0:
+        return False
+    return math.hypot(x0 + u * dx - dot[0], y0 + u * dy - dot[1]) <= reach
+
+
 def _place_labels(ax, points: list[tuple[float, float, str, str]]) -> None:
     """Each label beside its point, joined to it by a thin line, at the nearest of a few offsets
-    where it stays inside the axes and overlaps no label placed before and no point (the
+    where it stays inside the axes and overlaps no label placed before and no point, and its
+    line crosses no line placed before (:data:`CROSSING`) nor passes over another point (the
     figure's layout must be final: display coordinates are compared)."""
     from matplotlib.text import Text
 
     renderer = ax.figure.canvas.get_renderer()
     frame = ax.get_window_extent(renderer)
-    dots = [ax.transData.transform((x, y)) for x, y, _, _ in points]
-    placed = []
+    dots = [tuple(ax.transData.transform((x, y))) for x, y, _, _ in points]
+    placed, lines = [], []
     offsets = [(10, 8), (10, -14), (-10, 8), (-10, -14), (14, 22), (14, -28), (-14, 22),
                (-14, -28), (24, 0), (-24, 0), (30, 38), (30, -42), (-30, 38), (-30, -42),
                (40, 56), (40, -60), (-40, 56), (-40, -60)]  # fmt: skip
     for x, y, text, colour in sorted(points, key=lambda p: (-p[1], p[0])):
+        dot = tuple(ax.transData.transform((x, y)))
         best = None
         for dx, dy in offsets:
             ann = ax.annotate(text, (x, y), textcoords="offset points", xytext=(dx, dy),
@@ -52,20 +83,24 @@ def _place_labels(ax, points: list[tuple[float, float, str, str]]) -> None:
                                               shrinkA=0, shrinkB=3))  # fmt: skip
             ann.update_positions(renderer)
             box = Text.get_window_extent(ann, renderer).expanded(1.05, 1.15)  # no arrow
+            line = (dot, ((box.x0 + box.x1) / 2, (box.y0 + box.y1) / 2))
             clash = sum(box.overlaps(b) for b in placed) + sum(
                 box.contains(px, py) for px, py in dots
             )
+            clash += CROSSING * sum(_crosses(line, other) for other in lines)
+            clash += sum(_passes_over(line, d) for d in dots if d != dot)
             inside = frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0 <= frame.y1
             clash += 0 if inside and box.y1 <= frame.y1 else 10
             if best is None or clash < best[0]:
                 if best is not None:
                     best[1].remove()
-                best = (clash, ann, box)
+                best = (clash, ann, box, line)
             else:
                 ann.remove()
             if clash == 0:
                 break
         placed.append(best[2])
+        lines.append(best[3])
 
 
 def plot(entries: list, tiers: list[str], path: Path) -> Path:

@@ -294,6 +294,56 @@ def test_labels_sit_beside_their_points_without_overlapping():
         assert not any(b.overlaps(c) for c in boxes[i + 1 :])
 
 
+CLUSTER = [(0.00557, 100.0, "anytime"), (0.00771, 100.0, "exhaustive"),
+           (0.010504, 96.55, "greedy"), (0.011084, 98.28, "beam"), (0.005364, 63.79, "random"),
+           (0.004802, 22.41, "centrosymmetric"), (0.0323, 95.86, "ppo"),
+           (0.0569, 100.0, "ppo-guided"), (0.0927, 99.31, "ppo-k8"), (0.1768, 100.0, "milp"),
+           (0.1791, 100.0, "genetic")]  # fmt: skip
+"""The dynamic tier's points (seconds, optimal %), whose greedy and beam lines crossed."""
+
+
+def _crosses(a, b) -> bool:
+    def side(p, q, r):
+        return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+
+    (p, q), (r, t) = a, b
+    return side(p, q, r) * side(p, q, t) < 0 and side(r, t, p) * side(r, t, q) < 0
+
+
+def test_leader_lines_do_not_cross():
+    """On a panel like the leaderboard's, points close together (two at 100 %, two just
+    below, each labelled to a side), no two leader lines as drawn cross, and each label is
+    still joined to its own point and overlaps no other."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.text import Text
+
+    from benchmarks.leaderboard_figures import _place_labels
+
+    fig = Figure(figsize=(6.4, 4.4), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.set_xscale("log")
+    ax.plot([p[0] for p in CLUSTER], [p[1] for p in CLUSTER], "o", ms=5)
+    ax.set_xlim(0.0016, 0.54)
+    ax.set_ylim(-5, 112)
+    fig.canvas.draw()
+    fig.set_layout_engine("none")
+    _place_labels(ax, [(x, y, name, "k") for x, y, name in CLUSTER])
+    fig.canvas.draw()  # the lines as drawn, in display coordinates
+    renderer = fig.canvas.get_renderer()
+    lines = {a.get_text(): a.arrow_patch.get_path().vertices[[0, -1]] for a in ax.texts}
+    assert sorted(lines) == sorted(name for _, _, name in CLUSTER)
+    names = sorted(lines)
+    crossing = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]
+                if _crosses(lines[a], lines[b])]  # fmt: skip
+    assert not crossing, crossing
+    boxes = [Text.get_window_extent(a, renderer) for a in ax.texts]
+    for a in ax.texts:
+        assert a.xy == next((x, y) for x, y, name in CLUSTER if name == a.get_text())
+    assert not any(b.overlaps(c) for i, b in enumerate(boxes) for c in boxes[i + 1 :])
+
+
 def test_the_docs_name_every_committed_mixed_row_file_without_the_type_index():
     """Every committed per-task file whose mixed-tier cells are `x,y` (no type index, so not
     verifiable again on the palette) is named where docs/benchmarks.md says they predate it."""
