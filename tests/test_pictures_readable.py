@@ -228,3 +228,23 @@ def test_figures_find_the_training_run_a_report_names():
         "modquad_gym/data/models/ppo_default"
     )
     assert training_run("no model") is None
+
+
+def test_committed_paper_rotor_inputs_is_what_the_benchmark_draws(tmp_path):
+    """results/paper_rotor_inputs.png (paper Fig. 7) is the picture ``benchmarks.paper`` draws
+    now from the same task (seed 0, the first with both answers): its axis labels are those of
+    ``viz.drawing.draw_rotor_inputs`` (thrust in N), not an older drawing's. Pixels may differ
+    in the last bits between machines; a stale label moves the panels and changes ~7 %."""
+    from pathlib import Path
+
+    from PIL import Image
+
+    from benchmarks.paper import run
+
+    run(1, tmp_path)
+    name = "paper_rotor_inputs.png"
+    committed = Path(__file__).resolve().parents[1] / "results" / name
+    old, new = (np.asarray(Image.open(p).convert("RGB")).astype(int)
+                for p in (committed, tmp_path / name))  # fmt: skip
+    assert old.shape == new.shape
+    assert (np.abs(old - new) > 32).any(axis=-1).mean() < 0.01
