@@ -18,8 +18,16 @@ in ``report/``); it refuses a run folder that exists unless ``--force``.
 * ``--quick`` is a short smoke run (a few thousand steps) into ``runs/quick``.
 """
 
-from agents.cli import main
-from benchmarks.common import run_command
+from modquad_gym.core.interrupts import run_command
+
+
+def main(argv: list[str] | None = None) -> int:
+    """:func:`agents.cli.main`, imported here, not at the script's start: a Ctrl-C while its
+    modules (torch, Stable-Baselines3) load ends as one during training does."""
+    from agents.cli import main as train
+
+    return train(argv)
+
 
 if __name__ == "__main__":  # Ctrl-C or SIGTERM: one line, exit 130 or 143
     raise SystemExit(run_command(main, "python train.py"))

@@ -15,30 +15,26 @@ One module per command, each with ``add_COMMAND(sub)`` (its parser) beside its h
 name of score); the
 options they share are in :mod:`.common` (``--quiet`` of the commands that search in
 :mod:`.quiet`).
-A new command is a module with those two functions, added to :data:`COMMANDS`.
+A new command is a module with those two functions, its name added to :data:`COMMANDS`.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 
-from modquad_gym.cli.bench import add_bench
-from modquad_gym.cli.check import add_check
-from modquad_gym.cli.export import add_export
-from modquad_gym.cli.optima import add_optima
-from modquad_gym.cli.score import ARGV, add_score
-from modquad_gym.cli.show import add_show
-from modquad_gym.cli.solve import add_solve
-from modquad_gym.cli.task import add_task
-from modquad_gym.cli.validate import add_validate
-from modquad_gym.core.interrupts import run_command
+from modquad_gym.core.interrupts import (
+    interrupted,
+    run_command,
+    sigterm_as_interrupt,
+    stopped,
+)
 
-COMMANDS = (
-    add_solve, add_optima, add_task, add_show, add_export, add_validate, add_score, add_check,
-    add_bench,
-)  # fmt: skip
-"""The commands, in the order ``modquad --help`` lists them."""
+COMMANDS = ("solve", "optima", "task", "show", "export", "validate", "score", "check", "bench")
+"""The commands, in the order ``modquad --help`` lists them: each the module of this package that
+defines its ``add_NAME(sub)``, imported when its parser is built (not at this module's import:
+see :func:`main`)."""
 
 
 def _version() -> str:
@@ -59,35 +55,48 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    names = [add.__name__.removeprefix("add_") for add in COMMANDS]
     wanted = next((a for a in argv or () if not a.startswith("-")), None)
-    for name, add in zip(names, COMMANDS):
-        if wanted in names and wanted != name:
+    for name in COMMANDS:
+        if wanted in COMMANDS and wanted != name:
             sub.add_parser(name)
         else:
-            add(sub)
+            getattr(importlib.import_module(f"{__name__}.{name}"), f"add_{name}")(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``modquad ARGV``, its exit status (the module's docstring lists them). This module imports
+    little: the command's modules (numpy, the search) load in here, where a Ctrl-C or SIGTERM
+    ends as one during the command does (one line, 130 or 143), not as a traceback."""
+    try:
+        with sigterm_as_interrupt():
+            return _main(argv)
+    except (KeyboardInterrupt, ImportError) as exc:  # loading, parsing (the command: run_command)
+        if not interrupted(exc):
+            raise
+        return stopped("modquad", exc)
+
+
+def _main(argv: list[str] | None) -> int:
     from modquad_gym.core.caches import setting_error
 
+    typed = sys.argv[1:] if argv is None else list(argv)
     setting = setting_error()  # changed since the import (which stopped on it otherwise)
     if setting is not None:
         print(f"modquad: error: {setting}", file=sys.stderr)
         return 2
-    parser = build_parser(sys.argv[1:] if argv is None else list(argv))
+    parser = build_parser(typed)
     args = parser.parse_args(argv)  # argparse's own exit: --help (0), a refused option (2)
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
-    typed = sys.argv[1:] if argv is None else list(argv)
     return run_command(lambda _: _run(parser, args, typed), "modquad")
 
 
 def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, typed: list[str]) -> int:
     """The command ``args`` names, after the refusals that need its typed options."""
     from modquad_gym.cli import given
+    from modquad_gym.cli.score import ARGV
 
     setattr(args, ARGV, typed)
     setattr(args, given.TYPED, given.typed_options(parser, typed))

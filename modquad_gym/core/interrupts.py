@@ -23,11 +23,13 @@ __all__ = [
     "deferred_signals",
     "exit_status",
     "failure_line",
+    "interrupted",
     "keep_sigterm",
     "one_line",
     "run_command",
     "sigterm_as_interrupt",
     "stop_line",
+    "stopped",
 ]
 
 
@@ -39,27 +41,44 @@ _terminated: list[bool] = []
 """Whether SIGTERM came (a library may turn the exception into a plain KeyboardInterrupt)."""
 
 
+_interrupted: list[bool] = []
+"""Whether Ctrl-C came (a library may turn the exception into another: numpy, its import cut
+short, raises ImportError)."""
+
+
 def _raise_terminated(signum, frame) -> None:
     _terminated.append(True)
     raise Terminated()
 
 
+def _raise_interrupted(signum, frame) -> None:
+    _interrupted.append(True)
+    signal.default_int_handler(signum, frame)
+
+
 @contextmanager
 def sigterm_as_interrupt() -> Iterator[None]:
-    """Within the block SIGTERM raises :class:`Terminated` in the main thread; the previous
-    handler comes back after it (nothing changes when called from another thread, where Python
-    cannot set handlers)."""
+    """Within the block SIGTERM raises :class:`Terminated` in the main thread, and a Ctrl-C is
+    noted as it raises KeyboardInterrupt (where Python's own handler had it: not where ignored);
+    the previous handlers come back after it (nothing changes when called from another thread,
+    where Python cannot set handlers)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     before = signal.getsignal(signal.SIGTERM)
+    note = signal.getsignal(signal.SIGINT) is signal.default_int_handler
     _terminated.clear()
     signal.signal(signal.SIGTERM, _raise_terminated)
+    if note:
+        _interrupted.clear()
+        signal.signal(signal.SIGINT, _raise_interrupted)
     try:
         yield
     finally:
         if before is not None:
             signal.signal(signal.SIGTERM, before)
+        if note:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @contextmanager
@@ -108,18 +127,39 @@ def deferred_signals() -> Iterator[None]:
             os.kill(os.getpid(), s)
 
 
-def exit_status(exc: KeyboardInterrupt) -> int:
+def exit_status(exc: BaseException) -> int:
     """143 for SIGTERM, 130 for Ctrl-C (128 + the signal's number, as shells report them)."""
     return 128 + signal.SIGTERM if _was_terminated(exc) else 130
 
 
-def _was_terminated(exc: KeyboardInterrupt) -> bool:
+def _was_terminated(exc: BaseException) -> bool:
     return isinstance(exc, Terminated) or bool(_terminated)
 
 
-def stop_line(prog: str, exc: KeyboardInterrupt) -> str:
+def stop_line(prog: str, exc: BaseException) -> str:
     """The one line an interrupted command prints."""
     return f"{prog}: {'terminated' if _was_terminated(exc) else 'interrupted'}"
+
+
+def interrupted(exc: BaseException) -> bool:
+    """Whether ``exc`` ends a command as a Ctrl-C or SIGTERM does: a KeyboardInterrupt, or an
+    ImportError after a Ctrl-C came in :func:`sigterm_as_interrupt` (numpy's import, cut short,
+    raises ImportError, not the KeyboardInterrupt)."""
+    return isinstance(exc, KeyboardInterrupt) or (
+        isinstance(exc, ImportError) and bool(_interrupted)
+    )
+
+
+def stopped(prog: str, exc: BaseException) -> int:
+    """An interrupted command's end: its line (:func:`stop_line`) on stderr, its status returned.
+
+    CPython notes a KeyboardInterrupt that left code run by ``exec`` of a string (dataclasses,
+    namedtuple and numba make their code so) and, under ``python -m``, ends the process by
+    SIGINT (status -2, not this one) even though the interrupt was caught; running ``exec`` of
+    a string again clears that note."""
+    print(stop_line(prog, exc), file=sys.stderr)
+    exec("")
+    return exit_status(exc)
 
 
 def one_line(exc: BaseException) -> str:
@@ -155,13 +195,14 @@ def run_command(main: Callable[[list[str] | None], object], prog: str, argv=None
                 code = exc.code if isinstance(exc.code, int) else 0 if exc.code is None else 2
             sys.stdout.flush()  # a reader gone before the end is found here, not at exit
     except KeyboardInterrupt as exc:
-        print(stop_line(prog, exc), file=sys.stderr)
-        return exit_status(exc)
+        return stopped(prog, exc)
     except BrokenPipeError:  # stop writing (no second error at exit), say so once
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         print(f"{prog}: error: output closed before the end (broken pipe)", file=sys.stderr)
         return 2
     except (ValueError, OSError, ImportError, MemoryError, OverflowError) as exc:
+        if interrupted(exc):
+            return stopped(prog, exc)
         print(f"{prog}: error: {one_line(exc)}", file=sys.stderr)
         return 2
     return code if isinstance(code, int) else 0  # some return their rows
