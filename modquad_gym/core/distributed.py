@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from itertools import chain, islice
 from typing import Any
 
+from modquad_gym.core.bars import progress_bar
 from modquad_gym.core.extras import import_optional, missing_extra_message
 from modquad_gym.core.interrupts import failure_line, keep_sigterm, one_line
 from modquad_gym.core.notes import note
@@ -228,7 +229,7 @@ class Engine:
         """
         items = list(items)
         results: list[Any] = [None] * len(items)
-        bar = _bar(progress, len(items), desc)
+        bar = progress_bar(progress, desc, "task", total=len(items))
         try:
             for i, result in self._run(fn, items, labels, catch, max_retries):
                 results[i] = result
@@ -345,14 +346,6 @@ def ray_error_line(exc: BaseException) -> str:
         return failure_line(cause)
     first = re.sub(r"\x1b\[[0-9;]*m", "", str(exc)).strip().splitlines()
     return f"{type(exc).__name__}: {first[0] if first else ''}".strip()
-
-
-def _bar(progress: bool, total: int, desc: str):
-    if not progress:
-        return None
-    from tqdm.auto import tqdm
-
-    return tqdm(total=total, desc=desc, unit="task", leave=False)
 
 
 def map_tasks(

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from modquad_gym import proofcheck as pc
+from modquad_gym.core.bars import progress_bar
 from modquad_gym.search import certificate_directions as separations
 from modquad_gym.search.certificate_answer import CertificateError, answer
 
@@ -189,7 +190,8 @@ class _Prover:
         if total is None or total > MAX_STRUCTURES:
             raise CertificateError(_too_large(n))
         P, I, F = (np.full(total, -1, np.int64) for _ in range(3))
-        bar = _bar(progress, n, total)
+        bar = progress_bar(progress, f"certificate level {n}", " structures", total=total,
+                           delay=0.5)  # fmt: skip
         for s, cells, types in pc.structures(n, self.T.n, self.T.rotors):
             self._block(cells, types, P[s : s + len(cells)], I[s : s + len(cells)],
                         F[s : s + len(cells)])  # fmt: skip
@@ -364,12 +366,3 @@ def bound_margins(T, task, f_max, fault, n, D) -> np.ndarray:
     inertia = dP @ (np.abs(T.J) + T.mass[:, None] * R * R).T  # (P, t, K)
     value = (D @ base.T)[:, :, None] + n * T.mass * (D @ per_mass.T)[:, :, None] - n * inertia
     return (value - n * H[:, None, :] + loss[:, None, None]).min(axis=2)
-
-
-def _bar(progress: bool, n: int, total: int):
-    if not progress:
-        return None
-    from tqdm.auto import tqdm
-
-    return tqdm(total=total, desc=f"certificate level {n}", unit=" structures", leave=False,
-                delay=0.5)  # fmt: skip

@@ -36,6 +36,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is first imported: he
 
 import numpy as np  # noqa: E402
 
+from modquad_gym.core.bars import progress_bar  # noqa: E402
 from modquad_gym.core.validation import check_real, check_wrenches  # noqa: E402
 from modquad_gym.geometry.structure import Structure  # noqa: E402
 from modquad_gym.oracle import TOL, check_f_max, check_task_scale, margin  # noqa: E402
@@ -258,7 +259,7 @@ def fly_with_failure(
         smallest = _smallest_margin(cases)
         cases = cases if choice == "all" else [cases[choice - 1]]
     flights = []
-    for case in _bar(cases, progress):
+    for case in progress_bar(progress, "fault flights", "failure", items=cases):
         flights.append(_fly_one(structure, task, fault, case, W, fm, seconds, detection_delay_s,
                                 track_config, detector))  # fmt: skip
         flights[-1].choice, flights[-1].smallest_margin = choice, smallest
@@ -301,12 +302,3 @@ def _fly_one(structure, task, fault, case, W, fm, seconds, delay, track_config, 
     run = hover_with_failure(structure, W[case.row], failure, FAULT_BEFORE_S + seconds, fm,
                              detector=detector)  # fmt: skip
     return FaultFlight(structure, "hover", fault, failure, case, run, name)
-
-
-def _bar(cases: list, progress: bool):
-    """``cases``, with a tqdm bar on stderr over them when ``progress`` and more than one."""
-    if not progress or len(cases) < 2:
-        return cases
-    from tqdm.auto import tqdm
-
-    return tqdm(cases, desc="fault flights", unit="failure", leave=False)

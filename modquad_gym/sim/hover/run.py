@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
+from modquad_gym.core.bars import progress_bar
 from modquad_gym.core.extras import import_optional
 from modquad_gym.core.validation import check_wrenches
 from modquad_gym.geometry.structure import Structure
@@ -185,16 +186,14 @@ def hover_bar(progress: bool, config: HoverConfig, segments: list[int]) -> Itera
     """A tqdm bar on stderr over the simulated seconds of flights of ``segments`` task
     segments each (and a take-off each), as :func:`run_hover`'s ``on_segment``; None (no
     bar) without ``progress``. The bar is closed at the end."""
-    if not progress:
-        yield None
-        return
-    from tqdm.auto import tqdm
-
     n_ctrl, n_takeoff, _ = config.segment_steps()
     total = sum(n_takeoff + k * n_ctrl for k in segments) / config.control_hz
-    bar = tqdm(total=total, desc="hover", leave=False,
-               bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} simulated s "
-               "[{elapsed}<{remaining}]")  # fmt: skip
+    bar = progress_bar(progress, "hover", total=total,
+                       bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} "
+                       "simulated s [{elapsed}<{remaining}]")  # fmt: skip
+    if bar is None:
+        yield None
+        return
     try:  # never past the total: the segments' seconds, summed, may pass it by round-off
         yield lambda seconds: bar.update(min(seconds, bar.total - bar.n))
     finally:
