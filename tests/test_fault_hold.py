@@ -179,3 +179,31 @@ def test_the_up_front_time_check_counts_the_hold():
         assert vf._flight_seconds(args, LINE) == pytest.approx(expected)
         flown = fly_with_failure(SQUARE, LINE, "rotor", failure="worst", seconds=given)
         assert flown.run.t[-1] <= vf._flight_seconds(args, LINE) + DT
+
+
+def test_the_hold_keeps_the_tasks_last_load_so_a_failure_it_cannot_take_does_not_pass():
+    # pressing with a constant side force to the end: the failure leaves a negative margin under
+    # that load; a hold that took the load away judged the unloaded windows settled
+    t = np.linspace(0, 1.0, 41)
+    task = dy.DynamicTask(dy.Trajectory(t, np.zeros((41, 3))), f_max=2.0, name="press",
+                          exerted=np.tile([3.95, 0, 0, 0, 0, 0], (41, 1)))  # fmt: skip
+    s = fly_with_failure(SQUARE, task, "rotor", failure="worst").summary()
+    assert s["fault_worst_margin"] < 0
+    assert not s["fault_within_5cm"]
+    run = fly_trajectory(SQUARE, task, hold_s=1.0)
+    held = run.t > task.trajectory.duration + 1e-9
+    assert np.allclose(run.wrench_ff[held][:, 0], run.wrench_ff[~held][-1, 0])  # the load stays
+
+
+def test_a_trajectory_ending_in_motion_goes_on_at_its_final_velocity_not_a_step_to_rest():
+    # a straight line at 2 m/s to its end: a hold at rest was a step the controller braked from
+    # (0.48 m off with no failure at all, a tolerated failure "beyond 5 cm")
+    t = np.linspace(0, 1.5, 31)
+    task = dy.DynamicTask(dy.Trajectory(t, np.c_[2.0 * t, 0 * t, 0 * t]), f_max=2.0, name="coast")
+    run = fly_trajectory(SQUARE, task, hold_s=1.0)
+    assert run.diverged is None and run.max_position_error_m < 0.01
+    held = run.t > task.trajectory.duration + 1e-9
+    speed = np.diff(run.desired[held][:, 0]) / DT
+    assert np.allclose(speed, 2.0)
+    s = fly_with_failure(SQUARE, task, "rotor", failure="worst").summary()
+    assert s["fault_worst_margin"] > 0 and s["fault_within_5cm"], s["fault_why_not"]

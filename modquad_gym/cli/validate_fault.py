@@ -77,8 +77,9 @@ def add_fault_options(p: argparse.ArgumentParser) -> None:
         help="with --fault: simulated seconds each flight goes on after the failure "
         f"(default {DEFAULT_FAULT_SECONDS:g}, at most {MAX_FAULT_SECONDS:g}, at least the "
         "detection delay plus 1 s: the settling test compares the last two 0.5 s windows); a "
-        "dynamic task flies its trajectory to the end, then holds its last point until then "
-        "and at least 1 s after the end. Python: fly_with_failure(seconds=)",
+        "dynamic task flies its trajectory to the end, then goes on as it ended (at rest at "
+        "its last point for one that ends at rest), its load still applied, until then and at "
+        "least 1 s after the end. Python: fly_with_failure(seconds=)",
     )  # fmt: skip
     p.add_argument(
         "--failure", type=failure_option, default="all", metavar="{all,worst,K}",

@@ -14,9 +14,11 @@ after a detection delay the allocator and the gains work on A without them):
 * a **dynamic task**: the flight along its trajectory (:func:`modquad_gym.sim.track.fly_trajectory`)
   with the failure halfway through the trajectory's duration, or :data:`LEAD_S` before the
   moment the failure hurts most (the sample with the smallest margin after it) when that moment
-  comes earlier; after the trajectory's end it holds its last point (at rest there, the payload
-  held) until ``seconds`` after the failure and at least two settling windows after the end
-  (:func:`hold_seconds`), so that the verdict judges a flight at rest with time to recover.
+  comes earlier; after the trajectory's end the motion goes on as it ended (at rest at its last
+  point for a trajectory that ends at rest, as every generated motion does; at its final
+  velocity otherwise; its final exerted wrench still applied) until ``seconds`` after the
+  failure and at least two settling windows after the end (:func:`hold_seconds`), so that the
+  verdict judges a steady reference with time to recover.
 
 Reported (:meth:`~.fault_record.FaultFlight.summary`), for the flight that did worst: from the
 failure on, the largest distance between the flown and desired COM

@@ -130,17 +130,21 @@ class TrackResult:
 def reference(task: DynamicTask, times: np.ndarray, structure: Structure) -> tuple:
     """(ref dict of :meth:`Trajectory.at` shifted to start at home, feed-forward (N, 6),
     exerted (N, 6)) at the control times. A time past the trajectory's end is the hold
-    (:func:`fly_trajectory`'s ``hold_s``): at its last position and attitude, every rate and
-    acceleration 0, no exerted wrench, so the feed-forward holds the structure and its payload
-    still there."""
+    (:func:`fly_trajectory`'s ``hold_s``): the motion goes on as it ended, at its final velocity
+    (at rest for a trajectory that ends at rest, as the generated ones do), no acceleration, its
+    final attitude with no rotation, and its final exerted wrench, so that neither a step in the
+    reference nor a load taken away is judged as the failure's doing."""
     traj = task.trajectory
     ref = traj.at(traj.t[0] + times)
     ref["position"] = ref["position"] - traj.position[0] + np.array([0.0, 0.0, HOME_HEIGHT])
     held = times > traj.duration + 1e-9
     if held.any():
-        ref["position"][held] = traj.position[-1] - traj.position[0] + [0.0, 0.0, HOME_HEIGHT]
+        after = (times[held] - traj.duration)[:, None]
+        end = traj.position[-1] - traj.position[0] + [0.0, 0.0, HOME_HEIGHT]
+        ref["position"][held] = end + traj.velocity[-1] * after
+        ref["velocity"][held] = traj.velocity[-1]
         ref["quaternion"][held] = traj.quaternion[-1] / np.linalg.norm(traj.quaternion[-1])
-        for name in ("velocity", "acceleration", "angular_velocity", "angular_acceleration"):
+        for name in ("acceleration", "angular_velocity", "angular_acceleration"):
             ref[name][held] = 0.0
     sampled = Trajectory.resampled({**ref, "t": times})
     exerted = np.zeros((len(times), 6))
@@ -148,7 +152,7 @@ def reference(task: DynamicTask, times: np.ndarray, structure: Structure) -> tup
         from scipy.interpolate import make_interp_spline
 
         exerted = make_interp_spline(traj.t, task.exerted, k=1)(traj.t[0] + times)
-        exerted[held] = 0.0
+        exerted[held] = task.exerted[-1]
     ff = rigid_body_wrenches(sampled, structure.mass, structure.inertia, task.payload) + exerted
     return ref, ff, exerted
 
@@ -219,8 +223,8 @@ def fly_trajectory(
     detector=None,
     hold_s: float = 0.0,
 ) -> TrackResult:
-    """Fly ``structure`` along ``task``'s trajectory in MuJoCo (module docstring), then hold its
-    last point ``hold_s`` seconds (:func:`reference`; default 0: none; the arrays cover it).
+    """Fly ``structure`` along ``task``'s trajectory in MuJoCo (module docstring), then go on
+    ``hold_s`` seconds as it ended (:func:`reference`; default 0: none; the arrays cover it).
 
     ``failure``: rotors that stop during the flight (:class:`~modquad_gym.sim.failure.Failure`:
     their thrust 0 from ``failure.time_s``; from ``failure.detected_s`` the controller
