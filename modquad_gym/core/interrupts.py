@@ -38,7 +38,8 @@ class Terminated(KeyboardInterrupt):
 
 
 _terminated: list[bool] = []
-"""Whether SIGTERM came (a library may turn the exception into a plain KeyboardInterrupt)."""
+"""Whether SIGTERM came (a library may turn the exception into a plain KeyboardInterrupt, or,
+as numpy's import cut short does, into an ImportError)."""
 
 
 _interrupted: list[bool] = []
@@ -143,10 +144,10 @@ def stop_line(prog: str, exc: BaseException) -> str:
 
 def interrupted(exc: BaseException) -> bool:
     """Whether ``exc`` ends a command as a Ctrl-C or SIGTERM does: a KeyboardInterrupt, or an
-    ImportError after a Ctrl-C came in :func:`sigterm_as_interrupt` (numpy's import, cut short,
-    raises ImportError, not the KeyboardInterrupt)."""
+    ImportError after a Ctrl-C or SIGTERM came in :func:`sigterm_as_interrupt` (numpy's import,
+    cut short by either, raises ImportError, not the KeyboardInterrupt)."""
     return isinstance(exc, KeyboardInterrupt) or (
-        isinstance(exc, ImportError) and bool(_interrupted)
+        isinstance(exc, ImportError) and bool(_interrupted or _terminated)
     )
 
 
