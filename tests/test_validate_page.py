@@ -8,6 +8,7 @@ the folder's rule (an existing one replaced only with ``force``)."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -141,3 +142,27 @@ def test_python_door_hands_its_page_to_the_caller(tmp_path):
     with pytest.raises(ValueError, match="page must be a ReportPage or None, got str"):
         validate_trajectory(s, mq.dynamics.hover(0.4), out_dir=tmp_path / "x", page="x")
     assert not (tmp_path / "x").exists()
+
+
+def test_a_page_is_one_validations(tmp_path):
+    """A page a validation began is refused by the next validation, naming ``page``, before any
+    simulation (its folder not made): its sections would go into the next one's report.md."""
+    import modquad_gym as mq
+    from modquad_gym.sim.validate import validate
+    from modquad_gym.sim.validate_track import validate_trajectory
+    from modquad_gym.sim.validation_files import ReportPage
+
+    s = mq.Structure([(0, 0), (1, 0)])
+    w = [[0.0, 0.0, 3.0, 0.0, 0.0, 0.0]]
+    options = dict(f_max=1.0, hover_seconds=0.2, unknown_load=False, render=False)
+    page = ReportPage()
+    page.write(validate(s, w, out_dir=tmp_path / "a", page=page, **options).to_dict())
+    used = re.escape(f"page: already holds the validation into {tmp_path / 'a'};")
+    with pytest.raises(ValueError, match=used):
+        validate(s, w, out_dir=tmp_path / "b", page=page, **options)
+    with pytest.raises(ValueError, match=used):
+        validate_trajectory(s, mq.dynamics.hover(0.4), out_dir=tmp_path / "b", page=page)
+    with pytest.raises(ValueError, match=used):
+        page.begin(tmp_path / "b", False, lambda task_line=None: "")
+    assert not (tmp_path / "b").exists()
+    assert page.folder == tmp_path / "a"

@@ -60,18 +60,29 @@ class ReportPage:
     @staticmethod
     def checked(page: object, out_dir: object) -> ReportPage | None:
         """``page`` as a door takes it: None, or a ReportPage with an ``out_dir`` to write it
-        into (a ValueError naming ``page`` otherwise)."""
+        into that no validation has begun (a ValueError naming ``page`` otherwise, before any
+        simulation)."""
         if page is None:
             return None
         if not isinstance(page, ReportPage):
             raise ValueError(f"page must be a ReportPage or None, got {type(page).__name__}")
         if out_dir is None:
             raise ValueError("page: given without out_dir, where report.md would be written")
+        page._refuse_begun()
         return page
+
+    def _refuse_begun(self) -> None:
+        """A page is one validation's: one that a validation began (its sections and headline
+        in it) is refused, not carried into the next's ``report.md``."""
+        if self.compose is not None:
+            raise ValueError(f"page: already holds the validation into {self.folder}; "
+                             "give each validation a new ReportPage")  # fmt: skip
 
     def begin(self, folder: Path, force: bool, compose: Callable[..., str]) -> ReportPage:
         """The page of the validation just flown into ``folder`` (``compose``: its markdown,
-        which takes the keyword ``task_line``); returns ``self``."""
+        which takes the keyword ``task_line``); returns ``self``. A ValueError naming ``page``
+        for a page begun before."""
+        self._refuse_begun()
         self.folder, self.force, self.compose = Path(folder), force, compose
         return self
 
