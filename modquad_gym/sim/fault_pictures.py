@@ -4,12 +4,14 @@ One figure: the COM's path (3D; before the failure blue, after it orange, the fa
 hover's path is drawn in centimetres about home), the position error over time with the 5 cm
 goal (scaled to the data, at least to :data:`MIN_SCALE_CM`) and the rotor inputs over time
 (:func:`~modquad_gym.sim.pictures.inputs_panel`: one line per rotor, the failed ones drawn thick
-and dashed in red, or a heat map for many rotors with the failed rows framed), a vertical line at
-the failure time in both.
+and dashed in red, or a heat map for many rotors with the failed rows framed), a vertical line in
+both at the failure, at when it was known, and, for a trajectory flown on past its end (the hold
+after it), at the trajectory's end (:func:`time_marks`).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -19,19 +21,57 @@ from modquad_gym.core.outputs import save_figure
 from modquad_gym.sim.fault_flight import GOAL_M, FaultFlight
 from modquad_gym.sim.pictures import MAX_LINES, OUTSIDE, inputs_panel
 
-BEFORE, AFTER, FAILURE = "tab:blue", "tab:orange", "tab:red"
+BEFORE, AFTER, FAILURE, END = "tab:blue", "tab:orange", "tab:red", "tab:green"
 
 MIN_SCALE_CM = 0.1
 """The error panel shows at least 0 to 1 mm: a flight held to round-off stays a flat line."""
 
 
-def plot_fault_flight(flight: FaultFlight, path: str | Path, label: str = "") -> None:
+MARK_ROWS = (0.97, 0.85, 0.73)
+"""Heights (fractions of the error panel) of the marks' words, above the data (the panel's top
+is 1.15 x 1.15 the largest error): each mark's words on the first row where they overlap no
+other's."""
+
+
+@dataclass(frozen=True)
+class TimeMark:
+    """A vertical line across both time-axis panels at ``time_s``, ``words`` beside it at the top
+    of the error panel."""
+
+    time_s: float
+    words: str
+    color: str
+    ls: str = "-"
+    lw: float = 1.5
+
+
+def time_marks(flight: FaultFlight, trajectory_end_s: float | None = None) -> list[TimeMark]:
+    """The marks on the time axis: the failure; when it was known, where later; and, for a
+    trajectory flight that goes on past ``trajectory_end_s`` (the trajectory's duration: the
+    hold after it), the trajectory's end. A hover, or no ``trajectory_end_s``, has no end
+    mark."""
+    marks = [TimeMark(flight.failure.time_s, f" {flight.fault} fails", FAILURE)]
+    known = _detected(flight)
+    if known is not None:
+        marks.append(TimeMark(known, " known", "0.2", ls=":", lw=1.2))
+    t = flight.run.t
+    if (flight.flight == "trajectory" and trajectory_end_s is not None and len(t)
+            and t[-1] > trajectory_end_s + 1e-9):  # fmt: skip
+        marks.append(TimeMark(float(trajectory_end_s), " trajectory ends, hold", END))
+    return marks
+
+
+def plot_fault_flight(flight: FaultFlight, path: str | Path, label: str = "",
+                      trajectory_end_s: float | None = None) -> None:  # fmt: skip
     """Write :func:`fault_flight_figure` to ``path`` (PNG)."""
-    save_figure(fault_flight_figure(flight, label), path, dpi=120)
+    save_figure(fault_flight_figure(flight, label, trajectory_end_s), path, dpi=120)
 
 
-def fault_flight_figure(flight: FaultFlight, label: str = ""):
-    """The figure of the module docstring (a ``matplotlib.figure.Figure``, no pyplot)."""
+def fault_flight_figure(flight: FaultFlight, label: str = "",
+                        trajectory_end_s: float | None = None):  # fmt: skip
+    """The figure of the module docstring (a ``matplotlib.figure.Figure``, no pyplot);
+    ``trajectory_end_s``: a trajectory's duration, marked where the flight holds after it
+    (:func:`time_marks`)."""
     Figure = import_optional("matplotlib.figure").Figure
 
     run, failure = flight.run, flight.failure
@@ -54,19 +94,36 @@ def fault_flight_figure(flight: FaultFlight, label: str = ""):
         fig.colorbar(ax_u.collections[0], ax=ax_err, pad=0.01).ax.set_visible(False)
     ax_u.set_xlabel("time [s]")
     known = _detected(flight)
+    marks = time_marks(flight, trajectory_end_s)
     for ax in (ax_err, ax_u):
-        ax.axvline(failure.time_s, color=FAILURE, lw=1.5, ls="-", zorder=5)
         if known is not None:
             ax.axvspan(failure.time_s, known, color=FAILURE, alpha=0.12, lw=0)
-            ax.axvline(known, color="0.2", lw=1.2, ls=":", zorder=5)
-    if known is not None:
-        ax_err.text(known, 0.85, " known", color="0.2", fontsize=9, va="top", ha="left",
-                    transform=ax_err.get_xaxis_transform())  # fmt: skip
-    ax_err.text(failure.time_s, 0.97, f" {flight.fault} fails", color=FAILURE, fontsize=9,
-                va="top", ha="left", transform=ax_err.get_xaxis_transform())  # fmt: skip
+        for mark in marks:
+            ax.axvline(mark.time_s, color=mark.color, lw=mark.lw, ls=mark.ls, zorder=5)
     fig.suptitle(_title(flight, label), fontsize=11)
     fig.tight_layout(w_pad=4.0)  # room for the 3-D panel's z label beside the error axis
+    _mark_words(ax_err, marks)  # after the layout: the words' extents are final
     return fig
+
+
+def _mark_words(ax, marks: list[TimeMark]) -> None:
+    """Each mark's words beside its line, right of it (left where they would run past the
+    panel's edge), on the first of :data:`MARK_ROWS` where they overlap none of the words placed
+    before (where every row does: the first)."""
+    edge = ax.get_window_extent().x1
+    places = [(row, ha) for row in MARK_ROWS for ha in ("left", "right")]
+    placed: list = []
+    for mark in marks:
+        text = ax.text(mark.time_s, MARK_ROWS[0], "", color=mark.color, fontsize=9, va="top",
+                       transform=ax.get_xaxis_transform())  # fmt: skip
+        for row, ha in [*places, places[0]]:
+            text.set_y(row)
+            text.set_horizontalalignment(ha)
+            text.set_text(mark.words if ha == "left" else mark.words.strip() + " ")
+            box = text.get_window_extent()
+            if box.x1 <= edge and not any(box.overlaps(b) for b in placed):
+                break
+        placed.append(box)
 
 
 def failed_part_words(part: dict) -> str:

@@ -68,12 +68,18 @@ def validate_with_failure(
         record["intact_minimum"] = intact_record(other) if other is not None else None
         record["fault_files"] = {}
         if d is not None:
-            plot_fault_flight(flight, d / FAULT_FILES[0], label="found structure")
+            end = _trajectory_end(task)
+            plot_fault_flight(flight, d / FAULT_FILES[0], "found structure", end)
             record["fault_files"]["fault_flight"] = str(d / FAULT_FILES[0])
             if other is not None:
-                plot_fault_flight(other, d / FAULT_FILES[1], label="intact minimum")
+                plot_fault_flight(other, d / FAULT_FILES[1], "intact minimum", end)
                 record["fault_files"]["fault_flight_intact_minimum"] = str(d / FAULT_FILES[1])
     return record
+
+
+def _trajectory_end(task) -> float | None:
+    """A dynamic task's trajectory duration (where its pictures mark the hold), else None."""
+    return float(task.trajectory.duration) if getattr(task, "kind", None) == "dynamic" else None
 
 
 def fault_markdown(record: dict, n_modules: int | str = "") -> str:
