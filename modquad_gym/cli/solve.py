@@ -70,7 +70,7 @@ def add_solve(sub) -> None:
         "seconds late, 0 to 0.05: the required --fault-margin is derived from it by the rule "
         "calibrated on MuJoCo flights (docs/faults.md; margin = "
         f"{DELAY_SLOPES['rotor']:g} x delay for a rotor failure, "
-        f"{DELAY_SLOPES['module']:g} x delay for a module or two rotors)",
+        f"{DELAY_SLOPES['module']:g} x delay for a module, two rotors or a module and a rotor)",
     )
     p.add_argument(
         "--json",

@@ -61,21 +61,6 @@ def _solve(M, b, n):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _pin_outside(y, mark, stamp, pinned, target, n, pin, cap):  # pragma: no cover - compiled
-    """Pin at +-pin every rotor of y outside the cube not pinned yet (after the first n);
-    the new count, or -1 when it would pass ``cap``."""
-    for j in range(len(y)):
-        if abs(y[j]) > ACCEPT and mark[j] != stamp:
-            if n == cap:
-                return -1
-            pinned[n] = j
-            target[n] = pin if y[j] > 0.0 else -pin
-            mark[j] = stamp
-            n += 1
-    return n
-
-
-@njit(cache=True, inline="always")
 def active_set(r, G, H, y, failed, limit, pin, work):  # pragma: no cover - compiled
     """Move y (G y = r up to round-off, the ``failed`` rotors at -1) into the cube by the
     active set of the module docstring, pinning rotors at +-``pin``. Returns |G y - r|_inf
@@ -91,10 +76,16 @@ def active_set(r, G, H, y, failed, limit, pin, work):  # pragma: no cover - comp
         target[n] = -1.0
         mark[failed[k]] = stamp
         n += 1
-    grown = _pin_outside(y, mark, stamp, pinned, target, n, pin, PINNED)
-    if grown < 0:
-        return -1.0
-    added, n = grown - n, grown
+    added = 0  # written out here and after each step: an inlined helper was slower
+    for j in range(m):
+        if abs(y[j]) > ACCEPT and mark[j] != stamp:
+            if n == PINNED:
+                return -1.0
+            pinned[n] = j
+            target[n] = pin if y[j] > 0.0 else -pin
+            mark[j] = stamp
+            n += 1
+            added += 1
     for step in range(STEPS):
         if added == 0:
             break
@@ -112,13 +103,18 @@ def active_set(r, G, H, y, failed, limit, pin, work):  # pragma: no cover - comp
                 y[j] -= H[row, j] * bi
         for i in range(n):
             y[pinned[i]] += b[i]
-        # rotors the move takes out of the cube are pinned too (none may leave after the last)
-        grown = _pin_outside(
-            y, mark, stamp, pinned, target, n, pin, n if step == STEPS - 1 else PINNED
-        )
-        if grown < 0:
-            return -1.0
-        added, n = grown - n, grown
+        added = 0
+        for j in range(m):  # rotors the move takes out of the cube are pinned too
+            if abs(y[j]) > ACCEPT and mark[j] != stamp:
+                if n == PINNED or step == STEPS - 1:
+                    return -1.0
+                pinned[n] = j
+                target[n] = pin if y[j] > 0.0 else -pin
+                mark[j] = stamp
+                n += 1
+                added += 1
+    if added:
+        return -1.0
     for k in range(len(failed)):
         y[failed[k]] = -1.0
     for i in range(n):

@@ -99,7 +99,7 @@ def _separated(r, G, dual, e, failed, work):  # pragma: no cover - compiled
 @njit(cache=True, inline="always")
 def _single_failures(x, single, hi1, lo1):  # pragma: no cover - compiled
     """hi1[i], lo1[i]: the largest and smallest entry, off rotor i, of x + single[i] (1 + x_i),
-    the least-norm allocation once rotor i alone has failed."""
+    the least-norm allocation once rotor i alone has failed. Returns True (made)."""
     m = len(x)
     for i in range(m):
         a = 1.0 + x[i]
@@ -115,14 +115,7 @@ def _single_failures(x, single, hi1, lo1):  # pragma: no cover - compiled
             lo = min(lo, v)
         hi1[i] = hi
         lo1[i] = lo
-
-
-@njit(cache=True, inline="always")
-def _through_single(x, single, hi1, lo1, up2, down2, i, j):  # pragma: no cover - compiled
-    """The pair (i, j) is tolerated, bounded through rotor i's own failure (module docstring),
-    then j's: the factor 1 + (y_i)_j."""
-    b = 1.0 + (x[j] + single[i, j] * (1.0 + x[i]))
-    return b >= 0.0 and hi1[i] + up2[i, j] * b <= SURE and down2[i, j] * b - lo1[i] <= SURE
+    return True
 
 
 @njit(cache=True, inline="always")
@@ -303,12 +296,16 @@ def certify_rows(
                     trace[t, f] = 0
                 continue
             if hi - lo == 2 and len(single):  # a pair: through each rotor's own failure
-                if not lifted:  # the wrench's single failures, made on first need
-                    _single_failures(x, single, hi1, lo1)
-                    lifted = True
+                lifted = lifted or _single_failures(x, single, hi1, lo1)  # made on first need
                 i, j = columns[lo], columns[lo + 1]
-                if _through_single(x, single, hi1, lo1, up2, down2, i, j) or _through_single(
-                    x, single, hi1, lo1, up2, down2, j, i
+                # through rotor i's failure (module docstring), then j's: 1 + (y_i)_j; or j's, i's
+                b = 1.0 + (x[j] + single[i, j] * (1.0 + x[i]))
+                ok = (
+                    b >= 0.0 and hi1[i] + up2[i, j] * b <= SURE and down2[i, j] * b - lo1[i] <= SURE
+                )
+                c = 1.0 + (x[i] + single[j, i] * (1.0 + x[j]))
+                if ok or (
+                    c >= 0.0 and hi1[j] + up2[j, i] * c <= SURE and down2[j, i] * c - lo1[j] <= SURE
                 ):
                     out[t, f] = 1
                     paths[1] += 1

@@ -180,9 +180,10 @@ def check_fault_seconds(seconds: float | None, delay: float) -> float:
 
 
 def hold_seconds(duration: float, at: float, seconds: float) -> float:
-    """How long a trajectory flight through a failure at ``at`` s holds the trajectory's last
-    point after its end (``duration`` s): until ``seconds`` after the failure, and at least two
-    settling windows, so that the verdict's windows lie in the hold (the trajectory's own
+    """How long a trajectory flight through a failure at ``at`` s goes on after the trajectory's
+    end (``duration`` s), as it ended (:func:`~modquad_gym.sim.track.reference`: at rest at its
+    last point for a trajectory that ends at rest): until ``seconds`` after the failure, and at
+    least two settling windows, so that the verdict's windows lie in the hold (the trajectory's own
     tracking error, changing along it, is not judged as a recovery)."""
     return max(at + seconds - duration, 2 * SETTLE_WINDOW_S)
 
@@ -221,8 +222,8 @@ def fly_with_failure(
         seconds: how long the flight goes on after the failure (default
             :data:`FAULT_SECONDS`, at most :data:`MAX_FAULT_SECONDS`, at least the detection
             delay and two settling windows): a hover (static task or array) holds
-            :data:`FAULT_BEFORE_S` before; a trajectory flies to its end, then holds its last
-            point until ``seconds`` after the failure and at least 1 s (two settling windows)
+            :data:`FAULT_BEFORE_S` before; a trajectory flies to its end, then goes on as it
+            ended until ``seconds`` after the failure and at least 1 s (two settling windows)
             after its end (:func:`hold_seconds`).
         detection_delay_s: seconds before the controller knows (:mod:`~modquad_gym.sim.failure`;
             default :data:`DETECTION_DELAY_S`). Not with a ``detector``, which decides that.
