@@ -12,23 +12,9 @@ import re
 from pathlib import Path
 
 import pytest
+from test_validate_cli import _dynamic_task, _static_task
 
 from modquad_gym.cli import main
-
-
-def _static_task(tmp_path: Path) -> Path:
-    task = tmp_path / "task.json"
-    task.write_text(json.dumps({"f_max": 1.0, "wrenches": [[0.8, 0.0, 3.0, 0.0, 0.1, 0.0]]}))
-    return task
-
-
-def _dynamic_task(tmp_path: Path) -> Path:
-    from modquad_gym import dynamics as dy
-
-    task = tmp_path / "motion.json"
-    task.write_text(json.dumps(dy.hover(0.4, rate=20.0).to_dict()))
-    return task
-
 
 FAULT = ["--fault", "rotor", "--failure", "worst", "--known-load-only"]
 STATIC_HEADINGS = ["# MuJoCo validation", "## Wrench bench", "## Hover on", "## Pictures"]
