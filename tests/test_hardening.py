@@ -140,10 +140,9 @@ def test_solve_memory_stays_bounded(tmp_path):
     torque = write(tmp_path / "torque.json", '{"wrenches": [[0, 0, 3, 50, 0, 0]]}')
     plain = write(tmp_path / "plain.json", '{"wrenches": [[0, 0, 3, 0.1, 0, 0]]}')
     code = (
+        "from benchmarks.measure import own_peak_mb\n"
         "from modquad_gym.cli import main\n"
-        # this process's own peak (VmHWM, kB): ru_maxrss would include the forking parent's
-        "peak = lambda: int(next(l.split()[1] for l in open('/proc/self/status') "
-        "if l.startswith('VmHWM')))\n"
+        "peak = lambda: round(own_peak_mb() * 1024)  # own peak, kB: not the forking parent's\n"
         f"assert main(['solve', '--task', {str(plain)!r}, '--quiet']) == 0\n"
         f"assert main(['solve', '--task', {str(plain)!r}, '--method', 'greedy']) == 0\n"
         "base = peak()\n"

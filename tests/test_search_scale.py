@@ -1,6 +1,8 @@
 """The streaming search engine: polyomino counts, canonical order, agreement with the search as
 it was (benchmarks/reference_search.py), exact level bounds, and bounded resources."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -164,21 +166,17 @@ def test_empty_task_is_a_clear_error():
 
 
 SEARCH_128 = """
-import json, resource, sys
+import json
 import numpy as np
 import modquad_gym as mq
+from benchmarks.measure import own_peak_mb  # this process's own peak, not its parent's
 from modquad_gym.tasks import PlantedTasks
 
 task = PlantedTasks(n_modules=(128, 128), n_wrenches=(8, 8))(np.random.default_rng(3))
 r = mq.anytime_search(task, n_max=128, time_limit=60)
-try:  # Linux: this program's own high-water mark (ru_maxrss keeps the forking parent's size)
-    with open("/proc/self/status") as fh:
-        peak = next(int(line.split()[1]) for line in fh if line.startswith("VmHWM:"))
-except (OSError, StopIteration):
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    peak = peak // 1024 if sys.platform == "darwin" else peak  # bytes there, else KB
 print(json.dumps({"cells": None if r.structure is None else [list(c) for c in r.structure.cells],
-                  "n_modules": r.n_modules, "lower_bound": r.lower_bound, "peak_kb": peak}))
+                  "n_modules": r.n_modules, "lower_bound": r.lower_bound,
+                  "peak_kb": round(own_peak_mb() * 1024)}))
 """
 """The 128-module search alone in a fresh process, whose lifetime peak is the search's (an
 earlier test's memory in pytest's process is not)."""
@@ -195,8 +193,9 @@ def test_a_task_planted_in_128_modules():
     from modquad_gym.tasks import PlantedTasks
 
     task = PlantedTasks(n_modules=(128, 128), n_wrenches=(8, 8))(np.random.default_rng(3))
+    root = Path(__file__).resolve().parents[1]  # where benchmarks.measure is found
     out = subprocess.run([sys.executable, "-c", SEARCH_128], capture_output=True, text=True,
-                         timeout=600, check=True)  # fmt: skip
+                         timeout=600, check=True, cwd=root)  # fmt: skip
     r = json.loads(out.stdout.splitlines()[-1])
     assert r["cells"] is not None and r["n_modules"] <= 1.05 * 128
     structure = Structure([tuple(c) for c in r["cells"]])

@@ -61,6 +61,21 @@ def _written(folder: Path) -> set[str]:
     return {p.name for p in folder.iterdir() if not p.name.startswith(".")}
 
 
+def counted_writes(monkeypatch) -> list[Path]:
+    """The paths the package writes from now on (its one writer, ``atomic_write``), in order."""
+    from modquad_gym.core import atomic_files
+
+    writes: list[Path] = []
+    real = atomic_files.atomic_write
+
+    def counted(path, write):
+        writes.append(Path(path))
+        return real(path, write)
+
+    monkeypatch.setattr(atomic_files, "atomic_write", counted)
+    return writes
+
+
 def _static_task(tmp_path: Path) -> Path:
     task = tmp_path / "task.json"
     task.write_text(json.dumps({"f_max": 1.0, "wrenches": [[0.8, 0.0, 3.0, 0.0, 0.1, 0.0]]}))
@@ -113,16 +128,7 @@ def test_report_md_is_written_once_with_the_command_that_made_it(tmp_path, capsy
     """A static task's ``report.md`` without ``--fault`` is written once, whole: the "Made by"
     line under its title comes with it, not from a second pass that reads and rewrites the file
     (a dynamic task's and ``--fault``'s pages too: test_validate_page.py)."""
-    from modquad_gym.core import atomic_files
-
-    writes: list[Path] = []
-    real = atomic_files.atomic_write
-
-    def counted(path, write):
-        writes.append(Path(path))
-        return real(path, write)
-
-    monkeypatch.setattr(atomic_files, "atomic_write", counted)
+    writes = counted_writes(monkeypatch)
     out = tmp_path / "out"
     argv = ["validate", "--task", str(_static_task(tmp_path)), "--method", "exhaustive",
             "--max-hover-wrenches", "1", "--hover-seconds", "0.2", "--out", str(out)]  # fmt: skip

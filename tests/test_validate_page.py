@@ -9,10 +9,9 @@ from __future__ import annotations
 
 import json
 import re
-from pathlib import Path
 
 import pytest
-from test_validate_cli import _dynamic_task, _static_task
+from test_validate_cli import _dynamic_task, _static_task, counted_writes
 
 from modquad_gym.cli import main
 
@@ -37,19 +36,11 @@ def test_report_md_is_one_page_written_once(tmp_path, capsys, monkeypatch, make_
     validation's sections, then the trajectory's, then the failure's, each after a blank line,
     the Made-by line under the title and a dynamic task's headline in place of the static
     one; validation.json is the record the command prints."""
-    from modquad_gym.core import atomic_files
     from modquad_gym.sim import fault_flight
 
     monkeypatch.setattr(fault_flight, "FAULT_BEFORE_S", 0.2)  # short flights through a failure
     monkeypatch.setattr(fault_flight, "FAULT_SECONDS", 1.02)
-    writes: list[Path] = []
-    real = atomic_files.atomic_write
-
-    def counted(path, write):
-        writes.append(Path(path))
-        return real(path, write)
-
-    monkeypatch.setattr(atomic_files, "atomic_write", counted)
+    writes = counted_writes(monkeypatch)
     out = tmp_path / "out"
     argv = ["validate", "--task", str(make_task(tmp_path)), "--method", "exhaustive", "--n-max",
             "4", "--max-hover-wrenches", "1", "--hover-seconds", "0.2", *options, "--out",
