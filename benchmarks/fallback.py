@@ -6,14 +6,14 @@ fallback and shortlist (``top_k``) and, for ``ppo-guided``, budget, on validatio
         [--bands 16 32 48 64] [--families planted mixed payload torque] [--per-family 8]
         [--fallbacks 0 0.6 0.7 0.8] [--k 8 16] [--budgets auto|N ...]
         [--extra-fallbacks auto|none|F,F ...] [--small 200]
-        [--time-limit 30] [--out results/fallback] [--force] [--rows CSV]
+        [--model ZIP] [--time-limit 30] [--out results/fallback] [--force] [--rows CSV]
 
 Tasks (never the held-out suites): the tasks of :mod:`benchmarks.lookahead_top_k` (the scale
 families' validation draws, searched with n_max ``max(64, band)``, and ``--small`` tasks of the
 ``mixed`` generator at n_max 7, each with its certified optimum). Per task, in one process
-after an untimed warm-up per family and band: the shipped model's single pass (or guided
-search: ``make_solver(METHOD, top_k=k, fallback=f, budget=b, extra_fallbacks=x)``, ``auto``
-the method's default) for each k, f, b and x, then the rival, each
+after an untimed warm-up per family and band: the shipped model's single pass (``--model``:
+that model's; guided search: ``make_solver(METHOD, top_k=k, fallback=f, budget=b,
+extra_fallbacks=x)``, ``auto`` the method's default) for each k, f, b and x, then the rival, each
 structure verified by the exact LP; seconds are CPU seconds. Per family and band (and over
 all): the tasks each variant solves of the rival's and its mean modules minus the rival's on
 the tasks both solve, with a 95 % percentile bootstrap interval over the tasks (the issue's
@@ -34,6 +34,7 @@ import numpy as np
 from benchmarks.common import (
     Distinct,
     bench_args,
+    check_model,
     check_task_rows,
     machine_description,
     made_by,
@@ -60,7 +61,8 @@ def variants(args) -> list[tuple[str, str, dict]]:
         (f"{args.method}-top{k}-f{f:g}" + ("" if b is None else f"-b{b}")
          + ("" if x is None else "-x" + "+".join(f"{v:g}" for v in x)), args.method,
          {"top_k": k, "fallback": f, **({} if b is None else {"budget": b}),
-          **({} if x is None else {"extra_fallbacks": x})})
+          **({} if x is None else {"extra_fallbacks": x}),
+          **({} if args.model is None else {"model": args.model})})
         for k in args.k for f in args.fallbacks for b in args.budgets
         for x in args.extra_fallbacks
     ]  # fmt: skip
@@ -243,6 +245,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                                           "comma-separated values in [0, 1]"},
             "--small": {"type": int_option(0, 10_000), "default": 200,
                         "help": "mixed tasks at n_max 7"},
+            "--model": {"default": None, "metavar": "ZIP",
+                        "help": "the learned variants' model (default the shipped one for "
+                                "each task's budget and palette)"},
             "--time-limit": {"type": real_option, "default": 30.0,
                              "help": "seconds per task and method, in (0, a day]"},
             "--rows": {"type": path_option, "default": None, "metavar": "CSV",
@@ -262,6 +267,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         raise ValueError("--extra-fallbacks: only ppo takes extra fallbacks (give --method ppo)")
     if args.rows is None and not (args.bands or args.small):
         raise ValueError("nothing to run: give --bands or --small > 0 (or --rows)")
+    if args.model is not None:
+        if args.rows is not None:
+            raise ValueError("--model: --rows re-renders without solving (give one of them)")
+        check_model(args.model, f"--model {args.model}")
     return args
 
 

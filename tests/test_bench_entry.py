@@ -262,6 +262,36 @@ def test_fallback_with_nothing_to_run_is_refused_before_the_model_loads(
     assert not out.exists()
 
 
+def test_fallback_model_is_read_before_the_measurement(monkeypatch, capsys, tmp_path):
+    """--model names a model file read before any task is drawn (a missing one: one line
+    naming the option); with --rows (no solving) it is refused."""
+    from benchmarks import fallback
+
+    monkeypatch.setattr(fallback, "measure", lambda *a: pytest.fail("the measurement started"))
+    out, missing = tmp_path / "fb", tmp_path / "none.zip"
+    assert run_script("fallback", ["--model", str(missing), "--out", str(out)]) == 2
+    assert f"error: --model {missing}: " in capsys.readouterr().err.strip().splitlines()[-1]
+    rows = tmp_path / "rows.csv"
+    rows.write_text("band,family,task,method,found,seconds,optimum\n")
+    shipped = "modquad_gym/data/models/ppo_default/model.zip"
+    assert run_script("fallback", ["--model", shipped, "--rows", str(rows), "--out", str(out)]) == 2
+    assert "error: --model: --rows re-renders without solving" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_fallback_model_reaches_every_learned_variant(tmp_path):
+    """The model given is each learned variant's ``model`` option; the rival takes none."""
+    from benchmarks import fallback
+
+    model = "modquad_gym/data/models/ppo_default/model.zip"
+    args = fallback.parse_args(["--model", model, "--bands", "--small", "2", "--fallbacks", "0",
+                                "--k", "8", "--extra-fallbacks", "none", "1",
+                                "--out", str(tmp_path)])  # fmt: skip
+    found = fallback.variants(args)
+    assert [name for name, _, _ in found] == ["ppo-top8-f0-x", "ppo-top8-f0-x1", "greedy"]
+    assert all(o["model"] == args.model for _, _, o in found[:-1]) and found[-1][2] == {}
+
+
 def test_derivative_agreement_reads_the_shipped_suite_from_any_folder(
     monkeypatch, capsys, tmp_path
 ):
