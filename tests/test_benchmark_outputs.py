@@ -1,7 +1,7 @@
 """What the benchmark scripts write and refuse: certificates (its command, its files), fault_delay
-(options checked before work, --force, a fault with no flight), figures (one-line errors, a
-garbage source refused, --force only when something would be replaced) and the leaderboard (its
-runs' data written into --out, the glance table's one-run shares marked)."""
+(options checked before work, --force, a fault with no flight, --render), figures (one-line
+errors, a garbage source refused, --force only when something would be replaced) and the
+leaderboard (its runs' data written into --out, the glance table's one-run shares marked)."""
 
 from __future__ import annotations
 
@@ -84,6 +84,9 @@ def test_certificates_replace_their_table_and_files_only_with_force(
         (["--tasks", "0"], "argument --tasks: must be in 1..1000, got 0"),
         (["--tasks", "2", "--skip", "2"], "--skip 2: must be below --tasks 2"),
         (["--update"], "--update: no flights.csv in"),
+        (["--render"], "--render: no flights.csv in"),
+        (["--render", "--tasks", "4"], "--render: flies nothing, so not with --tasks"),
+        (["--render", "--delays", "0.01", "--update"], "not with --delays, --update"),
     ],
 )
 def test_fault_delay_checks_its_options_before_any_work(argv, says, tmp_path, capsys):
@@ -144,6 +147,40 @@ def test_fault_delay_reports_a_fault_with_no_flight_and_keeps_a_report_without_f
     assert run_script("fault_delay", [*more, "--force"]) == 0
     (out / "flights.csv").write_text("task,fault\npaper-cal-0,rotor\n")  # not its flights
     _refused(capsys, "fault_delay", [*more, "--force"], "flights.csv: its header is not")
+
+
+def test_fault_delay_render_writes_the_page_again_from_its_flights_alone(
+    rotor_flights_only, tmp_path, capsys, monkeypatch
+):
+    """--render flies nothing: the page and the figure come from flights.csv, the page keeps
+    the line naming the commands that flew them and names the re-rendering; it refuses a bad
+    flights.csv in one line and replaces the page only with --force."""
+    from benchmarks import fault_delay
+
+    out = tmp_path / "fd"
+    argv = ["--tasks", "1", "--sources", "paper", "--delays", "0", "0.05", "--out", str(out)]
+    assert run_script("fault_delay", argv) == 0
+    flights, page = (out / "flights.csv").read_text(), (out / "report.md").read_text()
+    made = page.splitlines()[2]
+    assert made.startswith("Made by `python -m benchmarks.fault_delay --tasks 1")
+
+    def no_flight(*args):
+        raise AssertionError("--render flew")
+
+    monkeypatch.setattr(fault_delay, "designs", no_flight)
+    monkeypatch.setattr(fault_delay, "fly", no_flight)
+    (out / "margin_rule.png").unlink()
+    _refused(capsys, "fault_delay", ["--render", "--out", str(out)], "report.md", "--force")
+    assert run_script("fault_delay", ["--render", "--out", str(out), "--force"]) == 0
+    again = (out / "report.md").read_text().splitlines()
+    assert again[2] == made.replace("when this page was", "when the flights' page was") + (
+        " Re-rendered from its flights.csv, no flight flown again, by `python -m "
+        f"benchmarks.fault_delay --render --out {out} --force`."
+    )
+    assert again[3:] == page.splitlines()[3:]  # the same flights, the same page
+    assert (out / "margin_rule.png").is_file() and (out / "flights.csv").read_text() == flights
+    (out / "flights.csv").write_text(flights.replace(",rotor,", ",rotors,", 1))
+    _refused(capsys, "fault_delay", ["--render", "--out", str(out), "--force"], "--render", "row 1")
 
 
 # --- figures ----------------------------------------------------------------------------------

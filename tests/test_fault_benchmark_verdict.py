@@ -57,12 +57,7 @@ def test_a_design_keeps_its_cells_and_its_flights_their_verdict():
 def test_fault_delay_leaves_out_designs_that_fail_with_the_failure_known_at_once():
     """A design that does not hold at D = 0 (a trajectory that never settles, say) fails for
     another reason than the delay: it must not set the margin the delay needs."""
-    from benchmarks import fault_delay
-
-    def flight(task, margin, delay, held, why=""):
-        return {"task": task, "fault": "rotor", "required_margin": 0.0, "modules": 6,
-                "certified": True, "worst_fault_margin": margin, "delay_s": delay,
-                "max_error_cm": 0.2, "within_5cm": held, "why_not": why}  # fmt: skip
+    from benchmarks import fault_delay_report as fault_delay
 
     delays = [0.0, 0.01, 0.05]
     flights = [flight("steady", 0.01, d, d < 0.05) for d in delays]
@@ -78,6 +73,38 @@ def test_fault_delay_leaves_out_designs_that_fail_with_the_failure_known_at_once
     assert "set by steady (margin 0.01, 6 modules) at 50 ms" in named
     assert (
         "without that flight the fit would be 0.000 D, without that task's flights 0.000 D" in named
+    )
+
+
+def flight(task, margin, delay, held, why="", fault="rotor"):
+    """A made-up flight of benchmarks.fault_delay (a 6-module design of margin 0 for ``task``)."""
+    return {"task": task, "fault": fault, "required_margin": 0.0, "modules": 6,
+            "certified": True, "worst_fault_margin": margin, "delay_s": delay,
+            "max_error_cm": 0.2, "within_5cm": held, "why_not": why}  # fmt: skip
+
+
+def test_fault_delay_says_plainly_that_no_design_is_left_out():
+    """Where every design holds at D = 0 the page says so, with no fit "with them" (it named
+    "0 of 46 designs do not hold ..., left out of the fit; with them the fit would be ...");
+    a fault with no flight says that."""
+    from benchmarks.fault_delay_report import control_lines
+
+    delays = [0.0, 0.01, 0.05]
+    flights = [flight(t, 0.01, d, d < 0.05) for t in ("steady", "calm") for d in delays]
+    *_, rotor, module = control_lines(flights, delays)
+    assert (
+        rotor
+        == "- rotor: all 2 designs hold with the failure known at once; every flight is fitted"
+    )
+    assert module == "- module: no flights"
+    flights += [flight("wavy", 0.09, d, d == 0.01, "beyond 5 cm", "module") for d in delays[1:]]
+    *_, module = control_lines(flights, delays)  # a design not flown at D = 0 is not counted so
+    assert module == "- module: no design flown at delay 0; every flight is fitted"
+    flights += [flight(t, 0.02, 0.0, True, fault="module") for t in ("late", "later")]
+    *_, module = control_lines(flights, delays)
+    assert module == (
+        "- module: all 2 designs flown at D = 0 (of 3) hold with the failure known at once; "
+        "every flight is fitted"
     )
 
 
