@@ -1,5 +1,6 @@
 """Scores of a model at the field's sizes beside greedy (:mod:`.expert_iteration`'s rounds):
-single pass on the scale families' validation draws, on the current tier's validation tasks,
+``ppo`` on the scale families' validation draws, its single pass on the current tier's
+validation tasks,
 the labels' answers per round, and the run's report page."""
 
 from __future__ import annotations
@@ -10,7 +11,8 @@ import numpy as np
 
 
 def score(model: Path, n_max: int, per_family: int, bands, families) -> list[dict]:
-    """Single-pass ``ppo`` of ``model`` and ``greedy`` on the validation draws of ``families``
+    """``ppo`` (its default decoding) of ``model`` and ``greedy`` on the validation draws of
+    ``families``
     in ``bands`` (``per_family`` tasks per family and band; module budget ``n_max``, or the
     band where larger)."""
     from modquad_gym.scoring.scale_tasks import draw
@@ -33,12 +35,13 @@ def score(model: Path, n_max: int, per_family: int, bands, families) -> list[dic
 
 
 def current_tier(model: Path, tasks: list) -> dict:
-    """Single-pass ``ppo`` of ``model`` on the current tier's validation tasks (certified
-    optima): optimal and success shares, so a round that forgets the small tasks shows it."""
+    """The single pass of ``model`` (the policy's own episode, no extra pass) on the current
+    tier's validation tasks (certified optima): optimal and success shares, so a round that
+    forgets the small tasks shows it."""
     from modquad_gym.search import verified
     from modquad_gym.solvers import make_solver
 
-    ppo = make_solver("ppo", n_max=7, model=str(model))
+    ppo = make_solver("ppo", n_max=7, model=str(model), extra_fallbacks=())
     found = [ppo.solve(t) for t in tasks]
     ok = [verified(r.structure, t) for r, t in zip(found, tasks)]
     best = [o and r.n_modules == t.meta["optimum"] for o, r, t in zip(ok, found, tasks)]

@@ -49,11 +49,12 @@ RECORDED = ("optimal", "successes")
 
 def heldout(model: Path, tier: str) -> tuple[float, float]:
     """(optimal share, success) of a single deterministic pass of ``model`` on the tier's
-    held-out suites, tasks whose certified optimum is within n_max."""
+    held-out suites, tasks whose certified optimum is within n_max: the policy's own episode,
+    without ``ppo``'s extra pass of greedy's choices (what the RL stage changed, alone)."""
     from modquad_gym.policy.ppo import PPOSolver
 
     t = TIERS[tier]
-    solver = PPOSolver(model=model, n_max=t.n_max)
+    solver = PPOSolver(model=model, n_max=t.n_max, extra_fallbacks=())
     optimal = success = n = 0
     for tasks in t.load_suites().values():
         for task in tasks:

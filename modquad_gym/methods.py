@@ -33,6 +33,7 @@ from modquad_gym.policy.models import (
     MODEL_TOP_K,
     QUEUE_MEMORY,
     SCALE_FROM,
+    SMALL_EXTRA_FALLBACKS,
     TOP_K,
 )
 from modquad_gym.search.options import COMMON_OPTIONS, Relation, broken_relation, takes_none
@@ -295,10 +296,12 @@ _FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dives
              LEARNED_CHECKS["fallback"])  # fmt: skip
 _EXTRA_FALLBACKS = (tuple[float, ...] | None, None, "further deterministic passes, one per "
                     "fallback value (comma-separated), branching from the first where they dock "
-                    "elsewhere; the smallest verified structure is kept (None: "
-                    f"{','.join(f'{f:g}' for f in EXTRA_FALLBACKS)} where the first ends with "
-                    f"more than {EXTRA_FROM} modules, at budgets of {SCALE_FROM} modules and "
-                    "more with a model that sees greedy's choice, else none; empty: none)",
+                    "elsewhere; the smallest verified structure is kept (None, with a model "
+                    f"that sees greedy's choice: {','.join(f'{f:g}' for f in EXTRA_FALLBACKS)} "
+                    f"where the first ends with more than {EXTRA_FROM} modules, at budgets of "
+                    f"{SCALE_FROM} modules and more, and "
+                    f"{','.join(f'{f:g}' for f in SMALL_EXTRA_FALLBACKS)} below; else none; "
+                    "empty: none)",
                     LEARNED_CHECKS["extra_fallbacks"])  # fmt: skip
 
 _BUDGET = (int | None, None, "most structures evaluated (None: "
@@ -323,8 +326,9 @@ for _method in (
     _search("milp", "the mixed-integer program solved by HiGHS, level by level from its LP "
             "relaxation's bound: certified where it finishes within the time limit (up to 128 "
             "modules)", certifies=True, fault=False),
-    Method("ppo", "the learned agent's deterministic pass, with two more sharing its start where "
-           f"it ends above {EXTRA_FROM} modules (the shipped model unless model=)",
+    Method("ppo", "the learned agent's deterministic pass, with greedy's choice's pass sharing "
+           f"its start below {SCALE_FROM} modules, two more where it ends above {EXTRA_FROM} "
+           "(the shipped model unless model=)",
            options("ppo", model=_MODEL, trust_model=_TRUST,
                    seed=(int, 0, COMMON_OPTIONS["seed"][0], LEARNED_CHECKS["seed"]),
                    samples=(int, 0, "extra sampled rollouts besides the deterministic one",

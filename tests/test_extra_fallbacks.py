@@ -9,7 +9,14 @@ from __future__ import annotations
 import pytest
 
 from modquad_gym.cli import main
-from modquad_gym.policy.models import DEFAULT_MODEL, EXTRA_FALLBACKS, MODELS_DIR, SCALE_FROM
+from modquad_gym.policy.models import (
+    DEFAULT_MODEL,
+    EXTRA_FALLBACKS,
+    EXTRA_FROM,
+    MODELS_DIR,
+    SCALE_FROM,
+    SMALL_EXTRA_FALLBACKS,
+)
 from modquad_gym.policy.policy import Policy
 from modquad_gym.policy.ppo import PPOSolver
 from modquad_gym.scoring.scale_tasks import draw
@@ -75,11 +82,15 @@ def test_without_extra_passes_it_is_the_single_pass():
 
 def test_the_default_follows_the_budget_and_what_the_model_sees():
     ppo = make_solver("ppo", 7)
-    assert ppo.inner(7, None).fallbacks == (0.0,)  # small budgets: the policy's pass alone
-    expected = tuple(dict.fromkeys((ppo.inner(SCALE_FROM, None).fallback, *EXTRA_FALLBACKS)))
-    assert ppo.inner(SCALE_FROM, None).fallbacks == expected
-    dynamic = PPOSolver(str(DYNAMIC_MODEL), n_max=SCALE_FROM)
-    assert dynamic.fallbacks == (0.0,)  # a model blind to greedy's choice: none
+    small = ppo.inner(7, None)  # the policy's pass, greedy's choice's beside it at every size
+    assert small.fallbacks == (0.0, *SMALL_EXTRA_FALLBACKS) and small.extra_from == 0
+    scale = ppo.inner(SCALE_FROM, None)  # the extra passes where the first ends above EXTRA_FROM
+    expected = tuple(dict.fromkeys((scale.fallback, *EXTRA_FALLBACKS)))
+    assert scale.fallbacks == expected and scale.extra_from == EXTRA_FROM
+    for n_max in (7, SCALE_FROM):  # a model blind to greedy's choice: none
+        assert PPOSolver(str(DYNAMIC_MODEL), n_max=n_max).fallbacks == (0.0,)
+    given = make_solver("ppo", SCALE_FROM, extra_fallbacks=0.5).inner(SCALE_FROM, None)
+    assert given.extra_from == 0  # given values run whatever the first pass's size
     assert make_solver("ppo", 7, extra_fallbacks=0.5).inner(7, None).fallbacks == (0.0, 0.5)
 
 

@@ -30,6 +30,7 @@ from modquad_gym.policy.models import (
     LEARNED_CHECKS,
     MODEL_TOP_K,
     SCALE_FROM,
+    SMALL_EXTRA_FALLBACKS,
     check_learned,
     default_model,
     model_file,
@@ -329,11 +330,14 @@ def fallback_of(policy: Policy, fallback: float | None, name: str = "fallback") 
 def extra_fallbacks_of(policy: Policy, extra: Any) -> tuple[float, ...]:
     """The further fallbacks ``policy``'s deterministic decoding follows (see
     :class:`~.ppo.PPOSolver`): None gives :data:`~.models.EXTRA_FALLBACKS` at budgets of
-    :data:`~.models.SCALE_FROM` modules and more with a model that sees greedy's choice, else
-    none; a number or a sequence of numbers in [0, 1] (the option's check,
-    :data:`~.models.LEARNED_CHECKS`), each above 0 only with a model that sees greedy's choice."""
+    :data:`~.models.SCALE_FROM` modules and more and :data:`~.models.SMALL_EXTRA_FALLBACKS`
+    below, with a model that sees greedy's choice, else none; a number or a sequence of numbers
+    in [0, 1] (the option's check, :data:`~.models.LEARNED_CHECKS`), each above 0 only with a
+    model that sees greedy's choice."""
     if extra is None:
-        return EXTRA_FALLBACKS if policy.reads_greedy and policy.n_max >= SCALE_FROM else ()
+        if not policy.reads_greedy:
+            return ()
+        return EXTRA_FALLBACKS if policy.n_max >= SCALE_FROM else SMALL_EXTRA_FALLBACKS
     values = check_learned("extra_fallbacks", extra)
     return tuple(dict.fromkeys(fallback_of(policy, v, "extra_fallbacks") for v in values))
 

@@ -25,6 +25,7 @@ from modquad_gym.policy.models import (
     EXTRA_FROM,
     LEARNED_CHECKS,
     MODEL_TOP_K,
+    SCALE_FROM,
     check_learned,
     unused_seed,
 )
@@ -69,9 +70,10 @@ class PPOSolver:
             else 0; a value above 0 for a model that does not read it is refused.
         extra_fallbacks: further deterministic rollouts, one per fallback value, branching
             from the first where their dockings differ (:func:`~.policy.extra_fallbacks_of`;
-            empty: none). None (default): :data:`~.models.EXTRA_FALLBACKS` where the first
-            ends with more than :data:`~.models.EXTRA_FROM` modules, at budgets of
-            :data:`~.models.SCALE_FROM` and more with a model that reads greedy's choice.
+            empty: none). None (default), with a model that reads greedy's choice:
+            :data:`~.models.EXTRA_FALLBACKS` where the first ends with more than
+            :data:`~.models.EXTRA_FROM` modules, at budgets of :data:`~.models.SCALE_FROM`
+            and more; :data:`~.models.SMALL_EXTRA_FALLBACKS` below.
         fault: design for that failure (None: none; :meth:`~.policy.Policy.use_fault`):
             every answer is verified to survive it.
         fault_margin: the worst margin each task wrench must keep after the failure.
@@ -113,7 +115,8 @@ class PPOSolver:
         self.fallback = fallback_of(self.policy, fallback)
         extra = extra_fallbacks_of(self.policy, extra_fallbacks)
         self.fallbacks = (self.fallback, *(f for f in extra if f != self.fallback))
-        self.extra_from = EXTRA_FROM if extra_fallbacks is None else 0
+        default_at_scale = extra_fallbacks is None and self.n_max >= SCALE_FROM
+        self.extra_from = EXTRA_FROM if default_at_scale else 0  # below: every size
 
     def solve(self, task: Any) -> SearchResult:
         """The smallest verified structure over the deterministic rollouts (one per fallback)
