@@ -16,9 +16,9 @@ episodes of the current tier's training tasks keep the small tasks in view, and 
 cloned on every round's states so far; as it improves, so do its guided search and the targets.
 A run continues another from its model (``--model OUT/model.zip --first-round R``: fresh draws,
 its model kept, not its states). Each round's model is saved in ``OUT/round-R/`` (size-free: it
-acts at any n_max) and scored single pass beside greedy on validation draws of the same families
-(``--bands``) and on the current tier's validation tasks: ``OUT/report.md``, ``OUT/rows.csv``;
-``OUT/labels.csv`` every label; ``OUT/model.zip`` the last.
+acts at any n_max) and scored by ``ppo`` beside greedy on validation draws of the same families
+(``--bands``), and single pass on the current tier's validation tasks: ``OUT/report.md``,
+``OUT/rows.csv``; ``OUT/labels.csv`` every label; ``OUT/model.zip`` the last.
 """
 
 from __future__ import annotations

@@ -111,8 +111,8 @@ def report(rows: list[dict], args, seconds: float, labels=(), made=()) -> str:
         + (", the learner's own episode labelled towards the label or greedy's completion"
            if args.learner else "")
         + (f", {args.replay} replayed current-tier episodes" if args.replay else "")
-        + "; the policy cloned on all rounds' states. Every model is scored single pass "
-        "(`ppo`) against `greedy` on the validation draws of "
+        + "; the policy cloned on all rounds' states. Every model is scored by `ppo` (its "
+        "default decoding) against `greedy` on the validation draws of "
         f"{', '.join(dict.fromkeys(f for f, _, _ in args.draws))} at "
         f"{', '.join(map(str, args.bands))} modules ({args.per_family} per family and band), "
         f"n_max {args.n_max} (or the band, where larger). `fewer`/`equal`/`more`: tasks where "

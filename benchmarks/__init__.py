@@ -41,11 +41,12 @@ if sys.argv[:1] == ["-m"]:  # python -m benchmarks.NAME, while Python looks for 
 
     sys.excepthook = _stop_hook
     _mask = getattr(signal, "pthread_sigmask", lambda how, signals: None)
-    _mask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})  # until the handlers are in place
+    _held = _mask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})  # until handlers are set
     try:
         from modquad_gym.core.interrupts import sigterm_as_interrupt
 
         _SIGNALS = sigterm_as_interrupt()  # SIGTERM as Ctrl-C, Ctrl-C noted, for the whole run
         _SIGNALS.__enter__()
-    finally:
-        _mask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})  # one that came is raised now
+    finally:  # the caller's mask back (a signal it had blocked stays blocked); one that came
+        if _held is not None:  # meanwhile and is not blocked there is raised now
+            _mask(signal.SIG_SETMASK, _held)

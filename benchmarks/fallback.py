@@ -11,7 +11,7 @@ fallback and shortlist (``top_k``) and, for ``ppo-guided``, budget, on validatio
 Tasks (never the held-out suites): the tasks of :mod:`benchmarks.lookahead_top_k` (the scale
 families' validation draws, searched with n_max ``max(64, band)``, and ``--small`` tasks of the
 ``mixed`` generator at n_max 7, each with its certified optimum). Per task, in one process
-after an untimed warm-up per family and band: the shipped model's single pass (``--model``:
+after an untimed warm-up per family and band: the shipped model's ``ppo`` (``--model``:
 that model's; guided search: ``make_solver(METHOD, top_k=k, fallback=f, budget=b,
 extra_fallbacks=x)``, ``auto`` the method's default) for each k, f, b and x, then the rival, each
 structure verified by the exact LP; seconds are CPU seconds. Per family and band (and over

@@ -16,8 +16,16 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import Distinct, bench_args, report_page, run_main, write_report
-from benchmarks.fallback import read_rows
+from benchmarks.common import (
+    Distinct,
+    bench_args,
+    check_task_rows,
+    read_rows_csv,
+    report_page,
+    run_main,
+    write_report,
+)
+from benchmarks.fallback import COLUMNS, typed_row
 from modquad_gym.core.options import path_option
 from modquad_gym.scoring.stats import interval, mean
 
@@ -25,14 +33,18 @@ OUTPUTS = ("report.md", "report.csv")
 
 
 def small_rows(folder: Path) -> dict[str, dict[str, dict]]:
-    """variant -> task -> row of ``folder/rows.csv``'s small tasks (a ValueError naming the
-    folder when it holds none)."""
+    """variant -> task -> row of ``folder/rows.csv``'s small tasks: one row per task and
+    variant, every task with a row of each (a one-line ValueError naming the file otherwise)."""
+    what = "benchmarks.fallback (band, family, task, method, found, seconds, optimum)"
+    path = folder / "rows.csv"
+    rows = [r for r in read_rows_csv(path, "FOLDER", COLUMNS, typed_row, what)
+            if r["family"] == "small"]  # fmt: skip
+    if not rows:
+        raise ValueError(f"FOLDER {path}: no small tasks")
+    check_task_rows(rows, list(dict.fromkeys(r["method"] for r in rows)), f"FOLDER {path}")
     out: dict[str, dict[str, dict]] = {}
-    for row in read_rows(folder / "rows.csv"):
-        if row["family"] == "small":
-            out.setdefault(row["method"], {})[row["task"]] = row
-    if not out:
-        raise ValueError(f"FOLDER {folder}: no small tasks in its rows.csv")
+    for row in rows:
+        out.setdefault(row["method"], {})[row["task"]] = row
     return out
 
 
@@ -45,9 +57,16 @@ def summary(runs: dict[Path, dict[str, dict[str, dict]]]) -> list[dict]:
     baseline."""
     first = next(iter(runs.values()))
     variants, tasks = list(first), sorted(next(iter(first.values())))
+    optimum = {t: first[variants[0]][t]["optimum"] for t in tasks}
     for folder, run in runs.items():
         if list(run) != variants or any(sorted(run[v]) != tasks for v in variants):
             raise ValueError(f"FOLDER {folder}: not the variants and tasks of the first folder")
+        for variant in variants:
+            for task, row in run[variant].items():
+                if row["optimum"] != optimum[task]:
+                    raise ValueError(f"FOLDER {folder}: task {task}'s optimum is "
+                                     f"{row['optimum']}, not {optimum[task]} as in the first "
+                                     "folder")  # fmt: skip
 
     def shares(variant: str, score) -> np.ndarray:  # models x tasks
         return np.array([[score(run[variant][t]) for t in tasks] for run in runs.values()])

@@ -25,7 +25,8 @@ def how_made(r: str) -> list[str]:
         "run per task, without a time limit: a slower answer counts as none, as it would under "
         "the limit). Ties are broken by the optimal share without a limit, then by fewer "
         "seconds.",
-        "- **Learned methods** (`ppo`: one deterministic pass of the shipped policy; `ppo-k8`: "
+        "- **Learned methods** (`ppo`: the shipped policy's deterministic pass and, with a model "
+        "that sees greedy's choice, two more that share its start; `ppo-k8`: "
         "eight sampled rollouts more; `ppo-guided`: best-first search ordered by the policy, "
         "certified where its answer meets the lower bound): the five-seed reports "
         f"`{r}seeds_<tier>/seeds.csv`, one row per (seed, method, suite). Each seed's success, "

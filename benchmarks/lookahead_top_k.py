@@ -106,7 +106,7 @@ def measure(args) -> tuple[list[dict], list[dict]]:
     def solver(method: str, n_max: int, palette, top_k="-"):
         key = (method, n_max, tuple(m.name for m in palette or ()), top_k)
         if key not in solvers:
-            extra = {} if top_k == "-" else {"top_k": top_k}
+            extra = {} if top_k == "-" else {"top_k": top_k, "extra_fallbacks": ()}  # one pass
             solvers[key] = make_solver(method, n_max=n_max, modules=palette,
                                        time_limit=args.time_limit, **extra)  # fmt: skip
         return solvers[key]

@@ -294,16 +294,13 @@ _FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dives
              f"always; None: {FALLBACK:g} at budgets of {SCALE_FROM} modules and more with a "
              "model that sees greedy's choice, the exact lookahead, else 0)",
              LEARNED_CHECKS["fallback"])  # fmt: skip
-_EXTRA_FALLBACKS = (tuple[float, ...] | None, None, "further deterministic passes, one per "
-                    "fallback value (comma-separated), branching from the first where they dock "
-                    "elsewhere; the smallest verified structure is kept (None, with a model "
-                    f"that sees greedy's choice: {','.join(f'{f:g}' for f in EXTRA_FALLBACKS)} "
-                    f"where the first ends with more than {EXTRA_FROM} modules, at budgets of "
-                    f"{SCALE_FROM} modules and more, and "
-                    f"{','.join(f'{f:g}' for f in SMALL_EXTRA_FALLBACKS)} below; else none; "
-                    "empty: none)",
+_EXTRA_FALLBACKS = (tuple[float, ...] | None, None, "more deterministic passes, one per fallback "
+                    "(comma-separated), branching off where they dock elsewhere; the smallest "
+                    "verified structure is kept (None, with a model that sees greedy's choice: "
+                    f"{','.join(f'{v:g}' for v in SMALL_EXTRA_FALLBACKS)} below {SCALE_FROM} "
+                    f"modules, {','.join(f'{v:g}' for v in EXTRA_FALLBACKS)} where the first "
+                    f"ends above {EXTRA_FROM}; else none; empty: none)",
                     LEARNED_CHECKS["extra_fallbacks"])  # fmt: skip
-
 _BUDGET = (int | None, None, "most structures evaluated (None: "
            f"{GUIDED_BUDGET} below {SCALE_FROM} modules, else {BUDGET_PER_MODULE} per module "
            f"of its dives' answer, at least {GUIDED_BUDGET}, at most what "
@@ -326,9 +323,8 @@ for _method in (
     _search("milp", "the mixed-integer program solved by HiGHS, level by level from its LP "
             "relaxation's bound: certified where it finishes within the time limit (up to 128 "
             "modules)", certifies=True, fault=False),
-    Method("ppo", "the learned agent's deterministic pass, with greedy's choice's pass sharing "
-           f"its start below {SCALE_FROM} modules, two more where it ends above {EXTRA_FROM} "
-           "(the shipped model unless model=)",
+    Method("ppo", f"the learned agent's deterministic pass and two more from its start (below "
+           f"{SCALE_FROM} modules, or ending above {EXTRA_FROM}; the shipped model unless model=)",
            options("ppo", model=_MODEL, trust_model=_TRUST,
                    seed=(int, 0, COMMON_OPTIONS["seed"][0], LEARNED_CHECKS["seed"]),
                    samples=(int, 0, "extra sampled rollouts besides the deterministic one",
@@ -340,9 +336,9 @@ for _method in (
            options("ppo-guided", model=_MODEL, trust_model=_TRUST, budget=_BUDGET,
                                   branching=(int, 4, "children expanded per node",
                                              LEARNED_CHECKS["branching"]),
-                                  dive=(bool, True, "first follow the single pass's "
-                                        f"episodes (ppo's: from {SCALE_FROM} modules one per "
-                                        "start type, with its extra fallbacks' branches)",
+                                  dive=(bool, True, "first follow ppo's episodes (with "
+                                        "its extra fallbacks' branches; from "
+                                        f"{SCALE_FROM} modules one per start type)",
                                         LEARNED_CHECKS["dive"]), time_limit=_LEARNED_LIMIT,
                                   top_k=_TOP_K, fallback=_FALLBACK, prune=_PRUNE),
            "modquad_gym.solvers.factory:LearnedSolver", extra="train"),

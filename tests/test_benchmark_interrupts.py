@@ -8,6 +8,7 @@ turns it into an ImportError as numpy's import does when cut short."""
 from __future__ import annotations
 
 import os
+import signal as signal_module
 import subprocess
 import sys
 from pathlib import Path
@@ -82,3 +83,24 @@ def test_importing_the_package_sets_nothing_up():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
                          cwd=ROOT, timeout=60, check=True).stdout  # fmt: skip
     assert out.split() == ["True", "True"]
+
+
+def test_a_signal_the_caller_blocked_stays_blocked(tmp_path):
+    """The set-up holds SIGINT and SIGTERM back only while it runs, then gives the caller's mask
+    back: a SIGTERM the caller had blocked stays blocked (it was unblocked)."""
+    (tmp_path / "sitecustomize.py").write_text(
+        "import atexit, signal\n"
+        "atexit.register(lambda: print('blocked', sorted(int(s) for s in "
+        "signal.pthread_sigmask(signal.SIG_BLOCK, []))))\n"
+    )
+    path = os.pathsep.join(filter(None, (str(tmp_path), str(ROOT), os.environ.get("PYTHONPATH"))))
+    block = lambda: signal_module.pthread_sigmask(  # noqa: E731
+        signal_module.SIG_BLOCK, {signal_module.SIGTERM}
+    )
+    proc = subprocess.run([sys.executable, "-m", SCRIPT, "--help"], capture_output=True,
+                          text=True, env={**os.environ, "PYTHONPATH": path}, cwd=ROOT,
+                          timeout=120, preexec_fn=block)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    (line,) = [ln for ln in proc.stdout.splitlines() if ln.startswith("blocked")]
+    blocked = eval(line.removeprefix("blocked "))
+    assert int(signal_module.SIGTERM) in blocked and int(signal_module.SIGINT) not in blocked

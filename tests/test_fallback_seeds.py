@@ -55,3 +55,25 @@ def test_folders_of_other_tasks_or_variants_are_refused(tmp_path, capsys):
     assert code == 2 and "\n" not in err and "Traceback" not in err
     assert f"FOLDER {tmp_path / 'b'}: not the variants and tasks of the first folder" in err
     assert not (out / "report.md").exists()
+
+
+def test_a_repeated_row_or_another_optimum_is_refused(tmp_path, capsys):
+    """A task with two rows of one variant, or whose certified optimum differs between the
+    folders (not the same task), is refused naming the file or folder; neither is pooled."""
+    write_run(tmp_path / "a", {"single": [4] * 6, "extra": [4] * 6})
+    twice = tmp_path / "twice"
+    write_run(twice, {"single": [4] * 6, "extra": [4] * 6})
+    with open(twice / "rows.csv", "a") as f:
+        f.write(f"7,small,{TASKS[0]},single,5,0.5,4\n")
+    other = tmp_path / "other"
+    write_run(other, {"single": [4] * 6, "extra": [4] * 6})
+    (other / "rows.csv").write_text((other / "rows.csv").read_text().replace(",0.5,4", ",0.5,3"))
+    out = tmp_path / "out"
+    for folder, words in (
+        (twice, f"FOLDER {twice / 'rows.csv'}: task {TASKS[0]} has two single rows"),
+        (other, f"FOLDER {other}: task {TASKS[0]}'s optimum is 3, not 4"),
+    ):
+        code = run_script("fallback_seeds", [str(tmp_path / "a"), str(folder), "--out", str(out)])
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and "\n" not in err and words in err, err
+    assert not (out / "report.md").exists()

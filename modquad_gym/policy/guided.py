@@ -2,10 +2,10 @@
 
 A node is a docking sequence from the single module at (0, 0) (one root per start type with
 several module types); its priority is the sum of ``-log pi(a | s)`` along the sequence, so the
-policy's favourite structures come first, after the dives: the single pass's own episodes
-(:meth:`~.ppo.PPOSolver.deterministic`: from the first start type; from
-:data:`~.models.SCALE_FROM` modules from each, with the extra fallbacks' branches), whose best
-structure is the ``ppo`` answer, so the search never does worse than it. A node keeps its parent's
+policy's favourite structures come first, after the dives: ``ppo``'s own episodes
+(:meth:`~.ppo.PPOSolver.deterministic`, with its extra fallbacks' branches: from the first start
+type; from :data:`~.models.SCALE_FROM` modules from each), whose best structure is the ``ppo``
+answer, so the search never does worse than it. A node keeps its parent's
 environment state (:meth:`~modquad_gym.envs.assembly.env.ModQuadAssemblyEnv.restore`): popping
 it docks one module, whose structure the environment's exact oracle decides. The search stops with a
 certificate as soon as it finds a feasible structure whose module count equals an exact lower
@@ -60,7 +60,7 @@ class GuidedSolver:
             :data:`~.models.GUIDED_BUDGET` and at most as many states as fit in
             :data:`~.models.QUEUE_MEMORY`).
         branching: children queued per expanded structure (the policy's most likely dockings).
-        dive: start with the single pass's episodes (default True; the module doc);
+        dive: start with ``ppo``'s episodes (default True; the module doc);
             False: best-first only.
         time_limit: seconds after which the search stops with what it has (None: none; 60 s by
             :func:`~modquad_gym.solvers.make_solver` and the command line), in the dives too
@@ -68,7 +68,7 @@ class GuidedSolver:
         top_k: as for :class:`~.policy.Policy` (the children decided exactly per step;
             default the model's own, :data:`~.models.MODEL_TOP_K`), unless ``model`` is a
             Policy.
-        fallback: as for :class:`~.ppo.PPOSolver`: the dives' (the single pass's) fallback.
+        fallback: as for :class:`~.ppo.PPOSolver`: the dives' (``ppo``'s) fallback.
         fault: design for that failure (None: none; :meth:`~.policy.Policy.use_fault`):
             every answer is verified to survive it and the bound that certifies is its own.
         fault_margin: the worst margin each task wrench must keep after the failure.
@@ -150,7 +150,7 @@ class GuidedSolver:
 
 
 class Run:
-    """One guided search on a problem: the single pass's episodes as incumbents (:meth:`dive`),
+    """One guided search on a problem: ``ppo``'s episodes as incumbents (:meth:`dive`),
     then best-first over the queue their states left (:meth:`search`).
 
     A node of the queue is (priority, tie-break, parent state or None for a root, action or
@@ -169,9 +169,9 @@ class Run:
         self.state_bytes = 0
 
     def dive(self) -> None:
-        """The single pass's deterministic episodes (:meth:`~.ppo.PPOSolver.deterministic`,
+        """``ppo``'s deterministic episodes (:meth:`~.ppo.PPOSolver.deterministic`,
         with its fallbacks' branches: the plain ``ppo`` answer), from the first start type;
-        from :data:`~.models.SCALE_FROM` modules from each, as the single pass decodes (their
+        from :data:`~.models.SCALE_FROM` modules from each, as ``ppo`` decodes (their
         roots leave the queue). Each state they dock from queues its other likely dockings;
         the budget follows the size the first start's episodes reach."""
         solver = self.solver
