@@ -107,3 +107,22 @@ def test_below_scale_from_it_dives_from_the_first_start_type_only():
             policy.rollout(task, seen=passes, start=policy.starts[0], fallback=fallback)
         dive = make_solver("ppo-guided", 7, modules=types, budget=1).solve(task)
         assert len(first) <= dive.evaluated <= len(passes)
+
+
+def test_below_scale_from_ppos_extra_passes_close_the_search_not_open_it():
+    """Below 16 modules the dive is the policy's own pass and ``ppo``'s other passes run last,
+    where the search ends uncertified: in the dive their structures took the 64-structure
+    budget's place, and the fault tier's fault-8000000 ended at 9 modules (optimum 8)."""
+    from modquad_gym.policy.models import MODELS_DIR
+    from modquad_gym.scoring.tiers import TIERS
+
+    tier = TIERS["fault"]
+    model = str(MODELS_DIR / "ppo_fault" / "model.zip")
+    guided = make_solver("ppo-guided", tier.n_max, model=model, fault="rotor").inner(
+        tier.n_max, None, fault=("rotor", 0.0)
+    )
+    assert guided.single.fallbacks == (guided.fallback,)
+    assert guided.closing.fallbacks == (guided.fallback, *SMALL_EXTRA_FALLBACKS)
+    (task,) = [t for ts in tier.load_suites().values() for t in ts if t.name == "fault-8000000"]
+    result = guided.solve(task)
+    assert result.n_modules == task.meta["optimum"] == 8 and result.evaluated > GUIDED_BUDGET

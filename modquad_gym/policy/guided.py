@@ -3,9 +3,10 @@
 A node is a docking sequence from the single module at (0, 0) (one root per start type with
 several module types); its priority is the sum of ``-log pi(a | s)`` along the sequence, so the
 policy's favourite structures come first, after the dives: ``ppo``'s own episodes
-(:meth:`~.ppo.PPOSolver.deterministic`, with its extra fallbacks' branches: from the first start
-type; from :data:`~.models.SCALE_FROM` modules from each), whose best structure is the ``ppo``
-answer, so the search never does worse than it. A node keeps its parent's
+(:meth:`~.ppo.PPOSolver.deterministic`, with its extra fallbacks' branches, from each start
+type; below :data:`~.models.SCALE_FROM` modules the policy's own pass from the first, and
+``ppo``'s other passes last, where the search ends uncertified), so the search never does worse
+than ``ppo`` (for one module type below :data:`~.models.SCALE_FROM`). A node keeps its parent's
 environment state (:meth:`~modquad_gym.envs.assembly.env.ModQuadAssemblyEnv.restore`): popping
 it docks one module, whose structure the environment's exact oracle decides. The search stops with a
 certificate as soon as it finds a feasible structure whose module count equals an exact lower
@@ -58,7 +59,8 @@ class GuidedSolver:
             below :data:`~.models.SCALE_FROM` modules, else :data:`~.models.BUDGET_PER_MODULE`
             per module the first start type's dives reach, or of n_max without a dive, at least
             :data:`~.models.GUIDED_BUDGET` and at most as many states as fit in
-            :data:`~.models.QUEUE_MEMORY`).
+            :data:`~.models.QUEUE_MEMORY`); below :data:`~.models.SCALE_FROM` modules ``ppo``'s
+            closing passes come on top.
         branching: children queued per expanded structure (the policy's most likely dockings).
         dive: start with ``ppo``'s episodes (default True; the module doc);
             False: best-first only.
@@ -105,8 +107,12 @@ class GuidedSolver:
         self.fallback = fallback_of(self.policy, fallback)
         self.n_max = self.policy.n_max
         self.name = "ppo-guided"
+        small = self.n_max < SCALE_FROM  # ppo's passes there: the dive's, then the closing ones
         self.single = PPOSolver(self.policy, fallback=self.fallback, fault=fault,
-                                fault_margin=fault_margin)  # fmt: skip
+                                fault_margin=fault_margin,
+                                extra_fallbacks=() if small else None)  # fmt: skip
+        self.closing = (PPOSolver(self.policy, fallback=self.fallback, fault=fault,
+                                  fault_margin=fault_margin) if small else None)  # fmt: skip
 
     def solve(self, task: Any) -> SearchResult:
         t0, compiled = now(), compile_seconds()  # see search_result
@@ -119,6 +125,7 @@ class GuidedSolver:
         if bound <= self.n_max:  # else every level is ruled out: proven infeasible
             run.dive()
             run.search()
+            run.close()
         best = run.best
         certified = best is not None and best.n_modules <= bound or bound > self.n_max
         if not certified:
@@ -232,6 +239,21 @@ class Run:
                 node = (cost + _surprise(probs[a]), self.pushes, state, int(a), key)
                 heapq.heappush(self.heap, node)
                 self.pushes += 1
+
+    def close(self) -> None:
+        """Below :data:`~.models.SCALE_FROM` modules, where the search ends uncertified:
+        ``ppo``'s passes from the first start type (its extra ones branch off the dive's),
+        so that the answer is never above ``ppo``'s for one module type. They run after the
+        search, not in the dive, where their structures would take the small budget's place
+        (on the fault tier: 2 of 60 tasks one module above their optimum)."""
+        closing = self.solver.closing
+        if closing is None or self.certified or not self.solver.dive:
+            return
+        start = self.policy.starts[0]
+        self.best, calls = closing.deterministic(
+            self.problem, start, self.best, self.evaluated, self.deadline, bound=self.bound
+        )
+        self.oracle_calls += calls
 
     def search(self) -> None:
         """Best-first over the queue until a structure reaches the bound, the budget of
