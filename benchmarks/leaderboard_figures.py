@@ -34,6 +34,11 @@ CROSSING = 5
 (1), less than leaving the axes (10)."""
 
 
+NEARER = 0.5
+"""What a label costs whose centre lies nearer another point than its own (a reader pairs it
+with that point): less than an overlap, so that it only breaks ties."""
+
+
 def _crosses(a: tuple, b: tuple) -> bool:
     """Whether the segments ``a`` and ``b`` ((x, y) ends, display coordinates) cross: each
     one's ends strictly on both sides of the other's line."""
@@ -61,8 +66,9 @@ def _passes_over(line: tuple, dot, reach: float = 8.0) -> bool:
 def _place_labels(ax, points: list[tuple[float, float, str, str]]) -> None:
     """Each label beside its point, joined to it by a thin line, at the nearest of a few offsets
     where it stays inside the axes and overlaps no label placed before and no point, and its
-    line crosses no line placed before (:data:`CROSSING`) nor passes over another point (the
-    figure's layout must be final: display coordinates are compared)."""
+    line crosses no line placed before (:data:`CROSSING`) nor passes over another point, and it
+    lies nearer its own point than any other (:data:`NEARER`; the figure's layout must be
+    final: display coordinates are compared)."""
     from matplotlib.text import Text
 
     renderer = ax.figure.canvas.get_renderer()
@@ -89,6 +95,8 @@ def _place_labels(ax, points: list[tuple[float, float, str, str]]) -> None:
             )
             clash += CROSSING * sum(_crosses(line, other) for other in lines)
             clash += sum(_passes_over(line, d) for d in dots if d != dot)
+            near = math.dist(line[1], dot)
+            clash += NEARER * any(math.dist(line[1], d) < near for d in dots if d != dot)
             inside = frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0 <= frame.y1
             clash += 0 if inside and box.y1 <= frame.y1 else 10
             if best is None or clash < best[0]:

@@ -36,7 +36,10 @@ def how_made(r: str) -> list[str]:
         f"(`{r}seeds_<tier>/seeds.md`) give the same mean, the interquartile mean of the same "
         "per-seed scores, and judge the tiers' goals. The five-seed files hold no per-task "
         "seconds or oracle calls: those two columns (‡) are the shipped model's one run in the "
-        "tier report.",
+        "tier report. The mixed and fault tiers' five seeds were scored before `ppo` took its "
+        "two more passes below 16 modules (their models are not on this machine; each "
+        "seeds.md says so): their `ppo` rows are the single pass, their tier reports' `ppo` "
+        "(the shipped model) has the passes.",
         f"- **Searches**: the one-run tier reports `{r}tier_<tier>/benchmark.csv` (one row per "
         f"task), and `{r}{RESCORED}` for the searches a tier report did not run "
         f"(`{COMMAND} --rescore-searches --force`). `random` and `genetic` are seeded (seed 0).",

@@ -5,6 +5,7 @@ command."""
 from __future__ import annotations
 
 import csv
+import math
 import re
 from pathlib import Path
 
@@ -310,13 +311,11 @@ def _crosses(a, b) -> bool:
     return side(p, q, r) * side(p, q, t) < 0 and side(r, t, p) * side(r, t, q) < 0
 
 
-def test_leader_lines_do_not_cross():
-    """On a panel like the leaderboard's, points close together (two at 100 %, two just
-    below, each labelled to a side), no two leader lines as drawn cross, and each label is
-    still joined to its own point and overlaps no other."""
+def _labelled(cluster: list) -> tuple:
+    """A panel like the leaderboard's with ``cluster``'s points labelled as drawn: (its
+    labels, the renderer)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    from matplotlib.text import Text
 
     from benchmarks.leaderboard_figures import _place_labels
 
@@ -324,24 +323,58 @@ def test_leader_lines_do_not_cross():
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     ax.set_xscale("log")
-    ax.plot([p[0] for p in CLUSTER], [p[1] for p in CLUSTER], "o", ms=5)
+    ax.plot([p[0] for p in cluster], [p[1] for p in cluster], "o", ms=5)
     ax.set_xlim(0.0016, 0.54)
     ax.set_ylim(-5, 112)
     fig.canvas.draw()
     fig.set_layout_engine("none")
-    _place_labels(ax, [(x, y, name, "k") for x, y, name in CLUSTER])
+    _place_labels(ax, [(x, y, name, "k") for x, y, name in cluster])
     fig.canvas.draw()  # the lines as drawn, in display coordinates
-    renderer = fig.canvas.get_renderer()
-    lines = {a.get_text(): a.arrow_patch.get_path().vertices[[0, -1]] for a in ax.texts}
+    return ax.texts, fig.canvas.get_renderer()
+
+
+def test_leader_lines_do_not_cross():
+    """On a panel like the leaderboard's, points close together (two at 100 %, two just
+    below, each labelled to a side), no two leader lines as drawn cross, and each label is
+    still joined to its own point and overlaps no other."""
+    from matplotlib.text import Text
+
+    texts, renderer = _labelled(CLUSTER)
+    lines = {a.get_text(): a.arrow_patch.get_path().vertices[[0, -1]] for a in texts}
     assert sorted(lines) == sorted(name for _, _, name in CLUSTER)
     names = sorted(lines)
     crossing = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]
                 if _crosses(lines[a], lines[b])]  # fmt: skip
     assert not crossing, crossing
-    boxes = [Text.get_window_extent(a, renderer) for a in ax.texts]
-    for a in ax.texts:
+    boxes = [Text.get_window_extent(a, renderer) for a in texts]
+    for a in texts:
         assert a.xy == next((x, y) for x, y, name in CLUSTER if name == a.get_text())
     assert not any(b.overlaps(c) for i, b in enumerate(boxes) for c in boxes[i + 1 :])
+
+
+PAIR = [(0.0143, 88.2, "ppo"), (0.020, 97.0, "ppo-k8")]
+"""The current tier's ``ppo`` and ``ppo-k8``: each label sat nearer the other's point."""
+
+
+@pytest.mark.parametrize("nearer", [True, False])
+def test_each_label_lies_nearer_its_own_point(monkeypatch, nearer):
+    """Where a place free of clashes lies nearer the label's own point, it is taken (without
+    the rule, ``ppo``'s label lands nearer ``ppo-k8``'s point)."""
+    from matplotlib.text import Text
+
+    from benchmarks import leaderboard_figures
+
+    if not nearer:
+        monkeypatch.setattr(leaderboard_figures, "NEARER", 0)
+    texts, renderer = _labelled(PAIR)
+    dots = {a.get_text(): a.axes.transData.transform(a.xy) for a in texts}
+    own = []
+    for a in texts:
+        box = Text.get_window_extent(a, renderer)
+        centre = ((box.x0 + box.x1) / 2, (box.y0 + box.y1) / 2)
+        mine = math.dist(centre, dots[a.get_text()])
+        own.append(all(math.dist(centre, d) >= mine for n, d in dots.items() if n != a.get_text()))
+    assert all(own) == nearer
 
 
 def test_the_docs_name_every_committed_mixed_row_file_without_the_type_index():
