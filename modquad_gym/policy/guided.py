@@ -244,8 +244,8 @@ class Run:
         """Below :data:`~.models.SCALE_FROM` modules, where the search ends uncertified:
         ``ppo``'s passes from the first start type (its extra ones branch off the dive's),
         so that the answer is never above ``ppo``'s for one module type. They run after the
-        search, not in the dive, where their structures would take the small budget's place
-        (on the fault tier: 2 of 60 tasks one module above their optimum)."""
+        search, not in the dive, where their structures would take the small budget's
+        place."""
         closing = self.solver.closing
         if closing is None or self.certified or not self.solver.dive:
             return
