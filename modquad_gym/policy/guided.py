@@ -5,8 +5,8 @@ several module types); its priority is the sum of ``-log pi(a | s)`` along the s
 policy's favourite structures come first, after the dives: ``ppo``'s own episodes
 (:meth:`~.ppo.PPOSolver.deterministic`, with its extra fallbacks' branches, from each start
 type; below :data:`~.models.SCALE_FROM` modules the policy's own pass from the first, and
-``ppo``'s other passes last, where the search ends uncertified), so the search never does worse
-than ``ppo`` (for one module type below :data:`~.models.SCALE_FROM`). A node keeps its parent's
+``ppo``'s passes from each last, where the search ends uncertified), so the search never does
+worse than ``ppo``. A node keeps its parent's
 environment state (:meth:`~modquad_gym.envs.assembly.env.ModQuadAssemblyEnv.restore`): popping
 it docks one module, whose structure the environment's exact oracle decides. The search stops with a
 certificate as soon as it finds a feasible structure whose module count equals an exact lower
@@ -242,18 +242,18 @@ class Run:
 
     def close(self) -> None:
         """Below :data:`~.models.SCALE_FROM` modules, where the search ends uncertified:
-        ``ppo``'s passes from the first start type (its extra ones branch off the dive's),
-        so that the answer is never above ``ppo``'s for one module type. They run after the
-        search, not in the dive, where their structures would take the small budget's
-        place."""
+        ``ppo``'s passes from each start type, as ``ppo`` decodes (from the first, its extra
+        ones branch off the dive's), so that the answer is never above ``ppo``'s. They run
+        after the search, not in the dive, where their structures would take the small
+        budget's place."""
         closing = self.solver.closing
         if closing is None or self.certified or not self.solver.dive:
             return
-        start = self.policy.starts[0]
-        self.best, calls = closing.deterministic(
-            self.problem, start, self.best, self.evaluated, self.deadline, bound=self.bound
-        )
-        self.oracle_calls += calls
+        for start in self.policy.starts:
+            self.best, calls = closing.deterministic(
+                self.problem, start, self.best, self.evaluated, self.deadline, bound=self.bound
+            )
+            self.oracle_calls += calls
 
     def search(self) -> None:
         """Best-first over the queue until a structure reaches the bound, the budget of
