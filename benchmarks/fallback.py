@@ -143,12 +143,12 @@ def typed_row(raw: dict) -> dict | None:
     return row if known and counts and possible and sizes else None
 
 
-def read_rows(path: Path) -> list[dict]:
-    """The rows of an earlier run's rows.csv; a one-line ValueError naming the file and the
-    1-based row otherwise."""
+def read_rows(path: Path, option: str = "--rows") -> list[dict]:
+    """The rows of an earlier run's rows.csv; a one-line ValueError naming ``option``, the file
+    and the 1-based row otherwise."""
     what = ("benchmarks.fallback (band 2-128, a family or small, task, method, found: at least "
             "the optimum, seconds)")  # fmt: skip
-    return read_rows_csv(path, "--rows", COLUMNS, typed_row, what)
+    return read_rows_csv(path, option, COLUMNS, typed_row, what)
 
 
 def plot(rows: list[dict], names: list[str], rival: str, path: Path) -> None:

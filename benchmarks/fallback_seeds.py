@@ -20,12 +20,11 @@ from benchmarks.common import (
     Distinct,
     bench_args,
     check_task_rows,
-    read_rows_csv,
     report_page,
     run_main,
     write_report,
 )
-from benchmarks.fallback import COLUMNS, typed_row
+from benchmarks.fallback import read_rows
 from modquad_gym.core.options import path_option
 from modquad_gym.scoring.stats import interval, mean
 
@@ -35,10 +34,8 @@ OUTPUTS = ("report.md", "report.csv")
 def small_rows(folder: Path) -> dict[str, dict[str, dict]]:
     """variant -> task -> row of ``folder/rows.csv``'s small tasks: one row per task and
     variant, every task with a row of each (a one-line ValueError naming the file otherwise)."""
-    what = "benchmarks.fallback (band, family, task, method, found, seconds, optimum)"
     path = folder / "rows.csv"
-    rows = [r for r in read_rows_csv(path, "FOLDER", COLUMNS, typed_row, what)
-            if r["family"] == "small"]  # fmt: skip
+    rows = [r for r in read_rows(path, "FOLDER") if r["family"] == "small"]
     if not rows:
         raise ValueError(f"FOLDER {path}: no small tasks")
     check_task_rows(rows, list(dict.fromkeys(r["method"] for r in rows)), f"FOLDER {path}")
