@@ -40,6 +40,7 @@ from benchmarks.common import (
     command_as_run,
     int_option,
     parse_bench_args,
+    read_input_text,
     read_rows_csv,
     run_main,
     write_csv,
@@ -218,7 +219,8 @@ def main(argv: list[str] | None = None) -> int:
     command = command_as_run("fault_delay", argv)
     if args.render:
         page = args.out / "report.md"
-        print(render(args.out, old, command, page.read_text() if page.is_file() else ""))
+        kept = read_input_text(page, "--render") if page.is_file() else ""
+        print(render(args.out, old, command, kept))
         return 0
     tasks = [
         draw_task(make_generator(src), CALIBRATION_SEED0 + 1000 * k + i, f"{src}-cal-{i}")
