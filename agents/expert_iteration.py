@@ -134,14 +134,14 @@ def replay_demos(model: str, n_max: int, n_tasks: int, seed: int):
 
 def load_for_training(model: Path, n_max: int):
     """The MaskablePPO at ``model`` with the spaces of the environment at ``n_max`` (a
-    size-free policy: the same weights act at any size)."""
+    size-free policy: the same weights act at any size), naming no TensorBoard folder."""
     from sb3_contrib import MaskablePPO
 
     from modquad_gym.policy.policy import Policy
 
     env = Policy(model, n_max=n_max).env
     spaces = {"observation_space": env.observation_space, "action_space": env.action_space}
-    return MaskablePPO.load(str(model), custom_objects=spaces, device="cpu")
+    return MaskablePPO.load(str(model), custom_objects=spaces, device="cpu", tensorboard_log=None)
 
 
 def run(args: argparse.Namespace) -> list[dict]:

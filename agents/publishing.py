@@ -7,13 +7,17 @@ file the run lacks is removed from it (no learning curve or NumPy export of the 
 replaces stays beside the new one). The run is checked first, and nothing is replaced
 otherwise: its model must play the tier's environment, and a slot that serves other sizes (the
 default model: every learned method below 16 modules, the large tier) takes only the
-size-free network (``--architecture candidates``).
+size-free network (``--architecture candidates``). The installed model.zip names no TensorBoard
+folder (:func:`without_log_folder`).
 """
 
 from __future__ import annotations
 
+import filecmp
 import json
 import shutil
+import struct
+import zipfile
 from pathlib import Path
 
 from agents.checks import check_model
@@ -23,6 +27,9 @@ from modquad_gym.core.outputs import atomic_write
 from modquad_gym.policy.inference import export, export_path, exported
 from modquad_gym.policy.models import SCALE_FROM
 from modquad_gym.scoring.tiers import TIERS
+
+LOCAL_HEADER = struct.Struct("<4s2B4HL2L2H")
+"""A zip member's local header before its name and extra field (``zipfile.structFileHeader``)."""
 
 
 def run_tier(config: Path) -> str:
@@ -82,8 +89,9 @@ def publish(run: Path, model: Path | None = None) -> Path:
     the model.zip path to write; default the tier's, :attr:`~modquad_gym.scoring.tiers.Tier.
     model`) and return it. The run is checked first (:func:`check_publishable`): nothing is
     replaced otherwise. Every file of :data:`~agents.training.RUN_FILES` the run lacks is
-    removed from the slot; the NumPy export is the run's own when fresh, else written anew
-    (none for a grid MLP)."""
+    removed from the slot; the model.zip names no TensorBoard folder (:func:`without_log_folder`);
+    the NumPy export is the run's own when fresh for the installed bytes, else written anew (none
+    for a grid MLP)."""
     run = Path(run)
     tier = run_tier(run / "config.json")
     check_publishable(run, tier)
@@ -94,13 +102,51 @@ def publish(run: Path, model: Path | None = None) -> Path:
         path = target if name == "model.zip" else target.with_name(name)
         if name == actor.name:  # the export: below
             continue
+        copy = without_log_folder if name == "model.zip" else shutil.copyfile
         if (run / name).is_file():
-            atomic_write(path, lambda tmp, n=name: shutil.copyfile(run / n, tmp))
+            atomic_write(path, lambda tmp, n=name, c=copy: c(run / n, tmp))
         else:
             path.unlink(missing_ok=True)
-    if exported(run / "model.zip") is not None:  # the run's export, of these very bytes
+    if exported(run / "model.zip") is not None and filecmp.cmp(run / "model.zip", target, False):
+        # the run's export, of these very bytes
         atomic_write(export_path(target), lambda tmp: shutil.copyfile(actor, tmp))
     elif export(target) is None:  # a grid MLP: no NumPy export, and none of the old model
         export_path(target).unlink(missing_ok=True)
     print(f"published {run} as the shipped model {target}")
     return target
+
+
+def without_log_folder(source: Path, target: Path) -> None:
+    """Write the saved model ``source`` to ``target`` naming no TensorBoard folder
+    (``tensorboard_log`` null in its ``data``): SB3 saves the folder a model was trained with
+    (a resumed model keeps its start's), and its ``learn`` after ``MaskablePPO.load`` writes
+    events there, on the user's machine, unless given a logger. Only ``data`` changes: every
+    other member keeps its bytes, place, date, compression and header. A model that names no
+    folder is copied byte for byte."""
+    with zipfile.ZipFile(source) as archive:
+        data = json.loads(archive.read("data"))
+        if not isinstance(data, dict) or data.get("tensorboard_log") is None:
+            shutil.copyfile(source, target)
+            return
+        data["tensorboard_log"] = None
+        written = json.dumps(data, indent=4).encode()  # as SB3 writes it
+        with Path(source).open("rb") as raw, zipfile.ZipFile(target, "w") as out:
+            for info in archive.infolist():
+                body = written if info.filename == "data" else archive.read(info)
+                with out.open(info, "w", force_zip64=zip64_header(raw, info)) as fh:
+                    fh.write(body)
+
+
+def zip64_header(raw, info: zipfile.ZipInfo) -> bool:
+    """Whether the local header of the zip member ``info`` (in the open file ``raw``) holds a
+    ZIP64 field (SB3 forces one on its ``.pth`` members; copied, so is it)."""
+    raw.seek(info.header_offset)
+    fields = LOCAL_HEADER.unpack(raw.read(LOCAL_HEADER.size))
+    raw.seek(fields[10], 1)  # the name
+    extra = raw.read(fields[11])
+    while len(extra) >= 4:
+        kind, size = struct.unpack("<2H", extra[:4])
+        if kind == 1:
+            return True
+        extra = extra[4 + size :]
+    return False

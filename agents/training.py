@@ -305,9 +305,10 @@ def log_name(out: Path, tensorboard: Path) -> str:
 
 
 def _new_model(config: TrainConfig, venv: Any, MaskablePPO: Any) -> Any:
-    """A fresh seeded MaskablePPO with the recipe's hyperparameters, or the ``resume`` model."""
+    """A fresh seeded MaskablePPO with the recipe's hyperparameters, or the ``resume`` model
+    (naming no TensorBoard folder, which SB3 would save again: the run sets its own logger)."""
     if config.resume is not None:
-        return MaskablePPO.load(config.resume, env=venv, device="cpu")
+        return MaskablePPO.load(config.resume, env=venv, device="cpu", tensorboard_log=None)
     hp = config.ppo_hyperparameters()
     del hp["net_arch"], hp["hidden"]  # the network's: config.policy()
     policy, policy_kwargs = config.policy()

@@ -10,6 +10,7 @@ import json
 import shutil
 import subprocess
 import sys
+import zipfile
 
 import numpy as np
 import pytest
@@ -234,6 +235,18 @@ def test_every_shipped_model_has_a_fresh_export(model):
         weights = read_model(model).weights  # the zip's own: the export holds them exactly
         for key in (f"{name}.{p}" for name in LAYERS for p in ("weight", "bias")):
             np.testing.assert_array_equal(data[key], weights[f"pi_features_extractor.{key}"])
+
+
+@pytest.mark.parametrize(
+    "model", sorted(MODELS_DIR.glob("*/model.zip")), ids=lambda p: p.parent.name
+)
+def test_no_shipped_model_names_a_tensorboard_folder(model):
+    """SB3's ``learn`` after ``MaskablePPO.load`` writes TensorBoard events to the saved
+    ``tensorboard_log`` unless given a logger: a shipped model names none (a developer's folder
+    would be created on the user's machine; fix: ``agents.publishing.without_log_folder``, then
+    re-export)."""
+    with zipfile.ZipFile(model) as archive:
+        assert json.loads(archive.read("data"))["tensorboard_log"] is None
 
 
 def test_solve_with_ppo_runs_without_torch():

@@ -1,11 +1,14 @@
 """Publishing a run as a shipped model (``train.py --publish-run``, ``agents.publishing``): the
 slot then holds that run's files only, a grid MLP never becomes the size-free default model,
-and the docs' recipe for ``ppo_scale`` ships every file of that slot."""
+no shipped model names a TensorBoard folder, and the docs' recipe for ``ppo_scale`` ships
+every file of that slot."""
 
 from __future__ import annotations
 
+import json
 import re
 import shlex
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -80,6 +83,62 @@ def test_a_grid_mlp_is_never_the_size_free_default_model(tmp_path, untrained_run
         publish(run, slot)
     assert {p.name: p.read_bytes() for p in slot.parent.iterdir()} == STALE
     assert not (tmp_path / "new").exists()
+
+
+def _naming_a_folder(model: Path, folder: Path) -> Path:
+    """``model`` saved again by SB3 naming the TensorBoard folder ``folder`` (as a model
+    trained with ``tensorboard_log=folder`` is, and one loaded from it)."""
+    from sb3_contrib import MaskablePPO
+
+    MaskablePPO.load(model, device="cpu", tensorboard_log=str(folder)).save(model)
+    return model
+
+
+def _members(path: Path) -> list[tuple[str, bytes]]:
+    with zipfile.ZipFile(path) as archive:
+        return [(info.filename, archive.read(info)) for info in archive.infolist()]
+
+
+def test_a_published_model_names_no_tensorboard_folder(tmp_path, untrained_run):
+    """A run whose model names the folder it logged to (a developer's path): the shipped copy
+    names none, so SB3's ``learn`` after ``MaskablePPO.load`` on a user's machine writes no
+    events there; every other member is the run's, and the export is of the installed bytes."""
+    from sb3_contrib import MaskablePPO
+
+    from agents.publishing import publish
+    from modquad_gym.policy.inference import exported
+
+    run = untrained_run("logged")
+    _naming_a_folder(run / "model.zip", tmp_path / "dev-runs")
+    slot = publish(run, _slot(tmp_path / "shipped"))
+    ran, shipped = _members(run / "model.zip"), _members(slot)
+    assert json.loads(dict(ran)["data"])["tensorboard_log"] == str(tmp_path / "dev-runs")
+    assert json.loads(dict(shipped)["data"]) == {**json.loads(dict(ran)["data"]),
+                                                 "tensorboard_log": None}  # fmt: skip
+    assert [m for m in shipped if m[0] != "data"] == [m for m in ran if m[0] != "data"]
+    assert [m[0] for m in shipped] == [m[0] for m in ran]
+    assert MaskablePPO.load(slot, device="cpu").tensorboard_log is None
+    assert exported(slot) is not None
+
+
+def test_a_resumed_or_iterated_model_names_no_tensorboard_folder(tmp_path, untrained_run):
+    """``train.py --resume`` and expert iteration load a model that may name a folder: the
+    model they train and save names none (SB3 would keep its start's)."""
+    from sb3_contrib import MaskablePPO
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from agents.config import TrainConfig
+    from agents.expert_iteration import load_for_training
+    from agents.training import _new_model
+    from modquad_gym.policy.ppo import make_env
+
+    start = _naming_a_folder(untrained_run("start") / "model.zip", tmp_path / "dev-runs")
+    config = TrainConfig(out=tmp_path / "resumed", tensorboard=tmp_path / "tb", resume=start)
+    venv = DummyVecEnv([lambda: make_env(**config.env_kwargs_full)])
+    assert MaskablePPO.load(start, device="cpu").tensorboard_log is not None
+    assert _new_model(config, venv, MaskablePPO).tensorboard_log is None
+    assert load_for_training(start, 9).tensorboard_log is None
+    venv.close()
 
 
 def test_the_docs_recipe_for_ppo_scale_ships_every_file_of_its_slot():
