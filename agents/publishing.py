@@ -16,7 +16,6 @@ from __future__ import annotations
 import filecmp
 import json
 import shutil
-import struct
 import zipfile
 from pathlib import Path
 
@@ -27,9 +26,6 @@ from modquad_gym.core.outputs import atomic_write
 from modquad_gym.policy.inference import export, export_path, exported
 from modquad_gym.policy.models import SCALE_FROM
 from modquad_gym.scoring.tiers import TIERS
-
-LOCAL_HEADER = struct.Struct("<4s2B4HL2L2H")
-"""A zip member's local header before its name and extra field (``zipfile.structFileHeader``)."""
 
 
 def run_tier(config: Path) -> str:
@@ -121,8 +117,8 @@ def without_log_folder(source: Path, target: Path) -> None:
     (``tensorboard_log`` null in its ``data``): SB3 saves the folder a model was trained with
     (a resumed model keeps its start's), and its ``learn`` after ``MaskablePPO.load`` writes
     events there, on the user's machine, unless given a logger. Only ``data`` changes: every
-    other member keeps its bytes, place, date, compression and header. A model that names no
-    folder is copied byte for byte."""
+    other member keeps its bytes, place and compression. A model that names no folder is
+    copied byte for byte."""
     with zipfile.ZipFile(source) as archive:
         data = json.loads(archive.read("data"))
         if not isinstance(data, dict) or data.get("tensorboard_log") is None:
@@ -130,23 +126,6 @@ def without_log_folder(source: Path, target: Path) -> None:
             return
         data["tensorboard_log"] = None
         written = json.dumps(data, indent=4).encode()  # as SB3 writes it
-        with Path(source).open("rb") as raw, zipfile.ZipFile(target, "w") as out:
+        with zipfile.ZipFile(target, "w") as out:
             for info in archive.infolist():
-                body = written if info.filename == "data" else archive.read(info)
-                with out.open(info, "w", force_zip64=zip64_header(raw, info)) as fh:
-                    fh.write(body)
-
-
-def zip64_header(raw, info: zipfile.ZipInfo) -> bool:
-    """Whether the local header of the zip member ``info`` (in the open file ``raw``) holds a
-    ZIP64 field (SB3 forces one on its ``.pth`` members; copied, so is it)."""
-    raw.seek(info.header_offset)
-    fields = LOCAL_HEADER.unpack(raw.read(LOCAL_HEADER.size))
-    raw.seek(fields[10], 1)  # the name
-    extra = raw.read(fields[11])
-    while len(extra) >= 4:
-        kind, size = struct.unpack("<2H", extra[:4])
-        if kind == 1:
-            return True
-        extra = extra[4 + size :]
-    return False
+                out.writestr(info, written if info.filename == "data" else archive.read(info))
