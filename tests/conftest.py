@@ -72,3 +72,11 @@ def untrained_run(tmp_path_factory):
         return config.out
 
     return make
+
+
+@pytest.fixture(scope="module")
+def blind_model(untrained_run):
+    """The model.zip of an untrained size-free network of the support rows alone
+    (``lookahead=True``): a model that does not see greedy's choice, as models before the exact
+    lookahead were (no shipped model is one)."""
+    return untrained_run("blind", env_kwargs={"lookahead": True}) / "model.zip"

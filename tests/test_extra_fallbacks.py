@@ -13,7 +13,6 @@ from modquad_gym.policy.models import (
     DEFAULT_MODEL,
     EXTRA_FALLBACKS,
     EXTRA_FROM,
-    MODELS_DIR,
     SCALE_FROM,
     SMALL_EXTRA_FALLBACKS,
 )
@@ -24,8 +23,6 @@ from modquad_gym.scoring.suites import draw_task
 from modquad_gym.search import verified
 from modquad_gym.solvers import make_solver
 from modquad_gym.tasks import make_generator
-
-DYNAMIC_MODEL = MODELS_DIR / "ppo_dynamic" / "model.zip"  # trained on support rows alone
 
 
 def small_tasks(n: int) -> list:
@@ -80,7 +77,7 @@ def test_without_extra_passes_it_is_the_single_pass():
             assert result.structure.key == reference.key
 
 
-def test_the_default_follows_the_budget_and_what_the_model_sees():
+def test_the_default_follows_the_budget_and_what_the_model_sees(blind_model):
     ppo = make_solver("ppo", 7)
     small = ppo.inner(7, None)  # the policy's pass, greedy's choice's beside it at every size
     assert small.fallbacks == (0.0, *SMALL_EXTRA_FALLBACKS) and small.extra_from == 0
@@ -88,7 +85,7 @@ def test_the_default_follows_the_budget_and_what_the_model_sees():
     expected = tuple(dict.fromkeys((scale.fallback, *EXTRA_FALLBACKS)))
     assert scale.fallbacks == expected and scale.extra_from == EXTRA_FROM
     for n_max in (7, SCALE_FROM):  # a model blind to greedy's choice: none
-        assert PPOSolver(str(DYNAMIC_MODEL), n_max=n_max).fallbacks == (0.0,)
+        assert PPOSolver(str(blind_model), n_max=n_max).fallbacks == (0.0,)
     given = make_solver("ppo", SCALE_FROM, extra_fallbacks=0.5).inner(SCALE_FROM, None)
     assert given.extra_from == 0  # given values run whatever the first pass's size
     assert make_solver("ppo", 7, extra_fallbacks=0.5).inner(7, None).fallbacks == (0.0, 0.5)
@@ -100,10 +97,10 @@ def test_bad_values_are_refused(bad):
         make_solver("ppo", 7, extra_fallbacks=bad).inner(7, None)
 
 
-def test_a_model_blind_to_greedys_choice_refuses_them():
+def test_a_model_blind_to_greedys_choice_refuses_them(blind_model):
     with pytest.raises(ValueError, match="extra_fallbacks=0.5: the model .* does not see"):
-        PPOSolver(str(DYNAMIC_MODEL), n_max=7, extra_fallbacks=(0.5,))
-    assert PPOSolver(str(DYNAMIC_MODEL), n_max=7, extra_fallbacks=(0.0,)).fallbacks == (0.0,)
+        PPOSolver(str(blind_model), n_max=7, extra_fallbacks=(0.5,))
+    assert PPOSolver(str(blind_model), n_max=7, extra_fallbacks=(0.0,)).fallbacks == (0.0,)
 
 
 def test_only_ppo_takes_them():

@@ -12,14 +12,12 @@ import pytest
 
 from modquad_gym.cli import main
 from modquad_gym.envs.assembly.lookahead import GREEDY
-from modquad_gym.policy.models import DEFAULT_MODEL, FALLBACK, MODELS_DIR, SCALE_FROM
+from modquad_gym.policy.models import DEFAULT_MODEL, FALLBACK, SCALE_FROM
 from modquad_gym.policy.policy import Policy
 from modquad_gym.policy.ppo import PPOSolver
 from modquad_gym.scoring.suites import draw_task
 from modquad_gym.solvers import make_solver
 from modquad_gym.tasks import make_generator
-
-DYNAMIC_MODEL = MODELS_DIR / "ppo_dynamic" / "model.zip"  # trained on support rows alone
 
 
 def tasks(n: int) -> list:
@@ -73,27 +71,28 @@ def test_each_docking_is_the_one_the_rule_names():
 
 
 @pytest.mark.parametrize("method", ["ppo", "ppo-guided"])
-def test_the_default_follows_the_budget_and_what_the_model_sees(method):
+def test_the_default_follows_the_budget_and_what_the_model_sees(method, blind_model):
     ppo = make_solver(method, 7)
     assert ppo.inner(7, None).fallback == 0.0  # small budgets: the policy alone
     assert ppo.inner(SCALE_FROM, None).fallback == FALLBACK
     assert make_solver(method, 7, fallback=0.5).inner(7, None).fallback == 0.5
     assert make_solver(method, 7, fallback=0.0).inner(SCALE_FROM, None).fallback == 0.0
-    assert PPOSolver(str(DYNAMIC_MODEL), n_max=7).fallback == 0.0  # no greedy choice to take
+    assert PPOSolver(str(blind_model), n_max=7).fallback == 0.0  # no greedy choice to take
 
 
 @pytest.mark.parametrize(
     ("model", "value", "words"),
     [
-        (DYNAMIC_MODEL, 0.5, "fallback=0.5: the model"),
+        ("blind", 0.5, "fallback=0.5: the model"),
         (DEFAULT_MODEL, 1.5, "fallback must be <= 1"),
         (DEFAULT_MODEL, -0.1, "fallback must be >= 0"),
     ],
 )
 @pytest.mark.parametrize("method", ["ppo", "ppo-guided"])
 def test_a_fallback_the_model_cannot_take_is_refused_by_both_doors(
-    method, model, value, words, capsys
+    method, model, value, words, capsys, blind_model
 ):
+    model = blind_model if model == "blind" else model
     with pytest.raises(ValueError, match=words):
         make_solver(method, 7, model=str(model), fallback=value)
     argv = ["solve", "--task", "example:screwdriver", "--method", method, "--model", str(model),
