@@ -42,6 +42,7 @@ from __future__ import annotations
 
 from modquad_gym.core.compile_clock import now
 from modquad_gym.geometry.structure import Structure
+from modquad_gym.search import milp_worker
 from modquad_gym.search.bounds import bound_levels
 from modquad_gym.search.heuristic import Deadline, impossible_result
 from modquad_gym.search.problem import (
@@ -77,6 +78,7 @@ def milp_lower_bound(
     relaxation is undecided within ``time_limit`` seconds (or too large to build) ends the
     scan there. Count vectors the exact count and level bounds exclude are skipped."""
     t0 = now()  # scipy's first import counts against the limit
+    milp_worker.start()  # in the main thread: its boot overlaps scipy's import here
     from modquad_gym.search import milp_program as program  # scipy: on first use
 
     check_supported(problem)
@@ -96,9 +98,10 @@ def milp_search(problem: SearchProblem, *, time_limit: float = DEFAULT_TIME_LIMI
     level by level from the proved lower bound (the exact bounds, then the LP relaxation):
     certified when it finishes within ``time_limit`` seconds, else no structure and the first
     level it did not refute as the proved bound. The limit holds even where HiGHS overruns its
-    own: a program of more than :data:`~.milp_program.IN_PROCESS_NONZEROS` nonzeros is solved in
-    a worker process killed :data:`~.milp_worker.GRACE` (0.5) s past the deadline (its first
-    start, about 0.5-1 s, and scipy's first import count against the limit). Up to
+    own, and a Ctrl-C or SIGTERM ends it at once: in the main thread (elsewhere, a program of more
+    than :data:`~.milp_program.IN_PROCESS_NONZEROS` nonzeros) HiGHS runs in a worker process
+    killed :data:`~.milp_worker.GRACE` (0.5) s past the deadline or at an interrupt (its first
+    start, about 0.5 s, and scipy's first import count against the limit). Up to
     :data:`MAX_MODULES` modules; the task's arguments as for
     :func:`~.exhaustive.exhaustive_search`; ``fault=`` is refused."""
     check_supported(problem)

@@ -42,14 +42,18 @@ limit itself is kept by :mod:`.milp_worker`): up to 2.1 M (96 modules) HiGHS too
 process, before the worker."""
 
 IN_PROCESS_NONZEROS = 50_000
-"""Programs with at most this many constraint nonzeros are solved in this process (no worker to
-start or feed; their answers and times as before), larger ones in the worker of
-:mod:`.milp_worker`, killed at the deadline. HiGHS overran a 1 s limit by at most 0.06 s below
-100 k nonzeros (one type, three types, a dynamic task with inertia; its whole presolve took
-0.6 s at 71 k), by 0.3 s at 155 k, 2.3 s at 385 k and 19 s at 860 k (a loaded 2-core machine)."""
+"""Outside the main thread, programs with at most this many constraint nonzeros are solved in
+this process (no worker to start or feed), larger ones in the worker of :mod:`.milp_worker`,
+killed at the deadline; in the main thread every program goes to the worker, which a Ctrl-C or
+SIGTERM kills at once (a small one is tried here while it boots: :mod:`.milp_worker`). HiGHS
+overran a 1 s limit by at most 0.06 s below 100 k nonzeros (one type, three types, a dynamic
+task with inertia; its whole presolve took 0.6 s at 71 k), by 0.3 s at 155 k, 2.3 s at 385 k
+and 19 s at 860 k (a loaded 2-core machine)."""
 
 INFEASIBLE = 2
 """scipy.optimize.milp's status of an infeasible program."""
+TIME_LIMIT = 1
+"""scipy.optimize.milp's status when it stopped at a limit (time, nodes, iterations)."""
 
 
 def window(n: int) -> np.ndarray:
@@ -334,16 +338,25 @@ class LevelProgram:
         return np.zeros(n_var), cons, integrality, Bounds(low, high)
 
     def solve(self, relax: bool, seconds: float) -> OptimizeResult:
-        """HiGHS's result (scipy's OptimizeResult) within ``seconds``, building included: a
-        program of more than :data:`IN_PROCESS_NONZEROS` nonzeros in the worker of
-        :mod:`.milp_worker`, killed ``GRACE`` seconds past the limit (status 1, no ``x``)."""
+        """HiGHS's result (scipy's OptimizeResult) within ``seconds``, building included: in
+        the worker of :mod:`.milp_worker`, killed ``GRACE`` seconds past the limit (status 1, no
+        ``x``) or at a Ctrl-C or SIGTERM; only a program of at most :data:`IN_PROCESS_NONZEROS`
+        nonzeros outside the main thread, or tried while the worker boots (at most ``BOOT_TRY``
+        seconds), in this process."""
         t0 = now()
         c, cons, integrality, bounds = self.build(relax)
         left = seconds - (now() - t0)
         options = {"time_limit": max(left, 1e-3), "presolve": True}
         kwargs = dict(c=c, constraints=cons, integrality=integrality, bounds=bounds)
-        if cons.A.nnz <= IN_PROCESS_NONZEROS:
+        small = cons.A.nnz <= IN_PROCESS_NONZEROS
+        if small and not milp_worker.in_main_thread():
             return milp(**kwargs, options=options)
+        if small and not milp_worker.booted():
+            short = min(options["time_limit"], milp_worker.BOOT_TRY)
+            res = milp(**kwargs, options={**options, "time_limit": short})
+            if res.status != TIME_LIMIT or short == options["time_limit"]:
+                return res
+            left = seconds - (now() - t0)
         reply = milp_worker.solve({**kwargs, "options": options}, left) if left > 0 else None
         if reply is None:
             return OptimizeResult(status=1, x=None, message="time limit reached (worker killed)")

@@ -9,6 +9,14 @@ which changes every solve. So :class:`~.milp_program.LevelProgram` solves a larg
 first use, so a user's script without a ``__main__`` guard is never re-imported) and waits for
 the answer until HiGHS's own limit plus :data:`GRACE`; past that it kills the worker (the next
 solve starts a new one) and the caller treats the level as undecided.
+
+It also keeps a Ctrl-C or SIGTERM prompt: Python runs signal handlers in the main thread between
+bytecodes, so a signal that lands while HiGHS runs in that thread waits until HiGHS returns (one
+call on the ``mixed`` tier ran 52 s of its 60 s limit). Waiting on the worker, the handler runs at
+once and the worker is killed. So in the main thread every program is solved here once the
+worker has booted (:func:`in_main_thread`, :func:`booted`; :func:`start` boots it early, beside
+the caller's own work); while it boots (about 0.5 s) the caller tries a small program in its
+own process for at most :data:`BOOT_TRY` seconds, a bound on the wait for a signal there.
 """
 
 from __future__ import annotations
@@ -27,7 +35,14 @@ GRACE = 0.5
 """Seconds the worker gets past HiGHS's own time limit (which it usually keeps) before it is
 killed."""
 
-_BOOT = "import runpy, sys; runpy.run_path(sys.argv[1], run_name='__main__')"
+BOOT_TRY = 0.5
+"""Seconds a small program is tried in the caller's main thread while the worker boots (as
+long as a boot: 0.43-0.57 s measured); unfinished, it goes to the worker."""
+
+_BOOT = (
+    "import signal; signal.signal(signal.SIGINT, signal.SIG_IGN); "  # Ctrl-C: the caller's
+    "import runpy, sys; runpy.run_path(sys.argv[1], run_name='__main__')"
+)
 _READY = "ready"
 _lock = threading.Lock()
 _worker: _Worker | None = None
@@ -88,31 +103,72 @@ class _Worker:
             self.kill()
 
 
+def in_main_thread() -> bool:
+    """Whether the caller runs where Python runs signal handlers (the main thread): there every
+    program goes to the worker, so that a Ctrl-C or SIGTERM never waits for HiGHS."""
+    return threading.current_thread() is threading.main_thread()
+
+
+def _current() -> _Worker:
+    """This process's worker, started when there is none (or it ended); ``_lock`` held."""
+    global _worker
+    if _worker is None or _worker.pid != os.getpid() or _worker.proc.poll() is not None:
+        _worker = _Worker()
+    return _worker
+
+
+def start() -> None:
+    """In the main thread, start the worker now without waiting for it (nothing when one runs
+    or another thread is solving): its boot (about 0.5 s, scipy's import) overlaps the caller's
+    own set-up."""
+    if in_main_thread() and _lock.acquire(blocking=False):
+        try:
+            _current()
+        finally:
+            _lock.release()
+
+
+def booted() -> bool:
+    """Whether this process's worker is ready for a program (one is started when there is
+    none or it ended; nothing is waited for)."""
+    if not _lock.acquire(blocking=False):
+        return False  # another thread is solving
+    try:
+        worker = _current()
+        if not worker.ready:
+            worker.ready = worker.reply(time.perf_counter()) == _READY
+        return worker.ready
+    except (TimeoutError, WorkerError):  # still booting, or it ended (the next call restarts)
+        return False
+    finally:
+        _lock.release()
+
+
 def solve(kwargs: dict, seconds: float) -> tuple[int, object, str] | None:
     """``(status, x, message)`` of :func:`scipy.optimize.milp` on ``kwargs``, run in the
     worker with HiGHS's ``time_limit`` set to what is left of ``seconds`` once the worker is
     ready; None when it has no answer ``GRACE`` seconds after that (it is killed then; one still
-    starting is kept). A worker that ends without an answer raises :class:`WorkerError`."""
+    starting is kept). A worker that ends without an answer raises :class:`WorkerError`; an
+    interrupt (Ctrl-C, SIGTERM) kills it and goes on at once."""
     global _worker
     until = time.perf_counter() + seconds + GRACE
     if not _lock.acquire(timeout=seconds + GRACE):
         return None
     try:
-        if _worker is None or _worker.pid != os.getpid() or _worker.proc.poll() is not None:
-            _worker = _Worker()
-        if not _worker.ready:
-            try:
-                _worker.reply(until - GRACE)  # the ready signal: its imports are done
-            except TimeoutError:
-                return None  # it goes on starting, for the next solve
-            _worker.ready = True
-        left = until - GRACE - time.perf_counter()
-        options = {**kwargs.get("options", {}), "time_limit": max(left, 1e-3)}
+        worker = _current()
         try:
-            _worker.send({**kwargs, "options": options})
-            return _worker.reply(until)
+            if not worker.ready:
+                try:
+                    worker.reply(until - GRACE)  # the ready signal: its imports are done
+                except TimeoutError:
+                    return None  # it goes on starting, for the next solve
+                worker.ready = True
+            left = until - GRACE - time.perf_counter()
+            options = {**kwargs.get("options", {}), "time_limit": max(left, 1e-3)}
+            worker.send({**kwargs, "options": options})
+            return worker.reply(until)
         except BaseException:  # a time-out, a crash, an interrupt: its state is unknown
-            _worker.kill()
+            worker.kill()
             _worker = None
             raise
     except TimeoutError:
@@ -127,10 +183,20 @@ def _close() -> None:
         _worker.close()
 
 
+def _follow(parent: int) -> None:
+    """End this worker once its caller is gone (killed, so never killing it; HiGHS, which lets
+    this thread run, would go on to its time limit)."""
+    while os.getppid() == parent:
+        time.sleep(0.25)
+    os._exit(0)
+
+
 def serve() -> None:
     """The worker's loop: a pickled ``milp`` keyword dict in, ``(status, x, message)`` out,
-    until its input ends. HiGHS's own output goes to stderr, never into the replies."""
+    until its input ends or its caller is gone. HiGHS's own output goes to stderr, never into
+    the replies."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the caller's, who kills it
+    threading.Thread(target=_follow, args=(os.getppid(),), daemon=True).start()
     out = os.fdopen(os.dup(1), "wb")
     os.dup2(2, 1)
     from scipy.optimize import milp
