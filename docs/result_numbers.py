@@ -136,7 +136,15 @@ def on_page_markdown(markdown, page, config, files):
     return fill(markdown)
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    """Rewrite the pages in place (no options: an unknown one is refused, exit 2)."""
+    import argparse
+
+    argparse.ArgumentParser(
+        prog="python docs/result_numbers.py",
+        description="Fill the docs' quoted results (<!--n KEY-->...<!--/n-->) in README.md and "
+        "docs/*.md from the committed reports under results/.",
+    ).parse_args(argv)
     for page in PAGES:
         text = page.read_text()
         filled = fill(text)

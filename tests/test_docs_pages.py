@@ -250,3 +250,15 @@ def test_the_learned_designer_quotes_its_reports_and_the_shipped_configs():
         assert f'"{c["kept_model"]}"' in rule, name
         assert f"{c['validation']['n_tasks']} validation tasks" in rule, name
         assert f"{c.get('best_checkpoint_timesteps', c['kept_model_timesteps']):,}" in rule, name
+
+
+def test_the_page_filler_refuses_an_unknown_option():
+    """``python docs/result_numbers.py`` takes no options: one it does not know is refused
+    (exit 2), never taken as leave to rewrite the pages."""
+    import subprocess
+
+    before = (ROOT / "README.md").read_bytes()
+    run = subprocess.run([sys.executable, "docs/result_numbers.py", "--bogus"], cwd=ROOT,
+                         capture_output=True, text=True)  # fmt: skip
+    assert run.returncode == 2 and "--bogus" in run.stderr
+    assert (ROOT / "README.md").read_bytes() == before

@@ -141,3 +141,59 @@ def test_a_worker_whose_caller_is_killed_ends():
     for pid in left:
         os.kill(pid, signal.SIGKILL)
     assert not left, "the worker outlived its caller by 5 s"
+
+
+def _paper_task():
+    from modquad_gym.scoring.tiers import get_tier
+
+    return get_tier("current").load_suites(limit=1)["heldout_paper"][0]
+
+
+def test_a_search_waits_for_no_other_threads_worker():
+    """While another thread holds the worker (a large program of another search), a small
+    program of the main thread is solved in its own process, as before the worker took the main
+    thread's programs: the same certified answer as alone, not a level left undecided."""
+    import threading
+
+    import modquad_gym as mq
+    from modquad_gym.search import milp_worker
+
+    task = _paper_task()
+    alone = mq.make_solver("milp", n_max=7, time_limit=30).solve(task)
+    held, release = threading.Event(), threading.Event()
+
+    def hold():
+        with milp_worker._lock:
+            held.set()
+            release.wait(60)
+
+    thread = threading.Thread(target=hold, daemon=True)
+    thread.start()
+    held.wait(10)
+    try:
+        beside = mq.make_solver("milp", n_max=7, time_limit=30).solve(task)
+    finally:
+        release.set()
+        thread.join()
+    assert alone.certified and beside.certified
+    assert beside.n_modules == alone.n_modules
+
+
+def test_a_worker_that_dies_leaves_its_level_undecided(monkeypatch, capsys):
+    """A worker killed or crashed mid-solve (the OOM killer, a user) is a level left undecided,
+    as a time-out is: an uncertified answer by both doors, never a traceback."""
+    import modquad_gym as mq
+    from modquad_gym.cli import main
+    from modquad_gym.search import milp_worker
+
+    def died(kwargs, seconds):
+        raise milp_worker.WorkerError("the milp worker (HiGHS) ended with code -9")
+
+    monkeypatch.setattr(milp_worker, "busy", lambda: False)
+    monkeypatch.setattr(milp_worker, "booted", lambda: True)
+    monkeypatch.setattr(milp_worker, "solve", died)
+    result = mq.make_solver("milp", n_max=7, time_limit=10).solve(_paper_task())
+    assert result.structure is None and not result.certified
+    capsys.readouterr()
+    assert main(["solve", "--task", "example:paper_seed0", "--method", "milp", "--quiet"]) == 0
+    assert "Traceback" not in capsys.readouterr().err

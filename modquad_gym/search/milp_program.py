@@ -338,18 +338,18 @@ class LevelProgram:
         return np.zeros(n_var), cons, integrality, Bounds(low, high)
 
     def solve(self, relax: bool, seconds: float) -> OptimizeResult:
-        """HiGHS's result (scipy's OptimizeResult) within ``seconds``, building included: in
-        the worker of :mod:`.milp_worker`, killed ``GRACE`` seconds past the limit (status 1, no
-        ``x``) or at a Ctrl-C or SIGTERM; only a program of at most :data:`IN_PROCESS_NONZEROS`
-        nonzeros outside the main thread, or tried while the worker boots (at most ``BOOT_TRY``
-        seconds), in this process."""
+        """HiGHS's result (scipy's OptimizeResult) within ``seconds``, building included, in
+        the worker of :mod:`.milp_worker` (killed ``GRACE`` s past the limit or at a Ctrl-C or
+        SIGTERM; one that ends without an answer leaves the program undecided, status 1, as a
+        time-out does). At most :data:`IN_PROCESS_NONZEROS` nonzeros: solved here outside the
+        main thread or while another thread holds the worker, tried here while it boots."""
         t0 = now()
         c, cons, integrality, bounds = self.build(relax)
         left = seconds - (now() - t0)
         options = {"time_limit": max(left, 1e-3), "presolve": True}
         kwargs = dict(c=c, constraints=cons, integrality=integrality, bounds=bounds)
         small = cons.A.nnz <= IN_PROCESS_NONZEROS
-        if small and not milp_worker.in_main_thread():
+        if small and (not milp_worker.in_main_thread() or milp_worker.busy()):
             return milp(**kwargs, options=options)
         if small and not milp_worker.booted():
             short = min(options["time_limit"], milp_worker.BOOT_TRY)
@@ -357,7 +357,10 @@ class LevelProgram:
             if res.status != TIME_LIMIT or short == options["time_limit"]:
                 return res
             left = seconds - (now() - t0)
-        reply = milp_worker.solve({**kwargs, "options": options}, left) if left > 0 else None
+        try:
+            reply = milp_worker.solve({**kwargs, "options": options}, left) if left > 0 else None
+        except milp_worker.WorkerError as exc:  # the next solve starts another worker
+            return OptimizeResult(status=1, x=None, message=str(exc))
         if reply is None:
             return OptimizeResult(status=1, x=None, message="time limit reached (worker killed)")
         status, x, message = reply

@@ -128,6 +128,12 @@ def start() -> None:
             _lock.release()
 
 
+def busy() -> bool:
+    """Whether another thread holds the worker now (a caller then solves a small program in its
+    own process rather than wait for it)."""
+    return _lock.locked()
+
+
 def booted() -> bool:
     """Whether this process's worker is ready for a program (one is started when there is
     none or it ended; nothing is waited for)."""
