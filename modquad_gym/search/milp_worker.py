@@ -16,7 +16,8 @@ call on the ``mixed`` tier ran 52 s of its 60 s limit). Waiting on the worker, t
 once and the worker is killed. So in the main thread every program is solved here once the
 worker has booted (:func:`in_main_thread`, :func:`booted`; :func:`start` boots it early, beside
 the caller's own work); while it boots (about 0.5 s) the caller tries a small program in its
-own process for at most :data:`BOOT_TRY` seconds, a bound on the wait for a signal there.
+own process for at most :data:`BOOT_TRY` seconds, a bound on the wait for a signal there, and
+while another thread holds it (:func:`busy`) solves a small one in its own process.
 """
 
 from __future__ import annotations
@@ -104,8 +105,8 @@ class _Worker:
 
 
 def in_main_thread() -> bool:
-    """Whether the caller runs where Python runs signal handlers (the main thread): there every
-    program goes to the worker, so that a Ctrl-C or SIGTERM never waits for HiGHS."""
+    """Whether the caller runs where Python runs signal handlers (the main thread): there a
+    program goes to the worker, so that a Ctrl-C or SIGTERM does not wait for HiGHS."""
     return threading.current_thread() is threading.main_thread()
 
 
