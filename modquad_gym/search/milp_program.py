@@ -44,8 +44,9 @@ process, before the worker."""
 IN_PROCESS_NONZEROS = 50_000
 """Outside the main thread, programs with at most this many constraint nonzeros are solved in
 this process (no worker to start or feed), larger ones in the worker of :mod:`.milp_worker`,
-killed at the deadline; in the main thread every program goes to the worker, which a Ctrl-C or
-SIGTERM kills at once (a small one is tried here while it boots: :mod:`.milp_worker`). HiGHS
+killed at the deadline; in the main thread they go to the worker, which a Ctrl-C or SIGTERM
+kills at once (a small one is tried here while it boots, and solved here while another thread
+holds it: :mod:`.milp_worker`). HiGHS
 overran a 1 s limit by at most 0.06 s below 100 k nonzeros (one type, three types, a dynamic
 task with inertia; its whole presolve took 0.6 s at 71 k), by 0.3 s at 155 k, 2.3 s at 385 k
 and 19 s at 860 k (a loaded 2-core machine)."""
