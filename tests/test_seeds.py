@@ -112,6 +112,9 @@ def test_configuration_goals_take_the_pessimistic_end():
     assert config_limit("centrosymmetric", searches)[0] == pytest.approx(60.0)
     limit, words = config_limit(None, searches)
     assert limit == pytest.approx(50.0) and limit < 50.0 and "greedy" in words
+    # milp's count is its answers only (usually 1): not a rival of the same kind
+    assert config_limit(None, {**searches, "milp": 1.0}) == (limit, words)
+    assert words.endswith("the fewest but random and milp")
     assert config_limit(0.05, {"greedy": 1.0})[0] is None
     scores = [_score(s, "ppo", "p", 0.99, 0.9) for s in range(5)]
     scores += [_score(0, m, "p", 1.0, 1.0, evaluated=e) for m, e in searches.items()]

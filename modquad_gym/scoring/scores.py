@@ -78,18 +78,21 @@ def summarise(rows: list[Row], methods: list[str], n_max: int) -> list[dict]:
 def config_limit(goal: float | str | None, searches: dict[str, float]) -> tuple[float | None, str]:
     """(most configurations per task that meet ``goal``, the goal in words) given each search's
     configurations per task: ``goal`` a share of the exhaustive search's, a search's name (fewer
-    than it), or None (fewer than every search but random); (None, why) when not decidable."""
+    than it), or None (fewer than every search but random and those of :data:`ANSWERS_ONLY`,
+    whose count is not of the same kind); (None, why) when not decidable."""
     if isinstance(goal, float):
         if "exhaustive" not in searches:
             return None, "exhaustive not run"
         limit = goal * searches["exhaustive"]
         return limit, f"<= {100 * goal:.0f} % of exhaustive, {limit:.1f}"
-    rivals = {m: e for m, e in searches.items() if m == goal or (goal is None and m != "random")}
+    left_out = ("random", *sorted(ANSWERS_ONLY))
+    rivals = {m: e for m, e in searches.items()
+              if m == goal or (goal is None and m not in left_out)}  # fmt: skip
     if not rivals:
         return None, f"{goal or 'no search'} not run"
     best = min(rivals, key=rivals.get)
     less = rivals[best] - 1e-9  # strictly fewer
-    return less, f"< {best}" + ("" if goal else ", the fewest but random")
+    return less, f"< {best}" + ("" if goal else f", the fewest but {' and '.join(left_out)}")
 
 
 def share_limit(goal: float | str, shares: dict[str, float]) -> tuple[float | None, str]:

@@ -73,7 +73,7 @@ class Tier:
     name: at least its share}} for the metrics ``success`` and ``optimal``, and ``configs``: a
     share of the exhaustive search's
     configurations per task, or the search to evaluate fewer than (without it: fewer than every
-    search but random)."""
+    search but random and milp, whose count is its answers only)."""
 
     def load_suites(
         self, limit: int | None = None
