@@ -26,7 +26,6 @@ import atexit
 import os
 import pickle
 import queue
-import signal
 import subprocess
 import sys
 import threading
@@ -41,7 +40,8 @@ BOOT_TRY = 0.5
 long as a boot: 0.43-0.57 s measured); unfinished, it goes to the worker."""
 
 _BOOT = (
-    "import signal; signal.signal(signal.SIGINT, signal.SIG_IGN); "  # Ctrl-C: the caller's
+    "import signal; signal.signal(signal.SIGINT, signal.SIG_IGN); "  # Ctrl-C is the caller's,
+    # who kills it: ignored from the first statement, before the imports a Ctrl-C could cut
     "import runpy, sys; runpy.run_path(sys.argv[1], run_name='__main__')"
 )
 _READY = "ready"
@@ -202,7 +202,6 @@ def serve() -> None:
     """The worker's loop: a pickled ``milp`` keyword dict in, ``(status, x, message)`` out,
     until its input ends or its caller is gone. HiGHS's own output goes to stderr, never into
     the replies."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the caller's, who kills it
     threading.Thread(target=_follow, args=(os.getppid(),), daemon=True).start()
     out = os.fdopen(os.dup(1), "wb")
     os.dup2(2, 1)
