@@ -1,13 +1,18 @@
 """The small tasks' optimal share of each decoding over several models: a variant's gain over the
 first, paired task by task, pooled over the models.
 
-    python -m benchmarks.fallback_seeds FOLDER [FOLDER ...] [--out results/fallback_seeds]
+    python -m benchmarks.fallback_seeds FOLDER [FOLDER ...] [--against FOLDER ...]
+        [--out results/fallback_seeds]
 
 Each FOLDER is one ``python -m benchmarks.fallback --bands --small N --model ZIP`` run (one
 training seed's model) on the same small validation tasks. Per variant: its optimal and success
 share per model and their mean; its gain over the first variant (the single pass), each task's
 gain averaged over the models, with a 95 % percentile bootstrap interval over the tasks; and
 its CPU seconds over the first's. The folders must hold the same tasks and variants.
+
+``--against`` compares two recipes instead of two decodings: as many folders, of models trained
+another way, paired with FOLDER in order (the same training seed); each variant's gain is then
+over the same variant of its paired model, task by task.
 """
 
 from __future__ import annotations
@@ -49,13 +54,19 @@ def optimal(row: dict) -> float:
     return float(row["found"] is not None and row["found"] == row["optimum"])
 
 
-def summary(runs: dict[Path, dict[str, dict[str, dict]]]) -> list[dict]:
-    """A row per variant (module docstring); the first variant of the first folder is the
-    baseline."""
+def summary(
+    runs: dict[Path, dict[str, dict[str, dict]]],
+    against: dict[Path, dict[str, dict[str, dict]]] | None = None,
+) -> list[dict]:
+    """A row per variant (module docstring); the baseline is the first variant, or with
+    ``against`` (one folder per folder of ``runs``, in order) the same variant of those."""
     first = next(iter(runs.values()))
     variants, tasks = list(first), sorted(next(iter(first.values())))
     optimum = {t: first[variants[0]][t]["optimum"] for t in tasks}
-    for folder, run in runs.items():
+    if against is not None and len(against) != len(runs):
+        raise ValueError(f"--against: {len(against)} folders for {len(runs)} FOLDERs; pair "
+                         "one with each, in the same order")  # fmt: skip
+    for folder, run in {**runs, **(against or {})}.items():
         if list(run) != variants or any(sorted(run[v]) != tasks for v in variants):
             raise ValueError(f"FOLDER {folder}: not the variants and tasks of the first folder")
         for variant in variants:
@@ -65,20 +76,24 @@ def summary(runs: dict[Path, dict[str, dict[str, dict]]]) -> list[dict]:
                                      f"{row['optimum']}, not {optimum[task]} as in the first "
                                      "folder")  # fmt: skip
 
-    def shares(variant: str, score) -> np.ndarray:  # models x tasks
-        return np.array([[score(run[variant][t]) for t in tasks] for run in runs.values()])
+    def shares(variant: str, score, of=runs) -> np.ndarray:  # models x tasks
+        return np.array([[score(run[variant][t]) for t in tasks] for run in of.values()])
 
-    base = shares(variants[0], optimal)
     seconds = {v: sum(r["seconds"] for run in runs.values() for r in run[v].values())
                for v in variants}  # fmt: skip
     rows = []
     for variant in variants:
         share = shares(variant, optimal)
         success = shares(variant, lambda r: float(r["found"] is not None))
+        base = (
+            shares(variants[0], optimal) if against is None else shares(variant, optimal, against)
+        )
         gain = interval([(share - base).mean(axis=0)], mean)
         rows.append({
             "variant": variant, "tasks": len(tasks), "models": len(runs),
             "optimal_pct_per_model": " ".join(f"{100 * s:g}" for s in share.mean(axis=1)),
+            **({} if against is None else {"against_pct_per_model": " ".join(
+                f"{100 * s:g}" for s in base.mean(axis=1))}),
             "optimal_pct": round(100 * share.mean(), 2),
             "success_pct": round(100 * success.mean(), 2),
             "gain_pt": round(100 * gain[0], 2), "gain_low": round(100 * gain[1], 2),
@@ -94,20 +109,35 @@ def main(argv: list[str] | None = None) -> int:
         "python -m benchmarks.fallback_seeds",
         __doc__.split("\n\n")[0],
         {"folders": {"nargs": "+", "type": path_option, "action": Distinct, "key": Path.resolve,
-                     "metavar": "FOLDER", "help": "benchmarks.fallback runs, one per model"}},
+                     "metavar": "FOLDER", "help": "benchmarks.fallback runs, one per model"},
+         "--against": {"nargs": "+", "type": path_option, "action": Distinct,
+                       "key": Path.resolve, "metavar": "FOLDER", "default": None,
+                       "help": "runs of models trained another way, one per FOLDER in the "
+                               "same order: each variant's gain is over its paired model's "
+                               "same variant (default: over the first variant)"}},
         seed_help=None,
         out="results/fallback_seeds",
         outputs=OUTPUTS,
     )  # fmt: skip
-    rows = summary({folder: small_rows(folder) for folder in args.folders})
+    against = args.against and {folder: small_rows(folder) for folder in args.against}
+    rows = summary({folder: small_rows(folder) for folder in args.folders}, against)
+    versus = (
+        "the first variant's"
+        if against is None
+        else "the same variant's of the `--against` models (`against_pct_per_model`), paired "
+        "in order"
+    )
     notes = (
         "`optimal_pct_per_model`: each model's optimal share (of the tasks' certified optima); "
         "`optimal_pct`, `success_pct`: over every model and task; `gain_pt` [`gain_low`, "
-        "`gain_high`]: optimal points over the first variant, each task's gain averaged over "
+        f"`gain_high`]: optimal points over {versus}, each task's gain averaged over "
         "the models, 95 % bootstrap interval over the tasks; `cpu_over_first`: CPU seconds "
         "over the first variant's. The folders' own pages name the command of each run."
     )
-    command = " ".join(["python -m benchmarks.fallback_seeds", *map(str, args.folders)])
+    words = ["python -m benchmarks.fallback_seeds", *map(str, args.folders)]
+    if against is not None:
+        words += ["--against", *map(str, args.against)]
+    command = " ".join(words)
     text = report_page("Small tasks: each decoding over several models", command, notes, rows)
     write_report(args.out, "report", rows, text)
     print(text)

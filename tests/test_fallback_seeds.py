@@ -77,3 +77,37 @@ def test_a_repeated_row_or_another_optimum_is_refused(tmp_path, capsys):
         err = capsys.readouterr().err.strip()
         assert code == 2 and "\n" not in err and words in err, err
     assert not (out / "report.md").exists()
+
+
+def test_against_pairs_each_variant_with_the_same_variant_of_another_recipe(tmp_path, capsys):
+    write_run(tmp_path / "a", {"single": [4, 5, 4, 5, 4, None], "extra": [4, 4, 4, 5, 4, 4]})
+    write_run(tmp_path / "b", {"single": [4, 4, 5, 5, 4, 4], "extra": [4, 4, 4, 4, 4, 4]})
+    write_run(tmp_path / "a0", {"single": [5, 5, 4, 5, 4, 4], "extra": [4, 4, 4, 5, 4, 4]})
+    write_run(tmp_path / "b0", {"single": [4, 4, 5, 5, 5, 4], "extra": [4, 4, 4, 4, 4, 5]})
+    out = tmp_path / "out"
+    args = [str(tmp_path / "a"), str(tmp_path / "b"), "--against", str(tmp_path / "a0"),
+            str(tmp_path / "b0"), "--out", str(out)]  # fmt: skip
+    assert run_script("fallback_seeds", args) == 0
+    rows = {r["variant"]: r for r in csv.DictReader(open(out / "report.csv"))}
+    single, extra = rows["single"], rows["extra"]
+    assert single["against_pct_per_model"] == "50 50" and extra["against_pct_per_model"] == (
+        "83.3333 83.3333"
+    )
+    # single, per task (a - a0 + b - b0) / 2: .5, 0, 0, 0, .5, -.5 -> mean 1/12
+    assert float(single["gain_pt"]) == pytest.approx(100 / 12, abs=0.01)
+    # extra: 0, 0, 0, 0, 0, .5 -> 1/12
+    assert float(extra["gain_pt"]) == pytest.approx(100 / 12, abs=0.01)
+    assert "--against" in (out / "report.md").read_text()
+
+
+def test_against_needs_one_folder_per_folder(tmp_path, capsys):
+    for name in ("a", "b", "a0"):
+        write_run(tmp_path / name, {"single": [4] * 6})
+    out = tmp_path / "out"
+    args = [str(tmp_path / "a"), str(tmp_path / "b"), "--against", str(tmp_path / "a0"),
+            "--out", str(out)]  # fmt: skip
+    code = run_script("fallback_seeds", args)
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err
+    assert "--against: 1 folders for 2 FOLDERs" in err
+    assert not (out / "report.md").exists()
