@@ -86,8 +86,7 @@ def goal_lines(rows: list[dict], methods, time_limit: float) -> list[str]:
     for method in (m for m in methods if m.startswith("anytime")):
         lines += portfolio_goal_lines(rows, method)
     rivals = [m for m in BASELINES if m in methods]
-    bands = sorted({r["band"] for r in rows})
-    sizes = f"{bands[0]}-{bands[-1]}" if bands else "no"
+    sizes = sizes_run(rows)
     for method in (m for m in LEARNED if m in methods):
         parts, beaten = [], []
         for rival in rivals:
@@ -95,8 +94,7 @@ def goal_lines(rows: list[dict], methods, time_limit: float) -> list[str]:
             fewer = v["modules"] != "" and v["modules"] < v["rival_modules"]
             wins = fewer and v["solved"] >= v["rival_solved"] and v["seconds"] <= v["rival_seconds"]
             beaten += [rival] if wins else []
-            parts.append(f"vs {rival}: {v['modules']} vs {v['rival_modules']} modules on the "
-                         f"{v['both']} tasks both solved, solved {v['solved']} vs "
+            parts.append(f"vs {rival}: {_modules_both(v)}, solved {v['solved']} vs "
                          f"{v['rival_solved']} of {v['tasks']}, {v['seconds']} vs "
                          f"{v['rival_seconds']} s")  # fmt: skip
         if parts:
@@ -105,6 +103,23 @@ def goal_lines(rows: list[dict], methods, time_limit: float) -> list[str]:
                          f"{len(beaten)}/{len(rivals)} ({', '.join(beaten) or 'none'}): "
                          f"{'met' if len(beaten) == len(rivals) else 'NOT met'}")  # fmt: skip
     return lines
+
+
+def sizes_run(rows: list[dict]) -> str:
+    """The size bands the rows hold, in words: ``64`` for one band, ``16-128`` for several,
+    ``no`` for none."""
+    bands = sorted({int(r["band"]) for r in rows})
+    if not bands:
+        return "no"
+    return str(bands[0]) if len(bands) == 1 else f"{bands[0]}-{bands[-1]}"
+
+
+def _modules_both(v: dict) -> str:
+    """A :func:`versus` comparison's modules on the tasks both solved, in words when there
+    are none (no mean to print)."""
+    if not v["both"]:
+        return "no task both solved, so no modules to compare"
+    return f"{v['modules']} vs {v['rival_modules']} modules on the {v['both']} tasks both solved"
 
 
 def portfolio_goal_lines(rows: list[dict], method: str = "anytime") -> list[str]:
@@ -221,7 +236,7 @@ def plot(rows: list[dict], path: Path) -> None:
 def report(rows: list[dict], summary_rows: list[dict], args) -> str:
     load = load_average()
     return "\n".join([
-        f"# Every method at {min(args.bands)}-{max(args.bands)} modules",
+        f"# Every method at {sizes_run(rows)} modules",
         "",
         f"Made by `{command_line(args)}` on {machine_description()}; each (method, band) in a "
         f"fresh process, {args.workers} at a time; "

@@ -10,14 +10,21 @@ every page and as in the leaderboard:
   (seeds resampled; ``benchmarks.leaderboard_entries.over_seeds``);
 * ``run FOLDER METHOD METRIC``: one run of ``results/FOLDER/benchmark.csv`` (a deterministic
   search, or the shipped model), over the tier's held-out tasks;
+* ``pair FOLDER METHOD RIVAL``: the same run task by task, over the tasks both solve: on how
+  many METHOD answers with fewer modules than RIVAL and on how many with more, the mean
+  difference with its 95 % percentile bootstrap interval (tasks resampled, 10,000 resamples,
+  seed 0), and METHOD's mean seconds as a share of RIVAL's;
 * ``scale FOLDER BAND solves|modules``: the learned designer's seeds at one size band of
   ``results/FOLDER/report.csv`` (``python -m benchmarks.scale_seeds``): the share of the tasks
   greedy solves that ``ppo`` solves, or its modules above greedy's, mean of the seeds [95 % CI].
 
 METRIC is ``optimal`` (share solved with the certified optimum), ``success`` or ``evaluated``
-(configurations per task). The build fills the markers (``on_page_markdown``);
-``python docs/result_numbers.py`` rewrites the pages in place (README.md and docs/*.md), and
-tests/test_docs_pages.py checks that the committed pages hold what it would write.
+(configurations per task); of a run also ``modules`` (mean modules over the tasks it solved),
+``seconds`` or ``oracle_calls`` (per task), as the run's ``benchmark.md`` prints them, so that
+a table row quoting several columns of one run reads them all from it. The build fills the
+markers (``on_page_markdown``); ``python docs/result_numbers.py`` rewrites the pages in place
+(README.md and docs/*.md), and tests/test_docs_pages.py checks that the committed pages hold
+what it would write.
 """
 
 from __future__ import annotations
@@ -47,8 +54,15 @@ def _tier(folder: str) -> tuple[str, int]:
     raise ValueError(f"results/{folder}: no report naming its tier")
 
 
+RUN_COLUMNS = {"optimal": ("optimal_share", "{:.1%}"), "success": ("success_rate", "{:.1%}"),
+               "evaluated": ("mean_evaluated", "{:.1f}"), "modules": ("mean_modules", "{:.2f}"),
+               "seconds": ("mean_seconds", "{:.4f}"),
+               "oracle_calls": ("mean_oracle_calls", "{:,.0f}")}  # fmt: skip
+"""A run's metric -> (its column of ``scores.summarise``, its format)."""
+
+
 def _format(metric: str, value: float) -> str:
-    return f"{100 * value:.1f} %" if metric in ("optimal", "success") else f"{value:.1f}"
+    return RUN_COLUMNS[metric][1].format(value).replace("%", " %")
 
 
 @cache
@@ -91,8 +105,39 @@ def run_number(folder: str, method: str, metric: str) -> str:
     (s,) = summarise(rows, [method], n_max) or [None]
     if s is None:
         raise ValueError(f"results/{folder}/benchmark.csv: no rows of {method!r}")
-    key = {"optimal": "optimal_share", "success": "success_rate", "evaluated": "mean_evaluated"}
-    return f"{_format(metric, s[key[metric]])} (one run, {s['tasks']} held-out tasks)"
+    value = s[RUN_COLUMNS[metric][0]]
+    if value is None:
+        raise ValueError(f"results/{folder}/benchmark.csv: {method!r} solved no task")
+    return f"{_format(metric, value)} (one run, {s['tasks']} held-out tasks)"
+
+
+def pair_number(folder: str, method: str, rival: str) -> str:
+    """One run task by task: METHOD's modules against RIVAL's on the tasks both solve."""
+    import numpy as np
+
+    sys.path.insert(0, str(ROOT))
+    from benchmarks.leaderboard_entries import in_scope, read_rows
+
+    _, n_max = _tier(folder)
+    rows = in_scope(read_rows(RESULTS / folder / "benchmark.csv"), n_max)
+    by = {m: {r.task: r for r in rows if r.method == m} for m in (method, rival)}
+    for m in (method, rival):
+        if not by[m]:
+            raise ValueError(f"results/{folder}/benchmark.csv: no rows of {m!r}")
+    both = [t for t in by[method] if t in by[rival] and by[method][t].success
+            and by[rival][t].success]  # fmt: skip
+    if not both:
+        raise ValueError(f"results/{folder}/benchmark.csv: no task both {method} and {rival} solve")
+    diff = np.array([by[method][t].n_modules - by[rival][t].n_modules for t in both])
+    boots = diff[np.random.default_rng(0).integers(0, len(diff), (10_000, len(diff)))].mean(1)
+    low, high = np.percentile(boots, [2.5, 97.5])
+    seconds = {m: np.mean([r.seconds for r in by[m].values()]) for m in (method, rival)}
+    return (
+        f"fewer modules than {rival} on {(diff < 0).sum()} tasks and more on {(diff > 0).sum()} "
+        f"(one run, {len(both)} held-out tasks both solve: {diff.mean():+.2f} modules a task "
+        f"[{low:+.2f}, {high:+.2f}], 95 % bootstrap over the tasks; "
+        f"{seconds[method] / seconds[rival]:.2f} of {rival}'s seconds)"
+    )
 
 
 def scale_number(folder: str, band: str, metric: str) -> str:
@@ -113,17 +158,18 @@ def scale_number(folder: str, band: str, metric: str) -> str:
     )
 
 
-METRICS = {"seeds": ("optimal", "success", "evaluated"), "run": ("optimal", "success", "evaluated"),
+METRICS = {"seeds": ("optimal", "success", "evaluated"), "run": tuple(RUN_COLUMNS),
            "scale": ("solves", "modules")}  # fmt: skip
 
 
 def number(key: str) -> str:
     """The text of one marker's KEY."""
     kind, *args = key.split()
-    makers = {"seeds": seeds_number, "run": run_number, "scale": scale_number}
-    if kind not in makers or len(args) != 3 or args[2] not in METRICS[kind]:
-        raise ValueError(f"bad result marker {key!r}: 'seeds|run WHERE METHOD optimal|success|"
-                         "evaluated' or 'scale FOLDER BAND solves|modules'")  # fmt: skip
+    makers = {"seeds": seeds_number, "run": run_number, "scale": scale_number, "pair": pair_number}
+    if kind not in makers or len(args) != 3 or (kind != "pair" and args[2] not in METRICS[kind]):
+        raise ValueError(f"bad result marker {key!r}: 'seeds TIER METHOD optimal|success|"
+                         f"evaluated', 'run FOLDER METHOD {'|'.join(RUN_COLUMNS)}', 'pair FOLDER "
+                         "METHOD RIVAL' or 'scale FOLDER BAND solves|modules'")  # fmt: skip
     return makers[kind](*args)
 
 

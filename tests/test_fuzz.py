@@ -34,7 +34,8 @@ ROOT = Path(__file__).resolve().parents[1]
 SCREWDRIVER = str(ROOT / "examples" / "screwdriver.json")
 
 DEEP = os.environ.get("MODQUAD_FUZZ_EXAMPLES")
-"""Set MODQUAD_FUZZ_EXAMPLES=500 (say) for a deeper, randomised run; CI runs the fixed 30."""
+"""Set MODQUAD_FUZZ_EXAMPLES=500 (say) for a deeper, randomised run; CI runs the fixed counts
+(30, or 20 or 25 where a test says so)."""
 
 FUZZ = settings(
     max_examples=int(DEEP) if DEEP else 30,

@@ -156,6 +156,36 @@ def test_the_portfolio_goals_count_tasks_and_name_who_beat_it():
     assert never_worse.endswith("met") and "1 of 1 tasks" in never_worse and "0.0 %" in gap
 
 
+def test_the_report_names_the_bands_run_and_says_when_no_task_was_both_solved():
+    """One band run: the title and goal lines name it (not a range of bands the run did not
+    have), and a rival with no task solved by both is said in words, not as empty means."""
+    import argparse
+
+    from benchmarks.scale_report import goal_lines, report, summary
+
+    def row(task, method, found):
+        solved = found != "none"
+        return {"band": 64, "family": "planted", "task": task, "method": method, "planted": 64,
+                "lower_bound": 58, "found": found, "verified": solved,
+                "gap_to_planted_pct": round(100 * (found - 64) / 64, 1) if solved else "",
+                "gap_to_bound": found - 58 if solved else "", "seconds": 2.0, "peak_MB": 100,
+                "note": ""}  # fmt: skip
+
+    rows = [row("a", "ppo", 58), row("a", "greedy", "none"), row("a", "beam", 61),
+            row("b", "ppo", "none"), row("b", "greedy", 60), row("b", "beam", 60)]  # fmt: skip
+    methods = ["greedy", "beam", "ppo"]
+    (line,) = [g for g in goal_lines(rows, methods, 60) if g.startswith("- learned")]
+    assert line.startswith("- learned `ppo` at 64 modules ")
+    assert "vs greedy: no task both solved, so no modules to compare, solved 1 vs 1 of 2" in line
+    assert "vs beam: 58.0 vs 61.0 modules on the 1 tasks both solved" in line
+    assert " vs  modules" not in line
+    args = argparse.Namespace(bands=[16, 32, 64], families=["planted"], per_family=1,
+                              methods=methods, time_limit=60.0, workers=1, validation=False,
+                              seed=0, model=None, rows=None, out="results/scale")  # fmt: skip
+    page = report(rows, summary(rows), args)
+    assert page.startswith("# Every method at 64 modules\n")  # the rows' band, not 16-64
+
+
 def test_runs_merge_with_the_largest_bound_and_later_rows_first(tmp_path):
     from benchmarks.common import write_csv
     from benchmarks.scale import read_runs
