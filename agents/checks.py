@@ -111,6 +111,7 @@ def check_environment(config: Any) -> None:
     except ValueError as exc:
         raise ValueError(f"--task-source {config.source!r}: {exc}") from None
     check_int(config.max_modules, "--n-max", low=2, high=N_MAX_LIMIT)
+    check_expert_reach(config)
     try:
         env = ModQuadAssemblyEnv(**config.env_kwargs_full)
     except (TypeError, ValueError) as exc:
@@ -123,6 +124,45 @@ def check_environment(config: Any) -> None:
                          "(PPO's rollout buffer)")  # fmt: skip
     finally:
         env.close()
+
+
+def check_expert_reach(config: Any) -> None:
+    """``--n-max`` within what the expert's exhaustive search finishes on the tier's palette and
+    the run's tasks (it certifies the validation optima and labels the demonstrations:
+    :func:`~modquad_gym.search.typed.exhaustive_reach`), else a ValueError in the option's
+    words, before any folder is claimed (the search itself would refuse it only then)."""
+    from modquad_gym.geometry.module import palette
+    from modquad_gym.scoring.tiers import get_tier
+    from modquad_gym.search.typed import exhaustive_reach
+
+    tier = get_tier(config.tier)
+    n_types = len(palette(tier.modules)) if tier.modules else 1
+    sources = dict.fromkeys((config.source, config.validation_source))
+    weighed = n_types == 1 and any(structure_dependent(s) for s in sources)
+    reach = exhaustive_reach(n_types, shape_only=n_types == 1 and not weighed)
+    if config.max_modules <= reach:
+        return
+    why = ""
+    if n_types > 1:
+        why = f" with the {config.tier} tier's {n_types} module types"
+    elif weighed:
+        why = " on tasks whose wrenches depend on the structure (self-weight, dynamic)"
+    raise ValueError(
+        f"--n-max {config.max_modules}: beyond what the expert's exhaustive search can finish"
+        f"{why}: at most {reach} modules (it certifies the validation optima and "
+        "labels the demonstrations)"
+    )
+
+
+def structure_dependent(source: str) -> bool:
+    """Whether a task of ``source`` (a generator name or a task file) has wrenches that depend
+    on the structure (self-weight, a dynamic task): every task of a file, eight draws of a
+    generator."""
+    from modquad_gym.tasks import make_generator
+
+    gen = make_generator(source)
+    tasks = getattr(gen, "tasks", None) or [gen(np.random.default_rng(i)) for i in range(8)]
+    return any(t.decision_model.uses_mass or t.decision_model.uses_inertia for t in tasks)
 
 
 def rollout_bytes(env: Any, n_steps: int, n_envs: int) -> int:

@@ -14,11 +14,17 @@ from pathlib import Path
 from agents.checks import check_training_seed, check_used, unused_fields
 from agents.config import TrainConfig
 from agents.publishing import check_publishable, publish, refuse_grid_model, run_tier
-from agents.run_folders import cleared, held_folders, kept, record
+from agents.run_folders import cleared, held_folders, kept, record, undo_unwritten
 from agents.seeds import SEEDS_DROP, seed_out
 from agents.training import check_start, report, train
 from modquad_gym.cli.given import typed_options
-from modquad_gym.core.options import int_option, nonempty_option, path_option, seed_option
+from modquad_gym.core.options import (
+    OneLineParser,
+    int_option,
+    nonempty_option,
+    path_option,
+    seed_option,
+)
 from modquad_gym.core.outputs import OutputError, check_output_dir, claim_output_dir
 from modquad_gym.policy.models import UNTRUSTED, check_trusted
 from modquad_gym.scoring.options import REPORT_FILES
@@ -140,7 +146,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(
+    p = OneLineParser(
         prog="python train.py",
         description="Train MaskablePPO (behaviour cloning on certified expert episodes, then "
         "PPO) on a benchmark tier, save the model with its config, then write its benchmark "
@@ -273,6 +279,10 @@ def main(argv: list[str] | None = None) -> int:
             record(claim, held, walk=False)
         try:
             return run(args)
+        except BaseException:  # stopped before any file: no record of files never written
+            for claim, held in claims:
+                undo_unwritten(claim, held)
+            raise
         finally:  # what training wrote in its folders (checkpoints, logs): --force removes it
             for claim, held in claims:
                 record(claim, held)

@@ -36,7 +36,7 @@ import numpy as np
 from agents.exit_checks import MAX_REPLAY, REPLAY_N_MAX, check_start
 from agents.scale_scores import current_tier, report, score, summary
 from benchmarks.common import Distinct
-from modquad_gym.core.options import int_option, path_option
+from modquad_gym.core.options import OneLineParser, int_option, path_option
 from modquad_gym.core.outputs import (
     OutputError,
     check_output_dir,
@@ -237,9 +237,9 @@ def draw_option(text: str) -> tuple[str, int, int]:
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    """The options, each checked before any work (argparse's usage and one error line, exit 2);
+    """The options, each checked before any work (one error line, exit 2);
     the start model is loaded once to check it."""
-    p = argparse.ArgumentParser(
+    p = OneLineParser(
         prog="python -m agents.expert_iteration", description=__doc__.split("\n\n")[0]
     )
     _round_options(p)

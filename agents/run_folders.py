@@ -17,11 +17,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+from contextlib import suppress
 from pathlib import Path
 from typing import NamedTuple
 
 from agents.training import LOG_FILES, RUN_FILES, log_name
-from modquad_gym.core.outputs import ClaimedDir
+from modquad_gym.core.outputs import MANIFEST_NAME, ClaimedDir
 from modquad_gym.scoring.options import REPORT_FILES
 
 
@@ -100,3 +102,20 @@ def record(claim: ClaimedDir, held: Held, walk: bool = True) -> None:
             for path in sorted(top.rglob("*")):
                 if path.is_symlink() or path.is_file():
                     claim.path(path.relative_to(claim.folder))
+
+
+def undo_unwritten(claim: ClaimedDir, held: Held) -> None:
+    """After a run that stopped before it wrote anything (a refusal inside training, an early
+    interruption): remove ``claim``'s manifest, which names files that do not exist, and the
+    empty folders of ``held`` training made (``train/``), so that the same command runs again
+    unrefused; nothing where any recorded file, or any file under those folders, exists."""
+    if any(os.path.lexists(claim.folder / name) for name in claim.written):
+        return
+    tops = [claim.folder / name for name in held.folders]
+    if any(files for top in tops for _, _, files in os.walk(top)):
+        return
+    (claim.folder / MANIFEST_NAME).unlink(missing_ok=True)
+    for top in tops:
+        for root, _, _ in sorted(os.walk(top), key=lambda walked: -len(walked[0])):
+            with suppress(OSError):  # only while empty
+                os.rmdir(root)

@@ -13,7 +13,6 @@ code the ``duplicates`` tool's, import cycles ``tests/test_layers.py``'s.
 
 from __future__ import annotations
 
-import argparse
 import ast
 import re
 from collections import Counter
@@ -29,7 +28,7 @@ from benchmarks.common import (
     run_main,
     write_report,
 )
-from modquad_gym.core.options import path_option
+from modquad_gym.core.options import OneLineParser, path_option
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "modquad_gym"
@@ -141,7 +140,7 @@ def _docstring_lines(source: str) -> set[int]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(
+    p = OneLineParser(
         prog="python -m benchmarks.codebase",
         description="Lines of Python in the wheel and the branches on a task's kind outside "
         "the task model, against the consolidation's goals.",

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from modquad_gym.core import options as core_options
 from modquad_gym.core.interrupts import run_command
 from modquad_gym.core.options import DefaultsHelpFormatter, int_option, path_option, seed_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv, write_text
@@ -216,7 +217,7 @@ def bench_parser(
     that hold, :func:`~modquad_gym.core.outputs.claim_output_dir`) and, with ``force``,
     ``--force``; ``--help`` states every default (:class:`HelpFormatter`)."""
     parser_kwargs.setdefault("formatter_class", HelpFormatter)
-    parser = argparse.ArgumentParser(prog=prog, description=description, **parser_kwargs)
+    parser = core_options.OneLineParser(prog=prog, description=description, **parser_kwargs)
     for flag, kwargs in options.items():
         parser.add_argument(flag, **kwargs)
     if seed_help is not None:

@@ -27,7 +27,6 @@ estimate and the check as :func:`modquad_gym.dynamics.splines.check_given` makes
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import math
 
@@ -35,7 +34,7 @@ import numpy as np
 
 from benchmarks.common import HelpFormatter, run_main
 from modquad_gym import dynamics as dy
-from modquad_gym.core.options import int_option
+from modquad_gym.core.options import OneLineParser, int_option
 from modquad_gym.dynamics import quaternions as quat
 from modquad_gym.dynamics.splines import AGREEMENT, estimated_error, spline
 from modquad_gym.dynamics.trajectory import DEFAULT_ACCURACY
@@ -170,7 +169,7 @@ def milliseconds() -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="python -m benchmarks.derivative_agreement",
         description=__doc__.split("\n\n")[0],
         formatter_class=HelpFormatter,

@@ -54,12 +54,12 @@ from benchmarks.env_measure import (
 )
 from benchmarks.env_report import load_average, report, verdict
 from benchmarks.env_scale import ENCODINGS, measure_encoding
-from modquad_gym.core.options import int_option, path_option, seed_option
+from modquad_gym.core.options import OneLineParser, int_option, path_option, seed_option
 from modquad_gym.core.outputs import write_text
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="python -m benchmarks.env",
         description=__doc__.split("\n\n")[0],
         formatter_class=HelpFormatter,

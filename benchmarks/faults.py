@@ -41,7 +41,7 @@ from benchmarks.faults_measure import (
 )
 from benchmarks.faults_report import plot, report
 from modquad_gym.cli.common import N_MAX_OPTION, time_limit_option
-from modquad_gym.core.options import int_option, path_option, real_option
+from modquad_gym.core.options import OneLineParser, int_option, path_option, real_option
 from modquad_gym.core.outputs import OutputError, check_output_dir, write_csv
 
 OUTPUTS = ("report.md", "faults.csv", "oracle.csv", "price.png")
@@ -49,7 +49,7 @@ OUTPUTS = ("report.md", "faults.csv", "oracle.csv", "price.png")
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     """The options, checked before any work (argparse's error, exit 2)."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="python -m benchmarks.faults",
         description=__doc__.split("\n\n")[0],
         formatter_class=HelpFormatter,

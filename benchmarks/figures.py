@@ -26,7 +26,7 @@ from functools import partial
 from pathlib import Path
 
 from benchmarks.common import HelpFormatter, read_input_text, read_rows_csv, run_main
-from modquad_gym.core.options import path_option
+from modquad_gym.core.options import OneLineParser, path_option
 from modquad_gym.core.outputs import write_text
 
 Figure = tuple[Path, Path, Callable[[], object]]
@@ -165,7 +165,7 @@ def made_by_options(report: Path) -> argparse.Namespace:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="python -m benchmarks.figures",
         description="Re-draw the committed figures of results/ from their reports' data (no "
         "benchmark is re-run) and list them in results/figures.md.",

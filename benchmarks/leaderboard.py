@@ -62,7 +62,7 @@ from benchmarks.leaderboard_scoring import (
     score_agent,
     write_submission,
 )
-from modquad_gym.core.options import nonempty_option, path_option
+from modquad_gym.core.options import OneLineParser, nonempty_option, path_option
 
 DOCS = ROOT / "docs"
 OUTPUTS = ("leaderboard.md", "leaderboard.csv", "leaderboard.png", "leaderboard_anytime.png",
@@ -128,7 +128,7 @@ def parser() -> argparse.ArgumentParser:
     """The command's options: what to run first, an outside agent to score, where to write."""
     from modquad_gym.core.options import int_option
 
-    p = argparse.ArgumentParser(
+    p = OneLineParser(
         prog=COMMAND, description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter
     )
     p.add_argument(

@@ -32,7 +32,7 @@ def rescore_searches(
         missing = [m for m in SEARCHES if m not in have and (not tier.fault or honours_fault(m))]
         if missing:
             print(f"{name}: scoring {', '.join(missing)}", file=sys.stderr)
-            rows += run_benchmark(tier.load_suites(), missing, tier.n_max, None, 0, progress, 1,
+            rows += run_benchmark(tier.load_suites(), missing, tier.n_max, None, None, progress, 1,
                                   tier.modules, tier.name, tier.fault)  # fmt: skip
     if not rows:
         print("every tier report ran every search: nothing to rescore, nothing written",
@@ -132,7 +132,8 @@ def score_agent(spec: str, tiers: Iterable[str], limit: int | None, seeds: list[
                 tier, solver = _tier(tier_name), first
                 if (tier_name, seed) != (tiers[0], seeds[0]):
                     solver = _made(spec, tier_name, seed)
-                rows = run_benchmark(tier.load_suites(limit), [spec], tier.n_max, None, seed,
+                told = seed if first.takes_seed else None  # a seed it takes, or none
+                rows = run_benchmark(tier.load_suites(limit), [spec], tier.n_max, None, told,
                                      progress, 1, tier.modules, tier.name, tier.fault,
                                      made={spec: solver})  # fmt: skip
                 mine += [{"tier": tier.name, "seed": str(seed), **r.as_csv(), "method": name,

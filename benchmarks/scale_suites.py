@@ -30,12 +30,11 @@ the shipped suites.
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
 from benchmarks.common import Distinct, HelpFormatter, add_force, hold_out, run_main
-from modquad_gym.core.options import int_option, path_option, real_option
+from modquad_gym.core.options import OneLineParser, int_option, path_option, real_option
 from modquad_gym.core.outputs import OutputError, check_output_file
 from modquad_gym.scoring.scale_tasks import (  # noqa: F401 - the suites' families, re-exported
     BANDS,
@@ -113,7 +112,7 @@ def build_band(band: int, per_family: int, time_limit: float, validation: bool =
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(
+    p = OneLineParser(
         prog="python -m benchmarks.scale_suites",
         formatter_class=HelpFormatter,
         description="Write the held-out scale suites (scale_N.json): fixed seeds, the planted "

@@ -15,7 +15,7 @@ import dataclasses
 from pathlib import Path
 
 from benchmarks.common import Distinct, HelpFormatter, read_input_text, read_rows_csv, run_main
-from modquad_gym.core.options import path_option
+from modquad_gym.core.options import OneLineParser, path_option
 from modquad_gym.core.outputs import write_text
 
 
@@ -34,11 +34,10 @@ def read_folder(folder: Path) -> tuple[list, str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    import argparse
 
     from modquad_gym.scoring.seeds_report import plot, rerendered
 
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="python -m benchmarks.seeds_rerender",
         description=__doc__.split("\n\n")[0],
         formatter_class=HelpFormatter,

@@ -184,9 +184,9 @@ def on_page_markdown(markdown, page, config, files):
 
 def main(argv: list[str] | None = None) -> int:
     """Rewrite the pages in place (no options: an unknown one is refused, exit 2)."""
-    import argparse
+    from modquad_gym.core.options import OneLineParser
 
-    argparse.ArgumentParser(
+    OneLineParser(
         prog="python docs/result_numbers.py",
         description="Fill the docs' quoted results (<!--n KEY-->...<!--/n-->) in README.md and "
         "docs/*.md from the committed reports under results/.",

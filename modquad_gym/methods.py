@@ -36,6 +36,7 @@ from modquad_gym.policy.models import (
     SMALL_EXTRA_FALLBACKS,
     TOP_K,
 )
+from modquad_gym.search import options as search_options
 from modquad_gym.search.options import COMMON_OPTIONS, Relation, broken_relation, takes_none
 from modquad_gym.search.problem import (
     DEFAULT_TIME_LIMIT,
@@ -111,12 +112,13 @@ class Options:
                 f"{method!r} takes: {', '.join(sorted(cls.settable())) or 'no options'})"
             )
         f = by_name[key]
+        if value.strip().lower() == "none" and "None" in str(f.type):  # none of it, or refused
+            return key, search_options.none_written(key, text)
         try:
             parsed = _parser(f)(value.strip())
         except ValueError:
-            raise ValueError(
-                f"--option {text}: {key} takes {text_words(f.type)}, got {value!r}"
-            ) from None
+            words = text_words(f.type, key in search_options.NONE_MEANS)
+            raise ValueError(f"--option {text}: {key} takes {words}, got {value!r}") from None
         check = f.metadata.get("check")
         try:  # the range the options dataclass checks, said now with the option
             return key, parsed if check is None or parsed is None else check(parsed, key)
@@ -128,12 +130,8 @@ class Options:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
 
-OWN_FLAGS = {
-    "model": "--model",
-    "time_limit": "--time-limit",
-    "seed": "--seed",
-    "trust_model": "--trust-model",
-}
+OWN_FLAGS = {"model": "--model", "time_limit": "--time-limit", "seed": "--seed",
+             "trust_model": "--trust-model"}  # fmt: skip
 """The method options a command line gives with a flag of its own (``--option`` may too, where
 it can write the value; never both)."""
 
@@ -292,19 +290,19 @@ _PRUNE = (bool, False, *COMMON_OPTIONS["prune"])
 _FALLBACK = (float | None, None, "dock greedy's choice (ppo-guided: in its dives) wherever the "
              "policy gives its own most likely docking at most this probability (0: never, 1: "
              f"always; None: {FALLBACK:g} at budgets of {SCALE_FROM} modules and more with a "
-             "model that sees greedy's choice, the exact lookahead, else 0)",
+             "model that sees greedy's choice, the exact lookahead, else 0; none is refused)",
              LEARNED_CHECKS["fallback"])  # fmt: skip
 _EXTRA_FALLBACKS = (tuple[float, ...] | None, None, "more deterministic passes, one per fallback "
                     "(comma-separated), branching off where they dock elsewhere; the smallest "
                     "verified structure is kept (None, with a model that sees greedy's choice: "
                     f"{','.join(f'{v:g}' for v in SMALL_EXTRA_FALLBACKS)} below {SCALE_FROM} "
                     f"modules, {','.join(f'{v:g}' for v in EXTRA_FALLBACKS)} where the first "
-                    f"ends above {EXTRA_FROM}; else none; empty: none)",
+                    f"ends above {EXTRA_FROM}; else none; empty, or none: the single pass)",
                     LEARNED_CHECKS["extra_fallbacks"])  # fmt: skip
 _BUDGET = (int | None, None, "most structures evaluated (None: "
            f"{GUIDED_BUDGET} below {SCALE_FROM} modules, else {BUDGET_PER_MODULE} per module "
            f"of its dives' answer, at least {GUIDED_BUDGET}, at most what "
-           f"{QUEUE_MEMORY // 2**20} MiB of queued states hold)",
+           f"{QUEUE_MEMORY // 2**20} MiB of queued states hold; none is refused)",
            LEARNED_CHECKS["budget"])  # fmt: skip
 
 for _method in (

@@ -30,6 +30,7 @@ from modquad_gym.core.interrupts import (
     sigterm_as_interrupt,
     stopped,
 )
+from modquad_gym.core.options import OneLineParser
 
 COMMANDS = ("solve", "optima", "task", "show", "export", "validate", "score", "check", "bench")
 """The commands, in the order ``modquad --help`` lists them: each the module of this package that
@@ -47,7 +48,7 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     """The parser of ``modquad``; given ``argv`` whose command is known, only that command's
     parser is built in full (the others are named, for the usage line): a command pays for
     its own options only."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="modquad",
         description="Find the smallest modular multirotor (H-ModQuad) whose feasible wrenches "
         'contain a task\'s wrenches. Task files: JSON {"wrenches": [[fx,fy,fz,tx,ty,tz], ...], '

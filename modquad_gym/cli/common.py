@@ -11,6 +11,7 @@ from collections.abc import Callable
 from modquad_gym.core.options import int_option, nonempty_option, real_option, seed_option
 from modquad_gym.methods import REGISTRY
 from modquad_gym.policy.models import UNTRUSTED
+from modquad_gym.search.options import NONE_HELP
 from modquad_gym.search.problem import DEFAULT_TIME_LIMIT
 from modquad_gym.tasks import CSV_HEADER_MODES
 
@@ -191,13 +192,12 @@ def add_method(
     p.add_argument(
         "--model",
         default=None,
-        help="PPO model .zip for --method ppo/ppo-guided (default: the model shipped with "
-        "the package, modquad_gym/data/models/ppo_default/model.zip, and for one module type "
-        "from --n-max 16 on ppo_scale, trained further on tasks of 8-32 modules; for a "
-        "dynamic task of one "
-        "module type the one trained on motions, modquad_gym/data/models/ppo_dynamic). A "
-        "model is read without unpickling (its NumPy actor, model_actor.npz, or the weights "
-        "and spaces of a policy the package knows); one that only unpickling reads is "
+        help="PPO model .zip for --method ppo/ppo-guided (default: the model shipped with the "
+        "package, modquad_gym/data/models/ppo_default/model.zip, and for one module type from "
+        "--n-max 16 on ppo_scale, trained further on tasks of 8-32 modules; for a dynamic task of "
+        "one module type the one trained on motions, modquad_gym/data/models/ppo_dynamic). A model "
+        "is read without unpickling (its NumPy actor, model_actor.npz, or the weights and spaces "
+        "of a policy the package knows); one that only unpickling reads is "
         f"refused unless --trust-model is given: {UNTRUSTED}",
     )
     p.add_argument(
@@ -227,7 +227,7 @@ def add_method(
         "modules the answer does not need); an option the method does not take is refused, "
         "naming the ones it takes (the docs' method table lists them), and so is one given "
         "twice or beside the flag that gives it (--seed, --time-limit); model is --model, and "
-        "objects (start, engine, producers) are given in Python (make_solver)",
+        "objects (start, engine, producers) are given in Python (make_solver). " + NONE_HELP,
     )
 
 

@@ -103,10 +103,23 @@ def write_certificate(args: argparse.Namespace, task, result) -> None:
     if not result.certified:
         raise ValueError(
             f"--certificate: the answer for {task.name!r} is not certified (proved bound "
-            f"{result.lower_bound}, {result.n_modules} modules); nothing written: give a longer "
-            "--time-limit or --method exhaustive"
+            f"{result.lower_bound}, {result.n_modules or 'no'} modules); nothing written: "
+            f"{certifying_advice(args, result)}"
         )
     problem = SearchProblem.build(task, args.n_max, modules=palette(args), fault=args.fault)
     out = write(result, problem, args.certificate, force=args.force, what="--certificate")
     if not args.json:
         print(f"  wrote {out}")
+
+
+def certifying_advice(args: argparse.Namespace, result) -> str:
+    """What may certify an answer that is not: a longer ``--time-limit`` only for a method that
+    certifies where it finishes (anytime, milp) and ran out of time; else (a learned method, a
+    heuristic, a search that finished within its limit) a method that proves its answer."""
+    from modquad_gym.methods import method_of
+
+    entry = method_of(args.method)[0]
+    limit = args.time_limit
+    if entry.certifies and entry.timed and limit is not None and result.seconds >= 0.95 * limit:
+        return "give a longer --time-limit or --method exhaustive"
+    return "give --method exhaustive (or anytime, the default, which certifies where it finishes)"

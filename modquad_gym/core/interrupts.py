@@ -184,8 +184,8 @@ def failure_line(exc: BaseException) -> str:
 
 def run_command(main: Callable[[list[str] | None], object], prog: str, argv=None) -> int:
     """``main(argv)`` run as a command: 0 when it finishes (or the status it returns), 2 for a
-    refused option (argparse's usage and error line), an expected failure (a missing optional
-    package, a file that cannot be read or written: one line ``PROG: error: ...``) or a reader
+    refused option or an expected failure (a missing optional package, a file that cannot be
+    read or written: one line ``PROG: error: ...``, :class:`~.options.OneLineParser`) or a reader
     that closed the output (``| head``), 130 when interrupted (Ctrl-C) and 143 on SIGTERM (one
     line each: the command's ``finally`` blocks stop its workers and keep what it finished)."""
     try:

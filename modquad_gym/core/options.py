@@ -15,12 +15,13 @@ import numbers
 import re
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 __all__ = [
     "MAX_COUNT",
     "MAX_SEED",
     "DefaultsHelpFormatter",
+    "OneLineParser",
     "check_option",
     "int_option",
     "nonempty_option",
@@ -226,12 +227,12 @@ def text_parser(annotation: object) -> Callable[[str], Any] | None:
     return lambda text: None if text.lower() == "none" else parse(text)
 
 
-def text_words(annotation: object) -> str:
+def text_words(annotation: object, none: bool = True) -> str:
     """What a command line writes for a value of type ``annotation``, in words: ``a boolean
-    (true/false)``, ``an integer or none``."""
+    (true/false)``, ``an integer or none`` (without ``or none`` where ``none`` is refused)."""
     kind = _kind(annotation)
     base = kind.removesuffix("|None")
-    return _WORDS.get(base, base) + (" or none" if base != kind else "")
+    return _WORDS.get(base, base) + (" or none" if base != kind and none else "")
 
 
 class DefaultsHelpFormatter(argparse.HelpFormatter):
@@ -252,3 +253,14 @@ class DefaultsHelpFormatter(argparse.HelpFormatter):
         ):
             return text
         return f"{text} (default: %(default)s)"
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """The parser of every command (``modquad`` and its commands, ``train.py``, the scoring
+    and benchmark scripts): an option it refuses is one line, ``PROG: error: MESSAGE``, exit 2,
+    as every refusal after parsing is (argparse prints its usage block first; ``PROG --help``
+    shows it). A command's subparsers are of this class too (argparse makes them of their
+    parent's)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {' '.join(message.splitlines())}\n")

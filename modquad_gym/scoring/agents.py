@@ -32,7 +32,7 @@ from pathlib import Path
 
 from modquad_gym.core.extras import require
 from modquad_gym.core.interrupts import run_command
-from modquad_gym.core.options import DefaultsHelpFormatter
+from modquad_gym.core.options import DefaultsHelpFormatter, OneLineParser
 from modquad_gym.core.outputs import OutputError, check_output_dir, hold_output_dir, write_csv
 from modquad_gym.geometry.module import palette
 from modquad_gym.methods import REGISTRY, method_of
@@ -44,7 +44,6 @@ from modquad_gym.scoring.options import (
     DESCRIPTION,
     REPORT_FILES,
     SEARCH_METHODS,
-    SEEDED,
     add_options,
     check_evaluations,
     check_train_dir,
@@ -55,6 +54,7 @@ from modquad_gym.scoring.recheck import recheck, suite_sources
 from modquad_gym.scoring.scores import Row, summarise
 from modquad_gym.scoring.suites import SUITES_DIR, check_optima
 from modquad_gym.scoring.tiers import Tier, get_tier, honours_fault, validation_suite
+from modquad_gym.scoring.used_options import check_used_options, takes_seed
 from modquad_gym.scoring.verdicts import (  # survives: a public name here too
     answer_cells,
     certified,
@@ -64,7 +64,7 @@ from modquad_gym.scoring.verdicts import (  # survives: a public name here too
 )
 from modquad_gym.search.problem import DEFAULT_MODULE
 from modquad_gym.solvers import Solver, load_solver, make_solver
-from modquad_gym.solvers.factory import draws_at_random, model_named
+from modquad_gym.solvers.factory import model_named
 from modquad_gym.solvers.outside import solver_named
 from modquad_gym.tasks import TaskRequirement, load_suite
 
@@ -74,7 +74,7 @@ def run_benchmark(
     methods: list[str],
     n_max: int = 7,
     model: Path | None = None,
-    seed: int = 0,
+    seed: int | None = None,
     progress: bool = True,
     workers: int = 1,
     modules: str | None = None,
@@ -97,8 +97,15 @@ def run_benchmark(
     solvers already made, by method (the outside agents :func:`chosen_methods` loaded), used
     as they are with one worker (each Ray worker makes its own). ``trust_model``: the learned
     methods may unpickle ``model`` (``--trust-model``). ``setup``: filled with the seconds each
-    solver made here took to make (none with several workers)."""
+    solver made here took to make (none with several workers). ``seed`` (None: 0) is told to
+    the methods that draw at random; as ``modquad score`` does, a ValueError refuses a seed no
+    method takes, a ``model`` or ``trust_model`` with no learned method and a ``tier`` that is
+    not one (:func:`~.used_options.check_used_options`, in Python's words)."""
     from modquad_gym.core.distributed import map_tasks
+
+    check_used_options(methods, model=model, trust_model=trust_model, seed=seed, tier=tier,
+                       agents=made)  # fmt: skip
+    seed = 0 if seed is None else seed
 
     jobs = [(name, task) for name, tasks in suites.items() for task in tasks]
     size = 1 if workers == 1 else 8
@@ -143,16 +150,17 @@ def _made(
         takes = takes | {"seed"} if takes_seed(m) else takes - {"seed"}  # not ppo's one pass
         given = {k: v for k, v in options if k in takes and v is not None}
         t0 = time.perf_counter()
-        with model_named("--model"):  # the command line's name of a model file that is not one
-            solvers[m] = make_solver(m, n_max, modules=types, fault=fault, **given)
+        solvers[m] = make_solver(m, n_max, modules=types, fault=fault, **given)
         seconds[m] = time.perf_counter() - t0
     return solvers, seconds
 
 
 def load_solvers(methods: list[str], n_max: int, model: Path | None, tier: Tier) -> None:
     """Make every method's solver of ``model`` on ``tier`` now (kept for the work that follows
-    in this process): a model that does not load or cannot act there fails before any task."""
-    _solvers(tuple(methods), n_max, model, 0, tier.modules, tier.name, tier.fault)
+    in this process): a model that does not load or cannot act there fails before any task,
+    named as the command line names it (``--model PATH: ...``)."""
+    with model_named("--model"):
+        _solvers(tuple(methods), n_max, model, 0, tier.modules, tier.name, tier.fault)
 
 
 def _solve_chunk(config: tuple, jobs: list) -> list[Row]:
@@ -192,7 +200,7 @@ def _rows(solvers: dict[str, Solver], config: tuple, jobs: list) -> list[Row]:
 def parse_args(argv: list[str] | None, prog: str = COMMAND) -> argparse.Namespace:
     """The options of ``argv``; an ``--out`` that cannot take the report is argparse's error
     before any work."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog=prog, description=DESCRIPTION, formatter_class=DefaultsHelpFormatter
     )
     add_options(parser)
@@ -242,7 +250,9 @@ def chosen_methods(args: argparse.Namespace, tier: Tier) -> list[str]:
     for spec in (m for m in methods if ":" in m and m not in agents):  # --methods pkg:Name
         with solver_named("--methods"):
             agents[spec] = _timed(args.setup, spec, load_solver, told)
-    check_used_options(args, methods, model, agents)
+    check_used_options(methods, model=args.model, trust_model=args.trust_model, seed=args.seed,
+                       train_dir=args.train_dir, agents=agents, flags=True)  # fmt: skip
+    check_report_inputs(args, methods, model)
     args.model, args.agents = model, agents
     return methods
 
@@ -270,48 +280,19 @@ def with_samples(methods: list[str], samples: int | None, given: str) -> list[st
     return kept + ([f"ppo-k{samples}"] if samples else [])
 
 
-LEARNED = "ppo, ppo-kN, ppo-guided"
-"""The learned methods, which alone use ``--model`` and ``--train-dir``."""
-
-
-def check_used_options(args: argparse.Namespace, methods: list[str], model: Path,
-                       agents: dict) -> None:  # fmt: skip
-    """``--model``, ``--trust-model`` and ``--train-dir`` are used by the learned methods alone,
-    and ``--seed`` by the methods that draw at random (``agents``: the outside ones, loaded):
-    refused when nothing scored uses them. The ``model`` of a learned method that is not a
-    file, or a ``--train-dir`` that is not a training run's folder, is refused too (before any
-    work, not by a report that leaves its learning curve out)."""
+def check_report_inputs(args: argparse.Namespace, methods: list[str], model: Path) -> None:
+    """The ``model`` of a learned method that is not a file, or a ``--train-dir`` that is not a
+    training run's folder, is refused before any work (not by a report that leaves its learning
+    curve out)."""
     from modquad_gym.policy.models import model_file
 
     learned = any(m.startswith("ppo") for m in methods)
-    for option, value in (("--model", args.model), ("--train-dir", args.train_dir),
-                          ("--trust-model", "" if args.trust_model else None)):  # fmt: skip
-        if value is not None and not learned:
-            said = f"{option} {value}".strip()
-            raise ValueError(f"{said}: not used: no learned method ({LEARNED}) is scored")
     if learned:
         model_file(model)
     if args.train_dir is not None:
         check_train_dir(args.train_dir)
     elif learned:  # the report reads the evaluations beside the model
         check_evaluations(model_file(model).parent)
-    if args.seed is not None and not any(takes_seed(m, agents) for m in methods):
-        raise ValueError(
-            f"--seed {args.seed}: no method scored takes a seed (none draws at random); the "
-            f"ones that do: {SEEDED}"
-        )
-
-
-def takes_seed(method: str, agents: dict | None = None) -> bool:
-    """Is ``method`` told the run's seed: a registered method that draws at random
-    (:func:`~modquad_gym.solvers.factory.draws_at_random`: ppo only with sampled rollouts), or
-    an outside agent whose constructor takes ``seed`` (``agents``: the outside agents loaded;
-    None before they are, when every outside agent is offered the seed, which
-    :func:`~modquad_gym.solvers.outside.load_solver` passes only to a constructor that takes
-    it). :func:`_made` and ``--seed``'s check both ask here."""
-    if ":" not in method:
-        return draws_at_random(method)
-    return agents is None or agents[method].takes_seed
 
 
 def main(argv: list[str] | None = None, prog: str = COMMAND) -> int:
@@ -360,16 +341,19 @@ def score(args: argparse.Namespace, command: str) -> int:
             suites = {"validation": validation_suite(tier, args.validation, not args.no_progress)}
         t0 = time.perf_counter()
         seed = 0 if args.seed is None else args.seed
-        rows = run_benchmark(suites, methods, n_max, args.model, seed, not args.no_progress,
-                             args.workers, tier.modules, tier.name, tier.fault, made=args.agents,
-                             trust_model=args.trust_model, setup=args.setup)  # fmt: skip
+        has_ppo = any(m.startswith("ppo") for m in methods)
+        model = args.model if has_ppo else None  # the tier's, for the report's model line
+        with model_named("--model"):  # a model file that is not one, in the flag's words
+            rows = run_benchmark(suites, methods, n_max, model, args.seed,
+                                 not args.no_progress, args.workers, tier.modules, tier.name,
+                                 tier.fault, made=args.agents, trust_model=args.trust_model,
+                                 setup=args.setup)  # fmt: skip
         wall = time.perf_counter() - t0
         sources = suite_sources(args.suite, tier, args.validation)
         checked = recheck(rows, len(methods), sources, n_max, tier.modules, tier.fault)
         record = run_record(seed, args.seed is not None, args.setup, methods, checked)
         write_csv([r.as_csv() for r in rows], args.out / "benchmark.csv")
         summary = summarise(rows, methods, n_max)
-        has_ppo = any(m.startswith("ppo") for m in methods)
         evals = train_dir / "evaluations.npz"
         out = args.out
         figures = {

@@ -18,12 +18,12 @@ suites, the searches once as the reference, and writes to ``--out``
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from modquad_gym.core.options import OneLineParser
 from modquad_gym.core.outputs import check_output_dir, hold_output_dir
 from modquad_gym.scoring.agents import SEARCH_METHODS, run_benchmark
 from modquad_gym.scoring.seed_runs import LIMIT, check_limit, check_runs, find_runs, learned_methods
@@ -65,7 +65,7 @@ def scored(
     plan = [("-", None, searches)]
     plan += [(label, path, methods) for label, path in runs.items()]
     for label, model, ms in plan:
-        rows = run_benchmark(suites, ms, tier.n_max, model, 0, progress, 1, tier.modules,
+        rows = run_benchmark(suites, ms, tier.n_max, model, None, progress, 1, tier.modules,
                              tier.name, tier.fault)  # fmt: skip
         for m in ms:
             for suite in suites:
@@ -83,7 +83,7 @@ def scored(
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(
+    p = OneLineParser(
         prog="python -m modquad_gym.scoring.seeds",
         description="Score every seed's model of a `train.py --seeds` folder on a tier's "
         "held-out suites and report the IQM and mean with 95 % bootstrap intervals.",

@@ -24,13 +24,13 @@ of up to ``n_max`` modules works).
 
 from __future__ import annotations
 
-import argparse
 import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
 
+from modquad_gym.core.options import OneLineParser
 from modquad_gym.core.outputs import hold_output_dir
 from modquad_gym.search import exhaustive_search
 from modquad_gym.tasks import (
@@ -192,7 +192,7 @@ def check_disjoint(suite: Sequence[TaskRequirement], root: Path | None = None) -
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="python -m modquad_gym.scoring.suites",
         description="Write the held-out benchmark suites (deterministic seeds, optimum by the "
         "exhaustive search).",

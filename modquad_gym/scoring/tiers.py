@@ -26,10 +26,10 @@ for the fault tier's 60 tasks on 2 cores).
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from modquad_gym.core.options import OneLineParser
 from modquad_gym.core.outputs import check_output_file
 from modquad_gym.dynamics import DynamicTask
 from modquad_gym.geometry.module import palette
@@ -175,7 +175,7 @@ def certify(tier: Tier, tasks: list, progress: bool = True) -> list:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(
+    p = OneLineParser(
         prog="python -m modquad_gym.scoring.tiers",
         description="Rewrite a tier's held-out suite (fixed seeds, certified optima).",
     )

@@ -102,6 +102,30 @@ def takes_none(annotation: Any, default: Any) -> bool:
     return default is None or re.search(r"\bNone\b", str(annotation)) is not None
 
 
+NONE_MEANS: dict[str, Any] = {"time_limit": None, "top_k": None, "extra_fallbacks": ()}
+"""What ``none`` on a command line (``--option KEY=none``) gives, by option: none of it (no
+time limit, no shortlist: every child, no extra passes: the same as ``extra_fallbacks=``).
+Every other option refuses ``none`` (:func:`none_written`): its None only stands for its
+default (``fallback``, ``budget``, ``seed``, ``penalty``), which leaving the option out gives,
+while ``none`` would read as "never" or "no budget"."""
+
+NONE_HELP = (
+    "VALUE none means none of it (top_k=none: every child, no shortlist; extra_fallbacks=none: "
+    "no extra pass, as extra_fallbacks=) and is refused where it would stand for the default "
+    "(fallback, budget, seed, penalty: leave the option out)"
+)
+""":data:`NONE_MEANS` in words, for ``--option``'s help."""
+
+
+def none_written(key: str, text: str) -> Any:
+    """The value of ``--option TEXT`` whose value is ``none`` (:data:`NONE_MEANS`), or a
+    ValueError naming ``TEXT`` for an option whose None only stands for its default."""
+    if key in NONE_MEANS:
+        return NONE_MEANS[key]
+    raise ValueError(f"--option {text}: {key} takes no none (its None only stands for its "
+                     f"default, which leaving {key} out gives)")  # fmt: skip
+
+
 def check_engine(value: Any, name: str) -> Any:
     """An engine that splits work (``first(fn, items, accept)``, as
     :class:`~modquad_gym.core.distributed.Engine` has), else a ValueError."""

@@ -33,7 +33,8 @@ from modquad_gym.search.result import SearchRun
 
 MAX_PAIRS = 10**9
 """Most (shape, type assignment) pairs a level of the typed search may hold (fixed
-polyominoes of n cells times K^n): 2 types reach it at 11 modules, 3 types at 10."""
+polyominoes of n cells times K^n): 2 types go up to 11 modules, 3 types up to 9
+(:func:`exhaustive_reach`)."""
 
 PAIRS_PER_BLOCK = 8192
 """Pairs decided together by the typed search (whole shapes with all their assignments)."""
@@ -63,16 +64,34 @@ def check_typed_memory(problem: SearchProblem) -> None:
     check_memory(typed_search_bytes(K, n), f"n_max={n} with {K} module types")
 
 
+def exhaustive_reach(n_types: int, shape_only: bool = False) -> int:
+    """The largest n_max the exhaustive search takes (a larger one is refused before any work,
+    unless the task's bounds rule out every level): :data:`EXACT_MODULES` for the search of
+    shapes alone (``shape_only``: one type, wrenches that do not depend on the structure), else
+    the last level of the typed search whose (shape, assignment) pairs with ``n_types`` types
+    stay within MAX_PAIRS and whose structures are counted (:func:`~.levels.level_size`): 14
+    for one type, 11 for two, 9 for three."""
+    if shape_only:
+        return EXACT_MODULES
+    n = 0
+    while n < EXACT_MODULES:
+        size = level_size(n + 1)  # None past the counted levels
+        if size is None or size * n_types ** (n + 1) > MAX_PAIRS:
+            break
+        n += 1
+    return n
+
+
 def check_pair_budget(problem: SearchProblem, first_level: int) -> None:
     """Refuse before any work a typed search whose last level holds more than MAX_PAIRS."""
     n, K = problem.n_max, len(problem.palette)
-    size = level_size(n)
     if first_level > n:
         return
-    if n > EXACT_MODULES or size is None or size * K**n > MAX_PAIRS:
+    if n > (reach := exhaustive_reach(K)):
         raise ValueError(
             f"n_max={n} with {K} module type(s) is beyond what the exhaustive search can "
-            f"finish: at most {MAX_PAIRS:.0e} (shape, assignment) pairs per level"
+            f"finish: at most {reach} modules ({MAX_PAIRS:.0e} (shape, assignment) pairs per "
+            "level)"
         )
 
 

@@ -6,6 +6,7 @@ command line all go through them."""
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 from modquad_gym.core.validation import check_wrenches
@@ -37,12 +38,20 @@ def as_task(
     problem: its task, with the problem's ``f_max`` and kind); anything
     with ``wrenches`` (and, if it has them, ``f_max``, ``kind``, ``name``) or a (t, 6) wrench
     array (one 6-vector too) as a TaskRequirement named ``name``. A ValueError names what is
-    wrong, after ``what:`` when ``what`` is given."""
+    wrong, after ``what:`` when ``what`` is given (a path too: :func:`load_task` reads one)."""
     if isinstance(task, (TaskRequirement, DynamicTask)):
         return task
     inner = getattr(task, "task", None)  # a search problem: the task it was built from
     if isinstance(inner, (TaskRequirement, DynamicTask)):
         return inner
+    if isinstance(task, (str, bytes, os.PathLike)):  # else read as an array of characters
+        shown = repr(str(task) if isinstance(task, os.PathLike) else task)
+        shown = shown if len(shown) <= 60 else shown[:57] + "..."
+        text = (
+            f"{name} {shown}: a path is not a task; give load_task(path) (a TaskRequirement or "
+            "DynamicTask), a SearchProblem or a (t, 6) wrench array"
+        )
+        raise ValueError(text if what is None else f"{what}: {text}")
     fields: dict[str, Any] = {"name": name}
     W = task
     if hasattr(task, "wrenches"):
