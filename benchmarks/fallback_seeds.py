@@ -10,9 +10,10 @@ share per model and their mean; its gain over the first variant (the single pass
 gain averaged over the models, with a 95 % percentile bootstrap interval over the tasks; and
 its CPU seconds over the first's. The folders must hold the same tasks and variants.
 
-``--against`` compares two recipes instead of two decodings: as many folders, of models trained
-another way, paired with FOLDER in order (the same training seed); each variant's gain is then
-over the same variant of its paired model, task by task.
+``--against`` compares two recipes instead of two decodings: folders of models trained another
+way (none of them a FOLDER); each variant's gain is then its mean over the FOLDER models minus
+the same variant's mean over the ``--against`` models, task by task (paired by task; the models
+of the two recipes are two samples, in no order).
 """
 
 from __future__ import annotations
@@ -59,13 +60,12 @@ def summary(
     against: dict[Path, dict[str, dict[str, dict]]] | None = None,
 ) -> list[dict]:
     """A row per variant (module docstring); the baseline is the first variant, or with
-    ``against`` (one folder per folder of ``runs``, in order) the same variant of those."""
+    ``against`` (folders of other models) the same variant over those models."""
     first = next(iter(runs.values()))
     variants, tasks = list(first), sorted(next(iter(first.values())))
     optimum = {t: first[variants[0]][t]["optimum"] for t in tasks}
-    if against is not None and len(against) != len(runs):
-        raise ValueError(f"--against: {len(against)} folders for {len(runs)} FOLDERs; pair "
-                         "one with each, in the same order")  # fmt: skip
+    for folder in sorted({f.resolve() for f in runs} & {f.resolve() for f in against or {}}):
+        raise ValueError(f"--against {folder}: also a FOLDER; compare other models' runs")
     for folder, run in {**runs, **(against or {})}.items():
         if list(run) != variants or any(sorted(run[v]) != tasks for v in variants):
             raise ValueError(f"FOLDER {folder}: not the variants and tasks of the first folder")
@@ -88,7 +88,7 @@ def summary(
         base = (
             shares(variants[0], optimal) if against is None else shares(variant, optimal, against)
         )
-        gain = interval([(share - base).mean(axis=0)], mean)
+        gain = interval([share.mean(axis=0) - base.mean(axis=0)], mean)
         rows.append({
             "variant": variant, "tasks": len(tasks), "models": len(runs),
             "optimal_pct_per_model": " ".join(f"{100 * s:g}" for s in share.mean(axis=1)),
@@ -112,9 +112,9 @@ def main(argv: list[str] | None = None) -> int:
                      "metavar": "FOLDER", "help": "benchmarks.fallback runs, one per model"},
          "--against": {"nargs": "+", "type": path_option, "action": Distinct,
                        "key": Path.resolve, "metavar": "FOLDER", "default": None,
-                       "help": "runs of models trained another way, one per FOLDER in the "
-                               "same order: each variant's gain is over its paired model's "
-                               "same variant (default: over the first variant)"}},
+                       "help": "runs of models trained another way: each variant's gain is "
+                               "over the same variant's mean over these models, task by task "
+                               "(default: over the first variant)"}},
         seed_help=None,
         out="results/fallback_seeds",
         outputs=OUTPUTS,
@@ -124,8 +124,8 @@ def main(argv: list[str] | None = None) -> int:
     versus = (
         "the first variant's"
         if against is None
-        else "the same variant's of the `--against` models (`against_pct_per_model`), paired "
-        "in order"
+        else "the same variant's mean over the `--against` models (`against_pct_per_model`), "
+        "paired by task"
     )
     notes = (
         "`optimal_pct_per_model`: each model's optimal share (of the tasks' certified optima); "

@@ -23,7 +23,7 @@ import numpy as np
 
 import modquad_gym  # noqa: F401 - registers the environments
 from modquad_gym.core.interrupts import run_command
-from modquad_gym.core.options import int_option, path_option, seed_option
+from modquad_gym.core.options import OneLineParser, int_option, path_option, seed_option
 from modquad_gym.core.outputs import claim_output_dir, write_csv, write_text
 from modquad_gym.envs.wrappers import NearestValidAction
 from modquad_gym.scoring.suites import SUITES_DIR
@@ -86,7 +86,7 @@ def greedy(model):
 def parse_args(argv: list[str] | None, n_suite: int) -> argparse.Namespace:
     """The options, every number checked as the command line reads it (argparse's error, exit
     2, before any work)."""
-    parser = argparse.ArgumentParser(prog=PROG, description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog=PROG, description=__doc__.splitlines()[0])
     parser.add_argument("--algos", nargs="+", choices=ALGOS, default=list(ALGOS))
     parser.add_argument("--steps", type=int_option(1), default=20_000,
                         help="training steps per algorithm (default %(default)s)")  # fmt: skip

@@ -79,7 +79,7 @@ def test_a_repeated_row_or_another_optimum_is_refused(tmp_path, capsys):
     assert not (out / "report.md").exists()
 
 
-def test_against_pairs_each_variant_with_the_same_variant_of_another_recipe(tmp_path, capsys):
+def test_against_compares_each_variant_with_the_same_variant_of_another_recipe(tmp_path, capsys):
     write_run(tmp_path / "a", {"single": [4, 5, 4, 5, 4, None], "extra": [4, 4, 4, 5, 4, 4]})
     write_run(tmp_path / "b", {"single": [4, 4, 5, 5, 4, 4], "extra": [4, 4, 4, 4, 4, 4]})
     write_run(tmp_path / "a0", {"single": [5, 5, 4, 5, 4, 4], "extra": [4, 4, 4, 5, 4, 4]})
@@ -100,14 +100,14 @@ def test_against_pairs_each_variant_with_the_same_variant_of_another_recipe(tmp_
     assert "--against" in (out / "report.md").read_text()
 
 
-def test_against_needs_one_folder_per_folder(tmp_path, capsys):
-    for name in ("a", "b", "a0"):
+def test_against_refuses_a_folder_on_both_sides(tmp_path, capsys):
+    for name in ("a", "b"):
         write_run(tmp_path / name, {"single": [4] * 6})
     out = tmp_path / "out"
-    args = [str(tmp_path / "a"), str(tmp_path / "b"), "--against", str(tmp_path / "a0"),
+    args = [str(tmp_path / "a"), str(tmp_path / "b"), "--against", str(tmp_path / "b" / "."),
             "--out", str(out)]  # fmt: skip
     code = run_script("fallback_seeds", args)
     err = capsys.readouterr().err.strip()
     assert code == 2 and "\n" not in err
-    assert "--against: 1 folders for 2 FOLDERs" in err
+    assert f"--against {tmp_path / 'b'}: also a FOLDER" in err
     assert not (out / "report.md").exists()

@@ -104,7 +104,7 @@ def write_certificate(args: argparse.Namespace, task, result) -> None:
         raise ValueError(
             f"--certificate: the answer for {task.name!r} is not certified (proved bound "
             f"{result.lower_bound}, {result.n_modules or 'no'} modules); nothing written: "
-            f"{certifying_advice(args, result)}"
+            f"{certifying_advice(args, task)}"
         )
     problem = SearchProblem.build(task, args.n_max, modules=palette(args), fault=args.fault)
     out = write(result, problem, args.certificate, force=args.force, what="--certificate")
@@ -112,14 +112,21 @@ def write_certificate(args: argparse.Namespace, task, result) -> None:
         print(f"  wrote {out}")
 
 
-def certifying_advice(args: argparse.Namespace, result) -> str:
-    """What may certify an answer that is not: a longer ``--time-limit`` only for a method that
-    certifies where it finishes (anytime, milp) and ran out of time; else (a learned method, a
-    heuristic, a search that finished within its limit) a method that proves its answer."""
+def certifying_advice(args: argparse.Namespace, task) -> str:
+    """What may certify an answer that is not: a method that certifies where it finishes
+    (anytime, milp, exhaustive) ends uncertified only on its time limit, so a longer
+    ``--time-limit``; any other (a learned method, a heuristic) the default search; the
+    exhaustive search too where ``--n-max`` is within its reach
+    (:func:`~modquad_gym.search.typed.exhaustive_reach`)."""
     from modquad_gym.methods import method_of
+    from modquad_gym.search.typed import exhaustive_reach
 
     entry = method_of(args.method)[0]
-    limit = args.time_limit
-    if entry.certifies and entry.timed and limit is not None and result.seconds >= 0.95 * limit:
-        return "give a longer --time-limit or --method exhaustive"
-    return "give --method exhaustive (or anytime, the default, which certifies where it finishes)"
+    types = palette(args) or [None]
+    weighed = task.decision_model.uses_mass or task.decision_model.uses_inertia
+    reach = exhaustive_reach(len(types), shape_only=len(types) == 1 and not weighed)
+    exhaustive = args.n_max <= reach and entry.name != "exhaustive"
+    also = " or --method exhaustive" if exhaustive else ""
+    if entry.certifies and entry.timed:
+        return f"give a longer --time-limit{also}"
+    return f"give --method anytime (the default, which certifies where it finishes){also}"

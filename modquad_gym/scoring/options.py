@@ -22,7 +22,8 @@ SEARCH_METHODS = tuple(SEARCHES)
 DEFAULT_METHODS = (*SEARCH_METHODS, "ppo", "ppo-k2", "ppo-k8")
 
 SEEDED = ", ".join(
-    [*(n for n, m in REGISTRY.items() if "seed" in m.options.names()), "ppo-kN",
+    [*(n for n, m in REGISTRY.items() if "seed" in m.options.names() and n != "ppo"),
+     "ppo-kN (ppo's sampled rollouts; its deterministic passes draw nothing)",
      "an outside agent whose constructor takes seed"]
 )  # fmt: skip
 """The methods ``--seed`` applies to (those of the registry that take ``seed``), in words."""

@@ -48,8 +48,8 @@ def as_task(
         shown = repr(str(task) if isinstance(task, os.PathLike) else task)
         shown = shown if len(shown) <= 60 else shown[:57] + "..."
         text = (
-            f"{name} {shown}: a path is not a task; give load_task(path) (a TaskRequirement or "
-            "DynamicTask), a SearchProblem or a (t, 6) wrench array"
+            f"{name} {shown}: a path is not a task; give modquad_gym.tasks.load_task(path) (a "
+            "TaskRequirement or DynamicTask), a SearchProblem or a (t, 6) wrench array"
         )
         raise ValueError(text if what is None else f"{what}: {text}")
     fields: dict[str, Any] = {"name": name}
