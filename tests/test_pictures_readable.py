@@ -233,8 +233,12 @@ def test_figures_find_the_training_run_a_report_names():
 def test_committed_paper_rotor_inputs_is_what_the_benchmark_draws(tmp_path):
     """results/paper_rotor_inputs.png (paper Fig. 7) is the picture ``benchmarks.paper`` draws
     now from the same task (seed 0, the first with both answers): its axis labels are those of
-    ``viz.drawing.draw_rotor_inputs`` (thrust in N), not an older drawing's. Pixels may differ
-    in the last bits between machines; a stale label moves the panels and changes ~7 %."""
+    ``viz.drawing.draw_rotor_inputs`` (thrust in N), not an older drawing's. A stale label moves
+    every panel and changes ~7 % of the pixels. Only the left panels (pinv + clip, a unique
+    least-squares answer) are compared: the right ones draw the most centred exact allocation,
+    an LP whose optimal face holds many allocations, and HiGHS returns another vertex on another
+    CPU (the centrosymmetric panel's max u: 0.914 on the AMD machine that drew the committed
+    picture, 0.908 on an Intel one)."""
     from pathlib import Path
 
     from PIL import Image
@@ -247,4 +251,5 @@ def test_committed_paper_rotor_inputs_is_what_the_benchmark_draws(tmp_path):
     old, new = (np.asarray(Image.open(p).convert("RGB")).astype(int)
                 for p in (committed, tmp_path / name))  # fmt: skip
     assert old.shape == new.shape
-    assert (np.abs(old - new) > 32).any(axis=-1).mean() < 0.01
+    left = old.shape[1] // 2
+    assert (np.abs(old[:, :left] - new[:, :left]) > 32).any(axis=-1).mean() < 0.01
