@@ -100,8 +100,10 @@ def test_the_detector_flies_a_trajectory_with_a_payload():
     suite = Path(mq.__file__).parent / "data" / "suites" / "dynamic_motions.json"
     task = load_suite(suite)[1]  # carries a payload off the structure's centre
     assert task.payload is not None
-    s = mq.anytime_search(task, n_max=8, time_limit=10, fault="rotor").structure
-    f = ff.fly_with_failure(s, task, "rotor", failure=29, detector=DetectorConfig())
+    # anytime_search(task, n_max=8, time_limit=10, fault="rotor")'s certified answer on an Intel
+    # machine, given here: the search's answer under a busy machine's time limit is not fixed
+    s = mq.Structure([(0, 0), (0, 1), (1, 0), (2, 0)])
+    f = ff.fly_with_failure(s, task, "rotor", failure="worst", detector=DetectorConfig())
     record = f.summary()
     assert 0.0 < record["fault_detected_after_s"] <= 0.03
     assert record["fault_detected_rotors"] == list(f.worst.columns) and f.within_goal
